@@ -1,0 +1,132 @@
+//! Turns a checked description into Rust source: one `static` `od::DeviceDescription`.
+
+use std::fmt::Write;
+
+use od::{Access, Behaviour, Limit, ObjectKind};
+
+use crate::model::{Device, Ent};
+
+/// The Rust identifier of a personality's static (`cmmp-as` → `CMMP_AS`).
+pub fn static_name(device: &str) -> String {
+    device.to_ascii_uppercase().replace('-', "_")
+}
+
+/// Rust source defining `pub static NAME: od::DeviceDescription`.
+pub fn generate(d: &Device) -> String {
+    let mut s = String::new();
+    let mut offset: u32 = 0;
+    let _ = writeln!(s, "/// Generated from `devices/{}.toml`.", d.name);
+    let _ = writeln!(
+        s,
+        "pub static {}: od::DeviceDescription = od::DeviceDescription {{",
+        static_name(&d.name)
+    );
+    let _ = writeln!(s, "    name: {:?},", d.name);
+    let _ = writeln!(s, "    product_name: {:?},", d.product_name);
+    let _ = writeln!(s, "    vendor_name: {:?},", d.vendor_name);
+    let _ = writeln!(s, "    vendor_id: 0x{:X},", d.vendor_id);
+    let _ = writeln!(s, "    product_code: 0x{:X},", d.product_code);
+    let _ = writeln!(s, "    revision: 0x{:X},", d.revision);
+    let _ = writeln!(s, "    order_code: {:?},", d.order_code);
+    let _ = writeln!(s, "    description: {:?},", d.description);
+    let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
+    let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
+    let _ = writeln!(s, "    objects: &[");
+    for o in &d.objects {
+        let _ = writeln!(s, "        od::Object {{");
+        let _ = writeln!(s, "            index: 0x{:04X},", o.index);
+        let _ = writeln!(s, "            name: {:?},", o.name);
+        let _ = writeln!(s, "            kind: od::ObjectKind::{},", kind(o.kind));
+        let _ = writeln!(s, "            entries: &[");
+        for e in &o.entries {
+            entry(&mut s, e, offset);
+            offset += storage_len(e);
+        }
+        let _ = writeln!(s, "            ],");
+        let _ = writeln!(s, "        }},");
+    }
+    let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "    storage_size: {offset},");
+    let _ = writeln!(s, "}};");
+    s
+}
+
+fn storage_len(e: &Ent) -> u32 {
+    if e.data_type.fixed_size().is_some() {
+        e.capacity
+    } else {
+        e.capacity + 2
+    }
+}
+
+fn entry(s: &mut String, e: &Ent, offset: u32) {
+    let _ = writeln!(s, "                od::Entry {{");
+    let _ = writeln!(
+        s,
+        "                    index: 0x{:04X}, sub: {}, name: {:?},",
+        e.index, e.sub, e.name
+    );
+    let _ = writeln!(
+        s,
+        "                    data_type: od::DataType::{:?}, access: od::Access::{},",
+        e.data_type,
+        access(e.access)
+    );
+    let _ = writeln!(
+        s,
+        "                    pdo_mappable: {}, default: &{:?}, default_plus_node_id: {},",
+        e.pdo, e.default, e.default_plus_node_id
+    );
+    let _ = writeln!(
+        s,
+        "                    min: {}, max: {}, unit: {:?},",
+        limit(e.min),
+        limit(e.max),
+        e.unit
+    );
+    let _ = writeln!(
+        s,
+        "                    behaviour: od::Behaviour::{}, storable: {}, offset: {offset}, capacity: {},",
+        behaviour(e.behaviour),
+        e.storable,
+        e.capacity
+    );
+    let _ = writeln!(s, "                }},");
+}
+
+fn kind(k: ObjectKind) -> &'static str {
+    match k {
+        ObjectKind::Var => "Var",
+        ObjectKind::Array => "Array",
+        ObjectKind::Record => "Record",
+    }
+}
+
+fn access(a: Access) -> &'static str {
+    match a {
+        Access::ReadOnly => "ReadOnly",
+        Access::WriteOnly => "WriteOnly",
+        Access::ReadWrite => "ReadWrite",
+        Access::Const => "Const",
+    }
+}
+
+fn behaviour(b: Behaviour) -> &'static str {
+    match b {
+        Behaviour::Plain => "Plain",
+        Behaviour::StoreSignature => "StoreSignature",
+        Behaviour::RestoreSignature => "RestoreSignature",
+        Behaviour::ErrorHistoryCount => "ErrorHistoryCount",
+        Behaviour::ReadsZero => "ReadsZero",
+    }
+}
+
+fn limit(l: Option<Limit>) -> String {
+    match l {
+        None => "None".into(),
+        Some(Limit::Signed(v)) => format!("Some(od::Limit::Signed({v}))"),
+        Some(Limit::Unsigned(v)) => format!("Some(od::Limit::Unsigned({v}))"),
+        Some(Limit::Real(v)) => format!("Some(od::Limit::Real({v:?}))"),
+    }
+}
+

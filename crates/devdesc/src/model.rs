@@ -1,0 +1,370 @@
+//! A checked, normalised description: what the code generator and tools work from.
+
+use std::path::Path;
+
+use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
+
+use crate::schema::{EntryFields, File, ObjectSection};
+
+#[derive(Debug, thiserror::Error)]
+pub enum DescError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Toml {
+        path: String,
+        source: toml::de::Error,
+    },
+    #[error("object {index:04X}h sub {sub}: {what}")]
+    Entry { index: u16, sub: u8, what: String },
+    #[error("object {index:04X}h: {what}")]
+    Object { index: u16, what: String },
+    #[error("device: {0}")]
+    Device(String),
+}
+
+#[derive(Debug, Clone)]
+pub struct Device {
+    pub name: String,
+    pub product_name: String,
+    pub vendor_name: String,
+    pub vendor_id: u32,
+    pub product_code: u32,
+    pub revision: u32,
+    pub order_code: String,
+    pub description: String,
+    pub default_node_id: u8,
+    pub baud_rates: Vec<u16>,
+    pub objects: Vec<Obj>,
+}
+
+#[derive(Debug, Clone)]
+pub struct Obj {
+    pub index: u16,
+    pub name: String,
+    pub kind: ObjectKind,
+    pub entries: Vec<Ent>,
+}
+
+#[derive(Debug, Clone)]
+pub struct Ent {
+    pub index: u16,
+    pub sub: u8,
+    pub name: String,
+    pub data_type: DataType,
+    pub access: Access,
+    pub pdo: bool,
+    pub default: Vec<u8>,
+    pub default_plus_node_id: bool,
+    pub min: Option<Limit>,
+    pub max: Option<Limit>,
+    pub unit: String,
+    pub behaviour: Behaviour,
+    pub storable: bool,
+    pub capacity: u32,
+}
+
+pub fn load_file(path: &Path) -> Result<Device, DescError> {
+    let text = std::fs::read_to_string(path).map_err(|source| DescError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse(&text, &path.display().to_string())
+}
+
+pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
+    let file: File = toml::from_str(text).map_err(|source| DescError::Toml {
+        path: path.to_string(),
+        source,
+    })?;
+    let d = file.device;
+    if d.name.is_empty() || !d.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
+        return Err(DescError::Device(format!(
+            "name {:?} must be letters, digits and '-'",
+            d.name
+        )));
+    }
+    if !(1..=127).contains(&d.default_node_id) {
+        return Err(DescError::Device("default_node_id must be 1…127".into()));
+    }
+    let mut objects = Vec::with_capacity(file.object.len());
+    for o in &file.object {
+        objects.push(object(o)?);
+    }
+    objects.sort_by_key(|o| o.index);
+    for pair in objects.windows(2) {
+        if pair[0].index == pair[1].index {
+            return Err(DescError::Object {
+                index: pair[0].index,
+                what: "defined twice".into(),
+            });
+        }
+    }
+    Ok(Device {
+        name: d.name,
+        product_name: d.product_name,
+        vendor_name: d.vendor_name,
+        vendor_id: d.vendor_id,
+        product_code: d.product_code,
+        revision: d.revision,
+        order_code: d.order_code,
+        description: d.description,
+        default_node_id: d.default_node_id,
+        baud_rates: d.baud_rates,
+        objects,
+    })
+}
+
+fn object(o: &ObjectSection) -> Result<Obj, DescError> {
+    let kind = match o.kind.as_deref().unwrap_or("var") {
+        "var" => ObjectKind::Var,
+        "array" => ObjectKind::Array,
+        "record" => ObjectKind::Record,
+        other => {
+            return Err(DescError::Object {
+                index: o.index,
+                what: format!("unknown kind {other:?}"),
+            })
+        }
+    };
+    let mut entries = Vec::new();
+    if kind == ObjectKind::Var {
+        if !o.sub.is_empty() {
+            return Err(DescError::Object {
+                index: o.index,
+                what: "a var has no [[object.sub]]; use kind = \"record\" or \"array\"".into(),
+            });
+        }
+        entries.push(entry(o.index, 0, &o.name, &o.var_fields())?);
+    } else {
+        if o.data_type.is_some() || o.default.is_some() || o.access.is_some() {
+            return Err(DescError::Object {
+                index: o.index,
+                what: "type/access/default belong to the [[object.sub]] entries".into(),
+            });
+        }
+        for s in &o.sub {
+            entries.push(entry(o.index, s.sub, &s.name, &s.fields())?);
+        }
+        entries.sort_by_key(|e| e.sub);
+        for pair in entries.windows(2) {
+            if pair[0].sub == pair[1].sub {
+                return Err(DescError::Entry {
+                    index: o.index,
+                    sub: pair[0].sub,
+                    what: "defined twice".into(),
+                });
+            }
+        }
+        let highest = entries.last().map(|e| e.sub).unwrap_or(0);
+        if entries.first().map(|e| e.sub) != Some(0) {
+            entries.insert(
+                0,
+                Ent {
+                    index: o.index,
+                    sub: 0,
+                    name: "highest_sub_index_supported".into(),
+                    data_type: DataType::Unsigned8,
+                    access: Access::ReadOnly,
+                    pdo: false,
+                    default: vec![highest],
+                    default_plus_node_id: false,
+                    min: None,
+                    max: None,
+                    unit: String::new(),
+                    behaviour: Behaviour::Plain,
+                    storable: false,
+                    capacity: 1,
+                },
+            );
+        } else if entries.len() == 1 {
+            return Err(DescError::Object {
+                index: o.index,
+                what: "an array or record needs entries besides sub 0".into(),
+            });
+        }
+    }
+    Ok(Obj {
+        index: o.index,
+        name: o.name.clone(),
+        kind,
+        entries,
+    })
+}
+
+fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescError> {
+    let err = |what: String| DescError::Entry { index, sub, what };
+    let type_name = f
+        .data_type
+        .as_deref()
+        .ok_or_else(|| err("missing type".into()))?;
+    let data_type =
+        DataType::from_name(type_name).ok_or_else(|| err(format!("unknown type {type_name:?}")))?;
+    let access_name = f
+        .access
+        .as_deref()
+        .ok_or_else(|| err("missing access".into()))?;
+    let access = Access::from_name(access_name)
+        .ok_or_else(|| err(format!("unknown access {access_name:?}")))?;
+    let behaviour = match f.behaviour.as_deref().unwrap_or("plain") {
+        "plain" => Behaviour::Plain,
+        "store_signature" => Behaviour::StoreSignature,
+        "restore_signature" => Behaviour::RestoreSignature,
+        "error_history_count" => Behaviour::ErrorHistoryCount,
+        "reads_zero" => Behaviour::ReadsZero,
+        other => return Err(err(format!("unknown behaviour {other:?}"))),
+    };
+    let capacity = match data_type.fixed_size() {
+        Some(n) => {
+            if f.size.is_some() {
+                return Err(err("size is only for strings and domains".into()));
+            }
+            n as u32
+        }
+        None => f
+            .size
+            .filter(|s| (1..=65535).contains(s))
+            .ok_or_else(|| err("strings and domains need size = 1…65535".into()))?,
+    };
+    let (default, default_plus_node_id) = match &f.default {
+        None => (vec![0u8; data_type.fixed_size().unwrap_or(0)], false),
+        Some(v) => encode_default(data_type, v).map_err(err)?,
+    };
+    if default.len() > capacity as usize {
+        return Err(err(format!(
+            "default is {} bytes, more than size {capacity}",
+            default.len()
+        )));
+    }
+    let min = f
+        .min
+        .as_ref()
+        .map(|v| limit(data_type, v))
+        .transpose()
+        .map_err(err)?;
+    let max = f
+        .max
+        .as_ref()
+        .map(|v| limit(data_type, v))
+        .transpose()
+        .map_err(err)?;
+    if let (Some(lo), Some(hi)) = (min, max) {
+        if Value::from_limit(lo).compare(hi) == Some(std::cmp::Ordering::Greater) {
+            return Err(err("min is above max".into()));
+        }
+    }
+    if !default_plus_node_id {
+        if let Some(v) = Value::decode(data_type, &default) {
+            if min.is_some_and(|m| v.compare(m) == Some(std::cmp::Ordering::Less))
+                || max.is_some_and(|m| v.compare(m) == Some(std::cmp::Ordering::Greater))
+            {
+                return Err(err(format!("default {v} is outside min/max")));
+            }
+        }
+    }
+    let storable = f
+        .storable
+        .unwrap_or(access.writable() && behaviour == Behaviour::Plain);
+    Ok(Ent {
+        index,
+        sub,
+        name: name.to_string(),
+        data_type,
+        access,
+        pdo: f.pdo.unwrap_or(false),
+        default,
+        default_plus_node_id,
+        min,
+        max,
+        unit: f.unit.clone().unwrap_or_default(),
+        behaviour,
+        storable,
+        capacity,
+    })
+}
+
+/// A TOML integer, or a string holding a hex/decimal number.
+fn number(v: &toml::Value) -> Result<Value, String> {
+    match v {
+        toml::Value::Integer(i) => Ok(Value::Signed(*i)),
+        toml::Value::Float(f) if f.is_finite() => Ok(Value::Real(*f)),
+        toml::Value::Boolean(b) => Ok(Value::Bool(*b)),
+        toml::Value::String(s) => {
+            let t = s.trim();
+            let parsed = if let Some(hex) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+                u64::from_str_radix(&hex.replace('_', ""), 16).ok()
+            } else {
+                t.parse::<u64>().ok()
+            };
+            parsed
+                .map(Value::Unsigned)
+                .ok_or_else(|| format!("{s:?} is not a number"))
+        }
+        other => Err(format!("{other} is not a number")),
+    }
+}
+
+fn encode_default(t: DataType, v: &toml::Value) -> Result<(Vec<u8>, bool), String> {
+    match t {
+        DataType::VisibleString => match v {
+            toml::Value::String(s) if s.is_ascii() => Ok((s.as_bytes().to_vec(), false)),
+            _ => Err("a VISIBLE_STRING default is an ASCII string".into()),
+        },
+        DataType::OctetString | DataType::Domain => match v {
+            toml::Value::String(s) => hex_bytes(s).map(|b| (b, false)),
+            _ => Err("an OCTET_STRING/DOMAIN default is a hex string".into()),
+        },
+        _ => {
+            let (v, plus_node) = match v {
+                toml::Value::String(s) if s.trim().starts_with("$NODEID") => {
+                    let rest = s.trim().trim_start_matches("$NODEID").trim();
+                    let rest = rest.strip_prefix('+').unwrap_or(rest).trim();
+                    let n = if rest.is_empty() {
+                        Value::Unsigned(0)
+                    } else {
+                        number(&toml::Value::String(rest.to_string()))?
+                    };
+                    (n, true)
+                }
+                other => (number(other)?, false),
+            };
+            let mut buf = [0u8; 8];
+            let n = v
+                .encode(t, &mut buf)
+                .ok_or_else(|| format!("default {v} does not fit {}", t.name()))?;
+            Ok((buf[..n].to_vec(), plus_node))
+        }
+    }
+}
+
+fn hex_bytes(s: &str) -> Result<Vec<u8>, String> {
+    let s: String = s.chars().filter(|c| !c.is_whitespace()).collect();
+    if s.len() % 2 != 0 {
+        return Err("odd number of hex digits".into());
+    }
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).map_err(|e| e.to_string()))
+        .collect()
+}
+
+fn limit(t: DataType, v: &toml::Value) -> Result<Limit, String> {
+    if !t.is_numeric() {
+        return Err("limits are only for numeric types".into());
+    }
+    let value = number(v)?;
+    let mut buf = [0u8; 8];
+    value
+        .encode(t, &mut buf)
+        .ok_or_else(|| format!("limit {value} does not fit {}", t.name()))?;
+    Ok(match value {
+        Value::Real(r) => Limit::Real(r),
+        Value::Signed(s) if s < 0 => Limit::Signed(s),
+        Value::Signed(s) => Limit::Unsigned(s as u64),
+        Value::Unsigned(u) => Limit::Unsigned(u),
+        Value::Bool(b) => Limit::Unsigned(b as u64),
+    })
+}

@@ -1,0 +1,7 @@
+//! The std side of drivetwin: transports, runtime, parameter storage and the master commands.
+//! Everything here does I/O; the protocol and device logic it drives is sans-IO.
+
+pub mod bus;
+pub mod pcap;
+pub mod socketcan;
+pub mod socketcand;

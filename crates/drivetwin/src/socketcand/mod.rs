@@ -1,0 +1,11 @@
+//! A socketcand-compatible TCP server, so python-can / python-canopen (`interface='socketcand'`)
+//! and other socketcand clients can join the in-process [`Bus`](crate::bus::Bus).
+//!
+//! The wire protocol is in `spec/anchors.md` §3.3. [`codec`] is the pure, I/O-free part
+//! (framing, parsing, formatting); [`server`] is the async TCP side.
+
+pub mod codec;
+pub mod server;
+
+pub use codec::{CodecError, Decoder, Message, Mode, MAX_MESSAGE_LEN};
+pub use server::{handle_client, serve, serve_with, ServerConfig, SessionError, DEFAULT_PORT};

@@ -1,0 +1,150 @@
+//! The static description of a device personality: what `devices/*.toml` says, turned into
+//! tables at build time by the `devdesc` code generator.
+
+use crate::{Access, DataType};
+
+/// A numeric limit or default, in the widest form of its kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Limit {
+    Signed(i64),
+    Unsigned(u64),
+    Real(f64),
+}
+
+/// CiA 301 semantics an entry has beyond storing a value. Data, not code: the description
+/// names the behaviour, the dictionary implements it once for every device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Behaviour {
+    /// Stores what is written, reads what is stored.
+    Plain,
+    /// 1010h: reads 1 ("saves on command"); a write of "save" asks for the parameters to be stored.
+    StoreSignature,
+    /// 1011h: reads 1; a write of "load" restores the default parameters.
+    RestoreSignature,
+    /// 1003h:00: only 0 may be written, which clears the error history.
+    ErrorHistoryCount,
+    /// Accepts writes of a valid value but always reads 0 (CMMP-AS 1016h, kept for compatibility).
+    ReadsZero,
+}
+
+/// One sub-index of an object (sub-index 0 for a VAR).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Entry {
+    pub index: u16,
+    pub sub: u8,
+    pub name: &'static str,
+    pub data_type: DataType,
+    pub access: Access,
+    pub pdo_mappable: bool,
+    /// Default value, little-endian, as it is stored (strings without a terminator).
+    pub default: &'static [u8],
+    /// The default is `$NODEID + default` (CiA 306), e.g. the COB-IDs of the communication objects.
+    pub default_plus_node_id: bool,
+    pub min: Option<Limit>,
+    pub max: Option<Limit>,
+    pub unit: &'static str,
+    pub behaviour: Behaviour,
+    /// Saved by 1010h and reloaded at reset (writable entries are, unless a file says otherwise).
+    pub storable: bool,
+    /// Byte offset of the value in the dictionary's storage buffer.
+    pub offset: u32,
+    /// Bytes reserved for the value: the type's size, or the maximum length of a string/domain.
+    pub capacity: u32,
+}
+
+impl Entry {
+    /// Variable-length entries keep a 2-byte length in front of their bytes in the buffer.
+    pub const fn is_variable(&self) -> bool {
+        self.data_type.fixed_size().is_none()
+    }
+    /// Bytes this entry takes in the storage buffer.
+    pub const fn storage_len(&self) -> usize {
+        if self.is_variable() {
+            self.capacity as usize + 2
+        } else {
+            self.capacity as usize
+        }
+    }
+    pub const fn bit_len(&self) -> u32 {
+        self.capacity * 8
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectKind {
+    /// CiA 306 object code 7.
+    Var,
+    /// Object code 8: sub-entries of one type.
+    Array,
+    /// Object code 9: sub-entries of any type.
+    Record,
+}
+
+impl ObjectKind {
+    pub const fn object_code(self) -> u8 {
+        match self {
+            ObjectKind::Var => 7,
+            ObjectKind::Array => 8,
+            ObjectKind::Record => 9,
+        }
+    }
+}
+
+/// One index of the dictionary.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Object {
+    pub index: u16,
+    pub name: &'static str,
+    pub kind: ObjectKind,
+    /// Sorted by sub-index; a VAR has exactly one entry, sub 0.
+    pub entries: &'static [Entry],
+}
+
+impl Object {
+    pub fn entry(&self, sub: u8) -> Option<&'static Entry> {
+        let entries: &'static [Entry] = self.entries;
+        entries
+            .binary_search_by_key(&sub, |e| e.sub)
+            .ok()
+            .and_then(|i| entries.get(i))
+    }
+}
+
+/// A device personality: identity and the complete object list.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceDescription {
+    /// The personality's short name (`cmmp-as`), as on the command line.
+    pub name: &'static str,
+    pub product_name: &'static str,
+    pub vendor_name: &'static str,
+    pub vendor_id: u32,
+    pub product_code: u32,
+    pub revision: u32,
+    pub order_code: &'static str,
+    pub description: &'static str,
+    pub default_node_id: u8,
+    /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
+    pub baud_rates: &'static [u16],
+    /// Sorted by index.
+    pub objects: &'static [Object],
+    /// Size of the value buffer an `ObjectDictionary` needs.
+    pub storage_size: usize,
+}
+
+impl DeviceDescription {
+    pub fn object(&self, index: u16) -> Option<&'static Object> {
+        let objects: &'static [Object] = self.objects;
+        objects
+            .binary_search_by_key(&index, |o| o.index)
+            .ok()
+            .and_then(|i| objects.get(i))
+    }
+    pub fn entry(&self, index: u16, sub: u8) -> Option<&'static Entry> {
+        self.object(index).and_then(|o| o.entry(sub))
+    }
+    /// Every entry of every object, in dictionary order.
+    pub fn entries(&self) -> impl Iterator<Item = &'static Entry> {
+        let objects: &'static [Object] = self.objects;
+        objects.iter().flat_map(|o| o.entries.iter())
+    }
+}

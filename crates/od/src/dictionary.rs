@@ -1,0 +1,307 @@
+//! The values of one drive's dictionary, and the CiA 301 access rules every front end obeys.
+
+use crate::{AbortCode, Behaviour, DataType, DeviceDescription, Entry, Value};
+
+/// What every front end sees of a drive: the object dictionary, with its access rules.
+/// Device logic implements it by wrapping an [`ObjectDictionary`]; protocols never know more.
+pub trait ObjectAccess {
+    /// The description of an entry, or the abort a master gets for a missing one.
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode>;
+    /// Reads the value into `buf`; returns its length.
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode>;
+    /// Writes a whole value, checking access, length and range. Nothing changes on error.
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+}
+
+/// A request that only the runtime can carry out (it owns files and resets).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StorageRequest {
+    /// "save" written to 1010h:`sub` (1 = all parameters, CiA 301 §7.5.2.13).
+    Save { sub: u8 },
+    /// "load" written to 1011h:`sub`; the defaults are already back in the current set.
+    Restore { sub: u8 },
+}
+
+/// "save" as a little-endian UNSIGNED32 (CiA 301 §7.5.2.13; CMMP-AS Tab. 5.2).
+pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
+/// "load" (CiA 301 §7.5.2.14; CMMP-AS Tab. 5.1).
+pub const LOAD_SIGNATURE: u32 = 0x6461_6F6C;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StorageTooSmall {
+    pub needed: usize,
+    pub given: usize,
+}
+
+/// The current values of one drive. `S` is the byte buffer: a `Vec<u8>` on a host, a
+/// `[u8; N]` on a microcontroller.
+pub struct ObjectDictionary<S> {
+    desc: &'static DeviceDescription,
+    node_id: u8,
+    data: S,
+    request: Option<StorageRequest>,
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
+    /// A dictionary holding every default, for the node `node_id` (1…127).
+    pub fn new(
+        desc: &'static DeviceDescription,
+        node_id: u8,
+        data: S,
+    ) -> Result<Self, StorageTooSmall> {
+        let given = data.as_ref().len();
+        if given < desc.storage_size {
+            return Err(StorageTooSmall {
+                needed: desc.storage_size,
+                given,
+            });
+        }
+        let mut od = ObjectDictionary {
+            desc,
+            node_id,
+            data,
+            request: None,
+        };
+        od.load_defaults(|_| true);
+        Ok(od)
+    }
+
+    pub fn description(&self) -> &'static DeviceDescription {
+        self.desc
+    }
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+    /// Changes the node-ID; node-relative defaults follow at the next `load_defaults`.
+    pub fn set_node_id(&mut self, node_id: u8) {
+        self.node_id = node_id;
+    }
+
+    /// Puts the default value back into every entry `filter` selects.
+    pub fn load_defaults(&mut self, filter: impl Fn(&Entry) -> bool) {
+        for e in self.desc.entries() {
+            if filter(e) {
+                self.set_default(e);
+            }
+        }
+    }
+
+    fn set_default(&mut self, e: &'static Entry) {
+        if e.default_plus_node_id {
+            let mut b = [0u8; 8];
+            let n = e.default.len().min(8);
+            if let (Some(dst), Some(src)) = (b.get_mut(..n), e.default.get(..n)) {
+                dst.copy_from_slice(src);
+            }
+            let v = u64::from_le_bytes(b).wrapping_add(u64::from(self.node_id));
+            let bytes = v.to_le_bytes();
+            self.store(e, bytes.get(..n).unwrap_or(&[]));
+        } else {
+            self.store(e, e.default);
+        }
+    }
+
+    /// CiA 301 1011h: the storable parameters `sub` covers go back to their defaults
+    /// (1 = all, 2 = communication 1000h–1FFFh, 3 = application 6000h–9FFFh, 4+ = manufacturer).
+    pub fn restore_defaults(&mut self, sub: u8) {
+        self.load_defaults(|e| e.storable && parameter_group_contains(sub, e.index));
+    }
+
+    /// The pending save or restore request, if a master asked for one.
+    pub fn take_request(&mut self) -> Option<StorageRequest> {
+        self.request.take()
+    }
+
+    /// The raw bytes of an entry (the current length for strings and domains).
+    pub fn raw(&self, e: &Entry) -> &[u8] {
+        let data = self.data.as_ref();
+        let off = e.offset as usize;
+        if e.is_variable() {
+            let len = data
+                .get(off..off + 2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]) as usize)
+                .unwrap_or(0)
+                .min(e.capacity as usize);
+            data.get(off + 2..off + 2 + len).unwrap_or(&[])
+        } else {
+            data.get(off..off + e.capacity as usize).unwrap_or(&[])
+        }
+    }
+
+    /// Stores bytes without any access or range check: device logic updating its own
+    /// read-only objects, or stored parameters coming back. Over-long data is cut.
+    pub fn store(&mut self, e: &Entry, bytes: &[u8]) {
+        let data = self.data.as_mut();
+        let off = e.offset as usize;
+        let cap = e.capacity as usize;
+        if e.is_variable() {
+            let len = bytes.len().min(cap);
+            if let Some(dst) = data.get_mut(off..off + 2) {
+                dst.copy_from_slice(&(len as u16).to_le_bytes());
+            }
+            if let (Some(dst), Some(src)) = (data.get_mut(off + 2..off + 2 + len), bytes.get(..len))
+            {
+                dst.copy_from_slice(src);
+            }
+        } else if let Some(dst) = data.get_mut(off..off + cap) {
+            dst.fill(0);
+            let n = bytes.len().min(cap);
+            if let (Some(d), Some(s)) = (dst.get_mut(..n), bytes.get(..n)) {
+                d.copy_from_slice(s);
+            }
+        }
+    }
+
+    /// The decoded value of a numeric entry, `None` if it is missing or not numeric.
+    pub fn value(&self, index: u16, sub: u8) -> Option<Value> {
+        let e = self.desc.entry(index, sub)?;
+        Value::decode(e.data_type, self.raw(e))
+    }
+
+    /// The value of an unsigned or boolean entry as `u64`.
+    pub fn get_unsigned(&self, index: u16, sub: u8) -> Option<u64> {
+        match self.value(index, sub)? {
+            Value::Unsigned(u) => Some(u),
+            Value::Bool(b) => Some(b as u64),
+            Value::Signed(s) => u64::try_from(s).ok(),
+            Value::Real(_) => None,
+        }
+    }
+
+    /// Sets a numeric entry from device logic, bypassing access rights (not range).
+    pub fn set_value(&mut self, index: u16, sub: u8, v: Value) -> Result<(), AbortCode> {
+        let e = self.desc.entry(index, sub).ok_or(AbortCode::NO_OBJECT)?;
+        let mut b = [0u8; 8];
+        let n = v.encode(e.data_type, &mut b).ok_or(AbortCode::INVALID_VALUE)?;
+        self.store(e, b.get(..n).unwrap_or(&[]));
+        Ok(())
+    }
+
+    /// Every entry a save (1010h:`sub`) writes, with its current bytes.
+    pub fn storable_values(&self, sub: u8) -> impl Iterator<Item = (&'static Entry, &[u8])> {
+        self.desc
+            .entries()
+            .filter(move |e| e.storable && parameter_group_contains(sub, e.index))
+            .map(move |e| (e, self.raw(e)))
+    }
+
+    fn check_value(e: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        if let Some(size) = e.data_type.fixed_size() {
+            if data.len() > size {
+                return Err(AbortCode::LENGTH_TOO_HIGH);
+            }
+            if data.len() < size {
+                return Err(AbortCode::LENGTH_TOO_LOW);
+            }
+            let v = Value::decode(e.data_type, data).ok_or(AbortCode::LENGTH_MISMATCH)?;
+            if e.data_type == DataType::Boolean && data.first().is_some_and(|b| *b > 1) {
+                return Err(AbortCode::INVALID_VALUE);
+            }
+            if let Some(max) = e.max {
+                if v.compare(max) == Some(core::cmp::Ordering::Greater) {
+                    return Err(AbortCode::VALUE_TOO_HIGH);
+                }
+            }
+            if let Some(min) = e.min {
+                if v.compare(min) == Some(core::cmp::Ordering::Less) {
+                    return Err(AbortCode::VALUE_TOO_LOW);
+                }
+            }
+        } else if data.len() > e.capacity as usize {
+            return Err(AbortCode::LENGTH_TOO_HIGH);
+        }
+        Ok(())
+    }
+}
+
+/// Which indices a store/restore sub-index covers (CiA 301 §7.5.2.13).
+fn parameter_group_contains(sub: u8, index: u16) -> bool {
+    match sub {
+        1 => true,
+        2 => (0x1000..0x2000).contains(&index),
+        3 => (0x6000..0xA000).contains(&index),
+        _ => (0x2000..0x6000).contains(&index),
+    }
+}
+
+fn signature(data: &[u8]) -> Option<u32> {
+    Some(u32::from_le_bytes(data.try_into().ok()?))
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        let obj = self.desc.object(index).ok_or(AbortCode::NO_OBJECT)?;
+        obj.entry(sub).ok_or(AbortCode::NO_SUB_INDEX)
+    }
+
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let e = self.entry(index, sub)?;
+        if !e.access.readable() {
+            return Err(AbortCode::WRITE_ONLY);
+        }
+        let zeros = [0u8; 8];
+        let src = match e.behaviour {
+            Behaviour::ReadsZero => zeros.get(..e.capacity as usize).unwrap_or(&zeros),
+            _ => self.raw(e),
+        };
+        let dst = buf.get_mut(..src.len()).ok_or(AbortCode::OUT_OF_MEMORY)?;
+        dst.copy_from_slice(src);
+        Ok(src.len())
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let e = self.entry(index, sub)?;
+        if !e.access.writable() {
+            return Err(AbortCode::READ_ONLY);
+        }
+        match e.behaviour {
+            Behaviour::StoreSignature | Behaviour::RestoreSignature => {
+                let sig = match data.len() {
+                    4 => signature(data),
+                    n if n > 4 => return Err(AbortCode::LENGTH_TOO_HIGH),
+                    _ => return Err(AbortCode::LENGTH_TOO_LOW),
+                };
+                let (want, req) = if e.behaviour == Behaviour::StoreSignature {
+                    (SAVE_SIGNATURE, StorageRequest::Save { sub })
+                } else {
+                    (LOAD_SIGNATURE, StorageRequest::Restore { sub })
+                };
+                // CMMP-AS §5.1 and CiA 301: a wrong signature is refused with 0800 0020h.
+                if sig != Some(want) {
+                    return Err(AbortCode::CANNOT_STORE);
+                }
+                if let StorageRequest::Restore { sub } = req {
+                    self.restore_defaults(sub);
+                }
+                self.request = Some(req);
+                Ok(())
+            }
+            Behaviour::ErrorHistoryCount => {
+                Self::check_value(e, data)?;
+                // CiA 301 §7.5.2.4: only 0 may be written; it clears the history.
+                if data.iter().any(|b| *b != 0) {
+                    return Err(AbortCode::INVALID_VALUE);
+                }
+                if let Some(obj) = self.desc.object(index) {
+                    for entry in obj.entries {
+                        self.store(entry, &[]);
+                    }
+                }
+                Ok(())
+            }
+            Behaviour::ReadsZero => Self::check_value(e, data),
+            Behaviour::Plain => {
+                Self::check_value(e, data)?;
+                let data = if e.data_type == DataType::VisibleString {
+                    // A string ends at its first NUL (CiA 301 §7.1.6.3).
+                    let end = data.iter().position(|b| *b == 0).unwrap_or(data.len());
+                    data.get(..end).unwrap_or(data)
+                } else {
+                    data
+                };
+                self.store(e, data);
+                Ok(())
+            }
+        }
+    }
+}

@@ -1,0 +1,26 @@
+//! The CiA 301 object dictionary of one drive: the static description of its objects
+//! (generated at build time from `devices/*.toml`), the values behind them, and the access
+//! rules every protocol front end goes through.
+//!
+//! `no_std`, no allocation: a dictionary's values live in one byte buffer whose size the
+//! description fixes, so the same code runs on a microcontroller.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod abort_code;
+pub mod access;
+pub mod data_type;
+pub mod description;
+pub mod dictionary;
+pub mod eds;
+pub mod parameter_file;
+pub mod time;
+pub mod value;
+
+pub use abort_code::AbortCode;
+pub use access::Access;
+pub use data_type::DataType;
+pub use description::{Behaviour, DeviceDescription, Entry, Limit, Object, ObjectKind};
+pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
+pub use time::Instant;
+pub use value::Value;
