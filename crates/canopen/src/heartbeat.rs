@@ -23,13 +23,20 @@ impl HeartbeatProducer {
         (self.period_ms > 0).then(|| from + Duration::from_millis(u64::from(self.period_ms)))
     }
 
-    /// Whether a heartbeat is due at `now`; picks up a changed 1017h first (a new period
-    /// starts counting from the change).
-    pub fn due(&mut self, now: Instant, od: &dyn ObjectAccess) -> bool {
+    /// Picks up a changed 1017h: a new period starts counting from the change.
+    pub fn refresh(&mut self, now: Instant, od: &dyn ObjectAccess) {
         let period = read_u16(od, 0x1017, 0).unwrap_or(0);
         if period != self.period_ms {
             self.period_ms = period;
             self.next = self.schedule(now);
+        }
+    }
+
+    /// Whether a heartbeat is due at `now`.
+    pub fn due(&mut self, now: Instant, od: &dyn ObjectAccess) -> bool {
+        let period = self.period_ms;
+        self.refresh(now, od);
+        if period != self.period_ms {
             return false;
         }
         match self.next {

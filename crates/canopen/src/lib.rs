@@ -3,6 +3,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod decode;
 pub mod frame;
 pub mod heartbeat;
 pub mod nmt;

@@ -109,6 +109,8 @@ impl<const N: usize> Node<N> {
                     self.sdo.on_request(now, frame.payload(), od, &mut |r| {
                         out(CanFrame::full(sdo_tx, r))
                     });
+                    // A write may have changed the heartbeat period.
+                    self.producer.refresh(now, od);
                 }
             }
             c if (0x701..=0x77F).contains(&c) && c != 0x700 + own => {

@@ -8,7 +8,7 @@
 //! Both directions are covered, so the same codec serves the server (parsing `send`, `open`,
 //! ...) and a client or test (parsing `hi`, `ok`, `frame`, ...).
 
-use std::fmt;
+use std::fmt::{self, Write as _};
 use std::time::Duration;
 
 use canopen::CanFrame;
@@ -387,8 +387,8 @@ fn parse_timestamp(s: &str) -> Result<Duration, CodecError> {
 /// Write text that must not break the framing: `<`, `>` and control characters become `?`.
 fn write_sanitized(f: &mut fmt::Formatter<'_>, s: &str) -> fmt::Result {
     for c in s.chars() {
-        let safe = c.is_ascii_graphic() && c != '<' && c != '>' || c == ' ';
-        f.write_str(if safe { c.encode_utf8(&mut [0; 4]) } else { "?" })?;
+        let safe = (c.is_ascii_graphic() && c != '<' && c != '>') || c == ' ';
+        f.write_char(if safe { c } else { '?' })?;
     }
     Ok(())
 }

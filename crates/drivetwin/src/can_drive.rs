@@ -1,0 +1,166 @@
+//! One CANopen drive of a cell: its dictionary, its CiA 301 stack and its stored parameter
+//! set, with the runtime's share of the work (files and resets) done here.
+
+use canopen::{CanFrame, Node, NodeEvent};
+use od::{Instant, ObjectDictionary, StorageRequest};
+
+use crate::param_store::{self, ParamStore, StoreError, StoredValue};
+
+#[derive(Debug, thiserror::Error)]
+pub enum DriveError {
+    #[error("node-ID {0} is outside 1…127")]
+    NodeId(u8),
+    #[error("commissioning value {index:04X}h:{sub:02X}h: {what}")]
+    Commissioning { index: u16, sub: u8, what: String },
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
+/// A value the cell file sets at power-on, as a commissioning tool would have (before the
+/// stored set, which wins).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Commissioning {
+    pub index: u16,
+    pub sub: u8,
+    pub bytes: Vec<u8>,
+}
+
+pub struct CanDrive {
+    pub od: ObjectDictionary<Vec<u8>>,
+    pub node: Node,
+    store: Option<ParamStore>,
+    stored: Vec<StoredValue>,
+    commissioning: Vec<Commissioning>,
+}
+
+impl CanDrive {
+    /// A drive at power-on, not yet booted: defaults, then commissioning values, then the
+    /// stored set.
+    pub fn new(
+        desc: &'static od::DeviceDescription,
+        node_id: u8,
+        store: Option<ParamStore>,
+        commissioning: Vec<Commissioning>,
+    ) -> Result<Self, DriveError> {
+        if !(1..=127).contains(&node_id) {
+            return Err(DriveError::NodeId(node_id));
+        }
+        let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size])
+            .map_err(|e| DriveError::Commissioning {
+                index: 0,
+                sub: 0,
+                what: format!("storage {e:?}"),
+            })?;
+        for c in &commissioning {
+            let e = desc.entry(c.index, c.sub).ok_or_else(|| DriveError::Commissioning {
+                index: c.index,
+                sub: c.sub,
+                what: "no such entry".into(),
+            })?;
+            let ok = match e.data_type.fixed_size() {
+                Some(n) => c.bytes.len() == n,
+                None => c.bytes.len() <= e.capacity as usize,
+            };
+            if !ok {
+                return Err(DriveError::Commissioning {
+                    index: c.index,
+                    sub: c.sub,
+                    what: format!("{} bytes do not fit {}", c.bytes.len(), e.data_type.name()),
+                });
+            }
+        }
+        let stored = match &store {
+            Some(s) => s.load()?,
+            None => Vec::new(),
+        };
+        let mut d = CanDrive {
+            od,
+            node: Node::new(node_id),
+            store,
+            stored,
+            commissioning,
+        };
+        d.reload(|_| true);
+        Ok(d)
+    }
+
+    /// Defaults, commissioning values and the stored set for the indices `filter` selects.
+    fn reload(&mut self, filter: impl Fn(u16) -> bool) {
+        self.od.load_defaults(|e| filter(e.index));
+        let desc = self.od.description();
+        for c in &self.commissioning {
+            if filter(c.index) {
+                if let Some(e) = desc.entry(c.index, c.sub) {
+                    self.od.store(e, &c.bytes);
+                }
+            }
+        }
+        param_store::apply(&mut self.od, &self.stored, &filter);
+    }
+
+    pub fn node_id(&self) -> u8 {
+        self.node.node_id()
+    }
+
+    /// Power-on finished: boot-up message.
+    pub fn boot(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
+        self.node.boot(now, &self.od, out);
+    }
+
+    pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
+        self.node.on_frame(now, frame, &mut self.od, out);
+        self.service(now, out);
+    }
+
+    pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
+        self.node.poll(now, &mut self.od, out);
+        self.service(now, out);
+        self.node.deadline()
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        self.node.deadline()
+    }
+
+    /// Carries out what the stack asked for.
+    fn service(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
+        if let Some(req) = self.od.take_request() {
+            match req {
+                StorageRequest::Save { sub } => self.save(sub),
+                // CMMP-AS §5.1: "load" copies the defaults into the current set (done by the
+                // dictionary); the application set in flash stays until the next "save".
+                StorageRequest::Restore { sub } => {
+                    tracing::info!(node = self.node_id(), sub, "defaults restored");
+                }
+            }
+        }
+        while let Some(ev) = self.node.take_event() {
+            match ev {
+                NodeEvent::ResetApplication => {
+                    self.reload(|_| true);
+                    self.node.boot(now, &self.od, out);
+                }
+                NodeEvent::ResetCommunication => {
+                    self.reload(|i| (0x1000..0x2000).contains(&i));
+                    self.node.boot(now, &self.od, out);
+                }
+                NodeEvent::State(s) => tracing::debug!(node = self.node_id(), state = s.name(), "NMT"),
+                NodeEvent::Heartbeat(e) => tracing::warn!(node = self.node_id(), event = ?e, "heartbeat consumer"),
+            }
+        }
+    }
+
+    fn save(&mut self, sub: u8) {
+        let Some(store) = &self.store else {
+            tracing::warn!(node = self.node_id(), "save requested but the cell has no state directory");
+            return;
+        };
+        match store.save(&self.od, sub) {
+            Ok(()) => {
+                self.stored = store.load().unwrap_or_default();
+                tracing::info!(node = self.node_id(), path = %store.path().display(), "parameters saved");
+            }
+            Err(e) => tracing::error!(node = self.node_id(), error = %e, "saving parameters failed"),
+        }
+    }
+}

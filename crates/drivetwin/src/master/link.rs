@@ -1,0 +1,130 @@
+//! A master's connection to a CAN bus: a socketcand server (ours or the real daemon) or a
+//! SocketCAN interface.
+
+use std::time::Duration;
+
+use canopen::CanFrame;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+use crate::socketcand::{Decoder, Message};
+
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    #[error("cannot connect to socketcand at {addr}: {source}")]
+    Connect {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error("socketcand handshake failed: expected {expected}, got {got}")]
+    Handshake { expected: &'static str, got: String },
+    #[error("bus connection: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("the bus connection was closed")]
+    Closed,
+    #[error("SocketCAN: {0}")]
+    SocketCan(String),
+}
+
+/// A socketcand client in raw mode.
+pub struct SocketcandLink {
+    stream: TcpStream,
+    decoder: Decoder,
+}
+
+impl SocketcandLink {
+    /// Connects and performs the handshake `< hi >`, `< open CH >`, `< rawmode >`.
+    pub async fn connect(addr: &str, channel: &str) -> Result<Self, LinkError> {
+        let stream = tokio::time::timeout(Duration::from_secs(5), TcpStream::connect(addr))
+            .await
+            .map_err(|_| LinkError::Connect {
+                addr: addr.to_string(),
+                source: std::io::Error::new(std::io::ErrorKind::TimedOut, "timed out"),
+            })?
+            .map_err(|source| LinkError::Connect {
+                addr: addr.to_string(),
+                source,
+            })?;
+        let _ = stream.set_nodelay(true);
+        let mut link = SocketcandLink {
+            stream,
+            decoder: Decoder::new(),
+        };
+        link.expect(Message::Hi, "< hi >").await?;
+        link.write(&Message::Open(channel.to_string())).await?;
+        link.expect(Message::Ok, "< ok >").await?;
+        link.write(&Message::Mode(crate::socketcand::Mode::Raw)).await?;
+        link.expect(Message::Ok, "< ok >").await?;
+        Ok(link)
+    }
+
+    async fn write(&mut self, m: &Message) -> Result<(), LinkError> {
+        self.stream.write_all(m.to_string().as_bytes()).await?;
+        Ok(())
+    }
+
+    async fn next_message(&mut self) -> Result<Message, LinkError> {
+        let mut buf = [0u8; 1024];
+        loop {
+            if let Some(m) = self.decoder.next_message() {
+                match m {
+                    Ok(m) => return Ok(m),
+                    Err(e) => tracing::warn!(error = %e, "bad message from socketcand"),
+                }
+                continue;
+            }
+            let n = self.stream.read(&mut buf).await?;
+            if n == 0 {
+                return Err(LinkError::Closed);
+            }
+            self.decoder.push(buf.get(..n).unwrap_or(&[]));
+        }
+    }
+
+    async fn expect(&mut self, want: Message, text: &'static str) -> Result<(), LinkError> {
+        let got = tokio::time::timeout(Duration::from_secs(5), self.next_message())
+            .await
+            .map_err(|_| LinkError::Handshake {
+                expected: text,
+                got: "nothing within 5 s".into(),
+            })??;
+        if got == want {
+            Ok(())
+        } else {
+            Err(LinkError::Handshake {
+                expected: text,
+                got: got.to_string(),
+            })
+        }
+    }
+}
+
+/// Any link a master command can use.
+pub enum Link {
+    Socketcand(SocketcandLink),
+}
+
+impl Link {
+    pub async fn socketcand(addr: &str, channel: &str) -> Result<Self, LinkError> {
+        Ok(Link::Socketcand(SocketcandLink::connect(addr, channel).await?))
+    }
+
+    pub async fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        match self {
+            Link::Socketcand(l) => l.write(&Message::Send(*frame)).await,
+        }
+    }
+
+    /// The next frame on the bus.
+    pub async fn recv(&mut self) -> Result<CanFrame, LinkError> {
+        match self {
+            Link::Socketcand(l) => loop {
+                match l.next_message().await? {
+                    Message::Frame { frame, .. } => return Ok(frame),
+                    Message::Error(e) => tracing::warn!(error = %e, "socketcand error"),
+                    _ => {}
+                }
+            },
+        }
+    }
+}

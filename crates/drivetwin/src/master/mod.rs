@@ -1,0 +1,4 @@
+//! The master side: commands that talk to real or virtual drives over a bus link.
+
+pub mod link;
+pub mod sdo_client;
