@@ -11,3 +11,5 @@ pub mod param_store;
 pub mod master;
 pub mod cell_config;
 pub mod value_text;
+pub mod runtime;
+pub mod trace;

@@ -1,0 +1,160 @@
+//! The command line.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "drivetwin",
+    version,
+    about = "Software twins of fieldbus motor controllers, and a CANopen master",
+    after_help = "Exit codes: 0 ok, 1 failure, 2 usage, 3 bus connection, 4 timeout, 5 SDO abort, 6 protocol error."
+)]
+pub struct Cli {
+    /// Log more (or set DRIVETWIN_LOG, e.g. DRIVETWIN_LOG=debug).
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Start a cell: drives on a virtual CAN bus served over socketcand.
+    Run(RunArgs),
+    /// Print the CiA 306 EDS of a personality.
+    Eds {
+        #[arg(long, default_value = "cmmp-as")]
+        device: String,
+        /// Write to a file instead of standard output.
+        #[arg(long, short)]
+        output: Option<PathBuf>,
+    },
+    /// List the personalities this build knows.
+    Devices,
+    /// SDO read or write on a node.
+    #[command(subcommand)]
+    Sdo(SdoCommand),
+    /// Send an NMT node-control command.
+    Nmt {
+        #[arg(value_enum)]
+        command: NmtArg,
+        /// Node-ID, 0 = all nodes.
+        #[arg(default_value_t = 0)]
+        node: u8,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+    /// Print every frame on the bus, decoded.
+    Monitor {
+        /// Stop after this many frames.
+        #[arg(long)]
+        count: Option<u64>,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        seconds: Option<f64>,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+}
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Personality of the single drive (ignored with --config).
+    #[arg(long, default_value = "cmmp-as")]
+    pub device: String,
+    /// Node-ID of the single drive (ignored with --config).
+    #[arg(long, default_value_t = 1)]
+    pub node: u8,
+    /// socketcand server address.
+    #[arg(long)]
+    pub socketcand: Option<String>,
+    /// Bus name socketcand clients open.
+    #[arg(long)]
+    pub channel: Option<String>,
+    /// Bridge this SocketCAN interface (e.g. vcan0, can0) onto the bus.
+    #[arg(long)]
+    pub socketcan: Option<String>,
+    /// Where stored parameter sets live (one file per node). Without it, 1010h "save" is
+    /// accepted but nothing survives the process.
+    #[arg(long)]
+    pub state_dir: Option<PathBuf>,
+    /// A cell file with several drives (TOML).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Write every bus frame to FILE: pcap (LINKTYPE_CAN_SOCKETCAN), or candump if FILE ends
+    /// in .log.
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
+    /// Run on the virtual clock for this many seconds, as fast as possible, deterministically
+    /// (no socketcand server; frames come from --inject).
+    #[arg(long, value_name = "SECONDS")]
+    pub virtual_seconds: Option<f64>,
+    /// candump .log of frames to feed a virtual-clock run at their timestamps.
+    #[arg(long, requires = "virtual_seconds")]
+    pub inject: Option<PathBuf>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BusArgs {
+    /// socketcand server to join.
+    #[arg(long, default_value = "127.0.0.1:29536")]
+    pub socketcand: String,
+    /// Bus name to open on the socketcand server.
+    #[arg(long, default_value = "vcan0")]
+    pub channel: String,
+    /// Use this SocketCAN interface instead of socketcand.
+    #[arg(long)]
+    pub can: Option<String>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SdoCommand {
+    /// Read (upload) an entry.
+    Read {
+        node: u8,
+        /// Index, hex (0x1018 or 1018).
+        index: String,
+        /// Sub-index, hex.
+        #[arg(default_value = "0")]
+        sub: String,
+        /// Type to decode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+        /// Take the type from this personality's dictionary.
+        #[arg(long)]
+        device: Option<String>,
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+    /// Write (download) an entry.
+    Write {
+        node: u8,
+        index: String,
+        sub: String,
+        value: String,
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+        #[arg(long)]
+        device: Option<String>,
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum NmtArg {
+    Start,
+    Stop,
+    PreOperational,
+    ResetNode,
+    ResetCommunication,
+}

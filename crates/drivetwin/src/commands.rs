@@ -1,0 +1,466 @@
+//! What each sub-command does.
+
+use std::path::PathBuf;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use canopen::{CanFrame, NmtCommand};
+use drivetwin::bus::Bus;
+use drivetwin::can_drive::{CanDrive, DriveError};
+use drivetwin::cell::Cell;
+use drivetwin::cell_config::{CellFile, ConfigError};
+use drivetwin::master::link::{Link, LinkError};
+use drivetwin::master::sdo_client::{SdoClient, SdoError};
+use drivetwin::param_store::ParamStore;
+use drivetwin::trace::{self, TraceWriter};
+use drivetwin::{runtime, socketcand, value_text};
+use od::DataType;
+
+use crate::cli::{BusArgs, Cli, Command, NmtArg, RunArgs, SdoCommand};
+
+pub const EXIT_FAILURE: u8 = 1;
+pub const EXIT_USAGE: u8 = 2;
+pub const EXIT_LINK: u8 = 3;
+pub const EXIT_TIMEOUT: u8 = 4;
+pub const EXIT_ABORT: u8 = 5;
+pub const EXIT_PROTOCOL: u8 = 6;
+
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    #[error("{0}")]
+    Usage(String),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Drive(#[from] DriveError),
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    #[error(transparent)]
+    Sdo(#[from] SdoError),
+    #[error("{what}: {source}")]
+    Io {
+        what: String,
+        source: std::io::Error,
+    },
+}
+
+impl CommandError {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CommandError::Usage(_) | CommandError::Config(_) => EXIT_USAGE,
+            CommandError::Link(_) | CommandError::Sdo(SdoError::Link(_)) => EXIT_LINK,
+            CommandError::Sdo(SdoError::Timeout { .. }) => EXIT_TIMEOUT,
+            CommandError::Sdo(SdoError::Abort(_)) => EXIT_ABORT,
+            CommandError::Sdo(SdoError::Protocol(_)) => EXIT_PROTOCOL,
+            CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
+        }
+    }
+}
+
+fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> CommandError {
+    let what = what.into();
+    move |source| CommandError::Io { what, source }
+}
+
+pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
+    match cli.command {
+        Command::Run(args) => run(args).await,
+        Command::Eds { device, output } => eds(&device, output),
+        Command::Devices => {
+            for d in devices::ALL {
+                println!("{:<10} {} ({}), {} objects", d.name, d.product_name, d.vendor_name, d.objects.len());
+            }
+            Ok(())
+        }
+        Command::Sdo(cmd) => sdo(cmd).await,
+        Command::Nmt { command, node, bus } => nmt(command, node, bus).await,
+        Command::Monitor { count, seconds, bus } => monitor(count, seconds, bus).await,
+    }
+}
+
+fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {
+    devices::by_name(name).ok_or_else(|| {
+        let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
+        CommandError::Usage(format!("unknown device {name:?} (known: {})", known.join(", ")))
+    })
+}
+
+fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
+    let desc = device(name)?;
+    let mut text = String::new();
+    od::eds::write_eds(&mut text, desc, "01-01-2026")
+        .map_err(|_| CommandError::Usage("EDS formatting failed".into()))?;
+    match output {
+        Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
+        None => {
+            print!("{text}");
+            Ok(())
+        }
+    }
+}
+
+fn build_cell(file: &CellFile, state_dir: Option<&PathBuf>) -> Result<Cell, CommandError> {
+    let mut drives = Vec::new();
+    for spec in file.drives()? {
+        let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
+        drives.push(CanDrive::new(spec.desc, spec.node, store, spec.commissioning)?);
+    }
+    Ok(Cell::new(drives))
+}
+
+async fn run(args: RunArgs) -> Result<(), CommandError> {
+    let mut file = match &args.config {
+        Some(path) => CellFile::load(path)?,
+        None => CellFile::single(&args.device, args.node),
+    };
+    if let Some(s) = &args.socketcand {
+        file.bus.socketcand = s.clone();
+    }
+    if let Some(c) = &args.channel {
+        file.bus.channel = c.clone();
+    }
+    if let Some(c) = &args.socketcan {
+        file.bus.socketcan = Some(c.clone());
+    }
+    let mut cell = build_cell(&file, args.state_dir.as_ref())?;
+    for d in &cell.drives {
+        println!(
+            "drive {} node {} ({})",
+            d.od.description().name,
+            d.node_id(),
+            d.od.description().product_name
+        );
+    }
+
+    if let Some(seconds) = args.virtual_seconds {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(CommandError::Usage("--virtual-seconds must be a positive number".into()));
+        }
+        let inputs = match &args.inject {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(io(p.display().to_string()))?;
+                let mut frames = trace::parse_candump(&text)
+                    .map_err(|e| CommandError::Usage(format!("{}: {e}", p.display())))?;
+                frames.sort_by_key(|(t, _)| *t);
+                frames
+            }
+            None => Vec::new(),
+        };
+        let mut writer = match &args.trace {
+            Some(p) => Some(TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?),
+            None => None,
+        };
+        let mut count = 0u64;
+        let mut failed = None;
+        runtime::run_virtual(&mut cell, &inputs, Duration::from_secs_f64(seconds), &mut |t, f| {
+            count += 1;
+            if let Some(w) = writer.as_mut() {
+                if let Err(e) = w.write(t, f) {
+                    failed.get_or_insert(e);
+                }
+            }
+        });
+        if let Some(w) = writer.as_mut() {
+            w.flush().map_err(io("trace"))?;
+        }
+        if let Some(e) = failed {
+            return Err(io("trace")(e));
+        }
+        println!("virtual run of {seconds} s: {count} frames");
+        return Ok(());
+    }
+
+    let bus = Bus::new(drivetwin::bus::DEFAULT_CAPACITY);
+    let mut tasks = Vec::new();
+    if !file.bus.socketcand.is_empty() {
+        let listener = tokio::net::TcpListener::bind(&file.bus.socketcand)
+            .await
+            .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
+        let addr = listener.local_addr().map_err(io("socketcand address"))?;
+        println!("socketcand server on {addr}, channel {}", file.bus.channel);
+        tasks.push(tokio::spawn(socketcand::serve(listener, bus.clone(), file.bus.channel.clone())));
+    }
+    #[cfg(target_os = "linux")]
+    if let Some(ifname) = &file.bus.socketcan {
+        let socket = drivetwin::socketcan::CanSocket::open(ifname).map_err(io(format!("SocketCAN {ifname}")))?;
+        println!("SocketCAN bridge on {ifname}");
+        let port = bus.port();
+        tasks.push(tokio::spawn(async move {
+            if let Err(e) = drivetwin::socketcan::bridge(socket, port).await {
+                tracing::error!(error = %e, "SocketCAN bridge stopped");
+            }
+        }));
+    }
+    let trace_task = match &args.trace {
+        Some(p) => {
+            let mut writer = TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
+            println!("tracing to {}", p.display());
+            let mut tap = bus.tap();
+            Some(tokio::spawn(async move {
+                'outer: while let Some(first) = tap.recv().await {
+                    // Write what is queued, then flush once the tap runs dry.
+                    let mut next = Some(first);
+                    while let Some(bf) = next {
+                        let t = bf.timestamp.duration_since(UNIX_EPOCH).unwrap_or_default();
+                        if let Err(e) = writer.write(t, &bf.frame) {
+                            tracing::error!(error = %e, "writing the trace failed");
+                            break 'outer;
+                        }
+                        next = tap.try_recv();
+                    }
+                    trace::flush_quietly(&mut writer);
+                }
+                trace::flush_quietly(&mut writer);
+            }))
+        }
+        None => None,
+    };
+    let shutdown = shutdown_signal();
+    println!("running; Ctrl-C stops");
+    runtime::run_realtime(cell, bus.clone(), shutdown).await;
+    for t in tasks {
+        t.abort();
+    }
+    if let Some(t) = trace_task {
+        // Let the tap drain what is queued, then stop it.
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        t.abort();
+        let _ = t.await;
+    }
+    println!("stopped");
+    Ok(())
+}
+
+/// Ctrl-C (SIGINT) or SIGTERM: both stop the cell cleanly, flushing the trace.
+async fn shutdown_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
+    if let Some(ifname) = &bus.can {
+        return Err(CommandError::Usage(format!(
+            "--can {ifname}: SocketCAN master links are not available in this build yet; use --socketcand"
+        )));
+    }
+    Ok(Link::socketcand(&bus.socketcand, &bus.channel).await?)
+}
+
+fn parse_hex_u16(s: &str, what: &str) -> Result<u16, CommandError> {
+    let t = s.trim_start_matches("0x").trim_start_matches("0X");
+    u16::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+}
+
+fn parse_hex_u8(s: &str, what: &str) -> Result<u8, CommandError> {
+    let t = s.trim_start_matches("0x").trim_start_matches("0X");
+    u8::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+}
+
+fn check_node(node: u8) -> Result<(), CommandError> {
+    if (1..=127).contains(&node) {
+        Ok(())
+    } else {
+        Err(CommandError::Usage(format!("node-ID {node} is outside 1…127")))
+    }
+}
+
+fn resolve_type(
+    data_type: Option<&str>,
+    device_name: Option<&str>,
+    index: u16,
+    sub: u8,
+) -> Result<Option<DataType>, CommandError> {
+    if let Some(t) = data_type {
+        return value_text::parse_type(t)
+            .map(Some)
+            .ok_or_else(|| CommandError::Usage(format!("unknown type {t:?}")));
+    }
+    if let Some(name) = device_name {
+        let desc = device(name)?;
+        let e = desc
+            .entry(index, sub)
+            .ok_or_else(|| CommandError::Usage(format!("{name} has no entry {index:04X}:{sub:02X}")))?;
+        return Ok(Some(e.data_type));
+    }
+    Ok(None)
+}
+
+async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
+    match cmd {
+        SdoCommand::Read {
+            node,
+            index,
+            sub,
+            data_type,
+            device,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let index = parse_hex_u16(&index, "index")?;
+            let sub = parse_hex_u8(&sub, "sub-index")?;
+            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?;
+            let mut link = connect(&bus).await?;
+            let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
+                .upload(index, sub)
+                .await;
+            let data = match result {
+                Ok(d) => d,
+                Err(e) => return Err(report_sdo_error(&bus, node, index, sub, e)),
+            };
+            let ty = ty.or(match data.len() {
+                1 => Some(DataType::Unsigned8),
+                2 => Some(DataType::Unsigned16),
+                4 => Some(DataType::Unsigned32),
+                _ => None,
+            });
+            let value = ty.and_then(|t| value_text::decode(t, &data));
+            if bus.json {
+                let j = serde_json::json!({
+                    "node": node, "index": format!("0x{index:04X}"), "sub": sub,
+                    "data": value_text::hex(&data), "value": value,
+                });
+                println!("{j}");
+            } else {
+                match value {
+                    Some(v) => println!("{v}"),
+                    None => println!("{}", value_text::hex(&data)),
+                }
+            }
+            Ok(())
+        }
+        SdoCommand::Write {
+            node,
+            index,
+            sub,
+            value,
+            data_type,
+            device,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let index = parse_hex_u16(&index, "index")?;
+            let sub = parse_hex_u8(&sub, "sub-index")?;
+            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?.ok_or_else(|| {
+                CommandError::Usage("sdo write needs --type or --device to encode the value".into())
+            })?;
+            let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
+            let mut link = connect(&bus).await?;
+            let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
+                .download(index, sub, &data)
+                .await;
+            if let Err(e) = result {
+                return Err(report_sdo_error(&bus, node, index, sub, e));
+            }
+            if bus.json {
+                println!(
+                    "{}",
+                    serde_json::json!({"node": node, "index": format!("0x{index:04X}"), "sub": sub, "written": value_text::hex(&data)})
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// In JSON mode an SDO failure is also a JSON object on standard output.
+fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -> CommandError {
+    if bus.json {
+        let mut j = serde_json::json!({
+            "node": node, "index": format!("0x{index:04X}"), "sub": sub, "error": e.to_string(),
+        });
+        if let SdoError::Abort(code) = &e {
+            j["abort_code"] = serde_json::json!(format!("0x{:08X}", code.0));
+            j["abort_text"] = serde_json::json!(code.description());
+        }
+        println!("{j}");
+    }
+    CommandError::Sdo(e)
+}
+
+async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), CommandError> {
+    if node > 127 {
+        return Err(CommandError::Usage(format!("node-ID {node} is outside 0…127")));
+    }
+    let cmd = match command {
+        NmtArg::Start => NmtCommand::Start,
+        NmtArg::Stop => NmtCommand::Stop,
+        NmtArg::PreOperational => NmtCommand::EnterPreOperational,
+        NmtArg::ResetNode => NmtCommand::ResetNode,
+        NmtArg::ResetCommunication => NmtCommand::ResetCommunication,
+    };
+    let mut link = connect(&bus).await?;
+    let frame = CanFrame::new(0x000, &[cmd.cs(), node]).map_err(|e| CommandError::Usage(e.to_string()))?;
+    link.send(&frame).await?;
+    // Give the server a moment to put the frame on the bus before the connection closes.
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    if bus.json {
+        println!("{}", serde_json::json!({"nmt": cmd.name(), "node": node}));
+    }
+    Ok(())
+}
+
+async fn monitor(count: Option<u64>, seconds: Option<f64>, bus: BusArgs) -> Result<(), CommandError> {
+    let mut link = connect(&bus).await?;
+    let deadline = match seconds {
+        Some(s) if s.is_finite() && s >= 0.0 => Some(tokio::time::Instant::now() + Duration::from_secs_f64(s)),
+        Some(_) => return Err(CommandError::Usage("--seconds must be a positive number".into())),
+        None => None,
+    };
+    let mut seen = 0u64;
+    while count.is_none_or(|c| seen < c) {
+        let frame = match deadline {
+            Some(d) => match tokio::time::timeout_at(d, link.recv()).await {
+                Ok(f) => f?,
+                Err(_) => break,
+            },
+            None => link.recv().await?,
+        };
+        seen += 1;
+        let mut text = String::new();
+        let _ = canopen::decode::describe(&frame, &mut text);
+        let t = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+        if bus.json {
+            let (function, node) = match frame.cob_id() {
+                Some(c) => {
+                    let (f, n) = canopen::decode::classify(c);
+                    (format!("{f:?}"), n)
+                }
+                None => ("Extended".to_string(), 0),
+            };
+            println!(
+                "{}",
+                serde_json::json!({
+                    "time": t.as_secs_f64(), "id": frame.id, "extended": frame.extended, "rtr": frame.rtr,
+                    "data": value_text::hex(frame.payload()), "function": function, "node": node, "text": text,
+                })
+            );
+        } else {
+            let id = if frame.extended { format!("{:08X}", frame.id) } else { format!("{:03X}", frame.id) };
+            println!(
+                "{:.6}  {id}  [{}] {:<24} {text}",
+                t.as_secs_f64(),
+                frame.len,
+                canopen::decode::Hex(frame.payload()).to_string()
+            );
+        }
+    }
+    Ok(())
+}
