@@ -263,7 +263,11 @@ impl Tap {
 }
 
 fn overrun(receiver: &str, lost: u64) {
-    tracing::warn!(receiver, lost, "CAN bus overrun: receiver too slow, frames lost");
+    tracing::warn!(
+        receiver,
+        lost,
+        "CAN bus overrun: receiver too slow, frames lost"
+    );
 }
 
 #[cfg(test)]

@@ -82,7 +82,10 @@ impl<W: Write> PcapWriter<W> {
 
     /// Appends one frame seen at wall time `ts`.
     pub fn write_frame(&mut self, ts: SystemTime, frame: &CanFrame) -> io::Result<()> {
-        self.write_frame_at(ts.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO), frame)
+        self.write_frame_at(
+            ts.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO),
+            frame,
+        )
     }
 
     /// Appends one frame seen `since_epoch` after the Unix epoch (or after any origin the
@@ -157,7 +160,10 @@ impl<W: Write> CandumpWriter<W> {
     }
 
     pub fn write_frame(&mut self, ts: SystemTime, frame: &CanFrame) -> io::Result<()> {
-        self.write_frame_at(ts.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO), frame)
+        self.write_frame_at(
+            ts.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO),
+            frame,
+        )
     }
 
     pub fn write_frame_at(&mut self, since_epoch: Duration, frame: &CanFrame) -> io::Result<()> {
@@ -204,8 +210,8 @@ mod tests {
         assert_eq!(
             w.into_inner(),
             [
-                0xD4, 0xC3, 0xB2, 0xA1, 2, 0, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF, 0, 0,
-                227, 0, 0, 0
+                0xD4, 0xC3, 0xB2, 0xA1, 2, 0, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF, 0, 0, 227,
+                0, 0, 0
             ]
         );
     }
@@ -279,11 +285,11 @@ mod tests {
     /// The CANopen frames of anchors.md §7, in order, at 1 ms steps.
     fn canopen_sample() -> Vec<CanFrame> {
         vec![
-            f(0x000, &[0x01, 0x05]),                                     // NMT start node 5
-            f(0x705, &[0x00]),                                           // boot-up
-            f(0x605, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]),             // SDO upload 1000:00
+            f(0x000, &[0x01, 0x05]),                         // NMT start node 5
+            f(0x705, &[0x00]),                               // boot-up
+            f(0x605, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), // SDO upload 1000:00
             f(0x585, &[0x80, 0x00, 0x20, 0x00, 0x00, 0x00, 0x02, 0x06]), // abort 06020000
-            f(0x085, &[0x10, 0x81, 0x11, 0, 0, 0, 0, 0]),                // EMCY 8110
+            f(0x085, &[0x10, 0x81, 0x11, 0, 0, 0, 0, 0]),    // EMCY 8110
             CanFrame::with_id(0x1234_5678, true, &[0xAA]).expect("ext"),
         ]
     }
@@ -297,9 +303,14 @@ mod tests {
 
     fn run_tshark(path: &std::path::Path, fields: &[&str]) -> String {
         let mut cmd = Command::new("tshark");
-        cmd.arg("-r")
-            .arg(path)
-            .args(["-d", "can.subdissector,canopen", "-T", "fields", "-E", "separator=,"]);
+        cmd.arg("-r").arg(path).args([
+            "-d",
+            "can.subdissector,canopen",
+            "-T",
+            "fields",
+            "-E",
+            "separator=,",
+        ]);
         for field in fields {
             cmd.args(["-e", field]);
         }
@@ -350,13 +361,28 @@ mod tests {
         // can.id is printed in decimal; function codes: 0 NMT, 0xe NMT error control,
         // 0xc SDO rx, 0xb SDO tx, 0x1 EMCY.
         assert!(line(0).starts_with("1,0,0,0x00000000,"), "NMT: {out}");
-        assert!(line(1).starts_with("2,1797,0,0x0000000e,"), "boot-up: {out}");
-        assert!(line(2).starts_with("3,1541,0,0x0000000c,0x1000,"), "SDO: {out}");
-        assert!(line(3).contains(",0x06020000,"), "abort code decoded: {out}");
+        assert!(
+            line(1).starts_with("2,1797,0,0x0000000e,"),
+            "boot-up: {out}"
+        );
+        assert!(
+            line(2).starts_with("3,1541,0,0x0000000c,0x1000,"),
+            "SDO: {out}"
+        );
+        assert!(
+            line(3).contains(",0x06020000,"),
+            "abort code decoded: {out}"
+        );
         assert!(line(4).contains(",0x8110,"), "EMCY code decoded: {out}");
         assert!(line(5).starts_with("6,305419896,1,"), "extended id: {out}");
-        assert!(line(0).ends_with(",1700000000.000000000"), "timestamp: {out}");
-        assert!(line(1).ends_with(",1700000000.001000000"), "timestamp: {out}");
+        assert!(
+            line(0).ends_with(",1700000000.000000000"),
+            "timestamp: {out}"
+        );
+        assert!(
+            line(1).ends_with(",1700000000.001000000"),
+            "timestamp: {out}"
+        );
     }
 
     #[test]
@@ -374,7 +400,12 @@ mod tests {
         std::fs::write(&path, w.into_inner()).expect("write log");
         let out = run_tshark(
             &path,
-            &["frame.number", "can.id", "canopen.sdo.main_idx", "canopen.em.err_code"],
+            &[
+                "frame.number",
+                "can.id",
+                "canopen.sdo.main_idx",
+                "canopen.em.err_code",
+            ],
         );
         let _ = std::fs::remove_file(&path);
         println!("{out}");

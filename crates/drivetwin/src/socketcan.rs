@@ -91,8 +91,9 @@ impl CanSocket {
     /// Open a `CAN_RAW` socket on `interface` (e.g. `can0`, `vcan0`). Must be called inside a
     /// tokio runtime.
     pub fn open(interface: &str) -> io::Result<CanSocket> {
-        let name = CString::new(interface)
-            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL"))?;
+        let name = CString::new(interface).map_err(|_| {
+            io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL")
+        })?;
         // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
         let index = unsafe { libc::if_nametoindex(name.as_ptr()) };
         if index == 0 {
@@ -101,8 +102,9 @@ impl CanSocket {
                 format!("no network interface named {interface:?}"),
             ));
         }
-        let ifindex = libc::c_int::try_from(index)
-            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "interface index too large"))?;
+        let ifindex = libc::c_int::try_from(index).map_err(|_| {
+            io::Error::new(io::ErrorKind::InvalidInput, "interface index too large")
+        })?;
         // SAFETY: plain socket(2) call; the result is checked before use.
         let raw = unsafe {
             libc::socket(
@@ -200,7 +202,10 @@ fn write_once(fd: RawFd, bytes: &[u8; CAN_MTU]) -> io::Result<()> {
         return Err(io::Error::last_os_error());
     }
     if usize::try_from(n).ok() != Some(bytes.len()) {
-        return Err(io::Error::new(io::ErrorKind::WriteZero, "short CAN frame write"));
+        return Err(io::Error::new(
+            io::ErrorKind::WriteZero,
+            "short CAN frame write",
+        ));
     }
     Ok(())
 }
@@ -253,17 +258,26 @@ mod tests {
         let bytes = encode_can_frame(&std);
         assert_eq!(bytes.get(..4), Some(&0x605u32.to_ne_bytes()[..]));
         assert_eq!(bytes.get(4..8), Some(&[4, 0, 0, 0][..]));
-        assert_eq!(bytes.get(8..), Some(&[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0][..]));
+        assert_eq!(
+            bytes.get(8..),
+            Some(&[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0][..])
+        );
         assert_eq!(decode_can_frame(&bytes), Some(std));
 
         let ext = CanFrame::with_id(0x1ABC_DEF0, true, &[1, 2, 3, 4, 5, 6, 7, 8]).expect("frame");
         let bytes = encode_can_frame(&ext);
-        assert_eq!(bytes.get(..4), Some(&(0x1ABC_DEF0u32 | CAN_EFF_FLAG).to_ne_bytes()[..]));
+        assert_eq!(
+            bytes.get(..4),
+            Some(&(0x1ABC_DEF0u32 | CAN_EFF_FLAG).to_ne_bytes()[..])
+        );
         assert_eq!(decode_can_frame(&bytes), Some(ext));
 
         let rtr = CanFrame::remote(0x705, 1);
         let bytes = encode_can_frame(&rtr);
-        assert_eq!(bytes.get(..4), Some(&(0x705 | CAN_RTR_FLAG).to_ne_bytes()[..]));
+        assert_eq!(
+            bytes.get(..4),
+            Some(&(0x705 | CAN_RTR_FLAG).to_ne_bytes()[..])
+        );
         assert_eq!(decode_can_frame(&bytes), Some(rtr));
     }
 

@@ -98,7 +98,11 @@ async fn python_can_socketcand_client_round_trip() {
     let lines: Vec<&str> = stdout.lines().collect();
     assert_eq!(
         lines,
-        vec!["RX 585 0 4318100192010000", "RX 18FF0001 1 010203", "RX 80 0 "],
+        vec![
+            "RX 585 0 4318100192010000",
+            "RX 18FF0001 1 010203",
+            "RX 80 0 "
+        ],
         "stdout:\n{stdout}\nstderr:\n{stderr}"
     );
     server.abort();

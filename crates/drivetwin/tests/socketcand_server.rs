@@ -42,10 +42,7 @@ impl Client {
     }
 
     async fn send(&mut self, text: &str) {
-        self.stream
-            .write_all(text.as_bytes())
-            .await
-            .expect("write");
+        self.stream.write_all(text.as_bytes()).await.expect("write");
     }
 
     /// One `recv(256)` must return exactly `expected`, as python-can's `_expect_msg` demands.
@@ -180,7 +177,10 @@ async fn bus_port_frames_reach_every_client_with_exact_format() {
     // Let the post-handshake pause pass so each frame arrives in its own segment.
     tokio::time::sleep(Duration::from_millis(200)).await;
 
-    drive.send(frame(0x581, &[0x4B, 0x41, 0x60, 0x00, 0x37, 0x02, 0x00, 0x00]));
+    drive.send(frame(
+        0x581,
+        &[0x4B, 0x41, 0x60, 0x00, 0x37, 0x02, 0x00, 0x00],
+    ));
     for client in [&mut a, &mut b] {
         let text = client.read_text().await;
         assert!(text.starts_with("< frame 581 "), "{text}");
@@ -275,16 +275,16 @@ async fn garbage_from_one_client_does_not_disturb_another() {
 
     // Malformed messages: each gets an error reply, the session carries on.
     for junk in [
-        "< send 800 0 >",              // standard id out of range
-        "< send 20000000 0 >",         // extended id out of range
-        "< send 123456789 0 >",        // too many digits
-        "< send xyz 1 00 >",           // not hex
+        "< send 800 0 >",                   // standard id out of range
+        "< send 20000000 0 >",              // extended id out of range
+        "< send 123456789 0 >",             // too many digits
+        "< send xyz 1 00 >",                // not hex
         "< send 123 9 1 2 3 4 5 6 7 8 9 >", // DLC > 8
-        "< send 123 2 1 >",            // DLC mismatch
-        "< send 123 1 100 >",          // byte too long
-        "< send 123 >",                // missing DLC
-        "< frobnicate >",              // unknown command
-        "< >",                         // empty
+        "< send 123 2 1 >",                 // DLC mismatch
+        "< send 123 1 100 >",               // byte too long
+        "< send 123 >",                     // missing DLC
+        "< frobnicate >",                   // unknown command
+        "< >",                              // empty
     ] {
         bad.send(junk).await;
         let text = bad.expect_error().await;
@@ -306,7 +306,7 @@ async fn garbage_from_one_client_does_not_disturb_another() {
     bad.send(&long).await;
     assert_eq!(bad.expect_error().await, "message too long");
     bad.send(" 2 3 >").await; // the tail of the long message is garbage
-    // ... and the same client can still send valid frames.
+                              // ... and the same client can still send valid frames.
     bad.send("< send 181 1 aa >").await;
     assert_eq!(good.next_frame().await.0, frame(0x181, &[0xAA]));
     bad.send("< echo >").await;
@@ -319,7 +319,11 @@ async fn garbage_from_one_client_does_not_disturb_another() {
     good.send("< send 183 0 >").await;
     assert_eq!(bad.next_frame().await.0, frame(0x183, &[]));
     good.expect_silence(Duration::from_millis(100)).await;
-    assert_eq!(bus.stats().frames, 3, "no malformed message reached the bus");
+    assert_eq!(
+        bus.stats().frames,
+        3,
+        "no malformed message reached the bus"
+    );
 }
 
 #[tokio::test]
@@ -330,7 +334,10 @@ async fn wrong_channel_gets_error_and_close() {
     c.expect_exact("< hi >").await;
     c.send("< open can0 >").await;
     c.expect_exact("< error could not open bus >").await;
-    assert!(c.closed_within(STEP).await, "server closes after refusing the bus");
+    assert!(
+        c.closed_within(STEP).await,
+        "server closes after refusing the bus"
+    );
     // The server still serves others.
     let mut d = Client::connect(addr).await;
     d.handshake().await;
@@ -380,12 +387,12 @@ async fn abrupt_disconnects_and_half_open_clients_are_harmless() {
     for i in 0..20 {
         let mut c = Client::connect(addr).await;
         match i % 4 {
-            0 => {}                                       // connect, say nothing, leave
-            1 => c.send("< open vc").await,               // leave mid-message
-            2 => c.handshake().await,                     // leave while streaming
+            0 => {}                         // connect, say nothing, leave
+            1 => c.send("< open vc").await, // leave mid-message
+            2 => c.handshake().await,       // leave while streaming
             _ => {
                 c.handshake().await;
-                c.send("< send 123 8 1 2 3").await;      // leave mid-frame
+                c.send("< send 123 8 1 2 3").await; // leave mid-frame
             }
         }
         drop(c);

@@ -89,7 +89,10 @@ pub enum Message {
     Send(CanFrame),
     /// `< frame ID SEC.USEC HEXDATA >`: a frame seen on the bus (remote frames are sent with
     /// no data, which is all the protocol can express).
-    Frame { frame: CanFrame, timestamp: Duration },
+    Frame {
+        frame: CanFrame,
+        timestamp: Duration,
+    },
     /// `< statistics MS >` (control mode): report statistics every MS milliseconds, 0 = off.
     Statistics { interval_ms: u32 },
     /// `< stat rbytes rpackets tbytes tpackets >`
@@ -365,8 +368,7 @@ fn parse_frame(args: &[&str]) -> Result<Message, CodecError> {
         len += 1;
     }
     let payload = data.get(..len).ok_or(CodecError::BadFrameData)?;
-    let frame =
-        CanFrame::with_id(id, extended, payload).map_err(|_| CodecError::IdOutOfRange)?;
+    let frame = CanFrame::with_id(id, extended, payload).map_err(|_| CodecError::IdOutOfRange)?;
     Ok(Message::Frame { frame, timestamp })
 }
 
@@ -463,7 +465,12 @@ impl fmt::Display for Message {
             Message::Frame { frame, timestamp } => {
                 f.write_str("< frame ")?;
                 write_id(f, frame)?;
-                write!(f, " {}.{:06} ", timestamp.as_secs(), timestamp.subsec_micros())?;
+                write!(
+                    f,
+                    " {}.{:06} ",
+                    timestamp.as_secs(),
+                    timestamp.subsec_micros()
+                )?;
                 for b in frame.payload() {
                     write!(f, "{b:02X}")?;
                 }
@@ -658,10 +665,7 @@ mod tests {
                 three_samples: false
             })
         );
-        assert_eq!(
-            parse("< vcan0 B 500000 >"),
-            Err(CodecError::Arguments("B"))
-        );
+        assert_eq!(parse("< vcan0 B 500000 >"), Err(CodecError::Arguments("B")));
         assert_eq!(parse("< vcan0 C 0 2 0 >"), Err(CodecError::BadNumber));
         assert_eq!(parse("< vcan0 X 1 >"), Err(CodecError::UnknownCommand));
     }
@@ -686,7 +690,10 @@ mod tests {
         let ext_small = CanFrame::with_id(0x123, true, &[]).expect("frame");
         assert_eq!(parse("< send 00000123 0 >"), Ok(Message::Send(ext_small)));
         // Up to 3 digits: standard.
-        assert_eq!(parse("< send 0 2 1 5 >"), Ok(Message::Send(std_frame(0, &[1, 5]))));
+        assert_eq!(
+            parse("< send 0 2 1 5 >"),
+            Ok(Message::Send(std_frame(0, &[1, 5])))
+        );
         // 4..7 digits: extended.
         let ext4 = CanFrame::with_id(0x1234, true, &[]).expect("frame");
         assert_eq!(parse("< send 1234 0 >"), Ok(Message::Send(ext4)));
@@ -714,7 +721,10 @@ mod tests {
         assert_eq!(parse("< send 123456789 0 >"), Err(CodecError::BadId));
         assert_eq!(parse("< send 12g 0 >"), Err(CodecError::BadId));
         assert_eq!(parse("< send +12 0 >"), Err(CodecError::BadId));
-        assert_eq!(parse("< send 123 9 1 2 3 4 5 6 7 8 9 >"), Err(CodecError::BadDlc));
+        assert_eq!(
+            parse("< send 123 9 1 2 3 4 5 6 7 8 9 >"),
+            Err(CodecError::BadDlc)
+        );
         assert_eq!(parse("< send 123 x >"), Err(CodecError::BadDlc));
         assert_eq!(parse("< send 123 -1 >"), Err(CodecError::BadDlc));
         assert_eq!(parse("< send 123 2 1 >"), Err(CodecError::DlcMismatch));
@@ -775,9 +785,15 @@ mod tests {
             assert_eq!(*got, frame);
             assert_eq!(parsed.to_string(), text);
         }
-        assert_eq!(parse("< frame 123 1.0 ABC >"), Err(CodecError::BadFrameData));
+        assert_eq!(
+            parse("< frame 123 1.0 ABC >"),
+            Err(CodecError::BadFrameData)
+        );
         assert_eq!(parse("< frame 123 x.1 AB >"), Err(CodecError::BadTimestamp));
-        assert_eq!(parse("< frame 123 1.-1 AB >"), Err(CodecError::BadTimestamp));
+        assert_eq!(
+            parse("< frame 123 1.-1 AB >"),
+            Err(CodecError::BadTimestamp)
+        );
     }
 
     #[test]

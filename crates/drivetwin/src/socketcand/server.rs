@@ -80,7 +80,9 @@ pub async fn serve_with(listener: TcpListener, bus: Bus, config: ServerConfig) {
     let config = Arc::new(config);
     match listener.local_addr() {
         Ok(addr) => tracing::info!(%addr, channel = %config.channel, "socketcand server listening"),
-        Err(e) => tracing::info!(error = %e, channel = %config.channel, "socketcand server listening"),
+        Err(e) => {
+            tracing::info!(error = %e, channel = %config.channel, "socketcand server listening")
+        }
     }
     let mut clients = JoinSet::new();
     loop {
@@ -240,10 +242,7 @@ impl<W: AsyncWrite + Unpin> Session<'_, W> {
         self.reply(&Message::Error(text.to_owned())).await
     }
 
-    async fn handle(
-        &mut self,
-        message: Result<Message, CodecError>,
-    ) -> Result<Flow, SessionError> {
+    async fn handle(&mut self, message: Result<Message, CodecError>) -> Result<Flow, SessionError> {
         let message = match message {
             Ok(m) => m,
             Err(e) => {
@@ -393,7 +392,12 @@ mod tests {
         String::from_utf8_lossy(buf.get(..n).unwrap_or(&[])).into_owned()
     }
 
-    async fn start(bus: &Bus) -> (DuplexStream, tokio::task::JoinHandle<Result<(), SessionError>>) {
+    async fn start(
+        bus: &Bus,
+    ) -> (
+        DuplexStream,
+        tokio::task::JoinHandle<Result<(), SessionError>>,
+    ) {
         let (client, server) = tokio::io::duplex(64 * 1024);
         let bus = bus.clone();
         let task = tokio::spawn(async move {
@@ -409,7 +413,9 @@ mod tests {
         let bus = Bus::new(64);
         let (mut c, task) = start(&bus).await;
         assert_eq!(read_some(&mut c).await, "< hi >");
-        c.write_all(b"< vcan0 B 500000 875 0 0 0 0 1 0 >").await.expect("w");
+        c.write_all(b"< vcan0 B 500000 875 0 0 0 0 1 0 >")
+            .await
+            .expect("w");
         assert_eq!(read_some(&mut c).await, "< ok >");
         c.write_all(b"< open vcan0 >").await.expect("w");
         assert_eq!(read_some(&mut c).await, "< ok >");
@@ -461,7 +467,10 @@ mod tests {
         c.write_all(b"< subscribe 0 0 123 >").await.expect("w");
         assert_eq!(read_some(&mut c).await, "< error command not supported >");
         c.write_all(b"< isotpmode >").await.expect("w");
-        assert_eq!(read_some(&mut c).await, "< error isotp mode not supported >");
+        assert_eq!(
+            read_some(&mut c).await,
+            "< error isotp mode not supported >"
+        );
         c.write_all(b"< open vcan0 >").await.expect("w");
         assert_eq!(read_some(&mut c).await, "< error unknown command >");
         // BCM-mode send works.
