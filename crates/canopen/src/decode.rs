@@ -68,7 +68,9 @@ pub fn describe(frame: &CanFrame, w: &mut impl core::fmt::Write) -> core::fmt::R
     match f {
         Function::Nmt => match d {
             [cs, target] => {
-                let name = NmtCommand::from_cs(*cs).map(|c| c.name()).unwrap_or("unknown command");
+                let name = NmtCommand::from_cs(*cs)
+                    .map(|c| c.name())
+                    .unwrap_or("unknown command");
                 if *target == 0 {
                     write!(w, "NMT {name}, all nodes")
                 } else {
@@ -86,7 +88,10 @@ pub fn describe(frame: &CanFrame, w: &mut impl core::fmt::Write) -> core::fmt::R
         Function::Emcy => match d {
             [c0, c1, reg, rest @ ..] => {
                 let code = u16::from_le_bytes([*c0, *c1]);
-                write!(w, "EMCY node {node}: error {code:04X}h, register {reg:02X}h")?;
+                write!(
+                    w,
+                    "EMCY node {node}: error {code:04X}h, register {reg:02X}h"
+                )?;
                 if code == 0 {
                     write!(w, " (error reset)")?;
                 }
@@ -100,14 +105,20 @@ pub fn describe(frame: &CanFrame, w: &mut impl core::fmt::Write) -> core::fmt::R
         Function::Tpdo(n) => write!(w, "TPDO{n} node {node}: {}", Hex(d)),
         Function::Rpdo(n) => write!(w, "RPDO{n} node {node}: {}", Hex(d)),
         Function::SdoRx | Function::SdoTx => {
-            let dir = if f == Function::SdoRx { "request" } else { "response" };
+            let dir = if f == Function::SdoRx {
+                "request"
+            } else {
+                "response"
+            };
             write!(w, "SDO {dir} node {node}: ")?;
             describe_sdo(f == Function::SdoRx, d, w)
         }
         Function::ErrorControl => match d {
             [0] => write!(w, "boot-up node {node}"),
             [s] => {
-                let state = NmtState::from_code(s & 0x7F).map(|s| s.name()).unwrap_or("unknown state");
+                let state = NmtState::from_code(s & 0x7F)
+                    .map(|s| s.name())
+                    .unwrap_or("unknown state");
                 if s & 0x80 != 0 {
                     write!(w, "node guarding node {node}: {state}, toggle 1")
                 } else {
@@ -142,8 +153,16 @@ fn describe_sdo(request: bool, d: &[u8], w: &mut impl core::fmt::Write) -> core:
     let ccs = cs >> 5;
     match (request, ccs) {
         (true, 1) if cs & 0x02 != 0 => {
-            let n = if cs & 0x01 != 0 { 4 - usize::from((cs >> 2) & 3) } else { 4 };
-            write!(w, "write {idx:04X}:{sub:02X} = {}", Hex(data.get(..n).unwrap_or(data)))
+            let n = if cs & 0x01 != 0 {
+                4 - usize::from((cs >> 2) & 3)
+            } else {
+                4
+            };
+            write!(
+                w,
+                "write {idx:04X}:{sub:02X} = {}",
+                Hex(data.get(..n).unwrap_or(data))
+            )
         }
         (true, 1) => write!(w, "write {idx:04X}:{sub:02X}, segmented"),
         (true, 2) => write!(w, "read {idx:04X}:{sub:02X}"),
@@ -153,8 +172,16 @@ fn describe_sdo(request: bool, d: &[u8], w: &mut impl core::fmt::Write) -> core:
         (true, 6) => write!(w, "block download {idx:04X}:{sub:02X}"),
         (false, 3) => write!(w, "write {idx:04X}:{sub:02X} ok"),
         (false, 2) if cs & 0x02 != 0 => {
-            let n = if cs & 0x01 != 0 { 4 - usize::from((cs >> 2) & 3) } else { 4 };
-            write!(w, "read {idx:04X}:{sub:02X} = {}", Hex(data.get(..n).unwrap_or(data)))
+            let n = if cs & 0x01 != 0 {
+                4 - usize::from((cs >> 2) & 3)
+            } else {
+                4
+            };
+            write!(
+                w,
+                "read {idx:04X}:{sub:02X} = {}",
+                Hex(data.get(..n).unwrap_or(data))
+            )
         }
         (false, 2) => write!(w, "read {idx:04X}:{sub:02X}, segmented"),
         (false, 0) => write!(w, "upload segment, toggle {}", (cs >> 4) & 1),

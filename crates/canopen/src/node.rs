@@ -103,23 +103,19 @@ impl<const N: usize> Node<N> {
         let own = u16::from(self.node_id);
         match cob {
             0x000 => self.on_nmt(frame.payload(), out),
-            c if c == 0x600 + own && !frame.rtr => {
-                if self.nmt.state().serves_sdo() {
-                    let sdo_tx = 0x580 + own;
-                    self.sdo.on_request(now, frame.payload(), od, &mut |r| {
-                        out(CanFrame::full(sdo_tx, r))
-                    });
-                    // A write may have changed the heartbeat period.
-                    self.producer.refresh(now, od);
-                }
+            c if c == 0x600 + own && !frame.rtr && self.nmt.state().serves_sdo() => {
+                let sdo_tx = 0x580 + own;
+                self.sdo.on_request(now, frame.payload(), od, &mut |r| {
+                    out(CanFrame::full(sdo_tx, r))
+                });
+                // A write may have changed the heartbeat period.
+                self.producer.refresh(now, od);
             }
-            c if (0x701..=0x77F).contains(&c) && c != 0x700 + own => {
-                // Another node's boot-up or heartbeat.
-                if frame.payload().len() == 1 {
-                    let node = (c - 0x700) as u8;
-                    if let Some(e) = self.consumer.on_heartbeat(now, node, od) {
-                        self.push(NodeEvent::Heartbeat(e));
-                    }
+            // Another node's boot-up or heartbeat.
+            c if (0x701..=0x77F).contains(&c) && c != 0x700 + own && frame.payload().len() == 1 => {
+                let node = (c - 0x700) as u8;
+                if let Some(e) = self.consumer.on_heartbeat(now, node, od) {
+                    self.push(NodeEvent::Heartbeat(e));
                 }
             }
             _ => {}

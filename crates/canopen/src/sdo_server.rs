@@ -19,13 +19,23 @@ enum State {
     /// Segmented upload: the client asks for each segment.
     UploadSegments,
     /// Block download, inside a sub-block; `next` is the expected sequence number.
-    BlockDownload { next: u8, client_crc: bool, gap: bool },
+    BlockDownload {
+        next: u8,
+        client_crc: bool,
+        gap: bool,
+    },
     /// Block download: last segment acknowledged, waiting for the end frame.
-    BlockDownloadEnd { client_crc: bool },
+    BlockDownloadEnd {
+        client_crc: bool,
+    },
     /// Block upload: initiate answered, waiting for "start" (A3).
-    BlockUploadStart { blksize: u8 },
+    BlockUploadStart {
+        blksize: u8,
+    },
     /// Block upload: a sub-block went out, waiting for the client's acknowledgement.
-    BlockUploadAck { sent: u8 },
+    BlockUploadAck {
+        sent: u8,
+    },
     /// Block upload: end frame sent, waiting for the client's end response (A1).
     BlockUploadEnd,
 }
@@ -152,7 +162,9 @@ impl<const N: usize> SdoServer<N> {
                 client_crc,
                 gap,
             } => self.block_download_segment(&d, next, client_crc, gap, out),
-            State::BlockDownloadEnd { client_crc } => self.block_download_end(&d, client_crc, od, out),
+            State::BlockDownloadEnd { client_crc } => {
+                self.block_download_end(&d, client_crc, od, out)
+            }
             State::BlockUploadStart { blksize } => {
                 if cs == 0xA3 {
                     self.send_sub_block(blksize, out);
@@ -237,7 +249,12 @@ impl<const N: usize> SdoServer<N> {
                 gap: false,
             };
             // The server always supports CRC (CiA 301 §7.2.4.3.9).
-            out(mux_frame(0xA4, self.index, self.sub, [MAX_BLKSIZE, 0, 0, 0]));
+            out(mux_frame(
+                0xA4,
+                self.index,
+                self.sub,
+                [MAX_BLKSIZE, 0, 0, 0],
+            ));
             Ok(())
         } else if cs & 0xFB == 0xA0 {
             // Initiate block upload.
@@ -281,7 +298,12 @@ impl<const N: usize> SdoServer<N> {
             self.pos = 0;
             self.toggle = false;
             self.state = State::UploadSegments;
-            out(mux_frame(0x41, self.index, self.sub, (n as u32).to_le_bytes()));
+            out(mux_frame(
+                0x41,
+                self.index,
+                self.sub,
+                (n as u32).to_le_bytes(),
+            ));
         }
     }
 
@@ -317,14 +339,22 @@ impl<const N: usize> SdoServer<N> {
                     return Err(AbortCode::LENGTH_TOO_LOW);
                 }
             }
-            od.write(self.index, self.sub, self.buf.get(..self.len).unwrap_or(&[]))?;
+            od.write(
+                self.index,
+                self.sub,
+                self.buf.get(..self.len).unwrap_or(&[]),
+            )?;
             self.state = State::Idle;
         }
         out([0x20 | ((t as u8) << 4), 0, 0, 0, 0, 0, 0, 0]);
         Ok(())
     }
 
-    fn upload_segment(&mut self, d: &[u8; 8], out: &mut dyn FnMut(Response)) -> Result<(), AbortCode> {
+    fn upload_segment(
+        &mut self,
+        d: &[u8; 8],
+        out: &mut dyn FnMut(Response),
+    ) -> Result<(), AbortCode> {
         let cs = d[0];
         if cs & 0xEF != 0x60 {
             return Err(AbortCode::COMMAND_SPECIFIER);
@@ -338,7 +368,10 @@ impl<const N: usize> SdoServer<N> {
         let last = remaining <= 7;
         let mut r = [0u8; 8];
         r[0] = ((t as u8) << 4) | (((7 - count) as u8) << 1) | last as u8;
-        if let (Some(dst), Some(src)) = (r.get_mut(1..1 + count), self.buf.get(self.pos..self.pos + count)) {
+        if let (Some(dst), Some(src)) = (
+            r.get_mut(1..1 + count),
+            self.buf.get(self.pos..self.pos + count),
+        ) {
             dst.copy_from_slice(src);
         }
         self.pos += count;
@@ -386,7 +419,10 @@ impl<const N: usize> SdoServer<N> {
         // Keep at most N bytes; anything past N can only be padding of a value that fits,
         // which the end frame tells apart (`received` counts it all).
         let room = N.saturating_sub(self.len).min(7);
-        if let (Some(dst), Some(src)) = (self.buf.get_mut(self.len..self.len + room), d.get(1..1 + room)) {
+        if let (Some(dst), Some(src)) = (
+            self.buf.get_mut(self.len..self.len + room),
+            d.get(1..1 + room),
+        ) {
             dst.copy_from_slice(src);
         }
         self.len += room;
@@ -458,7 +494,9 @@ impl<const N: usize> SdoServer<N> {
             sent += 1;
             let mut r = [0u8; 8];
             r[0] = sent | if last { 0x80 } else { 0 };
-            if let (Some(dst), Some(src)) = (r.get_mut(1..1 + count), self.buf.get(pos..pos + count)) {
+            if let (Some(dst), Some(src)) =
+                (r.get_mut(1..1 + count), self.buf.get(pos..pos + count))
+            {
                 dst.copy_from_slice(src);
             }
             pos += count;
@@ -491,7 +529,11 @@ impl<const N: usize> SdoServer<N> {
         let all_sent_acked = ackseq == sent && self.pos >= self.len;
         if all_sent_acked {
             // Bytes in the last segment: 1…7 (0 only for an empty value, sent as one segment).
-            let tail = if self.len == 0 { 0 } else { (self.len - 1) % 7 + 1 };
+            let tail = if self.len == 0 {
+                0
+            } else {
+                (self.len - 1) % 7 + 1
+            };
             let pad = (7 - tail) as u8;
             let [c0, c1] = crc16(self.buf.get(..self.len).unwrap_or(&[])).to_le_bytes();
             out([0xC1 | (pad << 2), c0, c1, 0, 0, 0, 0, 0]);

@@ -52,11 +52,20 @@ fn resets_ask_the_runtime_and_boot_again() {
     b.send(0x000, &[0x82, 0x01]);
     assert_eq!(b.node.nmt_state(), NmtState::Initialising);
     assert_eq!(b.events(), vec![NodeEvent::ResetCommunication]);
-    assert!(b.sdo(&[0x40, 0x00, 0x10, 0x00]).is_empty(), "no SDO while initialising");
+    assert!(
+        b.sdo(&[0x40, 0x00, 0x10, 0x00]).is_empty(),
+        "no SDO while initialising"
+    );
     assert_eq!(b.boot(), vec![frame(0x701, &[0x00])]);
     assert_eq!(b.node.nmt_state(), NmtState::PreOperational);
     b.send(0x000, &[0x81, 0x00]);
-    assert_eq!(b.events(), vec![NodeEvent::State(NmtState::PreOperational), NodeEvent::ResetApplication]);
+    assert_eq!(
+        b.events(),
+        vec![
+            NodeEvent::State(NmtState::PreOperational),
+            NodeEvent::ResetApplication
+        ]
+    );
 }
 
 #[test]
@@ -64,13 +73,20 @@ fn heartbeat_producer_follows_1017h() {
     let mut b = bench();
     assert!(b.advance_ms(5000).is_empty(), "heartbeat off by default");
     // CMMP-NMT-07: 1017h := 100 ms.
-    assert_eq!(b.sdo1(&[0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]), p8(&[0x60, 0x17, 0x10, 0x00]));
+    assert_eq!(
+        b.sdo1(&[0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]),
+        p8(&[0x60, 0x17, 0x10, 0x00])
+    );
     let out = b.advance_ms(350);
     assert_eq!(out, vec![frame(0x701, &[0x7F]); 3]);
     b.send(0x000, &[0x01, 0x01]);
     assert_eq!(b.advance_ms(100), vec![frame(0x701, &[0x05])]);
     b.send(0x000, &[0x02, 0x01]);
-    assert_eq!(b.advance_ms(100), vec![frame(0x701, &[0x04])], "heartbeat runs in Stopped");
+    assert_eq!(
+        b.advance_ms(100),
+        vec![frame(0x701, &[0x04])],
+        "heartbeat runs in Stopped"
+    );
 }
 
 #[test]
@@ -100,7 +116,13 @@ fn heartbeat_consumer_reports_loss_and_return() {
     b.advance_ms(199);
     assert!(b.events().is_empty());
     b.advance_ms(2);
-    assert_eq!(b.events(), vec![NodeEvent::Heartbeat(ConsumerEvent::Lost { node: 5 })]);
+    assert_eq!(
+        b.events(),
+        vec![NodeEvent::Heartbeat(ConsumerEvent::Lost { node: 5 })]
+    );
     b.send(0x705, &[0x05]);
-    assert_eq!(b.events(), vec![NodeEvent::Heartbeat(ConsumerEvent::Resumed { node: 5 })]);
+    assert_eq!(
+        b.events(),
+        vec![NodeEvent::Heartbeat(ConsumerEvent::Resumed { node: 5 })]
+    );
 }

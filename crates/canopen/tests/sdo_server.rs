@@ -11,50 +11,104 @@ fn bench() -> Bench {
 #[test]
 fn expedited_upload_and_download() {
     let mut b = bench();
-    assert_eq!(b.sdo1(&[0x40, 0x18, 0x10, 0x02]), p8(&[0x43, 0x18, 0x10, 0x02, 1, 0, 0, 0]));
-    assert_eq!(b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 0x9C, 0xFF]), p8(&[0x60, 0x03, 0x20, 0x00]));
-    assert_eq!(b.sdo1(&[0x40, 0x03, 0x20, 0x00]), p8(&[0x4B, 0x03, 0x20, 0x00, 0x9C, 0xFF]));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x18, 0x10, 0x02]),
+        p8(&[0x43, 0x18, 0x10, 0x02, 1, 0, 0, 0])
+    );
+    assert_eq!(
+        b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 0x9C, 0xFF]),
+        p8(&[0x60, 0x03, 0x20, 0x00])
+    );
+    assert_eq!(
+        b.sdo1(&[0x40, 0x03, 0x20, 0x00]),
+        p8(&[0x4B, 0x03, 0x20, 0x00, 0x9C, 0xFF])
+    );
     // One byte: n = 3.
-    assert_eq!(b.sdo1(&[0x40, 0x05, 0x20, 0x00]), p8(&[0x4F, 0x05, 0x20, 0x00, 42]));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x05, 0x20, 0x00]),
+        p8(&[0x4F, 0x05, 0x20, 0x00, 42])
+    );
 }
 
 #[test]
 fn expedited_download_without_size_uses_the_object_size() {
     let mut b = bench();
     // e = 1, s = 0: size not indicated.
-    assert_eq!(b.sdo1(&[0x22, 0x03, 0x20, 0x00, 0x05, 0x00, 0xAA, 0xBB]), p8(&[0x60, 0x03, 0x20]));
-    assert_eq!(b.sdo1(&[0x40, 0x03, 0x20, 0x00]), p8(&[0x4B, 0x03, 0x20, 0x00, 5, 0]));
+    assert_eq!(
+        b.sdo1(&[0x22, 0x03, 0x20, 0x00, 0x05, 0x00, 0xAA, 0xBB]),
+        p8(&[0x60, 0x03, 0x20])
+    );
+    assert_eq!(
+        b.sdo1(&[0x40, 0x03, 0x20, 0x00]),
+        p8(&[0x4B, 0x03, 0x20, 0x00, 5, 0])
+    );
 }
 
 #[test]
 fn abort_causes() {
     let mut b = bench();
     // Unknown object / sub-index.
-    assert_eq!(b.sdo1(&[0x40, 0x00, 0x21, 0x00]), abort(0x2100, 0, 0x0602_0000));
-    assert_eq!(b.sdo1(&[0x40, 0x18, 0x10, 0x09]), abort(0x1018, 9, 0x0609_0011));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x00, 0x21, 0x00]),
+        abort(0x2100, 0, 0x0602_0000)
+    );
+    assert_eq!(
+        b.sdo1(&[0x40, 0x18, 0x10, 0x09]),
+        abort(0x1018, 9, 0x0609_0011)
+    );
     // Read-only, write-only.
-    assert_eq!(b.sdo1(&[0x2F, 0x05, 0x20, 0x00, 1]), abort(0x2005, 0, 0x0601_0002));
-    assert_eq!(b.sdo1(&[0x23, 0x00, 0x10, 0x00, 1, 2, 3, 4]), abort(0x1000, 0, 0x0601_0002));
-    assert_eq!(b.sdo1(&[0x40, 0x02, 0x20, 0x00]), abort(0x2002, 0, 0x0601_0001));
+    assert_eq!(
+        b.sdo1(&[0x2F, 0x05, 0x20, 0x00, 1]),
+        abort(0x2005, 0, 0x0601_0002)
+    );
+    assert_eq!(
+        b.sdo1(&[0x23, 0x00, 0x10, 0x00, 1, 2, 3, 4]),
+        abort(0x1000, 0, 0x0601_0002)
+    );
+    assert_eq!(
+        b.sdo1(&[0x40, 0x02, 0x20, 0x00]),
+        abort(0x2002, 0, 0x0601_0001)
+    );
     // Length too high / too low.
-    assert_eq!(b.sdo1(&[0x23, 0x03, 0x20, 0x00, 1, 0, 0, 0]), abort(0x2003, 0, 0x0607_0012));
-    assert_eq!(b.sdo1(&[0x2F, 0x03, 0x20, 0x00, 1]), abort(0x2003, 0, 0x0607_0013));
+    assert_eq!(
+        b.sdo1(&[0x23, 0x03, 0x20, 0x00, 1, 0, 0, 0]),
+        abort(0x2003, 0, 0x0607_0012)
+    );
+    assert_eq!(
+        b.sdo1(&[0x2F, 0x03, 0x20, 0x00, 1]),
+        abort(0x2003, 0, 0x0607_0013)
+    );
     // Value range.
-    assert_eq!(b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 101, 0]), abort(0x2003, 0, 0x0609_0031));
-    assert_eq!(b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 0x9B, 0xFF]), abort(0x2003, 0, 0x0609_0032));
+    assert_eq!(
+        b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 101, 0]),
+        abort(0x2003, 0, 0x0609_0031)
+    );
+    assert_eq!(
+        b.sdo1(&[0x2B, 0x03, 0x20, 0x00, 0x9B, 0xFF]),
+        abort(0x2003, 0, 0x0609_0032)
+    );
     // Unknown command specifier (CCT SDO 07 sends E0).
-    assert_eq!(b.sdo1(&[0xE0, 0x00, 0x10, 0x00]), abort(0x1000, 0, 0x0504_0001));
+    assert_eq!(
+        b.sdo1(&[0xE0, 0x00, 0x10, 0x00]),
+        abort(0x1000, 0, 0x0504_0001)
+    );
     // An empty frame.
     assert_eq!(b.sdo1(&[]), abort(0, 0, 0x0504_0001));
     // Nothing changed on error.
-    assert_eq!(b.sdo1(&[0x40, 0x03, 0x20, 0x00]), p8(&[0x4B, 0x03, 0x20, 0x00, 0, 0]));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x03, 0x20, 0x00]),
+        p8(&[0x4B, 0x03, 0x20, 0x00, 0, 0])
+    );
 }
 
 #[test]
 fn short_requests_are_zero_padded() {
     let mut b = bench();
     // Nanotec-style 4-byte upload request (spec/nanotec-canopen.md §9).
-    assert_eq!(b.sdo1(&[0x40, 0x00, 0x10]), p8(&[0x43, 0x00, 0x10, 0x00, 0, 0, 0, 0]));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x00, 0x10]),
+        p8(&[0x43, 0x00, 0x10, 0x00, 0, 0, 0, 0])
+    );
 }
 
 #[test]
@@ -101,7 +155,10 @@ fn segmented_download_and_upload_of_a_domain() {
     }
     // Read back segmented.
     let r = b.sdo1(&[0x40, 0x00, 0x20, 0x00]);
-    assert_eq!(r, p8(&[0x41, 0x00, 0x20, 0x00, size[0], size[1], size[2], size[3]]));
+    assert_eq!(
+        r,
+        p8(&[0x41, 0x00, 0x20, 0x00, size[0], size[1], size[2], size[3]])
+    );
     let mut got = Vec::new();
     let mut t = 0u8;
     loop {
@@ -121,23 +178,41 @@ fn segmented_download_and_upload_of_a_domain() {
 fn segmented_download_errors() {
     let mut b = bench();
     // Announced size larger than a fixed-size object.
-    assert_eq!(b.sdo1(&[0x21, 0x03, 0x20, 0x00, 3, 0, 0, 0]), abort(0x2003, 0, 0x0607_0012));
+    assert_eq!(
+        b.sdo1(&[0x21, 0x03, 0x20, 0x00, 3, 0, 0, 0]),
+        abort(0x2003, 0, 0x0607_0012)
+    );
     // Announced size larger than the domain's capacity.
-    assert_eq!(b.sdo1(&[0x21, 0x00, 0x20, 0x00, 0x01, 0x20, 0, 0]), abort(0x2000, 0, 0x0607_0012));
+    assert_eq!(
+        b.sdo1(&[0x21, 0x00, 0x20, 0x00, 0x01, 0x20, 0, 0]),
+        abort(0x2000, 0, 0x0607_0012)
+    );
     // Wrong toggle in the first segment.
     b.sdo1(&[0x21, 0x00, 0x20, 0x00, 14, 0, 0, 0]);
-    assert_eq!(b.sdo1(&[0x10, 1, 2, 3, 4, 5, 6, 7]), abort(0x2000, 0, 0x0503_0000));
+    assert_eq!(
+        b.sdo1(&[0x10, 1, 2, 3, 4, 5, 6, 7]),
+        abort(0x2000, 0, 0x0503_0000)
+    );
     // Fewer bytes than announced.
     b.sdo1(&[0x21, 0x00, 0x20, 0x00, 14, 0, 0, 0]);
     b.sdo1(&[0x00, 1, 2, 3, 4, 5, 6, 7]);
-    assert_eq!(b.sdo1(&[0x15, 1, 2, 3, 4, 5, 6, 7]), abort(0x2000, 0, 0x0607_0013));
+    assert_eq!(
+        b.sdo1(&[0x15, 1, 2, 3, 4, 5, 6, 7]),
+        abort(0x2000, 0, 0x0607_0013)
+    );
     // A frame of the wrong kind mid-transfer.
     b.sdo1(&[0x21, 0x00, 0x20, 0x00, 14, 0, 0, 0]);
-    assert_eq!(b.sdo1(&[0x40, 0x00, 0x20, 0x00]), abort(0x2000, 0, 0x0504_0001));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x00, 0x20, 0x00]),
+        abort(0x2000, 0, 0x0504_0001)
+    );
     // Zero-length final segment (python-canopen, unknown size) on a string.
     assert_eq!(b.sdo1(&[0x20, 0x01, 0x20, 0x00]), p8(&[0x60, 0x01, 0x20]));
     assert_eq!(b.sdo1(&[0x0F]), p8(&[0x20]));
-    assert_eq!(b.sdo1(&[0x40, 0x01, 0x20, 0x00]), p8(&[0x41, 0x01, 0x20, 0x00, 0, 0, 0, 0]));
+    assert_eq!(
+        b.sdo1(&[0x40, 0x01, 0x20, 0x00]),
+        p8(&[0x41, 0x01, 0x20, 0x00, 0, 0, 0, 0])
+    );
 }
 
 #[test]
@@ -200,7 +275,10 @@ fn block_download_with_crc_then_block_upload() {
     // Block upload, blksize 127, pst 0, client CRC.
     let r = b.sdo1(&[0xA4, 0x00, 0x20, 0x00, 127, 0]);
     let size = (data.len() as u32).to_le_bytes();
-    assert_eq!(r, p8(&[0xC6, 0x00, 0x20, 0x00, size[0], size[1], size[2], size[3]]));
+    assert_eq!(
+        r,
+        p8(&[0xC6, 0x00, 0x20, 0x00, size[0], size[1], size[2], size[3]])
+    );
     let mut got = Vec::new();
     let mut req = vec![0xA3];
     loop {
@@ -239,7 +317,11 @@ fn block_download_crc_error_and_old_value_kept() {
     // n = 5, wrong CRC.
     assert_eq!(b.sdo1(&[0xD5, 0x00, 0x00]), abort(0x2001, 0, 0x0504_0004));
     let r = b.sdo1(&[0x40, 0x01, 0x20, 0x00]);
-    assert_eq!(r, p8(&[0x41, 0x01, 0x20, 0x00, 9, 0, 0, 0]), "old value kept");
+    assert_eq!(
+        r,
+        p8(&[0x41, 0x01, 0x20, 0x00, 9, 0, 0, 0]),
+        "old value kept"
+    );
 }
 
 #[test]
@@ -276,11 +358,20 @@ fn block_download_lost_segment_is_repeated() {
 fn block_upload_errors_and_protocol_switch() {
     let mut b = bench();
     // blksize 0x80 (CCT SDO 26).
-    assert_eq!(b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 0x80]), abort(0x1000, 0, 0x0504_0002));
+    assert_eq!(
+        b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 0x80]),
+        abort(0x1000, 0, 0x0504_0002)
+    );
     // pst ≥ size: answered as a normal (expedited) upload.
-    assert_eq!(b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 20, 8]), p8(&[0x43, 0x00, 0x10, 0x00]));
+    assert_eq!(
+        b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 20, 8]),
+        p8(&[0x43, 0x00, 0x10, 0x00])
+    );
     // CCT SDO 19: block upload of 1000h without CRC.
-    assert_eq!(b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 0x14, 0]), p8(&[0xC6, 0x00, 0x10, 0x00, 4]));
+    assert_eq!(
+        b.sdo1(&[0xA0, 0x00, 0x10, 0x00, 0x14, 0]),
+        p8(&[0xC6, 0x00, 0x10, 0x00, 4])
+    );
     assert_eq!(b.sdo(&[0xA3]), vec![p8(&[0x81, 0, 0, 0, 0])]);
     // ackseq beyond what was sent (CCT SDO 27 credits 0504 0003h).
     assert_eq!(b.sdo1(&[0xA2, 0x80, 0x14]), abort(0x1000, 0, 0x0504_0003));
@@ -290,7 +381,10 @@ fn block_upload_errors_and_protocol_switch() {
 fn block_upload_end_frame_carries_the_crc() {
     let mut b = bench();
     // Long string default "drivetwin" (9 bytes), CRC always real.
-    assert_eq!(b.sdo1(&[0xA0, 0x01, 0x20, 0x00, 127, 0]), p8(&[0xC6, 0x01, 0x20, 0x00, 9]));
+    assert_eq!(
+        b.sdo1(&[0xA0, 0x01, 0x20, 0x00, 127, 0]),
+        p8(&[0xC6, 0x01, 0x20, 0x00, 9])
+    );
     let segs = b.sdo(&[0xA3]);
     assert_eq!(segs.len(), 2);
     assert_eq!(segs[1][0], 0x82);

@@ -129,4 +129,3 @@ fn limit(l: Option<Limit>) -> String {
         Some(Limit::Real(v)) => format!("Some(od::Limit::Real({v:?}))"),
     }
 }
-

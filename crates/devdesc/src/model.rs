@@ -81,7 +81,12 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         source,
     })?;
     let d = file.device;
-    if d.name.is_empty() || !d.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
+    if d.name.is_empty()
+        || !d
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-')
+    {
         return Err(DescError::Device(format!(
             "name {:?} must be letters, digits and '-'",
             d.name
@@ -342,7 +347,7 @@ fn encode_default(t: DataType, v: &toml::Value) -> Result<(Vec<u8>, bool), Strin
 
 fn hex_bytes(s: &str) -> Result<Vec<u8>, String> {
     let s: String = s.chars().filter(|c| !c.is_whitespace()).collect();
-    if s.len() % 2 != 0 {
+    if !s.len().is_multiple_of(2) {
         return Err("odd number of hex digits".into());
     }
     (0..s.len())

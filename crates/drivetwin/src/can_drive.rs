@@ -45,18 +45,21 @@ impl CanDrive {
         if !(1..=127).contains(&node_id) {
             return Err(DriveError::NodeId(node_id));
         }
-        let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size])
-            .map_err(|e| DriveError::Commissioning {
+        let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size]).map_err(|e| {
+            DriveError::Commissioning {
                 index: 0,
                 sub: 0,
                 what: format!("storage {e:?}"),
-            })?;
+            }
+        })?;
         for c in &commissioning {
-            let e = desc.entry(c.index, c.sub).ok_or_else(|| DriveError::Commissioning {
-                index: c.index,
-                sub: c.sub,
-                what: "no such entry".into(),
-            })?;
+            let e = desc
+                .entry(c.index, c.sub)
+                .ok_or_else(|| DriveError::Commissioning {
+                    index: c.index,
+                    sub: c.sub,
+                    what: "no such entry".into(),
+                })?;
             let ok = match e.data_type.fixed_size() {
                 Some(n) => c.bytes.len() == n,
                 None => c.bytes.len() <= e.capacity as usize,
@@ -144,15 +147,22 @@ impl CanDrive {
                     self.reload(|i| (0x1000..0x2000).contains(&i));
                     self.node.boot(now, &self.od, out);
                 }
-                NodeEvent::State(s) => tracing::debug!(node = self.node_id(), state = s.name(), "NMT"),
-                NodeEvent::Heartbeat(e) => tracing::warn!(node = self.node_id(), event = ?e, "heartbeat consumer"),
+                NodeEvent::State(s) => {
+                    tracing::debug!(node = self.node_id(), state = s.name(), "NMT")
+                }
+                NodeEvent::Heartbeat(e) => {
+                    tracing::warn!(node = self.node_id(), event = ?e, "heartbeat consumer")
+                }
             }
         }
     }
 
     fn save(&mut self, sub: u8) {
         let Some(store) = &self.store else {
-            tracing::warn!(node = self.node_id(), "save requested but the cell has no state directory");
+            tracing::warn!(
+                node = self.node_id(),
+                "save requested but the cell has no state directory"
+            );
             return;
         };
         match store.save(&self.od, sub) {
@@ -160,7 +170,9 @@ impl CanDrive {
                 self.stored = store.load().unwrap_or_default();
                 tracing::info!(node = self.node_id(), path = %store.path().display(), "parameters saved");
             }
-            Err(e) => tracing::error!(node = self.node_id(), error = %e, "saving parameters failed"),
+            Err(e) => {
+                tracing::error!(node = self.node_id(), error = %e, "saving parameters failed")
+            }
         }
     }
 }

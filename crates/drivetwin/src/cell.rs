@@ -50,7 +50,9 @@ impl Cell {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.drives.iter().fold(None, |acc, d| earliest(acc, d.deadline()))
+        self.drives
+            .iter()
+            .fold(None, |acc, d| earliest(acc, d.deadline()))
     }
 
     /// Sends queued frames to the bus and to every other drive of the cell, in order.

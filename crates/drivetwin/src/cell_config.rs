@@ -146,7 +146,8 @@ impl CellFile {
                     key: key.clone(),
                     what,
                 };
-                let (index, sub) = parse_key(key).ok_or_else(|| err("expected \"IIII:SS\" in hex".into()))?;
+                let (index, sub) =
+                    parse_key(key).ok_or_else(|| err("expected \"IIII:SS\" in hex".into()))?;
                 let e = desc
                     .entry(index, sub)
                     .ok_or_else(|| err(format!("{} has no such entry", desc.name)))?;
@@ -168,7 +169,10 @@ pub fn parse_key(key: &str) -> Option<(u16, u8)> {
     let (i, s) = key.split_once(':')?;
     let i = i.trim().trim_start_matches("0x");
     let s = s.trim().trim_start_matches("0x");
-    Some((u16::from_str_radix(i, 16).ok()?, u8::from_str_radix(s, 16).ok()?))
+    Some((
+        u16::from_str_radix(i, 16).ok()?,
+        u8::from_str_radix(s, 16).ok()?,
+    ))
 }
 
 fn encode_toml(t: DataType, v: &toml::Value) -> Result<Vec<u8>, String> {

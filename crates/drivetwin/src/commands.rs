@@ -67,20 +67,33 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Eds { device, output } => eds(&device, output),
         Command::Devices => {
             for d in devices::ALL {
-                println!("{:<10} {} ({}), {} objects", d.name, d.product_name, d.vendor_name, d.objects.len());
+                println!(
+                    "{:<10} {} ({}), {} objects",
+                    d.name,
+                    d.product_name,
+                    d.vendor_name,
+                    d.objects.len()
+                );
             }
             Ok(())
         }
         Command::Sdo(cmd) => sdo(cmd).await,
         Command::Nmt { command, node, bus } => nmt(command, node, bus).await,
-        Command::Monitor { count, seconds, bus } => monitor(count, seconds, bus).await,
+        Command::Monitor {
+            count,
+            seconds,
+            bus,
+        } => monitor(count, seconds, bus).await,
     }
 }
 
 fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {
     devices::by_name(name).ok_or_else(|| {
         let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
-        CommandError::Usage(format!("unknown device {name:?} (known: {})", known.join(", ")))
+        CommandError::Usage(format!(
+            "unknown device {name:?} (known: {})",
+            known.join(", ")
+        ))
     })
 }
 
@@ -102,7 +115,12 @@ fn build_cell(file: &CellFile, state_dir: Option<&PathBuf>) -> Result<Cell, Comm
     let mut drives = Vec::new();
     for spec in file.drives()? {
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-        drives.push(CanDrive::new(spec.desc, spec.node, store, spec.commissioning)?);
+        drives.push(CanDrive::new(
+            spec.desc,
+            spec.node,
+            store,
+            spec.commissioning,
+        )?);
     }
     Ok(Cell::new(drives))
 }
@@ -133,7 +151,9 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
 
     if let Some(seconds) = args.virtual_seconds {
         if !(seconds.is_finite() && seconds >= 0.0) {
-            return Err(CommandError::Usage("--virtual-seconds must be a positive number".into()));
+            return Err(CommandError::Usage(
+                "--virtual-seconds must be a positive number".into(),
+            ));
         }
         let inputs = match &args.inject {
             Some(p) => {
@@ -146,19 +166,26 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
             None => Vec::new(),
         };
         let mut writer = match &args.trace {
-            Some(p) => Some(TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?),
+            Some(p) => Some(
+                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?,
+            ),
             None => None,
         };
         let mut count = 0u64;
         let mut failed = None;
-        runtime::run_virtual(&mut cell, &inputs, Duration::from_secs_f64(seconds), &mut |t, f| {
-            count += 1;
-            if let Some(w) = writer.as_mut() {
-                if let Err(e) = w.write(t, f) {
-                    failed.get_or_insert(e);
+        runtime::run_virtual(
+            &mut cell,
+            &inputs,
+            Duration::from_secs_f64(seconds),
+            &mut |t, f| {
+                count += 1;
+                if let Some(w) = writer.as_mut() {
+                    if let Err(e) = w.write(t, f) {
+                        failed.get_or_insert(e);
+                    }
                 }
-            }
-        });
+            },
+        );
         if let Some(w) = writer.as_mut() {
             w.flush().map_err(io("trace"))?;
         }
@@ -177,11 +204,16 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
             .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
         let addr = listener.local_addr().map_err(io("socketcand address"))?;
         println!("socketcand server on {addr}, channel {}", file.bus.channel);
-        tasks.push(tokio::spawn(socketcand::serve(listener, bus.clone(), file.bus.channel.clone())));
+        tasks.push(tokio::spawn(socketcand::serve(
+            listener,
+            bus.clone(),
+            file.bus.channel.clone(),
+        )));
     }
     #[cfg(target_os = "linux")]
     if let Some(ifname) = &file.bus.socketcan {
-        let socket = drivetwin::socketcan::CanSocket::open(ifname).map_err(io(format!("SocketCAN {ifname}")))?;
+        let socket = drivetwin::socketcan::CanSocket::open(ifname)
+            .map_err(io(format!("SocketCAN {ifname}")))?;
         println!("SocketCAN bridge on {ifname}");
         let port = bus.port();
         tasks.push(tokio::spawn(async move {
@@ -192,7 +224,8 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     let trace_task = match &args.trace {
         Some(p) => {
-            let mut writer = TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
+            let mut writer =
+                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
             println!("tracing to {}", p.display());
             let mut tap = bus.tap();
             Some(tokio::spawn(async move {
@@ -276,7 +309,9 @@ fn check_node(node: u8) -> Result<(), CommandError> {
     if (1..=127).contains(&node) {
         Ok(())
     } else {
-        Err(CommandError::Usage(format!("node-ID {node} is outside 1…127")))
+        Err(CommandError::Usage(format!(
+            "node-ID {node} is outside 1…127"
+        )))
     }
 }
 
@@ -293,9 +328,9 @@ fn resolve_type(
     }
     if let Some(name) = device_name {
         let desc = device(name)?;
-        let e = desc
-            .entry(index, sub)
-            .ok_or_else(|| CommandError::Usage(format!("{name} has no entry {index:04X}:{sub:02X}")))?;
+        let e = desc.entry(index, sub).ok_or_else(|| {
+            CommandError::Usage(format!("{name} has no entry {index:04X}:{sub:02X}"))
+        })?;
         return Ok(Some(e.data_type));
     }
     Ok(None)
@@ -358,9 +393,12 @@ async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
             check_node(node)?;
             let index = parse_hex_u16(&index, "index")?;
             let sub = parse_hex_u8(&sub, "sub-index")?;
-            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?.ok_or_else(|| {
-                CommandError::Usage("sdo write needs --type or --device to encode the value".into())
-            })?;
+            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?
+                .ok_or_else(|| {
+                    CommandError::Usage(
+                        "sdo write needs --type or --device to encode the value".into(),
+                    )
+                })?;
             let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
             let mut link = connect(&bus).await?;
             let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
@@ -397,7 +435,9 @@ fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -
 
 async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), CommandError> {
     if node > 127 {
-        return Err(CommandError::Usage(format!("node-ID {node} is outside 0…127")));
+        return Err(CommandError::Usage(format!(
+            "node-ID {node} is outside 0…127"
+        )));
     }
     let cmd = match command {
         NmtArg::Start => NmtCommand::Start,
@@ -407,7 +447,8 @@ async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), CommandError
         NmtArg::ResetCommunication => NmtCommand::ResetCommunication,
     };
     let mut link = connect(&bus).await?;
-    let frame = CanFrame::new(0x000, &[cmd.cs(), node]).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let frame =
+        CanFrame::new(0x000, &[cmd.cs(), node]).map_err(|e| CommandError::Usage(e.to_string()))?;
     link.send(&frame).await?;
     // Give the server a moment to put the frame on the bus before the connection closes.
     tokio::time::sleep(Duration::from_millis(50)).await;
@@ -417,11 +458,21 @@ async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), CommandError
     Ok(())
 }
 
-async fn monitor(count: Option<u64>, seconds: Option<f64>, bus: BusArgs) -> Result<(), CommandError> {
+async fn monitor(
+    count: Option<u64>,
+    seconds: Option<f64>,
+    bus: BusArgs,
+) -> Result<(), CommandError> {
     let mut link = connect(&bus).await?;
     let deadline = match seconds {
-        Some(s) if s.is_finite() && s >= 0.0 => Some(tokio::time::Instant::now() + Duration::from_secs_f64(s)),
-        Some(_) => return Err(CommandError::Usage("--seconds must be a positive number".into())),
+        Some(s) if s.is_finite() && s >= 0.0 => {
+            Some(tokio::time::Instant::now() + Duration::from_secs_f64(s))
+        }
+        Some(_) => {
+            return Err(CommandError::Usage(
+                "--seconds must be a positive number".into(),
+            ))
+        }
         None => None,
     };
     let mut seen = 0u64;
@@ -436,7 +487,9 @@ async fn monitor(count: Option<u64>, seconds: Option<f64>, bus: BusArgs) -> Resu
         seen += 1;
         let mut text = String::new();
         let _ = canopen::decode::describe(&frame, &mut text);
-        let t = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+        let t = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .unwrap_or_default();
         if bus.json {
             let (function, node) = match frame.cob_id() {
                 Some(c) => {
@@ -453,7 +506,11 @@ async fn monitor(count: Option<u64>, seconds: Option<f64>, bus: BusArgs) -> Resu
                 })
             );
         } else {
-            let id = if frame.extended { format!("{:08X}", frame.id) } else { format!("{:03X}", frame.id) };
+            let id = if frame.extended {
+                format!("{:08X}", frame.id)
+            } else {
+                format!("{:03X}", frame.id)
+            };
             println!(
                 "{:.6}  {id}  [{}] {:<24} {text}",
                 t.as_secs_f64(),

@@ -9,8 +9,10 @@ mod commands;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
-    let filter = tracing_subscriber::EnvFilter::try_from_env("DRIVETWIN_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if args.verbose { "debug" } else { "info" }));
+    let filter =
+        tracing_subscriber::EnvFilter::try_from_env("DRIVETWIN_LOG").unwrap_or_else(|_| {
+            tracing_subscriber::EnvFilter::new(if args.verbose { "debug" } else { "info" })
+        });
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

@@ -91,13 +91,17 @@ impl ParamStore {
         od: &ObjectDictionary<S>,
         sub: u8,
     ) -> Result<(), StoreError> {
-        let mut text = String::from("# drivetwin stored parameter set: IIII:SS=little-endian hex\n");
+        let mut text =
+            String::from("# drivetwin stored parameter set: IIII:SS=little-endian hex\n");
         let desc = od.description();
         let _ = std::fmt::Write::write_fmt(
             &mut text,
             format_args!("# device {} node {}\n", desc.name, od.node_id()),
         );
-        let saved: Vec<(u16, u8)> = od.storable_values(sub).map(|(e, _)| (e.index, e.sub)).collect();
+        let saved: Vec<(u16, u8)> = od
+            .storable_values(sub)
+            .map(|(e, _)| (e.index, e.sub))
+            .collect();
         // Keep what this save does not cover (e.g. 1010h:02 saves only communication).
         for old in self.load().unwrap_or_default() {
             if !saved.contains(&(old.index, old.sub)) {
@@ -152,10 +156,18 @@ pub fn apply<S: AsRef<[u8]> + AsMut<[u8]>>(
                 if fits {
                     od.store(e, &v.bytes);
                 } else {
-                    tracing::warn!(index = v.index, sub = v.sub, "stored value has the wrong size; default kept");
+                    tracing::warn!(
+                        index = v.index,
+                        sub = v.sub,
+                        "stored value has the wrong size; default kept"
+                    );
                 }
             }
-            _ => tracing::warn!(index = v.index, sub = v.sub, "stored value for an unknown or unstorable entry skipped"),
+            _ => tracing::warn!(
+                index = v.index,
+                sub = v.sub,
+                "stored value for an unknown or unstorable entry skipped"
+            ),
         }
     }
 }

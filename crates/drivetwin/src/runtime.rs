@@ -50,7 +50,8 @@ pub fn run_virtual(
     until: Duration,
     sink: &mut dyn FnMut(Duration, &CanFrame),
 ) {
-    let to_instant = |d: Duration| Instant::from_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+    let to_instant =
+        |d: Duration| Instant::from_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
     let end = to_instant(until);
     let mut out = Vec::with_capacity(256);
     let mut now = Instant::ZERO;

@@ -76,16 +76,25 @@ pub fn parse_candump(text: &str) -> Result<Vec<(Duration, CanFrame)>, CandumpPar
         let extended = id.len() != 3;
         let id = u32::from_str_radix(id, 16).map_err(|_| err("bad identifier"))?;
         let frame = if let Some(rest) = data.strip_prefix('R') {
-            let len = if rest.is_empty() { 0 } else { rest.parse::<u8>().map_err(|_| err("bad RTR length"))? };
-            let mut f = CanFrame::with_id(id, extended, &[]).map_err(|_| err("identifier out of range"))?;
+            let len = if rest.is_empty() {
+                0
+            } else {
+                rest.parse::<u8>().map_err(|_| err("bad RTR length"))?
+            };
+            let mut f =
+                CanFrame::with_id(id, extended, &[]).map_err(|_| err("identifier out of range"))?;
             f.rtr = true;
             f.len = len.min(8);
             f
         } else {
             let bytes = crate::value_text::parse_hex(data).ok_or(err("bad data"))?;
-            CanFrame::with_id(id, extended, &bytes).map_err(|_| err("more than 8 bytes or bad identifier"))?
+            CanFrame::with_id(id, extended, &bytes)
+                .map_err(|_| err("more than 8 bytes or bad identifier"))?
         };
-        frames.push((Duration::from_secs(sec) + Duration::from_micros(u64::from(usec)), frame));
+        frames.push((
+            Duration::from_secs(sec) + Duration::from_micros(u64::from(usec)),
+            frame,
+        ));
     }
     Ok(frames)
 }
@@ -97,14 +106,14 @@ pub fn flush_quietly(w: &mut TraceWriter) {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn candump_lines_parse_and_bad_lines_are_refused() {
-        let f = parse_candump("(0.100000) vcan0 601#4000100000000000\n(1.5) vcan0 701#R\n").unwrap();
+        let f =
+            parse_candump("(0.100000) vcan0 601#4000100000000000\n(1.5) vcan0 701#R\n").unwrap();
         assert_eq!(f.len(), 2);
         assert_eq!(f[0].0, Duration::from_millis(100));
         assert_eq!(f[0].1.payload(), &[0x40, 0, 0x10, 0, 0, 0, 0, 0]);

@@ -26,7 +26,7 @@ pub fn parse_type(s: &str) -> Option<DataType> {
 pub fn parse_hex(s: &str) -> Option<Vec<u8>> {
     let s: String = s.chars().filter(|c| !c.is_whitespace()).collect();
     let s = s.strip_prefix("0x").unwrap_or(&s);
-    if s.len() % 2 != 0 {
+    if !s.len().is_multiple_of(2) {
         return None;
     }
     (0..s.len())
@@ -39,7 +39,9 @@ pub fn parse_hex(s: &str) -> Option<Vec<u8>> {
 pub fn parse_number(s: &str) -> Option<Value> {
     let t = s.trim();
     if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-        return u64::from_str_radix(&h.replace('_', ""), 16).ok().map(Value::Unsigned);
+        return u64::from_str_radix(&h.replace('_', ""), 16)
+            .ok()
+            .map(Value::Unsigned);
     }
     if let Ok(i) = t.parse::<i64>() {
         return Some(Value::Signed(i));
@@ -47,7 +49,10 @@ pub fn parse_number(s: &str) -> Option<Value> {
     if let Ok(u) = t.parse::<u64>() {
         return Some(Value::Unsigned(u));
     }
-    t.parse::<f64>().ok().filter(|f| f.is_finite()).map(Value::Real)
+    t.parse::<f64>()
+        .ok()
+        .filter(|f| f.is_finite())
+        .map(Value::Real)
 }
 
 /// The bytes to write for `text` as type `t`.
@@ -89,11 +94,20 @@ mod tests {
     fn typed_values_encode_and_refuse_overflow() {
         assert_eq!(encode(DataType::Unsigned16, "1000"), Ok(vec![0xE8, 0x03]));
         assert_eq!(encode(DataType::Integer8, "-2"), Ok(vec![0xFE]));
-        assert_eq!(encode(DataType::Unsigned32, "0x65766173"), Ok(vec![0x73, 0x61, 0x76, 0x65]));
+        assert_eq!(
+            encode(DataType::Unsigned32, "0x65766173"),
+            Ok(vec![0x73, 0x61, 0x76, 0x65])
+        );
         assert!(encode(DataType::Unsigned8, "256").is_err());
         assert!(encode(DataType::Unsigned8, "abc").is_err());
-        assert_eq!(encode(DataType::OctetString, "DEAD beef"), Ok(vec![0xDE, 0xAD, 0xBE, 0xEF]));
-        assert_eq!(decode(DataType::Integer16, &[0xFE, 0xFF]).as_deref(), Some("-2"));
+        assert_eq!(
+            encode(DataType::OctetString, "DEAD beef"),
+            Ok(vec![0xDE, 0xAD, 0xBE, 0xEF])
+        );
+        assert_eq!(
+            decode(DataType::Integer16, &[0xFE, 0xFF]).as_deref(),
+            Some("-2")
+        );
         assert_eq!(parse_type("u16"), Some(DataType::Unsigned16));
         assert_eq!(parse_type("UNSIGNED32"), Some(DataType::Unsigned32));
     }

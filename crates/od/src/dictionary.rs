@@ -172,7 +172,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
     pub fn set_value(&mut self, index: u16, sub: u8, v: Value) -> Result<(), AbortCode> {
         let e = self.desc.entry(index, sub).ok_or(AbortCode::NO_OBJECT)?;
         let mut b = [0u8; 8];
-        let n = v.encode(e.data_type, &mut b).ok_or(AbortCode::INVALID_VALUE)?;
+        let n = v
+            .encode(e.data_type, &mut b)
+            .ok_or(AbortCode::INVALID_VALUE)?;
         self.store(e, b.get(..n).unwrap_or(&[]));
         Ok(())
     }

@@ -40,7 +40,12 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
     writeln!(w, "Granularity=8")?;
     writeln!(w, "DynamicChannelsSupported=0")?;
     writeln!(w, "GroupMessaging=0")?;
-    let count = |lo: u16, hi: u16| desc.objects.iter().filter(|o| (lo..=hi).contains(&o.index)).count();
+    let count = |lo: u16, hi: u16| {
+        desc.objects
+            .iter()
+            .filter(|o| (lo..=hi).contains(&o.index))
+            .count()
+    };
     writeln!(w, "NrOfRXPDO={}", count(0x1400, 0x15FF))?;
     writeln!(w, "NrOfTXPDO={}", count(0x1800, 0x19FF))?;
     writeln!(w, "LSS_Supported=0")?;
@@ -55,13 +60,16 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
     writeln!(w)?;
 
     let mandatory = |o: &&Object| matches!(o.index, 0x1000 | 0x1001 | 0x1018);
-    let optional = |o: &&Object| {
-        !mandatory(o) && ((0x1000..0x2000).contains(&o.index) || o.index >= 0x6000)
-    };
+    let optional =
+        |o: &&Object| !mandatory(o) && ((0x1000..0x2000).contains(&o.index) || o.index >= 0x6000);
     let manufacturer = |o: &&Object| (0x2000..0x6000).contains(&o.index);
     write_list(w, "MandatoryObjects", desc.objects.iter().filter(mandatory))?;
     write_list(w, "OptionalObjects", desc.objects.iter().filter(optional))?;
-    write_list(w, "ManufacturerObjects", desc.objects.iter().filter(manufacturer))?;
+    write_list(
+        w,
+        "ManufacturerObjects",
+        desc.objects.iter().filter(manufacturer),
+    )?;
 
     for o in desc.objects {
         write_object(w, o)?;

@@ -45,7 +45,7 @@ pub fn parse_line(line: &str, buf: &mut [u8]) -> Result<Option<(u16, u8, usize)>
     let index = u16::from_str_radix(idx, 16).map_err(|_| ParseError::Hex)?;
     let sub = u8::from_str_radix(sub, 16).map_err(|_| ParseError::Hex)?;
     let hex = hex.trim().as_bytes();
-    if hex.len() % 2 != 0 {
+    if !hex.len().is_multiple_of(2) {
         return Err(ParseError::Hex);
     }
     let n = hex.len() / 2;
@@ -64,12 +64,18 @@ mod tests {
     #[test]
     fn lines_parse_and_bad_lines_are_refused() {
         let mut buf = [0u8; 4];
-        assert_eq!(parse_line("1017:00=E803", &mut buf), Ok(Some((0x1017, 0, 2))));
+        assert_eq!(
+            parse_line("1017:00=E803", &mut buf),
+            Ok(Some((0x1017, 0, 2)))
+        );
         assert_eq!(&buf[..2], &[0xE8, 0x03]);
         assert_eq!(parse_line("  # comment", &mut buf), Ok(None));
         assert_eq!(parse_line("1017:00=E80", &mut buf), Err(ParseError::Hex));
         assert_eq!(parse_line("1017=E8", &mut buf), Err(ParseError::Syntax));
-        assert_eq!(parse_line("1017:00=0102030405", &mut buf), Err(ParseError::TooLong));
+        assert_eq!(
+            parse_line("1017:00=0102030405", &mut buf),
+            Err(ParseError::TooLong)
+        );
         assert_eq!(parse_line("10G7:00=00", &mut buf), Err(ParseError::Hex));
     }
 }

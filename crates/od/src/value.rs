@@ -135,11 +135,23 @@ mod tests {
     #[test]
     fn signed_values_round_trip_and_refuse_overflow() {
         let mut b = [0u8; 2];
-        assert_eq!(Value::Signed(-2).encode(DataType::Integer16, &mut b), Some(2));
+        assert_eq!(
+            Value::Signed(-2).encode(DataType::Integer16, &mut b),
+            Some(2)
+        );
         assert_eq!(b, [0xFE, 0xFF]);
-        assert_eq!(Value::decode(DataType::Integer16, &b), Some(Value::Signed(-2)));
-        assert_eq!(Value::Signed(40000).encode(DataType::Integer16, &mut b), None);
-        assert_eq!(Value::Unsigned(256).encode(DataType::Unsigned8, &mut b[..1]), None);
+        assert_eq!(
+            Value::decode(DataType::Integer16, &b),
+            Some(Value::Signed(-2))
+        );
+        assert_eq!(
+            Value::Signed(40000).encode(DataType::Integer16, &mut b),
+            None
+        );
+        assert_eq!(
+            Value::Unsigned(256).encode(DataType::Unsigned8, &mut b[..1]),
+            None
+        );
     }
 
     #[test]

@@ -34,7 +34,8 @@ impl Bench {
     pub fn send(&mut self, id: u16, data: &[u8]) -> Vec<CanFrame> {
         let f = CanFrame::new(id, data).expect("test frame");
         let mut out = Vec::new();
-        self.node.on_frame(self.now, &f, &mut self.od, &mut |f| out.push(f));
+        self.node
+            .on_frame(self.now, &f, &mut self.od, &mut |f| out.push(f));
         out
     }
 
@@ -54,7 +55,11 @@ impl Bench {
     /// One request, exactly one response.
     pub fn sdo1(&mut self, data: &[u8]) -> [u8; 8] {
         let r = self.sdo(data);
-        assert_eq!(r.len(), 1, "expected one response to {data:02X?}, got {r:02X?}");
+        assert_eq!(
+            r.len(),
+            1,
+            "expected one response to {data:02X?}, got {r:02X?}"
+        );
         r[0]
     }
 

@@ -53,7 +53,8 @@ impl SocketcandLink {
         link.expect(Message::Hi, "< hi >").await?;
         link.write(&Message::Open(channel.to_string())).await?;
         link.expect(Message::Ok, "< ok >").await?;
-        link.write(&Message::Mode(crate::socketcand::Mode::Raw)).await?;
+        link.write(&Message::Mode(crate::socketcand::Mode::Raw))
+            .await?;
         link.expect(Message::Ok, "< ok >").await?;
         Ok(link)
     }
@@ -106,7 +107,9 @@ pub enum Link {
 
 impl Link {
     pub async fn socketcand(addr: &str, channel: &str) -> Result<Self, LinkError> {
-        Ok(Link::Socketcand(SocketcandLink::connect(addr, channel).await?))
+        Ok(Link::Socketcand(
+            SocketcandLink::connect(addr, channel).await?,
+        ))
     }
 
     pub async fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {

@@ -28,7 +28,11 @@ pub struct SdoClient<'a> {
 
 impl<'a> SdoClient<'a> {
     pub fn new(link: &'a mut Link, node: u8, timeout: Duration) -> Self {
-        SdoClient { link, node, timeout }
+        SdoClient {
+            link,
+            node,
+            timeout,
+        }
     }
 
     fn rx_id(&self) -> u16 {
@@ -67,7 +71,10 @@ impl<'a> SdoClient<'a> {
         let [c0, c1, c2, c3] = code.0.to_le_bytes();
         let _ = self
             .link
-            .send(&CanFrame::full(self.rx_id(), [0x80, i0, i1, sub, c0, c1, c2, c3]))
+            .send(&CanFrame::full(
+                self.rx_id(),
+                [0x80, i0, i1, sub, c0, c1, c2, c3],
+            ))
             .await;
     }
 
@@ -79,14 +86,21 @@ impl<'a> SdoClient<'a> {
             return Err(SdoError::Protocol(r));
         }
         if r[0] & 0x02 != 0 {
-            let n = if r[0] & 0x01 != 0 { 4 - usize::from((r[0] >> 2) & 3) } else { 4 };
+            let n = if r[0] & 0x01 != 0 {
+                4 - usize::from((r[0] >> 2) & 3)
+            } else {
+                4
+            };
             return Ok(r.get(4..4 + n).unwrap_or(&[]).to_vec());
         }
-        let size = (r[0] & 0x01 != 0).then(|| u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize);
+        let size =
+            (r[0] & 0x01 != 0).then(|| u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize);
         let mut data = Vec::with_capacity(size.unwrap_or(64).min(1 << 20));
         let mut toggle = 0u8;
         loop {
-            let r = self.request([0x60 | (toggle << 4), 0, 0, 0, 0, 0, 0, 0]).await?;
+            let r = self
+                .request([0x60 | (toggle << 4), 0, 0, 0, 0, 0, 0, 0])
+                .await?;
             if r[0] & 0xE0 != 0 || (r[0] >> 4) & 1 != toggle {
                 self.abort(index, sub, AbortCode::TOGGLE_BIT).await;
                 return Err(SdoError::Protocol(r));
@@ -110,12 +124,25 @@ impl<'a> SdoClient<'a> {
     pub async fn download(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), SdoError> {
         let [i0, i1] = index.to_le_bytes();
         if (1..=4).contains(&data.len()) {
-            let mut req = [0x23 | (((4 - data.len()) as u8) << 2), i0, i1, sub, 0, 0, 0, 0];
+            let mut req = [
+                0x23 | (((4 - data.len()) as u8) << 2),
+                i0,
+                i1,
+                sub,
+                0,
+                0,
+                0,
+                0,
+            ];
             if let Some(dst) = req.get_mut(4..4 + data.len()) {
                 dst.copy_from_slice(data);
             }
             let r = self.request(req).await?;
-            return if r[0] == 0x60 { Ok(()) } else { Err(SdoError::Protocol(r)) };
+            return if r[0] == 0x60 {
+                Ok(())
+            } else {
+                Err(SdoError::Protocol(r))
+            };
         }
         let [s0, s1, s2, s3] = (data.len() as u32).to_le_bytes();
         let r = self.request([0x21, i0, i1, sub, s0, s1, s2, s3]).await?;
@@ -123,7 +150,11 @@ impl<'a> SdoClient<'a> {
             return Err(SdoError::Protocol(r));
         }
         let mut toggle = 0u8;
-        let chunks: Vec<&[u8]> = if data.is_empty() { vec![&[]] } else { data.chunks(7).collect() };
+        let chunks: Vec<&[u8]> = if data.is_empty() {
+            vec![&[]]
+        } else {
+            data.chunks(7).collect()
+        };
         let count = chunks.len();
         for (i, chunk) in chunks.into_iter().enumerate() {
             let last = i + 1 == count;

@@ -357,7 +357,7 @@ fn parse_frame(args: &[&str]) -> Result<Message, CodecError> {
     };
     let (id, extended) = parse_id(id)?;
     let timestamp = parse_timestamp(ts)?;
-    if hex.len() > 16 || hex.len() % 2 != 0 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+    if hex.len() > 16 || hex.len() % 2 == 1 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
         return Err(CodecError::BadFrameData);
     }
     let mut data = [0u8; 8];
@@ -895,7 +895,7 @@ mod tests {
     fn framing_too_long() {
         let mut d = Decoder::with_max_len(32);
         let mut long = b"< send ".to_vec();
-        long.extend(std::iter::repeat(b'1').take(100));
+        long.extend_from_slice(&[b'1'; 100]);
         d.push(&long);
         assert_eq!(d.next_message(), Some(Err(CodecError::TooLong)));
         assert_eq!(d.pending(), 0);
@@ -904,14 +904,14 @@ mod tests {
         assert_eq!(d.next_message(), Some(Ok(Message::Echo)));
         // A complete but too long message.
         let mut complete = b"<".to_vec();
-        complete.extend(std::iter::repeat(b' ').take(40));
+        complete.extend_from_slice(&[b' '; 40]);
         complete.extend(b"echo >< ok >");
         d.push(&complete);
         assert_eq!(d.next_message(), Some(Err(CodecError::TooLong)));
         assert_eq!(d.next_message(), Some(Ok(Message::Ok)));
         // Exactly at the limit is fine.
         let mut exact = b"< echo".to_vec();
-        exact.extend(std::iter::repeat(b' ').take(32 - 7));
+        exact.extend_from_slice(&[b' '; 32 - 7]);
         exact.push(b'>');
         assert_eq!(exact.len(), 32);
         d.push(&exact);
