@@ -373,3 +373,61 @@ fn limit(t: DataType, v: &toml::Value) -> Result<Limit, String> {
         Value::Bool(b) => Limit::Unsigned(b as u64),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str =
+        "[device]\nname = \"t\"\nproduct_name = \"p\"\nvendor_name = \"v\"\nvendor_id = 1\n";
+
+    fn err(objects: &str) -> String {
+        match parse(&format!("{HEAD}{objects}"), "t.toml") {
+            Ok(_) => panic!("accepted: {objects}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn node_relative_defaults_and_generated_sub_zero() {
+        let d = parse(
+            &format!(
+                "{HEAD}[[object]]\nindex = 0x1800\nname = \"tpdo\"\nkind = \"record\"\n[[object.sub]]\nsub = 1\nname = \"cob\"\ntype = \"UNSIGNED32\"\naccess = \"rw\"\ndefault = \"$NODEID+0xC0000180\"\n"
+            ),
+            "t.toml",
+        )
+        .unwrap();
+        let o = &d.objects[0];
+        assert_eq!(o.entries.len(), 2);
+        assert_eq!(o.entries[0].default, vec![1]);
+        assert_eq!(o.entries[1].default, 0xC000_0180u32.to_le_bytes().to_vec());
+        assert!(o.entries[1].default_plus_node_id);
+    }
+
+    #[test]
+    fn mistakes_are_named() {
+        let var = |extra: &str| format!("[[object]]\nindex = 0x2000\nname = \"x\"\n{extra}\n");
+        assert!(err(&var("type = \"UNSIGNED8\"")).contains("missing access"));
+        assert!(err(&var("type = \"UINT8\"\naccess = \"rw\"")).contains("unknown type"));
+        assert!(
+            err(&var("type = \"UNSIGNED8\"\naccess = \"rw\"\ndefault = 300"))
+                .contains("does not fit")
+        );
+        assert!(err(&var(
+            "type = \"UNSIGNED8\"\naccess = \"rw\"\ndefault = 5\nmax = 4"
+        ))
+        .contains("outside"));
+        assert!(err(&var(
+            "type = \"UNSIGNED8\"\naccess = \"rw\"\nmin = 5\nmax = 4"
+        ))
+        .contains("min is above max"));
+        assert!(err(&var("type = \"VISIBLE_STRING\"\naccess = \"rw\"")).contains("need size"));
+        assert!(err(&var("type = \"UNSIGNED8\"\naccess = \"rw\"\nbogus = 1")).contains("bogus"));
+        let twice = format!(
+            "{}{}",
+            var("type = \"UNSIGNED8\"\naccess = \"rw\""),
+            var("type = \"UNSIGNED8\"\naccess = \"rw\"")
+        );
+        assert!(err(&twice).contains("defined twice"));
+    }
+}

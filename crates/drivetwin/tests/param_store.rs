@@ -1,0 +1,105 @@
+//! Stored parameter sets: round trip through the state directory, atomic replacement, and
+//! clear errors for damaged files.
+
+use drivetwin::can_drive::{CanDrive, Commissioning};
+use drivetwin::param_store::ParamStore;
+use od::{ObjectAccess, Value};
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("drivetwin-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn drive(dir: &std::path::Path) -> CanDrive {
+    let store = ParamStore::new(dir, "testbench", 1);
+    let hb = Commissioning {
+        index: 0x1017,
+        sub: 0,
+        bytes: vec![0xE8, 0x03],
+    };
+    CanDrive::new(&devices::TESTBENCH, 1, Some(store), vec![hb]).unwrap()
+}
+
+#[test]
+fn saved_values_survive_a_restart_and_win_over_commissioning() {
+    let dir = tmpdir("roundtrip");
+    let mut d = drive(&dir);
+    assert_eq!(d.od.get_unsigned(0x1017, 0), Some(1000), "commissioned");
+    d.od.write(0x1017, 0, &[0xFA, 0x00]).unwrap();
+    d.od.write(0x2001, 0, b"kept across restarts").unwrap();
+    d.od.write(0x1010, 1, b"save").unwrap();
+    d.poll(od::Instant::ZERO, &mut |_| {});
+    let files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        files.len(),
+        1,
+        "one complete file, no temporary left: {files:?}"
+    );
+
+    let d2 = drive(&dir);
+    assert_eq!(d2.od.get_unsigned(0x1017, 0), Some(250));
+    let mut buf = [0u8; 64];
+    let n = d2.od.read(0x2001, 0, &mut buf).unwrap();
+    assert_eq!(&buf[..n], b"kept across restarts");
+}
+
+#[test]
+fn a_save_interrupted_before_the_rename_leaves_the_old_set() {
+    let dir = tmpdir("interrupted");
+    let mut d = drive(&dir);
+    d.od.write(0x2003, 0, &[7, 0]).unwrap();
+    d.od.write(0x1010, 1, b"save").unwrap();
+    d.poll(od::Instant::ZERO, &mut |_| {});
+    // A kill between writing the temporary file and the rename leaves a half-written
+    // temporary next to the complete set.
+    std::fs::write(dir.join("testbench-node1.params.tmp"), "2003:00=0").unwrap();
+    let d2 = drive(&dir);
+    assert_eq!(d2.od.value(0x2003, 0), Some(Value::Signed(7)));
+}
+
+#[test]
+fn a_damaged_file_is_a_clear_error() {
+    let dir = tmpdir("damaged");
+    std::fs::write(
+        dir.join("testbench-node1.params"),
+        "2003:00=07\nthis is not a line\n",
+    )
+    .unwrap();
+    let store = ParamStore::new(&dir, "testbench", 1);
+    let err = CanDrive::new(&devices::TESTBENCH, 1, Some(store), vec![])
+        .err()
+        .expect("refused");
+    let text = err.to_string();
+    assert!(text.contains("testbench-node1.params:2"), "{text}");
+}
+
+#[test]
+fn reset_application_reloads_the_stored_set_and_boots() {
+    let dir = tmpdir("reset");
+    let mut d = drive(&dir);
+    let mut out = Vec::new();
+    d.boot(od::Instant::ZERO, &mut |f| out.push(f));
+    d.od.write(0x2003, 0, &[9, 0]).unwrap();
+    d.od.write(0x1010, 1, b"save").unwrap();
+    d.poll(od::Instant::ZERO, &mut |_| {});
+    d.od.write(0x2003, 0, &[50, 0]).unwrap();
+    out.clear();
+    let nmt = canopen::CanFrame::new(0, &[0x81, 1]).unwrap();
+    d.on_frame(od::Instant::ZERO, &nmt, &mut |f| out.push(f));
+    assert_eq!(
+        d.od.value(0x2003, 0),
+        Some(Value::Signed(9)),
+        "stored value back"
+    );
+    assert_eq!(out.len(), 1);
+    assert_eq!(
+        (out[0].id, out[0].payload()),
+        (0x701, &[0u8][..]),
+        "boot-up"
+    );
+}
