@@ -108,8 +108,10 @@ impl<const N: usize> Node<N> {
                 self.sdo.on_request(now, frame.payload(), od, &mut |r| {
                     out(CanFrame::full(sdo_tx, r))
                 });
-                // A write may have changed the heartbeat period.
-                self.producer.refresh(now, od);
+                // A download (segment, initiate or block) may have changed the heartbeat period.
+                if matches!(frame.payload().first().map(|cs| cs >> 5), Some(0 | 1 | 6)) {
+                    self.producer.refresh(now, od);
+                }
             }
             // Another node's boot-up or heartbeat.
             c if (0x701..=0x77F).contains(&c) && c != 0x700 + own && frame.payload().len() == 1 => {

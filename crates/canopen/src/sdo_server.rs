@@ -280,7 +280,6 @@ impl<const N: usize> SdoServer<N> {
     }
 
     fn read_object(&mut self, od: &mut dyn ObjectAccess) -> Result<(), AbortCode> {
-        od.entry(self.index, self.sub)?;
         self.len = od.read(self.index, self.sub, &mut self.buf)?;
         Ok(())
     }

@@ -1,0 +1,353 @@
+"""Fixtures for the interop tests: the real drivetwin binary, driven by clients nobody here wrote.
+
+Every test starts its own `drivetwin run` on a free loopback port with its own state directory,
+talks to it over socketcand with python-canopen / python-can (or raw TCP), and stops it with
+SIGTERM, checking that it stopped cleanly.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+DRIVETWIN_BIN = Path(os.environ.get("DRIVETWIN_BIN", REPO_ROOT / "target" / "release" / "drivetwin"))
+CHANNEL = "vcan0"
+HOST = "127.0.0.1"
+START_TIMEOUT = 10.0
+STOP_TIMEOUT = 5.0
+
+
+def free_port() -> int:
+    """A loopback TCP port nobody listens on right now (bind to port 0, read it, close)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((HOST, 0))
+        return s.getsockname()[1]
+
+
+def run_cli(*args: str, timeout: float = 30.0, check: bool = False) -> subprocess.CompletedProcess:
+    """Run a one-shot drivetwin command (eds, sdo, nmt, monitor, a virtual-clock run)."""
+    return subprocess.run(
+        [str(DRIVETWIN_BIN), *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=check,
+    )
+
+
+def wait_until(predicate, timeout: float, interval: float = 0.02, what: str = "condition"):
+    """Poll `predicate` until it returns something truthy; fail the test after `timeout` s."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(interval)
+
+
+class Twin:
+    """One running `drivetwin run` process with a socketcand server on 127.0.0.1:port."""
+
+    def __init__(self, state_dir: Path, log_dir: Path, device: str = "cmmp-as", node: int = 1,
+                 config: Path | None = None, trace: Path | None = None, extra: tuple[str, ...] = ()):
+        self.state_dir = Path(state_dir)
+        self.device = device
+        self.node = node
+        self.config = config
+        self.trace = trace
+        self.extra = tuple(extra)
+        self.log_dir = Path(log_dir)
+        self.port: int | None = None
+        self.proc: subprocess.Popen | None = None
+        self.stdout_lines: list[str] = []
+        self._ready = threading.Event()
+        self._reader: threading.Thread | None = None
+        self._starts = 0
+
+    @property
+    def addr(self) -> str:
+        return f"{HOST}:{self.port}"
+
+    def _args(self) -> list[str]:
+        args = [str(DRIVETWIN_BIN), "run", "--socketcand", self.addr, "--channel", CHANNEL,
+                "--state-dir", str(self.state_dir)]
+        if self.config is not None:
+            args += ["--config", str(self.config)]
+        else:
+            args += ["--device", self.device, "--node", str(self.node)]
+        if self.trace is not None:
+            args += ["--trace", str(self.trace)]
+        return args + list(self.extra)
+
+    def _read_stdout(self, proc: subprocess.Popen, lines: list[str], ready: threading.Event):
+        for line in proc.stdout:
+            lines.append(line.rstrip("\n"))
+            if line.startswith("socketcand server on"):
+                ready.set()
+        ready.set()  # EOF: the process ended (start() looks at poll())
+
+    def start(self, port: int | None = None) -> "Twin":
+        """Start the process and wait for its "socketcand server on" line.
+
+        With no port given, a free one is picked; if another process grabs it between the pick
+        and the bind, the start is retried on a new port.
+        """
+        assert self.proc is None or self.proc.poll() is not None, "already running"
+        attempts = 1 if port is not None else 5
+        last_error = ""
+        for _ in range(attempts):
+            self.port = port if port is not None else free_port()
+            self._starts += 1
+            stderr_path = self.log_dir / f"drivetwin-{self.port}-{self._starts}.stderr"
+            self.stderr_path = stderr_path
+            self.stdout_lines = []
+            self._ready = threading.Event()
+            with open(stderr_path, "wb") as err:
+                self.proc = subprocess.Popen(self._args(), stdout=subprocess.PIPE, stderr=err,
+                                             text=True, bufsize=1)
+            self._reader = threading.Thread(target=self._read_stdout,
+                                            args=(self.proc, self.stdout_lines, self._ready),
+                                            daemon=True)
+            self._reader.start()
+            self._ready.wait(START_TIMEOUT)
+            if self.proc.poll() is None and any(
+                    l.startswith("socketcand server on") for l in self.stdout_lines):
+                expected = f"socketcand server on {self.addr}, channel {CHANNEL}"
+                assert expected in self.stdout_lines, self.stdout_lines
+                return self
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait()
+                pytest.fail(f"drivetwin did not print 'socketcand server on' within {START_TIMEOUT} s:"
+                            f" stdout={self.stdout_lines} stderr={self.stderr()}")
+            last_error = f"exit {self.proc.returncode}: {self.stderr()}"
+        pytest.fail(f"drivetwin did not start: {last_error}")
+
+    def stderr(self) -> str:
+        try:
+            return Path(self.stderr_path).read_text(errors="replace")
+        except (OSError, AttributeError):
+            return ""
+
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self, check: bool = True) -> int:
+        """SIGTERM, wait, SIGKILL on timeout; with check, assert a clean stop (exit 0, "stopped")."""
+        proc = self.proc
+        if proc is None:
+            return 0
+        killed = False
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                proc.wait(STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+                killed = True
+        if self._reader is not None:
+            self._reader.join(2)
+        code = proc.returncode
+        self.proc = None
+        if check:
+            assert not killed, f"drivetwin ignored SIGTERM for {STOP_TIMEOUT} s; stderr={self.stderr()}"
+            assert code == 0, f"drivetwin exited with {code}; stderr={self.stderr()}"
+            assert "stopped" in self.stdout_lines, self.stdout_lines
+        return code
+
+
+@pytest.fixture
+def launch(tmp_path):
+    """Factory: launch(device=..., node=..., ...) starts a Twin; all are stopped (and checked) at
+    teardown."""
+    twins: list[Twin] = []
+    log_dir = tmp_path / "logs"
+    log_dir.mkdir()
+
+    def _launch(device: str = "cmmp-as", node: int = 1, state_dir: Path | None = None,
+                start: bool = True, **kw) -> Twin:
+        sd = state_dir if state_dir is not None else tmp_path / f"state{len(twins)}"
+        sd.mkdir(parents=True, exist_ok=True)
+        twin = Twin(sd, log_dir, device=device, node=node, **kw)
+        twins.append(twin)
+        if start:
+            twin.start()
+        return twin
+
+    yield _launch
+    failures = []
+    for twin in twins:
+        if twin.proc is None:
+            continue
+        was_running = twin.running()
+        code = twin.stop(check=False)
+        if not was_running:
+            failures.append(f"drivetwin died during the test (exit {code}); stderr={twin.stderr()[-2000:]}")
+        elif code != 0:
+            failures.append(f"drivetwin did not stop cleanly (exit {code}); stderr={twin.stderr()[-2000:]}")
+        elif "stopped" not in twin.stdout_lines:
+            failures.append(f"drivetwin exited without printing 'stopped': {twin.stdout_lines}")
+    assert not failures, failures
+
+
+@pytest.fixture
+def cmmp(launch) -> Twin:
+    """One CMMP-AS, node 1, heartbeat 1000 ms commissioned."""
+    return launch("cmmp-as", 1)
+
+
+@pytest.fixture
+def bench(launch) -> Twin:
+    """One test bench node, node 1."""
+    return launch("testbench", 1)
+
+
+@pytest.fixture(scope="session")
+def eds_files(tmp_path_factory) -> dict[str, Path]:
+    """The EDS of each personality, as `drivetwin eds` prints it."""
+    d = tmp_path_factory.mktemp("eds")
+    files = {}
+    for device in ("cmmp-as", "testbench"):
+        r = run_cli("eds", "--device", device)
+        assert r.returncode == 0, r.stderr
+        path = d / f"{device}.eds"
+        path.write_text(r.stdout)
+        files[device] = path
+    return files
+
+
+@pytest.fixture
+def connect():
+    """Factory: connect(twin) -> canopen.Network joined to the twin's socketcand server."""
+    import canopen
+
+    networks = []
+
+    def _connect(twin: Twin):
+        net = canopen.Network()
+        net.NOTIFIER_CYCLE = 0.05  # a short recv timeout: disconnect() joins the notifier thread
+        net.connect(interface="socketcand", host=HOST, port=twin.port, channel=CHANNEL)
+        networks.append(net)
+        return net
+
+    yield _connect
+    for net in networks:
+        try:
+            net.disconnect()
+        except Exception:
+            pass
+
+
+@pytest.fixture
+def raw_bus():
+    """Factory: raw_bus(twin) -> python-can Bus over socketcand (frames as they are on the wire)."""
+    import can
+
+    buses = []
+
+    def _bus(twin: Twin):
+        bus = can.Bus(interface="socketcand", host=HOST, port=twin.port, channel=CHANNEL)
+        buses.append(bus)
+        return bus
+
+    yield _bus
+    for bus in buses:
+        try:
+            bus.shutdown()
+        except Exception:
+            pass
+
+
+@pytest.fixture
+def node_of(connect, eds_files):
+    """Factory: node_of(twin, node_id=None) -> canopen.RemoteNode with the twin's EDS."""
+
+    def _node(twin: Twin, node_id: int | None = None, device: str | None = None):
+        net = connect(twin)
+        dev = device or twin.device
+        return net.add_node(node_id if node_id is not None else twin.node, str(eds_files[dev]))
+
+    return _node
+
+
+def recv_id(bus, can_id: int, timeout: float = 1.0):
+    """The next frame with `can_id` on a raw python-can bus (others are skipped), or None."""
+    deadline = time.monotonic() + timeout
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None
+        msg = bus.recv(left)
+        if msg is not None and msg.arbitration_id == can_id and not msg.is_error_frame:
+            return msg
+
+
+def sdo_request(bus, node: int, data: bytes, timeout: float = 1.0, expect: bool = True):
+    """Send one SDO request frame (as given, any length) to `node`; return the response data."""
+    import can
+
+    bus.send(can.Message(arbitration_id=0x600 + node, data=data, is_extended_id=False))
+    msg = recv_id(bus, 0x580 + node, timeout)
+    if expect:
+        assert msg is not None, f"no SDO response to {data.hex(' ')} within {timeout} s"
+        return bytes(msg.data)
+    return None if msg is None else bytes(msg.data)
+
+
+def abort_frame(index: int, sub: int, code: int) -> bytes:
+    return bytes([0x80, index & 0xFF, index >> 8, sub]) + code.to_bytes(4, "little")
+
+
+class HeartbeatLog:
+    """Every heartbeat / boot-up state byte python-canopen's NMT master sees for a node."""
+
+    def __init__(self, node):
+        self.states: list[tuple[float, int]] = []
+        self.cond = threading.Condition()
+        node.nmt.add_heartbeat_callback(self._on)
+
+    def _on(self, state: int):
+        with self.cond:
+            self.states.append((time.monotonic(), state))
+            self.cond.notify_all()
+
+    def mark(self) -> int:
+        with self.cond:
+            return len(self.states)
+
+    def wait_for(self, state: int, since: int, timeout: float) -> int:
+        """Wait for a heartbeat with `state` after position `since`; returns the position just
+        after it."""
+        deadline = time.monotonic() + timeout
+        with self.cond:
+            while True:
+                for i in range(since, len(self.states)):
+                    if self.states[i][1] == state:
+                        return i + 1
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    seen = [s for _, s in self.states[since:]]
+                    pytest.fail(f"no heartbeat state 0x{state:02X} within {timeout} s; saw {seen}")
+                self.cond.wait(left)
+
+    def next_states(self, since: int, count: int, timeout: float) -> list[int]:
+        """The states of the next `count` heartbeats after position `since`."""
+        deadline = time.monotonic() + timeout
+        with self.cond:
+            while len(self.states) < since + count:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    pytest.fail(f"only {len(self.states) - since} of {count} heartbeats in {timeout} s")
+                self.cond.wait(left)
+            return [s for _, s in self.states[since:since + count]]
