@@ -288,9 +288,10 @@ async fn shutdown_signal() {
 
 async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
     if let Some(ifname) = &bus.can {
-        return Err(CommandError::Usage(format!(
-            "--can {ifname}: SocketCAN master links are not available in this build yet; use --socketcand"
-        )));
+        #[cfg(target_os = "linux")]
+        return Ok(Link::socketcan(ifname)?);
+        #[cfg(not(target_os = "linux"))]
+        return Err(CommandError::Usage(format!("--can {ifname}: SocketCAN needs Linux")));
     }
     Ok(Link::socketcand(&bus.socketcand, &bus.channel).await?)
 }

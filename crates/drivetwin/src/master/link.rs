@@ -103,6 +103,8 @@ impl SocketcandLink {
 /// Any link a master command can use.
 pub enum Link {
     Socketcand(SocketcandLink),
+    #[cfg(target_os = "linux")]
+    SocketCan(crate::socketcan::CanSocket),
 }
 
 impl Link {
@@ -112,9 +114,22 @@ impl Link {
         ))
     }
 
+    /// A SocketCAN interface (real hardware or vcan).
+    #[cfg(target_os = "linux")]
+    pub fn socketcan(interface: &str) -> Result<Self, LinkError> {
+        crate::socketcan::CanSocket::open(interface)
+            .map(Link::SocketCan)
+            .map_err(|e| LinkError::SocketCan(format!("{interface}: {e}")))
+    }
+
     pub async fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         match self {
             Link::Socketcand(l) => l.write(&Message::Send(*frame)).await,
+            #[cfg(target_os = "linux")]
+            Link::SocketCan(s) => s
+                .send(frame)
+                .await
+                .map_err(|e| LinkError::SocketCan(e.to_string())),
         }
     }
 
@@ -128,6 +143,11 @@ impl Link {
                     _ => {}
                 }
             },
+            #[cfg(target_os = "linux")]
+            Link::SocketCan(s) => s
+                .recv()
+                .await
+                .map_err(|e| LinkError::SocketCan(e.to_string())),
         }
     }
 }
