@@ -351,3 +351,84 @@ class HeartbeatLog:
                     pytest.fail(f"only {len(self.states) - since} of {count} heartbeats in {timeout} s")
                 self.cond.wait(left)
             return [s for _, s in self.states[since:since + count]]
+
+
+def write_cell(path: Path, drives: list[tuple[str, int, dict]]) -> Path:
+    """A cell TOML with the given (device, node, {"IIII:SS": value}) drives. The bus address in
+    the file is a placeholder: --socketcand on the command line overrides it."""
+    lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
+    for device, node, objects in drives:
+        lines += ["[[drive]]", f'device = "{device}"', f"node = {node}"]
+        if objects:
+            lines.append("[drive.objects]")
+            lines += [f'"{key}" = {value}' for key, value in objects.items()]
+        lines.append("")
+    path.write_text("\n".join(lines))
+    return path
+
+
+class RawClient:
+    """A socketcand client written by hand on a plain TCP socket."""
+
+    def __init__(self, port: int, timeout: float = 2.0):
+        self.sock = socket.create_connection((HOST, port), timeout=timeout)
+        self.buf = b""
+        self.closed = False
+
+    def send(self, data: bytes) -> bool:
+        """False if the server has closed the connection."""
+        try:
+            self.sock.sendall(data)
+            return True
+        except OSError:
+            self.closed = True
+            return False
+
+    def read_message(self, timeout: float = 2.0) -> str | None:
+        """The next `< ... >` message, or None on close / timeout."""
+        deadline = time.monotonic() + timeout
+        while True:
+            start = self.buf.find(b"<")
+            end = self.buf.find(b">", start)
+            if start >= 0 and end >= 0:
+                msg = self.buf[start:end + 1].decode("ascii", "replace")
+                self.buf = self.buf[end + 1:]
+                return msg
+            left = deadline - time.monotonic()
+            if left <= 0 or self.closed:
+                return None
+            self.sock.settimeout(left)
+            try:
+                data = self.sock.recv(65536)
+            except socket.timeout:
+                return None
+            except OSError:
+                self.closed = True
+                return None
+            if not data:
+                self.closed = True
+                return None
+            self.buf += data
+
+    def expect(self, prefix: str, timeout: float = 2.0, skip_frames: bool = True) -> str:
+        """The next message that is not a `< frame ... >` (unless asked); must start with prefix."""
+        while True:
+            msg = self.read_message(timeout)
+            assert msg is not None, f"expected {prefix!r}, connection closed or silent"
+            if skip_frames and msg.startswith("< frame "):
+                continue
+            assert msg.startswith(prefix), f"expected {prefix!r}, got {msg!r}"
+            return msg
+
+    def handshake(self, channel: str = CHANNEL):
+        self.expect("< hi >")
+        self.send(f"< open {channel} >".encode())
+        self.expect("< ok >")
+        self.send(b"< rawmode >")
+        self.expect("< ok >")
+
+    def close(self):
+        try:
+            self.sock.close()
+        except OSError:
+            pass

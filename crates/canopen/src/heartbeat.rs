@@ -15,7 +15,7 @@ pub struct HeartbeatProducer {
 impl HeartbeatProducer {
     /// The boot-up message went out at `now`: the next heartbeat is one period later.
     pub fn booted(&mut self, now: Instant, od: &dyn ObjectAccess) {
-        self.period_ms = read_u16(od, 0x1017, 0).unwrap_or(0);
+        self.period_ms = od.read_u16(0x1017, 0).unwrap_or(0);
         self.next = self.schedule(now);
     }
 
@@ -25,7 +25,7 @@ impl HeartbeatProducer {
 
     /// Picks up a changed 1017h: a new period starts counting from the change.
     pub fn refresh(&mut self, now: Instant, od: &dyn ObjectAccess) {
-        let period = read_u16(od, 0x1017, 0).unwrap_or(0);
+        let period = od.read_u16(0x1017, 0).unwrap_or(0);
         if period != self.period_ms {
             self.period_ms = period;
             self.next = self.schedule(now);
@@ -94,7 +94,7 @@ impl HeartbeatConsumer {
     /// Re-reads 1016h (sub 1…): `node << 16 | time_ms`, 0 = unused.
     fn refresh(&mut self, od: &dyn ObjectAccess) {
         for (i, w) in self.watches.iter_mut().enumerate() {
-            let v = read_u32(od, 0x1016, (i + 1) as u8).unwrap_or(0);
+            let v = od.read_u32(0x1016, (i + 1) as u8).unwrap_or(0);
             let node = ((v >> 16) & 0xFF) as u8;
             let period_ms = (v & 0xFFFF) as u16;
             if node != w.node || period_ms != w.period_ms {
@@ -150,21 +150,5 @@ impl HeartbeatConsumer {
 
     pub fn clear(&mut self) {
         self.watches = [Watch::default(); MAX_CONSUMED];
-    }
-}
-
-fn read_u16(od: &dyn ObjectAccess, index: u16, sub: u8) -> Option<u16> {
-    let mut b = [0u8; 2];
-    match od.read(index, sub, &mut b) {
-        Ok(2) => Some(u16::from_le_bytes(b)),
-        _ => None,
-    }
-}
-
-fn read_u32(od: &dyn ObjectAccess, index: u16, sub: u8) -> Option<u32> {
-    let mut b = [0u8; 4];
-    match od.read(index, sub, &mut b) {
-        Ok(4) => Some(u32::from_le_bytes(b)),
-        _ => None,
     }
 }

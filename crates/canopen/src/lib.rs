@@ -4,8 +4,10 @@
 #![forbid(unsafe_code)]
 
 pub mod decode;
+pub mod emcy;
 pub mod frame;
 pub mod heartbeat;
+pub mod lss;
 pub mod nmt;
 pub mod node;
 pub mod sdo_crc;

@@ -31,6 +31,12 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    description: {:?},", d.description);
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
+    let c = &d.cia301;
+    let _ = writeln!(
+        s,
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {} }},",
+        c.pdo_params_locked_while_valid, c.pdo_config_outside_operational, c.tpdo_transmit_mask_index, c.tpdo_254_cyclic_inhibit
+    );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {
         let _ = writeln!(s, "        od::Object {{");
@@ -118,6 +124,13 @@ fn behaviour(b: Behaviour) -> &'static str {
         Behaviour::RestoreSignature => "RestoreSignature",
         Behaviour::ErrorHistoryCount => "ErrorHistoryCount",
         Behaviour::ReadsZero => "ReadsZero",
+        Behaviour::PdoCobId => "PdoCobId",
+        Behaviour::PdoTransmissionType => "PdoTransmissionType",
+        Behaviour::PdoInhibitTime => "PdoInhibitTime",
+        Behaviour::PdoEventTimer => "PdoEventTimer",
+        Behaviour::PdoSyncStart => "PdoSyncStart",
+        Behaviour::PdoMapCount => "PdoMapCount",
+        Behaviour::PdoMapEntry => "PdoMapEntry",
     }
 }
 

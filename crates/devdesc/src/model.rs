@@ -38,6 +38,7 @@ pub struct Device {
     pub description: String,
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
+    pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
 }
 
@@ -119,6 +120,12 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         description: d.description,
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
+        cia301: od::Cia301Options {
+            pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
+            pdo_config_outside_operational: d.pdo_config_outside_operational,
+            tpdo_transmit_mask_index: d.tpdo_transmit_mask_index,
+            tpdo_254_cyclic_inhibit: d.tpdo_254_cyclic_inhibit,
+        },
         objects,
     })
 }
@@ -220,6 +227,13 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
         "restore_signature" => Behaviour::RestoreSignature,
         "error_history_count" => Behaviour::ErrorHistoryCount,
         "reads_zero" => Behaviour::ReadsZero,
+        "pdo_cob_id" => Behaviour::PdoCobId,
+        "pdo_transmission_type" => Behaviour::PdoTransmissionType,
+        "pdo_inhibit_time" => Behaviour::PdoInhibitTime,
+        "pdo_event_timer" => Behaviour::PdoEventTimer,
+        "pdo_sync_start" => Behaviour::PdoSyncStart,
+        "pdo_map_count" => Behaviour::PdoMapCount,
+        "pdo_map_entry" => Behaviour::PdoMapEntry,
         other => return Err(err(format!("unknown behaviour {other:?}"))),
     };
     let capacity = match data_type.fixed_size() {
@@ -270,9 +284,16 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
             }
         }
     }
-    let storable = f
-        .storable
-        .unwrap_or(access.writable() && behaviour == Behaviour::Plain);
+    let storable = f.storable.unwrap_or(
+        access.writable()
+            && !matches!(
+                behaviour,
+                Behaviour::StoreSignature
+                    | Behaviour::RestoreSignature
+                    | Behaviour::ErrorHistoryCount
+                    | Behaviour::ReadsZero
+            ),
+    );
     Ok(Ent {
         index,
         sub,

@@ -29,6 +29,13 @@ pub struct DeviceSection {
     pub default_node_id: u8,
     #[serde(default)]
     pub baud_rates: Vec<u16>,
+    #[serde(default)]
+    pub pdo_params_locked_while_valid: bool,
+    #[serde(default)]
+    pub pdo_config_outside_operational: bool,
+    pub tpdo_transmit_mask_index: Option<u16>,
+    #[serde(default)]
+    pub tpdo_254_cyclic_inhibit: bool,
 }
 
 fn default_node() -> u8 {

@@ -25,6 +25,35 @@ pub enum Behaviour {
     ErrorHistoryCount,
     /// Accepts writes of a valid value but always reads 0 (CMMP-AS 1016h, kept for compatibility).
     ReadsZero,
+    /// PDO communication sub 1: COB-ID with the CiA 301 §7.5.2.35 write rules.
+    PdoCobId,
+    /// PDO communication sub 2: transmission type 0…240, 254, 255.
+    PdoTransmissionType,
+    /// PDO communication sub 3: inhibit time, not changed while the PDO is valid.
+    PdoInhibitTime,
+    /// PDO communication sub 5: event timer.
+    PdoEventTimer,
+    /// PDO communication sub 6: SYNC start value 0…240, not changed while valid.
+    PdoSyncStart,
+    /// PDO mapping sub 0: number of mapped objects, checked against the entries.
+    PdoMapCount,
+    /// PDO mapping sub 1…: `index << 16 | sub << 8 | bits`, changed only by the CiA 301 procedure.
+    PdoMapEntry,
+}
+
+/// How a personality reads the CiA 301 rules the standard leaves open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Cia301Options {
+    /// Every PDO parameter but the COB-ID may be written only while the PDO is not valid
+    /// (CMMP-AS §3.3: "only while the PDO is disabled"); CiA 301 locks only some.
+    pub pdo_params_locked_while_valid: bool,
+    /// PDO parameters may not be written in NMT Operational (CMMP-AS §3.3.3).
+    pub pdo_config_outside_operational: bool,
+    /// First index of per-TPDO transmit masks (CMMP-AS 2014h…2017h), if the device has them.
+    pub tpdo_transmit_mask_index: Option<u16>,
+    /// Transmission type 254 sends cyclically with the inhibit time as period (CMMP-AS Tab. 3.7)
+    /// instead of CiA 301's event-driven meaning.
+    pub tpdo_254_cyclic_inhibit: bool,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).
@@ -125,6 +154,7 @@ pub struct DeviceDescription {
     pub default_node_id: u8,
     /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
     pub baud_rates: &'static [u16],
+    pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],
     /// Size of the value buffer an `ObjectDictionary` needs.

@@ -11,6 +11,22 @@ pub trait ObjectAccess {
     fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode>;
     /// Writes a whole value, checking access, length and range. Nothing changes on error.
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+    /// The device's own write: no access check (error register, history, actual values), only
+    /// the length must fit.
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+
+    fn read_u8(&self, index: u16, sub: u8) -> Option<u8> {
+        let mut b = [0u8; 1];
+        matches!(self.read(index, sub, &mut b), Ok(1)).then_some(b[0])
+    }
+    fn read_u16(&self, index: u16, sub: u8) -> Option<u16> {
+        let mut b = [0u8; 2];
+        matches!(self.read(index, sub, &mut b), Ok(2)).then(|| u16::from_le_bytes(b))
+    }
+    fn read_u32(&self, index: u16, sub: u8) -> Option<u32> {
+        let mut b = [0u8; 4];
+        matches!(self.read(index, sub, &mut b), Ok(4)).then(|| u32::from_le_bytes(b))
+    }
 }
 
 /// A request that only the runtime can carry out (it owns files and resets).
@@ -241,6 +257,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
         if !e.access.readable() {
             return Err(AbortCode::WRITE_ONLY);
         }
+        if sub > 0 {
+            if let Some(count) = self.desc.entry(index, 0) {
+                if count.behaviour == Behaviour::ErrorHistoryCount
+                    && u64::from(sub) > Value::decode(count.data_type, self.raw(count)).and_then(|v| match v {
+                        Value::Unsigned(u) => Some(u),
+                        _ => None,
+                    }).unwrap_or(0)
+                {
+                    // CiA 301 §7.5.2.4 (CCT Emergency 03): no error stored there yet.
+                    return Err(AbortCode::NO_DATA);
+                }
+            }
+        }
         let zeros = [0u8; 8];
         let src = match e.behaviour {
             Behaviour::ReadsZero => zeros.get(..e.capacity as usize).unwrap_or(&zeros),
@@ -249,6 +278,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
         let dst = buf.get_mut(..src.len()).ok_or(AbortCode::OUT_OF_MEMORY)?;
         dst.copy_from_slice(src);
         Ok(src.len())
+    }
+
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let e = self.entry(index, sub)?;
+        match e.data_type.fixed_size() {
+            Some(n) if data.len() > n => return Err(AbortCode::LENGTH_TOO_HIGH),
+            Some(n) if data.len() < n => return Err(AbortCode::LENGTH_TOO_LOW),
+            None if data.len() > e.capacity as usize => return Err(AbortCode::LENGTH_TOO_HIGH),
+            _ => {}
+        }
+        self.store(e, data);
+        Ok(())
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -292,6 +333,33 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
                 Ok(())
             }
             Behaviour::ReadsZero => Self::check_value(e, data),
+            Behaviour::PdoCobId
+            | Behaviour::PdoTransmissionType
+            | Behaviour::PdoInhibitTime
+            | Behaviour::PdoEventTimer
+            | Behaviour::PdoSyncStart
+            | Behaviour::PdoMapCount
+            | Behaviour::PdoMapEntry => {
+                // Length first, then the PDO rules (their abort codes win over a plain range
+                // error: CCT PDO 25 expects 0604 0042h for too many entries), then the range.
+                let size = e.data_type.fixed_size().unwrap_or(0);
+                if data.len() > size {
+                    return Err(AbortCode::LENGTH_TOO_HIGH);
+                }
+                if data.len() < size {
+                    return Err(AbortCode::LENGTH_TOO_LOW);
+                }
+                let store = self.check_pdo_write(e, data)?;
+                Self::check_value(e, data)?;
+                match store {
+                    Some(v) => {
+                        let b = v.to_le_bytes();
+                        self.store(e, b.get(..data.len()).unwrap_or(data));
+                    }
+                    None => self.store(e, data),
+                }
+                Ok(())
+            }
             Behaviour::Plain => {
                 Self::check_value(e, data)?;
                 let data = if e.data_type == DataType::VisibleString {

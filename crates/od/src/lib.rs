@@ -14,13 +14,14 @@ pub mod description;
 pub mod dictionary;
 pub mod eds;
 pub mod parameter_file;
+pub mod pdo_rules;
 pub mod time;
 pub mod value;
 
 pub use abort_code::AbortCode;
 pub use access::Access;
 pub use data_type::DataType;
-pub use description::{Behaviour, DeviceDescription, Entry, Limit, Object, ObjectKind};
+pub use description::{Behaviour, Cia301Options, DeviceDescription, Entry, Limit, Object, ObjectKind};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
 pub use time::Instant;
 pub use value::Value;
