@@ -7,7 +7,7 @@ use od::{Instant, ObjectDictionary};
 fn sdo_expedited_upload(c: &mut Criterion) {
     let desc = &devices::CMMP_AS;
     let mut od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).expect("storage");
-    let mut node: Node = Node::new(1);
+    let mut node: Node = Node::new(1, desc.cia301);
     node.boot(Instant::ZERO, &od, &mut |_| {});
     // Read 6041h:00 (statusword), CMMP-SDO-03.
     let req = CanFrame::new(0x601, &[0x40, 0x41, 0x60, 0x00, 0, 0, 0, 0]).expect("frame");

@@ -41,20 +41,41 @@ impl EmcyProducer {
     /// An error appears: EMCY with its code and the new error register, entry in 1003h.
     /// Raising an error that is already active does nothing (CMMP-AS Tab. 3.8: one EMCY per
     /// occurrence).
-    pub fn raise(&mut self, od: &mut dyn ObjectAccess, code: u16, register_bits: u8, vendor: [u8; 5]) {
+    pub fn raise(
+        &mut self,
+        od: &mut dyn ObjectAccess,
+        code: u16,
+        register_bits: u8,
+        vendor: [u8; 5],
+    ) {
         if self.active.iter().any(|a| a.code == code) {
             return;
         }
-        if self.active.push(Active { code, register_bits }).is_err() {
+        if self
+            .active
+            .push(Active {
+                code,
+                register_bits,
+            })
+            .is_err()
+        {
             // Full: the oldest active error makes room; its EMCY was sent long ago.
             self.active.remove(0);
-            let _ = self.active.push(Active { code, register_bits });
+            let _ = self.active.push(Active {
+                code,
+                register_bits,
+            });
         }
         let reg = self.register();
         write_register(od, reg);
-        push_history(od, u32::from(code) | (u32::from(vendor[0]) << 16) | (u32::from(vendor[1]) << 24));
+        push_history(
+            od,
+            u32::from(code) | (u32::from(vendor[0]) << 16) | (u32::from(vendor[1]) << 24),
+        );
         let [c0, c1] = code.to_le_bytes();
-        self.enqueue([c0, c1, reg, vendor[0], vendor[1], vendor[2], vendor[3], vendor[4]]);
+        self.enqueue([
+            c0, c1, reg, vendor[0], vendor[1], vendor[2], vendor[3], vendor[4],
+        ]);
     }
 
     /// An error goes away; when none is left the error-free EMCY (0000h) is sent.

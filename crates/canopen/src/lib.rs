@@ -10,6 +10,7 @@ pub mod heartbeat;
 pub mod lss;
 pub mod nmt;
 pub mod node;
+pub mod pdo;
 pub mod sdo_crc;
 pub mod sdo_server;
 

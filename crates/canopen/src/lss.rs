@@ -282,7 +282,10 @@ impl LssSlave {
                 Some(LssAction::StoreConfiguration)
             }
             cs::INQUIRE_VENDOR..=cs::INQUIRE_SERIAL if configuration => {
-                let part = self.address.part(code.wrapping_sub(cs::INQUIRE_VENDOR)).unwrap_or(0);
+                let part = self
+                    .address
+                    .part(code.wrapping_sub(cs::INQUIRE_VENDOR))
+                    .unwrap_or(0);
                 let [v0, v1, v2, v3] = part.to_le_bytes();
                 out(response(code, [v0, v1, v2, v3, 0, 0, 0]));
                 None

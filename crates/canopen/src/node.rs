@@ -1,13 +1,27 @@
-//! One CANopen slave: NMT, the default SDO server channel and heartbeat, wired to a frame
-//! stream. Sans-IO: `on_frame` and `poll` take the time and return frames through `out`.
+//! One CANopen slave: NMT, the default SDO server channel, heartbeat and node guarding, SYNC,
+//! PDOs and EMCY, wired to a frame stream. Sans-IO: `on_frame` and `poll` take the time and
+//! return frames through `out`.
+
+use core::time::Duration;
 
 use heapless::Deque;
-use od::{time::earliest, Instant, ObjectAccess};
+use od::{time::earliest, AbortCode, Cia301Options, Entry, Instant, ObjectAccess};
 
+use crate::emcy::{register, EmcyProducer};
 use crate::heartbeat::{ConsumerEvent, HeartbeatConsumer, HeartbeatProducer};
 use crate::nmt::{NmtCommand, NmtOutcome, NmtSlave, NmtState};
+use crate::pdo::{PdoEvent, Pdos};
 use crate::sdo_server::SdoServer;
 use crate::CanFrame;
+
+/// CiA 301 emergency codes the stack raises itself (§7.2.7.1, Tab. 21).
+pub mod emcy_code {
+    /// Life guard or heartbeat consumer error.
+    pub const LIFE_GUARD_OR_HEARTBEAT: u16 = 0x8130;
+    pub const PDO_LENGTH: u16 = 0x8210;
+    pub const PDO_LENGTH_EXCEEDED: u16 = 0x8220;
+    pub const SYNC_LENGTH: u16 = 0x8240;
+}
 
 /// Something the runtime must act on, because it owns what the stack does not (files, the
 /// stored parameter set, the drive).
@@ -21,10 +35,22 @@ pub enum NodeEvent {
     State(NmtState),
     /// A consumed heartbeat timed out or came back.
     Heartbeat(ConsumerEvent),
+    /// Node guarding: no guarding request within the life time (CMMP-AS: error 12-4).
+    LifeGuardingLost,
+    /// A guarding request arrived again after a life-guarding error.
+    LifeGuardingResumed,
 }
 
 /// Events the runtime has not taken yet; the oldest are dropped when it never looks.
 const EVENT_QUEUE: usize = 8;
+
+/// Node guarding slave (CiA 301 §7.2.8.3.2.1).
+#[derive(Debug, Default, Clone, Copy)]
+struct Guarding {
+    toggle: bool,
+    life_deadline: Option<Instant>,
+    lost: bool,
+}
 
 pub struct Node<const N: usize = 8192> {
     node_id: u8,
@@ -32,19 +58,60 @@ pub struct Node<const N: usize = 8192> {
     sdo: SdoServer<N>,
     producer: HeartbeatProducer,
     consumer: HeartbeatConsumer,
+    guarding: Guarding,
+    pdos: Pdos,
+    emcy: EmcyProducer,
+    opts: Cia301Options,
     events: Deque<NodeEvent, EVENT_QUEUE>,
+    /// TPDO and EMCY deadlines as of the last `poll`.
+    timers: Option<Instant>,
+    /// A frame was handled: `poll` should run now (EMCY queued, PDOs started, …).
+    poll_soon: Option<Instant>,
+}
+
+/// The dictionary as the SDO server of this node sees it: PDO parameters are refused in
+/// Operational where the personality says so.
+struct SdoView<'a> {
+    od: &'a mut dyn ObjectAccess,
+    lock_pdo_params: bool,
+}
+
+impl ObjectAccess for SdoView<'_> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.od.entry(index, sub)
+    }
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.od.read(index, sub, buf)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if self.lock_pdo_params && (0x1400..=0x1BFF).contains(&index) {
+            // CMMP-AS §3.3.3: PDOs are parameterised outside Operational only.
+            self.od.entry(index, sub)?;
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.od.write(index, sub, data)
+    }
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write_internal(index, sub, data)
+    }
 }
 
 impl<const N: usize> Node<N> {
     /// A node that has not booted yet: call [`Node::boot`] to send the boot-up message.
-    pub fn new(node_id: u8) -> Self {
+    pub fn new(node_id: u8, opts: Cia301Options) -> Self {
         Node {
             node_id,
             nmt: NmtSlave::default(),
             sdo: SdoServer::default(),
             producer: HeartbeatProducer::default(),
             consumer: HeartbeatConsumer::default(),
+            guarding: Guarding::default(),
+            pdos: Pdos::new(opts),
+            emcy: EmcyProducer::default(),
+            opts,
             events: Deque::new(),
+            timers: None,
+            poll_soon: None,
         }
     }
 
@@ -69,13 +136,39 @@ impl<const N: usize> Node<N> {
         self.events.pop_front()
     }
 
+    /// The device raises an error: EMCY, 1001h, 1003h (CiA 301 §7.2.7).
+    pub fn raise_error(
+        &mut self,
+        od: &mut dyn ObjectAccess,
+        code: u16,
+        register_bits: u8,
+        vendor: [u8; 5],
+    ) {
+        self.emcy.raise(od, code, register_bits, vendor);
+    }
+
+    /// The device clears an error; the last one cleared sends EMCY 0000h.
+    pub fn clear_error(&mut self, od: &mut dyn ObjectAccess, code: u16) {
+        self.emcy.clear(od, code);
+    }
+
+    pub fn emcy(&self) -> &EmcyProducer {
+        &self.emcy
+    }
+
     /// Initialisation finished: boot-up message `700h+id: 00`, then Pre-Operational.
     pub fn boot(&mut self, now: Instant, od: &dyn ObjectAccess, out: &mut dyn FnMut(CanFrame)) {
         self.sdo.reset();
         self.consumer.clear();
+        // CMMP-AS §3.9: the toggle bit is reset by reset communication.
+        self.guarding = Guarding::default();
+        self.emcy.reset_communication();
+        self.pdos.reload(od);
+        self.pdos.set_operational(now, false);
         out(self.error_control_frame(0x00));
         self.nmt.booted();
         self.producer.booted(now, od);
+        self.poll_soon = Some(now);
         self.push(NodeEvent::State(self.nmt.state()));
     }
 
@@ -87,6 +180,12 @@ impl<const N: usize> Node<N> {
             len: 1,
             data: [byte, 0, 0, 0, 0, 0, 0, 0],
         }
+    }
+
+    fn sync_cob(od: &dyn ObjectAccess) -> u16 {
+        od.read_u32(0x1005, 0)
+            .map(|v| (v & 0x7FF) as u16)
+            .unwrap_or(0x080)
     }
 
     /// Handles one frame from the bus.
@@ -101,30 +200,120 @@ impl<const N: usize> Node<N> {
             return; // CANopen uses 11-bit identifiers only
         };
         let own = u16::from(self.node_id);
+        let state = self.nmt.state();
+        if state == NmtState::Initialising {
+            return;
+        }
+        self.poll_soon = Some(now);
         match cob {
-            0x000 => self.on_nmt(frame.payload(), out),
-            c if c == 0x600 + own && !frame.rtr && self.nmt.state().serves_sdo() => {
+            0x000 => self.on_nmt(now, frame.payload(), od),
+            c if c == 0x600 + own && !frame.rtr && state.serves_sdo() => {
                 let sdo_tx = 0x580 + own;
-                self.sdo.on_request(now, frame.payload(), od, &mut |r| {
-                    out(CanFrame::full(sdo_tx, r))
-                });
-                // A download (segment, initiate or block) may have changed the heartbeat period.
+                let lock =
+                    self.opts.pdo_config_outside_operational && state == NmtState::Operational;
+                let mut view = SdoView {
+                    od,
+                    lock_pdo_params: lock,
+                };
+                self.sdo
+                    .on_request(now, frame.payload(), &mut view, &mut |r| {
+                        out(CanFrame::full(sdo_tx, r))
+                    });
+                // A download (segment, initiate or block) may have changed the heartbeat
+                // period or a PDO.
                 if matches!(frame.payload().first().map(|cs| cs >> 5), Some(0 | 1 | 6)) {
                     self.producer.refresh(now, od);
+                    self.pdos.reload(od);
                 }
+            }
+            // Node guarding request: an RTR, or over socketcand (which carries no RTR) a
+            // zero-length frame (spec/anchors.md §3.3).
+            c if c == 0x700 + own && (frame.rtr || frame.payload().is_empty()) => {
+                self.on_guarding(now, od, out)
             }
             // Another node's boot-up or heartbeat.
             c if (0x701..=0x77F).contains(&c) && c != 0x700 + own && frame.payload().len() == 1 => {
                 let node = (c - 0x700) as u8;
                 if let Some(e) = self.consumer.on_heartbeat(now, node, od) {
+                    if let ConsumerEvent::Resumed { .. } = e {
+                        self.emcy.clear(od, emcy_code::LIFE_GUARD_OR_HEARTBEAT);
+                    }
                     self.push(NodeEvent::Heartbeat(e));
                 }
             }
+            c if c == Self::sync_cob(od) && state == NmtState::Operational => {
+                self.on_sync(now, frame.payload(), od, out);
+            }
+            _ if state == NmtState::Operational => match self.pdos.on_frame(frame, od) {
+                Some(PdoEvent::LengthError { .. }) => {
+                    self.emcy
+                        .raise(od, emcy_code::PDO_LENGTH, register::COMMUNICATION, [0; 5])
+                }
+                Some(PdoEvent::LengthExceeded { .. }) => self.emcy.raise(
+                    od,
+                    emcy_code::PDO_LENGTH_EXCEEDED,
+                    register::COMMUNICATION,
+                    [0; 5],
+                ),
+                Some(PdoEvent::LengthOk { .. }) => {
+                    self.emcy.clear(od, emcy_code::PDO_LENGTH);
+                    self.emcy.clear(od, emcy_code::PDO_LENGTH_EXCEEDED);
+                }
+                None => {}
+            },
             _ => {}
         }
     }
 
-    fn on_nmt(&mut self, data: &[u8], _out: &mut dyn FnMut(CanFrame)) {
+    fn on_sync(
+        &mut self,
+        now: Instant,
+        data: &[u8],
+        od: &mut dyn ObjectAccess,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
+        // CiA 301 §7.2.5: with 1019h the SYNC carries a counter byte; without, none. A device
+        // without 1019h (CMMP-AS) takes both.
+        let ok = match od.read_u8(0x1019, 0) {
+            Some(0) => data.is_empty(),
+            Some(_) => data.len() == 1,
+            None => data.len() <= 1,
+        };
+        if !ok {
+            self.emcy
+                .raise(od, emcy_code::SYNC_LENGTH, register::COMMUNICATION, [0; 5]);
+            return;
+        }
+        self.emcy.clear(od, emcy_code::SYNC_LENGTH);
+        self.pdos.on_sync(now, od, out);
+    }
+
+    fn on_guarding(
+        &mut self,
+        now: Instant,
+        od: &mut dyn ObjectAccess,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
+        // CMMP-AS §3.9: with both configured only the heartbeat runs.
+        if od.read_u16(0x1017, 0).unwrap_or(0) != 0 {
+            return;
+        }
+        let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
+        self.guarding.toggle = !self.guarding.toggle;
+        out(self.error_control_frame(byte));
+        let guard_ms = u64::from(od.read_u16(0x100C, 0).unwrap_or(0));
+        let factor = u64::from(od.read_u8(0x100D, 0).unwrap_or(0));
+        // Life time = guard time × life time factor; 0 in either disables life guarding.
+        self.guarding.life_deadline =
+            (guard_ms > 0 && factor > 0).then(|| now + Duration::from_millis(guard_ms * factor));
+        if self.guarding.lost {
+            self.guarding.lost = false;
+            self.emcy.clear(od, emcy_code::LIFE_GUARD_OR_HEARTBEAT);
+            self.push(NodeEvent::LifeGuardingResumed);
+        }
+    }
+
+    fn on_nmt(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess) {
         // CiA 301: NMT frames have 2 bytes; others are not NMT node control.
         let [cs, target] = match data {
             [a, b] => [*a, *b],
@@ -143,52 +332,89 @@ impl<const N: usize> Node<N> {
                     self.sdo.reset(); // a transfer in progress is dropped silently
                 }
                 if s != before {
+                    self.pdos.reload(od);
+                    self.pdos.set_operational(now, s == NmtState::Operational);
                     self.push(NodeEvent::State(s));
                 }
             }
             Some(NmtOutcome::ResetApplication) => {
-                self.halt_services();
+                self.halt_services(now);
                 self.push(NodeEvent::ResetApplication);
             }
             Some(NmtOutcome::ResetCommunication) => {
-                self.halt_services();
+                self.halt_services(now);
                 self.push(NodeEvent::ResetCommunication);
             }
             None => {}
         }
     }
 
-    fn halt_services(&mut self) {
+    fn halt_services(&mut self, now: Instant) {
         self.sdo.reset();
         self.producer.stop();
         self.consumer.clear();
+        self.guarding = Guarding::default();
+        self.pdos.set_operational(now, false);
     }
 
-    /// Timers: heartbeat, SDO timeout, consumer timeouts. Returns the next deadline.
+    /// Timers: heartbeat, SDO timeout, consumer and life guarding, TPDOs, EMCY inhibit.
+    /// Returns the next deadline.
     pub fn poll(
         &mut self,
         now: Instant,
         od: &mut dyn ObjectAccess,
         out: &mut dyn FnMut(CanFrame),
     ) -> Option<Instant> {
-        if self.nmt.state() == NmtState::Initialising {
+        let state = self.nmt.state();
+        if state == NmtState::Initialising {
             return None;
         }
         if self.producer.due(now, od) {
-            out(self.error_control_frame(self.nmt.state().code()));
+            out(self.error_control_frame(state.code()));
         }
         let sdo_tx = 0x580 + u16::from(self.node_id);
         self.sdo.poll(now, &mut |r| out(CanFrame::full(sdo_tx, r)));
         if let Some(e) = self.consumer.poll(now, od) {
+            if let ConsumerEvent::Lost { .. } = e {
+                self.emcy.raise(
+                    od,
+                    emcy_code::LIFE_GUARD_OR_HEARTBEAT,
+                    register::COMMUNICATION,
+                    [0; 5],
+                );
+            }
             self.push(NodeEvent::Heartbeat(e));
         }
+        if self.guarding.life_deadline.is_some_and(|d| now >= d) {
+            self.guarding.life_deadline = None;
+            self.guarding.lost = true;
+            self.emcy.raise(
+                od,
+                emcy_code::LIFE_GUARD_OR_HEARTBEAT,
+                register::COMMUNICATION,
+                [0; 5],
+            );
+            self.push(NodeEvent::LifeGuardingLost);
+        }
+        let pdo_deadline = self.pdos.poll(now, od, out);
+        let emcy_deadline = self
+            .emcy
+            .poll(now, od, state.serves_sdo(), &mut |cob, data| {
+                out(CanFrame::full(cob, data))
+            });
+        self.timers = earliest(pdo_deadline, emcy_deadline);
+        self.poll_soon = None;
         self.deadline()
     }
 
+    /// When `poll` must next run: timers, and at once after a frame was handled.
     pub fn deadline(&self) -> Option<Instant> {
         earliest(
-            earliest(self.producer.deadline(), self.sdo.deadline()),
-            self.consumer.deadline(),
+            earliest(
+                earliest(self.producer.deadline(), self.sdo.deadline()),
+                earliest(self.consumer.deadline(), self.guarding.life_deadline),
+            ),
+            earliest(self.timers, self.poll_soon),
         )
     }
 }

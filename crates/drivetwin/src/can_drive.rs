@@ -78,7 +78,7 @@ impl CanDrive {
         };
         let mut d = CanDrive {
             od,
-            node: Node::new(node_id),
+            node: Node::new(node_id, desc.cia301),
             store,
             stored,
             commissioning,

@@ -291,7 +291,9 @@ async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
         #[cfg(target_os = "linux")]
         return Ok(Link::socketcan(ifname)?);
         #[cfg(not(target_os = "linux"))]
-        return Err(CommandError::Usage(format!("--can {ifname}: SocketCAN needs Linux")));
+        return Err(CommandError::Usage(format!(
+            "--can {ifname}: SocketCAN needs Linux"
+        )));
     }
     Ok(Link::socketcand(&bus.socketcand, &bus.channel).await?)
 }

@@ -260,10 +260,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
         if sub > 0 {
             if let Some(count) = self.desc.entry(index, 0) {
                 if count.behaviour == Behaviour::ErrorHistoryCount
-                    && u64::from(sub) > Value::decode(count.data_type, self.raw(count)).and_then(|v| match v {
-                        Value::Unsigned(u) => Some(u),
-                        _ => None,
-                    }).unwrap_or(0)
+                    && u64::from(sub)
+                        > Value::decode(count.data_type, self.raw(count))
+                            .and_then(|v| match v {
+                                Value::Unsigned(u) => Some(u),
+                                _ => None,
+                            })
+                            .unwrap_or(0)
                 {
                     // CiA 301 §7.5.2.4 (CCT Emergency 03): no error stored there yet.
                     return Err(AbortCode::NO_DATA);

@@ -21,7 +21,9 @@ pub mod value;
 pub use abort_code::AbortCode;
 pub use access::Access;
 pub use data_type::DataType;
-pub use description::{Behaviour, Cia301Options, DeviceDescription, Entry, Limit, Object, ObjectKind};
+pub use description::{
+    Behaviour, Cia301Options, DeviceDescription, Entry, Limit, Object, ObjectKind,
+};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
 pub use time::Instant;
 pub use value::Value;

@@ -1,7 +1,9 @@
 //! CiA 301 §7.5.2.35–38: the rules for writing PDO communication and mapping parameters, so
 //! every front end that reaches 1400h–1BFFh gets the same answers (CCT PDO 22–33).
 
-use crate::{AbortCode, Behaviour, DataType, DeviceDescription, Entry, ObjectAccess, ObjectDictionary};
+use crate::{
+    AbortCode, Behaviour, DataType, DeviceDescription, Entry, ObjectAccess, ObjectDictionary,
+};
 
 /// Largest PDO payload in bits.
 pub const MAX_PDO_BITS: u32 = 64;
@@ -17,10 +19,22 @@ pub struct PdoRef {
 impl PdoRef {
     pub fn of(index: u16) -> Option<Self> {
         match index {
-            0x1400..=0x15FF => Some(PdoRef { transmit: false, comm: index }),
-            0x1600..=0x17FF => Some(PdoRef { transmit: false, comm: index - 0x200 }),
-            0x1800..=0x19FF => Some(PdoRef { transmit: true, comm: index }),
-            0x1A00..=0x1BFF => Some(PdoRef { transmit: true, comm: index - 0x200 }),
+            0x1400..=0x15FF => Some(PdoRef {
+                transmit: false,
+                comm: index,
+            }),
+            0x1600..=0x17FF => Some(PdoRef {
+                transmit: false,
+                comm: index - 0x200,
+            }),
+            0x1800..=0x19FF => Some(PdoRef {
+                transmit: true,
+                comm: index,
+            }),
+            0x1A00..=0x1BFF => Some(PdoRef {
+                transmit: true,
+                comm: index - 0x200,
+            }),
             _ => None,
         }
     }
@@ -68,7 +82,9 @@ pub fn check_map_entry(desc: &DeviceDescription, transmit: bool, v: u32) -> Resu
     }
     if m.is_dummy() {
         // Dummies only make sense where bytes are skipped: in RPDOs.
-        let size = dummy_type(m.index).and_then(|t| t.fixed_size()).unwrap_or(0) as u32;
+        let size = dummy_type(m.index)
+            .and_then(|t| t.fixed_size())
+            .unwrap_or(0) as u32;
         return if !transmit && u32::from(m.bits) == size * 8 {
             Ok(())
         } else {
@@ -77,7 +93,11 @@ pub fn check_map_entry(desc: &DeviceDescription, transmit: bool, v: u32) -> Resu
     }
     let obj = desc.object(m.index).ok_or(AbortCode::NO_OBJECT)?;
     let e = obj.entry(m.sub).ok_or(AbortCode::NO_SUB_INDEX)?;
-    let direction_ok = if transmit { e.access.readable() } else { e.access.writable() };
+    let direction_ok = if transmit {
+        e.access.readable()
+    } else {
+        e.access.writable()
+    };
     if !e.pdo_mappable || !direction_ok || e.is_variable() || u32::from(m.bits) != e.bit_len() {
         return Err(AbortCode::NOT_MAPPABLE);
     }
@@ -106,7 +126,9 @@ fn mapped_bits<A: ObjectAccess + ?Sized>(
 ) -> Result<u32, AbortCode> {
     let mut total = 0u32;
     for sub in 1..=n {
-        let v = od.read_u32(pdo.mapping(), sub).ok_or(AbortCode::PDO_LENGTH)?;
+        let v = od
+            .read_u32(pdo.mapping(), sub)
+            .ok_or(AbortCode::PDO_LENGTH)?;
         if v == 0 {
             return Err(AbortCode::NOT_MAPPABLE);
         }
@@ -118,7 +140,8 @@ fn mapped_bits<A: ObjectAccess + ?Sized>(
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
     fn pdo_valid(&self, pdo: PdoRef) -> bool {
-        self.read_u32(pdo.comm, 1).is_some_and(|c| c & 0x8000_0000 == 0)
+        self.read_u32(pdo.comm, 1)
+            .is_some_and(|c| c & 0x8000_0000 == 0)
     }
 
     /// Checks a write to a PDO parameter; returns the value to store when it differs from

@@ -16,7 +16,7 @@ impl Bench {
         let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size])
             .expect("storage sized from the description");
         let mut b = Bench {
-            node: Node::new(node_id),
+            node: Node::new(node_id, desc.cia301),
             od,
             now: Instant::ZERO,
         };
