@@ -5,14 +5,14 @@
 
 use od::ObjectAccess;
 
-/// CAN-ID of LSS requests, master → slaves (CiA 305 §4.1).
+/// CAN-ID of LSS requests, master → slaves (CiA 305; spec `canopen-protocols.md` §6.1).
 pub const LSS_REQUEST_ID: u16 = 0x7E5;
 /// CAN-ID of LSS responses, slave → master.
 pub const LSS_RESPONSE_ID: u16 = 0x7E4;
-/// The node-ID of a node that has none ("not configured", CiA 305 §3.2).
+/// The node-ID of a node that has none ("not configured", CiA 305; spec §6.1).
 pub const UNCONFIGURED: u8 = 0xFF;
 
-/// Command specifiers (CiA 305 §5.x; spec `canopen-protocols.md` §6.3).
+/// Command specifiers (CiA 305; spec §6.3).
 pub mod cs {
     pub const SWITCH_STATE_GLOBAL: u8 = 0x04;
     pub const CONFIGURE_NODE_ID: u8 = 0x11;
@@ -77,7 +77,7 @@ impl LssAddress {
     }
 }
 
-/// LSS slave state (CiA 305 §4.3). Initialisation is not a state of its own here: the slave
+/// LSS slave state (CiA 305; spec §6.2). Initialisation is not a state of its own here: the slave
 /// starts in Waiting.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u8)]
@@ -100,8 +100,8 @@ impl LssState {
     }
 }
 
-/// Bit rate in kbit/s of an index of the CiA 301 bit-timing table (table selector 0, CiA 305
-/// §5.4.2); `None` for reserved entries (5) and automatic detection (9), which are not
+/// Bit rate in kbit/s of an index of the CiA 301 bit-timing table (table selector 0, CiA 305;
+/// spec §6.3); `None` for reserved entries (5) and automatic detection (9), which are not
 /// supported.
 pub const fn bit_rate_kbit(index: u8) -> Option<u16> {
     Some(match index {
@@ -121,13 +121,13 @@ pub const fn bit_rate_kbit(index: u8) -> Option<u16> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LssAction {
     /// Configure node-ID accepted (1…127, or FFh = unconfigured): it is now the pending
-    /// node-ID, which becomes active at the next reset communication (CiA 305 §5.4.1).
+    /// node-ID, which becomes active at the next reset communication (CiA 305; spec §6.2).
     NodeIdConfigured(u8),
     /// Configure bit timing accepted: the pending bit timing. Activated by
     /// [`LssAction::ActivateBitTiming`], persisted by [`LssAction::StoreConfiguration`].
     BitTimingConfigured { table: u8, index: u8 },
     /// Activate bit timing: wait `delay_ms`, switch to the pending bit rate, wait `delay_ms`
-    /// again before transmitting anything (CiA 305 §5.4.3).
+    /// again before transmitting anything (CiA 305; spec §6.3).
     ActivateBitTiming { delay_ms: u16 },
     /// Store configuration (answered with success): persist the pending node-ID and bit timing
     /// so that they are used after the next power-on.
@@ -141,7 +141,7 @@ pub enum LssAction {
     ResetCommunication { node_id: u8 },
 }
 
-/// Whether `id` may be configured: 1…127 or FFh (CiA 305 §5.4.1).
+/// Whether `id` may be configured: 1…127 or FFh (CiA 305; spec §6.3).
 const fn configurable(id: u8) -> bool {
     matches!(id, 1..=127 | UNCONFIGURED)
 }
@@ -368,7 +368,7 @@ impl LssSlave {
         }
     }
 
-    /// 51h (CiA 305 §5.6; spec §6.5). Silence is the answer "no match".
+    /// 51h (CiA 305 fastscan; spec §6.5). Silence is the answer "no match".
     fn fastscan(
         &mut self,
         id_number: u32,

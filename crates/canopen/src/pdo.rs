@@ -229,14 +229,11 @@ impl Pdos {
         if !self.operational || frame.rtr {
             return None;
         }
-        let Some((n, r)) = self
+        let (n, r) = self
             .rx
             .iter_mut()
             .enumerate()
-            .find(|(_, r)| r.cfg.valid && r.cfg.cob == cob)
-        else {
-            return None;
-        };
+            .find(|(_, r)| r.cfg.valid && r.cfg.cob == cob)?;
         let rpdo = n as u8 + 1;
         let payload = frame.payload();
         if payload.len() < r.cfg.len {

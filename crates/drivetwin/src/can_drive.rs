@@ -153,6 +153,15 @@ impl CanDrive {
                 NodeEvent::Heartbeat(e) => {
                     tracing::warn!(node = self.node_id(), event = ?e, "heartbeat consumer")
                 }
+                NodeEvent::LifeGuardingLost => {
+                    tracing::warn!(
+                        node = self.node_id(),
+                        "life guarding: no request within the life time"
+                    )
+                }
+                NodeEvent::LifeGuardingResumed => {
+                    tracing::info!(node = self.node_id(), "life guarding resumed")
+                }
             }
         }
     }
