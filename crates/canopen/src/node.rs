@@ -9,6 +9,7 @@ use od::{time::earliest, AbortCode, Cia301Options, Entry, Instant, ObjectAccess}
 
 use crate::emcy::{register, EmcyProducer};
 use crate::heartbeat::{ConsumerEvent, HeartbeatConsumer, HeartbeatProducer};
+use crate::lss::{LssAction, LssAddress, LssSlave, LSS_REQUEST_ID, LSS_RESPONSE_ID};
 use crate::nmt::{NmtCommand, NmtOutcome, NmtSlave, NmtState};
 use crate::pdo::{PdoEvent, Pdos};
 use crate::sdo_server::SdoServer;
@@ -39,6 +40,8 @@ pub enum NodeEvent {
     LifeGuardingLost,
     /// A guarding request arrived again after a life-guarding error.
     LifeGuardingResumed,
+    /// LSS "store configuration": persist this node-ID for the next power-on (CiA 305).
+    LssStore { node_id: u8 },
 }
 
 /// Events the runtime has not taken yet; the oldest are dropped when it never looks.
@@ -62,6 +65,8 @@ pub struct Node<const N: usize = 8192> {
     pdos: Pdos,
     emcy: EmcyProducer,
     opts: Cia301Options,
+    /// Made at the first boot, from 1018h.
+    lss: Option<LssSlave>,
     events: Deque<NodeEvent, EVENT_QUEUE>,
     /// TPDO and EMCY deadlines as of the last `poll`.
     timers: Option<Instant>,
@@ -109,6 +114,7 @@ impl<const N: usize> Node<N> {
             pdos: Pdos::new(opts),
             emcy: EmcyProducer::default(),
             opts,
+            lss: None,
             events: Deque::new(),
             timers: None,
             poll_soon: None,
@@ -156,8 +162,31 @@ impl<const N: usize> Node<N> {
         &self.emcy
     }
 
-    /// Initialisation finished: boot-up message `700h+id: 00`, then Pre-Operational.
+    /// The LSS slave, once the node has booted.
+    pub fn lss(&self) -> Option<&LssSlave> {
+        self.lss.as_ref()
+    }
+
+    /// Initialisation finished: boot-up message `700h+id: 00`, then Pre-Operational. A node
+    /// without a node-ID (FFh) stays silent and serves only LSS until it gets one (CiA 305).
     pub fn boot(&mut self, now: Instant, od: &dyn ObjectAccess, out: &mut dyn FnMut(CanFrame)) {
+        match self.lss.as_mut() {
+            Some(l) => l.set_active_node_id(self.node_id),
+            None => {
+                let address = LssAddress::from_od(od).unwrap_or(LssAddress {
+                    vendor_id: 0,
+                    product_code: 0,
+                    revision: 0,
+                    serial: 0,
+                });
+                self.lss = Some(LssSlave::new(address, self.node_id));
+            }
+        }
+        if !(1..=127).contains(&self.node_id) {
+            self.nmt.resetting();
+            self.halt_services(now);
+            return;
+        }
         self.sdo.reset();
         self.consumer.clear();
         // CMMP-AS §3.9: the toggle bit is reset by reset communication.
@@ -199,6 +228,10 @@ impl<const N: usize> Node<N> {
         let Some(cob) = frame.cob_id() else {
             return; // CANopen uses 11-bit identifiers only
         };
+        if cob == LSS_REQUEST_ID {
+            self.on_lss(frame.payload(), out);
+            return;
+        }
         let own = u16::from(self.node_id);
         let state = self.nmt.state();
         if state == NmtState::Initialising {
@@ -261,6 +294,26 @@ impl<const N: usize> Node<N> {
                 }
                 None => {}
             },
+            _ => {}
+        }
+    }
+
+    fn on_lss(&mut self, data: &[u8], out: &mut dyn FnMut(CanFrame)) {
+        let Some(lss) = self.lss.as_mut() else {
+            return;
+        };
+        let action = lss.on_request(data, &mut |r| out(CanFrame::full(LSS_RESPONSE_ID, r)));
+        match action {
+            Some(LssAction::StoreConfiguration) => {
+                let node_id = lss.pending_node_id();
+                self.push(NodeEvent::LssStore { node_id });
+            }
+            // An unconfigured node got its node-ID: reset communication with it now.
+            Some(LssAction::ResetCommunication { node_id }) => {
+                self.node_id = node_id;
+                self.nmt.resetting();
+                self.push(NodeEvent::ResetCommunication);
+            }
             _ => {}
         }
     }
@@ -339,13 +392,24 @@ impl<const N: usize> Node<N> {
             }
             Some(NmtOutcome::ResetApplication) => {
                 self.halt_services(now);
+                self.take_pending_node_id();
                 self.push(NodeEvent::ResetApplication);
             }
             Some(NmtOutcome::ResetCommunication) => {
                 self.halt_services(now);
+                self.take_pending_node_id();
                 self.push(NodeEvent::ResetCommunication);
             }
             None => {}
+        }
+    }
+
+    /// CiA 305: a node-ID configured by LSS becomes active at the next reset.
+    fn take_pending_node_id(&mut self) {
+        if let Some(lss) = self.lss.as_mut() {
+            let id = lss.pending_node_id();
+            lss.set_active_node_id(id);
+            self.node_id = lss.active_node_id();
         }
     }
 

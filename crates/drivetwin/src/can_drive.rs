@@ -8,7 +8,7 @@ use crate::param_store::{self, ParamStore, StoreError, StoredValue};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriveError {
-    #[error("node-ID {0} is outside 1…127")]
+    #[error("node-ID {0} is outside 1…127 (255 = unconfigured, waiting for LSS)")]
     NodeId(u8),
     #[error("commissioning value {index:04X}h:{sub:02X}h: {what}")]
     Commissioning { index: u16, sub: u8, what: String },
@@ -42,9 +42,14 @@ impl CanDrive {
         store: Option<ParamStore>,
         commissioning: Vec<Commissioning>,
     ) -> Result<Self, DriveError> {
-        if !(1..=127).contains(&node_id) {
+        if !(1..=127).contains(&node_id) && node_id != canopen::lss::UNCONFIGURED {
             return Err(DriveError::NodeId(node_id));
         }
+        // A node-ID stored by LSS "store configuration" wins over the cell's (CiA 305).
+        let node_id = store
+            .as_ref()
+            .and_then(|s| s.load_lss_node_id())
+            .unwrap_or(node_id);
         let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size]).map_err(|e| {
             DriveError::Commissioning {
                 index: 0,
@@ -140,13 +145,26 @@ impl CanDrive {
         while let Some(ev) = self.node.take_event() {
             match ev {
                 NodeEvent::ResetApplication => {
+                    self.od.set_node_id(self.node.node_id());
                     self.reload(|_| true);
                     self.node.boot(now, &self.od, out);
                 }
                 NodeEvent::ResetCommunication => {
+                    // The node-ID may have changed (LSS): node-relative defaults follow it.
+                    self.od.set_node_id(self.node.node_id());
                     self.reload(|i| (0x1000..0x2000).contains(&i));
                     self.node.boot(now, &self.od, out);
                 }
+                NodeEvent::LssStore { node_id } => match &self.store {
+                    Some(store) => match store.save_lss_node_id(node_id) {
+                        Ok(()) => tracing::info!(node_id, "LSS node-ID stored"),
+                        Err(e) => tracing::error!(error = %e, "storing the LSS node-ID failed"),
+                    },
+                    None => tracing::warn!(
+                        node_id,
+                        "LSS store without a state directory: kept until the process ends"
+                    ),
+                },
                 NodeEvent::State(s) => {
                     tracing::debug!(node = self.node_id(), state = s.name(), "NMT")
                 }

@@ -46,6 +46,35 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
+    /// Show or change a node's PDO configuration (CiA 301 procedure).
+    #[command(subcommand)]
+    Pdo(PdoCommand),
+    /// Produce SYNC messages.
+    Sync {
+        /// Period in milliseconds.
+        #[arg(long, default_value_t = 10.0)]
+        period_ms: f64,
+        /// Stop after this many SYNCs (default: until Ctrl-C).
+        #[arg(long)]
+        count: Option<u64>,
+        /// Carry a counter byte 1…N (CiA 301 1019h); 0 = no counter.
+        #[arg(long, default_value_t = 0)]
+        counter: u8,
+        #[arg(long, default_value = "080")]
+        cob_id: String,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+    /// Layer setting services (CiA 305): find unconfigured nodes and give them a node-ID.
+    #[command(subcommand)]
+    Lss(LssCommand),
+    /// Which nodes answer (SDO read of 1000h on every node-ID).
+    Scan {
+        #[arg(long, default_value_t = 300)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
     /// Print every frame on the bus, decoded.
     Monitor {
         /// Stop after this many frames.
@@ -144,6 +173,68 @@ pub enum SdoCommand {
         #[arg(long)]
         device: Option<String>,
         #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum PdoCommand {
+    /// Print every RPDO and TPDO of a node.
+    Show {
+        node: u8,
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+    /// Configure one PDO: `drivetwin pdo map 1 tpdo1 --cob-id 181 --type 255 --map 6041:00:16`.
+    Map {
+        node: u8,
+        /// rpdoN or tpdoN.
+        pdo: String,
+        /// COB-ID, hex (default: the pre-defined connection set for the node).
+        #[arg(long)]
+        cob_id: Option<String>,
+        /// Transmission type 0…240, 254, 255.
+        #[arg(long = "type", default_value_t = 255)]
+        transmission_type: u8,
+        /// Inhibit time in 100 µs (TPDOs).
+        #[arg(long)]
+        inhibit: Option<u16>,
+        /// Event timer in ms.
+        #[arg(long)]
+        event_timer: Option<u16>,
+        /// Mapped objects INDEX:SUB:BITS, hex index and sub-index, in order.
+        #[arg(long = "map", value_delimiter = ',')]
+        map: Vec<String>,
+        /// Leave the PDO disabled.
+        #[arg(long)]
+        disabled: bool,
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum LssCommand {
+    /// Fastscan for an unconfigured node; with --node, give it that node-ID and store it.
+    Fastscan {
+        #[arg(long)]
+        node: Option<u8>,
+        /// Per-step answer timeout.
+        #[arg(long, default_value_t = 30)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
+    /// Switch every node to configuration, set the node-ID of the one node on the bus, store.
+    SetNode {
+        node: u8,
+        #[arg(long, default_value_t = 200)]
         timeout_ms: u64,
         #[command(flatten)]
         bus: BusArgs,

@@ -15,7 +15,9 @@ use drivetwin::trace::{self, TraceWriter};
 use drivetwin::{runtime, socketcand, value_text};
 use od::DataType;
 
-use crate::cli::{BusArgs, Cli, Command, NmtArg, RunArgs, SdoCommand};
+use crate::cli::{BusArgs, Cli, Command, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand};
+use drivetwin::master::lss::{LssError, LssMaster};
+use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
 
 pub const EXIT_FAILURE: u8 = 1;
 pub const EXIT_USAGE: u8 = 2;
@@ -36,6 +38,8 @@ pub enum CommandError {
     Link(#[from] LinkError),
     #[error(transparent)]
     Sdo(#[from] SdoError),
+    #[error(transparent)]
+    Lss(#[from] LssError),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -51,6 +55,9 @@ impl CommandError {
             CommandError::Sdo(SdoError::Timeout { .. }) => EXIT_TIMEOUT,
             CommandError::Sdo(SdoError::Abort(_)) => EXIT_ABORT,
             CommandError::Sdo(SdoError::Protocol(_)) => EXIT_PROTOCOL,
+            CommandError::Lss(LssError::Link(_)) => EXIT_LINK,
+            CommandError::Lss(LssError::NoResponse(_)) => EXIT_TIMEOUT,
+            CommandError::Lss(LssError::Refused { .. }) => EXIT_PROTOCOL,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
         }
     }
@@ -79,6 +86,16 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         }
         Command::Sdo(cmd) => sdo(cmd).await,
         Command::Nmt { command, node, bus } => nmt(command, node, bus).await,
+        Command::Pdo(cmd) => pdo(cmd).await,
+        Command::Sync {
+            period_ms,
+            count,
+            counter,
+            cob_id,
+            bus,
+        } => sync(period_ms, count, counter, &cob_id, bus).await,
+        Command::Lss(cmd) => lss(cmd).await,
+        Command::Scan { timeout_ms, bus } => scan(timeout_ms, bus).await,
         Command::Monitor {
             count,
             seconds,
@@ -520,6 +537,283 @@ async fn monitor(
                 frame.len,
                 canopen::decode::Hex(frame.payload()).to_string()
             );
+        }
+    }
+    Ok(())
+}
+
+fn parse_pdo_name(s: &str) -> Result<(Direction, u16), CommandError> {
+    let lower = s.to_ascii_lowercase();
+    let (dir, n) = if let Some(n) = lower.strip_prefix("rpdo") {
+        (Direction::Rpdo, n)
+    } else if let Some(n) = lower.strip_prefix("tpdo") {
+        (Direction::Tpdo, n)
+    } else {
+        return Err(CommandError::Usage(format!(
+            "{s:?}: expected rpdoN or tpdoN"
+        )));
+    };
+    match n.parse::<u16>() {
+        Ok(n) if (1..=512).contains(&n) => Ok((dir, n)),
+        _ => Err(CommandError::Usage(format!("{s:?}: PDO number 1…512"))),
+    }
+}
+
+async fn pdo(cmd: PdoCommand) -> Result<(), CommandError> {
+    match cmd {
+        PdoCommand::Show {
+            node,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let mut link = connect(&bus).await?;
+            let mut client = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms));
+            let mut all = Vec::new();
+            for dir in [Direction::Rpdo, Direction::Tpdo] {
+                for n in 1..=512u16 {
+                    match pdo_config::read_pdo(&mut client, dir, n).await? {
+                        Some(p) => all.push(p),
+                        None => break,
+                    }
+                }
+            }
+            if bus.json {
+                println!("{}", serde_json::to_string(&all).unwrap_or_default());
+            } else {
+                for p in &all {
+                    let name = match p.direction {
+                        Direction::Rpdo => "RPDO",
+                        Direction::Tpdo => "TPDO",
+                    };
+                    let map: Vec<String> = p
+                        .mapping
+                        .iter()
+                        .map(|m| format!("{:04X}:{:02X}/{}", m.index, m.sub, m.bits))
+                        .collect();
+                    println!(
+                        "{name}{} cob-id {:08X} {} type {} inhibit {} event {}  [{}]",
+                        p.number,
+                        p.cob_id,
+                        if p.valid { "enabled " } else { "disabled" },
+                        p.transmission_type,
+                        p.inhibit_time_100us
+                            .map(|v| v.to_string())
+                            .unwrap_or_else(|| "-".into()),
+                        p.event_timer_ms
+                            .map(|v| v.to_string())
+                            .unwrap_or_else(|| "-".into()),
+                        map.join(", ")
+                    );
+                }
+            }
+            Ok(())
+        }
+        PdoCommand::Map {
+            node,
+            pdo,
+            cob_id,
+            transmission_type,
+            inhibit,
+            event_timer,
+            map,
+            disabled,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let (dir, n) = parse_pdo_name(&pdo)?;
+            let cob_id = match cob_id {
+                Some(c) => parse_hex_u16(&c, "COB-ID")?,
+                None if n <= 4 => {
+                    let base = match dir {
+                        Direction::Tpdo => 0x180,
+                        Direction::Rpdo => 0x200,
+                    };
+                    base + 0x100 * (n - 1) + u16::from(node)
+                }
+                None => return Err(CommandError::Usage("PDOs above 4 need --cob-id".into())),
+            };
+            let mapping = map
+                .iter()
+                .map(|m| {
+                    Mapping::parse(m).ok_or_else(|| {
+                        CommandError::Usage(format!("mapping {m:?}: expected INDEX:SUB:BITS"))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let setting = PdoSetting {
+                cob_id,
+                transmission_type,
+                inhibit_time_100us: inhibit,
+                event_timer_ms: event_timer,
+                mapping,
+                enable: !disabled,
+            };
+            let mut link = connect(&bus).await?;
+            let mut client = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms));
+            pdo_config::write_pdo(&mut client, dir, n, &setting).await?;
+            if bus.json {
+                println!(
+                    "{}",
+                    serde_json::json!({"node": node, "pdo": pdo, "cob_id": cob_id, "entries": setting.mapping.len()})
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+async fn sync(
+    period_ms: f64,
+    count: Option<u64>,
+    counter: u8,
+    cob_id: &str,
+    bus: BusArgs,
+) -> Result<(), CommandError> {
+    if !(period_ms.is_finite() && period_ms > 0.0) {
+        return Err(CommandError::Usage("--period-ms must be positive".into()));
+    }
+    if counter == 1 || counter > 240 {
+        return Err(CommandError::Usage(
+            "--counter is 0 or 2…240 (CiA 301 1019h)".into(),
+        ));
+    }
+    let cob = parse_hex_u16(cob_id, "COB-ID")?;
+    let mut link = connect(&bus).await?;
+    let mut interval = tokio::time::interval(Duration::from_secs_f64(period_ms / 1000.0));
+    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut sent = 0u64;
+    let mut value = 0u8;
+    let stop = shutdown_signal();
+    tokio::pin!(stop);
+    while count.is_none_or(|c| sent < c) {
+        tokio::select! {
+            _ = &mut stop => break,
+            _ = interval.tick() => {}
+        }
+        let frame = if counter == 0 {
+            CanFrame::new(cob, &[])
+        } else {
+            value = if value >= counter { 1 } else { value + 1 };
+            CanFrame::new(cob, &[value])
+        }
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
+        link.send(&frame).await?;
+        sent += 1;
+    }
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    if bus.json {
+        println!("{}", serde_json::json!({"sync": sent}));
+    } else {
+        println!("{sent} SYNC sent");
+    }
+    Ok(())
+}
+
+async fn lss(cmd: LssCommand) -> Result<(), CommandError> {
+    match cmd {
+        LssCommand::Fastscan {
+            node,
+            timeout_ms,
+            bus,
+        } => {
+            if let Some(n) = node {
+                check_node(n)?;
+            }
+            let mut link = connect(&bus).await?;
+            let mut m = LssMaster::new(&mut link, Duration::from_millis(timeout_ms));
+            let Some(addr) = m.fast_scan().await? else {
+                if bus.json {
+                    println!("{}", serde_json::json!({"found": false}));
+                } else {
+                    println!("no unconfigured node answered");
+                }
+                return Err(CommandError::Lss(LssError::NoResponse(
+                    Duration::from_millis(timeout_ms),
+                )));
+            };
+            if let Some(n) = node {
+                m.timeout = Duration::from_millis(timeout_ms.max(200));
+                m.configure_node_id(n).await?;
+                m.store_configuration().await?;
+                m.switch_global(false).await?;
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+            if bus.json {
+                println!(
+                    "{}",
+                    serde_json::json!({"found": true, "vendor_id": addr[0], "product_code": addr[1], "revision": addr[2], "serial": addr[3], "node": node})
+                );
+            } else {
+                println!(
+                    "found vendor {:08X} product {:08X} revision {:08X} serial {:08X}{}",
+                    addr[0],
+                    addr[1],
+                    addr[2],
+                    addr[3],
+                    node.map(|n| format!(", now node {n}")).unwrap_or_default()
+                );
+            }
+            Ok(())
+        }
+        LssCommand::SetNode {
+            node,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let mut link = connect(&bus).await?;
+            let mut m = LssMaster::new(&mut link, Duration::from_millis(timeout_ms));
+            m.switch_global(true).await?;
+            m.configure_node_id(node).await?;
+            m.store_configuration().await?;
+            m.switch_global(false).await?;
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            Ok(())
+        }
+    }
+}
+
+async fn scan(timeout_ms: u64, bus: BusArgs) -> Result<(), CommandError> {
+    let mut link = connect(&bus).await?;
+    // As python-canopen's NodeScanner: read 1000h from every node-ID, collect the answers.
+    for node in 1..=127u16 {
+        let frame = CanFrame::full(0x600 + node, [0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+        link.send(&frame).await?;
+    }
+    let deadline = tokio::time::Instant::now() + Duration::from_millis(timeout_ms);
+    let mut found = std::collections::BTreeMap::new();
+    while let Ok(f) = tokio::time::timeout_at(deadline, link.recv()).await {
+        let f = f?;
+        if let Some(cob) = f.cob_id() {
+            if (0x581..=0x5FF).contains(&cob) {
+                let p = f.payload();
+                let device_type = match p {
+                    [0x43, 0x00, 0x10, 0x00, a, b, c, d] => {
+                        Some(u32::from_le_bytes([*a, *b, *c, *d]))
+                    }
+                    _ => None,
+                };
+                found.insert((cob - 0x580) as u8, device_type);
+            }
+        }
+    }
+    if bus.json {
+        let nodes: Vec<_> = found
+            .iter()
+            .map(|(n, t)| serde_json::json!({"node": n, "device_type": t}))
+            .collect();
+        println!("{}", serde_json::json!(nodes));
+    } else {
+        for (n, t) in &found {
+            match t {
+                Some(t) => println!("node {n}: device type {t:08X}"),
+                None => println!("node {n}: answers (1000h not readable)"),
+            }
+        }
+        if found.is_empty() {
+            println!("no node answered");
         }
     }
     Ok(())

@@ -28,6 +28,8 @@ pub enum StoreError {
 #[derive(Debug, Clone)]
 pub struct ParamStore {
     path: PathBuf,
+    /// The node-ID LSS "store configuration" saved (CiA 305), one number in a text file.
+    lss_path: PathBuf,
 }
 
 /// One stored value.
@@ -43,7 +45,21 @@ impl ParamStore {
     pub fn new(dir: &Path, device: &str, node: u8) -> Self {
         ParamStore {
             path: dir.join(format!("{device}-node{node}.params")),
+            lss_path: dir.join(format!("{device}-node{node}.lss")),
         }
+    }
+
+    /// The node-ID stored by LSS, if any and valid.
+    pub fn load_lss_node_id(&self) -> Option<u8> {
+        let text = fs::read_to_string(&self.lss_path).ok()?;
+        text.trim()
+            .parse::<u8>()
+            .ok()
+            .filter(|id| (1..=127).contains(id))
+    }
+
+    pub fn save_lss_node_id(&self, node_id: u8) -> Result<(), StoreError> {
+        write_atomically(&self.lss_path, format!("{node_id}\n").as_bytes())
     }
 
     pub fn path(&self) -> &Path {
@@ -113,29 +129,33 @@ impl ParamStore {
         for (e, bytes) in od.storable_values(sub) {
             let _ = parameter_file::write_line(&mut text, e, bytes);
         }
-        self.write_atomically(text.as_bytes())
+        write_atomically(&self.path, text.as_bytes())
     }
+}
 
-    fn write_atomically(&self, data: &[u8]) -> Result<(), StoreError> {
-        let io = |source| StoreError::Io {
-            path: self.path.clone(),
-            source,
-        };
-        let dir = self.path.parent().unwrap_or(Path::new("."));
-        fs::create_dir_all(dir).map_err(io)?;
-        let tmp = self.path.with_extension("params.tmp");
-        {
-            let mut f = File::create(&tmp).map_err(io)?;
-            f.write_all(data).map_err(io)?;
-            f.sync_all().map_err(io)?;
-        }
-        fs::rename(&tmp, &self.path).map_err(io)?;
-        // Make the rename itself durable.
-        if let Ok(d) = File::open(dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
+/// Replaces `path` so that a crash leaves the old or the new content, never a mix: write a
+/// temporary file next to it, fsync, rename over, fsync the directory.
+fn write_atomically(path: &Path, data: &[u8]) -> Result<(), StoreError> {
+    let io = |source| StoreError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    fs::create_dir_all(dir).map_err(io)?;
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    {
+        let mut f = File::create(&tmp).map_err(io)?;
+        f.write_all(data).map_err(io)?;
+        f.sync_all().map_err(io)?;
     }
+    fs::rename(&tmp, path).map_err(io)?;
+    // Make the rename itself durable.
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
 
 /// Puts stored values into the dictionary for the entries `filter` selects. Values for

@@ -26,6 +26,9 @@ pub enum LinkError {
     SocketCan(String),
 }
 
+/// Longer than any server's pause between the rawmode reply and the first streamed frame.
+const STREAM_SETTLE: Duration = Duration::from_millis(120);
+
 /// A socketcand client in raw mode.
 pub struct SocketcandLink {
     stream: TcpStream,
@@ -56,6 +59,9 @@ impl SocketcandLink {
         link.write(&Message::Mode(crate::socketcand::Mode::Raw))
             .await?;
         link.expect(Message::Ok, "< ok >").await?;
+        // A socketcand server streams frames only a moment after the rawmode reply (so the
+        // reply is never coalesced); wait that out so short answer timeouts are real.
+        tokio::time::sleep(STREAM_SETTLE).await;
         Ok(link)
     }
 
