@@ -1,0 +1,211 @@
+"""CiA 301 services beyond SDO against the real binary: PDO mapping with python-canopen's own
+PdoMap.read()/save(), SYNC-driven and event-driven TPDOs, RPDOs on SYNC, EMCY received by
+python-canopen's EMCY consumer, node guarding, LSS fastscan with python-canopen's LssMaster,
+and SDO service under a SYNC/RPDO flood."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import can
+import canopen
+import pytest
+
+from conftest import recv_id, wait_until
+
+
+def _pre_op(node):
+    node.nmt.wait_for_heartbeat(3)
+    assert node.nmt.state == "PRE-OPERATIONAL"
+
+
+def test_pdo_remap_with_python_canopen_save_and_read(cmmp, node_of):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.tpdo.read()
+    node.rpdo.read()
+    # Defaults of the manual (CMMP-PDO-10/15): TPDO1 statusword, disabled.
+    assert [v.index for v in node.tpdo[1].map] == [0x6041]
+    assert not node.tpdo[1].enabled
+    t = node.tpdo[3]
+    t.clear()
+    t.add_variable(0x6041)
+    t.add_variable(0x6064)
+    t.trans_type = 2
+    t.enabled = True
+    t.save()
+    r = node.rpdo[3]
+    r.clear()
+    r.add_variable(0x6040)
+    r.add_variable(0x607A)
+    r.trans_type = 1
+    r.enabled = True
+    r.save()
+    # A fresh read sees exactly what was saved.
+    node.tpdo.read()
+    node.rpdo.read()
+    assert node.tpdo[3].cob_id == 0x381 and node.tpdo[3].trans_type == 2 and node.tpdo[3].enabled
+    assert [(v.index, v.length) for v in node.tpdo[3].map] == [(0x6041, 16), (0x6064, 32)]
+    assert node.rpdo[3].cob_id == 0x401 and node.rpdo[3].trans_type == 1 and node.rpdo[3].enabled
+    assert [(v.index, v.length) for v in node.rpdo[3].map] == [(0x6040, 16), (0x607A, 32)]
+
+
+def test_sync_driven_tpdo_and_rpdo_taking_effect_on_sync(cmmp, node_of):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.tpdo.read()
+    node.rpdo.read()
+    node.tpdo[3].trans_type = 2  # statusword + position, every 2nd SYNC
+    node.tpdo[3].enabled = True
+    node.tpdo[3].save()
+    node.rpdo[3].trans_type = 1  # controlword + target position, applied at SYNC
+    node.rpdo[3].enabled = True
+    node.rpdo[3].save()
+    node.nmt.state = "OPERATIONAL"
+    wait_until(lambda: node.nmt.state == "OPERATIONAL", 2, what="OPERATIONAL heartbeat")
+    got = []
+    node.tpdo[3].add_callback(lambda m: got.append(m.data))
+    for _ in range(6):
+        node.network.sync.transmit()
+        time.sleep(0.03)
+    wait_until(lambda: len(got) >= 3, 1, what="3 TPDO3")
+    time.sleep(0.1)
+    assert len(got) == 3, "every 2nd of 6 SYNCs"
+    node.rpdo[3]["controlword"].raw = 0x000F
+    node.rpdo[3]["target_position"].raw = 123456
+    node.rpdo[3].transmit()
+    time.sleep(0.1)
+    assert node.sdo[0x607A].raw == 0, "synchronous RPDO waits for the SYNC"
+    node.network.sync.transmit()
+    wait_until(lambda: node.sdo[0x607A].raw == 123456, 1, what="target position after SYNC")
+    assert node.sdo[0x6040].raw == 0x000F
+
+
+def test_event_driven_tpdo_respects_inhibit_time(cmmp, node_of, raw_bus):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.tpdo.read()
+    t = node.tpdo[2]
+    # Without drive logic nothing moves by itself: map the mode command (6060h), which SDO
+    # writes change, so each write is a change of the TPDO's data.
+    t.clear()
+    t.add_variable(0x6060)
+    t.trans_type = 255
+    t.inhibit_time = 500  # 100 µs units: 50 ms
+    t.enabled = True
+    t.save()
+    bus = raw_bus(cmmp)
+    node.nmt.state = "OPERATIONAL"
+    assert recv_id(bus, 0x281, 1.0) is not None, "sent once on entering Operational"
+    for mode in [1, 3, 4, 1, 3, 4, 1, 3, 4, 6]:
+        node.sdo[0x6060].raw = mode
+    stamps, last = [], None
+    while True:
+        m = recv_id(bus, 0x281, 0.3)
+        if m is None:
+            break
+        stamps.append(m.timestamp)
+        last = m.data
+    assert 1 <= len(stamps) <= 6, stamps
+    assert last == bytes([6]), "the last frame carries the final value"
+    gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+    assert all(g >= 0.045 for g in gaps), gaps
+
+
+def test_short_rpdo_raises_emcy_8210_seen_by_python_canopen(cmmp, node_of):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.rpdo.read()
+    node.rpdo[4].enabled = True  # controlword + target velocity: 6 bytes
+    node.rpdo[4].save()
+    node.nmt.state = "OPERATIONAL"
+    wait_until(lambda: node.nmt.state == "OPERATIONAL", 2, what="OPERATIONAL")
+    node.network.send_message(0x501, b"\x0f\x00")
+    err = node.emcy.wait(0x8210, timeout=2)
+    assert err is not None, "EMCY 8210h"
+    assert err.code == 0x8210
+    assert err.register == 0x11  # generic + communication
+    assert node.sdo[0x1001].raw == 0x11
+    assert node.sdo[0x6040].raw == 0, "a short RPDO is not processed"
+    # The right length again: processed, and EMCY 0000h clears python-canopen's active list.
+    node.network.send_message(0x501, b"\x0f\x00\x10\x27\x00\x00")
+    reset = node.emcy.wait(0x0000, timeout=2)
+    assert reset is not None
+    wait_until(lambda: node.sdo[0x6040].raw == 0x0F, 1, what="controlword from RPDO4")
+    assert node.sdo[0x60FF].raw == 10000
+    assert node.emcy.active == []
+
+
+def test_node_guarding_replies_with_toggle_bit(cmmp, node_of, raw_bus):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.sdo[0x1017].raw = 0  # heartbeat would take priority (CMMP-AS §3.9)
+    bus = raw_bus(cmmp)
+    replies = []
+    for _ in range(3):
+        # python-can over socketcand carries no RTR: the request is a zero-length frame.
+        bus.send(can.Message(arbitration_id=0x701, data=b"", is_extended_id=False, is_remote_frame=True))
+        m = recv_id(bus, 0x701, 1.0)
+        assert m is not None
+        replies.append(m.data[0])
+    assert replies == [0x7F, 0xFF, 0x7F]
+    node.nmt.send_command(0x01)
+    time.sleep(0.05)
+    bus.send(can.Message(arbitration_id=0x701, data=b"", is_extended_id=False))
+    m = recv_id(bus, 0x701, 1.0)
+    assert m is not None and m.data[0] == 0x85
+
+
+def test_lss_fastscan_finds_an_unconfigured_drive_and_gives_it_an_id(launch, connect, tmp_path, eds_files):
+    state = tmp_path / "lss-state"
+    twin = launch("cmmp-as", 255, state_dir=state)
+    net = connect(twin)
+    time.sleep(0.2)
+    ok, lss_id = net.lss.fast_scan()
+    assert ok, "python-canopen LssMaster.fast_scan found the node"
+    assert lss_id[0] == 0x1D  # Festo
+    net.lss.configure_node_id(5)
+    net.lss.store_configuration()
+    node = net.add_node(5, str(eds_files["cmmp-as"]))
+    net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+    node.nmt.wait_for_bootup(2)
+    assert node.sdo[0x1018][1].raw == 0x1D
+    assert node.sdo[0x1400][1].raw == 0xC0000205, "node-relative COB-IDs follow the new ID"
+    # The stored node-ID comes back after a restart.
+    twin.stop()
+    twin.start()
+    net2 = connect(twin)
+    node2 = net2.add_node(5, str(eds_files["cmmp-as"]))
+    assert node2.sdo[0x1018][1].raw == 0x1D
+
+
+def test_sync_and_rpdo_flood_never_stalls_sdo(cmmp, node_of, raw_bus):
+    node = node_of(cmmp)
+    _pre_op(node)
+    node.rpdo.read()
+    node.rpdo[1].enabled = True
+    node.rpdo[1].save()
+    node.nmt.state = "OPERATIONAL"
+    flood = raw_bus(cmmp)
+    stop = threading.Event()
+    sent = [0]
+
+    def flooder():
+        sync = can.Message(arbitration_id=0x080, data=b"", is_extended_id=False)
+        rpdo = can.Message(arbitration_id=0x201, data=b"\x06\x00", is_extended_id=False)
+        while not stop.is_set():
+            flood.send(sync)
+            flood.send(rpdo)
+            sent[0] += 2
+
+    t = threading.Thread(target=flooder, daemon=True)
+    t.start()
+    try:
+        for _ in range(50):
+            assert node.sdo[0x1018][1].raw == 0x1D
+    finally:
+        stop.set()
+        t.join(2)
+    assert sent[0] > 1000, sent
+    assert node.sdo[0x6040].raw == 6
