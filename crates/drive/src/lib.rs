@@ -1,0 +1,10 @@
+//! CiA 402 drive logic, sans-IO and `no_std`: the device control state machine, the operating
+//! modes, the factor group, cascaded control loops and a simulated motor and load. The drive
+//! is stepped on an explicit clock and never knows which protocol wrote its objects.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod axis;
+pub mod control;
+pub mod factor_group;
+pub mod motor;
