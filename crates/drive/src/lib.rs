@@ -6,5 +6,7 @@
 
 pub mod axis;
 pub mod control;
+pub mod device_control;
 pub mod factor_group;
 pub mod motor;
+pub mod trajectory;
