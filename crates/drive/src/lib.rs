@@ -9,4 +9,5 @@ pub mod control;
 pub mod device_control;
 pub mod factor_group;
 pub mod motor;
+pub mod profile_position;
 pub mod trajectory;
