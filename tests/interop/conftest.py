@@ -410,15 +410,23 @@ class RawClient:
                 return None
             self.buf += data
 
-    def expect(self, prefix: str, timeout: float = 2.0, skip_frames: bool = True) -> str:
-        """The next message that is not a `< frame ... >` (unless asked); must start with prefix."""
+    def reply(self, timeout: float = 2.0) -> str | None:
+        """The next message that is not a `< frame ... >` (rawmode clients see all bus traffic),
+        or None on close / timeout."""
+        deadline = time.monotonic() + timeout
         while True:
-            msg = self.read_message(timeout)
-            assert msg is not None, f"expected {prefix!r}, connection closed or silent"
-            if skip_frames and msg.startswith("< frame "):
-                continue
-            assert msg.startswith(prefix), f"expected {prefix!r}, got {msg!r}"
-            return msg
+            msg = self.read_message(max(0.0, deadline - time.monotonic()))
+            if msg is None or not msg.startswith("< frame "):
+                return msg
+            if time.monotonic() > deadline:
+                return None
+
+    def expect(self, prefix: str, timeout: float = 2.0) -> str:
+        """The next message that is not a frame must start with `prefix`."""
+        msg = self.reply(timeout)
+        assert msg is not None, f"expected {prefix!r}, connection closed or silent"
+        assert msg.startswith(prefix), f"expected {prefix!r}, got {msg!r}"
+        return msg
 
     def handshake(self, channel: str = CHANNEL):
         self.expect("< hi >")

@@ -3,6 +3,8 @@ defaults into the current set and does not touch the stored set."""
 
 import time
 
+import pytest
+
 from conftest import HeartbeatLog
 
 LONG = "stored across restarts: " + "0123456789abcdef" * 40
@@ -104,6 +106,8 @@ def test_save_repeatedly_leaves_only_complete_files(launch, node_of, tmp_path):
     assert node.sdo[0x2001].raw == "version 9 " + "x" * 2700
 
 
+# the client's receive thread sees the connection reset by the kill
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnhandledThreadExceptionWarning")
 def test_kill_during_saves_leaves_an_old_or_new_set(launch, node_of, tmp_path):
     """SIGKILL while saves follow each other: the next start finds one complete stored set."""
     import threading

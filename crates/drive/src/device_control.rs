@@ -148,6 +148,18 @@ impl DeviceControl {
         }
     }
 
+    /// A critical error: straight to FAULT, output stage off at once (CMMP-AS Tab. 6.2
+    /// transition 13: "critical errors go on to transition 14 at once").
+    pub fn fault_immediate(&mut self) -> Reaction {
+        let was_powered = self.state.power_enabled();
+        self.state = State::Fault;
+        if was_powered {
+            Reaction::Coast
+        } else {
+            Reaction::None
+        }
+    }
+
     /// The motion side finished braking (quick stop, disable operation or fault reaction).
     pub fn stopped(&mut self) -> Reaction {
         match self.state {

@@ -1,1 +1,545 @@
-//! (in progress)
+//! CiA 402 factor group of the Festo CMMP-AS (manual GDCP-CMMP-M3/-M0-C-CO-RU §5.3,
+//! seed 000 L2427–2704; English edition p.80–89): conversion between the user units of the
+//! bus objects and the drive's internal units.
+//!
+//! # Internal units (Tab. 5.3, L2440–2447; 6093h L2459, 6094h L2534, 6097h L2608)
+//!
+//! | Quantity     | Internal unit                                  |
+//! |--------------|------------------------------------------------|
+//! | position     | increments, 65536 per motor revolution         |
+//! | velocity     | 1/4096 min⁻¹ ("revolutions per 4096 minutes")  |
+//! | acceleration | 1/256 min⁻¹/s                                  |
+//!
+//! # Direction
+//!
+//! `internal = user × numerator / divisor` on write, the inverse on read. The manual's worked
+//! examples confirm the direction: with 6093h = 4096/225 (user unit 1/10°, Tab. 5.5) the user
+//! value 3600 (360.0°) is 3600 × 4096 / 225 = 65536 increments, one revolution; and 6093h "converts
+//! … from position_units into increments" (L2459).
+//!
+//! # Rounding policy (the manual states none; spec note 27)
+//!
+//! Every conversion is computed exactly in `i128` and rounded once, **to the nearest integer,
+//! ties away from zero**. Because the rule is symmetric in sign, flipping a polarity flag
+//! negates the result exactly. Consequences:
+//! * with a factor ≥ 1 (every position/velocity example of the manual except 1/100 rev/min²),
+//!   user → internal → user returns the user value unchanged;
+//! * with a factor ≤ 1, internal → user → internal returns the internal value unchanged.
+//!
+//! # Range policy
+//!
+//! The typed conversions never fail: a result outside the target type **saturates** at the
+//! type's edge (a read of a value that does not fit INT32 yields `i32::MAX` / `i32::MIN`, a
+//! UINT32 object yields `0` / `u32::MAX`). A factor with a zero numerator or divisor, which
+//! [`FactorGroup::validate`] refuses but which the public fields can still hold, acts as an
+//! infinite factor: the result saturates by the sign of the value (0 stays 0). No input panics.
+//! For error-returning arithmetic use [`Ratio::scale`] / [`Ratio::unscale`].
+//!
+//! # Polarity 607Eh (L2683–2704, English p.80 Fig. 5.2 and p.89)
+//!
+//! Bit 7 (80h) `position_polarity_flag`, bit 6 (40h) `velocity_polarity_flag`; a set bit
+//! multiplies by −1 on every read and write. The manual says the flags set "the sign of the
+//! position and velocity values" (L2685) and the factor-group figure (Fig. 5.2, English p.80)
+//! puts `position_polarity_flag` only in the position path and `velocity_polarity_flag` only
+//! in the velocity path; the acceleration path has none. Decision (manual + CiA 402, which
+//! applies the flags to signed set-points and actual values only):
+//! * position flag → signed position values: 607Ah target_position, 6062h
+//!   position_demand_value, 6064h position_actual_value, 60F4h following_error_actual_value,
+//!   60C1h:01 ip_data_position — use [`FactorGroup::position_to_internal`] /
+//!   [`FactorGroup::position_from_internal`];
+//! * velocity flag → signed velocity values: 60FFh target_velocity, 606Bh
+//!   velocity_demand_value, 606Ch velocity_actual_value, 60FAh control_effort — use
+//!   [`FactorGroup::velocity_to_internal`] / [`FactorGroup::velocity_from_internal`];
+//! * no flag on magnitudes (UINT32 windows and speeds: 6065h, 6067h, 6081h, 6082h, 607Fh,
+//!   6099h, 60FBh:04) — use the `*_magnitude_*` conversions — nor on accelerations (6083h,
+//!   6084h, 6085h, 609Ah).
+//!
+//! The flags act on access only: values already stored internally are not converted when
+//! 607Eh or a factor changes (L2436–2438, L2689; spec note 28). The manual lists the range
+//! 40h, 80h, C0h with default 0; [`FactorGroup::validate`] accepts 0, 40h, 80h, C0h and refuses
+//! the reserved bits 0–5.
+//!
+//! # Limits (L2504, L2573)
+//!
+//! "position_factor must not exceed 2²⁴" (L2504) and "velocity_encoder_factor must not exceed
+//! 2²⁴" (L2573): the *quotient* numerator/divisor is limited, so 2²⁴ itself is allowed and
+//! 01000001h/2 is allowed, 01000001h/1 is not (vector CMMP-FG-18). The manual prints no limit
+//! for acceleration_factor (L2641–2645), so none is enforced for 6097h. A zero divisor is
+//! refused for all three objects, and so is a zero numerator (a zero factor cannot be
+//! inverted on read; the manual does not mention it).
+
+use core::fmt;
+
+/// Internal position increments per motor revolution.
+pub const INCREMENTS_PER_REVOLUTION: u32 = 65_536;
+/// Internal velocity units per min⁻¹ (internal unit 1/4096 min⁻¹).
+pub const VELOCITY_UNITS_PER_RPM: u32 = 4096;
+/// Internal acceleration units per min⁻¹/s (internal unit 1/256 min⁻¹/s).
+pub const ACCELERATION_UNITS_PER_RPM_PER_S: u32 = 256;
+/// Upper limit (inclusive) of position_factor and velocity_encoder_factor (L2504, L2573).
+pub const FACTOR_LIMIT: u32 = 1 << 24;
+
+/// 607Eh bit 7: position_polarity_flag.
+pub const POSITION_POLARITY_FLAG: u8 = 0x80;
+/// 607Eh bit 6: velocity_polarity_flag.
+pub const VELOCITY_POLARITY_FLAG: u8 = 0x40;
+
+/// time_factor_v for speeds per minute: 1 min⁻¹ = 4096 internal (Tab. 5.7).
+pub const TIME_FACTOR_V_PER_MINUTE: Ratio = Ratio::new(VELOCITY_UNITS_PER_RPM, 1);
+/// time_factor_v for speeds per second: 1 s⁻¹ = 60 min⁻¹ = 60 × 4096 internal (Tab. 5.7).
+pub const TIME_FACTOR_V_PER_SECOND: Ratio = Ratio::new(60 * VELOCITY_UNITS_PER_RPM, 1);
+/// time_factor_a for min⁻¹/s: 1 min⁻¹/s = 256 internal (Tab. 5.9).
+pub const TIME_FACTOR_A_PER_MINUTE_PER_SECOND: Ratio =
+    Ratio::new(ACCELERATION_UNITS_PER_RPM_PER_S, 1);
+/// time_factor_a for s⁻²: 1 s⁻² = 60 min⁻¹/s = 60 × 256 internal (Tab. 5.9).
+pub const TIME_FACTOR_A_PER_SECOND_SQUARED: Ratio =
+    Ratio::new(60 * ACCELERATION_UNITS_PER_RPM_PER_S, 1);
+/// time_factor_a for min⁻²: 1 min⁻² = 1/60 min⁻¹/s = 256/60 internal (Tab. 5.9, English p.87).
+pub const TIME_FACTOR_A_PER_MINUTE_SQUARED: Ratio =
+    Ratio::new(ACCELERATION_UNITS_PER_RPM_PER_S, 60);
+
+/// One of the three factor objects, named in errors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FactorObject {
+    /// 6093h position_factor.
+    Position,
+    /// 6094h velocity_encoder_factor.
+    Velocity,
+    /// 6097h acceleration_factor.
+    Acceleration,
+}
+
+impl FactorObject {
+    /// The object index (6093h, 6094h, 6097h).
+    pub const fn index(self) -> u16 {
+        match self {
+            Self::Position => 0x6093,
+            Self::Velocity => 0x6094,
+            Self::Acceleration => 0x6097,
+        }
+    }
+
+    /// The object name as printed in the manual.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Position => "position_factor",
+            Self::Velocity => "velocity_encoder_factor",
+            Self::Acceleration => "acceleration_factor",
+        }
+    }
+
+    /// Whether the manual limits this factor to 2²⁴ (6093h L2504, 6094h L2573; nothing is
+    /// printed for 6097h).
+    pub const fn has_limit(self) -> bool {
+        matches!(self, Self::Position | Self::Velocity)
+    }
+}
+
+/// Why a factor, a polarity or a unit description is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FactorError {
+    /// The divisor (subindex 02) is 0.
+    DivisorZero(FactorObject),
+    /// The numerator (subindex 01) is 0.
+    NumeratorZero(FactorObject),
+    /// numerator / divisor exceeds 2²⁴ (6093h, 6094h only).
+    ExceedsLimit(FactorObject),
+    /// The unit description gives a fraction whose reduced numerator or divisor needs more
+    /// than 32 bits.
+    NotRepresentable(FactorObject),
+    /// 607Eh with any of the reserved bits 0–5 set (the value is carried).
+    PolarityReservedBits(u8),
+}
+
+impl fmt::Display for FactorError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::DivisorZero(o) => write!(f, "{:04X}h {}: divisor is 0", o.index(), o.name()),
+            Self::NumeratorZero(o) => {
+                write!(f, "{:04X}h {}: numerator is 0", o.index(), o.name())
+            }
+            Self::ExceedsLimit(o) => {
+                write!(f, "{:04X}h {}: factor exceeds 2^24", o.index(), o.name())
+            }
+            Self::NotRepresentable(o) => write!(
+                f,
+                "{:04X}h {}: reduced fraction does not fit 32-bit numerator/divisor",
+                o.index(),
+                o.name()
+            ),
+            Self::PolarityReservedBits(v) => {
+                write!(
+                    f,
+                    "607Eh polarity: {v:02X}h sets reserved bits (allowed 0, 40h, 80h, C0h)"
+                )
+            }
+        }
+    }
+}
+
+/// numerator / divisor, both UINT32 as in subindices 01 and 02 of 6093h/6094h/6097h.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Ratio {
+    /// Subindex 01.
+    pub numerator: u32,
+    /// Subindex 02.
+    pub divisor: u32,
+}
+
+impl Ratio {
+    /// numerator / divisor, stored as given (not reduced).
+    pub const fn new(numerator: u32, divisor: u32) -> Self {
+        Self { numerator, divisor }
+    }
+
+    /// The same fraction in lowest terms (0/0 stays 0/0, 0/d becomes 0/1, n/0 becomes 1/0).
+    pub const fn reduced(self) -> Self {
+        let g = gcd(self.numerator as u128, self.divisor as u128);
+        if g == 0 {
+            return self;
+        }
+        // Dividing by a common divisor never grows a value, so the casts are exact.
+        Self {
+            numerator: (self.numerator as u128 / g) as u32,
+            divisor: (self.divisor as u128 / g) as u32,
+        }
+    }
+
+    /// Checks this fraction as the value of `object`: divisor and numerator non-zero and, for
+    /// 6093h/6094h, numerator / divisor ≤ 2²⁴.
+    pub const fn check(self, object: FactorObject) -> Result<(), FactorError> {
+        if self.divisor == 0 {
+            return Err(FactorError::DivisorZero(object));
+        }
+        if self.numerator == 0 {
+            return Err(FactorError::NumeratorZero(object));
+        }
+        if object.has_limit() && self.numerator as u64 > FACTOR_LIMIT as u64 * self.divisor as u64 {
+            return Err(FactorError::ExceedsLimit(object));
+        }
+        Ok(())
+    }
+
+    /// `value × numerator / divisor` (user → internal), rounded to nearest, ties away from
+    /// zero. `None` if the divisor is 0 or the result does not fit `i64`.
+    pub fn scale(self, value: i64) -> Option<i64> {
+        let q = div_round(
+            i128::from(value) * i128::from(self.numerator),
+            i128::from(self.divisor),
+        )?;
+        i64::try_from(q).ok()
+    }
+
+    /// `value × divisor / numerator` (internal → user), rounded to nearest, ties away from
+    /// zero. `None` if the numerator is 0 or the result does not fit `i64`.
+    pub fn unscale(self, value: i64) -> Option<i64> {
+        let q = div_round(
+            i128::from(value) * i128::from(self.divisor),
+            i128::from(self.numerator),
+        )?;
+        i64::try_from(q).ok()
+    }
+}
+
+/// The factor group: 6093h, 6094h, 6097h and 607Eh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct FactorGroup {
+    /// 6093h position_factor: position_units → increments.
+    pub position: Ratio,
+    /// 6094h velocity_encoder_factor: speed_units → 1/4096 min⁻¹.
+    pub velocity: Ratio,
+    /// 6097h acceleration_factor: acceleration_units → 1/256 min⁻¹/s.
+    pub acceleration: Ratio,
+    /// 607Eh polarity: bit 7 position, bit 6 velocity.
+    pub polarity: u8,
+}
+
+impl Default for FactorGroup {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl FactorGroup {
+    /// Delivery state: 6093h = 1/1 (increments), 6094h = 4096/1 (min⁻¹), 6097h = 256/1
+    /// (min⁻¹/s), 607Eh = 0 (L2478/L2486, L2548/L2556, L2622/L2630; §3.4).
+    pub const DEFAULT: Self = Self {
+        position: Ratio::new(1, 1),
+        velocity: TIME_FACTOR_V_PER_MINUTE,
+        acceleration: TIME_FACTOR_A_PER_MINUTE_PER_SECOND,
+        polarity: 0,
+    };
+
+    /// The ratio of one factor object.
+    pub const fn factor(&self, object: FactorObject) -> Ratio {
+        match object {
+            FactorObject::Position => self.position,
+            FactorObject::Velocity => self.velocity,
+            FactorObject::Acceleration => self.acceleration,
+        }
+    }
+
+    /// Checks all three factors and the polarity; the first problem found is returned, in
+    /// the order 6093h, 6094h, 6097h, 607Eh.
+    pub const fn validate(&self) -> Result<(), FactorError> {
+        if let Err(e) = self.position.check(FactorObject::Position) {
+            return Err(e);
+        }
+        if let Err(e) = self.velocity.check(FactorObject::Velocity) {
+            return Err(e);
+        }
+        if let Err(e) = self.acceleration.check(FactorObject::Acceleration) {
+            return Err(e);
+        }
+        check_polarity(self.polarity)
+    }
+
+    /// Replaces one factor if it passes [`Ratio::check`]; on error nothing changes.
+    pub fn set_factor(&mut self, object: FactorObject, ratio: Ratio) -> Result<(), FactorError> {
+        ratio.check(object)?;
+        match object {
+            FactorObject::Position => self.position = ratio,
+            FactorObject::Velocity => self.velocity = ratio,
+            FactorObject::Acceleration => self.acceleration = ratio,
+        }
+        Ok(())
+    }
+
+    /// Writes 607Eh if only bits 6 and 7 are set; on error nothing changes. Stored internal
+    /// values are not touched (L2689).
+    pub fn set_polarity(&mut self, polarity: u8) -> Result<(), FactorError> {
+        check_polarity(polarity)?;
+        self.polarity = polarity;
+        Ok(())
+    }
+
+    /// Whether 607Eh bit 7 (position_polarity_flag) is set.
+    pub const fn position_inverted(&self) -> bool {
+        self.polarity & POSITION_POLARITY_FLAG != 0
+    }
+
+    /// Whether 607Eh bit 6 (velocity_polarity_flag) is set.
+    pub const fn velocity_inverted(&self) -> bool {
+        self.polarity & VELOCITY_POLARITY_FLAG != 0
+    }
+
+    /// Signed position write (e.g. 607Ah): position_units → increments, with the
+    /// position_polarity_flag.
+    pub fn position_to_internal(&self, user: i32) -> i64 {
+        let v = signed(i128::from(user), self.position_inverted());
+        sat_i64(to_internal(v, self.position))
+    }
+
+    /// Signed position read (e.g. 6064h): increments → position_units, with the
+    /// position_polarity_flag; saturates at the INT32 edges.
+    pub fn position_from_internal(&self, internal: i64) -> i32 {
+        let v = signed(i128::from(internal), self.position_inverted());
+        sat_i32(from_internal(v, self.position))
+    }
+
+    /// Position magnitude write (UINT32 windows, e.g. 6065h, 6067h): no polarity.
+    pub fn position_magnitude_to_internal(&self, user: u32) -> i64 {
+        sat_i64(to_internal(i128::from(user), self.position))
+    }
+
+    /// Position magnitude read: no polarity; saturates at 0 and `u32::MAX`.
+    pub fn position_magnitude_from_internal(&self, internal: i64) -> u32 {
+        sat_u32(from_internal(i128::from(internal), self.position))
+    }
+
+    /// Signed velocity write (e.g. 60FFh): speed_units → 1/4096 min⁻¹, with the
+    /// velocity_polarity_flag.
+    pub fn velocity_to_internal(&self, user: i32) -> i64 {
+        let v = signed(i128::from(user), self.velocity_inverted());
+        sat_i64(to_internal(v, self.velocity))
+    }
+
+    /// Signed velocity read (e.g. 606Ch): 1/4096 min⁻¹ → speed_units, with the
+    /// velocity_polarity_flag; saturates at the INT32 edges.
+    pub fn velocity_from_internal(&self, internal: i64) -> i32 {
+        let v = signed(i128::from(internal), self.velocity_inverted());
+        sat_i32(from_internal(v, self.velocity))
+    }
+
+    /// Velocity magnitude write (UINT32 speeds, e.g. 6081h, 6099h): no polarity.
+    pub fn velocity_magnitude_to_internal(&self, user: u32) -> i64 {
+        sat_i64(to_internal(i128::from(user), self.velocity))
+    }
+
+    /// Velocity magnitude read: no polarity; saturates at 0 and `u32::MAX`.
+    pub fn velocity_magnitude_from_internal(&self, internal: i64) -> u32 {
+        sat_u32(from_internal(i128::from(internal), self.velocity))
+    }
+
+    /// Acceleration write (UINT32: 6083h, 6084h, 6085h, 609Ah): acceleration_units →
+    /// 1/256 min⁻¹/s. No polarity. Saturates at `i64::MAX` (possible only because 6097h has
+    /// no 2²⁴ limit).
+    pub fn acceleration_to_internal(&self, user: u32) -> i64 {
+        sat_i64(to_internal(i128::from(user), self.acceleration))
+    }
+
+    /// Acceleration read: 1/256 min⁻¹/s → acceleration_units. No polarity; saturates at 0
+    /// and `u32::MAX`.
+    pub fn acceleration_from_internal(&self, internal: i64) -> u32 {
+        sat_u32(from_internal(i128::from(internal), self.acceleration))
+    }
+}
+
+/// position_factor from the manual's unit description (formula L2498, Tab. 5.5):
+/// `gear_ratio × 65536 / feed_constant`, in lowest terms as the manual prints it.
+///
+/// * `gear` = R_IN / R_OUT (motor revolutions per output revolution), e.g. 2/3;
+/// * `feed_constant` = user position units per output revolution, already multiplied by
+///   10^NK (see [`feed_constant`]), e.g. 3600 for 1/10° or 6315/10 for 1/10 mm at 63.15 mm.
+///
+/// The result passes [`Ratio::check`] for 6093h (otherwise the error says why).
+pub fn position_factor(gear: Ratio, feed_constant: Ratio) -> Result<Ratio, FactorError> {
+    compose(
+        FactorObject::Position,
+        gear,
+        Ratio::new(INCREMENTS_PER_REVOLUTION, 1),
+        feed_constant,
+    )
+}
+
+/// velocity_encoder_factor (formula L2569, Tab. 5.7): `gear_ratio × time_factor_v /
+/// feed_constant`, reduced. `time_factor_v` is the user time unit in internal units, e.g.
+/// [`TIME_FACTOR_V_PER_MINUTE`] or [`TIME_FACTOR_V_PER_SECOND`]. There is no 65536 term: the
+/// internal velocity unit counts revolutions (1/4096 min⁻¹), not increments.
+pub fn velocity_factor(
+    gear: Ratio,
+    feed_constant: Ratio,
+    time_factor_v: Ratio,
+) -> Result<Ratio, FactorError> {
+    compose(FactorObject::Velocity, gear, time_factor_v, feed_constant)
+}
+
+/// acceleration_factor (formula L2643, Tab. 5.9): `gear_ratio × time_factor_a /
+/// feed_constant`, reduced. `time_factor_a` e.g. [`TIME_FACTOR_A_PER_MINUTE_PER_SECOND`],
+/// [`TIME_FACTOR_A_PER_SECOND_SQUARED`], [`TIME_FACTOR_A_PER_MINUTE_SQUARED`].
+pub fn acceleration_factor(
+    gear: Ratio,
+    feed_constant: Ratio,
+    time_factor_a: Ratio,
+) -> Result<Ratio, FactorError> {
+    compose(
+        FactorObject::Acceleration,
+        gear,
+        time_factor_a,
+        feed_constant,
+    )
+}
+
+/// feed_constant of the manual's column 2: position units per output revolution ×
+/// 10^NK (footnote 2 of Tab. 5.5/5.7/5.9, L2526; the Russian prints "10^-NK" but every
+/// example multiplies, e.g. 360° at 1 NK → 3600). `per_output_revolution` is in whole user
+/// units, e.g. 360/1 for degrees or 6315/100 for 63.15 mm. Returns the fraction in lowest
+/// terms, or `None` if it does not fit 32 bits or has a zero divisor.
+pub fn feed_constant(per_output_revolution: Ratio, decimals: u8) -> Option<Ratio> {
+    if per_output_revolution.divisor == 0 {
+        return None;
+    }
+    let mut scale: u128 = 1;
+    for _ in 0..decimals {
+        scale = scale.checked_mul(10)?;
+    }
+    let n = u128::from(per_output_revolution.numerator).checked_mul(scale)?;
+    reduce_u128(n, u128::from(per_output_revolution.divisor))
+}
+
+/// gear × time / feed (time = 65536 for position), reduced and checked for `object`.
+fn compose(
+    object: FactorObject,
+    gear: Ratio,
+    time: Ratio,
+    feed: Ratio,
+) -> Result<Ratio, FactorError> {
+    if gear.divisor == 0 || time.divisor == 0 || feed.divisor == 0 || feed.numerator == 0 {
+        return Err(FactorError::DivisorZero(object));
+    }
+    // Each product has three u32 factors (< 2^96), so u128 cannot overflow.
+    let n = u128::from(gear.numerator) * u128::from(time.numerator) * u128::from(feed.divisor);
+    let d = u128::from(gear.divisor) * u128::from(time.divisor) * u128::from(feed.numerator);
+    if n == 0 {
+        return Err(FactorError::NumeratorZero(object));
+    }
+    let r = reduce_u128(n, d).ok_or(FactorError::NotRepresentable(object))?;
+    r.check(object)?;
+    Ok(r)
+}
+
+fn reduce_u128(n: u128, d: u128) -> Option<Ratio> {
+    let g = gcd(n, d);
+    if g == 0 {
+        return None;
+    }
+    let numerator = u32::try_from(n / g).ok()?;
+    let divisor = u32::try_from(d / g).ok()?;
+    Some(Ratio::new(numerator, divisor))
+}
+
+const fn gcd(mut a: u128, mut b: u128) -> u128 {
+    while b != 0 {
+        let t = a % b;
+        a = b;
+        b = t;
+    }
+    a
+}
+
+const fn check_polarity(polarity: u8) -> Result<(), FactorError> {
+    if polarity & !(POSITION_POLARITY_FLAG | VELOCITY_POLARITY_FLAG) != 0 {
+        Err(FactorError::PolarityReservedBits(polarity))
+    } else {
+        Ok(())
+    }
+}
+
+fn signed(v: i128, inverted: bool) -> i128 {
+    if inverted {
+        -v
+    } else {
+        v
+    }
+}
+
+/// `n / d` rounded to nearest, ties away from zero; `None` if `d == 0`. Requires `d ≥ 0`
+/// (always true here: `d` comes from a `u32`).
+fn div_round(n: i128, d: i128) -> Option<i128> {
+    if d == 0 {
+        return None;
+    }
+    let q = n / d;
+    let r = n % d; // same sign as n
+    if 2 * r.abs() >= d {
+        Some(q + n.signum())
+    } else {
+        Some(q)
+    }
+}
+
+/// `v × num / div`; a zero divisor acts as an infinite factor (saturates by sign).
+fn to_internal(v: i128, r: Ratio) -> i128 {
+    div_round(v * i128::from(r.numerator), i128::from(r.divisor)).unwrap_or(infinite(v))
+}
+
+/// `v × div / num`; a zero numerator acts as an infinite factor (saturates by sign).
+fn from_internal(v: i128, r: Ratio) -> i128 {
+    div_round(v * i128::from(r.divisor), i128::from(r.numerator)).unwrap_or(infinite(v))
+}
+
+fn infinite(v: i128) -> i128 {
+    v.signum() * i128::MAX
+}
+
+fn sat_i64(v: i128) -> i64 {
+    i64::try_from(v).unwrap_or(if v < 0 { i64::MIN } else { i64::MAX })
+}
+
+fn sat_i32(v: i128) -> i32 {
+    i32::try_from(v).unwrap_or(if v < 0 { i32::MIN } else { i32::MAX })
+}
+
+fn sat_u32(v: i128) -> u32 {
+    u32::try_from(v).unwrap_or(if v < 0 { 0 } else { u32::MAX })
+}

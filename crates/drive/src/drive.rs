@@ -1,0 +1,1059 @@
+//! The CiA 402 drive: device control, the operating modes and the simulated axis behind one
+//! object dictionary. Protocol front ends reach it only through [`ObjectAccess`]; the runtime
+//! steps it with [`Drive::step`] on the cell's clock. Stepping never allocates.
+
+use core::time::Duration;
+
+use heapless::Deque;
+use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
+
+use crate::axis::{Axis, Demand};
+use crate::control::ControlParams;
+use crate::device_control::{DeviceControl, Reaction, State};
+use crate::factor_group::{FactorGroup, FactorObject, Ratio};
+use crate::motor::MotorData;
+use crate::profile_position::{Job, Request, SetPoints};
+use crate::trajectory::{Limits, Trajectory};
+
+/// Operating modes (6060h / 6061h values).
+pub mod mode {
+    pub const PROFILE_POSITION: i8 = 1;
+    pub const PROFILE_VELOCITY: i8 = 3;
+    pub const PROFILE_TORQUE: i8 = 4;
+    pub const HOMING: i8 = 6;
+    pub const INTERPOLATED_POSITION: i8 = 7;
+    /// 6061h while a mode change is in progress (CMMP-AS §7.1).
+    pub const CHANGING: i8 = -1;
+}
+
+/// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
+pub mod diag {
+    /// 17-0 following error: the hard limit 6510h:22 was exceeded.
+    pub const FOLLOWING_ERROR: u16 = 0x8611;
+    /// 31-0 I²t motor (with 6510h:38 = 1).
+    pub const I2T_MOTOR: u16 = 0x2312;
+}
+
+/// Settings of the simulation that no object holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveSettings {
+    pub motor: MotorData,
+    /// How long a mode change takes; 6061h reads −1 meanwhile. Real drives take a few ms;
+    /// a longer value reproduces slow drives.
+    pub mode_change_time: Duration,
+    /// The hardware enables (DIN4 output stage, DIN5 controller enable) transition 2 needs.
+    pub enables_present: bool,
+    /// A holding brake is fitted: it holds the shaft while the output stage is off.
+    pub brake_fitted: bool,
+}
+
+impl Default for DriveSettings {
+    fn default() -> Self {
+        DriveSettings {
+            motor: MotorData::default(),
+            mode_change_time: Duration::from_millis(2),
+            enables_present: true,
+            brake_fitted: true,
+        }
+    }
+}
+
+/// What the drive reports to its communication side (EMCY).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DriveEvent {
+    Error { code: u16, register: u8 },
+    Cleared { code: u16 },
+}
+
+/// Increments per second per internal velocity unit (1/4096 min⁻¹): 65536 / 60 / 4096.
+const INC_S_PER_VEL: f64 = 65536.0 / 60.0 / 4096.0;
+/// Increments per second² per internal acceleration unit (1/256 min⁻¹/s): 65536 / 60 / 256.
+const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
+/// min⁻¹ per increment/s.
+const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
+
+/// Entries the drive reads or writes every cycle, looked up once.
+#[derive(Debug, Clone, Copy, Default)]
+struct Hot {
+    controlword: Option<&'static Entry>,
+    statusword: Option<&'static Entry>,
+    mode_display: Option<&'static Entry>,
+    position_internal: Option<&'static Entry>,
+    position_actual: Option<&'static Entry>,
+    position_demand: Option<&'static Entry>,
+    velocity_actual: Option<&'static Entry>,
+    velocity_demand: Option<&'static Entry>,
+    current_actual: Option<&'static Entry>,
+    torque_actual: Option<&'static Entry>,
+    torque_demand: Option<&'static Entry>,
+    following_error_actual: Option<&'static Entry>,
+    control_effort: Option<&'static Entry>,
+    manufacturer_status: Option<&'static Entry>,
+    target_velocity: Option<&'static Entry>,
+    target_torque: Option<&'static Entry>,
+}
+
+pub struct Drive<S> {
+    od: ObjectDictionary<S>,
+    settings: DriveSettings,
+    dc: DeviceControl,
+    axis: Axis,
+    fg: FactorGroup,
+    hot: Hot,
+    /// Current-controller cycle and how many of them make one logic (position-loop) cycle.
+    cycle: Duration,
+    logic_every: u32,
+    next_cycle: Option<Instant>,
+    cycles: u64,
+    now: Instant,
+    /// Added to the encoder to give 6063h (2030h set_position_absolute, homing).
+    position_offset: i64,
+    mode: i8,
+    mode_pending: Option<(i8, Instant)>,
+    traj: Trajectory,
+    setpoints: SetPoints,
+    demand: Demand,
+    /// Quick stop, disable operation or fault reaction ramp in progress.
+    stopping: bool,
+    halted: bool,
+    velocity_set: f64,
+    torque_set: f64,
+    target_reached: bool,
+    window_since: Option<Instant>,
+    following_error: bool,
+    fe_since: Option<Instant>,
+    speed_zero: bool,
+    over_threshold_since: Option<Instant>,
+    homing_attained: bool,
+    homing_error: bool,
+    referenced: bool,
+    /// Controlword edges latched at the write, so a short pulse is never missed.
+    cw_rising: u16,
+    last_cw: u16,
+    brake_engaged: bool,
+    /// The output stage goes off / the set-point is released when the brake delay ends.
+    power_off_at: Option<Instant>,
+    release_at: Option<Instant>,
+    /// Errors reported and not yet acknowledged.
+    faults: heapless::Vec<u16, 8>,
+    /// Causes still present (injected faults until cleared): they block the fault reset.
+    causes: heapless::Vec<u16, 8>,
+    events: Deque<DriveEvent, 16>,
+    params_dirty: bool,
+}
+
+fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
+    match Value::decode(e.data_type, raw) {
+        Some(Value::Signed(s)) => s,
+        Some(Value::Unsigned(u)) => u as i64,
+        Some(Value::Bool(b)) => b as i64,
+        Some(Value::Real(r)) => r as i64,
+        None => 0,
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// A drive at power-on over `od` (holding defaults, commissioning and stored values).
+    pub fn new(mut od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
+        publish_supply(&mut od);
+        let desc = od.description();
+        let e = |i, s| desc.entry(i, s);
+        let hot = Hot {
+            controlword: e(0x6040, 0),
+            statusword: e(0x6041, 0),
+            mode_display: e(0x6061, 0),
+            position_internal: e(0x6063, 0),
+            position_actual: e(0x6064, 0),
+            position_demand: e(0x6062, 0),
+            velocity_actual: e(0x606C, 0),
+            velocity_demand: e(0x606B, 0),
+            current_actual: e(0x6078, 0),
+            torque_actual: e(0x6077, 0),
+            torque_demand: e(0x6074, 0),
+            following_error_actual: e(0x60F4, 0),
+            control_effort: e(0x60FA, 0),
+            manufacturer_status: e(0x2000, 1),
+            target_velocity: e(0x60FF, 0),
+            target_torque: e(0x6071, 0),
+        };
+        let params = control_params(&od);
+        let axis = Axis::new(settings.motor, params);
+        let cycle = Duration::from_micros(u64::from(params.cycletime_current_us.max(1)));
+        let logic_every = axis.gains().pos_every.max(1);
+        let mut d = Drive {
+            od,
+            settings,
+            dc: DeviceControl::default(),
+            axis,
+            fg: FactorGroup::default(),
+            hot,
+            cycle,
+            logic_every,
+            next_cycle: None,
+            cycles: 0,
+            now: Instant::ZERO,
+            position_offset: 0,
+            mode: 0,
+            mode_pending: None,
+            traj: Trajectory::default(),
+            setpoints: SetPoints::default(),
+            demand: Demand::Off,
+            stopping: false,
+            halted: false,
+            velocity_set: 0.0,
+            torque_set: 0.0,
+            target_reached: false,
+            window_since: None,
+            following_error: false,
+            fe_since: None,
+            speed_zero: true,
+            over_threshold_since: None,
+            homing_attained: false,
+            homing_error: false,
+            referenced: false,
+            cw_rising: 0,
+            last_cw: 0,
+            brake_engaged: true,
+            power_off_at: None,
+            release_at: None,
+            faults: heapless::Vec::new(),
+            causes: heapless::Vec::new(),
+            events: Deque::new(),
+            params_dirty: false,
+        };
+        d.reload_factor_group();
+        d.axis.hold_brake(d.settings.brake_fitted);
+        d.mode = d
+            .read(d.hot.mode_display)
+            .clamp(i8::MIN as i64, i8::MAX as i64) as i8;
+        // CMMP-AS §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs + CAN") whenever CANopen
+        // is active, also after a reset.
+        let _ = d.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+        d.dc.initialised();
+        d.publish();
+        d
+    }
+
+    pub fn od(&self) -> &ObjectDictionary<S> {
+        &self.od
+    }
+    pub fn od_mut(&mut self) -> &mut ObjectDictionary<S> {
+        &mut self.od
+    }
+    pub fn state(&self) -> State {
+        self.dc.state()
+    }
+    pub fn axis(&self) -> &Axis {
+        &self.axis
+    }
+    pub fn axis_mut(&mut self) -> &mut Axis {
+        &mut self.axis
+    }
+    pub fn factor_group(&self) -> &FactorGroup {
+        &self.fg
+    }
+    /// What the axis is asked for this cycle.
+    pub fn demand(&self) -> Demand {
+        self.demand
+    }
+    pub fn take_event(&mut self) -> Option<DriveEvent> {
+        self.events.pop_front()
+    }
+
+    /// The dictionary's values changed behind the drive's back (restore, reload after a
+    /// reset): re-read what the drive caches.
+    pub fn reload(&mut self) {
+        publish_supply(&mut self.od);
+        self.reload_factor_group();
+        self.params_dirty = true;
+        let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+    }
+
+    fn reload_factor_group(&mut self) {
+        let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
+            numerator: od
+                .get_unsigned(index, 1)
+                .map(|v| v as u32)
+                .unwrap_or(dflt.numerator),
+            divisor: od
+                .get_unsigned(index, 2)
+                .map(|v| v as u32)
+                .unwrap_or(dflt.divisor),
+        };
+        let d = FactorGroup::default();
+        let fg = FactorGroup {
+            position: ratio(&self.od, 0x6093, d.position),
+            velocity: ratio(&self.od, 0x6094, d.velocity),
+            acceleration: ratio(&self.od, 0x6097, d.acceleration),
+            polarity: self.od.get_unsigned(0x607E, 0).unwrap_or(0) as u8,
+        };
+        // A stored set that breaks the rules falls back to the defaults rather than dividing
+        // by zero.
+        self.fg = if fg.validate().is_ok() { fg } else { d };
+    }
+
+    /// Raises a fault from outside (fault injection, a test): EMCY, fault reaction (quick-stop
+    /// ramp), FAULT.
+    /// The cause stays until [`Drive::clear_fault`].
+    pub fn inject_fault(&mut self, code: u16, register: u8) {
+        if !self.causes.contains(&code) {
+            let _ = self.causes.push(code);
+        }
+        self.raise(code, register, false);
+    }
+
+    /// Removes an injected fault's cause; a fault reset then acknowledges the error.
+    pub fn clear_fault(&mut self, code: u16) {
+        if let Some(i) = self.causes.iter().position(|c| *c == code) {
+            self.causes.remove(i);
+        }
+    }
+
+    /// An error with a stopping reaction; `critical` ones switch the output stage off at once.
+    fn raise(&mut self, code: u16, register: u8, critical: bool) {
+        if !self.faults.contains(&code) {
+            let _ = self.faults.push(code);
+            self.push_event(DriveEvent::Error { code, register });
+        }
+        let r = if critical {
+            self.dc.fault_immediate()
+        } else {
+            self.dc.fault()
+        };
+        self.react(r);
+    }
+
+    fn push_event(&mut self, e: DriveEvent) {
+        if self.events.is_full() {
+            self.events.pop_front();
+        }
+        let _ = self.events.push_back(e);
+    }
+
+    fn read(&self, e: Option<&'static Entry>) -> i64 {
+        e.map(|e| decode_i64(e, self.od.raw(e))).unwrap_or(0)
+    }
+
+    fn value(&self, index: u16, sub: u8) -> i64 {
+        match self.od.value(index, sub) {
+            Some(Value::Signed(s)) => s,
+            Some(Value::Unsigned(u)) => u as i64,
+            _ => 0,
+        }
+    }
+
+    fn store(&mut self, e: Option<&'static Entry>, v: i64) {
+        if let Some(e) = e {
+            let b = v.to_le_bytes();
+            self.od.store(e, b.get(..e.capacity as usize).unwrap_or(&b));
+        }
+    }
+
+    /// Runs every control cycle due up to `now`; returns when the next one is due.
+    pub fn step(&mut self, now: Instant) -> Option<Instant> {
+        let mut next = *self.next_cycle.get_or_insert(now);
+        while next <= now {
+            self.now = next;
+            if self.cycles.is_multiple_of(u64::from(self.logic_every)) {
+                self.logic();
+            }
+            self.axis.step(self.demand);
+            self.cycles += 1;
+            next = next + self.cycle;
+        }
+        self.next_cycle = Some(next);
+        Some(next)
+    }
+
+    /// One position-loop cycle of device logic: controlword, state machine, mode, windows,
+    /// statusword and actual values.
+    fn logic(&mut self) {
+        let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
+        if self.params_dirty {
+            self.params_dirty = false;
+            self.axis.set_params(control_params(&self.od));
+        }
+        // Device control.
+        let cw = self.read(self.hot.controlword) as u16;
+        let fault = !self.causes.is_empty();
+        // A fault-reset pulse shorter than a cycle still counts (latched at the write).
+        if self.cw_rising & 0x0080 != 0 && cw & 0x0080 == 0 {
+            let _ = self
+                .dc
+                .controlword(cw | 0x0080, fault, self.settings.enables_present);
+        }
+        let before = self.dc.state();
+        let reaction = self
+            .dc
+            .controlword(cw, fault, self.settings.enables_present);
+        self.react(reaction);
+        if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
+            // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
+            while let Some(code) = self.faults.pop() {
+                self.push_event(DriveEvent::Cleared { code });
+            }
+        }
+        self.halted = cw & 0x0100 != 0;
+        // Mode change (6061h shows −1 meanwhile).
+        if let Some((m, at)) = self.mode_pending {
+            if self.now >= at {
+                self.mode_pending = None;
+                self.mode = m;
+                self.setpoints.abort();
+                self.resync_trajectory();
+            }
+        }
+        self.motion(cw, dt);
+        self.brake_timers();
+        self.cw_rising = 0;
+        self.publish();
+    }
+
+    fn react(&mut self, r: Reaction) {
+        match r {
+            Reaction::None => {}
+            Reaction::Enable => {
+                // Brake released with the output stage; the set-point follows after the
+                // brake delay (CMMP-AS §5.16).
+                self.power_off_at = None;
+                self.brake_engaged = false;
+                self.axis.hold_brake(false);
+                let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
+                self.release_at = Some(self.now + delay);
+                self.resync_trajectory();
+                self.stopping = false;
+            }
+            Reaction::Coast => {
+                // Brake first, output stage off after the brake delay.
+                self.setpoints.abort();
+                self.stopping = false;
+                if self.settings.brake_fitted
+                    && !self.brake_engaged
+                    && !matches!(self.demand, Demand::Off)
+                {
+                    self.brake_engaged = true;
+                    self.axis.hold_brake(true);
+                    let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
+                    self.power_off_at = Some(self.now + delay);
+                } else {
+                    self.power_off();
+                }
+            }
+            Reaction::QuickStopRamp => {
+                self.setpoints.abort();
+                self.stopping = true;
+            }
+        }
+    }
+
+    fn power_off(&mut self) {
+        self.power_off_at = None;
+        self.demand = Demand::Off;
+        if self.settings.brake_fitted {
+            self.brake_engaged = true;
+            self.axis.hold_brake(true);
+        }
+    }
+
+    fn brake_timers(&mut self) {
+        if self.power_off_at.is_some_and(|t| self.now >= t) {
+            self.power_off();
+        }
+    }
+
+    fn actual_internal(&self) -> i64 {
+        self.axis.position_increments() + self.position_offset
+    }
+
+    /// The set-point follows the actual position (output stage off, mode change, enable).
+    fn resync_trajectory(&mut self) {
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+        };
+        self.velocity_set = self.traj.velocity;
+    }
+
+    fn accel(&self, index: u16) -> f64 {
+        let user = self.value(index, 0).clamp(0, u32::MAX as i64) as u32;
+        self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
+    }
+
+    fn position_demand(&mut self, velocity_ff: f64) {
+        self.demand = Demand::Position {
+            increments: libm::round(self.traj.position) as i64 - self.position_offset,
+            velocity_ff_rpm: (velocity_ff * RPM_PER_INC_S) as f32,
+        };
+    }
+
+    fn motion(&mut self, cw: u16, dt: f64) {
+        let state = self.dc.state();
+        if !state.power_enabled() {
+            if self.power_off_at.is_none() {
+                self.demand = Demand::Off;
+            }
+            self.resync_trajectory();
+            self.target_reached = false;
+            return;
+        }
+        if self.release_at.is_some_and(|t| self.now < t) {
+            // Brake still opening: hold.
+            self.position_demand(0.0);
+            return;
+        }
+        self.release_at = None;
+        if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
+            // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
+            // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
+            let decel = self.accel(0x6085);
+            let stopped = self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            if stopped {
+                self.stopping = false;
+                let r = self.dc.stopped();
+                self.react(r);
+            }
+            return;
+        }
+        if state != State::OperationEnabled || self.mode_pending.is_some() {
+            // SWITCHED ON, or a mode change in progress: hold the position.
+            let decel = self.accel(0x6084);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            return;
+        }
+        match self.mode {
+            mode::PROFILE_POSITION => self.profile_position(cw, dt),
+            mode::PROFILE_VELOCITY => self.profile_velocity(dt),
+            mode::PROFILE_TORQUE => self.profile_torque(dt),
+            mode::HOMING => self.homing(cw, dt),
+            _ => {
+                let decel = self.accel(0x6084);
+                self.traj.step_stop(decel, dt);
+                self.position_demand(self.traj.velocity);
+            }
+        }
+    }
+
+    fn profile_position(&mut self, cw: u16, dt: f64) {
+        let bit4 = cw & 0x0010 != 0 || self.cw_rising & 0x0010 != 0;
+        let demand = self.traj.position;
+        let fg = self.fg;
+        let od = &self.od;
+        let get = |i: u16| match od.value(i, 0) {
+            Some(Value::Signed(s)) => s,
+            Some(Value::Unsigned(u)) => u as i64,
+            _ => 0,
+        };
+        let request = || {
+            let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            let target = fg.position_to_internal(user) as f64;
+            let vel = |i| {
+                fg.velocity_magnitude_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
+                    * INC_S_PER_VEL
+            };
+            let acc = |i| {
+                fg.acceleration_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
+                    * INC_S2_PER_ACC
+            };
+            Request {
+                target,
+                relative: cw & 0x0040 != 0,
+                immediately: cw & 0x0020 != 0,
+                job: Job {
+                    target,
+                    velocity: vel(0x6081)
+                        .min(f64::from(get(0x6080).max(0) as u32) * 4096.0 * INC_S_PER_VEL),
+                    end_velocity: vel(0x6082),
+                    acceleration: acc(0x6083),
+                    deceleration: acc(0x6084),
+                },
+            }
+        };
+        // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
+        if self.setpoints.update(bit4, demand, request) {
+            self.target_reached = false;
+            self.window_since = None;
+        }
+        if self.halted {
+            // Halt: brake with the profile deceleration; the job is dropped, and target
+            // reached is set once standing (CMMP-AS Tab. 6.5).
+            let decel = self.accel(0x6084);
+            let stopped = self.traj.step_stop(decel, dt);
+            self.setpoints.abort();
+            self.position_demand(self.traj.velocity);
+            if stopped {
+                self.target_reached = true;
+            }
+            return;
+        }
+        match self.setpoints.active {
+            Some(job) => {
+                let lim = Limits {
+                    velocity: job.velocity.max(1.0),
+                    acceleration: job.acceleration.max(1.0),
+                    deceleration: job.deceleration.max(1.0),
+                };
+                let end = self.setpoints.end_velocity();
+                if self.traj.step_to(job.target, end, lim, dt) {
+                    self.setpoints.finished();
+                }
+                self.position_demand(self.traj.velocity);
+            }
+            None => {
+                self.position_demand(0.0);
+                // Target reached: generator done and the actual position inside the window
+                // for the window time (6067h, 6068h).
+                if let Some(target) = self.setpoints.last_target {
+                    let window = self.fg.position_magnitude_to_internal(
+                        self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
+                    );
+                    let inside =
+                        (self.actual_internal() - libm::round(target) as i64).abs() <= window;
+                    let time = Duration::from_millis(self.value(0x6068, 0).max(0) as u64);
+                    if inside {
+                        let since = *self.window_since.get_or_insert(self.now);
+                        if self.now.saturating_since(since) >= time {
+                            self.target_reached = true;
+                        }
+                    } else {
+                        self.window_since = None;
+                        self.target_reached = false;
+                    }
+                }
+            }
+        }
+    }
+
+    fn profile_velocity(&mut self, dt: f64) {
+        let user = self
+            .read(self.hot.target_velocity)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let max = self.value(0x6080, 0).max(0) as f64 * 4096.0 * INC_S_PER_VEL;
+        let mut target =
+            (self.fg.velocity_to_internal(user) as f64 * INC_S_PER_VEL).clamp(-max, max);
+        if self.halted {
+            target = 0.0; // Halt: to zero with the profile deceleration, resumed when cleared.
+        }
+        let ramps = self.value(0x2090, 1) != 0;
+        if ramps || self.halted {
+            // 2090h: separate ramps for positive and negative speed (6083h/6084h write them).
+            let positive = self.velocity_set >= 0.0 && target >= 0.0;
+            let (acc, dec) = if self.halted {
+                (self.accel(0x6084), self.accel(0x6084))
+            } else if positive {
+                (self.accel2(0x2090, 2), self.accel2(0x2090, 3))
+            } else {
+                (self.accel2(0x2090, 4), self.accel2(0x2090, 5))
+            };
+            let mut t = Trajectory {
+                position: 0.0,
+                velocity: self.velocity_set,
+            };
+            t.step_velocity(target, acc, dec, dt);
+            self.velocity_set = t.velocity;
+        } else {
+            self.velocity_set = target;
+        }
+        // The set-point keeps the ramp's speed, so a quick stop brakes from there.
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: self.velocity_set,
+        };
+        self.demand = Demand::Velocity {
+            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
+        };
+        // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
+        let v_act = f64::from(self.axis.velocity_internal());
+        let target_internal = target / INC_S_PER_VEL;
+        let window = self
+            .fg
+            .velocity_magnitude_to_internal(self.value(0x606D, 0).max(0) as u32)
+            as f64;
+        let time = Duration::from_millis(self.value(0x606E, 0).max(0) as u64);
+        if (v_act - target_internal).abs() < window {
+            let since = *self.window_since.get_or_insert(self.now);
+            self.target_reached = self.now.saturating_since(since) >= time;
+        } else {
+            self.window_since = None;
+            self.target_reached = false;
+        }
+    }
+
+    fn accel2(&self, index: u16, sub: u8) -> f64 {
+        let user = self.value(index, sub).clamp(0, u32::MAX as i64) as u32;
+        self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
+    }
+
+    fn profile_torque(&mut self, dt: f64) {
+        let max = self.value(0x6072, 0).max(0) as f64;
+        let mut target = (self.read(self.hot.target_torque) as f64).clamp(-max, max);
+        if self.halted {
+            target = 0.0;
+        }
+        // 6087h: ‰ of rated torque per second (CMMP-AS §7.7).
+        let slope = (self.value(0x6087, 0).max(0) as f64) * dt;
+        let d = target - self.torque_set;
+        self.torque_set += d.clamp(-slope, slope);
+        self.target_reached = self.torque_set == target;
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+        };
+        let current = self
+            .axis
+            .params()
+            .current_for_torque_permille(self.torque_set);
+        self.demand = Demand::Torque {
+            current_a: current as f32,
+        };
+    }
+
+    /// Homing: method 35 (CiA 402 v3 "current position", 37 in later editions) sets the
+    /// reference at once; the switch-search methods need switches this twin does not model
+    /// yet and end with a homing error.
+    fn homing(&mut self, cw: u16, dt: f64) {
+        let decel = self.accel(0x609A);
+        self.traj.step_stop(decel, dt);
+        self.position_demand(self.traj.velocity);
+        if self.cw_rising & 0x0010 != 0
+            || (cw & 0x0010 != 0 && !self.homing_attained && !self.homing_error)
+        {
+            let method = self.value(0x6098, 0);
+            if method == 35 || method == 37 {
+                let home = self
+                    .value(0x607C, 0)
+                    .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                let home_internal = self.fg.position_to_internal(home);
+                self.position_offset = home_internal - self.axis.position_increments();
+                self.resync_trajectory();
+                self.referenced = true;
+                self.homing_attained = true;
+                self.homing_error = false;
+            } else {
+                self.homing_error = true;
+            }
+        }
+        self.target_reached = self.homing_attained || self.homing_error;
+    }
+
+    /// Writes the statusword and every actual value.
+    fn publish(&mut self) {
+        let compat = self.value(0x6510, 0xF0) as u16;
+        let state = self.dc.state();
+        let mut sw = state.statusword_bits(compat & 0x0080 != 0);
+        // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
+        // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
+        let power = !matches!(self.demand, Demand::Off);
+        if power || compat & 0x0080 != 0 {
+            sw |= 0x0010;
+        }
+        let v_act = i64::from(self.axis.velocity_internal());
+        let threshold = self
+            .fg
+            .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
+        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
+        // manual's "within" as the translation slip it is).
+        if v_act.abs() > threshold {
+            sw |= 0x0100;
+            let since = *self.over_threshold_since.get_or_insert(self.now);
+            let time = Duration::from_millis(self.value(0x6070, 0).max(0) as u64);
+            if self.now.saturating_since(since) >= time {
+                self.speed_zero = false;
+            }
+        } else {
+            self.over_threshold_since = None;
+            self.speed_zero = true;
+        }
+        // Bit 9 remote: enable_logic 2 (DINs + CAN).
+        if self.value(0x6510, 0x10) == 2 {
+            sw |= 0x0200;
+        }
+        let in_oe = state == State::OperationEnabled;
+        if self.target_reached && in_oe {
+            sw |= 0x0400;
+        }
+        if self.axis.i2t_limit_active() {
+            sw |= 0x0800;
+        }
+        // Following error (PP): |actual − demand| > 6065h for 6066h.
+        let demand_pos = libm::round(self.traj.position) as i64;
+        let fe = self.actual_internal() - demand_pos;
+        let fe_window = self
+            .fg
+            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32);
+        if power && fe.abs() > fe_window {
+            let since = *self.fe_since.get_or_insert(self.now);
+            let time = Duration::from_millis(self.value(0x6066, 0).max(0) as u64);
+            self.following_error = self.now.saturating_since(since) >= time;
+        } else {
+            self.fe_since = None;
+            self.following_error = false;
+        }
+        // 6510h:22 > 0: hard limit, output stage off and error 17-0.
+        let hard = self.value(0x6510, 0x22);
+        if power
+            && hard > 0
+            && fe.abs()
+                > self
+                    .fg
+                    .position_magnitude_to_internal(hard.clamp(0, u32::MAX as i64) as u32)
+        {
+            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts".
+            self.raise(diag::FOLLOWING_ERROR, 0x01, true);
+        }
+        let mode_bits = match self.mode {
+            mode::PROFILE_POSITION => {
+                (if self.setpoints.acknowledge {
+                    0x1000
+                } else {
+                    0
+                }) | (if self.following_error { 0x2000 } else { 0 })
+            }
+            mode::PROFILE_VELOCITY if self.speed_zero => 0x1000,
+            mode::HOMING => {
+                (if self.homing_attained { 0x1000 } else { 0 })
+                    | (if self.homing_error { 0x2000 } else { 0 })
+            }
+            _ => 0,
+        };
+        sw |= mode_bits;
+        // Bit 14: ((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0 (CMMP-AS §6.1.4).
+        let ready = self.faults.is_empty() && !state.power_enabled();
+        let msw = u32::from(self.referenced)
+            | 0x2 // commutation valid
+            | if ready { 0x4 } else { 0 }
+            | if self.setpoints.active.is_none() { 0x8 } else { 0 };
+        self.store(self.hot.manufacturer_status, i64::from(msw));
+        let invert = self.value(0x200A, 1) as u32;
+        let mask = self.value(0x2005, 1) as u32;
+        if (msw ^ invert) & mask != 0 {
+            sw |= 0x4000;
+        }
+        if self.referenced {
+            sw |= 0x8000;
+        }
+        self.store(self.hot.statusword, i64::from(sw));
+        let display = if self.mode_pending.is_some() {
+            mode::CHANGING
+        } else {
+            self.mode
+        };
+        self.store(self.hot.mode_display, i64::from(display));
+        let actual = self.actual_internal();
+        self.store(self.hot.position_internal, actual);
+        let fg = self.fg;
+        self.store(
+            self.hot.position_actual,
+            i64::from(fg.position_from_internal(actual)),
+        );
+        self.store(
+            self.hot.position_demand,
+            i64::from(fg.position_from_internal(demand_pos)),
+        );
+        self.store(
+            self.hot.following_error_actual,
+            i64::from(fg.position_from_internal(fe)),
+        );
+        self.store(
+            self.hot.velocity_actual,
+            i64::from(fg.velocity_from_internal(v_act)),
+        );
+        let v_dem = match self.demand {
+            Demand::Velocity { rpm } => f64::from(rpm) * 4096.0,
+            _ => self.traj.velocity / INC_S_PER_VEL,
+        };
+        self.store(
+            self.hot.velocity_demand,
+            i64::from(fg.velocity_from_internal(libm::round(v_dem) as i64)),
+        );
+        let effort = libm::round(f64::from(self.axis.control_effort_rpm()) * 4096.0) as i64;
+        self.store(
+            self.hot.control_effort,
+            i64::from(fg.velocity_from_internal(effort)),
+        );
+        self.store(
+            self.hot.current_actual,
+            i64::from(self.axis.current_permille()),
+        );
+        self.store(
+            self.hot.torque_actual,
+            i64::from(self.axis.torque_permille()),
+        );
+        self.store(
+            self.hot.torque_demand,
+            i64::from(self.axis.torque_demand_permille()),
+        );
+    }
+}
+
+/// The supply of the twin is ideal: the DC link sits at its nominal voltage (6510h:33 into
+/// 6510h:34 and 6079h).
+fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>) {
+    let nominal = od.get_unsigned(0x6510, 0x33).unwrap_or(325_000);
+    let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
+    let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
+}
+
+/// The controller parameters the dictionary holds (CMMP-AS §5.5–5.8).
+pub fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> ControlParams {
+    let d = ControlParams::default();
+    let u = |i: u16, s: u8, dflt: u64| od.get_unsigned(i, s).unwrap_or(dflt);
+    ControlParams {
+        motor_rated_current_ma: u(0x6075, 0, d.motor_rated_current_ma.into()) as u32,
+        max_current_permille: u(0x6073, 0, d.max_current_permille.into()) as u16,
+        iit_time_motor_ms: u(0x6410, 3, d.iit_time_motor_ms.into()) as u16,
+        torque_control_gain: u(0x60F6, 1, d.torque_control_gain.into()) as u16,
+        torque_control_time_us: u(0x60F6, 2, d.torque_control_time_us.into()) as u16,
+        velocity_control_gain: u(0x60F9, 1, d.velocity_control_gain.into()) as u16,
+        velocity_control_time_us: u(0x60F9, 2, d.velocity_control_time_us.into()) as u16,
+        velocity_control_filter_time_us: u(0x60F9, 4, d.velocity_control_filter_time_us.into())
+            as u16,
+        velocity_display_filter_time_us: u(0x2073, 0, d.velocity_display_filter_time_us.into())
+            as u32,
+        position_control_gain: u(0x60FB, 1, d.position_control_gain.into()) as u16,
+        position_control_time_us: u(0x60FB, 2, d.position_control_time_us.into()) as u16,
+        position_control_v_max_rpm: u(0x60FB, 4, d.position_control_v_max_rpm.into()) as u32,
+        position_error_tolerance_window: u(0x60FB, 5, d.position_error_tolerance_window.into())
+            as u32,
+        max_motor_speed_rpm: u(0x6080, 0, d.max_motor_speed_rpm.into()) as u32,
+        limit_current_ma: None,
+        nominal_dc_link_voltage_mv: u(0x6510, 0x33, d.nominal_dc_link_voltage_mv.into()) as u32,
+        dc_link_voltage_mv: u(0x6510, 0x34, d.dc_link_voltage_mv.into()) as u32,
+        peak_current_ma: u(0x6510, 0x41, d.peak_current_ma.into()) as u32,
+        cycletime_current_us: u(0x6510, 0xB0, d.cycletime_current_us.into()) as u32,
+        cycletime_velocity_us: u(0x6510, 0xB1, d.cycletime_velocity_us.into()) as u32,
+        cycletime_position_us: u(0x6510, 0xB2, d.cycletime_position_us.into()) as u32,
+    }
+}
+
+/// Objects whose change the controllers must see.
+fn is_control_parameter(index: u16) -> bool {
+    matches!(
+        index,
+        0x6073 | 0x6075 | 0x6410 | 0x60F6 | 0x60F9 | 0x60FB | 0x6080 | 0x2073 | 0x6510
+    )
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.od.entry(index, sub)
+    }
+
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.od.read(index, sub, buf)
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match (index, sub) {
+            (0x6040, 0) => {
+                self.od.write(index, sub, data)?;
+                let cw = self.read(self.hot.controlword) as u16;
+                self.cw_rising |= cw & !self.last_cw;
+                self.last_cw = cw;
+                Ok(())
+            }
+            (0x6060, 0) => {
+                let m = match data {
+                    [b] => *b as i8,
+                    _ => return self.od.write(index, sub, data),
+                };
+                // CMMP-AS 6060h: 1, 3, 4, 6, 7 over CANopen (8 only over EtherCAT).
+                if !matches!(m, 1 | 3 | 4 | 6 | 7) {
+                    return Err(AbortCode::INVALID_VALUE);
+                }
+                self.od.write(index, sub, data)?;
+                if m != self.mode || self.mode_pending.is_some() {
+                    self.mode_pending = Some((m, self.now + self.settings.mode_change_time));
+                }
+                Ok(())
+            }
+            (0x6093 | 0x6094 | 0x6097, 1 | 2) => {
+                let obj = match index {
+                    0x6093 => FactorObject::Position,
+                    0x6094 => FactorObject::Velocity,
+                    _ => FactorObject::Acceleration,
+                };
+                let v = match data {
+                    [a, b, c, d] => u32::from_le_bytes([*a, *b, *c, *d]),
+                    _ => return self.od.write(index, sub, data),
+                };
+                let mut r = self.fg.factor(obj);
+                if sub == 1 {
+                    r.numerator = v;
+                } else {
+                    r.divisor = v;
+                }
+                // CMMP-AS §5.3: the factor may not exceed 2^24, numerator and divisor not 0.
+                let mut fg = self.fg;
+                fg.set_factor(obj, r).map_err(|e| match e {
+                    crate::factor_group::FactorError::ExceedsLimit(_) => AbortCode::VALUE_TOO_HIGH,
+                    _ => AbortCode::INVALID_VALUE,
+                })?;
+                self.od.write(index, sub, data)?;
+                self.fg = fg;
+                Ok(())
+            }
+            (0x607E, 0) => {
+                let v = data.first().copied().unwrap_or(0);
+                let mut fg = self.fg;
+                fg.set_polarity(v).map_err(|_| AbortCode::INVALID_VALUE)?;
+                self.od.write(index, sub, data)?;
+                self.fg = fg;
+                Ok(())
+            }
+            (0x6510, 0xF0) => {
+                // CMMP-AS §5.2 (CMMP-SDO-15): bits 0 and 2 (homing method scheme) mirror each other.
+                let v = match data {
+                    [a, b] => u16::from_le_bytes([*a, *b]),
+                    _ => return self.od.write(index, sub, data),
+                };
+                let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
+                self.od.write(index, sub, &v.to_le_bytes())
+            }
+            (0x1011, _) if self.dc.state().power_enabled() => {
+                // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
+                self.od.entry(index, sub)?;
+                Err(AbortCode::DEVICE_STATE)
+            }
+            (0x6083 | 0x6084, 0) => {
+                self.od.write(index, sub, data)?;
+                // CMMP-AS §7.6: 6083h/6084h and the 2090h ramps are the same values.
+                let (a, b) = if index == 0x6083 { (2, 4) } else { (3, 5) };
+                let _ = self.od.write_internal(0x2090, a, data);
+                let _ = self.od.write_internal(0x2090, b, data);
+                Ok(())
+            }
+            (0x2030, 0) => {
+                // set_position_absolute: the actual position becomes this value, no motion.
+                self.od.write(index, sub, data)?;
+                let user = self
+                    .value(0x2030, 0)
+                    .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                self.position_offset =
+                    self.fg.position_to_internal(user) - self.axis.position_increments();
+                self.resync_trajectory();
+                Ok(())
+            }
+            (0x6098, 0)
+                if self.mode == mode::HOMING
+                    && self.dc.state() == State::OperationEnabled
+                    && self.last_cw & 0x10 != 0 =>
+            {
+                // CMMP-AS 7.2: the method is writable only while homing is not active.
+                Err(AbortCode::DEVICE_STATE)
+            }
+            _ => {
+                self.od.write(index, sub, data)?;
+                if is_control_parameter(index) {
+                    self.params_dirty = true;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write_internal(index, sub, data)
+    }
+}

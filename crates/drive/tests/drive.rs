@@ -1,0 +1,359 @@
+//! The CMMP-AS drive end to end on the virtual clock: device control through the
+//! dictionary, profile position / velocity / torque with the simulated motor, quick stop,
+//! following error, fault and reset, and the object rules of the manual.
+
+use std::time::Duration;
+
+use drive::device_control::State;
+use drive::drive::{Drive, DriveEvent, DriveSettings};
+use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary, Value};
+
+struct Rig {
+    d: Drive<Vec<u8>>,
+    now: Instant,
+}
+
+impl Rig {
+    fn new() -> Self {
+        let desc = &devices::CMMP_AS;
+        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+        let mut r = Rig {
+            d: Drive::new(od, DriveSettings::default()),
+            now: Instant::ZERO,
+        };
+        r.run_ms(1);
+        r
+    }
+    fn run_ms(&mut self, ms: u64) {
+        self.now = self.now + Duration::from_millis(ms);
+        self.d.step(self.now);
+    }
+    fn w16(&mut self, index: u16, v: u16) {
+        self.d.write(index, 0, &v.to_le_bytes()).unwrap();
+    }
+    fn w32(&mut self, index: u16, sub: u8, v: i64) {
+        self.d.write(index, sub, &(v as u32).to_le_bytes()).unwrap();
+    }
+    fn w8(&mut self, index: u16, v: i8) {
+        self.d.write(index, 0, &[v as u8]).unwrap();
+    }
+    fn cw(&mut self, v: u16) {
+        self.w16(0x6040, v);
+        self.run_ms(2);
+    }
+    fn sw(&self) -> u16 {
+        self.d.od().get_unsigned(0x6041, 0).unwrap() as u16
+    }
+    fn i(&self, index: u16) -> i64 {
+        match self.d.od().value(index, 0).unwrap() {
+            Value::Signed(s) => s,
+            Value::Unsigned(u) => u as i64,
+            v => panic!("{v:?}"),
+        }
+    }
+    fn enable(&mut self) {
+        self.cw(0x06);
+        self.cw(0x07);
+        self.cw(0x0F);
+        assert_eq!(self.sw() & 0x6F, 0x27);
+    }
+    fn mode(&mut self, m: i8) {
+        self.w8(0x6060, m);
+        self.run_ms(10);
+        assert_eq!(self.i(0x6061), m as i64);
+    }
+}
+
+#[test]
+fn enable_sequence_in_the_statusword() {
+    let mut r = Rig::new();
+    assert_eq!(r.sw() & 0x4F, 0x40, "SWITCH ON DISABLED after power-up");
+    assert_ne!(r.sw() & 0x0200, 0, "remote: enable logic 2 (CMMP-SDO-16)");
+    assert_eq!(r.d.od().get_unsigned(0x6510, 0x10), Some(2));
+    r.cw(0x06);
+    assert_eq!(r.sw() & 0x6F, 0x21);
+    r.cw(0x07);
+    assert_eq!(r.sw() & 0x6F, 0x23);
+    assert_ne!(r.sw() & 0x10, 0, "voltage enabled with the output stage on");
+    r.cw(0x0F);
+    assert_eq!(r.sw() & 0x6F, 0x27);
+    r.cw(0x00);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+}
+
+#[test]
+fn mode_change_shows_minus_one_for_the_change_time() {
+    let mut r = Rig::new();
+    assert_eq!(r.i(0x6061), 3, "6061h default 3");
+    r.w8(0x6060, 1);
+    r.run_ms(1);
+    assert_eq!(r.i(0x6061), -1);
+    r.run_ms(5);
+    assert_eq!(r.i(0x6061), 1);
+    assert_eq!(
+        r.d.write(0x6060, 0, &[2]),
+        Err(AbortCode::INVALID_VALUE),
+        "2 is not a CMMP-AS mode"
+    );
+    assert_eq!(r.d.write(0x6060, 0, &[5]), Err(AbortCode::INVALID_VALUE));
+}
+
+#[test]
+fn profile_position_move_takes_the_trapezoid_time_and_ends_in_the_window() {
+    let mut r = Rig::new();
+    r.mode(1);
+    r.enable();
+    // 10 revolutions at 1000 rpm, 10000 rpm/s (the defaults of 6081h/6083h/6084h).
+    r.w32(0x607A, 0, 10 * 65536);
+    r.cw(0x1F);
+    assert_ne!(r.sw() & 0x1000, 0, "set-point acknowledged");
+    assert_eq!(
+        r.sw() & 0x0400,
+        0,
+        "target reached cleared by the new set-point"
+    );
+    r.cw(0x0F);
+    assert_eq!(r.sw() & 0x1000, 0, "acknowledge drops with bit 4");
+    let start = r.now;
+    let mut max_fe = 0i64;
+    let mut max_current = 0i64;
+    while r.sw() & 0x0400 == 0 {
+        r.run_ms(1);
+        max_fe = max_fe.max(r.i(0x60F4).abs());
+        max_current = max_current.max(r.i(0x6078).abs());
+        assert!(
+            r.now.saturating_since(start) < Duration::from_secs(3),
+            "never reached"
+        );
+    }
+    let took = r.now.saturating_since(start).as_secs_f64();
+    // Trapezoid: 0.1 s + 0.1 s + 0.5 s of cruise = 0.7 s, plus settling.
+    assert!((0.69..0.85).contains(&took), "{took}");
+    assert!((r.i(0x6064) - 10 * 65536).abs() <= 1820, "inside 6067h");
+    assert!(max_fe < 9101, "following error inside 6065h: {max_fe}");
+    assert!(
+        max_current <= 2023,
+        "current never above 6073h: {max_current}‰"
+    );
+    assert_eq!(r.sw() & 0x2000, 0);
+}
+
+#[test]
+fn relative_move_counts_from_the_set_point() {
+    let mut r = Rig::new();
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 65536);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(600);
+    r.w32(0x607A, 0, 65536);
+    r.cw(0x5F);
+    r.cw(0x4F);
+    r.run_ms(600);
+    assert!(
+        (r.i(0x6062) - 2 * 65536).abs() <= 1,
+        "demand at 2 rev: {}",
+        r.i(0x6062)
+    );
+}
+
+#[test]
+fn profile_velocity_ramps_and_reports_target_reached() {
+    let mut r = Rig::new();
+    r.mode(3);
+    r.enable();
+    r.w32(0x60FF, 0, 1500);
+    r.run_ms(60);
+    let v = r.i(0x606C);
+    assert!(v > 500 && v < 1500, "ramping at 14100 rpm/s: {v}");
+    assert_eq!(r.sw() & 0x0400, 0);
+    r.run_ms(200);
+    assert!((r.i(0x606C) - 1500).abs() <= 4, "{}", r.i(0x606C));
+    assert_ne!(r.sw() & 0x0400, 0, "target reached inside 606Dh");
+    assert_eq!(r.sw() & 0x1000, 0, "not at speed 0");
+    assert_ne!(r.sw() & 0x0100, 0, "drive is moving");
+    // Halt: to zero with 6084h, and back when it is cleared.
+    r.cw(0x010F);
+    r.run_ms(300);
+    assert!(r.i(0x606C).abs() <= 10);
+    assert_ne!(r.sw() & 0x1000, 0, "speed 0");
+    r.cw(0x000F);
+    r.run_ms(300);
+    assert!((r.i(0x606C) - 1500).abs() <= 4);
+}
+
+#[test]
+fn profile_torque_step_accelerates_the_motor() {
+    let mut r = Rig::new();
+    r.mode(4);
+    r.enable();
+    // 6087h 10000 ‰/s: 500 ‰ after 50 ms (CMMP-TQ-01 gives 1000 ‰/s for rated torque in 1 s).
+    r.w32(0x6087, 0, 10000);
+    r.w16(0x6071, 500);
+    r.run_ms(25);
+    let td = r.i(0x6074);
+    assert!((200..=300).contains(&td), "ramping: {td}");
+    r.run_ms(50);
+    assert!(
+        (r.i(0x6077) - 500).abs() < 60,
+        "torque actual {}",
+        r.i(0x6077)
+    );
+    assert!(r.i(0x606C) > 100, "the motor accelerates: {}", r.i(0x606C));
+}
+
+#[test]
+fn quick_stop_ramps_down_then_switch_on_disabled() {
+    let mut r = Rig::new();
+    r.mode(3);
+    r.enable();
+    r.w32(0x60FF, 0, 1000);
+    r.run_ms(300);
+    r.cw(0x02);
+    assert_eq!(r.sw() & 0x6F, 0x07, "QUICK STOP ACTIVE while braking");
+    r.run_ms(200);
+    assert_eq!(r.sw() & 0x4F, 0x40, "then SWITCH ON DISABLED (605Ah = 2)");
+    assert!(r.i(0x606C).abs() <= 20);
+}
+
+#[test]
+fn blocked_load_raises_following_error_then_fault_and_reset() {
+    let mut r = Rig::new();
+    r.mode(1);
+    r.enable();
+    r.d.axis_mut().set_blocked(true);
+    r.w32(0x607A, 0, 20 * 65536);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(300);
+    assert_ne!(r.sw() & 0x2000, 0, "following error bit 13");
+    // With the hard limit 6510h:22 the drive switches off with error 17-0 (EMCY 8611h).
+    r.w32(0x6510, 0x22, 20000);
+    r.run_ms(2);
+    assert_eq!(
+        r.d.state(),
+        State::Fault,
+        "critical: output stage off at once"
+    );
+    assert_eq!(
+        r.d.take_event(),
+        Some(DriveEvent::Error {
+            code: 0x8611,
+            register: 0x01
+        })
+    );
+    assert_eq!(r.sw() & 0x4F, 0x0F, "CMMP-AS FAULT reads 000Fh by default");
+    // Cause still there (limit exceeded) until the load is free and the limit is off.
+    r.w32(0x6510, 0x22, 0);
+    r.d.clear_fault(0x8611);
+    r.d.axis_mut().set_blocked(false);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+    assert_eq!(r.d.take_event(), Some(DriveEvent::Cleared { code: 0x8611 }));
+}
+
+#[test]
+fn cia402_fault_value_with_compatibility_bit_7() {
+    let mut r = Rig::new();
+    r.d.write(0x6510, 0xF0, &0x0080u16.to_le_bytes()).unwrap();
+    r.d.inject_fault(0x5114, 0x05);
+    r.run_ms(2);
+    assert_eq!(r.sw() & 0x4F, 0x08);
+}
+
+#[test]
+fn compatibility_bits_0_and_2_mirror_each_other() {
+    // CMMP-SDO-15.
+    let mut r = Rig::new();
+    r.d.write(0x6510, 0xF0, &0x0004u16.to_le_bytes()).unwrap();
+    assert_eq!(r.d.od().get_unsigned(0x6510, 0xF0), Some(0x0005));
+}
+
+#[test]
+fn restore_is_refused_with_the_output_stage_on() {
+    // CMMP-SDO-10.
+    let mut r = Rig::new();
+    r.enable();
+    assert_eq!(r.d.write(0x1011, 1, b"load"), Err(AbortCode::DEVICE_STATE));
+    r.cw(0x00);
+    assert_eq!(r.d.write(0x1011, 1, b"load"), Ok(()));
+}
+
+#[test]
+fn position_factor_above_2_pow_24_is_refused() {
+    let mut r = Rig::new();
+    assert_eq!(
+        r.d.write(0x6093, 1, &0x0100_0001u32.to_le_bytes()),
+        Err(AbortCode::VALUE_TOO_HIGH)
+    );
+    assert_eq!(
+        r.d.write(0x6093, 2, &0u32.to_le_bytes()),
+        Err(AbortCode::INVALID_VALUE)
+    );
+    // CMMP-SDO-05: with divisor 19 first, 12345678h is within the limit.
+    r.w32(0x6093, 2, 19);
+    r.w32(0x6093, 1, 0x1234_5678);
+    assert_eq!(r.d.od().get_unsigned(0x6093, 1), Some(0x1234_5678));
+}
+
+#[test]
+fn ramps_6083_6084_are_the_2090_values() {
+    let mut r = Rig::new();
+    r.w32(0x6083, 0, 5000);
+    r.w32(0x6084, 0, 7000);
+    assert_eq!(r.i2(0x2090, 2), 5000);
+    assert_eq!(r.i2(0x2090, 4), 5000);
+    assert_eq!(r.i2(0x2090, 3), 7000);
+    assert_eq!(r.i2(0x2090, 5), 7000);
+}
+
+impl Rig {
+    fn i2(&self, index: u16, sub: u8) -> i64 {
+        match self.d.od().value(index, sub).unwrap() {
+            Value::Signed(s) => s,
+            Value::Unsigned(u) => u as i64,
+            v => panic!("{v:?}"),
+        }
+    }
+}
+
+#[test]
+fn manufacturer_status_bit_14_examples() {
+    // cmmp-as-2 §8.8 (a): homed → bit 14 with mask 1; (c) not ready for enable OR homed.
+    let mut r = Rig::new();
+    r.w32(0x2005, 1, 0x1);
+    r.run_ms(1);
+    assert_eq!(r.sw() & 0x4000, 0, "not homed");
+    r.mode(6);
+    r.w8(0x6098, 35);
+    r.enable();
+    r.cw(0x1F);
+    assert_ne!(r.sw() & 0x8000, 0, "referenced");
+    assert_ne!(r.sw() & 0x4000, 0, "(a) homed");
+    assert_ne!(r.sw() & 0x1000, 0, "homing attained");
+    r.w32(0x200A, 1, 0x4);
+    r.w32(0x2005, 1, 0x5);
+    r.run_ms(1);
+    assert_ne!(r.sw() & 0x4000, 0, "(c) enabled (not ready) or homed");
+}
+
+#[test]
+fn same_inputs_same_trajectory_bit_for_bit() {
+    let run = || {
+        let mut r = Rig::new();
+        r.mode(1);
+        r.enable();
+        r.w32(0x607A, 0, 3 * 65536 + 123);
+        r.cw(0x1F);
+        r.cw(0x0F);
+        let mut trace = Vec::new();
+        for _ in 0..500 {
+            r.run_ms(1);
+            trace.push((r.i(0x6064), r.i(0x606C), r.i(0x6078)));
+        }
+        trace
+    };
+    assert_eq!(run(), run());
+}
