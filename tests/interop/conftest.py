@@ -25,6 +25,15 @@ START_TIMEOUT = 10.0
 STOP_TIMEOUT = 5.0
 
 
+@pytest.fixture(scope="session", autouse=True)
+def drivetwin_binary() -> Path:
+    """Every test needs the built binary; say how to get it instead of failing obscurely."""
+    if not (DRIVETWIN_BIN.is_file() and os.access(DRIVETWIN_BIN, os.X_OK)):
+        pytest.fail(f"{DRIVETWIN_BIN} is missing: run `cargo build --release -p drivetwin` or set "
+                    "DRIVETWIN_BIN", pytrace=False)
+    return DRIVETWIN_BIN
+
+
 def free_port() -> int:
     """A loopback TCP port nobody listens on right now (bind to port 0, read it, close)."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:

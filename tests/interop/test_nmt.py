@@ -146,3 +146,12 @@ def test_nmt_broadcast_and_other_node_ids(cmmp, raw_bus, node_of):
     mark = hb.mark()
     bus.send(can.Message(arbitration_id=0x000, data=b"\x01\x00", is_extended_id=False))
     _expect_state(hb, OPERATIONAL, mark)
+
+
+def test_reset_communication_keeps_application_values(bench, node_of):
+    node = node_of(bench)
+    node.sdo[0x2003].raw = 55
+    node.sdo[0x1017].raw = 300
+    _reset_and_wait_bootup(node, "RESET COMMUNICATION")
+    assert node.sdo[0x2003].raw == 55, "reset communication leaves the application area alone"
+    assert node.sdo[0x1017].raw == 1000, "... and reloads the communication area"

@@ -3,6 +3,7 @@ defaults into the current set and does not touch the stored set."""
 
 import time
 
+import canopen
 import pytest
 
 from conftest import HeartbeatLog
@@ -48,7 +49,7 @@ def test_store_survives_restart_and_restore_leaves_stored_set(launch, node_of, t
     node.restore()  # 1011h:01 = "load"
     assert node.sdo[0x2001].raw == "drivetwin"
     assert node.sdo[0x2003].raw == 0
-    assert node.sdo[0x1017].raw in (0, 1000), "default or commissioned value"
+    assert node.sdo[0x1017].raw == 0, "1017h default of the test bench (heartbeat off)"
     # ... and the stored set is untouched
     assert _state_files(state) == files
     assert (state / files[0]).read_bytes() == stored_text
@@ -150,3 +151,19 @@ def test_kill_during_saves_leaves_an_old_or_new_set(launch, node_of, tmp_path):
     assert value in versions, f"torn or unknown stored value: {value[:40]!r}..."
     # a save that was answered is durable
     assert versions.index(value) >= versions.index(written[-1]), (value[:5], written[-1][:5])
+
+
+@pytest.mark.xfail(strict=True, reason="binary bug: a 1010h:01 'save' whose file cannot be "
+                   "written is confirmed (60 10 10 01) instead of aborted with 0606 0000h "
+                   "(CiA 301 1010h); only the log says 'saving parameters failed'")
+def test_failed_save_is_aborted(launch, node_of, tmp_path):
+    state = tmp_path / "state"
+    twin = launch("testbench", 1, state_dir=state)
+    node = node_of(twin)
+    node.sdo[0x2003].raw = 12
+    # the state directory becomes unusable: a plain file in its place
+    state.rmdir()
+    state.write_text("not a directory")
+    with pytest.raises(canopen.SdoAbortedError) as e:
+        node.store()
+    assert e.value.code in (0x06060000, 0x08000020)

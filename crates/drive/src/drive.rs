@@ -38,8 +38,9 @@ pub mod diag {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DriveSettings {
     pub motor: MotorData,
-    /// How long a mode change takes; 6061h reads −1 meanwhile. Real drives take a few ms;
-    /// a longer value reproduces slow drives.
+    /// How long a mode change takes; 6061h reads −1 meanwhile (CMMP-AS §7.1 "may briefly
+    /// show −1"). 0 switches at the next cycle and keeps showing the old mode until then
+    /// (python-canopen's BaseNode402 cannot decode −1); a longer value reproduces slow drives.
     pub mode_change_time: Duration,
     /// The hardware enables (DIN4 output stage, DIN5 controller enable) transition 2 needs.
     pub enables_present: bool,
@@ -51,7 +52,7 @@ impl Default for DriveSettings {
     fn default() -> Self {
         DriveSettings {
             motor: MotorData::default(),
-            mode_change_time: Duration::from_millis(2),
+            mode_change_time: Duration::ZERO,
             enables_present: true,
             brake_fitted: true,
         }

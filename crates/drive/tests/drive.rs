@@ -17,8 +17,12 @@ impl Rig {
     fn new() -> Self {
         let desc = &devices::CMMP_AS;
         let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+        let settings = DriveSettings {
+            mode_change_time: Duration::from_millis(2),
+            ..DriveSettings::default()
+        };
         let mut r = Rig {
-            d: Drive::new(od, DriveSettings::default()),
+            d: Drive::new(od, settings),
             now: Instant::ZERO,
         };
         r.run_ms(1);

@@ -1,10 +1,18 @@
 //! One CANopen drive of a cell: its dictionary, its CiA 301 stack and its stored parameter
 //! set, with the runtime's share of the work (files and resets) done here.
 
-use canopen::{CanFrame, Node, NodeEvent};
-use od::{Instant, ObjectDictionary, StorageRequest};
+use std::time::Duration;
 
+use canopen::{CanFrame, Node, NodeEvent};
+use drive::drive::{DriveEvent, DriveSettings};
+use od::{time::earliest, Instant, ObjectDictionary, StorageRequest};
+
+use crate::device_model::Model;
 use crate::param_store::{self, ParamStore, StoreError, StoredValue};
+
+/// How often the runtime steps a drive at least: frames catch the drive up to their own
+/// time first, so a coarser step only batches cycles, it never reorders them.
+const STEP_PERIOD: Duration = Duration::from_millis(1);
 
 #[derive(Debug, thiserror::Error)]
 pub enum DriveError {
@@ -26,11 +34,12 @@ pub struct Commissioning {
 }
 
 pub struct CanDrive {
-    pub od: ObjectDictionary<Vec<u8>>,
+    pub model: Model,
     pub node: Node,
     store: Option<ParamStore>,
     stored: Vec<StoredValue>,
     commissioning: Vec<Commissioning>,
+    next_step: Option<Instant>,
 }
 
 impl CanDrive {
@@ -41,6 +50,18 @@ impl CanDrive {
         node_id: u8,
         store: Option<ParamStore>,
         commissioning: Vec<Commissioning>,
+    ) -> Result<Self, DriveError> {
+        Self::with_settings(desc, node_id, store, commissioning, None)
+    }
+
+    /// As [`CanDrive::new`]; with `settings` a CiA 402 personality gets a simulated drive and
+    /// motor behind its dictionary.
+    pub fn with_settings(
+        desc: &'static od::DeviceDescription,
+        node_id: u8,
+        store: Option<ParamStore>,
+        commissioning: Vec<Commissioning>,
+        settings: Option<DriveSettings>,
     ) -> Result<Self, DriveError> {
         if !(1..=127).contains(&node_id) && node_id != canopen::lss::UNCONFIGURED {
             return Err(DriveError::NodeId(node_id));
@@ -81,29 +102,31 @@ impl CanDrive {
             Some(s) => s.load()?,
             None => Vec::new(),
         };
-        let mut d = CanDrive {
-            od,
+        let mut od = od;
+        load_all(&mut od, &commissioning, &stored, |_| true);
+        Ok(CanDrive {
+            model: Model::new(od, settings),
             node: Node::new(node_id, desc.cia301),
             store,
             stored,
             commissioning,
-        };
-        d.reload(|_| true);
-        Ok(d)
+            next_step: None,
+        })
+    }
+
+    pub fn od(&self) -> &ObjectDictionary<Vec<u8>> {
+        self.model.od()
     }
 
     /// Defaults, commissioning values and the stored set for the indices `filter` selects.
     fn reload(&mut self, filter: impl Fn(u16) -> bool) {
-        self.od.load_defaults(|e| filter(e.index));
-        let desc = self.od.description();
-        for c in &self.commissioning {
-            if filter(c.index) {
-                if let Some(e) = desc.entry(c.index, c.sub) {
-                    self.od.store(e, &c.bytes);
-                }
-            }
-        }
-        param_store::apply(&mut self.od, &self.stored, &filter);
+        load_all(
+            self.model.od_mut(),
+            &self.commissioning,
+            &self.stored,
+            filter,
+        );
+        self.model.reload();
     }
 
     pub fn node_id(&self) -> u8 {
@@ -112,32 +135,48 @@ impl CanDrive {
 
     /// Power-on finished: boot-up message.
     pub fn boot(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
-        self.node.boot(now, &self.od, out);
+        self.model.step(now);
+        self.node.boot(now, &self.model, out);
     }
 
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
-        self.node.on_frame(now, frame, &mut self.od, out);
+        // The drive first runs up to the frame's time, so the frame acts on the right cycle.
+        self.model.step(now);
+        self.node.on_frame(now, frame, &mut self.model, out);
         self.service(now, out);
     }
 
     pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
-        self.node.poll(now, &mut self.od, out);
+        let next_step = self.model.step(now);
+        self.next_step = next_step.map(|t| t.max(now + STEP_PERIOD));
+        self.node.poll(now, &mut self.model, out);
         self.service(now, out);
-        self.node.deadline()
+        self.deadline()
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.node.deadline()
+        earliest(self.node.deadline(), self.next_step)
     }
 
     /// Carries out what the stack asked for.
     fn service(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
-        if let Some(req) = self.od.take_request() {
+        // The drive's errors go out as EMCY through the stack (CiA 301 §7.2.7).
+        while let Some(ev) = self.model.take_event() {
+            match ev {
+                DriveEvent::Error { code, register } => {
+                    self.node
+                        .raise_error(&mut self.model, code, register, [0; 5])
+                }
+                DriveEvent::Cleared { code } => self.node.clear_error(&mut self.model, code),
+            }
+        }
+        if let Some(req) = self.model.od_mut().take_request() {
             match req {
                 StorageRequest::Save { sub } => self.save(sub),
                 // CMMP-AS §5.1: "load" copies the defaults into the current set (done by the
                 // dictionary); the application set in flash stays until the next "save".
                 StorageRequest::Restore { sub } => {
+                    self.model.reload();
                     tracing::info!(node = self.node_id(), sub, "defaults restored");
                 }
             }
@@ -145,15 +184,15 @@ impl CanDrive {
         while let Some(ev) = self.node.take_event() {
             match ev {
                 NodeEvent::ResetApplication => {
-                    self.od.set_node_id(self.node.node_id());
+                    self.model.od_mut().set_node_id(self.node.node_id());
                     self.reload(|_| true);
-                    self.node.boot(now, &self.od, out);
+                    self.node.boot(now, &self.model, out);
                 }
                 NodeEvent::ResetCommunication => {
                     // The node-ID may have changed (LSS): node-relative defaults follow it.
-                    self.od.set_node_id(self.node.node_id());
+                    self.model.od_mut().set_node_id(self.node.node_id());
                     self.reload(|i| (0x1000..0x2000).contains(&i));
-                    self.node.boot(now, &self.od, out);
+                    self.node.boot(now, &self.model, out);
                 }
                 NodeEvent::LssStore { node_id } => match &self.store {
                     Some(store) => match store.save_lss_node_id(node_id) {
@@ -192,7 +231,7 @@ impl CanDrive {
             );
             return;
         };
-        match store.save(&self.od, sub) {
+        match store.save(self.model.od(), sub) {
             Ok(()) => {
                 self.stored = store.load().unwrap_or_default();
                 tracing::info!(node = self.node_id(), path = %store.path().display(), "parameters saved");
@@ -202,4 +241,23 @@ impl CanDrive {
             }
         }
     }
+}
+
+/// Defaults, then commissioning values, then the stored set, for the indices `filter` selects.
+fn load_all(
+    od: &mut ObjectDictionary<Vec<u8>>,
+    commissioning: &[Commissioning],
+    stored: &[StoredValue],
+    filter: impl Fn(u16) -> bool,
+) {
+    od.load_defaults(|e| filter(e.index));
+    let desc = od.description();
+    for c in commissioning {
+        if filter(c.index) {
+            if let Some(e) = desc.entry(c.index, c.sub) {
+                od.store(e, &c.bytes);
+            }
+        }
+    }
+    param_store::apply(od, stored, &filter);
 }

@@ -9,6 +9,9 @@ use od::{DataType, Value};
 use serde::Deserialize;
 
 use crate::can_drive::Commissioning;
+use crate::device_model::is_cia402;
+use drive::drive::DriveSettings;
+use drive::motor::MotorData;
 
 pub const DEFAULT_SOCKETCAND: &str = "127.0.0.1:29536";
 pub const DEFAULT_CHANNEL: &str = "vcan0";
@@ -83,6 +86,83 @@ pub struct DriveSection {
     /// Commissioning values, `"IIII:SS" = value` (hex index and sub-index).
     #[serde(default)]
     pub objects: BTreeMap<String, toml::Value>,
+    /// Motor and load of a CiA 402 drive (SI units); unset fields keep the EMMS-AS defaults.
+    #[serde(default)]
+    pub motor: MotorSection,
+    /// How long a mode change takes (6061h reads −1 meanwhile), ms.
+    pub mode_change_time_ms: Option<f64>,
+}
+
+/// `[drive.motor]`: overrides of [`MotorData`].
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MotorSection {
+    pub torque_constant: Option<f64>,
+    pub resistance: Option<f64>,
+    pub inductance: Option<f64>,
+    pub inertia: Option<f64>,
+    pub viscous_friction: Option<f64>,
+    pub coulomb_friction: Option<f64>,
+    pub load_torque: Option<f64>,
+    pub brake_holding_torque: Option<f64>,
+    pub rated_current: Option<f64>,
+    pub peak_current: Option<f64>,
+    pub i2t_time: Option<f64>,
+    pub max_speed_rpm: Option<f64>,
+}
+
+impl MotorSection {
+    pub fn motor(&self) -> MotorData {
+        let d = MotorData::default();
+        MotorData {
+            torque_constant: self.torque_constant.unwrap_or(d.torque_constant),
+            resistance: self.resistance.unwrap_or(d.resistance),
+            inductance: self.inductance.unwrap_or(d.inductance),
+            inertia: self.inertia.unwrap_or(d.inertia),
+            viscous_friction: self.viscous_friction.unwrap_or(d.viscous_friction),
+            coulomb_friction: self.coulomb_friction.unwrap_or(d.coulomb_friction),
+            load_torque: self.load_torque.unwrap_or(d.load_torque),
+            brake_holding_torque: self.brake_holding_torque.unwrap_or(d.brake_holding_torque),
+            rated_current: self.rated_current.unwrap_or(d.rated_current),
+            peak_current: self.peak_current.unwrap_or(d.peak_current),
+            i2t_time: self.i2t_time.unwrap_or(d.i2t_time),
+            max_speed_rpm: self.max_speed_rpm.unwrap_or(d.max_speed_rpm),
+            increments_per_rev: d.increments_per_rev,
+        }
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let positive = [
+            ("torque_constant", self.torque_constant),
+            ("resistance", self.resistance),
+            ("inductance", self.inductance),
+            ("inertia", self.inertia),
+            ("rated_current", self.rated_current),
+            ("peak_current", self.peak_current),
+            ("i2t_time", self.i2t_time),
+            ("max_speed_rpm", self.max_speed_rpm),
+        ];
+        for (name, v) in positive {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(format!("motor.{name} must be a positive number"));
+                }
+            }
+        }
+        for (name, v) in [
+            ("viscous_friction", self.viscous_friction),
+            ("coulomb_friction", self.coulomb_friction),
+            ("brake_holding_torque", self.brake_holding_torque),
+            ("load_torque", self.load_torque),
+        ] {
+            if let Some(v) = v {
+                if !v.is_finite() || (name != "load_torque" && v < 0.0) {
+                    return Err(format!("motor.{name} must be a finite number ≥ 0"));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 fn default_device() -> String {
@@ -98,6 +178,8 @@ pub struct DriveSpec {
     pub desc: &'static od::DeviceDescription,
     pub node: u8,
     pub commissioning: Vec<Commissioning>,
+    /// For CiA 402 personalities: the simulated drive and motor.
+    pub settings: Option<DriveSettings>,
 }
 
 impl CellFile {
@@ -112,19 +194,26 @@ impl CellFile {
         })
     }
 
-    /// The default cell with one drive.
+    /// The default cell with one drive: heartbeat 1000 ms, and for a CiA 402 drive the
+    /// CiA 402 FAULT statusword (6510h:F0 bit 7; the CMMP-AS default 000Fh makes CiA 402
+    /// masters such as python-canopen's BaseNode402 read FAULT as FAULT REACTION ACTIVE).
     pub fn single(device: &str, node: u8) -> Self {
         let mut objects = BTreeMap::new();
         objects.insert(
             "1017:00".to_string(),
             toml::Value::Integer(i64::from(DEFAULT_HEARTBEAT_MS)),
         );
+        if devices::by_name(device).is_some_and(is_cia402) {
+            objects.insert("6510:F0".to_string(), toml::Value::Integer(0x0080));
+        }
         CellFile {
             bus: BusSection::default(),
             drive: vec![DriveSection {
                 device: device.to_string(),
                 node,
                 objects,
+                motor: MotorSection::default(),
+                mode_change_time_ms: None,
             }],
         }
     }
@@ -140,6 +229,33 @@ impl CellFile {
                 return Err(ConfigError::DuplicateNode(d.node));
             }
             let mut commissioning = Vec::new();
+            let settings = if is_cia402(desc) {
+                d.motor.check().map_err(|what| ConfigError::Object {
+                    node: d.node,
+                    key: "motor".into(),
+                    what,
+                })?;
+                let motor = d.motor.motor();
+                // The motor's nameplate commissioned as FCT would (before [drive.objects]).
+                commissioning.extend(motor_commissioning(desc, &motor));
+                let mut s = DriveSettings {
+                    motor,
+                    ..DriveSettings::default()
+                };
+                if let Some(ms) = d.mode_change_time_ms {
+                    if !(ms.is_finite() && ms >= 0.0) {
+                        return Err(ConfigError::Object {
+                            node: d.node,
+                            key: "mode_change_time_ms".into(),
+                            what: "must be ≥ 0".into(),
+                        });
+                    }
+                    s.mode_change_time = std::time::Duration::from_secs_f64(ms / 1000.0);
+                }
+                Some(s)
+            } else {
+                None
+            };
             for (key, value) in &d.objects {
                 let err = |what: String| ConfigError::Object {
                     node: d.node,
@@ -158,10 +274,47 @@ impl CellFile {
                 desc,
                 node: d.node,
                 commissioning,
+                settings,
             });
         }
         Ok(specs)
     }
+}
+
+/// 6075h, 6073h, 6410h:03 and 6080h from the motor data, within the device's limits.
+fn motor_commissioning(desc: &od::DeviceDescription, m: &MotorData) -> Vec<Commissioning> {
+    let p = drive::control::ControlParams::for_motor(m);
+    let nominal = desc
+        .entry(0x6510, 0x40)
+        .and_then(|e| Value::decode(e.data_type, e.default))
+        .and_then(|v| {
+            if let Value::Unsigned(u) = v {
+                Some(u as u32)
+            } else {
+                None
+            }
+        })
+        .unwrap_or(u32::MAX);
+    let rated = p.motor_rated_current_ma.min(nominal);
+    let values = [
+        (0x6075u16, 0u8, Value::Unsigned(rated.into())),
+        (0x6073, 0, Value::Unsigned(p.max_current_permille.into())),
+        (0x6410, 3, Value::Unsigned(p.iit_time_motor_ms.into())),
+        (0x6080, 0, Value::Unsigned(p.max_motor_speed_rpm.into())),
+    ];
+    values
+        .iter()
+        .filter_map(|(index, sub, v)| {
+            let e = desc.entry(*index, *sub)?;
+            let mut b = [0u8; 8];
+            let n = v.encode(e.data_type, &mut b)?;
+            Some(Commissioning {
+                index: *index,
+                sub: *sub,
+                bytes: b.get(..n)?.to_vec(),
+            })
+        })
+        .collect()
 }
 
 /// `"1017:00"` → (0x1017, 0).

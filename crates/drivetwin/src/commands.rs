@@ -132,11 +132,12 @@ fn build_cell(file: &CellFile, state_dir: Option<&PathBuf>) -> Result<Cell, Comm
     let mut drives = Vec::new();
     for spec in file.drives()? {
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-        drives.push(CanDrive::new(
+        drives.push(CanDrive::with_settings(
             spec.desc,
             spec.node,
             store,
             spec.commissioning,
+            spec.settings,
         )?);
     }
     Ok(Cell::new(drives))
@@ -160,9 +161,9 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
     for d in &cell.drives {
         println!(
             "drive {} node {} ({})",
-            d.od.description().name,
+            d.od().description().name,
             d.node_id(),
-            d.od.description().product_name
+            d.od().description().product_name
         );
     }
 

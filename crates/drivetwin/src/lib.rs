@@ -5,6 +5,7 @@ pub mod bus;
 pub mod can_drive;
 pub mod cell;
 pub mod cell_config;
+pub mod device_model;
 pub mod master;
 pub mod param_store;
 pub mod pcap;

@@ -26,10 +26,10 @@ fn drive(dir: &std::path::Path) -> CanDrive {
 fn saved_values_survive_a_restart_and_win_over_commissioning() {
     let dir = tmpdir("roundtrip");
     let mut d = drive(&dir);
-    assert_eq!(d.od.get_unsigned(0x1017, 0), Some(1000), "commissioned");
-    d.od.write(0x1017, 0, &[0xFA, 0x00]).unwrap();
-    d.od.write(0x2001, 0, b"kept across restarts").unwrap();
-    d.od.write(0x1010, 1, b"save").unwrap();
+    assert_eq!(d.od().get_unsigned(0x1017, 0), Some(1000), "commissioned");
+    d.model.write(0x1017, 0, &[0xFA, 0x00]).unwrap();
+    d.model.write(0x2001, 0, b"kept across restarts").unwrap();
+    d.model.write(0x1010, 1, b"save").unwrap();
     d.poll(od::Instant::ZERO, &mut |_| {});
     let files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
@@ -42,9 +42,9 @@ fn saved_values_survive_a_restart_and_win_over_commissioning() {
     );
 
     let d2 = drive(&dir);
-    assert_eq!(d2.od.get_unsigned(0x1017, 0), Some(250));
+    assert_eq!(d2.od().get_unsigned(0x1017, 0), Some(250));
     let mut buf = [0u8; 64];
-    let n = d2.od.read(0x2001, 0, &mut buf).unwrap();
+    let n = d2.model.read(0x2001, 0, &mut buf).unwrap();
     assert_eq!(&buf[..n], b"kept across restarts");
 }
 
@@ -52,14 +52,14 @@ fn saved_values_survive_a_restart_and_win_over_commissioning() {
 fn a_save_interrupted_before_the_rename_leaves_the_old_set() {
     let dir = tmpdir("interrupted");
     let mut d = drive(&dir);
-    d.od.write(0x2003, 0, &[7, 0]).unwrap();
-    d.od.write(0x1010, 1, b"save").unwrap();
+    d.model.write(0x2003, 0, &[7, 0]).unwrap();
+    d.model.write(0x1010, 1, b"save").unwrap();
     d.poll(od::Instant::ZERO, &mut |_| {});
     // A kill between writing the temporary file and the rename leaves a half-written
     // temporary next to the complete set.
     std::fs::write(dir.join("testbench-node1.params.tmp"), "2003:00=0").unwrap();
     let d2 = drive(&dir);
-    assert_eq!(d2.od.value(0x2003, 0), Some(Value::Signed(7)));
+    assert_eq!(d2.od().value(0x2003, 0), Some(Value::Signed(7)));
 }
 
 #[test]
@@ -84,15 +84,15 @@ fn reset_application_reloads_the_stored_set_and_boots() {
     let mut d = drive(&dir);
     let mut out = Vec::new();
     d.boot(od::Instant::ZERO, &mut |f| out.push(f));
-    d.od.write(0x2003, 0, &[9, 0]).unwrap();
-    d.od.write(0x1010, 1, b"save").unwrap();
+    d.model.write(0x2003, 0, &[9, 0]).unwrap();
+    d.model.write(0x1010, 1, b"save").unwrap();
     d.poll(od::Instant::ZERO, &mut |_| {});
-    d.od.write(0x2003, 0, &[50, 0]).unwrap();
+    d.model.write(0x2003, 0, &[50, 0]).unwrap();
     out.clear();
     let nmt = canopen::CanFrame::new(0, &[0x81, 1]).unwrap();
     d.on_frame(od::Instant::ZERO, &nmt, &mut |f| out.push(f));
     assert_eq!(
-        d.od.value(0x2003, 0),
+        d.od().value(0x2003, 0),
         Some(Value::Signed(9)),
         "stored value back"
     );
