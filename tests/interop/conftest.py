@@ -140,6 +140,8 @@ class Twin:
                 pytest.fail(f"drivetwin did not print 'socketcand server on' within {START_TIMEOUT} s:"
                             f" stdout={self.stdout_lines} stderr={self.stderr()}")
             last_error = f"exit {self.proc.returncode}: {self.stderr()}"
+            if "in use" not in self.stderr().lower():
+                break  # not a lost race for the port: retrying will not help
         pytest.fail(f"drivetwin did not start: {last_error}")
 
     def stderr(self) -> str:

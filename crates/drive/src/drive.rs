@@ -5,7 +5,7 @@
 use core::time::Duration;
 
 use heapless::Deque;
-use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
+use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
@@ -73,6 +73,42 @@ const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
 /// min⁻¹ per increment/s.
 const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
+/// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
+/// cycle never searches the object table.
+const PARAMS: [(u16, u8); 31] = [
+    (0x2005, 1),
+    (0x200A, 1),
+    (0x2090, 1),
+    (0x2090, 2),
+    (0x2090, 3),
+    (0x2090, 4),
+    (0x2090, 5),
+    (0x6065, 0),
+    (0x6066, 0),
+    (0x6067, 0),
+    (0x6068, 0),
+    (0x606D, 0),
+    (0x606E, 0),
+    (0x606F, 0),
+    (0x6070, 0),
+    (0x6072, 0),
+    (0x607A, 0),
+    (0x607C, 0),
+    (0x6080, 0),
+    (0x6081, 0),
+    (0x6082, 0),
+    (0x6083, 0),
+    (0x6084, 0),
+    (0x6085, 0),
+    (0x6087, 0),
+    (0x6098, 0),
+    (0x609A, 0),
+    (0x6510, 0x10),
+    (0x6510, 0x18),
+    (0x6510, 0x22),
+    (0x6510, 0xF0),
+];
+
 /// Entries the drive reads or writes every cycle, looked up once.
 #[derive(Debug, Clone, Copy, Default)]
 struct Hot {
@@ -101,6 +137,7 @@ pub struct Drive<S> {
     axis: Axis,
     fg: FactorGroup,
     hot: Hot,
+    params: [Option<&'static Entry>; PARAMS.len()],
     /// Current-controller cycle and how many of them make one logic (position-loop) cycle.
     cycle: Duration,
     logic_every: u32,
@@ -143,13 +180,20 @@ pub struct Drive<S> {
     params_dirty: bool,
 }
 
+/// A numeric entry's value as `i64`, without going through `Value` (this runs several times
+/// per control cycle).
 fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
-    match Value::decode(e.data_type, raw) {
-        Some(Value::Signed(s)) => s,
-        Some(Value::Unsigned(u)) => u as i64,
-        Some(Value::Bool(b)) => b as i64,
-        Some(Value::Real(r)) => r as i64,
-        None => 0,
+    let mut u = 0u64;
+    for (i, b) in raw.iter().take(8).enumerate() {
+        u |= u64::from(*b) << (8 * i);
+    }
+    match e.data_type {
+        DataType::Integer8 => i64::from(u as u8 as i8),
+        DataType::Integer16 => i64::from(u as u16 as i16),
+        DataType::Integer32 => i64::from(u as u32 as i32),
+        DataType::Real32 => f32::from_bits(u as u32) as i64,
+        DataType::Real64 => f64::from_bits(u) as i64,
+        _ => u as i64,
     }
 }
 
@@ -177,6 +221,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             target_velocity: e(0x60FF, 0),
             target_torque: e(0x6071, 0),
         };
+        let mut param_entries = [None; PARAMS.len()];
+        for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
+            *slot = desc.entry(*i, *s);
+        }
         let params = control_params(&od);
         let axis = Axis::new(settings.motor, params);
         let cycle = Duration::from_micros(u64::from(params.cycletime_current_us.max(1)));
@@ -188,6 +236,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             axis,
             fg: FactorGroup::default(),
             hot,
+            params: param_entries,
             cycle,
             logic_every,
             next_cycle: None,
@@ -336,6 +385,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn value(&self, index: u16, sub: u8) -> i64 {
+        if let Some(pos) = PARAMS.iter().position(|k| *k == (index, sub)) {
+            return self.read(self.params.get(pos).copied().flatten());
+        }
         match self.od.value(index, sub) {
             Some(Value::Signed(s)) => s,
             Some(Value::Unsigned(u)) => u as i64,
@@ -540,13 +592,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let bit4 = cw & 0x0010 != 0 || self.cw_rising & 0x0010 != 0;
         let demand = self.traj.position;
         let fg = self.fg;
-        let od = &self.od;
-        let get = |i: u16| match od.value(i, 0) {
-            Some(Value::Signed(s)) => s,
-            Some(Value::Unsigned(u)) => u as i64,
-            _ => 0,
-        };
-        let request = || {
+        let get = |i: u16| self.value(i, 0);
+        // Read the set-point only while bit 4 is high (a rising edge may be taking it).
+        let req = bit4.then(|| {
             let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
             let target = fg.position_to_internal(user) as f64;
             let vel = |i| {
@@ -570,6 +618,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     deceleration: acc(0x6084),
                 },
             }
+        });
+        let request = move || {
+            req.unwrap_or(Request {
+                target: demand,
+                relative: false,
+                immediately: false,
+                job: Job {
+                    target: demand,
+                    velocity: 0.0,
+                    end_velocity: 0.0,
+                    acceleration: 1.0,
+                    deceleration: 1.0,
+                },
+            })
         };
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
         if self.setpoints.update(bit4, demand, request) {
