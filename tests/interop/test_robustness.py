@@ -13,7 +13,7 @@ import time
 import can
 import pytest
 
-from conftest import HOST, RawClient, recv_id, write_cell, abort_frame
+from conftest import RawClient, abort_frame, recv_id, write_cell
 
 
 class GoodClient(threading.Thread):
@@ -127,6 +127,16 @@ def test_bad_input_never_crashes_or_wedges(cell, connect, eds_files, raw_bus):
             bad_bus.send(can.Message(arbitration_id=0x100 + i, data=rng.randbytes(8),
                                      is_extended_id=False))
         bad_bus.send(can.Message(arbitration_id=0x1ABCDEF, data=b"\x01", is_extended_id=True))
+        # a marker after the storm: once the listener sees it, the server has put every frame
+        # of the storm on the bus (the drives see them in bus order)
+        marker = b"END-MARK"
+        bad_bus.send(can.Message(arbitration_id=0x0FF, data=marker, is_extended_id=False))
+        deadline = time.monotonic() + 10
+        while True:
+            msg = recv_id(listener, 0x0FF, max(0.0, deadline - time.monotonic()))
+            assert msg is not None, "the storm's end marker never came through"
+            if bytes(msg.data) == marker:
+                break
 
         # the good client keeps reading for a moment after the storm
         ok_before = client.ok

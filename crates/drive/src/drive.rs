@@ -800,6 +800,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = self.homing_attained || self.homing_error;
     }
 
+    fn clear_target_reached(&mut self) {
+        self.target_reached = false;
+        self.window_since = None;
+        let sw = self.read(self.hot.statusword) & !0x0400;
+        self.store(self.hot.statusword, sw);
+    }
+
     /// Writes the statusword and every actual value.
     fn publish(&mut self) {
         let compat = self.value(0x6510, 0xF0) as u16;
@@ -1085,6 +1092,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 let (a, b) = if index == 0x6083 { (2, 4) } else { (3, 5) };
                 let _ = self.od.write_internal(0x2090, a, data);
                 let _ = self.od.write_internal(0x2090, b, data);
+                Ok(())
+            }
+            (0x60FF | 0x6071, 0) => {
+                // A new velocity or torque target: target reached drops at once, not a cycle
+                // later, so a master that writes and then reads never sees the old bit.
+                let before = self.value(index, sub);
+                self.od.write(index, sub, data)?;
+                if before != self.value(index, sub) {
+                    self.clear_target_reached();
+                }
                 Ok(())
             }
             (0x2030, 0) => {
