@@ -68,6 +68,20 @@ pub enum Command {
     /// Layer setting services (CiA 305): find unconfigured nodes and give them a node-ID.
     #[command(subcommand)]
     Lss(LssCommand),
+    /// CiA 402 drive commands over SDO: state, enable, disable, move, velocity, torque.
+    Drive {
+        node: u8,
+        #[command(subcommand)]
+        command: DriveCommand,
+        /// Wait until the target is reached (move, velocity, torque).
+        #[arg(long, global = true)]
+        wait: bool,
+        /// Timeout of each state change and of --wait, ms.
+        #[arg(long, global = true, default_value_t = 5000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        bus: BusArgs,
+    },
     /// Which nodes answer (SDO read of 1000h on every node-ID).
     Scan {
         #[arg(long, default_value_t = 300)]
@@ -128,16 +142,16 @@ pub struct RunArgs {
 #[derive(Args, Debug, Clone)]
 pub struct BusArgs {
     /// socketcand server to join.
-    #[arg(long, default_value = "127.0.0.1:29536")]
+    #[arg(long, global = true, default_value = "127.0.0.1:29536")]
     pub socketcand: String,
     /// Bus name to open on the socketcand server.
-    #[arg(long, default_value = "vcan0")]
+    #[arg(long, global = true, default_value = "vcan0")]
     pub channel: String,
     /// Use this SocketCAN interface instead of socketcand.
-    #[arg(long)]
+    #[arg(long, global = true)]
     pub can: Option<String>,
     /// Print JSON instead of text.
-    #[arg(long)]
+    #[arg(long, global = true)]
     pub json: bool,
 }
 
@@ -216,6 +230,45 @@ pub enum PdoCommand {
         timeout_ms: u64,
         #[command(flatten)]
         bus: BusArgs,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum DriveCommand {
+    /// Print the state and the actual values.
+    State,
+    /// Fault reset if needed, then to OPERATION ENABLED.
+    Enable,
+    /// Shutdown: READY TO SWITCH ON, output stage off.
+    Disable,
+    /// Profile position move to TARGET (position units).
+    Move {
+        #[arg(allow_hyphen_values = true)]
+        target: i32,
+        #[arg(long)]
+        relative: bool,
+        /// Profile velocity 6081h.
+        #[arg(long)]
+        velocity: Option<u32>,
+        /// Profile acceleration 6083h.
+        #[arg(long)]
+        accel: Option<u32>,
+        /// Profile deceleration 6084h.
+        #[arg(long)]
+        decel: Option<u32>,
+    },
+    /// Profile velocity mode at VELOCITY (speed units).
+    Velocity {
+        #[arg(allow_hyphen_values = true)]
+        velocity: i32,
+    },
+    /// Profile torque mode at TORQUE (‰ of the rated torque).
+    Torque {
+        #[arg(allow_hyphen_values = true)]
+        torque: i16,
+        /// Torque slope 6087h, ‰/s.
+        #[arg(long)]
+        slope: Option<u32>,
     },
 }
 

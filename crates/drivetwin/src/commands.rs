@@ -15,7 +15,10 @@ use drivetwin::trace::{self, TraceWriter};
 use drivetwin::{runtime, socketcand, value_text};
 use od::DataType;
 
-use crate::cli::{BusArgs, Cli, Command, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand};
+use crate::cli::{
+    BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
+};
+use drivetwin::master::cia402::{self, Cia402Error};
 use drivetwin::master::lss::{LssError, LssMaster};
 use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
 
@@ -40,6 +43,8 @@ pub enum CommandError {
     Sdo(#[from] SdoError),
     #[error(transparent)]
     Lss(#[from] LssError),
+    #[error(transparent)]
+    Cia402(#[from] Cia402Error),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -58,6 +63,13 @@ impl CommandError {
             CommandError::Lss(LssError::Link(_)) => EXIT_LINK,
             CommandError::Lss(LssError::NoResponse(_)) => EXIT_TIMEOUT,
             CommandError::Lss(LssError::Refused { .. }) => EXIT_PROTOCOL,
+            CommandError::Cia402(Cia402Error::Timeout { .. }) => EXIT_TIMEOUT,
+            CommandError::Cia402(Cia402Error::Sdo(e)) => match e {
+                SdoError::Abort(_) => EXIT_ABORT,
+                SdoError::Timeout { .. } => EXIT_TIMEOUT,
+                SdoError::Protocol(_) => EXIT_PROTOCOL,
+                SdoError::Link(_) => EXIT_LINK,
+            },
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
         }
     }
@@ -96,6 +108,13 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         } => sync(period_ms, count, counter, &cob_id, bus).await,
         Command::Lss(cmd) => lss(cmd).await,
         Command::Scan { timeout_ms, bus } => scan(timeout_ms, bus).await,
+        Command::Drive {
+            node,
+            command,
+            wait,
+            timeout_ms,
+            bus,
+        } => drive_command(node, command, wait, timeout_ms, bus).await,
         Command::Monitor {
             count,
             seconds,
@@ -816,6 +835,87 @@ async fn scan(timeout_ms: u64, bus: BusArgs) -> Result<(), CommandError> {
         if found.is_empty() {
             println!("no node answered");
         }
+    }
+    Ok(())
+}
+
+async fn drive_command(
+    node: u8,
+    command: DriveCommand,
+    wait: bool,
+    timeout_ms: u64,
+    bus: BusArgs,
+) -> Result<(), CommandError> {
+    check_node(node)?;
+    let timeout = Duration::from_millis(timeout_ms);
+    let mut link = connect(&bus).await?;
+    let mut c = SdoClient::new(&mut link, node, Duration::from_millis(1000));
+    match command {
+        DriveCommand::State => {}
+        DriveCommand::Enable => cia402::enable(&mut c, timeout).await?,
+        DriveCommand::Disable => cia402::disable(&mut c, timeout).await?,
+        DriveCommand::Move {
+            target,
+            relative,
+            velocity,
+            accel,
+            decel,
+        } => {
+            cia402::move_to(&mut c, target, relative, (velocity, accel, decel), timeout).await?;
+        }
+        DriveCommand::Velocity { velocity } => {
+            cia402::set_mode(&mut c, 3, timeout).await?;
+            c.download(0x60FF, 0, &velocity.to_le_bytes())
+                .await
+                .map_err(Cia402Error::from)?;
+        }
+        DriveCommand::Torque { torque, slope } => {
+            cia402::set_mode(&mut c, 4, timeout).await?;
+            if let Some(s) = slope {
+                c.download(0x6087, 0, &s.to_le_bytes())
+                    .await
+                    .map_err(Cia402Error::from)?;
+            }
+            c.download(0x6071, 0, &torque.to_le_bytes())
+                .await
+                .map_err(Cia402Error::from)?;
+        }
+    }
+    let moving = !matches!(
+        command,
+        DriveCommand::State | DriveCommand::Enable | DriveCommand::Disable
+    );
+    if wait && moving {
+        // Target reached in OPERATION ENABLED (bit 10 with the state bits).
+        cia402::wait_for(&mut c, "target reached", timeout, |sw| {
+            sw & 0x0400 != 0 && sw & 0x6F == 0x27
+        })
+        .await?;
+    }
+    let s = cia402::snapshot(&mut c).await.map_err(Cia402Error::from)?;
+    if bus.json {
+        println!("{}", serde_json::to_string(&s).unwrap_or_default());
+    } else {
+        println!(
+            "{} (statusword {:04X}h) mode {} position {} velocity {} current {}‰ torque {}‰{}{}",
+            s.state,
+            s.statusword,
+            s.mode,
+            s.position,
+            s.velocity,
+            s.current_permille,
+            s.torque_permille,
+            if s.target_reached {
+                ", target reached"
+            } else {
+                ""
+            },
+            if s.following_error {
+                ", FOLLOWING ERROR"
+            } else {
+                ""
+            }
+        );
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! The master side: commands that talk to real or virtual drives over a bus link.
 
+pub mod cia402;
 pub mod link;
 pub mod lss;
 pub mod pdo_config;
