@@ -23,6 +23,7 @@ CHANNEL = "vcan0"
 HOST = "127.0.0.1"
 START_TIMEOUT = 10.0
 STOP_TIMEOUT = 5.0
+SDO_TIMEOUT = 2.0  # python-canopen client response timeout, generous for loaded machines
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -280,6 +281,13 @@ def raw_bus():
             pass
 
 
+def add_node(net, node_id: int, eds: Path):
+    """net.add_node with the generous SDO response timeout."""
+    node = net.add_node(node_id, str(eds))
+    node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+    return node
+
+
 @pytest.fixture
 def node_of(connect, eds_files):
     """Factory: node_of(twin, node_id=None) -> canopen.RemoteNode with the twin's EDS."""
@@ -287,7 +295,9 @@ def node_of(connect, eds_files):
     def _node(twin: Twin, node_id: int | None = None, device: str | None = None):
         net = connect(twin)
         dev = device or twin.device
-        return net.add_node(node_id if node_id is not None else twin.node, str(eds_files[dev]))
+        # python-canopen's 0.3 s default is tight for a loaded 2-core CI machine; tests that
+        # expect silence set their own
+        return add_node(net, node_id if node_id is not None else twin.node, eds_files[dev])
 
     return _node
 
@@ -304,7 +314,7 @@ def recv_id(bus, can_id: int, timeout: float = 1.0):
             return msg
 
 
-def sdo_request(bus, node: int, data: bytes, timeout: float = 1.0, expect: bool = True):
+def sdo_request(bus, node: int, data: bytes, timeout: float = 2.0, expect: bool = True):
     """Send one SDO request frame (as given, any length) to `node`; return the response data."""
     import can
 

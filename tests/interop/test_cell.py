@@ -3,7 +3,7 @@
 import can
 import pytest
 
-from conftest import HeartbeatLog, wait_until, write_cell
+from conftest import add_node, HeartbeatLog, wait_until, write_cell
 
 
 @pytest.fixture
@@ -18,8 +18,8 @@ def two_drives(launch, tmp_path):
 
 def test_cell_both_drives_answer_sdo(two_drives, connect, eds_files):
     net = connect(two_drives)
-    cmmp = net.add_node(1, str(eds_files["cmmp-as"]))
-    bench = net.add_node(2, str(eds_files["testbench"]))
+    cmmp = add_node(net, 1, eds_files["cmmp-as"])
+    bench = add_node(net, 2, eds_files["testbench"])
     assert cmmp.sdo[0x1018][1].raw == 0x1D
     assert bench.sdo[0x1018][1].raw == 0x0
     assert bench.sdo[0x2005].raw == 42
@@ -32,7 +32,7 @@ def test_cell_both_drives_answer_sdo(two_drives, connect, eds_files):
         cmmp.sdo.upload(0x2001, 0)
     assert e.value.code in (0x06020000, 0x06090011, 0x06010001)
     # a node that is not in the cell does not answer
-    ghost = net.add_node(3, str(eds_files["testbench"]))
+    ghost = add_node(net, 3, eds_files["testbench"])
     ghost.sdo.RESPONSE_TIMEOUT = 0.2
     with pytest.raises(canopen.SdoCommunicationError):
         ghost.sdo[0x1018][1].raw
@@ -40,7 +40,7 @@ def test_cell_both_drives_answer_sdo(two_drives, connect, eds_files):
 
 def test_cell_nmt_broadcast_starts_both(two_drives, connect, eds_files, raw_bus):
     net = connect(two_drives)
-    nodes = [net.add_node(1, str(eds_files["cmmp-as"])), net.add_node(2, str(eds_files["testbench"]))]
+    nodes = [add_node(net, 1, eds_files["cmmp-as"]), add_node(net, 2, eds_files["testbench"])]
     logs = [HeartbeatLog(n) for n in nodes]
     for n in nodes:
         n.sdo[0x1017].raw = 100
@@ -73,8 +73,8 @@ def test_cell_heartbeat_consumer_sees_a_silent_producer(launch, tmp_path, connec
                                                                 "1016:01": 0x0001012C})])
     twin = launch(config=cfg)
     net = connect(twin)
-    node1 = net.add_node(1, str(eds_files["cmmp-as"]))
-    node2 = net.add_node(2, str(eds_files["testbench"]))
+    node1 = add_node(net, 1, eds_files["cmmp-as"])
+    node2 = add_node(net, 2, eds_files["testbench"])
     assert node2.sdo[0x1016][1].raw == 0x0001012C
     hb1 = HeartbeatLog(node1)
     hb1.next_states(0, 2, timeout=1.5)  # node 1 is beating, node 2 is watching

@@ -45,15 +45,7 @@ def test_eds_output_option_writes_same_text(tmp_path, eds_files):
     "device",
     [
         "cmmp-as",
-        pytest.param(
-            "testbench",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="EDS writes REAL32/REAL64 DefaultValue as decimal floats (2004sub0A=1.5, "
-                "2004sub0B=-2.25); dcfchk wants an integer literal (IEEE-754 bit pattern) and "
-                "exits 1 with 'invalid DefaultValue in [2004subA]: 1.5'",
-            ),
-        ),
+        "testbench",
     ],
 )
 def test_eds_passes_dcfchk(device, eds_files):

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use canopen::{CanFrame, Node, NodeEvent};
 use drive::drive::{DriveEvent, DriveSettings};
-use od::{time::earliest, Instant, ObjectDictionary, StorageRequest};
+use od::{time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest};
 
 use crate::device_model::Model;
 use crate::param_store::{self, ParamStore, StoreError, StoredValue};
@@ -142,7 +142,19 @@ impl CanDrive {
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
         // The drive first runs up to the frame's time, so the frame acts on the right cycle.
         self.model.step(now);
-        self.node.on_frame(now, frame, &mut self.model, out);
+        let CanDrive {
+            model,
+            node,
+            store,
+            stored,
+            ..
+        } = self;
+        let mut access = Persisting {
+            model,
+            store: store.as_ref(),
+            stored,
+        };
+        node.on_frame(now, frame, &mut access, out);
         self.service(now, out);
     }
 
@@ -170,15 +182,15 @@ impl CanDrive {
                 DriveEvent::Cleared { code } => self.node.clear_error(&mut self.model, code),
             }
         }
+        // A request from another path than the SDO server (none today) is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
-            match req {
-                StorageRequest::Save { sub } => self.save(sub),
-                // CMMP-AS §5.1: "load" copies the defaults into the current set (done by the
-                // dictionary); the application set in flash stays until the next "save".
-                StorageRequest::Restore { sub } => {
-                    self.model.reload();
-                    tracing::info!(node = self.node_id(), sub, "defaults restored");
-                }
+            let mut access = Persisting {
+                model: &mut self.model,
+                store: self.store.as_ref(),
+                stored: &mut self.stored,
+            };
+            if let Err(e) = access.carry_out(req) {
+                tracing::error!(node = self.node_id(), error = %e, "storage request failed");
             }
         }
         while let Some(ev) = self.node.take_event() {
@@ -222,25 +234,6 @@ impl CanDrive {
             }
         }
     }
-
-    fn save(&mut self, sub: u8) {
-        let Some(store) = &self.store else {
-            tracing::warn!(
-                node = self.node_id(),
-                "save requested but the cell has no state directory"
-            );
-            return;
-        };
-        match store.save(self.model.od(), sub) {
-            Ok(()) => {
-                self.stored = store.load().unwrap_or_default();
-                tracing::info!(node = self.node_id(), path = %store.path().display(), "parameters saved");
-            }
-            Err(e) => {
-                tracing::error!(node = self.node_id(), error = %e, "saving parameters failed")
-            }
-        }
-    }
 }
 
 /// Defaults, then commissioning values, then the stored set, for the indices `filter` selects.
@@ -260,4 +253,60 @@ fn load_all(
         }
     }
     param_store::apply(od, stored, &filter);
+}
+
+/// The dictionary as the SDO server sees it: a "save" (1010h) is carried out before the
+/// answer, so a file that cannot be written gets the abort CiA 301 and the CMMP-AS manual
+/// give for a faulty store access (0800 0020h) instead of a confirmation.
+struct Persisting<'a> {
+    model: &'a mut Model,
+    store: Option<&'a ParamStore>,
+    stored: &'a mut Vec<StoredValue>,
+}
+
+impl Persisting<'_> {
+    fn carry_out(&mut self, req: StorageRequest) -> Result<(), StoreError> {
+        match req {
+            StorageRequest::Save { sub } => {
+                let node = self.model.od().node_id();
+                match self.store {
+                    Some(store) => {
+                        store.save(self.model.od(), sub)?;
+                        *self.stored = store.load()?;
+                        tracing::info!(node, path = %store.path().display(), "parameters saved");
+                    }
+                    None => tracing::warn!(node, "save accepted, but the cell has no state directory"),
+                }
+            }
+            // CMMP-AS §5.1: "load" copies the defaults into the current set (the dictionary
+            // did); the application set in flash stays until the next "save".
+            StorageRequest::Restore { sub } => {
+                self.model.reload();
+                tracing::info!(node = self.model.od().node_id(), sub, "defaults restored");
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ObjectAccess for Persisting<'_> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.model.entry(index, sub)
+    }
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.model.read(index, sub, buf)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write(index, sub, data)?;
+        if let Some(req) = self.model.od_mut().take_request() {
+            self.carry_out(req).map_err(|e| {
+                tracing::error!(error = %e, "saving parameters failed");
+                AbortCode::CANNOT_STORE
+            })?;
+        }
+        Ok(())
+    }
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write_internal(index, sub, data)
+    }
 }

@@ -151,6 +151,16 @@ fn write_default(w: &mut impl Write, e: &Entry) -> fmt::Result {
             }
             Ok(())
         }
+        // REAL values as their IEEE 754 bit pattern, as Lely's dcfchk requires (python-canopen
+        // reads a default it cannot parse as "no default").
+        DataType::Real32 | DataType::Real64 => {
+            let mut b = [0u8; 8];
+            let n = e.default.len().min(8);
+            if let (Some(d), Some(s)) = (b.get_mut(..n), e.default.get(..n)) {
+                d.copy_from_slice(s);
+            }
+            write!(w, "0x{:X}", u64::from_le_bytes(b))
+        }
         t => {
             let v = Value::decode(t, e.default).unwrap_or(Value::Unsigned(0));
             match v {
@@ -165,6 +175,12 @@ fn write_default(w: &mut impl Write, e: &Entry) -> fmt::Result {
 }
 
 fn write_limit(w: &mut impl Write, t: DataType, l: Limit) -> fmt::Result {
+    if t.is_real() {
+        let mut b = [0u8; 8];
+        // A limit that does not fit the type leaves 0, which the description check prevents.
+        let _ = Value::from_limit(l).encode(t, &mut b);
+        return write!(w, "0x{:X}", u64::from_le_bytes(b));
+    }
     match (l, t.is_signed()) {
         (Limit::Unsigned(u), false) => write!(w, "0x{u:X}"),
         (Limit::Unsigned(u), true) => write!(w, "{u}"),
