@@ -13,6 +13,7 @@ use crate::device_control::{DeviceControl, Reaction, State};
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
+use crate::smoothing::Smoother;
 use crate::trajectory::{Limits, Trajectory};
 
 /// Operating modes (6060h / 6061h values).
@@ -149,6 +150,10 @@ pub struct Drive<S> {
     mode: i8,
     mode_pending: Option<(i8, Instant)>,
     traj: Trajectory,
+    /// Jerk-free profile (6086h = 2): the set-points through a moving average.
+    smoother: Smoother,
+    /// The position set-point the axis follows (after smoothing), increments.
+    demand_position: f64,
     setpoints: SetPoints,
     demand: Demand,
     /// Quick stop, disable operation or fault reaction ramp in progress.
@@ -246,6 +251,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode: 0,
             mode_pending: None,
             traj: Trajectory::default(),
+            smoother: Smoother::default(),
+            demand_position: 0.0,
             setpoints: SetPoints::default(),
             demand: Demand::Off,
             stopping: false,
@@ -525,6 +532,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
         };
         self.velocity_set = self.traj.velocity;
+        self.demand_position = self.traj.position;
+        self.smoother.reset(self.traj.position, 1);
     }
 
     fn accel(&self, index: u16) -> f64 {
@@ -533,9 +542,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn position_demand(&mut self, velocity_ff: f64) {
+        let previous = self.demand_position;
+        self.demand_position = self.smoother.push(self.traj.position);
+        // With smoothing the feed-forward is the smoothed set-point's own speed.
+        let ff = if self.smoother.window() > 1 {
+            let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
+            (self.demand_position - previous) / dt
+        } else {
+            velocity_ff
+        };
         self.demand = Demand::Position {
-            increments: libm::round(self.traj.position) as i64 - self.position_offset,
-            velocity_ff_rpm: (velocity_ff * RPM_PER_INC_S) as f32,
+            increments: libm::round(self.demand_position) as i64 - self.position_offset,
+            velocity_ff_rpm: (ff * RPM_PER_INC_S) as f32,
         };
     }
 
@@ -637,6 +655,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.setpoints.update(bit4, demand, request) {
             self.target_reached = false;
             self.window_since = None;
+            // 6086h = 2: jerk-free, the acceleration ramps over the window (a quarter of the
+            // time to profile velocity, at most the buffer).
+            let jerk_free = self.value(0x6086, 0) == 2;
+            let window = match (jerk_free, self.setpoints.active) {
+                (true, Some(job)) if self.traj.velocity == 0.0 => {
+                    let t_acc = job.velocity / job.acceleration.max(1.0);
+                    let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
+                    libm::round(t_acc * 0.5 / dt) as usize
+                }
+                _ => self.smoother.window(),
+            };
+            if window != self.smoother.window() && self.smoother.settled(self.traj.position) {
+                self.smoother.reset(self.demand_position, window);
+            }
         }
         if self.halted {
             // Halt: brake with the profile deceleration; the job is dropped, and target
@@ -665,9 +697,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
             None => {
                 self.position_demand(0.0);
-                // Target reached: generator done and the actual position inside the window
-                // for the window time (6067h, 6068h).
-                if let Some(target) = self.setpoints.last_target {
+                // Target reached: generator done (smoothing included) and the actual position
+                // inside the window for the window time (6067h, 6068h).
+                let done = self.smoother.settled(self.traj.position);
+                if let Some(target) = self.setpoints.last_target.filter(|_| done) {
                     let window = self.fg.position_magnitude_to_internal(
                         self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
                     );
@@ -723,6 +756,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             position: self.actual_internal() as f64,
             velocity: self.velocity_set,
         };
+        self.demand_position = self.traj.position;
         self.demand = Demand::Velocity {
             rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
         };
@@ -763,6 +797,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             position: self.actual_internal() as f64,
             velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
         };
+        self.demand_position = self.traj.position;
         let current = self
             .axis
             .params()
@@ -847,7 +882,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             sw |= 0x0800;
         }
         // Following error (PP): |actual − demand| > 6065h for 6066h.
-        let demand_pos = libm::round(self.traj.position) as i64;
+        let demand_pos = libm::round(self.demand_position) as i64;
         let fe = self.actual_internal() - demand_pos;
         let fe_window = self
             .fg

@@ -11,4 +11,5 @@ pub mod drive;
 pub mod factor_group;
 pub mod motor;
 pub mod profile_position;
+pub mod smoothing;
 pub mod trajectory;

@@ -361,3 +361,71 @@ fn same_inputs_same_trajectory_bit_for_bit() {
     };
     assert_eq!(run(), run());
 }
+
+#[test]
+fn jerk_free_profile_takes_longer_but_ends_in_the_window() {
+    let time_for = |profile: i16| {
+        let mut r = Rig::new();
+        r.mode(1);
+        r.d.write(0x6086, 0, &profile.to_le_bytes()).unwrap();
+        r.enable();
+        r.w32(0x607A, 0, 5 * 65536);
+        r.cw(0x1F);
+        r.cw(0x0F);
+        let start = r.now;
+        let mut max_fe = 0;
+        while r.sw() & 0x0400 == 0 {
+            r.run_ms(1);
+            max_fe = max_fe.max(r.i(0x60F4).abs());
+            assert!(r.now.saturating_since(start) < Duration::from_secs(3));
+        }
+        assert!((r.i(0x6064) - 5 * 65536).abs() <= 1820);
+        (r.now.saturating_since(start).as_secs_f64(), max_fe)
+    };
+    let (linear, fe_linear) = time_for(0);
+    let (smooth, fe_smooth) = time_for(2);
+    // The moving average delays the profile by half its window (0.05 s here).
+    assert!(smooth > linear + 0.02, "{smooth} vs {linear}");
+    assert!(smooth < linear + 0.15, "{smooth} vs {linear}");
+    assert!(
+        fe_smooth <= fe_linear,
+        "smoother set-points lag less: {fe_smooth} vs {fe_linear}"
+    );
+}
+
+#[test]
+fn halt_in_profile_position_stops_with_target_reached() {
+    let mut r = Rig::new();
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 50 * 65536);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(300);
+    r.cw(0x010F);
+    r.run_ms(200);
+    assert!(r.i(0x606C).abs() <= 10, "stopped: {}", r.i(0x606C));
+    assert_ne!(r.sw() & 0x0400, 0, "target reached after the halt");
+    assert!(r.i(0x6064) < 50 * 65536 / 2, "the job was abandoned");
+    // Clearing halt does not resume the job (CMMP-AS Tab. 6.5).
+    r.cw(0x000F);
+    r.run_ms(200);
+    assert!(r.i(0x606C).abs() <= 10);
+}
+
+#[test]
+fn mode_change_with_halt_set() {
+    let mut r = Rig::new();
+    r.mode(3);
+    r.enable();
+    r.cw(0x010F);
+    r.w8(0x6060, 1);
+    r.run_ms(10);
+    assert_eq!(r.i(0x6061), 1, "the mode changes while halted");
+    r.w32(0x607A, 0, 65536);
+    r.cw(0x011F);
+    r.cw(0x010F);
+    r.run_ms(300);
+    assert!(r.i(0x6064).abs() < 1000, "halted: no motion");
+    assert_eq!(r.d.state(), State::OperationEnabled);
+}

@@ -5,7 +5,9 @@ use std::time::Duration;
 
 use canopen::{CanFrame, Node, NodeEvent};
 use drive::drive::{DriveEvent, DriveSettings};
-use od::{time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest};
+use od::{
+    time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest,
+};
 
 use crate::device_model::Model;
 use crate::param_store::{self, ParamStore, StoreError, StoredValue};
@@ -275,7 +277,9 @@ impl Persisting<'_> {
                         *self.stored = store.load()?;
                         tracing::info!(node, path = %store.path().display(), "parameters saved");
                     }
-                    None => tracing::warn!(node, "save accepted, but the cell has no state directory"),
+                    None => {
+                        tracing::warn!(node, "save accepted, but the cell has no state directory")
+                    }
                 }
             }
             // CMMP-AS §5.1: "load" copies the defaults into the current set (the dictionary
