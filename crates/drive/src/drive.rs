@@ -76,7 +76,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 31] = [
+const PARAMS: [(u16, u8); 33] = [
     (0x2005, 1),
     (0x200A, 1),
     (0x2090, 1),
@@ -104,6 +104,8 @@ const PARAMS: [(u16, u8); 31] = [
     (0x6087, 0),
     (0x6098, 0),
     (0x609A, 0),
+    (0x60FE, 1),
+    (0x60FE, 2),
     (0x6510, 0x10),
     (0x6510, 0x18),
     (0x6510, 0x22),
@@ -518,6 +520,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn brake_timers(&mut self) {
         if self.power_off_at.is_some_and(|t| self.now >= t) {
             self.power_off();
+        }
+        // CMMP-AS §5.13/5.16: with 60FEh:02 bit 0 set the host works the brake through
+        // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
+        // output stage.
+        if self.settings.brake_fitted {
+            let manual = self.value(0x60FE, 2) & 1 != 0;
+            let engaged = if manual {
+                self.value(0x60FE, 1) & 1 != 0
+            } else {
+                self.brake_engaged
+            };
+            if self.axis.motor().brake() != engaged {
+                self.axis.hold_brake(engaged);
+            }
         }
     }
 

@@ -429,3 +429,42 @@ fn mode_change_with_halt_set() {
     assert!(r.i(0x6064).abs() < 1000, "halted: no motion");
     assert_eq!(r.d.state(), State::OperationEnabled);
 }
+
+#[test]
+fn brake_follows_the_output_stage_and_60fe_bit_0_when_masked() {
+    let mut r = Rig::new();
+    assert!(
+        r.d.axis().motor().brake(),
+        "applied with the output stage off"
+    );
+    r.enable();
+    assert!(
+        !r.d.axis().motor().brake(),
+        "released with the output stage on"
+    );
+    // Manual control: mask bit 0, then 60FEh:01 bit 0 applies the brake.
+    r.w32(0x60FE, 2, 1);
+    r.w32(0x60FE, 1, 1);
+    r.run_ms(1);
+    assert!(r.d.axis().motor().brake());
+    r.w32(0x60FE, 1, 0);
+    r.run_ms(1);
+    assert!(!r.d.axis().motor().brake());
+}
+
+#[test]
+fn brake_delay_holds_the_set_point_after_enable() {
+    let mut r = Rig::new();
+    r.d.write(0x6510, 0x18, &200u16.to_le_bytes()).unwrap();
+    r.mode(3);
+    r.enable();
+    r.w32(0x60FF, 0, 1000);
+    r.run_ms(150);
+    assert!(
+        r.i(0x606C).abs() <= 5,
+        "no motion during the brake delay: {}",
+        r.i(0x606C)
+    );
+    r.run_ms(200);
+    assert!(r.i(0x606C) > 500, "moving after it: {}", r.i(0x606C));
+}
