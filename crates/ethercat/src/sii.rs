@@ -1,0 +1,1 @@
+//! SII EEPROM image (in progress).
