@@ -219,3 +219,33 @@ def test_sync_and_rpdo_flood_never_stalls_sdo(cmmp, node_of, raw_bus):
     assert sent[0] > 5000, sent
     assert reads > 50, reads
     assert node.sdo[0x6040].raw == 6
+
+
+def test_trace_of_a_pdo_session_decodes_in_tshark(launch, node_of, tmp_path):
+    import shutil
+    import subprocess
+
+    tshark = shutil.which("tshark")
+    if tshark is None:
+        pytest.skip("tshark (Debian package tshark) is not installed")
+    trace = tmp_path / "pdo.pcap"
+    twin = launch("cmmp-as", 1, trace=trace)
+    node = node_of(twin)
+    _pre_op(node)
+    node.tpdo.read()
+    node.tpdo[3].trans_type = 1
+    node.tpdo[3].enabled = True
+    node.tpdo[3].save()
+    node.nmt.state = "OPERATIONAL"
+    time.sleep(0.05)
+    for _ in range(3):
+        node.network.sync.transmit()
+        time.sleep(0.01)
+    time.sleep(0.1)
+    twin.stop()
+    out = subprocess.run([tshark, "-r", str(trace), "-d", "can.subdissector,canopen"],
+                         capture_output=True, text=True, timeout=60).stdout
+    assert out.count("SYNC") >= 3, out
+    assert out.count("PDO3 (tx)") >= 3, out
+    assert "NMT: Start remote node" in out, out
+    assert "Default-SDO" in out, out

@@ -69,7 +69,7 @@ def test_abort_value_too_high_and_too_low(bench, node_of):
     assert node.sdo[0x2003].raw == -100, "a refused write must not change the value"
 
 
-@pytest.mark.parametrize("index", [0x1010, 0x1011])
+@pytest.mark.parametrize("index", [0x1010, 0x1011], ids=["1010h", "1011h"])
 def test_abort_wrong_store_restore_signature(bench, node_of, index):
     node = node_of(bench)
     assert node.sdo[index][1].raw == 1, "reads 1: saves/restores on command"

@@ -119,6 +119,7 @@ def test_kill_during_saves_leaves_an_old_or_new_set(launch, node_of, tmp_path):
     state = tmp_path / "state"
     twin = launch("testbench", 1, state_dir=state)
     node = node_of(twin)
+    node.sdo.RESPONSE_TIMEOUT = 1.0  # the request in flight at the kill waits this long
     versions = [f"v{i:03d}:" + chr(ord("a") + i % 26) * 3500 for i in range(200)]
     node.sdo[0x2001].raw = versions[0]
     node.store()

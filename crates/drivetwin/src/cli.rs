@@ -31,6 +31,14 @@ pub enum Command {
         #[arg(long, short)]
         output: Option<PathBuf>,
     },
+    /// Print the EtherCAT slave information (ESI, ETG.2000) XML of a personality.
+    Esi {
+        #[arg(long, default_value = "cmmp-as")]
+        device: String,
+        /// Write to a file instead of standard output.
+        #[arg(long, short)]
+        output: Option<PathBuf>,
+    },
     /// List the personalities this build knows.
     Devices,
     /// SDO read or write on a node.

@@ -22,6 +22,33 @@ use drivetwin::master::cia402::{self, Cia402Error};
 use drivetwin::master::lss::{LssError, LssMaster};
 use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
 
+/// Writes a line to standard output; when the reader went away (`drivetwin monitor | head`)
+/// the command ends quietly instead of panicking like `println!`.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let mut stdout = std::io::stdout().lock();
+        if writeln!(stdout, $($arg)*).and_then(|_| stdout.flush()).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
+/// As [`out!`] without the newline.
+macro_rules! out_raw {
+    ($text:expr) => {{
+        use std::io::Write as _;
+        let mut stdout = std::io::stdout().lock();
+        if stdout
+            .write_all($text.as_bytes())
+            .and_then(|_| stdout.flush())
+            .is_err()
+        {
+            std::process::exit(0);
+        }
+    }};
+}
+
 pub const EXIT_FAILURE: u8 = 1;
 pub const EXIT_USAGE: u8 = 2;
 pub const EXIT_LINK: u8 = 3;
@@ -70,6 +97,7 @@ impl CommandError {
                 SdoError::Protocol(_) => EXIT_PROTOCOL,
                 SdoError::Link(_) => EXIT_LINK,
             },
+            CommandError::Drive(drivetwin::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
         }
     }
@@ -84,9 +112,10 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
     match cli.command {
         Command::Run(args) => run(args).await,
         Command::Eds { device, output } => eds(&device, output),
+        Command::Esi { device, output } => esi(&device, output),
         Command::Devices => {
             for d in devices::ALL {
-                println!(
+                out!(
                     "{:<10} {} ({}), {} objects",
                     d.name,
                     d.product_name,
@@ -141,7 +170,21 @@ fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
     match output {
         Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
         None => {
-            print!("{text}");
+            out_raw!(text);
+            Ok(())
+        }
+    }
+}
+
+fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
+    let desc = device(name)?;
+    let mut text = String::new();
+    drivetwin::esi::write_esi(desc, &mut text)
+        .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
+    match output {
+        Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
+        None => {
+            out_raw!(text);
             Ok(())
         }
     }
@@ -178,7 +221,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
-        println!(
+        out!(
             "drive {} node {} ({})",
             d.od().description().name,
             d.node_id(),
@@ -229,7 +272,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
         if let Some(e) = failed {
             return Err(io("trace")(e));
         }
-        println!("virtual run of {seconds} s: {count} frames");
+        out!("virtual run of {seconds} s: {count} frames");
         return Ok(());
     }
 
@@ -240,7 +283,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
             .await
             .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
         let addr = listener.local_addr().map_err(io("socketcand address"))?;
-        println!("socketcand server on {addr}, channel {}", file.bus.channel);
+        out!("socketcand server on {addr}, channel {}", file.bus.channel);
         tasks.push(tokio::spawn(socketcand::serve(
             listener,
             bus.clone(),
@@ -251,7 +294,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(ifname) = &file.bus.socketcan {
         let socket = drivetwin::socketcan::CanSocket::open(ifname)
             .map_err(io(format!("SocketCAN {ifname}")))?;
-        println!("SocketCAN bridge on {ifname}");
+        out!("SocketCAN bridge on {ifname}");
         let port = bus.port();
         tasks.push(tokio::spawn(async move {
             if let Err(e) = drivetwin::socketcan::bridge(socket, port).await {
@@ -263,7 +306,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
         Some(p) => {
             let mut writer =
                 TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
-            println!("tracing to {}", p.display());
+            out!("tracing to {}", p.display());
             let mut tap = bus.tap();
             Some(tokio::spawn(async move {
                 'outer: while let Some(first) = tap.recv().await {
@@ -285,7 +328,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
         None => None,
     };
     let shutdown = shutdown_signal();
-    println!("running; Ctrl-C stops");
+    out!("running; Ctrl-C stops");
     runtime::run_realtime(cell, bus.clone(), shutdown).await;
     for t in tasks {
         t.abort();
@@ -296,7 +339,7 @@ async fn run(args: RunArgs) -> Result<(), CommandError> {
         t.abort();
         let _ = t.await;
     }
-    println!("stopped");
+    out!("stopped");
     Ok(())
 }
 
@@ -407,15 +450,24 @@ async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
             });
             let value = ty.and_then(|t| value_text::decode(t, &data));
             if bus.json {
+                // Numbers stay numbers in JSON; strings and octets stay strings.
+                let json_value = match (ty, &value) {
+                    (Some(t), Some(v)) if t.is_numeric() => {
+                        serde_json::from_str::<serde_json::Value>(v)
+                            .unwrap_or_else(|_| serde_json::Value::String(v.clone()))
+                    }
+                    (_, Some(v)) => serde_json::Value::String(v.clone()),
+                    _ => serde_json::Value::Null,
+                };
                 let j = serde_json::json!({
                     "node": node, "index": format!("0x{index:04X}"), "sub": sub,
-                    "data": value_text::hex(&data), "value": value,
+                    "data": value_text::hex(&data), "value": json_value,
                 });
-                println!("{j}");
+                out!("{j}");
             } else {
                 match value {
-                    Some(v) => println!("{v}"),
-                    None => println!("{}", value_text::hex(&data)),
+                    Some(v) => out!("{v}"),
+                    None => out!("{}", value_text::hex(&data)),
                 }
             }
             Ok(())
@@ -448,7 +500,7 @@ async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
                 return Err(report_sdo_error(&bus, node, index, sub, e));
             }
             if bus.json {
-                println!(
+                out!(
                     "{}",
                     serde_json::json!({"node": node, "index": format!("0x{index:04X}"), "sub": sub, "written": value_text::hex(&data)})
                 );
@@ -468,7 +520,7 @@ fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -
             j["abort_code"] = serde_json::json!(format!("0x{:08X}", code.0));
             j["abort_text"] = serde_json::json!(code.description());
         }
-        println!("{j}");
+        out!("{j}");
     }
     CommandError::Sdo(e)
 }
@@ -493,7 +545,7 @@ async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), CommandError
     // Give the server a moment to put the frame on the bus before the connection closes.
     tokio::time::sleep(Duration::from_millis(50)).await;
     if bus.json {
-        println!("{}", serde_json::json!({"nmt": cmd.name(), "node": node}));
+        out!("{}", serde_json::json!({"nmt": cmd.name(), "node": node}));
     }
     Ok(())
 }
@@ -538,7 +590,7 @@ async fn monitor(
                 }
                 None => ("Extended".to_string(), 0),
             };
-            println!(
+            out!(
                 "{}",
                 serde_json::json!({
                     "time": t.as_secs_f64(), "id": frame.id, "extended": frame.extended, "rtr": frame.rtr,
@@ -551,7 +603,7 @@ async fn monitor(
             } else {
                 format!("{:03X}", frame.id)
             };
-            println!(
+            out!(
                 "{:.6}  {id}  [{}] {:<24} {text}",
                 t.as_secs_f64(),
                 frame.len,
@@ -599,7 +651,7 @@ async fn pdo(cmd: PdoCommand) -> Result<(), CommandError> {
                 }
             }
             if bus.json {
-                println!("{}", serde_json::to_string(&all).unwrap_or_default());
+                out!("{}", serde_json::to_string(&all).unwrap_or_default());
             } else {
                 for p in &all {
                     let name = match p.direction {
@@ -611,7 +663,7 @@ async fn pdo(cmd: PdoCommand) -> Result<(), CommandError> {
                         .iter()
                         .map(|m| format!("{:04X}:{:02X}/{}", m.index, m.sub, m.bits))
                         .collect();
-                    println!(
+                    out!(
                         "{name}{} cob-id {:08X} {} type {} inhibit {} event {}  [{}]",
                         p.number,
                         p.cob_id,
@@ -674,7 +726,7 @@ async fn pdo(cmd: PdoCommand) -> Result<(), CommandError> {
             let mut client = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms));
             pdo_config::write_pdo(&mut client, dir, n, &setting).await?;
             if bus.json {
-                println!(
+                out!(
                     "{}",
                     serde_json::json!({"node": node, "pdo": pdo, "cob_id": cob_id, "entries": setting.mapping.len()})
                 );
@@ -724,9 +776,9 @@ async fn sync(
     }
     tokio::time::sleep(Duration::from_millis(50)).await;
     if bus.json {
-        println!("{}", serde_json::json!({"sync": sent}));
+        out!("{}", serde_json::json!({"sync": sent}));
     } else {
-        println!("{sent} SYNC sent");
+        out!("{sent} SYNC sent");
     }
     Ok(())
 }
@@ -745,9 +797,9 @@ async fn lss(cmd: LssCommand) -> Result<(), CommandError> {
             let mut m = LssMaster::new(&mut link, Duration::from_millis(timeout_ms));
             let Some(addr) = m.fast_scan().await? else {
                 if bus.json {
-                    println!("{}", serde_json::json!({"found": false}));
+                    out!("{}", serde_json::json!({"found": false}));
                 } else {
-                    println!("no unconfigured node answered");
+                    out!("no unconfigured node answered");
                 }
                 return Err(CommandError::Lss(LssError::NoResponse(
                     Duration::from_millis(timeout_ms),
@@ -761,12 +813,12 @@ async fn lss(cmd: LssCommand) -> Result<(), CommandError> {
                 tokio::time::sleep(Duration::from_millis(50)).await;
             }
             if bus.json {
-                println!(
+                out!(
                     "{}",
                     serde_json::json!({"found": true, "vendor_id": addr[0], "product_code": addr[1], "revision": addr[2], "serial": addr[3], "node": node})
                 );
             } else {
-                println!(
+                out!(
                     "found vendor {:08X} product {:08X} revision {:08X} serial {:08X}{}",
                     addr[0],
                     addr[1],
@@ -824,16 +876,16 @@ async fn scan(timeout_ms: u64, bus: BusArgs) -> Result<(), CommandError> {
             .iter()
             .map(|(n, t)| serde_json::json!({"node": n, "device_type": t}))
             .collect();
-        println!("{}", serde_json::json!(nodes));
+        out!("{}", serde_json::json!(nodes));
     } else {
         for (n, t) in &found {
             match t {
-                Some(t) => println!("node {n}: device type {t:08X}"),
-                None => println!("node {n}: answers (1000h not readable)"),
+                Some(t) => out!("node {n}: device type {t:08X}"),
+                None => out!("node {n}: answers (1000h not readable)"),
             }
         }
         if found.is_empty() {
-            println!("no node answered");
+            out!("no node answered");
         }
     }
     Ok(())
@@ -894,9 +946,9 @@ async fn drive_command(
     }
     let s = cia402::snapshot(&mut c).await.map_err(Cia402Error::from)?;
     if bus.json {
-        println!("{}", serde_json::to_string(&s).unwrap_or_default());
+        out!("{}", serde_json::to_string(&s).unwrap_or_default());
     } else {
-        println!(
+        out!(
             "{} (statusword {:04X}h) mode {} position {} velocity {} current {}‰ torque {}‰{}{}",
             s.state,
             s.statusword,

@@ -6,6 +6,7 @@ pub mod can_drive;
 pub mod cell;
 pub mod cell_config;
 pub mod device_model;
+pub mod esi;
 pub mod master;
 pub mod param_store;
 pub mod pcap;
