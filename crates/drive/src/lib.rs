@@ -9,6 +9,7 @@ pub mod control;
 pub mod device_control;
 pub mod drive;
 pub mod factor_group;
+pub mod fhpp;
 pub mod motor;
 pub mod profile_position;
 pub mod smoothing;

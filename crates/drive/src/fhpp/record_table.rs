@@ -1,0 +1,264 @@
+//! The record list of record selection (CMMO-ST manual §6.5.2 Tab. 6.7, PNU 401…442): 64
+//! records, subindex = record number; record number 0 in output byte 3 means homing.
+//! This part holds the data only; executing chains (RCB2, PNU 416, 425, 426) comes later.
+
+use super::bit_byte;
+use super::control_bytes::ControlMode;
+
+/// Number of motion records (PNU 401…442 subindex 1…64).
+pub const RECORD_COUNT: usize = 64;
+
+/// What record number byte 3 selects (§5.2.3 Example 5 step 5.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RecordSelect {
+    /// 0 = homing.
+    Homing,
+    /// 1…64 = a programmable motion record.
+    Record(u8),
+    /// 65…255: no such record.
+    Invalid(u8),
+}
+
+impl RecordSelect {
+    pub const fn from_byte(b: u8) -> Self {
+        match b {
+            0 => RecordSelect::Homing,
+            1..=64 => RecordSelect::Record(b),
+            _ => RecordSelect::Invalid(b),
+        }
+    }
+}
+
+bit_byte! {
+    /// RCB1, record control byte 1 (PNU 401).
+    Rcb1 {
+        /// Position mode: 0 = absolute, 1 = relative.
+        ABS = 0x01, "ABS";
+        /// Control mode, low bit.
+        COM1 = 0x02, "COM1";
+        /// Control mode, high bit.
+        COM2 = 0x04, "COM2";
+        /// Position mode: 0 = relative to the last set-point, 1 = to the actual position.
+        REL = 0x10, "REL";
+        /// Force / velocity: 1 = stroke monitoring inactive.
+        XLIM = 0x20, "XLIM";
+        /// Not supported by the CMMO-ST (reserved).
+        FAST = 0x40, "FAST";
+    }
+}
+
+impl Rcb1 {
+    /// COM2/COM1; `None` = 11 = "invalid record" (diagnostic 3Fh when started).
+    pub const fn control_mode(self) -> Option<ControlMode> {
+        ControlMode::from_bits((self.0 >> 1) & 0x03)
+    }
+}
+
+/// The switching condition of automatic record chaining, RCB2 bits 0…6 (PNU 402, Tab. 6.9).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChainCondition {
+    /// 0: end of sequence, no record switch.
+    None,
+    /// 1: motion complete; PNU 426 is the delay after MC.
+    MotionComplete,
+    /// 20: position comparator.
+    PositionComparator,
+    /// 21: velocity comparator.
+    VelocityComparator,
+    /// 22: force comparator.
+    ForceComparator,
+    /// 23: time comparator.
+    TimeComparator,
+}
+
+impl ChainCondition {
+    /// From RCB2. `None` for any other value, and when the reserved bit 7 is set ("= 0!").
+    pub const fn from_rcb2(rcb2: u8) -> Option<Self> {
+        match rcb2 {
+            0 => Some(ChainCondition::None),
+            1 => Some(ChainCondition::MotionComplete),
+            20 => Some(ChainCondition::PositionComparator),
+            21 => Some(ChainCondition::VelocityComparator),
+            22 => Some(ChainCondition::ForceComparator),
+            23 => Some(ChainCondition::TimeComparator),
+            _ => None,
+        }
+    }
+
+    pub const fn rcb2(self) -> u8 {
+        match self {
+            ChainCondition::None => 0,
+            ChainCondition::MotionComplete => 1,
+            ChainCondition::PositionComparator => 20,
+            ChainCondition::VelocityComparator => 21,
+            ChainCondition::ForceComparator => 22,
+            ChainCondition::TimeComparator => 23,
+        }
+    }
+}
+
+/// What a start command does while a task is active: RCB3 bits 1, 0 of the running record
+/// (PNU 421) in record selection, PNU 583 in direct mode (§6.6.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StartBehaviour {
+    /// 00: ignore the start until the running task has finished (PNU 583 default).
+    #[default]
+    Ignore,
+    /// 01: interrupt, switch to the new task at once.
+    Interrupt,
+    /// 10: wait, start the new task after MC.
+    Wait,
+}
+
+impl StartBehaviour {
+    /// From RCB3 bits 1, 0 or the PNU 583 value; `None` for the reserved 11 / other values.
+    pub const fn from_bits(bits: u8) -> Option<Self> {
+        match bits {
+            0 => Some(StartBehaviour::Ignore),
+            1 => Some(StartBehaviour::Interrupt),
+            2 => Some(StartBehaviour::Wait),
+            _ => None,
+        }
+    }
+
+    pub const fn bits(self) -> u8 {
+        match self {
+            StartBehaviour::Ignore => 0,
+            StartBehaviour::Interrupt => 1,
+            StartBehaviour::Wait => 2,
+        }
+    }
+}
+
+/// A comparator window: active while `min ≤ value ≤ max` (for at least the window time if one
+/// is set). No plausibility check: with `min > max` it never activates (§6.7.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Comparator<T> {
+    pub min: T,
+    pub max: T,
+    /// \[ms\]; 0 = no window time.
+    pub window_time_ms: u16,
+}
+
+impl<T: PartialOrd + Copy> Comparator<T> {
+    /// Whether `value` lies inside the window (the window time is the caller's business).
+    pub fn contains(&self, value: T) -> bool {
+        self.min <= value && value <= self.max
+    }
+}
+
+/// The time comparator: the time since the task start in \[min, max\] ms (PNU 439/440).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TimeComparator {
+    pub min_ms: u32,
+    pub max_ms: u32,
+}
+
+/// One motion record: the values with the same subindex in PNU 401…442 (Tab. 6.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Record {
+    /// PNU 401 RCB1: absolute/relative, control mode, REL, XLIM.
+    pub rcb1: Rcb1,
+    /// PNU 402 RCB2: chaining condition (see [`ChainCondition::from_rcb2`]).
+    pub rcb2: u8,
+    /// PNU 404 set-point value (target position) \[SINC\], relative to the project zero point.
+    pub target: i32,
+    /// PNU 406 maximum velocity \[SINC/s\], always positive.
+    pub velocity: i32,
+    /// PNU 407 acceleration \[SINC/s²\].
+    pub acceleration: i32,
+    /// PNU 408 deceleration \[SINC/s²\].
+    pub deceleration: i32,
+    /// PNU 409 jerk of acceleration \[(SINC/s³)/10\]; 0 = maximum.
+    pub jerk_acceleration: u32,
+    /// PNU 410 load (mass) on top of the base load \[g\] or \[kg·m²·10⁻⁷\].
+    pub load: u32,
+    /// PNU 416 record to jump to when the switching condition is met.
+    pub following_record: u8,
+    /// PNU 417 jerk of deceleration \[(SINC/s³)/10\]; 0 = maximum.
+    pub jerk_deceleration: u32,
+    /// PNU 418 torque limit \[‰ of PNU 555\]: 1000 = the force base value.
+    pub torque_limit: i16,
+    /// PNU 421 RCB3: bits 1, 0 = start behaviour while this record runs.
+    pub rcb3: u8,
+    /// PNU 423 final velocity \[SINC/s\].
+    pub final_velocity: i32,
+    /// PNU 424 maximum deviation (following error) \[SINC\] or \[SINC/s\].
+    pub max_deviation: i32,
+    /// PNU 425 MC pulse when switching records: 0 = no, 1 = yes.
+    pub mc_on_continuation: u8,
+    /// PNU 426 start delay \[ms\] (with RCB2 = 1 also the delay after MC).
+    pub start_delay_ms: u32,
+    /// PNU 427 stroke limit \[SINC\] for velocity and force records.
+    pub stroke_limit: i32,
+    /// PNU 428 torque feed-forward factor \[‰\]: 1000 = fully active.
+    pub torque_feed_forward: u16,
+    /// PNU 430/431/432 position comparator \[SINC\], always absolute (PZ-based).
+    pub position_comparator: Comparator<i32>,
+    /// PNU 433/434/435 velocity comparator \[SINC/s\].
+    pub velocity_comparator: Comparator<i32>,
+    /// PNU 436/437/438 force comparator \[‰ of PNU 555\].
+    pub force_comparator: Comparator<i16>,
+    /// PNU 439/440 time comparator \[ms\].
+    pub time_comparator: TimeComparator,
+    /// PNU 441 target velocity of a velocity record \[SINC/s\]; the sign gives the direction.
+    pub setpoint_velocity: i32,
+    /// PNU 442 target force of a force record \[‰ of PNU 555\]; the sign gives the direction.
+    pub setpoint_force: i16,
+}
+
+impl Record {
+    /// The control mode of RCB1; `None` = invalid record.
+    pub const fn control_mode(&self) -> Option<ControlMode> {
+        self.rcb1.control_mode()
+    }
+
+    /// The chaining condition of RCB2; `None` = invalid RCB2.
+    pub const fn chain_condition(&self) -> Option<ChainCondition> {
+        ChainCondition::from_rcb2(self.rcb2)
+    }
+
+    /// The start behaviour of RCB3; `None` = reserved value.
+    pub const fn start_behaviour(&self) -> Option<StartBehaviour> {
+        StartBehaviour::from_bits(self.rcb3 & 0x03)
+    }
+
+    /// Whether the record can be started: a defined control mode and a defined RCB2/RCB3
+    /// (else diagnostic 3Fh "record invalid").
+    pub const fn is_valid(&self) -> bool {
+        self.control_mode().is_some()
+            && self.chain_condition().is_some()
+            && self.start_behaviour().is_some()
+    }
+}
+
+/// The 64 motion records, addressed 1…64 as the PNU subindex and output byte 3 address them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecordTable {
+    records: [Record; RECORD_COUNT],
+}
+
+impl Default for RecordTable {
+    fn default() -> Self {
+        RecordTable {
+            records: [Record::default(); RECORD_COUNT],
+        }
+    }
+}
+
+impl RecordTable {
+    /// Record `number` (1…64); `None` for 0 (homing, which has no record data) and above 64.
+    pub fn get(&self, number: u8) -> Option<&Record> {
+        self.records.get(usize::from(number).checked_sub(1)?)
+    }
+
+    /// Record `number` (1…64) for writing.
+    pub fn get_mut(&mut self, number: u8) -> Option<&mut Record> {
+        self.records.get_mut(usize::from(number).checked_sub(1)?)
+    }
+
+    /// All records, record 1 first.
+    pub fn iter(&self) -> impl Iterator<Item = (u8, &Record)> {
+        self.records.iter().zip(1u8..).map(|(r, n)| (n, r))
+    }
+}
