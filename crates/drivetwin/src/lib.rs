@@ -8,6 +8,7 @@ pub mod cell_config;
 pub mod device_model;
 pub mod esi;
 pub mod master;
+pub mod modbus_server;
 pub mod param_store;
 pub mod pcap;
 pub mod runtime;

@@ -1,0 +1,225 @@
+//! What each sub-command does: one module per family of commands.
+
+use std::path::PathBuf;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use canopen::{CanFrame, NmtCommand};
+use drivetwin::bus::Bus;
+use drivetwin::can_drive::{CanDrive, DriveError};
+use drivetwin::cell::Cell;
+use drivetwin::cell_config::{CellFile, ConfigError};
+use drivetwin::master::link::{Link, LinkError};
+use drivetwin::master::sdo_client::{SdoClient, SdoError};
+use drivetwin::param_store::ParamStore;
+use drivetwin::trace::{self, TraceWriter};
+use drivetwin::{runtime, socketcand, value_text};
+use od::DataType;
+
+use crate::cli::{
+    BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
+};
+use drivetwin::master::cia402::{self, Cia402Error};
+use drivetwin::master::lss::{LssError, LssMaster};
+use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
+
+/// Writes a line to standard output; when the reader went away (`drivetwin monitor | head`)
+/// the command ends quietly instead of panicking like `println!`.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let mut stdout = std::io::stdout().lock();
+        if writeln!(stdout, $($arg)*).and_then(|_| stdout.flush()).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
+/// As [`out!`] without the newline.
+macro_rules! out_raw {
+    ($text:expr) => {{
+        use std::io::Write as _;
+        let mut stdout = std::io::stdout().lock();
+        if stdout
+            .write_all($text.as_bytes())
+            .and_then(|_| stdout.flush())
+            .is_err()
+        {
+            std::process::exit(0);
+        }
+    }};
+}
+
+pub const EXIT_FAILURE: u8 = 1;
+pub const EXIT_USAGE: u8 = 2;
+pub const EXIT_LINK: u8 = 3;
+pub const EXIT_TIMEOUT: u8 = 4;
+pub const EXIT_ABORT: u8 = 5;
+pub const EXIT_PROTOCOL: u8 = 6;
+
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    #[error("{0}")]
+    Usage(String),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Drive(#[from] DriveError),
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    #[error(transparent)]
+    Sdo(#[from] SdoError),
+    #[error(transparent)]
+    Lss(#[from] LssError),
+    #[error(transparent)]
+    Cia402(#[from] Cia402Error),
+    #[error("{what}: {source}")]
+    Io {
+        what: String,
+        source: std::io::Error,
+    },
+}
+
+impl CommandError {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CommandError::Usage(_) | CommandError::Config(_) => EXIT_USAGE,
+            CommandError::Link(_) | CommandError::Sdo(SdoError::Link(_)) => EXIT_LINK,
+            CommandError::Sdo(SdoError::Timeout { .. }) => EXIT_TIMEOUT,
+            CommandError::Sdo(SdoError::Abort(_)) => EXIT_ABORT,
+            CommandError::Sdo(SdoError::Protocol(_)) => EXIT_PROTOCOL,
+            CommandError::Lss(LssError::Link(_)) => EXIT_LINK,
+            CommandError::Lss(LssError::NoResponse(_)) => EXIT_TIMEOUT,
+            CommandError::Lss(LssError::Refused { .. }) => EXIT_PROTOCOL,
+            CommandError::Cia402(Cia402Error::Timeout { .. }) => EXIT_TIMEOUT,
+            CommandError::Cia402(Cia402Error::Sdo(e)) => match e {
+                SdoError::Abort(_) => EXIT_ABORT,
+                SdoError::Timeout { .. } => EXIT_TIMEOUT,
+                SdoError::Protocol(_) => EXIT_PROTOCOL,
+                SdoError::Link(_) => EXIT_LINK,
+            },
+            CommandError::Drive(drivetwin::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
+            CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
+        }
+    }
+}
+
+mod drive;
+mod lss;
+mod network;
+mod pdo;
+mod run;
+mod sdo;
+
+pub(crate) fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> CommandError {
+    let what = what.into();
+    move |source| CommandError::Io { what, source }
+}
+
+pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
+    match cli.command {
+        Command::Run(args) => run::run(args).await,
+        Command::Eds { device, output } => run::eds(&device, output),
+        Command::Esi { device, output } => run::esi(&device, output),
+        Command::Devices => {
+            for d in devices::ALL {
+                out!(
+                    "{:<10} {} ({}), {} objects",
+                    d.name,
+                    d.product_name,
+                    d.vendor_name,
+                    d.objects.len()
+                );
+            }
+            Ok(())
+        }
+        Command::Sdo(cmd) => sdo::sdo(cmd).await,
+        Command::Nmt { command, node, bus } => network::nmt(command, node, bus).await,
+        Command::Pdo(cmd) => pdo::pdo(cmd).await,
+        Command::Sync {
+            period_ms,
+            count,
+            counter,
+            cob_id,
+            bus,
+        } => network::sync(period_ms, count, counter, &cob_id, bus).await,
+        Command::Lss(cmd) => lss::lss(cmd).await,
+        Command::Scan { timeout_ms, bus } => network::scan(timeout_ms, bus).await,
+        Command::Drive {
+            node,
+            command,
+            wait,
+            timeout_ms,
+            bus,
+        } => drive::drive_command(node, command, wait, timeout_ms, bus).await,
+        Command::Monitor {
+            count,
+            seconds,
+            bus,
+        } => network::monitor(count, seconds, bus).await,
+    }
+}
+
+pub(crate) fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {
+    devices::by_name(name).ok_or_else(|| {
+        let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
+        CommandError::Usage(format!(
+            "unknown device {name:?} (known: {})",
+            known.join(", ")
+        ))
+    })
+}
+
+pub(crate) async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
+    if let Some(ifname) = &bus.can {
+        #[cfg(target_os = "linux")]
+        return Ok(Link::socketcan(ifname)?);
+        #[cfg(not(target_os = "linux"))]
+        return Err(CommandError::Usage(format!(
+            "--can {ifname}: SocketCAN needs Linux"
+        )));
+    }
+    Ok(Link::socketcand(&bus.socketcand, &bus.channel).await?)
+}
+
+pub(crate) fn parse_hex_u16(s: &str, what: &str) -> Result<u16, CommandError> {
+    let t = s.trim_start_matches("0x").trim_start_matches("0X");
+    u16::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+}
+
+pub(crate) fn parse_hex_u8(s: &str, what: &str) -> Result<u8, CommandError> {
+    let t = s.trim_start_matches("0x").trim_start_matches("0X");
+    u8::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+}
+
+pub(crate) fn check_node(node: u8) -> Result<(), CommandError> {
+    if (1..=127).contains(&node) {
+        Ok(())
+    } else {
+        Err(CommandError::Usage(format!(
+            "node-ID {node} is outside 1…127"
+        )))
+    }
+}
+
+/// Ctrl-C (SIGINT) or SIGTERM: both stop the cell cleanly, flushing the trace.
+pub(crate) async fn shutdown_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}

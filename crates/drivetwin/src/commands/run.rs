@@ -1,0 +1,185 @@
+use super::*;
+
+pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
+    let desc = device(name)?;
+    let mut text = String::new();
+    od::eds::write_eds(&mut text, desc, "01-01-2026")
+        .map_err(|_| CommandError::Usage("EDS formatting failed".into()))?;
+    match output {
+        Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
+        None => {
+            out_raw!(text);
+            Ok(())
+        }
+    }
+}
+
+pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
+    let desc = device(name)?;
+    let mut text = String::new();
+    drivetwin::esi::write_esi(desc, &mut text)
+        .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
+    match output {
+        Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
+        None => {
+            out_raw!(text);
+            Ok(())
+        }
+    }
+}
+
+pub(crate) fn build_cell(
+    file: &CellFile,
+    state_dir: Option<&PathBuf>,
+) -> Result<Cell, CommandError> {
+    let mut drives = Vec::new();
+    for spec in file.drives()? {
+        let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
+        drives.push(CanDrive::with_settings(
+            spec.desc,
+            spec.node,
+            store,
+            spec.commissioning,
+            spec.settings,
+        )?);
+    }
+    Ok(Cell::new(drives))
+}
+
+pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
+    let mut file = match &args.config {
+        Some(path) => CellFile::load(path)?,
+        None => CellFile::single(&args.device, args.node),
+    };
+    if let Some(s) = &args.socketcand {
+        file.bus.socketcand = s.clone();
+    }
+    if let Some(c) = &args.channel {
+        file.bus.channel = c.clone();
+    }
+    if let Some(c) = &args.socketcan {
+        file.bus.socketcan = Some(c.clone());
+    }
+    let mut cell = build_cell(&file, args.state_dir.as_ref())?;
+    for d in &cell.drives {
+        out!(
+            "drive {} node {} ({})",
+            d.od().description().name,
+            d.node_id(),
+            d.od().description().product_name
+        );
+    }
+
+    if let Some(seconds) = args.virtual_seconds {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(CommandError::Usage(
+                "--virtual-seconds must be a positive number".into(),
+            ));
+        }
+        let inputs = match &args.inject {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(io(p.display().to_string()))?;
+                let mut frames = trace::parse_candump(&text)
+                    .map_err(|e| CommandError::Usage(format!("{}: {e}", p.display())))?;
+                frames.sort_by_key(|(t, _)| *t);
+                frames
+            }
+            None => Vec::new(),
+        };
+        let mut writer = match &args.trace {
+            Some(p) => Some(
+                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?,
+            ),
+            None => None,
+        };
+        let mut count = 0u64;
+        let mut failed = None;
+        runtime::run_virtual(
+            &mut cell,
+            &inputs,
+            Duration::from_secs_f64(seconds),
+            &mut |t, f| {
+                count += 1;
+                if let Some(w) = writer.as_mut() {
+                    if let Err(e) = w.write(t, f) {
+                        failed.get_or_insert(e);
+                    }
+                }
+            },
+        );
+        if let Some(w) = writer.as_mut() {
+            w.flush().map_err(io("trace"))?;
+        }
+        if let Some(e) = failed {
+            return Err(io("trace")(e));
+        }
+        out!("virtual run of {seconds} s: {count} frames");
+        return Ok(());
+    }
+
+    let bus = Bus::new(drivetwin::bus::DEFAULT_CAPACITY);
+    let mut tasks = Vec::new();
+    if !file.bus.socketcand.is_empty() {
+        let listener = tokio::net::TcpListener::bind(&file.bus.socketcand)
+            .await
+            .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
+        let addr = listener.local_addr().map_err(io("socketcand address"))?;
+        out!("socketcand server on {addr}, channel {}", file.bus.channel);
+        tasks.push(tokio::spawn(socketcand::serve(
+            listener,
+            bus.clone(),
+            file.bus.channel.clone(),
+        )));
+    }
+    #[cfg(target_os = "linux")]
+    if let Some(ifname) = &file.bus.socketcan {
+        let socket = drivetwin::socketcan::CanSocket::open(ifname)
+            .map_err(io(format!("SocketCAN {ifname}")))?;
+        out!("SocketCAN bridge on {ifname}");
+        let port = bus.port();
+        tasks.push(tokio::spawn(async move {
+            if let Err(e) = drivetwin::socketcan::bridge(socket, port).await {
+                tracing::error!(error = %e, "SocketCAN bridge stopped");
+            }
+        }));
+    }
+    let trace_task = match &args.trace {
+        Some(p) => {
+            let mut writer =
+                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
+            out!("tracing to {}", p.display());
+            let mut tap = bus.tap();
+            Some(tokio::spawn(async move {
+                'outer: while let Some(first) = tap.recv().await {
+                    // Write what is queued, then flush once the tap runs dry.
+                    let mut next = Some(first);
+                    while let Some(bf) = next {
+                        let t = bf.timestamp.duration_since(UNIX_EPOCH).unwrap_or_default();
+                        if let Err(e) = writer.write(t, &bf.frame) {
+                            tracing::error!(error = %e, "writing the trace failed");
+                            break 'outer;
+                        }
+                        next = tap.try_recv();
+                    }
+                    trace::flush_quietly(&mut writer);
+                }
+                trace::flush_quietly(&mut writer);
+            }))
+        }
+        None => None,
+    };
+    let shutdown = shutdown_signal();
+    out!("running; Ctrl-C stops");
+    runtime::run_realtime(cell, bus.clone(), shutdown).await;
+    for t in tasks {
+        t.abort();
+    }
+    if let Some(t) = trace_task {
+        // Let the tap drain what is queued, then stop it.
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        t.abort();
+        let _ = t.await;
+    }
+    out!("stopped");
+    Ok(())
+}

@@ -1,0 +1,128 @@
+use super::*;
+
+fn resolve_type(
+    data_type: Option<&str>,
+    device_name: Option<&str>,
+    index: u16,
+    sub: u8,
+) -> Result<Option<DataType>, CommandError> {
+    if let Some(t) = data_type {
+        return value_text::parse_type(t)
+            .map(Some)
+            .ok_or_else(|| CommandError::Usage(format!("unknown type {t:?}")));
+    }
+    if let Some(name) = device_name {
+        let desc = device(name)?;
+        let e = desc.entry(index, sub).ok_or_else(|| {
+            CommandError::Usage(format!("{name} has no entry {index:04X}:{sub:02X}"))
+        })?;
+        return Ok(Some(e.data_type));
+    }
+    Ok(None)
+}
+
+pub(crate) async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
+    match cmd {
+        SdoCommand::Read {
+            node,
+            index,
+            sub,
+            data_type,
+            device,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let index = parse_hex_u16(&index, "index")?;
+            let sub = parse_hex_u8(&sub, "sub-index")?;
+            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?;
+            let mut link = connect(&bus).await?;
+            let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
+                .upload(index, sub)
+                .await;
+            let data = match result {
+                Ok(d) => d,
+                Err(e) => return Err(report_sdo_error(&bus, node, index, sub, e)),
+            };
+            let ty = ty.or(match data.len() {
+                1 => Some(DataType::Unsigned8),
+                2 => Some(DataType::Unsigned16),
+                4 => Some(DataType::Unsigned32),
+                _ => None,
+            });
+            let value = ty.and_then(|t| value_text::decode(t, &data));
+            if bus.json {
+                // Numbers stay numbers in JSON; strings and octets stay strings.
+                let json_value = match (ty, &value) {
+                    (Some(t), Some(v)) if t.is_numeric() => {
+                        serde_json::from_str::<serde_json::Value>(v)
+                            .unwrap_or_else(|_| serde_json::Value::String(v.clone()))
+                    }
+                    (_, Some(v)) => serde_json::Value::String(v.clone()),
+                    _ => serde_json::Value::Null,
+                };
+                let j = serde_json::json!({
+                    "node": node, "index": format!("0x{index:04X}"), "sub": sub,
+                    "data": value_text::hex(&data), "value": json_value,
+                });
+                out!("{j}");
+            } else {
+                match value {
+                    Some(v) => out!("{v}"),
+                    None => out!("{}", value_text::hex(&data)),
+                }
+            }
+            Ok(())
+        }
+        SdoCommand::Write {
+            node,
+            index,
+            sub,
+            value,
+            data_type,
+            device,
+            timeout_ms,
+            bus,
+        } => {
+            check_node(node)?;
+            let index = parse_hex_u16(&index, "index")?;
+            let sub = parse_hex_u8(&sub, "sub-index")?;
+            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?
+                .ok_or_else(|| {
+                    CommandError::Usage(
+                        "sdo write needs --type or --device to encode the value".into(),
+                    )
+                })?;
+            let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
+            let mut link = connect(&bus).await?;
+            let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
+                .download(index, sub, &data)
+                .await;
+            if let Err(e) = result {
+                return Err(report_sdo_error(&bus, node, index, sub, e));
+            }
+            if bus.json {
+                out!(
+                    "{}",
+                    serde_json::json!({"node": node, "index": format!("0x{index:04X}"), "sub": sub, "written": value_text::hex(&data)})
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// In JSON mode an SDO failure is also a JSON object on standard output.
+fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -> CommandError {
+    if bus.json {
+        let mut j = serde_json::json!({
+            "node": node, "index": format!("0x{index:04X}"), "sub": sub, "error": e.to_string(),
+        });
+        if let SdoError::Abort(code) = &e {
+            j["abort_code"] = serde_json::json!(format!("0x{:08X}", code.0));
+            j["abort_text"] = serde_json::json!(code.description());
+        }
+        out!("{j}");
+    }
+    CommandError::Sdo(e)
+}
