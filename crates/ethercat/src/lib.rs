@@ -1,6 +1,40 @@
 //! EtherCAT slave controller emulation, sans-IO and `no_std`: an Ethernet frame in, the same
 //! frame processed out, as the ESC chip does on the fly (ETG.1000, spec/ethercat-esc.md).
+//!
+//! Layout (one file per concept, named as ethercrab names it):
+//! * wire views: [`frame`] (Ethernet + EtherCAT header, [`frame::FrameWriter`]),
+//!   [`datagram`] (datagram header, [`datagram::Command`]), [`mailbox`] (mailbox header);
+//! * ESC: [`register`] (address map, write masks, reset values), [`fmmu`],
+//!   [`sync_manager`], [`eeprom`] (SII interface 0x0500), [`al_control`] and
+//!   [`al_status_code`] (application-layer state machine), [`esc`] (the controller);
+//! * [`sii`]: the SII EEPROM image.
+//!
+//! No allocation, no `unsafe`, and no panics on anything that comes from the wire: every
+//! access to frame bytes and ESC memory is bounds-checked and treats a short buffer as an
+//! error to count, not a crash.
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod al_control;
+pub mod al_status_code;
+pub mod datagram;
+pub mod eeprom;
+pub mod esc;
+pub mod fmmu;
+pub mod frame;
+pub mod mailbox;
+pub mod register;
 pub mod sii;
+pub mod sync_manager;
+
+pub use al_control::{AlControl, AlState, AlStatus};
+pub use al_status_code::AlStatusCode;
+pub use datagram::{Command, Datagram};
+pub use eeprom::Eeprom;
+pub use esc::{
+    process_chain, process_chain_with, AlHook, ErrorCounters, Esc, EscConfig, FixedProcessData,
+    FrameOutcome, MailboxLayout, NoHook, PdiError,
+};
+pub use fmmu::Fmmu;
+pub use frame::{Address, EthernetFrame, Frame, FrameWriter, WireError};
+pub use sync_manager::SyncManager;
