@@ -23,6 +23,8 @@ pub mod mode {
     pub const PROFILE_TORQUE: i8 = 4;
     pub const HOMING: i8 = 6;
     pub const INTERPOLATED_POSITION: i8 = 7;
+    /// EtherCAT only on the CMMP-AS (6060h value range).
+    pub const CYCLIC_SYNCHRONOUS_POSITION: i8 = 8;
     /// 6061h while a mode change is in progress (CMMP-AS §7.1).
     pub const CHANGING: i8 = -1;
 }
@@ -47,6 +49,9 @@ pub struct DriveSettings {
     pub enables_present: bool,
     /// A holding brake is fitted: it holds the shaft while the output stage is off.
     pub brake_fitted: bool,
+    /// The drive is reached over EtherCAT: cyclic synchronous position (6060h = 8) is
+    /// available (CMMP-AS 6060h: "8 CSP, EtherCAT only").
+    pub ethercat: bool,
 }
 
 impl Default for DriveSettings {
@@ -56,6 +61,7 @@ impl Default for DriveSettings {
             mode_change_time: Duration::ZERO,
             enables_present: true,
             brake_fitted: true,
+            ethercat: false,
         }
     }
 }
@@ -158,6 +164,8 @@ pub struct Drive<S> {
     demand_position: f64,
     setpoints: SetPoints,
     demand: Demand,
+    /// When the CSP set-point last changed.
+    csp_changed_at: Option<Instant>,
     /// Quick stop, disable operation or fault reaction ramp in progress.
     stopping: bool,
     halted: bool,
@@ -257,6 +265,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             demand_position: 0.0,
             setpoints: SetPoints::default(),
             demand: Demand::Off,
+            csp_changed_at: None,
             stopping: false,
             halted: false,
             velocity_set: 0.0,
@@ -288,6 +297,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // CMMP-AS §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs + CAN") whenever CANopen
         // is active, also after a reset.
         let _ = d.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+        if d.settings.ethercat {
+            // CiA 402 6502h bit 7: CSP.
+            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0) | 0x80;
+            let _ = d.od.set_value(0x6502, 0, Value::Unsigned(modes));
+        }
         d.dc.initialised();
         d.publish();
         d
@@ -614,6 +628,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
+            mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
             _ => {
                 let decel = self.accel(0x6084);
                 self.traj.step_stop(decel, dt);
@@ -791,6 +806,38 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.window_since = None;
             self.target_reached = false;
         }
+    }
+
+    /// CSP (CiA 402 §13): the master sends a position every cycle; it is the set-point as it
+    /// stands, with the speed between two set-points as feed-forward. The CMMP-AS runs the
+    /// interpolator on the frame cycle (CMMP-AS §4: "the EtherCAT cycle equals the
+    /// interpolator cycle"), so no further interpolation happens here.
+    fn cyclic_synchronous_position(&mut self, dt: f64) {
+        let user = self
+            .value(0x607A, 0)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let target = self.fg.position_to_internal(user) as f64;
+        if target != self.traj.position {
+            // The feed-forward is the speed between the last two set-points, over the time
+            // they really came apart (the master's cycle, not ours).
+            let elapsed = self
+                .csp_changed_at
+                .map(|t| self.now.saturating_since(t).as_secs_f64())
+                .unwrap_or(dt)
+                .max(dt);
+            self.traj.velocity = (target - self.traj.position) / elapsed;
+            self.traj.position = target;
+            self.csp_changed_at = Some(self.now);
+        } else if self
+            .csp_changed_at
+            .is_none_or(|t| self.now.saturating_since(t).as_secs_f64() > 4.0 * dt.max(0.001))
+        {
+            // Set-points stopped coming: standstill at the last one.
+            self.traj.velocity = 0.0;
+        }
+        let v = self.traj.velocity;
+        self.position_demand(v);
+        self.target_reached = false;
     }
 
     fn accel2(&self, index: u16, sub: u8) -> f64 {
@@ -1080,7 +1127,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                     _ => return self.od.write(index, sub, data),
                 };
                 // CMMP-AS 6060h: 1, 3, 4, 6, 7 over CANopen (8 only over EtherCAT).
-                if !matches!(m, 1 | 3 | 4 | 6 | 7) {
+                let csp = m == mode::CYCLIC_SYNCHRONOUS_POSITION && self.settings.ethercat;
+                if !matches!(m, 1 | 3 | 4 | 6 | 7) && !csp {
                     return Err(AbortCode::INVALID_VALUE);
                 }
                 self.od.write(index, sub, data)?;

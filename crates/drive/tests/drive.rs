@@ -468,3 +468,49 @@ fn brake_delay_holds_the_set_point_after_enable() {
     r.run_ms(200);
     assert!(r.i(0x606C) > 500, "moving after it: {}", r.i(0x606C));
 }
+
+#[test]
+fn cyclic_synchronous_position_only_over_ethercat_and_follows_the_set_points() {
+    let mut r = Rig::new();
+    assert_eq!(
+        r.d.write(0x6060, 0, &[8]),
+        Err(AbortCode::INVALID_VALUE),
+        "CSP is EtherCAT only"
+    );
+
+    let desc = &devices::CMMP_AS;
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let settings = DriveSettings {
+        ethercat: true,
+        ..DriveSettings::default()
+    };
+    let mut r = Rig {
+        d: Drive::new(od, settings),
+        now: Instant::ZERO,
+    };
+    r.run_ms(1);
+    assert_eq!(r.d.od().get_unsigned(0x6502, 0).unwrap() & 0x80, 0x80);
+    r.mode(8);
+    r.enable();
+    // A 1 kHz master: 500 rpm = 8192/60 increments per ms... send a ramp of set-points.
+    let mut target = 0i64;
+    let mut max_fe = 0;
+    for ms in 0..1000 {
+        let speed = (ms.min(200) as i64) * 3; // increments per ms, ramping up
+        target += speed;
+        r.w32(0x607A, 0, target);
+        r.run_ms(1);
+        max_fe = max_fe.max((r.i(0x6064) - target).abs());
+    }
+    assert!(
+        (r.i(0x6064) - target).abs() < 2000,
+        "{} vs {}",
+        r.i(0x6064),
+        target
+    );
+    assert!(max_fe < 9101, "following error inside the window: {max_fe}");
+    // Set-points stop: the axis stands at the last one.
+    r.run_ms(200);
+    assert!((r.i(0x6064) - target).abs() < 50);
+    assert!(r.i(0x606C).abs() < 5);
+}
