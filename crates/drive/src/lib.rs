@@ -13,4 +13,5 @@ pub mod fhpp;
 pub mod motor;
 pub mod profile_position;
 pub mod smoothing;
+pub mod stepper;
 pub mod trajectory;

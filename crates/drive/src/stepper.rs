@@ -1,0 +1,1048 @@
+//! The simulated plant of the Festo CMMO-ST stepper-motor controller: a two-phase hybrid
+//! stepper motor (Festo EMMS-ST class: 200 full steps per revolution, 50 rotor teeth = pole
+//! pairs) with its load and incremental encoder, driven by the controller's current choppers
+//! either in **open loop** (micro-stepping) or in **closed loop** ("servo-lite": the encoder
+//! closes a position/velocity loop that commutates the current vector field-oriented).
+//!
+//! Positions come out in encoder increments (PNU 1001:1, default 2000 per revolution,
+//! spec/cmmo-st-fhpp.md §3.7) and in motor micro-steps. The SINC scaling of the user interface
+//! (PNU 600/601) belongs to the device layer; [`sinc_to_si`] and [`si_to_sinc`] are the pure
+//! conversions it needs (spec §6, vectors FHPP-SC-01…03).
+//!
+//! # Model (SI units)
+//!
+//! Rotor angle `θ` (rad, `f64`), electrical angle `φ = N_r·θ` with `N_r` = full steps / 4
+//! (50 for a 1.8° motor: one electrical period = 4 full steps). Per phase (A, B):
+//!
+//! ```text
+//!   L di_a/dt = v_a − R·i_a − e_a,   e_a = −k·ω·sin φ
+//!   L di_b/dt = v_b − R·i_b − e_b,   e_b = +k·ω·cos φ
+//!   T_em      = k·(−i_a·sin φ + i_b·cos φ)          (= −k·|i|·sin(φ − φ_i))
+//!   T_detent  = −T_d·sin(4φ)
+//!   J dω/dt   = T_em + T_detent − B·ω − T_c·sign(ω) − T_load
+//! ```
+//!
+//! `k = holding_torque / rated_current` (N·m/A, equal to the back-EMF constant in V·s/rad):
+//! [`StepperData::rated_current`] is the amplitude of the phase-current vector (the per-phase
+//! peak in micro-stepping) and [`StepperData::holding_torque`] the peak of the static torque
+//! curve at that amplitude. `J` = rotor + load inertia. The load torque acts towards negative
+//! rotation (as in [`crate::motor`]).
+//!
+//! **Current choppers.** Each phase has an H-bridge on the supply voltage; its current
+//! controller is modelled as an ideal fast chopper: the phase current reaches its reference at
+//! the end of each integration step whenever `±supply_voltage` suffices, otherwise the bridge
+//! saturates at the supply voltage. The winding pole is integrated exactly over the step for
+//! the voltage and back-EMF held (`i ← a·i + (1 − a)/R·(v − e)`, `a = e^(−R·h/L)`). The
+//! torque–speed curve therefore *emerges* from L/R, the back-EMF and the supply voltage: at
+//! speed the current can no longer follow the commanded vector, its amplitude falls and lags,
+//! and so does the pull-out torque. [`StepperData::peak_torque`] gives the same limit in
+//! closed form for the sinusoidal steady state.
+//!
+//! **Open loop.** The controller commands the current vector at the angle of the commanded
+//! micro-step position (`φ_i = μ·(π/2)/microsteps`) with the rated amplitude. The rotor
+//! follows through the sinusoidal torque characteristic; when the load or the acceleration
+//! demands more than the pull-out torque, the rotor slips by whole electrical periods (4 full
+//! steps each) to another stable equilibrium: steps are lost and [`Stepper::lost_steps`] and
+//! the encoder show it.
+//!
+//! **Closed loop.** Every integration step: encoder → tracking observer (type-2 PLL,
+//! bandwidth [`StepperData::observer_bandwidth`]) for a sub-increment angle and the speed →
+//! position controller (P on the integer increment error, plus the speed feed-forward) →
+//! velocity controller (PI, bandwidth [`StepperData::velocity_bandwidth`], plus the
+//! acceleration feed-forward `J·Δω_ff/Δt`, cf. PNU 1080) → torque set-point, clamped to
+//! `k·max_current` → current vector of amplitude `|T|/k` at the observed electrical angle
+//! advanced by one step of rotation, ±90° electrical (maximum torque per ampere). Below the
+//! peak torque no step is lost, and the current follows the load instead of being the full
+//! rated current all the time. The encoder is assumed aligned with phase A (the controller's
+//! zero-angle determination, diagnostic 05h, is taken as done). The controller does no field
+//! weakening of its own (the lead stays ±90°); above the corner speed the saturated bridges
+//! make the current lag anyway, as in open loop. All loops run at the integration rate
+//! (50 µs); the manual does not give the CMMO-ST's controller cycle times.
+//!
+//! # Integration
+//!
+//! The plant is integrated in sub-steps of at most [`STEP_S`] = 50 µs whatever `dt` the
+//! caller passes to [`Stepper::step`] (the demand is held over the call). The detent spring
+//! is stiff (`N_r·T_hold` ≈ 25 N·m/rad, ≈ 180 Hz with the default inertia), so the mechanics
+//! are semi-implicit: viscous friction, and the part of the restoring stiffness
+//! `K = −∂T/∂θ` beyond `J/h²`, are taken at the end of the step,
+//! `ω₁ = (J·ω₀ + h·(T(θ₀) − T_c·sign − T_load)) / (J + B·h + K_impl·h²)`, `θ₁ = θ₀ + h·ω₁`.
+//! With sane data `K_impl` = 0 and this is the symplectic (semi-implicit) Euler step: no
+//! numerical damping, stable for ω_n·h < 2, and at 50 µs ω_n·h ≈ 0.06 (≈ 110 steps per
+//! rotor oscillation). For extreme data (a tiny inertia, a huge holding torque) the implicit
+//! stiffness keeps the step stable at any ω_n·h, trading accuracy for numerical damping.
+//! Likewise, a phase whose bridge saturates is driven by the back-EMF, which couples it to
+//! the speed with the electromechanical time constant J·R/k² (0.4 ms by default, far less
+//! for a tiny inertia); that coupling is linearised and taken implicitly too (the damping
+//! `b·k²·sin²φ` resp. `cos²φ` joins the mechanics, and the saturated currents are corrected
+//! for the new speed), so a small inertia cannot make the electrics and mechanics
+//! oscillate against each other.
+//! Coulomb friction uses the stick/slip treatment of [`crate::motor`]: at rest
+//! the shaft breaks away only above `T_c`, and friction never reverses the motion within one
+//! step. Trigonometric arguments are reduced to one period first, so long runs keep both
+//! precision and speed.
+//!
+//! Determinism: plain `f64` arithmetic and `libm`, no state outside the struct; the same
+//! calls give the same results bit for bit. No allocation, no panics (NaN demands count as 0,
+//! a non-positive or non-finite `dt` does nothing, degenerate data are replaced by safe
+//! values).
+
+use core::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Full steps per revolution of a 1.8° hybrid stepper.
+pub const FULL_STEPS_PER_REV: u32 = 200;
+
+/// Default encoder resolution of the CMMO-ST: PNU 1001:1 = 0x000007D0 (spec §3.7).
+pub const ENCODER_INCREMENTS_PER_REV: u32 = 2000;
+
+/// Default micro-step resolution: micro-steps per full step.
+pub const MICROSTEPS: u32 = 16;
+
+/// Longest integration sub-step, s. [`Stepper::step`] splits longer calls.
+pub const STEP_S: f64 = 50e-6;
+
+/// Upper bound of sub-steps per call (a 5 s call at 50 µs); beyond it the sub-step grows.
+const MAX_SUBSTEPS: f64 = 100_000.0;
+
+/// rad/s → min⁻¹.
+pub const RAD_S_TO_RPM: f64 = 60.0 / TAU;
+/// min⁻¹ → rad/s.
+pub const RPM_TO_RAD_S: f64 = TAU / 60.0;
+
+/// Nameplate, load and controller data of the simulated stepper, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepperData {
+    /// Full steps per revolution (200 for 1.8°); the rotor has a quarter as many teeth
+    /// (pole pairs).
+    pub full_steps_per_rev: u32,
+    /// Micro-steps per full step: the unit of [`StepperDemand::Position`] and the resolution
+    /// of the open-loop current vector.
+    pub microsteps: u32,
+    /// Peak of the static torque curve at the rated current, N·m.
+    pub holding_torque: f64,
+    /// Detent (cogging) torque amplitude without current, N·m; period one full step.
+    pub detent_torque: f64,
+    /// Amplitude of the phase-current vector in open loop (the per-phase peak), A
+    /// (PNU 1035 motor rated current).
+    pub rated_current: f64,
+    /// Current limit in closed loop, A (PNU 1034 max. current).
+    pub max_current: f64,
+    /// Winding resistance per phase, Ω.
+    pub resistance: f64,
+    /// Winding inductance per phase, H.
+    pub inductance: f64,
+    /// Rotor inertia, kg·m².
+    pub rotor_inertia: f64,
+    /// Load inertia reflected to the motor shaft, kg·m² (cf. PNU 1071).
+    pub load_inertia: f64,
+    /// Viscous friction including iron losses, N·m·s/rad.
+    pub viscous_friction: f64,
+    /// Coulomb (and breakaway) friction, N·m.
+    pub coulomb_friction: f64,
+    /// Constant external load torque, N·m, acting towards negative rotation; 0 for none.
+    pub load_torque: f64,
+    /// Encoder increments per revolution (PNU 1001:1).
+    pub encoder_increments_per_rev: u32,
+    /// Supply (load) voltage of the output stages, V: each phase bridge applies at most ±this.
+    pub supply_voltage: f64,
+    /// Closed loop: crossover of the velocity controller, rad/s (the gains follow from the
+    /// inertia).
+    pub velocity_bandwidth: f64,
+    /// Closed loop: bandwidth of the encoder tracking observer, rad/s.
+    pub observer_bandwidth: f64,
+}
+
+impl Default for StepperData {
+    /// A small Festo EMMS-ST-42-S-class motor on a 24 V CMMO-ST-C5-1 with a light load.
+    ///
+    /// Assumptions (catalogue-like figures, not a datasheet copy; change them for another
+    /// motor): 200 steps, holding torque 0.5 N·m at a current-vector amplitude of 2.0 A (so
+    /// k = 0.25 N·m/A = 0.25 V·s/rad), detent torque 0.02 N·m (4 %), R = 1.2 Ω and
+    /// L = 2.5 mH per phase (L/R ≈ 2 ms), rotor inertia 0.06 kg·cm² plus 0.14 kg·cm² of load
+    /// (J = 2·10⁻⁵ kg·m²), Coulomb friction 10 mN·m, viscous friction and iron losses
+    /// 5·10⁻⁴ N·m·s/rad (≈ 31 mN·m at 600 min⁻¹; it also gives the ≈ 180 Hz rotor/detent
+    /// resonance a damping ratio of ≈ 1 %), 24 V supply, closed-loop current limit = rated
+    /// current, 2000-increment encoder, 16 micro-steps per full step, velocity loop 400 rad/s,
+    /// observer 1500 rad/s.
+    ///
+    /// With these ([`StepperData::peak_torque`]) the full 0.5 N·m is available up to
+    /// ≈ 650 min⁻¹; above, the torque falls roughly as 1/speed (0.45 N·m at 800, 0.38 at 1000,
+    /// 0.20 at 2000 min⁻¹): the back-EMF reaches the supply voltage at ≈ 920 min⁻¹, and
+    /// beyond that only a current lagging the rotor (field weakening through the winding
+    /// inductance, k/(N_r·L) = 2 A) still produces torque, as the falling tail of a
+    /// stepper's pull-out curve shows.
+    fn default() -> Self {
+        StepperData {
+            full_steps_per_rev: FULL_STEPS_PER_REV,
+            microsteps: MICROSTEPS,
+            holding_torque: 0.5,
+            detent_torque: 0.02,
+            rated_current: 2.0,
+            max_current: 2.0,
+            resistance: 1.2,
+            inductance: 2.5e-3,
+            rotor_inertia: 6.0e-6,
+            load_inertia: 1.4e-5,
+            viscous_friction: 5.0e-4,
+            coulomb_friction: 0.01,
+            load_torque: 0.0,
+            encoder_increments_per_rev: ENCODER_INCREMENTS_PER_REV,
+            supply_voltage: 24.0,
+            velocity_bandwidth: 400.0,
+            observer_bandwidth: 1500.0,
+        }
+    }
+}
+
+impl StepperData {
+    /// Rotor teeth = electrical pole pairs `N_r` (full steps / 4, at least 1).
+    pub fn pole_pairs(&self) -> f64 {
+        let n = self.full_steps_per_rev as f64 / 4.0;
+        if n >= 1.0 {
+            n
+        } else {
+            1.0
+        }
+    }
+
+    /// Torque constant `k` = holding torque / rated current, N·m/A (= V·s/rad); 0 when the
+    /// rated current is not positive.
+    pub fn torque_constant(&self) -> f64 {
+        if self.rated_current > 0.0 && self.holding_torque.is_finite() {
+            self.holding_torque / self.rated_current
+        } else {
+            0.0
+        }
+    }
+
+    /// Total inertia, kg·m² (at least 10⁻¹² so the mechanics stay defined).
+    pub fn inertia(&self) -> f64 {
+        let j = self.rotor_inertia + self.load_inertia;
+        if j > 1e-12 {
+            j
+        } else {
+            1e-12
+        }
+    }
+
+    /// The largest electromagnetic torque the motor can develop at a steady speed of `rpm`
+    /// with a current-vector amplitude of at most `current` A, N·m: the torque–speed curve.
+    ///
+    /// Sinusoidal steady state, phasors per phase: `V = (R + jωₑL)·I + E` with the back-EMF
+    /// `E = k·ω` on the torque axis; maximise the torque-producing component of `I` subject
+    /// to `|I| ≤ current` and `|V| ≤ supply_voltage`. Equals `k·current` up to the corner
+    /// speed and falls to 0 where the back-EMF alone reaches the supply voltage. It is what
+    /// the closed loop can reach (with `current` = [`StepperData::max_current`]) and an upper
+    /// bound for the open-loop pull-out torque (with [`StepperData::rated_current`]); friction
+    /// is not subtracted.
+    pub fn peak_torque(&self, rpm: f64, current: f64) -> f64 {
+        let k = self.torque_constant();
+        if !positive(current) || !positive(k) || !rpm.is_finite() {
+            return 0.0;
+        }
+        let w = libm::fabs(rpm) * RPM_TO_RAD_S;
+        let x = self.pole_pairs() * w * self.inductance.max(0.0);
+        let r = self.resistance.max(0.0);
+        let z2 = r * r + x * x;
+        let e = k * w;
+        let vs = self.supply_voltage.max(0.0);
+        if z2 <= 0.0 {
+            // Ideal current source: only the back-EMF limits.
+            return if e <= vs { k * current } else { 0.0 };
+        }
+        // Feasible currents under the voltage limit: the disc |I − c| ≤ ρ.
+        let (cr, ci) = (-e * r / z2, e * x / z2);
+        let rho = vs / libm::sqrt(z2);
+        let im = current;
+        let inside_v = |pr: f64, pi: f64| {
+            let (dr, di) = (pr - cr, pi - ci);
+            dr * dr + di * di <= rho * rho * (1.0 + 1e-12)
+        };
+        let mut best = f64::NEG_INFINITY;
+        // Full current on the torque axis.
+        if inside_v(im, 0.0) {
+            best = im;
+        }
+        // Right-most point of the voltage disc.
+        let (pr, pi) = (cr + rho, ci);
+        if pr * pr + pi * pi <= im * im * (1.0 + 1e-12) && pr > best {
+            best = pr;
+        }
+        // Intersections of the two circles.
+        let d = libm::sqrt(cr * cr + ci * ci);
+        if d > 0.0 && d <= im + rho && d >= libm::fabs(im - rho) {
+            let a = (im * im - rho * rho + d * d) / (2.0 * d);
+            let h = libm::sqrt((im * im - a * a).max(0.0));
+            let (ur, ui) = (cr / d, ci / d);
+            for s in [1.0, -1.0] {
+                let qr = a * ur - s * h * ui;
+                if qr > best {
+                    best = qr;
+                }
+            }
+        }
+        if best > 0.0 {
+            k * best
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Control structure of the CMMO-ST.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepperMode {
+    /// Micro-stepping: the current vector follows the commanded position at the rated
+    /// current; the encoder only observes.
+    OpenLoop,
+    /// Servo-lite: the encoder closes position and velocity loops that set the current
+    /// vector's lead (±90° electrical) and amplitude.
+    ClosedLoop,
+}
+
+/// What the controller asks of the plant for one call of [`Stepper::step`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepperDemand {
+    /// Output stages off: no phase current, the shaft coasts against the detent torque and
+    /// friction. The set-point is kept (re-synchronising it on enable is the device layer's
+    /// business); the closed-loop controller states are reset.
+    Off,
+    /// Keep the last set-point, without speed feed-forward.
+    Hold,
+    /// Position set-point in motor micro-steps (unit [`StepperData::microsteps`] per full
+    /// step), no feed-forward. In open loop: the commanded current-vector angle.
+    Position { microsteps: i64 },
+    /// Position set-point in encoder increments (the controller's internal unit EINC) and the
+    /// speed feed-forward in min⁻¹ (the trajectory generator's set-point speed; 0 for none).
+    /// In open loop the set-point is rounded to the nearest micro-step and the feed-forward is
+    /// not used.
+    PositionIncrements {
+        increments: i64,
+        velocity_ff_rpm: f32,
+    },
+}
+
+/// `x > 0` (false for NaN).
+#[inline]
+fn positive(x: f64) -> bool {
+    x > 0.0
+}
+
+/// A demand that is not a number counts as 0 (a NaN must not poison the plant state).
+#[inline]
+fn finite(x: f64) -> f64 {
+    if x.is_finite() {
+        x
+    } else {
+        0.0
+    }
+}
+
+#[inline]
+fn sign(x: f64) -> f64 {
+    if x < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+#[inline]
+fn clamp(x: f64, lim: f64) -> f64 {
+    if x > lim {
+        lim
+    } else if x < -lim {
+        -lim
+    } else {
+        x
+    }
+}
+
+/// `x` reduced to [−π, π).
+#[inline]
+fn wrap(x: f64) -> f64 {
+    x - TAU * libm::floor(x / TAU + 0.5)
+}
+
+/// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
+/// when the product fits, i128 otherwise).
+fn mul_div(a: i64, b: i64, d: i64, round: bool) -> i64 {
+    if let Some(n) = a.checked_mul(b) {
+        if round {
+            let h = d / 2;
+            // |n| + h cannot overflow unless n is within d/2 of the edge; fall through then.
+            if let Some(m) = n.unsigned_abs().checked_add(h as u64) {
+                let q = m / d as u64;
+                if q <= i64::MAX as u64 {
+                    let q = q as i64;
+                    return if n < 0 { -q } else { q };
+                }
+            }
+        } else {
+            return n.div_euclid(d);
+        }
+    }
+    let (n, d) = (a as i128 * b as i128, d as i128);
+    let q = if round {
+        let h = d / 2;
+        if n >= 0 {
+            (n + h) / d
+        } else {
+            -((-n + h) / d)
+        }
+    } else {
+        n.div_euclid(d)
+    };
+    if q > i64::MAX as i128 {
+        i64::MAX
+    } else if q < i64::MIN as i128 {
+        i64::MIN
+    } else {
+        q as i64
+    }
+}
+
+/// State of the simulated stepper motor, load, encoder and controller.
+#[derive(Debug, Clone)]
+pub struct Stepper {
+    data: StepperData,
+    mode: StepperMode,
+    // ---- derived constants (from `data`) ----
+    /// Pole pairs N_r.
+    np: f64,
+    /// Torque constant k.
+    k: f64,
+    j: f64,
+    /// Micro-steps per full step and per revolution, encoder increments per revolution.
+    micro: i64,
+    micro_rev: i64,
+    inc_rev: i64,
+    /// rad per micro-step and per increment.
+    rad_per_micro: f64,
+    rad_per_inc: f64,
+    /// Servo gains: position (1/s), velocity P (N·m·s/rad), velocity I (N·m/rad).
+    kv: f64,
+    kp: f64,
+    ki: f64,
+    // ---- sub-step coefficients ----
+    coeff_h: f64,
+    elec_a: f64,
+    elec_b: f64,
+    /// No winding dynamics (R = L = 0): the current is its reference.
+    ideal: bool,
+    obs_k1h: f64,
+    obs_k2h: f64,
+    // ---- plant state ----
+    angle: f64,
+    velocity: f64,
+    ia: f64,
+    ib: f64,
+    torque_em: f64,
+    blocked: bool,
+    // ---- controller state ----
+    /// Commanded micro-step position (open loop) / set-point in micro-steps (closed loop).
+    cmd_micro: i64,
+    /// cos/sin of the open-loop current-vector angle.
+    cmd_cos: f64,
+    cmd_sin: f64,
+    /// Set-point in increments (⌊⌋ for a micro-step set-point) and in rad.
+    sp_inc: i64,
+    sp_rad: f64,
+    obs_angle: f64,
+    obs_vel: f64,
+    integral: f64,
+    torque_set: f64,
+    ff_prev: f64,
+    energised: bool,
+    steps: u64,
+}
+
+impl Stepper {
+    /// A stepper at rest at angle 0 with set-point 0, in open loop, output stages off until
+    /// the first energising demand.
+    pub fn new(data: StepperData) -> Self {
+        let mut s = Stepper {
+            data,
+            mode: StepperMode::OpenLoop,
+            np: 1.0,
+            k: 0.0,
+            j: 1.0,
+            micro: 1,
+            micro_rev: 1,
+            inc_rev: 1,
+            rad_per_micro: 1.0,
+            rad_per_inc: 1.0,
+            kv: 0.0,
+            kp: 0.0,
+            ki: 0.0,
+            coeff_h: 0.0,
+            elec_a: 0.0,
+            elec_b: 0.0,
+            ideal: false,
+            obs_k1h: 0.0,
+            obs_k2h: 0.0,
+            angle: 0.0,
+            velocity: 0.0,
+            ia: 0.0,
+            ib: 0.0,
+            torque_em: 0.0,
+            blocked: false,
+            cmd_micro: 0,
+            cmd_cos: 1.0,
+            cmd_sin: 0.0,
+            sp_inc: 0,
+            sp_rad: 0.0,
+            obs_angle: 0.0,
+            obs_vel: 0.0,
+            integral: 0.0,
+            torque_set: 0.0,
+            ff_prev: 0.0,
+            energised: false,
+            steps: 0,
+        };
+        s.derive();
+        s.obs_angle = (s.encoder_increments() as f64 + 0.5) * s.rad_per_inc;
+        s
+    }
+
+    fn derive(&mut self) {
+        let d = &self.data;
+        self.np = d.pole_pairs();
+        self.k = d.torque_constant();
+        self.j = d.inertia();
+        let full = if d.full_steps_per_rev == 0 {
+            FULL_STEPS_PER_REV
+        } else {
+            d.full_steps_per_rev
+        };
+        self.micro = d.microsteps.max(1) as i64;
+        self.micro_rev = (full as i64).saturating_mul(self.micro);
+        self.inc_rev = if d.encoder_increments_per_rev == 0 {
+            ENCODER_INCREMENTS_PER_REV
+        } else {
+            d.encoder_increments_per_rev
+        } as i64;
+        self.rad_per_micro = TAU / self.micro_rev as f64;
+        self.rad_per_inc = TAU / self.inc_rev as f64;
+        let wv = if d.velocity_bandwidth > 0.0 && d.velocity_bandwidth.is_finite() {
+            d.velocity_bandwidth
+        } else {
+            0.0
+        };
+        self.kp = self.j * wv;
+        self.ki = self.j * wv * wv / 4.0;
+        self.kv = wv / 4.0;
+        self.coeff_h = 0.0;
+        self.set_command_vector();
+    }
+
+    pub fn data(&self) -> &StepperData {
+        &self.data
+    }
+
+    /// Replaces the motor data (another motor, another load). Plant and set-point are kept.
+    pub fn set_data(&mut self, data: StepperData) {
+        self.data = data;
+        self.derive();
+    }
+
+    pub fn mode(&self) -> StepperMode {
+        self.mode
+    }
+
+    /// Switches between open and closed loop; the closed-loop controller restarts from zero
+    /// (the observer keeps tracking).
+    pub fn set_mode(&mut self, mode: StepperMode) {
+        if mode != self.mode {
+            self.mode = mode;
+            self.integral = 0.0;
+            self.torque_set = 0.0;
+            self.ff_prev = 0.0;
+        }
+    }
+
+    /// Changes the constant load torque (N·m, towards negative rotation).
+    pub fn set_load_torque(&mut self, torque: f64) {
+        self.data.load_torque = torque;
+    }
+
+    pub fn load_torque(&self) -> f64 {
+        self.data.load_torque
+    }
+
+    /// Jams the load (true): the shaft cannot turn, whatever the torque.
+    pub fn set_blocked(&mut self, blocked: bool) {
+        self.blocked = blocked;
+        if blocked {
+            self.velocity = 0.0;
+        }
+    }
+
+    pub fn blocked(&self) -> bool {
+        self.blocked
+    }
+
+    /// Places the shaft at `angle` rad at rest and lets the observer start there (test set-ups
+    /// and homing scenarios). The set-point is not touched.
+    pub fn set_angle(&mut self, angle: f64) {
+        self.angle = finite(angle);
+        self.velocity = 0.0;
+        self.obs_angle = (self.encoder_increments() as f64 + 0.5) * self.rad_per_inc;
+        self.obs_vel = 0.0;
+    }
+
+    /// Calls of [`Stepper::step`] so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    fn set_command_vector(&mut self) {
+        let period = 4 * self.micro;
+        let m = self.cmd_micro.rem_euclid(period);
+        let ang = m as f64 * (FRAC_PI_2 / self.micro as f64);
+        let (s, c) = libm::sincos(ang);
+        self.cmd_cos = c;
+        self.cmd_sin = s;
+    }
+
+    fn set_point_micro(&mut self, micro: i64) {
+        if micro != self.cmd_micro {
+            self.cmd_micro = micro;
+            self.set_command_vector();
+        }
+        self.sp_inc = mul_div(micro, self.inc_rev, self.micro_rev, false);
+        self.sp_rad = micro as f64 * self.rad_per_micro;
+    }
+
+    fn set_point_inc(&mut self, inc: i64) {
+        let micro = mul_div(inc, self.micro_rev, self.inc_rev, true);
+        if micro != self.cmd_micro {
+            self.cmd_micro = micro;
+            self.set_command_vector();
+        }
+        self.sp_inc = inc;
+        self.sp_rad = inc as f64 * self.rad_per_inc;
+    }
+
+    fn coefficients(&mut self, h: f64) {
+        if h == self.coeff_h {
+            return;
+        }
+        let d = &self.data;
+        let (r, l) = (d.resistance, d.inductance);
+        self.ideal = false;
+        if l > 0.0 && r > 0.0 {
+            self.elec_a = libm::exp(-r * h / l);
+            self.elec_b = (1.0 - self.elec_a) / r;
+        } else if l > 0.0 {
+            self.elec_a = 1.0;
+            self.elec_b = h / l;
+        } else if r > 0.0 {
+            self.elec_a = 0.0;
+            self.elec_b = 1.0 / r;
+        } else {
+            self.ideal = true;
+            self.elec_a = 0.0;
+            self.elec_b = 0.0;
+        }
+        if !positive(self.elec_b) || !self.elec_b.is_finite() {
+            self.ideal = true;
+        }
+        let wo = if d.observer_bandwidth > 0.0 && d.observer_bandwidth.is_finite() {
+            d.observer_bandwidth
+        } else {
+            0.0
+        };
+        self.obs_k1h = 2.0 * wo * h;
+        self.obs_k2h = wo * wo * h;
+        self.coeff_h = h;
+    }
+
+    /// Advances the plant by `dt` s (sub-stepped at ≤ [`STEP_S`]) with `demand` held.
+    pub fn step(&mut self, dt: f64, demand: StepperDemand) {
+        if !positive(dt) || !dt.is_finite() {
+            return;
+        }
+        let mut w_ff = 0.0;
+        let mut t_ff = 0.0;
+        self.energised = true;
+        match demand {
+            StepperDemand::Off => {
+                self.energised = false;
+                self.integral = 0.0;
+                self.torque_set = 0.0;
+                self.ff_prev = 0.0;
+            }
+            StepperDemand::Hold => self.ff_prev = 0.0,
+            StepperDemand::Position { microsteps } => {
+                self.set_point_micro(microsteps);
+                self.ff_prev = 0.0;
+            }
+            StepperDemand::PositionIncrements {
+                increments,
+                velocity_ff_rpm,
+            } => {
+                self.set_point_inc(increments);
+                if self.mode == StepperMode::ClosedLoop {
+                    w_ff = finite(velocity_ff_rpm as f64) * RPM_TO_RAD_S;
+                    t_ff = finite(self.j * (w_ff - self.ff_prev) / dt);
+                    self.ff_prev = w_ff;
+                }
+            }
+        }
+        // The tolerance keeps a whole multiple of STEP_S (1 ms = 20 × 50 µs) at that many
+        // sub-steps despite the rounding of the division.
+        let n = libm::ceil(dt / STEP_S * (1.0 - 1e-12));
+        // n is finite here (dt is); clamp cannot see a NaN.
+        let n = n.clamp(1.0, MAX_SUBSTEPS);
+        let h = dt / n;
+        self.coefficients(h);
+        let mut i = 0u32;
+        let n = n as u32;
+        while i < n {
+            self.substep(h, w_ff, t_ff);
+            i += 1;
+        }
+        self.steps = self.steps.wrapping_add(1);
+    }
+
+    fn substep(&mut self, h: f64, w_ff: f64, t_ff: f64) {
+        // Encoder and tracking observer (runs whether or not the stages are energised).
+        let inc = self.encoder_increments();
+        let measured = (inc as f64 + 0.5) * self.rad_per_inc;
+        let e = measured - self.obs_angle;
+        self.obs_vel += self.obs_k2h * e;
+        self.obs_angle += h * self.obs_vel + self.obs_k1h * e;
+
+        // Current references.
+        let (ia_ref, ib_ref) = if !self.energised {
+            (0.0, 0.0)
+        } else {
+            match self.mode {
+                StepperMode::OpenLoop => {
+                    let i = self.data.rated_current.max(0.0);
+                    (i * self.cmd_cos, i * self.cmd_sin)
+                }
+                StepperMode::ClosedLoop => self.servo(inc, h, w_ff, t_ff),
+            }
+        };
+
+        // Phase currents through the choppers. A saturated bridge leaves its phase current to
+        // the back-EMF: d(i_a)/dω = b·k·sin φ, d(i_b)/dω = −b·k·cos φ.
+        let (s, c) = libm::sincos(wrap(self.np * self.angle));
+        let kw = self.k * self.velocity;
+        let (mut sat_a, mut sat_b) = (false, false);
+        if !self.energised {
+            self.ia = 0.0;
+            self.ib = 0.0;
+        } else if self.ideal {
+            self.ia = ia_ref;
+            self.ib = ib_ref;
+        } else {
+            (self.ia, sat_a) = self.chop(self.ia, ia_ref, -kw * s);
+            (self.ib, sat_b) = self.chop(self.ib, ib_ref, kw * c);
+        }
+
+        // Torque, its stiffness and the back-EMF damping of saturated phases
+        // (−∂T/∂ω = b·k²·(sin²φ [A saturated] + cos²φ [B saturated])).
+        let t_em = self.k * (-self.ia * s + self.ib * c);
+        let (s2, c2) = (2.0 * s * c, c * c - s * s);
+        let (s4, c4) = (2.0 * s2 * c2, c2 * c2 - s2 * s2);
+        let td = self.data.detent_torque;
+        let stiffness = self.np * (self.k * (self.ia * c + self.ib * s) + 4.0 * td * c4);
+        let bk = self.elec_b * self.k;
+        let damping =
+            bk * self.k * (if sat_a { s * s } else { 0.0 } + if sat_b { c * c } else { 0.0 });
+        let dw = self.mechanics(h, t_em - td * s4, stiffness, damping);
+        // The saturated phases see the back-EMF of the new speed (linearly implicit).
+        if sat_a {
+            self.ia = finite(self.ia + bk * s * dw);
+        }
+        if sat_b {
+            self.ib = finite(self.ib - bk * c * dw);
+        }
+        self.torque_em = self.k * (-self.ia * s + self.ib * c);
+    }
+
+    /// Closed-loop controller: returns the phase-current references.
+    fn servo(&mut self, inc: i64, h: f64, w_ff: f64, t_ff: f64) -> (f64, f64) {
+        let e = self.sp_inc.wrapping_sub(inc) as f64 * self.rad_per_inc;
+        let w_set = self.kv * e + w_ff;
+        let ew = w_set - self.obs_vel;
+        let t_max = self.k * self.data.max_current.max(0.0);
+        let t = self.kp * ew + self.integral + t_ff;
+        let t = if t > t_max {
+            t_max
+        } else if t < -t_max {
+            -t_max
+        } else {
+            self.integral = clamp(self.integral + self.ki * h * ew, t_max);
+            t
+        };
+        let t = finite(t);
+        self.torque_set = t;
+        if !positive(self.k) {
+            return (0.0, 0.0);
+        }
+        let mag = libm::fabs(t) / self.k;
+        let lead = if t < 0.0 { -FRAC_PI_2 } else { FRAC_PI_2 };
+        let ang = wrap(self.np * (self.obs_angle + self.obs_vel * h)) + lead;
+        let (s, c) = libm::sincos(ang);
+        (mag * c, mag * s)
+    }
+
+    /// One phase: the chopper drives the current to `i_ref` within the step if the supply
+    /// allows (back-EMF `e` held over the step).
+    #[inline]
+    /// Returns the new current and whether the bridge saturated.
+    fn chop(&self, i: f64, i_ref: f64, e: f64) -> (f64, bool) {
+        let v = (i_ref - self.elec_a * i) / self.elec_b + e;
+        let vs = self.data.supply_voltage.max(0.0);
+        let sat = libm::fabs(v) > vs;
+        let v = clamp(v, vs);
+        (finite(self.elec_a * i + self.elec_b * (v - e)), sat)
+    }
+
+    /// One mechanical step with the torque at (θ₀, ω₀), its stiffness −∂T/∂θ and its damping
+    /// −∂T/∂ω (both taken implicitly where needed); returns ω₁ − ω₀.
+    fn mechanics(&mut self, h: f64, torque: f64, stiffness: f64, damping: f64) -> f64 {
+        if self.blocked {
+            let dw = -self.velocity;
+            self.velocity = 0.0;
+            return dw;
+        }
+        let d = &self.data;
+        let drive = finite(torque - d.load_torque);
+        let hold = d.coulomb_friction.max(0.0);
+        // Only the part of the restoring stiffness beyond what the explicit (symplectic)
+        // update integrates stably (ω_n·h ≤ 1) is taken implicitly: none with sane data.
+        let k = stiffness - self.j / (h * h);
+        let k = if k > 0.0 { k } else { 0.0 };
+        let jd = self.j + damping.max(0.0) * h;
+        let den = jd + d.viscous_friction.max(0.0) * h + k * h * h;
+        let w0 = self.velocity;
+        let w1 = if w0 == 0.0 {
+            if libm::fabs(drive) <= hold {
+                0.0
+            } else {
+                h * (drive - sign(drive) * hold) / den
+            }
+        } else {
+            let s = sign(w0);
+            let w = (jd * w0 + h * (drive - s * hold)) / den;
+            if w * s < 0.0 {
+                0.0
+            } else {
+                w
+            }
+        };
+        let w1 = finite(w1);
+        self.angle += h * w1;
+        self.velocity = w1;
+        w1 - w0
+    }
+
+    // ---- actual values -------------------------------------------------------------------
+
+    /// Shaft angle, rad.
+    pub fn angle(&self) -> f64 {
+        self.angle
+    }
+
+    /// Angular velocity, rad/s.
+    pub fn velocity(&self) -> f64 {
+        self.velocity
+    }
+
+    /// Actual speed, min⁻¹ (the true rotor speed).
+    pub fn velocity_rpm(&self) -> f32 {
+        (self.velocity * RAD_S_TO_RPM) as f32
+    }
+
+    /// Speed as the controller's encoder observer sees it, min⁻¹.
+    pub fn estimated_velocity_rpm(&self) -> f32 {
+        (self.obs_vel * RAD_S_TO_RPM) as f32
+    }
+
+    /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
+    pub fn encoder_increments(&self) -> i64 {
+        libm::floor(self.angle / self.rad_per_inc) as i64
+    }
+
+    /// Actual rotor position in micro-steps, rounded to the nearest.
+    pub fn actual_microsteps(&self) -> i64 {
+        libm::round(self.angle / self.rad_per_micro) as i64
+    }
+
+    /// Commanded position in micro-steps: the open-loop current-vector position, or the
+    /// closed-loop set-point rounded to micro-steps.
+    pub fn commanded_microsteps(&self) -> i64 {
+        self.cmd_micro
+    }
+
+    /// Position set-point in encoder increments (⌊⌋ of a micro-step set-point).
+    pub fn commanded_increments(&self) -> i64 {
+        self.sp_inc
+    }
+
+    /// Set-point − encoder, increments.
+    pub fn following_error_increments(&self) -> i64 {
+        self.sp_inc.wrapping_sub(self.encoder_increments())
+    }
+
+    fn set_point_rad(&self) -> f64 {
+        match self.mode {
+            StepperMode::OpenLoop => self.cmd_micro as f64 * self.rad_per_micro,
+            StepperMode::ClosedLoop => self.sp_rad,
+        }
+    }
+
+    /// Commanded − actual position in full steps (not rounded).
+    pub fn position_error_full_steps(&self) -> f64 {
+        (self.set_point_rad() - self.angle) * (4.0 * self.np) / TAU
+    }
+
+    /// Steps lost, in full steps: commanded − actual position rounded to whole electrical
+    /// periods (4 full steps each), the only positions a slipping rotor can settle at.
+    /// Positive when the rotor is behind a positive command. A rotor lagging by less than
+    /// 2 full steps (half a period) counts as following, not as having lost steps.
+    pub fn lost_steps(&self) -> i64 {
+        let periods = libm::round((self.set_point_rad() - self.angle) * self.np / TAU);
+        (periods as i64).saturating_mul(4)
+    }
+
+    /// Amplitude of the phase-current vector, A.
+    pub fn current_a(&self) -> f64 {
+        libm::sqrt(self.ia * self.ia + self.ib * self.ib)
+    }
+
+    /// Amplitude of the phase-current vector, mA (PNU 1059).
+    pub fn current_ma(&self) -> i32 {
+        libm::round(self.current_a() * 1000.0) as i32
+    }
+
+    /// Phase currents (A, B), A.
+    pub fn phase_currents(&self) -> (f64, f64) {
+        (self.ia, self.ib)
+    }
+
+    /// Electromagnetic torque (without detent), N·m.
+    pub fn torque(&self) -> f64 {
+        self.torque_em
+    }
+
+    /// Closed-loop torque set-point after the current limit, N·m (0 in open loop).
+    pub fn torque_set(&self) -> f64 {
+        self.torque_set
+    }
+
+    /// The output stages were energised in the last call.
+    pub fn energised(&self) -> bool {
+        self.energised
+    }
+}
+
+// ---- SINC scaling (PNU 600 / 601) ---------------------------------------------------------
+
+/// The unit of PNU 601 "Position Dimension Index" (spec §3.6, Tab. B.121).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SincUnit {
+    /// 0x00: undefined / user-specific (no physical size).
+    Undefined,
+    /// 0x01: metre.
+    Metre,
+    /// 0x41: degree.
+    Degree,
+    /// 0xF0: inch.
+    Inch,
+    /// 0xF6: revolution.
+    Revolution,
+}
+
+impl SincUnit {
+    /// The unit of a PNU 601 value; `None` for codes the manual does not list.
+    pub fn from_pnu601(code: u8) -> Option<Self> {
+        match code {
+            0x00 => Some(SincUnit::Undefined),
+            0x01 => Some(SincUnit::Metre),
+            0x41 => Some(SincUnit::Degree),
+            0xF0 => Some(SincUnit::Inch),
+            0xF6 => Some(SincUnit::Revolution),
+            _ => None,
+        }
+    }
+
+    /// The PNU 601 code.
+    pub fn pnu601(self) -> u8 {
+        match self {
+            SincUnit::Undefined => 0x00,
+            SincUnit::Metre => 0x01,
+            SincUnit::Degree => 0x41,
+            SincUnit::Inch => 0xF0,
+            SincUnit::Revolution => 0xF6,
+        }
+    }
+
+    /// One unit in SI: metre and inch in m, degree and revolution in rad; `None` for the
+    /// undefined unit.
+    pub fn si(self) -> Option<f64> {
+        match self {
+            SincUnit::Undefined => None,
+            SincUnit::Metre => Some(1.0),
+            SincUnit::Degree => Some(PI / 180.0),
+            SincUnit::Inch => Some(0.0254),
+            SincUnit::Revolution => Some(TAU),
+        }
+    }
+}
+
+/// 10^|n| (exact up to 10²²).
+fn pow10(n: u32) -> f64 {
+    let mut p = 1.0;
+    let mut i = 0;
+    while i < n {
+        p *= 10.0;
+        i += 1;
+    }
+    p
+}
+
+/// A SINC value in the unit of PNU 601: `sinc × 10^notation_index` (PNU 600). Negative
+/// exponents divide by an exact power of ten, so the result is correctly rounded
+/// (1 SINC at −7 is exactly the `f64` nearest 10⁻⁷).
+pub fn sinc_to_unit(sinc: i64, notation_index: i8) -> f64 {
+    let p = pow10(notation_index.unsigned_abs() as u32);
+    if notation_index < 0 {
+        sinc as f64 / p
+    } else {
+        sinc as f64 * p
+    }
+}
+
+/// A value in the unit of PNU 601 as SINC, rounded to the nearest (ties away from zero),
+/// saturated to i64; NaN gives 0.
+pub fn unit_to_sinc(value: f64, notation_index: i8) -> i64 {
+    let p = pow10(notation_index.unsigned_abs() as u32);
+    let x = if notation_index < 0 {
+        value * p
+    } else {
+        value / p
+    };
+    libm::round(x) as i64
+}
+
+/// A SINC value in SI units (m for metre and inch, rad for degree and revolution), from
+/// PNU 600 (power of ten) and PNU 601 (unit code): `1 SINC = 10^PNU600 × unit`.
+/// `None` for the undefined unit or an unknown code.
+pub fn sinc_to_si(sinc: i64, notation_index: i8, dimension_index: u8) -> Option<f64> {
+    let si = SincUnit::from_pnu601(dimension_index)?.si()?;
+    Some(sinc_to_unit(sinc, notation_index) * si)
+}
+
+/// An SI value (m or rad) as SINC, rounded to the nearest; `None` for the undefined unit or
+/// an unknown code.
+pub fn si_to_sinc(value: f64, notation_index: i8, dimension_index: u8) -> Option<i64> {
+    let si = SincUnit::from_pnu601(dimension_index)?.si()?;
+    let v = if si == 1.0 { value } else { value / si };
+    Some(unit_to_sinc(v, notation_index))
+}
