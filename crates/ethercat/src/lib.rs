@@ -17,6 +17,7 @@
 
 pub mod al_control;
 pub mod al_status_code;
+pub mod coe;
 pub mod datagram;
 pub mod eeprom;
 pub mod esc;
