@@ -622,7 +622,7 @@ mod tests {
         let coe = child(child(dev, "Mailbox"), "CoE");
         assert_eq!(coe.attribute("PdoAssign"), Some("true"));
         assert_eq!(coe.attribute("PdoConfig"), Some("true"));
-        assert_eq!(coe.attribute("SdoInfo"), Some("false"));
+        assert_eq!(coe.attribute("SdoInfo"), Some("true"));
         assert_eq!(coe.attribute("CompleteAccess"), Some("false"));
         let eeprom = child(dev, "Eeprom");
         assert_eq!(text(eeprom, "ByteSize"), "2048");

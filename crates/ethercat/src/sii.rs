@@ -198,7 +198,12 @@ impl SiiConfig<'static> {
         outputs_start: 0x1100,
         inputs_start: 0x1180,
         mailbox_protocols: mailbox_protocol::COE,
-        coe_details: coe_details::SDO | coe_details::PDO_ASSIGN | coe_details::PDO_CONFIG,
+        // SDO information is served (ethercat::coe, for masters that browse the dictionary);
+        // complete access is not: the CMMP-AS moves at most 4 bytes per object (cmmp-as-1 §2.11).
+        coe_details: coe_details::SDO
+            | coe_details::SDO_INFO
+            | coe_details::PDO_ASSIGN
+            | coe_details::PDO_CONFIG,
         ds402_channels: 1,
         flags: 0,
         ebus_current_ma: 0,

@@ -260,7 +260,7 @@ fn general_category() {
     assert_eq!(g[1], 0, "no image");
     assert_eq!(s[g[2] as usize - 1], "CMMP-AS-C2-3A-M3", "order");
     assert_eq!(s[g[3] as usize - 1], "CMMP-AS-C2-3A-M3", "name");
-    assert_eq!(g[5], 0x0D, "CoE: SDO, PDO assign, PDO config");
+    assert_eq!(g[5], 0x0F, "CoE: SDO, SDO info, PDO assign, PDO config");
     assert_eq!(g[5] & 0xC0, 0, "ethercrab rejects CoE bits 6-7");
     assert_eq!(&g[6..9], &[0, 0, 0], "FoE, EoE, SoE");
     assert_eq!(g[9], 1, "one CiA 402 axis");
