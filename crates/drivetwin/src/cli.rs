@@ -145,6 +145,22 @@ pub struct RunArgs {
     /// candump .log of frames to feed a virtual-clock run at their timestamps.
     #[arg(long, requires = "virtual_seconds")]
     pub inject: Option<PathBuf>,
+    /// Modbus TCP server address of a CMMO-ST (`--device cmmo-st`; default 127.0.0.1:1502).
+    #[arg(long, value_name = "ADDR")]
+    pub modbus: Option<String>,
+    /// CMMO-ST Modbus connection watchdog, ms: 0 = off (factory setting), 1…99 act as 100,
+    /// at most 5000.
+    #[arg(long, value_name = "MS", default_value_t = 0)]
+    pub modbus_timeout_ms: u16,
+    /// Put the cell's drives on EtherCAT instead of CAN: a chain of slaves (in cell-file
+    /// order) answering on this network interface (raw Ethernet, needs CAP_NET_RAW). The
+    /// chain runs alone: no socketcand server, no SocketCAN bridge.
+    #[arg(
+        long,
+        value_name = "IFNAME",
+        conflicts_with_all = ["socketcand", "channel", "socketcan", "trace", "virtual_seconds", "state_dir"]
+    )]
+    pub ethercat: Option<String>,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -18,6 +18,7 @@
 //! - [`record_table`]: the 64 records of PNU 401…442 (Tab. 6.7) with RCB1…RCB3 (data only).
 
 pub mod control_bytes;
+pub mod device;
 pub mod record_table;
 pub mod state_machine;
 pub mod status_bytes;

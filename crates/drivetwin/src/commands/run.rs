@@ -47,6 +47,9 @@ pub(crate) fn build_cell(
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
+    if args.config.is_none() && args.device == "cmmo-st" {
+        return run_cmmo_st(&args).await;
+    }
     let mut file = match &args.config {
         Some(path) => CellFile::load(path)?,
         None => CellFile::single(&args.device, args.node),
@@ -59,6 +62,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     if let Some(c) = &args.socketcan {
         file.bus.socketcan = Some(c.clone());
+    }
+    if let Some(ifname) = &args.ethercat {
+        return run_ethercat(&file, ifname).await;
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
@@ -180,6 +186,71 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         t.abort();
         let _ = t.await;
     }
+    out!("stopped");
+    Ok(())
+}
+
+/// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
+/// network interface, alone (a CMMP-AS has one fieldbus plug-in: CAN or EtherCAT).
+#[cfg(target_os = "linux")]
+async fn run_ethercat(file: &CellFile, ifname: &str) -> Result<(), CommandError> {
+    use drivetwin::ethercat_cell::{self, EthercatCell};
+    let cell =
+        EthercatCell::from_cell_file(file).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let socket = drivetwin::ethercat_link::EthercatSocket::open(ifname)
+        .map_err(io(format!("EtherCAT on {ifname}")))?;
+    for i in 0..cell.len() {
+        if let Some(d) = cell.device(i) {
+            let desc = d.model.od().description();
+            out!(
+                "slave {} {} ({}), vendor {:#x} product {:#010x} revision {:#x}",
+                i + 1,
+                desc.name,
+                desc.product_name,
+                desc.vendor_id,
+                desc.product_code,
+                desc.revision
+            );
+        }
+    }
+    out!("EtherCAT on {ifname}: {} slave(s)", cell.len());
+    out!("running; Ctrl-C stops");
+    ethercat_cell::run_realtime(cell, socket, shutdown_signal())
+        .await
+        .map_err(io(format!("EtherCAT on {ifname}")))?;
+    out!("stopped");
+    Ok(())
+}
+
+#[cfg(not(target_os = "linux"))]
+async fn run_ethercat(_file: &CellFile, ifname: &str) -> Result<(), CommandError> {
+    Err(CommandError::Usage(format!(
+        "--ethercat {ifname}: raw Ethernet needs Linux"
+    )))
+}
+
+/// `drivetwin run --device cmmo-st`: one CMMO-ST served over Modbus TCP (FHPP). It has no
+/// CANopen, so no socketcand server is started.
+async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
+    use ::drive::fhpp::device::{FhppDevice, FhppSettings};
+    use drivetwin::fhpp_modbus;
+    use drivetwin::modbus_server::{ModbusConfig, DEFAULT_ADDR};
+    use std::sync::{Arc, Mutex};
+
+    let desc = device(&args.device)?;
+    let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
+        .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
+    let dev = Arc::new(Mutex::new(FhppDevice::new(od, FhppSettings::default())));
+    out!("drive {} ({})", desc.name, desc.product_name);
+    let addr = args.modbus.as_deref().unwrap_or(DEFAULT_ADDR);
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(io(format!("Modbus listen on {addr}")))?;
+    let local = listener.local_addr().map_err(io("Modbus address"))?;
+    out!("modbus server on {local}");
+    out!("running; Ctrl-C stops");
+    let config = ModbusConfig::with_watchdog_ms(args.modbus_timeout_ms);
+    fhpp_modbus::run_cmmo_st(listener, dev, config, shutdown_signal()).await;
     out!("stopped");
     Ok(())
 }

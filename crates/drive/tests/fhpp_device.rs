@@ -1,0 +1,342 @@
+//! The CMMO-ST device (`drive::fhpp::device`): FHPP telegrams in, the stepper plant moving,
+//! status telegrams out — the manual's reference values and handshakes end to end.
+
+use drive::fhpp::device::{diag, FhppDevice, FhppSettings};
+use drive::fhpp::{Ccon, Cdir, Cpos, InputData, OutputData, Scon, Spos, State};
+use drive::stepper::StepperMode;
+use od::{Instant, ObjectAccess, ObjectDictionary};
+
+const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
+const DIRECT: Ccon = Ccon(0x43); // OPM1 + STOP + ENABLE
+
+struct Bench {
+    dev: FhppDevice<Vec<u8>>,
+    t_ms: u64,
+}
+
+impl Bench {
+    fn new(mode: StepperMode) -> Self {
+        let desc = &devices::CMMO_ST;
+        let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
+        let settings = FhppSettings {
+            mode,
+            ..FhppSettings::default()
+        };
+        let mut b = Bench {
+            dev: FhppDevice::new(od, settings),
+            t_ms: 0,
+        };
+        b.run(1);
+        b
+    }
+
+    /// `ms` FHPP cycles.
+    fn run(&mut self, ms: u64) {
+        for _ in 0..ms {
+            self.dev.step(Instant::from_millis(self.t_ms));
+            self.t_ms += 1;
+        }
+    }
+
+    fn send(&mut self, out: OutputData) -> InputData {
+        self.dev.set_outputs(&out.to_bytes()).unwrap();
+        self.run(2);
+        self.input()
+    }
+
+    fn input(&self) -> InputData {
+        InputData::from_bytes(self.dev.inputs())
+    }
+
+    /// Runs until `pred` holds (at most `max_ms`); returns the input telegram.
+    fn until(&mut self, max_ms: u64, pred: impl Fn(&InputData) -> bool) -> InputData {
+        for _ in 0..max_ms {
+            let i = self.input();
+            if pred(&i) {
+                return i;
+            }
+            self.run(1);
+        }
+        panic!("condition not met in {max_ms} ms: {:?}", self.input());
+    }
+
+    fn enable_record(&mut self) -> InputData {
+        self.send(OutputData::record(ENABLED, Cpos::HALT, 0))
+    }
+
+    /// Homing with method −35 (current position) through CPOS.HOM.
+    fn home(&mut self) {
+        let i = self.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0));
+        assert!(i.spos.contains(Spos::ACK), "{i:?}");
+        let i = self.until(100, |i| i.spos.contains(Spos::MC | Spos::REF));
+        assert!(i.spos.contains(Spos::REF));
+        self.send(OutputData::record(ENABLED, Cpos::HALT, 0));
+    }
+
+    fn pnu_write_i32(&mut self, pnu: u16, sub: u8, v: i32) {
+        self.dev
+            .write(0x2000 + pnu, sub, &v.to_le_bytes())
+            .unwrap_or_else(|e| panic!("PNU {pnu}:{sub}: {e:?}"));
+    }
+}
+
+#[test]
+fn power_on_and_enable_give_the_manuals_status_bytes() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let i = b.send(OutputData::record(Ccon(0), Cpos(0), 0));
+    assert_eq!((i.scon.0, i.spos.0), (0x10, 0x04), "power-on SCON/SPOS");
+    let i = b.enable_record();
+    assert_eq!((i.scon.0, i.spos.0), (0x13, 0x05), "enabled SCON/SPOS");
+    assert!(b.dev.stepper().energised());
+    // Direct mode: OPM1 is fed back (0x53).
+    let i = b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 0, 0));
+    assert_eq!((i.scon.0, i.spos.0), (0x53, 0x05));
+    // ENABLE = 0: the stage goes off (T6 / T5), MC stays set.
+    let i = b.send(OutputData::record(Ccon(0), Cpos::HALT, 0));
+    assert_eq!(i.scon.0 & 0x03, 0);
+    b.run(5);
+    assert!(!b.dev.stepper().energised());
+}
+
+#[test]
+fn direct_absolute_move_ends_with_mc_in_the_window() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.home();
+    // 1 revolution = 36000 SINC (0.01° units, the dictionary's defaults), 50 % of PNU 540.
+    let target = 36_000 + 9_000;
+    let start = OutputData::direct(DIRECT, Cpos::HALT | Cpos::START, Cdir(0), 50, target);
+    let i = b.send(start);
+    assert!(
+        i.spos.contains(Spos::ACK) && !i.spos.contains(Spos::MC),
+        "{i:?}"
+    );
+    b.run(20);
+    let i = b.input();
+    assert!(i.spos.contains(Spos::MOV), "moving: {i:?}");
+    // START away: ACK falls, the task carries on.
+    let i = b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
+    assert!(!i.spos.contains(Spos::ACK));
+    let i = b.until(5000, |i| i.spos.contains(Spos::MC));
+    let window = 180; // PNU 1022
+    assert!(
+        (i.actual2 - target).abs() <= window,
+        "actual {} target {target}",
+        i.actual2
+    );
+    assert!(!i.spos.contains(Spos::MOV) && !i.spos.contains(Spos::FOLERR));
+    assert_eq!(
+        b.dev.read_u32(0x2000 + 1041, 1).map(|v| v as i32),
+        Some(i.actual2)
+    );
+}
+
+#[test]
+fn a_move_before_homing_is_refused_with_28h() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, 0));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        50,
+        1000,
+    ));
+    let i = b.until(50, |i| i.scon.contains(Scon::FAULT));
+    assert!(i.scon.contains(Scon::FAULT));
+    assert_eq!(b.dev.fault_number(), diag::HOMING_REQUIRED);
+}
+
+#[test]
+fn record_move_uses_the_record_list() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    // Record 3: absolute, position mode, −18000 SINC (half a revolution back).
+    b.pnu_write_i32(404, 3, -18_000);
+    b.enable_record();
+    b.home();
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
+    assert_eq!(b.input().record_number(), 0, "previous record until start");
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 3));
+    assert!(i.spos.contains(Spos::ACK));
+    assert_eq!(i.record_number(), 3);
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
+    let i = b.until(5000, |i| i.spos.contains(Spos::MC));
+    assert!((i.actual2 + 18_000).abs() <= 180, "actual {}", i.actual2);
+}
+
+#[test]
+fn jog_moves_while_held_and_stops_on_release() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::JOGP, 0));
+    assert!(i.spos.contains(Spos::ACK) && !i.spos.contains(Spos::MC));
+    b.run(500);
+    let i = b.input();
+    assert!(i.spos.contains(Spos::MOV));
+    let p1 = i.actual2;
+    assert!(p1 > 500, "jogged positive: {p1}");
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT, 0));
+    assert!(!i.spos.contains(Spos::ACK));
+    let i = b.until(2000, |i| i.spos.contains(Spos::MC));
+    assert!(!i.spos.contains(Spos::MOV));
+    b.run(50);
+    let p2 = b.input().actual2;
+    b.run(100);
+    assert!((b.input().actual2 - p2).abs() <= 18, "stands still");
+    // Negative jog goes back.
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::JOGN, 0));
+    b.run(300);
+    assert!(b.input().actual2 < p2);
+}
+
+#[test]
+fn halt_stops_a_position_task_and_start_continues_it() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.home();
+    let target = 360_000; // 10 revolutions
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        100,
+        target,
+    ));
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    b.run(300);
+    // HALT = 0: intermediate stop, MC stays 0, SPOS.HALT = 0.
+    let i = b.send(OutputData::direct(DIRECT, Cpos(0), Cdir(0), 100, target));
+    assert!(!i.spos.contains(Spos::HALT));
+    let stopped = b.until(3000, |i| !i.spos.contains(Spos::MOV));
+    assert!(!stopped.spos.contains(Spos::MC));
+    assert!(
+        stopped.actual2 < target - 1000,
+        "halted short: {}",
+        stopped.actual2
+    );
+    b.run(100);
+    assert!(!b.input().spos.contains(Spos::MC));
+    // START with HALT = 1 continues (TA4) to the same target.
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        100,
+        target,
+    ));
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    let i = b.until(10_000, |i| i.spos.contains(Spos::MC));
+    assert!((i.actual2 - target).abs() <= 180);
+}
+
+#[test]
+fn injected_fault_and_reset() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    // 47h (class F, reaction E, acknowledge at once).
+    b.dev.fault(diag::MODBUS_WITH_CONTROL);
+    let i = b.until(100, |i| i.scon.contains(Scon::FAULT));
+    assert_eq!(b.dev.fault_number(), 0x47);
+    assert_eq!(b.dev.fhpp().state(), State::Fault);
+    assert!(i.spos.contains(Spos::MC));
+    assert_eq!(b.dev.read_u16(0x2000 + 205, 1), Some(0x47));
+    // RESET rising edge with ENABLE = 1: T10 back to S3/S4 without switching off.
+    b.dev.clear_fault(diag::MODBUS_WITH_CONTROL);
+    let i = b.send(OutputData::record(Ccon(0x0B), Cpos::HALT, 0));
+    assert!(!i.scon.contains(Scon::FAULT), "{i:?}");
+    assert!(i.scon.contains(Scon::ENABLED));
+    assert!(i.spos.contains(Spos::MC));
+    assert_eq!(b.dev.fault_number(), 0);
+    assert_eq!(b.dev.read_u16(0x2000 + 205, 1), Some(0xFFFF));
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT, 0));
+    assert_eq!((i.scon.0, i.spos.0 & 0x7F), (0x13, 0x05));
+}
+
+#[test]
+fn open_loop_blocked_load_loses_steps_and_shows_a_following_error() {
+    let mut b = Bench::new(StepperMode::OpenLoop);
+    b.enable_record();
+    b.home();
+    b.dev.stepper_mut().set_blocked(true);
+    let target = 36_000;
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        50,
+        target,
+    ));
+    let mut saw_folerr = false;
+    for _ in 0..2000 {
+        b.run(1);
+        if b.input().spos.contains(Spos::FOLERR) {
+            saw_folerr = true;
+            break;
+        }
+    }
+    assert!(saw_folerr, "SPOS.FOLERR never set: {:?}", b.input());
+    assert!(b.dev.stepper().lost_steps() != 0 || b.input().actual2.abs() < 100);
+    let i = b.until(500, |i| i.scon.contains(Scon::FAULT));
+    assert!(i.scon.contains(Scon::FAULT));
+    assert_eq!(b.dev.fault_number(), diag::FOLLOWING_ERROR);
+    // The reaction (E, quick stop, stage on) ends; the set-point holds the actual position,
+    // the cause is gone and RESET acknowledges it.
+    b.run(200);
+    b.dev.stepper_mut().set_blocked(false);
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
+    let i = b.send(OutputData::direct(
+        Ccon(0x4B),
+        Cpos::HALT,
+        Cdir(0),
+        50,
+        target,
+    ));
+    assert!(!i.scon.contains(Scon::FAULT), "{i:?}");
+    assert!(!i.spos.contains(Spos::FOLERR));
+}
+
+#[test]
+fn closed_loop_follows_where_open_loop_would_stall() {
+    // The same move with a load torque the closed loop can carry: no following error.
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.dev.stepper_mut().set_load_torque(0.2);
+    b.enable_record();
+    b.home();
+    let target = 18_000;
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 30, target));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        30,
+        target,
+    ));
+    let i = b.until(5000, |i| {
+        i.spos.contains(Spos::MC) || i.spos.contains(Spos::FOLERR)
+    });
+    assert!(!i.spos.contains(Spos::FOLERR));
+    assert!((i.actual2 - target).abs() <= 180);
+}
+
+#[test]
+fn step_is_deterministic() {
+    let run = || {
+        let mut b = Bench::new(StepperMode::ClosedLoop);
+        b.enable_record();
+        b.home();
+        b.send(OutputData::direct(
+            DIRECT,
+            Cpos::HALT | Cpos::START,
+            Cdir(0),
+            70,
+            12_345,
+        ));
+        b.run(700);
+        (b.dev.inputs(), b.dev.stepper().angle().to_bits())
+    };
+    assert_eq!(run(), run());
+}

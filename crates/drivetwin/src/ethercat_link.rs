@@ -1,0 +1,232 @@
+//! Raw Ethernet transport for the EtherCAT chain: a Linux `AF_PACKET` socket bound to one
+//! interface and to EtherType 0x88A4, as an EtherCAT slave sits on a wire.
+//!
+//! The master's frames arrive here, the chain processes them in place and the same frame goes
+//! back out of the same interface, as it leaves the last slave of a line towards the master.
+//! Two filters keep the chain from processing a frame twice:
+//!
+//! * our own transmissions come back to a packet socket as `PACKET_OUTGOING` copies: the socket
+//!   asks the kernel not to deliver them (`PACKET_IGNORE_OUTGOING`, Linux 4.20+) and
+//!   [`EthercatSocket::recv`] drops any that still arrive by their packet type;
+//! * a frame whose first source-MAC byte carries the locally-administered bit 0x02 has passed
+//!   a slave already (the ESC sets it, `EthernetFrame::mark_returned`): it is on its way back
+//!   to the master (e.g. seen through a bridge or another twin on the segment) and is skipped.
+//!
+//! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`).
+#![cfg(target_os = "linux")]
+
+use std::ffi::CString;
+use std::io;
+use std::mem;
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
+use std::time::Duration;
+
+use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
+use tokio::io::unix::AsyncFd;
+
+/// Largest frame read: an Ethernet frame without FCS is at most 1514 bytes (1518 with a VLAN
+/// tag); anything longer is not EtherCAT and is dropped as truncated.
+pub const MAX_FRAME: usize = 1536;
+
+/// Offset of the first source-MAC byte in an Ethernet frame.
+const SOURCE_MAC_FIRST: usize = 6;
+
+/// `linux/if_packet.h`: packet type of a copy of a frame this host sent.
+const PACKET_OUTGOING: u8 = 4;
+/// `linux/if_packet.h`: socket option that stops delivery of outgoing copies (Linux 4.20+).
+const PACKET_IGNORE_OUTGOING: libc::c_int = 23;
+
+/// How long [`EthercatSocket::send`] keeps retrying while the interface's TX queue is full.
+const TX_QUEUE_FULL_PATIENCE: Duration = Duration::from_millis(10);
+
+/// A non-blocking raw EtherCAT socket bound to one interface.
+#[derive(Debug)]
+pub struct EthercatSocket {
+    fd: AsyncFd<OwnedFd>,
+    interface: String,
+}
+
+impl EthercatSocket {
+    /// Open an `AF_PACKET` socket for EtherType 0x88A4 on `interface` (e.g. `eth1`, a veth
+    /// end). Must be called inside a tokio runtime.
+    pub fn open(interface: &str) -> io::Result<EthercatSocket> {
+        let name = CString::new(interface).map_err(|_| {
+            io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL")
+        })?;
+        // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
+        let index = unsafe { libc::if_nametoindex(name.as_ptr()) };
+        if index == 0 {
+            return Err(io::Error::new(
+                io::ErrorKind::NotFound,
+                format!("no network interface named {interface:?}"),
+            ));
+        }
+        let ifindex = libc::c_int::try_from(index).map_err(|_| {
+            io::Error::new(io::ErrorKind::InvalidInput, "interface index too large")
+        })?;
+        let protocol = ETHERTYPE_ETHERCAT.to_be();
+        // SAFETY: plain socket(2) call; the result is checked before use.
+        let raw = unsafe {
+            libc::socket(
+                libc::AF_PACKET,
+                libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
+                libc::c_int::from(protocol),
+            )
+        };
+        if raw < 0 {
+            return Err(io::Error::last_os_error());
+        }
+        // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
+        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+        // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
+        let mut addr: libc::sockaddr_ll = unsafe { mem::zeroed() };
+        addr.sll_family = libc::AF_PACKET as libc::c_ushort;
+        addr.sll_protocol = protocol;
+        addr.sll_ifindex = ifindex;
+        // SAFETY: `addr` is a properly initialised `sockaddr_ll` and the length matches it.
+        let rc = unsafe {
+            libc::bind(
+                fd.as_raw_fd(),
+                (&addr as *const libc::sockaddr_ll).cast::<libc::sockaddr>(),
+                mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t,
+            )
+        };
+        if rc < 0 {
+            return Err(io::Error::last_os_error());
+        }
+        let one: libc::c_int = 1;
+        // SAFETY: `one` is a valid c_int for the duration of the call and the length matches.
+        // Older kernels refuse the option (ENOPROTOOPT); `recv` filters by packet type then.
+        let _ = unsafe {
+            libc::setsockopt(
+                fd.as_raw_fd(),
+                libc::SOL_PACKET,
+                PACKET_IGNORE_OUTGOING,
+                (&one as *const libc::c_int).cast(),
+                mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        // SAFETY: the `OwnedFd` moves into the `AsyncFd`, which owns it until dropped, so the
+        // descriptor stays open and the same for the registration's whole lifetime.
+        let fd = unsafe { AsyncFd::register(fd) }?;
+        Ok(EthercatSocket {
+            fd,
+            interface: interface.to_owned(),
+        })
+    }
+
+    pub fn interface(&self) -> &str {
+        &self.interface
+    }
+
+    /// The next frame from the master into `buf` (at least [`MAX_FRAME`] bytes); returns its
+    /// length. Our own transmissions, frames that already passed a slave and frames longer
+    /// than `buf` are skipped.
+    pub async fn recv(&self, buf: &mut [u8]) -> io::Result<usize> {
+        loop {
+            let mut guard = self.fd.readable().await?;
+            match guard.try_io(|fd| recv_once(fd.as_raw_fd(), buf)) {
+                Ok(Ok(Some(n))) => return Ok(n),
+                Ok(Ok(None)) => continue,
+                Ok(Err(e)) => return Err(e),
+                Err(_would_block) => continue,
+            }
+        }
+    }
+
+    /// Transmit one frame. While the interface's TX queue is full (`ENOBUFS`) it retries for
+    /// up to 10 ms, then returns that error (the master sees a lost frame, as on a wire).
+    pub async fn send(&self, frame: &[u8]) -> io::Result<()> {
+        let deadline = tokio::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
+        loop {
+            let mut guard = self.fd.writable().await?;
+            match guard.try_io(|fd| send_once(fd.as_raw_fd(), frame)) {
+                Ok(Ok(())) => return Ok(()),
+                Ok(Err(e)) if is_queue_full(&e) && tokio::time::Instant::now() < deadline => {
+                    drop(guard);
+                    tokio::task::yield_now().await;
+                }
+                Ok(Err(e)) => return Err(e),
+                Err(_would_block) => continue,
+            }
+        }
+    }
+}
+
+/// The TX queue of the interface is full.
+pub fn is_queue_full(e: &io::Error) -> bool {
+    e.raw_os_error() == Some(libc::ENOBUFS)
+}
+
+/// Whether a received frame is a request for the chain: not one that already passed a slave
+/// (source MAC bit 0x02 set by the ESC).
+pub fn is_request(frame: &[u8]) -> bool {
+    frame
+        .get(SOURCE_MAC_FIRST)
+        .is_some_and(|b| b & SOURCE_MAC_RETURN_BIT == 0)
+}
+
+/// One `recvfrom`: `Some(len)` for a frame to process, `None` for one to skip.
+fn recv_once(fd: RawFd, buf: &mut [u8]) -> io::Result<Option<usize>> {
+    // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
+    let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
+    let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
+    // SAFETY: `buf` is valid for writes of `buf.len()` bytes, `from` for `from_len` bytes.
+    // MSG_TRUNC makes the call return the real length of a frame longer than `buf`.
+    let n = unsafe {
+        libc::recvfrom(
+            fd,
+            buf.as_mut_ptr().cast(),
+            buf.len(),
+            libc::MSG_TRUNC,
+            (&mut from as *mut libc::sockaddr_ll).cast::<libc::sockaddr>(),
+            &mut from_len,
+        )
+    };
+    if n < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    let n = usize::try_from(n).unwrap_or(0);
+    if from.sll_pkttype == PACKET_OUTGOING || n > buf.len() {
+        return Ok(None);
+    }
+    Ok(buf.get(..n).filter(|f| is_request(f)).map(|_| n))
+}
+
+fn send_once(fd: RawFd, frame: &[u8]) -> io::Result<()> {
+    // SAFETY: `frame` is valid for reads of `frame.len()` bytes; the socket is bound, so the
+    // kernel sends on the bound interface without a destination address.
+    let n = unsafe { libc::send(fd, frame.as_ptr().cast(), frame.len(), 0) };
+    if n < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    if usize::try_from(n).ok() != Some(frame.len()) {
+        return Err(io::Error::new(
+            io::ErrorKind::WriteZero,
+            "short EtherCAT frame write",
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn returned_frames_are_not_requests() {
+        let mut f = [0u8; 60];
+        f[SOURCE_MAC_FIRST] = 0x01; // SOEM's primary MAC 01:01:01:01:01:01
+        assert!(is_request(&f));
+        f[SOURCE_MAC_FIRST] = 0x03; // the same after a slave
+        assert!(!is_request(&f));
+        assert!(!is_request(&f[..4]));
+    }
+
+    #[tokio::test]
+    async fn open_missing_interface_fails() {
+        let err = EthercatSocket::open("nosuchecat9").expect_err("no such interface");
+        assert_eq!(err.kind(), io::ErrorKind::NotFound);
+        assert!(EthercatSocket::open("bad\0name").is_err());
+    }
+}

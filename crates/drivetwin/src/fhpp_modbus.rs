@@ -1,0 +1,323 @@
+//! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3, spec/cmmo-st-fhpp.md §2.5):
+//! the [`RegisterMap`] that puts the FHPP cyclic telegrams on Modbus registers, and the
+//! runner that serves it and steps the device on the real clock.
+//!
+//! The register map, as the manual gives it:
+//!
+//! - **Start address 0 only, quantity 4 (FHPP Standard) or 8 (FHPP + FPC)**, big-endian
+//!   registers (byte 1 of the telegram is the high byte of register 0). Writes (FC 0x10, the
+//!   write half of 0x17) are the output telegram (CCON, CPOS, …); reads (FC 0x03, the read half
+//!   of 0x17) are the input telegram (SCON, SPOS, …), never an echo of the outputs (§9.5).
+//!   Decision (the manual says only "start address always 0" and "0x0004 / 0x0008"): another
+//!   start address answers exception 02 (illegal data address), another quantity 03 (illegal
+//!   data value); both quantities are accepted whatever the profile, the 8 FPC bytes of a
+//!   16-byte write are kept for the parameter channel, and FC 0x17 checks both halves before
+//!   it writes anything.
+//! - **FC 0x07** answers the active fault number (the diagnostic number, 0 = no fault).
+//! - **FC 0x2B / 0x0E** (Tab. 4.4): 00 VendorName = PNU 122, 01 ProductCode = PNU 124,
+//!   02 MajorMinorRevision = PNU 101 ("1.5.2.0"), 03 VendorUrl = PNU 123, 04 ProductName =
+//!   PNU 120, 06 UserApplicationName = PNU 121 (read again whenever a client connects; an empty
+//!   name is an empty object). Codes 01 and 02 only; the conformity level reported is the
+//!   level of the request (01 / 02, stream access only), so code 04 answers 03.
+//! - **Watchdog** (§4.3.4): when the server closes the connection because the client went
+//!   silent ([`CloseReason::WatchdogExpired`]), diagnostic 47h "Modbus connection with master
+//!   control" is raised when the fieldbus held device control, else 48h "… without master
+//!   control" (a warning). The next client's connection removes the cause: 48h clears, 47h
+//!   may then be acknowledged with CCON.RESET (it stays until then, visible in SCON.FAULT and
+//!   FC 0x07).
+
+use std::future::Future;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use drive::fhpp::device::{diag, pnu_index, FhppDevice};
+use modbus::{
+    CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
+};
+use od::ObjectAccess;
+use tokio::net::TcpListener;
+
+use crate::modbus_server::{serve, ModbusConfig};
+
+/// Registers of the FHPP Standard telegram (8 bytes).
+pub const STD_REGISTERS: usize = 4;
+/// Registers of the FHPP + FPC telegram (16 bytes).
+pub const FPC_REGISTERS: usize = 8;
+
+/// The device as the runtime shares it.
+pub type SharedDevice = Arc<Mutex<FhppDevice<Vec<u8>>>>;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The CMMO-ST's Modbus register map (see the module documentation).
+pub struct FhppModbus {
+    device: SharedDevice,
+    /// Device identification objects 0x00…0x06 (index = object id).
+    ident: [Vec<u8>; 7],
+}
+
+/// A char-array PNU (one ASCII code per subindex, 00h-padded) as bytes.
+fn pnu_string(dev: &FhppDevice<Vec<u8>>, pnu: u16) -> Vec<u8> {
+    (1u8..=30)
+        .map_while(|sub| dev.read_u8(pnu_index(pnu), sub).filter(|c| *c != 0))
+        .collect()
+}
+
+fn identification(dev: &FhppDevice<Vec<u8>>) -> [Vec<u8>; 7] {
+    let version: Vec<String> = (1u8..=4)
+        .map(|sub| dev.read_u16(pnu_index(101), sub).unwrap_or(0).to_string())
+        .collect();
+    [
+        pnu_string(dev, 122),
+        pnu_string(dev, 124),
+        version.join(".").into_bytes(),
+        pnu_string(dev, 123),
+        pnu_string(dev, 120),
+        Vec::new(), // 0x05 ModelName: not provided (Tab. 4.4 skips it)
+        pnu_string(dev, 121),
+    ]
+}
+
+impl FhppModbus {
+    pub fn new(device: SharedDevice) -> Self {
+        let ident = identification(&lock(&device));
+        FhppModbus { device, ident }
+    }
+
+    pub fn device(&self) -> &SharedDevice {
+        &self.device
+    }
+
+    fn check(address: u16, quantity: usize) -> Result<(), Exception> {
+        if address != 0 {
+            return Err(Exception::IllegalDataAddress);
+        }
+        if quantity != STD_REGISTERS && quantity != FPC_REGISTERS {
+            return Err(Exception::IllegalDataValue);
+        }
+        Ok(())
+    }
+
+    fn write_image(dev: &mut FhppDevice<Vec<u8>>, values: &[u16]) -> Result<(), Exception> {
+        let mut image = [0u8; 16];
+        for (chunk, v) in image.chunks_exact_mut(2).zip(values) {
+            chunk.copy_from_slice(&v.to_be_bytes());
+        }
+        let bytes = image.get(..values.len() * 2).unwrap_or(&[]);
+        dev.set_outputs(bytes)
+            .map_err(|_| Exception::IllegalDataValue)
+    }
+
+    fn read_image(dev: &FhppDevice<Vec<u8>>, out: &mut [u16]) {
+        let image = dev.inputs_fpc();
+        for (r, chunk) in out.iter_mut().zip(image.chunks_exact(2)) {
+            *r = u16::from_be_bytes([chunk[0], chunk[1]]);
+        }
+    }
+}
+
+impl RegisterMap for FhppModbus {
+    fn read(&mut self, address: u16, out: &mut [u16]) -> Result<(), Exception> {
+        Self::check(address, out.len())?;
+        Self::read_image(&lock(&self.device), out);
+        Ok(())
+    }
+
+    fn write(&mut self, address: u16, values: &[u16]) -> Result<(), Exception> {
+        Self::check(address, values.len())?;
+        Self::write_image(&mut lock(&self.device), values)
+    }
+
+    fn read_write(
+        &mut self,
+        read_address: u16,
+        out: &mut [u16],
+        write_address: u16,
+        values: &[u16],
+    ) -> Result<(), Exception> {
+        Self::check(read_address, out.len())?;
+        Self::check(write_address, values.len())?;
+        let mut dev = lock(&self.device);
+        Self::write_image(&mut dev, values)?;
+        Self::read_image(&dev, out);
+        Ok(())
+    }
+
+    fn exception_status(&mut self) -> Result<u8, Exception> {
+        Ok(lock(&self.device).fault_number())
+    }
+
+    fn device_id(&self, object: u8) -> Option<&[u8]> {
+        match object {
+            0x05 => None,
+            _ => self.ident.get(usize::from(object)).map(Vec::as_slice),
+        }
+    }
+
+    fn conformity_level(&self, requested: ReadDeviceIdCode) -> ConformityLevel {
+        match requested {
+            ReadDeviceIdCode::Basic => ConformityLevel::BASIC_STREAM,
+            _ => ConformityLevel::REGULAR_STREAM,
+        }
+    }
+
+    fn connection_event(&mut self, event: ConnectionEvent) {
+        let mut dev = lock(&self.device);
+        match event {
+            ConnectionEvent::Opened => {
+                dev.clear_fault(diag::MODBUS_WITH_CONTROL);
+                dev.clear_fault(diag::MODBUS_WITHOUT_CONTROL);
+                self.ident = identification(&dev);
+            }
+            ConnectionEvent::Closed(CloseReason::WatchdogExpired) => {
+                let code = if dev.fieldbus_has_control() {
+                    diag::MODBUS_WITH_CONTROL
+                } else {
+                    diag::MODBUS_WITHOUT_CONTROL
+                };
+                tracing::warn!(diagnostic = code, "Timeout MODBUS TCP/IP");
+                dev.fault(code);
+            }
+            ConnectionEvent::Closed(_) => {}
+        }
+    }
+}
+
+/// Serves the CMMO-ST on `listener` and steps it every millisecond on the real clock until
+/// `shutdown` completes.
+pub async fn run_cmmo_st(
+    listener: TcpListener,
+    device: SharedDevice,
+    config: ModbusConfig,
+    shutdown: impl Future<Output = ()>,
+) {
+    let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
+    let server = tokio::spawn(serve(listener, map, config));
+    let origin = tokio::time::Instant::now();
+    let mut tick = tokio::time::interval(Duration::from_millis(1));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    tokio::pin!(shutdown);
+    loop {
+        tokio::select! {
+            () = &mut shutdown => break,
+            _ = tick.tick() => {
+                let ns = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
+                lock(&device).step(od::Instant::from_nanos(ns));
+            }
+        }
+    }
+    server.abort();
+    let _ = server.await;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive::fhpp::device::FhppSettings;
+    use modbus::handle_pdu;
+    use od::ObjectDictionary;
+
+    fn map() -> FhppModbus {
+        let desc = &devices::CMMO_ST;
+        let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
+        let dev = FhppDevice::new(od, FhppSettings::default());
+        FhppModbus::new(Arc::new(Mutex::new(dev)))
+    }
+
+    fn pdu(m: &mut FhppModbus, req: &[u8]) -> Vec<u8> {
+        let mut out = [0u8; 260];
+        let n = handle_pdu(req, m, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    fn step(m: &FhppModbus, ms: u64) {
+        let mut d = lock(&m.device);
+        for t in 0..ms {
+            d.step(od::Instant::from_millis(t));
+        }
+    }
+
+    #[test]
+    fn power_on_then_enable_over_fc_0x17() {
+        let mut m = map();
+        step(&m, 2);
+        assert_eq!(pdu(&mut m, &[0x03, 0, 0, 0, 4])[..4], [0x03, 8, 0x10, 0x04]);
+        // FC 0x10 write the enable telegram (fhpp §8.2 a).
+        let r = pdu(
+            &mut m,
+            &[0x10, 0, 0, 0, 4, 8, 0x03, 0x01, 0x01, 0, 0, 0, 0, 0],
+        );
+        assert_eq!(r, [0x10, 0, 0, 0, 4]);
+        {
+            let mut d = lock(&m.device);
+            d.step(od::Instant::from_millis(10));
+        }
+        let r = pdu(
+            &mut m,
+            &[
+                0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8, 0x03, 0x01, 0x01, 0, 0, 0, 0, 0,
+            ],
+        );
+        assert_eq!(r[..4], [0x17, 8, 0x13, 0x05]);
+    }
+
+    #[test]
+    fn wrong_address_and_quantity() {
+        let mut m = map();
+        assert_eq!(pdu(&mut m, &[0x03, 0, 1, 0, 4]), [0x83, 0x02]);
+        assert_eq!(pdu(&mut m, &[0x03, 0, 0, 0, 5]), [0x83, 0x03]);
+        assert_eq!(
+            pdu(&mut m, &[0x10, 0, 0, 0, 2, 4, 0, 0, 0, 0]),
+            [0x90, 0x03]
+        );
+        assert_eq!(
+            pdu(
+                &mut m,
+                &[0x17, 0, 0, 0, 4, 0, 2, 0, 4, 8, 3, 1, 0, 0, 0, 0, 0, 0]
+            ),
+            [0x97, 0x02]
+        );
+        assert_eq!(pdu(&mut m, &[0x05, 0, 0, 0xFF, 0]), [0x85, 0x01]);
+    }
+
+    #[test]
+    fn device_identification_basic_and_regular() {
+        let mut m = map();
+        let r = pdu(&mut m, &[0x2B, 0x0E, 0x01, 0x00]);
+        assert_eq!(r[..7], [0x2B, 0x0E, 0x01, 0x01, 0x00, 0x00, 0x03]);
+        let vendor = b"Festo AG & Co. KG";
+        assert_eq!(r[7..9], [0x00, vendor.len() as u8]);
+        assert_eq!(&r[9..9 + vendor.len()], vendor);
+        let r = pdu(&mut m, &[0x2B, 0x0E, 0x02, 0x00]);
+        assert_eq!(r[3], 0x02);
+        assert_eq!(r[6], 6, "objects 00-04 and 06");
+        let text = String::from_utf8_lossy(&r);
+        assert!(text.contains("CMMO-ST-C5-1-LKP") && text.contains("http://www.festo.com"));
+        assert!(text.contains("1.5.2.0"));
+    }
+
+    #[test]
+    fn watchdog_raises_47h_with_control_and_fc07_shows_it() {
+        let mut m = map();
+        step(&m, 2);
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+        m.connection_event(ConnectionEvent::Opened);
+        m.connection_event(ConnectionEvent::Closed(CloseReason::WatchdogExpired));
+        {
+            let mut d = lock(&m.device);
+            for t in 2..10 {
+                d.step(od::Instant::from_millis(t));
+            }
+        }
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x47]);
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[2] & 0x08, 0x08, "SCON.FAULT");
+        // A closed-by-peer connection raises nothing.
+        let mut m = map();
+        m.connection_event(ConnectionEvent::Closed(CloseReason::Peer));
+        step(&m, 5);
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+    }
+}

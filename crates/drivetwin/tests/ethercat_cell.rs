@@ -1,0 +1,353 @@
+//! The EtherCAT chain driven in-process with the datagrams SOEM sends (no sockets): start-up
+//! from the SII, Pre-Op, a refused and an accepted Safe-Op, Op, and a cyclic exchange in
+//! which the controlword and target written in the outputs reach the CiA 402 drive and its
+//! statusword and position come back in the inputs.
+
+use drivetwin::cell_config::CellFile;
+use drivetwin::ethercat_cell::EthercatCell;
+use ethercat::datagram::Command;
+use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
+use ethercat::{AlState, Fmmu};
+use od::{Instant, ObjectAccess};
+
+const MASTER_MAC: [u8; 6] = [0x01; 6];
+const STATION: u16 = 0x1001;
+const SM2: u16 = 0x1100;
+const SM3: u16 = 0x1180;
+
+struct Reply {
+    data: Vec<u8>,
+    wkc: u16,
+}
+
+impl Reply {
+    fn u16(&self) -> u16 {
+        u16::from_le_bytes([self.data[0], self.data[1]])
+    }
+}
+
+struct Master {
+    cell: EthercatCell,
+    now: Instant,
+}
+
+impl Master {
+    fn new(cell: EthercatCell) -> Self {
+        let mut m = Master {
+            cell,
+            now: Instant::from_millis(1),
+        };
+        m.cell.boot(m.now);
+        m
+    }
+
+    fn send(&mut self, reqs: &[(Command, Address, Vec<u8>)]) -> Vec<Reply> {
+        let mut buf = vec![0u8; 1514];
+        let mut w = FrameWriter::ethernet(&mut buf, MASTER_MAC).unwrap();
+        for (i, (c, a, d)) in reqs.iter().enumerate() {
+            w.push(*c, i as u8, *a, d).unwrap();
+        }
+        let n = w.finish();
+        buf.truncate(n);
+        let outcome = self.cell.on_frame(self.now, &mut buf);
+        assert!(outcome.forward(), "{outcome:?}");
+        let eth = EthernetFrame::new_checked(&buf[..]).unwrap();
+        assert_eq!(
+            eth.source()[0],
+            0x03,
+            "returned-frame bit in the source MAC"
+        );
+        let f = Frame::new_checked(eth.payload()).unwrap();
+        f.datagrams()
+            .map(|d| {
+                let d = d.unwrap();
+                Reply {
+                    data: d.data().to_vec(),
+                    wkc: d.wkc(),
+                }
+            })
+            .collect()
+    }
+
+    fn one(&mut self, c: Command, a: Address, d: &[u8]) -> Reply {
+        self.send(&[(c, a, d.to_vec())]).remove(0)
+    }
+    fn fprd(&mut self, ado: u16, len: usize) -> Reply {
+        self.one(Command::Fprd, phys(STATION, ado), &vec![0; len])
+    }
+    fn fpwr(&mut self, ado: u16, d: &[u8]) -> Reply {
+        let r = self.one(Command::Fpwr, phys(STATION, ado), d);
+        assert_eq!(r.wkc, 1, "FPWR {ado:#06x}");
+        r
+    }
+    fn al(&mut self) -> (u16, u16) {
+        let r = self.fprd(0x0130, 6);
+        (r.u16(), u16::from_le_bytes([r.data[4], r.data[5]]))
+    }
+    fn sii(&mut self, word: u32) -> u32 {
+        let mut cmd = vec![0x00, 0x01];
+        cmd.extend_from_slice(&word.to_le_bytes());
+        self.fpwr(0x0502, &cmd);
+        assert_eq!(self.fprd(0x0502, 2).u16() & 0xF800, 0);
+        let r = self.fprd(0x0508, 4);
+        u32::from_le_bytes(r.data[..4].try_into().unwrap())
+    }
+    /// Let `ms` milliseconds pass with the runtime's tick.
+    fn idle(&mut self, ms: u64) {
+        for _ in 0..ms {
+            self.now = self.now + std::time::Duration::from_millis(1);
+            self.cell.poll(self.now);
+        }
+    }
+    fn tick(&mut self) {
+        self.now = self.now + std::time::Duration::from_millis(1);
+        self.cell.poll(self.now);
+    }
+}
+
+fn phys(adp: u16, ado: u16) -> Address {
+    Address::Physical { adp, ado }
+}
+
+fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
+    let mut v = start.to_le_bytes().to_vec();
+    v.extend_from_slice(&len.to_le_bytes());
+    v.extend_from_slice(&[control, 0, 0x01, 0]);
+    v
+}
+
+fn cell() -> EthercatCell {
+    EthercatCell::from_cell_file(&CellFile::single("cmmp-as", 1)).expect("cell")
+}
+
+/// ecx_config_init up to Pre-Op (spec/ethercat-esc.md §9.1, abridged).
+fn to_preop(m: &mut Master) {
+    let r = m.one(Command::Bwr, phys(0, 0x0120), &[0x11, 0x00]);
+    assert_eq!(r.wkc, 1);
+    let r = m.one(Command::Brd, phys(0, 0x0000), &[0, 0]);
+    assert_eq!(r.wkc, 1, "one slave");
+    let r = m.one(Command::Apwr, phys(0, 0x0010), &STATION.to_le_bytes());
+    assert_eq!(r.wkc, 1);
+    assert_eq!(m.sii(0x08), 0x1D, "vendor Festo");
+    let desc = devices::by_name("cmmp-as").unwrap();
+    assert_eq!(m.sii(0x0A), desc.product_code);
+    assert_eq!(m.sii(0x18), 0x0080_1000, "SM0 mailbox 0x1000 / 0x80");
+    let mut mbx = sm(0x1000, 0x80, 0x26);
+    mbx.extend_from_slice(&sm(0x1080, 0x80, 0x22));
+    m.fpwr(0x0800, &mbx);
+    m.fpwr(0x0120, &[0x02, 0x00]);
+    assert_eq!(m.al(), (0x0002, 0));
+}
+
+/// ecx_config_map_group's SM2/SM3 and FMMUs, then Safe-Op.
+fn map(m: &mut Master, outputs: u16, inputs: u16) {
+    m.fpwr(0x0810, &sm(SM2, outputs, 0x64));
+    m.fpwr(0x0818, &sm(SM3, inputs, 0x20));
+    m.fpwr(
+        0x0600,
+        &Fmmu::bytes(0, outputs, SM2, false, true).to_bytes(),
+    );
+    m.fpwr(
+        0x0610,
+        &Fmmu::bytes(u32::from(outputs), inputs, SM3, true, false).to_bytes(),
+    );
+}
+
+fn lrw(m: &mut Master, outputs: &[u8], inputs: usize) -> Vec<u8> {
+    let mut d = outputs.to_vec();
+    d.resize(outputs.len() + inputs, 0);
+    let r = m.one(Command::Lrw, Address::Logical(0), &d);
+    assert_eq!(r.wkc, 3, "outputs written (2) + inputs read (1)");
+    r.data[outputs.len()..].to_vec()
+}
+
+#[test]
+fn soem_startup_and_cia402_enable_with_default_mapping() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+
+    // SM2 of the wrong size: refused with 0x001D, the slave stays in Pre-Op with the error bit.
+    map(&mut m, 3, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    assert_eq!(m.al(), (0x0012, 0x001D));
+    // The default mapping: 1600h = controlword, 1A00h = statusword (2 bytes each).
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x14, 0x00]);
+    assert_eq!(m.al(), (0x0004, 0));
+    let layout = m.cell.device(0).unwrap().layout().unwrap().clone();
+    assert_eq!((layout.output_bytes, layout.input_bytes), (2, 2));
+
+    // Safe-Op: inputs valid (SWITCH ON DISABLED), set-points ignored.
+    m.idle(5);
+    let sw = u16::from_le_bytes(lrw(&mut m, &[0x06, 0x00], 2).try_into().unwrap());
+    assert_eq!(sw & 0x4F, 0x40, "switch on disabled: {sw:#06x}");
+    m.idle(5);
+    let sw = u16::from_le_bytes(lrw(&mut m, &[0x06, 0x00], 2).try_into().unwrap());
+    assert_eq!(
+        sw & 0x6F,
+        0x40,
+        "Safe-Op ignores the controlword: {sw:#06x}"
+    );
+    assert_eq!(m.cell.device(0).unwrap().outputs_applied, 0);
+
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let mut sw = 0;
+    for (cw, want) in [(0x0006u16, 0x21u16), (0x0007, 0x23), (0x000F, 0x27)] {
+        let mut ok = false;
+        for _ in 0..200 {
+            m.tick();
+            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
+            if sw & 0x6F == want {
+                ok = true;
+                break;
+            }
+        }
+        assert!(
+            ok,
+            "controlword {cw:#06x}: statusword {sw:#06x}, want {want:#04x}"
+        );
+    }
+    let dev = &m.cell.device(0).unwrap().model;
+    let mut b = [0u8; 2];
+    dev.read(0x6040, 0, &mut b).unwrap();
+    assert_eq!(
+        u16::from_le_bytes(b),
+        0x000F,
+        "the controlword reached the drive"
+    );
+    assert_eq!(m.cell.esc(0).unwrap().al_state(), AlState::Op);
+
+    // Back to Init: the layout is gone, the mailbox stops.
+    m.fpwr(0x0120, &[0x01, 0x00]);
+    assert_eq!(m.al(), (0x0001, 0));
+    assert!(m.cell.device(0).unwrap().layout().is_none());
+}
+
+#[test]
+fn remapped_pdos_carry_target_and_position() {
+    let mut m = Master::new(cell());
+    // What a master's CoE start-up would write in Pre-Op (CoE is not here yet): outputs
+    // controlword + mode + target position, inputs statusword + position actual value.
+    {
+        let model = &mut m.cell.device_mut(0).unwrap().model;
+        for (i, s, v) in [
+            (0x1600u16, 0u8, 0u32),
+            (0x1600, 2, 0x6060_0008),
+            (0x1600, 3, 0x607A_0020),
+            (0x1600, 0, 3),
+            (0x1A00, 0, 0),
+            (0x1A00, 2, 0x6064_0020),
+            (0x1A00, 0, 2),
+        ] {
+            let bytes = v.to_le_bytes();
+            let n = if s == 0 { 1 } else { 4 };
+            model
+                .write(i, s, &bytes[..n])
+                .unwrap_or_else(|e| panic!("{i:04X}h:{s:02X}h: {e:?}"));
+        }
+    }
+    to_preop(&mut m);
+    // The old sizes are refused now: 0x001D for outputs, then 0x001E for inputs.
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    assert_eq!(m.al(), (0x0012, 0x001D));
+    map(&mut m, 7, 2);
+    m.fpwr(0x0120, &[0x14, 0x00]);
+    assert_eq!(m.al(), (0x0012, 0x001E));
+    map(&mut m, 7, 6);
+    m.fpwr(0x0120, &[0x14, 0x00]);
+    assert_eq!(m.al(), (0x0004, 0));
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+
+    let target: i32 = 20_000;
+    let out = |cw: u16| {
+        let mut o = cw.to_le_bytes().to_vec();
+        o.push(1); // profile position
+        o.extend_from_slice(&target.to_le_bytes());
+        o
+    };
+    let mut inputs = vec![0u8; 6];
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        for _ in 0..50 {
+            m.tick();
+            inputs = lrw(&mut m, &out(cw), 6);
+        }
+    }
+    let sw = u16::from_le_bytes([inputs[0], inputs[1]]);
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
+    // New set-point (bit 4), then wait for target reached (bit 10).
+    let mut pos = 0;
+    let mut reached = false;
+    for k in 0..3000 {
+        m.tick();
+        let cw = if k < 20 { 0x001F } else { 0x000F };
+        inputs = lrw(&mut m, &out(cw), 6);
+        let sw = u16::from_le_bytes([inputs[0], inputs[1]]);
+        pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
+        if k > 20 && sw & 0x0400 != 0 {
+            reached = true;
+            break;
+        }
+    }
+    assert!(reached, "target reached; position {pos}");
+    assert!((pos - target).abs() < 200, "position {pos} near {target}");
+    let mut b = [0u8; 4];
+    m.cell
+        .device(0)
+        .unwrap()
+        .model
+        .read(0x607A, 0, &mut b)
+        .unwrap();
+    assert_eq!(
+        i32::from_le_bytes(b),
+        target,
+        "the target reached the drive"
+    );
+}
+
+#[test]
+fn chain_of_two_slaves_counts_both() {
+    let mut file = CellFile::single("cmmp-as", 1);
+    let mut second = file.drive[0].clone();
+    second.node = 2;
+    file.drive.push(second);
+    let mut m = Master::new(EthercatCell::from_cell_file(&file).expect("cell"));
+    assert_eq!(m.cell.len(), 2);
+    let r = m.one(Command::Brd, phys(0, 0x0000), &[0, 0]);
+    assert_eq!(r.wkc, 2);
+    for i in 0..2u16 {
+        let r = m.one(
+            Command::Apwr,
+            phys(i.wrapping_neg(), 0x0010),
+            &(0x1001 + i).to_le_bytes(),
+        );
+        assert_eq!(r.wkc, 1);
+    }
+    assert_eq!(m.cell.esc(1).unwrap().station_address(), 0x1002);
+}
+
+#[test]
+fn sdo_upload_over_coe_through_the_chain() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    // CoE SDO upload request 1018h:01 (expedited), mailbox counter 1, padded to the SM0 size.
+    let mut req = vec![0u8; 0x80];
+    req[..16].copy_from_slice(&[
+        10, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0,
+    ]);
+    m.fpwr(0x1000, &req);
+    // The device answers after the frame; the master polls SM1's status, then reads it.
+    assert_eq!(m.fprd(0x080D, 1).data[0] & 0x08, 0x08, "reply posted");
+    let r = m.fprd(0x1080, 0x80);
+    assert_eq!(r.data[5] & 0x0F, 0x03, "CoE");
+    assert_eq!(
+        u16::from_le_bytes([r.data[6], r.data[7]]) >> 12,
+        3,
+        "SDO response"
+    );
+    assert_eq!(&r.data[9..12], &[0x18, 0x10, 0x01]);
+    assert_eq!(&r.data[12..16], &[0x1D, 0, 0, 0], "vendor Festo");
+    assert_eq!(m.cell.device(0).unwrap().coe_counters().aborts_sent, 0);
+}
