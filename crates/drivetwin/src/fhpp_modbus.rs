@@ -193,6 +193,9 @@ pub async fn run_cmmo_st(
     config: ModbusConfig,
     shutdown: impl Future<Output = ()>,
 ) {
+    // One cycle before the first client: the input telegram shows the power-on state
+    // (SCON 10h, SPOS 04h) from the very first request.
+    lock(&device).step(od::Instant::ZERO);
     let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
     let server = tokio::spawn(serve(listener, map, config));
     let origin = tokio::time::Instant::now();
