@@ -15,7 +15,6 @@
 //! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`).
 #![cfg(target_os = "linux")]
 
-use std::ffi::CString;
 use std::io;
 use std::mem;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
@@ -50,20 +49,7 @@ impl EthercatSocket {
     /// Open an `AF_PACKET` socket for EtherType 0x88A4 on `interface` (e.g. `eth1`, a veth
     /// end). Must be called inside a tokio runtime.
     pub fn open(interface: &str) -> io::Result<EthercatSocket> {
-        let name = CString::new(interface).map_err(|_| {
-            io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL")
-        })?;
-        // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
-        let index = unsafe { libc::if_nametoindex(name.as_ptr()) };
-        if index == 0 {
-            return Err(io::Error::new(
-                io::ErrorKind::NotFound,
-                format!("no network interface named {interface:?}"),
-            ));
-        }
-        let ifindex = libc::c_int::try_from(index).map_err(|_| {
-            io::Error::new(io::ErrorKind::InvalidInput, "interface index too large")
-        })?;
+        let ifindex = crate::net_interface::index(interface)?;
         let protocol = ETHERTYPE_ETHERCAT.to_be();
         // SAFETY: plain socket(2) call; the result is checked before use.
         let raw = unsafe {

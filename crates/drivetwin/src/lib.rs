@@ -12,6 +12,8 @@ pub mod ethercat_link;
 pub mod fhpp_modbus;
 pub mod master;
 pub mod modbus_server;
+#[cfg(target_os = "linux")]
+pub mod net_interface;
 pub mod param_store;
 pub mod pcap;
 pub mod runtime;

@@ -91,20 +91,7 @@ impl CanSocket {
     /// Open a `CAN_RAW` socket on `interface` (e.g. `can0`, `vcan0`). Must be called inside a
     /// tokio runtime.
     pub fn open(interface: &str) -> io::Result<CanSocket> {
-        let name = CString::new(interface).map_err(|_| {
-            io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL")
-        })?;
-        // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
-        let index = unsafe { libc::if_nametoindex(name.as_ptr()) };
-        if index == 0 {
-            return Err(io::Error::new(
-                io::ErrorKind::NotFound,
-                format!("no network interface named {interface:?}"),
-            ));
-        }
-        let ifindex = libc::c_int::try_from(index).map_err(|_| {
-            io::Error::new(io::ErrorKind::InvalidInput, "interface index too large")
-        })?;
+        let ifindex = crate::net_interface::index(interface)?;
         // SAFETY: plain socket(2) call; the result is checked before use.
         let raw = unsafe {
             libc::socket(

@@ -1,0 +1,20 @@
+//! Network interfaces by name, for the raw-socket transports (SocketCAN, EtherCAT).
+
+use std::ffi::CString;
+use std::io;
+
+/// The kernel's index of `interface`, as `bind(2)` on `AF_CAN` / `AF_PACKET` wants it.
+pub fn index(interface: &str) -> io::Result<libc::c_int> {
+    let name = CString::new(interface)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "interface name contains NUL"))?;
+    // SAFETY: `name` is a valid NUL-terminated string that outlives the call.
+    let index = unsafe { libc::if_nametoindex(name.as_ptr()) };
+    if index == 0 {
+        return Err(io::Error::new(
+            io::ErrorKind::NotFound,
+            format!("no network interface named {interface:?}"),
+        ));
+    }
+    libc::c_int::try_from(index)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "interface index too large"))
+}
