@@ -67,6 +67,8 @@ pub struct Node<const N: usize = 8192> {
     opts: Cia301Options,
     /// Made at the first boot, from 1018h.
     lss: Option<LssSlave>,
+    /// Index of the SDO download in progress (segments carry none).
+    download_index: Option<u16>,
     events: Deque<NodeEvent, EVENT_QUEUE>,
     /// TPDO and EMCY deadlines as of the last `poll`.
     timers: Option<Instant>,
@@ -115,6 +117,7 @@ impl<const N: usize> Node<N> {
             emcy: EmcyProducer::default(),
             opts,
             lss: None,
+            download_index: None,
             events: Deque::new(),
             timers: None,
             poll_soon: None,
@@ -252,11 +255,23 @@ impl<const N: usize> Node<N> {
                     .on_request(now, frame.payload(), &mut view, &mut |r| {
                         out(CanFrame::full(sdo_tx, r))
                     });
-                // A download (segment, initiate or block) may have changed the heartbeat
-                // period or a PDO.
-                if matches!(frame.payload().first().map(|cs| cs >> 5), Some(0 | 1 | 6)) {
-                    self.producer.refresh(now, od);
-                    self.pdos.reload(od);
+                // A download may have changed the heartbeat period or a PDO: the index comes
+                // with the initiate frame, segments belong to the last one.
+                let p = frame.payload();
+                match p.first().map(|cs| cs >> 5) {
+                    Some(1 | 6) => {
+                        self.download_index = match p {
+                            [_, lo, hi, ..] => Some(u16::from_le_bytes([*lo, *hi])),
+                            _ => None,
+                        }
+                    }
+                    Some(0) => {}
+                    _ => self.download_index = None,
+                }
+                match self.download_index {
+                    Some(0x1017) => self.producer.refresh(now, od),
+                    Some(i) if self.affects_pdos(i) => self.pdos.reload(od),
+                    _ => {}
                 }
             }
             // Node guarding request: an RTR, or over socketcand (which carries no RTR) a
@@ -296,6 +311,15 @@ impl<const N: usize> Node<N> {
             },
             _ => {}
         }
+    }
+
+    /// Objects whose change the PDO layer must re-read: PDO parameters and transmit masks.
+    fn affects_pdos(&self, index: u16) -> bool {
+        (0x1400..=0x1BFF).contains(&index)
+            || self
+                .opts
+                .tpdo_transmit_mask_index
+                .is_some_and(|base| (base..base + 8).contains(&index))
     }
 
     fn on_lss(&mut self, data: &[u8], out: &mut dyn FnMut(CanFrame)) {
