@@ -160,10 +160,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                 dst.copy_from_slice(src);
             }
         } else if let Some(dst) = data.get_mut(off..off + cap) {
-            dst.fill(0);
-            let n = bytes.len().min(cap);
-            if let (Some(d), Some(s)) = (dst.get_mut(..n), bytes.get(..n)) {
-                d.copy_from_slice(s);
+            // Byte loops, not fill + copy_from_slice: values are 1–8 bytes and this runs for
+            // every actual value in every drive cycle, where library memset/memcpy calls cost
+            // more than the copy.
+            let mut src = bytes.iter();
+            for d in dst.iter_mut() {
+                *d = src.next().copied().unwrap_or(0);
             }
         }
     }
