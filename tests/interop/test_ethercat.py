@@ -265,3 +265,36 @@ def test_csp_session_follows_the_commanded_path(ecat_twin):
         assert pos - start > ramp * step - 100
     finally:
         master.close()
+
+
+def test_tshark_decodes_a_capture_as_ethercat_and_coe(ecat_twin, tmp_path):
+    tshark = shutil.which("tshark")
+    if tshark is None:
+        pytest.skip("tshark (Debian package tshark) is not installed")
+    master_if, _ = ecat_twin
+    cap = tmp_path / "ecat.pcap"
+    dump = subprocess.Popen([tshark, "-i", master_if, "-w", str(cap), "-q"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        time.sleep(1.0)  # tshark needs a moment before it captures
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            assert master.config_init() == 1
+            assert int.from_bytes(master.slaves[0].sdo_read(0x1018, 1), "little") == FESTO
+            master.config_map()
+            assert _state_ok(master, pysoem.SAFEOP_STATE)
+        finally:
+            master.close()
+        time.sleep(0.5)
+    finally:
+        dump.send_signal(signal.SIGINT)
+        dump.wait(10)
+    out = subprocess.run([tshark, "-r", str(cap), "-V"], capture_output=True, text=True,
+                         timeout=60).stdout
+    assert "EtherCAT frame header" in out, out[:2000]
+    assert "EtherCAT datagram" in out
+    assert "Working Cnt" in out
+    # The SDO read of 1018h:01 as a CoE mailbox exchange.
+    assert "CoE" in out or "CANopen" in out, "no CoE mailbox decoded"
+    assert "0x1018" in out.lower() or "1018" in out
