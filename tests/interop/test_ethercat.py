@@ -70,11 +70,12 @@ def veth():
         _ip("netns", "del", ns)
 
 
-@pytest.fixture
-def ecat_twin(veth, tmp_path):
+def _start_twin(veth, tmp_path, *extra: str):
+    """Runs `drivetwin run --ethercat` in the namespace; yields (master interface, banner)."""
     ns, twin_if, master_if = veth
     log = (tmp_path / "drivetwin-ecat.log").open("w")
-    proc = subprocess.Popen(["ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if],
+    proc = subprocess.Popen(["ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if,
+                             *extra],
                             stdout=subprocess.PIPE, stderr=log, text=True)
     lines = []
     try:
@@ -102,6 +103,23 @@ def ecat_twin(veth, tmp_path):
             assert "stopped" in rest, rest
             assert proc.returncode == 0, proc.returncode
         log.close()
+
+
+@pytest.fixture
+def ecat_twin(veth, tmp_path):
+    yield from _start_twin(veth, tmp_path)
+
+
+DC_CYCLE_NS = 10_000_000
+
+
+@pytest.fixture
+def ecat_twin_10ms(veth, tmp_path):
+    """A CMMP-AS whose interpolator cycle 60C2h is commissioned to 10 ms (a cycle a Python
+    loop keeps even on a loaded machine)."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n[drive.objects]\n"60C2:01" = 10\n')
+    yield from _start_twin(veth, tmp_path, "--config", str(cell))
 
 
 def _state_ok(master, state, timeout_us=2_000_000) -> bool:
@@ -267,6 +285,112 @@ def test_csp_session_follows_the_commanded_path(ecat_twin):
         master.close()
 
 
+def test_dc_sync0_drives_the_cycle_and_a_stopped_master_is_a_sync_error(ecat_twin_10ms):
+    """Distributed clocks: SOEM's config_dc / dc_sync. A SYNC0 cycle other than the
+    interpolator cycle (60C2h) is refused on Pre-Op → Safe-Op with AL status code 0x0036; with
+    the right one the drive runs on SYNC0, PDO configuration writes are refused outside Pre-Op
+    (abort 0800 0022h), and when the master stops sending the slave falls back to Safe-Op with
+    0x001A and the drive reports the error."""
+    import struct
+
+    master_if, _ = ecat_twin_10ms
+    master = pysoem.Master()
+    master.open(master_if)
+    try:
+        assert master.config_init() == 1
+        slave = master.slaves[0]
+        assert slave.sdo_read(0x60C2, 1)[0] == 10, "interpolator cycle 10 ms"
+        for index, pdo in ((0x1C12, 0x1602), (0x1C13, 0x1A02)):
+            slave.sdo_write(index, 0, bytes([0]))
+            slave.sdo_write(index, 1, struct.pack("<H", pdo))
+            slave.sdo_write(index, 0, bytes([1]))
+        slave.sdo_write(0x6060, 0, bytes([8]))
+        assert master.config_dc(), "the twin has distributed clocks"
+        # SYNC0 at 1 ms against a 10 ms interpolator: SOEM's config_map requests Safe-Op,
+        # which is refused.
+        slave.dc_sync(True, 1_000_000)
+        assert master.config_map() == 12
+        master.state_check(pysoem.SAFEOP_STATE, 1_000_000)
+        master.read_state()
+        assert slave.state == pysoem.PREOP_STATE | pysoem.STATE_ERROR, f"{slave.state:#x}"
+        assert slave.al_status == 0x0036, f"AL status code {slave.al_status:#x}"
+        slave.state = pysoem.PREOP_STATE | pysoem.STATE_ACK
+        slave.write_state()
+        assert _state_ok(master, pysoem.PREOP_STATE)
+
+        slave.dc_sync(True, DC_CYCLE_NS)
+        slave.state = pysoem.SAFEOP_STATE
+        slave.write_state()
+        assert _state_ok(master, pysoem.SAFEOP_STATE), f"Safe-Op: AL status code {slave.al_status:#x}"
+
+        cycle_s = DC_CYCLE_NS / 1e9
+
+        def cycle(cw, target):
+            slave.output = struct.pack("<Hi", cw, target)
+            master.send_processdata()
+            wkc = master.receive_processdata(100_000)
+            sw, pos = struct.unpack("<Hi", bytes(slave.input))
+            return wkc, sw, pos
+
+        master.state = pysoem.OP_STATE
+        _, _, pos = cycle(0, 0)
+        master.write_state()
+        for _ in range(100):
+            _, _, pos = cycle(0, pos)
+            if master.read_state() == pysoem.OP_STATE:
+                break
+            time.sleep(cycle_s)
+        assert slave.state == pysoem.OP_STATE, f"Op: {slave.state:#x} code {slave.al_status:#x}"
+
+        # In Op the PDO assignment is locked.
+        with pytest.raises(pysoem.SdoError) as err:
+            slave.sdo_write(0x1C12, 0, bytes([0]))
+        assert err.value.abort_code == 0x0800_0022, hex(err.value.abort_code)
+
+        target = pos
+        bad_wkc = 0
+        sw = 0
+        next_cycle = time.monotonic()
+        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+            for _ in range(100):
+                wkc, sw, pos = cycle(cw, target)
+                bad_wkc += wkc != master.expected_wkc
+                if sw & 0x6F == want:
+                    break
+                next_cycle += cycle_s
+                time.sleep(max(0.0, next_cycle - time.monotonic()))
+            assert sw & 0x6F == want, f"statusword {sw:#06x} waiting for {want:#x}"
+        # One second of CSP on SYNC0: 100 targets, 1000 increments apart.
+        for _ in range(100):
+            target += 1000
+            wkc, sw, pos = cycle(0x0F, target)
+            bad_wkc += wkc != master.expected_wkc
+            next_cycle += cycle_s
+            time.sleep(max(0.0, next_cycle - time.monotonic()))
+        for _ in range(30):
+            wkc, sw, pos = cycle(0x0F, target)
+            next_cycle += cycle_s
+            time.sleep(max(0.0, next_cycle - time.monotonic()))
+        assert bad_wkc == 0
+        assert sw & 0x6F == 0x27, f"enabled on SYNC0: {sw:#06x}"
+        assert abs(pos - target) < 100, f"followed the targets: {pos} vs {target}"
+        assert master.read_state() == pysoem.OP_STATE, f"no sync error while cycling: {slave.al_status:#x}"
+
+        # The master stops for 0.2 s (20 SYNC0 cycles): synchronisation error.
+        time.sleep(0.2)
+        master.read_state()
+        assert slave.state == pysoem.SAFEOP_STATE | pysoem.STATE_ERROR, f"{slave.state:#x}"
+        assert slave.al_status == 0x001A, f"AL status code {slave.al_status:#x}"
+        # The drive's error comes as a CoE emergency: 63-4 with code 8781h, register 11h.
+        emergencies = []
+        slave.add_emergency_callback(emergencies.append)
+        sw = int.from_bytes(slave.sdo_read(0x6041, 0), "little")
+        assert sw & 0x08, f"the drive reports the error: statusword {sw:#06x}"
+        assert [(e.error_code, e.error_reg) for e in emergencies] == [(0x8781, 0x11)], emergencies
+    finally:
+        master.close()
+
+
 def test_tshark_decodes_a_capture_as_ethercat_and_coe(ecat_twin, tmp_path):
     tshark = shutil.which("tshark")
     if tshark is None:
@@ -276,7 +400,16 @@ def test_tshark_decodes_a_capture_as_ethercat_and_coe(ecat_twin, tmp_path):
     dump = subprocess.Popen([tshark, "-i", master_if, "-w", str(cap), "-q"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        time.sleep(1.0)  # tshark needs a moment before it captures
+        # tshark says "Capturing on 'IF'" once it captures (seconds on a loaded machine).
+        deadline = time.monotonic() + 60
+        started = ""
+        while "Capturing on" not in started and time.monotonic() < deadline:
+            line = dump.stderr.readline().decode(errors="replace")
+            if not line:
+                break
+            started += line
+        assert "Capturing on" in started, f"tshark did not start: {started}"
+        time.sleep(0.2)
         master = pysoem.Master()
         master.open(master_if)
         try:

@@ -313,6 +313,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub fn od_mut(&mut self) -> &mut ObjectDictionary<S> {
         &mut self.od
     }
+    /// The error codes raised and not yet acknowledged, oldest first.
+    pub fn errors(&self) -> &[u16] {
+        &self.faults
+    }
+
     pub fn state(&self) -> State {
         self.dc.state()
     }

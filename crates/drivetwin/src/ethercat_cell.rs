@@ -14,11 +14,20 @@
 //!   the bit layout of SM2 (outputs) and SM3 (inputs) from the mapping entries. A mapping the
 //!   dictionary refuses is refused with 0x0025 (outputs) / 0x0024 (inputs); SM2 / SM3 sizes
 //!   that do not match it with 0x001D / 0x001E ([`Esc::check_process_data`]).
-//! * After every frame: the newest complete output buffer is written object by object through
-//!   [`ObjectAccess::write`] in Op only (Safe-Op ignores set-points, CMMP-AS §4.2); the drive
-//!   runs up to the frame's time; the mapped objects are read back into the input buffer
-//!   (Safe-Op and Op), which the master reads with its next frame, one cycle later, as from
-//!   a real ESC whose PDI runs beside the wire.
+//! * Free run (no SYNC0): after every frame the newest complete output buffer is written
+//!   object by object through [`ObjectAccess::write`] in Op only (Safe-Op ignores set-points,
+//!   CMMP-AS §4.2); the drive runs up to the frame's time; the mapped objects are read back
+//!   into the input buffer (Safe-Op and Op), which the master reads with its next frame, one
+//!   cycle later, as from a real ESC whose PDI runs beside the wire.
+//! * Distributed clocks (SYNC0 active, 0x0981 = 03h): the drive's cycle follows SYNC0
+//!   (CMMP-AS §2.11: "the current controller is synchronised to the DC clock, and configured
+//!   PDOs are evaluated or sent on it"). The output buffer that arrived in a cycle is taken at
+//!   the next SYNC0 event and the inputs are latched there; a SYNC0 cycle that differs from
+//!   the interpolator cycle 60C2h is refused on Pre-Op → Safe-Op (and Safe-Op → Op) with
+//!   0x0036 ("the EtherCAT frame cycle must equal the interpolator cycle tr"). When the
+//!   master's cycles stop or fall off the SYNC0 grid ([`SyncMonitor`]) in Op, the slave falls
+//!   back to Safe-Op with 0x001A and the drive reports 63-4 "no SYNC in IPO cycle" with a
+//!   fault reaction.
 //! * Between frames the runtime polls the cell at least every [`TICK`], so the drive (and the
 //!   ESC's process-data watchdog) runs while the master is silent.
 //!
@@ -26,10 +35,11 @@
 //!   frame and every tick the device answers the request waiting in SM0 (or sends the next
 //!   fragment or a queued emergency); the drive's errors go out as CoE emergencies.
 //!
-//! Not yet here: distributed-clock synchronisation of the drive (CSP on SYNC0, sync error
-//! when cycles stop), stored parameters (1010h "save" is accepted and kept only until the
-//! process ends), refusing mapping changes outside Pre-Op (a running layout is not affected:
-//! it is taken on Pre-Op → Safe-Op).
+//! * PDO assignment and mapping are written in Pre-Op only ([`coe::MappingLock`]); the
+//!   layout is taken on Pre-Op → Safe-Op.
+//!
+//! Not yet here: stored parameters (1010h "save" is accepted and kept only until the process
+//! ends).
 
 use std::sync::Mutex;
 use std::time::Duration;
@@ -37,7 +47,7 @@ use std::time::Duration;
 use drive::drive::DriveEvent;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
 use ethercat::sii::{self, SiiConfig};
-use ethercat::{process_chain_with, AlHook, AlState, AlStatusCode, Esc, FrameOutcome};
+use ethercat::{process_chain_with, AlHook, AlState, AlStatusCode, Esc, FrameOutcome, SyncMonitor};
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
 
@@ -51,6 +61,15 @@ pub const TICK: Duration = Duration::from_millis(1);
 /// PDO assignment objects (ETG.1000.6): SM2 (RxPDO) and SM3 (TxPDO).
 const RX_ASSIGN: u16 = 0x1C12;
 const TX_ASSIGN: u16 = 0x1C13;
+
+/// Emergency code of a lost synchronisation. CMMP-AS B.3 63-4 "EtherCAT: no SYNC in IPO
+/// cycle" has no CiA code in Tab. B.2; decision: send 8781h, the manual's code for
+/// "fieldbus synchronisation error" (34-1), the one it gives for a lost SYNC.
+pub const SYNC_LOST_EMCY: u16 = 0x8781;
+/// Error register with it: generic + communication error (CiA 301 1001h bits 0 and 4).
+const SYNC_LOST_REGISTER: u8 = 0x11;
+/// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
+const MAX_SYNC0_BURST: u64 = 16;
 
 #[derive(Debug, thiserror::Error)]
 pub enum EcatCellError {
@@ -98,6 +117,21 @@ pub struct SlaveDevice {
     layout: Option<Layout>,
     inputs: Vec<u8>,
     next_step: Option<Instant>,
+    /// The interpolator cycle tr (60C2h) in ns as read at power-on (CMMP-AS §7.4.1: a change
+    /// takes effect only after save and reset).
+    ipo_cycle_ns: Option<u64>,
+    /// DC synchronisation of the outputs and inputs.
+    sync: SyncMonitor,
+    /// The output buffer waiting for the next SYNC0 event.
+    pending: Vec<u8>,
+    /// SYNC0 configuration (activation, cycle, start) the event grid below belongs to.
+    sync_config: Option<(u32, u64)>,
+    /// System time of the next SYNC0 event to run.
+    next_sync0_sys: Option<u64>,
+    /// Local time of that event (for the runtime's deadline).
+    next_sync0: Option<Instant>,
+    /// Times the synchronisation was lost in Op.
+    pub sync_errors: u64,
     /// Output buffers applied to the device (Op).
     pub outputs_applied: u64,
     /// Output buffers ignored (Safe-Op).
@@ -109,6 +143,7 @@ pub struct SlaveDevice {
 impl SlaveDevice {
     pub fn new(model: Model, sii: SiiConfig<'static>, coe: CoeConfig) -> Self {
         let desc = model.od().description();
+        let ipo_cycle_ns = interpolation_period_ns(&model);
         SlaveDevice {
             model,
             coe: Box::new(CoeServer::new(desc, coe)),
@@ -116,6 +151,13 @@ impl SlaveDevice {
             layout: None,
             inputs: Vec::new(),
             next_step: None,
+            ipo_cycle_ns,
+            sync: SyncMonitor::new(),
+            pending: Vec::new(),
+            sync_config: None,
+            next_sync0_sys: None,
+            next_sync0: None,
+            sync_errors: 0,
             outputs_applied: 0,
             outputs_ignored: 0,
             write_errors: 0,
@@ -234,20 +276,118 @@ impl SlaveDevice {
         }
     }
 
-    /// The device's part of a frame: outputs in, drive to `now`, inputs out.
+    /// The device's part of a frame: outputs in, drive to `now`, inputs out (free run); with
+    /// SYNC0 the outputs wait for the next event.
     fn exchange(&mut self, esc: &mut Esc<'_>, now: Instant) {
+        // Events that fell due before this frame run with the outputs of their own cycle.
+        self.run_sync0(esc, now);
         self.step(now);
         let state = esc.al_state();
+        let dc = self.sync_config.is_some();
         if let Some(out) = esc.process_outputs() {
-            if state == AlState::Op {
+            if state != AlState::Op {
+                self.outputs_ignored += 1;
+            } else if dc {
+                self.pending.clear();
+                self.pending.extend_from_slice(out);
+                self.sync.outputs_received();
+            } else {
                 self.apply_outputs(out);
                 self.outputs_applied += 1;
-            } else {
-                self.outputs_ignored += 1;
             }
         }
-        self.post_inputs(esc);
+        if !dc {
+            self.post_inputs(esc);
+        }
         self.mailbox(esc);
+    }
+
+    /// The synchronisation monitor (DC mode).
+    pub fn sync_monitor(&self) -> &SyncMonitor {
+        &self.sync
+    }
+
+    /// Runs the SYNC0 events due at `now`: the drive steps to each event, takes the outputs
+    /// of the cycle and latches its inputs; a lost synchronisation in Op falls back to
+    /// Safe-Op with 0x001A.
+    fn run_sync0(&mut self, esc: &mut Esc<'_>, now: Instant) {
+        let config = esc.sync0_cycle_ns().map(|cycle| (cycle, esc.sync0_start()));
+        if config != self.sync_config {
+            // SYNC0 switched on, off or moved: a new grid, a new count.
+            self.sync_config = config;
+            self.sync.reset();
+            self.next_sync0_sys = config.and_then(|_| esc.next_sync0_at(now));
+        }
+        let Some((cycle, _)) = config else {
+            self.next_sync0 = None;
+            return;
+        };
+        let cycle = u64::from(cycle);
+        let sys_now = esc.system_time_at(now);
+        let mut burst = 0;
+        while let Some(at_sys) = self.next_sync0_sys.filter(|t| *t <= sys_now) {
+            let behind = (sys_now - at_sys) / cycle;
+            // The local instant of the event: `now` less how far the event lies back.
+            let at = Instant::from_nanos(now.as_nanos().saturating_sub(sys_now - at_sys));
+            self.step(at);
+            burst += 1;
+            let (outcome, events) = if burst >= MAX_SYNC0_BURST {
+                (self.sync.sync0_many(behind + 1), behind + 1)
+            } else {
+                (self.sync.sync0(), 1)
+            };
+            let state = esc.al_state();
+            if outcome.take_outputs && state == AlState::Op {
+                let pending = core::mem::take(&mut self.pending);
+                self.apply_outputs(&pending);
+                self.pending = pending;
+                self.outputs_applied += 1;
+            }
+            if outcome.lost && state == AlState::Op {
+                self.sync_lost(esc);
+            }
+            if matches!(esc.al_state(), AlState::SafeOp | AlState::Op) {
+                self.post_inputs(esc);
+            }
+            self.next_sync0_sys = Some(at_sys.wrapping_add(events.wrapping_mul(cycle)));
+        }
+        self.next_sync0 = self
+            .next_sync0_sys
+            .map(|t| Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now))));
+    }
+
+    /// The master's cycles stopped or left the SYNC0 grid.
+    fn sync_lost(&mut self, esc: &mut Esc<'_>) {
+        self.sync_errors += 1;
+        tracing::warn!(
+            station = esc.station_address(),
+            missed = self.sync.missed,
+            "synchronisation lost: Safe-Op, 0x001A"
+        );
+        esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);
+        self.layout_inputs_only();
+        if let Some(drive) = self.model.drive_mut() {
+            // The error is raised once; its cause is gone with it, so a fault reset clears it.
+            drive.inject_fault(SYNC_LOST_EMCY, SYNC_LOST_REGISTER);
+            drive.clear_fault(SYNC_LOST_EMCY);
+        }
+        self.forward_events();
+    }
+
+    /// Safe-Op keeps the layout (inputs go on) but no outputs wait.
+    fn layout_inputs_only(&mut self) {
+        self.pending.clear();
+        self.sync.reset();
+    }
+
+    /// SYNC0 on and its cycle differs from the interpolator cycle: 0x0036.
+    fn check_sync0(&self, esc: &Esc<'_>) -> Result<(), AlStatusCode> {
+        match (esc.sync0_cycle_ns(), self.ipo_cycle_ns) {
+            (Some(cycle), Some(ipo)) if u64::from(cycle) != ipo => {
+                Err(AlStatusCode::DC_SYNC0_CYCLE_TIME)
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h).
@@ -270,6 +410,11 @@ impl SlaveDevice {
 
     fn step(&mut self, now: Instant) {
         self.next_step = self.model.step(now).map(|t| t.max(now + TICK));
+        self.forward_events();
+    }
+
+    /// The drive's events as CoE emergencies.
+    fn forward_events(&mut self) {
         while let Some(ev) = self.model.take_event() {
             // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
             let emcy = match ev {
@@ -297,18 +442,35 @@ impl AlHook for SlaveDevice {
         if from == AlState::PreOp && to == AlState::SafeOp {
             let layout = self.compute_layout()?;
             esc.check_process_data(layout.output_bytes, layout.input_bytes)?;
+            self.check_sync0(esc)?;
             self.layout = Some(layout);
+        }
+        if from == AlState::SafeOp && to == AlState::Op {
+            // SYNC0 may have been switched on in Safe-Op.
+            self.check_sync0(esc)?;
         }
         Ok(())
     }
 
     fn state_changed(&mut self, esc: &mut Esc<'_>, from: AlState, to: AlState) {
         tracing::debug!(?from, ?to, station = esc.station_address(), "AL state");
+        if from == AlState::Op {
+            self.layout_inputs_only();
+        }
         match to {
             AlState::SafeOp | AlState::Op => self.post_inputs(esc),
             AlState::Init | AlState::PreOp | AlState::Bootstrap => self.layout = None,
         }
     }
+}
+
+/// The interpolator cycle 60C2h (units × 10^index s) in ns, if the personality has it.
+fn interpolation_period_ns(dev: &dyn ObjectAccess) -> Option<u64> {
+    let units = u64::from(dev.read_u8(0x60C2, 1)?);
+    let index = dev.read_u8(0x60C2, 2)? as i8;
+    // 10^index s in ns: index -3 → 1 ms, -4 → 0.1 ms (the two the CMMP-AS allows).
+    let exp = u32::try_from(9 + i32::from(index)).ok()?;
+    units.checked_mul(10u64.checked_pow(exp)?)
 }
 
 fn read_unsigned(dev: &dyn ObjectAccess, index: u16, sub: u8) -> Option<u64> {
@@ -446,9 +608,11 @@ impl EthercatCell {
     /// Returns the next deadline.
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
         for (esc, dev) in self.escs.iter_mut().zip(self.devices.iter_mut()) {
+            dev.run_sync0(esc, now);
             dev.step(now);
             esc.poll_with(now, dev);
-            if matches!(esc.al_state(), AlState::SafeOp | AlState::Op) {
+            if dev.sync_config.is_none() && matches!(esc.al_state(), AlState::SafeOp | AlState::Op)
+            {
                 dev.post_inputs(esc);
             }
             dev.mailbox(esc);
@@ -457,9 +621,9 @@ impl EthercatCell {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.devices
-            .iter()
-            .fold(None, |acc, d| earliest(acc, d.next_step))
+        self.devices.iter().fold(None, |acc, d| {
+            earliest(earliest(acc, d.next_step), d.next_sync0)
+        })
     }
 }
 

@@ -351,3 +351,104 @@ fn sdo_upload_over_coe_through_the_chain() {
     assert_eq!(&r.data[12..16], &[0x1D, 0, 0, 0], "vendor Festo");
     assert_eq!(m.cell.device(0).unwrap().coe_counters().aborts_sent, 0);
 }
+
+/// SOEM's `ecx_dcsync0`: SYNC0 every `cycle_ns` from a whole cycle 10 ms ahead; returns the
+/// system time of the first event.
+fn dc_sync0(m: &mut Master, cycle_ns: u32) -> u64 {
+    m.fpwr(0x0981, &[0]);
+    m.fpwr(0x0980, &[0]);
+    let r = m.fprd(0x0910, 8);
+    let t = u64::from_le_bytes(r.data[..8].try_into().unwrap());
+    let c = u64::from(cycle_ns);
+    let start = (t + 10_000_000) / c * c + c;
+    m.fpwr(0x0990, &start.to_le_bytes());
+    m.fpwr(0x09A0, &cycle_ns.to_le_bytes());
+    m.fpwr(0x0981, &[0x03]);
+    start
+}
+
+fn read_u16(m: &Master, index: u16) -> u16 {
+    let mut b = [0u8; 2];
+    m.cell
+        .device(0)
+        .unwrap()
+        .model
+        .read(index, 0, &mut b)
+        .unwrap();
+    u16::from_le_bytes(b)
+}
+
+#[test]
+fn sync0_cycle_other_than_the_interpolator_cycle_is_refused() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    // 60C2h = 1 ms (default); SYNC0 every 2 ms: refused with 0x0036.
+    dc_sync0(&mut m, 2_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    assert_eq!(m.al(), (0x0012, 0x0036), "DC SYNC0 cycle time");
+    dc_sync0(&mut m, 1_000_000);
+    m.fpwr(0x0120, &[0x14, 0x00]);
+    assert_eq!(m.al(), (0x0004, 0));
+}
+
+#[test]
+fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    let first = dc_sync0(&mut m, 1_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    // Run the clock to just past the first SYNC0 event, then cycle with frames half-way
+    // between two events (system time = local time here: the master never wrote 0x0920).
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    let to_first = first - esc_time;
+    m.now = m.now + std::time::Duration::from_nanos(to_first + 500_000);
+    m.cell.poll(m.now);
+    let half = std::time::Duration::from_micros(500);
+    // The controlword of a frame reaches the drive at the next SYNC0, not before.
+    let before = read_u16(&m, 0x6040);
+    lrw(&mut m, &[0x06, 0x00], 2);
+    assert_eq!(read_u16(&m, 0x6040), before, "not before SYNC0");
+    m.now = m.now + half;
+    m.cell.poll(m.now);
+    assert_eq!(read_u16(&m, 0x6040), 0x0006, "taken at SYNC0");
+    let mut sw = 0;
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        for _ in 0..60 {
+            m.now = m.now + half;
+            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
+            m.now = m.now + half;
+            m.cell.poll(m.now);
+        }
+    }
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    let dev = m.cell.device(0).unwrap();
+    assert_eq!(dev.sync_monitor().missed, 0);
+    assert_eq!(dev.sync_errors, 0);
+
+    // The master stops: three SYNC0 events without outputs are a sync error.
+    for _ in 0..2 {
+        m.now = m.now + std::time::Duration::from_millis(1);
+        m.cell.poll(m.now);
+    }
+    assert_eq!(m.al(), (0x0008, 0), "two missed cycles are tolerated");
+    m.now = m.now + std::time::Duration::from_millis(1);
+    m.cell.poll(m.now);
+    assert_eq!(
+        m.al(),
+        (0x0014, 0x001A),
+        "Safe-Op + error, synchronisation error"
+    );
+    assert_eq!(m.cell.device(0).unwrap().sync_errors, 1);
+    // The drive reports it (63-4, EMCY 8781h) and leaves operation enabled.
+    let drive = m.cell.device(0).unwrap().model.drive().unwrap();
+    assert_eq!(drive.errors(), &[0x8781], "63-4 with EMCY code 8781h");
+    for _ in 0..50 {
+        m.tick();
+    }
+    let sw = read_u16(&m, 0x6041);
+    assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+}

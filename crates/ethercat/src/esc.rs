@@ -542,6 +542,12 @@ impl<'a> Esc<'a> {
         (act & 0x03 == 0x03 && cycle > 0).then_some(cycle)
     }
 
+    /// Start time of cyclic operation (the first SYNC0 event, system time) as last written to
+    /// 0x0990.
+    pub fn sync0_start(&self) -> u64 {
+        self.sync0_start
+    }
+
     /// System time of the next SYNC0 event at or after `now` while SYNC0 is active (a
     /// start time in the past runs on from the next cycle boundary, spec §8.2).
     pub fn next_sync0_at(&self, now: Instant) -> Option<u64> {

@@ -7,7 +7,8 @@
 //! * ESC: [`register`] (address map, write masks, reset values), [`fmmu`],
 //!   [`sync_manager`], [`eeprom`] (SII interface 0x0500), [`al_control`] and
 //!   [`al_status_code`] (application-layer state machine), [`esc`] (the controller);
-//! * [`sii`]: the SII EEPROM image.
+//! * [`sii`]: the SII EEPROM image;
+//! * [`sync_monitor`]: when the device takes outputs (frame or SYNC0) and loses sync.
 //!
 //! No allocation, no `unsafe`, and no panics on anything that comes from the wire: every
 //! access to frame bytes and ESC memory is bounds-checked and treats a short buffer as an
@@ -27,6 +28,7 @@ pub mod mailbox;
 pub mod register;
 pub mod sii;
 pub mod sync_manager;
+pub mod sync_monitor;
 
 pub use al_control::{AlControl, AlState, AlStatus};
 pub use al_status_code::AlStatusCode;
@@ -39,3 +41,4 @@ pub use esc::{
 pub use fmmu::Fmmu;
 pub use frame::{Address, EthernetFrame, Frame, FrameWriter, WireError};
 pub use sync_manager::SyncManager;
+pub use sync_monitor::{Sync0Outcome, SyncMonitor};

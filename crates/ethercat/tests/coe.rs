@@ -975,3 +975,27 @@ fn arbitrary_bytes_never_panic() {
         }
     }
 }
+
+#[test]
+fn pdo_configuration_is_locked_outside_pre_op() {
+    use ethercat::coe::MappingLock;
+    let (_, mut od) = cmmp_as();
+    let mut lock = MappingLock::new(&mut od, true);
+    // Assignment and mapping: the present device state forbids it (0800 0022h).
+    assert_eq!(lock.write(0x1C12, 0, &[0]), Err(AbortCode::DEVICE_STATE));
+    assert_eq!(lock.write(0x1600, 0, &[0]), Err(AbortCode::DEVICE_STATE));
+    assert_eq!(
+        lock.write(0x1A00, 1, &0x6041_0010u32.to_le_bytes()),
+        Err(AbortCode::DEVICE_STATE)
+    );
+    // A missing or read-only entry keeps its own abort.
+    assert_eq!(lock.write(0x1A7F, 0, &[0]), Err(AbortCode::NO_OBJECT));
+    assert_eq!(lock.write(0x1C00, 1, &[1]), Err(AbortCode::READ_ONLY));
+    // Reads and other objects pass.
+    let mut b = [0u8; 1];
+    assert_eq!(lock.read(0x1C12, 0, &mut b), Ok(1));
+    assert_eq!(lock.write(0x607A, 0, &1000i32.to_le_bytes()), Ok(()));
+    // Unlocked (Pre-Op): the same write is taken.
+    let mut open = MappingLock::new(&mut od, false);
+    assert_eq!(open.write(0x1600, 0, &[0]), Ok(()));
+}

@@ -9,6 +9,7 @@
 //!   descriptions, SDO info error; spec §6.6);
 //! * [`emergency`]: CoE emergency messages the device queues (spec §6.7, §5.6);
 //! * [`abort`]: the SDO abort message and the CoE-only abort codes;
+//! * [`mapping_lock`]: PDO assignment and mapping writable in Pre-Op only;
 //! * [`pump`]: runs a [`CoeServer`] against an [`Esc`]'s mailbox sync managers.
 //!
 //! Mailbox-level decisions (spec §5):
@@ -27,16 +28,19 @@
 
 pub mod abort;
 pub mod emergency;
+pub mod mapping_lock;
 pub mod sdo_info;
 pub mod sdo_server;
 
 use od::{DeviceDescription, ObjectAccess};
 
+use crate::al_control::AlState;
 use crate::esc::{Esc, MAILBOX_MAX, SM_MAILBOX_IN};
 use crate::mailbox::{self, Mailbox, MailboxErrorDetail, MailboxType, HEADER_LEN};
 
 pub use abort::{CA_NOT_SUPPORTED, LENGTH_EXCEEDS_MAILBOX};
 pub use emergency::Emergency;
+pub use mapping_lock::MappingLock;
 
 /// CoE header length (bits 0–8 number, 12–15 service).
 pub const COE_HEADER_LEN: usize = 2;
@@ -335,7 +339,12 @@ pub fn pump<const N: usize>(
         n
     });
     let n = match taken {
-        Some(len) => coe.process(req.get(..len).unwrap_or(&[]), od, out),
+        Some(len) => {
+            // ETG.1000.6: the PDO configuration changes in Pre-Op only.
+            let locked = matches!(esc.al_state(), AlState::SafeOp | AlState::Op);
+            let mut od = MappingLock::new(od, locked);
+            coe.process(req.get(..len).unwrap_or(&[]), &mut od, out)
+        }
         None => coe.poll(out),
     };
     match n.and_then(|n| out.get(..n)) {
