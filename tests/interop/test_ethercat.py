@@ -100,7 +100,7 @@ class _RealtimeMaster:
             os.sched_setscheduler(0, self.old[0], self.old[1])
 
 
-def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False):
+def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
     """Runs `drivetwin run --ethercat` in the namespace; yields (master interface, banner)."""
     ns, twin_if, master_if = veth
     log = (tmp_path / "drivetwin-ecat.log").open("w")
@@ -120,7 +120,7 @@ def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False):
                 break
         assert lines and lines[-1].startswith("running"), \
             f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}"
-        assert any(f"EtherCAT on {twin_if}: 1 slave" in l for l in lines), lines
+        assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
         yield master_if, lines
     finally:
         if proc.poll() is None:
@@ -139,6 +139,14 @@ def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False):
 @pytest.fixture
 def ecat_twin(veth, tmp_path):
     yield from _start_twin(veth, tmp_path)
+
+
+@pytest.fixture
+def ecat_chain(veth, tmp_path):
+    """Two CMMP-AS in one chain (a cell file with two drives)."""
+    cell = tmp_path / "chain.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "cmmp-as"\nnode = 2\n')
+    yield from _start_twin(veth, tmp_path, "--config", str(cell), slaves=2)
 
 
 DC_CYCLE_NS = 10_000_000
@@ -427,6 +435,54 @@ def _dc_session(master):
     sw = int.from_bytes(slave.sdo_read(0x6041, 0), "little")
     assert sw & 0x08, f"the drive reports the error: statusword {sw:#06x}"
     assert [(e.error_code, e.error_reg) for e in emergencies] == [(0x8781, 0x11)], emergencies
+
+
+def test_a_chain_of_two_slaves_runs_in_op(ecat_chain):
+    """The frame passes through both slaves in order: SOEM counts two, gives each its station
+    address, maps both, and every cycle's working counter counts both (2 × (outputs 2 +
+    inputs 1))."""
+    master_if, _ = ecat_chain
+    master = pysoem.Master()
+    master.open(master_if)
+    try:
+        assert master.config_init() == 2, "two slaves on the wire"
+        assert [s.man for s in master.slaves] == [FESTO, FESTO]
+        # Each answers its own SDOs: a value written to the second is not in the first.
+        master.slaves[1].sdo_write(0x6065, 0, (4321).to_bytes(4, "little"))
+        assert int.from_bytes(master.slaves[1].sdo_read(0x6065, 0), "little") == 4321
+        assert int.from_bytes(master.slaves[0].sdo_read(0x6065, 0), "little") != 4321
+        assert master.config_map() == 8
+        assert _state_ok(master, pysoem.SAFEOP_STATE)
+        assert master.expected_wkc == 6
+        master.state = pysoem.OP_STATE
+        master.send_processdata()
+        master.receive_processdata(100_000)
+        master.write_state()
+        for _ in range(200):
+            master.send_processdata()
+            master.receive_processdata(100_000)
+            if master.read_state() == pysoem.OP_STATE:
+                break
+            time.sleep(CYCLE_S)
+        assert [s.state for s in master.slaves] == [pysoem.OP_STATE] * 2
+        # Enable only the second drive: the outputs land in the right slave.
+        sw = [0, 0]
+        bad_wkc = 0
+        for cw in (0x06, 0x07, 0x0F):
+            for _ in range(200):
+                master.slaves[0].output = (0).to_bytes(2, "little")
+                master.slaves[1].output = cw.to_bytes(2, "little")
+                master.send_processdata()
+                bad_wkc += master.receive_processdata(100_000) != master.expected_wkc
+                sw = [int.from_bytes(s.input[:2], "little") for s in master.slaves]
+                if sw[1] & 0x6F == {0x06: 0x21, 0x07: 0x23, 0x0F: 0x27}[cw]:
+                    break
+                time.sleep(CYCLE_S)
+        assert bad_wkc == 0
+        assert sw[1] & 0x6F == 0x27, f"second drive enabled: {sw[1]:#06x}"
+        assert sw[0] & 0x4F == 0x40, f"first drive untouched: {sw[0]:#06x}"
+    finally:
+        master.close()
 
 
 def test_tshark_decodes_a_capture_as_ethercat_and_coe(ecat_twin, tmp_path):
