@@ -525,3 +525,39 @@ def test_tshark_decodes_a_capture_as_ethercat_and_coe(ecat_twin, tmp_path):
     # The SDO read of 1018h:01 as a CoE mailbox exchange.
     assert "CoE" in out or "CANopen" in out, "no CoE mailbox decoded"
     assert "0x1018" in out.lower() or "1018" in out
+
+
+def test_run_trace_records_the_session_as_ethercat(veth, tmp_path):
+    """`drivetwin run --ethercat IF --trace F.pcap`: every frame in and out, decoded by tshark
+    as EtherCAT datagrams with the CoE exchange of an SDO read."""
+    tshark = shutil.which("tshark")
+    if tshark is None:
+        pytest.skip("tshark (Debian package tshark) is not installed")
+    trace = tmp_path / "twin.pcap"
+    twin = _start_twin(veth, tmp_path, "--trace", str(trace))
+    master_if, banner = next(twin)
+    assert any("tracing to" in l for l in banner), banner
+    try:
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            assert master.config_init() == 1
+            assert int.from_bytes(master.slaves[0].sdo_read(0x1018, 1), "little") == FESTO
+        finally:
+            master.close()
+    finally:
+        for _ in twin:  # stops the twin, which flushes the trace
+            pass
+    out = subprocess.run([tshark, "-r", str(trace), "-V"], capture_output=True, text=True,
+                         timeout=60).stdout
+    assert "EtherCAT frame header" in out, out[:2000]
+    assert "Working Cnt" in out
+    assert "CoE" in out or "CANopen" in out, "no CoE mailbox decoded"
+    frames = subprocess.run([tshark, "-r", str(trace), "-T", "fields", "-e", "eth.type"],
+                            capture_output=True, text=True, timeout=60).stdout.split()
+    assert len(frames) >= 20 and set(frames) == {"0x88a4"}, frames[:10]
+    # Requests and replies: the replies carry the returned-frame bit in the source MAC.
+    sources = subprocess.run([tshark, "-r", str(trace), "-T", "fields", "-e", "eth.src"],
+                             capture_output=True, text=True, timeout=60).stdout.split()
+    assert any(s.startswith("03:") for s in sources) and any(not s.startswith("03:") for s in sources)
+

@@ -135,7 +135,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Write every bus frame to FILE: pcap (LINKTYPE_CAN_SOCKETCAN), or candump if FILE ends
-    /// in .log.
+    /// in .log; with --ethercat, a pcap of the Ethernet frames in and out.
     #[arg(long)]
     pub trace: Option<PathBuf>,
     /// Run on the virtual clock for this many seconds, as fast as possible, deterministically
@@ -154,11 +154,12 @@ pub struct RunArgs {
     pub modbus_timeout_ms: u16,
     /// Put the cell's drives on EtherCAT instead of CAN: a chain of slaves (in cell-file
     /// order) answering on this network interface (raw Ethernet, needs CAP_NET_RAW). The
-    /// chain runs alone: no socketcand server, no SocketCAN bridge.
+    /// chain runs alone: no socketcand server, no SocketCAN bridge. `--trace F.pcap` records
+    /// every frame in and out (Ethernet pcap).
     #[arg(
         long,
         value_name = "IFNAME",
-        conflicts_with_all = ["socketcand", "channel", "socketcan", "trace", "virtual_seconds", "state_dir"]
+        conflicts_with_all = ["socketcand", "channel", "socketcan", "virtual_seconds", "state_dir"]
     )]
     pub ethercat: Option<String>,
 }

@@ -627,11 +627,35 @@ impl EthercatCell {
     }
 }
 
+/// A copy of a frame for the trace, with the wall-clock time it was seen.
+#[derive(Debug, Clone)]
+pub struct TracedFrame {
+    pub at: std::time::SystemTime,
+    pub frame: Vec<u8>,
+}
+
+/// Where the runtime sends the frames it sees (`--trace`): each request as it came in and
+/// each processed frame as it went back. A full queue drops the copy, never the frame.
+pub type FrameTap = std::sync::mpsc::SyncSender<TracedFrame>;
+
+fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
+    if let Some(tap) = tap {
+        let copy = TracedFrame {
+            at: std::time::SystemTime::now(),
+            frame: frame.to_vec(),
+        };
+        if tap.try_send(copy).is_err() {
+            tracing::warn!("trace queue full, a frame copy is lost");
+        }
+    }
+}
+
 /// Runs `cell` on `socket` in real time until `shutdown` completes (or the socket fails).
 #[cfg(target_os = "linux")]
 pub async fn run_realtime(
     mut cell: EthercatCell,
     socket: crate::ethercat_link::EthercatSocket,
+    trace: Option<FrameTap>,
     shutdown: impl std::future::Future<Output = ()>,
 ) -> std::io::Result<()> {
     use crate::ethercat_link::{is_queue_full, MAX_FRAME};
@@ -656,7 +680,9 @@ pub async fn run_realtime(
                 let Some(frame) = buf.get_mut(..n) else {
                     continue;
                 };
+                trace_frame(trace.as_ref(), frame);
                 if cell.on_frame(now(), frame).forward() {
+                    trace_frame(trace.as_ref(), frame);
                     match socket.send(frame).await {
                         Ok(()) => {}
                         Err(e) if is_queue_full(&e) => {

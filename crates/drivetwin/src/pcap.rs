@@ -1,7 +1,8 @@
-//! CAN trace writers: pcap with link type 227 (LINKTYPE_CAN_SOCKETCAN) and candump `.log`.
+//! Trace writers: pcap with link type 227 (LINKTYPE_CAN_SOCKETCAN) and candump `.log` for CAN,
+//! pcap with link type 1 (LINKTYPE_ETHERNET) for EtherCAT frames.
 //!
-//! Both are read by Wireshark / tshark, which decodes CANopen from them with
-//! `tshark -r FILE -d can.subdissector,canopen` (spec/anchors.md §7).
+//! Wireshark / tshark read them: CANopen with `tshark -r FILE -d can.subdissector,canopen`
+//! (spec/anchors.md §7), EtherCAT (EtherType 88A4h) and its CoE mailbox without options.
 //!
 //! pcap record body, the SocketCAN `struct can_frame` with the identifier in network byte
 //! order (as Wireshark expects for link type 227):
@@ -22,6 +23,8 @@ use crate::bus::Tap;
 
 /// LINKTYPE_CAN_SOCKETCAN.
 pub const LINKTYPE_CAN_SOCKETCAN: u32 = 227;
+/// LINKTYPE_ETHERNET.
+pub const LINKTYPE_ETHERNET: u32 = 1;
 /// Extended frame format flag in `can_id`.
 pub const CAN_EFF_FLAG: u32 = 0x8000_0000;
 /// Remote transmission request flag in `can_id`.
@@ -52,15 +55,25 @@ pub fn socketcan_record(frame: &CanFrame) -> [u8; 16] {
     out
 }
 
-/// Writes a pcap file (microsecond timestamps, little-endian headers) of CAN frames.
+/// Writes a pcap file (microsecond timestamps, little-endian headers) of CAN frames, or of
+/// Ethernet frames ([`PcapWriter::ethernet`]).
 #[derive(Debug)]
 pub struct PcapWriter<W: Write> {
     out: W,
 }
 
 impl<W: Write> PcapWriter<W> {
-    /// Writes the global header.
-    pub fn new(mut out: W) -> io::Result<Self> {
+    /// Writes the global header of a CAN trace.
+    pub fn new(out: W) -> io::Result<Self> {
+        Self::with_link_type(out, LINKTYPE_CAN_SOCKETCAN)
+    }
+
+    /// Writes the global header of an Ethernet trace.
+    pub fn ethernet(out: W) -> io::Result<Self> {
+        Self::with_link_type(out, LINKTYPE_ETHERNET)
+    }
+
+    fn with_link_type(mut out: W, link_type: u32) -> io::Result<Self> {
         let mut header = [0u8; 24];
         let fields: [&[u8]; 7] = [
             &PCAP_MAGIC_MICROS.to_le_bytes(),
@@ -69,7 +82,7 @@ impl<W: Write> PcapWriter<W> {
             &0i32.to_le_bytes(), // thiszone
             &0u32.to_le_bytes(), // sigfigs
             &SNAPLEN.to_le_bytes(),
-            &LINKTYPE_CAN_SOCKETCAN.to_le_bytes(),
+            &link_type.to_le_bytes(),
         ];
         let mut at = 0;
         for field in fields {
@@ -100,6 +113,22 @@ impl<W: Write> PcapWriter<W> {
         header[12..16].copy_from_slice(&CAN_FRAME_LEN.to_le_bytes());
         body.copy_from_slice(&socketcan_record(frame));
         self.out.write_all(&record)
+    }
+
+    /// Appends one packet (an Ethernet frame in an Ethernet trace) seen `since_epoch` after
+    /// the Unix epoch; longer than the snap length, it is cut there.
+    pub fn write_packet_at(&mut self, since_epoch: Duration, packet: &[u8]) -> io::Result<()> {
+        let secs = u32::try_from(since_epoch.as_secs()).unwrap_or(u32::MAX);
+        let len = u32::try_from(packet.len()).unwrap_or(u32::MAX);
+        let caplen = len.min(SNAPLEN);
+        let mut header = [0u8; 16];
+        header[0..4].copy_from_slice(&secs.to_le_bytes());
+        header[4..8].copy_from_slice(&since_epoch.subsec_micros().to_le_bytes());
+        header[8..12].copy_from_slice(&caplen.to_le_bytes());
+        header[12..16].copy_from_slice(&len.to_le_bytes());
+        self.out.write_all(&header)?;
+        self.out
+            .write_all(packet.get(..caplen as usize).unwrap_or(packet))
     }
 
     pub fn flush(&mut self) -> io::Result<()> {

@@ -64,7 +64,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         file.bus.socketcan = Some(c.clone());
     }
     if let Some(ifname) = &args.ethercat {
-        return run_ethercat(&file, ifname).await;
+        return run_ethercat(&file, ifname, args.trace.as_deref()).await;
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
@@ -193,7 +193,11 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
 /// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
 /// network interface, alone (a CMMP-AS has one fieldbus plug-in: CAN or EtherCAT).
 #[cfg(target_os = "linux")]
-async fn run_ethercat(file: &CellFile, ifname: &str) -> Result<(), CommandError> {
+async fn run_ethercat(
+    file: &CellFile,
+    ifname: &str,
+    trace: Option<&std::path::Path>,
+) -> Result<(), CommandError> {
     use drivetwin::ethercat_cell::{self, EthercatCell};
     let cell =
         EthercatCell::from_cell_file(file).map_err(|e| CommandError::Usage(e.to_string()))?;
@@ -214,16 +218,75 @@ async fn run_ethercat(file: &CellFile, ifname: &str) -> Result<(), CommandError>
         }
     }
     out!("EtherCAT on {ifname}: {} slave(s)", cell.len());
+    let (tap, writer) = match trace {
+        Some(path) => {
+            let (tap, writer) = ethercat_trace(path)?;
+            out!("tracing to {}", path.display());
+            (Some(tap), Some(writer))
+        }
+        None => (None, None),
+    };
     out!("running; Ctrl-C stops");
-    ethercat_cell::run_realtime(cell, socket, shutdown_signal())
-        .await
-        .map_err(io(format!("EtherCAT on {ifname}")))?;
+    let result = ethercat_cell::run_realtime(cell, socket, tap, shutdown_signal()).await;
+    // The tap went with the runtime: the writer drains the queue and ends.
+    if let Some(w) = writer {
+        let _ = w.join();
+    }
+    result.map_err(io(format!("EtherCAT on {ifname}")))?;
     out!("stopped");
     Ok(())
 }
 
+/// The `--trace` writer of an EtherCAT run: a pcap of Ethernet frames (tshark decodes
+/// EtherCAT and CoE from it), written on its own thread so the frame loop never waits on the
+/// disk.
+#[cfg(target_os = "linux")]
+fn ethercat_trace(
+    path: &std::path::Path,
+) -> Result<
+    (
+        drivetwin::ethercat_cell::FrameTap,
+        std::thread::JoinHandle<()>,
+    ),
+    CommandError,
+> {
+    use drivetwin::pcap::PcapWriter;
+    if path.extension().is_some_and(|e| e == "log") {
+        return Err(CommandError::Usage(format!(
+            "--trace {}: an EtherCAT trace is a pcap file (candump .log is for CAN)",
+            path.display()
+        )));
+    }
+    let file = std::fs::File::create(path).map_err(io(path.display().to_string()))?;
+    let mut pcap = PcapWriter::ethernet(std::io::BufWriter::new(file))
+        .map_err(io(path.display().to_string()))?;
+    let (tap, rx) = std::sync::mpsc::sync_channel::<drivetwin::ethercat_cell::TracedFrame>(4096);
+    let writer = std::thread::spawn(move || {
+        while let Ok(first) = rx.recv() {
+            let mut next = Some(first);
+            while let Some(f) = next {
+                let t = f.at.duration_since(UNIX_EPOCH).unwrap_or_default();
+                if let Err(e) = pcap.write_packet_at(t, &f.frame) {
+                    tracing::error!(error = %e, "writing the trace failed");
+                    return;
+                }
+                next = rx.try_recv().ok();
+            }
+            if let Err(e) = pcap.flush() {
+                tracing::error!(error = %e, "writing the trace failed");
+                return;
+            }
+        }
+    });
+    Ok((tap, writer))
+}
+
 #[cfg(not(target_os = "linux"))]
-async fn run_ethercat(_file: &CellFile, ifname: &str) -> Result<(), CommandError> {
+async fn run_ethercat(
+    _file: &CellFile,
+    ifname: &str,
+    _trace: Option<&std::path::Path>,
+) -> Result<(), CommandError> {
     Err(CommandError::Usage(format!(
         "--ethercat {ifname}: raw Ethernet needs Linux"
     )))
