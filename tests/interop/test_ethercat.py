@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import struct
 import subprocess
 import time
 
@@ -171,6 +172,41 @@ def _wait_cycle(due: float) -> float:
     return time.monotonic()
 
 
+def _assign_csp_pdos(slave) -> None:
+    """RxPDO3 (controlword + target position, 1602h) and TxPDO3 (statusword + position
+    actual, 1A02h) assigned over CoE in Pre-Op, and CSP (6060h = 8, EtherCAT only)."""
+    for index, pdo in ((0x1C12, 0x1602), (0x1C13, 0x1A02)):
+        slave.sdo_write(index, 0, bytes([0]))
+        slave.sdo_write(index, 1, struct.pack("<H", pdo))
+        slave.sdo_write(index, 0, bytes([1]))
+    slave.sdo_write(0x6060, 0, bytes([8]))
+
+
+def _csp_cycle(master, slave):
+    """One process-data cycle of the CSP layout: (working counter, statusword, position)."""
+    def cycle(cw, target):
+        slave.output = struct.pack("<Hi", cw, target)
+        master.send_processdata()
+        wkc = master.receive_processdata(100_000)
+        sw, pos = struct.unpack("<Hi", bytes(slave.input))
+        return wkc, sw, pos
+    return cycle
+
+
+def _csp_to_op(master, slave, cycle, cycle_s) -> int:
+    """Requests Op while cycling (as SOEM's examples do); returns the actual position."""
+    master.state = pysoem.OP_STATE
+    _, _, pos = cycle(0, 0)
+    master.write_state()
+    for _ in range(200):
+        _, _, pos = cycle(0, pos)
+        if master.read_state() == pysoem.OP_STATE:
+            break
+        time.sleep(cycle_s)
+    assert slave.state == pysoem.OP_STATE, f"Op: {slave.state:#x} code {slave.al_status:#x}"
+    return pos
+
+
 def _state_ok(master, state, timeout_us=2_000_000) -> bool:
     return master.state_check(state, timeout_us) == state
 
@@ -256,40 +292,19 @@ def test_csp_session_follows_the_commanded_path(ecat_twin):
     (controlword + target position, 1602h) and reads TxPDO3 (statusword + position actual,
     1A02h); the simulated axis follows the ramp with a small lag and the working counter is
     right on every cycle."""
-    import struct
-
     master_if, _ = ecat_twin
     master = pysoem.Master()
     master.open(master_if)
     try:
         assert master.config_init() == 1
         slave = master.slaves[0]
-        # PDO assignment over CoE in Pre-Op, then CSP (6060h = 8, EtherCAT only).
-        for index, pdo in ((0x1C12, 0x1602), (0x1C13, 0x1A02)):
-            slave.sdo_write(index, 0, bytes([0]))
-            slave.sdo_write(index, 1, struct.pack("<H", pdo))
-            slave.sdo_write(index, 0, bytes([1]))
-        slave.sdo_write(0x6060, 0, bytes([8]))
+        _assign_csp_pdos(slave)
         assert master.config_map() == 12
         assert (len(slave.output), len(slave.input)) == (6, 6)
         assert _state_ok(master, pysoem.SAFEOP_STATE), f"Safe-Op: AL status code {slave.al_status:#x}"
 
-        def cycle(cw, target):
-            slave.output = struct.pack("<Hi", cw, target)
-            master.send_processdata()
-            wkc = master.receive_processdata(100_000)
-            sw, pos = struct.unpack("<Hi", bytes(slave.input))
-            return wkc, sw, pos
-
-        master.state = pysoem.OP_STATE
-        _, _, pos = cycle(0, 0)
-        master.write_state()
-        for _ in range(200):
-            _, _, pos = cycle(0, pos)
-            if master.read_state() == pysoem.OP_STATE:
-                break
-            time.sleep(CYCLE_S)
-        assert slave.state == pysoem.OP_STATE
+        cycle = _csp_cycle(master, slave)
+        pos = _csp_to_op(master, slave, cycle, CYCLE_S)
 
         bad_wkc = 0
         target = pos
@@ -346,16 +361,10 @@ def test_dc_sync0_drives_the_cycle_and_a_stopped_master_is_a_sync_error(ecat_twi
 
 
 def _dc_session(master):
-    import struct
-
     assert master.config_init() == 1
     slave = master.slaves[0]
     assert slave.sdo_read(0x60C2, 1)[0] == 10, "interpolator cycle 10 ms"
-    for index, pdo in ((0x1C12, 0x1602), (0x1C13, 0x1A02)):
-        slave.sdo_write(index, 0, bytes([0]))
-        slave.sdo_write(index, 1, struct.pack("<H", pdo))
-        slave.sdo_write(index, 0, bytes([1]))
-    slave.sdo_write(0x6060, 0, bytes([8]))
+    _assign_csp_pdos(slave)
     assert master.config_dc(), "the twin has distributed clocks"
     # SYNC0 at 1 ms against a 10 ms interpolator: SOEM's config_map requests Safe-Op,
     # which is refused.
@@ -375,23 +384,8 @@ def _dc_session(master):
     assert _state_ok(master, pysoem.SAFEOP_STATE), f"Safe-Op: AL status code {slave.al_status:#x}"
 
     cycle_s = DC_CYCLE_NS / 1e9
-
-    def cycle(cw, target):
-        slave.output = struct.pack("<Hi", cw, target)
-        master.send_processdata()
-        wkc = master.receive_processdata(100_000)
-        sw, pos = struct.unpack("<Hi", bytes(slave.input))
-        return wkc, sw, pos
-
-    master.state = pysoem.OP_STATE
-    _, _, pos = cycle(0, 0)
-    master.write_state()
-    for _ in range(100):
-        _, _, pos = cycle(0, pos)
-        if master.read_state() == pysoem.OP_STATE:
-            break
-        time.sleep(cycle_s)
-    assert slave.state == pysoem.OP_STATE, f"Op: {slave.state:#x} code {slave.al_status:#x}"
+    cycle = _csp_cycle(master, slave)
+    pos = _csp_to_op(master, slave, cycle, cycle_s)
 
     # In Op the PDO assignment is locked.
     with pytest.raises(pysoem.SdoError) as err:
