@@ -42,6 +42,9 @@ pub enum NodeEvent {
     LifeGuardingResumed,
     /// LSS "store configuration": persist this node-ID for the next power-on (CiA 305).
     LssStore { node_id: u8 },
+    /// A SYNC was consumed (after the synchronous RPDOs were applied): the time base of
+    /// interpolated position mode.
+    Sync,
 }
 
 /// Events the runtime has not taken yet; the oldest are dropped when it never looks.
@@ -363,6 +366,7 @@ impl<const N: usize> Node<N> {
         }
         self.emcy.clear(od, emcy_code::SYNC_LENGTH);
         self.pdos.on_sync(now, od, out);
+        self.push(NodeEvent::Sync);
     }
 
     fn on_guarding(

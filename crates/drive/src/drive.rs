@@ -11,6 +11,7 @@ use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::device_control::{DeviceControl, Reaction, State};
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
+use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
 use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
@@ -35,6 +36,10 @@ pub mod diag {
     pub const FOLLOWING_ERROR: u16 = 0x8611;
     /// 31-0 I²t motor (with 6510h:38 = 1).
     pub const I2T_MOTOR: u16 = 0x2312;
+    /// 34-0 no fieldbus synchronisation: IP mode activated off the SYNC grid.
+    pub const NO_FIELDBUS_SYNC: u16 = 0x8780;
+    /// 34-1 fieldbus synchronisation error: the SYNC grid lost while interpolating.
+    pub const FIELDBUS_SYNC_ERROR: u16 = 0x8781;
 }
 
 /// Settings of the simulation that no object holds.
@@ -166,6 +171,8 @@ pub struct Drive<S> {
     demand: Demand,
     /// When the CSP set-point last changed.
     csp_changed_at: Option<Instant>,
+    /// Interpolated position mode and its SYNC grid.
+    ip: Interpolator,
     /// Quick stop, disable operation or fault reaction ramp in progress.
     stopping: bool,
     halted: bool,
@@ -266,6 +273,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::default(),
             demand: Demand::Off,
             csp_changed_at: None,
+            ip: Interpolator::new(DEFAULT_IP_PERIOD),
             stopping: false,
             halted: false,
             velocity_set: 0.0,
@@ -290,6 +298,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             params_dirty: false,
         };
         d.reload_factor_group();
+        d.ip.reset(interpolation_period(&d.od));
         d.axis.hold_brake(d.settings.brake_fitted);
         d.mode = d
             .read(d.hot.mode_display)
@@ -313,6 +322,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub fn od_mut(&mut self) -> &mut ObjectDictionary<S> {
         &mut self.od
     }
+    /// A SYNC at `now` (a CANopen SYNC, an EtherCAT SYNC0 event, or in EtherCAT free run the
+    /// frame): the time base of interpolated position mode. Step the drive to `now` first.
+    pub fn sync(&mut self, now: Instant) {
+        let change = self.ip.sync(now);
+        self.ip_sync_change(change);
+    }
+
+    /// Interpolated position: synchronised to the SYNC grid (6061h may show 7).
+    pub fn ip_synchronised(&self) -> bool {
+        self.ip.is_synchronised()
+    }
+
+    fn ip_sync_change(&mut self, change: SyncChange) {
+        if let SyncChange::Lost { while_active: true } = change {
+            // CMMP-AS 34-1: the SYNC grid was lost while interpolating.
+            self.raise(diag::FIELDBUS_SYNC_ERROR, 0x11, false);
+        }
+    }
+
     /// The error codes raised and not yet acknowledged, oldest first.
     pub fn errors(&self) -> &[u16] {
         &self.faults
@@ -343,6 +371,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub fn reload(&mut self) {
         publish_supply(&mut self.od);
         self.reload_factor_group();
+        // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
+        self.ip.reset(interpolation_period(&self.od));
         self.params_dirty = true;
         let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
     }
@@ -594,6 +624,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     fn motion(&mut self, cw: u16, dt: f64) {
         let state = self.dc.state();
+        let change = self.ip.check(self.now);
+        self.ip_sync_change(change);
+        if self.ip.is_active()
+            && (state != State::OperationEnabled || self.mode != mode::INTERPOLATED_POSITION)
+        {
+            // CMMP-AS §7.4.3: an error ends interpolation; it needs a new synchronisation.
+            self.ip.interrupt();
+        }
         if !state.power_enabled() {
             if self.power_off_at.is_none() {
                 self.demand = Demand::Off;
@@ -634,6 +672,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
+            mode::INTERPOLATED_POSITION => self.interpolated_position(cw, dt),
             _ => {
                 let decel = self.accel(0x6084);
                 self.traj.step_stop(decel, dt);
@@ -845,6 +884,35 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = false;
     }
 
+    /// Interpolated position (CMMP-AS §7.4): with enable_ip_mode (bit 4) on the SYNC grid
+    /// the drive takes one set-point of 60C1h:01 per SYNC and moves linearly between them;
+    /// without, it holds.
+    fn interpolated_position(&mut self, cw: u16, dt: f64) {
+        let enable = cw & 0x0010 != 0;
+        if enable && !self.ip.is_active() {
+            if self.ip.is_synchronised() {
+                self.ip.activate(self.traj.position, self.now);
+            } else if self.cw_rising & 0x0010 != 0 {
+                // CMMP-AS 34-0: activation without synchronisation.
+                self.raise(diag::NO_FIELDBUS_SYNC, 0x11, false);
+                return;
+            }
+        } else if !enable && self.ip.is_active() {
+            self.ip.deactivate();
+        }
+        if self.ip.is_engaged() {
+            let (position, velocity) = self.ip.demand(self.now);
+            self.traj.position = position;
+            self.traj.velocity = velocity;
+            self.position_demand(velocity);
+        } else {
+            let decel = self.accel(0x6084);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+        }
+        self.target_reached = false;
+    }
+
     fn accel2(&self, index: u16, sub: u8) -> f64 {
         let user = self.value(index, sub).clamp(0, u32::MAX as i64) as u32;
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
@@ -984,6 +1052,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }) | (if self.following_error { 0x2000 } else { 0 })
             }
             mode::PROFILE_VELOCITY if self.speed_zero => 0x1000,
+            // Bit 12 ip_mode_active, bit 13 following error (CMMP-AS §7.4).
+            mode::INTERPOLATED_POSITION => {
+                (if self.ip.is_active() { 0x1000 } else { 0 })
+                    | (if self.following_error { 0x2000 } else { 0 })
+            }
+            // CiA 402 CSP: bit 12 "drive follows the command value", bit 13 following error.
+            mode::CYCLIC_SYNCHRONOUS_POSITION => {
+                (if in_oe { 0x1000 } else { 0 }) | (if self.following_error { 0x2000 } else { 0 })
+            }
             mode::HOMING => {
                 (if self.homing_attained { 0x1000 } else { 0 })
                     | (if self.homing_error { 0x2000 } else { 0 })
@@ -1007,7 +1084,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             sw |= 0x8000;
         }
         self.store(self.hot.statusword, i64::from(sw));
-        let display = if self.mode_pending.is_some() {
+        // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
+        let display = if self.mode_pending.is_some()
+            || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())
+        {
             mode::CHANGING
         } else {
             self.mode
@@ -1062,6 +1142,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
 /// The supply of the twin is ideal: the DC link sits at its nominal voltage (6510h:33 into
 /// 6510h:34 and 6079h).
+/// 60C2h as the interpolation period; the default 1 ms for a value outside the ranges.
+fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> Duration {
+    let units = od.get_unsigned(0x60C2, 1).unwrap_or(1);
+    let index = match od.value(0x60C2, 2) {
+        Some(Value::Signed(v)) => v,
+        _ => -3,
+    };
+    match (u8::try_from(units), i8::try_from(index)) {
+        (Ok(u), Ok(i)) => period_from_60c2(u, i).unwrap_or(DEFAULT_IP_PERIOD),
+        _ => DEFAULT_IP_PERIOD,
+    }
+}
+
+/// The interpolation period of the default 60C2h (1 × 10⁻³ s).
+const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
+
 fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>) {
     let nominal = od.get_unsigned(0x6510, 0x33).unwrap_or(325_000);
     let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
@@ -1206,6 +1302,33 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 if before != self.value(index, sub) {
                     self.clear_target_reached();
                 }
+                Ok(())
+            }
+            (0x60C4, 6) => {
+                // buffer_clear: 1 unlocks 60C1h, 0 clears the buffer and locks it (§7.4.2).
+                self.od.write(index, sub, data)?;
+                self.ip.set_unlocked(data.first() == Some(&1));
+                Ok(())
+            }
+            (0x60C1, 1) => {
+                // Decision: 60C1h written while locked (60C4h:06 = 0) is refused with the
+                // device-state abort; the manual says only "access is not allowed".
+                self.od.entry(index, sub)?;
+                if !self.ip.is_unlocked() {
+                    return Err(AbortCode::DEVICE_STATE);
+                }
+                self.od.write(index, sub, data)?;
+                let user = self
+                    .value(0x60C1, 1)
+                    .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                let increments = self.fg.position_to_internal(user) as f64;
+                // 60C1h:02 = 1: a relative distance from the last set-point.
+                let target = if self.value(0x60C1, 2) == 1 {
+                    self.ip.last_set_point() + increments
+                } else {
+                    increments
+                };
+                self.ip.set_point(target);
                 Ok(())
             }
             (0x2030, 0) => {

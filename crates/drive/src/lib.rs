@@ -10,6 +10,7 @@ pub mod device_control;
 pub mod drive;
 pub mod factor_group;
 pub mod fhpp;
+pub mod interpolated_position;
 pub mod motor;
 pub mod profile_position;
 pub mod smoothing;

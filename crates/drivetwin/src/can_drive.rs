@@ -233,6 +233,13 @@ impl CanDrive {
                 NodeEvent::LifeGuardingResumed => {
                     tracing::info!(node = self.node_id(), "life guarding resumed")
                 }
+                NodeEvent::Sync => {
+                    // The time base of interpolated position mode (CMMP-AS §7.4).
+                    if let Some(drive) = self.model.drive_mut() {
+                        drive.step(now);
+                        drive.sync(now);
+                    }
+                }
             }
         }
     }

@@ -65,7 +65,7 @@ const TX_ASSIGN: u16 = 0x1C13;
 /// Emergency code of a lost synchronisation. CMMP-AS B.3 63-4 "EtherCAT: no SYNC in IPO
 /// cycle" has no CiA code in Tab. B.2; decision: send 8781h, the manual's code for
 /// "fieldbus synchronisation error" (34-1), the one it gives for a lost SYNC.
-pub const SYNC_LOST_EMCY: u16 = 0x8781;
+pub const SYNC_LOST_EMCY: u16 = drive::drive::diag::FIELDBUS_SYNC_ERROR;
 /// Error register with it: generic + communication error (CiA 301 1001h bits 0 and 4).
 const SYNC_LOST_REGISTER: u8 = 0x11;
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
@@ -294,6 +294,8 @@ impl SlaveDevice {
             } else {
                 self.apply_outputs(out);
                 self.outputs_applied += 1;
+                // Free run: the frame is the time base (CMMP-AS §2.11 "without DC").
+                self.sync_drive(now);
             }
         }
         if !dc {
@@ -343,6 +345,7 @@ impl SlaveDevice {
                 self.pending = pending;
                 self.outputs_applied += 1;
             }
+            self.sync_drive(at);
             if outcome.lost && state == AlState::Op {
                 self.sync_lost(esc);
             }
@@ -354,6 +357,14 @@ impl SlaveDevice {
         self.next_sync0 = self
             .next_sync0_sys
             .map(|t| Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now))));
+    }
+
+    /// A SYNC for the drive (interpolated position mode's time base).
+    fn sync_drive(&mut self, at: Instant) {
+        if let Some(drive) = self.model.drive_mut() {
+            drive.sync(at);
+        }
+        self.forward_events();
     }
 
     /// The master's cycles stopped or left the SYNC0 grid.
