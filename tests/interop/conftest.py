@@ -8,6 +8,7 @@ SIGTERM, checking that it stopped cleanly.
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -69,13 +70,15 @@ class Twin:
     """One running `drivetwin run` process with a socketcand server on 127.0.0.1:port."""
 
     def __init__(self, state_dir: Path, log_dir: Path, device: str = "cmmp-as", node: int = 1,
-                 config: Path | None = None, trace: Path | None = None, extra: tuple[str, ...] = ()):
+                 config: Path | None = None, trace: Path | None = None, extra: tuple[str, ...] = (),
+                 prefix: tuple[str, ...] | list[str] = ()):
         self.state_dir = Path(state_dir)
         self.device = device
         self.node = node
         self.config = config
         self.trace = trace
         self.extra = tuple(extra)
+        self.prefix = tuple(prefix)  # e.g. realtime_prefix()
         self.log_dir = Path(log_dir)
         self.port: int | None = None
         self.proc: subprocess.Popen | None = None
@@ -89,7 +92,7 @@ class Twin:
         return f"{HOST}:{self.port}"
 
     def _args(self) -> list[str]:
-        args = [str(DRIVETWIN_BIN), "run", "--socketcand", self.addr, "--channel", CHANNEL,
+        args = [*self.prefix, str(DRIVETWIN_BIN), "run", "--socketcand", self.addr, "--channel", CHANNEL,
                 "--state-dir", str(self.state_dir)]
         if self.config is not None:
             args += ["--config", str(self.config)]
@@ -461,3 +464,32 @@ class RawClient:
             self.sock.close()
         except OSError:
             pass
+
+
+class Realtime:
+    """The test process at SCHED_FIFO 20 while a cyclic master runs, as a real-time master
+    would be (threads started meanwhile inherit it); restored afterwards. A no-op where
+    real-time scheduling is not allowed."""
+
+    def __enter__(self):
+        self.old = None
+        try:
+            self.old = (os.sched_getscheduler(0), os.sched_getparam(0))
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(20))
+        except (AttributeError, PermissionError, OSError):
+            self.old = None
+        return self
+
+    def __exit__(self, *exc):
+        if self.old is not None:
+            os.sched_setscheduler(0, self.old[0], self.old[1])
+
+
+def realtime_prefix() -> list[str]:
+    """`chrt -f 20` where real-time scheduling is allowed: a twin that must keep a SYNC grid,
+    as the real drive's firmware does, even on a loaded machine."""
+    chrt = shutil.which("chrt")
+    if chrt and subprocess.run([chrt, "-f", "20", "true"], capture_output=True).returncode == 0:
+        return [chrt, "-f", "20"]
+    return []
+

@@ -25,7 +25,7 @@ import time
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, STOP_TIMEOUT
+from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, Realtime, realtime_prefix
 
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
@@ -75,37 +75,11 @@ def veth():
         _ip("netns", "del", ns)
 
 
-def _realtime_prefix() -> list[str]:
-    """`chrt -f 20` where real-time scheduling is allowed: a DC slave must keep its SYNC0
-    grid, as the real drive's firmware does, even on a loaded machine."""
-    chrt = shutil.which("chrt")
-    if chrt and subprocess.run([chrt, "-f", "20", "true"], capture_output=True).returncode == 0:
-        return [chrt, "-f", "20"]
-    return []
-
-
-class _RealtimeMaster:
-    """The test process at SCHED_FIFO 20 while a DC master runs (restored afterwards)."""
-
-    def __enter__(self):
-        self.old = None
-        try:
-            self.old = (os.sched_getscheduler(0), os.sched_getparam(0))
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(20))
-        except (AttributeError, PermissionError, OSError):
-            self.old = None
-        return self
-
-    def __exit__(self, *exc):
-        if self.old is not None:
-            os.sched_setscheduler(0, self.old[0], self.old[1])
-
-
 def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
     """Runs `drivetwin run --ethercat` in the namespace; yields (master interface, banner)."""
     ns, twin_if, master_if = veth
     log = (tmp_path / "drivetwin-ecat.log").open("w")
-    prefix = _realtime_prefix() if realtime else []
+    prefix = realtime_prefix() if realtime else []
     proc = subprocess.Popen([*prefix, "ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if,
                              *extra],
                             stdout=subprocess.PIPE, stderr=log, text=True)
@@ -354,7 +328,7 @@ def test_dc_sync0_drives_the_cycle_and_a_stopped_master_is_a_sync_error(ecat_twi
     master = pysoem.Master()
     master.open(master_if)
     try:
-        with _RealtimeMaster():
+        with Realtime():
             _dc_session(master)
     finally:
         master.close()

@@ -324,3 +324,31 @@ fn activation_off_the_grid_is_error_34_0_and_60c1_is_locked_by_buffer_clear() {
         "EMCY 8780h (34-0): {emcy:?}"
     );
 }
+
+#[test]
+fn sdo_traffic_between_syncs_keeps_the_grid() {
+    // A master that polls 6061h every 2 ms beside a 10 ms SYNC: the drive synchronises.
+    let dir = tmpdir("poll");
+    let mut b = Bench::new(&dir);
+    ok(b.write(0x60C2, 1, &[10]), 0x60C2, 1);
+    b.sdo(&[0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e']);
+    b.frame(0x000, &[0x81, 0x01]);
+    b.run_ms(10);
+    ok(b.write(0x60C4, 6, &[1]), 0x60C4, 6);
+    b.frame(0x000, &[0x01, 0x01]);
+    ok(b.write(0x6060, 0, &[7]), 0x6060, 0);
+    let mut seen = Vec::new();
+    for _ in 0..30 {
+        b.sync();
+        for _ in 0..5 {
+            b.run_ms(2);
+            seen.push(b.read(0x6061, 0));
+        }
+    }
+    let first = seen.iter().position(|m| *m == 7).expect("synchronised");
+    assert!(first <= 15, "after three SYNCs: {seen:?}");
+    assert!(
+        seen[first..].iter().all(|m| *m == 7),
+        "and stays so: {seen:?}"
+    );
+}
