@@ -1,7 +1,8 @@
 //! The Enhanced Festo Parameter Channel (EFPC), CMMO-ST manual App. C: the 8 bytes that follow
 //! the FHPP Standard telegram (I/O bytes 9…16) when the profile is "FHPP Standard + FPC".
 //!
-//! This module is the wire codec of both directions, for the drive and for a master:
+//! This module is the wire codec of both directions, for the drive and for a master (the
+//! drive's state machine is [`server`]):
 //! - [`Request`] (PLC → drive, FPCC first): [`Request::decode`] on the drive,
 //!   [`Request::encode`] on a master;
 //! - [`Response`] (drive → PLC, FPCS first): [`Response::encode`] on the drive,
@@ -26,6 +27,10 @@
 //! size below 64 KiB), and an error packet's code is byte 3.
 
 use core::fmt;
+
+pub mod server;
+
+pub use server::{execute, Context, ParameterChannel};
 
 /// Bits 7…4 of FPCC/FPCS: parameter mode, transfer of one PNU (Tab. C.3).
 pub const MODE_PARAMETER: u8 = 0x1;
