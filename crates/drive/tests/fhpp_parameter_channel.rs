@@ -693,3 +693,112 @@ fn a_data_packet_without_a_transfer_is_type_1_error_11h() {
     assert_eq!(r, [0x47, 0x01, 0x11, 0, 0, 0, 0, 0]);
     assert_eq!(b.scon() & SCON_FAULT, 0);
 }
+
+// ---- codec -------------------------------------------------------------------------------
+
+#[test]
+fn codec_round_trips_both_directions() {
+    let requests = [
+        Request::NoTask { mode: 1 },
+        Request::NoTask { mode: 4 },
+        Request::NoTask { mode: 0 },
+        Request::Parameter(ParameterRequest::Read {
+            pnu: 1041,
+            subindex: 1,
+        }),
+        Request::Parameter(ParameterRequest::Write {
+            pnu: 0xFFFF,
+            subindex: 255,
+            value: 0x8000_0001,
+        }),
+        Request::File {
+            direction: FileDirection::Upload,
+            packet: Packet::empty(PacketKind::Start, 0),
+        },
+        Request::File {
+            direction: FileDirection::Download,
+            packet: Packet::data(31, [1, 2, 3, 4, 5, 6]),
+        },
+        Request::File {
+            direction: FileDirection::Download,
+            packet: Packet::error(9, 0),
+        },
+    ];
+    for r in requests {
+        assert_eq!(Request::decode(&r.encode()), Ok(r), "{r:?}");
+    }
+    let mut responses = vec![
+        Response::NoResponse { mode: 1 },
+        Response::Parameter(ParameterResponse::Value {
+            pnu: 404,
+            subindex: 64,
+            value: 0xFFFF_FFFF,
+        }),
+        Response::File(FileResponse::Active(Packet::start(7577))),
+        Response::File(FileResponse::Active(Packet::error(3, 0x09))),
+        Response::File(FileResponse::Rejected {
+            packet_id: 0x21,
+            code: ErrorCode::RequestNotSupported,
+        }),
+        Response::Unsupported {
+            mode: 0xF,
+            code: ErrorCode::RequestNotSupported,
+        },
+    ];
+    for code in ErrorCode::ALL {
+        responses.push(Response::Parameter(ParameterResponse::Error {
+            pnu: 1,
+            subindex: 1,
+            code,
+        }));
+    }
+    for r in responses {
+        assert_eq!(Response::decode(&r.encode()), Ok(r), "{r:?}");
+    }
+    // Byte layout: PNU and PWE big-endian, file user data little-endian.
+    assert_eq!(
+        Request::Parameter(ParameterRequest::Write {
+            pnu: 0x0102,
+            subindex: 3,
+            value: 0x0405_0607
+        })
+        .encode(),
+        [0x18, 3, 1, 2, 4, 5, 6, 7]
+    );
+    assert_eq!(
+        Response::File(FileResponse::Active(Packet::start(0x0102_0304))).encode(),
+        [0x43, 0x20, 4, 3, 2, 1, 0, 0]
+    );
+}
+
+#[test]
+fn codec_refuses_reserved_values() {
+    use drive::fhpp::parameter_channel::DecodeError;
+    assert_eq!(
+        Request::decode(&[0x26, 0, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::ReservedMode { mode: 2, id: 6 })
+    );
+    assert_eq!(
+        Request::decode(&[0x14, 0, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::UnsupportedId { mode: 1, id: 4 })
+    );
+    assert_eq!(
+        Request::decode(&[0x44, 0x80, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::ReservedPacketId(0x80))
+    );
+    assert_eq!(
+        Response::decode(&[0x17, 1, 0, 1, 0, 0, 0, 0x42]),
+        Err(DecodeError::UnknownErrorCode(0x42))
+    );
+    assert_eq!(
+        ParameterResponse::decode(&[0x43, 0x20, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::NotParameterResponse(0x43))
+    );
+    // Tab. C.12: only 01h and 03h let a transfer continue.
+    let continuing: Vec<u8> = FileError::ALL
+        .iter()
+        .filter(|e| !e.aborts())
+        .map(|e| e.code())
+        .collect();
+    assert_eq!(continuing, [0x01, 0x03]);
+}
