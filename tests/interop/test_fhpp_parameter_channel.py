@@ -89,7 +89,8 @@ def signed(v: int) -> int:
 def test_read_and_write_pnus_through_fc_0x17(cmmo):
     c = cmmo().client()
     try:
-        # fhpp §8.2 c: read PNU 1041:1 (actual position) -> 15 01 04 11 <int32 BE>.
+        # FHPP-MB-04 / FHPP-FPC-01 (fhpp §8.2 c): read PNU 1041:1 (actual position) over
+        # FC 0x17 with 8 registers -> 15 01 04 11 <int32 BE>.
         r = job(c, bytes.fromhex("1601041100000000"))
         assert r[:4] == bytes.fromhex("15010411"), r.hex()
         # uint16 array, read-only: firmware version 1.5.2.0 (PNU 101:1-4).
@@ -116,6 +117,10 @@ def test_error_responses(cmmo):
     c = cmmo().client()
     try:
         assert read(c, 99, 1) == ("error", ILLEGAL_PNU)
+        r = job(c, bytes.fromhex("160103E700000000"))  # FHPP-FPC-04
+        assert r == bytes.fromhex("170103E700000000"), r.hex()
+        r = job(c, bytes.fromhex("1602041100000000"))  # FHPP-FPC-05
+        assert r == bytes.fromhex("1702041100000003"), r.hex()
         assert write(c, 100, 1, 0) == ("error", CANNOT_CHANGE)  # read-only
         assert write(c, 127, 2, 2) == ("error", LIMIT)  # PNU 127:2 takes only 1
         assert write(c, 418, 1, 1001) == ("error", LIMIT)  # int16 0...1000
@@ -144,6 +149,7 @@ def test_error_responses(cmmo):
 
 
 def test_a_new_job_needs_the_zero_request(cmmo):
+    """FHPP-FPC-02."""
     c = cmmo().client()
     try:
         first = job(c, write_req(121, 1, 0x31))
@@ -164,7 +170,7 @@ def test_writes_are_volatile_until_pnu_127_2(cmmo):
     c = cmmo().client()
     try:
         assert write(c, 121, 1, ord("S")) == ("ok", ord("S"))
-        # fhpp §8.2 d: save with `18 02 00 7F 00 00 00 01` -> FPCS 15h.
+        # FHPP-FPC-03 (fhpp §8.2 d): save with `18 02 00 7F 00 00 00 01` -> FPCS 15h.
         assert job(c, bytes.fromhex("1802007F00000001"))[0] == 0x15
         assert write(c, 121, 1, ord("X")) == ("ok", ord("X"))
         # PNU 127:4 = 10h loads the saved values.
@@ -246,6 +252,7 @@ def test_parameter_file_upload_and_download(cmmo):
 
 
 def test_a_type_2_error_aborts_and_shows_e27(cmmo):
+    """FHPP-FPC-15: an aborting error shows E27 (diagnostic 27h, also in FC 0x07)."""
     c = cmmo().client()
     try:
         poll(c, NO_TASK_FILE, lambda r: r[0] == 0x40)
