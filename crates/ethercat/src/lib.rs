@@ -7,7 +7,8 @@
 //! * ESC: [`register`] (address map, write masks, reset values), [`fmmu`],
 //!   [`sync_manager`], [`eeprom`] (SII interface 0x0500), [`al_control`] and
 //!   [`al_status_code`] (application-layer state machine), [`esc`] (the controller);
-//! * [`sii`]: the SII EEPROM image.
+//! * [`sii`]: the SII EEPROM image;
+//! * [`master`]: the master side (addressing, SII reads, AL requests, SDO client messages).
 //!
 //! No allocation, no `unsafe`, and no panics on anything that comes from the wire: every
 //! access to frame bytes and ESC memory is bounds-checked and treats a short buffer as an
@@ -24,6 +25,7 @@ pub mod esc;
 pub mod fmmu;
 pub mod frame;
 pub mod mailbox;
+pub mod master;
 pub mod register;
 pub mod sii;
 pub mod sync_manager;
