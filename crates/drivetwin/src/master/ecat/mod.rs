@@ -98,16 +98,20 @@ fn state_text(s: Option<AlState>) -> &'static str {
     s.map_or("an invalid state", m::state_name)
 }
 
-/// An abort code with its text: CiA 301's, or ETG.1000.6's CoE-only codes (spec §6.5).
-pub fn abort_text(code: AbortCode) -> String {
-    let coe = match code {
+/// The text of an abort code: CiA 301's, or ETG.1000.6's CoE-only codes (spec §6.5).
+pub fn abort_description(code: AbortCode) -> Option<&'static str> {
+    match code {
         ethercat::coe::CA_NOT_SUPPORTED => Some("Complete access not supported"),
         ethercat::coe::LENGTH_EXCEEDS_MAILBOX => Some("Object length exceeds mailbox size"),
-        _ => None,
-    };
-    match coe {
+        _ => code.description(),
+    }
+}
+
+/// An abort code with its text, `0x06020000 (Object does not exist …)`.
+pub fn abort_text(code: AbortCode) -> String {
+    match abort_description(code) {
         Some(t) => format!("0x{:08X} ({t})", code.0),
-        None => code.to_string(),
+        None => format!("0x{:08X} (unknown abort code)", code.0),
     }
 }
 
