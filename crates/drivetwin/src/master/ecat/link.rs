@@ -58,12 +58,13 @@ impl FrameLink for SocketLink {
                 Err(_elapsed) => return Ok(false),
                 Ok(r) => r?,
             };
-            // A slave returns exactly the bytes it got (spec §1.1); anything else, or a late
-            // reply to an earlier attempt with another index, is not ours.
-            let Some(reply) = self.rx.get(..n) else {
+            // A slave returns the bytes it got (spec §1.1); a real NIC pads a short frame to
+            // 60 bytes on the way, so the reply may be longer. A shorter one, or a late reply
+            // to an earlier request with another index, is not ours.
+            let Some(reply) = self.rx.get(..n).and_then(|r| r.get(..frame.len())) else {
                 continue;
             };
-            if n == frame.len() && reply_datagram(reply, index).is_some() {
+            if reply_datagram(reply, index).is_some() {
                 frame.copy_from_slice(reply);
                 return Ok(true);
             }

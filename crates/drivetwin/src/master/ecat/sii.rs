@@ -63,10 +63,19 @@ impl<L: FrameLink> EcatMaster<L> {
     }
 
     /// The SII image from word 0 up to its END category (at most 4 KiB). The EEPROM is
-    /// taken for the master first (0x0500 = 2, then 0; spec §2.8 steps 16–17).
+    /// taken for the master first (0x0500 = 2, then 0; spec §2.8 steps 16–17) and offered
+    /// back to the PDI afterwards if it was before (0x0500 bit 0, as SOEM leaves it).
     pub async fn read_sii(&mut self, slave: u16) -> Result<Vec<u8>, EcatError> {
-        self.write(slave, R::SiiConfig.addr(), &[0x02]).await?;
-        self.write(slave, R::SiiConfig.addr(), &[0x00]).await?;
+        let config = R::SiiConfig.addr();
+        let to_pdi = self
+            .read(slave, config, 1)
+            .await?
+            .first()
+            .copied()
+            .unwrap_or(0)
+            & 0x01;
+        self.write(slave, config, &[0x02]).await?;
+        self.write(slave, config, &[0x00]).await?;
         let mut image = Vec::new();
         while !sii_image::is_complete(&image) {
             let word = u16::try_from(image.len() / 2).unwrap_or(u16::MAX);
@@ -75,6 +84,9 @@ impl<L: FrameLink> EcatMaster<L> {
                 break;
             }
             image.extend_from_slice(&chunk);
+        }
+        if to_pdi != 0 {
+            self.write(slave, config, &[to_pdi]).await?;
         }
         Ok(image)
     }

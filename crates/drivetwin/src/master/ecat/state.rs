@@ -19,6 +19,8 @@ use super::{EcatError, EcatMaster, FrameLink};
 /// PDO assignment objects of SM2 (outputs) and SM3 (inputs), ETG.1000.6.
 const RX_ASSIGN: u16 = 0x1C12;
 const TX_ASSIGN: u16 = 0x1C13;
+/// How long an error status identical to the one before a request is taken for stale.
+const STALE_ERROR: Duration = Duration::from_millis(100);
 
 /// What a state request did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,7 +63,8 @@ impl<L: FrameLink> EcatMaster<L> {
             &m::al_request(target).to_le_bytes(),
         )
         .await?;
-        let deadline = tokio::time::Instant::now() + timeout;
+        let start = tokio::time::Instant::now();
+        let deadline = start + timeout;
         loop {
             let now = self.al_status(slave).await?;
             if now.state() == Some(target) && !now.error() {
@@ -71,7 +74,11 @@ impl<L: FrameLink> EcatMaster<L> {
                     to: now,
                 });
             }
-            if now.error() {
+            // The status from before the request may still show for a moment on a slave
+            // whose firmware runs the state machine: an unchanged error counts only when
+            // it persists (the twin answers within the same datagram).
+            let stale = now == before && start.elapsed() < STALE_ERROR;
+            if now.error() && !stale {
                 return Err(EcatError::Refused {
                     slave,
                     from,

@@ -113,6 +113,10 @@ async fn scan_reads_identity_and_name_from_the_sii() {
         assert_eq!(info.al.state(), Some(AlState::Init));
         assert!(!info.al.error());
     }
+    // An EEPROM offered to the PDI (as SOEM leaves it) is offered back after a read.
+    m.write(1, 0x0500, &[0x01]).await.expect("to PDI");
+    m.read_sii(1).await.expect("SII");
+    assert_eq!(m.read(1, 0x0500, 1).await.expect("0x0500"), [0x01]);
     // A slave that is not there.
     assert!(matches!(
         m.read(3, 0x0130, 2).await,
@@ -137,6 +141,11 @@ async fn state_ladder_and_refusals() {
     }
     let st = m.al_status(1).await.expect("status");
     assert!(st.error());
+    // Asked again, the same refusal: the unchanged error status is not taken for the old one.
+    assert!(matches!(
+        m.request_state(1, AlState::Op, T, T).await,
+        Err(EcatError::Refused { code, .. }) if code == AlStatusCode::INVALID_REQUESTED_STATE_CHANGE
+    ));
     // The next request acknowledges the error.
     for target in [AlState::PreOp, AlState::SafeOp, AlState::Op] {
         let c = m.request_state(1, target, T, T).await.expect("step up");
