@@ -97,6 +97,9 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
+    /// A minimal EtherCAT master to check a chain: scan, AL states, CoE SDO.
+    #[command(subcommand)]
+    Ecat(EcatCommand),
     /// Print every frame on the bus, decoded.
     Monitor {
         /// Stop after this many frames.
@@ -326,4 +329,102 @@ pub enum NmtArg {
     PreOperational,
     ResetNode,
     ResetCommunication,
+}
+
+/// Where the EtherCAT chain is and how to print.
+#[derive(Args, Debug, Clone)]
+pub struct EcatLinkArgs {
+    /// Network interface the chain hangs on (raw Ethernet; needs CAP_NET_RAW).
+    #[arg(long, short = 'i')]
+    pub interface: String,
+    /// How long to wait for one frame to come back, ms (sent 3 times in all).
+    #[arg(long, default_value_t = 50)]
+    pub frame_timeout_ms: u64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum EcatCommand {
+    /// Count the slaves, give them station addresses (0x1000 + n) and print their SII
+    /// identity, name and AL state.
+    Scan {
+        #[command(flatten)]
+        link: EcatLinkArgs,
+    },
+    /// Print the AL state of the slaves, or request STATE (one AL control write, as SOEM's
+    /// write_state: Init -> Op is refused, not walked) and wait for it.
+    State {
+        #[arg(value_enum)]
+        state: Option<EcatStateArg>,
+        /// Slave number (1 = first on the line); default: every slave, in line order.
+        #[arg(long)]
+        slave: Option<u16>,
+        /// How long to wait for the requested state, ms.
+        #[arg(long, default_value_t = 5000)]
+        timeout_ms: u64,
+        /// SDO timeout while reading the PDO assignment for Safe-Op, ms.
+        #[arg(long, default_value_t = 1000)]
+        sdo_timeout_ms: u64,
+        #[command(flatten)]
+        link: EcatLinkArgs,
+    },
+    /// CoE SDO read or write through a slave's mailbox (a slave in Init is put in Pre-Op).
+    #[command(subcommand)]
+    Sdo(EcatSdoCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum EcatSdoCommand {
+    /// Read (upload) an entry: `drivetwin ecat sdo read -i eth1 --slave 1 0x1018:1`.
+    Read {
+        /// INDEX:SUB, hex (0x1018:01, 1018:1; INDEX alone means sub-index 0).
+        object: String,
+        /// Slave number (1 = first on the line).
+        #[arg(long, default_value_t = 1)]
+        slave: u16,
+        /// Type to decode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+        /// Take the type from this personality's dictionary.
+        #[arg(long)]
+        device: Option<String>,
+        /// SDO response timeout, ms.
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        link: EcatLinkArgs,
+    },
+    /// Write (download) an entry: `drivetwin ecat sdo write -i eth1 0x6065:0 12345 --type u32`.
+    Write {
+        /// INDEX:SUB, hex.
+        object: String,
+        /// The value: a number (decimal or 0x hex), text for `str`, hex bytes for `hex`.
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+        /// Slave number (1 = first on the line).
+        #[arg(long, default_value_t = 1)]
+        slave: u16,
+        /// Type to encode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+        /// Take the type from this personality's dictionary.
+        #[arg(long)]
+        device: Option<String>,
+        /// SDO response timeout, ms.
+        #[arg(long, default_value_t = 1000)]
+        timeout_ms: u64,
+        #[command(flatten)]
+        link: EcatLinkArgs,
+    },
+}
+
+/// AL states a master requests (no Bootstrap: the CMMP-AS has none).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EcatStateArg {
+    Init,
+    Preop,
+    Safeop,
+    Op,
 }

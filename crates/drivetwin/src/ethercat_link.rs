@@ -109,9 +109,19 @@ impl EthercatSocket {
     /// length. Our own transmissions, frames that already passed a slave and frames longer
     /// than `buf` are skipped.
     pub async fn recv(&self, buf: &mut [u8]) -> io::Result<usize> {
+        self.recv_where(buf, Want::Requests).await
+    }
+
+    /// The next frame on its way back to a master (one that passed a slave: source-MAC bit
+    /// 0x02 set), for the master side (`drivetwin ecat`). Requests are skipped.
+    pub async fn recv_returned(&self, buf: &mut [u8]) -> io::Result<usize> {
+        self.recv_where(buf, Want::Returned).await
+    }
+
+    async fn recv_where(&self, buf: &mut [u8], want: Want) -> io::Result<usize> {
         loop {
             let mut guard = self.fd.readable().await?;
-            match guard.try_io(|fd| recv_once(fd.as_raw_fd(), buf)) {
+            match guard.try_io(|fd| recv_once(fd.as_raw_fd(), buf, want)) {
                 Ok(Ok(Some(n))) => return Ok(n),
                 Ok(Ok(None)) => continue,
                 Ok(Err(e)) => return Err(e),
@@ -152,8 +162,15 @@ pub fn is_request(frame: &[u8]) -> bool {
         .is_some_and(|b| b & SOURCE_MAC_RETURN_BIT == 0)
 }
 
+/// Which frames a receiver takes: the slave side takes requests, the master side replies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Want {
+    Requests,
+    Returned,
+}
+
 /// One `recvfrom`: `Some(len)` for a frame to process, `None` for one to skip.
-fn recv_once(fd: RawFd, buf: &mut [u8]) -> io::Result<Option<usize>> {
+fn recv_once(fd: RawFd, buf: &mut [u8], want: Want) -> io::Result<Option<usize>> {
     // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
     let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
     let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
@@ -176,7 +193,11 @@ fn recv_once(fd: RawFd, buf: &mut [u8]) -> io::Result<Option<usize>> {
     if from.sll_pkttype == PACKET_OUTGOING || n > buf.len() {
         return Ok(None);
     }
-    Ok(buf.get(..n).filter(|f| is_request(f)).map(|_| n))
+    let take = |f: &&[u8]| match want {
+        Want::Requests => is_request(f),
+        Want::Returned => f.len() > SOURCE_MAC_FIRST && !is_request(f),
+    };
+    Ok(buf.get(..n).filter(take).map(|_| n))
 }
 
 fn send_once(fd: RawFd, frame: &[u8]) -> io::Result<()> {

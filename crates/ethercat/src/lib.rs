@@ -8,7 +8,8 @@
 //!   [`sync_manager`], [`eeprom`] (SII interface 0x0500), [`al_control`] and
 //!   [`al_status_code`] (application-layer state machine), [`esc`] (the controller);
 //! * [`sii`]: the SII EEPROM image;
-//! * [`sync_monitor`]: when the device takes outputs (frame or SYNC0) and loses sync.
+//! * [`sync_monitor`]: when the device takes outputs (frame or SYNC0) and loses sync;
+//! * [`master`]: the master side (addressing, SII reads, AL requests, SDO client messages).
 //!
 //! No allocation, no `unsafe`, and no panics on anything that comes from the wire: every
 //! access to frame bytes and ESC memory is bounds-checked and treats a short buffer as an
@@ -25,6 +26,7 @@ pub mod esc;
 pub mod fmmu;
 pub mod frame;
 pub mod mailbox;
+pub mod master;
 pub mod register;
 pub mod sii;
 pub mod sync_manager;

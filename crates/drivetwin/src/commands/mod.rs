@@ -72,6 +72,8 @@ pub enum CommandError {
     Lss(#[from] LssError),
     #[error(transparent)]
     Cia402(#[from] Cia402Error),
+    #[error(transparent)]
+    Ecat(#[from] drivetwin::master::ecat::EcatError),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -99,11 +101,13 @@ impl CommandError {
             },
             CommandError::Drive(drivetwin::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
+            CommandError::Ecat(e) => ecat::exit_code(e),
         }
     }
 }
 
 mod drive;
+mod ecat;
 mod lss;
 mod network;
 mod pdo;
@@ -156,6 +160,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
             seconds,
             bus,
         } => network::monitor(count, seconds, bus).await,
+        Command::Ecat(cmd) => ecat::ecat(cmd).await,
     }
 }
 

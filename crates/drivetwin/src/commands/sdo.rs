@@ -1,6 +1,6 @@
 use super::*;
 
-fn resolve_type(
+pub(crate) fn resolve_type(
     data_type: Option<&str>,
     device_name: Option<&str>,
     index: u16,
@@ -44,34 +44,13 @@ pub(crate) async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
                 Ok(d) => d,
                 Err(e) => return Err(report_sdo_error(&bus, node, index, sub, e)),
             };
-            let ty = ty.or(match data.len() {
-                1 => Some(DataType::Unsigned8),
-                2 => Some(DataType::Unsigned16),
-                4 => Some(DataType::Unsigned32),
-                _ => None,
-            });
-            let value = ty.and_then(|t| value_text::decode(t, &data));
-            if bus.json {
-                // Numbers stay numbers in JSON; strings and octets stay strings.
-                let json_value = match (ty, &value) {
-                    (Some(t), Some(v)) if t.is_numeric() => {
-                        serde_json::from_str::<serde_json::Value>(v)
-                            .unwrap_or_else(|_| serde_json::Value::String(v.clone()))
-                    }
-                    (_, Some(v)) => serde_json::Value::String(v.clone()),
-                    _ => serde_json::Value::Null,
-                };
-                let j = serde_json::json!({
-                    "node": node, "index": format!("0x{index:04X}"), "sub": sub,
-                    "data": value_text::hex(&data), "value": json_value,
-                });
-                out!("{j}");
-            } else {
-                match value {
-                    Some(v) => out!("{v}"),
-                    None => out!("{}", value_text::hex(&data)),
-                }
-            }
+            print_upload(
+                ty,
+                &data,
+                bus.json.then(|| {
+                    serde_json::json!({"node": node, "index": format!("0x{index:04X}"), "sub": sub})
+                }),
+            );
             Ok(())
         }
         SdoCommand::Write {
@@ -125,4 +104,33 @@ fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -
         out!("{j}");
     }
     CommandError::Sdo(e)
+}
+
+/// Prints an uploaded value as `ty` (without one, guessed from the length: 1, 2, 4 bytes are
+/// unsigned), or hex; in JSON mode as `head` plus `data` and `value`.
+pub(crate) fn print_upload(ty: Option<DataType>, data: &[u8], head: Option<serde_json::Value>) {
+    let ty = ty.or(match data.len() {
+        1 => Some(DataType::Unsigned8),
+        2 => Some(DataType::Unsigned16),
+        4 => Some(DataType::Unsigned32),
+        _ => None,
+    });
+    let value = ty.and_then(|t| value_text::decode(t, data));
+    if let Some(mut j) = head {
+        // Numbers stay numbers in JSON; strings and octets stay strings.
+        let json_value = match (ty, &value) {
+            (Some(t), Some(v)) if t.is_numeric() => serde_json::from_str::<serde_json::Value>(v)
+                .unwrap_or_else(|_| serde_json::Value::String(v.clone())),
+            (_, Some(v)) => serde_json::Value::String(v.clone()),
+            _ => serde_json::Value::Null,
+        };
+        j["data"] = serde_json::json!(value_text::hex(data));
+        j["value"] = json_value;
+        out!("{j}");
+    } else {
+        match value {
+            Some(v) => out!("{v}"),
+            None => out!("{}", value_text::hex(data)),
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! The master side: commands that talk to real or virtual drives over a bus link.
 
 pub mod cia402;
+pub mod ecat;
 pub mod link;
 pub mod lss;
 pub mod pdo_config;
