@@ -58,9 +58,11 @@ use core::time::Duration;
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::control_bytes::{ControlMode, OutputData};
-use super::record_table::{Comparator, Rcb1, Record, RecordTable, TimeComparator};
+use super::diagnostic_memory::{self, DiagnosticMemory, EventType};
+use super::diagnostics::{self, Class, Diagnostic};
+use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
 use super::state_machine::{
-    Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, Reaction, RelativeTo,
+    Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
 };
 use super::{FHPP_FPC_LEN, FHPP_STD_LEN};
 use crate::fhpp::record_table::StartBehaviour;
@@ -72,35 +74,9 @@ pub const fn pnu_index(pnu: u16) -> u16 {
     0x2000 + pnu
 }
 
-/// Diagnostic numbers this device raises (App. D).
-pub mod diag {
-    /// 28h homing required.
-    pub const HOMING_REQUIRED: u8 = 0x28;
-    /// 2Fh following error.
-    pub const FOLLOWING_ERROR: u8 = 0x2F;
-    /// 37h standstill monitoring.
-    pub const STANDSTILL: u8 = 0x37;
-    /// 3Bh homing method invalid.
-    pub const HOMING_METHOD_INVALID: u8 = 0x3B;
-    /// 3Fh record invalid.
-    pub const RECORD_INVALID: u8 = 0x3F;
-    /// 47h Modbus connection with master control.
-    pub const MODBUS_WITH_CONTROL: u8 = 0x47;
-    /// 48h Modbus connection without master control.
-    pub const MODBUS_WITHOUT_CONTROL: u8 = 0x48;
-}
-
-/// The "Ack" column of App. D for a diagnostic number: "Reset" = not by RESET,
-/// "AfterCause" = once the cause is gone, "Imm" = at once.
-pub const fn ack_type(code: u8) -> Ack {
-    match code {
-        0x01 | 0x02 | 0x06 | 0x09 | 0x0C | 0x0D | 0x18 | 0x23 | 0x4D => Ack::NotAckable,
-        0x0E | 0x15 | 0x16 | 0x17 | 0x1A | 0x1B | 0x2F | 0x34 | 0x38 | 0x45 | 0x46 | 0x4E => {
-            Ack::AfterCause
-        }
-        _ => Ack::Immediately,
-    }
-}
+/// Names of the diagnostic numbers the twin raises (App. D; the full list is
+/// [`super::diagnostics::DIAGNOSTICS`]).
+pub use super::diagnostics::code as diag;
 
 /// Settings of the simulation that no PNU holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -122,6 +98,10 @@ impl Default for FhppSettings {
         }
     }
 }
+
+/// A diagnostic number App. D does not assign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownDiagnostic(pub u8);
 
 /// The output image had neither 8 nor 16 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -157,6 +137,9 @@ struct Params {
     homing_accel: f64,
     base_acceleration: f64,
     base_force_ma: f64,
+    /// PNU 501:1 / 501:2, relative to AZ; both 0 = no software limits.
+    soft_lower: i64,
+    soft_upper: i64,
 }
 
 /// What the executor is doing to the set-point.
@@ -195,6 +178,22 @@ enum Task {
     },
     /// Force task (not modelled): complete at once.
     Force,
+    /// Record `number` waits for its start delay (PNU 426) until cycle `until`.
+    Delayed {
+        number: u8,
+        mode: ControlMode,
+        until: u64,
+    },
+}
+
+/// The running record of record selection, watched for its switching condition (RCB2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Chain {
+    record: u8,
+    /// Cycle the record started (time comparator).
+    started: u64,
+    /// Since when the comparator value is inside its window.
+    window_since: Option<u64>,
 }
 
 /// A position task interrupted by HALT (SA3), continued by START.
@@ -248,8 +247,23 @@ pub struct FhppDevice<S> {
     standstill_error: bool,
     /// Warnings present, bit n = diagnostic n.
     warnings: u128,
+    /// Warnings raised by a single event (a refused start): they show until the next start.
+    once_warnings: u128,
     /// Injected faults still present.
     injected: u128,
+    /// Faults present at the end of the last cycle (PNU 220; new ones are logged).
+    faults_present: u128,
+    /// Warnings already logged (a new warning bit is logged once).
+    warnings_logged: u128,
+    /// The active fault of the last cycle (its end is logged).
+    last_fault: Option<u8>,
+    memory: DiagnosticMemory,
+    memory_dirty: bool,
+    // ---- record chaining, software limits ----
+    chain: Option<Chain>,
+    /// Software limit passed (11h / 12h): that direction is locked (13h / 14h).
+    locked_positive: bool,
+    locked_negative: bool,
 }
 
 fn get_i64<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>, pnu: u16, sub: u8) -> i64 {
@@ -310,7 +324,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             still_since: None,
             standstill_error: false,
             warnings: 0,
+            once_warnings: 0,
             injected: 0,
+            faults_present: 0,
+            warnings_logged: 0,
+            last_fault: None,
+            memory: DiagnosticMemory::power_on(0),
+            memory_dirty: true,
+            chain: None,
+            locked_positive: false,
+            locked_negative: false,
         };
         dev.refresh();
         dev.traj = Trajectory::at(dev.raw_actual());
@@ -319,6 +342,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         dev.fe_time_ms = dev.params.fe_timeout_ms;
         dev.status = dev.motion_status();
         dev.inputs = dev.fhpp.inputs().to_bytes();
+        dev.mirror_memory();
         dev
     }
 
@@ -376,10 +400,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             Task::Position { .. } | Task::Velocity { .. } => self.mc,
             Task::Homing { done } => done,
             Task::Force => true,
+            Task::Delayed { .. } => false,
             Task::None => !moving,
         };
-        let fe_fault = self.following_error && self.class_of(diag::FOLLOWING_ERROR).is_some();
-        let fault = if fe_fault {
+        let fault = if self.following_error {
             self.fault_for(diag::FOLLOWING_ERROR)
         } else {
             None
@@ -449,38 +473,63 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     // ---- diagnostics -------------------------------------------------------------------
 
-    /// PNU 246 class of diagnostic `code`: `Some(reaction)` for an error (F), `None` for a
-    /// warning or an information.
-    fn class_of(&self, code: u8) -> Option<Reaction> {
-        let sub = code.saturating_add(1);
-        let handling = get_i64(&self.od, 246, sub);
-        if handling & 0x40 != 0 || handling & 0x20 == 0 {
-            return None;
-        }
-        let bits = get_i64(&self.od, 242, sub) as u16;
-        Some(Reaction::from_bit(bits).unwrap_or(Reaction::B))
+    /// The class diagnostic `code` has now: App. D through PNU 246 (class) and 242
+    /// (reaction), subindex = number + 1 (fhpp §8.4). `None` for an unassigned number.
+    pub fn diagnostic_class(&self, code: u8) -> Option<Class> {
+        let d = diagnostics::lookup(code.into())?;
+        Some(self.class_of(d))
+    }
+
+    fn class_of(&self, d: &Diagnostic) -> Class {
+        let sub = diagnostics::subindex(d.code);
+        let handling = get_i64(&self.od, 246, sub) as u16;
+        let reaction = get_i64(&self.od, 242, sub) as u16;
+        d.class(handling, reaction)
+    }
+
+    fn handling(&self, code: u8) -> u16 {
+        get_i64(&self.od, 246, diagnostics::subindex(code)) as u16
     }
 
     fn fault_for(&self, code: u8) -> Option<Fault> {
-        self.class_of(code).map(|reaction| Fault {
-            code,
-            reaction,
-            ack: ack_type(code),
-        })
+        let d = diagnostics::lookup(code.into())?;
+        match self.class_of(d) {
+            Class::Fault(reaction) => Some(Fault {
+                code,
+                reaction,
+                ack: d.ack,
+            }),
+            _ => None,
+        }
     }
 
     /// Raises diagnostic `code` (fault injection, communication monitoring): an error (per
-    /// PNU 246) takes T7 at the next cycle, a warning sets SCON.WARN. The cause counts as
-    /// present until [`Self::clear_fault`].
+    /// PNU 246) takes T7 at the next cycle with its PNU 242 reaction, a warning sets
+    /// SCON.WARN, an information goes to the diagnostic memory only. The cause counts as
+    /// present until [`Self::clear_fault`]. Unassigned numbers are ignored (see
+    /// [`Self::inject`]).
     pub fn fault(&mut self, code: u8) {
+        let _ = self.inject(code);
+    }
+
+    /// [`Self::fault`], telling an unassigned number apart.
+    pub fn inject(&mut self, code: u8) -> Result<Class, UnknownDiagnostic> {
+        let d = diagnostics::lookup(code.into()).ok_or(UnknownDiagnostic(code))?;
+        let class = self.class_of(d);
         let bit = 1u128 << (code & 0x7F);
-        match self.fault_for(code) {
-            Some(f) => {
+        match class {
+            Class::Fault(reaction) => {
                 self.injected |= bit;
-                self.fhpp.raise_fault(f);
+                self.fhpp.raise_fault(Fault {
+                    code,
+                    reaction,
+                    ack: d.ack,
+                });
             }
-            None => self.warnings |= bit,
+            Class::Warning => self.warnings |= bit,
+            Class::Information | Class::Event => self.log_event(d, class),
         }
+        Ok(class)
     }
 
     /// The cause of diagnostic `code` has gone: an error may now be acknowledged, a warning
@@ -489,19 +538,180 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let bit = 1u128 << (code & 0x7F);
         self.injected &= !bit;
         self.warnings &= !bit;
+        self.warnings_logged &= !bit;
         self.fhpp.fault_cause_gone(code);
     }
 
-    /// Raises a diagnostic once (a refused start, a homing error): errors need RESET, a
-    /// warning shows until the next start.
+    /// Raises a diagnostic once (a refused start, a homing error, a passed software limit):
+    /// an error is acknowledged at once (the cause was the event), a warning shows until the
+    /// next start.
     fn raise_once(&mut self, code: u8) {
-        match self.fault_for(code) {
-            Some(f) => self.fhpp.raise_fault(Fault {
+        let Some(d) = diagnostics::lookup(code.into()) else {
+            return;
+        };
+        let bit = 1u128 << (code & 0x7F);
+        match self.class_of(d) {
+            Class::Fault(reaction) => self.fhpp.raise_fault(Fault {
+                code,
+                reaction,
                 ack: Ack::Immediately,
-                ..f
             }),
-            None => self.warnings |= 1u128 << (code & 0x7F),
+            Class::Warning => {
+                self.warnings |= bit;
+                self.once_warnings |= bit;
+            }
+            class => self.log_event(d, class),
         }
+    }
+
+    fn clear_warning(&mut self, code: u8) {
+        let bit = 1u128 << (code & 0x7F);
+        self.warnings &= !bit;
+        self.warnings_logged &= !bit;
+    }
+
+    /// The diagnostic memory (PNU 200…204).
+    pub fn diagnostic_memory(&self) -> &DiagnosticMemory {
+        &self.memory
+    }
+
+    /// The device clock of the time stamps: ms since power-on, wrapping at 2³² (PNU 202).
+    fn now_ms(&self) -> u32 {
+        self.cycles as u32
+    }
+
+    fn log(&mut self, event: EventType, code: u8) {
+        let Some(d) = diagnostics::lookup(code.into()) else {
+            return;
+        };
+        if d.logged(self.handling(code)) {
+            self.memory.log(event, code.into(), self.now_ms());
+            self.memory_dirty = true;
+        }
+    }
+
+    fn log_event(&mut self, d: &Diagnostic, class: Class) {
+        let event = match class {
+            Class::Fault(_) => EventType::Fault,
+            Class::Warning => EventType::Warning,
+            Class::Information => EventType::Information,
+            Class::Event if d.code == diag::START_UP => EventType::SwitchOn,
+            Class::Event => EventType::Information,
+        };
+        self.log(event, d.code);
+    }
+
+    /// Faults present now (PNU 220): the active one, injected ones whose cause is present,
+    /// and the following error while it is an error.
+    fn current_faults(&self) -> u128 {
+        let mut f = self.injected;
+        if let Some(a) = self.fhpp.fault() {
+            f |= 1u128 << (a.code & 0x7F);
+        }
+        if self.following_error && self.fault_for(diag::FOLLOWING_ERROR).is_some() {
+            f |= 1u128 << diag::FOLLOWING_ERROR;
+        }
+        f
+    }
+
+    /// End of a cycle: new faults and warnings into the memory (incoming, 01h / 05h), the
+    /// end of the active fault (acknowledged) as 00h, and the time-stamp wrap.
+    fn diagnose(&mut self) {
+        self.memory.tick(self.now_ms());
+        let faults = self.current_faults();
+        let new = faults & !self.faults_present;
+        self.faults_present = faults;
+        let new_warnings = self.warnings & !self.warnings_logged;
+        self.warnings_logged = self.warnings;
+        let active = self.fhpp.fault().map(|f| f.code);
+        let gone = match (self.last_fault, active) {
+            (Some(old), now) if now != Some(old) => Some(old),
+            _ => None,
+        };
+        self.last_fault = active;
+        if let Some(code) = gone {
+            self.log(EventType::Gone, code);
+        }
+        for (mask, event) in [(new, EventType::Fault), (new_warnings, EventType::Warning)] {
+            let mut m = mask;
+            while m != 0 {
+                let code = m.trailing_zeros() as u8;
+                m &= m - 1;
+                self.log(event, code);
+            }
+        }
+    }
+
+    /// PNU 200…204 from the ring (after a change, once per cycle at most).
+    fn mirror_memory(&mut self) {
+        self.memory_dirty = false;
+        let od = &mut self.od;
+        for (n, sub) in (0..diagnostic_memory::CAPACITY).zip(1u8..) {
+            let e = self.memory.get(n);
+            let vals = [
+                (200, e.map_or(0, |e| e.event.value().into())),
+                (
+                    201,
+                    e.map_or(diagnostic_memory::INVALID_NUMBER.into(), |e| {
+                        e.number.into()
+                    }),
+                ),
+                (202, e.map_or(0, |e| e.time_ms.into())),
+                (203, e.map_or(0, |e| e.info.into())),
+            ];
+            for (pnu, v) in vals {
+                let _ = od.set_value(pnu_index(pnu), sub, Value::Unsigned(v));
+            }
+        }
+        let _ = od.set_value(pnu_index(204), 4, Value::Unsigned(self.memory.len() as u64));
+    }
+
+    /// PNU 204:3 = 1: clear the memory (a start-up event is written).
+    fn clear_memory(&mut self) {
+        self.memory.clear(self.now_ms());
+        self.mirror_memory();
+    }
+
+    /// PNU 242 / 246 writes: the value must be one App. D allows for that number (PNU 234 /
+    /// 238), or its factory value; rw2: only with the output stage off.
+    fn check_error_management(
+        &self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        wire: bool,
+    ) -> Result<(), AbortCode> {
+        let reaction = index == pnu_index(242);
+        if !reaction && index != pnu_index(246) {
+            return Ok(());
+        }
+        let &[lo, hi] = data else {
+            return Ok(()); // the dictionary answers the length error
+        };
+        let value = u16::from_le_bytes([lo, hi]);
+        let d = diagnostics::code_of_subindex(sub).and_then(|c| diagnostics::lookup(c.into()));
+        let factory = d.map_or(0, |d| {
+            if reaction {
+                d.default_reaction()
+            } else {
+                d.default_handling()
+            }
+        });
+        let ok = value == factory
+            || d.is_some_and(|d| {
+                if reaction {
+                    d.accepts_reaction(value)
+                } else {
+                    d.accepts_handling(value)
+                }
+            });
+        if !ok {
+            return Err(AbortCode::INVALID_VALUE);
+        }
+        if wire && self.fhpp.output_stage_on() {
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        Ok(())
     }
 
     // ---- the cycle ---------------------------------------------------------------------
@@ -551,10 +761,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 Event::Transition(_) => {}
             }
         }
+        if let Task::Delayed {
+            number,
+            mode,
+            until,
+        } = self.task
+        {
+            if self.cycles >= until {
+                self.begin_record(number, mode);
+            }
+        }
         self.advance(dt);
+        self.check_chain();
         self.cycles += 1;
         self.status = self.motion_status();
+        self.diagnose();
         self.publish();
+        if self.memory_dirty {
+            self.mirror_memory();
+        }
     }
 
     fn refresh(&mut self) {
@@ -604,6 +829,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             homing_accel: acc(g(1013, 1)),
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
+            soft_lower: g(501, 1),
+            soft_upper: g(501, 2),
         };
         let cfg = self.fhpp.config_mut();
         cfg.base_velocity = u32::try_from(g(540, 1).max(0)).unwrap_or(u32::MAX);
@@ -738,12 +965,93 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.still_since = None;
         self.standstill_error = false;
         self.stroke_reached = false;
-        self.warnings &= !(1u128 << diag::STANDSTILL);
-        self.warnings &= !(1u128 << diag::HOMING_REQUIRED);
-        self.warnings &= !(1u128 << diag::RECORD_INVALID);
+        // Warnings of one event (28h, 3Fh, 37h, … as W) clear at the next start (App. D).
+        self.warnings &= !self.once_warnings;
+        self.warnings_logged &= !self.once_warnings;
+        self.once_warnings = 0;
+    }
+
+    /// Software limits PNU 501 in raw SINC (lower, upper): relative to AZ, both 0 = off, and
+    /// only with a valid reference (§6.2: homing disables them until it has finished).
+    fn soft_limits(&self) -> Option<(f64, f64)> {
+        let p = &self.params;
+        let reference = self.reference?;
+        if p.soft_lower == 0 && p.soft_upper == 0 {
+            return None;
+        }
+        let az = reference + p.az_offset as f64;
+        Some((az + p.soft_lower as f64, az + p.soft_upper as f64))
+    }
+
+    /// Why a move from the set-point towards `target` may not start: 13h / 14h into a
+    /// direction locked by a passed limit, 29h / 2Ah for a target behind a limit (App. D).
+    fn limit_refusal(&self, target: f64) -> Option<u8> {
+        let here = self.traj.position;
+        if target > here && self.locked_positive {
+            return Some(diag::POSITIVE_DIRECTION_LOCKED);
+        }
+        if target < here && self.locked_negative {
+            return Some(diag::NEGATIVE_DIRECTION_LOCKED);
+        }
+        let (lo, hi) = self.soft_limits()?;
+        if target < lo {
+            Some(diag::TARGET_BEHIND_NEGATIVE_LIMIT)
+        } else if target > hi {
+            Some(diag::TARGET_BEHIND_POSITIVE_LIMIT)
+        } else {
+            None
+        }
+    }
+
+    /// A start the limits refuse: no motion, the task ends, the diagnostic is raised.
+    fn refuse_start(&mut self, code: u8) {
+        self.start_task(Task::None);
+        self.pending = None;
+        self.chain = None;
+        self.raise_once(code);
+    }
+
+    /// Software limits while moving (velocity tasks, jog): the set-point reaching a limit
+    /// raises 11h / 12h once and locks that direction until the set-point is back inside.
+    fn watch_limits(&mut self) {
+        let Some((lo, hi)) = self.soft_limits() else {
+            self.locked_positive = false;
+            self.locked_negative = false;
+            return;
+        };
+        let x = self.traj.position;
+        let v = self.traj.velocity;
+        if x < hi {
+            self.locked_positive = false;
+        }
+        if x > lo {
+            self.locked_negative = false;
+        }
+        // Position targets were checked at the start and jog stops by itself: the error is
+        // for a velocity task (or its braking) that runs into a limit.
+        let raise = matches!(
+            self.motion,
+            Motion::Velocity { .. } | Motion::Braking { .. }
+        );
+        if x >= hi && v > 0.0 && !self.locked_positive {
+            self.locked_positive = true;
+            if raise {
+                self.raise_once(diag::SOFTWARE_LIMIT_POSITIVE);
+            }
+        }
+        if x <= lo && v < 0.0 && !self.locked_negative {
+            self.locked_negative = true;
+            if raise {
+                self.raise_once(diag::SOFTWARE_LIMIT_NEGATIVE);
+            }
+        }
     }
 
     fn start_position(&mut self, target: f64, velocity: f64, accel: f64, decel: f64, fe: f64) {
+        if let Some(code) = self.limit_refusal(target) {
+            self.refuse_start(code);
+            return;
+        }
         let velocity = self.clamp_velocity(velocity);
         let lim = Limits {
             velocity,
@@ -761,6 +1069,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     }
 
     fn start_velocity(&mut self, target: f64, accel: f64, decel: f64, stroke: Option<f64>) {
+        if target > 0.0 && self.locked_positive {
+            self.refuse_start(diag::POSITIVE_DIRECTION_LOCKED);
+            return;
+        }
+        if target < 0.0 && self.locked_negative {
+            self.refuse_start(diag::NEGATIVE_DIRECTION_LOCKED);
+            return;
+        }
         let mag = self.clamp_velocity(libm::fabs(target));
         let target = if target < 0.0 { -mag } else { mag };
         self.start_task(Task::Velocity { target });
@@ -793,6 +1109,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     fn execute(&mut self, cmd: MotionCommand) {
         let p = self.params;
+        if !matches!(
+            cmd,
+            MotionCommand::Record { .. }
+                | MotionCommand::Continue
+                | MotionCommand::Halt
+                | MotionCommand::ManualBrake { .. }
+        ) {
+            self.chain = None;
+        }
         match cmd {
             MotionCommand::Enable => {
                 self.stage_on = true;
@@ -871,12 +1196,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 let stroke = stroke_monitoring.then_some(p.stroke_velocity);
                 self.start_velocity(f64::from(velocity), ramp, ramp, stroke);
             }
-            MotionCommand::Force { .. } => {
-                // Not modelled: hold position, complete at once.
-                self.start_task(Task::Force);
-                self.motion = Motion::Hold;
-                self.pending = None;
-            }
+            MotionCommand::Force { .. } => self.start_force(),
             MotionCommand::Record { number, mode } => self.start_record(number, mode),
             MotionCommand::Jog { positive } => {
                 self.start_task(Task::None);
@@ -927,7 +1247,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
     }
 
+    /// A record start (START edge or a chain switch): after its start delay PNU 426 ("the
+    /// time counts from the start command", Tab. B.61), at once without one. Decision: the
+    /// delay of an MC chain (Tab. 6.9 "PNU 426 as the wait time after MC") is the following
+    /// record's own PNU 426, so every record has one delay, however it is started.
     fn start_record(&mut self, number: u8, mode: ControlMode) {
+        let Some(r) = self.records.get(number).copied() else {
+            self.raise_once(diag::RECORD_INVALID);
+            return;
+        };
+        if r.start_delay_ms > 0 {
+            // The axis goes on with what it does (an MC chain stands, a comparator chain
+            // keeps the previous profile) until the delay has run out.
+            self.start_task(Task::Delayed {
+                number,
+                mode,
+                until: self.cycles + u64::from(r.start_delay_ms),
+            });
+            self.pending = None;
+            self.chain = None;
+            return;
+        }
+        self.begin_record(number, mode);
+    }
+
+    fn begin_record(&mut self, number: u8, mode: ControlMode) {
         let Some(r) = self.records.get(number).copied() else {
             self.raise_once(diag::RECORD_INVALID);
             return;
@@ -963,11 +1307,99 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 self.start_velocity(f64::from(r.setpoint_velocity), accel, decel, stroke);
                 self.fe_window = f64::from(r.max_deviation.max(0));
             }
-            ControlMode::Force => {
-                self.start_task(Task::Force);
-                self.motion = Motion::Hold;
-                self.pending = None;
+            ControlMode::Force => self.start_force(),
+        }
+        self.chain = Some(Chain {
+            record: number,
+            started: self.cycles,
+            window_since: None,
+        });
+    }
+
+    /// Force task (not modelled: it holds position and completes at once). App. D 24h: force
+    /// control needs the encoder, so open loop refuses it.
+    fn start_force(&mut self) {
+        if self.settings.mode == StepperMode::OpenLoop {
+            self.task = Task::None;
+            self.raise_once(diag::NOT_IN_OPEN_LOOP);
+            return;
+        }
+        self.start_task(Task::Force);
+        self.motion = Motion::Hold;
+        self.pending = None;
+    }
+
+    /// RCB2 of the running record (§6.5.3 Tab. 6.9): when its switching condition is met,
+    /// the record of PNU 416 follows (its own start delay first); PNU 425 pulses MC.
+    fn check_chain(&mut self) {
+        let Some(mut chain) = self.chain else {
+            return;
+        };
+        if !self.stage_on || matches!(self.task, Task::Delayed { .. }) {
+            return;
+        }
+        let Some(r) = self.records.get(chain.record).copied() else {
+            self.chain = None;
+            return;
+        };
+        let now = self.cycles;
+        let window = |since: &mut Option<u64>, inside: bool, ms: u16| -> bool {
+            if !inside {
+                *since = None;
+                return false;
             }
+            let t0 = *since.get_or_insert(now);
+            now.saturating_sub(t0) >= u64::from(ms)
+        };
+        let met = match r.chain_condition() {
+            None | Some(ChainCondition::None) => false,
+            Some(ChainCondition::MotionComplete) => self.mc,
+            // §6.7.4: the position comparator is absolute (PZ) even for relative records.
+            Some(ChainCondition::PositionComparator) => {
+                let c = r.position_comparator;
+                let pz = sat_i32(self.to_pz(self.raw_actual()));
+                window(&mut chain.window_since, c.contains(pz), c.window_time_ms)
+            }
+            Some(ChainCondition::VelocityComparator) => {
+                let c = r.velocity_comparator;
+                let v = sat_i32(self.actual_velocity());
+                window(&mut chain.window_since, c.contains(v), c.window_time_ms)
+            }
+            Some(ChainCondition::ForceComparator) => {
+                let c = r.force_comparator;
+                let f = self.actual_force().clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+                window(&mut chain.window_since, c.contains(f), c.window_time_ms)
+            }
+            Some(ChainCondition::TimeComparator) => {
+                let t = now.saturating_sub(chain.started);
+                let c = r.time_comparator;
+                (u64::from(c.min_ms)..=u64::from(c.max_ms)).contains(&t)
+            }
+        };
+        self.chain = Some(chain);
+        if !met {
+            return;
+        }
+        let next = r.following_record;
+        let Some(mode) = self
+            .records
+            .get(next)
+            .filter(|n| n.is_valid())
+            .and_then(|n| n.control_mode())
+        else {
+            // PNU 416 names no valid record (0 = homing is not a chain target): 3Fh.
+            self.chain = None;
+            self.raise_once(diag::RECORD_INVALID);
+            return;
+        };
+        if self
+            .fhpp
+            .record_chained(next, mode, r.mc_on_continuation == 1)
+        {
+            self.start_record(next, mode);
+        } else {
+            // The state machine has left the task (halt, stop, fault): the chain ends.
+            self.chain = None;
         }
     }
 
@@ -1037,7 +1469,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 let v = if slow { p.jog_slow } else { p.jog_fast };
                 let v = self.clamp_velocity(v);
                 let v = if positive { v } else { -v };
-                self.traj.step_velocity(v, p.jog_accel, p.jog_accel, dt);
+                // §6.3 step 4: referenced, jog stops at the software limit by itself (its
+                // ramp planned to end there); it does not leave the limit.
+                let stop_at = self
+                    .soft_limits()
+                    .map(|(lo, hi)| if positive { hi } else { lo });
+                let room = stop_at.map(|end| (end - self.traj.position) * v.signum());
+                match (stop_at, room) {
+                    (_, Some(r)) if r < 0.0 => {
+                        // Already beyond the limit: no further in this direction.
+                        self.traj.step_stop(p.jog_accel, dt);
+                    }
+                    (Some(end), Some(r)) if r <= stop_room(self.traj.velocity, p.jog_accel, dt) => {
+                        let lim = Limits {
+                            velocity: libm::fabs(v).max(libm::fabs(self.traj.velocity)),
+                            acceleration: p.jog_accel,
+                            deceleration: p.jog_accel,
+                        };
+                        self.traj.step_to(end, 0.0, lim, dt);
+                    }
+                    _ => self.traj.step_velocity(v, p.jog_accel, p.jog_accel, dt),
+                }
             }
             Motion::Braking { decel, resync } => {
                 if self.traj.step_stop(decel, dt) {
@@ -1048,6 +1500,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 }
             }
         }
+        self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
         let increments = libm::round(self.traj.position * k) as i64;
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
@@ -1102,11 +1555,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         };
         let over = self.fe_window > 0.0 && deviation > self.fe_window;
         let fe_time = self.fe_time_ms;
+        let fe_was = self.following_error;
         self.following_error = held(&mut self.fe_since, over, fe_time);
-        if self.following_error && self.class_of(diag::FOLLOWING_ERROR).is_none() {
-            self.warnings |= 1u128 << diag::FOLLOWING_ERROR;
-        } else {
-            self.warnings &= !(1u128 << diag::FOLLOWING_ERROR);
+        // §6.7.2: as a warning it clears once the error is back inside the window; as an
+        // information it only goes to the memory (once per occurrence).
+        let fe_class = self.diagnostic_class(diag::FOLLOWING_ERROR);
+        match fe_class {
+            Some(Class::Warning) if self.following_error => {
+                self.warnings |= 1u128 << diag::FOLLOWING_ERROR;
+            }
+            Some(Class::Information) if self.following_error && !fe_was => {
+                self.raise_once(diag::FOLLOWING_ERROR);
+            }
+            _ => self.clear_warning(diag::FOLLOWING_ERROR),
         }
         // Standstill monitoring after MC of a position task.
         if let Some(target) = self.standstill_target {
@@ -1114,11 +1575,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 p.standstill_window > 0.0 && libm::fabs(actual - target) > p.standstill_window;
             let mut since = self.still_since;
             if held(&mut since, outside, p.standstill_ms) {
+                if !self.standstill_error {
+                    // 37h is W or I (App. D): a warning until back in the window.
+                    self.raise_once(diag::STANDSTILL);
+                }
                 self.standstill_error = true;
-                self.warnings |= 1u128 << diag::STANDSTILL;
             } else if !outside {
                 self.standstill_error = false;
-                self.warnings &= !(1u128 << diag::STANDSTILL);
+                self.clear_warning(diag::STANDSTILL);
             }
             self.still_since = since;
         }
@@ -1189,7 +1653,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         );
         set(230, 1, Value::Unsigned(ack));
         set(400, 2, Value::Unsigned(record.into()));
-        let faults = fault.map_or(0u128, |f| 1u128 << (f.code & 0x7F));
+        let faults = self.faults_present;
         for (i, sub) in (1u8..=4).enumerate() {
             let shift = 32 * i as u32;
             set(220, sub, Value::Unsigned(((faults >> shift) as u32).into()));
@@ -1200,6 +1664,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             );
         }
     }
+}
+
+/// Braking distance from `v` at `decel`, plus one cycle of travel (so the ramp starts in time).
+fn stop_room(v: f64, decel: f64, dt: f64) -> f64 {
+    let v = libm::fabs(v);
+    v * v / (2.0 * decel.max(1.0)) + v * dt
 }
 
 fn sat_i32(v: f64) -> i32 {
@@ -1245,21 +1715,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
                 .write_control_logic(v)
                 .map_err(|_| AbortCode::DEVICE_STATE);
         }
+        self.check_error_management(index, sub, data, true)?;
         self.od.write(index, sub, data)?;
-        self.params_dirty = true;
-        if is_record_pnu(index) {
-            self.records_dirty = true;
-        }
+        self.after_write(index, sub);
         Ok(())
     }
 
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.check_error_management(index, sub, data, false)?;
         self.od.write_internal(index, sub, data)?;
+        self.after_write(index, sub);
+        Ok(())
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
+    fn after_write(&mut self, index: u16, sub: u8) {
         self.params_dirty = true;
         if is_record_pnu(index) {
             self.records_dirty = true;
         }
-        Ok(())
+        if index == pnu_index(204) && sub == 3 {
+            // PNU 204:3 = 1 (the dictionary admits 1 only): clear the diagnostic memory.
+            self.clear_memory();
+        }
     }
 }
 

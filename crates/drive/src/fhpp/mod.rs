@@ -15,10 +15,14 @@
 //! - [`control_bytes`]: CCON, CPOS, CDIR and the output telegram (Tab. 5.12, 5.14–5.20);
 //! - [`status_bytes`]: SCON, SPOS, SDIR, RSB and the input telegram (Tab. 5.13, 5.21–5.28);
 //! - [`state_machine`]: Fig. 5.1 / Tab. 5.2–5.4 and the handshakes of §5.2.3 and ch. 6;
-//! - [`record_table`]: the 64 records of PNU 401…442 (Tab. 6.7) with RCB1…RCB3 (data only).
+//! - [`record_table`]: the 64 records of PNU 401…442 (Tab. 6.7) with RCB1…RCB3 (data only);
+//! - [`diagnostics`]: the App. D messages and the error-management coding (PNU 234…246);
+//! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3).
 
 pub mod control_bytes;
 pub mod device;
+pub mod diagnostic_memory;
+pub mod diagnostics;
 pub mod record_table;
 pub mod state_machine;
 pub mod status_bytes;
