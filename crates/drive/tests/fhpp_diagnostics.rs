@@ -250,9 +250,16 @@ fn quick_stop_is_faster_than_the_deceleration_ramp_and_e_f_keep_the_stage_on() {
 }
 
 #[test]
-fn reaction_g_finishes_the_record_before_the_fault_state() {
+fn reactions_d_and_g_finish_the_record_before_the_fault_state() {
+    // D: then the output stage goes off; G: it stays on.
+    for (reaction, stage_on) in [(0x0008, false), (0x0040, true)] {
+        finish_the_record(reaction, stage_on);
+    }
+}
+
+fn finish_the_record(reaction: u16, stage_on: bool) {
     let mut b = Bench::new();
-    b.w16(242, diagnostics::subindex(0x47), 0x0040).unwrap(); // G
+    b.w16(242, diagnostics::subindex(0x47), reaction).unwrap();
     b.enable_record();
     b.home();
     // Record 1: 9000 SINC at 36000 SINC/s (0.25 s).
@@ -273,7 +280,9 @@ fn reaction_g_finishes_the_record_before_the_fault_state() {
         "ran to the target: {}",
         i.actual2
     );
-    assert!(i.scon.contains(Scon::ENABLED));
+    b.run(20);
+    let i = b.input();
+    assert_eq!(i.scon.contains(Scon::ENABLED), stage_on, "{i:?}");
 }
 
 #[test]
@@ -389,10 +398,12 @@ fn immediately_ackable_fault_acknowledges_with_the_cause_present() {
     b.dev.fault(diag::MODBUS_WITH_CONTROL);
     b.run(50);
     assert_eq!(b.r8(230, 1), 2);
+    assert_eq!(b.r32(220, 3), 1 << (0x47 - 64), "PNU 220 sub 3");
     // Reaction E (stage on) is a minor error: T10 with ENABLE = 1.
     let i = b.reset(ENABLED);
     assert!(!i.scon.contains(Scon::FAULT), "{i:?}");
     assert!(i.scon.contains(Scon::ENABLED));
+    assert_eq!(b.r32(220, 3), 0, "acknowledged: no longer active");
 }
 
 #[test]

@@ -38,20 +38,45 @@
 //! - **Following error**: |set-point − actual| > window for longer than the timeout: windows
 //!   PNU 424 (record), 549 (direct position), 538 (jog, timeout 539), 568 (velocity tasks, on
 //!   the velocity difference), timeout PNU 1045. Diagnostic 2Fh with the class and reaction of
-//!   PNU 246 / 242 (default F, reaction E).
+//!   PNU 246 / 242 (default F, reaction E); as W it clears back inside the window, as I it is
+//!   a memory entry per occurrence.
 //! - **Standstill** after MC of a position task: outside ±PNU 1042 around the target for
 //!   PNU 1043 ms → SPOS.STILL and warning 37h (PNU 1042 = 0: off).
 //! - Direct-mode velocity ramp byte = 0 % uses the base value PNU 560 (a ramp of 0 would
 //!   never reach the speed); a position move with 0 % velocity does not move (Tab. 5.17
 //!   "0 = no velocity"). Final velocities (PNU 423, 548) are not used: every move ends at rest.
 //! - Velocities are limited to PNU 502 (SDIR/RSB.VLIM while limited).
+//! - **Diagnostics** (§7, App. D): the messages are the table of [`super::diagnostics`]; the
+//!   class and reaction of each come from PNU 246 / 242 (subindex = number + 1), whose writes
+//!   are checked against PNU 234 / 238 (rw2: output stage off). Errors go to the state
+//!   machine (T7, the reaction A…G applied there), warnings to SCON.WARN / PNU 221,
+//!   informations to the memory only. PNU 220 shows every fault present, PNU 205 / 230 /
+//!   FC 0x07 the active one. A fault that a single event caused (a refused start, a passed
+//!   limit) is acknowledgeable at once; an injected one ([`FhppDevice::fault`]) keeps its
+//!   App. D acknowledge type and its cause until [`FhppDevice::clear_fault`].
+//! - **Diagnostic memory** ([`super::diagnostic_memory`]): incoming faults (01h), warnings
+//!   (05h) and informations (09h) when PNU 246 bit 7 (or App. D "always") says so, the end of
+//!   the active fault as 00h, 3Dh at power-on / clear / wrap; time stamps are the device's
+//!   cycle clock in ms. Mirrored into PNU 200…204:4 at the end of a cycle that changed it, so
+//!   every channel reads it through the dictionary; PNU 204:3 = 1 clears it.
+//! - **Record chaining** (§6.5.3): after each cycle the running record's RCB2 condition is
+//!   checked (MC; position comparator on the PZ actual position, velocity, force, time since
+//!   the record started; window times PNU 432/435/438). When met, PNU 416 names the next
+//!   record; [`Fhpp::record_chained`] updates byte 3, RSB.RC1 and the PNU 425 MC pulse; the
+//!   next record starts after its own start delay PNU 426 (also for a START edge).
+//! - **Software limits** PNU 501 (relative to AZ, both 0 = off, only while referenced): a
+//!   position start with a target behind a limit raises 29h / 2Ah and does not move; a
+//!   velocity task whose set-point reaches a limit raises 11h / 12h and locks that direction
+//!   (13h / 14h on a start into it) until the set-point is back inside; jog stops at the limit
+//!   by itself with its ramp (§6.3 step 4), without an error.
 //!
 //! # Not modelled yet
 //!
-//! Force mode (a force task holds position and reports MC at once), record chaining (RCB2,
-//! PNU 416, 425, 426 start delay), software limits (PNU 501, diagnostics 11h–14h, 29h/2Ah),
-//! jerk limitation, comparators, the parameter channel (FPC input bytes read 0), the
-//! diagnostic memory (PNU 200–204), and the rw2 access rule.
+//! Force mode (a force task holds position and reports MC at once; in open loop it is refused
+//! with 24h), jerk limitation, the comparator outputs PNU 312, final velocities, the causes
+//! the plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
+//! [`FhppDevice::fault`]), the parameter channel (FPC input bytes read 0), and the rw2 access
+//! rule outside PNU 242 / 246.
 
 use core::time::Duration;
 
@@ -625,11 +650,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.warnings_logged = self.warnings;
         let active = self.fhpp.fault().map(|f| f.code);
         let gone = match (self.last_fault, active) {
-            (Some(old), now) if now != Some(old) => Some(old),
+            (Some(old), None) => Some(old),
             _ => None,
         };
         self.last_fault = active;
         if let Some(code) = gone {
+            // Acknowledged. An "immediately ackable" fault was an event: acknowledging it
+            // ends it even if the injected cause was never declared gone.
+            if diagnostics::lookup(code.into()).is_some_and(|d| d.ack == Ack::Immediately) {
+                self.injected &= !(1u128 << (code & 0x7F));
+            }
             self.log(EventType::Gone, code);
         }
         for (mask, event) in [(new, EventType::Fault), (new_warnings, EventType::Warning)] {
