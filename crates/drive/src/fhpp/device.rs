@@ -69,11 +69,16 @@
 //!   velocity task whose set-point reaches a limit raises 11h / 12h and locks that direction
 //!   (13h / 14h on a start into it) until the set-point is back inside; jog stops at the limit
 //!   by itself with its ramp (§6.3 step 4), without an error.
+//! - **Force mode** (§6.6, CDIR.COM = 01 / RCB1 COM = 01; closed loop only, open loop
+//!   refuses it with 24h): an outer loop on the position set-point — towards the force's sign
+//!   at the velocity limit until the force nears the set-point, then a deviation that makes
+//!   the position controller produce that current (see `Motion::Force`). MC once the force
+//!   stays within ±PNU 552 for PNU 1023; stroke limit PNU 510 (record PNU 427) from the start
+//!   position, then the Quick-Stop ramp and SDIR/RSB.XLIM. Actual force = current / PNU 555.
 //!
 //! # Not modelled yet
 //!
-//! Force mode (a force task holds position and reports MC at once; in open loop it is refused
-//! with 24h), jerk limitation, the comparator outputs PNU 312, final velocities, the causes
+//! The torque limits (PNU 418, 512, 581), jerk limitation, the comparator outputs PNU 312, final velocities, the causes
 //! the plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
 //! [`FhppDevice::fault`]), the parameter channel (FPC input bytes read 0), and the rw2 access
 //! rule outside PNU 242 / 246.
@@ -162,6 +167,8 @@ struct Params {
     homing_accel: f64,
     base_acceleration: f64,
     base_force_ma: f64,
+    force_stroke: f64,
+    force_window: f64,
     /// PNU 501:1 / 501:2, relative to AZ; both 0 = no software limits.
     soft_lower: i64,
     soft_upper: i64,
@@ -179,6 +186,19 @@ enum Motion {
         target: f64,
         accel: f64,
         decel: f64,
+        start: f64,
+        stroke: Option<f64>,
+    },
+    /// Force control (§6.6): the set-point moves towards the force direction at up to `vmax`
+    /// while the force is below `target` ‰ and backs off above it, so the position
+    /// controller builds the force against whatever stops the axis. Decision: the plant has
+    /// a position / current-vector interface only, so force control is this outer loop on the
+    /// position set-point (a free axis runs at `vmax` to the stroke limit, as the manual's
+    /// "missing workpiece" case does).
+    Force {
+        target: f64,
+        vmax: f64,
+        accel: f64,
         start: f64,
         stroke: Option<f64>,
     },
@@ -201,8 +221,10 @@ enum Task {
     Homing {
         done: bool,
     },
-    /// Force task (not modelled): complete at once.
-    Force,
+    /// Force task: MC once the actual force stays within ±PNU 552 of `target` ‰.
+    Force {
+        target: f64,
+    },
     /// Record `number` waits for its start delay (PNU 426) until cycle `until`.
     Delayed {
         number: u8,
@@ -424,7 +446,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let motion_complete = match self.task {
             Task::Position { .. } | Task::Velocity { .. } => self.mc,
             Task::Homing { done } => done,
-            Task::Force => true,
+            Task::Force { .. } => self.mc,
             Task::Delayed { .. } => false,
             Task::None => !moving,
         };
@@ -859,6 +881,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             homing_accel: acc(g(1013, 1)),
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
+            force_stroke: pos(g(510, 1)),
+            force_window: pos(g(552, 1)),
             soft_lower: g(501, 1),
             soft_upper: g(501, 2),
         };
@@ -1226,7 +1250,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 let stroke = stroke_monitoring.then_some(p.stroke_velocity);
                 self.start_velocity(f64::from(velocity), ramp, ramp, stroke);
             }
-            MotionCommand::Force { .. } => self.start_force(),
+            MotionCommand::Force {
+                setpoint,
+                velocity_limit,
+                stroke_monitoring,
+                ..
+            } => {
+                let stroke = stroke_monitoring.then_some(p.force_stroke);
+                self.start_force(
+                    f64::from(setpoint),
+                    f64::from(velocity_limit),
+                    p.direct_accel,
+                    stroke,
+                );
+            }
             MotionCommand::Record { number, mode } => self.start_record(number, mode),
             MotionCommand::Jog { positive } => {
                 self.start_task(Task::None);
@@ -1337,7 +1374,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 self.start_velocity(f64::from(r.setpoint_velocity), accel, decel, stroke);
                 self.fe_window = f64::from(r.max_deviation.max(0));
             }
-            ControlMode::Force => self.start_force(),
+            ControlMode::Force => {
+                let stroke =
+                    (!r.rcb1.contains(Rcb1::XLIM)).then_some(f64::from(r.stroke_limit.max(0)));
+                self.start_force(
+                    f64::from(r.setpoint_force),
+                    f64::from(r.velocity.unsigned_abs()),
+                    accel,
+                    stroke,
+                );
+            }
         }
         self.chain = Some(Chain {
             record: number,
@@ -1346,17 +1392,41 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         });
     }
 
-    /// Force task (not modelled: it holds position and completes at once). App. D 24h: force
-    /// control needs the encoder, so open loop refuses it.
-    fn start_force(&mut self) {
+    /// Force task `target` ‰ of PNU 555 (the sign is the direction) with the velocity limit
+    /// `vmax` SINC/s (§6.6 force mode). App. D 24h: force control needs the encoder, so open
+    /// loop refuses it.
+    fn start_force(&mut self, target: f64, vmax: f64, accel: f64, stroke: Option<f64>) {
         if self.settings.mode == StepperMode::OpenLoop {
             self.task = Task::None;
             self.raise_once(diag::NOT_IN_OPEN_LOOP);
             return;
         }
-        self.start_task(Task::Force);
-        self.motion = Motion::Hold;
+        let vmax = self.clamp_velocity(vmax);
+        self.start_task(Task::Force { target });
+        self.motion = Motion::Force {
+            target,
+            vmax,
+            accel: accel.max(1.0),
+            start: self.traj.position,
+            stroke,
+        };
         self.pending = None;
+        self.task_decel = accel.max(1.0);
+        // Tab. B.59: the record's maximum deviation has "no function" for force records.
+        self.fe_window = 0.0;
+        self.fe_velocity = false;
+    }
+
+    /// The actual force in ‰ of PNU 555, positive when it pushes towards `dir` (the current
+    /// amplitude with the sign of the torque set-point).
+    fn force_along(&self, dir: f64) -> f64 {
+        let torque = self.stepper.torque_set() * self.params.polarity;
+        let f = f64::from(self.actual_force());
+        if torque * dir >= 0.0 {
+            f
+        } else {
+            -f
+        }
     }
 
     /// RCB2 of the running record (§6.5.3 Tab. 6.9): when its switching condition is met,
@@ -1494,6 +1564,39 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                     }
                 }
             }
+            Motion::Force {
+                target,
+                vmax,
+                start,
+                stroke,
+                ..
+            } => {
+                let dir = if target < 0.0 { -1.0 } else { 1.0 };
+                let err = libm::fabs(target) - self.force_along(dir);
+                // The position controller integrates a standing deviation into current: a
+                // deviation proportional to the force error lets it settle at the target
+                // (0.02 rev per 1000 ‰ of error), the set-point moving at most at `vmax`.
+                let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
+                let sinc_per_rev = inc_rev / p.einc_per_sinc.max(1e-9);
+                let desired = self.raw_actual() + dir * err / 1000.0 * 0.02 * sinc_per_rev;
+                // Far from the force (below target − 4 windows: no contact yet) the set-point
+                // travels at `vmax`; near it, first order towards `desired` (50 cycles, slow
+                // enough for the stiffness of the position controller).
+                let w = p.force_window.max(5.0);
+                let approach = dir * vmax * ((err - 2.0 * w) / (2.0 * w)).clamp(0.0, 1.0);
+                let settle = (desired - self.traj.position) * 0.02;
+                let step = (approach * dt + settle).clamp(-vmax * dt, vmax * dt);
+                self.traj.position += step;
+                self.traj.velocity = if dt > 0.0 { step / dt } else { 0.0 };
+                if let Some(limit) = stroke {
+                    if libm::fabs(self.traj.position - start) >= limit {
+                        // PNU 510 / 427: Quick-Stop ramp, then hold position-controlled.
+                        self.stroke_reached = true;
+                        self.task = Task::None;
+                        self.brake(p.quick_stop, false);
+                    }
+                }
+            }
             Motion::Jog { positive, since } => {
                 let slow = self.cycles.saturating_sub(since) < p.jog_time_ms;
                 let v = if slow { p.jog_slow } else { p.jog_fast };
@@ -1534,7 +1637,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let k = p.einc_per_sinc * p.polarity;
         let increments = libm::round(self.traj.position * k) as i64;
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
-        let rpm = self.traj.velocity * k / inc_rev * 60.0;
+        // No speed feed-forward under force control: the force comes from the deviation.
+        let ff = if matches!(self.motion, Motion::Force { .. }) {
+            0.0
+        } else {
+            self.traj.velocity
+        };
+        let rpm = ff * k / inc_rev * 60.0;
         self.stepper.step(
             dt,
             StepperDemand::PositionIncrements {
@@ -1566,6 +1675,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 if held(&mut self.window_since, inside, p.target_window_ms) {
                     self.mc = true;
                     self.standstill_target = Some(target);
+                }
+            }
+            Task::Force { target } if !self.mc => {
+                let dir = if target < 0.0 { -1.0 } else { 1.0 };
+                let inside =
+                    libm::fabs(self.force_along(dir) - libm::fabs(target)) <= p.force_window;
+                if held(&mut self.window_since, inside, p.target_window_ms) {
+                    self.mc = true;
                 }
             }
             Task::Velocity { target } if !self.mc => {
