@@ -374,6 +374,12 @@ fn force_task_builds_the_force_against_a_blocked_axis() {
     let ma = b.dev.stepper().current_ma();
     assert!((860..=940).contains(&ma), "{ma} mA");
     assert!(i.spos.contains(Spos::MC) && i.actual2.abs() <= 2);
+    // PNU 301: actual, set-point, deviation in ‰ of PNU 555.
+    let pnu301 = |sub| b.dev.read_u16(0x2000 + 301, sub).map(|v| v as i16);
+    assert_eq!(pnu301(2), Some(500));
+    let actual = pnu301(1).unwrap();
+    assert!((480..=520).contains(&actual), "{actual}");
+    assert_eq!(pnu301(3), Some(500 - actual));
     assert!(!i.scon.contains(Scon::FAULT));
 }
 

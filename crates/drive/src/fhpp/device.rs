@@ -1735,8 +1735,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
     }
 
-    /// Actual values into their PNUs (300, 310, 320, 321, 1040, 1041, 1059, 205, 230, 220,
-    /// 221, 400:2).
+    /// Actual values into their PNUs (300, 301, 310, 320, 321, 1040, 1041, 1059, 205, 230,
+    /// 220, 221, 400:2).
     fn publish(&mut self) {
         let s = self.status;
         let setpoint = sat_i32(self.to_pz(self.traj.position));
@@ -1756,6 +1756,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let record = inp[2];
         let last_target = sat_i32(self.to_pz(self.last_target));
         let current = self.stepper.current_ma();
+        // PNU 301 force values (‰ of PNU 555): the set-point of a force task, else 0.
+        let force_set = match self.task {
+            Task::Force { target } => target,
+            _ => 0.0,
+        };
+        let dir = if force_set < 0.0 { -1.0 } else { 1.0 };
+        let force_act = dir * self.force_along(dir);
+        let clamp16 = |v: f64| i64::from(sat_i32(v).clamp(i16::MIN.into(), i16::MAX.into()));
+        let force = [
+            clamp16(force_act),
+            clamp16(force_set),
+            clamp16(force_set - force_act),
+        ];
         let od = &mut self.od;
         let mut set = |pnu: u16, sub: u8, v: Value| {
             let _ = od.set_value(pnu_index(pnu), sub, v);
@@ -1770,6 +1783,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             3,
             Value::Signed(i64::from(setpoint_v) - i64::from(s.actual_velocity)),
         );
+        for (sub, v) in (1u8..).zip(force) {
+            set(301, sub, Value::Signed(v));
+        }
         set(1040, 1, Value::Signed(last_target.into()));
         set(1041, 1, Value::Signed(s.actual_position.into()));
         set(1059, 1, Value::Signed(current.into()));
