@@ -15,11 +15,15 @@ RECORD_INVALID = 0x3F   # App. D 3Fh record invalid
 HOMING_REQUIRED = 0x28  # App. D 28h homing required
 
 
-def start_record(client, number):
-    """Record selection: put the number in byte 3, START rising, then START away."""
+def start_record(client, number, until, what):
+    """Record selection: the number in byte 3, START rising and held until `until` holds for
+    the input telegram (the drive samples the telegram once per millisecond cycle), then
+    START away."""
     exchange(client, telegram(CCON_RECORD_ENABLED, CPOS_HALT, number))
-    exchange(client, telegram(CCON_RECORD_ENABLED, CPOS_HALT | CPOS_START, number))
-    return exchange(client, telegram(CCON_RECORD_ENABLED, CPOS_HALT, number))
+    s = cycle_until(client, telegram(CCON_RECORD_ENABLED, CPOS_HALT | CPOS_START, number),
+                    until, timeout=3, what=what)
+    exchange(client, telegram(CCON_RECORD_ENABLED, CPOS_HALT, number))
+    return s
 
 
 def acknowledge(client):
@@ -37,21 +41,21 @@ def test_invalid_record_number_is_fault_3fh_in_scon_and_fc_07_until_reset(cmmo):
     try:
         enable_and_home(c)
         assert c.read_exception_status().status == 0
-        start_record(c, 70)  # records are 1…64
+        start_record(c, 70, lambda s: s["scon"] & SCON_FAULT, "fault")  # records are 1…64
         s = cycle_until(c, telegram(CCON_RECORD_ENABLED, CPOS_HALT, 70),
                         lambda s: s["scon"] & SCON_FAULT and s["spos"] & SPOS_MC,
                         timeout=3, what="fault 3Fh")
         assert not s["spos"] & SPOS_ACK, s
         rr = c.read_exception_status()
         assert not rr.isError(), rr
-        assert rr.status == RECORD_INVALID, hex(rr.status)
+        assert rr.status == RECORD_INVALID, hex(rr.status)  # FHPP-MB-05: the fault number
         # Reaction E: Quick-Stop ramp, the output stage stays on.
         assert s["scon"] & SCON_ENABLED, s
         s = acknowledge(c)
         assert s["scon"] & SCON_ENABLED, s
         assert c.read_exception_status().status == 0
         # A valid record runs afterwards (record 1: target 0, at once MC).
-        start_record(c, 1)
+        start_record(c, 1, lambda s: s["spos"] & SPOS_ACK, "ACK of record 1")
         cycle_until(c, telegram(CCON_RECORD_ENABLED, CPOS_HALT, 1),
                     lambda s: s["spos"] & SPOS_MC and not s["scon"] & SCON_FAULT,
                     timeout=3, what="record 1 done")
@@ -67,9 +71,7 @@ def test_start_before_homing_is_fault_28h_and_reset_clears_it(cmmo):
         assert (s["scon"], s["spos"]) == (0x10, 0x04), s
         cycle_until(c, telegram(CCON_RECORD_ENABLED, CPOS_HALT),
                     lambda s: (s["scon"], s["spos"]) == (0x13, 0x05), what="enabled")
-        start_record(c, 1)
-        s = cycle_until(c, telegram(CCON_RECORD_ENABLED, CPOS_HALT, 1),
-                        lambda s: s["scon"] & SCON_FAULT, timeout=3, what="fault 28h")
+        start_record(c, 1, lambda s: s["scon"] & SCON_FAULT, "fault 28h")
         assert c.read_exception_status().status == HOMING_REQUIRED
         # The raw FC 0x03 image says the same as FC 0x17.
         rr = c.read_holding_registers(0, count=4)

@@ -170,7 +170,7 @@ fn app_d_table_matches_the_error_management_defaults_of_the_device_file() {
         assert_eq!(got, want, "PNU 234/238/242/246 sub {sub}");
     }
     assert_eq!(DIAGNOSTICS.len(), 57);
-    // fhpp §8.1 example 2: 0x0037 = A, B, C, E, F (software limits 11h…14h, sub = n + 1).
+    // FHPP-FPC-10 (fhpp §8.1 example 2): 0x0037 = A, B, C, E, F (11h…14h, sub = n + 1).
     assert_eq!(b.r16(234, 0x12), 0x0037);
 }
 
@@ -178,7 +178,7 @@ fn app_d_table_matches_the_error_management_defaults_of_the_device_file() {
 fn pnu_242_and_246_accept_only_what_234_and_238_permit() {
     let mut b = Bench::new();
     let fe = diagnostics::subindex(diag::FOLLOWING_ERROR);
-    assert_eq!(fe, 48, "fhpp §8.4: 2Fh at subindex 48");
+    assert_eq!(fe, 48, "FHPP-FPC-13 (fhpp §8.4): 2Fh at subindex 48");
     // 2Fh: B, C, E, F permitted.
     assert_eq!(b.w16(242, fe, 0x0004), Ok(()));
     assert_eq!(b.r16(242, fe), 0x0004);
@@ -313,6 +313,7 @@ fn warning_class_sets_warn_and_pnu_221_and_clears_with_its_cause() {
     b.dev.fault(diag::LOAD_VOLTAGE_LOW);
     b.run(2);
     let i = b.input();
+    // FHPP-CB-06: SCON.WARN.
     assert!(
         i.scon.contains(Scon::WARN) && !i.scon.contains(Scon::FAULT),
         "{i:?}"
@@ -353,7 +354,7 @@ fn following_error_fault_shows_in_220_sub_2_bit_15() {
     let mut b = Bench::ready();
     b.dev.fault(diag::FOLLOWING_ERROR);
     b.run(2);
-    // fhpp §8.4: 2Fh → PNU 220 sub 2, bit 47 − 32 = 15.
+    // FHPP-FPC-13 (fhpp §8.4): 2Fh → PNU 220 sub 2, bit 47 − 32 = 15.
     assert_eq!(b.r32(220, 2), 1 << 15);
     assert_eq!(b.r16(205, 1), 0x2F);
     assert_eq!(b.r8(230, 1), 1, "after the cause");
@@ -372,8 +373,8 @@ fn after_cause_faults_acknowledge_only_once_the_cause_has_gone() {
     b.dev.clear_fault(diag::LOAD_VOLTAGE_HIGH);
     let i = b.reset(Ccon(0x00));
     assert!(!i.scon.contains(Scon::FAULT), "{i:?}");
-    assert_eq!(b.r16(205, 1), 0xFFFF);
-    assert_eq!(b.r8(230, 1), 0xFF);
+    assert_eq!(b.r16(205, 1), 0xFFFF, "FHPP-FPC-08");
+    assert_eq!(b.r8(230, 1), 0xFF, "FHPP-FPC-09");
     // Incoming 01h, outgoing 00h in the memory.
     let (gone, incoming) = (b.memory(1), b.memory(2));
     assert_eq!((gone.0, gone.1), (0x00, 0x1A), "outgoing");
