@@ -707,3 +707,82 @@ fn force_task_in_open_loop_raises_24h() {
     b.until(100, |i| i.scon.contains(Scon::FAULT));
     assert_eq!(b.dev.fault_number(), diag::NOT_IN_OPEN_LOOP);
 }
+
+// ---- comparators (PNU 312) ----------------------------------------------------------------
+
+/// Direct mode uses PNU 585…595 (§6.7.4): the position comparator is on while the actual
+/// position is in [min, max] for the window time; the time comparator counts from the start.
+#[test]
+fn direct_comparators_show_in_pnu_312() {
+    let mut b = Bench::ready();
+    b.w32(585, 1, 9_000);
+    b.w32(586, 1, 18_000);
+    b.dev.write(pnu(587), 1, &5u16.to_le_bytes()).unwrap();
+    b.w32(594, 1, 100);
+    b.w32(595, 1, 200);
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 10, 36_000));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        Cdir(0),
+        10,
+        36_000,
+    ));
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 10, 36_000));
+    let t0 = b.t_ms;
+    let mut seen = 0u8;
+    let mut time_on = None;
+    let mut inside_ms = 0;
+    for _ in 0..3000 {
+        b.run(1);
+        let out = b.r8(312, 1);
+        let pz = b.input().actual2;
+        if out & 0x01 != 0 {
+            assert!((9_000..=18_200).contains(&pz), "position bit at {pz}");
+            inside_ms += 1;
+        }
+        if out & 0x08 != 0 && time_on.is_none() {
+            time_on = Some(b.t_ms - t0);
+        }
+        seen |= out;
+    }
+    assert_eq!(
+        seen & 0x09,
+        0x09,
+        "position and time comparators: {seen:#04x}"
+    );
+    assert!(inside_ms > 100, "{inside_ms} ms inside");
+    let t = time_on.unwrap();
+    // t0 is taken 3 cycles after the START edge was seen.
+    assert!((96..=100).contains(&t), "time comparator from {t} ms");
+    assert_eq!(b.r8(312, 1) & 0x09, 0, "past both windows");
+}
+
+/// RCB2 = 23: the time comparator of record 1 (PNU 439/440) switches to record 2 after
+/// PNU 439 ms of record 1.
+#[test]
+fn chaining_on_the_time_comparator() {
+    let mut b = Bench::ready();
+    b.w32(404, 1, 36_000);
+    b.w32(406, 1, 9_000);
+    b.w8(402, 1, 23);
+    b.w8(416, 1, 2);
+    b.w32(439, 1, 150);
+    b.w32(440, 1, 10_000);
+    b.w32(404, 2, -3_600);
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 1));
+    let t0 = b.t_ms - 2;
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
+    let i = b.until(1000, |i| Rsb(i.byte4).contains(Rsb::RC1));
+    let t = b.t_ms - t0;
+    assert!((150..=156).contains(&t), "switched after {t} ms");
+    assert_eq!(i.byte3, 2);
+    let i = b.until(3000, |i| i.spos.contains(Spos::MC));
+    assert!(
+        (i.actual2 + 3_600).abs() <= 180,
+        "record 2's target: {}",
+        i.actual2
+    );
+    assert!(Rsb(i.byte4).contains(Rsb::RCC));
+}

@@ -59,9 +59,12 @@
 //!   the active fault as 00h, 3Dh at power-on / clear / wrap; time stamps are the device's
 //!   cycle clock in ms. Mirrored into PNU 200…204:4 at the end of a cycle that changed it, so
 //!   every channel reads it through the dictionary; PNU 204:3 = 1 clears it.
+//! - **Comparators** (§6.7.4): every cycle those of the task — the last record started in
+//!   record selection (PNU 430…440), PNU 585…595 in direct mode — are evaluated: position on
+//!   the PZ actual position, velocity, signed force, time since the task start; window times
+//!   PNU 432/435/438 (587/590/593). Result in PNU 312.
 //! - **Record chaining** (§6.5.3): after each cycle the running record's RCB2 condition is
-//!   checked (MC; position comparator on the PZ actual position, velocity, force, time since
-//!   the record started; window times PNU 432/435/438). When met, PNU 416 names the next
+//!   checked (MC, or the PNU 312 bit of its comparator). When met, PNU 416 names the next
 //!   record; [`Fhpp::record_chained`] updates byte 3, RSB.RC1 and the PNU 425 MC pulse; the
 //!   next record starts after its own start delay PNU 426 (also for a START edge).
 //! - **Software limits** PNU 501 (relative to AZ, both 0 = off, only while referenced): a
@@ -78,8 +81,8 @@
 //!
 //! # Not modelled yet
 //!
-//! The torque limits (PNU 418, 512, 581), jerk limitation, the comparator outputs PNU 312, final velocities, the causes
-//! the plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
+//! The torque limits (PNU 418, 512, 581), jerk limitation, final velocities, the causes the
+//! plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
 //! [`FhppDevice::fault`]), the parameter channel (FPC input bytes read 0), and the rw2 access
 //! rule outside PNU 242 / 246.
 
@@ -169,6 +172,7 @@ struct Params {
     base_force_ma: f64,
     force_stroke: f64,
     force_window: f64,
+    direct_comparators: Comparators,
     /// PNU 501:1 / 501:2, relative to AZ; both 0 = no software limits.
     soft_lower: i64,
     soft_upper: i64,
@@ -237,10 +241,22 @@ enum Task {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Chain {
     record: u8,
-    /// Cycle the record started (time comparator).
-    started: u64,
-    /// Since when the comparator value is inside its window.
-    window_since: Option<u64>,
+}
+
+/// PNU 312 bits: the comparator outputs (Tab. B.41).
+const CMP_POSITION: u8 = 0x01;
+const CMP_VELOCITY: u8 = 0x02;
+const CMP_FORCE: u8 = 0x04;
+const CMP_TIME: u8 = 0x08;
+
+/// The four comparators of a task (§6.7.4 Tab. 6.19/6.20): a record's PNU 430…440 or the
+/// direct-mode PNU 585…595.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Comparators {
+    position: Comparator<i32>,
+    velocity: Comparator<i32>,
+    force: Comparator<i16>,
+    time: TimeComparator,
 }
 
 /// A position task interrupted by HALT (SA3), continued by START.
@@ -308,6 +324,14 @@ pub struct FhppDevice<S> {
     memory_dirty: bool,
     // ---- record chaining, software limits ----
     chain: Option<Chain>,
+    /// Whose comparators PNU 312 shows in record selection (the last record started).
+    comparator_record: Option<u8>,
+    /// Since when each of position / velocity / force is inside its window.
+    comparator_since: [Option<u64>; 3],
+    /// PNU 312.
+    comparator_outputs: u8,
+    /// Cycle the current task started (time comparator).
+    task_started: u64,
     /// Software limit passed (11h / 12h): that direction is locked (13h / 14h).
     locked_positive: bool,
     locked_negative: bool,
@@ -379,6 +403,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             memory: DiagnosticMemory::power_on(0),
             memory_dirty: true,
             chain: None,
+            comparator_record: None,
+            comparator_since: [None; 3],
+            comparator_outputs: 0,
+            task_started: 0,
             locked_positive: false,
             locked_negative: false,
         };
@@ -824,6 +852,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             }
         }
         self.advance(dt);
+        self.compare();
         self.check_chain();
         self.cycles += 1;
         self.status = self.motion_status();
@@ -882,6 +911,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
             force_stroke: pos(g(510, 1)),
+            direct_comparators: Comparators {
+                position: Comparator {
+                    min: g(585, 1) as i32,
+                    max: g(586, 1) as i32,
+                    window_time_ms: g(587, 1) as u16,
+                },
+                velocity: Comparator {
+                    min: g(588, 1) as i32,
+                    max: g(589, 1) as i32,
+                    window_time_ms: g(590, 1) as u16,
+                },
+                force: Comparator {
+                    min: g(591, 1) as i16,
+                    max: g(592, 1) as i16,
+                    window_time_ms: g(593, 1) as u16,
+                },
+                time: TimeComparator {
+                    min_ms: g(594, 1) as u32,
+                    max_ms: g(595, 1) as u32,
+                },
+            },
             force_window: pos(g(552, 1)),
             soft_lower: g(501, 1),
             soft_upper: g(501, 2),
@@ -1013,6 +1063,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     fn start_task(&mut self, task: Task) {
         self.task = task;
+        self.task_started = self.cycles;
         self.mc = false;
         self.window_since = None;
         self.standstill_target = None;
@@ -1385,11 +1436,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 );
             }
         }
-        self.chain = Some(Chain {
-            record: number,
-            started: self.cycles,
-            window_since: None,
-        });
+        self.chain = Some(Chain { record: number });
+        self.comparator_record = Some(number);
     }
 
     /// Force task `target` ‰ of PNU 555 (the sign is the direction) with the velocity limit
@@ -1429,10 +1477,65 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
     }
 
+    /// The comparators of the task (§6.7.4): in record selection those of the last record
+    /// started, in direct mode PNU 585…595. A comparator is on while its value is inside
+    /// [min, max] for its window time (min > max: never); the time comparator counts from the
+    /// task start. Result: PNU 312 and the chaining conditions 20…23.
+    fn compare(&mut self) {
+        let direct = self.fhpp.operating_mode() == super::OperatingMode::Direct;
+        let set = if direct {
+            Some(self.params.direct_comparators)
+        } else {
+            self.comparator_record
+                .and_then(|n| self.records.get(n))
+                .map(|r| Comparators {
+                    position: r.position_comparator,
+                    velocity: r.velocity_comparator,
+                    force: r.force_comparator,
+                    time: r.time_comparator,
+                })
+        };
+        let Some(c) = set else {
+            self.comparator_outputs = 0;
+            self.comparator_since = [None; 3];
+            return;
+        };
+        let now = self.cycles;
+        // §6.7.4: the position comparator is absolute (PZ) even for relative records.
+        let pz = sat_i32(self.to_pz(self.raw_actual()));
+        let v = sat_i32(self.actual_velocity());
+        let f = sat_i32(self.force_along(1.0)).clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+        let inside = [
+            (c.position.contains(pz), c.position.window_time_ms),
+            (c.velocity.contains(v), c.velocity.window_time_ms),
+            (c.force.contains(f), c.force.window_time_ms),
+        ];
+        let mut out = 0;
+        for ((bit, (inn, ms)), since) in [CMP_POSITION, CMP_VELOCITY, CMP_FORCE]
+            .into_iter()
+            .zip(inside)
+            .zip(self.comparator_since.iter_mut())
+        {
+            if !inn {
+                *since = None;
+                continue;
+            }
+            let t0 = *since.get_or_insert(now);
+            if now.saturating_sub(t0) >= u64::from(ms) {
+                out |= bit;
+            }
+        }
+        let t = now.saturating_sub(self.task_started);
+        if (u64::from(c.time.min_ms)..=u64::from(c.time.max_ms)).contains(&t) {
+            out |= CMP_TIME;
+        }
+        self.comparator_outputs = out;
+    }
+
     /// RCB2 of the running record (§6.5.3 Tab. 6.9): when its switching condition is met,
     /// the record of PNU 416 follows (its own start delay first); PNU 425 pulses MC.
     fn check_chain(&mut self) {
-        let Some(mut chain) = self.chain else {
+        let Some(chain) = self.chain else {
             return;
         };
         if !self.stage_on || matches!(self.task, Task::Delayed { .. }) {
@@ -1442,41 +1545,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             self.chain = None;
             return;
         };
-        let now = self.cycles;
-        let window = |since: &mut Option<u64>, inside: bool, ms: u16| -> bool {
-            if !inside {
-                *since = None;
-                return false;
-            }
-            let t0 = *since.get_or_insert(now);
-            now.saturating_sub(t0) >= u64::from(ms)
-        };
+        let out = self.comparator_outputs;
         let met = match r.chain_condition() {
             None | Some(ChainCondition::None) => false,
             Some(ChainCondition::MotionComplete) => self.mc,
-            // §6.7.4: the position comparator is absolute (PZ) even for relative records.
-            Some(ChainCondition::PositionComparator) => {
-                let c = r.position_comparator;
-                let pz = sat_i32(self.to_pz(self.raw_actual()));
-                window(&mut chain.window_since, c.contains(pz), c.window_time_ms)
-            }
-            Some(ChainCondition::VelocityComparator) => {
-                let c = r.velocity_comparator;
-                let v = sat_i32(self.actual_velocity());
-                window(&mut chain.window_since, c.contains(v), c.window_time_ms)
-            }
-            Some(ChainCondition::ForceComparator) => {
-                let c = r.force_comparator;
-                let f = self.actual_force().clamp(i16::MIN.into(), i16::MAX.into()) as i16;
-                window(&mut chain.window_since, c.contains(f), c.window_time_ms)
-            }
-            Some(ChainCondition::TimeComparator) => {
-                let t = now.saturating_sub(chain.started);
-                let c = r.time_comparator;
-                (u64::from(c.min_ms)..=u64::from(c.max_ms)).contains(&t)
-            }
+            Some(ChainCondition::PositionComparator) => out & CMP_POSITION != 0,
+            Some(ChainCondition::VelocityComparator) => out & CMP_VELOCITY != 0,
+            Some(ChainCondition::ForceComparator) => out & CMP_FORCE != 0,
+            Some(ChainCondition::TimeComparator) => out & CMP_TIME != 0,
         };
-        self.chain = Some(chain);
         if !met {
             return;
         }
@@ -1816,6 +1893,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         );
         set(230, 1, Value::Unsigned(ack));
         set(400, 2, Value::Unsigned(record.into()));
+        set(312, 1, Value::Unsigned(self.comparator_outputs.into()));
         let faults = self.faults_present;
         for (i, sub) in (1u8..=4).enumerate() {
             let shift = 32 * i as u32;
