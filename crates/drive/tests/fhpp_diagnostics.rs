@@ -786,3 +786,27 @@ fn chaining_on_the_time_comparator() {
     );
     assert!(Rsb(i.byte4).contains(Rsb::RCC));
 }
+
+/// Load voltage off: SCON.VLOAD = 0, 1Bh (F, reaction A: the output stage goes off); back on,
+/// RESET acknowledges it and the drive can be enabled again.
+#[test]
+fn load_voltage_off_raises_1bh() {
+    let mut b = Bench::ready();
+    b.dev.set_load_voltage(false);
+    let i = b.until(100, |i| i.scon.contains(Scon::FAULT));
+    assert!(
+        !i.scon.contains(Scon::VLOAD) && !i.scon.contains(Scon::ENABLED),
+        "{i:?}"
+    );
+    assert_eq!(b.dev.fault_number(), diag::LOAD_VOLTAGE_LOW);
+    let i = b.reset(Ccon(0x00));
+    assert!(i.scon.contains(Scon::FAULT), "cause present");
+    b.dev.set_load_voltage(true);
+    let i = b.reset(Ccon(0x00));
+    assert!(
+        !i.scon.contains(Scon::FAULT) && i.scon.contains(Scon::VLOAD),
+        "{i:?}"
+    );
+    let i = b.enable_record();
+    assert!(i.scon.contains(Scon::ENABLED));
+}

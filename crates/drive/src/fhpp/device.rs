@@ -607,6 +607,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         Ok(class)
     }
 
+    /// The load (intermediate circuit) voltage is switched on or off: SCON.VLOAD, the T2
+    /// condition, and App. D 1Bh "intermediate circuit voltage too low" while it is off (an
+    /// error with reaction A by default, acknowledgeable once the voltage is back; as a
+    /// warning it clears by itself).
+    pub fn set_load_voltage(&mut self, present: bool) {
+        self.fhpp.set_load_voltage(present);
+        if present {
+            self.clear_fault(diag::LOAD_VOLTAGE_LOW);
+        } else {
+            self.fault(diag::LOAD_VOLTAGE_LOW);
+        }
+    }
+
     /// The cause of diagnostic `code` has gone: an error may now be acknowledged, a warning
     /// clears.
     pub fn clear_fault(&mut self, code: u8) {
