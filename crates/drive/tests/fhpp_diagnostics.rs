@@ -810,3 +810,22 @@ fn load_voltage_off_raises_1bh() {
     let i = b.enable_record();
     assert!(i.scon.contains(Scon::ENABLED));
 }
+
+/// Teach into a relative record: 40h "last teaching not successful" (a warning by default),
+/// the record keeps its target; a successful teach clears it.
+#[test]
+fn teach_into_a_relative_record_warns_40h() {
+    let mut b = Bench::ready();
+    b.w8(401, 3, 0x01); // record 3: relative
+    b.w32(404, 3, 1234);
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::TEACH, 3));
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
+    assert!(i.scon.contains(Scon::WARN), "{i:?}");
+    assert_eq!(b.r32(221, 3), 1 << (0x40 - 64));
+    assert_eq!(b.r32(404, 3), 1234);
+    // Record 4 is absolute: taught, the warning goes.
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::TEACH, 4));
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT, 4));
+    assert!(!i.scon.contains(Scon::WARN), "{i:?}");
+    assert_eq!(b.r32(404, 4) as i32, i.actual2);
+}

@@ -1598,7 +1598,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let target = get_i64(&self.od, 520, 1);
         let raw = self.pz_to_raw(f64::from(position));
         let (pnu, sub, value) = match target {
-            1 => (404, record, i64::from(position)),
+            1 => {
+                // App. D 40h: the record must be an absolute position record.
+                let absolute_position = self.records.get(record).is_some_and(|r| {
+                    r.control_mode() == Some(ControlMode::Position) && !r.rcb1.contains(Rcb1::ABS)
+                });
+                if !absolute_position {
+                    self.raise_once(diag::TEACH_FAILED);
+                    return;
+                }
+                (404, record, i64::from(position))
+            }
             // AZ := here: AZ = REF + PNU 1010.
             2 => (1010, 1, (raw - self.reference.unwrap_or(0.0)) as i64),
             // PZ := here: PZ = AZ + PNU 500.
@@ -1617,6 +1627,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let _ = self.od.set_value(pnu_index(pnu), sub, Value::Signed(value));
         self.params_dirty = true;
         self.records_dirty = true;
+        // A successful teach ends a 40h warning.
+        self.clear_warning(diag::TEACH_FAILED);
     }
 
     // ---- motion and plant --------------------------------------------------------------
