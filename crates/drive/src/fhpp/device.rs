@@ -54,6 +54,9 @@
 //!   FC 0x07 the active one. A fault that a single event caused (a refused start, a passed
 //!   limit) is acknowledgeable at once; an injected one ([`FhppDevice::fault`]) keeps its
 //!   App. D acknowledge type and its cause until [`FhppDevice::clear_fault`].
+//!   Raised from their simulated causes: 28h, 3Fh, 3Bh (starts), 2Fh, 37h (monitoring),
+//!   11h…14h, 29h, 2Ah (software limits), 24h (force in open loop), 40h (teach), 1Bh
+//!   ([`FhppDevice::set_load_voltage`]); 47h / 48h come from the Modbus runtime's watchdog.
 //! - **Diagnostic memory** ([`super::diagnostic_memory`]): incoming faults (01h), warnings
 //!   (05h) and informations (09h) when PNU 246 bit 7 (or App. D "always") says so, the end of
 //!   the active fault as 00h, 3Dh at power-on / clear / wrap; time stamps are the device's
