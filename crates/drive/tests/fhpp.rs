@@ -1468,3 +1468,50 @@ fn record_table_data() {
     assert_eq!(Reaction::from_bit(0x20), Some(Reaction::F));
     assert_eq!(Reaction::E.bit(), 0x10);
 }
+
+// ---- record chaining (§6.5.3) --------------------------------------------------------------
+
+/// The motion layer met record 1's switching condition and started record 2: byte 3 shows 2,
+/// RSB.RC1 = 1, MC stays 0 (PNU 425 = 0); at record 2's MC, RCC = 1 (chain completed).
+#[test]
+fn record_chained_updates_feedback_rc1_and_rcc() {
+    let mut rig = Rig::record_running(1);
+    assert!(rig.fhpp.record_chained(2, ControlMode::Position, false));
+    let i = rig.rec(0x03, 0x01, 1);
+    assert_eq!(i.byte3, 2);
+    assert_eq!(Rsb(i.byte4) & (Rsb::RC1 | Rsb::RCC), Rsb::RC1);
+    assert!(!i.spos.contains(Spos::MC));
+    rig.settled();
+    let i = rig.again();
+    assert!(i.spos.contains(Spos::MC));
+    assert_eq!(rig.transitions(), [Transition::TA2]);
+    assert_eq!(Rsb(i.byte4) & (Rsb::RC1 | Rsb::RCC), Rsb::RC1 | Rsb::RCC);
+    assert_eq!(rig.fhpp.chain_status(), Rsb::RC1 | Rsb::RCC);
+    // The next start clears both.
+    rig.rec(0x03, 0x01, 3);
+    let i = rig.rec(0x03, 0x03, 3);
+    assert_eq!(Rsb(i.byte4) & (Rsb::RC1 | Rsb::RCC), Rsb::EMPTY);
+}
+
+/// PNU 425 = 1: MC is 1 in exactly one telegram at the switch, the task goes on (SA2).
+#[test]
+fn record_chained_with_mc_pulse_shows_mc_once() {
+    let mut rig = Rig::record_running(1);
+    assert!(rig.fhpp.record_chained(5, ControlMode::Velocity, true));
+    let i = rig.rec(0x03, 0x01, 1);
+    assert!(i.spos.contains(Spos::MC), "pulse");
+    assert_eq!(rig.fhpp.op_state(), OpState::TaskActive);
+    let i = rig.again();
+    assert!(!i.spos.contains(Spos::MC));
+}
+
+/// No chaining outside a running record task (halted, direct mode, fault).
+#[test]
+fn record_chained_is_refused_without_a_running_record() {
+    let mut rig = Rig::enabled_referenced();
+    assert!(!rig.fhpp.record_chained(2, ControlMode::Position, false));
+    let mut rig = Rig::direct_referenced();
+    assert!(!rig.fhpp.record_chained(2, ControlMode::Position, false));
+    rig.again();
+    assert_eq!(rig.fhpp.chain_status(), Rsb::EMPTY);
+}

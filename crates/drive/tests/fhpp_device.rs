@@ -2,7 +2,7 @@
 //! status telegrams out — the manual's reference values and handshakes end to end.
 
 use drive::fhpp::device::{diag, FhppDevice, FhppSettings};
-use drive::fhpp::{Ccon, Cdir, Cpos, InputData, OutputData, Scon, Spos, State};
+use drive::fhpp::{Ccon, Cdir, Cpos, InputData, OutputData, Scon, Sdir, Spos, State};
 use drive::stepper::StepperMode;
 use od::{Instant, ObjectAccess, ObjectDictionary};
 
@@ -339,4 +339,75 @@ fn step_is_deterministic() {
         (b.dev.inputs(), b.dev.stepper().angle().to_bits())
     };
     assert_eq!(run(), run());
+}
+
+/// Direct force mode (§6.6, CDIR.COM = 01): against a blocked axis the force builds up to
+/// the set-point (‰ of PNU 555) and MC follows inside ±PNU 552 for PNU 1023.
+#[test]
+fn force_task_builds_the_force_against_a_blocked_axis() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.home();
+    b.dev.stepper_mut().set_blocked(true);
+    let force = Cdir(0x02); // COM1: force mode, stroke monitoring on
+    let target = 500; // 50 % of PNU 555 = 900 mA
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 20, target));
+    let i = b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        force,
+        20,
+        target,
+    ));
+    assert!(
+        i.spos.contains(Spos::ACK) && !i.spos.contains(Spos::MC),
+        "{i:?}"
+    );
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 20, target));
+    let i = b.until(3000, |i| i.spos.contains(Spos::MC));
+    // Byte 4: torque in % of PNU 555 (PNU 523:7 factory setting).
+    assert!((45..=55).contains(&i.byte4), "force {} %", i.byte4);
+    // Settled: 50 % of 1800 mA.
+    b.run(500);
+    let i = b.input();
+    assert!((48..=52).contains(&i.byte4), "force {} %", i.byte4);
+    let ma = b.dev.stepper().current_ma();
+    assert!((860..=940).contains(&ma), "{ma} mA");
+    assert!(i.spos.contains(Spos::MC) && i.actual2.abs() <= 2);
+    // PNU 301: actual, set-point, deviation in ‰ of PNU 555.
+    let pnu301 = |sub| b.dev.read_u16(0x2000 + 301, sub).map(|v| v as i16);
+    assert_eq!(pnu301(2), Some(500));
+    let actual = pnu301(1).unwrap();
+    assert!((480..=520).contains(&actual), "{actual}");
+    assert_eq!(pnu301(3), Some(500 - actual));
+    assert!(!i.scon.contains(Scon::FAULT));
+}
+
+/// A force task without a workpiece runs at its velocity limit to the stroke limit PNU 510,
+/// brakes and reports SDIR.XLIM.
+#[test]
+fn force_task_without_a_workpiece_stops_at_the_stroke_limit() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.home();
+    b.pnu_write_i32(510, 1, 9_000);
+    let force = Cdir(0x02);
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));
+    b.send(OutputData::direct(
+        DIRECT,
+        Cpos::HALT | Cpos::START,
+        force,
+        10,
+        300,
+    ));
+    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));
+    let i = b.until(3000, |i| Sdir(i.byte3).contains(Sdir::XLIM));
+    assert!(i.spos.contains(Spos::MOV));
+    let i = b.until(1000, |i| !i.spos.contains(Spos::MOV));
+    let pos = b.dev.read_u32(0x2000 + 1041, 1).map(|v| v as i32).unwrap();
+    assert!(
+        (9_000..10_000).contains(&pos),
+        "stopped after 9000 SINC: {pos}"
+    );
+    assert!(!i.scon.contains(Scon::FAULT));
 }

@@ -38,30 +38,71 @@
 //! - **Following error**: |set-point − actual| > window for longer than the timeout: windows
 //!   PNU 424 (record), 549 (direct position), 538 (jog, timeout 539), 568 (velocity tasks, on
 //!   the velocity difference), timeout PNU 1045. Diagnostic 2Fh with the class and reaction of
-//!   PNU 246 / 242 (default F, reaction E).
+//!   PNU 246 / 242 (default F, reaction E); as W it clears back inside the window, as I it is
+//!   a memory entry per occurrence.
 //! - **Standstill** after MC of a position task: outside ±PNU 1042 around the target for
 //!   PNU 1043 ms → SPOS.STILL and warning 37h (PNU 1042 = 0: off).
 //! - Direct-mode velocity ramp byte = 0 % uses the base value PNU 560 (a ramp of 0 would
 //!   never reach the speed); a position move with 0 % velocity does not move (Tab. 5.17
 //!   "0 = no velocity"). Final velocities (PNU 423, 548) are not used: every move ends at rest.
 //! - Velocities are limited to PNU 502 (SDIR/RSB.VLIM while limited).
+//! - **Diagnostics** (§7, App. D): the messages are the table of [`super::diagnostics`]; the
+//!   class and reaction of each come from PNU 246 / 242 (subindex = number + 1), whose writes
+//!   are checked against PNU 234 / 238 (rw2: output stage off). Errors go to the state
+//!   machine (T7, the reaction A…G applied there), warnings to SCON.WARN / PNU 221,
+//!   informations to the memory only. PNU 220 shows every fault present, PNU 205 / 230 /
+//!   FC 0x07 the active one. A fault that a single event caused (a refused start, a passed
+//!   limit) is acknowledgeable at once; an injected one ([`FhppDevice::fault`]) keeps its
+//!   App. D acknowledge type and its cause until [`FhppDevice::clear_fault`].
+//!   Raised from their simulated causes: 28h, 3Fh, 3Bh (starts), 2Fh, 37h (monitoring),
+//!   11h…14h, 29h, 2Ah (software limits), 24h (force in open loop), 40h (teach), 1Bh
+//!   ([`FhppDevice::set_load_voltage`]); 47h / 48h come from the Modbus runtime's watchdog.
+//! - **Diagnostic memory** ([`super::diagnostic_memory`]): incoming faults (01h), warnings
+//!   (05h) and informations (09h) when PNU 246 bit 7 (or App. D "always") says so, the end of
+//!   the active fault as 00h, 3Dh at power-on / clear / wrap; time stamps are the device's
+//!   cycle clock in ms. Mirrored into PNU 200…204:4 at the end of a cycle that changed it, so
+//!   every channel reads it through the dictionary; PNU 204:3 = 1 clears it.
+//! - **Comparators** (§6.7.4): every cycle those of the task — the last record started in
+//!   record selection (PNU 430…440), PNU 585…595 in direct mode — are evaluated: position on
+//!   the PZ actual position, velocity, signed force, time since the task start; window times
+//!   PNU 432/435/438 (587/590/593). Result in PNU 312.
+//! - **Record chaining** (§6.5.3): after each cycle the running record's RCB2 condition is
+//!   checked (MC, or the PNU 312 bit of its comparator). When met, PNU 416 names the next
+//!   record; [`Fhpp::record_chained`] updates byte 3, RSB.RC1 and the PNU 425 MC pulse; the
+//!   next record starts after its own start delay PNU 426 (also for a START edge).
+//! - **Software limits** PNU 501 (relative to AZ, both 0 = off, only while referenced): a
+//!   position start with a target behind a limit raises 29h / 2Ah and does not move; a
+//!   velocity task whose set-point reaches a limit raises 11h / 12h and locks that direction
+//!   (13h / 14h on a start into it) until the set-point is back inside; jog stops at the limit
+//!   by itself with its ramp (§6.3 step 4), without an error.
+//! - **Parameter channel** ([`super::parameter_channel`]): bytes 9…16 of a 16-byte telegram,
+//!   one job per cycle through this device's own [`ObjectAccess`]; PNU 127 saves to and loads
+//!   from the permanent memory, which also holds the parameter file.
+//! - **Force mode** (§6.6, CDIR.COM = 01 / RCB1 COM = 01; closed loop only, open loop
+//!   refuses it with 24h): an outer loop on the position set-point — towards the force's sign
+//!   at the velocity limit until the force nears the set-point, then a deviation that makes
+//!   the position controller produce that current (see `Motion::Force`). MC once the force
+//!   stays within ±PNU 552 for PNU 1023; stroke limit PNU 510 (record PNU 427) from the start
+//!   position, then the Quick-Stop ramp and SDIR/RSB.XLIM. Actual force = current / PNU 555.
 //!
 //! # Not modelled yet
 //!
-//! Force mode (a force task holds position and reports MC at once), record chaining (RCB2,
-//! PNU 416, 425, 426 start delay), software limits (PNU 501, diagnostics 11h–14h, 29h/2Ah),
-//! jerk limitation, comparators, the parameter channel (FPC input bytes read 0), the
-//! diagnostic memory (PNU 200–204), and the rw2 access rule.
+//! The torque limits (PNU 418, 512, 581), jerk limitation, final velocities, the causes the
+//! plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
+//! [`FhppDevice::fault`]), and the rw2 access rule outside PNU 242 / 246 and the parameter
+//! channel (other writers through [`ObjectAccess`] are not checked).
 
 use core::time::Duration;
 
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::control_bytes::{ControlMode, OutputData};
+use super::diagnostic_memory::{self, DiagnosticMemory, EventType};
+use super::diagnostics::{self, Class, Diagnostic};
 use super::parameter_channel::{self, ParameterChannel};
-use super::record_table::{Comparator, Rcb1, Record, RecordTable, TimeComparator};
+use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
 use super::state_machine::{
-    Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, Reaction, RelativeTo,
+    Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
 };
 use super::{FHPP_FPC_LEN, FHPP_STD_LEN};
 use crate::fhpp::record_table::StartBehaviour;
@@ -73,35 +114,9 @@ pub const fn pnu_index(pnu: u16) -> u16 {
     0x2000 + pnu
 }
 
-/// Diagnostic numbers this device raises (App. D).
-pub mod diag {
-    /// 28h homing required.
-    pub const HOMING_REQUIRED: u8 = 0x28;
-    /// 2Fh following error.
-    pub const FOLLOWING_ERROR: u8 = 0x2F;
-    /// 37h standstill monitoring.
-    pub const STANDSTILL: u8 = 0x37;
-    /// 3Bh homing method invalid.
-    pub const HOMING_METHOD_INVALID: u8 = 0x3B;
-    /// 3Fh record invalid.
-    pub const RECORD_INVALID: u8 = 0x3F;
-    /// 47h Modbus connection with master control.
-    pub const MODBUS_WITH_CONTROL: u8 = 0x47;
-    /// 48h Modbus connection without master control.
-    pub const MODBUS_WITHOUT_CONTROL: u8 = 0x48;
-}
-
-/// The "Ack" column of App. D for a diagnostic number: "Reset" = not by RESET,
-/// "AfterCause" = once the cause is gone, "Imm" = at once.
-pub const fn ack_type(code: u8) -> Ack {
-    match code {
-        0x01 | 0x02 | 0x06 | 0x09 | 0x0C | 0x0D | 0x18 | 0x23 | 0x4D => Ack::NotAckable,
-        0x0E | 0x15 | 0x16 | 0x17 | 0x1A | 0x1B | 0x2F | 0x34 | 0x38 | 0x45 | 0x46 | 0x4E => {
-            Ack::AfterCause
-        }
-        _ => Ack::Immediately,
-    }
-}
+/// Names of the diagnostic numbers the twin raises (App. D; the full list is
+/// [`super::diagnostics::DIAGNOSTICS`]).
+pub use super::diagnostics::code as diag;
 
 /// Settings of the simulation that no PNU holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,6 +138,10 @@ impl Default for FhppSettings {
         }
     }
 }
+
+/// A diagnostic number App. D does not assign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownDiagnostic(pub u8);
 
 /// The output image had neither 8 nor 16 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -158,6 +177,12 @@ struct Params {
     homing_accel: f64,
     base_acceleration: f64,
     base_force_ma: f64,
+    force_stroke: f64,
+    force_window: f64,
+    direct_comparators: Comparators,
+    /// PNU 501:1 / 501:2, relative to AZ; both 0 = no software limits.
+    soft_lower: i64,
+    soft_upper: i64,
 }
 
 /// What the executor is doing to the set-point.
@@ -172,6 +197,19 @@ enum Motion {
         target: f64,
         accel: f64,
         decel: f64,
+        start: f64,
+        stroke: Option<f64>,
+    },
+    /// Force control (§6.6): the set-point moves towards the force direction at up to `vmax`
+    /// while the force is below `target` ‰ and backs off above it, so the position
+    /// controller builds the force against whatever stops the axis. Decision: the plant has
+    /// a position / current-vector interface only, so force control is this outer loop on the
+    /// position set-point (a free axis runs at `vmax` to the stroke limit, as the manual's
+    /// "missing workpiece" case does).
+    Force {
+        target: f64,
+        vmax: f64,
+        accel: f64,
         start: f64,
         stroke: Option<f64>,
     },
@@ -194,8 +232,38 @@ enum Task {
     Homing {
         done: bool,
     },
-    /// Force task (not modelled): complete at once.
-    Force,
+    /// Force task: MC once the actual force stays within ±PNU 552 of `target` ‰.
+    Force {
+        target: f64,
+    },
+    /// Record `number` waits for its start delay (PNU 426) until cycle `until`.
+    Delayed {
+        number: u8,
+        mode: ControlMode,
+        until: u64,
+    },
+}
+
+/// The running record of record selection, watched for its switching condition (RCB2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Chain {
+    record: u8,
+}
+
+/// PNU 312 bits: the comparator outputs (Tab. B.41).
+const CMP_POSITION: u8 = 0x01;
+const CMP_VELOCITY: u8 = 0x02;
+const CMP_FORCE: u8 = 0x04;
+const CMP_TIME: u8 = 0x08;
+
+/// The four comparators of a task (§6.7.4 Tab. 6.19/6.20): a record's PNU 430…440 or the
+/// direct-mode PNU 585…595.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Comparators {
+    position: Comparator<i32>,
+    velocity: Comparator<i32>,
+    force: Comparator<i16>,
+    time: TimeComparator,
 }
 
 /// A position task interrupted by HALT (SA3), continued by START.
@@ -251,8 +319,31 @@ pub struct FhppDevice<S> {
     standstill_error: bool,
     /// Warnings present, bit n = diagnostic n.
     warnings: u128,
+    /// Warnings raised by a single event (a refused start): they show until the next start.
+    once_warnings: u128,
     /// Injected faults still present.
     injected: u128,
+    /// Faults present at the end of the last cycle (PNU 220; new ones are logged).
+    faults_present: u128,
+    /// Warnings already logged (a new warning bit is logged once).
+    warnings_logged: u128,
+    /// The active fault of the last cycle (its end is logged).
+    last_fault: Option<u8>,
+    memory: DiagnosticMemory,
+    memory_dirty: bool,
+    // ---- record chaining, software limits ----
+    chain: Option<Chain>,
+    /// Whose comparators PNU 312 shows in record selection (the last record started).
+    comparator_record: Option<u8>,
+    /// Since when each of position / velocity / force is inside its window.
+    comparator_since: [Option<u64>; 3],
+    /// PNU 312.
+    comparator_outputs: u8,
+    /// Cycle the current task started (time comparator).
+    task_started: u64,
+    /// Software limit passed (11h / 12h): that direction is locked (13h / 14h).
+    locked_positive: bool,
+    locked_negative: bool,
 }
 
 fn get_i64<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>, pnu: u16, sub: u8) -> i64 {
@@ -314,7 +405,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             still_since: None,
             standstill_error: false,
             warnings: 0,
+            once_warnings: 0,
             injected: 0,
+            faults_present: 0,
+            warnings_logged: 0,
+            last_fault: None,
+            memory: DiagnosticMemory::power_on(0),
+            memory_dirty: true,
+            chain: None,
+            comparator_record: None,
+            comparator_since: [None; 3],
+            comparator_outputs: 0,
+            task_started: 0,
+            locked_positive: false,
+            locked_negative: false,
         };
         dev.refresh();
         dev.traj = Trajectory::at(dev.raw_actual());
@@ -323,6 +427,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         dev.fe_time_ms = dev.params.fe_timeout_ms;
         dev.status = dev.motion_status();
         dev.inputs = dev.fhpp.inputs().to_bytes();
+        dev.mirror_memory();
         dev
     }
 
@@ -379,11 +484,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let motion_complete = match self.task {
             Task::Position { .. } | Task::Velocity { .. } => self.mc,
             Task::Homing { done } => done,
-            Task::Force => true,
+            Task::Force { .. } => self.mc,
+            Task::Delayed { .. } => false,
             Task::None => !moving,
         };
-        let fe_fault = self.following_error && self.class_of(diag::FOLLOWING_ERROR).is_some();
-        let fault = if fe_fault {
+        let fault = if self.following_error {
             self.fault_for(diag::FOLLOWING_ERROR)
         } else {
             None
@@ -477,37 +582,75 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     // ---- diagnostics -------------------------------------------------------------------
 
-    /// PNU 246 class of diagnostic `code`: `Some(reaction)` for an error (F), `None` for a
-    /// warning or an information.
-    fn class_of(&self, code: u8) -> Option<Reaction> {
-        let sub = code.saturating_add(1);
-        let handling = get_i64(&self.od, 246, sub);
-        if handling & 0x40 != 0 || handling & 0x20 == 0 {
-            return None;
-        }
-        let bits = get_i64(&self.od, 242, sub) as u16;
-        Some(Reaction::from_bit(bits).unwrap_or(Reaction::B))
+    /// The class diagnostic `code` has now: App. D through PNU 246 (class) and 242
+    /// (reaction), subindex = number + 1 (fhpp §8.4). `None` for an unassigned number.
+    pub fn diagnostic_class(&self, code: u8) -> Option<Class> {
+        let d = diagnostics::lookup(code.into())?;
+        Some(self.class_of(d))
+    }
+
+    fn class_of(&self, d: &Diagnostic) -> Class {
+        let sub = diagnostics::subindex(d.code);
+        let handling = get_i64(&self.od, 246, sub) as u16;
+        let reaction = get_i64(&self.od, 242, sub) as u16;
+        d.class(handling, reaction)
+    }
+
+    fn handling(&self, code: u8) -> u16 {
+        get_i64(&self.od, 246, diagnostics::subindex(code)) as u16
     }
 
     fn fault_for(&self, code: u8) -> Option<Fault> {
-        self.class_of(code).map(|reaction| Fault {
-            code,
-            reaction,
-            ack: ack_type(code),
-        })
+        let d = diagnostics::lookup(code.into())?;
+        match self.class_of(d) {
+            Class::Fault(reaction) => Some(Fault {
+                code,
+                reaction,
+                ack: d.ack,
+            }),
+            _ => None,
+        }
     }
 
     /// Raises diagnostic `code` (fault injection, communication monitoring): an error (per
-    /// PNU 246) takes T7 at the next cycle, a warning sets SCON.WARN. The cause counts as
-    /// present until [`Self::clear_fault`].
+    /// PNU 246) takes T7 at the next cycle with its PNU 242 reaction, a warning sets
+    /// SCON.WARN, an information goes to the diagnostic memory only. The cause counts as
+    /// present until [`Self::clear_fault`]. Unassigned numbers are ignored (see
+    /// [`Self::inject`]).
     pub fn fault(&mut self, code: u8) {
+        let _ = self.inject(code);
+    }
+
+    /// [`Self::fault`], telling an unassigned number apart.
+    pub fn inject(&mut self, code: u8) -> Result<Class, UnknownDiagnostic> {
+        let d = diagnostics::lookup(code.into()).ok_or(UnknownDiagnostic(code))?;
+        let class = self.class_of(d);
         let bit = 1u128 << (code & 0x7F);
-        match self.fault_for(code) {
-            Some(f) => {
+        match class {
+            Class::Fault(reaction) => {
                 self.injected |= bit;
-                self.fhpp.raise_fault(f);
+                self.fhpp.raise_fault(Fault {
+                    code,
+                    reaction,
+                    ack: d.ack,
+                });
             }
-            None => self.warnings |= bit,
+            Class::Warning => self.warnings |= bit,
+            Class::Information | Class::Event => self.log_event(d, class),
+        }
+        Ok(class)
+    }
+
+    /// The load (intermediate circuit) voltage is switched on or off: SCON.VLOAD, the T2
+    /// condition, and App. D 1Bh "intermediate circuit voltage too low" while it is off (an
+    /// error with reaction A by default, acknowledgeable once the voltage is back; as a
+    /// warning it clears by itself).
+    pub fn set_load_voltage(&mut self, present: bool) {
+        self.fhpp.set_load_voltage(present);
+        if present {
+            self.clear_fault(diag::LOAD_VOLTAGE_LOW);
+        } else {
+            self.fault(diag::LOAD_VOLTAGE_LOW);
         }
     }
 
@@ -517,19 +660,185 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let bit = 1u128 << (code & 0x7F);
         self.injected &= !bit;
         self.warnings &= !bit;
+        self.warnings_logged &= !bit;
         self.fhpp.fault_cause_gone(code);
     }
 
-    /// Raises a diagnostic once (a refused start, a homing error): errors need RESET, a
-    /// warning shows until the next start.
+    /// Raises a diagnostic once (a refused start, a homing error, a passed software limit):
+    /// an error is acknowledged at once (the cause was the event), a warning shows until the
+    /// next start.
     fn raise_once(&mut self, code: u8) {
-        match self.fault_for(code) {
-            Some(f) => self.fhpp.raise_fault(Fault {
+        let Some(d) = diagnostics::lookup(code.into()) else {
+            return;
+        };
+        let bit = 1u128 << (code & 0x7F);
+        match self.class_of(d) {
+            Class::Fault(reaction) => self.fhpp.raise_fault(Fault {
+                code,
+                reaction,
                 ack: Ack::Immediately,
-                ..f
             }),
-            None => self.warnings |= 1u128 << (code & 0x7F),
+            Class::Warning => {
+                self.warnings |= bit;
+                self.once_warnings |= bit;
+            }
+            class => self.log_event(d, class),
         }
+    }
+
+    fn clear_warning(&mut self, code: u8) {
+        let bit = 1u128 << (code & 0x7F);
+        self.warnings &= !bit;
+        self.warnings_logged &= !bit;
+    }
+
+    /// The diagnostic memory (PNU 200…204).
+    pub fn diagnostic_memory(&self) -> &DiagnosticMemory {
+        &self.memory
+    }
+
+    /// The device clock of the time stamps: ms since power-on, wrapping at 2³² (PNU 202).
+    fn now_ms(&self) -> u32 {
+        self.cycles as u32
+    }
+
+    fn log(&mut self, event: EventType, code: u8) {
+        let Some(d) = diagnostics::lookup(code.into()) else {
+            return;
+        };
+        if d.logged(self.handling(code)) {
+            self.memory.log(event, code.into(), self.now_ms());
+            self.memory_dirty = true;
+        }
+    }
+
+    fn log_event(&mut self, d: &Diagnostic, class: Class) {
+        let event = match class {
+            Class::Fault(_) => EventType::Fault,
+            Class::Warning => EventType::Warning,
+            Class::Information => EventType::Information,
+            Class::Event if d.code == diag::START_UP => EventType::SwitchOn,
+            Class::Event => EventType::Information,
+        };
+        self.log(event, d.code);
+    }
+
+    /// Faults present now (PNU 220): the active one, injected ones whose cause is present,
+    /// and the following error while it is an error.
+    fn current_faults(&self) -> u128 {
+        let mut f = self.injected;
+        if let Some(a) = self.fhpp.fault() {
+            f |= 1u128 << (a.code & 0x7F);
+        }
+        if self.following_error && self.fault_for(diag::FOLLOWING_ERROR).is_some() {
+            f |= 1u128 << diag::FOLLOWING_ERROR;
+        }
+        f
+    }
+
+    /// End of a cycle: new faults and warnings into the memory (incoming, 01h / 05h), the
+    /// end of the active fault (acknowledged) as 00h, and the time-stamp wrap.
+    fn diagnose(&mut self) {
+        self.memory.tick(self.now_ms());
+        let faults = self.current_faults();
+        let new = faults & !self.faults_present;
+        self.faults_present = faults;
+        let new_warnings = self.warnings & !self.warnings_logged;
+        self.warnings_logged = self.warnings;
+        let active = self.fhpp.fault().map(|f| f.code);
+        let gone = match (self.last_fault, active) {
+            (Some(old), None) => Some(old),
+            _ => None,
+        };
+        self.last_fault = active;
+        if let Some(code) = gone {
+            // Acknowledged. An "immediately ackable" fault was an event: acknowledging it
+            // ends it even if the injected cause was never declared gone.
+            if diagnostics::lookup(code.into()).is_some_and(|d| d.ack == Ack::Immediately) {
+                self.injected &= !(1u128 << (code & 0x7F));
+            }
+            self.log(EventType::Gone, code);
+        }
+        for (mask, event) in [(new, EventType::Fault), (new_warnings, EventType::Warning)] {
+            let mut m = mask;
+            while m != 0 {
+                let code = m.trailing_zeros() as u8;
+                m &= m - 1;
+                self.log(event, code);
+            }
+        }
+    }
+
+    /// PNU 200…204 from the ring (after a change, once per cycle at most).
+    fn mirror_memory(&mut self) {
+        self.memory_dirty = false;
+        let od = &mut self.od;
+        for (n, sub) in (0..diagnostic_memory::CAPACITY).zip(1u8..) {
+            let e = self.memory.get(n);
+            let vals = [
+                (200, e.map_or(0, |e| e.event.value().into())),
+                (
+                    201,
+                    e.map_or(diagnostic_memory::INVALID_NUMBER.into(), |e| {
+                        e.number.into()
+                    }),
+                ),
+                (202, e.map_or(0, |e| e.time_ms.into())),
+                (203, e.map_or(0, |e| e.info.into())),
+            ];
+            for (pnu, v) in vals {
+                let _ = od.set_value(pnu_index(pnu), sub, Value::Unsigned(v));
+            }
+        }
+        let _ = od.set_value(pnu_index(204), 4, Value::Unsigned(self.memory.len() as u64));
+    }
+
+    /// PNU 204:3 = 1: clear the memory (a start-up event is written).
+    fn clear_memory(&mut self) {
+        self.memory.clear(self.now_ms());
+        self.mirror_memory();
+    }
+
+    /// PNU 242 / 246 writes: the value must be one App. D allows for that number (PNU 234 /
+    /// 238), or its factory value; rw2: only with the output stage off.
+    fn check_error_management(
+        &self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        wire: bool,
+    ) -> Result<(), AbortCode> {
+        let reaction = index == pnu_index(242);
+        if !reaction && index != pnu_index(246) {
+            return Ok(());
+        }
+        let &[lo, hi] = data else {
+            return Ok(()); // the dictionary answers the length error
+        };
+        let value = u16::from_le_bytes([lo, hi]);
+        let d = diagnostics::code_of_subindex(sub).and_then(|c| diagnostics::lookup(c.into()));
+        let factory = d.map_or(0, |d| {
+            if reaction {
+                d.default_reaction()
+            } else {
+                d.default_handling()
+            }
+        });
+        let ok = value == factory
+            || d.is_some_and(|d| {
+                if reaction {
+                    d.accepts_reaction(value)
+                } else {
+                    d.accepts_handling(value)
+                }
+            });
+        if !ok {
+            return Err(AbortCode::INVALID_VALUE);
+        }
+        if wire && self.fhpp.output_stage_on() {
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        Ok(())
     }
 
     // ---- the cycle ---------------------------------------------------------------------
@@ -580,10 +889,26 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             }
         }
         self.serve_parameter_channel();
+        if let Task::Delayed {
+            number,
+            mode,
+            until,
+        } = self.task
+        {
+            if self.cycles >= until {
+                self.begin_record(number, mode);
+            }
+        }
         self.advance(dt);
+        self.compare();
+        self.check_chain();
         self.cycles += 1;
         self.status = self.motion_status();
+        self.diagnose();
         self.publish();
+        if self.memory_dirty {
+            self.mirror_memory();
+        }
     }
 
     fn refresh(&mut self) {
@@ -633,6 +958,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             homing_accel: acc(g(1013, 1)),
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
+            force_stroke: pos(g(510, 1)),
+            direct_comparators: Comparators {
+                position: Comparator {
+                    min: g(585, 1) as i32,
+                    max: g(586, 1) as i32,
+                    window_time_ms: g(587, 1) as u16,
+                },
+                velocity: Comparator {
+                    min: g(588, 1) as i32,
+                    max: g(589, 1) as i32,
+                    window_time_ms: g(590, 1) as u16,
+                },
+                force: Comparator {
+                    min: g(591, 1) as i16,
+                    max: g(592, 1) as i16,
+                    window_time_ms: g(593, 1) as u16,
+                },
+                time: TimeComparator {
+                    min_ms: g(594, 1) as u32,
+                    max_ms: g(595, 1) as u32,
+                },
+            },
+            force_window: pos(g(552, 1)),
+            soft_lower: g(501, 1),
+            soft_upper: g(501, 2),
         };
         let cfg = self.fhpp.config_mut();
         cfg.base_velocity = u32::try_from(g(540, 1).max(0)).unwrap_or(u32::MAX);
@@ -761,18 +1111,100 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     fn start_task(&mut self, task: Task) {
         self.task = task;
+        self.task_started = self.cycles;
         self.mc = false;
         self.window_since = None;
         self.standstill_target = None;
         self.still_since = None;
         self.standstill_error = false;
         self.stroke_reached = false;
-        self.warnings &= !(1u128 << diag::STANDSTILL);
-        self.warnings &= !(1u128 << diag::HOMING_REQUIRED);
-        self.warnings &= !(1u128 << diag::RECORD_INVALID);
+        // Warnings of one event (28h, 3Fh, 37h, … as W) clear at the next start (App. D).
+        self.warnings &= !self.once_warnings;
+        self.warnings_logged &= !self.once_warnings;
+        self.once_warnings = 0;
+    }
+
+    /// Software limits PNU 501 in raw SINC (lower, upper): relative to AZ, both 0 = off, and
+    /// only with a valid reference (§6.2: homing disables them until it has finished).
+    fn soft_limits(&self) -> Option<(f64, f64)> {
+        let p = &self.params;
+        let reference = self.reference?;
+        if p.soft_lower == 0 && p.soft_upper == 0 {
+            return None;
+        }
+        let az = reference + p.az_offset as f64;
+        Some((az + p.soft_lower as f64, az + p.soft_upper as f64))
+    }
+
+    /// Why a move from the set-point towards `target` may not start: 13h / 14h into a
+    /// direction locked by a passed limit, 29h / 2Ah for a target behind a limit (App. D).
+    fn limit_refusal(&self, target: f64) -> Option<u8> {
+        let here = self.traj.position;
+        if target > here && self.locked_positive {
+            return Some(diag::POSITIVE_DIRECTION_LOCKED);
+        }
+        if target < here && self.locked_negative {
+            return Some(diag::NEGATIVE_DIRECTION_LOCKED);
+        }
+        let (lo, hi) = self.soft_limits()?;
+        if target < lo {
+            Some(diag::TARGET_BEHIND_NEGATIVE_LIMIT)
+        } else if target > hi {
+            Some(diag::TARGET_BEHIND_POSITIVE_LIMIT)
+        } else {
+            None
+        }
+    }
+
+    /// A start the limits refuse: no motion, the task ends, the diagnostic is raised.
+    fn refuse_start(&mut self, code: u8) {
+        self.start_task(Task::None);
+        self.pending = None;
+        self.chain = None;
+        self.raise_once(code);
+    }
+
+    /// Software limits while moving (velocity tasks, jog): the set-point reaching a limit
+    /// raises 11h / 12h once and locks that direction until the set-point is back inside.
+    fn watch_limits(&mut self) {
+        let Some((lo, hi)) = self.soft_limits() else {
+            self.locked_positive = false;
+            self.locked_negative = false;
+            return;
+        };
+        let x = self.traj.position;
+        let v = self.traj.velocity;
+        if x < hi {
+            self.locked_positive = false;
+        }
+        if x > lo {
+            self.locked_negative = false;
+        }
+        // Position targets were checked at the start and jog stops by itself: the error is
+        // for a velocity task (or its braking) that runs into a limit.
+        let raise = matches!(
+            self.motion,
+            Motion::Velocity { .. } | Motion::Braking { .. }
+        );
+        if x >= hi && v > 0.0 && !self.locked_positive {
+            self.locked_positive = true;
+            if raise {
+                self.raise_once(diag::SOFTWARE_LIMIT_POSITIVE);
+            }
+        }
+        if x <= lo && v < 0.0 && !self.locked_negative {
+            self.locked_negative = true;
+            if raise {
+                self.raise_once(diag::SOFTWARE_LIMIT_NEGATIVE);
+            }
+        }
     }
 
     fn start_position(&mut self, target: f64, velocity: f64, accel: f64, decel: f64, fe: f64) {
+        if let Some(code) = self.limit_refusal(target) {
+            self.refuse_start(code);
+            return;
+        }
         let velocity = self.clamp_velocity(velocity);
         let lim = Limits {
             velocity,
@@ -790,6 +1222,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     }
 
     fn start_velocity(&mut self, target: f64, accel: f64, decel: f64, stroke: Option<f64>) {
+        if target > 0.0 && self.locked_positive {
+            self.refuse_start(diag::POSITIVE_DIRECTION_LOCKED);
+            return;
+        }
+        if target < 0.0 && self.locked_negative {
+            self.refuse_start(diag::NEGATIVE_DIRECTION_LOCKED);
+            return;
+        }
         let mag = self.clamp_velocity(libm::fabs(target));
         let target = if target < 0.0 { -mag } else { mag };
         self.start_task(Task::Velocity { target });
@@ -822,6 +1262,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     fn execute(&mut self, cmd: MotionCommand) {
         let p = self.params;
+        if !matches!(
+            cmd,
+            MotionCommand::Record { .. }
+                | MotionCommand::Continue
+                | MotionCommand::Halt
+                | MotionCommand::ManualBrake { .. }
+        ) {
+            self.chain = None;
+        }
         match cmd {
             MotionCommand::Enable => {
                 self.stage_on = true;
@@ -900,11 +1349,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 let stroke = stroke_monitoring.then_some(p.stroke_velocity);
                 self.start_velocity(f64::from(velocity), ramp, ramp, stroke);
             }
-            MotionCommand::Force { .. } => {
-                // Not modelled: hold position, complete at once.
-                self.start_task(Task::Force);
-                self.motion = Motion::Hold;
-                self.pending = None;
+            MotionCommand::Force {
+                setpoint,
+                velocity_limit,
+                stroke_monitoring,
+                ..
+            } => {
+                let stroke = stroke_monitoring.then_some(p.force_stroke);
+                self.start_force(
+                    f64::from(setpoint),
+                    f64::from(velocity_limit),
+                    p.direct_accel,
+                    stroke,
+                );
             }
             MotionCommand::Record { number, mode } => self.start_record(number, mode),
             MotionCommand::Jog { positive } => {
@@ -956,7 +1413,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
     }
 
+    /// A record start (START edge or a chain switch): after its start delay PNU 426 ("the
+    /// time counts from the start command", Tab. B.61), at once without one. Decision: the
+    /// delay of an MC chain (Tab. 6.9 "PNU 426 as the wait time after MC") is the following
+    /// record's own PNU 426, so every record has one delay, however it is started.
     fn start_record(&mut self, number: u8, mode: ControlMode) {
+        let Some(r) = self.records.get(number).copied() else {
+            self.raise_once(diag::RECORD_INVALID);
+            return;
+        };
+        if r.start_delay_ms > 0 {
+            // The axis goes on with what it does (an MC chain stands, a comparator chain
+            // keeps the previous profile) until the delay has run out.
+            self.start_task(Task::Delayed {
+                number,
+                mode,
+                until: self.cycles + u64::from(r.start_delay_ms),
+            });
+            self.pending = None;
+            self.chain = None;
+            return;
+        }
+        self.begin_record(number, mode);
+    }
+
+    fn begin_record(&mut self, number: u8, mode: ControlMode) {
         let Some(r) = self.records.get(number).copied() else {
             self.raise_once(diag::RECORD_INVALID);
             return;
@@ -993,10 +1474,157 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 self.fe_window = f64::from(r.max_deviation.max(0));
             }
             ControlMode::Force => {
-                self.start_task(Task::Force);
-                self.motion = Motion::Hold;
-                self.pending = None;
+                let stroke =
+                    (!r.rcb1.contains(Rcb1::XLIM)).then_some(f64::from(r.stroke_limit.max(0)));
+                self.start_force(
+                    f64::from(r.setpoint_force),
+                    f64::from(r.velocity.unsigned_abs()),
+                    accel,
+                    stroke,
+                );
             }
+        }
+        self.chain = Some(Chain { record: number });
+        self.comparator_record = Some(number);
+    }
+
+    /// Force task `target` ‰ of PNU 555 (the sign is the direction) with the velocity limit
+    /// `vmax` SINC/s (§6.6 force mode). App. D 24h: force control needs the encoder, so open
+    /// loop refuses it.
+    fn start_force(&mut self, target: f64, vmax: f64, accel: f64, stroke: Option<f64>) {
+        if self.settings.mode == StepperMode::OpenLoop {
+            self.task = Task::None;
+            self.raise_once(diag::NOT_IN_OPEN_LOOP);
+            return;
+        }
+        let vmax = self.clamp_velocity(vmax);
+        self.start_task(Task::Force { target });
+        self.motion = Motion::Force {
+            target,
+            vmax,
+            accel: accel.max(1.0),
+            start: self.traj.position,
+            stroke,
+        };
+        self.pending = None;
+        self.task_decel = accel.max(1.0);
+        // Tab. B.59: the record's maximum deviation has "no function" for force records.
+        self.fe_window = 0.0;
+        self.fe_velocity = false;
+    }
+
+    /// The actual force in ‰ of PNU 555, positive when it pushes towards `dir` (the current
+    /// amplitude with the sign of the torque set-point).
+    fn force_along(&self, dir: f64) -> f64 {
+        let torque = self.stepper.torque_set() * self.params.polarity;
+        let f = f64::from(self.actual_force());
+        if torque * dir >= 0.0 {
+            f
+        } else {
+            -f
+        }
+    }
+
+    /// The comparators of the task (§6.7.4): in record selection those of the last record
+    /// started, in direct mode PNU 585…595. A comparator is on while its value is inside
+    /// [min, max] for its window time (min > max: never); the time comparator counts from the
+    /// task start. Result: PNU 312 and the chaining conditions 20…23.
+    fn compare(&mut self) {
+        let direct = self.fhpp.operating_mode() == super::OperatingMode::Direct;
+        let set = if direct {
+            Some(self.params.direct_comparators)
+        } else {
+            self.comparator_record
+                .and_then(|n| self.records.get(n))
+                .map(|r| Comparators {
+                    position: r.position_comparator,
+                    velocity: r.velocity_comparator,
+                    force: r.force_comparator,
+                    time: r.time_comparator,
+                })
+        };
+        let Some(c) = set else {
+            self.comparator_outputs = 0;
+            self.comparator_since = [None; 3];
+            return;
+        };
+        let now = self.cycles;
+        // §6.7.4: the position comparator is absolute (PZ) even for relative records.
+        let pz = sat_i32(self.to_pz(self.raw_actual()));
+        let v = sat_i32(self.actual_velocity());
+        let f = sat_i32(self.force_along(1.0)).clamp(i16::MIN.into(), i16::MAX.into()) as i16;
+        let inside = [
+            (c.position.contains(pz), c.position.window_time_ms),
+            (c.velocity.contains(v), c.velocity.window_time_ms),
+            (c.force.contains(f), c.force.window_time_ms),
+        ];
+        let mut out = 0;
+        for ((bit, (inn, ms)), since) in [CMP_POSITION, CMP_VELOCITY, CMP_FORCE]
+            .into_iter()
+            .zip(inside)
+            .zip(self.comparator_since.iter_mut())
+        {
+            if !inn {
+                *since = None;
+                continue;
+            }
+            let t0 = *since.get_or_insert(now);
+            if now.saturating_sub(t0) >= u64::from(ms) {
+                out |= bit;
+            }
+        }
+        let t = now.saturating_sub(self.task_started);
+        if (u64::from(c.time.min_ms)..=u64::from(c.time.max_ms)).contains(&t) {
+            out |= CMP_TIME;
+        }
+        self.comparator_outputs = out;
+    }
+
+    /// RCB2 of the running record (§6.5.3 Tab. 6.9): when its switching condition is met,
+    /// the record of PNU 416 follows (its own start delay first); PNU 425 pulses MC.
+    fn check_chain(&mut self) {
+        let Some(chain) = self.chain else {
+            return;
+        };
+        if !self.stage_on || matches!(self.task, Task::Delayed { .. }) {
+            return;
+        }
+        let Some(r) = self.records.get(chain.record).copied() else {
+            self.chain = None;
+            return;
+        };
+        let out = self.comparator_outputs;
+        let met = match r.chain_condition() {
+            None | Some(ChainCondition::None) => false,
+            Some(ChainCondition::MotionComplete) => self.mc,
+            Some(ChainCondition::PositionComparator) => out & CMP_POSITION != 0,
+            Some(ChainCondition::VelocityComparator) => out & CMP_VELOCITY != 0,
+            Some(ChainCondition::ForceComparator) => out & CMP_FORCE != 0,
+            Some(ChainCondition::TimeComparator) => out & CMP_TIME != 0,
+        };
+        if !met {
+            return;
+        }
+        let next = r.following_record;
+        let Some(mode) = self
+            .records
+            .get(next)
+            .filter(|n| n.is_valid())
+            .and_then(|n| n.control_mode())
+        else {
+            // PNU 416 names no valid record (0 = homing is not a chain target): 3Fh.
+            self.chain = None;
+            self.raise_once(diag::RECORD_INVALID);
+            return;
+        };
+        if self
+            .fhpp
+            .record_chained(next, mode, r.mc_on_continuation == 1)
+        {
+            self.start_record(next, mode);
+        } else {
+            // The state machine has left the task (halt, stop, fault): the chain ends.
+            self.chain = None;
         }
     }
 
@@ -1005,7 +1633,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let target = get_i64(&self.od, 520, 1);
         let raw = self.pz_to_raw(f64::from(position));
         let (pnu, sub, value) = match target {
-            1 => (404, record, i64::from(position)),
+            1 => {
+                // App. D 40h: the record must be an absolute position record.
+                let absolute_position = self.records.get(record).is_some_and(|r| {
+                    r.control_mode() == Some(ControlMode::Position) && !r.rcb1.contains(Rcb1::ABS)
+                });
+                if !absolute_position {
+                    self.raise_once(diag::TEACH_FAILED);
+                    return;
+                }
+                (404, record, i64::from(position))
+            }
             // AZ := here: AZ = REF + PNU 1010.
             2 => (1010, 1, (raw - self.reference.unwrap_or(0.0)) as i64),
             // PZ := here: PZ = AZ + PNU 500.
@@ -1024,6 +1662,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let _ = self.od.set_value(pnu_index(pnu), sub, Value::Signed(value));
         self.params_dirty = true;
         self.records_dirty = true;
+        // A successful teach ends a 40h warning.
+        self.clear_warning(diag::TEACH_FAILED);
     }
 
     // ---- motion and plant --------------------------------------------------------------
@@ -1061,12 +1701,65 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                     }
                 }
             }
+            Motion::Force {
+                target,
+                vmax,
+                start,
+                stroke,
+                ..
+            } => {
+                let dir = if target < 0.0 { -1.0 } else { 1.0 };
+                let err = libm::fabs(target) - self.force_along(dir);
+                // The position controller integrates a standing deviation into current: a
+                // deviation proportional to the force error lets it settle at the target
+                // (0.02 rev per 1000 ‰ of error), the set-point moving at most at `vmax`.
+                let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
+                let sinc_per_rev = inc_rev / p.einc_per_sinc.max(1e-9);
+                let desired = self.raw_actual() + dir * err / 1000.0 * 0.02 * sinc_per_rev;
+                // Far from the force (below target − 4 windows: no contact yet) the set-point
+                // travels at `vmax`; near it, first order towards `desired` (50 cycles, slow
+                // enough for the stiffness of the position controller).
+                let w = p.force_window.max(5.0);
+                let approach = dir * vmax * ((err - 2.0 * w) / (2.0 * w)).clamp(0.0, 1.0);
+                let settle = (desired - self.traj.position) * 0.02;
+                let step = (approach * dt + settle).clamp(-vmax * dt, vmax * dt);
+                self.traj.position += step;
+                self.traj.velocity = if dt > 0.0 { step / dt } else { 0.0 };
+                if let Some(limit) = stroke {
+                    if libm::fabs(self.traj.position - start) >= limit {
+                        // PNU 510 / 427: Quick-Stop ramp, then hold position-controlled.
+                        self.stroke_reached = true;
+                        self.task = Task::None;
+                        self.brake(p.quick_stop, false);
+                    }
+                }
+            }
             Motion::Jog { positive, since } => {
                 let slow = self.cycles.saturating_sub(since) < p.jog_time_ms;
                 let v = if slow { p.jog_slow } else { p.jog_fast };
                 let v = self.clamp_velocity(v);
                 let v = if positive { v } else { -v };
-                self.traj.step_velocity(v, p.jog_accel, p.jog_accel, dt);
+                // §6.3 step 4: referenced, jog stops at the software limit by itself (its
+                // ramp planned to end there); it does not leave the limit.
+                let stop_at = self
+                    .soft_limits()
+                    .map(|(lo, hi)| if positive { hi } else { lo });
+                let room = stop_at.map(|end| (end - self.traj.position) * v.signum());
+                match (stop_at, room) {
+                    (_, Some(r)) if r < 0.0 => {
+                        // Already beyond the limit: no further in this direction.
+                        self.traj.step_stop(p.jog_accel, dt);
+                    }
+                    (Some(end), Some(r)) if r <= stop_room(self.traj.velocity, p.jog_accel, dt) => {
+                        let lim = Limits {
+                            velocity: libm::fabs(v).max(libm::fabs(self.traj.velocity)),
+                            acceleration: p.jog_accel,
+                            deceleration: p.jog_accel,
+                        };
+                        self.traj.step_to(end, 0.0, lim, dt);
+                    }
+                    _ => self.traj.step_velocity(v, p.jog_accel, p.jog_accel, dt),
+                }
             }
             Motion::Braking { decel, resync } => {
                 if self.traj.step_stop(decel, dt) {
@@ -1077,10 +1770,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 }
             }
         }
+        self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
         let increments = libm::round(self.traj.position * k) as i64;
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
-        let rpm = self.traj.velocity * k / inc_rev * 60.0;
+        // No speed feed-forward under force control: the force comes from the deviation.
+        let ff = if matches!(self.motion, Motion::Force { .. }) {
+            0.0
+        } else {
+            self.traj.velocity
+        };
+        let rpm = ff * k / inc_rev * 60.0;
         self.stepper.step(
             dt,
             StepperDemand::PositionIncrements {
@@ -1114,6 +1814,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                     self.standstill_target = Some(target);
                 }
             }
+            Task::Force { target } if !self.mc => {
+                let dir = if target < 0.0 { -1.0 } else { 1.0 };
+                let inside =
+                    libm::fabs(self.force_along(dir) - libm::fabs(target)) <= p.force_window;
+                if held(&mut self.window_since, inside, p.target_window_ms) {
+                    self.mc = true;
+                }
+            }
             Task::Velocity { target } if !self.mc => {
                 let ramped = self.traj.velocity == target;
                 let inside = ramped && libm::fabs(velocity - target) <= p.velocity_target_window;
@@ -1131,11 +1839,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         };
         let over = self.fe_window > 0.0 && deviation > self.fe_window;
         let fe_time = self.fe_time_ms;
+        let fe_was = self.following_error;
         self.following_error = held(&mut self.fe_since, over, fe_time);
-        if self.following_error && self.class_of(diag::FOLLOWING_ERROR).is_none() {
-            self.warnings |= 1u128 << diag::FOLLOWING_ERROR;
-        } else {
-            self.warnings &= !(1u128 << diag::FOLLOWING_ERROR);
+        // §6.7.2: as a warning it clears once the error is back inside the window; as an
+        // information it only goes to the memory (once per occurrence).
+        let fe_class = self.diagnostic_class(diag::FOLLOWING_ERROR);
+        match fe_class {
+            Some(Class::Warning) if self.following_error => {
+                self.warnings |= 1u128 << diag::FOLLOWING_ERROR;
+            }
+            Some(Class::Information) if self.following_error && !fe_was => {
+                self.raise_once(diag::FOLLOWING_ERROR);
+            }
+            _ => self.clear_warning(diag::FOLLOWING_ERROR),
         }
         // Standstill monitoring after MC of a position task.
         if let Some(target) = self.standstill_target {
@@ -1143,18 +1859,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 p.standstill_window > 0.0 && libm::fabs(actual - target) > p.standstill_window;
             let mut since = self.still_since;
             if held(&mut since, outside, p.standstill_ms) {
+                if !self.standstill_error {
+                    // 37h is W or I (App. D): a warning until back in the window.
+                    self.raise_once(diag::STANDSTILL);
+                }
                 self.standstill_error = true;
-                self.warnings |= 1u128 << diag::STANDSTILL;
             } else if !outside {
                 self.standstill_error = false;
-                self.warnings &= !(1u128 << diag::STANDSTILL);
+                self.clear_warning(diag::STANDSTILL);
             }
             self.still_since = since;
         }
     }
 
-    /// Actual values into their PNUs (300, 310, 320, 321, 1040, 1041, 1059, 205, 230, 220,
-    /// 221, 400:2).
+    /// Actual values into their PNUs (300, 301, 310, 320, 321, 1040, 1041, 1059, 205, 230,
+    /// 220, 221, 400:2).
     fn publish(&mut self) {
         let s = self.status;
         let setpoint = sat_i32(self.to_pz(self.traj.position));
@@ -1174,6 +1893,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let record = inp[2];
         let last_target = sat_i32(self.to_pz(self.last_target));
         let current = self.stepper.current_ma();
+        // PNU 301 force values (‰ of PNU 555): the set-point of a force task, else 0.
+        let force_set = match self.task {
+            Task::Force { target } => target,
+            _ => 0.0,
+        };
+        let dir = if force_set < 0.0 { -1.0 } else { 1.0 };
+        let force_act = dir * self.force_along(dir);
+        let clamp16 = |v: f64| i64::from(sat_i32(v).clamp(i16::MIN.into(), i16::MAX.into()));
+        let force = [
+            clamp16(force_act),
+            clamp16(force_set),
+            clamp16(force_set - force_act),
+        ];
         let od = &mut self.od;
         let mut set = |pnu: u16, sub: u8, v: Value| {
             let _ = od.set_value(pnu_index(pnu), sub, v);
@@ -1188,6 +1920,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             3,
             Value::Signed(i64::from(setpoint_v) - i64::from(s.actual_velocity)),
         );
+        for (sub, v) in (1u8..).zip(force) {
+            set(301, sub, Value::Signed(v));
+        }
         set(1040, 1, Value::Signed(last_target.into()));
         set(1041, 1, Value::Signed(s.actual_position.into()));
         set(1059, 1, Value::Signed(current.into()));
@@ -1218,7 +1953,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         );
         set(230, 1, Value::Unsigned(ack));
         set(400, 2, Value::Unsigned(record.into()));
-        let faults = fault.map_or(0u128, |f| 1u128 << (f.code & 0x7F));
+        set(312, 1, Value::Unsigned(self.comparator_outputs.into()));
+        let faults = self.faults_present;
         for (i, sub) in (1u8..=4).enumerate() {
             let shift = 32 * i as u32;
             set(220, sub, Value::Unsigned(((faults >> shift) as u32).into()));
@@ -1229,6 +1965,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             );
         }
     }
+}
+
+/// Braking distance from `v` at `decel`, plus one cycle of travel (so the ramp starts in time).
+fn stop_room(v: f64, decel: f64, dt: f64) -> f64 {
+    let v = libm::fabs(v);
+    v * v / (2.0 * decel.max(1.0)) + v * dt
 }
 
 fn sat_i32(v: f64) -> i32 {
@@ -1274,11 +2016,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
                 .write_control_logic(v)
                 .map_err(|_| AbortCode::DEVICE_STATE);
         }
+        self.check_error_management(index, sub, data, true)?;
         self.od.write(index, sub, data)?;
-        self.params_dirty = true;
-        if is_record_pnu(index) {
-            self.records_dirty = true;
-        }
+        self.after_write(index, sub);
         if index == pnu_index(127) {
             // PNU 127 data memory control: save, delete, reload (parameter_file.rs).
             let reloaded = self
@@ -1292,12 +2032,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
     }
 
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.check_error_management(index, sub, data, false)?;
         self.od.write_internal(index, sub, data)?;
+        self.after_write(index, sub);
+        Ok(())
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
+    fn after_write(&mut self, index: u16, sub: u8) {
         self.params_dirty = true;
         if is_record_pnu(index) {
             self.records_dirty = true;
         }
-        Ok(())
+        if index == pnu_index(204) && sub == 3 {
+            // PNU 204:3 = 1 (the dictionary admits 1 only): clear the diagnostic memory.
+            self.clear_memory();
+        }
     }
 }
 

@@ -19,10 +19,14 @@
 //! - [`parameter_channel`]: the EFPC bytes 9…16 (App. C), wire codec for drive and master, and
 //!   the drive's server;
 //! - [`parameter_file`]: the parameter file and the permanent memory (C.4.3, PNU 127);
-//! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7).
+//! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7);
+//! - [`diagnostics`]: the App. D messages and the error-management coding (PNU 234…246);
+//! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3).
 
 pub mod control_bytes;
 pub mod device;
+pub mod diagnostic_memory;
+pub mod diagnostics;
 pub mod parameter_channel;
 pub mod parameter_file;
 pub mod parameter_file_transfer;

@@ -1,6 +1,6 @@
 //! The record list of record selection (CMMO-ST manual §6.5.2 Tab. 6.7, PNU 401…442): 64
 //! records, subindex = record number; record number 0 in output byte 3 means homing.
-//! This part holds the data only; executing chains (RCB2, PNU 416, 425, 426) comes later.
+//! This part holds the data; the device executes chains (RCB2, PNU 416, 425, 426).
 
 use super::bit_byte;
 use super::control_bytes::ControlMode;

@@ -490,6 +490,8 @@ pub struct Fhpp {
     queued: Option<Prepared>,
     record_feedback: u8,
     rsb_chain: Rsb,
+    /// PNU 425 = 1: MC shows 1 in the telegram of the cycle after a record switch.
+    mc_pulse: bool,
     fault: Option<ActiveFault>,
     raised: Option<Fault>,
     inputs: InputData,
@@ -528,6 +530,7 @@ impl Fhpp {
             queued: None,
             record_feedback: 0,
             rsb_chain: Rsb::EMPTY,
+            mc_pulse: false,
             fault: None,
             raised: None,
             inputs: InputData::default(),
@@ -608,6 +611,30 @@ impl Fhpp {
                 f.external_cause = false;
             }
         }
+    }
+
+    /// The motion layer met the switching condition of the running record (RCB2, §6.5.3)
+    /// and started record `number` in `mode`: the record feedback (byte 3) shows it, RSB.RC1
+    /// is set, MC stays 0 (pulsed for one telegram when `mc_pulse`, PNU 425 = 1). Returns
+    /// false (and changes nothing) when no record task runs.
+    pub fn record_chained(&mut self, number: u8, mode: ControlMode, mc_pulse: bool) -> bool {
+        let running = self.state == State::OperationEnabled
+            && self.sub == OpState::TaskActive
+            && self.opm == OperatingMode::RecordSelection;
+        let Some(task) = self.task.as_mut().filter(|_| running) else {
+            return false;
+        };
+        task.mode = mode;
+        self.record_feedback = number;
+        self.rsb_chain |= Rsb::RC1;
+        self.mc = false;
+        self.mc_pulse = mc_pulse;
+        true
+    }
+
+    /// RSB.RC1 / RSB.RCC of record chaining (record selection byte 4).
+    pub fn chain_status(&self) -> Rsb {
+        self.rsb_chain & (Rsb::RC1 | Rsb::RCC)
     }
 
     /// PNU 125 read: 1 = the fieldbus has control, 0 = FCT or the web server.
@@ -714,6 +741,7 @@ impl Fhpp {
             self.last_cdir = out.cdir() & Cdir::DEFINED;
         }
         self.inputs = self.build_inputs_with(status, cpos);
+        self.mc_pulse = false;
         self.inputs
     }
 
@@ -796,6 +824,11 @@ impl Fhpp {
                     return;
                 }
                 self.mc = true;
+                if self.rsb_chain.contains(Rsb::RC1) {
+                    // §6.5.3: RCC (valid while MC = 1) = 1: the chain ran to its last record's
+                    // MC. A chain ended by halt, stop or a fault keeps RCC = 0 ("aborted").
+                    self.rsb_chain |= Rsb::RCC;
+                }
                 match self.task.map(|t| t.mode) {
                     // Decision: a velocity or force task keeps running after its MC condition
                     // ("speed reached", "force reached"): it stays in SA2 with MC = 1 until HALT
@@ -1319,7 +1352,7 @@ impl Fhpp {
             // SPOS.HALT mirrors CPOS.HALT, and stays 0 in SA3 until START acknowledges the halt.
             .with(Spos::HALT, cpos.contains(Cpos::HALT) && !halted)
             .with(Spos::ACK, in_s4 && self.ack_trigger.is_some())
-            .with(Spos::MC, self.mc)
+            .with(Spos::MC, self.mc || self.mc_pulse)
             .with(Spos::TEACH, self.teach_ack)
             .with(Spos::MOV, status.moving)
             .with(Spos::FOLERR, status.following_error)
