@@ -80,3 +80,37 @@ def test_start_before_homing_is_fault_28h_and_reset_clears_it(cmmo):
         assert c.read_exception_status().status == 0
     finally:
         c.close()
+
+
+def test_the_diagnostic_memory_is_read_through_the_parameter_channel(cmmo):
+    """PNU 200…204 over the EFPC bytes 9…16 (FC 0x17 with 8 registers): the power-on entry,
+    a fault coming (01h) and going (00h) with its number and time stamp, newest first, and
+    PNU 204:3 = 1 clearing the memory."""
+    from test_fhpp_parameter_channel import read, write
+
+    twin = cmmo()
+    c = twin.client()
+    hold = telegram(CCON_RECORD_ENABLED, CPOS_HALT)
+    try:
+        assert read(c, 204, 4) == ("ok", 1), "one entry: the power-on event"
+        assert read(c, 201, 1) == ("ok", 0x3D)
+        cycle_until(c, hold, lambda s: (s["scon"], s["spos"]) == (0x13, 0x05), what="enabled")
+        start_record(c, 1, lambda s: s["scon"] & SCON_FAULT, "fault 28h")
+        assert read(c, 204, 4, hold) == ("ok", 2)
+        assert read(c, 200, 1, hold) == ("ok", 0x01), "newest entry: a new fault"
+        assert read(c, 201, 1, hold) == ("ok", HOMING_REQUIRED)
+        _, t_fault = read(c, 202, 1, hold)
+        _, t_power_on = read(c, 202, 2, hold)
+        assert t_fault > t_power_on, (t_fault, t_power_on)
+        assert read(c, 201, 2, hold) == ("ok", 0x3D), "the power-on entry moved to sub 2"
+        acknowledge(c)
+        assert read(c, 200, 1, hold) == ("ok", 0x00), "the fault has gone"
+        assert read(c, 201, 1, hold) == ("ok", HOMING_REQUIRED)
+        assert read(c, 204, 4, hold) == ("ok", 3)
+        assert write(c, 204, 3, 1, hold) == ("ok", 1)
+        # Cleared; the clear itself is the new first entry (3Dh).
+        assert read(c, 204, 4, hold) == ("ok", 1)
+        assert read(c, 201, 1, hold) == ("ok", 0x3D)
+        assert read(c, 201, 2, hold) == ("ok", 0xFFFF), "invalid entry"
+    finally:
+        c.close()
