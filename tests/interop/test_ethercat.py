@@ -529,3 +529,59 @@ def test_run_trace_records_the_session_as_ethercat(veth, tmp_path):
                              capture_output=True, text=True, timeout=60).stdout.split()
     assert any(s.startswith("03:") for s in sources) and any(not s.startswith("03:") for s in sources)
 
+
+
+def _raw_frame(payload: bytes) -> bytes:
+    """Broadcast Ethernet frame with EtherType 88A4h from SOEM's source MAC (the slave marks a
+    processed frame by setting bit 1 of the source's first byte)."""
+    return b"\xff" * 6 + b"\x01" * 6 + b"\x88\xa4" + payload
+
+
+def _ecat_header(length: int) -> bytes:
+    return (length | (1 << 12)).to_bytes(2, "little")
+
+
+def test_bad_frames_are_dropped_and_the_slave_goes_on(ecat_twin):
+    """Truncated frames, a datagram past the frame end, a length field beyond the frame,
+    unknown commands and a datagram for a missing station, straight from a raw socket: the
+    twin drops or skips them and SOEM finds it afterwards as before."""
+    import socket
+
+    master_if, _ = ecat_twin
+    sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x88A4))
+    sock.bind((master_if, 0))
+    brd = bytes([0x07, 0x00, 0, 0, 0, 0, 0x02, 0x00, 0, 0]) + b"\x00\x00" + b"\x00\x00"  # BRD 0x0000
+    bad = [
+        _raw_frame(b""),                                   # no EtherCAT header
+        _raw_frame(b"\x0e"),                               # half a header
+        _raw_frame(_ecat_header(40) + brd),                # header says more than there is
+        _raw_frame(_ecat_header(len(brd)) + brd[:9]),      # datagram cut in its header
+        _raw_frame(_ecat_header(len(brd)) + bytes([0x07, 0, 0, 0, 0, 0, 0xF0, 0x07, 0, 0])),
+        _raw_frame(_ecat_header(14) + bytes([0x77]) + brd[1:]),   # unknown command 77h
+        _raw_frame(_ecat_header(14) + bytes([0x04, 0, 0x34, 0x12]) + brd[4:]),  # FPRD, no such station
+        _raw_frame(bytes(range(256)) * 5),                 # garbage
+    ]
+    try:
+        for _ in range(20):
+            for f in bad:
+                sock.send(f.ljust(60, b"\x00"))
+        # A good BRD still counts one slave.
+        sock.settimeout(2)
+        sock.send(_raw_frame(_ecat_header(len(brd)) + brd).ljust(60, b"\x00"))
+        deadline = time.monotonic() + 2
+        wkc = None
+        while time.monotonic() < deadline:
+            data = sock.recv(1514)
+            if data[6] & 0x02 and len(data) >= 30 and data[16] == 0x07:  # returned BRD
+                wkc = int.from_bytes(data[14 + 2 + 10 + 2:14 + 2 + 10 + 4], "little")
+                break
+        assert wkc == 1, f"BRD after the bad frames: wkc {wkc}"
+    finally:
+        sock.close()
+    master = pysoem.Master()
+    master.open(master_if)
+    try:
+        assert master.config_init() == 1, "the slave goes on"
+        assert int.from_bytes(master.slaves[0].sdo_read(0x1018, 1), "little") == FESTO
+    finally:
+        master.close()
