@@ -493,3 +493,44 @@ def realtime_prefix() -> list[str]:
         return [chrt, "-f", "20"]
     return []
 
+
+def ip(*args: str) -> subprocess.CompletedProcess:
+    """`ip ARGS` (iproute2)."""
+    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10)
+
+
+def product_code(device: str = "cmmp-as") -> int:
+    """The product code `drivetwin esi` writes (<Type ProductCode="#x0018C375" …>)."""
+    out = run_cli("esi", "--device", device, check=True).stdout
+    start = out.index('ProductCode="#x') + len('ProductCode="#x')
+    return int(out[start:out.index('"', start)], 16)
+
+
+@pytest.fixture
+def veth():
+    """A veth pair with one end in a private network namespace, for EtherCAT without
+    hardware: (namespace, twin-side interface inside it, master-side interface here). Needs
+    root and iproute2; skips with a message otherwise."""
+    if os.geteuid() != 0:
+        pytest.skip("EtherCAT over veth needs root (network namespace, raw sockets)")
+    if shutil.which("ip") is None:
+        pytest.skip("`ip` (iproute2) is not installed")
+    tag = f"{os.getpid() % 100000}"
+    ns, twin_if, master_if = f"dtw-ecat-{tag}", f"dtwA{tag}", f"dtwB{tag}"
+    steps = [
+        ("netns", "add", ns),
+        ("link", "add", master_if, "type", "veth", "peer", "name", twin_if),
+        ("link", "set", twin_if, "netns", ns),
+        ("-n", ns, "link", "set", twin_if, "up"),
+        ("link", "set", master_if, "up"),
+    ]
+    try:
+        for step in steps:
+            r = ip(*step)
+            if r.returncode != 0:
+                pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
+        yield ns, twin_if, master_if
+    finally:
+        ip("link", "del", master_if)  # deletes the peer too
+        ip("netns", "del", ns)
+

@@ -14,55 +14,15 @@ otherwise.
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import signal
 import subprocess
 import time
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, run_cli, write_cell
+from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, product_code, run_cli, write_cell
 
 FESTO = 0x1D
-
-
-def _product_code() -> int:
-    out = run_cli("esi", "--device", "cmmp-as", check=True).stdout
-    # <Type ProductCode="#x0018C375" ...>
-    start = out.index('ProductCode="#x') + len('ProductCode="#x')
-    return int(out[start:out.index('"', start)], 16)
-
-
-def _ip(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10)
-
-
-@pytest.fixture
-def veth():
-    """(namespace, twin-side interface inside it, master-side interface here)."""
-    if os.geteuid() != 0:
-        pytest.skip("EtherCAT over veth needs root (network namespace, raw sockets)")
-    if shutil.which("ip") is None:
-        pytest.skip("`ip` (iproute2) is not installed")
-    tag = f"{os.getpid() % 100000}"
-    ns, twin_if, master_if = f"dtw-ecli-{tag}", f"dtwC{tag}", f"dtwD{tag}"
-    steps = [
-        ("netns", "add", ns),
-        ("link", "add", master_if, "type", "veth", "peer", "name", twin_if),
-        ("link", "set", twin_if, "netns", ns),
-        ("-n", ns, "link", "set", twin_if, "up"),
-        ("link", "set", master_if, "up"),
-    ]
-    try:
-        for step in steps:
-            r = _ip(*step)
-            if r.returncode != 0:
-                pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
-        yield ns, twin_if, master_if
-    finally:
-        _ip("link", "del", master_if)  # deletes the peer too
-        _ip("netns", "del", ns)
 
 
 @pytest.fixture
@@ -129,7 +89,7 @@ def test_scan_finds_one_festo_drive(chain):
     (s,) = j["slaves"]
     assert s["slave"] == 1 and s["station"] == 0x1001
     assert s["vendor_id"] == FESTO
-    assert s["product_code"] == _product_code()
+    assert s["product_code"] == product_code()
     assert s["name"].startswith("CMMP-AS"), s
     assert (s["state"], s["error"], s["al_status_code"]) == ("INIT", False, 0)
     text = ecat("scan", "-i", iface).stdout
@@ -169,7 +129,7 @@ def test_sdo_read_write_and_abort(chain):
     # The slave starts in Init; `sdo` takes it to Pre-Op for the mailbox.
     assert ecat("sdo", "read", "-i", iface, "--slave", "1", "0x1018:1").stdout.strip() == str(FESTO)
     j = ecat_json("sdo", "read", "-i", iface, "0x1018:02")
-    assert (j["index"], j["sub"], j["value"]) == ("0x1018", 2, _product_code()), j
+    assert (j["index"], j["sub"], j["value"]) == ("0x1018", 2, product_code()), j
     # A writable object: the following error window 6065h (u32).
     ecat("sdo", "write", "-i", iface, "0x6065:0", "12345", "--type", "u32")
     assert ecat("sdo", "read", "-i", iface, "0x6065").stdout.strip() == "12345"

@@ -25,7 +25,7 @@ import time
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, Realtime, realtime_prefix
+from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, Realtime, product_code, realtime_prefix
 
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
@@ -34,45 +34,6 @@ CYCLIC_SECONDS = float(os.environ.get("ETHERCAT_CYCLIC_SECONDS", "2"))
 CSP_SECONDS = float(os.environ.get("ETHERCAT_CSP_SECONDS", "10"))
 CYCLE_S = 0.001
 FESTO = 0x1D
-
-
-def _product_code() -> int:
-    out = subprocess.run([str(DRIVETWIN_BIN), "esi", "--device", "cmmp-as"], capture_output=True,
-                         text=True, timeout=30, check=True).stdout
-    # <Type ProductCode="#x0018C375" ...>
-    start = out.index('ProductCode="#x') + len('ProductCode="#x')
-    return int(out[start:out.index('"', start)], 16)
-
-
-def _ip(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10)
-
-
-@pytest.fixture
-def veth():
-    """(namespace, twin-side interface inside it, master-side interface here)."""
-    if os.geteuid() != 0:
-        pytest.skip("EtherCAT over veth needs root (network namespace, raw sockets)")
-    if shutil.which("ip") is None:
-        pytest.skip("`ip` (iproute2) is not installed")
-    tag = f"{os.getpid() % 100000}"
-    ns, twin_if, master_if = f"dtw-ecat-{tag}", f"dtwA{tag}", f"dtwB{tag}"
-    steps = [
-        ("netns", "add", ns),
-        ("link", "add", master_if, "type", "veth", "peer", "name", twin_if),
-        ("link", "set", twin_if, "netns", ns),
-        ("-n", ns, "link", "set", twin_if, "up"),
-        ("link", "set", master_if, "up"),
-    ]
-    try:
-        for step in steps:
-            r = _ip(*step)
-            if r.returncode != 0:
-                pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
-        yield ns, twin_if, master_if
-    finally:
-        _ip("link", "del", master_if)  # deletes the peer too
-        _ip("netns", "del", ns)
 
 
 def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
@@ -193,7 +154,7 @@ def test_soem_finds_maps_and_enables_the_drive(ecat_twin):
         assert master.config_init() == 1, "one slave on the wire"
         slave = master.slaves[0]
         assert slave.man == FESTO
-        assert slave.id == _product_code()
+        assert slave.id == product_code()
         assert "CMMP" in slave.name, slave.name
 
         # SDO over CoE in Pre-Op.
