@@ -23,6 +23,7 @@ pub mod coe;
 pub mod datagram;
 pub mod eeprom;
 pub mod esc;
+mod field;
 pub mod fmmu;
 pub mod frame;
 pub mod mailbox;

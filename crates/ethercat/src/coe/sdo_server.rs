@@ -41,6 +41,7 @@
 //!   the segmented services are still accepted. Hidden objects ([`super::CoeConfig::hidden`])
 //!   answer 0602 0000h.
 
+use crate::field::{u16_at, u32_at};
 use od::{AbortCode, Behaviour, DeviceDescription, Entry, ObjectAccess, ObjectKind};
 
 use super::{abort, CoeServer, COE_HEADER_LEN};
@@ -81,22 +82,6 @@ pub(crate) enum Transfer {
     },
 }
 
-fn le_u16(b: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes([
-        b.get(at).copied().unwrap_or(0),
-        b.get(at + 1).copied().unwrap_or(0),
-    ])
-}
-
-fn le_u32(b: &[u8], at: usize) -> u32 {
-    u32::from_le_bytes([
-        b.get(at).copied().unwrap_or(0),
-        b.get(at + 1).copied().unwrap_or(0),
-        b.get(at + 2).copied().unwrap_or(0),
-        b.get(at + 3).copied().unwrap_or(0),
-    ])
-}
-
 impl<const N: usize> CoeServer<N> {
     /// `p`: the mailbox payload (CoE header first), at least 10 bytes.
     pub(crate) fn sdo_request(
@@ -106,7 +91,7 @@ impl<const N: usize> CoeServer<N> {
         out: &mut [u8],
     ) -> Option<usize> {
         let cmd = p.get(COE_HEADER_LEN).copied().unwrap_or(0);
-        let index = le_u16(p, 3);
+        let index = u16_at(p, 3);
         let sub = p.get(5).copied().unwrap_or(0);
         match cmd >> 5 {
             ccs::DOWNLOAD_SEGMENT => self.download_segment(cmd, p, od, out),
@@ -207,7 +192,7 @@ impl<const N: usize> CoeServer<N> {
         }
         let frame = area.get(4..).unwrap_or(&[]);
         let size = if cmd & 0x01 != 0 {
-            usize::try_from(le_u32(area, 0)).unwrap_or(usize::MAX)
+            usize::try_from(u32_at(area, 0)).unwrap_or(usize::MAX)
         } else {
             frame.len()
         };

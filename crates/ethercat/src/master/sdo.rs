@@ -20,6 +20,7 @@
 //! * an abort is accepted with CoE service 2 or 3: the twin (and SOES) send it as an SDO
 //!   request (spec §6.5).
 
+use crate::field::{u16_at, u32_at};
 use od::AbortCode;
 
 use crate::coe::sdo_server::ccs;
@@ -207,22 +208,6 @@ pub enum ResponseError {
     Command(u8),
 }
 
-fn le_u16(b: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes([
-        b.get(at).copied().unwrap_or(0),
-        b.get(at + 1).copied().unwrap_or(0),
-    ])
-}
-
-fn le_u32(b: &[u8], at: usize) -> u32 {
-    u32::from_le_bytes([
-        b.get(at).copied().unwrap_or(0),
-        b.get(at + 1).copied().unwrap_or(0),
-        b.get(at + 2).copied().unwrap_or(0),
-        b.get(at + 3).copied().unwrap_or(0),
-    ])
-}
-
 /// Decodes one message read from the send mailbox (the whole SM1 window may be passed: the
 /// mailbox length field bounds it).
 pub fn parse_response(msg: &[u8]) -> Result<Response<'_>, ResponseError> {
@@ -233,7 +218,7 @@ pub fn parse_response(msg: &[u8]) -> Result<Response<'_>, ResponseError> {
     match m.mailbox_type() {
         MailboxType::Error => {
             return match p.get(2..4) {
-                Some(_) => Ok(Response::MailboxError(le_u16(p, 2))),
+                Some(_) => Ok(Response::MailboxError(u16_at(p, 2))),
                 None => Err(ResponseError::Truncated),
             }
         }
@@ -276,7 +261,7 @@ pub fn parse_response(msg: &[u8]) -> Result<Response<'_>, ResponseError> {
     if sdo.len() < 8 {
         return Err(ResponseError::Truncated);
     }
-    let index = le_u16(sdo, 1);
+    let index = u16_at(sdo, 1);
     let sub = sdo.get(3).copied().unwrap_or(0);
     match scs_ {
         scs::INITIATE_UPLOAD if cmd & EXPEDITED != 0 => {
@@ -294,14 +279,14 @@ pub fn parse_response(msg: &[u8]) -> Result<Response<'_>, ResponseError> {
         scs::INITIATE_UPLOAD => Ok(Response::UploadNormal {
             index,
             sub,
-            size: (cmd & SIZE_OR_LAST != 0).then(|| le_u32(sdo, 4)),
+            size: (cmd & SIZE_OR_LAST != 0).then(|| u32_at(sdo, 4)),
             data: sdo.get(8..).unwrap_or(&[]),
         }),
         scs::INITIATE_DOWNLOAD => Ok(Response::DownloadInitiate { index, sub }),
         scs::ABORT => Ok(Response::Abort {
             index,
             sub,
-            code: AbortCode(le_u32(sdo, 4)),
+            code: AbortCode(u32_at(sdo, 4)),
         }),
         _ => Err(ResponseError::Command(cmd)),
     }
