@@ -452,3 +452,88 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     let sw = read_u16(&m, 0x6041);
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
 }
+
+#[test]
+fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
+    // The ESI of the CMMP-AS's CiA 402 EtherCAT interface is "…CIA402_IP7": IP mode with the
+    // frame as the SYNC (free run, CMMP-AS §2.11). Outputs: controlword + 60C1h:01, inputs:
+    // statusword + position actual value.
+    let mut m = Master::new(cell());
+    {
+        let model = &mut m.cell.device_mut(0).unwrap().model;
+        for (i, s, v, n) in [
+            (0x1600u16, 0u8, 0u32, 1usize),
+            (0x1600, 2, 0x60C1_0120, 4),
+            (0x1600, 0, 2, 1),
+            (0x1A00, 0, 0, 1),
+            (0x1A00, 2, 0x6064_0020, 4),
+            (0x1A00, 0, 2, 1),
+            (0x60C4, 6, 1, 1),
+            (0x6060, 0, 7, 1),
+        ] {
+            model
+                .write(i, s, &v.to_le_bytes()[..n])
+                .unwrap_or_else(|e| panic!("{i:04X}h:{s:02X}h: {e:?}"));
+        }
+    }
+    to_preop(&mut m);
+    map(&mut m, 6, 6);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let out = |cw: u16, target: i32| {
+        let mut o = cw.to_le_bytes().to_vec();
+        o.extend_from_slice(&target.to_le_bytes());
+        o
+    };
+    let mut inputs = vec![0u8; 6];
+    let mut pos = 0;
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        for _ in 0..20 {
+            m.tick();
+            inputs = lrw(&mut m, &out(cw, pos), 6);
+            pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
+        }
+    }
+    let mut b = [0u8; 1];
+    m.cell
+        .device(0)
+        .unwrap()
+        .model
+        .read(0x6061, 0, &mut b)
+        .unwrap();
+    assert_eq!(b[0] as i8, 7, "synchronised to the 1 ms frame cycle");
+    // enable_ip_mode, then 200 set-points 100 units apart, one per frame.
+    let mut target = pos;
+    for _ in 0..5 {
+        m.tick();
+        inputs = lrw(&mut m, &out(0x001F, target), 6);
+    }
+    let sw = u16::from_le_bytes([inputs[0], inputs[1]]);
+    assert_eq!(sw & 0x1000, 0x1000, "ip_mode_active: {sw:#06x}");
+    for _ in 0..200 {
+        target += 100;
+        m.tick();
+        inputs = lrw(&mut m, &out(0x001F, target), 6);
+    }
+    // The position loop settles on the last set-point within 0.2 s.
+    for _ in 0..200 {
+        m.tick();
+        inputs = lrw(&mut m, &out(0x001F, target), 6);
+    }
+    let sw = u16::from_le_bytes([inputs[0], inputs[1]]);
+    let pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
+    assert_eq!(sw & 0x3000, 0x1000, "active, no following error: {sw:#06x}");
+    let mut d = [0u8; 4];
+    m.cell
+        .device(0)
+        .unwrap()
+        .model
+        .read(0x6062, 0, &mut d)
+        .unwrap();
+    let demand = i32::from_le_bytes(d);
+    assert!(
+        (pos - target).abs() < 50,
+        "followed the set-points: {pos} vs {target}, demand {demand}"
+    );
+}
