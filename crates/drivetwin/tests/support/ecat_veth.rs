@@ -183,6 +183,11 @@ impl TwinProcess {
         Ok(twin)
     }
 
+    /// The twin's process id (drivetwin itself: `ip netns exec` execs it).
+    pub fn pid(&self) -> Option<u32> {
+        self.child.as_ref().map(Child::id)
+    }
+
     /// The stdout lines printed so far.
     pub fn lines(&self) -> Vec<String> {
         self.lines.lock().map(|l| l.clone()).unwrap_or_default()
