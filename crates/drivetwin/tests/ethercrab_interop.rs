@@ -29,7 +29,7 @@ use ethercrab::{
     DefaultLock, MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup,
     SubDeviceState, Timeouts,
 };
-use tokio::time::{interval, Instant, MissedTickBehavior};
+use std::time::Instant;
 
 const FESTO: u32 = 0x1D;
 const MAX_SUBDEVICES: usize = 2;
@@ -42,6 +42,7 @@ const EXPECTED_WKC: u16 = 3;
 const RAMP_STEP: i32 = 327;
 /// Default following-error window 6065h of the CMMP-AS.
 const FOLLOWING_ERROR_WINDOW: i32 = 9101;
+const CYCLE: Duration = Duration::from_millis(1);
 
 static PDU_STORAGE: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
 
@@ -89,6 +90,43 @@ fn ethercrab_maps_enables_and_runs_a_csp_ramp() {
     let EcatWire { twin, veth } = wire;
     twin.stop().expect("drivetwin stops cleanly on SIGTERM");
     drop(veth);
+}
+
+/// The 1 ms cycle on an absolute schedule. The drive takes the speed between two CSP
+/// set-points as feed-forward (CiA 402 §13), so set-points must come one per cycle: a cycle
+/// the scheduler held up is not made up for with a burst (several set-points within one tick
+/// of the twin read as a speed jump, and the axis overshoots), the schedule restarts instead.
+/// tokio's timer has 1 ms granularity; a thread sleep is finer. It blocks only the thread of
+/// `block_on`: ethercrab's TX/RX task runs on the runtime's workers.
+struct Pacer {
+    next: Instant,
+    /// Longest time between two cycles.
+    max_gap: Duration,
+    last: Instant,
+}
+
+impl Pacer {
+    fn new() -> Self {
+        let now = Instant::now();
+        Pacer {
+            next: now,
+            max_gap: Duration::ZERO,
+            last: now,
+        }
+    }
+
+    fn wait(&mut self) {
+        self.next += CYCLE;
+        let now = Instant::now();
+        if self.next > now {
+            std::thread::sleep(self.next - now);
+        } else {
+            self.next = now;
+        }
+        let now = Instant::now();
+        self.max_gap = self.max_gap.max(now - self.last);
+        self.last = now;
+    }
 }
 
 /// What one cyclic exchange brought back.
@@ -142,6 +180,9 @@ async fn session(master_if: &str, product_code: u32) {
             // The twin answers in well under a millisecond, but a shared CI machine can hold
             // either process off the CPU for a while (as in the pysoem test).
             pdu: Duration::from_millis(100),
+            // An SII read waits for the busy flag with FPRDs; the default 10 ms covers only a
+            // few round trips on such a machine.
+            eeprom: Duration::from_millis(100),
             ..Timeouts::default()
         },
         MainDeviceConfig {
@@ -218,13 +259,10 @@ async fn session(master_if: &str, product_code: u32) {
         .request_into_op(&maindevice)
         .await
         .expect("request Op");
-    let mut tick = interval(Duration::from_millis(1));
-    // A cycle the scheduler held up is not made up for with a burst: a burst would push the
-    // set-point several steps ahead within one tick of the twin, a jump no real master makes.
-    tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let mut tick = Pacer::new();
     let mut in_op = false;
     for _ in 0..2000 {
-        tick.tick().await;
+        tick.wait();
         let c = cycle(&group, &maindevice, 0, pos).await;
         pos = c.pos;
         if c.all_op {
@@ -245,7 +283,7 @@ async fn session(master_if: &str, product_code: u32) {
     let mut sw = 0;
     for (cw, want) in [(0x06u16, 0x21u16), (0x07, 0x23), (0x0F, 0x27)] {
         for _ in 0..400 {
-            tick.tick().await;
+            tick.wait();
             let c = cycle(&group, &maindevice, cw, target).await;
             bad_wkc += u32::from(c.wkc != EXPECTED_WKC);
             (sw, pos) = (c.statusword, c.pos);
@@ -272,8 +310,10 @@ async fn session(master_if: &str, product_code: u32) {
     let mut max_lag = 0i32;
     let mut cycles = 0u32;
     let began = Instant::now();
+    tick.max_gap = Duration::ZERO;
+    let mut ramp_lags = Vec::with_capacity(ramp as usize);
     for n in 0..ramp + 300 {
-        tick.tick().await;
+        tick.wait();
         if n < ramp {
             target += RAMP_STEP;
         }
@@ -282,10 +322,16 @@ async fn session(master_if: &str, product_code: u32) {
         bad_wkc += u32::from(c.wkc != EXPECTED_WKC);
         (sw, pos) = (c.statusword, c.pos);
         max_lag = max_lag.max((target - pos).abs());
+        if n < ramp {
+            ramp_lags.push(target - pos);
+        }
     }
     let took = began.elapsed();
+    ramp_lags.sort_unstable();
+    let median_lag = ramp_lags[ramp_lags.len() / 2];
     println!(
-        "CSP: {cycles} cycles in {took:?}, moved {} increments, max lag {max_lag}, statusword {sw:#06x}",
+        "CSP: {cycles} cycles in {took:?} (longest gap {:?}), moved {} increments, median lag {median_lag}, max lag {max_lag}, statusword {sw:#06x}",
+        tick.max_gap,
         pos - start
     );
     assert_eq!(bad_wkc, 0, "cycles with a wrong working counter (or lost)");
@@ -293,6 +339,14 @@ async fn session(master_if: &str, product_code: u32) {
     assert!(
         (pos - target).abs() < 100,
         "stands at the last set-point: {pos} vs {target}"
+    );
+    // Tracking: on a regular cycle the axis is less than three set-points behind (one cycle of
+    // transport plus the phase between the master's cycle and the twin's tick); a cycle the
+    // scheduler holds up (tens of ms on a loaded machine) stops the axis, which then lags
+    // while it accelerates again, but stays inside the drive's following-error window.
+    assert!(
+        (0..3 * RAMP_STEP).contains(&median_lag),
+        "median lag {median_lag} on the ramp"
     );
     assert!(
         max_lag < FOLLOWING_ERROR_WINDOW,
