@@ -13,6 +13,8 @@
 //! (priority 49), as a production EtherCAT master runs: the figures then show the twin and the
 //! wire rather than how long the scheduler of a busy machine keeps either process waiting.
 //!
+//! `DRIVETWIN_BIN=path` runs another build of the twin.
+//!
 //! Needs root (network namespace, raw sockets) and `ip`; otherwise prints why and exits 0.
 //! `cargo bench -p drivetwin --bench ecat_veth_roundtrip`; without cargo bench's `--bench`
 //! argument (e.g. `cargo test --benches`) it runs for 1 s as a smoke test.
@@ -23,7 +25,7 @@ mod ecat_veth;
 use std::io;
 use std::mem;
 use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
-use std::path::Path;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use ecat_veth::EcatWire;
@@ -67,7 +69,11 @@ fn main() {
         Err(_) if smoke => 1.0,
         Err(_) => 10.0,
     };
-    let wire = match EcatWire::start(Path::new(env!("CARGO_BIN_EXE_drivetwin"))) {
+    // DRIVETWIN_BIN (as for the pytest suite) benchmarks another build of the twin.
+    let binary = std::env::var_os("DRIVETWIN_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_drivetwin")));
+    let wire = match EcatWire::start(&binary) {
         Ok(w) => w,
         Err(why) => {
             println!("ecat_veth_roundtrip skipped: {why}");
