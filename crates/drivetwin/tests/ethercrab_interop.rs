@@ -87,6 +87,8 @@ fn ethercrab_maps_enables_and_runs_a_csp_ramp() {
         .build()
         .expect("tokio runtime");
     rt.block_on(session(wire.master_if(), product_code));
+    // Ends ethercrab's TX/RX task (and closes its socket) before the link goes away.
+    drop(rt);
     let EcatWire { twin, veth } = wire;
     twin.stop().expect("drivetwin stops cleanly on SIGTERM");
     drop(veth);
