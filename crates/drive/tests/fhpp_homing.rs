@@ -432,3 +432,85 @@ fn fixed_stop_with_the_default_mechanics() {
     homed(&i);
     assert!((b.rev() - (-2.9)).abs() < 0.005, "{} rev", b.rev());
 }
+
+#[test]
+fn record_0_with_start_homes_too() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.method(34);
+    let i = b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 0));
+    assert!(
+        i.spos.contains(Spos::ACK) && !i.spos.contains(Spos::MC),
+        "{i:?}"
+    );
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 0));
+    let i = b.until(10_000, |i| i.spos.contains(Spos::MC));
+    homed(&i);
+    assert_eq!(i.byte3, 0, "record number feedback 0 = homing");
+    assert!((b.rev() - 0.3).abs() < 0.002, "{} rev", b.rev());
+}
+
+#[test]
+fn halt_ends_a_homing_run_without_a_reference() {
+    let mut b = Bench::new(StepperMode::ClosedLoop);
+    b.method(-17);
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0));
+    b.run(500);
+    let moving_at = b.rev();
+    assert!(moving_at < -0.05, "searching: {moving_at} rev");
+    // HALT = 0 (active low): the axis brakes at PNU 1013 and stands, not referenced.
+    b.send(OutputData::record(ENABLED, Cpos::HOM, 0));
+    b.run(500);
+    let stood = b.rev();
+    b.run(500);
+    assert!(
+        (b.rev() - stood).abs() < 0.001,
+        "stands: {stood} → {}",
+        b.rev()
+    );
+    assert!(stood > -0.9, "did not reach the stop: {stood}");
+    assert!(!b.input().spos.contains(Spos::REF));
+    // The PNU 1015 current limit belongs to homing only.
+    assert!(b.dev.stepper().current_ma() < 900);
+}
+
+/// The plant's end stop alone (no homing): an open-loop motor driven past it loses steps,
+/// a closed-loop one holds at the stop with its current at the limit.
+#[test]
+fn end_stop_stalls_the_plant() {
+    use drive::stepper::{Stepper, StepperData, StepperDemand};
+    for mode in [StepperMode::OpenLoop, StepperMode::ClosedLoop] {
+        let mut s = Stepper::new(StepperData::default());
+        s.set_mode(mode);
+        s.set_end_stops(Some((-TAU, 0.25 * TAU)));
+        s.set_current_limit(Some(0.9));
+        // Set-point ramps to half a revolution at 0.25 rev/s (1600 micro-steps per rev).
+        for ms in 0..3000u32 {
+            let micro = (f64::from(ms.min(2000)) * 0.25 * 3200.0 / 1000.0) as i64;
+            let inc = (f64::from(ms.min(2000)) * 0.25 * 2000.0 / 1000.0) as i64;
+            let demand = match mode {
+                StepperMode::OpenLoop => StepperDemand::Position { microsteps: micro },
+                StepperMode::ClosedLoop => StepperDemand::PositionIncrements {
+                    increments: inc,
+                    velocity_ff_rpm: 0.0,
+                },
+            };
+            s.step(1e-3, demand);
+            assert!(
+                s.angle() <= 0.25 * TAU + 1e-12,
+                "{mode:?}: through the stop"
+            );
+        }
+        assert!(
+            (s.angle() / TAU - 0.25).abs() < 0.03,
+            "{mode:?}: {}",
+            s.angle() / TAU
+        );
+        match mode {
+            StepperMode::OpenLoop => assert!(s.lost_steps() >= 40, "{}", s.lost_steps()),
+            StepperMode::ClosedLoop => {
+                assert_eq!(s.at_end_stop(), Some(true));
+                assert!((s.current_a() - 0.9).abs() < 0.05, "{}", s.current_a());
+            }
+        }
+    }
+}
