@@ -28,8 +28,8 @@
 //!   −35 REF := actual position, no motion; 33 / 34 at the search velocity PNU 1012:1 to the
 //!   next index pulse (REF = its latched encoder count; none within 1.05 revolutions or a
 //!   stop first: 23h); −17 / −18 at PNU 1012:1 into the stop until the block detection
-//!   (actual velocity < PNU 1016 for PNU 1017 ms while the set-point drives on, at least a
-//!   motor step ahead) takes the actual position as REF; 23 / 27 (CiA 402 numbering, see
+//!   (current at the PNU 1015 limit and actual velocity < PNU 1016, both for PNU 1017 ms)
+//!   takes the actual position as REF; 23 / 27 (CiA 402 numbering, see
 //!   [`super::homing::METHODS`]) at PNU 1012:1 onto the switch, back off it at the crawl
 //!   velocity PNU 1012:3 to its edge (23: the negative edge, 27: the positive one), REF = the
 //!   edge in open loop, the next index pulse behind it in closed loop (closer than 5 % of a
@@ -1798,22 +1798,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         libm::round(angle / core::f64::consts::TAU * inc_rev) / k * self.params.polarity
     }
 
-    /// Block detection (PNU 1016 / 1017): the set-point moves at least at the limit while the
-    /// actual velocity stays below it for the window time. Decision: the axis must also lag
-    /// the set-point by a full motor step or more, so the stick-slip of a crawl (PNU 1012:3,
-    /// a detent step at a time, the axis waiting for the set-point) is not taken for a block.
-    /// Closed loop only (it needs the encoder).
+    /// The PNU 1015 current limit of a homing run, A (‰ of PNU 555, at most the motor's).
+    fn homing_current_limit(&self) -> f64 {
+        let p = &self.params;
+        (p.homing_torque * p.base_force_ma / 1e6).min(self.stepper.data().max_current)
+    }
+
+    /// Block detection (PNU 1015…1017, Tab. B.131: "if this torque is reached for the time
+    /// of PNU 1017 the stop is taken as REF"): the current at the PNU 1015 limit, pushing in
+    /// the search direction, while the actual velocity stays below PNU 1016, for PNU 1017 ms.
+    /// Closed loop only (it needs the encoder and the current control).
     fn stalled(&self, h: &mut Homing) -> bool {
         let p = &self.params;
-        let limit = p.block_velocity.max(1.0);
-        let data = self.stepper.data();
-        let full_step = f64::from(data.encoder_increments_per_rev)
-            / f64::from(data.full_steps_per_rev.max(1))
-            / p.einc_per_sinc.max(1e-9);
-        let lag = (self.traj.position - self.raw_actual()) * h.dir;
-        let standing = libm::fabs(self.actual_velocity()) < limit && lag >= full_step;
-        let driving = libm::fabs(self.traj.velocity) >= limit;
-        if self.settings.mode != StepperMode::ClosedLoop || !(standing && driving) {
+        let limit = self.homing_current_limit();
+        let pushing = self.stepper.torque_set() * p.polarity * h.dir > 0.0;
+        let pressing = limit > 0.0 && pushing && self.stepper.current_a() >= 0.95 * limit;
+        let standing = libm::fabs(self.actual_velocity()) < p.block_velocity.max(1.0);
+        if self.settings.mode != StepperMode::ClosedLoop || !(standing && pressing) {
             h.stall_since = None;
             return false;
         }
@@ -1825,6 +1826,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// raise `code` (its reaction comes from PNU 242 as for every error).
     fn homing_failed(&mut self, code: u8) {
         self.task = Task::None;
+        self.fe_window = self.params.direct_fe_window;
         self.brake(self.params.homing_accel, true);
         self.raise_once(code);
     }
@@ -2065,8 +2067,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             Motion::Homing(h) => self.homing_cycle(h, dt),
         }
         // PNU 1015: homing limits the current to its share of PNU 555 (closed loop).
-        let homing_limit = matches!(self.motion, Motion::Homing(_))
-            .then_some(p.homing_torque * p.base_force_ma / 1e6);
+        let homing_limit =
+            matches!(self.motion, Motion::Homing(_)).then(|| self.homing_current_limit());
         self.stepper.set_current_limit(homing_limit);
         self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
