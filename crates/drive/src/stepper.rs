@@ -59,6 +59,11 @@
 //! make the current lag anyway, as in open loop. All loops run at the integration rate
 //! (50 µs); the manual does not give the CMMO-ST's controller cycle times.
 //!
+//! **End stops and current limit** (homing, CMMO-ST §6.2): [`Stepper::set_end_stops`] puts
+//! rigid, inelastic stops at two shaft angles (the shaft halts there and leaves as soon as the
+//! torque pulls it back: a closed-loop drive builds current up to its limit, an open-loop one
+//! loses steps), [`Stepper::set_current_limit`] lowers the closed-loop current limit (PNU 1015).
+//!
 //! # Integration
 //!
 //! The plant is integrated in sub-steps of at most [`STEP_S`] = 50 µs whatever `dt` the
@@ -439,6 +444,11 @@ pub struct Stepper {
     ib: f64,
     torque_em: f64,
     blocked: bool,
+    /// Mechanical end stops of the load (rad, lower < upper); `None`: free travel.
+    stops: Option<(f64, f64)>,
+    /// Closed-loop current limit below [`StepperData::max_current`] (A), e.g. homing's
+    /// PNU 1015; `None`: the data's limit.
+    current_limit: Option<f64>,
     // ---- controller state ----
     /// Commanded micro-step position (open loop) / set-point in micro-steps (closed loop).
     cmd_micro: i64,
@@ -487,6 +497,8 @@ impl Stepper {
             ib: 0.0,
             torque_em: 0.0,
             blocked: false,
+            stops: None,
+            current_limit: None,
             cmd_micro: 0,
             cmd_cos: 1.0,
             cmd_sin: 0.0,
@@ -580,6 +592,36 @@ impl Stepper {
 
     pub fn blocked(&self) -> bool {
         self.blocked
+    }
+
+    /// Mechanical end stops at `lower` and `upper` rad of shaft angle (`None`: free travel).
+    /// A stop is rigid and inelastic: the shaft halts at it, whatever the torque, and leaves
+    /// it as soon as the torque pulls it back. A closed-loop drive then builds current up to
+    /// its limit; an open-loop one loses steps against it.
+    pub fn set_end_stops(&mut self, stops: Option<(f64, f64)>) {
+        self.stops = stops.filter(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi);
+    }
+
+    pub fn end_stops(&self) -> Option<(f64, f64)> {
+        self.stops
+    }
+
+    /// The shaft rests against an end stop (or is pushed into it).
+    pub fn at_end_stop(&self) -> Option<bool> {
+        let (lo, hi) = self.stops?;
+        if self.angle >= hi {
+            Some(true)
+        } else if self.angle <= lo {
+            Some(false)
+        } else {
+            None
+        }
+    }
+
+    /// Limits the closed-loop current to `amps` (below [`StepperData::max_current`]); `None`
+    /// lifts the limit. Homing to a fixed stop (PNU 1015) uses it.
+    pub fn set_current_limit(&mut self, amps: Option<f64>) {
+        self.current_limit = amps.filter(|a| a.is_finite()).map(|a| a.max(0.0));
     }
 
     /// Places the shaft at `angle` rad at rest and lets the observer start there (test set-ups
@@ -769,7 +811,9 @@ impl Stepper {
         let e = self.sp_inc.wrapping_sub(inc) as f64 * self.rad_per_inc;
         let w_set = self.kv * e + w_ff;
         let ew = w_set - self.obs_vel;
-        let t_max = self.k * self.data.max_current.max(0.0);
+        let i_max = self.data.max_current.max(0.0);
+        let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
+        let t_max = self.k * i_max;
         let t = self.kp * ew + self.integral + t_ff;
         let t = if t > t_max {
             t_max
@@ -836,8 +880,19 @@ impl Stepper {
                 w
             }
         };
-        let w1 = finite(w1);
-        self.angle += h * w1;
+        let mut w1 = finite(w1);
+        let mut angle = self.angle + h * w1;
+        if let Some((lo, hi)) = self.stops {
+            // Rigid, inelastic end stop: the shaft halts at it.
+            if angle >= hi && w1 >= 0.0 {
+                angle = hi;
+                w1 = 0.0;
+            } else if angle <= lo && w1 <= 0.0 {
+                angle = lo;
+                w1 = 0.0;
+            }
+        }
+        self.angle = angle;
         self.velocity = w1;
         w1 - w0
     }

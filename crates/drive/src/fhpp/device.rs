@@ -20,11 +20,32 @@
 //!   feed 36000 SINC per revolution, encoder 2000) 1 EINC = 18 SINC.
 //! - **Coordinates** (fhpp §5.3): AZ = REF + PNU 1010, PZ = AZ + PNU 500. Every position of the
 //!   I/O, PNU 404 and PNU 300 / 1041 is PZ-based: `pz = raw − REF − PNU 1010 − PNU 500`.
-//! - **Homing**: method −35 "current position" only: REF := actual position, so the actual
-//!   position becomes −(PNU 1010 + PNU 500) (§6.2 step 2 "current position = 0 − offset"); the
-//!   optional travel to AZ is not made. Every other method (33/34 index pulse, −17/−18 fixed
-//!   stop, 23/27 reference switch) ends with diagnostic 3Bh "homing method invalid" because
-//!   the plant has no switches and no index pulse yet.
+//! - **Homing** (§6.2, PNU 1010…1017; the methods as data in [`super::homing`], the end
+//!   stops, reference switch and index pulse in [`super::axis_mechanics`], set through
+//!   [`FhppSettings::mechanics`]): HOM voids the old reference (SPOS.REF = 0, software
+//!   limits off) and the method of PNU 1011 runs under the current limit PNU 1015 (‰ of
+//!   PNU 555) with the ramps of PNU 1013 and no following-error monitoring:
+//!   −35 REF := actual position, no motion; 33 / 34 at the search velocity PNU 1012:1 to the
+//!   next index pulse (REF = its latched encoder count; none within 1.05 revolutions or a
+//!   stop first: 23h); −17 / −18 at PNU 1012:1 into the stop until the block detection
+//!   (current at the PNU 1015 limit and actual velocity < PNU 1016, both for PNU 1017 ms)
+//!   takes the actual position as REF; 23 / 27 (CiA 402 numbering, see
+//!   [`super::homing::METHODS`]) at PNU 1012:1 onto the switch, back off it at the crawl
+//!   velocity PNU 1012:3 to its edge (23: the negative edge, 27: the positive one), REF = the
+//!   edge in open loop, the next index pulse behind it in closed loop (closer than 5 % of a
+//!   revolution to the edge: 2Eh); a stop before the switch is 22h (closed loop), an
+//!   open-loop search longer than [`FhppSettings::homing_timeout`] 3Ah. Tab. 6.2 refusals:
+//!   3Bh (unknown number, fixed stop in open loop, switch method without a switch), 24h
+//!   (index methods in open loop). Every homing error goes through the one fault path
+//!   (`raise_once`, acknowledgeable at once; decision for 23h, whose App. D type is
+//!   "software reset": the twin has no software reset and the cause was this run).
+//!   Decision on step 3 of §6.2.1 ("optionally travel the AZ offset"): every searching method
+//!   travels to AZ = REF + PNU 1010 at the drive velocity PNU 1012:2 (PNU 1015: "the stop is
+//!   taken as REF and the drive travels to the axis zero point"), and the run completes (MC,
+//!   SPOS.REF) once the axis is inside ±PNU 1022 of AZ for PNU 1023 ms; −35 does not move
+//!   (CiA 402 35/37 do not), so the actual position becomes −(PNU 1010 + PNU 500) (§6.2.1
+//!   step 2 "current position = 0 − offset"). With PNU 1010 = 0 a fixed-stop run ends at the
+//!   stop: §6.2.1 asks for at least 1 mm of back-off through PNU 1010 (or an index method).
 //! - **Decelerations**: Halt and Stop use the running task's deceleration (record PNU 408,
 //!   direct PNU 542, jog PNU 532, homing PNU 1013), QuickStop PNU 1029. When a Stop or
 //!   QuickStop has brought the set-point to rest the position controller takes the actual
@@ -55,7 +76,8 @@
 //!   limit) is acknowledgeable at once; an injected one ([`FhppDevice::fault`]) keeps its
 //!   App. D acknowledge type and its cause until [`FhppDevice::clear_fault`].
 //!   Raised from their simulated causes: 28h, 3Fh, 3Bh (starts), 2Fh, 37h (monitoring),
-//!   11h…14h, 29h, 2Ah (software limits), 24h (force in open loop), 40h (teach), 1Bh
+//!   11h…14h, 29h, 2Ah (software limits), 24h (force or index homing in open loop), 22h,
+//!   23h, 2Eh, 3Ah (homing), 40h (teach), 1Bh
 //!   ([`FhppDevice::set_load_voltage`]); 47h / 48h come from the Modbus runtime's watchdog.
 //! - **Diagnostic memory** ([`super::diagnostic_memory`]): incoming faults (01h), warnings
 //!   (05h) and informations (09h) when PNU 246 bit 7 (or App. D "always") says so, the end of
@@ -90,15 +112,20 @@
 //! The torque limits (PNU 418, 512, 581), jerk limitation, final velocities, the causes the
 //! plant cannot produce (temperatures, voltages, I²t, encoder: inject them with
 //! [`FhppDevice::fault`]), and the rw2 access rule outside PNU 242 / 246 and the parameter
-//! channel (other writers through [`ObjectAccess`] are not checked).
+//! channel (other writers through [`ObjectAccess`] are not checked). Homing: limit switches
+//! (CiA 402 methods 1…14, 17…30 other than 23 / 27 are not in Tab. 6.2), the NC/NO setting
+//! and the digital input of the reference switch as a PNU (it is read from the mechanics
+//! directly), and the cell file / `drivetwin run` options for [`FhppSettings::mechanics`].
 
 use core::time::Duration;
 
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
+use super::axis_mechanics::AxisMechanics;
 use super::control_bytes::{ControlMode, OutputData};
 use super::diagnostic_memory::{self, DiagnosticMemory, EventType};
 use super::diagnostics::{self, Class, Diagnostic};
+use super::homing::{self, Method, Target};
 use super::parameter_channel::{self, ParameterChannel};
 use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
 use super::state_machine::{
@@ -127,6 +154,12 @@ pub struct FhppSettings {
     pub mode: StepperMode,
     /// FHPP cycle (1 ms).
     pub cycle: Duration,
+    /// End stops, reference switch and index pulse around the motor (homing).
+    pub mechanics: AxisMechanics,
+    /// Open loop: a switch search (methods 23 / 27) not done after this long ends with 3Ah
+    /// "homing timeout". The manual names no time and no PNU for it; 20 s is 5 revolutions
+    /// at the default search velocity, more than the default stroke.
+    pub homing_timeout: Duration,
 }
 
 impl Default for FhppSettings {
@@ -135,6 +168,8 @@ impl Default for FhppSettings {
             stepper: StepperData::default(),
             mode: StepperMode::ClosedLoop,
             cycle: Duration::from_millis(1),
+            mechanics: AxisMechanics::default(),
+            homing_timeout: Duration::from_secs(20),
         }
     }
 }
@@ -175,6 +210,15 @@ struct Params {
     quick_stop: f64,
     homing_method: i64,
     homing_accel: f64,
+    /// PNU 1012:1…3: search, drive (to AZ), crawl velocity.
+    homing_search: f64,
+    homing_drive: f64,
+    homing_crawl: f64,
+    /// PNU 1015 in ‰ of PNU 555 (the current limit while homing).
+    homing_torque: f64,
+    /// PNU 1016 / 1017: block detection.
+    block_velocity: f64,
+    block_ms: u64,
     base_acceleration: f64,
     base_force_ma: f64,
     force_stroke: f64,
@@ -217,7 +261,43 @@ enum Motion {
     Jog { positive: bool, since: u64 },
     /// Brake to rest; `resync`: then take the actual position as the set-point.
     Braking { decel: f64, resync: bool },
+    /// A homing run (§6.2) searching for REF or travelling to AZ.
+    Homing(Homing),
 }
+
+/// A homing run in progress.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Homing {
+    method: Method,
+    phase: HomingPhase,
+    /// Direction of travel in raw SINC (±1).
+    dir: f64,
+    /// Shaft angle at the last cycle (rad), for the index and switch edges.
+    angle: f64,
+    /// Shaft angle where the phase began (rad).
+    phase_start: f64,
+    /// Cycle the run started (3Ah).
+    started: u64,
+    /// Since when the axis stands while the set-point moves (block detection).
+    stall_since: Option<u64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum HomingPhase {
+    /// Towards the method's target at the search velocity PNU 1012:1.
+    Search,
+    /// Off the reference switch at the crawl velocity PNU 1012:3 until its edge.
+    LeaveSwitch,
+    /// Closed loop: on at the crawl velocity to the first index pulse behind the switch edge
+    /// at `edge` rad.
+    IndexAfterSwitch { edge: f64 },
+    /// REF found (raw SINC `reference`): to AZ = REF + PNU 1010 at PNU 1012:2.
+    ToZero { target: f64, reference: f64 },
+}
+
+/// CMMO-ST 2Eh: an index pulse closer to the switch edge than this (fraction of a revolution,
+/// either side) gives no reproducible REF. The manual names no distance; decision: 5 %.
+const MIN_INDEX_DISTANCE: f64 = 0.05;
 
 /// Which MC condition the current task has.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -367,6 +447,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
         let mut stepper = Stepper::new(data);
         stepper.set_mode(settings.mode);
+        stepper.set_end_stops(settings.mechanics.stops_rad());
         let mut dev = FhppDevice {
             od,
             settings,
@@ -956,6 +1037,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             quick_stop: acc(g(1029, 1)),
             homing_method: g(1011, 1),
             homing_accel: acc(g(1013, 1)),
+            homing_search: pos(g(1012, 1)),
+            homing_drive: pos(g(1012, 2)),
+            homing_crawl: pos(g(1012, 3)),
+            homing_torque: pos(g(1015, 1)),
+            block_velocity: pos(g(1016, 1)),
+            block_ms: g(1017, 1).max(0) as u64,
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
             force_stroke: pos(g(510, 1)),
@@ -1287,24 +1374,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 self.standstill_target = None;
             }
             MotionCommand::ManualBrake { .. } => {} // no holding brake fitted
-            MotionCommand::Home => {
-                self.start_task(Task::Homing { done: false });
-                self.pending = None;
-                self.task_decel = p.homing_accel;
-                if p.homing_method == -35 {
-                    // Current position: REF = here; the task completes at the next cycle.
-                    self.reference = Some(self.raw_actual());
-                    self.traj = Trajectory {
-                        position: self.traj.position,
-                        velocity: 0.0,
-                    };
-                    self.motion = Motion::Hold;
-                    self.task = Task::Homing { done: true };
-                } else {
-                    self.task = Task::None;
-                    self.raise_once(diag::HOMING_METHOD_INVALID);
-                }
-            }
+            MotionCommand::Home => self.start_homing(),
             MotionCommand::MoveAbsolute {
                 target, velocity, ..
             } => {
@@ -1666,6 +1736,231 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.clear_warning(diag::TEACH_FAILED);
     }
 
+    // ---- homing (§6.2) -----------------------------------------------------------------
+
+    /// CPOS.HOM (or record 0): the method of PNU 1011 (Tab. 6.2, [`homing::select`]). The
+    /// old reference is void from the start (SPOS.REF = 0, software limits off, §6.2.2) until
+    /// the run completes.
+    fn start_homing(&mut self) {
+        let p = self.params;
+        self.start_task(Task::Homing { done: false });
+        self.pending = None;
+        self.task_decel = p.homing_accel;
+        let method = match homing::select(
+            p.homing_method,
+            self.settings.mode,
+            self.settings.mechanics.has_switch(),
+        ) {
+            Ok(m) => m,
+            Err(code) => {
+                self.task = Task::None;
+                self.raise_once(code);
+                return;
+            }
+        };
+        self.reference = None;
+        if method.target == Target::CurrentPosition {
+            // −35 current position: REF = here, the task completes at the next cycle.
+            // Decision: no travel to AZ (CiA 402 35/37 do not move); the actual position
+            // becomes −(PNU 1010 + PNU 500) (§6.2.1 step 2 "current position = 0 − offset").
+            self.reference = Some(self.raw_actual());
+            self.traj.velocity = 0.0;
+            self.motion = Motion::Hold;
+            self.task = Task::Homing { done: true };
+            return;
+        }
+        // Decision: no following-error monitoring while homing (the search runs into a stop
+        // on purpose, under the PNU 1015 current limit).
+        self.fe_window = 0.0;
+        self.fe_since = None;
+        self.following_error = false;
+        let angle = self.stepper.angle();
+        self.motion = Motion::Homing(Homing {
+            method,
+            phase: HomingPhase::Search,
+            dir: f64::from(method.direction),
+            angle,
+            phase_start: angle,
+            started: self.cycles,
+            stall_since: None,
+        });
+    }
+
+    /// Shaft angle (rad) of an index pulse → raw SINC, through the encoder count latched
+    /// there (the index sits on a count boundary: rounded, not floored, against the binary
+    /// fraction of the angle).
+    fn angle_to_raw(&self, angle: f64) -> f64 {
+        let k = self.params.einc_per_sinc;
+        if k <= 0.0 {
+            return 0.0;
+        }
+        let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
+        libm::round(angle / core::f64::consts::TAU * inc_rev) / k * self.params.polarity
+    }
+
+    /// The PNU 1015 current limit of a homing run, A (‰ of PNU 555, at most the motor's).
+    fn homing_current_limit(&self) -> f64 {
+        let p = &self.params;
+        (p.homing_torque * p.base_force_ma / 1e6).min(self.stepper.data().max_current)
+    }
+
+    /// Block detection (PNU 1015…1017, Tab. B.131: "if this torque is reached for the time
+    /// of PNU 1017 the stop is taken as REF"): the current at the PNU 1015 limit, pushing in
+    /// the search direction, while the actual velocity stays below PNU 1016, for PNU 1017 ms.
+    /// Closed loop only (it needs the encoder and the current control).
+    fn stalled(&self, h: &mut Homing) -> bool {
+        let p = &self.params;
+        let limit = self.homing_current_limit();
+        let pushing = self.stepper.torque_set() * p.polarity * h.dir > 0.0;
+        let pressing = limit > 0.0 && pushing && self.stepper.current_a() >= 0.95 * limit;
+        let standing = libm::fabs(self.actual_velocity()) < p.block_velocity.max(1.0);
+        if self.settings.mode != StepperMode::ClosedLoop || !(standing && pressing) {
+            h.stall_since = None;
+            return false;
+        }
+        let t0 = *h.stall_since.get_or_insert(self.cycles);
+        self.cycles.saturating_sub(t0) >= p.block_ms
+    }
+
+    /// The run ends without a reference: brake at PNU 1013, hold where the axis stands,
+    /// raise `code` (its reaction comes from PNU 242 as for every error).
+    fn homing_failed(&mut self, code: u8) {
+        self.task = Task::None;
+        self.fe_window = self.params.direct_fe_window;
+        self.brake(self.params.homing_accel, true);
+        self.raise_once(code);
+    }
+
+    /// REF found at `reference` raw SINC: on to AZ = REF + PNU 1010 (§6.2.1 step 3; PNU 1015
+    /// "the stop is taken as REF and the drive travels to the axis zero point").
+    fn homing_found(&mut self, h: &mut Homing, reference: f64, at_stop: bool) {
+        if at_stop {
+            // The set-point ran ahead into the stop: it restarts at the actual position.
+            self.resync();
+        }
+        h.phase = HomingPhase::ToZero {
+            target: reference + self.params.az_offset as f64,
+            reference,
+        };
+    }
+
+    /// One cycle of a homing run: the inputs of the last plant step (switch, index pulse,
+    /// block detection), then the set-point of the phase.
+    fn homing_cycle(&mut self, mut h: Homing, dt: f64) {
+        let p = self.params;
+        let mech = self.settings.mechanics;
+        let angle = self.stepper.angle();
+        let shaft_dir = h.dir * p.polarity;
+        let moved_on = (angle - h.angle) * shaft_dir > 0.0;
+        let index = mech.index_crossed(h.angle, angle).filter(|_| moved_on);
+        let travelled = libm::fabs(angle - h.phase_start) / core::f64::consts::TAU;
+        let closed = self.settings.mode == StepperMode::ClosedLoop;
+        let timed_out = !closed
+            && self.cycles.saturating_sub(h.started)
+                > self.settings.homing_timeout.as_millis() as u64;
+        let stalled = self.stalled(&mut h);
+        h.angle = angle;
+        let mut failed = None;
+        match (h.method.target, h.phase) {
+            (_, HomingPhase::ToZero { target, reference }) => {
+                let lim = Limits {
+                    velocity: self.clamp_velocity(p.homing_drive.max(1.0)),
+                    acceleration: p.homing_accel,
+                    deceleration: p.homing_accel,
+                };
+                let arrived = self.traj.step_to(target, 0.0, lim, dt);
+                // Done as a position task is (§6.7 MC): inside ±PNU 1022 for PNU 1023 ms.
+                let inside = arrived && libm::fabs(self.raw_actual() - target) <= p.target_window;
+                let now = self.cycles;
+                let since = if inside {
+                    *self.window_since.get_or_insert(now)
+                } else {
+                    self.window_since = None;
+                    now
+                };
+                if inside && now.saturating_sub(since) >= p.target_window_ms {
+                    self.reference = Some(reference);
+                    self.motion = Motion::Hold;
+                    self.task = Task::Homing { done: true };
+                    self.fe_window = p.direct_fe_window;
+                    return;
+                }
+            }
+            (Target::IndexPulse, _) => {
+                if let Some(ix) = index {
+                    let r = self.angle_to_raw(ix);
+                    self.homing_found(&mut h, r, false);
+                } else if travelled > 1.0 + MIN_INDEX_DISTANCE || stalled {
+                    // More than a revolution (or a stop) without a pulse.
+                    failed = Some(homing::NO_INDEX_PULSE);
+                }
+            }
+            (Target::FixedStop, _) => {
+                if stalled {
+                    let r = self.raw_actual();
+                    self.homing_found(&mut h, r, true);
+                }
+            }
+            (Target::ReferenceSwitch, HomingPhase::Search) => {
+                if mech.switch_active(angle) {
+                    // CiA 402 23 / 27: on the switch, back off it the other way.
+                    h.phase = HomingPhase::LeaveSwitch;
+                    h.dir = -h.dir;
+                    h.phase_start = angle;
+                } else if stalled {
+                    failed = Some(homing::SWITCH_NOT_FOUND);
+                } else if timed_out {
+                    failed = Some(homing::HOMING_TIMEOUT);
+                }
+            }
+            (Target::ReferenceSwitch, HomingPhase::LeaveSwitch) => {
+                if !mech.switch_active(angle) {
+                    if closed {
+                        h.phase = HomingPhase::IndexAfterSwitch { edge: angle };
+                        h.phase_start = angle;
+                    } else {
+                        let r = self.raw_actual();
+                        self.homing_found(&mut h, r, false);
+                    }
+                } else if stalled {
+                    failed = Some(homing::SWITCH_NOT_FOUND);
+                } else if timed_out {
+                    failed = Some(homing::HOMING_TIMEOUT);
+                }
+            }
+            (Target::ReferenceSwitch, HomingPhase::IndexAfterSwitch { edge }) => {
+                if let Some(ix) = index {
+                    let d = libm::fabs(ix - edge) / core::f64::consts::TAU;
+                    if !(MIN_INDEX_DISTANCE..=1.0 - MIN_INDEX_DISTANCE).contains(&d) {
+                        failed = Some(homing::INDEX_TOO_CLOSE);
+                    } else {
+                        let r = self.angle_to_raw(ix);
+                        self.homing_found(&mut h, r, false);
+                    }
+                } else if travelled > 1.0 + MIN_INDEX_DISTANCE || stalled {
+                    failed = Some(homing::NO_INDEX_PULSE);
+                }
+            }
+            (Target::CurrentPosition, _) => {}
+        }
+        if let Some(code) = failed {
+            self.homing_failed(code);
+            return;
+        }
+        let v = match h.phase {
+            HomingPhase::Search => p.homing_search,
+            HomingPhase::LeaveSwitch | HomingPhase::IndexAfterSwitch { .. } => p.homing_crawl,
+            HomingPhase::ToZero { .. } => {
+                self.motion = Motion::Homing(h);
+                return;
+            }
+        };
+        let v = self.clamp_velocity(v.max(1.0));
+        self.traj
+            .step_velocity(h.dir * v, p.homing_accel, p.homing_accel, dt);
+        self.motion = Motion::Homing(h);
+    }
+
     // ---- motion and plant --------------------------------------------------------------
 
     fn advance(&mut self, dt: f64) {
@@ -1769,7 +2064,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                     }
                 }
             }
+            Motion::Homing(h) => self.homing_cycle(h, dt),
         }
+        // PNU 1015: homing limits the current to its share of PNU 555 (closed loop).
+        let homing_limit =
+            matches!(self.motion, Motion::Homing(_)).then(|| self.homing_current_limit());
+        self.stepper.set_current_limit(homing_limit);
         self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
         let increments = libm::round(self.traj.position * k) as i64;

@@ -22,11 +22,15 @@
 //! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7);
 //! - [`diagnostics`]: the App. D messages and the error-management coding (PNU 234…246);
 //! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3).
+//! - [`homing`]: the homing methods of PNU 1011 (Tab. 6.2) as data;
+//! - [`axis_mechanics`]: the end stops, reference switch and index pulse homing finds.
 
+pub mod axis_mechanics;
 pub mod control_bytes;
 pub mod device;
 pub mod diagnostic_memory;
 pub mod diagnostics;
+pub mod homing;
 pub mod parameter_channel;
 pub mod parameter_file;
 pub mod parameter_file_transfer;
