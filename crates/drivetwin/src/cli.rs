@@ -165,6 +165,10 @@ pub struct RunArgs {
         conflicts_with_all = ["socketcand", "channel", "socketcan", "virtual_seconds", "state_dir"]
     )]
     pub ethercat: Option<String>,
+    /// With --ethercat: run the chain's frame thread at SCHED_FIFO with this priority (1…99,
+    /// needs root), as a drive's firmware runs its fieldbus task; refused, it warns.
+    #[arg(long, value_name = "PRIO", requires = "ethercat", value_parser = clap::value_parser!(u8).range(1..=99))]
+    pub rt_priority: Option<u8>,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -661,32 +661,41 @@ fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
     }
 }
 
-/// Runs `cell` on `socket` in real time until `shutdown` completes (or the socket fails).
+/// How long the frame thread waits at most before it looks at the stop flag again.
+const STOP_CHECK: Duration = Duration::from_millis(20);
+
+/// Runs `cell` on `socket` in real time on the calling thread until `stop` is set (or the
+/// socket fails): each frame is processed and sent back as soon as the kernel hands it over,
+/// and the drives run between frames at their deadlines. With `rt_priority` the thread asks
+/// for `SCHED_FIFO` at that priority first (as a drive's firmware runs its fieldbus task);
+/// refused, it warns and goes on.
 #[cfg(target_os = "linux")]
-pub async fn run_realtime(
+pub fn run_thread(
     mut cell: EthercatCell,
-    socket: crate::ethercat_link::EthercatSocket,
+    socket: crate::ethercat_link::BlockingEthercatSocket,
     trace: Option<FrameTap>,
-    shutdown: impl std::future::Future<Output = ()>,
+    stop: &std::sync::atomic::AtomicBool,
+    rt_priority: Option<u8>,
 ) -> std::io::Result<()> {
     use crate::ethercat_link::{is_queue_full, MAX_FRAME};
-    let start = tokio::time::Instant::now();
+    use std::sync::atomic::Ordering;
+    if let Some(p) = rt_priority {
+        if let Err(e) = crate::realtime::set_fifo_priority(p) {
+            tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
+        }
+    }
+    let start = std::time::Instant::now();
     let now = || Instant::from_nanos(u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX));
     cell.boot(now());
     let mut buf = vec![0u8; MAX_FRAME];
-    tokio::pin!(shutdown);
-    loop {
-        let wake = cell
+    while !stop.load(Ordering::Relaxed) {
+        let t = now();
+        let wait = cell
             .deadline()
-            .map(|d| start + Duration::from_nanos(d.as_nanos()))
-            .unwrap_or_else(|| tokio::time::Instant::now() + TICK);
-        let received = tokio::select! {
-            biased;
-            _ = &mut shutdown => return Ok(()),
-            r = socket.recv(&mut buf) => Some(r?),
-            _ = tokio::time::sleep_until(wake) => None,
-        };
-        match received {
+            .map(|d| Duration::from_nanos(d.as_nanos().saturating_sub(t.as_nanos())))
+            .unwrap_or(TICK)
+            .min(STOP_CHECK);
+        match socket.recv_timeout(&mut buf, wait)? {
             Some(n) => {
                 let Some(frame) = buf.get_mut(..n) else {
                     continue;
@@ -694,7 +703,7 @@ pub async fn run_realtime(
                 trace_frame(trace.as_ref(), frame);
                 if cell.on_frame(now(), frame).forward() {
                     trace_frame(trace.as_ref(), frame);
-                    match socket.send(frame).await {
+                    match socket.send(frame) {
                         Ok(()) => {}
                         Err(e) if is_queue_full(&e) => {
                             tracing::warn!(interface = %socket.interface(), "TX queue full, frame lost");
@@ -702,10 +711,16 @@ pub async fn run_realtime(
                         Err(e) => return Err(e),
                     }
                 }
+                // A steady stream of frames must not starve the drives' own deadlines.
+                let t = now();
+                if cell.deadline().is_some_and(|d| d <= t) {
+                    cell.poll(t);
+                }
             }
             None => {
                 cell.poll(now());
             }
         }
     }
+    Ok(())
 }

@@ -12,6 +12,11 @@
 //!   a slave already (the ESC sets it, `EthernetFrame::mark_returned`): it is on its way back
 //!   to the master (e.g. seen through a bridge or another twin on the segment) and is skipped.
 //!
+//! Two front ends over the same socket: [`EthercatSocket`] for tokio (the master side), and
+//! [`BlockingEthercatSocket`] for the slave side's own frame thread, which answers a frame as
+//! soon as the kernel hands it over, without an async runtime's wake-up in between (the
+//! round trip a master measures is the wire latency of the slave).
+//!
 //! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`).
 #![cfg(target_os = "linux")]
 
@@ -49,49 +54,7 @@ impl EthercatSocket {
     /// Open an `AF_PACKET` socket for EtherType 0x88A4 on `interface` (e.g. `eth1`, a veth
     /// end). Must be called inside a tokio runtime.
     pub fn open(interface: &str) -> io::Result<EthercatSocket> {
-        let ifindex = crate::net_interface::index(interface)?;
-        let protocol = ETHERTYPE_ETHERCAT.to_be();
-        // SAFETY: plain socket(2) call; the result is checked before use.
-        let raw = unsafe {
-            libc::socket(
-                libc::AF_PACKET,
-                libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
-                libc::c_int::from(protocol),
-            )
-        };
-        if raw < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
-        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
-        // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-        let mut addr: libc::sockaddr_ll = unsafe { mem::zeroed() };
-        addr.sll_family = libc::AF_PACKET as libc::c_ushort;
-        addr.sll_protocol = protocol;
-        addr.sll_ifindex = ifindex;
-        // SAFETY: `addr` is a properly initialised `sockaddr_ll` and the length matches it.
-        let rc = unsafe {
-            libc::bind(
-                fd.as_raw_fd(),
-                (&addr as *const libc::sockaddr_ll).cast::<libc::sockaddr>(),
-                mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t,
-            )
-        };
-        if rc < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        let one: libc::c_int = 1;
-        // SAFETY: `one` is a valid c_int for the duration of the call and the length matches.
-        // Older kernels refuse the option (ENOPROTOOPT); `recv` filters by packet type then.
-        let _ = unsafe {
-            libc::setsockopt(
-                fd.as_raw_fd(),
-                libc::SOL_PACKET,
-                PACKET_IGNORE_OUTGOING,
-                (&one as *const libc::c_int).cast(),
-                mem::size_of::<libc::c_int>() as libc::socklen_t,
-            )
-        };
+        let fd = open_raw(interface)?;
         // SAFETY: the `OwnedFd` moves into the `AsyncFd`, which owns it until dropped, so the
         // descriptor stays open and the same for the registration's whole lifetime.
         let fd = unsafe { AsyncFd::register(fd) }?;
@@ -147,6 +110,135 @@ impl EthercatSocket {
             }
         }
     }
+}
+
+/// A non-blocking `AF_PACKET` socket for EtherType 0x88A4 bound to `interface`, with the
+/// outgoing copies switched off where the kernel can.
+fn open_raw(interface: &str) -> io::Result<OwnedFd> {
+    let ifindex = crate::net_interface::index(interface)?;
+    let protocol = ETHERTYPE_ETHERCAT.to_be();
+    // SAFETY: plain socket(2) call; the result is checked before use.
+    let raw = unsafe {
+        libc::socket(
+            libc::AF_PACKET,
+            libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
+            libc::c_int::from(protocol),
+        )
+    };
+    if raw < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
+    let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+    // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
+    let mut addr: libc::sockaddr_ll = unsafe { mem::zeroed() };
+    addr.sll_family = libc::AF_PACKET as libc::c_ushort;
+    addr.sll_protocol = protocol;
+    addr.sll_ifindex = ifindex;
+    // SAFETY: `addr` is a properly initialised `sockaddr_ll` and the length matches it.
+    let rc = unsafe {
+        libc::bind(
+            fd.as_raw_fd(),
+            (&addr as *const libc::sockaddr_ll).cast::<libc::sockaddr>(),
+            mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t,
+        )
+    };
+    if rc < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    let one: libc::c_int = 1;
+    // SAFETY: `one` is a valid c_int for the duration of the call and the length matches.
+    // Older kernels refuse the option (ENOPROTOOPT); `recv` filters by packet type then.
+    let _ = unsafe {
+        libc::setsockopt(
+            fd.as_raw_fd(),
+            libc::SOL_PACKET,
+            PACKET_IGNORE_OUTGOING,
+            (&one as *const libc::c_int).cast(),
+            mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    Ok(fd)
+}
+
+/// The raw socket for a thread of its own: blocking waits with a timeout, no runtime.
+#[derive(Debug)]
+pub struct BlockingEthercatSocket {
+    fd: OwnedFd,
+    interface: String,
+}
+
+impl BlockingEthercatSocket {
+    /// Open the socket on `interface` (see [`EthercatSocket::open`]).
+    pub fn open(interface: &str) -> io::Result<BlockingEthercatSocket> {
+        Ok(BlockingEthercatSocket {
+            fd: open_raw(interface)?,
+            interface: interface.to_owned(),
+        })
+    }
+
+    pub fn interface(&self) -> &str {
+        &self.interface
+    }
+
+    /// The next request from the master into `buf`, waiting at most `timeout`; `None` when
+    /// none came in time.
+    pub fn recv_timeout(&self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            match recv_once(self.fd.as_raw_fd(), buf, Want::Requests) {
+                Ok(Some(n)) => return Ok(Some(n)),
+                Ok(None) => continue,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            }
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            if left.is_zero() || !wait_readable(self.fd.as_raw_fd(), left)? {
+                return Ok(None);
+            }
+        }
+    }
+
+    /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
+    pub fn send(&self, frame: &[u8]) -> io::Result<()> {
+        let deadline = std::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
+        loop {
+            match send_once(self.fd.as_raw_fd(), frame) {
+                Err(e)
+                    if (is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock)
+                        && std::time::Instant::now() < deadline =>
+                {
+                    std::thread::sleep(Duration::from_micros(20));
+                }
+                r => return r,
+            }
+        }
+    }
+}
+
+/// `ppoll` for readability with a nanosecond timeout; false when it timed out.
+fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
+    let mut pfd = libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ts = libc::timespec {
+        tv_sec: libc::time_t::try_from(timeout.as_secs()).unwrap_or(libc::time_t::MAX),
+        tv_nsec: libc::c_long::from(timeout.subsec_nanos()),
+    };
+    // SAFETY: `pfd` and `ts` are valid for the call; one descriptor; no signal mask.
+    let rc = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
+    if rc < 0 {
+        let e = io::Error::last_os_error();
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(true)
+        } else {
+            Err(e)
+        };
+    }
+    Ok(rc > 0)
 }
 
 /// The TX queue of the interface is full.

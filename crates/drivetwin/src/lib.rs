@@ -16,6 +16,7 @@ pub mod modbus_server;
 pub mod net_interface;
 pub mod param_store;
 pub mod pcap;
+pub mod realtime;
 pub mod runtime;
 pub mod socketcan;
 pub mod socketcand;

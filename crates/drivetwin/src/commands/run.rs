@@ -64,7 +64,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         file.bus.socketcan = Some(c.clone());
     }
     if let Some(ifname) = &args.ethercat {
-        return run_ethercat(&file, ifname, args.trace.as_deref()).await;
+        return run_ethercat(&file, ifname, args.trace.as_deref(), args.rt_priority).await;
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
@@ -197,11 +197,14 @@ async fn run_ethercat(
     file: &CellFile,
     ifname: &str,
     trace: Option<&std::path::Path>,
+    rt_priority: Option<u8>,
 ) -> Result<(), CommandError> {
     use drivetwin::ethercat_cell::{self, EthercatCell};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
     let cell =
         EthercatCell::from_cell_file(file).map_err(|e| CommandError::Usage(e.to_string()))?;
-    let socket = drivetwin::ethercat_link::EthercatSocket::open(ifname)
+    let socket = drivetwin::ethercat_link::BlockingEthercatSocket::open(ifname)
         .map_err(io(format!("EtherCAT on {ifname}")))?;
     for i in 0..cell.len() {
         if let Some(d) = cell.device(i) {
@@ -227,8 +230,31 @@ async fn run_ethercat(
         None => (None, None),
     };
     out!("running; Ctrl-C stops");
-    let result = ethercat_cell::run_realtime(cell, socket, tap, shutdown_signal()).await;
-    // The tap went with the runtime: the writer drains the queue and ends.
+    // The chain runs on a thread of its own (blocking socket, optionally SCHED_FIFO): a frame
+    // is answered as soon as it arrives, with no async runtime in between.
+    let stop = Arc::new(AtomicBool::new(false));
+    let frames = {
+        let stop = Arc::clone(&stop);
+        std::thread::Builder::new()
+            .name("ethercat".into())
+            .spawn(move || ethercat_cell::run_thread(cell, socket, tap, &stop, rt_priority))
+            .map_err(io("EtherCAT thread"))?
+    };
+    let stopped = Arc::clone(&stop);
+    let watcher = tokio::spawn(async move {
+        shutdown_signal().await;
+        stopped.store(true, Ordering::Relaxed);
+    });
+    let thread_failed = |what: &str| CommandError::Io {
+        what: "EtherCAT thread".into(),
+        source: std::io::Error::other(what.to_owned()),
+    };
+    let result = tokio::task::spawn_blocking(move || frames.join())
+        .await
+        .map_err(|e| thread_failed(&e.to_string()))?
+        .map_err(|_| thread_failed("panicked"))?;
+    watcher.abort();
+    // The tap went with the chain: the writer drains the queue and ends.
     if let Some(w) = writer {
         let _ = w.join();
     }
@@ -286,6 +312,7 @@ async fn run_ethercat(
     _file: &CellFile,
     ifname: &str,
     _trace: Option<&std::path::Path>,
+    _rt_priority: Option<u8>,
 ) -> Result<(), CommandError> {
     Err(CommandError::Usage(format!(
         "--ethercat {ifname}: raw Ethernet needs Linux"
