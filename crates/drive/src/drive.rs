@@ -17,7 +17,7 @@ use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
 use crate::trajectory::{Limits, Trajectory};
-use crate::travel::TravelSettings;
+use crate::travel::{Inputs, TravelSettings};
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
@@ -101,7 +101,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 36] = [
+const PARAMS: [(u16, u8); 39] = [
     (0x2005, 1),
     (0x2045, 0),
     (0x200A, 1),
@@ -135,6 +135,9 @@ const PARAMS: [(u16, u8); 36] = [
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
+    (0x6510, 0x11),
+    (0x6510, 0x12),
+    (0x6510, 0x14),
     (0x6510, 0x18),
     (0x6510, 0x22),
     (0x6510, 0xF0),
@@ -206,6 +209,8 @@ pub struct Drive<S> {
     referenced: bool,
     homing: HomingRun,
     homing_started: Instant,
+    /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
+    limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
     cw_rising: u16,
     last_cw: u16,
@@ -308,6 +313,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             referenced: false,
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
+            limit_stop: false,
             cw_rising: 0,
             last_cw: 0,
             brake_engaged: true,
@@ -690,11 +696,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
             // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
-            let decel = self.accel(0x6085);
+            let decel = if self.limit_stop {
+                self.accel2(0x6510, 0x15)
+            } else {
+                self.accel(0x6085)
+            };
             let stopped = self.traj.step_stop(decel, dt);
             self.position_demand(self.traj.velocity);
             if stopped {
                 self.stopping = false;
+                self.limit_stop = false;
                 let r = self.dc.stopped();
                 self.react(r);
             }
@@ -1031,7 +1042,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 let position = self.axis.position_increments();
                 let sense = Sense {
                     position,
-                    inputs: self.settings.travel.inputs(position),
+                    inputs: self.switch_inputs(position),
                     stalled: self.stalled(),
                 };
                 let command = search.step(&sense, &self.settings.travel);
@@ -1202,16 +1213,39 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
-    /// error's fault reaction brakes with the quick-stop ramp; motion away stays possible
-    /// after the fault reset.
+    /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
+    /// switch emergency stop ramp"); motion away stays possible after the fault reset.
     fn supervise_limit_switches(&mut self) {
-        let inputs = self.settings.travel.inputs(self.axis.position_increments());
+        let inputs = self.switch_inputs(self.axis.position_increments());
         let v = self.traj.velocity;
-        if inputs.negative_limit && v < 0.0 {
-            self.raise(diag::LIMIT_SWITCH_NEGATIVE, 0x01, false);
+        let code = if inputs.negative_limit && v < 0.0 {
+            diag::LIMIT_SWITCH_NEGATIVE
         } else if inputs.positive_limit && v > 0.0 {
-            self.raise(diag::LIMIT_SWITCH_POSITIVE, 0x01, false);
+            diag::LIMIT_SWITCH_POSITIVE
+        } else {
+            return;
+        };
+        self.limit_stop = true;
+        self.raise(code, 0x01, false);
+    }
+
+    /// The switches as the drive reads them (CMMP-AS §5.14): the simulated switches are
+    /// normally open, so 6510h:11 / :14 = 0 (normally closed) inverts them, and 6510h:12 = 1
+    /// swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing then trips over,
+    /// as on the real drive.
+    fn switch_inputs(&self, position: i64) -> Inputs {
+        let mut i = self.settings.travel.inputs(position);
+        if self.value(0x6510, 0x11) == 0 {
+            i.negative_limit = !i.negative_limit;
+            i.positive_limit = !i.positive_limit;
         }
+        if self.value(0x6510, 0x12) == 1 {
+            core::mem::swap(&mut i.negative_limit, &mut i.positive_limit);
+        }
+        if self.value(0x6510, 0x14) == 0 {
+            i.home = !i.home;
+        }
+        i
     }
 
     fn clear_target_reached(&mut self) {

@@ -444,3 +444,29 @@ fn limit_switch_outside_homing_stops_with_43_1_and_allows_the_way_back() {
     assert_eq!(r.d.state(), State::OperationEnabled);
     assert!(r.encoder() < 20 * REV, "{}", r.encoder());
 }
+
+#[test]
+fn limit_switches_set_to_normally_closed_read_both_active_11_4() {
+    // 6510h:11 = 0 (normally closed) against the simulated normally-open switches: both
+    // limit switches read active, as on a drive wired to the wrong switch type.
+    let mut r = Rig::new().fast();
+    r.w16(0x6510, 0x11, 0);
+    r.method(17);
+    r.ready();
+    r.cw(0x1F);
+    r.run_ms(10);
+    assert_eq!(r.d.errors(), &[0x8A84]);
+}
+
+#[test]
+fn swapped_limit_switch_inputs_send_method_17_to_the_positive_end() {
+    // 6510h:12 = 1: DIN6/DIN7 swapped. Method 17 searches negative for a switch that is
+    // wired to the positive end and finds the hard stop instead (11-4, switch not connected).
+    let mut r = Rig::new().fast();
+    r.w16(0x6510, 0x12, 1);
+    r.method(17);
+    r.ready();
+    r.cw(0x1F);
+    r.until_done(20);
+    assert_eq!(r.d.errors(), &[0x8A84]);
+}
