@@ -66,7 +66,7 @@ pub struct DriveSettings {
     /// The axis travel: limit switches, home switch, index pulse, hard stops.
     pub travel: TravelSettings,
     /// The longest distance one homing search step may travel, increments (0: no limit);
-    /// beyond it homing ends with 11-6 "end of search distance". Default 64 revolutions,
+    /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
     /// more than the default travel.
     pub homing_max_distance: i64,
 }
@@ -80,7 +80,7 @@ impl Default for DriveSettings {
             brake_fitted: true,
             ethercat: false,
             travel: TravelSettings::default(),
-            homing_max_distance: 64 * 65536,
+            homing_max_distance: 128 * 65536,
         }
     }
 }

@@ -35,15 +35,19 @@ pub struct HomeSwitch {
 const REV: i64 = 65536;
 
 impl Default for TravelSettings {
-    /// A 44-revolution stroke around the power-on position, so that every method of Tab. 7.1
-    /// finishes at the default speeds (6099h: 100 / 10 min⁻¹) well inside the default
-    /// 60 s timeout (2045h), and moves the other tests make (up to some ten revolutions) stay
-    /// clear of the switches:
-    /// - hard stops at ∓22 revolutions (∓1 441 792),
-    /// - limit switches from ∓20 revolutions (∓1 310 720) outwards,
+    /// A stroke of 88 revolutions, short on the negative side and long on the positive one:
+    /// - hard stops at −22 and +66 revolutions (−1 441 792 / +4 325 376),
+    /// - limit switches from −20 and +64 revolutions (−1 310 720 / +4 194 304) outwards,
     /// - the home switch cam from 40 000 to 90 000 (0.61 … 1.37 revolutions): inactive at
     ///   power-on, so the home-switch methods show their search,
     /// - the index pulse a quarter revolution into every revolution (16 384 + k·65 536).
+    ///
+    /// At the default speeds (6099h: 100 / 10 min⁻¹, 1.7 revolutions/s) the default method
+    /// 17 takes 12 s and every other method of Tab. 7.1 ends inside the default 60 s timeout
+    /// (2045h) except −23, which travels to the positive limit and back (76 s): it needs a
+    /// faster search (6099h:01 ≥ 130 min⁻¹) or 2045h = 0. The long positive side leaves
+    /// room for what the other interfaces' tests do from power-on (an EtherCAT CSP session
+    /// runs 50 revolutions positive).
     fn default() -> Self {
         TravelSettings {
             negative_stop: Some(-22 * REV),
@@ -52,8 +56,8 @@ impl Default for TravelSettings {
                 low: 40_000,
                 high: 90_000,
             }),
-            positive_limit: Some(20 * REV),
-            positive_stop: Some(22 * REV),
+            positive_limit: Some(64 * REV),
+            positive_stop: Some(66 * REV),
             index_phase: Some(16_384),
         }
     }
@@ -138,7 +142,8 @@ mod tests {
         assert_eq!(t.inputs(0), Inputs::default());
         assert!(t.inputs(-20 * REV).negative_limit);
         assert!(!t.inputs(-20 * REV + 1).negative_limit);
-        assert!(t.inputs(20 * REV).positive_limit);
+        assert!(t.inputs(64 * REV).positive_limit);
+        assert!(!t.inputs(64 * REV - 1).positive_limit);
         assert!(t.inputs(40_000).home && t.inputs(90_000).home && !t.inputs(90_001).home);
     }
 }

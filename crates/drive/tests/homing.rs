@@ -1,6 +1,6 @@
 //! CMMP-AS homing (CiA 402 mode 6, CMMP-AS §7.2) on the virtual clock against the default
-//! travel of `drive::travel` (limit switches from ∓20 revolutions, hard stops at ∓22, home
-//! cam 40 000 … 90 000, index at 16 384 + k·65 536): every method of Tab. 7.1 ends at its
+//! travel of `drive::travel` (limit switches from −20 / +64 revolutions, hard stops at −22 /
+//! +66, home cam 40 000 … 90 000, index at 16 384 + k·65 536): every method of Tab. 7.1 ends at its
 //! reference point, searching the right way, with the statusword bits and the group-11 errors.
 
 use std::time::Duration;
@@ -98,16 +98,16 @@ const EXPECTED: [(i8, i64, i64, i64); 17] = [
     // method, reference (encoder increments), tolerance, first direction
     (-27, 40_000, 40, -1),
     (-23, 90_000, 40, 1),
-    (-18, 22 * REV, 2, 1),
+    (-18, 66 * REV, 2, 1),
     (-17, -22 * REV, 2, -1),
-    (-2, 22 * REV - REV + 16_384, 0, 1),
+    (-2, 66 * REV - REV + 16_384, 0, 1),
     (-1, -22 * REV + 16_384, 0, -1),
     (1, -20 * REV + 16_384, 0, -1),
-    (2, 20 * REV - REV + 16_384, 0, 1),
+    (2, 64 * REV - REV + 16_384, 0, 1),
     (7, 16_384, 0, 1),
     (11, 16_384 + 2 * REV, 0, -1),
     (17, -20 * REV, 40, -1),
-    (18, 20 * REV, 40, 1),
+    (18, 64 * REV, 40, 1),
     (23, 40_000, 40, 1),
     (27, 90_000, 40, -1),
     (33, 16_384 - REV, 0, -1),
@@ -430,7 +430,7 @@ fn limit_switch_outside_homing_stops_with_43_1_and_allows_the_way_back() {
     r.run_ms(500);
     assert_eq!(r.d.state(), State::Fault);
     assert!(
-        r.encoder() >= 20 * REV && r.encoder() < 22 * REV,
+        r.encoder() >= 64 * REV && r.encoder() < 66 * REV,
         "{}",
         r.encoder()
     );
@@ -442,7 +442,7 @@ fn limit_switch_outside_homing_stops_with_43_1_and_allows_the_way_back() {
     r.cw(0x0F);
     r.run_ms(3000);
     assert_eq!(r.d.state(), State::OperationEnabled);
-    assert!(r.encoder() < 20 * REV, "{}", r.encoder());
+    assert!(r.encoder() < 64 * REV, "{}", r.encoder());
 }
 
 #[test]

@@ -171,7 +171,8 @@ impl MotorSection {
 
 /// `[drive.travel]`: overrides of [`TravelSettings`], in motor encoder increments (65536 per
 /// revolution; the encoder reads 0 at power-on). Unset fields keep the defaults: limit
-/// switches from ∓20 revolutions, hard stops at ∓22, home cam 40000 … 90000, index at 16384.
+/// switches from −20 / +64 revolutions, hard stops at −22 / +66, home cam 40000 … 90000, index
+/// at 16384 (see [`TravelSettings::default`]).
 #[derive(Debug, Clone, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct TravelSection {
@@ -239,7 +240,9 @@ impl TravelSection {
         {
             return Err("travel.index_phase must lie within one revolution (0 … 65535)".into());
         }
-        let max = self.homing_max_distance.unwrap_or(64 * 65536);
+        let max = self
+            .homing_max_distance
+            .unwrap_or(DriveSettings::default().homing_max_distance);
         if !(0..=TRAVEL_LIMIT).contains(&max) {
             return Err("travel.homing_max_distance must lie within 0 … 2^40".into());
         }
