@@ -1637,6 +1637,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 // CMMP-AS 7.2: the method is writable only while homing is not active.
                 Err(AbortCode::DEVICE_STATE)
             }
+            (0x6098, 0) => {
+                let m = match data {
+                    [b] => *b as i8,
+                    _ => return self.od.write(index, sub, data),
+                };
+                // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
+                // the printed range only and fails at the start (see `start_homing`).
+                // Beyond −27 … 35 the dictionary's range check answers.
+                let listed = m == 32 || crate::homing::METHODS.iter().any(|(n, _)| *n == m);
+                if !listed && (-27..=35).contains(&m) {
+                    self.od.entry(index, sub)?;
+                    return Err(AbortCode::INVALID_VALUE);
+                }
+                self.od.write(index, sub, data)
+            }
             _ => {
                 self.od.write(index, sub, data)?;
                 if is_control_parameter(index) {

@@ -470,3 +470,24 @@ fn swapped_limit_switch_inputs_send_method_17_to_the_positive_end() {
     r.until_done(20);
     assert_eq!(r.d.errors(), &[0x8A84]);
 }
+
+#[test]
+fn methods_outside_the_range_are_refused_at_the_write() {
+    let mut r = Rig::new();
+    for m in [0i8, 3, 19, -3] {
+        assert_eq!(
+            r.d.write(0x6098, 0, &[m as u8]),
+            Err(AbortCode::INVALID_VALUE),
+            "{m}"
+        );
+    }
+    for m in [36i8, 37, -28] {
+        assert!(
+            r.d.write(0x6098, 0, &[m as u8]).is_err(),
+            "{m}: out of range"
+        );
+    }
+    assert_eq!(r.i(0x6098), 17, "unchanged");
+    r.method(32);
+    assert_eq!(r.i(0x6098), 32, "32 is in the printed range");
+}
