@@ -70,3 +70,15 @@ def test_halt_aborts_homing_with_homing_error(drive):
     wait_until(lambda: drive.sdo[0x6041].raw & 0x2000, 2.0, what="homing error")
     assert drive.state == "OPERATION ENABLED"
     assert not drive.sdo[0x6041].raw & 0x9000
+
+
+def test_timeout_is_error_11_3_with_emcy_8a83(drive):
+    # CMMP-HM-06 / CMMP-EMCY-04: 2045h exceeded → 11-3, EMCY 8A83h with error register 01h.
+    drive.sdo[0x6099][1].raw = 100
+    drive.sdo[0x2045].raw = 300
+    assert not drive.homing(timeout=3)
+    wait_until(lambda: any(e.code == 0x8A83 for e in drive.emcy.log), 1.0, what="EMCY 8A83h")
+    emcy = next(e for e in drive.emcy.log if e.code == 0x8A83)
+    assert emcy.register == 0x01
+    assert drive.sdo[0x6041].raw & 0x2000, "homing error"
+    wait_until(lambda: drive.is_faulted(), 1.0, what="FAULT")

@@ -491,3 +491,23 @@ fn methods_outside_the_range_are_refused_at_the_write() {
     r.method(32);
     assert_eq!(r.i(0x6098), 32, "32 is in the printed range");
 }
+
+#[test]
+fn minus_23_at_the_default_speeds_needs_the_timeout_off() {
+    // −23 goes to the positive limit switch (64 revolutions) and back to the home cam: 76 s
+    // at 100 min⁻¹, beyond the default 60 s of 2045h (documented in TravelSettings).
+    let mut r = Rig::new();
+    r.method(-23);
+    r.ready();
+    r.cw(0x1F);
+    r.until_done(90);
+    assert_eq!(r.d.errors(), &[0x8A83], "11-3 at 60 s");
+    let mut r = Rig::new();
+    r.w16(0x2045, 0, 0);
+    r.method(-23);
+    r.ready();
+    r.cw(0x1F);
+    let took = r.until_done(120);
+    assert_eq!(r.sw() & 0xB000, 0x9000, "{:?}", r.d.errors());
+    assert!(took > Duration::from_secs(60), "{took:?}");
+}
