@@ -561,6 +561,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.release_at = Some(self.now + delay);
                 self.resync_trajectory();
                 self.stopping = false;
+                self.limit_stop = false;
             }
             Reaction::Coast => {
                 // Brake first, output stage off after the brake delay.
