@@ -11,11 +11,13 @@ use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::device_control::{DeviceControl, Reaction, State};
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
+use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
 use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
 use crate::trajectory::{Limits, Trajectory};
+use crate::travel::{Inputs, TravelSettings};
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
@@ -40,6 +42,10 @@ pub mod diag {
     pub const NO_FIELDBUS_SYNC: u16 = 0x8780;
     /// 34-1 fieldbus synchronisation error: the SYNC grid lost while interpolating.
     pub const FIELDBUS_SYNC_ERROR: u16 = 0x8781;
+    /// 43-0 limit switch: negative set-point blocked (the negative hardware limit switch).
+    pub const LIMIT_SWITCH_NEGATIVE: u16 = 0x8081;
+    /// 43-1 limit switch: positive set-point blocked.
+    pub const LIMIT_SWITCH_POSITIVE: u16 = 0x8082;
 }
 
 /// Settings of the simulation that no object holds.
@@ -57,6 +63,12 @@ pub struct DriveSettings {
     /// The drive is reached over EtherCAT: cyclic synchronous position (6060h = 8) is
     /// available (CMMP-AS 6060h: "8 CSP, EtherCAT only").
     pub ethercat: bool,
+    /// The axis travel: limit switches, home switch, index pulse, hard stops.
+    pub travel: TravelSettings,
+    /// The longest distance one homing search step may travel, increments (0: no limit);
+    /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
+    /// more than the default travel.
+    pub homing_max_distance: i64,
 }
 
 impl Default for DriveSettings {
@@ -67,6 +79,8 @@ impl Default for DriveSettings {
             enables_present: true,
             brake_fitted: true,
             ethercat: false,
+            travel: TravelSettings::default(),
+            homing_max_distance: 128 * 65536,
         }
     }
 }
@@ -87,8 +101,9 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 33] = [
+const PARAMS: [(u16, u8); 39] = [
     (0x2005, 1),
+    (0x2045, 0),
     (0x200A, 1),
     (0x2090, 1),
     (0x2090, 2),
@@ -114,10 +129,15 @@ const PARAMS: [(u16, u8); 33] = [
     (0x6085, 0),
     (0x6087, 0),
     (0x6098, 0),
+    (0x6099, 1),
+    (0x6099, 2),
     (0x609A, 0),
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
+    (0x6510, 0x11),
+    (0x6510, 0x12),
+    (0x6510, 0x14),
     (0x6510, 0x18),
     (0x6510, 0x22),
     (0x6510, 0xF0),
@@ -187,6 +207,10 @@ pub struct Drive<S> {
     homing_attained: bool,
     homing_error: bool,
     referenced: bool,
+    homing: HomingRun,
+    homing_started: Instant,
+    /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
+    limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
     cw_rising: u16,
     last_cw: u16,
@@ -287,6 +311,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             homing_attained: false,
             homing_error: false,
             referenced: false,
+            homing: HomingRun::Idle,
+            homing_started: Instant::ZERO,
+            limit_stop: false,
             cw_rising: 0,
             last_cw: 0,
             brake_engaged: true,
@@ -300,6 +327,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         d.reload_factor_group();
         d.ip.reset(interpolation_period(&d.od));
         d.axis.hold_brake(d.settings.brake_fitted);
+        d.place_hard_stops();
         d.mode = d
             .read(d.hot.mode_display)
             .clamp(i8::MIN as i64, i8::MAX as i64) as i8;
@@ -533,6 +561,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.release_at = Some(self.now + delay);
                 self.resync_trajectory();
                 self.stopping = false;
+                self.limit_stop = false;
             }
             Reaction::Coast => {
                 // Brake first, output stage off after the brake delay.
@@ -632,6 +661,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // CMMP-AS §7.4.3: an error ends interpolation; it needs a new synchronisation.
             self.ip.interrupt();
         }
+        if !matches!(self.homing, HomingRun::Idle)
+            && (state != State::OperationEnabled || self.mode != mode::HOMING)
+        {
+            // Homing ends with the enable or the mode (B.3 11-1 "enable removed"); the bit
+            // only: an error that caused it has its own message.
+            self.homing = HomingRun::Idle;
+            self.homing_error = true;
+        }
+        if self.mode == mode::HOMING
+            && self.cw_rising & 0x0010 != 0
+            && !matches!(
+                state,
+                State::OperationEnabled | State::Fault | State::FaultReactionActive
+            )
+        {
+            // B.3 11-0: homing started without the controller enable.
+            self.homing_failed(HomingError::Start);
+            return;
+        }
         if !state.power_enabled() {
             if self.power_off_at.is_none() {
                 self.demand = Demand::Off;
@@ -649,11 +697,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
             // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
-            let decel = self.accel(0x6085);
+            let decel = if self.limit_stop {
+                self.accel2(0x6510, 0x15)
+            } else {
+                self.accel(0x6085)
+            };
             let stopped = self.traj.step_stop(decel, dt);
             self.position_demand(self.traj.velocity);
             if stopped {
                 self.stopping = false;
+                self.limit_stop = false;
                 let r = self.dc.stopped();
                 self.react(r);
             }
@@ -665,6 +718,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.traj.step_stop(decel, dt);
             self.position_demand(self.traj.velocity);
             return;
+        }
+        if self.mode != mode::HOMING {
+            self.supervise_limit_switches();
+            if self.dc.state() != State::OperationEnabled {
+                return;
+            }
         }
         match self.mode {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
@@ -943,32 +1002,251 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
     }
 
-    /// Homing: method 35 (CiA 402 v3 "current position", 37 in later editions) sets the
-    /// reference at once; the switch-search methods need switches this twin does not model
-    /// yet and end with a homing error.
+    /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
+    /// aborts it (Tab. 7.2); halt aborts with homing_error (ch. 6). The search of
+    /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
+    /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
     fn homing(&mut self, cw: u16, dt: f64) {
-        let decel = self.accel(0x609A);
-        self.traj.step_stop(decel, dt);
-        self.position_demand(self.traj.velocity);
+        let bit4 = cw & 0x0010 != 0;
+        let idle = matches!(self.homing, HomingRun::Idle);
         if self.cw_rising & 0x0010 != 0
-            || (cw & 0x0010 != 0 && !self.homing_attained && !self.homing_error)
+            || (bit4 && idle && !self.homing_attained && !self.homing_error)
         {
-            let method = self.value(0x6098, 0);
-            if method == 35 || method == 37 {
-                let home = self
-                    .value(0x607C, 0)
-                    .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-                let home_internal = self.fg.position_to_internal(home);
-                self.position_offset = home_internal - self.axis.position_increments();
-                self.resync_trajectory();
-                self.referenced = true;
-                self.homing_attained = true;
-                self.homing_error = false;
-            } else {
-                self.homing_error = true;
+            self.start_homing();
+        } else if !idle && !bit4 {
+            // Tab. 7.2: bit 4 1 → 0 aborts homing (neither attained nor error).
+            self.homing = HomingRun::Brake {
+                then: Then::Nothing,
+            };
+        } else if !idle && self.halted && !matches!(self.homing, HomingRun::Brake { .. }) {
+            // ch. 6: halt aborts homing; homing_error is set.
+            self.homing_error = true;
+            self.homing = HomingRun::Brake {
+                then: Then::Nothing,
+            };
+        }
+        if !matches!(self.homing, HomingRun::Idle) {
+            let timeout = self.value(0x2045, 0).max(0) as u64;
+            if timeout > 0
+                && self.now.saturating_since(self.homing_started) > Duration::from_millis(timeout)
+            {
+                self.homing_failed(HomingError::Timeout);
             }
         }
-        self.target_reached = self.homing_attained || self.homing_error;
+        let acc = self.accel(0x609A);
+        match self.homing {
+            HomingRun::Idle => {
+                self.traj.step_stop(acc, dt);
+                self.position_demand(self.traj.velocity);
+            }
+            HomingRun::Search(mut search) => {
+                let position = self.axis.position_increments();
+                let sense = Sense {
+                    position,
+                    inputs: self.switch_inputs(position),
+                    stalled: self.stalled(),
+                };
+                let command = search.step(&sense, &self.settings.travel);
+                self.homing = HomingRun::Search(search);
+                match command {
+                    Command::Run {
+                        direction,
+                        speed,
+                        restart,
+                    } => {
+                        if restart {
+                            self.hold_here();
+                        }
+                        let v = f64::from(direction) * self.homing_speed(speed);
+                        self.traj.step_velocity(v, acc, acc, dt);
+                        self.position_demand(self.traj.velocity);
+                    }
+                    Command::Reference { at, stalled } => {
+                        if stalled {
+                            self.hold_here();
+                        }
+                        self.set_reference(at);
+                        let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
+                        self.homing = HomingRun::Brake {
+                            then: if to_zero {
+                                Then::ToZero
+                            } else {
+                                Then::Attained
+                            },
+                        };
+                        self.traj.step_stop(acc, dt);
+                        self.position_demand(self.traj.velocity);
+                    }
+                    Command::Failed(e) => {
+                        if sense.stalled {
+                            self.hold_here();
+                        }
+                        self.homing_failed(e);
+                        self.position_demand(self.traj.velocity);
+                    }
+                }
+            }
+            HomingRun::Brake { then } => {
+                if self.traj.step_stop(acc, dt) {
+                    self.homing = match then {
+                        Then::ToZero => HomingRun::ToZero,
+                        Then::Attained => {
+                            self.homing_done();
+                            HomingRun::Idle
+                        }
+                        Then::Nothing => HomingRun::Idle,
+                    };
+                }
+                self.position_demand(self.traj.velocity);
+            }
+            HomingRun::ToZero => {
+                // 6510h:F0 bit 6: to the zero position at 6099h:01 (cmmp-as-3 §3.2 note).
+                let zero = self.fg.position_to_internal(0) as f64;
+                let lim = Limits {
+                    velocity: self.homing_speed(Speed::Search).max(1.0),
+                    acceleration: acc.max(1.0),
+                    deceleration: acc.max(1.0),
+                };
+                let window = self.fg.position_magnitude_to_internal(
+                    self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
+                );
+                // Done when the set-point is there and the axis inside the window 6067h.
+                if self.traj.step_to(zero, 0.0, lim, dt)
+                    && (self.actual_internal() - libm::round(zero) as i64).abs() <= window
+                {
+                    self.homing_done();
+                    self.homing = HomingRun::Idle;
+                }
+                self.position_demand(self.traj.velocity);
+            }
+        }
+        self.target_reached = matches!(self.homing, HomingRun::Idle) && self.traj.velocity == 0.0;
+    }
+
+    fn start_homing(&mut self) {
+        self.homing_attained = false;
+        self.homing_error = false;
+        self.referenced = false;
+        self.homing_started = self.now;
+        let method = self.value(0x6098, 0).clamp(i8::MIN as i64, i8::MAX as i64) as i8;
+        // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
+        // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
+        // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.
+        match Search::start(
+            method,
+            self.axis.position_increments(),
+            self.axis.motor().data().increments_per_rev,
+            self.settings.homing_max_distance,
+        ) {
+            Ok(search) => self.homing = HomingRun::Search(search),
+            Err(e) => self.homing_failed(e),
+        }
+    }
+
+    /// Homing ends with an error: homing_error, the group-11 message, fault reaction.
+    fn homing_failed(&mut self, e: HomingError) {
+        self.homing = HomingRun::Idle;
+        self.homing_error = true;
+        self.homing_attained = false;
+        self.raise(e.code(), 0x01, false);
+    }
+
+    fn homing_done(&mut self) {
+        self.homing_attained = true;
+        self.homing_error = false;
+        self.referenced = true;
+    }
+
+    /// The reference point at encoder position `at` gets the value 607Ch home_offset.
+    ///
+    /// Decision: the manual's Fig. 7.2 calls 607Ch "the offset of the zero position from the
+    /// reference point" without a sign convention; as CiA 402 masters expect, the position
+    /// at the reference point reads home_offset afterwards (and "zero" lies home_offset
+    /// before it).
+    fn set_reference(&mut self, at: i64) {
+        let home = self
+            .value(0x607C, 0)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let offset = self.fg.position_to_internal(home) - at;
+        let shift = (offset - self.position_offset) as f64;
+        self.position_offset = offset;
+        self.traj.position += shift;
+        self.demand_position += shift;
+        self.smoother.reset(self.traj.position, 1);
+    }
+
+    /// 6099h:01 (search) or :02 (crawl) in increments/s.
+    fn homing_speed(&self, speed: Speed) -> f64 {
+        let sub = match speed {
+            Speed::Search => 1,
+            Speed::Crawl => 2,
+        };
+        let user = self.value(0x6099, sub).clamp(0, u32::MAX as i64) as u32;
+        self.fg.velocity_magnitude_to_internal(user) as f64 * INC_S_PER_VEL
+    }
+
+    /// The motor stands on a hard stop: the set-point moves on while the actual position
+    /// lags by more than the following-error window 6065h (at most a revolution).
+    fn stalled(&self) -> bool {
+        let window = self
+            .fg
+            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32)
+            .clamp(1, 65536);
+        let lag = libm::round(self.demand_position) as i64 - self.actual_internal();
+        self.traj.velocity != 0.0 && lag.abs() > window
+    }
+
+    /// The set-point jumps to the actual position and stands (after a stall on a stop).
+    fn hold_here(&mut self) {
+        self.traj = Trajectory::at(self.actual_internal() as f64);
+        self.demand_position = self.traj.position;
+        self.smoother.reset(self.traj.position, 1);
+    }
+
+    /// Mechanical hard stops of the travel into the motor model.
+    fn place_hard_stops(&mut self) {
+        let t = self.settings.travel;
+        let rad = self.axis.motor().rad_per_increment();
+        self.axis.motor_mut().set_stops(
+            t.negative_stop.map(|p| p as f64 * rad),
+            t.positive_stop.map(|p| p as f64 * rad),
+        );
+    }
+
+    /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
+    /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
+    /// switch emergency stop ramp"); motion away stays possible after the fault reset.
+    fn supervise_limit_switches(&mut self) {
+        let inputs = self.switch_inputs(self.axis.position_increments());
+        let v = self.traj.velocity;
+        let code = if inputs.negative_limit && v < 0.0 {
+            diag::LIMIT_SWITCH_NEGATIVE
+        } else if inputs.positive_limit && v > 0.0 {
+            diag::LIMIT_SWITCH_POSITIVE
+        } else {
+            return;
+        };
+        self.limit_stop = true;
+        self.raise(code, 0x01, false);
+    }
+
+    /// The switches as the drive reads them (CMMP-AS §5.14): the simulated switches are
+    /// normally open, so 6510h:11 / :14 = 0 (normally closed) inverts them, and 6510h:12 = 1
+    /// swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing then trips over,
+    /// as on the real drive.
+    fn switch_inputs(&self, position: i64) -> Inputs {
+        let mut i = self.settings.travel.inputs(position);
+        if self.value(0x6510, 0x11) == 0 {
+            i.negative_limit = !i.negative_limit;
+            i.positive_limit = !i.positive_limit;
+        }
+        if self.value(0x6510, 0x12) == 1 {
+            core::mem::swap(&mut i.negative_limit, &mut i.positive_limit);
+        }
+        if self.value(0x6510, 0x14) == 0 {
+            i.home = !i.home;
+        }
+        i
     }
 
     fn clear_target_reached(&mut self) {
@@ -1218,8 +1496,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
             (0x6040, 0) => {
                 self.od.write(index, sub, data)?;
                 let cw = self.read(self.hot.controlword) as u16;
-                self.cw_rising |= cw & !self.last_cw;
+                let rising = cw & !self.last_cw;
+                self.cw_rising |= rising;
                 self.last_cw = cw;
+                if rising & 0x0010 != 0 && self.mode == mode::HOMING {
+                    // A new homing start: the old result goes at once, so a master reading
+                    // the statusword right after never sees it (python-canopen's homing()).
+                    self.homing_attained = false;
+                    self.homing_error = false;
+                    self.target_reached = false;
+                    let sw = self.read(self.hot.statusword) & !0x3400;
+                    self.store(self.hot.statusword, sw);
+                }
                 Ok(())
             }
             (0x6060, 0) => {
@@ -1350,6 +1638,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 // CMMP-AS 7.2: the method is writable only while homing is not active.
                 Err(AbortCode::DEVICE_STATE)
             }
+            (0x6098, 0) => {
+                let m = match data {
+                    [b] => *b as i8,
+                    _ => return self.od.write(index, sub, data),
+                };
+                // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
+                // the printed range only and fails at the start (see `start_homing`).
+                // Beyond −27 … 35 the dictionary's range check answers.
+                let listed = m == 32 || crate::homing::METHODS.iter().any(|(n, _)| *n == m);
+                if !listed && (-27..=35).contains(&m) {
+                    self.od.entry(index, sub)?;
+                    return Err(AbortCode::INVALID_VALUE);
+                }
+                self.od.write(index, sub, data)
+            }
             _ => {
                 self.od.write(index, sub, data)?;
                 if is_control_parameter(index) {
@@ -1363,4 +1666,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write_internal(index, sub, data)
     }
+}
+
+/// Where a homing run stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum HomingRun {
+    Idle,
+    Search(Search),
+    /// Braking with 609Ah, then:
+    Brake {
+        then: Then,
+    },
+    /// 6510h:F0 bit 6: travelling to the zero position.
+    ToZero,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Then {
+    Attained,
+    ToZero,
+    /// Aborted: no bit.
+    Nothing,
 }

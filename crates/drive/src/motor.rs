@@ -111,6 +111,8 @@ pub struct Motor {
     brake: bool,
     /// External stop: the load is jammed (infinite friction).
     blocked: bool,
+    /// Mechanical hard stops of the travel, rad (lower, upper): the shaft cannot pass them.
+    stops: (f64, f64),
     /// Step width the electrical coefficients were computed for (0 = none yet).
     coeff_dt: f64,
     /// e^(−R·dt/L).
@@ -146,6 +148,7 @@ impl Motor {
             angle: 0.0,
             brake: false,
             blocked: false,
+            stops: (f64::NEG_INFINITY, f64::INFINITY),
             coeff_dt: 0.0,
             coeff_a: 0.0,
             coeff_b: 0.0,
@@ -183,6 +186,16 @@ impl Motor {
 
     pub fn blocked(&self) -> bool {
         self.blocked
+    }
+
+    /// Places mechanical hard stops at `lower` and `upper` rad (`None`: no stop that side).
+    /// Against a stop the shaft stands while the winding current rises to whatever the
+    /// controller drives into it.
+    pub fn set_stops(&mut self, lower: Option<f64>, upper: Option<f64>) {
+        self.stops = (
+            lower.unwrap_or(f64::NEG_INFINITY),
+            upper.unwrap_or(f64::INFINITY),
+        );
     }
 
     /// Winding current, A.
@@ -304,7 +317,18 @@ impl Motor {
                 w
             }
         };
-        self.angle += 0.5 * (w0 + w1) * dt;
+        let mut w1 = w1;
+        let mut angle = self.angle + 0.5 * (w0 + w1) * dt;
+        // A hard stop takes the motion towards it (a fully plastic impact: no bounce).
+        let (lower, upper) = self.stops;
+        if angle < lower {
+            angle = lower;
+            w1 = w1.max(0.0);
+        } else if angle > upper {
+            angle = upper;
+            w1 = w1.min(0.0);
+        }
+        self.angle = angle;
         self.velocity = w1;
     }
 }

@@ -12,6 +12,7 @@ use crate::can_drive::Commissioning;
 use crate::device_model::is_cia402;
 use drive::drive::DriveSettings;
 use drive::motor::MotorData;
+use drive::travel::{HomeSwitch, TravelSettings};
 
 pub const DEFAULT_SOCKETCAND: &str = "127.0.0.1:29536";
 pub const DEFAULT_CHANNEL: &str = "vcan0";
@@ -89,6 +90,9 @@ pub struct DriveSection {
     /// Motor and load of a CiA 402 drive (SI units); unset fields keep the EMMS-AS defaults.
     #[serde(default)]
     pub motor: MotorSection,
+    /// Limit switches, home switch, index pulse and hard stops of a CiA 402 drive's axis.
+    #[serde(default)]
+    pub travel: TravelSection,
     /// How long a mode change takes (6061h reads −1 meanwhile), ms.
     pub mode_change_time_ms: Option<f64>,
 }
@@ -165,6 +169,87 @@ impl MotorSection {
     }
 }
 
+/// `[drive.travel]`: overrides of [`TravelSettings`], in motor encoder increments (65536 per
+/// revolution; the encoder reads 0 at power-on). Unset fields keep the defaults: limit
+/// switches from −20 / +64 revolutions, hard stops at −22 / +66, home cam 40000 … 90000, index
+/// at 16384 (see [`TravelSettings::default`]).
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct TravelSection {
+    pub negative_stop: Option<i64>,
+    pub negative_limit: Option<i64>,
+    pub home_switch_low: Option<i64>,
+    pub home_switch_high: Option<i64>,
+    pub positive_limit: Option<i64>,
+    pub positive_stop: Option<i64>,
+    pub index_phase: Option<u32>,
+    /// Longest homing search step, increments (0: no limit; beyond it error 11-6).
+    pub homing_max_distance: Option<i64>,
+}
+
+/// Positions beyond ±2^40 increments (16 million revolutions) are refused: far from any
+/// axis, and safe from overflow in the position arithmetic.
+const TRAVEL_LIMIT: i64 = 1 << 40;
+
+impl TravelSection {
+    /// The travel and the homing search limit, or what is wrong with them.
+    pub fn travel(&self) -> Result<(TravelSettings, i64), String> {
+        let d = TravelSettings::default();
+        let pick = |v: Option<i64>, dflt: Option<i64>| v.or(dflt);
+        let home = d.home_switch.map(|h| HomeSwitch {
+            low: self.home_switch_low.unwrap_or(h.low),
+            high: self.home_switch_high.unwrap_or(h.high),
+        });
+        let t = TravelSettings {
+            negative_stop: pick(self.negative_stop, d.negative_stop),
+            negative_limit: pick(self.negative_limit, d.negative_limit),
+            home_switch: home,
+            positive_limit: pick(self.positive_limit, d.positive_limit),
+            positive_stop: pick(self.positive_stop, d.positive_stop),
+            index_phase: self.index_phase.or(d.index_phase),
+        };
+        let order = [
+            ("negative_stop", t.negative_stop),
+            ("negative_limit", t.negative_limit),
+            ("positive_limit", t.positive_limit),
+            ("positive_stop", t.positive_stop),
+        ];
+        for (name, v) in order.iter().chain(
+            [
+                ("home_switch_low", home.map(|h| h.low)),
+                ("home_switch_high", home.map(|h| h.high)),
+            ]
+            .iter(),
+        ) {
+            if v.is_some_and(|v| v.abs() > TRAVEL_LIMIT) {
+                return Err(format!("travel.{name} must lie within ±2^40 increments"));
+            }
+        }
+        for w in order.windows(2) {
+            if let [(a, Some(x)), (b, Some(y))] = w {
+                if x >= y {
+                    return Err(format!("travel.{a} must lie below travel.{b}"));
+                }
+            }
+        }
+        if home.is_some_and(|h| h.low > h.high) {
+            return Err("travel.home_switch_low must not lie above home_switch_high".into());
+        }
+        if t.index_phase
+            .is_some_and(|p| p >= drive::motor::INCREMENTS_PER_REV)
+        {
+            return Err("travel.index_phase must lie within one revolution (0 … 65535)".into());
+        }
+        let max = self
+            .homing_max_distance
+            .unwrap_or(DriveSettings::default().homing_max_distance);
+        if !(0..=TRAVEL_LIMIT).contains(&max) {
+            return Err("travel.homing_max_distance must lie within 0 … 2^40".into());
+        }
+        Ok((t, max))
+    }
+}
+
 fn default_device() -> String {
     "cmmp-as".into()
 }
@@ -213,6 +298,7 @@ impl CellFile {
                 node,
                 objects,
                 motor: MotorSection::default(),
+                travel: TravelSection::default(),
                 mode_change_time_ms: None,
             }],
         }
@@ -238,8 +324,16 @@ impl CellFile {
                 let motor = d.motor.motor();
                 // The motor's nameplate commissioned as FCT would (before [drive.objects]).
                 commissioning.extend(motor_commissioning(desc, &motor));
+                let (travel, homing_max_distance) =
+                    d.travel.travel().map_err(|what| ConfigError::Object {
+                        node: d.node,
+                        key: "travel".into(),
+                        what,
+                    })?;
                 let mut s = DriveSettings {
                     motor,
+                    travel,
+                    homing_max_distance,
                     ..DriveSettings::default()
                 };
                 if let Some(ms) = d.mode_change_time_ms {
@@ -347,4 +441,52 @@ fn encode_value(t: DataType, v: Value) -> Result<Vec<u8>, String> {
         .encode(t, &mut b)
         .ok_or_else(|| format!("{v} does not fit {}", t.name()))?;
     Ok(b.get(..n).unwrap_or(&[]).to_vec())
+}
+
+#[cfg(test)]
+mod travel_tests {
+    use super::*;
+
+    fn spec(text: &str) -> Result<Vec<DriveSpec>, ConfigError> {
+        let file: CellFile = toml::from_str(text).map_err(|source| ConfigError::Toml {
+            path: PathBuf::from("cell.toml"),
+            source,
+        })?;
+        file.drives()
+    }
+
+    #[test]
+    fn drive_travel_overrides_the_defaults() {
+        let drives = spec(
+            "[[drive]]\ndevice = \"cmmp-as\"\n[drive.travel]\nnegative_limit = -100000\n\
+             home_switch_low = 1000\nindex_phase = 0\nhoming_max_distance = 0\n",
+        )
+        .unwrap();
+        let s = drives[0].settings.unwrap();
+        assert_eq!(s.travel.negative_limit, Some(-100_000));
+        assert_eq!(
+            s.travel.home_switch.map(|h| (h.low, h.high)),
+            Some((1000, 90_000))
+        );
+        assert_eq!(s.travel.index_phase, Some(0));
+        assert_eq!(
+            s.travel.positive_stop,
+            TravelSettings::default().positive_stop
+        );
+        assert_eq!(s.homing_max_distance, 0);
+    }
+
+    #[test]
+    fn a_travel_out_of_order_is_refused() {
+        for bad in [
+            "negative_limit = -2000000",
+            "home_switch_low = 100000",
+            "index_phase = 65536",
+            "positive_stop = 1099511627777",
+        ] {
+            let text = format!("[[drive]]\ndevice = \"cmmp-as\"\n[drive.travel]\n{bad}\n");
+            let err = spec(&text).unwrap_err().to_string();
+            assert!(err.contains("travel"), "{bad}: {err}");
+        }
+    }
 }

@@ -1,0 +1,399 @@
+//! The homing search of the CMMP-AS (CiA 402 mode 6, CMMP-AS §7.2.3 Tab. 7.1): each method is
+//! a short list of steps ("at search speed negative until the negative limit switch is
+//! active", …) run against the switch inputs of [`crate::travel`]. This module finds the
+//! reference point; the drive brakes, moves to zero (6510h:F0 bit 6) and sets the position.
+
+use crate::travel::{Inputs, TravelSettings};
+
+/// A switch input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signal {
+    NegativeLimit,
+    PositiveLimit,
+    Home,
+}
+
+impl Signal {
+    fn of(self, i: &Inputs) -> bool {
+        match self {
+            Signal::NegativeLimit => i.negative_limit,
+            Signal::PositiveLimit => i.positive_limit,
+            Signal::Home => i.home,
+        }
+    }
+}
+
+/// What ends a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Until {
+    Active(Signal),
+    Inactive(Signal),
+    /// The next index pulse in the direction of travel.
+    Index,
+    /// The hard stop (the motor stalls); limit switches are ignored (Tab. 7.1 footnote 2).
+    Stop,
+    /// The hard stop or the limit switch ahead, whichever comes first (methods −23, −27).
+    StopOrLimit,
+}
+
+/// 6099h:01 or 6099h:02.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Speed {
+    Search,
+    Crawl,
+}
+
+/// One line of a method's sequence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Step {
+    /// −1 negative, +1 positive.
+    pub direction: i8,
+    pub speed: Speed,
+    pub until: Until,
+    /// Tab. 7.1 (7, 11, 23, 27): "if a hard stop or limit switch is reached on the way,
+    /// search in the opposite direction".
+    pub reverse: bool,
+}
+
+const fn step(direction: i8, speed: Speed, until: Until, reverse: bool) -> Step {
+    Step {
+        direction,
+        speed,
+        until,
+        reverse,
+    }
+}
+
+use Signal::{Home, NegativeLimit as NegLim, PositiveLimit as PosLim};
+use Speed::{Crawl, Search as Fast};
+use Until::{Active, Inactive, Index, Stop, StopOrLimit};
+
+/// Tab. 7.1, one row per method. The last step's end is the reference point; an `Active`
+/// search that finds its switch already active is skipped ("if … inactive: travel …").
+///
+/// Decision: the home switch is a cam with two edges. Methods 23/7 approach it positive and
+/// crawl out negative, so their reference is its negative edge; 27/11 its positive edge.
+/// Methods −23/−27 crawl "until the home switch becomes active" after the search has already
+/// found it: the drive first crawls back out of the cam (not printed, but the only way the
+/// switch can *become* active again), then onto it — reference: the positive edge for −23,
+/// the negative edge for −27 (cmmp-as-3 §9 "keep this distinction").
+pub const METHODS: [(i8, &[Step]); 17] = [
+    (
+        -27,
+        &[
+            step(-1, Fast, StopOrLimit, false),
+            step(1, Fast, Active(Home), false),
+            step(-1, Crawl, Inactive(Home), false),
+            step(1, Crawl, Active(Home), false),
+        ],
+    ),
+    (
+        -23,
+        &[
+            step(1, Fast, StopOrLimit, false),
+            step(-1, Fast, Active(Home), false),
+            step(1, Crawl, Inactive(Home), false),
+            step(-1, Crawl, Active(Home), false),
+        ],
+    ),
+    (-18, &[step(1, Fast, Stop, false)]),
+    (-17, &[step(-1, Fast, Stop, false)]),
+    (
+        -2,
+        &[step(1, Fast, Stop, false), step(-1, Crawl, Index, false)],
+    ),
+    (
+        -1,
+        &[step(-1, Fast, Stop, false), step(1, Crawl, Index, false)],
+    ),
+    (
+        1,
+        &[
+            step(-1, Fast, Active(NegLim), false),
+            step(1, Crawl, Inactive(NegLim), false),
+            step(1, Crawl, Index, false),
+        ],
+    ),
+    (
+        2,
+        &[
+            step(1, Fast, Active(PosLim), false),
+            step(-1, Crawl, Inactive(PosLim), false),
+            step(-1, Crawl, Index, false),
+        ],
+    ),
+    (
+        7,
+        &[
+            step(1, Fast, Active(Home), true),
+            step(-1, Crawl, Inactive(Home), false),
+            step(-1, Crawl, Index, false),
+        ],
+    ),
+    (
+        11,
+        &[
+            step(-1, Fast, Active(Home), true),
+            step(1, Crawl, Inactive(Home), false),
+            step(1, Crawl, Index, false),
+        ],
+    ),
+    (
+        17,
+        &[
+            step(-1, Fast, Active(NegLim), false),
+            step(1, Crawl, Inactive(NegLim), false),
+        ],
+    ),
+    (
+        18,
+        &[
+            step(1, Fast, Active(PosLim), false),
+            step(-1, Crawl, Inactive(PosLim), false),
+        ],
+    ),
+    (
+        23,
+        &[
+            step(1, Fast, Active(Home), true),
+            step(-1, Crawl, Inactive(Home), false),
+        ],
+    ),
+    (
+        27,
+        &[
+            step(-1, Fast, Active(Home), true),
+            step(1, Crawl, Inactive(Home), false),
+        ],
+    ),
+    (33, &[step(-1, Crawl, Index, false)]),
+    (34, &[step(1, Crawl, Index, false)]),
+    (35, &[]),
+];
+
+/// The homing errors of CMMP-AS error group 11 (App. B.2/B.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HomingError {
+    /// 11-0: started without controller enable, or an unknown method.
+    Start,
+    /// 11-1: aborted during homing.
+    Aborted,
+    /// 11-2: the index pulse the method needs did not come.
+    NoIndex,
+    /// 11-3: 2045h homing_timeout exceeded.
+    Timeout,
+    /// 11-4: limit switch missing, both active, or reached where it must not be.
+    LimitSwitch,
+    /// 11-5: following error (the axis stalled on a hard stop it was not looking for).
+    FollowingError,
+    /// 11-6: the maximum search distance travelled without the reference.
+    SearchDistance,
+}
+
+impl HomingError {
+    /// The CiA 402 EMCY code (B.2: 8A80h … 8A86h).
+    pub fn code(self) -> u16 {
+        match self {
+            HomingError::Start => 0x8A80,
+            HomingError::Aborted => 0x8A81,
+            HomingError::NoIndex => 0x8A82,
+            HomingError::Timeout => 0x8A83,
+            HomingError::LimitSwitch => 0x8A84,
+            HomingError::FollowingError => 0x8A85,
+            HomingError::SearchDistance => 0x8A86,
+        }
+    }
+}
+
+/// The axis as the search sees it in one cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sense {
+    /// Motor encoder, increments (the travel's frame).
+    pub position: i64,
+    pub inputs: Inputs,
+    /// The set-point runs away from the actual position: the motor stands on a hard stop.
+    pub stalled: bool,
+}
+
+/// What the search asks of the drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Command {
+    /// Travel in `direction` at `speed`; `restart`: the motor stalled, take the set-point
+    /// back to the actual position first.
+    Run {
+        direction: i8,
+        speed: Speed,
+        restart: bool,
+    },
+    /// The reference point is at this encoder position; `stalled` as for `Run::restart`.
+    Reference {
+        at: i64,
+        stalled: bool,
+    },
+    Failed(HomingError),
+}
+
+/// One homing search in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Search {
+    steps: &'static [Step],
+    index: usize,
+    direction: i8,
+    reversed: bool,
+    last: i64,
+    step_from: i64,
+    per_rev: u32,
+    max_distance: i64,
+}
+
+impl Search {
+    /// Starts `method` at `position`; `max_distance` increments per step (0 = no limit).
+    pub fn start(
+        method: i8,
+        position: i64,
+        per_rev: u32,
+        max_distance: i64,
+    ) -> Result<Search, HomingError> {
+        let steps = METHODS
+            .iter()
+            .find(|(m, _)| *m == method)
+            .map(|(_, s)| *s)
+            .ok_or(HomingError::Start)?;
+        Ok(Search {
+            steps,
+            index: 0,
+            direction: steps.first().map(|s| s.direction).unwrap_or(1),
+            reversed: false,
+            last: position,
+            step_from: position,
+            per_rev: per_rev.max(1),
+            max_distance,
+        })
+    }
+
+    /// One cycle.
+    pub fn step(&mut self, s: &Sense, travel: &TravelSettings) -> Command {
+        let pos = s.position;
+        let moved = pos - self.last;
+        let crossed = travel
+            .index_crossed(self.last, pos, self.per_rev)
+            .filter(|_| moved.signum() == i64::from(self.direction));
+        self.last = pos;
+        let Some(step) = self.steps.get(self.index).copied() else {
+            // Method 35: the current position is the reference.
+            return Command::Reference {
+                at: pos,
+                stalled: false,
+            };
+        };
+        let i = &s.inputs;
+        let ignores_limits = matches!(step.until, Stop);
+        if i.negative_limit && i.positive_limit && !ignores_limits {
+            // B.3 11-4: both limit switches active at once.
+            return Command::Failed(HomingError::LimitSwitch);
+        }
+        let limit_ahead = i.limit_ahead(self.direction);
+        let found = match step.until {
+            Active(sig) => sig.of(i).then_some(pos),
+            Inactive(sig) => (!sig.of(i)).then_some(pos),
+            Index => crossed,
+            Stop => s.stalled.then_some(pos),
+            StopOrLimit => (s.stalled || limit_ahead).then_some(pos),
+        };
+        if let Some(at) = found {
+            return self.advance(at, pos, s.stalled);
+        }
+        let wanted_limit = matches!(
+            step.until,
+            Active(NegLim | PosLim) | Inactive(NegLim | PosLim)
+        );
+        let blocked = s.stalled || (limit_ahead && !ignores_limits && !wanted_limit);
+        if blocked {
+            if step.reverse && !self.reversed {
+                self.reversed = true;
+                self.direction = -self.direction;
+                self.step_from = pos;
+                return Command::Run {
+                    direction: self.direction,
+                    speed: step.speed,
+                    restart: s.stalled,
+                };
+            }
+            let e = match step.until {
+                // B.3 11-4: "associated limit switch not connected" (a stop came first).
+                Active(NegLim | PosLim) => HomingError::LimitSwitch,
+                _ if !s.stalled => HomingError::LimitSwitch,
+                // B.3 11-5: "no home switch between the hard stops", "index-pulse method hit
+                // a hard stop".
+                _ => HomingError::FollowingError,
+            };
+            return Command::Failed(e);
+        }
+        let travelled = (pos - self.step_from).abs();
+        if step.until == Index && travelled > i64::from(self.per_rev) * 3 / 2 {
+            // More than a revolution without an index pulse (B.3 11-2).
+            return Command::Failed(HomingError::NoIndex);
+        }
+        if self.max_distance > 0 && travelled > self.max_distance {
+            return Command::Failed(HomingError::SearchDistance);
+        }
+        Command::Run {
+            direction: self.direction,
+            speed: step.speed,
+            restart: false,
+        }
+    }
+
+    fn advance(&mut self, at: i64, pos: i64, stalled: bool) -> Command {
+        self.index += 1;
+        match self.steps.get(self.index) {
+            None => Command::Reference { at, stalled },
+            Some(next) => {
+                self.direction = next.direction;
+                self.reversed = false;
+                self.step_from = pos;
+                Command::Run {
+                    direction: next.direction,
+                    speed: next.speed,
+                    restart: stalled,
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_method_of_the_summary_table_is_there_once() {
+        let listed = [
+            -27, -23, -18, -17, -2, -1, 1, 2, 7, 11, 17, 18, 23, 27, 33, 34, 35,
+        ];
+        for m in listed {
+            assert_eq!(METHODS.iter().filter(|(n, _)| *n == m).count(), 1, "{m}");
+        }
+        assert_eq!(Search::start(32, 0, 65536, 0), Err(HomingError::Start));
+        assert_eq!(Search::start(3, 0, 65536, 0), Err(HomingError::Start));
+    }
+
+    #[test]
+    fn a_search_that_finds_its_switch_active_is_skipped() {
+        let t = TravelSettings::default();
+        let mut s = Search::start(17, -30 * 65536, 65536, 0).unwrap();
+        let sense = Sense {
+            position: -21 * 65536,
+            inputs: t.inputs(-21 * 65536),
+            stalled: false,
+        };
+        assert_eq!(
+            s.step(&sense, &t),
+            Command::Run {
+                direction: 1,
+                speed: Speed::Crawl,
+                restart: false
+            }
+        );
+    }
+}
