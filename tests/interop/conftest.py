@@ -12,6 +12,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -473,6 +474,9 @@ class Realtime:
 
     def __enter__(self):
         self.old = None
+        # A periodic sender thread (SYNC) must not wait the default 5 ms for the GIL.
+        self.switch = sys.getswitchinterval()
+        sys.setswitchinterval(0.0005)
         try:
             self.old = (os.sched_getscheduler(0), os.sched_getparam(0))
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(20))
@@ -481,6 +485,7 @@ class Realtime:
         return self
 
     def __exit__(self, *exc):
+        sys.setswitchinterval(self.switch)
         if self.old is not None:
             os.sched_setscheduler(0, self.old[0], self.old[1])
 

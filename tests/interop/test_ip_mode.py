@@ -78,8 +78,13 @@ def test_ip_mode_follows_sync_paced_set_points_and_reports_a_lost_sync(ip_drive)
         delay = t0 + (k + 1) * PERIOD - time.monotonic()
         if delay > 0:
             time.sleep(delay)
-    wait_until(lambda: abs(node.sdo[0x6064].raw - target) < 500, 2,
-               what=f"the axis at the last set-point {target}")
+    deadline = time.monotonic() + 2
+    while abs(node.sdo[0x6064].raw - target) >= 500:
+        if time.monotonic() > deadline:
+            pytest.fail(f"the axis is not at the last set-point {target}: at "
+                        f"{node.sdo[0x6064].raw}, demand {node.sdo[0x6062].raw}, statusword "
+                        f"{node.sdo[0x6041].raw:#06x}, 6061h {node.sdo[0x6061].raw}")
+        time.sleep(0.02)
     sw = node.sdo[0x6041].raw
     assert sw & 0x3000 == 0x1000, f"interpolating, no following error: {sw:#06x}"
     assert node.sdo[0x6064].raw - start > 150 * 1500 - 500
