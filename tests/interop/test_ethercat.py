@@ -79,10 +79,11 @@ def ecat_twin(veth, tmp_path):
 
 @pytest.fixture
 def ecat_chain(veth, tmp_path):
-    """Two CMMP-AS in one chain (a cell file with two drives)."""
+    """Two CMMP-AS in one chain (a cell file with two drives), the frame thread spinning on
+    the socket (--busy-poll)."""
     cell = tmp_path / "chain.toml"
     cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "cmmp-as"\nnode = 2\n')
-    yield from _start_twin(veth, tmp_path, "--config", str(cell), slaves=2)
+    yield from _start_twin(veth, tmp_path, "--config", str(cell), "--busy-poll", slaves=2)
 
 
 DC_CYCLE_NS = 10_000_000

@@ -73,7 +73,11 @@ fn main() {
     let binary = std::env::var_os("DRIVETWIN_BIN")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_drivetwin")));
-    let wire = match EcatWire::start(&binary) {
+    // ECAT_ROUNDTRIP_TWIN_ARGS: more `drivetwin run` options, e.g. "--busy-poll".
+    let extra: Vec<String> = std::env::var("ECAT_ROUNDTRIP_TWIN_ARGS")
+        .map(|a| a.split_whitespace().map(str::to_owned).collect())
+        .unwrap_or_default();
+    let wire = match EcatWire::start(&binary, &extra) {
         Ok(w) => w,
         Err(why) => {
             println!("ecat_veth_roundtrip skipped: {why}");
@@ -193,20 +197,12 @@ impl Master {
     /// Wait for the returned frame carrying the datagram index just sent; `None` when it does
     /// not come back within `timeout`. Frames with another index (late replies to an earlier
     /// cycle) are skipped.
+    /// Like SOEM (`ecx_waitinframe` polls the socket in a loop until the frame is back or
+    /// the timeout passes), the master spins on the socket while it waits for the reply.
     fn recv_reply(&mut self, timeout: Duration) -> Option<Reply> {
         let deadline = Instant::now() + timeout;
         loop {
-            let left = deadline.checked_duration_since(Instant::now())?;
-            let mut pfd = libc::pollfd {
-                fd: self.fd.as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            };
-            let ms = libc::c_int::try_from(left.as_millis() + 1).unwrap_or(libc::c_int::MAX);
-            // SAFETY: `pfd` is one valid pollfd for the duration of the call.
-            if unsafe { libc::poll(&mut pfd, 1, ms) } <= 0 {
-                continue;
-            }
+            deadline.checked_duration_since(Instant::now())?;
             // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
             let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
             let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
@@ -221,7 +217,10 @@ impl Master {
                     &mut from_len,
                 )
             };
-            let Ok(n) = usize::try_from(n) else { continue };
+            let Ok(n) = usize::try_from(n) else {
+                std::hint::spin_loop();
+                continue;
+            };
             if from.sll_pkttype == PACKET_OUTGOING {
                 continue;
             }

@@ -169,6 +169,10 @@ pub struct RunArgs {
     /// needs root), as a drive's firmware runs its fieldbus task; refused, it warns.
     #[arg(long, value_name = "PRIO", requires = "ethercat", value_parser = clap::value_parser!(u8).range(1..=99))]
     pub rt_priority: Option<u8>,
+    /// With --ethercat: the frame thread spins on the socket instead of sleeping, as an ESC
+    /// is always awake (lowest round trip; keeps one CPU busy).
+    #[arg(long, requires = "ethercat")]
+    pub busy_poll: bool,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -73,7 +73,7 @@ fn esi_product_code(binary: &Path) -> u32 {
 #[test]
 fn ethercrab_maps_enables_and_runs_a_csp_ramp() {
     let binary = Path::new(env!("CARGO_BIN_EXE_drivetwin"));
-    let wire = match EcatWire::start(binary) {
+    let wire = match EcatWire::start(binary, &[]) {
         Ok(w) => w,
         Err(why) => {
             eprintln!("skipped: {why}");

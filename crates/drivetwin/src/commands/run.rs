@@ -64,7 +64,14 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         file.bus.socketcan = Some(c.clone());
     }
     if let Some(ifname) = &args.ethercat {
-        return run_ethercat(&file, ifname, args.trace.as_deref(), args.rt_priority).await;
+        return run_ethercat(
+            &file,
+            ifname,
+            args.trace.as_deref(),
+            args.rt_priority,
+            args.busy_poll,
+        )
+        .await;
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
@@ -198,14 +205,16 @@ async fn run_ethercat(
     ifname: &str,
     trace: Option<&std::path::Path>,
     rt_priority: Option<u8>,
+    busy_poll: bool,
 ) -> Result<(), CommandError> {
     use drivetwin::ethercat_cell::{self, EthercatCell};
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
     let cell =
         EthercatCell::from_cell_file(file).map_err(|e| CommandError::Usage(e.to_string()))?;
-    let socket = drivetwin::ethercat_link::BlockingEthercatSocket::open(ifname)
+    let mut socket = drivetwin::ethercat_link::BlockingEthercatSocket::open(ifname)
         .map_err(io(format!("EtherCAT on {ifname}")))?;
+    socket.set_busy_poll(busy_poll);
     for i in 0..cell.len() {
         if let Some(d) = cell.device(i) {
             let desc = d.model.od().description();
@@ -313,6 +322,7 @@ async fn run_ethercat(
     ifname: &str,
     _trace: Option<&std::path::Path>,
     _rt_priority: Option<u8>,
+    _busy_poll: bool,
 ) -> Result<(), CommandError> {
     Err(CommandError::Usage(format!(
         "--ethercat {ifname}: raw Ethernet needs Linux"

@@ -133,13 +133,14 @@ impl TwinProcess {
     /// Start `binary run --ethercat <twin_if>` in the namespace and wait for its banner
     /// (`EtherCAT on IF: 1 slave(s)` then `running`). Its stderr (tracing) goes to a log file
     /// kept only when the caller panics.
-    pub fn start(binary: &Path, veth: &Veth) -> Result<TwinProcess, String> {
+    pub fn start(binary: &Path, veth: &Veth, extra: &[String]) -> Result<TwinProcess, String> {
         let log = std::env::temp_dir().join(format!("drivetwin-{}.log", veth.ns));
         let log_file = std::fs::File::create(&log).map_err(|e| format!("{log:?}: {e}"))?;
         let mut child = Command::new("ip")
             .args(["netns", "exec", &veth.ns])
             .arg(binary)
             .args(["run", "--ethercat", &veth.twin_if])
+            .args(extra)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(log_file)
@@ -270,11 +271,12 @@ pub struct EcatWire {
 }
 
 impl EcatWire {
-    /// Build the wire and start the twin. `Err(Unavailable)` means skip (not root, no `ip`,
-    /// no veth support); a twin that does not start is a panic, i.e. a failure.
-    pub fn start(binary: &Path) -> Result<EcatWire, Unavailable> {
+    /// Build the wire and start the twin (`extra`: more `drivetwin run` options).
+    /// `Err(Unavailable)` means skip (not root, no `ip`, no veth support); a twin that does
+    /// not start is a panic, i.e. a failure.
+    pub fn start(binary: &Path, extra: &[String]) -> Result<EcatWire, Unavailable> {
         let veth = Veth::create()?;
-        let twin = match TwinProcess::start(binary, &veth) {
+        let twin = match TwinProcess::start(binary, &veth, extra) {
             Ok(t) => t,
             Err(e) => panic!("{e}"),
         };
