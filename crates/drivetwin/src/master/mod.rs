@@ -1,7 +1,9 @@
 //! The master side: commands that talk to real or virtual drives over a bus link.
 
 pub mod cia402;
+pub mod fhpp;
 pub mod link;
 pub mod lss;
+pub mod modbus_tcp;
 pub mod pdo_config;
 pub mod sdo_client;
