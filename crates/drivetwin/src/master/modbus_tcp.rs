@@ -155,7 +155,7 @@ impl ModbusTcpClient {
         let rx = &mut self.rx;
         let tid = self.transaction;
         let pdu_len = tokio::time::timeout(timeout, async {
-            stream.write_all(request).await?;
+            stream.write_all(request).await.map_err(link_error)?;
             read_response(stream, rx, tid).await
         })
         .await
@@ -203,10 +203,17 @@ async fn read_response(
 }
 
 async fn read_exact(stream: &mut TcpStream, buf: &mut [u8]) -> Result<(), ModbusTcpError> {
-    match stream.read_exact(buf).await {
-        Ok(_) => Ok(()),
-        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Err(ModbusTcpError::Closed),
-        Err(e) => Err(ModbusTcpError::Io(e)),
+    stream.read_exact(buf).await.map(drop).map_err(link_error)
+}
+
+/// End of stream, or a reset because the server closed with our request unread: closed.
+fn link_error(e: io::Error) -> ModbusTcpError {
+    match e.kind() {
+        io::ErrorKind::UnexpectedEof
+        | io::ErrorKind::ConnectionReset
+        | io::ErrorKind::BrokenPipe
+        | io::ErrorKind::ConnectionAborted => ModbusTcpError::Closed,
+        _ => ModbusTcpError::Io(e),
     }
 }
 

@@ -1,0 +1,155 @@
+"""`drivetwin fhpp …`, the FHPP master commands, against the CMMO-ST twin over Modbus TCP.
+
+Each test starts `drivetwin run --device cmmo-st --modbus 127.0.0.1:PORT`, runs the CLI
+commands against it (each one connection, cyclic FC 0x17), and checks what they print and then
+what pymodbus (a client nobody here wrote) reads from the drive afterwards: the reference
+status values of spec/cmmo-st-fhpp.md §4.3 and the position in SINC.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+from conftest import HOST, run_cli
+from test_fhpp_modbus import SPOS_ACK, SPOS_MC, SPOS_REF, cmmo, decode  # noqa: F401 (fixture)
+
+EXIT_LINK, EXIT_TIMEOUT, EXIT_REFUSED, EXIT_FAULT = 3, 4, 5, 7
+POSITION_WINDOW = 180  # PNU 1022 position target window, SINC
+
+
+def fhpp(twin, *args, timeout=30.0):
+    return run_cli("fhpp", *args, "--modbus", f"{HOST}:{twin.port}", timeout=timeout)
+
+
+def fhpp_json(twin, *args):
+    r = fhpp(twin, *args, "--json")
+    assert r.returncode == 0, (r.returncode, r.stdout, r.stderr)
+    return json.loads(r.stdout)
+
+
+def read_inputs(twin):
+    """The input telegram and the FC 0x07 fault number, read by pymodbus."""
+    c = twin.client()
+    try:
+        rr = c.read_holding_registers(0, count=4)
+        assert not rr.isError(), rr
+        status = c.read_exception_status()
+        assert not status.isError(), status
+        s = decode(rr.registers)
+        s["fault"] = status.status
+        return s
+    finally:
+        c.close()
+
+
+def test_status_decodes_the_power_on_bytes_and_writes_nothing(cmmo):
+    twin = cmmo()
+    r = fhpp(twin, "status")
+    assert r.returncode == 0, r.stderr
+    # §4.3 Example 1: power-on SCON 10h (VLOAD), SPOS 04h (MC).
+    assert "S2 drive disabled, record selection" in r.stdout
+    assert "SCON 10h VLOAD (0001.0000)" in r.stdout
+    assert "SPOS 04h MC (0000.0100)" in r.stdout
+    s = fhpp_json(twin, "status")
+    assert (s["scon"], s["spos"], s["fault"]) == (0x10, 0x04, None), s
+    assert s["scon_bits"] == "VLOAD (0001.0000)"
+    assert (read_inputs(twin)["scon"], read_inputs(twin)["spos"]) == (0x10, 0x04)
+
+
+def test_enable_home_move_record_disable(cmmo):
+    twin = cmmo()
+    # §4.3 Example 2: enabled in record selection → SCON 13h, SPOS 05h.
+    s = fhpp_json(twin, "enable")
+    assert (s["scon"], s["spos"], s["state"]) == (0x13, 0x05, "S4 operation enabled"), s
+    i = read_inputs(twin)
+    assert (i["scon"], i["spos"], i["fault"]) == (0x13, 0x05, 0), i
+
+    s = fhpp_json(twin, "home")
+    assert s["spos"] & (SPOS_REF | SPOS_MC) == SPOS_REF | SPOS_MC and not s["spos"] & SPOS_ACK, s
+    assert "REF" in s["spos_bits"] and "MC" in s["spos_bits"]
+    assert read_inputs(twin)["spos"] & SPOS_REF
+
+    # Direct mode, absolute 27000 SINC (270° with the default 0.01° SINC).
+    s = fhpp_json(twin, "move", "27000")
+    assert s["mode"] == "direct" and s["scon"] == 0x53, s
+    assert abs(s["actual"] - 27000) <= POSITION_WINDOW, s
+    i = read_inputs(twin)
+    assert i["scon"] == 0x53 and i["spos"] & SPOS_MC and not i["spos"] & SPOS_ACK, i
+    assert abs(i["actual"] - 27000) <= POSITION_WINDOW, i
+
+    # Relative −9000 at 50 %: CDIR.ABS = 1, mirrored in SDIR.ABS.
+    s = fhpp_json(twin, "move", "-9000", "--relative", "--velocity", "50")
+    assert s["byte3"] & 0x01 and s["byte_bits"].startswith("ABS"), s
+    i = read_inputs(twin)
+    assert abs(i["actual"] - 18000) <= 2 * POSITION_WINDOW, i
+
+    # Record 1 (the personality's default record list: target 0 SINC).
+    s = fhpp_json(twin, "record", "1")
+    assert s["mode"] == "record selection" and s["scon"] == 0x13 and s["byte3"] == 1, s
+    i = read_inputs(twin)
+    assert i["scon"] == 0x13 and i["byte3"] == 1 and i["spos"] & SPOS_MC, i
+    assert abs(i["actual"]) <= POSITION_WINDOW, i
+
+    r = fhpp(twin, "disable")
+    assert r.returncode == 0, r.stderr
+    assert "S2 drive disabled" in r.stdout
+    i = read_inputs(twin)
+    assert i["scon"] == 0x10 and i["spos"] & SPOS_REF, i
+
+
+def test_refused_fault_and_timeout_have_distinct_exit_codes(cmmo):
+    twin = cmmo()
+    # Not enabled: the master refuses before starting anything.
+    r = fhpp(twin, "move", "1000")
+    assert r.returncode == EXIT_REFUSED, (r.returncode, r.stderr)
+    assert "refused" in r.stderr and "not in S4" in r.stderr
+    # Enabled but not referenced: the drive refuses the start with fault 28h.
+    fhpp_json(twin, "enable")
+    r = fhpp(twin, "move", "1000")
+    assert r.returncode == EXIT_FAULT, (r.returncode, r.stderr)
+    assert "fault 28h homing required" in r.stderr
+    assert read_inputs(twin)["fault"] == 0x28
+    # `enable` acknowledges it (T9 then T2, T3); the drive stays in direct mode (53h).
+    s = fhpp_json(twin, "enable")
+    assert (s["scon"], s["fault"]) == (0x53, None), s
+    fhpp_json(twin, "home")
+    # A record number above 64: fault 3Fh record invalid.
+    r = fhpp(twin, "record", "70")
+    assert r.returncode == EXIT_FAULT, (r.returncode, r.stderr)
+    assert "fault 3Fh record invalid" in r.stderr
+    fhpp_json(twin, "enable")
+    # A long move with a short timeout.
+    r = fhpp(twin, "move", "3600000", "--velocity", "5", "--timeout-ms", "100")
+    assert r.returncode == EXIT_TIMEOUT, (r.returncode, r.stderr)
+    assert "motion complete" in r.stderr and "not reached" in r.stderr
+    # Nobody listening.
+    r = run_cli("fhpp", "status", "--modbus", f"{HOST}:1")
+    assert r.returncode == EXIT_LINK, (r.returncode, r.stderr)
+
+
+def test_one_connection_at_a_time(cmmo):
+    twin = cmmo()
+    c = twin.client()
+    try:
+        assert not c.read_holding_registers(0, count=4).isError()
+        r = fhpp(twin, "status")
+        assert r.returncode == EXIT_LINK, (r.returncode, r.stderr)
+        assert "one Modbus client at a time" in r.stderr
+    finally:
+        c.close()
+    time.sleep(0.1)
+    assert fhpp(twin, "status").returncode == 0
+
+
+def test_the_cycle_keeps_the_watchdog_quiet_during_a_long_move(cmmo):
+    # Watchdog 100 ms; the move takes well over a second, the master exchanges every 10 ms.
+    twin = cmmo("--modbus-timeout-ms", "100")
+    fhpp_json(twin, "enable")
+    fhpp_json(twin, "home")
+    t0 = time.monotonic()
+    s = fhpp_json(twin, "move", "36000", "--velocity", "10", "--cycle-ms", "10")
+    assert time.monotonic() - t0 > 0.3
+    assert abs(s["actual"] - 36000) <= POSITION_WINDOW and s["fault"] is None, s
+    i = read_inputs(twin)
+    assert i["fault"] == 0 and i["scon"] == 0x53, i
