@@ -58,6 +58,7 @@ use core::time::Duration;
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::control_bytes::{ControlMode, OutputData};
+use super::parameter_channel::{self, ParameterChannel};
 use super::record_table::{Comparator, Rcb1, Record, RecordTable, TimeComparator};
 use super::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, Reaction, RelativeTo,
@@ -217,6 +218,8 @@ pub struct FhppDevice<S> {
     outputs: OutputData,
     fpc_out: [u8; 8],
     fpc_in: [u8; 8],
+    /// The EFPC server and the permanent memory (App. C, PNU 127).
+    fpc: ParameterChannel,
     inputs: [u8; FHPP_STD_LEN],
     status: MotionStatus,
     next: Option<Instant>,
@@ -285,6 +288,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             outputs: OutputData::default(),
             fpc_out: [0; 8],
             fpc_in: [0; 8],
+            fpc: ParameterChannel::default(),
             inputs: [0; FHPP_STD_LEN],
             status: MotionStatus::default(),
             next: None,
@@ -405,8 +409,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.inputs
     }
 
-    /// The input telegram with the 8 EFPC bytes (FPCS first). The parameter channel is not
-    /// served here: its input bytes read 0 ("no response").
+    /// The input telegram with the 8 EFPC bytes (FPCS first) of the last cycle.
     pub fn inputs_fpc(&self) -> [u8; FHPP_FPC_LEN] {
         let mut b = [0u8; FHPP_FPC_LEN];
         b[..8].copy_from_slice(&self.inputs);
@@ -433,6 +436,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The output EFPC bytes last set.
     pub fn fpc_outputs(&self) -> [u8; 8] {
         self.fpc_out
+    }
+
+    /// The parameter channel (its permanent memory holds the parameter file).
+    pub fn parameter_channel(&self) -> &ParameterChannel {
+        &self.fpc
+    }
+
+    /// CMMO-ST App. C: one EFPC exchange per cycle. A parameter job goes through this
+    /// device's [`ObjectAccess`], so a written PNU takes effect like any other write.
+    fn serve_parameter_channel(&mut self) {
+        let ctx = parameter_channel::Context {
+            stage_on: self.stage_on,
+            authority: self.fhpp.authority(),
+            fault: self.fhpp.fault().is_some(),
+            now_ms: self.cycles,
+        };
+        let desc = self.od.description();
+        if let Some(job) = self.fpc.receive(&self.fpc_out, &ctx, desc) {
+            let result = parameter_channel::execute(job, self, &ctx);
+            self.fpc.complete(job, result);
+        }
+        if let Some(code) = self.fpc.take_diagnostic() {
+            self.raise_once(code);
+        }
+        self.fpc_in = self.fpc.response();
     }
 
     /// The active fault number (diagnostic), 0 for none: Modbus FC 0x07 (fhpp §9.15).
@@ -551,6 +579,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 Event::Transition(_) => {}
             }
         }
+        self.serve_parameter_channel();
         self.advance(dt);
         self.cycles += 1;
         self.status = self.motion_status();
@@ -1249,6 +1278,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
         self.params_dirty = true;
         if is_record_pnu(index) {
             self.records_dirty = true;
+        }
+        if index == pnu_index(127) {
+            // PNU 127 data memory control: save, delete, reload (parameter_file.rs).
+            let reloaded = self
+                .fpc
+                .memory_mut()
+                .command(sub, &mut self.od)
+                .map_err(|_| AbortCode::CANNOT_STORE)?;
+            self.records_dirty |= reloaded;
         }
         Ok(())
     }
