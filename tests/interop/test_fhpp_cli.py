@@ -9,6 +9,7 @@ status values of spec/cmmo-st-fhpp.md §4.3 and the position in SINC.
 from __future__ import annotations
 
 import json
+import struct
 import time
 
 from conftest import HOST, run_cli
@@ -153,3 +154,66 @@ def test_the_cycle_keeps_the_watchdog_quiet_during_a_long_move(cmmo):
     assert abs(s["actual"] - 36000) <= POSITION_WINDOW and s["fault"] is None, s
     i = read_inputs(twin)
     assert i["fault"] == 0 and i["scon"] == 0x53, i
+
+
+def fpc_read_by_pymodbus(twin, pnu, sub):
+    """The EFPC job done by pymodbus itself (FC 0x17, 8 registers): zero request, read
+    request (FPCC 16h), wait for FPCS 15h, zero request (App. C.3.2)."""
+    c = twin.client()
+
+    def cycle(fpc):
+        regs = [0x0000, 0x0000, 0x0000, 0x0000, *struct.unpack(">4H", fpc)]
+        rr = c.readwrite_registers(read_address=0, read_count=8, write_address=0, values=regs)
+        assert not rr.isError(), rr
+        return struct.pack(">4H", *rr.registers[4:])
+
+    def until(fpc, pred):
+        deadline = time.monotonic() + 2
+        while time.monotonic() < deadline:
+            got = cycle(fpc)
+            if pred(got):
+                return got
+            time.sleep(0.005)
+        raise AssertionError(f"no FPC answer to {fpc.hex()}: {got.hex()}")
+
+    try:
+        zero = bytes([0x10, 0, 0, 0, 0, 0, 0, 0])
+        until(zero, lambda f: f[0] & 0x0F == 0)
+        got = until(struct.pack(">BBHI", 0x16, sub, pnu, 0), lambda f: f[0] in (0x15, 0x17))
+        until(zero, lambda f: f[0] & 0x0F == 0)
+        assert got[0] == 0x15, got.hex()
+        return struct.unpack(">i", got[4:])[0]
+    finally:
+        c.close()
+
+
+def test_pnu_read_and_write_through_the_parameter_channel(cmmo):
+    twin = cmmo()
+    # Write record 2's target (PNU 404:2, int32) negative: pymodbus reads it back itself.
+    v = fhpp_json(twin, "pnu", "write", "404:2", "-12345")
+    assert (v["pnu"], v["sub"], v["type"], v["value"]) == (404, 2, "INTEGER32", "-12345"), v
+    assert v["pwe"] == 0xFFFFCFC7
+    assert fpc_read_by_pymodbus(twin, 404, 2) == -12345
+    r = fhpp(twin, "pnu", "read", "404:2")
+    assert r.returncode == 0 and r.stdout.strip().endswith("= -12345"), (r.stdout, r.stderr)
+    # The record then runs to the written target; PNU 1041 agrees with the cyclic position.
+    fhpp_json(twin, "enable")
+    fhpp_json(twin, "home")
+    s = fhpp_json(twin, "record", "2")
+    assert s["byte3"] == 2 and abs(s["actual"] + 12345) <= POSITION_WINDOW, s
+    i = read_inputs(twin)
+    assert abs(i["actual"] + 12345) <= POSITION_WINDOW, i
+    v = fhpp_json(twin, "pnu", "read", "1041")
+    assert int(v["value"]) == i["actual"], (v, i)
+    # Tab. C.7 errors end with exit code 5 and the manual's text.
+    for args, text in [(("read", "9999"), "illegal PNU (0x00)"),
+                       (("read", "1041:0"), "wrong subindex (0x03)"),
+                       (("write", "101:1", "1"), "parameter value cannot be changed (0x01)")]:
+        r = fhpp(twin, "pnu", *args)
+        assert r.returncode == EXIT_REFUSED, (args, r.returncode, r.stderr)
+        assert text in r.stderr, (args, r.stderr)
+    # A value outside the type is a usage error, nothing is sent.
+    r = fhpp(twin, "pnu", "write", "127:2", "256")
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    # The channel was left idle: the cyclic telegram still works for the next master.
+    assert read_inputs(twin)["fault"] == 0

@@ -381,4 +381,19 @@ pub enum FhppCommand {
     },
     /// Start record N (record selection, 0 = homing, 1…64); waits for MC.
     Record { number: u8 },
+    /// Read or write a PNU through the parameter channel (EFPC, I/O bytes 9…16).
+    #[command(subcommand)]
+    Pnu(PnuCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum PnuCommand {
+    /// Read PNU[:SUB] (decimal; SUB defaults to 1).
+    Read { pnu: String },
+    /// Write VALUE (decimal, negative or 0x hex) to PNU[:SUB].
+    Write {
+        pnu: String,
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+    },
 }

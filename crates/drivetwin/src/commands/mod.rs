@@ -18,7 +18,7 @@ use od::DataType;
 use crate::cli::{
     BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
 };
-use crate::cli::{FhppArgs, FhppCommand};
+use crate::cli::{FhppArgs, FhppCommand, PnuCommand};
 use drivetwin::master::cia402::{self, Cia402Error};
 use drivetwin::master::fhpp::FhppError;
 use drivetwin::master::lss::{LssError, LssMaster};

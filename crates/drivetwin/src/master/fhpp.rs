@@ -14,12 +14,15 @@
 //! does not stop a drive.
 
 pub mod diagnostics;
+pub mod parameter;
 
 use std::time::Duration;
 
 use drive::fhpp::{
     Ccon, Cdir, ControlMode, Cpos, InputData, OperatingMode, OutputData, Scon, Spos,
 };
+
+use drive::fhpp::parameter_channel::ErrorCode;
 
 use super::modbus_tcp::{ModbusTcpClient, ModbusTcpError};
 
@@ -51,6 +54,17 @@ pub enum FhppError {
         scon: Scon,
         spos: Spos,
     },
+    /// The parameter channel answered ResID 7 with a Tab. C.7 error code.
+    #[error("PNU {pnu}:{subindex}: parameter channel error {code}")]
+    Parameter {
+        pnu: u16,
+        subindex: u8,
+        code: ErrorCode,
+    },
+    #[error("the parameter channel needs the 16-byte telegram (MasterConfig::parameter_channel)")]
+    NoParameterChannel,
+    #[error("{0}")]
+    Protocol(&'static str),
     #[error("{command}: {want} not reached within {timeout:?} (SCON {scon}, SPOS {spos})")]
     Timeout {
         command: &'static str,
@@ -364,6 +378,36 @@ impl FhppMaster {
                     timeout,
                     scon: input.scon,
                     spos: input.spos,
+                });
+            }
+        }
+    }
+
+    /// Exchanges every cycle until `done` holds for the EFPC input bytes (faults do not end
+    /// the wait: the parameter channel works in every state).
+    async fn wait_fpc(
+        &mut self,
+        command: &'static str,
+        want: &'static str,
+        timeout: Duration,
+        done: impl Fn(&[u8; 8]) -> bool,
+    ) -> Result<(), FhppError> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        let mut tick = tokio::time::interval(self.config.cycle);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        loop {
+            tick.tick().await;
+            self.exchange().await?;
+            if done(&self.fpc_in) {
+                return Ok(());
+            }
+            if tokio::time::Instant::now() >= deadline {
+                return Err(FhppError::Timeout {
+                    command,
+                    want,
+                    timeout,
+                    scon: self.input.scon,
+                    spos: self.input.spos,
                 });
             }
         }
