@@ -97,7 +97,7 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
-    /// FHPP master commands to a CMMO-ST over Modbus TCP: status, enable, home, move, records.
+    /// FHPP master commands to a CMMO-ST over Modbus TCP: status, enable, home, move, records, PNUs.
     Fhpp {
         #[command(subcommand)]
         command: FhppCommand,

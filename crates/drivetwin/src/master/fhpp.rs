@@ -418,7 +418,8 @@ impl FhppMaster {
             // PNU 125 / B.2: FCT or the web server holds device control.
             return Err(self.refused(
                 command,
-                "FCT or the web server has device control (SCON.FCT/MMI)",
+                "FCT or the web server has device control (SCON.FCT/MMI; writing PNU 125 = 1 \
+                 takes it back from the web server)",
             ));
         }
         Ok(())
