@@ -205,14 +205,14 @@ fn manual_fig_c1_write_pnu_440_2_with_4660() {
 
 #[test]
 fn spec_8_2_c_read_pnu_1041_and_the_error_layout() {
-    // fhpp §8.2 c: `16 01 04 11 00 00 00 00` → `15 01 04 11 <int32 BE>`.
+    // FHPP-FPC-01, fhpp §8.2 c: `16 01 04 11 00 00 00 00` → `15 01 04 11 <int32 BE>`.
     let mut b = Bench::new();
     b.exchange([0x10, 0, 0, 0, 0, 0, 0, 0]);
     let r = b.exchange([0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0]);
     assert_eq!(r[..4], [0x15, 0x01, 0x04, 0x11]);
     let actual = i32::from_be_bytes(r[4..].try_into().unwrap());
     assert_eq!(actual, b.dev.motion_status().actual_position);
-    // The error layout of §8.2 c: FPCS 17h, code 0 in bytes 5–8 (here a PNU that is none).
+    // FHPP-FPC-04, the error layout of §8.2 c: FPCS 17h, code 0 in bytes 5–8 (PNU 999).
     b.exchange([0x10, 0, 0, 0, 0, 0, 0, 0]);
     let r = b.exchange([0x16, 0x01, 0x03, 0xE7, 0, 0, 0, 0]);
     assert_eq!(r, [0x17, 0x01, 0x03, 0xE7, 0, 0, 0, 0]);
@@ -331,6 +331,7 @@ fn every_tab_c7_error_code() {
     );
 }
 
+/// FHPP-FPC-02.
 #[test]
 fn zero_request_a_new_job_is_only_taken_after_no_task() {
     let mut b = Bench::new();
@@ -386,15 +387,18 @@ fn writes_are_volatile_until_pnu_127_2_and_127_4_reloads_the_saved_values() {
     let mut factory = parameter_file::FileBuffer::new();
     parameter_file::factory(desc, &mut factory).unwrap();
     assert_eq!(b.upload(), factory.as_slice());
-    // Save (fhpp §8.2 d: `18 02 00 7F 00 00 00 01` → FPCS 15h).
+    // Save (FHPP-FPC-03, fhpp §8.2 d: `18 02 00 7F 00 00 00 01` → `15 02 00 7F …`).
     b.exchange([0x10, 0, 0, 0, 0, 0, 0, 0]);
-    assert_eq!(b.exchange([0x18, 0x02, 0x00, 0x7F, 0, 0, 0, 1])[0], 0x15);
+    assert_eq!(
+        b.exchange([0x18, 0x02, 0x00, 0x7F, 0, 0, 0, 1])[..4],
+        [0x15, 2, 0, 0x7F]
+    );
     assert!(!b.dev.parameter_channel().memory().is_factory());
     let saved = b.upload();
     assert_ne!(saved, factory.as_slice());
-    // Reading PNU 127 gives the value that triggers each function (§3.1.2).
-    assert_eq!(b.read(127, 1), Ok(0x10));
-    assert_eq!(b.read(127, 2), Ok(0x01));
+    // FHPP-FPC-12: reading PNU 127 gives the value that triggers each function (§3.1.2).
+    let magic: Vec<_> = (1..=4).map(|s| b.read(127, s)).collect();
+    assert_eq!(magic, [Ok(0x10), Ok(0x01), Ok(0x10), Ok(0x10)]);
     // Change, then 127:4 = 10h: the saved value comes back…
     assert_eq!(b.write(121, 1, 0x58), Ok(0x58));
     // …except error management (C.4.4): PNU 246:40 changed after the save stays.
@@ -453,6 +457,9 @@ fn the_file_format_round_trips_and_refuses_bad_files() {
     );
 }
 
+/// FHPP-FPC-14 with the real file (7577 bytes: 1263 data packets, the last one 5 bytes and
+/// zero-padded); the vector's 100-byte file is shorter than this format's header and CRC,
+/// so its start is refused with 05h (see `every_type_2_error_and_its_effect`).
 #[test]
 fn upload_download_round_trip_and_activation_by_127_4() {
     let mut b = Bench::new();
@@ -528,6 +535,7 @@ fn acknowledge(b: &mut Bench) {
     b.no_task_file();
 }
 
+/// FHPP-FPC-15 (aborting errors show E27 and need RESET; 01h, 03h and type 1 do not abort).
 #[test]
 fn every_type_2_error_and_its_effect() {
     let up = FileDirection::Upload;
@@ -591,8 +599,8 @@ fn every_type_2_error_and_its_effect() {
     expect_type2(&mut b, r, FileError::Amount);
     acknowledge(&mut b);
 
-    // 05h invalid file length at the start of a download: aborts.
-    let r = b.file_packet(down, Packet::start(10));
+    // 05h invalid file length at the start of a download (FHPP-FPC-14's 100 bytes): aborts.
+    let r = b.file_packet(down, Packet::start(100));
     expect_type2(&mut b, r, FileError::Read);
     acknowledge(&mut b);
 
@@ -692,4 +700,203 @@ fn a_data_packet_without_a_transfer_is_type_1_error_11h() {
     let r = b.exchange([0x44, 0x01, 0, 0, 0, 0, 0, 0]);
     assert_eq!(r, [0x47, 0x01, 0x11, 0, 0, 0, 0, 0]);
     assert_eq!(b.scon() & SCON_FAULT, 0);
+}
+
+// ---- codec -------------------------------------------------------------------------------
+
+#[test]
+fn codec_round_trips_both_directions() {
+    let requests = [
+        Request::NoTask { mode: 1 },
+        Request::NoTask { mode: 4 },
+        Request::NoTask { mode: 0 },
+        Request::Parameter(ParameterRequest::Read {
+            pnu: 1041,
+            subindex: 1,
+        }),
+        Request::Parameter(ParameterRequest::Write {
+            pnu: 0xFFFF,
+            subindex: 255,
+            value: 0x8000_0001,
+        }),
+        Request::File {
+            direction: FileDirection::Upload,
+            packet: Packet::empty(PacketKind::Start, 0),
+        },
+        Request::File {
+            direction: FileDirection::Download,
+            packet: Packet::data(31, [1, 2, 3, 4, 5, 6]),
+        },
+        Request::File {
+            direction: FileDirection::Download,
+            packet: Packet::error(9, 0),
+        },
+    ];
+    for r in requests {
+        assert_eq!(Request::decode(&r.encode()), Ok(r), "{r:?}");
+    }
+    let mut responses = vec![
+        Response::NoResponse { mode: 1 },
+        Response::Parameter(ParameterResponse::Value {
+            pnu: 404,
+            subindex: 64,
+            value: 0xFFFF_FFFF,
+        }),
+        Response::File(FileResponse::Active(Packet::start(7577))),
+        Response::File(FileResponse::Active(Packet::error(3, 0x09))),
+        Response::File(FileResponse::Rejected {
+            packet_id: 0x21,
+            code: ErrorCode::RequestNotSupported,
+        }),
+        Response::Unsupported {
+            mode: 0xF,
+            code: ErrorCode::RequestNotSupported,
+        },
+    ];
+    for code in ErrorCode::ALL {
+        responses.push(Response::Parameter(ParameterResponse::Error {
+            pnu: 1,
+            subindex: 1,
+            code,
+        }));
+    }
+    for r in responses {
+        assert_eq!(Response::decode(&r.encode()), Ok(r), "{r:?}");
+    }
+    // Byte layout: PNU and PWE big-endian, file user data little-endian.
+    assert_eq!(
+        Request::Parameter(ParameterRequest::Write {
+            pnu: 0x0102,
+            subindex: 3,
+            value: 0x0405_0607
+        })
+        .encode(),
+        [0x18, 3, 1, 2, 4, 5, 6, 7]
+    );
+    assert_eq!(
+        Response::File(FileResponse::Active(Packet::start(0x0102_0304))).encode(),
+        [0x43, 0x20, 4, 3, 2, 1, 0, 0]
+    );
+}
+
+#[test]
+fn codec_refuses_reserved_values() {
+    use drive::fhpp::parameter_channel::DecodeError;
+    assert_eq!(
+        Request::decode(&[0x26, 0, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::ReservedMode { mode: 2, id: 6 })
+    );
+    assert_eq!(
+        Request::decode(&[0x14, 0, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::UnsupportedId { mode: 1, id: 4 })
+    );
+    assert_eq!(
+        Request::decode(&[0x44, 0x80, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::ReservedPacketId(0x80))
+    );
+    assert_eq!(
+        Response::decode(&[0x17, 1, 0, 1, 0, 0, 0, 0x42]),
+        Err(DecodeError::UnknownErrorCode(0x42))
+    );
+    assert_eq!(
+        ParameterResponse::decode(&[0x43, 0x20, 0, 0, 0, 0, 0, 0]),
+        Err(DecodeError::NotParameterResponse(0x43))
+    );
+    // Tab. C.12: only 01h and 03h let a transfer continue.
+    let continuing: Vec<u8> = FileError::ALL
+        .iter()
+        .filter(|e| !e.aborts())
+        .map(|e| e.code())
+        .collect();
+    assert_eq!(continuing, [0x01, 0x03]);
+}
+
+// ---- spec vectors FHPP-FPC-05…11, 16 --------------------------------------------------------
+
+/// Sends the vector's request bytes after a "no task"; returns the answer.
+fn vector(b: &mut Bench, request: [u8; 8]) -> [u8; 8] {
+    b.exchange([0x10, 0, 0, 0, 0, 0, 0, 0]);
+    b.exchange(request)
+}
+
+#[test]
+fn fhpp_fpc_05_06_wrong_subindex_and_read_only() {
+    let mut b = Bench::new();
+    let r = vector(&mut b, [0x16, 0x02, 0x04, 0x11, 0, 0, 0, 0]);
+    assert_eq!(r, [0x17, 0x02, 0x04, 0x11, 0, 0, 0, 0x03], "FHPP-FPC-05");
+    let r = vector(&mut b, [0x18, 0x01, 0x04, 0x11, 0, 0, 0, 0]);
+    assert_eq!(r, [0x17, 0x01, 0x04, 0x11, 0, 0, 0, 0x01], "FHPP-FPC-06");
+}
+
+#[test]
+fn fhpp_fpc_07_pnu_125_cannot_take_control_from_fct() {
+    let mut b = Bench::new();
+    b.dev
+        .fhpp_mut()
+        .request_local_control(Authority::Fct)
+        .unwrap();
+    b.run(1);
+    let r = vector(&mut b, [0x18, 0x01, 0x00, 0x7D, 0, 0, 0, 1]);
+    assert_eq!(r, [0x17, 0x01, 0x00, 0x7D, 0, 0, 0, 0x11]);
+    // From the web server it does take control back.
+    b.dev.fhpp_mut().release_local_control();
+    b.dev
+        .fhpp_mut()
+        .request_local_control(Authority::WebServer)
+        .unwrap();
+    b.run(1);
+    let r = vector(&mut b, [0x18, 0x01, 0x00, 0x7D, 0, 0, 0, 1]);
+    assert_eq!(r, [0x15, 0x01, 0x00, 0x7D, 0, 0, 0, 1]);
+    assert_eq!(b.dev.fhpp().authority(), Authority::Fieldbus);
+}
+
+#[test]
+fn fhpp_fpc_08_to_11_reference_values() {
+    let mut b = Bench::new();
+    // FHPP-FPC-08: PNU 205 = FFFFh with no fault.
+    let r = vector(&mut b, [0x16, 0x01, 0x00, 0xCD, 0, 0, 0, 0]);
+    assert_eq!(r, [0x15, 0x01, 0x00, 0xCD, 0, 0, 0xFF, 0xFF]);
+    // FHPP-FPC-09: PNU 230 = FFh with no fault.
+    let r = vector(&mut b, [0x16, 0x01, 0x00, 0xE6, 0, 0, 0, 0]);
+    assert_eq!(r, [0x15, 0x01, 0x00, 0xE6, 0, 0, 0, 0xFF]);
+    // FHPP-FPC-10: PNU 234 of 11h (software limit positive, reactions A, B, C, E, F) =
+    // 0037h, at subindex 11h + 1.
+    assert_eq!(b.read(234, 0x12), Ok(0x0037));
+    // FHPP-FPC-11: PNU 1001:1 = 7D0h increments per 1001:2 = 1 revolution.
+    let r = vector(&mut b, [0x16, 0x01, 0x03, 0xE9, 0, 0, 0, 0]);
+    assert_eq!(r, [0x15, 0x01, 0x03, 0xE9, 0, 0, 0x07, 0xD0]);
+    assert_eq!(b.read(1001, 2), Ok(1));
+}
+
+#[test]
+fn fhpp_fpc_16_download_timeout_aborts_and_discards() {
+    let mut b = Bench::new();
+    let desc = &devices::CMMO_ST;
+    let mut good = parameter_file::FileBuffer::new();
+    parameter_file::factory(desc, &mut good).unwrap();
+    let down = FileDirection::Download;
+    b.no_task_file();
+    b.ack(down, Packet::start(good.len() as u32));
+    b.ack(down, Packet::data(1, good[..6].try_into().unwrap()));
+    b.ack(down, Packet::data(2, good[6..12].try_into().unwrap()));
+    b.run(PACKET_TIMEOUT_MS + 1);
+    let r = b.fpc_in();
+    assert_eq!(
+        r[..3],
+        [0x43, 0x60 | 3, 0x02],
+        "packet ID 011x.xxxx, byte 3 = 02h"
+    );
+    assert!(!b.dev.parameter_channel().transfer().is_active());
+    b.run(2);
+    assert_eq!(b.dev.fault_number(), DIAG_E27);
+    // The PLC's next packet is not taken (the error answer stays until "no task"); after
+    // "no task" it finds no transfer: the data was discarded.
+    let next = Request::File {
+        direction: down,
+        packet: Packet::data(3, [0; 6]),
+    }
+    .encode();
+    assert_eq!(b.exchange(next)[..3], [0x43, 0x63, 0x02]);
+    b.no_task_file();
+    assert_eq!(b.exchange(next)[..3], [0x47, 0x03, 0x11]);
 }

@@ -11,8 +11,9 @@
 //!   Decision (the manual says only "start address always 0" and "0x0004 / 0x0008"): another
 //!   start address answers exception 02 (illegal data address), another quantity 03 (illegal
 //!   data value); both quantities are accepted whatever the profile, the 8 FPC bytes of a
-//!   16-byte write are kept for the parameter channel, and FC 0x17 checks both halves before
-//!   it writes anything.
+//!   16-byte write go to the parameter channel (registers 4…7, answered at the device's next
+//!   cycle: `drive::fhpp::parameter_channel`), and FC 0x17 checks both halves before it
+//!   writes anything.
 //! - **FC 0x07** answers the active fault number (the diagnostic number, 0 = no fault).
 //! - **FC 0x2B / 0x0E** (Tab. 4.4): 00 VendorName = PNU 122, 01 ProductCode = PNU 124,
 //!   02 MajorMinorRevision = PNU 101 ("1.5.2.0"), 03 VendorUrl = PNU 123, 04 ProductName =
@@ -264,6 +265,30 @@ mod tests {
             ],
         );
         assert_eq!(r[..4], [0x17, 8, 0x13, 0x05]);
+    }
+
+    /// FC 0x17 with 8 registers: registers 4…7 carry the EFPC (App. C); the answer comes
+    /// with the device's next cycle.
+    #[test]
+    fn parameter_channel_over_fc_0x17_with_8_registers() {
+        let mut m = map();
+        step(&m, 1);
+        let fc17 = |fpc: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 16, 0, 0, 0, 0, 0, 0, 0, 0];
+            req.extend_from_slice(&fpc);
+            req
+        };
+        let no_task = [0x10, 0, 0, 0, 0, 0, 0, 0];
+        let read_101_1 = [0x16, 0x01, 0x00, 0x65, 0, 0, 0, 0];
+        pdu(&mut m, &fc17(no_task));
+        lock(&m.device).step(od::Instant::from_millis(1));
+        let r = pdu(&mut m, &fc17(read_101_1));
+        assert_eq!(r[..2], [0x17, 16]);
+        assert_eq!(r[10..], no_task, "answered at the next cycle");
+        lock(&m.device).step(od::Instant::from_millis(2));
+        let r = pdu(&mut m, &fc17(read_101_1));
+        // Firmware major version 1 (PNU 101:1), PNU and PWE big-endian.
+        assert_eq!(r[10..], [0x15, 0x01, 0x00, 0x65, 0, 0, 0, 1]);
     }
 
     #[test]

@@ -333,7 +333,9 @@ pub mod data_memory {
     pub const DELETE: u8 = 1;
     /// Sub 2: save the active values into the EEPROM, value 01h.
     pub const SAVE: u8 = 2;
-    /// Sub 3: reset the device (EEPROM → active), value 10h.
+    /// Sub 3: reset the device (EEPROM → active), value 10h. Only the parameter part of the
+    /// restart is carried out here (all stored values, error management included, become
+    /// active); the FHPP state machine and the reference are not reset.
     pub const RESET: u8 = 3;
     /// Sub 4: load the parameter values from the parameter file, value 10h.
     pub const LOAD: u8 = 4;

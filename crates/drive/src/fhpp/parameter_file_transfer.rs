@@ -230,8 +230,10 @@ impl FileTransfer {
                 if have >= size {
                     return self.error(seq, FileError::Amount);
                 }
-                let take = (size - have).min(6);
-                if self.rx.extend_from_slice(&packet.data[..take]).is_err() {
+                // C.4.3: the size sent at the start says how much of the last packet counts.
+                let take = (size - have).min(packet.data.len());
+                let bytes = packet.data.get(..take).unwrap_or(&[]);
+                if self.rx.extend_from_slice(bytes).is_err() {
                     return self.error(seq, FileError::Write);
                 }
                 let mut checked = header_checked;
