@@ -48,7 +48,7 @@ def test_status_decodes_the_power_on_bytes_and_writes_nothing(cmmo):
     twin = cmmo()
     r = fhpp(twin, "status")
     assert r.returncode == 0, r.stderr
-    # §4.3 Example 1: power-on SCON 10h (VLOAD), SPOS 04h (MC).
+    # FHPP-CB-01: power-on SCON 10h (VLOAD), SPOS 04h (MC).
     assert "S2 drive disabled, record selection" in r.stdout
     assert "SCON 10h VLOAD (0001.0000)" in r.stdout
     assert "SPOS 04h MC (0000.0100)" in r.stdout
@@ -60,18 +60,18 @@ def test_status_decodes_the_power_on_bytes_and_writes_nothing(cmmo):
 
 def test_enable_home_move_record_disable(cmmo):
     twin = cmmo()
-    # §4.3 Example 2: enabled in record selection → SCON 13h, SPOS 05h.
+    # FHPP-CB-03 (ST-01, ST-02): enabled in record selection → SCON 13h, SPOS 05h.
     s = fhpp_json(twin, "enable")
     assert (s["scon"], s["spos"], s["state"]) == (0x13, 0x05, "S4 operation enabled"), s
     i = read_inputs(twin)
     assert (i["scon"], i["spos"], i["fault"]) == (0x13, 0x05, 0), i
 
-    s = fhpp_json(twin, "home")
+    s = fhpp_json(twin, "home")  # FHPP-CB-08…10
     assert s["spos"] & (SPOS_REF | SPOS_MC) == SPOS_REF | SPOS_MC and not s["spos"] & SPOS_ACK, s
     assert "REF" in s["spos_bits"] and "MC" in s["spos_bits"]
     assert read_inputs(twin)["spos"] & SPOS_REF
 
-    # Direct mode, absolute 27000 SINC (270° with the default 0.01° SINC).
+    # FHPP-CB-14: direct mode, absolute 27000 SINC (270° with the default 0.01° SINC).
     s = fhpp_json(twin, "move", "27000")
     assert s["mode"] == "direct" and s["scon"] == 0x53, s
     assert abs(s["actual"] - 27000) <= POSITION_WINDOW, s
@@ -85,7 +85,7 @@ def test_enable_home_move_record_disable(cmmo):
     i = read_inputs(twin)
     assert abs(i["actual"] - 18000) <= 2 * POSITION_WINDOW, i
 
-    # Record 1 (the personality's default record list: target 0 SINC).
+    # FHPP-CB-11…13: record 1 (the personality's default record list: target 0 SINC).
     s = fhpp_json(twin, "record", "1")
     assert s["mode"] == "record selection" and s["scon"] == 0x13 and s["byte3"] == 1, s
     i = read_inputs(twin)
@@ -105,7 +105,7 @@ def test_refused_fault_and_timeout_have_distinct_exit_codes(cmmo):
     r = fhpp(twin, "move", "1000")
     assert r.returncode == EXIT_REFUSED, (r.returncode, r.stderr)
     assert "refused" in r.stderr and "not in S4" in r.stderr
-    # Enabled but not referenced: the drive refuses the start with fault 28h.
+    # FHPP-ST-08: enabled but not referenced, the drive refuses the start with fault 28h.
     fhpp_json(twin, "enable")
     r = fhpp(twin, "move", "1000")
     assert r.returncode == EXIT_FAULT, (r.returncode, r.stderr)
@@ -144,7 +144,7 @@ def test_one_connection_at_a_time(cmmo):
 
 
 def test_the_cycle_keeps_the_watchdog_quiet_during_a_long_move(cmmo):
-    # Watchdog 250 ms; the move takes over a second, the master exchanges every 10 ms.
+    # FHPP-MB-08: watchdog 250 ms; the move takes over a second, the master exchanges every 10 ms.
     twin = cmmo("--modbus-timeout-ms", "250")
     fhpp_json(twin, "enable")
     fhpp_json(twin, "home")
@@ -157,8 +157,8 @@ def test_the_cycle_keeps_the_watchdog_quiet_during_a_long_move(cmmo):
 
 
 def fpc_read_by_pymodbus(twin, pnu, sub):
-    """The EFPC job done by pymodbus itself (FC 0x17, 8 registers): zero request, read
-    request (FPCC 16h), wait for FPCS 15h, zero request (App. C.3.2)."""
+    """The EFPC job done by pymodbus itself (FC 0x17, 8 registers, FHPP-MB-04): zero request,
+    read request (FPCC 16h), wait for FPCS 15h, zero request (App. C.3.2, FHPP-FPC-01/02)."""
     c = twin.client()
 
     def cycle(fpc):

@@ -635,6 +635,69 @@ impl FhppMaster {
 mod tests {
     use super::*;
 
+    /// The twin's Modbus server in this process, on a free loopback port.
+    async fn twin() -> (String, tokio::task::JoinHandle<()>) {
+        use crate::fhpp_modbus::run_cmmo_st;
+        use crate::modbus_server::ModbusConfig;
+        use drive::fhpp::device::{FhppDevice, FhppSettings};
+        use std::sync::{Arc, Mutex};
+        let desc = &devices::CMMO_ST;
+        let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
+        let dev = Arc::new(Mutex::new(FhppDevice::new(od, FhppSettings::default())));
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap().to_string();
+        let task = tokio::spawn(run_cmmo_st(
+            listener,
+            dev,
+            ModbusConfig::default(),
+            std::future::pending(),
+        ));
+        (addr, task)
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn enable_home_move_and_pnu_against_the_twin() {
+        let (addr, task) = twin().await;
+        let t = Duration::from_secs(5);
+        let config = MasterConfig {
+            cycle: Duration::from_millis(2),
+            parameter_channel: true,
+            ..MasterConfig::default()
+        };
+        let mut m = FhppMaster::connect(&addr, config).await.unwrap();
+        // FHPP-CB-01 power-on 10h / 04h; FHPP-ST-01, ST-02, CB-03 enabled 13h / 05h.
+        assert_eq!((m.input().scon.0, m.input().spos.0), (0x10, 0x04));
+        m.enable(t).await.unwrap();
+        assert_eq!((m.input().scon.0, m.input().spos.0), (0x13, 0x05));
+        // FHPP-ST-08: not referenced, the drive refuses the start with 28h; `enable`
+        // acknowledges it (FHPP-ST-05, T9).
+        match m.move_to(1000, 100, false, t).await {
+            Err(FhppError::Fault { number: 0x28, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        m.enable(t).await.unwrap();
+        m.home(t).await.unwrap();
+        assert!(m.input().spos.contains(Spos::REF | Spos::MC)); // FHPP-CB-10
+                                                                // FHPP-CB-14, ST-19: direct mode 53h, position task.
+        m.move_to(9000, 100, false, t).await.unwrap();
+        assert_eq!(m.input().scon.0, 0x53);
+        assert!((m.input().actual2 - 9000).abs() <= 180, "{:?}", m.input());
+        // FHPP-FPC-01 / 02: PNU 1041 is the same actual position; PNU 9999 does not exist
+        // (Tab. C.7 code 0).
+        let pos = m.read_parameter(1041, 1, t).await.unwrap() as i32;
+        assert!((pos - m.input().actual2).abs() <= 18, "{pos}");
+        match m.read_parameter(9999, 1, t).await {
+            Err(FhppError::Parameter {
+                code: ErrorCode::IllegalPnu,
+                ..
+            }) => {}
+            other => panic!("{other:?}"),
+        }
+        m.disable(t).await.unwrap();
+        assert_eq!(m.input().scon.0 & 0x03, 0);
+        task.abort();
+    }
+
     #[test]
     fn state_names_follow_the_reference_values() {
         // §4.3: power-on 10h, enabled 13h, direct 53h, fault xxxx.1xxx.

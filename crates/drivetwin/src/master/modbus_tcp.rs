@@ -227,7 +227,8 @@ mod tests {
     use tokio::net::TcpListener;
 
     /// A server that answers one FC 0x17 request with fixed registers, checking the request
-    /// bytes (fhpp §8.2 b: the direct-mode start telegram).
+    /// bytes (FHPP-MB-03 cycle 2, fhpp §8.2 b: the direct-mode start telegram), then an FC 0x07
+    /// request (FHPP-MB-05) with an exception.
     #[tokio::test]
     async fn fc17_request_bytes_and_response() {
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();

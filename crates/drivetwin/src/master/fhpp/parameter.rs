@@ -117,7 +117,7 @@ mod tests {
 
     #[test]
     fn requests_are_the_spec_frames() {
-        // fhpp §8.2 c: read PNU 1041:1 → FPCC 16h, sub 1, PNU 04 11, PWE 0.
+        // FHPP-FPC-01 (fhpp §8.2 c): read PNU 1041:1 → FPCC 16h, sub 1, PNU 04 11, PWE 0.
         assert_eq!(
             Request::Parameter(ParameterRequest::Read {
                 pnu: 1041,
@@ -126,7 +126,7 @@ mod tests {
             .encode(),
             [0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0]
         );
-        // §8.2 d: write PNU 127:2 = 1 → 18 02 00 7F 00 00 00 01.
+        // FHPP-FPC-03 (§8.2 d): write PNU 127:2 = 1 → 18 02 00 7F 00 00 00 01.
         assert_eq!(
             Request::Parameter(ParameterRequest::Write {
                 pnu: 127,
@@ -136,6 +136,7 @@ mod tests {
             .encode(),
             [0x18, 0x02, 0x00, 0x7F, 0, 0, 0, 1]
         );
+        // FHPP-FPC-02: the zero request.
         assert_eq!(
             Request::NoTask {
                 mode: MODE_PARAMETER
