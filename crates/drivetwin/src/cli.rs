@@ -9,7 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     name = "drivetwin",
     version,
     about = "Software twins of fieldbus motor controllers, and a CANopen master",
-    after_help = "Exit codes: 0 ok, 1 failure, 2 usage, 3 bus connection, 4 timeout, 5 SDO abort, 6 protocol error."
+    after_help = "Exit codes: 0 ok, 1 failure, 2 usage, 3 bus connection, 4 timeout, 5 SDO abort or refused, 6 protocol error, 7 drive fault."
 )]
 pub struct Cli {
     /// Log more (or set DRIVETWIN_LOG, e.g. DRIVETWIN_LOG=debug).
@@ -100,6 +100,13 @@ pub enum Command {
     /// A minimal EtherCAT master to check a chain: scan, AL states, CoE SDO.
     #[command(subcommand)]
     Ecat(EcatCommand),
+    /// FHPP master commands to a CMMO-ST over Modbus TCP: status, enable, home, move, records, PNUs.
+    Fhpp {
+        #[command(subcommand)]
+        command: FhppCommand,
+        #[command(flatten)]
+        link: FhppArgs,
+    },
     /// Print every frame on the bus, decoded.
     Monitor {
         /// Stop after this many frames.
@@ -353,6 +360,30 @@ pub struct EcatLinkArgs {
     pub json: bool,
 }
 
+#[derive(Args, Debug, Clone)]
+pub struct FhppArgs {
+    /// Modbus TCP address of the CMMO-ST.
+    #[arg(
+        long,
+        global = true,
+        value_name = "ADDR",
+        default_value = "127.0.0.1:1502"
+    )]
+    pub modbus: String,
+    /// Timeout of each handshake step and of the motion, ms.
+    #[arg(long, global = true, default_value_t = 10_000)]
+    pub timeout_ms: u64,
+    /// PLC cycle: one FC 0x17 exchange every this many ms while waiting.
+    #[arg(long, global = true, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub cycle_ms: u64,
+    /// Keep CCON.LOCK set: FCT and the web server cannot take device control.
+    #[arg(long, global = true)]
+    pub lock: bool,
+    /// Print JSON instead of text.
+    #[arg(long, global = true)]
+    pub json: bool,
+}
+
 #[derive(Subcommand, Debug)]
 pub enum EcatCommand {
     /// Count the slaves, give them station addresses (0x1000 + n) and print their SII
@@ -435,4 +466,44 @@ pub enum EcatStateArg {
     Preop,
     Safeop,
     Op,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum FhppCommand {
+    /// Print the decoded status bytes (FC 0x03 and 0x07; writes nothing).
+    Status,
+    /// Acknowledge a fault if needed, then ENABLE and STOP to S4 "operation enabled".
+    Enable,
+    /// ENABLE = 0: drive disabled, output stage off.
+    Disable,
+    /// Homing (CPOS.HOM); waits for MC and REF.
+    Home,
+    /// Direct-mode position task to POSITION [SINC]; waits for MC.
+    Move {
+        #[arg(allow_hyphen_values = true)]
+        position: i32,
+        /// Velocity, % of PNU 540.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=100))]
+        velocity: u8,
+        /// POSITION is relative (CDIR.ABS = 1).
+        #[arg(long)]
+        relative: bool,
+    },
+    /// Start record N (record selection, 0 = homing, 1…64); waits for MC.
+    Record { number: u8 },
+    /// Read or write a PNU through the parameter channel (EFPC, I/O bytes 9…16).
+    #[command(subcommand)]
+    Pnu(PnuCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum PnuCommand {
+    /// Read PNU[:SUB] (decimal; SUB defaults to 1).
+    Read { pnu: String },
+    /// Write VALUE (decimal, negative or 0x hex) to PNU[:SUB].
+    Write {
+        pnu: String,
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+    },
 }

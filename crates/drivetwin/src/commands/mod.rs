@@ -18,7 +18,9 @@ use od::DataType;
 use crate::cli::{
     BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
 };
+use crate::cli::{FhppArgs, FhppCommand, PnuCommand};
 use drivetwin::master::cia402::{self, Cia402Error};
+use drivetwin::master::fhpp::FhppError;
 use drivetwin::master::lss::{LssError, LssMaster};
 use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
 
@@ -55,6 +57,7 @@ pub const EXIT_LINK: u8 = 3;
 pub const EXIT_TIMEOUT: u8 = 4;
 pub const EXIT_ABORT: u8 = 5;
 pub const EXIT_PROTOCOL: u8 = 6;
+pub const EXIT_FAULT: u8 = 7;
 
 #[derive(Debug, thiserror::Error)]
 pub enum CommandError {
@@ -74,6 +77,8 @@ pub enum CommandError {
     Cia402(#[from] Cia402Error),
     #[error(transparent)]
     Ecat(#[from] drivetwin::master::ecat::EcatError),
+    #[error(transparent)]
+    Fhpp(#[from] FhppError),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -99,6 +104,7 @@ impl CommandError {
                 SdoError::Protocol(_) => EXIT_PROTOCOL,
                 SdoError::Link(_) => EXIT_LINK,
             },
+            CommandError::Fhpp(e) => fhpp::exit_code(e),
             CommandError::Drive(drivetwin::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
@@ -108,6 +114,7 @@ impl CommandError {
 
 mod drive;
 mod ecat;
+mod fhpp;
 mod lss;
 mod network;
 mod pdo;
@@ -155,6 +162,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
             timeout_ms,
             bus,
         } => drive::drive_command(node, command, wait, timeout_ms, bus).await,
+        Command::Fhpp { command, link } => fhpp::fhpp(command, link).await,
         Command::Monitor {
             count,
             seconds,

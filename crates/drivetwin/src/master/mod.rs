@@ -2,7 +2,9 @@
 
 pub mod cia402;
 pub mod ecat;
+pub mod fhpp;
 pub mod link;
 pub mod lss;
+pub mod modbus_tcp;
 pub mod pdo_config;
 pub mod sdo_client;

@@ -1,0 +1,299 @@
+//! Issue 6's performance point: requests per second and p99 latency of a 4-register FC 0x17
+//! read/write cycle over loopback, the drivetwin CMMO-ST server side by side with pymodbus's
+//! own server on the same machine (target: at least 10× pymodbus).
+//!
+//! Both servers run as their own processes: `drivetwin run --device cmmo-st --modbus …` (the
+//! binary Cargo builds for this bench) and `tests/bench/pymodbus_server.py` (a plain
+//! holding-register datastore). The same Rust client drives each on one connection with
+//! sequential cycles: read 4 registers from 0, write 4 registers at 0, in one request. It is
+//! the `no_std` codec of `modbus::client` on a blocking std socket, the leanest client there is,
+//! so that the numbers are the servers' rather than the client's. It measures every cycle after
+//! a warm-up and prints requests/s, p50 and p99.
+//!
+//! `cargo bench -p drivetwin --bench modbus_loopback`; `MODBUS_BENCH_COUNT` sets the cycles per
+//! server (default 10000). Without python3 or pymodbus it says so and exits 0.
+
+use std::net::TcpListener as StdListener;
+use std::path::PathBuf;
+use std::process::{Child, Command, ExitCode, Stdio};
+use std::time::{Duration, Instant};
+
+use std::io::{self, Read, Write};
+use std::net::TcpStream;
+
+use modbus::client::{self, Response};
+use modbus::{Mbap, MAX_ADU_LEN, MBAP_LEN};
+
+const WARM_UP: usize = 500;
+/// Interleaved rounds (`MODBUS_BENCH_ROUNDS`).
+const DEFAULT_ROUNDS: usize = 10;
+const DEFAULT_COUNT: usize = 10_000;
+const START_TIMEOUT: Duration = Duration::from_secs(15);
+
+/// A server process, killed when dropped.
+struct Server {
+    name: &'static str,
+    child: Child,
+    addr: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Measurement {
+    requests_per_second: f64,
+    p50: Duration,
+    p99: Duration,
+}
+
+fn free_port() -> Result<u16, String> {
+    let l = StdListener::bind("127.0.0.1:0").map_err(|e| format!("bind: {e}"))?;
+    l.local_addr()
+        .map(|a| a.port())
+        .map_err(|e| format!("local_addr: {e}"))
+}
+
+fn pymodbus_available() -> bool {
+    Command::new("python3")
+        .args(["-c", "import pymodbus"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+fn spawn(name: &'static str, mut command: Command, port: u16) -> Result<Server, String> {
+    let child = command
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("cannot start {name}: {e}"))?;
+    Ok(Server {
+        name,
+        child,
+        addr: format!("127.0.0.1:{port}"),
+    })
+}
+
+/// A blocking Modbus TCP client doing FC 0x17 cycles with the `modbus::client` codec.
+struct Client {
+    stream: TcpStream,
+    transaction: u16,
+    tx: [u8; MAX_ADU_LEN],
+    rx: [u8; MAX_ADU_LEN],
+}
+
+impl Client {
+    fn connect(addr: &str) -> io::Result<Client> {
+        let stream = TcpStream::connect(addr)?;
+        stream.set_nodelay(true)?;
+        stream.set_read_timeout(Some(Duration::from_secs(2)))?;
+        Ok(Client {
+            stream,
+            transaction: 0,
+            tx: [0; MAX_ADU_LEN],
+            rx: [0; MAX_ADU_LEN],
+        })
+    }
+
+    /// One cycle: write `values` at 0, read `out.len()` registers from 0.
+    fn cycle(&mut self, out: &mut [u16; 4], values: &[u16; 4]) -> Result<(), String> {
+        self.transaction = self.transaction.wrapping_add(1);
+        let n = client::read_write_multiple_registers(
+            &mut self.tx,
+            self.transaction,
+            1,
+            0,
+            4,
+            0,
+            values,
+        )
+        .map_err(|e| e.to_string())?;
+        let io = |e: io::Error| e.to_string();
+        self.stream.write_all(&self.tx[..n]).map_err(io)?;
+        let (head, body) = self.rx.split_at_mut(MBAP_LEN);
+        self.stream.read_exact(head).map_err(io)?;
+        let mbap = Mbap::parse(head).ok_or("short header")?;
+        let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
+        self.stream.read_exact(&mut body[..len]).map_err(io)?;
+        if mbap.transaction_id != self.transaction {
+            return Err("transaction identifier mismatch".into());
+        }
+        match Response::parse(&body[..len]) {
+            Ok(Response::ReadWriteMultipleRegisters(r)) if r.len() == 4 => {
+                r.decode_into(out);
+                Ok(())
+            }
+            other => Err(format!("unexpected response {other:?}")),
+        }
+    }
+}
+
+/// Waits until the server accepts a connection and answers one cycle (a probe connection,
+/// closed again: the CMMO-ST takes one client at a time).
+fn wait_ready(server: &mut Server) -> Result<(), String> {
+    let deadline = Instant::now() + START_TIMEOUT;
+    loop {
+        if let Ok(Some(status)) = server.child.try_wait() {
+            return Err(format!("{} exited at start: {status}", server.name));
+        }
+        if let Ok(mut c) = Client::connect(&server.addr) {
+            if c.cycle(&mut [0; 4], &[0; 4]).is_ok() {
+                drop(c);
+                std::thread::sleep(Duration::from_millis(200));
+                return Ok(());
+            }
+        }
+        if Instant::now() > deadline {
+            return Err(format!(
+                "{} did not answer within {START_TIMEOUT:?}",
+                server.name
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The cycles of one server: every latency and the time they took together.
+struct Samples {
+    latencies: Vec<Duration>,
+    total: Duration,
+}
+
+impl Samples {
+    fn new(count: usize) -> Samples {
+        Samples {
+            latencies: Vec::with_capacity(count),
+            total: Duration::ZERO,
+        }
+    }
+
+    /// `count` cycles on `c`.
+    fn run(&mut self, c: &mut Client, count: usize) -> Result<(), String> {
+        let mut out = [0u16; 4];
+        // CCON, CPOS, … all 0: a valid FHPP telegram that leaves the CMMO-ST disabled.
+        let values = [0u16; 4];
+        let start = Instant::now();
+        for _ in 0..count {
+            let t = Instant::now();
+            c.cycle(&mut out, &values)?;
+            self.latencies.push(t.elapsed());
+        }
+        self.total += start.elapsed();
+        Ok(())
+    }
+
+    fn result(mut self) -> Measurement {
+        self.latencies.sort_unstable();
+        let at = |q: f64| {
+            let i = ((self.latencies.len() as f64 * q).ceil() as usize).saturating_sub(1);
+            self.latencies.get(i).copied().unwrap_or_default()
+        };
+        Measurement {
+            requests_per_second: self.latencies.len() as f64 / self.total.as_secs_f64(),
+            p50: at(0.50),
+            p99: at(0.99),
+        }
+    }
+}
+
+fn run(count: usize, rounds: usize) -> Result<(), String> {
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let script = repo.join("tests/bench/pymodbus_server.py");
+
+    let port = free_port()?;
+    let mut twin = Command::new(env!("CARGO_BIN_EXE_drivetwin"));
+    twin.args(["run", "--device", "cmmo-st", "--modbus"])
+        .arg(format!("127.0.0.1:{port}"));
+    let mut twin = spawn("drivetwin", twin, port)?;
+
+    let port = free_port()?;
+    let mut py = Command::new("python3");
+    py.arg(&script).arg(port.to_string());
+    let mut py = spawn("pymodbus", py, port)?;
+
+    wait_ready(&mut twin)?;
+    wait_ready(&mut py)?;
+
+    println!(
+        "Modbus TCP loopback, FC 0x17 read 4 / write 4 registers, one connection per server, \
+         {count} sequential cycles each in {rounds} interleaved rounds"
+    );
+    let connect = |s: &Server| Client::connect(&s.addr).map_err(|e| format!("{}: {e}", s.name));
+    let mut clients = [connect(&twin)?, connect(&py)?];
+    let mut samples = [Samples::new(count), Samples::new(count)];
+    for (c, _) in clients.iter_mut().zip(&samples) {
+        for _ in 0..WARM_UP {
+            c.cycle(&mut [0; 4], &[0; 4])?;
+        }
+    }
+    // Interleaved rounds: a busy machine slows both servers alike.
+    // The requests/s ratio of each round: its median shrugs off a burst of load in one round.
+    let mut round_ratios = Vec::with_capacity(rounds);
+    for round in 0..rounds {
+        let n = count / rounds + usize::from(round < count % rounds);
+        let mut times = [Duration::ZERO; 2];
+        for ((c, s), t) in clients.iter_mut().zip(samples.iter_mut()).zip(&mut times) {
+            let before = s.total;
+            s.run(c, n)?;
+            *t = s.total - before;
+        }
+        round_ratios.push(times[1].as_secs_f64() / times[0].as_secs_f64().max(1e-9));
+    }
+    round_ratios.sort_by(f64::total_cmp);
+    let median_ratio = round_ratios
+        .get(round_ratios.len() / 2)
+        .copied()
+        .unwrap_or_default();
+    let mut results = Vec::new();
+    for (server, s) in [&twin, &py].into_iter().zip(samples) {
+        let m = s.result();
+        println!(
+            "  {:<10} {:>10.0} requests/s   p50 {:>7.1} µs   p99 {:>7.1} µs",
+            server.name,
+            m.requests_per_second,
+            m.p50.as_secs_f64() * 1e6,
+            m.p99.as_secs_f64() * 1e6
+        );
+        results.push(m);
+    }
+    if let [ours, theirs] = results.as_slice() {
+        let ratio = ours.requests_per_second / theirs.requests_per_second;
+        println!(
+            "  drivetwin / pymodbus: {ratio:.1}× the requests/s (median of the rounds \
+             {median_ratio:.1}×), p99 {:.1}× lower (target ≥ 10×: {})",
+            theirs.p99.as_secs_f64() / ours.p99.as_secs_f64().max(1e-9),
+            if ratio >= 10.0 { "met" } else { "NOT met" }
+        );
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    // `cargo bench` passes `--bench`; `cargo test --benches` passes nothing of ours either.
+    if !pymodbus_available() {
+        println!("modbus_loopback: skipped, python3 with pymodbus is not available");
+        return ExitCode::SUCCESS;
+    }
+    let env = |name: &str, default: usize| {
+        std::env::var(name)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|n| *n > 0)
+            .unwrap_or(default)
+    };
+    let count = env("MODBUS_BENCH_COUNT", DEFAULT_COUNT);
+    let rounds = env("MODBUS_BENCH_ROUNDS", DEFAULT_ROUNDS).min(count);
+    match run(count, rounds) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("modbus_loopback: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
