@@ -198,7 +198,44 @@ pub async fn run_cmmo_st(
     // (SCON 10h, SPOS 04h) from the very first request.
     lock(&device).step(od::Instant::ZERO);
     let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
-    let server = tokio::spawn(serve(listener, map, config));
+    // The Modbus server runs on a thread of its own with a single-threaded runtime: a
+    // request is read, answered and written by the thread the kernel wakes for it, with no
+    // hand-over between runtime threads (the request latency a PLC sees).
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let server = match listener.into_std() {
+        Ok(std_listener) => std::thread::Builder::new()
+            .name("modbus".into())
+            .spawn(move || {
+                let rt = match tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                {
+                    Ok(rt) => rt,
+                    Err(e) => {
+                        tracing::error!(error = %e, "Modbus runtime");
+                        return;
+                    }
+                };
+                rt.block_on(async move {
+                    let listener = match TcpListener::from_std(std_listener) {
+                        Ok(l) => l,
+                        Err(e) => {
+                            tracing::error!(error = %e, "Modbus listener");
+                            return;
+                        }
+                    };
+                    tokio::select! {
+                        () = serve(listener, map, config) => {}
+                        _ = stop_rx => {}
+                    }
+                });
+            })
+            .ok(),
+        Err(e) => {
+            tracing::error!(error = %e, "Modbus listener");
+            None
+        }
+    };
     let origin = tokio::time::Instant::now();
     let mut tick = tokio::time::interval(Duration::from_millis(1));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
@@ -212,8 +249,10 @@ pub async fn run_cmmo_st(
             }
         }
     }
-    server.abort();
-    let _ = server.await;
+    let _ = stop_tx.send(());
+    if let Some(t) = server {
+        let _ = tokio::task::spawn_blocking(move || t.join()).await;
+    }
 }
 
 #[cfg(test)]
