@@ -100,7 +100,7 @@ impl Client {
     fn connect(addr: &str) -> io::Result<Client> {
         let stream = TcpStream::connect(addr)?;
         stream.set_nodelay(true)?;
-        stream.set_read_timeout(Some(Duration::from_secs(2)))?;
+        stream.set_nonblocking(true)?;
         Ok(Client {
             stream,
             transaction: 0,
@@ -131,10 +131,10 @@ impl Client {
         self.stream.write_all(&batch).map_err(io)?;
         for k in 0..depth {
             let (head, body) = self.rx.split_at_mut(MBAP_LEN);
-            self.stream.read_exact(head).map_err(io)?;
+            spin_read_exact(&mut self.stream, head).map_err(io)?;
             let mbap = Mbap::parse(head).ok_or("short header")?;
             let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
-            self.stream.read_exact(&mut body[..len]).map_err(io)?;
+            spin_read_exact(&mut self.stream, &mut body[..len]).map_err(io)?;
             if mbap.transaction_id != first.wrapping_add(k as u16) {
                 return Err("transaction identifier out of order".into());
             }
@@ -162,10 +162,10 @@ impl Client {
         let io = |e: io::Error| e.to_string();
         self.stream.write_all(&self.tx[..n]).map_err(io)?;
         let (head, body) = self.rx.split_at_mut(MBAP_LEN);
-        self.stream.read_exact(head).map_err(io)?;
+        spin_read_exact(&mut self.stream, head).map_err(io)?;
         let mbap = Mbap::parse(head).ok_or("short header")?;
         let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
-        self.stream.read_exact(&mut body[..len]).map_err(io)?;
+        spin_read_exact(&mut self.stream, &mut body[..len]).map_err(io)?;
         if mbap.transaction_id != self.transaction {
             return Err("transaction identifier mismatch".into());
         }
@@ -177,6 +177,28 @@ impl Client {
             other => Err(format!("unexpected response {other:?}")),
         }
     }
+}
+
+/// `read_exact` on a non-blocking socket, spinning while nothing has come: the client never
+/// sleeps, so its own wake-up is not part of the round trip and the figures are the server's
+/// (as an EtherCAT master like SOEM spins while it waits for its frame). Gives up after 2 s.
+fn spin_read_exact(stream: &mut TcpStream, mut buf: &mut [u8]) -> io::Result<()> {
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while !buf.is_empty() {
+        match stream.read(buf) {
+            Ok(0) => return Err(io::ErrorKind::UnexpectedEof.into()),
+            Ok(n) => buf = &mut buf[n..],
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                if Instant::now() > deadline {
+                    return Err(io::ErrorKind::TimedOut.into());
+                }
+                std::hint::spin_loop();
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 /// Waits until the server accepts a connection and answers one cycle (a probe connection,
@@ -255,6 +277,10 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
     let mut twin = Command::new(env!("CARGO_BIN_EXE_drivetwin"));
     twin.args(["run", "--device", "cmmo-st", "--modbus"])
         .arg(format!("127.0.0.1:{port}"));
+    // MODBUS_BENCH_TWIN_ARGS: more `drivetwin run` options, e.g. "--busy-poll".
+    if let Ok(extra) = std::env::var("MODBUS_BENCH_TWIN_ARGS") {
+        twin.args(extra.split_whitespace());
+    }
     let mut twin = spawn("drivetwin", twin, port)?;
 
     let port = free_port()?;
@@ -320,9 +346,6 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
     println!("pipelined, {PIPELINE_DEPTH} requests in flight, {count} cycles each:");
     let mut rates = Vec::new();
     for (server, c) in [&twin, &py].into_iter().zip(clients.iter_mut()) {
-        c.stream
-            .set_read_timeout(Some(Duration::from_millis(500)))
-            .map_err(|e| e.to_string())?;
         let bursts = (count / PIPELINE_DEPTH).max(1);
         let start = Instant::now();
         let mut failed = None;

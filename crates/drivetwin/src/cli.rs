@@ -176,9 +176,10 @@ pub struct RunArgs {
     /// needs root), as a drive's firmware runs its fieldbus task; refused, it warns.
     #[arg(long, value_name = "PRIO", requires = "ethercat", value_parser = clap::value_parser!(u8).range(1..=99))]
     pub rt_priority: Option<u8>,
-    /// With --ethercat: the frame thread spins on the socket instead of sleeping, as an ESC
-    /// is always awake (lowest round trip; keeps one CPU busy).
-    #[arg(long, requires = "ethercat")]
+    /// The EtherCAT frame thread (--ethercat) or the Modbus TCP connection (CMMO-ST) spins
+    /// on its socket instead of sleeping, as the device's fieldbus hardware is always awake:
+    /// the lowest round trip, at the price of one CPU kept busy.
+    #[arg(long)]
     pub busy_poll: bool,
 }
 

@@ -70,6 +70,9 @@ pub struct ModbusConfig {
     pub write_timeout: Duration,
     /// How long a new client waits for a connection that is closing before it is refused.
     pub handover_grace: Duration,
+    /// Spin on the connection instead of sleeping until the kernel wakes the server: the
+    /// lowest latency (a controller's fieldbus task never sleeps), at the price of one CPU.
+    pub busy_poll: bool,
 }
 
 impl Default for ModbusConfig {
@@ -78,6 +81,7 @@ impl Default for ModbusConfig {
             watchdog_ms: 0,
             write_timeout: Duration::from_secs(5),
             handover_grace: Duration::from_millis(50),
+            busy_poll: false,
         }
     }
 }
@@ -206,16 +210,22 @@ where
         let deadline = watchdog
             .deadline_ms()
             .map(|ms| origin + Duration::from_millis(ms));
-        let n = tokio::select! {
-            read = stream.read(&mut rbuf) => match read {
-                Ok(0) => return CloseReason::Peer,
-                Ok(n) => n,
-                Err(e) => {
-                    tracing::debug!(error = %e, "read failed");
-                    return CloseReason::Peer;
-                }
-            },
-            () = sleep_until(deadline) => {
+        let read = if config.busy_poll {
+            spin_read(&stream, &mut rbuf, deadline).await
+        } else {
+            tokio::select! {
+                read = stream.read(&mut rbuf) => Some(read),
+                () = sleep_until(deadline) => None,
+            }
+        };
+        let n = match read {
+            Some(Ok(0)) => return CloseReason::Peer,
+            Some(Ok(n)) => n,
+            Some(Err(e)) => {
+                tracing::debug!(error = %e, "read failed");
+                return CloseReason::Peer;
+            }
+            None => {
                 if watchdog.poll(now_ms()) {
                     return CloseReason::WatchdogExpired;
                 }
@@ -264,6 +274,27 @@ where
         }
         if let Some(reason) = failure {
             return reason;
+        }
+    }
+}
+
+/// Reads by trying again and again (yielding to the runtime's other tasks in between) until
+/// data comes, the connection fails, or `deadline` passes (`None`).
+async fn spin_read(
+    stream: &TcpStream,
+    buf: &mut [u8],
+    deadline: Option<Instant>,
+) -> Option<std::io::Result<usize>> {
+    loop {
+        match stream.try_read(buf) {
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                if deadline.is_some_and(|d| Instant::now() >= d) {
+                    return None;
+                }
+                std::hint::spin_loop();
+                tokio::task::yield_now().await;
+            }
+            r => return Some(r),
         }
     }
 }

@@ -349,7 +349,10 @@ async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
     let local = listener.local_addr().map_err(io("Modbus address"))?;
     out!("modbus server on {local}");
     out!("running; Ctrl-C stops");
-    let config = ModbusConfig::with_watchdog_ms(args.modbus_timeout_ms);
+    let config = ModbusConfig {
+        busy_poll: args.busy_poll,
+        ..ModbusConfig::with_watchdog_ms(args.modbus_timeout_ms)
+    };
     fhpp_modbus::run_cmmo_st(listener, dev, config, shutdown_signal()).await;
     out!("stopped");
     Ok(())
