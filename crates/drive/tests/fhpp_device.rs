@@ -1,63 +1,22 @@
 //! The CMMO-ST device (`drive::fhpp::device`): FHPP telegrams in, the stepper plant moving,
 //! status telegrams out — the manual's reference values and handshakes end to end.
 
-use drive::fhpp::device::{diag, FhppDevice, FhppSettings};
+mod fhpp_bench;
+use drive::fhpp::device::{diag, FhppSettings};
 use drive::fhpp::{Ccon, Cdir, Cpos, InputData, OutputData, Scon, Sdir, Spos, State};
 use drive::stepper::StepperMode;
-use od::{Instant, ObjectAccess, ObjectDictionary};
+use fhpp_bench::Bench;
+use od::ObjectAccess;
 
 const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
 const DIRECT: Ccon = Ccon(0x43); // OPM1 + STOP + ENABLE
 
-struct Bench {
-    dev: FhppDevice<Vec<u8>>,
-    t_ms: u64,
-}
-
 impl Bench {
     fn new(mode: StepperMode) -> Self {
-        let desc = &devices::CMMO_ST;
-        let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
-        let settings = FhppSettings {
+        Bench::with_settings(FhppSettings {
             mode,
             ..FhppSettings::default()
-        };
-        let mut b = Bench {
-            dev: FhppDevice::new(od, settings),
-            t_ms: 0,
-        };
-        b.run(1);
-        b
-    }
-
-    /// `ms` FHPP cycles.
-    fn run(&mut self, ms: u64) {
-        for _ in 0..ms {
-            self.dev.step(Instant::from_millis(self.t_ms));
-            self.t_ms += 1;
-        }
-    }
-
-    fn send(&mut self, out: OutputData) -> InputData {
-        self.dev.set_outputs(&out.to_bytes()).unwrap();
-        self.run(2);
-        self.input()
-    }
-
-    fn input(&self) -> InputData {
-        InputData::from_bytes(self.dev.inputs())
-    }
-
-    /// Runs until `pred` holds (at most `max_ms`); returns the input telegram.
-    fn until(&mut self, max_ms: u64, pred: impl Fn(&InputData) -> bool) -> InputData {
-        for _ in 0..max_ms {
-            let i = self.input();
-            if pred(&i) {
-                return i;
-            }
-            self.run(1);
-        }
-        panic!("condition not met in {max_ms} ms: {:?}", self.input());
+        })
     }
 
     fn enable_record(&mut self) -> InputData {

@@ -4,15 +4,17 @@
 //! defaults), the
 //! SPOS.ACK / MC / REF handshake and the homing diagnostics 22h, 23h, 24h, 2Eh, 3Ah, 3Bh.
 
+mod fhpp_bench;
 use core::f64::consts::TAU;
 use core::time::Duration;
+use fhpp_bench::Bench;
 
 use drive::fhpp::axis_mechanics::AxisMechanics;
-use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::fhpp::device::FhppSettings;
 use drive::fhpp::diagnostics::Class;
 use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Scon, Spos};
 use drive::stepper::StepperMode;
-use od::{Instant, ObjectAccess, ObjectDictionary};
+use od::ObjectAccess;
 
 const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
 const REV: f64 = 36_000.0; // SINC per motor revolution (PNU 1003 default)
@@ -25,60 +27,20 @@ fn axis() -> AxisMechanics {
     }
 }
 
-struct Bench {
-    dev: FhppDevice<Vec<u8>>,
-    t_ms: u64,
-}
-
 impl Bench {
     fn with(mode: StepperMode, mechanics: AxisMechanics) -> Self {
-        let desc = &devices::CMMO_ST;
-        let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
-        let settings = FhppSettings {
+        let mut b = Bench::with_settings(FhppSettings {
             mode,
             mechanics,
             homing_timeout: Duration::from_secs(6),
             ..FhppSettings::default()
-        };
-        let mut b = Bench {
-            dev: FhppDevice::new(od, settings),
-            t_ms: 0,
-        };
-        b.run(1);
+        });
         b.send(OutputData::record(ENABLED, Cpos::HALT, 0));
         b
     }
 
     fn new(mode: StepperMode) -> Self {
         Self::with(mode, axis())
-    }
-
-    fn run(&mut self, ms: u64) {
-        for _ in 0..ms {
-            self.dev.step(Instant::from_millis(self.t_ms));
-            self.t_ms += 1;
-        }
-    }
-
-    fn send(&mut self, out: OutputData) -> InputData {
-        self.dev.set_outputs(&out.to_bytes()).unwrap();
-        self.run(2);
-        self.input()
-    }
-
-    fn input(&self) -> InputData {
-        InputData::from_bytes(self.dev.inputs())
-    }
-
-    fn until(&mut self, max_ms: u64, pred: impl Fn(&InputData) -> bool) -> InputData {
-        for _ in 0..max_ms {
-            let i = self.input();
-            if pred(&i) {
-                return i;
-            }
-            self.run(1);
-        }
-        panic!("condition not met in {max_ms} ms: {:?}", self.input());
     }
 
     fn write(&mut self, pnu: u16, data: &[u8]) {
