@@ -354,9 +354,16 @@ async fn session(master_if: &str, product_code: u32) {
     // transport plus the phase between the master's cycle and the twin's tick); a cycle the
     // scheduler holds up (tens of ms on a loaded machine) stops the axis, which then lags
     // while it accelerates again, but stays inside the drive's following-error window.
+    let at = |q: f64| ramp_lags[((ramp_lags.len() - 1) as f64 * q) as usize];
     assert!(
         (0..3 * RAMP_STEP).contains(&median_lag),
-        "median lag {median_lag} on the ramp"
+        "median lag {median_lag} on the ramp (p1 {}, p10 {}, p90 {}, p99 {}; {} cycles of {:?})",
+        at(0.01),
+        at(0.10),
+        at(0.90),
+        at(0.99),
+        cycles,
+        took
     );
     assert!(
         max_lag < FOLLOWING_ERROR_WINDOW,
