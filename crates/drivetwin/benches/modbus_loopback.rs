@@ -201,6 +201,25 @@ fn spin_read_exact(stream: &mut TcpStream, mut buf: &mut [u8]) -> io::Result<()>
     Ok(())
 }
 
+/// A connection once the server takes one (the CMMO-ST refuses a client while it still
+/// holds the previous connection, closed only a moment ago).
+fn connect_when_free(server: &Server) -> Result<Client, String> {
+    let deadline = Instant::now() + Duration::from_secs(2);
+    loop {
+        let attempt = Client::connect(&server.addr)
+            .map_err(|e| e.to_string())
+            .and_then(|mut c| {
+                c.cycle(&mut [0; 4], &[0; 4])?;
+                Ok(c)
+            });
+        match attempt {
+            Ok(c) => return Ok(c),
+            Err(e) if Instant::now() > deadline => return Err(format!("{}: {e}", server.name)),
+            Err(_) => std::thread::sleep(Duration::from_millis(5)),
+        }
+    }
+}
+
 /// Waits until the server accepts a connection and answers one cycle (a probe connection,
 /// closed again: the CMMO-ST takes one client at a time).
 fn wait_ready(server: &mut Server) -> Result<(), String> {
@@ -295,23 +314,26 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
         "Modbus TCP loopback, FC 0x17 read 4 / write 4 registers, one connection per server, \
          {count} sequential cycles each in {rounds} interleaved rounds"
     );
-    let connect = |s: &Server| Client::connect(&s.addr).map_err(|e| format!("{}: {e}", s.name));
-    let mut clients = [connect(&twin)?, connect(&py)?];
     let mut samples = [Samples::new(count), Samples::new(count)];
-    for (c, _) in clients.iter_mut().zip(&samples) {
-        for _ in 0..WARM_UP {
-            c.cycle(&mut [0; 4], &[0; 4])?;
-        }
-    }
-    // Interleaved rounds: a busy machine slows both servers alike.
+    // Interleaved rounds: a busy machine slows both servers alike. Each round opens its own
+    // connection (after the CMMO-ST has seen the last one close) and warms it up untimed, so
+    // that a server waiting for its next client is idle while the other one is measured.
     // The requests/s ratio of each round: its median shrugs off a burst of load in one round.
     let mut round_ratios = Vec::with_capacity(rounds);
     for round in 0..rounds {
         let n = count / rounds + usize::from(round < count % rounds);
         let mut times = [Duration::ZERO; 2];
-        for ((c, s), t) in clients.iter_mut().zip(samples.iter_mut()).zip(&mut times) {
+        for ((server, s), t) in [&twin, &py]
+            .into_iter()
+            .zip(samples.iter_mut())
+            .zip(&mut times)
+        {
+            let mut c = connect_when_free(server)?;
+            for _ in 0..WARM_UP {
+                c.cycle(&mut [0; 4], &[0; 4])?;
+            }
             let before = s.total;
-            s.run(c, n)?;
+            s.run(&mut c, n)?;
             *t = s.total - before;
         }
         round_ratios.push(times[1].as_secs_f64() / times[0].as_secs_f64().max(1e-9));
@@ -345,7 +367,9 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
     // request of a burst (pymodbus 3.16 answers the first one of a read only) gets no figure.
     println!("pipelined, {PIPELINE_DEPTH} requests in flight, {count} cycles each:");
     let mut rates = Vec::new();
-    for (server, c) in [&twin, &py].into_iter().zip(clients.iter_mut()) {
+    for server in [&twin, &py] {
+        let mut c = connect_when_free(server)?;
+        let c = &mut c;
         let bursts = (count / PIPELINE_DEPTH).max(1);
         let start = Instant::now();
         let mut failed = None;
