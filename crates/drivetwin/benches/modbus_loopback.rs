@@ -16,6 +16,11 @@
 //! answers, as Modbus TCP allows with transaction identifiers: the server's own cost per
 //! request).
 //!
+//! `MODBUS_BENCH_CPU=N` runs the client and both servers on CPU N alone (`taskset`): a round
+//! trip then costs two context switches on one CPU instead of two wake-ups across CPUs, which
+//! on a small VM are most of a loopback round trip. The client then blocks instead of
+//! spinning (a spinning client would take the CPU from the server).
+//!
 //! `cargo bench -p drivetwin --bench modbus_loopback`; `MODBUS_BENCH_COUNT` sets the cycles per
 //! server (default 10000). Without python3 or pymodbus it says so and exits 0.
 
@@ -65,6 +70,37 @@ fn free_port() -> Result<u16, String> {
         .map_err(|e| format!("local_addr: {e}"))
 }
 
+/// `MODBUS_BENCH_CPU`: the one CPU for the client and both servers.
+fn pinned_cpu() -> Option<usize> {
+    std::env::var("MODBUS_BENCH_CPU").ok()?.parse().ok()
+}
+
+/// `program` as a command, under `taskset -c CPU` when the run is pinned.
+fn command(program: &str) -> Command {
+    match pinned_cpu() {
+        Some(cpu) => {
+            let mut c = Command::new("taskset");
+            c.args(["-c", &cpu.to_string(), program]);
+            c
+        }
+        None => Command::new(program),
+    }
+}
+
+/// Pins the calling thread (the client) to `cpu`.
+fn pin_self(cpu: usize) -> Result<(), String> {
+    // SAFETY: `set` is a zeroed cpu_set_t that CPU_SET fills in; pid 0 is this thread.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc != 0 {
+        return Err(format!("CPU {cpu}: {}", io::Error::last_os_error()));
+    }
+    Ok(())
+}
+
 fn pymodbus_available() -> bool {
     Command::new("python3")
         .args(["-c", "import pymodbus"])
@@ -100,7 +136,11 @@ impl Client {
     fn connect(addr: &str) -> io::Result<Client> {
         let stream = TcpStream::connect(addr)?;
         stream.set_nodelay(true)?;
-        stream.set_nonblocking(true)?;
+        if pinned_cpu().is_some() {
+            stream.set_read_timeout(Some(Duration::from_secs(2)))?;
+        } else {
+            stream.set_nonblocking(true)?;
+        }
         Ok(Client {
             stream,
             transaction: 0,
@@ -293,7 +333,7 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
     let script = repo.join("tests/bench/pymodbus_server.py");
 
     let port = free_port()?;
-    let mut twin = Command::new(env!("CARGO_BIN_EXE_drivetwin"));
+    let mut twin = command(env!("CARGO_BIN_EXE_drivetwin"));
     twin.args(["run", "--device", "cmmo-st", "--modbus"])
         .arg(format!("127.0.0.1:{port}"));
     // MODBUS_BENCH_TWIN_ARGS: more `drivetwin run` options, e.g. "--busy-poll".
@@ -303,7 +343,7 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
     let mut twin = spawn("drivetwin", twin, port)?;
 
     let port = free_port()?;
-    let mut py = Command::new("python3");
+    let mut py = command("python3");
     py.arg(&script).arg(port.to_string());
     let mut py = spawn("pymodbus", py, port)?;
 
@@ -402,6 +442,13 @@ fn main() -> ExitCode {
     if !pymodbus_available() {
         println!("modbus_loopback: skipped, python3 with pymodbus is not available");
         return ExitCode::SUCCESS;
+    }
+    if let Some(cpu) = pinned_cpu() {
+        if let Err(e) = pin_self(cpu) {
+            eprintln!("modbus_loopback: MODBUS_BENCH_CPU: {e}");
+            return ExitCode::FAILURE;
+        }
+        println!("client and both servers on CPU {cpu}");
     }
     let env = |name: &str, default: usize| {
         std::env::var(name)

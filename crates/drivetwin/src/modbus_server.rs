@@ -261,7 +261,22 @@ where
             }
         }
         if !wbuf.is_empty() {
-            let written = tokio::time::timeout(config.write_timeout, stream.write_all(&wbuf)).await;
+            // Fast path: the socket buffer takes the answer at once (no timer to arm); the
+            // timed write only for what it did not take.
+            let done = match stream.try_write(&wbuf) {
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => 0,
+                Err(e) => {
+                    tracing::debug!(error = %e, "write failed");
+                    return CloseReason::Peer;
+                }
+            };
+            let rest = wbuf.get(done..).unwrap_or(&[]);
+            let written = if rest.is_empty() {
+                Ok(Ok(()))
+            } else {
+                tokio::time::timeout(config.write_timeout, stream.write_all(rest)).await
+            };
             wbuf.clear();
             match written {
                 Ok(Ok(())) => {}
