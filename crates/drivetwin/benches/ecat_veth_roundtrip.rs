@@ -24,7 +24,7 @@ mod ecat_veth;
 
 use std::io;
 use std::mem;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::os::fd::{AsRawFd, OwnedFd};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -57,7 +57,6 @@ const TARGET_P99: Duration = Duration::from_micros(100);
 const FIFO_PRIORITY: libc::c_int = 49;
 /// `linux/if_packet.h`.
 const PACKET_OUTGOING: u8 = 4;
-const PACKET_IGNORE_OUTGOING: libc::c_int = 23;
 
 fn main() {
     let smoke = !std::env::args().any(|a| a == "--bench");
@@ -119,55 +118,8 @@ struct Reply {
 
 impl Master {
     fn open(interface: &str) -> io::Result<Master> {
-        let name = std::ffi::CString::new(interface)
-            .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "NUL in interface name"))?;
-        // SAFETY: `name` is a valid NUL-terminated string for the duration of the call.
-        let ifindex = unsafe { libc::if_nametoindex(name.as_ptr()) };
-        if ifindex == 0 {
-            return Err(io::Error::last_os_error());
-        }
-        let protocol = ETHERTYPE_ETHERCAT.to_be();
-        // SAFETY: plain socket(2) call; the result is checked before use.
-        let raw = unsafe {
-            libc::socket(
-                libc::AF_PACKET,
-                libc::SOCK_RAW | libc::SOCK_CLOEXEC,
-                libc::c_int::from(protocol),
-            )
-        };
-        if raw < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
-        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
-        // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-        let mut addr: libc::sockaddr_ll = unsafe { mem::zeroed() };
-        addr.sll_family = libc::AF_PACKET as libc::c_ushort;
-        addr.sll_protocol = protocol;
-        addr.sll_ifindex = ifindex as libc::c_int;
-        // SAFETY: `addr` is an initialised `sockaddr_ll` and the length matches it.
-        let rc = unsafe {
-            libc::bind(
-                fd.as_raw_fd(),
-                (&addr as *const libc::sockaddr_ll).cast::<libc::sockaddr>(),
-                mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t,
-            )
-        };
-        if rc < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        let one: libc::c_int = 1;
-        // SAFETY: `one` outlives the call and the length matches. Older kernels refuse the
-        // option; `recv_reply` filters outgoing copies by packet type then.
-        let _ = unsafe {
-            libc::setsockopt(
-                fd.as_raw_fd(),
-                libc::SOL_PACKET,
-                PACKET_IGNORE_OUTGOING,
-                (&one as *const libc::c_int).cast(),
-                mem::size_of::<libc::c_int>() as libc::socklen_t,
-            )
-        };
+        // The twin's own socket set-up (non-blocking: the master spins on `recvfrom`).
+        let fd = drivetwin::ethercat_link::open_raw(interface)?;
         Ok(Master {
             fd,
             tx: [0; 128],

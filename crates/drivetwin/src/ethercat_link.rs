@@ -113,8 +113,9 @@ impl EthercatSocket {
 }
 
 /// A non-blocking `AF_PACKET` socket for EtherType 0x88A4 bound to `interface`, with the
-/// outgoing copies switched off where the kernel can.
-fn open_raw(interface: &str) -> io::Result<OwnedFd> {
+/// outgoing copies switched off where the kernel can (also for tools that drive the wire
+/// themselves, such as the round-trip benchmark's master).
+pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
     let ifindex = crate::net_interface::index(interface)?;
     let protocol = ETHERTYPE_ETHERCAT.to_be();
     // SAFETY: plain socket(2) call; the result is checked before use.
