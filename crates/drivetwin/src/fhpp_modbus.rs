@@ -198,61 +198,67 @@ pub async fn run_cmmo_st(
     // (SCON 10h, SPOS 04h) from the very first request.
     lock(&device).step(od::Instant::ZERO);
     let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
-    // The Modbus server runs on a thread of its own with a single-threaded runtime: a
-    // request is read, answered and written by the thread the kernel wakes for it, with no
-    // hand-over between runtime threads (the request latency a PLC sees).
+    // The device and its Modbus server run on one thread of their own with a single-threaded
+    // runtime: a request is read, answered and written by the thread the kernel wakes for
+    // it, and the FHPP cycle steps on the same thread, so no lock is ever waited for and no
+    // work is handed between threads (the request latency a PLC sees).
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let server = match listener.into_std() {
-        Ok(std_listener) => std::thread::Builder::new()
-            .name("modbus".into())
-            .spawn(move || {
-                let rt = match tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                {
-                    Ok(rt) => rt,
+    let std_listener = match listener.into_std() {
+        Ok(l) => l,
+        Err(e) => {
+            tracing::error!(error = %e, "Modbus listener");
+            return;
+        }
+    };
+    let runner = std::thread::Builder::new()
+        .name("cmmo-st".into())
+        .spawn(move || {
+            let rt = match tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+            {
+                Ok(rt) => rt,
+                Err(e) => {
+                    tracing::error!(error = %e, "Modbus runtime");
+                    return;
+                }
+            };
+            rt.block_on(async move {
+                let listener = match TcpListener::from_std(std_listener) {
+                    Ok(l) => l,
                     Err(e) => {
-                        tracing::error!(error = %e, "Modbus runtime");
+                        tracing::error!(error = %e, "Modbus listener");
                         return;
                     }
                 };
-                rt.block_on(async move {
-                    let listener = match TcpListener::from_std(std_listener) {
-                        Ok(l) => l,
-                        Err(e) => {
-                            tracing::error!(error = %e, "Modbus listener");
-                            return;
-                        }
-                    };
+                let server = serve(listener, map, config);
+                tokio::pin!(server);
+                let mut stop_rx = stop_rx;
+                let origin = tokio::time::Instant::now();
+                let mut tick = tokio::time::interval(Duration::from_millis(1));
+                tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+                loop {
                     tokio::select! {
-                        () = serve(listener, map, config) => {}
-                        _ = stop_rx => {}
+                        () = &mut server => break,
+                        _ = &mut stop_rx => break,
+                        _ = tick.tick() => {
+                            let ns = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
+                            lock(&device).step(od::Instant::from_nanos(ns));
+                        }
                     }
-                });
-            })
-            .ok(),
+                }
+            });
+        });
+    let runner = match runner {
+        Ok(t) => t,
         Err(e) => {
-            tracing::error!(error = %e, "Modbus listener");
-            None
+            tracing::error!(error = %e, "CMMO-ST thread");
+            return;
         }
     };
-    let origin = tokio::time::Instant::now();
-    let mut tick = tokio::time::interval(Duration::from_millis(1));
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    tokio::pin!(shutdown);
-    loop {
-        tokio::select! {
-            () = &mut shutdown => break,
-            _ = tick.tick() => {
-                let ns = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
-                lock(&device).step(od::Instant::from_nanos(ns));
-            }
-        }
-    }
+    shutdown.await;
     let _ = stop_tx.send(());
-    if let Some(t) = server {
-        let _ = tokio::task::spawn_blocking(move || t.join()).await;
-    }
+    let _ = tokio::task::spawn_blocking(move || runner.join()).await;
 }
 
 #[cfg(test)]
