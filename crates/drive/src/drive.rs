@@ -357,6 +357,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.ip_sync_change(change);
     }
 
+    /// The interpolation period in force (60C2h as read at power-on or the last reset): the
+    /// cycle a SYNC or SYNC0 grid must keep.
+    pub fn interpolation_period(&self) -> Duration {
+        self.ip.period()
+    }
+
     /// Interpolated position: synchronised to the SYNC grid (6061h may show 7).
     pub fn ip_synchronised(&self) -> bool {
         self.ip.is_synchronised()

@@ -117,9 +117,6 @@ pub struct SlaveDevice {
     layout: Option<Layout>,
     inputs: Vec<u8>,
     next_step: Option<Instant>,
-    /// The interpolator cycle tr (60C2h) in ns as read at power-on (CMMP-AS §7.4.1: a change
-    /// takes effect only after save and reset).
-    ipo_cycle_ns: Option<u64>,
     /// DC synchronisation of the outputs and inputs.
     sync: SyncMonitor,
     /// The output buffer waiting for the next SYNC0 event.
@@ -143,7 +140,6 @@ pub struct SlaveDevice {
 impl SlaveDevice {
     pub fn new(model: Model, sii: SiiConfig<'static>, coe: CoeConfig) -> Self {
         let desc = model.od().description();
-        let ipo_cycle_ns = interpolation_period_ns(&model);
         SlaveDevice {
             model,
             coe: Box::new(CoeServer::new(desc, coe)),
@@ -151,7 +147,6 @@ impl SlaveDevice {
             layout: None,
             inputs: Vec::new(),
             next_step: None,
-            ipo_cycle_ns,
             sync: SyncMonitor::new(),
             pending: Vec::new(),
             sync_config: None,
@@ -393,8 +388,14 @@ impl SlaveDevice {
 
     /// SYNC0 on and its cycle differs from the interpolator cycle: 0x0036.
     fn check_sync0(&self, esc: &Esc<'_>) -> Result<(), AlStatusCode> {
-        match (esc.sync0_cycle_ns(), self.ipo_cycle_ns) {
-            (Some(cycle), Some(ipo)) if u64::from(cycle) != ipo => {
+        // The interpolator cycle tr is the drive's 60C2h as it took it at power-on (CMMP-AS
+        // §7.4.1: a change takes effect only after save and reset).
+        let ipo = self
+            .model
+            .drive()
+            .map(|d| d.interpolation_period().as_nanos());
+        match (esc.sync0_cycle_ns(), ipo) {
+            (Some(cycle), Some(ipo)) if u128::from(cycle) != ipo => {
                 Err(AlStatusCode::DC_SYNC0_CYCLE_TIME)
             }
             _ => Ok(()),
@@ -473,15 +474,6 @@ impl AlHook for SlaveDevice {
             AlState::Init | AlState::PreOp | AlState::Bootstrap => self.layout = None,
         }
     }
-}
-
-/// The interpolator cycle 60C2h (units × 10^index s) in ns, if the personality has it.
-fn interpolation_period_ns(dev: &dyn ObjectAccess) -> Option<u64> {
-    let units = u64::from(dev.read_u8(0x60C2, 1)?);
-    let index = dev.read_u8(0x60C2, 2)? as i8;
-    // 10^index s in ns: index -3 → 1 ms, -4 → 0.1 ms (the two the CMMP-AS allows).
-    let exp = u32::try_from(9 + i32::from(index)).ok()?;
-    units.checked_mul(10u64.checked_pow(exp)?)
 }
 
 fn read_unsigned(dev: &dyn ObjectAccess, index: u16, sub: u8) -> Option<u64> {

@@ -63,6 +63,11 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(c) = &args.socketcan {
         file.bus.socketcan = Some(c.clone());
     }
+    if args.busy_poll && args.ethercat.is_none() {
+        return Err(CommandError::Usage(
+            "--busy-poll applies to --ethercat and to the CMMO-ST's Modbus server".into(),
+        ));
+    }
     if let Some(ifname) = &args.ethercat {
         return run_ethercat(
             &file,
