@@ -2,36 +2,15 @@
 //! status telegrams out — the manual's reference values and handshakes end to end.
 
 mod fhpp_bench;
-use drive::fhpp::device::{diag, FhppSettings};
-use drive::fhpp::{Ccon, Cdir, Cpos, InputData, OutputData, Scon, Sdir, Spos, State};
+use drive::fhpp::device::diag;
+use drive::fhpp::{Ccon, Cdir, Cpos, OutputData, Scon, Sdir, Spos, State};
 use drive::stepper::StepperMode;
-use fhpp_bench::Bench;
+use fhpp_bench::{Bench, ENABLED};
 use od::ObjectAccess;
 
-const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
 const DIRECT: Ccon = Ccon(0x43); // OPM1 + STOP + ENABLE
 
 impl Bench {
-    fn new(mode: StepperMode) -> Self {
-        Bench::with_settings(FhppSettings {
-            mode,
-            ..FhppSettings::default()
-        })
-    }
-
-    fn enable_record(&mut self) -> InputData {
-        self.send(OutputData::record(ENABLED, Cpos::HALT, 0))
-    }
-
-    /// Homing with method −35 (current position) through CPOS.HOM.
-    fn home(&mut self) {
-        let i = self.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0));
-        assert!(i.spos.contains(Spos::ACK), "{i:?}");
-        let i = self.until(100, |i| i.spos.contains(Spos::MC | Spos::REF));
-        assert!(i.spos.contains(Spos::REF));
-        self.send(OutputData::record(ENABLED, Cpos::HALT, 0));
-    }
-
     fn pnu_write_i32(&mut self, pnu: u16, sub: u8, v: i32) {
         self.dev
             .write(0x2000 + pnu, sub, &v.to_le_bytes())
@@ -41,7 +20,7 @@ impl Bench {
 
 #[test]
 fn power_on_and_enable_give_the_manuals_status_bytes() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     let i = b.send(OutputData::record(Ccon(0), Cpos(0), 0));
     assert_eq!((i.scon.0, i.spos.0), (0x10, 0x04), "power-on SCON/SPOS");
     let i = b.enable_record();
@@ -59,9 +38,9 @@ fn power_on_and_enable_give_the_manuals_status_bytes() {
 
 #[test]
 fn direct_absolute_move_ends_with_mc_in_the_window() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     // 1 revolution = 36000 SINC (0.01° units, the dictionary's defaults), 50 % of PNU 540.
     let target = 36_000 + 9_000;
     let start = OutputData::direct(DIRECT, Cpos::HALT | Cpos::START, Cdir(0), 50, target);
@@ -92,7 +71,7 @@ fn direct_absolute_move_ends_with_mc_in_the_window() {
 
 #[test]
 fn a_move_before_homing_is_refused_with_28h() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
     b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, 0));
     b.send(OutputData::direct(
@@ -109,11 +88,11 @@ fn a_move_before_homing_is_refused_with_28h() {
 
 #[test]
 fn record_move_uses_the_record_list() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     // Record 3: absolute, position mode, −18000 SINC (half a revolution back).
     b.pnu_write_i32(404, 3, -18_000);
     b.enable_record();
-    b.home();
+    b.home_here();
     b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
     assert_eq!(b.input().record_number(), 0, "previous record until start");
     let i = b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 3));
@@ -126,7 +105,7 @@ fn record_move_uses_the_record_list() {
 
 #[test]
 fn jog_moves_while_held_and_stops_on_release() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
     let i = b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::JOGP, 0));
     assert!(i.spos.contains(Spos::ACK) && !i.spos.contains(Spos::MC));
@@ -151,9 +130,9 @@ fn jog_moves_while_held_and_stops_on_release() {
 
 #[test]
 fn halt_stops_a_position_task_and_start_continues_it() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     let target = 360_000; // 10 revolutions
     b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
     b.send(OutputData::direct(
@@ -193,7 +172,7 @@ fn halt_stops_a_position_task_and_start_continues_it() {
 
 #[test]
 fn injected_fault_and_reset() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
     // 47h (class F, reaction E, acknowledge at once).
     b.dev.fault(diag::MODBUS_WITH_CONTROL);
@@ -216,9 +195,9 @@ fn injected_fault_and_reset() {
 
 #[test]
 fn open_loop_blocked_load_loses_steps_and_shows_a_following_error() {
-    let mut b = Bench::new(StepperMode::OpenLoop);
+    let mut b = Bench::with_mode(StepperMode::OpenLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     b.dev.stepper_mut().set_blocked(true);
     let target = 36_000;
     b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
@@ -261,10 +240,10 @@ fn open_loop_blocked_load_loses_steps_and_shows_a_following_error() {
 #[test]
 fn closed_loop_follows_where_open_loop_would_stall() {
     // The same move with a load torque the closed loop can carry: no following error.
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.dev.stepper_mut().set_load_torque(0.2);
     b.enable_record();
-    b.home();
+    b.home_here();
     let target = 18_000;
     b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 30, target));
     b.send(OutputData::direct(
@@ -284,9 +263,9 @@ fn closed_loop_follows_where_open_loop_would_stall() {
 #[test]
 fn step_is_deterministic() {
     let run = || {
-        let mut b = Bench::new(StepperMode::ClosedLoop);
+        let mut b = Bench::with_mode(StepperMode::ClosedLoop);
         b.enable_record();
-        b.home();
+        b.home_here();
         b.send(OutputData::direct(
             DIRECT,
             Cpos::HALT | Cpos::START,
@@ -304,9 +283,9 @@ fn step_is_deterministic() {
 /// the set-point (‰ of PNU 555) and MC follows inside ±PNU 552 for PNU 1023.
 #[test]
 fn force_task_builds_the_force_against_a_blocked_axis() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     b.dev.stepper_mut().set_blocked(true);
     let force = Cdir(0x02); // COM1: force mode, stroke monitoring on
     let target = 500; // 50 % of PNU 555 = 900 mA
@@ -346,9 +325,9 @@ fn force_task_builds_the_force_against_a_blocked_axis() {
 /// brakes and reports SDIR.XLIM.
 #[test]
 fn force_task_without_a_workpiece_stops_at_the_stroke_limit() {
-    let mut b = Bench::new(StepperMode::ClosedLoop);
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     b.pnu_write_i32(510, 1, 9_000);
     let force = Cdir(0x02);
     b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));

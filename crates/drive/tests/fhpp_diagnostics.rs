@@ -3,14 +3,13 @@
 //! diagnostic memory, record chaining (§6.5.3, the §8.3 example) and the software limits.
 
 mod fhpp_bench;
-use drive::fhpp::device::{diag, FhppSettings};
+use drive::fhpp::device::diag;
 use drive::fhpp::diagnostics::{self, Class, DIAGNOSTICS};
 use drive::fhpp::{Ack, Ccon, Cdir, Cpos, InputData, OutputData, Reaction, Rsb, Scon, Spos};
 use drive::stepper::StepperMode;
-use fhpp_bench::Bench;
+use fhpp_bench::{Bench, ENABLED};
 use od::{AbortCode, ObjectAccess};
 
-const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
 const DIRECT: Ccon = Ccon(0x43); // OPM1 + STOP + ENABLE
 /// CDIR velocity mode (COM2) without stroke monitoring (XLIM).
 const VELOCITY: Cdir = Cdir(0x24);
@@ -24,28 +23,11 @@ impl Bench {
         Self::with_mode(StepperMode::ClosedLoop)
     }
 
-    fn with_mode(mode: StepperMode) -> Self {
-        Bench::with_settings(FhppSettings {
-            mode,
-            ..FhppSettings::default()
-        })
-    }
-
-    fn enable_record(&mut self) -> InputData {
-        self.send(OutputData::record(ENABLED, Cpos::HALT, 0))
-    }
-
-    fn home(&mut self) {
-        self.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0));
-        self.until(100, |i| i.spos.contains(Spos::MC | Spos::REF));
-        self.send(OutputData::record(ENABLED, Cpos::HALT, 0));
-    }
-
     /// Enabled, referenced, record selection.
     fn ready() -> Self {
         let mut b = Bench::new();
         b.enable_record();
-        b.home();
+        b.home_here();
         b
     }
 
@@ -169,7 +151,7 @@ fn reaction_a_switches_the_output_stage_off_at_once() {
     let mut b = Bench::new();
     b.w16(242, diagnostics::subindex(0x11), 0x0001).unwrap();
     b.enable_record();
-    b.home();
+    b.home_here();
     b.spin(36_000);
     b.dev.fault(diag::SOFTWARE_LIMIT_POSITIVE);
     b.run(3);
@@ -189,7 +171,7 @@ fn quick_stop_is_faster_than_the_deceleration_ramp_and_e_f_keep_the_stage_on() {
         let mut b = Bench::new();
         b.w16(242, diagnostics::subindex(0x47), reaction).unwrap();
         b.enable_record();
-        b.home();
+        b.home_here();
         b.spin(36_000);
         let t0 = b.t_ms;
         b.dev.fault(diag::MODBUS_WITH_CONTROL);
@@ -222,7 +204,7 @@ fn finish_the_record(reaction: u16, stage_on: bool) {
     let mut b = Bench::new();
     b.w16(242, diagnostics::subindex(0x47), reaction).unwrap();
     b.enable_record();
-    b.home();
+    b.home_here();
     // Record 1: 9000 SINC at 36000 SINC/s (0.25 s).
     b.w32(404, 1, 9_000);
     b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
@@ -557,7 +539,7 @@ fn limited() -> Bench {
     b.w32(501, 1, -18_000);
     b.w32(501, 2, 18_000);
     b.enable_record();
-    b.home();
+    b.home_here();
     b
 }
 
@@ -655,7 +637,7 @@ fn jog_stops_at_the_software_limit_without_a_fault() {
 fn force_task_in_open_loop_raises_24h() {
     let mut b = Bench::with_mode(StepperMode::OpenLoop);
     b.enable_record();
-    b.home();
+    b.home_here();
     let force = Cdir(0x02);
     b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 50, 100));
     b.send(OutputData::direct(

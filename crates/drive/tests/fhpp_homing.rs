@@ -7,7 +7,7 @@
 mod fhpp_bench;
 use core::f64::consts::TAU;
 use core::time::Duration;
-use fhpp_bench::Bench;
+use fhpp_bench::{Bench, ENABLED};
 
 use drive::fhpp::axis_mechanics::AxisMechanics;
 use drive::fhpp::device::FhppSettings;
@@ -16,7 +16,6 @@ use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Scon, Spos};
 use drive::stepper::StepperMode;
 use od::ObjectAccess;
 
-const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
 const REV: f64 = 36_000.0; // SINC per motor revolution (PNU 1003 default)
 
 /// The default mechanics with a short stroke: stops at ±1 revolution.

@@ -4,8 +4,12 @@
 #![allow(dead_code)]
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
-use drive::fhpp::{InputData, OutputData};
+use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Spos};
+use drive::stepper::StepperMode;
 use od::{Instant, ObjectDictionary};
+
+/// CCON ENABLE + STOP, record selection.
+pub const ENABLED: Ccon = Ccon(0x03);
 
 pub struct Bench {
     pub dev: FhppDevice<Vec<u8>>,
@@ -23,6 +27,29 @@ impl Bench {
         };
         b.run(1);
         b
+    }
+
+    /// A CMMO-ST with the stepper in `mode` and everything else at the defaults.
+    pub fn with_mode(mode: StepperMode) -> Self {
+        Bench::with_settings(FhppSettings {
+            mode,
+            ..FhppSettings::default()
+        })
+    }
+
+    /// ENABLE + STOP in record selection.
+    pub fn enable_record(&mut self) -> InputData {
+        self.send(OutputData::record(ENABLED, Cpos::HALT, 0))
+    }
+
+    /// Homing with the configured method (−35 "current position" by default) through
+    /// CPOS.HOM: ACK at the start, then MC with REF.
+    pub fn home_here(&mut self) {
+        let i = self.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0));
+        assert!(i.spos.contains(Spos::ACK), "{i:?}");
+        let i = self.until(100, |i| i.spos.contains(Spos::MC | Spos::REF));
+        assert!(i.spos.contains(Spos::REF));
+        self.send(OutputData::record(ENABLED, Cpos::HALT, 0));
     }
 
     /// `ms` FHPP cycles.
