@@ -105,6 +105,10 @@ def cmmo(tmp_path):
         t.stop()
 
 
+# Both ways the twin serves its connection: the cycle thread itself (default) or a tokio task.
+IO = ["thread", "async"]
+
+
 def telegram(ccon, cpos, byte3=0, byte4=0, setpoint=0):
     """The 8 output bytes as 4 big-endian registers."""
     raw = struct.pack(">BBBBi", ccon, cpos, byte3, byte4, setpoint)
@@ -146,8 +150,9 @@ def enable_and_home(client):
                 lambda s: not s["spos"] & SPOS_ACK, what="ACK falls")
 
 
-def test_enable_and_direct_move_to_a_sinc_position(cmmo):
-    twin = cmmo()
+@pytest.mark.parametrize("io", IO)
+def test_enable_and_direct_move_to_a_sinc_position(cmmo, io):
+    twin = cmmo("--modbus-io", io)
     c = twin.client()
     try:
         enable_and_home(c)
@@ -186,8 +191,9 @@ def test_read_device_identification(cmmo):
         c.close()
 
 
-def test_wrong_address_and_quantity_get_exceptions(cmmo):
-    twin = cmmo()
+@pytest.mark.parametrize("io", IO)
+def test_wrong_address_and_quantity_get_exceptions(cmmo, io):
+    twin = cmmo("--modbus-io", io)
     c = twin.client()
     try:
         rr = c.read_holding_registers(1, count=4)
@@ -209,8 +215,9 @@ def test_wrong_address_and_quantity_get_exceptions(cmmo):
         c.close()
 
 
-def test_second_client_is_refused(cmmo):
-    twin = cmmo()
+@pytest.mark.parametrize("io", IO)
+def test_second_client_is_refused(cmmo, io):
+    twin = cmmo("--modbus-io", io)
     c = twin.client()
     try:
         assert not c.read_holding_registers(0, count=4).isError()
@@ -223,8 +230,9 @@ def test_second_client_is_refused(cmmo):
         c.close()
 
 
-def test_watchdog_fires_when_the_client_goes_silent(cmmo):
-    twin = cmmo("--modbus-timeout-ms", "200")
+@pytest.mark.parametrize("io", IO)
+def test_watchdog_fires_when_the_client_goes_silent(cmmo, io):
+    twin = cmmo("--modbus-timeout-ms", "200", "--modbus-io", io)
     c = twin.client()
     try:
         enable_and_home(c)

@@ -2,7 +2,7 @@
 //! read/write cycle over loopback, the drivetwin CMMO-ST server side by side with pymodbus's
 //! own server on the same machine (target: at least 10× pymodbus).
 //!
-//! Both servers run as their own processes: `drivetwin run --device cmmo-st --modbus …` (the
+//! Every server runs as its own process: `drivetwin run --device cmmo-st --modbus …` (the
 //! binary Cargo builds for this bench) and `tests/bench/pymodbus_server.py` (a plain
 //! holding-register datastore). The same Rust client drives each on one connection with
 //! sequential cycles: read 4 registers from 0, write 4 registers at 0, in one request. It is
@@ -11,15 +11,22 @@
 //! a warm-up and prints requests/s, p50 and p99.
 //!
 //! Two figures: **sequential** cycles (one request, wait for its answer: what one PLC does; on
-//! loopback the kernel's own round trip, about 20 µs on a small VM, bounds every server from
-//! below) and **pipelined** cycles (`PIPELINE_DEPTH` requests written at once, then their
+//! loopback the kernel's own round trip, 6…7 µs on one CPU of a small VM, bounds every server
+//! from below) and **pipelined** cycles (`PIPELINE_DEPTH` requests written at once, then their
 //! answers, as Modbus TCP allows with transaction identifiers: the server's own cost per
 //! request).
 //!
-//! `MODBUS_BENCH_CPU=N` runs the client and both servers on CPU N alone (`taskset`): a round
-//! trip then costs two context switches on one CPU instead of two wake-ups across CPUs, which
-//! on a small VM are most of a loopback round trip. The client then blocks instead of
-//! spinning (a spinning client would take the CPU from the server).
+//! Placement: by default the client and every server run on CPU 0 alone (`taskset`), the
+//! client blocking while it waits. A round trip then costs two context switches on one CPU
+//! instead of two wake-ups across CPUs; on a small VM such a cross-CPU wake-up (an
+//! inter-processor interrupt through the hypervisor) costs more than a whole round trip on
+//! one CPU and belongs to neither server. Each server gets the same placement.
+//! `MODBUS_BENCH_CPU=N` picks another CPU; `MODBUS_BENCH_CPU=any` leaves placement to the
+//! scheduler, the client then spinning while it waits (as a PLC's fieldbus task would).
+//!
+//! Three servers: `drivetwin` as it runs by default (the device's cycle thread serves its
+//! connection), `dt async` (the same twin with `--modbus-io async`: its server a tokio task),
+//! and pymodbus, the reference of the ratios.
 //!
 //! `cargo bench -p drivetwin --bench modbus_loopback`; `MODBUS_BENCH_COUNT` sets the cycles per
 //! server (default 10000). Without python3 or pymodbus it says so and exits 0.
@@ -70,9 +77,12 @@ fn free_port() -> Result<u16, String> {
         .map_err(|e| format!("local_addr: {e}"))
 }
 
-/// `MODBUS_BENCH_CPU`: the one CPU for the client and both servers.
+/// `MODBUS_BENCH_CPU`: the one CPU for the client and every server (default 0), or `any`.
 fn pinned_cpu() -> Option<usize> {
-    std::env::var("MODBUS_BENCH_CPU").ok()?.parse().ok()
+    match std::env::var("MODBUS_BENCH_CPU") {
+        Err(_) => Some(0),
+        Ok(v) => v.parse().ok(),
+    }
 }
 
 /// `program` as a command, under `taskset -c CPU` when the run is pinned.
@@ -328,86 +338,92 @@ impl Samples {
     }
 }
 
-fn run(count: usize, rounds: usize) -> Result<(), String> {
-    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let script = repo.join("tests/bench/pymodbus_server.py");
-
+/// `drivetwin run --device cmmo-st` on a free port, with `--modbus-io io`.
+fn spawn_twin(name: &'static str, io: &str) -> Result<Server, String> {
     let port = free_port()?;
     let mut twin = command(env!("CARGO_BIN_EXE_drivetwin"));
-    twin.args(["run", "--device", "cmmo-st", "--modbus"])
+    twin.args(["run", "--device", "cmmo-st", "--modbus-io", io, "--modbus"])
         .arg(format!("127.0.0.1:{port}"));
     // MODBUS_BENCH_TWIN_ARGS: more `drivetwin run` options, e.g. "--busy-poll".
     if let Ok(extra) = std::env::var("MODBUS_BENCH_TWIN_ARGS") {
         twin.args(extra.split_whitespace());
     }
-    let mut twin = spawn("drivetwin", twin, port)?;
+    spawn(name, twin, port)
+}
 
+fn run(count: usize, rounds: usize) -> Result<(), String> {
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let script = repo.join("tests/bench/pymodbus_server.py");
+
+    // The CMMO-ST twin as it runs by default (its cycle thread serves the connection), the
+    // same twin with its server as a tokio task, and pymodbus (always last: the reference).
+    let mut servers = vec![
+        spawn_twin("drivetwin", "thread")?,
+        spawn_twin("dt async", "async")?,
+    ];
     let port = free_port()?;
     let mut py = command("python3");
     py.arg(&script).arg(port.to_string());
-    let mut py = spawn("pymodbus", py, port)?;
-
-    wait_ready(&mut twin)?;
-    wait_ready(&mut py)?;
+    servers.push(spawn("pymodbus", py, port)?);
+    for server in &mut servers {
+        wait_ready(server)?;
+    }
 
     println!(
         "Modbus TCP loopback, FC 0x17 read 4 / write 4 registers, one connection per server, \
          {count} sequential cycles each in {rounds} interleaved rounds"
     );
-    let mut samples = [Samples::new(count), Samples::new(count)];
-    // Interleaved rounds: a busy machine slows both servers alike. Each round opens its own
+    let mut samples: Vec<Samples> = servers.iter().map(|_| Samples::new(count)).collect();
+    // Interleaved rounds: a busy machine slows every server alike. Each round opens its own
     // connection (after the CMMO-ST has seen the last one close) and warms it up untimed, so
-    // that a server waiting for its next client is idle while the other one is measured.
+    // that a server waiting for its next client is idle while another one is measured.
     // The requests/s ratio of each round: its median shrugs off a burst of load in one round.
-    let mut round_ratios = Vec::with_capacity(rounds);
+    let mut round_ratios: Vec<Vec<f64>> = servers.iter().map(|_| Vec::new()).collect();
     for round in 0..rounds {
         let n = count / rounds + usize::from(round < count % rounds);
-        let mut times = [Duration::ZERO; 2];
-        for ((server, s), t) in [&twin, &py]
-            .into_iter()
-            .zip(samples.iter_mut())
-            .zip(&mut times)
-        {
+        let mut times = Vec::with_capacity(servers.len());
+        for (server, s) in servers.iter().zip(samples.iter_mut()) {
             let mut c = connect_when_free(server)?;
             for _ in 0..WARM_UP {
                 c.cycle(&mut [0; 4], &[0; 4])?;
             }
             let before = s.total;
             s.run(&mut c, n)?;
-            *t = s.total - before;
+            times.push((s.total - before).as_secs_f64().max(1e-9));
         }
-        round_ratios.push(times[1].as_secs_f64() / times[0].as_secs_f64().max(1e-9));
+        let reference = times.last().copied().unwrap_or_default();
+        for (ratios, t) in round_ratios.iter_mut().zip(&times) {
+            ratios.push(reference / t);
+        }
     }
-    round_ratios.sort_by(f64::total_cmp);
-    let median_ratio = round_ratios
-        .get(round_ratios.len() / 2)
-        .copied()
-        .unwrap_or_default();
-    let mut results = Vec::new();
-    for (server, s) in [&twin, &py].into_iter().zip(samples) {
-        let m = s.result();
-        println!(
+    let results: Vec<Measurement> = samples.into_iter().map(Samples::result).collect();
+    let Some(reference) = results.last() else {
+        return Ok(());
+    };
+    for ((server, m), ratios) in servers.iter().zip(&results).zip(&mut round_ratios) {
+        print!(
             "  {:<10} {:>10.0} requests/s   p50 {:>7.1} µs   p99 {:>7.1} µs",
             server.name,
             m.requests_per_second,
             m.p50.as_secs_f64() * 1e6,
             m.p99.as_secs_f64() * 1e6
         );
-        results.push(m);
-    }
-    if let [ours, theirs] = results.as_slice() {
-        let ratio = ours.requests_per_second / theirs.requests_per_second;
+        if std::ptr::eq(m, reference) {
+            println!();
+            continue;
+        }
+        ratios.sort_by(f64::total_cmp);
+        let median = ratios.get(ratios.len() / 2).copied().unwrap_or_default();
         println!(
-            "  drivetwin / pymodbus: {ratio:.1}× the requests/s (median of the rounds \
-             {median_ratio:.1}×), p99 {:.1}× lower",
-            theirs.p99.as_secs_f64() / ours.p99.as_secs_f64().max(1e-9),
+            "   {:.1}× pymodbus (median of the rounds {median:.1}×), p99 {:.1}× lower",
+            m.requests_per_second / reference.requests_per_second,
+            reference.p99.as_secs_f64() / m.p99.as_secs_f64().max(1e-9),
         );
     }
     // Pipelined: the server's own cost per request. A server that does not answer every
     // request of a burst (pymodbus 3.16 answers the first one of a read only) gets no figure.
     println!("pipelined, {PIPELINE_DEPTH} requests in flight, {count} cycles each:");
-    let mut rates = Vec::new();
-    for server in [&twin, &py] {
+    for server in &servers {
         let mut c = connect_when_free(server)?;
         let c = &mut c;
         let bursts = (count / PIPELINE_DEPTH).max(1);
@@ -423,16 +439,9 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
             None => {
                 let rate = (bursts * PIPELINE_DEPTH) as f64 / start.elapsed().as_secs_f64();
                 println!("  {:<10} {:>10.0} requests/s", server.name, rate);
-                rates.push(rate);
             }
             Some(e) => println!("  {:<10} does not answer a pipeline: {e}", server.name),
         }
-    }
-    if let [ours, theirs] = rates.as_slice() {
-        println!(
-            "  drivetwin / pymodbus: {:.1}× the requests/s",
-            ours / theirs
-        );
     }
     Ok(())
 }
@@ -448,7 +457,9 @@ fn main() -> ExitCode {
             eprintln!("modbus_loopback: MODBUS_BENCH_CPU: {e}");
             return ExitCode::FAILURE;
         }
-        println!("client and both servers on CPU {cpu}");
+        println!("client and servers on CPU {cpu} (MODBUS_BENCH_CPU=any: unpinned)");
+    } else {
+        println!("client and servers placed by the scheduler, the client spinning");
     }
     let env = |name: &str, default: usize| {
         std::env::var(name)

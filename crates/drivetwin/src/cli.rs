@@ -162,6 +162,10 @@ pub struct RunArgs {
     /// at most 5000.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pub modbus_timeout_ms: u16,
+    /// How the CMMO-ST's thread serves its Modbus connection: `thread` reads it itself between
+    /// cycles, as the controller's fieldbus task (lowest latency); `async` as a tokio task.
+    #[arg(long, value_enum, value_name = "IO", default_value_t = ModbusIo::Thread)]
+    pub modbus_io: ModbusIo,
     /// Put the cell's drives on EtherCAT instead of CAN: a chain of slaves (in cell-file
     /// order) answering on this network interface (raw Ethernet, needs CAP_NET_RAW). The
     /// chain runs alone: no socketcand server, no SocketCAN bridge. `--trace F.pcap` records
@@ -181,6 +185,13 @@ pub struct RunArgs {
     /// the lowest round trip, at the price of one CPU kept busy.
     #[arg(long)]
     pub busy_poll: bool,
+}
+
+/// `--modbus-io`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModbusIo {
+    Thread,
+    Async,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -28,6 +28,7 @@
 //!   FC 0x07).
 
 use std::future::Future;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
@@ -38,6 +39,7 @@ use modbus::{
 use od::ObjectAccess;
 use tokio::net::TcpListener;
 
+use crate::modbus_cycle_server;
 use crate::modbus_server::{serve, ModbusConfig};
 
 /// Registers of the FHPP Standard telegram (8 bytes).
@@ -186,23 +188,38 @@ impl RegisterMap for FhppModbus {
     }
 }
 
+/// How the CMMO-ST's thread serves its Modbus connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ServerIo {
+    /// The cycle thread reads the connection itself, blocking until a request or the next
+    /// cycle ([`crate::modbus_cycle_server`]): the lowest latency.
+    #[default]
+    CycleThread,
+    /// A task of a single-threaded tokio runtime on that thread ([`crate::modbus_server`]).
+    Async,
+}
+
+/// The CMMO-ST's cycle (the FHPP device steps every millisecond on the real clock).
+const CYCLE: Duration = Duration::from_millis(1);
+
 /// Serves the CMMO-ST on `listener` and steps it every millisecond on the real clock until
 /// `shutdown` completes.
 pub async fn run_cmmo_st(
     listener: TcpListener,
     device: SharedDevice,
     config: ModbusConfig,
+    io: ServerIo,
     shutdown: impl Future<Output = ()>,
 ) {
     // One cycle before the first client: the input telegram shows the power-on state
     // (SCON 10h, SPOS 04h) from the very first request.
     lock(&device).step(od::Instant::ZERO);
     let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
-    // The device and its Modbus server run on one thread of their own with a single-threaded
-    // runtime: a request is read, answered and written by the thread the kernel wakes for
-    // it, and the FHPP cycle steps on the same thread, so no lock is ever waited for and no
-    // work is handed between threads (the request latency a PLC sees).
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    // The device and its Modbus server run on one thread of their own: a request is read,
+    // answered and written by the thread the kernel wakes for it, and the FHPP cycle steps on
+    // the same thread, so no lock is ever waited for and no work is handed between threads
+    // (the request latency a PLC sees).
+    let stop = Arc::new(AtomicBool::new(false));
     let std_listener = match listener.into_std() {
         Ok(l) => l,
         Err(e) => {
@@ -210,44 +227,27 @@ pub async fn run_cmmo_st(
             return;
         }
     };
+    let thread_stop = Arc::clone(&stop);
     let runner = std::thread::Builder::new()
         .name("cmmo-st".into())
         .spawn(move || {
-            let rt = match tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-            {
-                Ok(rt) => rt,
-                Err(e) => {
-                    tracing::error!(error = %e, "Modbus runtime");
-                    return;
-                }
+            let origin = std::time::Instant::now();
+            let step = |now: std::time::Instant| {
+                let ns = u64::try_from(now.saturating_duration_since(origin).as_nanos())
+                    .unwrap_or(u64::MAX);
+                lock(&device).step(od::Instant::from_nanos(ns));
             };
-            rt.block_on(async move {
-                let listener = match TcpListener::from_std(std_listener) {
-                    Ok(l) => l,
-                    Err(e) => {
-                        tracing::error!(error = %e, "Modbus listener");
-                        return;
-                    }
-                };
-                let server = serve(listener, map, config);
-                tokio::pin!(server);
-                let mut stop_rx = stop_rx;
-                let origin = tokio::time::Instant::now();
-                let mut tick = tokio::time::interval(Duration::from_millis(1));
-                tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-                loop {
-                    tokio::select! {
-                        () = &mut server => break,
-                        _ = &mut stop_rx => break,
-                        _ = tick.tick() => {
-                            let ns = u64::try_from(origin.elapsed().as_nanos()).unwrap_or(u64::MAX);
-                            lock(&device).step(od::Instant::from_nanos(ns));
-                        }
-                    }
-                }
-            });
+            match io {
+                ServerIo::CycleThread => modbus_cycle_server::serve(
+                    std_listener,
+                    &map,
+                    &config,
+                    CYCLE,
+                    &thread_stop,
+                    step,
+                ),
+                ServerIo::Async => serve_async(std_listener, map, config, &thread_stop, step),
+            }
         });
     let runner = match runner {
         Ok(t) => t,
@@ -257,8 +257,51 @@ pub async fn run_cmmo_st(
         }
     };
     shutdown.await;
-    let _ = stop_tx.send(());
+    stop.store(true, Ordering::Relaxed);
     let _ = tokio::task::spawn_blocking(move || runner.join()).await;
+}
+
+/// [`ServerIo::Async`]: the server as a task of a single-threaded runtime, the cycle as its
+/// interval timer, until `stop` is set.
+fn serve_async(
+    listener: std::net::TcpListener,
+    map: Arc<Mutex<FhppModbus>>,
+    config: ModbusConfig,
+    stop: &AtomicBool,
+    mut step: impl FnMut(std::time::Instant),
+) {
+    let rt = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt,
+        Err(e) => {
+            tracing::error!(error = %e, "Modbus runtime");
+            return;
+        }
+    };
+    rt.block_on(async move {
+        let listener = match listener
+            .set_nonblocking(true)
+            .and_then(|()| TcpListener::from_std(listener))
+        {
+            Ok(l) => l,
+            Err(e) => {
+                tracing::error!(error = %e, "Modbus listener");
+                return;
+            }
+        };
+        let server = serve(listener, map, config);
+        tokio::pin!(server);
+        let mut tick = tokio::time::interval(CYCLE);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        while !stop.load(Ordering::Relaxed) {
+            tokio::select! {
+                () = &mut server => break,
+                _ = tick.tick() => step(std::time::Instant::now()),
+            }
+        }
+    });
 }
 
 #[cfg(test)]

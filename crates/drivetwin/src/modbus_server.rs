@@ -163,7 +163,7 @@ fn log_join(done: Result<(), tokio::task::JoinError>) {
     }
 }
 
-fn lock<M: ?Sized>(map: &Mutex<M>) -> MutexGuard<'_, M> {
+pub(crate) fn lock<M: ?Sized>(map: &Mutex<M>) -> MutexGuard<'_, M> {
     map.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
@@ -203,7 +203,6 @@ where
     watchdog.start(0);
     let mut framer = Box::new(Framer::new());
     let mut rbuf = vec![0u8; READ_BUF];
-    let mut out = [0u8; MAX_ADU_LEN];
     // Responses to the ADUs of one read, written together; at most one per 8 bytes read.
     let mut wbuf: Vec<u8> = Vec::with_capacity(4 * MAX_ADU_LEN);
     loop {
@@ -232,34 +231,14 @@ where
                 continue;
             }
         };
-        let mut rest = rbuf.get(..n).unwrap_or(&[]);
-        let mut failure = None;
-        'input: while !rest.is_empty() {
-            let taken = framer.push(rest);
-            rest = rest.get(taken..).unwrap_or(&[]);
-            loop {
-                match framer.next_adu() {
-                    Ok(Some(adu)) => {
-                        watchdog.on_message(now_ms());
-                        let handled = handle_adu(adu, &mut *lock(map), &mut out);
-                        match handled {
-                            Ok(len) => wbuf.extend_from_slice(out.get(..len).unwrap_or(&[])),
-                            Err(e) => {
-                                tracing::warn!(error = %e, "not a Modbus TCP ADU");
-                                failure = Some(CloseReason::ProtocolError);
-                                break 'input;
-                            }
-                        }
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        tracing::warn!(error = %e, "not a Modbus TCP stream");
-                        failure = Some(CloseReason::ProtocolError);
-                        break 'input;
-                    }
-                }
-            }
-        }
+        let failure = answer_all(
+            &mut framer,
+            rbuf.get(..n).unwrap_or(&[]),
+            map,
+            &mut wbuf,
+            || watchdog.on_message(now_ms()),
+        )
+        .err();
         if !wbuf.is_empty() {
             // Fast path: the socket buffer takes the answer at once (no timer to arm); the
             // timed write only for what it did not take.
@@ -291,6 +270,47 @@ where
             return reason;
         }
     }
+}
+
+/// Answers every complete ADU of `bytes` (with what `framer` held before), appending the
+/// responses to `out` and calling `on_message` for each ADU; the ADUs before a byte stream
+/// that is no Modbus TCP are answered, then the connection is to be closed (the error).
+/// Shared by both transports ([`serve`] and [`crate::modbus_cycle_server`]).
+pub(crate) fn answer_all<M>(
+    framer: &mut Framer,
+    mut bytes: &[u8],
+    map: &Mutex<M>,
+    out: &mut Vec<u8>,
+    mut on_message: impl FnMut(),
+) -> Result<(), CloseReason>
+where
+    M: RegisterMap + ?Sized,
+{
+    let mut response = [0u8; MAX_ADU_LEN];
+    while !bytes.is_empty() {
+        let taken = framer.push(bytes);
+        bytes = bytes.get(taken..).unwrap_or(&[]);
+        loop {
+            match framer.next_adu() {
+                Ok(Some(adu)) => {
+                    on_message();
+                    match handle_adu(adu, &mut *lock(map), &mut response) {
+                        Ok(len) => out.extend_from_slice(response.get(..len).unwrap_or(&[])),
+                        Err(e) => {
+                            tracing::warn!(error = %e, "not a Modbus TCP ADU");
+                            return Err(CloseReason::ProtocolError);
+                        }
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    tracing::warn!(error = %e, "not a Modbus TCP stream");
+                    return Err(CloseReason::ProtocolError);
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Reads by trying again and again (yielding to the runtime's other tasks in between) until

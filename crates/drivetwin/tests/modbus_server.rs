@@ -1,12 +1,16 @@
 //! The Modbus TCP server over real loopback sockets: raw-TCP clients, and pymodbus's client
 //! (which nobody here wrote) when `python3 -c "import pymodbus"` works (`pip install
-//! pymodbus`); that test is skipped, with a message, otherwise.
+//! pymodbus`); that test is skipped, with a message, otherwise. Every test runs against both
+//! transports: the tokio server (`modbus_server`) and the cycle thread's
+//! (`modbus_cycle_server`).
 
 use std::net::SocketAddr;
 use std::process::Stdio;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use drivetwin::modbus_cycle_server;
 use drivetwin::modbus_server::{serve, ModbusConfig};
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
@@ -102,24 +106,106 @@ impl RegisterMap for Cmmo {
     }
 }
 
+/// Which transport serves the map.
+#[derive(Debug, Clone, Copy)]
+enum Io {
+    Async,
+    CycleThread,
+}
+
+/// Runs each named test (an `async fn(Io)`) once per transport.
+macro_rules! on_both_transports {
+    ($($name:ident),* $(,)?) => {
+        mod async_io {
+            $(#[tokio::test]
+            async fn $name() {
+                super::$name(super::Io::Async).await
+            })*
+        }
+        mod cycle_thread {
+            $(#[tokio::test]
+            async fn $name() {
+                super::$name(super::Io::CycleThread).await
+            })*
+        }
+    };
+}
+
+on_both_transports!(
+    a_client_that_does_not_read_is_dropped,
+    reads_writes_identification_and_exceptions,
+    a_second_client_is_refused_while_one_is_connected,
+    watchdog_fires_and_closes_the_connection,
+    watchdog_off_keeps_an_idle_connection,
+    bad_clients_do_not_disturb_the_server,
+    pymodbus_client_against_the_server
+);
+
+/// A running server, stopped when dropped.
 struct Server {
     addr: SocketAddr,
     map: Arc<Mutex<Cmmo>>,
-    task: JoinHandle<()>,
+    task: Option<JoinHandle<()>>,
+    thread: Option<(Arc<AtomicBool>, std::thread::JoinHandle<()>)>,
+    /// Device cycles the cycle thread has run (0 with the async server, which has none).
+    steps: Arc<AtomicU64>,
 }
 
 impl Drop for Server {
     fn drop(&mut self) {
-        self.task.abort();
+        if let Some(task) = &self.task {
+            task.abort();
+        }
+        if let Some((stop, thread)) = self.thread.take() {
+            stop.store(true, Ordering::Relaxed);
+            let _ = thread.join();
+        }
     }
 }
 
-async fn start(config: ModbusConfig) -> Server {
+async fn start(io: Io, config: ModbusConfig) -> Server {
     let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let addr = listener.local_addr().expect("addr");
     let map = Arc::new(Mutex::new(Cmmo::new()));
-    let task = tokio::spawn(serve(listener, Arc::clone(&map), config));
-    Server { addr, map, task }
+    let steps = Arc::new(AtomicU64::new(0));
+    match io {
+        Io::Async => {
+            let task = tokio::spawn(serve(listener, Arc::clone(&map), config));
+            Server {
+                addr,
+                map,
+                task: Some(task),
+                thread: None,
+                steps,
+            }
+        }
+        Io::CycleThread => {
+            let listener = listener.into_std().expect("std listener");
+            let stop = Arc::new(AtomicBool::new(false));
+            let (thread_map, thread_stop) = (Arc::clone(&map), Arc::clone(&stop));
+            let thread_steps = Arc::clone(&steps);
+            let thread = std::thread::spawn(move || {
+                let period = Duration::from_millis(1);
+                modbus_cycle_server::serve(
+                    listener,
+                    &thread_map,
+                    &config,
+                    period,
+                    &thread_stop,
+                    |_| {
+                        thread_steps.fetch_add(1, Ordering::Relaxed);
+                    },
+                )
+            });
+            Server {
+                addr,
+                map,
+                task: None,
+                thread: Some((stop, thread)),
+                steps,
+            }
+        }
+    }
 }
 
 impl Server {
@@ -199,9 +285,8 @@ async fn connect_served(addr: SocketAddr) -> TcpStream {
     }
 }
 
-#[tokio::test]
-async fn reads_writes_identification_and_exceptions() {
-    let server = start(ModbusConfig::default()).await;
+async fn reads_writes_identification_and_exceptions(io: Io) {
+    let server = start(io, ModbusConfig::default()).await;
     let mut c = connect(server.addr).await;
 
     // FHPP-MB-01: enable, record 1
@@ -329,9 +414,8 @@ async fn reads_writes_identification_and_exceptions() {
     );
 }
 
-#[tokio::test]
-async fn a_second_client_is_refused_while_one_is_connected() {
-    let server = start(ModbusConfig::default()).await;
+async fn a_second_client_is_refused_while_one_is_connected(io: Io) {
+    let server = start(io, ModbusConfig::default()).await;
     let mut first = connect_served(server.addr).await;
 
     let mut second = connect(server.addr).await;
@@ -367,9 +451,8 @@ async fn a_second_client_is_refused_while_one_is_connected() {
     );
 }
 
-#[tokio::test]
-async fn watchdog_fires_and_closes_the_connection() {
-    let server = start(ModbusConfig::with_watchdog_ms(100)).await;
+async fn watchdog_fires_and_closes_the_connection(io: Io) {
+    let server = start(io, ModbusConfig::with_watchdog_ms(100)).await;
 
     // requests every 40 ms keep the connection alive for well over the timeout
     let mut c = connect(server.addr).await;
@@ -428,9 +511,8 @@ async fn watchdog_fires_and_closes_the_connection() {
     );
 }
 
-#[tokio::test]
-async fn watchdog_off_keeps_an_idle_connection() {
-    let server = start(ModbusConfig::with_watchdog_ms(0)).await;
+async fn watchdog_off_keeps_an_idle_connection(io: Io) {
+    let server = start(io, ModbusConfig::with_watchdog_ms(0)).await;
     let mut c = connect_served(server.addr).await;
     assert!(
         !closed_within(&mut c, Duration::from_millis(400)).await,
@@ -442,9 +524,8 @@ async fn watchdog_off_keeps_an_idle_connection() {
     );
 }
 
-#[tokio::test]
-async fn bad_clients_do_not_disturb_the_server() {
-    let server = start(ModbusConfig::with_watchdog_ms(500)).await;
+async fn bad_clients_do_not_disturb_the_server(io: Io) {
+    let server = start(io, ModbusConfig::with_watchdog_ms(500)).await;
 
     // not Modbus at all: dropped
     let mut http = connect(server.addr).await;
@@ -571,6 +652,64 @@ except Exception as e:
 c.close()
 "#;
 
+/// A client that sends requests but never reads the answers fills the server's socket; the
+/// server drops it after the write timeout (bounded memory), the device's cycle goes on
+/// meanwhile, and the next client is served.
+async fn a_client_that_does_not_read_is_dropped(io: Io) {
+    let config = ModbusConfig {
+        write_timeout: Duration::from_millis(300),
+        ..ModbusConfig::default()
+    };
+    let server = start(io, config).await;
+    let socket = tokio::net::TcpSocket::new_v4().expect("socket");
+    socket
+        .set_recv_buffer_size(4096)
+        .expect("small receive buffer");
+    let mut c = socket.connect(server.addr).await.expect("connect");
+    // Device identification, regular: 11 bytes asked, about 100 answered.
+    let request = hex("00 01 00 00 00 05 00 2B 0E 02 00").repeat(64);
+    let mut stalled = false;
+    for _ in 0..20_000 {
+        match timeout(Duration::from_millis(500), c.write_all(&request)).await {
+            Ok(Ok(())) => {}
+            // the server no longer reads: its answers are stuck
+            Err(_) => {
+                stalled = true;
+                break;
+            }
+            // or it has dropped us already
+            Ok(Err(_)) => {
+                stalled = true;
+                break;
+            }
+        }
+    }
+    assert!(
+        stalled,
+        "a server that answers into a full socket must stop reading"
+    );
+    let steps_before = server.steps.load(Ordering::Relaxed);
+    let events = server.wait_events(2).await;
+    assert_eq!(
+        events,
+        [
+            ConnectionEvent::Opened,
+            ConnectionEvent::Closed(CloseReason::Transport)
+        ]
+    );
+    if matches!(io, Io::CycleThread) {
+        sleep(Duration::from_millis(50)).await;
+        assert!(
+            server.steps.load(Ordering::Relaxed) > steps_before + 10,
+            "the device steps while a client stalls"
+        );
+    }
+    drop(c);
+    let mut next = connect_served(server.addr).await;
+    let r = transact(&mut next, "00 02 00 00 00 06 00 03 00 00 00 04").await;
+    assert_eq!(r[7], 0x03);
+}
+
 async fn pymodbus_available() -> bool {
     let check = Command::new("python3")
         .args(["-c", "import pymodbus.client"])
@@ -581,13 +720,12 @@ async fn pymodbus_available() -> bool {
     matches!(check, Ok(status) if status.success())
 }
 
-#[tokio::test]
-async fn pymodbus_client_against_the_server() {
+async fn pymodbus_client_against_the_server(io: Io) {
     if !pymodbus_available().await {
         println!("SKIPPED: python3 with pymodbus not available (pip install pymodbus)");
         return;
     }
-    let server = start(ModbusConfig::with_watchdog_ms(300)).await;
+    let server = start(io, ModbusConfig::with_watchdog_ms(300)).await;
     let output = timeout(
         Duration::from_secs(30),
         Command::new("python3")

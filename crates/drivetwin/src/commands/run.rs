@@ -358,7 +358,11 @@ async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
         busy_poll: args.busy_poll,
         ..ModbusConfig::with_watchdog_ms(args.modbus_timeout_ms)
     };
-    fhpp_modbus::run_cmmo_st(listener, dev, config, shutdown_signal()).await;
+    let io = match args.modbus_io {
+        crate::cli::ModbusIo::Thread => fhpp_modbus::ServerIo::CycleThread,
+        crate::cli::ModbusIo::Async => fhpp_modbus::ServerIo::Async,
+    };
+    fhpp_modbus::run_cmmo_st(listener, dev, config, io, shutdown_signal()).await;
     out!("stopped");
     Ok(())
 }

@@ -650,6 +650,7 @@ mod tests {
             listener,
             dev,
             ModbusConfig::default(),
+            crate::fhpp_modbus::ServerIo::default(),
             std::future::pending(),
         ));
         (addr, task)
