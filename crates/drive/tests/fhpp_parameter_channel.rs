@@ -900,3 +900,44 @@ fn fhpp_fpc_16_download_timeout_aborts_and_discards() {
     b.no_task_file();
     assert_eq!(b.exchange(next)[..3], [0x47, 0x03, 0x11]);
 }
+
+/// The permanent memory survives a restart when the host keeps it: what PNU 127:2 stored is
+/// active again at the next power-on (error management included), every change of the stored
+/// file shows in the generation, and a damaged file is refused without changing anything.
+#[test]
+fn the_saved_memory_is_active_after_a_power_on_from_it() {
+    let mut a = Bench::new();
+    let start = a.dev.permanent_memory().generation();
+    assert_eq!(a.dev.permanent_memory().stored(), None, "factory settings");
+    assert_eq!(a.write(121, 1, 0x53), Ok(0x53)); // 'S'
+    let em = a.read(246, 40).unwrap();
+    assert_eq!(a.write(246, 40, em ^ 0x80), Ok(em ^ 0x80));
+    assert_eq!(
+        a.dev.permanent_memory().generation(),
+        start,
+        "a write is volatile"
+    );
+    assert_eq!(a.write(127, 2, 1), Ok(1));
+    assert_ne!(a.dev.permanent_memory().generation(), start);
+    let file = a.dev.permanent_memory().stored().expect("saved").to_vec();
+
+    let mut b = Bench::new();
+    let mut damaged = file.clone();
+    if let Some(byte) = damaged.get_mut(HEADER_LEN + 3) {
+        *byte ^= 0x01;
+    }
+    assert!(b.dev.power_on_from_memory(&damaged).is_err());
+    assert_eq!(b.od_u8(121, 1), 0, "a refused file changes nothing");
+    assert_eq!(b.dev.permanent_memory().stored(), None);
+    b.dev.power_on_from_memory(&file).expect("a saved file");
+    b.run(1);
+    assert_eq!(b.od_u8(121, 1), 0x53);
+    assert_eq!(b.read(246, 40), Ok(em ^ 0x80));
+    assert_eq!(b.dev.permanent_memory().stored(), Some(file.as_slice()));
+
+    // 127:1 deletes it: nothing stored, a new generation.
+    let saved = a.dev.permanent_memory().generation();
+    assert_eq!(a.write(127, 1, 0x10), Ok(0x10));
+    assert_eq!(a.dev.permanent_memory().stored(), None);
+    assert_ne!(a.dev.permanent_memory().generation(), saved);
+}

@@ -137,8 +137,9 @@ pub struct RunArgs {
     /// Bridge this SocketCAN interface (e.g. vcan0, can0) onto the bus.
     #[arg(long)]
     pub socketcan: Option<String>,
-    /// Where stored parameter sets live (one file per node). Without it, 1010h "save" is
-    /// accepted but nothing survives the process.
+    /// Where stored parameter sets live (one file per node; the CMMO-ST's permanent memory,
+    /// PNU 127, as its parameter file). Without it, 1010h "save" and PNU 127:2 are accepted
+    /// but nothing survives the process.
     #[arg(long)]
     pub state_dir: Option<PathBuf>,
     /// A cell file with several drives (TOML).

@@ -41,6 +41,7 @@ use tokio::net::TcpListener;
 
 use crate::modbus_cycle_server;
 use crate::modbus_server::{serve, ModbusConfig};
+use crate::param_store::ParamStore;
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 pub const STD_REGISTERS: usize = 4;
@@ -202,15 +203,55 @@ pub enum ServerIo {
 /// The CMMO-ST's cycle (the FHPP device steps every millisecond on the real clock).
 const CYCLE: Duration = Duration::from_millis(1);
 
+/// How a CMMO-ST is served.
+#[derive(Debug, Clone, Default)]
+pub struct ServeOptions {
+    pub config: ModbusConfig,
+    pub io: ServerIo,
+    /// Where its permanent memory (PNU 127) is kept across restarts; `None`: for the life of
+    /// the process only.
+    pub store: Option<ParamStore>,
+}
+
+/// Power-on: the permanent memory `store` kept becomes the device's, and its values active.
+/// A file that cannot be read or is not a parameter file of this device (damaged, another
+/// firmware) is reported and the device keeps its factory settings; the file stays for the
+/// user to look at until the next save replaces it.
+pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<(), String> {
+    let path = store.memory_path().display();
+    match store.load_memory() {
+        Ok(None) => Ok(()),
+        Ok(Some(file)) => device.power_on_from_memory(&file).map_err(|e| {
+            format!("{path}: not a parameter file of this device ({e:?}); factory settings")
+        }),
+        Err(e) => Err(format!("{e}; factory settings")),
+    }
+}
+
+/// Writes the permanent memory to `store` when it changed since `generation` (PNU 127 save
+/// or delete, a parameter-file download).
+fn keep_memory(device: &FhppDevice<Vec<u8>>, store: &ParamStore, generation: &mut u32) {
+    let memory = device.permanent_memory();
+    if memory.generation() == *generation {
+        return;
+    }
+    *generation = memory.generation();
+    // CMMO-ST: saving takes the drive a moment as well; the cycle catches up afterwards.
+    match store.save_memory(memory.stored()) {
+        Ok(()) => tracing::info!(path = %store.memory_path().display(), "permanent memory saved"),
+        Err(e) => tracing::error!(error = %e, "permanent memory not saved"),
+    }
+}
+
 /// Serves the CMMO-ST on `listener` and steps it every millisecond on the real clock until
 /// `shutdown` completes.
 pub async fn run_cmmo_st(
     listener: TcpListener,
     device: SharedDevice,
-    config: ModbusConfig,
-    io: ServerIo,
+    options: ServeOptions,
     shutdown: impl Future<Output = ()>,
 ) {
+    let ServeOptions { config, io, store } = options;
     // One cycle before the first client: the input telegram shows the power-on state
     // (SCON 10h, SPOS 04h) from the very first request.
     lock(&device).step(od::Instant::ZERO);
@@ -232,10 +273,15 @@ pub async fn run_cmmo_st(
         .name("cmmo-st".into())
         .spawn(move || {
             let origin = std::time::Instant::now();
+            let mut generation = lock(&device).permanent_memory().generation();
             let step = |now: std::time::Instant| {
                 let ns = u64::try_from(now.saturating_duration_since(origin).as_nanos())
                     .unwrap_or(u64::MAX);
-                lock(&device).step(od::Instant::from_nanos(ns));
+                let mut dev = lock(&device);
+                dev.step(od::Instant::from_nanos(ns));
+                if let Some(store) = &store {
+                    keep_memory(&dev, store, &mut generation);
+                }
             };
             match io {
                 ServerIo::CycleThread => modbus_cycle_server::serve(

@@ -30,6 +30,9 @@ pub struct ParamStore {
     path: PathBuf,
     /// The node-ID LSS "store configuration" saved (CiA 305), one number in a text file.
     lss_path: PathBuf,
+    /// A device's own permanent memory as the device formats it (the CMMO-ST's EEPROM: its
+    /// parameter file, App. C.4.3, checked by its CRC when it is loaded).
+    memory_path: PathBuf,
 }
 
 /// One stored value.
@@ -46,6 +49,7 @@ impl ParamStore {
         ParamStore {
             path: dir.join(format!("{device}-node{node}.params")),
             lss_path: dir.join(format!("{device}-node{node}.lss")),
+            memory_path: dir.join(format!("{device}-node{node}.eeprom")),
         }
     }
 
@@ -64,6 +68,38 @@ impl ParamStore {
 
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Where [`save_memory`](Self::save_memory) keeps the device's permanent memory.
+    pub fn memory_path(&self) -> &Path {
+        &self.memory_path
+    }
+
+    /// The device's permanent memory as last saved, `None` when nothing is stored.
+    pub fn load_memory(&self) -> Result<Option<Vec<u8>>, StoreError> {
+        match fs::read(&self.memory_path) {
+            Ok(bytes) => Ok(Some(bytes)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(source) => Err(StoreError::Io {
+                path: self.memory_path.clone(),
+                source,
+            }),
+        }
+    }
+
+    /// Replaces the stored permanent memory with `bytes` (atomically), or removes it (`None`:
+    /// the device's memory was deleted, its factory settings come back at the next start).
+    pub fn save_memory(&self, bytes: Option<&[u8]>) -> Result<(), StoreError> {
+        match bytes {
+            Some(bytes) => write_atomically(&self.memory_path, bytes),
+            None => match fs::remove_file(&self.memory_path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(StoreError::Io {
+                    path: self.memory_path.clone(),
+                    source: e,
+                }),
+                _ => Ok(()),
+            },
+        }
     }
 
     /// The stored set, empty when nothing was ever saved.

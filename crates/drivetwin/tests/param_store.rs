@@ -103,3 +103,25 @@ fn reset_application_reloads_the_stored_set_and_boots() {
         "boot-up"
     );
 }
+
+/// A device's permanent memory (the CMMO-ST's parameter file) is kept byte for byte,
+/// replaced whole, and removed when the device deletes it.
+#[test]
+fn a_permanent_memory_is_kept_replaced_and_removed() {
+    let dir = tmpdir("memory");
+    let store = ParamStore::new(&dir, "cmmo-st", 1);
+    assert_eq!(store.load_memory().unwrap(), None, "nothing stored yet");
+    store.save_memory(Some(&[1, 2, 3, 4])).unwrap();
+    assert_eq!(store.load_memory().unwrap(), Some(vec![1, 2, 3, 4]));
+    store.save_memory(Some(&[9; 100])).unwrap();
+    assert_eq!(store.load_memory().unwrap(), Some(vec![9; 100]));
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "no temporary file left behind");
+    store.save_memory(None).unwrap();
+    assert_eq!(store.load_memory().unwrap(), None);
+    store.save_memory(None).unwrap(); // deleting twice is no error
+}

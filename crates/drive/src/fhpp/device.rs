@@ -127,6 +127,7 @@ use super::diagnostic_memory::{self, DiagnosticMemory, EventType};
 use super::diagnostics::{self, Class, Diagnostic};
 use super::homing::{self, Method, Target};
 use super::parameter_channel::{self, ParameterChannel};
+use super::parameter_file::{FormatError, PermanentMemory};
 use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
 use super::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
@@ -627,6 +628,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The parameter channel (its permanent memory holds the parameter file).
     pub fn parameter_channel(&self) -> &ParameterChannel {
         &self.fpc
+    }
+
+    /// The permanent memory (PNU 127), e.g. for a host that keeps it on disk: its
+    /// [`generation`](PermanentMemory::generation) changes with every save, download and
+    /// delete.
+    pub fn permanent_memory(&self) -> &PermanentMemory {
+        self.fpc.memory()
+    }
+
+    /// Power-on with a permanent memory that holds `file` (kept by the host across restarts):
+    /// the stored values become active, as at the CMMO-ST's own power-on. A file that is no
+    /// parameter file of this device changes nothing and is refused.
+    pub fn power_on_from_memory(&mut self, file: &[u8]) -> Result<(), FormatError> {
+        self.fpc.memory_mut().power_on_from(&mut self.od, file)?;
+        self.records_dirty = true;
+        Ok(())
     }
 
     /// CMMO-ST App. C: one EFPC exchange per cycle. A parameter job goes through this

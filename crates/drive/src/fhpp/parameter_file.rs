@@ -349,6 +349,9 @@ pub struct PermanentMemory {
     file: FileBuffer,
     /// No save or download since power-on or the last delete.
     factory: bool,
+    /// Counts the changes of the stored file (save, download, delete), so that a host that
+    /// keeps the memory on disk sees when to write it.
+    generation: u32,
 }
 
 impl Default for PermanentMemory {
@@ -356,6 +359,7 @@ impl Default for PermanentMemory {
         PermanentMemory {
             file: FileBuffer::new(),
             factory: true,
+            generation: 0,
         }
     }
 }
@@ -374,6 +378,28 @@ impl PermanentMemory {
         self.factory
     }
 
+    /// Changes when the stored file changes (save, download, delete).
+    pub fn generation(&self) -> u32 {
+        self.generation
+    }
+
+    /// The file a save or download stored; `None` when the memory holds the factory settings
+    /// (nothing stored, or deleted).
+    pub fn stored(&self) -> Option<&[u8]> {
+        (!self.factory && !self.file.is_empty()).then_some(&self.file[..])
+    }
+
+    /// Power-on from a memory kept by the host: `file` (a parameter file, checked) is what
+    /// the EEPROM holds, and its values become active, error management included.
+    pub fn power_on_from<S: AsRef<[u8]> + AsMut<[u8]>>(
+        &mut self,
+        od: &mut ObjectDictionary<S>,
+        file: &[u8],
+    ) -> Result<(), FormatError> {
+        self.replace(od.description(), file)?;
+        self.activate(od, true)
+    }
+
     /// PNU 127:2: the active values become the permanent ones.
     pub fn save<S: AsRef<[u8]> + AsMut<[u8]>>(
         &mut self,
@@ -381,6 +407,7 @@ impl PermanentMemory {
     ) -> Result<(), FormatError> {
         from_dictionary(od, &mut self.file)?;
         self.factory = false;
+        self.generation = self.generation.wrapping_add(1);
         Ok(())
     }
 
@@ -388,6 +415,7 @@ impl PermanentMemory {
     pub fn delete(&mut self) {
         self.file.clear();
         self.factory = true;
+        self.generation = self.generation.wrapping_add(1);
     }
 
     /// A downloaded file, already checked, replaces the stored one (C.4.4).
@@ -400,6 +428,7 @@ impl PermanentMemory {
         self.file.clear();
         push(&mut self.file, file)?;
         self.factory = false;
+        self.generation = self.generation.wrapping_add(1);
         Ok(())
     }
 

@@ -345,7 +345,18 @@ async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
     let desc = device(&args.device)?;
     let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
         .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
-    let dev = Arc::new(Mutex::new(FhppDevice::new(od, FhppSettings::default())));
+    let mut dev = FhppDevice::new(od, FhppSettings::default());
+    let store = args
+        .state_dir
+        .as_ref()
+        .map(|dir| drivetwin::param_store::ParamStore::new(dir, desc.name, 1));
+    if let Some(store) = &store {
+        match fhpp_modbus::power_on(&mut dev, store) {
+            Ok(()) => out!("permanent memory in {}", store.memory_path().display()),
+            Err(e) => tracing::warn!("{e}"),
+        }
+    }
+    let dev = Arc::new(Mutex::new(dev));
     out!("drive {} ({})", desc.name, desc.product_name);
     let addr = args.modbus.as_deref().unwrap_or(DEFAULT_ADDR);
     let listener = tokio::net::TcpListener::bind(addr)
@@ -362,7 +373,8 @@ async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
         crate::cli::ModbusIo::Thread => fhpp_modbus::ServerIo::CycleThread,
         crate::cli::ModbusIo::Async => fhpp_modbus::ServerIo::Async,
     };
-    fhpp_modbus::run_cmmo_st(listener, dev, config, io, shutdown_signal()).await;
+    let options = fhpp_modbus::ServeOptions { config, io, store };
+    fhpp_modbus::run_cmmo_st(listener, dev, options, shutdown_signal()).await;
     out!("stopped");
     Ok(())
 }

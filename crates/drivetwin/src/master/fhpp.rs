@@ -638,7 +638,6 @@ mod tests {
     /// The twin's Modbus server in this process, on a free loopback port.
     async fn twin() -> (String, tokio::task::JoinHandle<()>) {
         use crate::fhpp_modbus::run_cmmo_st;
-        use crate::modbus_server::ModbusConfig;
         use drive::fhpp::device::{FhppDevice, FhppSettings};
         use std::sync::{Arc, Mutex};
         let desc = &devices::CMMO_ST;
@@ -649,8 +648,7 @@ mod tests {
         let task = tokio::spawn(run_cmmo_st(
             listener,
             dev,
-            ModbusConfig::default(),
-            crate::fhpp_modbus::ServerIo::default(),
+            crate::fhpp_modbus::ServeOptions::default(),
             std::future::pending(),
         ));
         (addr, task)
