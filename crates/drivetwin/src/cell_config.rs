@@ -9,9 +9,12 @@ use od::{DataType, Value};
 use serde::Deserialize;
 
 use crate::can_drive::Commissioning;
-use crate::device_model::is_cia402;
+use crate::device_model::{is_cia402, is_fhpp};
 use drive::drive::DriveSettings;
+use drive::fhpp::axis_mechanics::AxisMechanics;
+use drive::fhpp::device::FhppSettings;
 use drive::motor::MotorData;
+use drive::stepper::{StepperData, StepperMode};
 use drive::travel::{HomeSwitch, TravelSettings};
 
 pub const DEFAULT_SOCKETCAND: &str = "127.0.0.1:29536";
@@ -95,10 +98,187 @@ pub struct DriveSection {
     pub travel: TravelSection,
     /// How long a mode change takes (6061h reads −1 meanwhile), ms.
     pub mode_change_time_ms: Option<f64>,
+    /// A CMMO-ST's Modbus TCP server address (default 127.0.0.1:1502; every CMMO-ST of a
+    /// cell needs its own).
+    pub modbus: Option<String>,
+    /// A CMMO-ST's Modbus connection watchdog, ms (0 = off, the factory setting).
+    pub modbus_timeout_ms: Option<u16>,
+    /// A CMMO-ST's stepper motor, load and control mode.
+    #[serde(default)]
+    pub stepper: StepperSection,
+    /// A CMMO-ST's axis: end stops, reference switch, index pulse (homing).
+    #[serde(default)]
+    pub axis: AxisSection,
+}
+
+/// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
+/// [`StepperData`] (an EMMS-ST-42-class motor with a light load, closed loop).
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct StepperSection {
+    /// `"closed-loop"` (the CMMO-ST with its encoder) or `"open-loop"` (steps are lost when
+    /// the load exceeds the pull-out torque).
+    pub mode: Option<StepperModeName>,
+    pub holding_torque: Option<f64>,
+    pub load_inertia: Option<f64>,
+    pub load_torque: Option<f64>,
+    pub coulomb_friction: Option<f64>,
+    pub viscous_friction: Option<f64>,
+    pub supply_voltage: Option<f64>,
+}
+
+/// `mode` of `[drive.stepper]`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum StepperModeName {
+    ClosedLoop,
+    OpenLoop,
+}
+
+impl StepperSection {
+    fn is_set(&self) -> bool {
+        self.mode.is_some()
+            || [
+                self.holding_torque,
+                self.load_inertia,
+                self.load_torque,
+                self.coulomb_friction,
+                self.viscous_friction,
+                self.supply_voltage,
+            ]
+            .iter()
+            .any(Option::is_some)
+    }
+
+    /// The stepper data and mode, or what is wrong with them.
+    pub fn stepper(&self) -> Result<(StepperData, StepperMode), String> {
+        let d = StepperData::default();
+        for (name, v, positive) in [
+            ("holding_torque", self.holding_torque, true),
+            ("supply_voltage", self.supply_voltage, true),
+            ("load_inertia", self.load_inertia, false),
+            ("coulomb_friction", self.coulomb_friction, false),
+            ("viscous_friction", self.viscous_friction, false),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && (v > 0.0 || (!positive && v == 0.0))) {
+                    let bound = if positive { "> 0" } else { "≥ 0" };
+                    return Err(format!("stepper.{name} must be a number {bound}"));
+                }
+            }
+        }
+        if self.load_torque.is_some_and(|v| !v.is_finite()) {
+            return Err("stepper.load_torque must be a finite number".into());
+        }
+        let data = StepperData {
+            holding_torque: self.holding_torque.unwrap_or(d.holding_torque),
+            load_inertia: self.load_inertia.unwrap_or(d.load_inertia),
+            load_torque: self.load_torque.unwrap_or(d.load_torque),
+            coulomb_friction: self.coulomb_friction.unwrap_or(d.coulomb_friction),
+            viscous_friction: self.viscous_friction.unwrap_or(d.viscous_friction),
+            supply_voltage: self.supply_voltage.unwrap_or(d.supply_voltage),
+            ..d
+        };
+        let mode = match self.mode {
+            Some(StepperModeName::OpenLoop) => StepperMode::OpenLoop,
+            Some(StepperModeName::ClosedLoop) | None => StepperMode::ClosedLoop,
+        };
+        Ok((data, mode))
+    }
+}
+
+/// Something fitted to the axis at a place, or `"none"`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Fitted<T> {
+    At(T),
+    Absent(String),
+}
+
+impl<T: Copy> Fitted<T> {
+    fn get(&self, name: &str) -> Result<Option<T>, String> {
+        match self {
+            Fitted::At(v) => Ok(Some(*v)),
+            Fitted::Absent(s) if s == "none" => Ok(None),
+            Fitted::Absent(s) => Err(format!(
+                "axis.{name}: {s:?} is neither a place nor \"none\""
+            )),
+        }
+    }
+}
+
+/// `[drive.axis]`: the CMMO-ST's axis in motor revolutions from the power-on position; unset
+/// fields keep [`AxisMechanics::default`] (stops at −3 / +47, a reference cam −0.05 … 0.05,
+/// index pulse at 0.3 of each revolution). `"none"` removes a part (an endless axis, no
+/// switch, an encoder without index).
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct AxisSection {
+    pub end_stops: Option<Fitted<[f64; 2]>>,
+    pub reference_switch: Option<Fitted<[f64; 2]>>,
+    pub index_pulse: Option<Fitted<f64>>,
+}
+
+impl AxisSection {
+    fn is_set(&self) -> bool {
+        self.end_stops.is_some() || self.reference_switch.is_some() || self.index_pulse.is_some()
+    }
+
+    /// The axis, or what is wrong with it.
+    pub fn mechanics(&self) -> Result<AxisMechanics, String> {
+        let d = AxisMechanics::default();
+        let pair = |name: &str, v: &Option<Fitted<[f64; 2]>>, dflt: Option<(f64, f64)>| {
+            let Some(v) = v else {
+                return Ok(dflt);
+            };
+            match v.get(name)? {
+                None => Ok(None),
+                Some([lo, hi]) if lo.is_finite() && hi.is_finite() && lo <= hi => {
+                    Ok(Some((lo, hi)))
+                }
+                Some(_) => Err(format!("axis.{name} must be [low, high] with low ≤ high")),
+            }
+        };
+        let end_stops = pair("end_stops", &self.end_stops, d.end_stops)?;
+        if end_stops.is_some_and(|(lo, hi)| lo == hi || lo.abs().max(hi.abs()) > 1e6) {
+            return Err("axis.end_stops must lie apart, within ±10^6 revolutions".into());
+        }
+        let reference_switch = pair(
+            "reference_switch",
+            &self.reference_switch,
+            d.reference_switch,
+        )?;
+        let index_pulse = match &self.index_pulse {
+            None => d.index_pulse,
+            Some(v) => match v.get("index_pulse")? {
+                Some(f) if (0.0..1.0).contains(&f) => Some(f),
+                Some(_) => {
+                    return Err(
+                        "axis.index_pulse must lie in 0 … 1 (a fraction of a revolution)".into(),
+                    )
+                }
+                None => None,
+            },
+        };
+        Ok(AxisMechanics {
+            end_stops,
+            reference_switch,
+            index_pulse,
+        })
+    }
+}
+
+/// How a CMMO-ST of the cell is served and simulated.
+#[derive(Debug, Clone)]
+pub struct FhppSpec {
+    pub settings: FhppSettings,
+    /// Its Modbus TCP server address, if the cell file gives one.
+    pub modbus: Option<String>,
+    pub watchdog_ms: Option<u16>,
 }
 
 /// `[drive.motor]`: overrides of [`MotorData`].
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MotorSection {
     pub torque_constant: Option<f64>,
@@ -173,7 +353,7 @@ impl MotorSection {
 /// revolution; the encoder reads 0 at power-on). Unset fields keep the defaults: limit
 /// switches from −20 / +64 revolutions, hard stops at −22 / +66, home cam 40000 … 90000, index
 /// at 16384 (see [`TravelSettings::default`]).
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TravelSection {
     pub negative_stop: Option<i64>,
@@ -265,6 +445,8 @@ pub struct DriveSpec {
     pub commissioning: Vec<Commissioning>,
     /// For CiA 402 personalities: the simulated drive and motor.
     pub settings: Option<DriveSettings>,
+    /// For FHPP personalities (the CMMO-ST): the stepper, its axis and its Modbus server.
+    pub fhpp: Option<FhppSpec>,
 }
 
 impl CellFile {
@@ -284,10 +466,12 @@ impl CellFile {
     /// masters such as python-canopen's BaseNode402 read FAULT as FAULT REACTION ACTIVE).
     pub fn single(device: &str, node: u8) -> Self {
         let mut objects = BTreeMap::new();
-        objects.insert(
-            "1017:00".to_string(),
-            toml::Value::Integer(i64::from(DEFAULT_HEARTBEAT_MS)),
-        );
+        if !devices::by_name(device).is_some_and(is_fhpp) {
+            objects.insert(
+                "1017:00".to_string(),
+                toml::Value::Integer(i64::from(DEFAULT_HEARTBEAT_MS)),
+            );
+        }
         if devices::by_name(device).is_some_and(is_cia402) {
             objects.insert("6510:F0".to_string(), toml::Value::Integer(0x0080));
         }
@@ -300,6 +484,10 @@ impl CellFile {
                 motor: MotorSection::default(),
                 travel: TravelSection::default(),
                 mode_change_time_ms: None,
+                modbus: None,
+                modbus_timeout_ms: None,
+                stepper: StepperSection::default(),
+                axis: AxisSection::default(),
             }],
         }
     }
@@ -311,9 +499,52 @@ impl CellFile {
                 let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
                 ConfigError::UnknownDevice(d.device.clone(), known.join(", "))
             })?;
-            if specs.iter().any(|s| s.node == d.node) {
-                return Err(ConfigError::DuplicateNode(d.node));
-            }
+            let err = |key: &str, what: String| ConfigError::Object {
+                node: d.node,
+                key: key.into(),
+                what,
+            };
+            let fhpp = if is_fhpp(desc) {
+                if d.travel != TravelSection::default()
+                    || d.motor != MotorSection::default()
+                    || d.mode_change_time_ms.is_some()
+                {
+                    return Err(err(
+                        "motor",
+                        "motor, travel and mode_change_time_ms are a CiA 402 drive's; the \
+                         CMMO-ST has [drive.stepper] and [drive.axis]"
+                            .into(),
+                    ));
+                }
+                let (stepper, mode) = d.stepper.stepper().map_err(|w| err("stepper", w))?;
+                let mechanics = d.axis.mechanics().map_err(|w| err("axis", w))?;
+                Some(FhppSpec {
+                    settings: FhppSettings {
+                        stepper,
+                        mode,
+                        mechanics,
+                        ..FhppSettings::default()
+                    },
+                    modbus: d.modbus.clone(),
+                    watchdog_ms: d.modbus_timeout_ms,
+                })
+            } else {
+                if d.stepper.is_set()
+                    || d.axis.is_set()
+                    || d.modbus.is_some()
+                    || d.modbus_timeout_ms.is_some()
+                {
+                    return Err(err(
+                        "stepper",
+                        format!("{}: stepper, axis and modbus are the CMMO-ST's", desc.name),
+                    ));
+                }
+                // The CAN node-IDs of a cell share one bus.
+                if specs.iter().any(|s| s.fhpp.is_none() && s.node == d.node) {
+                    return Err(ConfigError::DuplicateNode(d.node));
+                }
+                None
+            };
             let mut commissioning = Vec::new();
             let settings = if is_cia402(desc) {
                 d.motor.check().map_err(|what| ConfigError::Object {
@@ -369,6 +600,7 @@ impl CellFile {
                 node: d.node,
                 commissioning,
                 settings,
+                fhpp,
             });
         }
         Ok(specs)
@@ -488,5 +720,127 @@ mod travel_tests {
             let err = spec(&text).unwrap_err().to_string();
             assert!(err.contains("travel"), "{bad}: {err}");
         }
+    }
+}
+
+#[cfg(test)]
+mod cmmo_st_tests {
+    use super::*;
+
+    fn spec(text: &str) -> Result<Vec<DriveSpec>, String> {
+        let file: CellFile = toml::from_str(text).map_err(|e| e.to_string())?;
+        file.drives().map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn stepper_axis_and_modbus_of_a_cmmo_st() {
+        let drives = spec(
+            "[[drive]]\ndevice = \"cmmo-st\"\nmodbus = \"127.0.0.1:1600\"\n\
+             modbus_timeout_ms = 200\n[drive.stepper]\nmode = \"open-loop\"\n\
+             load_torque = -0.1\nholding_torque = 1.2\n[drive.axis]\nend_stops = \"none\"\n\
+             reference_switch = [1.0, 1.25]\nindex_pulse = 0.5\n[drive.objects]\n\
+             \"2079:01\" = 65\n",
+        )
+        .unwrap();
+        let f = drives[0].fhpp.as_ref().expect("an FHPP drive");
+        assert_eq!(f.modbus.as_deref(), Some("127.0.0.1:1600"));
+        assert_eq!(f.watchdog_ms, Some(200));
+        assert_eq!(f.settings.mode, StepperMode::OpenLoop);
+        assert_eq!(f.settings.stepper.load_torque, -0.1);
+        assert_eq!(f.settings.stepper.holding_torque, 1.2);
+        let d = StepperData::default();
+        assert_eq!(f.settings.stepper.rotor_inertia, d.rotor_inertia);
+        assert_eq!(f.settings.mechanics.end_stops, None, "an endless axis");
+        assert_eq!(f.settings.mechanics.reference_switch, Some((1.0, 1.25)));
+        assert_eq!(f.settings.mechanics.index_pulse, Some(0.5));
+        assert_eq!(drives[0].commissioning.len(), 1, "PNU 121:1 commissioned");
+        assert!(drives[0].settings.is_none(), "no CiA 402 model");
+    }
+
+    #[test]
+    fn the_defaults_of_a_cmmo_st() {
+        let drives = spec("[[drive]]\ndevice = \"cmmo-st\"\n").unwrap();
+        let f = drives[0].fhpp.as_ref().expect("an FHPP drive");
+        assert_eq!(f.modbus, None);
+        assert_eq!(f.settings.mode, StepperMode::ClosedLoop);
+        assert_eq!(f.settings.mechanics, AxisMechanics::default());
+        // A CMMO-ST and a CMMP-AS may both say node 1: only CAN drives share a bus.
+        let both = spec("[[drive]]\ndevice = \"cmmp-as\"\n[[drive]]\ndevice = \"cmmo-st\"\n");
+        assert_eq!(both.map(|d| d.len()), Ok(2));
+    }
+
+    #[test]
+    fn wrong_sections_and_values_are_refused_with_their_name() {
+        let cases = [
+            (
+                "device = \"cmmp-as\"\n[drive.stepper]\nmode = \"open-loop\"",
+                "CMMO-ST",
+            ),
+            ("device = \"cmmp-as\"\nmodbus = \"127.0.0.1:1\"", "CMMO-ST"),
+            (
+                "device = \"cmmo-st\"\n[drive.motor]\ninertia = 1.0",
+                "[drive.stepper]",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.axis]\nend_stops = [2.0, 1.0]",
+                "low ≤ high",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.axis]\nend_stops = [1.0, 1.0]",
+                "apart",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.axis]\nindex_pulse = 1.5",
+                "0 … 1",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.axis]\nreference_switch = \"no\"",
+                "\"none\"",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.stepper]\nholding_torque = 0.0",
+                "> 0",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.stepper]\nload_inertia = -1.0",
+                "≥ 0",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.stepper]\nmode = \"servo\"",
+                "unknown variant",
+            ),
+            (
+                "device = \"cmmo-st\"\n[drive.stepper]\nteeth = 50",
+                "unknown field",
+            ),
+        ];
+        for (text, expected) in cases {
+            let err = spec(&format!("[[drive]]\n{text}\n")).expect_err(text);
+            assert!(err.contains(expected), "{text}: {err}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod example_tests {
+    use super::*;
+
+    /// Every cell file under `examples/` loads and describes its drives.
+    #[test]
+    fn the_example_cell_files_load() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+        let mut seen = 0;
+        for entry in std::fs::read_dir(&dir).expect("examples/") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let file = CellFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                let drives = file
+                    .drives()
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                assert!(!drives.is_empty(), "{}", path.display());
+                seen += 1;
+            }
+        }
+        assert!(seen >= 2, "examples/cell.toml and examples/machine.toml");
     }
 }

@@ -16,6 +16,16 @@ pub fn is_cia402(desc: &od::DeviceDescription) -> bool {
         .unwrap_or(false)
 }
 
+/// Whether the personality is an FHPP device (the CMMO-ST): no CiA device profile (1000h
+/// reads 0, devices/cmmo-st.toml) and the FHPP parameters (PNU n at object 2000h + n) with
+/// PNU 125 "device control".
+pub fn is_fhpp(desc: &od::DeviceDescription) -> bool {
+    let no_profile = desc
+        .entry(0x1000, 0)
+        .is_none_or(|e| e.default.iter().all(|b| *b == 0));
+    no_profile && desc.object(drive::fhpp::device::pnu_index(125)).is_some()
+}
+
 impl Model {
     /// A drive model when the personality is a CiA 402 device and `settings` are given.
     pub fn new(od: ObjectDictionary<Vec<u8>>, settings: Option<DriveSettings>) -> Self {

@@ -33,7 +33,7 @@ pub(crate) fn build_cell(
     state_dir: Option<&PathBuf>,
 ) -> Result<Cell, CommandError> {
     let mut drives = Vec::new();
-    for spec in file.drives()? {
+    for spec in file.drives()?.into_iter().filter(|s| s.fhpp.is_none()) {
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         drives.push(CanDrive::with_settings(
             spec.desc,
@@ -47,9 +47,6 @@ pub(crate) fn build_cell(
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
-    if args.config.is_none() && args.device == "cmmo-st" {
-        return run_cmmo_st(&args).await;
-    }
     let mut file = match &args.config {
         Some(path) => CellFile::load(path)?,
         None => CellFile::single(&args.device, args.node),
@@ -63,7 +60,21 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(c) = &args.socketcan {
         file.bus.socketcan = Some(c.clone());
     }
-    if args.busy_poll && args.ethercat.is_none() {
+    let specs = file.drives()?;
+    // The CMMO-ST has Modbus TCP, no CANopen and no EtherCAT: it runs beside the bus.
+    let (fhpp, can): (Vec<DriveSpec>, Vec<DriveSpec>) =
+        specs.into_iter().partition(|s| s.fhpp.is_some());
+    if !fhpp.is_empty() && args.ethercat.is_some() {
+        return Err(CommandError::Usage(
+            "--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)".into(),
+        ));
+    }
+    if !fhpp.is_empty() && args.virtual_seconds.is_some() {
+        return Err(CommandError::Usage(
+            "--virtual-seconds runs CANopen drives; the CMMO-ST runs on the real clock".into(),
+        ));
+    }
+    if args.busy_poll && args.ethercat.is_none() && fhpp.is_empty() {
         return Err(CommandError::Usage(
             "--busy-poll applies to --ethercat and to the CMMO-ST's Modbus server".into(),
         ));
@@ -77,6 +88,16 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             args.busy_poll,
         )
         .await;
+    }
+    let fhpp_tasks = start_fhpp_drives(&fhpp, &args).await?;
+    if can.is_empty() {
+        // Only CMMO-STs: no bus, no socketcand server.
+        out!("running; Ctrl-C stops");
+        for t in fhpp_tasks {
+            let _ = t.await;
+        }
+        out!("stopped");
+        return Ok(());
     }
     let mut cell = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
@@ -196,6 +217,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         // Let the tap drain what is queued, then stop it.
         tokio::time::sleep(Duration::from_millis(50)).await;
         t.abort();
+        let _ = t.await;
+    }
+    for t in fhpp_tasks {
         let _ = t.await;
     }
     out!("stopped");
@@ -334,47 +358,93 @@ async fn run_ethercat(
     )))
 }
 
-/// `drivetwin run --device cmmo-st`: one CMMO-ST served over Modbus TCP (FHPP). It has no
-/// CANopen, so no socketcand server is started.
-async fn run_cmmo_st(args: &RunArgs) -> Result<(), CommandError> {
-    use ::drive::fhpp::device::{FhppDevice, FhppSettings};
-    use drivetwin::fhpp_modbus;
-    use drivetwin::modbus_server::{ModbusConfig, DEFAULT_ADDR};
+/// Starts the cell's CMMO-STs (FHPP over Modbus TCP), each on its own thread with its own
+/// server, stopped by the shutdown signal; their tasks end when they have stopped.
+async fn start_fhpp_drives(
+    specs: &[DriveSpec],
+    args: &RunArgs,
+) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
+    use drivetwin::modbus_server::DEFAULT_ADDR;
+    if args.modbus.is_some() && specs.len() > 1 {
+        return Err(CommandError::Usage(
+            "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
+             cell file"
+                .into(),
+        ));
+    }
+    let mut tasks = Vec::new();
+    for spec in specs {
+        let Some(fhpp) = &spec.fhpp else {
+            continue;
+        };
+        let addr = args
+            .modbus
+            .as_deref()
+            .or(fhpp.modbus.as_deref())
+            .unwrap_or(DEFAULT_ADDR);
+        let (listener, dev, options) = prepare_cmmo_st(spec, fhpp, addr, args).await?;
+        tasks.push(tokio::spawn(fhpp_modbus::run_cmmo_st(
+            listener,
+            dev,
+            options,
+            shutdown_signal(),
+        )));
+    }
+    Ok(tasks)
+}
+
+/// One CMMO-ST at power-on: defaults, the cell's commissioning values, then its permanent
+/// memory (`--state-dir`), and its Modbus listener bound.
+async fn prepare_cmmo_st(
+    spec: &DriveSpec,
+    fhpp: &FhppSpec,
+    addr: &str,
+    args: &RunArgs,
+) -> Result<
+    (
+        tokio::net::TcpListener,
+        fhpp_modbus::SharedDevice,
+        fhpp_modbus::ServeOptions,
+    ),
+    CommandError,
+> {
+    use ::drive::fhpp::device::FhppDevice;
+    use drivetwin::modbus_server::ModbusConfig;
     use std::sync::{Arc, Mutex};
 
-    let desc = device(&args.device)?;
-    let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
+    let desc = spec.desc;
+    let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
         .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
-    let mut dev = FhppDevice::new(od, FhppSettings::default());
+    for c in &spec.commissioning {
+        if let Some(e) = desc.entry(c.index, c.sub) {
+            od.store(e, &c.bytes);
+        }
+    }
+    let mut dev = FhppDevice::new(od, fhpp.settings);
     let store = args
         .state_dir
         .as_ref()
-        .map(|dir| drivetwin::param_store::ParamStore::new(dir, desc.name, 1));
+        .map(|dir| ParamStore::new(dir, desc.name, spec.node));
+    out!("drive {} ({})", desc.name, desc.product_name);
     if let Some(store) = &store {
         match fhpp_modbus::power_on(&mut dev, store) {
             Ok(()) => out!("permanent memory in {}", store.memory_path().display()),
             Err(e) => tracing::warn!("{e}"),
         }
     }
-    let dev = Arc::new(Mutex::new(dev));
-    out!("drive {} ({})", desc.name, desc.product_name);
-    let addr = args.modbus.as_deref().unwrap_or(DEFAULT_ADDR);
     let listener = tokio::net::TcpListener::bind(addr)
         .await
         .map_err(io(format!("Modbus listen on {addr}")))?;
     let local = listener.local_addr().map_err(io("Modbus address"))?;
     out!("modbus server on {local}");
-    out!("running; Ctrl-C stops");
     let config = ModbusConfig {
         busy_poll: args.busy_poll,
-        ..ModbusConfig::with_watchdog_ms(args.modbus_timeout_ms)
+        ..ModbusConfig::with_watchdog_ms(fhpp.watchdog_ms.unwrap_or(args.modbus_timeout_ms))
     };
     let io = match args.modbus_io {
         crate::cli::ModbusIo::Thread => fhpp_modbus::ServerIo::CycleThread,
         crate::cli::ModbusIo::Async => fhpp_modbus::ServerIo::Async,
     };
     let options = fhpp_modbus::ServeOptions { config, io, store };
-    fhpp_modbus::run_cmmo_st(listener, dev, options, shutdown_signal()).await;
-    out!("stopped");
-    Ok(())
+    Ok((listener, Arc::new(Mutex::new(dev)), options))
 }
