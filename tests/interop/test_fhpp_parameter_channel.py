@@ -8,6 +8,7 @@ answered at the drive's next cycle, so the master polls until FPCS changes.
 
 from __future__ import annotations
 
+import contextlib
 import struct
 import time
 
@@ -272,48 +273,36 @@ def test_a_type_2_error_aborts_and_shows_e27(cmmo):
         c.close()
 
 
+@contextlib.contextmanager
+def powered_on(cmmo, state):
+    """One run of a twin with `--state-dir state`: the twin and its client, then stopped."""
+    twin = cmmo("--state-dir", str(state))
+    c = twin.client()
+    try:
+        yield twin, c
+    finally:
+        c.close()
+        twin.stop()
+
+
 def test_the_permanent_memory_survives_a_restart_with_a_state_dir(cmmo, tmp_path):
     """PNU 127:2 writes the permanent memory to --state-dir (atomically); the next start
     powers on from it; PNU 127:1 deletes it; a damaged file gives the factory settings."""
     state = tmp_path / "state"
     eeprom = state / "cmmo-st-node1.eeprom"
-    twin = cmmo("--state-dir", str(state))
-    c = twin.client()
-    try:
+    with powered_on(cmmo, state) as (twin, c):
         assert write(c, 121, 1, ord("S")) == ("ok", ord("S"))
         assert not eeprom.exists(), "a write alone is volatile"
         assert job(c, bytes.fromhex("1802007F00000001"))[0] == 0x15  # 127:2 save
         assert eeprom.exists()
-    finally:
-        c.close()
-    twin.stop()
-
-    twin = cmmo("--state-dir", str(state))
-    c = twin.client()
-    try:
+    with powered_on(cmmo, state) as (twin, c):
         assert read(c, 121, 1) == ("ok", ord("S")), "powered on from the saved memory"
         assert write(c, 127, 1, 0x10) == ("ok", 0x10)  # 127:1 delete EEPROM
         assert not eeprom.exists()
-    finally:
-        c.close()
-    twin.stop()
-
-    twin = cmmo("--state-dir", str(state))
-    c = twin.client()
-    try:
+    with powered_on(cmmo, state) as (twin, c):
         assert read(c, 121, 1) == ("ok", 0), "factory settings after the delete"
-    finally:
-        c.close()
-    twin.stop()
-
-    state.mkdir(exist_ok=True)
     eeprom.write_bytes(b"\x00" * 40)
-    twin = cmmo("--state-dir", str(state))
-    c = twin.client()
-    try:
+    with powered_on(cmmo, state) as (twin, c):
         assert read(c, 121, 1) == ("ok", 0)
         assert not c.read_holding_registers(0, count=4).isError(), "and it serves"
-    finally:
-        c.close()
-    twin.stop()
     assert "factory settings" in twin.stderr()

@@ -113,7 +113,7 @@ pub struct DriveSection {
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
 /// [`StepperData`] (an EMMS-ST-42-class motor with a light load, closed loop).
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct StepperSection {
     /// `"closed-loop"` (the CMMO-ST with its encoder) or `"open-loop"` (steps are lost when
@@ -136,20 +136,6 @@ pub enum StepperModeName {
 }
 
 impl StepperSection {
-    fn is_set(&self) -> bool {
-        self.mode.is_some()
-            || [
-                self.holding_torque,
-                self.load_inertia,
-                self.load_torque,
-                self.coulomb_friction,
-                self.viscous_friction,
-                self.supply_voltage,
-            ]
-            .iter()
-            .any(Option::is_some)
-    }
-
     /// The stepper data and mode, or what is wrong with them.
     pub fn stepper(&self) -> Result<(StepperData, StepperMode), String> {
         let d = StepperData::default();
@@ -211,7 +197,7 @@ impl<T: Copy> Fitted<T> {
 /// fields keep [`AxisMechanics::default`] (stops at −3 / +47, a reference cam −0.05 … 0.05,
 /// index pulse at 0.3 of each revolution). `"none"` removes a part (an endless axis, no
 /// switch, an encoder without index).
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AxisSection {
     pub end_stops: Option<Fitted<[f64; 2]>>,
@@ -220,10 +206,6 @@ pub struct AxisSection {
 }
 
 impl AxisSection {
-    fn is_set(&self) -> bool {
-        self.end_stops.is_some() || self.reference_switch.is_some() || self.index_pulse.is_some()
-    }
-
     /// The axis, or what is wrong with it.
     pub fn mechanics(&self) -> Result<AxisMechanics, String> {
         let d = AxisMechanics::default();
@@ -529,8 +511,8 @@ impl CellFile {
                     watchdog_ms: d.modbus_timeout_ms,
                 })
             } else {
-                if d.stepper.is_set()
-                    || d.axis.is_set()
+                if d.stepper != StepperSection::default()
+                    || d.axis != AxisSection::default()
                     || d.modbus.is_some()
                     || d.modbus_timeout_ms.is_some()
                 {
