@@ -221,12 +221,8 @@ pub enum SdoCommand {
         /// Sub-index, hex.
         #[arg(default_value = "0")]
         sub: String,
-        /// Type to decode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-        /// Take the type from this personality's dictionary.
-        #[arg(long)]
-        device: Option<String>,
+        #[command(flatten)]
+        typing: TypeArgs,
         #[arg(long, default_value_t = 1000)]
         timeout_ms: u64,
         #[command(flatten)]
@@ -238,15 +234,24 @@ pub enum SdoCommand {
         index: String,
         sub: String,
         value: String,
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-        #[arg(long)]
-        device: Option<String>,
+        #[command(flatten)]
+        typing: TypeArgs,
         #[arg(long, default_value_t = 1000)]
         timeout_ms: u64,
         #[command(flatten)]
         bus: BusArgs,
     },
+}
+
+/// How an SDO value is typed: named, or taken from a personality's dictionary.
+#[derive(Args, Debug, Clone)]
+pub struct TypeArgs {
+    /// Type to decode or encode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
+    #[arg(long = "type", short = 't')]
+    pub data_type: Option<String>,
+    /// Take the type from this personality's dictionary.
+    #[arg(long)]
+    pub device: Option<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -436,12 +441,8 @@ pub enum EcatSdoCommand {
         /// Slave number (1 = first on the line).
         #[arg(long, default_value_t = 1)]
         slave: u16,
-        /// Type to decode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-        /// Take the type from this personality's dictionary.
-        #[arg(long)]
-        device: Option<String>,
+        #[command(flatten)]
+        typing: TypeArgs,
         /// SDO response timeout, ms.
         #[arg(long, default_value_t = 1000)]
         timeout_ms: u64,
@@ -458,12 +459,8 @@ pub enum EcatSdoCommand {
         /// Slave number (1 = first on the line).
         #[arg(long, default_value_t = 1)]
         slave: u16,
-        /// Type to encode as: u8 u16 u32 u64 i8 i16 i32 i64 f32 f64 bool str hex.
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-        /// Take the type from this personality's dictionary.
-        #[arg(long)]
-        device: Option<String>,
+        #[command(flatten)]
+        typing: TypeArgs,
         /// SDO response timeout, ms.
         #[arg(long, default_value_t = 1000)]
         timeout_ms: u64,

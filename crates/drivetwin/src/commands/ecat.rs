@@ -313,13 +313,12 @@ async fn sdo(cmd: EcatSdoCommand) -> Result<(), CommandError> {
         EcatSdoCommand::Read {
             object,
             slave,
-            data_type,
-            device,
+            typing,
             timeout_ms,
             link,
         } => {
             let (index, sub) = parse_object(&object)?;
-            let ty = sdo::resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?;
+            let ty = sdo::resolve_type(&typing, index, sub)?;
             let timeout = Duration::from_millis(timeout_ms);
             let (mut m, count) = attach(&link).await?;
             select(Some(slave), count)?;
@@ -337,18 +336,16 @@ async fn sdo(cmd: EcatSdoCommand) -> Result<(), CommandError> {
             object,
             value,
             slave,
-            data_type,
-            device,
+            typing,
             timeout_ms,
             link,
         } => {
             let (index, sub) = parse_object(&object)?;
-            let ty = sdo::resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?
-                .ok_or_else(|| {
-                    CommandError::Usage(
-                        "ecat sdo write needs --type or --device to encode the value".into(),
-                    )
-                })?;
+            let ty = sdo::resolve_type(&typing, index, sub)?.ok_or_else(|| {
+                CommandError::Usage(
+                    "ecat sdo write needs --type or --device to encode the value".into(),
+                )
+            })?;
             let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
             let timeout = Duration::from_millis(timeout_ms);
             let (mut m, count) = attach(&link).await?;

@@ -1,17 +1,16 @@
 use super::*;
 
 pub(crate) fn resolve_type(
-    data_type: Option<&str>,
-    device_name: Option<&str>,
+    typing: &crate::cli::TypeArgs,
     index: u16,
     sub: u8,
 ) -> Result<Option<DataType>, CommandError> {
-    if let Some(t) = data_type {
+    if let Some(t) = typing.data_type.as_deref() {
         return value_text::parse_type(t)
             .map(Some)
             .ok_or_else(|| CommandError::Usage(format!("unknown type {t:?}")));
     }
-    if let Some(name) = device_name {
+    if let Some(name) = typing.device.as_deref() {
         let desc = device(name)?;
         let e = desc.entry(index, sub).ok_or_else(|| {
             CommandError::Usage(format!("{name} has no entry {index:04X}:{sub:02X}"))
@@ -27,15 +26,14 @@ pub(crate) async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
             node,
             index,
             sub,
-            data_type,
-            device,
+            typing,
             timeout_ms,
             bus,
         } => {
             check_node(node)?;
             let index = parse_hex_u16(&index, "index")?;
             let sub = parse_hex_u8(&sub, "sub-index")?;
-            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?;
+            let ty = resolve_type(&typing, index, sub)?;
             let mut link = connect(&bus).await?;
             let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
                 .upload(index, sub)
@@ -58,20 +56,16 @@ pub(crate) async fn sdo(cmd: SdoCommand) -> Result<(), CommandError> {
             index,
             sub,
             value,
-            data_type,
-            device,
+            typing,
             timeout_ms,
             bus,
         } => {
             check_node(node)?;
             let index = parse_hex_u16(&index, "index")?;
             let sub = parse_hex_u8(&sub, "sub-index")?;
-            let ty = resolve_type(data_type.as_deref(), device.as_deref(), index, sub)?
-                .ok_or_else(|| {
-                    CommandError::Usage(
-                        "sdo write needs --type or --device to encode the value".into(),
-                    )
-                })?;
+            let ty = resolve_type(&typing, index, sub)?.ok_or_else(|| {
+                CommandError::Usage("sdo write needs --type or --device to encode the value".into())
+            })?;
             let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
             let mut link = connect(&bus).await?;
             let result = SdoClient::new(&mut link, node, Duration::from_millis(timeout_ms))
