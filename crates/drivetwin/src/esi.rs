@@ -576,38 +576,23 @@ mod tests {
         let sms: Vec<_> = dev.children().filter(|c| c.has_tag_name("Sm")).collect();
         let sm = |i: usize, a: &str| sms[i].attribute(a).unwrap().to_string();
         assert_eq!(sms.len(), 4);
-        assert_eq!(
-            (
-                sm(0, "StartAddress"),
-                sm(0, "DefaultSize"),
-                sm(0, "ControlByte")
-            ),
-            ("#x1000".into(), "128".into(), "#x26".into())
-        );
-        assert_eq!(
-            (
-                sm(1, "StartAddress"),
-                sm(1, "DefaultSize"),
-                sm(1, "ControlByte")
-            ),
-            ("#x1080".into(), "128".into(), "#x22".into())
-        );
-        assert_eq!(
-            (
-                sm(2, "StartAddress"),
-                sm(2, "DefaultSize"),
-                sm(2, "ControlByte")
-            ),
-            ("#x1100".into(), "2".into(), "#x64".into())
-        );
-        assert_eq!(
-            (
-                sm(3, "StartAddress"),
-                sm(3, "DefaultSize"),
-                sm(3, "ControlByte")
-            ),
-            ("#x1180".into(), "2".into(), "#x20".into())
-        );
+        let expected = [
+            ("#x1000", "128", "#x26"),
+            ("#x1080", "128", "#x22"),
+            ("#x1100", "2", "#x64"),
+            ("#x1180", "2", "#x20"),
+        ];
+        for (i, (start, size, control)) in expected.into_iter().enumerate() {
+            assert_eq!(
+                (
+                    sm(i, "StartAddress"),
+                    sm(i, "DefaultSize"),
+                    sm(i, "ControlByte")
+                ),
+                (start.into(), size.into(), control.into()),
+                "Sm {i}"
+            );
+        }
         assert_eq!(
             sms.iter().map(|s| s.text().unwrap()).collect::<Vec<_>>(),
             ["MBoxOut", "MBoxIn", "Outputs", "Inputs"]
