@@ -109,7 +109,7 @@ impl<L: FrameLink> EcatMaster<L> {
         window: &[u8],
         timeout: Duration,
     ) -> Result<(), EcatError> {
-        let deadline = tokio::time::Instant::now() + timeout;
+        let poll = MailboxPoll::new(slave, "receive mailbox stays full", timeout);
         loop {
             if !self.sm_full(slave, 0).await? {
                 // Refused (WKC 0) while full (spec §5.2): try again.
@@ -117,14 +117,7 @@ impl<L: FrameLink> EcatMaster<L> {
                     return Ok(());
                 }
             }
-            if tokio::time::Instant::now() >= deadline {
-                return Err(EcatError::MailboxTimeout {
-                    slave,
-                    what: "receive mailbox stays full",
-                    timeout,
-                });
-            }
-            tokio::time::sleep(Duration::from_micros(500)).await;
+            poll.pause().await?;
         }
     }
 
@@ -135,7 +128,7 @@ impl<L: FrameLink> EcatMaster<L> {
         mbx: &Mailboxes,
         timeout: Duration,
     ) -> Result<Vec<u8>, EcatError> {
-        let deadline = tokio::time::Instant::now() + timeout;
+        let poll = MailboxPoll::new(slave, "no SDO response", timeout);
         loop {
             if self.sm_full(slave, 1).await? {
                 let r = self
@@ -145,14 +138,7 @@ impl<L: FrameLink> EcatMaster<L> {
                     return Ok(r.data);
                 }
             }
-            if tokio::time::Instant::now() >= deadline {
-                return Err(EcatError::MailboxTimeout {
-                    slave,
-                    what: "no SDO response",
-                    timeout,
-                });
-            }
-            tokio::time::sleep(Duration::from_micros(500)).await;
+            poll.pause().await?;
         }
     }
 
@@ -391,4 +377,37 @@ fn unreachable_protocol<T>(slave: u16) -> Result<T, EcatError> {
         slave,
         what: "undecodable mailbox reply".into(),
     })
+}
+
+/// Polling a mailbox sync manager: every 500 µs until the timeout, then the error that says
+/// what did not happen.
+struct MailboxPoll {
+    slave: u16,
+    what: &'static str,
+    timeout: Duration,
+    deadline: tokio::time::Instant,
+}
+
+impl MailboxPoll {
+    fn new(slave: u16, what: &'static str, timeout: Duration) -> Self {
+        MailboxPoll {
+            slave,
+            what,
+            timeout,
+            deadline: tokio::time::Instant::now() + timeout,
+        }
+    }
+
+    /// Waits before the next try, or fails once the time is up.
+    async fn pause(&self) -> Result<(), EcatError> {
+        if tokio::time::Instant::now() >= self.deadline {
+            return Err(EcatError::MailboxTimeout {
+                slave: self.slave,
+                what: self.what,
+                timeout: self.timeout,
+            });
+        }
+        tokio::time::sleep(Duration::from_micros(500)).await;
+        Ok(())
+    }
 }
