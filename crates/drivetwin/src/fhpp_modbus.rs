@@ -414,6 +414,8 @@ mod tests {
         assert!(text.contains("1.5.2.0"));
     }
 
+    /// FHPP-DIAG-01, FHPP-MB-05: a watchdog timeout while Modbus holds control raises error
+    /// 47h (SCON.FAULT, FC 0x07 answers 47h).
     #[test]
     fn watchdog_raises_47h_with_control_and_fc07_shows_it() {
         let mut m = map();
@@ -435,5 +437,40 @@ mod tests {
         m.connection_event(ConnectionEvent::Closed(CloseReason::Peer));
         step(&m, 5);
         assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+    }
+
+    /// FHPP-DIAG-01: a watchdog timeout while FCT holds control (Modbus has none) raises
+    /// 48h, a warning: SCON.WARN, no fault (FC 0x07 answers 0), PNU 221 sub 3 bit 8; the next
+    /// connection removes it.
+    #[test]
+    fn watchdog_without_control_warns_48h() {
+        let mut m = map();
+        step(&m, 2);
+        lock(&m.device)
+            .fhpp_mut()
+            .request_local_control(drive::fhpp::Authority::Fct)
+            .unwrap();
+        assert!(!lock(&m.device).fieldbus_has_control());
+        m.connection_event(ConnectionEvent::Opened);
+        m.connection_event(ConnectionEvent::Closed(CloseReason::WatchdogExpired));
+        {
+            let mut d = lock(&m.device);
+            for t in 2..10 {
+                d.step(od::Instant::from_millis(t));
+            }
+            assert_eq!(d.read_u32(pnu_index(221), 3), Some(1 << (0x48 - 64)));
+        }
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00], "a warning is no fault");
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[2] & 0x0C, 0x04, "SCON.WARN, not FAULT");
+        m.connection_event(ConnectionEvent::Opened);
+        {
+            let mut d = lock(&m.device);
+            for t in 10..14 {
+                d.step(od::Instant::from_millis(t));
+            }
+        }
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[2] & 0x0C, 0x00, "cleared by the new connection");
     }
 }
