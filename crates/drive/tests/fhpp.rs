@@ -1,5 +1,6 @@
 //! FHPP cyclic data and state machine of the CMMO-ST (seed 002 ch. 5, 6): every vector of
-//! spec/vectors.md §2.1 (FHPP-CB-xx, Examples 1–6) and §2.2 (FHPP-ST-xx, Tab. 5.2/5.3) by ID,
+//! spec/vectors.md §2.1 (FHPP-CB-01 … FHPP-CB-16, Examples 1–6) and §2.2 (FHPP-ST-01 …
+//! FHPP-ST-19, Tab. 5.2/5.3), each test naming its IDs in full,
 //! the reference status values of spec/cmmo-st-fhpp.md §4.3 and §8.1, and the handshakes.
 
 use drive::fhpp::control_bytes::{percent_of, Edges};
