@@ -293,6 +293,7 @@ fn information_class_only_writes_the_memory() {
     assert_eq!(b.r8(204, 4), 1, "only the start-up event");
 }
 
+/// FHPP-FPC-13: diagnostic 2Fh → PNU 220 subindex 2 bit 15, PNU 242 / 246 subindex 48.
 #[test]
 fn following_error_fault_shows_in_220_sub_2_bit_15() {
     let mut b = Bench::ready();
@@ -302,6 +303,16 @@ fn following_error_fault_shows_in_220_sub_2_bit_15() {
     assert_eq!(b.r32(220, 2), 1 << 15);
     assert_eq!(b.r16(205, 1), 0x2F);
     assert_eq!(b.r8(230, 1), 1, "after the cause");
+    // FHPP-FPC-13 (corrected): the arrays run to subindex 32 (numbers 992…1023), not 4.
+    for p in [220, 221] {
+        assert_eq!(b.dev.read_u32(pnu(p), 32), Some(0), "PNU {p}:32");
+        assert_eq!(b.dev.read_u32(pnu(p), 33), None, "PNU {p}:33");
+    }
+    // PNU 242 / 246 for 2Fh at subindex 2Fh + 1 = 48.
+    assert_eq!(
+        b.r16(242, 48),
+        diagnostics::lookup(0x2F).unwrap().default_reaction()
+    );
 }
 
 // ---- acknowledge types --------------------------------------------------------------------
