@@ -494,6 +494,47 @@ fn upload_download_round_trip_and_activation_by_127_4() {
     assert_eq!(b.scon() & SCON_FAULT, 0);
 }
 
+/// FHPP-FPC-14, the frames of the vector: a 100-byte download starts with FPCC 45h, packet ID
+/// 20h and the size little-endian (`45 20 64 00 00 00 00 00`), takes 17 data packets with IDs
+/// 01h…11h (16 × 6 bytes + 4, the last one zero-padded) and stops with 40h + sequence; the
+/// drive acknowledges each packet with the same packet ID (the device part runs with the
+/// real file in `upload_download_round_trip_and_activation_by_127_4`).
+#[test]
+fn fhpp_fpc_14_frames_of_a_100_byte_download() {
+    let down = FileDirection::Download;
+    let start = Request::File {
+        direction: down,
+        packet: Packet::start(100),
+    };
+    assert_eq!(start.encode(), [0x45, 0x20, 0x64, 0, 0, 0, 0, 0]);
+    let file: Vec<u8> = (1..=100).collect();
+    let mut seq = 0;
+    let mut ids = Vec::new();
+    let mut last = [0u8; 8];
+    for chunk in file.chunks(6) {
+        seq = drive::fhpp::parameter_channel::next_sequence(seq);
+        let mut d = [0u8; 6];
+        d[..chunk.len()].copy_from_slice(chunk);
+        last = Request::File {
+            direction: down,
+            packet: Packet::data(seq, d),
+        }
+        .encode();
+        assert_eq!(last[0], 0x45);
+        ids.push(last[1]);
+    }
+    assert_eq!(ids, (0x01..=0x11).collect::<Vec<u8>>(), "17 data packets");
+    assert_eq!(last[2..], [97, 98, 99, 100, 0, 0], "4 bytes, zero-padded");
+    let stop = Request::File {
+        direction: down,
+        packet: Packet::empty(PacketKind::Stop, 0x12),
+    };
+    assert_eq!(stop.encode()[..2], [0x45, 0x52]);
+    // The drive's acknowledgement of a packet carries the same ID (FPCS 43h: response mode).
+    let ack = Response::File(FileResponse::Active(Packet::data(0x11, [0; 6]))).encode();
+    assert_eq!(ack[..2], [0x43, 0x11]);
+}
+
 #[test]
 fn sequence_numbers_run_1_to_31_then_0() {
     let mut b = Bench::new();
