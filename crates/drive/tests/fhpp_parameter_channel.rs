@@ -2,6 +2,7 @@
 //! output images in, FPCS and the answer out, one FHPP cycle per exchange.
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::fhpp::diagnostic_memory::EventType;
 use drive::fhpp::parameter_channel::{
     ErrorCode, FileDirection, FileError, FileResponse, Packet, PacketKind, ParameterRequest,
     ParameterResponse, Request, Response,
@@ -565,8 +566,13 @@ fn expect_type2(b: &mut Bench, r: Response, e: FileError) {
         assert!(!b.dev.parameter_channel().transfer().is_active());
         assert_eq!(b.scon() & SCON_FAULT, SCON_FAULT, "E27 for {e:?}");
         assert_eq!(b.dev.fault_number(), DIAG_E27);
-        // FHPP-FPC-15: the 7-segment display shows "E27".
+        // FHPP-FPC-15: the 7-segment display shows "E27", the memory has its entry.
         assert_eq!(b.dev.seven_segment().to_string(), "E27");
+        let newest = b.dev.diagnostic_memory().get(0).copied();
+        assert_eq!(
+            newest.map(|e| (e.event, e.number)),
+            Some((EventType::Fault, u16::from(DIAG_E27)))
+        );
     } else {
         assert!(b.dev.parameter_channel().transfer().is_active());
         assert_eq!(b.scon() & SCON_FAULT, 0, "no fault for {e:?}");
