@@ -379,6 +379,65 @@ mod tests {
         assert_eq!(r[10..], [0x15, 0x01, 0x00, 0x65, 0, 0, 0, 1]);
     }
 
+    /// FHPP-MB-03 against the device's register map: referenced, direct mode S4; FC 17h with
+    /// CCON 43h, CDIR 00h, 100 %, 00002710h; CPOS 01h → 03h. The answer once the device has
+    /// run a cycle on it is `17 08 53 83 00 vv pp pp pp pp` (SPOS 83h = REF + ACK + HALT), then
+    /// SPOS 93h while moving, finally SPOS & 07h = 05h after START is back to 0.
+    #[test]
+    fn fhpp_mb_03_direct_move_over_fc_0x17() {
+        let mut m = map();
+        let mut t = 0u64;
+        let mut run = |m: &FhppModbus, ms: u64| {
+            let mut d = lock(&m.device);
+            for _ in 0..ms {
+                d.step(od::Instant::from_millis(t));
+                t += 1;
+            }
+        };
+        let fc17 = |out: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
+            req.extend_from_slice(&out);
+            req
+        };
+        run(&m, 2);
+        // Enable and home (method −35 by default: the current position is REF).
+        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        run(&m, 5);
+        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        run(&m, 5);
+        // Cycle 1: direct mode, START = 0.
+        let cycle1 = [0x43, 0x01, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
+        pdu(&mut m, &fc17(cycle1));
+        run(&m, 5);
+        let r = pdu(&mut m, &fc17(cycle1));
+        assert_eq!(r[..4], [0x17, 8, 0x53, 0x85], "{r:02X?}");
+        // Cycle 2: START rising.
+        let cycle2 = [0x43, 0x03, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
+        pdu(&mut m, &fc17(cycle2));
+        run(&m, 1);
+        let r = pdu(&mut m, &fc17(cycle2));
+        assert_eq!(r[..5], [0x17, 8, 0x53, 0x83, 0x00], "{r:02X?}");
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17(cycle2));
+        assert_eq!(r[3], 0x93, "MOV while moving: {r:02X?}");
+        assert!(r[4] == 0 && r[5] > 0, "SDIR absolute, velocity %: {r:02X?}");
+        pdu(&mut m, &fc17(cycle1));
+        let mut last = Vec::new();
+        for _ in 0..300 {
+            run(&m, 10);
+            last = pdu(&mut m, &fc17(cycle1));
+            if last[3] & 0x04 != 0 {
+                break;
+            }
+        }
+        assert_eq!(last[3] & 0x07, 0x05, "MC, ACK = 0: {last:02X?}");
+        let actual = i32::from_be_bytes([last[6], last[7], last[8], last[9]]);
+        assert!((actual - 10_000).abs() <= 180, "at 10000 SINC: {actual}");
+    }
+
     #[test]
     fn wrong_address_and_quantity() {
         let mut m = map();
