@@ -438,6 +438,61 @@ mod tests {
         assert!((actual - 10_000).abs() <= 180, "at 10000 SINC: {actual}");
     }
 
+    /// FHPP-MB-04, FHPP-FPC-01: FC 17h with quantity 8 / byte count 10h, EFPC `16 01 04 11 00
+    /// 00 00 00` (read PNU 1041:1) after the zero request → `17 10 <8 status bytes> 15 01 04 11
+    /// p3 p2 p1 p0`, the actual position big-endian as SPOS bytes 5…8 show it.
+    #[test]
+    fn fhpp_mb_04_read_pnu_1041_through_the_efpc() {
+        let mut m = map();
+        let mut t = 0u64;
+        let mut run = |m: &FhppModbus, ms: u64| {
+            let mut d = lock(&m.device);
+            for _ in 0..ms {
+                d.step(od::Instant::from_millis(t));
+                t += 1;
+            }
+        };
+        // Homing on the current position with the AZ offset PNU 1010 = 1234 SINC: the actual
+        // position becomes −1234 (§6.2.1), a value with every byte set.
+        lock(&m.device)
+            .write(pnu_index(1010), 1, &1234i32.to_le_bytes())
+            .unwrap();
+        run(&m, 2);
+        let fc17 = |out: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
+            req.extend_from_slice(&out);
+            req
+        };
+        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        run(&m, 5);
+        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        run(&m, 2);
+        let request = |fpc: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 0x10];
+            req.extend_from_slice(&[0x43, 0x01, 0, 0, 0, 0, 0, 0]);
+            req.extend_from_slice(&fpc);
+            req
+        };
+        pdu(&mut m, &request([0x10, 0, 0, 0, 0, 0, 0, 0]));
+        run(&m, 2);
+        let read_1041 = [0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0];
+        pdu(&mut m, &request(read_1041));
+        run(&m, 2);
+        let r = pdu(&mut m, &request(read_1041));
+        assert_eq!(r[..2], [0x17, 0x10]);
+        assert_eq!(r[10..14], [0x15, 0x01, 0x04, 0x11], "{r:02X?}");
+        let actual = lock(&m.device).read_u32(pnu_index(1041), 1);
+        assert_eq!(
+            Some(u32::from_be_bytes([r[14], r[15], r[16], r[17]])),
+            actual
+        );
+        assert_eq!(r[14..18], (-1234i32).to_be_bytes(), "{r:02X?}");
+        assert_eq!(r[14..18], r[6..10], "the same value as SPOS bytes 5…8");
+    }
+
     #[test]
     fn wrong_address_and_quantity() {
         let mut m = map();
