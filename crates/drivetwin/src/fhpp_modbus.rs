@@ -493,6 +493,22 @@ mod tests {
         assert_eq!(r[14..18], r[6..10], "the same value as SPOS bytes 5…8");
     }
 
+    /// FHPP-MB-05: FC 07h answers 00 without a fault and 2Fh with the following error active.
+    #[test]
+    fn fhpp_mb_05_exception_status_is_the_fault_number() {
+        let mut m = map();
+        step(&m, 2);
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+        {
+            let mut d = lock(&m.device);
+            d.fault(diag::FOLLOWING_ERROR);
+            for t in 2..10 {
+                d.step(od::Instant::from_millis(t));
+            }
+        }
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x2F]);
+    }
+
     #[test]
     fn wrong_address_and_quantity() {
         let mut m = map();
