@@ -331,6 +331,8 @@ mod tests {
         }
     }
 
+    /// FHPP-MB-01, FHPP-MB-02: FC 10h writes `03 01 01 00 00 00 00 00` (answer `10 00 00 00
+    /// 04`); FC 03h then reads the input telegram, SCON 13h, SPOS 05h; FHPP-CB-01 before it.
     #[test]
     fn power_on_then_enable_over_fc_0x17() {
         let mut m = map();
@@ -346,6 +348,8 @@ mod tests {
             let mut d = lock(&m.device);
             d.step(od::Instant::from_millis(10));
         }
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[..4], [0x03, 8, 0x13, 0x05], "{r:02X?}");
         let r = pdu(
             &mut m,
             &[
