@@ -60,13 +60,13 @@ def test_status_decodes_the_power_on_bytes_and_writes_nothing(cmmo):
 
 def test_enable_home_move_record_disable(cmmo):
     twin = cmmo()
-    # FHPP-CB-03 (ST-01, ST-02): enabled in record selection → SCON 13h, SPOS 05h.
+    # FHPP-CB-03 (FHPP-ST-01, FHPP-ST-02): enabled in record selection → SCON 13h, SPOS 05h.
     s = fhpp_json(twin, "enable")
     assert (s["scon"], s["spos"], s["state"]) == (0x13, 0x05, "S4 operation enabled"), s
     i = read_inputs(twin)
     assert (i["scon"], i["spos"], i["fault"]) == (0x13, 0x05, 0), i
 
-    s = fhpp_json(twin, "home")  # FHPP-CB-08…10
+    s = fhpp_json(twin, "home")  # FHPP-CB-08, FHPP-CB-09, FHPP-CB-10
     assert s["spos"] & (SPOS_REF | SPOS_MC) == SPOS_REF | SPOS_MC and not s["spos"] & SPOS_ACK, s
     assert "REF" in s["spos_bits"] and "MC" in s["spos_bits"]
     assert read_inputs(twin)["spos"] & SPOS_REF
@@ -85,7 +85,7 @@ def test_enable_home_move_record_disable(cmmo):
     i = read_inputs(twin)
     assert abs(i["actual"] - 18000) <= 2 * POSITION_WINDOW, i
 
-    # FHPP-CB-11…13: record 1 (the personality's default record list: target 0 SINC).
+    # FHPP-CB-11, FHPP-CB-12, FHPP-CB-13: record 1 (the personality's default record list: target 0 SINC).
     s = fhpp_json(twin, "record", "1")
     assert s["mode"] == "record selection" and s["scon"] == 0x13 and s["byte3"] == 1, s
     i = read_inputs(twin)
@@ -158,7 +158,7 @@ def test_the_cycle_keeps_the_watchdog_quiet_during_a_long_move(cmmo):
 
 def fpc_read_by_pymodbus(twin, pnu, sub):
     """The EFPC job done by pymodbus itself (FC 0x17, 8 registers, FHPP-MB-04): zero request,
-    read request (FPCC 16h), wait for FPCS 15h, zero request (App. C.3.2, FHPP-FPC-01/02)."""
+    read request (FPCC 16h), wait for FPCS 15h, zero request (App. C.3.2, FHPP-FPC-01, FHPP-FPC-02)."""
     c = twin.client()
 
     def cycle(fpc):

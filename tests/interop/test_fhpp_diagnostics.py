@@ -85,7 +85,7 @@ def test_start_before_homing_is_fault_28h_and_reset_clears_it(cmmo):
 def test_the_diagnostic_memory_is_read_through_the_parameter_channel(cmmo):
     """PNU 200…204 over the EFPC bytes 9…16 (FC 0x17 with 8 registers): the power-on entry,
     a fault coming (01h) and going (00h) with its number and time stamp, newest first, and
-    PNU 204:3 = 1 clearing the memory."""
+    PNU 204:3 = 1 clearing the memory and writing the start-up event 3Dh (FHPP-DIAG-04)."""
     from test_fhpp_parameter_channel import read, write
 
     twin = cmmo()

@@ -152,6 +152,8 @@ def enable_and_home(client):
 
 @pytest.mark.parametrize("io", IO)
 def test_enable_and_direct_move_to_a_sinc_position(cmmo, io):
+    """FHPP-MB-03, FHPP-CB-14: FC 17h cycles in direct mode: ACK / MC 0 at START, MC at the
+    target once START is back to 0."""
     twin = cmmo("--modbus-io", io)
     c = twin.client()
     try:
@@ -174,6 +176,7 @@ def test_enable_and_direct_move_to_a_sinc_position(cmmo, io):
 
 
 def test_read_device_identification(cmmo):
+    """FHPP-MB-06: FC 2Bh / 0Eh basic (objects 00…02) and regular (03, 04, 06; no 05)."""
     twin = cmmo()
     c = twin.client()
     try:
@@ -193,6 +196,8 @@ def test_read_device_identification(cmmo):
 
 @pytest.mark.parametrize("io", IO)
 def test_wrong_address_and_quantity_get_exceptions(cmmo, io):
+    """FHPP-MB-07: start address 1 → exception 02, quantity 5 → 03; FHPP-MB-05: FC 07h
+    answers 0 without a fault."""
     twin = cmmo("--modbus-io", io)
     c = twin.client()
     try:
@@ -232,6 +237,8 @@ def test_second_client_is_refused(cmmo, io):
 
 @pytest.mark.parametrize("io", IO)
 def test_watchdog_fires_when_the_client_goes_silent(cmmo, io):
+    """FHPP-MB-08, FHPP-DIAG-01: silent for longer than the timeout while Modbus holds control
+    → the connection is closed and error 47h raised (FHPP-MB-05: FC 07h answers 47h)."""
     twin = cmmo("--modbus-timeout-ms", "200", "--modbus-io", io)
     c = twin.client()
     try:

@@ -7,7 +7,7 @@
 //! Positions come out in encoder increments (PNU 1001:1, default 2000 per revolution,
 //! spec/cmmo-st-fhpp.md §3.7) and in motor micro-steps. The SINC scaling of the user interface
 //! (PNU 600/601) belongs to the device layer; [`sinc_to_si`] and [`si_to_sinc`] are the pure
-//! conversions it needs (spec §6, vectors FHPP-SC-01…03).
+//! conversions it needs (spec §6, vectors FHPP-SC-01, FHPP-SC-02, FHPP-SC-03).
 //!
 //! # Model (SI units)
 //!

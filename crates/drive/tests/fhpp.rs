@@ -1,5 +1,6 @@
 //! FHPP cyclic data and state machine of the CMMO-ST (seed 002 ch. 5, 6): every vector of
-//! spec/vectors.md §2.1 (FHPP-CB-xx, Examples 1–6) and §2.2 (FHPP-ST-xx, Tab. 5.2/5.3) by ID,
+//! spec/vectors.md §2.1 (FHPP-CB-01 … FHPP-CB-16, Examples 1–6) and §2.2 (FHPP-ST-01 …
+//! FHPP-ST-19, Tab. 5.2/5.3), each test naming its IDs in full,
 //! the reference status values of spec/cmmo-st-fhpp.md §4.3 and §8.1, and the handshakes.
 
 use drive::fhpp::control_bytes::{percent_of, Edges};
@@ -314,6 +315,7 @@ fn edges_p_and_n() {
 // ---------------------------------------------------------------------------------------------
 // §2.1 Control and status bytes (Examples 1–6)
 
+/// FHPP-CB-01: power-on with load voltage, CCON 00h → SCON 10h, SPOS 04h (MC).
 #[test]
 fn fhpp_cb_01_power_on() {
     let mut rig = Rig::new();
@@ -328,6 +330,7 @@ fn fhpp_cb_01_power_on() {
     assert_eq!(rig.motions(), [MotionCommand::ManualBrake { open: true }]);
 }
 
+/// FHPP-CB-02: CCON.LOCK (20h) → SCON 10h (FCT/MMI = 0), SPOS 04h; FCT cannot take control.
 #[test]
 fn fhpp_cb_02_lock() {
     let mut rig = Rig::new();
@@ -345,6 +348,7 @@ fn fhpp_cb_02_lock() {
     assert_eq!(rig.fhpp.request_local_control(Authority::Fct), Ok(()));
 }
 
+/// FHPP-CB-03: CCON 23h / 27h / 03h, CPOS 01h → SCON 13h, SPOS 05h.
 #[test]
 fn fhpp_cb_03_enable_record_selection() {
     for ccon in [0x23, 0x27, 0x03] {
@@ -365,6 +369,7 @@ fn fhpp_cb_03_enable_record_selection() {
     }
 }
 
+/// FHPP-CB-04: direct mode, CCON 43h / 63h, CPOS 01h → SCON 53h, SPOS 05h.
 #[test]
 fn fhpp_cb_04_enable_direct_mode() {
     for ccon in [0x43, 0x63] {
@@ -381,6 +386,8 @@ fn fhpp_cb_04_enable_direct_mode() {
     }
 }
 
+/// FHPP-CB-05: a fault while a task runs → SCON.FAULT = 1, SPOS.MC = 0 during the reaction (as
+/// printed in Example 3), MC = 1 once in S6 (Tab. 5.22).
 #[test]
 fn fhpp_cb_05_fault_while_a_task_runs() {
     let mut rig = Rig::record_running(1);
@@ -404,6 +411,7 @@ fn fhpp_cb_05_fault_while_a_task_runs() {
     assert!(i.scon.contains(Scon::ENABLED));
 }
 
+/// FHPP-CB-06: a warning → SCON.WARN = 1, SPOS.MC = 0 (the task goes on); clears with its cause.
 #[test]
 fn fhpp_cb_06_warning() {
     let mut rig = Rig::record_running(1);
@@ -423,6 +431,7 @@ fn fhpp_cb_06_warning() {
     assert!(!rig.again().scon.contains(Scon::WARN));
 }
 
+/// FHPP-CB-07: cause removed, CCON 03h → 0Bh → SCON & 0Dh = 01h, SPOS & 06h = 04h.
 #[test]
 fn fhpp_cb_07_acknowledge_with_enable() {
     let mut rig = Rig::record_running(1);
@@ -438,6 +447,8 @@ fn fhpp_cb_07_acknowledge_with_enable() {
     assert_eq!(i.spos.0 & 0x06, 0x04, "{}", show(&i));
 }
 
+/// FHPP-CB-08, FHPP-CB-09, FHPP-CB-10: homing by CPOS.HOM: SPOS & 07h = 03h, then MOV, then MC +
+/// REF (SPOS & 84h = 84h).
 #[test]
 fn fhpp_cb_08_to_10_homing() {
     let mut rig = Rig::new();
@@ -466,6 +477,8 @@ fn fhpp_cb_08_to_10_homing() {
     assert_eq!(i.spos.0, 0x85);
 }
 
+/// FHPP-CB-11, FHPP-CB-12, FHPP-CB-13: record-selection handshake (ACK 1 / MC 0, MOV and byte 3 =
+/// N, ACK 0 / MC 1 / MOV 0).
 #[test]
 fn fhpp_cb_11_to_13_record_selection_handshake() {
     let mut rig = Rig::enabled_referenced();
@@ -516,6 +529,8 @@ fn fhpp_cb_11_to_13_record_selection_handshake() {
     assert_eq!(i.actual2, rig.status.actual_position);
 }
 
+/// FHPP-CB-14: direct-mode positioning, absolute and relative (CDIR.ABS = S), feedback bytes 4…8
+/// and the handshake.
 #[test]
 fn fhpp_cb_14_direct_mode_positioning() {
     for s in [0u8, 1] {
@@ -563,6 +578,7 @@ fn fhpp_cb_14_direct_mode_positioning() {
     }
 }
 
+/// FHPP-CB-15: direct-mode byte 4 = 0 / 64h / FFh → no velocity / 100 % / 100 % of PNU 540.
 #[test]
 fn fhpp_cb_15_velocity_percent_byte() {
     assert_eq!(percent_of(0, BASE_VELOCITY), 0);
@@ -590,6 +606,7 @@ fn fhpp_cb_15_velocity_percent_byte() {
     }
 }
 
+/// FHPP-CB-16: record-selection byte 3 = 0 starts homing, 1…64 select a record, others are refused.
 #[test]
 fn fhpp_cb_16_record_number_byte() {
     assert_eq!(RecordSelect::from_byte(0), RecordSelect::Homing);
@@ -629,6 +646,7 @@ fn fhpp_cb_16_record_number_byte() {
 // ---------------------------------------------------------------------------------------------
 // §2.2 State transitions (Tab. 5.2, 5.3)
 
+/// FHPP-ST-01: T2, S2 (SCON 10h) with CCON 00h → 01h → S3, SCON 11h.
 #[test]
 fn fhpp_st_01_t2() {
     let mut rig = Rig::new();
@@ -640,6 +658,7 @@ fn fhpp_st_01_t2() {
     assert_eq!(i.scon.0, 0x11);
 }
 
+/// FHPP-ST-02: T3, S3 with CCON 01h → 03h → S4, SCON 13h.
 #[test]
 fn fhpp_st_02_t3() {
     let mut rig = Rig::new();
@@ -650,6 +669,7 @@ fn fhpp_st_02_t3() {
     assert_eq!(i.scon.0, 0x13);
 }
 
+/// FHPP-ST-03: T4, S4 with CCON 03h → 01h → S3, SCON 11h, the running task stops with Quick Stop.
 #[test]
 fn fhpp_st_03_t4_quick_stop() {
     let mut rig = Rig::record_running(2);
@@ -669,6 +689,7 @@ fn fhpp_st_03_t4_quick_stop() {
     assert_eq!(i.spos.0 & 0x07, 0x05);
 }
 
+/// FHPP-ST-04: T5 / T6, S3 or S4 with CCON → 00h → S2, SCON 10h.
 #[test]
 fn fhpp_st_04_t5_t6() {
     let mut rig = Rig::new();
@@ -699,6 +720,7 @@ fn in_s6(fault: Fault) -> Rig {
     rig
 }
 
+/// FHPP-ST-05: T9, serious fault, cause gone, CCON 00h → 08h → S2, SCON.FAULT = 0.
 #[test]
 fn fhpp_st_05_t9_serious() {
     let mut rig = in_s6(serious(0x1A));
@@ -720,6 +742,7 @@ fn fhpp_st_05_t9_serious() {
     assert_eq!(i.scon.0, 0x10);
 }
 
+/// FHPP-ST-05: a serious fault is not acknowledged with ENABLE = 1 (T9 needs ENABLE = 0).
 #[test]
 fn fhpp_st_05_serious_fault_needs_enable_0() {
     let mut rig = in_s6(serious(0x1A));
@@ -730,6 +753,8 @@ fn fhpp_st_05_serious_fault_needs_enable_0() {
     assert!(i.scon.contains(Scon::FAULT));
 }
 
+/// FHPP-ST-06 (corrected: ENABLE = 1): T10, minor fault, CCON 03h → 0Bh → FAULT = 0, ENABLED = 1,
+/// the controller stays on.
 #[test]
 fn fhpp_st_06_t10_minor() {
     let mut rig = in_s6(minor(0x2F));
@@ -747,6 +772,7 @@ fn fhpp_st_06_t10_minor() {
     assert_eq!(i.scon.0, 0x11);
 }
 
+/// FHPP-ST-07: T11, RESET rising while the fault is still present → stays in S6, SCON.FAULT = 1.
 #[test]
 fn fhpp_st_07_t11() {
     let mut rig = Rig::enabled_referenced();
@@ -774,6 +800,7 @@ fn fhpp_st_07_t11() {
     assert!(!i.scon.contains(Scon::FAULT));
 }
 
+/// FHPP-ST-07: a not-acknowledgeable fault stays in S6 on RESET (T11).
 #[test]
 fn not_ackable_fault_stays() {
     let mut rig = in_s6(Fault {
@@ -787,6 +814,8 @@ fn not_ackable_fault_stays() {
     assert_eq!(rig.transitions(), [Transition::T11]);
 }
 
+/// FHPP-ST-08: TA1, SA1 referenced, CPOS 01h → 03h → SA2, ACK = 1, MC = 0; unreferenced: refused
+/// with 28h.
 #[test]
 fn fhpp_st_08_ta1() {
     let mut rig = Rig::enabled_referenced();
@@ -804,6 +833,8 @@ fn fhpp_st_08_ta1() {
     assert_eq!(i.spos.0 & 0x06, 0x04);
 }
 
+/// FHPP-ST-09: TA3, HALT falling in SA2 → SA3, SPOS.HALT = 0, MC = 0 (position task kept; velocity
+/// task ended).
 #[test]
 fn fhpp_st_09_ta3_halt() {
     let mut rig = Rig::record_running(1);
@@ -827,6 +858,8 @@ fn fhpp_st_09_ta3_halt() {
     assert!(rig.again().spos.contains(Spos::MC));
 }
 
+/// FHPP-ST-10: TA4, SA3 with CPOS 00h → 01h → 03h → SA2, the task continues, SPOS.HALT = 1, ACK =
+/// 1.
 #[test]
 fn fhpp_st_10_ta4_continue() {
     let mut rig = Rig::record_running(1);
@@ -852,6 +885,7 @@ fn fhpp_st_10_ta4_continue() {
     assert_eq!(i.spos.0 & 0x07, 0x05);
 }
 
+/// FHPP-ST-11: TA6, SA3 with CPOS 00h → 40h (CLEAR rising) → SA1, remaining path deleted, MC = 1.
 #[test]
 fn fhpp_st_11_ta6_clear() {
     let mut rig = Rig::record_running(1);
@@ -878,6 +912,7 @@ fn fhpp_st_11_ta6_clear() {
     assert_eq!(rig.fhpp.op_state(), OpState::IntermediateStop);
 }
 
+/// FHPP-ST-12 (corrected: HOM rising): TA7, SA1 with CPOS 01h → 05h → SA4 homing, ACK = 1, MC = 0.
 #[test]
 fn fhpp_st_12_ta7() {
     let mut rig = Rig::enabled_referenced();
@@ -887,6 +922,7 @@ fn fhpp_st_12_ta7() {
     assert_eq!(i.spos.0 & 0x06, 0x02);
 }
 
+/// FHPP-ST-13: TA8, SA4 with CPOS 05h → 04h (HALT falling) → homing aborted, SA1.
 #[test]
 fn fhpp_st_13_ta8_abort_by_halt() {
     let mut rig = Rig::enabled_referenced();
@@ -902,6 +938,8 @@ fn fhpp_st_13_ta8_abort_by_halt() {
     assert!(rig.again().spos.contains(Spos::MC));
 }
 
+/// FHPP-ST-14 (corrected pattern 0xx0.Pxx1), FHPP-ST-15: TA9 by JOGP rising (CPOS 01h → 09h), jog
+/// level-controlled while held, TA10 by JOGP falling or HALT falling.
 #[test]
 fn fhpp_st_14_15_jog_positive() {
     let mut rig = Rig::enabled_referenced();
@@ -932,6 +970,8 @@ fn fhpp_st_14_15_jog_positive() {
     assert!(rig.transitions().is_empty(), "JOGP held is no rising edge");
 }
 
+/// FHPP-ST-16, FHPP-ST-17: TA11 by JOGN rising (CPOS 01h → 11h), jog level-controlled while held,
+/// TA12 by JOGN falling or HALT falling.
 #[test]
 fn fhpp_st_16_17_jog_negative() {
     let mut rig = Rig::enabled_referenced();
@@ -939,14 +979,31 @@ fn fhpp_st_16_17_jog_negative() {
     assert_eq!(rig.transitions(), [Transition::TA11]);
     assert_eq!(rig.motions(), [MotionCommand::Jog { positive: false }]);
     assert_eq!(rig.fhpp.op_state(), OpState::JogNegative);
+    rig.moving();
+    // Level-controlled: moves while the bit is 1.
+    for _ in 0..3 {
+        let i = rig.again();
+        assert!(rig.events.is_empty());
+        assert!(i.spos.contains(Spos::MOV) && !i.spos.contains(Spos::MC));
+        assert_eq!(rig.fhpp.op_state(), OpState::JogNegative);
+    }
+    // TA12 by JOGN falling.
     rig.rec(0x03, 0x01, 0);
     assert_eq!(rig.transitions(), [Transition::TA12]);
+    assert_eq!(rig.motions(), [MotionCommand::Halt]);
+    rig.settled();
+    assert_eq!(rig.again().spos.0 & 0x07, 0x05);
+    // TA12 by HALT falling; JOGN still held does not restart the jog.
     rig.rec(0x03, 0x11, 0);
     rig.rec(0x03, 0x10, 0);
     assert_eq!(rig.transitions(), [Transition::TA12]);
     assert_eq!(rig.fhpp.op_state(), OpState::Ready);
+    rig.rec(0x03, 0x11, 0);
+    assert!(rig.transitions().is_empty(), "JOGN held is no rising edge");
 }
 
+/// FHPP-ST-18: TA5, direct mode, new set-point + START rising while a task runs → replaces it
+/// subject to PNU 583.
 #[test]
 fn fhpp_st_18_ta5_direct_new_task() {
     for (condition, restarts) in [
@@ -997,6 +1054,7 @@ fn fhpp_st_18_ta5_direct_new_task() {
     }
 }
 
+/// FHPP-ST-19: SA1, CCON 03h → 43h → SCON 53h (direct mode); not while a task runs.
 #[test]
 fn fhpp_st_19_operating_mode_change() {
     let mut rig = Rig::enabled_referenced();
@@ -1059,6 +1117,7 @@ fn enable_needs_load_voltage_and_safety() {
     assert_eq!(rig.again().scon.0, 0x13);
 }
 
+/// FHPP-MB-03: the direct-mode handshake behind the FC 17h cycles (SPOS 83h, then MOV, then MC).
 #[test]
 fn direct_mode_move_handshake_fhpp_mb_03() {
     let mut rig = Rig::new();

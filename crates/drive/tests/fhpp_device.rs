@@ -103,6 +103,9 @@ fn record_move_uses_the_record_list() {
     assert!((i.actual2 + 18_000).abs() <= 180, "actual {}", i.actual2);
 }
 
+/// FHPP-ST-14, FHPP-ST-15, FHPP-ST-16, FHPP-ST-17 end to end: JOGP rising moves towards increasing
+/// actual values and keeps moving while the bit is held (level-controlled); JOGP falling stops
+/// the axis; JOGN moves back the same way and stops when it falls.
 #[test]
 fn jog_moves_while_held_and_stops_on_release() {
     let mut b = Bench::with_mode(StepperMode::ClosedLoop);
@@ -125,7 +128,67 @@ fn jog_moves_while_held_and_stops_on_release() {
     // Negative jog goes back.
     b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::JOGN, 0));
     b.run(300);
-    assert!(b.input().actual2 < p2);
+    let p3 = b.input().actual2;
+    assert!(p3 < p2);
+    b.run(200);
+    let i = b.input();
+    assert!(i.actual2 < p3, "still moving while JOGN is held");
+    assert!(i.spos.contains(Spos::MOV) && !i.spos.contains(Spos::MC));
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 0));
+    let i = b.until(2000, |i| i.spos.contains(Spos::MC));
+    assert!(!i.spos.contains(Spos::MOV));
+    b.run(50);
+    let p4 = b.input().actual2;
+    b.run(100);
+    assert!((b.input().actual2 - p4).abs() <= 18, "stands still");
+}
+
+/// FHPP-SC-04: PNU 1000 = 00h leaves the direction unchanged, 80h reverses it: the same
+/// positive jog raises the actual position (SINC) either way, but the shaft and the encoder
+/// count turn the other way round ("all encoder values inverted").
+#[test]
+fn pnu_1000_polarity_reverses_the_direction() {
+    let mut shaft = Vec::new();
+    for polarity in [0x00u8, 0x80] {
+        let mut b = Bench::with_mode(StepperMode::ClosedLoop);
+        // rw2: written with the output stage off.
+        b.dev.write(0x2000 + 1000, 1, &[polarity]).unwrap();
+        assert_eq!(b.dev.read_u8(0x2000 + 1000, 1), Some(polarity));
+        b.enable_record();
+        let (a0, e0) = (
+            b.dev.stepper().angle(),
+            b.dev.stepper().encoder_increments(),
+        );
+        b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::JOGP, 0));
+        b.run(500);
+        let i = b.input();
+        assert!(
+            i.actual2 > 500,
+            "PNU 1000 = {polarity:02X}h: actual {}",
+            i.actual2
+        );
+        let (da, de) = (
+            b.dev.stepper().angle() - a0,
+            b.dev.stepper().encoder_increments() - e0,
+        );
+        // The dictionary default feed: 1 EINC = 18 SINC (module doc of the device).
+        assert!(
+            (de * 18 * if polarity == 0 { 1 } else { -1 } - i64::from(i.actual2)).abs() <= 18,
+            "PNU 1000 = {polarity:02X}h: {de} EINC for {} SINC",
+            i.actual2
+        );
+        shaft.push(da);
+    }
+    assert!(
+        shaft[0] > 0.1,
+        "00h: the shaft turns positive: {}",
+        shaft[0]
+    );
+    assert!(
+        shaft[1] < -0.1,
+        "80h: the shaft turns negative: {}",
+        shaft[1]
+    );
 }
 
 #[test]

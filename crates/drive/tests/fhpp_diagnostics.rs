@@ -5,6 +5,7 @@
 mod fhpp_bench;
 use drive::fhpp::device::diag;
 use drive::fhpp::diagnostics::{self, Class, DIAGNOSTICS};
+use drive::fhpp::seven_segment::SevenSegment;
 use drive::fhpp::{Ack, Ccon, Cdir, Cpos, InputData, OutputData, Reaction, Rsb, Scon, Spos};
 use drive::stepper::StepperMode;
 use fhpp_bench::{Bench, ENABLED};
@@ -292,6 +293,7 @@ fn information_class_only_writes_the_memory() {
     assert_eq!(b.r8(204, 4), 1, "only the start-up event");
 }
 
+/// FHPP-FPC-13: diagnostic 2Fh → PNU 220 subindex 2 bit 15, PNU 242 / 246 subindex 48.
 #[test]
 fn following_error_fault_shows_in_220_sub_2_bit_15() {
     let mut b = Bench::ready();
@@ -301,6 +303,16 @@ fn following_error_fault_shows_in_220_sub_2_bit_15() {
     assert_eq!(b.r32(220, 2), 1 << 15);
     assert_eq!(b.r16(205, 1), 0x2F);
     assert_eq!(b.r8(230, 1), 1, "after the cause");
+    // FHPP-FPC-13 (corrected): the arrays run to subindex 32 (numbers 992…1023), not 4.
+    for p in [220, 221] {
+        assert_eq!(b.dev.read_u32(pnu(p), 32), Some(0), "PNU {p}:32");
+        assert_eq!(b.dev.read_u32(pnu(p), 33), None, "PNU {p}:33");
+    }
+    // PNU 242 / 246 for 2Fh at subindex 2Fh + 1 = 48.
+    assert_eq!(
+        b.r16(242, 48),
+        diagnostics::lookup(0x2F).unwrap().default_reaction()
+    );
 }
 
 // ---- acknowledge types --------------------------------------------------------------------
@@ -771,4 +783,119 @@ fn teach_into_a_relative_record_warns_40h() {
     let i = b.send(OutputData::record(ENABLED, Cpos::HALT, 4));
     assert!(!i.scon.contains(Scon::WARN), "{i:?}");
     assert_eq!(b.r32(404, 4) as i32, i.actual2);
+}
+
+// ---- spec vectors FHPP-DIAG-01 … FHPP-DIAG-04 -------------------------------------------------
+
+/// FHPP-DIAG-01: the Modbus timeout diagnostics by their factory class: 47h "with master
+/// control" is an error (F: SCON.FAULT, PNU 205 = 47h), 48h "without master control" a
+/// warning (SCON.WARN, PNU 221 sub 3 bit 8, no fault). Which one the timeout raises is the
+/// Modbus runner's choice (`drivetwin::fhpp_modbus`, tested there).
+#[test]
+fn fhpp_diag_01_modbus_timeout_47h_is_an_error_48h_a_warning() {
+    let mut b = Bench::ready();
+    assert!(matches!(
+        b.dev.diagnostic_class(diag::MODBUS_WITH_CONTROL),
+        Some(Class::Fault(_))
+    ));
+    assert_eq!(
+        b.dev.diagnostic_class(diag::MODBUS_WITHOUT_CONTROL),
+        Some(Class::Warning)
+    );
+    b.dev.fault(diag::MODBUS_WITHOUT_CONTROL);
+    b.run(2);
+    let i = b.input();
+    assert!(
+        i.scon.contains(Scon::WARN) && !i.scon.contains(Scon::FAULT),
+        "{i:?}"
+    );
+    assert_eq!(b.r32(221, 3), 1 << (0x48 - 64));
+    assert_eq!(b.r16(205, 1), 0xFFFF, "a warning is no fault");
+    b.dev.clear_fault(diag::MODBUS_WITHOUT_CONTROL);
+    b.dev.fault(diag::MODBUS_WITH_CONTROL);
+    b.run(2);
+    let i = b.input();
+    assert!(i.scon.contains(Scon::FAULT), "{i:?}");
+    assert!(!i.scon.contains(Scon::WARN), "48h cleared with its cause");
+    assert_eq!(b.r16(205, 1), 0x47);
+    assert_eq!(b.dev.fault_number(), 0x47);
+}
+
+/// FHPP-DIAG-02 (corrected): "value is out of range" is 4Ch (printed "40h", which is the teach
+/// warning): an error (F), acknowledgeable at once, reactions B…G, error management at
+/// subindex 4Dh.
+#[test]
+fn fhpp_diag_02_value_out_of_range_is_4ch() {
+    let d = diagnostics::lookup(0x4C).unwrap();
+    assert_eq!(d.name, "Value is out of range");
+    assert_eq!(d.ack, Ack::Immediately);
+    assert_eq!(
+        diagnostics::lookup(diag::TEACH_FAILED.into()).map(|d| d.name),
+        Some("Last teaching not successful")
+    );
+    let mut b = Bench::ready();
+    assert_eq!(b.r16(234, 0x4D), 0x007E, "B, C, D, E, F, G");
+    assert!(matches!(b.dev.inject(0x4C), Ok(Class::Fault(Reaction::E))));
+    b.run(50);
+    assert!(b.input().scon.contains(Scon::FAULT));
+    assert_eq!(b.r16(205, 1), 0x4C);
+    assert_eq!(b.r32(220, 3), 1 << (0x4C - 64));
+    let i = b.reset(ENABLED);
+    assert!(!i.scon.contains(Scon::FAULT), "acknowledged at once: {i:?}");
+}
+
+/// FHPP-DIAG-03: the 7-segment display shows the hexadecimal code of an active error ("E2F")
+/// or warning ("48"); the error goes first; an information is not shown; nothing once the
+/// error is acknowledged and the warning's cause has gone.
+#[test]
+fn fhpp_diag_03_seven_segment_shows_the_hex_code() {
+    let mut b = Bench::ready();
+    assert_eq!(b.dev.seven_segment(), SevenSegment::NoMessage);
+    b.dev.fault(diag::MODBUS_WITHOUT_CONTROL);
+    b.run(2);
+    assert_eq!(b.dev.seven_segment(), SevenSegment::Warning(0x48));
+    assert_eq!(b.dev.seven_segment().to_string(), "48");
+    b.dev.fault(diag::FOLLOWING_ERROR);
+    b.run(2);
+    assert_eq!(b.dev.seven_segment(), SevenSegment::Error(0x2F));
+    assert_eq!(b.dev.seven_segment().to_string(), "E2F");
+    b.dev.clear_fault(diag::FOLLOWING_ERROR);
+    b.run(50);
+    b.reset(ENABLED);
+    assert!(!b.input().scon.contains(Scon::FAULT));
+    assert_eq!(b.dev.seven_segment().to_string(), "48");
+    b.dev.clear_fault(diag::MODBUS_WITHOUT_CONTROL);
+    b.run(2);
+    assert_eq!(b.dev.seven_segment(), SevenSegment::NoMessage);
+    assert_eq!(b.dev.seven_segment().to_string(), "");
+    // An information (PNU 246 = C0h, written with the stage off) is not shown (§7.1.2).
+    let mut b = Bench::new();
+    b.w16(246, diagnostics::subindex(diag::FOLLOWING_ERROR), 0x00C0)
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    b.enable_record();
+    b.dev.fault(diag::FOLLOWING_ERROR);
+    b.run(2);
+    assert_eq!(b.memory(1).1, 0x2F, "logged");
+    assert_eq!(b.dev.seven_segment(), SevenSegment::NoMessage);
+}
+
+/// FHPP-DIAG-04: PNU 204:3 := 1 clears the memory and writes the start-up event 3Dh; PNU 204:4
+/// then reads 1, also after a second clear right after (the "not twice in a row" rule itself
+/// is checked on the ring in `diagnostic_memory`'s unit tests).
+#[test]
+fn fhpp_diag_04_clear_writes_one_start_up_event() {
+    let mut b = Bench::ready();
+    b.dev.fault(diag::MODBUS_WITHOUT_CONTROL);
+    b.run(2);
+    assert!(b.r8(204, 4) >= 2);
+    b.w8(204, 3, 1);
+    b.run(1);
+    assert_eq!(b.r8(204, 4), 1);
+    assert_eq!((b.memory(1).0, b.memory(1).1), (0x07, 0x3D));
+    b.run(5);
+    b.w8(204, 3, 1);
+    b.run(1);
+    assert_eq!(b.r8(204, 4), 1, "3Dh not twice in a row");
+    assert_eq!((b.memory(1).0, b.memory(1).1), (0x07, 0x3D));
+    assert_eq!(b.memory(2).1, 0xFFFF);
 }

@@ -2,12 +2,14 @@
 //! output images in, FPCS and the answer out, one FHPP cycle per exchange.
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::fhpp::diagnostic_memory::EventType;
 use drive::fhpp::parameter_channel::{
     ErrorCode, FileDirection, FileError, FileResponse, Packet, PacketKind, ParameterRequest,
     ParameterResponse, Request, Response,
 };
 use drive::fhpp::parameter_file::{self, FormatError, CRC_LEN, HEADER_LEN};
 use drive::fhpp::parameter_file_transfer::{DOWNLOAD_INTERVAL_MS, PACKET_TIMEOUT_MS};
+use drive::fhpp::seven_segment::SevenSegment;
 use drive::fhpp::{Authority, Ccon, Cpos, OutputData};
 use od::{Instant, ObjectAccess, ObjectDictionary};
 
@@ -203,6 +205,8 @@ fn manual_fig_c1_write_pnu_440_2_with_4660() {
     assert_eq!(b.read(440, 2), Ok(4660));
 }
 
+/// FHPP-FPC-01, FHPP-FPC-04: `16 01 04 11 …` → `15 01 04 11 <actual position>`; PNU 999 → `17 01 03
+/// E7 00 00 00 00`.
 #[test]
 fn spec_8_2_c_read_pnu_1041_and_the_error_layout() {
     // FHPP-FPC-01, fhpp §8.2 c: `16 01 04 11 00 00 00 00` → `15 01 04 11 <int32 BE>`.
@@ -377,6 +381,8 @@ fn zero_request_a_new_job_is_only_taken_after_no_task() {
     assert_eq!(b.exchange(first.encode())[0], 0x17);
 }
 
+/// FHPP-FPC-03, FHPP-FPC-12: PNU 127:2 := 1 saves (`18 02 00 7F …` → `15 02 00 7F …`), 127:4
+/// reloads, reads of PNU 127 give the trigger values.
 #[test]
 fn writes_are_volatile_until_pnu_127_2_and_127_4_reloads_the_saved_values() {
     let mut b = Bench::new();
@@ -489,6 +495,47 @@ fn upload_download_round_trip_and_activation_by_127_4() {
     assert_eq!(b.scon() & SCON_FAULT, 0);
 }
 
+/// FHPP-FPC-14, the frames of the vector: a 100-byte download starts with FPCC 45h, packet ID
+/// 20h and the size little-endian (`45 20 64 00 00 00 00 00`), takes 17 data packets with IDs
+/// 01h…11h (16 × 6 bytes + 4, the last one zero-padded) and stops with 40h + sequence; the
+/// drive acknowledges each packet with the same packet ID (the device part runs with the
+/// real file in `upload_download_round_trip_and_activation_by_127_4`).
+#[test]
+fn fhpp_fpc_14_frames_of_a_100_byte_download() {
+    let down = FileDirection::Download;
+    let start = Request::File {
+        direction: down,
+        packet: Packet::start(100),
+    };
+    assert_eq!(start.encode(), [0x45, 0x20, 0x64, 0, 0, 0, 0, 0]);
+    let file: Vec<u8> = (1..=100).collect();
+    let mut seq = 0;
+    let mut ids = Vec::new();
+    let mut last = [0u8; 8];
+    for chunk in file.chunks(6) {
+        seq = drive::fhpp::parameter_channel::next_sequence(seq);
+        let mut d = [0u8; 6];
+        d[..chunk.len()].copy_from_slice(chunk);
+        last = Request::File {
+            direction: down,
+            packet: Packet::data(seq, d),
+        }
+        .encode();
+        assert_eq!(last[0], 0x45);
+        ids.push(last[1]);
+    }
+    assert_eq!(ids, (0x01..=0x11).collect::<Vec<u8>>(), "17 data packets");
+    assert_eq!(last[2..], [97, 98, 99, 100, 0, 0], "4 bytes, zero-padded");
+    let stop = Request::File {
+        direction: down,
+        packet: Packet::empty(PacketKind::Stop, 0x12),
+    };
+    assert_eq!(stop.encode()[..2], [0x45, 0x52]);
+    // The drive's acknowledgement of a packet carries the same ID (FPCS 43h: response mode).
+    let ack = Response::File(FileResponse::Active(Packet::data(0x11, [0; 6]))).encode();
+    assert_eq!(ack[..2], [0x43, 0x11]);
+}
+
 #[test]
 fn sequence_numbers_run_1_to_31_then_0() {
     let mut b = Bench::new();
@@ -519,6 +566,13 @@ fn expect_type2(b: &mut Bench, r: Response, e: FileError) {
         assert!(!b.dev.parameter_channel().transfer().is_active());
         assert_eq!(b.scon() & SCON_FAULT, SCON_FAULT, "E27 for {e:?}");
         assert_eq!(b.dev.fault_number(), DIAG_E27);
+        // FHPP-FPC-15: the 7-segment display shows "E27", the memory has its entry.
+        assert_eq!(b.dev.seven_segment().to_string(), "E27");
+        let newest = b.dev.diagnostic_memory().get(0).copied();
+        assert_eq!(
+            newest.map(|e| (e.event, e.number)),
+            Some((EventType::Fault, u16::from(DIAG_E27)))
+        );
     } else {
         assert!(b.dev.parameter_channel().transfer().is_active());
         assert_eq!(b.scon() & SCON_FAULT, 0, "no fault for {e:?}");
@@ -532,9 +586,12 @@ fn acknowledge(b: &mut Bench) {
     b.fhpp_out([0; 8]);
     b.run(3);
     assert_eq!(b.scon() & SCON_FAULT, 0, "acknowledged");
+    assert_eq!(b.dev.seven_segment(), SevenSegment::NoMessage);
     b.no_task_file();
 }
 
+/// FHPP-FPC-16: the 02h timeout between two packets is one of the aborting errors checked here.
+///
 /// FHPP-FPC-15 (aborting errors show E27 and need RESET; 01h, 03h and type 1 do not abort).
 #[test]
 fn every_type_2_error_and_its_effect() {
@@ -811,7 +868,7 @@ fn codec_refuses_reserved_values() {
     assert_eq!(continuing, [0x01, 0x03]);
 }
 
-// ---- spec vectors FHPP-FPC-05…11, 16 --------------------------------------------------------
+// ---- spec vectors FHPP-FPC-05 … FHPP-FPC-11, FHPP-FPC-16 ----------------------------------------
 
 /// Sends the vector's request bytes after a "no task"; returns the answer.
 fn vector(b: &mut Bench, request: [u8; 8]) -> [u8; 8] {
@@ -819,6 +876,7 @@ fn vector(b: &mut Bench, request: [u8; 8]) -> [u8; 8] {
     b.exchange(request)
 }
 
+/// FHPP-FPC-05, FHPP-FPC-06: PNU 1041:2 → error 3; a write to the read-only PNU 1041 → error 1.
 #[test]
 fn fhpp_fpc_05_06_wrong_subindex_and_read_only() {
     let mut b = Bench::new();
@@ -828,6 +886,8 @@ fn fhpp_fpc_05_06_wrong_subindex_and_read_only() {
     assert_eq!(r, [0x17, 0x01, 0x04, 0x11, 0, 0, 0, 0x01], "FHPP-FPC-06");
 }
 
+/// FHPP-FPC-07: with FCT in control, PNU 125 := 1 → `17 01 00 7D 00 00 00 11` (error 17); from the
+/// web server it takes control back.
 #[test]
 fn fhpp_fpc_07_pnu_125_cannot_take_control_from_fct() {
     let mut b = Bench::new();
@@ -850,6 +910,8 @@ fn fhpp_fpc_07_pnu_125_cannot_take_control_from_fct() {
     assert_eq!(b.dev.fhpp().authority(), Authority::Fieldbus);
 }
 
+/// FHPP-FPC-08, FHPP-FPC-09, FHPP-FPC-10, FHPP-FPC-11: PNU 205 = FFFFh, PNU 230 = FFh without a
+/// fault, PNU 234 = 0037h for A, B, C, E, F, PNU 1001 = 2000 increments per revolution.
 #[test]
 fn fhpp_fpc_08_to_11_reference_values() {
     let mut b = Bench::new();
@@ -868,6 +930,8 @@ fn fhpp_fpc_08_to_11_reference_values() {
     assert_eq!(b.read(1001, 2), Ok(1));
 }
 
+/// FHPP-FPC-16: no packet within the packet timeout during a download → packet ID 60h + seq, byte 3
+/// = 02h, transfer aborted, data discarded.
 #[test]
 fn fhpp_fpc_16_download_timeout_aborts_and_discards() {
     let mut b = Bench::new();

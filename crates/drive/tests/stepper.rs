@@ -1,6 +1,7 @@
 //! The simulated CMMO-ST stepper plant: open-loop micro-stepping (following, lost steps,
 //! pull-out torque falling with speed, holding), closed loop (servo-lite), determinism, and
-//! the SINC scaling vectors of spec/vectors.md §2.5 (FHPP-SC-01…03) by their IDs.
+//! the SINC scaling vectors of spec/vectors.md §2.5 (FHPP-SC-01, FHPP-SC-02, FHPP-SC-03) by
+//! their IDs.
 
 use std::f64::consts::TAU;
 
@@ -540,6 +541,7 @@ fn bad_inputs_do_not_poison_the_state() {
 
 // ---- SINC scaling (spec/vectors.md §2.5) ----------------------------------------------------
 
+/// FHPP-SC-01: PNU 600 = −7, PNU 601 = 01h → 1 SINC = 0.1 µm, 10 000 SINC = 1 mm.
 #[test]
 fn fhpp_sc_01() {
     // PNU 600 = −7, PNU 601 = 01h (metre): 1 SINC = 1·10⁻⁷ m = 0.1 µm; 10 000 SINC = 1 mm.
@@ -551,6 +553,7 @@ fn fhpp_sc_01() {
     assert_eq!(unit_to_sinc(0.001, -7), 10_000);
 }
 
+/// FHPP-SC-02: comparator −50 mm … −40 mm with PNU 600 = −7 → FFF85EE0h … FFF9E580h.
 #[test]
 fn fhpp_sc_02() {
     // Position comparator −50 mm ≤ x ≤ −40 mm with PNU 600 = −7:
@@ -564,6 +567,7 @@ fn fhpp_sc_02() {
     assert_eq!(sinc_to_si(min, -7, 0x01), Some(-0.05));
 }
 
+/// FHPP-SC-03: PNU 601 = 00h, 01h, 41h, F0h, F6h → user, metre, degree, inch, revolution.
 #[test]
 fn fhpp_sc_03() {
     // PNU 601 = 00h, 01h, 41h, F0h, F6h → undefined/user, metre, degree, inch, revolution.

@@ -377,6 +377,8 @@ mod tests {
         }
     }
 
+    /// FHPP-MB-01, FHPP-MB-02: FC 10h writes `03 01 01 00 00 00 00 00` (answer `10 00 00 00
+    /// 04`); FC 03h then reads the input telegram, SCON 13h, SPOS 05h; FHPP-CB-01 before it.
     #[test]
     fn power_on_then_enable_over_fc_0x17() {
         let mut m = map();
@@ -392,6 +394,8 @@ mod tests {
             let mut d = lock(&m.device);
             d.step(od::Instant::from_millis(10));
         }
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[..4], [0x03, 8, 0x13, 0x05], "{r:02X?}");
         let r = pdu(
             &mut m,
             &[
@@ -423,6 +427,136 @@ mod tests {
         let r = pdu(&mut m, &fc17(read_101_1));
         // Firmware major version 1 (PNU 101:1), PNU and PWE big-endian.
         assert_eq!(r[10..], [0x15, 0x01, 0x00, 0x65, 0, 0, 0, 1]);
+    }
+
+    /// FHPP-MB-03 against the device's register map: referenced, direct mode S4; FC 17h with
+    /// CCON 43h, CDIR 00h, 100 %, 00002710h; CPOS 01h → 03h. The answer once the device has
+    /// run a cycle on it is `17 08 53 83 00 vv pp pp pp pp` (SPOS 83h = REF + ACK + HALT), then
+    /// SPOS 93h while moving, finally SPOS & 07h = 05h after START is back to 0.
+    #[test]
+    fn fhpp_mb_03_direct_move_over_fc_0x17() {
+        let mut m = map();
+        let mut t = 0u64;
+        let mut run = |m: &FhppModbus, ms: u64| {
+            let mut d = lock(&m.device);
+            for _ in 0..ms {
+                d.step(od::Instant::from_millis(t));
+                t += 1;
+            }
+        };
+        let fc17 = |out: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
+            req.extend_from_slice(&out);
+            req
+        };
+        run(&m, 2);
+        // Enable and home (method −35 by default: the current position is REF).
+        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        run(&m, 5);
+        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        run(&m, 5);
+        // Cycle 1: direct mode, START = 0.
+        let cycle1 = [0x43, 0x01, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
+        pdu(&mut m, &fc17(cycle1));
+        run(&m, 5);
+        let r = pdu(&mut m, &fc17(cycle1));
+        assert_eq!(r[..4], [0x17, 8, 0x53, 0x85], "{r:02X?}");
+        // Cycle 2: START rising.
+        let cycle2 = [0x43, 0x03, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
+        pdu(&mut m, &fc17(cycle2));
+        run(&m, 1);
+        let r = pdu(&mut m, &fc17(cycle2));
+        assert_eq!(r[..5], [0x17, 8, 0x53, 0x83, 0x00], "{r:02X?}");
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17(cycle2));
+        assert_eq!(r[3], 0x93, "MOV while moving: {r:02X?}");
+        assert!(r[4] == 0 && r[5] > 0, "SDIR absolute, velocity %: {r:02X?}");
+        pdu(&mut m, &fc17(cycle1));
+        let mut last = Vec::new();
+        for _ in 0..300 {
+            run(&m, 10);
+            last = pdu(&mut m, &fc17(cycle1));
+            if last[3] & 0x04 != 0 {
+                break;
+            }
+        }
+        assert_eq!(last[3] & 0x07, 0x05, "MC, ACK = 0: {last:02X?}");
+        let actual = i32::from_be_bytes([last[6], last[7], last[8], last[9]]);
+        assert!((actual - 10_000).abs() <= 180, "at 10000 SINC: {actual}");
+    }
+
+    /// FHPP-MB-04, FHPP-FPC-01: FC 17h with quantity 8 / byte count 10h, EFPC `16 01 04 11 00
+    /// 00 00 00` (read PNU 1041:1) after the zero request → `17 10 <8 status bytes> 15 01 04 11
+    /// p3 p2 p1 p0`, the actual position big-endian as SPOS bytes 5…8 show it.
+    #[test]
+    fn fhpp_mb_04_read_pnu_1041_through_the_efpc() {
+        let mut m = map();
+        let mut t = 0u64;
+        let mut run = |m: &FhppModbus, ms: u64| {
+            let mut d = lock(&m.device);
+            for _ in 0..ms {
+                d.step(od::Instant::from_millis(t));
+                t += 1;
+            }
+        };
+        // Homing on the current position with the AZ offset PNU 1010 = 1234 SINC: the actual
+        // position becomes −1234 (§6.2.1), a value with every byte set.
+        lock(&m.device)
+            .write(pnu_index(1010), 1, &1234i32.to_le_bytes())
+            .unwrap();
+        run(&m, 2);
+        let fc17 = |out: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
+            req.extend_from_slice(&out);
+            req
+        };
+        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        run(&m, 5);
+        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
+        run(&m, 50);
+        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        run(&m, 2);
+        let request = |fpc: [u8; 8]| {
+            let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 0x10];
+            req.extend_from_slice(&[0x43, 0x01, 0, 0, 0, 0, 0, 0]);
+            req.extend_from_slice(&fpc);
+            req
+        };
+        pdu(&mut m, &request([0x10, 0, 0, 0, 0, 0, 0, 0]));
+        run(&m, 2);
+        let read_1041 = [0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0];
+        pdu(&mut m, &request(read_1041));
+        run(&m, 2);
+        let r = pdu(&mut m, &request(read_1041));
+        assert_eq!(r[..2], [0x17, 0x10]);
+        assert_eq!(r[10..14], [0x15, 0x01, 0x04, 0x11], "{r:02X?}");
+        let actual = lock(&m.device).read_u32(pnu_index(1041), 1);
+        assert_eq!(
+            Some(u32::from_be_bytes([r[14], r[15], r[16], r[17]])),
+            actual
+        );
+        assert_eq!(r[14..18], (-1234i32).to_be_bytes(), "{r:02X?}");
+        assert_eq!(r[14..18], r[6..10], "the same value as SPOS bytes 5…8");
+    }
+
+    /// FHPP-MB-05: FC 07h answers 00 without a fault and 2Fh with the following error active.
+    #[test]
+    fn fhpp_mb_05_exception_status_is_the_fault_number() {
+        let mut m = map();
+        step(&m, 2);
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+        {
+            let mut d = lock(&m.device);
+            d.fault(diag::FOLLOWING_ERROR);
+            for t in 2..10 {
+                d.step(od::Instant::from_millis(t));
+            }
+        }
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x2F]);
     }
 
     #[test]
@@ -460,6 +594,8 @@ mod tests {
         assert!(text.contains("1.5.2.0"));
     }
 
+    /// FHPP-DIAG-01, FHPP-MB-05: a watchdog timeout while Modbus holds control raises error
+    /// 47h (SCON.FAULT, FC 0x07 answers 47h).
     #[test]
     fn watchdog_raises_47h_with_control_and_fc07_shows_it() {
         let mut m = map();
@@ -481,5 +617,40 @@ mod tests {
         m.connection_event(ConnectionEvent::Closed(CloseReason::Peer));
         step(&m, 5);
         assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
+    }
+
+    /// FHPP-DIAG-01: a watchdog timeout while FCT holds control (Modbus has none) raises
+    /// 48h, a warning: SCON.WARN, no fault (FC 0x07 answers 0), PNU 221 sub 3 bit 8; the next
+    /// connection removes it.
+    #[test]
+    fn watchdog_without_control_warns_48h() {
+        let mut m = map();
+        step(&m, 2);
+        lock(&m.device)
+            .fhpp_mut()
+            .request_local_control(drive::fhpp::Authority::Fct)
+            .unwrap();
+        assert!(!lock(&m.device).fieldbus_has_control());
+        m.connection_event(ConnectionEvent::Opened);
+        m.connection_event(ConnectionEvent::Closed(CloseReason::WatchdogExpired));
+        {
+            let mut d = lock(&m.device);
+            for t in 2..10 {
+                d.step(od::Instant::from_millis(t));
+            }
+            assert_eq!(d.read_u32(pnu_index(221), 3), Some(1 << (0x48 - 64)));
+        }
+        assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00], "a warning is no fault");
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[2] & 0x0C, 0x04, "SCON.WARN, not FAULT");
+        m.connection_event(ConnectionEvent::Opened);
+        {
+            let mut d = lock(&m.device);
+            for t in 10..14 {
+                d.step(od::Instant::from_millis(t));
+            }
+        }
+        let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
+        assert_eq!(r[2] & 0x0C, 0x00, "cleared by the new connection");
     }
 }

@@ -5,7 +5,7 @@ mod common;
 use common::{exchange, hex, Cmmo, PRODUCT_CODE, REVISION, VENDOR};
 use modbus::watchdog::{effective_timeout_ms, Watchdog};
 
-/// FC 10h, FHPP Std, record selection, ENABLE + STOP, HALT, record 1.
+/// FHPP-MB-01: FC 10h, FHPP Std, record selection, ENABLE + STOP, HALT, record 1.
 #[test]
 fn fhpp_mb_01_write_multiple_registers() {
     let mut map = Cmmo::new(false);
@@ -19,7 +19,7 @@ fn fhpp_mb_01_write_multiple_registers() {
     assert_eq!(map.outputs[..4], [0x0301, 0x0100, 0x0000, 0x0000]);
 }
 
-/// FC 03h after FHPP-MB-01 returns the input telegram, register 0 = SCON:SPOS.
+/// FHPP-MB-02: FC 03h after FHPP-MB-01 returns the input telegram, register 0 = SCON:SPOS.
 #[test]
 fn fhpp_mb_02_read_holding_registers() {
     let mut map = Cmmo::new(false);
@@ -35,7 +35,7 @@ fn fhpp_mb_02_read_holding_registers() {
     assert_eq!(resp[11..], hex("01 00 00 01 23 45")[..]);
 }
 
-/// FC 17h cyclic exchange, direct mode, absolute position 10000 SINC, 100 %.
+/// FHPP-MB-03: FC 17h cyclic exchange, direct mode, absolute position 10000 SINC, 100 %.
 #[test]
 fn fhpp_mb_03_read_write_multiple_registers() {
     let mut map = Cmmo::new(false);
@@ -54,7 +54,7 @@ fn fhpp_mb_03_read_write_multiple_registers() {
     );
 }
 
-/// FC 17h with quantity 8: FHPP + FPC, read PNU 1041:1 via EFPC.
+/// FHPP-MB-04: FC 17h with quantity 8: FHPP + FPC, read PNU 1041:1 via EFPC.
 #[test]
 fn fhpp_mb_04_read_write_with_fpc() {
     let mut map = Cmmo::new(true);
@@ -77,7 +77,7 @@ fn fhpp_mb_04_read_write_with_fpc() {
     assert_eq!(std.writes, 0);
 }
 
-/// FC 07h: 00 = no fault; the fault number otherwise.
+/// FHPP-MB-05: FC 07h answers 00 without a fault, the fault number otherwise.
 #[test]
 fn fhpp_mb_05_read_exception_status() {
     let mut map = Cmmo::new(false);
@@ -93,8 +93,8 @@ fn fhpp_mb_05_read_exception_status() {
     );
 }
 
-/// FC 2Bh / 0Eh basic device identification: objects 00, 01, 02 with conformity 01; regular
-/// adds 03, 04, 06 with conformity 02.
+/// FHPP-MB-06: FC 2Bh / 0Eh basic device identification: objects 00, 01, 02 with conformity
+/// 01; regular adds 03, 04, 06 with conformity 02.
 #[test]
 fn fhpp_mb_06_read_device_identification() {
     let mut map = Cmmo::new(false);
@@ -123,7 +123,7 @@ fn fhpp_mb_06_read_device_identification() {
     assert_eq!(objects, [0, 1, 2, 3, 4, 6]);
 }
 
-/// Exceptions: start address 1 → 02, quantity ≠ 4/8 → 03, unsupported FC 06h → 01.
+/// FHPP-MB-07: start address 1 → exception 02, quantity ≠ 4/8 → 03, unsupported FC 06h → 01.
 #[test]
 fn fhpp_mb_07_exceptions() {
     let mut map = Cmmo::new(false);
@@ -141,7 +141,7 @@ fn fhpp_mb_07_exceptions() {
     );
 }
 
-/// Watchdog: 0 disabled, 50 ms acts as 100 ms, 5000 ms; any message restarts it.
+/// FHPP-MB-08: watchdog 0 disabled, 50 ms acts as 100 ms, 5000 ms; any message restarts it.
 #[test]
 fn fhpp_mb_08_watchdog() {
     assert_eq!(effective_timeout_ms(0), None);

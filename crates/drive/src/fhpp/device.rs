@@ -129,6 +129,7 @@ use super::homing::{self, Method, Target};
 use super::parameter_channel::{self, ParameterChannel};
 use super::parameter_file::{FormatError, PermanentMemory};
 use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
+use super::seven_segment::SevenSegment;
 use super::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
 };
@@ -788,6 +789,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let bit = 1u128 << (code & 0x7F);
         self.warnings &= !bit;
         self.warnings_logged &= !bit;
+    }
+
+    /// What the 7-segment display shows (§7.1.2 Tab. 7.3): the active error (PNU 205),
+    /// else a present warning (PNU 221), as its hexadecimal code.
+    pub fn seven_segment(&self) -> SevenSegment {
+        SevenSegment::showing(self.fhpp.fault().map(|f| f.code), self.warnings)
     }
 
     /// The diagnostic memory (PNU 200…204).

@@ -186,6 +186,7 @@ mod tests {
         assert_eq!(m.get(0).map(|e| e.counter), Some(251));
     }
 
+    /// FHPP-DIAG-04: PNU 204:3 clears and writes 3Dh; not twice in a row.
     #[test]
     fn clear_writes_one_start_up_event_and_keeps_the_counter() {
         let mut m = DiagnosticMemory::power_on(0);
@@ -199,6 +200,21 @@ mod tests {
         );
         m.clear(11);
         assert_eq!(m.len(), 1, "not written twice in a row");
+    }
+
+    /// FHPP-DIAG-04: a start-up event is not written when the newest entry already is one.
+    #[test]
+    fn no_second_start_up_event_in_a_row() {
+        let mut m = DiagnosticMemory::power_on(7);
+        m.tick(3); // the clock wrapped: would be a start-up event
+        assert_eq!(m.len(), 1);
+        m.clear(4);
+        assert_eq!(m.len(), 1);
+        assert_eq!(m.get(0).map(|e| (e.number, e.time_ms)), Some((0x3D, 4)));
+        m.log(EventType::Warning, 0x48, 5);
+        m.tick(1);
+        assert_eq!(m.len(), 3, "after another entry it is written again");
+        assert_eq!(m.get(0).map(|e| e.number), Some(0x3D));
     }
 
     #[test]

@@ -21,7 +21,8 @@
 //! - [`parameter_file`]: the parameter file and the permanent memory (C.4.3, PNU 127);
 //! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7);
 //! - [`diagnostics`]: the App. D messages and the error-management coding (PNU 234…246);
-//! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3).
+//! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3);
+//! - [`seven_segment`]: what the 7-segment display shows (§7.1.2 Tab. 7.3);
 //! - [`homing`]: the homing methods of PNU 1011 (Tab. 6.2) as data;
 //! - [`axis_mechanics`]: the end stops, reference switch and index pulse homing finds.
 
@@ -35,6 +36,7 @@ pub mod parameter_channel;
 pub mod parameter_file;
 pub mod parameter_file_transfer;
 pub mod record_table;
+pub mod seven_segment;
 pub mod state_machine;
 pub mod status_bytes;
 
