@@ -113,7 +113,11 @@ fn terminal_cuts_lines_and_survives_garbage() {
         x ^= x << 13;
         x ^= x >> 17;
         x ^= x << 5;
-        let b = if x % 7 == 0 { b'\n' } else { (x >> 8) as u8 };
+        let b = if x.is_multiple_of(7) {
+            b'\n'
+        } else {
+            (x >> 8) as u8
+        };
         if let Some(r) = t.on_byte(b, &mut od) {
             assert!(r.starts_with('=') || r.starts_with('!'), "{r}");
         }
