@@ -134,31 +134,60 @@ pub fn execute(line: &[u8], od: &mut dyn ObjectAccess) -> Reply {
     }
 }
 
-/// The console: bytes in, one answer per line (cut at CR or LF, empty lines skipped). A line
-/// longer than any command is dropped whole and answered as bad syntax.
+/// The answer to a line that is none of the manual's forms (see [`parse`]).
+pub fn syntax_error() -> Reply {
+    error_reply(AbortCode::COMMAND_SPECIFIER)
+}
+
+/// A line as [`LineCutter`] hands it out.
+pub type LineBuf = heapless::Vec<u8, MAX_LINE>;
+
+/// What a line end completed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Cut {
+    Line(LineBuf),
+    /// The line was longer than any command; its bytes are gone.
+    TooLong,
+}
+
+/// Cuts a byte stream into lines at CR or LF; empty lines are skipped. A line longer than any
+/// command is dropped whole and reported at its end as [`Cut::TooLong`].
 #[derive(Debug, Default)]
-pub struct CiTerminal {
-    line: heapless::Vec<u8, MAX_LINE>,
+pub struct LineCutter {
+    line: LineBuf,
     overflow: bool,
 }
 
-impl CiTerminal {
-    pub fn on_byte(&mut self, byte: u8, od: &mut dyn ObjectAccess) -> Option<Reply> {
+impl LineCutter {
+    pub fn push(&mut self, byte: u8) -> Option<Cut> {
         if byte != b'\r' && byte != b'\n' {
             if self.line.push(byte).is_err() {
                 self.overflow = true;
             }
             return None;
         }
-        let overflow = core::mem::take(&mut self.overflow);
-        let reply = if overflow {
-            Some(error_reply(AbortCode::COMMAND_SPECIFIER))
-        } else if self.line.is_empty() {
+        let line = core::mem::take(&mut self.line);
+        if core::mem::take(&mut self.overflow) {
+            Some(Cut::TooLong)
+        } else if line.is_empty() {
             None
         } else {
-            Some(execute(&self.line, od))
-        };
-        self.line.clear();
-        reply
+            Some(Cut::Line(line))
+        }
+    }
+}
+
+/// The console on one dictionary: bytes in, one answer per line.
+#[derive(Debug, Default)]
+pub struct CiTerminal {
+    lines: LineCutter,
+}
+
+impl CiTerminal {
+    pub fn on_byte(&mut self, byte: u8, od: &mut dyn ObjectAccess) -> Option<Reply> {
+        match self.lines.push(byte)? {
+            Cut::Line(line) => Some(execute(&line, od)),
+            Cut::TooLong => Some(syntax_error()),
+        }
     }
 }

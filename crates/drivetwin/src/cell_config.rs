@@ -95,6 +95,9 @@ pub struct DriveSection {
     pub travel: TravelSection,
     /// How long a mode change takes (6061h reads −1 meanwhile), ms.
     pub mode_change_time_ms: Option<f64>,
+    /// TCP address (loopback only) of the drive's CI terminal, the debug console whose SDO
+    /// simulation the CMMP-AS manual describes (§3.2.3); none by default.
+    pub ci_terminal: Option<String>,
 }
 
 /// `[drive.motor]`: overrides of [`MotorData`].
@@ -300,6 +303,7 @@ impl CellFile {
                 motor: MotorSection::default(),
                 travel: TravelSection::default(),
                 mode_change_time_ms: None,
+                ci_terminal: None,
             }],
         }
     }

@@ -5,6 +5,7 @@ pub mod bus;
 pub mod can_drive;
 pub mod cell;
 pub mod cell_config;
+pub mod ci_console;
 pub mod device_model;
 pub mod esi;
 pub mod ethercat_cell;

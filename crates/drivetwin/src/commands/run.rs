@@ -63,6 +63,14 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(c) = &args.socketcan {
         file.bus.socketcan = Some(c.clone());
     }
+    // Refused before anything opens: the console writes without authentication.
+    for addr in args
+        .ci_terminal
+        .iter()
+        .chain(file.drive.iter().filter_map(|d| d.ci_terminal.as_ref()))
+    {
+        ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
+    }
     if args.busy_poll && args.ethercat.is_none() {
         return Err(CommandError::Usage(
             "--busy-poll applies to --ethercat and to the CMMO-ST's Modbus server".into(),
@@ -186,9 +194,10 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         }
         None => None,
     };
+    let console = ci_consoles(&file, args.ci_terminal.as_deref(), &mut tasks).await?;
     let shutdown = shutdown_signal();
     out!("running; Ctrl-C stops");
-    runtime::run_realtime(cell, bus.clone(), shutdown).await;
+    runtime::run_realtime(cell, bus.clone(), console, shutdown).await;
     for t in tasks {
         t.abort();
     }
@@ -200,6 +209,37 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     out!("stopped");
     Ok(())
+}
+
+/// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each
+/// served by a task of its own; the runtime answers their lines.
+async fn ci_consoles(
+    file: &CellFile,
+    first: Option<&str>,
+    tasks: &mut Vec<tokio::task::JoinHandle<()>>,
+) -> Result<Option<tokio::sync::mpsc::Receiver<ci_console::ConsoleRequest>>, CommandError> {
+    let addrs: Vec<(usize, &str)> = file
+        .drive
+        .iter()
+        .enumerate()
+        .filter_map(|(i, d)| {
+            let cli = if i == 0 { first } else { None };
+            cli.or(d.ci_terminal.as_deref()).map(|a| (i, a))
+        })
+        .collect();
+    if addrs.is_empty() {
+        return Ok(None);
+    }
+    let (tx, rx) = tokio::sync::mpsc::channel(ci_console::QUEUE);
+    for (i, addr) in addrs {
+        let listener = ci_console::bind(addr)
+            .await
+            .map_err(|e| CommandError::Usage(e.to_string()))?;
+        let local = listener.local_addr().map_err(io("CI terminal address"))?;
+        out!("CI terminal of drive {} on {local}", i + 1);
+        tasks.push(tokio::spawn(ci_console::serve(listener, i, tx.clone())));
+    }
+    Ok(Some(rx))
 }
 
 /// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
