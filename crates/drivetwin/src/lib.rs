@@ -11,6 +11,7 @@ pub mod esi;
 pub mod ethercat_cell;
 pub mod ethercat_link;
 pub mod fhpp_modbus;
+pub mod fieldbus_switches;
 pub mod master;
 pub mod modbus_cycle_server;
 pub mod modbus_server;

@@ -34,6 +34,24 @@ pub(crate) fn build_cell(
 ) -> Result<Cell, CommandError> {
     let mut drives = Vec::new();
     for spec in file.drives()? {
+        if let Some(f) = spec.fieldbus {
+            if !spec.on_can()? {
+                out!(
+                    "drive {} node {}: CANopen deactivated by its switches, silent on the bus",
+                    spec.desc.name,
+                    spec.node
+                );
+                continue;
+            }
+            // One bus, one bit rate: socketcand does not carry it, so a node set to another
+            // rate is only reported (on a real bus it would see error frames).
+            out!(
+                "drive {} node {}: {} kbit/s from its switches",
+                spec.desc.name,
+                spec.node,
+                f.bit_rate_kbit
+            );
+        }
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         drives.push(CanDrive::with_settings(
             spec.desc,
