@@ -28,12 +28,16 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
+/// The cell of the file's drives that are on CAN, and for each drive of the file its index
+/// in the cell (`None`: its switches keep it off the bus).
 pub(crate) fn build_cell(
     file: &CellFile,
     state_dir: Option<&PathBuf>,
-) -> Result<Cell, CommandError> {
+) -> Result<(Cell, Vec<Option<usize>>), CommandError> {
     let mut drives = Vec::new();
+    let mut in_cell = Vec::new();
     for spec in file.drives()? {
+        in_cell.push(None);
         if let Some(f) = spec.fieldbus {
             if !spec.on_can()? {
                 out!(
@@ -60,12 +64,20 @@ pub(crate) fn build_cell(
             spec.commissioning,
             spec.settings,
         )?);
+        if let Some(last) = in_cell.last_mut() {
+            *last = Some(drives.len() - 1);
+        }
     }
-    Ok(Cell::new(drives))
+    Ok((Cell::new(drives), in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if args.config.is_none() && args.device == "cmmo-st" {
+        if args.ci_terminal.is_some() {
+            return Err(CommandError::Usage(
+                "--ci-terminal is the CMMP-AS debug console; the CMMO-ST has none".into(),
+            ));
+        }
         return run_cmmo_st(&args).await;
     }
     let mut file = match &args.config {
@@ -104,7 +116,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         )
         .await;
     }
-    let mut cell = build_cell(&file, args.state_dir.as_ref())?;
+    let (mut cell, in_cell) = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
         out!(
             "drive {} node {} ({})",
@@ -212,7 +224,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         }
         None => None,
     };
-    let console = ci_consoles(&file, args.ci_terminal.as_deref(), &mut tasks).await?;
+    let console = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref(), &mut tasks).await?;
     let shutdown = shutdown_signal();
     out!("running; Ctrl-C stops");
     runtime::run_realtime(cell, bus.clone(), console, shutdown).await;
@@ -233,6 +245,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
 /// served by a task of its own; the runtime answers their lines.
 async fn ci_consoles(
     file: &CellFile,
+    in_cell: &[Option<usize>],
     first: Option<&str>,
     tasks: &mut Vec<tokio::task::JoinHandle<()>>,
 ) -> Result<Option<tokio::sync::mpsc::Receiver<ci_console::ConsoleRequest>>, CommandError> {
@@ -250,12 +263,21 @@ async fn ci_consoles(
     }
     let (tx, rx) = tokio::sync::mpsc::channel(ci_console::QUEUE);
     for (i, addr) in addrs {
+        // The console is the drive's own RS232, but a drive the switches keep off the bus is
+        // not simulated at all here.
+        let Some(Some(drive)) = in_cell.get(i).copied() else {
+            tracing::warn!(
+                drive = i + 1,
+                "no CI terminal: the drive is not in the cell"
+            );
+            continue;
+        };
         let listener = ci_console::bind(addr)
             .await
             .map_err(|e| CommandError::Usage(e.to_string()))?;
         let local = listener.local_addr().map_err(io("CI terminal address"))?;
         out!("CI terminal of drive {} on {local}", i + 1);
-        tasks.push(tokio::spawn(ci_console::serve(listener, i, tx.clone())));
+        tasks.push(tokio::spawn(ci_console::serve(listener, drive, tx.clone())));
     }
     Ok(Some(rx))
 }
