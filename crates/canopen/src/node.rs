@@ -271,10 +271,8 @@ impl<const N: usize> Node<N> {
                     Some(0) => {}
                     _ => self.download_index = None,
                 }
-                match self.download_index {
-                    Some(0x1017) => self.producer.refresh(now, od),
-                    Some(i) if self.affects_pdos(i) => self.pdos.reload(od),
-                    _ => {}
+                if let Some(i) = self.download_index {
+                    self.object_written(now, i, od);
                 }
             }
             // Node guarding request: an RTR, or over socketcand (which carries no RTR) a
@@ -314,6 +312,38 @@ impl<const N: usize> Node<N> {
             },
             _ => {}
         }
+    }
+
+    /// Re-reads what depends on an object that was just written: the heartbeat period, the
+    /// PDO parameters.
+    fn object_written(&mut self, now: Instant, index: u16, od: &mut dyn ObjectAccess) {
+        match index {
+            0x1017 => self.producer.refresh(now, od),
+            i if self.affects_pdos(i) => self.pdos.reload(od),
+            _ => {}
+        }
+        self.poll_soon = Some(now);
+    }
+
+    /// A write from outside the bus (the CI terminal's SDO simulation): the rules of an SDO
+    /// download in the present NMT state, and the same effects.
+    pub fn local_write(
+        &mut self,
+        now: Instant,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        od: &mut dyn ObjectAccess,
+    ) -> Result<(), AbortCode> {
+        let lock =
+            self.opts.pdo_config_outside_operational && self.nmt.state() == NmtState::Operational;
+        SdoView {
+            od: &mut *od,
+            lock_pdo_params: lock,
+        }
+        .write(index, sub, data)?;
+        self.object_written(now, index, od);
+        Ok(())
     }
 
     /// Objects whose change the PDO layer must re-read: PDO parameters and transmit masks.

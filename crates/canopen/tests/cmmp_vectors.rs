@@ -10,6 +10,7 @@ fn cmmp() -> Bench {
     Bench::new(&devices::CMMP_AS, 1)
 }
 
+/// CMMP-SDO-01: `601: 40 61 60 00` with 6061h = 1 → `581: 4F 61 60 00 01`.
 #[test]
 fn cmmp_sdo_01_read_mode_display() {
     let mut b = cmmp();
@@ -20,6 +21,7 @@ fn cmmp_sdo_01_read_mode_display() {
     );
 }
 
+/// CMMP-SDO-02: `601: 2F 01 14 02 EF` → `581: 60 01 14 02` (RPDO2 disabled, Pre-Operational).
 #[test]
 fn cmmp_sdo_02_write_rpdo2_transmission_type() {
     let mut b = cmmp();
@@ -30,6 +32,7 @@ fn cmmp_sdo_02_write_rpdo2_transmission_type() {
     assert_eq!(b.od.get_unsigned(0x1401, 2), Some(0xEF));
 }
 
+/// CMMP-SDO-03: `601: 40 41 60 00` with statusword 1234h → `581: 4B 41 60 00 34 12`.
 #[test]
 fn cmmp_sdo_03_read_statusword() {
     let mut b = cmmp();
@@ -40,6 +43,7 @@ fn cmmp_sdo_03_read_statusword() {
     );
 }
 
+/// CMMP-SDO-04: `601: 2B 40 60 00 E8 03` → `581: 60 40 60 00`.
 #[test]
 fn cmmp_sdo_04_write_controlword() {
     let mut b = cmmp();
@@ -49,6 +53,7 @@ fn cmmp_sdo_04_write_controlword() {
     );
 }
 
+/// CMMP-SDO-05, CMMP-SDO-06: 6093h:01 := 12345678h, read back LSB first.
 #[test]
 fn cmmp_sdo_05_06_position_factor_numerator() {
     let mut b = cmmp();
@@ -67,6 +72,7 @@ fn cmmp_sdo_05_06_position_factor_numerator() {
     );
 }
 
+/// CMMP-SDO-07: a 32-bit write to the read-only statusword → abort 0601 0002h.
 #[test]
 fn cmmp_sdo_07_write_to_read_only_statusword() {
     let mut b = cmmp();
@@ -76,6 +82,8 @@ fn cmmp_sdo_07_write_to_read_only_statusword() {
     );
 }
 
+/// CMMP-SDO-08, CMMP-SDO-09: "save" to 1010h:01 asks the runtime to store; "load" to
+/// 1011h:01 (output stage disabled) puts the defaults back in the current set.
 #[test]
 fn cmmp_sdo_08_save_and_09_restore() {
     let mut b = cmmp();
@@ -100,6 +108,7 @@ fn cmmp_sdo_08_save_and_09_restore() {
     );
 }
 
+/// CMMP-SDO-11: a wrong signature to 1011h:01 (and 1010h:01) → abort 0800 0020h, nothing stored.
 #[test]
 fn cmmp_sdo_11_wrong_signature() {
     let mut b = cmmp();
@@ -114,6 +123,7 @@ fn cmmp_sdo_11_wrong_signature() {
     assert_eq!(b.od.take_request(), None);
 }
 
+/// CMMP-SDO-12: reading 1011h:01 and 1010h:01 returns 1 (function supported).
 #[test]
 fn cmmp_sdo_12_store_restore_read_one() {
     let mut b = cmmp();
@@ -127,6 +137,7 @@ fn cmmp_sdo_12_store_restore_read_one() {
     );
 }
 
+/// CMMP-SDO-13: TPDO communication records have subs 01–03 only: 1800h:05 → abort 0609 0011h.
 #[test]
 fn cmmp_sdo_13_tpdo_has_no_event_timer() {
     let mut b = cmmp();
@@ -149,6 +160,8 @@ fn read_u32(b: &mut Bench, index: u16, sub: u8) -> u32 {
     u32::from_le_bytes(v)
 }
 
+/// CMMP-PDO-10, CMMP-PDO-11, CMMP-PDO-12, CMMP-PDO-13, CMMP-PDO-14, CMMP-PDO-15,
+/// CMMP-PDO-16: the printed TPDO/RPDO defaults and transmit masks of node 1.
 #[test]
 fn cmmp_pdo_10_to_16_default_pdo_configuration() {
     let mut b = cmmp();
@@ -176,7 +189,7 @@ fn cmmp_pdo_10_to_16_default_pdo_configuration() {
         assert_eq!(read_u32(&mut b, idx, 1), 0xFFFF_FFFF);
         assert_eq!(read_u32(&mut b, idx, 2), 0xFFFF_FFFF);
     }
-    // CMMP-PDO-15/16: RPDOs, no inhibit time.
+    // CMMP-PDO-15, CMMP-PDO-16: RPDOs, no inhibit time.
     let rpdo = [
         (0x1400, 0xC000_0201u32, 0x1600, vec![0x6040_0010u32]),
         (0x1401, 0xC000_0301, 0x1601, vec![0x6040_0010, 0x6060_0008]),
@@ -206,6 +219,7 @@ fn pdo_cob_ids_follow_the_node_id() {
     assert_eq!(read_u32(&mut b, 0x1014, 0), 0x80 + 27);
 }
 
+/// CMMP-NMT-01 (boot-up `701: 00`, checked by `Bench::new`), CMMP-NMT-09 (1016h reads 0).
 #[test]
 fn cmmp_nmt_01_boot_up_and_09_consumer_time_reads_zero() {
     let mut b = cmmp();
@@ -245,6 +259,7 @@ fn cmmp_emcy_07_clear_error_history() {
     );
 }
 
+/// CMMP-NMT-07: 1017h := 100 ms → `701: 7F`, then `701: 05` in Operational, `701: 04` in Stopped.
 #[test]
 fn cmmp_nmt_07_heartbeat_in_each_state() {
     let mut b = cmmp();
@@ -260,4 +275,36 @@ fn cmmp_nmt_07_heartbeat_in_each_state() {
         b.advance_ms(100),
         vec![CanFrame::new(0x701, &[0x04]).unwrap()]
     );
+}
+
+/// CMMP-NMT-05: `000: 82 05` resets communication of node 5 only: boot-up `705: 00`,
+/// Pre-Operational, and the guarding toggle starts again at 0.
+#[test]
+fn cmmp_nmt_05_reset_communication_of_node_5() {
+    let mut b = Bench::new(&devices::CMMP_AS, 5);
+    b.send(0x000, &[0x01, 0x05]);
+    assert_eq!(b.send(0x705, &[]), vec![frame(0x705, &[0x05])]);
+    b.events();
+    // Addressed to node 1: not this node.
+    b.send(0x000, &[0x82, 0x01]);
+    assert_eq!(b.node.nmt_state(), canopen::NmtState::Operational);
+    b.send(0x000, &[0x82, 0x05]);
+    assert_eq!(b.events(), vec![canopen::NodeEvent::ResetCommunication]);
+    assert_eq!(b.boot(), vec![frame(0x705, &[0x00])]);
+    assert_eq!(b.node.nmt_state(), canopen::NmtState::PreOperational);
+    assert_eq!(b.send(0x705, &[]), vec![frame(0x705, &[0x7F])], "toggle 0");
+}
+
+/// CMMP-NMT-13: the manual asks the master for ≥ 1 ms between NMT frames; the twin accepts
+/// faster traffic (two commands 100 µs apart both take effect).
+#[test]
+fn cmmp_nmt_13_nmt_frames_closer_than_1_ms_are_accepted() {
+    let mut b = cmmp();
+    b.send(0x000, &[0x01, 0x01]);
+    b.now = od::Instant::from_nanos(b.now.as_nanos() + 100_000);
+    b.send(0x000, &[0x02, 0x01]);
+    assert_eq!(b.node.nmt_state(), canopen::NmtState::Stopped);
+    b.now = od::Instant::from_nanos(b.now.as_nanos() + 100_000);
+    b.send(0x000, &[0x80, 0x00]);
+    assert_eq!(b.node.nmt_state(), canopen::NmtState::PreOperational);
 }

@@ -1,5 +1,5 @@
 //! PDO configuration rules and transmission (CiA 301 §7.2.2, §7.5.2.35–38; CMMP-AS §3.3), with
-//! the manual's TPDO1 example as vectors CMMP-PDO-01…09 and CMMP-SDO-14.
+//! the manual's TPDO1 example as vectors CMMP-PDO-01 to CMMP-PDO-09 and CMMP-SDO-14.
 
 mod common;
 use common::*;
@@ -29,7 +29,8 @@ fn ok(index: u16, sub: u8) -> [u8; 8] {
     p8(&[0x60, i0, i1, sub])
 }
 
-/// The manual's TPDO1 example, steps 1–8 (CMMP-PDO-01…08).
+/// The manual's TPDO1 example, steps 1–8 (CMMP-PDO-01, CMMP-PDO-02, CMMP-PDO-03, CMMP-PDO-04,
+/// CMMP-PDO-05, CMMP-PDO-06, CMMP-PDO-07, CMMP-PDO-08).
 fn configure_tpdo1(b: &mut Bench) {
     // CMMP-PDO-01: deactivate with a new COB-ID.
     assert_eq!(
@@ -77,6 +78,8 @@ fn configure_tpdo1(b: &mut Bench) {
     );
 }
 
+/// CMMP-PDO-09 (after CMMP-PDO-01 to CMMP-PDO-08): in Operational a statusword change sends
+/// nothing, a DIN0 change sends `187:` (DLC 7) no sooner than 10 ms after the previous TPDO1.
 #[test]
 fn cmmp_pdo_01_to_09_tpdo1_on_masked_change_with_inhibit_time() {
     let mut b = cmmp();
@@ -119,6 +122,7 @@ fn cmmp_pdo_01_to_09_tpdo1_on_masked_change_with_inhibit_time() {
     }
 }
 
+/// CMMP-PDO-17: an RPDO received in Pre-Operational is ignored; in Operational it sets 6040h.
 #[test]
 fn cmmp_pdo_17_rpdo_works_only_in_operational() {
     let mut b = cmmp();
@@ -155,6 +159,7 @@ fn short_rpdo_is_ignored_with_emcy_8210() {
     assert_eq!(emcy[0].data, [0, 0, 0, 0, 0, 0, 0, 0]);
 }
 
+/// CMMP-SDO-14: 32 + 32 + 16 bits > 64 → abort 0604 0042h, 1A00h:00 stays 0.
 #[test]
 fn cmmp_sdo_14_mapping_longer_than_64_bits() {
     let mut b = cmmp();
@@ -295,6 +300,8 @@ fn tpdos_only_in_operational() {
     assert!(b.send(0x080, &[]).is_empty());
 }
 
+/// CMMP-NMT-11: guarding replies 7Fh, FFh, then 05h, 85h; the toggle restarts after Reset
+/// Communication.
 #[test]
 fn cmmp_nmt_11_guarding_toggle() {
     let mut b = cmmp();
@@ -318,17 +325,27 @@ fn cmmp_nmt_11_guarding_toggle() {
     assert_eq!(b.send(0x701, &[]), vec![frame(0x701, &[0x7F])]);
 }
 
+/// CMMP-NMT-10: with 1017h ≠ 0 and 100Ch ≠ 0 only heartbeat is active.
 #[test]
 fn cmmp_nmt_10_heartbeat_wins_over_guarding() {
     let mut b = cmmp();
     b.sdo1(&[0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]);
     b.sdo1(&[0x2B, 0x0C, 0x10, 0x00, 0x64, 0x00]);
+    b.sdo1(&[0x2F, 0x0D, 0x10, 0x00, 0x01]);
+    b.events();
     assert!(
         b.send(0x701, &[]).is_empty(),
         "no guarding answer while heartbeat runs"
     );
+    b.advance_ms(500);
+    assert!(
+        !b.events().contains(&canopen::NodeEvent::LifeGuardingLost),
+        "no guarding supervision, no error 12-4"
+    );
 }
 
+/// CMMP-NMT-12: 100Ch = 100 ms, 100Dh = 1: no error before the first RTR, then error 12-4
+/// (life guarding lost, EMCY 8130h) when none follows within 100 ms.
 #[test]
 fn cmmp_nmt_12_life_guarding_starts_with_the_first_request() {
     let mut b = cmmp();

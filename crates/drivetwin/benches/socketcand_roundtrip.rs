@@ -54,6 +54,7 @@ async fn setup() -> Client {
     tokio::spawn(runtime::run_realtime(
         Cell::new(vec![drive]),
         bus,
+        None,
         std::future::pending(),
     ));
     let stream = TcpStream::connect(addr).await.expect("connect");

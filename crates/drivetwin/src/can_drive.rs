@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use canopen::{CanFrame, Node, NodeEvent};
+use canopen::{ci_terminal, CanFrame, Node, NodeEvent};
 use drive::drive::{DriveEvent, DriveSettings};
 use od::{
     time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest,
@@ -158,6 +158,36 @@ impl CanDrive {
         };
         node.on_frame(now, frame, &mut access, out);
         self.service(now, out);
+    }
+
+    /// One line typed at the drive's CI terminal (CMMP-AS §3.2.3, SDO simulation); its
+    /// answer without the line end. Writes follow the SDO rules of the present NMT state.
+    pub fn ci_line(
+        &mut self,
+        now: Instant,
+        line: &[u8],
+        out: &mut dyn FnMut(CanFrame),
+    ) -> ci_terminal::Reply {
+        self.model.step(now);
+        let CanDrive {
+            model,
+            node,
+            store,
+            stored,
+            ..
+        } = self;
+        let mut console = Console {
+            node,
+            access: Persisting {
+                model,
+                store: store.as_ref(),
+                stored,
+            },
+            now,
+        };
+        let reply = ci_terminal::execute(line, &mut console);
+        self.service(now, out);
+        reply
     }
 
     pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
@@ -319,5 +349,28 @@ impl ObjectAccess for Persisting<'_> {
     }
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.model.write_internal(index, sub, data)
+    }
+}
+
+/// The CI terminal's view of a drive: reads as they are, writes as SDO downloads of its node.
+struct Console<'a> {
+    node: &'a mut Node,
+    access: Persisting<'a>,
+    now: Instant,
+}
+
+impl ObjectAccess for Console<'_> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.access.entry(index, sub)
+    }
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.access.read(index, sub, buf)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.node
+            .local_write(self.now, index, sub, data, &mut self.access)
+    }
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.access.write_internal(index, sub, data)
     }
 }

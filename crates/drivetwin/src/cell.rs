@@ -39,6 +39,21 @@ impl Cell {
         self.deliver(now, out);
     }
 
+    /// A line typed at the CI terminal of drive `drive` (cell order); `None` without it.
+    pub fn ci_line(
+        &mut self,
+        drive: usize,
+        now: Instant,
+        line: &[u8],
+        out: &mut Vec<CanFrame>,
+    ) -> Option<canopen::ci_terminal::Reply> {
+        let Cell { drives, queue } = self;
+        let d = drives.get_mut(drive)?;
+        let reply = d.ci_line(now, line, &mut |f| queue.push_back((f, Some(drive))));
+        self.deliver(now, out);
+        Some(reply)
+    }
+
     /// Runs the drives' timers; returns the next deadline.
     pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
         let Cell { drives, queue } = self;

@@ -10,6 +10,9 @@ use serde::Deserialize;
 
 use crate::can_drive::Commissioning;
 use crate::device_model::{is_cia402, is_fhpp};
+use crate::fieldbus_switches::{
+    m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
+};
 use drive::drive::DriveSettings;
 use drive::fhpp::axis_mechanics::AxisMechanics;
 use drive::fhpp::device::FhppSettings;
@@ -40,6 +43,8 @@ pub enum ConfigError {
     Object { node: u8, key: String, what: String },
     #[error("node-ID {0} is used twice")]
     DuplicateNode(u8),
+    #[error("drive {0}: its switches select FHPP over CANopen (M0 DIN9 HIGH), which the twin does not simulate for the CMMP-AS")]
+    FhppOverCan(u8),
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -109,6 +114,12 @@ pub struct DriveSection {
     /// A CMMO-ST's axis: end stops, reference switch, index pulse (homing).
     #[serde(default)]
     pub axis: AxisSection,
+    /// The CMMP-AS switch positions or input levels that give node number, bit rate and
+    /// CAN activation (manual §2.3–2.4); when given, its node number wins over `node`.
+    pub switches: Option<SwitchesSection>,
+    /// TCP address (loopback only) of the drive's CI terminal, the debug console whose SDO
+    /// simulation the CMMP-AS manual describes (§3.2.3); none by default.
+    pub ci_terminal: Option<String>,
 }
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
@@ -257,6 +268,87 @@ pub struct FhppSpec {
     /// Its Modbus TCP server address, if the cell file gives one.
     pub modbus: Option<String>,
     pub watchdog_ms: Option<u16>,
+}
+
+/// `[drive.switches]`: how a CMMP-AS's fieldbus settings come from its hardware.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SwitchesSection {
+    /// `m3` (DIP block S1 of the CAN module) or `m0` (digital inputs).
+    pub variant: SwitchVariant,
+    /// The FCT base node address (default 0).
+    #[serde(default)]
+    pub base_address: u8,
+    /// M3: the DIP switches that are ON (1…8); M0: the inputs that are HIGH (0…3, 8, 9,
+    /// 12, 13).
+    #[serde(default)]
+    pub on: Vec<u8>,
+    /// M0: FCT option "fieldbus parameterisation via DIN" (on in the delivery state).
+    #[serde(default = "yes")]
+    pub via_din: bool,
+    /// M0 without the DIN option: the bit rate set in FCT, kbit/s.
+    #[serde(default = "default_fct_bit_rate")]
+    pub fct_bit_rate_kbit: u16,
+}
+
+fn yes() -> bool {
+    true
+}
+fn default_fct_bit_rate() -> u16 {
+    125
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SwitchVariant {
+    M3,
+    M0,
+}
+
+impl SwitchesSection {
+    /// The settings at power-on.
+    pub fn settings(&self) -> Result<FieldbusSettings, String> {
+        match self.variant {
+            SwitchVariant::M3 => {
+                let mut dip = [false; 8];
+                for &n in &self.on {
+                    let slot = usize::from(n)
+                        .checked_sub(1)
+                        .and_then(|i| dip.get_mut(i))
+                        .ok_or(format!("DIP {n}: the M3 block has DIP 1…8"))?;
+                    *slot = true;
+                }
+                Ok(m3_power_on(self.base_address, dip))
+            }
+            SwitchVariant::M0 => {
+                let mut i = M0Inputs::default();
+                for &n in &self.on {
+                    match n {
+                        0..=3 => i.din0_3[usize::from(n)] = true,
+                        8 => i.din8 = true,
+                        9 => i.din9 = true,
+                        12 => i.din12 = true,
+                        13 => i.din13 = true,
+                        _ => {
+                            return Err(format!(
+                                "DIN{n}: the M0 fieldbus inputs are DIN0…3, 8, 9, 12, 13"
+                            ))
+                        }
+                    }
+                }
+                if !BIT_RATES_KBIT.contains(&self.fct_bit_rate_kbit) {
+                    return Err(format!(
+                        "fct_bit_rate_kbit {}: one of {BIT_RATES_KBIT:?}",
+                        self.fct_bit_rate_kbit
+                    ));
+                }
+                Ok(
+                    M0Fieldbus::reset(self.base_address, self.via_din, self.fct_bit_rate_kbit, i)
+                        .settings(),
+                )
+            }
+        }
+    }
 }
 
 /// `[drive.motor]`: overrides of [`MotorData`].
@@ -429,6 +521,20 @@ pub struct DriveSpec {
     pub settings: Option<DriveSettings>,
     /// For FHPP personalities (the CMMO-ST): the stepper, its axis and its Modbus server.
     pub fhpp: Option<FhppSpec>,
+    /// From `[drive.switches]`, if given.
+    pub fieldbus: Option<FieldbusSettings>,
+}
+
+impl DriveSpec {
+    /// Whether the drive takes part on CAN: yes without switches; with them, as they say
+    /// (M3 DIP8, M0 DIN8). A CMMP-AS whose CAN is off stays silent on the bus.
+    pub fn on_can(&self) -> Result<bool, ConfigError> {
+        match self.fieldbus {
+            None => Ok(true),
+            Some(f) if f.profile == Profile::Fhpp => Err(ConfigError::FhppOverCan(self.node)),
+            Some(f) => Ok(f.can_active),
+        }
+    }
 }
 
 impl CellFile {
@@ -470,6 +576,8 @@ impl CellFile {
                 modbus_timeout_ms: None,
                 stepper: StepperSection::default(),
                 axis: AxisSection::default(),
+                switches: None,
+                ci_terminal: None,
             }],
         }
     }
@@ -481,6 +589,21 @@ impl CellFile {
                 let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
                 ConfigError::UnknownDevice(d.device.clone(), known.join(", "))
             })?;
+            let fieldbus = match &d.switches {
+                Some(sw) => {
+                    let err = |what: String| ConfigError::Object {
+                        node: d.node,
+                        key: "switches".into(),
+                        what,
+                    };
+                    if desc.name != "cmmp-as" {
+                        return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
+                    }
+                    Some(sw.settings().map_err(err)?)
+                }
+                None => None,
+            };
+            let node = fieldbus.map_or(d.node, |f| f.node_id);
             let err = |key: &str, what: String| ConfigError::Object {
                 node: d.node,
                 key: key.into(),
@@ -490,11 +613,12 @@ impl CellFile {
                 if d.travel != TravelSection::default()
                     || d.motor != MotorSection::default()
                     || d.mode_change_time_ms.is_some()
+                    || d.ci_terminal.is_some()
                 {
                     return Err(err(
                         "motor",
-                        "motor, travel and mode_change_time_ms are a CiA 402 drive's; the \
-                         CMMO-ST has [drive.stepper] and [drive.axis]"
+                        "motor, travel, mode_change_time_ms and ci_terminal are a CMMP-AS's; \
+                         the CMMO-ST has [drive.stepper] and [drive.axis]"
                             .into(),
                     ));
                 }
@@ -522,8 +646,8 @@ impl CellFile {
                     ));
                 }
                 // The CAN node-IDs of a cell share one bus.
-                if specs.iter().any(|s| s.fhpp.is_none() && s.node == d.node) {
-                    return Err(ConfigError::DuplicateNode(d.node));
+                if specs.iter().any(|s| s.fhpp.is_none() && s.node == node) {
+                    return Err(ConfigError::DuplicateNode(node));
                 }
                 None
             };
@@ -579,10 +703,11 @@ impl CellFile {
             }
             specs.push(DriveSpec {
                 desc,
-                node: d.node,
+                node,
                 commissioning,
                 settings,
                 fhpp,
+                fieldbus,
             });
         }
         Ok(specs)
@@ -824,5 +949,87 @@ mod example_tests {
             }
         }
         assert!(seen >= 2, "examples/cell.toml and examples/machine.toml");
+    }
+}
+
+#[cfg(test)]
+mod switches_tests {
+    use super::*;
+
+    fn spec(text: &str) -> Result<Vec<DriveSpec>, ConfigError> {
+        let file: CellFile = toml::from_str(text).map_err(|source| ConfigError::Toml {
+            path: PathBuf::from("cell.toml"),
+            source,
+        })?;
+        file.drives()
+    }
+
+    fn drive(switches: &str) -> Result<DriveSpec, ConfigError> {
+        spec(&format!(
+            "[[drive]]\ndevice = \"cmmp-as\"\nnode = 9\n[drive.switches]\n{switches}\n"
+        ))
+        .map(|mut v| v.remove(0))
+    }
+
+    /// CMMP-NODE-01, CMMP-NODE-05, CMMP-NODE-08 from a cell file: DIP 1, 2, 4, 5 ON → node 27
+    /// (over the file's `node`), DIP6 ON → 250 kbit/s, DIP8 ON → on the bus.
+    #[test]
+    fn m3_dip_switches_give_node_bit_rate_and_activation() {
+        let d = drive("variant = \"m3\"\non = [1, 2, 4, 5, 6, 8]").unwrap();
+        assert_eq!(d.node, 27);
+        let f = d.fieldbus.unwrap();
+        assert_eq!((f.bit_rate_kbit, f.can_active), (250, true));
+        assert!(d.on_can().unwrap());
+        // CMMP-NODE-08: DIP8 OFF → CANopen deactivated; CMMP-NODE-02: all offsets OFF → 1.
+        let off = drive("variant = \"m3\"\non = []").unwrap();
+        assert_eq!(off.node, 1);
+        assert!(!off.on_can().unwrap());
+        // CMMP-NODE-03: base 120 + 27 → 127.
+        let d = drive("variant = \"m3\"\nbase_address = 120\non = [1, 2, 4, 5, 8]").unwrap();
+        assert_eq!(d.node, 127);
+    }
+
+    /// CMMP-NODE-04, CMMP-NODE-06, CMMP-NODE-07 from a cell file: M0 DIN0, 1, 3 HIGH → node
+    /// 11; DIN13 → 500 kbit/s; DIN8 HIGH → on the bus; DIN9 HIGH (FHPP) is refused.
+    #[test]
+    fn m0_inputs_give_node_bit_rate_and_activation() {
+        let d = drive("variant = \"m0\"\non = [0, 1, 3, 8, 13]").unwrap();
+        assert_eq!(d.node, 11);
+        assert_eq!(d.fieldbus.unwrap().bit_rate_kbit, 500);
+        assert!(d.on_can().unwrap());
+        let fhpp = drive("variant = \"m0\"\non = [8, 9]").unwrap();
+        assert!(matches!(fhpp.on_can(), Err(ConfigError::FhppOverCan(1))));
+        let fct =
+            drive("variant = \"m0\"\nvia_din = false\nbase_address = 4\non = [0, 1]").unwrap();
+        assert_eq!(fct.node, 4);
+        assert!(fct.on_can().unwrap(), "FCT activates CAN");
+    }
+
+    #[test]
+    fn bad_switches_are_clear_errors() {
+        for (bad, says) in [
+            ("variant = \"m3\"\non = [9]", "DIP 9"),
+            ("variant = \"m3\"\non = [0]", "DIP 0"),
+            ("variant = \"m0\"\non = [5]", "DIN5"),
+            ("variant = \"m0\"\nfct_bit_rate_kbit = 800", "800"),
+        ] {
+            let err = drive(bad).unwrap_err().to_string();
+            assert!(
+                err.contains(says) && err.contains("switches"),
+                "{bad}: {err}"
+            );
+        }
+        assert!(drive("variant = \"m5\"").is_err());
+        let err = spec("[[drive]]\ndevice = \"testbench\"\n[drive.switches]\nvariant = \"m3\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("no CMMP-AS switches"), "{err}");
+        // Two drives whose switches give the same node.
+        let err = spec(
+            "[[drive]]\ndevice = \"cmmp-as\"\n[drive.switches]\nvariant = \"m3\"\non = [1]\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\n[drive.switches]\nvariant = \"m3\"\n",
+        )
+        .unwrap_err();
+        assert!(matches!(err, ConfigError::DuplicateNode(1)), "{err}");
     }
 }

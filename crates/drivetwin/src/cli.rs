@@ -186,6 +186,10 @@ pub struct RunArgs {
     /// the lowest round trip, at the price of one CPU kept busy.
     #[arg(long)]
     pub busy_poll: bool,
+    /// Serve the (first) drive's CI terminal, the CMMP-AS debug console with its SDO
+    /// simulation (`?606100` → `=606100:01`), on this loopback TCP address.
+    #[arg(long, value_name = "ADDR", conflicts_with_all = ["ethercat", "virtual_seconds"])]
+    pub ci_terminal: Option<String>,
 }
 
 /// `--modbus-io`.

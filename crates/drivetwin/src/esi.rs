@@ -524,6 +524,7 @@ mod tests {
         child(n, tag).text().unwrap_or("")
     }
 
+    /// CMMP-ECAT-02: `<Vendor><Id>#x1D</Id>`, the same vendor as identity 1018h:01.
     #[test]
     fn esi_is_well_formed_and_names_the_device() {
         let s = xml();
@@ -532,6 +533,8 @@ mod tests {
         assert_eq!(root.tag_name().name(), "EtherCATInfo");
         let vendor = child(root, "Vendor");
         assert_eq!(text(vendor, "Id"), "#x1D");
+        let id = cmmp().entry(0x1018, 1).expect("1018h:01");
+        assert_eq!(id.default, &[0x1D, 0, 0, 0], "1018h:01 = 0000001Dh");
         assert_eq!(
             text(vendor, "Name"),
             "Festo AG & Co. KG",

@@ -7,11 +7,20 @@ use std::time::Duration;
 use canopen::CanFrame;
 use od::Instant;
 
+use tokio::sync::mpsc;
+
 use crate::bus::Bus;
 use crate::cell::Cell;
+use crate::ci_console::ConsoleRequest;
 
-/// Runs `cell` on `bus` in real time until `shutdown` completes.
-pub async fn run_realtime(mut cell: Cell, bus: Bus, shutdown: impl Future<Output = ()>) {
+/// Runs `cell` on `bus` in real time until `shutdown` completes; lines typed at a drive's CI
+/// terminal come in on `console`.
+pub async fn run_realtime(
+    mut cell: Cell,
+    bus: Bus,
+    mut console: Option<mpsc::Receiver<ConsoleRequest>>,
+    shutdown: impl Future<Output = ()>,
+) {
     let mut port = bus.port();
     let start = tokio::time::Instant::now();
     let now = || Instant::from_nanos(u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX));
@@ -35,10 +44,30 @@ pub async fn run_realtime(mut cell: Cell, bus: Bus, shutdown: impl Future<Output
                 }
                 None => break,
             },
+            req = next_request(&mut console) => match req {
+                Some(req) => {
+                    let reply = cell
+                        .ci_line(req.drive, now(), &req.line, &mut out)
+                        .unwrap_or_else(canopen::ci_terminal::syntax_error);
+                    // The client may have gone meanwhile: nothing to answer then.
+                    let _ = req.reply.send(reply);
+                }
+                None => console = None,
+            },
             _ = tokio::time::sleep_until(wake) => {
                 cell.poll(now(), &mut out);
             }
         }
+    }
+}
+
+/// The next console line, or never without a console.
+async fn next_request(
+    console: &mut Option<mpsc::Receiver<ConsoleRequest>>,
+) -> Option<ConsoleRequest> {
+    match console {
+        Some(rx) => rx.recv().await,
+        None => std::future::pending().await,
     }
 }
 

@@ -161,6 +161,9 @@ fn lrw(m: &mut Master, outputs: &[u8], inputs: usize) -> Vec<u8> {
     r.data[outputs.len()..].to_vec()
 }
 
+/// CMMP-ECAT-04: in Safe-Operational the inputs (statusword) are sent while the outputs'
+/// set-points are ignored (an RxPDO with controlword 000Fh changes nothing); they count only
+/// after Safe-Op → Op.
 #[test]
 fn soem_startup_and_cia402_enable_with_default_mapping() {
     let mut m = Master::new(cell());
@@ -188,6 +191,13 @@ fn soem_startup_and_cia402_enable_with_default_mapping() {
         0x40,
         "Safe-Op ignores the controlword: {sw:#06x}"
     );
+    for _ in 0..5 {
+        m.tick();
+        lrw(&mut m, &[0x0F, 0x00], 2);
+    }
+    let sw = u16::from_le_bytes(lrw(&mut m, &[0x0F, 0x00], 2).try_into().unwrap());
+    assert_eq!(sw & 0x6F, 0x40, "CW 000Fh ignored in Safe-Op: {sw:#06x}");
+    assert_eq!(read_u16(&m, 0x6040), 0, "the drive's controlword unchanged");
     assert_eq!(m.cell.device(0).unwrap().outputs_applied, 0);
 
     m.fpwr(0x0120, &[0x08, 0x00]);
@@ -328,6 +338,8 @@ fn chain_of_two_slaves_counts_both() {
     assert_eq!(m.cell.esc(1).unwrap().station_address(), 0x1002);
 }
 
+/// CMMP-ECAT-02: the identity 1018h:01 read over CoE is Festo's vendor ID 0000001Dh (the ESI's
+/// `<Vendor><Id>#x1D</Id>`, checked in `esi.rs`; the SII's in `to_preop`).
 #[test]
 fn sdo_upload_over_coe_through_the_chain() {
     let mut m = Master::new(cell());
@@ -536,4 +548,112 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
         (pos - target).abs() < 50,
         "followed the set-points: {pos} vs {target}, demand {demand}"
     );
+}
+
+/// One expedited CoE SDO download (`data` of 1, 2 or 4 bytes) through the mailbox; returns
+/// the SDO bytes of the answer (command, index, sub-index, data/abort code).
+fn coe_download(m: &mut Master, counter: u8, index: u16, sub: u8, data: &[u8]) -> [u8; 8] {
+    let cmd = 0x23 | ((4 - data.len() as u8) << 2);
+    let [i0, i1] = index.to_le_bytes();
+    let mut req = vec![0u8; 0x80];
+    req[..12].copy_from_slice(&[
+        10,
+        0,
+        0,
+        0,
+        0,
+        0x03 | counter << 4,
+        0x00,
+        0x20,
+        cmd,
+        i0,
+        i1,
+        sub,
+    ]);
+    req[12..12 + data.len()].copy_from_slice(data);
+    m.fpwr(0x1000, &req);
+    assert_eq!(m.fprd(0x080D, 1).data[0] & 0x08, 0x08, "reply posted");
+    let r = m.fprd(0x1080, 0x80);
+    assert_eq!(r.data[5] & 0x0F, 0x03, "CoE");
+    r.data[8..16].try_into().unwrap()
+}
+
+/// CMMP-ECAT-01: the manual's (corrected) ESI start-up command — `<Transition>PS</Transition>`,
+/// `<Index>#x6060</Index>`, `<SubIndex>0</SubIndex>`, `<Data>03</Data>` — as a master carries
+/// it out: a CoE download of 6060h:00 := 3 on the way from Pre-Op to Safe-Op. The drive
+/// takes it and runs in profile velocity (6061h = 3).
+#[test]
+fn esi_init_command_sets_velocity_mode_on_pre_op_to_safe_op() {
+    let esi = r#"<Mailbox><CoE><InitCmd><Transition>PS</Transition><Index>#x6060</Index>
+        <SubIndex>0</SubIndex><Data>03</Data><Comment>velocity mode</Comment></InitCmd>
+        </CoE></Mailbox>"#;
+    let doc = roxmltree::Document::parse(esi).unwrap();
+    let cmd = doc
+        .descendants()
+        .find(|n| n.has_tag_name("InitCmd"))
+        .unwrap();
+    let field = |t: &str| {
+        cmd.children()
+            .find(|c| c.has_tag_name(t))
+            .and_then(|c| c.text())
+            .unwrap()
+    };
+    assert_eq!(field("Transition"), "PS");
+    let index = u16::from_str_radix(field("Index").trim_start_matches("#x"), 16).unwrap();
+    let sub: u8 = field("SubIndex").parse().unwrap();
+    let data: Vec<u8> = (0..field("Data").len() / 2)
+        .map(|i| u8::from_str_radix(&field("Data")[2 * i..2 * i + 2], 16).unwrap())
+        .collect();
+    assert_eq!((index, sub, data.as_slice()), (0x6060, 0, &[3u8][..]));
+
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    assert_eq!(
+        coe_download(&mut m, 1, index, sub, &data),
+        [0x60, 0x60, 0x60, 0x00, 0, 0, 0, 0],
+        "SDO download response"
+    );
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    assert_eq!(m.al(), (0x0004, 0));
+    m.idle(50);
+    let model = &m.cell.device(0).unwrap().model;
+    let mut b = [0u8; 1];
+    model.read(0x6061, 0, &mut b).unwrap();
+    assert_eq!(b[0], 3, "modes_of_operation_display: profile velocity");
+}
+
+/// CMMP-ECAT-03: RxPDO 1600h = 6040h:0 (16 bit), 6060h:0 (8 bit) on SM2: the output image
+/// `0F 00 03` is controlword 000Fh and mode 3, packed in order, little-endian.
+#[test]
+fn rxpdo_controlword_and_mode_packed_in_order() {
+    let mut m = Master::new(cell());
+    {
+        let model = &mut m.cell.device_mut(0).unwrap().model;
+        for (i, s, v) in [
+            (0x1600u16, 0u8, 0u32),
+            (0x1600, 1, 0x6040_0010),
+            (0x1600, 2, 0x6060_0008),
+            (0x1600, 0, 2),
+        ] {
+            let bytes = v.to_le_bytes();
+            let n = if s == 0 { 1 } else { 4 };
+            model.write(i, s, &bytes[..n]).unwrap();
+        }
+    }
+    to_preop(&mut m);
+    map(&mut m, 3, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    assert_eq!(m.al(), (0x0004, 0), "3 output bytes accepted");
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    for _ in 0..20 {
+        m.tick();
+        lrw(&mut m, &[0x0F, 0x00, 0x03], 2);
+    }
+    assert_eq!(read_u16(&m, 0x6040), 0x000F);
+    let mut b = [0u8; 1];
+    let model = &m.cell.device(0).unwrap().model;
+    model.read(0x6060, 0, &mut b).unwrap();
+    assert_eq!(b[0], 3, "modes_of_operation from the third byte");
 }

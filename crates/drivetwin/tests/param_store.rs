@@ -125,3 +125,53 @@ fn a_permanent_memory_is_kept_replaced_and_removed() {
     assert_eq!(store.load_memory().unwrap(), None);
     store.save_memory(None).unwrap(); // deleting twice is no error
 }
+
+/// CMMP-NMT-06: `000: 81 01` on a CMMP-AS reloads every object from the saved set (not the
+/// defaults, not the unsaved current value), sends boot-up `701: 00` and waits in
+/// Pre-Operational. The save is carried out before its SDO answer, so a reset after it
+/// never finds one still running.
+#[test]
+fn cmmp_reset_application_reloads_the_saved_set() {
+    let dir = tmpdir("cmmp-reset");
+    let store = ParamStore::new(&dir, "cmmp-as", 1);
+    let mut d = CanDrive::new(&devices::CMMP_AS, 1, Some(store), vec![]).unwrap();
+    let mut out = Vec::new();
+    let t0 = od::Instant::ZERO;
+    d.boot(t0, &mut |f| out.push(f));
+    let sdo = |d: &mut CanDrive, data: [u8; 8]| {
+        let mut out = Vec::new();
+        d.on_frame(t0, &canopen::CanFrame::full(0x601, data), &mut |f| {
+            out.push(f)
+        });
+        out
+    };
+    // 1017h := 100 ms, saved; then 1017h := 250 ms, not saved.
+    sdo(&mut d, [0x2B, 0x17, 0x10, 0x00, 0x64, 0x00, 0, 0]);
+    let r = sdo(&mut d, [0x23, 0x10, 0x10, 0x01, 0x73, 0x61, 0x76, 0x65]);
+    assert_eq!(r[0].data, [0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]);
+    sdo(&mut d, [0x2B, 0x17, 0x10, 0x00, 0xFA, 0x00, 0, 0]);
+    d.on_frame(
+        t0,
+        &canopen::CanFrame::new(0, &[0x01, 0x01]).unwrap(),
+        &mut |_| {},
+    );
+    assert_eq!(d.node.nmt_state(), canopen::NmtState::Operational);
+    out.clear();
+    d.on_frame(
+        t0,
+        &canopen::CanFrame::new(0, &[0x81, 0x01]).unwrap(),
+        &mut |f| out.push(f),
+    );
+    assert_eq!(
+        d.od().get_unsigned(0x1017, 0),
+        Some(100),
+        "saved value back"
+    );
+    assert_eq!(out.len(), 1, "{out:?}");
+    assert_eq!(
+        (out[0].id, out[0].payload()),
+        (0x701, &[0u8][..]),
+        "boot-up"
+    );
+    assert_eq!(d.node.nmt_state(), canopen::NmtState::PreOperational);
+}

@@ -13,7 +13,7 @@ use drivetwin::master::link::{Link, LinkError};
 use drivetwin::master::sdo_client::{SdoClient, SdoError};
 use drivetwin::param_store::ParamStore;
 use drivetwin::trace::{self, TraceWriter};
-use drivetwin::{runtime, socketcand, value_text};
+use drivetwin::{ci_console, runtime, socketcand, value_text};
 use od::DataType;
 
 use crate::cli::{

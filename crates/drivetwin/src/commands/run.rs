@@ -28,12 +28,38 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
+/// The cell of the file's drives that are on CAN, and for each drive of the file its index
+/// in the cell (`None`: its switches keep it off the bus).
 pub(crate) fn build_cell(
     file: &CellFile,
     state_dir: Option<&PathBuf>,
-) -> Result<Cell, CommandError> {
+) -> Result<(Cell, Vec<Option<usize>>), CommandError> {
     let mut drives = Vec::new();
-    for spec in file.drives()?.into_iter().filter(|s| s.fhpp.is_none()) {
+    let mut in_cell = Vec::new();
+    for spec in file.drives()? {
+        in_cell.push(None);
+        if spec.fhpp.is_some() {
+            // The CMMO-ST runs beside the bus (Modbus TCP): `start_fhpp_drives`.
+            continue;
+        }
+        if let Some(f) = spec.fieldbus {
+            if !spec.on_can()? {
+                out!(
+                    "drive {} node {}: CANopen deactivated by its switches, silent on the bus",
+                    spec.desc.name,
+                    spec.node
+                );
+                continue;
+            }
+            // One bus, one bit rate: socketcand does not carry it, so a node set to another
+            // rate is only reported (on a real bus it would see error frames).
+            out!(
+                "drive {} node {}: {} kbit/s from its switches",
+                spec.desc.name,
+                spec.node,
+                f.bit_rate_kbit
+            );
+        }
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         drives.push(CanDrive::with_settings(
             spec.desc,
@@ -42,8 +68,11 @@ pub(crate) fn build_cell(
             spec.commissioning,
             spec.settings,
         )?);
+        if let Some(last) = in_cell.last_mut() {
+            *last = Some(drives.len() - 1);
+        }
     }
-    Ok(Cell::new(drives))
+    Ok((Cell::new(drives), in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
@@ -61,6 +90,19 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         file.bus.socketcan = Some(c.clone());
     }
     let specs = file.drives()?;
+    if args.ci_terminal.is_some() && specs.first().is_some_and(|s| s.fhpp.is_some()) {
+        return Err(CommandError::Usage(
+            "--ci-terminal is the CMMP-AS debug console; the CMMO-ST has none".into(),
+        ));
+    }
+    // Refused before anything opens: the console writes without authentication.
+    for addr in args
+        .ci_terminal
+        .iter()
+        .chain(file.drive.iter().filter_map(|d| d.ci_terminal.as_ref()))
+    {
+        ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
+    }
     // The CMMO-ST has Modbus TCP, no CANopen and no EtherCAT: it runs beside the bus.
     let (fhpp, can): (Vec<DriveSpec>, Vec<DriveSpec>) =
         specs.into_iter().partition(|s| s.fhpp.is_some());
@@ -99,7 +141,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         out!("stopped");
         return Ok(());
     }
-    let mut cell = build_cell(&file, args.state_dir.as_ref())?;
+    let (mut cell, in_cell) = build_cell(&file, args.state_dir.as_ref())?;
     for d in &cell.drives {
         out!(
             "drive {} node {} ({})",
@@ -207,9 +249,10 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         }
         None => None,
     };
+    let console = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref(), &mut tasks).await?;
     let shutdown = shutdown_signal();
     out!("running; Ctrl-C stops");
-    runtime::run_realtime(cell, bus.clone(), shutdown).await;
+    runtime::run_realtime(cell, bus.clone(), console, shutdown).await;
     for t in tasks {
         t.abort();
     }
@@ -224,6 +267,47 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     out!("stopped");
     Ok(())
+}
+
+/// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each
+/// served by a task of its own; the runtime answers their lines.
+async fn ci_consoles(
+    file: &CellFile,
+    in_cell: &[Option<usize>],
+    first: Option<&str>,
+    tasks: &mut Vec<tokio::task::JoinHandle<()>>,
+) -> Result<Option<tokio::sync::mpsc::Receiver<ci_console::ConsoleRequest>>, CommandError> {
+    let addrs: Vec<(usize, &str)> = file
+        .drive
+        .iter()
+        .enumerate()
+        .filter_map(|(i, d)| {
+            let cli = if i == 0 { first } else { None };
+            cli.or(d.ci_terminal.as_deref()).map(|a| (i, a))
+        })
+        .collect();
+    if addrs.is_empty() {
+        return Ok(None);
+    }
+    let (tx, rx) = tokio::sync::mpsc::channel(ci_console::QUEUE);
+    for (i, addr) in addrs {
+        // The console is the drive's own RS232, but a drive the switches keep off the bus is
+        // not simulated at all here.
+        let Some(Some(drive)) = in_cell.get(i).copied() else {
+            tracing::warn!(
+                drive = i + 1,
+                "no CI terminal: the drive is not in the cell"
+            );
+            continue;
+        };
+        let listener = ci_console::bind(addr)
+            .await
+            .map_err(|e| CommandError::Usage(e.to_string()))?;
+        let local = listener.local_addr().map_err(io("CI terminal address"))?;
+        out!("CI terminal of drive {} on {local}", i + 1);
+        tasks.push(tokio::spawn(ci_console::serve(listener, drive, tx.clone())));
+    }
+    Ok(Some(rx))
 }
 
 /// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a

@@ -1,0 +1,125 @@
+//! SDO simulation over the CI terminal (CMMP-AS §3.2.3), answered from the CMMP-AS dictionary.
+
+use canopen::ci_terminal::{execute, CiTerminal};
+use od::{ObjectDictionary, Value};
+
+fn od() -> ObjectDictionary<Vec<u8>> {
+    let d = &devices::CMMP_AS;
+    ObjectDictionary::new(d, 1, vec![0; d.storage_size]).expect("storage sized")
+}
+
+fn ci(od: &mut ObjectDictionary<Vec<u8>>, line: &str) -> String {
+    execute(line.as_bytes(), od).as_str().to_owned()
+}
+
+/// CMMP-CI-01: `?606100` with modes_of_operation_display = 1 → `=606100:01`.
+#[test]
+fn cmmp_ci_01_read_8_bit() {
+    let mut od = od();
+    od.set_value(0x6061, 0, Value::Signed(1)).unwrap();
+    assert_eq!(ci(&mut od, "?606100"), "=606100:01");
+}
+
+/// CMMP-CI-02: `=604000:000F` writes the controlword and echoes the command.
+#[test]
+fn cmmp_ci_02_write_16_bit_echoes() {
+    let mut od = od();
+    assert_eq!(ci(&mut od, "=604000:000F"), "=604000:000F");
+    assert_eq!(od.get_unsigned(0x6040, 0), Some(0x000F));
+    // Read back in the 16-bit form; lower-case digits are accepted, the answer is upper case.
+    assert_eq!(ci(&mut od, "?604000"), "=604000:000F");
+    assert_eq!(ci(&mut od, "=604000:00ab"), "=604000:00AB");
+}
+
+/// CMMP-CI-03: `?609301` → `=609301:00000001` (position factor numerator, default 1).
+#[test]
+fn cmmp_ci_03_read_32_bit() {
+    let mut od = od();
+    assert_eq!(ci(&mut od, "?609301"), "=609301:00000001");
+    // A 32-bit write, then the value most significant digit first.
+    assert_eq!(ci(&mut od, "=609302:00000013"), "=609302:00000013");
+    assert_eq!(ci(&mut od, "=609301:12345678"), "=609301:12345678");
+    assert_eq!(od.get_unsigned(0x6093, 1), Some(0x1234_5678));
+}
+
+/// CMMP-CI-04: `=604100:0000` (write to the read-only statusword) → `!06010002`; the same
+/// form for all three write sizes.
+#[test]
+fn cmmp_ci_04_write_error_is_the_abort_code() {
+    let mut od = od();
+    assert_eq!(ci(&mut od, "=604100:0000"), "!06010002");
+    assert_eq!(ci(&mut od, "=604100:00"), "!06010002");
+    assert_eq!(ci(&mut od, "=604100:00000000"), "!06010002");
+    // Read errors the same way: no such object, no such sub-index.
+    assert_eq!(ci(&mut od, "?5FFF00"), "!06020000");
+    assert_eq!(ci(&mut od, "?180005"), "!06090011");
+}
+
+#[test]
+fn wrong_size_and_bad_syntax_get_an_abort_code() {
+    let mut od = od();
+    // An 8-bit write to a 16-bit object: the SDO length abort, value unchanged.
+    let r = ci(&mut od, "=604000:0F");
+    assert!(r.starts_with("!0607001"), "{r}");
+    assert_eq!(od.get_unsigned(0x6040, 0), Some(0));
+    // A string has no CI form.
+    assert_eq!(ci(&mut od, "?100800"), "!06010000");
+    for bad in [
+        "",
+        "?",
+        "?6061",
+        "?60610",
+        "?6061000",
+        "?60G100",
+        "=604000",
+        "=604000:",
+        "=604000:0",
+        "=604000:000",
+        "=604000 000F",
+        "=604000:000F0",
+        "604000:000F",
+        "? 606100",
+        "=604000;000F",
+    ] {
+        assert_eq!(ci(&mut od, bad), "!05040001", "{bad:?}");
+    }
+}
+
+#[test]
+fn terminal_cuts_lines_and_survives_garbage() {
+    let mut od = od();
+    od.set_value(0x6061, 0, Value::Signed(1)).unwrap();
+    let mut t = CiTerminal::default();
+    let mut replies = Vec::new();
+    let input = b"\r\n?606100\r\n\n?609301\r=604000:000F\n".iter();
+    for &b in input {
+        if let Some(r) = t.on_byte(b, &mut od) {
+            replies.push(r.as_str().to_owned());
+        }
+    }
+    assert_eq!(replies, ["=606100:01", "=609301:00000001", "=604000:000F"]);
+    // An overlong line is one error, and the next line works again.
+    replies.clear();
+    for &b in b"?60610000000000000000000000000000000\n?606100\n" {
+        if let Some(r) = t.on_byte(b, &mut od) {
+            replies.push(r.as_str().to_owned());
+        }
+    }
+    assert_eq!(replies, ["!05040001", "=606100:01"]);
+    // Every byte value, in a deterministic pseudo-random stream: no panic, answers are
+    // well-formed.
+    let mut x = 0x1234_5678u32;
+    for _ in 0..20_000 {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        let b = if x.is_multiple_of(7) {
+            b'\n'
+        } else {
+            (x >> 8) as u8
+        };
+        if let Some(r) = t.on_byte(b, &mut od) {
+            assert!(r.starts_with('=') || r.starts_with('!'), "{r}");
+        }
+    }
+}

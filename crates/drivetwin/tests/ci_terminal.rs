@@ -1,0 +1,69 @@
+//! The CI terminal of a CMMP-AS drive (manual §3.2.3): its SDO simulation answers from the
+//! drive's dictionary, and a write acts as an SDO download of the node would.
+
+use canopen::CanFrame;
+use drivetwin::can_drive::CanDrive;
+use drivetwin::cell::Cell;
+use drivetwin::cell_config::CellFile;
+use od::Instant;
+
+fn cell() -> Cell {
+    let spec = CellFile::single("cmmp-as", 1).drives().unwrap().remove(0);
+    let d = CanDrive::with_settings(
+        spec.desc,
+        spec.node,
+        None,
+        spec.commissioning,
+        spec.settings,
+    )
+    .unwrap();
+    let mut c = Cell::new(vec![d]);
+    c.boot(Instant::ZERO, &mut Vec::new());
+    c
+}
+
+fn ci(c: &mut Cell, now: Instant, line: &str) -> String {
+    c.ci_line(0, now, line.as_bytes(), &mut Vec::new())
+        .expect("drive 0")
+        .as_str()
+        .to_owned()
+}
+
+/// CMMP-CI-01, CMMP-CI-02, CMMP-CI-03, CMMP-CI-04 on the running drive: mode display (the
+/// drive's own value), a controlword write echoed, the position factor, and the read-only
+/// statusword.
+#[test]
+fn ci_vectors_on_a_cmmp_as_drive() {
+    let mut c = cell();
+    let t = Instant::from_millis(5);
+    assert_eq!(ci(&mut c, t, "=606000:01"), "=606000:01");
+    let t = Instant::from_millis(50);
+    assert_eq!(ci(&mut c, t, "?606100"), "=606100:01");
+    assert_eq!(ci(&mut c, t, "=604000:000F"), "=604000:000F");
+    assert_eq!(c.drives[0].od().get_unsigned(0x6040, 0), Some(0x0F));
+    assert_eq!(ci(&mut c, t, "?609301"), "=609301:00000001");
+    assert_eq!(ci(&mut c, t, "=604100:0000"), "!06010002");
+    assert_eq!(ci(&mut c, t, "?1234"), "!05040001");
+    assert_eq!(c.ci_line(1, t, b"?606100", &mut Vec::new()), None);
+}
+
+/// A write of 1017h starts the heartbeat at the new period, as the SDO download does; PDO
+/// parameters are refused in Operational (CMMP-AS §3.3.3), as over SDO.
+#[test]
+fn a_console_write_acts_like_an_sdo_download() {
+    let mut c = cell();
+    let mut out: Vec<CanFrame> = Vec::new();
+    assert_eq!(ci(&mut c, Instant::ZERO, "=101700:0064"), "=101700:0064");
+    let mut now = Instant::ZERO;
+    while let Some(t) = c.deadline() {
+        if t > Instant::from_millis(350) {
+            break;
+        }
+        now = t.max(now);
+        c.poll(now, &mut out);
+    }
+    let hb: Vec<_> = out.iter().filter(|f| f.id == 0x701).collect();
+    assert_eq!(hb.len(), 3, "heartbeat every 100 ms: {out:?}");
+    c.on_frame(now, &CanFrame::new(0, &[0x01, 0x01]).unwrap(), &mut out);
+    assert_eq!(ci(&mut c, now, "=180001:C0000187"), "!08000022");
+}
