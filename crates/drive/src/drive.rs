@@ -1361,7 +1361,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.store(self.hot.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
-        if (msw ^ invert) & mask != 0 {
+        if crate::device_control::manufacturer_bit_14(msw, invert, mask) {
             sw |= 0x4000;
         }
         if self.referenced {
