@@ -10,6 +10,7 @@ use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Va
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::device_control::{DeviceControl, Reaction, State};
+use crate::digital_inputs::{Levels, SwitchConfig};
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
@@ -101,7 +102,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 39] = [
+const PARAMS: [(u16, u8); 40] = [
     (0x2005, 1),
     (0x2045, 0),
     (0x200A, 1),
@@ -137,6 +138,7 @@ const PARAMS: [(u16, u8); 39] = [
     (0x6510, 0x10),
     (0x6510, 0x11),
     (0x6510, 0x12),
+    (0x6510, 0x13),
     (0x6510, 0x14),
     (0x6510, 0x18),
     (0x6510, 0x22),
@@ -162,6 +164,7 @@ struct Hot {
     manufacturer_status: Option<&'static Entry>,
     target_velocity: Option<&'static Entry>,
     target_torque: Option<&'static Entry>,
+    digital_inputs: Option<&'static Entry>,
 }
 
 pub struct Drive<S> {
@@ -224,6 +227,9 @@ pub struct Drive<S> {
     causes: heapless::Vec<u16, 8>,
     events: Deque<DriveEvent, 16>,
     params_dirty: bool,
+    /// Digital inputs driven from outside ([`Drive::force_inputs`]).
+    forced_mask: u16,
+    forced_levels: u16,
 }
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
@@ -266,6 +272,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             manufacturer_status: e(0x2000, 1),
             target_velocity: e(0x60FF, 0),
             target_torque: e(0x6071, 0),
+            digital_inputs: e(0x60FD, 0),
         };
         let mut param_entries = [None; PARAMS.len()];
         for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
@@ -323,6 +330,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             causes: heapless::Vec::new(),
             events: Deque::new(),
             params_dirty: false,
+            forced_mask: 0,
+            forced_levels: 0,
         };
         d.reload_factor_group();
         d.ip.reset(interpolation_period(&d.od));
@@ -487,6 +496,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
+    /// A [`PARAMS`] entry.
+    fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
+        let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
+        self.params.get(pos).copied().flatten()
+    }
+
     fn store(&mut self, e: Option<&'static Entry>, v: i64) {
         if let Some(e) = e {
             let b = v.to_le_bytes();
@@ -521,16 +536,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // Device control.
         let cw = self.read(self.hot.controlword) as u16;
         let fault = !self.causes.is_empty();
+        // Transition 2 needs both hardware enables (DIN4, DIN5).
+        let enables = self.input_levels(self.axis.position_increments()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising & 0x0080 != 0 && cw & 0x0080 == 0 {
-            let _ = self
-                .dc
-                .controlword(cw | 0x0080, fault, self.settings.enables_present);
+            let _ = self.dc.controlword(cw | 0x0080, fault, enables);
         }
         let before = self.dc.state();
-        let reaction = self
-            .dc
-            .controlword(cw, fault, self.settings.enables_present);
+        let reaction = self.dc.controlword(cw, fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
             // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
@@ -617,6 +630,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             };
             if self.axis.motor().brake() != engaged {
                 self.axis.hold_brake(engaged);
+            }
+            // Without host control 60FEh:01 bit 0 reads the brake's state ("depends on the
+            // state of the brake", L4203–4215).
+            let data = self.value(0x60FE, 1);
+            let shown = (data & !1) | i64::from(engaged);
+            if !manual && shown != data {
+                self.store(self.param(0x60FE, 1), shown);
             }
         }
     }
@@ -1236,23 +1256,48 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.raise(code, 0x01, false);
     }
 
-    /// The switches as the drive reads them (CMMP-AS §5.14): the simulated switches are
-    /// normally open, so 6510h:11 / :14 = 0 (normally closed) inverts them, and 6510h:12 = 1
-    /// swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing then trips over,
-    /// as on the real drive.
+    /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
+    /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
+    fn input_levels(&self, position: i64) -> Levels {
+        Levels::wired(
+            self.settings.travel.inputs(position),
+            self.settings.enables_present,
+        )
+        .forced(self.forced_mask, self.forced_levels)
+    }
+
+    fn switch_config(&self) -> SwitchConfig {
+        SwitchConfig::from_objects(
+            self.value(0x6510, 0x11),
+            self.value(0x6510, 0x12),
+            self.value(0x6510, 0x13),
+            self.value(0x6510, 0x14),
+        )
+    }
+
+    /// The switches as the drive reads them (CMMP-AS §5.14): 6510h:11 / :14 = 0 (normally
+    /// closed) against the normally open switches of the simulation reads them inverted, and
+    /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
+    /// then trips over, as on the real drive.
     fn switch_inputs(&self, position: i64) -> Inputs {
-        let mut i = self.settings.travel.inputs(position);
-        if self.value(0x6510, 0x11) == 0 {
-            i.negative_limit = !i.negative_limit;
-            i.positive_limit = !i.positive_limit;
-        }
-        if self.value(0x6510, 0x12) == 1 {
-            core::mem::swap(&mut i.negative_limit, &mut i.positive_limit);
-        }
-        if self.value(0x6510, 0x14) == 0 {
-            i.home = !i.home;
-        }
-        i
+        self.switch_config().switches(self.input_levels(position))
+    }
+
+    /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`
+    /// (bit n = DINn) take the level in `levels`; the others follow the simulated wiring.
+    /// Forcing DIN4 or DIN5 LOW removes a hardware enable (CMMP-AS 60FDh bit 3).
+    pub fn force_inputs(&mut self, mask: u16, levels: u16) {
+        self.forced_mask = mask;
+        self.forced_levels = levels;
+    }
+
+    /// The output levels the host commands through 60FEh (CMMP-AS §5.13): bit 0 the holding
+    /// brake (1 = applied), the other bits of 60FEh:01 where 60FEh:02 puts them under bus
+    /// control. Outputs left to their 2420h function are not simulated and read 0.
+    pub fn digital_outputs(&self) -> u32 {
+        let data = self.value(0x60FE, 1) as u32;
+        let mask = self.value(0x60FE, 2) as u32;
+        (data & mask & !1) | u32::from(self.axis.motor().brake())
     }
 
     fn clear_target_reached(&mut self) {
@@ -1368,6 +1413,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             sw |= 0x8000;
         }
         self.store(self.hot.statusword, i64::from(sw));
+        let position = self.axis.position_increments();
+        let inputs = self
+            .switch_config()
+            .digital_inputs(self.input_levels(position));
+        self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())

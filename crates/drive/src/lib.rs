@@ -7,6 +7,7 @@
 pub mod axis;
 pub mod control;
 pub mod device_control;
+pub mod digital_inputs;
 pub mod drive;
 pub mod factor_group;
 pub mod fhpp;
