@@ -11,9 +11,11 @@ use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::device_control::{DeviceControl, Reaction, State};
 use crate::digital_inputs::{Levels, SwitchConfig};
+use crate::display::Display;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
+use crate::messages::{self, reaction, Number, Reactions};
 use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
@@ -230,6 +232,12 @@ pub struct Drive<S> {
     /// Digital inputs driven from outside ([`Drive::force_inputs`]).
     forced_mask: u16,
     forced_levels: u16,
+    /// Error management 2100h: the reaction per main error number.
+    reactions: Reactions,
+    /// The last warning and whether it is still active (200Fh).
+    warning: Option<(Number, bool)>,
+    /// The safety module reports safe standstill (2000h:01 bit 8).
+    safe_standstill: bool,
 }
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
@@ -332,7 +340,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             params_dirty: false,
             forced_mask: 0,
             forced_levels: 0,
+            reactions: Reactions::default(),
+            warning: None,
+            safe_standstill: false,
         };
+        d.following_error_reaction();
         d.reload_factor_group();
         d.ip.reset(interpolation_period(&d.od));
         d.axis.hold_brake(d.settings.brake_fitted);
@@ -418,6 +430,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.ip.reset(interpolation_period(&self.od));
         self.params_dirty = true;
         let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+        // The reaction table is not part of the stored set: defaults again.
+        self.reactions = Reactions::default();
+        self.following_error_reaction();
     }
 
     fn reload_factor_group(&mut self) {
@@ -458,20 +473,106 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(i) = self.causes.iter().position(|c| *c == code) {
             self.causes.remove(i);
         }
+        if let Some(m) = messages::by_code(code) {
+            self.end_warning(m.number);
+        }
     }
 
-    /// An error with a stopping reaction; `critical` ones switch the output stage off at once.
+    /// A diagnostic message with the reaction 2100h sets for its main number (CMMP-AS §5.18):
+    /// none / buffer entry change nothing, a warning shows in 200Fh, the display and
+    /// statusword bit 7, a stopping reaction reports the error (EMCY) and stops. A code
+    /// missing from [`messages::MESSAGES`] stops; `critical` ones switch the output stage off
+    /// at once.
     fn raise(&mut self, code: u16, register: u8, critical: bool) {
+        let message = messages::by_code(code);
+        let r = message
+            .and_then(|m| self.reactions.get(m.number.main))
+            .unwrap_or(if critical {
+                reaction::OUTPUT_STAGE_OFF
+            } else {
+                reaction::CONTROLLER_ENABLE_OFF
+            });
+        match (r, message) {
+            (reaction::NONE | reaction::BUFFER_ENTRY, _) => return,
+            (reaction::WARNING, Some(m)) => {
+                self.set_warning(m.number, true);
+                return;
+            }
+            _ => {}
+        }
         if !self.faults.contains(&code) {
             let _ = self.faults.push(code);
             self.push_event(DriveEvent::Error { code, register });
         }
-        let r = if critical {
-            self.dc.fault_immediate()
-        } else {
-            self.dc.fault()
+        let r = match r {
+            reaction::OUTPUT_STAGE_OFF => self.dc.fault_immediate(),
+            reaction::BRAKE_MAX_CURRENT => {
+                // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
+                // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
+                // current limit caps.
+                self.limit_stop = true;
+                self.dc.fault()
+            }
+            _ => self.dc.fault(),
         };
         self.react(r);
+    }
+
+    /// 200Fh last_warning_code and statusword bit 7 (CMMP-AS §5.18).
+    fn set_warning(&mut self, number: Number, active: bool) {
+        if self.warning == Some((number, active)) {
+            return;
+        }
+        self.warning = Some((number, active));
+        let code = messages::warning_code(number, active);
+        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
+    }
+
+    /// Ends the warning `number` if it is the active one (its cause is gone; the CMMP-AS
+    /// resets warnings itself).
+    fn end_warning(&mut self, number: Number) {
+        if self.warning == Some((number, true)) {
+            self.set_warning(number, false);
+        }
+    }
+
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
+    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    fn following_error_reaction(&mut self) {
+        let r = if self.value(0x6510, 0x22) > 0 {
+            reaction::OUTPUT_STAGE_OFF
+        } else {
+            reaction::NONE
+        };
+        let _ = self.reactions.set(17, r);
+        self.show_reaction();
+    }
+
+    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
+    fn show_reaction(&mut self) {
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        if let Some(r) = self.reactions.get(main) {
+            let _ = self.od.write_internal(0x2100, 2, &[r]);
+        }
+    }
+
+    /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
+    /// "H" for safe standstill, else "A" while 6510h:C0 commissioning_state is 0.
+    pub fn display(&self) -> Display {
+        let error = self
+            .faults
+            .iter()
+            .find_map(|c| messages::by_code(*c))
+            .map(|m| m.number);
+        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
+        let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
+        Display::select(error, warning, self.safe_standstill, commissioning)
+    }
+
+    /// The safety module (CAMC-G-S1) reports safe standstill or not: 2000h:01 bit 8 and
+    /// the "H" of the display.
+    pub fn set_safe_standstill(&mut self, on: bool) {
+        self.safe_standstill = on;
     }
 
     fn push_event(&mut self, e: DriveEvent) {
@@ -1369,8 +1470,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .fg
                     .position_magnitude_to_internal(hard.clamp(0, u32::MAX as i64) as u32)
         {
-            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts".
+            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts" (the
+            // reaction 6510h:22 sets; 2100h may make it a warning).
             self.raise(diag::FOLLOWING_ERROR, 0x01, true);
+        } else {
+            self.end_warning(Number { main: 17, sub: 0 });
         }
         let mode_bits = match self.mode {
             mode::PROFILE_POSITION => {
@@ -1402,7 +1506,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let msw = u32::from(self.referenced)
             | 0x2 // commutation valid
             | if ready { 0x4 } else { 0 }
-            | if self.setpoints.active.is_none() { 0x8 } else { 0 };
+            | if self.setpoints.active.is_none() { 0x8 } else { 0 }
+            | if self.safe_standstill { 0x100 } else { 0 };
         self.store(self.hot.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
@@ -1411,6 +1516,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         if self.referenced {
             sw |= 0x8000;
+        }
+        // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
+        if matches!(self.warning, Some((_, true))) {
+            sw |= 0x0080;
         }
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.axis.position_increments();
@@ -1624,6 +1733,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 };
                 let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
                 self.od.write(index, sub, &v.to_le_bytes())
+            }
+            (0x2100, 1) => {
+                self.od.write(index, sub, data)?;
+                self.show_reaction();
+                Ok(())
+            }
+            (0x2100, 2) => {
+                // CMMP-AS §5.18: a reaction below the manufacturer's minimum is clamped to it.
+                self.od.entry(index, sub)?;
+                let code = match data {
+                    [b] => *b,
+                    _ => return self.od.write(index, sub, data),
+                };
+                let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+                self.reactions
+                    .set(main, code)
+                    .map_err(|_| AbortCode::INVALID_VALUE)?;
+                self.show_reaction();
+                Ok(())
+            }
+            (0x6510, 0x22) => {
+                self.od.write(index, sub, data)?;
+                self.following_error_reaction();
+                self.params_dirty = true;
+                Ok(())
             }
             (0x1011, _) if self.dc.state().power_enabled() => {
                 // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
