@@ -37,6 +37,8 @@ pub mod mode {
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
 pub mod diag {
+    /// 02-0 DC-link undervoltage (below 6510h:36 with 6510h:37 = 1).
+    pub const DC_LINK_UNDERVOLTAGE: u16 = 0x3220;
     /// 17-0 following error: the hard limit 6510h:22 was exceeded.
     pub const FOLLOWING_ERROR: u16 = 0x8611;
     /// 31-0 I²t motor (with 6510h:38 = 1).
@@ -104,7 +106,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 40] = [
+const PARAMS: [(u16, u8); 42] = [
     (0x2005, 1),
     (0x2045, 0),
     (0x200A, 1),
@@ -144,6 +146,8 @@ const PARAMS: [(u16, u8); 40] = [
     (0x6510, 0x14),
     (0x6510, 0x18),
     (0x6510, 0x22),
+    (0x6510, 0x36),
+    (0x6510, 0x37),
     (0x6510, 0xF0),
 ];
 
@@ -238,6 +242,20 @@ pub struct Drive<S> {
     warning: Option<(Number, bool)>,
     /// The safety module reports safe standstill (2000h:01 bit 8).
     safe_standstill: bool,
+    /// The DC-link voltage the supply gives, mV; `None`: the nominal 6510h:33.
+    dc_link_mv: Option<u32>,
+    /// The diagnostic memory: messages with their additional information, oldest first.
+    memory: Deque<MemoryEntry, 16>,
+}
+
+/// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
+/// read in FCT or through FHPP PNU 203/213).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryEntry {
+    pub number: Number,
+    pub code: u16,
+    /// The message's additional information (e.g. 02-0: state number and DC-link voltage).
+    pub info: u32,
 }
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
@@ -260,7 +278,7 @@ fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// A drive at power-on over `od` (holding defaults, commissioning and stored values).
     pub fn new(mut od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
-        publish_supply(&mut od);
+        publish_supply(&mut od, None);
         let desc = od.description();
         let e = |i, s| desc.entry(i, s);
         let hot = Hot {
@@ -343,6 +361,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             reactions: Reactions::default(),
             warning: None,
             safe_standstill: false,
+            dc_link_mv: None,
+            memory: Deque::new(),
         };
         d.following_error_reaction();
         d.reload_factor_group();
@@ -424,7 +444,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// The dictionary's values changed behind the drive's back (restore, reload after a
     /// reset): re-read what the drive caches.
     pub fn reload(&mut self) {
-        publish_supply(&mut self.od);
+        publish_supply(&mut self.od, self.dc_link_mv);
         self.reload_factor_group();
         // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
         self.ip.reset(interpolation_period(&self.od));
@@ -484,7 +504,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// missing from [`messages::MESSAGES`] stops; `critical` ones switch the output stage off
     /// at once.
     fn raise(&mut self, code: u16, register: u8, critical: bool) {
+        self.raise_with_info(code, register, critical, 0);
+    }
+
+    /// [`Drive::raise`] with the message's additional information for the diagnostic
+    /// memory.
+    fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
         let message = messages::by_code(code);
+        if let Some(m) = message {
+            // Every reaction but "no action" makes an entry, once per occurrence.
+            let active = self.faults.contains(&code)
+                || self.warning == Some((m.number, true))
+                || self.memory.back().is_some_and(|e| e.code == code);
+            let r = self.reactions.get(m.number.main).unwrap_or(0);
+            if r != reaction::NONE && !active {
+                if self.memory.is_full() {
+                    self.memory.pop_front();
+                }
+                let _ = self.memory.push_back(MemoryEntry {
+                    number: m.number,
+                    code,
+                    info,
+                });
+            }
+        }
         let r = message
             .and_then(|m| self.reactions.get(m.number.main))
             .unwrap_or(if critical {
@@ -569,6 +612,41 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Display::select(error, warning, self.safe_standstill, commissioning)
     }
 
+    /// The diagnostic memory, oldest entry first.
+    pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
+        self.memory.iter()
+    }
+
+    /// The supply: the DC-link voltage in mV (`None`: the nominal 6510h:33). It shows in
+    /// 6510h:34 and 6079h, limits the current controller's output voltage, and below
+    /// 6510h:36 with 6510h:37 = 1 it is error 02-0.
+    pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {
+        self.dc_link_mv = mv;
+        publish_supply(&mut self.od, mv);
+        self.params_dirty = true;
+    }
+
+    /// CMMP-AS 02-0 DC-link undervoltage (6510h:36 min_dc_link_circuit_voltage, 6510h:37
+    /// enable_dc_link_undervoltage_error); the cause stays while the voltage is low.
+    fn supervise_dc_link(&mut self) {
+        let enabled = self.value(0x6510, 0x37) == 1;
+        let min = self.value(0x6510, 0x36);
+        let low = self.dc_link_mv.filter(|mv| enabled && i64::from(*mv) < min);
+        if let Some(mv) = low {
+            if !self.causes.contains(&diag::DC_LINK_UNDERVOLTAGE) {
+                let _ = self.causes.push(diag::DC_LINK_UNDERVOLTAGE);
+            }
+            let info = messages::undervoltage_info(self.dc.state() as u16, mv);
+            self.raise_with_info(diag::DC_LINK_UNDERVOLTAGE, 0x04, false, info);
+        } else if let Some(i) = self
+            .causes
+            .iter()
+            .position(|c| *c == diag::DC_LINK_UNDERVOLTAGE)
+        {
+            self.causes.remove(i);
+        }
+    }
+
     /// The safety module (CAMC-G-S1) reports safe standstill or not: 2000h:01 bit 8 and
     /// the "H" of the display.
     pub fn set_safe_standstill(&mut self, on: bool) {
@@ -634,6 +712,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = false;
             self.axis.set_params(control_params(&self.od));
         }
+        self.supervise_dc_link();
         // Device control.
         let cw = self.read(self.hot.controlword) as u16;
         let fault = !self.causes.is_empty();
@@ -1601,8 +1680,10 @@ fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) 
 /// The interpolation period of the default 60C2h (1 × 10⁻³ s).
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
-fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>) {
-    let nominal = od.get_unsigned(0x6510, 0x33).unwrap_or(325_000);
+fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>, mv: Option<u32>) {
+    let nominal = mv
+        .map(u64::from)
+        .unwrap_or_else(|| od.get_unsigned(0x6510, 0x33).unwrap_or(325_000));
     let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
     let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
 }

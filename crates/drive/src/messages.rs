@@ -186,3 +186,12 @@ pub fn decode_warning_code(code: u16) -> (Number, bool) {
         code & 0x8000 != 0,
     )
 }
+
+/// Additional information of 02-0 DC-link undervoltage (App. B.3, L6997–7000): the upper 16
+/// bits the number of the internal state machine's state, the lower 16 bits the DC-link
+/// voltage at approx. 17.1 digits/V. Decision: the manual does not number the internal
+/// states; the twin puts the device-control state there.
+pub fn undervoltage_info(state: u16, dc_link_mv: u32) -> u32 {
+    let digits = libm::round(f64::from(dc_link_mv) * 17.1 / 1000.0).min(f64::from(u16::MAX));
+    (u32::from(state) << 16) | digits as u32
+}

@@ -206,3 +206,42 @@ fn cmmp_diag_05_safe_standstill_h() {
     assert_eq!(r.u(0x2000, 1) & 0x100, 0);
     assert_eq!(r.text(), "");
 }
+
+/// CMMP-DIAG-03: DC-link undervoltage 02-0 at 560 V (below 6510h:36 with 6510h:37 = 1):
+/// EMCY code 3220h, and the diagnostic memory's additional information carries the
+/// voltage at approx. 17.1 digits/V in its lower 16 bits (560 × 17.1 = 9576 = 2568h, ±1 %)
+/// and a state number in its upper 16 bits.
+#[test]
+fn cmmp_diag_03_dc_link_undervoltage_additional_information() {
+    let mut r = Rig::new();
+    r.w32(0x6510, 0x36, 600_000);
+    r.d.write(0x6510, 0x37, &1u16.to_le_bytes()).unwrap();
+    r.d.set_dc_link_voltage(Some(560_000));
+    r.run_ms(2);
+    assert_eq!(r.u(0x6510, 0x34), 560_000);
+    assert_eq!(r.u(0x6079, 0), 560_000);
+    assert_eq!(r.d.errors(), &[0x3220]);
+    assert!(std::iter::from_fn(|| r.d.take_event()).any(|e| e
+        == DriveEvent::Error {
+            code: 0x3220,
+            register: 0x04
+        }));
+    let entry = *r.d.diagnostic_memory().last().unwrap();
+    assert_eq!(entry.number, Number { main: 2, sub: 0 });
+    assert_eq!(entry.code, 0x3220);
+    let volts = f64::from(entry.info & 0xFFFF);
+    assert!((volts - 9576.0).abs() <= 95.76, "{volts}");
+    assert_eq!(entry.info & 0xFFFF, 0x2568);
+    assert_eq!(entry.info >> 16, State::SwitchOnDisabled as u32);
+    // The cause stays while the voltage is low: no fault reset.
+    r.run_ms(200);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.d.state(), State::Fault);
+    r.d.set_dc_link_voltage(None);
+    r.run_ms(2);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.d.state(), State::SwitchOnDisabled);
+    assert_eq!(r.u(0x6510, 0x34), 325_000, "back to the nominal voltage");
+}
