@@ -512,12 +512,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
         let message = messages::by_code(code);
         if let Some(m) = message {
-            // Every reaction but "no action" makes an entry, once per occurrence.
-            let active = self.faults.contains(&code)
-                || self.warning == Some((m.number, true))
-                || self.memory.back().is_some_and(|e| e.code == code);
-            let r = self.reactions.get(m.number.main).unwrap_or(0);
-            if r != reaction::NONE && !active {
+            // Every reaction but "no action" makes an entry, once per occurrence: an error
+            // until it is acknowledged, a warning while active, a plain entry while it is
+            // the newest one.
+            let logged = match self.reactions.get(m.number.main).unwrap_or(0) {
+                reaction::NONE => true,
+                reaction::BUFFER_ENTRY => self.memory.back().is_some_and(|e| e.code == code),
+                reaction::WARNING => self.warning == Some((m.number, true)),
+                _ => self.faults.contains(&code),
+            };
+            if !logged {
                 if self.memory.is_full() {
                     self.memory.pop_front();
                 }

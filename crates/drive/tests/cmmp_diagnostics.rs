@@ -134,6 +134,16 @@ fn cmmp_diag_01_error_01_0_on_the_display() {
     assert_eq!(r.d.display(), Display::Error(Number { main: 1, sub: 0 }));
     assert_eq!(r.text(), "-E010-");
     assert_eq!(r.d.state(), State::Fault);
+    // One diagnostic-memory entry per occurrence, not per cycle.
+    r.run_ms(100);
+    assert_eq!(r.d.diagnostic_memory().count(), 1);
+    r.d.clear_fault(0x6180);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.text(), "");
+    r.d.inject_fault(0x6180, 0x01);
+    r.run_ms(2);
+    assert_eq!(r.d.diagnostic_memory().count(), 2);
 }
 
 /// CMMP-DIAG-02, CMMP-GAIN-13 end to end: error 17 set to "warning" (2100h reaction 3); a
