@@ -679,6 +679,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
+    /// An INTEGER32 set-point with the other sign (saturating at −2³¹).
+    fn negate_stored(&mut self, index: u16) {
+        if let Some(Value::Signed(v)) = self.od.value(index, 0) {
+            let _ = self.od.set_value(
+                index,
+                0,
+                Value::Signed(v.saturating_neg().min(i64::from(i32::MAX))),
+            );
+        }
+    }
+
     /// A [`PARAMS`] entry.
     fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
         let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
@@ -1807,7 +1818,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 let mut fg = self.fg;
                 fg.set_polarity(v).map_err(|_| AbortCode::INVALID_VALUE)?;
                 self.od.write(index, sub, data)?;
+                // CMMP-AS 607Eh (L2683–2704): the drive keeps set-points internally, so a
+                // value stored before the change is not converted and reads with the other
+                // sign afterwards. The twin keeps them in user units: it turns them over.
+                let flipped = fg.polarity ^ self.fg.polarity;
                 self.fg = fg;
+                if flipped & crate::factor_group::POSITION_POLARITY_FLAG != 0 {
+                    self.negate_stored(0x607A);
+                }
+                if flipped & crate::factor_group::VELOCITY_POLARITY_FLAG != 0 {
+                    self.negate_stored(0x60FF);
+                }
                 Ok(())
             }
             (0x6510, 0xF0) => {

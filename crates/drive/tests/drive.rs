@@ -661,3 +661,47 @@ fn cmmp_emcy_05_second_error_and_acknowledge_with_the_cause_present() {
     }
     assert_eq!(cleared.len(), 2, "{cleared:?}");
 }
+
+/// CMMP-FG-14 through the dictionary: 6093h = 4096/225 (1/10°), 607Ah := 3600 moves one
+/// revolution (65536 increments in 6063h) and 6064h reads 3600.
+#[test]
+fn cmmp_fg_14_target_in_tenth_degrees_moves_one_revolution() {
+    let mut r = Rig::new();
+    r.w32(0x6093, 1, 4096);
+    r.w32(0x6093, 2, 225);
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 3600);
+    assert_eq!(r.i(0x607A), 3600);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(1000);
+    assert_ne!(r.sw() & 0x0400, 0, "target reached");
+    assert!((r.i(0x6063) - 65536).abs() <= 2, "{}", r.i(0x6063));
+    assert!((r.i(0x6064) - 3600).abs() <= 1, "{}", r.i(0x6064));
+}
+
+/// CMMP-FG-17 through the dictionary: 607Eh := C0h; 607Ah := 1000 is internal −1000 (the
+/// drive moves to −1000 increments) and reads 1000; after 607Eh := 0 the stored value is not
+/// converted, so 607Ah reads −1000. (The SDO frames `601: 2F 7E 60 00 C0` /
+/// `581: 60 7E 60 00` are the CANopen layer's; the write here is the decoded one.)
+#[test]
+fn cmmp_fg_17_polarity_through_the_dictionary() {
+    let mut r = Rig::new();
+    assert_eq!(r.d.write(0x607E, 0, &[0xC0]), Ok(()));
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 1000);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(300);
+    assert!((r.i(0x6063) + 1000).abs() <= 2, "internal {}", r.i(0x6063));
+    assert!((r.i(0x6064) - 1000).abs() <= 2, "user {}", r.i(0x6064));
+    assert_eq!(r.i(0x607A), 1000);
+    assert_eq!(r.d.write(0x607E, 0, &[0x00]), Ok(()));
+    assert_eq!(r.i(0x607A), -1000);
+    // The velocity flag turns a stored 60FFh over the same way.
+    r.w32(0x60FF, 0, 500);
+    r.d.write(0x607E, 0, &[0x40]).unwrap();
+    assert_eq!(r.i(0x60FF), -500);
+}
