@@ -106,7 +106,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 42] = [
+const PARAMS: [(u16, u8); 43] = [
     (0x2005, 1),
     (0x2045, 0),
     (0x200A, 1),
@@ -148,6 +148,7 @@ const PARAMS: [(u16, u8); 42] = [
     (0x6510, 0x22),
     (0x6510, 0x36),
     (0x6510, 0x37),
+    (0x6510, 0x38),
     (0x6510, 0xF0),
 ];
 
@@ -651,6 +652,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
+    /// CMMP-AS 31-0 I²t motor (§5.5, 6510h:38 iit_error_enable = 1): the motor I²t at 100 %
+    /// is an error, not only the limitation to the rated current; the cause stays until the
+    /// I²t has fallen below the release threshold.
+    fn supervise_i2t(&mut self) {
+        let over = self.value(0x6510, 0x38) == 1 && self.axis.i2t_limit_active();
+        self.cause(diag::I2T_MOTOR, over, 0x02);
+    }
+
+    /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
+    /// went lets the fault reset acknowledge the error.
+    fn cause(&mut self, code: u16, present: bool, register: u8) {
+        let at = self.causes.iter().position(|c| *c == code);
+        match (present, at) {
+            (true, None) => {
+                let _ = self.causes.push(code);
+                self.raise(code, register, false);
+            }
+            (true, Some(_)) => self.raise(code, register, false),
+            (false, Some(i)) => {
+                self.causes.remove(i);
+            }
+            (false, None) => {}
+        }
+    }
+
     /// The safety module (CAMC-G-S1) reports safe standstill or not: 2000h:01 bit 8 and
     /// the "H" of the display.
     pub fn set_safe_standstill(&mut self, on: bool) {
@@ -728,6 +754,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.axis.set_params(control_params(&self.od));
         }
         self.supervise_dc_link();
+        self.supervise_i2t();
         // Device control.
         let cw = self.read(self.hot.controlword) as u16;
         let fault = !self.causes.is_empty();

@@ -156,3 +156,32 @@ fn cmmp_emcy_07_clearing_the_history_does_not_acknowledge() {
     assert_eq!(b.statusword() & 0x4F, 0x40);
     assert_eq!(emcy(&frames), vec![[0; 8]]);
 }
+
+/// CMMP-EMCY-02, CMMP-EMCY-06 from the drive's own I²t monitor: 6510h:38 = 1, the shaft
+/// blocked at maximum current; after iit_time_motor (2 s) the I²t reaches 100 % and error 31-0
+/// goes out as `081: 12 23 03 00 00 00 00 00` (generic + current); 1003h holds it.
+#[test]
+fn cmmp_emcy_02_i2t_motor_error_31_0() {
+    let mut b = Bench::new();
+    b.sdo(&[0x2B, 0x10, 0x65, 0x38, 0x01, 0x00]);
+    b.sdo(&[0x2F, 0x60, 0x60, 0x00, 0x03]);
+    b.run_ms(10);
+    b.enable();
+    b.drive().axis_mut().set_blocked(true);
+    b.sdo(&[0x23, 0xFF, 0x60, 0x00, 0xE8, 0x03, 0x00, 0x00]); // 60FFh := 1000 min⁻¹
+    b.sent();
+    b.run_ms(1900);
+    assert!(emcy(&b.sent()).is_empty(), "not before 2 s at I_max");
+    b.run_ms(200);
+    assert_eq!(emcy(&b.sent()), vec![[0x12, 0x23, 0x03, 0, 0, 0, 0, 0]]);
+    assert_eq!(
+        b.sdo(&[0x40, 0x03, 0x10, 0x00]),
+        [0x4F, 0x03, 0x10, 0x00, 0x01, 0, 0, 0]
+    );
+    assert_eq!(
+        b.sdo(&[0x40, 0x03, 0x10, 0x01]),
+        [0x43, 0x03, 0x10, 0x01, 0x12, 0x23, 0x00, 0x00]
+    );
+    b.run_ms(500);
+    assert_eq!(b.drive().state(), State::Fault);
+}
