@@ -45,6 +45,13 @@ pub fn time_ms_to_us(ms: f64) -> u16 {
     libm::round(ms * 1000.0) as u16
 }
 
+/// 6410h:11 encoder_offset_angle from degrees: `angle × 32767 / 180`, rounded to nearest
+/// (CMMP-AS §5.5, L3110: −45° gives −8191.75, and the printed factory setting is E000h =
+/// −8192), clamped to the printed range −32767 … 32767.
+pub fn encoder_offset_angle_from_degrees(degrees: f64) -> i16 {
+    libm::round(degrees * 32767.0 / 180.0).clamp(-32767.0, 32767.0) as i16
+}
+
 /// Maximum current in mA from 6075h (mA) and 6073h (‰ of 6075h):
 /// `I_max = 6075h × 6073h / 1000` (cmmp-as-2 §6).
 pub fn max_current_ma(rated_current_ma: u32, max_current_permille: u16) -> f64 {

@@ -10,9 +10,12 @@ use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Va
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::device_control::{DeviceControl, Reaction, State};
+use crate::digital_inputs::{Levels, SwitchConfig};
+use crate::display::Display;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
+use crate::messages::{self, reaction, Number, Reactions};
 use crate::motor::MotorData;
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
@@ -34,6 +37,8 @@ pub mod mode {
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
 pub mod diag {
+    /// 02-0 DC-link undervoltage (below 6510h:36 with 6510h:37 = 1).
+    pub const DC_LINK_UNDERVOLTAGE: u16 = 0x3220;
     /// 17-0 following error: the hard limit 6510h:22 was exceeded.
     pub const FOLLOWING_ERROR: u16 = 0x8611;
     /// 31-0 I²t motor (with 6510h:38 = 1).
@@ -101,7 +106,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
 /// cycle never searches the object table.
-const PARAMS: [(u16, u8); 39] = [
+const PARAMS: [(u16, u8); 43] = [
     (0x2005, 1),
     (0x2045, 0),
     (0x200A, 1),
@@ -137,9 +142,13 @@ const PARAMS: [(u16, u8); 39] = [
     (0x6510, 0x10),
     (0x6510, 0x11),
     (0x6510, 0x12),
+    (0x6510, 0x13),
     (0x6510, 0x14),
     (0x6510, 0x18),
     (0x6510, 0x22),
+    (0x6510, 0x36),
+    (0x6510, 0x37),
+    (0x6510, 0x38),
     (0x6510, 0xF0),
 ];
 
@@ -162,6 +171,7 @@ struct Hot {
     manufacturer_status: Option<&'static Entry>,
     target_velocity: Option<&'static Entry>,
     target_torque: Option<&'static Entry>,
+    digital_inputs: Option<&'static Entry>,
 }
 
 pub struct Drive<S> {
@@ -224,6 +234,29 @@ pub struct Drive<S> {
     causes: heapless::Vec<u16, 8>,
     events: Deque<DriveEvent, 16>,
     params_dirty: bool,
+    /// Digital inputs driven from outside ([`Drive::force_inputs`]).
+    forced_mask: u16,
+    forced_levels: u16,
+    /// Error management 2100h: the reaction per main error number.
+    reactions: Reactions,
+    /// The last warning and whether it is still active (200Fh).
+    warning: Option<(Number, bool)>,
+    /// The safety module reports safe standstill (2000h:01 bit 8).
+    safe_standstill: bool,
+    /// The DC-link voltage the supply gives, mV; `None`: the nominal 6510h:33.
+    dc_link_mv: Option<u32>,
+    /// The diagnostic memory: messages with their additional information, oldest first.
+    memory: Deque<MemoryEntry, 16>,
+}
+
+/// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
+/// read in FCT or through FHPP PNU 203/213).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryEntry {
+    pub number: Number,
+    pub code: u16,
+    /// The message's additional information (e.g. 02-0: state number and DC-link voltage).
+    pub info: u32,
 }
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
@@ -246,7 +279,7 @@ fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// A drive at power-on over `od` (holding defaults, commissioning and stored values).
     pub fn new(mut od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
-        publish_supply(&mut od);
+        publish_supply(&mut od, None);
         let desc = od.description();
         let e = |i, s| desc.entry(i, s);
         let hot = Hot {
@@ -266,6 +299,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             manufacturer_status: e(0x2000, 1),
             target_velocity: e(0x60FF, 0),
             target_torque: e(0x6071, 0),
+            digital_inputs: e(0x60FD, 0),
         };
         let mut param_entries = [None; PARAMS.len()];
         for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
@@ -323,7 +357,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             causes: heapless::Vec::new(),
             events: Deque::new(),
             params_dirty: false,
+            forced_mask: 0,
+            forced_levels: 0,
+            reactions: Reactions::default(),
+            warning: None,
+            safe_standstill: false,
+            dc_link_mv: None,
+            memory: Deque::new(),
         };
+        d.following_error_reaction();
         d.reload_factor_group();
         d.ip.reset(interpolation_period(&d.od));
         d.axis.hold_brake(d.settings.brake_fitted);
@@ -403,12 +445,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// The dictionary's values changed behind the drive's back (restore, reload after a
     /// reset): re-read what the drive caches.
     pub fn reload(&mut self) {
-        publish_supply(&mut self.od);
+        publish_supply(&mut self.od, self.dc_link_mv);
         self.reload_factor_group();
         // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
         self.ip.reset(interpolation_period(&self.od));
         self.params_dirty = true;
         let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+        // The reaction table is not part of the stored set: defaults again.
+        self.reactions = Reactions::default();
+        self.following_error_reaction();
     }
 
     fn reload_factor_group(&mut self) {
@@ -449,20 +494,193 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(i) = self.causes.iter().position(|c| *c == code) {
             self.causes.remove(i);
         }
+        if let Some(m) = messages::by_code(code) {
+            self.end_warning(m.number);
+        }
     }
 
-    /// An error with a stopping reaction; `critical` ones switch the output stage off at once.
+    /// A diagnostic message with the reaction 2100h sets for its main number (CMMP-AS §5.18):
+    /// none / buffer entry change nothing, a warning shows in 200Fh, the display and
+    /// statusword bit 7, a stopping reaction reports the error (EMCY) and stops. A code
+    /// missing from [`messages::MESSAGES`] stops; `critical` ones switch the output stage off
+    /// at once.
     fn raise(&mut self, code: u16, register: u8, critical: bool) {
+        self.raise_with_info(code, register, critical, 0);
+    }
+
+    /// [`Drive::raise`] with the message's additional information for the diagnostic
+    /// memory.
+    fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
+        let message = messages::by_code(code);
+        if let Some(m) = message {
+            // Every reaction but "no action" makes an entry, once per occurrence: an error
+            // until it is acknowledged, a warning while active, a plain entry while it is
+            // the newest one.
+            let logged = match self.reactions.get(m.number.main).unwrap_or(0) {
+                reaction::NONE => true,
+                reaction::BUFFER_ENTRY => self.memory.back().is_some_and(|e| e.code == code),
+                reaction::WARNING => self.warning == Some((m.number, true)),
+                _ => self.faults.contains(&code),
+            };
+            if !logged {
+                if self.memory.is_full() {
+                    self.memory.pop_front();
+                }
+                let _ = self.memory.push_back(MemoryEntry {
+                    number: m.number,
+                    code,
+                    info,
+                });
+            }
+        }
+        let r = message
+            .and_then(|m| self.reactions.get(m.number.main))
+            .unwrap_or(if critical {
+                reaction::OUTPUT_STAGE_OFF
+            } else {
+                reaction::CONTROLLER_ENABLE_OFF
+            });
+        match (r, message) {
+            (reaction::NONE | reaction::BUFFER_ENTRY, _) => return,
+            (reaction::WARNING, Some(m)) => {
+                self.set_warning(m.number, true);
+                return;
+            }
+            _ => {}
+        }
         if !self.faults.contains(&code) {
             let _ = self.faults.push(code);
             self.push_event(DriveEvent::Error { code, register });
         }
-        let r = if critical {
-            self.dc.fault_immediate()
-        } else {
-            self.dc.fault()
+        let r = match r {
+            reaction::OUTPUT_STAGE_OFF => self.dc.fault_immediate(),
+            reaction::BRAKE_MAX_CURRENT => {
+                // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
+                // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
+                // current limit caps.
+                self.limit_stop = true;
+                self.dc.fault()
+            }
+            _ => self.dc.fault(),
         };
         self.react(r);
+    }
+
+    /// 200Fh last_warning_code and statusword bit 7 (CMMP-AS §5.18).
+    fn set_warning(&mut self, number: Number, active: bool) {
+        if self.warning == Some((number, active)) {
+            return;
+        }
+        self.warning = Some((number, active));
+        let code = messages::warning_code(number, active);
+        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
+    }
+
+    /// Ends the warning `number` if it is the active one (its cause is gone; the CMMP-AS
+    /// resets warnings itself).
+    fn end_warning(&mut self, number: Number) {
+        if self.warning == Some((number, true)) {
+            self.set_warning(number, false);
+        }
+    }
+
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
+    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    fn following_error_reaction(&mut self) {
+        let r = if self.value(0x6510, 0x22) > 0 {
+            reaction::OUTPUT_STAGE_OFF
+        } else {
+            reaction::NONE
+        };
+        let _ = self.reactions.set(17, r);
+        self.show_reaction();
+    }
+
+    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
+    fn show_reaction(&mut self) {
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        if let Some(r) = self.reactions.get(main) {
+            let _ = self.od.write_internal(0x2100, 2, &[r]);
+        }
+    }
+
+    /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
+    /// "H" for safe standstill, else "A" while 6510h:C0 commissioning_state is 0.
+    pub fn display(&self) -> Display {
+        let error = self
+            .faults
+            .iter()
+            .find_map(|c| messages::by_code(*c))
+            .map(|m| m.number);
+        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
+        let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
+        Display::select(error, warning, self.safe_standstill, commissioning)
+    }
+
+    /// The diagnostic memory, oldest entry first.
+    pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
+        self.memory.iter()
+    }
+
+    /// The supply: the DC-link voltage in mV (`None`: the nominal 6510h:33). It shows in
+    /// 6510h:34 and 6079h, limits the current controller's output voltage, and below
+    /// 6510h:36 with 6510h:37 = 1 it is error 02-0.
+    pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {
+        self.dc_link_mv = mv;
+        publish_supply(&mut self.od, mv);
+        self.params_dirty = true;
+    }
+
+    /// CMMP-AS 02-0 DC-link undervoltage (6510h:36 min_dc_link_circuit_voltage, 6510h:37
+    /// enable_dc_link_undervoltage_error); the cause stays while the voltage is low.
+    fn supervise_dc_link(&mut self) {
+        let enabled = self.value(0x6510, 0x37) == 1;
+        let min = self.value(0x6510, 0x36);
+        let low = self.dc_link_mv.filter(|mv| enabled && i64::from(*mv) < min);
+        if let Some(mv) = low {
+            if !self.causes.contains(&diag::DC_LINK_UNDERVOLTAGE) {
+                let _ = self.causes.push(diag::DC_LINK_UNDERVOLTAGE);
+            }
+            let info = messages::undervoltage_info(self.dc.state() as u16, mv);
+            self.raise_with_info(diag::DC_LINK_UNDERVOLTAGE, 0x04, false, info);
+        } else if let Some(i) = self
+            .causes
+            .iter()
+            .position(|c| *c == diag::DC_LINK_UNDERVOLTAGE)
+        {
+            self.causes.remove(i);
+        }
+    }
+
+    /// CMMP-AS 31-0 I²t motor (§5.5, 6510h:38 iit_error_enable = 1): the motor I²t at 100 %
+    /// is an error, not only the limitation to the rated current; the cause stays until the
+    /// I²t has fallen below the release threshold.
+    fn supervise_i2t(&mut self) {
+        let over = self.value(0x6510, 0x38) == 1 && self.axis.i2t_limit_active();
+        self.cause(diag::I2T_MOTOR, over, 0x02);
+    }
+
+    /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
+    /// went lets the fault reset acknowledge the error.
+    fn cause(&mut self, code: u16, present: bool, register: u8) {
+        let at = self.causes.iter().position(|c| *c == code);
+        match (present, at) {
+            (true, None) => {
+                let _ = self.causes.push(code);
+                self.raise(code, register, false);
+            }
+            (true, Some(_)) => self.raise(code, register, false),
+            (false, Some(i)) => {
+                self.causes.remove(i);
+            }
+            (false, None) => {}
+        }
+    }
+
+    /// The safety module (CAMC-G-S1) reports safe standstill or not: 2000h:01 bit 8 and
+    /// the "H" of the display.
+    pub fn set_safe_standstill(&mut self, on: bool) {
+        self.safe_standstill = on;
     }
 
     fn push_event(&mut self, e: DriveEvent) {
@@ -485,6 +703,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             Some(Value::Unsigned(u)) => u as i64,
             _ => 0,
         }
+    }
+
+    /// An INTEGER32 set-point with the other sign (saturating at −2³¹).
+    fn negate_stored(&mut self, index: u16) {
+        if let Some(Value::Signed(v)) = self.od.value(index, 0) {
+            let _ = self.od.set_value(
+                index,
+                0,
+                Value::Signed(v.saturating_neg().min(i64::from(i32::MAX))),
+            );
+        }
+    }
+
+    /// A [`PARAMS`] entry.
+    fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
+        let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
+        self.params.get(pos).copied().flatten()
     }
 
     fn store(&mut self, e: Option<&'static Entry>, v: i64) {
@@ -518,19 +753,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = false;
             self.axis.set_params(control_params(&self.od));
         }
+        self.supervise_dc_link();
+        self.supervise_i2t();
         // Device control.
         let cw = self.read(self.hot.controlword) as u16;
         let fault = !self.causes.is_empty();
+        // Transition 2 needs both hardware enables (DIN4, DIN5).
+        let enables = self.input_levels(self.axis.position_increments()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising & 0x0080 != 0 && cw & 0x0080 == 0 {
-            let _ = self
-                .dc
-                .controlword(cw | 0x0080, fault, self.settings.enables_present);
+            let _ = self.dc.controlword(cw | 0x0080, fault, enables);
         }
         let before = self.dc.state();
-        let reaction = self
-            .dc
-            .controlword(cw, fault, self.settings.enables_present);
+        let reaction = self.dc.controlword(cw, fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
             // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
@@ -617,6 +852,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             };
             if self.axis.motor().brake() != engaged {
                 self.axis.hold_brake(engaged);
+            }
+            // Without host control 60FEh:01 bit 0 reads the brake's state ("depends on the
+            // state of the brake", L4203–4215).
+            let data = self.value(0x60FE, 1);
+            let shown = (data & !1) | i64::from(engaged);
+            if !manual && shown != data {
+                self.store(self.param(0x60FE, 1), shown);
             }
         }
     }
@@ -1236,23 +1478,48 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.raise(code, 0x01, false);
     }
 
-    /// The switches as the drive reads them (CMMP-AS §5.14): the simulated switches are
-    /// normally open, so 6510h:11 / :14 = 0 (normally closed) inverts them, and 6510h:12 = 1
-    /// swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing then trips over,
-    /// as on the real drive.
+    /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
+    /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
+    fn input_levels(&self, position: i64) -> Levels {
+        Levels::wired(
+            self.settings.travel.inputs(position),
+            self.settings.enables_present,
+        )
+        .forced(self.forced_mask, self.forced_levels)
+    }
+
+    fn switch_config(&self) -> SwitchConfig {
+        SwitchConfig::from_objects(
+            self.value(0x6510, 0x11),
+            self.value(0x6510, 0x12),
+            self.value(0x6510, 0x13),
+            self.value(0x6510, 0x14),
+        )
+    }
+
+    /// The switches as the drive reads them (CMMP-AS §5.14): 6510h:11 / :14 = 0 (normally
+    /// closed) against the normally open switches of the simulation reads them inverted, and
+    /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
+    /// then trips over, as on the real drive.
     fn switch_inputs(&self, position: i64) -> Inputs {
-        let mut i = self.settings.travel.inputs(position);
-        if self.value(0x6510, 0x11) == 0 {
-            i.negative_limit = !i.negative_limit;
-            i.positive_limit = !i.positive_limit;
-        }
-        if self.value(0x6510, 0x12) == 1 {
-            core::mem::swap(&mut i.negative_limit, &mut i.positive_limit);
-        }
-        if self.value(0x6510, 0x14) == 0 {
-            i.home = !i.home;
-        }
-        i
+        self.switch_config().switches(self.input_levels(position))
+    }
+
+    /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`
+    /// (bit n = DINn) take the level in `levels`; the others follow the simulated wiring.
+    /// Forcing DIN4 or DIN5 LOW removes a hardware enable (CMMP-AS 60FDh bit 3).
+    pub fn force_inputs(&mut self, mask: u16, levels: u16) {
+        self.forced_mask = mask;
+        self.forced_levels = levels;
+    }
+
+    /// The output levels the host commands through 60FEh (CMMP-AS §5.13): bit 0 the holding
+    /// brake (1 = applied), the other bits of 60FEh:01 where 60FEh:02 puts them under bus
+    /// control. Outputs left to their 2420h function are not simulated and read 0.
+    pub fn digital_outputs(&self) -> u32 {
+        let data = self.value(0x60FE, 1) as u32;
+        let mask = self.value(0x60FE, 2) as u32;
+        (data & mask & !1) | u32::from(self.axis.motor().brake())
     }
 
     fn clear_target_reached(&mut self) {
@@ -1324,8 +1591,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .fg
                     .position_magnitude_to_internal(hard.clamp(0, u32::MAX as i64) as u32)
         {
-            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts".
+            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts" (the
+            // reaction 6510h:22 sets; 2100h may make it a warning).
             self.raise(diag::FOLLOWING_ERROR, 0x01, true);
+        } else {
+            self.end_warning(Number { main: 17, sub: 0 });
         }
         let mode_bits = match self.mode {
             mode::PROFILE_POSITION => {
@@ -1357,17 +1627,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let msw = u32::from(self.referenced)
             | 0x2 // commutation valid
             | if ready { 0x4 } else { 0 }
-            | if self.setpoints.active.is_none() { 0x8 } else { 0 };
+            | if self.setpoints.active.is_none() { 0x8 } else { 0 }
+            | if self.safe_standstill { 0x100 } else { 0 };
         self.store(self.hot.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
-        if (msw ^ invert) & mask != 0 {
+        if crate::device_control::manufacturer_bit_14(msw, invert, mask) {
             sw |= 0x4000;
         }
         if self.referenced {
             sw |= 0x8000;
         }
+        // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
+        if matches!(self.warning, Some((_, true))) {
+            sw |= 0x0080;
+        }
         self.store(self.hot.statusword, i64::from(sw));
+        let position = self.axis.position_increments();
+        let inputs = self
+            .switch_config()
+            .digital_inputs(self.input_levels(position));
+        self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())
@@ -1442,8 +1722,10 @@ fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) 
 /// The interpolation period of the default 60C2h (1 × 10⁻³ s).
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
-fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>) {
-    let nominal = od.get_unsigned(0x6510, 0x33).unwrap_or(325_000);
+fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>, mv: Option<u32>) {
+    let nominal = mv
+        .map(u64::from)
+        .unwrap_or_else(|| od.get_unsigned(0x6510, 0x33).unwrap_or(325_000));
     let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
     let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
 }
@@ -1563,7 +1845,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 let mut fg = self.fg;
                 fg.set_polarity(v).map_err(|_| AbortCode::INVALID_VALUE)?;
                 self.od.write(index, sub, data)?;
+                // CMMP-AS 607Eh (L2683–2704): the drive keeps set-points internally, so a
+                // value stored before the change is not converted and reads with the other
+                // sign afterwards. The twin keeps them in user units: it turns them over.
+                let flipped = fg.polarity ^ self.fg.polarity;
                 self.fg = fg;
+                if flipped & crate::factor_group::POSITION_POLARITY_FLAG != 0 {
+                    self.negate_stored(0x607A);
+                }
+                if flipped & crate::factor_group::VELOCITY_POLARITY_FLAG != 0 {
+                    self.negate_stored(0x60FF);
+                }
                 Ok(())
             }
             (0x6510, 0xF0) => {
@@ -1574,6 +1866,31 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
                 };
                 let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
                 self.od.write(index, sub, &v.to_le_bytes())
+            }
+            (0x2100, 1) => {
+                self.od.write(index, sub, data)?;
+                self.show_reaction();
+                Ok(())
+            }
+            (0x2100, 2) => {
+                // CMMP-AS §5.18: a reaction below the manufacturer's minimum is clamped to it.
+                self.od.entry(index, sub)?;
+                let code = match data {
+                    [b] => *b,
+                    _ => return self.od.write(index, sub, data),
+                };
+                let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+                self.reactions
+                    .set(main, code)
+                    .map_err(|_| AbortCode::INVALID_VALUE)?;
+                self.show_reaction();
+                Ok(())
+            }
+            (0x6510, 0x22) => {
+                self.od.write(index, sub, data)?;
+                self.following_error_reaction();
+                self.params_dirty = true;
+                Ok(())
             }
             (0x1011, _) if self.dc.state().power_enabled() => {
                 // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.

@@ -7,11 +7,14 @@
 pub mod axis;
 pub mod control;
 pub mod device_control;
+pub mod digital_inputs;
+pub mod display;
 pub mod drive;
 pub mod factor_group;
 pub mod fhpp;
 pub mod homing;
 pub mod interpolated_position;
+pub mod messages;
 pub mod motor;
 pub mod profile_position;
 pub mod smoothing;

@@ -539,6 +539,7 @@ fn loops_run_at_the_6510h_b0_b2_cycle_times() {
 
 // ---- spec/vectors.md §1.11 Torque and current limits -------------------------------------
 
+/// CMMP-TQ-02.
 #[test]
 fn cmmp_tq_02_max_torque_2000_is_twofold_rated() {
     // 6072h = 2000 ‰ of 6076h = 2 × rated torque; 6076h is the torque at 6075h, so this is
@@ -547,6 +548,7 @@ fn cmmp_tq_02_max_torque_2000_is_twofold_rated() {
     assert!((p.current_for_torque_permille(2000.0) - 2.0 * 0.296).abs() < 1e-12);
 }
 
+/// CMMP-TQ-04.
 #[test]
 fn cmmp_tq_04_overload_factor_4_is_4000() {
     assert_eq!(overload_factor_to_permille(4.0), 4000);
@@ -565,6 +567,7 @@ fn cmmp_tq_04_overload_factor_4_is_4000() {
     assert!((p.max_current_a() - 5.0).abs() < 1e-12);
 }
 
+/// CMMP-TQ-05.
 #[test]
 fn cmmp_tq_05_default_max_current_598_8_ma() {
     assert!((max_current_ma(296, 2023) - 598.808).abs() < 1e-9);
@@ -579,6 +582,7 @@ fn cmmp_tq_05_default_max_current_598_8_ma() {
 
 // ---- spec/vectors.md §1.12 Controller gains, time constants and scaled defaults ----------
 
+/// CMMP-GAIN-01.
 #[test]
 fn cmmp_gain_01_current_gain_1_5_is_384() {
     assert_eq!(gain_to_raw(1.5), 384);
@@ -586,11 +590,13 @@ fn cmmp_gain_01_current_gain_1_5_is_384() {
     assert_eq!(gain_from_raw(384), 1.5);
 }
 
+/// CMMP-GAIN-02.
 #[test]
 fn cmmp_gain_02_current_time_0_6_ms_is_600() {
     assert_eq!(time_ms_to_us(0.6), 600);
 }
 
+/// CMMP-GAIN-03.
 #[test]
 fn cmmp_gain_03_velocity_gain_1_5_is_384() {
     assert_eq!(gain_to_raw(1.5), 384);
@@ -598,11 +604,13 @@ fn cmmp_gain_03_velocity_gain_1_5_is_384() {
     assert_eq!(gain_to_raw(64.0), 16384);
 }
 
+/// CMMP-GAIN-04.
 #[test]
 fn cmmp_gain_04_velocity_time_2_0_ms_is_2000() {
     assert_eq!(time_ms_to_us(2.0), 2000);
 }
 
+/// CMMP-GAIN-05.
 #[test]
 fn cmmp_gain_05_position_gain_1_5_is_384() {
     assert_eq!(gain_to_raw(1.5), 384);
@@ -615,6 +623,7 @@ fn cmmp_gain_05_position_gain_1_5_is_384() {
     assert!((kv - 150.0).abs() < 1e-9);
 }
 
+/// CMMP-GAIN-06.
 #[test]
 fn cmmp_gain_06_position_time_4_0_ms_is_4000() {
     assert_eq!(time_ms_to_us(4.0), 4000);
@@ -631,6 +640,7 @@ fn cmmp_gain_06_position_time_4_0_ms_is_4000() {
     assert!((g.pos_ki - g.pos_kv * 500e-6 / 4000e-6).abs() < 1e-15);
 }
 
+/// CMMP-GAIN-07.
 #[test]
 fn cmmp_gain_07_controller_defaults() {
     let p = ControlParams::default();
@@ -653,6 +663,7 @@ fn cmmp_gain_07_controller_defaults() {
     assert!((g.u_max - 325.0 * 1.5f64.sqrt()).abs() < 1e-9);
 }
 
+/// CMMP-GAIN-08.
 #[test]
 fn cmmp_gain_08_tolerance_window_default_is_1_32768_rev() {
     let p = ControlParams::default();
@@ -671,6 +682,7 @@ fn cmmp_gain_08_tolerance_window_default_is_1_32768_rev() {
     assert_eq!(m.position_increments(), 65536);
 }
 
+/// CMMP-GAIN-10.
 #[test]
 fn cmmp_gain_10_cycle_times() {
     let p = ControlParams::default();

@@ -68,6 +68,8 @@ impl Rig {
     }
 }
 
+/// CMMP-CW-01, CMMP-CW-02, CMMP-CW-03 through the dictionary: 0006h → 0021h, 0007h → 0023h
+/// with the output stage on, 000Fh → 0027h with the holding brake released.
 #[test]
 fn enable_sequence_in_the_statusword() {
     let mut r = Rig::new();
@@ -81,6 +83,7 @@ fn enable_sequence_in_the_statusword() {
     assert_ne!(r.sw() & 0x10, 0, "voltage enabled with the output stage on");
     r.cw(0x0F);
     assert_eq!(r.sw() & 0x6F, 0x27);
+    assert!(!r.d.axis().motor().brake(), "holding brake released");
     r.cw(0x00);
     assert_eq!(r.sw() & 0x4F, 0x40);
 }
@@ -102,6 +105,8 @@ fn mode_change_shows_minus_one_for_the_change_time() {
     assert_eq!(r.d.write(0x6060, 0, &[5]), Err(AbortCode::INVALID_VALUE));
 }
 
+/// CMMP-CW-15: 001Fh → set_point_acknowledge (bit 12), cleared with bit 4; target reached
+/// (bit 10) inside 6067h for 6068h.
 #[test]
 fn profile_position_move_takes_the_trapezoid_time_and_ends_in_the_window() {
     let mut r = Rig::new();
@@ -207,6 +212,7 @@ fn profile_torque_step_accelerates_the_motor() {
     assert!(r.i(0x606C) > 100, "the motor accelerates: {}", r.i(0x606C));
 }
 
+/// CMMP-CW-06: 0002h in OPERATION_ENABLE: 0007h while braking with 6085h, then 0040h.
 #[test]
 fn quick_stop_ramps_down_then_switch_on_disabled() {
     let mut r = Rig::new();
@@ -221,6 +227,7 @@ fn quick_stop_ramps_down_then_switch_on_disabled() {
     assert!(r.i(0x606C).abs() <= 20);
 }
 
+/// CMMP-CW-11 (a): FAULT reads 000Fh with 6510h:F0 bit 7 = 0 (default).
 #[test]
 fn blocked_load_raises_following_error_then_fault_and_reset() {
     let mut r = Rig::new();
@@ -258,6 +265,8 @@ fn blocked_load_raises_following_error_then_fault_and_reset() {
     assert_eq!(r.d.take_event(), Some(DriveEvent::Cleared { code: 0x8611 }));
 }
 
+/// CMMP-CW-11 (b): FAULT reads 0008h with 6510h:F0 bit 7 = 1 ((a) 000Fh: see
+/// `blocked_load_raises_following_error_then_fault_and_reset`).
 #[test]
 fn cia402_fault_value_with_compatibility_bit_7() {
     let mut r = Rig::new();
@@ -323,6 +332,8 @@ impl Rig {
     }
 }
 
+/// CMMP-CW-12, CMMP-CW-14 end to end (every input combination: crates/drive/tests/
+/// device_control.rs): bit 14 from the drive's own 2000h:01.
 #[test]
 fn manufacturer_status_bit_14_examples() {
     // cmmp-as-2 §8.8 (a): homed → bit 14 with mask 1; (c) not ready for enable OR homed.
@@ -393,6 +404,7 @@ fn jerk_free_profile_takes_longer_but_ends_in_the_window() {
     );
 }
 
+/// CMMP-CW-15 (note): bit 10 is also set at standstill after Halt (bit 8).
 #[test]
 fn halt_in_profile_position_stops_with_target_reached() {
     let mut r = Rig::new();
@@ -513,4 +525,229 @@ fn cyclic_synchronous_position_only_over_ethercat_and_follows_the_set_points() {
     r.run_ms(200);
     assert!((r.i(0x6064) - target).abs() < 50);
     assert!(r.i(0x606C).abs() < 5);
+}
+
+/// CMMP-CW-07, CMMP-CW-08, CMMP-CW-09 through the dictionary: from OPERATION_ENABLE 0000h →
+/// 0040h and 0006h → 0021h with the output stage off (statusword bit 4 voltage enabled
+/// clears once the brake has closed); 0007h → 0023h.
+#[test]
+fn leaving_operation_enabled_switches_the_output_stage_as_the_manual_says() {
+    for (cw, mask, state, output_stage) in [
+        (0x00, 0x4F, 0x40, false),
+        (0x06, 0x6F, 0x21, false),
+        (0x07, 0x6F, 0x23, true),
+    ] {
+        let mut r = Rig::new();
+        r.mode(3);
+        r.enable();
+        r.cw(cw);
+        assert_eq!(r.sw() & mask, state, "{cw:#06x}");
+        r.run_ms(500);
+        assert_eq!(r.sw() & mask, state, "{cw:#06x}");
+        assert_eq!(
+            r.sw() & 0x10 != 0,
+            output_stage,
+            "{cw:#06x}: {:#06x}",
+            r.sw()
+        );
+        assert_eq!(
+            r.d.demand() != drive::axis::Demand::Off,
+            output_stage,
+            "{cw:#06x}"
+        );
+    }
+}
+
+/// CMMP-CW-10 through the dictionary: FAULT with the cause removed; 0000h then 0080h → 0040h.
+/// A new fault while 0080h is still held is not reset by it: only the next rising edge.
+#[test]
+fn cmmp_cw_10_fault_reset_on_the_rising_edge_of_bit_7() {
+    let mut r = Rig::new();
+    r.enable();
+    r.d.inject_fault(0x5114, 0x05);
+    r.run_ms(200);
+    assert_eq!(r.d.state(), State::Fault);
+    r.d.clear_fault(0x5114);
+    r.cw(0x00);
+    assert_eq!(r.d.state(), State::Fault, "0000h alone does not reset");
+    r.cw(0x80);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+    // 0080h held: a new error is not acknowledged by the level.
+    r.d.inject_fault(0x5114, 0x05);
+    r.run_ms(2);
+    r.d.clear_fault(0x5114);
+    r.cw(0x80);
+    r.run_ms(10);
+    assert_eq!(r.d.state(), State::Fault, "no edge while 0080h is held");
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+}
+
+/// CMMP-CW-05 through the dictionary: 000Fh in SWITCH_ON_DISABLED leaves it there.
+#[test]
+fn cmmp_cw_05_enable_operation_does_not_leave_switch_on_disabled() {
+    let mut r = Rig::new();
+    r.cw(0x0F);
+    r.run_ms(10);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+    assert_eq!(r.d.state(), State::SwitchOnDisabled);
+}
+
+/// CMMP-CW-12 through the dictionary: invert 0, mask 1; bit 14 follows IS_REFERENCED, 1 after
+/// homing, 0 again when a new homing run starts (the reference is lost until it ends).
+#[test]
+fn cmmp_cw_12_bit_14_follows_is_referenced() {
+    let mut r = Rig::new();
+    r.w32(0x200A, 1, 0);
+    r.w32(0x2005, 1, 1);
+    r.mode(6);
+    r.w8(0x6098, 35);
+    r.enable();
+    r.run_ms(1);
+    assert_eq!(r.sw() & 0x4000, 0, "not referenced");
+    r.cw(0x1F);
+    assert_eq!(r.d.od().get_unsigned(0x2000, 1).unwrap() & 1, 1);
+    assert_ne!(r.sw() & 0x4000, 0, "referenced");
+    r.cw(0x0F);
+    r.w8(0x6098, 17);
+    r.cw(0x1F);
+    assert_eq!(r.d.od().get_unsigned(0x2000, 1).unwrap() & 1, 0);
+    assert_eq!(r.sw() & 0x4000, 0, "homing again: not referenced");
+}
+
+/// CMMP-EMCY-05: (a) a second error while in FAULT sends its own EMCY (event) with the new
+/// code; (b) acknowledging while a cause is still present sends nothing and FAULT stays.
+#[test]
+fn cmmp_emcy_05_second_error_and_acknowledge_with_the_cause_present() {
+    let mut r = Rig::new();
+    r.enable();
+    r.d.inject_fault(0x5114, 0x05);
+    r.run_ms(200);
+    assert_eq!(r.d.state(), State::Fault);
+    assert_eq!(
+        r.d.take_event(),
+        Some(DriveEvent::Error {
+            code: 0x5114,
+            register: 0x05
+        })
+    );
+    // (a)
+    r.d.inject_fault(0x4310, 0x09);
+    r.run_ms(2);
+    assert_eq!(
+        r.d.take_event(),
+        Some(DriveEvent::Error {
+            code: 0x4310,
+            register: 0x09
+        })
+    );
+    assert_eq!(r.d.state(), State::Fault);
+    // (b) one cause removed, the other still present.
+    r.d.clear_fault(0x5114);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.d.take_event(), None, "no EMCY");
+    assert_eq!(r.d.state(), State::Fault);
+    assert_eq!(r.d.errors(), &[0x5114, 0x4310]);
+    // Both causes gone: the acknowledgement clears both (CMMP-EMCY-01 is the frame).
+    r.d.clear_fault(0x4310);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.sw() & 0x4F, 0x40);
+    let mut cleared = Vec::new();
+    while let Some(e) = r.d.take_event() {
+        cleared.push(e);
+    }
+    assert_eq!(cleared.len(), 2, "{cleared:?}");
+}
+
+/// CMMP-FG-14 through the dictionary: 6093h = 4096/225 (1/10°), 607Ah := 3600 moves one
+/// revolution (65536 increments in 6063h) and 6064h reads 3600.
+#[test]
+fn cmmp_fg_14_target_in_tenth_degrees_moves_one_revolution() {
+    let mut r = Rig::new();
+    r.w32(0x6093, 1, 4096);
+    r.w32(0x6093, 2, 225);
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 3600);
+    assert_eq!(r.i(0x607A), 3600);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(1000);
+    assert_ne!(r.sw() & 0x0400, 0, "target reached");
+    assert!((r.i(0x6063) - 65536).abs() <= 2, "{}", r.i(0x6063));
+    assert!((r.i(0x6064) - 3600).abs() <= 1, "{}", r.i(0x6064));
+}
+
+/// CMMP-FG-17 through the dictionary: 607Eh := C0h; 607Ah := 1000 is internal −1000 (the
+/// drive moves to −1000 increments) and reads 1000; after 607Eh := 0 the stored value is not
+/// converted, so 607Ah reads −1000. (The SDO frames `601: 2F 7E 60 00 C0` /
+/// `581: 60 7E 60 00` are the CANopen layer's; the write here is the decoded one.)
+#[test]
+fn cmmp_fg_17_polarity_through_the_dictionary() {
+    let mut r = Rig::new();
+    assert_eq!(r.d.write(0x607E, 0, &[0xC0]), Ok(()));
+    r.mode(1);
+    r.enable();
+    r.w32(0x607A, 0, 1000);
+    r.cw(0x1F);
+    r.cw(0x0F);
+    r.run_ms(300);
+    assert!((r.i(0x6063) + 1000).abs() <= 2, "internal {}", r.i(0x6063));
+    assert!((r.i(0x6064) - 1000).abs() <= 2, "user {}", r.i(0x6064));
+    assert_eq!(r.i(0x607A), 1000);
+    assert_eq!(r.d.write(0x607E, 0, &[0x00]), Ok(()));
+    assert_eq!(r.i(0x607A), -1000);
+    // The velocity flag turns a stored 60FFh over the same way.
+    r.w32(0x60FF, 0, 500);
+    r.d.write(0x607E, 0, &[0x40]).unwrap();
+    assert_eq!(r.i(0x60FF), -500);
+}
+
+/// CMMP-TQ-01 through the drive: 6087h = 1000 ‰/s takes the torque set-point from 0 to the
+/// rated torque (1000 ‰) in 1 s.
+#[test]
+fn cmmp_tq_01_torque_slope_1000_reaches_rated_torque_in_one_second() {
+    let mut r = Rig::new();
+    r.mode(4);
+    r.d.axis_mut().set_blocked(true);
+    r.enable();
+    r.w32(0x6087, 0, 1000);
+    r.w16(0x6071, 1000);
+    r.run_ms(500);
+    let half = r.i(0x6074);
+    assert!((half - 500).abs() <= 15, "half-way after 0.5 s: {half}");
+    r.run_ms(520);
+    assert!((r.i(0x6074) - 1000).abs() <= 15, "{}", r.i(0x6074));
+}
+
+/// CMMP-TQ-02 through the drive: 6072h = 2000 permits a brief 2-fold overload and no more:
+/// a 3000 ‰ set-point is limited to 2000 ‰.
+#[test]
+fn cmmp_tq_02_max_torque_limits_the_set_point() {
+    let mut r = Rig::new();
+    r.mode(4);
+    r.d.axis_mut().set_blocked(true);
+    r.enable();
+    r.w16(0x6072, 2000);
+    r.w16(0x6071, 3000);
+    r.run_ms(50);
+    assert!((r.i(0x6074) - 2000).abs() <= 20, "{}", r.i(0x6074));
+}
+
+/// CMMP-TQ-04 through the drive: 6073h := 4000 (overload factor 4) lets 4 × 6075h flow
+/// (1184 mA with the default 296 mA), bounded by 6510h:41 peak_current.
+#[test]
+fn cmmp_tq_04_max_current_4000_in_the_drive() {
+    let mut r = Rig::new();
+    r.w16(0x6073, 4000);
+    r.run_ms(2);
+    assert!((r.d.axis().gains().i_max - 1.184).abs() < 1e-9);
+    // 6075h := 2000 mA after it (the manual asks for 6073h to be written again): 8 A is
+    // above the 5 A peak current, which bounds it.
+    r.w32(0x6075, 0, 2000);
+    r.run_ms(2);
+    assert!((r.d.axis().gains().i_max - 5.0).abs() < 1e-9);
 }

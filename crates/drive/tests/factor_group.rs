@@ -1,6 +1,7 @@
 //! Factor group (6093h, 6094h, 6097h, 607Eh) of the Festo CMMP-AS: every vector of
-//! spec/vectors.md §1.7 (CMMP-FG-01…18) by its ID, plus rounding, round trips, polarity, the
-//! 2²⁴ limit, zero divisors and the INT32 edges.
+//! spec/vectors.md §1.7 (CMMP-FG-01 … CMMP-FG-18, each named in full at its test), plus
+//! rounding, round trips, polarity, the 2²⁴ limit, zero divisors and the INT32 edges. The
+//! drive applying them through its dictionary: crates/drive/tests/drive.rs.
 
 use drive::factor_group::{
     acceleration_factor, feed_constant, position_factor, velocity_factor, FactorError, FactorGroup,
@@ -72,6 +73,7 @@ fn acceleration_both_ways(fg: &FactorGroup, user: u32, internal: i64) {
 // Tab. 5.5: position factor
 // ---------------------------------------------------------------------------------------------
 
+/// CMMP-FG-01.
 #[test]
 fn cmmp_fg_01_position_increments_default() {
     // increments, 0 NK; feed 65536 inc per R_OUT; gear 1/1 → 1/1 (= the default).
@@ -86,6 +88,7 @@ fn cmmp_fg_01_position_increments_default() {
     position_both_ways(&fg, i32::MIN, i64::from(i32::MIN));
 }
 
+/// CMMP-FG-02.
 #[test]
 fn cmmp_fg_02_position_tenth_degree() {
     // degrees, 1 NK; feed 3600 per R_OUT; gear 1/1 → 65536/3600 → 4096/225.
@@ -102,6 +105,7 @@ fn cmmp_fg_02_position_tenth_degree() {
     position_both_ways(&fg, 1, 18);
 }
 
+/// CMMP-FG-03.
 #[test]
 fn cmmp_fg_03_position_hundredth_revolution() {
     // revolutions, 2 NK; feed 100; gear 1/1 → 65536/100 → 16384/25.
@@ -116,6 +120,7 @@ fn cmmp_fg_03_position_hundredth_revolution() {
     position_both_ways(&fg, -250, -163_840);
 }
 
+/// CMMP-FG-04.
 #[test]
 fn cmmp_fg_04_position_hundredth_revolution_gear_2_3() {
     // revolutions, 2 NK; feed 100; gear 2/3 → 131072/300 → 32768/75.
@@ -128,6 +133,7 @@ fn cmmp_fg_04_position_hundredth_revolution_gear_2_3() {
     position_both_ways(&fg, -300, -131_072);
 }
 
+/// CMMP-FG-05.
 #[test]
 fn cmmp_fg_05_position_tenth_mm_feed_63_15_gear_4_5() {
     // mm, 1 NK; feed 63.15 mm/rev = 631.5; gear 4/5 → 2621440/31575 → 524288/6315.
@@ -148,6 +154,7 @@ fn cmmp_fg_05_position_tenth_mm_feed_63_15_gear_4_5() {
 // Tab. 5.7: velocity factor
 // ---------------------------------------------------------------------------------------------
 
+/// CMMP-FG-06.
 #[test]
 fn cmmp_fg_06_velocity_rpm_default() {
     // rpm, 0 NK; feed 1 R_OUT; time factor 4096; gear 1/1 → 4096/1 (= the default).
@@ -164,6 +171,7 @@ fn cmmp_fg_06_velocity_rpm_default() {
     velocity_both_ways(&fg, 3000, 12_288_000);
 }
 
+/// CMMP-FG-07.
 #[test]
 fn cmmp_fg_07_velocity_hundredth_rpm_gear_2_3() {
     // 1/100 rpm, 2 NK; feed 100; time factor 4096; gear 2/3 → 8192/300 → 2048/75.
@@ -180,6 +188,7 @@ fn cmmp_fg_07_velocity_hundredth_rpm_gear_2_3() {
     velocity_both_ways(&fg, 7500, 204_800);
 }
 
+/// CMMP-FG-08.
 #[test]
 fn cmmp_fg_08_velocity_tenth_degree_per_second() {
     // 1/10 °/s, 1 NK; feed 3600; 1 s⁻¹ = 60·4096; gear 1/1 → 245760/3600 → 1024/15.
@@ -197,6 +206,7 @@ fn cmmp_fg_08_velocity_tenth_degree_per_second() {
     velocity_both_ways(&fg, 15, 1024);
 }
 
+/// CMMP-FG-09.
 #[test]
 fn cmmp_fg_09_velocity_tenth_mm_per_second_gear_4_5() {
     // 1/10 mm/s, 1 NK; feed 631.5; 60·4096; gear 4/5 → 1966080/6315 → 131072/421.
@@ -212,6 +222,7 @@ fn cmmp_fg_09_velocity_tenth_mm_per_second_gear_4_5() {
 // Tab. 5.9: acceleration factor
 // ---------------------------------------------------------------------------------------------
 
+/// CMMP-FG-10.
 #[test]
 fn cmmp_fg_10_acceleration_rpm_per_second_default() {
     // rpm/s, 0 NK; feed 1 R_OUT; 1 min⁻¹/s = 256; gear 1/1 → 256/1 (= the default).
@@ -228,6 +239,7 @@ fn cmmp_fg_10_acceleration_rpm_per_second_default() {
     acceleration_both_ways(&fg, 10_000, 2_560_000); // 6083h default 10000 min⁻¹/s
 }
 
+/// CMMP-FG-11.
 #[test]
 fn cmmp_fg_11_acceleration_tenth_degree_per_second_squared() {
     // 1/10 °/s², 1 NK; feed 3600; 1 s⁻² = 60·256; gear 1/1 → 15360/3600 → 64/15.
@@ -245,6 +257,7 @@ fn cmmp_fg_11_acceleration_tenth_degree_per_second_squared() {
     acceleration_both_ways(&fg, 15, 64);
 }
 
+/// CMMP-FG-12.
 #[test]
 fn cmmp_fg_12_acceleration_hundredth_rev_per_minute_squared_gear_2_3() {
     // 1/100 rev/min², 2 NK; feed 100; 1 min⁻² = 256/60; gear 2/3 → 512/18000 → 32/1125.
@@ -267,6 +280,7 @@ fn cmmp_fg_12_acceleration_hundredth_rev_per_minute_squared_gear_2_3() {
     assert_eq!(fg.acceleration_to_internal(105), 3);
 }
 
+/// CMMP-FG-13.
 #[test]
 fn cmmp_fg_13_acceleration_tenth_mm_per_second_squared_gear_4_5() {
     // 1/10 mm/s², 1 NK; feed 631.5; 60·256; gear 4/5 → 122880/6315 → 8192/421.
@@ -283,6 +297,7 @@ fn cmmp_fg_13_acceleration_tenth_mm_per_second_squared_gear_4_5() {
 // Derived conversion vectors
 // ---------------------------------------------------------------------------------------------
 
+/// CMMP-FG-14.
 #[test]
 fn cmmp_fg_14_write_and_read_target_position_tenth_degree() {
     // 6093h = 4096/225; write 607Ah := 3600 → 65536 increments; reading returns 3600.
@@ -294,6 +309,7 @@ fn cmmp_fg_14_write_and_read_target_position_tenth_degree() {
     assert_eq!(fg.position_from_internal(stored), 3600);
 }
 
+/// CMMP-FG-15.
 #[test]
 fn cmmp_fg_15_write_target_velocity_tenth_degree_per_second() {
     // 6094h = 1024/15; write 60FFh := 3600 (360.0 °/s) → 245760 = 60 rpm × 4096.
@@ -306,6 +322,7 @@ fn cmmp_fg_15_write_target_velocity_tenth_degree_per_second() {
     assert_eq!(fg.velocity_from_internal(stored), 3600);
 }
 
+/// CMMP-FG-16.
 #[test]
 fn cmmp_fg_16_write_profile_acceleration_tenth_degree_per_second_squared() {
     // 6097h = 64/15; write 6083h := 3600 (360.0 °/s²) → 15360 = 60 rpm/s × 256.
@@ -318,6 +335,7 @@ fn cmmp_fg_16_write_profile_acceleration_tenth_degree_per_second_squared() {
     assert_eq!(fg.acceleration_from_internal(stored), 3600);
 }
 
+/// CMMP-FG-17.
 #[test]
 fn cmmp_fg_17_polarity_c0_then_0() {
     // `601: 2F 7E 60 00 C0`: expedited 1-byte download of 607Eh:00 := C0h. (The SDO answer
@@ -340,6 +358,7 @@ fn cmmp_fg_17_polarity_c0_then_0() {
     assert_eq!(fg.position_from_internal(stored), -1000);
 }
 
+/// CMMP-FG-18.
 #[test]
 fn cmmp_fg_18_position_factor_above_2_pow_24_rejected() {
     // 6093h:01 := 01000001h with 6093h:02 = 1 → rejected (factor > 2²⁴).

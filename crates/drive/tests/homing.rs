@@ -152,6 +152,7 @@ fn every_method_ends_at_its_reference_with_the_home_offset_there() {
     }
 }
 
+/// CMMP-HM-04.
 #[test]
 fn cmmp_hm_04_default_method_17_homes_at_the_default_speeds() {
     // CMMP-HM-04: 6098h is 17 after power-on; 100 / 10 min⁻¹ and 1000 min⁻¹/s reach the
@@ -195,6 +196,7 @@ fn homing_to_zero_moves_to_position_0() {
     );
 }
 
+/// CMMP-HM-06 (EMCY frame: CMMP-EMCY-04): 2045h exceeded → 11-3, code 8A83h, register 01h.
 #[test]
 fn cmmp_hm_06_timeout_is_error_11_3() {
     let mut r = Rig::new();
@@ -214,6 +216,9 @@ fn cmmp_hm_06_timeout_is_error_11_3() {
     assert_eq!(r.d.state(), State::Fault);
 }
 
+/// CMMP-HM-05: bit 4 rising starts, falling aborts; SW bits 13:12 = 00 while running or
+/// aborted, 01 when completed (here and in every method test), 10 on an error
+/// (`cmmp_hm_06_timeout_is_error_11_3`, `halt_aborts_with_homing_error`).
 #[test]
 fn cmmp_hm_05_bit_4_falling_aborts_without_a_result() {
     let mut r = Rig::new().fast();
@@ -222,6 +227,7 @@ fn cmmp_hm_05_bit_4_falling_aborts_without_a_result() {
     r.cw(0x1F);
     r.run_ms(300);
     assert!(r.i(0x606C) < -100, "searching");
+    assert_eq!(r.sw() & 0x3000, 0, "bits 13:12 = 00 while homing runs");
     r.cw(0x0F);
     r.run_ms(300);
     assert_eq!(r.i(0x606C), 0, "stopped");
@@ -369,6 +375,8 @@ fn homing_method_is_locked_while_homing_runs() {
     assert_eq!(r.i(0x6098), 18);
 }
 
+/// CMMP-HM-01, CMMP-HM-02, CMMP-HM-03: the INT8 bytes of Tab. 7.1 (27 is 1Bh, the manual's
+/// "18h" corrected) are accepted and read back as the method numbers.
 #[test]
 fn cmmp_hm_01_to_03_methods_are_accepted_as_int8() {
     let mut r = Rig::new();

@@ -1,7 +1,8 @@
 //! Interpolated position mode (6060h = 7) of the CMMP-AS over CANopen, on the virtual clock:
-//! the manual's preparation and activation sequence (vectors CMMP-IP-01 … 07, spec
-//! cmmp-as-3 §8), the drive synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced
-//! set-points interpolated linearly, and the errors 34-0 / 34-1.
+//! the manual's preparation and activation sequence (vectors CMMP-IP-01, CMMP-IP-02,
+//! CMMP-IP-03, CMMP-IP-04, CMMP-IP-05, CMMP-IP-06, CMMP-IP-07; spec cmmp-as-3 §8), the drive
+//! synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced set-points interpolated
+//! linearly, and the errors 34-0 / 34-1.
 
 use canopen::CanFrame;
 use drivetwin::can_drive::CanDrive;
@@ -138,7 +139,7 @@ fn ok(r: [u8; 8], index: u16, sub: u8) {
     );
 }
 
-/// CMMP-IP-01 … 05: the preparation of §7.4.3, with save and reset for the 4 ms interval.
+/// CMMP-IP-01, CMMP-IP-02, CMMP-IP-03, CMMP-IP-04, CMMP-IP-05: the preparation of §7.4.3, with save and reset for the 4 ms interval.
 fn prepared(name: &str) -> Bench {
     let dir = tmpdir(name);
     let mut b = Bench::new(&dir);
@@ -168,6 +169,8 @@ fn prepared(name: &str) -> Bench {
     b
 }
 
+/// CMMP-IP-06: SYNC every 4 ms, 6060h := 7; 6061h reads −1 while synchronising, then 7, and
+/// −1 again when SYNC leaves the grid.
 #[test]
 fn cmmp_ip_06_6061_shows_minus_1_until_synchronised_to_the_sync_grid() {
     let mut b = prepared("sync");
@@ -189,6 +192,8 @@ fn cmmp_ip_06_6061_shows_minus_1_until_synchronised_to_the_sync_grid() {
     );
 }
 
+/// CMMP-IP-07: 60C1h:01 := 6064h, then enable_ip_mode (bit 4): ip_mode_active (bit 12) and one
+/// set-point taken per SYNC.
 #[test]
 fn cmmp_ip_07_set_points_each_sync_are_interpolated_linearly() {
     let mut b = prepared("move");

@@ -1,0 +1,162 @@
+//! The CMMP-AS digital inputs as the firmware reads them (CMMP-AS §5.13, §5.14): the levels
+//! of DIN0 … DIN9, the switch assignment of 6510h:11 … :14, and 60FDh digital_inputs.
+//!
+//! The simulated axis is wired as the manual's default: the switch at the negative end of
+//! the travel on DIN6, the one at the positive end on DIN7, the home switch on DIN9, all
+//! normally open (HIGH when actuated); DIN4 (output-stage enable) and DIN5 (controller enable)
+//! are HIGH while the hardware enables are present. 6510h:11 … :14 change how the firmware
+//! reads these inputs, not the wiring, so a set-up that does not match the switches shows
+//! as it would on the real drive.
+
+use crate::travel::Inputs;
+
+/// Input levels, bit n = DINn (DIN0 … DIN9).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Levels(pub u16);
+
+/// DIN0 (the first of DIN0 … DIN3, bits 24 … 27 of 60FDh).
+pub const DIN0: u16 = 1 << 0;
+/// DIN4 output-stage enable.
+pub const DIN4: u16 = 1 << 4;
+/// DIN5 controller enable.
+pub const DIN5: u16 = 1 << 5;
+/// DIN6 limit switch E0 (negative with 6510h:12 = 0).
+pub const DIN6: u16 = 1 << 6;
+/// DIN7 limit switch E1 (positive with 6510h:12 = 0).
+pub const DIN7: u16 = 1 << 7;
+/// DIN8 home switch with 6510h:13 = 1.
+pub const DIN8: u16 = 1 << 8;
+/// DIN9 home switch with 6510h:13 = 0 (default).
+pub const DIN9: u16 = 1 << 9;
+
+/// 60FDh bits (CMMP-AS 60FDh bit table, L4189–4197).
+pub mod bit {
+    pub const NEGATIVE_LIMIT: u32 = 1 << 0;
+    pub const POSITIVE_LIMIT: u32 = 1 << 1;
+    pub const HOME_SWITCH: u32 = 1 << 2;
+    /// Output-stage or controller enable missing.
+    pub const INTERLOCK: u32 = 1 << 3;
+    /// DIN0 … DIN3 in bits 24 … 27.
+    pub const DIN0_SHIFT: u32 = 24;
+    pub const DIN8: u32 = 1 << 28;
+    pub const DIN9: u32 = 1 << 29;
+}
+
+impl Levels {
+    /// The levels of the simulated wiring: the travel's switches (normally open) and the
+    /// hardware enables.
+    pub fn wired(switches: Inputs, enables_present: bool) -> Self {
+        let mut l = 0;
+        if switches.negative_limit {
+            l |= DIN6;
+        }
+        if switches.positive_limit {
+            l |= DIN7;
+        }
+        if switches.home {
+            l |= DIN9;
+        }
+        if enables_present {
+            l |= DIN4 | DIN5;
+        }
+        Levels(l)
+    }
+
+    /// Inputs in `mask` forced to the level in `levels` (a test, a fault injection).
+    pub fn forced(self, mask: u16, levels: u16) -> Self {
+        Levels((self.0 & !mask) | (levels & mask))
+    }
+
+    pub fn high(self, din: u16) -> bool {
+        self.0 & din != 0
+    }
+
+    /// Both hardware enables present (DIN4 and DIN5): transition 2 may happen.
+    pub fn enables(self) -> bool {
+        self.high(DIN4) && self.high(DIN5)
+    }
+}
+
+/// The switch assignment, 6510h:11 … :14.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SwitchConfig {
+    /// 6510h:11 limit_switch_polarity: 1 normally open (default), 0 normally closed.
+    pub limit_normally_open: bool,
+    /// 6510h:12 limit_switch_selector: 0 DIN6 = E0 negative / DIN7 = E1 positive (default),
+    /// 1 the other way round.
+    pub limits_swapped: bool,
+    /// 6510h:13 homing_switch_selector: 0 DIN9 (default), 1 DIN8.
+    pub home_on_din8: bool,
+    /// 6510h:14 homing_switch_polarity: 1 normally open (default), 0 normally closed.
+    pub home_normally_open: bool,
+}
+
+impl Default for SwitchConfig {
+    fn default() -> Self {
+        SwitchConfig {
+            limit_normally_open: true,
+            limits_swapped: false,
+            home_on_din8: false,
+            home_normally_open: true,
+        }
+    }
+}
+
+impl SwitchConfig {
+    /// From the object values 6510h:11, :12, :13, :14.
+    pub fn from_objects(
+        polarity: i64,
+        selector: i64,
+        home_selector: i64,
+        home_polarity: i64,
+    ) -> Self {
+        SwitchConfig {
+            limit_normally_open: polarity != 0,
+            limits_swapped: selector == 1,
+            home_on_din8: home_selector == 1,
+            home_normally_open: home_polarity != 0,
+        }
+    }
+
+    /// Which switches the firmware sees active: a normally open switch is active when its
+    /// input is HIGH, a normally closed one when it is LOW (6510h:11, L4361–4381).
+    pub fn switches(&self, levels: Levels) -> Inputs {
+        let (e0, e1) = if self.limits_swapped {
+            (DIN7, DIN6)
+        } else {
+            (DIN6, DIN7)
+        };
+        let home = if self.home_on_din8 { DIN8 } else { DIN9 };
+        let active = |din, normally_open: bool| levels.high(din) == normally_open;
+        Inputs {
+            negative_limit: active(e0, self.limit_normally_open),
+            positive_limit: active(e1, self.limit_normally_open),
+            home: active(home, self.home_normally_open),
+        }
+    }
+
+    /// 60FDh digital_inputs. The CAMC-D-8E8A extension (bits 16 … 23) is not fitted.
+    pub fn digital_inputs(&self, levels: Levels) -> u32 {
+        let s = self.switches(levels);
+        let mut v = u32::from(levels.0 & 0x000F) << bit::DIN0_SHIFT;
+        if s.negative_limit {
+            v |= bit::NEGATIVE_LIMIT;
+        }
+        if s.positive_limit {
+            v |= bit::POSITIVE_LIMIT;
+        }
+        if s.home {
+            v |= bit::HOME_SWITCH;
+        }
+        if !levels.enables() {
+            v |= bit::INTERLOCK;
+        }
+        if levels.high(DIN8) {
+            v |= bit::DIN8;
+        }
+        if levels.high(DIN9) {
+            v |= bit::DIN9;
+        }
+        v
+    }
+}
