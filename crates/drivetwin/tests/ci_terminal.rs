@@ -2,22 +2,14 @@
 //! drive's dictionary, and a write acts as an SDO download of the node would.
 
 use canopen::CanFrame;
-use drivetwin::can_drive::CanDrive;
 use drivetwin::cell::Cell;
-use drivetwin::cell_config::CellFile;
 use od::Instant;
 
+#[path = "support/can_bench.rs"]
+mod can_bench;
+
 fn cell() -> Cell {
-    let spec = CellFile::single("cmmp-as", 1).drives().unwrap().remove(0);
-    let d = CanDrive::with_settings(
-        spec.desc,
-        spec.node,
-        None,
-        spec.commissioning,
-        spec.settings,
-    )
-    .unwrap();
-    let mut c = Cell::new(vec![d]);
+    let mut c = can_bench::cmmp_cell(None);
     c.boot(Instant::ZERO, &mut Vec::new());
     c
 }

@@ -2,23 +2,16 @@
 //! the enable sequence through the CANopen stack.
 
 use canopen::CanFrame;
-use drivetwin::can_drive::CanDrive;
 use drivetwin::cell::Cell;
-use drivetwin::cell_config::CellFile;
 use od::Instant;
 
+#[path = "support/can_bench.rs"]
+mod can_bench;
+
+use can_bench::cmmp_cell;
+
 fn cell() -> Cell {
-    let spec = CellFile::single("cmmp-as", 1).drives().unwrap().remove(0);
-    assert!(spec.settings.is_some(), "cmmp-as is a CiA 402 drive");
-    let d = CanDrive::with_settings(
-        spec.desc,
-        spec.node,
-        None,
-        spec.commissioning,
-        spec.settings,
-    )
-    .unwrap();
-    Cell::new(vec![d])
+    cmmp_cell(None)
 }
 
 fn run_until(cell: &mut Cell, now: &mut Instant, until: Instant, out: &mut Vec<CanFrame>) {

@@ -3,90 +3,11 @@
 
 use canopen::CanFrame;
 use drive::device_control::State;
-use drivetwin::can_drive::CanDrive;
-use drivetwin::cell::Cell;
-use drivetwin::cell_config::CellFile;
-use od::Instant;
 
-struct Bench {
-    cell: Cell,
-    now: Instant,
-    out: Vec<CanFrame>,
-}
+#[path = "support/can_bench.rs"]
+mod can_bench;
 
-impl Bench {
-    fn new() -> Self {
-        let spec = CellFile::single("cmmp-as", 1).drives().unwrap().remove(0);
-        let d = CanDrive::with_settings(
-            spec.desc,
-            spec.node,
-            None,
-            spec.commissioning,
-            spec.settings,
-        )
-        .unwrap();
-        let mut b = Bench {
-            cell: Cell::new(vec![d]),
-            now: Instant::ZERO,
-            out: Vec::new(),
-        };
-        b.cell.boot(b.now, &mut b.out);
-        b.run_ms(10);
-        b
-    }
-
-    fn run_ms(&mut self, ms: u64) {
-        let until = Instant::from_nanos(self.now.as_nanos() + ms * 1_000_000);
-        while let Some(t) = self.cell.deadline() {
-            if t > until {
-                break;
-            }
-            self.now = t.max(self.now);
-            self.cell.poll(self.now, &mut self.out);
-        }
-        self.now = until;
-        self.cell.poll(self.now, &mut self.out);
-    }
-
-    /// The frames sent since the last call.
-    fn sent(&mut self) -> Vec<CanFrame> {
-        std::mem::take(&mut self.out)
-    }
-
-    fn sdo(&mut self, request: &[u8]) -> [u8; 8] {
-        let mut data = [0u8; 8];
-        data[..request.len()].copy_from_slice(request);
-        self.out.clear();
-        let f = CanFrame::new(0x601, &data).unwrap();
-        self.cell.on_frame(self.now, &f, &mut self.out);
-        self.out
-            .iter()
-            .find(|f| f.id == 0x581)
-            .map(|f| f.data)
-            .expect("SDO answer")
-    }
-
-    fn statusword(&mut self) -> u16 {
-        let r = self.sdo(&[0x40, 0x41, 0x60, 0x00]);
-        assert_eq!(r[0], 0x4B, "{r:02X?}");
-        u16::from_le_bytes([r[4], r[5]])
-    }
-
-    fn drive(&mut self) -> &mut drive::drive::Drive<Vec<u8>> {
-        self.cell.drives[0]
-            .model
-            .drive_mut()
-            .expect("a CiA 402 drive")
-    }
-
-    fn enable(&mut self) {
-        for cw in [0x06u8, 0x07, 0x0F] {
-            self.sdo(&[0x2B, 0x40, 0x60, 0x00, cw, 0x00]);
-            self.run_ms(5);
-        }
-        assert_eq!(self.statusword() & 0x6F, 0x27);
-    }
-}
+use can_bench::CanBench as Bench;
 
 fn emcy(frames: &[CanFrame]) -> Vec<[u8; 8]> {
     frames
@@ -100,7 +21,7 @@ fn emcy(frames: &[CanFrame]) -> Vec<[u8; 8]> {
 /// stopping reaction: `081: 10 43 09 00 00 00 00 00`, and the drive goes to FAULT.
 #[test]
 fn cmmp_emcy_03_motor_over_temperature() {
-    let mut b = Bench::new();
+    let mut b = Bench::new(None);
     b.enable();
     b.sent();
     b.drive()
@@ -122,7 +43,7 @@ fn cmmp_emcy_03_motor_over_temperature() {
 /// The acknowledgement through the state machine then sends `081: 00 …` (CMMP-EMCY-01).
 #[test]
 fn cmmp_emcy_07_clearing_the_history_does_not_acknowledge() {
-    let mut b = Bench::new();
+    let mut b = Bench::new(None);
     b.enable();
     b.drive()
         .inject_fault(0x4310, canopen::emcy::register::TEMPERATURE);
@@ -162,7 +83,7 @@ fn cmmp_emcy_07_clearing_the_history_does_not_acknowledge() {
 /// goes out as `081: 12 23 03 00 00 00 00 00` (generic + current); 1003h holds it.
 #[test]
 fn cmmp_emcy_02_i2t_motor_error_31_0() {
-    let mut b = Bench::new();
+    let mut b = Bench::new(None);
     b.sdo(&[0x2B, 0x10, 0x65, 0x38, 0x01, 0x00]);
     b.sdo(&[0x2F, 0x60, 0x60, 0x00, 0x03]);
     b.run_ms(10);

@@ -4,122 +4,12 @@
 //! synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced set-points interpolated
 //! linearly, and the errors 34-0 / 34-1.
 
-use canopen::CanFrame;
-use drivetwin::can_drive::CanDrive;
-use drivetwin::cell::Cell;
-use drivetwin::cell_config::CellFile;
 use drivetwin::param_store::ParamStore;
-use od::Instant;
 
-struct Bench {
-    cell: Cell,
-    now: Instant,
-    out: Vec<CanFrame>,
-}
+#[path = "support/can_bench.rs"]
+mod can_bench;
 
-impl Bench {
-    fn new(state_dir: &std::path::Path) -> Self {
-        let spec = CellFile::single("cmmp-as", 1).drives().unwrap().remove(0);
-        let store = ParamStore::new(state_dir, "cmmp-as", 1);
-        let d = CanDrive::with_settings(
-            spec.desc,
-            spec.node,
-            Some(store),
-            spec.commissioning,
-            spec.settings,
-        )
-        .unwrap();
-        let mut b = Bench {
-            cell: Cell::new(vec![d]),
-            now: Instant::ZERO,
-            out: Vec::new(),
-        };
-        b.cell.boot(b.now, &mut b.out);
-        b.run_ms(10);
-        b
-    }
-
-    fn run_ms(&mut self, ms: u64) {
-        let until = Instant::from_nanos(self.now.as_nanos() + ms * 1_000_000);
-        while let Some(t) = self.cell.deadline() {
-            if t > until {
-                break;
-            }
-            self.now = t.max(self.now);
-            self.cell.poll(self.now, &mut self.out);
-        }
-        self.now = until;
-        self.cell.poll(self.now, &mut self.out);
-    }
-
-    fn frame(&mut self, id: u16, data: &[u8]) {
-        self.out.clear();
-        let f = CanFrame::new(id, data).unwrap();
-        self.cell.on_frame(self.now, &f, &mut self.out);
-    }
-
-    fn sdo(&mut self, request: &[u8]) -> [u8; 8] {
-        let mut data = [0u8; 8];
-        data[..request.len()].copy_from_slice(request);
-        self.frame(0x601, &data);
-        self.out
-            .iter()
-            .find(|f| f.id == 0x581)
-            .map(|f| f.data)
-            .expect("SDO answer")
-    }
-
-    fn read(&mut self, index: u16, sub: u8) -> i64 {
-        let [lo, hi] = index.to_le_bytes();
-        let r = self.sdo(&[0x40, lo, hi, sub]);
-        assert_eq!(r[0] & 0xF0, 0x40, "upload {index:04X}h:{sub}: {r:02X?}");
-        let n = match r[0] {
-            0x4F => 1,
-            0x4B => 2,
-            _ => 4,
-        };
-        let mut b = [0u8; 8];
-        b[..n].copy_from_slice(&r[4..4 + n]);
-        match n {
-            1 => i64::from(b[0] as i8),
-            2 => i64::from(i16::from_le_bytes([b[0], b[1]])),
-            _ => i64::from(i32::from_le_bytes([b[0], b[1], b[2], b[3]])),
-        }
-    }
-
-    fn write(&mut self, index: u16, sub: u8, value: &[u8]) -> [u8; 8] {
-        let [lo, hi] = index.to_le_bytes();
-        let cmd = match value.len() {
-            1 => 0x2F,
-            2 => 0x2B,
-            _ => 0x23,
-        };
-        let mut req = vec![cmd, lo, hi, sub];
-        req.extend_from_slice(value);
-        self.sdo(&req)
-    }
-
-    fn sync(&mut self) {
-        self.frame(0x080, &[]);
-    }
-
-    /// `n` SYNCs every `period_ms`, running the clock between them; `each` before each SYNC.
-    fn syncs(&mut self, n: usize, period_ms: u64, mut each: impl FnMut(&mut Bench, usize)) {
-        for k in 0..n {
-            each(self, k);
-            self.sync();
-            self.run_ms(period_ms);
-        }
-    }
-
-    fn enable(&mut self) {
-        for cw in [0x06u8, 0x07, 0x0F] {
-            self.write(0x6040, 0, &[cw, 0]);
-            self.run_ms(5);
-        }
-        assert_eq!(self.read(0x6041, 0) & 0x6F, 0x27, "operation enabled");
-    }
-}
+use can_bench::CanBench as Bench;
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("drivetwin-ip-{name}-{}", std::process::id()));
@@ -142,7 +32,7 @@ fn ok(r: [u8; 8], index: u16, sub: u8) {
 /// CMMP-IP-01, CMMP-IP-02, CMMP-IP-03, CMMP-IP-04, CMMP-IP-05: the preparation of §7.4.3, with save and reset for the 4 ms interval.
 fn prepared(name: &str) -> Bench {
     let dir = tmpdir(name);
-    let mut b = Bench::new(&dir);
+    let mut b = Bench::new(Some(ParamStore::new(&dir, "cmmp-as", 1)));
     ok(b.write(0x60C0, 0, &(-2i16).to_le_bytes()), 0x60C0, 0); // CMMP-IP-01
     ok(b.write(0x60C2, 2, &[(-4i8) as u8]), 0x60C2, 2); // CMMP-IP-02
     ok(b.write(0x60C2, 1, &[40]), 0x60C2, 1); // CMMP-IP-03
@@ -334,7 +224,7 @@ fn activation_off_the_grid_is_error_34_0_and_60c1_is_locked_by_buffer_clear() {
 fn sdo_traffic_between_syncs_keeps_the_grid() {
     // A master that polls 6061h every 2 ms beside a 10 ms SYNC: the drive synchronises.
     let dir = tmpdir("poll");
-    let mut b = Bench::new(&dir);
+    let mut b = Bench::new(Some(ParamStore::new(&dir, "cmmp-as", 1)));
     ok(b.write(0x60C2, 1, &[10]), 0x60C2, 1);
     b.sdo(&[0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e']);
     b.frame(0x000, &[0x81, 0x01]);
