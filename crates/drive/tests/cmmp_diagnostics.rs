@@ -1,34 +1,17 @@
 //! CMMP-AS diagnostics: the error management 2100h, the last warning 200Fh and the
 //! 7-segment display (CMMP-AS §5.17, §5.18, App. B; spec/vectors.md §1.12, §1.13).
 
-use std::time::Duration;
-
 use drive::device_control::State;
 use drive::display::Display;
-use drive::drive::{Drive, DriveEvent, DriveSettings};
+use drive::drive::DriveEvent;
 use drive::messages::{self, decode_warning_code, warning_code, Number};
-use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary};
+use od::{AbortCode, ObjectAccess};
 
-struct Rig {
-    d: Drive<Vec<u8>>,
-    now: Instant,
-}
+mod cmmp_rig;
+
+use cmmp_rig::Rig;
 
 impl Rig {
-    fn new() -> Self {
-        let desc = &devices::CMMP_AS;
-        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
-        let mut r = Rig {
-            d: Drive::new(od, DriveSettings::default()),
-            now: Instant::ZERO,
-        };
-        r.run_ms(1);
-        r
-    }
-    fn run_ms(&mut self, ms: u64) {
-        self.now = self.now + Duration::from_millis(ms);
-        self.d.step(self.now);
-    }
     fn w8(&mut self, index: u16, sub: u8, v: u8) -> Result<(), AbortCode> {
         self.d.write(index, sub, &[v])
     }

@@ -2,36 +2,18 @@
 //! levels and the switch assignment 6510h:11 … :14, 60FEh host control of the brake and the
 //! outputs (spec/vectors.md §1.15).
 
-use std::time::Duration;
-
 use drive::device_control::State;
 use drive::digital_inputs::{DIN0, DIN4, DIN5, DIN6, DIN7, DIN8, DIN9};
-use drive::drive::{Drive, DriveSettings};
-use od::{Instant, ObjectAccess, ObjectDictionary};
+use od::ObjectAccess;
 
-struct Rig {
-    d: Drive<Vec<u8>>,
-    now: Instant,
-}
+mod cmmp_rig;
+
+use cmmp_rig::Rig;
 
 /// Every DIN the tests drive.
 const ALL: u16 = 0x03FF;
 
 impl Rig {
-    fn new() -> Self {
-        let desc = &devices::CMMP_AS;
-        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
-        let mut r = Rig {
-            d: Drive::new(od, DriveSettings::default()),
-            now: Instant::ZERO,
-        };
-        r.run_ms(1);
-        r
-    }
-    fn run_ms(&mut self, ms: u64) {
-        self.now = self.now + Duration::from_millis(ms);
-        self.d.step(self.now);
-    }
     fn w16(&mut self, index: u16, sub: u8, v: u16) {
         self.d.write(index, sub, &v.to_le_bytes()).unwrap();
     }

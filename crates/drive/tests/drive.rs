@@ -8,29 +8,17 @@ use drive::device_control::State;
 use drive::drive::{Drive, DriveEvent, DriveSettings};
 use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary, Value};
 
-struct Rig {
-    d: Drive<Vec<u8>>,
-    now: Instant,
-}
+mod cmmp_rig;
+
+use cmmp_rig::Rig;
 
 impl Rig {
-    fn new() -> Self {
-        let desc = &devices::CMMP_AS;
-        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
-        let settings = DriveSettings {
+    /// A mode change of 2 ms keeps the tests short.
+    fn quick() -> Self {
+        Rig::with(DriveSettings {
             mode_change_time: Duration::from_millis(2),
             ..DriveSettings::default()
-        };
-        let mut r = Rig {
-            d: Drive::new(od, settings),
-            now: Instant::ZERO,
-        };
-        r.run_ms(1);
-        r
-    }
-    fn run_ms(&mut self, ms: u64) {
-        self.now = self.now + Duration::from_millis(ms);
-        self.d.step(self.now);
+        })
     }
     fn w16(&mut self, index: u16, v: u16) {
         self.d.write(index, 0, &v.to_le_bytes()).unwrap();
@@ -72,7 +60,7 @@ impl Rig {
 /// with the output stage on, 000Fh → 0027h with the holding brake released.
 #[test]
 fn enable_sequence_in_the_statusword() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert_eq!(r.sw() & 0x4F, 0x40, "SWITCH ON DISABLED after power-up");
     assert_ne!(r.sw() & 0x0200, 0, "remote: enable logic 2 (CMMP-SDO-16)");
     assert_eq!(r.d.od().get_unsigned(0x6510, 0x10), Some(2));
@@ -90,7 +78,7 @@ fn enable_sequence_in_the_statusword() {
 
 #[test]
 fn mode_change_shows_minus_one_for_the_change_time() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert_eq!(r.i(0x6061), 3, "6061h default 3");
     r.w8(0x6060, 1);
     r.run_ms(1);
@@ -109,7 +97,7 @@ fn mode_change_shows_minus_one_for_the_change_time() {
 /// (bit 10) inside 6067h for 6068h.
 #[test]
 fn profile_position_move_takes_the_trapezoid_time_and_ends_in_the_window() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(1);
     r.enable();
     // 10 revolutions at 1000 rpm, 10000 rpm/s (the defaults of 6081h/6083h/6084h).
@@ -149,7 +137,7 @@ fn profile_position_move_takes_the_trapezoid_time_and_ends_in_the_window() {
 
 #[test]
 fn relative_move_counts_from_the_set_point() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(1);
     r.enable();
     r.w32(0x607A, 0, 65536);
@@ -169,7 +157,7 @@ fn relative_move_counts_from_the_set_point() {
 
 #[test]
 fn profile_velocity_ramps_and_reports_target_reached() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(3);
     r.enable();
     r.w32(0x60FF, 0, 1500);
@@ -194,7 +182,7 @@ fn profile_velocity_ramps_and_reports_target_reached() {
 
 #[test]
 fn profile_torque_step_accelerates_the_motor() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(4);
     r.enable();
     // 6087h 10000 ‰/s: 500 ‰ after 50 ms (CMMP-TQ-01 gives 1000 ‰/s for rated torque in 1 s).
@@ -215,7 +203,7 @@ fn profile_torque_step_accelerates_the_motor() {
 /// CMMP-CW-06: 0002h in OPERATION_ENABLE: 0007h while braking with 6085h, then 0040h.
 #[test]
 fn quick_stop_ramps_down_then_switch_on_disabled() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(3);
     r.enable();
     r.w32(0x60FF, 0, 1000);
@@ -230,7 +218,7 @@ fn quick_stop_ramps_down_then_switch_on_disabled() {
 /// CMMP-CW-11 (a): FAULT reads 000Fh with 6510h:F0 bit 7 = 0 (default).
 #[test]
 fn blocked_load_raises_following_error_then_fault_and_reset() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(1);
     r.enable();
     r.d.axis_mut().set_blocked(true);
@@ -269,7 +257,7 @@ fn blocked_load_raises_following_error_then_fault_and_reset() {
 /// `blocked_load_raises_following_error_then_fault_and_reset`).
 #[test]
 fn cia402_fault_value_with_compatibility_bit_7() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.d.write(0x6510, 0xF0, &0x0080u16.to_le_bytes()).unwrap();
     r.d.inject_fault(0x5114, 0x05);
     r.run_ms(2);
@@ -279,7 +267,7 @@ fn cia402_fault_value_with_compatibility_bit_7() {
 #[test]
 fn compatibility_bits_0_and_2_mirror_each_other() {
     // CMMP-SDO-15.
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.d.write(0x6510, 0xF0, &0x0004u16.to_le_bytes()).unwrap();
     assert_eq!(r.d.od().get_unsigned(0x6510, 0xF0), Some(0x0005));
 }
@@ -287,7 +275,7 @@ fn compatibility_bits_0_and_2_mirror_each_other() {
 #[test]
 fn restore_is_refused_with_the_output_stage_on() {
     // CMMP-SDO-10.
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.enable();
     assert_eq!(r.d.write(0x1011, 1, b"load"), Err(AbortCode::DEVICE_STATE));
     r.cw(0x00);
@@ -296,7 +284,7 @@ fn restore_is_refused_with_the_output_stage_on() {
 
 #[test]
 fn position_factor_above_2_pow_24_is_refused() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert_eq!(
         r.d.write(0x6093, 1, &0x0100_0001u32.to_le_bytes()),
         Err(AbortCode::VALUE_TOO_HIGH)
@@ -313,7 +301,7 @@ fn position_factor_above_2_pow_24_is_refused() {
 
 #[test]
 fn ramps_6083_6084_are_the_2090_values() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.w32(0x6083, 0, 5000);
     r.w32(0x6084, 0, 7000);
     assert_eq!(r.i2(0x2090, 2), 5000);
@@ -337,7 +325,7 @@ impl Rig {
 #[test]
 fn manufacturer_status_bit_14_examples() {
     // cmmp-as-2 §8.8 (a): homed → bit 14 with mask 1; (c) not ready for enable OR homed.
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.w32(0x2005, 1, 0x1);
     r.run_ms(1);
     assert_eq!(r.sw() & 0x4000, 0, "not homed");
@@ -357,7 +345,7 @@ fn manufacturer_status_bit_14_examples() {
 #[test]
 fn same_inputs_same_trajectory_bit_for_bit() {
     let run = || {
-        let mut r = Rig::new();
+        let mut r = Rig::quick();
         r.mode(1);
         r.enable();
         r.w32(0x607A, 0, 3 * 65536 + 123);
@@ -376,7 +364,7 @@ fn same_inputs_same_trajectory_bit_for_bit() {
 #[test]
 fn jerk_free_profile_takes_longer_but_ends_in_the_window() {
     let time_for = |profile: i16| {
-        let mut r = Rig::new();
+        let mut r = Rig::quick();
         r.mode(1);
         r.d.write(0x6086, 0, &profile.to_le_bytes()).unwrap();
         r.enable();
@@ -407,7 +395,7 @@ fn jerk_free_profile_takes_longer_but_ends_in_the_window() {
 /// CMMP-CW-15 (note): bit 10 is also set at standstill after Halt (bit 8).
 #[test]
 fn halt_in_profile_position_stops_with_target_reached() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(1);
     r.enable();
     r.w32(0x607A, 0, 50 * 65536);
@@ -427,7 +415,7 @@ fn halt_in_profile_position_stops_with_target_reached() {
 
 #[test]
 fn mode_change_with_halt_set() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(3);
     r.enable();
     r.cw(0x010F);
@@ -444,7 +432,7 @@ fn mode_change_with_halt_set() {
 
 #[test]
 fn brake_follows_the_output_stage_and_60fe_bit_0_when_masked() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert!(
         r.d.axis().motor().brake(),
         "applied with the output stage off"
@@ -466,7 +454,7 @@ fn brake_follows_the_output_stage_and_60fe_bit_0_when_masked() {
 
 #[test]
 fn brake_delay_holds_the_set_point_after_enable() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.d.write(0x6510, 0x18, &200u16.to_le_bytes()).unwrap();
     r.mode(3);
     r.enable();
@@ -483,7 +471,7 @@ fn brake_delay_holds_the_set_point_after_enable() {
 
 #[test]
 fn cyclic_synchronous_position_only_over_ethercat_and_follows_the_set_points() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert_eq!(
         r.d.write(0x6060, 0, &[8]),
         Err(AbortCode::INVALID_VALUE),
@@ -537,7 +525,7 @@ fn leaving_operation_enabled_switches_the_output_stage_as_the_manual_says() {
         (0x06, 0x6F, 0x21, false),
         (0x07, 0x6F, 0x23, true),
     ] {
-        let mut r = Rig::new();
+        let mut r = Rig::quick();
         r.mode(3);
         r.enable();
         r.cw(cw);
@@ -562,7 +550,7 @@ fn leaving_operation_enabled_switches_the_output_stage_as_the_manual_says() {
 /// A new fault while 0080h is still held is not reset by it: only the next rising edge.
 #[test]
 fn cmmp_cw_10_fault_reset_on_the_rising_edge_of_bit_7() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.enable();
     r.d.inject_fault(0x5114, 0x05);
     r.run_ms(200);
@@ -587,7 +575,7 @@ fn cmmp_cw_10_fault_reset_on_the_rising_edge_of_bit_7() {
 /// CMMP-CW-05 through the dictionary: 000Fh in SWITCH_ON_DISABLED leaves it there.
 #[test]
 fn cmmp_cw_05_enable_operation_does_not_leave_switch_on_disabled() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.cw(0x0F);
     r.run_ms(10);
     assert_eq!(r.sw() & 0x4F, 0x40);
@@ -598,7 +586,7 @@ fn cmmp_cw_05_enable_operation_does_not_leave_switch_on_disabled() {
 /// homing, 0 again when a new homing run starts (the reference is lost until it ends).
 #[test]
 fn cmmp_cw_12_bit_14_follows_is_referenced() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.w32(0x200A, 1, 0);
     r.w32(0x2005, 1, 1);
     r.mode(6);
@@ -620,7 +608,7 @@ fn cmmp_cw_12_bit_14_follows_is_referenced() {
 /// code; (b) acknowledging while a cause is still present sends nothing and FAULT stays.
 #[test]
 fn cmmp_emcy_05_second_error_and_acknowledge_with_the_cause_present() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.enable();
     r.d.inject_fault(0x5114, 0x05);
     r.run_ms(200);
@@ -666,7 +654,7 @@ fn cmmp_emcy_05_second_error_and_acknowledge_with_the_cause_present() {
 /// revolution (65536 increments in 6063h) and 6064h reads 3600.
 #[test]
 fn cmmp_fg_14_target_in_tenth_degrees_moves_one_revolution() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.w32(0x6093, 1, 4096);
     r.w32(0x6093, 2, 225);
     r.mode(1);
@@ -687,7 +675,7 @@ fn cmmp_fg_14_target_in_tenth_degrees_moves_one_revolution() {
 /// `581: 60 7E 60 00` are the CANopen layer's; the write here is the decoded one.)
 #[test]
 fn cmmp_fg_17_polarity_through_the_dictionary() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     assert_eq!(r.d.write(0x607E, 0, &[0xC0]), Ok(()));
     r.mode(1);
     r.enable();
@@ -710,7 +698,7 @@ fn cmmp_fg_17_polarity_through_the_dictionary() {
 /// rated torque (1000 ‰) in 1 s.
 #[test]
 fn cmmp_tq_01_torque_slope_1000_reaches_rated_torque_in_one_second() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(4);
     r.d.axis_mut().set_blocked(true);
     r.enable();
@@ -727,7 +715,7 @@ fn cmmp_tq_01_torque_slope_1000_reaches_rated_torque_in_one_second() {
 /// a 3000 ‰ set-point is limited to 2000 ‰.
 #[test]
 fn cmmp_tq_02_max_torque_limits_the_set_point() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.mode(4);
     r.d.axis_mut().set_blocked(true);
     r.enable();
@@ -741,7 +729,7 @@ fn cmmp_tq_02_max_torque_limits_the_set_point() {
 /// (1184 mA with the default 296 mA), bounded by 6510h:41 peak_current.
 #[test]
 fn cmmp_tq_04_max_current_4000_in_the_drive() {
-    let mut r = Rig::new();
+    let mut r = Rig::quick();
     r.w16(0x6073, 4000);
     r.run_ms(2);
     assert!((r.d.axis().gains().i_max - 1.184).abs() < 1e-9);

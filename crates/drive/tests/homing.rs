@@ -6,31 +6,17 @@
 use std::time::Duration;
 
 use drive::device_control::State;
-use drive::drive::{Drive, DriveEvent, DriveSettings};
+use drive::drive::{DriveEvent, DriveSettings};
 use drive::travel::TravelSettings;
-use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary, Value};
+use od::{AbortCode, ObjectAccess, Value};
 
 const REV: i64 = 65536;
 
-struct Rig {
-    d: Drive<Vec<u8>>,
-    now: Instant,
-}
+mod cmmp_rig;
+
+use cmmp_rig::Rig;
 
 impl Rig {
-    fn with(settings: DriveSettings) -> Self {
-        let desc = &devices::CMMP_AS;
-        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
-        let mut r = Rig {
-            d: Drive::new(od, settings),
-            now: Instant::ZERO,
-        };
-        r.run_ms(1);
-        r
-    }
-    fn new() -> Self {
-        Self::with(DriveSettings::default())
-    }
     /// Homing speeds that keep the tests short: search 600 min⁻¹, crawl 30 min⁻¹, 10000
     /// min⁻¹/s.
     fn fast(mut self) -> Self {
@@ -38,10 +24,6 @@ impl Rig {
         self.w32(0x6099, 2, 30);
         self.w32(0x609A, 0, 10_000);
         self
-    }
-    fn run_ms(&mut self, ms: u64) {
-        self.now = self.now + Duration::from_millis(ms);
-        self.d.step(self.now);
     }
     fn w16(&mut self, index: u16, sub: u8, v: u16) {
         self.d.write(index, sub, &v.to_le_bytes()).unwrap();
