@@ -370,6 +370,20 @@ mod tests {
         out[..n].to_vec()
     }
 
+    /// The device's clock in a test, ms since power-on.
+    struct Clock(u64);
+
+    impl Clock {
+        /// Steps the device `ms` cycles on.
+        fn run(&mut self, m: &FhppModbus, ms: u64) {
+            let mut d = lock(&m.device);
+            for _ in 0..ms {
+                d.step(od::Instant::from_millis(self.0));
+                self.0 += 1;
+            }
+        }
+    }
+
     fn step(m: &FhppModbus, ms: u64) {
         let mut d = lock(&m.device);
         for t in 0..ms {
@@ -436,48 +450,41 @@ mod tests {
     #[test]
     fn fhpp_mb_03_direct_move_over_fc_0x17() {
         let mut m = map();
-        let mut t = 0u64;
-        let mut run = |m: &FhppModbus, ms: u64| {
-            let mut d = lock(&m.device);
-            for _ in 0..ms {
-                d.step(od::Instant::from_millis(t));
-                t += 1;
-            }
-        };
+        let mut clock = Clock(0);
         let fc17 = |out: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
             req.extend_from_slice(&out);
             req
         };
-        run(&m, 2);
+        clock.run(&m, 2);
         // Enable and home (method −35 by default: the current position is REF).
         pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        run(&m, 5);
+        clock.run(&m, 5);
         pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
-        run(&m, 50);
+        clock.run(&m, 50);
         let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
         assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
-        run(&m, 5);
+        clock.run(&m, 5);
         // Cycle 1: direct mode, START = 0.
         let cycle1 = [0x43, 0x01, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
         pdu(&mut m, &fc17(cycle1));
-        run(&m, 5);
+        clock.run(&m, 5);
         let r = pdu(&mut m, &fc17(cycle1));
         assert_eq!(r[..4], [0x17, 8, 0x53, 0x85], "{r:02X?}");
         // Cycle 2: START rising.
         let cycle2 = [0x43, 0x03, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
         pdu(&mut m, &fc17(cycle2));
-        run(&m, 1);
+        clock.run(&m, 1);
         let r = pdu(&mut m, &fc17(cycle2));
         assert_eq!(r[..5], [0x17, 8, 0x53, 0x83, 0x00], "{r:02X?}");
-        run(&m, 50);
+        clock.run(&m, 50);
         let r = pdu(&mut m, &fc17(cycle2));
         assert_eq!(r[3], 0x93, "MOV while moving: {r:02X?}");
         assert!(r[4] == 0 && r[5] > 0, "SDIR absolute, velocity %: {r:02X?}");
         pdu(&mut m, &fc17(cycle1));
         let mut last = Vec::new();
         for _ in 0..300 {
-            run(&m, 10);
+            clock.run(&m, 10);
             last = pdu(&mut m, &fc17(cycle1));
             if last[3] & 0x04 != 0 {
                 break;
@@ -494,32 +501,25 @@ mod tests {
     #[test]
     fn fhpp_mb_04_read_pnu_1041_through_the_efpc() {
         let mut m = map();
-        let mut t = 0u64;
-        let mut run = |m: &FhppModbus, ms: u64| {
-            let mut d = lock(&m.device);
-            for _ in 0..ms {
-                d.step(od::Instant::from_millis(t));
-                t += 1;
-            }
-        };
+        let mut clock = Clock(0);
         // Homing on the current position with the AZ offset PNU 1010 = 1234 SINC: the actual
         // position becomes −1234 (§6.2.1), a value with every byte set.
         lock(&m.device)
             .write(pnu_index(1010), 1, &1234i32.to_le_bytes())
             .unwrap();
-        run(&m, 2);
+        clock.run(&m, 2);
         let fc17 = |out: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
             req.extend_from_slice(&out);
             req
         };
         pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        run(&m, 5);
+        clock.run(&m, 5);
         pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
-        run(&m, 50);
+        clock.run(&m, 50);
         let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
         assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
-        run(&m, 2);
+        clock.run(&m, 2);
         let request = |fpc: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 0x10];
             req.extend_from_slice(&[0x43, 0x01, 0, 0, 0, 0, 0, 0]);
@@ -527,10 +527,10 @@ mod tests {
             req
         };
         pdu(&mut m, &request([0x10, 0, 0, 0, 0, 0, 0, 0]));
-        run(&m, 2);
+        clock.run(&m, 2);
         let read_1041 = [0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0];
         pdu(&mut m, &request(read_1041));
-        run(&m, 2);
+        clock.run(&m, 2);
         let r = pdu(&mut m, &request(read_1041));
         assert_eq!(r[..2], [0x17, 0x10]);
         assert_eq!(r[10..14], [0x15, 0x01, 0x04, 0x11], "{r:02X?}");
