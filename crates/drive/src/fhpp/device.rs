@@ -1119,47 +1119,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             let Some(r) = self.records.get_mut(n) else {
                 continue;
             };
-            *r = Record {
-                rcb1: Rcb1(g(401) as u8),
-                rcb2: g(402) as u8,
-                target: g(404) as i32,
-                velocity: g(406) as i32,
-                acceleration: g(407) as i32,
-                deceleration: g(408) as i32,
-                jerk_acceleration: g(409) as u32,
-                load: g(410) as u32,
-                following_record: g(416) as u8,
-                jerk_deceleration: g(417) as u32,
-                torque_limit: g(418) as i16,
-                rcb3: g(421) as u8,
-                final_velocity: g(423) as i32,
-                max_deviation: g(424) as i32,
-                mc_on_continuation: g(425) as u8,
-                start_delay_ms: g(426) as u32,
-                stroke_limit: g(427) as i32,
-                torque_feed_forward: g(428) as u16,
-                position_comparator: Comparator {
-                    min: g(430) as i32,
-                    max: g(431) as i32,
-                    window_time_ms: g(432) as u16,
-                },
-                velocity_comparator: Comparator {
-                    min: g(433) as i32,
-                    max: g(434) as i32,
-                    window_time_ms: g(435) as u16,
-                },
-                force_comparator: Comparator {
-                    min: g(436) as i16,
-                    max: g(437) as i16,
-                    window_time_ms: g(438) as u16,
-                },
-                time_comparator: TimeComparator {
-                    min_ms: g(439) as u32,
-                    max_ms: g(440) as u32,
-                },
-                setpoint_velocity: g(441) as i32,
-                setpoint_force: g(442) as i16,
-            };
+            *r = Record::from_pnus(g);
         }
     }
 
