@@ -24,9 +24,17 @@
 //!   `Timeouts::state_transition`, and the group is gone with it; the code is read from 0134h
 //!   with ethercrab's raw `Command::fprd`. `SubDeviceRef::status` does report an error state
 //!   (`Error::SubDevice(code)`), used for the 0x001A case where the group still exists.
+//! * that timeout drops the status poll with its frame often in flight; the reply then finds
+//!   no frame to claim and ends ethercrab's TX/RX task (ethercrab issue #293, open): every
+//!   later PDU times out. The test reads the AL status through a second MainDevice.
 //! * it has no emergency service: an emergency waiting in SM1 is discarded by the flush before
 //!   each SDO request (and one arriving in the middle of an SDO transfer trips an `assert_ne!`,
 //!   spec §5.6); the test reads the mailbox itself with `Command::fprd` before any SDO.
+//!
+//! Found here and fixed in the twin: the system time difference 092Ch kept the difference of
+//! ethercrab's reset write to 0910h for ever (the reference clock receives no system time
+//! after it), so ethercrab's alignment loop (examples/dc.rs: wait for 092Ch < 500 ns) would
+//! never end; an ESC resets it with the speed counter start 0930h the masters write next.
 //!
 //! Both tests need root (network namespaces, raw sockets) and `ip`; otherwise they print why and
 //! pass as skipped. They run one after the other (a lock), master and twin at SCHED_FIFO where
@@ -45,7 +53,7 @@ use std::time::{Duration, Instant};
 use ecat_veth::EcatWire;
 use ethercrab::error::{Error, TimeoutError};
 use ethercrab::std::{ethercat_now, tx_rx_task};
-use ethercrab::subdevice_group::{DcConfiguration, HasDc, HasPdi};
+use ethercrab::subdevice_group::{DcConfiguration, HasDc, HasPdi, PreOpPdi};
 use ethercrab::{
     AlStatusCode, Command, DcSupport, DcSync, DefaultLock, MainDevice, MainDeviceConfig, PduRx,
     PduStorage, PduTx, RegisterAddress, RetryBehaviour, SubDeviceGroup, Timeouts,
@@ -224,7 +232,7 @@ async fn preop_with_sync0<'a>(
     maindevice: &'a MainDevice<'a>,
     product_code: u32,
     ipo_ms: u32,
-) -> SubDeviceGroup<MAX_SUBDEVICES, PDI_LEN, DefaultLock, ethercrab::subdevice_group::PreOpPdi> {
+) -> SubDeviceGroup<MAX_SUBDEVICES, PDI_LEN, DefaultLock, PreOpPdi> {
     let mut group = maindevice
         .init_single_group::<MAX_SUBDEVICES, PDI_LEN>(ethercat_now)
         .await
@@ -275,15 +283,9 @@ async fn preop_with_sync0<'a>(
 /// each event (ethercrab's example); the registers read back.
 async fn configure_sync0<'a>(
     maindevice: &'a MainDevice<'a>,
-    group: SubDeviceGroup<
-        MAX_SUBDEVICES,
-        PDI_LEN,
-        DefaultLock,
-        ethercrab::subdevice_group::PreOpPdi,
-    >,
+    group: SubDeviceGroup<MAX_SUBDEVICES, PDI_LEN, DefaultLock, PreOpPdi>,
     period: Duration,
-) -> SubDeviceGroup<MAX_SUBDEVICES, PDI_LEN, DefaultLock, ethercrab::subdevice_group::PreOpPdi, HasDc>
-{
+) -> SubDeviceGroup<MAX_SUBDEVICES, PDI_LEN, DefaultLock, PreOpPdi, HasDc> {
     let group = group
         .configure_dc_sync(
             maindevice,
