@@ -39,7 +39,8 @@
 //!   touching 0x0900 latches receive times; 0x0910 reads local + offset; a write to 0x0910
 //!   (BWR, or ARMW/FRMW at a non-reference slave) makes the system time converge to the
 //!   written value + delay at once (a real ESC slews; the difference seen is stored in
-//!   0x092C); 0x0990 reads the next SYNC0 time while SYNC0 is active.
+//!   0x092C); a write to the speed counter start 0x0930 resets the time-control filters
+//!   (0x092C and 0x0932 read 0 again); 0x0990 reads the next SYNC0 time while SYNC0 is active.
 //! * Process-data watchdog (§7.6): in Op, with SM2 watchdog-triggered (control bit 6) and an
 //!   active write FMMU, no complete SM2 write for 0x0420 × (0x0400 + 2) × 40 ns drops the
 //!   slave to Safe-Op + error 0x001B.
@@ -301,6 +302,7 @@ struct Dirty {
     sm: u16,
     dc_latch: bool,
     system_time: bool,
+    speed_counter_start: bool,
     sync_start: bool,
 }
 
@@ -1158,6 +1160,9 @@ impl<'a> Esc<'a> {
             // Bytes the datagram does not cover keep the current system time.
             self.systime_write = self.system_time_at(self.now).to_le_bytes();
         }
+        if overlaps(a0, a1, 0x0930, 0x0932) {
+            self.dirty.speed_counter_start = true;
+        }
         if overlaps(a0, a1, 0x0990, 0x0998) {
             self.dirty.sync_start = true;
         }
@@ -1181,6 +1186,9 @@ impl<'a> Esc<'a> {
         }
         if d.system_time {
             self.dc_system_time_written();
+        }
+        if d.speed_counter_start {
+            self.dc_filters_reset();
         }
         if d.sync_start {
             self.sync0_start = self.rd64(R::DcSyncStartTime.addr());
@@ -1360,6 +1368,17 @@ impl<'a> Esc<'a> {
             R::DcSystemTimeOffset.addr(),
             offset.wrapping_add(diff as u64),
         );
+    }
+
+    /// A write to the speed counter start 0x0930 resets the time-control loop's filters: the
+    /// system time difference 0x092C and the speed counter difference 0x0932 start again from
+    /// 0 (ESC datasheet section II, 0x0930; masters write it right after zeroing 0x0910 in
+    /// their DC reset, spec §8.1). Without it the reference clock, which never receives a
+    /// system time again (FRMW reads it), would show the difference of that reset write for
+    /// ever, and ethercrab's alignment check on 0x092C (examples/dc.rs) would never settle.
+    fn dc_filters_reset(&mut self) {
+        self.wr32(R::DcSystemTimeDifference.addr(), 0);
+        self.wr16(R::DcSpeedCounterDifference.addr(), 0);
     }
 
     // ---------------------------------------------------------------- AL state machine

@@ -172,6 +172,35 @@ fn dc_sync0_configuration() {
     assert_eq!(bus.fprd(ST, 0x0934, 2).u16(), 0x0C00);
 }
 
+/// ethercrab's DC reset (spec §8.1): BWR zeros to 0x0910 feeds the time-control loop a
+/// difference, BWR 0x0930 (speed counter start) then resets its filters, so the reference
+/// clock, which only ever answers FRMW reads afterwards, reads difference 0 (ethercrab's
+/// examples/dc.rs waits for 0x092C to settle).
+#[test]
+fn speed_counter_start_resets_the_system_time_difference() {
+    let mut bus = Bus::plain(1);
+    bus.assign_addresses();
+    bus.now = od::Instant::from_nanos(31_000_000);
+    bus.bwr(0x0910, &[0; 8]);
+    assert_eq!(
+        bus.fprd(ST, 0x092C, 4).u32(),
+        0x8000_0000 | 31_000_000,
+        "local copy ahead of the zero written"
+    );
+    bus.bwr(0x0934, &[0x00, 0x0C]);
+    bus.bwr(0x0930, &[0x00, 0x10]);
+    assert_eq!(bus.fprd(ST, 0x092C, 4).u32(), 0, "filters reset");
+    assert_eq!(bus.fprd(ST, 0x0932, 2).u16(), 0);
+    assert_eq!(bus.fprd(ST, 0x0930, 2).u16(), 0x1000, "stored");
+    // Offset written, then only FRMW reads at the reference: the difference stays 0.
+    bus.fpwr(ST, 0x0920, &1_000_000_000u64.to_le_bytes());
+    for k in 0..10u64 {
+        bus.now = od::Instant::from_nanos(32_000_000 + k * 1_000_000);
+        bus.one(Command::Frmw, phys(ST, 0x0910), &[0; 8]);
+    }
+    assert_eq!(bus.fprd(ST, 0x092C, 4).u32(), 0);
+}
+
 #[test]
 fn frmw_system_time_increases() {
     let mut bus = Bus::plain(1);

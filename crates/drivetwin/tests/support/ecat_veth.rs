@@ -5,8 +5,8 @@
 //!
 //! Both guards undo what they did when dropped, also while a test panics: [`TwinProcess`]
 //! stops the child, [`Veth`] deletes the link (its peer goes with it) and the namespace.
-//! Shared by `tests/ethercrab_interop.rs` and `benches/ecat_veth_roundtrip.rs` through
-//! `#[path]`, so not every item is used by both.
+//! Shared by `tests/ethercrab_interop.rs`, `tests/ethercrab_dc.rs` and
+//! `benches/ecat_veth_roundtrip.rs` through `#[path]`, so not every item is used by all.
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
