@@ -16,6 +16,7 @@ DC SYNC0 (10 ms) and stops the master to provoke the synchronisation error.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -547,3 +548,29 @@ def test_bad_frames_are_dropped_and_the_slave_goes_on(ecat_twin):
         assert int.from_bytes(master.slaves[0].sdo_read(0x1018, 1), "little") == FESTO
     finally:
         master.close()
+
+
+def test_save_over_coe_survives_a_restart_with_a_state_dir(veth, tmp_path):
+    """1010h:01 "save" over CoE writes the drive's parameter file (--state-dir) before its
+    answer; the next start of the chain powers on with the saved value."""
+    state = tmp_path / "state"
+    twin = contextlib.contextmanager(_start_twin)
+
+    def session(action):
+        with twin(veth, tmp_path, "--state-dir", str(state)) as (master_if, _):
+            master = pysoem.Master()
+            master.open(master_if)
+            try:
+                assert master.config_init() == 1
+                return action(master.slaves[0])
+            finally:
+                master.close()
+
+    def write_and_save(slave):
+        slave.sdo_write(0x6065, 0, (54321).to_bytes(4, "little"))  # following error window
+        slave.sdo_write(0x1010, 1, b"save")
+
+    session(write_and_save)
+    assert (state / "cmmp-as-node1.params").exists()
+    window = session(lambda slave: int.from_bytes(slave.sdo_read(0x6065, 0), "little"))
+    assert window == 54321, "the saved value after the restart"

@@ -120,6 +120,12 @@ impl CanDrive {
         self.model.od()
     }
 
+    /// The drive without its CANopen node (e.g. for an EtherCAT slave): its model, where
+    /// its parameters are saved, and the set last saved.
+    pub fn into_parts(self) -> (Model, Option<ParamStore>, Vec<StoredValue>) {
+        (self.model, self.store, self.stored)
+    }
+
     /// Defaults, commissioning values and the stored set for the indices `filter` selects.
     fn reload(&mut self, filter: impl Fn(u16) -> bool) {
         load_all(
@@ -294,17 +300,32 @@ fn load_all(
     param_store::apply(od, stored, &filter);
 }
 
-/// The dictionary as the SDO server sees it: a "save" (1010h) is carried out before the
-/// answer, so a file that cannot be written gets the abort CiA 301 and the CMMP-AS manual
-/// give for a faulty store access (0800 0020h) instead of a confirmation.
-struct Persisting<'a> {
+/// The dictionary as the SDO server (CANopen or CoE) sees it: a "save" (1010h) is carried
+/// out before the answer, so a file that cannot be written gets the abort CiA 301 and the
+/// CMMP-AS manual give for a faulty store access (0800 0020h) instead of a confirmation.
+pub struct Persisting<'a> {
     model: &'a mut Model,
     store: Option<&'a ParamStore>,
     stored: &'a mut Vec<StoredValue>,
 }
 
-impl Persisting<'_> {
-    fn carry_out(&mut self, req: StorageRequest) -> Result<(), StoreError> {
+impl<'a> Persisting<'a> {
+    /// `model` with its parameters saved to `store` (none: kept for the life of the process);
+    /// `stored` is the set last saved, kept up to date.
+    pub fn new(
+        model: &'a mut Model,
+        store: Option<&'a ParamStore>,
+        stored: &'a mut Vec<StoredValue>,
+    ) -> Self {
+        Persisting {
+            model,
+            store,
+            stored,
+        }
+    }
+
+    /// Carries out a save or restore the dictionary asked for.
+    pub fn carry_out(&mut self, req: StorageRequest) -> Result<(), StoreError> {
         match req {
             StorageRequest::Save { sub } => {
                 let node = self.model.od().node_id();

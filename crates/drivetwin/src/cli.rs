@@ -174,7 +174,7 @@ pub struct RunArgs {
     #[arg(
         long,
         value_name = "IFNAME",
-        conflicts_with_all = ["socketcand", "channel", "socketcan", "virtual_seconds", "state_dir"]
+        conflicts_with_all = ["socketcand", "channel", "socketcan", "virtual_seconds"]
     )]
     pub ethercat: Option<String>,
     /// With --ethercat: run the chain's frame thread at SCHED_FIFO with this priority (1…99,

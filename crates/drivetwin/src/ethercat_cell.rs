@@ -38,9 +38,10 @@
 //! * PDO assignment and mapping are written in Pre-Op only ([`coe::MappingLock`]); the
 //!   layout is taken on Pre-Op → Safe-Op.
 //!
-//! Not yet here: stored parameters (1010h "save" is accepted and kept only until the process
-//! ends).
+//! * Stored parameters: with a state directory, 1010h "save" over CoE writes the drive's
+//!   file before the answer (as over CANopen) and the next start loads it.
 
+use std::path::Path;
 use std::sync::Mutex;
 use std::time::Duration;
 
@@ -51,9 +52,10 @@ use ethercat::{process_chain_with, AlHook, AlState, AlStatusCode, Esc, FrameOutc
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
 
-use crate::can_drive::{CanDrive, DriveError};
+use crate::can_drive::{CanDrive, DriveError, Persisting};
 use crate::cell_config::{CellFile, ConfigError, DriveSpec};
 use crate::device_model::Model;
+use crate::param_store::{ParamStore, StoredValue};
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
@@ -135,6 +137,10 @@ pub struct SlaveDevice {
     pub outputs_ignored: u64,
     /// Mapped objects the device refused to take.
     pub write_errors: u64,
+    /// Where 1010h "save" writes the parameters (none: kept for the life of the process).
+    store: Option<ParamStore>,
+    /// The set last saved.
+    stored: Vec<StoredValue>,
 }
 
 impl SlaveDevice {
@@ -156,7 +162,16 @@ impl SlaveDevice {
             outputs_applied: 0,
             outputs_ignored: 0,
             write_errors: 0,
+            store: None,
+            stored: Vec::new(),
         }
+    }
+
+    /// Saves its parameters to `store` (1010h), `stored` being the set saved there.
+    pub fn with_store(mut self, store: Option<ParamStore>, stored: Vec<StoredValue>) -> Self {
+        self.store = store;
+        self.stored = stored;
+        self
     }
 
     /// The layout in force (Safe-Op and Op).
@@ -404,13 +419,14 @@ impl SlaveDevice {
 
     /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h).
     fn mailbox(&mut self, esc: &mut Esc<'_>) {
-        coe::pump(esc, &mut self.coe, &mut self.model);
+        let mut access = Persisting::new(&mut self.model, self.store.as_ref(), &mut self.stored);
+        coe::pump(esc, &mut self.coe, &mut access);
+        // A request from another path than the SDO server (none today) is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
-            match req {
-                od::StorageRequest::Save { .. } => {
-                    tracing::warn!("save accepted, but the EtherCAT chain keeps no state")
-                }
-                od::StorageRequest::Restore { .. } => self.model.reload(),
+            let mut access =
+                Persisting::new(&mut self.model, self.store.as_ref(), &mut self.stored);
+            if let Err(e) = access.carry_out(req) {
+                tracing::error!(error = %e, "storage request failed");
             }
         }
     }
@@ -542,7 +558,20 @@ impl EthercatCell {
         Self::new(file.drives()?)
     }
 
+    /// As [`from_cell_file`](Self::from_cell_file), each drive's parameters stored under
+    /// `state_dir` (1010h "save"; loaded at power-on).
+    pub fn with_state_dir(
+        file: &CellFile,
+        state_dir: Option<&Path>,
+    ) -> Result<Self, EcatCellError> {
+        Self::with_stores(file.drives()?, state_dir)
+    }
+
     pub fn new(specs: Vec<DriveSpec>) -> Result<Self, EcatCellError> {
+        Self::with_stores(specs, None)
+    }
+
+    fn with_stores(specs: Vec<DriveSpec>, state_dir: Option<&Path>) -> Result<Self, EcatCellError> {
         if specs.is_empty() {
             return Err(EcatCellError::Empty);
         }
@@ -556,10 +585,13 @@ impl EthercatCell {
                 s.ethercat = true;
                 s
             });
+            let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
             let drive =
-                CanDrive::with_settings(spec.desc, spec.node, None, spec.commissioning, settings)?;
+                CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+            let (model, store, stored) = drive.into_parts();
             escs.push(Esc::with_sii(image));
-            devices.push(SlaveDevice::new(drive.model, cfg, CoeConfig::CMMP_AS));
+            devices
+                .push(SlaveDevice::new(model, cfg, CoeConfig::CMMP_AS).with_store(store, stored));
         }
         Ok(EthercatCell {
             escs,

@@ -550,32 +550,35 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     );
 }
 
-/// One expedited CoE SDO download (`data` of 1, 2 or 4 bytes) through the mailbox; returns
-/// the SDO bytes of the answer (command, index, sub-index, data/abort code).
-fn coe_download(m: &mut Master, counter: u8, index: u16, sub: u8, data: &[u8]) -> [u8; 8] {
-    let cmd = 0x23 | ((4 - data.len() as u8) << 2);
-    let [i0, i1] = index.to_le_bytes();
+/// One CoE SDO request (the 8 SDO bytes after the CoE header, `sdo` padded with zeros)
+/// through the mailbox, counter `counter`; the SDO bytes of the answer.
+fn coe_request(m: &mut Master, counter: u8, sdo: &[u8]) -> [u8; 8] {
     let mut req = vec![0u8; 0x80];
-    req[..12].copy_from_slice(&[
-        10,
-        0,
-        0,
-        0,
-        0,
-        0x03 | counter << 4,
-        0x00,
-        0x20,
-        cmd,
-        i0,
-        i1,
-        sub,
-    ]);
-    req[12..12 + data.len()].copy_from_slice(data);
+    // Mailbox header: length 10, address 0, channel/priority 0, type CoE (3) and counter;
+    // CoE header: SDO request (2 << 12).
+    req[..8].copy_from_slice(&[10, 0, 0, 0, 0, 0x03 | counter << 4, 0x00, 0x20]);
+    req[8..8 + sdo.len()].copy_from_slice(sdo);
     m.fpwr(0x1000, &req);
     assert_eq!(m.fprd(0x080D, 1).data[0] & 0x08, 0x08, "reply posted");
     let r = m.fprd(0x1080, 0x80);
     assert_eq!(r.data[5] & 0x0F, 0x03, "CoE");
     r.data[8..16].try_into().unwrap()
+}
+
+/// One expedited CoE SDO download (`data` of 1, 2 or 4 bytes); the answer's SDO bytes
+/// (command, index, sub-index, data/abort code).
+fn coe_download(m: &mut Master, counter: u8, index: u16, sub: u8, data: &[u8]) -> [u8; 8] {
+    let cmd = 0x23 | ((4 - data.len() as u8) << 2);
+    let [i0, i1] = index.to_le_bytes();
+    let mut sdo = vec![cmd, i0, i1, sub];
+    sdo.extend_from_slice(data);
+    coe_request(m, counter, &sdo)
+}
+
+/// One expedited CoE SDO upload; the answer's SDO bytes.
+fn coe_upload(m: &mut Master, counter: u8, index: u16, sub: u8) -> [u8; 8] {
+    let [i0, i1] = index.to_le_bytes();
+    coe_request(m, counter, &[0x40, i0, i1, sub])
 }
 
 /// CMMP-ECAT-01: the manual's (corrected) ESI start-up command — `<Transition>PS</Transition>`,
@@ -656,4 +659,45 @@ fn rxpdo_controlword_and_mode_packed_in_order() {
     let model = &m.cell.device(0).unwrap().model;
     model.read(0x6060, 0, &mut b).unwrap();
     assert_eq!(b[0], 3, "modes_of_operation from the third byte");
+}
+
+/// 1010h:01 "save" over CoE with a state directory writes the drive's file before the answer;
+/// the next start (a new chain on the same directory) powers on with the saved value, and a
+/// chain without a state directory with the default.
+#[test]
+fn save_over_coe_survives_a_restart_with_a_state_dir() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-save-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let file = CellFile::single("cmmp-as", 1);
+    let start = |state: Option<&std::path::Path>| {
+        let mut m = Master::new(EthercatCell::with_state_dir(&file, state).expect("cell"));
+        to_preop(&mut m);
+        m
+    };
+    let mut m = start(Some(&dir));
+    let velocity = 12_345u32.to_le_bytes();
+    assert_eq!(coe_download(&mut m, 1, 0x6081, 0, &velocity)[0], 0x60);
+    assert!(
+        !dir.join("cmmp-as-node1.params").exists(),
+        "a write alone is volatile"
+    );
+    assert_eq!(coe_download(&mut m, 2, 0x1010, 1, b"save")[0], 0x60);
+    assert!(
+        dir.join("cmmp-as-node1.params").exists(),
+        "saved before the answer"
+    );
+
+    let mut m = start(Some(&dir));
+    assert_eq!(
+        coe_upload(&mut m, 1, 0x6081, 0)[4..8],
+        velocity,
+        "the saved value"
+    );
+    let mut m = start(None);
+    assert_eq!(
+        coe_upload(&mut m, 1, 0x6081, 0)[4..8],
+        1000u32.to_le_bytes(),
+        "the default without a state directory"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -122,14 +122,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         ));
     }
     if let Some(ifname) = &args.ethercat {
-        return run_ethercat(
-            &file,
-            ifname,
-            args.trace.as_deref(),
-            args.rt_priority,
-            args.busy_poll,
-        )
-        .await;
+        return run_ethercat(&file, ifname, &args).await;
     }
     let fhpp_tasks = start_fhpp_drives(&fhpp, &args).await?;
     if can.is_empty() {
@@ -313,18 +306,13 @@ async fn ci_consoles(
 /// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
 /// network interface, alone (a CMMP-AS has one fieldbus plug-in: CAN or EtherCAT).
 #[cfg(target_os = "linux")]
-async fn run_ethercat(
-    file: &CellFile,
-    ifname: &str,
-    trace: Option<&std::path::Path>,
-    rt_priority: Option<u8>,
-    busy_poll: bool,
-) -> Result<(), CommandError> {
+async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(), CommandError> {
     use drivetwin::ethercat_cell::{self, EthercatCell};
+    let (trace, rt_priority, busy_poll) = (args.trace.as_deref(), args.rt_priority, args.busy_poll);
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
-    let cell =
-        EthercatCell::from_cell_file(file).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let cell = EthercatCell::with_state_dir(file, args.state_dir.as_deref())
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     let mut socket = drivetwin::ethercat_link::BlockingEthercatSocket::open(ifname)
         .map_err(io(format!("EtherCAT on {ifname}")))?;
     socket.set_busy_poll(busy_poll);
@@ -430,13 +418,7 @@ fn ethercat_trace(
 }
 
 #[cfg(not(target_os = "linux"))]
-async fn run_ethercat(
-    _file: &CellFile,
-    ifname: &str,
-    _trace: Option<&std::path::Path>,
-    _rt_priority: Option<u8>,
-    _busy_poll: bool,
-) -> Result<(), CommandError> {
+async fn run_ethercat(_file: &CellFile, ifname: &str, _args: &RunArgs) -> Result<(), CommandError> {
     Err(CommandError::Usage(format!(
         "--ethercat {ifname}: raw Ethernet needs Linux"
     )))
