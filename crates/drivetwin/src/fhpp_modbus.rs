@@ -33,6 +33,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use drive::fhpp::device::{diag, pnu_index, FhppDevice};
+use drive::fhpp::parameter_file::FormatError;
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
 };
@@ -41,7 +42,7 @@ use tokio::net::TcpListener;
 
 use crate::modbus_cycle_server;
 use crate::modbus_server::{serve, ModbusConfig};
-use crate::param_store::ParamStore;
+use crate::param_store::{ParamStore, StoreError};
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 pub const STD_REGISTERS: usize = 4;
@@ -213,18 +214,33 @@ pub struct ServeOptions {
     pub store: Option<ParamStore>,
 }
 
+/// Why a CMMO-ST powered on with its factory settings instead of its stored memory.
+#[derive(Debug, thiserror::Error)]
+pub enum PowerOnError {
+    #[error("{0}; factory settings")]
+    Store(#[from] StoreError),
+    #[error("{path}: not a parameter file of this device ({error:?}); factory settings")]
+    NotAParameterFile {
+        path: std::path::PathBuf,
+        error: FormatError,
+    },
+}
+
 /// Power-on: the permanent memory `store` kept becomes the device's, and its values active.
 /// A file that cannot be read or is not a parameter file of this device (damaged, another
 /// firmware) is reported and the device keeps its factory settings; the file stays for the
 /// user to look at until the next save replaces it.
-pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<(), String> {
-    let path = store.memory_path().display();
-    match store.load_memory() {
-        Ok(None) => Ok(()),
-        Ok(Some(file)) => device.power_on_from_memory(&file).map_err(|e| {
-            format!("{path}: not a parameter file of this device ({e:?}); factory settings")
-        }),
-        Err(e) => Err(format!("{e}; factory settings")),
+pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<(), PowerOnError> {
+    match store.load_memory()? {
+        None => Ok(()),
+        Some(file) => {
+            device
+                .power_on_from_memory(&file)
+                .map_err(|error| PowerOnError::NotAParameterFile {
+                    path: store.memory_path().to_path_buf(),
+                    error,
+                })
+        }
     }
 }
 
