@@ -9,7 +9,7 @@
 //! It keeps every rule of the async server [`crate::modbus_server`] (one connection at a
 //! time, the second client closed at once, watchdog, exceptions, bounded memory, a client that
 //! does not read its answers dropped after the write timeout) and shares its ADU handling
-//! ([`crate::modbus_server::answer_all`]). What differs is only when things are looked at:
+//! (`modbus_server::answer_all`). What differs is only when things are looked at:
 //!
 //! - The device steps at every wake-up that finds a cycle due, before the request that woke
 //!   the thread is answered, so an answer always shows the device as of now. A wake-up comes
