@@ -7,7 +7,7 @@
 //!   the command.
 //! * Any failure answers `!` and the 32-bit SDO abort code F3F2F1F0, e.g. `!06010002`.
 //!
-//! Sans-IO: [`LineBuffer`] cuts a byte stream into lines, [`execute`] answers one line from an
+//! Sans-IO: [`LineCutter`] cuts a byte stream into lines, [`execute`] answers one line from an
 //! [`ObjectAccess`]. The manual says the syntax is for tests only and may change; the twin
 //! accepts lower-case hex digits and answers in upper case.
 
