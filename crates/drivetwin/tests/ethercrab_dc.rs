@@ -44,42 +44,38 @@
 
 #[path = "support/ecat_veth.rs"]
 mod ecat_veth;
+#[path = "support/ethercrab_master.rs"]
+mod ethercrab_master;
 
 use std::path::{Path, PathBuf};
-use std::process::Command as Process;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use ecat_veth::EcatWire;
 use ethercrab::error::{Error, TimeoutError};
-use ethercrab::std::{ethercat_now, tx_rx_task};
+use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::{DcConfiguration, HasDc, HasPdi, PreOpPdi};
 use ethercrab::{
-    AlStatusCode, Command, DcSupport, DcSync, DefaultLock, MainDevice, MainDeviceConfig, PduRx,
-    PduStorage, PduTx, RegisterAddress, RetryBehaviour, SubDeviceGroup, Timeouts,
+    AlStatusCode, Command, DcSupport, DcSync, DefaultLock, MainDevice, PduStorage, RegisterAddress,
+    SubDeviceGroup,
+};
+use ethercrab_master::{
+    esi_product_code, Storage, TxRxTask, EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW,
+    MAX_SUBDEVICES, PDI_LEN,
 };
 
-const FESTO: u32 = 0x1D;
-const MAX_SUBDEVICES: usize = 2;
-const MAX_PDU_DATA: usize = PduStorage::element_size(1100);
-const MAX_FRAMES: usize = 16;
-const PDI_LEN: usize = 64;
-/// LRW working counter for one slave with outputs written (+2) and inputs read (+1).
-const EXPECTED_WKC: u16 = 3;
 /// The interpolation period 60C2h the twin is commissioned with (ms), and the SYNC0 cycle of
 /// the good session. Not the default 1 ms, so a twin that ignored 60C2h would be caught.
 const DC_CYCLE_MS: u32 = 2;
 /// 300 rpm in increments per second (65536 increments/rev).
 const RAMP_SPEED: i64 = 65_536 * 300 / 60;
-/// Default following-error window 6065h of the CMMP-AS.
-const FOLLOWING_ERROR_WINDOW: i32 = 9101;
 /// Emergency of a lost SYNC (CMMP-AS 63-4 sent as 8781h) and its error register.
 const SYNC_LOST_EMCY: (u16, u8) = (0x8781, 0x11);
 
 /// One PDU storage per test: it splits once.
-static PDU_GOOD: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
-static PDU_REFUSED: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
-static PDU_REFUSED_STATUS: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
+static PDU_GOOD: Storage = PduStorage::new();
+static PDU_REFUSED: Storage = PduStorage::new();
+static PDU_REFUSED_STATUS: Storage = PduStorage::new();
 /// The tests run one at a time: two real-time sessions on two CPUs would disturb each other.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
@@ -102,23 +98,6 @@ fn cell_file(ms: u32) -> PathBuf {
     )
     .expect("write the cell file");
     path
-}
-
-/// The product code the twin's ESI declares (`<Type ProductCode="#x0018C375" ...>`).
-fn esi_product_code(binary: &Path) -> u32 {
-    let out = Process::new(binary)
-        .args(["esi", "--device", "cmmp-as"])
-        .output()
-        .expect("drivetwin esi");
-    assert!(out.status.success(), "drivetwin esi: {out:?}");
-    let xml = String::from_utf8_lossy(&out.stdout);
-    let key = "ProductCode=\"#x";
-    let start = xml.find(key).expect("ProductCode in the ESI") + key.len();
-    let hex: String = xml[start..]
-        .chars()
-        .take_while(|c| c.is_ascii_hexdigit())
-        .collect();
-    u32::from_str_radix(&hex, 16).expect("hex product code")
 }
 
 /// This thread (and the threads it starts: tokio's workers, ethercrab's TX/RX task) at
@@ -194,36 +173,10 @@ where
     let _ = std::fs::remove_file(&cell);
 }
 
-/// ethercrab's TX/RX task; it ends with the (released) storage halves, or an error.
-type TxRxTask = tokio::task::JoinHandle<Result<(PduTx<'static>, PduRx<'static>), Error>>;
-
-/// A MainDevice on `master_if` with ethercrab's std TX/RX task running.
-fn main_device(
-    storage: &'static PduStorage<MAX_FRAMES, MAX_PDU_DATA>,
-    master_if: &str,
-) -> (MainDevice<'static>, TxRxTask) {
-    let (tx, rx, pdu_loop) = storage.try_split().expect("PDU storage split once");
-    let maindevice = MainDevice::new(
-        pdu_loop,
-        Timeouts {
-            // As in ethercrab_interop.rs: a shared CI machine can hold either process off the
-            // CPU for a while.
-            pdu: Duration::from_millis(100),
-            eeprom: Duration::from_millis(100),
-            // The twin changes state within the datagram; a refused change is only seen as
-            // this timeout (see the module comment), so not the default 5 s.
-            state_transition: Duration::from_secs(2),
-            ..Timeouts::default()
-        },
-        MainDeviceConfig {
-            retry_behaviour: RetryBehaviour::None,
-            // ethercrab's default: 10 000 FRMW 0910h to the reference clock during init.
-            ..MainDeviceConfig::default()
-        },
-    );
-    let task =
-        tokio::spawn(tx_rx_task(master_if, tx, rx).expect("open the master-side raw socket"));
-    (maindevice, task)
+/// A MainDevice on `master_if`: a refused state change is only seen as the transition
+/// timeout (see the module comment), so 2 s rather than ethercrab's default 5 s.
+fn main_device(storage: &'static Storage, master_if: &str) -> (MainDevice<'static>, TxRxTask) {
+    ethercrab_master::main_device(storage, master_if, Duration::from_secs(2))
 }
 
 /// Init, identity, RxPDO3/TxPDO3 and CSP over CoE, SYNC0 requested; the group with its PDI in

@@ -16,58 +16,33 @@
 
 #[path = "support/ecat_veth.rs"]
 mod ecat_veth;
+#[path = "support/ethercrab_master.rs"]
+mod ethercrab_master;
 
 use std::path::Path;
-use std::process::Command;
 use std::time::Duration;
 
 use ecat_veth::EcatWire;
 use ethercrab::error::{CoeAbortCode, Error, MailboxError};
-use ethercrab::std::{ethercat_now, tx_rx_task};
+use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::HasPdi;
-use ethercrab::{
-    DefaultLock, MainDevice, MainDeviceConfig, PduStorage, RetryBehaviour, SubDeviceGroup,
-    SubDeviceState, Timeouts,
+use ethercrab::{DefaultLock, MainDevice, SubDeviceGroup, SubDeviceState, Timeouts};
+use ethercrab_master::{
+    esi_product_code, Storage, EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
 use std::time::Instant;
 
-const FESTO: u32 = 0x1D;
-const MAX_SUBDEVICES: usize = 2;
-const MAX_PDU_DATA: usize = PduStorage::element_size(1100);
-const MAX_FRAMES: usize = 16;
-const PDI_LEN: usize = 64;
-/// LRW working counter for one slave with outputs written (+2) and inputs read (+1).
-const EXPECTED_WKC: u16 = 3;
 /// 300 rpm: 65536 increments/rev × 300 / 60 / 1000 = 327 increments per 1 ms cycle.
 const RAMP_STEP: i32 = 327;
-/// Default following-error window 6065h of the CMMP-AS.
-const FOLLOWING_ERROR_WINDOW: i32 = 9101;
 const CYCLE: Duration = Duration::from_millis(1);
 
-static PDU_STORAGE: PduStorage<MAX_FRAMES, MAX_PDU_DATA> = PduStorage::new();
+static PDU_STORAGE: Storage = Storage::new();
 
 fn cyclic_seconds() -> f64 {
     std::env::var("ETHERCAT_CYCLIC_SECONDS")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(10.0)
-}
-
-/// The product code the twin's ESI declares (`<Type ProductCode="#x0018C375" ...>`).
-fn esi_product_code(binary: &Path) -> u32 {
-    let out = Command::new(binary)
-        .args(["esi", "--device", "cmmp-as"])
-        .output()
-        .expect("drivetwin esi");
-    assert!(out.status.success(), "drivetwin esi: {out:?}");
-    let xml = String::from_utf8_lossy(&out.stdout);
-    let key = "ProductCode=\"#x";
-    let start = xml.find(key).expect("ProductCode in the ESI") + key.len();
-    let hex: String = xml[start..]
-        .chars()
-        .take_while(|c| c.is_ascii_hexdigit())
-        .collect();
-    u32::from_str_radix(&hex, 16).expect("hex product code")
 }
 
 #[test]
@@ -175,24 +150,11 @@ async fn cycle<S: HasPdi, DC>(
 }
 
 async fn session(master_if: &str, product_code: u32) {
-    let (tx, rx, pdu_loop) = PDU_STORAGE.try_split().expect("PDU storage split once");
-    let maindevice = MainDevice::new(
-        pdu_loop,
-        Timeouts {
-            // The twin answers in well under a millisecond, but a shared CI machine can hold
-            // either process off the CPU for a while (as in the pysoem test).
-            pdu: Duration::from_millis(100),
-            // An SII read waits for the busy flag with FPRDs; the default 10 ms covers only a
-            // few round trips on such a machine.
-            eeprom: Duration::from_millis(100),
-            ..Timeouts::default()
-        },
-        MainDeviceConfig {
-            retry_behaviour: RetryBehaviour::None,
-            ..MainDeviceConfig::default()
-        },
+    let (maindevice, _tx_rx) = ethercrab_master::main_device(
+        &PDU_STORAGE,
+        master_if,
+        Timeouts::default().state_transition,
     );
-    tokio::spawn(tx_rx_task(master_if, tx, rx).expect("open the master-side raw socket"));
 
     let group = maindevice
         .init_single_group::<MAX_SUBDEVICES, PDI_LEN>(ethercat_now)

@@ -1,0 +1,75 @@
+//! What the ethercrab tests share: the sizes of ethercrab's storage for one CMMP-AS, the
+//! twin's identity, and a MainDevice with timeouts a shared CI machine keeps.
+#![allow(dead_code)] // each test file uses a part of it
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Duration;
+
+use ethercrab::error::Error;
+use ethercrab::std::tx_rx_task;
+use ethercrab::{MainDevice, MainDeviceConfig, PduRx, PduStorage, PduTx, RetryBehaviour, Timeouts};
+
+pub const FESTO: u32 = 0x1D;
+pub const MAX_SUBDEVICES: usize = 2;
+pub const MAX_PDU_DATA: usize = PduStorage::element_size(1100);
+pub const MAX_FRAMES: usize = 16;
+pub const PDI_LEN: usize = 64;
+/// LRW working counter for one slave with outputs written (+2) and inputs read (+1).
+pub const EXPECTED_WKC: u16 = 3;
+/// Default following-error window 6065h of the CMMP-AS.
+pub const FOLLOWING_ERROR_WINDOW: i32 = 9101;
+
+/// ethercrab's storage for the frames of one MainDevice (it splits once).
+pub type Storage = PduStorage<MAX_FRAMES, MAX_PDU_DATA>;
+
+/// The product code the twin's ESI declares (`<Type ProductCode="#x0018C375" ...>`).
+pub fn esi_product_code(binary: &Path) -> u32 {
+    let out = Command::new(binary)
+        .args(["esi", "--device", "cmmp-as"])
+        .output()
+        .expect("drivetwin esi");
+    assert!(out.status.success(), "drivetwin esi: {out:?}");
+    let xml = String::from_utf8_lossy(&out.stdout);
+    let key = "ProductCode=\"#x";
+    let start = xml.find(key).expect("ProductCode in the ESI") + key.len();
+    let hex: String = xml[start..]
+        .chars()
+        .take_while(|c| c.is_ascii_hexdigit())
+        .collect();
+    u32::from_str_radix(&hex, 16).expect("hex product code")
+}
+
+/// ethercrab's TX/RX task; it ends with the (released) storage halves, or an error.
+pub type TxRxTask = tokio::task::JoinHandle<Result<(PduTx<'static>, PduRx<'static>), Error>>;
+
+/// A MainDevice on `master_if` with ethercrab's std TX/RX task running; a group state change
+/// may take `state_transition`.
+pub fn main_device(
+    storage: &'static Storage,
+    master_if: &str,
+    state_transition: Duration,
+) -> (MainDevice<'static>, TxRxTask) {
+    let (tx, rx, pdu_loop) = storage.try_split().expect("PDU storage split once");
+    let maindevice = MainDevice::new(
+        pdu_loop,
+        Timeouts {
+            // The twin answers in well under a millisecond, but a shared CI machine can hold
+            // either process off the CPU for a while (as in the pysoem test).
+            pdu: Duration::from_millis(100),
+            // An SII read waits for the busy flag with FPRDs; the default 10 ms covers only a
+            // few round trips on such a machine.
+            eeprom: Duration::from_millis(100),
+            state_transition,
+            ..Timeouts::default()
+        },
+        MainDeviceConfig {
+            retry_behaviour: RetryBehaviour::None,
+            // ethercrab's default: 10 000 FRMW 0910h to the reference clock during init.
+            ..MainDeviceConfig::default()
+        },
+    );
+    let task =
+        tokio::spawn(tx_rx_task(master_if, tx, rx).expect("open the master-side raw socket"));
+    (maindevice, task)
+}
