@@ -60,8 +60,8 @@ use ethercrab::{
     SubDeviceGroup,
 };
 use ethercrab_master::{
-    esi_product_code, Storage, TxRxTask, EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW,
-    MAX_SUBDEVICES, PDI_LEN,
+    csp_inputs, esi_product_code, put_csp_outputs, Storage, TxRxTask, EXPECTED_WKC, FESTO,
+    FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
 
 /// The interpolation period 60C2h the twin is commissioned with (ms), and the SYNC0 cycle of
@@ -316,16 +316,10 @@ async fn cycle<S: HasPdi>(
     target: i32,
 ) -> Cycle {
     let slave = group.subdevice(maindevice, 0).expect("slave 0");
-    {
-        let mut out = slave.outputs_raw_mut();
-        out[..2].copy_from_slice(&controlword.to_le_bytes());
-        out[2..6].copy_from_slice(&target.to_le_bytes());
-    }
+    put_csp_outputs(&mut slave.outputs_raw_mut(), controlword, target);
     let sent = Instant::now();
     let rsp = group.tx_rx_dc(maindevice).await;
-    let inputs = slave.inputs_raw();
-    let statusword = u16::from_le_bytes([inputs[0], inputs[1]]);
-    let pos = i32::from_le_bytes([inputs[2], inputs[3], inputs[4], inputs[5]]);
+    let (statusword, pos) = csp_inputs(&slave.inputs_raw());
     match rsp {
         Ok(r) => Cycle {
             wkc: r.working_counter,

@@ -28,7 +28,8 @@ use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::HasPdi;
 use ethercrab::{DefaultLock, MainDevice, SubDeviceGroup, SubDeviceState, Timeouts};
 use ethercrab_master::{
-    esi_product_code, Storage, EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
+    csp_inputs, esi_product_code, put_csp_outputs, Storage, EXPECTED_WKC, FESTO,
+    FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
 use std::time::Instant;
 
@@ -124,15 +125,9 @@ async fn cycle<S: HasPdi, DC>(
     target: i32,
 ) -> Cycle {
     let slave = group.subdevice(maindevice, 0).expect("slave 0");
-    {
-        let mut out = slave.outputs_raw_mut();
-        out[..2].copy_from_slice(&controlword.to_le_bytes());
-        out[2..6].copy_from_slice(&target.to_le_bytes());
-    }
+    put_csp_outputs(&mut slave.outputs_raw_mut(), controlword, target);
     let rsp = group.tx_rx(maindevice).await;
-    let inputs = slave.inputs_raw();
-    let statusword = u16::from_le_bytes([inputs[0], inputs[1]]);
-    let pos = i32::from_le_bytes([inputs[2], inputs[3], inputs[4], inputs[5]]);
+    let (statusword, pos) = csp_inputs(&slave.inputs_raw());
     match rsp {
         Ok(r) => Cycle {
             wkc: r.working_counter,

@@ -73,3 +73,17 @@ pub fn main_device(
         tokio::spawn(tx_rx_task(master_if, tx, rx).expect("open the master-side raw socket"));
     (maindevice, task)
 }
+
+/// RxPDO3 as the tests map it: controlword, then the CSP target position.
+pub fn put_csp_outputs(out: &mut [u8], controlword: u16, target: i32) {
+    out[..2].copy_from_slice(&controlword.to_le_bytes());
+    out[2..6].copy_from_slice(&target.to_le_bytes());
+}
+
+/// TxPDO3 as the tests map it: statusword, then the position actual value.
+pub fn csp_inputs(inputs: &[u8]) -> (u16, i32) {
+    (
+        u16::from_le_bytes([inputs[0], inputs[1]]),
+        i32::from_le_bytes([inputs[2], inputs[3], inputs[4], inputs[5]]),
+    )
+}
