@@ -16,9 +16,9 @@
 //! answers, as Modbus TCP allows with transaction identifiers: the server's own cost per
 //! request).
 //!
-//! Placement: by default the client and every server run on CPU 0 alone (`taskset`), the
-//! client blocking while it waits. A round trip then costs two context switches on one CPU
-//! instead of two wake-ups across CPUs; on a small VM such a cross-CPU wake-up (an
+//! Placement: by default the client and every server run on CPU 0 alone (the servers inherit
+//! the client's affinity), the client blocking while it waits. A round trip then costs two
+//! context switches on one CPU instead of two wake-ups across CPUs; on a small VM such a cross-CPU wake-up (an
 //! inter-processor interrupt through the hypervisor) costs more than a whole round trip on
 //! one CPU and belongs to neither server. Each server gets the same placement.
 //! `MODBUS_BENCH_CPU=N` picks another CPU; `MODBUS_BENCH_CPU=any` leaves placement to the
@@ -85,19 +85,8 @@ fn pinned_cpu() -> Option<usize> {
     }
 }
 
-/// `program` as a command, under `taskset -c CPU` when the run is pinned.
-fn command(program: &str) -> Command {
-    match pinned_cpu() {
-        Some(cpu) => {
-            let mut c = Command::new("taskset");
-            c.args(["-c", &cpu.to_string(), program]);
-            c
-        }
-        None => Command::new(program),
-    }
-}
-
-/// Pins the calling thread (the client) to `cpu`.
+/// Pins the calling thread (the client) to `cpu`; the servers it starts afterwards inherit
+/// the affinity (no `taskset` needed).
 fn pin_self(cpu: usize) -> Result<(), String> {
     // SAFETY: `set` is a zeroed cpu_set_t that CPU_SET fills in; pid 0 is this thread.
     let rc = unsafe {
@@ -341,7 +330,7 @@ impl Samples {
 /// `drivetwin run --device cmmo-st` on a free port, with `--modbus-io io`.
 fn spawn_twin(name: &'static str, io: &str) -> Result<Server, String> {
     let port = free_port()?;
-    let mut twin = command(env!("CARGO_BIN_EXE_drivetwin"));
+    let mut twin = Command::new(env!("CARGO_BIN_EXE_drivetwin"));
     twin.args(["run", "--device", "cmmo-st", "--modbus-io", io, "--modbus"])
         .arg(format!("127.0.0.1:{port}"));
     // MODBUS_BENCH_TWIN_ARGS: more `drivetwin run` options, e.g. "--busy-poll".
@@ -362,7 +351,7 @@ fn run(count: usize, rounds: usize) -> Result<(), String> {
         spawn_twin("dt async", "async")?,
     ];
     let port = free_port()?;
-    let mut py = command("python3");
+    let mut py = Command::new("python3");
     py.arg(&script).arg(port.to_string());
     servers.push(spawn("pymodbus", py, port)?);
     for server in &mut servers {
