@@ -489,6 +489,10 @@ impl<const N: usize> Node<N> {
     ) -> Option<Instant> {
         let state = self.nmt.state();
         if state == NmtState::Initialising {
+            // Waiting for the application to boot the node after a reset: nothing runs, so
+            // nothing is due (a deadline left at `now` would have the runtime poll for ever).
+            self.poll_soon = None;
+            self.timers = None;
             return None;
         }
         if self.producer.due(now, od) {
@@ -531,6 +535,9 @@ impl<const N: usize> Node<N> {
 
     /// When `poll` must next run: timers, and at once after a frame was handled.
     pub fn deadline(&self) -> Option<Instant> {
+        if self.nmt.state() == NmtState::Initialising {
+            return None;
+        }
         earliest(
             earliest(
                 earliest(self.producer.deadline(), self.sdo.deadline()),
