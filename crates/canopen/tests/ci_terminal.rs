@@ -2,6 +2,7 @@
 
 use canopen::ci_terminal::{execute, CiTerminal};
 use od::{ObjectDictionary, Value};
+use proptest::prelude::*;
 
 fn od() -> ObjectDictionary<Vec<u8>> {
     let d = &devices::CMMP_AS;
@@ -106,20 +107,29 @@ fn terminal_cuts_lines_and_survives_garbage() {
         }
     }
     assert_eq!(replies, ["!05040001", "=606100:01"]);
-    // Every byte value, in a deterministic pseudo-random stream: no panic, answers are
-    // well-formed.
-    let mut x = 0x1234_5678u32;
-    for _ in 0..20_000 {
-        x ^= x << 13;
-        x ^= x >> 17;
-        x ^= x << 5;
-        let b = if x.is_multiple_of(7) {
-            b'\n'
-        } else {
-            (x >> 8) as u8
-        };
-        if let Some(r) = t.on_byte(b, &mut od) {
-            assert!(r.starts_with('=') || r.starts_with('!'), "{r}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+
+    /// Any byte stream (every byte value, lines of any length, often a command character
+    /// first): no panic, and every answer is a read/write echo (`=`) or an error (`!`).
+    #[test]
+    fn any_byte_stream_gets_well_formed_answers(
+        lines in prop::collection::vec(
+            (prop_oneof![Just(b'?'), Just(b'='), any::<u8>()],
+             prop::collection::vec(any::<u8>(), 0..24)),
+            1..40,
+        )
+    ) {
+        let mut od = od();
+        let mut t = CiTerminal::default();
+        for (first, rest) in &lines {
+            for &b in std::iter::once(first).chain(rest).chain([&b'\n']) {
+                if let Some(r) = t.on_byte(b, &mut od) {
+                    prop_assert!(r.starts_with('=') || r.starts_with('!'), "{}", r);
+                }
+            }
         }
     }
 }

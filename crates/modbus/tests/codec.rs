@@ -11,6 +11,7 @@ use modbus::{
     handle_adu, handle_pdu, rtu, AduError, ConformityLevel, Exception, FrameError, Framer,
     PduError, ReadDeviceIdCode, RegisterMap, MAX_ADU_LEN, MAX_PDU_LEN,
 };
+use proptest::prelude::*;
 
 /// 1000 plain registers at 0…999; anything else is 02.
 struct Plain {
@@ -676,65 +677,79 @@ fn client_parses_responses() {
 
 // ---- robustness ---------------------------------------------------------------------------
 
-/// Random and mutated input never panics, and every valid ADU gets a response.
-#[test]
-fn random_input_never_panics() {
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        state
-    };
-    let seeds = [
+/// A seed request, mutated: one byte changed, cut short, lengthened, or replaced by noise;
+/// half the time its MBAP length and protocol identifier are made consistent again, so the
+/// PDU checks behind the framing are reached.
+fn mutated_request() -> impl Strategy<Value = Vec<u8>> {
+    let seeds = prop::sample::select(vec![
         hex("00 01 00 00 00 0F 00 10 00 00 00 04 08 03 01 01 00 00 00 00 00"),
         hex("00 03 00 00 00 13 00 17 00 00 00 04 00 00 00 04 08 43 01 00 64 00 00 27 10"),
         hex("00 06 00 00 00 05 00 2B 0E 01 00"),
         hex("00 02 00 00 00 06 00 03 00 00 00 04"),
-    ];
-    let mut out = [0u8; MAX_ADU_LEN];
-    let mut framer = Framer::new();
-    let mut cmmo = Cmmo::new(true);
-    let mut plain = Plain::new();
-    for i in 0..200_000u32 {
-        let mut m = seeds[(i % 4) as usize].clone();
-        let r = next();
-        match r % 4 {
-            0 => {
-                let at = (r >> 8) as usize % m.len();
-                m[at] = (r >> 16) as u8;
+    ]);
+    let mutated = (
+        seeds,
+        any::<prop::sample::Index>(),
+        any::<u8>(),
+        0usize..8,
+        any::<u8>(),
+    )
+        .prop_map(|(mut m, at, byte, extra, how)| {
+            match how % 3 {
+                0 => {
+                    let i = at.index(m.len());
+                    m[i] = byte;
+                }
+                1 => m.truncate(at.index(m.len() + 1)),
+                _ => m.extend(std::iter::repeat_n(byte, extra)),
             }
-            1 => m.truncate((r >> 8) as usize % (m.len() + 1)),
-            2 => m.extend((0..(r >> 8) % 8).map(|k| (r >> (k * 8)) as u8)),
-            _ => {
-                m = (0..(r >> 8) % 40)
-                    .map(|k| (next() >> (k % 8)) as u8)
-                    .collect();
+            m
+        });
+    (
+        prop_oneof![3 => mutated, 1 => prop::collection::vec(any::<u8>(), 0..40)],
+        any::<bool>(),
+    )
+        .prop_map(|(mut m, consistent)| {
+            if consistent && m.len() >= 7 {
+                let l = (m.len() - 6) as u16;
+                m[4..6].copy_from_slice(&l.to_be_bytes());
+                m[2] = 0;
+                m[3] = 0;
             }
-        }
-        // keep the MBAP length consistent half the time, so the PDU checks are reached
-        if r & 0x100 != 0 && m.len() >= 7 {
-            let l = (m.len() - 6) as u16;
-            m[4..6].copy_from_slice(&l.to_be_bytes());
-            m[2] = 0;
-            m[3] = 0;
-        }
-        for map in [&mut cmmo as &mut dyn RegisterMap, &mut plain] {
-            if let Ok(n) = handle_adu(&m, map, &mut out) {
-                assert!((9..=MAX_ADU_LEN).contains(&n));
-                assert_eq!(usize::from(u16::from_be_bytes([out[4], out[5]])), n - 6);
-            } else if m.len() >= 8 && m.len() <= MAX_ADU_LEN && m[2..4] == [0, 0] {
-                assert_ne!(usize::from(u16::from_be_bytes([m[4], m[5]])), m.len() - 6);
+            m
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16384, ..ProptestConfig::default() })]
+
+    /// Random and mutated input never panics; every ADU the server accepts gets a response
+    /// with a consistent MBAP length, and one it refuses has a length field that does not
+    /// match its bytes (or is no Modbus TCP ADU at all); the framer never panics either.
+    #[test]
+    fn random_input_never_panics(requests in prop::collection::vec(mutated_request(), 1..8)) {
+        let mut out = [0u8; MAX_ADU_LEN];
+        let mut framer = Framer::new();
+        let mut cmmo = Cmmo::new(true);
+        let mut plain = Plain::new();
+        for m in &requests {
+            for map in [&mut cmmo as &mut dyn RegisterMap, &mut plain] {
+                if let Ok(n) = handle_adu(m, map, &mut out) {
+                    prop_assert!((9..=MAX_ADU_LEN).contains(&n));
+                    prop_assert_eq!(usize::from(u16::from_be_bytes([out[4], out[5]])), n - 6);
+                } else if m.len() >= 8 && m.len() <= MAX_ADU_LEN && m[2..4] == [0, 0] {
+                    prop_assert_ne!(usize::from(u16::from_be_bytes([m[4], m[5]])), m.len() - 6);
+                }
             }
-        }
-        framer.push(&m);
-        loop {
-            match framer.next_adu() {
-                Ok(Some(_)) => {}
-                Ok(None) => break,
-                Err(_) => {
-                    framer.clear();
-                    break;
+            framer.push(m);
+            loop {
+                match framer.next_adu() {
+                    Ok(Some(_)) => {}
+                    Ok(None) => break,
+                    Err(_) => {
+                        framer.clear();
+                        break;
+                    }
                 }
             }
         }

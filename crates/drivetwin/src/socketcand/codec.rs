@@ -918,29 +918,43 @@ mod tests {
         assert_eq!(d.next_message(), Some(Ok(Message::Echo)));
     }
 
-    #[test]
-    fn never_panics_on_arbitrary_bytes() {
-        // A tiny deterministic fuzz: xorshift bytes biased towards protocol characters.
-        let alphabet = b"<> sendframe0123456789abcdefABCDEFxo.-+\x00\xff\n";
-        let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-        let mut d = Decoder::with_max_len(64);
-        for _ in 0..20_000 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let idx = (state % alphabet.len() as u64) as usize;
-            let b = alphabet.get(idx).copied().unwrap_or(b' ');
-            d.push(&[b]);
-            while let Some(r) = d.next_message() {
-                if let Ok(m) = r {
-                    // Anything accepted formats to something that parses again.
-                    let text = m.to_string();
-                    let mut d2 = Decoder::new();
-                    d2.push(text.as_bytes());
-                    assert!(matches!(d2.next_message(), Some(Ok(_))), "{text}");
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 1024,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+
+        /// Any bytes, mostly protocol characters, pushed in any pieces: no panic, the
+        /// decoder's buffer stays bounded, and anything it accepts formats to something that
+        /// parses again.
+        #[test]
+        fn never_panics_on_arbitrary_bytes(
+            pieces in proptest::collection::vec(
+                proptest::collection::vec(
+                    proptest::prop_oneof![
+                        3 => proptest::sample::select(
+                            b"<> sendframe0123456789abcdefABCDEFxo.-+\x00\xff\n".to_vec()
+                        ),
+                        1 => proptest::prelude::any::<u8>(),
+                    ],
+                    0..40,
+                ),
+                1..40,
+            )
+        ) {
+            let mut d = Decoder::with_max_len(64);
+            for piece in &pieces {
+                d.push(piece);
+                while let Some(r) = d.next_message() {
+                    if let Ok(m) = r {
+                        let text = m.to_string();
+                        let mut d2 = Decoder::new();
+                        d2.push(text.as_bytes());
+                        proptest::prop_assert!(matches!(d2.next_message(), Some(Ok(_))), "{}", text);
+                    }
                 }
+                proptest::prop_assert!(d.pending() <= 64 + 1);
             }
-            assert!(d.pending() <= 64 + 1);
         }
     }
 }
