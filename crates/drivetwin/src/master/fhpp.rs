@@ -359,28 +359,8 @@ impl FhppMaster {
         faults_ok: bool,
         done: impl Fn(&InputData) -> bool,
     ) -> Result<(), FhppError> {
-        let deadline = tokio::time::Instant::now() + timeout;
-        let mut tick = tokio::time::interval(self.config.cycle);
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        loop {
-            tick.tick().await;
-            let input = *self.exchange().await?;
-            if !faults_ok && input.scon.contains(Scon::FAULT) {
-                return Err(self.fault_error(command).await);
-            }
-            if done(&input) {
-                return Ok(());
-            }
-            if tokio::time::Instant::now() >= deadline {
-                return Err(FhppError::Timeout {
-                    command,
-                    want,
-                    timeout,
-                    scon: input.scon,
-                    spos: input.spos,
-                });
-            }
-        }
+        self.wait_for(command, want, timeout, faults_ok, |input, _| done(input))
+            .await
     }
 
     /// Exchanges every cycle until `done` holds for the EFPC input bytes (faults do not end
@@ -392,13 +372,30 @@ impl FhppMaster {
         timeout: Duration,
         done: impl Fn(&[u8; 8]) -> bool,
     ) -> Result<(), FhppError> {
+        self.wait_for(command, want, timeout, true, |_, fpc| done(fpc))
+            .await
+    }
+
+    /// One FC 0x17 exchange every PLC cycle until `done` holds for the input telegram and the
+    /// EFPC input bytes; a fault ends it unless `faults_ok`, and so does `timeout`.
+    async fn wait_for(
+        &mut self,
+        command: &'static str,
+        want: &'static str,
+        timeout: Duration,
+        faults_ok: bool,
+        done: impl Fn(&InputData, &[u8; 8]) -> bool,
+    ) -> Result<(), FhppError> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut tick = tokio::time::interval(self.config.cycle);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
             tick.tick().await;
-            self.exchange().await?;
-            if done(&self.fpc_in) {
+            let input = *self.exchange().await?;
+            if !faults_ok && input.scon.contains(Scon::FAULT) {
+                return Err(self.fault_error(command).await);
+            }
+            if done(&input, &self.fpc_in) {
                 return Ok(());
             }
             if tokio::time::Instant::now() >= deadline {
@@ -406,8 +403,8 @@ impl FhppMaster {
                     command,
                     want,
                     timeout,
-                    scon: self.input.scon,
-                    spos: self.input.spos,
+                    scon: input.scon,
+                    spos: input.spos,
                 });
             }
         }
