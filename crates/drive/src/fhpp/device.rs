@@ -128,7 +128,7 @@ use super::diagnostics::{self, Class, Diagnostic};
 use super::homing::{self, Method, Target};
 use super::parameter_channel::{self, ParameterChannel};
 use super::parameter_file::{FormatError, PermanentMemory};
-use super::record_table::{ChainCondition, Comparator, Rcb1, Record, RecordTable, TimeComparator};
+use super::record_table::{ChainCondition, Comparators, Rcb1, Record, RecordTable};
 use super::seven_segment::SevenSegment;
 use super::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
@@ -337,16 +337,6 @@ const CMP_POSITION: u8 = 0x01;
 const CMP_VELOCITY: u8 = 0x02;
 const CMP_FORCE: u8 = 0x04;
 const CMP_TIME: u8 = 0x08;
-
-/// The four comparators of a task (§6.7.4 Tab. 6.19/6.20): a record's PNU 430…440 or the
-/// direct-mode PNU 585…595.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-struct Comparators {
-    position: Comparator<i32>,
-    velocity: Comparator<i32>,
-    force: Comparator<i16>,
-    time: TimeComparator,
-}
 
 /// A position task interrupted by HALT (SA3), continued by START.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1070,27 +1060,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             base_acceleration: pos(g(560, 1)),
             base_force_ma: pos(g(555, 1)),
             force_stroke: pos(g(510, 1)),
-            direct_comparators: Comparators {
-                position: Comparator {
-                    min: g(585, 1) as i32,
-                    max: g(586, 1) as i32,
-                    window_time_ms: g(587, 1) as u16,
-                },
-                velocity: Comparator {
-                    min: g(588, 1) as i32,
-                    max: g(589, 1) as i32,
-                    window_time_ms: g(590, 1) as u16,
-                },
-                force: Comparator {
-                    min: g(591, 1) as i16,
-                    max: g(592, 1) as i16,
-                    window_time_ms: g(593, 1) as u16,
-                },
-                time: TimeComparator {
-                    min_ms: g(594, 1) as u32,
-                    max_ms: g(595, 1) as u32,
-                },
-            },
+            direct_comparators: Comparators::from_pnus(585, |pnu| g(pnu, 1)),
             force_window: pos(g(552, 1)),
             soft_lower: g(501, 1),
             soft_upper: g(501, 2),
@@ -1590,12 +1560,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         } else {
             self.comparator_record
                 .and_then(|n| self.records.get(n))
-                .map(|r| Comparators {
-                    position: r.position_comparator,
-                    velocity: r.velocity_comparator,
-                    force: r.force_comparator,
-                    time: r.time_comparator,
-                })
+                .map(|r| r.comparators)
         };
         let Some(c) = set else {
             self.comparator_outputs = 0;

@@ -42,8 +42,8 @@ pub mod status_bytes;
 
 pub use control_bytes::{Ccon, Cdir, ControlMode, Cpos, OperatingMode, OutputData};
 pub use record_table::{
-    ChainCondition, Comparator, Rcb1, Record, RecordSelect, RecordTable, StartBehaviour,
-    TimeComparator,
+    ChainCondition, Comparator, Comparators, Rcb1, Record, RecordSelect, RecordTable,
+    StartBehaviour, TimeComparator,
 };
 pub use state_machine::{
     Ack, Authority, AuthorityError, Config, Event, Fault, Fhpp, MotionCommand, MotionStatus,

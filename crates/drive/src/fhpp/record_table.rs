@@ -154,6 +154,48 @@ pub struct TimeComparator {
     pub max_ms: u32,
 }
 
+/// The four comparators of a task (§6.7.4 Tab. 6.19/6.20), eleven consecutive PNUs: a
+/// record's PNU 430…440 or the direct-mode PNU 585…595.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Comparators {
+    /// Position \[SINC\], always absolute (PZ-based): min, max, window time.
+    pub position: Comparator<i32>,
+    /// Velocity \[SINC/s\]: min, max, window time.
+    pub velocity: Comparator<i32>,
+    /// Force \[‰ of PNU 555\]: min, max, window time.
+    pub force: Comparator<i16>,
+    /// Time \[ms\]: min, max.
+    pub time: TimeComparator,
+}
+
+impl Comparators {
+    /// The comparators from PNU `first` on (`g(n)` = the value of PNU n).
+    pub fn from_pnus(first: u16, g: impl Fn(u16) -> i64) -> Self {
+        let p = |k: u16| g(first + k);
+        Comparators {
+            position: Comparator {
+                min: p(0) as i32,
+                max: p(1) as i32,
+                window_time_ms: p(2) as u16,
+            },
+            velocity: Comparator {
+                min: p(3) as i32,
+                max: p(4) as i32,
+                window_time_ms: p(5) as u16,
+            },
+            force: Comparator {
+                min: p(6) as i16,
+                max: p(7) as i16,
+                window_time_ms: p(8) as u16,
+            },
+            time: TimeComparator {
+                min_ms: p(9) as u32,
+                max_ms: p(10) as u32,
+            },
+        }
+    }
+}
+
 /// One motion record: the values with the same subindex in PNU 401…442 (Tab. 6.7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Record {
@@ -193,14 +235,8 @@ pub struct Record {
     pub stroke_limit: i32,
     /// PNU 428 torque feed-forward factor \[‰\]: 1000 = fully active.
     pub torque_feed_forward: u16,
-    /// PNU 430/431/432 position comparator \[SINC\], always absolute (PZ-based).
-    pub position_comparator: Comparator<i32>,
-    /// PNU 433/434/435 velocity comparator \[SINC/s\].
-    pub velocity_comparator: Comparator<i32>,
-    /// PNU 436/437/438 force comparator \[‰ of PNU 555\].
-    pub force_comparator: Comparator<i16>,
-    /// PNU 439/440 time comparator \[ms\].
-    pub time_comparator: TimeComparator,
+    /// PNU 430…440: the position, velocity, force and time comparators.
+    pub comparators: Comparators,
     /// PNU 441 target velocity of a velocity record \[SINC/s\]; the sign gives the direction.
     pub setpoint_velocity: i32,
     /// PNU 442 target force of a force record \[‰ of PNU 555\]; the sign gives the direction.
@@ -230,25 +266,7 @@ impl Record {
             start_delay_ms: g(426) as u32,
             stroke_limit: g(427) as i32,
             torque_feed_forward: g(428) as u16,
-            position_comparator: Comparator {
-                min: g(430) as i32,
-                max: g(431) as i32,
-                window_time_ms: g(432) as u16,
-            },
-            velocity_comparator: Comparator {
-                min: g(433) as i32,
-                max: g(434) as i32,
-                window_time_ms: g(435) as u16,
-            },
-            force_comparator: Comparator {
-                min: g(436) as i16,
-                max: g(437) as i16,
-                window_time_ms: g(438) as u16,
-            },
-            time_comparator: TimeComparator {
-                min_ms: g(439) as u32,
-                max_ms: g(440) as u32,
-            },
+            comparators: Comparators::from_pnus(430, &g),
             setpoint_velocity: g(441) as i32,
             setpoint_force: g(442) as i16,
         }
