@@ -150,18 +150,7 @@ impl CanDrive {
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
         // The drive first runs up to the frame's time, so the frame acts on the right cycle.
         self.model.step(now);
-        let CanDrive {
-            model,
-            node,
-            store,
-            stored,
-            ..
-        } = self;
-        let mut access = Persisting {
-            model,
-            store: store.as_ref(),
-            stored,
-        };
+        let (node, mut access) = self.node_and_access();
         node.on_frame(now, frame, &mut access, out);
         self.service(now, out);
     }
@@ -175,6 +164,15 @@ impl CanDrive {
         out: &mut dyn FnMut(CanFrame),
     ) -> ci_terminal::Reply {
         self.model.step(now);
+        let (node, access) = self.node_and_access();
+        let mut console = Console { node, access, now };
+        let reply = ci_terminal::execute(line, &mut console);
+        self.service(now, out);
+        reply
+    }
+
+    /// The node, and the dictionary as its SDO server writes it (saves carried out).
+    fn node_and_access(&mut self) -> (&mut Node, Persisting<'_>) {
         let CanDrive {
             model,
             node,
@@ -182,18 +180,7 @@ impl CanDrive {
             stored,
             ..
         } = self;
-        let mut console = Console {
-            node,
-            access: Persisting {
-                model,
-                store: store.as_ref(),
-                stored,
-            },
-            now,
-        };
-        let reply = ci_terminal::execute(line, &mut console);
-        self.service(now, out);
-        reply
+        (node, Persisting::new(model, store.as_ref(), stored))
     }
 
     pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
@@ -222,11 +209,7 @@ impl CanDrive {
         }
         // A request from another path than the SDO server (none today) is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
-            let mut access = Persisting {
-                model: &mut self.model,
-                store: self.store.as_ref(),
-                stored: &mut self.stored,
-            };
+            let (_, mut access) = self.node_and_access();
             if let Err(e) = access.carry_out(req) {
                 tracing::error!(node = self.node_id(), error = %e, "storage request failed");
             }
