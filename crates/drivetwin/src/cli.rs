@@ -442,16 +442,8 @@ pub enum EcatSdoCommand {
     Read {
         /// INDEX:SUB, hex (0x1018:01, 1018:1; INDEX alone means sub-index 0).
         object: String,
-        /// Slave number (1 = first on the line).
-        #[arg(long, default_value_t = 1)]
-        slave: u16,
         #[command(flatten)]
-        typing: TypeArgs,
-        /// SDO response timeout, ms.
-        #[arg(long, default_value_t = 1000)]
-        timeout_ms: u64,
-        #[command(flatten)]
-        link: EcatLinkArgs,
+        target: EcatSdoTarget,
     },
     /// Write (download) an entry: `drivetwin ecat sdo write -i eth1 0x6065:0 12345 --type u32`.
     Write {
@@ -460,17 +452,24 @@ pub enum EcatSdoCommand {
         /// The value: a number (decimal or 0x hex), text for `str`, hex bytes for `hex`.
         #[arg(allow_hyphen_values = true)]
         value: String,
-        /// Slave number (1 = first on the line).
-        #[arg(long, default_value_t = 1)]
-        slave: u16,
         #[command(flatten)]
-        typing: TypeArgs,
-        /// SDO response timeout, ms.
-        #[arg(long, default_value_t = 1000)]
-        timeout_ms: u64,
-        #[command(flatten)]
-        link: EcatLinkArgs,
+        target: EcatSdoTarget,
     },
+}
+
+/// Which slave an EtherCAT SDO command talks to, and how.
+#[derive(Args, Debug, Clone)]
+pub struct EcatSdoTarget {
+    /// Slave number (1 = first on the line).
+    #[arg(long, default_value_t = 1)]
+    pub slave: u16,
+    #[command(flatten)]
+    pub typing: TypeArgs,
+    /// SDO response timeout, ms.
+    #[arg(long, default_value_t = 1000)]
+    pub timeout_ms: u64,
+    #[command(flatten)]
+    pub link: EcatLinkArgs,
 }
 
 /// AL states a master requests (no Bootstrap: the CMMP-AS has none).

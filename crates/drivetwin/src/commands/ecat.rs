@@ -9,7 +9,7 @@ use drivetwin::master::ecat::{abort_description, EcatError, EcatMaster, SlaveInf
 use ethercat::master::{state_name, AlStatusBlock};
 use ethercat::AlState;
 
-use crate::cli::{EcatCommand, EcatLinkArgs, EcatSdoCommand, EcatStateArg};
+use crate::cli::{EcatCommand, EcatLinkArgs, EcatSdoCommand, EcatSdoTarget, EcatStateArg};
 
 /// Exit code of a master failure (the codes of `drivetwin --help`).
 pub(crate) fn exit_code(e: &EcatError) -> u8 {
@@ -308,21 +308,23 @@ async fn mailbox_ready(
     Ok(())
 }
 
+/// The master on the link, its slave `target.slave` with a working mailbox (taken to Pre-Op
+/// if needed), and the SDO timeout.
+async fn sdo_session(target: &EcatSdoTarget) -> Result<(EcatMaster<Link>, Duration), CommandError> {
+    let timeout = Duration::from_millis(target.timeout_ms);
+    let (mut m, count) = attach(&target.link).await?;
+    select(Some(target.slave), count)?;
+    mailbox_ready(&mut m, target.slave, timeout).await?;
+    Ok((m, timeout))
+}
+
 async fn sdo(cmd: EcatSdoCommand) -> Result<(), CommandError> {
     match cmd {
-        EcatSdoCommand::Read {
-            object,
-            slave,
-            typing,
-            timeout_ms,
-            link,
-        } => {
+        EcatSdoCommand::Read { object, target } => {
             let (index, sub) = parse_object(&object)?;
-            let ty = sdo::resolve_type(&typing, index, sub)?;
-            let timeout = Duration::from_millis(timeout_ms);
-            let (mut m, count) = attach(&link).await?;
-            select(Some(slave), count)?;
-            mailbox_ready(&mut m, slave, timeout).await?;
+            let ty = sdo::resolve_type(&target.typing, index, sub)?;
+            let (mut m, timeout) = sdo_session(&target).await?;
+            let (slave, link) = (target.slave, &target.link);
             let head = || serde_json::json!({"slave": slave, "index": format!("0x{index:04X}"), "sub": sub});
             match m.sdo_upload(slave, index, sub, timeout).await {
                 Ok(data) => {
@@ -335,22 +337,17 @@ async fn sdo(cmd: EcatSdoCommand) -> Result<(), CommandError> {
         EcatSdoCommand::Write {
             object,
             value,
-            slave,
-            typing,
-            timeout_ms,
-            link,
+            target,
         } => {
             let (index, sub) = parse_object(&object)?;
-            let ty = sdo::resolve_type(&typing, index, sub)?.ok_or_else(|| {
+            let ty = sdo::resolve_type(&target.typing, index, sub)?.ok_or_else(|| {
                 CommandError::Usage(
                     "ecat sdo write needs --type or --device to encode the value".into(),
                 )
             })?;
             let data = value_text::encode(ty, &value).map_err(CommandError::Usage)?;
-            let timeout = Duration::from_millis(timeout_ms);
-            let (mut m, count) = attach(&link).await?;
-            select(Some(slave), count)?;
-            mailbox_ready(&mut m, slave, timeout).await?;
+            let (mut m, timeout) = sdo_session(&target).await?;
+            let (slave, link) = (target.slave, &target.link);
             let head =
                 serde_json::json!({"slave": slave, "index": format!("0x{index:04X}"), "sub": sub});
             match m.sdo_download(slave, index, sub, &data, timeout).await {
