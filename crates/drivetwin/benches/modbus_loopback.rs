@@ -148,38 +148,44 @@ impl Client {
         })
     }
 
+    /// The next FC 0x17 request (read 4 from 0, write `values` at 0) in `tx`; its length.
+    fn request(&mut self, values: &[u16; 4]) -> Result<usize, String> {
+        self.transaction = self.transaction.wrapping_add(1);
+        client::read_write_multiple_registers(&mut self.tx, self.transaction, 1, 0, 4, 0, values)
+            .map_err(|e| e.to_string())
+    }
+
+    /// Reads one response ADU; its transaction identifier and the FC 0x17 registers.
+    fn response(&mut self) -> Result<(u16, [u16; 4]), String> {
+        let io = |e: io::Error| e.to_string();
+        let (head, body) = self.rx.split_at_mut(MBAP_LEN);
+        spin_read_exact(&mut self.stream, head).map_err(io)?;
+        let mbap = Mbap::parse(head).ok_or("short header")?;
+        let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
+        spin_read_exact(&mut self.stream, &mut body[..len]).map_err(io)?;
+        match Response::parse(&body[..len]) {
+            Ok(Response::ReadWriteMultipleRegisters(r)) if r.len() == 4 => {
+                let mut out = [0u16; 4];
+                r.decode_into(&mut out);
+                Ok((mbap.transaction_id, out))
+            }
+            other => Err(format!("unexpected response {other:?}")),
+        }
+    }
+
     /// `depth` cycles written at once, then their answers read in order.
     fn burst(&mut self, depth: usize, values: &[u16; 4]) -> Result<(), String> {
-        let io = |e: io::Error| e.to_string();
         let mut batch = Vec::with_capacity(depth * 32);
         let first = self.transaction.wrapping_add(1);
         for _ in 0..depth {
-            self.transaction = self.transaction.wrapping_add(1);
-            let n = client::read_write_multiple_registers(
-                &mut self.tx,
-                self.transaction,
-                1,
-                0,
-                4,
-                0,
-                values,
-            )
-            .map_err(|e| e.to_string())?;
+            let n = self.request(values)?;
             batch.extend_from_slice(&self.tx[..n]);
         }
-        self.stream.write_all(&batch).map_err(io)?;
+        self.stream.write_all(&batch).map_err(|e| e.to_string())?;
         for k in 0..depth {
-            let (head, body) = self.rx.split_at_mut(MBAP_LEN);
-            spin_read_exact(&mut self.stream, head).map_err(io)?;
-            let mbap = Mbap::parse(head).ok_or("short header")?;
-            let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
-            spin_read_exact(&mut self.stream, &mut body[..len]).map_err(io)?;
-            if mbap.transaction_id != first.wrapping_add(k as u16) {
+            let (transaction, _) = self.response()?;
+            if transaction != first.wrapping_add(k as u16) {
                 return Err("transaction identifier out of order".into());
-            }
-            if !matches!(Response::parse(&body[..len]), Ok(Response::ReadWriteMultipleRegisters(r)) if r.len() == 4)
-            {
-                return Err("unexpected response in a pipeline".into());
             }
         }
         Ok(())
@@ -187,34 +193,16 @@ impl Client {
 
     /// One cycle: write `values` at 0, read `out.len()` registers from 0.
     fn cycle(&mut self, out: &mut [u16; 4], values: &[u16; 4]) -> Result<(), String> {
-        self.transaction = self.transaction.wrapping_add(1);
-        let n = client::read_write_multiple_registers(
-            &mut self.tx,
-            self.transaction,
-            1,
-            0,
-            4,
-            0,
-            values,
-        )
-        .map_err(|e| e.to_string())?;
-        let io = |e: io::Error| e.to_string();
-        self.stream.write_all(&self.tx[..n]).map_err(io)?;
-        let (head, body) = self.rx.split_at_mut(MBAP_LEN);
-        spin_read_exact(&mut self.stream, head).map_err(io)?;
-        let mbap = Mbap::parse(head).ok_or("short header")?;
-        let len = usize::from(mbap.length).saturating_sub(1).min(body.len());
-        spin_read_exact(&mut self.stream, &mut body[..len]).map_err(io)?;
-        if mbap.transaction_id != self.transaction {
+        let n = self.request(values)?;
+        self.stream
+            .write_all(&self.tx[..n])
+            .map_err(|e| e.to_string())?;
+        let (transaction, registers) = self.response()?;
+        if transaction != self.transaction {
             return Err("transaction identifier mismatch".into());
         }
-        match Response::parse(&body[..len]) {
-            Ok(Response::ReadWriteMultipleRegisters(r)) if r.len() == 4 => {
-                r.decode_into(out);
-                Ok(())
-            }
-            other => Err(format!("unexpected response {other:?}")),
-        }
+        *out = registers;
+        Ok(())
     }
 }
 
