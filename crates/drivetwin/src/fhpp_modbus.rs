@@ -400,6 +400,24 @@ mod tests {
         }
     }
 
+    /// FC 0x17 with 4 registers each way: `out` is the output telegram.
+    fn fc17(out: [u8; 8]) -> Vec<u8> {
+        let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
+        req.extend_from_slice(&out);
+        req
+    }
+
+    /// Enable, then home with the configured method (−35 by default: the current position
+    /// is REF), over FC 0x17.
+    fn enable_and_home(m: &mut FhppModbus, clock: &mut Clock) {
+        pdu(m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        clock.run(m, 5);
+        pdu(m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
+        clock.run(m, 50);
+        let r = pdu(m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+    }
+
     fn step(m: &FhppModbus, ms: u64) {
         let mut d = lock(&m.device);
         for t in 0..ms {
@@ -467,19 +485,8 @@ mod tests {
     fn fhpp_mb_03_direct_move_over_fc_0x17() {
         let mut m = map();
         let mut clock = Clock(0);
-        let fc17 = |out: [u8; 8]| {
-            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
-            req.extend_from_slice(&out);
-            req
-        };
         clock.run(&m, 2);
-        // Enable and home (method −35 by default: the current position is REF).
-        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        clock.run(&m, 5);
-        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
-        clock.run(&m, 50);
-        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        enable_and_home(&mut m, &mut clock);
         clock.run(&m, 5);
         // Cycle 1: direct mode, START = 0.
         let cycle1 = [0x43, 0x01, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
@@ -524,17 +531,7 @@ mod tests {
             .write(pnu_index(1010), 1, &1234i32.to_le_bytes())
             .unwrap();
         clock.run(&m, 2);
-        let fc17 = |out: [u8; 8]| {
-            let mut req = vec![0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8];
-            req.extend_from_slice(&out);
-            req
-        };
-        pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        clock.run(&m, 5);
-        pdu(&mut m, &fc17([0x03, 0x05, 0, 0, 0, 0, 0, 0]));
-        clock.run(&m, 50);
-        let r = pdu(&mut m, &fc17([0x03, 0x01, 0, 0, 0, 0, 0, 0]));
-        assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
+        enable_and_home(&mut m, &mut clock);
         clock.run(&m, 2);
         let request = |fpc: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 0x10];
