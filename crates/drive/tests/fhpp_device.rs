@@ -197,15 +197,7 @@ fn halt_stops_a_position_task_and_start_continues_it() {
     b.enable_record();
     b.home_here();
     let target = 360_000; // 10 revolutions
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
-    b.send(OutputData::direct(
-        DIRECT,
-        Cpos::HALT | Cpos::START,
-        Cdir(0),
-        100,
-        target,
-    ));
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    b.start(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
     b.run(300);
     // HALT = 0: intermediate stop, MC stays 0, SPOS.HALT = 0.
     let i = b.send(OutputData::direct(DIRECT, Cpos(0), Cdir(0), 100, target));
@@ -220,15 +212,7 @@ fn halt_stops_a_position_task_and_start_continues_it() {
     b.run(100);
     assert!(!b.input().spos.contains(Spos::MC));
     // START with HALT = 1 continues (TA4) to the same target.
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
-    b.send(OutputData::direct(
-        DIRECT,
-        Cpos::HALT | Cpos::START,
-        Cdir(0),
-        100,
-        target,
-    ));
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
+    b.start(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 100, target));
     let i = b.until(10_000, |i| i.spos.contains(Spos::MC));
     assert!((i.actual2 - target).abs() <= 180);
 }
@@ -393,15 +377,7 @@ fn force_task_without_a_workpiece_stops_at_the_stroke_limit() {
     b.home_here();
     b.pnu_write_i32(510, 1, 9_000);
     let force = Cdir(0x02);
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));
-    b.send(OutputData::direct(
-        DIRECT,
-        Cpos::HALT | Cpos::START,
-        force,
-        10,
-        300,
-    ));
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));
+    b.start(OutputData::direct(DIRECT, Cpos::HALT, force, 10, 300));
     let i = b.until(3000, |i| Sdir(i.byte3).contains(Sdir::XLIM));
     assert!(i.spos.contains(Spos::MOV));
     let i = b.until(1000, |i| !i.spos.contains(Spos::MOV));

@@ -472,9 +472,7 @@ fn mc_chain_waits_the_start_delay_of_the_next_record_and_pulses_mc() {
     b.w8(425, 1, 1); // MC pulse at the switch
     b.w32(404, 2, 7_200);
     b.w32(426, 2, 150);
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
+    b.start(OutputData::record(ENABLED, Cpos::HALT, 1));
     // The pulse: one telegram with MC = 1 while the chain goes on.
     let i = b.until(2000, |i| i.spos.contains(Spos::MC));
     assert!(Rsb(i.byte4).contains(Rsb::RC1));
@@ -503,9 +501,7 @@ fn halting_a_chain_leaves_rcc_zero() {
     b.w8(402, 1, 1);
     b.w8(416, 1, 2);
     b.w32(404, 2, 36_000);
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
+    b.start(OutputData::record(ENABLED, Cpos::HALT, 1));
     b.until(2000, |i| Rsb(i.byte4).contains(Rsb::RC1));
     b.run(50);
     // HALT, then CLEAR: the chain is aborted.
@@ -537,9 +533,7 @@ fn chaining_to_an_invalid_record_raises_3fh() {
     b.w8(402, 1, 1);
     b.w8(416, 1, 9);
     b.w8(401, 9, 0x06); // COM = 11: invalid record
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 1));
-    b.send(OutputData::record(ENABLED, Cpos::HALT, 1));
+    b.start(OutputData::record(ENABLED, Cpos::HALT, 1));
     b.until(2000, |i| i.scon.contains(Scon::FAULT));
     assert_eq!(b.dev.fault_number(), diag::RECORD_INVALID);
 }
@@ -559,15 +553,7 @@ fn limited() -> Bench {
 fn a_target_behind_a_software_limit_is_refused_with_29h_2ah() {
     let mut b = limited();
     for (target, code) in [(20_000, 0x2A), (-20_000, 0x29)] {
-        b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
-        b.send(OutputData::direct(
-            DIRECT,
-            Cpos::HALT | Cpos::START,
-            Cdir(0),
-            50,
-            target,
-        ));
-        b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
+        b.start(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 50, target));
         let i = b.until(200, |i| i.scon.contains(Scon::FAULT));
         assert_eq!(b.dev.fault_number(), code);
         assert!(i.actual2.abs() <= 180, "no motion: {}", i.actual2);
@@ -590,15 +576,7 @@ fn a_target_behind_a_software_limit_is_refused_with_29h_2ah() {
 #[test]
 fn a_velocity_task_into_the_limit_raises_11h_and_locks_the_direction() {
     let mut b = limited();
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, VELOCITY, 0, 36_000));
-    b.send(OutputData::direct(
-        DIRECT,
-        Cpos::HALT | Cpos::START,
-        VELOCITY,
-        0,
-        36_000,
-    ));
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, VELOCITY, 0, 36_000));
+    b.start(OutputData::direct(DIRECT, Cpos::HALT, VELOCITY, 0, 36_000));
     let i = b.until(2000, |i| i.scon.contains(Scon::FAULT));
     assert_eq!(b.dev.fault_number(), diag::SOFTWARE_LIMIT_POSITIVE);
     let i2 = b.until(500, |i| !i.spos.contains(Spos::MOV));
@@ -675,15 +653,7 @@ fn direct_comparators_show_in_pnu_312() {
     b.dev.write(pnu(587), 1, &5u16.to_le_bytes()).unwrap();
     b.w32(594, 1, 100);
     b.w32(595, 1, 200);
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 10, 36_000));
-    b.send(OutputData::direct(
-        DIRECT,
-        Cpos::HALT | Cpos::START,
-        Cdir(0),
-        10,
-        36_000,
-    ));
-    b.send(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 10, 36_000));
+    b.start(OutputData::direct(DIRECT, Cpos::HALT, Cdir(0), 10, 36_000));
     let t0 = b.t_ms;
     let mut seen = 0u8;
     let mut time_on = None;

@@ -67,6 +67,22 @@ impl Bench {
         self.input()
     }
 
+    /// START as a PLC pulses it (Tab. 5.5 start handshake): `out` with HALT, then with START
+    /// rising, then START away again; returns the input telegram of the START cycle.
+    pub fn start(&mut self, out: OutputData) -> InputData {
+        let halt = OutputData {
+            cpos: Cpos(out.cpos.0 & !Cpos::START.0) | Cpos::HALT,
+            ..out
+        };
+        self.send(halt);
+        let i = self.send(OutputData {
+            cpos: halt.cpos | Cpos::START,
+            ..out
+        });
+        self.send(halt);
+        i
+    }
+
     pub fn input(&self) -> InputData {
         InputData::from_bytes(self.dev.inputs())
     }
