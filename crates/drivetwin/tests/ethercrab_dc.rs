@@ -60,8 +60,8 @@ use ethercrab::{
     SubDeviceGroup,
 };
 use ethercrab_master::{
-    csp_inputs, esi_product_code, put_csp_outputs, Storage, TxRxTask, EXPECTED_WKC, FESTO,
-    FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
+    assign_csp_pdos, csp_inputs, esi_product_code, put_csp_outputs, Storage, TxRxTask,
+    EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
 
 /// The interpolation period 60C2h the twin is commissioned with (ms), and the SYNC0 cycle of
@@ -213,15 +213,7 @@ async fn preop_with_sync0<'a>(
             -3,
             "interpolation period (index: ms)"
         );
-        slave
-            .sdo_write_array(0x1C12, [0x1602u16])
-            .await
-            .expect("1C12h");
-        slave
-            .sdo_write_array(0x1C13, [0x1A02u16])
-            .await
-            .expect("1C13h");
-        slave.sdo_write(0x6060, 0, 8i8).await.expect("6060h = CSP");
+        assign_csp_pdos(&slave).await;
     }
     for mut slave in group.iter_mut(maindevice) {
         slave.set_dc_sync(DcSync::Sync0);
@@ -292,6 +284,20 @@ async fn al_status(maindevice: &MainDevice<'_>, station: u16) -> (u16, AlStatusC
         .await
         .expect("0134h");
     (status, code)
+}
+
+/// AL control `state` with the acknowledge bit (ETG.1000.6: clears the error indication);
+/// the slave then reports `state` without an error.
+async fn acknowledge(maindevice: &MainDevice<'_>, station: u16, state: u16, what: &str) {
+    Command::fpwr(station, RegisterAddress::AlControl.into())
+        .send(maindevice, state | 0x0010)
+        .await
+        .expect("acknowledge");
+    assert_eq!(
+        al_status(maindevice, station).await,
+        (state, AlStatusCode::NoError),
+        "{what}"
+    );
 }
 
 /// What one `tx_rx_dc` brought back.
@@ -624,15 +630,7 @@ async fn good_session(master_if: &str, product_code: u32) {
     );
 
     // Acknowledge (Safe-Op + ack, spec §4.2 step 3), then ethercrab's way down.
-    Command::fpwr(station, RegisterAddress::AlControl.into())
-        .send(maindevice, 0x0014u16)
-        .await
-        .expect("acknowledge");
-    assert_eq!(
-        al_status(maindevice, station).await,
-        (0x0004, AlStatusCode::NoError),
-        "acknowledged"
-    );
+    acknowledge(maindevice, station, 0x0004, "acknowledged").await;
     let group = group.into_safe_op(maindevice).await.expect("→ Safe-Op");
     let group = group.into_pre_op(maindevice).await.expect("→ Pre-Op");
     group.into_init(maindevice).await.expect("→ Init");
@@ -721,13 +719,5 @@ async fn refused_session(master_if: &str, product_code: u32) {
         "Pre-Op + error indication, 0x0036 DC Sync0 cycle time"
     );
     // The error stays until acknowledged; Pre-Op + ack clears it.
-    Command::fpwr(station, RegisterAddress::AlControl.into())
-        .send(maindevice, 0x0012u16)
-        .await
-        .expect("acknowledge");
-    assert_eq!(
-        al_status(maindevice, station).await,
-        (0x0002, AlStatusCode::NoError),
-        "acknowledged: Pre-Op"
-    );
+    acknowledge(maindevice, station, 0x0002, "acknowledged: Pre-Op").await;
 }

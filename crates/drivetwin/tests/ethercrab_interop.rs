@@ -28,7 +28,7 @@ use ethercrab::std::ethercat_now;
 use ethercrab::subdevice_group::HasPdi;
 use ethercrab::{DefaultLock, MainDevice, SubDeviceGroup, SubDeviceState, Timeouts};
 use ethercrab_master::{
-    csp_inputs, esi_product_code, put_csp_outputs, Storage, EXPECTED_WKC, FESTO,
+    assign_csp_pdos, csp_inputs, esi_product_code, put_csp_outputs, Storage, EXPECTED_WKC, FESTO,
     FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
 use std::time::Instant;
@@ -195,15 +195,7 @@ async fn session(master_if: &str, product_code: u32) {
     }
 
     // RxPDO3 / TxPDO3 and CSP (6060h = 8, EtherCAT only), as the pysoem test does.
-    slave
-        .sdo_write_array(0x1C12, [0x1602u16])
-        .await
-        .expect("1C12h");
-    slave
-        .sdo_write_array(0x1C13, [0x1A02u16])
-        .await
-        .expect("1C13h");
-    slave.sdo_write(0x6060, 0, 8i8).await.expect("6060h = CSP");
+    assign_csp_pdos(&slave).await;
 
     // ethercrab reads 1C12h/1C13h and 1602h/1A02h over CoE to size SM2/SM3 and the FMMUs.
     let group = group

@@ -87,3 +87,21 @@ pub fn csp_inputs(inputs: &[u8]) -> (u16, i32) {
         i32::from_le_bytes([inputs[2], inputs[3], inputs[4], inputs[5]]),
     )
 }
+
+/// RxPDO3 / TxPDO3 assigned (1C12h / 1C13h) and CSP selected (6060h = 8, EtherCAT only) over
+/// CoE in Pre-Op, as the pysoem test does; ethercrab then sizes SM2/SM3 and the FMMUs from
+/// them.
+pub async fn assign_csp_pdos<S>(slave: &ethercrab::SubDeviceRef<'_, S>)
+where
+    S: std::ops::Deref<Target = ethercrab::SubDevice>,
+{
+    slave
+        .sdo_write_array(0x1C12, [0x1602u16])
+        .await
+        .expect("1C12h");
+    slave
+        .sdo_write_array(0x1C13, [0x1A02u16])
+        .await
+        .expect("1C13h");
+    slave.sdo_write(0x6060, 0, 8i8).await.expect("6060h = CSP");
+}
