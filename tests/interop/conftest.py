@@ -7,6 +7,7 @@ SIGTERM, checking that it stopped cleanly.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -539,3 +540,40 @@ def veth():
         ip("link", "del", master_if)  # deletes the peer too
         ip("netns", "del", ns)
 
+
+@contextlib.contextmanager
+def ecat_twin_run(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
+    """`drivetwin run --ethercat` in the `veth` namespace (`extra` arguments): (master-side
+    interface, banner lines) while the block runs; stopped by SIGTERM and checked after it."""
+    ns, twin_if, master_if = veth
+    log = (tmp_path / "drivetwin-ecat.log").open("w")
+    prefix = realtime_prefix() if realtime else []
+    proc = subprocess.Popen([*prefix, "ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if,
+                             *extra],
+                            stdout=subprocess.PIPE, stderr=log, text=True)
+    lines = []
+    try:
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line:
+                break
+            lines.append(line.strip())
+            if line.startswith("running"):
+                break
+        assert lines and lines[-1].startswith("running"), \
+            f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}"
+        assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
+        yield master_if, lines
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                rest, _ = proc.communicate(timeout=STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.communicate()
+                pytest.fail("drivetwin did not stop on SIGTERM")
+            assert "stopped" in rest, rest
+            assert proc.returncode == 0, proc.returncode
+        log.close()

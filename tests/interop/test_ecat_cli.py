@@ -13,14 +13,14 @@ otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import json
-import signal
 import subprocess
 import time
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, product_code, run_cli, write_cell
+from conftest import ecat_twin_run, product_code, run_cli, write_cell
 
 FESTO = 0x1D
 
@@ -28,48 +28,20 @@ FESTO = 0x1D
 @pytest.fixture
 def chain(veth, tmp_path):
     """Starts `drivetwin run --ethercat` with `slaves` CMMP-AS drives; returns the master-side
-    interface."""
-    ns, twin_if, master_if = veth
-    procs = []
+    interface. The twins stop (and are checked) at teardown."""
+    with contextlib.ExitStack() as running:
 
-    def _start(slaves: int = 1) -> str:
-        args = [str(DRIVETWIN_BIN), "run", "--ethercat", twin_if]
-        if slaves > 1:
-            cell = write_cell(tmp_path / "chain.toml", [("cmmp-as", n, {}) for n in range(1, slaves + 1)])
-            args += ["--config", str(cell)]
-        log = (tmp_path / "drivetwin-ecat.log").open("w")
-        proc = subprocess.Popen(["ip", "netns", "exec", ns, *args], stdout=subprocess.PIPE, stderr=log,
-                                text=True)
-        procs.append((proc, log))
-        lines = []
-        deadline = time.monotonic() + 10
-        while time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            lines.append(line.strip())
-            if line.startswith("running"):
-                break
-        assert lines and lines[-1].startswith("running"), \
-            f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}"
-        assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
-        return master_if
+        def _start(slaves: int = 1) -> str:
+            extra = []
+            if slaves > 1:
+                cell = write_cell(tmp_path / "chain.toml",
+                                  [("cmmp-as", n, {}) for n in range(1, slaves + 1)])
+                extra = ["--config", str(cell)]
+            master_if, _ = running.enter_context(
+                ecat_twin_run(veth, tmp_path, *extra, slaves=slaves))
+            return master_if
 
-    try:
         yield _start
-    finally:
-        for proc, log in procs:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-                try:
-                    rest, _ = proc.communicate(timeout=STOP_TIMEOUT)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.communicate()
-                    pytest.fail("drivetwin did not stop on SIGTERM")
-                assert "stopped" in rest, rest
-                assert proc.returncode == 0, proc.returncode
-            log.close()
 
 
 def ecat(*args: str, expect: int = 0) -> subprocess.CompletedProcess:

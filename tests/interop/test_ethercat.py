@@ -16,7 +16,6 @@ DC SYNC0 (10 ms) and stops the master to provoke the synchronisation error.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
 import signal
@@ -26,7 +25,7 @@ import time
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, STOP_TIMEOUT, Realtime, product_code, realtime_prefix
+from conftest import Realtime, ecat_twin_run, product_code
 
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
@@ -37,45 +36,10 @@ CYCLE_S = 0.001
 FESTO = 0x1D
 
 
-def _start_twin(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
-    """Runs `drivetwin run --ethercat` in the namespace; yields (master interface, banner)."""
-    ns, twin_if, master_if = veth
-    log = (tmp_path / "drivetwin-ecat.log").open("w")
-    prefix = realtime_prefix() if realtime else []
-    proc = subprocess.Popen([*prefix, "ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if,
-                             *extra],
-                            stdout=subprocess.PIPE, stderr=log, text=True)
-    lines = []
-    try:
-        deadline = time.monotonic() + 10
-        while time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            lines.append(line.strip())
-            if line.startswith("running"):
-                break
-        assert lines and lines[-1].startswith("running"), \
-            f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}"
-        assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
-        yield master_if, lines
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGTERM)
-            try:
-                rest, _ = proc.communicate(timeout=STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.communicate()
-                pytest.fail("drivetwin did not stop on SIGTERM")
-            assert "stopped" in rest, rest
-            assert proc.returncode == 0, proc.returncode
-        log.close()
-
-
 @pytest.fixture
 def ecat_twin(veth, tmp_path):
-    yield from _start_twin(veth, tmp_path)
+    with ecat_twin_run(veth, tmp_path) as twin:
+        yield twin
 
 
 @pytest.fixture
@@ -84,7 +48,8 @@ def ecat_chain(veth, tmp_path):
     the socket (--busy-poll)."""
     cell = tmp_path / "chain.toml"
     cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "cmmp-as"\nnode = 2\n')
-    yield from _start_twin(veth, tmp_path, "--config", str(cell), "--busy-poll", slaves=2)
+    with ecat_twin_run(veth, tmp_path, "--config", str(cell), "--busy-poll", slaves=2) as twin:
+        yield twin
 
 
 DC_CYCLE_NS = 10_000_000
@@ -96,7 +61,8 @@ def ecat_twin_10ms(veth, tmp_path):
     loop keeps even on a loaded machine)."""
     cell = tmp_path / "cell.toml"
     cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n[drive.objects]\n"60C2:01" = 10\n')
-    yield from _start_twin(veth, tmp_path, "--config", str(cell), realtime=True)
+    with ecat_twin_run(veth, tmp_path, "--config", str(cell), realtime=True) as twin:
+        yield twin
 
 
 def _wait_cycle(due: float) -> float:
@@ -465,10 +431,9 @@ def test_run_trace_records_the_session_as_ethercat(veth, tmp_path):
     if tshark is None:
         pytest.skip("tshark (Debian package tshark) is not installed")
     trace = tmp_path / "twin.pcap"
-    twin = _start_twin(veth, tmp_path, "--trace", str(trace))
-    master_if, banner = next(twin)
-    assert any("tracing to" in l for l in banner), banner
-    try:
+    # Leaving the block stops the twin, which flushes the trace.
+    with ecat_twin_run(veth, tmp_path, "--trace", str(trace)) as (master_if, banner):
+        assert any("tracing to" in l for l in banner), banner
         master = pysoem.Master()
         master.open(master_if)
         try:
@@ -476,9 +441,6 @@ def test_run_trace_records_the_session_as_ethercat(veth, tmp_path):
             assert int.from_bytes(master.slaves[0].sdo_read(0x1018, 1), "little") == FESTO
         finally:
             master.close()
-    finally:
-        for _ in twin:  # stops the twin, which flushes the trace
-            pass
     out = subprocess.run([tshark, "-r", str(trace), "-V"], capture_output=True, text=True,
                          timeout=60).stdout
     assert "EtherCAT frame header" in out, out[:2000]
@@ -554,7 +516,7 @@ def test_save_over_coe_survives_a_restart_with_a_state_dir(veth, tmp_path):
     """1010h:01 "save" over CoE writes the drive's parameter file (--state-dir) before its
     answer; the next start of the chain powers on with the saved value."""
     state = tmp_path / "state"
-    twin = contextlib.contextmanager(_start_twin)
+    twin = ecat_twin_run
 
     def session(action):
         with twin(veth, tmp_path, "--state-dir", str(state)) as (master_if, _):
