@@ -15,15 +15,8 @@ impl Rig {
     fn w8(&mut self, index: u16, sub: u8, v: u8) -> Result<(), AbortCode> {
         self.d.write(index, sub, &[v])
     }
-    fn w32(&mut self, index: u16, sub: u8, v: u32) {
-        self.d.write(index, sub, &v.to_le_bytes()).unwrap();
-    }
     fn u(&self, index: u16, sub: u8) -> u64 {
         self.d.od().get_unsigned(index, sub).unwrap()
-    }
-    fn cw(&mut self, v: u16) {
-        self.d.write(0x6040, 0, &v.to_le_bytes()).unwrap();
-        self.run_ms(2);
     }
     fn reaction(&mut self, main: u8) -> u64 {
         self.w8(0x2100, 1, main).unwrap();

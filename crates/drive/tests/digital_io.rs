@@ -17,9 +17,6 @@ impl Rig {
     fn w16(&mut self, index: u16, sub: u8, v: u16) {
         self.d.write(index, sub, &v.to_le_bytes()).unwrap();
     }
-    fn w32(&mut self, index: u16, sub: u8, v: u32) {
-        self.d.write(index, sub, &v.to_le_bytes()).unwrap();
-    }
     fn u(&self, index: u16, sub: u8) -> u32 {
         self.d.od().get_unsigned(index, sub).unwrap() as u32
     }

@@ -23,25 +23,8 @@ impl Rig {
     fn w16(&mut self, index: u16, v: u16) {
         self.d.write(index, 0, &v.to_le_bytes()).unwrap();
     }
-    fn w32(&mut self, index: u16, sub: u8, v: i64) {
-        self.d.write(index, sub, &(v as u32).to_le_bytes()).unwrap();
-    }
     fn w8(&mut self, index: u16, v: i8) {
         self.d.write(index, 0, &[v as u8]).unwrap();
-    }
-    fn cw(&mut self, v: u16) {
-        self.w16(0x6040, v);
-        self.run_ms(2);
-    }
-    fn sw(&self) -> u16 {
-        self.d.od().get_unsigned(0x6041, 0).unwrap() as u16
-    }
-    fn i(&self, index: u16) -> i64 {
-        match self.d.od().value(index, 0).unwrap() {
-            Value::Signed(s) => s,
-            Value::Unsigned(u) => u as i64,
-            v => panic!("{v:?}"),
-        }
     }
     fn enable(&mut self) {
         self.cw(0x06);

@@ -8,7 +8,7 @@ use std::time::Duration;
 use drive::device_control::State;
 use drive::drive::{DriveEvent, DriveSettings};
 use drive::travel::TravelSettings;
-use od::{AbortCode, ObjectAccess, Value};
+use od::{AbortCode, ObjectAccess};
 
 const REV: i64 = 65536;
 
@@ -28,25 +28,8 @@ impl Rig {
     fn w16(&mut self, index: u16, sub: u8, v: u16) {
         self.d.write(index, sub, &v.to_le_bytes()).unwrap();
     }
-    fn w32(&mut self, index: u16, sub: u8, v: i64) {
-        self.d.write(index, sub, &(v as u32).to_le_bytes()).unwrap();
-    }
     fn method(&mut self, m: i8) {
         self.d.write(0x6098, 0, &[m as u8]).unwrap();
-    }
-    fn cw(&mut self, v: u16) {
-        self.w16(0x6040, 0, v);
-        self.run_ms(2);
-    }
-    fn sw(&self) -> u16 {
-        self.d.od().get_unsigned(0x6041, 0).unwrap() as u16
-    }
-    fn i(&self, index: u16) -> i64 {
-        match self.d.od().value(index, 0).unwrap() {
-            Value::Signed(s) => s,
-            Value::Unsigned(u) => u as i64,
-            v => panic!("{v:?}"),
-        }
     }
     fn encoder(&self) -> i64 {
         self.d.axis().position_increments()
