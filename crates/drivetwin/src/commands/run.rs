@@ -28,15 +28,15 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-/// The cell of the file's drives that are on CAN, and for each drive of the file its index
-/// in the cell (`None`: its switches keep it off the bus).
+/// The cell of the drives that are on CAN, and for each drive of `specs` (the cell file's,
+/// in order) its index in the cell (`None`: a CMMO-ST, or its switches keep it off the bus).
 pub(crate) fn build_cell(
-    file: &CellFile,
+    specs: Vec<DriveSpec>,
     state_dir: Option<&PathBuf>,
 ) -> Result<(Cell, Vec<Option<usize>>), CommandError> {
     let mut drives = Vec::new();
     let mut in_cell = Vec::new();
-    for spec in file.drives()? {
+    for spec in specs {
         in_cell.push(None);
         if spec.fhpp.is_some() {
             // The CMMO-ST runs beside the bus (Modbus TCP): `start_fhpp_drives`.
@@ -104,19 +104,19 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
     }
     // The CMMO-ST has Modbus TCP, no CANopen and no EtherCAT: it runs beside the bus.
-    let (fhpp, can): (Vec<DriveSpec>, Vec<DriveSpec>) =
-        specs.into_iter().partition(|s| s.fhpp.is_some());
-    if !fhpp.is_empty() && args.ethercat.is_some() {
+    let fhpp_drives = specs.iter().filter(|s| s.fhpp.is_some()).count();
+    let any_fhpp = fhpp_drives > 0;
+    if any_fhpp && args.ethercat.is_some() {
         return Err(CommandError::Usage(
             "--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)".into(),
         ));
     }
-    if !fhpp.is_empty() && args.virtual_seconds.is_some() {
+    if any_fhpp && args.virtual_seconds.is_some() {
         return Err(CommandError::Usage(
             "--virtual-seconds runs CANopen drives; the CMMO-ST runs on the real clock".into(),
         ));
     }
-    if args.busy_poll && args.ethercat.is_none() && fhpp.is_empty() {
+    if args.busy_poll && args.ethercat.is_none() && !any_fhpp {
         return Err(CommandError::Usage(
             "--busy-poll applies to --ethercat and to the CMMO-ST's Modbus server".into(),
         ));
@@ -124,8 +124,8 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(ifname) = &args.ethercat {
         return run_ethercat(&file, ifname, &args).await;
     }
-    let fhpp_tasks = start_fhpp_drives(&fhpp, &args).await?;
-    if can.is_empty() {
+    let fhpp_tasks = start_fhpp_drives(&specs, &args).await?;
+    if fhpp_drives == specs.len() {
         // Only CMMO-STs: no bus, no socketcand server.
         out!("running; Ctrl-C stops");
         for t in fhpp_tasks {
@@ -134,7 +134,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         out!("stopped");
         return Ok(());
     }
-    let (mut cell, in_cell) = build_cell(&file, args.state_dir.as_ref())?;
+    let (mut cell, in_cell) = build_cell(specs, args.state_dir.as_ref())?;
     for d in &cell.drives {
         out!(
             "drive {} node {} ({})",
@@ -431,7 +431,7 @@ async fn start_fhpp_drives(
     args: &RunArgs,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
     use drivetwin::modbus_server::DEFAULT_ADDR;
-    if args.modbus.is_some() && specs.len() > 1 {
+    if args.modbus.is_some() && specs.iter().filter(|s| s.fhpp.is_some()).count() > 1 {
         return Err(CommandError::Usage(
             "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
              cell file"
