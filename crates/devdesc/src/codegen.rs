@@ -29,6 +29,7 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    revision: 0x{:X},", d.revision);
     let _ = writeln!(s, "    order_code: {:?},", d.order_code);
     let _ = writeln!(s, "    description: {:?},", d.description);
+    let _ = writeln!(s, "    profile: od::Profile::{:?},", d.profile);
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
     let c = &d.cia301;

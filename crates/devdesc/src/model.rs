@@ -4,7 +4,7 @@ use std::path::Path;
 
 use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
-use crate::schema::{EntryFields, File, ObjectSection};
+use crate::schema::{EntryFields, File, ObjectSection, ProfileName};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DescError {
@@ -36,6 +36,7 @@ pub struct Device {
     pub revision: u32,
     pub order_code: String,
     pub description: String,
+    pub profile: od::Profile,
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
     pub cia301: od::Cia301Options,
@@ -109,6 +110,25 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             });
         }
     }
+    // The profile and the device type 1000h must agree (CiA 301: bits 0…15 are the device
+    // profile number, 402 = 0192h for a drive).
+    let device_type_profile = objects
+        .iter()
+        .find(|o| o.index == 0x1000)
+        .and_then(|o| o.entries.first())
+        .and_then(|e| e.default.get(..2))
+        .map(|b| u16::from_le_bytes([b[0], b[1]]));
+    let profile = match d.profile {
+        ProfileName::Cia402 => od::Profile::Cia402,
+        ProfileName::Fhpp => od::Profile::Fhpp,
+        ProfileName::Plain => od::Profile::Plain,
+    };
+    if (profile == od::Profile::Cia402) != (device_type_profile == Some(402)) {
+        return Err(DescError::Device(format!(
+            "profile {:?} does not agree with the device type 1000h",
+            d.profile
+        )));
+    }
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -118,6 +138,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         revision: d.revision,
         order_code: d.order_code,
         description: d.description,
+        profile,
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
         cia301: od::Cia301Options {
@@ -400,7 +421,7 @@ mod tests {
     use super::*;
 
     const HEAD: &str =
-        "[device]\nname = \"t\"\nproduct_name = \"p\"\nvendor_name = \"v\"\nvendor_id = 1\n";
+        "[device]\nname = \"t\"\nproduct_name = \"p\"\nvendor_name = \"v\"\nvendor_id = 1\nprofile = \"plain\"\n";
 
     fn err(objects: &str) -> String {
         match parse(&format!("{HEAD}{objects}"), "t.toml") {
@@ -423,6 +444,17 @@ mod tests {
         assert_eq!(o.entries[0].default, vec![1]);
         assert_eq!(o.entries[1].default, 0xC000_0180u32.to_le_bytes().to_vec());
         assert!(o.entries[1].default_plus_node_id);
+    }
+
+    /// A personality that says "plain" but whose 1000h names CiA 402 (or the other way round)
+    /// is refused: the twin would build the wrong model behind it.
+    #[test]
+    fn the_profile_must_agree_with_the_device_type() {
+        let device_type = "[[object]]\nindex = 0x1000\nname = \"device_type\"\ntype = \"UNSIGNED32\"\naccess = \"ro\"\ndefault = 0x00020192\n";
+        assert!(err(device_type).contains("does not agree with the device type"));
+        let cia402 = HEAD.replace("\"plain\"", "\"cia402\"");
+        assert!(parse(&format!("{cia402}{device_type}"), "t.toml").is_ok());
+        assert!(parse(&cia402, "t.toml").is_err(), "CiA 402 without 1000h");
     }
 
     #[test]

@@ -25,6 +25,8 @@ pub struct DeviceSection {
     pub order_code: String,
     #[serde(default)]
     pub description: String,
+    /// `cia402`, `fhpp` or `plain`: how the twin builds and serves the personality.
+    pub profile: ProfileName,
     #[serde(default = "default_node")]
     pub default_node_id: u8,
     #[serde(default)]
@@ -36,6 +38,15 @@ pub struct DeviceSection {
     pub tpdo_transmit_mask_index: Option<u16>,
     #[serde(default)]
     pub tpdo_254_cyclic_inhibit: bool,
+}
+
+/// `profile` of `[device]`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ProfileName {
+    Cia402,
+    Fhpp,
+    Plain,
 }
 
 fn default_node() -> u8 {

@@ -9,21 +9,14 @@ pub enum Model {
     Drive(Box<Drive<Vec<u8>>>),
 }
 
-/// CiA 402 devices announce themselves in 1000h (profile number 402 = 0192h in the low word).
+/// A CiA 402 drive (`profile = "cia402"` in its device file, checked against 1000h).
 pub fn is_cia402(desc: &od::DeviceDescription) -> bool {
-    desc.entry(0x1000, 0)
-        .map(|e| e.default.get(..2) == Some(&[0x92, 0x01][..]))
-        .unwrap_or(false)
+    desc.profile == od::Profile::Cia402
 }
 
-/// Whether the personality is an FHPP device (the CMMO-ST): no CiA device profile (1000h
-/// reads 0, devices/cmmo-st.toml) and the FHPP parameters (PNU n at object 2000h + n) with
-/// PNU 125 "device control".
+/// An FHPP device, the CMMO-ST (`profile = "fhpp"` in its device file).
 pub fn is_fhpp(desc: &od::DeviceDescription) -> bool {
-    let no_profile = desc
-        .entry(0x1000, 0)
-        .is_none_or(|e| e.default.iter().all(|b| *b == 0));
-    no_profile && desc.object(drive::fhpp::device::pnu_index(125)).is_some()
+    desc.profile == od::Profile::Fhpp
 }
 
 impl Model {

@@ -139,6 +139,19 @@ impl Object {
     }
 }
 
+/// The device profile a personality speaks on its fieldbus: how the rest of the twin builds
+/// and serves it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Profile {
+    /// CiA 402 drive (device type 1000h = 0192h): the CiA 402 drive model behind CANopen or
+    /// EtherCAT CoE.
+    Cia402,
+    /// Festo FHPP (the CMMO-ST): cyclic FHPP telegrams over Modbus TCP, PNUs as objects.
+    Fhpp,
+    /// A plain CiA 301 device (the test bench): the dictionary alone.
+    Plain,
+}
+
 /// A device personality: identity and the complete object list.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceDescription {
@@ -151,6 +164,8 @@ pub struct DeviceDescription {
     pub revision: u32,
     pub order_code: &'static str,
     pub description: &'static str,
+    /// The device profile (`profile` in the device file).
+    pub profile: Profile,
     pub default_node_id: u8,
     /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
     pub baud_rates: &'static [u16],
