@@ -1,0 +1,18 @@
+//! Any text as a cell file: parsed, its drives built into a CAN cell and an EtherCAT chain.
+//! A bad file is an error, never a panic.
+#![no_main]
+
+use drivetwin::cell_config::CellFile;
+use drivetwin::ethercat_cell::EthercatCell;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(file) = toml::from_str::<CellFile>(text) else {
+        return;
+    };
+    let _ = file.drives();
+    let _ = EthercatCell::from_cell_file(&file);
+});

@@ -1,0 +1,53 @@
+//! FHPP telegrams (8 or 16 bytes: control bytes and the parameter channel with its file
+//! transfer) into a CMMO-ST, each held for some 1 ms cycles, open or closed loop: no panic,
+//! the 16-byte input image starts with the 8-byte one.
+#![no_main]
+
+use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::stepper::StepperMode;
+use libfuzzer_sys::arbitrary::{Result, Unstructured};
+use libfuzzer_sys::fuzz_target;
+use od::{Instant, ObjectDictionary};
+
+fn run(u: &mut Unstructured) -> Result<()> {
+    let desc = &devices::CMMO_ST;
+    let Ok(od) = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]) else {
+        return Ok(());
+    };
+    let mode = if u.arbitrary::<bool>()? {
+        StepperMode::OpenLoop
+    } else {
+        StepperMode::ClosedLoop
+    };
+    let mut dev = FhppDevice::new(
+        od,
+        FhppSettings {
+            mode,
+            ..FhppSettings::default()
+        },
+    );
+    let mut t_ms = 0u64;
+    while !u.is_empty() {
+        let len = if u.arbitrary::<bool>()? { 16 } else { 8 };
+        let mut telegram = [0u8; 16];
+        u.fill_buffer(&mut telegram[..len])?;
+        // CCON.ENABLE most of the time, so the states behind it are reached.
+        if u.ratio(3u8, 4)? {
+            telegram[0] |= 0x01;
+        }
+        assert!(
+            dev.set_outputs(&telegram[..len]).is_ok(),
+            "8 or 16 bytes are taken"
+        );
+        for _ in 0..u.int_in_range(1u64..=16)? {
+            dev.step(Instant::from_millis(t_ms));
+            t_ms += 1;
+        }
+        assert_eq!(&dev.inputs_fpc()[..8], &dev.inputs()[..]);
+    }
+    Ok(())
+}
+
+fuzz_target!(|data: &[u8]| {
+    let _ = run(&mut Unstructured::new(data));
+});

@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Seed corpora for the fuzz targets, from the manuals' worked frames (spec/vectors.md and
+the spec extracts) and from the protocol's everyday messages. Writes corpus/TARGET/seed-*;
+libFuzzer grows the corpus from there. Usage: seeds.py SPEC_DIR"""
+
+import re
+import struct
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+FRAME = re.compile(r"\b([0-9A-F]{3})h?: ?((?:\b[0-9A-F]{2}\b ?){0,8})")
+CI_LINE = re.compile(r"`([?=][0-9A-F]{6}(?::[0-9A-F]{2,8})?)`")
+
+
+def write(target, name, data):
+    d = HERE / "corpus" / target
+    d.mkdir(parents=True, exist_ok=True)
+    (d / f"seed-{name}").write_bytes(data)
+
+
+def can_record(cob, payload):
+    """One record of canopen_node's input: n, id lo, id hi, n data bytes."""
+    return bytes([len(payload)]) + struct.pack("<H", cob) + bytes(payload)
+
+
+def pause(ms):
+    return b"\xff" + struct.pack("<H", ms)
+
+
+def frames_of(line):
+    """The master's frames in one line of a table (node-relative ids moved to node 1)."""
+    out = []
+    for cob, data in FRAME.findall(line):
+        cob = int(cob, 16)
+        payload = [int(b, 16) for b in data.split()]
+        fn, node = cob & 0x780, cob & 0x7F
+        if cob == 0 or cob == 0x80 or fn in (0x200, 0x300, 0x400, 0x500, 0x600):
+            out.append((fn | 1 if node else cob, payload))
+        elif cob in (0x7E5,):
+            out.append((cob, payload))
+    return out
+
+
+def canopen_seeds(spec):
+    start = can_record(0x000, [0x01, 0x01])  # NMT start node 1
+    n = 0
+    for md in sorted(spec.glob("*.md")):
+        for line in md.read_text(encoding="utf-8").splitlines():
+            frames = frames_of(line)
+            if not frames:
+                continue
+            body = start + b"".join(can_record(c, p) for c, p in frames) + pause(20)
+            write("canopen_node", f"{md.stem}-{n:04}", body)
+            n += 1
+    return n
+
+
+def ci_seeds(spec):
+    n = 0
+    for line in (spec / "vectors.md").read_text(encoding="utf-8").splitlines():
+        for cmd in CI_LINE.findall(line):
+            write("ci_terminal", f"{n:03}", cmd.encode() + b"\r\n")
+            n += 1
+    return n
+
+
+def mbap(tid, pdu):
+    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, 0) + pdu
+
+
+def modbus_seeds():
+    # FHPP: FC 0x17 read 4 / write 4 at address 0 (CMMO-ST), FC 3, FC 16, FC 43/14, a bad one.
+    fc17 = bytes([0x17]) + struct.pack(">HHHHB", 0, 4, 0, 4, 8) + bytes([0x03, 0, 0, 0, 0, 0, 0, 0])
+    fc3 = bytes([0x03]) + struct.pack(">HH", 0, 8)
+    fc16 = bytes([0x10]) + struct.pack(">HHB", 0, 2, 4) + bytes([1, 2, 3, 4])
+    fc43 = bytes([0x2B, 0x0E, 0x01, 0x00])
+    stream = b"".join(mbap(i, p) for i, p in enumerate([fc17, fc3, fc16, fc43, b"\x07"]))
+    for cut in (1, 7, 255):
+        write("modbus_tcp_stream", f"cut{cut}", bytes([cut]) + stream)
+    for i, p in enumerate([fc17, fc3, fc16, fc43]):
+        body = bytes([1]) + p
+        crc = 0xFFFF
+        for b in body:
+            crc ^= b
+            for _ in range(8):
+                crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+        write("modbus_rtu", f"{i}", bytes([1]) + body + struct.pack("<H", crc))
+    return 7
+
+
+def socketcand_seeds():
+    session = (
+        b"< open vcan0 >< rawmode >< send 601 8 40 18 10 01 00 00 00 00 >"
+        b"< send 000 2 01 01 >< echo >< bcmmode >< add 1 0 123 4 01 02 03 04 >"
+        b"< frame 581 1.000000 43 18 10 01 1D 00 00 00 >< error text >"
+    )
+    for cut in (1, 5, 64, 255):
+        write("socketcand_text", f"cut{cut}", bytes([cut]) + session)
+    return 4
+
+
+def coe_seeds():
+    # Mailbox header (length, address, channel/priority, type 3 + counter) + CoE SDO request.
+    def mbx(counter, payload):
+        return struct.pack("<HHBB", len(payload), 0, 0, 0x03 | (counter << 4)) + payload
+
+    upload = bytes([0x00, 0x20, 0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0])
+    download = bytes([0x00, 0x20, 0x2B, 0x40, 0x60, 0x00, 0x06, 0x00, 0, 0])
+    info = bytes([0x00, 0x80, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00])
+    session = b"".join(
+        struct.pack("<H", 0x80) + mbx(1 + i, p).ljust(0x80, b"\x00")
+        for i, p in enumerate([upload, download, info])
+    )
+    write("coe_mailbox", "cmmp-as", b"\x00" + session)
+    write("coe_mailbox", "full", b"\x01" + session)
+    return 3
+
+
+def main():
+    spec = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parent.parent / "shared" / "spec"
+    counts = {
+        "canopen_node": canopen_seeds(spec),
+        "ci_terminal": ci_seeds(spec),
+        "modbus": modbus_seeds(),
+        "socketcand_text": socketcand_seeds(),
+        "coe_mailbox": coe_seeds(),
+    }
+    for k, v in counts.items():
+        print(f"{k}: {v} seeds")
+
+
+if __name__ == "__main__":
+    main()
