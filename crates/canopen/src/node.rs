@@ -84,6 +84,29 @@ pub struct Node<const N: usize = 8192> {
 struct SdoView<'a> {
     od: &'a mut dyn ObjectAccess,
     lock_pdo_params: bool,
+    life_time_max_ms: Option<u32>,
+}
+
+impl SdoView<'_> {
+    /// Nanotec §11.23: guard time × life time factor may not exceed one minute; a write that
+    /// would make it longer is refused with 0604 0043h (general parameter incompatibility).
+    fn check_life_time(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+        let Some(max) = self.life_time_max_ms else {
+            return Ok(());
+        };
+        let guard = u32::from(self.od.read_u16(0x100C, 0).unwrap_or(0));
+        let factor = u32::from(self.od.read_u8(0x100D, 0).unwrap_or(0));
+        let product = match (index, data) {
+            (0x100C, [lo, hi]) => u32::from(u16::from_le_bytes([*lo, *hi])) * factor,
+            (0x100D, [f]) => guard * u32::from(*f),
+            _ => return Ok(()),
+        };
+        if product > max {
+            self.od.entry(index, 0)?;
+            return Err(AbortCode::PARAMETER_INCOMPATIBLE);
+        }
+        Ok(())
+    }
 }
 
 impl ObjectAccess for SdoView<'_> {
@@ -99,6 +122,7 @@ impl ObjectAccess for SdoView<'_> {
             self.od.entry(index, sub)?;
             return Err(AbortCode::DEVICE_STATE);
         }
+        self.check_life_time(index, data)?;
         self.od.write(index, sub, data)
     }
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -253,6 +277,7 @@ impl<const N: usize> Node<N> {
                 let mut view = SdoView {
                     od,
                     lock_pdo_params: lock,
+                    life_time_max_ms: self.opts.life_time_max_ms,
                 };
                 self.sdo
                     .on_request(now, frame.payload(), &mut view, &mut |r| {
@@ -340,6 +365,7 @@ impl<const N: usize> Node<N> {
         SdoView {
             od: &mut *od,
             lock_pdo_params: lock,
+            life_time_max_ms: self.opts.life_time_max_ms,
         }
         .write(index, sub, data)?;
         self.object_written(now, index, od);

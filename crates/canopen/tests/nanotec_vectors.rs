@@ -694,6 +694,23 @@ fn sdo_abort_codes_for_their_causes() {
         r,
         vec![CanFrame::full(0x581, abort(0x2021, 0, 0x0504_0000))]
     );
+    // 0504 0002h: a block upload with block size 0.
+    assert_eq!(
+        b.sdo1(&[0xA0, 0x21, 0x20, 0x00, 0x00, 0x00, 0, 0]),
+        abort(0x2021, 0, 0x0504_0002)
+    );
+    // 0604 0043h: guard time × life time factor beyond one minute (§11.23 L3822).
+    assert_eq!(b.sdo1(&[0x2B, 0x0C, 0x10, 0x00, 0x60, 0xEA]), ok(0x100C, 0));
+    assert_eq!(b.sdo1(&[0x2F, 0x0D, 0x10, 0x00, 0x01]), ok(0x100D, 0));
+    assert_eq!(
+        b.sdo1(&[0x2F, 0x0D, 0x10, 0x00, 0x02]),
+        abort(0x100D, 0, 0x0604_0043)
+    );
+    assert_eq!(
+        b.sdo1(&[0x2B, 0x0C, 0x10, 0x00, 0x61, 0xEA]),
+        abort(0x100C, 0, 0x0604_0043)
+    );
+    assert_eq!(b.od.value(0x100D, 0), Some(Value::Unsigned(1)));
     // 0800 0022h: PDO parameters in Operational (pdo_parameters_only_outside_operational).
     b.send(0x000, &[0x01, 0x01]);
     assert_eq!(

@@ -32,10 +32,11 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    profile: od::Profile::{:?},", d.profile);
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
+    let _ = writeln!(s, "    rotary_switches: {},", d.rotary_switches);
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {} }},",
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?} }},",
         c.pdo_params_locked_while_valid,
         c.pdo_config_outside_operational,
         c.tpdo_transmit_mask_index,
@@ -44,7 +45,8 @@ pub fn generate(d: &Device) -> String {
         c.pdo_map_length_filled,
         c.nmt_command_answered_with_state,
         c.life_guard_emcy_code,
-        c.restore_writes_stored_set
+        c.restore_writes_stored_set,
+        c.life_time_max_ms
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {

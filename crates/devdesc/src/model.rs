@@ -39,6 +39,7 @@ pub struct Device {
     pub profile: od::Profile,
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
+    pub rotary_switches: u8,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
 }
@@ -95,6 +96,11 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             d.name
         )));
     }
+    if d.rotary_switches > 2 {
+        return Err(DescError::Device(
+            "rotary_switches must be 0, 1 or 2".into(),
+        ));
+    }
     if !(1..=127).contains(&d.default_node_id) {
         return Err(DescError::Device("default_node_id must be 1…127".into()));
     }
@@ -146,6 +152,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         profile,
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
+        rotary_switches: d.rotary_switches,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
@@ -156,6 +163,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             nmt_command_answered_with_state: d.nmt_command_answered_with_state,
             life_guard_emcy_code: d.life_guard_emcy_code,
             restore_writes_stored_set: d.restore_writes_stored_set,
+            life_time_max_ms: d.life_time_max_ms,
         },
         objects,
     })

@@ -50,6 +50,10 @@ pub struct DeviceSection {
     pub life_guard_emcy_code: Option<u16>,
     #[serde(default)]
     pub restore_writes_stored_set: bool,
+    pub life_time_max_ms: Option<u32>,
+    /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
+    #[serde(default)]
+    pub rotary_switches: u8,
 }
 
 fn yes() -> bool {

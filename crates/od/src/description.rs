@@ -68,6 +68,9 @@ pub struct Cia301Options {
     /// A restore (1011h "load") also overwrites the stored parameter set at once (Nanotec §11.25)
     /// instead of taking effect at the next reset.
     pub restore_writes_stored_set: bool,
+    /// Guard time × life time factor (100Ch × 100Dh) may not exceed this many ms; a write
+    /// that would is refused with 0604 0043h (Nanotec §11.23: one minute).
+    pub life_time_max_ms: Option<u32>,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).
@@ -185,6 +188,9 @@ pub struct DeviceDescription {
     pub default_node_id: u8,
     /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
     pub baud_rates: &'static [u16],
+    /// Hexadecimal rotary switches that select node-ID and bit rate at power-on (Nanotec
+    /// §1.1.1: SMCI47-S two, PD4-N one), 0 for none.
+    pub rotary_switches: u8,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],
