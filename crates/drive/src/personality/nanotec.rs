@@ -1,0 +1,197 @@
+//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
+//! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
+//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1, the homing
+//! methods of §5.2 as tables; as behaviour the statusword (bit 9 remote always set, bit 4
+//! from Switched On, bit 8 PLL sync), the Profile Position target checks of §5.1 (range-limit
+//! wrap, software limits, relative overflow) and the reaction table of §7.1.
+
+use od::{AbortCode, ObjectAccess};
+
+use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use crate::device_control::State;
+use crate::drive::object_writes::Hook;
+use crate::drive::Drive;
+use crate::homing::{Method, Speed, Step, Until};
+use crate::statusword::Statusword;
+
+/// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
+pub mod emcy {
+    pub const UNDERVOLTAGE: u16 = 0x0001;
+    pub const OVERTEMPERATURE: u16 = 0x0002;
+    pub const LIFEGUARD: u16 = 0x0004;
+    pub const DATA_ERROR: u16 = 0x0008;
+    pub const TRAVEL_DIRECTION: u16 = 0x0020;
+    pub const STEP_CALCULATION: u16 = 0x0040;
+    pub const OVERCURRENT: u16 = 0x0080;
+    pub const TRANSMIT_ERRORS: u16 = 0x0100;
+    pub const RECEIVE_ERRORS: u16 = 0x0200;
+    pub const TRANSMIT_BUFFER_FULL: u16 = 0x0400;
+    /// The target exceeds the software position limit (or the position range limit).
+    pub const POSITION_LIMIT: u16 = 0x0800;
+    /// Position overflow.
+    pub const POSITION_OVERFLOW: u16 = 0x1000;
+}
+
+const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
+    ModeSpec {
+        mode,
+        bit,
+        ethercat_only: false,
+    }
+}
+
+/// The Nanotec controllers.
+///
+/// Decision: 6060h lists 3 (PV) but 6502h and the text say PV is not supported (§9): 3 is
+/// refused with 0609 0030h. 0 ("no mode") is taken; the drive then holds its position.
+pub const NANOTEC: Personality = Personality {
+    vendor: Vendor::Nanotec,
+    devices: &[
+        "nanotec-smci47s",
+        "nanotec-pd4n",
+        "nanotec-smci47-s",
+        "nanotec-pd4-n",
+    ],
+    // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
+    // the closed-loop test runs (§5.6).
+    modes: &[
+        mode(-2, None),
+        mode(-1, None),
+        mode(0, None),
+        mode(1, Some(0)),
+        mode(2, Some(1)),
+        mode(4, Some(3)),
+        mode(6, Some(5)),
+        mode(7, Some(6)),
+    ],
+    // 605Ah = 3, the only value: "brake with maximum current, then Switch On Disabled".
+    option_codes: &[OptionCode {
+        index: super::QUICK_STOP_OPTION,
+        value: 3,
+        fixed: true,
+    }],
+    // §2.4 L504: "only the jump from Ready to Switch On to Operation Enabled is possible".
+    enable_from_ready: true,
+    // 1001h: only generic (bit 0) and communication (bit 4) are used (§7.4).
+    errors: &[
+        ErrorSpec {
+            fault: Fault::SoftwareLimit,
+            code: emcy::POSITION_LIMIT,
+            register: 0x01,
+            critical: false,
+        },
+        ErrorSpec {
+            fault: Fault::PositionOverflow,
+            code: emcy::POSITION_OVERFLOW,
+            register: 0x01,
+            critical: false,
+        },
+    ],
+    homing_methods: &HOMING_METHODS,
+};
+
+const fn step(direction: i8, speed: Speed, until: Until) -> Step {
+    Step {
+        direction,
+        speed,
+        until,
+        reverse: false,
+    }
+}
+
+use crate::homing::Signal::Home;
+use Speed::{Crawl, Search as Fast};
+use Until::{Active, Inactive, Index};
+
+/// §5.2, methods 19–22, 33–35. Clockwise is the positive direction (§9: positive VL speed is
+/// "Rechtslauf").
+///
+/// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
+/// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
+/// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
+pub const HOMING_METHODS: [Method; 7] = [
+    // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
+    (
+        19,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    // 20: CCW until the switch, CW off it.
+    (
+        20,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    // 21: CCW until the switch, CW off it.
+    (
+        21,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    // 22: CW until the switch, CCW off it.
+    (
+        22,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    // 33: CW at 6099h:02 to the index mark (then off it: the reference is the mark).
+    (33, &[step(1, Crawl, Index)]),
+    // 34: CCW at 6099h:02 to the index mark.
+    (34, &[step(-1, Crawl, Index)]),
+    // 35: the actual position becomes the home offset, no motion.
+    (35, &[]),
+];
+
+/// Statusword bits 0–3, 5, 6 of each state (§4.2, measured in the §2.4 example: 0260h,
+/// 0221h, 0233h, 0237h with bits 4 and 9 added). Bit 5 is set in Switch On Disabled.
+const STATE_BITS: [(State, u16); 8] = [
+    (State::NotReadyToSwitchOn, 0x0000),
+    (State::SwitchOnDisabled, 0x0060),
+    (State::ReadyToSwitchOn, 0x0021),
+    (State::SwitchedOn, 0x0023),
+    (State::OperationEnabled, 0x0027),
+    (State::QuickStopActive, 0x0007),
+    (State::FaultReactionActive, 0x000F),
+    (State::Fault, 0x0008),
+];
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// At power-on and after a reload: nothing beyond the dictionary's values.
+    pub(crate) fn nanotec_power_on(&mut self) {}
+
+    /// The objects whose Nanotec rules do more than store a value.
+    pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+        Some(match (index, sub) {
+            (0x6060, 0x00) => Self::nanotec_write_mode,
+            _ => return None,
+        })
+    }
+
+    /// 6060h: PV (3) is refused (see [`NANOTEC`]).
+    fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.entry(index, sub)?;
+        match data {
+            [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
+            _ => self.write_mode(index, sub, data),
+        }
+    }
+
+    /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
+    /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, §5.4).
+    pub(crate) fn nanotec_state_bits(&self, state: State, power: bool) -> Statusword {
+        let bits = STATE_BITS
+            .iter()
+            .find(|(s, _)| *s == state)
+            .map_or(0, |(_, b)| *b);
+        Statusword(bits)
+            | Statusword::VOLTAGE_ENABLED.when(power)
+            | Statusword::REMOTE
+            | Statusword::BIT_8.when(self.ip.is_synchronised())
+    }
+
+    /// The reaction of §7.1 to `code`: 0800h and 1000h are an EMCY and statusword bit 11
+    /// only; others switch the power off (a `critical` one at once).
+    pub(crate) fn nanotec_error_reaction(&mut self, code: u16, critical: bool) -> ErrorReaction {
+        match code {
+            emcy::POSITION_LIMIT | emcy::POSITION_OVERFLOW => ErrorReaction::MessageOnly,
+            _ if critical => ErrorReaction::OutputStageOff,
+            _ => ErrorReaction::QuickStop,
+        }
+    }
+}
