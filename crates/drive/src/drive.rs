@@ -340,7 +340,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             traj: Trajectory::default(),
             smoother: Smoother::default(),
             demand_position: 0.0,
-            setpoints: SetPoints::default(),
+            setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
             ip: Interpolator::new(DEFAULT_IP_PERIOD),
@@ -479,6 +479,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn reload_factor_group(&mut self) {
+        if self.personality.vendor == Vendor::Nanotec {
+            self.fg = self.nanotec_factor_group();
+            return;
+        }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
             numerator: od
                 .get_unsigned(index, 1)
@@ -577,6 +581,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ => self.dc.fault(),
         };
         self.react(r);
+    }
+
+    /// A message-only error (EMCY without a fault) is over: the EMCY "error reset".
+    pub(crate) fn clear_notice(&mut self, code: u16) {
+        if let Some(i) = self.notices.iter().position(|c| *c == code) {
+            self.notices.remove(i);
+            self.push_event(DriveEvent::Cleared { code });
+        }
+    }
+
+    /// The highest speed a profile may ask for, increments/s: 6080h max_motor_speed where
+    /// the drive has it, else the controller's limit.
+    pub(crate) fn max_motor_speed(&self) -> f64 {
+        let rpm = match self.param(0x6080, 0) {
+            Some(_) => self.value(0x6080, 0).max(0) as f64,
+            None => f64::from(self.axis.params().max_motor_speed_rpm),
+        };
+        rpm * 4096.0 * INC_S_PER_VEL
     }
 
     /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
@@ -973,10 +995,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             || self.cw_rising.contains(Controlword::NEW_SET_POINT);
         let demand = self.traj.position;
         let fg = self.fg;
+        let max_speed = self.max_motor_speed();
+        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
+        // the set-point is taken; a refused one becomes a job that stays where it is.
+        let checked = (bit4 && self.personality.vendor == Vendor::Nanotec)
+            .then(|| self.nanotec_check_target(cw));
         let get = |i: u16| self.value(i, 0);
         // Read the set-point only while bit 4 is high (a rising edge may be taking it).
         let req = bit4.then(|| {
             let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            let (user, relative) = match checked {
+                Some(Ok(absolute)) => (absolute, false),
+                Some(Err(_)) => (0, true),
+                None => (user, cw.contains(Controlword::RELATIVE)),
+            };
             let target = fg.position_to_internal(user) as f64;
             let vel = |i| {
                 fg.velocity_magnitude_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
@@ -988,13 +1021,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             };
             Request {
                 target,
-                relative: cw.contains(Controlword::RELATIVE),
+                relative,
                 immediately: cw.contains(Controlword::CHANGE_SET_IMMEDIATELY),
                 job: Job {
                     target,
-                    velocity: vel(0x6081)
-                        .min(f64::from(get(0x6080).max(0) as u32) * 4096.0 * INC_S_PER_VEL),
-                    end_velocity: vel(0x6082),
+                    velocity: vel(0x6081).min(max_speed),
+                    // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
+                    // end velocity; bit 9 decides whether a queued job follows at speed.
+                    end_velocity: if nanotec { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
                     deceleration: acc(0x6084),
                 },
@@ -1015,7 +1049,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             })
         };
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
-        if self.setpoints.update(bit4, demand, request) {
+        let accepted = self.setpoints.update(bit4, demand, request);
+        if let (true, Some(result)) = (accepted, checked) {
+            self.nanotec_target_taken(result, cw);
+        }
+        if accepted {
             self.target_reached = false;
             self.window_since = None;
             // 6086h = 2: jerk-free, the acceleration ramps over the window (a quarter of the

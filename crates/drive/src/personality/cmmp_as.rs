@@ -127,6 +127,7 @@ pub const CMMP_AS: Personality = Personality {
             false,
         ),
     ],
+    pp_overwrite_queued: false,
     homing_methods: &METHODS,
 };
 
