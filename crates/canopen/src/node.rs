@@ -245,7 +245,7 @@ impl<const N: usize> Node<N> {
         }
         self.poll_soon = Some(now);
         match cob {
-            0x000 => self.on_nmt(now, frame.payload(), od),
+            0x000 => self.on_nmt(now, frame.payload(), od, out),
             c if c == 0x600 + own && !frame.rtr && state.serves_sdo() => {
                 let sdo_tx = 0x580 + own;
                 let lock =
@@ -419,12 +419,26 @@ impl<const N: usize> Node<N> {
             (guard_ms > 0 && factor > 0).then(|| now + Duration::from_millis(guard_ms * factor));
         if self.guarding.lost {
             self.guarding.lost = false;
-            self.emcy.clear(od, emcy_code::LIFE_GUARD_OR_HEARTBEAT);
+            self.emcy.clear(od, self.life_guard_code());
             self.push(NodeEvent::LifeGuardingResumed);
         }
     }
 
-    fn on_nmt(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess) {
+    /// The EMCY code of a life-guarding error: CiA 301's 8130h unless the personality has its
+    /// own (Nanotec §13.3: 0004h).
+    fn life_guard_code(&self) -> u16 {
+        self.opts
+            .life_guard_emcy_code
+            .unwrap_or(emcy_code::LIFE_GUARD_OR_HEARTBEAT)
+    }
+
+    fn on_nmt(
+        &mut self,
+        now: Instant,
+        data: &[u8],
+        od: &mut dyn ObjectAccess,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
         // CiA 301: NMT frames have 2 bytes; others are not NMT node control.
         let [cs, target] = match data {
             [a, b] => [*a, *b],
@@ -446,6 +460,12 @@ impl<const N: usize> Node<N> {
                     self.pdos.reload(od);
                     self.pdos.set_operational(now, s == NmtState::Operational);
                     self.push(NodeEvent::State(s));
+                }
+                // Nanotec §12.2 (seeds/003_ef071fe40f10c01c.txt L4153, L4237) prints the node's
+                // answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`: the
+                // state byte, as a heartbeat carries it (no guarding toggle).
+                if self.opts.nmt_command_answered_with_state {
+                    out(self.error_control_frame(s.code()));
                 }
             }
             Some(NmtOutcome::ResetApplication) => {
@@ -514,12 +534,8 @@ impl<const N: usize> Node<N> {
         if self.guarding.life_deadline.is_some_and(|d| now >= d) {
             self.guarding.life_deadline = None;
             self.guarding.lost = true;
-            self.emcy.raise(
-                od,
-                emcy_code::LIFE_GUARD_OR_HEARTBEAT,
-                register::COMMUNICATION,
-                [0; 5],
-            );
+            let code = self.life_guard_code();
+            self.emcy.raise(od, code, register::COMMUNICATION, [0; 5]);
             self.push(NodeEvent::LifeGuardingLost);
         }
         let pdo_deadline = self.pdos.poll(now, od, out);

@@ -35,8 +35,16 @@ pub fn generate(d: &Device) -> String {
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {} }},",
-        c.pdo_params_locked_while_valid, c.pdo_config_outside_operational, c.tpdo_transmit_mask_index, c.tpdo_254_cyclic_inhibit
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {} }},",
+        c.pdo_params_locked_while_valid,
+        c.pdo_config_outside_operational,
+        c.tpdo_transmit_mask_index,
+        c.tpdo_254_cyclic_inhibit,
+        c.pdo_refuses_type_254,
+        c.pdo_map_length_filled,
+        c.nmt_command_answered_with_state,
+        c.life_guard_emcy_code,
+        c.restore_writes_stored_set
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {
@@ -93,9 +101,10 @@ fn entry(s: &mut String, e: &Ent, offset: u32) {
     );
     let _ = writeln!(
         s,
-        "                    behaviour: od::Behaviour::{}, storable: {}, offset: {offset}, capacity: {},",
+        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, offset: {offset}, capacity: {},",
         behaviour(e.behaviour),
         e.storable,
+        e.kept_on_restore,
         e.capacity
     );
     let _ = writeln!(s, "                }},");
