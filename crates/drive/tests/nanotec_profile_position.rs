@@ -62,7 +62,7 @@ fn nt_pp_02_start_moves_to_the_target_and_a_second_toggle_does_nothing() {
 fn nt_pp_03_new_target_0x12345() {
     let mut r = Rig::new();
     pp(&mut r);
-    // Faster than the test dictionary's 4000 units/s so the move takes a second.
+    // Faster than the default 2000 units/s so the move takes a second.
     r.w32(0x6081, 0, 80_000);
     r.w32(0x6083, 0, 400_000);
     r.w32(0x6084, 0, 400_000);
@@ -169,10 +169,22 @@ fn nt_pp_06_software_limit_and_overflow_emcy_with_bit_11() {
     assert_eq!(r.events(), [DriveEvent::Cleared { code: 0x0800 }]);
     assert_eq!(r.sw() & 0x0800, 0);
     assert!(r.until_target_reached(5000));
-    // A relative move past 2³¹: position overflow.
+    // A relative move past 2³¹: position overflow. Homing method 35 puts the position at
+    // the home offset, near the top of the range.
     r.w32(0x607D, 1, 0);
     r.w32(0x607D, 2, 0);
-    r.w32(0x607A, 0, i32::MAX as i64);
+    r.w32(0x607C, 0, 2_100_000_000);
+    r.w8(0x6098, 0, 35);
+    r.w8(0x6060, 0, 6);
+    r.run_ms(5);
+    r.cw(0x001F);
+    r.run_ms(20);
+    assert_ne!(r.sw() & 0x1000, 0, "homing attained");
+    assert_eq!(r.position(), 2_100_000_000);
+    r.cw(0x000F);
+    r.w8(0x6060, 0, 1);
+    r.run_ms(5);
+    r.w32(0x607A, 0, 100_000_000);
     start(&mut r, 0x5F);
     assert_eq!(
         r.events(),
@@ -213,6 +225,9 @@ fn change_on_set_point_passes_the_first_target_at_speed() {
     let speed_at_first_target = |bit9: u16| {
         let mut r = Rig::new();
         pp(&mut r);
+        r.w32(0x6081, 0, 4000);
+        r.w32(0x6083, 0, 40_000);
+        r.w32(0x6084, 0, 40_000);
         r.w32(0x607A, 0, 4000);
         r.cw(0x001F);
         r.cw(0x000F);

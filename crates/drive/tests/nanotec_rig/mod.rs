@@ -1,85 +1,11 @@
-//! A Nanotec drive alone on the virtual clock: the rig of the Nanotec drive-level tests. The
-//! dictionary is the test subset `nanotec-test.toml` beside this file, read with `devdesc`
-//! and kept for the test's lifetime.
+//! A Nanotec SMCI47-S (`devices/nanotec-smci47s.toml`) alone on the virtual clock, with its
+//! CANopen node for the manual's frames: the rig of the Nanotec drive-level tests.
 #![allow(dead_code)] // each test file uses a part of it
 
 use std::time::Duration;
 
 use drive::drive::{Drive, DriveEvent, DriveSettings};
-use drive::personality::nanotec::NANOTEC;
 use od::{Instant, ObjectAccess, ObjectDictionary, Value};
-
-/// The description of `nanotec-test.toml`, built once and leaked (a test process).
-fn description() -> &'static od::DeviceDescription {
-    static DESC: std::sync::OnceLock<&'static od::DeviceDescription> = std::sync::OnceLock::new();
-    DESC.get_or_init(|| {
-        let text = include_str!("nanotec-test.toml");
-        let d = devdesc::parse(text, "nanotec-test.toml").expect("the test dictionary");
-        leak(&d)
-    })
-}
-
-fn leak_str(s: &str) -> &'static str {
-    Box::leak(s.to_owned().into_boxed_str())
-}
-
-/// The static tables `devices/build.rs` generates, built at run time.
-fn leak(d: &devdesc::Device) -> &'static od::DeviceDescription {
-    let mut offset = 0u32;
-    let objects: Vec<od::Object> = d
-        .objects
-        .iter()
-        .map(|o| {
-            let entries: Vec<od::Entry> = o
-                .entries
-                .iter()
-                .map(|e| {
-                    let entry = od::Entry {
-                        index: e.index,
-                        sub: e.sub,
-                        name: leak_str(&e.name),
-                        data_type: e.data_type,
-                        access: e.access,
-                        pdo_mappable: e.pdo,
-                        default: Box::leak(e.default.clone().into_boxed_slice()),
-                        default_plus_node_id: e.default_plus_node_id,
-                        min: e.min,
-                        max: e.max,
-                        unit: leak_str(&e.unit),
-                        behaviour: e.behaviour,
-                        storable: e.storable,
-                        offset,
-                        capacity: e.capacity,
-                    };
-                    offset += entry.storage_len() as u32;
-                    entry
-                })
-                .collect();
-            od::Object {
-                index: o.index,
-                name: leak_str(&o.name),
-                kind: o.kind,
-                entries: Box::leak(entries.into_boxed_slice()),
-            }
-        })
-        .collect();
-    Box::leak(Box::new(od::DeviceDescription {
-        name: leak_str(&d.name),
-        product_name: leak_str(&d.product_name),
-        vendor_name: leak_str(&d.vendor_name),
-        vendor_id: d.vendor_id,
-        product_code: d.product_code,
-        revision: d.revision,
-        order_code: leak_str(&d.order_code),
-        description: leak_str(&d.description),
-        profile: d.profile,
-        default_node_id: d.default_node_id,
-        baud_rates: Box::leak(d.baud_rates.clone().into_boxed_slice()),
-        cia301: d.cia301,
-        objects: Box::leak(objects.into_boxed_slice()),
-        storage_size: offset as usize,
-    }))
-}
 
 pub struct Rig {
     pub d: Drive<Vec<u8>>,
@@ -91,11 +17,11 @@ pub struct Rig {
 impl Rig {
     /// The Nanotec drive with `settings`, one millisecond after power-on.
     pub fn with(settings: DriveSettings) -> Self {
-        let desc = description();
+        let desc = &devices::NANOTEC_SMCI47S;
         let od = ObjectDictionary::new(desc, 34, vec![0; desc.storage_size])
             .expect("the Nanotec dictionary");
         let mut r = Rig {
-            d: Drive::with_personality(od, settings, &NANOTEC),
+            d: Drive::new(od, settings),
             now: Instant::ZERO,
             node: canopen::Node::new(34, desc.cia301),
         };
