@@ -12,6 +12,7 @@ pub mod lss;
 pub mod nmt;
 pub mod node;
 pub mod pdo;
+pub mod rotary_switches;
 pub mod sdo_crc;
 pub mod sdo_server;
 

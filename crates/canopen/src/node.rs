@@ -84,6 +84,29 @@ pub struct Node<const N: usize = 8192> {
 struct SdoView<'a> {
     od: &'a mut dyn ObjectAccess,
     lock_pdo_params: bool,
+    life_time_max_ms: Option<u32>,
+}
+
+impl SdoView<'_> {
+    /// Nanotec §11.23: guard time × life time factor may not exceed one minute; a write that
+    /// would make it longer is refused with 0604 0043h (general parameter incompatibility).
+    fn check_life_time(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+        let Some(max) = self.life_time_max_ms else {
+            return Ok(());
+        };
+        let guard = u32::from(self.od.read_u16(0x100C, 0).unwrap_or(0));
+        let factor = u32::from(self.od.read_u8(0x100D, 0).unwrap_or(0));
+        let product = match (index, data) {
+            (0x100C, [lo, hi]) => u32::from(u16::from_le_bytes([*lo, *hi])) * factor,
+            (0x100D, [f]) => guard * u32::from(*f),
+            _ => return Ok(()),
+        };
+        if product > max {
+            self.od.entry(index, 0)?;
+            return Err(AbortCode::PARAMETER_INCOMPATIBLE);
+        }
+        Ok(())
+    }
 }
 
 impl ObjectAccess for SdoView<'_> {
@@ -99,6 +122,7 @@ impl ObjectAccess for SdoView<'_> {
             self.od.entry(index, sub)?;
             return Err(AbortCode::DEVICE_STATE);
         }
+        self.check_life_time(index, data)?;
         self.od.write(index, sub, data)
     }
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -245,7 +269,7 @@ impl<const N: usize> Node<N> {
         }
         self.poll_soon = Some(now);
         match cob {
-            0x000 => self.on_nmt(now, frame.payload(), od),
+            0x000 => self.on_nmt(now, frame.payload(), od, out),
             c if c == 0x600 + own && !frame.rtr && state.serves_sdo() => {
                 let sdo_tx = 0x580 + own;
                 let lock =
@@ -253,6 +277,7 @@ impl<const N: usize> Node<N> {
                 let mut view = SdoView {
                     od,
                     lock_pdo_params: lock,
+                    life_time_max_ms: self.opts.life_time_max_ms,
                 };
                 self.sdo
                     .on_request(now, frame.payload(), &mut view, &mut |r| {
@@ -340,6 +365,7 @@ impl<const N: usize> Node<N> {
         SdoView {
             od: &mut *od,
             lock_pdo_params: lock,
+            life_time_max_ms: self.opts.life_time_max_ms,
         }
         .write(index, sub, data)?;
         self.object_written(now, index, od);
@@ -419,12 +445,26 @@ impl<const N: usize> Node<N> {
             (guard_ms > 0 && factor > 0).then(|| now + Duration::from_millis(guard_ms * factor));
         if self.guarding.lost {
             self.guarding.lost = false;
-            self.emcy.clear(od, emcy_code::LIFE_GUARD_OR_HEARTBEAT);
+            self.emcy.clear(od, self.life_guard_code());
             self.push(NodeEvent::LifeGuardingResumed);
         }
     }
 
-    fn on_nmt(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess) {
+    /// The EMCY code of a life-guarding error: CiA 301's 8130h unless the personality has its
+    /// own (Nanotec §13.3: 0004h).
+    fn life_guard_code(&self) -> u16 {
+        self.opts
+            .life_guard_emcy_code
+            .unwrap_or(emcy_code::LIFE_GUARD_OR_HEARTBEAT)
+    }
+
+    fn on_nmt(
+        &mut self,
+        now: Instant,
+        data: &[u8],
+        od: &mut dyn ObjectAccess,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
         // CiA 301: NMT frames have 2 bytes; others are not NMT node control.
         let [cs, target] = match data {
             [a, b] => [*a, *b],
@@ -446,6 +486,12 @@ impl<const N: usize> Node<N> {
                     self.pdos.reload(od);
                     self.pdos.set_operational(now, s == NmtState::Operational);
                     self.push(NodeEvent::State(s));
+                }
+                // Nanotec §12.2 (seeds/003_ef071fe40f10c01c.txt L4153, L4237) prints the node's
+                // answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`: the
+                // state byte, as a heartbeat carries it (no guarding toggle).
+                if self.opts.nmt_command_answered_with_state {
+                    out(self.error_control_frame(s.code()));
                 }
             }
             Some(NmtOutcome::ResetApplication) => {
@@ -514,12 +560,8 @@ impl<const N: usize> Node<N> {
         if self.guarding.life_deadline.is_some_and(|d| now >= d) {
             self.guarding.life_deadline = None;
             self.guarding.lost = true;
-            self.emcy.raise(
-                od,
-                emcy_code::LIFE_GUARD_OR_HEARTBEAT,
-                register::COMMUNICATION,
-                [0; 5],
-            );
+            let code = self.life_guard_code();
+            self.emcy.raise(od, code, register::COMMUNICATION, [0; 5]);
             self.push(NodeEvent::LifeGuardingLost);
         }
         let pdo_deadline = self.pdos.poll(now, od, out);

@@ -32,11 +32,21 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    profile: od::Profile::{:?},", d.profile);
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
+    let _ = writeln!(s, "    rotary_switches: {},", d.rotary_switches);
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {} }},",
-        c.pdo_params_locked_while_valid, c.pdo_config_outside_operational, c.tpdo_transmit_mask_index, c.tpdo_254_cyclic_inhibit
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?} }},",
+        c.pdo_params_locked_while_valid,
+        c.pdo_config_outside_operational,
+        c.tpdo_transmit_mask_index,
+        c.tpdo_254_cyclic_inhibit,
+        c.pdo_refuses_type_254,
+        c.pdo_map_length_filled,
+        c.nmt_command_answered_with_state,
+        c.life_guard_emcy_code,
+        c.restore_writes_stored_set,
+        c.life_time_max_ms
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {
@@ -93,9 +103,10 @@ fn entry(s: &mut String, e: &Ent, offset: u32) {
     );
     let _ = writeln!(
         s,
-        "                    behaviour: od::Behaviour::{}, storable: {}, offset: {offset}, capacity: {},",
+        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, offset: {offset}, capacity: {},",
         behaviour(e.behaviour),
         e.storable,
+        e.kept_on_restore,
         e.capacity
     );
     let _ = writeln!(s, "                }},");

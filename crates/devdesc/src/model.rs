@@ -39,6 +39,7 @@ pub struct Device {
     pub profile: od::Profile,
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
+    pub rotary_switches: u8,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
 }
@@ -66,6 +67,7 @@ pub struct Ent {
     pub unit: String,
     pub behaviour: Behaviour,
     pub storable: bool,
+    pub kept_on_restore: bool,
     pub capacity: u32,
 }
 
@@ -93,6 +95,11 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             "name {:?} must be letters, digits and '-'",
             d.name
         )));
+    }
+    if d.rotary_switches > 2 {
+        return Err(DescError::Device(
+            "rotary_switches must be 0, 1 or 2".into(),
+        ));
     }
     if !(1..=127).contains(&d.default_node_id) {
         return Err(DescError::Device("default_node_id must be 1…127".into()));
@@ -123,7 +130,11 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         ProfileName::Fhpp => od::Profile::Fhpp,
         ProfileName::Plain => od::Profile::Plain,
     };
-    if (profile == od::Profile::Cia402) != (device_type_profile == Some(402)) {
+    // Decision: a device whose 1000h does not carry its profile (Nanotec §9.6 prints 00000008h,
+    // "stepper motor") says so with `device_type_carries_profile = false`; its `profile` decides.
+    if d.device_type_carries_profile
+        && (profile == od::Profile::Cia402) != (device_type_profile == Some(402))
+    {
         return Err(DescError::Device(format!(
             "profile {:?} does not agree with the device type 1000h",
             d.profile
@@ -141,11 +152,18 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         profile,
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
+        rotary_switches: d.rotary_switches,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
             tpdo_transmit_mask_index: d.tpdo_transmit_mask_index,
             tpdo_254_cyclic_inhibit: d.tpdo_254_cyclic_inhibit,
+            pdo_refuses_type_254: d.pdo_refuses_type_254,
+            pdo_map_length_filled: d.pdo_map_length_filled,
+            nmt_command_answered_with_state: d.nmt_command_answered_with_state,
+            life_guard_emcy_code: d.life_guard_emcy_code,
+            restore_writes_stored_set: d.restore_writes_stored_set,
+            life_time_max_ms: d.life_time_max_ms,
         },
         objects,
     })
@@ -210,6 +228,7 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
                     unit: String::new(),
                     behaviour: Behaviour::Plain,
                     storable: false,
+                    kept_on_restore: false,
                     capacity: 1,
                 },
             );
@@ -329,6 +348,7 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
         unit: f.unit.clone().unwrap_or_default(),
         behaviour,
         storable,
+        kept_on_restore: f.kept_on_restore.unwrap_or(false),
         capacity,
     })
 }
@@ -455,6 +475,25 @@ mod tests {
         let cia402 = HEAD.replace("\"plain\"", "\"cia402\"");
         assert!(parse(&format!("{cia402}{device_type}"), "t.toml").is_ok());
         assert!(parse(&cia402, "t.toml").is_err(), "CiA 402 without 1000h");
+        // Nanotec §9.6: 1000h = 00000008h; the file says its 1000h carries no profile.
+        let nanotec = cia402.replace(
+            "profile = \"cia402\"\n",
+            "profile = \"cia402\"\ndevice_type_carries_profile = false\n",
+        );
+        let stepper = device_type.replace("0x00020192", "0x00000008");
+        assert!(parse(&format!("{nanotec}{stepper}"), "t.toml").is_ok());
+        assert!(parse(&format!("{cia402}{stepper}"), "t.toml").is_err());
+    }
+
+    #[test]
+    fn kept_on_restore_is_carried_to_the_entry() {
+        let d = parse(
+            &format!("{HEAD}[[object]]\nindex = 0x2005\nname = \"baud\"\ntype = \"UNSIGNED8\"\naccess = \"rw\"\nkept_on_restore = true\n"),
+            "t.toml",
+        )
+        .unwrap();
+        assert!(d.objects[0].entries[0].kept_on_restore);
+        assert!(d.objects[0].entries[0].storable, "still saved by 1010h");
     }
 
     #[test]

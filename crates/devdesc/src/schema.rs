@@ -38,6 +38,26 @@ pub struct DeviceSection {
     pub tpdo_transmit_mask_index: Option<u16>,
     #[serde(default)]
     pub tpdo_254_cyclic_inhibit: bool,
+    /// 1000h does not carry the profile number (Nanotec: 00000008h); `profile` alone decides.
+    #[serde(default = "yes")]
+    pub device_type_carries_profile: bool,
+    #[serde(default)]
+    pub pdo_refuses_type_254: bool,
+    #[serde(default)]
+    pub pdo_map_length_filled: bool,
+    #[serde(default)]
+    pub nmt_command_answered_with_state: bool,
+    pub life_guard_emcy_code: Option<u16>,
+    #[serde(default)]
+    pub restore_writes_stored_set: bool,
+    pub life_time_max_ms: Option<u32>,
+    /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
+    #[serde(default)]
+    pub rotary_switches: u8,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// `profile` of `[device]`.
@@ -68,6 +88,7 @@ pub struct EntryFields {
     pub size: Option<u32>,
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
+    pub kept_on_restore: Option<bool>,
     pub source: Option<String>,
 }
 
@@ -88,6 +109,7 @@ pub struct ObjectSection {
     pub size: Option<u32>,
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
+    pub kept_on_restore: Option<bool>,
     pub source: Option<String>,
     #[serde(default)]
     pub sub: Vec<SubSection>,
@@ -110,6 +132,7 @@ pub struct SubSection {
     pub size: Option<u32>,
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
+    pub kept_on_restore: Option<bool>,
     pub source: Option<String>,
 }
 
@@ -126,6 +149,7 @@ impl SubSection {
             size: self.size,
             behaviour: self.behaviour.clone(),
             storable: self.storable,
+            kept_on_restore: self.kept_on_restore,
             source: self.source.clone(),
         }
     }
@@ -145,6 +169,7 @@ impl ObjectSection {
             size: self.size,
             behaviour: self.behaviour.clone(),
             storable: self.storable,
+            kept_on_restore: self.kept_on_restore,
             source: self.source.clone(),
         }
     }

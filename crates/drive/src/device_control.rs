@@ -104,23 +104,49 @@ pub enum Reaction {
     QuickStopRamp,
 }
 
+/// What a personality's option codes and manual make of the state machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rules {
+    /// 0Fh in READY TO SWITCH ON runs transitions 3 and 4 at once.
+    pub enable_from_ready: bool,
+    /// 605Ah quick_stop_option_code: 1–4 end the quick stop in SWITCH ON DISABLED, 5–8 stay
+    /// in QUICK STOP ACTIVE (CiA 402 §6.3.4).
+    pub quick_stop_option: i16,
+}
+
+impl Default for Rules {
+    /// The CMMP-AS's: 3 + 4 allowed, 605Ah = 2.
+    fn default() -> Self {
+        Rules {
+            enable_from_ready: true,
+            quick_stop_option: 2,
+        }
+    }
+}
+
 /// The device control state machine.
 #[derive(Debug, Clone, Copy)]
 pub struct DeviceControl {
     state: State,
     last_controlword: u16,
+    rules: Rules,
 }
 
 impl Default for DeviceControl {
     fn default() -> Self {
-        DeviceControl {
-            state: State::NotReadyToSwitchOn,
-            last_controlword: 0,
-        }
+        Self::with_rules(Rules::default())
     }
 }
 
 impl DeviceControl {
+    pub const fn with_rules(rules: Rules) -> Self {
+        DeviceControl {
+            state: State::NotReadyToSwitchOn,
+            last_controlword: 0,
+            rules,
+        }
+    }
+
     pub fn state(&self) -> State {
         self.state
     }
@@ -163,8 +189,8 @@ impl DeviceControl {
     /// The motion side finished braking (quick stop, disable operation or fault reaction).
     pub fn stopped(&mut self) -> Reaction {
         match self.state {
-            // Transition 12 (605Ah = 2): quick stop ends in SWITCH ON DISABLED.
-            State::QuickStopActive => {
+            // Transition 12 (605Ah = 1 … 4): quick stop ends in SWITCH ON DISABLED.
+            State::QuickStopActive if matches!(self.rules.quick_stop_option, 1..=4) => {
                 self.state = State::SwitchOnDisabled;
                 Reaction::Coast
             }
@@ -196,7 +222,9 @@ impl DeviceControl {
         let (next, reaction) = match (self.state, cmd) {
             (SwitchOnDisabled, Shutdown) if enables_present => (ReadyToSwitchOn, Reaction::None), // 2
             (ReadyToSwitchOn, SwitchOn) => (SwitchedOn, Reaction::Enable), // 3
-            (ReadyToSwitchOn, EnableOperation) => (OperationEnabled, Reaction::Enable), // 3+4
+            (ReadyToSwitchOn, EnableOperation) if self.rules.enable_from_ready => {
+                (OperationEnabled, Reaction::Enable) // 3+4
+            }
             // 7: the manual lists Quick Stop only; CiA 402 also Disable Voltage (spec §9.3).
             (ReadyToSwitchOn, DisableVoltage | QuickStop) => (SwitchOnDisabled, Reaction::None),
             (SwitchedOn, EnableOperation) => (OperationEnabled, Reaction::Enable), // 4

@@ -9,20 +9,23 @@ use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Va
 
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
-use crate::device_control::{DeviceControl, Reaction, State};
+use crate::controlword::Controlword;
+use crate::device_control::{DeviceControl, Reaction, Rules, State};
 use crate::digital_inputs::{Levels, SwitchConfig};
 use crate::display::Display;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
-use crate::messages::{self, reaction, Number, Reactions};
+use crate::messages::{self, Number, Reactions};
 use crate::motor::MotorData;
+use crate::personality::{self, ErrorReaction, Fault, Personality, Vendor};
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
+use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
-mod object_writes;
+pub(crate) mod object_writes;
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
@@ -37,23 +40,8 @@ pub mod mode {
     pub const CHANGING: i8 = -1;
 }
 
-/// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
-pub mod diag {
-    /// 02-0 DC-link undervoltage (below 6510h:36 with 6510h:37 = 1).
-    pub const DC_LINK_UNDERVOLTAGE: u16 = 0x3220;
-    /// 17-0 following error: the hard limit 6510h:22 was exceeded.
-    pub const FOLLOWING_ERROR: u16 = 0x8611;
-    /// 31-0 I²t motor (with 6510h:38 = 1).
-    pub const I2T_MOTOR: u16 = 0x2312;
-    /// 34-0 no fieldbus synchronisation: IP mode activated off the SYNC grid.
-    pub const NO_FIELDBUS_SYNC: u16 = 0x8780;
-    /// 34-1 fieldbus synchronisation error: the SYNC grid lost while interpolating.
-    pub const FIELDBUS_SYNC_ERROR: u16 = 0x8781;
-    /// 43-0 limit switch: negative set-point blocked (the negative hardware limit switch).
-    pub const LIMIT_SWITCH_NEGATIVE: u16 = 0x8081;
-    /// 43-1 limit switch: positive set-point blocked.
-    pub const LIMIT_SWITCH_POSITIVE: u16 = 0x8082;
-}
+/// The CMMP-AS's diagnostic messages (its personality's error table).
+pub use crate::personality::cmmp_as::diag;
 
 /// Settings of the simulation that no object holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,99 +144,106 @@ const PARAMS: [(u16, u8); 43] = [
 
 /// Entries the drive reads or writes every cycle, looked up once.
 #[derive(Debug, Clone, Copy, Default)]
-struct Hot {
-    controlword: Option<&'static Entry>,
-    statusword: Option<&'static Entry>,
-    mode_display: Option<&'static Entry>,
-    position_internal: Option<&'static Entry>,
-    position_actual: Option<&'static Entry>,
-    position_demand: Option<&'static Entry>,
-    velocity_actual: Option<&'static Entry>,
-    velocity_demand: Option<&'static Entry>,
-    current_actual: Option<&'static Entry>,
-    torque_actual: Option<&'static Entry>,
-    torque_demand: Option<&'static Entry>,
-    following_error_actual: Option<&'static Entry>,
-    control_effort: Option<&'static Entry>,
-    manufacturer_status: Option<&'static Entry>,
-    target_velocity: Option<&'static Entry>,
-    target_torque: Option<&'static Entry>,
-    digital_inputs: Option<&'static Entry>,
+pub(crate) struct Hot {
+    pub(crate) controlword: Option<&'static Entry>,
+    pub(crate) statusword: Option<&'static Entry>,
+    pub(crate) mode_display: Option<&'static Entry>,
+    pub(crate) position_internal: Option<&'static Entry>,
+    pub(crate) position_actual: Option<&'static Entry>,
+    pub(crate) position_demand: Option<&'static Entry>,
+    pub(crate) velocity_actual: Option<&'static Entry>,
+    pub(crate) velocity_demand: Option<&'static Entry>,
+    pub(crate) current_actual: Option<&'static Entry>,
+    pub(crate) torque_actual: Option<&'static Entry>,
+    pub(crate) torque_demand: Option<&'static Entry>,
+    pub(crate) following_error_actual: Option<&'static Entry>,
+    pub(crate) control_effort: Option<&'static Entry>,
+    pub(crate) manufacturer_status: Option<&'static Entry>,
+    pub(crate) target_velocity: Option<&'static Entry>,
+    pub(crate) target_torque: Option<&'static Entry>,
+    pub(crate) digital_inputs: Option<&'static Entry>,
 }
 
 pub struct Drive<S> {
-    od: ObjectDictionary<S>,
-    settings: DriveSettings,
-    dc: DeviceControl,
-    axis: Axis,
-    fg: FactorGroup,
-    hot: Hot,
-    params: [Option<&'static Entry>; PARAMS.len()],
+    /// What the drive is: modes, option codes, errors, homing methods, vendor behaviour.
+    pub(crate) personality: &'static Personality,
+    pub(crate) od: ObjectDictionary<S>,
+    pub(crate) settings: DriveSettings,
+    pub(crate) dc: DeviceControl,
+    pub(crate) axis: Axis,
+    pub(crate) fg: FactorGroup,
+    pub(crate) hot: Hot,
+    pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
     /// Current-controller cycle and how many of them make one logic (position-loop) cycle.
-    cycle: Duration,
-    logic_every: u32,
-    next_cycle: Option<Instant>,
-    cycles: u64,
-    now: Instant,
+    pub(crate) cycle: Duration,
+    pub(crate) logic_every: u32,
+    pub(crate) next_cycle: Option<Instant>,
+    pub(crate) cycles: u64,
+    pub(crate) now: Instant,
     /// Added to the encoder to give 6063h (2030h set_position_absolute, homing).
-    position_offset: i64,
-    mode: i8,
-    mode_pending: Option<(i8, Instant)>,
-    traj: Trajectory,
+    pub(crate) position_offset: i64,
+    pub(crate) mode: i8,
+    pub(crate) mode_pending: Option<(i8, Instant)>,
+    pub(crate) traj: Trajectory,
     /// Jerk-free profile (6086h = 2): the set-points through a moving average.
-    smoother: Smoother,
+    pub(crate) smoother: Smoother,
     /// The position set-point the axis follows (after smoothing), increments.
-    demand_position: f64,
-    setpoints: SetPoints,
-    demand: Demand,
+    pub(crate) demand_position: f64,
+    pub(crate) setpoints: SetPoints,
+    pub(crate) demand: Demand,
     /// When the CSP set-point last changed.
-    csp_changed_at: Option<Instant>,
+    pub(crate) csp_changed_at: Option<Instant>,
     /// Interpolated position mode and its SYNC grid.
-    ip: Interpolator,
+    pub(crate) ip: Interpolator,
     /// Quick stop, disable operation or fault reaction ramp in progress.
-    stopping: bool,
-    halted: bool,
-    velocity_set: f64,
-    torque_set: f64,
-    target_reached: bool,
-    window_since: Option<Instant>,
-    following_error: bool,
-    fe_since: Option<Instant>,
-    speed_zero: bool,
-    over_threshold_since: Option<Instant>,
-    homing_attained: bool,
-    homing_error: bool,
-    referenced: bool,
-    homing: HomingRun,
-    homing_started: Instant,
+    pub(crate) stopping: bool,
+    pub(crate) halted: bool,
+    pub(crate) velocity_set: f64,
+    pub(crate) torque_set: f64,
+    pub(crate) target_reached: bool,
+    pub(crate) window_since: Option<Instant>,
+    pub(crate) following_error: bool,
+    pub(crate) fe_since: Option<Instant>,
+    pub(crate) speed_zero: bool,
+    pub(crate) over_threshold_since: Option<Instant>,
+    pub(crate) homing_attained: bool,
+    pub(crate) homing_error: bool,
+    pub(crate) referenced: bool,
+    pub(crate) homing: HomingRun,
+    pub(crate) homing_started: Instant,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
-    limit_stop: bool,
+    pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
-    cw_rising: u16,
-    last_cw: u16,
-    brake_engaged: bool,
+    pub(crate) cw_rising: Controlword,
+    pub(crate) last_cw: Controlword,
+    pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
-    power_off_at: Option<Instant>,
-    release_at: Option<Instant>,
+    pub(crate) power_off_at: Option<Instant>,
+    pub(crate) release_at: Option<Instant>,
     /// Errors reported and not yet acknowledged.
-    faults: heapless::Vec<u16, 8>,
+    pub(crate) faults: heapless::Vec<u16, 8>,
+    /// Errors reported by EMCY alone (no fault state), until their cause is gone.
+    pub(crate) notices: heapless::Vec<u16, 4>,
     /// Causes still present (injected faults until cleared): they block the fault reset.
-    causes: heapless::Vec<u16, 8>,
-    events: Deque<DriveEvent, 16>,
-    params_dirty: bool,
+    pub(crate) causes: heapless::Vec<u16, 8>,
+    pub(crate) events: Deque<DriveEvent, 16>,
+    pub(crate) params_dirty: bool,
     /// Digital inputs driven from outside ([`Drive::force_inputs`]).
-    forced_mask: u16,
-    forced_levels: u16,
+    pub(crate) forced_mask: u16,
+    pub(crate) forced_levels: u16,
     /// Error management 2100h: the reaction per main error number.
-    reactions: Reactions,
+    pub(crate) reactions: Reactions,
     /// The last warning and whether it is still active (200Fh).
-    warning: Option<(Number, bool)>,
+    pub(crate) warning: Option<(Number, bool)>,
+    /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
+    /// a wrapped or refused target).
+    pub(crate) internal_limit: bool,
     /// The safety module reports safe standstill (2000h:01 bit 8).
-    safe_standstill: bool,
+    pub(crate) safe_standstill: bool,
     /// The DC-link voltage the supply gives, mV; `None`: the nominal 6510h:33.
-    dc_link_mv: Option<u32>,
+    pub(crate) dc_link_mv: Option<u32>,
     /// The diagnostic memory: messages with their additional information, oldest first.
-    memory: Deque<MemoryEntry, 16>,
+    pub(crate) memory: Deque<MemoryEntry, 16>,
 }
 
 /// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
@@ -279,8 +274,19 @@ fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// A drive at power-on over `od` (holding defaults, commissioning and stored values).
-    pub fn new(mut od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
+    /// A drive at power-on over `od` (holding defaults, commissioning and stored values),
+    /// with the personality its device file names ([`personality::for_device`]).
+    pub fn new(od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
+        let personality = personality::for_device(od.description().name);
+        Self::with_personality(od, settings, personality)
+    }
+
+    /// A drive at power-on over `od` with `personality`.
+    pub fn with_personality(
+        mut od: ObjectDictionary<S>,
+        settings: DriveSettings,
+        personality: &'static Personality,
+    ) -> Self {
         publish_supply(&mut od, None);
         let desc = od.description();
         let e = |i, s| desc.entry(i, s);
@@ -312,9 +318,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let cycle = Duration::from_micros(u64::from(params.cycletime_current_us.max(1)));
         let logic_every = axis.gains().pos_every.max(1);
         let mut d = Drive {
+            personality,
             od,
             settings,
-            dc: DeviceControl::default(),
+            dc: DeviceControl::with_rules(Rules {
+                enable_from_ready: personality.enable_from_ready,
+                quick_stop_option: personality.option_code(personality::QUICK_STOP_OPTION, 2),
+            }),
             axis,
             fg: FactorGroup::default(),
             hot,
@@ -330,7 +340,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             traj: Trajectory::default(),
             smoother: Smoother::default(),
             demand_position: 0.0,
-            setpoints: SetPoints::default(),
+            setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
             ip: Interpolator::new(DEFAULT_IP_PERIOD),
@@ -350,12 +360,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
             limit_stop: false,
-            cw_rising: 0,
-            last_cw: 0,
+            cw_rising: Controlword::EMPTY,
+            last_cw: Controlword::EMPTY,
             brake_engaged: true,
             power_off_at: None,
             release_at: None,
             faults: heapless::Vec::new(),
+            notices: heapless::Vec::new(),
             causes: heapless::Vec::new(),
             events: Deque::new(),
             params_dirty: false,
@@ -363,11 +374,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             forced_levels: 0,
             reactions: Reactions::default(),
             warning: None,
+            internal_limit: false,
             safe_standstill: false,
             dc_link_mv: None,
             memory: Deque::new(),
         };
-        d.following_error_reaction();
+        d.vendor_power_on();
         d.reload_factor_group();
         d.ip.reset(interpolation_period(&d.od));
         d.axis.hold_brake(d.settings.brake_fitted);
@@ -375,12 +387,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         d.mode = d
             .read(d.hot.mode_display)
             .clamp(i8::MIN as i64, i8::MAX as i64) as i8;
-        // CMMP-AS §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs + CAN") whenever CANopen
-        // is active, also after a reset.
-        let _ = d.od.set_value(0x6510, 0x10, Value::Unsigned(2));
         if d.settings.ethercat {
-            // CiA 402 6502h bit 7: CSP.
-            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0) | 0x80;
+            // CiA 402 6502h: the modes reached over EtherCAT only (CMMP-AS: bit 7 CSP).
+            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0)
+                | u64::from(d.personality.supported_drive_modes(true));
             let _ = d.od.set_value(0x6502, 0, Value::Unsigned(modes));
         }
         d.dc.initialised();
@@ -415,7 +425,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn ip_sync_change(&mut self, change: SyncChange) {
         if let SyncChange::Lost { while_active: true } = change {
             // CMMP-AS 34-1: the SYNC grid was lost while interpolating.
-            self.raise(diag::FIELDBUS_SYNC_ERROR, 0x11, false);
+            self.raise_fault(Fault::FieldbusSyncError);
         }
     }
 
@@ -452,13 +462,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
         self.ip.reset(interpolation_period(&self.od));
         self.params_dirty = true;
-        let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
         // The reaction table is not part of the stored set: defaults again.
         self.reactions = Reactions::default();
-        self.following_error_reaction();
+        self.vendor_power_on();
+    }
+
+    /// What the personality sets at power-on and after a reload.
+    fn vendor_power_on(&mut self) {
+        match self.personality.vendor {
+            Vendor::CmmpAs => {
+                self.following_error_reaction();
+                self.cmmp_power_on();
+            }
+            Vendor::Nanotec => self.nanotec_power_on(),
+        }
     }
 
     fn reload_factor_group(&mut self) {
+        if self.personality.vendor == Vendor::Nanotec {
+            self.fg = self.nanotec_factor_group();
+            return;
+        }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
             numerator: od
                 .get_unsigned(index, 1)
@@ -501,51 +525,42 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// A diagnostic message with the reaction 2100h sets for its main number (CMMP-AS §5.18):
-    /// none / buffer entry change nothing, a warning shows in 200Fh, the display and
-    /// statusword bit 7, a stopping reaction reports the error (EMCY) and stops. A code
-    /// missing from [`messages::MESSAGES`] stops; `critical` ones switch the output stage off
-    /// at once.
-    fn raise(&mut self, code: u16, register: u8, critical: bool) {
+    /// Reports the error `code` with the reaction the personality's error management gives
+    /// it (CMMP-AS: 2100h; Nanotec: the reaction table of §7.1); `critical` errors without a
+    /// reaction of their own switch the output stage off at once.
+    pub(crate) fn raise(&mut self, code: u16, register: u8, critical: bool) {
         self.raise_with_info(code, register, critical, 0);
     }
 
     /// [`Drive::raise`] with the message's additional information for the diagnostic
     /// memory.
-    fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
-        let message = messages::by_code(code);
-        if let Some(m) = message {
-            // Every reaction but "no action" makes an entry, once per occurrence: an error
-            // until it is acknowledged, a warning while active, a plain entry while it is
-            // the newest one.
-            let logged = match self.reactions.get(m.number.main).unwrap_or(0) {
-                reaction::NONE => true,
-                reaction::BUFFER_ENTRY => self.memory.back().is_some_and(|e| e.code == code),
-                reaction::WARNING => self.warning == Some((m.number, true)),
-                _ => self.faults.contains(&code),
-            };
-            if !logged {
-                if self.memory.is_full() {
-                    self.memory.pop_front();
-                }
-                let _ = self.memory.push_back(MemoryEntry {
-                    number: m.number,
-                    code,
-                    info,
-                });
+    pub(crate) fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
+        let reaction = match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_error_reaction(code, critical, info),
+            Vendor::Nanotec => self.nanotec_error_reaction(code, critical),
+        };
+        self.report_error(code, register, reaction);
+    }
+
+    /// Raises the personality's error for `fault`; `false` where the drive has none.
+    pub(crate) fn raise_fault(&mut self, fault: Fault) -> bool {
+        match self.personality.error(fault) {
+            Some(e) => {
+                self.raise(e.code, e.register, e.critical);
+                true
             }
+            None => false,
         }
-        let r = message
-            .and_then(|m| self.reactions.get(m.number.main))
-            .unwrap_or(if critical {
-                reaction::OUTPUT_STAGE_OFF
-            } else {
-                reaction::CONTROLLER_ENABLE_OFF
-            });
-        match (r, message) {
-            (reaction::NONE | reaction::BUFFER_ENTRY, _) => return,
-            (reaction::WARNING, Some(m)) => {
-                self.set_warning(m.number, true);
+    }
+
+    /// The error's EMCY and the device control's fault reaction.
+    fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
+        match reaction {
+            ErrorReaction::Ignore => return,
+            ErrorReaction::MessageOnly => {
+                if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
+                    self.push_event(DriveEvent::Error { code, register });
+                }
                 return;
             }
             _ => {}
@@ -554,9 +569,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let _ = self.faults.push(code);
             self.push_event(DriveEvent::Error { code, register });
         }
-        let r = match r {
-            reaction::OUTPUT_STAGE_OFF => self.dc.fault_immediate(),
-            reaction::BRAKE_MAX_CURRENT => {
+        let r = match reaction {
+            ErrorReaction::OutputStageOff => self.dc.fault_immediate(),
+            ErrorReaction::BrakeMaxCurrent => {
                 // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
                 // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
                 // current limit caps.
@@ -568,42 +583,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.react(r);
     }
 
-    /// 200Fh last_warning_code and statusword bit 7 (CMMP-AS §5.18).
-    fn set_warning(&mut self, number: Number, active: bool) {
-        if self.warning == Some((number, active)) {
-            return;
-        }
-        self.warning = Some((number, active));
-        let code = messages::warning_code(number, active);
-        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
-    }
-
-    /// Ends the warning `number` if it is the active one (its cause is gone; the CMMP-AS
-    /// resets warnings itself).
-    fn end_warning(&mut self, number: Number) {
-        if self.warning == Some((number, true)) {
-            self.set_warning(number, false);
+    /// A message-only error (EMCY without a fault) is over: the EMCY "error reset".
+    pub(crate) fn clear_notice(&mut self, code: u16) {
+        if let Some(i) = self.notices.iter().position(|c| *c == code) {
+            self.notices.remove(i);
+            self.push_event(DriveEvent::Cleared { code });
         }
     }
 
-    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
-    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
-    fn following_error_reaction(&mut self) {
-        let r = if self.value(0x6510, 0x22) > 0 {
-            reaction::OUTPUT_STAGE_OFF
-        } else {
-            reaction::NONE
+    /// The highest speed a profile may ask for, increments/s: 6080h max_motor_speed where
+    /// the drive has it, else the controller's limit.
+    pub(crate) fn max_motor_speed(&self) -> f64 {
+        let rpm = match self.param(0x6080, 0) {
+            Some(_) => self.value(0x6080, 0).max(0) as f64,
+            None => f64::from(self.axis.params().max_motor_speed_rpm),
         };
-        let _ = self.reactions.set(17, r);
-        self.show_reaction();
-    }
-
-    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
-    fn show_reaction(&mut self) {
-        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
-        if let Some(r) = self.reactions.get(main) {
-            let _ = self.od.write_internal(0x2100, 2, &[r]);
-        }
+        rpm * 4096.0 * INC_S_PER_VEL
     }
 
     /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
@@ -636,20 +631,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// CMMP-AS 02-0 DC-link undervoltage (6510h:36 min_dc_link_circuit_voltage, 6510h:37
     /// enable_dc_link_undervoltage_error); the cause stays while the voltage is low.
     fn supervise_dc_link(&mut self) {
+        let Some(e) = self.personality.error(Fault::DcLinkUndervoltage) else {
+            return;
+        };
         let enabled = self.value(0x6510, 0x37) == 1;
         let min = self.value(0x6510, 0x36);
         let low = self.dc_link_mv.filter(|mv| enabled && i64::from(*mv) < min);
         if let Some(mv) = low {
-            if !self.causes.contains(&diag::DC_LINK_UNDERVOLTAGE) {
-                let _ = self.causes.push(diag::DC_LINK_UNDERVOLTAGE);
+            if !self.causes.contains(&e.code) {
+                let _ = self.causes.push(e.code);
             }
             let info = messages::undervoltage_info(self.dc.state() as u16, mv);
-            self.raise_with_info(diag::DC_LINK_UNDERVOLTAGE, 0x04, false, info);
-        } else if let Some(i) = self
-            .causes
-            .iter()
-            .position(|c| *c == diag::DC_LINK_UNDERVOLTAGE)
-        {
+            self.raise_with_info(e.code, e.register, e.critical, info);
+        } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
             self.causes.remove(i);
         }
     }
@@ -659,7 +653,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// I²t has fallen below the release threshold.
     fn supervise_i2t(&mut self) {
         let over = self.value(0x6510, 0x38) == 1 && self.axis.i2t_limit_active();
-        self.cause(diag::I2T_MOTOR, over, 0x02);
+        if let Some(e) = self.personality.error(Fault::I2tMotor) {
+            self.cause(e.code, over, e.register);
+        }
     }
 
     /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
@@ -685,18 +681,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.safe_standstill = on;
     }
 
-    fn push_event(&mut self, e: DriveEvent) {
+    pub(crate) fn push_event(&mut self, e: DriveEvent) {
         if self.events.is_full() {
             self.events.pop_front();
         }
         let _ = self.events.push_back(e);
     }
 
-    fn read(&self, e: Option<&'static Entry>) -> i64 {
+    pub(crate) fn read(&self, e: Option<&'static Entry>) -> i64 {
         e.map(|e| decode_i64(e, self.od.raw(e))).unwrap_or(0)
     }
 
-    fn value(&self, index: u16, sub: u8) -> i64 {
+    pub(crate) fn value(&self, index: u16, sub: u8) -> i64 {
         if let Some(pos) = PARAMS.iter().position(|k| *k == (index, sub)) {
             return self.read(self.params.get(pos).copied().flatten());
         }
@@ -708,7 +704,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// An INTEGER32 set-point with the other sign (saturating at −2³¹).
-    fn negate_stored(&mut self, index: u16) {
+    pub(crate) fn negate_stored(&mut self, index: u16) {
         if let Some(Value::Signed(v)) = self.od.value(index, 0) {
             let _ = self.od.set_value(
                 index,
@@ -719,12 +715,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// A [`PARAMS`] entry.
-    fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
+    pub(crate) fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
         let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
         self.params.get(pos).copied().flatten()
     }
 
-    fn store(&mut self, e: Option<&'static Entry>, v: i64) {
+    pub(crate) fn store(&mut self, e: Option<&'static Entry>, v: i64) {
         if let Some(e) = e {
             let b = v.to_le_bytes();
             self.od.store(e, b.get(..e.capacity as usize).unwrap_or(&b));
@@ -758,16 +754,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.supervise_dc_link();
         self.supervise_i2t();
         // Device control.
-        let cw = self.read(self.hot.controlword) as u16;
+        let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
         let enables = self.input_levels(self.axis.position_increments()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
-        if self.cw_rising & 0x0080 != 0 && cw & 0x0080 == 0 {
-            let _ = self.dc.controlword(cw | 0x0080, fault, enables);
+        if self.cw_rising.contains(Controlword::FAULT_RESET)
+            && !cw.contains(Controlword::FAULT_RESET)
+        {
+            let _ = self
+                .dc
+                .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
         }
         let before = self.dc.state();
-        let reaction = self.dc.controlword(cw, fault, enables);
+        let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
             // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
@@ -775,7 +775,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.push_event(DriveEvent::Cleared { code });
             }
         }
-        self.halted = cw & 0x0100 != 0;
+        self.halted = cw.contains(Controlword::HALT);
         // Mode change (6061h shows −1 meanwhile).
         if let Some((m, at)) = self.mode_pending {
             if self.now >= at {
@@ -787,7 +787,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         self.motion(cw, dt);
         self.brake_timers();
-        self.cw_rising = 0;
+        self.cw_rising = Controlword::EMPTY;
         self.publish();
     }
 
@@ -829,7 +829,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    fn power_off(&mut self) {
+    pub(crate) fn power_off(&mut self) {
         self.power_off_at = None;
         self.demand = Demand::Off;
         if self.settings.brake_fitted {
@@ -865,12 +865,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    fn actual_internal(&self) -> i64 {
+    pub(crate) fn actual_internal(&self) -> i64 {
         self.axis.position_increments() + self.position_offset
     }
 
     /// The set-point follows the actual position (output stage off, mode change, enable).
-    fn resync_trajectory(&mut self) {
+    pub(crate) fn resync_trajectory(&mut self) {
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
             velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
@@ -880,7 +880,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.smoother.reset(self.traj.position, 1);
     }
 
-    fn accel(&self, index: u16) -> f64 {
+    pub(crate) fn accel(&self, index: u16) -> f64 {
         let user = self.value(index, 0).clamp(0, u32::MAX as i64) as u32;
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
     }
@@ -901,7 +901,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
     }
 
-    fn motion(&mut self, cw: u16, dt: f64) {
+    fn motion(&mut self, cw: Controlword, dt: f64) {
         let state = self.dc.state();
         let change = self.ip.check(self.now);
         self.ip_sync_change(change);
@@ -920,7 +920,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.homing_error = true;
         }
         if self.mode == mode::HOMING
-            && self.cw_rising & 0x0010 != 0
+            && self.cw_rising.contains(Controlword::HOMING_START)
             && !matches!(
                 state,
                 State::OperationEnabled | State::Fault | State::FaultReactionActive
@@ -990,14 +990,26 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    fn profile_position(&mut self, cw: u16, dt: f64) {
-        let bit4 = cw & 0x0010 != 0 || self.cw_rising & 0x0010 != 0;
+    fn profile_position(&mut self, cw: Controlword, dt: f64) {
+        let bit4 = cw.contains(Controlword::NEW_SET_POINT)
+            || self.cw_rising.contains(Controlword::NEW_SET_POINT);
         let demand = self.traj.position;
         let fg = self.fg;
+        let max_speed = self.max_motor_speed();
+        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
+        // the set-point is taken; a refused one becomes a job that stays where it is.
+        let checked = (bit4 && self.personality.vendor == Vendor::Nanotec)
+            .then(|| self.nanotec_check_target(cw));
         let get = |i: u16| self.value(i, 0);
         // Read the set-point only while bit 4 is high (a rising edge may be taking it).
         let req = bit4.then(|| {
             let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            let (user, relative) = match checked {
+                Some(Ok(absolute)) => (absolute, false),
+                Some(Err(_)) => (0, true),
+                None => (user, cw.contains(Controlword::RELATIVE)),
+            };
             let target = fg.position_to_internal(user) as f64;
             let vel = |i| {
                 fg.velocity_magnitude_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
@@ -1009,13 +1021,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             };
             Request {
                 target,
-                relative: cw & 0x0040 != 0,
-                immediately: cw & 0x0020 != 0,
+                relative,
+                immediately: cw.contains(Controlword::CHANGE_SET_IMMEDIATELY),
                 job: Job {
                     target,
-                    velocity: vel(0x6081)
-                        .min(f64::from(get(0x6080).max(0) as u32) * 4096.0 * INC_S_PER_VEL),
-                    end_velocity: vel(0x6082),
+                    velocity: vel(0x6081).min(max_speed),
+                    // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
+                    // end velocity; bit 9 decides whether a queued job follows at speed.
+                    end_velocity: if nanotec { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
                     deceleration: acc(0x6084),
                 },
@@ -1036,7 +1049,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             })
         };
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
-        if self.setpoints.update(bit4, demand, request) {
+        let accepted = self.setpoints.update(bit4, demand, request);
+        if let (true, Some(result)) = (accepted, checked) {
+            self.nanotec_target_taken(result, cw);
+        }
+        if accepted {
             self.target_reached = false;
             self.window_since = None;
             // 6086h = 2: jerk-free, the acceleration ramps over the window (a quarter of the
@@ -1196,14 +1213,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Interpolated position (CMMP-AS §7.4): with enable_ip_mode (bit 4) on the SYNC grid
     /// the drive takes one set-point of 60C1h:01 per SYNC and moves linearly between them;
     /// without, it holds.
-    fn interpolated_position(&mut self, cw: u16, dt: f64) {
-        let enable = cw & 0x0010 != 0;
+    fn interpolated_position(&mut self, cw: Controlword, dt: f64) {
+        let enable = cw.contains(Controlword::ENABLE_IP_MODE);
         if enable && !self.ip.is_active() {
             if self.ip.is_synchronised() {
                 self.ip.activate(self.traj.position, self.now);
-            } else if self.cw_rising & 0x0010 != 0 {
+            } else if self.cw_rising.contains(Controlword::ENABLE_IP_MODE) {
                 // CMMP-AS 34-0: activation without synchronisation.
-                self.raise(diag::NO_FIELDBUS_SYNC, 0x11, false);
+                self.raise_fault(Fault::NoFieldbusSync);
                 return;
             }
         } else if !enable && self.ip.is_active() {
@@ -1222,7 +1239,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = false;
     }
 
-    fn accel2(&self, index: u16, sub: u8) -> f64 {
+    pub(crate) fn accel2(&self, index: u16, sub: u8) -> f64 {
         let user = self.value(index, sub).clamp(0, u32::MAX as i64) as u32;
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
     }
@@ -1256,10 +1273,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// aborts it (Tab. 7.2); halt aborts with homing_error (ch. 6). The search of
     /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
     /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
-    fn homing(&mut self, cw: u16, dt: f64) {
-        let bit4 = cw & 0x0010 != 0;
+    fn homing(&mut self, cw: Controlword, dt: f64) {
+        let bit4 = cw.contains(Controlword::HOMING_START);
         let idle = matches!(self.homing, HomingRun::Idle);
-        if self.cw_rising & 0x0010 != 0
+        if self.cw_rising.contains(Controlword::HOMING_START)
             || (bit4 && idle && !self.homing_attained && !self.homing_error)
         {
             self.start_homing();
@@ -1382,7 +1399,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
         // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
         // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.
-        match Search::start(
+        match Search::start_in(
+            self.personality.homing_methods,
             method,
             self.axis.position_increments(),
             self.axis.motor().data().increments_per_rev,
@@ -1398,7 +1416,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.homing = HomingRun::Idle;
         self.homing_error = true;
         self.homing_attained = false;
-        self.raise(e.code(), 0x01, false);
+        self.raise_fault(Fault::Homing(e));
     }
 
     fn homing_done(&mut self) {
@@ -1469,15 +1487,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn supervise_limit_switches(&mut self) {
         let inputs = self.switch_inputs(self.axis.position_increments());
         let v = self.traj.velocity;
-        let code = if inputs.negative_limit && v < 0.0 {
-            diag::LIMIT_SWITCH_NEGATIVE
+        let fault = if inputs.negative_limit && v < 0.0 {
+            Fault::LimitSwitchNegative
         } else if inputs.positive_limit && v > 0.0 {
-            diag::LIMIT_SWITCH_POSITIVE
+            Fault::LimitSwitchPositive
         } else {
             return;
         };
-        self.limit_stop = true;
-        self.raise(code, 0x01, false);
+        if self.personality.error(fault).is_some() {
+            self.limit_stop = true;
+            self.raise_fault(fault);
+        }
     }
 
     /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
@@ -1524,32 +1544,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         (data & mask & !1) | u32::from(self.axis.motor().brake())
     }
 
-    fn clear_target_reached(&mut self) {
+    pub(crate) fn clear_target_reached(&mut self) {
         self.target_reached = false;
         self.window_since = None;
-        let sw = self.read(self.hot.statusword) & !0x0400;
+        let sw = self.read(self.hot.statusword) & !i64::from(Statusword::TARGET_REACHED.bits());
         self.store(self.hot.statusword, sw);
     }
 
     /// Writes the statusword and every actual value.
     fn publish(&mut self) {
-        let compat = self.value(0x6510, 0xF0) as u16;
         let state = self.dc.state();
-        let mut sw = state.statusword_bits(compat & 0x0080 != 0);
-        // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
-        // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
         let power = !matches!(self.demand, Demand::Off);
-        if power || compat & 0x0080 != 0 {
-            sw |= 0x0010;
-        }
         let v_act = i64::from(self.axis.velocity_internal());
         let threshold = self
             .fg
             .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
-        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
-        // manual's "within" as the translation slip it is).
-        if v_act.abs() > threshold {
-            sw |= 0x0100;
+        // |v| above velocity_threshold 606Fh; speed zero (PV bit 12) once it has been above
+        // for 6070h.
+        let moving = v_act.abs() > threshold;
+        if moving {
             let since = *self.over_threshold_since.get_or_insert(self.now);
             let time = Duration::from_millis(self.value(0x6070, 0).max(0) as u64);
             if self.now.saturating_since(since) >= time {
@@ -1559,17 +1572,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.over_threshold_since = None;
             self.speed_zero = true;
         }
-        // Bit 9 remote: enable_logic 2 (DINs + CAN).
-        if self.value(0x6510, 0x10) == 2 {
-            sw |= 0x0200;
-        }
+        let mut sw = match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_state_bits(state, power, moving),
+            Vendor::Nanotec => self.nanotec_state_bits(state, power),
+        };
         let in_oe = state == State::OperationEnabled;
-        if self.target_reached && in_oe {
-            sw |= 0x0400;
-        }
-        if self.axis.i2t_limit_active() {
-            sw |= 0x0800;
-        }
+        sw |= Statusword::TARGET_REACHED.when(self.target_reached && in_oe);
+        sw |= Statusword::INTERNAL_LIMIT_ACTIVE
+            .when(self.axis.i2t_limit_active() || self.internal_limit);
         // Following error (PP): |actual − demand| > 6065h for 6066h.
         let demand_pos = libm::round(self.demand_position) as i64;
         let fe = self.actual_internal() - demand_pos;
@@ -1595,55 +1605,37 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         {
             // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts" (the
             // reaction 6510h:22 sets; 2100h may make it a warning).
-            self.raise(diag::FOLLOWING_ERROR, 0x01, true);
+            self.raise_fault(Fault::FollowingError);
         } else {
             self.end_warning(Number { main: 17, sub: 0 });
         }
-        let mode_bits = match self.mode {
+        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error);
+        sw |= match self.mode {
             mode::PROFILE_POSITION => {
-                (if self.setpoints.acknowledge {
-                    0x1000
-                } else {
-                    0
-                }) | (if self.following_error { 0x2000 } else { 0 })
+                Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
             }
-            mode::PROFILE_VELOCITY if self.speed_zero => 0x1000,
+            mode::PROFILE_VELOCITY => Statusword::SPEED_ZERO.when(self.speed_zero),
             // Bit 12 ip_mode_active, bit 13 following error (CMMP-AS §7.4).
             mode::INTERPOLATED_POSITION => {
-                (if self.ip.is_active() { 0x1000 } else { 0 })
-                    | (if self.following_error { 0x2000 } else { 0 })
+                Statusword::IP_MODE_ACTIVE.when(self.ip.is_active()) | fe_bit
             }
             // CiA 402 CSP: bit 12 "drive follows the command value", bit 13 following error.
             mode::CYCLIC_SYNCHRONOUS_POSITION => {
-                (if in_oe { 0x1000 } else { 0 }) | (if self.following_error { 0x2000 } else { 0 })
+                Statusword::OPERATION_MODE_SPECIFIC_12.when(in_oe) | fe_bit
             }
             mode::HOMING => {
-                (if self.homing_attained { 0x1000 } else { 0 })
-                    | (if self.homing_error { 0x2000 } else { 0 })
+                Statusword::HOMING_ATTAINED.when(self.homing_attained)
+                    | Statusword::HOMING_ERROR.when(self.homing_error)
             }
-            _ => 0,
+            _ => Statusword::EMPTY,
         };
-        sw |= mode_bits;
-        // Bit 14: ((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0 (CMMP-AS §6.1.4).
-        let ready = self.faults.is_empty() && !state.power_enabled();
-        let msw = u32::from(self.referenced)
-            | 0x2 // commutation valid
-            | if ready { 0x4 } else { 0 }
-            | if self.setpoints.active.is_none() { 0x8 } else { 0 }
-            | if self.safe_standstill { 0x100 } else { 0 };
-        self.store(self.hot.manufacturer_status, i64::from(msw));
-        let invert = self.value(0x200A, 1) as u32;
-        let mask = self.value(0x2005, 1) as u32;
-        if crate::device_control::manufacturer_bit_14(msw, invert, mask) {
-            sw |= 0x4000;
-        }
-        if self.referenced {
-            sw |= 0x8000;
-        }
+        sw |= match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_manufacturer_bits(),
+            Vendor::Nanotec => Statusword::EMPTY,
+        };
         // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
-        if matches!(self.warning, Some((_, true))) {
-            sw |= 0x0080;
-        }
+        sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
+        let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.axis.position_increments();
         let inputs = self
@@ -1792,7 +1784,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
 
 /// Where a homing run stands.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum HomingRun {
+pub(crate) enum HomingRun {
     Idle,
     Search(Search),
     /// Braking with 609Ah, then:
@@ -1804,7 +1796,7 @@ enum HomingRun {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Then {
+pub(crate) enum Then {
     Attained,
     ToZero,
     /// Aborted: no bit.

@@ -77,7 +77,10 @@ use Until::{Active, Inactive, Index, Stop, StopOrLimit};
 /// found it: the drive first crawls back out of the cam (not printed, but the only way the
 /// switch can *become* active again), then onto it — reference: the positive edge for −23,
 /// the negative edge for −27 (cmmp-as-3 §9 "keep this distinction").
-pub const METHODS: [(i8, &[Step]); 17] = [
+/// A homing method: its 6098h number and its steps.
+pub type Method = (i8, &'static [Step]);
+
+pub const METHODS: [Method; 17] = [
     (
         -27,
         &[
@@ -254,7 +257,18 @@ impl Search {
         per_rev: u32,
         max_distance: i64,
     ) -> Result<Search, HomingError> {
-        let steps = METHODS
+        Self::start_in(&METHODS, method, position, per_rev, max_distance)
+    }
+
+    /// As [`Search::start`], with the method table of a personality.
+    pub fn start_in(
+        methods: &'static [Method],
+        method: i8,
+        position: i64,
+        per_rev: u32,
+        max_distance: i64,
+    ) -> Result<Search, HomingError> {
+        let steps = methods
             .iter()
             .find(|(m, _)| *m == method)
             .map(|(_, s)| *s)

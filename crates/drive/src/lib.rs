@@ -5,7 +5,9 @@
 #![forbid(unsafe_code)]
 
 pub mod axis;
+mod bit_word;
 pub mod control;
+pub mod controlword;
 pub mod device_control;
 pub mod digital_inputs;
 pub mod display;
@@ -16,8 +18,10 @@ pub mod homing;
 pub mod interpolated_position;
 pub mod messages;
 pub mod motor;
+pub mod personality;
 pub mod profile_position;
 pub mod smoothing;
+pub mod statusword;
 pub mod stepper;
 pub mod trajectory;
 pub mod travel;

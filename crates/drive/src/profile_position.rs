@@ -24,6 +24,9 @@ pub struct SetPoints {
     new_set_point: bool,
     /// The last job that ran to its end: relative moves count from it.
     pub last_target: Option<f64>,
+    /// A new set-point while the buffer is full replaces the buffered one (Nanotec §5.1: "the
+    /// newest (queued) job is overwritten"); otherwise it is not taken (CMMP-AS).
+    pub overwrite_buffered: bool,
 }
 
 /// What the new-set-point edge carried.
@@ -37,6 +40,14 @@ pub struct Request {
 }
 
 impl SetPoints {
+    /// No job; `overwrite_buffered` as the drive's manual says.
+    pub fn overwriting(overwrite_buffered: bool) -> Self {
+        SetPoints {
+            overwrite_buffered,
+            ..SetPoints::default()
+        }
+    }
+
     /// Controlword bit 4 as it is now. On the rising edge `request` is taken: into the active
     /// slot when free or when `immediately` (bit 5) is set, else into the buffer if that is
     /// free. Returns whether a new job was accepted (target reached must then clear).
@@ -46,10 +57,11 @@ impl SetPoints {
         let rising = bit4 && !self.new_set_point;
         self.new_set_point = bit4;
         let mut accepted = false;
-        if rising && !self.acknowledge {
+        let replace = self.overwrite_buffered && self.buffered.is_some();
+        if rising && (!self.acknowledge || replace) {
             let r = request();
             let queue_behind = self.active.is_some() && !r.immediately;
-            if !(queue_behind && self.buffered.is_some()) {
+            if !(queue_behind && self.buffered.is_some()) || replace {
                 // A buffered relative job counts from the target of the job before it.
                 let base = if queue_behind {
                     self.active.map(|j| j.target).unwrap_or(demand)

@@ -54,6 +54,23 @@ pub struct Cia301Options {
     /// Transmission type 254 sends cyclically with the inhibit time as period (CMMP-AS Tab. 3.7)
     /// instead of CiA 301's event-driven meaning.
     pub tpdo_254_cyclic_inhibit: bool,
+    /// PDO transmission type 254 is not offered (Nanotec §9.10–9.21 list 0…240 and 255 only).
+    pub pdo_refuses_type_254: bool,
+    /// A mapping entry written with length 0 gets the object's length filled in (Nanotec §12.2:
+    /// "the firmware fills in bits 7–0", 60400000h maps the controlword).
+    pub pdo_map_length_filled: bool,
+    /// Every NMT node-control command (start, stop, pre-operational) is answered with the state
+    /// byte on 700h + node-ID (Nanotec §12.2 prints `000: 80 01` → `701: 7F`).
+    pub nmt_command_answered_with_state: bool,
+    /// The EMCY code of a life-guarding error, where the device does not send CiA 301's 8130h
+    /// (Nanotec §13.3: 0004h).
+    pub life_guard_emcy_code: Option<u16>,
+    /// A restore (1011h "load") also overwrites the stored parameter set at once (Nanotec §11.25)
+    /// instead of taking effect at the next reset.
+    pub restore_writes_stored_set: bool,
+    /// Guard time × life time factor (100Ch × 100Dh) may not exceed this many ms; a write
+    /// that would is refused with 0604 0043h (Nanotec §11.23: one minute).
+    pub life_time_max_ms: Option<u32>,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).
@@ -75,6 +92,8 @@ pub struct Entry {
     pub behaviour: Behaviour,
     /// Saved by 1010h and reloaded at reset (writable entries are, unless a file says otherwise).
     pub storable: bool,
+    /// A restore of the defaults (1011h) leaves the value as it is (Nanotec 2005h, 2009h).
+    pub kept_on_restore: bool,
     /// Byte offset of the value in the dictionary's storage buffer.
     pub offset: u32,
     /// Bytes reserved for the value: the type's size, or the maximum length of a string/domain.
@@ -169,6 +188,9 @@ pub struct DeviceDescription {
     pub default_node_id: u8,
     /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
     pub baud_rates: &'static [u16],
+    /// Hexadecimal rotary switches that select node-ID and bit rate at power-on (Nanotec
+    /// §1.1.1: SMCI47-S two, PD4-N one), 0 for none.
+    pub rotary_switches: u8,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

@@ -120,7 +120,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
     /// CiA 301 1011h: the storable parameters `sub` covers go back to their defaults
     /// (1 = all, 2 = communication 1000h–1FFFh, 3 = application 6000h–9FFFh, 4+ = manufacturer).
     pub fn restore_defaults(&mut self, sub: u8) {
-        self.load_defaults(|e| e.storable && parameter_group_contains(sub, e.index));
+        self.load_defaults(|e| {
+            e.storable && !e.kept_on_restore && parameter_group_contains(sub, e.index)
+        });
     }
 
     /// The pending save or restore request, if a master asked for one.

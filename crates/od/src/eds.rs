@@ -51,8 +51,11 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
     writeln!(w, "LSS_Supported=0")?;
     writeln!(w)?;
     writeln!(w, "[DummyUsage]")?;
-    for i in 1..=7 {
-        writeln!(w, "Dummy000{i}=0")?;
+    // CiA 306 §4.5.3: a dummy is announced here, not as an object section. A device lists the
+    // dummy objects it offers (Nanotec §9.44–9.50) with their mapping flag.
+    for i in 1..=7u16 {
+        let usable = desc.entry(i, 0).is_some_and(|e| e.pdo_mappable);
+        writeln!(w, "Dummy000{i}={}", usable as u8)?;
     }
     writeln!(w)?;
     writeln!(w, "[Comments]")?;
@@ -71,10 +74,15 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
         desc.objects.iter().filter(manufacturer),
     )?;
 
-    for o in desc.objects {
+    for o in desc.objects.iter().filter(|o| !is_dummy(o)) {
         write_object(w, o)?;
     }
     Ok(())
+}
+
+/// The dummy objects 0001h–0007h (data type indices), announced in `[DummyUsage]` only.
+fn is_dummy(o: &Object) -> bool {
+    (0x0001..=0x0007).contains(&o.index)
 }
 
 fn write_list<'a>(

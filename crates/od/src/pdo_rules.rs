@@ -81,11 +81,13 @@ pub fn check_map_entry(desc: &DeviceDescription, transmit: bool, v: u32) -> Resu
         return Err(AbortCode::PDO_LENGTH);
     }
     if m.is_dummy() {
-        // Dummies only make sense where bytes are skipped: in RPDOs.
+        // Dummies only make sense where bytes are skipped: in RPDOs. A device that lists the
+        // dummy objects says which may be mapped (Nanotec §9.44: 0001h may not).
+        let listed = desc.entry(m.index, 0).map(|e| e.pdo_mappable);
         let size = dummy_type(m.index)
             .and_then(|t| t.fixed_size())
             .unwrap_or(0) as u32;
-        return if !transmit && u32::from(m.bits) == size * 8 {
+        return if !transmit && listed != Some(false) && u32::from(m.bits) == size * 8 {
             Ok(())
         } else {
             Err(AbortCode::NOT_MAPPABLE)
@@ -115,6 +117,29 @@ fn dummy_type(index: u16) -> Option<DataType> {
         0x0007 => DataType::Unsigned32,
         _ => return None,
     })
+}
+
+/// The entry as it is stored: where the personality fills in the length (Nanotec §12.2, "bits
+/// 7–0 need not be set, the firmware does it"), an entry with length 0 gets the mapped object's
+/// length. Anything else is kept as written.
+pub fn fill_map_length(desc: &DeviceDescription, v: u32) -> u32 {
+    let m = MapEntry::from_u32(v);
+    if v == 0 || m.bits != 0 || !desc.cia301.pdo_map_length_filled {
+        return v;
+    }
+    let bits = if m.is_dummy() {
+        dummy_type(m.index)
+            .and_then(|t| t.fixed_size())
+            .map(|n| n as u32 * 8)
+    } else {
+        desc.entry(m.index, m.sub)
+            .filter(|e| !e.is_variable())
+            .map(|e| e.bit_len())
+    };
+    match bits {
+        Some(b) if b <= MAX_PDO_BITS => v | b,
+        _ => v,
+    }
 }
 
 /// Total bits of the first `n` mapping entries, checking each.
@@ -186,7 +211,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                     return Err(AbortCode::INVALID_VALUE);
                 }
                 match v {
-                    0..=240 | 254 | 255 => Ok(None),
+                    0..=240 | 255 => Ok(None),
+                    // Nanotec §9.10–9.21 list 0…240 and 255 only.
+                    254 if !opts.pdo_refuses_type_254 => Ok(None),
                     _ => Err(AbortCode::INVALID_VALUE),
                 }
             }
@@ -233,8 +260,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                 if valid || self.read_u8(pdo.mapping(), 0).unwrap_or(0) != 0 {
                     return Err(AbortCode::UNSUPPORTED_ACCESS);
                 }
-                check_map_entry(self.description(), pdo.transmit, v)?;
-                Ok(None)
+                let filled = fill_map_length(self.description(), v);
+                check_map_entry(self.description(), pdo.transmit, filled)?;
+                Ok((filled != v).then_some(filled))
             }
             _ => Ok(None),
         }

@@ -1,0 +1,424 @@
+//! The Festo CMMP-AS (seeds 001/002, `spec/cmmp-as*.md`): its modes, option codes, homing
+//! methods (Tab. 7.1) and error numbers as tables, and as behaviour the error management
+//! 2100h (§5.18) with warnings and the diagnostic memory, the statusword's manufacturer bits
+//! (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15
+//! referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
+
+use od::{AbortCode, ObjectAccess, Value};
+
+use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use crate::controlword::Controlword;
+use crate::device_control::State;
+use crate::drive::object_writes::Hook;
+use crate::drive::{Drive, MemoryEntry};
+use crate::homing::{HomingError, METHODS};
+use crate::messages::{self, reaction, Number};
+use crate::statusword::Statusword;
+
+/// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
+pub mod diag {
+    /// 02-0 DC-link undervoltage (below 6510h:36 with 6510h:37 = 1).
+    pub const DC_LINK_UNDERVOLTAGE: u16 = 0x3220;
+    /// 17-0 following error: the hard limit 6510h:22 was exceeded.
+    pub const FOLLOWING_ERROR: u16 = 0x8611;
+    /// 31-0 I²t motor (with 6510h:38 = 1).
+    pub const I2T_MOTOR: u16 = 0x2312;
+    /// 34-0 no fieldbus synchronisation: IP mode activated off the SYNC grid.
+    pub const NO_FIELDBUS_SYNC: u16 = 0x8780;
+    /// 34-1 fieldbus synchronisation error: the SYNC grid lost while interpolating.
+    pub const FIELDBUS_SYNC_ERROR: u16 = 0x8781;
+    /// 43-0 limit switch: negative set-point blocked (the negative hardware limit switch).
+    pub const LIMIT_SWITCH_NEGATIVE: u16 = 0x8081;
+    /// 43-1 limit switch: positive set-point blocked.
+    pub const LIMIT_SWITCH_POSITIVE: u16 = 0x8082;
+}
+
+const fn mode(mode: i8, bit: u8, ethercat_only: bool) -> ModeSpec {
+    ModeSpec {
+        mode,
+        bit: Some(bit),
+        ethercat_only,
+    }
+}
+
+const fn fixed(index: u16, value: i16) -> OptionCode {
+    OptionCode {
+        index,
+        value,
+        fixed: true,
+    }
+}
+
+const fn error(fault: Fault, code: u16, register: u8, critical: bool) -> ErrorSpec {
+    ErrorSpec {
+        fault,
+        code,
+        register,
+        critical,
+    }
+}
+
+/// The CMMP-AS.
+pub const CMMP_AS: Personality = Personality {
+    vendor: Vendor::CmmpAs,
+    devices: &["cmmp-as"],
+    // §7.1 6060h: 1, 3, 4, 6, 7 over CANopen; 8 CSP over EtherCAT only.
+    modes: &[
+        mode(1, 0, false),
+        mode(3, 2, false),
+        mode(4, 3, false),
+        mode(6, 5, false),
+        mode(7, 6, false),
+        mode(8, 7, true),
+    ],
+    // §6.1.6: every option code has one value only; the reactions are set per error in 2100h.
+    option_codes: &[
+        fixed(super::QUICK_STOP_OPTION, 2),
+        fixed(super::SHUTDOWN_OPTION, 0),
+        fixed(super::DISABLE_OPERATION_OPTION, -1),
+        fixed(super::FAULT_REACTION_OPTION, 0),
+    ],
+    // Tab. 6.2: 0Fh in READY TO SWITCH ON runs transitions 3 and 4.
+    enable_from_ready: true,
+    errors: &[
+        error(
+            Fault::DcLinkUndervoltage,
+            diag::DC_LINK_UNDERVOLTAGE,
+            0x04,
+            false,
+        ),
+        error(Fault::FollowingError, diag::FOLLOWING_ERROR, 0x01, true),
+        error(Fault::I2tMotor, diag::I2T_MOTOR, 0x02, false),
+        error(Fault::NoFieldbusSync, diag::NO_FIELDBUS_SYNC, 0x11, false),
+        error(
+            Fault::FieldbusSyncError,
+            diag::FIELDBUS_SYNC_ERROR,
+            0x11,
+            false,
+        ),
+        error(
+            Fault::LimitSwitchNegative,
+            diag::LIMIT_SWITCH_NEGATIVE,
+            0x01,
+            false,
+        ),
+        error(
+            Fault::LimitSwitchPositive,
+            diag::LIMIT_SWITCH_POSITIVE,
+            0x01,
+            false,
+        ),
+        // B.2 11-0 … 11-6: 8A80h … 8A86h.
+        error(Fault::Homing(HomingError::Start), 0x8A80, 0x01, false),
+        error(Fault::Homing(HomingError::Aborted), 0x8A81, 0x01, false),
+        error(Fault::Homing(HomingError::NoIndex), 0x8A82, 0x01, false),
+        error(Fault::Homing(HomingError::Timeout), 0x8A83, 0x01, false),
+        error(Fault::Homing(HomingError::LimitSwitch), 0x8A84, 0x01, false),
+        error(
+            Fault::Homing(HomingError::FollowingError),
+            0x8A85,
+            0x01,
+            false,
+        ),
+        error(
+            Fault::Homing(HomingError::SearchDistance),
+            0x8A86,
+            0x01,
+            false,
+        ),
+    ],
+    pp_overwrite_queued: false,
+    homing_methods: &METHODS,
+};
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// At power-on and after a reload. §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs +
+    /// CAN") whenever CANopen is active, also after a reset.
+    pub(crate) fn cmmp_power_on(&mut self) {
+        let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+    }
+
+    /// The objects whose CMMP-AS rules do more than store a value.
+    pub(crate) fn cmmp_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+        Some(match (index, sub) {
+            (0x1011, _) => Self::write_restore_defaults,
+            (0x6510, 0xF0) => Self::write_compatibility,
+            (0x2100, 0x01) => Self::write_reaction_group,
+            (0x2100, 0x02) => Self::write_reaction,
+            (0x6510, 0x22) => Self::write_following_error_reaction,
+            (0x6083 | 0x6084, 0x00) => Self::write_profile_ramp,
+            (0x60C4, 0x06) => Self::write_buffer_clear,
+            (0x60C1, 0x01) => Self::write_ip_set_point,
+            (0x2030, 0x00) => Self::write_set_position_absolute,
+            (0x6098, 0x00) => Self::write_homing_method,
+            _ => return None,
+        })
+    }
+
+    /// Statusword bits 0–6, 8 and 9 (Tab. 6.6, 6.7). 6510h:F0 bit 7 is CiA 402 v2.0's
+    /// FAULT (0008h instead of 000Fh) and "high voltage applied" in bit 4.
+    pub(crate) fn cmmp_state_bits(&self, state: State, power: bool, moving: bool) -> Statusword {
+        let compat = self.value(0x6510, 0xF0) as u16;
+        let mut sw = Statusword(state.statusword_bits(compat & 0x0080 != 0));
+        // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
+        // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
+        sw |= Statusword::VOLTAGE_ENABLED.when(power || compat & 0x0080 != 0);
+        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
+        // manual's "within" as the translation slip it is).
+        sw |= Statusword::BIT_8.when(moving);
+        // Bit 9 remote: enable_logic 2 (DINs + CAN).
+        sw |= Statusword::REMOTE.when(self.value(0x6510, 0x10) == 2);
+        sw
+    }
+
+    /// Bits 14 and 15 and manufacturer_statusword_1 2000h:01. Bit 14: ((2000h:01 XOR
+    /// 200Ah:01) AND 2005h:01) ≠ 0 (CMMP-AS §6.1.4); bit 15 referenced.
+    pub(crate) fn cmmp_manufacturer_bits(&mut self) -> Statusword {
+        let state = self.dc.state();
+        let ready = self.faults.is_empty() && !state.power_enabled();
+        let msw = u32::from(self.referenced)
+            | 0x2 // commutation valid
+            | if ready { 0x4 } else { 0 }
+            | if self.setpoints.active.is_none() { 0x8 } else { 0 }
+            | if self.safe_standstill { 0x100 } else { 0 };
+        self.store(self.hot.manufacturer_status, i64::from(msw));
+        let invert = self.value(0x200A, 1) as u32;
+        let mask = self.value(0x2005, 1) as u32;
+        Statusword::MANUFACTURER_14.when(crate::device_control::manufacturer_bit_14(
+            msw, invert, mask,
+        )) | Statusword::MANUFACTURER_15.when(self.referenced)
+    }
+
+    /// A diagnostic message with the reaction 2100h sets for its main number (§5.18): none /
+    /// buffer entry change nothing, a warning shows in 200Fh, the display and statusword bit
+    /// 7, a stopping reaction reports the error (EMCY) and stops. A code missing from
+    /// [`messages::MESSAGES`] stops; `critical` ones switch the output stage off at once.
+    pub(crate) fn cmmp_error_reaction(
+        &mut self,
+        code: u16,
+        critical: bool,
+        info: u32,
+    ) -> ErrorReaction {
+        let message = messages::by_code(code);
+        if let Some(m) = message {
+            // Every reaction but "no action" makes an entry, once per occurrence: an error
+            // until it is acknowledged, a warning while active, a plain entry while it is
+            // the newest one.
+            let logged = match self.reactions.get(m.number.main).unwrap_or(0) {
+                reaction::NONE => true,
+                reaction::BUFFER_ENTRY => self.memory.back().is_some_and(|e| e.code == code),
+                reaction::WARNING => self.warning == Some((m.number, true)),
+                _ => self.faults.contains(&code),
+            };
+            if !logged {
+                if self.memory.is_full() {
+                    self.memory.pop_front();
+                }
+                let _ = self.memory.push_back(MemoryEntry {
+                    number: m.number,
+                    code,
+                    info,
+                });
+            }
+        }
+        let r = message
+            .and_then(|m| self.reactions.get(m.number.main))
+            .unwrap_or(if critical {
+                reaction::OUTPUT_STAGE_OFF
+            } else {
+                reaction::CONTROLLER_ENABLE_OFF
+            });
+        match (r, message) {
+            (reaction::NONE | reaction::BUFFER_ENTRY, _) => ErrorReaction::Ignore,
+            (reaction::WARNING, Some(m)) => {
+                self.set_warning(m.number, true);
+                ErrorReaction::Ignore
+            }
+            (reaction::OUTPUT_STAGE_OFF, _) => ErrorReaction::OutputStageOff,
+            (reaction::BRAKE_MAX_CURRENT, _) => ErrorReaction::BrakeMaxCurrent,
+            _ => ErrorReaction::QuickStop,
+        }
+    }
+
+    /// 200Fh last_warning_code and statusword bit 7 (§5.18).
+    pub(crate) fn set_warning(&mut self, number: Number, active: bool) {
+        if self.warning == Some((number, active)) {
+            return;
+        }
+        self.warning = Some((number, active));
+        let code = messages::warning_code(number, active);
+        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
+    }
+
+    /// Ends the warning `number` if it is the active one (its cause is gone; the CMMP-AS
+    /// resets warnings itself).
+    pub(crate) fn end_warning(&mut self, number: Number) {
+        if self.warning == Some((number, true)) {
+            self.set_warning(number, false);
+        }
+    }
+
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
+    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    pub(crate) fn following_error_reaction(&mut self) {
+        let r = if self.value(0x6510, 0x22) > 0 {
+            reaction::OUTPUT_STAGE_OFF
+        } else {
+            reaction::NONE
+        };
+        let _ = self.reactions.set(17, r);
+        self.show_reaction();
+    }
+
+    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
+    fn show_reaction(&mut self) {
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        if let Some(r) = self.reactions.get(main) {
+            let _ = self.od.write_internal(0x2100, 2, &[r]);
+        }
+    }
+
+    /// 6510h:F0h: the compatibility settings.
+    fn write_compatibility(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // CMMP-AS §5.2 (CMMP-SDO-15): bits 0 and 2 (homing method scheme) mirror each other.
+        let v = match data {
+            [a, b] => u16::from_le_bytes([*a, *b]),
+            _ => return self.od.write(index, sub, data),
+        };
+        let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
+        self.od.write(index, sub, &v.to_le_bytes())
+    }
+
+    /// 2100h:01h: the error group whose reaction 2100h:02h shows.
+    fn write_reaction_group(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.show_reaction();
+        Ok(())
+    }
+
+    /// 2100h:02h: the reaction of the selected error group.
+    fn write_reaction(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // CMMP-AS §5.18: a reaction below the manufacturer's minimum is clamped to it.
+        self.od.entry(index, sub)?;
+        let code = match data {
+            [b] => *b,
+            _ => return self.od.write(index, sub, data),
+        };
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        self.reactions
+            .set(main, code)
+            .map_err(|_| AbortCode::INVALID_VALUE)?;
+        self.show_reaction();
+        Ok(())
+    }
+
+    /// 6510h:22h: the following-error reaction.
+    fn write_following_error_reaction(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.following_error_reaction();
+        self.params_dirty = true;
+        Ok(())
+    }
+
+    /// 1011h: restore defaults, not with the output stage on.
+    fn write_restore_defaults(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if self.dc.state().power_enabled() {
+            // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
+            self.od.entry(index, sub)?;
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.write_plain(index, sub, data)
+    }
+
+    /// 6083h / 6084h: the profile ramps, also the 2090h ramps.
+    fn write_profile_ramp(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        // CMMP-AS §7.6: 6083h/6084h and the 2090h ramps are the same values.
+        let (a, b) = if index == 0x6083 { (2, 4) } else { (3, 5) };
+        let _ = self.od.write_internal(0x2090, a, data);
+        let _ = self.od.write_internal(0x2090, b, data);
+        Ok(())
+    }
+
+    /// 60C4h:06h: buffer_clear of interpolated position.
+    fn write_buffer_clear(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // buffer_clear: 1 unlocks 60C1h, 0 clears the buffer and locks it (§7.4.2).
+        self.od.write(index, sub, data)?;
+        self.ip.set_unlocked(data.first() == Some(&1));
+        Ok(())
+    }
+
+    /// 60C1h:01h: an interpolated-position set-point.
+    fn write_ip_set_point(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // Decision: 60C1h written while locked (60C4h:06 = 0) is refused with the
+        // device-state abort; the manual says only "access is not allowed".
+        self.od.entry(index, sub)?;
+        if !self.ip.is_unlocked() {
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.od.write(index, sub, data)?;
+        let user = self
+            .value(0x60C1, 1)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let increments = self.fg.position_to_internal(user) as f64;
+        // 60C1h:02 = 1: a relative distance from the last set-point.
+        let target = if self.value(0x60C1, 2) == 1 {
+            self.ip.last_set_point() + increments
+        } else {
+            increments
+        };
+        self.ip.set_point(target);
+        Ok(())
+    }
+
+    /// 2030h: set_position_absolute.
+    fn write_set_position_absolute(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        // set_position_absolute: the actual position becomes this value, no motion.
+        self.od.write(index, sub, data)?;
+        let user = self
+            .value(0x2030, 0)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        self.position_offset = self.fg.position_to_internal(user) - self.axis.position_increments();
+        self.resync_trajectory();
+        Ok(())
+    }
+
+    /// 6098h: the homing method.
+    fn write_homing_method(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if self.mode == crate::drive::mode::HOMING
+            && self.dc.state() == State::OperationEnabled
+            && self.last_cw.contains(Controlword::HOMING_START)
+        {
+            // CMMP-AS 7.2: the method is writable only while homing is not active.
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        let m = match data {
+            [b] => *b as i8,
+            _ => return self.od.write(index, sub, data),
+        };
+        // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
+        // the printed range only and fails at the start (see `start_homing`).
+        // Beyond −27 … 35 the dictionary's range check answers.
+        let listed = m == 32 || self.personality.homing_method(m);
+        if !listed && (-27..=35).contains(&m) {
+            self.od.entry(index, sub)?;
+            return Err(AbortCode::INVALID_VALUE);
+        }
+        self.od.write(index, sub, data)
+    }
+}

@@ -1,0 +1,163 @@
+//! A CiA 402 personality: what one vendor's drive is, as data the engine in
+//! [`crate::drive`] reads. The tables are the manuals' tables (modes, option codes, error
+//! numbers with their EMCY codes and error-register bits, homing methods); what a table
+//! cannot hold (the CMMP-AS's error management 2100h, Nanotec's statusword bits) is an
+//! `impl Drive` block in the vendor's module, chosen by [`Vendor`].
+//!
+//! Decision: the device file names its personality by its `name` ([`for_device`]); a CiA 402
+//! device file without a personality of its own runs as the CMMP-AS, as every CiA 402 drive
+//! did before the split.
+
+pub mod cmmp_as;
+pub mod nanotec;
+
+use crate::homing::{HomingError, Method};
+
+/// Which vendor module holds the behaviour a table cannot say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Vendor {
+    CmmpAs,
+    Nanotec,
+}
+
+/// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ModeSpec {
+    pub mode: i8,
+    /// The bit of 6502h supported_drive_modes; `None` for manufacturer modes (< 0).
+    pub bit: Option<u8>,
+    /// Only reachable over EtherCAT (CMMP-AS 6060h = 8).
+    pub ethercat_only: bool,
+}
+
+/// An option code 605Ah–605Eh (CiA 402 §6.3.4–6.3.8) and its value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OptionCode {
+    pub index: u16,
+    pub value: i16,
+    /// The manual allows this value only.
+    pub fixed: bool,
+}
+
+/// 605Ah quick_stop_option_code.
+pub const QUICK_STOP_OPTION: u16 = 0x605A;
+/// 605Bh shutdown_option_code.
+pub const SHUTDOWN_OPTION: u16 = 0x605B;
+/// 605Ch disable_operation_option_code.
+pub const DISABLE_OPERATION_OPTION: u16 = 0x605C;
+/// 605Dh halt_option_code.
+pub const HALT_OPTION: u16 = 0x605D;
+/// 605Eh fault_reaction_option_code.
+pub const FAULT_REACTION_OPTION: u16 = 0x605E;
+
+/// A condition the engine detects; the personality names its error (if the drive has one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    DcLinkUndervoltage,
+    FollowingError,
+    I2tMotor,
+    /// Interpolation started off the SYNC grid.
+    NoFieldbusSync,
+    /// The SYNC grid lost while interpolating.
+    FieldbusSyncError,
+    LimitSwitchNegative,
+    LimitSwitchPositive,
+    Homing(HomingError),
+    /// A PP target beyond the software position limits 607Dh.
+    SoftwareLimit,
+    /// A relative PP target that overflows the position range.
+    PositionOverflow,
+}
+
+/// One row of a personality's error table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ErrorSpec {
+    pub fault: Fault,
+    /// The EMCY error code (bytes 0–1 of the EMCY frame, 603Fh).
+    pub code: u16,
+    /// The error register 1001h bits it sets.
+    pub register: u8,
+    /// Output stage off at once (no fault-reaction ramp) where no reaction table says
+    /// otherwise.
+    pub critical: bool,
+}
+
+/// A CiA 402 personality.
+#[derive(Debug)]
+pub struct Personality {
+    pub vendor: Vendor,
+    /// The device files (`[device] name`) it serves.
+    pub devices: &'static [&'static str],
+    /// The modes 6060h accepts.
+    pub modes: &'static [ModeSpec],
+    pub option_codes: &'static [OptionCode],
+    /// Controlword 0Fh in READY TO SWITCH ON enables operation at once (transitions 3 + 4).
+    pub enable_from_ready: bool,
+    pub errors: &'static [ErrorSpec],
+    /// Profile Position: a new set-point while one is queued replaces the queued one.
+    pub pp_overwrite_queued: bool,
+    /// The homing methods 6098h selects.
+    pub homing_methods: &'static [Method],
+}
+
+impl Personality {
+    /// Whether 6060h accepts `mode` (`ethercat`: the drive is reached over EtherCAT).
+    pub fn accepts_mode(&self, mode: i8, ethercat: bool) -> bool {
+        self.modes
+            .iter()
+            .any(|m| m.mode == mode && (ethercat || !m.ethercat_only))
+    }
+
+    /// 6502h supported_drive_modes.
+    pub fn supported_drive_modes(&self, ethercat: bool) -> u32 {
+        self.modes
+            .iter()
+            .filter(|m| ethercat || !m.ethercat_only)
+            .filter_map(|m| m.bit)
+            .fold(0, |acc, b| acc | 1u32 << b)
+    }
+
+    /// The value of option code `index`, `default` where the personality has none (CiA 402's
+    /// defaults).
+    pub fn option_code(&self, index: u16, default: i16) -> i16 {
+        self.option_codes
+            .iter()
+            .find(|o| o.index == index)
+            .map_or(default, |o| o.value)
+    }
+
+    /// The error the drive reports for `fault`; `None`: this drive does not detect it.
+    pub fn error(&self, fault: Fault) -> Option<&'static ErrorSpec> {
+        self.errors.iter().find(|e| e.fault == fault)
+    }
+
+    pub fn homing_method(&self, method: i8) -> bool {
+        self.homing_methods.iter().any(|(m, _)| *m == method)
+    }
+}
+
+/// Every personality.
+pub const ALL: [&Personality; 2] = [&cmmp_as::CMMP_AS, &nanotec::NANOTEC];
+
+/// The personality of the device file `name` (see the module doc for the fallback).
+pub fn for_device(name: &str) -> &'static Personality {
+    ALL.iter()
+        .copied()
+        .find(|p| p.devices.contains(&name))
+        .unwrap_or(&cmmp_as::CMMP_AS)
+}
+
+/// What a reported error does to the drive, as the personality's error management decides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorReaction {
+    /// Nothing beyond what the vendor module already did (a warning, a log entry).
+    Ignore,
+    /// An EMCY and nothing else: no fault state (Nanotec §7.1 "–").
+    MessageOnly,
+    /// FAULT REACTION ACTIVE with the quick-stop ramp, then FAULT.
+    QuickStop,
+    /// FAULT REACTION ACTIVE braking at the current limit, then FAULT.
+    BrakeMaxCurrent,
+    /// FAULT at once, the output stage off (the motor coasts).
+    OutputStageOff,
+}

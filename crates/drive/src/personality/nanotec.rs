@@ -1,0 +1,308 @@
+//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
+//! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
+//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1, the homing
+//! methods of §5.2 as tables; as behaviour the statusword (bit 9 remote always set, bit 4
+//! from Switched On, bit 8 PLL sync), the Profile Position target checks of §5.1 (range-limit
+//! wrap, software limits, relative overflow) and the reaction table of §7.1.
+
+use od::{AbortCode, ObjectAccess};
+
+use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use crate::controlword::Controlword;
+use crate::device_control::State;
+use crate::drive::object_writes::Hook;
+use crate::drive::Drive;
+use crate::factor_group::{
+    acceleration_factor, position_factor, velocity_factor, FactorGroup, Ratio,
+    TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_SECOND,
+};
+use crate::homing::{Method, Speed, Step, Until};
+use crate::statusword::Statusword;
+
+/// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
+pub mod emcy {
+    pub const UNDERVOLTAGE: u16 = 0x0001;
+    pub const OVERTEMPERATURE: u16 = 0x0002;
+    pub const LIFEGUARD: u16 = 0x0004;
+    pub const DATA_ERROR: u16 = 0x0008;
+    pub const TRAVEL_DIRECTION: u16 = 0x0020;
+    pub const STEP_CALCULATION: u16 = 0x0040;
+    pub const OVERCURRENT: u16 = 0x0080;
+    pub const TRANSMIT_ERRORS: u16 = 0x0100;
+    pub const RECEIVE_ERRORS: u16 = 0x0200;
+    pub const TRANSMIT_BUFFER_FULL: u16 = 0x0400;
+    /// The target exceeds the software position limit (or the position range limit).
+    pub const POSITION_LIMIT: u16 = 0x0800;
+    /// Position overflow.
+    pub const POSITION_OVERFLOW: u16 = 0x1000;
+}
+
+const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
+    ModeSpec {
+        mode,
+        bit,
+        ethercat_only: false,
+    }
+}
+
+/// The Nanotec controllers.
+///
+/// Decision: 6060h lists 3 (PV) but 6502h and the text say PV is not supported (§9): 3 is
+/// refused with 0609 0030h. 0 ("no mode") is taken; the drive then holds its position.
+pub const NANOTEC: Personality = Personality {
+    vendor: Vendor::Nanotec,
+    devices: &[
+        "nanotec-smci47s",
+        "nanotec-pd4n",
+        "nanotec-smci47-s",
+        "nanotec-pd4-n",
+    ],
+    // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
+    // the closed-loop test runs (§5.6).
+    modes: &[
+        mode(-2, None),
+        mode(-1, None),
+        mode(0, None),
+        mode(1, Some(0)),
+        mode(2, Some(1)),
+        mode(4, Some(3)),
+        mode(6, Some(5)),
+        mode(7, Some(6)),
+    ],
+    // 605Ah = 3, the only value: "brake with maximum current, then Switch On Disabled".
+    option_codes: &[OptionCode {
+        index: super::QUICK_STOP_OPTION,
+        value: 3,
+        fixed: true,
+    }],
+    // §2.4 L504: "only the jump from Ready to Switch On to Operation Enabled is possible".
+    enable_from_ready: true,
+    // 1001h: only generic (bit 0) and communication (bit 4) are used (§7.4).
+    errors: &[
+        ErrorSpec {
+            fault: Fault::SoftwareLimit,
+            code: emcy::POSITION_LIMIT,
+            register: 0x01,
+            critical: false,
+        },
+        ErrorSpec {
+            fault: Fault::PositionOverflow,
+            code: emcy::POSITION_OVERFLOW,
+            register: 0x01,
+            critical: false,
+        },
+    ],
+    pp_overwrite_queued: true,
+    homing_methods: &HOMING_METHODS,
+};
+
+const fn step(direction: i8, speed: Speed, until: Until) -> Step {
+    Step {
+        direction,
+        speed,
+        until,
+        reverse: false,
+    }
+}
+
+use crate::homing::Signal::Home;
+use Speed::{Crawl, Search as Fast};
+use Until::{Active, Inactive, Index};
+
+/// §5.2, methods 19–22, 33–35. Clockwise is the positive direction (§9: positive VL speed is
+/// "Rechtslauf").
+///
+/// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
+/// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
+/// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
+pub const HOMING_METHODS: [Method; 7] = [
+    // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
+    (
+        19,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    // 20: CCW until the switch, CW off it.
+    (
+        20,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    // 21: CCW until the switch, CW off it.
+    (
+        21,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    // 22: CW until the switch, CCW off it.
+    (
+        22,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    // 33: CW at 6099h:02 to the index mark (then off it: the reference is the mark).
+    (33, &[step(1, Crawl, Index)]),
+    // 34: CCW at 6099h:02 to the index mark.
+    (34, &[step(-1, Crawl, Index)]),
+    // 35: the actual position becomes the home offset, no motion.
+    (35, &[]),
+];
+
+/// Statusword bits 0–3, 5, 6 of each state (§4.2, measured in the §2.4 example: 0260h,
+/// 0221h, 0233h, 0237h with bits 4 and 9 added). Bit 5 is set in Switch On Disabled.
+const STATE_BITS: [(State, u16); 8] = [
+    (State::NotReadyToSwitchOn, 0x0000),
+    (State::SwitchOnDisabled, 0x0060),
+    (State::ReadyToSwitchOn, 0x0021),
+    (State::SwitchedOn, 0x0023),
+    (State::OperationEnabled, 0x0027),
+    (State::QuickStopActive, 0x0007),
+    (State::FaultReactionActive, 0x000F),
+    (State::Fault, 0x0008),
+];
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// At power-on and after a reload: nothing beyond the dictionary's values.
+    pub(crate) fn nanotec_power_on(&mut self) {}
+
+    /// The objects whose Nanotec rules do more than store a value.
+    pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+        Some(match (index, sub) {
+            (0x6060, 0x00) => Self::nanotec_write_mode,
+            _ => return None,
+        })
+    }
+
+    /// 6060h: PV (3) is refused (see [`NANOTEC`]).
+    fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.entry(index, sub)?;
+        match data {
+            [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
+            _ => self.write_mode(index, sub, data),
+        }
+    }
+
+    /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
+    /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, §5.4).
+    pub(crate) fn nanotec_state_bits(&self, state: State, power: bool) -> Statusword {
+        let bits = STATE_BITS
+            .iter()
+            .find(|(s, _)| *s == state)
+            .map_or(0, |(_, b)| *b);
+        Statusword(bits)
+            | Statusword::VOLTAGE_ENABLED.when(power)
+            | Statusword::REMOTE
+            | Statusword::BIT_8.when(self.ip.is_synchronised())
+    }
+
+    /// The reaction of §7.1 to `code`: 0800h and 1000h are an EMCY and statusword bit 11
+    /// only; others switch the power off (a `critical` one at once).
+    pub(crate) fn nanotec_error_reaction(&mut self, code: u16, critical: bool) -> ErrorReaction {
+        match code {
+            emcy::POSITION_LIMIT | emcy::POSITION_OVERFLOW => ErrorReaction::MessageOnly,
+            _ if critical => ErrorReaction::OutputStageOff,
+            _ => ErrorReaction::QuickStop,
+        }
+    }
+}
+
+/// Nanotec §6: user units from the feed constant 6092h and the gear ratio 6091h (default
+/// 2000 units per output revolution), velocities in units/s, accelerations in units/s².
+fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
+    Some(FactorGroup {
+        position: position_factor(gear, feed).ok()?,
+        velocity: velocity_factor(gear, feed, TIME_FACTOR_V_PER_SECOND).ok()?,
+        acceleration: acceleration_factor(gear, feed, TIME_FACTOR_A_PER_SECOND_SQUARED).ok()?,
+        polarity,
+    })
+}
+
+/// The feed constant of the defaults (§6: 2000 units = one output revolution).
+const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// The factor group from 6091h and 6092h; the defaults where they break the rules.
+    pub(crate) fn nanotec_factor_group(&self) -> FactorGroup {
+        let ratio = |index: u16, dflt: Ratio| {
+            Ratio::new(
+                self.od
+                    .get_unsigned(index, 1)
+                    .map_or(dflt.numerator, |v| v as u32),
+                self.od
+                    .get_unsigned(index, 2)
+                    .map_or(dflt.divisor, |v| v as u32),
+            )
+        };
+        let gear = ratio(0x6091, Ratio::new(1, 1));
+        let feed = ratio(0x6092, DEFAULT_FEED);
+        let polarity = self.od.get_unsigned(0x607E, 0).unwrap_or(0) as u8;
+        factor_group(gear, feed, polarity)
+            .or_else(|| factor_group(Ratio::new(1, 1), DEFAULT_FEED, polarity))
+            .unwrap_or_default()
+    }
+
+    /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
+    /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
+    /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;
+    /// (3) a relative target that overflows the position is refused with EMCY 1000h.
+    /// Returns the absolute target, or the refusal.
+    ///
+    /// Decisions: a relative target counts from the position set-point (the last target once
+    /// a move has ended; §4.1 "relative to the last target position" and §4.2 "relative to
+    /// the current position" agree at standstill). 607Bh and 607Dh with min = max = 0 are off
+    /// (§3.4 says so of 607Bh; CiA 402 of both). The wrap applies to the resolved target.
+    pub(crate) fn nanotec_check_target(&self, cw: Controlword) -> Result<i32, Fault> {
+        let target = self.value(0x607A, 0);
+        let absolute = if cw.contains(Controlword::RELATIVE) {
+            let queued = self
+                .setpoints
+                .active
+                .filter(|_| !cw.contains(Controlword::CHANGE_SET_IMMEDIATELY));
+            let base_internal = queued.map_or(self.traj.position, |j| j.target);
+            let base = i64::from(
+                self.fg
+                    .position_from_internal(libm::round(base_internal) as i64),
+            );
+            let sum = base + target;
+            if i32::try_from(sum).is_err() {
+                return Err(Fault::PositionOverflow);
+            }
+            sum
+        } else {
+            target
+        };
+        let (min, max) = (self.value(0x607B, 1), self.value(0x607B, 2));
+        let absolute = if (min, max) != (0, 0) && min < max && !(min..=max).contains(&absolute) {
+            min + (absolute - min).rem_euclid(max - min + 1)
+        } else {
+            absolute
+        };
+        let home = self.value(0x607C, 0);
+        let (lo, hi) = (self.value(0x607D, 1), self.value(0x607D, 2));
+        if (lo, hi) != (0, 0) && !(lo - home..=hi - home).contains(&absolute) {
+            return Err(Fault::SoftwareLimit);
+        }
+        i32::try_from(absolute).map_err(|_| Fault::PositionOverflow)
+    }
+
+    /// A PP set-point was taken: a refused one raises its EMCY and bit 11; a valid one
+    /// clears both (§4.1 item 4: "cleared only by the next valid position"), bit 11 staying
+    /// for a wrapped one. With bit 9 (change on set-point) a queued job follows the running
+    /// one without braking at its target.
+    pub(crate) fn nanotec_target_taken(&mut self, result: Result<i32, Fault>, cw: Controlword) {
+        match result {
+            Err(fault) => {
+                self.internal_limit = true;
+                self.raise_fault(fault);
+            }
+            Ok(target) => {
+                self.clear_notice(emcy::POSITION_LIMIT);
+                self.clear_notice(emcy::POSITION_OVERFLOW);
+                self.internal_limit = i64::from(target) != self.value(0x607A, 0)
+                    && !cw.contains(Controlword::RELATIVE);
+            }
+        }
+        if self.setpoints.buffered.is_some() {
+            let on_the_fly = cw.contains(Controlword::CHANGE_ON_SET_POINT);
+            if let Some(active) = self.setpoints.active.as_mut() {
+                active.end_velocity = if on_the_fly { active.velocity } else { 0.0 };
+            }
+        }
+    }
+}
