@@ -10,6 +10,7 @@
 
 pub mod cmmp_as;
 pub mod nanotec;
+pub mod nanotec_units;
 
 use crate::homing::{HomingError, Method};
 
