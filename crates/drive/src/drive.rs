@@ -526,6 +526,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(m) = messages::by_code(code) {
             self.end_warning(m.number);
         }
+        self.clear_notice(code);
     }
 
     /// Reports the error `code` with the reaction the personality's error management gives
@@ -560,9 +561,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
-            ErrorReaction::MessageOnly => {
+            ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
                 if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
                     self.push_event(DriveEvent::Error { code, register });
+                }
+                if reaction == ErrorReaction::QuickStopNoFault {
+                    let r = self.dc.quick_stop();
+                    self.react(r);
                 }
                 return;
             }
