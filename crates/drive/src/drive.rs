@@ -26,10 +26,13 @@ use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
 pub(crate) mod object_writes;
+mod velocity_mode;
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
     pub const PROFILE_POSITION: i8 = 1;
+    /// Velocity mode VL (CiA 402 §10).
+    pub const VELOCITY: i8 = 2;
     pub const PROFILE_VELOCITY: i8 = 3;
     pub const PROFILE_TORQUE: i8 = 4;
     pub const HOMING: i8 = 6;
@@ -523,6 +526,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(m) = messages::by_code(code) {
             self.end_warning(m.number);
         }
+        self.clear_notice(code);
     }
 
     /// Reports the error `code` with the reaction the personality's error management gives
@@ -557,9 +561,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
-            ErrorReaction::MessageOnly => {
+            ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
                 if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
                     self.push_event(DriveEvent::Error { code, register });
+                }
+                if reaction == ErrorReaction::QuickStopNoFault {
+                    let r = self.dc.quick_stop();
+                    self.react(r);
                 }
                 return;
             }
@@ -949,6 +957,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
             let decel = if self.limit_stop {
                 self.accel2(0x6510, 0x15)
+            } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
+            {
+                // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
+                ramp
             } else {
                 self.accel(0x6085)
             };
@@ -978,6 +990,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match self.mode {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
+            mode::VELOCITY => self.velocity_mode(dt),
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),

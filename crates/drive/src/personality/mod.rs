@@ -10,6 +10,7 @@
 
 pub mod cmmp_as;
 pub mod nanotec;
+pub mod nanotec_units;
 
 use crate::homing::{HomingError, Method};
 
@@ -154,6 +155,8 @@ pub enum ErrorReaction {
     Ignore,
     /// An EMCY and nothing else: no fault state (Nanotec §7.1 "–").
     MessageOnly,
+    /// An EMCY and a quick stop (the state machine's, not a fault).
+    QuickStopNoFault,
     /// FAULT REACTION ACTIVE with the quick-stop ramp, then FAULT.
     QuickStop,
     /// FAULT REACTION ACTIVE braking at the current limit, then FAULT.

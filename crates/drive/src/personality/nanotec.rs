@@ -96,6 +96,80 @@ pub const NANOTEC: Personality = Personality {
     homing_methods: &HOMING_METHODS,
 };
 
+/// A reaction of the §7.1 table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reaction {
+    /// "Power Off": the power stage off (fault).
+    PowerOff,
+    /// "Quickstop + Power Off": the quick-stop ramp, then the power stage off (fault).
+    QuickStopPowerOff,
+    /// "Quickstop": the quick-stop ramp, no fault.
+    QuickStop,
+    /// "motor does not start" at standstill, "motor finishes the current job" while moving,
+    /// "–": the EMCY only.
+    ///
+    /// Decision: the manual does not say what refuses the next start; the twin reports the
+    /// EMCY and leaves the state machine alone.
+    MessageOnly,
+}
+
+impl From<Reaction> for ErrorReaction {
+    fn from(r: Reaction) -> Self {
+        match r {
+            Reaction::PowerOff => ErrorReaction::OutputStageOff,
+            Reaction::QuickStopPowerOff => ErrorReaction::QuickStop,
+            Reaction::QuickStop => ErrorReaction::QuickStopNoFault,
+            Reaction::MessageOnly => ErrorReaction::MessageOnly,
+        }
+    }
+}
+
+/// One row of §7.1: the code and its reactions, legacy (2020h = 1) and new (2020h = 0), at
+/// standstill and while moving.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReactionRow {
+    pub code: u16,
+    pub legacy: (Reaction, Reaction),
+    pub new: (Reaction, Reaction),
+}
+
+impl ReactionRow {
+    pub const fn reaction(&self, legacy: bool, moving: bool) -> Reaction {
+        let (standstill, running) = if legacy { self.legacy } else { self.new };
+        if moving {
+            running
+        } else {
+            standstill
+        }
+    }
+}
+
+const fn reactions(
+    code: u16,
+    legacy: (Reaction, Reaction),
+    new: (Reaction, Reaction),
+) -> ReactionRow {
+    ReactionRow { code, legacy, new }
+}
+
+use Reaction::{MessageOnly as Msg, PowerOff as Off, QuickStop as Qs, QuickStopPowerOff as QsOff};
+
+/// §7.1 (§13.3), as printed; 0010h is not used.
+pub const REACTIONS: [ReactionRow; 12] = [
+    reactions(emcy::UNDERVOLTAGE, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::OVERTEMPERATURE, (Off, Off), (Off, Off)),
+    reactions(emcy::LIFEGUARD, (Off, QsOff), (Msg, Qs)),
+    reactions(emcy::DATA_ERROR, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::TRAVEL_DIRECTION, (Off, QsOff), (Msg, Msg)),
+    reactions(emcy::STEP_CALCULATION, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::OVERCURRENT, (Off, Off), (Off, Off)),
+    reactions(emcy::TRANSMIT_ERRORS, (Off, QsOff), (Msg, Qs)),
+    reactions(emcy::RECEIVE_ERRORS, (Msg, Msg), (Msg, Qs)),
+    reactions(emcy::TRANSMIT_BUFFER_FULL, (Msg, Msg), (Msg, Qs)),
+    reactions(emcy::POSITION_LIMIT, (Msg, Msg), (Msg, Msg)),
+    reactions(emcy::POSITION_OVERFLOW, (Msg, Msg), (Msg, Msg)),
+];
+
 const fn step(direction: i8, speed: Speed, until: Until) -> Step {
     Step {
         direction,
@@ -191,13 +265,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             | Statusword::BIT_8.when(self.ip.is_synchronised())
     }
 
-    /// The reaction of §7.1 to `code`: 0800h and 1000h are an EMCY and statusword bit 11
-    /// only; others switch the power off (a `critical` one at once).
+    /// The reaction of §7.1 to `code`: the table's column for 2020h (1 legacy, 0 new) and
+    /// whether the motor is moving. A code the table does not list switches the power off
+    /// (with the quick-stop ramp unless `critical`).
     pub(crate) fn nanotec_error_reaction(&mut self, code: u16, critical: bool) -> ErrorReaction {
-        match code {
-            emcy::POSITION_LIMIT | emcy::POSITION_OVERFLOW => ErrorReaction::MessageOnly,
-            _ if critical => ErrorReaction::OutputStageOff,
-            _ => ErrorReaction::QuickStop,
+        let legacy = self.value(0x2020, 0) != 0;
+        let moving = self.traj.velocity != 0.0 || self.velocity_set != 0.0;
+        match REACTIONS.iter().find(|r| r.code == code) {
+            Some(r) => r.reaction(legacy, moving).into(),
+            None if critical => ErrorReaction::OutputStageOff,
+            None => ErrorReaction::QuickStop,
         }
     }
 }
