@@ -119,7 +119,7 @@ struct Reply {
 impl Master {
     fn open(interface: &str) -> io::Result<Master> {
         // The twin's own socket set-up (non-blocking: the master spins on `recvfrom`).
-        let fd = drivetwin::ethercat_link::open_raw(interface)?;
+        let fd = drivetwin::ecat::link::open_raw(interface)?;
         Ok(Master {
             fd,
             tx: [0; 128],

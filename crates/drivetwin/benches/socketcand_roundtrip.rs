@@ -5,10 +5,11 @@
 use std::time::{Duration, Instant as WallInstant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use drivetwin::bus::Bus;
-use drivetwin::can_drive::CanDrive;
+use drivetwin::can::bus::Bus;
+use drivetwin::can::drive::CanDrive;
+use drivetwin::can::socketcand;
+use drivetwin::cell::runtime;
 use drivetwin::cell::Cell;
-use drivetwin::{runtime, socketcand};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
@@ -46,7 +47,7 @@ impl Client {
 }
 
 async fn setup() -> Client {
-    let bus = Bus::new(drivetwin::bus::DEFAULT_CAPACITY);
+    let bus = Bus::new(drivetwin::can::bus::DEFAULT_CAPACITY);
     let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let addr = listener.local_addr().expect("addr");
     tokio::spawn(socketcand::serve(listener, bus.clone(), "vcan0"));

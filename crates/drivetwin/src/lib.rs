@@ -1,27 +1,38 @@
-//! The std side of drivetwin: transports, runtime, parameter storage and the master commands.
-//! Everything here does I/O; the protocol and device logic it drives is sans-IO.
+//! The std side of drivetwin: transports, the cell and its runtime, traces, exports and the
+//! master commands. Everything here does I/O except the few pure rules it keeps beside them
+//! (`cell::fieldbus_switches`, `value_text`, `export::esi`); the protocol and device logic
+//! it drives is sans-IO.
+//!
+//! - [`can`]: the in-process CAN bus, socketcand and SocketCAN transports, CANopen drives;
+//! - [`ecat`]: the EtherCAT chain of emulated slave controllers and its raw socket;
+//! - [`modbus_tcp`]: Modbus TCP servers and the CMMO-ST's FHPP register map;
+//! - [`cell`]: a cell of drives, its file, its runtime and clock, stored parameters;
+//! - [`trace`]: pcap and candump writers and readers;
+//! - [`export`]: ESI XML for EtherCAT configurators;
+//! - [`master`]: the command-line master's protocol clients.
 
-pub mod bus;
-pub mod can_drive;
+pub mod can;
 pub mod cell;
-pub mod cell_config;
-pub mod ci_console;
-pub mod device_model;
-pub mod esi;
-pub mod ethercat_cell;
-pub mod ethercat_link;
-pub mod fhpp_modbus;
-pub mod fieldbus_switches;
+pub mod ecat;
+pub mod export;
 pub mod master;
-pub mod modbus_cycle_server;
-pub mod modbus_server;
-#[cfg(target_os = "linux")]
-pub mod net_interface;
-pub mod param_store;
-pub mod pcap;
-pub mod realtime;
-pub mod runtime;
-pub mod socketcan;
-pub mod socketcand;
+pub mod modbus_tcp;
 pub mod trace;
 pub mod value_text;
+
+// The flat names of the earlier layout, kept so that code written against them (other
+// branches, scripts) still builds.
+pub use can::drive as can_drive;
+pub use can::{bus, socketcan, socketcand};
+pub use cell::{
+    ci_console, config as cell_config, device_model, fieldbus_switches, param_store, realtime,
+    runtime,
+};
+#[cfg(target_os = "linux")]
+pub use ecat::net_interface;
+pub use ecat::{chain as ethercat_cell, link as ethercat_link};
+pub use export::esi;
+pub use modbus_tcp::{
+    cycle_server as modbus_cycle_server, fhpp as fhpp_modbus, server as modbus_server,
+};
+pub use trace::pcap;

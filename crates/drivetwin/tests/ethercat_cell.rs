@@ -3,8 +3,8 @@
 //! which the controlword and target written in the outputs reach the CiA 402 drive and its
 //! statusword and position come back in the inputs.
 
-use drivetwin::cell_config::CellFile;
-use drivetwin::ethercat_cell::EthercatCell;
+use drivetwin::cell::config::CellFile;
+use drivetwin::ecat::chain::EthercatCell;
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, Fmmu};

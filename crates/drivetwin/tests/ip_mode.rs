@@ -4,7 +4,7 @@
 //! synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced set-points interpolated
 //! linearly, and the errors 34-0 / 34-1.
 
-use drivetwin::param_store::ParamStore;
+use drivetwin::cell::param_store::ParamStore;
 
 #[path = "support/can_bench.rs"]
 mod can_bench;

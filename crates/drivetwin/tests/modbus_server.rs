@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use drivetwin::modbus_cycle_server;
-use drivetwin::modbus_server::{serve, ModbusConfig};
+use drivetwin::modbus_tcp::cycle_server;
+use drivetwin::modbus_tcp::server::{serve, ModbusConfig};
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
 };
@@ -186,16 +186,9 @@ async fn start(io: Io, config: ModbusConfig) -> Server {
             let thread_steps = Arc::clone(&steps);
             let thread = std::thread::spawn(move || {
                 let period = Duration::from_millis(1);
-                modbus_cycle_server::serve(
-                    listener,
-                    &thread_map,
-                    &config,
-                    period,
-                    &thread_stop,
-                    |_| {
-                        thread_steps.fetch_add(1, Ordering::Relaxed);
-                    },
-                )
+                cycle_server::serve(listener, &thread_map, &config, period, &thread_stop, |_| {
+                    thread_steps.fetch_add(1, Ordering::Relaxed);
+                })
             });
             Server {
                 addr,

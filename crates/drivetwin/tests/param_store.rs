@@ -1,8 +1,8 @@
 //! Stored parameter sets: round trip through the state directory, atomic replacement, and
 //! clear errors for damaged files.
 
-use drivetwin::can_drive::{CanDrive, Commissioning};
-use drivetwin::param_store::ParamStore;
+use drivetwin::can::drive::{CanDrive, Commissioning};
+use drivetwin::cell::param_store::ParamStore;
 use od::{ObjectAccess, Value};
 
 fn tmpdir(name: &str) -> std::path::PathBuf {

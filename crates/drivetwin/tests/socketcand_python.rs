@@ -6,8 +6,8 @@ use std::process::Stdio;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::bus::Bus;
-use drivetwin::socketcand::serve;
+use drivetwin::can::bus::Bus;
+use drivetwin::can::socketcand::serve;
 use tokio::net::TcpListener;
 use tokio::process::Command;
 

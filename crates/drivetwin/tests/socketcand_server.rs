@@ -5,8 +5,8 @@ use std::net::SocketAddr;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
-use drivetwin::bus::{Bus, BusFrame, Port};
-use drivetwin::socketcand::{serve_with, Decoder, Message, ServerConfig};
+use drivetwin::can::bus::{Bus, BusFrame, Port};
+use drivetwin::can::socketcand::{serve_with, Decoder, Message, ServerConfig};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 

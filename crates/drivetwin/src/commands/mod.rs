@@ -4,16 +4,18 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
-use drivetwin::bus::Bus;
-use drivetwin::can_drive::{CanDrive, DriveError};
+use drivetwin::can::bus::Bus;
+use drivetwin::can::drive::{CanDrive, DriveError};
+use drivetwin::can::socketcand;
+use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
+use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::Cell;
-use drivetwin::cell_config::{CellFile, ConfigError, DriveSpec, FhppSpec};
-use drivetwin::fhpp_modbus;
+use drivetwin::cell::{ci_console, runtime};
 use drivetwin::master::link::{Link, LinkError};
 use drivetwin::master::sdo_client::{SdoClient, SdoError};
-use drivetwin::param_store::ParamStore;
+use drivetwin::modbus_tcp::fhpp as fhpp_modbus;
 use drivetwin::trace::{self, TraceWriter};
-use drivetwin::{ci_console, runtime, socketcand, value_text};
+use drivetwin::value_text;
 use od::DataType;
 
 use crate::cli::{
@@ -106,7 +108,7 @@ impl CommandError {
                 SdoError::Link(_) => EXIT_LINK,
             },
             CommandError::Fhpp(e) => fhpp::exit_code(e),
-            CommandError::Drive(drivetwin::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
+            CommandError::Drive(drivetwin::can::drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
         }

@@ -17,7 +17,7 @@ pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
 pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
     let desc = device(name)?;
     let mut text = String::new();
-    drivetwin::esi::write_esi(desc, &mut text)
+    drivetwin::export::esi::write_esi(desc, &mut text)
         .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
     match output {
         Some(path) => std::fs::write(&path, text).map_err(io(path.display().to_string())),
@@ -191,7 +191,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         return Ok(());
     }
 
-    let bus = Bus::new(drivetwin::bus::DEFAULT_CAPACITY);
+    let bus = Bus::new(drivetwin::can::bus::DEFAULT_CAPACITY);
     let mut tasks = Vec::new();
     if !file.bus.socketcand.is_empty() {
         let listener = tokio::net::TcpListener::bind(&file.bus.socketcand)
@@ -207,12 +207,12 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
     #[cfg(target_os = "linux")]
     if let Some(ifname) = &file.bus.socketcan {
-        let socket = drivetwin::socketcan::CanSocket::open(ifname)
+        let socket = drivetwin::can::socketcan::CanSocket::open(ifname)
             .map_err(io(format!("SocketCAN {ifname}")))?;
         out!("SocketCAN bridge on {ifname}");
         let port = bus.port();
         tasks.push(tokio::spawn(async move {
-            if let Err(e) = drivetwin::socketcan::bridge(socket, port).await {
+            if let Err(e) = drivetwin::can::socketcan::bridge(socket, port).await {
                 tracing::error!(error = %e, "SocketCAN bridge stopped");
             }
         }));
@@ -307,13 +307,13 @@ async fn ci_consoles(
 /// network interface, alone (a CMMP-AS has one fieldbus plug-in: CAN or EtherCAT).
 #[cfg(target_os = "linux")]
 async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(), CommandError> {
-    use drivetwin::ethercat_cell::{self, EthercatCell};
+    use drivetwin::ecat::chain::{self, EthercatCell};
     let (trace, rt_priority, busy_poll) = (args.trace.as_deref(), args.rt_priority, args.busy_poll);
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
     let cell = EthercatCell::with_state_dir(file, args.state_dir.as_deref())
         .map_err(|e| CommandError::Usage(e.to_string()))?;
-    let mut socket = drivetwin::ethercat_link::BlockingEthercatSocket::open(ifname)
+    let mut socket = drivetwin::ecat::link::BlockingEthercatSocket::open(ifname)
         .map_err(io(format!("EtherCAT on {ifname}")))?;
     socket.set_busy_poll(busy_poll);
     for i in 0..cell.len() {
@@ -347,7 +347,7 @@ async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(
         let stop = Arc::clone(&stop);
         std::thread::Builder::new()
             .name("ethercat".into())
-            .spawn(move || ethercat_cell::run_thread(cell, socket, tap, &stop, rt_priority))
+            .spawn(move || chain::run_thread(cell, socket, tap, &stop, rt_priority))
             .map_err(io("EtherCAT thread"))?
     };
     let stopped = Arc::clone(&stop);
@@ -381,12 +381,12 @@ fn ethercat_trace(
     path: &std::path::Path,
 ) -> Result<
     (
-        drivetwin::ethercat_cell::FrameTap,
+        drivetwin::ecat::chain::FrameTap,
         std::thread::JoinHandle<()>,
     ),
     CommandError,
 > {
-    use drivetwin::pcap::PcapWriter;
+    use drivetwin::trace::pcap::PcapWriter;
     if path.extension().is_some_and(|e| e == "log") {
         return Err(CommandError::Usage(format!(
             "--trace {}: an EtherCAT trace is a pcap file (candump .log is for CAN)",
@@ -396,7 +396,7 @@ fn ethercat_trace(
     let file = std::fs::File::create(path).map_err(io(path.display().to_string()))?;
     let mut pcap = PcapWriter::ethernet(std::io::BufWriter::new(file))
         .map_err(io(path.display().to_string()))?;
-    let (tap, rx) = std::sync::mpsc::sync_channel::<drivetwin::ethercat_cell::TracedFrame>(4096);
+    let (tap, rx) = std::sync::mpsc::sync_channel::<drivetwin::ecat::chain::TracedFrame>(4096);
     let writer = std::thread::spawn(move || {
         while let Ok(first) = rx.recv() {
             let mut next = Some(first);
@@ -430,7 +430,7 @@ async fn start_fhpp_drives(
     specs: &[DriveSpec],
     args: &RunArgs,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
-    use drivetwin::modbus_server::DEFAULT_ADDR;
+    use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
     if args.modbus.is_some() && specs.iter().filter(|s| s.fhpp.is_some()).count() > 1 {
         return Err(CommandError::Usage(
             "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
@@ -475,7 +475,7 @@ async fn prepare_cmmo_st(
     CommandError,
 > {
     use ::drive::fhpp::device::FhppDevice;
-    use drivetwin::modbus_server::ModbusConfig;
+    use drivetwin::modbus_tcp::server::ModbusConfig;
     use std::sync::{Arc, Mutex};
 
     let desc = spec.desc;

@@ -634,7 +634,7 @@ mod tests {
 
     /// The twin's Modbus server in this process, on a free loopback port.
     async fn twin() -> (String, tokio::task::JoinHandle<()>) {
-        use crate::fhpp_modbus::run_cmmo_st;
+        use crate::modbus_tcp::fhpp::run_cmmo_st;
         use drive::fhpp::device::{FhppDevice, FhppSettings};
         use std::sync::{Arc, Mutex};
         let desc = &devices::CMMO_ST;
@@ -645,7 +645,7 @@ mod tests {
         let task = tokio::spawn(run_cmmo_st(
             listener,
             dev,
-            crate::fhpp_modbus::ServeOptions::default(),
+            crate::modbus_tcp::fhpp::ServeOptions::default(),
             std::future::pending(),
         ));
         (addr, task)

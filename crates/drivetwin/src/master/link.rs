@@ -7,7 +7,7 @@ use canopen::CanFrame;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
-use crate::socketcand::{Decoder, Message};
+use crate::can::socketcand::{Decoder, Message};
 
 #[derive(Debug, thiserror::Error)]
 pub enum LinkError {
@@ -56,7 +56,7 @@ impl SocketcandLink {
         link.expect(Message::Hi, "< hi >").await?;
         link.write(&Message::Open(channel.to_string())).await?;
         link.expect(Message::Ok, "< ok >").await?;
-        link.write(&Message::Mode(crate::socketcand::Mode::Raw))
+        link.write(&Message::Mode(crate::can::socketcand::Mode::Raw))
             .await?;
         link.expect(Message::Ok, "< ok >").await?;
         // A socketcand server streams frames only a moment after the rawmode reply (so the
@@ -110,7 +110,7 @@ impl SocketcandLink {
 pub enum Link {
     Socketcand(SocketcandLink),
     #[cfg(target_os = "linux")]
-    SocketCan(crate::socketcan::CanSocket),
+    SocketCan(crate::can::socketcan::CanSocket),
 }
 
 impl Link {
@@ -123,7 +123,7 @@ impl Link {
     /// A SocketCAN interface (real hardware or vcan).
     #[cfg(target_os = "linux")]
     pub fn socketcan(interface: &str) -> Result<Self, LinkError> {
-        crate::socketcan::CanSocket::open(interface)
+        crate::can::socketcan::CanSocket::open(interface)
             .map(Link::SocketCan)
             .map_err(|e| LinkError::SocketCan(format!("{interface}: {e}")))
     }

@@ -3,10 +3,10 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use canopen::CanFrame;
-use drivetwin::can_drive::CanDrive;
+use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::config::CellFile;
+use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::Cell;
-use drivetwin::cell_config::CellFile;
-use drivetwin::param_store::ParamStore;
 use od::Instant;
 
 /// The default cell's CMMP-AS (node 1, heartbeat and CiA 402 FAULT value commissioned), its

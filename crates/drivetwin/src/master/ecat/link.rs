@@ -22,11 +22,11 @@ pub trait FrameLink {
     ) -> io::Result<bool>;
 }
 
-/// The raw `AF_PACKET` socket of [`crate::ethercat_link`], on the master's side of the wire.
+/// The raw `AF_PACKET` socket of [`crate::ecat::link`], on the master's side of the wire.
 #[cfg(target_os = "linux")]
 #[derive(Debug)]
 pub struct SocketLink {
-    socket: crate::ethercat_link::EthercatSocket,
+    socket: crate::ecat::link::EthercatSocket,
     rx: Vec<u8>,
 }
 
@@ -35,8 +35,8 @@ impl SocketLink {
     /// Opens `interface` (needs `CAP_NET_RAW`); inside a tokio runtime.
     pub fn open(interface: &str) -> io::Result<Self> {
         Ok(SocketLink {
-            socket: crate::ethercat_link::EthercatSocket::open(interface)?,
-            rx: vec![0; crate::ethercat_link::MAX_FRAME],
+            socket: crate::ecat::link::EthercatSocket::open(interface)?,
+            rx: vec![0; crate::ecat::link::MAX_FRAME],
         })
     }
 }

@@ -11,8 +11,8 @@ use ethercat::{AlState, AlStatusCode};
 use od::{AbortCode, Instant};
 
 use super::*;
-use crate::cell_config::CellFile;
-use crate::ethercat_cell::EthercatCell;
+use crate::cell::config::CellFile;
+use crate::ecat::chain::EthercatCell;
 
 /// The chain on a virtual clock (100 µs per frame); requests are recorded.
 pub(crate) struct CellLink {

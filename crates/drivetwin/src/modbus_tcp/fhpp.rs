@@ -40,9 +40,9 @@ use modbus::{
 use od::ObjectAccess;
 use tokio::net::TcpListener;
 
-use crate::modbus_cycle_server;
-use crate::modbus_server::{serve, ModbusConfig};
-use crate::param_store::{ParamStore, StoreError};
+use crate::cell::param_store::{ParamStore, StoreError};
+use crate::modbus_tcp::cycle_server;
+use crate::modbus_tcp::server::{serve, ModbusConfig};
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 pub const STD_REGISTERS: usize = 4;
@@ -194,10 +194,10 @@ impl RegisterMap for FhppModbus {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ServerIo {
     /// The cycle thread reads the connection itself, blocking until a request or the next
-    /// cycle ([`crate::modbus_cycle_server`]): the lowest latency.
+    /// cycle ([`crate::modbus_tcp::cycle_server`]): the lowest latency.
     #[default]
     CycleThread,
-    /// A task of a single-threaded tokio runtime on that thread ([`crate::modbus_server`]).
+    /// A task of a single-threaded tokio runtime on that thread ([`crate::modbus_tcp::server`]).
     Async,
 }
 
@@ -300,14 +300,9 @@ pub async fn run_cmmo_st(
                 }
             };
             match io {
-                ServerIo::CycleThread => modbus_cycle_server::serve(
-                    std_listener,
-                    &map,
-                    &config,
-                    CYCLE,
-                    &thread_stop,
-                    step,
-                ),
+                ServerIo::CycleThread => {
+                    cycle_server::serve(std_listener, &map, &config, CYCLE, &thread_stop, step)
+                }
                 ServerIo::Async => serve_async(std_listener, map, config, &thread_stop, step),
             }
         });

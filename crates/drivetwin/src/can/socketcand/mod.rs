@@ -1,5 +1,5 @@
 //! A socketcand-compatible TCP server, so python-can / python-canopen (`interface='socketcand'`)
-//! and other socketcand clients can join the in-process [`Bus`](crate::bus::Bus).
+//! and other socketcand clients can join the in-process [`Bus`](crate::can::bus::Bus).
 //!
 //! The wire protocol is in `spec/anchors.md` §3.3. [`codec`] is the pure, I/O-free part
 //! (framing, parsing, formatting); [`server`] is the async TCP side.

@@ -1,12 +1,20 @@
 //! A cell: the drives of one process on one bus, stepped on one clock. Frames a drive sends
 //! reach the other drives of the cell as well as the bus.
 
+pub mod ci_console;
+pub mod config;
+pub mod device_model;
+pub mod fieldbus_switches;
+pub mod param_store;
+pub mod realtime;
+pub mod runtime;
+
 use std::collections::VecDeque;
 
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
-use crate::can_drive::CanDrive;
+use crate::can::drive::CanDrive;
 
 pub struct Cell {
     pub drives: Vec<CanDrive>,

@@ -9,9 +9,9 @@ use canopen::rotary_switches::{power_on, RotarySwitches};
 use od::{DataType, Value};
 use serde::Deserialize;
 
-use crate::can_drive::Commissioning;
-use crate::device_model::{is_cia402, is_fhpp};
-use crate::fieldbus_switches::{
+use crate::can::drive::Commissioning;
+use crate::cell::device_model::{is_cia402, is_fhpp};
+use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
 };
 use drive::drive::DriveSettings;

@@ -116,7 +116,7 @@ impl EthercatSocket {
 /// outgoing copies switched off where the kernel can (also for tools that drive the wire
 /// themselves, such as the round-trip benchmark's master).
 pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
-    let ifindex = crate::net_interface::index(interface)?;
+    let ifindex = crate::ecat::net_interface::index(interface)?;
     let protocol = ETHERTYPE_ETHERCAT.to_be();
     // SAFETY: plain socket(2) call; the result is checked before use.
     let raw = unsafe {

@@ -275,7 +275,7 @@ where
 /// Answers every complete ADU of `bytes` (with what `framer` held before), appending the
 /// responses to `out` and calling `on_message` for each ADU; the ADUs before a byte stream
 /// that is no Modbus TCP are answered, then the connection is to be closed (the error).
-/// Shared by both transports ([`serve`] and [`crate::modbus_cycle_server`]).
+/// Shared by both transports ([`serve`] and [`crate::modbus_tcp::cycle_server`]).
 pub(crate) fn answer_all<M>(
     framer: &mut Framer,
     mut bytes: &[u8],

@@ -6,10 +6,10 @@
 //! CPU, p50 6.4 µs per round trip against 7.3 µs through a tokio task, and 6.1…6.4 µs for a
 //! bare blocking echo server (`benches/modbus_loopback.rs`).
 //!
-//! It keeps every rule of the async server [`crate::modbus_server`] (one connection at a
+//! It keeps every rule of the async server [`crate::modbus_tcp::server`] (one connection at a
 //! time, the second client closed at once, watchdog, exceptions, bounded memory, a client that
 //! does not read its answers dropped after the write timeout) and shares its ADU handling
-//! (`modbus_server::answer_all`). What differs is only when things are looked at:
+//! (`server::answer_all`). What differs is only when things are looked at:
 //!
 //! - The device steps at every wake-up that finds a cycle due, before the request that woke
 //!   the thread is answered, so an answer always shows the device as of now. A wake-up comes
@@ -34,7 +34,7 @@ use std::time::{Duration, Instant};
 
 use modbus::{CloseReason, ConnectionEvent, Framer, RegisterMap, Watchdog, MAX_ADU_LEN};
 
-use crate::modbus_server::{answer_all, lock, ModbusConfig};
+use crate::modbus_tcp::server::{answer_all, lock, ModbusConfig};
 
 /// Read buffer of the connection.
 const READ_BUF: usize = 2048;
@@ -118,7 +118,7 @@ fn sleep_until(at: Instant) {
 }
 
 /// Takes a waiting client: served when no other is, else closed at once without a byte
-/// (the CMMO-ST's one-connection rule, see [`crate::modbus_server`]). A served connection
+/// (the CMMO-ST's one-connection rule, see [`crate::modbus_tcp::server`]). A served connection
 /// whose client has already closed it gives way to the new one.
 fn accept<M>(
     listener: &TcpListener,

@@ -9,9 +9,9 @@ use od::Instant;
 
 use tokio::sync::mpsc;
 
-use crate::bus::Bus;
+use crate::can::bus::Bus;
+use crate::cell::ci_console::ConsoleRequest;
 use crate::cell::Cell;
-use crate::ci_console::ConsoleRequest;
 
 /// Runs `cell` on `bus` in real time until `shutdown` completes; lines typed at a drive's CI
 /// terminal come in on `console`.

@@ -16,7 +16,7 @@ use std::time::Duration;
 use canopen::CanFrame;
 use tokio::io::unix::AsyncFd;
 
-use crate::bus::{Bus, Port};
+use crate::can::bus::{Bus, Port};
 
 const CAN_EFF_FLAG: u32 = 0x8000_0000;
 const CAN_RTR_FLAG: u32 = 0x4000_0000;
@@ -91,7 +91,7 @@ impl CanSocket {
     /// Open a `CAN_RAW` socket on `interface` (e.g. `can0`, `vcan0`). Must be called inside a
     /// tokio runtime.
     pub fn open(interface: &str) -> io::Result<CanSocket> {
-        let ifindex = crate::net_interface::index(interface)?;
+        let ifindex = crate::ecat::net_interface::index(interface)?;
         // SAFETY: plain socket(2) call; the result is checked before use.
         let raw = unsafe {
             libc::socket(

@@ -1,6 +1,8 @@
 //! Bus traces: pcap (LINKTYPE_CAN_SOCKETCAN) or candump `.log`, chosen by the file name, and
 //! the candump reader that feeds scripted frames to a virtual-clock run.
 
+pub mod pcap;
+
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
@@ -8,7 +10,7 @@ use std::time::Duration;
 
 use canopen::CanFrame;
 
-use crate::pcap::{CandumpWriter, PcapWriter};
+use crate::trace::pcap::{CandumpWriter, PcapWriter};
 
 /// A trace file being written.
 pub enum TraceWriter {

@@ -9,8 +9,8 @@ use od::{
     time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest,
 };
 
-use crate::device_model::Model;
-use crate::param_store::{self, ParamStore, StoreError, StoredValue};
+use crate::cell::device_model::Model;
+use crate::cell::param_store::{self, ParamStore, StoreError, StoredValue};
 
 /// How often the runtime steps a drive at least: frames catch the drive up to their own
 /// time first, so a coarser step only batches cycles, it never reorders them.

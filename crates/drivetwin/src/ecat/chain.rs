@@ -52,10 +52,10 @@ use ethercat::{process_chain_with, AlHook, AlState, AlStatusCode, Esc, FrameOutc
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
 
-use crate::can_drive::{CanDrive, DriveError, Persisting};
-use crate::cell_config::{CellFile, ConfigError, DriveSpec};
-use crate::device_model::Model;
-use crate::param_store::{ParamStore, StoredValue};
+use crate::can::drive::{CanDrive, DriveError, Persisting};
+use crate::cell::config::{CellFile, ConfigError, DriveSpec};
+use crate::cell::device_model::Model;
+use crate::cell::param_store::{ParamStore, StoredValue};
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
@@ -696,15 +696,15 @@ const STOP_CHECK: Duration = Duration::from_millis(20);
 #[cfg(target_os = "linux")]
 pub fn run_thread(
     mut cell: EthercatCell,
-    socket: crate::ethercat_link::BlockingEthercatSocket,
+    socket: crate::ecat::link::BlockingEthercatSocket,
     trace: Option<FrameTap>,
     stop: &std::sync::atomic::AtomicBool,
     rt_priority: Option<u8>,
 ) -> std::io::Result<()> {
-    use crate::ethercat_link::{is_queue_full, MAX_FRAME};
+    use crate::ecat::link::{is_queue_full, MAX_FRAME};
     use std::sync::atomic::Ordering;
     if let Some(p) = rt_priority {
-        if let Err(e) = crate::realtime::set_fifo_priority(p) {
+        if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
             tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
         }
     }

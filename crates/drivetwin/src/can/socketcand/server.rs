@@ -25,7 +25,7 @@ use tokio::time::{Instant, Interval, MissedTickBehavior};
 use tracing::Instrument;
 
 use super::codec::{CodecError, Decoder, Message, Mode, MAX_MESSAGE_LEN};
-use crate::bus::{Bus, BusFrame, Port};
+use crate::can::bus::{Bus, BusFrame, Port};
 
 /// socketcand's registered port.
 pub const DEFAULT_PORT: u16 = 29536;

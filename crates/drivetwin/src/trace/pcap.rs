@@ -19,7 +19,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
 
-use crate::bus::Tap;
+use crate::can::bus::Tap;
 
 /// LINKTYPE_CAN_SOCKETCAN.
 pub const LINKTYPE_CAN_SOCKETCAN: u32 = 227;
@@ -445,7 +445,7 @@ mod tests {
 
     #[tokio::test]
     async fn record_pcap_from_tap() {
-        let bus = crate::bus::Bus::new(64);
+        let bus = crate::can::bus::Bus::new(64);
         let tap = bus.tap();
         let task = tokio::spawn(record_pcap(tap, PcapWriter::new(Vec::new()).expect("hdr")));
         let port = bus.port();
