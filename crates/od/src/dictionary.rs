@@ -1,5 +1,6 @@
 //! The values of one drive's dictionary, and the CiA 301 access rules every front end obeys.
 
+use crate::cob_id::CobIdObject;
 use crate::{AbortCode, Behaviour, DataType, DeviceDescription, Entry, Value};
 
 /// What every front end sees of a drive: the object dictionary, with its access rules.
@@ -369,6 +370,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
             }
             Behaviour::Plain => {
                 Self::check_value(e, data)?;
+                if let (Some(obj), Ok(new)) =
+                    (CobIdObject::of(index, sub), <[u8; 4]>::try_from(data))
+                {
+                    let current = self.read_u32(index, sub).unwrap_or(0);
+                    obj.check(current, u32::from_le_bytes(new))?;
+                }
                 let data = if e.data_type == DataType::VisibleString {
                     // A string ends at its first NUL (CiA 301 §7.1.6.3).
                     let end = data.iter().position(|b| *b == 0).unwrap_or(data.len());

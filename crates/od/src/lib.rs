@@ -9,6 +9,7 @@
 
 pub mod abort_code;
 pub mod access;
+pub mod cob_id;
 pub mod data_type;
 pub mod description;
 pub mod dictionary;

@@ -43,10 +43,7 @@ impl PdoRef {
     }
 }
 
-/// CAN-IDs a PDO may not use (CiA 301 §7.3.5, as CANopenNode checks them).
-pub fn restricted_can_id(id: u32) -> bool {
-    matches!(id, 0x000..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x7FF)
-}
+pub use crate::cob_id::restricted_can_id;
 
 /// A decoded mapping entry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
