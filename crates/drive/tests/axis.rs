@@ -590,7 +590,8 @@ fn cmmp_gain_01_current_gain_1_5_is_384() {
     assert_eq!(gain_from_raw(384), 1.5);
 }
 
-/// CMMP-GAIN-02.
+/// CMMP-GAIN-02, the conversion; the drive path over SDO is
+/// `crates/drivetwin/tests/cmmp_gains.rs`.
 #[test]
 fn cmmp_gain_02_current_time_0_6_ms_is_600() {
     assert_eq!(time_ms_to_us(0.6), 600);
@@ -604,7 +605,8 @@ fn cmmp_gain_03_velocity_gain_1_5_is_384() {
     assert_eq!(gain_to_raw(64.0), 16384);
 }
 
-/// CMMP-GAIN-04.
+/// CMMP-GAIN-04, the conversion; the drive path over SDO is
+/// `crates/drivetwin/tests/cmmp_gains.rs`.
 #[test]
 fn cmmp_gain_04_velocity_time_2_0_ms_is_2000() {
     assert_eq!(time_ms_to_us(2.0), 2000);

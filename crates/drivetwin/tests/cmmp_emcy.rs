@@ -106,3 +106,27 @@ fn cmmp_emcy_02_i2t_motor_error_31_0() {
     b.run_ms(500);
     assert_eq!(b.drive().state(), State::Fault);
 }
+
+/// CMMP-EMCY-04: the homing timeout 11-3 (2045h exceeded, CMMP-HM-06) goes out as the whole
+/// frame `081: 83 8A 01 00 00 00 00 00`: code 8A83h, error register 01h (no category bit of
+/// Tab. 3.9 applies), manufacturer bytes 0.
+#[test]
+fn cmmp_emcy_04_homing_timeout_frame() {
+    let mut b = Bench::new(None);
+    for (index, value) in [
+        (0x2045, &500u16.to_le_bytes()[..]),
+        (0x6098, &[17]),
+        (0x6060, &[6]),
+    ] {
+        assert_eq!(b.write(index, 0, value)[0], 0x60, "{index:04X}h written");
+    }
+    b.enable();
+    b.sent();
+    assert_eq!(b.write(0x6040, 0, &0x001Fu16.to_le_bytes())[0], 0x60);
+    b.run_ms(1_000);
+    assert_eq!(
+        emcy(&b.sent()),
+        vec![[0x83, 0x8A, 0x01, 0, 0, 0, 0, 0]],
+        "one EMCY, the whole frame as the manual's layout gives it"
+    );
+}
