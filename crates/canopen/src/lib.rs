@@ -7,6 +7,7 @@ pub mod ci_terminal;
 pub mod decode;
 pub mod emcy;
 pub mod frame;
+pub mod frame_time;
 pub mod heartbeat;
 pub mod lss;
 pub mod nmt;
@@ -15,6 +16,7 @@ pub mod pdo;
 pub mod rotary_switches;
 pub mod sdo_crc;
 pub mod sdo_server;
+pub mod timed_bus;
 
 pub use frame::CanFrame;
 pub use nmt::{NmtCommand, NmtState};
