@@ -88,3 +88,35 @@ def test_first_steps_frame_by_frame(launch, raw_bus):
     time.sleep(0.5)
     second = read_s32(bus, 0x6064)
     assert 0 <= first < second <= 0x12345, (first, second)
+
+
+def test_rpdo1_remapping_with_python_canopen(launch, node_of):
+    """§12.2 (L4131-4247), NT-PDO-01...12 through python-canopen's PdoMap and the drive's EDS:
+    RPDO1 re-mapped in Pre-Operational to the controlword with the length left to the
+    firmware's rules, then the power-up of §2.4 over RPDO1, each step seen in the default
+    TPDO1 (the statusword, sent on change)."""
+    twin = launch("nanotec-smci47s", NODE)
+    node = node_of(twin)
+    node.nmt.state = "PRE-OPERATIONAL"
+    node.rpdo.read()
+    rpdo = node.rpdo[1]
+    rpdo.clear()
+    controlword = rpdo.add_variable(0x6040)
+    rpdo.cob_id = 0x200 + NODE
+    rpdo.trans_type = 255
+    rpdo.enabled = True
+    node.rpdo.save()
+    assert node.sdo[0x1600][1].raw == 0x60400010
+    node.tpdo.read()
+    node.nmt.state = "OPERATIONAL"
+    tpdo = node.tpdo[1]
+    for cw, sw in [(0x0006, 0x0221), (0x0007, 0x0233), (0x000F, 0x0237)]:
+        controlword.raw = cw
+        rpdo.transmit()
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            tpdo.wait_for_reception(deadline - time.monotonic())
+            if tpdo[0].raw == sw:
+                break
+        assert tpdo[0].raw == sw, f"CW {cw:04X}h: TPDO1 statusword {tpdo[0].raw:04X}h"
+    assert node.sdo[0x6041].raw == 0x0237
