@@ -120,3 +120,24 @@ def test_rpdo1_remapping_with_python_canopen(launch, node_of):
                 break
         assert tpdo[0].raw == sw, f"CW {cw:04X}h: TPDO1 statusword {tpdo[0].raw:04X}h"
     assert node.sdo[0x6041].raw == 0x0237
+
+
+def test_rotary_switches_give_node_34_beside_a_cmmp_as(launch, connect, eds_files, tmp_path):
+    """A cell with a CMMP-AS (node 1) and an SMCI47-S whose rotary switches read left = 2,
+    right = 2: 16 * 2 + 2 = 34 (§1.1.1, NT-NODE-01's rule), over the file's `node`; 2009h
+    reads the switch value (§11.10)."""
+    from conftest import add_node
+
+    cfg = tmp_path / "cell.toml"
+    cfg.write_text('[bus]\nsocketcand = "127.0.0.1:1"\nchannel = "vcan0"\n\n'
+                   '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n'
+                   '[[drive]]\ndevice = "nanotec-smci47s"\nnode = 9\n'
+                   '[drive.rotary_switches]\nleft = 2\nright = 2\n')
+    twin = launch(config=cfg)
+    assert any("nanotec-smci47s node 34" in line for line in twin.stdout_lines), twin.stdout_lines
+    net = connect(twin)
+    nanotec = add_node(net, NODE, eds_files["nanotec-smci47s"])
+    cmmp = add_node(net, 1, eds_files["cmmp-as"])
+    assert nanotec.sdo[0x2009].raw == NODE
+    assert nanotec.sdo[0x1018][1].raw == 0x26C and cmmp.sdo[0x1018][1].raw == 0x1D
+    assert nanotec.sdo[0x6041].raw == 0x0260
