@@ -88,3 +88,56 @@ def test_first_steps_frame_by_frame(launch, raw_bus):
     time.sleep(0.5)
     second = read_s32(bus, 0x6064)
     assert 0 <= first < second <= 0x12345, (first, second)
+
+
+def test_rpdo1_remapping_with_python_canopen(launch, node_of):
+    """§12.2 (L4131-4247), NT-PDO-01...12 through python-canopen's PdoMap and the drive's EDS:
+    RPDO1 re-mapped in Pre-Operational to the controlword with the length left to the
+    firmware's rules, then the power-up of §2.4 over RPDO1, each step seen in the default
+    TPDO1 (the statusword, sent on change)."""
+    twin = launch("nanotec-smci47s", NODE)
+    node = node_of(twin)
+    node.nmt.state = "PRE-OPERATIONAL"
+    node.rpdo.read()
+    rpdo = node.rpdo[1]
+    rpdo.clear()
+    controlword = rpdo.add_variable(0x6040)
+    rpdo.cob_id = 0x200 + NODE
+    rpdo.trans_type = 255
+    rpdo.enabled = True
+    node.rpdo.save()
+    assert node.sdo[0x1600][1].raw == 0x60400010
+    node.tpdo.read()
+    node.nmt.state = "OPERATIONAL"
+    tpdo = node.tpdo[1]
+    for cw, sw in [(0x0006, 0x0221), (0x0007, 0x0233), (0x000F, 0x0237)]:
+        controlword.raw = cw
+        rpdo.transmit()
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            tpdo.wait_for_reception(deadline - time.monotonic())
+            if tpdo[0].raw == sw:
+                break
+        assert tpdo[0].raw == sw, f"CW {cw:04X}h: TPDO1 statusword {tpdo[0].raw:04X}h"
+    assert node.sdo[0x6041].raw == 0x0237
+
+
+def test_rotary_switches_give_node_34_beside_a_cmmp_as(launch, connect, eds_files, tmp_path):
+    """A cell with a CMMP-AS (node 1) and an SMCI47-S whose rotary switches read left = 2,
+    right = 2: 16 * 2 + 2 = 34 (§1.1.1, NT-NODE-01's rule), over the file's `node`; 2009h
+    reads the switch value (§11.10)."""
+    from conftest import add_node
+
+    cfg = tmp_path / "cell.toml"
+    cfg.write_text('[bus]\nsocketcand = "127.0.0.1:1"\nchannel = "vcan0"\n\n'
+                   '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n'
+                   '[[drive]]\ndevice = "nanotec-smci47s"\nnode = 9\n'
+                   '[drive.rotary_switches]\nleft = 2\nright = 2\n')
+    twin = launch(config=cfg)
+    assert any("nanotec-smci47s node 34" in line for line in twin.stdout_lines), twin.stdout_lines
+    net = connect(twin)
+    nanotec = add_node(net, NODE, eds_files["nanotec-smci47s"])
+    cmmp = add_node(net, 1, eds_files["cmmp-as"])
+    assert nanotec.sdo[0x2009].raw == NODE
+    assert nanotec.sdo[0x1018][1].raw == 0x26C and cmmp.sdo[0x1018][1].raw == 0x1D
+    assert nanotec.sdo[0x6041].raw == 0x0260

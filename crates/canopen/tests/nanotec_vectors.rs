@@ -743,3 +743,25 @@ fn version_strings_one_character_per_sub_index() {
         Err(od::AbortCode::NO_SUB_INDEX)
     );
 }
+
+/// PDOs 2–4 default to valid COB-IDs with nothing mapped (§9.11–9.21 print 0x300 + node-ID
+/// and no mapping): a master that disables and writes them back as it read them (python-canopen's
+/// `PdoMap.save`) is not refused; an empty PDO carries nothing.
+#[test]
+fn empty_pdo_may_be_valid_again() {
+    let mut b = smci(1);
+    assert_eq!(b.od.get_unsigned(0x1401, 1), Some(0x301));
+    assert_eq!(b.od.get_unsigned(0x1601, 0), Some(0));
+    b.sdo1(&[0x23, 0x01, 0x14, 0x01, 0x01, 0x03, 0x00, 0x80]);
+    assert_eq!(
+        b.sdo1(&[0x23, 0x01, 0x14, 0x01, 0x01, 0x03, 0x00, 0x00]),
+        ok(0x1401, 1)
+    );
+    b.send(0x000, &[0x01, 0x01]);
+    assert!(b.send(0x301, &[1, 2, 3, 4]).is_empty());
+    let frames = b.advance_ms(300);
+    assert!(
+        frames.iter().all(|f| f.id == 0x181),
+        "only TPDO1 goes out: {frames:02X?}"
+    );
+}

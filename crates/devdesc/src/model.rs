@@ -164,6 +164,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             life_guard_emcy_code: d.life_guard_emcy_code,
             restore_writes_stored_set: d.restore_writes_stored_set,
             life_time_max_ms: d.life_time_max_ms,
+            pdo_valid_without_mapping: d.pdo_valid_without_mapping,
         },
         objects,
     })

@@ -51,6 +51,8 @@ pub struct DeviceSection {
     #[serde(default)]
     pub restore_writes_stored_set: bool,
     pub life_time_max_ms: Option<u32>,
+    #[serde(default)]
+    pub pdo_valid_without_mapping: bool,
     /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
     #[serde(default)]
     pub rotary_switches: u8,

@@ -71,6 +71,10 @@ pub struct Cia301Options {
     /// Guard time × life time factor (100Ch × 100Dh) may not exceed this many ms; a write
     /// that would is refused with 0604 0043h (Nanotec §11.23: one minute).
     pub life_time_max_ms: Option<u32>,
+    /// A PDO may be made valid with no object mapped (it then carries nothing): the Nanotec's
+    /// PDOs 2–4 default to valid COB-IDs with empty mappings (§9.11–9.21), so a master that
+    /// writes back what it read must be able to. Without it, CiA 301's 0609 0030h.
+    pub pdo_valid_without_mapping: bool,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).
