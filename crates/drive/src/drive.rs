@@ -26,7 +26,9 @@ use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
 pub(crate) mod object_writes;
+mod plant;
 mod velocity_mode;
+pub use plant::StepperPlant;
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
@@ -63,6 +65,9 @@ pub struct DriveSettings {
     pub ethercat: bool,
     /// The axis travel: limit switches, home switch, index pulse, hard stops.
     pub travel: TravelSettings,
+    /// The hybrid stepper motor of a stepper personality (Nanotec); `None`: the
+    /// personality's plant with its defaults (the servo motor for the CMMP-AS).
+    pub stepper: Option<crate::stepper::StepperData>,
     /// The longest distance one homing search step may travel, increments (0: no limit);
     /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
     /// more than the default travel.
@@ -78,6 +83,7 @@ impl Default for DriveSettings {
             brake_fitted: true,
             ethercat: false,
             travel: TravelSettings::default(),
+            stepper: None,
             homing_max_distance: 128 * 65536,
         }
     }
@@ -174,6 +180,8 @@ pub struct Drive<S> {
     pub(crate) settings: DriveSettings,
     pub(crate) dc: DeviceControl,
     pub(crate) axis: Axis,
+    /// The stepper plant of a stepper personality; the servo axis is then not stepped.
+    pub(crate) stepper: Option<StepperPlant>,
     pub(crate) fg: FactorGroup,
     pub(crate) hot: Hot,
     pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
@@ -329,6 +337,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 quick_stop_option: personality.option_code(personality::QUICK_STOP_OPTION, 2),
             }),
             axis,
+            stepper: (personality.stepper_plant || settings.stepper.is_some()).then(|| {
+                StepperPlant::new(crate::stepper::Stepper::new(
+                    settings.stepper.unwrap_or_default(),
+                ))
+            }),
             fg: FactorGroup::default(),
             hot,
             params: param_entries,
@@ -743,7 +756,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if self.cycles.is_multiple_of(u64::from(self.logic_every)) {
                 self.logic();
             }
-            self.axis.step(self.demand);
+            self.plant_step();
             self.cycles += 1;
             next = next + self.cycle;
         }
@@ -759,13 +772,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = false;
             self.axis.set_params(control_params(&self.od));
         }
+        self.stepper_mode();
         self.supervise_dc_link();
         self.supervise_i2t();
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
-        let enables = self.input_levels(self.axis.position_increments()).enables();
+        let enables = self.input_levels(self.plant_position()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising.contains(Controlword::FAULT_RESET)
             && !cw.contains(Controlword::FAULT_RESET)
@@ -874,14 +888,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     pub(crate) fn actual_internal(&self) -> i64 {
-        self.axis.position_increments() + self.position_offset
+        self.plant_position() + self.position_offset
     }
 
     /// The set-point follows the actual position (output stage off, mode change, enable).
     pub(crate) fn resync_trajectory(&mut self) {
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.velocity_set = self.traj.velocity;
         self.demand_position = self.traj.position;
@@ -1175,7 +1189,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
         };
         // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
-        let v_act = f64::from(self.axis.velocity_internal());
+        let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;
         let window = self
             .fg
@@ -1270,7 +1284,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = self.torque_set == target;
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.demand_position = self.traj.position;
         let current = self
@@ -1320,7 +1334,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::Search(mut search) => {
-                let position = self.axis.position_increments();
+                let position = self.plant_position();
                 let sense = Sense {
                     position,
                     inputs: self.switch_inputs(position),
@@ -1415,7 +1429,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match Search::start_in(
             self.personality.homing_methods,
             method,
-            self.axis.position_increments(),
+            self.plant_position(),
             self.axis.motor().data().increments_per_rev,
             self.settings.homing_max_distance,
         ) {
@@ -1498,7 +1512,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
     /// switch emergency stop ramp"); motion away stays possible after the fault reset.
     fn supervise_limit_switches(&mut self) {
-        let inputs = self.switch_inputs(self.axis.position_increments());
+        let inputs = self.switch_inputs(self.plant_position());
         let v = self.traj.velocity;
         let fault = if inputs.negative_limit && v < 0.0 {
             Fault::LimitSwitchNegative
@@ -1568,7 +1582,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn publish(&mut self) {
         let state = self.dc.state();
         let power = !matches!(self.demand, Demand::Off);
-        let v_act = i64::from(self.axis.velocity_internal());
+        let v_act = i64::from(self.plant_velocity_internal());
         let threshold = self
             .fg
             .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
@@ -1650,7 +1664,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
-        let position = self.axis.position_increments();
+        let position = self.plant_position();
         let inputs = self
             .switch_config()
             .digital_inputs(self.input_levels(position));

@@ -92,6 +92,7 @@ pub const NANOTEC: Personality = Personality {
             critical: false,
         },
     ],
+    stepper_plant: true,
     pp_overwrite_queued: true,
     homing_methods: &HOMING_METHODS,
 };
