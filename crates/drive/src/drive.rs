@@ -96,6 +96,9 @@ pub enum DriveEvent {
     Cleared { code: u16 },
 }
 
+/// A deceleration that stops within one cycle, increments/s² ("abruptly").
+const ABRUPT_STOP: f64 = 1e15;
+
 /// Increments per second per internal velocity unit (1/4096 min⁻¹): 65536 / 60 / 4096.
 const INC_S_PER_VEL: f64 = 65536.0 / 60.0 / 4096.0;
 /// Increments per second² per internal acceleration unit (1/256 min⁻¹/s): 65536 / 60 / 256.
@@ -359,7 +362,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
-            ip: Interpolator::new(DEFAULT_IP_PERIOD),
+            ip: if personality.vendor == Vendor::Nanotec {
+                Interpolator::following_sync()
+            } else {
+                Interpolator::new(DEFAULT_IP_PERIOD)
+            },
             stopping: false,
             halted: false,
             velocity_set: 0.0,
@@ -975,6 +982,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
                 ramp
+            } else if self.personality.vendor == Vendor::Nanotec
+                && self.mode == mode::INTERPOLATED_POSITION
+            {
+                // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
+                ABRUPT_STOP
             } else {
                 self.accel(0x6085)
             };
@@ -1244,7 +1256,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let enable = cw.contains(Controlword::ENABLE_IP_MODE);
         if enable && !self.ip.is_active() {
             if self.ip.is_synchronised() {
-                self.ip.activate(self.traj.position, self.now);
+                // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
+                // first set-point (the manual's warning: write the actual position first).
+                let pending = (self.personality.vendor == Vendor::Nanotec).then(|| {
+                    let user = self
+                        .value(0x60C1, 1)
+                        .clamp(i32::MIN as i64, i32::MAX as i64);
+                    self.fg.position_to_internal(user as i32) as f64
+                });
+                self.ip.activate_with(self.traj.position, self.now, pending);
             } else if self.cw_rising.contains(Controlword::ENABLE_IP_MODE) {
                 // CMMP-AS 34-0: activation without synchronisation.
                 self.raise_fault(Fault::NoFieldbusSync);
@@ -1671,7 +1691,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
-            || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())
+            || (self.mode == mode::INTERPOLATED_POSITION
+                && !self.ip.is_synchronised()
+                && self.personality.vendor == Vendor::CmmpAs)
         {
             mode::CHANGING
         } else {
