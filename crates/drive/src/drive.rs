@@ -225,6 +225,8 @@ pub struct Drive<S> {
     pub(crate) referenced: bool,
     pub(crate) homing: HomingRun,
     pub(crate) homing_started: Instant,
+    /// A homing search is still on its starting ramp (609Ah; Nanotec: only then).
+    pub(crate) homing_accelerating: bool,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -382,6 +384,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             referenced: false,
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
+            homing_accelerating: false,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
@@ -1348,6 +1351,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
         }
         let acc = self.accel(0x609A);
+        // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
+        // the end the motor stops at once.
+        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        let (switch_acc, stop_dec) = if nanotec {
+            (ABRUPT_STOP, ABRUPT_STOP)
+        } else {
+            (acc, acc)
+        };
         match self.homing {
             HomingRun::Idle => {
                 self.traj.step_stop(acc, dt);
@@ -1372,7 +1383,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         let v = f64::from(direction) * self.homing_speed(speed);
-                        self.traj.step_velocity(v, acc, acc, dt);
+                        let starting = self.traj.velocity == 0.0 && speed == Speed::Search;
+                        let a = if starting { acc } else { switch_acc };
+                        let accelerating = self.traj.velocity * v >= 0.0
+                            && v.abs() > self.traj.velocity.abs()
+                            && (starting || !nanotec || self.homing_accelerating);
+                        self.homing_accelerating = accelerating;
+                        self.traj.step_velocity(
+                            v,
+                            if accelerating { acc } else { a },
+                            switch_acc,
+                            dt,
+                        );
                         self.position_demand(self.traj.velocity);
                     }
                     Command::Reference { at, stalled } => {
@@ -1380,6 +1402,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         self.set_reference(at);
+                        if nanotec {
+                            self.traj.velocity = 0.0;
+                        }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
@@ -1401,7 +1426,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             HomingRun::Brake { then } => {
-                if self.traj.step_stop(acc, dt) {
+                if self.traj.step_stop(stop_dec, dt) {
                     self.homing = match then {
                         Then::ToZero => HomingRun::ToZero,
                         Then::Attained => {
@@ -1558,6 +1583,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn switch_config(&self) -> SwitchConfig {
+        if self.personality.vendor == Vendor::Nanotec {
+            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
+            // closed, 20/22 normally open); the simulated switches are read as they are.
+            return SwitchConfig::from_objects(1, 0, 0, 1);
+        }
         SwitchConfig::from_objects(
             self.value(0x6510, 0x11),
             self.value(0x6510, 0x12),
