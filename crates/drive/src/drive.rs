@@ -26,7 +26,9 @@ use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
 pub(crate) mod object_writes;
+mod plant;
 mod velocity_mode;
+pub use plant::StepperPlant;
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
@@ -63,6 +65,9 @@ pub struct DriveSettings {
     pub ethercat: bool,
     /// The axis travel: limit switches, home switch, index pulse, hard stops.
     pub travel: TravelSettings,
+    /// The hybrid stepper motor of a stepper personality (Nanotec); `None`: the
+    /// personality's plant with its defaults (the servo motor for the CMMP-AS).
+    pub stepper: Option<crate::stepper::StepperData>,
     /// The longest distance one homing search step may travel, increments (0: no limit);
     /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
     /// more than the default travel.
@@ -78,6 +83,7 @@ impl Default for DriveSettings {
             brake_fitted: true,
             ethercat: false,
             travel: TravelSettings::default(),
+            stepper: None,
             homing_max_distance: 128 * 65536,
         }
     }
@@ -89,6 +95,9 @@ pub enum DriveEvent {
     Error { code: u16, register: u8 },
     Cleared { code: u16 },
 }
+
+/// A deceleration that stops within one cycle, increments/s² ("abruptly").
+const ABRUPT_STOP: f64 = 1e15;
 
 /// Increments per second per internal velocity unit (1/4096 min⁻¹): 65536 / 60 / 4096.
 const INC_S_PER_VEL: f64 = 65536.0 / 60.0 / 4096.0;
@@ -174,6 +183,8 @@ pub struct Drive<S> {
     pub(crate) settings: DriveSettings,
     pub(crate) dc: DeviceControl,
     pub(crate) axis: Axis,
+    /// The stepper plant of a stepper personality; the servo axis is then not stepped.
+    pub(crate) stepper: Option<StepperPlant>,
     pub(crate) fg: FactorGroup,
     pub(crate) hot: Hot,
     pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
@@ -214,6 +225,8 @@ pub struct Drive<S> {
     pub(crate) referenced: bool,
     pub(crate) homing: HomingRun,
     pub(crate) homing_started: Instant,
+    /// A homing search is still on its starting ramp (609Ah; Nanotec: only then).
+    pub(crate) homing_accelerating: bool,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -329,6 +342,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 quick_stop_option: personality.option_code(personality::QUICK_STOP_OPTION, 2),
             }),
             axis,
+            stepper: (personality.stepper_plant || settings.stepper.is_some()).then(|| {
+                StepperPlant::new(crate::stepper::Stepper::new(
+                    settings.stepper.unwrap_or_default(),
+                ))
+            }),
             fg: FactorGroup::default(),
             hot,
             params: param_entries,
@@ -346,7 +364,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
-            ip: Interpolator::new(DEFAULT_IP_PERIOD),
+            ip: if personality.vendor == Vendor::Nanotec {
+                Interpolator::following_sync()
+            } else {
+                Interpolator::new(DEFAULT_IP_PERIOD)
+            },
             stopping: false,
             halted: false,
             velocity_set: 0.0,
@@ -362,6 +384,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             referenced: false,
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
+            homing_accelerating: false,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
@@ -743,7 +766,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if self.cycles.is_multiple_of(u64::from(self.logic_every)) {
                 self.logic();
             }
-            self.axis.step(self.demand);
+            self.plant_step();
             self.cycles += 1;
             next = next + self.cycle;
         }
@@ -759,13 +782,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = false;
             self.axis.set_params(control_params(&self.od));
         }
+        self.stepper_mode();
         self.supervise_dc_link();
         self.supervise_i2t();
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
-        let enables = self.input_levels(self.axis.position_increments()).enables();
+        let enables = self.input_levels(self.plant_position()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising.contains(Controlword::FAULT_RESET)
             && !cw.contains(Controlword::FAULT_RESET)
@@ -874,14 +898,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     pub(crate) fn actual_internal(&self) -> i64 {
-        self.axis.position_increments() + self.position_offset
+        self.plant_position() + self.position_offset
     }
 
     /// The set-point follows the actual position (output stage off, mode change, enable).
     pub(crate) fn resync_trajectory(&mut self) {
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.velocity_set = self.traj.velocity;
         self.demand_position = self.traj.position;
@@ -961,6 +985,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
                 ramp
+            } else if self.personality.vendor == Vendor::Nanotec
+                && self.mode == mode::INTERPOLATED_POSITION
+            {
+                // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
+                ABRUPT_STOP
             } else {
                 self.accel(0x6085)
             };
@@ -1175,7 +1204,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
         };
         // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
-        let v_act = f64::from(self.axis.velocity_internal());
+        let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;
         let window = self
             .fg
@@ -1230,7 +1259,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let enable = cw.contains(Controlword::ENABLE_IP_MODE);
         if enable && !self.ip.is_active() {
             if self.ip.is_synchronised() {
-                self.ip.activate(self.traj.position, self.now);
+                // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
+                // first set-point (the manual's warning: write the actual position first).
+                let pending = (self.personality.vendor == Vendor::Nanotec).then(|| {
+                    let user = self
+                        .value(0x60C1, 1)
+                        .clamp(i32::MIN as i64, i32::MAX as i64);
+                    self.fg.position_to_internal(user as i32) as f64
+                });
+                self.ip.activate_with(self.traj.position, self.now, pending);
             } else if self.cw_rising.contains(Controlword::ENABLE_IP_MODE) {
                 // CMMP-AS 34-0: activation without synchronisation.
                 self.raise_fault(Fault::NoFieldbusSync);
@@ -1270,7 +1307,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = self.torque_set == target;
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.demand_position = self.traj.position;
         let current = self
@@ -1314,13 +1351,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
         }
         let acc = self.accel(0x609A);
+        // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
+        // the end the motor stops at once.
+        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        let (switch_acc, stop_dec) = if nanotec {
+            (ABRUPT_STOP, ABRUPT_STOP)
+        } else {
+            (acc, acc)
+        };
         match self.homing {
             HomingRun::Idle => {
                 self.traj.step_stop(acc, dt);
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::Search(mut search) => {
-                let position = self.axis.position_increments();
+                let position = self.plant_position();
                 let sense = Sense {
                     position,
                     inputs: self.switch_inputs(position),
@@ -1338,7 +1383,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         let v = f64::from(direction) * self.homing_speed(speed);
-                        self.traj.step_velocity(v, acc, acc, dt);
+                        let starting = self.traj.velocity == 0.0 && speed == Speed::Search;
+                        let a = if starting { acc } else { switch_acc };
+                        let accelerating = self.traj.velocity * v >= 0.0
+                            && v.abs() > self.traj.velocity.abs()
+                            && (starting || !nanotec || self.homing_accelerating);
+                        self.homing_accelerating = accelerating;
+                        self.traj.step_velocity(
+                            v,
+                            if accelerating { acc } else { a },
+                            switch_acc,
+                            dt,
+                        );
                         self.position_demand(self.traj.velocity);
                     }
                     Command::Reference { at, stalled } => {
@@ -1346,6 +1402,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         self.set_reference(at);
+                        if nanotec {
+                            self.traj.velocity = 0.0;
+                        }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
@@ -1367,7 +1426,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             HomingRun::Brake { then } => {
-                if self.traj.step_stop(acc, dt) {
+                if self.traj.step_stop(stop_dec, dt) {
                     self.homing = match then {
                         Then::ToZero => HomingRun::ToZero,
                         Then::Attained => {
@@ -1415,7 +1474,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match Search::start_in(
             self.personality.homing_methods,
             method,
-            self.axis.position_increments(),
+            self.plant_position(),
             self.axis.motor().data().increments_per_rev,
             self.settings.homing_max_distance,
         ) {
@@ -1498,7 +1557,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
     /// switch emergency stop ramp"); motion away stays possible after the fault reset.
     fn supervise_limit_switches(&mut self) {
-        let inputs = self.switch_inputs(self.axis.position_increments());
+        let inputs = self.switch_inputs(self.plant_position());
         let v = self.traj.velocity;
         let fault = if inputs.negative_limit && v < 0.0 {
             Fault::LimitSwitchNegative
@@ -1524,6 +1583,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn switch_config(&self) -> SwitchConfig {
+        if self.personality.vendor == Vendor::Nanotec {
+            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
+            // closed, 20/22 normally open); the simulated switches are read as they are.
+            return SwitchConfig::from_objects(1, 0, 0, 1);
+        }
         SwitchConfig::from_objects(
             self.value(0x6510, 0x11),
             self.value(0x6510, 0x12),
@@ -1568,7 +1632,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn publish(&mut self) {
         let state = self.dc.state();
         let power = !matches!(self.demand, Demand::Off);
-        let v_act = i64::from(self.axis.velocity_internal());
+        let v_act = i64::from(self.plant_velocity_internal());
         let threshold = self
             .fg
             .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
@@ -1650,14 +1714,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
-        let position = self.axis.position_increments();
+        let position = self.plant_position();
         let inputs = self
             .switch_config()
             .digital_inputs(self.input_levels(position));
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
-            || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())
+            || (self.mode == mode::INTERPOLATED_POSITION
+                && !self.ip.is_synchronised()
+                && self.personality.vendor == Vendor::CmmpAs)
         {
             mode::CHANGING
         } else {

@@ -108,7 +108,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             1.0
         };
         let demand = libm::round(sign * self.vl_from_internal(self.velocity_set)) as i64;
-        let actual_internal = f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S;
+        let actual_internal = f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S;
         let actual = libm::round(sign * self.vl_from_internal(actual_internal)) as i64;
         let clamp = |v: i64| v.clamp(i64::from(i16::MIN), i64::from(i16::MAX));
         if let Some(e) = self.od.description().entry(0x6043, 0) {

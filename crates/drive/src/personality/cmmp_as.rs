@@ -127,6 +127,7 @@ pub const CMMP_AS: Personality = Personality {
             false,
         ),
     ],
+    stepper_plant: false,
     pp_overwrite_queued: false,
     homing_methods: &METHODS,
 };
@@ -393,7 +394,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let user = self
             .value(0x2030, 0)
             .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        self.position_offset = self.fg.position_to_internal(user) - self.axis.position_increments();
+        self.position_offset = self.fg.position_to_internal(user) - self.plant_position();
         self.resync_trajectory();
         Ok(())
     }

@@ -95,6 +95,8 @@ pub struct Personality {
     /// Controlword 0Fh in READY TO SWITCH ON enables operation at once (transitions 3 + 4).
     pub enable_from_ready: bool,
     pub errors: &'static [ErrorSpec],
+    /// The plant is a hybrid stepper motor ([`crate::stepper`]), not the servo motor.
+    pub stepper_plant: bool,
     /// Profile Position: a new set-point while one is queued replaces the queued one.
     pub pp_overwrite_queued: bool,
     /// The homing methods 6098h selects.

@@ -92,6 +92,7 @@ pub const NANOTEC: Personality = Personality {
             critical: false,
         },
     ],
+    stepper_plant: true,
     pp_overwrite_queued: true,
     homing_methods: &HOMING_METHODS,
 };
@@ -239,6 +240,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
+            (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
             _ => return None,
         })
     }
@@ -250,6 +252,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
             _ => self.write_mode(index, sub, data),
         }
+    }
+
+    /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;
+    /// in IP a set-point goes to the interpolator, which takes it at the next SYNC.
+    fn nanotec_write_target(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        let (other, other_sub) = if index == 0x60C1 {
+            (0x607A, 0)
+        } else {
+            (0x60C1, 1)
+        };
+        let _ = self.od.write_internal(other, other_sub, data);
+        let user = self
+            .value(0x60C1, 1)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let increments = self.fg.position_to_internal(user) as f64;
+        self.ip.set_point(increments);
+        Ok(())
     }
 
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
