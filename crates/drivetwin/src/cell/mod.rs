@@ -6,6 +6,7 @@ pub mod config;
 pub mod device_model;
 pub mod fieldbus_switches;
 pub mod param_store;
+pub mod poll_loop;
 pub mod realtime;
 pub mod runtime;
 

@@ -1,75 +1,12 @@
-//! The runtime owns the clock: real time on tokio, or a virtual clock that jumps from one
-//! deadline to the next, so the same cell and inputs give the same frames bit for bit.
+//! The virtual clock: it jumps from one deadline to the next, so the same cell and inputs give
+//! the same frames bit for bit. Real time is the cell loop's ([`crate::cell::poll_loop`]).
 
-use std::future::Future;
 use std::time::Duration;
 
 use canopen::CanFrame;
 use od::Instant;
 
-use tokio::sync::mpsc;
-
-use crate::can::bus::Bus;
-use crate::cell::ci_console::ConsoleRequest;
 use crate::cell::Cell;
-
-/// Runs `cell` on `bus` in real time until `shutdown` completes; lines typed at a drive's CI
-/// terminal come in on `console`.
-pub async fn run_realtime(
-    mut cell: Cell,
-    bus: Bus,
-    mut console: Option<mpsc::Receiver<ConsoleRequest>>,
-    shutdown: impl Future<Output = ()>,
-) {
-    let mut port = bus.port();
-    let start = tokio::time::Instant::now();
-    let now = || Instant::from_nanos(u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX));
-    let mut out: Vec<CanFrame> = Vec::with_capacity(256);
-    cell.boot(now(), &mut out);
-    tokio::pin!(shutdown);
-    loop {
-        for f in out.drain(..) {
-            port.send(f);
-        }
-        let wake = cell
-            .deadline()
-            .map(|d| start + Duration::from_nanos(d.as_nanos()))
-            .unwrap_or_else(|| tokio::time::Instant::now() + Duration::from_secs(3600));
-        tokio::select! {
-            biased;
-            _ = &mut shutdown => break,
-            f = port.recv() => match f {
-                Some(bf) => {
-                    cell.on_frame(now(), &bf.frame, &mut out);
-                }
-                None => break,
-            },
-            req = next_request(&mut console) => match req {
-                Some(req) => {
-                    let reply = cell
-                        .ci_line(req.drive, now(), &req.line, &mut out)
-                        .unwrap_or_else(canopen::ci_terminal::syntax_error);
-                    // The client may have gone meanwhile: nothing to answer then.
-                    let _ = req.reply.send(reply);
-                }
-                None => console = None,
-            },
-            _ = tokio::time::sleep_until(wake) => {
-                cell.poll(now(), &mut out);
-            }
-        }
-    }
-}
-
-/// The next console line, or never without a console.
-async fn next_request(
-    console: &mut Option<mpsc::Receiver<ConsoleRequest>>,
-) -> Option<ConsoleRequest> {
-    match console {
-        Some(rx) => rx.recv().await,
-        None => std::future::pending().await,
-    }
-}
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
 /// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
