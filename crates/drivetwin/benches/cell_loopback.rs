@@ -105,12 +105,15 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     };
     let cell_loop = CellLoop::new(Cell::new(vec![drive]), front).map_err(|e| e.to_string())?;
     let stop = cell_loop.stop_handle();
-    std::thread::spawn(move || {
-        pin(cpu);
-        if let Err(e) = cell_loop.run() {
-            eprintln!("cell loop: {e}");
-        }
-    });
+    std::thread::Builder::new()
+        .name("cell".into())
+        .spawn(move || {
+            pin(cpu);
+            if let Err(e) = cell_loop.run() {
+                eprintln!("cell loop: {e}");
+            }
+        })
+        .map_err(|e| e.to_string())?;
     Ok((can_addr, mb_addr, stop))
 }
 

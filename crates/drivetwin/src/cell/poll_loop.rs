@@ -241,9 +241,6 @@ impl CellLoop {
         self.cell.boot(self.now(start), &mut out);
         self.drives_sent(start, &mut out);
         self.out = out;
-        for m in &mut self.modbus {
-            m.power_on(self.origin);
-        }
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
             let timeout = self
@@ -313,7 +310,7 @@ impl CellLoop {
             }
         }
         for m in &self.modbus {
-            take(Some(m.next_cycle()));
+            take(Some(self.wall(m.next_cycle())));
         }
         if self.trace_dirty {
             take(Some(Instant::now() + Duration::from_millis(20)));
@@ -333,8 +330,9 @@ impl CellLoop {
             self.session_timers(slot, now);
         }
         for drive in 0..self.modbus.len() {
+            let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {
-                Some(m) => m.cycle(now),
+                Some(m) => m.cycle(t),
                 None => false,
             };
             if closed {
@@ -460,10 +458,11 @@ impl CellLoop {
             }
             self.close(slot, modbus::CloseReason::Peer);
         }
+        let t = self.now(Instant::now());
         let Some(m) = self.modbus.get_mut(drive) else {
             return;
         };
-        m.open_connection(Instant::now());
+        m.open_connection(t);
         tracing::info!(%peer, "Modbus client connected");
         self.add(stream, peer, Kind::Modbus { drive });
     }
@@ -581,8 +580,12 @@ impl CellLoop {
             }
             Kind::Modbus { drive } => {
                 let drive = *drive;
+                let t = od::Instant::from_nanos(
+                    u64::try_from(now.saturating_duration_since(self.origin).as_nanos())
+                        .unwrap_or(u64::MAX),
+                );
                 let result = match self.modbus.get_mut(drive) {
-                    Some(m) => m.answer(bytes, now, &mut conn.pending),
+                    Some(m) => m.answer(bytes, t, &mut conn.pending),
                     None => Ok(()),
                 };
                 self.mark_dirty(slot);

@@ -4,9 +4,11 @@
 use std::time::Duration;
 
 use canopen::CanFrame;
+use od::time::earliest;
 use od::Instant;
 
 use crate::cell::Cell;
+use crate::modbus_tcp::cell_drive::ModbusDrive;
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
 /// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
@@ -53,6 +55,106 @@ pub fn run_virtual(
             next_input += 1;
         } else {
             cell.poll(now, &mut out);
+        }
+    }
+}
+
+/// Something from outside the cell, at a time on the virtual clock.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Input {
+    /// A frame on the cell's CAN bus.
+    Can(CanFrame),
+    /// Bytes on the Modbus TCP connection of `modbus[drive]`.
+    Modbus { drive: usize, bytes: Vec<u8> },
+}
+
+/// What the cell sent, at a time on the virtual clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Output<'a> {
+    /// A frame on the cell's CAN bus (a drive's, or an input's).
+    Can(&'a CanFrame),
+    /// The answers of `modbus[drive]` to its latest input.
+    Modbus { drive: usize, bytes: &'a [u8] },
+}
+
+/// Runs the CAN drives of `cell` and the Modbus drives `modbus` on one virtual clock from 0 to
+/// `until`, feeding `inputs` (sorted by time); everything the cell sends goes to `sink` with
+/// its virtual time. At one instant the order is fixed: Modbus cycles, then the CAN drives'
+/// timers, then the input, so the same cell and inputs give the same outputs bit for bit.
+pub fn run_virtual_mixed(
+    cell: &mut Cell,
+    modbus: &mut [ModbusDrive],
+    inputs: &[(Duration, Input)],
+    until: Duration,
+    sink: &mut dyn FnMut(Duration, Output<'_>),
+) {
+    let to_instant =
+        |d: Duration| Instant::from_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+    let at = |now: Instant| Duration::from_nanos(now.as_nanos());
+    let end = to_instant(until);
+    let mut out = Vec::with_capacity(256);
+    let mut answer = Vec::with_capacity(256);
+    let mut now = Instant::ZERO;
+    cell.boot(now, &mut out);
+    for m in modbus.iter_mut() {
+        m.open_connection(now);
+    }
+    let mut next_input = 0;
+    let mut stuck = 0u32;
+    loop {
+        for f in out.drain(..) {
+            sink(at(now), Output::Can(&f));
+        }
+        let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
+        let wake = modbus
+            .iter()
+            .fold(earliest(cell.deadline(), input_at), |acc, m| {
+                earliest(acc, Some(m.next_cycle()))
+            });
+        let Some(wake) = wake else {
+            break;
+        };
+        if wake > end {
+            break;
+        }
+        // A deadline that does not move would spin forever: give up loudly instead.
+        stuck = if wake <= now { stuck + 1 } else { 0 };
+        if stuck > 10_000 {
+            tracing::error!(at = ?now, "virtual clock stuck on a deadline that does not advance");
+            break;
+        }
+        now = wake.max(now);
+        for m in modbus.iter_mut() {
+            m.cycle(now);
+        }
+        if cell.deadline().is_some_and(|d| d <= now) {
+            cell.poll(now, &mut out);
+        }
+        if input_at == Some(wake) {
+            match inputs.get(next_input) {
+                Some((_, Input::Can(f))) => {
+                    sink(at(now), Output::Can(f));
+                    cell.on_frame(now, f, &mut out);
+                }
+                Some((_, Input::Modbus { drive, bytes })) => {
+                    if let Some(m) = modbus.get_mut(*drive) {
+                        answer.clear();
+                        if let Err(reason) = m.answer(bytes, now, &mut answer) {
+                            tracing::warn!(drive, %reason, "Modbus input closes the connection");
+                            m.close_connection_because(reason);
+                        }
+                        sink(
+                            at(now),
+                            Output::Modbus {
+                                drive: *drive,
+                                bytes: &answer,
+                            },
+                        );
+                    }
+                }
+                None => {}
+            }
+            next_input += 1;
         }
     }
 }

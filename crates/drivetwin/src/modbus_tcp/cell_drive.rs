@@ -11,7 +11,9 @@
 use std::io;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use od::Instant;
 
 use modbus::{CloseReason, ConnectionEvent, Framer, RegisterMap, Watchdog};
 
@@ -27,7 +29,6 @@ pub struct ModbusDrive {
     config: ModbusConfig,
     store: Option<ParamStore>,
     generation: u32,
-    origin: Instant,
     next_cycle: Instant,
     connection: Option<ConnectionState>,
 }
@@ -46,21 +47,30 @@ impl ModbusDrive {
         config: ModbusConfig,
         store: Option<ParamStore>,
     ) -> ModbusDrive {
+        let mut d = ModbusDrive::without_listener(device, config, store);
+        d.listener = Some(listener);
+        d
+    }
+
+    /// A drive whose Modbus requests come from a script (the virtual clock's runs).
+    pub fn without_listener(
+        device: SharedDevice,
+        config: ModbusConfig,
+        store: Option<ParamStore>,
+    ) -> ModbusDrive {
         // One cycle before the first client: the input telegram shows the power-on state
         // (SCON 10h, SPOS 04h) from the very first request.
         lock(&device).step(od::Instant::ZERO);
         let generation = lock(&device).permanent_memory().generation();
         let map = Mutex::new(FhppModbus::new(Arc::clone(&device)));
-        let now = Instant::now();
         ModbusDrive {
-            listener: Some(listener),
+            listener: None,
             device,
             map,
             config,
             store,
             generation,
-            origin: now,
-            next_cycle: now,
+            next_cycle: Instant::ZERO,
             connection: None,
         }
     }
@@ -83,27 +93,20 @@ impl ModbusDrive {
         Ok(mio::net::TcpListener::from_std(l))
     }
 
-    /// The device's clock starts at `origin` (the cell's).
-    pub(crate) fn power_on(&mut self, origin: Instant) {
-        self.origin = origin;
-        self.next_cycle = Instant::now();
-    }
-
-    pub(crate) fn next_cycle(&self) -> Instant {
+    /// When the device's next cycle is due, on the cell's clock.
+    pub fn next_cycle(&self) -> Instant {
         self.next_cycle
     }
 
     /// Steps the device when a cycle is due, and looks at the watchdog: `true` when the
     /// connection has just been closed by it.
-    pub(crate) fn cycle(&mut self, now: Instant) -> bool {
+    pub fn cycle(&mut self, now: Instant) -> bool {
         if now < self.next_cycle {
             return false;
         }
-        let ns = u64::try_from(now.saturating_duration_since(self.origin).as_nanos())
-            .unwrap_or(u64::MAX);
         {
             let mut dev = lock(&self.device);
-            dev.step(od::Instant::from_nanos(ns));
+            dev.step(now);
             if let Some(store) = &self.store {
                 keep_memory(&dev, store, &mut self.generation);
             }
@@ -130,7 +133,7 @@ impl ModbusDrive {
     }
 
     /// A client is now the one connection.
-    pub(crate) fn open_connection(&mut self, now: Instant) {
+    pub fn open_connection(&mut self, now: Instant) {
         let mut watchdog = Watchdog::new(self.config.watchdog_ms);
         watchdog.start(0);
         self.connection = Some(ConnectionState {
@@ -142,7 +145,7 @@ impl ModbusDrive {
     }
 
     /// Answers the complete ADUs of `bytes` into `out`; an error: close the connection.
-    pub(crate) fn answer(
+    pub fn answer(
         &mut self,
         bytes: &[u8],
         now: Instant,
@@ -159,7 +162,7 @@ impl ModbusDrive {
     }
 
     /// The connection ended for `reason`: the device is told.
-    pub(crate) fn close_connection_because(&mut self, reason: CloseReason) {
+    pub fn close_connection_because(&mut self, reason: CloseReason) {
         if self.connection.take().is_some() {
             lock(&self.map).connection_event(ConnectionEvent::Closed(reason));
         }
@@ -178,5 +181,5 @@ impl ModbusDrive {
 }
 
 fn ms(now: Instant, since: Instant) -> u64 {
-    u64::try_from(now.saturating_duration_since(since).as_millis()).unwrap_or(u64::MAX)
+    now.as_nanos().saturating_sub(since.as_nanos()) / 1_000_000
 }
