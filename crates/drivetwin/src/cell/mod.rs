@@ -3,6 +3,7 @@
 
 pub mod ci_console;
 pub mod config;
+pub mod control;
 pub mod device_model;
 pub mod fieldbus_switches;
 pub mod param_store;
