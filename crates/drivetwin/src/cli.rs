@@ -163,9 +163,11 @@ pub struct RunArgs {
     /// at most 5000.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pub modbus_timeout_ms: u16,
-    /// How the CMMO-ST's thread serves its Modbus connection: `thread` reads it itself between
-    /// cycles, as the controller's fieldbus task (lowest latency); `async` as a tokio task.
-    #[arg(long, value_enum, value_name = "IO", default_value_t = ModbusIo::Thread)]
+    /// How a CMMO-ST's Modbus connection is served: `cell` by the cell's loop, with the other
+    /// drives and sockets of the cell on one clock (default); `thread` by a thread of its own
+    /// that reads it between cycles, as the controller's fieldbus task; `async` as a tokio task
+    /// on a thread of its own.
+    #[arg(long, value_enum, value_name = "IO", default_value_t = ModbusIo::Cell)]
     pub modbus_io: ModbusIo,
     /// Put the cell's drives on EtherCAT instead of CAN: a chain of slaves (in cell-file
     /// order) answering on this network interface (raw Ethernet, needs CAP_NET_RAW). The
@@ -195,6 +197,7 @@ pub struct RunArgs {
 /// `--modbus-io`.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ModbusIo {
+    Cell,
     Thread,
     Async,
 }

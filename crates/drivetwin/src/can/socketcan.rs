@@ -91,35 +91,7 @@ impl CanSocket {
     /// Open a `CAN_RAW` socket on `interface` (e.g. `can0`, `vcan0`). Must be called inside a
     /// tokio runtime.
     pub fn open(interface: &str) -> io::Result<CanSocket> {
-        let ifindex = crate::ecat::net_interface::index(interface)?;
-        // SAFETY: plain socket(2) call; the result is checked before use.
-        let raw = unsafe {
-            libc::socket(
-                libc::PF_CAN,
-                libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
-                libc::CAN_RAW,
-            )
-        };
-        if raw < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
-        let fd = unsafe { OwnedFd::from_raw_fd(raw) };
-        // SAFETY: `sockaddr_can` is plain old data; all-zero is a valid value.
-        let mut addr: libc::sockaddr_can = unsafe { mem::zeroed() };
-        addr.can_family = libc::AF_CAN as libc::sa_family_t;
-        addr.can_ifindex = ifindex;
-        // SAFETY: `addr` is a properly initialised `sockaddr_can` and the length matches it.
-        let rc = unsafe {
-            libc::bind(
-                fd.as_raw_fd(),
-                (&addr as *const libc::sockaddr_can).cast::<libc::sockaddr>(),
-                mem::size_of::<libc::sockaddr_can>() as libc::socklen_t,
-            )
-        };
-        if rc < 0 {
-            return Err(io::Error::last_os_error());
-        }
+        let fd = open_raw(interface)?;
         // SAFETY: the `OwnedFd` moves into the `AsyncFd`, which owns it until dropped, so the
         // descriptor stays open and the same for the registration's whole lifetime.
         let fd = unsafe { AsyncFd::register(fd) }?;
@@ -163,6 +135,77 @@ impl CanSocket {
                 Err(_would_block) => continue,
             }
         }
+    }
+}
+
+/// A non-blocking `CAN_RAW` socket bound to `interface`.
+fn open_raw(interface: &str) -> io::Result<OwnedFd> {
+    let ifindex = crate::ecat::net_interface::index(interface)?;
+    // SAFETY: plain socket(2) call; the result is checked before use.
+    let raw = unsafe {
+        libc::socket(
+            libc::PF_CAN,
+            libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
+            libc::CAN_RAW,
+        )
+    };
+    if raw < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
+    let fd = unsafe { OwnedFd::from_raw_fd(raw) };
+    // SAFETY: `sockaddr_can` is plain old data; all-zero is a valid value.
+    let mut addr: libc::sockaddr_can = unsafe { mem::zeroed() };
+    addr.can_family = libc::AF_CAN as libc::sa_family_t;
+    addr.can_ifindex = ifindex;
+    // SAFETY: `addr` is a properly initialised `sockaddr_can` and the length matches it.
+    let rc = unsafe {
+        libc::bind(
+            fd.as_raw_fd(),
+            (&addr as *const libc::sockaddr_can).cast::<libc::sockaddr>(),
+            mem::size_of::<libc::sockaddr_can>() as libc::socklen_t,
+        )
+    };
+    if rc < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(fd)
+}
+
+/// A non-blocking raw CAN socket for a poll loop (the cell loop registers its descriptor).
+#[derive(Debug)]
+pub struct RawCanSocket {
+    fd: OwnedFd,
+    interface: String,
+}
+
+impl RawCanSocket {
+    /// Open a `CAN_RAW` socket on `interface`, non-blocking.
+    pub fn open(interface: &str) -> io::Result<RawCanSocket> {
+        Ok(RawCanSocket {
+            fd: open_raw(interface)?,
+            interface: interface.to_owned(),
+        })
+    }
+
+    pub fn interface(&self) -> &str {
+        &self.interface
+    }
+
+    pub fn as_raw_fd(&self) -> RawFd {
+        self.fd.as_raw_fd()
+    }
+
+    /// One received frame; `Ok(None)` for a frame that is not classic CAN (skipped);
+    /// `WouldBlock` when nothing waits.
+    pub fn try_recv(&self) -> io::Result<Option<CanFrame>> {
+        read_once(self.fd.as_raw_fd())
+    }
+
+    /// Transmit one frame now, or fail (`ENOBUFS`: the TX queue is full, the frame is lost
+    /// as a controller drops it).
+    pub fn try_send(&self, frame: &CanFrame) -> io::Result<()> {
+        write_once(self.fd.as_raw_fd(), &encode_can_frame(frame))
     }
 }
 

@@ -3,9 +3,11 @@
 
 pub mod ci_console;
 pub mod config;
+pub mod control;
 pub mod device_model;
 pub mod fieldbus_switches;
 pub mod param_store;
+pub mod poll_loop;
 pub mod realtime;
 pub mod runtime;
 

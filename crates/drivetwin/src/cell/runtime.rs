@@ -1,75 +1,14 @@
-//! The runtime owns the clock: real time on tokio, or a virtual clock that jumps from one
-//! deadline to the next, so the same cell and inputs give the same frames bit for bit.
+//! The virtual clock: it jumps from one deadline to the next, so the same cell and inputs give
+//! the same frames bit for bit. Real time is the cell loop's ([`crate::cell::poll_loop`]).
 
-use std::future::Future;
 use std::time::Duration;
 
 use canopen::CanFrame;
+use od::time::earliest;
 use od::Instant;
 
-use tokio::sync::mpsc;
-
-use crate::can::bus::Bus;
-use crate::cell::ci_console::ConsoleRequest;
 use crate::cell::Cell;
-
-/// Runs `cell` on `bus` in real time until `shutdown` completes; lines typed at a drive's CI
-/// terminal come in on `console`.
-pub async fn run_realtime(
-    mut cell: Cell,
-    bus: Bus,
-    mut console: Option<mpsc::Receiver<ConsoleRequest>>,
-    shutdown: impl Future<Output = ()>,
-) {
-    let mut port = bus.port();
-    let start = tokio::time::Instant::now();
-    let now = || Instant::from_nanos(u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX));
-    let mut out: Vec<CanFrame> = Vec::with_capacity(256);
-    cell.boot(now(), &mut out);
-    tokio::pin!(shutdown);
-    loop {
-        for f in out.drain(..) {
-            port.send(f);
-        }
-        let wake = cell
-            .deadline()
-            .map(|d| start + Duration::from_nanos(d.as_nanos()))
-            .unwrap_or_else(|| tokio::time::Instant::now() + Duration::from_secs(3600));
-        tokio::select! {
-            biased;
-            _ = &mut shutdown => break,
-            f = port.recv() => match f {
-                Some(bf) => {
-                    cell.on_frame(now(), &bf.frame, &mut out);
-                }
-                None => break,
-            },
-            req = next_request(&mut console) => match req {
-                Some(req) => {
-                    let reply = cell
-                        .ci_line(req.drive, now(), &req.line, &mut out)
-                        .unwrap_or_else(canopen::ci_terminal::syntax_error);
-                    // The client may have gone meanwhile: nothing to answer then.
-                    let _ = req.reply.send(reply);
-                }
-                None => console = None,
-            },
-            _ = tokio::time::sleep_until(wake) => {
-                cell.poll(now(), &mut out);
-            }
-        }
-    }
-}
-
-/// The next console line, or never without a console.
-async fn next_request(
-    console: &mut Option<mpsc::Receiver<ConsoleRequest>>,
-) -> Option<ConsoleRequest> {
-    match console {
-        Some(rx) => rx.recv().await,
-        None => std::future::pending().await,
-    }
-}
+use crate::modbus_tcp::cell_drive::ModbusDrive;
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
 /// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
@@ -116,6 +55,106 @@ pub fn run_virtual(
             next_input += 1;
         } else {
             cell.poll(now, &mut out);
+        }
+    }
+}
+
+/// Something from outside the cell, at a time on the virtual clock.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Input {
+    /// A frame on the cell's CAN bus.
+    Can(CanFrame),
+    /// Bytes on the Modbus TCP connection of `modbus[drive]`.
+    Modbus { drive: usize, bytes: Vec<u8> },
+}
+
+/// What the cell sent, at a time on the virtual clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Output<'a> {
+    /// A frame on the cell's CAN bus (a drive's, or an input's).
+    Can(&'a CanFrame),
+    /// The answers of `modbus[drive]` to its latest input.
+    Modbus { drive: usize, bytes: &'a [u8] },
+}
+
+/// Runs the CAN drives of `cell` and the Modbus drives `modbus` on one virtual clock from 0 to
+/// `until`, feeding `inputs` (sorted by time); everything the cell sends goes to `sink` with
+/// its virtual time. At one instant the order is fixed: Modbus cycles, then the CAN drives'
+/// timers, then the input, so the same cell and inputs give the same outputs bit for bit.
+pub fn run_virtual_mixed(
+    cell: &mut Cell,
+    modbus: &mut [ModbusDrive],
+    inputs: &[(Duration, Input)],
+    until: Duration,
+    sink: &mut dyn FnMut(Duration, Output<'_>),
+) {
+    let to_instant =
+        |d: Duration| Instant::from_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+    let at = |now: Instant| Duration::from_nanos(now.as_nanos());
+    let end = to_instant(until);
+    let mut out = Vec::with_capacity(256);
+    let mut answer = Vec::with_capacity(256);
+    let mut now = Instant::ZERO;
+    cell.boot(now, &mut out);
+    for m in modbus.iter_mut() {
+        m.open_connection(now);
+    }
+    let mut next_input = 0;
+    let mut stuck = 0u32;
+    loop {
+        for f in out.drain(..) {
+            sink(at(now), Output::Can(&f));
+        }
+        let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
+        let wake = modbus
+            .iter()
+            .fold(earliest(cell.deadline(), input_at), |acc, m| {
+                earliest(acc, Some(m.next_cycle()))
+            });
+        let Some(wake) = wake else {
+            break;
+        };
+        if wake > end {
+            break;
+        }
+        // A deadline that does not move would spin forever: give up loudly instead.
+        stuck = if wake <= now { stuck + 1 } else { 0 };
+        if stuck > 10_000 {
+            tracing::error!(at = ?now, "virtual clock stuck on a deadline that does not advance");
+            break;
+        }
+        now = wake.max(now);
+        for m in modbus.iter_mut() {
+            m.cycle(now);
+        }
+        if cell.deadline().is_some_and(|d| d <= now) {
+            cell.poll(now, &mut out);
+        }
+        if input_at == Some(wake) {
+            match inputs.get(next_input) {
+                Some((_, Input::Can(f))) => {
+                    sink(at(now), Output::Can(f));
+                    cell.on_frame(now, f, &mut out);
+                }
+                Some((_, Input::Modbus { drive, bytes })) => {
+                    if let Some(m) = modbus.get_mut(*drive) {
+                        answer.clear();
+                        if let Err(reason) = m.answer(bytes, now, &mut answer) {
+                            tracing::warn!(drive, %reason, "Modbus input closes the connection");
+                            m.close_connection_because(reason);
+                        }
+                        sink(
+                            at(now),
+                            Output::Modbus {
+                                drive: *drive,
+                                bytes: &answer,
+                            },
+                        );
+                    }
+                }
+                None => {}
+            }
+            next_input += 1;
         }
     }
 }

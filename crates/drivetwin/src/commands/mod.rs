@@ -4,9 +4,7 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
-use drivetwin::can::bus::Bus;
 use drivetwin::can::drive::{CanDrive, DriveError};
-use drivetwin::can::socketcand;
 use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::Cell;

@@ -1,4 +1,7 @@
 use super::*;
+use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::poll_loop::{CellLoop, FrontEnds};
+use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
     let desc = device(name)?;
@@ -124,9 +127,14 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(ifname) = &args.ethercat {
         return run_ethercat(&file, ifname, &args).await;
     }
-    let fhpp_tasks = start_fhpp_drives(&specs, &args).await?;
-    if fhpp_drives == specs.len() {
-        // Only CMMO-STs: no bus, no socketcand server.
+    let in_loop = args.modbus_io == crate::cli::ModbusIo::Cell;
+    let fhpp_tasks = if in_loop {
+        Vec::new()
+    } else {
+        start_fhpp_drives(&specs, &args).await?
+    };
+    if fhpp_drives == specs.len() && !in_loop {
+        // Only CMMO-STs on threads of their own: no bus, no socketcand server.
         out!("running; Ctrl-C stops");
         for t in fhpp_tasks {
             let _ = t.await;
@@ -134,6 +142,11 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         out!("stopped");
         return Ok(());
     }
+    let modbus = if in_loop {
+        cell_modbus_drives(&specs, &args)?
+    } else {
+        Vec::new()
+    };
     let (mut cell, in_cell) = build_cell(specs, args.state_dir.as_ref())?;
     for d in &cell.drives {
         out!(
@@ -191,99 +204,76 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         return Ok(());
     }
 
-    let bus = Bus::new(drivetwin::can::bus::DEFAULT_CAPACITY);
-    let mut tasks = Vec::new();
-    if !file.bus.socketcand.is_empty() {
-        let listener = tokio::net::TcpListener::bind(&file.bus.socketcand)
-            .await
+    let mut front = FrontEnds {
+        modbus,
+        ..FrontEnds::default()
+    };
+    // A cell of CMMO-STs only has no bus and no socketcand server.
+    if !cell.drives.is_empty() && !file.bus.socketcand.is_empty() {
+        let listener = std::net::TcpListener::bind(&file.bus.socketcand)
             .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
         let addr = listener.local_addr().map_err(io("socketcand address"))?;
         out!("socketcand server on {addr}, channel {}", file.bus.channel);
-        tasks.push(tokio::spawn(socketcand::serve(
-            listener,
-            bus.clone(),
-            file.bus.channel.clone(),
-        )));
+        front.socketcand = Some((listener, ServerConfig::new(file.bus.channel.clone())));
     }
     #[cfg(target_os = "linux")]
     if let Some(ifname) = &file.bus.socketcan {
-        let socket = drivetwin::can::socketcan::CanSocket::open(ifname)
+        let socket = drivetwin::can::socketcan::RawCanSocket::open(ifname)
             .map_err(io(format!("SocketCAN {ifname}")))?;
         out!("SocketCAN bridge on {ifname}");
-        let port = bus.port();
-        tasks.push(tokio::spawn(async move {
-            if let Err(e) = drivetwin::can::socketcan::bridge(socket, port).await {
-                tracing::error!(error = %e, "SocketCAN bridge stopped");
-            }
-        }));
+        front.socketcan = Some(socket);
     }
-    let trace_task = match &args.trace {
-        Some(p) => {
-            let mut writer =
-                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
-            out!("tracing to {}", p.display());
-            let mut tap = bus.tap();
-            Some(tokio::spawn(async move {
-                'outer: while let Some(first) = tap.recv().await {
-                    // Write what is queued, then flush once the tap runs dry.
-                    let mut next = Some(first);
-                    while let Some(bf) = next {
-                        let t = bf.timestamp.duration_since(UNIX_EPOCH).unwrap_or_default();
-                        if let Err(e) = writer.write(t, &bf.frame) {
-                            tracing::error!(error = %e, "writing the trace failed");
-                            break 'outer;
-                        }
-                        next = tap.try_recv();
-                    }
-                    trace::flush_quietly(&mut writer);
-                }
-                trace::flush_quietly(&mut writer);
-            }))
-        }
-        None => None,
-    };
-    let console = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref(), &mut tasks).await?;
-    let shutdown = shutdown_signal();
+    if let Some(p) = &args.trace {
+        let writer =
+            TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
+        out!("tracing to {}", p.display());
+        front.trace = Some(writer);
+    }
+    front.ci_terminals = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref())?;
+    let cell_loop = CellLoop::new(cell, front).map_err(io("cell loop"))?;
+    let stop = cell_loop.stop_handle();
+    let thread = std::thread::Builder::new()
+        .name("cell".into())
+        .spawn(move || cell_loop.run())
+        .map_err(io("cell thread"))?;
     out!("running; Ctrl-C stops");
-    runtime::run_realtime(cell, bus.clone(), console, shutdown).await;
-    for t in tasks {
-        t.abort();
-    }
-    if let Some(t) = trace_task {
-        // Let the tap drain what is queued, then stop it.
-        tokio::time::sleep(Duration::from_millis(50)).await;
-        t.abort();
-        let _ = t.await;
-    }
+    let finished = tokio::task::spawn_blocking(move || thread.join());
+    tokio::pin!(finished);
+    let result = tokio::select! {
+        _ = shutdown_signal() => {
+            stop.stop();
+            finished.await
+        }
+        done = &mut finished => done,
+    };
     for t in fhpp_tasks {
         let _ = t.await;
     }
+    let failed = |what: &str| CommandError::Io {
+        what: "cell loop".into(),
+        source: std::io::Error::other(what.to_owned()),
+    };
+    result
+        .map_err(|e| failed(&e.to_string()))?
+        .map_err(|_| failed("panicked"))?
+        .map_err(io("cell loop"))?;
     out!("stopped");
     Ok(())
 }
 
-/// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each
-/// served by a task of its own; the runtime answers their lines.
-async fn ci_consoles(
+/// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each a
+/// listener and the index of its drive in the cell; the cell loop answers their lines.
+fn ci_consoles(
     file: &CellFile,
     in_cell: &[Option<usize>],
     first: Option<&str>,
-    tasks: &mut Vec<tokio::task::JoinHandle<()>>,
-) -> Result<Option<tokio::sync::mpsc::Receiver<ci_console::ConsoleRequest>>, CommandError> {
-    let addrs: Vec<(usize, &str)> = file
-        .drive
-        .iter()
-        .enumerate()
-        .filter_map(|(i, d)| {
-            let cli = if i == 0 { first } else { None };
-            cli.or(d.ci_terminal.as_deref()).map(|a| (i, a))
-        })
-        .collect();
-    if addrs.is_empty() {
-        return Ok(None);
-    }
-    let (tx, rx) = tokio::sync::mpsc::channel(ci_console::QUEUE);
-    for (i, addr) in addrs {
+) -> Result<Vec<(std::net::TcpListener, usize)>, CommandError> {
+    let mut consoles = Vec::new();
+    for (i, d) in file.drive.iter().enumerate() {
+        let cli = if i == 0 { first } else { None };
+        let Some(addr) = cli.or(d.ci_terminal.as_deref()) else {
+            continue;
+        };
         // The console is the drive's own RS232, but a drive the switches keep off the bus is
         // not simulated at all here.
         let Some(Some(drive)) = in_cell.get(i).copied() else {
@@ -293,14 +283,56 @@ async fn ci_consoles(
             );
             continue;
         };
-        let listener = ci_console::bind(addr)
-            .await
-            .map_err(|e| CommandError::Usage(e.to_string()))?;
+        let listener = ci_console::bind(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
         let local = listener.local_addr().map_err(io("CI terminal address"))?;
         out!("CI terminal of drive {} on {local}", i + 1);
-        tasks.push(tokio::spawn(ci_console::serve(listener, drive, tx.clone())));
+        consoles.push((listener, drive));
     }
-    Ok(Some(rx))
+    Ok(consoles)
+}
+
+/// The cell's CMMO-STs for the cell loop, each with its Modbus listener bound.
+fn cell_modbus_drives(
+    specs: &[DriveSpec],
+    args: &RunArgs,
+) -> Result<Vec<ModbusDrive>, CommandError> {
+    use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
+    check_one_modbus_address(specs, args)?;
+    let mut drives = Vec::new();
+    for spec in specs {
+        let Some(fhpp) = &spec.fhpp else {
+            continue;
+        };
+        let addr = args
+            .modbus
+            .as_deref()
+            .or(fhpp.modbus.as_deref())
+            .unwrap_or(DEFAULT_ADDR);
+        let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
+        let listener =
+            std::net::TcpListener::bind(addr).map_err(io(format!("Modbus listen on {addr}")))?;
+        let local = listener.local_addr().map_err(io("Modbus address"))?;
+        out!("modbus server on {local}");
+        let config = modbus_config(fhpp, args);
+        drives.push(ModbusDrive::new(
+            listener,
+            std::sync::Arc::new(std::sync::Mutex::new(dev)),
+            config,
+            store,
+        ));
+    }
+    Ok(drives)
+}
+
+fn check_one_modbus_address(specs: &[DriveSpec], args: &RunArgs) -> Result<(), CommandError> {
+    if args.modbus.is_some() && specs.iter().filter(|s| s.fhpp.is_some()).count() > 1 {
+        return Err(CommandError::Usage(
+            "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
+             cell file"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
@@ -431,13 +463,7 @@ async fn start_fhpp_drives(
     args: &RunArgs,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
     use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
-    if args.modbus.is_some() && specs.iter().filter(|s| s.fhpp.is_some()).count() > 1 {
-        return Err(CommandError::Usage(
-            "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
-             cell file"
-                .into(),
-        ));
-    }
+    check_one_modbus_address(specs, args)?;
     let mut tasks = Vec::new();
     for spec in specs {
         let Some(fhpp) = &spec.fhpp else {
@@ -460,24 +486,19 @@ async fn start_fhpp_drives(
 }
 
 /// One CMMO-ST at power-on: defaults, the cell's commissioning values, then its permanent
-/// memory (`--state-dir`), and its Modbus listener bound.
-async fn prepare_cmmo_st(
+/// memory (`--state-dir`).
+fn cmmo_st_device(
     spec: &DriveSpec,
     fhpp: &FhppSpec,
-    addr: &str,
     args: &RunArgs,
 ) -> Result<
     (
-        tokio::net::TcpListener,
-        fhpp_modbus::SharedDevice,
-        fhpp_modbus::ServeOptions,
+        ::drive::fhpp::device::FhppDevice<Vec<u8>>,
+        Option<ParamStore>,
     ),
     CommandError,
 > {
     use ::drive::fhpp::device::FhppDevice;
-    use drivetwin::modbus_tcp::server::ModbusConfig;
-    use std::sync::{Arc, Mutex};
-
     let desc = spec.desc;
     let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
         .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
@@ -498,18 +519,45 @@ async fn prepare_cmmo_st(
             Err(e) => tracing::warn!("{e}"),
         }
     }
+    Ok((dev, store))
+}
+
+fn modbus_config(fhpp: &FhppSpec, args: &RunArgs) -> drivetwin::modbus_tcp::server::ModbusConfig {
+    use drivetwin::modbus_tcp::server::ModbusConfig;
+    ModbusConfig {
+        busy_poll: args.busy_poll,
+        ..ModbusConfig::with_watchdog_ms(fhpp.watchdog_ms.unwrap_or(args.modbus_timeout_ms))
+    }
+}
+
+/// One CMMO-ST at power-on: defaults, the cell's commissioning values, then its permanent
+/// memory (`--state-dir`), and its Modbus listener bound.
+async fn prepare_cmmo_st(
+    spec: &DriveSpec,
+    fhpp: &FhppSpec,
+    addr: &str,
+    args: &RunArgs,
+) -> Result<
+    (
+        tokio::net::TcpListener,
+        fhpp_modbus::SharedDevice,
+        fhpp_modbus::ServeOptions,
+    ),
+    CommandError,
+> {
+    use std::sync::{Arc, Mutex};
+    let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
     let listener = tokio::net::TcpListener::bind(addr)
         .await
         .map_err(io(format!("Modbus listen on {addr}")))?;
     let local = listener.local_addr().map_err(io("Modbus address"))?;
     out!("modbus server on {local}");
-    let config = ModbusConfig {
-        busy_poll: args.busy_poll,
-        ..ModbusConfig::with_watchdog_ms(fhpp.watchdog_ms.unwrap_or(args.modbus_timeout_ms))
-    };
+    let config = modbus_config(fhpp, args);
     let io = match args.modbus_io {
-        crate::cli::ModbusIo::Thread => fhpp_modbus::ServerIo::CycleThread,
         crate::cli::ModbusIo::Async => fhpp_modbus::ServerIo::Async,
+        crate::cli::ModbusIo::Thread | crate::cli::ModbusIo::Cell => {
+            fhpp_modbus::ServerIo::CycleThread
+        }
     };
     let options = fhpp_modbus::ServeOptions { config, io, store };
     Ok((listener, Arc::new(Mutex::new(dev)), options))

@@ -202,7 +202,7 @@ pub enum ServerIo {
 }
 
 /// The CMMO-ST's cycle (the FHPP device steps every millisecond on the real clock).
-const CYCLE: Duration = Duration::from_millis(1);
+pub(crate) const CYCLE: Duration = Duration::from_millis(1);
 
 /// How a CMMO-ST is served.
 #[derive(Debug, Clone, Default)]
@@ -246,7 +246,7 @@ pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<
 
 /// Writes the permanent memory to `store` when it changed since `generation` (PNU 127 save
 /// or delete, a parameter-file download).
-fn keep_memory(device: &FhppDevice<Vec<u8>>, store: &ParamStore, generation: &mut u32) {
+pub(crate) fn keep_memory(device: &FhppDevice<Vec<u8>>, store: &ParamStore, generation: &mut u32) {
     let memory = device.permanent_memory();
     if memory.generation() == *generation {
         return;

@@ -6,6 +6,7 @@
 
 pub mod codec;
 pub mod server;
+pub mod session;
 
 pub use codec::{CodecError, Decoder, Message, Mode, MAX_MESSAGE_LEN};
 pub use server::{handle_client, serve, serve_with, ServerConfig, SessionError, DEFAULT_PORT};

@@ -1,8 +1,5 @@
-//! The socketcand TCP server: one task per client, each client one node on the [`Bus`].
-//!
-//! Session states follow socketcand: NO_BUS (after `< hi >`; `open` and the `B` / `C` bus
-//! configuration commands) → BCM (default after `open`) ⇄ RAW / CONTROL. Only RAW streams bus
-//! frames. BCM jobs and ISO-TP are answered with `< error ... >`; `send` works in BCM and RAW.
+//! The socketcand TCP server on tokio: one task per client, each client one node on the [`Bus`];
+//! the protocol rules are the sans-IO [`super::session`], shared with the cell loop.
 //!
 //! python-can's client compares each handshake reply with one `recv(256)`, so every reply is
 //! its own write, and after the `< ok >` to `rawmode` the server waits
@@ -21,10 +18,11 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::TcpListener;
 use tokio::task::JoinSet;
-use tokio::time::{Instant, Interval, MissedTickBehavior};
+use tokio::time::Instant;
 use tracing::Instrument;
 
-use super::codec::{CodecError, Decoder, Message, Mode, MAX_MESSAGE_LEN};
+use super::codec::{Decoder, Message, MAX_MESSAGE_LEN};
+use super::session::{Effect, Session, Totals};
 use crate::can::bus::{Bus, BusFrame, Port};
 
 /// socketcand's registered port.
@@ -32,9 +30,6 @@ pub const DEFAULT_PORT: u16 = 29536;
 
 /// Frames written to a client in one write at most, when several are waiting.
 const MAX_BATCH: usize = 64;
-
-/// Shortest statistics interval honoured (socketcand polls every 10 ms).
-const MIN_STATISTICS_INTERVAL: Duration = Duration::from_millis(10);
 
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
@@ -140,28 +135,32 @@ where
     S: AsyncRead + AsyncWrite + Unpin,
 {
     let (mut reader, writer) = tokio::io::split(stream);
-    let mut session = Session {
+    let mut client = Client {
         out: writer,
-        config,
         bus: &bus,
         port: None,
-        mode: None,
-        stream_at: None,
-        streaming: false,
-        statistics: None,
-        sent_frames: 0,
-        sent_bytes: 0,
+        session: Session::new(),
+        effects: Vec::new(),
         wbuf: Vec::with_capacity(MAX_BATCH * 48),
     };
-    session.reply(&Message::Hi).await?;
+    client.reply(&Session::HELLO).await?;
     let mut decoder = Decoder::with_max_len(config.max_message_len);
     let mut rbuf = vec![0u8; 4096];
     loop {
         while let Some(message) = decoder.next_message() {
-            if session.handle(message).await? == Flow::Close {
-                return Ok(());
+            let Client {
+                session, effects, ..
+            } = &mut client;
+            session.on_message(config, std::time::Instant::now(), message, &mut |e| {
+                effects.push(e)
+            });
+            if client.carry_out().await? == Flow::Close {
+                client.out.shutdown().await.ok();
+                return Err(SessionError::UnknownChannel);
             }
         }
+        let deadline = client.session.deadline().map(Instant::from_std);
+        let streaming = client.session.is_streaming();
         tokio::select! {
             read = reader.read(&mut rbuf) => {
                 let n = read?;
@@ -170,15 +169,15 @@ where
                 }
                 decoder.push(rbuf.get(..n).unwrap_or(&[]));
             }
-            () = sleep_until(session.stream_at), if session.stream_at.is_some() => {
-                session.stream_at = None;
-                session.streaming = true;
+            () = sleep_until(deadline), if deadline.is_some() => {
+                let totals = bus.stats();
+                let totals = Totals { frames: totals.frames, bytes: totals.bytes };
+                let Client { session, effects, .. } = &mut client;
+                session.poll(std::time::Instant::now(), totals, &mut |e| effects.push(e));
+                client.carry_out().await?;
             }
-            Some(frame) = recv(&mut session.port), if session.streaming => {
-                session.forward(frame).await?;
-            }
-            () = tick(&mut session.statistics), if session.statistics.is_some() => {
-                session.report_statistics().await?;
+            Some(frame) = recv(&mut client.port), if streaming => {
+                client.forward(frame).await?;
             }
         }
     }
@@ -198,138 +197,53 @@ async fn recv(port: &mut Option<Port>) -> Option<BusFrame> {
     }
 }
 
-async fn tick(interval: &mut Option<Interval>) {
-    match interval {
-        Some(interval) => {
-            interval.tick().await;
-        }
-        None => std::future::pending().await,
-    }
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Flow {
     Continue,
     Close,
 }
 
-struct Session<'a, W> {
+/// A session on an async stream, its node on the [`Bus`] attached on `open`.
+struct Client<'a, W> {
     out: W,
-    config: &'a ServerConfig,
     bus: &'a Bus,
-    /// Attached on `open`.
     port: Option<Port>,
-    /// `None` until the bus is open (socketcand's NO_BUS state).
-    mode: Option<Mode>,
-    /// RAW mode: when streaming starts.
-    stream_at: Option<Instant>,
-    streaming: bool,
-    /// CONTROL mode: statistics timer.
-    statistics: Option<Interval>,
-    sent_frames: u64,
-    sent_bytes: u64,
+    session: Session,
+    /// What the last message asked for, carried out in order.
+    effects: Vec<Effect>,
     wbuf: Vec<u8>,
 }
 
-impl<W: AsyncWrite + Unpin> Session<'_, W> {
+impl<W: AsyncWrite + Unpin> Client<'_, W> {
     /// One message, one write: never coalesced with anything else.
     async fn reply(&mut self, message: &Message) -> io::Result<()> {
         self.out.write_all(message.to_string().as_bytes()).await?;
         self.out.flush().await
     }
 
-    async fn error(&mut self, text: &str) -> io::Result<()> {
-        self.reply(&Message::Error(text.to_owned())).await
-    }
-
-    async fn handle(&mut self, message: Result<Message, CodecError>) -> Result<Flow, SessionError> {
-        let message = match message {
-            Ok(m) => m,
-            Err(e) => {
-                tracing::debug!(error = %e, "bad message from client");
-                self.error(&e.to_string()).await?;
-                return Ok(Flow::Continue);
-            }
-        };
-        tracing::trace!(?message, "from client");
-        match (self.mode, message) {
-            (_, Message::Echo) => self.reply(&Message::Echo).await?,
-            (None, Message::Open(channel)) => {
-                if channel != self.config.channel {
-                    return self.refuse_channel(&channel).await;
+    async fn carry_out(&mut self) -> io::Result<Flow> {
+        let mut flow = Flow::Continue;
+        let effects = std::mem::take(&mut self.effects);
+        for effect in &effects {
+            match effect {
+                Effect::Reply(m) => self.reply(m).await?,
+                Effect::Open => self.port = Some(self.bus.port()),
+                Effect::SkipPending => {
+                    if let Some(port) = &mut self.port {
+                        port.skip_pending();
+                    }
                 }
-                self.port = Some(self.bus.port());
-                self.mode = Some(Mode::Bcm);
-                tracing::debug!(%channel, "bus opened");
-                self.reply(&Message::Ok).await?;
-            }
-            (None, Message::BitTiming { channel, .. })
-            | (None, Message::ControlModes { channel, .. }) => {
-                if channel != self.config.channel {
-                    return self.refuse_channel(&channel).await;
+                Effect::Send(frame) => {
+                    if let Some(port) = &self.port {
+                        port.send(*frame);
+                    }
                 }
-                // A virtual bus has no bit timing or controller modes to set.
-                self.reply(&Message::Ok).await?;
-            }
-            (Some(_), Message::Mode(Mode::Isotp)) => {
-                self.error("isotp mode not supported").await?;
-            }
-            (Some(current), Message::Mode(mode)) => {
-                if mode != current {
-                    self.enter(mode);
-                }
-                self.reply(&Message::Ok).await?;
-                if mode == Mode::Raw && mode != current {
-                    self.stream_at = Some(Instant::now() + self.config.stream_delay);
-                }
-            }
-            (Some(Mode::Raw | Mode::Bcm), Message::Send(frame)) => {
-                if let Some(port) = &self.port {
-                    port.send(frame);
-                    self.sent_frames += 1;
-                    self.sent_bytes += frame.payload().len() as u64;
-                }
-            }
-            (Some(Mode::Control), Message::Statistics { interval_ms }) => {
-                self.statistics = (interval_ms > 0).then(|| {
-                    let period =
-                        Duration::from_millis(u64::from(interval_ms)).max(MIN_STATISTICS_INTERVAL);
-                    let mut interval = tokio::time::interval_at(Instant::now() + period, period);
-                    interval.set_missed_tick_behavior(MissedTickBehavior::Delay);
-                    interval
-                });
-            }
-            (_, Message::Unsupported(command)) => {
-                tracing::debug!(command, "unsupported socketcand command");
-                self.error("command not supported").await?;
-            }
-            (_, other) => {
-                tracing::debug!(message = ?other, mode = ?self.mode, "command not valid here");
-                self.error("unknown command").await?;
+                Effect::Close => flow = Flow::Close,
             }
         }
-        Ok(Flow::Continue)
-    }
-
-    async fn refuse_channel(&mut self, channel: &str) -> Result<Flow, SessionError> {
-        tracing::info!(requested = %channel, served = %self.config.channel, "client asked for an unknown bus");
-        self.error("could not open bus").await?;
-        self.out.shutdown().await.ok();
-        Err(SessionError::UnknownChannel)
-    }
-
-    /// Leave the current mode for `mode`.
-    fn enter(&mut self, mode: Mode) {
-        self.mode = Some(mode);
-        self.streaming = false;
-        self.stream_at = None;
-        self.statistics = None;
-        if mode == Mode::Raw {
-            // Start with the frames sent from now on, not a stale backlog.
-            if let Some(port) = &mut self.port {
-                port.skip_pending();
-            }
-        }
+        self.effects = effects;
+        self.effects.clear();
+        Ok(flow)
     }
 
     /// Write `first` and whatever else is already waiting, in one write.
@@ -338,9 +252,7 @@ impl<W: AsyncWrite + Unpin> Session<'_, W> {
         let mut next = Some(first);
         let mut count = 0;
         while let Some(bus_frame) = next {
-            // socketcand does not forward remote frames, and a zero-length frame instead would
-            // look like a broken heartbeat to python-canopen: drop them (see anchors.md §3.3).
-            if !bus_frame.frame.rtr {
+            if Session::forwards(&bus_frame.frame) {
                 let message = Message::Frame {
                     frame: bus_frame.frame,
                     timestamp: unix_time(bus_frame.timestamp),
@@ -358,17 +270,6 @@ impl<W: AsyncWrite + Unpin> Session<'_, W> {
             self.out.flush().await?;
         }
         Ok(())
-    }
-
-    async fn report_statistics(&mut self) -> io::Result<()> {
-        let bus = self.bus.stats();
-        self.reply(&Message::Stat {
-            rbytes: bus.bytes.saturating_sub(self.sent_bytes),
-            rpackets: bus.frames.saturating_sub(self.sent_frames),
-            tbytes: self.sent_bytes,
-            tpackets: self.sent_frames,
-        })
-        .await
     }
 }
 

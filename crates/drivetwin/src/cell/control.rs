@@ -1,0 +1,224 @@
+//! The control handle of a running cell: a typed, thread-safe way in for tests and the web
+//! console. It lists the drives, reads and writes their objects through the same object
+//! access as every front end (a write is seen at once on the wire), reads the plant and the
+//! display, sets inputs and load, and subscribes to samples of the plant.
+//!
+//! A request goes to the cell loop ([`crate::cell::poll_loop`]) and is carried out there,
+//! between two socket events, on the cell's clock; the caller waits for the answer. Samples
+//! come on a bounded channel: when the subscriber does not keep up, samples are dropped,
+//! never waited for (the loop serves sockets first).
+
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
+use std::sync::Arc;
+use std::time::Duration;
+
+use mio::Waker;
+use od::AbortCode;
+
+/// Samples waiting for a subscriber before newer ones are dropped.
+pub const SAMPLE_QUEUE: usize = 1024;
+
+/// A drive of the cell, as [`ControlHandle::drives`] lists it. Its index is its place in
+/// that list: the CAN drives in cell order, then the Modbus drives.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DriveInfo {
+    pub index: usize,
+    /// The device file's name (`cmmp-as`, `cmmo-st`, …).
+    pub device: &'static str,
+    pub product: &'static str,
+    pub interface: Interface,
+}
+
+/// How the drive is reached from outside the cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interface {
+    /// A CANopen node on the cell's bus.
+    CanOpen { node: u8 },
+    /// FHPP over Modbus TCP.
+    ModbusTcp,
+}
+
+/// What the drive's display shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DisplayState {
+    /// The CMMP-AS 7-segment display (App. B).
+    Cia402(drive::display::Display),
+    /// The CMMO-ST 7-segment display.
+    Fhpp(drive::fhpp::seven_segment::SevenSegment),
+}
+
+/// The plant of one drive at one time of the cell's clock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantSample {
+    /// The cell's clock.
+    pub at: Duration,
+    pub plant: Plant,
+    pub display: Option<DisplayState>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Plant {
+    /// A CiA 402 servo: encoder position (increments), speed, motor current and the digital
+    /// inputs as 60FDh shows them.
+    Servo {
+        position_increments: i64,
+        velocity_rpm: f32,
+        current_ma: i32,
+        digital_inputs: u32,
+    },
+    /// The CMMO-ST's stepper: position in SI units (`None` before homing), load torque.
+    Stepper {
+        position_si: Option<f64>,
+        load_torque_nm: f64,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ControlError {
+    #[error("the cell has stopped")]
+    Stopped,
+    #[error("no drive {0} in the cell")]
+    NoDrive(usize),
+    #[error("drive {0} has no simulated plant")]
+    NoPlant(usize),
+    #[error("refused: {0:?}")]
+    Abort(AbortCode),
+}
+
+/// One request to the loop.
+pub(crate) enum Command {
+    Drives(SyncSender<Vec<DriveInfo>>),
+    Read {
+        drive: usize,
+        index: u16,
+        sub: u8,
+        reply: SyncSender<Result<Vec<u8>, ControlError>>,
+    },
+    Write {
+        drive: usize,
+        index: u16,
+        sub: u8,
+        data: Vec<u8>,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
+    Plant {
+        drive: usize,
+        reply: SyncSender<Result<PlantSample, ControlError>>,
+    },
+    SetInputs {
+        drive: usize,
+        mask: u16,
+        levels: u16,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
+    SetLoad {
+        drive: usize,
+        torque_nm: f64,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
+    Subscribe {
+        drive: usize,
+        every: Duration,
+        samples: SyncSender<PlantSample>,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
+}
+
+/// A handle to a running cell; cheap to clone, usable from any thread.
+#[derive(Clone)]
+pub struct ControlHandle {
+    tx: Sender<Command>,
+    waker: Arc<Waker>,
+}
+
+impl std::fmt::Debug for ControlHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ControlHandle")
+    }
+}
+
+impl ControlHandle {
+    pub(crate) fn new(tx: Sender<Command>, waker: Arc<Waker>) -> Self {
+        ControlHandle { tx, waker }
+    }
+
+    fn ask<T>(&self, make: impl FnOnce(SyncSender<T>) -> Command) -> Result<T, ControlError> {
+        let (reply, answer) = mpsc::sync_channel(1);
+        self.tx
+            .send(make(reply))
+            .map_err(|_| ControlError::Stopped)?;
+        self.waker.wake().map_err(|_| ControlError::Stopped)?;
+        answer.recv().map_err(|_| ControlError::Stopped)
+    }
+
+    pub fn drives(&self) -> Result<Vec<DriveInfo>, ControlError> {
+        self.ask(Command::Drives)
+    }
+
+    /// The value of an object, as its bytes (little-endian, as on CANopen).
+    pub fn read(&self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
+        self.ask(|reply| Command::Read {
+            drive,
+            index,
+            sub,
+            reply,
+        })?
+    }
+
+    /// Writes an object with the access rules and effects of a fieldbus write.
+    pub fn write(
+        &self,
+        drive: usize,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), ControlError> {
+        self.ask(|reply| Command::Write {
+            drive,
+            index,
+            sub,
+            data: data.to_vec(),
+            reply,
+        })?
+    }
+
+    pub fn plant(&self, drive: usize) -> Result<PlantSample, ControlError> {
+        self.ask(|reply| Command::Plant { drive, reply })?
+    }
+
+    /// Drives digital inputs from outside: bit n of `mask` forces DINn to bit n of `levels`.
+    pub fn set_inputs(&self, drive: usize, mask: u16, levels: u16) -> Result<(), ControlError> {
+        self.ask(|reply| Command::SetInputs {
+            drive,
+            mask,
+            levels,
+            reply,
+        })?
+    }
+
+    /// The load torque on the motor shaft, N·m.
+    pub fn set_load(&self, drive: usize, torque_nm: f64) -> Result<(), ControlError> {
+        self.ask(|reply| Command::SetLoad {
+            drive,
+            torque_nm,
+            reply,
+        })?
+    }
+
+    /// Samples of the drive's plant every `every` (at least the loop's own step), until the
+    /// receiver is dropped. A subscriber that falls [`SAMPLE_QUEUE`] behind loses samples.
+    pub fn subscribe(
+        &self,
+        drive: usize,
+        every: Duration,
+    ) -> Result<Receiver<PlantSample>, ControlError> {
+        let (samples, rx) = mpsc::sync_channel(SAMPLE_QUEUE);
+        self.ask(|reply| Command::Subscribe {
+            drive,
+            every,
+            samples,
+            reply,
+        })??;
+        Ok(rx)
+    }
+}

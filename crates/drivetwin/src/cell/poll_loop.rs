@@ -1,0 +1,1133 @@
+//! The cell loop: one thread owns the cell's clock and every socket of the cell (the
+//! socketcand server and its clients, the SocketCAN interface, the CI terminals, the
+//! CMMO-STs' Modbus TCP servers) and the drives themselves. It waits in one `epoll_wait` (mio)
+//! for the earliest of a readable socket and the next deadline of a drive or a session, does
+//! what is due, and writes the answers before it waits again: a request reaches the drive it
+//! addresses, and the answer the socket, on the thread the kernel woke, with no channel and
+//! no other task in between (`DESIGN.md`, "The runtime owns the clock and every socket").
+//!
+//! The loop is the cell's CAN bus as well: a frame from a socketcand client reaches the drives,
+//! the SocketCAN interface, the trace and every other client in RAW mode; a frame of a drive
+//! reaches the other drives (`Cell::deliver`), the interface, the trace and every client.
+//!
+//! Slow clients: what a client has not taken waits in its own buffer, bounded by
+//! [`MAX_PENDING`]; a client whose buffer would grow beyond it is dropped, so a client that
+//! does not read never delays the others, nor the drives.
+//!
+//! Sockets are registered for readability only; a client whose socket does not take all of an
+//! answer is registered for writability until its buffer is empty (no wake-up per `ACK`).
+
+use std::io::{self, Read, Write};
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use canopen::ci_terminal::{syntax_error, Cut, LineCutter};
+use canopen::CanFrame;
+use mio::net::{TcpListener, TcpStream};
+use mio::{Events, Interest, Poll, Token, Waker};
+
+use crate::can::socketcand::session::{Effect, Session, Totals};
+use crate::can::socketcand::{Decoder, Message, ServerConfig};
+use crate::cell::control::{
+    Command, ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
+};
+use crate::cell::device_model::Model;
+use crate::cell::Cell;
+use crate::modbus_tcp::cell_drive::ModbusDrive;
+use crate::trace::TraceWriter;
+
+/// Bytes a client may leave unread before it is dropped.
+pub const MAX_PENDING: usize = 256 * 1024;
+
+/// Frames held for a client while its RAW stream has not started yet.
+const MAX_HELD: usize = 64 * 1024;
+
+const WAKER: Token = Token(0);
+const SOCKETCAND: Token = Token(1);
+const SOCKETCAN: Token = Token(2);
+/// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
+const FIRST_DYNAMIC: usize = 16;
+
+/// Every socket a cell serves, bound before the loop starts.
+#[derive(Default)]
+pub struct FrontEnds {
+    /// The socketcand server and its settings (the bus name it serves).
+    pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
+    /// A SocketCAN interface the cell's bus is bridged to.
+    #[cfg(target_os = "linux")]
+    pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    /// CI terminals: a listener and the index of its drive in the cell.
+    pub ci_terminals: Vec<(std::net::TcpListener, usize)>,
+    /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
+    pub modbus: Vec<ModbusDrive>,
+    /// Where every frame on the cell's bus is written.
+    pub trace: Option<TraceWriter>,
+}
+
+/// Stops a running loop from another thread.
+#[derive(Clone)]
+pub struct StopHandle {
+    waker: Arc<Waker>,
+    stop: Arc<AtomicBool>,
+}
+
+impl StopHandle {
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Release);
+        if let Err(e) = self.waker.wake() {
+            tracing::error!(error = %e, "cannot wake the cell loop");
+        }
+    }
+}
+
+/// A cell with its sockets, ready to run.
+pub struct CellLoop {
+    poll: Poll,
+    stop: Arc<AtomicBool>,
+    waker: Arc<Waker>,
+    cell: Cell,
+    /// The cell clock's zero.
+    origin: Instant,
+    socketcand: Option<(TcpListener, ServerConfig)>,
+    #[cfg(target_os = "linux")]
+    socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    /// Listeners by token - FIRST_DYNAMIC; connections after them.
+    listeners: Vec<Listener>,
+    slots: Vec<Option<Connection>>,
+    modbus: Vec<ModbusDrive>,
+    trace: Option<TraceWriter>,
+    trace_dirty: bool,
+    totals: Totals,
+    last_stamp: SystemTime,
+    /// Connections with bytes to write before the loop waits again.
+    dirty: Vec<usize>,
+    /// Scratch: frames the drives sent.
+    out: Vec<CanFrame>,
+    /// Scratch: one frame as socketcand text.
+    text: Vec<u8>,
+    effects: Vec<Effect>,
+    control_tx: std::sync::mpsc::Sender<Command>,
+    control_rx: std::sync::mpsc::Receiver<Command>,
+    subscriptions: Vec<Subscription>,
+}
+
+/// A subscriber to a drive's plant samples.
+struct Subscription {
+    drive: usize,
+    every: Duration,
+    next: Instant,
+    samples: std::sync::mpsc::SyncSender<PlantSample>,
+}
+
+enum Listener {
+    Console { listener: TcpListener, drive: usize },
+    Modbus { listener: TcpListener, drive: usize },
+}
+
+/// Where a frame on the cell's bus came from (it is not sent back there).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    Drives,
+    Client(usize),
+    SocketCan,
+}
+
+struct Connection {
+    stream: TcpStream,
+    peer: SocketAddr,
+    kind: Kind,
+    /// Bytes the socket has not taken yet.
+    pending: Vec<u8>,
+    /// Registered for writability too (while `pending` is not empty).
+    wants_write: bool,
+    /// Close once `pending` is written.
+    closing: bool,
+}
+
+enum Kind {
+    Socketcand {
+        session: Session,
+        decoder: Decoder,
+        /// Frames kept during the stream delay after `rawmode`.
+        held: Vec<u8>,
+    },
+    Console {
+        drive: usize,
+        lines: LineCutter,
+    },
+    Modbus {
+        drive: usize,
+    },
+}
+
+impl CellLoop {
+    pub fn new(cell: Cell, mut front: FrontEnds) -> io::Result<CellLoop> {
+        let poll = Poll::new()?;
+        let waker = Arc::new(Waker::new(poll.registry(), WAKER)?);
+        let mut socketcand = None;
+        if let Some((l, config)) = front.socketcand {
+            l.set_nonblocking(true)?;
+            let mut l = TcpListener::from_std(l);
+            poll.registry()
+                .register(&mut l, SOCKETCAND, Interest::READABLE)?;
+            socketcand = Some((l, config));
+        }
+        #[cfg(target_os = "linux")]
+        if let Some(s) = &front.socketcan {
+            poll.registry().register(
+                &mut mio::unix::SourceFd(&s.as_raw_fd()),
+                SOCKETCAN,
+                Interest::READABLE,
+            )?;
+        }
+        let mut listeners = Vec::new();
+        for (l, drive) in front.ci_terminals {
+            l.set_nonblocking(true)?;
+            listeners.push(Listener::Console {
+                listener: TcpListener::from_std(l),
+                drive,
+            });
+        }
+        for (drive, m) in front.modbus.iter_mut().enumerate() {
+            let l = m.take_listener()?;
+            listeners.push(Listener::Modbus { listener: l, drive });
+        }
+        for (i, l) in listeners.iter_mut().enumerate() {
+            let listener = match l {
+                Listener::Console { listener, .. } | Listener::Modbus { listener, .. } => listener,
+            };
+            poll.registry()
+                .register(listener, Token(FIRST_DYNAMIC + i), Interest::READABLE)?;
+        }
+        let (control_tx, control_rx) = std::sync::mpsc::channel();
+        Ok(CellLoop {
+            control_tx,
+            control_rx,
+            subscriptions: Vec::new(),
+            poll,
+            stop: Arc::new(AtomicBool::new(false)),
+            waker,
+            cell,
+            origin: Instant::now(),
+            socketcand,
+            #[cfg(target_os = "linux")]
+            socketcan: front.socketcan,
+            listeners,
+            slots: Vec::new(),
+            modbus: front.modbus,
+            trace: front.trace,
+            trace_dirty: false,
+            totals: Totals::default(),
+            last_stamp: UNIX_EPOCH,
+            dirty: Vec::new(),
+            out: Vec::with_capacity(256),
+            text: Vec::with_capacity(64),
+            effects: Vec::new(),
+        })
+    }
+
+    pub fn stop_handle(&self) -> StopHandle {
+        StopHandle {
+            waker: Arc::clone(&self.waker),
+            stop: Arc::clone(&self.stop),
+        }
+    }
+
+    /// A handle to the cell while it runs (see [`crate::cell::control`]).
+    pub fn control_handle(&self) -> ControlHandle {
+        ControlHandle::new(self.control_tx.clone(), Arc::clone(&self.waker))
+    }
+
+    /// The address the socketcand server listens on.
+    pub fn socketcand_addr(&self) -> Option<SocketAddr> {
+        self.socketcand
+            .as_ref()
+            .and_then(|(l, _)| l.local_addr().ok())
+    }
+
+    fn now(&self, at: Instant) -> od::Instant {
+        od::Instant::from_nanos(
+            u64::try_from(at.saturating_duration_since(self.origin).as_nanos()).unwrap_or(u64::MAX),
+        )
+    }
+
+    fn wall(&self, at: od::Instant) -> Instant {
+        self.origin + Duration::from_nanos(at.as_nanos())
+    }
+
+    /// Runs the cell in real time until [`StopHandle::stop`]; gives the cell back.
+    pub fn run(mut self) -> io::Result<Cell> {
+        let mut events = Events::with_capacity(256);
+        let start = Instant::now();
+        let mut out = std::mem::take(&mut self.out);
+        self.cell.boot(self.now(start), &mut out);
+        self.drives_sent(start, &mut out);
+        self.out = out;
+        self.flush_dirty();
+        while !self.stop.load(Ordering::Acquire) {
+            let timeout = self
+                .deadline()
+                .map(|d| d.saturating_duration_since(Instant::now()));
+            if let Err(e) = self.poll.poll(&mut events, timeout) {
+                if e.kind() == io::ErrorKind::Interrupted {
+                    continue;
+                }
+                return Err(e);
+            }
+            let now = Instant::now();
+            // Timers first: an answer shows the drive as of now.
+            self.timers(now);
+            for event in &events {
+                match event.token() {
+                    WAKER => {}
+                    SOCKETCAND => self.accept_socketcand(),
+                    SOCKETCAN => self.read_socketcan(now),
+                    Token(t) if t >= FIRST_DYNAMIC => {
+                        let i = t - FIRST_DYNAMIC;
+                        if i < self.listeners.len() {
+                            self.accept(i);
+                        } else {
+                            let slot = i - self.listeners.len();
+                            if event.is_writable() {
+                                self.write_pending(slot);
+                            }
+                            if event.is_readable() || event.is_read_closed() || event.is_error() {
+                                self.read(slot, now);
+                            }
+                        }
+                    }
+                    Token(_) => {}
+                }
+            }
+            self.control(now);
+            self.samples(now);
+            self.flush_dirty();
+            if self.trace_dirty && events.is_empty() {
+                if let Some(w) = self.trace.as_mut() {
+                    crate::trace::flush_quietly(w);
+                }
+                self.trace_dirty = false;
+            }
+        }
+        if let Some(w) = self.trace.as_mut() {
+            crate::trace::flush_quietly(w);
+        }
+        for m in &mut self.modbus {
+            m.close_connection();
+        }
+        Ok(self.cell)
+    }
+
+    /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, or a
+    /// trace to flush.
+    fn deadline(&self) -> Option<Instant> {
+        let mut at = self.cell.deadline().map(|d| self.wall(d));
+        let mut take = |d: Option<Instant>| {
+            at = match (at, d) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            }
+        };
+        for c in self.slots.iter().flatten() {
+            if let Kind::Socketcand { session, .. } = &c.kind {
+                take(session.deadline());
+            }
+        }
+        for m in &self.modbus {
+            take(Some(self.wall(m.next_cycle())));
+        }
+        if self.trace_dirty {
+            take(Some(Instant::now() + Duration::from_millis(20)));
+        }
+        for s in &self.subscriptions {
+            take(Some(s.next));
+        }
+        at
+    }
+
+    fn timers(&mut self, now: Instant) {
+        let t = self.now(now);
+        if self.cell.deadline().is_some_and(|d| d <= t) {
+            let mut out = std::mem::take(&mut self.out);
+            self.cell.poll(t, &mut out);
+            self.drives_sent(now, &mut out);
+            self.out = out;
+        }
+        for slot in 0..self.slots.len() {
+            self.session_timers(slot, now);
+        }
+        for drive in 0..self.modbus.len() {
+            let t = self.now(now);
+            let closed = match self.modbus.get_mut(drive) {
+                Some(m) => m.cycle(t),
+                None => false,
+            };
+            if closed {
+                self.close_modbus_of(drive);
+            }
+        }
+    }
+
+    fn session_timers(&mut self, slot: usize, now: Instant) {
+        let totals = self.totals;
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+            return;
+        };
+        if session.deadline().is_none_or(|d| d > now) {
+            return;
+        }
+        let was_streaming = session.is_streaming();
+        let effects = &mut self.effects;
+        session.poll(now, totals, &mut |e| effects.push(e));
+        if session.is_streaming() && !was_streaming {
+            conn.pending.extend_from_slice(held);
+            held.clear();
+        }
+        self.carry_out(slot, now);
+        self.mark_dirty(slot);
+    }
+
+    fn accept_socketcand(&mut self) {
+        loop {
+            let Some((listener, _)) = self.socketcand.as_ref() else {
+                return;
+            };
+            match listener.accept() {
+                Ok((stream, peer)) => {
+                    let max = self.socketcand.as_ref().map_or(0, |(_, c)| c.max_clients);
+                    let clients = self
+                        .slots
+                        .iter()
+                        .flatten()
+                        .filter(|c| matches!(c.kind, Kind::Socketcand { .. }))
+                        .count();
+                    if clients >= max {
+                        tracing::warn!(%peer, max, "socketcand: too many clients, refusing");
+                        // Best effort, never blocks the loop.
+                        let _ = (&stream).write(b"< error too many clients >");
+                        continue;
+                    }
+                    let max_len = self
+                        .socketcand
+                        .as_ref()
+                        .map_or(0, |(_, c)| c.max_message_len);
+                    let kind = Kind::Socketcand {
+                        session: Session::new(),
+                        decoder: Decoder::with_max_len(max_len),
+                        held: Vec::new(),
+                    };
+                    tracing::info!(%peer, "socketcand client connected");
+                    if let Some(slot) = self.add(stream, peer, kind) {
+                        self.send_text(slot, Session::HELLO.to_string().as_bytes());
+                    }
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    // E.g. out of file descriptors: the next connection tries again.
+                    tracing::warn!(error = %e, "socketcand: accept failed");
+                    return;
+                }
+            }
+        }
+    }
+
+    fn accept(&mut self, i: usize) {
+        loop {
+            let (accepted, drive, modbus) = match self.listeners.get(i) {
+                Some(Listener::Console { listener, drive }) => (listener.accept(), *drive, false),
+                Some(Listener::Modbus { listener, drive }) => (listener.accept(), *drive, true),
+                None => return,
+            };
+            match accepted {
+                Ok((stream, peer)) => {
+                    if modbus {
+                        self.accept_modbus(stream, peer, drive);
+                    } else {
+                        tracing::info!(%peer, drive, "CI terminal connected");
+                        let kind = Kind::Console {
+                            drive,
+                            lines: LineCutter::default(),
+                        };
+                        self.add(stream, peer, kind);
+                    }
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::warn!(error = %e, "accept failed");
+                    return;
+                }
+            }
+        }
+    }
+
+    /// The CMMO-ST serves one connection at a time: a second one is closed at once without a
+    /// byte, unless the first has been closed by its client meanwhile
+    /// ([`crate::modbus_tcp::server`]).
+    fn accept_modbus(&mut self, stream: TcpStream, peer: SocketAddr, drive: usize) {
+        let active = self.slots.iter().position(|c| {
+            c.as_ref()
+                .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
+        });
+        if let Some(slot) = active {
+            let closed = self
+                .slots
+                .get(slot)
+                .and_then(Option::as_ref)
+                .is_some_and(|c| peer_has_closed(&c.stream));
+            if !closed {
+                tracing::warn!(%peer, "Modbus: one connection at a time, refusing");
+                return;
+            }
+            self.close(slot, modbus::CloseReason::Peer);
+        }
+        let t = self.now(Instant::now());
+        let Some(m) = self.modbus.get_mut(drive) else {
+            return;
+        };
+        m.open_connection(t);
+        tracing::info!(%peer, "Modbus client connected");
+        self.add(stream, peer, Kind::Modbus { drive });
+    }
+
+    fn close_modbus_of(&mut self, drive: usize) {
+        let slot = self.slots.iter().position(|c| {
+            c.as_ref()
+                .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
+        });
+        if let Some(slot) = slot {
+            // The drive has already seen the close (watchdog, stalled writes).
+            self.remove(slot);
+        }
+    }
+
+    fn add(&mut self, mut stream: TcpStream, peer: SocketAddr, kind: Kind) -> Option<usize> {
+        if let Err(e) = stream.set_nodelay(true) {
+            tracing::debug!(%peer, error = %e, "could not set TCP_NODELAY");
+        }
+        let slot = match self.slots.iter().position(Option::is_none) {
+            Some(s) => s,
+            None => {
+                self.slots.push(None);
+                self.slots.len() - 1
+            }
+        };
+        let token = Token(FIRST_DYNAMIC + self.listeners.len() + slot);
+        if let Err(e) = self
+            .poll
+            .registry()
+            .register(&mut stream, token, Interest::READABLE)
+        {
+            tracing::warn!(%peer, error = %e, "cannot watch the connection");
+            return None;
+        }
+        let conn = Connection {
+            stream,
+            peer,
+            kind,
+            pending: Vec::with_capacity(1024),
+            wants_write: false,
+            closing: false,
+        };
+        if let Some(s) = self.slots.get_mut(slot) {
+            *s = Some(conn);
+        }
+        Some(slot)
+    }
+
+    /// Closes a connection, telling the drive behind a Modbus one why.
+    fn close(&mut self, slot: usize, reason: modbus::CloseReason) {
+        if let Some(Some(Connection {
+            kind: Kind::Modbus { drive },
+            ..
+        })) = self.slots.get(slot)
+        {
+            if let Some(m) = self.modbus.get_mut(*drive) {
+                m.close_connection_because(reason);
+            }
+        }
+        self.remove(slot);
+    }
+
+    fn remove(&mut self, slot: usize) {
+        if let Some(s) = self.slots.get_mut(slot) {
+            if let Some(mut conn) = s.take() {
+                let _ = self.poll.registry().deregister(&mut conn.stream);
+                tracing::info!(peer = %conn.peer, "connection closed");
+            }
+        }
+    }
+
+    /// Reads what a connection has sent and acts on it.
+    fn read(&mut self, slot: usize, now: Instant) {
+        let mut buf = [0u8; 4096];
+        loop {
+            let Some(Some(conn)) = self.slots.get_mut(slot) else {
+                return;
+            };
+            let n = match conn.stream.read(&mut buf) {
+                Ok(0) => {
+                    self.close(slot, modbus::CloseReason::Peer);
+                    return;
+                }
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::debug!(error = %e, "read failed");
+                    self.close(slot, modbus::CloseReason::Peer);
+                    return;
+                }
+            };
+            let bytes = buf.get(..n).unwrap_or(&[]);
+            self.received(slot, bytes, now);
+            if n < buf.len() {
+                // A short read emptied the socket; the next bytes raise a new event.
+                return;
+            }
+        }
+    }
+
+    fn received(&mut self, slot: usize, bytes: &[u8], now: Instant) {
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        match &mut conn.kind {
+            Kind::Socketcand { decoder, .. } => {
+                decoder.push(bytes);
+                self.socketcand_messages(slot, now);
+            }
+            Kind::Console { drive, .. } => {
+                let drive = *drive;
+                self.console_bytes(slot, drive, bytes, now);
+            }
+            Kind::Modbus { drive } => {
+                let drive = *drive;
+                let t = od::Instant::from_nanos(
+                    u64::try_from(now.saturating_duration_since(self.origin).as_nanos())
+                        .unwrap_or(u64::MAX),
+                );
+                let result = match self.modbus.get_mut(drive) {
+                    Some(m) => m.answer(bytes, t, &mut conn.pending),
+                    None => Ok(()),
+                };
+                self.mark_dirty(slot);
+                if let Err(reason) = result {
+                    // The answers before a broken stream still go out.
+                    self.write_pending(slot);
+                    self.close(slot, reason);
+                }
+            }
+        }
+    }
+
+    /// Bytes typed at a CI terminal: each complete line is answered by its drive at once.
+    fn console_bytes(&mut self, slot: usize, drive: usize, bytes: &[u8], now: Instant) {
+        let t = self.now(now);
+        for &b in bytes {
+            let Some(Some(Connection {
+                kind: Kind::Console { lines, .. },
+                ..
+            })) = self.slots.get_mut(slot)
+            else {
+                return;
+            };
+            let reply = match lines.push(b) {
+                None => continue,
+                Some(Cut::TooLong) => syntax_error(),
+                Some(Cut::Line(line)) => {
+                    let mut out = std::mem::take(&mut self.out);
+                    let reply = self
+                        .cell
+                        .ci_line(drive, t, &line, &mut out)
+                        .unwrap_or_else(syntax_error);
+                    self.drives_sent(now, &mut out);
+                    self.out = out;
+                    reply
+                }
+            };
+            if let Some(Some(conn)) = self.slots.get_mut(slot) {
+                conn.pending.extend_from_slice(reply.as_bytes());
+                conn.pending.extend_from_slice(b"\r\n");
+            }
+        }
+        self.mark_dirty(slot);
+    }
+
+    fn socketcand_messages(&mut self, slot: usize, now: Instant) {
+        loop {
+            let Some(Some(conn)) = self.slots.get_mut(slot) else {
+                return;
+            };
+            let Kind::Socketcand {
+                session, decoder, ..
+            } = &mut conn.kind
+            else {
+                return;
+            };
+            let Some(message) = decoder.next_message() else {
+                return;
+            };
+            let Some((_, config)) = self.socketcand.as_ref() else {
+                return;
+            };
+            let effects = &mut self.effects;
+            session.on_message(config, now, message, &mut |e| effects.push(e));
+            self.carry_out(slot, now);
+        }
+    }
+
+    /// What a session asked for.
+    fn carry_out(&mut self, slot: usize, now: Instant) {
+        let mut effects = std::mem::take(&mut self.effects);
+        for effect in effects.drain(..) {
+            match effect {
+                Effect::Reply(m) => self.send_text(slot, m.to_string().as_bytes()),
+                Effect::Open => {}
+                Effect::SkipPending => {
+                    if let Some(Some(Connection {
+                        kind: Kind::Socketcand { held, .. },
+                        ..
+                    })) = self.slots.get_mut(slot)
+                    {
+                        held.clear();
+                    }
+                }
+                Effect::Send(frame) => self.bus(frame, Source::Client(slot), now),
+                Effect::Close => {
+                    if let Some(Some(conn)) = self.slots.get_mut(slot) {
+                        conn.closing = true;
+                    }
+                }
+            }
+        }
+        self.effects = effects;
+    }
+
+    /// A reply: written at once when nothing waits before it, so that each reply is a
+    /// write of its own.
+    fn send_text(&mut self, slot: usize, bytes: &[u8]) {
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        conn.pending.extend_from_slice(bytes);
+        self.write_pending(slot);
+    }
+
+    fn mark_dirty(&mut self, slot: usize) {
+        if !self.dirty.contains(&slot) {
+            self.dirty.push(slot);
+        }
+    }
+
+    fn flush_dirty(&mut self) {
+        while let Some(slot) = self.dirty.pop() {
+            self.write_pending(slot);
+        }
+    }
+
+    /// Writes what the socket takes; registers for writability while some is left; drops a
+    /// client that leaves more than [`MAX_PENDING`] unread.
+    fn write_pending(&mut self, slot: usize) {
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        let mut written = 0;
+        let mut failed = false;
+        while written < conn.pending.len() {
+            match conn
+                .stream
+                .write(conn.pending.get(written..).unwrap_or(&[]))
+            {
+                Ok(0) => {
+                    failed = true;
+                    break;
+                }
+                Ok(n) => written += n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) => {
+                    tracing::debug!(peer = %conn.peer, error = %e, "write failed");
+                    failed = true;
+                    break;
+                }
+            }
+        }
+        conn.pending.drain(..written);
+        if failed {
+            self.close(slot, modbus::CloseReason::Peer);
+            return;
+        }
+        if conn.pending.len() > MAX_PENDING {
+            tracing::warn!(peer = %conn.peer, "client does not read its data: dropped");
+            self.close(slot, modbus::CloseReason::Transport);
+            return;
+        }
+        if conn.pending.is_empty() && conn.closing {
+            let _ = conn.stream.shutdown(std::net::Shutdown::Both);
+            self.remove(slot);
+            return;
+        }
+        let want = !conn.pending.is_empty();
+        if want != conn.wants_write {
+            let interest = if want {
+                Interest::READABLE | Interest::WRITABLE
+            } else {
+                Interest::READABLE
+            };
+            let token = Token(FIRST_DYNAMIC + self.listeners.len() + slot);
+            if let Err(e) = self
+                .poll
+                .registry()
+                .reregister(&mut conn.stream, token, interest)
+            {
+                tracing::debug!(error = %e, "reregister failed");
+            }
+            conn.wants_write = want;
+        }
+    }
+
+    #[cfg(target_os = "linux")]
+    fn read_socketcan(&mut self, now: Instant) {
+        loop {
+            let Some(s) = self.socketcan.as_ref() else {
+                return;
+            };
+            match s.try_recv() {
+                Ok(Some(frame)) => self.bus(frame, Source::SocketCan, now),
+                Ok(None) => {}
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    tracing::error!(error = %e, "SocketCAN receive failed; interface closed");
+                    self.socketcan = None;
+                    return;
+                }
+            }
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn read_socketcan(&mut self, _now: Instant) {}
+
+    /// Frames the drives sent: on the bus.
+    fn drives_sent(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        for f in out.drain(..) {
+            self.bus(f, Source::Drives, now);
+        }
+    }
+
+    /// One frame on the cell's bus: to every node but its source.
+    fn bus(&mut self, frame: CanFrame, source: Source, now: Instant) {
+        let stamp = SystemTime::now().max(self.last_stamp);
+        self.last_stamp = stamp;
+        self.totals.frames += 1;
+        self.totals.bytes += frame.payload().len() as u64;
+        let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
+        if let Some(w) = self.trace.as_mut() {
+            if let Err(e) = w.write(since_epoch, &frame) {
+                tracing::error!(error = %e, "writing the trace failed; trace stopped");
+                self.trace = None;
+            }
+            self.trace_dirty = true;
+        }
+        #[cfg(target_os = "linux")]
+        if source != Source::SocketCan {
+            if let Some(s) = &self.socketcan {
+                if let Err(e) = s.try_send(&frame) {
+                    tracing::warn!(error = %e, "SocketCAN: frame not sent");
+                }
+            }
+        }
+        if Session::forwards(&frame) {
+            self.text.clear();
+            let message = Message::Frame {
+                frame,
+                timestamp: since_epoch,
+            };
+            // Writing into a Vec cannot fail.
+            let _ = write!(self.text, "{message}");
+            for (slot, c) in self.slots.iter_mut().enumerate() {
+                let Some(conn) = c else {
+                    continue;
+                };
+                if source == Source::Client(slot) {
+                    continue;
+                }
+                let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+                    continue;
+                };
+                if session.is_streaming() {
+                    conn.pending.extend_from_slice(&self.text);
+                } else if session.wants_frames() && held.len() + self.text.len() <= MAX_HELD {
+                    held.extend_from_slice(&self.text);
+                    continue;
+                } else {
+                    continue;
+                }
+                if !self.dirty.contains(&slot) {
+                    self.dirty.push(slot);
+                }
+            }
+        }
+        if source != Source::Drives {
+            let mut out = std::mem::take(&mut self.out);
+            self.cell.on_frame(self.now(now), &frame, &mut out);
+            self.drives_sent(now, &mut out);
+            self.out = out;
+        }
+    }
+}
+
+/// The control handle's side of the loop.
+impl CellLoop {
+    /// Carries out what control handles asked for.
+    fn control(&mut self, now: Instant) {
+        while let Ok(command) = self.control_rx.try_recv() {
+            // A caller that has gone does not need its answer.
+            match command {
+                Command::Drives(reply) => {
+                    let _ = reply.send(self.drive_list());
+                }
+                Command::Read {
+                    drive,
+                    index,
+                    sub,
+                    reply,
+                } => {
+                    let _ = reply.send(self.read_object(drive, index, sub));
+                }
+                Command::Write {
+                    drive,
+                    index,
+                    sub,
+                    data,
+                    reply,
+                } => {
+                    let _ = reply.send(self.write_object(drive, index, sub, &data));
+                }
+                Command::Plant { drive, reply } => {
+                    let _ = reply.send(self.sample(drive, now));
+                }
+                Command::SetInputs {
+                    drive,
+                    mask,
+                    levels,
+                    reply,
+                } => {
+                    let done = match self.cia402_mut(drive) {
+                        Ok(d) => {
+                            d.force_inputs(mask, levels);
+                            Ok(())
+                        }
+                        Err(e) => Err(e),
+                    };
+                    let _ = reply.send(done);
+                }
+                Command::SetLoad {
+                    drive,
+                    torque_nm,
+                    reply,
+                } => {
+                    let _ = reply.send(self.set_load(drive, torque_nm));
+                }
+                Command::Subscribe {
+                    drive,
+                    every,
+                    samples,
+                    reply,
+                } => {
+                    let done = self.sample(drive, now).map(|_| {
+                        self.subscriptions.push(Subscription {
+                            drive,
+                            every: every.max(Duration::from_micros(100)),
+                            next: now,
+                            samples,
+                        });
+                    });
+                    let _ = reply.send(done);
+                }
+            }
+        }
+    }
+
+    /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
+    fn samples(&mut self, now: Instant) {
+        let mut i = 0;
+        while i < self.subscriptions.len() {
+            let Some(sub) = self.subscriptions.get(i) else {
+                break;
+            };
+            if sub.next > now {
+                i += 1;
+                continue;
+            }
+            let drive = sub.drive;
+            let sample = self.sample(drive, now);
+            let Some(sub) = self.subscriptions.get_mut(i) else {
+                break;
+            };
+            sub.next = now + sub.every;
+            let gone = match sample {
+                Ok(s) => matches!(
+                    sub.samples.try_send(s),
+                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
+                ),
+                Err(_) => true,
+            };
+            if gone {
+                self.subscriptions.swap_remove(i);
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    fn drive_list(&self) -> Vec<DriveInfo> {
+        let can = self.cell.drives.iter().map(|d| {
+            let desc = d.od().description();
+            (desc, Interface::CanOpen { node: d.node_id() })
+        });
+        let modbus = self.modbus.iter().map(|m| {
+            let dev = crate::modbus_tcp::server::lock(m.device());
+            (dev.od().description(), Interface::ModbusTcp)
+        });
+        can.chain(modbus)
+            .enumerate()
+            .map(|(index, (desc, interface))| DriveInfo {
+                index,
+                device: desc.name,
+                product: desc.product_name,
+                interface,
+            })
+            .collect()
+    }
+
+    /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
+    fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
+        let can = self.cell.drives.len();
+        if let Some(d) = self.cell.drives.get_mut(drive) {
+            return Ok(Target::Can(&mut d.model));
+        }
+        match self.modbus.get(drive - can) {
+            Some(m) => Ok(Target::Modbus(m.device().clone())),
+            None => Err(ControlError::NoDrive(drive)),
+        }
+    }
+
+    fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
+        let mut buf = [0u8; 256];
+        let n = match self.target(drive)? {
+            Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, &mut buf),
+            Target::Modbus(dev) => od::ObjectAccess::read(
+                &*crate::modbus_tcp::server::lock(&dev),
+                index,
+                sub,
+                &mut buf,
+            ),
+        }
+        .map_err(ControlError::Abort)?;
+        Ok(buf.get(..n).unwrap_or(&[]).to_vec())
+    }
+
+    fn write_object(
+        &mut self,
+        drive: usize,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => od::ObjectAccess::write(model, index, sub, data),
+            Target::Modbus(dev) => od::ObjectAccess::write(
+                &mut *crate::modbus_tcp::server::lock(&dev),
+                index,
+                sub,
+                data,
+            ),
+        }
+        .map_err(ControlError::Abort)
+    }
+
+    fn cia402_mut(
+        &mut self,
+        drive: usize,
+    ) -> Result<&mut ::drive::drive::Drive<Vec<u8>>, ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
+            Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
+        }
+    }
+
+    fn set_load(&mut self, drive: usize, torque_nm: f64) -> Result<(), ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
+                d.axis_mut().motor_mut().set_load_torque(torque_nm);
+            }
+            Target::Modbus(dev) => {
+                crate::modbus_tcp::server::lock(&dev)
+                    .stepper_mut()
+                    .set_load_torque(torque_nm);
+            }
+        }
+        Ok(())
+    }
+
+    fn sample(&mut self, drive: usize, now: Instant) -> Result<PlantSample, ControlError> {
+        let at = now.saturating_duration_since(self.origin);
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let inputs = od::ObjectAccess::read_u32(&*model, 0x60FD, 0).unwrap_or(0);
+                let Model::Drive(d) = model else {
+                    return Err(ControlError::NoPlant(drive));
+                };
+                let axis = d.axis();
+                Ok(PlantSample {
+                    at,
+                    plant: Plant::Servo {
+                        position_increments: axis.position_increments(),
+                        velocity_rpm: axis.velocity_rpm(),
+                        current_ma: axis.current_ma(),
+                        digital_inputs: inputs,
+                    },
+                    display: Some(DisplayState::Cia402(d.display())),
+                })
+            }
+            Target::Modbus(dev) => {
+                let dev = crate::modbus_tcp::server::lock(&dev);
+                Ok(PlantSample {
+                    at,
+                    plant: Plant::Stepper {
+                        position_si: dev.actual_position_si(),
+                        load_torque_nm: dev.stepper().load_torque(),
+                    },
+                    display: Some(DisplayState::Fhpp(dev.seven_segment())),
+                })
+            }
+        }
+    }
+}
+
+enum Target<'a> {
+    Can(&'a mut Model),
+    Modbus(crate::modbus_tcp::fhpp::SharedDevice),
+}
+
+/// Whether the client has closed its end (end of file waiting, nothing else).
+fn peer_has_closed(stream: &TcpStream) -> bool {
+    let mut byte = [0u8; 1];
+    match stream.peek(&mut byte) {
+        Ok(n) => n == 0,
+        Err(e) => !matches!(
+            e.kind(),
+            io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+        ),
+    }
+}

@@ -1,0 +1,133 @@
+//! The cell loop over real loopback TCP: one thread owns the drives and every socket.
+
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::time::{Duration, Instant};
+
+use drivetwin::can::drive::CanDrive;
+use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::poll_loop::{CellLoop, FrontEnds, StopHandle, MAX_PENDING};
+use drivetwin::cell::Cell;
+
+fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
+    let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+    let drive = CanDrive::new(desc, 1, None, vec![]).expect("drive");
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    let mut config = ServerConfig::new("vcan0");
+    config.stream_delay = Duration::from_millis(20);
+    let front = FrontEnds {
+        socketcand: Some((listener, config)),
+        ..FrontEnds::default()
+    };
+    let cell_loop = CellLoop::new(Cell::new(vec![drive]), front).expect("loop");
+    let stop = cell_loop.stop_handle();
+    let thread = std::thread::spawn(move || {
+        cell_loop.run().expect("runs");
+    });
+    (addr, stop, thread)
+}
+
+/// A client in RAW mode, past the stream delay.
+fn raw_client(addr: SocketAddr) -> TcpStream {
+    let mut s = TcpStream::connect(addr).expect("connect");
+    s.set_nodelay(true).expect("nodelay");
+    s.set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut buf = [0u8; 256];
+    for (send, expect) in [
+        (None, "< hi >"),
+        (Some("< open vcan0 >"), "< ok >"),
+        (Some("< rawmode >"), "< ok >"),
+    ] {
+        if let Some(send) = send {
+            s.write_all(send.as_bytes()).expect("write");
+        }
+        let n = s.read(&mut buf).expect("read");
+        assert_eq!(String::from_utf8_lossy(&buf[..n]), expect);
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    s
+}
+
+/// Sends an expedited SDO upload of 1000h and reads until node 1's answer.
+fn sdo_upload_1000(s: &mut TcpStream) -> String {
+    s.write_all(b"< send 601 8 40 00 10 00 00 00 00 00 >")
+        .expect("write");
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        let n = s.read(&mut buf).expect("answer in time");
+        assert!(n > 0, "server closed");
+        got.extend_from_slice(&buf[..n]);
+        let text = String::from_utf8_lossy(&got).into_owned();
+        if let Some(at) = text.find("< frame 581 ") {
+            if let Some(end) = text[at..].find('>') {
+                return text[at..at + end + 1].to_owned();
+            }
+        }
+    }
+}
+
+#[test]
+fn sdo_round_trip_through_the_loop() {
+    let (addr, stop, thread) = start();
+    let mut c = raw_client(addr);
+    let answer = sdo_upload_1000(&mut c);
+    // CiA 301: 43h = expedited upload of 4 bytes, of 1000h sub 0.
+    assert!(
+        answer.ends_with(" 43001000") || answer.contains(" 43001000"),
+        "{answer}"
+    );
+    stop.stop();
+    thread.join().expect("loop ends");
+}
+
+#[test]
+fn a_client_that_does_not_read_is_dropped_and_never_delays_the_others() {
+    let (addr, stop, thread) = start();
+    let mut slow = raw_client(addr);
+    let mut fast = raw_client(addr);
+    // The fast client floods the bus; the slow one is sent every frame and reads none.
+    let frame = b"< send 123 8 01 02 03 04 05 06 07 08 >";
+    let flood = 4 * MAX_PENDING / 40 + 200_000;
+    let started = Instant::now();
+    let mut batch = Vec::new();
+    for _ in 0..1000 {
+        batch.extend_from_slice(frame);
+    }
+    let mut worst = Duration::ZERO;
+    let mut sent = 0;
+    while sent < flood {
+        fast.write_all(&batch).expect("flood");
+        sent += 1000;
+        if sent % 50_000 == 0 {
+            // Drain what the fast client was sent meanwhile (it reads), then one SDO.
+            fast.set_nonblocking(true).expect("nb");
+            let mut junk = [0u8; 65536];
+            while matches!(fast.read(&mut junk), Ok(n) if n > 0) {}
+            fast.set_nonblocking(false).expect("b");
+            let t = Instant::now();
+            sdo_upload_1000(&mut fast);
+            worst = worst.max(t.elapsed());
+        }
+    }
+    assert!(worst < Duration::from_secs(1), "an answer took {worst:?}");
+    // The slow client was dropped: after what the kernel held, the stream ends.
+    slow.set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut buf = vec![0u8; 1 << 20];
+    let mut ended = false;
+    while started.elapsed() < Duration::from_secs(30) {
+        match slow.read(&mut buf) {
+            Ok(0) | Err(_) => {
+                ended = true;
+                break;
+            }
+            Ok(_) => {}
+        }
+    }
+    assert!(ended, "the slow client is disconnected");
+    stop.stop();
+    thread.join().expect("loop ends");
+}

@@ -1,0 +1,144 @@
+//! Issue 12's determinism point: a cell with a CMMP-AS on CANopen and a CMMO-ST on Modbus TCP,
+//! inputs on both protocols, run twice on the virtual clock: the outputs are equal bit for bit.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use canopen::CanFrame;
+use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::runtime::{run_virtual_mixed, Input, Output};
+use drivetwin::cell::Cell;
+use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
+use drivetwin::modbus_tcp::server::ModbusConfig;
+
+fn ms(t: u64) -> Duration {
+    Duration::from_millis(t)
+}
+
+fn can(id: u16, data: &[u8]) -> Input {
+    Input::Can(CanFrame::new(id, data).expect("frame"))
+}
+
+/// Expedited SDO download to node 1 (CiA 301 §7.2.4.3.3: 23h/2Bh/2Fh for 4/2/1 bytes).
+fn sdo_write(index: u16, sub: u8, value: &[u8]) -> Input {
+    let cs = match value.len() {
+        1 => 0x2F,
+        2 => 0x2B,
+        _ => 0x23,
+    };
+    let [lo, hi] = index.to_le_bytes();
+    let mut data = [cs, lo, hi, sub, 0, 0, 0, 0];
+    data[4..4 + value.len().min(4)].copy_from_slice(&value[..value.len().min(4)]);
+    can(0x601, &data)
+}
+
+fn sdo_read(index: u16, sub: u8) -> Input {
+    let [lo, hi] = index.to_le_bytes();
+    can(0x601, &[0x40, lo, hi, sub, 0, 0, 0, 0])
+}
+
+/// FHPP FC 17h: write the 8 output bytes (CCON, CPOS, …), read the 8 input bytes.
+fn fhpp_cycle(tid: u16, ccon: u8, cpos: u8) -> Input {
+    let [t0, t1] = tid.to_be_bytes();
+    Input::Modbus {
+        drive: 0,
+        bytes: vec![
+            t0, t1, 0, 0, 0, 19, 1, 0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8, ccon, cpos, 0, 0, 0, 0, 0, 0,
+        ],
+    }
+}
+
+/// The script: NMT start, CiA 402 enable and a profile-position move on CAN; FHPP enable and
+/// cyclic telegrams on Modbus; position read back on both.
+fn inputs() -> Vec<(Duration, Input)> {
+    let mut v = vec![
+        (ms(5), can(0x000, &[0x01, 0x01])),
+        (ms(10), sdo_write(0x6060, 0, &[1])),
+        (ms(20), sdo_write(0x6040, 0, &[0x06, 0])),
+        (ms(30), sdo_write(0x6040, 0, &[0x07, 0])),
+        (ms(40), sdo_write(0x6040, 0, &[0x0F, 0])),
+        (ms(50), sdo_write(0x607A, 0, &10_000i32.to_le_bytes())),
+        (ms(60), sdo_write(0x6040, 0, &[0x1F, 0])),
+        (ms(70), sdo_write(0x6040, 0, &[0x0F, 0])),
+    ];
+    for i in 0..40u16 {
+        let t = 100 + u64::from(i) * 25;
+        v.push((ms(t), sdo_read(0x6064, 0)));
+        // ENABLE + STOP, HALT released (CMMO-ST §5: CCON 03h, CPOS 01h).
+        v.push((ms(t + 3), fhpp_cycle(i, 0x03, 0x01)));
+    }
+    v.sort_by_key(|(t, _)| *t);
+    v
+}
+
+fn cmmo_st() -> ModbusDrive {
+    let desc = devices::by_name("cmmo-st").expect("cmmo-st");
+    let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).expect("od");
+    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    ModbusDrive::without_listener(Arc::new(Mutex::new(dev)), ModbusConfig::default(), None)
+}
+
+/// One run: every output as (time, tag, bytes).
+fn run() -> Vec<(Duration, u8, Vec<u8>)> {
+    let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+    let drive =
+        CanDrive::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
+    let mut cell = Cell::new(vec![drive]);
+    let mut modbus = vec![cmmo_st()];
+    let mut outputs = Vec::new();
+    run_virtual_mixed(
+        &mut cell,
+        &mut modbus,
+        &inputs(),
+        Duration::from_millis(1200),
+        &mut |t, o| match o {
+            Output::Can(f) => {
+                let mut b = u16::try_from(f.id)
+                    .expect("standard id")
+                    .to_le_bytes()
+                    .to_vec();
+                b.extend_from_slice(f.payload());
+                outputs.push((t, 0, b));
+            }
+            Output::Modbus { drive, bytes } => {
+                outputs.push((t, 1 + drive as u8, bytes.to_vec()));
+            }
+        },
+    );
+    outputs
+}
+
+/// Position actual values (6064h) from the SDO upload answers of node 1.
+fn can_positions(outputs: &[(Duration, u8, Vec<u8>)]) -> Vec<i32> {
+    outputs
+        .iter()
+        .filter(|(_, tag, b)| *tag == 0 && b.len() == 10 && b[..2] == 0x581u16.to_le_bytes())
+        .filter(|(_, _, b)| b[2] == 0x43 && b[3..5] == [0x64, 0x60])
+        .map(|(_, _, b)| i32::from_le_bytes([b[6], b[7], b[8], b[9]]))
+        .collect()
+}
+
+#[test]
+fn can_and_modbus_inputs_give_the_same_outputs_bit_for_bit() {
+    let first = run();
+    let second = run();
+    assert_eq!(first, second);
+    // Not a quiet cell: the CMMP-AS moved and the CMMO-ST answered every telegram.
+    let positions = can_positions(&first);
+    assert_eq!(positions.len(), 40, "every 6064h upload answered");
+    assert!(
+        positions.first() != positions.last(),
+        "the CMMP-AS moves: {positions:?}"
+    );
+    let answers: Vec<_> = first.iter().filter(|(_, tag, _)| *tag == 1).collect();
+    assert_eq!(answers.len(), 40);
+    // FC 17h answer: MBAP (7) + FC + byte count + 8 input bytes; SCON is the first of them.
+    assert!(answers
+        .iter()
+        .all(|(_, _, b)| b.len() == 17 && b[7] == 0x17));
+    let scons: Vec<u8> = answers.iter().map(|(_, _, b)| b[9]).collect();
+    assert!(
+        scons.iter().any(|s| s & 0x01 != 0),
+        "the CMMO-ST is enabled (SCON.ENABLED): {scons:02X?}"
+    );
+}
