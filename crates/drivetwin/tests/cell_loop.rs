@@ -131,3 +131,40 @@ fn a_client_that_does_not_read_is_dropped_and_never_delays_the_others() {
     stop.stop();
     thread.join().expect("loop ends");
 }
+
+/// A client that sends a few bytes and closes at once: the close arrives with the data in one
+/// readiness event (the loop's poll is edge-triggered), and the loop still reads to the end of
+/// file and closes its side. (Found by the soak run: every such client left a descriptor open.)
+#[test]
+fn a_client_that_sends_and_closes_at_once_is_closed() {
+    let (addr, stop, thread) = start();
+    for garbage in [
+        &b"B"[..],
+        b"\x01\x02\x03",
+        b"< open vcan0 ><",
+        b"nonsense without brackets",
+    ] {
+        let mut s = TcpStream::connect(addr).expect("connect");
+        s.set_read_timeout(Some(Duration::from_secs(3)))
+            .expect("timeout");
+        let mut buf = [0u8; 64];
+        let n = s.read(&mut buf).expect("greeting");
+        assert_eq!(&buf[..n], b"< hi >");
+        s.write_all(garbage).expect("write");
+        s.shutdown(std::net::Shutdown::Write).expect("half close");
+        // Whatever the server answers, it then closes: read reaches end of file.
+        let started = Instant::now();
+        loop {
+            match s.read(&mut buf) {
+                Ok(0) => break,
+                Ok(_) => {}
+                Err(e) => panic!(
+                    "{garbage:?}: no end of file after {:?}: {e}",
+                    started.elapsed()
+                ),
+            }
+        }
+    }
+    stop.stop();
+    thread.join().expect("loop thread");
+}

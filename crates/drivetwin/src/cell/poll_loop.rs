@@ -294,7 +294,8 @@ impl CellLoop {
                                 self.write_pending(slot);
                             }
                             if event.is_readable() || event.is_read_closed() || event.is_error() {
-                                self.read(slot, now);
+                                let closed = event.is_read_closed() || event.is_error();
+                                self.read(slot, now, closed);
                             }
                         }
                     }
@@ -564,8 +565,10 @@ impl CellLoop {
         }
     }
 
-    /// Reads what a connection has sent and acts on it.
-    fn read(&mut self, slot: usize, now: Instant) {
+    /// Reads what a connection has sent and acts on it. `closed`: the event said the peer
+    /// has closed its end, so the socket is read to its end of file whatever the length of
+    /// the read before (an edge-triggered poll reports the close only once).
+    fn read(&mut self, slot: usize, now: Instant, closed: bool) {
         let mut buf = [0u8; 4096];
         loop {
             let Some(Some(conn)) = self.slots.get_mut(slot) else {
@@ -587,7 +590,7 @@ impl CellLoop {
             };
             let bytes = buf.get(..n).unwrap_or(&[]);
             self.received(slot, bytes, now);
-            if n < buf.len() {
+            if n < buf.len() && !closed {
                 // A short read emptied the socket; the next bytes raise a new event.
                 return;
             }
