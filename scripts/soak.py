@@ -6,7 +6,7 @@ are sampled (issue 15, point 3).
 The cell: a CMMP-AS (node 1) and a Nanotec SMCI47-S (node 34) on one socketcand bus, and a
 CMMO-ST on Modbus TCP. The clients, all at once:
   - python-canopen SDO loops on both CAN drives (reads, and writes that are refused),
-  - python-can connections opened and closed every 0.3 s,
+  - python-can connections that come, see a heartbeat and go, every 0.3 s,
   - a socketcand client that never reads (the twin must drop it, not wait for it),
   - raw connections that send garbage to both servers, and NMT resets of both nodes,
   - a pymodbus FHPP client that exchanges FC 0x17 and reconnects every few seconds.
@@ -94,15 +94,15 @@ def sdo_loop(port, eds, node_id, stop, c: Counters, rng):
 def churn_loop(port, stop, c: Counters):
     import can
 
+    # A client comes, sees node 1's heartbeat (100 ms) and goes. It sends no SDO: the SDO
+    # loops own the SDO channels (CiA 301: one client per channel).
     while not stop.is_set():
         bus = can.Bus(interface="socketcand", host=HOST, port=port, channel="vcan0")
-        bus.send(can.Message(arbitration_id=0x601, data=bytes.fromhex("4018100100000000"),
-                             is_extended_id=False))
         deadline = time.monotonic() + 1.0
         while time.monotonic() < deadline:
             m = bus.recv(0.2)
-            if m is not None and m.arbitration_id == 0x581:
-                c.add("churn answered")
+            if m is not None and m.arbitration_id == 0x701:
+                c.add("churn saw a heartbeat")
                 break
         bus.shutdown()
         c.add("churn connections")
