@@ -2,8 +2,8 @@
 //! A bad file is an error, never a panic.
 #![no_main]
 
-use drivetwin::cell_config::CellFile;
-use drivetwin::ethercat_cell::EthercatCell;
+use drivetwin::cell::config::CellFile;
+use drivetwin::ecat::chain::EthercatCell;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -3,8 +3,8 @@
 //! them: no panic, a processed frame keeps its length, and the chain's deadline moves on.
 #![no_main]
 
-use drivetwin::cell_config::CellFile;
-use drivetwin::ethercat_cell::EthercatCell;
+use drivetwin::cell::config::CellFile;
+use drivetwin::ecat::chain::EthercatCell;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
 use od::Instant;

@@ -3,7 +3,7 @@
 //! message of the same text.
 #![no_main]
 
-use drivetwin::socketcand::codec::Decoder;
+use drivetwin::can::socketcand::codec::Decoder;
 use libfuzzer_sys::fuzz_target;
 
 const MAX_LEN: usize = 256;

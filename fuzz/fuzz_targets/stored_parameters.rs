@@ -5,7 +5,7 @@
 #![no_main]
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
-use drivetwin::param_store::{apply, StoredValue};
+use drivetwin::cell::param_store::{apply, StoredValue};
 use libfuzzer_sys::fuzz_target;
 use od::ObjectDictionary;
 
