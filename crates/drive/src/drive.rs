@@ -1715,9 +1715,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.plant_position();
-        let inputs = self
-            .switch_config()
-            .digital_inputs(self.input_levels(position));
+        let inputs = match self.personality.vendor {
+            Vendor::CmmpAs => self
+                .switch_config()
+                .digital_inputs(self.input_levels(position)),
+            Vendor::Nanotec => self.nanotec_digital_inputs(position),
+        };
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
@@ -1731,7 +1734,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
-        self.store(self.hot.position_internal, actual);
+        let internal = match self.personality.vendor {
+            Vendor::CmmpAs => actual,
+            Vendor::Nanotec => self.nanotec_encoder_position(actual),
+        };
+        self.store(self.hot.position_internal, internal);
         let fg = self.fg;
         self.store(
             self.hot.position_actual,

@@ -98,3 +98,19 @@ fn bit_4_low_aborts() {
     r.run_ms(100);
     assert_eq!(r.i(0x6062, 0), p, "stopped");
 }
+
+/// §5.8: the reference switch is input 6, in 60FDh bit 2 and bit 21.
+#[test]
+fn reference_switch_is_input_6_in_60fd() {
+    let mut r = Rig::new();
+    assert_eq!(r.i(0x60FD, 0), 0, "off the cam");
+    r.enable_pp();
+    r.w32(0x607A, 0, 2000); // 65 536 increments: on the cam (40 000 … 90 000)
+    r.cw(0x001F);
+    r.cw(0x000F);
+    assert!(r.until_target_reached(5000));
+    assert_eq!(r.i(0x60FD, 0), (1 << 21) | (1 << 2));
+    r.d.force_inputs(1 << 1, 1 << 1); // input 1 high
+    r.run_ms(2);
+    assert_eq!(r.i(0x60FD, 0), (1 << 16) | (1 << 21) | (1 << 2));
+}

@@ -272,6 +272,32 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(())
     }
 
+    /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
+    /// bit 2. Input 6 follows the simulated home switch; [`Drive::force_inputs`] bit n drives
+    /// input n.
+    pub(crate) fn nanotec_digital_inputs(&self, position: i64) -> u32 {
+        const INPUT_6: u16 = 1 << 6;
+        let home = self.settings.travel.inputs(position).home;
+        let wired = if home { INPUT_6 } else { 0 };
+        let levels = (wired & !self.forced_mask) | (self.forced_levels & self.forced_mask);
+        let mut v = (1..=6u32)
+            .filter(|n| levels & (1 << n) != 0)
+            .fold(0u32, |acc, n| acc | 1 << (15 + n));
+        if levels & INPUT_6 != 0 {
+            v |= 1 << 2;
+        }
+        v
+    }
+
+    /// 6063h in encoder increments (§3.4 "raw encoder position"; 608Fh, default 2000 per
+    /// revolution) from the internal 65536 per revolution.
+    pub(crate) fn nanotec_encoder_position(&self, internal: i64) -> i64 {
+        let increments = self.value(0x608F, 1).max(1) as i128;
+        let revolutions = self.value(0x608F, 2).max(1) as i128;
+        let v = i128::from(internal) * increments / (revolutions * 65536);
+        v.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i64
+    }
+
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
     /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, §5.4).
     pub(crate) fn nanotec_state_bits(&self, state: State, power: bool) -> Statusword {
