@@ -96,6 +96,9 @@ pub enum DriveEvent {
     Cleared { code: u16 },
 }
 
+/// min⁻¹ per increment/s (for the personality modules).
+pub(crate) const RPM_PER_INCREMENT_S: f64 = RPM_PER_INC_S;
+
 /// A deceleration that stops within one cycle, increments/s² ("abruptly").
 const ABRUPT_STOP: f64 = 1e15;
 
@@ -917,7 +920,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
     }
 
-    fn position_demand(&mut self, velocity_ff: f64) {
+    pub(crate) fn position_demand(&mut self, velocity_ff: f64) {
         let previous = self.demand_position;
         self.demand_position = self.smoother.push(self.traj.position);
         // With smoothing the feed-forward is the smoothed set-point's own speed.
@@ -1020,6 +1023,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
             mode::VELOCITY => self.velocity_mode(dt),
+            mode::PROFILE_TORQUE if self.personality.vendor == Vendor::Nanotec => {
+                self.nanotec_torque(dt)
+            }
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),

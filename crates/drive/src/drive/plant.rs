@@ -12,8 +12,9 @@
 //!   done, and 200Ah shows 1.
 //! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper
 //!   plant it is not stepped.
-//! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed;
-//!   a torque demand holds the set-point (torque mode on the stepper plant is not modelled).
+//! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed.
+//!   A torque demand is the closed loop's torque set-point (`k × current`); in open loop the
+//!   stepper holds.
 
 use super::*;
 use crate::stepper::{Stepper, StepperDemand, StepperMode};
@@ -73,7 +74,9 @@ impl StepperPlant {
         self.following_velocity = velocity;
         let d = match demand {
             Demand::Off => StepperDemand::Off,
-            Demand::Torque { .. } => StepperDemand::Hold,
+            Demand::Torque { current_a } => StepperDemand::Torque {
+                newton_metres: self.motor.data().torque_constant() * f64::from(current_a),
+            },
             Demand::Velocity { rpm } => {
                 self.set_point += f64::from(rpm) / 60.0 * INC_PER_REV * dt;
                 position(self, self.set_point, rpm)

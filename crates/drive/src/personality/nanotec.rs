@@ -8,16 +8,19 @@
 use od::{AbortCode, ObjectAccess};
 
 use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
-use crate::drive::Drive;
+use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::factor_group::{
     acceleration_factor, position_factor, velocity_factor, FactorGroup, Ratio,
     TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_SECOND,
 };
 use crate::homing::{Method, Speed, Step, Until};
+use crate::personality::nanotec_units::torque_current_ma;
 use crate::statusword::Statusword;
+use crate::trajectory::Trajectory;
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
 pub mod emcy {
@@ -245,11 +248,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         })
     }
 
-    /// 6060h: PV (3) is refused (see [`NANOTEC`]).
+    /// 6060h: PV (3) is refused (see [`NANOTEC`]); torque mode (4) needs the closed loop
+    /// (§5.5: "closed loop must be active", 200Ah = 1).
+    ///
+    /// Decision: the manual does not say what happens without it; the write is refused with
+    /// 0800 0022h (present device state), so a master learns it at once.
     fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.entry(index, sub)?;
         match data {
             [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
+            [4] if self.value(0x200A, 0) == 0 => Err(AbortCode::DEVICE_STATE),
             _ => self.write_mode(index, sub, data),
         }
     }
@@ -270,6 +278,43 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let increments = self.fg.position_to_internal(user) as f64;
         self.ip.set_point(increments);
         Ok(())
+    }
+
+    /// Torque mode (§5.5): the current `6071h / 1000 × 2004h:01 % × rated current` as the
+    /// closed loop's torque, the speed limited to 607Fh min⁻¹ in both directions; halt holds
+    /// the motor (its falling edge starts again). Bit 10: without halt the set torque is
+    /// reached (not cut by the speed limit), with halt the motor stands.
+    ///
+    /// Decisions: "rated current" is the motor's (the twin's current limits come from it);
+    /// the speed limit takes the torque back linearly over the last 5 % below 607Fh.
+    pub(crate) fn nanotec_torque(&mut self, dt: f64) {
+        let rpm = f64::from(self.plant_velocity_rpm());
+        if self.halted {
+            let decel = self.accel(0x6085);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            self.target_reached = rpm.abs() < 1.0;
+            return;
+        }
+        let rated_ma = self
+            .stepper()
+            .map_or(0, |s| (s.data().rated_current * 1000.0) as u32);
+        let percent = self.value(0x2004, 1).clamp(0, 100) as u8;
+        let target = self.value(0x6071, 0).clamp(-1000, 1000) as i16;
+        let current_a = torque_current_ma(target, percent, rated_ma) / 1000.0;
+        let limit = self.value(0x607F, 0).max(0) as f64;
+        let along = rpm * current_a.signum();
+        let band = 0.05 * limit + 1.0;
+        let factor = ((limit - along) / band).clamp(0.0, 1.0);
+        self.demand = Demand::Torque {
+            current_a: (current_a * factor) as f32,
+        };
+        self.target_reached = factor >= 1.0;
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: rpm / RPM_PER_INCREMENT_S,
+        };
+        self.demand_position = self.traj.position;
     }
 
     /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
