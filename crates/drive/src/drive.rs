@@ -238,6 +238,8 @@ pub struct Drive<S> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
+    /// The brake opens then (a personality that releases it after the output stage).
+    pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
     /// Errors reported and not yet acknowledged.
     pub(crate) faults: heapless::Vec<u16, 8>,
@@ -393,6 +395,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             last_cw: Controlword::EMPTY,
             brake_engaged: true,
             power_off_at: None,
+            brake_release_at: None,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),
@@ -830,19 +833,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match r {
             Reaction::None => {}
             Reaction::Enable => {
-                // Brake released with the output stage; the set-point follows after the
-                // brake delay (CMMP-AS §5.16).
+                // Brake released with the output stage (CMMP-AS) or after the personality's
+                // delay; the set-point follows after the brake delay (CMMP-AS §5.16).
                 self.power_off_at = None;
-                self.brake_engaged = false;
-                self.axis.hold_brake(false);
-                let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                self.release_at = Some(self.now + delay);
+                let delays = self.brake_delays();
+                if delays.release.is_zero() {
+                    self.brake_engaged = false;
+                    self.axis.hold_brake(false);
+                } else {
+                    self.brake_release_at = Some(self.now + delays.release);
+                }
+                self.release_at = Some(self.now + delays.motion);
                 self.resync_trajectory();
                 self.stopping = false;
                 self.limit_stop = false;
             }
             Reaction::Coast => {
                 // Brake first, output stage off after the brake delay.
+                self.brake_release_at = None;
                 self.setpoints.abort();
                 self.stopping = false;
                 if self.settings.brake_fitted
@@ -851,8 +859,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 {
                     self.brake_engaged = true;
                     self.axis.hold_brake(true);
-                    let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                    self.power_off_at = Some(self.now + delay);
+                    self.power_off_at = Some(self.now + self.brake_delays().engage);
                 } else {
                     self.power_off();
                 }
@@ -862,6 +869,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.stopping = true;
             }
         }
+    }
+
+    /// The personality's brake timing: CMMP-AS §5.16 one delay 6510h:18 (brake open at once,
+    /// the set-point after it; output stage off after it); Nanotec §5.8 2007h:01 power on →
+    /// brake off, :02 brake off → operational, :03 brake on → power off.
+    fn brake_delays(&self) -> BrakeDelays {
+        let ms = |i: u16, s: u8| Duration::from_millis(self.value(i, s).max(0) as u64);
+        match self.personality.vendor {
+            Vendor::CmmpAs => BrakeDelays {
+                release: Duration::ZERO,
+                motion: ms(0x6510, 0x18),
+                engage: ms(0x6510, 0x18),
+            },
+            Vendor::Nanotec => BrakeDelays {
+                release: ms(0x2007, 1),
+                motion: ms(0x2007, 1) + ms(0x2007, 2),
+                engage: ms(0x2007, 3),
+            },
+        }
+    }
+
+    /// A brake delay is running (Nanotec §5.8: mode changes wait for it).
+    pub(crate) fn brake_wait(&self) -> bool {
+        self.power_off_at.is_some() || self.release_at.is_some_and(|t| self.now < t)
     }
 
     pub(crate) fn power_off(&mut self) {
@@ -876,6 +907,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn brake_timers(&mut self) {
         if self.power_off_at.is_some_and(|t| self.now >= t) {
             self.power_off();
+        }
+        if self.brake_release_at.is_some_and(|t| self.now >= t) {
+            self.brake_release_at = None;
+            self.brake_engaged = false;
         }
         // CMMP-AS §5.13/5.16: with 60FEh:02 bit 0 set the host works the brake through
         // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
@@ -894,7 +929,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // state of the brake", L4203–4215).
             let data = self.value(0x60FE, 1);
             let shown = (data & !1) | i64::from(engaged);
-            if !manual && shown != data {
+            if !manual && shown != data && self.personality.vendor == Vendor::CmmpAs {
                 self.store(self.param(0x60FE, 1), shown);
             }
         }
@@ -1872,6 +1907,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write_internal(index, sub, data)
     }
+}
+
+/// The brake's delays after the output stage goes on and before it goes off.
+#[derive(Debug, Clone, Copy)]
+struct BrakeDelays {
+    /// Output stage on → brake open.
+    release: Duration,
+    /// Output stage on → the set-point released (operational).
+    motion: Duration,
+    /// Brake closed → output stage off.
+    engage: Duration,
 }
 
 /// Where a homing run stands.
