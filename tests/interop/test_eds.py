@@ -34,6 +34,29 @@ def test_eds_testbench_imports_into_python_canopen(eds_files):
     assert len(od[0x1016]) >= 4
 
 
+@pytest.mark.parametrize("device", ["nanotec-smci47s", "nanotec-pd4n"])
+def test_eds_nanotec_imports_into_python_canopen(device, eds_files):
+    """The Nanotec files as the manual lists them (seeds/003_ef071fe40f10c01c.txt)."""
+    od = canopen.import_od(str(eds_files[device]), node_id=34)
+    assert od[0x1000].default == 0x00000008, "1000h: stepper motor (§9.6)"
+    assert od[0x1800][1].default == 0x180 + 34, "TPDO1 follows $NODEID"
+    assert od[0x1800][3].default == 1000, "100 ms inhibit time (§9.18)"
+    assert od[0x1A00][1].default == 0x60410010, "statusword in TPDO1"
+    assert od[0x1600][1].default == 0x60400010, "controlword in RPDO1"
+    assert od[0x6502].default == 0x6B, "PP, VL, TQ, HM, IP (§9.43)"
+    assert od[0x6098].data_type == datatypes.INTEGER8
+    # Nanotec's string layout (§11.20): sub 0 the length, one character per sub-index.
+    text = "".join(chr(od[0x100A][i].default) for i in range(1, od[0x100A][0].default + 1))
+    assert text == "24-10-2011"
+    # Dummies 0002h-0007h from [DummyUsage]; 0001h is not mappable, so not announced.
+    assert all(i in od for i in range(0x0002, 0x0008)) and 0x0001 not in od
+    assert 0x1008 not in od, "the manual lists no 1008h"
+    has_brake = 0x2007 in od
+    assert has_brake == (device == "nanotec-smci47s")
+    assert (0x6401 in od) == has_brake, "analog input on the SMCI47-S only"
+    assert (0x200E in od) != has_brake, "DSPdrive current controller on the PD4-N only"
+
+
 def test_eds_output_option_writes_same_text(tmp_path, eds_files):
     out = tmp_path / "cmmp.eds"
     r = run_cli("eds", "--device", "cmmp-as", "-o", str(out))
@@ -46,6 +69,8 @@ def test_eds_output_option_writes_same_text(tmp_path, eds_files):
     [
         "cmmp-as",
         "testbench",
+        "nanotec-smci47s",
+        "nanotec-pd4n",
     ],
 )
 def test_eds_passes_dcfchk(device, eds_files):

@@ -84,6 +84,29 @@ pub struct Node<const N: usize = 8192> {
 struct SdoView<'a> {
     od: &'a mut dyn ObjectAccess,
     lock_pdo_params: bool,
+    life_time_max_ms: Option<u32>,
+}
+
+impl SdoView<'_> {
+    /// Nanotec §11.23: guard time × life time factor may not exceed one minute; a write that
+    /// would make it longer is refused with 0604 0043h (general parameter incompatibility).
+    fn check_life_time(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
+        let Some(max) = self.life_time_max_ms else {
+            return Ok(());
+        };
+        let guard = u32::from(self.od.read_u16(0x100C, 0).unwrap_or(0));
+        let factor = u32::from(self.od.read_u8(0x100D, 0).unwrap_or(0));
+        let product = match (index, data) {
+            (0x100C, [lo, hi]) => u32::from(u16::from_le_bytes([*lo, *hi])) * factor,
+            (0x100D, [f]) => guard * u32::from(*f),
+            _ => return Ok(()),
+        };
+        if product > max {
+            self.od.entry(index, 0)?;
+            return Err(AbortCode::PARAMETER_INCOMPATIBLE);
+        }
+        Ok(())
+    }
 }
 
 impl ObjectAccess for SdoView<'_> {
@@ -99,6 +122,7 @@ impl ObjectAccess for SdoView<'_> {
             self.od.entry(index, sub)?;
             return Err(AbortCode::DEVICE_STATE);
         }
+        self.check_life_time(index, data)?;
         self.od.write(index, sub, data)
     }
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -253,6 +277,7 @@ impl<const N: usize> Node<N> {
                 let mut view = SdoView {
                     od,
                     lock_pdo_params: lock,
+                    life_time_max_ms: self.opts.life_time_max_ms,
                 };
                 self.sdo
                     .on_request(now, frame.payload(), &mut view, &mut |r| {
@@ -340,6 +365,7 @@ impl<const N: usize> Node<N> {
         SdoView {
             od: &mut *od,
             lock_pdo_params: lock,
+            life_time_max_ms: self.opts.life_time_max_ms,
         }
         .write(index, sub, data)?;
         self.object_written(now, index, od);
@@ -409,6 +435,8 @@ impl<const N: usize> Node<N> {
         if od.read_u16(0x1017, 0).unwrap_or(0) != 0 {
             return;
         }
+        // Decision (Nanotec §2.3, L467–488, prints no toggle bit): CiA 301's toggle in bit 7
+        // for every personality; it starts at 0, so the first answer is the manual's 7Fh.
         let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
         self.guarding.toggle = !self.guarding.toggle;
         out(self.error_control_frame(byte));
@@ -462,8 +490,11 @@ impl<const N: usize> Node<N> {
                     self.push(NodeEvent::State(s));
                 }
                 // Nanotec §12.2 (seeds/003_ef071fe40f10c01c.txt L4153, L4237) prints the node's
-                // answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`: the
-                // state byte, as a heartbeat carries it (no guarding toggle).
+                // answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`.
+                // Decision: CiA 301 has no NMT answer, but the manual labels both lines
+                // "Antwort Node 1", with heartbeat off by default: the personality sends the
+                // state byte as a heartbeat carries it (no guarding toggle). CiA masters take
+                // it as an extra heartbeat.
                 if self.opts.nmt_command_answered_with_state {
                     out(self.error_control_frame(s.code()));
                 }

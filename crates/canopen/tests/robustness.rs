@@ -1,6 +1,6 @@
 //! Whatever arrives on the bus, the node goes on: any sequence of frames (NMT, SYNC, TIME,
 //! PDOs, SDO, LSS, guarding, or any identifier) with any payload, at any pace, leaves the
-//! CANopen stack of a CMMP-AS answering without a panic; the SDO server's frames always
+//! CANopen stack of a CMMP-AS (and of a Nanotec SMCI47-S) answering without a panic; the SDO server's frames always
 //! carry 8 bytes and a server command specifier CiA 301 defines; and after an NMT reset the
 //! node boots and answers an SDO upload of 1018h:01 again, whatever state the sequence left.
 
@@ -83,34 +83,48 @@ fn advance(b: &mut Bench, ms: u64) -> Result<Vec<CanFrame>, TestCaseError> {
     Ok(out)
 }
 
+/// The property for one personality: any events, then a reset, then 1018h:01 answers.
+fn any_frames(desc: &'static od::DeviceDescription, events: &[Event]) -> Result<(), TestCaseError> {
+    let mut b = Bench::new(desc, NODE as u8);
+    for e in events {
+        let sent = match e {
+            Event::Frame(id, data) => b.send(*id, data),
+            Event::Pause(ms) => advance(&mut b, *ms)?,
+        };
+        check_sent(&sent, b.node.node_id())?;
+        boot_after_reset(&mut b);
+    }
+    // Back to a known state: LSS waiting, then NMT reset node for all nodes.
+    b.send(0x7E5, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+    b.send(0x000, &[0x81, 0x00]);
+    boot_after_reset(&mut b);
+    advance(&mut b, 10)?;
+    let id = b.node.node_id();
+    if (1..=127).contains(&id) {
+        let r = b.send(0x600 + u16::from(id), &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
+        let answer = r.iter().find(|f| f.id == 0x580 + u32::from(id));
+        prop_assert!(answer.is_some(), "no SDO answer after the reset: {:?}", r);
+        if let Some(a) = answer {
+            let [v0, v1, v2, v3] = desc.vendor_id.to_le_bytes();
+            prop_assert_eq!(a.data, [0x43, 0x18, 0x10, 0x01, v0, v1, v2, v3]);
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
 
     #[test]
     fn any_frames_leave_the_node_answering(events in prop::collection::vec(event(), 1..80)) {
-        let mut b = Bench::new(&devices::CMMP_AS, NODE as u8);
-        for e in &events {
-            let sent = match e {
-                Event::Frame(id, data) => b.send(*id, data),
-                Event::Pause(ms) => advance(&mut b, *ms)?,
-            };
-            check_sent(&sent, b.node.node_id())?;
-            boot_after_reset(&mut b);
-        }
-        // Back to a known state: LSS waiting, then NMT reset node for all nodes.
-        b.send(0x7E5, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]);
-        b.send(0x000, &[0x81, 0x00]);
-        boot_after_reset(&mut b);
-        advance(&mut b, 10)?;
-        let id = b.node.node_id();
-        if (1..=127).contains(&id) {
-            let r = b.send(0x600 + u16::from(id), &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
-            let answer = r.iter().find(|f| f.id == 0x580 + u32::from(id));
-            prop_assert!(answer.is_some(), "no SDO answer after the reset: {:?}", r);
-            if let Some(a) = answer {
-                prop_assert_eq!(a.data, [0x43, 0x18, 0x10, 0x01, 0x1D, 0, 0, 0]);
-            }
-        }
+        any_frames(&devices::CMMP_AS, &events)?;
+    }
+
+    /// The same for the Nanotec SMCI47-S, whose node answers NMT commands with its state,
+    /// fills in PDO mapping lengths and maps dummy objects.
+    #[test]
+    fn any_frames_leave_the_nanotec_node_answering(events in prop::collection::vec(event(), 1..80)) {
+        any_frames(&devices::NANOTEC_SMCI47S, &events)?;
     }
 }
 

@@ -32,10 +32,11 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    profile: od::Profile::{:?},", d.profile);
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
+    let _ = writeln!(s, "    rotary_switches: {},", d.rotary_switches);
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {} }},",
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?}, pdo_valid_without_mapping: {} }},",
         c.pdo_params_locked_while_valid,
         c.pdo_config_outside_operational,
         c.tpdo_transmit_mask_index,
@@ -44,7 +45,9 @@ pub fn generate(d: &Device) -> String {
         c.pdo_map_length_filled,
         c.nmt_command_answered_with_state,
         c.life_guard_emcy_code,
-        c.restore_writes_stored_set
+        c.restore_writes_stored_set,
+        c.life_time_max_ms,
+        c.pdo_valid_without_mapping
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {
@@ -52,6 +55,7 @@ pub fn generate(d: &Device) -> String {
         let _ = writeln!(s, "            index: 0x{:04X},", o.index);
         let _ = writeln!(s, "            name: {:?},", o.name);
         let _ = writeln!(s, "            kind: od::ObjectKind::{},", kind(o.kind));
+        let _ = writeln!(s, "            min_max: {:?},", o.min_max);
         let _ = writeln!(s, "            entries: &[");
         for e in &o.entries {
             entry(&mut s, e, offset);
@@ -101,10 +105,11 @@ fn entry(s: &mut String, e: &Ent, offset: u32) {
     );
     let _ = writeln!(
         s,
-        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, offset: {offset}, capacity: {},",
+        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, allowed_bits: {:?}, offset: {offset}, capacity: {},",
         behaviour(e.behaviour),
         e.storable,
         e.kept_on_restore,
+        e.allowed_bits,
         e.capacity
     );
     let _ = writeln!(s, "                }},");

@@ -50,6 +50,12 @@ pub struct DeviceSection {
     pub life_guard_emcy_code: Option<u16>,
     #[serde(default)]
     pub restore_writes_stored_set: bool,
+    pub life_time_max_ms: Option<u32>,
+    #[serde(default)]
+    pub pdo_valid_without_mapping: bool,
+    /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
+    #[serde(default)]
+    pub rotary_switches: u8,
 }
 
 fn yes() -> bool {
@@ -85,6 +91,7 @@ pub struct EntryFields {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
 }
 
@@ -106,7 +113,11 @@ pub struct ObjectSection {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
+    /// Two sub-indices whose values must stay ordered (min ≤ max); a write that would break
+    /// the order is refused with 0609 0036h.
+    pub min_max_subs: Option<[u8; 2]>,
     #[serde(default)]
     pub sub: Vec<SubSection>,
 }
@@ -129,6 +140,7 @@ pub struct SubSection {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
 }
 
@@ -146,6 +158,7 @@ impl SubSection {
             behaviour: self.behaviour.clone(),
             storable: self.storable,
             kept_on_restore: self.kept_on_restore,
+            allowed_bits: self.allowed_bits,
             source: self.source.clone(),
         }
     }
@@ -166,6 +179,7 @@ impl ObjectSection {
             behaviour: self.behaviour.clone(),
             storable: self.storable,
             kept_on_restore: self.kept_on_restore,
+            allowed_bits: self.allowed_bits,
             source: self.source.clone(),
         }
     }

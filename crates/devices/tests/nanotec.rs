@@ -18,7 +18,9 @@ fn smci47s_has_brake_and_analog_input_pd4n_has_dspdrive_current_controller() {
             assert!(d.object(i).is_some(), "{}: {i:04X}h", d.name);
         }
     }
-    for i in [0x2007, 0x6401, 0x6423, 0x6424, 0x6425, 0x6426, 0x6427, 0x6428] {
+    for i in [
+        0x2007, 0x6401, 0x6423, 0x6424, 0x6425, 0x6426, 0x6427, 0x6428,
+    ] {
         assert!(smci.object(i).is_some(), "SMCI47-S {i:04X}h");
         assert!(pd4n.object(i).is_none(), "PD4-N {i:04X}h");
     }

@@ -328,6 +328,17 @@ impl<'a> Persisting<'a> {
             StorageRequest::Restore { sub } => {
                 self.model.reload();
                 tracing::info!(node = self.model.od().node_id(), sub, "defaults restored");
+                // Nanotec §11.25: the defaults are written to EEPROM at once, so the next
+                // power-on or NMT reset starts from them (2005h, 2009h kept).
+                if self
+                    .model
+                    .od()
+                    .description()
+                    .cia301
+                    .restore_writes_stored_set
+                {
+                    self.carry_out(StorageRequest::Save { sub })?;
+                }
             }
         }
         Ok(())

@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use canopen::rotary_switches::{power_on, RotarySwitches};
 use od::{DataType, Value};
 use serde::Deserialize;
 
@@ -117,6 +118,9 @@ pub struct DriveSection {
     /// The CMMP-AS switch positions or input levels that give node number, bit rate and
     /// CAN activation (manual §2.3–2.4); when given, its node number wins over `node`.
     pub switches: Option<SwitchesSection>,
+    /// A Nanotec's hexadecimal rotary switches (§1.1.1): node-ID and bit rate at power-on;
+    /// when they give a node-ID it wins over `node`.
+    pub rotary_switches: Option<RotarySwitchesSection>,
     /// TCP address (loopback only) of the drive's CI terminal, the debug console whose SDO
     /// simulation the CMMP-AS manual describes (§3.2.3); none by default.
     pub ci_terminal: Option<String>,
@@ -289,6 +293,35 @@ pub struct SwitchesSection {
     /// M0 without the DIN option: the bit rate set in FCT, kbit/s.
     #[serde(default = "default_fct_bit_rate")]
     pub fct_bit_rate_kbit: u16,
+}
+
+/// `[drive.rotary_switches]`: `left` and `right` on a two-switch Nanotec (SMCI47-S; the value
+/// is 16 · right + left, see `canopen::rotary_switches`), `switch` on a one-switch one (PD4-N).
+/// The EEPROM values they may select are 2009h (node-ID) and 2005h (bit rate) of
+/// `[drive.objects]`, else the defaults.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotarySwitchesSection {
+    pub left: Option<u8>,
+    pub right: Option<u8>,
+    pub switch: Option<u8>,
+}
+
+impl RotarySwitchesSection {
+    /// The switches of a device that has `count` of them.
+    fn switches(&self, count: u8) -> Result<RotarySwitches, String> {
+        let s = match (count, self.left, self.right, self.switch) {
+            (2, left, right, None) => RotarySwitches::Two {
+                left: left.unwrap_or(0),
+                right: right.unwrap_or(0),
+            },
+            (1, None, None, Some(p)) => RotarySwitches::One(p),
+            (2, ..) => return Err("two switches: `left` and `right`, no `switch`".into()),
+            (1, ..) => return Err("one switch: `switch`, no `left`/`right`".into()),
+            _ => return Err("the device has no rotary switches".into()),
+        };
+        s.checked().map_err(|e| e.to_string())
+    }
 }
 
 fn yes() -> bool {
@@ -560,7 +593,9 @@ impl CellFile {
                 toml::Value::Integer(i64::from(DEFAULT_HEARTBEAT_MS)),
             );
         }
-        if devices::by_name(device).is_some_and(is_cia402) {
+        // Only where the personality has 6510h:F0 (the CMMP-AS; the Nanotec has no 6510h).
+        if devices::by_name(device).is_some_and(|d| is_cia402(d) && d.entry(0x6510, 0xF0).is_some())
+        {
             objects.insert("6510:F0".to_string(), toml::Value::Integer(0x0080));
         }
         CellFile {
@@ -577,6 +612,7 @@ impl CellFile {
                 stepper: StepperSection::default(),
                 axis: AxisSection::default(),
                 switches: None,
+                rotary_switches: None,
                 ci_terminal: None,
             }],
         }
@@ -603,7 +639,49 @@ impl CellFile {
                 }
                 None => None,
             };
-            let node = fieldbus.map_or(d.node, |f| f.node_id);
+            let rotary = match &d.rotary_switches {
+                Some(rs) => {
+                    let err = |what: String| ConfigError::Object {
+                        node: d.node,
+                        key: "rotary_switches".into(),
+                        what,
+                    };
+                    let switches = rs.switches(desc.rotary_switches).map_err(err)?;
+                    let eeprom = |index: u16| -> Result<u8, ConfigError> {
+                        let key = format!("{index:04X}:00");
+                        match d
+                            .objects
+                            .iter()
+                            .find(|(k, _)| parse_key(k) == Some((index, 0)))
+                        {
+                            Some((_, toml::Value::Integer(v))) => u8::try_from(*v)
+                                .map_err(|_| err(format!("{key} = {v} is not a u8"))),
+                            Some(_) => Err(err(format!("{key} must be an integer"))),
+                            None => Ok(desc
+                                .entry(index, 0)
+                                .and_then(|e| e.default.first().copied())
+                                .unwrap_or(0)),
+                        }
+                    };
+                    let p = power_on(switches, eeprom(0x2009)?, eeprom(0x2005)?);
+                    if !(1..=127).contains(&p.node_id) {
+                        return Err(err(format!("node-ID {} from 2009h", p.node_id)));
+                    }
+                    if !p.motion_allowed {
+                        tracing::warn!(
+                            node = p.node_id,
+                            "2005h holds no bit-rate code (130…135): the controller answers on \
+                             CAN but accepts no motion commands (Nanotec §1.1.3 step 7)"
+                        );
+                    }
+                    Some(p)
+                }
+                None => None,
+            };
+            let node = match rotary {
+                Some(p) => p.node_id,
+                None => fieldbus.map_or(d.node, |f| f.node_id),
+            };
             let err = |key: &str, what: String| ConfigError::Object {
                 node: d.node,
                 key: key.into(),
@@ -700,6 +778,14 @@ impl CellFile {
                     .ok_or_else(|| err(format!("{} has no such entry", desc.name)))?;
                 let bytes = encode_toml(e.data_type, value).map_err(err)?;
                 commissioning.push(Commissioning { index, sub, bytes });
+            }
+            // §11.10: with a node-ID from the switches, 2009h reads the switch value.
+            if let Some(p) = rotary.filter(|p| p.node_id_from_switches) {
+                commissioning.push(Commissioning {
+                    index: 0x2009,
+                    sub: 0,
+                    bytes: vec![p.node_id],
+                });
             }
             specs.push(DriveSpec {
                 desc,
@@ -955,6 +1041,49 @@ mod example_tests {
 #[cfg(test)]
 mod switches_tests {
     use super::*;
+
+    fn nanotec(device: &str, section: &str) -> Result<DriveSpec, ConfigError> {
+        spec(&format!(
+            "[[drive]]\ndevice = \"{device}\"\nnode = 9\n{section}\n"
+        ))
+        .map(|mut v| v.remove(0))
+    }
+
+    /// NT-NODE-01 from a cell file: SMCI47-S left = 1, right = 2 → node 33 (over `node`), and
+    /// 2009h reads 33 (NT-NODE-09); switches 0 → 2009h of [drive.objects] (NT-NODE-02); PD4-N
+    /// switch 9 → node 9 − 8 = 1 (NT-NODE-04).
+    #[test]
+    fn nanotec_rotary_switches_give_the_node_id() {
+        let d = nanotec(
+            "nanotec-smci47s",
+            "[drive.rotary_switches]\nleft = 1\nright = 2",
+        )
+        .unwrap();
+        assert_eq!(d.node, 33);
+        assert!(d
+            .commissioning
+            .iter()
+            .any(|c| (c.index, c.sub, c.bytes.as_slice()) == (0x2009, 0, &[33][..])));
+        let d = nanotec(
+            "nanotec-smci47s",
+            "[drive.rotary_switches]\nleft = 0\nright = 0\n[drive.objects]\n\"2009:00\" = 42",
+        )
+        .unwrap();
+        assert_eq!(d.node, 42);
+        let d = nanotec("nanotec-pd4n", "[drive.rotary_switches]\nswitch = 9").unwrap();
+        assert_eq!(d.node, 1);
+        for (device, bad, says) in [
+            ("nanotec-pd4n", "left = 1", "one switch"),
+            ("nanotec-smci47s", "switch = 1", "two switches"),
+            ("nanotec-smci47s", "left = 16", "0…15"),
+            ("cmmp-as", "left = 1", "no rotary switches"),
+        ] {
+            let err = nanotec(device, &format!("[drive.rotary_switches]\n{bad}"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(says), "{device} {bad}: {err}");
+        }
+    }
 
     fn spec(text: &str) -> Result<Vec<DriveSpec>, ConfigError> {
         let file: CellFile = toml::from_str(text).map_err(|source| ConfigError::Toml {

@@ -175,3 +175,30 @@ fn cmmp_reset_application_reloads_the_saved_set() {
     );
     assert_eq!(d.node.nmt_state(), canopen::NmtState::PreOperational);
 }
+
+/// Nanotec NT-SDO-01 with a state directory: "load" writes the defaults to the stored set at
+/// once (§11.25), so the next power-on starts from them; 2005h and 2009h keep their values.
+#[test]
+fn nanotec_restore_writes_the_stored_set() {
+    let dir = tmpdir("nanotec-restore");
+    let open = || {
+        let store = ParamStore::new(&dir, "nanotec-smci47s", 1);
+        CanDrive::new(&devices::NANOTEC_SMCI47S, 1, Some(store), vec![]).unwrap()
+    };
+    let mut d = open();
+    d.model.write(0x1017, 0, &[0xFA, 0x00]).unwrap();
+    d.model.write(0x2005, 0, &[132]).unwrap();
+    d.model.write(0x1010, 1, b"save").unwrap();
+    d.poll(od::Instant::ZERO, &mut |_| {});
+    assert_eq!(open().od().get_unsigned(0x1017, 0), Some(250), "saved");
+
+    d.model.write(0x1011, 1, b"load").unwrap();
+    d.poll(od::Instant::ZERO, &mut |_| {});
+    let d2 = open();
+    assert_eq!(
+        d2.od().get_unsigned(0x1017, 0),
+        Some(0),
+        "defaults stored at once"
+    );
+    assert_eq!(d2.od().get_unsigned(0x2005, 0), Some(132), "2005h kept");
+}

@@ -68,6 +68,13 @@ pub struct Cia301Options {
     /// A restore (1011h "load") also overwrites the stored parameter set at once (Nanotec §11.25)
     /// instead of taking effect at the next reset.
     pub restore_writes_stored_set: bool,
+    /// Guard time × life time factor (100Ch × 100Dh) may not exceed this many ms; a write
+    /// that would is refused with 0604 0043h (Nanotec §11.23: one minute).
+    pub life_time_max_ms: Option<u32>,
+    /// A PDO may be made valid with no object mapped (it then carries nothing): the Nanotec's
+    /// PDOs 2–4 default to valid COB-IDs with empty mappings (§9.11–9.21), so a master that
+    /// writes back what it read must be able to. Without it, CiA 301's 0609 0030h.
+    pub pdo_valid_without_mapping: bool,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).
@@ -91,6 +98,9 @@ pub struct Entry {
     pub storable: bool,
     /// A restore of the defaults (1011h) leaves the value as it is (Nanotec 2005h, 2009h).
     pub kept_on_restore: bool,
+    /// Bits an unsigned value may have set; a write with another bit is refused with
+    /// 0609 0030h (Nanotec 60FEh:02: "the whole mask is discarded").
+    pub allowed_bits: Option<u64>,
     /// Byte offset of the value in the dictionary's storage buffer.
     pub offset: u32,
     /// Bytes reserved for the value: the type's size, or the maximum length of a string/domain.
@@ -141,6 +151,9 @@ pub struct Object {
     pub index: u16,
     pub name: &'static str,
     pub kind: ObjectKind,
+    /// Two sub-indices whose values stay ordered, min ≤ max (Nanotec 6046h): a write that
+    /// would break the order is refused with 0609 0036h.
+    pub min_max: Option<(u8, u8)>,
     /// Sorted by sub-index; a VAR has exactly one entry, sub 0.
     pub entries: &'static [Entry],
 }
@@ -185,6 +198,9 @@ pub struct DeviceDescription {
     pub default_node_id: u8,
     /// Bit rates in kbit/s the device supports (EDS `[DeviceInfo]`).
     pub baud_rates: &'static [u16],
+    /// Hexadecimal rotary switches that select node-ID and bit rate at power-on (Nanotec
+    /// §1.1.1: SMCI47-S two, PD4-N one), 0 for none.
+    pub rotary_switches: u8,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

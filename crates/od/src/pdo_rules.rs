@@ -197,7 +197,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                 if new_valid && restricted_can_id(id) {
                     return Err(AbortCode::INVALID_VALUE);
                 }
-                if new_valid && !valid && self.read_u8(pdo.mapping(), 0).unwrap_or(0) == 0 {
+                if new_valid
+                    && !valid
+                    && !opts.pdo_valid_without_mapping
+                    && self.read_u8(pdo.mapping(), 0).unwrap_or(0) == 0
+                {
                     return Err(AbortCode::INVALID_VALUE);
                 }
                 // CMMP-AS §3.3.2: bit 30 is ignored on write and always reads 1 (no RTR).

@@ -133,9 +133,10 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Eds { device, output } => run::eds(&device, output),
         Command::Esi { device, output } => run::esi(&device, output),
         Command::Devices => {
+            let width = devices::ALL.iter().map(|d| d.name.len()).max().unwrap_or(0);
             for d in devices::ALL {
                 out!(
-                    "{:<10} {} ({}), {} objects",
+                    "{:<width$} {} ({}), {} objects",
                     d.name,
                     d.product_name,
                     d.vendor_name,
