@@ -244,7 +244,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
             (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
-            (0x60FE, 0x02) => Self::nanotec_write_output_mask,
             _ => return None,
         })
     }
@@ -264,26 +263,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ if self.brake_wait() => Err(AbortCode::DEVICE_STATE),
             _ => self.write_mode(index, sub, data),
         }
-    }
-
-    /// 60FEh:02 (§5.8): only bits 16 … 18 (outputs 1 … 3) exist; a mask with any other bit
-    /// is discarded whole.
-    ///
-    /// Decision: the manual says only "discarded"; the write is answered with 0609 0030h
-    /// (invalid value), as spec §9 item 14 suggests, so the master sees it was not taken.
-    fn nanotec_write_output_mask(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), AbortCode> {
-        self.od.entry(index, sub)?;
-        if let [a, b, c, d] = data {
-            if u32::from_le_bytes([*a, *b, *c, *d]) & !OUTPUT_BITS != 0 {
-                return Err(AbortCode::INVALID_VALUE);
-            }
-        }
-        self.od.write(index, sub, data)
     }
 
     /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;
@@ -404,9 +383,6 @@ fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
         polarity,
     })
 }
-
-/// 60FEh bits 16 … 18: outputs 1 … 3.
-const OUTPUT_BITS: u32 = 0x0007_0000;
 
 /// The feed constant of the defaults (§6: 2000 units = one output revolution).
 const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
