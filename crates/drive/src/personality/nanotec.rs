@@ -20,6 +20,7 @@ use crate::factor_group::{
 use crate::homing::{Method, Speed, Step, Until};
 use crate::personality::nanotec_units::torque_current_ma;
 use crate::statusword::Statusword;
+use crate::stepper::StepperData;
 use crate::trajectory::Trajectory;
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
@@ -236,8 +237,21 @@ const STATE_BITS: [(State, u16); 8] = [
 ];
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// At power-on and after a reload: nothing beyond the dictionary's values.
-    pub(crate) fn nanotec_power_on(&mut self) {}
+    /// At power-on and after a reload: the motor's pole pairs 2006h (50 → 1.8°, 100 → 0.9°;
+    /// "takes effect after a power cycle", §11.7) set the stepper's full steps per
+    /// revolution, 4 × pole pairs.
+    pub(crate) fn nanotec_power_on(&mut self) {
+        let pole_pairs = self.value(0x2006, 0);
+        if let (Some(stepper), Ok(pp @ 1..)) = (self.stepper_mut(), u32::try_from(pole_pairs)) {
+            let data = StepperData {
+                full_steps_per_rev: 4 * pp,
+                ..*stepper.data()
+            };
+            if data != *stepper.data() {
+                stepper.set_data(data);
+            }
+        }
+    }
 
     /// The objects whose Nanotec rules do more than store a value.
     pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
