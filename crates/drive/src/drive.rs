@@ -25,8 +25,10 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+mod feed_constant;
 pub(crate) mod object_writes;
 mod plant;
+mod target_limits;
 mod velocity_mode;
 pub use plant::StepperPlant;
 
@@ -369,7 +371,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
-            ip: if personality.vendor == Vendor::Nanotec {
+            ip: if personality.capabilities.ip_follows_sync {
                 Interpolator::following_sync()
             } else {
                 Interpolator::new(DEFAULT_IP_PERIOD)
@@ -511,8 +513,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn reload_factor_group(&mut self) {
-        if self.personality.vendor == Vendor::Nanotec {
-            self.fg = self.nanotec_factor_group();
+        if self.personality.capabilities.feed_constant {
+            self.fg = self.feed_constant_factor_group();
             return;
         }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
@@ -929,7 +931,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // state of the brake", L4203–4215).
             let data = self.value(0x60FE, 1);
             let shown = (data & !1) | i64::from(engaged);
-            if !manual && shown != data && self.personality.vendor == Vendor::CmmpAs {
+            if !manual && shown != data && self.personality.capabilities.brake_in_60fe {
                 self.store(self.param(0x60FE, 1), shown);
             }
         }
@@ -1023,7 +1025,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
                 ramp
-            } else if self.personality.vendor == Vendor::Nanotec
+            } else if self.personality.capabilities.ip_abrupt_quick_stop
                 && self.mode == mode::INTERPOLATED_POSITION
             {
                 // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
@@ -1079,11 +1081,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let demand = self.traj.position;
         let fg = self.fg;
         let max_speed = self.max_motor_speed();
-        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        let target_limits = self.personality.capabilities.pp_target_limits;
         // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
-        let checked = (bit4 && self.personality.vendor == Vendor::Nanotec)
-            .then(|| self.nanotec_check_target(cw));
+        let checked = (bit4 && target_limits).then(|| self.check_target(cw));
         let get = |i: u16| self.value(i, 0);
         // Read the set-point only while bit 4 is high (a rising edge may be taking it).
         let req = bit4.then(|| {
@@ -1111,7 +1112,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     velocity: vel(0x6081).min(max_speed),
                     // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
                     // end velocity; bit 9 decides whether a queued job follows at speed.
-                    end_velocity: if nanotec { 0.0 } else { vel(0x6082) },
+                    end_velocity: if target_limits { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
                     deceleration: acc(0x6084),
                 },
@@ -1134,7 +1135,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
         let accepted = self.setpoints.update(bit4, demand, request);
         if let (true, Some(result)) = (accepted, checked) {
-            self.nanotec_target_taken(result, cw);
+            self.target_taken(result, cw);
         }
         if accepted {
             self.target_reached = false;
@@ -1302,7 +1303,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if self.ip.is_synchronised() {
                 // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
                 // first set-point (the manual's warning: write the actual position first).
-                let pending = (self.personality.vendor == Vendor::Nanotec).then(|| {
+                let pending = self.personality.capabilities.ip_follows_sync.then(|| {
                     let user = self
                         .value(0x60C1, 1)
                         .clamp(i32::MIN as i64, i32::MAX as i64);
@@ -1394,8 +1395,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let acc = self.accel(0x609A);
         // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
         // the end the motor stops at once.
-        let nanotec = self.personality.vendor == Vendor::Nanotec;
-        let (switch_acc, stop_dec) = if nanotec {
+        let immediate = self.personality.capabilities.homing_immediate;
+        let (switch_acc, stop_dec) = if immediate {
             (ABRUPT_STOP, ABRUPT_STOP)
         } else {
             (acc, acc)
@@ -1428,7 +1429,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                         let a = if starting { acc } else { switch_acc };
                         let accelerating = self.traj.velocity * v >= 0.0
                             && v.abs() > self.traj.velocity.abs()
-                            && (starting || !nanotec || self.homing_accelerating);
+                            && (starting || !immediate || self.homing_accelerating);
                         self.homing_accelerating = accelerating;
                         self.traj.step_velocity(
                             v,
@@ -1443,7 +1444,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         self.set_reference(at);
-                        if nanotec {
+                        if immediate {
                             self.traj.velocity = 0.0;
                         }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
@@ -1624,7 +1625,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn switch_config(&self) -> SwitchConfig {
-        if self.personality.vendor == Vendor::Nanotec {
+        if !self.personality.capabilities.switch_polarity_objects {
             // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
             // closed, 20/22 normally open); the simulated switches are read as they are.
             return SwitchConfig::from_objects(1, 0, 0, 1);
@@ -1767,7 +1768,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION
                 && !self.ip.is_synchronised()
-                && self.personality.vendor == Vendor::CmmpAs)
+                && self.personality.capabilities.ip_changing_until_synchronised)
         {
             mode::CHANGING
         } else {
@@ -1776,8 +1777,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
         let internal = match self.personality.vendor {
-            Vendor::CmmpAs => actual,
-            Vendor::Nanotec => self.nanotec_encoder_position(actual),
+            _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
+            _ => actual,
         };
         self.store(self.hot.position_internal, internal);
         let fg = self.fg;

@@ -1,22 +1,22 @@
 //! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
 //! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
-//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1, the homing
-//! methods of §5.2 as tables; as behaviour the statusword (bit 9 remote always set, bit 4
-//! from Switched On, bit 8 PLL sync), the Profile Position target checks of §5.1 (range-limit
-//! wrap, software limits, relative overflow) and the reaction table of §7.1.
+//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1 with their
+//! reaction table (legacy and new by 2020h), the homing methods of §5.2 and the
+//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the
+//! SYNC interval, immediate homing speed changes) as tables; as behaviour the statusword (bit
+//! 9 remote always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no
+//! PV, torque only in closed loop, no change during a brake wait), the shared target
+//! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
 
 use od::{AbortCode, ObjectAccess};
 
-use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use super::{
+    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+};
 use crate::axis::Demand;
-use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
-use crate::factor_group::{
-    acceleration_factor, position_factor, velocity_factor, FactorGroup, Ratio,
-    TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_SECOND,
-};
 use crate::homing::{Method, Speed, Step, Until};
 use crate::personality::nanotec_units::torque_current_ma;
 use crate::statusword::Statusword;
@@ -98,6 +98,16 @@ pub const NANOTEC: Personality = Personality {
     ],
     stepper_plant: true,
     pp_overwrite_queued: true,
+    capabilities: Capabilities {
+        feed_constant: true,
+        pp_target_limits: true,
+        ip_follows_sync: true,
+        ip_changing_until_synchronised: false,
+        ip_abrupt_quick_stop: true,
+        homing_immediate: true,
+        switch_polarity_objects: false,
+        brake_in_60fe: false,
+    },
     homing_methods: &HOMING_METHODS,
 };
 
@@ -351,15 +361,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         v
     }
 
-    /// 6063h in encoder increments (§3.4 "raw encoder position"; 608Fh, default 2000 per
-    /// revolution) from the internal 65536 per revolution.
-    pub(crate) fn nanotec_encoder_position(&self, internal: i64) -> i64 {
-        let increments = self.value(0x608F, 1).max(1) as i128;
-        let revolutions = self.value(0x608F, 2).max(1) as i128;
-        let v = i128::from(internal) * increments / (revolutions * 65536);
-        v.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i64
-    }
-
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
     /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, §5.4).
     pub(crate) fn nanotec_state_bits(&self, state: State, power: bool) -> Statusword {
@@ -383,111 +384,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             Some(r) => r.reaction(legacy, moving).into(),
             None if critical => ErrorReaction::OutputStageOff,
             None => ErrorReaction::QuickStop,
-        }
-    }
-}
-
-/// Nanotec §6: user units from the feed constant 6092h and the gear ratio 6091h (default
-/// 2000 units per output revolution), velocities in units/s, accelerations in units/s².
-fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
-    Some(FactorGroup {
-        position: position_factor(gear, feed).ok()?,
-        velocity: velocity_factor(gear, feed, TIME_FACTOR_V_PER_SECOND).ok()?,
-        acceleration: acceleration_factor(gear, feed, TIME_FACTOR_A_PER_SECOND_SQUARED).ok()?,
-        polarity,
-    })
-}
-
-/// The feed constant of the defaults (§6: 2000 units = one output revolution).
-const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
-
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// The factor group from 6091h and 6092h; the defaults where they break the rules.
-    pub(crate) fn nanotec_factor_group(&self) -> FactorGroup {
-        let ratio = |index: u16, dflt: Ratio| {
-            Ratio::new(
-                self.od
-                    .get_unsigned(index, 1)
-                    .map_or(dflt.numerator, |v| v as u32),
-                self.od
-                    .get_unsigned(index, 2)
-                    .map_or(dflt.divisor, |v| v as u32),
-            )
-        };
-        let gear = ratio(0x6091, Ratio::new(1, 1));
-        let feed = ratio(0x6092, DEFAULT_FEED);
-        let polarity = self.od.get_unsigned(0x607E, 0).unwrap_or(0) as u8;
-        factor_group(gear, feed, polarity)
-            .or_else(|| factor_group(Ratio::new(1, 1), DEFAULT_FEED, polarity))
-            .unwrap_or_default()
-    }
-
-    /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
-    /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
-    /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;
-    /// (3) a relative target that overflows the position is refused with EMCY 1000h.
-    /// Returns the absolute target, or the refusal.
-    ///
-    /// Decisions: a relative target counts from the position set-point (the last target once
-    /// a move has ended; §4.1 "relative to the last target position" and §4.2 "relative to
-    /// the current position" agree at standstill). 607Bh and 607Dh with min = max = 0 are off
-    /// (§3.4 says so of 607Bh; CiA 402 of both). The wrap applies to the resolved target.
-    pub(crate) fn nanotec_check_target(&self, cw: Controlword) -> Result<i32, Fault> {
-        let target = self.value(0x607A, 0);
-        let absolute = if cw.contains(Controlword::RELATIVE) {
-            let queued = self
-                .setpoints
-                .active
-                .filter(|_| !cw.contains(Controlword::CHANGE_SET_IMMEDIATELY));
-            let base_internal = queued.map_or(self.traj.position, |j| j.target);
-            let base = i64::from(
-                self.fg
-                    .position_from_internal(libm::round(base_internal) as i64),
-            );
-            let sum = base + target;
-            if i32::try_from(sum).is_err() {
-                return Err(Fault::PositionOverflow);
-            }
-            sum
-        } else {
-            target
-        };
-        let (min, max) = (self.value(0x607B, 1), self.value(0x607B, 2));
-        let absolute = if (min, max) != (0, 0) && min < max && !(min..=max).contains(&absolute) {
-            min + (absolute - min).rem_euclid(max - min + 1)
-        } else {
-            absolute
-        };
-        let home = self.value(0x607C, 0);
-        let (lo, hi) = (self.value(0x607D, 1), self.value(0x607D, 2));
-        if (lo, hi) != (0, 0) && !(lo - home..=hi - home).contains(&absolute) {
-            return Err(Fault::SoftwareLimit);
-        }
-        i32::try_from(absolute).map_err(|_| Fault::PositionOverflow)
-    }
-
-    /// A PP set-point was taken: a refused one raises its EMCY and bit 11; a valid one
-    /// clears both (§4.1 item 4: "cleared only by the next valid position"), bit 11 staying
-    /// for a wrapped one. With bit 9 (change on set-point) a queued job follows the running
-    /// one without braking at its target.
-    pub(crate) fn nanotec_target_taken(&mut self, result: Result<i32, Fault>, cw: Controlword) {
-        match result {
-            Err(fault) => {
-                self.internal_limit = true;
-                self.raise_fault(fault);
-            }
-            Ok(target) => {
-                self.clear_notice(emcy::POSITION_LIMIT);
-                self.clear_notice(emcy::POSITION_OVERFLOW);
-                self.internal_limit = i64::from(target) != self.value(0x607A, 0)
-                    && !cw.contains(Controlword::RELATIVE);
-            }
-        }
-        if self.setpoints.buffered.is_some() {
-            let on_the_fly = cw.contains(Controlword::CHANGE_ON_SET_POINT);
-            if let Some(active) = self.setpoints.active.as_mut() {
-                active.end_velocity = if on_the_fly { active.velocity } else { 0.0 };
-            }
         }
     }
 }
