@@ -1728,7 +1728,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else {
             self.end_warning(Number { main: 17, sub: 0 });
         }
-        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error);
+        // Nanotec §5.1: the following error is watched in closed loop only; an open-loop
+        // stepper does not know it.
+        let open_loop = self
+            .stepper
+            .as_ref()
+            .is_some_and(|s| s.motor.mode() == crate::stepper::StepperMode::OpenLoop);
+        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error && !open_loop);
         sw |= match self.mode {
             mode::PROFILE_POSITION => {
                 Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
