@@ -78,3 +78,15 @@ fn output_mask_outside_16_to_18_is_discarded() {
         "bit 0 is no brake bit on the Nanotec"
     );
 }
+
+/// The PD4-N has no brake output (no 2007h): no holding brake, not even at power-on; the
+/// SMCI47-S holds with its brake until Switched On.
+#[test]
+fn pd4n_has_no_brake() {
+    let desc = &devices::NANOTEC_PD4N;
+    let od = od::ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let d = drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
+    assert!(!d.axis().motor().brake());
+    let r = Rig::new();
+    assert!(r.d.axis().motor().brake());
+}

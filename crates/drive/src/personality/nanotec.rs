@@ -250,7 +250,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// At power-on and after a reload: the motor's pole pairs 2006h (50 → 1.8°, 100 → 0.9°;
     /// "takes effect after a power cycle", §11.7) set the stepper's full steps per
     /// revolution, 4 × pole pairs.
+    ///
+    /// A controller without brake output (the PD4-N has no 2007h) has no holding brake.
     pub(crate) fn nanotec_power_on(&mut self) {
+        if self.od.description().object(0x2007).is_none() && self.settings.brake_fitted {
+            self.settings.brake_fitted = false;
+            self.brake_engaged = false;
+            self.axis.hold_brake(false);
+        }
         let pole_pairs = self.value(0x2006, 0);
         if let (Some(stepper), Ok(pp @ 1..)) = (self.stepper_mut(), u32::try_from(pole_pairs)) {
             let data = StepperData {
