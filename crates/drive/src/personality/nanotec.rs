@@ -55,12 +55,7 @@ const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
 /// refused with 0609 0030h. 0 ("no mode") is taken; the drive then holds its position.
 pub const NANOTEC: Personality = Personality {
     vendor: Vendor::Nanotec,
-    devices: &[
-        "nanotec-smci47s",
-        "nanotec-pd4n",
-        "nanotec-smci47-s",
-        "nanotec-pd4-n",
-    ],
+    devices: &["nanotec-smci47s", "nanotec-pd4n"],
     // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
     // the closed-loop test runs (§5.6).
     modes: &[
