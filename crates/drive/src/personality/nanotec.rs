@@ -24,6 +24,12 @@ use crate::stepper::StepperData;
 use crate::trajectory::Trajectory;
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
+///
+/// Decision: the manual does not say which code set goes into bytes 0–1 of the EMCY in the
+/// legacy and the new format (2020h; spec §7.1 note); the twin sends these §7.1 codes in
+/// both, as §13.2 calls bytes 0–1 the "Emergency Error Code" beside the §13.3 table of these
+/// codes, and the error register 1001h bit 0 (generic, §7.4). The CiA codes of §17 are the
+/// firmware's names for the standard ranges; no Nanotec cause is mapped to them in the text.
 pub mod emcy {
     pub const UNDERVOLTAGE: u16 = 0x0001;
     pub const OVERTEMPERATURE: u16 = 0x0002;
