@@ -240,6 +240,10 @@ pub struct Drive<S> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
+    /// A closed-loop test run in progress (Nanotec 6060h = −1 / −2) and when it ends.
+    pub(crate) test_run: Option<(i8, Instant)>,
+    /// The short closed-loop test run has aligned the encoder (Nanotec 200Bh found).
+    pub(crate) closed_loop_aligned: bool,
     /// The brake opens then (a personality that releases it after the output stage).
     pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
@@ -398,6 +402,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             brake_engaged: true,
             power_off_at: None,
             brake_release_at: None,
+            test_run: None,
+            closed_loop_aligned: false,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),
@@ -1067,12 +1073,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
             mode::INTERPOLATED_POSITION => self.interpolated_position(cw, dt),
-            _ => {
-                let decel = self.accel(0x6084);
-                self.traj.step_stop(decel, dt);
-                self.position_demand(self.traj.velocity);
+            m if m < 0 && self.personality.vendor == Vendor::Nanotec => {
+                self.nanotec_test_run(cw, dt)
             }
+            _ => self.hold(dt),
         }
+    }
+
+    /// No mode that moves: the set-point brakes with 6084h and stands.
+    pub(crate) fn hold(&mut self, dt: f64) {
+        let decel = self.accel(0x6084);
+        self.traj.step_stop(decel, dt);
+        self.position_demand(self.traj.velocity);
     }
 
     fn profile_position(&mut self, cw: Controlword, dt: f64) {

@@ -14,11 +14,12 @@ use super::{
     Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
 };
 use crate::axis::Demand;
+use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
-use crate::personality::nanotec_units::torque_current_ma;
+use crate::personality::nanotec_units::{load_angle_spacing_rpm, torque_current_ma};
 use crate::statusword::Statusword;
 use crate::stepper::StepperData;
 use crate::trajectory::Trajectory;
@@ -234,6 +235,14 @@ pub const HOMING_METHODS: [Method; 7] = [
     (35, &[]),
 ];
 
+/// The long test run (6060h = −1).
+pub const LONG_TEST_RUN: core::time::Duration = core::time::Duration::from_secs(2);
+/// The short test run (6060h = −2).
+pub const SHORT_TEST_RUN: core::time::Duration = core::time::Duration::from_millis(500);
+
+/// Appendix 18.1, the default load-angle curve of a stepper (65536 = 360° electrical).
+pub const STEPPER_LOAD_ANGLES: [u16; 7] = [16384, 18384, 20384, 22384, 24384, 26384, 28384];
+
 /// Statusword bits 0–3, 5, 6 of each state (§4.2, measured in the §2.4 example: 0260h,
 /// 0221h, 0233h, 0237h with bits 4 and 9 added). Bit 5 is set in Switch On Disabled.
 const STATE_BITS: [(State, u16); 8] = [
@@ -350,6 +359,76 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             velocity: rpm / RPM_PER_INCREMENT_S,
         };
         self.demand_position = self.traj.position;
+    }
+
+    /// The closed-loop test runs (§5.6): 6060h = −1 "CL Motor Setup" measures the load-angle
+    /// curve into 200Ch (and 2012h / 2013h / 2018h until the next restart), −2 "Short CL
+    /// Motor Setup" the encoder offset 200Bh, only while it is 0, and then enables the closed
+    /// loop for 2001h = 3.
+    ///
+    /// Decisions (the manual gives neither the start nor the duration): a run starts on the
+    /// rising edge of bit 4 in Operation Enabled, as homing does, and bit 4 low aborts it; the
+    /// long run takes [`LONG_TEST_RUN`], the short one [`SHORT_TEST_RUN`], with the shaft
+    /// standing; the end shows as target reached (bit 10). The measured curve is Appendix
+    /// 18.1's stepper curve (the twin's motor has no load angle of its own), at the support
+    /// points of 2004h:08; 2012h holds the motor's rated current in mA; 200Bh is the
+    /// electrical angle of the index pulse, `index position × pole pairs` in 65536ths.
+    pub(crate) fn nanotec_test_run(&mut self, cw: Controlword, dt: f64) {
+        self.hold(dt);
+        if self.cw_rising.contains(Controlword::NEW_SET_POINT) && self.test_run.is_none() {
+            let length = if self.mode == -1 {
+                LONG_TEST_RUN
+            } else {
+                SHORT_TEST_RUN
+            };
+            self.test_run = Some((self.mode, self.now + length));
+            self.target_reached = false;
+        }
+        if !cw.contains(Controlword::NEW_SET_POINT) && self.test_run.is_some() {
+            self.test_run = None;
+            return;
+        }
+        if let Some((mode, _)) = self.test_run.filter(|(_, end)| self.now >= *end) {
+            self.test_run = None;
+            self.target_reached = true;
+            if mode == -1 {
+                self.store_load_angle_curve();
+            } else {
+                self.align_encoder();
+            }
+        }
+    }
+
+    fn store_load_angle_curve(&mut self) {
+        let spacing = load_angle_spacing_rpm(self.value(0x2004, 8).clamp(0, 0xFFFF) as u16);
+        let rated_ma = self
+            .stepper()
+            .map_or(0, |s| (s.data().rated_current * 1000.0) as i64);
+        for (n, angle) in (1u8..).zip(STEPPER_LOAD_ANGLES) {
+            let rpm = libm::round(f64::from(n - 1) * spacing) as i64;
+            for (index, value) in [
+                (0x200C, i64::from(angle)),
+                (0x2013, i64::from(angle)),
+                (0x2018, rpm.min(i64::from(i16::MAX))),
+                (0x2012, rated_ma.min(i64::from(i16::MAX))),
+            ] {
+                if let Some(e) = self.od.description().entry(index, n) {
+                    self.store(Some(e), value);
+                }
+            }
+        }
+    }
+
+    fn align_encoder(&mut self) {
+        if self.value(0x200B, 0) == 0 {
+            let index = i64::from(self.settings.travel.index_phase.unwrap_or(0));
+            let pole_pairs = self.value(0x2006, 0).max(1);
+            let offset = (index * pole_pairs).rem_euclid(65536).max(1);
+            if let Some(e) = self.od.description().entry(0x200B, 0) {
+                self.store(Some(e), offset);
+            }
+        }
+        self.closed_loop_aligned = true;
     }
 
     /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
