@@ -232,6 +232,8 @@ pub struct Drive<S> {
     pub(crate) homing_started: Instant,
     /// A homing search is still on its starting ramp (609Ah; Nanotec: only then).
     pub(crate) homing_accelerating: bool,
+    /// A homing on block sets the position when the shaft has settled (Nanotec 2004h:05).
+    pub(crate) homing_settle: Option<Instant>,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -396,6 +398,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
             homing_accelerating: false,
+            homing_settle: None,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
@@ -1458,6 +1461,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                         self.set_reference(at);
                         if immediate {
                             self.traj.velocity = 0.0;
+                            if stalled {
+                                // Nanotec §5.2 (−2 / −3): the position is set on the block
+                                // after the settle time 2004h:05.
+                                let ms = self.value(0x2004, 5).max(0) as u64;
+                                self.homing_settle = Some(self.now + Duration::from_millis(ms));
+                            }
                         }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
@@ -1480,7 +1489,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             HomingRun::Brake { then } => {
-                if self.traj.step_stop(stop_dec, dt) {
+                if self.traj.step_stop(stop_dec, dt) && self.homing_settled() {
                     self.homing = match then {
                         Then::ToZero => HomingRun::ToZero,
                         Then::Attained => {
@@ -1516,7 +1525,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = matches!(self.homing, HomingRun::Idle) && self.traj.velocity == 0.0;
     }
 
+    /// A homing on block has settled (or none waits): the reference is where the shaft now
+    /// stands.
+    fn homing_settled(&mut self) -> bool {
+        match self.homing_settle {
+            Some(t) if self.now < t => false,
+            Some(_) => {
+                self.homing_settle = None;
+                self.hold_here();
+                let at = self.plant_position();
+                self.set_reference(at);
+                true
+            }
+            None => true,
+        }
+    }
+
     fn start_homing(&mut self) {
+        self.homing_settle = None;
         self.homing_attained = false;
         self.homing_error = false;
         self.referenced = false;
@@ -1605,6 +1631,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             t.negative_stop.map(|p| p as f64 * rad),
             t.positive_stop.map(|p| p as f64 * rad),
         );
+        // The stepper plant has the same stops (a shaft angle, 65536 increments a turn).
+        if let Some(s) = self.stepper.as_mut() {
+            let rad = core::f64::consts::TAU / 65536.0;
+            let stops = match (t.negative_stop, t.positive_stop) {
+                (None, None) => None,
+                (lo, hi) => Some((
+                    lo.map_or(f64::MIN, |p| p as f64 * rad),
+                    hi.map_or(f64::MAX, |p| p as f64 * rad),
+                )),
+            };
+            s.motor.set_end_stops(stops);
+        }
     }
 
     /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the

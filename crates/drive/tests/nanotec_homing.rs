@@ -4,7 +4,9 @@
 
 mod nanotec_rig;
 
+use drive::drive::DriveSettings;
 use drive::personality::nanotec::NANOTEC;
+use drive::travel::TravelSettings;
 use nanotec_rig::Rig;
 
 /// The home switch cam of the default travel starts at 40 000 increments.
@@ -21,7 +23,7 @@ fn homing(r: &mut Rig, method: i8) {
 fn the_methods_of_the_manual() {
     let mut methods: Vec<i8> = NANOTEC.homing_methods.iter().map(|(m, _)| *m).collect();
     methods.sort();
-    assert_eq!(methods, [19, 20, 21, 22, 33, 34, 35]);
+    assert_eq!(methods, [-3, -2, 19, 20, 21, 22, 33, 34, 35]);
 }
 
 /// Method 35: the position becomes the home offset, the shaft does not move.
@@ -82,6 +84,41 @@ fn method_19_switch_reversal_is_immediate() {
     let p = r.i(0x6062, 0);
     r.run_ms(100);
     assert_eq!(r.i(0x6062, 0), p);
+}
+
+/// Method −2: clockwise until the shaft blocks on the end stop; the blocked position reads
+/// the home offset.
+#[test]
+fn method_minus_2_homes_on_block() {
+    let mut r = Rig::with(DriveSettings {
+        travel: TravelSettings {
+            positive_stop: Some(2 * 65536),
+            ..TravelSettings::default()
+        },
+        ..DriveSettings::default()
+    });
+    r.w32(0x607C, 0, 100);
+    homing(&mut r, -2);
+    r.cw(0x001F);
+    for _ in 0..100 {
+        r.run_ms(50);
+        if r.sw() & 0x3000 != 0 {
+            break;
+        }
+    }
+    assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
+    // At the stop, within one electrical period (4 full steps = 1311 increments): the open
+    // loop's rotor settles in the nearest equilibrium of the held current vector.
+    let at = r.d.plant_position();
+    assert!(
+        at <= 2 * 65536 && 2 * 65536 - at < 1311,
+        "on the stop: {at}"
+    );
+    assert!(
+        (r.position() - 100).abs() <= 2,
+        "home offset: {}",
+        r.position()
+    );
 }
 
 /// Bit 4 back to 0 aborts the search: neither attained nor error.

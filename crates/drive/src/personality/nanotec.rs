@@ -200,13 +200,13 @@ use crate::homing::Signal::Home;
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index};
 
-/// §5.2, methods 19–22, 33–35. Clockwise is the positive direction (§9: positive VL speed is
+/// §5.2, methods 19–22, 33–35 and the block methods −2 / −3. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
 ///
 /// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
 /// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
 /// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
-pub const HOMING_METHODS: [Method; 7] = [
+pub const HOMING_METHODS: [Method; 9] = [
     // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
     (
         19,
@@ -233,6 +233,12 @@ pub const HOMING_METHODS: [Method; 7] = [
     (34, &[step(-1, Crawl, Index)]),
     // 35: the actual position becomes the home offset, no motion.
     (35, &[]),
+    // −2 / −3: homing on block, CW / CCW at 6099h:01 until the shaft blocks (following error
+    // beyond 6065h); the blocked position gets the home offset. Decision: the manual's second
+    // pass at 6099h:02 after backing off one electrical revolution ends on the same block;
+    // the twin's rigid stop makes it the same position, so one pass stands for both.
+    (-2, &[step(1, Fast, Until::Stop)]),
+    (-3, &[step(-1, Fast, Until::Stop)]),
 ];
 
 /// The long test run (6060h = −1).
