@@ -234,6 +234,8 @@ pub struct Drive<S> {
     pub(crate) homing_accelerating: bool,
     /// A homing on block sets the position when the shaft has settled (Nanotec 2004h:05).
     pub(crate) homing_settle: Option<Instant>,
+    /// The running homing method takes its reference switch from an object.
+    pub(crate) homing_external: Option<personality::ExternalHomeSwitch>,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -399,6 +401,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             homing_started: Instant::ZERO,
             homing_accelerating: false,
             homing_settle: None,
+            homing_external: None,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
@@ -1423,9 +1426,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
             HomingRun::Search(mut search) => {
                 let position = self.plant_position();
+                let mut inputs = self.switch_inputs(position);
+                if let Some(x) = self.homing_external {
+                    // The reference switch an external I/O node sends (Nanotec 2010h).
+                    let bit = self.value(x.index, x.bit_sub).clamp(0, 7);
+                    inputs.home = self.value(x.index, x.value_sub) >> bit & 1 != 0;
+                }
                 let sense = Sense {
                     position,
-                    inputs: self.switch_inputs(position),
+                    inputs,
                     stalled: self.stalled(),
                 };
                 let command = search.step(&sense, &self.settings.travel);
@@ -1548,6 +1557,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.referenced = false;
         self.homing_started = self.now;
         let method = self.value(0x6098, 0).clamp(i8::MIN as i64, i8::MAX as i64) as i8;
+        self.homing_external = self
+            .personality
+            .external_home_switch
+            .filter(|x| x.methods.contains(&method));
         // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
         // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
         // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.

@@ -23,7 +23,10 @@ fn homing(r: &mut Rig, method: i8) {
 fn the_methods_of_the_manual() {
     let mut methods: Vec<i8> = NANOTEC.homing_methods.iter().map(|(m, _)| *m).collect();
     methods.sort();
-    assert_eq!(methods, [-3, -2, 19, 20, 21, 22, 33, 34, 35]);
+    assert_eq!(
+        methods,
+        [-7, -6, -5, -4, -3, -2, 19, 20, 21, 22, 33, 34, 35]
+    );
 }
 
 /// Method 35: the position becomes the home offset, the shaft does not move.
@@ -119,6 +122,32 @@ fn method_minus_2_homes_on_block() {
         "home offset: {}",
         r.position()
     );
+}
+
+/// Method −4: as 19 with the external I/O node's bit: 2010h:01 selects bit 3 of 2010h:02,
+/// which the master sets (as an RPDO would) while the axis is beyond 3000 units.
+#[test]
+fn method_minus_4_uses_the_external_io_bit_2010h() {
+    let mut r = Rig::new();
+    r.w8(0x2010, 1, 3);
+    homing(&mut r, -4);
+    r.cw(0x001F);
+    let mut sent = false;
+    for _ in 0..3000 {
+        r.run_ms(1);
+        let on = r.i(0x6064, 0) >= 3000;
+        if on != sent {
+            r.w8(0x2010, 2, if on { 0x08 } else { 0x00 });
+            sent = on;
+        }
+        if r.sw() & 0x3000 != 0 {
+            break;
+        }
+    }
+    assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
+    // The wired cam (from 1221 units) was passed over; the reference is the external edge.
+    let at = r.d.plant_position() * 2000 / 65536;
+    assert!((at - 3000).abs() < 30, "at the external switch: {at} units");
 }
 
 /// Bit 4 back to 0 aborts the search: neither attained nor error.

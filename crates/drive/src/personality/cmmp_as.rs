@@ -142,6 +142,7 @@ pub const CMMP_AS: Personality = Personality {
         brake_in_60fe: true,
     },
     homing_methods: &METHODS,
+    external_home_switch: None,
 };
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {

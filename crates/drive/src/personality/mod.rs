@@ -112,6 +112,17 @@ pub struct Capabilities {
     pub brake_in_60fe: bool,
 }
 
+/// A reference switch a master supplies through an object (an RPDO from an external I/O
+/// node): bit `bit_number(index:bit_sub)` of `index:value_sub`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExternalHomeSwitch {
+    pub index: u16,
+    pub bit_sub: u8,
+    pub value_sub: u8,
+    /// The homing methods that use it instead of the wired switch.
+    pub methods: &'static [i8],
+}
+
 /// A CiA 402 personality.
 #[derive(Debug)]
 pub struct Personality {
@@ -131,6 +142,7 @@ pub struct Personality {
     pub capabilities: Capabilities,
     /// The homing methods 6098h selects.
     pub homing_methods: &'static [Method],
+    pub external_home_switch: Option<ExternalHomeSwitch>,
 }
 
 impl Personality {

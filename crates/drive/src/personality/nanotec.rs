@@ -11,7 +11,8 @@
 use od::{AbortCode, ObjectAccess};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+    Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, ModeSpec, OptionCode,
+    Personality, Vendor,
 };
 use crate::axis::Demand;
 use crate::controlword::Controlword;
@@ -111,6 +112,13 @@ pub const NANOTEC: Personality = Personality {
         brake_in_60fe: false,
     },
     homing_methods: &HOMING_METHODS,
+    // §5.2 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.
+    external_home_switch: Some(ExternalHomeSwitch {
+        index: 0x2010,
+        bit_sub: 1,
+        value_sub: 2,
+        methods: &[-4, -5, -6, -7],
+    }),
 };
 
 /// A reaction of the §7.1 table.
@@ -200,13 +208,14 @@ use crate::homing::Signal::Home;
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index};
 
-/// §5.2, methods 19–22, 33–35 and the block methods −2 / −3. Clockwise is the positive direction (§9: positive VL speed is
+/// §5.2: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
+/// methods −4 … −7. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
 ///
 /// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
 /// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
 /// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
-pub const HOMING_METHODS: [Method; 9] = [
+pub const HOMING_METHODS: [Method; 13] = [
     // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
     (
         19,
@@ -239,6 +248,23 @@ pub const HOMING_METHODS: [Method; 9] = [
     // the twin's rigid stop makes it the same position, so one pass stands for both.
     (-2, &[step(1, Fast, Until::Stop)]),
     (-3, &[step(-1, Fast, Until::Stop)]),
+    // −4 … −7: as 19 … 22 with the external I/O node's bit (2010h) for input 6.
+    (
+        -4,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    (
+        -5,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    (
+        -6,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    (
+        -7,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
 ];
 
 /// The long test run (6060h = −1).
