@@ -109,3 +109,11 @@ def test_cli_monitor_stops_after_seconds(cmmp):
     elapsed = time.monotonic() - t0
     assert r.returncode == 0, (r.returncode, r.stderr)
     assert elapsed < 3, elapsed
+
+
+def test_devices_lists_the_nanotec_personalities():
+    r = run_cli("devices")
+    assert r.returncode == 0, r.stderr
+    names = [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
+    assert {"nanotec-smci47s", "nanotec-pd4n", "cmmp-as"} <= set(names), r.stdout
+    assert any(line.startswith("nanotec-smci47s SMCI47-S (Nanotec") for line in r.stdout.splitlines())

@@ -694,10 +694,60 @@ fn sdo_abort_codes_for_their_causes() {
         r,
         vec![CanFrame::full(0x581, abort(0x2021, 0, 0x0504_0000))]
     );
+    // 0609 0036h: VL max amount below the min amount (6046h, §6.6).
+    assert_eq!(
+        b.sdo1(&[0x23, 0x46, 0x60, 0x01, 30, 0, 0, 0]),
+        ok(0x6046, 1)
+    );
+    assert_eq!(
+        b.sdo1(&[0x23, 0x46, 0x60, 0x02, 20, 0, 0, 0]),
+        abort(0x6046, 2, 0x0609_0036)
+    );
+    assert_eq!(b.od.value(0x6046, 2), Some(Value::Unsigned(25000)));
+    // 0609 0030h: a 60FEh:02 mask with a bit outside 16…18 is discarded (§9.3 L1727); the
+    // reserved bits 0…5 of the polarity 607Eh.
+    assert_eq!(
+        b.sdo1(&[0x23, 0xFE, 0x60, 0x02, 0x00, 0x00, 0x08, 0x00]),
+        abort(0x60FE, 2, 0x0609_0030)
+    );
+    assert_eq!(b.od.value(0x60FE, 2), Some(Value::Unsigned(0x0007_0000)));
+    assert_eq!(
+        b.sdo1(&[0x23, 0xFE, 0x60, 0x02, 0x00, 0x00, 0x05, 0x00]),
+        ok(0x60FE, 2)
+    );
+    assert_eq!(
+        b.sdo1(&[0x2F, 0x7E, 0x60, 0x00, 0x01]),
+        abort(0x607E, 0, 0x0609_0030)
+    );
+    assert_eq!(b.sdo1(&[0x2F, 0x7E, 0x60, 0x00, 0xC0]), ok(0x607E, 0));
     // 0504 0002h: a block upload with block size 0.
     assert_eq!(
         b.sdo1(&[0xA0, 0x21, 0x20, 0x00, 0x00, 0x00, 0, 0]),
         abort(0x2021, 0, 0x0504_0002)
+    );
+    // 0504 0003h: a block download segment with sequence number 0.
+    assert_eq!(
+        b.sdo1(&[0xC6, 0x21, 0x20, 0x00, 0x04, 0, 0, 0]),
+        p8(&[0xA4, 0x21, 0x20, 0x00, 127, 0, 0, 0])
+    );
+    assert_eq!(
+        b.sdo1(&[0x00, 1, 2, 3, 4, 0, 0, 0]),
+        abort(0x2021, 0, 0x0504_0003)
+    );
+    // 0504 0004h: a block download whose CRC does not match.
+    b.sdo1(&[0xC6, 0x21, 0x20, 0x00, 0x04, 0, 0, 0]);
+    assert_eq!(
+        b.sdo1(&[0x81, 1, 2, 3, 4, 0, 0, 0]),
+        p8(&[0xA2, 1, 127, 0, 0, 0, 0, 0])
+    );
+    assert_eq!(
+        b.sdo1(&[0xCD, 0xAD, 0xDE, 0, 0, 0, 0, 0]),
+        abort(0x2021, 0, 0x0504_0004)
+    );
+    assert_eq!(
+        b.od.value(0x2021, 0),
+        Some(Value::Unsigned(0)),
+        "old value kept"
     );
     // 0604 0043h: guard time × life time factor beyond one minute (§11.23 L3822).
     assert_eq!(b.sdo1(&[0x2B, 0x0C, 0x10, 0x00, 0x60, 0xEA]), ok(0x100C, 0));

@@ -55,6 +55,7 @@ pub fn generate(d: &Device) -> String {
         let _ = writeln!(s, "            index: 0x{:04X},", o.index);
         let _ = writeln!(s, "            name: {:?},", o.name);
         let _ = writeln!(s, "            kind: od::ObjectKind::{},", kind(o.kind));
+        let _ = writeln!(s, "            min_max: {:?},", o.min_max);
         let _ = writeln!(s, "            entries: &[");
         for e in &o.entries {
             entry(&mut s, e, offset);
@@ -104,10 +105,11 @@ fn entry(s: &mut String, e: &Ent, offset: u32) {
     );
     let _ = writeln!(
         s,
-        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, offset: {offset}, capacity: {},",
+        "                    behaviour: od::Behaviour::{}, storable: {}, kept_on_restore: {}, allowed_bits: {:?}, offset: {offset}, capacity: {},",
         behaviour(e.behaviour),
         e.storable,
         e.kept_on_restore,
+        e.allowed_bits,
         e.capacity
     );
     let _ = writeln!(s, "                }},");

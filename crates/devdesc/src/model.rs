@@ -49,6 +49,7 @@ pub struct Obj {
     pub index: u16,
     pub name: String,
     pub kind: ObjectKind,
+    pub min_max: Option<(u8, u8)>,
     pub entries: Vec<Ent>,
 }
 
@@ -68,6 +69,7 @@ pub struct Ent {
     pub behaviour: Behaviour,
     pub storable: bool,
     pub kept_on_restore: bool,
+    pub allowed_bits: Option<u64>,
     pub capacity: u32,
 }
 
@@ -230,6 +232,7 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
                     behaviour: Behaviour::Plain,
                     storable: false,
                     kept_on_restore: false,
+                    allowed_bits: None,
                     capacity: 1,
                 },
             );
@@ -240,10 +243,29 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
             });
         }
     }
+    let min_max = match o.min_max_subs {
+        None => None,
+        Some([lo, hi]) => {
+            let numeric = |sub: u8| {
+                entries
+                    .iter()
+                    .find(|e| e.sub == sub)
+                    .map(|e| e.data_type.is_numeric())
+            };
+            if numeric(lo) != Some(true) || numeric(hi) != Some(true) || lo == hi {
+                return Err(DescError::Object {
+                    index: o.index,
+                    what: format!("min_max_subs [{lo}, {hi}]: two numeric sub-indices"),
+                });
+            }
+            Some((lo, hi))
+        }
+    };
     Ok(Obj {
         index: o.index,
         name: o.name.clone(),
         kind,
+        min_max,
         entries,
     })
 }
@@ -325,6 +347,12 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
             }
         }
     }
+    let allowed_bits = match f.allowed_bits {
+        Some(_) if data_type.is_signed() || !data_type.is_numeric() || data_type.is_real() => {
+            return Err(err("allowed_bits is for unsigned types".into()))
+        }
+        other => other,
+    };
     let storable = f.storable.unwrap_or(
         access.writable()
             && !matches!(
@@ -350,6 +378,7 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
         behaviour,
         storable,
         kept_on_restore: f.kept_on_restore.unwrap_or(false),
+        allowed_bits,
         capacity,
     })
 }
@@ -484,6 +513,21 @@ mod tests {
         let stepper = device_type.replace("0x00020192", "0x00000008");
         assert!(parse(&format!("{nanotec}{stepper}"), "t.toml").is_ok());
         assert!(parse(&format!("{cia402}{stepper}"), "t.toml").is_err());
+    }
+
+    #[test]
+    fn allowed_bits_and_min_max_subs_are_checked() {
+        let var = |t: &str| {
+            format!("[[object]]\nindex = 0x2000\nname = \"x\"\ntype = \"{t}\"\naccess = \"rw\"\nallowed_bits = 0xC0\n")
+        };
+        assert!(parse(&format!("{HEAD}{}", var("UNSIGNED8")), "t.toml").is_ok());
+        assert!(err(&var("INTEGER8")).contains("unsigned"));
+        let rec = |subs: &str| {
+            format!("[[object]]\nindex = 0x2001\nname = \"r\"\nkind = \"record\"\nmin_max_subs = {subs}\n[[object.sub]]\nsub = 1\nname = \"lo\"\ntype = \"UNSIGNED32\"\naccess = \"rw\"\n[[object.sub]]\nsub = 2\nname = \"hi\"\ntype = \"UNSIGNED32\"\naccess = \"rw\"\n")
+        };
+        let d = parse(&format!("{HEAD}{}", rec("[1, 2]")), "t.toml").unwrap();
+        assert_eq!(d.objects[0].min_max, Some((1, 2)));
+        assert!(err(&rec("[1, 3]")).contains("min_max_subs"));
     }
 
     #[test]

@@ -91,6 +91,7 @@ pub struct EntryFields {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
 }
 
@@ -112,7 +113,11 @@ pub struct ObjectSection {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
+    /// Two sub-indices whose values must stay ordered (min ≤ max); a write that would break
+    /// the order is refused with 0609 0036h.
+    pub min_max_subs: Option<[u8; 2]>,
     #[serde(default)]
     pub sub: Vec<SubSection>,
 }
@@ -135,6 +140,7 @@ pub struct SubSection {
     pub behaviour: Option<String>,
     pub storable: Option<bool>,
     pub kept_on_restore: Option<bool>,
+    pub allowed_bits: Option<u64>,
     pub source: Option<String>,
 }
 
@@ -152,6 +158,7 @@ impl SubSection {
             behaviour: self.behaviour.clone(),
             storable: self.storable,
             kept_on_restore: self.kept_on_restore,
+            allowed_bits: self.allowed_bits,
             source: self.source.clone(),
         }
     }
@@ -172,6 +179,7 @@ impl ObjectSection {
             behaviour: self.behaviour.clone(),
             storable: self.storable,
             kept_on_restore: self.kept_on_restore,
+            allowed_bits: self.allowed_bits,
             source: self.source.clone(),
         }
     }

@@ -25,8 +25,10 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+mod feed_constant;
 pub(crate) mod object_writes;
 mod plant;
+mod target_limits;
 mod velocity_mode;
 pub use plant::StepperPlant;
 
@@ -95,6 +97,9 @@ pub enum DriveEvent {
     Error { code: u16, register: u8 },
     Cleared { code: u16 },
 }
+
+/// min⁻¹ per increment/s (for the personality modules).
+pub(crate) const RPM_PER_INCREMENT_S: f64 = RPM_PER_INC_S;
 
 /// A deceleration that stops within one cycle, increments/s² ("abruptly").
 const ABRUPT_STOP: f64 = 1e15;
@@ -227,6 +232,10 @@ pub struct Drive<S> {
     pub(crate) homing_started: Instant,
     /// A homing search is still on its starting ramp (609Ah; Nanotec: only then).
     pub(crate) homing_accelerating: bool,
+    /// A homing on block sets the position when the shaft has settled (Nanotec 2004h:05).
+    pub(crate) homing_settle: Option<Instant>,
+    /// The running homing method takes its reference switch from an object.
+    pub(crate) homing_external: Option<personality::ExternalHomeSwitch>,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -235,6 +244,12 @@ pub struct Drive<S> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
+    /// A closed-loop test run in progress (Nanotec 6060h = −1 / −2) and when it ends.
+    pub(crate) test_run: Option<(i8, Instant)>,
+    /// The short closed-loop test run has aligned the encoder (Nanotec 200Bh found).
+    pub(crate) closed_loop_aligned: bool,
+    /// The brake opens then (a personality that releases it after the output stage).
+    pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
     /// Errors reported and not yet acknowledged.
     pub(crate) faults: heapless::Vec<u16, 8>,
@@ -364,7 +379,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
-            ip: if personality.vendor == Vendor::Nanotec {
+            ip: if personality.capabilities.ip_follows_sync {
                 Interpolator::following_sync()
             } else {
                 Interpolator::new(DEFAULT_IP_PERIOD)
@@ -385,11 +400,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
             homing_accelerating: false,
+            homing_settle: None,
+            homing_external: None,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
             brake_engaged: true,
             power_off_at: None,
+            brake_release_at: None,
+            test_run: None,
+            closed_loop_aligned: false,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),
@@ -505,8 +525,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn reload_factor_group(&mut self) {
-        if self.personality.vendor == Vendor::Nanotec {
-            self.fg = self.nanotec_factor_group();
+        if self.personality.capabilities.feed_constant {
+            self.fg = self.feed_constant_factor_group();
             return;
         }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
@@ -827,19 +847,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match r {
             Reaction::None => {}
             Reaction::Enable => {
-                // Brake released with the output stage; the set-point follows after the
-                // brake delay (CMMP-AS §5.16).
+                // Brake released with the output stage (CMMP-AS) or after the personality's
+                // delay; the set-point follows after the brake delay (CMMP-AS §5.16).
                 self.power_off_at = None;
-                self.brake_engaged = false;
-                self.axis.hold_brake(false);
-                let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                self.release_at = Some(self.now + delay);
+                let delays = self.brake_delays();
+                if delays.release.is_zero() {
+                    self.brake_engaged = false;
+                    self.axis.hold_brake(false);
+                } else {
+                    self.brake_release_at = Some(self.now + delays.release);
+                }
+                self.release_at = Some(self.now + delays.motion);
                 self.resync_trajectory();
                 self.stopping = false;
                 self.limit_stop = false;
             }
             Reaction::Coast => {
                 // Brake first, output stage off after the brake delay.
+                self.brake_release_at = None;
                 self.setpoints.abort();
                 self.stopping = false;
                 if self.settings.brake_fitted
@@ -848,8 +873,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 {
                     self.brake_engaged = true;
                     self.axis.hold_brake(true);
-                    let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                    self.power_off_at = Some(self.now + delay);
+                    self.power_off_at = Some(self.now + self.brake_delays().engage);
                 } else {
                     self.power_off();
                 }
@@ -859,6 +883,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.stopping = true;
             }
         }
+    }
+
+    /// The personality's brake timing: CMMP-AS §5.16 one delay 6510h:18 (brake open at once,
+    /// the set-point after it; output stage off after it); Nanotec §5.8 2007h:01 power on →
+    /// brake off, :02 brake off → operational, :03 brake on → power off.
+    fn brake_delays(&self) -> BrakeDelays {
+        let ms = |i: u16, s: u8| Duration::from_millis(self.value(i, s).max(0) as u64);
+        match self.personality.vendor {
+            Vendor::CmmpAs => BrakeDelays {
+                release: Duration::ZERO,
+                motion: ms(0x6510, 0x18),
+                engage: ms(0x6510, 0x18),
+            },
+            Vendor::Nanotec => BrakeDelays {
+                release: ms(0x2007, 1),
+                motion: ms(0x2007, 1) + ms(0x2007, 2),
+                engage: ms(0x2007, 3),
+            },
+        }
+    }
+
+    /// A brake delay is running (Nanotec §5.8: mode changes wait for it).
+    pub(crate) fn brake_wait(&self) -> bool {
+        self.power_off_at.is_some() || self.release_at.is_some_and(|t| self.now < t)
     }
 
     pub(crate) fn power_off(&mut self) {
@@ -873,6 +921,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn brake_timers(&mut self) {
         if self.power_off_at.is_some_and(|t| self.now >= t) {
             self.power_off();
+        }
+        if self.brake_release_at.is_some_and(|t| self.now >= t) {
+            self.brake_release_at = None;
+            self.brake_engaged = false;
         }
         // CMMP-AS §5.13/5.16: with 60FEh:02 bit 0 set the host works the brake through
         // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
@@ -891,7 +943,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // state of the brake", L4203–4215).
             let data = self.value(0x60FE, 1);
             let shown = (data & !1) | i64::from(engaged);
-            if !manual && shown != data {
+            if !manual && shown != data && self.personality.capabilities.brake_in_60fe {
                 self.store(self.param(0x60FE, 1), shown);
             }
         }
@@ -917,7 +969,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
     }
 
-    fn position_demand(&mut self, velocity_ff: f64) {
+    pub(crate) fn position_demand(&mut self, velocity_ff: f64) {
         let previous = self.demand_position;
         self.demand_position = self.smoother.push(self.traj.position);
         // With smoothing the feed-forward is the smoothed set-point's own speed.
@@ -985,7 +1037,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
                 ramp
-            } else if self.personality.vendor == Vendor::Nanotec
+            } else if self.personality.capabilities.ip_abrupt_quick_stop
                 && self.mode == mode::INTERPOLATED_POSITION
             {
                 // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
@@ -1020,16 +1072,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
             mode::VELOCITY => self.velocity_mode(dt),
+            mode::PROFILE_TORQUE if self.personality.vendor == Vendor::Nanotec => {
+                self.nanotec_torque(dt)
+            }
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
             mode::INTERPOLATED_POSITION => self.interpolated_position(cw, dt),
-            _ => {
-                let decel = self.accel(0x6084);
-                self.traj.step_stop(decel, dt);
-                self.position_demand(self.traj.velocity);
+            m if m < 0 && self.personality.vendor == Vendor::Nanotec => {
+                self.nanotec_test_run(cw, dt)
             }
+            _ => self.hold(dt),
         }
+    }
+
+    /// No mode that moves: the set-point brakes with 6084h and stands.
+    pub(crate) fn hold(&mut self, dt: f64) {
+        let decel = self.accel(0x6084);
+        self.traj.step_stop(decel, dt);
+        self.position_demand(self.traj.velocity);
     }
 
     fn profile_position(&mut self, cw: Controlword, dt: f64) {
@@ -1038,11 +1099,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let demand = self.traj.position;
         let fg = self.fg;
         let max_speed = self.max_motor_speed();
-        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        let target_limits = self.personality.capabilities.pp_target_limits;
         // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
-        let checked = (bit4 && self.personality.vendor == Vendor::Nanotec)
-            .then(|| self.nanotec_check_target(cw));
+        let checked = (bit4 && target_limits).then(|| self.check_target(cw));
         let get = |i: u16| self.value(i, 0);
         // Read the set-point only while bit 4 is high (a rising edge may be taking it).
         let req = bit4.then(|| {
@@ -1070,7 +1130,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     velocity: vel(0x6081).min(max_speed),
                     // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
                     // end velocity; bit 9 decides whether a queued job follows at speed.
-                    end_velocity: if nanotec { 0.0 } else { vel(0x6082) },
+                    end_velocity: if target_limits { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
                     deceleration: acc(0x6084),
                 },
@@ -1093,7 +1153,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
         let accepted = self.setpoints.update(bit4, demand, request);
         if let (true, Some(result)) = (accepted, checked) {
-            self.nanotec_target_taken(result, cw);
+            self.target_taken(result, cw);
         }
         if accepted {
             self.target_reached = false;
@@ -1261,7 +1321,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if self.ip.is_synchronised() {
                 // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
                 // first set-point (the manual's warning: write the actual position first).
-                let pending = (self.personality.vendor == Vendor::Nanotec).then(|| {
+                let pending = self.personality.capabilities.ip_follows_sync.then(|| {
                     let user = self
                         .value(0x60C1, 1)
                         .clamp(i32::MIN as i64, i32::MAX as i64);
@@ -1353,8 +1413,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let acc = self.accel(0x609A);
         // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
         // the end the motor stops at once.
-        let nanotec = self.personality.vendor == Vendor::Nanotec;
-        let (switch_acc, stop_dec) = if nanotec {
+        let immediate = self.personality.capabilities.homing_immediate;
+        let (switch_acc, stop_dec) = if immediate {
             (ABRUPT_STOP, ABRUPT_STOP)
         } else {
             (acc, acc)
@@ -1366,9 +1426,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
             HomingRun::Search(mut search) => {
                 let position = self.plant_position();
+                let mut inputs = self.switch_inputs(position);
+                if let Some(x) = self.homing_external {
+                    // The reference switch an external I/O node sends (Nanotec 2010h).
+                    let bit = self.value(x.index, x.bit_sub).clamp(0, 7);
+                    inputs.home = self.value(x.index, x.value_sub) >> bit & 1 != 0;
+                }
                 let sense = Sense {
                     position,
-                    inputs: self.switch_inputs(position),
+                    inputs,
                     stalled: self.stalled(),
                 };
                 let command = search.step(&sense, &self.settings.travel);
@@ -1387,7 +1453,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                         let a = if starting { acc } else { switch_acc };
                         let accelerating = self.traj.velocity * v >= 0.0
                             && v.abs() > self.traj.velocity.abs()
-                            && (starting || !nanotec || self.homing_accelerating);
+                            && (starting || !immediate || self.homing_accelerating);
                         self.homing_accelerating = accelerating;
                         self.traj.step_velocity(
                             v,
@@ -1402,8 +1468,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         self.set_reference(at);
-                        if nanotec {
+                        if immediate {
                             self.traj.velocity = 0.0;
+                            if stalled {
+                                // Nanotec §5.2 (−2 / −3): the position is set on the block
+                                // after the settle time 2004h:05.
+                                let ms = self.value(0x2004, 5).max(0) as u64;
+                                self.homing_settle = Some(self.now + Duration::from_millis(ms));
+                            }
                         }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
@@ -1426,7 +1498,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             HomingRun::Brake { then } => {
-                if self.traj.step_stop(stop_dec, dt) {
+                if self.traj.step_stop(stop_dec, dt) && self.homing_settled() {
                     self.homing = match then {
                         Then::ToZero => HomingRun::ToZero,
                         Then::Attained => {
@@ -1462,12 +1534,33 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = matches!(self.homing, HomingRun::Idle) && self.traj.velocity == 0.0;
     }
 
+    /// A homing on block has settled (or none waits): the reference is where the shaft now
+    /// stands.
+    fn homing_settled(&mut self) -> bool {
+        match self.homing_settle {
+            Some(t) if self.now < t => false,
+            Some(_) => {
+                self.homing_settle = None;
+                self.hold_here();
+                let at = self.plant_position();
+                self.set_reference(at);
+                true
+            }
+            None => true,
+        }
+    }
+
     fn start_homing(&mut self) {
+        self.homing_settle = None;
         self.homing_attained = false;
         self.homing_error = false;
         self.referenced = false;
         self.homing_started = self.now;
         let method = self.value(0x6098, 0).clamp(i8::MIN as i64, i8::MAX as i64) as i8;
+        self.homing_external = self
+            .personality
+            .external_home_switch
+            .filter(|x| x.methods.contains(&method));
         // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
         // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
         // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.
@@ -1551,6 +1644,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             t.negative_stop.map(|p| p as f64 * rad),
             t.positive_stop.map(|p| p as f64 * rad),
         );
+        // The stepper plant has the same stops (a shaft angle, 65536 increments a turn).
+        if let Some(s) = self.stepper.as_mut() {
+            let rad = core::f64::consts::TAU / 65536.0;
+            let stops = match (t.negative_stop, t.positive_stop) {
+                (None, None) => None,
+                (lo, hi) => Some((
+                    lo.map_or(f64::MIN, |p| p as f64 * rad),
+                    hi.map_or(f64::MAX, |p| p as f64 * rad),
+                )),
+            };
+            s.motor.set_end_stops(stops);
+        }
     }
 
     /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
@@ -1583,7 +1688,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn switch_config(&self) -> SwitchConfig {
-        if self.personality.vendor == Vendor::Nanotec {
+        if !self.personality.capabilities.switch_polarity_objects {
             // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
             // closed, 20/22 normally open); the simulated switches are read as they are.
             return SwitchConfig::from_objects(1, 0, 0, 1);
@@ -1686,7 +1791,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else {
             self.end_warning(Number { main: 17, sub: 0 });
         }
-        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error);
+        // Nanotec §5.1: the following error is watched in closed loop only; an open-loop
+        // stepper does not know it.
+        let open_loop = self
+            .stepper
+            .as_ref()
+            .is_some_and(|s| s.motor.mode() == crate::stepper::StepperMode::OpenLoop);
+        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error && !open_loop);
         sw |= match self.mode {
             mode::PROFILE_POSITION => {
                 Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
@@ -1715,15 +1826,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.plant_position();
-        let inputs = self
-            .switch_config()
-            .digital_inputs(self.input_levels(position));
+        let inputs = match self.personality.vendor {
+            Vendor::CmmpAs => self
+                .switch_config()
+                .digital_inputs(self.input_levels(position)),
+            Vendor::Nanotec => self.nanotec_digital_inputs(position),
+        };
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION
                 && !self.ip.is_synchronised()
-                && self.personality.vendor == Vendor::CmmpAs)
+                && self.personality.capabilities.ip_changing_until_synchronised)
         {
             mode::CHANGING
         } else {
@@ -1731,7 +1845,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
-        self.store(self.hot.position_internal, actual);
+        let internal = match self.personality.vendor {
+            _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
+            _ => actual,
+        };
+        self.store(self.hot.position_internal, internal);
         let fg = self.fg;
         self.store(
             self.hot.position_actual,
@@ -1859,6 +1977,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write_internal(index, sub, data)
     }
+}
+
+/// The brake's delays after the output stage goes on and before it goes off.
+#[derive(Debug, Clone, Copy)]
+struct BrakeDelays {
+    /// Output stage on → brake open.
+    release: Duration,
+    /// Output stage on → the set-point released (operational).
+    motion: Duration,
+    /// Brake closed → output stage off.
+    engage: Duration,
 }
 
 /// Where a homing run stands.

@@ -4,7 +4,9 @@
 
 mod nanotec_rig;
 
+use drive::drive::DriveSettings;
 use drive::personality::nanotec::NANOTEC;
+use drive::travel::TravelSettings;
 use nanotec_rig::Rig;
 
 /// The home switch cam of the default travel starts at 40 000 increments.
@@ -21,7 +23,10 @@ fn homing(r: &mut Rig, method: i8) {
 fn the_methods_of_the_manual() {
     let mut methods: Vec<i8> = NANOTEC.homing_methods.iter().map(|(m, _)| *m).collect();
     methods.sort();
-    assert_eq!(methods, [19, 20, 21, 22, 33, 34, 35]);
+    assert_eq!(
+        methods,
+        [-7, -6, -5, -4, -3, -2, 19, 20, 21, 22, 33, 34, 35]
+    );
 }
 
 /// Method 35: the position becomes the home offset, the shaft does not move.
@@ -84,6 +89,67 @@ fn method_19_switch_reversal_is_immediate() {
     assert_eq!(r.i(0x6062, 0), p);
 }
 
+/// Method −2: clockwise until the shaft blocks on the end stop; the blocked position reads
+/// the home offset.
+#[test]
+fn method_minus_2_homes_on_block() {
+    let mut r = Rig::with(DriveSettings {
+        travel: TravelSettings {
+            positive_stop: Some(2 * 65536),
+            ..TravelSettings::default()
+        },
+        ..DriveSettings::default()
+    });
+    r.w32(0x607C, 0, 100);
+    homing(&mut r, -2);
+    r.cw(0x001F);
+    for _ in 0..100 {
+        r.run_ms(50);
+        if r.sw() & 0x3000 != 0 {
+            break;
+        }
+    }
+    assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
+    // At the stop, within one electrical period (4 full steps = 1311 increments): the open
+    // loop's rotor settles in the nearest equilibrium of the held current vector.
+    let at = r.d.plant_position();
+    assert!(
+        at <= 2 * 65536 && 2 * 65536 - at < 1311,
+        "on the stop: {at}"
+    );
+    assert!(
+        (r.position() - 100).abs() <= 2,
+        "home offset: {}",
+        r.position()
+    );
+}
+
+/// Method −4: as 19 with the external I/O node's bit: 2010h:01 selects bit 3 of 2010h:02,
+/// which the master sets (as an RPDO would) while the axis is beyond 3000 units.
+#[test]
+fn method_minus_4_uses_the_external_io_bit_2010h() {
+    let mut r = Rig::new();
+    r.w8(0x2010, 1, 3);
+    homing(&mut r, -4);
+    r.cw(0x001F);
+    let mut sent = false;
+    for _ in 0..3000 {
+        r.run_ms(1);
+        let on = r.i(0x6064, 0) >= 3000;
+        if on != sent {
+            r.w8(0x2010, 2, if on { 0x08 } else { 0x00 });
+            sent = on;
+        }
+        if r.sw() & 0x3000 != 0 {
+            break;
+        }
+    }
+    assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
+    // The wired cam (from 1221 units) was passed over; the reference is the external edge.
+    let at = r.d.plant_position() * 2000 / 65536;
+    assert!((at - 3000).abs() < 30, "at the external switch: {at} units");
+}
+
 /// Bit 4 back to 0 aborts the search: neither attained nor error.
 #[test]
 fn bit_4_low_aborts() {
@@ -97,4 +163,20 @@ fn bit_4_low_aborts() {
     let p = r.i(0x6062, 0);
     r.run_ms(100);
     assert_eq!(r.i(0x6062, 0), p, "stopped");
+}
+
+/// §5.8: the reference switch is input 6, in 60FDh bit 2 and bit 21.
+#[test]
+fn reference_switch_is_input_6_in_60fd() {
+    let mut r = Rig::new();
+    assert_eq!(r.i(0x60FD, 0), 0, "off the cam");
+    r.enable_pp();
+    r.w32(0x607A, 0, 2000); // 65 536 increments: on the cam (40 000 … 90 000)
+    r.cw(0x001F);
+    r.cw(0x000F);
+    assert!(r.until_target_reached(5000));
+    assert_eq!(r.i(0x60FD, 0), (1 << 21) | (1 << 2));
+    r.d.force_inputs(1 << 1, 1 << 1); // input 1 high
+    r.run_ms(2);
+    assert_eq!(r.i(0x60FD, 0), (1 << 16) | (1 << 21) | (1 << 2));
 }

@@ -54,6 +54,8 @@ fn open_loop_loses_steps_above_the_pull_out_torque() {
         (demand - actual).abs() > 100,
         "commanded {demand} and encoder {actual} diverge"
     );
+    // §5.1: bit 13 following error is a closed-loop bit; the open loop does not know it.
+    assert_eq!(r.sw() & 0x2000, 0);
 }
 
 #[test]
@@ -67,4 +69,19 @@ fn closed_loop_holds_the_same_load() {
     assert_eq!(demand, 10_000);
     assert_eq!(lost, 0, "no step lost");
     assert!((actual - 10_000).abs() <= 2, "arrived: {actual}");
+}
+
+/// §5.1: in closed loop a blocked shaft is a following error beyond 6065h for 6066h: bit 13.
+#[test]
+fn closed_loop_following_error_bit_13() {
+    let mut r = rig();
+    r.w8(0x2001, 0, 1);
+    r.run_ms(2);
+    r.enable_pp();
+    r.d.stepper_mut().unwrap().set_blocked(true);
+    r.w32(0x607A, 0, 10_000);
+    r.cw(0x001F);
+    r.cw(0x000F);
+    r.run_ms(1000);
+    assert_ne!(r.sw() & 0x2000, 0, "following error");
 }

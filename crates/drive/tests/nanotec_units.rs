@@ -30,19 +30,51 @@ fn nt_sc_01_feed_constant_2000_is_one_revolution() {
     assert_eq!(r.d.factor_group().position_to_internal(2000), INC_PER_REV);
 }
 
-/// NT-SC-02: a 500-line encoder gives 608Fh = 2000 increments per revolution (the default).
+/// NT-SC-02: a 500-line encoder gives 608Fh = 2000 increments per revolution (the default);
+/// 6063h counts them: one revolution is 2000.
 #[test]
 fn nt_sc_02_encoder_resolution() {
     assert_eq!(encoder_increments(500), 2000);
-    let r = Rig::new();
+    let mut r = Rig::new();
     assert_eq!((r.i(0x608F, 1), r.i(0x608F, 2)), (2000, 1));
+    r.enable_pp();
+    let before = r.i(0x6063, 0);
+    r.w32(0x607A, 0, 2000);
+    r.cw(0x001F);
+    r.cw(0x000F);
+    assert!(r.until_target_reached(5000));
+    assert!(
+        (r.i(0x6063, 0) - before - 2000).abs() <= 2,
+        "{}",
+        r.i(0x6063, 0)
+    );
 }
 
-/// NT-SC-03: 50 pole pairs → 1.8°, 100 → 0.9°.
+/// NT-SC-03: 50 pole pairs → 1.8°, 100 → 0.9°; 2006h sets the stepper's full steps at the
+/// next power-on (reload), and 2000 units stay one revolution.
 #[test]
 fn nt_sc_03_step_angle_from_pole_pairs() {
     assert_eq!(step_angle_deg(50), 1.8);
     assert_eq!(step_angle_deg(100), 0.9);
+    let mut r = Rig::new();
+    assert_eq!(r.i(0x2006, 0), 50);
+    assert_eq!(r.d.stepper().unwrap().data().full_steps_per_rev, 200);
+    r.d.write(0x2006, 0, &100u16.to_le_bytes()).unwrap();
+    r.d.reload();
+    assert_eq!(
+        r.d.stepper().unwrap().data().full_steps_per_rev,
+        400,
+        "0.9°"
+    );
+    r.enable_pp();
+    let before = r.d.plant_position();
+    r.w32(0x607A, 0, 2000);
+    r.cw(0x001F);
+    r.cw(0x000F);
+    assert!(r.until_target_reached(5000));
+    let moved = r.d.plant_position() - before;
+    assert!((moved - INC_PER_REV).abs() < 400, "{moved} increments");
+    assert_eq!(r.d.stepper().unwrap().lost_steps(), 0);
 }
 
 /// NT-SC-04: the §1.2 table: feed 200 × micro-steps (doubled for 0.9°), velocity at 4800

@@ -98,6 +98,9 @@ pub struct Entry {
     pub storable: bool,
     /// A restore of the defaults (1011h) leaves the value as it is (Nanotec 2005h, 2009h).
     pub kept_on_restore: bool,
+    /// Bits an unsigned value may have set; a write with another bit is refused with
+    /// 0609 0030h (Nanotec 60FEh:02: "the whole mask is discarded").
+    pub allowed_bits: Option<u64>,
     /// Byte offset of the value in the dictionary's storage buffer.
     pub offset: u32,
     /// Bytes reserved for the value: the type's size, or the maximum length of a string/domain.
@@ -148,6 +151,9 @@ pub struct Object {
     pub index: u16,
     pub name: &'static str,
     pub kind: ObjectKind,
+    /// Two sub-indices whose values stay ordered, min ≤ max (Nanotec 6046h): a write that
+    /// would break the order is refused with 0609 0036h.
+    pub min_max: Option<(u8, u8)>,
     /// Sorted by sub-index; a VAR has exactly one entry, sub 0.
     pub entries: &'static [Entry],
 }

@@ -230,8 +230,47 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                     return Err(AbortCode::VALUE_TOO_LOW);
                 }
             }
+            if let (Some(mask), Value::Unsigned(u)) = (e.allowed_bits, v) {
+                if u & !mask != 0 {
+                    return Err(AbortCode::INVALID_VALUE);
+                }
+            }
         } else if data.len() > e.capacity as usize {
             return Err(AbortCode::LENGTH_TOO_HIGH);
+        }
+        Ok(())
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
+    /// An object whose two sub-indices are a min and a max keeps them ordered: 0609 0036h.
+    fn check_order(&self, e: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        let Some((lo, hi)) = self.desc.object(e.index).and_then(|o| o.min_max) else {
+            return Ok(());
+        };
+        let other = match e.sub {
+            s if s == lo => hi,
+            s if s == hi => lo,
+            _ => return Ok(()),
+        };
+        let (Some(new), Some(current)) =
+            (Value::decode(e.data_type, data), self.value(e.index, other))
+        else {
+            return Ok(());
+        };
+        let (min, max) = if e.sub == lo {
+            (new, current)
+        } else {
+            (current, new)
+        };
+        let max_limit = match max {
+            Value::Signed(s) => crate::Limit::Signed(s),
+            Value::Unsigned(u) => crate::Limit::Unsigned(u),
+            Value::Real(r) => crate::Limit::Real(r),
+            Value::Bool(b) => crate::Limit::Unsigned(u64::from(b)),
+        };
+        if min.compare(max_limit) == Some(core::cmp::Ordering::Greater) {
+            return Err(AbortCode::MAX_LESS_THAN_MIN);
         }
         Ok(())
     }
@@ -376,6 +415,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
                     let current = self.read_u32(index, sub).unwrap_or(0);
                     obj.check(current, u32::from_le_bytes(new))?;
                 }
+                self.check_order(e, data)?;
                 let data = if e.data_type == DataType::VisibleString {
                     // A string ends at its first NUL (CiA 301 §7.1.6.3).
                     let end = data.iter().position(|b| *b == 0).unwrap_or(data.len());

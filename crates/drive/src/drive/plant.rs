@@ -7,13 +7,14 @@
 //! closed loop (the encoder closes the loops; no step is lost below the peak torque).
 //!
 //! Decisions:
-//! * Nanotec §5.6: closed loop is on once 2001h ENABLE_CL ≠ 0 with an encoder (2011h ≠ 0);
-//!   the set-up test runs that the real drive needs first (6060h = −1 / −2) are taken as
-//!   done, and 200Ah shows 1.
+//! * Nanotec §5.6: closed loop is on with an encoder (2011h ≠ 0) once 2001h ENABLE_CL is 1
+//!   or 2 (the long test run and the homing the real drive needs first are taken as done),
+//!   or 3 after the short test run (6060h = −2); 200Ah shows it.
 //! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper
 //!   plant it is not stepped.
-//! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed;
-//!   a torque demand holds the set-point (torque mode on the stepper plant is not modelled).
+//! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed.
+//!   A torque demand is the closed loop's torque set-point (`k × current`); in open loop the
+//!   stepper holds.
 
 use super::*;
 use crate::stepper::{Stepper, StepperDemand, StepperMode};
@@ -73,7 +74,9 @@ impl StepperPlant {
         self.following_velocity = velocity;
         let d = match demand {
             Demand::Off => StepperDemand::Off,
-            Demand::Torque { .. } => StepperDemand::Hold,
+            Demand::Torque { current_a } => StepperDemand::Torque {
+                newton_metres: self.motor.data().torque_constant() * f64::from(current_a),
+            },
             Demand::Velocity { rpm } => {
                 self.set_point += f64::from(rpm) / 60.0 * INC_PER_REV * dt;
                 position(self, self.set_point, rpm)
@@ -135,7 +138,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.stepper.is_none() {
             return;
         }
-        let closed = self.value(0x2001, 0) != 0 && self.value(0x2011, 0) != 0;
+        // 2001h: 1 / 2 at once (the twin's encoder is aligned), 3 after the short test run.
+        let enable = self.value(0x2001, 0);
+        let closed = (matches!(enable, 1 | 2) || (enable == 3 && self.closed_loop_aligned))
+            && self.value(0x2011, 0) != 0;
         let Some(s) = self.stepper.as_mut() else {
             return;
         };

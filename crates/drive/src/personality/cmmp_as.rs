@@ -6,7 +6,9 @@
 
 use od::{AbortCode, ObjectAccess, Value};
 
-use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use super::{
+    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+};
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
@@ -129,7 +131,18 @@ pub const CMMP_AS: Personality = Personality {
     ],
     stepper_plant: false,
     pp_overwrite_queued: false,
+    capabilities: Capabilities {
+        feed_constant: false,
+        pp_target_limits: false,
+        ip_follows_sync: false,
+        ip_changing_until_synchronised: true,
+        ip_abrupt_quick_stop: false,
+        homing_immediate: false,
+        switch_polarity_objects: true,
+        brake_in_60fe: true,
+    },
     homing_methods: &METHODS,
+    external_home_switch: None,
 };
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {

@@ -83,6 +83,46 @@ pub struct ErrorSpec {
     pub critical: bool,
 }
 
+/// Where the engine's CiA 402 behaviour differs between drives, as switches: what one
+/// manual's table or rule turns on, another drive can turn on by data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capabilities {
+    /// Positions from the feed constant 6092h and the gear ratio 6091h, 6063h in the
+    /// encoder increments of 608Fh (Nanotec §6); otherwise the factors 6093h / 6094h / 6097h
+    /// (CMMP-AS §5.3).
+    pub feed_constant: bool,
+    /// Profile Position checks a target against 607Bh (wrap) and 607Dh, and a relative one
+    /// for overflow; 6082h is a start speed, bit 9 runs a queued job on the fly (Nanotec
+    /// §5.1). Otherwise 6082h is the end velocity of continuous positioning (CMMP-AS).
+    pub pp_target_limits: bool,
+    /// Interpolated position: the period is the SYNC interval (a PLL), 60C1h:01 needs no
+    /// unlocking and the target it shares with 607Ah is the first set-point (Nanotec §5.4);
+    /// otherwise 60C2h on a fixed grid with 60C4h:06 (CMMP-AS §7.4).
+    pub ip_follows_sync: bool,
+    /// 6061h shows −1 in IP until the drive is on the SYNC grid (CMMP-AS §7.4).
+    pub ip_changing_until_synchronised: bool,
+    /// A quick stop in IP stops without a ramp (Nanotec §5.4).
+    pub ip_abrupt_quick_stop: bool,
+    /// Homing accelerates with 609Ah only when starting; at the switch the speed changes
+    /// at once, at the end the motor stops at once (Nanotec §5.2).
+    pub homing_immediate: bool,
+    /// The switches are read through 6510h:11 … :14 (CMMP-AS §5.14); otherwise as wired.
+    pub switch_polarity_objects: bool,
+    /// 60FEh:01 bit 0 is the holding brake (CMMP-AS §5.13).
+    pub brake_in_60fe: bool,
+}
+
+/// A reference switch a master supplies through an object (an RPDO from an external I/O
+/// node): bit `bit_number(index:bit_sub)` of `index:value_sub`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExternalHomeSwitch {
+    pub index: u16,
+    pub bit_sub: u8,
+    pub value_sub: u8,
+    /// The homing methods that use it instead of the wired switch.
+    pub methods: &'static [i8],
+}
+
 /// A CiA 402 personality.
 #[derive(Debug)]
 pub struct Personality {
@@ -99,8 +139,10 @@ pub struct Personality {
     pub stepper_plant: bool,
     /// Profile Position: a new set-point while one is queued replaces the queued one.
     pub pp_overwrite_queued: bool,
+    pub capabilities: Capabilities,
     /// The homing methods 6098h selects.
     pub homing_methods: &'static [Method],
+    pub external_home_switch: Option<ExternalHomeSwitch>,
 }
 
 impl Personality {

@@ -1,25 +1,37 @@
 //! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
 //! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
-//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1, the homing
-//! methods of §5.2 as tables; as behaviour the statusword (bit 9 remote always set, bit 4
-//! from Switched On, bit 8 PLL sync), the Profile Position target checks of §5.1 (range-limit
-//! wrap, software limits, relative overflow) and the reaction table of §7.1.
+//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1 with their
+//! reaction table (legacy and new by 2020h), the homing methods of §5.2 and the
+//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the
+//! SYNC interval, immediate homing speed changes) as tables; as behaviour the statusword (bit
+//! 9 remote always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no
+//! PV, torque only in closed loop, no change during a brake wait), the shared target
+//! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
 
 use od::{AbortCode, ObjectAccess};
 
-use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use super::{
+    Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, ModeSpec, OptionCode,
+    Personality, Vendor,
+};
+use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
-use crate::drive::Drive;
-use crate::factor_group::{
-    acceleration_factor, position_factor, velocity_factor, FactorGroup, Ratio,
-    TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_SECOND,
-};
+use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
+use crate::personality::nanotec_units::{load_angle_spacing_rpm, torque_current_ma};
 use crate::statusword::Statusword;
+use crate::stepper::StepperData;
+use crate::trajectory::Trajectory;
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
+///
+/// Decision: the manual does not say which code set goes into bytes 0–1 of the EMCY in the
+/// legacy and the new format (2020h; spec §7.1 note); the twin sends these §7.1 codes in
+/// both, as §13.2 calls bytes 0–1 the "Emergency Error Code" beside the §13.3 table of these
+/// codes, and the error register 1001h bit 0 (generic, §7.4). The CiA codes of §17 are the
+/// firmware's names for the standard ranges; no Nanotec cause is mapped to them in the text.
 pub mod emcy {
     pub const UNDERVOLTAGE: u16 = 0x0001;
     pub const OVERTEMPERATURE: u16 = 0x0002;
@@ -51,12 +63,7 @@ const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
 /// refused with 0609 0030h. 0 ("no mode") is taken; the drive then holds its position.
 pub const NANOTEC: Personality = Personality {
     vendor: Vendor::Nanotec,
-    devices: &[
-        "nanotec-smci47s",
-        "nanotec-pd4n",
-        "nanotec-smci47-s",
-        "nanotec-pd4-n",
-    ],
+    devices: &["nanotec-smci47s", "nanotec-pd4n"],
     // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
     // the closed-loop test runs (§5.6).
     modes: &[
@@ -94,7 +101,24 @@ pub const NANOTEC: Personality = Personality {
     ],
     stepper_plant: true,
     pp_overwrite_queued: true,
+    capabilities: Capabilities {
+        feed_constant: true,
+        pp_target_limits: true,
+        ip_follows_sync: true,
+        ip_changing_until_synchronised: false,
+        ip_abrupt_quick_stop: true,
+        homing_immediate: true,
+        switch_polarity_objects: false,
+        brake_in_60fe: false,
+    },
     homing_methods: &HOMING_METHODS,
+    // §5.2 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.
+    external_home_switch: Some(ExternalHomeSwitch {
+        index: 0x2010,
+        bit_sub: 1,
+        value_sub: 2,
+        methods: &[-4, -5, -6, -7],
+    }),
 };
 
 /// A reaction of the §7.1 table.
@@ -184,13 +208,14 @@ use crate::homing::Signal::Home;
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index};
 
-/// §5.2, methods 19–22, 33–35. Clockwise is the positive direction (§9: positive VL speed is
+/// §5.2: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
+/// methods −4 … −7. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
 ///
 /// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
 /// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
 /// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
-pub const HOMING_METHODS: [Method; 7] = [
+pub const HOMING_METHODS: [Method; 13] = [
     // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
     (
         19,
@@ -217,7 +242,38 @@ pub const HOMING_METHODS: [Method; 7] = [
     (34, &[step(-1, Crawl, Index)]),
     // 35: the actual position becomes the home offset, no motion.
     (35, &[]),
+    // −2 / −3: homing on block, CW / CCW at 6099h:01 until the shaft blocks (following error
+    // beyond 6065h); the blocked position gets the home offset. Decision: the manual's second
+    // pass at 6099h:02 after backing off one electrical revolution ends on the same block;
+    // the twin's rigid stop makes it the same position, so one pass stands for both.
+    (-2, &[step(1, Fast, Until::Stop)]),
+    (-3, &[step(-1, Fast, Until::Stop)]),
+    // −4 … −7: as 19 … 22 with the external I/O node's bit (2010h) for input 6.
+    (
+        -4,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
+    (
+        -5,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    (
+        -6,
+        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
+    ),
+    (
+        -7,
+        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
+    ),
 ];
+
+/// The long test run (6060h = −1).
+pub const LONG_TEST_RUN: core::time::Duration = core::time::Duration::from_secs(2);
+/// The short test run (6060h = −2).
+pub const SHORT_TEST_RUN: core::time::Duration = core::time::Duration::from_millis(500);
+
+/// Appendix 18.1, the default load-angle curve of a stepper (65536 = 360° electrical).
+pub const STEPPER_LOAD_ANGLES: [u16; 7] = [16384, 18384, 20384, 22384, 24384, 26384, 28384];
 
 /// Statusword bits 0–3, 5, 6 of each state (§4.2, measured in the §2.4 example: 0260h,
 /// 0221h, 0233h, 0237h with bits 4 and 9 added). Bit 5 is set in Switch On Disabled.
@@ -233,8 +289,28 @@ const STATE_BITS: [(State, u16); 8] = [
 ];
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// At power-on and after a reload: nothing beyond the dictionary's values.
-    pub(crate) fn nanotec_power_on(&mut self) {}
+    /// At power-on and after a reload: the motor's pole pairs 2006h (50 → 1.8°, 100 → 0.9°;
+    /// "takes effect after a power cycle", §11.7) set the stepper's full steps per
+    /// revolution, 4 × pole pairs.
+    ///
+    /// A controller without brake output (the PD4-N has no 2007h) has no holding brake.
+    pub(crate) fn nanotec_power_on(&mut self) {
+        if self.od.description().object(0x2007).is_none() && self.settings.brake_fitted {
+            self.settings.brake_fitted = false;
+            self.brake_engaged = false;
+            self.axis.hold_brake(false);
+        }
+        let pole_pairs = self.value(0x2006, 0);
+        if let (Some(stepper), Ok(pp @ 1..)) = (self.stepper_mut(), u32::try_from(pole_pairs)) {
+            let data = StepperData {
+                full_steps_per_rev: 4 * pp,
+                ..*stepper.data()
+            };
+            if data != *stepper.data() {
+                stepper.set_data(data);
+            }
+        }
+    }
 
     /// The objects whose Nanotec rules do more than store a value.
     pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
@@ -245,11 +321,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         })
     }
 
-    /// 6060h: PV (3) is refused (see [`NANOTEC`]).
+    /// 6060h: PV (3) is refused (see [`NANOTEC`]); torque mode (4) needs the closed loop
+    /// (§5.5: "closed loop must be active", 200Ah = 1).
+    ///
+    /// Decision: the manual does not say what happens without it; the write is refused with
+    /// 0800 0022h (present device state), so a master learns it at once.
     fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.entry(index, sub)?;
         match data {
             [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
+            [4] if self.value(0x200A, 0) == 0 => Err(AbortCode::DEVICE_STATE),
+            // §4.2: "while a brake wait time (2007h) is running, mode changes are not
+            // executed".
+            _ if self.brake_wait() => Err(AbortCode::DEVICE_STATE),
             _ => self.write_mode(index, sub, data),
         }
     }
@@ -270,6 +354,130 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let increments = self.fg.position_to_internal(user) as f64;
         self.ip.set_point(increments);
         Ok(())
+    }
+
+    /// Torque mode (§5.5): the current `6071h / 1000 × 2004h:01 % × rated current` as the
+    /// closed loop's torque, the speed limited to 607Fh min⁻¹ in both directions; halt holds
+    /// the motor (its falling edge starts again). Bit 10: without halt the set torque is
+    /// reached (not cut by the speed limit), with halt the motor stands.
+    ///
+    /// Decisions: "rated current" is the motor's (the twin's current limits come from it);
+    /// the speed limit takes the torque back linearly over the last 5 % below 607Fh.
+    pub(crate) fn nanotec_torque(&mut self, dt: f64) {
+        let rpm = f64::from(self.plant_velocity_rpm());
+        if self.halted {
+            let decel = self.accel(0x6085);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            self.target_reached = rpm.abs() < 1.0;
+            return;
+        }
+        let rated_ma = self
+            .stepper()
+            .map_or(0, |s| (s.data().rated_current * 1000.0) as u32);
+        let percent = self.value(0x2004, 1).clamp(0, 100) as u8;
+        let target = self.value(0x6071, 0).clamp(-1000, 1000) as i16;
+        let current_a = torque_current_ma(target, percent, rated_ma) / 1000.0;
+        let limit = self.value(0x607F, 0).max(0) as f64;
+        let along = rpm * current_a.signum();
+        let band = 0.05 * limit + 1.0;
+        let factor = ((limit - along) / band).clamp(0.0, 1.0);
+        self.demand = Demand::Torque {
+            current_a: (current_a * factor) as f32,
+        };
+        self.target_reached = factor >= 1.0;
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: rpm / RPM_PER_INCREMENT_S,
+        };
+        self.demand_position = self.traj.position;
+    }
+
+    /// The closed-loop test runs (§5.6): 6060h = −1 "CL Motor Setup" measures the load-angle
+    /// curve into 200Ch (and 2012h / 2013h / 2018h until the next restart), −2 "Short CL
+    /// Motor Setup" the encoder offset 200Bh, only while it is 0, and then enables the closed
+    /// loop for 2001h = 3.
+    ///
+    /// Decisions (the manual gives neither the start nor the duration): a run starts on the
+    /// rising edge of bit 4 in Operation Enabled, as homing does, and bit 4 low aborts it; the
+    /// long run takes [`LONG_TEST_RUN`], the short one [`SHORT_TEST_RUN`], with the shaft
+    /// standing; the end shows as target reached (bit 10). The measured curve is Appendix
+    /// 18.1's stepper curve (the twin's motor has no load angle of its own), at the support
+    /// points of 2004h:08; 2012h holds the motor's rated current in mA; 200Bh is the
+    /// electrical angle of the index pulse, `index position × pole pairs` in 65536ths.
+    pub(crate) fn nanotec_test_run(&mut self, cw: Controlword, dt: f64) {
+        self.hold(dt);
+        if self.cw_rising.contains(Controlword::NEW_SET_POINT) && self.test_run.is_none() {
+            let length = if self.mode == -1 {
+                LONG_TEST_RUN
+            } else {
+                SHORT_TEST_RUN
+            };
+            self.test_run = Some((self.mode, self.now + length));
+            self.target_reached = false;
+        }
+        if !cw.contains(Controlword::NEW_SET_POINT) && self.test_run.is_some() {
+            self.test_run = None;
+            return;
+        }
+        if let Some((mode, _)) = self.test_run.filter(|(_, end)| self.now >= *end) {
+            self.test_run = None;
+            self.target_reached = true;
+            if mode == -1 {
+                self.store_load_angle_curve();
+            } else {
+                self.align_encoder();
+            }
+        }
+    }
+
+    fn store_load_angle_curve(&mut self) {
+        let spacing = load_angle_spacing_rpm(self.value(0x2004, 8).clamp(0, 0xFFFF) as u16);
+        let rated_ma = self
+            .stepper()
+            .map_or(0, |s| (s.data().rated_current * 1000.0) as i64);
+        for (n, angle) in (1u8..).zip(STEPPER_LOAD_ANGLES) {
+            let rpm = libm::round(f64::from(n - 1) * spacing) as i64;
+            for (index, value) in [
+                (0x200C, i64::from(angle)),
+                (0x2013, i64::from(angle)),
+                (0x2018, rpm.min(i64::from(i16::MAX))),
+                (0x2012, rated_ma.min(i64::from(i16::MAX))),
+            ] {
+                if let Some(e) = self.od.description().entry(index, n) {
+                    self.store(Some(e), value);
+                }
+            }
+        }
+    }
+
+    fn align_encoder(&mut self) {
+        if self.value(0x200B, 0) == 0 {
+            let index = i64::from(self.settings.travel.index_phase.unwrap_or(0));
+            let pole_pairs = self.value(0x2006, 0).max(1);
+            let offset = (index * pole_pairs).rem_euclid(65536).max(1);
+            if let Some(e) = self.od.description().entry(0x200B, 0) {
+                self.store(Some(e), offset);
+            }
+        }
+        self.closed_loop_aligned = true;
+    }
+
+    /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
+    /// bit 2. Input 6 follows the simulated home switch; [`Drive::force_inputs`] bit n drives
+    /// input n.
+    pub(crate) fn nanotec_digital_inputs(&self, position: i64) -> u32 {
+        const INPUT_6: u16 = 1 << 6;
+        let home = self.settings.travel.inputs(position).home;
+        let wired = if home { INPUT_6 } else { 0 };
+        let levels = (wired & !self.forced_mask) | (self.forced_levels & self.forced_mask);
+        let mut v = (1..=6u32)
+            .filter(|n| levels & (1 << n) != 0)
+            .fold(0u32, |acc, n| acc | 1 << (15 + n));
+        if levels & INPUT_6 != 0 {
+            v |= 1 << 2;
+        }
+        v
     }
 
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
@@ -295,111 +503,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             Some(r) => r.reaction(legacy, moving).into(),
             None if critical => ErrorReaction::OutputStageOff,
             None => ErrorReaction::QuickStop,
-        }
-    }
-}
-
-/// Nanotec §6: user units from the feed constant 6092h and the gear ratio 6091h (default
-/// 2000 units per output revolution), velocities in units/s, accelerations in units/s².
-fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
-    Some(FactorGroup {
-        position: position_factor(gear, feed).ok()?,
-        velocity: velocity_factor(gear, feed, TIME_FACTOR_V_PER_SECOND).ok()?,
-        acceleration: acceleration_factor(gear, feed, TIME_FACTOR_A_PER_SECOND_SQUARED).ok()?,
-        polarity,
-    })
-}
-
-/// The feed constant of the defaults (§6: 2000 units = one output revolution).
-const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
-
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// The factor group from 6091h and 6092h; the defaults where they break the rules.
-    pub(crate) fn nanotec_factor_group(&self) -> FactorGroup {
-        let ratio = |index: u16, dflt: Ratio| {
-            Ratio::new(
-                self.od
-                    .get_unsigned(index, 1)
-                    .map_or(dflt.numerator, |v| v as u32),
-                self.od
-                    .get_unsigned(index, 2)
-                    .map_or(dflt.divisor, |v| v as u32),
-            )
-        };
-        let gear = ratio(0x6091, Ratio::new(1, 1));
-        let feed = ratio(0x6092, DEFAULT_FEED);
-        let polarity = self.od.get_unsigned(0x607E, 0).unwrap_or(0) as u8;
-        factor_group(gear, feed, polarity)
-            .or_else(|| factor_group(Ratio::new(1, 1), DEFAULT_FEED, polarity))
-            .unwrap_or_default()
-    }
-
-    /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
-    /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
-    /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;
-    /// (3) a relative target that overflows the position is refused with EMCY 1000h.
-    /// Returns the absolute target, or the refusal.
-    ///
-    /// Decisions: a relative target counts from the position set-point (the last target once
-    /// a move has ended; §4.1 "relative to the last target position" and §4.2 "relative to
-    /// the current position" agree at standstill). 607Bh and 607Dh with min = max = 0 are off
-    /// (§3.4 says so of 607Bh; CiA 402 of both). The wrap applies to the resolved target.
-    pub(crate) fn nanotec_check_target(&self, cw: Controlword) -> Result<i32, Fault> {
-        let target = self.value(0x607A, 0);
-        let absolute = if cw.contains(Controlword::RELATIVE) {
-            let queued = self
-                .setpoints
-                .active
-                .filter(|_| !cw.contains(Controlword::CHANGE_SET_IMMEDIATELY));
-            let base_internal = queued.map_or(self.traj.position, |j| j.target);
-            let base = i64::from(
-                self.fg
-                    .position_from_internal(libm::round(base_internal) as i64),
-            );
-            let sum = base + target;
-            if i32::try_from(sum).is_err() {
-                return Err(Fault::PositionOverflow);
-            }
-            sum
-        } else {
-            target
-        };
-        let (min, max) = (self.value(0x607B, 1), self.value(0x607B, 2));
-        let absolute = if (min, max) != (0, 0) && min < max && !(min..=max).contains(&absolute) {
-            min + (absolute - min).rem_euclid(max - min + 1)
-        } else {
-            absolute
-        };
-        let home = self.value(0x607C, 0);
-        let (lo, hi) = (self.value(0x607D, 1), self.value(0x607D, 2));
-        if (lo, hi) != (0, 0) && !(lo - home..=hi - home).contains(&absolute) {
-            return Err(Fault::SoftwareLimit);
-        }
-        i32::try_from(absolute).map_err(|_| Fault::PositionOverflow)
-    }
-
-    /// A PP set-point was taken: a refused one raises its EMCY and bit 11; a valid one
-    /// clears both (§4.1 item 4: "cleared only by the next valid position"), bit 11 staying
-    /// for a wrapped one. With bit 9 (change on set-point) a queued job follows the running
-    /// one without braking at its target.
-    pub(crate) fn nanotec_target_taken(&mut self, result: Result<i32, Fault>, cw: Controlword) {
-        match result {
-            Err(fault) => {
-                self.internal_limit = true;
-                self.raise_fault(fault);
-            }
-            Ok(target) => {
-                self.clear_notice(emcy::POSITION_LIMIT);
-                self.clear_notice(emcy::POSITION_OVERFLOW);
-                self.internal_limit = i64::from(target) != self.value(0x607A, 0)
-                    && !cw.contains(Controlword::RELATIVE);
-            }
-        }
-        if self.setpoints.buffered.is_some() {
-            let on_the_fly = cw.contains(Controlword::CHANGE_ON_SET_POINT);
-            if let Some(active) = self.setpoints.active.as_mut() {
-                active.end_velocity = if on_the_fly { active.velocity } else { 0.0 };
-            }
         }
     }
 }

@@ -1,0 +1,50 @@
+//! Each personality's tables agree with the device files it serves: the device exists and is
+//! a CiA 402 drive, 6502h says the modes 6060h accepts, the option codes read as the
+//! personality has them, and every homing method fits 6098h.
+
+use drive::personality::{self, ALL};
+use od::{ObjectDictionary, Value};
+
+#[test]
+fn tables_agree_with_the_device_files() {
+    for p in ALL {
+        assert!(
+            !p.devices.is_empty(),
+            "{:?} serves no device file",
+            p.vendor
+        );
+        for name in p.devices {
+            let desc = devices::by_name(name).expect("a device file of this name");
+            assert_eq!(desc.profile, od::Profile::Cia402, "{name}");
+            assert_eq!(personality::for_device(name).vendor, p.vendor, "{name}");
+            let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+            assert_eq!(
+                od.get_unsigned(0x6502, 0),
+                Some(u64::from(p.supported_drive_modes(false))),
+                "{name}: 6502h"
+            );
+            for o in p.option_codes {
+                assert_eq!(
+                    od.value(o.index, 0),
+                    Some(Value::Signed(i64::from(o.value))),
+                    "{name}: {:04X}h",
+                    o.index
+                );
+            }
+            // Negative methods need a signed 6098h (Nanotec §9: "typed u8, really s8").
+            let e = desc.entry(0x6098, 0).expect("6098h");
+            assert_eq!(e.data_type, od::DataType::Integer8, "{name}: 6098h");
+            assert!(!p.homing_methods.is_empty(), "{name}");
+        }
+    }
+}
+
+/// The CMMP-AS reached over EtherCAT adds CSP (6502h bit 7), as before the split.
+#[test]
+fn cmmp_as_csp_over_ethercat_only() {
+    let p = &personality::cmmp_as::CMMP_AS;
+    assert_eq!(p.supported_drive_modes(false), 0x6D);
+    assert_eq!(p.supported_drive_modes(true), 0xED);
+    assert!(!p.accepts_mode(8, false));
+    assert!(p.accepts_mode(8, true));
+}
