@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CellLoop, FrontEnds, StopHandle, MAX_PENDING};
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
 use drivetwin::cell::Cell;
 
 fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
@@ -17,10 +17,13 @@ fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
     let mut config = ServerConfig::new("vcan0");
     config.stream_delay = Duration::from_millis(20);
     let front = FrontEnds {
-        socketcand: Some((listener, config)),
+        buses: vec![CanBus {
+            socketcand: Some((listener, config)),
+            ..CanBus::new(Cell::new(vec![drive]))
+        }],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::new(Cell::new(vec![drive]), front).expect("loop");
+    let cell_loop = CellLoop::with_buses(front).expect("loop");
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || {
         cell_loop.run().expect("runs");
@@ -128,6 +131,62 @@ fn a_client_that_does_not_read_is_dropped_and_never_delays_the_others() {
         }
     }
     assert!(ended, "the slow client is disconnected");
+    stop.stop();
+    thread.join().expect("loop ends");
+}
+
+#[test]
+fn two_buses_on_one_loop_keep_their_frames_apart() {
+    let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+    let mut buses = Vec::new();
+    let mut addrs = Vec::new();
+    for _ in 0..2 {
+        // Node 1 on each bus: node-IDs are per bus.
+        let drive = CanDrive::new(desc, 1, None, vec![]).expect("drive");
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        addrs.push(listener.local_addr().expect("addr"));
+        let mut config = ServerConfig::new("vcan0");
+        config.stream_delay = Duration::from_millis(20);
+        buses.push(CanBus {
+            socketcand: Some((listener, config)),
+            ..CanBus::new(Cell::new(vec![drive]))
+        });
+    }
+    let cell_loop = CellLoop::with_buses(FrontEnds {
+        buses,
+        ..FrontEnds::default()
+    })
+    .expect("loop");
+    let stop = cell_loop.stop_handle();
+    let thread = std::thread::spawn(move || {
+        let cells = cell_loop.run().expect("runs");
+        assert_eq!(cells.len(), 2);
+    });
+    let mut a = raw_client(addrs[0]);
+    let mut a2 = raw_client(addrs[0]);
+    let mut b = raw_client(addrs[1]);
+    // A frame on bus A reaches A's other client, not B's.
+    a.write_all(b"< send 123 2 AA BB >").expect("write");
+    let mut buf = [0u8; 4096];
+    let n = a2.read(&mut buf).expect("A2 sees it");
+    assert!(String::from_utf8_lossy(&buf[..n]).contains("< frame 123 "));
+    b.set_read_timeout(Some(Duration::from_millis(200)))
+        .expect("timeout");
+    match b.read(&mut buf) {
+        Ok(n) => assert!(
+            !String::from_utf8_lossy(&buf[..n]).contains("frame 123"),
+            "bus B stays apart"
+        ),
+        Err(e) => assert!(matches!(
+            e.kind(),
+            std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+        )),
+    }
+    b.set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    // Each bus's node 1 answers its own client.
+    assert!(sdo_upload_1000(&mut a).contains(" 43001000"));
+    assert!(sdo_upload_1000(&mut b).contains(" 43001000"));
     stop.stop();
     thread.join().expect("loop ends");
 }

@@ -45,25 +45,64 @@ pub const MAX_PENDING: usize = 256 * 1024;
 const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
-const SOCKETCAND: Token = Token(1);
-const SOCKETCAN: Token = Token(2);
+/// Bus `b` has tokens `1 + 2b` (its socketcand server) and `2 + 2b` (its SocketCAN socket).
+pub const MAX_BUSES: usize = 7;
 /// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
-const FIRST_DYNAMIC: usize = 16;
+const FIRST_DYNAMIC: usize = 2 * MAX_BUSES + 2;
+
+/// One CAN bus of a cell: the CANopen drives on it and its transports.
+pub struct CanBus {
+    pub cell: Cell,
+    /// The socketcand server and its settings (the bus name it serves).
+    pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
+    /// A SocketCAN interface the bus is bridged to.
+    #[cfg(target_os = "linux")]
+    pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    /// Where every frame on the bus is written.
+    pub trace: Option<TraceWriter>,
+}
+
+impl CanBus {
+    /// The drives of `cell` on a bus without transports yet.
+    pub fn new(cell: Cell) -> CanBus {
+        CanBus {
+            cell,
+            socketcand: None,
+            #[cfg(target_os = "linux")]
+            socketcan: None,
+            trace: None,
+        }
+    }
+}
+
+/// A drive on a bus: the bus's index in the cell, the drive's in the bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnBus {
+    pub bus: usize,
+    pub drive: usize,
+}
 
 /// Every socket a cell serves, bound before the loop starts.
 #[derive(Default)]
 pub struct FrontEnds {
-    /// The socketcand server and its settings (the bus name it serves).
-    pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
-    /// A SocketCAN interface the cell's bus is bridged to.
-    #[cfg(target_os = "linux")]
-    pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
-    /// CI terminals: a listener and the index of its drive in the cell.
-    pub ci_terminals: Vec<(std::net::TcpListener, usize)>,
+    /// The cell's CAN buses (at most [`MAX_BUSES`]).
+    pub buses: Vec<CanBus>,
+    /// CI terminals: a listener and its drive.
+    pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
-    /// Where every frame on the cell's bus is written.
-    pub trace: Option<TraceWriter>,
+}
+
+/// A bus while the loop runs.
+struct BusState {
+    cell: Cell,
+    socketcand: Option<(TcpListener, ServerConfig)>,
+    #[cfg(target_os = "linux")]
+    socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    trace: Option<TraceWriter>,
+    trace_dirty: bool,
+    totals: Totals,
+    last_stamp: SystemTime,
 }
 
 /// Stops a running loop from another thread.
@@ -87,20 +126,13 @@ pub struct CellLoop {
     poll: Poll,
     stop: Arc<AtomicBool>,
     waker: Arc<Waker>,
-    cell: Cell,
+    buses: Vec<BusState>,
     /// The cell clock's zero.
     origin: Instant,
-    socketcand: Option<(TcpListener, ServerConfig)>,
-    #[cfg(target_os = "linux")]
-    socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// Listeners by token - FIRST_DYNAMIC; connections after them.
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
-    trace: Option<TraceWriter>,
-    trace_dirty: bool,
-    totals: Totals,
-    last_stamp: SystemTime,
     /// Connections with bytes to write before the loop waits again.
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
@@ -122,7 +154,7 @@ struct Subscription {
 }
 
 enum Listener {
-    Console { listener: TcpListener, drive: usize },
+    Console { listener: TcpListener, drive: OnBus },
     Modbus { listener: TcpListener, drive: usize },
 }
 
@@ -148,13 +180,14 @@ struct Connection {
 
 enum Kind {
     Socketcand {
+        bus: usize,
         session: Session,
         decoder: Decoder,
         /// Frames kept during the stream delay after `rawmode`.
         held: Vec<u8>,
     },
     Console {
-        drive: usize,
+        drive: OnBus,
         lines: LineCutter,
     },
     Modbus {
@@ -163,24 +196,52 @@ enum Kind {
 }
 
 impl CellLoop {
-    pub fn new(cell: Cell, mut front: FrontEnds) -> io::Result<CellLoop> {
+    /// A cell of one CAN bus, `cell`, with the transports of `front` (whose own `buses` come
+    /// after it).
+    pub fn new(cell: Cell, front: FrontEnds) -> io::Result<CellLoop> {
+        let mut front = front;
+        front.buses.insert(0, CanBus::new(cell));
+        CellLoop::with_buses(front)
+    }
+
+    /// A cell of several buses, `front.buses`, and the other front ends of `front`.
+    pub fn with_buses(mut front: FrontEnds) -> io::Result<CellLoop> {
+        if front.buses.len() > MAX_BUSES {
+            return Err(io::Error::other(format!(
+                "{} CAN buses: a cell has at most {MAX_BUSES}",
+                front.buses.len()
+            )));
+        }
         let poll = Poll::new()?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKER)?);
-        let mut socketcand = None;
-        if let Some((l, config)) = front.socketcand {
-            l.set_nonblocking(true)?;
-            let mut l = TcpListener::from_std(l);
-            poll.registry()
-                .register(&mut l, SOCKETCAND, Interest::READABLE)?;
-            socketcand = Some((l, config));
-        }
-        #[cfg(target_os = "linux")]
-        if let Some(s) = &front.socketcan {
-            poll.registry().register(
-                &mut mio::unix::SourceFd(&s.as_raw_fd()),
-                SOCKETCAN,
-                Interest::READABLE,
-            )?;
+        let mut buses = Vec::new();
+        for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
+            let mut socketcand = None;
+            if let Some((l, config)) = bus.socketcand {
+                l.set_nonblocking(true)?;
+                let mut l = TcpListener::from_std(l);
+                poll.registry()
+                    .register(&mut l, Token(1 + 2 * b), Interest::READABLE)?;
+                socketcand = Some((l, config));
+            }
+            #[cfg(target_os = "linux")]
+            if let Some(s) = &bus.socketcan {
+                poll.registry().register(
+                    &mut mio::unix::SourceFd(&s.as_raw_fd()),
+                    Token(2 + 2 * b),
+                    Interest::READABLE,
+                )?;
+            }
+            buses.push(BusState {
+                cell: bus.cell,
+                socketcand,
+                #[cfg(target_os = "linux")]
+                socketcan: bus.socketcan,
+                trace: bus.trace,
+                trace_dirty: false,
+                totals: Totals::default(),
+                last_stamp: UNIX_EPOCH,
+            });
         }
         let mut listeners = Vec::new();
         for (l, drive) in front.ci_terminals {
@@ -209,18 +270,11 @@ impl CellLoop {
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
-            cell,
+            buses,
             origin: Instant::now(),
-            socketcand,
-            #[cfg(target_os = "linux")]
-            socketcan: front.socketcan,
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
-            trace: front.trace,
-            trace_dirty: false,
-            totals: Totals::default(),
-            last_stamp: UNIX_EPOCH,
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
             text: Vec::with_capacity(64),
@@ -240,9 +294,11 @@ impl CellLoop {
         ControlHandle::new(self.control_tx.clone(), Arc::clone(&self.waker))
     }
 
-    /// The address the socketcand server listens on.
-    pub fn socketcand_addr(&self) -> Option<SocketAddr> {
-        self.socketcand
+    /// The address the socketcand server of bus `bus` listens on.
+    pub fn socketcand_addr(&self, bus: usize) -> Option<SocketAddr> {
+        self.buses
+            .get(bus)?
+            .socketcand
             .as_ref()
             .and_then(|(l, _)| l.local_addr().ok())
     }
@@ -257,13 +313,19 @@ impl CellLoop {
         self.origin + Duration::from_nanos(at.as_nanos())
     }
 
-    /// Runs the cell in real time until [`StopHandle::stop`]; gives the cell back.
-    pub fn run(mut self) -> io::Result<Cell> {
+    /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
+    /// back.
+    pub fn run(mut self) -> io::Result<Vec<Cell>> {
         let mut events = Events::with_capacity(256);
         let start = Instant::now();
         let mut out = std::mem::take(&mut self.out);
-        self.cell.boot(self.now(start), &mut out);
-        self.drives_sent(start, &mut out);
+        for b in 0..self.buses.len() {
+            let t = self.now(start);
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.cell.boot(t, &mut out);
+            }
+            self.drives_sent(b, start, &mut out);
+        }
         self.out = out;
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
@@ -282,9 +344,15 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
-                    SOCKETCAND => self.accept_socketcand(),
-                    SOCKETCAN => self.read_socketcan(now),
-                    Token(t) if t >= FIRST_DYNAMIC => {
+                    Token(t) if t < FIRST_DYNAMIC => {
+                        let b = (t - 1) / 2;
+                        if t % 2 == 1 {
+                            self.accept_socketcand(b);
+                        } else {
+                            self.read_socketcan(b, now);
+                        }
+                    }
+                    Token(t) => {
                         let i = t - FIRST_DYNAMIC;
                         if i < self.listeners.len() {
                             self.accept(i);
@@ -298,38 +366,51 @@ impl CellLoop {
                             }
                         }
                     }
-                    Token(_) => {}
                 }
             }
             self.control(now);
             self.samples(now);
             self.flush_dirty();
-            if self.trace_dirty && events.is_empty() {
-                if let Some(w) = self.trace.as_mut() {
-                    crate::trace::flush_quietly(w);
+            if events.is_empty() {
+                for bus in self.buses.iter_mut().filter(|b| b.trace_dirty) {
+                    if let Some(w) = bus.trace.as_mut() {
+                        crate::trace::flush_quietly(w);
+                    }
+                    bus.trace_dirty = false;
                 }
-                self.trace_dirty = false;
             }
-        }
-        if let Some(w) = self.trace.as_mut() {
-            crate::trace::flush_quietly(w);
         }
         for m in &mut self.modbus {
             m.close_connection();
         }
-        Ok(self.cell)
+        Ok(self
+            .buses
+            .into_iter()
+            .map(|mut b| {
+                if let Some(w) = b.trace.as_mut() {
+                    crate::trace::flush_quietly(w);
+                }
+                b.cell
+            })
+            .collect())
     }
 
     /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, or a
     /// trace to flush.
     fn deadline(&self) -> Option<Instant> {
-        let mut at = self.cell.deadline().map(|d| self.wall(d));
+        let mut at: Option<Instant> = None;
         let mut take = |d: Option<Instant>| {
             at = match (at, d) {
                 (Some(a), Some(b)) => Some(a.min(b)),
                 (a, b) => a.or(b),
             }
         };
+        for bus in &self.buses {
+            take(bus.cell.deadline().map(|d| self.wall(d)));
+            if bus.trace_dirty {
+                take(Some(Instant::now() + Duration::from_millis(20)));
+            }
+        }
         for c in self.slots.iter().flatten() {
             if let Kind::Socketcand { session, .. } = &c.kind {
                 take(session.deadline());
@@ -337,9 +418,6 @@ impl CellLoop {
         }
         for m in &self.modbus {
             take(Some(self.wall(m.next_cycle())));
-        }
-        if self.trace_dirty {
-            take(Some(Instant::now() + Duration::from_millis(20)));
         }
         for s in &self.subscriptions {
             take(Some(s.next));
@@ -349,11 +427,16 @@ impl CellLoop {
 
     fn timers(&mut self, now: Instant) {
         let t = self.now(now);
-        if self.cell.deadline().is_some_and(|d| d <= t) {
-            let mut out = std::mem::take(&mut self.out);
-            self.cell.poll(t, &mut out);
-            self.drives_sent(now, &mut out);
-            self.out = out;
+        for b in 0..self.buses.len() {
+            let Some(bus) = self.buses.get_mut(b) else {
+                break;
+            };
+            if bus.cell.deadline().is_some_and(|d| d <= t) {
+                let mut out = std::mem::take(&mut self.out);
+                bus.cell.poll(t, &mut out);
+                self.drives_sent(b, now, &mut out);
+                self.out = out;
+            }
         }
         for slot in 0..self.slots.len() {
             self.session_timers(slot, now);
@@ -371,13 +454,16 @@ impl CellLoop {
     }
 
     fn session_timers(&mut self, slot: usize, now: Instant) {
-        let totals = self.totals;
         let Some(Some(conn)) = self.slots.get_mut(slot) else {
             return;
         };
-        let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+        let Kind::Socketcand {
+            session, held, bus, ..
+        } = &mut conn.kind
+        else {
             return;
         };
+        let totals = self.buses.get(*bus).map(|b| b.totals).unwrap_or_default();
         if session.deadline().is_none_or(|d| d > now) {
             return;
         }
@@ -392,19 +478,20 @@ impl CellLoop {
         self.mark_dirty(slot);
     }
 
-    fn accept_socketcand(&mut self) {
+    fn accept_socketcand(&mut self, b: usize) {
         loop {
-            let Some((listener, _)) = self.socketcand.as_ref() else {
+            let Some((listener, config)) = self.buses.get(b).and_then(|x| x.socketcand.as_ref())
+            else {
                 return;
             };
+            let (max, max_len) = (config.max_clients, config.max_message_len);
             match listener.accept() {
                 Ok((stream, peer)) => {
-                    let max = self.socketcand.as_ref().map_or(0, |(_, c)| c.max_clients);
                     let clients = self
                         .slots
                         .iter()
                         .flatten()
-                        .filter(|c| matches!(c.kind, Kind::Socketcand { .. }))
+                        .filter(|c| matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b))
                         .count();
                     if clients >= max {
                         tracing::warn!(%peer, max, "socketcand: too many clients, refusing");
@@ -412,11 +499,8 @@ impl CellLoop {
                         let _ = (&stream).write(b"< error too many clients >");
                         continue;
                     }
-                    let max_len = self
-                        .socketcand
-                        .as_ref()
-                        .map_or(0, |(_, c)| c.max_message_len);
                     let kind = Kind::Socketcand {
+                        bus: b,
                         session: Session::new(),
                         decoder: Decoder::with_max_len(max_len),
                         held: Vec::new(),
@@ -439,24 +523,23 @@ impl CellLoop {
 
     fn accept(&mut self, i: usize) {
         loop {
-            let (accepted, drive, modbus) = match self.listeners.get(i) {
-                Some(Listener::Console { listener, drive }) => (listener.accept(), *drive, false),
-                Some(Listener::Modbus { listener, drive }) => (listener.accept(), *drive, true),
+            let (accepted, console) = match self.listeners.get(i) {
+                Some(Listener::Console { listener, drive }) => (listener.accept(), Ok(*drive)),
+                Some(Listener::Modbus { listener, drive }) => (listener.accept(), Err(*drive)),
                 None => return,
             };
             match accepted {
-                Ok((stream, peer)) => {
-                    if modbus {
-                        self.accept_modbus(stream, peer, drive);
-                    } else {
-                        tracing::info!(%peer, drive, "CI terminal connected");
+                Ok((stream, peer)) => match console {
+                    Err(modbus) => self.accept_modbus(stream, peer, modbus),
+                    Ok(drive) => {
+                        tracing::info!(%peer, bus = drive.bus, drive = drive.drive, "CI terminal connected");
                         let kind = Kind::Console {
                             drive,
                             lines: LineCutter::default(),
                         };
                         self.add(stream, peer, kind);
                     }
-                }
+                },
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {
@@ -628,7 +711,7 @@ impl CellLoop {
     }
 
     /// Bytes typed at a CI terminal: each complete line is answered by its drive at once.
-    fn console_bytes(&mut self, slot: usize, drive: usize, bytes: &[u8], now: Instant) {
+    fn console_bytes(&mut self, slot: usize, drive: OnBus, bytes: &[u8], now: Instant) {
         let t = self.now(now);
         for &b in bytes {
             let Some(Some(Connection {
@@ -644,10 +727,11 @@ impl CellLoop {
                 Some(Cut::Line(line)) => {
                     let mut out = std::mem::take(&mut self.out);
                     let reply = self
-                        .cell
-                        .ci_line(drive, t, &line, &mut out)
+                        .buses
+                        .get_mut(drive.bus)
+                        .and_then(|b| b.cell.ci_line(drive.drive, t, &line, &mut out))
                         .unwrap_or_else(syntax_error);
-                    self.drives_sent(now, &mut out);
+                    self.drives_sent(drive.bus, now, &mut out);
                     self.out = out;
                     reply
                 }
@@ -666,7 +750,10 @@ impl CellLoop {
                 return;
             };
             let Kind::Socketcand {
-                session, decoder, ..
+                session,
+                decoder,
+                bus,
+                ..
             } = &mut conn.kind
             else {
                 return;
@@ -674,7 +761,7 @@ impl CellLoop {
             let Some(message) = decoder.next_message() else {
                 return;
             };
-            let Some((_, config)) = self.socketcand.as_ref() else {
+            let Some((_, config)) = self.buses.get(*bus).and_then(|b| b.socketcand.as_ref()) else {
                 return;
             };
             let effects = &mut self.effects;
@@ -699,7 +786,15 @@ impl CellLoop {
                         held.clear();
                     }
                 }
-                Effect::Send(frame) => self.bus(frame, Source::Client(slot), now),
+                Effect::Send(frame) => {
+                    if let Some(Some(Connection {
+                        kind: Kind::Socketcand { bus, .. },
+                        ..
+                    })) = self.slots.get(slot)
+                    {
+                        self.bus(*bus, frame, Source::Client(slot), now);
+                    }
+                }
                 Effect::Close => {
                     if let Some(Some(conn)) = self.slots.get_mut(slot) {
                         conn.closing = true;
@@ -794,19 +889,21 @@ impl CellLoop {
     }
 
     #[cfg(target_os = "linux")]
-    fn read_socketcan(&mut self, now: Instant) {
+    fn read_socketcan(&mut self, b: usize, now: Instant) {
         loop {
-            let Some(s) = self.socketcan.as_ref() else {
+            let Some(s) = self.buses.get(b).and_then(|x| x.socketcan.as_ref()) else {
                 return;
             };
             match s.try_recv() {
-                Ok(Some(frame)) => self.bus(frame, Source::SocketCan, now),
+                Ok(Some(frame)) => self.bus(b, frame, Source::SocketCan, now),
                 Ok(None) => {}
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => {
                     tracing::error!(error = %e, "SocketCAN receive failed; interface closed");
-                    self.socketcan = None;
+                    if let Some(x) = self.buses.get_mut(b) {
+                        x.socketcan = None;
+                    }
                     return;
                 }
             }
@@ -814,32 +911,35 @@ impl CellLoop {
     }
 
     #[cfg(not(target_os = "linux"))]
-    fn read_socketcan(&mut self, _now: Instant) {}
+    fn read_socketcan(&mut self, _b: usize, _now: Instant) {}
 
-    /// Frames the drives sent: on the bus.
-    fn drives_sent(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    /// Frames the drives of bus `b` sent: on the bus.
+    fn drives_sent(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) {
         for f in out.drain(..) {
-            self.bus(f, Source::Drives, now);
+            self.bus(b, f, Source::Drives, now);
         }
     }
 
-    /// One frame on the cell's bus: to every node but its source.
-    fn bus(&mut self, frame: CanFrame, source: Source, now: Instant) {
-        let stamp = SystemTime::now().max(self.last_stamp);
-        self.last_stamp = stamp;
-        self.totals.frames += 1;
-        self.totals.bytes += frame.payload().len() as u64;
+    /// One frame on bus `b`: to every node of it but its source.
+    fn bus(&mut self, b: usize, frame: CanFrame, source: Source, now: Instant) {
+        let Some(bus) = self.buses.get_mut(b) else {
+            return;
+        };
+        let stamp = SystemTime::now().max(bus.last_stamp);
+        bus.last_stamp = stamp;
+        bus.totals.frames += 1;
+        bus.totals.bytes += frame.payload().len() as u64;
         let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
-        if let Some(w) = self.trace.as_mut() {
+        if let Some(w) = bus.trace.as_mut() {
             if let Err(e) = w.write(since_epoch, &frame) {
                 tracing::error!(error = %e, "writing the trace failed; trace stopped");
-                self.trace = None;
+                bus.trace = None;
             }
-            self.trace_dirty = true;
+            bus.trace_dirty = true;
         }
         #[cfg(target_os = "linux")]
         if source != Source::SocketCan {
-            if let Some(s) = &self.socketcan {
+            if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {
                     tracing::warn!(error = %e, "SocketCAN: frame not sent");
                 }
@@ -860,9 +960,15 @@ impl CellLoop {
                 if source == Source::Client(slot) {
                     continue;
                 }
-                let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+                let Kind::Socketcand {
+                    session, held, bus, ..
+                } = &mut conn.kind
+                else {
                     continue;
                 };
+                if *bus != b {
+                    continue;
+                }
                 if session.is_streaming() {
                     conn.pending.extend_from_slice(&self.text);
                 } else if session.wants_frames() && held.len() + self.text.len() <= MAX_HELD {
@@ -878,8 +984,11 @@ impl CellLoop {
         }
         if source != Source::Drives {
             let mut out = std::mem::take(&mut self.out);
-            self.cell.on_frame(self.now(now), &frame, &mut out);
-            self.drives_sent(now, &mut out);
+            let t = self.now(now);
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.cell.on_frame(t, &frame, &mut out);
+            }
+            self.drives_sent(b, now, &mut out);
             self.out = out;
         }
     }
@@ -990,10 +1099,14 @@ impl CellLoop {
     }
 
     fn drive_list(&self) -> Vec<DriveInfo> {
-        let can = self.cell.drives.iter().map(|d| {
-            let desc = d.od().description();
-            (desc, Interface::CanOpen { node: d.node_id() })
-        });
+        let can = self
+            .buses
+            .iter()
+            .flat_map(|b| b.cell.drives.iter())
+            .map(|d| {
+                let desc = d.od().description();
+                (desc, Interface::CanOpen { node: d.node_id() })
+            });
         let modbus = self.modbus.iter().map(|m| {
             let dev = crate::modbus_tcp::server::lock(m.device());
             (dev.od().description(), Interface::ModbusTcp)
@@ -1011,11 +1124,18 @@ impl CellLoop {
 
     /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
-        let can = self.cell.drives.len();
-        if let Some(d) = self.cell.drives.get_mut(drive) {
-            return Ok(Target::Can(&mut d.model));
+        let mut rest = drive;
+        for bus in &mut self.buses {
+            let n = bus.cell.drives.len();
+            if rest < n {
+                return match bus.cell.drives.get_mut(rest) {
+                    Some(d) => Ok(Target::Can(&mut d.model)),
+                    None => Err(ControlError::NoDrive(drive)),
+                };
+            }
+            rest -= n;
         }
-        match self.modbus.get(drive - can) {
+        match self.modbus.get(rest) {
             Some(m) => Ok(Target::Modbus(m.device().clone())),
             None => Err(ControlError::NoDrive(drive)),
         }
