@@ -90,6 +90,9 @@ pub struct FrontEnds {
     pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
+    /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
+    /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
+    pub busy_poll: bool,
 }
 
 /// A bus while the loop runs.
@@ -132,6 +135,7 @@ pub struct CellLoop {
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
+    busy_poll: bool,
     /// Connections with bytes to write before the loop waits again.
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
@@ -274,6 +278,7 @@ impl CellLoop {
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
+            busy_poll: front.busy_poll,
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
             text: Vec::with_capacity(64),
@@ -328,9 +333,12 @@ impl CellLoop {
         self.out = out;
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
-            let timeout = self
-                .deadline()
-                .map(|d| d.saturating_duration_since(Instant::now()));
+            let timeout = if self.busy_poll {
+                Some(Duration::ZERO)
+            } else {
+                self.deadline()
+                    .map(|d| d.saturating_duration_since(Instant::now()))
+            };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
                     continue;
