@@ -40,6 +40,10 @@ mod handle;
 /// Bytes a client may leave unread before it is dropped.
 pub const MAX_PENDING: usize = 256 * 1024;
 
+/// Reads of 4 KiB one connection gets per turn of the loop: a client that floods the bus
+/// does not keep the loop from the others.
+const READS_PER_TURN: usize = 16;
+
 /// Frames held for a client while its RAW stream has not started yet.
 const MAX_HELD: usize = 64 * 1024;
 
@@ -136,6 +140,8 @@ pub struct CellLoop {
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
     busy_poll: bool,
+    /// Connections that had more to read than one turn takes.
+    more_to_read: Vec<usize>,
     /// Connections with bytes to write before the loop waits again.
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
@@ -279,6 +285,7 @@ impl CellLoop {
             slots: Vec::new(),
             modbus: front.modbus,
             busy_poll: front.busy_poll,
+            more_to_read: Vec::new(),
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
             text: Vec::with_capacity(64),
@@ -333,7 +340,7 @@ impl CellLoop {
         self.out = out;
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
-            let timeout = if self.busy_poll {
+            let timeout = if self.busy_poll || !self.more_to_read.is_empty() {
                 Some(Duration::ZERO)
             } else {
                 self.deadline()
@@ -374,6 +381,9 @@ impl CellLoop {
                         }
                     }
                 }
+            }
+            for slot in std::mem::take(&mut self.more_to_read) {
+                self.read(slot, now);
             }
             self.control(now);
             self.samples(now);
@@ -657,7 +667,7 @@ impl CellLoop {
     /// Reads what a connection has sent and acts on it.
     fn read(&mut self, slot: usize, now: Instant) {
         let mut buf = [0u8; 4096];
-        loop {
+        for _ in 0..READS_PER_TURN {
             let Some(Some(conn)) = self.slots.get_mut(slot) else {
                 return;
             };
@@ -681,6 +691,11 @@ impl CellLoop {
                 // A short read emptied the socket; the next bytes raise a new event.
                 return;
             }
+        }
+        // More may wait, and no new event comes for it (edge-triggered): read on next turn,
+        // after the others have had theirs.
+        if !self.more_to_read.contains(&slot) {
+            self.more_to_read.push(slot);
         }
     }
 
