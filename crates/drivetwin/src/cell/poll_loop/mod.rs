@@ -28,8 +28,9 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
+use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
-use crate::can::socketcand::{Decoder, Message, ServerConfig};
+use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::control::{Command, ControlHandle, PlantSample};
 use crate::cell::Cell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
@@ -968,13 +969,10 @@ impl CellLoop {
             }
         }
         if Session::forwards(&frame) {
+            let mut text = [0u8; FRAME_TEXT_MAX];
+            let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
-            let message = Message::Frame {
-                frame,
-                timestamp: since_epoch,
-            };
-            // Writing into a Vec cannot fail.
-            let _ = write!(self.text, "{message}");
+            self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
             for (slot, c) in self.slots.iter_mut().enumerate() {
                 let Some(conn) = c else {
                     continue;
