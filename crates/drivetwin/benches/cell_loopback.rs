@@ -32,7 +32,7 @@ use std::time::{Duration, Instant};
 
 use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CellLoop, FrontEnds, StopHandle};
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::cell::Cell;
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -94,7 +94,10 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     let mb_listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let mb_addr = mb_listener.local_addr().map_err(|e| e.to_string())?;
     let front = FrontEnds {
-        socketcand: Some((can_listener, ServerConfig::new("vcan0"))),
+        buses: vec![CanBus {
+            socketcand: Some((can_listener, ServerConfig::new("vcan0"))),
+            ..CanBus::new(Cell::new(vec![drive]))
+        }],
         modbus: vec![ModbusDrive::new(
             mb_listener,
             Arc::new(Mutex::new(dev)),
@@ -103,7 +106,7 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
         )],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::new(Cell::new(vec![drive]), front).map_err(|e| e.to_string())?;
+    let cell_loop = CellLoop::with_buses(front).map_err(|e| e.to_string())?;
     let stop = cell_loop.stop_handle();
     std::thread::Builder::new()
         .name("cell".into())

@@ -9,7 +9,7 @@ use std::time::Duration;
 use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
 use drivetwin::cell::control::{Interface, Plant};
-use drivetwin::cell::poll_loop::{CellLoop, FrontEnds};
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::cell::Cell;
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -76,7 +76,10 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
     let can_addr = can.local_addr().expect("addr");
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let front = FrontEnds {
-        socketcand: Some((can, ServerConfig::new("vcan0"))),
+        buses: vec![CanBus {
+            socketcand: Some((can, ServerConfig::new("vcan0"))),
+            ..CanBus::new(Cell::new(vec![drive]))
+        }],
         modbus: vec![ModbusDrive::new(
             mb,
             Arc::new(Mutex::new(dev)),
@@ -85,7 +88,7 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
         )],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::new(Cell::new(vec![drive]), front).expect("loop");
+    let cell_loop = CellLoop::with_buses(front).expect("loop");
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || cell_loop.run().map(|_| ()));

@@ -14,6 +14,7 @@ use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
 };
+use crate::cell::interfaces::InterfaceName;
 use drive::drive::DriveSettings;
 use drive::fhpp::axis_mechanics::AxisMechanics;
 use drive::fhpp::device::FhppSettings;
@@ -46,20 +47,83 @@ pub enum ConfigError {
     DuplicateNode(u8),
     #[error("drive {0}: its switches select FHPP over CANopen (M0 DIN9 HIGH), which the twin does not simulate for the CMMP-AS")]
     FhppOverCan(u8),
+    #[error("drive {node}: bus {name:?} is not a [[bus]] of the cell (its buses: {known})")]
+    UnknownBus {
+        node: u8,
+        name: String,
+        known: String,
+    },
+    #[error("drive {node}: {source}")]
+    Interfaces {
+        node: u8,
+        source: crate::cell::interfaces::InterfaceError,
+    },
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct CellFile {
+    /// `[bus]` (one bus, the earlier form) or `[[bus]]` entries (several CAN buses).
     #[serde(default)]
-    pub bus: BusSection,
+    pub bus: Buses,
     #[serde(default)]
     pub drive: Vec<DriveSection>,
+}
+
+/// The cell's CAN buses.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum Buses {
+    One(BusSection),
+    Many(Vec<BusSection>),
+}
+
+impl Default for Buses {
+    fn default() -> Self {
+        Buses::One(BusSection::default())
+    }
+}
+
+impl Buses {
+    pub fn all(&self) -> &[BusSection] {
+        match self {
+            Buses::One(b) => std::slice::from_ref(b),
+            Buses::Many(v) => v,
+        }
+    }
+
+    /// The first bus (the one `--socketcand`, `--channel` and `--socketcan` set), made if
+    /// the file has none.
+    pub fn first_mut(&mut self) -> &mut BusSection {
+        if let Buses::Many(v) = self {
+            if v.is_empty() {
+                v.push(BusSection::default());
+            }
+        }
+        match self {
+            Buses::One(b) => b,
+            Buses::Many(v) => &mut v[0],
+        }
+    }
+
+    /// The index of the bus a drive names (by `name`, else by `channel`); the first without
+    /// a name.
+    pub fn index(&self, name: Option<&str>) -> Option<usize> {
+        match name {
+            None => Some(0),
+            Some(n) => self
+                .all()
+                .iter()
+                .position(|b| b.name.as_deref().unwrap_or(&b.channel) == n),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BusSection {
+    /// What drives call the bus (`bus = "..."`); default its channel.
+    pub name: Option<String>,
     /// socketcand server address; "" turns the server off.
     #[serde(default = "default_socketcand")]
     pub socketcand: String,
@@ -72,6 +136,7 @@ pub struct BusSection {
 impl Default for BusSection {
     fn default() -> Self {
         BusSection {
+            name: None,
             socketcand: default_socketcand(),
             channel: default_channel(),
             socketcan: None,
@@ -124,6 +189,16 @@ pub struct DriveSection {
     /// TCP address (loopback only) of the drive's CI terminal, the debug console whose SDO
     /// simulation the CMMP-AS manual describes (§3.2.3); none by default.
     pub ci_terminal: Option<String>,
+    /// The `[[bus]]` (by name or channel) the drive's CANopen node is on; default the first.
+    pub bus: Option<String>,
+    /// The drive's interfaces, e.g. `["canopen", "ci-terminal"]`; default what its profile
+    /// and keys imply. Checked against what the real device offers
+    /// ([`crate::cell::interfaces`]).
+    pub interfaces: Option<Vec<InterfaceName>>,
+    /// Testing only: allow interface combinations the real device does not have (e.g. a
+    /// CMMP-AS on CANopen and EtherCAT at once).
+    #[serde(default)]
+    pub allow_unreal_interfaces: bool,
 }
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
@@ -556,6 +631,8 @@ pub struct DriveSpec {
     pub fhpp: Option<FhppSpec>,
     /// From `[drive.switches]`, if given.
     pub fieldbus: Option<FieldbusSettings>,
+    /// The index of the bus (of [`Buses::all`]) its CANopen node is on.
+    pub bus: usize,
 }
 
 impl DriveSpec {
@@ -599,7 +676,7 @@ impl CellFile {
             objects.insert("6510:F0".to_string(), toml::Value::Integer(0x0080));
         }
         CellFile {
-            bus: BusSection::default(),
+            bus: Buses::default(),
             drive: vec![DriveSection {
                 device: device.to_string(),
                 node,
@@ -614,6 +691,9 @@ impl CellFile {
                 switches: None,
                 rotary_switches: None,
                 ci_terminal: None,
+                bus: None,
+                interfaces: None,
+                allow_unreal_interfaces: false,
             }],
         }
     }
@@ -682,6 +762,26 @@ impl CellFile {
                 Some(p) => p.node_id,
                 None => fieldbus.map_or(d.node, |f| f.node_id),
             };
+            let bus = self
+                .bus
+                .index(d.bus.as_deref())
+                .ok_or_else(|| ConfigError::UnknownBus {
+                    node,
+                    name: d.bus.clone().unwrap_or_default(),
+                    known: self
+                        .bus
+                        .all()
+                        .iter()
+                        .map(|b| b.name.as_deref().unwrap_or(&b.channel))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })?;
+            // Decision: without `interfaces` a drive keeps the earlier rules (its profile's
+            // fieldbus, `ci_terminal`, `modbus`), checked below as before.
+            if let Some(interfaces) = &d.interfaces {
+                crate::cell::interfaces::check(desc.name, interfaces, d.allow_unreal_interfaces)
+                    .map_err(|source| ConfigError::Interfaces { node, source })?;
+            }
             let err = |key: &str, what: String| ConfigError::Object {
                 node: d.node,
                 key: key.into(),
@@ -723,8 +823,11 @@ impl CellFile {
                         format!("{}: stepper, axis and modbus are the CMMO-ST's", desc.name),
                     ));
                 }
-                // The CAN node-IDs of a cell share one bus.
-                if specs.iter().any(|s| s.fhpp.is_none() && s.node == node) {
+                // The CAN node-IDs of one bus are unique.
+                if specs
+                    .iter()
+                    .any(|s| s.fhpp.is_none() && s.node == node && s.bus == bus)
+                {
                     return Err(ConfigError::DuplicateNode(node));
                 }
                 None
@@ -794,6 +897,7 @@ impl CellFile {
                 settings,
                 fhpp,
                 fieldbus,
+                bus,
             });
         }
         Ok(specs)

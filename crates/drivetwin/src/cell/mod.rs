@@ -6,6 +6,7 @@ pub mod config;
 pub mod control;
 pub mod device_model;
 pub mod fieldbus_switches;
+pub mod interfaces;
 pub mod param_store;
 pub mod poll_loop;
 pub mod realtime;

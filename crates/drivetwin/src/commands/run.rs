@@ -1,6 +1,7 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CellLoop, FrontEnds};
+use drivetwin::cell::interfaces::InterfaceName;
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, OnBus};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
@@ -31,13 +32,15 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-/// The cell of the drives that are on CAN, and for each drive of `specs` (the cell file's,
-/// in order) its index in the cell (`None`: a CMMO-ST, or its switches keep it off the bus).
+/// The drives that are on CAN, one cell per bus of the cell file (`buses` of them), and for
+/// each drive of `specs` (the cell file's, in order) its place (`None`: a CMMO-ST, or its
+/// switches keep it off the bus).
 pub(crate) fn build_cell(
     specs: Vec<DriveSpec>,
+    buses: usize,
     state_dir: Option<&PathBuf>,
-) -> Result<(Cell, Vec<Option<usize>>), CommandError> {
-    let mut drives = Vec::new();
+) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
+    let mut drives: Vec<Vec<CanDrive>> = (0..buses).map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
     for spec in specs {
         in_cell.push(None);
@@ -64,7 +67,11 @@ pub(crate) fn build_cell(
             );
         }
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-        drives.push(CanDrive::with_settings(
+        let bus = spec.bus;
+        let Some(on_bus) = drives.get_mut(bus) else {
+            continue;
+        };
+        on_bus.push(CanDrive::with_settings(
             spec.desc,
             spec.node,
             store,
@@ -72,10 +79,13 @@ pub(crate) fn build_cell(
             spec.settings,
         )?);
         if let Some(last) = in_cell.last_mut() {
-            *last = Some(drives.len() - 1);
+            *last = Some(OnBus {
+                bus,
+                drive: on_bus.len() - 1,
+            });
         }
     }
-    Ok((Cell::new(drives), in_cell))
+    Ok((drives.into_iter().map(Cell::new).collect(), in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
@@ -84,15 +94,27 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         None => CellFile::single(&args.device, args.node),
     };
     if let Some(s) = &args.socketcand {
-        file.bus.socketcand = s.clone();
+        file.bus.first_mut().socketcand = s.clone();
     }
     if let Some(c) = &args.channel {
-        file.bus.channel = c.clone();
+        file.bus.first_mut().channel = c.clone();
     }
     if let Some(c) = &args.socketcan {
-        file.bus.socketcan = Some(c.clone());
+        file.bus.first_mut().socketcan = Some(c.clone());
     }
     let specs = file.drives()?;
+    let on_ethercat = file.drive.iter().any(|d| {
+        d.interfaces
+            .as_ref()
+            .is_some_and(|i| i.contains(&InterfaceName::Ethercat))
+    });
+    if on_ethercat && args.ethercat.is_none() {
+        return Err(CommandError::Usage(
+            "interfaces = [\"ethercat\", ...]: EtherCAT drives run with --ethercat IFNAME (the \
+             chain is not on the cell loop yet)"
+                .into(),
+        ));
+    }
     if args.ci_terminal.is_some() && specs.first().is_some_and(|s| s.fhpp.is_some()) {
         return Err(CommandError::Usage(
             "--ci-terminal is the CMMP-AS debug console; the CMMO-ST has none".into(),
@@ -147,8 +169,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     } else {
         Vec::new()
     };
-    let (mut cell, in_cell) = build_cell(specs, args.state_dir.as_ref())?;
-    for d in &cell.drives {
+    let buses = file.bus.all().to_vec();
+    let (cells, in_cell) = build_cell(specs, buses.len(), args.state_dir.as_ref())?;
+    for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
             "drive {} node {} ({})",
             d.od().description().name,
@@ -158,6 +181,14 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     }
 
     if let Some(seconds) = args.virtual_seconds {
+        let mut cells = cells;
+        if cells.len() != 1 {
+            return Err(CommandError::Usage(
+                "--virtual-seconds runs a cell of one CAN bus".into(),
+            ));
+        }
+        let mut cell = cells.remove(0);
+        let channel = buses.first().map_or("vcan0", |b| b.channel.as_str());
         if !(seconds.is_finite() && seconds >= 0.0) {
             return Err(CommandError::Usage(
                 "--virtual-seconds must be a positive number".into(),
@@ -174,9 +205,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             None => Vec::new(),
         };
         let mut writer = match &args.trace {
-            Some(p) => Some(
-                TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?,
-            ),
+            Some(p) => Some(TraceWriter::create(p, channel).map_err(io(p.display().to_string()))?),
             None => None,
         };
         let mut count = 0u64;
@@ -206,31 +235,37 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
 
     let mut front = FrontEnds {
         modbus,
+        busy_poll: args.busy_poll,
         ..FrontEnds::default()
     };
-    // A cell of CMMO-STs only has no bus and no socketcand server.
-    if !cell.drives.is_empty() && !file.bus.socketcand.is_empty() {
-        let listener = std::net::TcpListener::bind(&file.bus.socketcand)
-            .map_err(io(format!("socketcand listen on {}", file.bus.socketcand)))?;
-        let addr = listener.local_addr().map_err(io("socketcand address"))?;
-        out!("socketcand server on {addr}, channel {}", file.bus.channel);
-        front.socketcand = Some((listener, ServerConfig::new(file.bus.channel.clone())));
-    }
-    #[cfg(target_os = "linux")]
-    if let Some(ifname) = &file.bus.socketcan {
-        let socket = drivetwin::can::socketcan::RawCanSocket::open(ifname)
-            .map_err(io(format!("SocketCAN {ifname}")))?;
-        out!("SocketCAN bridge on {ifname}");
-        front.socketcan = Some(socket);
-    }
-    if let Some(p) = &args.trace {
-        let writer =
-            TraceWriter::create(p, &file.bus.channel).map_err(io(p.display().to_string()))?;
-        out!("tracing to {}", p.display());
-        front.trace = Some(writer);
+    for (b, (cell, section)) in cells.into_iter().zip(&buses).enumerate() {
+        let mut bus = CanBus::new(cell);
+        // A bus without drives (a cell of CMMO-STs only) has no socketcand server.
+        if !bus.cell.drives.is_empty() && !section.socketcand.is_empty() {
+            let listener = std::net::TcpListener::bind(&section.socketcand)
+                .map_err(io(format!("socketcand listen on {}", section.socketcand)))?;
+            let addr = listener.local_addr().map_err(io("socketcand address"))?;
+            out!("socketcand server on {addr}, channel {}", section.channel);
+            bus.socketcand = Some((listener, ServerConfig::new(section.channel.clone())));
+        }
+        #[cfg(target_os = "linux")]
+        if let Some(ifname) = &section.socketcan {
+            let socket = drivetwin::can::socketcan::RawCanSocket::open(ifname)
+                .map_err(io(format!("SocketCAN {ifname}")))?;
+            out!("SocketCAN bridge on {ifname}");
+            bus.socketcan = Some(socket);
+        }
+        // `--trace` records the first bus.
+        if let (0, Some(p)) = (b, &args.trace) {
+            let writer =
+                TraceWriter::create(p, &section.channel).map_err(io(p.display().to_string()))?;
+            out!("tracing to {}", p.display());
+            bus.trace = Some(writer);
+        }
+        front.buses.push(bus);
     }
     front.ci_terminals = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref())?;
-    let cell_loop = CellLoop::new(cell, front).map_err(io("cell loop"))?;
+    let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
     let stop = cell_loop.stop_handle();
     let thread = std::thread::Builder::new()
         .name("cell".into())
@@ -265,9 +300,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
 /// listener and the index of its drive in the cell; the cell loop answers their lines.
 fn ci_consoles(
     file: &CellFile,
-    in_cell: &[Option<usize>],
+    in_cell: &[Option<OnBus>],
     first: Option<&str>,
-) -> Result<Vec<(std::net::TcpListener, usize)>, CommandError> {
+) -> Result<Vec<(std::net::TcpListener, OnBus)>, CommandError> {
     let mut consoles = Vec::new();
     for (i, d) in file.drive.iter().enumerate() {
         let cli = if i == 0 { first } else { None };

@@ -28,42 +28,88 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
+use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
-use crate::can::socketcand::{Decoder, Message, ServerConfig};
-use crate::cell::control::{
-    Command, ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
-};
-use crate::cell::device_model::Model;
+use crate::can::socketcand::{Decoder, ServerConfig};
+use crate::cell::control::{Command, ControlHandle, PlantSample};
 use crate::cell::Cell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
+mod handle;
+
 /// Bytes a client may leave unread before it is dropped.
 pub const MAX_PENDING: usize = 256 * 1024;
+
+/// Reads of 4 KiB one connection gets per turn of the loop: a client that floods the bus
+/// does not keep the loop from the others.
+const READS_PER_TURN: usize = 16;
 
 /// Frames held for a client while its RAW stream has not started yet.
 const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
-const SOCKETCAND: Token = Token(1);
-const SOCKETCAN: Token = Token(2);
+/// Bus `b` has tokens `1 + 2b` (its socketcand server) and `2 + 2b` (its SocketCAN socket).
+pub const MAX_BUSES: usize = 7;
 /// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
-const FIRST_DYNAMIC: usize = 16;
+const FIRST_DYNAMIC: usize = 2 * MAX_BUSES + 2;
+
+/// One CAN bus of a cell: the CANopen drives on it and its transports.
+pub struct CanBus {
+    pub cell: Cell,
+    /// The socketcand server and its settings (the bus name it serves).
+    pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
+    /// A SocketCAN interface the bus is bridged to.
+    #[cfg(target_os = "linux")]
+    pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    /// Where every frame on the bus is written.
+    pub trace: Option<TraceWriter>,
+}
+
+impl CanBus {
+    /// The drives of `cell` on a bus without transports yet.
+    pub fn new(cell: Cell) -> CanBus {
+        CanBus {
+            cell,
+            socketcand: None,
+            #[cfg(target_os = "linux")]
+            socketcan: None,
+            trace: None,
+        }
+    }
+}
+
+/// A drive on a bus: the bus's index in the cell, the drive's in the bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnBus {
+    pub bus: usize,
+    pub drive: usize,
+}
 
 /// Every socket a cell serves, bound before the loop starts.
 #[derive(Default)]
 pub struct FrontEnds {
-    /// The socketcand server and its settings (the bus name it serves).
-    pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
-    /// A SocketCAN interface the cell's bus is bridged to.
-    #[cfg(target_os = "linux")]
-    pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
-    /// CI terminals: a listener and the index of its drive in the cell.
-    pub ci_terminals: Vec<(std::net::TcpListener, usize)>,
+    /// The cell's CAN buses (at most [`MAX_BUSES`]).
+    pub buses: Vec<CanBus>,
+    /// CI terminals: a listener and its drive.
+    pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
-    /// Where every frame on the cell's bus is written.
-    pub trace: Option<TraceWriter>,
+    /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
+    /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
+    pub busy_poll: bool,
+}
+
+/// A bus while the loop runs.
+struct BusState {
+    cell: Cell,
+    socketcand: Option<(TcpListener, ServerConfig)>,
+    #[cfg(target_os = "linux")]
+    socketcan: Option<crate::can::socketcan::RawCanSocket>,
+    trace: Option<TraceWriter>,
+    trace_dirty: bool,
+    totals: Totals,
+    last_stamp: SystemTime,
 }
 
 /// Stops a running loop from another thread.
@@ -87,20 +133,16 @@ pub struct CellLoop {
     poll: Poll,
     stop: Arc<AtomicBool>,
     waker: Arc<Waker>,
-    cell: Cell,
+    buses: Vec<BusState>,
     /// The cell clock's zero.
     origin: Instant,
-    socketcand: Option<(TcpListener, ServerConfig)>,
-    #[cfg(target_os = "linux")]
-    socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// Listeners by token - FIRST_DYNAMIC; connections after them.
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
-    trace: Option<TraceWriter>,
-    trace_dirty: bool,
-    totals: Totals,
-    last_stamp: SystemTime,
+    busy_poll: bool,
+    /// Connections that had more to read than one turn takes.
+    more_to_read: Vec<usize>,
     /// Connections with bytes to write before the loop waits again.
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
@@ -122,7 +164,7 @@ struct Subscription {
 }
 
 enum Listener {
-    Console { listener: TcpListener, drive: usize },
+    Console { listener: TcpListener, drive: OnBus },
     Modbus { listener: TcpListener, drive: usize },
 }
 
@@ -148,13 +190,14 @@ struct Connection {
 
 enum Kind {
     Socketcand {
+        bus: usize,
         session: Session,
         decoder: Decoder,
         /// Frames kept during the stream delay after `rawmode`.
         held: Vec<u8>,
     },
     Console {
-        drive: usize,
+        drive: OnBus,
         lines: LineCutter,
     },
     Modbus {
@@ -163,24 +206,52 @@ enum Kind {
 }
 
 impl CellLoop {
-    pub fn new(cell: Cell, mut front: FrontEnds) -> io::Result<CellLoop> {
+    /// A cell of one CAN bus, `cell`, with the transports of `front` (whose own `buses` come
+    /// after it).
+    pub fn new(cell: Cell, front: FrontEnds) -> io::Result<CellLoop> {
+        let mut front = front;
+        front.buses.insert(0, CanBus::new(cell));
+        CellLoop::with_buses(front)
+    }
+
+    /// A cell of several buses, `front.buses`, and the other front ends of `front`.
+    pub fn with_buses(mut front: FrontEnds) -> io::Result<CellLoop> {
+        if front.buses.len() > MAX_BUSES {
+            return Err(io::Error::other(format!(
+                "{} CAN buses: a cell has at most {MAX_BUSES}",
+                front.buses.len()
+            )));
+        }
         let poll = Poll::new()?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKER)?);
-        let mut socketcand = None;
-        if let Some((l, config)) = front.socketcand {
-            l.set_nonblocking(true)?;
-            let mut l = TcpListener::from_std(l);
-            poll.registry()
-                .register(&mut l, SOCKETCAND, Interest::READABLE)?;
-            socketcand = Some((l, config));
-        }
-        #[cfg(target_os = "linux")]
-        if let Some(s) = &front.socketcan {
-            poll.registry().register(
-                &mut mio::unix::SourceFd(&s.as_raw_fd()),
-                SOCKETCAN,
-                Interest::READABLE,
-            )?;
+        let mut buses = Vec::new();
+        for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
+            let mut socketcand = None;
+            if let Some((l, config)) = bus.socketcand {
+                l.set_nonblocking(true)?;
+                let mut l = TcpListener::from_std(l);
+                poll.registry()
+                    .register(&mut l, Token(1 + 2 * b), Interest::READABLE)?;
+                socketcand = Some((l, config));
+            }
+            #[cfg(target_os = "linux")]
+            if let Some(s) = &bus.socketcan {
+                poll.registry().register(
+                    &mut mio::unix::SourceFd(&s.as_raw_fd()),
+                    Token(2 + 2 * b),
+                    Interest::READABLE,
+                )?;
+            }
+            buses.push(BusState {
+                cell: bus.cell,
+                socketcand,
+                #[cfg(target_os = "linux")]
+                socketcan: bus.socketcan,
+                trace: bus.trace,
+                trace_dirty: false,
+                totals: Totals::default(),
+                last_stamp: UNIX_EPOCH,
+            });
         }
         let mut listeners = Vec::new();
         for (l, drive) in front.ci_terminals {
@@ -209,18 +280,13 @@ impl CellLoop {
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
-            cell,
+            buses,
             origin: Instant::now(),
-            socketcand,
-            #[cfg(target_os = "linux")]
-            socketcan: front.socketcan,
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
-            trace: front.trace,
-            trace_dirty: false,
-            totals: Totals::default(),
-            last_stamp: UNIX_EPOCH,
+            busy_poll: front.busy_poll,
+            more_to_read: Vec::new(),
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
             text: Vec::with_capacity(64),
@@ -240,9 +306,11 @@ impl CellLoop {
         ControlHandle::new(self.control_tx.clone(), Arc::clone(&self.waker))
     }
 
-    /// The address the socketcand server listens on.
-    pub fn socketcand_addr(&self) -> Option<SocketAddr> {
-        self.socketcand
+    /// The address the socketcand server of bus `bus` listens on.
+    pub fn socketcand_addr(&self, bus: usize) -> Option<SocketAddr> {
+        self.buses
+            .get(bus)?
+            .socketcand
             .as_ref()
             .and_then(|(l, _)| l.local_addr().ok())
     }
@@ -257,19 +325,28 @@ impl CellLoop {
         self.origin + Duration::from_nanos(at.as_nanos())
     }
 
-    /// Runs the cell in real time until [`StopHandle::stop`]; gives the cell back.
-    pub fn run(mut self) -> io::Result<Cell> {
+    /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
+    /// back.
+    pub fn run(mut self) -> io::Result<Vec<Cell>> {
         let mut events = Events::with_capacity(256);
         let start = Instant::now();
         let mut out = std::mem::take(&mut self.out);
-        self.cell.boot(self.now(start), &mut out);
-        self.drives_sent(start, &mut out);
+        for b in 0..self.buses.len() {
+            let t = self.now(start);
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.cell.boot(t, &mut out);
+            }
+            self.drives_sent(b, start, &mut out);
+        }
         self.out = out;
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
-            let timeout = self
-                .deadline()
-                .map(|d| d.saturating_duration_since(Instant::now()));
+            let timeout = if self.busy_poll || !self.more_to_read.is_empty() {
+                Some(Duration::ZERO)
+            } else {
+                self.deadline()
+                    .map(|d| d.saturating_duration_since(Instant::now()))
+            };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
                     continue;
@@ -282,9 +359,15 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
-                    SOCKETCAND => self.accept_socketcand(),
-                    SOCKETCAN => self.read_socketcan(now),
-                    Token(t) if t >= FIRST_DYNAMIC => {
+                    Token(t) if t < FIRST_DYNAMIC => {
+                        let b = (t - 1) / 2;
+                        if t % 2 == 1 {
+                            self.accept_socketcand(b);
+                        } else {
+                            self.read_socketcan(b, now);
+                        }
+                    }
+                    Token(t) => {
                         let i = t - FIRST_DYNAMIC;
                         if i < self.listeners.len() {
                             self.accept(i);
@@ -299,38 +382,55 @@ impl CellLoop {
                             }
                         }
                     }
-                    Token(_) => {}
                 }
+            }
+            for slot in std::mem::take(&mut self.more_to_read) {
+                // No event comes for what waits: read on to would-block or end of file.
+                self.read(slot, now, true);
             }
             self.control(now);
             self.samples(now);
             self.flush_dirty();
-            if self.trace_dirty && events.is_empty() {
-                if let Some(w) = self.trace.as_mut() {
-                    crate::trace::flush_quietly(w);
+            if events.is_empty() {
+                for bus in self.buses.iter_mut().filter(|b| b.trace_dirty) {
+                    if let Some(w) = bus.trace.as_mut() {
+                        crate::trace::flush_quietly(w);
+                    }
+                    bus.trace_dirty = false;
                 }
-                self.trace_dirty = false;
             }
-        }
-        if let Some(w) = self.trace.as_mut() {
-            crate::trace::flush_quietly(w);
         }
         for m in &mut self.modbus {
             m.close_connection();
         }
-        Ok(self.cell)
+        Ok(self
+            .buses
+            .into_iter()
+            .map(|mut b| {
+                if let Some(w) = b.trace.as_mut() {
+                    crate::trace::flush_quietly(w);
+                }
+                b.cell
+            })
+            .collect())
     }
 
     /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, or a
     /// trace to flush.
     fn deadline(&self) -> Option<Instant> {
-        let mut at = self.cell.deadline().map(|d| self.wall(d));
+        let mut at: Option<Instant> = None;
         let mut take = |d: Option<Instant>| {
             at = match (at, d) {
                 (Some(a), Some(b)) => Some(a.min(b)),
                 (a, b) => a.or(b),
             }
         };
+        for bus in &self.buses {
+            take(bus.cell.deadline().map(|d| self.wall(d)));
+            if bus.trace_dirty {
+                take(Some(Instant::now() + Duration::from_millis(20)));
+            }
+        }
         for c in self.slots.iter().flatten() {
             if let Kind::Socketcand { session, .. } = &c.kind {
                 take(session.deadline());
@@ -338,9 +438,6 @@ impl CellLoop {
         }
         for m in &self.modbus {
             take(Some(self.wall(m.next_cycle())));
-        }
-        if self.trace_dirty {
-            take(Some(Instant::now() + Duration::from_millis(20)));
         }
         for s in &self.subscriptions {
             take(Some(s.next));
@@ -350,11 +447,16 @@ impl CellLoop {
 
     fn timers(&mut self, now: Instant) {
         let t = self.now(now);
-        if self.cell.deadline().is_some_and(|d| d <= t) {
-            let mut out = std::mem::take(&mut self.out);
-            self.cell.poll(t, &mut out);
-            self.drives_sent(now, &mut out);
-            self.out = out;
+        for b in 0..self.buses.len() {
+            let Some(bus) = self.buses.get_mut(b) else {
+                break;
+            };
+            if bus.cell.deadline().is_some_and(|d| d <= t) {
+                let mut out = std::mem::take(&mut self.out);
+                bus.cell.poll(t, &mut out);
+                self.drives_sent(b, now, &mut out);
+                self.out = out;
+            }
         }
         for slot in 0..self.slots.len() {
             self.session_timers(slot, now);
@@ -372,13 +474,16 @@ impl CellLoop {
     }
 
     fn session_timers(&mut self, slot: usize, now: Instant) {
-        let totals = self.totals;
         let Some(Some(conn)) = self.slots.get_mut(slot) else {
             return;
         };
-        let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+        let Kind::Socketcand {
+            session, held, bus, ..
+        } = &mut conn.kind
+        else {
             return;
         };
+        let totals = self.buses.get(*bus).map(|b| b.totals).unwrap_or_default();
         if session.deadline().is_none_or(|d| d > now) {
             return;
         }
@@ -393,19 +498,20 @@ impl CellLoop {
         self.mark_dirty(slot);
     }
 
-    fn accept_socketcand(&mut self) {
+    fn accept_socketcand(&mut self, b: usize) {
         loop {
-            let Some((listener, _)) = self.socketcand.as_ref() else {
+            let Some((listener, config)) = self.buses.get(b).and_then(|x| x.socketcand.as_ref())
+            else {
                 return;
             };
+            let (max, max_len) = (config.max_clients, config.max_message_len);
             match listener.accept() {
                 Ok((stream, peer)) => {
-                    let max = self.socketcand.as_ref().map_or(0, |(_, c)| c.max_clients);
                     let clients = self
                         .slots
                         .iter()
                         .flatten()
-                        .filter(|c| matches!(c.kind, Kind::Socketcand { .. }))
+                        .filter(|c| matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b))
                         .count();
                     if clients >= max {
                         tracing::warn!(%peer, max, "socketcand: too many clients, refusing");
@@ -413,11 +519,8 @@ impl CellLoop {
                         let _ = (&stream).write(b"< error too many clients >");
                         continue;
                     }
-                    let max_len = self
-                        .socketcand
-                        .as_ref()
-                        .map_or(0, |(_, c)| c.max_message_len);
                     let kind = Kind::Socketcand {
+                        bus: b,
                         session: Session::new(),
                         decoder: Decoder::with_max_len(max_len),
                         held: Vec::new(),
@@ -440,24 +543,23 @@ impl CellLoop {
 
     fn accept(&mut self, i: usize) {
         loop {
-            let (accepted, drive, modbus) = match self.listeners.get(i) {
-                Some(Listener::Console { listener, drive }) => (listener.accept(), *drive, false),
-                Some(Listener::Modbus { listener, drive }) => (listener.accept(), *drive, true),
+            let (accepted, console) = match self.listeners.get(i) {
+                Some(Listener::Console { listener, drive }) => (listener.accept(), Ok(*drive)),
+                Some(Listener::Modbus { listener, drive }) => (listener.accept(), Err(*drive)),
                 None => return,
             };
             match accepted {
-                Ok((stream, peer)) => {
-                    if modbus {
-                        self.accept_modbus(stream, peer, drive);
-                    } else {
-                        tracing::info!(%peer, drive, "CI terminal connected");
+                Ok((stream, peer)) => match console {
+                    Err(modbus) => self.accept_modbus(stream, peer, modbus),
+                    Ok(drive) => {
+                        tracing::info!(%peer, bus = drive.bus, drive = drive.drive, "CI terminal connected");
                         let kind = Kind::Console {
                             drive,
                             lines: LineCutter::default(),
                         };
                         self.add(stream, peer, kind);
                     }
-                }
+                },
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {
@@ -570,7 +672,7 @@ impl CellLoop {
     /// the read before (an edge-triggered poll reports the close only once).
     fn read(&mut self, slot: usize, now: Instant, closed: bool) {
         let mut buf = [0u8; 4096];
-        loop {
+        for _ in 0..READS_PER_TURN {
             let Some(Some(conn)) = self.slots.get_mut(slot) else {
                 return;
             };
@@ -594,6 +696,11 @@ impl CellLoop {
                 // A short read emptied the socket; the next bytes raise a new event.
                 return;
             }
+        }
+        // More may wait, and no new event comes for it (edge-triggered): read on next turn,
+        // after the others have had theirs.
+        if !self.more_to_read.contains(&slot) {
+            self.more_to_read.push(slot);
         }
     }
 
@@ -631,7 +738,7 @@ impl CellLoop {
     }
 
     /// Bytes typed at a CI terminal: each complete line is answered by its drive at once.
-    fn console_bytes(&mut self, slot: usize, drive: usize, bytes: &[u8], now: Instant) {
+    fn console_bytes(&mut self, slot: usize, drive: OnBus, bytes: &[u8], now: Instant) {
         let t = self.now(now);
         for &b in bytes {
             let Some(Some(Connection {
@@ -647,10 +754,11 @@ impl CellLoop {
                 Some(Cut::Line(line)) => {
                     let mut out = std::mem::take(&mut self.out);
                     let reply = self
-                        .cell
-                        .ci_line(drive, t, &line, &mut out)
+                        .buses
+                        .get_mut(drive.bus)
+                        .and_then(|b| b.cell.ci_line(drive.drive, t, &line, &mut out))
                         .unwrap_or_else(syntax_error);
-                    self.drives_sent(now, &mut out);
+                    self.drives_sent(drive.bus, now, &mut out);
                     self.out = out;
                     reply
                 }
@@ -669,7 +777,10 @@ impl CellLoop {
                 return;
             };
             let Kind::Socketcand {
-                session, decoder, ..
+                session,
+                decoder,
+                bus,
+                ..
             } = &mut conn.kind
             else {
                 return;
@@ -677,7 +788,7 @@ impl CellLoop {
             let Some(message) = decoder.next_message() else {
                 return;
             };
-            let Some((_, config)) = self.socketcand.as_ref() else {
+            let Some((_, config)) = self.buses.get(*bus).and_then(|b| b.socketcand.as_ref()) else {
                 return;
             };
             let effects = &mut self.effects;
@@ -702,7 +813,15 @@ impl CellLoop {
                         held.clear();
                     }
                 }
-                Effect::Send(frame) => self.bus(frame, Source::Client(slot), now),
+                Effect::Send(frame) => {
+                    if let Some(Some(Connection {
+                        kind: Kind::Socketcand { bus, .. },
+                        ..
+                    })) = self.slots.get(slot)
+                    {
+                        self.bus(*bus, frame, Source::Client(slot), now);
+                    }
+                }
                 Effect::Close => {
                     if let Some(Some(conn)) = self.slots.get_mut(slot) {
                         conn.closing = true;
@@ -797,19 +916,21 @@ impl CellLoop {
     }
 
     #[cfg(target_os = "linux")]
-    fn read_socketcan(&mut self, now: Instant) {
+    fn read_socketcan(&mut self, b: usize, now: Instant) {
         loop {
-            let Some(s) = self.socketcan.as_ref() else {
+            let Some(s) = self.buses.get(b).and_then(|x| x.socketcan.as_ref()) else {
                 return;
             };
             match s.try_recv() {
-                Ok(Some(frame)) => self.bus(frame, Source::SocketCan, now),
+                Ok(Some(frame)) => self.bus(b, frame, Source::SocketCan, now),
                 Ok(None) => {}
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => {
                     tracing::error!(error = %e, "SocketCAN receive failed; interface closed");
-                    self.socketcan = None;
+                    if let Some(x) = self.buses.get_mut(b) {
+                        x.socketcan = None;
+                    }
                     return;
                 }
             }
@@ -817,45 +938,45 @@ impl CellLoop {
     }
 
     #[cfg(not(target_os = "linux"))]
-    fn read_socketcan(&mut self, _now: Instant) {}
+    fn read_socketcan(&mut self, _b: usize, _now: Instant) {}
 
-    /// Frames the drives sent: on the bus.
-    fn drives_sent(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    /// Frames the drives of bus `b` sent: on the bus.
+    fn drives_sent(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) {
         for f in out.drain(..) {
-            self.bus(f, Source::Drives, now);
+            self.bus(b, f, Source::Drives, now);
         }
     }
 
-    /// One frame on the cell's bus: to every node but its source.
-    fn bus(&mut self, frame: CanFrame, source: Source, now: Instant) {
-        let stamp = SystemTime::now().max(self.last_stamp);
-        self.last_stamp = stamp;
-        self.totals.frames += 1;
-        self.totals.bytes += frame.payload().len() as u64;
+    /// One frame on bus `b`: to every node of it but its source.
+    fn bus(&mut self, b: usize, frame: CanFrame, source: Source, now: Instant) {
+        let Some(bus) = self.buses.get_mut(b) else {
+            return;
+        };
+        let stamp = SystemTime::now().max(bus.last_stamp);
+        bus.last_stamp = stamp;
+        bus.totals.frames += 1;
+        bus.totals.bytes += frame.payload().len() as u64;
         let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
-        if let Some(w) = self.trace.as_mut() {
+        if let Some(w) = bus.trace.as_mut() {
             if let Err(e) = w.write(since_epoch, &frame) {
                 tracing::error!(error = %e, "writing the trace failed; trace stopped");
-                self.trace = None;
+                bus.trace = None;
             }
-            self.trace_dirty = true;
+            bus.trace_dirty = true;
         }
         #[cfg(target_os = "linux")]
         if source != Source::SocketCan {
-            if let Some(s) = &self.socketcan {
+            if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {
                     tracing::warn!(error = %e, "SocketCAN: frame not sent");
                 }
             }
         }
         if Session::forwards(&frame) {
+            let mut text = [0u8; FRAME_TEXT_MAX];
+            let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
-            let message = Message::Frame {
-                frame,
-                timestamp: since_epoch,
-            };
-            // Writing into a Vec cannot fail.
-            let _ = write!(self.text, "{message}");
+            self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
             for (slot, c) in self.slots.iter_mut().enumerate() {
                 let Some(conn) = c else {
                     continue;
@@ -863,9 +984,15 @@ impl CellLoop {
                 if source == Source::Client(slot) {
                     continue;
                 }
-                let Kind::Socketcand { session, held, .. } = &mut conn.kind else {
+                let Kind::Socketcand {
+                    session, held, bus, ..
+                } = &mut conn.kind
+                else {
                     continue;
                 };
+                if *bus != b {
+                    continue;
+                }
                 if session.is_streaming() {
                     conn.pending.extend_from_slice(&self.text);
                 } else if session.wants_frames() && held.len() + self.text.len() <= MAX_HELD {
@@ -881,246 +1008,14 @@ impl CellLoop {
         }
         if source != Source::Drives {
             let mut out = std::mem::take(&mut self.out);
-            self.cell.on_frame(self.now(now), &frame, &mut out);
-            self.drives_sent(now, &mut out);
+            let t = self.now(now);
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.cell.on_frame(t, &frame, &mut out);
+            }
+            self.drives_sent(b, now, &mut out);
             self.out = out;
         }
     }
-}
-
-/// The control handle's side of the loop.
-impl CellLoop {
-    /// Carries out what control handles asked for.
-    fn control(&mut self, now: Instant) {
-        while let Ok(command) = self.control_rx.try_recv() {
-            // A caller that has gone does not need its answer.
-            match command {
-                Command::Drives(reply) => {
-                    let _ = reply.send(self.drive_list());
-                }
-                Command::Read {
-                    drive,
-                    index,
-                    sub,
-                    reply,
-                } => {
-                    let _ = reply.send(self.read_object(drive, index, sub));
-                }
-                Command::Write {
-                    drive,
-                    index,
-                    sub,
-                    data,
-                    reply,
-                } => {
-                    let _ = reply.send(self.write_object(drive, index, sub, &data));
-                }
-                Command::Plant { drive, reply } => {
-                    let _ = reply.send(self.sample(drive, now));
-                }
-                Command::SetInputs {
-                    drive,
-                    mask,
-                    levels,
-                    reply,
-                } => {
-                    let done = match self.cia402_mut(drive) {
-                        Ok(d) => {
-                            d.force_inputs(mask, levels);
-                            Ok(())
-                        }
-                        Err(e) => Err(e),
-                    };
-                    let _ = reply.send(done);
-                }
-                Command::SetLoad {
-                    drive,
-                    torque_nm,
-                    reply,
-                } => {
-                    let _ = reply.send(self.set_load(drive, torque_nm));
-                }
-                Command::Subscribe {
-                    drive,
-                    every,
-                    samples,
-                    reply,
-                } => {
-                    let done = self.sample(drive, now).map(|_| {
-                        self.subscriptions.push(Subscription {
-                            drive,
-                            every: every.max(Duration::from_micros(100)),
-                            next: now,
-                            samples,
-                        });
-                    });
-                    let _ = reply.send(done);
-                }
-            }
-        }
-    }
-
-    /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
-    fn samples(&mut self, now: Instant) {
-        let mut i = 0;
-        while i < self.subscriptions.len() {
-            let Some(sub) = self.subscriptions.get(i) else {
-                break;
-            };
-            if sub.next > now {
-                i += 1;
-                continue;
-            }
-            let drive = sub.drive;
-            let sample = self.sample(drive, now);
-            let Some(sub) = self.subscriptions.get_mut(i) else {
-                break;
-            };
-            sub.next = now + sub.every;
-            let gone = match sample {
-                Ok(s) => matches!(
-                    sub.samples.try_send(s),
-                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
-                ),
-                Err(_) => true,
-            };
-            if gone {
-                self.subscriptions.swap_remove(i);
-            } else {
-                i += 1;
-            }
-        }
-    }
-
-    fn drive_list(&self) -> Vec<DriveInfo> {
-        let can = self.cell.drives.iter().map(|d| {
-            let desc = d.od().description();
-            (desc, Interface::CanOpen { node: d.node_id() })
-        });
-        let modbus = self.modbus.iter().map(|m| {
-            let dev = crate::modbus_tcp::server::lock(m.device());
-            (dev.od().description(), Interface::ModbusTcp)
-        });
-        can.chain(modbus)
-            .enumerate()
-            .map(|(index, (desc, interface))| DriveInfo {
-                index,
-                device: desc.name,
-                product: desc.product_name,
-                interface,
-            })
-            .collect()
-    }
-
-    /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
-    fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
-        let can = self.cell.drives.len();
-        if let Some(d) = self.cell.drives.get_mut(drive) {
-            return Ok(Target::Can(&mut d.model));
-        }
-        match self.modbus.get(drive - can) {
-            Some(m) => Ok(Target::Modbus(m.device().clone())),
-            None => Err(ControlError::NoDrive(drive)),
-        }
-    }
-
-    fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
-        let mut buf = [0u8; 256];
-        let n = match self.target(drive)? {
-            Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, &mut buf),
-            Target::Modbus(dev) => od::ObjectAccess::read(
-                &*crate::modbus_tcp::server::lock(&dev),
-                index,
-                sub,
-                &mut buf,
-            ),
-        }
-        .map_err(ControlError::Abort)?;
-        Ok(buf.get(..n).unwrap_or(&[]).to_vec())
-    }
-
-    fn write_object(
-        &mut self,
-        drive: usize,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => od::ObjectAccess::write(model, index, sub, data),
-            Target::Modbus(dev) => od::ObjectAccess::write(
-                &mut *crate::modbus_tcp::server::lock(&dev),
-                index,
-                sub,
-                data,
-            ),
-        }
-        .map_err(ControlError::Abort)
-    }
-
-    fn cia402_mut(
-        &mut self,
-        drive: usize,
-    ) -> Result<&mut ::drive::drive::Drive<Vec<u8>>, ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
-            Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
-        }
-    }
-
-    fn set_load(&mut self, drive: usize, torque_nm: f64) -> Result<(), ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => {
-                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
-                d.axis_mut().motor_mut().set_load_torque(torque_nm);
-            }
-            Target::Modbus(dev) => {
-                crate::modbus_tcp::server::lock(&dev)
-                    .stepper_mut()
-                    .set_load_torque(torque_nm);
-            }
-        }
-        Ok(())
-    }
-
-    fn sample(&mut self, drive: usize, now: Instant) -> Result<PlantSample, ControlError> {
-        let at = now.saturating_duration_since(self.origin);
-        match self.target(drive)? {
-            Target::Can(model) => {
-                let inputs = od::ObjectAccess::read_u32(&*model, 0x60FD, 0).unwrap_or(0);
-                let Model::Drive(d) = model else {
-                    return Err(ControlError::NoPlant(drive));
-                };
-                let axis = d.axis();
-                Ok(PlantSample {
-                    at,
-                    plant: Plant::Servo {
-                        position_increments: axis.position_increments(),
-                        velocity_rpm: axis.velocity_rpm(),
-                        current_ma: axis.current_ma(),
-                        digital_inputs: inputs,
-                    },
-                    display: Some(DisplayState::Cia402(d.display())),
-                })
-            }
-            Target::Modbus(dev) => {
-                let dev = crate::modbus_tcp::server::lock(&dev);
-                Ok(PlantSample {
-                    at,
-                    plant: Plant::Stepper {
-                        position_si: dev.actual_position_si(),
-                        load_torque_nm: dev.stepper().load_torque(),
-                    },
-                    display: Some(DisplayState::Fhpp(dev.seven_segment())),
-                })
-            }
-        }
-    }
-}
-
-enum Target<'a> {
-    Can(&'a mut Model),
-    Modbus(crate::modbus_tcp::fhpp::SharedDevice),
 }
 
 /// Whether the client has closed its end (end of file waiting, nothing else).
