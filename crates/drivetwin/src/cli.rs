@@ -192,6 +192,10 @@ pub struct RunArgs {
     /// simulation (`?606100` → `=606100:01`), on this loopback TCP address.
     #[arg(long, value_name = "ADDR", conflicts_with_all = ["ethercat", "virtual_seconds"])]
     pub ci_terminal: Option<String>,
+    /// The web console's address (`off`: none). Default 127.0.0.1:8080 when that port is free;
+    /// beyond loopback every write needs the token printed at start.
+    #[arg(long, value_name = "ADDR|off")]
+    pub http: Option<String>,
 }
 
 /// `--modbus-io`.

@@ -9,7 +9,8 @@
 //! - [`cell`]: a cell of drives, its file, its runtime and clock, stored parameters;
 //! - [`trace`]: pcap and candump writers and readers;
 //! - [`export`]: ESI XML for EtherCAT configurators;
-//! - [`master`]: the command-line master's protocol clients.
+//! - [`master`]: the command-line master's protocol clients;
+//! - [`web`]: the web console (HTTP API, live samples, the page).
 
 pub mod can;
 pub mod cell;
@@ -19,6 +20,7 @@ pub mod master;
 pub mod modbus_tcp;
 pub mod trace;
 pub mod value_text;
+pub mod web;
 
 // The flat names of the earlier layout, kept so that code written against them (other
 // branches, scripts) still builds.

@@ -267,6 +267,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     front.ci_terminals = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref())?;
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
     let stop = cell_loop.stop_handle();
+    let _console = web_console(args.http.as_deref(), cell_loop.control_handle())?;
     let thread = std::thread::Builder::new()
         .name("cell".into())
         .spawn(move || cell_loop.run())
@@ -294,6 +295,29 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         .map_err(io("cell loop"))?;
     out!("stopped");
     Ok(())
+}
+
+/// The web console of a cell loop (`--http`), on a thread of its own.
+fn web_console(
+    http: Option<&str>,
+    handle: drivetwin::cell::control::ControlHandle,
+) -> Result<Option<drivetwin::web::WebConsole>, CommandError> {
+    use drivetwin::web::{self, HttpSetting};
+    let console = web::start(&HttpSetting::parse(http), handle)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
+    if let Some(c) = &console {
+        match &c.token {
+            None => out!("web console on http://{}/", c.addr),
+            Some(t) => {
+                out!("web console on http://{}/?token={t}", c.addr);
+                out!(
+                    "web console token: {t} (header {})",
+                    web::auth::TOKEN_HEADER
+                );
+            }
+        }
+    }
+    Ok(console)
 }
 
 /// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each a

@@ -1,0 +1,726 @@
+//! The REST API: drives with their personality and state, objects by index and sub-index
+//! with what the device description says of them, the plant, inputs and load. Every handler
+//! answers bad input with a 4xx and a message (JSON [`ApiError`]), never a 5xx or a panic;
+//! an SDO abort becomes its code and its CiA 301 text.
+
+use std::time::Duration;
+
+use axum::extract::rejection::JsonRejection;
+use axum::extract::{Path, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post, put};
+use axum::{Json, Router};
+use od::{AbortCode, DataType, DeviceDescription, Entry, Limit};
+use serde::{Deserialize, Serialize};
+use utoipa::{OpenApi, ToSchema};
+
+use super::{statusword, AppState};
+use crate::cell::control::{
+    ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
+};
+use crate::value_text;
+
+/// The JSON body of every refusal.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct ApiError {
+    #[serde(skip)]
+    pub status: StatusCode,
+    /// What went wrong, for a person.
+    pub error: String,
+    /// The SDO abort code (CiA 301 §7.2.4.3.17) when the drive refused, as `0x06090030`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub abort_code: Option<String>,
+    /// The abort code's CiA 301 text.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub abort_text: Option<String>,
+}
+
+impl ApiError {
+    pub fn new(status: StatusCode, error: impl Into<String>) -> ApiError {
+        ApiError {
+            status,
+            error: error.into(),
+            abort_code: None,
+            abort_text: None,
+        }
+    }
+
+    fn bad(error: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::BAD_REQUEST, error)
+    }
+
+    fn not_found(error: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::NOT_FOUND, error)
+    }
+
+    fn abort(code: AbortCode) -> ApiError {
+        let text = code.description().unwrap_or("unknown abort code");
+        // An object or sub-index the drive does not have is "not found"; every other refusal
+        // is the drive's answer to a well-formed request: a conflict with its state or rules.
+        let status = if code == AbortCode::NO_OBJECT || code == AbortCode::NO_SUB_INDEX {
+            StatusCode::NOT_FOUND
+        } else {
+            StatusCode::CONFLICT
+        };
+        ApiError {
+            status,
+            error: format!("SDO abort {:#010X}: {text}", code.0),
+            abort_code: Some(format!("{:#010X}", code.0)),
+            abort_text: Some(text.to_owned()),
+        }
+    }
+}
+
+impl From<ControlError> for ApiError {
+    fn from(e: ControlError) -> ApiError {
+        match e {
+            ControlError::Abort(code) => ApiError::abort(code),
+            ControlError::NoDrive(_) | ControlError::NoPlant(_) => {
+                ApiError::not_found(e.to_string())
+            }
+            ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
+        }
+    }
+}
+
+impl From<JsonRejection> for ApiError {
+    fn from(e: JsonRejection) -> ApiError {
+        ApiError::new(e.status(), e.body_text())
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        (self.status, Json(self)).into_response()
+    }
+}
+
+type ApiResult<T> = Result<Json<T>, ApiError>;
+
+/// Runs a blocking call on the control handle off the runtime's workers.
+async fn call<T: Send + 'static>(
+    handle: &ControlHandle,
+    f: impl FnOnce(&ControlHandle) -> Result<T, ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
+    let handle = handle.clone();
+    tokio::task::spawn_blocking(move || f(&handle))
+        .await
+        .map_err(|_| ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "the request was lost"))?
+}
+
+// ---------------------------------------------------------------------------------- drives
+
+/// A drive of the cell, with what its statusword says.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct DriveView {
+    /// Its place in the cell (CAN drives in cell order, then the Modbus drives).
+    pub index: usize,
+    /// The device file's name (`cmmp-as`, `cmmo-st`, …).
+    pub device: String,
+    pub product: String,
+    pub vendor: String,
+    /// `cia402`, `fhpp` or `plain`.
+    pub profile: String,
+    /// `canopen` or `modbus-tcp`.
+    pub interface: String,
+    /// The CANopen node-ID.
+    pub node: Option<u8>,
+    /// 6041h, when the drive has it.
+    pub statusword: Option<u16>,
+    /// The CiA 402 state the statusword shows.
+    pub state: Option<String>,
+    /// The statusword bit by bit.
+    pub status_bits: Vec<StatusBit>,
+    /// What the 7-segment display shows.
+    pub display: Option<String>,
+}
+
+#[derive(Debug, Serialize, ToSchema)]
+pub struct StatusBit {
+    pub bit: u8,
+    pub name: String,
+    pub set: bool,
+}
+
+fn description(info: &DriveInfo) -> Result<&'static DeviceDescription, ApiError> {
+    devices::by_name(info.device)
+        .ok_or_else(|| ApiError::not_found(format!("no device description {:?}", info.device)))
+}
+
+fn profile_name(desc: &DeviceDescription) -> String {
+    format!("{:?}", desc.profile).to_ascii_lowercase()
+}
+
+fn display_text(d: &DisplayState) -> String {
+    match d {
+        DisplayState::Cia402(d) => d.text().to_string(),
+        DisplayState::Fhpp(s) => s.to_string(),
+    }
+}
+
+fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError> {
+    let desc = description(info)?;
+    let statusword = desc
+        .entry(0x6041, 0)
+        .and_then(|_| h.read(info.index, 0x6041, 0).ok())
+        .and_then(|b| Some(u16::from_le_bytes([*b.first()?, *b.get(1)?])));
+    let (interface, node) = match info.interface {
+        Interface::CanOpen { node } => ("canopen", Some(node)),
+        Interface::ModbusTcp => ("modbus-tcp", None),
+    };
+    let display = h
+        .plant(info.index)
+        .ok()
+        .and_then(|s| s.display)
+        .map(|d| display_text(&d));
+    Ok(DriveView {
+        index: info.index,
+        device: info.device.to_owned(),
+        product: info.product.to_owned(),
+        vendor: desc.vendor_name.to_owned(),
+        profile: profile_name(desc),
+        interface: interface.to_owned(),
+        node,
+        statusword,
+        state: statusword
+            .and_then(statusword::state)
+            .map(|s| s.name().to_owned()),
+        status_bits: statusword
+            .map(|sw| {
+                statusword::BITS
+                    .iter()
+                    .zip(0u8..)
+                    .map(|(name, bit)| StatusBit {
+                        bit,
+                        name: (*name).to_owned(),
+                        set: sw & (1 << bit) != 0,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
+        display,
+    })
+}
+
+fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
+    let index: usize = drive
+        .parse()
+        .map_err(|_| ApiError::bad(format!("drive {drive:?}: not a drive index (0, 1, …)")))?;
+    h.drives()?
+        .into_iter()
+        .find(|d| d.index == index)
+        .ok_or_else(|| ApiError::not_found(format!("no drive {index} in the cell")))
+}
+
+/// The cell's drives.
+#[utoipa::path(get, path = "/api/drives", tag = "drives",
+    responses((status = 200, body = [DriveView])))]
+async fn list_drives(State(s): State<AppState>) -> ApiResult<Vec<DriveView>> {
+    call(&s.handle, |h| {
+        h.drives()?.iter().map(|d| drive_view(h, d)).collect()
+    })
+    .await
+    .map(Json)
+}
+
+/// One drive.
+#[utoipa::path(get, path = "/api/drives/{drive}", tag = "drives",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 400, body = ApiError)))]
+async fn get_drive(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
+    call(&s.handle, move |h| drive_view(h, &find_drive(h, &drive)?))
+        .await
+        .map(Json)
+}
+
+/// Controlword steps to OPERATION ENABLED (CMMP-AS §6.1.3 Tab. 6.4): fault reset when in
+/// FAULT, then shutdown, switch on, enable operation.
+const ENABLE: [u16; 3] = [0x0006, 0x0007, 0x000F];
+
+fn write_controlword(h: &ControlHandle, drive: usize, cw: u16) -> Result<(), ApiError> {
+    h.write(drive, 0x6040, 0, &cw.to_le_bytes())?;
+    // The state machine follows the controlword within a cycle of the drive.
+    std::thread::sleep(Duration::from_millis(5));
+    Ok(())
+}
+
+fn cia402_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
+    let info = find_drive(h, drive)?;
+    let desc = description(&info)?;
+    if desc.entry(0x6040, 0).is_none() {
+        return Err(ApiError::new(
+            StatusCode::CONFLICT,
+            format!(
+                "drive {} ({}) has no CiA 402 controlword; its FHPP control bytes are not in the console yet",
+                info.index, info.device
+            ),
+        ));
+    }
+    Ok(info)
+}
+
+/// Enables the drive's power stage: CiA 402 controlword steps to OPERATION ENABLED.
+#[utoipa::path(post, path = "/api/drives/{drive}/enable", tag = "drives",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn enable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
+    call(&s.handle, move |h| {
+        let info = cia402_drive(h, &drive)?;
+        let view = drive_view(h, &info)?;
+        if view.statusword.is_some_and(|sw| sw & 0x0008 != 0) {
+            // Fault reset is the rising edge of bit 7.
+            write_controlword(h, info.index, 0x0000)?;
+            write_controlword(h, info.index, 0x0080)?;
+        }
+        for cw in ENABLE {
+            write_controlword(h, info.index, cw)?;
+        }
+        drive_view(h, &info)
+    })
+    .await
+    .map(Json)
+}
+
+/// Switches the power stage off: controlword "shutdown" (READY TO SWITCH ON).
+#[utoipa::path(post, path = "/api/drives/{drive}/disable", tag = "drives",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn disable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
+    call(&s.handle, move |h| {
+        let info = cia402_drive(h, &drive)?;
+        write_controlword(h, info.index, 0x0006)?;
+        drive_view(h, &info)
+    })
+    .await
+    .map(Json)
+}
+
+// --------------------------------------------------------------------------------- objects
+
+/// An entry of the object dictionary as its device description has it, with its value.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct ObjectView {
+    /// `0x6040`.
+    pub index: String,
+    pub sub: u8,
+    pub name: String,
+    /// The object's name (the record's, for a sub-index of a record).
+    pub object: String,
+    /// CiA 301 type name (`UNSIGNED16`, …).
+    #[serde(rename = "type")]
+    pub data_type: String,
+    /// `ro`, `wo`, `rw`, `const`.
+    pub access: String,
+    pub unit: String,
+    #[schema(value_type = Option<f64>)]
+    pub min: Option<serde_json::Value>,
+    #[schema(value_type = Option<f64>)]
+    pub max: Option<serde_json::Value>,
+    pub pdo_mappable: bool,
+    /// The value as text (numbers in decimal, strings as they are, octets in hex); `null` when
+    /// not read or not readable.
+    pub value: Option<String>,
+    /// The value's bytes, little-endian, as hex.
+    pub raw: Option<String>,
+    /// Why the value could not be read.
+    pub read_error: Option<String>,
+}
+
+fn limit_json(l: Option<Limit>) -> Option<serde_json::Value> {
+    Some(match l? {
+        Limit::Signed(v) => v.into(),
+        Limit::Unsigned(v) => v.into(),
+        Limit::Real(v) => serde_json::Number::from_f64(v)?.into(),
+    })
+}
+
+fn object_view(desc: &DeviceDescription, e: &Entry) -> ObjectView {
+    ObjectView {
+        index: format!("{:#06X}", e.index).replace("0X", "0x"),
+        sub: e.sub,
+        name: e.name.to_owned(),
+        object: desc.object(e.index).map_or(e.name, |o| o.name).to_owned(),
+        data_type: e.data_type.name().to_owned(),
+        access: e.access.eds_name().to_ascii_lowercase(),
+        unit: e.unit.to_owned(),
+        min: limit_json(e.min),
+        max: limit_json(e.max),
+        pdo_mappable: e.pdo_mappable,
+        value: None,
+        raw: None,
+        read_error: None,
+    }
+}
+
+fn with_value(mut v: ObjectView, ty: DataType, read: Result<Vec<u8>, ControlError>) -> ObjectView {
+    match read {
+        Ok(bytes) => {
+            v.value = value_text::decode(ty, &bytes);
+            v.raw = Some(value_text::hex(&bytes));
+        }
+        Err(e) => v.read_error = Some(ApiError::from(e).error),
+    }
+    v
+}
+
+/// `6040`, `0x6040`, `6040h` → 0x6040.
+fn parse_hex_number(text: &str, what: &str, max: u32) -> Result<u32, ApiError> {
+    let t = text.trim();
+    let t = t
+        .strip_prefix("0x")
+        .or_else(|| t.strip_prefix("0X"))
+        .unwrap_or(t);
+    let t = t
+        .strip_suffix('h')
+        .or_else(|| t.strip_suffix('H'))
+        .unwrap_or(t);
+    u32::from_str_radix(t, 16)
+        .ok()
+        .filter(|v| *v <= max)
+        .ok_or_else(|| {
+            ApiError::bad(format!(
+                "{what} {text:?}: not a hex number up to {max:#X} (e.g. 6040 or 0x6040)"
+            ))
+        })
+}
+
+fn find_entry(
+    desc: &'static DeviceDescription,
+    index: &str,
+    sub: &str,
+) -> Result<&'static Entry, ApiError> {
+    let i = parse_hex_number(index, "index", 0xFFFF)? as u16;
+    let s = parse_hex_number(sub, "sub-index", 0xFF)? as u8;
+    desc.entry(i, s).ok_or_else(|| {
+        let mut e = ApiError::abort(if desc.object(i).is_some() {
+            AbortCode::NO_SUB_INDEX
+        } else {
+            AbortCode::NO_OBJECT
+        });
+        e.error = format!("{:#06x}:{s:02x} is not in {}: {}", i, desc.name, e.error);
+        e
+    })
+}
+
+/// Every entry of the drive's object dictionary, with its value.
+#[utoipa::path(get, path = "/api/drives/{drive}/objects", tag = "objects",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = [ObjectView]), (status = 404, body = ApiError), (status = 400, body = ApiError)))]
+async fn list_objects(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+) -> ApiResult<Vec<ObjectView>> {
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        let desc = description(&info)?;
+        Ok(desc
+            .entries()
+            .map(|e| {
+                let v = object_view(desc, e);
+                if e.access.readable() {
+                    with_value(v, e.data_type, h.read(info.index, e.index, e.sub))
+                } else {
+                    v
+                }
+            })
+            .collect())
+    })
+    .await
+    .map(Json)
+}
+
+/// One entry, read as a fieldbus read would.
+#[utoipa::path(get, path = "/api/drives/{drive}/objects/{index}/{sub}", tag = "objects",
+    params(
+        ("drive" = String, Path, description = "the drive's index in the cell"),
+        ("index" = String, Path, description = "hex, e.g. 6040"),
+        ("sub" = String, Path, description = "hex, e.g. 0")),
+    responses((status = 200, body = ObjectView), (status = 400, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn read_object(
+    State(s): State<AppState>,
+    Path((drive, index, sub)): Path<(String, String, String)>,
+) -> ApiResult<ObjectView> {
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        let desc = description(&info)?;
+        let e = find_entry(desc, &index, &sub)?;
+        let bytes = h.read(info.index, e.index, e.sub)?;
+        Ok(with_value(object_view(desc, e), e.data_type, Ok(bytes)))
+    })
+    .await
+    .map(Json)
+}
+
+/// A value to write: text (or a JSON number) in the entry's type, or its bytes in hex.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WriteBody {
+    /// `1500`, `-2`, `0x1F`, `1.5`, a string for VISIBLE_STRING, hex for OCTET_STRING.
+    #[schema(value_type = Option<String>)]
+    pub value: Option<serde_json::Value>,
+    /// The bytes, little-endian, as hex (`E803`): written as they are.
+    pub raw: Option<String>,
+}
+
+/// Writes one entry with the access rules and effects of a fieldbus write; answers the value
+/// read back.
+#[utoipa::path(put, path = "/api/drives/{drive}/objects/{index}/{sub}", tag = "objects",
+    params(
+        ("drive" = String, Path, description = "the drive's index in the cell"),
+        ("index" = String, Path, description = "hex, e.g. 6040"),
+        ("sub" = String, Path, description = "hex, e.g. 0")),
+    request_body = WriteBody,
+    responses((status = 200, body = ObjectView), (status = 400, body = ApiError),
+        (status = 401, body = ApiError), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn write_object(
+    State(s): State<AppState>,
+    Path((drive, index, sub)): Path<(String, String, String)>,
+    body: Result<Json<WriteBody>, JsonRejection>,
+) -> ApiResult<ObjectView> {
+    let Json(body) = body?;
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        let desc = description(&info)?;
+        let e = find_entry(desc, &index, &sub)?;
+        let bytes = match (&body.value, &body.raw) {
+            (Some(_), Some(_)) | (None, None) => {
+                return Err(ApiError::bad("give either \"value\" or \"raw\""))
+            }
+            (None, Some(raw)) => value_text::parse_hex(raw)
+                .ok_or_else(|| ApiError::bad(format!("raw {raw:?} is not hex")))?,
+            (Some(v), None) => {
+                let text = match v {
+                    serde_json::Value::String(t) => t.clone(),
+                    serde_json::Value::Number(n) => n.to_string(),
+                    serde_json::Value::Bool(b) => u8::from(*b).to_string(),
+                    other => {
+                        return Err(ApiError::bad(format!(
+                            "value {other}: a string or a number"
+                        )))
+                    }
+                };
+                value_text::encode(e.data_type, &text).map_err(|m| {
+                    ApiError::bad(format!("{:#06x}:{:02x} {}: {m}", e.index, e.sub, e.name))
+                })?
+            }
+        };
+        h.write(info.index, e.index, e.sub, &bytes)?;
+        let v = object_view(desc, e);
+        Ok(if e.access.readable() {
+            with_value(v, e.data_type, h.read(info.index, e.index, e.sub))
+        } else {
+            v
+        })
+    })
+    .await
+    .map(Json)
+}
+
+// ----------------------------------------------------------------------------------- plant
+
+/// The plant of a drive at one time of the cell's clock.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct PlantView {
+    /// The cell's clock, seconds.
+    pub at_s: f64,
+    /// `servo` (CiA 402 drive) or `stepper` (CMMO-ST).
+    pub kind: String,
+    /// Servo: encoder increments; stepper: SI units (`null` before homing).
+    pub position: Option<f64>,
+    /// Servo: rpm.
+    pub velocity: Option<f64>,
+    /// Servo: motor current, mA.
+    pub current: Option<f64>,
+    /// Servo: the digital inputs as 60FDh shows them.
+    pub digital_inputs: Option<u32>,
+    /// Stepper: load torque, N·m.
+    pub load_torque_nm: Option<f64>,
+    pub display: Option<String>,
+}
+
+impl From<&PlantSample> for PlantView {
+    fn from(s: &PlantSample) -> PlantView {
+        let base = PlantView {
+            at_s: s.at.as_secs_f64(),
+            kind: String::new(),
+            position: None,
+            velocity: None,
+            current: None,
+            digital_inputs: None,
+            load_torque_nm: None,
+            display: s.display.as_ref().map(display_text),
+        };
+        match s.plant {
+            Plant::Servo {
+                position_increments,
+                velocity_rpm,
+                current_ma,
+                digital_inputs,
+            } => PlantView {
+                kind: "servo".into(),
+                position: Some(position_increments as f64),
+                velocity: Some(f64::from(velocity_rpm)),
+                current: Some(f64::from(current_ma)),
+                digital_inputs: Some(digital_inputs),
+                ..base
+            },
+            Plant::Stepper {
+                position_si,
+                load_torque_nm,
+            } => PlantView {
+                kind: "stepper".into(),
+                position: position_si,
+                load_torque_nm: Some(load_torque_nm),
+                ..base
+            },
+        }
+    }
+}
+
+/// The drive's plant now.
+#[utoipa::path(get, path = "/api/drives/{drive}/plant", tag = "plant",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = PlantView), (status = 400, body = ApiError), (status = 404, body = ApiError)))]
+async fn get_plant(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<PlantView> {
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        Ok(PlantView::from(&h.plant(info.index)?))
+    })
+    .await
+    .map(Json)
+}
+
+/// Digital inputs forced from outside: bit n of `mask` forces DINn to bit n of `levels`.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InputsBody {
+    pub mask: u16,
+    pub levels: u16,
+}
+
+/// Forces digital inputs of a CiA 402 drive.
+#[utoipa::path(put, path = "/api/drives/{drive}/inputs", tag = "plant",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    request_body = InputsBody,
+    responses((status = 200, body = PlantView), (status = 400, body = ApiError),
+        (status = 401, body = ApiError), (status = 404, body = ApiError)))]
+async fn set_inputs(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    body: Result<Json<InputsBody>, JsonRejection>,
+) -> ApiResult<PlantView> {
+    let Json(body) = body?;
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        h.set_inputs(info.index, body.mask, body.levels)?;
+        Ok(PlantView::from(&h.plant(info.index)?))
+    })
+    .await
+    .map(Json)
+}
+
+/// The load torque on the motor shaft.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LoadBody {
+    /// N·m, finite, at most 1000 in magnitude.
+    pub torque_nm: f64,
+}
+
+/// Sets the load torque on the drive's motor shaft.
+#[utoipa::path(put, path = "/api/drives/{drive}/load", tag = "plant",
+    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    request_body = LoadBody,
+    responses((status = 200, body = PlantView), (status = 400, body = ApiError),
+        (status = 401, body = ApiError), (status = 404, body = ApiError)))]
+async fn set_load(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    body: Result<Json<LoadBody>, JsonRejection>,
+) -> ApiResult<PlantView> {
+    let Json(body) = body?;
+    if !(body.torque_nm.is_finite() && body.torque_nm.abs() <= 1000.0) {
+        return Err(ApiError::bad(format!(
+            "torque_nm {}: a finite number of N·m within ±1000",
+            body.torque_nm
+        )));
+    }
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        h.set_load(info.index, body.torque_nm)?;
+        Ok(PlantView::from(&h.plant(info.index)?))
+    })
+    .await
+    .map(Json)
+}
+
+// --------------------------------------------------------------------------------- openapi
+
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "drivetwin web console",
+        description = "The cell's drives, their objects and plant."
+    ),
+    paths(
+        list_drives,
+        get_drive,
+        enable,
+        disable,
+        list_objects,
+        read_object,
+        write_object,
+        get_plant,
+        set_inputs,
+        set_load,
+        super::live::samples
+    ),
+    components(schemas(
+        ApiError,
+        DriveView,
+        StatusBit,
+        ObjectView,
+        WriteBody,
+        PlantView,
+        InputsBody,
+        LoadBody,
+        super::live::SampleBatch,
+        super::live::SamplePoint
+    ))
+)]
+pub struct ApiDoc;
+
+async fn openapi() -> Response {
+    match ApiDoc::openapi().to_json() {
+        Ok(text) => (
+            [(axum::http::header::CONTENT_TYPE, "application/json")],
+            text,
+        )
+            .into_response(),
+        Err(e) => ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()).into_response(),
+    }
+}
+
+async fn no_route() -> ApiError {
+    ApiError::not_found("no such API route (see /api/openapi.json)")
+}
+
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/api/openapi.json", get(openapi))
+        .route("/api/drives", get(list_drives))
+        .route("/api/drives/{drive}", get(get_drive))
+        .route("/api/drives/{drive}/enable", post(enable))
+        .route("/api/drives/{drive}/disable", post(disable))
+        .route("/api/drives/{drive}/objects", get(list_objects))
+        .route(
+            "/api/drives/{drive}/objects/{index}/{sub}",
+            get(read_object).put(write_object),
+        )
+        .route("/api/drives/{drive}/plant", get(get_plant))
+        .route("/api/drives/{drive}/inputs", put(set_inputs))
+        .route("/api/drives/{drive}/load", put(set_load))
+        .route("/api/{*rest}", axum::routing::any(no_route))
+}

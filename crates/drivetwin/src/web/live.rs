@@ -1,0 +1,167 @@
+//! Live plant samples over a WebSocket. The cell loop samples the plant at the rate asked
+//! (its subscription, [`ControlHandle::subscribe`]); the console sends what has come in as
+//! one JSON message per batch period, so the browser draws at a screen's pace whatever the
+//! control rate. A browser that does not keep up loses samples in the loop's bounded queue,
+//! never delays the loop.
+//!
+//! [`ControlHandle::subscribe`]: crate::cell::control::ControlHandle::subscribe
+
+use std::time::Duration;
+
+use axum::extract::rejection::QueryRejection;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Path, Query, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+use super::api::{ApiError, PlantView};
+use super::AppState;
+use crate::cell::control::PlantSample;
+
+/// The fastest sampling a browser may ask for: the control rate of the drives (1 kHz).
+pub const MAX_RATE_HZ: u32 = 1000;
+
+#[derive(Debug, Deserialize, IntoParams)]
+pub struct LiveQuery {
+    /// Samples per second, 1…1000 (default 100).
+    pub rate_hz: Option<u32>,
+    /// Milliseconds between two messages, 20…1000 (default 50).
+    pub batch_ms: Option<u64>,
+}
+
+/// One message on the WebSocket: the samples since the last one.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct SampleBatch {
+    pub drive: usize,
+    pub samples: Vec<SamplePoint>,
+    /// What the drive's display shows at the last sample.
+    pub display: Option<String>,
+}
+
+/// One sample: the cell's clock and the scope's three signals.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct SamplePoint {
+    /// Seconds on the cell's clock.
+    pub t: f64,
+    pub position: Option<f64>,
+    pub velocity: Option<f64>,
+    pub current: Option<f64>,
+}
+
+impl From<&PlantSample> for SamplePoint {
+    fn from(s: &PlantSample) -> SamplePoint {
+        let v = PlantView::from(s);
+        SamplePoint {
+            t: v.at_s,
+            position: v.position,
+            velocity: v.velocity,
+            current: v.current,
+        }
+    }
+}
+
+/// Plant samples of one drive, live (a WebSocket: send a GET with `Upgrade: websocket`).
+#[utoipa::path(get, path = "/api/drives/{drive}/samples", tag = "plant",
+    params(("drive" = String, Path, description = "the drive's index in the cell"), LiveQuery),
+    responses((status = 101, description = "WebSocket of SampleBatch messages (JSON text)", body = SampleBatch),
+        (status = 400, body = ApiError), (status = 404, body = ApiError)))]
+pub async fn samples(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    query: Result<Query<LiveQuery>, QueryRejection>,
+    ws: Result<WebSocketUpgrade, axum::extract::ws::rejection::WebSocketUpgradeRejection>,
+) -> Response {
+    let Query(q) = match query {
+        Ok(q) => q,
+        Err(e) => return ApiError::new(StatusCode::BAD_REQUEST, e.body_text()).into_response(),
+    };
+    let ws = match ws {
+        Ok(ws) => ws,
+        Err(e) => {
+            return ApiError::new(
+                StatusCode::BAD_REQUEST,
+                format!("a WebSocket endpoint: {}", e.body_text()),
+            )
+            .into_response()
+        }
+    };
+    let rate = q.rate_hz.unwrap_or(100);
+    if !(1..=MAX_RATE_HZ).contains(&rate) {
+        return ApiError::new(
+            StatusCode::BAD_REQUEST,
+            format!("rate_hz {rate}: 1…{MAX_RATE_HZ}"),
+        )
+        .into_response();
+    }
+    let batch = q.batch_ms.unwrap_or(50);
+    if !(20..=1000).contains(&batch) {
+        return ApiError::new(
+            StatusCode::BAD_REQUEST,
+            format!("batch_ms {batch}: 20…1000"),
+        )
+        .into_response();
+    }
+    let Ok(index) = drive.parse::<usize>() else {
+        return ApiError::new(
+            StatusCode::BAD_REQUEST,
+            format!("drive {drive:?}: not a drive index (0, 1, …)"),
+        )
+        .into_response();
+    };
+    let handle = s.handle.clone();
+    let every = Duration::from_micros(1_000_000 / u64::from(rate));
+    let subscribed = tokio::task::spawn_blocking(move || handle.subscribe(index, every)).await;
+    let rx = match subscribed {
+        Ok(Ok(rx)) => rx,
+        Ok(Err(e)) => return ApiError::from(e).into_response(),
+        Err(_) => {
+            return ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "the request was lost")
+                .into_response()
+        }
+    };
+    ws.on_upgrade(move |socket| stream(socket, index, rx, Duration::from_millis(batch)))
+}
+
+async fn stream(
+    mut socket: WebSocket,
+    drive: usize,
+    rx: std::sync::mpsc::Receiver<PlantSample>,
+    period: Duration,
+) {
+    let mut tick = tokio::time::interval(period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        tokio::select! {
+            _ = tick.tick() => {
+                let got: Vec<PlantSample> = rx.try_iter().collect();
+                if got.is_empty() {
+                    continue;
+                }
+                let message = SampleBatch {
+                    drive,
+                    display: got.last().and_then(|s| PlantView::from(s).display),
+                    samples: got.iter().map(SamplePoint::from).collect(),
+                };
+                let Ok(text) = serde_json::to_string(&message) else {
+                    break;
+                };
+                if socket.send(Message::Text(text.into())).await.is_err() {
+                    break;
+                }
+            }
+            incoming = socket.recv() => match incoming {
+                Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
+                Some(Ok(_)) => {}
+            },
+        }
+    }
+    // Dropping `rx` ends the subscription at the loop's next sample.
+}
+
+pub fn routes() -> Router<AppState> {
+    Router::new().route("/api/drives/{drive}/samples", get(samples))
+}

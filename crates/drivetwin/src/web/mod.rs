@@ -1,0 +1,166 @@
+//! The web console: an HTTP server beside the cell loop (axum) with a REST API, its OpenAPI
+//! document, live plant samples over a WebSocket and a page served from the binary.
+//!
+//! The server runs on a thread of its own with its own tokio runtime and reaches the cell
+//! only through its [`ControlHandle`]: a request costs the cell loop one command between two
+//! socket events, never a lock on the drives (`DESIGN.md`, "The runtime owns the clock and
+//! every socket").
+//!
+//! Loopback only by default. Bound to any other address the console is reachable from the
+//! network, so it prints a token at start and refuses every write without it
+//! ([`auth::TOKEN_HEADER`]).
+//!
+//! - [`api`]: the REST handlers and the OpenAPI document;
+//! - [`live`]: samples over a WebSocket, decimated for the browser;
+//! - [`statusword`]: the CiA 402 statusword decoded bit by bit;
+//! - [`page`]: the console page and its script;
+//! - [`auth`]: the write token.
+
+pub mod api;
+pub mod auth;
+pub mod live;
+pub mod page;
+pub mod statusword;
+
+use std::net::{SocketAddr, TcpListener};
+use std::sync::Arc;
+
+use axum::Router;
+
+use crate::cell::control::ControlHandle;
+
+/// Where `drivetwin run` serves the console unless told otherwise.
+pub const DEFAULT_ADDR: &str = "127.0.0.1:8080";
+
+/// `--http`: where the console listens.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum HttpSetting {
+    /// No `--http`: [`DEFAULT_ADDR`] when that port is free, else no console (a warning).
+    Default,
+    /// `--http ADDR`: this address, or an error when it cannot be bound.
+    At(String),
+    /// `--http off`.
+    Off,
+}
+
+impl HttpSetting {
+    pub fn parse(arg: Option<&str>) -> HttpSetting {
+        match arg {
+            None => HttpSetting::Default,
+            Some(a) if a.eq_ignore_ascii_case("off") => HttpSetting::Off,
+            Some(a) => HttpSetting::At(a.to_owned()),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum WebError {
+    #[error("web console: cannot listen on {addr}: {source}")]
+    Bind {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error("web console: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// What the handlers share: the cell's handle and the write token (none on loopback).
+#[derive(Clone)]
+pub struct AppState {
+    pub handle: ControlHandle,
+    pub token: Option<Arc<str>>,
+}
+
+/// The whole console: API, OpenAPI document, WebSocket and page.
+pub fn router(state: AppState) -> Router {
+    Router::new()
+        .merge(api::routes())
+        .merge(live::routes())
+        .merge(page::routes())
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::require_token_for_writes,
+        ))
+        .with_state(state)
+}
+
+/// A console that is serving.
+#[derive(Debug)]
+pub struct WebConsole {
+    pub addr: SocketAddr,
+    /// The write token, when the console is not on loopback.
+    pub token: Option<String>,
+    _thread: std::thread::JoinHandle<()>,
+}
+
+/// Binds the console's listener as `setting` says (`Ok(None)`: no console) and serves it on a
+/// thread of its own until the process ends.
+pub fn start(setting: &HttpSetting, handle: ControlHandle) -> Result<Option<WebConsole>, WebError> {
+    let listener = match setting {
+        HttpSetting::Off => return Ok(None),
+        // Decision: the default console gives way to another instance (parallel test runs,
+        // a second cell) instead of failing the run; an explicit --http ADDR must bind.
+        HttpSetting::Default => match TcpListener::bind(DEFAULT_ADDR) {
+            Ok(l) => l,
+            Err(e) => {
+                tracing::warn!(
+                    addr = DEFAULT_ADDR,
+                    error = %e,
+                    "web console off: its default address is taken (--http ADDR chooses another)"
+                );
+                return Ok(None);
+            }
+        },
+        HttpSetting::At(addr) => TcpListener::bind(addr).map_err(|source| WebError::Bind {
+            addr: addr.clone(),
+            source,
+        })?,
+    };
+    let addr = listener.local_addr()?;
+    let token = if addr.ip().is_loopback() {
+        None
+    } else {
+        Some(auth::new_token()?)
+    };
+    listener.set_nonblocking(true)?;
+    let state = AppState {
+        handle,
+        token: token.as_deref().map(Arc::from),
+    };
+    let thread = std::thread::Builder::new()
+        .name("web".into())
+        .spawn(move || serve(listener, state))?;
+    Ok(Some(WebConsole {
+        addr,
+        token,
+        _thread: thread,
+    }))
+}
+
+/// The console's own runtime: two workers, so a slow browser never holds up the API.
+fn serve(listener: TcpListener, state: AppState) {
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .thread_name("web-worker")
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => {
+            tracing::error!(error = %e, "web console: no runtime");
+            return;
+        }
+    };
+    runtime.block_on(async move {
+        let listener = match tokio::net::TcpListener::from_std(listener) {
+            Ok(l) => l,
+            Err(e) => {
+                tracing::error!(error = %e, "web console: listener");
+                return;
+            }
+        };
+        if let Err(e) = axum::serve(listener, router(state)).await {
+            tracing::error!(error = %e, "web console stopped");
+        }
+    });
+}

@@ -1,0 +1,108 @@
+"""The web console in a real browser: headless Debian Chromium driven by Playwright against
+`drivetwin run --http`. A parameter written in the page is read back over SDO with
+python-canopen; a drive enabled from the page moves, and the scope's trace moves with it.
+
+Skipped cleanly where Chromium (/usr/bin/chromium) or Playwright is not installed.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+
+import pytest
+
+from conftest import wait_until
+
+CHROMIUM = os.environ.get("DRIVETWIN_CHROMIUM", "/usr/bin/chromium")
+
+pytestmark = pytest.mark.skipif(
+    shutil.which(CHROMIUM) is None, reason=f"no Chromium at {CHROMIUM} (apt-get install chromium)")
+
+# The machine's network is closed: Chromium's own background connections are switched off.
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+@pytest.fixture
+def browser():
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with tempfile.TemporaryDirectory() as profile, sync_api.sync_playwright() as pw:
+        context = pw.chromium.launch_persistent_context(
+            profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        try:
+            yield context
+        finally:
+            context.close()
+
+
+def console_url(twin) -> str:
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
+                      5.0, what="the 'web console on' line")
+    m = re.match(r"web console on (http://127\.0\.0\.1:\d+/)$", line)
+    assert m, line
+    return m.group(1)
+
+
+def test_parameter_written_in_the_page_reads_back_over_sdo_and_the_scope_moves(
+        launch, node_of, browser, tmp_path):
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
+    url = console_url(twin)
+    node = node_of(twin)
+    page = browser.new_page()
+    page.goto(url + "#drive/0")
+    page.wait_for_selector("#drives a[data-drive='0']")
+    assert "SWITCH ON DISABLED" in page.text_content("#state")
+
+    # 60FFh target velocity, typed into the parameter table and written from the page.
+    row = page.locator("#params tr[data-key='60FF:00']")
+    row.wait_for()
+    row.locator("input.edit").fill("1500")
+    row.locator("button.write").click()
+    page.wait_for_function(
+        "document.querySelector(\"#params tr[data-key='60FF:00'] td.value\").textContent === '1500'")
+    assert node.sdo[0x60FF].raw == 1500, "the page's write is the drive's value on the bus"
+
+    # Profile velocity mode over SDO, then Enable in the page: the motor turns.
+    node.sdo[0x6060].raw = 3
+    page.click("#enable")
+    page.wait_for_function("document.querySelector('#state').textContent === 'OPERATION ENABLED'",
+                           timeout=5000)
+    assert node.sdo[0x6041].raw & 0x6F == 0x27
+
+    # The scope's samples and its drawing move.
+    page.wait_for_function(
+        "(() => { const s = window.consoleState.samples;"
+        " return s.length > 20 && s[s.length - 1].velocity > 100; })()", timeout=5000)
+    first = page.evaluate("document.querySelector('#scope').toDataURL()")
+    p0 = page.evaluate("window.consoleState.samples.at(-1).position")
+    page.wait_for_timeout(400)
+    second = page.evaluate("document.querySelector('#scope').toDataURL()")
+    p1 = page.evaluate("window.consoleState.samples.at(-1).position")
+    assert p1 > p0, (p0, p1)
+    assert first != second, "the trace is redrawn as the drive moves"
+    page.screenshot(path=str(tmp_path / "console.png"), full_page=True)
+
+    page.click("#disable")
+    page.wait_for_function("document.querySelector('#state').textContent === 'READY TO SWITCH ON'",
+                           timeout=5000)
+
+
+def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
+    page = browser.new_page()
+    page.goto(console_url(twin) + "#drive/0")
+    # 6060h modes of operation: 99 is no mode of the CMMP-AS (§6.2), the drive aborts.
+    row = page.locator("#params tr[data-key='6060:00']")
+    row.wait_for()
+    row.locator("input.edit").fill("99")
+    row.locator("button.write").click()
+    page.wait_for_function("document.querySelector('#message').className === 'error'")
+    message = page.text_content("#message")
+    assert "SDO abort 0x06090030: Invalid value for parameter" in message, message
+    # Text where a number is due is refused before it reaches the drive.
+    row.locator("input.edit").fill("fast")
+    row.locator("button.write").click()
+    page.wait_for_function("document.querySelector('#message').textContent.includes('not a number')")
