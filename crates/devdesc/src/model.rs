@@ -167,6 +167,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             restore_writes_stored_set: d.restore_writes_stored_set,
             life_time_max_ms: d.life_time_max_ms,
             pdo_valid_without_mapping: d.pdo_valid_without_mapping,
+            lss_unsupported: d.lss_unsupported,
         },
         objects,
     })

@@ -53,6 +53,8 @@ pub struct DeviceSection {
     pub life_time_max_ms: Option<u32>,
     #[serde(default)]
     pub pdo_valid_without_mapping: bool,
+    #[serde(default)]
+    pub lss_unsupported: bool,
     /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
     #[serde(default)]
     pub rotary_switches: u8,
