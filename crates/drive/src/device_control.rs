@@ -186,6 +186,17 @@ impl DeviceControl {
         }
     }
 
+    /// A quick stop the drive asks for itself (an error whose reaction is a quick stop
+    /// without a fault): transition 11 from OPERATION ENABLED.
+    pub fn quick_stop(&mut self) -> Reaction {
+        if self.state == State::OperationEnabled {
+            self.state = State::QuickStopActive;
+            Reaction::QuickStopRamp
+        } else {
+            Reaction::None
+        }
+    }
+
     /// The motion side finished braking (quick stop, disable operation or fault reaction).
     pub fn stopped(&mut self) -> Reaction {
         match self.state {

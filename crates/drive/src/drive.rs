@@ -25,11 +25,18 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+mod feed_constant;
 pub(crate) mod object_writes;
+mod plant;
+mod target_limits;
+mod velocity_mode;
+pub use plant::StepperPlant;
 
 /// Operating modes (6060h / 6061h values).
 pub mod mode {
     pub const PROFILE_POSITION: i8 = 1;
+    /// Velocity mode VL (CiA 402 §10).
+    pub const VELOCITY: i8 = 2;
     pub const PROFILE_VELOCITY: i8 = 3;
     pub const PROFILE_TORQUE: i8 = 4;
     pub const HOMING: i8 = 6;
@@ -60,6 +67,9 @@ pub struct DriveSettings {
     pub ethercat: bool,
     /// The axis travel: limit switches, home switch, index pulse, hard stops.
     pub travel: TravelSettings,
+    /// The hybrid stepper motor of a stepper personality (Nanotec); `None`: the
+    /// personality's plant with its defaults (the servo motor for the CMMP-AS).
+    pub stepper: Option<crate::stepper::StepperData>,
     /// The longest distance one homing search step may travel, increments (0: no limit);
     /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
     /// more than the default travel.
@@ -75,6 +85,7 @@ impl Default for DriveSettings {
             brake_fitted: true,
             ethercat: false,
             travel: TravelSettings::default(),
+            stepper: None,
             homing_max_distance: 128 * 65536,
         }
     }
@@ -86,6 +97,12 @@ pub enum DriveEvent {
     Error { code: u16, register: u8 },
     Cleared { code: u16 },
 }
+
+/// min⁻¹ per increment/s (for the personality modules).
+pub(crate) const RPM_PER_INCREMENT_S: f64 = RPM_PER_INC_S;
+
+/// A deceleration that stops within one cycle, increments/s² ("abruptly").
+const ABRUPT_STOP: f64 = 1e15;
 
 /// Increments per second per internal velocity unit (1/4096 min⁻¹): 65536 / 60 / 4096.
 const INC_S_PER_VEL: f64 = 65536.0 / 60.0 / 4096.0;
@@ -171,6 +188,8 @@ pub struct Drive<S> {
     pub(crate) settings: DriveSettings,
     pub(crate) dc: DeviceControl,
     pub(crate) axis: Axis,
+    /// The stepper plant of a stepper personality; the servo axis is then not stepped.
+    pub(crate) stepper: Option<StepperPlant>,
     pub(crate) fg: FactorGroup,
     pub(crate) hot: Hot,
     pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
@@ -211,6 +230,8 @@ pub struct Drive<S> {
     pub(crate) referenced: bool,
     pub(crate) homing: HomingRun,
     pub(crate) homing_started: Instant,
+    /// A homing search is still on its starting ramp (609Ah; Nanotec: only then).
+    pub(crate) homing_accelerating: bool,
     /// The fault reaction brakes for a limit switch: with 6510h:15, not 6085h.
     pub(crate) limit_stop: bool,
     /// Controlword edges latched at the write, so a short pulse is never missed.
@@ -219,6 +240,8 @@ pub struct Drive<S> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
+    /// The brake opens then (a personality that releases it after the output stage).
+    pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
     /// Errors reported and not yet acknowledged.
     pub(crate) faults: heapless::Vec<u16, 8>,
@@ -326,6 +349,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 quick_stop_option: personality.option_code(personality::QUICK_STOP_OPTION, 2),
             }),
             axis,
+            stepper: (personality.stepper_plant || settings.stepper.is_some()).then(|| {
+                StepperPlant::new(crate::stepper::Stepper::new(
+                    settings.stepper.unwrap_or_default(),
+                ))
+            }),
             fg: FactorGroup::default(),
             hot,
             params: param_entries,
@@ -343,7 +371,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,
-            ip: Interpolator::new(DEFAULT_IP_PERIOD),
+            ip: if personality.capabilities.ip_follows_sync {
+                Interpolator::following_sync()
+            } else {
+                Interpolator::new(DEFAULT_IP_PERIOD)
+            },
             stopping: false,
             halted: false,
             velocity_set: 0.0,
@@ -359,11 +391,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             referenced: false,
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,
+            homing_accelerating: false,
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
             brake_engaged: true,
             power_off_at: None,
+            brake_release_at: None,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),
@@ -479,8 +513,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn reload_factor_group(&mut self) {
-        if self.personality.vendor == Vendor::Nanotec {
-            self.fg = self.nanotec_factor_group();
+        if self.personality.capabilities.feed_constant {
+            self.fg = self.feed_constant_factor_group();
             return;
         }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
@@ -523,6 +557,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(m) = messages::by_code(code) {
             self.end_warning(m.number);
         }
+        self.clear_notice(code);
     }
 
     /// Reports the error `code` with the reaction the personality's error management gives
@@ -557,9 +592,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
-            ErrorReaction::MessageOnly => {
+            ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
                 if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
                     self.push_event(DriveEvent::Error { code, register });
+                }
+                if reaction == ErrorReaction::QuickStopNoFault {
+                    let r = self.dc.quick_stop();
+                    self.react(r);
                 }
                 return;
             }
@@ -735,7 +774,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if self.cycles.is_multiple_of(u64::from(self.logic_every)) {
                 self.logic();
             }
-            self.axis.step(self.demand);
+            self.plant_step();
             self.cycles += 1;
             next = next + self.cycle;
         }
@@ -751,13 +790,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = false;
             self.axis.set_params(control_params(&self.od));
         }
+        self.stepper_mode();
         self.supervise_dc_link();
         self.supervise_i2t();
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
-        let enables = self.input_levels(self.axis.position_increments()).enables();
+        let enables = self.input_levels(self.plant_position()).enables();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising.contains(Controlword::FAULT_RESET)
             && !cw.contains(Controlword::FAULT_RESET)
@@ -795,19 +835,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match r {
             Reaction::None => {}
             Reaction::Enable => {
-                // Brake released with the output stage; the set-point follows after the
-                // brake delay (CMMP-AS §5.16).
+                // Brake released with the output stage (CMMP-AS) or after the personality's
+                // delay; the set-point follows after the brake delay (CMMP-AS §5.16).
                 self.power_off_at = None;
-                self.brake_engaged = false;
-                self.axis.hold_brake(false);
-                let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                self.release_at = Some(self.now + delay);
+                let delays = self.brake_delays();
+                if delays.release.is_zero() {
+                    self.brake_engaged = false;
+                    self.axis.hold_brake(false);
+                } else {
+                    self.brake_release_at = Some(self.now + delays.release);
+                }
+                self.release_at = Some(self.now + delays.motion);
                 self.resync_trajectory();
                 self.stopping = false;
                 self.limit_stop = false;
             }
             Reaction::Coast => {
                 // Brake first, output stage off after the brake delay.
+                self.brake_release_at = None;
                 self.setpoints.abort();
                 self.stopping = false;
                 if self.settings.brake_fitted
@@ -816,8 +861,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 {
                     self.brake_engaged = true;
                     self.axis.hold_brake(true);
-                    let delay = Duration::from_millis(self.value(0x6510, 0x18).max(0) as u64);
-                    self.power_off_at = Some(self.now + delay);
+                    self.power_off_at = Some(self.now + self.brake_delays().engage);
                 } else {
                     self.power_off();
                 }
@@ -827,6 +871,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.stopping = true;
             }
         }
+    }
+
+    /// The personality's brake timing: CMMP-AS §5.16 one delay 6510h:18 (brake open at once,
+    /// the set-point after it; output stage off after it); Nanotec §5.8 2007h:01 power on →
+    /// brake off, :02 brake off → operational, :03 brake on → power off.
+    fn brake_delays(&self) -> BrakeDelays {
+        let ms = |i: u16, s: u8| Duration::from_millis(self.value(i, s).max(0) as u64);
+        match self.personality.vendor {
+            Vendor::CmmpAs => BrakeDelays {
+                release: Duration::ZERO,
+                motion: ms(0x6510, 0x18),
+                engage: ms(0x6510, 0x18),
+            },
+            Vendor::Nanotec => BrakeDelays {
+                release: ms(0x2007, 1),
+                motion: ms(0x2007, 1) + ms(0x2007, 2),
+                engage: ms(0x2007, 3),
+            },
+        }
+    }
+
+    /// A brake delay is running (Nanotec §5.8: mode changes wait for it).
+    pub(crate) fn brake_wait(&self) -> bool {
+        self.power_off_at.is_some() || self.release_at.is_some_and(|t| self.now < t)
     }
 
     pub(crate) fn power_off(&mut self) {
@@ -841,6 +909,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn brake_timers(&mut self) {
         if self.power_off_at.is_some_and(|t| self.now >= t) {
             self.power_off();
+        }
+        if self.brake_release_at.is_some_and(|t| self.now >= t) {
+            self.brake_release_at = None;
+            self.brake_engaged = false;
         }
         // CMMP-AS §5.13/5.16: with 60FEh:02 bit 0 set the host works the brake through
         // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
@@ -859,21 +931,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // state of the brake", L4203–4215).
             let data = self.value(0x60FE, 1);
             let shown = (data & !1) | i64::from(engaged);
-            if !manual && shown != data {
+            if !manual && shown != data && self.personality.capabilities.brake_in_60fe {
                 self.store(self.param(0x60FE, 1), shown);
             }
         }
     }
 
     pub(crate) fn actual_internal(&self) -> i64 {
-        self.axis.position_increments() + self.position_offset
+        self.plant_position() + self.position_offset
     }
 
     /// The set-point follows the actual position (output stage off, mode change, enable).
     pub(crate) fn resync_trajectory(&mut self) {
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.velocity_set = self.traj.velocity;
         self.demand_position = self.traj.position;
@@ -885,7 +957,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
     }
 
-    fn position_demand(&mut self, velocity_ff: f64) {
+    pub(crate) fn position_demand(&mut self, velocity_ff: f64) {
         let previous = self.demand_position;
         self.demand_position = self.smoother.push(self.traj.position);
         // With smoothing the feed-forward is the smoothed set-point's own speed.
@@ -949,6 +1021,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
             let decel = if self.limit_stop {
                 self.accel2(0x6510, 0x15)
+            } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
+            {
+                // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
+                ramp
+            } else if self.personality.capabilities.ip_abrupt_quick_stop
+                && self.mode == mode::INTERPOLATED_POSITION
+            {
+                // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
+                ABRUPT_STOP
             } else {
                 self.accel(0x6085)
             };
@@ -978,6 +1059,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match self.mode {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
+            mode::VELOCITY => self.velocity_mode(dt),
+            mode::PROFILE_TORQUE if self.personality.vendor == Vendor::Nanotec => {
+                self.nanotec_torque(dt)
+            }
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
@@ -996,11 +1081,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let demand = self.traj.position;
         let fg = self.fg;
         let max_speed = self.max_motor_speed();
-        let nanotec = self.personality.vendor == Vendor::Nanotec;
+        let target_limits = self.personality.capabilities.pp_target_limits;
         // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
-        let checked = (bit4 && self.personality.vendor == Vendor::Nanotec)
-            .then(|| self.nanotec_check_target(cw));
+        let checked = (bit4 && target_limits).then(|| self.check_target(cw));
         let get = |i: u16| self.value(i, 0);
         // Read the set-point only while bit 4 is high (a rising edge may be taking it).
         let req = bit4.then(|| {
@@ -1028,7 +1112,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     velocity: vel(0x6081).min(max_speed),
                     // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
                     // end velocity; bit 9 decides whether a queued job follows at speed.
-                    end_velocity: if nanotec { 0.0 } else { vel(0x6082) },
+                    end_velocity: if target_limits { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
                     deceleration: acc(0x6084),
                 },
@@ -1051,7 +1135,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
         let accepted = self.setpoints.update(bit4, demand, request);
         if let (true, Some(result)) = (accepted, checked) {
-            self.nanotec_target_taken(result, cw);
+            self.target_taken(result, cw);
         }
         if accepted {
             self.target_reached = false;
@@ -1162,7 +1246,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
         };
         // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
-        let v_act = f64::from(self.axis.velocity_internal());
+        let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;
         let window = self
             .fg
@@ -1217,7 +1301,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let enable = cw.contains(Controlword::ENABLE_IP_MODE);
         if enable && !self.ip.is_active() {
             if self.ip.is_synchronised() {
-                self.ip.activate(self.traj.position, self.now);
+                // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
+                // first set-point (the manual's warning: write the actual position first).
+                let pending = self.personality.capabilities.ip_follows_sync.then(|| {
+                    let user = self
+                        .value(0x60C1, 1)
+                        .clamp(i32::MIN as i64, i32::MAX as i64);
+                    self.fg.position_to_internal(user as i32) as f64
+                });
+                self.ip.activate_with(self.traj.position, self.now, pending);
             } else if self.cw_rising.contains(Controlword::ENABLE_IP_MODE) {
                 // CMMP-AS 34-0: activation without synchronisation.
                 self.raise_fault(Fault::NoFieldbusSync);
@@ -1257,7 +1349,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.target_reached = self.torque_set == target;
         self.traj = Trajectory {
             position: self.actual_internal() as f64,
-            velocity: f64::from(self.axis.velocity_rpm()) / RPM_PER_INC_S,
+            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
         };
         self.demand_position = self.traj.position;
         let current = self
@@ -1301,13 +1393,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
         }
         let acc = self.accel(0x609A);
+        // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
+        // the end the motor stops at once.
+        let immediate = self.personality.capabilities.homing_immediate;
+        let (switch_acc, stop_dec) = if immediate {
+            (ABRUPT_STOP, ABRUPT_STOP)
+        } else {
+            (acc, acc)
+        };
         match self.homing {
             HomingRun::Idle => {
                 self.traj.step_stop(acc, dt);
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::Search(mut search) => {
-                let position = self.axis.position_increments();
+                let position = self.plant_position();
                 let sense = Sense {
                     position,
                     inputs: self.switch_inputs(position),
@@ -1325,7 +1425,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         let v = f64::from(direction) * self.homing_speed(speed);
-                        self.traj.step_velocity(v, acc, acc, dt);
+                        let starting = self.traj.velocity == 0.0 && speed == Speed::Search;
+                        let a = if starting { acc } else { switch_acc };
+                        let accelerating = self.traj.velocity * v >= 0.0
+                            && v.abs() > self.traj.velocity.abs()
+                            && (starting || !immediate || self.homing_accelerating);
+                        self.homing_accelerating = accelerating;
+                        self.traj.step_velocity(
+                            v,
+                            if accelerating { acc } else { a },
+                            switch_acc,
+                            dt,
+                        );
                         self.position_demand(self.traj.velocity);
                     }
                     Command::Reference { at, stalled } => {
@@ -1333,6 +1444,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                             self.hold_here();
                         }
                         self.set_reference(at);
+                        if immediate {
+                            self.traj.velocity = 0.0;
+                        }
                         let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
@@ -1354,7 +1468,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             HomingRun::Brake { then } => {
-                if self.traj.step_stop(acc, dt) {
+                if self.traj.step_stop(stop_dec, dt) {
                     self.homing = match then {
                         Then::ToZero => HomingRun::ToZero,
                         Then::Attained => {
@@ -1402,7 +1516,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         match Search::start_in(
             self.personality.homing_methods,
             method,
-            self.axis.position_increments(),
+            self.plant_position(),
             self.axis.motor().data().increments_per_rev,
             self.settings.homing_max_distance,
         ) {
@@ -1485,7 +1599,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
     /// switch emergency stop ramp"); motion away stays possible after the fault reset.
     fn supervise_limit_switches(&mut self) {
-        let inputs = self.switch_inputs(self.axis.position_increments());
+        let inputs = self.switch_inputs(self.plant_position());
         let v = self.traj.velocity;
         let fault = if inputs.negative_limit && v < 0.0 {
             Fault::LimitSwitchNegative
@@ -1511,6 +1625,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn switch_config(&self) -> SwitchConfig {
+        if !self.personality.capabilities.switch_polarity_objects {
+            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
+            // closed, 20/22 normally open); the simulated switches are read as they are.
+            return SwitchConfig::from_objects(1, 0, 0, 1);
+        }
         SwitchConfig::from_objects(
             self.value(0x6510, 0x11),
             self.value(0x6510, 0x12),
@@ -1555,7 +1674,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn publish(&mut self) {
         let state = self.dc.state();
         let power = !matches!(self.demand, Demand::Off);
-        let v_act = i64::from(self.axis.velocity_internal());
+        let v_act = i64::from(self.plant_velocity_internal());
         let threshold = self
             .fg
             .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
@@ -1637,14 +1756,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
-        let position = self.axis.position_increments();
-        let inputs = self
-            .switch_config()
-            .digital_inputs(self.input_levels(position));
+        let position = self.plant_position();
+        let inputs = match self.personality.vendor {
+            Vendor::CmmpAs => self
+                .switch_config()
+                .digital_inputs(self.input_levels(position)),
+            Vendor::Nanotec => self.nanotec_digital_inputs(position),
+        };
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
-            || (self.mode == mode::INTERPOLATED_POSITION && !self.ip.is_synchronised())
+            || (self.mode == mode::INTERPOLATED_POSITION
+                && !self.ip.is_synchronised()
+                && self.personality.capabilities.ip_changing_until_synchronised)
         {
             mode::CHANGING
         } else {
@@ -1652,7 +1776,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
-        self.store(self.hot.position_internal, actual);
+        let internal = match self.personality.vendor {
+            _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
+            _ => actual,
+        };
+        self.store(self.hot.position_internal, internal);
         let fg = self.fg;
         self.store(
             self.hot.position_actual,
@@ -1780,6 +1908,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write_internal(index, sub, data)
     }
+}
+
+/// The brake's delays after the output stage goes on and before it goes off.
+#[derive(Debug, Clone, Copy)]
+struct BrakeDelays {
+    /// Output stage on → brake open.
+    release: Duration,
+    /// Output stage on → the set-point released (operational).
+    motion: Duration,
+    /// Brake closed → output stage off.
+    engage: Duration,
 }
 
 /// Where a homing run stands.

@@ -44,6 +44,9 @@ pub enum SyncChange {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interpolator {
     period: Duration,
+    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec §5.4: 60C2h
+    /// is ignored), not 60C2h; 60C1h needs no unlocking.
+    follows_sync: bool,
     unlocked: bool,
     last_sync: Option<Instant>,
     on_grid: u8,
@@ -65,6 +68,7 @@ impl Interpolator {
     pub fn new(period: Duration) -> Self {
         Interpolator {
             period,
+            follows_sync: false,
             unlocked: false,
             last_sync: None,
             on_grid: 0,
@@ -84,9 +88,23 @@ impl Interpolator {
         self.period
     }
 
+    /// An interpolator whose period is the SYNC interval (Nanotec §5.4): the first two
+    /// intervals within half of each other lock it; 60C1h is always open.
+    pub fn following_sync() -> Self {
+        Interpolator {
+            follows_sync: true,
+            unlocked: true,
+            ..Interpolator::new(Duration::ZERO)
+        }
+    }
+
     /// Reset application: the new period from 60C2h, and everything starts again.
     pub fn reset(&mut self, period: Duration) {
-        *self = Interpolator::new(period);
+        *self = if self.follows_sync {
+            Interpolator::following_sync()
+        } else {
+            Interpolator::new(period)
+        };
     }
 
     /// 60C4h:06 buffer_clear: 1 unlocks 60C1h, 0 clears the (one-deep) buffer and locks it.
@@ -138,7 +156,11 @@ impl Interpolator {
         if let Some(last) = self.last_sync {
             let interval = now.saturating_since(last).as_nanos();
             let period = self.period.as_nanos();
-            let on_grid = interval.abs_diff(period) <= period / 2;
+            let on_grid = period > 0 && interval.abs_diff(period) <= period / 2;
+            if self.follows_sync {
+                // The PLL follows the SYNC interval.
+                self.period = now.saturating_since(last);
+            }
             if on_grid {
                 self.off_grid = 0;
                 self.on_grid = self.on_grid.saturating_add(1);
@@ -202,6 +224,14 @@ impl Interpolator {
         self.on_grid = 0;
         self.off_grid = 0;
         self.latched = None;
+    }
+
+    /// enable_ip_mode set while synchronised: interpolation starts where the drive stands;
+    /// `pending` is a set-point already written (Nanotec: 60C1h:01, the shared target), taken
+    /// at the next SYNC.
+    pub fn activate_with(&mut self, position: f64, now: Instant, pending: Option<f64>) {
+        self.activate(position, now);
+        self.latched = pending;
     }
 
     /// enable_ip_mode set while synchronised: interpolation starts where the drive stands.

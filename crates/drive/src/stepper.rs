@@ -325,6 +325,10 @@ pub enum StepperDemand {
         increments: i64,
         velocity_ff_rpm: f32,
     },
+    /// Closed loop only: the torque set-point in N·m (limited to `k·max_current`), no
+    /// position or velocity loop; the position set-point follows the encoder, so a later
+    /// position demand starts where the shaft is. In open loop: as [`StepperDemand::Hold`].
+    Torque { newton_metres: f64 },
 }
 
 /// `x > 0` (false for NaN).
@@ -462,6 +466,8 @@ pub struct Stepper {
     obs_vel: f64,
     integral: f64,
     torque_set: f64,
+    /// The torque set-point of a [`StepperDemand::Torque`] in force.
+    torque_demand: Option<f64>,
     ff_prev: f64,
     energised: bool,
     steps: u64,
@@ -510,6 +516,7 @@ impl Stepper {
             torque_set: 0.0,
             ff_prev: 0.0,
             energised: false,
+            torque_demand: None,
             steps: 0,
         };
         s.derive();
@@ -708,7 +715,17 @@ impl Stepper {
         let mut w_ff = 0.0;
         let mut t_ff = 0.0;
         self.energised = true;
+        self.torque_demand = None;
         match demand {
+            StepperDemand::Torque { newton_metres } => {
+                self.ff_prev = 0.0;
+                if self.mode == StepperMode::ClosedLoop {
+                    self.torque_demand = Some(finite(newton_metres));
+                    let inc = self.encoder_increments();
+                    self.set_point_inc(inc);
+                    self.integral = 0.0;
+                }
+            }
             StepperDemand::Off => {
                 self.energised = false;
                 self.integral = 0.0;
@@ -814,13 +831,18 @@ impl Stepper {
         let i_max = self.data.max_current.max(0.0);
         let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
         let t_max = self.k * i_max;
-        let t = self.kp * ew + self.integral + t_ff;
+        let t = match self.torque_demand {
+            Some(t) => t,
+            None => self.kp * ew + self.integral + t_ff,
+        };
         let t = if t > t_max {
             t_max
         } else if t < -t_max {
             -t_max
         } else {
-            self.integral = clamp(self.integral + self.ki * h * ew, t_max);
+            if self.torque_demand.is_none() {
+                self.integral = clamp(self.integral + self.ki * h * ew, t_max);
+            }
             t
         };
         let t = finite(t);

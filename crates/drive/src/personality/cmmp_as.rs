@@ -6,7 +6,9 @@
 
 use od::{AbortCode, ObjectAccess, Value};
 
-use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
+use super::{
+    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+};
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
@@ -127,7 +129,18 @@ pub const CMMP_AS: Personality = Personality {
             false,
         ),
     ],
+    stepper_plant: false,
     pp_overwrite_queued: false,
+    capabilities: Capabilities {
+        feed_constant: false,
+        pp_target_limits: false,
+        ip_follows_sync: false,
+        ip_changing_until_synchronised: true,
+        ip_abrupt_quick_stop: false,
+        homing_immediate: false,
+        switch_polarity_objects: true,
+        brake_in_60fe: true,
+    },
     homing_methods: &METHODS,
 };
 
@@ -393,7 +406,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let user = self
             .value(0x2030, 0)
             .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        self.position_offset = self.fg.position_to_internal(user) - self.axis.position_increments();
+        self.position_offset = self.fg.position_to_internal(user) - self.plant_position();
         self.resync_trajectory();
         Ok(())
     }

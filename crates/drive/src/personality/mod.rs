@@ -10,6 +10,7 @@
 
 pub mod cmmp_as;
 pub mod nanotec;
+pub mod nanotec_units;
 
 use crate::homing::{HomingError, Method};
 
@@ -82,6 +83,35 @@ pub struct ErrorSpec {
     pub critical: bool,
 }
 
+/// Where the engine's CiA 402 behaviour differs between drives, as switches: what one
+/// manual's table or rule turns on, another drive can turn on by data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capabilities {
+    /// Positions from the feed constant 6092h and the gear ratio 6091h, 6063h in the
+    /// encoder increments of 608Fh (Nanotec §6); otherwise the factors 6093h / 6094h / 6097h
+    /// (CMMP-AS §5.3).
+    pub feed_constant: bool,
+    /// Profile Position checks a target against 607Bh (wrap) and 607Dh, and a relative one
+    /// for overflow; 6082h is a start speed, bit 9 runs a queued job on the fly (Nanotec
+    /// §5.1). Otherwise 6082h is the end velocity of continuous positioning (CMMP-AS).
+    pub pp_target_limits: bool,
+    /// Interpolated position: the period is the SYNC interval (a PLL), 60C1h:01 needs no
+    /// unlocking and the target it shares with 607Ah is the first set-point (Nanotec §5.4);
+    /// otherwise 60C2h on a fixed grid with 60C4h:06 (CMMP-AS §7.4).
+    pub ip_follows_sync: bool,
+    /// 6061h shows −1 in IP until the drive is on the SYNC grid (CMMP-AS §7.4).
+    pub ip_changing_until_synchronised: bool,
+    /// A quick stop in IP stops without a ramp (Nanotec §5.4).
+    pub ip_abrupt_quick_stop: bool,
+    /// Homing accelerates with 609Ah only when starting; at the switch the speed changes
+    /// at once, at the end the motor stops at once (Nanotec §5.2).
+    pub homing_immediate: bool,
+    /// The switches are read through 6510h:11 … :14 (CMMP-AS §5.14); otherwise as wired.
+    pub switch_polarity_objects: bool,
+    /// 60FEh:01 bit 0 is the holding brake (CMMP-AS §5.13).
+    pub brake_in_60fe: bool,
+}
+
 /// A CiA 402 personality.
 #[derive(Debug)]
 pub struct Personality {
@@ -94,8 +124,11 @@ pub struct Personality {
     /// Controlword 0Fh in READY TO SWITCH ON enables operation at once (transitions 3 + 4).
     pub enable_from_ready: bool,
     pub errors: &'static [ErrorSpec],
+    /// The plant is a hybrid stepper motor ([`crate::stepper`]), not the servo motor.
+    pub stepper_plant: bool,
     /// Profile Position: a new set-point while one is queued replaces the queued one.
     pub pp_overwrite_queued: bool,
+    pub capabilities: Capabilities,
     /// The homing methods 6098h selects.
     pub homing_methods: &'static [Method],
 }
@@ -154,6 +187,8 @@ pub enum ErrorReaction {
     Ignore,
     /// An EMCY and nothing else: no fault state (Nanotec §7.1 "–").
     MessageOnly,
+    /// An EMCY and a quick stop (the state machine's, not a fault).
+    QuickStopNoFault,
     /// FAULT REACTION ACTIVE with the quick-stop ramp, then FAULT.
     QuickStop,
     /// FAULT REACTION ACTIVE braking at the current limit, then FAULT.

@@ -1,23 +1,27 @@
 //! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
 //! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
-//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1, the homing
-//! methods of §5.2 as tables; as behaviour the statusword (bit 9 remote always set, bit 4
-//! from Switched On, bit 8 PLL sync), the Profile Position target checks of §5.1 (range-limit
-//! wrap, software limits, relative overflow) and the reaction table of §7.1.
+//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1 with their
+//! reaction table (legacy and new by 2020h), the homing methods of §5.2 and the
+//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the
+//! SYNC interval, immediate homing speed changes) as tables; as behaviour the statusword (bit
+//! 9 remote always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no
+//! PV, torque only in closed loop, no change during a brake wait), the shared target
+//! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
 
 use od::{AbortCode, ObjectAccess};
 
-use super::{ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor};
-use crate::controlword::Controlword;
+use super::{
+    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+};
+use crate::axis::Demand;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
-use crate::drive::Drive;
-use crate::factor_group::{
-    acceleration_factor, position_factor, velocity_factor, FactorGroup, Ratio,
-    TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_SECOND,
-};
+use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
+use crate::personality::nanotec_units::torque_current_ma;
 use crate::statusword::Statusword;
+use crate::stepper::StepperData;
+use crate::trajectory::Trajectory;
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
 pub mod emcy {
@@ -92,9 +96,94 @@ pub const NANOTEC: Personality = Personality {
             critical: false,
         },
     ],
+    stepper_plant: true,
     pp_overwrite_queued: true,
+    capabilities: Capabilities {
+        feed_constant: true,
+        pp_target_limits: true,
+        ip_follows_sync: true,
+        ip_changing_until_synchronised: false,
+        ip_abrupt_quick_stop: true,
+        homing_immediate: true,
+        switch_polarity_objects: false,
+        brake_in_60fe: false,
+    },
     homing_methods: &HOMING_METHODS,
 };
+
+/// A reaction of the §7.1 table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reaction {
+    /// "Power Off": the power stage off (fault).
+    PowerOff,
+    /// "Quickstop + Power Off": the quick-stop ramp, then the power stage off (fault).
+    QuickStopPowerOff,
+    /// "Quickstop": the quick-stop ramp, no fault.
+    QuickStop,
+    /// "motor does not start" at standstill, "motor finishes the current job" while moving,
+    /// "–": the EMCY only.
+    ///
+    /// Decision: the manual does not say what refuses the next start; the twin reports the
+    /// EMCY and leaves the state machine alone.
+    MessageOnly,
+}
+
+impl From<Reaction> for ErrorReaction {
+    fn from(r: Reaction) -> Self {
+        match r {
+            Reaction::PowerOff => ErrorReaction::OutputStageOff,
+            Reaction::QuickStopPowerOff => ErrorReaction::QuickStop,
+            Reaction::QuickStop => ErrorReaction::QuickStopNoFault,
+            Reaction::MessageOnly => ErrorReaction::MessageOnly,
+        }
+    }
+}
+
+/// One row of §7.1: the code and its reactions, legacy (2020h = 1) and new (2020h = 0), at
+/// standstill and while moving.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReactionRow {
+    pub code: u16,
+    pub legacy: (Reaction, Reaction),
+    pub new: (Reaction, Reaction),
+}
+
+impl ReactionRow {
+    pub const fn reaction(&self, legacy: bool, moving: bool) -> Reaction {
+        let (standstill, running) = if legacy { self.legacy } else { self.new };
+        if moving {
+            running
+        } else {
+            standstill
+        }
+    }
+}
+
+const fn reactions(
+    code: u16,
+    legacy: (Reaction, Reaction),
+    new: (Reaction, Reaction),
+) -> ReactionRow {
+    ReactionRow { code, legacy, new }
+}
+
+use Reaction::{MessageOnly as Msg, PowerOff as Off, QuickStop as Qs, QuickStopPowerOff as QsOff};
+
+/// §7.1 (§13.3), as printed; 0010h is not used.
+pub const REACTIONS: [ReactionRow; 12] = [
+    reactions(emcy::UNDERVOLTAGE, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::OVERTEMPERATURE, (Off, Off), (Off, Off)),
+    reactions(emcy::LIFEGUARD, (Off, QsOff), (Msg, Qs)),
+    reactions(emcy::DATA_ERROR, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::TRAVEL_DIRECTION, (Off, QsOff), (Msg, Msg)),
+    reactions(emcy::STEP_CALCULATION, (Off, QsOff), (Off, QsOff)),
+    reactions(emcy::OVERCURRENT, (Off, Off), (Off, Off)),
+    reactions(emcy::TRANSMIT_ERRORS, (Off, QsOff), (Msg, Qs)),
+    reactions(emcy::RECEIVE_ERRORS, (Msg, Msg), (Msg, Qs)),
+    reactions(emcy::TRANSMIT_BUFFER_FULL, (Msg, Msg), (Msg, Qs)),
+    reactions(emcy::POSITION_LIMIT, (Msg, Msg), (Msg, Msg)),
+    reactions(emcy::POSITION_OVERFLOW, (Msg, Msg), (Msg, Msg)),
+];
 
 const fn step(direction: i8, speed: Speed, until: Until) -> Step {
     Step {
@@ -158,24 +247,118 @@ const STATE_BITS: [(State, u16); 8] = [
 ];
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// At power-on and after a reload: nothing beyond the dictionary's values.
-    pub(crate) fn nanotec_power_on(&mut self) {}
+    /// At power-on and after a reload: the motor's pole pairs 2006h (50 → 1.8°, 100 → 0.9°;
+    /// "takes effect after a power cycle", §11.7) set the stepper's full steps per
+    /// revolution, 4 × pole pairs.
+    pub(crate) fn nanotec_power_on(&mut self) {
+        let pole_pairs = self.value(0x2006, 0);
+        if let (Some(stepper), Ok(pp @ 1..)) = (self.stepper_mut(), u32::try_from(pole_pairs)) {
+            let data = StepperData {
+                full_steps_per_rev: 4 * pp,
+                ..*stepper.data()
+            };
+            if data != *stepper.data() {
+                stepper.set_data(data);
+            }
+        }
+    }
 
     /// The objects whose Nanotec rules do more than store a value.
     pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
+            (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
             _ => return None,
         })
     }
 
-    /// 6060h: PV (3) is refused (see [`NANOTEC`]).
+    /// 6060h: PV (3) is refused (see [`NANOTEC`]); torque mode (4) needs the closed loop
+    /// (§5.5: "closed loop must be active", 200Ah = 1).
+    ///
+    /// Decision: the manual does not say what happens without it; the write is refused with
+    /// 0800 0022h (present device state), so a master learns it at once.
     fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.entry(index, sub)?;
         match data {
             [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
+            [4] if self.value(0x200A, 0) == 0 => Err(AbortCode::DEVICE_STATE),
+            // §4.2: "while a brake wait time (2007h) is running, mode changes are not
+            // executed".
+            _ if self.brake_wait() => Err(AbortCode::DEVICE_STATE),
             _ => self.write_mode(index, sub, data),
         }
+    }
+
+    /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;
+    /// in IP a set-point goes to the interpolator, which takes it at the next SYNC.
+    fn nanotec_write_target(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        let (other, other_sub) = if index == 0x60C1 {
+            (0x607A, 0)
+        } else {
+            (0x60C1, 1)
+        };
+        let _ = self.od.write_internal(other, other_sub, data);
+        let user = self
+            .value(0x60C1, 1)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let increments = self.fg.position_to_internal(user) as f64;
+        self.ip.set_point(increments);
+        Ok(())
+    }
+
+    /// Torque mode (§5.5): the current `6071h / 1000 × 2004h:01 % × rated current` as the
+    /// closed loop's torque, the speed limited to 607Fh min⁻¹ in both directions; halt holds
+    /// the motor (its falling edge starts again). Bit 10: without halt the set torque is
+    /// reached (not cut by the speed limit), with halt the motor stands.
+    ///
+    /// Decisions: "rated current" is the motor's (the twin's current limits come from it);
+    /// the speed limit takes the torque back linearly over the last 5 % below 607Fh.
+    pub(crate) fn nanotec_torque(&mut self, dt: f64) {
+        let rpm = f64::from(self.plant_velocity_rpm());
+        if self.halted {
+            let decel = self.accel(0x6085);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            self.target_reached = rpm.abs() < 1.0;
+            return;
+        }
+        let rated_ma = self
+            .stepper()
+            .map_or(0, |s| (s.data().rated_current * 1000.0) as u32);
+        let percent = self.value(0x2004, 1).clamp(0, 100) as u8;
+        let target = self.value(0x6071, 0).clamp(-1000, 1000) as i16;
+        let current_a = torque_current_ma(target, percent, rated_ma) / 1000.0;
+        let limit = self.value(0x607F, 0).max(0) as f64;
+        let along = rpm * current_a.signum();
+        let band = 0.05 * limit + 1.0;
+        let factor = ((limit - along) / band).clamp(0.0, 1.0);
+        self.demand = Demand::Torque {
+            current_a: (current_a * factor) as f32,
+        };
+        self.target_reached = factor >= 1.0;
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: rpm / RPM_PER_INCREMENT_S,
+        };
+        self.demand_position = self.traj.position;
+    }
+
+    /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
+    /// bit 2. Input 6 follows the simulated home switch; [`Drive::force_inputs`] bit n drives
+    /// input n.
+    pub(crate) fn nanotec_digital_inputs(&self, position: i64) -> u32 {
+        const INPUT_6: u16 = 1 << 6;
+        let home = self.settings.travel.inputs(position).home;
+        let wired = if home { INPUT_6 } else { 0 };
+        let levels = (wired & !self.forced_mask) | (self.forced_levels & self.forced_mask);
+        let mut v = (1..=6u32)
+            .filter(|n| levels & (1 << n) != 0)
+            .fold(0u32, |acc, n| acc | 1 << (15 + n));
+        if levels & INPUT_6 != 0 {
+            v |= 1 << 2;
+        }
+        v
     }
 
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
@@ -191,118 +374,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             | Statusword::BIT_8.when(self.ip.is_synchronised())
     }
 
-    /// The reaction of §7.1 to `code`: 0800h and 1000h are an EMCY and statusword bit 11
-    /// only; others switch the power off (a `critical` one at once).
+    /// The reaction of §7.1 to `code`: the table's column for 2020h (1 legacy, 0 new) and
+    /// whether the motor is moving. A code the table does not list switches the power off
+    /// (with the quick-stop ramp unless `critical`).
     pub(crate) fn nanotec_error_reaction(&mut self, code: u16, critical: bool) -> ErrorReaction {
-        match code {
-            emcy::POSITION_LIMIT | emcy::POSITION_OVERFLOW => ErrorReaction::MessageOnly,
-            _ if critical => ErrorReaction::OutputStageOff,
-            _ => ErrorReaction::QuickStop,
-        }
-    }
-}
-
-/// Nanotec §6: user units from the feed constant 6092h and the gear ratio 6091h (default
-/// 2000 units per output revolution), velocities in units/s, accelerations in units/s².
-fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
-    Some(FactorGroup {
-        position: position_factor(gear, feed).ok()?,
-        velocity: velocity_factor(gear, feed, TIME_FACTOR_V_PER_SECOND).ok()?,
-        acceleration: acceleration_factor(gear, feed, TIME_FACTOR_A_PER_SECOND_SQUARED).ok()?,
-        polarity,
-    })
-}
-
-/// The feed constant of the defaults (§6: 2000 units = one output revolution).
-const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
-
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// The factor group from 6091h and 6092h; the defaults where they break the rules.
-    pub(crate) fn nanotec_factor_group(&self) -> FactorGroup {
-        let ratio = |index: u16, dflt: Ratio| {
-            Ratio::new(
-                self.od
-                    .get_unsigned(index, 1)
-                    .map_or(dflt.numerator, |v| v as u32),
-                self.od
-                    .get_unsigned(index, 2)
-                    .map_or(dflt.divisor, |v| v as u32),
-            )
-        };
-        let gear = ratio(0x6091, Ratio::new(1, 1));
-        let feed = ratio(0x6092, DEFAULT_FEED);
-        let polarity = self.od.get_unsigned(0x607E, 0).unwrap_or(0) as u8;
-        factor_group(gear, feed, polarity)
-            .or_else(|| factor_group(Ratio::new(1, 1), DEFAULT_FEED, polarity))
-            .unwrap_or_default()
-    }
-
-    /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
-    /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
-    /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;
-    /// (3) a relative target that overflows the position is refused with EMCY 1000h.
-    /// Returns the absolute target, or the refusal.
-    ///
-    /// Decisions: a relative target counts from the position set-point (the last target once
-    /// a move has ended; §4.1 "relative to the last target position" and §4.2 "relative to
-    /// the current position" agree at standstill). 607Bh and 607Dh with min = max = 0 are off
-    /// (§3.4 says so of 607Bh; CiA 402 of both). The wrap applies to the resolved target.
-    pub(crate) fn nanotec_check_target(&self, cw: Controlword) -> Result<i32, Fault> {
-        let target = self.value(0x607A, 0);
-        let absolute = if cw.contains(Controlword::RELATIVE) {
-            let queued = self
-                .setpoints
-                .active
-                .filter(|_| !cw.contains(Controlword::CHANGE_SET_IMMEDIATELY));
-            let base_internal = queued.map_or(self.traj.position, |j| j.target);
-            let base = i64::from(
-                self.fg
-                    .position_from_internal(libm::round(base_internal) as i64),
-            );
-            let sum = base + target;
-            if i32::try_from(sum).is_err() {
-                return Err(Fault::PositionOverflow);
-            }
-            sum
-        } else {
-            target
-        };
-        let (min, max) = (self.value(0x607B, 1), self.value(0x607B, 2));
-        let absolute = if (min, max) != (0, 0) && min < max && !(min..=max).contains(&absolute) {
-            min + (absolute - min).rem_euclid(max - min + 1)
-        } else {
-            absolute
-        };
-        let home = self.value(0x607C, 0);
-        let (lo, hi) = (self.value(0x607D, 1), self.value(0x607D, 2));
-        if (lo, hi) != (0, 0) && !(lo - home..=hi - home).contains(&absolute) {
-            return Err(Fault::SoftwareLimit);
-        }
-        i32::try_from(absolute).map_err(|_| Fault::PositionOverflow)
-    }
-
-    /// A PP set-point was taken: a refused one raises its EMCY and bit 11; a valid one
-    /// clears both (§4.1 item 4: "cleared only by the next valid position"), bit 11 staying
-    /// for a wrapped one. With bit 9 (change on set-point) a queued job follows the running
-    /// one without braking at its target.
-    pub(crate) fn nanotec_target_taken(&mut self, result: Result<i32, Fault>, cw: Controlword) {
-        match result {
-            Err(fault) => {
-                self.internal_limit = true;
-                self.raise_fault(fault);
-            }
-            Ok(target) => {
-                self.clear_notice(emcy::POSITION_LIMIT);
-                self.clear_notice(emcy::POSITION_OVERFLOW);
-                self.internal_limit = i64::from(target) != self.value(0x607A, 0)
-                    && !cw.contains(Controlword::RELATIVE);
-            }
-        }
-        if self.setpoints.buffered.is_some() {
-            let on_the_fly = cw.contains(Controlword::CHANGE_ON_SET_POINT);
-            if let Some(active) = self.setpoints.active.as_mut() {
-                active.end_velocity = if on_the_fly { active.velocity } else { 0.0 };
-            }
+        let legacy = self.value(0x2020, 0) != 0;
+        let moving = self.traj.velocity != 0.0 || self.velocity_set != 0.0;
+        match REACTIONS.iter().find(|r| r.code == code) {
+            Some(r) => r.reaction(legacy, moving).into(),
+            None if critical => ErrorReaction::OutputStageOff,
+            None => ErrorReaction::QuickStop,
         }
     }
 }

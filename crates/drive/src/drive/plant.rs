@@ -1,0 +1,157 @@
+//! The plant behind the CiA 402 engine: the servo [`Axis`] (CMMP-AS), or the hybrid stepper
+//! of [`crate::stepper`] that the CMMO-ST uses, for a stepper personality (Nanotec). The
+//! engine reads positions in its internal unit (65536 increments per revolution) and speeds
+//! in min⁻¹ from here, whichever plant it is.
+//!
+//! The stepper runs open loop (micro-stepping; above the pull-out torque it loses steps) or
+//! closed loop (the encoder closes the loops; no step is lost below the peak torque).
+//!
+//! Decisions:
+//! * Nanotec §5.6: closed loop is on once 2001h ENABLE_CL ≠ 0 with an encoder (2011h ≠ 0);
+//!   the set-up test runs that the real drive needs first (6060h = −1 / −2) are taken as
+//!   done, and 200Ah shows 1.
+//! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper
+//!   plant it is not stepped.
+//! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed.
+//!   A torque demand is the closed loop's torque set-point (`k × current`); in open loop the
+//!   stepper holds.
+
+use super::*;
+use crate::stepper::{Stepper, StepperDemand, StepperMode};
+
+/// Internal increments per revolution.
+const INC_PER_REV: f64 = 65536.0;
+
+/// The stepper plant and the engine's view of it.
+#[derive(Debug, Clone)]
+pub struct StepperPlant {
+    pub(crate) motor: Stepper,
+    /// A velocity demand integrated into a position set-point, internal increments.
+    set_point: f64,
+    following_velocity: bool,
+}
+
+impl StepperPlant {
+    pub fn new(motor: Stepper) -> Self {
+        StepperPlant {
+            motor,
+            set_point: 0.0,
+            following_velocity: false,
+        }
+    }
+
+    fn encoder_per_rev(&self) -> f64 {
+        f64::from(self.motor.data().encoder_increments_per_rev.max(1))
+    }
+
+    /// The encoder position in internal increments.
+    fn position(&self) -> i64 {
+        libm::round(self.motor.encoder_increments() as f64 * INC_PER_REV / self.encoder_per_rev())
+            as i64
+    }
+
+    /// One cycle of `dt` s with the engine's demand.
+    fn step(&mut self, dt: f64, demand: Demand) {
+        let position = |p: &Self, increments: f64, ff: f32| {
+            let d = p.motor.data();
+            match p.motor.mode() {
+                StepperMode::OpenLoop => {
+                    let per_rev = f64::from(d.full_steps_per_rev) * f64::from(d.microsteps);
+                    StepperDemand::Position {
+                        microsteps: libm::round(increments * per_rev / INC_PER_REV) as i64,
+                    }
+                }
+                StepperMode::ClosedLoop => StepperDemand::PositionIncrements {
+                    increments: libm::round(increments * p.encoder_per_rev() / INC_PER_REV) as i64,
+                    velocity_ff_rpm: ff,
+                },
+            }
+        };
+        let velocity = matches!(demand, Demand::Velocity { .. });
+        if velocity && !self.following_velocity {
+            self.set_point = self.position() as f64;
+        }
+        self.following_velocity = velocity;
+        let d = match demand {
+            Demand::Off => StepperDemand::Off,
+            Demand::Torque { current_a } => StepperDemand::Torque {
+                newton_metres: self.motor.data().torque_constant() * f64::from(current_a),
+            },
+            Demand::Velocity { rpm } => {
+                self.set_point += f64::from(rpm) / 60.0 * INC_PER_REV * dt;
+                position(self, self.set_point, rpm)
+            }
+            Demand::Position {
+                increments,
+                velocity_ff_rpm,
+            } => position(self, increments as f64, velocity_ff_rpm),
+        };
+        self.motor.step(dt, d);
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// The actual position of the plant, internal increments (without the homing offset).
+    pub fn plant_position(&self) -> i64 {
+        match &self.stepper {
+            Some(s) => s.position(),
+            None => self.axis.position_increments(),
+        }
+    }
+
+    /// The actual speed, min⁻¹.
+    pub fn plant_velocity_rpm(&self) -> f32 {
+        match &self.stepper {
+            Some(s) => s.motor.velocity_rpm(),
+            None => self.axis.velocity_rpm(),
+        }
+    }
+
+    /// The actual speed in the internal unit 1/4096 min⁻¹.
+    pub(crate) fn plant_velocity_internal(&self) -> i32 {
+        match &self.stepper {
+            Some(s) => libm::round(f64::from(s.motor.velocity_rpm()) * 4096.0) as i32,
+            None => self.axis.velocity_internal(),
+        }
+    }
+
+    /// The stepper plant, if the drive has one.
+    pub fn stepper(&self) -> Option<&Stepper> {
+        self.stepper.as_ref().map(|s| &s.motor)
+    }
+
+    pub fn stepper_mut(&mut self) -> Option<&mut Stepper> {
+        self.stepper.as_mut().map(|s| &mut s.motor)
+    }
+
+    /// One current-controller cycle of the plant.
+    pub(crate) fn plant_step(&mut self) {
+        let dt = self.cycle.as_secs_f64();
+        match &mut self.stepper {
+            Some(s) => s.step(dt, self.demand),
+            None => self.axis.step(self.demand),
+        }
+    }
+
+    /// The stepper's control structure from 2001h / 2011h (see the module doc), 200Ah.
+    pub(crate) fn stepper_mode(&mut self) {
+        if self.stepper.is_none() {
+            return;
+        }
+        let closed = self.value(0x2001, 0) != 0 && self.value(0x2011, 0) != 0;
+        let Some(s) = self.stepper.as_mut() else {
+            return;
+        };
+        let mode = if closed {
+            StepperMode::ClosedLoop
+        } else {
+            StepperMode::OpenLoop
+        };
+        if s.motor.mode() != mode {
+            s.motor.set_mode(mode);
+        }
+        if let Some(e) = self.od.description().entry(0x200A, 0) {
+            self.store(Some(e), i64::from(closed));
+        }
+    }
+}

@@ -1,0 +1,121 @@
+//! Velocity mode VL (CiA 402 §10, 6060h = 2; Nanotec §5.3): the target 6042h clamped by
+//! the min / max amounts 6046h, ramps 6048h / 6049h / 604Ah given as fractions Δv / Δt, and
+//! the dimension factor 604Ch between the user unit and min⁻¹.
+//!
+//! Rules (Nanotec §5.3, §9 item 8): target 0 stops; a magnitude below min runs at min; a
+//! magnitude above max runs at max with statusword bit 11; halt (bit 8) brakes with 6049h
+//! and a falling edge accelerates again; a quick stop brakes with 604Ah.
+//!
+//! Decisions:
+//! * 604Ch: `min⁻¹ = user × numerator / denominator`, the worked example of §6.10 (2000 ×
+//!   60/2000 = 60 min⁻¹), not the inverse formula of §9.27 (spec §9 ambiguity list); Δv of
+//!   the ramps is in the same user unit, Δt in seconds.
+//! * The halt bit is read as a level: its rising edge brakes, its falling edge resumes, and a
+//!   bit held at 1 keeps the motor stopped, which is what the two edges of §5.3 describe.
+//! * 607Eh bit 6 turns the direction over (§5.8).
+
+use super::*;
+
+/// 607Eh bit 6: velocity polarity.
+const VELOCITY_POLARITY: u8 = 0x40;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// 604Ch as (numerator, denominator); 1/1 where a part is 0 or missing.
+    fn vl_dimension_factor(&self) -> (f64, f64) {
+        let num = self.value(0x604C, 1);
+        let den = self.value(0x604C, 2);
+        if num == 0 || den == 0 {
+            (1.0, 1.0)
+        } else {
+            (num as f64, den as f64)
+        }
+    }
+
+    /// A VL user velocity in increments/s.
+    fn vl_to_internal(&self, user: f64) -> f64 {
+        let (num, den) = self.vl_dimension_factor();
+        user * num / den / RPM_PER_INC_S
+    }
+
+    /// Increments/s as a VL user velocity.
+    fn vl_from_internal(&self, increments_per_s: f64) -> f64 {
+        let (num, den) = self.vl_dimension_factor();
+        increments_per_s * RPM_PER_INC_S * den / num
+    }
+
+    /// A ramp record (6048h, 6049h, 604Ah): Δv / Δt in increments/s²; `None` if a part is 0.
+    pub(crate) fn vl_ramp(&self, index: u16) -> Option<f64> {
+        let dv = self.value(index, 1);
+        let dt = self.value(index, 2);
+        (dv > 0 && dt > 0).then(|| self.vl_to_internal(dv as f64) / dt as f64)
+    }
+
+    /// The target after the 6046h rules, user units, and whether it was clamped to the
+    /// maximum (bit 11).
+    pub(crate) fn vl_clamped_target(&self) -> (i64, bool) {
+        let target = self.value(0x6042, 0);
+        if target == 0 {
+            return (0, false);
+        }
+        let min = self.value(0x6046, 1).max(0);
+        let max = self.value(0x6046, 2).max(0);
+        let magnitude = target.abs();
+        let (magnitude, limited) = if max > 0 && magnitude > max {
+            (max, true)
+        } else {
+            (magnitude.max(min), false)
+        };
+        (target.signum() * magnitude, limited)
+    }
+
+    /// One cycle of velocity mode.
+    pub(crate) fn velocity_mode(&mut self, dt: f64) {
+        let (user, limited) = self.vl_clamped_target();
+        self.internal_limit = limited;
+        let polarity = self.value(0x607E, 0) as u8 & VELOCITY_POLARITY != 0;
+        let sign = if polarity { -1.0 } else { 1.0 };
+        let mut target = (sign * self.vl_to_internal(user as f64))
+            .clamp(-self.max_motor_speed(), self.max_motor_speed());
+        if self.halted {
+            target = 0.0;
+        }
+        let acc = self.vl_ramp(0x6048).unwrap_or(f64::INFINITY);
+        let dec = self.vl_ramp(0x6049).unwrap_or(f64::INFINITY);
+        let mut t = Trajectory {
+            position: 0.0,
+            velocity: self.velocity_set,
+        };
+        t.step_velocity(target, acc, dec, dt);
+        self.velocity_set = t.velocity;
+        // The set-point keeps the ramp's speed, so a quick stop brakes from there.
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: self.velocity_set,
+        };
+        self.demand_position = self.traj.position;
+        self.demand = Demand::Velocity {
+            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
+        };
+        self.target_reached = self.velocity_set == target;
+        self.publish_vl();
+    }
+
+    /// 6043h demand and 6044h actual velocity in user units (§5.3).
+    pub(crate) fn publish_vl(&mut self) {
+        let sign = if self.value(0x607E, 0) as u8 & VELOCITY_POLARITY != 0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let demand = libm::round(sign * self.vl_from_internal(self.velocity_set)) as i64;
+        let actual_internal = f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S;
+        let actual = libm::round(sign * self.vl_from_internal(actual_internal)) as i64;
+        let clamp = |v: i64| v.clamp(i64::from(i16::MIN), i64::from(i16::MAX));
+        if let Some(e) = self.od.description().entry(0x6043, 0) {
+            self.store(Some(e), clamp(demand));
+        }
+        if let Some(e) = self.od.description().entry(0x6044, 0) {
+            self.store(Some(e), clamp(actual));
+        }
+    }
+}
