@@ -158,3 +158,57 @@ fn limit(l: Option<Limit>) -> String {
         Some(Limit::Real(v)) => format!("Some(od::Limit::Real({v:?}))"),
     }
 }
+
+/// Rust source defining `pub static NAME_ADDRESSES: crate::Addresses`: the panel addresses and
+/// Modbus registers of the description's entries (the other keys of an object beside index
+/// and sub-index; empty for most devices).
+pub fn generate_addresses(d: &Device) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "/// Panel addresses and Modbus registers of `devices/{}.toml`.",
+        d.name
+    );
+    let _ = writeln!(
+        s,
+        "pub static {}_ADDRESSES: crate::Addresses = crate::Addresses {{",
+        static_name(&d.name)
+    );
+    let _ = writeln!(s, "    device: {:?},", d.name);
+    let _ = writeln!(s, "    panel: &[");
+    let mut panel: Vec<(&str, &Ent)> = d
+        .objects
+        .iter()
+        .flat_map(|o| &o.entries)
+        .flat_map(|e| e.panel.iter().map(move |k| (k.as_str(), e)))
+        .collect();
+    panel.sort_by_key(|(k, _)| *k);
+    for (k, e) in panel {
+        let _ = writeln!(
+            s,
+            "        crate::PanelAddress {{ key: {k:?}, index: 0x{:04X}, sub: {} }},",
+            e.index, e.sub
+        );
+    }
+    let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "    modbus: &[");
+    let mut modbus: Vec<(u16, &Ent)> = d
+        .objects
+        .iter()
+        .flat_map(|o| &o.entries)
+        .filter_map(|e| e.modbus.map(|r| (r, e)))
+        .collect();
+    modbus.sort_by_key(|(r, _)| *r);
+    for (r, e) in modbus {
+        let _ = writeln!(
+            s,
+            "        crate::ModbusRegister {{ register: 0x{r:04X}, index: 0x{:04X}, sub: {}, words: {} }},",
+            e.index,
+            e.sub,
+            e.capacity.div_ceil(2).max(1)
+        );
+    }
+    let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "}};");
+    s
+}
