@@ -370,7 +370,9 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
     }
     let modbus = f.modbus;
     if modbus.is_some() && !matches!(data_type.fixed_size(), Some(1 | 2 | 4)) {
-        return Err(err("a Modbus register holds an 8-, 16- or 32-bit value".into()));
+        return Err(err(
+            "a Modbus register holds an 8-, 16- or 32-bit value".into()
+        ));
     }
     let storable = f.storable.unwrap_or(
         access.writable()
@@ -409,7 +411,9 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
 pub fn is_panel_key(key: &str) -> bool {
     let b = key.as_bytes();
     match b {
-        [b'd', g, b'.', x, y] => (b'1'..=b'7').contains(g) && x.is_ascii_digit() && y.is_ascii_digit(),
+        [b'd', g, b'.', x, y] => {
+            (b'1'..=b'7').contains(g) && x.is_ascii_digit() && y.is_ascii_digit()
+        }
         [b'E', b'A', b'0', x] | [b't', b'n', b'0', x] => x.is_ascii_digit(),
         [b'F', b'0', b'0', x] => (b'1'..=b'7').contains(x),
         _ => false,

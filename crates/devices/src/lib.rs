@@ -55,7 +55,9 @@ impl Addresses {
 
     /// The Modbus register of entry `index`:`sub`.
     pub fn modbus_register(&self, index: u16, sub: u8) -> Option<&'static ModbusRegister> {
-        self.modbus.iter().find(|r| r.index == index && r.sub == sub)
+        self.modbus
+            .iter()
+            .find(|r| r.index == index && r.sub == sub)
     }
 }
 
