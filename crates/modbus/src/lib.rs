@@ -21,6 +21,7 @@
 //! - [`server`]: the [`RegisterMap`] a device implements, [`handle_pdu`] and [`handle_adu`].
 //! - [`watchdog`]: the CMMO-ST connection monitoring ("Node Guard / Timeout", §4.3.4).
 //! - [`rtu`]: the Modbus RTU CRC-16 for serial transports.
+//! - [`rtu_framing`]: RTU frames cut from a serial byte stream by the 3.5-character silence.
 //! - [`kinco_rtu`]: the Kinco FD/CD drives' RTU server (FC 03h / 06h / 10h, their error
 //!   function codes 81h / 86h / 90h), its registers a mapping onto the drive's objects.
 //!
@@ -45,6 +46,7 @@ pub mod kinco_rtu;
 pub mod mbap;
 pub mod request;
 pub mod rtu;
+pub mod rtu_framing;
 pub mod server;
 pub mod watchdog;
 
