@@ -8,6 +8,7 @@ pub mod decode;
 pub mod emcy;
 pub mod frame;
 pub mod heartbeat;
+pub mod kinco_bit_rates;
 pub mod kinco_dip_switches;
 pub mod kinco_rs232;
 pub mod lss;
