@@ -21,11 +21,17 @@ fn main() {
             Err(e) => panic!("device description error: {e}"),
         };
         out.push_str(&devdesc::codegen::generate(&device));
+        out.push_str(&devdesc::codegen::generate_addresses(&device));
         names.push(devdesc::codegen::static_name(&device.name));
     }
     out.push_str("/// Every personality, in file-name order.\npub static ALL: &[&od::DeviceDescription] = &[");
     for n in &names {
         out.push_str(&format!("&{n}, "));
+    }
+    out.push_str("];\n");
+    out.push_str("/// The panel addresses and Modbus registers of every personality, in file-name order.\npub static ALL_ADDRESSES: &[&Addresses] = &[");
+    for n in &names {
+        out.push_str(&format!("&{n}_ADDRESSES, "));
     }
     out.push_str("];\n");
     let dest = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("devices.rs");

@@ -235,7 +235,7 @@ def eds_files(tmp_path_factory) -> dict[str, Path]:
     """The EDS of each personality, as `drivetwin eds` prints it."""
     d = tmp_path_factory.mktemp("eds")
     files = {}
-    for device in ("cmmp-as", "testbench", "nanotec-smci47s", "nanotec-pd4n"):
+    for device in ("cmmp-as", "testbench", "nanotec-smci47s", "nanotec-pd4n", "kinco-fd3", "kinco-cd3"):
         r = run_cli("eds", "--device", device)
         assert r.returncode == 0, r.stderr
         path = d / f"{device}.eds"

@@ -57,6 +57,35 @@ def test_eds_nanotec_imports_into_python_canopen(device, eds_files):
     assert (0x200E in od) != has_brake, "DSPdrive current controller on the PD4-N only"
 
 
+@pytest.mark.parametrize("device", ["kinco-fd3", "kinco-cd3"])
+def test_eds_kinco_imports_into_python_canopen(device, eds_files):
+    """The Kinco files as the manual's parameter tables list them (seeds/001_da459f46c7138f7b.txt)."""
+    od = canopen.import_od(str(eds_files[device]), node_id=3)
+    assert od[0x1000].default == 0x00020192, "CiA 402 servo drive (CHOSEN)"
+    assert od[0x100B].default == 1, "ID_Com d5.01"
+    assert od[0x6040].data_type == datatypes.UNSIGNED16
+    assert od[0x6060].data_type == datatypes.INTEGER8
+    assert od[0x607A].data_type == datatypes.INTEGER32
+    assert od[0x6041].access_type == "ro"
+    assert od[0x2010][3].default == 0x0001, "DIN1 = Enable (d3.01)"
+    assert od[0x2010][0x0F].default == 0x0001, "OUT1 = Ready (d3.09)"
+    assert od[0x2020][0x0D].default == -4 and od[0x2020][0x0E].default == -3, "Din_Mode0/1"
+    assert od[0x2020][0x0F].default == 0x2F, "Din_Controlword (KINCO-CW-06)"
+    assert od[0x2FF0][0x0E].default == 5242 and od[0x6065].default == 524200, "KINCO-SC-09"
+    assert od[0x60F9][0x03].default == 45 and od[0x60F9][0x03].max == 127, "Notch_N (KINCO-SC-06)"
+    assert od[0x3040][0x0B].min == 10 and od[0x3040][0x0B].max == 500, "Inertia_Ratio"
+    assert od[0x2FE0].default == 270 and od[0x2FE2].default == 540, "baud codes (KINCO-232-10)"
+    assert len(od[0x2509]) >= 15, "gear sets 1-7"
+    has_can = 0x1400 in od
+    assert has_can == (device == "kinco-fd3"), "CANopen on the FD3 only"
+    assert (0x2F81 in od) == has_can and (0x2F80 in od) == has_can
+    if has_can:
+        assert od[0x1800][1].default == 0x180 + 3, "TPDO1 follows $NODEID (KINCO-CAN-05)"
+        assert od[0x1014].default == 0x80 + 3
+        assert od[0x1A00][1].default == 0x60410010 and od[0x1600][1].default == 0x60400010
+        assert od[0x2F81].default == 50, "500 kbit/s (KINCO-CAN-06)"
+
+
 def test_eds_output_option_writes_same_text(tmp_path, eds_files):
     out = tmp_path / "cmmp.eds"
     r = run_cli("eds", "--device", "cmmp-as", "-o", str(out))
@@ -71,6 +100,8 @@ def test_eds_output_option_writes_same_text(tmp_path, eds_files):
         "testbench",
         "nanotec-smci47s",
         "nanotec-pd4n",
+        "kinco-fd3",
+        "kinco-cd3",
     ],
 )
 def test_eds_passes_dcfchk(device, eds_files):

@@ -259,7 +259,9 @@ impl<const N: usize> Node<N> {
             return; // CANopen uses 11-bit identifiers only
         };
         if cob == LSS_REQUEST_ID {
-            self.on_lss(frame.payload(), out);
+            if !self.opts.lss_unsupported {
+                self.on_lss(frame.payload(), out);
+            }
             return;
         }
         let own = u16::from(self.node_id);

@@ -599,6 +599,17 @@ fn default_cob_ids_follow_the_node_id_at_restore_only() {
     }
 }
 
+/// Decision (device file): the manual never names LSS, so the Nanotec does not answer it: an
+/// "identify remote slave" / switch-state-global on 7E5h gets nothing back.
+#[test]
+fn no_lss_on_the_nanotec() {
+    let mut b = smci(1);
+    assert!(b.send(0x7E5, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]).is_empty());
+    assert!(b.send(0x7E5, &[0x5E, 0, 0, 0, 0, 0, 0, 0]).is_empty());
+    assert!(b.send(0x7E5, &[0x11, 0x05, 0, 0, 0, 0, 0, 0]).is_empty());
+    assert_eq!(b.node.node_id(), 1);
+}
+
 /// An NMT reset reloads what was last stored: the runtime's part (carry_out_reset) boots the
 /// node again on the same dictionary.
 #[test]

@@ -36,7 +36,7 @@ pub fn generate(d: &Device) -> String {
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?}, pdo_valid_without_mapping: {} }},",
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?}, pdo_valid_without_mapping: {}, lss_unsupported: {} }},",
         c.pdo_params_locked_while_valid,
         c.pdo_config_outside_operational,
         c.tpdo_transmit_mask_index,
@@ -47,7 +47,8 @@ pub fn generate(d: &Device) -> String {
         c.life_guard_emcy_code,
         c.restore_writes_stored_set,
         c.life_time_max_ms,
-        c.pdo_valid_without_mapping
+        c.pdo_valid_without_mapping,
+        c.lss_unsupported
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {
@@ -156,4 +157,58 @@ fn limit(l: Option<Limit>) -> String {
         Some(Limit::Unsigned(v)) => format!("Some(od::Limit::Unsigned({v}))"),
         Some(Limit::Real(v)) => format!("Some(od::Limit::Real({v:?}))"),
     }
+}
+
+/// Rust source defining `pub static NAME_ADDRESSES: crate::Addresses`: the panel addresses and
+/// Modbus registers of the description's entries (the other keys of an object beside index
+/// and sub-index; empty for most devices).
+pub fn generate_addresses(d: &Device) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "/// Panel addresses and Modbus registers of `devices/{}.toml`.",
+        d.name
+    );
+    let _ = writeln!(
+        s,
+        "pub static {}_ADDRESSES: crate::Addresses = crate::Addresses {{",
+        static_name(&d.name)
+    );
+    let _ = writeln!(s, "    device: {:?},", d.name);
+    let _ = writeln!(s, "    panel: &[");
+    let mut panel: Vec<(&str, &Ent)> = d
+        .objects
+        .iter()
+        .flat_map(|o| &o.entries)
+        .flat_map(|e| e.panel.iter().map(move |k| (k.as_str(), e)))
+        .collect();
+    panel.sort_by_key(|(k, _)| *k);
+    for (k, e) in panel {
+        let _ = writeln!(
+            s,
+            "        crate::PanelAddress {{ key: {k:?}, index: 0x{:04X}, sub: {} }},",
+            e.index, e.sub
+        );
+    }
+    let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "    modbus: &[");
+    let mut modbus: Vec<(u16, &Ent)> = d
+        .objects
+        .iter()
+        .flat_map(|o| &o.entries)
+        .filter_map(|e| e.modbus.map(|r| (r, e)))
+        .collect();
+    modbus.sort_by_key(|(r, _)| *r);
+    for (r, e) in modbus {
+        let _ = writeln!(
+            s,
+            "        crate::ModbusRegister {{ register: 0x{r:04X}, index: 0x{:04X}, sub: {}, words: {} }},",
+            e.index,
+            e.sub,
+            e.capacity.div_ceil(2).max(1)
+        );
+    }
+    let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "}};");
+    s
 }

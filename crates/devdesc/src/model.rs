@@ -71,6 +71,11 @@ pub struct Ent {
     pub kept_on_restore: bool,
     pub allowed_bits: Option<u64>,
     pub capacity: u32,
+    /// LED panel addresses (Kinco `d3.01`, `EA02`, `tn01`, `F001`); empty for most devices.
+    pub panel: Vec<String>,
+    /// Modbus register (Kinco RTU map, §12.3); a value of more than 16 bits takes the next
+    /// registers too.
+    pub modbus: Option<u16>,
 }
 
 pub fn load_file(path: &Path) -> Result<Device, DescError> {
@@ -111,6 +116,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         objects.push(object(o)?);
     }
     objects.sort_by_key(|o| o.index);
+    unique_addresses(&objects)?;
     for pair in objects.windows(2) {
         if pair[0].index == pair[1].index {
             return Err(DescError::Object {
@@ -167,6 +173,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             restore_writes_stored_set: d.restore_writes_stored_set,
             life_time_max_ms: d.life_time_max_ms,
             pdo_valid_without_mapping: d.pdo_valid_without_mapping,
+            lss_unsupported: d.lss_unsupported,
         },
         objects,
     })
@@ -234,6 +241,8 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
                     kept_on_restore: false,
                     allowed_bits: None,
                     capacity: 1,
+                    panel: Vec::new(),
+                    modbus: None,
                 },
             );
         } else if entries.len() == 1 {
@@ -353,6 +362,18 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
         }
         other => other,
     };
+    let panel = f.panel.as_ref().map(|p| p.keys()).unwrap_or_default();
+    if let Some(k) = panel.iter().find(|k| !is_panel_key(k)) {
+        return Err(err(format!(
+            "panel address {k:?} is none of d1.00…d7.99, EA0n, tn0n, F001…F007"
+        )));
+    }
+    let modbus = f.modbus;
+    if modbus.is_some() && !matches!(data_type.fixed_size(), Some(1 | 2 | 4)) {
+        return Err(err(
+            "a Modbus register holds an 8-, 16- or 32-bit value".into()
+        ));
+    }
     let storable = f.storable.unwrap_or(
         access.writable()
             && !matches!(
@@ -380,7 +401,55 @@ fn entry(index: u16, sub: u8, name: &str, f: &EntryFields) -> Result<Ent, DescEr
         kept_on_restore: f.kept_on_restore.unwrap_or(false),
         allowed_bits,
         capacity,
+        panel,
+        modbus,
     })
+}
+
+/// Whether `key` is a panel address of the manual's forms: `d1.25` (menu group 1…7, two
+/// digits), `EA00`…`EA09`, `tn00`…`tn09`, `F001`…`F007`.
+pub fn is_panel_key(key: &str) -> bool {
+    let b = key.as_bytes();
+    match b {
+        [b'd', g, b'.', x, y] => {
+            (b'1'..=b'7').contains(g) && x.is_ascii_digit() && y.is_ascii_digit()
+        }
+        [b'E', b'A', b'0', x] | [b't', b'n', b'0', x] => x.is_ascii_digit(),
+        [b'F', b'0', b'0', x] => (b'1'..=b'7').contains(x),
+        _ => false,
+    }
+}
+
+/// A panel address or a Modbus register names one entry only.
+fn unique_addresses(objects: &[Obj]) -> Result<(), DescError> {
+    let mut panel = std::collections::BTreeMap::new();
+    let mut modbus = std::collections::BTreeMap::new();
+    for e in objects.iter().flat_map(|o| &o.entries) {
+        for k in &e.panel {
+            if let Some((i, s)) = panel.insert(k.clone(), (e.index, e.sub)) {
+                return Err(DescError::Entry {
+                    index: e.index,
+                    sub: e.sub,
+                    what: format!("panel address {k} is also {i:04X}h sub {s}"),
+                });
+            }
+        }
+        if let Some(r) = e.modbus {
+            // A 32-bit value also takes register r + 1.
+            let words = e.capacity.div_ceil(2).max(1) as u16;
+            for w in 0..words {
+                let reg = r.wrapping_add(w);
+                if let Some((i, s)) = modbus.insert(reg, (e.index, e.sub)) {
+                    return Err(DescError::Entry {
+                        index: e.index,
+                        sub: e.sub,
+                        what: format!("Modbus register {reg:04X}h is also {i:04X}h sub {s}"),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A TOML integer, or a string holding a hex/decimal number.
@@ -539,6 +608,40 @@ mod tests {
         .unwrap();
         assert!(d.objects[0].entries[0].kept_on_restore);
         assert!(d.objects[0].entries[0].storable, "still saved by 1010h");
+    }
+
+    /// Kinco ch. 9: an object may have several panel addresses; an address and a Modbus
+    /// register (a 32-bit value takes two) name one entry only.
+    #[test]
+    fn panel_addresses_and_modbus_registers_are_checked() {
+        let var = |index: u16, t: &str, extra: &str| {
+            format!("[[object]]\nindex = 0x{index:04X}\nname = \"x\"\ntype = \"{t}\"\naccess = \"rw\"\n{extra}\n")
+        };
+        let d = parse(
+            &format!(
+                "{HEAD}{}{}",
+                var(0x2FF0, "UNSIGNED8", "panel = [\"d2.00\", \"d3.00\"]"),
+                var(0x60FF, "INTEGER32", "panel = \"tn01\"\nmodbus = 0x6F00")
+            ),
+            "t.toml",
+        )
+        .unwrap();
+        assert_eq!(d.objects[0].entries[0].panel, ["d2.00", "d3.00"]);
+        assert_eq!(d.objects[1].entries[0].modbus, Some(0x6F00));
+        assert!(err(&var(0x2000, "UNSIGNED8", "panel = \"d9.01\"")).contains("panel address"));
+        assert!(err(&var(0x2000, "VISIBLE_STRING", "size = 4\nmodbus = 1")).contains("Modbus"));
+        let twice = format!(
+            "{}{}",
+            var(0x2000, "UNSIGNED8", "panel = \"d3.01\""),
+            var(0x2001, "UNSIGNED8", "panel = \"d3.01\"")
+        );
+        assert!(err(&twice).contains("d3.01 is also 2000h"));
+        let overlap = format!(
+            "{}{}",
+            var(0x2000, "UNSIGNED32", "modbus = 0x3100"),
+            var(0x2001, "UNSIGNED16", "modbus = 0x3101")
+        );
+        assert!(err(&overlap).contains("3101h is also 2000h"));
     }
 
     #[test]

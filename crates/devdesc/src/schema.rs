@@ -53,9 +53,29 @@ pub struct DeviceSection {
     pub life_time_max_ms: Option<u32>,
     #[serde(default)]
     pub pdo_valid_without_mapping: bool,
+    #[serde(default)]
+    pub lss_unsupported: bool,
     /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
     #[serde(default)]
     pub rotary_switches: u8,
+}
+
+/// `panel = "d3.01"` or `panel = ["d2.00", "d3.00"]`: one object may have several panel
+/// addresses (Kinco 2FF0h:01 is d2.00, d3.00 and d5.00).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum PanelKeys {
+    One(String),
+    Many(Vec<String>),
+}
+
+impl PanelKeys {
+    pub fn keys(&self) -> Vec<String> {
+        match self {
+            PanelKeys::One(k) => vec![k.clone()],
+            PanelKeys::Many(v) => v.clone(),
+        }
+    }
 }
 
 fn yes() -> bool {
@@ -93,6 +113,8 @@ pub struct EntryFields {
     pub kept_on_restore: Option<bool>,
     pub allowed_bits: Option<u64>,
     pub source: Option<String>,
+    pub panel: Option<PanelKeys>,
+    pub modbus: Option<u16>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -115,6 +137,10 @@ pub struct ObjectSection {
     pub kept_on_restore: Option<bool>,
     pub allowed_bits: Option<u64>,
     pub source: Option<String>,
+    /// The LED panel address(es) of a VAR (Kinco `d3.01`, `EA02`, `tn01`, `F001`).
+    pub panel: Option<PanelKeys>,
+    /// The Modbus register of a VAR (Kinco `0x3100`).
+    pub modbus: Option<u16>,
     /// Two sub-indices whose values must stay ordered (min ≤ max); a write that would break
     /// the order is refused with 0609 0036h.
     pub min_max_subs: Option<[u8; 2]>,
@@ -142,6 +168,8 @@ pub struct SubSection {
     pub kept_on_restore: Option<bool>,
     pub allowed_bits: Option<u64>,
     pub source: Option<String>,
+    pub panel: Option<PanelKeys>,
+    pub modbus: Option<u16>,
 }
 
 impl SubSection {
@@ -160,6 +188,8 @@ impl SubSection {
             kept_on_restore: self.kept_on_restore,
             allowed_bits: self.allowed_bits,
             source: self.source.clone(),
+            panel: self.panel.clone(),
+            modbus: self.modbus,
         }
     }
 }
@@ -181,6 +211,8 @@ impl ObjectSection {
             kept_on_restore: self.kept_on_restore,
             allowed_bits: self.allowed_bits,
             source: self.source.clone(),
+            panel: self.panel.clone(),
+            modbus: self.modbus,
         }
     }
 }

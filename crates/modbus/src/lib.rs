@@ -21,6 +21,9 @@
 //! - [`server`]: the [`RegisterMap`] a device implements, [`handle_pdu`] and [`handle_adu`].
 //! - [`watchdog`]: the CMMO-ST connection monitoring ("Node Guard / Timeout", §4.3.4).
 //! - [`rtu`]: the Modbus RTU CRC-16 for serial transports.
+//! - [`rtu_framing`]: RTU frames cut from a serial byte stream by the 3.5-character silence.
+//! - [`kinco_rtu`]: the Kinco FD/CD drives' RTU server (FC 03h / 06h / 10h, their error
+//!   function codes 81h / 86h / 90h), its registers a mapping onto the drive's objects.
 //!
 //! Nothing here allocates, panics on wire data, reads a clock or touches a socket.
 #![no_std]
@@ -39,9 +42,11 @@ pub mod device_identification;
 pub mod exception;
 pub mod framing;
 pub mod function_code;
+pub mod kinco_rtu;
 pub mod mbap;
 pub mod request;
 pub mod rtu;
+pub mod rtu_framing;
 pub mod server;
 pub mod watchdog;
 

@@ -75,6 +75,9 @@ pub struct Cia301Options {
     /// PDOs 2–4 default to valid COB-IDs with empty mappings (§9.11–9.21), so a master that
     /// writes back what it read must be able to. Without it, CiA 301's 0609 0030h.
     pub pdo_valid_without_mapping: bool,
+    /// The device has no LSS slave (CiA 305): LSS requests on 7E5h go unanswered (the
+    /// Nanotec's node-ID comes from its switches or 2009h only, §1.1).
+    pub lss_unsupported: bool,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).

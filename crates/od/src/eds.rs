@@ -51,7 +51,7 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
     writeln!(w, "LSS_Supported=0")?;
     writeln!(w)?;
     writeln!(w, "[DummyUsage]")?;
-    // CiA 306 §4.5.3: a dummy is announced here, not as an object section. A device lists the
+    // CiA 306: a dummy is announced here, not as an object section. A device lists the
     // dummy objects it offers (Nanotec §9.44–9.50) with their mapping flag.
     for i in 1..=7u16 {
         let usable = desc.entry(i, 0).is_some_and(|e| e.pdo_mappable);

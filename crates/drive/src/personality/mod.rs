@@ -9,6 +9,7 @@
 //! did before the split.
 
 pub mod cmmp_as;
+pub mod kinco;
 pub mod nanotec;
 pub mod nanotec_units;
 
