@@ -1,0 +1,265 @@
+//! Homing (CiA 402 mode 6) on the engine: controlword bit 4 starts the personality's method
+//! (CMMP-AS Tab. 7.1, Nanotec §5.2), [`crate::homing`] searches the reference point against
+//! the switches, the block or an external switch, and the drive brakes, settles, travels to
+//! zero where the personality does, and sets the position.
+
+use super::*;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
+    /// aborts it (Tab. 7.2); halt aborts with homing_error (ch. 6). The search of
+    /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
+    /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
+    pub(super) fn homing(&mut self, cw: Controlword, dt: f64) {
+        let bit4 = cw.contains(Controlword::HOMING_START);
+        let idle = matches!(self.homing, HomingRun::Idle);
+        if self.cw_rising.contains(Controlword::HOMING_START)
+            || (bit4 && idle && !self.homing_attained && !self.homing_error)
+        {
+            self.start_homing();
+        } else if !idle && !bit4 {
+            // Tab. 7.2: bit 4 1 → 0 aborts homing (neither attained nor error).
+            self.homing = HomingRun::Brake {
+                then: Then::Nothing,
+            };
+        } else if !idle && self.halted && !matches!(self.homing, HomingRun::Brake { .. }) {
+            // ch. 6: halt aborts homing; homing_error is set.
+            self.homing_error = true;
+            self.homing = HomingRun::Brake {
+                then: Then::Nothing,
+            };
+        }
+        if !matches!(self.homing, HomingRun::Idle) {
+            let timeout = self.value(0x2045, 0).max(0) as u64;
+            if timeout > 0
+                && self.now.saturating_since(self.homing_started) > Duration::from_millis(timeout)
+            {
+                self.homing_failed(HomingError::Timeout);
+            }
+        }
+        let acc = self.accel(0x609A);
+        // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
+        // the end the motor stops at once.
+        let immediate = self.personality.capabilities.homing_immediate;
+        let (switch_acc, stop_dec) = if immediate {
+            (ABRUPT_STOP, ABRUPT_STOP)
+        } else {
+            (acc, acc)
+        };
+        match self.homing {
+            HomingRun::Idle => {
+                self.traj.step_stop(acc, dt);
+                self.position_demand(self.traj.velocity);
+            }
+            HomingRun::Search(mut search) => {
+                let position = self.plant_position();
+                let mut inputs = self.switch_inputs(position);
+                if let Some(x) = self.homing_external {
+                    // The reference switch an external I/O node sends (Nanotec 2010h).
+                    let bit = self.value(x.index, x.bit_sub).clamp(0, 7);
+                    inputs.home = self.value(x.index, x.value_sub) >> bit & 1 != 0;
+                }
+                let sense = Sense {
+                    position,
+                    inputs,
+                    stalled: self.stalled(),
+                };
+                let command = search.step(&sense, &self.settings.travel);
+                self.homing = HomingRun::Search(search);
+                match command {
+                    Command::Run {
+                        direction,
+                        speed,
+                        restart,
+                    } => {
+                        if restart {
+                            self.hold_here();
+                        }
+                        let v = f64::from(direction) * self.homing_speed(speed);
+                        let starting = self.traj.velocity == 0.0 && speed == Speed::Search;
+                        let a = if starting { acc } else { switch_acc };
+                        let accelerating = self.traj.velocity * v >= 0.0
+                            && v.abs() > self.traj.velocity.abs()
+                            && (starting || !immediate || self.homing_accelerating);
+                        self.homing_accelerating = accelerating;
+                        self.traj.step_velocity(
+                            v,
+                            if accelerating { acc } else { a },
+                            switch_acc,
+                            dt,
+                        );
+                        self.position_demand(self.traj.velocity);
+                    }
+                    Command::Reference { at, stalled } => {
+                        if stalled {
+                            self.hold_here();
+                        }
+                        self.set_reference(at);
+                        if immediate {
+                            self.traj.velocity = 0.0;
+                            if stalled {
+                                // Nanotec §5.2 (−2 / −3): the position is set on the block
+                                // after the settle time 2004h:05.
+                                let ms = self.value(0x2004, 5).max(0) as u64;
+                                self.homing_settle = Some(self.now + Duration::from_millis(ms));
+                            }
+                        }
+                        let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
+                        self.homing = HomingRun::Brake {
+                            then: if to_zero {
+                                Then::ToZero
+                            } else {
+                                Then::Attained
+                            },
+                        };
+                        self.traj.step_stop(acc, dt);
+                        self.position_demand(self.traj.velocity);
+                    }
+                    Command::Failed(e) => {
+                        if sense.stalled {
+                            self.hold_here();
+                        }
+                        self.homing_failed(e);
+                        self.position_demand(self.traj.velocity);
+                    }
+                }
+            }
+            HomingRun::Brake { then } => {
+                if self.traj.step_stop(stop_dec, dt) && self.homing_settled() {
+                    self.homing = match then {
+                        Then::ToZero => HomingRun::ToZero,
+                        Then::Attained => {
+                            self.homing_done();
+                            HomingRun::Idle
+                        }
+                        Then::Nothing => HomingRun::Idle,
+                    };
+                }
+                self.position_demand(self.traj.velocity);
+            }
+            HomingRun::ToZero => {
+                // 6510h:F0 bit 6: to the zero position at 6099h:01 (cmmp-as-3 §3.2 note).
+                let zero = self.fg.position_to_internal(0) as f64;
+                let lim = Limits {
+                    velocity: self.homing_speed(Speed::Search).max(1.0),
+                    acceleration: acc.max(1.0),
+                    deceleration: acc.max(1.0),
+                };
+                let window = self.fg.position_magnitude_to_internal(
+                    self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
+                );
+                // Done when the set-point is there and the axis inside the window 6067h.
+                if self.traj.step_to(zero, 0.0, lim, dt)
+                    && (self.actual_internal() - libm::round(zero) as i64).abs() <= window
+                {
+                    self.homing_done();
+                    self.homing = HomingRun::Idle;
+                }
+                self.position_demand(self.traj.velocity);
+            }
+        }
+        self.target_reached = matches!(self.homing, HomingRun::Idle) && self.traj.velocity == 0.0;
+    }
+
+    /// A homing on block has settled (or none waits): the reference is where the shaft now
+    /// stands.
+    fn homing_settled(&mut self) -> bool {
+        match self.homing_settle {
+            Some(t) if self.now < t => false,
+            Some(_) => {
+                self.homing_settle = None;
+                self.hold_here();
+                let at = self.plant_position();
+                self.set_reference(at);
+                true
+            }
+            None => true,
+        }
+    }
+
+    fn start_homing(&mut self) {
+        self.homing_settle = None;
+        self.homing_attained = false;
+        self.homing_error = false;
+        self.referenced = false;
+        self.homing_started = self.now;
+        let method = self.value(0x6098, 0).clamp(i8::MIN as i64, i8::MAX as i64) as i8;
+        self.homing_external = self
+            .personality
+            .external_home_switch
+            .filter(|x| x.methods.contains(&method));
+        // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
+        // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
+        // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.
+        match Search::start_in(
+            self.personality.homing_methods,
+            method,
+            self.plant_position(),
+            self.axis.motor().data().increments_per_rev,
+            self.settings.homing_max_distance,
+        ) {
+            Ok(search) => self.homing = HomingRun::Search(search),
+            Err(e) => self.homing_failed(e),
+        }
+    }
+
+    /// Homing ends with an error: homing_error, the group-11 message, fault reaction.
+    pub(super) fn homing_failed(&mut self, e: HomingError) {
+        self.homing = HomingRun::Idle;
+        self.homing_error = true;
+        self.homing_attained = false;
+        self.raise_fault(Fault::Homing(e));
+    }
+
+    fn homing_done(&mut self) {
+        self.homing_attained = true;
+        self.homing_error = false;
+        self.referenced = true;
+    }
+
+    /// The reference point at encoder position `at` gets the value 607Ch home_offset.
+    ///
+    /// Decision: the manual's Fig. 7.2 calls 607Ch "the offset of the zero position from the
+    /// reference point" without a sign convention; as CiA 402 masters expect, the position
+    /// at the reference point reads home_offset afterwards (and "zero" lies home_offset
+    /// before it).
+    fn set_reference(&mut self, at: i64) {
+        let home = self
+            .value(0x607C, 0)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let offset = self.fg.position_to_internal(home) - at;
+        let shift = (offset - self.position_offset) as f64;
+        self.position_offset = offset;
+        self.traj.position += shift;
+        self.demand_position += shift;
+        self.smoother.reset(self.traj.position, 1);
+    }
+
+    /// 6099h:01 (search) or :02 (crawl) in increments/s.
+    fn homing_speed(&self, speed: Speed) -> f64 {
+        let sub = match speed {
+            Speed::Search => 1,
+            Speed::Crawl => 2,
+        };
+        let user = self.value(0x6099, sub).clamp(0, u32::MAX as i64) as u32;
+        self.fg.velocity_magnitude_to_internal(user) as f64 * INC_S_PER_VEL
+    }
+
+    /// The motor stands on a hard stop: the set-point moves on while the actual position
+    /// lags by more than the following-error window 6065h (at most a revolution).
+    fn stalled(&self) -> bool {
+        let window = self
+            .fg
+            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32)
+            .clamp(1, 65536);
+        let lag = libm::round(self.demand_position) as i64 - self.actual_internal();
+        self.traj.velocity != 0.0 && lag.abs() > window
+    }
+
+    /// The set-point jumps to the actual position and stands (after a stall on a stop).
+    fn hold_here(&mut self) {
+        self.traj = Trajectory::at(self.actual_internal() as f64);
+        self.demand_position = self.traj.position;
+        self.smoother.reset(self.traj.position, 1);
+    }
+}

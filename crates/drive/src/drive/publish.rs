@@ -1,0 +1,168 @@
+//! The statusword 6041h and the actual values, written once per logic cycle: the state
+//! bits and manufacturer bits from the personality, target reached, internal limit,
+//! following error and the mode's bits 12 / 13, then positions, speeds, currents.
+
+use super::*;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// Writes the statusword and every actual value.
+    pub(super) fn publish(&mut self) {
+        let state = self.dc.state();
+        let power = !matches!(self.demand, Demand::Off);
+        let v_act = i64::from(self.plant_velocity_internal());
+        let threshold = self
+            .fg
+            .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
+        // |v| above velocity_threshold 606Fh; speed zero (PV bit 12) once it has been above
+        // for 6070h.
+        let moving = v_act.abs() > threshold;
+        if moving {
+            let since = *self.over_threshold_since.get_or_insert(self.now);
+            let time = Duration::from_millis(self.value(0x6070, 0).max(0) as u64);
+            if self.now.saturating_since(since) >= time {
+                self.speed_zero = false;
+            }
+        } else {
+            self.over_threshold_since = None;
+            self.speed_zero = true;
+        }
+        let mut sw = match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_state_bits(state, power, moving),
+            Vendor::Nanotec => self.nanotec_state_bits(state, power),
+        };
+        let in_oe = state == State::OperationEnabled;
+        sw |= Statusword::TARGET_REACHED.when(self.target_reached && in_oe);
+        sw |= Statusword::INTERNAL_LIMIT_ACTIVE
+            .when(self.axis.i2t_limit_active() || self.internal_limit);
+        // Following error (PP): |actual − demand| > 6065h for 6066h.
+        let demand_pos = libm::round(self.demand_position) as i64;
+        let fe = self.actual_internal() - demand_pos;
+        let fe_window = self
+            .fg
+            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32);
+        if power && fe.abs() > fe_window {
+            let since = *self.fe_since.get_or_insert(self.now);
+            let time = Duration::from_millis(self.value(0x6066, 0).max(0) as u64);
+            self.following_error = self.now.saturating_since(since) >= time;
+        } else {
+            self.fe_since = None;
+            self.following_error = false;
+        }
+        // 6510h:22 > 0: hard limit, output stage off and error 17-0.
+        let hard = self.value(0x6510, 0x22);
+        if power
+            && hard > 0
+            && fe.abs()
+                > self
+                    .fg
+                    .position_magnitude_to_internal(hard.clamp(0, u32::MAX as i64) as u32)
+        {
+            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts" (the
+            // reaction 6510h:22 sets; 2100h may make it a warning).
+            self.raise_fault(Fault::FollowingError);
+        } else {
+            self.end_warning(Number { main: 17, sub: 0 });
+        }
+        // Nanotec §5.1: the following error is watched in closed loop only; an open-loop
+        // stepper does not know it.
+        let open_loop = self
+            .stepper
+            .as_ref()
+            .is_some_and(|s| s.motor.mode() == crate::stepper::StepperMode::OpenLoop);
+        let fe_bit = Statusword::FOLLOWING_ERROR.when(self.following_error && !open_loop);
+        sw |= match self.mode {
+            mode::PROFILE_POSITION => {
+                Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
+            }
+            mode::PROFILE_VELOCITY => Statusword::SPEED_ZERO.when(self.speed_zero),
+            // Bit 12 ip_mode_active, bit 13 following error (CMMP-AS §7.4).
+            mode::INTERPOLATED_POSITION => {
+                Statusword::IP_MODE_ACTIVE.when(self.ip.is_active()) | fe_bit
+            }
+            // CiA 402 CSP: bit 12 "drive follows the command value", bit 13 following error.
+            mode::CYCLIC_SYNCHRONOUS_POSITION => {
+                Statusword::OPERATION_MODE_SPECIFIC_12.when(in_oe) | fe_bit
+            }
+            mode::HOMING => {
+                Statusword::HOMING_ATTAINED.when(self.homing_attained)
+                    | Statusword::HOMING_ERROR.when(self.homing_error)
+            }
+            _ => Statusword::EMPTY,
+        };
+        sw |= match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_manufacturer_bits(),
+            Vendor::Nanotec => Statusword::EMPTY,
+        };
+        // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
+        sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
+        let sw = sw.bits();
+        self.store(self.hot.statusword, i64::from(sw));
+        let position = self.plant_position();
+        let inputs = match self.personality.vendor {
+            Vendor::CmmpAs => self
+                .switch_config()
+                .digital_inputs(self.input_levels(position)),
+            Vendor::Nanotec => self.nanotec_digital_inputs(position),
+        };
+        self.store(self.hot.digital_inputs, i64::from(inputs));
+        // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
+        let display = if self.mode_pending.is_some()
+            || (self.mode == mode::INTERPOLATED_POSITION
+                && !self.ip.is_synchronised()
+                && self.personality.capabilities.ip_changing_until_synchronised)
+        {
+            mode::CHANGING
+        } else {
+            self.mode
+        };
+        self.store(self.hot.mode_display, i64::from(display));
+        let actual = self.actual_internal();
+        let internal = match self.personality.vendor {
+            _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
+            _ => actual,
+        };
+        self.store(self.hot.position_internal, internal);
+        let fg = self.fg;
+        self.store(
+            self.hot.position_actual,
+            i64::from(fg.position_from_internal(actual)),
+        );
+        self.store(
+            self.hot.position_demand,
+            i64::from(fg.position_from_internal(demand_pos)),
+        );
+        self.store(
+            self.hot.following_error_actual,
+            i64::from(fg.position_from_internal(fe)),
+        );
+        self.store(
+            self.hot.velocity_actual,
+            i64::from(fg.velocity_from_internal(v_act)),
+        );
+        let v_dem = match self.demand {
+            Demand::Velocity { rpm } => f64::from(rpm) * 4096.0,
+            _ => self.traj.velocity / INC_S_PER_VEL,
+        };
+        self.store(
+            self.hot.velocity_demand,
+            i64::from(fg.velocity_from_internal(libm::round(v_dem) as i64)),
+        );
+        let effort = libm::round(f64::from(self.axis.control_effort_rpm()) * 4096.0) as i64;
+        self.store(
+            self.hot.control_effort,
+            i64::from(fg.velocity_from_internal(effort)),
+        );
+        self.store(
+            self.hot.current_actual,
+            i64::from(self.axis.current_permille()),
+        );
+        self.store(
+            self.hot.torque_actual,
+            i64::from(self.axis.torque_permille()),
+        );
+        self.store(
+            self.hot.torque_demand,
+            i64::from(self.axis.torque_demand_permille()),
+        );
+    }
+}
