@@ -14,7 +14,7 @@ import tempfile
 
 import pytest
 
-from conftest import wait_until
+from conftest import free_port, wait_until
 
 CHROMIUM = os.environ.get("DRIVETWIN_CHROMIUM", "/usr/bin/chromium")
 
@@ -86,8 +86,12 @@ def test_parameter_written_in_the_page_reads_back_over_sdo_and_the_scope_moves(
     page.screenshot(path=str(tmp_path / "console.png"), full_page=True)
 
     page.click("#disable")
-    page.wait_for_function("document.querySelector('#state').textContent === 'READY TO SWITCH ON'",
-                           timeout=5000)
+    try:
+        page.wait_for_function(
+            "document.querySelector('#state').textContent === 'READY TO SWITCH ON'", timeout=5000)
+    except Exception:
+        pytest.fail(f"state {page.text_content('#state')!r}, message {page.text_content('#message')!r}, "
+                    f"6041h {node.sdo[0x6041].raw:#06x}")
 
 
 def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
@@ -106,3 +110,26 @@ def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
     row.locator("input.edit").fill("fast")
     row.locator("button.write").click()
     page.wait_for_function("document.querySelector('#message').textContent.includes('not a number')")
+
+
+def test_schemathesis_finds_no_server_error_and_every_status_documented(launch, tmp_path):
+    """Schemathesis against /api/openapi.json of a cell with a CMMP-AS and a CMMO-ST: no 5xx,
+    every status code and content type as documented, every body as its schema says."""
+    pytest.importorskip("schemathesis")
+    cli = shutil.which("schemathesis") or shutil.which("st")
+    if cli is None:
+        pytest.skip("the schemathesis command is not on PATH")
+    import subprocess
+    cell = tmp_path / "cell.toml"
+    cell.write_text(
+        '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n'
+        f'[[drive]]\ndevice = "cmmo-st"\nmodbus = "127.0.0.1:{free_port()}"\n')
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
+    url = console_url(twin)
+    r = subprocess.run(
+        [cli, "run", url + "api/openapi.json", "--checks",
+         "not_a_server_error,status_code_conformance,content_type_conformance,"
+         "response_schema_conformance",
+         "--max-examples", "30", "--request-timeout", "10", "--seed", "20261127"],
+        capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout[-6000:] + r.stderr[-2000:]

@@ -74,10 +74,21 @@ function showDrive(view) {
   $("#disable").disabled = !cia402;
 }
 
+// Every request for the drive's view takes a number; an answer that a later request has
+// overtaken (a periodic refresh sent before Enable was clicked) is not shown.
+let viewSeq = 0;
+
+async function fetchView(method, path) {
+  const seq = ++viewSeq;
+  const view = await api(method, path);
+  if (seq === viewSeq) showDrive(view);
+  return view;
+}
+
 async function refreshDrive() {
   if (consoleState.drive === null) return;
   try {
-    showDrive(await api("GET", `/api/drives/${consoleState.drive}`));
+    await fetchView("GET", `/api/drives/${consoleState.drive}`);
   } catch (e) {
     say(e.message, true);
   }
@@ -216,13 +227,13 @@ async function route() {
 
 $("#enable").addEventListener("click", async () => {
   try {
-    showDrive(await api("POST", `/api/drives/${consoleState.drive}/enable`));
+    await fetchView("POST", `/api/drives/${consoleState.drive}/enable`);
     say("enabled");
   } catch (e) { say(e.message, true); }
 });
 $("#disable").addEventListener("click", async () => {
   try {
-    showDrive(await api("POST", `/api/drives/${consoleState.drive}/disable`));
+    await fetchView("POST", `/api/drives/${consoleState.drive}/disable`);
     say("disabled");
   } catch (e) { say(e.message, true); }
 });
