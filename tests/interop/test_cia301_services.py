@@ -121,17 +121,19 @@ def test_short_rpdo_raises_emcy_8210_seen_by_python_canopen(cmmp, node_of):
     node.rpdo[4].save()
     node.nmt.state = "OPERATIONAL"
     wait_until(lambda: node.nmt.state == "OPERATIONAL", 2, what="OPERATIONAL")
+    # The EMCY can come before emcy.wait() would start listening: look at the log instead.
+    mark = len(node.emcy.log)
     node.network.send_message(0x501, b"\x0f\x00")
-    err = node.emcy.wait(0x8210, timeout=2)
-    assert err is not None, "EMCY 8210h"
+    wait_until(lambda: any(e.code == 0x8210 for e in node.emcy.log[mark:]), 2, what="EMCY 8210h")
+    err = next(e for e in node.emcy.log[mark:] if e.code == 0x8210)
     assert err.code == 0x8210
     assert err.register == 0x11  # generic + communication
     assert node.sdo[0x1001].raw == 0x11
     assert node.sdo[0x6040].raw == 0, "a short RPDO is not processed"
     # The right length again: processed, and EMCY 0000h clears python-canopen's active list.
+    mark = len(node.emcy.log)
     node.network.send_message(0x501, b"\x0f\x00\x10\x27\x00\x00")
-    reset = node.emcy.wait(0x0000, timeout=2)
-    assert reset is not None
+    wait_until(lambda: any(e.code == 0x0000 for e in node.emcy.log[mark:]), 2, what="EMCY 0000h")
     wait_until(lambda: node.sdo[0x6040].raw == 0x0F, 1, what="controlword from RPDO4")
     assert node.sdo[0x60FF].raw == 10000
     assert node.emcy.active == []
@@ -168,8 +170,11 @@ def test_lss_fastscan_finds_an_unconfigured_drive_and_gives_it_an_id(launch, con
     net.lss.configure_node_id(5)
     net.lss.store_configuration()
     node = net.add_node(5, str(eds_files["cmmp-as"]))
+    # The boot-up can come before nmt.wait_for_bootup() would start listening: record it.
+    bootups = []
+    net.subscribe(0x705, lambda cob_id, data, timestamp: bootups.append(bytes(data)))
     net.lss.send_switch_state_global(net.lss.WAITING_STATE)
-    node.nmt.wait_for_bootup(2)
+    wait_until(lambda: b"\x00" in bootups, 2, what="boot-up of node 5")
     assert node.sdo[0x1018][1].raw == 0x1D
     assert node.sdo[0x1400][1].raw == 0xC0000205, "node-relative COB-IDs follow the new ID"
     # The stored node-ID comes back after a restart.

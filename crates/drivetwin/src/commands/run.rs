@@ -235,6 +235,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
 
     let mut front = FrontEnds {
         modbus,
+        busy_poll: args.busy_poll,
         ..FrontEnds::default()
     };
     for (b, (cell, section)) in cells.into_iter().zip(&buses).enumerate() {

@@ -157,6 +157,9 @@ const UNSUPPORTED: &[&str] = &[
     "fdframe",
 ];
 
+/// Tokens of a message kept on the stack while parsing.
+const MAX_TOKENS: usize = 16;
+
 /// Parse the text between `<` and `>` (brackets excluded).
 pub fn parse_body(body: &[u8]) -> Result<Message, CodecError> {
     if !body
@@ -166,7 +169,22 @@ pub fn parse_body(body: &[u8]) -> Result<Message, CodecError> {
         return Err(CodecError::NotAscii);
     }
     let text = std::str::from_utf8(body).map_err(|_| CodecError::NotAscii)?;
-    let tokens: Vec<&str> = text.split_ascii_whitespace().collect();
+    // Up to MAX_TOKENS tokens (a `send` has at most 11) on the stack: the hot path does not
+    // allocate; longer messages (an `error` text) are collected.
+    let mut on_stack = [""; MAX_TOKENS];
+    let mut count = 0;
+    let mut words = text.split_ascii_whitespace();
+    for (slot, word) in on_stack.iter_mut().zip(&mut words) {
+        *slot = word;
+        count += 1;
+    }
+    let collected: Vec<&str>;
+    let tokens: &[&str] = if words.next().is_some() {
+        collected = text.split_ascii_whitespace().collect();
+        &collected
+    } else {
+        on_stack.get(..count).unwrap_or(&[])
+    };
     let Some((&command, args)) = tokens.split_first() else {
         return Err(CodecError::Empty);
     };
@@ -403,6 +421,76 @@ fn write_id(f: &mut fmt::Formatter<'_>, frame: &CanFrame) -> fmt::Result {
     }
 }
 
+/// Longest `< frame … >` text: extended ID, 20-digit seconds, 8 data bytes.
+pub const FRAME_TEXT_MAX: usize = 64;
+
+const HEX: &[u8; 16] = b"0123456789ABCDEF";
+
+/// Writes `< frame ID SEC.USEC HEX >` into `out` without the formatting machinery (the hot
+/// path of every frame a client is sent); returns its length. The same text as `Display`.
+pub fn emit_frame(frame: &CanFrame, timestamp: Duration, out: &mut [u8; FRAME_TEXT_MAX]) -> usize {
+    let mut w = ByteWriter { out, len: 0 };
+    w.put(b"< frame ");
+    let (id, digits) = if frame.extended {
+        (frame.id & CanFrame::MAX_EXTENDED_ID, 8)
+    } else {
+        (frame.id & CanFrame::MAX_STANDARD_ID, 3)
+    };
+    for shift in (0..digits).rev() {
+        w.hex_digit(id >> (4 * shift));
+    }
+    w.put(b" ");
+    w.decimal(timestamp.as_secs(), 1);
+    w.put(b".");
+    w.decimal(u64::from(timestamp.subsec_micros()), 6);
+    w.put(b" ");
+    for b in frame.payload() {
+        w.hex_digit(u32::from(*b >> 4));
+        w.hex_digit(u32::from(*b));
+    }
+    // An empty payload leaves two spaces, which python-can needs (three tokens).
+    w.put(b" >");
+    w.len
+}
+
+struct ByteWriter<'a> {
+    out: &'a mut [u8; FRAME_TEXT_MAX],
+    len: usize,
+}
+
+impl ByteWriter<'_> {
+    fn put(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            if let Some(slot) = self.out.get_mut(self.len) {
+                *slot = b;
+                self.len += 1;
+            }
+        }
+    }
+
+    fn hex_digit(&mut self, v: u32) {
+        let d = HEX.get((v & 0xF) as usize).copied().unwrap_or(b'0');
+        self.put(&[d]);
+    }
+
+    /// `v` in decimal, at least `width` digits (zero-padded).
+    fn decimal(&mut self, mut v: u64, width: usize) {
+        let mut digits = [0u8; 20];
+        let mut n = 0;
+        while (v > 0 || n < width) && n < digits.len() {
+            if let Some(d) = digits.get_mut(n) {
+                *d = b'0' + (v % 10) as u8;
+            }
+            v /= 10;
+            n += 1;
+        }
+        for i in (0..n).rev() {
+            let d = digits.get(i).copied().unwrap_or(b'0');
+            self.put(&[d]);
+        }
+    }
+}
+
 /// Formats the exact wire text, e.g. `< frame 123 1700000000.000100 1A22 >`.
 impl fmt::Display for Message {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -463,19 +551,10 @@ impl fmt::Display for Message {
                 f.write_str(" >")
             }
             Message::Frame { frame, timestamp } => {
-                f.write_str("< frame ")?;
-                write_id(f, frame)?;
-                write!(
-                    f,
-                    " {}.{:06} ",
-                    timestamp.as_secs(),
-                    timestamp.subsec_micros()
-                )?;
-                for b in frame.payload() {
-                    write!(f, "{b:02X}")?;
-                }
-                // An empty payload leaves two spaces, which python-can needs (three tokens).
-                f.write_str(" >")
+                let mut buf = [0u8; FRAME_TEXT_MAX];
+                let n = emit_frame(frame, *timestamp, &mut buf);
+                // `emit_frame` writes ASCII only.
+                f.write_str(std::str::from_utf8(buf.get(..n).unwrap_or(&[])).unwrap_or(""))
             }
             Message::Statistics { interval_ms } => write!(f, "< statistics {interval_ms} >"),
             Message::Stat {
@@ -954,6 +1033,44 @@ mod tests {
                     }
                 }
                 proptest::prop_assert!(d.pending() <= 64 + 1);
+            }
+        }
+    }
+
+    /// The same text the formatting machinery gives, for standard and extended IDs, empty and
+    /// full payloads, and seconds of any width.
+    #[test]
+    fn emit_frame_matches_the_reference_text() {
+        let reference = |f: &CanFrame, t: Duration| {
+            let id = if f.extended {
+                format!("{:08X}", f.id)
+            } else {
+                format!("{:03X}", f.id)
+            };
+            let hex: String = f.payload().iter().map(|b| format!("{b:02X}")).collect();
+            format!(
+                "< frame {id} {}.{:06} {hex} >",
+                t.as_secs(),
+                t.subsec_micros()
+            )
+        };
+        let frames = [
+            CanFrame::new(0x581, &[0x43, 0, 0x10, 0, 0x92, 1, 2, 0]).expect("f"),
+            CanFrame::new(0x7, &[]).expect("f"),
+            CanFrame::with_id(0x1ABC_DEF0, true, &[0xFF]).expect("f"),
+        ];
+        for f in &frames {
+            for t in [
+                Duration::ZERO,
+                Duration::from_micros(1_700_000_000_000_100),
+                Duration::new(u64::MAX / 2, 999_999_000),
+            ] {
+                let mut buf = [0u8; FRAME_TEXT_MAX];
+                let n = emit_frame(f, t, &mut buf);
+                assert_eq!(
+                    std::str::from_utf8(&buf[..n]).expect("ascii"),
+                    reference(f, t)
+                );
             }
         }
     }

@@ -28,18 +28,22 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
+use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
-use crate::can::socketcand::{Decoder, Message, ServerConfig};
-use crate::cell::control::{
-    Command, ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
-};
-use crate::cell::device_model::Model;
+use crate::can::socketcand::{Decoder, ServerConfig};
+use crate::cell::control::{Command, ControlHandle, PlantSample};
 use crate::cell::Cell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
+mod handle;
+
 /// Bytes a client may leave unread before it is dropped.
 pub const MAX_PENDING: usize = 256 * 1024;
+
+/// Reads of 4 KiB one connection gets per turn of the loop: a client that floods the bus
+/// does not keep the loop from the others.
+const READS_PER_TURN: usize = 16;
 
 /// Frames held for a client while its RAW stream has not started yet.
 const MAX_HELD: usize = 64 * 1024;
@@ -91,6 +95,9 @@ pub struct FrontEnds {
     pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
+    /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
+    /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
+    pub busy_poll: bool,
 }
 
 /// A bus while the loop runs.
@@ -133,6 +140,9 @@ pub struct CellLoop {
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
+    busy_poll: bool,
+    /// Connections that had more to read than one turn takes.
+    more_to_read: Vec<usize>,
     /// Connections with bytes to write before the loop waits again.
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
@@ -275,6 +285,8 @@ impl CellLoop {
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
+            busy_poll: front.busy_poll,
+            more_to_read: Vec::new(),
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
             text: Vec::with_capacity(64),
@@ -329,9 +341,12 @@ impl CellLoop {
         self.out = out;
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
-            let timeout = self
-                .deadline()
-                .map(|d| d.saturating_duration_since(Instant::now()));
+            let timeout = if self.busy_poll || !self.more_to_read.is_empty() {
+                Some(Duration::ZERO)
+            } else {
+                self.deadline()
+                    .map(|d| d.saturating_duration_since(Instant::now()))
+            };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
                     continue;
@@ -367,6 +382,9 @@ impl CellLoop {
                         }
                     }
                 }
+            }
+            for slot in std::mem::take(&mut self.more_to_read) {
+                self.read(slot, now);
             }
             self.control(now);
             self.samples(now);
@@ -650,7 +668,7 @@ impl CellLoop {
     /// Reads what a connection has sent and acts on it.
     fn read(&mut self, slot: usize, now: Instant) {
         let mut buf = [0u8; 4096];
-        loop {
+        for _ in 0..READS_PER_TURN {
             let Some(Some(conn)) = self.slots.get_mut(slot) else {
                 return;
             };
@@ -674,6 +692,11 @@ impl CellLoop {
                 // A short read emptied the socket; the next bytes raise a new event.
                 return;
             }
+        }
+        // More may wait, and no new event comes for it (edge-triggered): read on next turn,
+        // after the others have had theirs.
+        if !self.more_to_read.contains(&slot) {
+            self.more_to_read.push(slot);
         }
     }
 
@@ -946,13 +969,10 @@ impl CellLoop {
             }
         }
         if Session::forwards(&frame) {
+            let mut text = [0u8; FRAME_TEXT_MAX];
+            let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
-            let message = Message::Frame {
-                frame,
-                timestamp: since_epoch,
-            };
-            // Writing into a Vec cannot fail.
-            let _ = write!(self.text, "{message}");
+            self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
             for (slot, c) in self.slots.iter_mut().enumerate() {
                 let Some(conn) = c else {
                     continue;
@@ -992,252 +1012,6 @@ impl CellLoop {
             self.out = out;
         }
     }
-}
-
-/// The control handle's side of the loop.
-impl CellLoop {
-    /// Carries out what control handles asked for.
-    fn control(&mut self, now: Instant) {
-        while let Ok(command) = self.control_rx.try_recv() {
-            // A caller that has gone does not need its answer.
-            match command {
-                Command::Drives(reply) => {
-                    let _ = reply.send(self.drive_list());
-                }
-                Command::Read {
-                    drive,
-                    index,
-                    sub,
-                    reply,
-                } => {
-                    let _ = reply.send(self.read_object(drive, index, sub));
-                }
-                Command::Write {
-                    drive,
-                    index,
-                    sub,
-                    data,
-                    reply,
-                } => {
-                    let _ = reply.send(self.write_object(drive, index, sub, &data));
-                }
-                Command::Plant { drive, reply } => {
-                    let _ = reply.send(self.sample(drive, now));
-                }
-                Command::SetInputs {
-                    drive,
-                    mask,
-                    levels,
-                    reply,
-                } => {
-                    let done = match self.cia402_mut(drive) {
-                        Ok(d) => {
-                            d.force_inputs(mask, levels);
-                            Ok(())
-                        }
-                        Err(e) => Err(e),
-                    };
-                    let _ = reply.send(done);
-                }
-                Command::SetLoad {
-                    drive,
-                    torque_nm,
-                    reply,
-                } => {
-                    let _ = reply.send(self.set_load(drive, torque_nm));
-                }
-                Command::Subscribe {
-                    drive,
-                    every,
-                    samples,
-                    reply,
-                } => {
-                    let done = self.sample(drive, now).map(|_| {
-                        self.subscriptions.push(Subscription {
-                            drive,
-                            every: every.max(Duration::from_micros(100)),
-                            next: now,
-                            samples,
-                        });
-                    });
-                    let _ = reply.send(done);
-                }
-            }
-        }
-    }
-
-    /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
-    fn samples(&mut self, now: Instant) {
-        let mut i = 0;
-        while i < self.subscriptions.len() {
-            let Some(sub) = self.subscriptions.get(i) else {
-                break;
-            };
-            if sub.next > now {
-                i += 1;
-                continue;
-            }
-            let drive = sub.drive;
-            let sample = self.sample(drive, now);
-            let Some(sub) = self.subscriptions.get_mut(i) else {
-                break;
-            };
-            sub.next = now + sub.every;
-            let gone = match sample {
-                Ok(s) => matches!(
-                    sub.samples.try_send(s),
-                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
-                ),
-                Err(_) => true,
-            };
-            if gone {
-                self.subscriptions.swap_remove(i);
-            } else {
-                i += 1;
-            }
-        }
-    }
-
-    fn drive_list(&self) -> Vec<DriveInfo> {
-        let can = self
-            .buses
-            .iter()
-            .flat_map(|b| b.cell.drives.iter())
-            .map(|d| {
-                let desc = d.od().description();
-                (desc, Interface::CanOpen { node: d.node_id() })
-            });
-        let modbus = self.modbus.iter().map(|m| {
-            let dev = crate::modbus_tcp::server::lock(m.device());
-            (dev.od().description(), Interface::ModbusTcp)
-        });
-        can.chain(modbus)
-            .enumerate()
-            .map(|(index, (desc, interface))| DriveInfo {
-                index,
-                device: desc.name,
-                product: desc.product_name,
-                interface,
-            })
-            .collect()
-    }
-
-    /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
-    fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
-        let mut rest = drive;
-        for bus in &mut self.buses {
-            let n = bus.cell.drives.len();
-            if rest < n {
-                return match bus.cell.drives.get_mut(rest) {
-                    Some(d) => Ok(Target::Can(&mut d.model)),
-                    None => Err(ControlError::NoDrive(drive)),
-                };
-            }
-            rest -= n;
-        }
-        match self.modbus.get(rest) {
-            Some(m) => Ok(Target::Modbus(m.device().clone())),
-            None => Err(ControlError::NoDrive(drive)),
-        }
-    }
-
-    fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
-        let mut buf = [0u8; 256];
-        let n = match self.target(drive)? {
-            Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, &mut buf),
-            Target::Modbus(dev) => od::ObjectAccess::read(
-                &*crate::modbus_tcp::server::lock(&dev),
-                index,
-                sub,
-                &mut buf,
-            ),
-        }
-        .map_err(ControlError::Abort)?;
-        Ok(buf.get(..n).unwrap_or(&[]).to_vec())
-    }
-
-    fn write_object(
-        &mut self,
-        drive: usize,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => od::ObjectAccess::write(model, index, sub, data),
-            Target::Modbus(dev) => od::ObjectAccess::write(
-                &mut *crate::modbus_tcp::server::lock(&dev),
-                index,
-                sub,
-                data,
-            ),
-        }
-        .map_err(ControlError::Abort)
-    }
-
-    fn cia402_mut(
-        &mut self,
-        drive: usize,
-    ) -> Result<&mut ::drive::drive::Drive<Vec<u8>>, ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
-            Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
-        }
-    }
-
-    fn set_load(&mut self, drive: usize, torque_nm: f64) -> Result<(), ControlError> {
-        match self.target(drive)? {
-            Target::Can(model) => {
-                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
-                d.axis_mut().motor_mut().set_load_torque(torque_nm);
-            }
-            Target::Modbus(dev) => {
-                crate::modbus_tcp::server::lock(&dev)
-                    .stepper_mut()
-                    .set_load_torque(torque_nm);
-            }
-        }
-        Ok(())
-    }
-
-    fn sample(&mut self, drive: usize, now: Instant) -> Result<PlantSample, ControlError> {
-        let at = now.saturating_duration_since(self.origin);
-        match self.target(drive)? {
-            Target::Can(model) => {
-                let inputs = od::ObjectAccess::read_u32(&*model, 0x60FD, 0).unwrap_or(0);
-                let Model::Drive(d) = model else {
-                    return Err(ControlError::NoPlant(drive));
-                };
-                let axis = d.axis();
-                Ok(PlantSample {
-                    at,
-                    plant: Plant::Servo {
-                        position_increments: axis.position_increments(),
-                        velocity_rpm: axis.velocity_rpm(),
-                        current_ma: axis.current_ma(),
-                        digital_inputs: inputs,
-                    },
-                    display: Some(DisplayState::Cia402(d.display())),
-                })
-            }
-            Target::Modbus(dev) => {
-                let dev = crate::modbus_tcp::server::lock(&dev);
-                Ok(PlantSample {
-                    at,
-                    plant: Plant::Stepper {
-                        position_si: dev.actual_position_si(),
-                        load_torque_nm: dev.stepper().load_torque(),
-                    },
-                    display: Some(DisplayState::Fhpp(dev.seven_segment())),
-                })
-            }
-        }
-    }
-}
-
-enum Target<'a> {
-    Can(&'a mut Model),
-    Modbus(crate::modbus_tcp::fhpp::SharedDevice),
 }
 
 /// Whether the client has closed its end (end of file waiting, nothing else).

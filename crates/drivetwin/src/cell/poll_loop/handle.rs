@@ -1,0 +1,244 @@
+//! The control handle's side of the cell loop ([`crate::cell::control`]): requests carried
+//! out between two socket events, and samples for subscribers.
+
+use std::time::{Duration, Instant};
+
+use super::{CellLoop, Subscription};
+use crate::cell::control::{
+    Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
+};
+use crate::cell::device_model::Model;
+use crate::modbus_tcp::server::lock;
+
+impl CellLoop {
+    /// Carries out what control handles asked for.
+    pub(super) fn control(&mut self, now: Instant) {
+        while let Ok(command) = self.control_rx.try_recv() {
+            // A caller that has gone does not need its answer.
+            match command {
+                Command::Drives(reply) => {
+                    let _ = reply.send(self.drive_list());
+                }
+                Command::Read {
+                    drive,
+                    index,
+                    sub,
+                    reply,
+                } => {
+                    let _ = reply.send(self.read_object(drive, index, sub));
+                }
+                Command::Write {
+                    drive,
+                    index,
+                    sub,
+                    data,
+                    reply,
+                } => {
+                    let _ = reply.send(self.write_object(drive, index, sub, &data));
+                }
+                Command::Plant { drive, reply } => {
+                    let _ = reply.send(self.sample(drive, now));
+                }
+                Command::SetInputs {
+                    drive,
+                    mask,
+                    levels,
+                    reply,
+                } => {
+                    let done = match self.cia402_mut(drive) {
+                        Ok(d) => {
+                            d.force_inputs(mask, levels);
+                            Ok(())
+                        }
+                        Err(e) => Err(e),
+                    };
+                    let _ = reply.send(done);
+                }
+                Command::SetLoad {
+                    drive,
+                    torque_nm,
+                    reply,
+                } => {
+                    let _ = reply.send(self.set_load(drive, torque_nm));
+                }
+                Command::Subscribe {
+                    drive,
+                    every,
+                    samples,
+                    reply,
+                } => {
+                    let done = self.sample(drive, now).map(|_| {
+                        self.subscriptions.push(Subscription {
+                            drive,
+                            every: every.max(Duration::from_micros(100)),
+                            next: now,
+                            samples,
+                        });
+                    });
+                    let _ = reply.send(done);
+                }
+            }
+        }
+    }
+
+    /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
+    pub(super) fn samples(&mut self, now: Instant) {
+        let mut i = 0;
+        while i < self.subscriptions.len() {
+            let Some(sub) = self.subscriptions.get(i) else {
+                break;
+            };
+            if sub.next > now {
+                i += 1;
+                continue;
+            }
+            let drive = sub.drive;
+            let sample = self.sample(drive, now);
+            let Some(sub) = self.subscriptions.get_mut(i) else {
+                break;
+            };
+            sub.next = now + sub.every;
+            let gone = match sample {
+                Ok(s) => matches!(
+                    sub.samples.try_send(s),
+                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
+                ),
+                Err(_) => true,
+            };
+            if gone {
+                self.subscriptions.swap_remove(i);
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    fn drive_list(&self) -> Vec<DriveInfo> {
+        let can = self
+            .buses
+            .iter()
+            .flat_map(|b| b.cell.drives.iter())
+            .map(|d| {
+                let desc = d.od().description();
+                (desc, Interface::CanOpen { node: d.node_id() })
+            });
+        let modbus = self.modbus.iter().map(|m| {
+            let dev = lock(m.device());
+            (dev.od().description(), Interface::ModbusTcp)
+        });
+        can.chain(modbus)
+            .enumerate()
+            .map(|(index, (desc, interface))| DriveInfo {
+                index,
+                device: desc.name,
+                product: desc.product_name,
+                interface,
+            })
+            .collect()
+    }
+
+    /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
+    fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
+        let mut rest = drive;
+        for bus in &mut self.buses {
+            let n = bus.cell.drives.len();
+            if rest < n {
+                return match bus.cell.drives.get_mut(rest) {
+                    Some(d) => Ok(Target::Can(&mut d.model)),
+                    None => Err(ControlError::NoDrive(drive)),
+                };
+            }
+            rest -= n;
+        }
+        match self.modbus.get(rest) {
+            Some(m) => Ok(Target::Modbus(m.device().clone())),
+            None => Err(ControlError::NoDrive(drive)),
+        }
+    }
+
+    fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
+        let mut buf = [0u8; 256];
+        let n = match self.target(drive)? {
+            Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, &mut buf),
+            Target::Modbus(dev) => od::ObjectAccess::read(&*lock(&dev), index, sub, &mut buf),
+        }
+        .map_err(ControlError::Abort)?;
+        Ok(buf.get(..n).unwrap_or(&[]).to_vec())
+    }
+
+    fn write_object(
+        &mut self,
+        drive: usize,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => od::ObjectAccess::write(model, index, sub, data),
+            Target::Modbus(dev) => od::ObjectAccess::write(&mut *lock(&dev), index, sub, data),
+        }
+        .map_err(ControlError::Abort)
+    }
+
+    fn cia402_mut(
+        &mut self,
+        drive: usize,
+    ) -> Result<&mut ::drive::drive::Drive<Vec<u8>>, ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
+            Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
+        }
+    }
+
+    fn set_load(&mut self, drive: usize, torque_nm: f64) -> Result<(), ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
+                d.axis_mut().motor_mut().set_load_torque(torque_nm);
+            }
+            Target::Modbus(dev) => {
+                lock(&dev).stepper_mut().set_load_torque(torque_nm);
+            }
+        }
+        Ok(())
+    }
+
+    fn sample(&mut self, drive: usize, now: Instant) -> Result<PlantSample, ControlError> {
+        let at = now.saturating_duration_since(self.origin);
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let inputs = od::ObjectAccess::read_u32(&*model, 0x60FD, 0).unwrap_or(0);
+                let Model::Drive(d) = model else {
+                    return Err(ControlError::NoPlant(drive));
+                };
+                let axis = d.axis();
+                Ok(PlantSample {
+                    at,
+                    plant: Plant::Servo {
+                        position_increments: axis.position_increments(),
+                        velocity_rpm: axis.velocity_rpm(),
+                        current_ma: axis.current_ma(),
+                        digital_inputs: inputs,
+                    },
+                    display: Some(DisplayState::Cia402(d.display())),
+                })
+            }
+            Target::Modbus(dev) => {
+                let dev = lock(&dev);
+                Ok(PlantSample {
+                    at,
+                    plant: Plant::Stepper {
+                        position_si: dev.actual_position_si(),
+                        load_torque_nm: dev.stepper().load_torque(),
+                    },
+                    display: Some(DisplayState::Fhpp(dev.seven_segment())),
+                })
+            }
+        }
+    }
+}
+
+enum Target<'a> {
+    Can(&'a mut Model),
+    Modbus(crate::modbus_tcp::fhpp::SharedDevice),
+}
