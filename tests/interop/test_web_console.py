@@ -131,5 +131,5 @@ def test_schemathesis_finds_no_server_error_and_every_status_documented(launch, 
          "not_a_server_error,status_code_conformance,content_type_conformance,"
          "response_schema_conformance",
          "--max-examples", "30", "--request-timeout", "10", "--seed", "20261127"],
-        capture_output=True, text=True, timeout=300)
+        capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stdout[-6000:] + r.stderr[-2000:]
