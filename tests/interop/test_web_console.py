@@ -2,7 +2,8 @@
 `drivetwin run --http`. A parameter written in the page is read back over SDO with
 python-canopen; a drive enabled from the page moves, and the scope's trace moves with it.
 
-Skipped cleanly where Chromium (/usr/bin/chromium) or Playwright is not installed.
+The browser tests skip cleanly where Chromium (/usr/bin/chromium) or Playwright is not
+installed, the schemathesis run where schemathesis is not.
 """
 
 from __future__ import annotations
@@ -18,9 +19,6 @@ from conftest import free_port, wait_until
 
 CHROMIUM = os.environ.get("DRIVETWIN_CHROMIUM", "/usr/bin/chromium")
 
-pytestmark = pytest.mark.skipif(
-    shutil.which(CHROMIUM) is None, reason=f"no Chromium at {CHROMIUM} (apt-get install chromium)")
-
 # The machine's network is closed: Chromium's own background connections are switched off.
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -28,6 +26,8 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
 
 @pytest.fixture
 def browser():
+    if shutil.which(CHROMIUM) is None:
+        pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium)")
     sync_api = pytest.importorskip("playwright.sync_api")
     with tempfile.TemporaryDirectory() as profile, sync_api.sync_playwright() as pw:
         context = pw.chromium.launch_persistent_context(
@@ -133,3 +133,36 @@ def test_schemathesis_finds_no_server_error_and_every_status_documented(launch, 
          "--max-examples", "30", "--request-timeout", "10", "--seed", "20261127"],
         capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stdout[-6000:] + r.stderr[-2000:]
+
+
+def test_beyond_loopback_the_console_prints_a_token_and_writes_need_it(launch):
+    """Bound to every address, the console prints a token; a write without it is refused with
+    401 and a message, with it the write is done; reads need none."""
+    import json
+    import urllib.error
+    import urllib.request
+    twin = launch("cmmp-as", 1, extra=("--http", "0.0.0.0:0"))
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
+                      5.0, what="the 'web console on' line")
+    m = re.match(r"web console on http://0\.0\.0\.0:(\d+)/\?token=([0-9a-f]{32})$", line)
+    assert m, line
+    base, token = f"http://127.0.0.1:{m.group(1)}", m.group(2)
+
+    def put(headers):
+        req = urllib.request.Request(base + "/api/drives/0/objects/6081/0", method="PUT",
+                                     data=json.dumps({"value": 1234}).encode(),
+                                     headers={"content-type": "application/json", **headers})
+        try:
+            with urllib.request.urlopen(req, timeout=5) as r:
+                return r.status, json.load(r)
+        except urllib.error.HTTPError as e:
+            return e.code, json.load(e)
+
+    status, body = put({})
+    assert status == 401 and "token" in body["error"], (status, body)
+    status, body = put({"x-drivetwin-token": "0" * 32})
+    assert status == 401, (status, body)
+    status, body = put({"x-drivetwin-token": token})
+    assert (status, body["value"]) == (200, "1234"), (status, body)
+    with urllib.request.urlopen(base + "/api/drives/0/objects/6081/0", timeout=5) as r:
+        assert json.load(r)["value"] == "1234"
