@@ -112,6 +112,22 @@ def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
     page.wait_for_function("document.querySelector('#message').textContent.includes('not a number')")
 
 
+def test_inputs_forced_in_the_page_show_in_60fd_over_sdo(launch, node_of, browser):
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
+    node = node_of(twin)
+    page = browser.new_page()
+    page.goto(console_url(twin) + "#drive/0")
+    page.wait_for_selector("#params tr[data-key='60FD:00']")
+    before = node.sdo[0x60FD].raw
+    # DIN4 (output-stage enable) and DIN5 (controller enable) forced low.
+    page.fill("#din-mask", "0x30")
+    page.fill("#din-levels", "0")
+    page.click("#set-inputs")
+    page.wait_for_function("document.querySelector('#message').textContent.startsWith('inputs forced')")
+    after = wait_until(lambda: (v := node.sdo[0x60FD].raw) != before and [v], 2.0, what="60FDh to change")
+    assert after[0] != before
+
+
 def test_schemathesis_finds_no_server_error_and_every_status_documented(launch, tmp_path):
     """Schemathesis against /api/openapi.json of a cell with a CMMP-AS and a CMMO-ST: no 5xx,
     every status code and content type as documented, every body as its schema says."""

@@ -237,12 +237,33 @@ $("#disable").addEventListener("click", async () => {
     say("disabled");
   } catch (e) { say(e.message, true); }
 });
+$("#set-load").addEventListener("click", async () => {
+  try {
+    const p = await api("PUT", `/api/drives/${consoleState.drive}/load`, { torque_nm: Number($("#load").value) });
+    say(`load torque ${Number($("#load").value)} N·m`);
+    showPlant(p);
+  } catch (e) { say(e.message, true); }
+});
+$("#set-inputs").addEventListener("click", async () => {
+  const mask = Number($("#din-mask").value || 0), levels = Number($("#din-levels").value || 0);
+  try {
+    showPlant(await api("PUT", `/api/drives/${consoleState.drive}/inputs`, { mask, levels }));
+    say(`inputs forced: mask 0x${mask.toString(16)} levels 0x${levels.toString(16)}`);
+  } catch (e) { say(e.message, true); }
+});
+function showPlant(p) {
+  $("#din").textContent = p.digital_inputs == null ? "–" : "0x" + p.digital_inputs.toString(16).toUpperCase().padStart(8, "0");
+}
+async function refreshPlant() {
+  if (consoleState.drive === null) return;
+  try { showPlant(await api("GET", `/api/drives/${consoleState.drive}/plant`)); } catch (e) { /* shown by the view */ }
+}
 $("#pause").addEventListener("click", () => {
   consoleState.paused = !consoleState.paused;
   $("#pause").textContent = consoleState.paused ? "Run" : "Pause";
 });
 $("#filter").addEventListener("input", applyFilter);
 window.addEventListener("hashchange", route);
-setInterval(() => { refreshDrive(); loadCell(); }, 1000);
+setInterval(() => { refreshDrive(); refreshPlant(); loadCell(); }, 1000);
 requestAnimationFrame(drawScope);
 route();
