@@ -193,8 +193,9 @@ pub struct RunArgs {
     #[arg(long, value_name = "ADDR", conflicts_with_all = ["ethercat", "virtual_seconds"])]
     pub ci_terminal: Option<String>,
     /// The web console's address (`off`: none). Default 127.0.0.1:8080 when that port is free;
-    /// beyond loopback every write needs the token printed at start.
-    #[arg(long, value_name = "ADDR|off")]
+    /// beyond loopback every write needs the token printed at start. Served with the cell
+    /// loop (not with --ethercat or --virtual-seconds).
+    #[arg(long, value_name = "ADDR|off", conflicts_with_all = ["ethercat", "virtual_seconds"])]
     pub http: Option<String>,
 }
 

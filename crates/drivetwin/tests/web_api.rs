@@ -374,3 +374,45 @@ fn default_address_gives_way_an_explicit_one_must_bind_and_beyond_loopback_a_tok
         "{wide:?}"
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn samples_arrive_over_the_websocket_in_batches() {
+    use futures_util::StreamExt;
+    use std::future::IntoFuture;
+    let cell = cell();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    let server = tokio::spawn(axum::serve(listener, app(&cell, None)).into_future());
+    let url = format!("ws://{addr}/api/drives/0/samples?rate_hz=200&batch_ms=50");
+    let (mut ws, _) = tokio_tungstenite::connect_async(url)
+        .await
+        .expect("upgrade");
+    let mut times = Vec::new();
+    let mut messages = 0;
+    while times.len() < 40 {
+        let message = tokio::time::timeout(Duration::from_secs(3), ws.next())
+            .await
+            .expect("a batch within 3 s")
+            .expect("open")
+            .expect("message");
+        let batch: Value = serde_json::from_str(message.to_text().expect("text")).expect("JSON");
+        assert_eq!(batch["drive"], 0);
+        let samples = batch["samples"].as_array().expect("samples");
+        assert!(samples[0]["velocity"].is_number(), "{batch}");
+        times.extend(samples.iter().filter_map(|s| s["t"].as_f64()));
+        messages += 1;
+    }
+    assert!(times.windows(2).all(|w| w[1] > w[0]), "{times:?}");
+    // 200 samples a second, sent 20 times a second: batches, not one message per sample.
+    assert!(
+        messages * 3 <= times.len(),
+        "{messages} messages for {} samples",
+        times.len()
+    );
+    // A drive that is not there: refused before the upgrade.
+    let url = format!("ws://{addr}/api/drives/9/samples");
+    assert!(tokio_tungstenite::connect_async(url).await.is_err());
+    server.abort();
+}

@@ -86,7 +86,13 @@ impl From<ControlError> for ApiError {
 
 impl From<JsonRejection> for ApiError {
     fn from(e: JsonRejection) -> ApiError {
-        ApiError::new(e.status(), e.body_text())
+        // A body that is not JSON of the right shape is a bad request (400); only a missing
+        // JSON content type keeps its own 415.
+        let status = match e {
+            JsonRejection::MissingJsonContentType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            _ => StatusCode::BAD_REQUEST,
+        };
+        ApiError::new(status, e.body_text())
     }
 }
 
@@ -215,7 +221,7 @@ fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
 
 /// The cell's drives.
 #[utoipa::path(get, path = "/api/drives", tag = "drives",
-    responses((status = 200, body = [DriveView])))]
+    responses((status = 400, body = ApiError), (status = 200, body = [DriveView])))]
 async fn list_drives(State(s): State<AppState>) -> ApiResult<Vec<DriveView>> {
     call(&s.handle, |h| {
         h.drives()?.iter().map(|d| drive_view(h, d)).collect()
@@ -226,7 +232,7 @@ async fn list_drives(State(s): State<AppState>) -> ApiResult<Vec<DriveView>> {
 
 /// One drive.
 #[utoipa::path(get, path = "/api/drives/{drive}", tag = "drives",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
     responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 400, body = ApiError)))]
 async fn get_drive(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
     call(&s.handle, move |h| drive_view(h, &find_drive(h, &drive)?))
@@ -262,8 +268,8 @@ fn cia402_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
 
 /// Enables the drive's power stage: CiA 402 controlword steps to OPERATION ENABLED.
 #[utoipa::path(post, path = "/api/drives/{drive}/enable", tag = "drives",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
-    responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 400, body = ApiError), (status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn enable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
     call(&s.handle, move |h| {
         let info = cia402_drive(h, &drive)?;
@@ -284,8 +290,8 @@ async fn enable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResu
 
 /// Switches the power stage off: controlword "shutdown" (READY TO SWITCH ON).
 #[utoipa::path(post, path = "/api/drives/{drive}/disable", tag = "drives",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
-    responses((status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 400, body = ApiError), (status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn disable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
     call(&s.handle, move |h| {
         let info = cia402_drive(h, &drive)?;
@@ -405,7 +411,7 @@ fn find_entry(
 
 /// Every entry of the drive's object dictionary, with its value.
 #[utoipa::path(get, path = "/api/drives/{drive}/objects", tag = "objects",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
     responses((status = 200, body = [ObjectView]), (status = 404, body = ApiError), (status = 400, body = ApiError)))]
 async fn list_objects(
     State(s): State<AppState>,
@@ -433,9 +439,9 @@ async fn list_objects(
 /// One entry, read as a fieldbus read would.
 #[utoipa::path(get, path = "/api/drives/{drive}/objects/{index}/{sub}", tag = "objects",
     params(
-        ("drive" = String, Path, description = "the drive's index in the cell"),
-        ("index" = String, Path, description = "hex, e.g. 6040"),
-        ("sub" = String, Path, description = "hex, e.g. 0")),
+        ("drive" = u32, Path, description = "the drive's index in the cell"),
+        ("index" = String, Path, description = "hex, e.g. 6040", pattern = "^(0[xX])?[0-9A-Fa-f]{1,4}[hH]?$"),
+        ("sub" = String, Path, description = "hex, e.g. 0", pattern = "^(0[xX])?[0-9A-Fa-f]{1,2}[hH]?$")),
     responses((status = 200, body = ObjectView), (status = 400, body = ApiError),
         (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn read_object(
@@ -453,26 +459,39 @@ async fn read_object(
     .map(Json)
 }
 
-/// A value to write: text (or a JSON number) in the entry's type, or its bytes in hex.
+/// A value to write: `{"value": …}` as text (or a JSON number) in the entry's type, or
+/// `{"raw": "E803"}`, its bytes in hex, written as they are.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(untagged)]
+pub enum WriteBody {
+    Value(WriteValue),
+    Raw(WriteRaw),
+}
+
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
-pub struct WriteBody {
+pub struct WriteValue {
     /// `1500`, `-2`, `0x1F`, `1.5`, a string for VISIBLE_STRING, hex for OCTET_STRING.
-    #[schema(value_type = Option<String>)]
-    pub value: Option<serde_json::Value>,
-    /// The bytes, little-endian, as hex (`E803`): written as they are.
-    pub raw: Option<String>,
+    #[schema(value_type = String)]
+    pub value: serde_json::Value,
+}
+
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WriteRaw {
+    /// The bytes, little-endian, as hex (`E803`).
+    pub raw: String,
 }
 
 /// Writes one entry with the access rules and effects of a fieldbus write; answers the value
 /// read back.
 #[utoipa::path(put, path = "/api/drives/{drive}/objects/{index}/{sub}", tag = "objects",
     params(
-        ("drive" = String, Path, description = "the drive's index in the cell"),
-        ("index" = String, Path, description = "hex, e.g. 6040"),
-        ("sub" = String, Path, description = "hex, e.g. 0")),
+        ("drive" = u32, Path, description = "the drive's index in the cell"),
+        ("index" = String, Path, description = "hex, e.g. 6040", pattern = "^(0[xX])?[0-9A-Fa-f]{1,4}[hH]?$"),
+        ("sub" = String, Path, description = "hex, e.g. 0", pattern = "^(0[xX])?[0-9A-Fa-f]{1,2}[hH]?$")),
     request_body = WriteBody,
-    responses((status = 200, body = ObjectView), (status = 400, body = ApiError),
+    responses((status = 415, body = ApiError), (status = 200, body = ObjectView), (status = 400, body = ApiError),
         (status = 401, body = ApiError), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn write_object(
     State(s): State<AppState>,
@@ -484,14 +503,11 @@ async fn write_object(
         let info = find_drive(h, &drive)?;
         let desc = description(&info)?;
         let e = find_entry(desc, &index, &sub)?;
-        let bytes = match (&body.value, &body.raw) {
-            (Some(_), Some(_)) | (None, None) => {
-                return Err(ApiError::bad("give either \"value\" or \"raw\""))
-            }
-            (None, Some(raw)) => value_text::parse_hex(raw)
+        let bytes = match &body {
+            WriteBody::Raw(WriteRaw { raw }) => value_text::parse_hex(raw)
                 .ok_or_else(|| ApiError::bad(format!("raw {raw:?} is not hex")))?,
-            (Some(v), None) => {
-                let text = match v {
+            WriteBody::Value(WriteValue { value }) => {
+                let text = match value {
                     serde_json::Value::String(t) => t.clone(),
                     serde_json::Value::Number(n) => n.to_string(),
                     serde_json::Value::Bool(b) => u8::from(*b).to_string(),
@@ -581,7 +597,7 @@ impl From<&PlantSample> for PlantView {
 
 /// The drive's plant now.
 #[utoipa::path(get, path = "/api/drives/{drive}/plant", tag = "plant",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
     responses((status = 200, body = PlantView), (status = 400, body = ApiError), (status = 404, body = ApiError)))]
 async fn get_plant(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<PlantView> {
     call(&s.handle, move |h| {
@@ -596,15 +612,17 @@ async fn get_plant(State(s): State<AppState>, Path(drive): Path<String>) -> ApiR
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InputsBody {
+    #[schema(minimum = 0, maximum = 65535)]
     pub mask: u16,
+    #[schema(minimum = 0, maximum = 65535)]
     pub levels: u16,
 }
 
 /// Forces digital inputs of a CiA 402 drive.
 #[utoipa::path(put, path = "/api/drives/{drive}/inputs", tag = "plant",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
     request_body = InputsBody,
-    responses((status = 200, body = PlantView), (status = 400, body = ApiError),
+    responses((status = 415, body = ApiError), (status = 200, body = PlantView), (status = 400, body = ApiError),
         (status = 401, body = ApiError), (status = 404, body = ApiError)))]
 async fn set_inputs(
     State(s): State<AppState>,
@@ -626,14 +644,15 @@ async fn set_inputs(
 #[serde(deny_unknown_fields)]
 pub struct LoadBody {
     /// N·m, finite, at most 1000 in magnitude.
+    #[schema(minimum = -1000.0, maximum = 1000.0)]
     pub torque_nm: f64,
 }
 
 /// Sets the load torque on the drive's motor shaft.
 #[utoipa::path(put, path = "/api/drives/{drive}/load", tag = "plant",
-    params(("drive" = String, Path, description = "the drive's index in the cell")),
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
     request_body = LoadBody,
-    responses((status = 200, body = PlantView), (status = 400, body = ApiError),
+    responses((status = 415, body = ApiError), (status = 200, body = PlantView), (status = 400, body = ApiError),
         (status = 401, body = ApiError), (status = 404, body = ApiError)))]
 async fn set_load(
     State(s): State<AppState>,

@@ -14,7 +14,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
-use axum::Router;
+use axum::{Json, Router};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
@@ -26,10 +26,13 @@ use crate::cell::control::PlantSample;
 pub const MAX_RATE_HZ: u32 = 1000;
 
 #[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 pub struct LiveQuery {
     /// Samples per second, 1…1000 (default 100).
+    #[param(minimum = 1, maximum = 1000)]
     pub rate_hz: Option<u32>,
     /// Milliseconds between two messages, 20…1000 (default 50).
+    #[param(minimum = 20, maximum = 1000)]
     pub batch_ms: Option<u64>,
 }
 
@@ -64,10 +67,12 @@ impl From<&PlantSample> for SamplePoint {
     }
 }
 
-/// Plant samples of one drive, live (a WebSocket: send a GET with `Upgrade: websocket`).
+/// Plant samples of one drive, live: a WebSocket (a GET with `Upgrade: websocket`) of
+/// SampleBatch messages; a plain GET answers the latest sample as one batch.
 #[utoipa::path(get, path = "/api/drives/{drive}/samples", tag = "plant",
-    params(("drive" = String, Path, description = "the drive's index in the cell"), LiveQuery),
-    responses((status = 101, description = "WebSocket of SampleBatch messages (JSON text)", body = SampleBatch),
+    params(("drive" = u32, Path, description = "the drive's index in the cell"), LiveQuery),
+    responses((status = 101, description = "WebSocket of SampleBatch messages (JSON text)"),
+        (status = 200, description = "without a WebSocket upgrade: the latest sample", body = SampleBatch),
         (status = 400, body = ApiError), (status = 404, body = ApiError)))]
 pub async fn samples(
     State(s): State<AppState>,
@@ -78,16 +83,6 @@ pub async fn samples(
     let Query(q) = match query {
         Ok(q) => q,
         Err(e) => return ApiError::new(StatusCode::BAD_REQUEST, e.body_text()).into_response(),
-    };
-    let ws = match ws {
-        Ok(ws) => ws,
-        Err(e) => {
-            return ApiError::new(
-                StatusCode::BAD_REQUEST,
-                format!("a WebSocket endpoint: {}", e.body_text()),
-            )
-            .into_response()
-        }
     };
     let rate = q.rate_hz.unwrap_or(100);
     if !(1..=MAX_RATE_HZ).contains(&rate) {
@@ -111,6 +106,21 @@ pub async fn samples(
             format!("drive {drive:?}: not a drive index (0, 1, …)"),
         )
         .into_response();
+    };
+    let Ok(ws) = ws else {
+        // A plain GET (no WebSocket upgrade): the latest sample, as one batch.
+        let handle = s.handle.clone();
+        return match tokio::task::spawn_blocking(move || handle.plant(index)).await {
+            Ok(Ok(sample)) => Json(SampleBatch {
+                drive: index,
+                display: PlantView::from(&sample).display,
+                samples: vec![SamplePoint::from(&sample)],
+            })
+            .into_response(),
+            Ok(Err(e)) => ApiError::from(e).into_response(),
+            Err(_) => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "the request was lost")
+                .into_response(),
+        };
     };
     let handle = s.handle.clone();
     let every = Duration::from_micros(1_000_000 / u64::from(rate));

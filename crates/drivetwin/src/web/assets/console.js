@@ -74,10 +74,21 @@ function showDrive(view) {
   $("#disable").disabled = !cia402;
 }
 
+// Every request for the drive's view takes a number; an answer that a later request has
+// overtaken (a periodic refresh sent before Enable was clicked) is not shown.
+let viewSeq = 0;
+
+async function fetchView(method, path) {
+  const seq = ++viewSeq;
+  const view = await api(method, path);
+  if (seq === viewSeq) showDrive(view);
+  return view;
+}
+
 async function refreshDrive() {
   if (consoleState.drive === null) return;
   try {
-    showDrive(await api("GET", `/api/drives/${consoleState.drive}`));
+    await fetchView("GET", `/api/drives/${consoleState.drive}`);
   } catch (e) {
     say(e.message, true);
   }
@@ -216,22 +227,43 @@ async function route() {
 
 $("#enable").addEventListener("click", async () => {
   try {
-    showDrive(await api("POST", `/api/drives/${consoleState.drive}/enable`));
+    await fetchView("POST", `/api/drives/${consoleState.drive}/enable`);
     say("enabled");
   } catch (e) { say(e.message, true); }
 });
 $("#disable").addEventListener("click", async () => {
   try {
-    showDrive(await api("POST", `/api/drives/${consoleState.drive}/disable`));
+    await fetchView("POST", `/api/drives/${consoleState.drive}/disable`);
     say("disabled");
   } catch (e) { say(e.message, true); }
 });
+$("#set-load").addEventListener("click", async () => {
+  try {
+    const p = await api("PUT", `/api/drives/${consoleState.drive}/load`, { torque_nm: Number($("#load").value) });
+    say(`load torque ${Number($("#load").value)} N·m`);
+    showPlant(p);
+  } catch (e) { say(e.message, true); }
+});
+$("#set-inputs").addEventListener("click", async () => {
+  const mask = Number($("#din-mask").value || 0), levels = Number($("#din-levels").value || 0);
+  try {
+    showPlant(await api("PUT", `/api/drives/${consoleState.drive}/inputs`, { mask, levels }));
+    say(`inputs forced: mask 0x${mask.toString(16)} levels 0x${levels.toString(16)}`);
+  } catch (e) { say(e.message, true); }
+});
+function showPlant(p) {
+  $("#din").textContent = p.digital_inputs == null ? "–" : "0x" + p.digital_inputs.toString(16).toUpperCase().padStart(8, "0");
+}
+async function refreshPlant() {
+  if (consoleState.drive === null) return;
+  try { showPlant(await api("GET", `/api/drives/${consoleState.drive}/plant`)); } catch (e) { /* shown by the view */ }
+}
 $("#pause").addEventListener("click", () => {
   consoleState.paused = !consoleState.paused;
   $("#pause").textContent = consoleState.paused ? "Run" : "Pause";
 });
 $("#filter").addEventListener("input", applyFilter);
 window.addEventListener("hashchange", route);
-setInterval(() => { refreshDrive(); loadCell(); }, 1000);
+setInterval(() => { refreshDrive(); refreshPlant(); loadCell(); }, 1000);
 requestAnimationFrame(drawScope);
 route();
