@@ -21,20 +21,3 @@ pub mod modbus_tcp;
 pub mod trace;
 pub mod value_text;
 pub mod web;
-
-// The flat names of the earlier layout, kept so that code written against them (other
-// branches, scripts) still builds.
-pub use can::drive as can_drive;
-pub use can::{bus, socketcan, socketcand};
-pub use cell::{
-    ci_console, config as cell_config, device_model, fieldbus_switches, param_store, realtime,
-    runtime,
-};
-#[cfg(target_os = "linux")]
-pub use ecat::net_interface;
-pub use ecat::{chain as ethercat_cell, link as ethercat_link};
-pub use export::esi;
-pub use modbus_tcp::{
-    cycle_server as modbus_cycle_server, fhpp as fhpp_modbus, server as modbus_server,
-};
-pub use trace::pcap;
