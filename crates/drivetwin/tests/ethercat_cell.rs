@@ -218,7 +218,7 @@ fn soem_startup_and_cia402_enable_with_default_mapping() {
             "controlword {cw:#06x}: statusword {sw:#06x}, want {want:#04x}"
         );
     }
-    let dev = &m.cell.device(0).unwrap().model;
+    let dev = m.cell.model(0).unwrap();
     let mut b = [0u8; 2];
     dev.read(0x6040, 0, &mut b).unwrap();
     assert_eq!(
@@ -240,7 +240,7 @@ fn remapped_pdos_carry_target_and_position() {
     // What a master's CoE start-up would write in Pre-Op (CoE is not here yet): outputs
     // controlword + mode + target position, inputs statusword + position actual value.
     {
-        let model = &mut m.cell.device_mut(0).unwrap().model;
+        let model = m.cell.model_mut(0).unwrap();
         for (i, s, v) in [
             (0x1600u16, 0u8, 0u32),
             (0x1600, 2, 0x6060_0008),
@@ -305,9 +305,8 @@ fn remapped_pdos_carry_target_and_position() {
     assert!((pos - target).abs() < 200, "position {pos} near {target}");
     let mut b = [0u8; 4];
     m.cell
-        .device(0)
+        .model(0)
         .unwrap()
-        .model
         .read(0x607A, 0, &mut b)
         .unwrap();
     assert_eq!(
@@ -382,9 +381,8 @@ fn dc_sync0(m: &mut Master, cycle_ns: u32) -> u64 {
 fn read_u16(m: &Master, index: u16) -> u16 {
     let mut b = [0u8; 2];
     m.cell
-        .device(0)
+        .model(0)
         .unwrap()
-        .model
         .read(index, 0, &mut b)
         .unwrap();
     u16::from_le_bytes(b)
@@ -456,7 +454,7 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     );
     assert_eq!(m.cell.device(0).unwrap().sync_errors, 1);
     // The drive reports it (63-4, EMCY 8781h) and leaves operation enabled.
-    let drive = m.cell.device(0).unwrap().model.drive().unwrap();
+    let drive = m.cell.model(0).unwrap().drive().unwrap();
     assert_eq!(drive.errors(), &[0x8781], "63-4 with EMCY code 8781h");
     for _ in 0..50 {
         m.tick();
@@ -472,7 +470,7 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     // statusword + position actual value.
     let mut m = Master::new(cell());
     {
-        let model = &mut m.cell.device_mut(0).unwrap().model;
+        let model = m.cell.model_mut(0).unwrap();
         for (i, s, v, n) in [
             (0x1600u16, 0u8, 0u32, 1usize),
             (0x1600, 2, 0x60C1_0120, 4),
@@ -509,9 +507,8 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     }
     let mut b = [0u8; 1];
     m.cell
-        .device(0)
+        .model(0)
         .unwrap()
-        .model
         .read(0x6061, 0, &mut b)
         .unwrap();
     assert_eq!(b[0] as i8, 7, "synchronised to the 1 ms frame cycle");
@@ -538,9 +535,8 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     assert_eq!(sw & 0x3000, 0x1000, "active, no following error: {sw:#06x}");
     let mut d = [0u8; 4];
     m.cell
-        .device(0)
+        .model(0)
         .unwrap()
-        .model
         .read(0x6062, 0, &mut d)
         .unwrap();
     let demand = i32::from_le_bytes(d);
@@ -620,7 +616,7 @@ fn esi_init_command_sets_velocity_mode_on_pre_op_to_safe_op() {
     m.fpwr(0x0120, &[0x04, 0x00]);
     assert_eq!(m.al(), (0x0004, 0));
     m.idle(50);
-    let model = &m.cell.device(0).unwrap().model;
+    let model = m.cell.model(0).unwrap();
     let mut b = [0u8; 1];
     model.read(0x6061, 0, &mut b).unwrap();
     assert_eq!(b[0], 3, "modes_of_operation_display: profile velocity");
@@ -632,7 +628,7 @@ fn esi_init_command_sets_velocity_mode_on_pre_op_to_safe_op() {
 fn rxpdo_controlword_and_mode_packed_in_order() {
     let mut m = Master::new(cell());
     {
-        let model = &mut m.cell.device_mut(0).unwrap().model;
+        let model = m.cell.model_mut(0).unwrap();
         for (i, s, v) in [
             (0x1600u16, 0u8, 0u32),
             (0x1600, 1, 0x6040_0010),
@@ -656,7 +652,7 @@ fn rxpdo_controlword_and_mode_packed_in_order() {
     }
     assert_eq!(read_u16(&m, 0x6040), 0x000F);
     let mut b = [0u8; 1];
-    let model = &m.cell.device(0).unwrap().model;
+    let model = m.cell.model(0).unwrap();
     model.read(0x6060, 0, &mut b).unwrap();
     assert_eq!(b[0], 3, "modes_of_operation from the third byte");
 }

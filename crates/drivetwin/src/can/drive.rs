@@ -1,6 +1,7 @@
 //! One CANopen drive of a cell: its dictionary, its CiA 301 stack and its stored parameter
 //! set, with the runtime's share of the work (files and resets) done here.
 
+use std::collections::VecDeque;
 use std::time::Duration;
 
 use canopen::{ci_terminal, CanFrame, Node, NodeEvent};
@@ -42,7 +43,12 @@ pub struct CanDrive {
     stored: Vec<StoredValue>,
     commissioning: Vec<Commissioning>,
     next_step: Option<Instant>,
+    /// Served over EtherCAT as well: a copy of each drive event for the CoE emergencies.
+    coe_events: Option<VecDeque<DriveEvent>>,
 }
+
+/// Drive events kept for the CoE side at most (it takes them at its next frame or tick).
+const MAX_COE_EVENTS: usize = 64;
 
 impl CanDrive {
     /// A drive at power-on, not yet booted: defaults, then commissioning values, then the
@@ -113,6 +119,7 @@ impl CanDrive {
             stored,
             commissioning,
             next_step: None,
+            coe_events: None,
         })
     }
 
@@ -135,6 +142,26 @@ impl CanDrive {
             filter,
         );
         self.model.reload();
+    }
+
+    /// The drive is an EtherCAT slave of the cell as well: its events are kept for the CoE
+    /// emergencies too.
+    pub fn serve_coe(&mut self) {
+        self.coe_events.get_or_insert_with(VecDeque::new);
+    }
+
+    /// What the CoE side of a drive served over EtherCAT as well reaches: the model, where
+    /// "save" writes, the set last saved, and the events kept for it.
+    pub fn coe_parts(
+        &mut self,
+    ) -> (
+        &mut Model,
+        Option<&ParamStore>,
+        &mut Vec<StoredValue>,
+        &mut VecDeque<DriveEvent>,
+    ) {
+        let events = self.coe_events.get_or_insert_with(VecDeque::new);
+        (&mut self.model, self.store.as_ref(), &mut self.stored, events)
     }
 
     pub fn node_id(&self) -> u8 {
@@ -199,6 +226,13 @@ impl CanDrive {
     fn service(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
         // The drive's errors go out as EMCY through the stack (CiA 301 §7.2.7).
         while let Some(ev) = self.model.take_event() {
+            if let Some(q) = self.coe_events.as_mut() {
+                if q.len() >= MAX_COE_EVENTS {
+                    q.pop_front();
+                    tracing::warn!(node = self.node.node_id(), "CoE event queue full, oldest lost");
+                }
+                q.push_back(ev);
+            }
             match ev {
                 DriveEvent::Error { code, register } => {
                     self.node

@@ -408,8 +408,8 @@ async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(
         .map_err(io(format!("EtherCAT on {ifname}")))?;
     socket.set_busy_poll(busy_poll);
     for i in 0..cell.len() {
-        if let Some(d) = cell.device(i) {
-            let desc = d.model.od().description();
+        if let Some(d) = cell.model(i) {
+            let desc = d.od().description();
             out!(
                 "slave {} {} ({}), vendor {:#x} product {:#010x} revision {:#x}",
                 i + 1,

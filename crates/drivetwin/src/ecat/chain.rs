@@ -41,6 +41,7 @@
 //! * Stored parameters: with a state directory, 1010h "save" over CoE writes the drive's
 //!   file before the answer (as over CANopen) and the next start loads it.
 
+use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::Mutex;
 use std::time::Duration;
@@ -48,13 +49,14 @@ use std::time::Duration;
 use drive::drive::DriveEvent;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
 use ethercat::sii::{self, SiiConfig};
-use ethercat::{process_chain_with, AlHook, AlState, AlStatusCode, Esc, FrameOutcome, SyncMonitor};
+use ethercat::{AlHook, AlState, AlStatusCode, Esc, FrameOutcome, SyncMonitor};
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
 
 use crate::can::drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
+use crate::cell::poll_loop::OnBus;
 use crate::cell::param_store::{ParamStore, StoredValue};
 
 /// How often the drives run at least when no frame arrives.
@@ -111,9 +113,10 @@ pub struct Layout {
     pub input_bytes: u16,
 }
 
-/// The device behind one ESC; it is the ESC's [`AlHook`].
+/// The protocol state of one slave behind its ESC: CoE server, process-data layout, SYNC0
+/// grid. The drive itself is reached through [`SlaveDrive`], so the same drive may be a
+/// CANopen node of the cell as well (`DESIGN.md`: a front end holds only its protocol state).
 pub struct SlaveDevice {
-    pub model: Model,
     coe: Box<CoeServer>,
     sii: SiiConfig<'static>,
     layout: Option<Layout>,
@@ -137,17 +140,88 @@ pub struct SlaveDevice {
     pub outputs_ignored: u64,
     /// Mapped objects the device refused to take.
     pub write_errors: u64,
-    /// Where 1010h "save" writes the parameters (none: kept for the life of the process).
-    store: Option<ParamStore>,
-    /// The set last saved.
-    stored: Vec<StoredValue>,
+}
+
+/// The drive behind a slave.
+pub enum SlaveDrive {
+    /// Its own: an EtherCAT-only drive, with where 1010h "save" writes its parameters and
+    /// the set last saved.
+    Own {
+        model: Model,
+        store: Option<ParamStore>,
+        stored: Vec<StoredValue>,
+    },
+    /// A CANopen drive of one of the cell's CAN buses, served over EtherCAT as well
+    /// (`allow_unreal_interfaces`): a value written over CoE is the one SDO reads.
+    OnBus(OnBus),
+}
+
+/// Where the drives of [`SlaveDrive::OnBus`] slaves live: the cell's CAN buses.
+pub trait BusDrives {
+    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive>;
+}
+
+/// A chain without CAN buses: every slave has a drive of its own.
+pub struct NoBuses;
+
+impl BusDrives for NoBuses {
+    fn can_drive(&mut self, _: OnBus) -> Option<&mut CanDrive> {
+        None
+    }
+}
+
+impl BusDrives for [crate::cell::Cell] {
+    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
+        self.get_mut(at.bus)?.drives.get_mut(at.drive)
+    }
+}
+
+/// A slave with its drive, for the length of one call: the ESC's [`AlHook`].
+struct Bound<'a> {
+    dev: &'a mut SlaveDevice,
+    model: &'a mut Model,
+    store: Option<&'a ParamStore>,
+    stored: &'a mut Vec<StoredValue>,
+    /// A drive shared with CANopen: its events as the CANopen side took them (it sends them
+    /// as EMCY and keeps a copy here for the CoE emergencies).
+    shared_events: Option<&'a mut VecDeque<DriveEvent>>,
+}
+
+impl<'a> Bound<'a> {
+    fn new(
+        dev: &'a mut SlaveDevice,
+        drive: &'a mut SlaveDrive,
+        buses: &'a mut dyn BusDrives,
+    ) -> Option<Self> {
+        match drive {
+            SlaveDrive::Own {
+                model,
+                store,
+                stored,
+            } => Some(Bound {
+                dev,
+                model,
+                store: store.as_ref(),
+                stored,
+                shared_events: None,
+            }),
+            SlaveDrive::OnBus(at) => {
+                let (model, store, stored, events) = buses.can_drive(*at)?.coe_parts();
+                Some(Bound {
+                    dev,
+                    model,
+                    store,
+                    stored,
+                    shared_events: Some(events),
+                })
+            }
+        }
+    }
 }
 
 impl SlaveDevice {
-    pub fn new(model: Model, sii: SiiConfig<'static>, coe: CoeConfig) -> Self {
-        let desc = model.od().description();
+    pub fn new(sii: SiiConfig<'static>, coe: CoeConfig, desc: &'static DeviceDescription) -> Self {
         SlaveDevice {
-            model,
             coe: Box::new(CoeServer::new(desc, coe)),
             sii,
             layout: None,
@@ -162,16 +236,7 @@ impl SlaveDevice {
             outputs_applied: 0,
             outputs_ignored: 0,
             write_errors: 0,
-            store: None,
-            stored: Vec::new(),
         }
-    }
-
-    /// Saves its parameters to `store` (1010h), `stored` being the set saved there.
-    pub fn with_store(mut self, store: Option<ParamStore>, stored: Vec<StoredValue>) -> Self {
-        self.store = store;
-        self.stored = stored;
-        self
     }
 
     /// The layout in force (Safe-Op and Op).
@@ -179,23 +244,42 @@ impl SlaveDevice {
         self.layout.as_ref()
     }
 
+    /// The synchronisation monitor (DC mode).
+    pub fn sync_monitor(&self) -> &SyncMonitor {
+        &self.sync
+    }
+
+    /// CoE counters (requests, aborts, emergencies).
+    pub fn coe_counters(&self) -> coe::CoeCounters {
+        self.coe.counters()
+    }
+
+    /// Safe-Op keeps the layout (inputs go on) but no outputs wait.
+    fn layout_inputs_only(&mut self) {
+        self.pending.clear();
+        self.sync.reset();
+    }
+}
+
+impl Bound<'_> {
     /// The PDO assignment of SM2 or SM3: 1C12h / 1C13h from the dictionary when it has
     /// them, else the SII's defaults.
     fn assignment(&self, rx: bool) -> Result<Vec<u16>, ()> {
         let index = if rx { RX_ASSIGN } else { TX_ASSIGN };
-        if self.model.entry(index, 0).is_err() {
+        let model: &Model = self.model;
+        if model.entry(index, 0).is_err() {
             let d = if rx {
-                self.sii.rx_assigned
+                self.dev.sii.rx_assigned
             } else {
-                self.sii.tx_assigned
+                self.dev.sii.tx_assigned
             };
             return Ok(d.to_vec());
         }
-        let count = read_unsigned(&self.model, index, 0).ok_or(())?;
+        let count = read_unsigned(model, index, 0).ok_or(())?;
         (1..=count)
             .map(|sub| {
                 let sub = u8::try_from(sub).map_err(|_| ())?;
-                read_unsigned(&self.model, index, sub)
+                read_unsigned(model, index, sub)
                     .and_then(|v| u16::try_from(v).ok())
                     .ok_or(())
             })
@@ -204,14 +288,15 @@ impl SlaveDevice {
 
     /// The items of one direction from the current mapping objects, and the bit length.
     fn map(&self, rx: bool) -> Result<(Vec<MapItem>, usize), ()> {
-        let desc = self.model.od().description();
+        let model: &Model = self.model;
+        let desc = model.od().description();
         let mut items = Vec::new();
         let mut offset = 0usize;
         for pdo in self.assignment(rx)? {
-            let count = read_unsigned(&self.model, pdo, 0).ok_or(())?;
+            let count = read_unsigned(model, pdo, 0).ok_or(())?;
             for sub in 1..=count {
                 let sub = u8::try_from(sub).map_err(|_| ())?;
-                let v = read_unsigned(&self.model, pdo, sub).ok_or(())?;
+                let v = read_unsigned(model, pdo, sub).ok_or(())?;
                 let v = u32::try_from(v).map_err(|_| ())?;
                 if v == 0 {
                     continue;
@@ -232,7 +317,7 @@ impl SlaveDevice {
     }
 
     /// The layout the current dictionary gives, or the AL status code that refuses it.
-    pub fn compute_layout(&self) -> Result<Layout, AlStatusCode> {
+    fn compute_layout(&self) -> Result<Layout, AlStatusCode> {
         let (outputs, out_bits) = self
             .map(true)
             .map_err(|()| AlStatusCode::INVALID_OUTPUT_MAPPING)?;
@@ -251,7 +336,7 @@ impl SlaveDevice {
 
     /// Writes the mapped objects of an output buffer into the device.
     fn apply_outputs(&mut self, data: &[u8]) {
-        let Some(layout) = &self.layout else {
+        let Some(layout) = &self.dev.layout else {
             return;
         };
         let mut value = [0u8; 8];
@@ -262,27 +347,28 @@ impl SlaveDevice {
             };
             get_bits(data, item.offset, item.bits, v);
             if self.model.write(item.index, item.sub, v).is_err() {
-                self.write_errors += 1;
+                self.dev.write_errors += 1;
             }
         }
     }
 
     /// Reads the mapped objects into the input buffer and hands it to the ESC.
     fn post_inputs(&mut self, esc: &mut Esc<'_>) {
-        let Some(layout) = &self.layout else {
+        let dev = &mut *self.dev;
+        let Some(layout) = &dev.layout else {
             return;
         };
-        self.inputs.clear();
-        self.inputs.resize(usize::from(layout.input_bytes), 0);
+        dev.inputs.clear();
+        dev.inputs.resize(usize::from(layout.input_bytes), 0);
         let mut value = [0u8; 8];
         for item in &layout.inputs {
             value.fill(0);
             // A value that cannot be read leaves zeros, as a real PDI would leave stale data.
             let _ = self.model.read(item.index, item.sub, &mut value);
-            set_bits(&mut self.inputs, item.offset, item.bits, &value);
+            set_bits(&mut dev.inputs, item.offset, item.bits, &value);
         }
-        if !self.inputs.is_empty() {
-            let _ = esc.set_inputs(&self.inputs);
+        if !dev.inputs.is_empty() {
+            let _ = esc.set_inputs(&dev.inputs);
         }
     }
 
@@ -293,17 +379,17 @@ impl SlaveDevice {
         self.run_sync0(esc, now);
         self.step(now);
         let state = esc.al_state();
-        let dc = self.sync_config.is_some();
+        let dc = self.dev.sync_config.is_some();
         if let Some(out) = esc.process_outputs() {
             if state != AlState::Op {
-                self.outputs_ignored += 1;
+                self.dev.outputs_ignored += 1;
             } else if dc {
-                self.pending.clear();
-                self.pending.extend_from_slice(out);
-                self.sync.outputs_received();
+                self.dev.pending.clear();
+                self.dev.pending.extend_from_slice(out);
+                self.dev.sync.outputs_received();
             } else {
                 self.apply_outputs(out);
-                self.outputs_applied += 1;
+                self.dev.outputs_applied += 1;
                 // Free run: the frame is the time base (CMMP-AS §2.11 "without DC").
                 self.sync_drive(now);
             }
@@ -314,9 +400,17 @@ impl SlaveDevice {
         self.mailbox(esc);
     }
 
-    /// The synchronisation monitor (DC mode).
-    pub fn sync_monitor(&self) -> &SyncMonitor {
-        &self.sync
+    /// Time passes without a frame: SYNC0 events, the drive, the ESC's watchdog, the inputs
+    /// and the mailbox.
+    fn poll(&mut self, esc: &mut Esc<'_>, now: Instant) {
+        self.run_sync0(esc, now);
+        self.step(now);
+        esc.poll_with(now, self);
+        if self.dev.sync_config.is_none() && matches!(esc.al_state(), AlState::SafeOp | AlState::Op)
+        {
+            self.post_inputs(esc);
+        }
+        self.mailbox(esc);
     }
 
     /// Runs the SYNC0 events due at `now`: the drive steps to each event, takes the outputs
@@ -324,36 +418,36 @@ impl SlaveDevice {
     /// Safe-Op with 0x001A.
     fn run_sync0(&mut self, esc: &mut Esc<'_>, now: Instant) {
         let config = esc.sync0_cycle_ns().map(|cycle| (cycle, esc.sync0_start()));
-        if config != self.sync_config {
+        if config != self.dev.sync_config {
             // SYNC0 switched on, off or moved: a new grid, a new count.
-            self.sync_config = config;
-            self.sync.reset();
-            self.next_sync0_sys = config.and_then(|_| esc.next_sync0_at(now));
+            self.dev.sync_config = config;
+            self.dev.sync.reset();
+            self.dev.next_sync0_sys = config.and_then(|_| esc.next_sync0_at(now));
         }
         let Some((cycle, _)) = config else {
-            self.next_sync0 = None;
+            self.dev.next_sync0 = None;
             return;
         };
         let cycle = u64::from(cycle);
         let sys_now = esc.system_time_at(now);
         let mut burst = 0;
-        while let Some(at_sys) = self.next_sync0_sys.filter(|t| *t <= sys_now) {
+        while let Some(at_sys) = self.dev.next_sync0_sys.filter(|t| *t <= sys_now) {
             let behind = (sys_now - at_sys) / cycle;
             // The local instant of the event: `now` less how far the event lies back.
             let at = Instant::from_nanos(now.as_nanos().saturating_sub(sys_now - at_sys));
             self.step(at);
             burst += 1;
             let (outcome, events) = if burst >= MAX_SYNC0_BURST {
-                (self.sync.sync0_many(behind + 1), behind + 1)
+                (self.dev.sync.sync0_many(behind + 1), behind + 1)
             } else {
-                (self.sync.sync0(), 1)
+                (self.dev.sync.sync0(), 1)
             };
             let state = esc.al_state();
             if outcome.take_outputs && state == AlState::Op {
-                let pending = core::mem::take(&mut self.pending);
+                let pending = core::mem::take(&mut self.dev.pending);
                 self.apply_outputs(&pending);
-                self.pending = pending;
-                self.outputs_applied += 1;
+                self.dev.pending = pending;
+                self.dev.outputs_applied += 1;
             }
             self.sync_drive(at);
             if outcome.lost && state == AlState::Op {
@@ -362,9 +456,10 @@ impl SlaveDevice {
             if matches!(esc.al_state(), AlState::SafeOp | AlState::Op) {
                 self.post_inputs(esc);
             }
-            self.next_sync0_sys = Some(at_sys.wrapping_add(events.wrapping_mul(cycle)));
+            self.dev.next_sync0_sys = Some(at_sys.wrapping_add(events.wrapping_mul(cycle)));
         }
-        self.next_sync0 = self
+        self.dev.next_sync0 = self
+            .dev
             .next_sync0_sys
             .map(|t| Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now))));
     }
@@ -379,26 +474,20 @@ impl SlaveDevice {
 
     /// The master's cycles stopped or left the SYNC0 grid.
     fn sync_lost(&mut self, esc: &mut Esc<'_>) {
-        self.sync_errors += 1;
+        self.dev.sync_errors += 1;
         tracing::warn!(
             station = esc.station_address(),
-            missed = self.sync.missed,
+            missed = self.dev.sync.missed,
             "synchronisation lost: Safe-Op, 0x001A"
         );
         esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);
-        self.layout_inputs_only();
+        self.dev.layout_inputs_only();
         if let Some(drive) = self.model.drive_mut() {
             // The error is raised once; its cause is gone with it, so a fault reset clears it.
             drive.inject_fault(SYNC_LOST_EMCY, SYNC_LOST_REGISTER);
             drive.clear_fault(SYNC_LOST_EMCY);
         }
         self.forward_events();
-    }
-
-    /// Safe-Op keeps the layout (inputs go on) but no outputs wait.
-    fn layout_inputs_only(&mut self) {
-        self.pending.clear();
-        self.sync.reset();
     }
 
     /// SYNC0 on and its cycle differs from the interpolator cycle: 0x0036.
@@ -419,48 +508,51 @@ impl SlaveDevice {
 
     /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h).
     fn mailbox(&mut self, esc: &mut Esc<'_>) {
-        let mut access = Persisting::new(&mut self.model, self.store.as_ref(), &mut self.stored);
-        coe::pump(esc, &mut self.coe, &mut access);
+        let mut access = Persisting::new(self.model, self.store, self.stored);
+        coe::pump(esc, &mut self.dev.coe, &mut access);
         // A request from another path than the SDO server (none today) is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
-            let mut access =
-                Persisting::new(&mut self.model, self.store.as_ref(), &mut self.stored);
+            let mut access = Persisting::new(self.model, self.store, self.stored);
             if let Err(e) = access.carry_out(req) {
                 tracing::error!(error = %e, "storage request failed");
             }
         }
     }
 
-    /// CoE counters (requests, aborts, emergencies).
-    pub fn coe_counters(&self) -> coe::CoeCounters {
-        self.coe.counters()
-    }
-
     fn step(&mut self, now: Instant) {
-        self.next_step = self.model.step(now).map(|t| t.max(now + TICK));
+        self.dev.next_step = self.model.step(now).map(|t| t.max(now + TICK));
         self.forward_events();
     }
 
     /// The drive's events as CoE emergencies.
     fn forward_events(&mut self) {
-        while let Some(ev) = self.model.take_event() {
+        loop {
+            // A shared drive's events are taken by its CANopen side, which keeps a copy here.
+            let ev = match self.shared_events.as_deref_mut() {
+                Some(q) => q.pop_front(),
+                None => self.model.take_event(),
+            };
+            let Some(ev) = ev else {
+                break;
+            };
             // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
             let emcy = match ev {
                 DriveEvent::Error { code, register } => Emergency::new(code, register, [0; 5]),
                 // "Error reset": code 0000h with the error register that remains.
                 DriveEvent::Cleared { .. } => {
-                    let register = read_unsigned(&self.model, 0x1001, 0).unwrap_or(0);
+                    let model: &Model = self.model;
+                    let register = read_unsigned(model, 0x1001, 0).unwrap_or(0);
                     Emergency::new(0, u8::try_from(register).unwrap_or(0), [0; 5])
                 }
             };
-            if self.coe.queue_emergency(emcy).is_err() {
+            if self.dev.coe.queue_emergency(emcy).is_err() {
                 tracing::warn!(event = ?ev, "emergency queue full");
             }
         }
     }
 }
 
-impl AlHook for SlaveDevice {
+impl AlHook for Bound<'_> {
     fn check_transition(
         &mut self,
         esc: &Esc<'_>,
@@ -471,7 +563,7 @@ impl AlHook for SlaveDevice {
             let layout = self.compute_layout()?;
             esc.check_process_data(layout.output_bytes, layout.input_bytes)?;
             self.check_sync0(esc)?;
-            self.layout = Some(layout);
+            self.dev.layout = Some(layout);
         }
         if from == AlState::SafeOp && to == AlState::Op {
             // SYNC0 may have been switched on in Safe-Op.
@@ -483,11 +575,11 @@ impl AlHook for SlaveDevice {
     fn state_changed(&mut self, esc: &mut Esc<'_>, from: AlState, to: AlState) {
         tracing::debug!(?from, ?to, station = esc.station_address(), "AL state");
         if from == AlState::Op {
-            self.layout_inputs_only();
+            self.dev.layout_inputs_only();
         }
         match to {
             AlState::SafeOp | AlState::Op => self.post_inputs(esc),
-            AlState::Init | AlState::PreOp | AlState::Bootstrap => self.layout = None,
+            AlState::Init | AlState::PreOp | AlState::Bootstrap => self.dev.layout = None,
         }
     }
 }
@@ -543,10 +635,11 @@ pub fn sii_image(
     Ok(image)
 }
 
-/// The chain: `escs[i]` with `devices[i]`, in wire order.
+/// The chain: `escs[i]` with `devices[i]` and `drives[i]`, in wire order.
 pub struct EthercatCell {
     escs: Vec<Esc<'static>>,
     devices: Vec<SlaveDevice>,
+    drives: Vec<SlaveDrive>,
     /// Frames processed (EtherCAT or not).
     pub frames: u64,
 }
@@ -571,33 +664,46 @@ impl EthercatCell {
         Self::with_stores(specs, None)
     }
 
-    fn with_stores(specs: Vec<DriveSpec>, state_dir: Option<&Path>) -> Result<Self, EcatCellError> {
+    /// A chain of drives of their own, each built from its spec.
+    pub fn with_stores(
+        specs: Vec<DriveSpec>,
+        state_dir: Option<&Path>,
+    ) -> Result<Self, EcatCellError> {
         if specs.is_empty() {
             return Err(EcatCellError::Empty);
         }
-        let mut escs = Vec::with_capacity(specs.len());
-        let mut devices = Vec::with_capacity(specs.len());
+        let mut chain = EthercatCell::empty();
         for spec in specs {
-            let cfg = SiiConfig::CMMP_AS;
-            let image = sii_image(spec.desc, &cfg)?;
-            let settings = spec.settings.map(|mut s| {
-                // CSP (6060h = 8) exists only over EtherCAT.
-                s.ethercat = true;
-                s
-            });
-            let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-            let drive =
-                CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
-            let (model, store, stored) = drive.into_parts();
-            escs.push(Esc::with_sii(image));
-            devices
-                .push(SlaveDevice::new(model, cfg, CoeConfig::CMMP_AS).with_store(store, stored));
+            let desc = spec.desc;
+            let drive = own_drive(spec, state_dir)?;
+            chain.push(desc, drive)?;
         }
-        Ok(EthercatCell {
-            escs,
-            devices,
+        Ok(chain)
+    }
+
+    /// A chain without slaves yet.
+    pub fn empty() -> Self {
+        EthercatCell {
+            escs: Vec::new(),
+            devices: Vec::new(),
+            drives: Vec::new(),
             frames: 0,
-        })
+        }
+    }
+
+    /// Appends a slave of personality `desc` with `drive` behind it.
+    pub fn push(
+        &mut self,
+        desc: &'static DeviceDescription,
+        drive: SlaveDrive,
+    ) -> Result<(), EcatCellError> {
+        let cfg = SiiConfig::CMMP_AS;
+        let image = sii_image(desc, &cfg)?;
+        self.escs.push(Esc::with_sii(image));
+        self.devices
+            .push(SlaveDevice::new(cfg, CoeConfig::CMMP_AS, desc));
+        self.drives.push(drive);
+        Ok(())
     }
 
     pub fn len(&self) -> usize {
@@ -612,18 +718,42 @@ impl EthercatCell {
         self.escs.get(i)
     }
 
+    /// The protocol state of slave `i`.
     pub fn device(&self, i: usize) -> Option<&SlaveDevice> {
         self.devices.get(i)
     }
 
-    pub fn device_mut(&mut self, i: usize) -> Option<&mut SlaveDevice> {
-        self.devices.get_mut(i)
+    /// The drive of slave `i` when it is its own (not a CANopen drive's).
+    pub fn model(&self, i: usize) -> Option<&Model> {
+        match self.drives.get(i)? {
+            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::OnBus(_) => None,
+        }
+    }
+
+    pub fn model_mut(&mut self, i: usize) -> Option<&mut Model> {
+        match self.drives.get_mut(i)? {
+            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::OnBus(_) => None,
+        }
+    }
+
+    /// What stands behind slave `i`.
+    pub fn drive(&self, i: usize) -> Option<&SlaveDrive> {
+        self.drives.get(i)
     }
 
     /// Power-on: the drives start their clocks.
     pub fn boot(&mut self, now: Instant) {
-        for d in &mut self.devices {
-            d.step(now);
+        self.boot_with(now, &mut NoBuses);
+    }
+
+    /// Power-on, the drives of [`SlaveDrive::OnBus`] slaves found in `buses`.
+    pub fn boot_with(&mut self, now: Instant, buses: &mut dyn BusDrives) {
+        for (dev, drive) in self.devices.iter_mut().zip(self.drives.iter_mut()) {
+            if let Some(mut b) = Bound::new(dev, drive, buses) {
+                b.step(now);
+            }
         }
     }
 
@@ -631,26 +761,65 @@ impl EthercatCell {
     /// device exchanges its process data. Send the frame back when
     /// [`FrameOutcome::forward`] says so.
     pub fn on_frame(&mut self, now: Instant, frame: &mut [u8]) -> FrameOutcome {
+        self.on_frame_with(now, frame, &mut NoBuses)
+    }
+
+    /// As [`on_frame`](Self::on_frame), the drives of [`SlaveDrive::OnBus`] slaves found in
+    /// `buses`.
+    pub fn on_frame_with(
+        &mut self,
+        now: Instant,
+        frame: &mut [u8],
+        buses: &mut dyn BusDrives,
+    ) -> FrameOutcome {
         self.frames += 1;
-        let outcome = process_chain_with(&mut self.escs, &mut self.devices, now, frame);
-        for (esc, dev) in self.escs.iter_mut().zip(self.devices.iter_mut()) {
-            dev.exchange(esc, now);
+        let mut first = None;
+        let slaves = self
+            .escs
+            .iter_mut()
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
+        for (esc, (dev, drive)) in slaves {
+            let o = match Bound::new(dev, drive, buses) {
+                Some(mut hook) => esc.process_with(now, frame, &mut hook),
+                // A drive that is not in the cell: the ESC alone answers.
+                None => esc.process(now, frame),
+            };
+            first.get_or_insert(o);
+            if !o.forward() {
+                break;
+            }
         }
-        outcome
+        let slaves = self
+            .escs
+            .iter_mut()
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
+        for (esc, (dev, drive)) in slaves {
+            if let Some(mut b) = Bound::new(dev, drive, buses) {
+                b.exchange(esc, now);
+            }
+        }
+        first.unwrap_or(FrameOutcome::Processed { datagrams: 0 })
     }
 
     /// Time passes without a frame: drives run, ESC watchdogs are checked, inputs refreshed.
     /// Returns the next deadline.
     pub fn poll(&mut self, now: Instant) -> Option<Instant> {
-        for (esc, dev) in self.escs.iter_mut().zip(self.devices.iter_mut()) {
-            dev.run_sync0(esc, now);
-            dev.step(now);
-            esc.poll_with(now, dev);
-            if dev.sync_config.is_none() && matches!(esc.al_state(), AlState::SafeOp | AlState::Op)
-            {
-                dev.post_inputs(esc);
+        self.poll_with(now, &mut NoBuses)
+    }
+
+    /// As [`poll`](Self::poll), the drives of [`SlaveDrive::OnBus`] slaves found in `buses`.
+    pub fn poll_with(&mut self, now: Instant, buses: &mut dyn BusDrives) -> Option<Instant> {
+        let slaves = self
+            .escs
+            .iter_mut()
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
+        for (esc, (dev, drive)) in slaves {
+            match Bound::new(dev, drive, buses) {
+                Some(mut b) => b.poll(esc, now),
+                None => {
+                    esc.poll(now);
+                }
             }
-            dev.mailbox(esc);
         }
         self.deadline()
     }
@@ -660,6 +829,24 @@ impl EthercatCell {
             earliest(earliest(acc, d.next_step), d.next_sync0)
         })
     }
+}
+
+/// An EtherCAT-only drive built from its spec, as the CANopen cell builds its drives (cell
+/// file, motor commissioning, stored set).
+pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive, EcatCellError> {
+    let settings = spec.settings.map(|mut s| {
+        // CSP (6060h = 8) exists only over EtherCAT.
+        s.ethercat = true;
+        s
+    });
+    let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
+    let drive = CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+    let (model, store, stored) = drive.into_parts();
+    Ok(SlaveDrive::Own {
+        model,
+        store,
+        stored,
+    })
 }
 
 /// A copy of a frame for the trace, with the wall-clock time it was seen.
