@@ -169,33 +169,28 @@ pub struct RunArgs {
     /// on a thread of its own.
     #[arg(long, value_enum, value_name = "IO", default_value_t = ModbusIo::Cell)]
     pub modbus_io: ModbusIo,
-    /// Put the cell's drives on EtherCAT instead of CAN: a chain of slaves (in cell-file
-    /// order) answering on this network interface (raw Ethernet, needs CAP_NET_RAW). The
-    /// chain runs alone: no socketcand server, no SocketCAN bridge. `--trace F.pcap` records
-    /// every frame in and out (Ethernet pcap).
-    #[arg(
-        long,
-        value_name = "IFNAME",
-        conflicts_with_all = ["socketcand", "channel", "socketcan", "virtual_seconds"]
-    )]
+    /// The network interface of the cell's EtherCAT chain (raw Ethernet, needs
+    /// CAP_NET_RAW): the drives whose `interfaces` list "ethercat" without naming a chain;
+    /// when no drive lists interfaces, every drive, as a chain of slaves in cell-file order
+    /// instead of CAN. `--trace F.pcap` records every frame in and out (Ethernet pcap).
+    #[arg(long, value_name = "IFNAME", conflicts_with_all = ["virtual_seconds"])]
     pub ethercat: Option<String>,
-    /// With --ethercat: run the chain's frame thread at SCHED_FIFO with this priority (1…99,
-    /// needs root), as a drive's firmware runs its fieldbus task; refused, it warns.
-    #[arg(long, value_name = "PRIO", requires = "ethercat", value_parser = clap::value_parser!(u8).range(1..=99))]
+    /// Run the cell loop's thread at SCHED_FIFO with this priority (1…99, needs root), as a
+    /// drive's firmware runs its fieldbus task; refused, it warns.
+    #[arg(long, value_name = "PRIO", value_parser = clap::value_parser!(u8).range(1..=99))]
     pub rt_priority: Option<u8>,
-    /// The EtherCAT frame thread (--ethercat) or the Modbus TCP connection (CMMO-ST) spins
-    /// on its socket instead of sleeping, as the device's fieldbus hardware is always awake:
+    /// The cell loop spins on its sockets (EtherCAT, Modbus TCP) instead of sleeping, as the device's fieldbus hardware is always awake:
     /// the lowest round trip, at the price of one CPU kept busy.
     #[arg(long)]
     pub busy_poll: bool,
     /// Serve the (first) drive's CI terminal, the CMMP-AS debug console with its SDO
     /// simulation (`?606100` → `=606100:01`), on this loopback TCP address.
-    #[arg(long, value_name = "ADDR", conflicts_with_all = ["ethercat", "virtual_seconds"])]
+    #[arg(long, value_name = "ADDR", conflicts_with_all = ["virtual_seconds"])]
     pub ci_terminal: Option<String>,
     /// The web console's address (`off`: none). Default 127.0.0.1:8080 when that port is free;
     /// beyond loopback every write needs the token printed at start. Served with the cell
-    /// loop (not with --ethercat or --virtual-seconds).
-    #[arg(long, value_name = "ADDR|off", conflicts_with_all = ["ethercat", "virtual_seconds"])]
+    /// loop (not with --virtual-seconds).
+    #[arg(long, value_name = "ADDR|off", conflicts_with_all = ["virtual_seconds"])]
     pub http: Option<String>,
 }
 

@@ -304,11 +304,7 @@ fn remapped_pdos_carry_target_and_position() {
     assert!(reached, "target reached; position {pos}");
     assert!((pos - target).abs() < 200, "position {pos} near {target}");
     let mut b = [0u8; 4];
-    m.cell
-        .model(0)
-        .unwrap()
-        .read(0x607A, 0, &mut b)
-        .unwrap();
+    m.cell.model(0).unwrap().read(0x607A, 0, &mut b).unwrap();
     assert_eq!(
         i32::from_le_bytes(b),
         target,
@@ -380,11 +376,7 @@ fn dc_sync0(m: &mut Master, cycle_ns: u32) -> u64 {
 
 fn read_u16(m: &Master, index: u16) -> u16 {
     let mut b = [0u8; 2];
-    m.cell
-        .model(0)
-        .unwrap()
-        .read(index, 0, &mut b)
-        .unwrap();
+    m.cell.model(0).unwrap().read(index, 0, &mut b).unwrap();
     u16::from_le_bytes(b)
 }
 
@@ -506,11 +498,7 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
         }
     }
     let mut b = [0u8; 1];
-    m.cell
-        .model(0)
-        .unwrap()
-        .read(0x6061, 0, &mut b)
-        .unwrap();
+    m.cell.model(0).unwrap().read(0x6061, 0, &mut b).unwrap();
     assert_eq!(b[0] as i8, 7, "synchronised to the 1 ms frame cycle");
     // enable_ip_mode, then 200 set-points 100 units apart, one per frame.
     let mut target = pos;
@@ -534,11 +522,7 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     let pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
     assert_eq!(sw & 0x3000, 0x1000, "active, no following error: {sw:#06x}");
     let mut d = [0u8; 4];
-    m.cell
-        .model(0)
-        .unwrap()
-        .read(0x6062, 0, &mut d)
-        .unwrap();
+    m.cell.model(0).unwrap().read(0x6062, 0, &mut d).unwrap();
     let demand = i32::from_le_bytes(d);
     assert!(
         (pos - target).abs() < 50,

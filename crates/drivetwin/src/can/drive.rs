@@ -161,7 +161,12 @@ impl CanDrive {
         &mut VecDeque<DriveEvent>,
     ) {
         let events = self.coe_events.get_or_insert_with(VecDeque::new);
-        (&mut self.model, self.store.as_ref(), &mut self.stored, events)
+        (
+            &mut self.model,
+            self.store.as_ref(),
+            &mut self.stored,
+            events,
+        )
     }
 
     pub fn node_id(&self) -> u8 {
@@ -229,7 +234,10 @@ impl CanDrive {
             if let Some(q) = self.coe_events.as_mut() {
                 if q.len() >= MAX_COE_EVENTS {
                     q.pop_front();
-                    tracing::warn!(node = self.node.node_id(), "CoE event queue full, oldest lost");
+                    tracing::warn!(
+                        node = self.node.node_id(),
+                        "CoE event queue full, oldest lost"
+                    );
                 }
                 q.push_back(ev);
             }

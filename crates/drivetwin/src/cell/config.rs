@@ -199,6 +199,10 @@ pub struct DriveSection {
     /// CMMP-AS on CANopen and EtherCAT at once).
     #[serde(default)]
     pub allow_unreal_interfaces: bool,
+    /// The network interface of the EtherCAT chain the drive is a slave of (its position:
+    /// its order among the drives of that chain in the file); implies `"ethercat"` in
+    /// `interfaces`. Without it, a drive with `"ethercat"` is on the chain of `--ethercat`.
+    pub ethercat: Option<String>,
 }
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
@@ -633,6 +637,11 @@ pub struct DriveSpec {
     pub fieldbus: Option<FieldbusSettings>,
     /// The index of the bus (of [`Buses::all`]) its CANopen node is on.
     pub bus: usize,
+    /// A CANopen node on its bus (false: EtherCAT only, or the CMMO-ST).
+    pub canopen: bool,
+    /// An EtherCAT slave: `Some(chain)`, the chain's network interface when the cell file
+    /// names it (else `--ethercat`'s).
+    pub ethercat: Option<Option<String>>,
 }
 
 impl DriveSpec {
@@ -694,6 +703,7 @@ impl CellFile {
                 bus: None,
                 interfaces: None,
                 allow_unreal_interfaces: false,
+                ethercat: None,
             }],
         }
     }
@@ -782,6 +792,34 @@ impl CellFile {
                 crate::cell::interfaces::check(desc.name, interfaces, d.allow_unreal_interfaces)
                     .map_err(|source| ConfigError::Interfaces { node, source })?;
             }
+            let (canopen, ethercat) = match (&d.interfaces, &d.ethercat) {
+                (Some(i), chain) => {
+                    if chain.is_some() && !i.contains(&InterfaceName::Ethercat) {
+                        return Err(ConfigError::Object {
+                            node: d.node,
+                            key: "ethercat".into(),
+                            what: "names a chain, but `interfaces` has no \"ethercat\"".into(),
+                        });
+                    }
+                    let on_ethercat = i.contains(&InterfaceName::Ethercat);
+                    // Without a fieldbus named, a CiA 301 / 402 device is on CAN as before.
+                    let canopen = i.contains(&InterfaceName::Canopen)
+                        || (!on_ethercat
+                            && !is_fhpp(desc)
+                            && !i.contains(&InterfaceName::ModbusTcp));
+                    (canopen, on_ethercat.then(|| chain.clone()))
+                }
+                (None, Some(chain)) => {
+                    crate::cell::interfaces::check(
+                        desc.name,
+                        &[InterfaceName::Ethercat],
+                        d.allow_unreal_interfaces,
+                    )
+                    .map_err(|source| ConfigError::Interfaces { node, source })?;
+                    (false, Some(Some(chain.clone())))
+                }
+                (None, None) => (!is_fhpp(desc), None),
+            };
             let err = |key: &str, what: String| ConfigError::Object {
                 node: d.node,
                 key: key.into(),
@@ -898,6 +936,8 @@ impl CellFile {
                 fhpp,
                 fieldbus,
                 bus,
+                canopen,
+                ethercat,
             });
         }
         Ok(specs)

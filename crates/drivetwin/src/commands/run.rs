@@ -1,7 +1,6 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::interfaces::InterfaceName;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, OnBus};
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, OnBus};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
@@ -44,8 +43,9 @@ pub(crate) fn build_cell(
     let mut in_cell = Vec::new();
     for spec in specs {
         in_cell.push(None);
-        if spec.fhpp.is_some() {
-            // The CMMO-ST runs beside the bus (Modbus TCP): `start_fhpp_drives`.
+        if spec.fhpp.is_some() || !spec.canopen {
+            // The CMMO-ST runs beside the bus (Modbus TCP); an EtherCAT-only drive is its
+            // chain's (`ethercat_chains`).
             continue;
         }
         if let Some(f) = spec.fieldbus {
@@ -71,13 +71,18 @@ pub(crate) fn build_cell(
         let Some(on_bus) = drives.get_mut(bus) else {
             continue;
         };
-        on_bus.push(CanDrive::with_settings(
-            spec.desc,
-            spec.node,
-            store,
-            spec.commissioning,
-            spec.settings,
-        )?);
+        let shared = spec.ethercat.is_some();
+        let settings = spec.settings.map(|mut s| {
+            // Served over EtherCAT too: CSP (6060h = 8) exists.
+            s.ethercat |= shared;
+            s
+        });
+        let mut drive =
+            CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+        if shared {
+            drive.serve_coe();
+        }
+        on_bus.push(drive);
         if let Some(last) = in_cell.last_mut() {
             *last = Some(OnBus {
                 bus,
@@ -102,19 +107,26 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(c) = &args.socketcan {
         file.bus.first_mut().socketcan = Some(c.clone());
     }
-    let specs = file.drives()?;
-    let on_ethercat = file.drive.iter().any(|d| {
-        d.interfaces
-            .as_ref()
-            .is_some_and(|i| i.contains(&InterfaceName::Ethercat))
-    });
-    if on_ethercat && args.ethercat.is_none() {
-        return Err(CommandError::Usage(
-            "interfaces = [\"ethercat\", ...]: EtherCAT drives run with --ethercat IFNAME (the \
-             chain is not on the cell loop yet)"
-                .into(),
-        ));
+    let mut specs = file.drives()?;
+    // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
+    // instead of CAN (as before the cell loop served both).
+    let legacy_chain = args.ethercat.is_some()
+        && file
+            .drive
+            .iter()
+            .all(|d| d.interfaces.is_none() && d.ethercat.is_none());
+    if legacy_chain {
+        if specs.iter().any(|s| s.fhpp.is_some()) {
+            return Err(CommandError::Usage(
+                "--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)".into(),
+            ));
+        }
+        for s in &mut specs {
+            s.canopen = false;
+            s.ethercat = Some(None);
+        }
     }
+    let any_ethercat = specs.iter().any(|s| s.ethercat.is_some());
     if args.ci_terminal.is_some() && specs.first().is_some_and(|s| s.fhpp.is_some()) {
         return Err(CommandError::Usage(
             "--ci-terminal is the CMMP-AS debug console; the CMMO-ST has none".into(),
@@ -131,23 +143,20 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     // The CMMO-ST has Modbus TCP, no CANopen and no EtherCAT: it runs beside the bus.
     let fhpp_drives = specs.iter().filter(|s| s.fhpp.is_some()).count();
     let any_fhpp = fhpp_drives > 0;
-    if any_fhpp && args.ethercat.is_some() {
-        return Err(CommandError::Usage(
-            "--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)".into(),
-        ));
-    }
     if any_fhpp && args.virtual_seconds.is_some() {
         return Err(CommandError::Usage(
             "--virtual-seconds runs CANopen drives; the CMMO-ST runs on the real clock".into(),
         ));
     }
-    if args.busy_poll && args.ethercat.is_none() && !any_fhpp {
+    if args.busy_poll && !any_ethercat && !any_fhpp {
         return Err(CommandError::Usage(
-            "--busy-poll applies to --ethercat and to the CMMO-ST's Modbus server".into(),
+            "--busy-poll applies to EtherCAT chains and to the CMMO-ST's Modbus server".into(),
         ));
     }
-    if let Some(ifname) = &args.ethercat {
-        return run_ethercat(&file, ifname, &args).await;
+    if any_ethercat && args.virtual_seconds.is_some() {
+        return Err(CommandError::Usage(
+            "--virtual-seconds runs CANopen drives; EtherCAT chains run on the real clock".into(),
+        ));
     }
     let in_loop = args.modbus_io == crate::cli::ModbusIo::Cell;
     let fhpp_tasks = if in_loop {
@@ -170,6 +179,12 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         Vec::new()
     };
     let buses = file.bus.all().to_vec();
+    let chain_specs: Vec<(usize, DriveSpec)> = specs
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.ethercat.is_some())
+        .map(|(i, s)| (i, s.clone()))
+        .collect();
     let (cells, in_cell) = build_cell(specs, buses.len(), args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
@@ -233,8 +248,16 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         return Ok(());
     }
 
+    let (ethercat, pcap_writers) = ethercat_chains(
+        chain_specs,
+        &in_cell,
+        &args,
+        cells.iter().all(|c| c.drives.is_empty()),
+    )?;
     let mut front = FrontEnds {
         modbus,
+        ethercat,
+        rt_priority: args.rt_priority,
         busy_poll: args.busy_poll,
         ..FrontEnds::default()
     };
@@ -255,8 +278,8 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             out!("SocketCAN bridge on {ifname}");
             bus.socketcan = Some(socket);
         }
-        // `--trace` records the first bus.
-        if let (0, Some(p)) = (b, &args.trace) {
+        // `--trace` records the first bus (unless it is an EtherCAT chain's pcap).
+        if let (0, Some(p), true) = (b, &args.trace, pcap_writers.is_empty()) {
             let writer =
                 TraceWriter::create(p, &section.channel).map_err(io(p.display().to_string()))?;
             out!("tracing to {}", p.display());
@@ -284,6 +307,10 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     };
     for t in fhpp_tasks {
         let _ = t.await;
+    }
+    // The taps went with the chains: each writer drains its queue and ends.
+    for w in pcap_writers {
+        let _ = w.join();
     }
     let failed = |what: &str| CommandError::Io {
         what: "cell loop".into(),
@@ -394,22 +421,66 @@ fn check_one_modbus_address(specs: &[DriveSpec], args: &RunArgs) -> Result<(), C
     Ok(())
 }
 
-/// `drivetwin run --ethercat IFNAME`: the cell's drives as a chain of EtherCAT slaves on a
-/// network interface, alone (a CMMP-AS has one fieldbus plug-in: CAN or EtherCAT).
+/// The cell's EtherCAT chains, one per network interface in order of first mention, each
+/// with its slaves in cell-file order, and the pcap writers of `--trace` (the first chain's,
+/// when the path is not a candump `.log` or the cell has no CAN drive).
 #[cfg(target_os = "linux")]
-async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(), CommandError> {
-    use drivetwin::ecat::chain::{self, EthercatCell};
-    let (trace, rt_priority, busy_poll) = (args.trace.as_deref(), args.rt_priority, args.busy_poll);
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use std::sync::Arc;
-    let cell = EthercatCell::with_state_dir(file, args.state_dir.as_deref())
-        .map_err(|e| CommandError::Usage(e.to_string()))?;
-    let mut socket = drivetwin::ecat::link::BlockingEthercatSocket::open(ifname)
-        .map_err(io(format!("EtherCAT on {ifname}")))?;
-    socket.set_busy_poll(busy_poll);
-    for i in 0..cell.len() {
-        if let Some(d) = cell.model(i) {
-            let desc = d.od().description();
+fn ethercat_chains(
+    specs: Vec<(usize, DriveSpec)>,
+    in_cell: &[Option<OnBus>],
+    args: &RunArgs,
+    no_can: bool,
+) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
+    use drivetwin::ecat::chain::{own_drive, EthercatCell, SlaveDrive};
+    let mut chains: Vec<(String, EthercatCell)> = Vec::new();
+    for (i, spec) in specs {
+        let Some(chain) = spec.ethercat.clone() else {
+            continue;
+        };
+        let Some(ifname) = chain.or_else(|| args.ethercat.clone()) else {
+            return Err(CommandError::Usage(format!(
+                "drive {} (node {}): \"ethercat\" in its interfaces needs a chain: \
+                 `ethercat = \"IFNAME\"` in the cell file or --ethercat IFNAME",
+                i + 1,
+                spec.node
+            )));
+        };
+        let desc = spec.desc;
+        let drive = if spec.canopen {
+            match in_cell.get(i).copied().flatten() {
+                Some(at) => SlaveDrive::OnBus(at),
+                None => {
+                    return Err(CommandError::Usage(format!(
+                        "drive {} (node {}): on CANopen and EtherCAT, but its switches keep \
+                         it off the bus",
+                        i + 1,
+                        spec.node
+                    )))
+                }
+            }
+        } else {
+            own_drive(spec, args.state_dir.as_deref())
+                .map_err(|e| CommandError::Usage(e.to_string()))?
+        };
+        let at = match chains.iter().position(|(n, _)| *n == ifname) {
+            Some(at) => at,
+            None => {
+                chains.push((ifname, EthercatCell::empty()));
+                chains.len() - 1
+            }
+        };
+        if let Some((_, c)) = chains.get_mut(at) {
+            c.push(desc, drive)
+                .map_err(|e| CommandError::Usage(e.to_string()))?;
+        }
+    }
+    let mut out_chains = Vec::new();
+    let mut writers = Vec::new();
+    for (n, (ifname, cell)) in chains.into_iter().enumerate() {
+        for i in 0..cell.len() {
+            let Some(desc) = cell.device(i).map(|d| d.description()) else {
+                continue;
+            };
             out!(
                 "slave {} {} ({}), vendor {:#x} product {:#010x} revision {:#x}",
                 i + 1,
@@ -420,48 +491,40 @@ async fn run_ethercat(file: &CellFile, ifname: &str, args: &RunArgs) -> Result<(
                 desc.revision
             );
         }
-    }
-    out!("EtherCAT on {ifname}: {} slave(s)", cell.len());
-    let (tap, writer) = match trace {
-        Some(path) => {
-            let (tap, writer) = ethercat_trace(path)?;
-            out!("tracing to {}", path.display());
-            (Some(tap), Some(writer))
+        let socket = drivetwin::ecat::link::SlaveSocket::open(&ifname)
+            .map_err(io(format!("EtherCAT on {ifname}")))?;
+        out!("EtherCAT on {ifname}: {} slave(s)", cell.len());
+        let mut trace = None;
+        if let (0, Some(path)) = (n, &args.trace) {
+            if no_can || path.extension().is_none_or(|e| e != "log") {
+                let (tap, writer) = ethercat_trace(path)?;
+                out!("tracing to {}", path.display());
+                trace = Some(tap);
+                writers.push(writer);
+            }
         }
-        None => (None, None),
-    };
-    out!("running; Ctrl-C stops");
-    // The chain runs on a thread of its own (blocking socket, optionally SCHED_FIFO): a frame
-    // is answered as soon as it arrives, with no async runtime in between.
-    let stop = Arc::new(AtomicBool::new(false));
-    let frames = {
-        let stop = Arc::clone(&stop);
-        std::thread::Builder::new()
-            .name("ethercat".into())
-            .spawn(move || chain::run_thread(cell, socket, tap, &stop, rt_priority))
-            .map_err(io("EtherCAT thread"))?
-    };
-    let stopped = Arc::clone(&stop);
-    let watcher = tokio::spawn(async move {
-        shutdown_signal().await;
-        stopped.store(true, Ordering::Relaxed);
-    });
-    let thread_failed = |what: &str| CommandError::Io {
-        what: "EtherCAT thread".into(),
-        source: std::io::Error::other(what.to_owned()),
-    };
-    let result = tokio::task::spawn_blocking(move || frames.join())
-        .await
-        .map_err(|e| thread_failed(&e.to_string()))?
-        .map_err(|_| thread_failed("panicked"))?;
-    watcher.abort();
-    // The tap went with the chain: the writer drains the queue and ends.
-    if let Some(w) = writer {
-        let _ = w.join();
+        out_chains.push(EthercatChain {
+            chain: cell,
+            socket,
+            trace,
+        });
     }
-    result.map_err(io(format!("EtherCAT on {ifname}")))?;
-    out!("stopped");
-    Ok(())
+    Ok((out_chains, writers))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn ethercat_chains(
+    specs: Vec<(usize, DriveSpec)>,
+    _in_cell: &[Option<OnBus>],
+    _args: &RunArgs,
+    _no_can: bool,
+) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
+    if specs.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    Err(CommandError::Usage(
+        "EtherCAT (raw Ethernet) needs Linux".into(),
+    ))
 }
 
 /// The `--trace` writer of an EtherCAT run: a pcap of Ethernet frames (tshark decodes
@@ -506,13 +569,6 @@ fn ethercat_trace(
         }
     });
     Ok((tap, writer))
-}
-
-#[cfg(not(target_os = "linux"))]
-async fn run_ethercat(_file: &CellFile, ifname: &str, _args: &RunArgs) -> Result<(), CommandError> {
-    Err(CommandError::Usage(format!(
-        "--ethercat {ifname}: raw Ethernet needs Linux"
-    )))
 }
 
 /// Starts the cell's CMMO-STs (FHPP over Modbus TCP), each on its own thread with its own

@@ -28,7 +28,7 @@
 //!   master's cycles stop or fall off the SYNC0 grid ([`SyncMonitor`]) in Op, the slave falls
 //!   back to Safe-Op with 0x001A and the drive reports 63-4 "no SYNC in IPO cycle" with a
 //!   fault reaction.
-//! * Between frames the runtime polls the cell at least every [`TICK`], so the drive (and the
+//! * Between frames the cell loop polls the chain at least every [`TICK`], so the drive (and the
 //!   ESC's process-data watchdog) runs while the master is silent.
 //!
 //! * The mailbox speaks CoE ([`ethercat::coe`], the CMMP-AS set of services): after every
@@ -56,8 +56,8 @@ use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
 use crate::can::drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
-use crate::cell::poll_loop::OnBus;
 use crate::cell::param_store::{ParamStore, StoredValue};
+use crate::cell::poll_loop::OnBus;
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
@@ -117,6 +117,7 @@ pub struct Layout {
 /// grid. The drive itself is reached through [`SlaveDrive`], so the same drive may be a
 /// CANopen node of the cell as well (`DESIGN.md`: a front end holds only its protocol state).
 pub struct SlaveDevice {
+    desc: &'static DeviceDescription,
     coe: Box<CoeServer>,
     sii: SiiConfig<'static>,
     layout: Option<Layout>,
@@ -222,6 +223,7 @@ impl<'a> Bound<'a> {
 impl SlaveDevice {
     pub fn new(sii: SiiConfig<'static>, coe: CoeConfig, desc: &'static DeviceDescription) -> Self {
         SlaveDevice {
+            desc,
             coe: Box::new(CoeServer::new(desc, coe)),
             sii,
             layout: None,
@@ -237,6 +239,11 @@ impl SlaveDevice {
             outputs_ignored: 0,
             write_errors: 0,
         }
+    }
+
+    /// The personality the slave was built for.
+    pub fn description(&self) -> &'static DeviceDescription {
+        self.desc
     }
 
     /// The layout in force (Safe-Op and Op).
@@ -738,6 +745,13 @@ impl EthercatCell {
         }
     }
 
+    /// Whether a slave's drive is a CANopen drive of the cell as well.
+    pub fn has_bus_drives(&self) -> bool {
+        self.drives
+            .iter()
+            .any(|d| matches!(d, SlaveDrive::OnBus(_)))
+    }
+
     /// What stands behind slave `i`.
     pub fn drive(&self, i: usize) -> Option<&SlaveDrive> {
         self.drives.get(i)
@@ -860,7 +874,7 @@ pub struct TracedFrame {
 /// each processed frame as it went back. A full queue drops the copy, never the frame.
 pub type FrameTap = std::sync::mpsc::SyncSender<TracedFrame>;
 
-fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
+pub fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
     if let Some(tap) = tap {
         let copy = TracedFrame {
             at: std::time::SystemTime::now(),
@@ -870,68 +884,4 @@ fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
             tracing::warn!("trace queue full, a frame copy is lost");
         }
     }
-}
-
-/// How long the frame thread waits at most before it looks at the stop flag again.
-const STOP_CHECK: Duration = Duration::from_millis(20);
-
-/// Runs `cell` on `socket` in real time on the calling thread until `stop` is set (or the
-/// socket fails): each frame is processed and sent back as soon as the kernel hands it over,
-/// and the drives run between frames at their deadlines. With `rt_priority` the thread asks
-/// for `SCHED_FIFO` at that priority first (as a drive's firmware runs its fieldbus task);
-/// refused, it warns and goes on.
-#[cfg(target_os = "linux")]
-pub fn run_thread(
-    mut cell: EthercatCell,
-    socket: crate::ecat::link::BlockingEthercatSocket,
-    trace: Option<FrameTap>,
-    stop: &std::sync::atomic::AtomicBool,
-    rt_priority: Option<u8>,
-) -> std::io::Result<()> {
-    use crate::ecat::link::{is_queue_full, MAX_FRAME};
-    use std::sync::atomic::Ordering;
-    if let Some(p) = rt_priority {
-        if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
-            tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
-        }
-    }
-    let start = std::time::Instant::now();
-    let now = || Instant::from_nanos(u64::try_from(start.elapsed().as_nanos()).unwrap_or(u64::MAX));
-    cell.boot(now());
-    let mut buf = vec![0u8; MAX_FRAME];
-    while !stop.load(Ordering::Relaxed) {
-        let t = now();
-        let wait = cell
-            .deadline()
-            .map(|d| Duration::from_nanos(d.as_nanos().saturating_sub(t.as_nanos())))
-            .unwrap_or(TICK)
-            .min(STOP_CHECK);
-        match socket.recv_timeout(&mut buf, wait)? {
-            Some(n) => {
-                let Some(frame) = buf.get_mut(..n) else {
-                    continue;
-                };
-                trace_frame(trace.as_ref(), frame);
-                if cell.on_frame(now(), frame).forward() {
-                    trace_frame(trace.as_ref(), frame);
-                    match socket.send(frame) {
-                        Ok(()) => {}
-                        Err(e) if is_queue_full(&e) => {
-                            tracing::warn!(interface = %socket.interface(), "TX queue full, frame lost");
-                        }
-                        Err(e) => return Err(e),
-                    }
-                }
-                // A steady stream of frames must not starve the drives' own deadlines.
-                let t = now();
-                if cell.deadline().is_some_and(|d| d <= t) {
-                    cell.poll(t);
-                }
-            }
-            None => {
-                cell.poll(now());
-            }
-        }
-    }
-    Ok(())
 }

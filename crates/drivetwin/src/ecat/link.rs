@@ -13,9 +13,9 @@
 //!   to the master (e.g. seen through a bridge or another twin on the segment) and is skipped.
 //!
 //! Two front ends over the same socket: [`EthercatSocket`] for tokio (the master side), and
-//! [`BlockingEthercatSocket`] for the slave side's own frame thread, which answers a frame as
-//! soon as the kernel hands it over, without an async runtime's wake-up in between (the
-//! round trip a master measures is the wire latency of the slave).
+//! [`SlaveSocket`] for the slave side in the cell loop, which answers a frame as soon as the
+//! kernel hands it over, without an async runtime's wake-up in between (the round trip a
+//! master measures is the wire latency of the slave).
 //!
 //! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`).
 #![cfg(target_os = "linux")]
@@ -28,9 +28,7 @@ use std::time::Duration;
 use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
 use tokio::io::unix::AsyncFd;
 
-/// Largest frame read: an Ethernet frame without FCS is at most 1514 bytes (1518 with a VLAN
-/// tag); anything longer is not EtherCAT and is dropped as truncated.
-pub const MAX_FRAME: usize = 1536;
+pub use super::MAX_FRAME;
 
 /// Offset of the first source-MAC byte in an Ethernet frame.
 const SOURCE_MAC_FIRST: usize = 6;
@@ -162,56 +160,31 @@ pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
     Ok(fd)
 }
 
-/// The raw socket for a thread of its own: blocking waits with a timeout, no runtime.
+/// The raw socket of a chain in the cell loop: the loop waits for it with the cell's other
+/// sockets (mio) and reads it until it would block; an answer is sent at once.
 #[derive(Debug)]
-pub struct BlockingEthercatSocket {
+pub struct SlaveSocket {
     fd: OwnedFd,
     interface: String,
-    busy_poll: bool,
 }
 
-impl BlockingEthercatSocket {
+impl SlaveSocket {
     /// Open the socket on `interface` (see [`EthercatSocket::open`]).
-    pub fn open(interface: &str) -> io::Result<BlockingEthercatSocket> {
-        Ok(BlockingEthercatSocket {
+    pub fn open(interface: &str) -> io::Result<SlaveSocket> {
+        Ok(SlaveSocket {
             fd: open_raw(interface)?,
             interface: interface.to_owned(),
-            busy_poll: false,
         })
-    }
-
-    /// Spin on the socket instead of sleeping in `ppoll` while waiting: the lowest latency
-    /// (an ESC is always awake), at the price of one CPU kept busy.
-    pub fn set_busy_poll(&mut self, on: bool) {
-        self.busy_poll = on;
     }
 
     pub fn interface(&self) -> &str {
         &self.interface
     }
 
-    /// The next request from the master into `buf`, waiting at most `timeout`; `None` when
-    /// none came in time.
-    pub fn recv_timeout(&self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
-        let deadline = std::time::Instant::now() + timeout;
-        loop {
-            match recv_once(self.fd.as_raw_fd(), buf, Want::Requests) {
-                Ok(Some(n)) => return Ok(Some(n)),
-                Ok(None) => continue,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            }
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            if left.is_zero() {
-                return Ok(None);
-            }
-            if self.busy_poll {
-                std::hint::spin_loop();
-            } else if !wait_readable(self.fd.as_raw_fd(), left)? {
-                return Ok(None);
-            }
-        }
+    /// One read: `Ok(Some(len))` a request from the master in `buf`, `Ok(None)` a frame to
+    /// skip (our own, or one on its way back); `WouldBlock` when nothing waits.
+    pub fn try_recv(&self, buf: &mut [u8]) -> io::Result<Option<usize>> {
+        recv_once(self.fd.as_raw_fd(), buf, Want::Requests)
     }
 
     /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
@@ -231,28 +204,10 @@ impl BlockingEthercatSocket {
     }
 }
 
-/// `ppoll` for readability with a nanosecond timeout; false when it timed out.
-fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
-    let mut pfd = libc::pollfd {
-        fd,
-        events: libc::POLLIN,
-        revents: 0,
-    };
-    let ts = libc::timespec {
-        tv_sec: libc::time_t::try_from(timeout.as_secs()).unwrap_or(libc::time_t::MAX),
-        tv_nsec: libc::c_long::from(timeout.subsec_nanos()),
-    };
-    // SAFETY: `pfd` and `ts` are valid for the call; one descriptor; no signal mask.
-    let rc = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
-    if rc < 0 {
-        let e = io::Error::last_os_error();
-        return if e.kind() == io::ErrorKind::Interrupted {
-            Ok(true)
-        } else {
-            Err(e)
-        };
+impl AsRawFd for SlaveSocket {
+    fn as_raw_fd(&self) -> RawFd {
+        self.fd.as_raw_fd()
     }
-    Ok(rc > 0)
 }
 
 /// The TX queue of the interface is full.

@@ -10,6 +10,11 @@
 //! the SocketCAN interface, the trace and every other client in RAW mode; a frame of a drive
 //! reaches the other drives (`Cell::deliver`), the interface, the trace and every client.
 //!
+//! The loop is the cell's EtherCAT segments as well: a frame from a master on a chain's
+//! network interface passes the chain's slaves in order and goes back out at once; a slave
+//! whose drive is a CANopen drive of the cell (`allow_unreal_interfaces`) reaches the very
+//! drive the CANopen node serves, so a value written over CoE is the one SDO reads.
+//!
 //! Slow clients: what a client has not taken waits in its own buffer, bounded by
 //! [`MAX_PENDING`]; a client whose buffer would grow beyond it is dropped, so a client that
 //! does not read never delays the others, nor the drives.
@@ -28,11 +33,13 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
+use crate::can::drive::CanDrive;
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::control::{Command, ControlHandle, PlantSample};
 use crate::cell::Cell;
+use crate::ecat::chain::{trace_frame, BusDrives, EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
@@ -51,8 +58,14 @@ const MAX_HELD: usize = 64 * 1024;
 const WAKER: Token = Token(0);
 /// Bus `b` has tokens `1 + 2b` (its socketcand server) and `2 + 2b` (its SocketCAN socket).
 pub const MAX_BUSES: usize = 7;
+/// EtherCAT chain `c` has token `FIRST_CHAIN + c`.
+const FIRST_CHAIN: usize = 2 * MAX_BUSES + 1;
+/// EtherCAT chains (network interfaces) a cell serves at most.
+pub const MAX_CHAINS: usize = 4;
 /// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
-const FIRST_DYNAMIC: usize = 2 * MAX_BUSES + 2;
+const FIRST_DYNAMIC: usize = FIRST_CHAIN + MAX_CHAINS;
+/// EtherCAT frames one chain takes per turn of the loop before the others get their turn.
+const FRAMES_PER_TURN: usize = 64;
 
 /// One CAN bus of a cell: the CANopen drives on it and its transports.
 pub struct CanBus {
@@ -79,6 +92,15 @@ impl CanBus {
     }
 }
 
+/// An EtherCAT chain of the cell on one network interface.
+pub struct EthercatChain {
+    pub chain: EthercatCell,
+    #[cfg(target_os = "linux")]
+    pub socket: crate::ecat::link::SlaveSocket,
+    /// Where each request and each answer is copied (`--trace`, a pcap).
+    pub trace: Option<FrameTap>,
+}
+
 /// A drive on a bus: the bus's index in the cell, the drive's in the bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OnBus {
@@ -95,6 +117,11 @@ pub struct FrontEnds {
     pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
+    /// EtherCAT chains (at most [`MAX_CHAINS`]).
+    pub ethercat: Vec<EthercatChain>,
+    /// Ask for `SCHED_FIFO` at this priority for the loop's thread (as a drive's firmware
+    /// runs its fieldbus task); refused, the loop warns and goes on.
+    pub rt_priority: Option<u8>,
     /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
     /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
     pub busy_poll: bool,
@@ -140,6 +167,12 @@ pub struct CellLoop {
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
+    chains: Vec<EthercatChain>,
+    /// Chains that had more frames waiting than one turn takes.
+    chains_to_read: Vec<usize>,
+    /// Scratch: one Ethernet frame.
+    frame: Vec<u8>,
+    rt_priority: Option<u8>,
     busy_poll: bool,
     /// Connections that had more to read than one turn takes.
     more_to_read: Vec<usize>,
@@ -253,6 +286,21 @@ impl CellLoop {
                 last_stamp: UNIX_EPOCH,
             });
         }
+        if front.ethercat.len() > MAX_CHAINS {
+            return Err(io::Error::other(format!(
+                "{} EtherCAT chains: a cell has at most {MAX_CHAINS}",
+                front.ethercat.len()
+            )));
+        }
+        #[cfg(target_os = "linux")]
+        for (c, chain) in front.ethercat.iter().enumerate() {
+            use std::os::fd::AsRawFd;
+            poll.registry().register(
+                &mut mio::unix::SourceFd(&chain.socket.as_raw_fd()),
+                Token(FIRST_CHAIN + c),
+                Interest::READABLE,
+            )?;
+        }
         let mut listeners = Vec::new();
         for (l, drive) in front.ci_terminals {
             l.set_nonblocking(true)?;
@@ -285,6 +333,10 @@ impl CellLoop {
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
+            chains: front.ethercat,
+            chains_to_read: Vec::new(),
+            frame: vec![0; crate::ecat::MAX_FRAME],
+            rt_priority: front.rt_priority,
             busy_poll: front.busy_poll,
             more_to_read: Vec::new(),
             dirty: Vec::new(),
@@ -328,6 +380,11 @@ impl CellLoop {
     /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
     /// back.
     pub fn run(mut self) -> io::Result<Vec<Cell>> {
+        if let Some(p) = self.rt_priority {
+            if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
+                tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
+            }
+        }
         let mut events = Events::with_capacity(256);
         let start = Instant::now();
         let mut out = std::mem::take(&mut self.out);
@@ -339,9 +396,16 @@ impl CellLoop {
             self.drives_sent(b, start, &mut out);
         }
         self.out = out;
+        let t = self.now(start);
+        for chain in &mut self.chains {
+            chain.chain.boot_with(t, &mut Buses(&mut self.buses));
+        }
         self.flush_dirty();
         while !self.stop.load(Ordering::Acquire) {
-            let timeout = if self.busy_poll || !self.more_to_read.is_empty() {
+            let timeout = if self.busy_poll
+                || !self.more_to_read.is_empty()
+                || !self.chains_to_read.is_empty()
+            {
                 Some(Duration::ZERO)
             } else {
                 self.deadline()
@@ -359,6 +423,9 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
+                    Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {
+                        self.read_ethercat(t - FIRST_CHAIN);
+                    }
                     Token(t) if t < FIRST_DYNAMIC => {
                         let b = (t - 1) / 2;
                         if t % 2 == 1 {
@@ -383,6 +450,9 @@ impl CellLoop {
                         }
                     }
                 }
+            }
+            for c in std::mem::take(&mut self.chains_to_read) {
+                self.read_ethercat(c);
             }
             for slot in std::mem::take(&mut self.more_to_read) {
                 // No event comes for what waits: read on to would-block or end of file.
@@ -439,6 +509,9 @@ impl CellLoop {
         for m in &self.modbus {
             take(Some(self.wall(m.next_cycle())));
         }
+        for c in &self.chains {
+            take(c.chain.deadline().map(|d| self.wall(d)));
+        }
         for s in &self.subscriptions {
             take(Some(s.next));
         }
@@ -456,6 +529,11 @@ impl CellLoop {
                 bus.cell.poll(t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
+            }
+        }
+        for chain in &mut self.chains {
+            if chain.chain.deadline().is_some_and(|d| d <= t) {
+                chain.chain.poll_with(t, &mut Buses(&mut self.buses));
             }
         }
         for slot in 0..self.slots.len() {
@@ -1028,4 +1106,94 @@ fn peer_has_closed(stream: &TcpStream) -> bool {
             io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
         ),
     }
+}
+
+/// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
+/// drive as well finds its drive.
+struct Buses<'a>(&'a mut [BusState]);
+
+impl BusDrives for Buses<'_> {
+    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
+        self.0.get_mut(at.bus)?.cell.drives.get_mut(at.drive)
+    }
+}
+
+impl CellLoop {
+    /// Reads EtherCAT frames of chain `c` until none waits (at most [`FRAMES_PER_TURN`]):
+    /// each passes the chain and goes back out at once, as through a line of real slaves.
+    #[cfg(target_os = "linux")]
+    fn read_ethercat(&mut self, c: usize) {
+        let mut frame = std::mem::take(&mut self.frame);
+        let mut shared = false;
+        for turn in 0..=FRAMES_PER_TURN {
+            let Some(chain) = self.chains.get_mut(c) else {
+                break;
+            };
+            if turn == FRAMES_PER_TURN {
+                // More may wait: read on next turn, after the other sockets.
+                self.chains_to_read.push(c);
+                break;
+            }
+            let n = match chain.socket.try_recv(&mut frame) {
+                Ok(Some(n)) => n,
+                Ok(None) => continue,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT receive failed");
+                    break;
+                }
+            };
+            let Some(f) = frame.get_mut(..n) else {
+                continue;
+            };
+            trace_frame(chain.trace.as_ref(), f);
+            let t = od::Instant::from_nanos(
+                u64::try_from(
+                    Instant::now()
+                        .saturating_duration_since(self.origin)
+                        .as_nanos(),
+                )
+                .unwrap_or(u64::MAX),
+            );
+            shared |= chain.chain.has_bus_drives();
+            if chain
+                .chain
+                .on_frame_with(t, f, &mut Buses(&mut self.buses))
+                .forward()
+            {
+                trace_frame(chain.trace.as_ref(), f);
+                match chain.socket.send(f) {
+                    Ok(()) => {}
+                    Err(e) if crate::ecat::link::is_queue_full(&e) => {
+                        tracing::warn!(
+                            interface = chain.socket.interface(),
+                            "TX queue full, frame lost"
+                        );
+                    }
+                    Err(e) => {
+                        tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
+                    }
+                }
+            }
+        }
+        self.frame = frame;
+        if shared {
+            // A value the master wrote may be due in a TPDO (on change): the CANopen side
+            // looks at once.
+            let now = Instant::now();
+            let t = self.now(now);
+            for b in 0..self.buses.len() {
+                let mut out = std::mem::take(&mut self.out);
+                if let Some(bus) = self.buses.get_mut(b) {
+                    bus.cell.poll(t, &mut out);
+                }
+                self.drives_sent(b, now, &mut out);
+                self.out = out;
+            }
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn read_ethercat(&mut self, _c: usize) {}
 }
