@@ -88,3 +88,58 @@ fn a_combination_the_device_lacks_is_refused_with_the_manuals_rule() {
         .to_string()
         .contains("no modbus-tcp"));
 }
+
+#[test]
+fn the_ethercat_key_puts_a_drive_on_a_chain_by_interface() {
+    let specs = parse(
+        r#"
+        [[drive]]
+        device = "cmmp-as"
+        node = 1
+
+        [[drive]]
+        device = "cmmp-as"
+        node = 2
+        ethercat = "veth0"
+
+        [[drive]]
+        device = "cmmp-as"
+        node = 3
+        interfaces = ["canopen", "ethercat"]
+        allow_unreal_interfaces = true
+        "#,
+    )
+    .drives()
+    .expect("drives");
+    let places: Vec<_> = specs
+        .iter()
+        .map(|s| (s.canopen, s.ethercat.clone()))
+        .collect();
+    assert_eq!(
+        places,
+        [
+            (true, None),
+            (false, Some(Some("veth0".to_string()))),
+            // No chain named: `--ethercat`'s.
+            (true, Some(None)),
+        ]
+    );
+    let lacking = parse(
+        r#"
+        [[drive]]
+        device = "cmmp-as"
+        interfaces = ["canopen"]
+        ethercat = "veth0"
+        "#,
+    );
+    let e = lacking.drives().unwrap_err();
+    assert!(e.to_string().contains("no \"ethercat\""), "{e}");
+    let cmmo = parse(
+        r#"
+        [[drive]]
+        device = "cmmo-st"
+        ethercat = "veth0"
+        "#,
+    );
+    assert!(cmmo.drives().unwrap_err().to_string().contains("no ethercat"));
+}
