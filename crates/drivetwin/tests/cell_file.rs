@@ -141,5 +141,9 @@ fn the_ethercat_key_puts_a_drive_on_a_chain_by_interface() {
         ethercat = "veth0"
         "#,
     );
-    assert!(cmmo.drives().unwrap_err().to_string().contains("no ethercat"));
+    assert!(cmmo
+        .drives()
+        .unwrap_err()
+        .to_string()
+        .contains("no ethercat"));
 }

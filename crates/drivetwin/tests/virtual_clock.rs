@@ -1,5 +1,6 @@
-//! Issue 12's determinism point: a cell with a CMMP-AS on CANopen and a CMMO-ST on Modbus TCP,
-//! inputs on both protocols, run twice on the virtual clock: the outputs are equal bit for bit.
+//! Issue 12's determinism point: a cell with a CMMP-AS on CANopen, a CMMP-AS on EtherCAT and a
+//! CMMO-ST on Modbus TCP, inputs on the three protocols, run twice on the virtual clock: the
+//! outputs are equal bit for bit.
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -8,8 +9,11 @@ use canopen::CanFrame;
 use drivetwin::can::drive::CanDrive;
 use drivetwin::cell::runtime::{run_virtual_mixed, Input, Output};
 use drivetwin::cell::Cell;
+use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use ethercat::datagram::Command;
+use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 
 fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
@@ -48,6 +52,115 @@ fn fhpp_cycle(tid: u16, ccon: u8, cpos: u8) -> Input {
     }
 }
 
+/// One EtherCAT frame of the master with the datagrams `reqs`.
+fn ecat(reqs: &[(Command, Address, Vec<u8>)]) -> Input {
+    let mut buf = vec![0u8; 1514];
+    let mut w = FrameWriter::ethernet(&mut buf, [0x01; 6]).expect("writer");
+    for (i, (c, a, d)) in reqs.iter().enumerate() {
+        w.push(*c, i as u8, *a, d).expect("datagram");
+    }
+    let n = w.finish();
+    buf.truncate(n);
+    Input::Ethercat {
+        chain: 0,
+        frame: buf,
+    }
+}
+
+const STATION: u16 = 0x1001;
+
+fn fpwr(ado: u16, d: &[u8]) -> Input {
+    ecat(&[(
+        Command::Fpwr,
+        Address::Physical { adp: STATION, ado },
+        d.to_vec(),
+    )])
+}
+
+fn fprd(ado: u16, len: usize) -> Input {
+    ecat(&[(
+        Command::Fprd,
+        Address::Physical { adp: STATION, ado },
+        vec![0; len],
+    )])
+}
+
+/// A sync manager's 8 register bytes.
+fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
+    let mut v = start.to_le_bytes().to_vec();
+    v.extend_from_slice(&len.to_le_bytes());
+    v.extend_from_slice(&[control, 0, 0x01, 0]);
+    v
+}
+
+/// An expedited CoE SDO request written to the mailbox (SM0 at 1000h), counter `counter`.
+fn coe(counter: u8, sdo: &[u8]) -> Input {
+    let mut req = vec![0u8; 0x80];
+    req[..8].copy_from_slice(&[10, 0, 0, 0, 0, 0x03 | counter << 4, 0x00, 0x20]);
+    req[8..8 + sdo.len()].copy_from_slice(sdo);
+    fpwr(0x1000, &req)
+}
+
+fn coe_download(counter: u8, index: u16, sub: u8, data: &[u8]) -> Input {
+    let [i0, i1] = index.to_le_bytes();
+    let mut sdo = vec![0x23 | ((4 - data.len() as u8) << 2), i0, i1, sub];
+    sdo.extend_from_slice(data);
+    coe(counter, &sdo)
+}
+
+/// The EtherCAT script, from `t0`: SOEM's start-up to Pre-Op with the mailbox, then CoE
+/// writes that enable the drive in profile velocity, then 6064h uploads, each answer read
+/// from SM1 one millisecond later.
+fn ethercat_inputs(t0: u64) -> Vec<(Duration, Input)> {
+    let mut script = vec![
+        ecat(&[(
+            Command::Bwr,
+            Address::Physical {
+                adp: 0,
+                ado: 0x0120,
+            },
+            vec![0x11, 0],
+        )]),
+        ecat(&[(
+            Command::Apwr,
+            Address::Physical {
+                adp: 0,
+                ado: 0x0010,
+            },
+            STATION.to_le_bytes().to_vec(),
+        )]),
+        fpwr(
+            0x0800,
+            &[sm(0x1000, 0x80, 0x26), sm(0x1080, 0x80, 0x22)].concat(),
+        ),
+        fpwr(0x0120, &[0x02, 0x00]),
+    ];
+    let mut counter = 0u8;
+    let mut next = || {
+        counter = counter % 7 + 1;
+        counter
+    };
+    for (index, data) in [
+        (0x6060u16, vec![3u8]),
+        (0x60FF, 300_000i32.to_le_bytes().to_vec()),
+        (0x6040, vec![0x06, 0]),
+        (0x6040, vec![0x07, 0]),
+        (0x6040, vec![0x0F, 0]),
+    ] {
+        script.push(coe_download(next(), index, 0, &data));
+        script.push(fprd(0x1080, 0x80));
+    }
+    for _ in 0..20 {
+        script.push(coe(next(), &[0x40, 0x64, 0x60, 0]));
+        script.push(fprd(0x1080, 0x80));
+    }
+    script
+        .into_iter()
+        .enumerate()
+        .map(|(i, input)| (ms(t0 + 10 * i as u64), input))
+        .collect()
+}
+
 /// The script: NMT start, CiA 402 enable and a profile-position move on CAN; FHPP enable and
 /// cyclic telegrams on Modbus; position read back on both.
 fn inputs() -> Vec<(Duration, Input)> {
@@ -67,6 +180,7 @@ fn inputs() -> Vec<(Duration, Input)> {
         // ENABLE + STOP, HALT released (CMMO-ST §5: CCON 03h, CPOS 01h).
         v.push((ms(t + 3), fhpp_cycle(i, 0x03, 0x01)));
     }
+    v.extend(ethercat_inputs(7));
     v.sort_by_key(|(t, _)| *t);
     v
 }
@@ -85,10 +199,20 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
         CanDrive::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
     let mut cell = Cell::new(vec![drive]);
     let mut modbus = vec![cmmo_st()];
+    let mut chain = EthercatCell::empty();
+    let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
+        .drives()
+        .expect("spec")
+        .remove(0);
+    chain
+        .push(desc, own_drive(spec, None).expect("drive"))
+        .expect("slave");
+    let mut chains = vec![chain];
     let mut outputs = Vec::new();
     run_virtual_mixed(
         &mut cell,
         &mut modbus,
+        &mut chains,
         &inputs(),
         Duration::from_millis(1200),
         &mut |t, o| match o {
@@ -102,6 +226,9 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
             }
             Output::Modbus { drive, bytes } => {
                 outputs.push((t, 1 + drive as u8, bytes.to_vec()));
+            }
+            Output::Ethercat { chain, frame } => {
+                outputs.push((t, 10 + chain as u8, frame.to_vec()));
             }
         },
     );
@@ -118,12 +245,36 @@ fn can_positions(outputs: &[(Duration, u8, Vec<u8>)]) -> Vec<i32> {
         .collect()
 }
 
+/// Position actual values (6064h) of the CoE upload answers read from the EtherCAT slave's SM1.
+fn ethercat_positions(outputs: &[(Duration, u8, Vec<u8>)]) -> Vec<i32> {
+    let mut positions = Vec::new();
+    for (_, _, b) in outputs.iter().filter(|(_, tag, _)| *tag == 10) {
+        let eth = EthernetFrame::new_checked(&b[..]).expect("ethernet");
+        let frame = Frame::new_checked(eth.payload()).expect("frame");
+        for d in frame.datagrams().flatten() {
+            let data = d.data();
+            if d.ado() == 0x1080 && d.wkc() == 1 && data.len() == 0x80 && data[8] == 0x43 {
+                if data[9..11] == [0x64, 0x60] {
+                    positions.push(i32::from_le_bytes([data[12], data[13], data[14], data[15]]));
+                }
+            }
+        }
+    }
+    positions
+}
+
 #[test]
-fn can_and_modbus_inputs_give_the_same_outputs_bit_for_bit() {
+fn can_ethercat_and_modbus_inputs_give_the_same_outputs_bit_for_bit() {
     let first = run();
     let second = run();
     assert_eq!(first, second);
     // Not a quiet cell: the CMMP-AS moved and the CMMO-ST answered every telegram.
+    let ecat = ethercat_positions(&first);
+    assert_eq!(ecat.len(), 20, "every CoE 6064h upload answered");
+    assert!(
+        ecat.windows(2).all(|w| w[1] > w[0]),
+        "the EtherCAT CMMP-AS turns (profile velocity): {ecat:?}"
+    );
     let positions = can_positions(&first);
     assert_eq!(positions.len(), 40, "every 6064h upload answered");
     assert!(

@@ -8,6 +8,7 @@ use od::time::earliest;
 use od::Instant;
 
 use crate::cell::Cell;
+use crate::ecat::chain::EthercatCell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
@@ -66,6 +67,8 @@ pub enum Input {
     Can(CanFrame),
     /// Bytes on the Modbus TCP connection of `modbus[drive]`.
     Modbus { drive: usize, bytes: Vec<u8> },
+    /// An Ethernet frame from the master of EtherCAT chain `chain`.
+    Ethercat { chain: usize, frame: Vec<u8> },
 }
 
 /// What the cell sent, at a time on the virtual clock.
@@ -75,15 +78,20 @@ pub enum Output<'a> {
     Can(&'a CanFrame),
     /// The answers of `modbus[drive]` to its latest input.
     Modbus { drive: usize, bytes: &'a [u8] },
+    /// A frame of chain `chain` back to its master, as it left the last slave.
+    Ethercat { chain: usize, frame: &'a [u8] },
 }
 
-/// Runs the CAN drives of `cell` and the Modbus drives `modbus` on one virtual clock from 0 to
-/// `until`, feeding `inputs` (sorted by time); everything the cell sends goes to `sink` with
-/// its virtual time. At one instant the order is fixed: Modbus cycles, then the CAN drives'
-/// timers, then the input, so the same cell and inputs give the same outputs bit for bit.
+/// Runs the CAN drives of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
+/// on one virtual clock from 0 to `until`, feeding `inputs` (sorted by time); everything the
+/// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: Modbus
+/// cycles, then the CAN drives' timers, then the chains' timers, then the input, so the same
+/// cell and inputs give the same outputs bit for bit. A slave whose drive is a CANopen drive
+/// as well finds it in `cell` (bus 0).
 pub fn run_virtual_mixed(
     cell: &mut Cell,
     modbus: &mut [ModbusDrive],
+    chains: &mut [EthercatCell],
     inputs: &[(Duration, Input)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, Output<'_>),
@@ -94,8 +102,12 @@ pub fn run_virtual_mixed(
     let end = to_instant(until);
     let mut out = Vec::with_capacity(256);
     let mut answer = Vec::with_capacity(256);
+    let mut frame = Vec::with_capacity(crate::ecat::MAX_FRAME);
     let mut now = Instant::ZERO;
     cell.boot(now, &mut out);
+    for c in chains.iter_mut() {
+        c.boot_with(now, cell);
+    }
     for m in modbus.iter_mut() {
         m.open_connection(now);
     }
@@ -111,6 +123,9 @@ pub fn run_virtual_mixed(
             .fold(earliest(cell.deadline(), input_at), |acc, m| {
                 earliest(acc, Some(m.next_cycle()))
             });
+        let wake = chains
+            .iter()
+            .fold(wake, |acc, c| earliest(acc, c.deadline()));
         let Some(wake) = wake else {
             break;
         };
@@ -129,6 +144,11 @@ pub fn run_virtual_mixed(
         }
         if cell.deadline().is_some_and(|d| d <= now) {
             cell.poll(now, &mut out);
+        }
+        for c in chains.iter_mut() {
+            if c.deadline().is_some_and(|d| d <= now) {
+                c.poll_with(now, cell);
+            }
         }
         if input_at == Some(wake) {
             match inputs.get(next_input) {
@@ -150,6 +170,26 @@ pub fn run_virtual_mixed(
                                 bytes: &answer,
                             },
                         );
+                    }
+                }
+                Some((_, Input::Ethercat { chain, frame: f })) => {
+                    if let Some(c) = chains.get_mut(*chain) {
+                        frame.clear();
+                        frame.extend_from_slice(f);
+                        let shared = c.has_bus_drives();
+                        if c.on_frame_with(now, &mut frame, cell).forward() {
+                            sink(
+                                at(now),
+                                Output::Ethercat {
+                                    chain: *chain,
+                                    frame: &frame,
+                                },
+                            );
+                        }
+                        if shared {
+                            // As the cell loop does: the CANopen side looks at once.
+                            cell.poll(now, &mut out);
+                        }
                     }
                 }
                 None => {}

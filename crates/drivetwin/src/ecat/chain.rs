@@ -171,9 +171,13 @@ impl BusDrives for NoBuses {
     }
 }
 
-impl BusDrives for [crate::cell::Cell] {
+/// A cell of one CAN bus (the virtual clock's).
+impl BusDrives for crate::cell::Cell {
     fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
-        self.get_mut(at.bus)?.drives.get_mut(at.drive)
+        if at.bus != 0 {
+            return None;
+        }
+        self.drives.get_mut(at.drive)
     }
 }
 
