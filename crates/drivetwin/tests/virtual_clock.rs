@@ -253,10 +253,9 @@ fn ethercat_positions(outputs: &[(Duration, u8, Vec<u8>)]) -> Vec<i32> {
         let frame = Frame::new_checked(eth.payload()).expect("frame");
         for d in frame.datagrams().flatten() {
             let data = d.data();
-            if d.ado() == 0x1080 && d.wkc() == 1 && data.len() == 0x80 && data[8] == 0x43 {
-                if data[9..11] == [0x64, 0x60] {
-                    positions.push(i32::from_le_bytes([data[12], data[13], data[14], data[15]]));
-                }
+            let upload = data.len() == 0x80 && data[8] == 0x43 && data[9..11] == [0x64, 0x60];
+            if d.ado() == 0x1080 && d.wkc() == 1 && upload {
+                positions.push(i32::from_le_bytes([data[12], data[13], data[14], data[15]]));
             }
         }
     }
