@@ -13,8 +13,10 @@ on the other. Needs root (raw sockets) and `ip` (iproute2); skips with a message
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+import urllib.request
 import struct
 import threading
 import time
@@ -54,6 +56,12 @@ def veth_pair():
         yield twin_if, master_if
     finally:
         ip("link", "del", master_if)
+
+
+def console_url(twin) -> str:
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
+                      5.0, what="the 'web console on' line")
+    return line.removeprefix("web console on ")
 
 
 def _cmmp_lines(node: int) -> list[str]:
@@ -97,10 +105,15 @@ def test_canopen_ethercat_and_modbus_drives_move_at_once(launch, connect, eds_fi
         "[drive.stepper]", 'mode = "closed-loop"', "load_torque = 0.005",
         "[drive.axis]", "end_stops = [-1.5, 10.0]", 'index_pulse = "none"', "",
     ]))
-    twin = launch(config=cell)
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
     lines = twin.stdout_lines
     assert any(f"EtherCAT on {twin_if}: 1 slave" in l for l in lines), lines
     assert f"modbus server on {HOST}:{modbus_port}" in lines, lines
+    # The control handle (here through the web console) has the three drives of the cell.
+    url = console_url(twin)
+    drives = json.load(urllib.request.urlopen(url + "api/drives", timeout=5))
+    assert [(d["device"], d["interface"]) for d in drives] == [
+        ("cmmp-as", "canopen"), ("cmmo-st", "modbus-tcp"), ("cmmp-as", "ethercat")], drives
 
     net = connect(twin)
     node = BaseNode402(1, str(eds_files["cmmp-as"]))
@@ -172,6 +185,8 @@ def test_canopen_ethercat_and_modbus_drives_move_at_once(launch, connect, eds_fi
     assert abs(pos - target) < 200 and pos - start > 900 * 327 - 200, figures
     # The CAN drive and the EtherCAT drive are two drives: the CAN one never saw CSP.
     assert node.sdo[0x6061].raw == 1
+    plant = json.load(urllib.request.urlopen(url + "api/drives/2/plant", timeout=5))
+    assert plant["kind"] == "servo" and abs(plant["position"] - pos) < 2000, plant
 
 
 def test_one_drive_on_canopen_and_ethercat_at_once(launch, connect, eds_files, tmp_path,

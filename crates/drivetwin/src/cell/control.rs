@@ -19,7 +19,8 @@ use od::AbortCode;
 pub const SAMPLE_QUEUE: usize = 1024;
 
 /// A drive of the cell, as [`ControlHandle::drives`] lists it. Its index is its place in
-/// that list: the CAN drives in cell order, then the Modbus drives.
+/// that list: the CAN drives in cell order, then the Modbus drives, then the EtherCAT-only
+/// drives (a drive on CANopen and EtherCAT at once is listed once, as a CANopen node).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DriveInfo {
     pub index: usize,
@@ -36,6 +37,8 @@ pub enum Interface {
     CanOpen { node: u8 },
     /// FHPP over Modbus TCP.
     ModbusTcp,
+    /// An EtherCAT slave only: chain `chain` of the cell, `position` in it (from 0).
+    Ethercat { chain: usize, position: usize },
 }
 
 /// What the drive's display shows.

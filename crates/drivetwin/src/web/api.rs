@@ -174,6 +174,7 @@ fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError
     let (interface, node) = match info.interface {
         Interface::CanOpen { node } => ("canopen", Some(node)),
         Interface::ModbusTcp => ("modbus-tcp", None),
+        Interface::Ethercat { .. } => ("ethercat", None),
     };
     let display = h
         .plant(info.index)

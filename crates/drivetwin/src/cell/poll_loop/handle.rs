@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use super::{CellLoop, Subscription};
+use super::{CellLoop, EthercatChain, Subscription};
 use crate::cell::control::{
     Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
@@ -126,7 +126,18 @@ impl CellLoop {
             let dev = lock(m.device());
             (dev.od().description(), Interface::ModbusTcp)
         });
+        let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
+            (0..c.chain.len()).filter_map(move |position| {
+                c.chain.model(position).map(|m| {
+                    (
+                        m.od().description(),
+                        Interface::Ethercat { chain, position },
+                    )
+                })
+            })
+        });
         can.chain(modbus)
+            .chain(ethercat)
             .enumerate()
             .map(|(index, (desc, interface))| DriveInfo {
                 index,
@@ -150,10 +161,30 @@ impl CellLoop {
             }
             rest -= n;
         }
-        match self.modbus.get(rest) {
-            Some(m) => Ok(Target::Modbus(m.device().clone())),
-            None => Err(ControlError::NoDrive(drive)),
+        if let Some(m) = self.modbus.get(rest) {
+            return Ok(Target::Modbus(m.device().clone()));
         }
+        rest -= self.modbus.len();
+        for c in &mut self.chains {
+            // Only the chain's own drives: a shared one is listed with its bus.
+            let own = |c: &EthercatChain| {
+                (0..c.chain.len())
+                    .filter(|&i| c.chain.model(i).is_some())
+                    .count()
+            };
+            let n = own(c);
+            if rest < n {
+                let i = (0..c.chain.len())
+                    .filter(|&i| c.chain.model(i).is_some())
+                    .nth(rest);
+                return i
+                    .and_then(|i| c.chain.model_mut(i))
+                    .map(Target::Can)
+                    .ok_or(ControlError::NoDrive(drive));
+            }
+            rest -= n;
+        }
+        Err(ControlError::NoDrive(drive))
     }
 
     fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
