@@ -131,6 +131,20 @@ pub struct BusSection {
     pub channel: String,
     /// A SocketCAN interface to bridge (real hardware or vcan).
     pub socketcan: Option<String>,
+    /// Bit rate, bit/s: frames take the bus for their bit time and wait for the arbitration
+    /// (`cell::bus_timing`); without it they cross at once. A drive whose switches set
+    /// another bit rate stays silent, as on a real bus.
+    pub bitrate: Option<u32>,
+    /// A frame that waits longer than this for the bus counts as late (default 1000 µs).
+    pub late_after_us: Option<u32>,
+}
+
+impl BusSection {
+    /// The bus's timing: bit rate and late limit, when it has a bit rate.
+    pub fn timing(&self) -> Option<(u32, std::time::Duration)> {
+        let late = std::time::Duration::from_micros(u64::from(self.late_after_us.unwrap_or(1000)));
+        self.bitrate.map(|b| (b, late))
+    }
 }
 
 impl Default for BusSection {
@@ -140,6 +154,8 @@ impl Default for BusSection {
             socketcand: default_socketcand(),
             channel: default_channel(),
             socketcan: None,
+            bitrate: None,
+            late_after_us: None,
         }
     }
 }

@@ -1,5 +1,6 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::config::BusSection;
 use drivetwin::cell::poll_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, OnBus};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
@@ -36,10 +37,10 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
 /// switches keep it off the bus).
 pub(crate) fn build_cell(
     specs: Vec<DriveSpec>,
-    buses: usize,
+    buses: &[BusSection],
     state_dir: Option<&PathBuf>,
 ) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
-    let mut drives: Vec<Vec<CanDrive>> = (0..buses).map(|_| Vec::new()).collect();
+    let mut drives: Vec<Vec<CanDrive>> = buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
     for spec in specs {
         in_cell.push(None);
@@ -57,14 +58,26 @@ pub(crate) fn build_cell(
                 );
                 continue;
             }
-            // One bus, one bit rate: socketcand does not carry it, so a node set to another
-            // rate is only reported (on a real bus it would see error frames).
             out!(
                 "drive {} node {}: {} kbit/s from its switches",
                 spec.desc.name,
                 spec.node,
                 f.bit_rate_kbit
             );
+            // A bus with a bit rate: a node set to another one sees only error frames and
+            // never sends (CiA 301; CMMP-AS §2.3). Without one, socketcand does not carry it
+            // and the node is only reported.
+            let bus_bitrate = buses.get(spec.bus).and_then(|b| b.bitrate);
+            if let Some(rate) = bus_bitrate.filter(|r| *r != u32::from(f.bit_rate_kbit) * 1000) {
+                out!(
+                    "drive {} node {}: its {} kbit/s is not the bus's {} kbit/s, silent on the bus",
+                    spec.desc.name,
+                    spec.node,
+                    f.bit_rate_kbit,
+                    rate / 1000
+                );
+                continue;
+            }
         }
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         let bus = spec.bus;
@@ -90,7 +103,15 @@ pub(crate) fn build_cell(
             });
         }
     }
-    Ok((drives.into_iter().map(Cell::new).collect(), in_cell))
+    let cells = drives
+        .into_iter()
+        .zip(buses)
+        .map(|(d, section)| match section.timing() {
+            Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
+            None => Cell::new(d),
+        })
+        .collect();
+    Ok((cells, in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
@@ -185,7 +206,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         .filter(|(_, s)| s.ethercat.is_some())
         .map(|(i, s)| (i, s.clone()))
         .collect();
-    let (cells, in_cell) = build_cell(specs, buses.len(), args.state_dir.as_ref())?;
+    let (cells, in_cell) = build_cell(specs, &buses, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
             "drive {} node {} ({})",
