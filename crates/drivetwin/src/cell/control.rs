@@ -88,9 +88,20 @@ pub enum ControlError {
     Abort(AbortCode),
 }
 
+/// A CAN bus of the cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BusInfo {
+    pub index: usize,
+    /// Its drives (CANopen nodes of the cell).
+    pub drives: usize,
+    /// With a bit rate in the cell file: what the bus did (load, late and lost frames).
+    pub timing: Option<crate::cell::bus_timing::BusFigures>,
+}
+
 /// One request to the loop.
 pub(crate) enum Command {
     Drives(SyncSender<Vec<DriveInfo>>),
+    Buses(SyncSender<Vec<BusInfo>>),
     Read {
         drive: usize,
         index: u16,
@@ -156,6 +167,11 @@ impl ControlHandle {
 
     pub fn drives(&self) -> Result<Vec<DriveInfo>, ControlError> {
         self.ask(Command::Drives)
+    }
+
+    /// The cell's CAN buses, with their load where they have a bit rate.
+    pub fn buses(&self) -> Result<Vec<BusInfo>, ControlError> {
+        self.ask(Command::Buses)
     }
 
     /// The value of an object, as its bytes (little-endian, as on CANopen).

@@ -231,6 +231,52 @@ async fn list_drives(State(s): State<AppState>) -> ApiResult<Vec<DriveView>> {
     .map(Json)
 }
 
+/// One CAN bus of the cell.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct BusView {
+    pub index: usize,
+    /// CANopen nodes of the cell on it.
+    pub drives: usize,
+    /// Bit rate, bit/s (`null`: no bit rate in the cell file; frames cross at once).
+    pub bitrate: Option<u32>,
+    /// Bus load, percent: the bit time asked of the bus over the last window (500 ms); more
+    /// than 100 means it falls behind.
+    pub load_percent: Option<f64>,
+    /// Frames that crossed the bus.
+    pub frames: Option<u64>,
+    /// Frames that waited longer than the bus's late limit (`late_after_us`).
+    pub late: Option<u64>,
+    /// Frames lost to full transmit queues.
+    pub dropped: Option<u64>,
+    /// The longest wait of a frame for the bus, µs.
+    pub longest_wait_us: Option<u64>,
+}
+
+/// The cell's CAN buses and their load.
+#[utoipa::path(get, path = "/api/buses", tag = "buses",
+    responses((status = 400, body = ApiError), (status = 200, body = [BusView])))]
+async fn list_buses(State(s): State<AppState>) -> ApiResult<Vec<BusView>> {
+    call(&s.handle, |h| {
+        Ok(h.buses()?
+            .into_iter()
+            .map(|b| BusView {
+                index: b.index,
+                drives: b.drives,
+                bitrate: b.timing.map(|t| t.bitrate),
+                load_percent: b.timing.map(|t| t.load_percent),
+                frames: b.timing.map(|t| t.frames),
+                late: b.timing.map(|t| t.late),
+                dropped: b.timing.map(|t| t.dropped),
+                longest_wait_us: b
+                    .timing
+                    .map(|t| u64::try_from(t.longest_wait.as_micros()).unwrap_or(u64::MAX)),
+            })
+            .collect())
+    })
+    .await
+    .map(Json)
+}
+
 /// One drive.
 #[utoipa::path(get, path = "/api/drives/{drive}", tag = "drives",
     params(("drive" = u32, Path, description = "the drive's index in the cell")),
@@ -685,6 +731,7 @@ async fn set_load(
         description = "The cell's drives, their objects and plant."
     ),
     paths(
+        list_buses,
         list_drives,
         get_drive,
         enable,
@@ -699,6 +746,7 @@ async fn set_load(
     ),
     components(schemas(
         ApiError,
+        BusView,
         DriveView,
         StatusBit,
         ObjectView,
@@ -730,6 +778,7 @@ async fn no_route() -> ApiError {
 pub fn routes() -> Router<AppState> {
     Router::new()
         .route("/api/openapi.json", get(openapi))
+        .route("/api/buses", get(list_buses))
         .route("/api/drives", get(list_drives))
         .route("/api/drives/{drive}", get(get_drive))
         .route("/api/drives/{drive}/enable", post(enable))

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use super::{CellLoop, EthercatChain, Subscription};
 use crate::cell::control::{
-    Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
+    BusInfo, Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
 use crate::cell::device_model::Model;
 use crate::modbus_tcp::server::lock;
@@ -18,6 +18,20 @@ impl CellLoop {
             match command {
                 Command::Drives(reply) => {
                     let _ = reply.send(self.drive_list());
+                }
+                Command::Buses(reply) => {
+                    let t = self.now(now);
+                    let buses = self
+                        .buses
+                        .iter_mut()
+                        .enumerate()
+                        .map(|(index, b)| BusInfo {
+                            index,
+                            drives: b.cell.drives.len(),
+                            timing: b.cell.bus_figures(t),
+                        })
+                        .collect();
+                    let _ = reply.send(buses);
                 }
                 Command::Read {
                     drive,
