@@ -1,7 +1,7 @@
 """A Nanotec SMCI47-S twin (`drivetwin run --device nanotec-smci47s --node 34`) driven over
 socketcand by python-canopen's BaseNode402 with the drive's EDS, and by `drivetwin drive`
-(seeds/003_ef071fe40f10c01c.txt; spec/nanotec-canopen.md §5): PP, HM (35 and the switch method
-19), VL (6060h = 2), IP on a 10 ms SYNC and TQ in closed loop, each asserting that the
+(seeds/003_ef071fe40f10c01c.txt; spec/nanotec-canopen.md §5): PP, HM (35, the switch method
+19, the index method 33), VL (6060h = 2), IP on a 10 ms SYNC and TQ in closed loop, each asserting that the
 simulated shaft moves as physics says, not that a value is echoed; the software-limit EMCY
 0800h (§7.1) through python-canopen's EMCY consumer; one python-canopen network moving a
 CMMP-AS (node 1) and the Nanotec (node 34) of one cell file at the same time.
@@ -149,6 +149,21 @@ def test_homing_35_and_switch_method_19(nanotec):
     assert took > 1.2, took
     assert node.sdo[0x6041].raw & 0x3400 == 0x1400, "homing attained, target reached"
     assert abs(position(node)) <= 2, "the home offset 0 at the switch edge"
+
+
+def test_homing_33_reverses_off_the_index_mark(nanotec):
+    """§5.2 method 33: clockwise at 6099h:02 to the index mark (a quarter output revolution,
+    500 units, in the twin's default travel), reverse, off the mark, stop; the mark reads the
+    home offset, the shaft stands just counter-clockwise of it."""
+    _, node = nanotec
+    node.sdo[0x6098].raw = 33
+    node.sdo[0x6099][2].raw = 500
+    node.sdo[0x607C].raw = 0
+    t0 = time.monotonic()
+    assert node.homing(timeout=10)
+    # 500 units at 500 units/s out, then the short way back.
+    assert time.monotonic() - t0 > 0.8
+    assert -20 <= position(node) <= 0, position(node)
 
 
 def test_velocity_mode_vl_turns_the_shaft(nanotec):
