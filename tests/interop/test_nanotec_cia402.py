@@ -135,7 +135,7 @@ def test_profile_position_moves_the_shaft_at_the_profile_speed(nanotec):
     node.sdo[0x6084].raw = 16000
     took = pp_move(node, 8000)
     # Trapezoid: 0.25 s ramps each side, 8000 units at 4000 units/s cruise: 2.25 s in all.
-    assert 2.0 < took < 3.5, took
+    assert 2.0 < took < 4.5, took
     assert abs(position(node) - 8000) <= 2
     # Halfway through a move back the shaft is halfway.
     node.sdo[0x607A].raw = 0
@@ -337,7 +337,7 @@ def test_one_network_moves_a_cmmp_as_and_a_nanotec_at_once(launch, connect, eds_
     assert 0 < both[0] < 10 * 65536 and 0 < both[1] < 2000, f"both on their way: {both}"
     for node in (cmmp, nano):
         wait_until(lambda: node.sdo[0x6041].raw & 0x0400, 5.0, what="target reached")
-    assert time.monotonic() - t0 < 3.0
+    assert time.monotonic() - t0 < 4.0
     assert abs(cmmp.sdo[0x6064].raw - 10 * 65536) <= cmmp.sdo[0x6067].raw
     assert abs(position(nano) - 2000) <= 2
 
