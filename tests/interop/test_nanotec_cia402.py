@@ -368,7 +368,9 @@ def test_drivetwin_drive_moves_a_nanotec_and_a_cmmp_as(launch, tmp_path):
     assert_speed(lambda: json.loads(drive_cli(twin, str(NODE), "state", "--json"))["position"],
                  0.3, 900, 1100)
     drive_cli(twin, str(NODE), "velocity", "0", "--wait")
-    # The CMMP-AS: PV, 606Ch, 6077h, 6078h as before.
+    # The CMMP-AS: PP, PV, 606Ch, 6077h, 6078h as before.
+    out = drive_cli(twin, "1", "move", "655360", "--wait")
+    assert "target reached" in out and " mode 1 " in out and "n/a" not in out, out
     out = drive_cli(twin, "1", "velocity", "600", "--wait")
     assert " mode 3 " in out and "n/a" not in out, out
     state = json.loads(drive_cli(twin, "1", "state", "--json"))
