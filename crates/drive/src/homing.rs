@@ -359,10 +359,16 @@ impl Search {
     }
 
     fn advance(&mut self, at: i64, pos: i64, stalled: bool) -> Command {
+        let found_index = self.steps.get(self.index).map(|s| s.until) == Some(Index);
         self.index += 1;
         match self.steps.get(self.index) {
             None => Command::Reference { at, stalled },
             Some(next) => {
+                if found_index {
+                    // A mark just found lies behind the shaft, even where it stands right on
+                    // it, so that a step back over it (Nanotec 33 / 34) sees it.
+                    self.last = at + i64::from(self.direction);
+                }
                 self.direction = next.direction;
                 self.reversed = false;
                 self.step_from = pos;

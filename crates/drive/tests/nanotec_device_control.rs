@@ -135,3 +135,41 @@ fn nt_cw_08_fault_reset_needs_a_rising_edge() {
     assert_eq!(r.d.state(), State::SwitchOnDisabled);
     assert_eq!(r.sw(), 0x0260);
 }
+
+/// NT-NODE-07, the drive's side: switch = node + 128 with a 2005h outside 130…135 leaves a
+/// controller that "answers on CAN but accepts no motion commands" (§1.1.3 step 7, L333;
+/// `canopen::rotary_switches` decides it from the switches). The cell gives such a drive no
+/// hardware enables (`DriveSettings::enables_present`): SDO answers, the statusword reads
+/// Switch On Disabled, and neither Shutdown nor the §2.4 power-up nor a PP start moves it.
+///
+/// Decision: the manual names no object or state for the refusal; a power stage that cannot
+/// be switched on (transition 2 not taken) refuses every motion command at once, whatever
+/// the mode, and leaves the bus side (SDO, NMT, PDO) as it is.
+#[test]
+fn nt_node_07_no_motion_commands_without_a_valid_bit_rate_code() {
+    let mut r = Rig::with(drive::drive::DriveSettings {
+        enables_present: false,
+        ..Default::default()
+    });
+    for cw in [0x00, 0x06, 0x07, 0x0F] {
+        let (w, s) = write_cw_read_sw(&mut r, cw);
+        assert_eq!(w, SDO_WRITE_OK, "the controlword is taken over SDO");
+        assert_eq!(
+            s,
+            [0x4B, 0x41, 0x60, 0x00, 0x60, 0x02, 0x00, 0x00],
+            "CW {cw:02X}h"
+        );
+    }
+    assert_eq!(
+        r.sdo(&[0x2F, 0x60, 0x60, 0x00, 0x01]),
+        [0x60, 0x60, 0x60, 0, 0, 0, 0, 0]
+    );
+    r.sdo(&[0x23, 0x7A, 0x60, 0x00, 0x45, 0x23, 0x01, 0x00]);
+    let before = r.d.plant_position();
+    for cw in [0x1F, 0x0F] {
+        write_cw_read_sw(&mut r, cw);
+    }
+    r.run_ms(500);
+    assert_eq!(r.d.state(), State::SwitchOnDisabled);
+    assert_eq!(r.d.plant_position(), before, "the shaft does not move");
+}

@@ -89,6 +89,69 @@ fn method_19_switch_reversal_is_immediate() {
     assert_eq!(r.i(0x6062, 0), p);
 }
 
+/// Methods 33 / 34 (§5.2): at 6099h:02 to the index mark (a quarter revolution into every
+/// revolution of the default travel), reverse, move off the mark, stop; the mark reads the
+/// home offset.
+#[test]
+fn methods_33_and_34_reverse_off_the_index_mark() {
+    const INDEX: i64 = 16_384;
+    for (method, direction, mark) in [(33, 1, INDEX), (34, -1, INDEX - 65_536)] {
+        let mut r = Rig::new();
+        r.w32(0x607C, 0, 50);
+        homing(&mut r, method);
+        r.cw(0x001F);
+        let mut last = r.i(0x6062, 0);
+        let mut speeds = Vec::new();
+        for _ in 0..6000 {
+            r.run_ms(1);
+            let p = r.i(0x6062, 0);
+            speeds.push(p - last);
+            last = p;
+            if r.sw() & 0x3000 != 0 {
+                break;
+            }
+        }
+        assert_eq!(
+            r.sw() & 0x3000,
+            0x1000,
+            "{method}: attained {:#06x}",
+            r.sw()
+        );
+        // Out at 6099h:02 (500 units/s = 0.5 per ms), back the other way.
+        let out: i64 = speeds.iter().filter(|s| s.signum() == direction).sum();
+        let back = speeds.iter().position(|s| s.signum() == -direction);
+        // 33: the mark is 500 units ahead; 34: 1500 units behind.
+        assert!(
+            out.abs() >= 490,
+            "{method}: searched for the mark: {out} units"
+        );
+        assert!(
+            speeds.len() > 900,
+            "{method}: at 6099h:02, {} ms",
+            speeds.len()
+        );
+        let back = back.expect("reversed at the mark");
+        assert!(
+            speeds[..back].iter().all(|s| s.signum() != -direction),
+            "{method}: one way out"
+        );
+        // Stands on the far side of the mark as seen from the search: just off it.
+        let at = r.d.plant_position();
+        assert!(
+            (at - mark) * direction <= 0 && (at - mark).abs() < 300,
+            "{method}: off the mark {mark}: {at}"
+        );
+        assert!(
+            (r.position() - 50).abs() <= 2,
+            "{method}: home offset, {}",
+            r.position()
+        );
+        let p = r.i(0x6062, 0);
+        r.run_ms(100);
+        assert_eq!(r.i(0x6062, 0), p, "{method}: stands");
+    }
+}
+
 /// Method −2: clockwise until the shaft blocks on the end stop; the blocked position reads
 /// the home offset.
 #[test]

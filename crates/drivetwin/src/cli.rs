@@ -325,7 +325,8 @@ pub enum DriveCommand {
         #[arg(long)]
         decel: Option<u32>,
     },
-    /// Profile velocity mode at VELOCITY (speed units).
+    /// Profile velocity mode at VELOCITY (speed units); velocity mode VL (6042h, s16) on a
+    /// drive without PV.
     Velocity {
         #[arg(allow_hyphen_values = true)]
         velocity: i32,
@@ -334,7 +335,7 @@ pub enum DriveCommand {
     Torque {
         #[arg(allow_hyphen_values = true)]
         torque: i16,
-        /// Torque slope 6087h, ‰/s.
+        /// Torque slope 6087h, ‰/s (refused on a drive without 6087h).
         #[arg(long)]
         slope: Option<u32>,
     },

@@ -236,10 +236,13 @@ pub const HOMING_METHODS: [Method; 13] = [
         22,
         &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
     ),
-    // 33: CW at 6099h:02 to the index mark (then off it: the reference is the mark).
-    (33, &[step(1, Crawl, Index)]),
-    // 34: CCW at 6099h:02 to the index mark.
-    (34, &[step(-1, Crawl, Index)]),
+    // 33: CW at 6099h:02 to the index mark, then reverse: CCW off the mark, stop (§5.2).
+    // Decision: the index pulse is a point, so "moves off the index mark" is the pass back
+    // over it; the reference is the mark, met on the way back at 6099h:02 with the immediate
+    // stop of homing_immediate, so the shaft stands just on the mark's CCW side.
+    (33, &[step(1, Crawl, Index), step(-1, Crawl, Index)]),
+    // 34: CCW at 6099h:02 to the index mark, then CW off it (as 33, mirrored).
+    (34, &[step(-1, Crawl, Index), step(1, Crawl, Index)]),
     // 35: the actual position becomes the home offset, no motion.
     (35, &[]),
     // −2 / −3: homing on block, CW / CCW at 6099h:01 until the shaft blocks (following error

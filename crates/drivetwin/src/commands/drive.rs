@@ -1,4 +1,5 @@
 use super::*;
+use drivetwin::master::cia402::VelocityMode;
 
 pub(crate) async fn drive_command(
     node: u8,
@@ -25,21 +26,15 @@ pub(crate) async fn drive_command(
             cia402::move_to(&mut c, target, relative, (velocity, accel, decel), timeout).await?;
         }
         DriveCommand::Velocity { velocity } => {
-            cia402::set_mode(&mut c, 3, timeout).await?;
-            c.download(0x60FF, 0, &velocity.to_le_bytes())
-                .await
-                .map_err(Cia402Error::from)?;
+            if cia402::run_at(&mut c, velocity, timeout).await? == VelocityMode::Vl {
+                eprintln!(
+                    "node {node} has no profile velocity mode (6502h bit 2): velocity mode VL \
+                     (6060h = 2), {velocity} in 6042h (units of 604Ch)"
+                );
+            }
         }
         DriveCommand::Torque { torque, slope } => {
-            cia402::set_mode(&mut c, 4, timeout).await?;
-            if let Some(s) = slope {
-                c.download(0x6087, 0, &s.to_le_bytes())
-                    .await
-                    .map_err(Cia402Error::from)?;
-            }
-            c.download(0x6071, 0, &torque.to_le_bytes())
-                .await
-                .map_err(Cia402Error::from)?;
+            cia402::run_torque(&mut c, torque, slope, timeout).await?;
         }
     }
     let moving = !matches!(
@@ -47,6 +42,11 @@ pub(crate) async fn drive_command(
         DriveCommand::State | DriveCommand::Enable | DriveCommand::Disable
     );
     if wait && moving {
+        if !matches!(command, DriveCommand::Move { .. }) {
+            // A velocity or torque target has no handshake: bit 10 may still be the old
+            // target's until the drive's next cycles have seen the new one.
+            tokio::time::sleep(cia402::SET_POINT_SETTLE).await;
+        }
         // Target reached in OPERATION ENABLED (bit 10 with the state bits).
         cia402::wait_for(&mut c, "target reached", timeout, |sw| {
             sw & 0x0400 != 0 && sw & 0x6F == 0x27
@@ -57,26 +57,40 @@ pub(crate) async fn drive_command(
     if bus.json {
         out!("{}", serde_json::to_string(&s).unwrap_or_default());
     } else {
-        out!(
-            "{} (statusword {:04X}h) mode {} position {} velocity {} current {}‰ torque {}‰{}{}",
-            s.state,
-            s.statusword,
-            s.mode,
-            s.position,
-            s.velocity,
-            s.current_permille,
-            s.torque_permille,
-            if s.target_reached {
-                ", target reached"
-            } else {
-                ""
-            },
-            if s.following_error {
-                ", FOLLOWING ERROR"
-            } else {
-                ""
-            }
-        );
+        out!("{}", describe(&s));
     }
     Ok(())
+}
+
+/// One line: state, mode and the actual values; "n/a (no 6078h)" for an object the drive
+/// does not have.
+fn describe(s: &cia402::Snapshot) -> String {
+    let velocity = match (s.velocity, s.velocity_object) {
+        (Some(v), Some("606Ch") | None) => v.to_string(),
+        (Some(v), Some(object)) => format!("{v} ({object})"),
+        (None, _) => "n/a (no 606Ch)".to_string(),
+    };
+    let permille = |v: Option<i16>, object: &str| {
+        v.map_or_else(|| format!("n/a (no {object})"), |v| format!("{v}‰"))
+    };
+    format!(
+        "{} (statusword {:04X}h) mode {} position {} velocity {} current {} torque {}{}{}",
+        s.state,
+        s.statusword,
+        s.mode,
+        s.position,
+        velocity,
+        permille(s.current_permille, "6078h"),
+        permille(s.torque_permille, "6077h"),
+        if s.target_reached {
+            ", target reached"
+        } else {
+            ""
+        },
+        if s.following_error {
+            ", FOLLOWING ERROR"
+        } else {
+            ""
+        }
+    )
 }

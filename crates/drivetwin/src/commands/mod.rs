@@ -99,6 +99,12 @@ impl CommandError {
             CommandError::Lss(LssError::NoResponse(_)) => EXIT_TIMEOUT,
             CommandError::Lss(LssError::Refused { .. }) => EXIT_PROTOCOL,
             CommandError::Cia402(Cia402Error::Timeout { .. }) => EXIT_TIMEOUT,
+            CommandError::Cia402(
+                Cia402Error::Missing { .. }
+                | Cia402Error::NoMode(..)
+                | Cia402Error::ModeRefused { .. },
+            ) => EXIT_ABORT,
+            CommandError::Cia402(Cia402Error::OutOfRange { .. }) => EXIT_USAGE,
             CommandError::Cia402(Cia402Error::Sdo(e)) => match e {
                 SdoError::Abort(_) => EXIT_ABORT,
                 SdoError::Timeout { .. } => EXIT_TIMEOUT,
