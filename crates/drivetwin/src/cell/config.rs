@@ -918,6 +918,11 @@ impl CellFile {
                     }
                     s.mode_change_time = std::time::Duration::from_secs_f64(ms / 1000.0);
                 }
+                // NT-NODE-07: no bit-rate code in 2005h, the controller takes no motion
+                // command: modelled as a power stage that cannot be switched on.
+                if rotary.is_some_and(|p| !p.motion_allowed) {
+                    s.enables_present = false;
+                }
                 Some(s)
             } else {
                 None
@@ -1207,6 +1212,26 @@ mod switches_tests {
             "[[drive]]\ndevice = \"{device}\"\nnode = 9\n{section}\n"
         ))
         .map(|mut v| v.remove(0))
+    }
+
+    /// NT-NODE-07 from a cell file: switches = node + 128 with no bit-rate code in 2005h: the
+    /// drive is built without enables, so it never leaves Switch On Disabled; with a code it
+    /// is a normal drive.
+    #[test]
+    fn nt_node_07_no_bit_rate_code_keeps_the_drive_from_moving() {
+        let d = nanotec(
+            "nanotec-smci47s",
+            "[drive.rotary_switches]\nleft = 5\nright = 8\n[drive.objects]\n\"2005:00\" = 0",
+        )
+        .unwrap();
+        assert_eq!(d.node, 5);
+        assert!(!d.settings.expect("a drive").enables_present);
+        let d = nanotec(
+            "nanotec-smci47s",
+            "[drive.rotary_switches]\nleft = 5\nright = 8\n[drive.objects]\n\"2005:00\" = 134",
+        )
+        .unwrap();
+        assert!(d.settings.expect("a drive").enables_present);
     }
 
     /// NT-NODE-01 from a cell file: SMCI47-S left = 1, right = 2 → node 33 (over `node`), and
