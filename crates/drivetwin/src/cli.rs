@@ -137,6 +137,10 @@ pub struct RunArgs {
     /// Bridge this SocketCAN interface (e.g. vcan0, can0) onto the bus.
     #[arg(long)]
     pub socketcan: Option<String>,
+    /// Join the socketcand server at ADDR as a client: the cell's (first) bus is that
+    /// server's bus, so several twin processes make one plant.
+    #[arg(long, value_name = "ADDR")]
+    pub socketcand_join: Option<String>,
     /// Where stored parameter sets live (one file per node; the CMMO-ST's permanent memory,
     /// PNU 127, as its parameter file). Without it, 1010h "save" and PNU 127:2 are accepted
     /// but nothing survives the process.

@@ -137,6 +137,9 @@ pub struct BusSection {
     pub bitrate: Option<u32>,
     /// A frame that waits longer than this for the bus counts as late (default 1000 µs).
     pub late_after_us: Option<u32>,
+    /// Join the socketcand server at this address as a client: the bus is that server's
+    /// bus (one plant over several processes or machines).
+    pub join: Option<String>,
 }
 
 impl BusSection {
@@ -156,6 +159,7 @@ impl Default for BusSection {
             socketcan: None,
             bitrate: None,
             late_after_us: None,
+            join: None,
         }
     }
 }

@@ -128,6 +128,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if let Some(c) = &args.socketcan {
         file.bus.first_mut().socketcan = Some(c.clone());
     }
+    if let Some(j) = &args.socketcand_join {
+        file.bus.first_mut().join = Some(j.clone());
+    }
     let mut specs = file.drives()?;
     // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
     // instead of CAN (as before the cell loop served both).
@@ -298,6 +301,15 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
                 .map_err(io(format!("SocketCAN {ifname}")))?;
             out!("SocketCAN bridge on {ifname}");
             bus.socketcan = Some(socket);
+        }
+        if let Some(addr) = &section.join {
+            let stream = drivetwin::can::socketcand::join::join(addr, &section.channel)
+                .map_err(|e| CommandError::Usage(e.to_string()))?;
+            out!(
+                "joined socketcand server {addr}, channel {}",
+                section.channel
+            );
+            bus.upstream = Some(stream);
         }
         // `--trace` records the first bus (unless it is an EtherCAT chain's pcap).
         if let (0, Some(p), true) = (b, &args.trace, pcap_writers.is_empty()) {

@@ -5,6 +5,7 @@
 //! (framing, parsing, formatting); [`server`] is the async TCP side.
 
 pub mod codec;
+pub mod join;
 pub mod server;
 pub mod session;
 

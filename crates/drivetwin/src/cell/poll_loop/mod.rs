@@ -56,10 +56,11 @@ const READS_PER_TURN: usize = 16;
 const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
-/// Bus `b` has tokens `1 + 2b` (its socketcand server) and `2 + 2b` (its SocketCAN socket).
+/// Bus `b` has tokens `1 + 3b` (its socketcand server), `2 + 3b` (its SocketCAN socket) and
+/// `3 + 3b` (the socketcand server it joins).
 pub const MAX_BUSES: usize = 7;
 /// EtherCAT chain `c` has token `FIRST_CHAIN + c`.
-const FIRST_CHAIN: usize = 2 * MAX_BUSES + 1;
+const FIRST_CHAIN: usize = 3 * MAX_BUSES + 1;
 /// EtherCAT chains (network interfaces) a cell serves at most.
 pub const MAX_CHAINS: usize = 4;
 /// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
@@ -77,6 +78,9 @@ pub struct CanBus {
     pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// Where every frame on the bus is written.
     pub trace: Option<TraceWriter>,
+    /// Another socketcand server whose bus this one is (`--socketcand-join`): connected and
+    /// in raw mode ([`crate::can::socketcand::join`]).
+    pub upstream: Option<std::net::TcpStream>,
 }
 
 impl CanBus {
@@ -88,6 +92,7 @@ impl CanBus {
             #[cfg(target_os = "linux")]
             socketcan: None,
             trace: None,
+            upstream: None,
         }
     }
 }
@@ -137,6 +142,17 @@ struct BusState {
     trace_dirty: bool,
     totals: Totals,
     last_stamp: SystemTime,
+    upstream: Option<Upstream>,
+}
+
+/// The socketcand server a bus joins: frames from it are on the bus; frames of the bus go to
+/// it as `< send >`.
+struct Upstream {
+    stream: TcpStream,
+    decoder: Decoder,
+    /// Bytes the server has not taken yet.
+    pending: Vec<u8>,
+    wants_write: bool,
 }
 
 /// Stops a running loop from another thread.
@@ -207,6 +223,8 @@ enum Source {
     Drives,
     Client(usize),
     SocketCan,
+    /// The socketcand server the bus joins.
+    Upstream,
 }
 
 struct Connection {
@@ -264,18 +282,34 @@ impl CellLoop {
                 l.set_nonblocking(true)?;
                 let mut l = TcpListener::from_std(l);
                 poll.registry()
-                    .register(&mut l, Token(1 + 2 * b), Interest::READABLE)?;
+                    .register(&mut l, Token(1 + 3 * b), Interest::READABLE)?;
                 socketcand = Some((l, config));
             }
             #[cfg(target_os = "linux")]
             if let Some(s) = &bus.socketcan {
                 poll.registry().register(
                     &mut mio::unix::SourceFd(&s.as_raw_fd()),
-                    Token(2 + 2 * b),
+                    Token(2 + 3 * b),
                     Interest::READABLE,
                 )?;
             }
+            let upstream = match bus.upstream {
+                Some(s) => {
+                    s.set_nonblocking(true)?;
+                    let mut stream = TcpStream::from_std(s);
+                    poll.registry()
+                        .register(&mut stream, Token(3 + 3 * b), Interest::READABLE)?;
+                    Some(Upstream {
+                        stream,
+                        decoder: Decoder::new(),
+                        pending: Vec::new(),
+                        wants_write: false,
+                    })
+                }
+                None => None,
+            };
             buses.push(BusState {
+                upstream,
                 cell: bus.cell,
                 socketcand,
                 #[cfg(target_os = "linux")]
@@ -427,11 +461,18 @@ impl CellLoop {
                         self.read_ethercat(t - FIRST_CHAIN);
                     }
                     Token(t) if t < FIRST_DYNAMIC => {
-                        let b = (t - 1) / 2;
-                        if t % 2 == 1 {
-                            self.accept_socketcand(b);
-                        } else {
-                            self.read_socketcan(b, now);
+                        let b = (t - 1) / 3;
+                        match (t - 1) % 3 {
+                            0 => self.accept_socketcand(b),
+                            1 => self.read_socketcan(b, now),
+                            _ => {
+                                if event.is_writable() {
+                                    self.flush_upstream(b);
+                                }
+                                if event.is_readable() || event.is_read_closed() {
+                                    self.read_upstream(b, now);
+                                }
+                            }
                         }
                     }
                     Token(t) => {
@@ -1050,6 +1091,17 @@ impl CellLoop {
                 }
             }
         }
+        if source != Source::Upstream {
+            if let Some(up) = bus.upstream.as_mut() {
+                // Formatted into the buffer: no allocation per frame.
+                let _ = write!(
+                    up.pending,
+                    "{}",
+                    crate::can::socketcand::Message::Send(frame)
+                );
+            }
+            self.flush_upstream(b);
+        }
         if Session::forwards(&frame) {
             let mut text = [0u8; FRAME_TEXT_MAX];
             let n = emit_frame(&frame, since_epoch, &mut text);
@@ -1196,4 +1248,114 @@ impl CellLoop {
 
     #[cfg(not(target_os = "linux"))]
     fn read_ethercat(&mut self, _c: usize) {}
+}
+
+impl CellLoop {
+    /// Frames from the socketcand server the bus joins: on the bus as any client's are.
+    fn read_upstream(&mut self, b: usize, now: Instant) {
+        let mut buf = [0u8; 4096];
+        let mut closed = false;
+        for _ in 0..READS_PER_TURN {
+            let Some(up) = self.buses.get_mut(b).and_then(|x| x.upstream.as_mut()) else {
+                return;
+            };
+            match up.stream.read(&mut buf) {
+                Ok(0) => {
+                    closed = true;
+                    break;
+                }
+                Ok(n) => up.decoder.push(buf.get(..n).unwrap_or(&[])),
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::error!(bus = b, error = %e, "socketcand server joined: read failed");
+                    closed = true;
+                    break;
+                }
+            }
+        }
+        loop {
+            let Some(up) = self.buses.get_mut(b).and_then(|x| x.upstream.as_mut()) else {
+                return;
+            };
+            let Some(m) = up.decoder.next_message() else {
+                break;
+            };
+            match m {
+                Ok(crate::can::socketcand::Message::Frame { frame, .. }) => {
+                    self.bus(b, frame, Source::Upstream, now);
+                }
+                Ok(other) => tracing::debug!(bus = b, message = %other, "socketcand server joined"),
+                Err(e) => {
+                    tracing::warn!(bus = b, error = %e, "socketcand server joined: bad message")
+                }
+            }
+        }
+        if closed {
+            // The bus goes on with its own drives and clients.
+            tracing::error!(
+                bus = b,
+                "the socketcand server joined closed the connection"
+            );
+            if let Some(mut up) = self.buses.get_mut(b).and_then(|x| x.upstream.take()) {
+                let _ = self.poll.registry().deregister(&mut up.stream);
+            }
+        }
+    }
+
+    /// Writes what waits for the socketcand server joined; registers for writability while
+    /// some is left; a server that takes nothing for [`MAX_PENDING`] bytes is left.
+    fn flush_upstream(&mut self, b: usize) {
+        let Some(up) = self.buses.get_mut(b).and_then(|x| x.upstream.as_mut()) else {
+            return;
+        };
+        let mut failed = false;
+        while !up.pending.is_empty() {
+            match up.stream.write(&up.pending) {
+                Ok(0) => {
+                    failed = true;
+                    break;
+                }
+                Ok(n) => {
+                    up.pending.drain(..n.min(up.pending.len()));
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::error!(bus = b, error = %e, "socketcand server joined: write failed");
+                    failed = true;
+                    break;
+                }
+            }
+        }
+        let wants_write = !up.pending.is_empty();
+        if up.pending.len() > MAX_PENDING {
+            tracing::error!(
+                bus = b,
+                "the socketcand server joined does not take frames; left"
+            );
+            failed = true;
+        }
+        if failed {
+            if let Some(mut up) = self.buses.get_mut(b).and_then(|x| x.upstream.take()) {
+                let _ = self.poll.registry().deregister(&mut up.stream);
+            }
+            return;
+        }
+        if wants_write != up.wants_write {
+            up.wants_write = wants_write;
+            let interest = if wants_write {
+                Interest::READABLE | Interest::WRITABLE
+            } else {
+                Interest::READABLE
+            };
+            if let Err(e) =
+                self.poll
+                    .registry()
+                    .reregister(&mut up.stream, Token(3 + 3 * b), interest)
+            {
+                tracing::error!(bus = b, error = %e, "socketcand server joined: reregister failed");
+            }
+        }
+    }
 }

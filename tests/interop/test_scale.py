@@ -1,0 +1,74 @@
+"""A whole machine: a cell of 127 nodes of mixed personalities on one bus, scanned by
+`drivetwin scan` and read node by node by python-canopen; and one bus made of two twin
+processes (`--socketcand-join`), seen whole by a master on a third connection.
+"""
+
+from __future__ import annotations
+
+import json
+
+from conftest import CHANNEL, run_cli, wait_until
+
+# CiA 402 personalities answer 1000h with their device type; the test bench is a CiA 301 device.
+PERSONALITIES = ["cmmp-as", "nanotec-smci47s", "testbench", "nanotec-pd4n"]
+
+
+def test_127_nodes_of_mixed_personalities_pass_scan_and_sdo(launch, connect, eds_files, tmp_path):
+    lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
+    for n in range(1, 128):
+        lines += ["[[drive]]", f'device = "{PERSONALITIES[n % len(PERSONALITIES)]}"', f"node = {n}", ""]
+    cell = tmp_path / "machine.toml"
+    cell.write_text("\n".join(lines))
+    twin = launch(config=cell)
+    r = run_cli("scan", "--socketcand", twin.addr, "--channel", CHANNEL, "--timeout-ms", "2000",
+                "--json", timeout=60)
+    assert r.returncode == 0, r.stderr
+    found = {n["node"]: n["device_type"] for n in json.loads(r.stdout)}
+    assert sorted(found) == list(range(1, 128)), sorted(set(range(1, 128)) - set(found))
+
+    net = connect(twin)
+    for n in range(1, 128):
+        node = net.add_node(n, str(eds_files[PERSONALITIES[n % len(PERSONALITIES)]]))
+        node.sdo.RESPONSE_TIMEOUT = 2.0
+        assert node.sdo[0x1000].raw == found[n], n
+        # The vendor-ID as the personality's EDS gives it: every node answers for itself.
+        assert node.sdo[0x1018][1].raw == node.object_dictionary[0x1018][1].default, n
+
+
+def test_two_twin_processes_make_one_bus(launch, connect, raw_bus, eds_files, tmp_path):
+    first = tmp_path / "first.toml"
+    first.write_text("\n".join(["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
+                                "[[drive]]", 'device = "cmmp-as"', "node = 1", "",
+                                "[[drive]]", 'device = "cmmp-as"', "node = 2", ""]))
+    a = launch(config=first)
+    # A master on a third connection, there before the second twin boots: it sees its boot-up.
+    bus = raw_bus(a)
+    second = tmp_path / "second.toml"
+    second.write_text("\n".join(["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
+                                 "[[drive]]", 'device = "nanotec-smci47s"', "node = 3", "",
+                                 "[[drive]]", 'device = "testbench"', "node = 4", ""]))
+    b = launch(config=second, extra=("--socketcand-join", a.addr))
+    joined = f"joined socketcand server {a.addr}, channel {CHANNEL}"
+    wait_until(lambda: joined in b.stdout_lines, 5.0, what=joined)
+    boot = set()
+
+    def booted():
+        m = bus.recv(0.1)
+        if m is not None and m.arbitration_id in (0x703, 0x704) and bytes(m.data) == b"\x00":
+            boot.add(m.arbitration_id)
+        return boot == {0x703, 0x704}
+
+    wait_until(booted, 5.0, interval=0, what="the second twin's boot-up messages on the first's bus")
+
+    # One master on the first twin's server reaches all four nodes.
+    net = connect(a)
+    for n, dev in ((1, "cmmp-as"), (2, "cmmp-as"), (3, "nanotec-smci47s"), (4, "testbench")):
+        node = net.add_node(n, str(eds_files[dev]))
+        node.sdo.RESPONSE_TIMEOUT = 2.0
+        assert node.sdo[0x1018][1].raw == node.object_dictionary[0x1018][1].default, n
+    # And one on the second twin's own server sees the first's nodes through it.
+    other = connect(b)
+    node = other.add_node(1, str(eds_files["cmmp-as"]))
+    node.sdo.RESPONSE_TIMEOUT = 2.0
+    node.sdo[0x6065].raw = 4321
+    assert net.nodes[1].sdo[0x6065].raw == 4321
