@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import threading
 import time
+import urllib.error
 import urllib.request
 
 from conftest import CHANNEL, wait_until
@@ -103,3 +104,45 @@ def test_bus_load_at_500_kbit_matches_the_bit_formula(launch, connect, raw_bus, 
     # A late frame is real here: a master held off the CPU sends its missed SYNCs in a burst,
     # and 20 TPDOs behind each of them wait for the bus. Rare, never lost.
     assert b["dropped"] == 0 and b["late"] <= 0.02 * b["frames"], json.dumps(b)
+
+
+def test_bus_faults_from_the_cell_file_and_the_web_console(launch, connect, eds_files, tmp_path):
+    """A CMMP-AS disturbed by the cell file's plan goes bus off and to FAULT, its 12-1 EMCY
+    (8120h) arriving once it is back; a Nanotec disturbed through the web console goes bus off
+    and sends 8140h on recovery (CiA 301), both seen by python-canopen's EMCY consumer."""
+    cell = tmp_path / "faults.toml"
+    cell.write_text("\n".join([
+        "[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', f"bitrate = {BITRATE}",
+        "[[bus.disturb]]", "at_ms = 1500", "node = 1", "frames = 32", "",
+        "[[drive]]", 'device = "cmmp-as"', "node = 1", "[drive.objects]", '"1017:00" = 20', "",
+        "[[drive]]", 'device = "nanotec-smci47s"', "node = 3", "[drive.objects]", '"1017:00" = 20', "",
+    ]))
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
+                      5.0, what="the web console")
+    url = line.removeprefix("web console on ")
+    net = connect(twin)
+    cmmp = net.add_node(1, str(eds_files["cmmp-as"]))
+    nanotec = net.add_node(3, str(eds_files["nanotec-smci47s"]))
+    wait_until(lambda: any(e.code == 0x8120 for e in cmmp.emcy.log), 5.0,
+               what="the CMMP-AS's 12-1 EMCY after its planned bus off")
+    assert cmmp.sdo[0x6041].raw & 0x0008, "FAULT"
+
+    req = urllib.request.Request(url + "api/buses/0/disturb", method="POST",
+                                 data=json.dumps({"node": 3, "frames": 32}).encode(),
+                                 headers={"Content-Type": "application/json"})
+    buses = json.load(urllib.request.urlopen(req, timeout=5))
+    assert buses[0]["bitrate"] == BITRATE
+    wait_until(lambda: [e.code for e in nanotec.emcy.log][-2:] == [0x8140, 0x0000], 5.0,
+               what=f"8140h then 0000h from the Nanotec: {[hex(e.code) for e in nanotec.emcy.log]}")
+    # Back on the bus, counters at zero: no node listed with errors.
+    buses = json.load(urllib.request.urlopen(url + "api/buses", timeout=5))
+    assert all(e["node"] != 3 for e in buses[0]["node_errors"]), buses
+    bad = urllib.request.Request(url + "api/buses/0/disturb", method="POST",
+                                 data=json.dumps({"node": 99, "frames": 32}).encode(),
+                                 headers={"Content-Type": "application/json"})
+    try:
+        urllib.request.urlopen(bad, timeout=5)
+        raise AssertionError("a node not on the bus is refused")
+    except urllib.error.HTTPError as e:
+        assert e.code == 404, e.code

@@ -78,6 +78,17 @@ impl EmcyProducer {
         ]);
     }
 
+    /// Sends the EMCY of an active error again (its frame was lost, e.g. with the node off
+    /// the bus); nothing for an error not active. 1003h keeps its one entry.
+    pub fn repeat(&mut self, code: u16) {
+        if !self.is_active(code) {
+            return;
+        }
+        let reg = self.register();
+        let [c0, c1] = code.to_le_bytes();
+        self.enqueue([c0, c1, reg, 0, 0, 0, 0, 0]);
+    }
+
     /// An error goes away; when none is left the error-free EMCY (0000h) is sent.
     pub fn clear(&mut self, od: &mut dyn ObjectAccess, code: u16) {
         let before = self.active.len();

@@ -6,6 +6,7 @@
 pub mod ci_terminal;
 pub mod decode;
 pub mod emcy;
+pub mod fault_confinement;
 pub mod frame;
 pub mod frame_time;
 pub mod heartbeat;

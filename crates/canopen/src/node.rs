@@ -183,6 +183,11 @@ impl<const N: usize> Node<N> {
         self.emcy.raise(od, code, register_bits, vendor);
     }
 
+    /// The EMCY of an active error again (its frame was lost).
+    pub fn repeat_error(&mut self, code: u16) {
+        self.emcy.repeat(code);
+    }
+
     /// The device clears an error; the last one cleared sends EMCY 0000h.
     pub fn clear_error(&mut self, od: &mut dyn ObjectAccess, code: u16) {
         self.emcy.clear(od, code);

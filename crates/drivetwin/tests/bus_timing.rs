@@ -176,3 +176,80 @@ fn without_a_bit_rate_frames_cross_at_once() {
     assert!(beats.iter().all(|(t, _)| *t == Duration::from_millis(100)));
     assert!(cell.bus_figures(Instant::from_millis(150)).is_none());
 }
+
+/// EMCY frames of node `node` (80h + node) in `out` after `from`: (time, code).
+fn emcys(out: &[(Duration, CanFrame)], node: u32, from: Duration) -> Vec<(Duration, u16)> {
+    out.iter()
+        .filter(|(t, f)| *t >= from && f.id == 0x80 + node)
+        .map(|(t, f)| (*t, u16::from_le_bytes([f.payload()[0], f.payload()[1]])))
+        .collect()
+}
+
+fn heartbeats(out: &[(Duration, CanFrame)], node: u32) -> Vec<Duration> {
+    out.iter()
+        .filter(|(_, f)| f.id == 0x700 + node && f.payload() == [0x7F])
+        .map(|(t, _)| *t)
+        .collect()
+}
+
+/// ISSUE14 faults: a disturbed node's transmit errors (8 each) make it error passive at 16 and
+/// take it off the bus at 32 (ISO 11898-1); each personality reacts as its manual says. The
+/// Kinco FD3 (CiA 301's usage: its manual has no entry) sends EMCY 8120h when passive and 0000h
+/// when active again; the Nanotec
+/// 8140h and 0000h after bus-off recovery; the CMMP-AS goes to FAULT with 12-1 "CAN: bus off" (8120h),
+/// whose EMCY leaves once it is back on the bus (1408 bit times later).
+#[test]
+fn error_passive_and_bus_off_with_each_personalitys_reaction() {
+    let heartbeat = 10u16.to_le_bytes();
+    let hb = commissioning(&[(0x1017, 0, &heartbeat)]);
+    let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
+    let kinco = devices::by_name("kinco-fd3").expect("kinco-fd3");
+    let nanotec = devices::by_name("nanotec-smci47s").expect("nanotec");
+    let drives = vec![
+        CanDrive::with_settings(cmmp, 1, None, hb.clone(), Some(Default::default())).expect("1"),
+        CanDrive::new(kinco, 2, None, hb.clone()).expect("2"),
+        CanDrive::with_settings(nanotec, 3, None, hb.clone(), Some(Default::default())).expect("3"),
+    ];
+    let mut cell = Cell::new(drives).with_bitrate(500_000, Duration::from_millis(1));
+    let at = |ms| Instant::from_millis(ms);
+    cell.plan_disturbance(at(100), 2, 16);
+    cell.plan_disturbance(at(200), 3, 32);
+    cell.plan_disturbance(at(300), 1, 32);
+    // NMT start: heartbeats say 05h (operational)… the test looks at the 7Fh ones of Pre-Op.
+    let out = run(&mut cell, &[], Duration::from_millis(400));
+
+    // Kinco: passive on its 16th failed heartbeat, active again with the next good one.
+    let bench_emcy = emcys(&out, 2, Duration::from_millis(100));
+    assert_eq!(
+        bench_emcy.iter().map(|(_, c)| *c).collect::<Vec<_>>(),
+        [0x8120, 0x0000],
+        "{bench_emcy:?}"
+    );
+    // Nanotec: its 8120h fails with the rest of its frames, then it is off the bus (no
+    // heartbeat for the recovery); back, 8140h and its clearing (0000h), as CiA 301 has it.
+    let nt = emcys(&out, 3, Duration::from_millis(200));
+    assert_eq!(
+        nt.iter().map(|(_, c)| *c).collect::<Vec<_>>(),
+        [0x8140, 0x0000],
+        "{nt:?}"
+    );
+    let beats = heartbeats(&out, 3);
+    let gap = beats
+        .windows(2)
+        .filter(|w| w[0] >= Duration::from_millis(195))
+        .map(|w| w[1] - w[0])
+        .next()
+        .expect("heartbeats after the disturbance");
+    assert!(gap >= Duration::from_millis(10), "{gap:?}");
+    // CMMP-AS: bus off, then FAULT (6041h bit 3) and its 12-1 EMCY once back.
+    let cm = emcys(&out, 1, Duration::from_millis(300));
+    assert!(cm.iter().any(|(_, c)| *c == 0x8120), "{cm:?}");
+    let mut sw = [0u8; 2];
+    od::ObjectAccess::read(&cell.drives[0].model, 0x6041, 0, &mut sw).expect("6041h");
+    assert_ne!(u16::from_le_bytes(sw) & 0x0008, 0, "FAULT: {sw:02X?}");
+    // Everybody is back on the bus and error active.
+    assert!(cell
+        .node_faults()
+        .iter()
+        .all(|f| f.confinement.state() == canopen::fault_confinement::ErrorState::Active));
+}

@@ -169,6 +169,43 @@ impl CanDrive {
         )
     }
 
+    /// Its CAN controller changed error state: the personality's reaction
+    /// ([`crate::can::bus_faults`]).
+    pub fn bus_state_changed(
+        &mut self,
+        now: Instant,
+        t: canopen::fault_confinement::Transition,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
+        use crate::can::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
+        tracing::warn!(
+            node = self.node_id(),
+            from = t.from.name(),
+            to = t.to.name(),
+            "CAN controller"
+        );
+        let device = self.model.od().description().name;
+        for r in react(device, t) {
+            match *r {
+                Reaction::Raise(code) => {
+                    self.node
+                        .raise_error(&mut self.model, code, COMMUNICATION_REGISTER, [0; 5])
+                }
+                Reaction::Clear(code) => self.node.clear_error(&mut self.model, code),
+                Reaction::Repeat(code) => self.node.repeat_error(code),
+                Reaction::Fault(code) => {
+                    if let Some(d) = self.model.drive_mut() {
+                        // Raised once; its cause is gone with the bus back, so a fault reset
+                        // clears it. Its EMCY is lost with the bus off; `recovered` sends it.
+                        d.inject_fault(code, COMMUNICATION_REGISTER);
+                        d.clear_fault(code);
+                    }
+                }
+            }
+        }
+        self.poll(now, out);
+    }
+
     pub fn node_id(&self) -> u8 {
         self.node.node_id()
     }

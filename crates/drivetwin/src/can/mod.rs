@@ -2,6 +2,7 @@
 //! server, the SocketCAN bridge, and a drive's CiA 301 node.
 
 pub mod bus;
+pub mod bus_faults;
 pub mod drive;
 pub mod socketcan;
 pub mod socketcand;

@@ -97,6 +97,10 @@ impl BusTiming {
         self.bus.deadline()
     }
 
+    pub fn bitrate(&self) -> u32 {
+        self.bus.bitrate()
+    }
+
     /// The figures as of `now`.
     pub fn figures(&mut self, now: Instant) -> BusFigures {
         self.roll_window(now);

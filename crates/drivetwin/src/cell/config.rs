@@ -140,6 +140,20 @@ pub struct BusSection {
     /// Join the socketcand server at this address as a client: the bus is that server's
     /// bus (one plant over several processes or machines).
     pub join: Option<String>,
+    /// Planned disturbances: `[[bus.disturb]]` with `at_ms`, `node` and `frames` (that many
+    /// of the node's next transmissions fail with an error frame: 16 make it error passive,
+    /// 32 take it off the bus).
+    #[serde(default)]
+    pub disturb: Vec<DisturbSection>,
+}
+
+/// One planned disturbance of a node's transmissions.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbSection {
+    pub at_ms: u64,
+    pub node: u8,
+    pub frames: u32,
 }
 
 impl BusSection {
@@ -160,6 +174,7 @@ impl Default for BusSection {
             bitrate: None,
             late_after_us: None,
             join: None,
+            disturb: Vec::new(),
         }
     }
 }

@@ -82,6 +82,8 @@ pub enum ControlError {
     Stopped,
     #[error("no drive {0} in the cell")]
     NoDrive(usize),
+    #[error("no node {node} on bus {bus}")]
+    NoNode { bus: usize, node: u8 },
     #[error("drive {0} has no simulated plant")]
     NoPlant(usize),
     #[error("refused: {0:?}")]
@@ -96,12 +98,20 @@ pub struct BusInfo {
     pub drives: usize,
     /// With a bit rate in the cell file: what the bus did (load, late and lost frames).
     pub timing: Option<crate::cell::bus_timing::BusFigures>,
+    /// Nodes whose CAN controller counts errors: (node-ID, state, TEC, REC).
+    pub node_errors: Vec<(u8, canopen::fault_confinement::ErrorState, u16, u16)>,
 }
 
 /// One request to the loop.
 pub(crate) enum Command {
     Drives(SyncSender<Vec<DriveInfo>>),
     Buses(SyncSender<Vec<BusInfo>>),
+    Disturb {
+        bus: usize,
+        node: u8,
+        frames: u32,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
     Read {
         drive: usize,
         index: u16,
@@ -172,6 +182,17 @@ impl ControlHandle {
     /// The cell's CAN buses, with their load where they have a bit rate.
     pub fn buses(&self) -> Result<Vec<BusInfo>, ControlError> {
         self.ask(Command::Buses)
+    }
+
+    /// The next `frames` transmissions of node `node` on bus `bus` fail with an error frame
+    /// (16: error passive, 32: bus off).
+    pub fn disturb(&self, bus: usize, node: u8, frames: u32) -> Result<(), ControlError> {
+        self.ask(|reply| Command::Disturb {
+            bus,
+            node,
+            frames,
+            reply,
+        })?
     }
 
     /// The value of an object, as its bytes (little-endian, as on CANopen).

@@ -16,25 +16,56 @@ pub mod runtime;
 
 use std::collections::VecDeque;
 
+use canopen::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
+use canopen::frame_time::bits_to_nanos;
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
 use crate::can::drive::CanDrive;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
 
+/// Decision: without a bit rate the bus has no bit time, but a bus-off node still needs one
+/// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
+const UNTIMED_BITRATE: u32 = 1_000_000;
+
 pub struct Cell {
     pub drives: Vec<CanDrive>,
     queue: VecDeque<(CanFrame, Option<usize>)>,
     /// The bus's bit time; none: frames cross at once (no bit rate in the cell file).
     timing: Option<Box<BusTiming>>,
+    /// Each drive's CAN controller: error counters and the transmit errors still to inject.
+    faults: Vec<NodeFaults>,
+    /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
+    planned: Vec<(Instant, u8, u32)>,
+}
+
+/// One drive's CAN controller.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NodeFaults {
+    pub confinement: FaultConfinement,
+    /// Its next transmissions that fail with an error frame.
+    pub disturb: u32,
+}
+
+/// What became of one transmission attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Attempt {
+    Delivered,
+    /// An error frame: the sender tries again if it is still on the bus.
+    Failed,
+    /// The sender is off the bus.
+    Dropped,
 }
 
 impl Cell {
     pub fn new(drives: Vec<CanDrive>) -> Self {
+        let faults = vec![NodeFaults::default(); drives.len()];
         Cell {
             drives,
             queue: VecDeque::new(),
             timing: None,
+            faults,
+            planned: Vec::new(),
         }
     }
 
@@ -50,8 +81,32 @@ impl Cell {
         self.timing.as_mut().map(|t| t.figures(now))
     }
 
+    /// The next `frames` transmissions of drive `drive` fail with an error frame (a
+    /// disturbed line at its connector): 16 make it error passive, 32 take it off the bus.
+    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
+        self.fit_faults();
+        match self.faults.get_mut(drive) {
+            Some(f) => {
+                f.disturb = f.disturb.saturating_add(frames);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Plans [`disturb`](Self::disturb) of the drive with node-ID `node` at `at`.
+    pub fn plan_disturbance(&mut self, at: Instant, node: u8, frames: u32) {
+        self.planned.push((at, node, frames));
+    }
+
+    /// Each drive's CAN controller, in cell order.
+    pub fn node_faults(&self) -> &[NodeFaults] {
+        &self.faults
+    }
+
     /// Boots every drive; the boot-up messages go to `out`.
     pub fn boot(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        self.fit_faults();
         let Cell { drives, queue, .. } = self;
         for (i, d) in drives.iter_mut().enumerate() {
             d.boot(now, &mut |f| queue.push_back((f, Some(i))));
@@ -67,10 +122,7 @@ impl Cell {
             self.deliver(now, out);
             return;
         }
-        let Cell { drives, queue, .. } = self;
-        for (i, d) in drives.iter_mut().enumerate() {
-            d.on_frame(now, frame, &mut |f| queue.push_back((f, Some(i))));
-        }
+        self.attempt(None, frame, now, out);
         self.deliver(now, out);
     }
 
@@ -91,8 +143,18 @@ impl Cell {
 
     /// Runs the drives' timers; returns the next deadline.
     pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
-        let Cell { drives, queue, .. } = self;
-        for (i, d) in drives.iter_mut().enumerate() {
+        self.fit_faults();
+        self.start_planned(now);
+        let Cell {
+            drives,
+            queue,
+            faults,
+            ..
+        } = self;
+        for (i, (d, f)) in drives.iter_mut().zip(faults.iter_mut()).enumerate() {
+            if let Some(t) = f.confinement.poll(now) {
+                d.bus_state_changed(now, t, &mut |f| queue.push_back((f, Some(i))));
+            }
             d.poll(now, &mut |f| queue.push_back((f, Some(i))));
         }
         self.deliver(now, out);
@@ -101,9 +163,45 @@ impl Cell {
 
     pub fn deadline(&self) -> Option<Instant> {
         let bus = self.timing.as_ref().and_then(|t| t.deadline());
+        let planned = self.planned.iter().map(|(t, _, _)| *t).min();
+        let recovery = self
+            .faults
+            .iter()
+            .filter_map(|f| f.confinement.deadline())
+            .min();
         self.drives
             .iter()
-            .fold(bus, |acc, d| earliest(acc, d.deadline()))
+            .fold(earliest(earliest(bus, planned), recovery), |acc, d| {
+                earliest(acc, d.deadline())
+            })
+    }
+
+    /// A drive added after the cell was made gets its controller.
+    fn fit_faults(&mut self) {
+        self.faults.resize(self.drives.len(), NodeFaults::default());
+    }
+
+    fn start_planned(&mut self, now: Instant) {
+        let mut i = 0;
+        while let Some(&(at, node, frames)) = self.planned.get(i) {
+            if at > now {
+                i += 1;
+                continue;
+            }
+            self.planned.swap_remove(i);
+            match self.drives.iter().position(|d| d.node_id() == node) {
+                Some(d) => {
+                    self.disturb(d, frames);
+                }
+                None => tracing::warn!(node, "disturbance planned for a node not on the bus"),
+            }
+        }
+    }
+
+    fn bitrate(&self) -> u32 {
+        self.timing
+            .as_ref()
+            .map_or(UNTIMED_BITRATE, |t| t.bitrate())
     }
 
     /// Sends queued frames to the bus and to every other drive of the cell, in order; with a
@@ -114,50 +212,125 @@ impl Cell {
             return;
         }
         while let Some((frame, origin)) = self.queue.pop_front() {
-            out.push(frame);
-            let Cell { drives, queue, .. } = self;
-            for (i, d) in drives.iter_mut().enumerate() {
-                if Some(i) != origin {
-                    d.on_frame(now, &frame, &mut |f| queue.push_back((f, Some(i))));
-                }
-            }
+            // A failed frame is sent again at once, until it passes or its node is off.
+            while self.attempt(origin, &frame, now, out) == Attempt::Failed {}
         }
     }
 
     /// Timed bus: the drives' new frames enter the arbitration at `now`; every frame that has
     /// crossed by `now` goes out (a drive's) and to the other drives at its end of frame,
-    /// whose answers enter the arbitration then.
+    /// whose answers enter the arbitration then. A failed frame tries again after its error
+    /// frame.
     fn cross(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        self.submit_queue(now);
+        while let Some(tx) = self.timing.as_mut().and_then(|t| t.poll(now)) {
+            let origin = (tx.source != OUTSIDE).then_some(usize::from(tx.source));
+            if self.attempt(origin, &tx.frame, tx.end, out) == Attempt::Failed {
+                let bitrate = self.bitrate();
+                let again = Instant::from_nanos(
+                    tx.end.as_nanos() + bits_to_nanos(ERROR_FRAME_BITS, bitrate),
+                );
+                if let Some(t) = self.timing.as_mut() {
+                    t.submit(again, tx.source, tx.frame);
+                }
+            }
+            self.submit_queue(tx.end);
+        }
+    }
+
+    /// The drives' frames enter the arbitration at `at`; a node off the bus sends nothing.
+    fn submit_queue(&mut self, at: Instant) {
         let Cell {
-            drives,
             queue,
             timing,
+            faults,
+            ..
         } = self;
         let Some(timing) = timing.as_mut() else {
             return;
         };
-        let submit = |timing: &mut BusTiming,
-                      at: Instant,
-                      queue: &mut VecDeque<(CanFrame, Option<usize>)>| {
-            while let Some((frame, origin)) = queue.pop_front() {
-                let source = origin
-                    .and_then(|i: usize| u16::try_from(i).ok())
-                    .unwrap_or(OUTSIDE);
-                timing.submit(at, source, frame);
+        while let Some((frame, origin)) = queue.pop_front() {
+            if origin.is_some_and(|i| faults.get(i).is_some_and(|f| !f.confinement.on_bus())) {
+                continue;
+            }
+            let source = origin
+                .and_then(|i| u16::try_from(i).ok())
+                .unwrap_or(OUTSIDE);
+            timing.submit(at, source, frame);
+        }
+    }
+
+    /// One transmission of `frame` by `origin` (`None`: from outside) ending at `at`: an
+    /// error frame when the sender is disturbed, else the frame on the bus, to `out` (a
+    /// drive's) and to every other drive on the bus. The controllers count either.
+    fn attempt(
+        &mut self,
+        origin: Option<usize>,
+        frame: &CanFrame,
+        at: Instant,
+        out: &mut Vec<CanFrame>,
+    ) -> Attempt {
+        let bitrate = self.bitrate();
+        let Cell {
+            drives,
+            queue,
+            faults,
+            ..
+        } = self;
+        let react = |drives: &mut Vec<CanDrive>,
+                     queue: &mut VecDeque<(CanFrame, Option<usize>)>,
+                     i: usize,
+                     t: Option<Transition>| {
+            if let (Some(t), Some(d)) = (t, drives.get_mut(i)) {
+                d.bus_state_changed(at, t, &mut |f| queue.push_back((f, Some(i))));
             }
         };
-        submit(timing, now, queue);
-        while let Some(tx) = timing.poll(now) {
-            let origin = (tx.source != OUTSIDE).then_some(usize::from(tx.source));
-            if origin.is_some() {
-                out.push(tx.frame);
+        if let Some(i) = origin {
+            let Some(f) = faults.get_mut(i) else {
+                return Attempt::Dropped;
+            };
+            if !f.confinement.on_bus() {
+                return Attempt::Dropped;
             }
-            for (i, d) in drives.iter_mut().enumerate() {
-                if Some(i) != origin {
-                    d.on_frame(tx.end, &tx.frame, &mut |f| queue.push_back((f, Some(i))));
+            if f.disturb > 0 {
+                f.disturb -= 1;
+                let t = f.confinement.transmit_error(at, bitrate);
+                react(drives, queue, i, t);
+                for j in 0..faults.len() {
+                    if j != i {
+                        let t = faults
+                            .get_mut(j)
+                            .and_then(|f| f.confinement.receive_error());
+                        react(drives, queue, j, t);
+                    }
                 }
+                let on_bus = faults.get(i).is_some_and(|f| f.confinement.on_bus());
+                return if on_bus {
+                    Attempt::Failed
+                } else {
+                    Attempt::Dropped
+                };
             }
-            submit(timing, tx.end, queue);
+            let t = f.confinement.transmit_ok();
+            react(drives, queue, i, t);
+            out.push(*frame);
         }
+        for j in 0..drives.len() {
+            if Some(j) == origin {
+                continue;
+            }
+            let Some(f) = faults.get_mut(j) else {
+                continue;
+            };
+            if !f.confinement.on_bus() {
+                continue;
+            }
+            let t = f.confinement.receive_ok();
+            react(drives, queue, j, t);
+            if let Some(d) = drives.get_mut(j) {
+                d.on_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
+            }
+        }
+        Attempt::Delivered
     }
 }

@@ -106,9 +106,15 @@ pub(crate) fn build_cell(
     let cells = drives
         .into_iter()
         .zip(buses)
-        .map(|(d, section)| match section.timing() {
-            Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
-            None => Cell::new(d),
+        .map(|(d, section)| {
+            let mut cell = match section.timing() {
+                Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
+                None => Cell::new(d),
+            };
+            for p in &section.disturb {
+                cell.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
+            }
+            cell
         })
         .collect();
     Ok((cells, in_cell))

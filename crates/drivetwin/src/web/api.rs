@@ -76,7 +76,7 @@ impl From<ControlError> for ApiError {
     fn from(e: ControlError) -> ApiError {
         match e {
             ControlError::Abort(code) => ApiError::abort(code),
-            ControlError::NoDrive(_) | ControlError::NoPlant(_) => {
+            ControlError::NoDrive(_) | ControlError::NoPlant(_) | ControlError::NoNode { .. } => {
                 ApiError::not_found(e.to_string())
             }
             ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
@@ -250,28 +250,90 @@ pub struct BusView {
     pub dropped: Option<u64>,
     /// The longest wait of a frame for the bus, µs.
     pub longest_wait_us: Option<u64>,
+    /// Nodes whose CAN controller counts errors.
+    pub node_errors: Vec<NodeErrorView>,
+}
+
+/// A node's CAN controller (ISO 11898-1 fault confinement).
+#[derive(Debug, Serialize, ToSchema)]
+pub struct NodeErrorView {
+    pub node: u8,
+    /// `error active`, `error passive` or `bus off`.
+    pub state: String,
+    /// Transmit and receive error counters.
+    pub tec: u16,
+    pub rec: u16,
+}
+
+fn bus_views(h: &ControlHandle) -> Result<Vec<BusView>, ApiError> {
+    Ok(h.buses()?
+        .into_iter()
+        .map(|b| BusView {
+            index: b.index,
+            drives: b.drives,
+            bitrate: b.timing.map(|t| t.bitrate),
+            load_percent: b.timing.map(|t| t.load_percent),
+            frames: b.timing.map(|t| t.frames),
+            late: b.timing.map(|t| t.late),
+            dropped: b.timing.map(|t| t.dropped),
+            longest_wait_us: b
+                .timing
+                .map(|t| u64::try_from(t.longest_wait.as_micros()).unwrap_or(u64::MAX)),
+            node_errors: b
+                .node_errors
+                .iter()
+                .map(|(node, state, tec, rec)| NodeErrorView {
+                    node: *node,
+                    state: state.name().to_owned(),
+                    tec: *tec,
+                    rec: *rec,
+                })
+                .collect(),
+        })
+        .collect())
 }
 
 /// The cell's CAN buses and their load.
 #[utoipa::path(get, path = "/api/buses", tag = "buses",
     responses((status = 400, body = ApiError), (status = 200, body = [BusView])))]
 async fn list_buses(State(s): State<AppState>) -> ApiResult<Vec<BusView>> {
-    call(&s.handle, |h| {
-        Ok(h.buses()?
-            .into_iter()
-            .map(|b| BusView {
-                index: b.index,
-                drives: b.drives,
-                bitrate: b.timing.map(|t| t.bitrate),
-                load_percent: b.timing.map(|t| t.load_percent),
-                frames: b.timing.map(|t| t.frames),
-                late: b.timing.map(|t| t.late),
-                dropped: b.timing.map(|t| t.dropped),
-                longest_wait_us: b
-                    .timing
-                    .map(|t| u64::try_from(t.longest_wait.as_micros()).unwrap_or(u64::MAX)),
-            })
-            .collect())
+    call(&s.handle, bus_views).await.map(Json)
+}
+
+/// A disturbance of one node's transmissions.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DisturbBody {
+    /// The node-ID whose next transmissions fail.
+    #[schema(minimum = 1, maximum = 127)]
+    pub node: u8,
+    /// How many fail with an error frame (16: error passive, 32: bus off).
+    #[schema(minimum = 1, maximum = 1000)]
+    pub frames: u32,
+}
+
+/// Fault injection on the bus: the node's next transmissions fail with an error frame; its
+/// controller counts them (ISO 11898-1) and the drive reacts as its manual says.
+#[utoipa::path(post, path = "/api/buses/{bus}/disturb", tag = "buses",
+    params(("bus" = u32, Path, description = "the bus's index in the cell")),
+    request_body = DisturbBody,
+    responses((status = 415, body = ApiError), (status = 200, body = [BusView]), (status = 400, body = ApiError),
+        (status = 401, body = ApiError), (status = 404, body = ApiError)))]
+async fn disturb(
+    State(s): State<AppState>,
+    Path(bus): Path<String>,
+    body: Result<Json<DisturbBody>, JsonRejection>,
+) -> ApiResult<Vec<BusView>> {
+    let Json(body) = body?;
+    let bus: usize = bus
+        .parse()
+        .map_err(|_| ApiError::bad(format!("bus {bus:?}: not a bus index (0, 1, …)")))?;
+    if !(1..=127).contains(&body.node) || !(1..=1000).contains(&body.frames) {
+        return Err(ApiError::bad("node 1…127 and frames 1…1000".to_owned()));
+    }
+    call(&s.handle, move |h| {
+        h.disturb(bus, body.node, body.frames)?;
+        bus_views(h)
     })
     .await
     .map(Json)
@@ -732,6 +794,7 @@ async fn set_load(
     ),
     paths(
         list_buses,
+        disturb,
         list_drives,
         get_drive,
         enable,
@@ -747,6 +810,8 @@ async fn set_load(
     components(schemas(
         ApiError,
         BusView,
+        NodeErrorView,
+        DisturbBody,
         DriveView,
         StatusBit,
         ObjectView,
@@ -779,6 +844,7 @@ pub fn routes() -> Router<AppState> {
     Router::new()
         .route("/api/openapi.json", get(openapi))
         .route("/api/buses", get(list_buses))
+        .route("/api/buses/{bus}/disturb", post(disturb))
         .route("/api/drives", get(list_drives))
         .route("/api/drives/{drive}", get(get_drive))
         .route("/api/drives/{drive}/enable", post(enable))

@@ -29,9 +29,36 @@ impl CellLoop {
                             index,
                             drives: b.cell.drives.len(),
                             timing: b.cell.bus_figures(t),
+                            node_errors: b
+                                .cell
+                                .drives
+                                .iter()
+                                .zip(b.cell.node_faults())
+                                .filter(|(_, f)| f.confinement.counters() != (0, 0))
+                                .map(|(d, f)| {
+                                    let (tec, rec) = f.confinement.counters();
+                                    (d.node_id(), f.confinement.state(), tec, rec)
+                                })
+                                .collect(),
                         })
                         .collect();
                     let _ = reply.send(buses);
+                }
+                Command::Disturb {
+                    bus,
+                    node,
+                    frames,
+                    reply,
+                } => {
+                    let cell = self.buses.get_mut(bus).map(|b| &mut b.cell);
+                    let at = cell.and_then(|c| {
+                        let i = c.drives.iter().position(|d| d.node_id() == node)?;
+                        Some(c.disturb(i, frames))
+                    });
+                    let _ = reply.send(match at {
+                        Some(true) => Ok(()),
+                        _ => Err(ControlError::NoNode { bus, node }),
+                    });
                 }
                 Command::Read {
                     drive,
