@@ -72,3 +72,28 @@ def test_two_twin_processes_make_one_bus(launch, connect, raw_bus, eds_files, tm
     node.sdo.RESPONSE_TIMEOUT = 2.0
     node.sdo[0x6065].raw = 4321
     assert net.nodes[1].sdo[0x6065].raw == 4321
+
+
+def test_two_cells_in_one_process_run_on_threads_of_their_own(launch, connect, eds_files, tmp_path):
+    from conftest import HOST, free_port
+    port = free_port()
+    first = tmp_path / "first.toml"
+    first.write_text("\n".join(["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
+                                "[[drive]]", 'device = "cmmp-as"', "node = 1", ""]))
+    second = tmp_path / "second.toml"
+    second.write_text("\n".join(["[bus]", f'socketcand = "{HOST}:{port}"', f'channel = "{CHANNEL}"', "",
+                                 "[[drive]]", 'device = "nanotec-smci47s"', "node = 1", ""]))
+    twin = launch(config=first, extra=("--config", str(second)))
+    wait_until(lambda: f"socketcand server on {HOST}:{port}, channel {CHANNEL}" in twin.stdout_lines,
+               5.0, what="the second cell's server")
+    # Two buses, two loops: node 1 on each is another drive.
+    a = connect(twin).add_node(1, str(eds_files["cmmp-as"]))
+    a.sdo.RESPONSE_TIMEOUT = 2.0
+    b_twin = type("Other", (), {"port": port})()
+    b = connect(b_twin).add_node(1, str(eds_files["nanotec-smci47s"]))
+    b.sdo.RESPONSE_TIMEOUT = 2.0
+    assert a.sdo[0x1018][1].raw == a.object_dictionary[0x1018][1].default
+    assert b.sdo[0x1018][1].raw == b.object_dictionary[0x1018][1].default
+    assert a.sdo[0x1018][1].raw != b.sdo[0x1018][1].raw, "Festo and Nanotec"
+    threads = {p.read_text().strip() for p in __import__("pathlib").Path(f"/proc/{twin.proc.pid}/task").glob("*/comm")}
+    assert {"cell", "cell-1"} <= threads, threads

@@ -146,9 +146,10 @@ pub struct RunArgs {
     /// but nothing survives the process.
     #[arg(long)]
     pub state_dir: Option<PathBuf>,
-    /// A cell file with several drives (TOML).
+    /// A cell file with several drives (TOML). Given several times, each cell runs on a loop
+    /// and a thread of its own, in one process; the other options apply to the first cell.
     #[arg(long)]
-    pub config: Option<PathBuf>,
+    pub config: Vec<PathBuf>,
     /// Write every bus frame to FILE: pcap (LINKTYPE_CAN_SOCKETCAN), or candump if FILE ends
     /// in .log; with --ethercat, a pcap of the Ethernet frames in and out.
     #[arg(long)]

@@ -121,26 +121,145 @@ pub(crate) fn build_cell(
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
-    let mut file = match &args.config {
-        Some(path) => CellFile::load(path)?,
-        None => CellFile::single(&args.device, args.node),
+    let mut files = Vec::new();
+    for path in &args.config {
+        files.push(CellFile::load(path)?);
+    }
+    if files.is_empty() {
+        files.push(CellFile::single(&args.device, args.node));
+    }
+    if files.len() > 1
+        && (args.virtual_seconds.is_some() || args.modbus_io != crate::cli::ModbusIo::Cell)
+    {
+        return Err(CommandError::Usage(
+            "several --config run several cell loops: not with --virtual-seconds or \
+             --modbus-io thread|async"
+                .into(),
+        ));
+    }
+    if let Some(first) = files.first_mut() {
+        if let Some(s) = &args.socketcand {
+            first.bus.first_mut().socketcand = s.clone();
+        }
+        if let Some(c) = &args.channel {
+            first.bus.first_mut().channel = c.clone();
+        }
+        if let Some(c) = &args.socketcan {
+            first.bus.first_mut().socketcan = Some(c.clone());
+        }
+        if let Some(j) = &args.socketcand_join {
+            first.bus.first_mut().join = Some(j.clone());
+        }
+    }
+    let mut loops = Vec::new();
+    let mut fhpp_tasks = Vec::new();
+    let mut pcap_writers = Vec::new();
+    for (i, file) in files.iter().enumerate() {
+        match prepare_cell(file, &args, i == 0).await? {
+            Prepared::Done => return Ok(()),
+            Prepared::Fhpp(tasks) => fhpp_tasks.extend(tasks),
+            Prepared::Loop {
+                cell_loop,
+                fhpp,
+                pcap,
+            } => {
+                loops.push(cell_loop);
+                fhpp_tasks.extend(fhpp);
+                pcap_writers.extend(pcap);
+            }
+        }
+    }
+    if loops.is_empty() {
+        // Only CMMO-STs on threads of their own: no bus, no socketcand server.
+        out!("running; Ctrl-C stops");
+        for t in fhpp_tasks {
+            let _ = t.await;
+        }
+        out!("stopped");
+        return Ok(());
+    }
+    let _console = match loops.first() {
+        Some(l) => web_console(args.http.as_deref(), l.control_handle())?,
+        None => None,
     };
-    if let Some(s) = &args.socketcand {
-        file.bus.first_mut().socketcand = s.clone();
+    let mut stops = Vec::new();
+    let mut threads = Vec::new();
+    for (i, cell_loop) in loops.into_iter().enumerate() {
+        stops.push(cell_loop.stop_handle());
+        let name = if i == 0 {
+            "cell".into()
+        } else {
+            format!("cell-{i}")
+        };
+        threads.push(
+            std::thread::Builder::new()
+                .name(name)
+                .spawn(move || (*cell_loop).run())
+                .map_err(io("cell thread"))?,
+        );
     }
-    if let Some(c) = &args.channel {
-        file.bus.first_mut().channel = c.clone();
+    out!("running; Ctrl-C stops");
+    let finished = tokio::task::spawn_blocking(move || {
+        threads.into_iter().map(|t| t.join()).collect::<Vec<_>>()
+    });
+    tokio::pin!(finished);
+    let stop_all = || stops.iter().for_each(|s| s.stop());
+    let results = tokio::select! {
+        _ = shutdown_signal() => {
+            stop_all();
+            finished.await
+        }
+        done = &mut finished => {
+            // One loop ended (failed): the others stop with it.
+            stop_all();
+            done
+        }
+    };
+    for t in fhpp_tasks {
+        let _ = t.await;
     }
-    if let Some(c) = &args.socketcan {
-        file.bus.first_mut().socketcan = Some(c.clone());
+    // The taps went with the chains: each writer drains its queue and ends.
+    for w in pcap_writers {
+        let _ = w.join();
     }
-    if let Some(j) = &args.socketcand_join {
-        file.bus.first_mut().join = Some(j.clone());
+    let failed = |what: &str| CommandError::Io {
+        what: "cell loop".into(),
+        source: std::io::Error::other(what.to_owned()),
+    };
+    for result in results.map_err(|e| failed(&e.to_string()))? {
+        result
+            .map_err(|_| failed("panicked"))?
+            .map_err(io("cell loop"))?;
     }
+    out!("stopped");
+    Ok(())
+}
+
+/// One cell made ready to run.
+enum Prepared {
+    /// A virtual-clock run, finished.
+    Done,
+    /// Only CMMO-STs on threads of their own (`--modbus-io thread|async`).
+    Fhpp(Vec<tokio::task::JoinHandle<()>>),
+    Loop {
+        cell_loop: Box<CellLoop>,
+        fhpp: Vec<tokio::task::JoinHandle<()>>,
+        pcap: Vec<std::thread::JoinHandle<()>>,
+    },
+}
+
+/// Builds the cell of `file` with every socket bound; `first`: the command line's per-cell
+/// options (`--ci-terminal`, `--trace`, `--ethercat`) are its.
+async fn prepare_cell(
+    file: &CellFile,
+    args: &RunArgs,
+    first: bool,
+) -> Result<Prepared, CommandError> {
     let mut specs = file.drives()?;
     // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
     // instead of CAN (as before the cell loop served both).
-    let legacy_chain = args.ethercat.is_some()
+    let ethercat_if = args.ethercat.as_deref().filter(|_| first);
+    let legacy_chain = ethercat_if.is_some()
         && file
             .drive
             .iter()
@@ -157,16 +276,18 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         }
     }
     let any_ethercat = specs.iter().any(|s| s.ethercat.is_some());
-    if args.ci_terminal.is_some() && specs.first().is_some_and(|s| s.fhpp.is_some()) {
+    let ci_terminal = args.ci_terminal.as_deref().filter(|_| first);
+    let trace_path = args.trace.as_ref().filter(|_| first);
+    if ci_terminal.is_some() && specs.first().is_some_and(|s| s.fhpp.is_some()) {
         return Err(CommandError::Usage(
             "--ci-terminal is the CMMP-AS debug console; the CMMO-ST has none".into(),
         ));
     }
     // Refused before anything opens: the console writes without authentication.
-    for addr in args
-        .ci_terminal
+    for addr in ci_terminal
         .iter()
-        .chain(file.drive.iter().filter_map(|d| d.ci_terminal.as_ref()))
+        .copied()
+        .chain(file.drive.iter().filter_map(|d| d.ci_terminal.as_deref()))
     {
         ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
     }
@@ -192,19 +313,13 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     let fhpp_tasks = if in_loop {
         Vec::new()
     } else {
-        start_fhpp_drives(&specs, &args).await?
+        start_fhpp_drives(&specs, args).await?
     };
     if fhpp_drives == specs.len() && !in_loop {
-        // Only CMMO-STs on threads of their own: no bus, no socketcand server.
-        out!("running; Ctrl-C stops");
-        for t in fhpp_tasks {
-            let _ = t.await;
-        }
-        out!("stopped");
-        return Ok(());
+        return Ok(Prepared::Fhpp(fhpp_tasks));
     }
     let modbus = if in_loop {
-        cell_modbus_drives(&specs, &args)?
+        cell_modbus_drives(&specs, args)?
     } else {
         Vec::new()
     };
@@ -249,7 +364,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             }
             None => Vec::new(),
         };
-        let mut writer = match &args.trace {
+        let mut writer = match trace_path {
             Some(p) => Some(TraceWriter::create(p, channel).map_err(io(p.display().to_string()))?),
             None => None,
         };
@@ -275,13 +390,15 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             return Err(io("trace")(e));
         }
         out!("virtual run of {seconds} s: {count} frames");
-        return Ok(());
+        return Ok(Prepared::Done);
     }
 
     let (ethercat, pcap_writers) = ethercat_chains(
         chain_specs,
         &in_cell,
-        &args,
+        args,
+        ethercat_if,
+        trace_path.map(|p| p.as_path()),
         cells.iter().all(|c| c.drives.is_empty()),
     )?;
     let mut front = FrontEnds {
@@ -318,7 +435,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             bus.upstream = Some(stream);
         }
         // `--trace` records the first bus (unless it is an EtherCAT chain's pcap).
-        if let (0, Some(p), true) = (b, &args.trace, pcap_writers.is_empty()) {
+        if let (0, Some(p), true) = (b, trace_path, pcap_writers.is_empty()) {
             let writer =
                 TraceWriter::create(p, &section.channel).map_err(io(p.display().to_string()))?;
             out!("tracing to {}", p.display());
@@ -326,41 +443,13 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         }
         front.buses.push(bus);
     }
-    front.ci_terminals = ci_consoles(&file, &in_cell, args.ci_terminal.as_deref())?;
+    front.ci_terminals = ci_consoles(file, &in_cell, ci_terminal)?;
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
-    let stop = cell_loop.stop_handle();
-    let _console = web_console(args.http.as_deref(), cell_loop.control_handle())?;
-    let thread = std::thread::Builder::new()
-        .name("cell".into())
-        .spawn(move || cell_loop.run())
-        .map_err(io("cell thread"))?;
-    out!("running; Ctrl-C stops");
-    let finished = tokio::task::spawn_blocking(move || thread.join());
-    tokio::pin!(finished);
-    let result = tokio::select! {
-        _ = shutdown_signal() => {
-            stop.stop();
-            finished.await
-        }
-        done = &mut finished => done,
-    };
-    for t in fhpp_tasks {
-        let _ = t.await;
-    }
-    // The taps went with the chains: each writer drains its queue and ends.
-    for w in pcap_writers {
-        let _ = w.join();
-    }
-    let failed = |what: &str| CommandError::Io {
-        what: "cell loop".into(),
-        source: std::io::Error::other(what.to_owned()),
-    };
-    result
-        .map_err(|e| failed(&e.to_string()))?
-        .map_err(|_| failed("panicked"))?
-        .map_err(io("cell loop"))?;
-    out!("stopped");
-    Ok(())
+    Ok(Prepared::Loop {
+        cell_loop: Box::new(cell_loop),
+        fhpp: fhpp_tasks,
+        pcap: pcap_writers,
+    })
 }
 
 /// The web console of a cell loop (`--http`), on a thread of its own.
@@ -468,6 +557,8 @@ fn ethercat_chains(
     specs: Vec<(usize, DriveSpec)>,
     in_cell: &[Option<OnBus>],
     args: &RunArgs,
+    ethercat_if: Option<&str>,
+    trace_path: Option<&std::path::Path>,
     no_can: bool,
 ) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
     use drivetwin::ecat::chain::{own_drive, EthercatCell, SlaveDrive};
@@ -476,7 +567,7 @@ fn ethercat_chains(
         let Some(chain) = spec.ethercat.clone() else {
             continue;
         };
-        let Some(ifname) = chain.or_else(|| args.ethercat.clone()) else {
+        let Some(ifname) = chain.or_else(|| ethercat_if.map(str::to_owned)) else {
             return Err(CommandError::Usage(format!(
                 "drive {} (node {}): \"ethercat\" in its interfaces needs a chain: \
                  `ethercat = \"IFNAME\"` in the cell file or --ethercat IFNAME",
@@ -534,7 +625,7 @@ fn ethercat_chains(
             .map_err(io(format!("EtherCAT on {ifname}")))?;
         out!("EtherCAT on {ifname}: {} slave(s)", cell.len());
         let mut trace = None;
-        if let (0, Some(path)) = (n, &args.trace) {
+        if let (0, Some(path)) = (n, trace_path) {
             if no_can || path.extension().is_none_or(|e| e != "log") {
                 let (tap, writer) = ethercat_trace(path)?;
                 out!("tracing to {}", path.display());
@@ -556,6 +647,8 @@ fn ethercat_chains(
     specs: Vec<(usize, DriveSpec)>,
     _in_cell: &[Option<OnBus>],
     _args: &RunArgs,
+    _ethercat_if: Option<&str>,
+    _trace: Option<&std::path::Path>,
     _no_can: bool,
 ) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
     if specs.is_empty() {
