@@ -201,3 +201,34 @@ def test_virtual_clock_without_inject(tmp_path):
     assert len(frames) - 1 == len(beats)
     assert beats[0] == pytest.approx(1.0)
     assert len(beats) in (9, 10)
+
+
+def test_each_bus_writes_its_own_trace(launch, connect, eds_files, tmp_path):
+    """`trace` on each [[bus]]: every bus of the cell has its candump log, with its own frames."""
+    from conftest import CHANNEL, HOST, free_port, wait_until
+    port = free_port()
+    a_log, b_log = tmp_path / "a.log", tmp_path / "b.log"
+    cell = tmp_path / "two.toml"
+    cell.write_text("\n".join([
+        "[[bus]]", 'name = "a"', 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', f'trace = "{a_log}"', "",
+        "[[bus]]", 'name = "b"', f'socketcand = "{HOST}:{port}"', f'channel = "{CHANNEL}"', f'trace = "{b_log}"', "",
+        "[[drive]]", 'device = "cmmp-as"', "node = 1", 'bus = "a"', "",
+        "[[drive]]", 'device = "testbench"', "node = 2", 'bus = "b"', "",
+    ]))
+    twin = launch(config=cell)
+    wait_until(lambda: f"socketcand server on {HOST}:{port}, channel {CHANNEL}" in twin.stdout_lines,
+               5.0, what="bus b's server")
+    node = connect(twin).add_node(1, str(eds_files["cmmp-as"]))
+    node.sdo.RESPONSE_TIMEOUT = 2.0
+    node.sdo[0x6065].raw = 777
+    other = connect(type("B", (), {"port": port})()).add_node(2, str(eds_files["testbench"]))
+    other.sdo.RESPONSE_TIMEOUT = 2.0
+    assert other.sdo[0x1017].raw == 0
+    twin.stop()
+
+    def ids(path):
+        return {int(line.split()[2].split("#")[0], 16) for line in path.read_text().splitlines() if line}
+
+    a_ids, b_ids = ids(a_log), ids(b_log)
+    assert {0x601, 0x581, 0x701} <= a_ids and not {0x602, 0x582, 0x702} & a_ids, a_ids
+    assert {0x602, 0x582, 0x702} <= b_ids and not {0x601, 0x581, 0x701} & b_ids, b_ids

@@ -140,6 +140,9 @@ pub struct BusSection {
     /// Join the socketcand server at this address as a client: the bus is that server's
     /// bus (one plant over several processes or machines).
     pub join: Option<String>,
+    /// Where every frame of this bus is written (candump `.log`, else pcap); `--trace` is the
+    /// first bus's.
+    pub trace: Option<PathBuf>,
     /// Planned disturbances: `[[bus.disturb]]` with `at_ms`, `node` and `frames` (that many
     /// of the node's next transmissions fail with an error frame: 16 make it error passive,
     /// 32 take it off the bus).
@@ -174,6 +177,7 @@ impl Default for BusSection {
             bitrate: None,
             late_after_us: None,
             join: None,
+            trace: None,
             disturb: Vec::new(),
         }
     }

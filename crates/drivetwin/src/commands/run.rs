@@ -434,8 +434,10 @@ async fn prepare_cell(
             );
             bus.upstream = Some(stream);
         }
-        // `--trace` records the first bus (unless it is an EtherCAT chain's pcap).
-        if let (0, Some(p), true) = (b, trace_path, pcap_writers.is_empty()) {
+        // `--trace` records the first bus (unless it is an EtherCAT chain's pcap); `trace` on a
+        // `[[bus]]` its bus.
+        let first_bus_trace = trace_path.filter(|_| b == 0 && pcap_writers.is_empty());
+        if let Some(p) = section.trace.as_ref().or(first_bus_trace) {
             let writer =
                 TraceWriter::create(p, &section.channel).map_err(io(p.display().to_string()))?;
             out!("tracing to {}", p.display());
