@@ -33,6 +33,11 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
     let _ = writeln!(s, "    rotary_switches: {},", d.rotary_switches);
+    let _ = writeln!(
+        s,
+        "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",
+        d.interfaces, d.interfaces_one_of, d.interfaces_rule
+    );
     let c = &d.cia301;
     let _ = writeln!(
         s,

@@ -40,6 +40,9 @@ pub struct Device {
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
     pub rotary_switches: u8,
+    pub interfaces: Vec<String>,
+    pub interfaces_one_of: Vec<String>,
+    pub interfaces_rule: String,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
 }
@@ -148,6 +151,41 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             d.profile
         )));
     }
+    // Without `interfaces`: the profile's fieldbus.
+    let fhpp = profile == od::Profile::Fhpp;
+    let interfaces = d
+        .interfaces
+        .unwrap_or_else(|| vec![if fhpp { "modbus-tcp" } else { "canopen" }.to_owned()]);
+    const KNOWN: &[&str] = &[
+        "canopen",
+        "ethercat",
+        "modbus-tcp",
+        "ci-terminal",
+        "rs232",
+        "rs485",
+    ];
+    if let Some(bad) = interfaces
+        .iter()
+        .chain(&d.interfaces_one_of)
+        .find(|i| !KNOWN.contains(&i.as_str()))
+    {
+        return Err(DescError::Device(format!(
+            "interface {bad:?}: one of {KNOWN:?}"
+        )));
+    }
+    if let Some(bad) = d.interfaces_one_of.iter().find(|i| !interfaces.contains(i)) {
+        return Err(DescError::Device(format!(
+            "interfaces_one_of {bad:?} is not in interfaces"
+        )));
+    }
+    let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
+        if fhpp {
+            "its fieldbus is Modbus TCP"
+        } else {
+            "a CANopen device"
+        }
+        .to_owned()
+    });
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -161,6 +199,9 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
         rotary_switches: d.rotary_switches,
+        interfaces,
+        interfaces_one_of: d.interfaces_one_of,
+        interfaces_rule,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,

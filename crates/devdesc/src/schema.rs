@@ -58,6 +58,12 @@ pub struct DeviceSection {
     /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
     #[serde(default)]
     pub rotary_switches: u8,
+    /// The interfaces the real device has (default: its profile's fieldbus, CANopen or
+    /// Modbus TCP), those of them that run one at a time, and the manual's rule.
+    pub interfaces: Option<Vec<String>>,
+    #[serde(default)]
+    pub interfaces_one_of: Vec<String>,
+    pub interfaces_rule: Option<String>,
 }
 
 /// `panel = "d3.01"` or `panel = ["d2.00", "d3.00"]`: one object may have several panel

@@ -184,6 +184,16 @@ pub enum Profile {
     Plain,
 }
 
+/// The interfaces a device has and which of them run only one at a time, with the manual's
+/// rule (device file keys `interfaces`, `interfaces_one_of`, `interfaces_rule`). Names as a
+/// cell file writes them: `canopen`, `ethercat`, `modbus-tcp`, `ci-terminal`, …
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InterfaceOffer {
+    pub has: &'static [&'static str],
+    pub one_of: &'static [&'static str],
+    pub rule: &'static str,
+}
+
 /// A device personality: identity and the complete object list.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceDescription {
@@ -204,6 +214,8 @@ pub struct DeviceDescription {
     /// Hexadecimal rotary switches that select node-ID and bit rate at power-on (Nanotec
     /// §1.1.1: SMCI47-S two, PD4-N one), 0 for none.
     pub rotary_switches: u8,
+    /// Which interfaces the real device has.
+    pub interfaces: InterfaceOffer,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

@@ -5,15 +5,10 @@
 //! testing key: the twin then serves what was asked, e.g. one CMMP-AS on CANopen and
 //! EtherCAT at once to compare the two).
 //!
-//! The rules, as a table (data, not code):
-//!
-//! - CMMP-AS: CANopen on [X4] or EtherCAT (CAMC-EC in Ext2, M3 only), one fieldbus at a time:
-//!   "If another fieldbus interface is plugged into Ext1/Ext2, DIP 8 activates that fieldbus
-//!   instead of CANopen on [X4]" and EtherCAT "cannot be deactivated with DIP switch 8"
-//!   (`spec/cmmp-as-1-communication.md` §2.3, §2.11). The CI terminal (RS232, §3.2.3) works
-//!   beside either.
-//! - CMMO-ST: Modbus TCP only (`spec/cmmo-st-fhpp.md` §2.5); no CANopen, no CI terminal.
-//! - Devices not in the table: CANopen only, the CI terminal and Modbus refused.
+//! The rules are the device files' (`interfaces`, `interfaces_one_of`, `interfaces_rule`:
+//! `od::InterfaceOffer`): the CMMP-AS has CANopen, EtherCAT and the CI terminal, one fieldbus at
+//! a time (`spec/cmmp-as-1-communication.md` §2.3); the CMMO-ST Modbus TCP only; a device file
+//! without them its profile's fieldbus.
 
 use serde::Deserialize;
 
@@ -38,50 +33,15 @@ impl InterfaceName {
     }
 }
 
-/// What a device offers.
-#[derive(Debug)]
-pub struct Offer {
-    pub device: &'static str,
-    /// Every interface the device has.
-    pub has: &'static [InterfaceName],
-    /// Of these, at most one at a time.
-    pub one_of: &'static [InterfaceName],
-    /// The manual's rule behind `one_of`.
-    pub rule: &'static str,
-}
-
-use InterfaceName::*;
-
-pub const OFFERS: &[Offer] = &[
-    Offer {
-        device: "cmmp-as",
-        has: &[Canopen, Ethercat, CiTerminal],
-        one_of: &[Canopen, Ethercat],
-        rule: "CMMP-AS manual §2.3 (spec/cmmp-as-1-communication.md): one fieldbus at a time; \
-               with an interface in Ext1/Ext2 (CAMC-EC: EtherCAT) DIP 8 activates that \
-               fieldbus instead of CANopen on [X4]",
-    },
-    Offer {
-        device: "cmmo-st",
-        has: &[ModbusTcp],
-        one_of: &[],
-        rule: "CMMO-ST manual §2.5 (spec/cmmo-st-fhpp.md): Modbus TCP is its fieldbus",
-    },
-];
-
-/// What a device not in [`OFFERS`] is taken to have.
-const DEFAULT_OFFER: Offer = Offer {
-    device: "",
-    has: &[Canopen],
-    one_of: &[],
-    rule: "a CANopen device",
-};
-
-pub fn offer(device: &str) -> &'static Offer {
-    OFFERS
-        .iter()
-        .find(|o| o.device == device)
-        .unwrap_or(&DEFAULT_OFFER)
+/// What `device` offers (a personality the twin does not know: CANopen only).
+pub fn offer(device: &str) -> od::InterfaceOffer {
+    devices::by_name(device)
+        .map(|d| d.interfaces)
+        .unwrap_or(od::InterfaceOffer {
+            has: &["canopen"],
+            one_of: &[],
+            rule: "a CANopen device",
+        })
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -112,14 +72,14 @@ pub fn check(
     allow_unreal: bool,
 ) -> Result<(), InterfaceError> {
     let o = offer(device);
-    if let Some(missing) = wanted.iter().find(|w| !o.has.contains(w)) {
+    if let Some(missing) = wanted.iter().find(|w| !o.has.contains(&w.as_str())) {
         return Err(InterfaceError::Missing {
             device: device.into(),
             interface: missing.as_str(),
             rule: o.rule,
         });
     }
-    let mut exclusive = wanted.iter().filter(|w| o.one_of.contains(w));
+    let mut exclusive = wanted.iter().filter(|w| o.one_of.contains(&w.as_str()));
     if let (Some(first), Some(second)) = (exclusive.next(), exclusive.next()) {
         if !allow_unreal {
             return Err(InterfaceError::Combination {
@@ -135,6 +95,7 @@ pub fn check(
 
 #[cfg(test)]
 mod tests {
+    use super::InterfaceName::*;
     use super::*;
 
     #[test]
