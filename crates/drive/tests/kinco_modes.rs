@@ -1,0 +1,208 @@
+//! Kinco operating modes through the drive (spec/kinco-fd-cd.md §5, §8.15; manual Tab. 6-5,
+//! seeds/001_da459f46c7138f7b.txt L1272): the controlword sequences KINCO-CW-01…05 move the
+//! motor, modes 3 / −3 / 4 / 6 as the manual describes them.
+
+mod kinco_rig;
+
+use kinco_rig::{dec_rpm, dec_rps2, Rig, INC_PER_REV};
+use od::ObjectAccess;
+
+/// Statusword state bits (CiA 402 mask 6Fh) of Operation Enabled.
+const OPERATION_ENABLED: u16 = 0x0027;
+const TARGET_REACHED: u16 = 0x0400;
+const HOMING_ATTAINED: u16 = 0x1000;
+const HOME_FOUND: u16 = 0x8000;
+
+/// The factory set-up: the mode is Din_Mode0 (−4) while the Operation Mode Sel input is
+/// inactive, and neither the controlword nor the mode takes a bus write (L1287).
+#[test]
+fn factory_inputs_own_the_controlword_and_the_mode() {
+    let mut r = Rig::factory();
+    assert_eq!(r.i(0x6061, 0), -4, "Din_Mode0");
+    assert_eq!(r.try_cw(0x0F), Err(od::AbortCode::LOCAL_CONTROL));
+    assert_eq!(r.i(0x6040, 0), 0x06, "the Enable input is inactive: 06h");
+    assert!(r.d.write(0x6060, 0, &[3]).is_err());
+    assert_eq!(r.sw() & 0x6F, 0x21, "ready to switch on");
+}
+
+/// KINCO-CW-05: in modes 3, −3, −4 and 4, 0Fh (or 2Fh) after 06h enables the drive.
+#[test]
+fn kinco_cw_05_enable_in_each_mode() {
+    for (m, cw) in [(3, 0x0F), (-3, 0x2F), (-4, 0x0F), (4, 0x2F)] {
+        let mut r = Rig::new();
+        r.w8(0x6060, 0, m);
+        r.cw(0x06);
+        assert_eq!(r.sw() & 0x6F, 0x21, "mode {m}: 06h ready to switch on");
+        r.cw(cw);
+        r.run_ms(5);
+        assert_eq!(
+            r.sw() & 0x6F,
+            OPERATION_ENABLED,
+            "mode {m}: enabled by {cw:02X}h"
+        );
+        assert_eq!(r.i(0x6061, 0), i64::from(m));
+        r.cw(0x06);
+        assert_eq!(r.sw() & 0x6F, 0x21, "06h disables");
+    }
+}
+
+/// KINCO-CW-01 (§8.15): 06h → 2Fh → 607Ah → 3Fh moves to the absolute target; target
+/// reached follows, a second 2Fh → 3Fh with the same target does not move.
+#[test]
+fn kinco_cw_01_absolute_move() {
+    let mut r = Rig::new();
+    r.w8(0x6060, 0, 1);
+    r.cw(0x06);
+    r.cw(0x2F);
+    r.w32(0x607A, 0, 50_000);
+    r.cw(0x3F);
+    assert_eq!(r.sw() & TARGET_REACHED, 0, "moving");
+    assert!(r.until_sw(TARGET_REACHED, 10_000), "target reached");
+    assert!((r.position() - 50_000).abs() <= 20, "at {}", r.position());
+    r.cw(0x2F);
+    r.cw(0x3F);
+    r.run_ms(300);
+    assert!((r.position() - 50_000).abs() <= 20, "absolute: stays");
+}
+
+/// KINCO-CW-02: 4Fh → 5Fh moves by 607Ah from where it stands, each time.
+#[test]
+fn kinco_cw_02_relative_moves() {
+    let mut r = Rig::new();
+    r.w8(0x6060, 0, 1);
+    r.cw(0x06);
+    r.cw(0x4F);
+    r.w32(0x607A, 0, 10_000);
+    for n in 1..=2 {
+        r.cw(0x5F);
+        r.cw(0x4F);
+        assert!(r.until_sw(TARGET_REACHED, 10_000), "move {n}");
+        assert!(
+            (r.position() - 10_000 * n).abs() <= 20,
+            "at {}",
+            r.position()
+        );
+    }
+}
+
+/// 103Fh … (bit 5 in 2Fh / 3Fh): a new absolute target during a move is taken at once.
+#[test]
+fn kinco_change_set_immediately() {
+    let mut r = Rig::new();
+    r.w8(0x6060, 0, 1);
+    r.cw(0x06);
+    r.cw(0x2F);
+    r.w32(0x607A, 0, 200_000);
+    r.cw(0x3F);
+    r.run_ms(100);
+    r.cw(0x2F);
+    r.w32(0x607A, 0, -5_000);
+    r.cw(0x3F);
+    assert!(r.until_sw(TARGET_REACHED, 20_000));
+    assert!((r.position() + 5_000).abs() <= 20, "at {}", r.position());
+}
+
+/// KINCO-CW-03: mode 6, 0Fh → 1Fh starts homing; method 35 takes the actual position as
+/// the home offset; bit 12 homing attained and bit 15 home found.
+#[test]
+fn kinco_cw_03_homing_starts() {
+    let mut r = Rig::new();
+    r.w32(0x607C, 0, 1234);
+    r.w8(0x6098, 0, 35);
+    r.enable_in(6);
+    assert_eq!(r.sw() & HOME_FOUND, 0);
+    r.cw(0x1F);
+    assert!(r.until_sw(HOMING_ATTAINED, 1000), "sw {:04X}", r.sw());
+    assert_ne!(r.sw() & HOME_FOUND, 0, "bit 15 reference found");
+    assert!((r.position() - 1234).abs() <= 2, "at {}", r.position());
+}
+
+/// KINCO-CW-04: a fault is reset by 06h → 86h.
+#[test]
+fn kinco_cw_04_fault_reset() {
+    let mut r = Rig::new();
+    r.enable_in(3);
+    r.d.inject_fault(0x4210, 0x09);
+    r.run_ms(10);
+    assert_eq!(r.sw() & 0x4F, 0x08, "fault");
+    assert_eq!(
+        r.i(0x2601, 0),
+        1 << 4,
+        "Error_State bit 4 Controller Temperature"
+    );
+    r.d.clear_fault(0x4210);
+    r.cw(0x06);
+    assert_eq!(r.sw() & 0x4F, 0x08, "06h alone does not reset");
+    r.cw(0x86);
+    r.cw(0x06);
+    assert_eq!(r.sw() & 0x6F, 0x21, "reset, then ready to switch on");
+    assert_eq!(r.i(0x2601, 0), 0);
+}
+
+/// Mode 3 ramps with 6083h, mode −3 jumps to the speed (§5.2).
+#[test]
+fn mode_3_ramps_and_mode_minus_3_does_not() {
+    let speed_after = |m: i8| {
+        let mut r = Rig::new();
+        r.w32(0x6083, 0, dec_rps2(10.0)); // 600 rpm/s
+        r.enable_in(m);
+        r.w32(0x60FF, 0, dec_rpm(1000.0));
+        r.run_ms(100);
+        r.rpm()
+    };
+    let ramped = speed_after(3);
+    let immediate = speed_after(-3);
+    assert!(
+        (40.0..80.0).contains(&ramped),
+        "mode 3 after 0.1 s: {ramped} rpm"
+    );
+    assert!(
+        (immediate - 1000.0).abs() < 20.0,
+        "mode −3: {immediate} rpm"
+    );
+}
+
+/// Mode 3: the speed is reached and held; 606Ch reads it in DEC, 2FF0h:14 in rpm.
+#[test]
+fn mode_3_reaches_the_speed() {
+    let mut r = Rig::new();
+    r.enable_in(3);
+    r.w32(0x60FF, 0, dec_rpm(-300.0));
+    r.run_ms(500);
+    assert!((r.rpm() + 300.0).abs() < 5.0, "{} rpm", r.rpm());
+    assert!((r.i(0x606C, 0) - dec_rpm(-300.0)).abs() < dec_rpm(5.0));
+    assert_eq!(r.i(0x2FF0, 0x14), -300);
+    assert_ne!(r.sw() & TARGET_REACHED, 0);
+    let p0 = r.position();
+    r.run_ms(1000);
+    let travelled = r.position() - p0;
+    assert!(
+        (travelled + 5 * INC_PER_REV).abs() < 100,
+        "300 rpm = 5 rev/s: {travelled}"
+    );
+}
+
+/// Mode 4 (§5.3): 6071h in % of the rated torque accelerates the free motor until Max_Speed
+/// 607Fh holds it.
+#[test]
+fn mode_4_torque_with_speed_limit() {
+    let mut r = Rig::new();
+    r.w32(0x607F, 0, dec_rpm(500.0));
+    r.enable_in(4);
+    r.w16(0x6071, 0, 20);
+    r.run_ms(20);
+    assert!(r.rpm() > 10.0, "accelerating: {}", r.rpm());
+    r.run_ms(1000);
+    assert!(
+        (r.rpm() - 500.0).abs() < 30.0,
+        "held at the limit: {}",
+        r.rpm()
+    );
+    r.w16(0x6071, 0, -20);
+    r.run_ms(2000);
+    assert!(
+        (r.rpm() + 500.0).abs() < 30.0,
+        "and the other way: {}",
+        r.rpm()
+    );
+}
