@@ -836,6 +836,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             Vendor::Kinco => self.kinco_pre_enable(),
             _ => self.input_levels(self.plant_position()).enables(),
         };
+        let before = self.dc.state();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising.contains(Controlword::FAULT_RESET)
             && !cw.contains(Controlword::FAULT_RESET)
@@ -844,7 +845,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 .dc
                 .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
         }
-        let before = self.dc.state();
         let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {

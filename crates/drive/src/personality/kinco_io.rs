@@ -262,11 +262,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     && state == State::OperationEnabled
             }
             DoutFunction::ZeroSpeed => {
-                // Speed_1ms in inc/ms against Zero_Speed_Window 2010h:18 (inc/ms).
+                // Speed_1ms (whole inc/ms) against Zero_Speed_Window 2010h:18 (inc/ms).
                 let inc_per_ms = f64::from(self.plant_velocity_rpm())
                     * super::kinco_drive::INCREMENTS_PER_REV as f64
                     / 60_000.0;
-                inc_per_ms.abs() <= self.value(0x2010, 0x18).max(0) as f64
+                (inc_per_ms as i64).abs() <= self.value(0x2010, 0x18).max(0)
             }
             DoutFunction::MotorBrake => power && !self.brake_engaged,
             DoutFunction::SpeedReached => {
