@@ -263,3 +263,37 @@ fn homing_on_the_switches() {
         assert!(r.position().abs() < 200, "home offset 0: {}", r.position());
     }
 }
+
+/// Start Homing (2000h): its rising edge homes in mode 6 and then returns to the mode the
+/// drive was in (Tab. 5-2).
+#[test]
+fn start_homing_input_returns_to_the_previous_mode() {
+    let mut r = Rig::new();
+    r.w16(0x2010, 0x05, 0x2000);
+    r.w8(0x6098, 0, 19);
+    r.w32(0x6099, 1, dec_rpm(300.0));
+    r.w32(0x6099, 2, dec_rpm(60.0));
+    r.w32(0x609A, 0, dec_rps2(100.0));
+    r.w8(0x6099, 0x05, 1);
+    r.w32(0x607C, 0, 777);
+    r.enable_in(3);
+    r.w16(0x2010, 0x02, DIN3);
+    r.run_ms(2);
+    let mut seen_homing = r.i(0x6061, 0) == 6;
+    for _ in 0..1000 {
+        r.run_ms(5);
+        seen_homing |= r.i(0x6061, 0) == 6;
+        if r.i(0x6061, 0) == 3 && seen_homing {
+            break;
+        }
+    }
+    assert!(seen_homing, "ran in mode 6");
+    assert_eq!(r.i(0x6061, 0), 3, "back in mode 3");
+    assert_ne!(r.sw() & 0x8000, 0, "home found");
+    let p = r.position();
+    assert!(
+        (p - 777).abs() <= 50,
+        "the home switch's edge reads 777: {p}"
+    );
+    assert_eq!(r.i(0x6040, 0) & 0x10, 0, "bit 4 back");
+}

@@ -102,19 +102,37 @@ fn kinco_change_set_immediately() {
     assert!((r.position() + 5_000).abs() <= 20, "at {}", r.position());
 }
 
-/// KINCO-CW-03: mode 6, 0Fh → 1Fh starts homing; method 35 takes the actual position as
-/// the home offset; bit 12 homing attained and bit 15 home found.
+/// KINCO-CW-03: mode 6, 0Fh → 1Fh starts homing; method 35 homes where the motor stands;
+/// bit 12 homing attained and bit 15 home found. Home_Offset_Mode 6099h:05 = 1: the home
+/// point reads Home_Offset 607Ch; 0 (default): the drive moves Home_Offset on and reads 0
+/// there (§6.6).
 #[test]
 fn kinco_cw_03_homing_starts() {
-    let mut r = Rig::new();
-    r.w32(0x607C, 0, 1234);
-    r.w8(0x6098, 0, 35);
-    r.enable_in(6);
-    assert_eq!(r.sw() & HOME_FOUND, 0);
-    r.cw(0x1F);
-    assert!(r.until_sw(HOMING_ATTAINED, 1000), "sw {:04X}", r.sw());
-    assert_ne!(r.sw() & HOME_FOUND, 0, "bit 15 reference found");
-    assert!((r.position() - 1234).abs() <= 2, "at {}", r.position());
+    for (offset_mode, moved) in [(1i8, 0i64), (0, 1234)] {
+        let mut r = Rig::new();
+        r.w32(0x607C, 0, 1234);
+        r.w8(0x6099, 0x05, offset_mode);
+        r.w32(0x6099, 0x01, dec_rpm(300.0));
+        r.w32(0x609A, 0, dec_rps2(100.0));
+        r.w8(0x6098, 0, 35);
+        r.enable_in(6);
+        assert_eq!(r.sw() & HOME_FOUND, 0);
+        let start = r.d.plant_position();
+        r.cw(0x1F);
+        assert!(r.until_sw(HOMING_ATTAINED, 2000), "sw {:04X}", r.sw());
+        assert_ne!(r.sw() & HOME_FOUND, 0, "bit 15 reference found");
+        let travelled = (r.d.plant_position() - start) * INC_PER_REV / 65_536;
+        assert!(
+            (travelled - moved).abs() <= 5,
+            "mode {offset_mode}: moved {travelled}"
+        );
+        let want = if offset_mode == 1 { 1234 } else { 0 };
+        assert!(
+            (r.position() - want).abs() <= 5,
+            "mode {offset_mode}: at {}",
+            r.position()
+        );
+    }
 }
 
 /// KINCO-CW-04: a fault is reset by 06h → 86h.

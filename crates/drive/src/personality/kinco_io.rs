@@ -29,7 +29,7 @@ use super::kinco::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNC
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
-use crate::drive::{mode, Drive};
+use crate::drive::{mode, Drive, HomingRun};
 use crate::travel::Inputs;
 use od::ObjectAccess;
 
@@ -48,6 +48,8 @@ const EXTERNAL_ENABLE: u16 = 0x5443;
 pub(crate) struct DinMemory {
     /// Internal levels, bit n − 1 = DINn; `None` before the first cycle.
     pub(crate) internal: Option<u8>,
+    /// A homing the Start Homing input started, and the mode to return to.
+    pub(crate) homing_return: Option<i8>,
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
@@ -189,6 +191,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let cw = self.read(self.hot.controlword) as u16;
             self.kinco_set_controlword((cw & !0x0004) | 0x0002);
         }
+        if rising(self, DinFunction::StartHoming) && self.dc.state() == State::OperationEnabled {
+            self.kinco_din.homing_return = Some(self.mode);
+            let _ = self.write_mode(0x6060, 0, &[mode::HOMING as u8]);
+            let cw = Controlword(self.read(self.hot.controlword) as u16);
+            self.kinco_set_controlword((cw | Controlword::HOMING_START).bits());
+        }
+        self.kinco_homing_return();
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
         }
@@ -203,6 +212,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.raise(EXTERNAL_ENABLE, 0x01, true);
         }
         self.kinco_capture(before, now, position);
+    }
+
+    /// "After homing started by the input the drive returns to the previous mode" (Tab.
+    /// 5-2): once the homing has ended (attained or failed), the mode and bit 4 go back.
+    fn kinco_homing_return(&mut self) {
+        let Some(previous) = self.kinco_din.homing_return else {
+            return;
+        };
+        let ended = matches!(self.homing, HomingRun::Idle)
+            && (self.homing_attained || self.homing_error)
+            && self.mode_pending.is_none();
+        if ended || self.dc.state() != State::OperationEnabled {
+            self.kinco_din.homing_return = None;
+            let _ = self.write_mode(0x6060, 0, &[previous as u8]);
+            let cw = Controlword(self.read(self.hot.controlword) as u16);
+            self.kinco_set_controlword(cw.difference(Controlword::HOMING_START).bits());
+        }
     }
 
     /// Fast capture (§5.5.5, KINCO-spec §5.10): the first edge of Fast_Capture1 / 2 sets its
