@@ -268,6 +268,8 @@ pub struct Drive<S> {
     pub(crate) reactions: Reactions,
     /// The Kinco inputs at the last cycle (their edges).
     pub(crate) kinco_din: personality::kinco_io::DinMemory,
+    /// The simulated pulse input of Kinco mode −4.
+    pub(crate) kinco_pulse: personality::kinco_pulse::PulseInput,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -424,6 +426,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             forced_levels: 0,
             reactions: Reactions::default(),
             kinco_din: Default::default(),
+            kinco_pulse: Default::default(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,
@@ -1112,6 +1115,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 mode::PROFILE_POSITION => self.kinco_profile_position(cw, dt),
                 mode::PROFILE_VELOCITY => self.kinco_velocity(true, dt),
                 -3 => self.kinco_velocity(false, dt),
+                -4 => self.kinco_pulse_mode(dt),
                 mode::PROFILE_TORQUE => self.kinco_torque(dt),
                 mode::HOMING => self.homing(cw, dt),
                 _ => self.hold(dt),

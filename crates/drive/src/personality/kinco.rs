@@ -48,7 +48,10 @@ pub const KINCO: Personality = Personality {
     modes: &MODES,
     option_codes: &[],
     enable_from_ready: true,
-    errors: &[error_spec(Fault::FollowingError, 0x8611)],
+    errors: &[
+        error_spec(Fault::FollowingError, 0x8611),
+        error_spec(Fault::Overfrequency, 0x8A80),
+    ],
     stepper_plant: false,
     pp_overwrite_queued: false,
     capabilities: Capabilities {

@@ -12,6 +12,7 @@ pub mod cmmp_as;
 pub mod kinco;
 pub(crate) mod kinco_drive;
 pub(crate) mod kinco_io;
+pub(crate) mod kinco_pulse;
 pub mod nanotec;
 pub mod nanotec_units;
 
@@ -72,6 +73,8 @@ pub enum Fault {
     SoftwareLimit,
     /// A relative PP target that overflows the position range.
     PositionOverflow,
+    /// The pulse input faster than the drive counts (Kinco Frequency_Check 2508h:08).
+    Overfrequency,
 }
 
 /// One row of a personality's error table.
