@@ -270,6 +270,8 @@ pub struct Drive<S> {
     pub(crate) kinco_din: personality::kinco_io::DinMemory,
     /// The simulated pulse input of Kinco mode −4.
     pub(crate) kinco_pulse: personality::kinco_pulse::PulseInput,
+    /// The Kinco error history (the last 8 errors).
+    pub(crate) kinco_history: Deque<u16, 8>,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -427,6 +429,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             reactions: Reactions::default(),
             kinco_din: Default::default(),
             kinco_pulse: Default::default(),
+            kinco_history: Deque::new(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,

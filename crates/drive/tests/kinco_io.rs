@@ -297,3 +297,34 @@ fn start_homing_input_returns_to_the_previous_mode() {
     );
     assert_eq!(r.i(0x6040, 0) & 0x10, 0, "bit 4 back");
 }
+
+/// The error history (§7): the last 8 errors, each stored where the store mask of the
+/// drive's state has its bit: Store_Mask_ON 2605h:02 = FBFFh keeps Following Error while
+/// enabled, Store_Mask_OFF 2605h:03 = 0 keeps nothing while disabled.
+#[test]
+fn error_history_follows_the_store_masks() {
+    let mut r = Rig::new();
+    r.d.inject_fault(0x4210, 0x09); // disabled: not stored (Store_Mask_OFF = 0)
+    r.run_ms(5);
+    r.d.clear_fault(0x4210);
+    r.cw(0x86);
+    r.cw(0x06);
+    assert_eq!(r.d.error_history().count(), 0);
+    for _ in 0..10 {
+        r.enable_in(3);
+        r.d.inject_fault(0x3210, 0x05);
+        r.run_ms(5);
+        r.d.clear_fault(0x3210);
+        r.cw(0x86);
+        r.cw(0x06);
+    }
+    assert_eq!(r.d.error_history().collect::<Vec<_>>(), vec![0x3210; 8]);
+    r.w16(0x2605, 0x03, 1 << 4);
+    r.d.inject_fault(0x4210, 0x09);
+    r.run_ms(5);
+    assert_eq!(
+        r.d.error_history().last(),
+        Some(0x4210),
+        "now stored while disabled"
+    );
+}

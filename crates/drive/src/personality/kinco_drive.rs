@@ -199,8 +199,38 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if mask & (1 << bit) == 0 {
                 return ErrorReaction::Ignore;
             }
+            if !self.faults.contains(&code) {
+                self.kinco_record_error(code, word, bit);
+            }
         }
         ErrorReaction::OutputStageOff
+    }
+
+    /// The error history (§7: "the last 8 errors"): an error goes in where its bit is set
+    /// in Store_Mask_ON 2605h:02 / Store_Mask_ON2 :05 while the drive is enabled, in
+    /// Store_Mask_OFF :03 / Store_Mask_OFF2 :06 while it is not.
+    ///
+    /// Decision: this part prints no object for the history (the panel and KincoServo show
+    /// it); the twin keeps it and gives it through [`Drive::error_history`].
+    fn kinco_record_error(&mut self, code: u16, word: ErrorWord, bit: u8) {
+        let enabled = self.dc.state() == State::OperationEnabled;
+        let sub = match (word, enabled) {
+            (ErrorWord::State, true) => 0x02,
+            (ErrorWord::State, false) => 0x03,
+            (ErrorWord::State2, true) => 0x05,
+            (ErrorWord::State2, false) => 0x06,
+        };
+        if self.value(0x2605, sub) & (1 << bit) != 0 {
+            if self.kinco_history.is_full() {
+                self.kinco_history.pop_front();
+            }
+            let _ = self.kinco_history.push_back(code);
+        }
+    }
+
+    /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
+    pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
+        self.kinco_history.iter().copied()
     }
 
     /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for
