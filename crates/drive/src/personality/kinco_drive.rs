@@ -371,6 +371,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let decel = self.accel(0x6084);
             self.traj.step_stop(decel, dt);
             self.position_demand(self.traj.velocity);
+            self.kinco_table_abort();
+            return;
+        }
+        if self.kinco_table_cycle(dt) {
             return;
         }
         self.profile_position(cw, dt);

@@ -198,6 +198,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.kinco_set_controlword((cw | Controlword::HOMING_START).bits());
         }
         self.kinco_homing_return();
+        // The position table (§6.4.1): its edges for the next mode-1 cycle; an error, another
+        // mode or the enable gone end the flow at once.
+        self.kinco_table.start_edge |= rising(self, DinFunction::StartPosTable);
+        self.kinco_table.abort_edge |= rising(self, DinFunction::AbortPosTable)
+            || !self.kinco_din_configured(DinFunction::StartPosTable);
+        self.kinco_table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
+        if self.mode != mode::PROFILE_POSITION
+            || self.dc.state() != State::OperationEnabled
+            || !self.faults.is_empty()
+        {
+            self.kinco_table_abort();
+            self.kinco_table.start_edge = false;
+            self.kinco_table.abort_edge = false;
+        }
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
         }
@@ -308,9 +322,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             DoutFunction::DriverEnable => state == State::OperationEnabled,
             DoutFunction::PositionLimit => negative || positive,
             DoutFunction::HomeFound => self.referenced,
-            DoutFunction::EncIndex | DoutFunction::EncWarning | DoutFunction::PosTableActive => {
-                false
-            }
+            DoutFunction::PosTableActive => self.kinco_table_active(),
+            DoutFunction::EncIndex | DoutFunction::EncWarning => false,
         }
     }
 
