@@ -328,3 +328,24 @@ fn error_history_follows_the_store_masks() {
         "now stored while disabled"
     );
 }
+
+/// Quick Stop (1000h): the controlword's quick stop; afterwards 06h before 0Fh (Tab. 5-2).
+#[test]
+fn quick_stop_input() {
+    let mut r = Rig::new();
+    r.w16(0x2010, 0x06, 0x1000);
+    r.enable_in(3);
+    r.w32(0x60FF, 0, dec_rpm(600.0));
+    r.run_ms(300);
+    r.w16(0x2010, 0x02, 1 << 3);
+    r.run_ms(500);
+    assert!(r.rpm().abs() < 1.0, "stopped: {}", r.rpm());
+    assert_ne!(r.sw() & 0x6F, 0x27, "no longer enabled: {:04X}", r.sw());
+    r.w16(0x2010, 0x02, 0);
+    r.cw(0x0F);
+    assert_ne!(r.sw() & 0x6F, 0x27, "0Fh alone does not enable");
+    r.cw(0x06);
+    r.cw(0x0F);
+    r.run_ms(5);
+    assert_eq!(r.sw() & 0x6F, 0x27, "06h then 0Fh");
+}

@@ -224,3 +224,30 @@ fn mode_4_torque_with_speed_limit() {
         r.rpm()
     );
 }
+
+/// Homing −17 / −18 (Tab. 6-19): on the negative / positive mechanical stop (the travel's
+/// hard stops at −22 and +66 revolutions: −220 000 / +660 000 increments).
+#[test]
+fn homing_on_the_mechanical_stop() {
+    for (method, stop) in [(-17i8, -220_000i64), (-18, 660_000)] {
+        let mut r = Rig::new();
+        // Without limit switches: the method ignores them, the wiring is removed.
+        r.w16(0x2010, 0x07, 0);
+        r.w16(0x2010, 0x08, 0);
+        r.w8(0x6099, 0x05, 1);
+        r.w32(0x6099, 1, dec_rpm(3000.0));
+        r.w32(0x6099, 2, dec_rpm(60.0));
+        r.w32(0x609A, 0, dec_rps2(500.0));
+        r.w8(0x6098, 0, method);
+        r.enable_in(6);
+        r.cw(0x1F);
+        assert!(
+            r.until_sw(HOMING_ATTAINED, 30_000),
+            "{method}: {:04X}",
+            r.sw()
+        );
+        let at = r.d.plant_position() * INC_PER_REV / 65_536;
+        assert!((at - stop).abs() < 500, "{method}: at {at}");
+        assert_eq!(r.sw() & 0x2000, 0, "no homing error");
+    }
+}
