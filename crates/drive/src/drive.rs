@@ -274,6 +274,8 @@ pub struct Drive<S> {
     pub(crate) kinco_history: Deque<u16, 8>,
     /// The Kinco position table and its flow.
     pub(crate) kinco_table: personality::kinco_table::TableRun,
+    /// The simulated analog inputs of the Kinco.
+    pub(crate) kinco_analog: personality::kinco_analog::AnalogInputs,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -433,6 +435,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             kinco_pulse: Default::default(),
             kinco_history: Deque::new(),
             kinco_table: Default::default(),
+            kinco_analog: Default::default(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,

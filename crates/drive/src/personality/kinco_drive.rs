@@ -237,6 +237,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// any Error_State2 bit) and Error_State2 2602h (§7, KINCO-DIAG-01/06); the following
     /// error Pos_Error 60FBh:08 and Real_Speed_RPM 2FF0h:14.
     pub(crate) fn kinco_publish(&mut self, following_error: i64) {
+        self.kinco_publish_analog();
         let (mut state, mut state2) = (0u16, 0u16);
         for code in self.faults.iter() {
             match error_bit(*code) {
@@ -265,11 +266,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// Modes 3 (ramped with Profile_Acc / Profile_Dec 6083h / 6084h) and −3 (no ramp, §5.2):
     /// the speed Target_Speed 60FFh, or Din_Speed[x] (rpm) where a Din Vel Index function is
-    /// on a DIN (§6.2.2); the Invert Direction DIN turns it round; Max_Speed_RPM 6080h
+    /// on a DIN (§6.2.2), or the analog input Analog_Speed_Con names (§6.2.1); the Invert Direction DIN turns it round; Max_Speed_RPM 6080h
     /// limits it; a limit switch blocks its direction.
     pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {
         let rpm_max = self.value(0x6080, 0).max(0) as f64;
-        let mut rpm = match self.kinco_din_speed_rpm() {
+        let mut rpm = match self.kinco_din_speed_rpm().or(self.kinco_analog_speed_rpm()) {
             Some(rpm) => f64::from(rpm),
             None => {
                 let user = self
@@ -325,7 +326,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Speed_Limit_Factor 60F6h:03 shapes the limit); Invert Direction turns it round.
     pub(crate) fn kinco_torque(&mut self, _dt: f64) {
         let rpm = f64::from(self.plant_velocity_rpm());
-        let mut percent = self.read(self.hot.target_torque) as f64;
+        // AIN torque (§6.3): mN·m over the rated torque (Kt × rated current), in %.
+        let rated_nm = self.settings.motor.torque_constant * self.settings.motor.rated_current;
+        let mut percent = match self.kinco_analog_torque_mnm() {
+            Some(mnm) if rated_nm > 0.0 => mnm as f64 / 10.0 / rated_nm,
+            _ => self.read(self.hot.target_torque) as f64,
+        };
         if self.kinco_din_active(DinFunction::InvertDirection) {
             percent = -percent;
         }

@@ -10,6 +10,7 @@
 
 pub mod cmmp_as;
 pub mod kinco;
+pub(crate) mod kinco_analog;
 pub(crate) mod kinco_drive;
 pub(crate) mod kinco_io;
 pub(crate) mod kinco_pulse;
