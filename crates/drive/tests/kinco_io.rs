@@ -6,6 +6,7 @@ mod kinco_rig;
 
 use drive::drive::DriveEvent;
 use kinco_rig::{dec_rpm, dec_rps2, Rig};
+use od::ObjectAccess;
 
 const DIN1: i64 = 1 << 0;
 const DIN2: i64 = 1 << 1;
@@ -348,4 +349,49 @@ fn quick_stop_input() {
     r.cw(0x0F);
     r.run_ms(5);
     assert_eq!(r.sw() & 0x6F, 0x27, "06h then 0Fh");
+}
+
+/// KINCO-SC-05 (§5.5.4): Gain Switch0 on DIN3 active, Gain Switch1 on DIN4 inactive: PI_Pointer
+/// 60F9h:28 = 1, and the controller runs with set 1 (Kvp[1] = 2 × Kvp[0]: twice the velocity
+/// gain); the bus cannot write PI_Pointer meanwhile.
+#[test]
+fn kinco_sc_05_gain_switch() {
+    let mut r = Rig::new();
+    let base = r.d.axis().params().velocity_control_gain;
+    r.w16(0x2340, 0x04, 760);
+    r.w16(0x2010, 0x05, 0x8020);
+    r.w16(0x2010, 0x06, 0x8040);
+    r.w16(0x2010, 0x02, DIN3);
+    r.run_ms(5);
+    assert_eq!(r.i(0x60F9, 0x28), 1);
+    assert_eq!(r.d.axis().params().velocity_control_gain, 2 * base);
+    assert!(r.d.write(0x60F9, 0x28, &[0, 0]).is_err());
+    r.w16(0x2010, 0x02, 0);
+    r.run_ms(5);
+    assert_eq!(r.i(0x60F9, 0x28), 0);
+    assert_eq!(r.d.axis().params().velocity_control_gain, base);
+}
+
+/// Kvi Off (0008h, DIN4 in the factory set-up): without the velocity integral a load leaves
+/// a speed error that the integral otherwise removes.
+#[test]
+fn kvi_off_input_leaves_a_speed_error_under_load() {
+    let error_with = |kvi_off: bool| {
+        let mut r = Rig::new();
+        if kvi_off {
+            r.w16(0x2010, 0x02, 1 << 3);
+        }
+        r.enable_in(-3);
+        r.w32(0x60FF, 0, dec_rpm(300.0));
+        r.d.axis_mut().motor_mut().set_load_torque(0.3);
+        r.run_ms(1000);
+        (r.rpm() - 300.0).abs()
+    };
+    let with_integral = error_with(false);
+    let without = error_with(true);
+    assert!(with_integral < 2.0, "integral: {with_integral} rpm off");
+    assert!(
+        without > 5.0 * with_integral.max(0.5),
+        "Kvi Off: {without} rpm off"
+    );
 }

@@ -98,17 +98,47 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Decision: Kinco's loop objects (60F6h, 60F9h, 60FBh: Kcp, Kvp, Kpp in the drive's own
     /// units, ch. 7) are not the engine's CMMP-AS parameters of the same indices and are not
     /// read; the currents come from the motor data and the speed limit from 6080h.
+    ///
+    /// Gain sets (§5.5.4, Tab. 5-5): the engine's controller stands for set 0; the set
+    /// PI_Pointer 60F9h:28 selects scales its velocity gain by Kvp[x] / Kvp[0] and its
+    /// position gain by Kpp[x] / Kpp[0] (Kvp[0] 60F9h:01, Kpp[0] 60FBh:01, sets 1–3 in
+    /// 2340h:04 … :0C); the Kvi Off input turns the velocity integral off. Decision: the Kvi
+    /// values are not mapped (their default 0 would take the engine's integral away).
     pub(crate) fn kinco_control_params(&self) -> ControlParams {
         let m = self.settings.motor;
         let d = ControlParams::default();
         let rated_ma = (m.rated_current * 1000.0) as u32;
         let peak_ma = (m.peak_current * 1000.0) as u32;
+        let set = self.value(0x60F9, 0x28).clamp(0, 3) as u8;
+        let ratio = |base: (u16, u8), first_sub: u8| {
+            let base = self.value(base.0, base.1);
+            let v = if set == 0 {
+                base
+            } else {
+                self.value(0x2340, first_sub + 3 * (set - 1))
+            };
+            if base > 0 && v > 0 {
+                v as f64 / base as f64
+            } else {
+                1.0
+            }
+        };
+        let scale =
+            |gain: u16, r: f64| (f64::from(gain) * r).clamp(1.0, f64::from(u16::MAX)) as u16;
+        let kvi_off = self.kinco_din.kvi_off;
         ControlParams {
             motor_rated_current_ma: rated_ma,
             max_current_permille: (peak_ma * 1000 / rated_ma.max(1)).min(u32::from(u16::MAX))
                 as u16,
             peak_current_ma: peak_ma,
             max_motor_speed_rpm: self.value(0x6080, 0).clamp(1, 32768) as u32,
+            velocity_control_gain: scale(d.velocity_control_gain, ratio((0x60F9, 0x01), 0x04)),
+            position_control_gain: scale(d.position_control_gain, ratio((0x60FB, 0x01), 0x06)),
+            velocity_control_time_us: if kvi_off {
+                0
+            } else {
+                d.velocity_control_time_us
+            },
             ..d
         }
     }
@@ -125,6 +155,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (0x6060, 0x00) => Self::kinco_write_mode,
             (0x2FF0, 0x0E) => Self::kinco_write_max_following_error_16,
             (0x607E, 0x00) => Self::kinco_write_invert_dir,
+            (0x60F9, 0x28) => Self::kinco_write_pi_pointer,
+            (0x2340, _) | (0x60F9, 0x01) | (0x60FB, 0x01) => Self::kinco_write_gain,
             _ => return None,
         })
     }
@@ -153,6 +185,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             return Err(AbortCode::LOCAL_CONTROL);
         }
         self.write_mode(index, sub, data)
+    }
+
+    /// PI_Pointer 60F9h:28: owned by the Gain Switch inputs where one is configured (L1287);
+    /// otherwise the set the master chooses.
+    fn kinco_write_pi_pointer(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if self.kinco_din_configured(DinFunction::GainSwitch0)
+            || self.kinco_din_configured(DinFunction::GainSwitch1)
+            || self.value(0x6069, 0x09) == 1
+        {
+            return Err(AbortCode::LOCAL_CONTROL);
+        }
+        self.kinco_write_gain(index, sub, data)
+    }
+
+    /// A gain of a set: the controller is retuned.
+    fn kinco_write_gain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.params_dirty = true;
+        Ok(())
     }
 
     /// 2FF0h:0E Max_Following_Error_16: 6065h = 100 × it (§6 item 3, KINCO-SC-09).

@@ -50,6 +50,8 @@ pub(crate) struct DinMemory {
     pub(crate) internal: Option<u8>,
     /// A homing the Start Homing input started, and the mode to return to.
     pub(crate) homing_return: Option<i8>,
+    /// The Kvi Off input is active (the controller runs without the velocity integral).
+    pub(crate) kvi_off: bool,
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
@@ -215,6 +217,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
         }
+        self.kinco_gain_switching(now);
         let motor_error = level(self, DinFunction::MotorError) == Some(true);
         self.cause(MOTOR_TEMPERATURE, motor_error, 0x09);
         let cw = Controlword(self.read(self.hot.controlword) as u16);
@@ -226,6 +229,34 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.raise(EXTERNAL_ENABLE, 0x01, true);
         }
         self.kinco_capture(before, now, position);
+    }
+
+    /// Gain switching (§5.5.4), in the manual's order: the Gain Switch inputs (PI_Pointer =
+    /// BCD(GS1:GS0), an input not configured counts 0); else with PI_Switch 6069h:09 = 1 set 0
+    /// while the motor turns and set 1 once Pos Reached or Zero Speed holds; else the
+    /// PI_Pointer written. Kvi Off turns the velocity integral off.
+    fn kinco_gain_switching(&mut self, internal: u8) {
+        let bits = [DinFunction::GainSwitch0, DinFunction::GainSwitch1]
+            .map(|f| self.din_level(internal, f));
+        let pointer = if bits.iter().any(Option::is_some) {
+            Some(i64::from(selected_index(&bits)))
+        } else if self.value(0x6069, 0x09) == 1 {
+            let settled = self.dout_function(DoutFunction::PosReached)
+                || self.dout_function(DoutFunction::ZeroSpeed);
+            Some(i64::from(settled))
+        } else {
+            None
+        };
+        if let Some(p) = pointer.filter(|p| *p != self.value(0x60F9, 0x28)) {
+            let e = self.od.description().entry(0x60F9, 0x28);
+            self.store(e, p);
+            self.params_dirty = true;
+        }
+        let kvi_off = self.din_level(internal, DinFunction::KviOff) == Some(true);
+        if kvi_off != self.kinco_din.kvi_off {
+            self.kinco_din.kvi_off = kvi_off;
+            self.params_dirty = true;
+        }
     }
 
     /// "After homing started by the input the drive returns to the previous mode" (Tab.
