@@ -276,6 +276,8 @@ pub struct Drive<S> {
     pub(crate) kinco_table: personality::kinco_table::TableRun,
     /// The simulated analog inputs of the Kinco.
     pub(crate) kinco_analog: personality::kinco_analog::AnalogInputs,
+    /// A Kinco auto-tuning run.
+    pub(crate) kinco_tuning: personality::kinco_tuning::TuningRun,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -436,6 +438,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             kinco_history: Deque::new(),
             kinco_table: Default::default(),
             kinco_analog: Default::default(),
+            kinco_tuning: Default::default(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,
@@ -1120,6 +1123,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
         }
         if self.personality.vendor == Vendor::Kinco {
+            if self.kinco_tuning_active() {
+                self.kinco_tuning_step();
+                return;
+            }
             match self.mode {
                 mode::PROFILE_POSITION => self.kinco_profile_position(cw, dt),
                 mode::PROFILE_VELOCITY => self.kinco_velocity(true, dt),

@@ -156,6 +156,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (0x2FF0, 0x0E) => Self::kinco_write_max_following_error_16,
             (0x607E, 0x00) => Self::kinco_write_invert_dir,
             (0x60F9, 0x28) => Self::kinco_write_pi_pointer,
+            (0x3040, 0x01) => Self::kinco_write_tuning_method,
             (0x2340, _) | (0x60F9, 0x01) | (0x60FB, 0x01) => Self::kinco_write_gain,
             _ => return None,
         })

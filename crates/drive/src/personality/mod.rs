@@ -15,6 +15,7 @@ pub(crate) mod kinco_drive;
 pub(crate) mod kinco_io;
 pub(crate) mod kinco_pulse;
 pub mod kinco_table;
+pub mod kinco_tuning;
 pub mod nanotec;
 pub mod nanotec_units;
 
