@@ -251,3 +251,37 @@ fn homing_on_the_mechanical_stop() {
         assert_eq!(r.sw() & 0x2000, 0, "no homing error");
     }
 }
+
+/// The CD3 (RS232 only, same firmware) runs on the same personality.
+#[test]
+fn cd3_runs_as_a_kinco() {
+    let desc = devices::by_name("kinco-cd3").expect("the CD3 device file");
+    let od = od::ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("dictionary");
+    let mut d = drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
+    let mut now = od::Instant::ZERO;
+    let mut run = |d: &mut drive::drive::Drive<Vec<u8>>, ms: u64| {
+        now = now + std::time::Duration::from_millis(ms);
+        d.step(now);
+    };
+    run(&mut d, 1);
+    assert_eq!(
+        d.write(0x6040, 0, &[0x0F, 0]),
+        Err(od::AbortCode::LOCAL_CONTROL)
+    );
+    for (i, s, v) in [(0x2010u16, 3u8, 0u16), (0x2010, 5, 0)] {
+        d.write(i, s, &v.to_le_bytes()).unwrap();
+    }
+    d.write(0x6060, 0, &[0xFD]).unwrap(); // −3
+    for cw in [0x06u16, 0x0F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+        run(&mut d, 5);
+    }
+    d.write(0x60FF, 0, &(dec_rpm(120.0) as i32).to_le_bytes())
+        .unwrap();
+    run(&mut d, 300);
+    assert!(
+        (d.plant_velocity_rpm() - 120.0).abs() < 3.0,
+        "{}",
+        d.plant_velocity_rpm()
+    );
+}
