@@ -266,18 +266,9 @@ pub struct Drive<S> {
     pub(crate) forced_levels: u16,
     /// Error management 2100h: the reaction per main error number.
     pub(crate) reactions: Reactions,
-    /// The Kinco inputs at the last cycle (their edges).
-    pub(crate) kinco_din: personality::kinco_io::DinMemory,
-    /// The simulated pulse input of Kinco mode −4.
-    pub(crate) kinco_pulse: personality::kinco_pulse::PulseInput,
-    /// The Kinco error history (the last 8 errors).
-    pub(crate) kinco_history: Deque<u16, 8>,
-    /// The Kinco position table and its flow.
-    pub(crate) kinco_table: personality::kinco_table::TableRun,
-    /// The simulated analog inputs of the Kinco.
-    pub(crate) kinco_analog: personality::kinco_analog::AnalogInputs,
-    /// A Kinco auto-tuning run.
-    pub(crate) kinco_tuning: personality::kinco_tuning::TuningRun,
+    /// What only a Kinco keeps (inputs, pulse and analog sources, history, position table,
+    /// tuning).
+    pub(crate) kinco: personality::kinco_drive::KincoState,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -433,12 +424,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             forced_mask: 0,
             forced_levels: 0,
             reactions: Reactions::default(),
-            kinco_din: Default::default(),
-            kinco_pulse: Default::default(),
-            kinco_history: Deque::new(),
-            kinco_table: Default::default(),
-            kinco_analog: Default::default(),
-            kinco_tuning: Default::default(),
+            kinco: Default::default(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,

@@ -24,7 +24,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let v = if volts.is_finite() { volts } else { 0.0 };
         let cv = libm::round(v.clamp(-10.0, 10.0) * 100.0) as i32;
         if let Some(slot) = self
-            .kinco_analog
+            .kinco
+            .analog
             .centivolts
             .get_mut(usize::from(input.wrapping_sub(1)))
         {
@@ -36,7 +37,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn analog_processed(&self, n: u8) -> i32 {
         let (dead, offset) = if n == 1 { (0x1D, 0x1E) } else { (0x1F, 0x20) };
         let v_in = self
-            .kinco_analog
+            .kinco
+            .analog
             .centivolts
             .get(usize::from(n.wrapping_sub(1)))
             .copied()
@@ -74,7 +76,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn kinco_publish_analog(&mut self) {
         for n in [1u8, 2] {
             let raw = self
-                .kinco_analog
+                .kinco
+                .analog
                 .centivolts
                 .get(usize::from(n - 1))
                 .copied()

@@ -37,6 +37,23 @@ pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
     polarity: 0,
 };
 
+/// What only a Kinco keeps beside the CiA 402 engine's state.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KincoState {
+    /// The inputs at the last cycle (their edges), the Start Homing return, Kvi Off.
+    pub(crate) din: super::kinco_io::DinMemory,
+    /// The simulated pulse input of mode −4.
+    pub(crate) pulse: super::kinco_pulse::PulseInput,
+    /// The error history (the last 8 errors).
+    pub(crate) history: heapless::Deque<u16, 8>,
+    /// The position table and its flow.
+    pub(crate) table: super::kinco_table::TableRun,
+    /// The simulated analog inputs.
+    pub(crate) analog: super::kinco_analog::AnalogInputs,
+    /// An auto-tuning run.
+    pub(crate) tuning: super::kinco_tuning::TuningRun,
+}
+
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
 pub const INCREMENTS_PER_REV: i64 = 10_000;
 
@@ -125,7 +142,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         let scale =
             |gain: u16, r: f64| (f64::from(gain) * r).clamp(1.0, f64::from(u16::MAX)) as u16;
-        let kvi_off = self.kinco_din.kvi_off;
+        let kvi_off = self.kinco.din.kvi_off;
         ControlParams {
             motor_rated_current_ma: rated_ma,
             max_current_permille: (peak_ma * 1000 / rated_ma.max(1)).min(u32::from(u16::MAX))
@@ -278,16 +295,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (ErrorWord::State2, false) => 0x06,
         };
         if self.value(0x2605, sub) & (1 << bit) != 0 {
-            if self.kinco_history.is_full() {
-                self.kinco_history.pop_front();
+            if self.kinco.history.is_full() {
+                self.kinco.history.pop_front();
             }
-            let _ = self.kinco_history.push_back(code);
+            let _ = self.kinco.history.push_back(code);
         }
     }
 
     /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
     pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
-        self.kinco_history.iter().copied()
+        self.kinco.history.iter().copied()
     }
 
     /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for

@@ -157,8 +157,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn kinco_din_cycle(&mut self) {
         let position = self.plant_position();
         let now = self.kinco_din_internal(position);
-        let before = self.kinco_din.internal;
-        self.kinco_din.internal = Some(now);
+        let before = self.kinco.din.internal;
+        self.kinco.din.internal = Some(now);
         let level = |d: &Self, f| d.din_level(now, f);
         let changed = |d: &Self, f| {
             let was = before.and_then(|b| d.din_level(b, f));
@@ -194,7 +194,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.kinco_set_controlword((cw & !0x0004) | 0x0002);
         }
         if rising(self, DinFunction::StartHoming) && self.dc.state() == State::OperationEnabled {
-            self.kinco_din.homing_return = Some(self.mode);
+            self.kinco.din.homing_return = Some(self.mode);
             let _ = self.write_mode(0x6060, 0, &[mode::HOMING as u8]);
             let cw = Controlword(self.read(self.hot.controlword) as u16);
             self.kinco_set_controlword((cw | Controlword::HOMING_START).bits());
@@ -202,17 +202,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.kinco_homing_return();
         // The position table (§6.4.1): its edges for the next mode-1 cycle; an error, another
         // mode or the enable gone end the flow at once.
-        self.kinco_table.start_edge |= rising(self, DinFunction::StartPosTable);
-        self.kinco_table.abort_edge |= rising(self, DinFunction::AbortPosTable)
+        self.kinco.table.start_edge |= rising(self, DinFunction::StartPosTable);
+        self.kinco.table.abort_edge |= rising(self, DinFunction::AbortPosTable)
             || !self.kinco_din_configured(DinFunction::StartPosTable);
-        self.kinco_table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
+        self.kinco.table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
         if self.mode != mode::PROFILE_POSITION
             || self.dc.state() != State::OperationEnabled
             || !self.faults.is_empty()
         {
             self.kinco_table_abort();
-            self.kinco_table.start_edge = false;
-            self.kinco_table.abort_edge = false;
+            self.kinco.table.start_edge = false;
+            self.kinco.table.abort_edge = false;
         }
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
@@ -253,8 +253,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = true;
         }
         let kvi_off = self.din_level(internal, DinFunction::KviOff) == Some(true);
-        if kvi_off != self.kinco_din.kvi_off {
-            self.kinco_din.kvi_off = kvi_off;
+        if kvi_off != self.kinco.din.kvi_off {
+            self.kinco.din.kvi_off = kvi_off;
             self.params_dirty = true;
         }
     }
@@ -262,14 +262,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// "After homing started by the input the drive returns to the previous mode" (Tab.
     /// 5-2): once the homing has ended (attained or failed), the mode and bit 4 go back.
     fn kinco_homing_return(&mut self) {
-        let Some(previous) = self.kinco_din.homing_return else {
+        let Some(previous) = self.kinco.din.homing_return else {
             return;
         };
         let ended = matches!(self.homing, HomingRun::Idle)
             && (self.homing_attained || self.homing_error)
             && self.mode_pending.is_none();
         if ended || self.dc.state() != State::OperationEnabled {
-            self.kinco_din.homing_return = None;
+            self.kinco.din.homing_return = None;
             let _ = self.write_mode(0x6060, 0, &[previous as u8]);
             let cw = Controlword(self.read(self.hot.controlword) as u16);
             self.kinco_set_controlword(cw.difference(Controlword::HOMING_START).bits());

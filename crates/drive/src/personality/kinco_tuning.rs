@@ -52,7 +52,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.od.write(index, sub, data)?;
         if self.dc.state() == State::OperationEnabled {
             let center = self.traj.position;
-            self.kinco_tuning.run = Some((self.now, self.now + TUNING_RUN, center));
+            self.kinco.tuning.run = Some((self.now, self.now + TUNING_RUN, center));
         } else {
             self.kinco_tuning_result(0, 30, None);
         }
@@ -60,16 +60,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     pub(crate) fn kinco_tuning_active(&self) -> bool {
-        self.kinco_tuning.run.is_some()
+        self.kinco.tuning.run.is_some()
     }
 
     /// One cycle of the run: the oscillation, then the result.
     pub(crate) fn kinco_tuning_step(&mut self) {
-        let Some((start, end, center)) = self.kinco_tuning.run else {
+        let Some((start, end, center)) = self.kinco.tuning.run else {
             return;
         };
         if self.dc.state() != State::OperationEnabled {
-            self.kinco_tuning.run = None;
+            self.kinco.tuning.run = None;
             self.kinco_tuning_result(0, 30, None);
             return;
         }
@@ -81,7 +81,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let v = self.traj.velocity;
         self.position_demand(v);
         if self.now >= end {
-            self.kinco_tuning.run = None;
+            self.kinco.tuning.run = None;
             self.traj.position = center;
             self.traj.velocity = 0.0;
             let j_total = self.axis.motor().data().inertia;
