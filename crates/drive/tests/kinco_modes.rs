@@ -285,3 +285,22 @@ fn cd3_runs_as_a_kinco() {
         d.plant_velocity_rpm()
     );
 }
+
+/// Jog (F006): −3 at Jog_RPM (30 rpm by default) without the limit switches; ending it
+/// returns to the mode before.
+#[test]
+fn jog_runs_at_jog_rpm_past_the_limit_switch() {
+    let mut r = Rig::new();
+    r.w16(0x2FF0, 0x23, 600);
+    r.enable_in(1);
+    r.d.jog(-1);
+    r.run_ms(300);
+    assert_eq!(r.i(0x6061, 0), -3);
+    assert!((r.rpm() + 600.0).abs() < 10.0, "{}", r.rpm());
+    // The negative limit switch is at −200 000 increments: 2 s at 10 rev/s; jog goes on.
+    r.run_ms(2200);
+    assert!(r.position() < -205_000, "past the switch: {}", r.position());
+    r.d.jog(0);
+    r.run_ms(20);
+    assert_eq!(r.i(0x6061, 0), 1);
+}

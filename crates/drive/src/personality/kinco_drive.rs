@@ -52,6 +52,8 @@ pub(crate) struct KincoState {
     pub(crate) analog: super::kinco_analog::AnalogInputs,
     /// An auto-tuning run.
     pub(crate) tuning: super::kinco_tuning::TuningRun,
+    /// Jog (F006): the direction and the mode to return to.
+    pub(crate) jog: Option<(i8, i8)>,
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
@@ -344,6 +346,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// limits it; a limit switch blocks its direction.
     pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {
         let rpm_max = self.value(0x6080, 0).max(0) as f64;
+        if let Some((direction, _)) = self.kinco.jog {
+            // Jog (§4, F006): Jog_RPM 2FF0h:23, "independent of other settings", the limit
+            // switches not active.
+            let rpm = f64::from(direction.signum()) * self.value(0x2FF0, 0x23) as f64;
+            self.velocity_set = rpm.clamp(-rpm_max, rpm_max) / RPM_PER_INCREMENT_S;
+            self.demand = Demand::Velocity {
+                rpm: (self.velocity_set * RPM_PER_INCREMENT_S) as f32,
+            };
+            self.traj = Trajectory {
+                position: self.actual_internal() as f64,
+                velocity: self.velocity_set,
+            };
+            self.demand_position = self.traj.position;
+            return;
+        }
         let mut rpm = match self.kinco_din_speed_rpm().or(self.kinco_analog_speed_rpm()) {
             Some(rpm) => f64::from(rpm),
             None => {
@@ -392,6 +409,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             / 4096.0;
         let error = f64::from(self.plant_velocity_rpm()) - rpm;
         self.target_reached = self.velocity_set == target && error.abs() <= window.max(1.0);
+    }
+
+    /// Jog (the panel's F006, §4): `direction` > 0 turns at +Jog_RPM 2FF0h:23, < 0 at
+    /// −Jog_RPM, in mode −3 without the limit switches; 0 ends it and the mode before it
+    /// returns. Decision: jog moves an enabled drive only (the panel's own enable is the
+    /// panel's business).
+    pub fn jog(&mut self, direction: i8) {
+        match (direction, self.kinco.jog) {
+            (0, Some((_, previous))) => {
+                self.kinco.jog = None;
+                let _ = self.write_mode(0x6060, 0, &[previous as u8]);
+            }
+            (0, None) => {}
+            (d, Some((_, previous))) => self.kinco.jog = Some((d, previous)),
+            (d, None) => {
+                self.kinco.jog = Some((d, self.mode));
+                let _ = self.write_mode(0x6060, 0, &[(-3i8) as u8]);
+            }
+        }
     }
 
     /// Mode 4 (§5.3): Target_Torque 6071h in % of the rated torque (the motor's rated
