@@ -395,3 +395,29 @@ fn kvi_off_input_leaves_a_speed_error_under_load() {
         "Kvi Off: {without} rpm off"
     );
 }
+
+/// Motor Error (8100h): an active input is "Motor Temperature" (Error_State bit 13, EMCY
+/// 4310h with the temperature bit of 1001h); the fault resets once the input is gone.
+#[test]
+fn motor_error_input() {
+    let mut r = Rig::new();
+    r.w16(0x2010, 0x06, 0x8100);
+    r.enable_in(3);
+    r.events();
+    r.w16(0x2010, 0x02, 1 << 3);
+    r.run_ms(5);
+    assert_eq!(r.sw() & 0x4F, 0x08);
+    assert_eq!(r.i(0x2601, 0), 1 << 13);
+    assert!(r.events().contains(&DriveEvent::Error {
+        code: 0x4310,
+        register: 0x09
+    }));
+    r.cw(0x86);
+    r.cw(0x06);
+    assert_eq!(r.sw() & 0x4F, 0x08, "still there");
+    r.w16(0x2010, 0x02, 0);
+    r.run_ms(5);
+    r.cw(0x86);
+    r.cw(0x06);
+    assert_eq!(r.sw() & 0x6F, 0x21);
+}

@@ -219,14 +219,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         self.kinco_gain_switching(now);
         let motor_error = level(self, DinFunction::MotorError) == Some(true);
-        self.cause(MOTOR_TEMPERATURE, motor_error, 0x09);
+        self.cause(
+            MOTOR_TEMPERATURE,
+            motor_error,
+            super::kinco::error_register(MOTOR_TEMPERATURE),
+        );
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let enabling = cw.contains(Controlword::ENABLE_OPERATION_CMD);
         let refused = level(self, DinFunction::PreEnable) == Some(false)
             && enabling
             && self.dc.state() != State::Fault;
         if refused && !self.faults.contains(&EXTERNAL_ENABLE) {
-            self.raise(EXTERNAL_ENABLE, 0x01, true);
+            self.raise(
+                EXTERNAL_ENABLE,
+                super::kinco::error_register(EXTERNAL_ENABLE),
+                true,
+            );
         }
         self.kinco_capture(before, now, position);
     }
