@@ -95,10 +95,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         )
     }
 
+    /// The internal levels of this logic cycle (read once by [`Drive::kinco_din_cycle`]).
+    fn din_now(&self) -> u8 {
+        self.kinco
+            .din
+            .internal
+            .unwrap_or_else(|| self.kinco_din_internal(self.plant_position()))
+    }
+
     /// Whether `function` is active now (an input that has it is active).
     pub(crate) fn kinco_din_active(&self, function: DinFunction) -> bool {
-        let internal = self.kinco_din_internal(self.plant_position());
-        self.din_level(internal, function).unwrap_or(false)
+        self.din_level(self.din_now(), function).unwrap_or(false)
     }
 
     /// The limit switches at `position` (negative, positive): a configured P limit input
@@ -112,7 +119,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     pub(crate) fn kinco_limits_active(&self) -> (bool, bool) {
-        self.kinco_limits_at(self.plant_position())
+        let internal = self.din_now();
+        (
+            self.din_level(internal, DinFunction::NegativeLimit) == Some(false),
+            self.din_level(internal, DinFunction::PositiveLimit) == Some(false),
+        )
     }
 
     /// The switches as homing reads them.
@@ -129,7 +140,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Din_Speed[x] in rpm where a Din Vel Index function is on an input (§6.2.2,
     /// KINCO-SC-03): x = Index0 + 2·Index1 + 4·Index2, an index no input has counts 0.
     pub(crate) fn kinco_din_speed_rpm(&self) -> Option<i32> {
-        let internal = self.kinco_din_internal(self.plant_position());
+        let internal = self.din_now();
         let bits = [
             DinFunction::DinVelIndex0,
             DinFunction::DinVelIndex1,
@@ -149,7 +160,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// Transition 2 / 3 may happen: no Pre Enable input, or it is active.
     pub(crate) fn kinco_pre_enable(&self) -> bool {
-        let internal = self.kinco_din_internal(self.plant_position());
+        let internal = self.din_now();
         self.din_level(internal, DinFunction::PreEnable) != Some(false)
     }
 
