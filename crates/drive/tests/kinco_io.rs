@@ -421,3 +421,22 @@ fn motor_error_input() {
     r.cw(0x06);
     assert_eq!(r.sw() & 0x6F, 0x21);
 }
+
+/// Warnings (§7): Warning_Word 2680h bit 0 (battery low) shows on the Enc Warning output
+/// (8002h) and in statusword bit 7; the drive stays enabled.
+#[test]
+fn warning_word() {
+    let mut r = Rig::new();
+    r.w16(0x2010, 0x13, 0x8002); // OUT5: Enc Warning
+    r.enable_in(3);
+    r.d.set_warnings(0x0001);
+    r.run_ms(5);
+    assert_eq!(r.i(0x2680, 0), 1);
+    assert_ne!(r.sw() & 0x0080, 0);
+    assert_eq!(r.sw() & 0x6F, 0x27);
+    assert_eq!(r.i(0x2010, 0x14) & 0x10, 0x10);
+    r.d.set_warnings(0);
+    r.run_ms(5);
+    assert_eq!(r.sw() & 0x0080, 0);
+    assert_eq!(r.i(0x2010, 0x14) & 0x10, 0);
+}

@@ -54,6 +54,8 @@ pub(crate) struct KincoState {
     pub(crate) tuning: super::kinco_tuning::TuningRun,
     /// Jog (F006): the direction and the mode to return to.
     pub(crate) jog: Option<(i8, i8)>,
+    /// Warning_Word 2680h as injected.
+    pub(crate) warnings: u16,
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
@@ -254,9 +256,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Statusword(bits) | Statusword::VOLTAGE_ENABLED.when(power)
     }
 
-    /// Bit 15: the reference is found.
+    /// Bit 15: the reference is found; bit 7 (CiA 402 warning) while Warning_Word 2680h is
+    /// not 0.
     pub(crate) fn kinco_manufacturer_bits(&self) -> Statusword {
-        kinco::HOME_FOUND.when(self.referenced)
+        kinco::HOME_FOUND.when(self.referenced) | Statusword::WARNING.when(self.kinco.warnings != 0)
+    }
+
+    /// Warning_Word 2680h (§7: bit 0 battery low, bit 1 mixed warning, bit 2 encoder busy)
+    /// from outside (a test, a fault injection): the drive goes on; the Enc Warning output
+    /// (8002h) and statusword bit 7 show it. Decision: the twin's encoder has no battery, so
+    /// the warnings are injected only; bit 7 is CiA 402's warning bit.
+    pub fn set_warnings(&mut self, bits: u16) {
+        self.kinco.warnings = bits & 0x0007;
+        let e = self.od.description().entry(0x2680, 0);
+        self.store(e, i64::from(self.kinco.warnings));
     }
 
     /// The reaction to an error: none where its bit is masked out (Error_Mask 2605h:01,

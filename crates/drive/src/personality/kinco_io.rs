@@ -373,7 +373,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             DoutFunction::PositionLimit => negative || positive,
             DoutFunction::HomeFound => self.referenced,
             DoutFunction::PosTableActive => self.kinco_table_active(),
-            DoutFunction::EncIndex | DoutFunction::EncWarning => false,
+            DoutFunction::EncWarning => self.kinco.warnings != 0,
+            DoutFunction::EncIndex => false,
         }
     }
 
