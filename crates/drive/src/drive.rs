@@ -268,6 +268,9 @@ pub struct Drive<S> {
     pub(crate) forced_levels: u16,
     /// Error management 2100h: the reaction per main error number.
     pub(crate) reactions: Reactions,
+    /// What only a Kinco keeps (inputs, pulse and analog sources, history, position table,
+    /// tuning).
+    pub(crate) kinco: personality::kinco_drive::KincoState,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -423,6 +426,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             forced_mask: 0,
             forced_levels: 0,
             reactions: Reactions::default(),
+            kinco: Default::default(),
             warning: None,
             internal_limit: false,
             safe_standstill: false,
@@ -525,12 +529,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.cmmp_power_on();
             }
             Vendor::Nanotec => self.nanotec_power_on(),
+            Vendor::Kinco => self.kinco_power_on(),
         }
     }
 
-    fn reload_factor_group(&mut self) {
+    pub(crate) fn reload_factor_group(&mut self) {
         if self.personality.capabilities.feed_constant {
             self.fg = self.feed_constant_factor_group();
+            return;
+        }
+        if self.personality.vendor == Vendor::Kinco {
+            // Kinco: fixed units (personality/kinco_drive.rs), 607Eh the direction.
+            let mut fg = personality::kinco_drive::FACTOR_GROUP;
+            let invert = self.od.get_unsigned(0x607E, 0).unwrap_or(0) != 0;
+            fg.polarity = if invert { 0xC0 } else { 0 };
+            self.fg = fg;
             return;
         }
         let ratio = |od: &ObjectDictionary<S>, index: u16, dflt: Ratio| Ratio {
@@ -589,6 +602,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let reaction = match self.personality.vendor {
             Vendor::CmmpAs => self.cmmp_error_reaction(code, critical, info),
             Vendor::Nanotec => self.nanotec_error_reaction(code, critical),
+            Vendor::Kinco => self.kinco_error_reaction(code),
         };
         self.report_error(code, register, reaction);
     }
@@ -715,7 +729,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
     /// went lets the fault reset acknowledge the error.
-    fn cause(&mut self, code: u16, present: bool, register: u8) {
+    pub(crate) fn cause(&mut self, code: u16, present: bool, register: u8) {
         let at = self.causes.iter().position(|c| *c == code);
         match (present, at) {
             (true, None) => {
@@ -804,7 +818,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
         if self.params_dirty {
             self.params_dirty = false;
-            self.axis.set_params(control_params(&self.od));
+            let params = match self.personality.vendor {
+                Vendor::Kinco => self.kinco_control_params(),
+                _ => control_params(&self.od),
+            };
+            self.axis.set_params(params);
+        }
+        if self.personality.vendor == Vendor::Kinco {
+            // The DIN functions own the controlword and the mode (Kinco L1287).
+            self.kinco_din_cycle();
         }
         self.stepper_mode();
         self.supervise_dc_link();
@@ -813,7 +835,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
-        let enables = self.input_levels(self.plant_position()).enables();
+        let enables = match self.personality.vendor {
+            Vendor::Kinco => self.kinco_pre_enable(),
+            _ => self.input_levels(self.plant_position()).enables(),
+        };
+        let before = self.dc.state();
         // A fault-reset pulse shorter than a cycle still counts (latched at the write).
         if self.cw_rising.contains(Controlword::FAULT_RESET)
             && !cw.contains(Controlword::FAULT_RESET)
@@ -822,7 +848,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 .dc
                 .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
         }
-        let before = self.dc.state();
         let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
@@ -905,6 +930,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 motion: ms(0x2007, 1) + ms(0x2007, 2),
                 engage: ms(0x2007, 3),
             },
+            // Kinco 6410h:12 Brake_Delay: "with a brake the drive keeps running until the
+            // brake is closed"; Decision: the set-point waits as long after the enable.
+            // Without a brake (6410h:17 bit 0 clear) nothing waits.
+            Vendor::Kinco if !self.settings.brake_fitted => BrakeDelays {
+                release: Duration::ZERO,
+                motion: Duration::ZERO,
+                engage: Duration::ZERO,
+            },
+            Vendor::Kinco => BrakeDelays {
+                release: Duration::ZERO,
+                motion: ms(0x6410, 0x12),
+                engage: ms(0x6410, 0x12),
+            },
         }
     }
 
@@ -970,7 +1008,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     pub(crate) fn accel(&self, index: u16) -> f64 {
         let user = self.value(index, 0).clamp(0, u32::MAX as i64) as u32;
-        self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
+        self.ramp(self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC)
     }
 
     pub(crate) fn position_demand(&mut self, velocity_ff: f64) {
@@ -1072,6 +1110,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 return;
             }
         }
+        if self.personality.vendor == Vendor::Kinco {
+            if self.kinco_tuning_active() {
+                self.kinco_tuning_step();
+                return;
+            }
+            match self.mode {
+                mode::PROFILE_POSITION => self.kinco_profile_position(cw, dt),
+                mode::PROFILE_VELOCITY => self.kinco_velocity(true, dt),
+                -3 => self.kinco_velocity(false, dt),
+                -4 => self.kinco_pulse_mode(dt),
+                mode::PROFILE_TORQUE => self.kinco_torque(dt),
+                mode::HOMING => self.homing(cw, dt),
+                _ => self.hold(dt),
+            }
+            return;
+        }
         match self.mode {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
@@ -1097,13 +1151,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.position_demand(self.traj.velocity);
     }
 
-    fn profile_position(&mut self, cw: Controlword, dt: f64) {
+    pub(crate) fn profile_position(&mut self, cw: Controlword, dt: f64) {
         let bit4 = cw.contains(Controlword::NEW_SET_POINT)
             || self.cw_rising.contains(Controlword::NEW_SET_POINT);
         let demand = self.traj.position;
         let fg = self.fg;
         let max_speed = self.max_motor_speed();
         let target_limits = self.personality.capabilities.pp_target_limits;
+        let abrupt_zero = self.personality.capabilities.zero_ramp_is_abrupt;
         // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
         let checked = (bit4 && target_limits).then(|| self.check_target(cw));
@@ -1121,9 +1176,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 fg.velocity_magnitude_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
                     * INC_S_PER_VEL
             };
-            let acc = |i| {
-                fg.acceleration_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
-                    * INC_S2_PER_ACC
+            let acc = |i| match fg.acceleration_to_internal(get(i).clamp(0, u32::MAX as i64) as u32)
+            {
+                0 if abrupt_zero => ABRUPT_STOP,
+                a => a as f64 * INC_S2_PER_ACC,
             };
             Request {
                 target,
@@ -1355,7 +1411,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     pub(crate) fn accel2(&self, index: u16, sub: u8) -> f64 {
         let user = self.value(index, sub).clamp(0, u32::MAX as i64) as u32;
-        self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC
+        self.ramp(self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC)
+    }
+
+    /// A ramp as the personality reads 0 (no motion, or no ramp: see
+    /// [`personality::Capabilities::zero_ramp_is_abrupt`]).
+    pub(crate) fn ramp(&self, increments_s2: f64) -> f64 {
+        if increments_s2 == 0.0 && self.personality.capabilities.zero_ramp_is_abrupt {
+            ABRUPT_STOP
+        } else {
+            increments_s2
+        }
     }
 
     fn profile_torque(&mut self, dt: f64) {
@@ -1453,6 +1519,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
     /// then trips over, as on the real drive.
     fn switch_inputs(&self, position: i64) -> Inputs {
+        if self.personality.vendor == Vendor::Kinco {
+            return self.kinco_switches(position);
+        }
         self.switch_config().switches(self.input_levels(position))
     }
 

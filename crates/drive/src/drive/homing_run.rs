@@ -104,7 +104,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                                 self.homing_settle = Some(self.now + Duration::from_millis(ms));
                             }
                         }
-                        let to_zero = self.value(0x6510, 0xF0) & 0x0040 != 0;
+                        let to_zero = match self.personality.vendor {
+                            // Kinco 6099h:05 Home_Offset_Mode 0: to the offset point.
+                            Vendor::Kinco => self.value(0x6099, 0x05) == 0,
+                            _ => self.value(0x6510, 0xF0) & 0x0040 != 0,
+                        };
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
                                 Then::ToZero
@@ -227,6 +231,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let home = self
             .value(0x607C, 0)
             .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        // Kinco §6.6 Home_Offset_Mode 6099h:05 = 0: "move to the offset point, the actual
+        // position is 0 there": the offset point lies Home_Offset beyond the home point, which
+        // then reads −Home_Offset; 1: the home point reads Home_Offset.
+        let home = if self.personality.vendor == Vendor::Kinco && self.value(0x6099, 0x05) == 0 {
+            home.saturating_neg()
+        } else {
+            home
+        };
         let offset = self.fg.position_to_internal(home) - at;
         let shift = (offset - self.position_offset) as f64;
         self.position_offset = offset;

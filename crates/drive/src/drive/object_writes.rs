@@ -14,6 +14,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let vendor = match self.personality.vendor {
             Vendor::CmmpAs => Self::cmmp_write_hook(index, sub),
             Vendor::Nanotec => Self::nanotec_write_hook(index, sub),
+            Vendor::Kinco => Self::kinco_write_hook(index, sub),
         };
         vendor.unwrap_or(match (index, sub) {
             (0x6040, 0x00) => Self::write_controlword,
@@ -37,7 +38,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// 6040h: rising edges for the state machine and the modes; a new homing start clears
     /// the old result at once.
-    fn write_controlword(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    pub(crate) fn write_controlword(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
         self.od.write(index, sub, data)?;
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let rising = cw.difference(self.last_cw);

@@ -29,6 +29,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let mut sw = match self.personality.vendor {
             Vendor::CmmpAs => self.cmmp_state_bits(state, power, moving),
             Vendor::Nanotec => self.nanotec_state_bits(state, power),
+            Vendor::Kinco => self.kinco_state_bits(state, power),
         };
         let in_oe = state == State::OperationEnabled;
         sw |= Statusword::TARGET_REACHED.when(self.target_reached && in_oe);
@@ -47,6 +48,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else {
             self.fe_since = None;
             self.following_error = false;
+        }
+        if self.personality.vendor == Vendor::Kinco {
+            self.kinco_supervise_following_error(fe);
+            self.kinco_publish(i64::from(self.fg.position_from_internal(fe)));
         }
         // 6510h:22 > 0: hard limit, output stage off and error 17-0.
         let hard = self.value(0x6510, 0x22);
@@ -92,6 +97,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sw |= match self.personality.vendor {
             Vendor::CmmpAs => self.cmmp_manufacturer_bits(),
             Vendor::Nanotec => Statusword::EMPTY,
+            Vendor::Kinco => self.kinco_manufacturer_bits(),
         };
         // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
         sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
@@ -103,6 +109,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 .switch_config()
                 .digital_inputs(self.input_levels(position)),
             Vendor::Nanotec => self.nanotec_digital_inputs(position),
+            Vendor::Kinco => {
+                self.kinco_publish_io();
+                0
+            }
         };
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
@@ -119,6 +129,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let actual = self.actual_internal();
         let internal = match self.personality.vendor {
             _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
+            Vendor::Kinco => i64::from(self.fg.position_from_internal(actual)),
             _ => actual,
         };
         self.store(self.hot.position_internal, internal);

@@ -140,6 +140,7 @@ pub const CMMP_AS: Personality = Personality {
         homing_immediate: false,
         switch_polarity_objects: true,
         brake_in_60fe: true,
+        zero_ramp_is_abrupt: false,
     },
     homing_methods: &METHODS,
     external_home_switch: None,

@@ -7,16 +7,15 @@
 //! offset and dead band (§6.2.1), the filter formulas and the stiffness table (ch. 7, Tab.
 //! 4-5 = 7-2), the inertia ratio and the auto-tuning results (§7.1-7.2).
 //!
-//! Not yet a [`Personality`](super::Personality): that needs `Vendor::Kinco` and its arms in
-//! `drive.rs` (power-on, error reaction, brake delays, statusword state and manufacturer bits,
-//! digital inputs) and `drive/object_writes.rs` (the write hook: DIN-owned objects refuse bus
-//! writes, 2FF0h:0E sets 6065h, 2FF0h:01 saves), and an entry in `ALL` — changes in files
-//! other engineers are working in. The data below is what that personality will point at.
+//! The [`KINCO`] personality points at these tables; the behaviour a table cannot hold is in
+//! `kinco_drive.rs` (power-on, statusword, error words, modes −3 / 3 / 4, the following-error
+//! limit) and `kinco_io.rs` (the DIN and DOUT functions with their simulation objects).
 
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
-use super::ModeSpec;
+use super::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality, Vendor};
+use crate::homing::{self, Method};
 
 const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
     ModeSpec {
@@ -36,6 +35,108 @@ pub const MODES: [ModeSpec; 6] = [
     mode(3, Some(2)),
     mode(4, Some(3)),
     mode(6, Some(5)),
+];
+
+/// The Kinco CD3 / FD3.
+///
+/// Decisions (the manual defines no state machine of its own, spec/kinco-fd-cd.md §4.1):
+/// CiA 402's, with 0Fh / 2Fh enabling from READY TO SWITCH ON at once (Tab. 6-5: "06h … 0Fh
+/// enable"), no option codes (CiA 402's defaults), the servo motor plant.
+pub const KINCO: Personality = Personality {
+    vendor: Vendor::Kinco,
+    devices: &["kinco-fd3", "kinco-cd3"],
+    modes: &MODES,
+    option_codes: &[],
+    enable_from_ready: true,
+    errors: &[
+        error_spec(Fault::FollowingError, 0x8611),
+        error_spec(Fault::Overfrequency, 0x8A80),
+    ],
+    stepper_plant: false,
+    pp_overwrite_queued: false,
+    capabilities: Capabilities {
+        feed_constant: false,
+        pp_target_limits: false,
+        ip_follows_sync: false,
+        ip_changing_until_synchronised: false,
+        ip_abrupt_quick_stop: false,
+        homing_immediate: false,
+        switch_polarity_objects: false,
+        brake_in_60fe: false,
+        zero_ramp_is_abrupt: true,
+    },
+    homing_methods: &HOMING_METHODS,
+    external_home_switch: None,
+};
+
+/// The 1001h error-register bits of an EMCY code (CiA 301 §7.5.2.2: bit 0 generic always;
+/// current 2xxxh bit 1, voltage 3xxxh bit 2, temperature 4xxxh bit 3, communication 81xxh
+/// bit 4); the manual gives no register values.
+pub const fn error_register(code: u16) -> u8 {
+    0x01 | match code >> 12 {
+        0x2 => 0x02,
+        0x3 => 0x04,
+        0x4 => 0x08,
+        0x8 if code >> 8 == 0x81 => 0x10,
+        _ => 0,
+    }
+}
+
+const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
+    ErrorSpec {
+        fault,
+        code,
+        register: error_register(code),
+        critical: true,
+    }
+}
+
+/// The homing method `number` of the CiA 402 table the engine runs (`homing::METHODS`, the
+/// CMMP-AS's steps of CiA 402's figures) or of the home-switch methods 19 … 22.
+const fn cia_method(number: i8) -> Method {
+    let mut i = 0;
+    while i < homing::METHODS.len() {
+        if homing::METHODS[i].0 == number {
+            return homing::METHODS[i];
+        }
+        i += 1;
+    }
+    let mut i = 0;
+    while i < super::nanotec::HOMING_METHODS.len() {
+        if super::nanotec::HOMING_METHODS[i].0 == number {
+            return super::nanotec::HOMING_METHODS[i];
+        }
+        i += 1;
+    }
+    panic!("no such homing method")
+}
+
+/// Tab. 6-19 (L1690-1720, spec/kinco-fd-cd.md §5.7): the CiA 402 methods the manual lists
+/// with rows that survived the OCR and the engine has steps for — 1, 2 (limit switch and
+/// index), 7, 11, 23, 27 (limit switch and home switch), 17, 18 (limit switch), 19 … 22 (home
+/// switch), 33, 34 (index), 35 (here) — and Kinco's −17 / −18 on the mechanical stop
+/// (negative / positive).
+///
+/// Decision: the rows lost in the OCR (3 … 6, 8 … 10, 12 … 14, 24 … 26, 28 … 30) are not
+/// offered; 6098h refuses them rather than guess their figures.
+pub const HOMING_METHODS: [Method; 17] = [
+    cia_method(-18),
+    cia_method(-17),
+    cia_method(1),
+    cia_method(2),
+    cia_method(7),
+    cia_method(11),
+    cia_method(17),
+    cia_method(18),
+    cia_method(19),
+    cia_method(20),
+    cia_method(21),
+    cia_method(22),
+    cia_method(23),
+    cia_method(27),
+    cia_method(33),
+    cia_method(34),
+    cia_method(35),
 ];
 
 /// The controlword values of Tab. 6-5 (L1272, KINCO-CW-01…05).

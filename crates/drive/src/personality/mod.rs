@@ -10,6 +10,12 @@
 
 pub mod cmmp_as;
 pub mod kinco;
+pub(crate) mod kinco_analog;
+pub(crate) mod kinco_drive;
+pub(crate) mod kinco_io;
+pub(crate) mod kinco_pulse;
+pub mod kinco_table;
+pub mod kinco_tuning;
 pub mod nanotec;
 pub mod nanotec_units;
 
@@ -20,6 +26,7 @@ use crate::homing::{HomingError, Method};
 pub enum Vendor {
     CmmpAs,
     Nanotec,
+    Kinco,
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).
@@ -69,6 +76,8 @@ pub enum Fault {
     SoftwareLimit,
     /// A relative PP target that overflows the position range.
     PositionOverflow,
+    /// The pulse input faster than the drive counts (Kinco Frequency_Check 2508h:08).
+    Overfrequency,
 }
 
 /// One row of a personality's error table.
@@ -111,6 +120,9 @@ pub struct Capabilities {
     pub switch_polarity_objects: bool,
     /// 60FEh:01 bit 0 is the holding brake (CMMP-AS §5.13).
     pub brake_in_60fe: bool,
+    /// An acceleration or deceleration of 0 means no ramp (the set-point steps) instead of
+    /// no motion (Kinco: 6083h / 6084h print no default, mode −3 runs without a ramp).
+    pub zero_ramp_is_abrupt: bool,
 }
 
 /// A reference switch a master supplies through an object (an RPDO from an external I/O
@@ -183,7 +195,7 @@ impl Personality {
 }
 
 /// Every personality.
-pub const ALL: [&Personality; 2] = [&cmmp_as::CMMP_AS, &nanotec::NANOTEC];
+pub const ALL: [&Personality; 3] = [&cmmp_as::CMMP_AS, &nanotec::NANOTEC, &kinco::KINCO];
 
 /// The personality of the device file `name` (see the module doc for the fallback).
 pub fn for_device(name: &str) -> &'static Personality {

@@ -1,0 +1,545 @@
+//! The Kinco CD3 / FD3 in the CiA 402 engine (seeds/001_da459f46c7138f7b.txt, extract
+//! spec/kinco-fd-cd.md): what [`KINCO`](super::kinco::KINCO)'s tables cannot say. The motor
+//! of the motor-data objects 6410h, the units, the statusword, the error words Error_State /
+//! Error_State2 with their masks and the following-error limit, the object rules (6065h from
+//! 2FF0h:0E, the DIN-owned controlword and mode) and the velocity and torque modes −3, 3, 4.
+//!
+//! Units. The manual defines no internal units (spec §6 item 12); the sibling FD manuals
+//! give them [EXT] with the encoder resolution: velocities in DEC = rpm × 512 × resolution /
+//! 1875, accelerations in DEC = rps/s × 65536 × resolution / 4 000 000.
+//! Decision: the twin's Kinco has the 2500-line (10 000 increments per revolution) encoder
+//! of the Kinco AS motors (Encoder_Out_Res 2340h:0F = 10 000 by default): positions in those
+//! increments, velocities and accelerations in the DEC of that resolution. The factors to the
+//! engine's units (65 536 per revolution, 1/4096 min⁻¹, 1/256 min⁻¹/s) are then exact
+//! ratios: 4096/625, 3/2 and 375/4. Din_Speed, Max_Speed_RPM 6080h and Jog_RPM stay in rpm,
+//! as printed.
+
+use od::{AbortCode, ObjectAccess};
+
+use super::kinco::{self, DinFunction, ErrorWord};
+use super::ErrorReaction;
+use crate::axis::{Axis, Demand};
+use crate::control::ControlParams;
+use crate::controlword::Controlword;
+use crate::device_control::State;
+use crate::drive::object_writes::Hook;
+use crate::drive::{Drive, RPM_PER_INCREMENT_S};
+use crate::factor_group::{FactorGroup, Ratio};
+use crate::motor::MotorData;
+use crate::statusword::Statusword;
+use crate::trajectory::Trajectory;
+
+/// The factor group of the units above (see the module doc).
+pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
+    position: Ratio::new(4096, 625),
+    velocity: Ratio::new(3, 2),
+    acceleration: Ratio::new(375, 4),
+    polarity: 0,
+};
+
+/// What only a Kinco keeps beside the CiA 402 engine's state.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KincoState {
+    /// The inputs at the last cycle (their edges), the Start Homing return, Kvi Off.
+    pub(crate) din: super::kinco_io::DinMemory,
+    /// The simulated pulse input of mode −4.
+    pub(crate) pulse: super::kinco_pulse::PulseInput,
+    /// The error history (the last 8 errors).
+    pub(crate) history: heapless::Deque<u16, 8>,
+    /// The position table and its flow.
+    pub(crate) table: super::kinco_table::TableRun,
+    /// The simulated analog inputs.
+    pub(crate) analog: super::kinco_analog::AnalogInputs,
+    /// An auto-tuning run.
+    pub(crate) tuning: super::kinco_tuning::TuningRun,
+    /// Jog (F006): the direction and the mode to return to.
+    pub(crate) jog: Option<(i8, i8)>,
+    /// Warning_Word 2680h as injected.
+    pub(crate) warnings: u16,
+}
+
+/// Encoder increments per revolution of the twin's Kinco motor (module doc).
+pub const INCREMENTS_PER_REV: i64 = 10_000;
+
+/// Statusword bits 0–6 of each state: CiA 402's (the manual defines none, §4.1).
+const STATE_BITS: [(State, u16); 8] = [
+    (State::NotReadyToSwitchOn, 0x0000),
+    (State::SwitchOnDisabled, 0x0040),
+    (State::ReadyToSwitchOn, 0x0021),
+    (State::SwitchedOn, 0x0023),
+    (State::OperationEnabled, 0x0027),
+    (State::QuickStopActive, 0x0007),
+    (State::FaultReactionActive, 0x000F),
+    (State::Fault, 0x0008),
+];
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// At power-on (and after a reload): Max_Following_Error 6065h = 100 × 2FF0h:0E
+    /// (§6 item 3), a holding brake where Addition_Device 6410h:17 bit 0 says the motor has
+    /// one; at power-on the motor of the motor-data objects 6410h.
+    pub(crate) fn kinco_power_on(&mut self) {
+        self.kinco_set_following_error_limit();
+        let brake = self.value(0x6410, 0x17) & 1 != 0;
+        if self.settings.brake_fitted != brake {
+            self.settings.brake_fitted = brake;
+            self.brake_engaged = brake;
+            self.axis.hold_brake(brake);
+        }
+        if self.cycles == 0 {
+            if self.settings.motor == MotorData::default() {
+                self.settings.motor = self.kinco_motor();
+            }
+            self.axis = Axis::new(self.settings.motor, self.kinco_control_params());
+            self.axis.hold_brake(brake);
+        }
+    }
+
+    /// The motor of 6410h (§6 item 10 units): Kt 6410h:0F in 0.01 N·m/A, J :10 in
+    /// 0.01 kg·cm², the I²t current :09 (the rated current) and Imax_Motor :0B in 0.0707 A,
+    /// the maximum speed Max_Speed_RPM 6080h. Friction and brake as the engine's servo motor.
+    ///
+    /// Decision: the winding (R 6410h:0D, L :0C) stays the engine's servo motor's; its
+    /// current controller is tuned for that winding, and the Kinco loop objects that would
+    /// retune it are not the engine's (see [`Drive::kinco_control_params`]): with 2 Ω / 4 mH
+    /// the current loop rings.
+    fn kinco_motor(&self) -> MotorData {
+        let d = MotorData::default();
+        let or = |v: i64, scale: f64, dflt: f64| if v > 0 { v as f64 * scale } else { dflt };
+        MotorData {
+            torque_constant: or(self.value(0x6410, 0x0F), 0.01, d.torque_constant),
+            inertia: or(self.value(0x6410, 0x10), 1e-6, d.inertia),
+            rated_current: or(self.value(0x6410, 0x09), 0.0707, d.rated_current),
+            peak_current: or(self.value(0x6410, 0x0B), 0.0707, d.peak_current),
+            max_speed_rpm: or(self.value(0x6080, 0), 1.0, d.max_speed_rpm),
+            ..d
+        }
+    }
+
+    /// The controller parameters: the engine's servo controller tuned for the motor above.
+    /// Decision: Kinco's loop objects (60F6h, 60F9h, 60FBh: Kcp, Kvp, Kpp in the drive's own
+    /// units, ch. 7) are not the engine's CMMP-AS parameters of the same indices and are not
+    /// read; the currents come from the motor data and the speed limit from 6080h.
+    ///
+    /// Gain sets (§5.5.4, Tab. 5-5): the engine's controller stands for set 0; the set
+    /// PI_Pointer 60F9h:28 selects scales its velocity gain by Kvp[x] / Kvp[0] and its
+    /// position gain by Kpp[x] / Kpp[0] (Kvp[0] 60F9h:01, Kpp[0] 60FBh:01, sets 1–3 in
+    /// 2340h:04 … :0C); the Kvi Off input turns the velocity integral off. Decision: the Kvi
+    /// values are not mapped (their default 0 would take the engine's integral away).
+    pub(crate) fn kinco_control_params(&self) -> ControlParams {
+        let m = self.settings.motor;
+        let d = ControlParams::default();
+        let rated_ma = (m.rated_current * 1000.0) as u32;
+        let peak_ma = (m.peak_current * 1000.0) as u32;
+        let set = self.value(0x60F9, 0x28).clamp(0, 3) as u8;
+        let ratio = |base: (u16, u8), first_sub: u8| {
+            let base = self.value(base.0, base.1);
+            let v = if set == 0 {
+                base
+            } else {
+                self.value(0x2340, first_sub + 3 * (set - 1))
+            };
+            if base > 0 && v > 0 {
+                v as f64 / base as f64
+            } else {
+                1.0
+            }
+        };
+        let scale =
+            |gain: u16, r: f64| (f64::from(gain) * r).clamp(1.0, f64::from(u16::MAX)) as u16;
+        let kvi_off = self.kinco.din.kvi_off;
+        ControlParams {
+            motor_rated_current_ma: rated_ma,
+            max_current_permille: (peak_ma * 1000 / rated_ma.max(1)).min(u32::from(u16::MAX))
+                as u16,
+            peak_current_ma: peak_ma,
+            max_motor_speed_rpm: self.value(0x6080, 0).clamp(1, 32768) as u32,
+            velocity_control_gain: scale(d.velocity_control_gain, ratio((0x60F9, 0x01), 0x04)),
+            position_control_gain: scale(d.position_control_gain, ratio((0x60FB, 0x01), 0x06)),
+            velocity_control_time_us: if kvi_off {
+                0
+            } else {
+                d.velocity_control_time_us
+            },
+            ..d
+        }
+    }
+
+    fn kinco_set_following_error_limit(&mut self) {
+        let limit = kinco::max_following_error(self.value(0x2FF0, 0x0E).clamp(0, 0xFFFF) as u16);
+        let _ = self.od.write_internal(0x6065, 0, &limit.to_le_bytes());
+    }
+
+    /// The objects whose Kinco rules do more than store a value.
+    pub(crate) fn kinco_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+        Some(match (index, sub) {
+            (0x6040, 0x00) => Self::kinco_write_controlword,
+            (0x6060, 0x00) => Self::kinco_write_mode,
+            (0x2FF0, 0x0E) => Self::kinco_write_max_following_error_16,
+            (0x607E, 0x00) => Self::kinco_write_invert_dir,
+            (0x60F9, 0x28) => Self::kinco_write_pi_pointer,
+            (0x3040, 0x01) => Self::kinco_write_tuning_method,
+            (0x2340, _) | (0x60F9, 0x01) | (0x60FB, 0x01) => Self::kinco_write_gain,
+            _ => return None,
+        })
+    }
+
+    /// 6040h: "the DIN function has the highest priority: the object can no longer be changed
+    /// by hand once a DIN has it, e.g. with Enable configured the controlword cannot be
+    /// changed" (L1287, KINCO-CW-06).
+    ///
+    /// Decision: the write is refused with 0800 0021h (local control), so a master learns why
+    /// nothing happens; the manual does not say whether it is refused or ignored.
+    fn kinco_write_controlword(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if self.kinco_din_configured(DinFunction::Enable) {
+            return Err(AbortCode::LOCAL_CONTROL);
+        }
+        self.write_controlword(index, sub, data)
+    }
+
+    /// 6060h: owned by the Operation Mode Sel DIN as 6040h is by Enable (L1287).
+    fn kinco_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if self.kinco_din_configured(DinFunction::OperationModeSel) {
+            return Err(AbortCode::LOCAL_CONTROL);
+        }
+        self.write_mode(index, sub, data)
+    }
+
+    /// PI_Pointer 60F9h:28: owned by the Gain Switch inputs where one is configured (L1287);
+    /// otherwise the set the master chooses.
+    fn kinco_write_pi_pointer(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if self.kinco_din_configured(DinFunction::GainSwitch0)
+            || self.kinco_din_configured(DinFunction::GainSwitch1)
+            || self.value(0x6069, 0x09) == 1
+        {
+            return Err(AbortCode::LOCAL_CONTROL);
+        }
+        self.kinco_write_gain(index, sub, data)
+    }
+
+    /// A gain of a set: the controller is retuned.
+    fn kinco_write_gain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.params_dirty = true;
+        Ok(())
+    }
+
+    /// 2FF0h:0E Max_Following_Error_16: 6065h = 100 × it (§6 item 3, KINCO-SC-09).
+    fn kinco_write_max_following_error_16(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.kinco_set_following_error_limit();
+        Ok(())
+    }
+
+    /// Statusword (§4.1: CiA 402's; bit 15 "reference found" of the sibling FD manuals,
+    /// [`kinco::HOME_FOUND`]): bit 4 voltage enabled while the output stage is on. Decision:
+    /// bit 9 remote stays 0 (the manual names no remote condition).
+    pub(crate) fn kinco_state_bits(&self, state: State, power: bool) -> Statusword {
+        let bits = STATE_BITS
+            .iter()
+            .find(|(s, _)| *s == state)
+            .map_or(0, |(_, b)| *b);
+        Statusword(bits) | Statusword::VOLTAGE_ENABLED.when(power)
+    }
+
+    /// Bit 15: the reference is found; bit 7 (CiA 402 warning) while Warning_Word 2680h is
+    /// not 0.
+    pub(crate) fn kinco_manufacturer_bits(&self) -> Statusword {
+        kinco::HOME_FOUND.when(self.referenced) | Statusword::WARNING.when(self.kinco.warnings != 0)
+    }
+
+    /// Warning_Word 2680h (§7: bit 0 battery low, bit 1 mixed warning, bit 2 encoder busy)
+    /// from outside (a test, a fault injection): the drive goes on; the Enc Warning output
+    /// (8002h) and statusword bit 7 show it. Decision: the twin's encoder has no battery, so
+    /// the warnings are injected only; bit 7 is CiA 402's warning bit.
+    pub fn set_warnings(&mut self, bits: u16) {
+        self.kinco.warnings = bits & 0x0007;
+        let e = self.od.description().entry(0x2680, 0);
+        self.store(e, i64::from(self.kinco.warnings));
+    }
+
+    /// The reaction to an error: none where its bit is masked out (Error_Mask 2605h:01,
+    /// Error_Mask2 2605h:04: "bit = 0: the error is ignored", §7); else the output stage goes
+    /// off (the motor coasts, the brake closes).
+    ///
+    /// Decision: the manual lists no reactions; a Kinco drive disables on every error it
+    /// shows (ch. 8: "the drive stops and shows the code"), so every error is a fault with
+    /// the output stage off.
+    pub(crate) fn kinco_error_reaction(&mut self, code: u16) -> ErrorReaction {
+        if let Some((word, bit)) = error_bit(code) {
+            let mask = match word {
+                ErrorWord::State => self.value(0x2605, 0x01),
+                ErrorWord::State2 => self.value(0x2605, 0x04),
+            };
+            if mask & (1 << bit) == 0 {
+                return ErrorReaction::Ignore;
+            }
+            if !self.faults.contains(&code) {
+                self.kinco_record_error(code, word, bit);
+            }
+        }
+        ErrorReaction::OutputStageOff
+    }
+
+    /// The error history (§7: "the last 8 errors"): an error goes in where its bit is set
+    /// in Store_Mask_ON 2605h:02 / Store_Mask_ON2 :05 while the drive is enabled, in
+    /// Store_Mask_OFF :03 / Store_Mask_OFF2 :06 while it is not.
+    ///
+    /// Decision: this part prints no object for the history (the panel and KincoServo show
+    /// it); the twin keeps it and gives it through [`Drive::error_history`].
+    fn kinco_record_error(&mut self, code: u16, word: ErrorWord, bit: u8) {
+        let enabled = self.dc.state() == State::OperationEnabled;
+        let sub = match (word, enabled) {
+            (ErrorWord::State, true) => 0x02,
+            (ErrorWord::State, false) => 0x03,
+            (ErrorWord::State2, true) => 0x05,
+            (ErrorWord::State2, false) => 0x06,
+        };
+        if self.value(0x2605, sub) & (1 << bit) != 0 {
+            if self.kinco.history.is_full() {
+                self.kinco.history.pop_front();
+            }
+            let _ = self.kinco.history.push_back(code);
+        }
+    }
+
+    /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
+    pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
+        self.kinco.history.iter().copied()
+    }
+
+    /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for
+    /// any Error_State2 bit) and Error_State2 2602h (§7, KINCO-DIAG-01/06); the following
+    /// error Pos_Error 60FBh:08 and Real_Speed_RPM 2FF0h:14.
+    pub(crate) fn kinco_publish(&mut self, following_error: i64) {
+        self.kinco_publish_analog();
+        let (mut state, mut state2) = (0u16, 0u16);
+        for code in self.faults.iter() {
+            match error_bit(*code) {
+                Some((ErrorWord::State, bit)) => state |= 1 << bit,
+                Some((ErrorWord::State2, bit)) => state2 |= 1 << bit,
+                None => {}
+            }
+        }
+        if state2 != 0 {
+            state |= 1;
+        }
+        for (index, sub, v) in [
+            (0x2601, 0, i64::from(state)),
+            (0x2602, 0, i64::from(state2)),
+            (0x60FB, 0x08, following_error),
+            (
+                0x2FF0,
+                0x14,
+                libm::round(f64::from(self.plant_velocity_rpm())) as i64,
+            ),
+        ] {
+            let e = self.od.description().entry(index, sub);
+            self.store(e, v);
+        }
+    }
+
+    /// Modes 3 (ramped with Profile_Acc / Profile_Dec 6083h / 6084h) and −3 (no ramp, §5.2):
+    /// the speed Target_Speed 60FFh, or Din_Speed[x] (rpm) where a Din Vel Index function is
+    /// on a DIN (§6.2.2), or the analog input Analog_Speed_Con names (§6.2.1); the Invert Direction DIN turns it round; Max_Speed_RPM 6080h
+    /// limits it; a limit switch blocks its direction.
+    pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {
+        let rpm_max = self.value(0x6080, 0).max(0) as f64;
+        if let Some((direction, _)) = self.kinco.jog {
+            // Jog (§4, F006): Jog_RPM 2FF0h:23, "independent of other settings", the limit
+            // switches not active.
+            let rpm = f64::from(direction.signum()) * self.value(0x2FF0, 0x23) as f64;
+            self.velocity_set = rpm.clamp(-rpm_max, rpm_max) / RPM_PER_INCREMENT_S;
+            self.demand = Demand::Velocity {
+                rpm: (self.velocity_set * RPM_PER_INCREMENT_S) as f32,
+            };
+            self.traj = Trajectory {
+                position: self.actual_internal() as f64,
+                velocity: self.velocity_set,
+            };
+            self.demand_position = self.traj.position;
+            return;
+        }
+        let mut rpm = match self.kinco_din_speed_rpm().or(self.kinco_analog_speed_rpm()) {
+            Some(rpm) => f64::from(rpm),
+            None => {
+                let user = self
+                    .read(self.hot.target_velocity)
+                    .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                self.fg.velocity_to_internal(user) as f64 / 4096.0
+            }
+        };
+        if self.kinco_din_active(DinFunction::InvertDirection) {
+            rpm = -rpm;
+        }
+        rpm = rpm.clamp(-rpm_max, rpm_max);
+        let (negative_blocked, positive_blocked) = self.kinco_limits_active();
+        if (rpm < 0.0 && negative_blocked) || (rpm > 0.0 && positive_blocked) || self.halted {
+            rpm = 0.0;
+        }
+        let target = rpm / RPM_PER_INCREMENT_S;
+        if ramped || self.halted {
+            let (acc, dec) = if self.halted {
+                (self.accel(0x6084), self.accel(0x6084))
+            } else {
+                (self.accel(0x6083), self.accel(0x6084))
+            };
+            let mut t = Trajectory {
+                position: 0.0,
+                velocity: self.velocity_set,
+            };
+            t.step_velocity(target, acc, dec, dt);
+            self.velocity_set = t.velocity;
+        } else {
+            self.velocity_set = target;
+        }
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: self.velocity_set,
+        };
+        self.demand_position = self.traj.position;
+        self.demand = Demand::Velocity {
+            rpm: (self.velocity_set * RPM_PER_INCREMENT_S) as f32,
+        };
+        // Speed Reached (Tab. 5-3): |speed error| < Target_Speed_Window 60F9h:0A (DEC).
+        let window = self.fg.velocity_magnitude_to_internal(
+            self.value(0x60F9, 0x0A).clamp(0, u32::MAX as i64) as u32,
+        ) as f64
+            / 4096.0;
+        let error = f64::from(self.plant_velocity_rpm()) - rpm;
+        self.target_reached = self.velocity_set == target && error.abs() <= window.max(1.0);
+    }
+
+    /// Jog (the panel's F006, §4): `direction` > 0 turns at +Jog_RPM 2FF0h:23, < 0 at
+    /// −Jog_RPM, in mode −3 without the limit switches; 0 ends it and the mode before it
+    /// returns. Decision: jog moves an enabled drive only (the panel's own enable is the
+    /// panel's business).
+    pub fn jog(&mut self, direction: i8) {
+        match (direction, self.kinco.jog) {
+            (0, Some((_, previous))) => {
+                self.kinco.jog = None;
+                let _ = self.write_mode(0x6060, 0, &[previous as u8]);
+            }
+            (0, None) => {}
+            (d, Some((_, previous))) => self.kinco.jog = Some((d, previous)),
+            (d, None) => {
+                self.kinco.jog = Some((d, self.mode));
+                let _ = self.write_mode(0x6060, 0, &[(-3i8) as u8]);
+            }
+        }
+    }
+
+    /// Mode 4 (§5.3): Target_Torque 6071h in % of the rated torque (the motor's rated
+    /// current), the speed held to Max_Speed 607Fh (DEC; 0: Max_Speed_RPM 6080h) by taking
+    /// the torque back over the last 5 % below it (Decision: the manual does not say how
+    /// Speed_Limit_Factor 60F6h:03 shapes the limit); Invert Direction turns it round.
+    pub(crate) fn kinco_torque(&mut self, _dt: f64) {
+        let rpm = f64::from(self.plant_velocity_rpm());
+        // AIN torque (§6.3): mN·m over the rated torque (Kt × rated current), in %.
+        let rated_nm = self.settings.motor.torque_constant * self.settings.motor.rated_current;
+        let mut percent = match self.kinco_analog_torque_mnm() {
+            Some(mnm) if rated_nm > 0.0 => mnm as f64 / 10.0 / rated_nm,
+            _ => self.read(self.hot.target_torque) as f64,
+        };
+        if self.kinco_din_active(DinFunction::InvertDirection) {
+            percent = -percent;
+        }
+        if self.halted {
+            percent = 0.0;
+        }
+        let current_a = self
+            .axis
+            .params()
+            .current_for_torque_permille(percent.clamp(-300.0, 300.0) * 10.0);
+        let max_dec = self.value(0x607F, 0).clamp(0, u32::MAX as i64) as u32;
+        let limit = if max_dec == 0 {
+            self.value(0x6080, 0).max(0) as f64
+        } else {
+            self.fg.velocity_magnitude_to_internal(max_dec) as f64 / 4096.0
+        };
+        let along = rpm * current_a.signum();
+        let band = 0.05 * limit + 1.0;
+        let factor = ((limit - along) / band).clamp(0.0, 1.0);
+        let (negative_blocked, positive_blocked) = self.kinco_limits_active();
+        let blocked =
+            (current_a < 0.0 && negative_blocked) || (current_a > 0.0 && positive_blocked);
+        let current = if blocked { 0.0 } else { current_a * factor };
+        self.demand = Demand::Torque {
+            current_a: current as f32,
+        };
+        self.target_reached = factor >= 1.0;
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: rpm / RPM_PER_INCREMENT_S,
+        };
+        self.demand_position = self.traj.position;
+    }
+
+    /// Mode 1 (§5.4) is CiA 402's profile position (2Fh → 3Fh absolute, 4Fh → 5Fh relative,
+    /// the set-point on the rising edge of bit 4, bit 5 change immediately); a limit switch
+    /// ahead stops the move with Profile_Dec 6084h and drops the job.
+    pub(crate) fn kinco_profile_position(&mut self, cw: Controlword, dt: f64) {
+        let (negative_blocked, positive_blocked) = self.kinco_limits_active();
+        let v = self.traj.velocity;
+        if (negative_blocked && v < 0.0) || (positive_blocked && v > 0.0) {
+            self.setpoints.abort();
+            let decel = self.accel(0x6084);
+            self.traj.step_stop(decel, dt);
+            self.position_demand(self.traj.velocity);
+            self.kinco_table_abort();
+            return;
+        }
+        if self.kinco_table_cycle(dt) {
+            return;
+        }
+        self.profile_position(cw, dt);
+    }
+
+    /// 607Eh Invert_Dir (0: CCW positive, 1: CW positive): positions and speeds turn round.
+    fn kinco_write_invert_dir(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.reload_factor_group();
+        Ok(())
+    }
+
+    /// The following error beyond Max_Following_Error 6065h is Error_State bit 9 (8611h,
+    /// §5.4, KINCO-DIAG-03), in every mode that controls the position.
+    pub(crate) fn kinco_supervise_following_error(&mut self, following_error: i64) {
+        let position_controlled = matches!(self.demand, Demand::Position { .. });
+        let limit = self
+            .fg
+            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32);
+        if position_controlled && following_error.abs() > limit {
+            self.raise_fault(super::Fault::FollowingError);
+        }
+    }
+}
+
+/// The error word and bit of an EMCY code; Error_State bit 14 shares 7331h with bit 1 and
+/// is never the answer (see [`kinco::ERROR_STATE`]).
+pub(crate) fn error_bit(code: u16) -> Option<(ErrorWord, u8)> {
+    kinco::ERROR_STATE
+        .iter()
+        .chain(kinco::ERROR_STATE2.iter())
+        .find(|e| e.emcy == Some(code))
+        .map(|e| (e.word, e.bit))
+}
