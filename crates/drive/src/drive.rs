@@ -116,11 +116,20 @@ const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
 const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
-/// cycle never searches the object table.
-const PARAMS: [(u16, u8); 43] = [
+/// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
+/// by binary search, which the compiler folds to a constant for the literal keys of the
+/// call sites.
+const PARAMS: [(u16, u8); 54] = [
+    (0x2001, 0),
     (0x2005, 1),
-    (0x2045, 0),
+    (0x2006, 0),
+    (0x2007, 1),
+    (0x2007, 2),
+    (0x2007, 3),
+    (0x200A, 0),
     (0x200A, 1),
+    (0x2011, 0),
+    (0x2045, 0),
     (0x2090, 1),
     (0x2090, 2),
     (0x2090, 3),
@@ -137,17 +146,20 @@ const PARAMS: [(u16, u8); 43] = [
     (0x6072, 0),
     (0x607A, 0),
     (0x607C, 0),
+    (0x607E, 0),
     (0x6080, 0),
     (0x6081, 0),
     (0x6082, 0),
     (0x6083, 0),
     (0x6084, 0),
     (0x6085, 0),
+    (0x6086, 0),
     (0x6087, 0),
     (0x6098, 0),
     (0x6099, 1),
     (0x6099, 2),
     (0x609A, 0),
+    (0x60C1, 1),
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
@@ -155,6 +167,7 @@ const PARAMS: [(u16, u8); 43] = [
     (0x6510, 0x12),
     (0x6510, 0x13),
     (0x6510, 0x14),
+    (0x6510, 0x15),
     (0x6510, 0x18),
     (0x6510, 0x22),
     (0x6510, 0x36),
@@ -162,6 +175,26 @@ const PARAMS: [(u16, u8); 43] = [
     (0x6510, 0x38),
     (0x6510, 0xF0),
 ];
+
+/// The slot of `(index, sub)` in [`PARAMS`].
+#[inline(always)]
+const fn param_slot(index: u16, sub: u8) -> Option<usize> {
+    let key = (index as u32) << 8 | sub as u32;
+    let (mut lo, mut hi) = (0, PARAMS.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        let (i, s) = PARAMS[mid];
+        let k = (i as u32) << 8 | s as u32;
+        if k == key {
+            return Some(mid);
+        } else if k < key {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    None
+}
 
 /// Entries the drive reads or writes every cycle, looked up once.
 #[derive(Debug, Clone, Copy, Default)]
@@ -747,8 +780,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         e.map(|e| decode_i64(e, self.od.raw(e))).unwrap_or(0)
     }
 
+    #[inline]
     pub(crate) fn value(&self, index: u16, sub: u8) -> i64 {
-        if let Some(pos) = PARAMS.iter().position(|k| *k == (index, sub)) {
+        if let Some(pos) = param_slot(index, sub) {
             return self.read(self.params.get(pos).copied().flatten());
         }
         match self.od.value(index, sub) {
@@ -770,8 +804,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// A [`PARAMS`] entry.
+    #[inline]
     pub(crate) fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
-        let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
+        let pos = param_slot(index, sub)?;
         self.params.get(pos).copied().flatten()
     }
 
@@ -984,7 +1019,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             velocity_ff
         };
         self.demand = Demand::Position {
-            increments: libm::round(self.demand_position) as i64 - self.position_offset,
+            increments: crate::rounding::round(self.demand_position) as i64 - self.position_offset,
             velocity_ff_rpm: (ff * RPM_PER_INC_S) as f32,
         };
     }

@@ -231,7 +231,7 @@ impl Motor {
 
     /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
     pub fn position_increments(&self) -> i64 {
-        libm::floor(self.angle / self.rad_per_inc) as i64
+        crate::rounding::floor(self.angle / self.rad_per_inc) as i64
     }
 
     fn coefficients(&mut self, dt: f64) {

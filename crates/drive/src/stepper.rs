@@ -370,7 +370,7 @@ fn clamp(x: f64, lim: f64) -> f64 {
 /// `x` reduced to [−π, π).
 #[inline]
 fn wrap(x: f64) -> f64 {
-    x - TAU * libm::floor(x / TAU + 0.5)
+    x - TAU * crate::rounding::floor(x / TAU + 0.5)
 }
 
 /// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
@@ -435,6 +435,8 @@ pub struct Stepper {
     ki: f64,
     // ---- sub-step coefficients ----
     coeff_h: f64,
+    /// The last call's `dt` and its sub-steps (count, width).
+    split: (f64, u32, f64),
     elec_a: f64,
     elec_b: f64,
     /// No winding dynamics (R = L = 0): the current is its reference.
@@ -492,6 +494,7 @@ impl Stepper {
             kp: 0.0,
             ki: 0.0,
             coeff_h: 0.0,
+            split: (0.0, 1, 0.0),
             elec_a: 0.0,
             elec_b: 0.0,
             ideal: false,
@@ -749,20 +752,29 @@ impl Stepper {
                 }
             }
         }
-        // The tolerance keeps a whole multiple of STEP_S (1 ms = 20 × 50 µs) at that many
-        // sub-steps despite the rounding of the division.
-        let n = libm::ceil(dt / STEP_S * (1.0 - 1e-12));
-        // n is finite here (dt is); clamp cannot see a NaN.
-        let n = n.clamp(1.0, MAX_SUBSTEPS);
-        let h = dt / n;
+        let (n, h) = self.split(dt);
         self.coefficients(h);
         let mut i = 0u32;
-        let n = n as u32;
         while i < n {
             self.substep(h, w_ff, t_ff);
             i += 1;
         }
         self.steps = self.steps.wrapping_add(1);
+    }
+
+    /// How a call of `dt` s splits into sub-steps: their number and width (kept for the
+    /// last `dt`, which a drive passes unchanged every cycle).
+    #[inline]
+    fn split(&mut self, dt: f64) -> (u32, f64) {
+        if dt != self.split.0 {
+            // The tolerance keeps a whole multiple of STEP_S (1 ms = 20 × 50 µs) at that many
+            // sub-steps despite the rounding of the division.
+            let n = libm::ceil(dt / STEP_S * (1.0 - 1e-12));
+            // n is finite here (dt is); clamp cannot see a NaN.
+            let n = n.clamp(1.0, MAX_SUBSTEPS);
+            self.split = (dt, n as u32, dt / n);
+        }
+        (self.split.1, self.split.2)
     }
 
     fn substep(&mut self, h: f64, w_ff: f64, t_ff: f64) {
@@ -943,12 +955,12 @@ impl Stepper {
 
     /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
     pub fn encoder_increments(&self) -> i64 {
-        libm::floor(self.angle / self.rad_per_inc) as i64
+        crate::rounding::floor(self.angle / self.rad_per_inc) as i64
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.
     pub fn actual_microsteps(&self) -> i64 {
-        libm::round(self.angle / self.rad_per_micro) as i64
+        crate::rounding::round(self.angle / self.rad_per_micro) as i64
     }
 
     /// Commanded position in micro-steps: the open-loop current-vector position, or the
@@ -984,7 +996,7 @@ impl Stepper {
     /// Positive when the rotor is behind a positive command. A rotor lagging by less than
     /// 2 full steps (half a period) counts as following, not as having lost steps.
     pub fn lost_steps(&self) -> i64 {
-        let periods = libm::round((self.set_point_rad() - self.angle) * self.np / TAU);
+        let periods = crate::rounding::round((self.set_point_rad() - self.angle) * self.np / TAU);
         (periods as i64).saturating_mul(4)
     }
 
@@ -995,7 +1007,7 @@ impl Stepper {
 
     /// Amplitude of the phase-current vector, mA (PNU 1059).
     pub fn current_ma(&self) -> i32 {
-        libm::round(self.current_a() * 1000.0) as i32
+        crate::rounding::round(self.current_a() * 1000.0) as i32
     }
 
     /// Phase currents (A, B), A.
@@ -1105,7 +1117,7 @@ pub fn unit_to_sinc(value: f64, notation_index: i8) -> i64 {
     } else {
         value / p
     };
-    libm::round(x) as i64
+    crate::rounding::round(x) as i64
 }
 
 /// A SINC value in SI units (m for metre and inch, rad for degree and revolution), from
