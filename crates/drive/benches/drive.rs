@@ -24,7 +24,7 @@ use od::{Instant, ObjectAccess, ObjectDictionary};
 
 /// Axes in real time per core before this work (commit c1c54dd, same bench and machine, best
 /// of two runs): the reference the plot draws.
-const BASELINE: [(&str, f64); 3] = [("CMMP-AS", 771.0), ("Nanotec", 280.0), ("CMMO-ST", 393.0)];
+const BASELINE: [(&str, f64); 3] = [("CMMP-AS", 754.0), ("Nanotec", 391.0), ("CMMO-ST", 402.0)];
 
 /// Simulated seconds per timed run, runs per figure.
 const SIM_S: u64 = 4;
