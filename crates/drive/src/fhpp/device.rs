@@ -422,14 +422,8 @@ pub struct FhppDevice<S> {
 }
 
 /// Entries written every cycle, remembered by their place in the sequence of writes.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct PublishedEntries([(u16, u8, Option<&'static Entry>); 32]);
-
-impl Default for PublishedEntries {
-    fn default() -> Self {
-        PublishedEntries([(0, 0, None); 32])
-    }
-}
 
 impl PublishedEntries {
     /// `od.set_value(index, sub, v)`, the `n`-th write of the cycle: the entry of the last
