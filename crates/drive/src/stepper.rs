@@ -66,15 +66,18 @@
 //!
 //! # Integration
 //!
-//! The plant is integrated in sub-steps of at most [`STEP_S`] = 50 µs whatever `dt` the
-//! caller passes to [`Stepper::step`] (the demand is held over the call). The detent spring
+//! The plant is integrated in sub-steps of at most [`MAX_STEP_OPEN_LOOP_S`] = 125 µs in open
+//! loop and [`MAX_STEP_CLOSED_LOOP_S`] = 100 µs in closed loop, whatever `dt` the caller
+//! passes to [`Stepper::step`] (the demand is held over the call; a call of [`STEP_S`] =
+//! 50 µs, the resolution of this module's own tests, is one sub-step of 50 µs). The detent
+//! spring
 //! is stiff (`N_r·T_hold` ≈ 25 N·m/rad, ≈ 180 Hz with the default inertia), so the mechanics
 //! are semi-implicit: viscous friction, and the part of the restoring stiffness
 //! `K = −∂T/∂θ` beyond `J/h²`, are taken at the end of the step,
 //! `ω₁ = (J·ω₀ + h·(T(θ₀) − T_c·sign − T_load)) / (J + B·h + K_impl·h²)`, `θ₁ = θ₀ + h·ω₁`.
 //! With sane data `K_impl` = 0 and this is the symplectic (semi-implicit) Euler step: no
-//! numerical damping, stable for ω_n·h < 2, and at 50 µs ω_n·h ≈ 0.06 (≈ 110 steps per
-//! rotor oscillation). For extreme data (a tiny inertia, a huge holding torque) the implicit
+//! numerical damping, stable for ω_n·h < 2, and at 125 µs ω_n·h ≈ 0.14 (≈ 45 steps per
+//! rotor oscillation; at 50 µs 0.06 and 110). For extreme data (a tiny inertia, a huge holding torque) the implicit
 //! stiffness keeps the step stable at any ω_n·h, trading accuracy for numerical damping.
 //! Likewise, a phase whose bridge saturates is driven by the back-EMF, which couples it to
 //! the speed with the electromechanical time constant J·R/k² (0.4 ms by default, far less
@@ -103,8 +106,26 @@ pub const ENCODER_INCREMENTS_PER_REV: u32 = 2000;
 /// Default micro-step resolution: micro-steps per full step.
 pub const MICROSTEPS: u32 = 16;
 
-/// Longest integration sub-step, s. [`Stepper::step`] splits longer calls.
+/// A fine call width, s: the step of this module's tests and benches (one sub-step).
 pub const STEP_S: f64 = 50e-6;
+
+/// Longest integration sub-step in open loop, s: [`Stepper::step`] splits longer calls.
+///
+/// Decision: the drive cycle's 125 µs (one sub-step per Nanotec current-controller cycle,
+/// 8 per CMMO-ST millisecond). It was 50 µs; every test of the drives that run this plant
+/// (pull-out torque, lost steps, homing on block, the FHPP and Nanotec vectors) gives the
+/// same verdict at 125 µs, and the mechanics stay well inside their stability bound
+/// (ω_n·h ≈ 0.14 against 2), at 2.5 times less CPU (docs/performance.md).
+pub const MAX_STEP_OPEN_LOOP_S: f64 = 125e-6;
+
+/// Longest integration sub-step in closed loop, s: the encoder observer, the position and
+/// velocity controllers run once per sub-step, so it is also their cycle.
+///
+/// Decision: 100 µs (two sub-steps per Nanotec cycle, 10 per CMMO-ST millisecond). At
+/// 125 µs the Nanotec torque mode overshoots its 607Fh speed limit by 2 % (the velocity
+/// limiter acts a cycle later), which its test does not allow; at 100 µs every drive test
+/// gives the same verdict as at 50 µs.
+pub const MAX_STEP_CLOSED_LOOP_S: f64 = 100e-6;
 
 /// Upper bound of sub-steps per call (a 5 s call at 50 µs); beyond it the sub-step grows.
 const MAX_SUBSTEPS: f64 = 100_000.0;
@@ -479,8 +500,8 @@ pub struct Stepper {
     ki: f64,
     // ---- sub-step coefficients ----
     coeff_h: f64,
-    /// The last call's `dt` and its sub-steps (count, width).
-    split: (f64, u32, f64),
+    /// The last call's `dt`, its sub-steps (count, width) and whether in closed loop.
+    split: (f64, u32, f64, bool),
     elec_a: f64,
     elec_b: f64,
     /// 1 / `elec_b` (the chopper's voltage for a current step), `J/h²` (the mechanics'
@@ -542,7 +563,7 @@ impl Stepper {
             kp: 0.0,
             ki: 0.0,
             coeff_h: 0.0,
-            split: (0.0, 1, 0.0),
+            split: (0.0, 1, 0.0, false),
             elec_a: 0.0,
             elec_b: 0.0,
             elec_inv_b: 0.0,
@@ -762,7 +783,8 @@ impl Stepper {
         self.coeff_h = h;
     }
 
-    /// Advances the plant by `dt` s (sub-stepped at ≤ [`STEP_S`]) with `demand` held.
+    /// Advances the plant by `dt` s (sub-stepped at ≤ [`MAX_STEP_OPEN_LOOP_S`] resp.
+    /// [`MAX_STEP_CLOSED_LOOP_S`]) with `demand` held.
     pub fn step(&mut self, dt: f64, demand: StepperDemand) {
         if !positive(dt) || !dt.is_finite() {
             return;
@@ -815,16 +837,22 @@ impl Stepper {
     }
 
     /// How a call of `dt` s splits into sub-steps: their number and width (kept for the
-    /// last `dt`, which a drive passes unchanged every cycle).
+    /// last `dt` and mode, which a drive passes unchanged every cycle).
     #[inline]
     fn split(&mut self, dt: f64) -> (u32, f64) {
-        if dt != self.split.0 {
-            // The tolerance keeps a whole multiple of STEP_S (1 ms = 20 × 50 µs) at that many
-            // sub-steps despite the rounding of the division.
-            let n = libm::ceil(dt / STEP_S * (1.0 - 1e-12));
+        let closed = self.mode == StepperMode::ClosedLoop;
+        if dt != self.split.0 || closed != self.split.3 {
+            let max = if closed {
+                MAX_STEP_CLOSED_LOOP_S
+            } else {
+                MAX_STEP_OPEN_LOOP_S
+            };
+            // The tolerance keeps a whole multiple of the sub-step (1 ms = 10 × 100 µs) at
+            // that many sub-steps despite the rounding of the division.
+            let n = libm::ceil(dt / max * (1.0 - 1e-12));
             // n is finite here (dt is); clamp cannot see a NaN.
             let n = n.clamp(1.0, MAX_SUBSTEPS);
-            self.split = (dt, n as u32, dt / n);
+            self.split = (dt, n as u32, dt / n, closed);
         }
         (self.split.1, self.split.2)
     }
@@ -1207,7 +1235,10 @@ mod tests {
         for x in [0.0, FRAC_PI_2, PI, -PI, 1e-300, -1e-12] {
             let (s, c) = sin_cos(x);
             let (ls, lc) = libm::sincos(x);
-            assert!((s - ls).abs() <= 4.5e-16 && (c - lc).abs() <= 4.5e-16, "{x}");
+            assert!(
+                (s - ls).abs() <= 4.5e-16 && (c - lc).abs() <= 4.5e-16,
+                "{x}"
+            );
         }
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! The runtime feeds the output telegram with [`FhppDevice::set_outputs`] (8 or 16 bytes, as
 //! Modbus / IO-Link / I-Port deliver it), steps the device with [`FhppDevice::step`] on its
-//! clock (one FHPP cycle per millisecond; the stepper integrates in 50 µs sub-steps inside),
+//! clock (one FHPP cycle per millisecond; the stepper integrates in sub-steps inside it),
 //! and reads the input telegram with [`FhppDevice::inputs`]. Front ends see the parameters
 //! through [`ObjectAccess`]. Sans-IO, `no_std`, no allocation in `step`, deterministic.
 //!
