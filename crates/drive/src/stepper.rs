@@ -406,8 +406,8 @@ fn wrap(x: f64) -> f64 {
 #[inline(always)]
 fn sin_cos(x: f64) -> (f64, f64) {
     /// π/2 to 33 bits (so q·PIO2_HI is exact for |q| < 2²⁰) and the rest of it.
-    const PIO2_HI: f64 = 1.570_796_326_734_125_614_17;
-    const PIO2_LO: f64 = 6.077_100_506_506_192_249_32e-11;
+    const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+    const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
     let q = crate::rounding::round_i64(x * core::f64::consts::FRAC_2_PI);
     let qf = q as f64;
     let r = (x - qf * PIO2_HI) - qf * PIO2_LO;
