@@ -275,6 +275,7 @@ impl Axis {
     // ---- actual values -------------------------------------------------------------------
 
     /// Encoder position, increments (6063h position_actual_value_s).
+    #[inline]
     pub fn position_increments(&self) -> i64 {
         self.motor.position_increments()
     }

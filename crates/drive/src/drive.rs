@@ -326,11 +326,21 @@ pub struct MemoryEntry {
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
 /// per control cycle).
+#[inline]
 fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
-    let mut u = 0u64;
-    for (i, b) in raw.iter().take(8).enumerate() {
-        u |= u64::from(*b) << (8 * i);
-    }
+    let u = match *raw {
+        [a] => u64::from(a),
+        [a, b] => u64::from(u16::from_le_bytes([a, b])),
+        [a, b, c, d] => u64::from(u32::from_le_bytes([a, b, c, d])),
+        [a, b, c, d, e, f, g, h] => u64::from_le_bytes([a, b, c, d, e, f, g, h]),
+        _ => {
+            let mut u = 0u64;
+            for (i, b) in raw.iter().take(8).enumerate() {
+                u |= u64::from(*b) << (8 * i);
+            }
+            u
+        }
+    };
     match e.data_type {
         DataType::Integer8 => i64::from(u as u8 as i8),
         DataType::Integer16 => i64::from(u as u16 as i16),
