@@ -119,8 +119,10 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
 /// by binary search, which the compiler folds to a constant for the literal keys of the
 /// call sites.
-const PARAMS: [(u16, u8); 54] = [
+const PARAMS: [(u16, u8); 66] = [
     (0x2001, 0),
+    (0x2004, 1),
+    (0x2004, 8),
     (0x2005, 1),
     (0x2006, 0),
     (0x2007, 1),
@@ -128,7 +130,9 @@ const PARAMS: [(u16, u8); 54] = [
     (0x2007, 3),
     (0x200A, 0),
     (0x200A, 1),
+    (0x200B, 0),
     (0x2011, 0),
+    (0x2020, 0),
     (0x2045, 0),
     (0x2090, 1),
     (0x2090, 2),
@@ -143,10 +147,16 @@ const PARAMS: [(u16, u8); 54] = [
     (0x606E, 0),
     (0x606F, 0),
     (0x6070, 0),
+    (0x6071, 0),
     (0x6072, 0),
     (0x607A, 0),
+    (0x607B, 1),
+    (0x607B, 2),
     (0x607C, 0),
+    (0x607D, 1),
+    (0x607D, 2),
     (0x607E, 0),
+    (0x607F, 0),
     (0x6080, 0),
     (0x6081, 0),
     (0x6082, 0),
@@ -155,6 +165,8 @@ const PARAMS: [(u16, u8); 54] = [
     (0x6085, 0),
     (0x6086, 0),
     (0x6087, 0),
+    (0x608F, 1),
+    (0x608F, 2),
     (0x6098, 0),
     (0x6099, 1),
     (0x6099, 2),
@@ -175,6 +187,16 @@ const PARAMS: [(u16, u8); 54] = [
     (0x6510, 0x38),
     (0x6510, 0xF0),
 ];
+
+// The binary search needs the table sorted, without duplicates (checked when compiling).
+const _: () = {
+    let mut i = 1;
+    while i < PARAMS.len() {
+        let (a, b) = (PARAMS[i - 1], PARAMS[i]);
+        assert!(a.0 < b.0 || (a.0 == b.0 && a.1 < b.1), "PARAMS unsorted");
+        i += 1;
+    }
+};
 
 /// The slot of `(index, sub)` in [`PARAMS`].
 #[inline(always)]

@@ -514,6 +514,9 @@ pub struct Stepper {
     obs_k2h: f64,
     // ---- plant state ----
     angle: f64,
+    /// The encoder reading of `angle` (read several times per sub-step and per drive cycle;
+    /// set with the angle).
+    encoder: i64,
     velocity: f64,
     ia: f64,
     ib: f64,
@@ -572,6 +575,7 @@ impl Stepper {
             obs_k1h: 0.0,
             obs_k2h: 0.0,
             angle: 0.0,
+            encoder: 0,
             velocity: 0.0,
             ia: 0.0,
             ib: 0.0,
@@ -626,6 +630,7 @@ impl Stepper {
         self.ki = self.j * wv * wv / 4.0;
         self.kv = wv / 4.0;
         self.coeff_h = 0.0;
+        self.encoder = self.encoder_of(self.angle);
         self.set_command_vector();
     }
 
@@ -709,6 +714,7 @@ impl Stepper {
     /// and homing scenarios). The set-point is not touched.
     pub fn set_angle(&mut self, angle: f64) {
         self.angle = finite(angle);
+        self.encoder = self.encoder_of(self.angle);
         self.velocity = 0.0;
         self.obs_angle = (self.encoder_increments() as f64 + 0.5) * self.rad_per_inc;
         self.obs_vel = 0.0;
@@ -1007,6 +1013,7 @@ impl Stepper {
             }
         }
         self.angle = angle;
+        self.encoder = self.encoder_of(angle);
         self.velocity = w1;
         w1 - w0
     }
@@ -1034,8 +1041,13 @@ impl Stepper {
     }
 
     /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
+    #[inline]
     pub fn encoder_increments(&self) -> i64 {
-        crate::rounding::floor(self.angle / self.rad_per_inc) as i64
+        self.encoder
+    }
+
+    fn encoder_of(&self, angle: f64) -> i64 {
+        crate::rounding::floor(angle / self.rad_per_inc) as i64
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.
