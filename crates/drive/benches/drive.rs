@@ -259,7 +259,8 @@ mod plot {
         chart
             .configure_mesh()
             .disable_x_mesh()
-            .x_labels(3)
+            // Labels at 0, 0.5, 1, … 3: the halves are the personalities.
+            .x_labels(7)
             .x_label_formatter(&|x: &f64| {
                 let i = (*x - 0.5).round() as usize;
                 super::BASELINE
@@ -267,6 +268,7 @@ mod plot {
                     .filter(|_| (*x - 0.5 - i as f64).abs() < 0.01)
                     .map_or(String::new(), |b| b.0.to_string())
             })
+            .y_label_formatter(&|y: &f64| format!("{y:.0}"))
             .y_desc("axes per core")
             .label_style(("sans-serif", 16))
             .draw()
@@ -288,7 +290,7 @@ mod plot {
                 chart
                     .draw_series(std::iter::once(Text::new(
                         format!("{v:.0}"),
-                        ((x0 + x1) / 2.0 - 0.1, v + top * 0.01),
+                        ((x0 + x1) / 2.0 - 0.06, v + top * 0.045),
                         ("sans-serif", 15).into_font().color(&BLACK),
                     )))
                     .map_err(|e| e.to_string())?;
