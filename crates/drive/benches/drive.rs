@@ -1,21 +1,77 @@
-//! One drive: device logic, profile generator, all control loops and the plant, stepped on
-//! the virtual clock during a profile-position move. Reports ns per simulated second of one
-//! axis and how many axes one core runs in real time.
+//! One whole drive per personality — device logic, profile generator, every control loop and
+//! the plant — stepped on the virtual clock in 1 ms calls while it moves, as a cell steps it:
+//!
+//! - CMMP-AS: profile position, the servo axis at the manual's controller cycles (6510h:B0–B3:
+//!   current 125 µs, velocity 250 µs, position and device logic 500 µs, trajectory 1000 µs);
+//! - Nanotec SMCI47-S: profile position, the hybrid stepper in open loop;
+//! - CMMO-ST: FHPP jog (1 ms FHPP cycle), the same stepper model in open loop.
+//!
+//! Reports the CPU time per simulated second of one axis and how many axes one core runs in
+//! real time (target ≥ 1000, i.e. ≤ 1 ms of CPU per simulated second), then draws the figures
+//! with the baseline into `docs/axes-per-core.png`. The machine is shared: each figure is the
+//! thread's CPU time (not wall time), the best of several runs.
 
-use std::time::{Duration, Instant as WallInstant};
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, Criterion};
 use drive::drive::{Drive, DriveSettings};
+use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::fhpp::{Ccon, Cpos, OutputData};
+use drive::travel::TravelSettings;
 use od::{Instant, ObjectAccess, ObjectDictionary};
 
-fn moving_drive() -> (Drive<Vec<u8>>, Instant) {
-    moving(&devices::CMMP_AS, 1_000_000_000)
+/// Axes in real time per core before this work (commit c1c54dd, same bench and machine, best
+/// of two runs): the reference the plot draws.
+const BASELINE: [(&str, f64); 3] = [("CMMP-AS", 754.0), ("Nanotec", 391.0), ("CMMO-ST", 402.0)];
+
+/// Simulated seconds per timed run, runs per figure.
+const SIM_S: u64 = 4;
+const RUNS: usize = 3;
+
+/// Something the bench steps on the virtual clock.
+trait Stepped {
+    fn step_to(&mut self, now: Instant);
+    /// The shaft's speed, min⁻¹ (to check that the axis really moved).
+    fn speed_rpm(&self) -> f32;
+}
+
+impl Stepped for Drive<Vec<u8>> {
+    fn step_to(&mut self, now: Instant) {
+        self.step(now);
+    }
+    fn speed_rpm(&self) -> f32 {
+        self.plant_velocity_rpm()
+    }
+}
+
+impl Stepped for FhppDevice<Vec<u8>> {
+    fn step_to(&mut self, now: Instant) {
+        self.step(now);
+    }
+    fn speed_rpm(&self) -> f32 {
+        self.stepper().velocity_rpm()
+    }
 }
 
 /// `desc`'s drive in profile position towards `target` (user units).
 fn moving(desc: &'static od::DeviceDescription, target: i32) -> (Drive<Vec<u8>>, Instant) {
     let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("storage");
-    let mut d = Drive::new(od, DriveSettings::default());
+    // No limit switches or hard stops: the axis travels for as long as the bench runs (the
+    // default travel's positive limit switch would stop it after 64 revolutions, ≈ 4 s).
+    let travel = TravelSettings {
+        negative_stop: None,
+        negative_limit: None,
+        positive_limit: None,
+        positive_stop: None,
+        ..TravelSettings::default()
+    };
+    let settings = DriveSettings {
+        travel,
+        ..DriveSettings::default()
+    };
+    let mut d = Drive::new(od, settings);
     let mut now = Instant::ZERO;
     let mut step = |d: &mut Drive<Vec<u8>>, ms: u64| {
         now = now + Duration::from_millis(ms);
@@ -33,40 +89,90 @@ fn moving(desc: &'static od::DeviceDescription, target: i32) -> (Drive<Vec<u8>>,
     (d, now)
 }
 
-fn drive_step(c: &mut Criterion) {
-    let (mut d, mut now) = moving_drive();
-    // One simulated second, timed directly: the figure the issue asks for.
-    let t = WallInstant::now();
-    now = now + Duration::from_secs(1);
-    d.step(now);
-    let per_second = t.elapsed();
-    println!(
-        "one CMMP-AS axis: {:?} of CPU per simulated second (8000 current-loop cycles) → {:.0} axes in real time on one core",
-        per_second,
-        1.0 / per_second.as_secs_f64()
-    );
+fn cmmp_as() -> (Drive<Vec<u8>>, Instant) {
+    moving(&devices::CMMP_AS, 1_000_000_000)
+}
+
+fn nanotec() -> (Drive<Vec<u8>>, Instant) {
+    moving(&devices::NANOTEC_SMCI47S, 100_000_000)
+}
+
+/// The CMMO-ST enabled and jogging positive (CPOS.JOGP held), on the virtual clock.
+fn cmmo_st() -> (FhppDevice<Vec<u8>>, Instant) {
+    let desc = &devices::CMMO_ST;
+    let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).expect("storage");
+    let mut dev = FhppDevice::new(od, FhppSettings::default());
+    let mut now = Instant::ZERO;
+    let enabled = Ccon(0x03);
+    for out in [
+        OutputData::record(enabled, Cpos::HALT, 0),
+        OutputData::record(enabled, Cpos::HALT | Cpos::JOGP, 0),
+    ] {
+        dev.set_outputs(&out.to_bytes()).expect("outputs");
+        for _ in 0..3 {
+            now = now + Duration::from_millis(1);
+            dev.step(now);
+        }
+    }
+    (dev, now)
+}
+
+/// The CPU time this thread has used (the machine is shared: wall time would count the
+/// other processes that preempt the bench).
+fn thread_cpu_time() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime");
+    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+}
+
+/// CPU time of one simulated second of `make`'s axis, stepped in 1 ms calls after a 200 ms
+/// run-up: the best of [`RUNS`] runs of [`SIM_S`] s each.
+fn per_simulated_second<D: Stepped>(make: impl Fn() -> (D, Instant)) -> Duration {
+    let mut best = Duration::MAX;
+    for _ in 0..RUNS {
+        let (mut d, mut now) = make();
+        for _ in 0..200 {
+            now = now + Duration::from_millis(1);
+            d.step_to(now);
+        }
+        let t = thread_cpu_time();
+        for _ in 0..SIM_S * 1000 {
+            now = now + Duration::from_millis(1);
+            d.step_to(black_box(now));
+        }
+        let per_s = (thread_cpu_time() - t) / SIM_S as u32;
+        assert!(
+            d.speed_rpm().abs() > 1.0,
+            "the axis stands at the end: {} min⁻¹",
+            d.speed_rpm()
+        );
+        best = best.min(per_s);
+    }
+    best
+}
+
+fn criterion_1ms(c: &mut Criterion) {
+    let (mut d, mut now) = cmmp_as();
     c.bench_function("drive_1ms_simulated", |b| {
         b.iter(|| {
             now = now + Duration::from_millis(1);
             d.step(now)
         })
     });
-}
-
-/// The Nanotec SMCI47-S on the hybrid stepper (open loop, 50 µs integration steps) in a
-/// long profile-position move.
-fn nanotec_step(c: &mut Criterion) {
-    let (mut d, mut now) = moving(&devices::NANOTEC_SMCI47S, 100_000_000);
-    let t = WallInstant::now();
-    now = now + Duration::from_secs(1);
-    d.step(now);
-    let per_second = t.elapsed();
-    println!(
-        "one Nanotec axis: {:?} of CPU per simulated second → {:.0} axes in real time on one core",
-        per_second,
-        1.0 / per_second.as_secs_f64()
-    );
+    let (mut d, mut now) = nanotec();
     c.bench_function("nanotec_1ms_simulated", |b| {
+        b.iter(|| {
+            now = now + Duration::from_millis(1);
+            d.step(now)
+        })
+    });
+    let (mut d, mut now) = cmmo_st();
+    c.bench_function("cmmo_st_1ms_simulated", |b| {
         b.iter(|| {
             now = now + Duration::from_millis(1);
             d.step(now)
@@ -74,5 +180,162 @@ fn nanotec_step(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, drive_step, nanotec_step);
-criterion_main!(benches);
+/// The figures of the issue, printed and drawn.
+fn report() {
+    let figures = [
+        ("CMMP-AS", per_simulated_second(cmmp_as)),
+        ("Nanotec", per_simulated_second(nanotec)),
+        ("CMMO-ST", per_simulated_second(cmmo_st)),
+    ];
+    let mut axes = [0.0; 3];
+    for ((name, per_s), (base_name, base)) in figures.iter().zip(BASELINE) {
+        debug_assert_eq!(*name, base_name);
+        let n = 1.0 / per_s.as_secs_f64();
+        println!(
+            "{name}: {:.3} ms of CPU per simulated second → {n:.0} axes in real time on one \
+             core (baseline {base:.0}, target ≥ 1000)",
+            per_s.as_secs_f64() * 1e3,
+        );
+        axes[figures.iter().position(|f| f.0 == *name).unwrap_or(0)] = n;
+    }
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../docs/axes-per-core.png");
+    match plot::axes_per_core(&path, &axes) {
+        Ok(()) => println!("plot: {}", path.display()),
+        Err(e) => println!("plot not drawn: {e}"),
+    }
+}
+
+mod plot {
+    //! The bar chart: axes per core by personality, baseline against now, the target line.
+
+    use std::path::Path;
+
+    use plotters::prelude::*;
+    use plotters::style::{register_font, FontStyle};
+
+    /// Fonts tried for the labels (the plot needs one; the bench still reports without it).
+    const FONTS: [&str; 3] = [
+        "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+        "/usr/share/fonts/TTF/DejaVuSans.ttf",
+        "/Library/Fonts/Arial.ttf",
+    ];
+
+    fn load_font() -> Result<(), String> {
+        let path = std::env::var("DRIVETWIN_PLOT_FONT")
+            .ok()
+            .into_iter()
+            .chain(FONTS.iter().map(|s| s.to_string()))
+            .find(|p| Path::new(p).exists())
+            .ok_or("no TrueType font found (set DRIVETWIN_PLOT_FONT)")?;
+        let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
+        register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            Box::leak(bytes.into_boxed_slice()),
+        )
+        .map_err(|_| format!("{path}: not a usable font"))
+    }
+
+    pub fn axes_per_core(path: &Path, now: &[f64; 3]) -> Result<(), String> {
+        load_font()?;
+        let root = BitMapBackend::new(path, (900, 540)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let top = super::BASELINE
+            .iter()
+            .map(|b| b.1)
+            .chain(now.iter().copied())
+            .fold(1000.0, f64::max)
+            * 1.15;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "Axes in real time per core (whole drive, 1 ms calls, moving)",
+                ("sans-serif", 24),
+            )
+            .margin(16)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..3.0, 0.0..top)
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            // Labels at 0, 0.5, 1, … 3: the halves are the personalities.
+            .x_labels(7)
+            .x_label_formatter(&|x: &f64| {
+                let i = (*x - 0.5).round() as usize;
+                super::BASELINE
+                    .get(i)
+                    .filter(|_| (*x - 0.5 - i as f64).abs() < 0.01)
+                    .map_or(String::new(), |b| b.0.to_string())
+            })
+            .y_label_formatter(&|y: &f64| format!("{y:.0}"))
+            .y_desc("axes per core")
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let grey = RGBColor(170, 170, 170);
+        let blue = RGBColor(40, 90, 170);
+        for (i, ((_, base), n)) in super::BASELINE.iter().zip(now).enumerate() {
+            let x = i as f64;
+            for (x0, x1, v, color) in [
+                (x + 0.12, x + 0.48, *base, grey),
+                (x + 0.52, x + 0.88, *n, blue),
+            ] {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x0, 0.0), (x1, v)],
+                        color.filled(),
+                    )))
+                    .map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        format!("{v:.0}"),
+                        ((x0 + x1) / 2.0 - 0.06, v + top * 0.045),
+                        ("sans-serif", 15).into_font().color(&BLACK),
+                    )))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, 1000.0), (3.0, 1000.0)],
+                RED.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?
+            .label("target 1000 axes (≤ 1 ms CPU per simulated second)")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(0.0, 0.0), (0.0, 0.0)],
+                grey.filled(),
+            )))
+            .map_err(|e| e.to_string())?
+            .label("before (c1c54dd)")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], grey.filled()));
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(0.0, 0.0), (0.0, 0.0)],
+                blue.filled(),
+            )))
+            .map_err(|e| e.to_string())?
+            .label("now")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], blue.filled()));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 15))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        root.present().map_err(|e| e.to_string())
+    }
+}
+
+criterion_group!(benches, criterion_1ms);
+
+fn main() {
+    report();
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

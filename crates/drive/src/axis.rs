@@ -275,6 +275,7 @@ impl Axis {
     // ---- actual values -------------------------------------------------------------------
 
     /// Encoder position, increments (6063h position_actual_value_s).
+    #[inline]
     pub fn position_increments(&self) -> i64 {
         self.motor.position_increments()
     }
@@ -286,7 +287,7 @@ impl Axis {
 
     /// Actual speed in the internal unit 1/4096 min⁻¹ (606Ch before the factor group).
     pub fn velocity_internal(&self) -> i32 {
-        libm::round(self.speed * RAD_S_TO_RPM * 4096.0) as i32
+        crate::rounding::round(self.speed * RAD_S_TO_RPM * 4096.0) as i32
     }
 
     /// Actual speed through the 2073h display filter, min⁻¹.
@@ -296,7 +297,7 @@ impl Axis {
 
     /// Motor current, mA.
     pub fn current_ma(&self) -> i32 {
-        libm::round(self.motor.current() * 1000.0) as i32
+        crate::rounding::round(self.motor.current() * 1000.0) as i32
     }
 
     /// Motor current in ‰ of 6075h (6078h current_actual_value).
@@ -312,7 +313,7 @@ impl Axis {
 
     /// Current set-point after all limits, mA.
     pub fn current_demand_ma(&self) -> i32 {
-        libm::round(self.current_set * 1000.0) as i32
+        crate::rounding::round(self.current_set * 1000.0) as i32
     }
 
     /// Torque set-point after all limits in ‰ of 6076h (6074h torque_demand_value).
@@ -325,7 +326,7 @@ impl Axis {
         if r <= 0.0 {
             return 0;
         }
-        libm::round(current / r * 1000.0) as i16
+        crate::rounding::round(current / r * 1000.0) as i16
     }
 
     /// Speed set-point to the velocity controller (60FAh control_effort: position-controller
@@ -347,7 +348,7 @@ impl Axis {
 
     /// I²t load in ‰ (6410h:04 iit_ratio_motor).
     pub fn i2t_permille(&self) -> u16 {
-        libm::round(self.i2t.ratio(&self.g) * 1000.0) as u16
+        crate::rounding::round(self.i2t.ratio(&self.g) * 1000.0) as u16
     }
 
     /// I²t load in % (0…100).

@@ -116,11 +116,24 @@ const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
 const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
 /// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
-/// cycle never searches the object table.
-const PARAMS: [(u16, u8); 43] = [
+/// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
+/// by binary search, which the compiler folds to a constant for the literal keys of the
+/// call sites.
+const PARAMS: [(u16, u8); 66] = [
+    (0x2001, 0),
+    (0x2004, 1),
+    (0x2004, 8),
     (0x2005, 1),
-    (0x2045, 0),
+    (0x2006, 0),
+    (0x2007, 1),
+    (0x2007, 2),
+    (0x2007, 3),
+    (0x200A, 0),
     (0x200A, 1),
+    (0x200B, 0),
+    (0x2011, 0),
+    (0x2020, 0),
+    (0x2045, 0),
     (0x2090, 1),
     (0x2090, 2),
     (0x2090, 3),
@@ -134,20 +147,31 @@ const PARAMS: [(u16, u8); 43] = [
     (0x606E, 0),
     (0x606F, 0),
     (0x6070, 0),
+    (0x6071, 0),
     (0x6072, 0),
     (0x607A, 0),
+    (0x607B, 1),
+    (0x607B, 2),
     (0x607C, 0),
+    (0x607D, 1),
+    (0x607D, 2),
+    (0x607E, 0),
+    (0x607F, 0),
     (0x6080, 0),
     (0x6081, 0),
     (0x6082, 0),
     (0x6083, 0),
     (0x6084, 0),
     (0x6085, 0),
+    (0x6086, 0),
     (0x6087, 0),
+    (0x608F, 1),
+    (0x608F, 2),
     (0x6098, 0),
     (0x6099, 1),
     (0x6099, 2),
     (0x609A, 0),
+    (0x60C1, 1),
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
@@ -155,6 +179,7 @@ const PARAMS: [(u16, u8); 43] = [
     (0x6510, 0x12),
     (0x6510, 0x13),
     (0x6510, 0x14),
+    (0x6510, 0x15),
     (0x6510, 0x18),
     (0x6510, 0x22),
     (0x6510, 0x36),
@@ -162,6 +187,36 @@ const PARAMS: [(u16, u8); 43] = [
     (0x6510, 0x38),
     (0x6510, 0xF0),
 ];
+
+// The binary search needs the table sorted, without duplicates (checked when compiling).
+const _: () = {
+    let mut i = 1;
+    while i < PARAMS.len() {
+        let (a, b) = (PARAMS[i - 1], PARAMS[i]);
+        assert!(a.0 < b.0 || (a.0 == b.0 && a.1 < b.1), "PARAMS unsorted");
+        i += 1;
+    }
+};
+
+/// The slot of `(index, sub)` in [`PARAMS`].
+#[inline(always)]
+const fn param_slot(index: u16, sub: u8) -> Option<usize> {
+    let key = (index as u32) << 8 | sub as u32;
+    let (mut lo, mut hi) = (0, PARAMS.len());
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        let (i, s) = PARAMS[mid];
+        let k = (i as u32) << 8 | s as u32;
+        if k == key {
+            return Some(mid);
+        } else if k < key {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    None
+}
 
 /// Entries the drive reads or writes every cycle, looked up once.
 #[derive(Debug, Clone, Copy, Default)]
@@ -296,11 +351,21 @@ pub struct MemoryEntry {
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
 /// per control cycle).
+#[inline(always)]
 fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
-    let mut u = 0u64;
-    for (i, b) in raw.iter().take(8).enumerate() {
-        u |= u64::from(*b) << (8 * i);
-    }
+    let u = match *raw {
+        [a] => u64::from(a),
+        [a, b] => u64::from(u16::from_le_bytes([a, b])),
+        [a, b, c, d] => u64::from(u32::from_le_bytes([a, b, c, d])),
+        [a, b, c, d, e, f, g, h] => u64::from_le_bytes([a, b, c, d, e, f, g, h]),
+        _ => {
+            let mut u = 0u64;
+            for (i, b) in raw.iter().take(8).enumerate() {
+                u |= u64::from(*b) << (8 * i);
+            }
+            u
+        }
+    };
     match e.data_type {
         DataType::Integer8 => i64::from(u as u8 as i8),
         DataType::Integer16 => i64::from(u as u16 as i16),
@@ -757,12 +822,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let _ = self.events.push_back(e);
     }
 
+    #[inline(always)]
     pub(crate) fn read(&self, e: Option<&'static Entry>) -> i64 {
         e.map(|e| decode_i64(e, self.od.raw(e))).unwrap_or(0)
     }
 
+    #[inline]
     pub(crate) fn value(&self, index: u16, sub: u8) -> i64 {
-        if let Some(pos) = PARAMS.iter().position(|k| *k == (index, sub)) {
+        if let Some(pos) = param_slot(index, sub) {
             return self.read(self.params.get(pos).copied().flatten());
         }
         match self.od.value(index, sub) {
@@ -784,8 +851,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// A [`PARAMS`] entry.
+    #[inline]
     pub(crate) fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
-        let pos = PARAMS.iter().position(|k| *k == (index, sub))?;
+        let pos = param_slot(index, sub)?;
         self.params.get(pos).copied().flatten()
     }
 
@@ -801,7 +869,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let mut next = *self.next_cycle.get_or_insert(now);
         while next <= now {
             self.now = next;
-            if self.cycles.is_multiple_of(u64::from(self.logic_every)) {
+            let every = u64::from(self.logic_every);
+            // A mask where it can (4 by default): a 64-bit division per cycle is a tenth of
+            // the cycle's budget.
+            let due = if every.is_power_of_two() {
+                self.cycles & (every - 1) == 0
+            } else {
+                self.cycles.is_multiple_of(every)
+            };
+            if due {
                 self.logic();
             }
             self.plant_step();
@@ -1022,7 +1098,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             velocity_ff
         };
         self.demand = Demand::Position {
-            increments: libm::round(self.demand_position) as i64 - self.position_offset,
+            increments: crate::rounding::round(self.demand_position) as i64 - self.position_offset,
             velocity_ff_rpm: (ff * RPM_PER_INC_S) as f32,
         };
     }

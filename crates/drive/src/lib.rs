@@ -20,6 +20,7 @@ pub mod messages;
 pub mod motor;
 pub mod personality;
 pub mod profile_position;
+pub mod rounding;
 pub mod smoothing;
 pub mod statusword;
 pub mod stepper;

@@ -107,6 +107,8 @@ pub struct Motor {
     velocity: f64,
     /// Shaft angle, rad (f64 so long runs keep resolution).
     angle: f64,
+    /// The encoder reading of `angle` (read several times per cycle; set with the angle).
+    increments: i64,
     /// Holding brake engaged.
     brake: bool,
     /// External stop: the load is jammed (infinite friction).
@@ -146,6 +148,7 @@ impl Motor {
             current: 0.0,
             velocity: 0.0,
             angle: 0.0,
+            increments: 0,
             brake: false,
             blocked: false,
             stops: (f64::NEG_INFINITY, f64::INFINITY),
@@ -217,6 +220,7 @@ impl Motor {
     /// set-ups).
     pub fn set_angle(&mut self, angle: f64) {
         self.angle = angle;
+        self.increments = self.encoder(angle);
     }
 
     /// Electromagnetic torque Kt·i, N·m.
@@ -230,8 +234,13 @@ impl Motor {
     }
 
     /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
+    #[inline]
     pub fn position_increments(&self) -> i64 {
-        libm::floor(self.angle / self.rad_per_inc) as i64
+        self.increments
+    }
+
+    fn encoder(&self, angle: f64) -> i64 {
+        crate::rounding::floor(angle / self.rad_per_inc) as i64
     }
 
     fn coefficients(&mut self, dt: f64) {
@@ -329,6 +338,7 @@ impl Motor {
             w1 = w1.min(0.0);
         }
         self.angle = angle;
+        self.increments = self.encoder(angle);
         self.velocity = w1;
     }
 }

@@ -66,15 +66,18 @@
 //!
 //! # Integration
 //!
-//! The plant is integrated in sub-steps of at most [`STEP_S`] = 50 µs whatever `dt` the
-//! caller passes to [`Stepper::step`] (the demand is held over the call). The detent spring
+//! The plant is integrated in sub-steps of at most [`MAX_STEP_OPEN_LOOP_S`] = 125 µs in open
+//! loop and [`MAX_STEP_CLOSED_LOOP_S`] = 100 µs in closed loop, whatever `dt` the caller
+//! passes to [`Stepper::step`] (the demand is held over the call; a call of [`STEP_S`] =
+//! 50 µs, the resolution of this module's own tests, is one sub-step of 50 µs). The detent
+//! spring
 //! is stiff (`N_r·T_hold` ≈ 25 N·m/rad, ≈ 180 Hz with the default inertia), so the mechanics
 //! are semi-implicit: viscous friction, and the part of the restoring stiffness
 //! `K = −∂T/∂θ` beyond `J/h²`, are taken at the end of the step,
 //! `ω₁ = (J·ω₀ + h·(T(θ₀) − T_c·sign − T_load)) / (J + B·h + K_impl·h²)`, `θ₁ = θ₀ + h·ω₁`.
 //! With sane data `K_impl` = 0 and this is the symplectic (semi-implicit) Euler step: no
-//! numerical damping, stable for ω_n·h < 2, and at 50 µs ω_n·h ≈ 0.06 (≈ 110 steps per
-//! rotor oscillation). For extreme data (a tiny inertia, a huge holding torque) the implicit
+//! numerical damping, stable for ω_n·h < 2, and at 125 µs ω_n·h ≈ 0.14 (≈ 45 steps per
+//! rotor oscillation; at 50 µs 0.06 and 110). For extreme data (a tiny inertia, a huge holding torque) the implicit
 //! stiffness keeps the step stable at any ω_n·h, trading accuracy for numerical damping.
 //! Likewise, a phase whose bridge saturates is driven by the back-EMF, which couples it to
 //! the speed with the electromechanical time constant J·R/k² (0.4 ms by default, far less
@@ -103,8 +106,26 @@ pub const ENCODER_INCREMENTS_PER_REV: u32 = 2000;
 /// Default micro-step resolution: micro-steps per full step.
 pub const MICROSTEPS: u32 = 16;
 
-/// Longest integration sub-step, s. [`Stepper::step`] splits longer calls.
+/// A fine call width, s: the step of this module's tests and benches (one sub-step).
 pub const STEP_S: f64 = 50e-6;
+
+/// Longest integration sub-step in open loop, s: [`Stepper::step`] splits longer calls.
+///
+/// Decision: the drive cycle's 125 µs (one sub-step per Nanotec current-controller cycle,
+/// 8 per CMMO-ST millisecond). It was 50 µs; every test of the drives that run this plant
+/// (pull-out torque, lost steps, homing on block, the FHPP and Nanotec vectors) gives the
+/// same verdict at 125 µs, and the mechanics stay well inside their stability bound
+/// (ω_n·h ≈ 0.14 against 2), at 2.5 times less CPU (docs/performance.md).
+pub const MAX_STEP_OPEN_LOOP_S: f64 = 125e-6;
+
+/// Longest integration sub-step in closed loop, s: the encoder observer, the position and
+/// velocity controllers run once per sub-step, so it is also their cycle.
+///
+/// Decision: 100 µs (two sub-steps per Nanotec cycle, 10 per CMMO-ST millisecond). At
+/// 125 µs the Nanotec torque mode overshoots its 607Fh speed limit by 2 % (the velocity
+/// limiter acts a cycle later), which its test does not allow; at 100 µs every drive test
+/// gives the same verdict as at 50 µs.
+pub const MAX_STEP_CLOSED_LOOP_S: f64 = 100e-6;
 
 /// Upper bound of sub-steps per call (a 5 s call at 50 µs); beyond it the sub-step grows.
 const MAX_SUBSTEPS: f64 = 100_000.0;
@@ -367,10 +388,54 @@ fn clamp(x: f64, lim: f64) -> f64 {
     }
 }
 
-/// `x` reduced to [−π, π).
+/// 1 / 2π.
+const INV_TAU: f64 = 1.0 / TAU;
+
+/// `x` reduced to [−π, π) (to within one period for the rare quotient that rounds across a
+/// half: [`sin_cos`] takes any argument up to 4π).
 #[inline]
 fn wrap(x: f64) -> f64 {
-    x - TAU * libm::floor(x / TAU + 0.5)
+    x - TAU * crate::rounding::floor(x * INV_TAU + 0.5)
+}
+
+/// `(sin x, cos x)` for |x| ≤ 4π, inline and within an ulp or two of `libm::sincos` (the
+/// plant calls it once or twice per 50 µs sub-step; libm's general argument reduction and
+/// call cost more than the rest of the sub-step). The argument is reduced by the nearest
+/// multiple of π/2 in two parts (the first exact for the few multiples here), then the
+/// Taylor series, whose first omitted term is below 5·10⁻¹⁷ for |r| ≤ π/4, gives both values.
+#[inline(always)]
+fn sin_cos(x: f64) -> (f64, f64) {
+    /// π/2 to 33 bits (so q·PIO2_HI is exact for |q| < 2²⁰) and the rest of it.
+    const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+    const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
+    let q = crate::rounding::round_i64(x * core::f64::consts::FRAC_2_PI);
+    let qf = q as f64;
+    let r = (x - qf * PIO2_HI) - qf * PIO2_LO;
+    let r2 = r * r;
+    // 1/3!, 1/5!, … 1/15! and 1/2!, 1/4!, … 1/16! with alternating signs.
+    let s = r + r
+        * r2
+        * (-1.0 / 6.0
+            + r2 * (1.0 / 120.0
+                + r2 * (-1.0 / 5040.0
+                    + r2 * (1.0 / 362_880.0
+                        + r2 * (-1.0 / 39_916_800.0
+                            + r2 * (1.0 / 6_227_020_800.0 + r2 * (-1.0 / 1_307_674_368_000.0)))))));
+    let c = 1.0 - 0.5 * r2
+        + r2 * r2
+            * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0
+                    + r2 * (1.0 / 40_320.0
+                        + r2 * (-1.0 / 3_628_800.0
+                            + r2 * (1.0 / 479_001_600.0
+                                + r2 * (-1.0 / 87_178_291_200.0
+                                    + r2 * (1.0 / 20_922_789_888_000.0)))))));
+    match q & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
 }
 
 /// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
@@ -435,14 +500,23 @@ pub struct Stepper {
     ki: f64,
     // ---- sub-step coefficients ----
     coeff_h: f64,
+    /// The last call's `dt`, its sub-steps (count, width) and whether in closed loop.
+    split: (f64, u32, f64, bool),
     elec_a: f64,
     elec_b: f64,
+    /// 1 / `elec_b` (the chopper's voltage for a current step), `J/h²` (the mechanics'
+    /// explicit stiffness bound).
+    elec_inv_b: f64,
+    j_per_h2: f64,
     /// No winding dynamics (R = L = 0): the current is its reference.
     ideal: bool,
     obs_k1h: f64,
     obs_k2h: f64,
     // ---- plant state ----
     angle: f64,
+    /// The encoder reading of `angle` (read several times per sub-step and per drive cycle;
+    /// set with the angle).
+    encoder: i64,
     velocity: f64,
     ia: f64,
     ib: f64,
@@ -492,12 +566,16 @@ impl Stepper {
             kp: 0.0,
             ki: 0.0,
             coeff_h: 0.0,
+            split: (0.0, 1, 0.0, false),
             elec_a: 0.0,
             elec_b: 0.0,
+            elec_inv_b: 0.0,
+            j_per_h2: 0.0,
             ideal: false,
             obs_k1h: 0.0,
             obs_k2h: 0.0,
             angle: 0.0,
+            encoder: 0,
             velocity: 0.0,
             ia: 0.0,
             ib: 0.0,
@@ -552,6 +630,7 @@ impl Stepper {
         self.ki = self.j * wv * wv / 4.0;
         self.kv = wv / 4.0;
         self.coeff_h = 0.0;
+        self.encoder = self.encoder_of(self.angle);
         self.set_command_vector();
     }
 
@@ -635,6 +714,7 @@ impl Stepper {
     /// and homing scenarios). The set-point is not touched.
     pub fn set_angle(&mut self, angle: f64) {
         self.angle = finite(angle);
+        self.encoder = self.encoder_of(self.angle);
         self.velocity = 0.0;
         self.obs_angle = (self.encoder_increments() as f64 + 0.5) * self.rad_per_inc;
         self.obs_vel = 0.0;
@@ -649,7 +729,7 @@ impl Stepper {
         let period = 4 * self.micro;
         let m = self.cmd_micro.rem_euclid(period);
         let ang = m as f64 * (FRAC_PI_2 / self.micro as f64);
-        let (s, c) = libm::sincos(ang);
+        let (s, c) = sin_cos(ang);
         self.cmd_cos = c;
         self.cmd_sin = s;
     }
@@ -702,12 +782,15 @@ impl Stepper {
         } else {
             0.0
         };
+        self.elec_inv_b = if self.ideal { 0.0 } else { 1.0 / self.elec_b };
+        self.j_per_h2 = self.j / (h * h);
         self.obs_k1h = 2.0 * wo * h;
         self.obs_k2h = wo * wo * h;
         self.coeff_h = h;
     }
 
-    /// Advances the plant by `dt` s (sub-stepped at ≤ [`STEP_S`]) with `demand` held.
+    /// Advances the plant by `dt` s (sub-stepped at ≤ [`MAX_STEP_OPEN_LOOP_S`] resp.
+    /// [`MAX_STEP_CLOSED_LOOP_S`]) with `demand` held.
     pub fn step(&mut self, dt: f64, demand: StepperDemand) {
         if !positive(dt) || !dt.is_finite() {
             return;
@@ -749,20 +832,35 @@ impl Stepper {
                 }
             }
         }
-        // The tolerance keeps a whole multiple of STEP_S (1 ms = 20 × 50 µs) at that many
-        // sub-steps despite the rounding of the division.
-        let n = libm::ceil(dt / STEP_S * (1.0 - 1e-12));
-        // n is finite here (dt is); clamp cannot see a NaN.
-        let n = n.clamp(1.0, MAX_SUBSTEPS);
-        let h = dt / n;
+        let (n, h) = self.split(dt);
         self.coefficients(h);
         let mut i = 0u32;
-        let n = n as u32;
         while i < n {
             self.substep(h, w_ff, t_ff);
             i += 1;
         }
         self.steps = self.steps.wrapping_add(1);
+    }
+
+    /// How a call of `dt` s splits into sub-steps: their number and width (kept for the
+    /// last `dt` and mode, which a drive passes unchanged every cycle).
+    #[inline]
+    fn split(&mut self, dt: f64) -> (u32, f64) {
+        let closed = self.mode == StepperMode::ClosedLoop;
+        if dt != self.split.0 || closed != self.split.3 {
+            let max = if closed {
+                MAX_STEP_CLOSED_LOOP_S
+            } else {
+                MAX_STEP_OPEN_LOOP_S
+            };
+            // The tolerance keeps a whole multiple of the sub-step (1 ms = 10 × 100 µs) at
+            // that many sub-steps despite the rounding of the division.
+            let n = libm::ceil(dt / max * (1.0 - 1e-12));
+            // n is finite here (dt is); clamp cannot see a NaN.
+            let n = n.clamp(1.0, MAX_SUBSTEPS);
+            self.split = (dt, n as u32, dt / n, closed);
+        }
+        (self.split.1, self.split.2)
     }
 
     fn substep(&mut self, h: f64, w_ff: f64, t_ff: f64) {
@@ -788,7 +886,7 @@ impl Stepper {
 
         // Phase currents through the choppers. A saturated bridge leaves its phase current to
         // the back-EMF: d(i_a)/dω = b·k·sin φ, d(i_b)/dω = −b·k·cos φ.
-        let (s, c) = libm::sincos(wrap(self.np * self.angle));
+        let (s, c) = sin_cos(wrap(self.np * self.angle));
         let kw = self.k * self.velocity;
         let (mut sat_a, mut sat_b) = (false, false);
         if !self.energised {
@@ -853,7 +951,7 @@ impl Stepper {
         let mag = libm::fabs(t) / self.k;
         let lead = if t < 0.0 { -FRAC_PI_2 } else { FRAC_PI_2 };
         let ang = wrap(self.np * (self.obs_angle + self.obs_vel * h)) + lead;
-        let (s, c) = libm::sincos(ang);
+        let (s, c) = sin_cos(ang);
         (mag * c, mag * s)
     }
 
@@ -862,7 +960,7 @@ impl Stepper {
     #[inline]
     /// Returns the new current and whether the bridge saturated.
     fn chop(&self, i: f64, i_ref: f64, e: f64) -> (f64, bool) {
-        let v = (i_ref - self.elec_a * i) / self.elec_b + e;
+        let v = (i_ref - self.elec_a * i) * self.elec_inv_b + e;
         let vs = self.data.supply_voltage.max(0.0);
         let sat = libm::fabs(v) > vs;
         let v = clamp(v, vs);
@@ -882,7 +980,7 @@ impl Stepper {
         let hold = d.coulomb_friction.max(0.0);
         // Only the part of the restoring stiffness beyond what the explicit (symplectic)
         // update integrates stably (ω_n·h ≤ 1) is taken implicitly: none with sane data.
-        let k = stiffness - self.j / (h * h);
+        let k = stiffness - self.j_per_h2;
         let k = if k > 0.0 { k } else { 0.0 };
         let jd = self.j + damping.max(0.0) * h;
         let den = jd + d.viscous_friction.max(0.0) * h + k * h * h;
@@ -915,6 +1013,7 @@ impl Stepper {
             }
         }
         self.angle = angle;
+        self.encoder = self.encoder_of(angle);
         self.velocity = w1;
         w1 - w0
     }
@@ -942,13 +1041,18 @@ impl Stepper {
     }
 
     /// Encoder reading: ⌊angle / 2π × increments per revolution⌋.
+    #[inline]
     pub fn encoder_increments(&self) -> i64 {
-        libm::floor(self.angle / self.rad_per_inc) as i64
+        self.encoder
+    }
+
+    fn encoder_of(&self, angle: f64) -> i64 {
+        crate::rounding::floor(angle / self.rad_per_inc) as i64
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.
     pub fn actual_microsteps(&self) -> i64 {
-        libm::round(self.angle / self.rad_per_micro) as i64
+        crate::rounding::round(self.angle / self.rad_per_micro) as i64
     }
 
     /// Commanded position in micro-steps: the open-loop current-vector position, or the
@@ -984,7 +1088,7 @@ impl Stepper {
     /// Positive when the rotor is behind a positive command. A rotor lagging by less than
     /// 2 full steps (half a period) counts as following, not as having lost steps.
     pub fn lost_steps(&self) -> i64 {
-        let periods = libm::round((self.set_point_rad() - self.angle) * self.np / TAU);
+        let periods = crate::rounding::round((self.set_point_rad() - self.angle) * self.np / TAU);
         (periods as i64).saturating_mul(4)
     }
 
@@ -995,7 +1099,7 @@ impl Stepper {
 
     /// Amplitude of the phase-current vector, mA (PNU 1059).
     pub fn current_ma(&self) -> i32 {
-        libm::round(self.current_a() * 1000.0) as i32
+        crate::rounding::round(self.current_a() * 1000.0) as i32
     }
 
     /// Phase currents (A, B), A.
@@ -1105,7 +1209,7 @@ pub fn unit_to_sinc(value: f64, notation_index: i8) -> i64 {
     } else {
         value / p
     };
-    libm::round(x) as i64
+    crate::rounding::round(x) as i64
 }
 
 /// A SINC value in SI units (m for metre and inch, rad for degree and revolution), from
@@ -1122,4 +1226,31 @@ pub fn si_to_sinc(value: f64, notation_index: i8, dimension_index: u8) -> Option
     let si = SincUnit::from_pnu601(dimension_index)?.si()?;
     let v = if si == 1.0 { value } else { value / si };
     Some(unit_to_sinc(v, notation_index))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The inline sine and cosine agree with libm to within 2 ulp of 1 over the whole range
+    /// the plant calls them with (|x| ≤ 4π).
+    #[test]
+    fn sin_cos_matches_libm() {
+        let n = 200_000;
+        for i in 0..=n {
+            let x = -4.0 * PI + 8.0 * PI * i as f64 / n as f64;
+            let (s, c) = sin_cos(x);
+            let (ls, lc) = libm::sincos(x);
+            assert!((s - ls).abs() <= 4.5e-16, "sin {x}: {s} vs {ls}");
+            assert!((c - lc).abs() <= 4.5e-16, "cos {x}: {c} vs {lc}");
+        }
+        for x in [0.0, FRAC_PI_2, PI, -PI, 1e-300, -1e-12] {
+            let (s, c) = sin_cos(x);
+            let (ls, lc) = libm::sincos(x);
+            assert!(
+                (s - ls).abs() <= 4.5e-16 && (c - lc).abs() <= 4.5e-16,
+                "{x}"
+            );
+        }
+    }
 }

@@ -7,7 +7,8 @@ use std::f64::consts::TAU;
 
 use drive::stepper::{
     si_to_sinc, sinc_to_si, sinc_to_unit, unit_to_sinc, SincUnit, Stepper, StepperData,
-    StepperDemand, StepperMode, ENCODER_INCREMENTS_PER_REV, RAD_S_TO_RPM, RPM_TO_RAD_S, STEP_S,
+    StepperDemand, StepperMode, ENCODER_INCREMENTS_PER_REV, MAX_STEP_CLOSED_LOOP_S,
+    MAX_STEP_OPEN_LOOP_S, RAD_S_TO_RPM, RPM_TO_RAD_S, STEP_S,
 };
 
 /// Integration steps per simulated second (50 µs).
@@ -467,23 +468,47 @@ fn deterministic_bit_for_bit() {
 
 #[test]
 fn long_calls_are_sub_stepped() {
-    // 1 ms calls = 20 sub-steps of 50 µs: the same as 20 calls of 50 µs while holding.
+    // 1 ms calls = 8 sub-steps of 125 µs in open loop: the same, bit for bit, as 8 calls of
+    // 125 µs while holding; and within 2·10⁻⁵ rad (a hundredth of an encoder increment) of
+    // 20 calls of 50 µs, the old fixed sub-step.
     let mut a = stepper(StepperMode::OpenLoop);
     let mut b = a.clone();
-    a.set_load_torque(0.2);
-    b.set_load_torque(0.2);
+    let mut c = a.clone();
+    for s in [&mut a, &mut b, &mut c] {
+        s.set_load_torque(0.2);
+    }
+    let demand = StepperDemand::Position { microsteps: 5 };
     for _ in 0..100 {
-        a.step(1e-3, StepperDemand::Position { microsteps: 5 });
+        a.step(1e-3, demand);
+        for _ in 0..8 {
+            b.step(MAX_STEP_OPEN_LOOP_S, demand);
+        }
         for _ in 0..20 {
-            b.step(STEP_S, StepperDemand::Position { microsteps: 5 });
+            c.step(STEP_S, demand);
         }
     }
+    assert_eq!(a.angle().to_bits(), b.angle().to_bits());
     assert!(
-        (a.angle() - b.angle()).abs() < 1e-9,
+        (a.angle() - c.angle()).abs() < 2e-5,
         "{} {}",
         a.angle(),
-        b.angle()
+        c.angle()
     );
+    // Closed loop: 10 sub-steps of 100 µs.
+    let mut a = stepper(StepperMode::ClosedLoop);
+    let mut b = a.clone();
+    let demand = StepperDemand::PositionIncrements {
+        increments: 40,
+        velocity_ff_rpm: 0.0,
+    };
+    for _ in 0..100 {
+        a.step(1e-3, demand);
+        for _ in 0..10 {
+            b.step(MAX_STEP_CLOSED_LOOP_S, demand);
+        }
+    }
+    assert_eq!(a.angle().to_bits(), b.angle().to_bits());
+    assert_eq!(a.encoder_increments(), 40);
     // A 1 s call stays stable.
     a.step(1.0, StepperDemand::Hold);
     assert!(a.angle().is_finite() && a.lost_steps() == 0);

@@ -154,7 +154,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 );
                 // Done when the set-point is there and the axis inside the window 6067h.
                 if self.traj.step_to(zero, 0.0, lim, dt)
-                    && (self.actual_internal() - libm::round(zero) as i64).abs() <= window
+                    && (self.actual_internal() - crate::rounding::round(zero) as i64).abs()
+                        <= window
                 {
                     self.homing_done();
                     self.homing = HomingRun::Idle;
@@ -264,7 +265,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             .fg
             .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32)
             .clamp(1, 65536);
-        let lag = libm::round(self.demand_position) as i64 - self.actual_internal();
+        let lag = crate::rounding::round(self.demand_position) as i64 - self.actual_internal();
         self.traj.velocity != 0.0 && lag.abs() > window
     }
 

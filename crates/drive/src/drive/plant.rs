@@ -46,8 +46,9 @@ impl StepperPlant {
 
     /// The encoder position in internal increments.
     fn position(&self) -> i64 {
-        libm::round(self.motor.encoder_increments() as f64 * INC_PER_REV / self.encoder_per_rev())
-            as i64
+        crate::rounding::round(
+            self.motor.encoder_increments() as f64 * INC_PER_REV / self.encoder_per_rev(),
+        ) as i64
     }
 
     /// One cycle of `dt` s with the engine's demand.
@@ -58,11 +59,14 @@ impl StepperPlant {
                 StepperMode::OpenLoop => {
                     let per_rev = f64::from(d.full_steps_per_rev) * f64::from(d.microsteps);
                     StepperDemand::Position {
-                        microsteps: libm::round(increments * per_rev / INC_PER_REV) as i64,
+                        microsteps: crate::rounding::round(increments * per_rev / INC_PER_REV)
+                            as i64,
                     }
                 }
                 StepperMode::ClosedLoop => StepperDemand::PositionIncrements {
-                    increments: libm::round(increments * p.encoder_per_rev() / INC_PER_REV) as i64,
+                    increments: crate::rounding::round(
+                        increments * p.encoder_per_rev() / INC_PER_REV,
+                    ) as i64,
                     velocity_ff_rpm: ff,
                 },
             }
@@ -110,7 +114,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// The actual speed in the internal unit 1/4096 min⁻¹.
     pub(crate) fn plant_velocity_internal(&self) -> i32 {
         match &self.stepper {
-            Some(s) => libm::round(f64::from(s.motor.velocity_rpm()) * 4096.0) as i32,
+            Some(s) => crate::rounding::round(f64::from(s.motor.velocity_rpm()) * 4096.0) as i32,
             None => self.axis.velocity_internal(),
         }
     }
@@ -153,8 +157,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if s.motor.mode() != mode {
             s.motor.set_mode(mode);
         }
-        if let Some(e) = self.od.description().entry(0x200A, 0) {
-            self.store(Some(e), i64::from(closed));
-        }
+        self.store(self.param(0x200A, 0), i64::from(closed));
     }
 }

@@ -36,7 +36,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sw |= Statusword::INTERNAL_LIMIT_ACTIVE
             .when(self.axis.i2t_limit_active() || self.internal_limit);
         // Following error (PP): |actual − demand| > 6065h for 6066h.
-        let demand_pos = libm::round(self.demand_position) as i64;
+        let demand_pos = crate::rounding::round(self.demand_position) as i64;
         let fe = self.actual_internal() - demand_pos;
         let fe_window = self
             .fg
@@ -156,9 +156,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         self.store(
             self.hot.velocity_demand,
-            i64::from(fg.velocity_from_internal(libm::round(v_dem) as i64)),
+            i64::from(fg.velocity_from_internal(crate::rounding::round(v_dem) as i64)),
         );
-        let effort = libm::round(f64::from(self.axis.control_effort_rpm()) * 4096.0) as i64;
+        let effort =
+            crate::rounding::round(f64::from(self.axis.control_effort_rpm()) * 4096.0) as i64;
         self.store(
             self.hot.control_effort,
             i64::from(fg.velocity_from_internal(effort)),

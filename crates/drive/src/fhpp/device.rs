@@ -4,7 +4,7 @@
 //!
 //! The runtime feeds the output telegram with [`FhppDevice::set_outputs`] (8 or 16 bytes, as
 //! Modbus / IO-Link / I-Port deliver it), steps the device with [`FhppDevice::step`] on its
-//! clock (one FHPP cycle per millisecond; the stepper integrates in 50 µs sub-steps inside),
+//! clock (one FHPP cycle per millisecond; the stepper integrates in sub-steps inside it),
 //! and reads the input telegram with [`FhppDevice::inputs`]. Front ends see the parameters
 //! through [`ObjectAccess`]. Sans-IO, `no_std`, no allocation in `step`, deterministic.
 //!
@@ -403,6 +403,9 @@ pub struct FhppDevice<S> {
     last_fault: Option<u8>,
     memory: DiagnosticMemory,
     memory_dirty: bool,
+    /// The entries [`Self::publish`] wrote in the last cycle, in call order: it writes the
+    /// same ones every cycle, so it looks each up once.
+    published: PublishedEntries,
     // ---- record chaining, software limits ----
     chain: Option<Chain>,
     /// Whose comparators PNU 312 shows in record selection (the last record started).
@@ -416,6 +419,42 @@ pub struct FhppDevice<S> {
     /// Software limit passed (11h / 12h): that direction is locked (13h / 14h).
     locked_positive: bool,
     locked_negative: bool,
+}
+
+/// Entries written every cycle, remembered by their place in the sequence of writes.
+#[derive(Debug, Clone, Copy, Default)]
+struct PublishedEntries([(u16, u8, Option<&'static Entry>); 32]);
+
+impl PublishedEntries {
+    /// `od.set_value(index, sub, v)`, the `n`-th write of the cycle: the entry of the last
+    /// cycle's `n`-th write if that was the same object, else looked up (and remembered).
+    #[inline]
+    fn set<S: AsRef<[u8]> + AsMut<[u8]>>(
+        &mut self,
+        od: &mut ObjectDictionary<S>,
+        n: usize,
+        index: u16,
+        sub: u8,
+        v: Value,
+    ) {
+        let e = match self.0.get_mut(n) {
+            Some((i, s, e)) if *i == index && *s == sub && e.is_some() => *e,
+            Some(slot) => {
+                let e = od.description().entry(index, sub);
+                *slot = (index, sub, e);
+                e
+            }
+            None => od.description().entry(index, sub),
+        };
+        let Some(e) = e else {
+            return;
+        };
+        // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored.
+        let mut b = [0u8; 8];
+        if let Some(len) = v.encode(e.data_type, &mut b) {
+            od.store(e, b.get(..len).unwrap_or(&[]));
+        }
+    }
 }
 
 fn get_i64<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>, pnu: u16, sub: u8) -> i64 {
@@ -485,6 +524,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             last_fault: None,
             memory: DiagnosticMemory::power_on(0),
             memory_dirty: true,
+            published: PublishedEntries::default(),
             chain: None,
             comparator_record: None,
             comparator_since: [None; 3],
@@ -2156,8 +2196,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             clamp16(force_set - force_act),
         ];
         let od = &mut self.od;
+        let cache = &mut self.published;
+        let mut n = 0;
         let mut set = |pnu: u16, sub: u8, v: Value| {
-            let _ = od.set_value(pnu_index(pnu), sub, v);
+            cache.set(od, n, pnu_index(pnu), sub, v);
+            n += 1;
         };
         set(300, 1, Value::Signed(s.actual_position.into()));
         set(300, 2, Value::Signed(setpoint.into()));
