@@ -4,5 +4,6 @@
 pub mod bus;
 pub mod bus_faults;
 pub mod drive;
+pub mod frame_budget;
 pub mod socketcan;
 pub mod socketcand;

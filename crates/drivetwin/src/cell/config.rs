@@ -140,6 +140,8 @@ pub struct BusSection {
     /// Join the socketcand server at this address as a client: the bus is that server's
     /// bus (one plant over several processes or machines).
     pub join: Option<String>,
+    /// socketcand clients served at once (default 128); more are refused.
+    pub max_clients: Option<usize>,
     /// Where every frame of this bus is written (candump `.log`, else pcap); `--trace` is the
     /// first bus's.
     pub trace: Option<PathBuf>,
@@ -177,6 +179,7 @@ impl Default for BusSection {
             bitrate: None,
             late_after_us: None,
             join: None,
+            max_clients: None,
             trace: None,
             disturb: Vec::new(),
         }

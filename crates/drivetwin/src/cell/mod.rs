@@ -198,7 +198,8 @@ impl Cell {
         }
     }
 
-    fn bitrate(&self) -> u32 {
+    /// The bus's bit rate (without one, 1 Mbit/s: the fastest CAN bus).
+    pub fn bitrate(&self) -> u32 {
         self.timing
             .as_ref()
             .map_or(UNTIMED_BITRATE, |t| t.bitrate())

@@ -416,7 +416,11 @@ async fn prepare_cell(
                 .map_err(io(format!("socketcand listen on {}", section.socketcand)))?;
             let addr = listener.local_addr().map_err(io("socketcand address"))?;
             out!("socketcand server on {addr}, channel {}", section.channel);
-            bus.socketcand = Some((listener, ServerConfig::new(section.channel.clone())));
+            let mut config = ServerConfig::new(section.channel.clone());
+            if let Some(max) = section.max_clients {
+                config.max_clients = max;
+            }
+            bus.socketcand = Some((listener, config));
         }
         #[cfg(target_os = "linux")]
         if let Some(ifname) = &section.socketcan {

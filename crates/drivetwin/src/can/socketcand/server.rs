@@ -31,6 +31,9 @@ pub const DEFAULT_PORT: u16 = 29536;
 /// Frames written to a client in one write at most, when several are waiting.
 const MAX_BATCH: usize = 64;
 
+/// socketcand clients served at once by default.
+pub const DEFAULT_MAX_CLIENTS: usize = 128;
+
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
     /// The only bus name `open` accepts, e.g. `vcan0`.
@@ -49,7 +52,7 @@ impl ServerConfig {
             channel: channel.into(),
             stream_delay: Duration::from_millis(75),
             max_message_len: MAX_MESSAGE_LEN,
-            max_clients: 64,
+            max_clients: DEFAULT_MAX_CLIENTS,
         }
     }
 }

@@ -246,6 +246,8 @@ enum Kind {
         decoder: Decoder,
         /// Frames kept during the stream delay after `rawmode`.
         held: Vec<u8>,
+        /// What it may put on the bus (the bus's frame rate).
+        budget: crate::can::frame_budget::FrameBudget,
     },
     Console {
         drive: OnBus,
@@ -638,11 +640,13 @@ impl CellLoop {
                         let _ = (&stream).write(b"< error too many clients >");
                         continue;
                     }
+                    let bitrate = self.buses.get(b).map_or(1_000_000, |x| x.cell.bitrate());
                     let kind = Kind::Socketcand {
                         bus: b,
                         session: Session::new(),
                         decoder: Decoder::with_max_len(max_len),
                         held: Vec::new(),
+                        budget: crate::can::frame_budget::FrameBudget::for_bitrate(bitrate),
                     };
                     tracing::info!(%peer, "socketcand client connected");
                     if let Some(slot) = self.add(stream, peer, kind) {
@@ -733,6 +737,8 @@ impl CellLoop {
         if let Err(e) = stream.set_nodelay(true) {
             tracing::debug!(%peer, error = %e, "could not set TCP_NODELAY");
         }
+        #[cfg(target_os = "linux")]
+        limit_send_buffer(&stream, peer);
         let slot = match self.slots.iter().position(Option::is_none) {
             Some(s) => s,
             None => {
@@ -934,11 +940,20 @@ impl CellLoop {
                 }
                 Effect::Send(frame) => {
                     if let Some(Some(Connection {
-                        kind: Kind::Socketcand { bus, .. },
+                        kind: Kind::Socketcand { bus, budget, .. },
+                        peer,
                         ..
-                    })) = self.slots.get(slot)
+                    })) = self.slots.get_mut(slot)
                     {
-                        self.bus(*bus, frame, Source::Client(slot), now);
+                        if !budget.take(now) {
+                            if budget.dropped == 1 {
+                                // Once per client, not per frame.
+                                tracing::warn!(%peer, "client sends faster than the bus carries: frames beyond its rate dropped");
+                            }
+                            continue;
+                        }
+                        let bus = *bus;
+                        self.bus(bus, frame, Source::Client(slot), now);
                     }
                 }
                 Effect::Close => {
@@ -1145,6 +1160,29 @@ impl CellLoop {
             self.drives_sent(b, now, &mut out);
             self.out = out;
         }
+    }
+}
+
+/// The kernel's send buffer of a client connection, bounded: what a client leaves unread
+/// waits in its own [`MAX_PENDING`] buffer, where the loop sees it, instead of megabytes of
+/// autotuned kernel buffer that would hide a client that never reads.
+#[cfg(target_os = "linux")]
+fn limit_send_buffer(stream: &TcpStream, peer: SocketAddr) {
+    use std::os::fd::AsRawFd;
+    const SEND_BUFFER: libc::c_int = 64 * 1024;
+    // SAFETY: a valid socket descriptor for the call; the option value is a c_int whose size
+    // is passed.
+    let rc = unsafe {
+        libc::setsockopt(
+            stream.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_SNDBUF,
+            (&SEND_BUFFER as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        )
+    };
+    if rc != 0 {
+        tracing::debug!(%peer, error = %io::Error::last_os_error(), "could not bound SO_SNDBUF");
     }
 }
 
