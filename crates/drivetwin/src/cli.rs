@@ -187,6 +187,14 @@ pub struct RunArgs {
     /// simulation (`?606100` → `=606100:01`), on this loopback TCP address.
     #[arg(long, value_name = "ADDR", conflicts_with_all = ["virtual_seconds"])]
     pub ci_terminal: Option<String>,
+    /// The (first) drive's RS232 port (a Kinco's 10-byte telegrams): PATH becomes a link to a
+    /// pty of the twin that pyserial opens as a serial port; a real device (/dev/ttyUSB0)
+    /// is opened instead.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["virtual_seconds"])]
+    pub rs232: Option<PathBuf>,
+    /// The (first) drive's RS485 port (a Kinco FD3's Modbus RTU), as --rs232.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["virtual_seconds"])]
+    pub rs485: Option<PathBuf>,
     /// The web console's address (`off`: none). Default 127.0.0.1:8080 when that port is free;
     /// beyond loopback every write needs the token printed at start. Served with the cell
     /// loop (not with --virtual-seconds).
