@@ -95,3 +95,36 @@ mod tests {
         assert!(!has_port("cmmp-as", Kind::Rs232));
     }
 }
+
+/// Drives for the lines' tests: plain Kinco FD3 dictionaries, one per `OnBus::drive`.
+#[cfg(test)]
+pub(crate) mod test_drives {
+    use super::*;
+    use od::ObjectDictionary;
+
+    pub struct Dictionaries(pub Vec<ObjectDictionary<Vec<u8>>>);
+
+    impl Dictionaries {
+        /// `n` FD3s with node-IDs 1…n.
+        pub fn fd3(n: u8) -> Self {
+            let d = &devices::KINCO_FD3;
+            Dictionaries(
+                (1..=n)
+                    .filter_map(|id| ObjectDictionary::new(d, id, vec![0; d.storage_size]).ok())
+                    .collect(),
+            )
+        }
+    }
+
+    impl LineDrives for Dictionaries {
+        fn access(&mut self, at: OnBus, _now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess)) {
+            if let Some(od) = self.0.get_mut(at.drive) {
+                f(od);
+            }
+        }
+    }
+
+    pub fn on(drive: usize) -> OnBus {
+        OnBus { bus: 0, drive }
+    }
+}

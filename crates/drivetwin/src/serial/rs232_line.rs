@@ -167,3 +167,241 @@ impl TelegramLine {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::serial::test_drives::{on, Dictionaries};
+
+    fn hex(s: &str) -> Vec<u8> {
+        s.split_whitespace()
+            .filter_map(|b| u8::from_str_radix(b, 16).ok())
+            .collect()
+    }
+
+    /// Feeds `bytes` written at `at` through the wire to the line; what the host reads by
+    /// `until`.
+    fn exchange(
+        line: &mut TelegramLine,
+        wire: &mut Wire,
+        drives: &mut Dictionaries,
+        at: Instant,
+        bytes: &[u8],
+        until: Instant,
+    ) -> Vec<u8> {
+        wire.receive(at, bytes);
+        let mut arrived = Vec::new();
+        wire.arrived(until, &mut |t, b| arrived.push((t, b)));
+        for (t, b) in arrived {
+            line.on_byte(t, b, drives, wire);
+        }
+        wire.crossed(until);
+        let mut got = Vec::new();
+        wire.flush(&mut |b| {
+            got.extend_from_slice(b);
+            b.len()
+        });
+        got
+    }
+
+    /// KINCO-232-01 / -05 through the line: the answer is read when its 10 bytes have crossed
+    /// after the request's 10, 20 character times at 38400 bit/s (5.2 ms).
+    #[test]
+    fn kinco_232_01_answer_after_twenty_characters() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            Some(270),
+        );
+        let t = hex("01 2B 40 60 00 2F 00 00 00 05");
+        let early = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_nanos(5_208_000),
+        );
+        assert!(early.is_empty(), "{early:02X?}");
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::from_nanos(5_208_000),
+            &[],
+            Instant::from_nanos(5_208_320),
+        );
+        assert_eq!(got, hex("01 60 40 60 00 00 00 00 00 FF"));
+        assert_eq!(
+            drives.0.first().and_then(|d| d.get_unsigned(0x6040, 0)),
+            Some(0x2F)
+        );
+    }
+
+    /// KINCO-232-07 / -08 and garbage: a bad checksum, another ID, short telegrams and noise
+    /// get no answer; the next good telegram after a silence is answered.
+    #[test]
+    fn kinco_232_07_08_bad_input_then_a_good_telegram() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(115_200);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            None,
+        );
+        let ms = Instant::from_millis;
+        let mut got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(0),
+            &hex("01 2B 40 60 00 2F 00 00 00 06 02 2B 40 60 00 2F 00 00 00 04"),
+            ms(10),
+        );
+        got.extend(exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(10),
+            &[0x01, 0x40, 0x41],
+            ms(11),
+        ));
+        let noise: Vec<u8> = (0..=255u8).cycle().take(777).collect();
+        got.extend(exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(100),
+            &noise,
+            ms(200),
+        ));
+        assert!(got.len() <= 10 * 78, "noise may form telegrams, never more");
+        let c = line.counters();
+        assert_eq!(c.other_station, 1);
+        assert!(c.bad_checksum >= 1);
+        assert!(c.partial >= 1);
+        let answer = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(300),
+            &hex("01 40 41 60 00 00 00 00 00 1E"),
+            ms(310),
+        );
+        assert_eq!(answer.get(..5), Some(&hex("01 4B 41 60 00")[..]));
+    }
+
+    /// KINCO-232-09: two drives in a ring; the host reads its own telegram, then the answer
+    /// of the drive addressed, whichever it is.
+    #[test]
+    fn kinco_232_09_two_drives_in_a_ring() {
+        let mut drives = Dictionaries::fd3(2);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![
+                (on(0), KincoRs232::new(1, true)),
+                (on(1), KincoRs232::new(2, true)),
+            ],
+            Topology::Ring,
+            None,
+        );
+        let ms = Instant::from_millis;
+        for (i, station) in [1u8, 2].into_iter().enumerate() {
+            let t = canopen::kinco_rs232::Request::Write {
+                index: 0x6040,
+                sub: 0,
+                data: [0x0F, 0, 0, 0],
+                len: 2,
+            }
+            .emit(station);
+            let start = ms(100 * i as u64);
+            let got = exchange(
+                &mut line,
+                &mut wire,
+                &mut drives,
+                start,
+                &t,
+                start + std::time::Duration::from_millis(50),
+            );
+            assert_eq!(got.len(), 20, "{got:02X?}");
+            assert_eq!(got.get(..10), Some(&t[..]));
+            assert_eq!(got.get(10..12), Some(&[station, 0x60][..]));
+        }
+        for d in &drives.0 {
+            assert_eq!(d.get_unsigned(0x6040, 0), Some(0x0F));
+        }
+        // A station no drive has: only the echo.
+        let t = canopen::kinco_rs232::Request::Read {
+            index: 0x6041,
+            sub: 0,
+        }
+        .emit(9);
+        let got = exchange(&mut line, &mut wire, &mut drives, ms(500), &t, ms(550));
+        assert_eq!(got, t.to_vec());
+    }
+
+    /// RS485 with RS485_Protocol = 1: every drive hears the host, the one addressed answers.
+    #[test]
+    fn telegrams_on_an_rs485_bus() {
+        let mut drives = Dictionaries::fd3(2);
+        let mut wire = Wire::new(19_200);
+        let mut line = TelegramLine::new(
+            vec![
+                (on(0), KincoRs232::new(1, false)),
+                (on(1), KincoRs232::new(2, false)),
+            ],
+            Topology::Bus,
+            None,
+        );
+        let t = canopen::kinco_rs232::Request::Write {
+            index: 0x6040,
+            sub: 0,
+            data: [0x06, 0, 0, 0],
+            len: 2,
+        }
+        .emit(2);
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_millis(50),
+        );
+        assert_eq!(got.len(), 10);
+        assert_eq!(got.get(..2), Some(&[2, 0x60][..]));
+        let cw: Vec<_> = drives.0.iter().map(|d| d.get_unsigned(0x6040, 0)).collect();
+        assert_eq!(cw, [Some(0), Some(6)]);
+    }
+
+    /// U2BRG (2FE1h) written over the line applies at once, after the answer.
+    #[test]
+    fn u2brg_applies_at_once() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            Some(270),
+        );
+        let t = canopen::kinco_rs232::Request::Write {
+            index: 0x2FE1,
+            sub: 0,
+            data: 90u32.to_le_bytes(),
+            len: 2,
+        }
+        .emit(1);
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_millis(20),
+        );
+        assert_eq!(got.get(1), Some(&0x60));
+        assert_eq!(wire.char_time(), crate::serial::wire::char_time(115_200));
+    }
+}

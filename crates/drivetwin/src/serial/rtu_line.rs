@@ -127,3 +127,154 @@ impl RtuLine {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::serial::setup::register_map;
+    use crate::serial::test_drives::{on, Dictionaries};
+    use std::time::Duration;
+
+    fn line(n: usize) -> RtuLine {
+        let drives = (0..n)
+            .map(|i| RtuDrive {
+                at: on(i),
+                station: u8::try_from(i + 1).unwrap_or(0),
+                map: register_map("kinco-fd3"),
+            })
+            .collect();
+        RtuLine::new(19_200, drives)
+    }
+
+    fn exchange(
+        line: &mut RtuLine,
+        wire: &mut Wire,
+        drives: &mut Dictionaries,
+        at: Instant,
+        bytes: &[u8],
+    ) -> (Vec<u8>, Instant) {
+        wire.receive(at, bytes);
+        let mut got = Vec::new();
+        let mut when = at;
+        // Run the line deadline by deadline, as the cell loop does.
+        for _ in 0..1000 {
+            let next = od::time::earliest(wire.deadline(), line.deadline());
+            let Some(now) = next else {
+                break;
+            };
+            let mut arrived = Vec::new();
+            wire.arrived(now, &mut |t, b| arrived.push((t, b)));
+            for (t, b) in arrived {
+                line.on_byte(t, b, drives, wire);
+            }
+            line.poll(now, drives, wire);
+            wire.crossed(now);
+            wire.flush(&mut |b| {
+                got.extend_from_slice(b);
+                when = now;
+                b.len()
+            });
+        }
+        (got, when)
+    }
+
+    /// KINCO-MB-02 on the line: the echo, once the request (8 characters), the silence
+    /// (3.5) and the echo (8) have passed at 19200 bit/s.
+    #[test]
+    fn kinco_mb_02_echo_after_silence_and_wire_time() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(19_200);
+        let mut l = line(1);
+        let request = [0x01, 0x06, 0x31, 0x00, 0x00, 0x0F, 0xC7, 0x32];
+        let (got, when) = exchange(&mut l, &mut wire, &mut drives, Instant::ZERO, &request);
+        assert_eq!(got, request);
+        let char_ns = 1_000_000_000 * 10 / 19_200u64;
+        let expected = Duration::from_nanos(16 * char_ns) + modbus::rtu_framing::t3_5(19_200);
+        let at = Duration::from_nanos(when.as_nanos());
+        assert!(
+            at >= expected && at < expected + Duration::from_micros(10),
+            "{at:?} vs {expected:?}"
+        );
+        assert_eq!(
+            drives.0.first().and_then(|d| d.get_unsigned(0x6040, 0)),
+            Some(0x0F)
+        );
+    }
+
+    /// KINCO-MB-01 / -03 at two drives of one line: each answers its own station; a bad CRC
+    /// and a station none has get no answer.
+    #[test]
+    fn kinco_mb_two_drives_by_station_bad_crc_and_other_station() {
+        let mut drives = Dictionaries::fd3(2);
+        let mut wire = Wire::new(19_200);
+        let mut l = line(2);
+        let ms = Instant::from_millis;
+        let mut write = vec![
+            0x02, 0x10, 0x6F, 0x00, 0x00, 0x02, 0x04, 0x55, 0x55, 0x00, 0x08,
+        ];
+        write.extend(modbus::rtu::crc_bytes(&write));
+        let (got, _) = exchange(&mut l, &mut wire, &mut drives, ms(0), &write);
+        assert_eq!(
+            got.get(..6),
+            Some(&[0x02, 0x10, 0x6F, 0x00, 0x00, 0x02][..])
+        );
+        assert_eq!(
+            drives.0.get(1).and_then(|d| d.get_unsigned(0x60FF, 0)),
+            Some(0x0008_5555)
+        );
+        assert_eq!(
+            drives.0.first().and_then(|d| d.get_unsigned(0x60FF, 0)),
+            Some(0)
+        );
+        let (got, _) = exchange(
+            &mut l,
+            &mut wire,
+            &mut drives,
+            ms(100),
+            &[0x01, 0x03, 0x32, 0x00, 0x00, 0x02, 0xCA, 0xB3],
+        );
+        assert_eq!(got.get(..3), Some(&[0x01, 0x03, 0x04][..]));
+        let (got, _) = exchange(
+            &mut l,
+            &mut wire,
+            &mut drives,
+            ms(200),
+            &[0x01, 0x03, 0x32, 0x00, 0x00, 0x02, 0xCA, 0xB4],
+        );
+        assert!(got.is_empty());
+        let mut other = vec![0x07, 0x03, 0x32, 0x00, 0x00, 0x02];
+        other.extend(modbus::rtu::crc_bytes(&other));
+        let (got, _) = exchange(&mut l, &mut wire, &mut drives, ms(300), &other);
+        assert!(got.is_empty());
+        let c = l.counters();
+        assert_eq!((c.answered, c.bad_crc, c.other_station), (2, 1, 1));
+    }
+
+    /// Garbage at every baud rate: no answer the CRC would not allow, and the line answers
+    /// the next good frame.
+    #[test]
+    fn garbage_then_a_good_frame() {
+        for baud in [9600, 19_200, 38_400, 115_200] {
+            let mut drives = Dictionaries::fd3(1);
+            let mut wire = Wire::new(baud);
+            let mut l = RtuLine::new(
+                baud,
+                vec![RtuDrive {
+                    at: on(0),
+                    station: 1,
+                    map: register_map("kinco-fd3"),
+                }],
+            );
+            let noise: Vec<u8> = (0..600u32).map(|i| (i * 37 % 251) as u8).collect();
+            let _ = exchange(&mut l, &mut wire, &mut drives, Instant::ZERO, &noise);
+            let (got, _) = exchange(
+                &mut l,
+                &mut wire,
+                &mut drives,
+                Instant::from_millis(2000),
+                &[0x01, 0x06, 0x31, 0x00, 0x00, 0x0F, 0xC7, 0x32],
+            );
+            assert_eq!(got.len(), 8, "at {baud} bit/s");
+        }
+    }
+}
