@@ -236,3 +236,28 @@ def test_two_drives_on_one_rs485_line(launch, node_of, tmp_path):
         assert c.read_holding_registers(0x4000, count=2, device_id=1).registers == [1000, 0]
     finally:
         c.close()
+
+
+def test_drivetwin_kinco_master_over_the_pty(launch, node_of, tmp_path):
+    """Issue 13 point 5: `drivetwin kinco read|write|status --port PATH --id N` against the
+    twin's RS232 pty, checked over CANopen."""
+    from conftest import run_cli
+
+    path = tmp_path / "ttyKINCO"
+    twin = launch("kinco-fd3", 3, extra=("--rs232", str(path)))
+    _line(twin, "RS232", path)
+    node = node_of(twin)
+    port = ("--port", str(path), "--id", "3")
+    r = run_cli("kinco", "write", "607A", "0", "-5000", *port)
+    assert r.returncode == 0, r.stderr
+    assert node.sdo[0x607A].raw == -5000
+    r = run_cli("kinco", "read", "0x607A", *port)
+    assert r.returncode == 0 and r.stdout.strip() == "-5000", (r.stdout, r.stderr)
+    r = run_cli("kinco", "status", *port)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines()[0].startswith("statusword"), r.stdout
+    # Another station: no answer (exit 4); an object the drive lacks: the abort (exit 5).
+    r = run_cli("kinco", "read", "6041", "--port", str(path), "--id", "9")
+    assert r.returncode == 4 and "no answer" in r.stderr, r.stderr
+    r = run_cli("kinco", "read", "9900", *port)
+    assert r.returncode == 5 and "06020000" in r.stderr, r.stderr

@@ -118,8 +118,9 @@ impl Port {
         })
     }
 
-    /// A real device, raw 8N1 at `baud`.
-    fn device(path: &Path, baud: u32) -> Result<Port, PortError> {
+    /// A real device (or a twin's pty link, from the host's side), raw 8N1 at `baud`,
+    /// opened exclusively.
+    pub fn device(path: &Path, baud: u32) -> Result<Port, PortError> {
         let e = err(path);
         let c = std::ffi::CString::new(path.as_os_str().as_encoded_bytes())
             .map_err(|_| PortError::NotADevice(path.to_path_buf()))?;
@@ -172,6 +173,19 @@ impl Port {
         Ok(usize::try_from(n).unwrap_or(0))
     }
 
+    /// Waits up to `timeout` for bytes to read; whether some wait.
+    pub fn wait_readable(&self, timeout: std::time::Duration) -> io::Result<bool> {
+        let mut p = libc::pollfd {
+            fd: self.raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ms = libc::c_int::try_from(timeout.as_millis()).unwrap_or(libc::c_int::MAX);
+        // SAFETY: one valid pollfd.
+        let n = cvt(unsafe { libc::poll(&mut p, 1, ms) })?;
+        Ok(n > 0)
+    }
+
     /// Writes what the port takes now; 0 when it is full.
     pub fn write(&self, bytes: &[u8]) -> usize {
         // SAFETY: the buffer is as long as we say.
@@ -182,6 +196,12 @@ impl Port {
 
 impl Drop for Port {
     fn drop(&mut self) {
+        if self.link.is_none() {
+            // TIOCEXCL outlives the descriptor while another keeps the terminal open (a twin
+            // holds its pty's slave): give the port back.
+            // SAFETY: TIOCNXCL takes no argument.
+            unsafe { libc::ioctl(self.fd.as_raw_fd(), libc::TIOCNXCL) };
+        }
         if let Some((link, pts)) = &self.link {
             // Only the link to this pty: another twin may have taken the path since.
             if std::fs::read_link(link).is_ok_and(|t| t == *pts) {
