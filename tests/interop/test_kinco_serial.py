@@ -261,3 +261,35 @@ def test_drivetwin_kinco_master_over_the_pty(launch, node_of, tmp_path):
     assert r.returncode == 4 and "no answer" in r.stderr, r.stderr
     r = run_cli("kinco", "read", "9900", *port)
     assert r.returncode == 5 and "06020000" in r.stderr, r.stderr
+
+
+def test_two_drives_on_an_rs232_ring(launch, node_of, tmp_path):
+    """KINCO-232-09: RS232_Loop_Enable 6510h:0B = 1 on two drives sharing one RS232 path: the
+    host reads its own telegram, then the answer of the station it named; to a station no
+    drive has, the echo only."""
+    path = tmp_path / "ttyRING"
+    cell = tmp_path / "cell.toml"
+    lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
+    for n in (1, 2):
+        lines += ["[[drive]]", 'device = "kinco-fd3"', f"node = {n}", f'rs232 = "{path}"',
+                  "[drive.objects]", '"6510:0B" = 1', ""]
+    cell.write_text("\n".join(lines))
+    twin = launch(config=cell, device="kinco-fd3")
+    _line(twin, "RS232", path)
+    n2 = node_of(twin, 2)
+    s = serial.Serial(str(path), 38400, timeout=0.08, exclusive=True)
+    try:
+        t = telegram(2, 0x23, 0x607A, 0, 777)
+        s.write(t)
+        got = s.read(20)
+        assert got[:10] == t and got[10:12] == bytes([2, 0x60]), got.hex(" ")
+        assert n2.sdo[0x607A].raw == 777
+        t = telegram(1, 0x40, 0x607A, 0)
+        s.write(t)
+        got = s.read(20)
+        assert got[:10] == t and got[10:12] == bytes([1, 0x43]), got.hex(" ")
+        t = telegram(9, 0x40, 0x6041, 0)
+        s.write(t)
+        assert s.read(20) == t
+    finally:
+        s.close()
