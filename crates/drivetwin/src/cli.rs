@@ -76,6 +76,14 @@ pub enum Command {
     /// Layer setting services (CiA 305): find unconfigured nodes and give them a node-ID.
     #[command(subcommand)]
     Lss(LssCommand),
+    /// Kinco FD / CD drives over their RS232 telegrams (a serial port or a twin's pty link):
+    /// read, write, status.
+    Kinco {
+        #[command(subcommand)]
+        command: KincoCommand,
+        #[command(flatten)]
+        port: KincoPortArgs,
+    },
     /// CiA 402 drive commands over SDO: state, enable, disable, move, velocity, torque.
     Drive {
         node: u8,
@@ -192,6 +200,14 @@ pub struct RunArgs {
     /// simulation (`?606100` → `=606100:01`), on this loopback TCP address.
     #[arg(long, value_name = "ADDR", conflicts_with_all = ["virtual_seconds"])]
     pub ci_terminal: Option<String>,
+    /// The (first) drive's RS232 port (a Kinco's 10-byte telegrams): PATH becomes a link to a
+    /// pty of the twin that pyserial opens as a serial port; a real device (/dev/ttyUSB0)
+    /// is opened instead.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["virtual_seconds"])]
+    pub rs232: Option<PathBuf>,
+    /// The (first) drive's RS485 port (a Kinco FD3's Modbus RTU), as --rs232.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["virtual_seconds"])]
+    pub rs485: Option<PathBuf>,
     /// The web console's address (`off`: none). Default 127.0.0.1:8080 when that port is free;
     /// beyond loopback every write needs the token printed at start. Served with the cell
     /// loop (not with --virtual-seconds).
@@ -528,4 +544,51 @@ pub enum PnuCommand {
         #[arg(allow_hyphen_values = true)]
         value: String,
     },
+}
+
+/// The serial port of `drivetwin kinco`.
+#[derive(Args, Debug, Clone)]
+pub struct KincoPortArgs {
+    /// The serial port: a device (/dev/ttyUSB0) or a twin's `--rs232` link.
+    #[arg(long, global = true, default_value = "/dev/ttyUSB0")]
+    pub port: PathBuf,
+    /// The drive's station number (its node-ID, 100Bh).
+    #[arg(long, global = true, default_value_t = 1)]
+    pub id: u8,
+    /// Bit rate (RS232_Baudrate 2FE0h: 270 = 38400, the default).
+    #[arg(long, global = true, default_value_t = 38_400)]
+    pub baud: u32,
+    /// How long to wait for each answer, ms.
+    #[arg(long, global = true, default_value_t = 200)]
+    pub timeout_ms: u64,
+    /// The personality whose dictionary types the values.
+    #[arg(long, global = true, default_value = "kinco-fd3")]
+    pub device: String,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum KincoCommand {
+    /// Read an object (upload, 40h), decoded by its type.
+    Read {
+        /// Index, hex (0x6041 or 6041).
+        index: String,
+        /// Sub-index, hex.
+        #[arg(default_value = "0")]
+        sub: String,
+        /// Type to decode as (u8 u16 u32 i8 i16 i32 hex); default the dictionary's.
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+    },
+    /// Write an object (download, 23h / 2Bh / 2Fh by its size).
+    Write {
+        index: String,
+        sub: String,
+        #[arg(allow_negative_numbers = true)]
+        value: String,
+        /// Type to encode as; default the dictionary's.
+        #[arg(long = "type", short = 't')]
+        data_type: Option<String>,
+    },
+    /// The drive's state: statusword, controlword, mode, position, speed, errors.
+    Status,
 }

@@ -6,6 +6,7 @@
 //! - [`can`]: the in-process CAN bus, socketcand and SocketCAN transports, CANopen drives;
 //! - [`ecat`]: the EtherCAT chain of emulated slave controllers and its raw socket;
 //! - [`modbus_tcp`]: Modbus TCP servers and the CMMO-ST's FHPP register map;
+//! - [`serial`]: RS232 / RS485 lines on ptys or devices (the Kinco telegrams, Modbus RTU);
 //! - [`cell`]: a cell of drives, its file, its runtime and clock, stored parameters;
 //! - [`trace`]: pcap and candump writers and readers;
 //! - [`export`]: ESI XML for EtherCAT configurators;
@@ -18,6 +19,7 @@ pub mod ecat;
 pub mod export;
 pub mod master;
 pub mod modbus_tcp;
+pub mod serial;
 pub mod trace;
 pub mod value_text;
 pub mod web;

@@ -240,6 +240,22 @@ impl CanDrive {
         reply
     }
 
+    /// A local interface of the drive (a serial port) reaches its objects at `now`: reads as
+    /// they are, writes as SDO downloads of its node (as the CI terminal's); what the drive
+    /// sends meanwhile goes to `out`.
+    pub fn local_access(
+        &mut self,
+        now: Instant,
+        out: &mut dyn FnMut(CanFrame),
+        f: &mut dyn FnMut(&mut dyn ObjectAccess),
+    ) {
+        self.model.step(now);
+        let (node, access) = self.node_and_access();
+        let mut console = Console { node, access, now };
+        f(&mut console);
+        self.service(now, out);
+    }
+
     /// The node, and the dictionary as its SDO server writes it (saves carried out).
     fn node_and_access(&mut self) -> (&mut Node, Persisting<'_>) {
         let CanDrive {

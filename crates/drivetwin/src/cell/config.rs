@@ -245,6 +245,12 @@ pub struct DriveSection {
     /// its order among the drives of that chain in the file); implies `"ethercat"` in
     /// `interfaces`. Without it, a drive with `"ethercat"` is on the chain of `--ethercat`.
     pub ethercat: Option<String>,
+    /// The drive's RS232 port (a Kinco's X3, the 10-byte telegrams): a path made a link to a
+    /// pty of the twin, or a real serial device. Drives that name one path form a ring.
+    pub rs232: Option<String>,
+    /// The drive's RS485 port (a Kinco FD3's, Modbus RTU): as `rs232`; drives that name one
+    /// path share the line, each answering its station number (= node-ID).
+    pub rs485: Option<String>,
 }
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
@@ -746,6 +752,8 @@ impl CellFile {
                 interfaces: None,
                 allow_unreal_interfaces: false,
                 ethercat: None,
+                rs232: None,
+                rs485: None,
             }],
         }
     }

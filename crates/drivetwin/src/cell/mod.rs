@@ -141,6 +141,23 @@ impl Cell {
         Some(reply)
     }
 
+    /// A local interface (a serial port) of drive `drive` (cell order) reaches its objects
+    /// at `now` through `f`; the frames the drive sends meanwhile go to `out`.
+    pub fn local_access(
+        &mut self,
+        drive: usize,
+        now: Instant,
+        out: &mut Vec<CanFrame>,
+        f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
+    ) {
+        let Cell { drives, queue, .. } = self;
+        let Some(d) = drives.get_mut(drive) else {
+            return;
+        };
+        d.local_access(now, &mut |fr| queue.push_back((fr, Some(drive))), f);
+        self.deliver(now, out);
+    }
+
     /// Runs the drives' timers; returns the next deadline.
     pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
         self.fit_faults();

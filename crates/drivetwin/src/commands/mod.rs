@@ -80,6 +80,8 @@ pub enum CommandError {
     Ecat(#[from] drivetwin::master::ecat::EcatError),
     #[error(transparent)]
     Fhpp(#[from] FhppError),
+    #[error(transparent)]
+    Kinco(#[from] drivetwin::master::kinco_rs232::KincoError),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -115,6 +117,7 @@ impl CommandError {
             CommandError::Drive(drivetwin::can::drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
+            CommandError::Kinco(e) => kinco::exit_code(e),
         }
     }
 }
@@ -122,6 +125,7 @@ impl CommandError {
 mod drive;
 mod ecat;
 mod fhpp;
+mod kinco;
 mod lss;
 mod network;
 mod pdo;
@@ -177,6 +181,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
             bus,
         } => network::monitor(count, seconds, bus).await,
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
+        Command::Kinco { command, port } => kinco::kinco(command, port),
     }
 }
 

@@ -401,9 +401,11 @@ async fn prepare_cell(
         trace_path.map(|p| p.as_path()),
         cells.iter().all(|c| c.drives.is_empty()),
     )?;
+    let serial = serial_lines(&file, &in_cell, &args, &cells)?;
     let mut front = FrontEnds {
         modbus,
         ethercat,
+        serial,
         rt_priority: args.rt_priority,
         busy_poll: args.busy_poll,
         ..FrontEnds::default()
@@ -509,6 +511,62 @@ fn ci_consoles(
         consoles.push((listener, drive));
     }
     Ok(consoles)
+}
+
+/// The serial lines the cell file (or `--rs232` / `--rs485`, for the first drive) asks for,
+/// opened: links to the twin's ptys, or real devices.
+fn serial_lines(
+    file: &CellFile,
+    in_cell: &[Option<OnBus>],
+    args: &RunArgs,
+    cells: &[Cell],
+) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
+    use drivetwin::serial::setup::{open_lines, LineRequest};
+    use drivetwin::serial::Kind;
+    let mut requests = Vec::new();
+    for (i, d) in file.drive.iter().enumerate() {
+        let first = |p: &Option<PathBuf>| if i == 0 { p.clone() } else { None };
+        for (kind, path) in [
+            (
+                Kind::Rs232,
+                first(&args.rs232).or(d.rs232.as_ref().map(PathBuf::from)),
+            ),
+            (
+                Kind::Rs485,
+                first(&args.rs485).or(d.rs485.as_ref().map(PathBuf::from)),
+            ),
+        ] {
+            let Some(path) = path else {
+                continue;
+            };
+            let Some(Some(drive)) = in_cell.get(i).copied() else {
+                tracing::warn!(
+                    drive = i + 1,
+                    "no {} port: the drive is not in the cell",
+                    kind.as_str()
+                );
+                continue;
+            };
+            requests.push(LineRequest { kind, path, drive });
+        }
+    }
+    let lines = open_lines(&requests, cells).map_err(|e| CommandError::Usage(e.to_string()))?;
+    for l in &lines {
+        match l.port().pty_name() {
+            Some(pty) => out!(
+                "{} line on {} (pty {})",
+                l.kind().as_str().to_uppercase(),
+                l.path().display(),
+                pty.display()
+            ),
+            None => out!(
+                "{} line on device {}",
+                l.kind().as_str().to_uppercase(),
+                l.path().display()
+            ),
+        }
+    }
+    Ok(lines)
 }
 
 /// The cell's CMMO-STs for the cell loop, each with its Modbus listener bound.

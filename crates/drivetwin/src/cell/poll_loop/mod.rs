@@ -44,6 +44,7 @@ use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
 mod handle;
+mod serial;
 
 /// Bytes a client may leave unread before it is dropped.
 pub const MAX_PENDING: usize = 256 * 1024;
@@ -65,6 +66,8 @@ const FIRST_CHAIN: usize = 3 * MAX_BUSES + 1;
 pub const MAX_CHAINS: usize = 4;
 /// Tokens from here on: listeners of CI terminals and Modbus servers, then connections.
 const FIRST_DYNAMIC: usize = FIRST_CHAIN + MAX_CHAINS;
+/// Serial line `i` has token `FIRST_SERIAL + i` (above every connection's).
+const FIRST_SERIAL: usize = 1 << 24;
 /// EtherCAT frames one chain takes per turn of the loop before the others get their turn.
 const FRAMES_PER_TURN: usize = 64;
 
@@ -124,6 +127,8 @@ pub struct FrontEnds {
     pub modbus: Vec<ModbusDrive>,
     /// EtherCAT chains (at most [`MAX_CHAINS`]).
     pub ethercat: Vec<EthercatChain>,
+    /// Serial lines (RS232, RS485) and the drives on them ([`crate::serial`]).
+    pub serial: Vec<crate::serial::line::SerialLine>,
     /// Ask for `SCHED_FIFO` at this priority for the loop's thread (as a drive's firmware
     /// runs its fieldbus task); refused, the loop warns and goes on.
     pub rt_priority: Option<u8>,
@@ -184,6 +189,7 @@ pub struct CellLoop {
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
     chains: Vec<EthercatChain>,
+    serial: Vec<crate::serial::line::SerialLine>,
     /// Chains that had more frames waiting than one turn takes.
     chains_to_read: Vec<usize>,
     /// Scratch: one Ethernet frame.
@@ -337,6 +343,13 @@ impl CellLoop {
                 Interest::READABLE,
             )?;
         }
+        for (i, line) in front.serial.iter().enumerate() {
+            poll.registry().register(
+                &mut mio::unix::SourceFd(&line.port().raw_fd()),
+                Token(FIRST_SERIAL + i),
+                Interest::READABLE | Interest::WRITABLE,
+            )?;
+        }
         let mut listeners = Vec::new();
         for (l, drive) in front.ci_terminals {
             l.set_nonblocking(true)?;
@@ -370,6 +383,7 @@ impl CellLoop {
             slots: Vec::new(),
             modbus: front.modbus,
             chains: front.ethercat,
+            serial: front.serial,
             chains_to_read: Vec::new(),
             frame: vec![0; crate::ecat::MAX_FRAME],
             rt_priority: front.rt_priority,
@@ -459,6 +473,9 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
+                    Token(t) if t >= FIRST_SERIAL => {
+                        self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
+                    }
                     Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {
                         self.read_ethercat(t - FIRST_CHAIN);
                     }
@@ -558,6 +575,9 @@ impl CellLoop {
         for s in &self.subscriptions {
             take(Some(s.next));
         }
+        for l in &self.serial {
+            take(l.deadline().map(|d| self.wall(d)));
+        }
         at
     }
 
@@ -582,6 +602,7 @@ impl CellLoop {
         for slot in 0..self.slots.len() {
             self.session_timers(slot, now);
         }
+        self.serial_timers(now);
         for drive in 0..self.modbus.len() {
             let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {

@@ -1,0 +1,130 @@
+//! The serial ports of a drive: the Kinco FD3 / CD3 answer on RS232 (the 10-byte telegrams,
+//! `spec/kinco-fd-cd.md` §2.1–2.2) and on RS485 (Modbus RTU, §2.3) at the same time as on
+//! CANopen, all three on the same objects (issue 13).
+//!
+//! - [`pty`]: the file behind a line, a pseudo-terminal the twin makes (PATH a link to it) or
+//!   a real device;
+//! - [`wire`]: the time bytes take on the line at its baud rate (pure);
+//! - [`rs232_line`]: the telegram protocol on a line, point to point, a ring, or on RS485;
+//! - [`rtu_line`]: Modbus RTU on an RS485 line, frames cut by the 3.5-character silence,
+//!   several drives by station number;
+//! - [`line`]: a line as the cell loop serves it: port, wire and protocol together.
+//!
+//! The cell loop ([`crate::cell::poll_loop`]) owns the ports' descriptors with its other
+//! sockets and calls [`line::SerialLine`] when one is readable or a line's deadline is due;
+//! a line reaches its drives through [`LineDrives`], one object access at a time, on the
+//! cell's clock.
+
+pub mod line;
+pub mod pty;
+pub mod rs232_line;
+pub mod rtu_line;
+pub mod setup;
+pub mod wire;
+
+use od::{Instant, ObjectAccess};
+
+use crate::cell::poll_loop::OnBus;
+
+/// How a line reaches the drives of the cell.
+pub trait LineDrives {
+    /// Runs `f` on the objects of drive `at` at `now`, as a local interface of the drive
+    /// writes them (the rules of an SDO download in its NMT state); what the drive sends
+    /// meanwhile goes on its bus.
+    fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess));
+}
+
+/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h: `code = 10 368 000 / baud`,
+/// §2.1, KINCO-232-10); `None` for a code no rate gives.
+pub fn baud_of_code(code: u64) -> Option<u32> {
+    const CODES: [(u64, u32); 5] = [
+        (1080, 9600),
+        (540, 19_200),
+        (270, 38_400),
+        (180, 57_600),
+        (90, 115_200),
+    ];
+    CODES.iter().find(|(c, _)| *c == code).map(|&(_, b)| b)
+}
+
+/// Which personalities have which serial ports (data: the manual's connector table).
+/// Kinco §1.1 / Tab. 3-7: X3 RS232 on the CD3 and the FD3; RS485 on the FD3 (X10 of the
+/// -LA variant). Decision: the twin's FD3 serves RS485 beside CANopen, as its device file
+/// says (one personality for both variants, issue 13).
+pub const SERIAL_PORTS: &[(&str, Kind)] = &[
+    ("kinco-fd3", Kind::Rs232),
+    ("kinco-fd3", Kind::Rs485),
+    ("kinco-cd3", Kind::Rs232),
+];
+
+/// A serial port of a drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Rs232,
+    Rs485,
+}
+
+impl Kind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Rs232 => "rs232",
+            Kind::Rs485 => "rs485",
+        }
+    }
+}
+
+/// Whether personality `device` has a port of `kind`.
+pub fn has_port(device: &str, kind: Kind) -> bool {
+    SERIAL_PORTS.iter().any(|&(d, k)| d == device && k == kind)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// KINCO-232-10: the codes fit 10 368 000 / bit rate.
+    #[test]
+    fn kinco_232_10_baud_rate_codes() {
+        assert_eq!(baud_of_code(540), Some(19_200));
+        assert_eq!(baud_of_code(270), Some(38_400));
+        assert_eq!(baud_of_code(90), Some(115_200));
+        assert_eq!(baud_of_code(1080), Some(9600));
+        assert_eq!(baud_of_code(0), None);
+        assert!(has_port("kinco-fd3", Kind::Rs485));
+        assert!(!has_port("kinco-cd3", Kind::Rs485));
+        assert!(!has_port("cmmp-as", Kind::Rs232));
+    }
+}
+
+/// Drives for the lines' tests: plain Kinco FD3 dictionaries, one per `OnBus::drive`.
+#[cfg(test)]
+pub(crate) mod test_drives {
+    use super::*;
+    use od::ObjectDictionary;
+
+    pub struct Dictionaries(pub Vec<ObjectDictionary<Vec<u8>>>);
+
+    impl Dictionaries {
+        /// `n` FD3s with node-IDs 1…n.
+        pub fn fd3(n: u8) -> Self {
+            let d = &devices::KINCO_FD3;
+            Dictionaries(
+                (1..=n)
+                    .filter_map(|id| ObjectDictionary::new(d, id, vec![0; d.storage_size]).ok())
+                    .collect(),
+            )
+        }
+    }
+
+    impl LineDrives for Dictionaries {
+        fn access(&mut self, at: OnBus, _now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess)) {
+            if let Some(od) = self.0.get_mut(at.drive) {
+                f(od);
+            }
+        }
+    }
+
+    pub fn on(drive: usize) -> OnBus {
+        OnBus { bus: 0, drive }
+    }
+}

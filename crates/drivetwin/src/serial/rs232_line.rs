@@ -1,0 +1,407 @@
+//! The Kinco telegram protocol on a line (`spec/kinco-fd-cd.md` §2.1–2.2, the codec
+//! `canopen::kinco_rs232`): bytes become 10-byte telegrams, each answered by the drive it
+//! addresses through its object access.
+//!
+//! Topologies:
+//! - point to point (RS232, one drive): the host's telegrams to the drive, its answers back;
+//! - ring (RS232_Loop_Enable 6510h:0B = 1, several drives on one RS232 path, §2.1 multi-point):
+//!   the host's bytes reach the first drive, each drive's output the next one, the last one's
+//!   the host, so the host reads its own telegram, then the answer (KINCO-232-09);
+//! - bus (RS485 with RS485_Protocol 6510h:0C = 1): every drive hears the host; the one
+//!   addressed answers.
+//!
+//! Decisions:
+//! - A partial telegram is dropped after [`canopen::kinco_rs232::DEFAULT_GAP`] of silence on
+//!   the wire (the codec's rule), counted here.
+//! - In a ring a drive passes a telegram on when it is whole, not byte by byte: the host
+//!   reads the same 20 bytes, 10 character times later than through a real repeater chain.
+//! - U2BRG (2FE1h) applies at once (§9.1 item 7): after each answer the line takes the rate
+//!   its code gives, for the bytes after the answer.
+
+use canopen::kinco_rs232::{KincoRs232, TelegramCutter, DEFAULT_GAP, TELEGRAM_LEN};
+use od::Instant;
+
+use super::wire::Wire;
+use super::{baud_of_code, LineDrives};
+use crate::cell::poll_loop::OnBus;
+
+/// How the drives of a telegram line are wired.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Topology {
+    /// One drive, or drives in a ring in this order.
+    Ring,
+    /// Every drive hears the host (RS485).
+    Bus,
+}
+
+/// What a telegram line counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TelegramCounters {
+    pub answered: u32,
+    pub bad_checksum: u32,
+    pub other_station: u32,
+    /// Partial telegrams dropped after a silence.
+    pub partial: u32,
+}
+
+pub struct TelegramLine {
+    ports: Vec<(OnBus, KincoRs232)>,
+    topology: Topology,
+    cutter: TelegramCutter,
+    /// Follow U2BRG (2FE1h) of the first drive: the RS232 port's own rate.
+    follow_u2brg: Option<u64>,
+    partial: u32,
+    /// Scratch: what one drive of a ring passes to the next.
+    hop: Vec<u8>,
+    next: Vec<u8>,
+}
+
+impl TelegramLine {
+    /// `ports`: each drive with its codec (station, ring flag at power-up).
+    pub fn new(ports: Vec<(OnBus, KincoRs232)>, topology: Topology, u2brg: Option<u64>) -> Self {
+        TelegramLine {
+            ports,
+            topology,
+            cutter: TelegramCutter::new(DEFAULT_GAP),
+            follow_u2brg: u2brg,
+            partial: 0,
+            hop: Vec::with_capacity(64),
+            next: Vec::with_capacity(64),
+        }
+    }
+
+    pub fn counters(&self) -> TelegramCounters {
+        let mut c = TelegramCounters {
+            partial: self.partial,
+            ..TelegramCounters::default()
+        };
+        for (_, p) in &self.ports {
+            let k = p.counters();
+            c.answered += k.answered;
+            c.bad_checksum += k.bad_checksum;
+            c.other_station += k.other_station;
+        }
+        // In a ring every drive sees every telegram: a bad one counts once.
+        if self.topology == Topology::Ring {
+            if let Some((_, p)) = self.ports.first() {
+                c.bad_checksum = p.counters().bad_checksum;
+            }
+        }
+        c
+    }
+
+    /// One byte complete on the wire at `at`.
+    pub fn on_byte(&mut self, at: Instant, byte: u8, drives: &mut dyn LineDrives, wire: &mut Wire) {
+        let mut dropped = false;
+        let t = self.cutter.push(at, byte, &mut dropped);
+        if dropped {
+            self.partial = self.partial.saturating_add(1);
+        }
+        if let Some(t) = t {
+            self.on_telegram(at, &t, drives, wire);
+        }
+    }
+
+    fn on_telegram(
+        &mut self,
+        at: Instant,
+        t: &[u8; TELEGRAM_LEN],
+        drives: &mut dyn LineDrives,
+        wire: &mut Wire,
+    ) {
+        match self.topology {
+            Topology::Bus => {
+                for (on_bus, port) in &mut self.ports {
+                    let mut answer = [0u8; 2 * TELEGRAM_LEN];
+                    let mut n = 0;
+                    drives.access(*on_bus, at, &mut |od| {
+                        port.on_telegram(t, od, &mut |b| {
+                            for &x in b {
+                                if let Some(slot) = answer.get_mut(n) {
+                                    *slot = x;
+                                    n += 1;
+                                }
+                            }
+                        })
+                    });
+                    wire.send(at, answer.get(..n).unwrap_or(&[]));
+                }
+            }
+            Topology::Ring => {
+                self.hop.clear();
+                self.hop.extend_from_slice(t);
+                for (on_bus, port) in &mut self.ports {
+                    self.next.clear();
+                    let next = &mut self.next;
+                    for block in self.hop.chunks_exact(TELEGRAM_LEN) {
+                        let Ok(block) = <&[u8; TELEGRAM_LEN]>::try_from(block) else {
+                            continue;
+                        };
+                        drives.access(*on_bus, at, &mut |od| {
+                            port.on_telegram(block, od, &mut |b| next.extend_from_slice(b))
+                        });
+                    }
+                    std::mem::swap(&mut self.hop, &mut self.next);
+                }
+                wire.send(at, &self.hop);
+            }
+        }
+        if let (Some(last), Some((on_bus, _))) = (self.follow_u2brg, self.ports.first()) {
+            let mut code = last;
+            drives.access(*on_bus, at, &mut |od| {
+                let mut b = [0u8; 2];
+                if od.read(0x2FE1, 0, &mut b).is_ok() {
+                    code = u64::from(u16::from_le_bytes(b));
+                }
+            });
+            if code != last {
+                self.follow_u2brg = Some(code);
+                match baud_of_code(code) {
+                    Some(baud) => {
+                        tracing::info!(code, baud, "RS232: U2BRG applied");
+                        wire.set_baud(baud);
+                    }
+                    None => tracing::warn!(code, "RS232: U2BRG code of no bit rate, ignored"),
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::serial::test_drives::{on, Dictionaries};
+
+    fn hex(s: &str) -> Vec<u8> {
+        s.split_whitespace()
+            .filter_map(|b| u8::from_str_radix(b, 16).ok())
+            .collect()
+    }
+
+    /// Feeds `bytes` written at `at` through the wire to the line; what the host reads by
+    /// `until`.
+    fn exchange(
+        line: &mut TelegramLine,
+        wire: &mut Wire,
+        drives: &mut Dictionaries,
+        at: Instant,
+        bytes: &[u8],
+        until: Instant,
+    ) -> Vec<u8> {
+        wire.receive(at, bytes);
+        let mut arrived = Vec::new();
+        wire.arrived(until, &mut |t, b| arrived.push((t, b)));
+        for (t, b) in arrived {
+            line.on_byte(t, b, drives, wire);
+        }
+        wire.crossed(until);
+        let mut got = Vec::new();
+        wire.flush(&mut |b| {
+            got.extend_from_slice(b);
+            b.len()
+        });
+        got
+    }
+
+    /// KINCO-232-01 / -05 through the line: the answer is read when its 10 bytes have crossed
+    /// after the request's 10, 20 character times at 38400 bit/s (5.2 ms).
+    #[test]
+    fn kinco_232_01_answer_after_twenty_characters() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            Some(270),
+        );
+        let t = hex("01 2B 40 60 00 2F 00 00 00 05");
+        let early = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_nanos(5_208_000),
+        );
+        assert!(early.is_empty(), "{early:02X?}");
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::from_nanos(5_208_000),
+            &[],
+            Instant::from_nanos(5_208_320),
+        );
+        assert_eq!(got, hex("01 60 40 60 00 00 00 00 00 FF"));
+        assert_eq!(
+            drives.0.first().and_then(|d| d.get_unsigned(0x6040, 0)),
+            Some(0x2F)
+        );
+    }
+
+    /// KINCO-232-07 / -08 and garbage: a bad checksum, another ID, short telegrams and noise
+    /// get no answer; the next good telegram after a silence is answered.
+    #[test]
+    fn kinco_232_07_08_bad_input_then_a_good_telegram() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(115_200);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            None,
+        );
+        let ms = Instant::from_millis;
+        let mut got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(0),
+            &hex("01 2B 40 60 00 2F 00 00 00 06 02 2B 40 60 00 2F 00 00 00 04"),
+            ms(10),
+        );
+        got.extend(exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(10),
+            &[0x01, 0x40, 0x41],
+            ms(11),
+        ));
+        let noise: Vec<u8> = (0..=255u8).cycle().take(777).collect();
+        got.extend(exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(100),
+            &noise,
+            ms(200),
+        ));
+        assert!(got.len() <= 10 * 78, "noise may form telegrams, never more");
+        let c = line.counters();
+        assert_eq!(c.other_station, 1);
+        assert!(c.bad_checksum >= 1);
+        assert!(c.partial >= 1);
+        let answer = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            ms(300),
+            &hex("01 40 41 60 00 00 00 00 00 1E"),
+            ms(310),
+        );
+        assert_eq!(answer.get(..5), Some(&hex("01 4B 41 60 00")[..]));
+    }
+
+    /// KINCO-232-09: two drives in a ring; the host reads its own telegram, then the answer
+    /// of the drive addressed, whichever it is.
+    #[test]
+    fn kinco_232_09_two_drives_in_a_ring() {
+        let mut drives = Dictionaries::fd3(2);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![
+                (on(0), KincoRs232::new(1, true)),
+                (on(1), KincoRs232::new(2, true)),
+            ],
+            Topology::Ring,
+            None,
+        );
+        let ms = Instant::from_millis;
+        for (i, station) in [1u8, 2].into_iter().enumerate() {
+            let t = canopen::kinco_rs232::Request::Write {
+                index: 0x6040,
+                sub: 0,
+                data: [0x0F, 0, 0, 0],
+                len: 2,
+            }
+            .emit(station);
+            let start = ms(100 * i as u64);
+            let got = exchange(
+                &mut line,
+                &mut wire,
+                &mut drives,
+                start,
+                &t,
+                start + std::time::Duration::from_millis(50),
+            );
+            assert_eq!(got.len(), 20, "{got:02X?}");
+            assert_eq!(got.get(..10), Some(&t[..]));
+            assert_eq!(got.get(10..12), Some(&[station, 0x60][..]));
+        }
+        for d in &drives.0 {
+            assert_eq!(d.get_unsigned(0x6040, 0), Some(0x0F));
+        }
+        // A station no drive has: only the echo.
+        let t = canopen::kinco_rs232::Request::Read {
+            index: 0x6041,
+            sub: 0,
+        }
+        .emit(9);
+        let got = exchange(&mut line, &mut wire, &mut drives, ms(500), &t, ms(550));
+        assert_eq!(got, t.to_vec());
+    }
+
+    /// RS485 with RS485_Protocol = 1: every drive hears the host, the one addressed answers.
+    #[test]
+    fn telegrams_on_an_rs485_bus() {
+        let mut drives = Dictionaries::fd3(2);
+        let mut wire = Wire::new(19_200);
+        let mut line = TelegramLine::new(
+            vec![
+                (on(0), KincoRs232::new(1, false)),
+                (on(1), KincoRs232::new(2, false)),
+            ],
+            Topology::Bus,
+            None,
+        );
+        let t = canopen::kinco_rs232::Request::Write {
+            index: 0x6040,
+            sub: 0,
+            data: [0x06, 0, 0, 0],
+            len: 2,
+        }
+        .emit(2);
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_millis(50),
+        );
+        assert_eq!(got.len(), 10);
+        assert_eq!(got.get(..2), Some(&[2, 0x60][..]));
+        let cw: Vec<_> = drives.0.iter().map(|d| d.get_unsigned(0x6040, 0)).collect();
+        assert_eq!(cw, [Some(0), Some(6)]);
+    }
+
+    /// U2BRG (2FE1h) written over the line applies at once, after the answer.
+    #[test]
+    fn u2brg_applies_at_once() {
+        let mut drives = Dictionaries::fd3(1);
+        let mut wire = Wire::new(38_400);
+        let mut line = TelegramLine::new(
+            vec![(on(0), KincoRs232::new(1, false))],
+            Topology::Ring,
+            Some(270),
+        );
+        let t = canopen::kinco_rs232::Request::Write {
+            index: 0x2FE1,
+            sub: 0,
+            data: 90u32.to_le_bytes(),
+            len: 2,
+        }
+        .emit(1);
+        let got = exchange(
+            &mut line,
+            &mut wire,
+            &mut drives,
+            Instant::ZERO,
+            &t,
+            Instant::from_millis(20),
+        );
+        assert_eq!(got.get(1), Some(&0x60));
+        assert_eq!(wire.char_time(), crate::serial::wire::char_time(115_200));
+    }
+}
