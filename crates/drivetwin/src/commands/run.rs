@@ -401,7 +401,7 @@ async fn prepare_cell(
         trace_path.map(|p| p.as_path()),
         cells.iter().all(|c| c.drives.is_empty()),
     )?;
-    let serial = serial_lines(&file, &in_cell, &args, &cells)?;
+    let serial = serial_lines(file, &in_cell, args, first, &cells)?;
     let mut front = FrontEnds {
         modbus,
         ethercat,
@@ -519,13 +519,21 @@ fn serial_lines(
     file: &CellFile,
     in_cell: &[Option<OnBus>],
     args: &RunArgs,
+    first_cell: bool,
     cells: &[Cell],
 ) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
     use drivetwin::serial::setup::{open_lines, LineRequest};
     use drivetwin::serial::Kind;
     let mut requests = Vec::new();
     for (i, d) in file.drive.iter().enumerate() {
-        let first = |p: &Option<PathBuf>| if i == 0 { p.clone() } else { None };
+        // The command line's ports are the first drive's of the first cell.
+        let first = |p: &Option<PathBuf>| {
+            if i == 0 && first_cell {
+                p.clone()
+            } else {
+                None
+            }
+        };
         for (kind, path) in [
             (
                 Kind::Rs232,
