@@ -67,6 +67,10 @@ def test_rs232_like_a_public_kinco_driver(launch, node_of, tmp_path):
     twin = launch("kinco-fd3", 1, extra=("--rs232", str(path)))
     _line(twin, "RS232", path)
     node = node_of(twin)
+    # Factory DIN1 = Enable and DIN3 = Operation Mode Sel own 6040h / 6060h (manual L1287): a
+    # master frees them first, as on the real drive.
+    node.sdo[0x2010][3].raw = 0
+    node.sdo[0x2010][5].raw = 0
     port = KincoPort(path)
     try:
         # KINCO-232-04 / -06: the statusword, 16 bit.
@@ -183,6 +187,10 @@ def test_rs485_modbus_rtu_with_pymodbus(launch, node_of, tmp_path):
     twin = launch("kinco-fd3", 1, extra=("--rs485", str(path)))
     _line(twin, "RS485", path)
     node = node_of(twin)
+    # Factory DIN1 = Enable and DIN3 = Operation Mode Sel own 6040h / 6060h (manual L1287): a
+    # master frees them first, as on the real drive.
+    node.sdo[0x2010][3].raw = 0
+    node.sdo[0x2010][5].raw = 0
     c = _rtu_client(path)
     try:
         # KINCO-MB-01: two registers from the statusword: its value, low word first.
