@@ -512,6 +512,14 @@ def product_code(device: str = "cmmp-as") -> int:
     return int(out[start:out.index('"', start)], 16)
 
 
+def ip_steps(steps) -> None:
+    """Runs `ip` with each step's arguments; skips the test at the first that fails."""
+    for step in steps:
+        r = ip(*step)
+        if r.returncode != 0:
+            pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
+
+
 @pytest.fixture
 def veth():
     """A veth pair with one end in a private network namespace, for EtherCAT without
@@ -531,10 +539,7 @@ def veth():
         ("link", "set", master_if, "up"),
     ]
     try:
-        for step in steps:
-            r = ip(*step)
-            if r.returncode != 0:
-                pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
+        ip_steps(steps)
         yield ns, twin_if, master_if
     finally:
         ip("link", "del", master_if)  # deletes the peer too

@@ -25,7 +25,7 @@ import pytest
 from canopen.profiles.p402 import BaseNode402
 from pymodbus.client import ModbusTcpClient
 
-from conftest import CHANNEL, HOST, free_port, ip, wait_until
+from conftest import CHANNEL, HOST, free_port, ip, ip_steps, wait_until
 from test_ethercat import _assign_csp_pdos, _csp_cycle, _csp_to_op, _state_ok, _wait_cycle
 from test_fhpp_homing import REV, home_to_the_negative_stop
 
@@ -49,10 +49,7 @@ def veth_pair():
         ("link", "set", master_if, "up"),
     ]
     try:
-        for step in steps:
-            r = ip(*step)
-            if r.returncode != 0:
-                pytest.skip(f"cannot create the veth pair (ip {' '.join(step)}): {r.stderr.strip()}")
+        ip_steps(steps)
         yield twin_if, master_if
     finally:
         ip("link", "del", master_if)

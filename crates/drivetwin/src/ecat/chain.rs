@@ -756,6 +756,13 @@ impl EthercatCell {
             .any(|d| matches!(d, SlaveDrive::OnBus(_)))
     }
 
+    /// Whether a slave's drive is a CANopen drive of bus `bus` as well.
+    pub fn has_drives_on_bus(&self, bus: usize) -> bool {
+        self.drives
+            .iter()
+            .any(|d| matches!(d, SlaveDrive::OnBus(at) if at.bus == bus))
+    }
+
     /// What stands behind slave `i`.
     pub fn drive(&self, i: usize) -> Option<&SlaveDrive> {
         self.drives.get(i)

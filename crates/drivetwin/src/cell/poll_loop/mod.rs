@@ -190,6 +190,8 @@ pub struct CellLoop {
     modbus: Vec<ModbusDrive>,
     chains: Vec<EthercatChain>,
     serial: Vec<crate::serial::line::SerialLine>,
+    /// Scratch: frames the drives sent while a serial line reached them, with their bus.
+    serial_sent: Vec<(usize, CanFrame)>,
     /// Chains that had more frames waiting than one turn takes.
     chains_to_read: Vec<usize>,
     /// Scratch: one Ethernet frame.
@@ -384,6 +386,7 @@ impl CellLoop {
             modbus: front.modbus,
             chains: front.ethercat,
             serial: front.serial,
+            serial_sent: Vec::new(),
             chains_to_read: Vec::new(),
             frame: vec![0; crate::ecat::MAX_FRAME],
             rt_priority: front.rt_priority,
@@ -418,9 +421,7 @@ impl CellLoop {
     }
 
     fn now(&self, at: Instant) -> od::Instant {
-        od::Instant::from_nanos(
-            u64::try_from(at.saturating_duration_since(self.origin).as_nanos()).unwrap_or(u64::MAX),
-        )
+        cell_time(self.origin, at)
     }
 
     fn wall(&self, at: od::Instant) -> Instant {
@@ -865,10 +866,7 @@ impl CellLoop {
             }
             Kind::Modbus { drive } => {
                 let drive = *drive;
-                let t = od::Instant::from_nanos(
-                    u64::try_from(now.saturating_duration_since(self.origin).as_nanos())
-                        .unwrap_or(u64::MAX),
-                );
+                let t = cell_time(self.origin, now);
                 let result = match self.modbus.get_mut(drive) {
                     Some(m) => m.answer(bytes, t, &mut conn.pending),
                     None => Ok(()),
@@ -1219,6 +1217,13 @@ fn peer_has_closed(stream: &TcpStream) -> bool {
     }
 }
 
+/// `at` on the cell's clock, whose zero is `origin`.
+fn cell_time(origin: Instant, at: Instant) -> od::Instant {
+    od::Instant::from_nanos(
+        u64::try_from(at.saturating_duration_since(origin).as_nanos()).unwrap_or(u64::MAX),
+    )
+}
+
 /// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
 /// drive as well finds its drive.
 struct Buses<'a>(&'a mut [BusState]);
@@ -1259,14 +1264,7 @@ impl CellLoop {
                 continue;
             };
             trace_frame(chain.trace.as_ref(), f);
-            let t = od::Instant::from_nanos(
-                u64::try_from(
-                    Instant::now()
-                        .saturating_duration_since(self.origin)
-                        .as_nanos(),
-                )
-                .unwrap_or(u64::MAX),
-            );
+            let t = cell_time(self.origin, Instant::now());
             shared |= chain.chain.has_bus_drives();
             if chain
                 .chain
@@ -1290,11 +1288,18 @@ impl CellLoop {
         }
         self.frame = frame;
         if shared {
-            // A value the master wrote may be due in a TPDO (on change): the CANopen side
-            // looks at once.
+            // A value the master wrote may be due in a TPDO (on change): the CANopen side of
+            // the chain's shared drives looks at once.
             let now = Instant::now();
             let t = self.now(now);
             for b in 0..self.buses.len() {
+                let on_bus = self
+                    .chains
+                    .get(c)
+                    .is_some_and(|ch| ch.chain.has_drives_on_bus(b));
+                if !on_bus {
+                    continue;
+                }
                 let mut out = std::mem::take(&mut self.out);
                 if let Some(bus) = self.buses.get_mut(b) {
                     bus.cell.poll(t, &mut out);

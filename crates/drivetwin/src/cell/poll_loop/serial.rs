@@ -35,45 +35,47 @@ impl LineDrives for SerialDrives<'_> {
 impl CellLoop {
     /// Line `i`'s port is readable (or writable again).
     pub(super) fn serial_event(&mut self, i: usize, now: Instant, readable: bool) {
-        let t = self.now(now);
-        let mut sent = Vec::new();
-        let mut drives = SerialDrives {
-            buses: &mut self.buses,
-            sent: &mut sent,
-            frames: std::mem::take(&mut self.out),
-        };
-        if let Some(line) = self.serial.get_mut(i) {
-            if readable {
-                line.readable(t, &mut drives);
-            } else {
-                line.writable();
+        self.with_serial_drives(now, |lines, drives, t| {
+            if let Some(line) = lines.get_mut(i) {
+                if readable {
+                    line.readable(t, drives);
+                } else {
+                    line.writable();
+                }
             }
-        }
-        self.out = std::mem::take(&mut drives.frames);
-        self.serial_sent(sent, now);
+        });
     }
 
     /// Lines whose deadline has come.
     pub(super) fn serial_timers(&mut self, now: Instant) {
+        self.with_serial_drives(now, |lines, drives, t| {
+            for line in lines {
+                if line.deadline().is_some_and(|d| d <= t) {
+                    line.due(t, drives);
+                }
+            }
+        });
+    }
+
+    /// Runs `f` on the lines with the cell's drives; what the drives sent meanwhile then goes
+    /// on their buses. The scratch buffers are the loop's: no allocation per event.
+    fn with_serial_drives(
+        &mut self,
+        now: Instant,
+        f: impl FnOnce(&mut [crate::serial::line::SerialLine], &mut SerialDrives<'_>, od::Instant),
+    ) {
         let t = self.now(now);
-        let mut sent = Vec::new();
+        let mut sent = std::mem::take(&mut self.serial_sent);
         let mut drives = SerialDrives {
             buses: &mut self.buses,
             sent: &mut sent,
             frames: std::mem::take(&mut self.out),
         };
-        for line in &mut self.serial {
-            if line.deadline().is_some_and(|d| d <= t) {
-                line.due(t, &mut drives);
-            }
-        }
+        f(&mut self.serial, &mut drives, t);
         self.out = std::mem::take(&mut drives.frames);
-        self.serial_sent(sent, now);
-    }
-
-    fn serial_sent(&mut self, sent: Vec<(usize, CanFrame)>, now: Instant) {
-        for (b, frame) in sent {
+        for (b, frame) in sent.drain(..) {
             self.bus(b, frame, super::Source::Drives, now);
         }
+        self.serial_sent = sent;
     }
 }
