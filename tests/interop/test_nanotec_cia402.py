@@ -241,7 +241,9 @@ def test_torque_in_closed_loop_accelerates_to_the_607f_limit(nanotec):
     time.sleep(0.1)
     a = position(node)
     time.sleep(0.3)
-    assert abs(position(node) - a) <= 5
+    # Within a full step (10 units at 2000 units/rev): the closed loop's PI against the
+    # shaft's friction may hunt by a few units at standstill, never by a step.
+    assert abs(position(node) - a) < 10
 
 
 class SyncProducer:

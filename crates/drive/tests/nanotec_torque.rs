@@ -85,3 +85,33 @@ impl Writes for drive::drive::Drive<Vec<u8>> {
         od::ObjectAccess::write(self, index, 0, &v.to_le_bytes()).unwrap();
     }
 }
+
+/// Halt after a reversal, as a master sees it: once bit 10 shows "stopped" the motor stands
+/// (no settling drift afterwards), here at the interop test's 607Fh = 120 min⁻¹.
+#[test]
+fn halt_reports_stopped_only_once_the_motor_stands() {
+    let mut r = Rig::new();
+    torque(&mut r);
+    r.w32(0x607F, 0, 120);
+    r.d.write_i16(0x6071, 300);
+    r.run_ms(300);
+    r.d.write_i16(0x6071, -300);
+    r.run_ms(500);
+    r.cw(0x010F);
+    let mut waited = 0;
+    while r.sw() & 0x0400 == 0 {
+        r.run_ms(1);
+        waited += 1;
+        assert!(waited < 2000, "stopped within 2 s");
+    }
+    let a = r.i(0x6064, 0);
+    for _ in 0..400 {
+        r.run_ms(1);
+        assert_ne!(r.sw() & 0x0400, 0, "stays stopped");
+    }
+    let b = r.i(0x6064, 0);
+    // Within a full step (10 units): the closed loop's PI against the shaft's Coulomb
+    // friction may hunt by a few units, never by a step.
+    assert!((b - a).abs() < 10, "{a} → {b} after bit 10");
+}
+

@@ -373,7 +373,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let decel = self.accel(0x6085);
             self.traj.step_stop(decel, dt);
             self.position_demand(self.traj.velocity);
-            self.target_reached = rpm.abs() < 1.0;
+            // "Stopped" once the braking ramp has ended and the shaft stands inside the position
+            // window (6067h) of the ramp's end: the plant's speed crosses zero while it still
+            // overshoots the ramp.
+            let window = self.fg.position_magnitude_to_internal(
+                self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
+            );
+            let settled =
+                (self.actual_internal() - libm::round(self.traj.position) as i64).abs() <= window;
+            // Once stopped it stays so while the ramp stands: a closed-loop stepper's shaft
+            // hunts by a few units against its friction.
+            let stands = self.traj.velocity == 0.0;
+            self.target_reached = stands && (self.target_reached || (rpm.abs() < 1.0 && settled));
             return;
         }
         let rated_ma = self
