@@ -119,7 +119,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
 /// by binary search, which the compiler folds to a constant for the literal keys of the
 /// call sites.
-const PARAMS: [(u16, u8); 66] = [
+const PARAMS: [(u16, u8); 75] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 8),
@@ -131,6 +131,17 @@ const PARAMS: [(u16, u8); 66] = [
     (0x200A, 0),
     (0x200A, 1),
     (0x200B, 0),
+    // Kinco 2010h: DIN polarity, simulate and the seven function codes (in input order, one
+    // after the other: `din_function_code` counts on it), read every cycle.
+    (0x2010, 1),
+    (0x2010, 2),
+    (0x2010, 3),
+    (0x2010, 4),
+    (0x2010, 5),
+    (0x2010, 6),
+    (0x2010, 7),
+    (0x2010, 8),
+    (0x2010, 9),
     (0x2011, 0),
     (0x2020, 0),
     (0x2045, 0),
@@ -200,7 +211,7 @@ const _: () = {
 
 /// The slot of `(index, sub)` in [`PARAMS`].
 #[inline(always)]
-const fn param_slot(index: u16, sub: u8) -> Option<usize> {
+pub(crate) const fn param_slot(index: u16, sub: u8) -> Option<usize> {
     let key = (index as u32) << 8 | sub as u32;
     let (mut lo, mut hi) = (0, PARAMS.len());
     while lo < hi {

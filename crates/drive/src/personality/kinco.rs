@@ -337,17 +337,29 @@ pub const DIN_FUNCTIONS: [(u16, DinFunction); 30] = [
 /// mask, as they do for the single-bit codes (Tab. 6-1: "several functions on one input");
 /// functions of different groups cannot share an input (the manual does not say how).
 pub fn din_has(code: u16, function: DinFunction) -> bool {
-    DIN_FUNCTIONS
-        .iter()
-        .filter(|(_, f)| *f == function)
-        .any(|&(c, _)| {
-            if c & 0x8000 == 0 {
-                code & 0x8000 == 0 && code & c == c
-            } else {
-                code & 0xF000 == c & 0xF000 && code & c & 0x0FFF == c & 0x0FFF
-            }
-        })
+    // The table lists the functions in their declaration order (checked below): the row of
+    // a function is its discriminant, no search in the logic cycle.
+    let Some(&(c, _)) = DIN_FUNCTIONS.get(function as usize) else {
+        return false;
+    };
+    if c & 0x8000 == 0 {
+        code & 0x8000 == 0 && code & c == c
+    } else {
+        code & 0xF000 == c & 0xF000 && code & c & 0x0FFF == c & 0x0FFF
+    }
 }
+
+// Row n of DIN_FUNCTIONS is the function with discriminant n.
+const _: () = {
+    let mut i = 0;
+    while i < DIN_FUNCTIONS.len() {
+        assert!(
+            DIN_FUNCTIONS[i].1 as usize == i,
+            "DIN_FUNCTIONS out of order"
+        );
+        i += 1;
+    }
+};
 
 /// A DOUT function of Tab. 6-2 (L955-995).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
