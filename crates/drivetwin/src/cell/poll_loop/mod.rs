@@ -43,6 +43,7 @@ use crate::ecat::chain::{trace_frame, BusDrives, EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
+mod fine_timer;
 mod handle;
 mod serial;
 
@@ -57,6 +58,8 @@ const READS_PER_TURN: usize = 16;
 const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
+/// The loop's sub-millisecond timer ([`fine_timer`]).
+const TIMER: Token = Token(FIRST_SERIAL - 1);
 /// Bus `b` has tokens `1 + 3b` (its socketcand server), `2 + 3b` (its SocketCAN socket) and
 /// `3 + 3b` (the socketcand server it joins).
 pub const MAX_BUSES: usize = 7;
@@ -181,6 +184,8 @@ pub struct CellLoop {
     poll: Poll,
     stop: Arc<AtomicBool>,
     waker: Arc<Waker>,
+    /// Wakes the loop between milliseconds; without it (no timerfd) the poll's timeout does.
+    timer: Option<fine_timer::FineTimer>,
     buses: Vec<BusState>,
     /// The cell clock's zero.
     origin: Instant,
@@ -285,6 +290,11 @@ impl CellLoop {
         }
         let poll = Poll::new()?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKER)?);
+        let timer = fine_timer::FineTimer::new(poll.registry(), TIMER)
+            .map_err(
+                |e| tracing::warn!(error = %e, "no timerfd: the loop wakes on whole milliseconds"),
+            )
+            .ok();
         let mut buses = Vec::new();
         for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
             let mut socketcand = None;
@@ -379,6 +389,7 @@ impl CellLoop {
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
+            timer,
             buses,
             origin: Instant::now(),
             listeners,
@@ -459,8 +470,13 @@ impl CellLoop {
             {
                 Some(Duration::ZERO)
             } else {
-                self.deadline()
-                    .map(|d| d.saturating_duration_since(Instant::now()))
+                let wait = self
+                    .deadline()
+                    .map(|d| d.saturating_duration_since(Instant::now()));
+                if let (Some(w), Some(timer)) = (wait, &self.timer) {
+                    timer.arm(w);
+                }
+                wait
             };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
@@ -474,6 +490,11 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
+                    TIMER => {
+                        if let Some(timer) = &self.timer {
+                            timer.clear();
+                        }
+                    }
                     Token(t) if t >= FIRST_SERIAL => {
                         self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
                     }
