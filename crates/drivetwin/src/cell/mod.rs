@@ -9,6 +9,7 @@ pub mod control;
 pub mod device_model;
 pub mod fieldbus_switches;
 pub mod interfaces;
+pub mod lateness;
 pub mod param_store;
 pub mod poll_loop;
 pub mod realtime;

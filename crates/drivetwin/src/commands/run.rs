@@ -184,6 +184,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     };
     let mut stops = Vec::new();
     let mut threads = Vec::new();
+    let mut lateness = Vec::new();
     for (i, cell_loop) in loops.into_iter().enumerate() {
         stops.push(cell_loop.stop_handle());
         let name = if i == 0 {
@@ -191,6 +192,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         } else {
             format!("cell-{i}")
         };
+        lateness.push((name.clone(), cell_loop.lateness()));
         threads.push(
             std::thread::Builder::new()
                 .name(name)
@@ -230,6 +232,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         result
             .map_err(|_| failed("panicked"))?
             .map_err(io("cell loop"))?;
+    }
+    for (name, l) in &lateness {
+        out!("{name} loop: {}", l.figures());
     }
     out!("stopped");
     Ok(())

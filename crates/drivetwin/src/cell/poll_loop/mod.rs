@@ -186,6 +186,8 @@ pub struct CellLoop {
     waker: Arc<Waker>,
     /// Wakes the loop between milliseconds; without it (no timerfd) the poll's timeout does.
     timer: Option<fine_timer::FineTimer>,
+    /// How late the loop serves due timers.
+    lateness: Arc<crate::cell::lateness::Lateness>,
     buses: Vec<BusState>,
     /// The cell clock's zero.
     origin: Instant,
@@ -390,6 +392,7 @@ impl CellLoop {
             stop: Arc::new(AtomicBool::new(false)),
             waker,
             timer,
+            lateness: Arc::default(),
             buses,
             origin: Instant::now(),
             listeners,
@@ -408,6 +411,11 @@ impl CellLoop {
             text: Vec::with_capacity(64),
             effects: Vec::new(),
         })
+    }
+
+    /// How late the loop serves its timers, readable while it runs and after.
+    pub fn lateness(&self) -> Arc<crate::cell::lateness::Lateness> {
+        Arc::clone(&self.lateness)
     }
 
     pub fn stop_handle(&self) -> StopHandle {
@@ -609,7 +617,8 @@ impl CellLoop {
             let Some(bus) = self.buses.get_mut(b) else {
                 break;
             };
-            if bus.cell.deadline().is_some_and(|d| d <= t) {
+            if let Some(due) = bus.cell.deadline().filter(|d| *d <= t) {
+                self.lateness.record(t.saturating_since(due));
                 let mut out = std::mem::take(&mut self.out);
                 bus.cell.poll(t, &mut out);
                 self.drives_sent(b, now, &mut out);
@@ -617,7 +626,8 @@ impl CellLoop {
             }
         }
         for chain in &mut self.chains {
-            if chain.chain.deadline().is_some_and(|d| d <= t) {
+            if let Some(due) = chain.chain.deadline().filter(|d| *d <= t) {
+                self.lateness.record(t.saturating_since(due));
                 chain.chain.poll_with(t, &mut Buses(&mut self.buses));
             }
         }
@@ -628,7 +638,13 @@ impl CellLoop {
         for drive in 0..self.modbus.len() {
             let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {
-                Some(m) => m.cycle(t),
+                Some(m) => {
+                    let due = m.next_cycle();
+                    if due <= t {
+                        self.lateness.record(t.saturating_since(due));
+                    }
+                    m.cycle(t)
+                }
                 None => false,
             };
             if closed {
