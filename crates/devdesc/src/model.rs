@@ -4,7 +4,7 @@ use std::path::Path;
 
 use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
-use crate::schema::{EntryFields, File, ObjectSection, ProfileName};
+use crate::schema::{DiagnosticSection, EntryFields, File, ObjectSection, ProfileName};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DescError {
@@ -24,6 +24,8 @@ pub enum DescError {
     Object { index: u16, what: String },
     #[error("device: {0}")]
     Device(String),
+    #[error("diagnostic {number}: {what}")]
+    Diagnostic { number: String, what: String },
 }
 
 #[derive(Debug, Clone)]
@@ -45,6 +47,21 @@ pub struct Device {
     pub interfaces_rule: String,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
+    pub diagnostics: Vec<Diag>,
+}
+
+/// A checked `[[diagnostic]]` row.
+#[derive(Debug, Clone)]
+pub struct Diag {
+    pub number: String,
+    pub code: Option<u16>,
+    pub register: u8,
+    pub reaction: od::Reaction,
+    pub text: String,
+    pub display: String,
+    pub classes: String,
+    pub reactions: String,
+    pub source: String,
 }
 
 #[derive(Debug, Clone)]
@@ -186,6 +203,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         }
         .to_owned()
     });
+    let diagnostics = diagnostics(&file.diagnostic)?;
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -217,7 +235,48 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             lss_unsupported: d.lss_unsupported,
         },
         objects,
+        diagnostics,
     })
+}
+
+/// The `[[diagnostic]]` rows, checked: a number once, a known reaction.
+fn diagnostics(rows: &[DiagnosticSection]) -> Result<Vec<Diag>, DescError> {
+    let mut out: Vec<Diag> = Vec::with_capacity(rows.len());
+    for r in rows {
+        let err = |what: &str| DescError::Diagnostic {
+            number: r.number.clone(),
+            what: what.into(),
+        };
+        if r.number.is_empty() || r.text.is_empty() {
+            return Err(err("number and text must not be empty"));
+        }
+        if out.iter().any(|d| d.number.eq_ignore_ascii_case(&r.number)) {
+            return Err(err("defined twice"));
+        }
+        let reaction = match r.reaction.as_str() {
+            "ps_off" => od::Reaction::PsOff,
+            "quick_stop" => od::Reaction::QuickStop,
+            "configurable" => od::Reaction::Configurable,
+            "warning" => od::Reaction::Warning,
+            "ignore" => od::Reaction::Ignore,
+            "unstated" => od::Reaction::Unstated,
+            _ => return Err(err(
+                "reaction must be ps_off, quick_stop, configurable, warning, ignore or unstated",
+            )),
+        };
+        out.push(Diag {
+            number: r.number.clone(),
+            code: r.code,
+            register: r.register,
+            reaction,
+            text: r.text.clone(),
+            display: r.display.clone(),
+            classes: r.classes.clone(),
+            reactions: r.reactions.clone(),
+            source: r.source.clone(),
+        });
+    }
+    Ok(out)
 }
 
 fn object(o: &ObjectSection) -> Result<Obj, DescError> {

@@ -25,6 +25,7 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+pub mod diagnostics;
 mod feed_constant;
 mod homing_run;
 pub(crate) mod object_writes;
@@ -337,6 +338,9 @@ pub struct Drive<S> {
     pub(crate) dc_link_mv: Option<u32>,
     /// The diagnostic memory: messages with their additional information, oldest first.
     pub(crate) memory: Deque<MemoryEntry, 16>,
+    /// Messages raised by their number from outside ([`Drive::raise_diagnostic`]), until
+    /// cleared.
+    pub(crate) injected: heapless::Vec<&'static od::Diagnostic, 16>,
 }
 
 /// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
@@ -497,6 +501,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             safe_standstill: false,
             dc_link_mv: None,
             memory: Deque::new(),
+            injected: heapless::Vec::new(),
         };
         d.vendor_power_on();
         d.reload_factor_group();
@@ -684,7 +689,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The error's EMCY and the device control's fault reaction.
-    fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
+    pub(crate) fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
             ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
@@ -741,7 +746,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let error = self
             .faults
             .iter()
-            .find_map(|c| messages::by_code(*c))
+            .find_map(|c| self.message_of(*c))
             .map(|m| m.number);
         let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
         let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
