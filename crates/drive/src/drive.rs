@@ -783,7 +783,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let info = messages::undervoltage_info(self.dc.state() as u16, mv);
             self.raise_with_info(e.code, e.register, e.critical, info);
         } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
-            self.causes.remove(i);
+            if !self.injected_code(e.code) {
+                self.causes.remove(i);
+            }
         }
     }
 
@@ -807,6 +809,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.raise(code, register, false);
             }
             (true, Some(_)) => self.raise(code, register, false),
+            // A message raised by its number stays until it is cleared.
+            (false, Some(_)) if self.injected_code(code) => {}
             (false, Some(i)) => {
                 self.causes.remove(i);
             }

@@ -109,6 +109,18 @@ impl Default for Reactions {
         if let Some(c) = codes.get_mut(17) {
             *c = reaction::NONE;
         }
+        // Decision: a group whose every message is "Warn" (66, 84) shows the warning reaction
+        // (3) in 2100h, the reaction the message has.
+        for (main, c) in codes.iter_mut().enumerate() {
+            let mut group = messages().filter(|m| usize::from(m.number.main) == main);
+            if let Some(first) = group.next() {
+                if first.reaction == Reaction::Warning
+                    && group.all(|m| m.reaction == Reaction::Warning)
+                {
+                    *c = reaction::WARNING;
+                }
+            }
+        }
         Reactions { codes }
     }
 }

@@ -101,6 +101,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(row)
     }
 
+    /// Whether a message raised by its number is reported with `code` (its cause stays when
+    /// the simulation's own supervision finds none).
+    pub(crate) fn injected_code(&self, code: u16) -> bool {
+        self.injected.iter().any(|d| emcy_code(d) == code)
+    }
+
     /// The messages raised by their number and not yet cleared, in the order raised.
     pub fn raised_diagnostics(&self) -> impl Iterator<Item = &'static Diagnostic> + '_ {
         self.injected.iter().copied()
