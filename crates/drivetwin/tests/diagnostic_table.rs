@@ -148,3 +148,152 @@ fn cmmp_as_every_app_b_message_over_the_bus() {
         );
     }
 }
+
+/// EMCY, 1003h:01 and 1001h of a message just raised, as §7 of the Nanotec and Kinco manuals
+/// and CiA 301 say: code in bytes 0–1, the register with bit 0.
+/// `history`: the device has 1003h (the Kinco keeps its last 8 errors itself, §7).
+fn assert_emcy(b: &mut Bench, frames: &[[u8; 8]], row: &od::Diagnostic, history: bool) -> u8 {
+    let number = row.number;
+    let code = drive::drive::diagnostics::emcy_code(row);
+    let [c0, c1] = code.to_le_bytes();
+    let reg = row.register | canopen::emcy::register::GENERIC;
+    assert_eq!(frames, &[[c0, c1, reg, 0, 0, 0, 0, 0]], "{number} EMCY");
+    if history {
+        assert_eq!(
+            b.read(0x1003, 1) as u32 & 0xFFFF,
+            u32::from(code),
+            "{number} 1003h:01"
+        );
+    }
+    assert_eq!(b.read(0x1001, 0) as u8, reg, "{number} 1001h");
+    reg
+}
+
+/// Fault reset after the message was cleared: SWITCH ON DISABLED and the reset EMCY.
+fn acknowledge(b: &mut Bench, number: &str) {
+    b.drive().clear_diagnostic(number).expect("raised");
+    b.write(0x6040, 0, &[0x00, 0]);
+    b.run_ms(5);
+    b.sent();
+    b.write(0x6040, 0, &[0x80, 0]);
+    b.run_ms(5);
+    assert_eq!(emcy(&b.sent()), vec![[0; 8]], "{number} reset EMCY");
+    assert_eq!(b.statusword() & 0x4F, 0x40, "{number} acknowledged");
+}
+
+/// Nanotec §7.1, every code, with 2020h = 1 (legacy, the default) at standstill: "Power Off"
+/// is FAULT at once, "–" the EMCY alone, the drive stays enabled (and the EMCY 0000h when the
+/// cause is cleared).
+#[test]
+fn nanotec_every_section_7_1_code_over_the_bus() {
+    use drive::personality::nanotec::{Reaction as NtReaction, REACTIONS};
+    for device in ["nanotec-smci47s", "nanotec-pd4n"] {
+        let rows = devices::by_name(device).expect("device").diagnostics;
+        assert_eq!(rows.len(), 12, "§7.1 lists 12 codes");
+        let mut b = Bench::device(device, None);
+        assert_eq!(b.read(0x2020, 0), 1, "legacy format by default");
+        for row in rows {
+            let number = row.number;
+            let code = row.code.expect("§7.1 codes");
+            let reaction = REACTIONS
+                .iter()
+                .find(|r| r.code == code)
+                .map(|r| r.reaction(true, false))
+                .expect("§7.1 row");
+            b.enable();
+            b.sent();
+            b.drive().raise_diagnostic(number).expect("a row");
+            b.run_ms(5);
+            let frames = emcy(&b.sent());
+            assert_emcy(&mut b, &frames, row, true);
+            b.run_ms(200);
+            match reaction {
+                NtReaction::PowerOff | NtReaction::QuickStopPowerOff => {
+                    assert_eq!(b.statusword() & 0x4F, 0x08, "{device} {number} FAULT");
+                    acknowledge(&mut b, number);
+                }
+                NtReaction::MessageOnly | NtReaction::QuickStop => {
+                    assert_eq!(
+                        b.statusword() & 0x6F,
+                        if reaction == NtReaction::QuickStop {
+                            0x07
+                        } else {
+                            0x27
+                        },
+                        "{device} {number} keeps its state"
+                    );
+                    b.drive().clear_diagnostic(number).expect("raised");
+                    b.run_ms(5);
+                    assert_eq!(emcy(&b.sent()), vec![[0; 8]], "{number} EMCY 0000h");
+                    // Back to a known state for the next row.
+                    b.write(0x6040, 0, &[0x06, 0]);
+                    b.run_ms(5);
+                }
+            }
+        }
+    }
+}
+
+/// Kinco §7 (FD3 over CANopen), every bit of Error_State and Error_State2 with an EMCY code: output stage off
+/// (FAULT), the EMCY, 1003h, the bit in 2601h / 2602h (2601h bit 0 for Error_State2) and the
+/// LED code of ch. 8 (KINCO-DIAG-01…07).
+#[test]
+fn kinco_every_section_7_error_over_the_bus() {
+    use drive::personality::kinco::{ErrorWord, KincoError};
+    // The CD3 has no fieldbus port (serial only): the same table, reached over RS232.
+    let fd3 = devices::by_name("kinco-fd3").expect("device").diagnostics;
+    assert_eq!(
+        devices::by_name("kinco-cd3").expect("device").diagnostics,
+        fd3
+    );
+    for device in ["kinco-fd3"] {
+        let rows = devices::by_name(device).expect("device").diagnostics;
+        assert_eq!(rows.len(), 26, "15 Error_State + 11 Error_State2 bits");
+        let mut b = Bench::device(device, None);
+        // A bus master's set-up: no DIN owns the controlword (Kinco L1287).
+        b.write(0x2010, 0x03, &[0, 0]);
+        b.write(0x2010, 0x05, &[0, 0]);
+        for row in rows {
+            let number = row.number;
+            let e = KincoError::of(row).expect("Error_State[2].bit");
+            let mask = b.read(0x2605, if e.word == ErrorWord::State { 1 } else { 4 }) as u16;
+            b.enable();
+            b.sent();
+            b.drive().raise_diagnostic(number).expect("a row");
+            b.run_ms(5);
+            let frames = emcy(&b.sent());
+            if mask & (1 << e.bit) == 0 {
+                assert!(frames.is_empty(), "{device} {number} masked");
+                b.drive().clear_diagnostic(number).expect("raised");
+                continue;
+            }
+            assert_emcy(&mut b, &frames, row, false);
+            // Store_Mask_ON / ON2 (2605h:02 / :05): the error history keeps it.
+            let store = b.read(0x2605, if e.word == ErrorWord::State { 2 } else { 5 }) as u16;
+            assert_eq!(
+                b.drive().error_history().last() == Some(e.emcy.unwrap_or(0)),
+                store & (1 << e.bit) != 0,
+                "{device} {number} error history"
+            );
+            let (state, state2) = (b.read(0x2601, 0) as u16, b.read(0x2602, 0) as u16);
+            let led = b.drive().kinco_led().expect("an error on the panel");
+            match e.word {
+                ErrorWord::State => {
+                    assert_eq!(state, 1 << e.bit, "{device} {number} 2601h");
+                    assert_eq!(&led, row.display.as_bytes(), "{device} {number} LED");
+                }
+                ErrorWord::State2 => {
+                    assert_eq!((state, state2), (1, 1 << e.bit), "{device} {number}");
+                    assert_eq!(&led, b"000.1", "{device} {number} LED: extended error");
+                    assert_eq!(
+                        drive::personality::kinco::led_code(e.bit).as_slice(),
+                        row.display.as_bytes(),
+                        "{device} {number} d1.16"
+                    );
+                }
+            }
+            assert_eq!(b.statusword() & 0x4F, 0x08, "{device} {number} FAULT");
+            acknowledge(&mut b, number);
+        }
+    }
+}
