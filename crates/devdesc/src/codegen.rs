@@ -75,8 +75,8 @@ pub fn generate(d: &Device) -> String {
     for g in &d.diagnostics {
         let _ = writeln!(
             s,
-            "        od::Diagnostic {{ number: {:?}, code: {:?}, register: 0x{:02X}, reaction: od::Reaction::{:?}, text: {:?}, display: {:?}, classes: {:?}, reactions: {:?}, source: {:?} }},",
-            g.number, g.code, g.register, g.reaction, g.text, g.display, g.classes, g.reactions, g.source
+            "        od::Diagnostic {{ number: {:?}, code: {:?}, register: 0x{:02X}, reaction: od::Reaction::{:?}, text: {:?}, display: {:?}, classes: {:?}, reactions: {:?}, memory: {:?}, ack: {:?}, source: {:?} }},",
+            g.number, g.code, g.register, g.reaction, g.text, g.display, g.classes, g.reactions, g.memory, g.ack, g.source
         );
     }
     let _ = writeln!(s, "    ],");

@@ -61,6 +61,8 @@ pub struct Diag {
     pub display: String,
     pub classes: String,
     pub reactions: String,
+    pub memory: String,
+    pub ack: String,
     pub source: String,
 }
 
@@ -264,6 +266,15 @@ fn diagnostics(rows: &[DiagnosticSection]) -> Result<Vec<Diag>, DescError> {
                 "reaction must be ps_off, quick_stop, configurable, warning, ignore or unstated",
             )),
         };
+        if !matches!(r.memory.as_str(), "" | "always" | "optional") {
+            return Err(err("memory must be always or optional"));
+        }
+        if !matches!(r.ack.as_str(), "" | "immediately" | "after_cause" | "reset") {
+            return Err(err("ack must be immediately, after_cause or reset"));
+        }
+        if !r.reactions.chars().all(|c| ('A'..='G').contains(&c)) {
+            return Err(err("reactions are letters A…G"));
+        }
         out.push(Diag {
             number: r.number.clone(),
             code: r.code,
@@ -273,6 +284,8 @@ fn diagnostics(rows: &[DiagnosticSection]) -> Result<Vec<Diag>, DescError> {
             display: r.display.clone(),
             classes: r.classes.clone(),
             reactions: r.reactions.clone(),
+            memory: r.memory.clone(),
+            ack: r.ack.clone(),
             source: r.source.clone(),
         });
     }

@@ -33,6 +33,10 @@ pub struct DiagnosticSection {
     #[serde(default)]
     pub reactions: String,
     #[serde(default)]
+    pub memory: String,
+    #[serde(default)]
+    pub ack: String,
+    #[serde(default)]
     pub source: String,
 }
 

@@ -43,6 +43,10 @@ pub struct Diagnostic {
     pub classes: &'static str,
     /// FHPP reactions A…G PNU 242 may select ("ABCEF"); empty for CiA 402 devices.
     pub reactions: &'static str,
+    /// FHPP: "always" or "optional" (App. D "Diag. memory"); empty for CiA 402 devices.
+    pub memory: &'static str,
+    /// FHPP: "immediately", "after_cause" or "reset" (App. D "Ack"); empty for CiA 402 devices.
+    pub ack: &'static str,
     /// Where the manual says so.
     pub source: &'static str,
 }

@@ -286,7 +286,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn message_of(&self, code: u16) -> Option<messages::Message> {
         self.injected
             .iter()
-            .filter_map(|d| messages::message(*d))
+            .filter_map(|d| messages::message(d))
             .find(|m| m.code == code)
             .or_else(|| messages::by_code(code))
     }
