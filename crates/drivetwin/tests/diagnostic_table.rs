@@ -297,3 +297,77 @@ fn kinco_every_section_7_error_over_the_bus() {
         }
     }
 }
+
+/// The cell's own way in (what scenarios and the cell file use): `Cell::raise_diagnostic`,
+/// and `[[drive.diagnostic]]` planned on the cell's clock: 43-0 at 50 ms, cleared at 80 ms.
+#[test]
+fn cell_raises_planned_messages_on_its_clock() {
+    use drivetwin::cell::config::CellFile;
+    let file: CellFile = toml::from_str(
+        r#"
+        [[drive]]
+        device = "cmmp-as"
+        node = 1
+        [[drive.diagnostic]]
+        at_ms = 50
+        number = "43-0"
+        [[drive.diagnostic]]
+        at_ms = 80
+        number = "43-0"
+        action = "clear"
+        "#,
+    )
+    .expect("a cell file");
+    let spec = file.drives().expect("valid").remove(0);
+    assert_eq!(spec.diagnostics.len(), 2);
+    let mut b = Bench::new(None);
+    for p in spec.diagnostics {
+        b.cell
+            .plan_diagnostic(od::Instant::from_millis(p.at_ms), 0, p);
+    }
+    b.enable();
+    b.sent();
+    let now_ms = b.now.as_nanos() / 1_000_000;
+    assert!(now_ms < 45, "enabled at {now_ms} ms");
+    b.run_ms(48 - now_ms);
+    assert!(emcy(&b.sent()).is_empty(), "nothing before 50 ms");
+    b.run_ms(4);
+    assert_eq!(
+        emcy(&b.sent()),
+        vec![[0x81, 0x80, 0x01, 0, 0, 0, 0, 0]],
+        "43-0 8081h"
+    );
+    assert_eq!(
+        b.cell
+            .diagnostics(0)
+            .expect("drive 0")
+            .iter()
+            .filter(|s| s.active)
+            .count(),
+        1
+    );
+    b.run_ms(40);
+    assert!(
+        b.drive().raised_diagnostics().next().is_none(),
+        "cleared at 80 ms"
+    );
+    // And directly: an unknown number is refused, a known one raised.
+    assert!(b.cell.raise_diagnostic(0, "99-9").is_err());
+    assert!(b.cell.raise_diagnostic(1, "43-0").is_err(), "no drive 1");
+    assert_eq!(
+        b.cell.raise_diagnostic(0, "08-2").map(|r| r.code),
+        Ok(Some(0x7382))
+    );
+}
+
+/// A cell file naming a message the device does not have is refused at load.
+#[test]
+fn cell_file_refuses_unknown_numbers() {
+    use drivetwin::cell::config::CellFile;
+    let file: CellFile = toml::from_str(
+        "[[drive]]\ndevice = \"nanotec-pd4n\"\n[[drive.diagnostic]]\nat_ms = 1\nnumber = \"08-2\"\n",
+    )
+    .expect("parses");
+    let e = file.drives().expect_err("refused");
+    assert!(e.to_string().contains("08-2"), "{e}");
+}
