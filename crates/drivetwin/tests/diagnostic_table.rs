@@ -86,6 +86,10 @@ fn cmmp_as_every_app_b_message_over_the_bus() {
                     format!("-E{:02}{}-", m.number.main, m.number.sub),
                     "{number} display"
                 );
+                if m.reaction == Reaction::PsOff {
+                    // "PS off": output stage off at once, no fault reaction.
+                    assert_eq!(b.statusword() & 0x4F, 0x08, "{number} FAULT at once");
+                }
                 b.run_ms(400);
                 assert_eq!(b.statusword() & 0x4F, 0x08, "{number} FAULT");
                 // The cause stays: the fault reset does not acknowledge it.
@@ -181,7 +185,7 @@ fn acknowledge(b: &mut Bench, number: &str) {
     assert_eq!(b.statusword() & 0x4F, 0x40, "{number} acknowledged");
 }
 
-/// Nanotec §7.1, every code, with 2020h = 1 (legacy, the default) at standstill: "Power Off"
+/// Nanotec §7.1 (NT-PP-06 for 0800h), every code, with 2020h = 1 (legacy, the default) at standstill: "Power Off"
 /// is FAULT at once, "–" the EMCY alone, the drive stays enabled (and the EMCY 0000h when the
 /// cause is cleared).
 #[test]
