@@ -11,6 +11,9 @@ import urllib.error
 import urllib.request
 
 from conftest import wait_until
+from test_fhpp_diagnostics import acknowledge
+from test_fhpp_modbus import (  # noqa: F401  (cmmo is a fixture)
+    CCON_RECORD_ENABLED, CPOS_HALT, SCON_FAULT, cmmo, cycle_until, enable_and_home, telegram)
 
 
 def console_url(twin) -> str:
@@ -55,8 +58,34 @@ def test_message_raised_over_rest_is_an_emcy_and_a_1003h_entry(launch, node_of):
     assert status == 200, row
     node.sdo[0x6040].raw = 0x00
     node.sdo[0x6040].raw = 0x80
-    wait_until(lambda: node.emcy.log[-1].code == 0x0000, 2.0, what="EMCY 0000h")
+    wait_until(lambda: node.emcy.log[-1].code == 0x0000, 3.0,
+               what=f"EMCY 0000h: {[hex(e.code) for e in node.emcy.log]}, "
+                    f"6041h {node.sdo[0x6041].raw:#06x}")
     assert node.sdo[0x6041].raw & 0x4F == 0x40, "SWITCH ON DISABLED"
 
     status, err = call(url + "api/drives/0/diagnostics/99-9", "POST")
     assert status == 404 and "error" in err, (status, err)
+
+
+def test_cmmo_st_message_raised_over_rest_shows_in_fhpp_and_fc_07(cmmo):
+    """App. D 2Fh following error raised through the REST API: SCON.FAULT in the cyclic
+    telegram and FC 07h Read Exception Status = 2Fh (FHPP-MB-05); cleared through the API,
+    CCON.RESET acknowledges it."""
+    twin = cmmo("--http", "127.0.0.1:0")
+    line = wait_until(lambda: next((l for l in twin.lines if l.startswith("web console on ")), None),
+                      5.0, what="the 'web console on' line")
+    url = line.removeprefix("web console on ")
+    c = twin.client()
+    try:
+        enable_and_home(c)
+        status, row = call(url + "api/drives/0/diagnostics/2Fh", "POST")
+        assert status == 200 and row["active"], row
+        cycle_until(c, telegram(CCON_RECORD_ENABLED, CPOS_HALT),
+                    lambda s: s["scon"] & SCON_FAULT, timeout=3, what="SCON.FAULT")
+        assert c.read_exception_status().status == 0x2F
+        status, row = call(url + "api/drives/0/diagnostics/2Fh", "DELETE")
+        assert status == 200, row
+        acknowledge(c)
+        assert c.read_exception_status().status == 0
+    finally:
+        c.close()

@@ -925,13 +925,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ => self.input_levels(self.plant_position()).enables(),
         };
         let before = self.dc.state();
-        // A fault-reset pulse shorter than a cycle still counts (latched at the write).
-        if self.cw_rising.contains(Controlword::FAULT_RESET)
-            && !cw.contains(Controlword::FAULT_RESET)
-        {
-            let _ = self
-                .dc
-                .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
+        // A fault-reset pulse shorter than a cycle still counts (latched at the write); so
+        // does a rising edge written within one cycle after the bit was seen set (0080h,
+        // 0000h, 0080h between two steps): the device control sees the low level first.
+        if self.cw_rising.contains(Controlword::FAULT_RESET) {
+            let other = if cw.contains(Controlword::FAULT_RESET) {
+                cw.difference(Controlword::FAULT_RESET)
+            } else {
+                cw | Controlword::FAULT_RESET
+            };
+            let _ = self.dc.controlword(other.bits(), fault, enables);
         }
         let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);
