@@ -663,6 +663,23 @@ mod tests {
     }
 
     #[test]
+    fn diagnostic_rows_are_checked() {
+        let row = |n: &str, r: &str| {
+            format!("[[diagnostic]]\nnumber = \"{n}\"\ncode = 0x4310\nreaction = \"{r}\"\ntext = \"x\"\n")
+        };
+        let d = parse(&format!("{HEAD}{}", row("03-0", "quick_stop")), "t.toml").expect("valid");
+        assert_eq!(d.diagnostics.len(), 1);
+        assert_eq!(d.diagnostics[0].reaction, od::Reaction::QuickStop);
+        assert!(err(&(row("03-0", "ps_off") + &row("03-0", "ps_off"))).contains("defined twice"));
+        assert!(err(&row("03-0", "stop")).contains("reaction must be"));
+        assert!(err(&format!(
+            "{}reactions = \"AZ\"\n",
+            row("2Fh", "configurable")
+        ))
+        .contains("A…G"));
+    }
+
+    #[test]
     fn node_relative_defaults_and_generated_sub_zero() {
         let d = parse(
             &format!(
