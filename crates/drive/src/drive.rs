@@ -25,6 +25,7 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+pub mod diagnostics;
 mod feed_constant;
 mod homing_run;
 pub(crate) mod object_writes;
@@ -348,6 +349,9 @@ pub struct Drive<S> {
     pub(crate) dc_link_mv: Option<u32>,
     /// The diagnostic memory: messages with their additional information, oldest first.
     pub(crate) memory: Deque<MemoryEntry, 16>,
+    /// Messages raised by their number from outside ([`Drive::raise_diagnostic`]), until
+    /// cleared.
+    pub(crate) injected: heapless::Vec<&'static od::Diagnostic, 16>,
 }
 
 /// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
@@ -508,6 +512,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             safe_standstill: false,
             dc_link_mv: None,
             memory: Deque::new(),
+            injected: heapless::Vec::new(),
         };
         d.vendor_power_on();
         d.reload_factor_group();
@@ -695,7 +700,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The error's EMCY and the device control's fault reaction.
-    fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
+    pub(crate) fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
             ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
@@ -752,7 +757,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let error = self
             .faults
             .iter()
-            .find_map(|c| messages::by_code(*c))
+            .find_map(|c| self.message_of(*c))
             .map(|m| m.number);
         let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
         let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
@@ -789,7 +794,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let info = messages::undervoltage_info(self.dc.state() as u16, mv);
             self.raise_with_info(e.code, e.register, e.critical, info);
         } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
-            self.causes.remove(i);
+            if !self.injected_code(e.code) {
+                self.causes.remove(i);
+            }
         }
     }
 
@@ -813,6 +820,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.raise(code, register, false);
             }
             (true, Some(_)) => self.raise(code, register, false),
+            // A message raised by its number stays until it is cleared.
+            (false, Some(_)) if self.injected_code(code) => {}
             (false, Some(i)) => {
                 self.causes.remove(i);
             }
@@ -927,13 +936,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ => self.input_levels(self.plant_position()).enables(),
         };
         let before = self.dc.state();
-        // A fault-reset pulse shorter than a cycle still counts (latched at the write).
-        if self.cw_rising.contains(Controlword::FAULT_RESET)
-            && !cw.contains(Controlword::FAULT_RESET)
-        {
-            let _ = self
-                .dc
-                .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
+        // A fault-reset pulse shorter than a cycle still counts (latched at the write); so
+        // does a rising edge written within one cycle after the bit was seen set (0080h,
+        // 0000h, 0080h between two steps): the device control sees the low level first.
+        if self.cw_rising.contains(Controlword::FAULT_RESET) {
+            let other = if cw.contains(Controlword::FAULT_RESET) {
+                cw.difference(Controlword::FAULT_RESET)
+            } else {
+                cw | Controlword::FAULT_RESET
+            };
+            let _ = self.dc.controlword(other.bits(), fault, enables);
         }
         let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);

@@ -7,6 +7,7 @@ pub mod ci_console;
 pub mod config;
 pub mod control;
 pub mod device_model;
+pub mod diagnostics;
 pub mod fieldbus_switches;
 pub mod interfaces;
 pub mod lateness;
@@ -38,6 +39,8 @@ pub struct Cell {
     faults: Vec<NodeFaults>,
     /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
     planned: Vec<(Instant, u8, u32)>,
+    /// Diagnostic messages the cell file plans: at a time, the drive (cell order), what.
+    planned_diagnostics: Vec<(Instant, usize, diagnostics::PlannedDiagnostic)>,
 }
 
 /// One drive's CAN controller.
@@ -67,6 +70,7 @@ impl Cell {
             timing: None,
             faults,
             planned: Vec::new(),
+            planned_diagnostics: Vec::new(),
         }
     }
 
@@ -163,6 +167,7 @@ impl Cell {
     pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
         self.fit_faults();
         self.start_planned(now);
+        self.start_planned_diagnostics(now);
         let Cell {
             drives,
             queue,
@@ -181,7 +186,10 @@ impl Cell {
 
     pub fn deadline(&self) -> Option<Instant> {
         let bus = self.timing.as_ref().and_then(|t| t.deadline());
-        let planned = self.planned.iter().map(|(t, _, _)| *t).min();
+        let planned = earliest(
+            self.planned.iter().map(|(t, _, _)| *t).min(),
+            self.planned_diagnostics_deadline(),
+        );
         let recovery = self
             .faults
             .iter()

@@ -18,6 +18,7 @@
 
 pub mod api;
 pub mod auth;
+pub mod diagnostics;
 pub mod live;
 pub mod page;
 pub mod statusword;
@@ -76,6 +77,7 @@ pub fn router(state: AppState) -> Router {
     Router::new()
         .merge(api::routes())
         .merge(live::routes())
+        .merge(diagnostics::routes())
         .merge(page::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
