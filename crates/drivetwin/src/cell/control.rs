@@ -146,6 +146,13 @@ pub(crate) enum Command {
         samples: SyncSender<PlantSample>,
         reply: SyncSender<Result<(), ControlError>>,
     },
+    /// Wire faults and traces ([`crate::cell::wire_faults`]).
+    Wire {
+        request: crate::cell::wire_faults::WireRequest,
+        reply: SyncSender<
+            Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError>,
+        >,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -260,5 +267,14 @@ impl ControlHandle {
             reply,
         })??;
         Ok(rx)
+    }
+
+    /// A wire fault, a trace or a tap on a front end ([`crate::cell::wire_faults`]).
+    pub fn wire(
+        &self,
+        request: crate::cell::wire_faults::WireRequest,
+    ) -> Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError> {
+        self.ask(|reply| Command::Wire { request, reply })
+            .map_err(|_| crate::cell::wire_faults::WireError::Stopped)?
     }
 }

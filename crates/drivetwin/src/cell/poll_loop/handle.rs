@@ -118,6 +118,9 @@ impl CellLoop {
                     });
                     let _ = reply.send(done);
                 }
+                Command::Wire { request, reply } => {
+                    let _ = reply.send(self.wire(request, now));
+                }
             }
         }
     }
