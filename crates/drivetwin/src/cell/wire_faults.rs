@@ -314,6 +314,12 @@ pub enum WireRequest {
     },
     /// The cell's clock.
     Now,
+    /// A frame on bus `bus` from outside (as a client's: to the drives, the clients, the
+    /// interface).
+    Send {
+        bus: usize,
+        frame: canopen::CanFrame,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -338,6 +344,172 @@ pub enum WireError {
     NoTrace(usize),
     #[error("trace: {0}")]
     Trace(String),
+}
+
+/// A time span as people write it: `"1.5s"`, `"50ms"`, `"200us"`, or a number of
+/// milliseconds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct TimeSpan(pub Duration);
+
+impl TimeSpan {
+    pub fn parse(text: &str) -> Result<TimeSpan, String> {
+        let t = text.trim();
+        let split = t
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(t.len());
+        let (number, unit) = t.split_at(split);
+        let value: f64 = number
+            .parse()
+            .map_err(|_| format!("{text:?}: a time like \"1.5s\", \"50ms\" or \"200us\""))?;
+        let scale = match unit.trim() {
+            "s" => 1e9,
+            "ms" | "" => 1e6,
+            "us" | "µs" => 1e3,
+            "ns" => 1.0,
+            "min" => 60e9,
+            other => {
+                return Err(format!(
+                    "{text:?}: unknown unit {other:?} (s, ms, us, ns, min)"
+                ))
+            }
+        };
+        TimeSpan::from_nanos_f64(value * scale).ok_or_else(|| format!("{text:?}: out of range"))
+    }
+
+    fn from_nanos_f64(n: f64) -> Option<TimeSpan> {
+        // Ten years at most: beyond that a time is a typing error.
+        (n.is_finite() && (0.0..=3.2e17).contains(&n))
+            .then(|| TimeSpan(Duration::from_nanos(n.round() as u64)))
+    }
+}
+
+impl std::fmt::Display for TimeSpan {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.as_nanos();
+        if n.is_multiple_of(1_000_000) {
+            write!(f, "{}ms", n / 1_000_000)
+        } else if n.is_multiple_of(1_000) {
+            write!(f, "{}us", n / 1_000)
+        } else {
+            write!(f, "{n}ns")
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for TimeSpan {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Text(String),
+            Millis(f64),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Text(t) => TimeSpan::parse(&t).map_err(serde::de::Error::custom),
+            Raw::Millis(ms) => TimeSpan::from_nanos_f64(ms * 1e6)
+                .ok_or_else(|| serde::de::Error::custom(format!("{ms} ms: out of range"))),
+        }
+    }
+}
+
+/// A fault's name as the API and the scenario files give it.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, utoipa::ToSchema,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultName {
+    Drop,
+    Delay,
+    Corrupt,
+    CableBreak,
+    StopSync,
+}
+
+/// Whose frames, when no node is named.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, utoipa::ToSchema,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReachName {
+    /// What the front end's clients, interface or master send in (the default).
+    Outside,
+    /// Every frame.
+    Bus,
+}
+
+/// A fault as written in a request or a scenario: `{"fault": "cable-break", "node": 1,
+/// "for": "500ms"}`.
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    pub fault: Option<FaultName>,
+    /// A node's frames (CAN only); none: `reach`.
+    pub node: Option<u8>,
+    pub reach: Option<ReachName>,
+    /// Only frames of this CAN identifier.
+    pub cob_id: Option<u16>,
+    /// drop: the share of frames taken, above 0 and at most 1 (default 1).
+    pub share: Option<f64>,
+    /// delay: by how long (`"5ms"`, or milliseconds).
+    #[schema(value_type = Option<String>)]
+    pub delay: Option<TimeSpan>,
+    /// Ends after this many frames.
+    pub frames: Option<u32>,
+    /// Ends after this long (`"1.5s"`, or milliseconds); none: until cleared.
+    #[serde(rename = "for")]
+    #[schema(value_type = Option<String>)]
+    pub lasting: Option<TimeSpan>,
+}
+
+impl FaultSpec {
+    pub fn to_fault(&self) -> Result<WireFault, String> {
+        let name = self
+            .fault
+            .ok_or("which fault: drop, delay, corrupt, cable-break, stop-sync")?;
+        let reach = match (self.node, self.reach) {
+            (Some(_), Some(_)) => return Err("a node or a reach, not both".into()),
+            (Some(n), None) => Reach::Node(n),
+            (None, Some(ReachName::Bus)) => Reach::Bus,
+            (None, _) => Reach::Outside,
+        };
+        let lasting = self.lasting.map(|t| t.0);
+        if self.delay.is_some() && name != FaultName::Delay {
+            return Err("delay is a delay fault's".into());
+        }
+        if self.share.is_some() && name != FaultName::Drop {
+            return Err("share is a drop fault's".into());
+        }
+        let kind = match name {
+            FaultName::Drop => FaultKind::Drop {
+                share: self.share.unwrap_or(1.0),
+            },
+            FaultName::Delay => FaultKind::Delay {
+                by: self.delay.ok_or("delay: by how long (\"5ms\")")?.0,
+            },
+            FaultName::Corrupt => FaultKind::Corrupt,
+            FaultName::CableBreak => FaultKind::CableBreak,
+            FaultName::StopSync => {
+                if self.cob_id.is_some() || self.node.is_some() {
+                    return Err("stop-sync takes every 080h frame; no node, no cob_id".into());
+                }
+                let mut f = WireFault::stopped_sync(lasting);
+                f.frames = self.frames;
+                return Ok(f);
+            }
+        };
+        if self.cob_id.is_some_and(|c| c > 0x7FF) {
+            return Err("cob_id: an 11-bit CAN identifier (at most 0x7FF)".into());
+        }
+        let fault = WireFault {
+            reach,
+            kind,
+            cob_id: self.cob_id,
+            frames: self.frames,
+            lasting,
+        };
+        fault.validate().map_err(|e| e.to_string())?;
+        Ok(fault)
+    }
 }
 
 fn reaches(reach: Reach, who: Sender) -> bool {
@@ -449,6 +621,50 @@ mod tests {
         );
         f.remove(id).expect("removed");
         assert_eq!(f.remove(id), Err(WireFaultError::NoFault(id)));
+    }
+
+    #[test]
+    fn time_spans_as_people_write_them() {
+        assert_eq!(
+            TimeSpan::parse("1.5s"),
+            Ok(TimeSpan(Duration::from_millis(1500)))
+        );
+        assert_eq!(
+            TimeSpan::parse("50ms"),
+            Ok(TimeSpan(Duration::from_millis(50)))
+        );
+        assert_eq!(
+            TimeSpan::parse("200us"),
+            Ok(TimeSpan(Duration::from_micros(200)))
+        );
+        assert_eq!(
+            TimeSpan::parse("20"),
+            Ok(TimeSpan(Duration::from_millis(20)))
+        );
+        assert!(TimeSpan::parse("1.5 parsecs").is_err());
+        assert!(TimeSpan::parse("-1s").is_err());
+        assert_eq!(TimeSpan(Duration::from_millis(1500)).to_string(), "1500ms");
+    }
+
+    #[test]
+    fn a_spec_becomes_a_fault() {
+        let spec: FaultSpec =
+            serde_json::from_str(r#"{"fault": "cable-break", "node": 3, "for": "500ms"}"#)
+                .expect("spec");
+        assert_eq!(
+            spec.to_fault(),
+            Ok(WireFault::cable_break(
+                Reach::Node(3),
+                Some(Duration::from_millis(500))
+            ))
+        );
+        let spec: FaultSpec = serde_json::from_str(r#"{"fault": "stop-sync"}"#).expect("spec");
+        assert_eq!(spec.to_fault(), Ok(WireFault::stopped_sync(None)));
+        let spec: FaultSpec =
+            serde_json::from_str(r#"{"fault": "drop", "share": 2}"#).expect("spec");
+        assert!(spec.to_fault().is_err());
+        let spec: FaultSpec = serde_json::from_str(r#"{"fault": "delay"}"#).expect("spec");
+        assert!(spec.to_fault().is_err());
     }
 
     #[test]

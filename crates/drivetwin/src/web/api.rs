@@ -826,7 +826,7 @@ async fn set_load(
 pub struct ApiDoc;
 
 async fn openapi() -> Response {
-    match ApiDoc::openapi().to_json() {
+    match super::wire::merged(ApiDoc::openapi()).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],
             text,

@@ -14,13 +14,15 @@
 //! - [`live`]: samples over a WebSocket, decimated for the browser;
 //! - [`statusword`]: the CiA 402 statusword decoded bit by bit;
 //! - [`page`]: the console page and its script;
-//! - [`auth`]: the write token.
+//! - [`auth`]: the write token;
+//! - [`wire`]: wire faults and traces.
 
 pub mod api;
 pub mod auth;
 pub mod live;
 pub mod page;
 pub mod statusword;
+pub mod wire;
 
 use std::net::{SocketAddr, TcpListener};
 use std::sync::Arc;
@@ -77,6 +79,7 @@ pub fn router(state: AppState) -> Router {
         .merge(api::routes())
         .merge(live::routes())
         .merge(page::routes())
+        .merge(wire::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

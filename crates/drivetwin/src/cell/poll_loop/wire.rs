@@ -103,6 +103,16 @@ impl CellLoop {
                 w.flush().map_err(|e| WireError::Trace(e.to_string()))?;
                 Ok(WireAnswer::Done)
             }
+            WireRequest::Send { bus, frame } => {
+                if bus >= self.buses.len() {
+                    return Err(WireError::NoFrontEnd(FrontEnd::Bus(bus)));
+                }
+                // Decision: as from a client that is none of the connected ones (no slot has
+                // this number), so that every client, the interface and the drives get it.
+                self.bus(bus, frame, super::Source::Client(usize::MAX), now);
+                self.flush_dirty();
+                Ok(WireAnswer::Done)
+            }
             WireRequest::Tap { bus, frames } => {
                 if bus >= self.buses.len() {
                     return Err(WireError::NoFrontEnd(FrontEnd::Bus(bus)));
