@@ -273,4 +273,102 @@ async fn the_wire_is_in_the_openapi_document() {
     assert!(doc["paths"]["/api/wire/{front}/{index}/faults"]["post"].is_object());
     assert!(doc["paths"]["/api/buses/{bus}/trace"]["delete"].is_object());
     assert!(doc["components"]["schemas"]["FaultSpec"].is_object());
+    assert!(doc["paths"]["/api/scenarios"]["post"].is_object());
+    assert!(doc["paths"]["/api/scenarios/{id}"]["get"].is_object());
+}
+
+async fn send_text(app: &axum::Router, path: &str, text: &str) -> (StatusCode, Value) {
+    let req = Request::builder()
+        .method("POST")
+        .uri(path)
+        .header("content-type", "application/toml")
+        .body(Body::from(text.to_owned()))
+        .expect("request");
+    let res = app.clone().oneshot(req).await.expect("answer");
+    let status = res.status();
+    let bytes = res.into_body().collect().await.expect("body").to_bytes();
+    (status, serde_json::from_slice(&bytes).expect("JSON"))
+}
+
+/// Issue 16, point 4: a scenario on the live cell through the API: heartbeats seen, a cut
+/// cable silences them, the report names each expectation.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scenario_runs_on_the_live_cell() {
+    let cell = cell();
+    let app = app(&cell);
+    let text = r#"
+        name = "live"
+        [[step]]
+        at = "0s"
+        write = "1017:00"
+        value = 20
+
+        [[step]]
+        at = "0s"
+        name = "node 1 beats"
+        expect_frame = "701"
+        within = "200ms"
+
+        [[step]]
+        at = "300ms"
+        fault = "cable-break"
+        node = 1
+        for = "300ms"
+
+        [[step]]
+        at = "320ms"
+        name = "silence while the cable is cut"
+        absent = true
+        expect_frame = "701"
+        within = "200ms"
+
+        [[step]]
+        at = "320ms"
+        name = "the drive is enabled (it is not)"
+        expect_state = "operation enabled"
+        within = "50ms"
+    "#;
+    let (status, run) = send_text(&app, "/api/scenarios", text).await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{run}");
+    assert_eq!(run["status"], "running");
+    let path = format!("/api/scenarios/{}", run["id"]);
+    let mut done = Value::Null;
+    for _ in 0..100 {
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        let (_, r) = send(&app, "GET", &path, None).await;
+        if r["status"] == "done" {
+            done = r;
+            break;
+        }
+    }
+    let report = &done["report"];
+    assert_eq!(report["passed"], false, "{done}");
+    let outcomes: Vec<(String, bool)> = report["expectations"]
+        .as_array()
+        .expect("expectations")
+        .iter()
+        .map(|o| {
+            (
+                o["name"].as_str().unwrap_or("").to_owned(),
+                o["passed"] == true,
+            )
+        })
+        .collect();
+    assert_eq!(
+        outcomes,
+        [
+            ("node 1 beats".to_owned(), true),
+            ("silence while the cable is cut".to_owned(), true),
+            ("the drive is enabled (it is not)".to_owned(), false),
+        ],
+        "{done}"
+    );
+    let (status, e) = send_text(&app, "/api/scenarios", "[[step]]\nat = \"1s\"\n").await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(
+        e["error"].as_str().is_some_and(|t| t.contains("step 1")),
+        "{e}"
+    );
+    let (status, _) = send(&app, "GET", "/api/scenarios/999", None).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
 }

@@ -15,12 +15,13 @@
 //! - [`statusword`]: the CiA 402 statusword decoded bit by bit;
 //! - [`page`]: the console page and its script;
 //! - [`auth`]: the write token;
-//! - [`wire`]: wire faults and traces.
+//! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell.
 
 pub mod api;
 pub mod auth;
 pub mod live;
 pub mod page;
+pub mod scenarios;
 pub mod statusword;
 pub mod wire;
 

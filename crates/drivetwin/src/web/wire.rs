@@ -333,6 +333,7 @@ pub struct WireDoc;
 /// The main document with the wire's (and the scenarios') paths.
 pub fn merged(mut doc: utoipa::openapi::OpenApi) -> utoipa::openapi::OpenApi {
     doc.merge(WireDoc::openapi());
+    doc.merge(super::scenarios::ScenarioDoc::openapi());
     doc
 }
 
@@ -350,4 +351,5 @@ pub fn routes() -> Router<AppState> {
             "/api/buses/{bus}/trace",
             post(start_trace).delete(stop_trace),
         )
+        .merge(super::scenarios::routes())
 }
