@@ -59,3 +59,12 @@ def test_a_bad_scenario_is_a_usage_error_naming_its_step(tmp_path):
     r = run_cli("scenario", str(tmp_path / "missing.toml"))
     assert r.returncode == 2
     assert "missing.toml" in r.stderr
+
+
+def test_every_other_example_passes():
+    for path in sorted(EXAMPLES.glob("*.toml")):
+        if path.name == "must_fail.toml":
+            continue
+        r = run_cli("scenario", str(path), timeout=120)
+        assert r.returncode == 0, (path.name, r.stdout, r.stderr)
+        assert ": PASS (" in r.stdout.splitlines()[0]

@@ -31,7 +31,7 @@ fn run(name: &str, run: u32) -> (Report, Vec<u8>) {
 
 #[test]
 fn the_examples_give_the_same_report_and_trace_twice() {
-    for name in ["limit_switch.toml", "must_fail.toml"] {
+    for name in ["limit_switch.toml", "must_fail.toml", "stopped_sync.toml"] {
         let (a, trace_a) = run(name, 1);
         let (b, trace_b) = run(name, 2);
         assert_eq!(a.text(), b.text(), "{name}");
@@ -67,6 +67,13 @@ fn a_limit_switch_and_a_broken_cable_lead_to_faults_and_emcys() {
         "CiA 301 8130h: {}",
         emcy.detail
     );
+}
+
+#[test]
+fn a_stopped_sync_stops_the_sync_tpdo() {
+    let (report, _) = run("stopped_sync.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 3);
 }
 
 #[test]

@@ -21,6 +21,7 @@ use tower::ServiceExt;
 
 struct Running {
     handle: ControlHandle,
+    modbus: std::net::SocketAddr,
     stop: StopHandle,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -42,6 +43,7 @@ fn cell() -> Running {
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
     let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let modbus = mb.local_addr().expect("addr");
     let front = FrontEnds {
         buses: vec![CanBus::new(Cell::new(vec![drive]))],
         modbus: vec![ModbusDrive::new(
@@ -60,6 +62,7 @@ fn cell() -> Running {
     });
     Running {
         handle,
+        modbus,
         stop,
         thread: Some(thread),
     }
@@ -371,4 +374,60 @@ async fn a_scenario_runs_on_the_live_cell() {
     );
     let (status, _) = send(&app, "GET", "/api/scenarios/999", None).await;
     assert_eq!(status, StatusCode::NOT_FOUND);
+}
+
+/// One Modbus TCP request (FC 03, 4 input bytes of the FHPP status); the answer, if any
+/// within `wait`.
+fn modbus_request(
+    stream: &mut std::net::TcpStream,
+    tid: u16,
+    wait: std::time::Duration,
+) -> Option<Vec<u8>> {
+    use std::io::{Read, Write};
+    let [t0, t1] = tid.to_be_bytes();
+    stream
+        .write_all(&[t0, t1, 0, 0, 0, 6, 1, 0x03, 0, 0, 0, 4])
+        .expect("write");
+    stream.set_read_timeout(Some(wait)).expect("timeout");
+    let mut buf = [0u8; 64];
+    match stream.read(&mut buf) {
+        Ok(n) if n > 0 => Some(buf[..n].to_vec()),
+        _ => None,
+    }
+}
+
+/// A Modbus server's wire: a dropped request gets no answer (the master's timeout), as a
+/// corrupted one (the Ethernet FCS discards it); cleared, the server answers again.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_modbus_servers_requests_dropped_and_corrupted() {
+    let cell = cell();
+    let app = app(&cell);
+    let mut stream = std::net::TcpStream::connect(cell.modbus).expect("connect");
+    let short = std::time::Duration::from_millis(300);
+    let answer = modbus_request(&mut stream, 1, std::time::Duration::from_secs(2)).expect("answer");
+    assert_eq!(&answer[..2], &[0, 1]);
+    for (tid, fault) in [
+        (2u16, json!({"fault": "drop", "frames": 1})),
+        (3, json!({"fault": "corrupt", "frames": 1})),
+    ] {
+        let (status, f) = send(&app, "POST", "/api/wire/modbus/0/faults", Some(fault)).await;
+        assert_eq!(status, StatusCode::CREATED, "{f}");
+        assert_eq!(modbus_request(&mut stream, tid, short), None, "{f}");
+    }
+    // Each fault took its one request: the next is answered.
+    let answer = modbus_request(&mut stream, 4, std::time::Duration::from_secs(2)).expect("answer");
+    assert_eq!(&answer[..2], &[0, 4]);
+    let (status, f) = send(
+        &app,
+        "POST",
+        "/api/wire/modbus/0/faults",
+        Some(json!({"fault": "cable-break"})),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CREATED, "{f}");
+    assert_eq!(modbus_request(&mut stream, 5, short), None);
+    let (status, _) = send(&app, "DELETE", "/api/wire/modbus/0/faults", None).await;
+    assert_eq!(status, StatusCode::OK);
+    let answer = modbus_request(&mut stream, 6, std::time::Duration::from_secs(2)).expect("answer");
+    assert_eq!(&answer[..2], &[0, 6]);
 }
