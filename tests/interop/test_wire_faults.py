@@ -144,3 +144,59 @@ def test_a_trace_of_the_bus_from_the_api(cell, tmp_path):
     assert ids.count(0x701) >= 3, ids
     status, e = api(base, "DELETE", "/api/buses/0/trace")
     assert status == 404, e
+
+
+def test_a_scenario_on_the_live_cell_from_the_api(cell):
+    """POST /api/scenarios with a scenario's TOML: it runs on the live cell's clock; its
+    report names each expectation."""
+    twin, base = cell
+    text = """
+name = "live cable break"
+[[step]]
+at = "0s"
+nmt = "start"
+[[step]]
+at = "0s"
+name = "node 1 beats"
+expect_frame = "701"
+within = "300ms"
+[[step]]
+at = "400ms"
+fault = "cable-break"
+node = 1
+for = "600ms"
+[[step]]
+at = "450ms"
+name = "node 2 reports the silence"
+node = 2
+expect_emcy = 0x8130
+within = "500ms"
+[[step]]
+at = "450ms"
+name = "node 1 stays operational (it cannot hear anyone, but it is not stopped)"
+expect = "1001:00"
+equals = 0
+within = "10ms"
+"""
+    req = urllib.request.Request(base + "/api/scenarios", data=text.encode(), method="POST",
+                                 headers={"content-type": "application/toml"})
+    with urllib.request.urlopen(req, timeout=5) as r:
+        assert r.status == 202
+        run = json.loads(r.read())
+    assert run["status"] == "running" and run["name"] == "live cable break"
+
+    def done():
+        status, r = api(base, "GET", f"/api/scenarios/{run['id']}")
+        return r if r["status"] == "done" else None
+
+    result = wait_until(done, 10.0, interval=0.1, what="the scenario to end")
+    report = result["report"]
+    outcomes = {o["name"]: o["passed"] for o in report["expectations"]}
+    assert outcomes == {
+        "node 1 beats": True,
+        "node 2 reports the silence": True,
+        "node 1 stays operational (it cannot hear anyone, but it is not stopped)": True,
+    }, report
+    assert report["passed"] is True
+    status, e = api(base, "GET", "/api/scenarios/x")
+    assert status == 400 and "not a run id" in e["error"]
