@@ -132,3 +132,36 @@ fn a_refused_action_fails_the_run() {
         report.errors[1]
     );
 }
+
+/// `equals` below zero is compared in the object's width: 607Ah (INTEGER32) written -1000.
+#[test]
+fn a_negative_value_is_compared_in_the_objects_width() {
+    let text = r#"
+        [cell]
+        [[cell.drive]]
+        device = "cmmp-as"
+        node = 1
+
+        [[step]]
+        at = "1ms"
+        write = "607A:00"
+        value = -1000
+
+        [[step]]
+        at = "1ms"
+        expect = "607A:00"
+        equals = -1000
+        within = "1ms"
+    "#;
+    let s = Scenario::parse(text, "negative", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(report.passed, "{}", report.text());
+    assert!(
+        report.expectations[0]
+            .detail
+            .contains("607A:00 = 0xFFFFFC18"),
+        "{}",
+        report.text()
+    );
+}

@@ -173,9 +173,9 @@ impl Rig for LiveRig {
         }
     }
 
-    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<u64, String> {
+    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
         let i = self.drive(node)?.index;
         let bytes = self.handle.read(i, index, sub).map_err(|e| e.to_string())?;
-        Ok(unsigned(&bytes))
+        Ok((unsigned(&bytes), bytes.len()))
     }
 }

@@ -26,8 +26,9 @@ pub trait Rig {
         action: &Action,
         seen: &mut dyn FnMut(usize, Duration, &CanFrame),
     ) -> Result<(), String>;
-    /// An object's value as an unsigned number (little-endian, as on CANopen).
-    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<u64, String>;
+    /// An object's value as an unsigned number (little-endian, as on CANopen) and its size
+    /// in bytes.
+    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String>;
 }
 
 struct Pending {
@@ -202,9 +203,15 @@ fn read(rig: &mut dyn Rig, p: &mut Pending, now: Duration) {
         return;
     };
     match rig.read(node, index, sub) {
-        Ok(v) => {
-            let masked = v & mask;
-            if masked == equals & mask {
+        Ok((v, size)) => {
+            // A negative `equals` is compared in the object's own width (-1 of an INTEGER16
+            // is FFFFh).
+            let width = match size {
+                0 => 0,
+                1..=7 => (1u64 << (8 * size)) - 1,
+                _ => u64::MAX,
+            };
+            if v & mask & width == equals & mask & width {
                 p.hit = Some((now, format!("{index:04X}:{sub:02X} = {v:#X}")));
             } else {
                 p.last = Some(format!("{index:04X}:{sub:02X} = {v:#X}"));

@@ -255,7 +255,7 @@ impl Rig for VirtualRig {
         result
     }
 
-    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<u64, String> {
+    fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
         let i = self.drive(node)?;
         let d = self.cell.drives.get(i).ok_or("no drive")?;
         let mut buf = [0u8; 8];
@@ -263,7 +263,7 @@ impl Rig for VirtualRig {
             .model
             .read(index, sub, &mut buf)
             .map_err(|code| format!("{index:04X}:{sub:02X}: SDO abort {:#010X}", code.0))?;
-        Ok(unsigned(buf.get(..n).unwrap_or(&[])))
+        Ok((unsigned(buf.get(..n).unwrap_or(&[])), n))
     }
 }
 
