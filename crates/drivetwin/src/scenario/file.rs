@@ -24,7 +24,7 @@
 //!
 //! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`, `fault`,
 //! `clear_faults`, `nmt`, `frame`) or an expectation (`expect`, `expect_state`, `expect_emcy`,
-//! `expect_frame`). [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
+//! `expect_frame`); an action with `repeat` and `every` is done that many times. [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
 //! new action is a field here, a variant of [`Action`] and its arm in each rig.
 
 use std::path::{Path, PathBuf};
@@ -165,7 +165,14 @@ pub struct Step {
     /// The frame / EMCY must not be seen within `within` (a silence).
     pub absent: Option<bool>,
     pub within: Option<TimeSpan>,
+
+    /// An action done `repeat` times, `every` apart (a master's SYNC every 10 ms).
+    pub repeat: Option<u32>,
+    pub every: Option<TimeSpan>,
 }
+
+/// Repetitions of one step at most.
+pub const MAX_REPEAT: u32 = 100_000;
 
 /// What an action does.
 #[derive(Debug, Clone, PartialEq)]
@@ -537,12 +544,28 @@ impl Scenario {
         let mut steps = Vec::new();
         for (i, s) in file.step.iter().enumerate() {
             let at = s.at.unwrap_or_default().0;
-            let kind = s.kind().map_err(|what| ScenarioError::Step {
+            let err = |what: String| ScenarioError::Step {
                 step: i + 1,
                 at: TimeSpan(at).to_string(),
                 what,
-            })?;
-            steps.push((at, kind));
+            };
+            let kind = s.kind().map_err(err)?;
+            match (s.repeat, s.every) {
+                (None, None) => steps.push((at, kind)),
+                (Some(n), Some(every)) if (1..=MAX_REPEAT).contains(&n) && !every.0.is_zero() => {
+                    if matches!(kind, StepKind::Expect { .. }) {
+                        return Err(err("repeat is an action's".into()));
+                    }
+                    for k in 0..n {
+                        steps.push((at + every.0 * k, kind.clone()));
+                    }
+                }
+                _ => {
+                    return Err(err(format!(
+                        "repeat (1…{MAX_REPEAT}) and every (above 0) go together"
+                    )))
+                }
+            }
         }
         // Stable: steps at one time keep the file's order.
         steps.sort_by_key(|(at, _)| *at);
@@ -628,6 +651,25 @@ mod tests {
             }
         );
         assert_eq!(s.until, Duration::from_millis(1550));
+    }
+
+    #[test]
+    fn a_repeated_action_is_one_step_per_time() {
+        let s = Scenario::parse(
+            "[[step]]\nat = \"10ms\"\nframe = \"080\"\nrepeat = 3\nevery = \"5ms\"\n",
+            "t",
+            None,
+        )
+        .expect("parses");
+        let times: Vec<u128> = s.steps.iter().map(|(t, _)| t.as_millis()).collect();
+        assert_eq!(times, [10, 15, 20]);
+        assert!(Scenario::parse("[[step]]\nframe = \"080\"\nrepeat = 3\n", "t", None).is_err());
+        assert!(Scenario::parse(
+            "[[step]]\nexpect_frame = \"080\"\nrepeat = 3\nevery = 1\n",
+            "t",
+            None
+        )
+        .is_err());
     }
 
     #[test]
