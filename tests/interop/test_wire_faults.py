@@ -7,11 +7,13 @@ count (their REC) instead of answers; a pcap trace of the bus is started and sto
 from __future__ import annotations
 
 import json
+import os
 import re
 import struct
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -53,7 +55,7 @@ def test_a_cut_cable_silences_the_node_and_its_consumer_sends_8130h(cell, connec
     node1 = add_node(net, 1, eds_files["cmmp-as"])
     node2 = add_node(net, 2, eds_files["kinco-fd3"])
     net.nmt.send_command(0x01)
-    node1.nmt.wait_for_heartbeat(timeout=1.0)
+    node1.nmt.wait_for_heartbeat(timeout=3.0)
     node2.emcy.reset()
     status, fault = api(base, "POST", "/api/wire/bus/0/faults",
                         {"fault": "cable-break", "node": 1, "for": "1500ms"})
@@ -65,7 +67,7 @@ def test_a_cut_cable_silences_the_node_and_its_consumer_sends_8130h(cell, connec
     wait_until(lambda: any(e.code == 0x8130 for e in node2.emcy.log), 2.0,
                what="the Kinco's heartbeat consumer to report node 1 (CiA 301 EMCY 8130h)")
     # The fault ends by itself: node 1 beats again.
-    node1.nmt.wait_for_heartbeat(timeout=2.0)
+    node1.nmt.wait_for_heartbeat(timeout=4.0)
     status, faults = api(base, "GET", "/api/wire/bus/0/faults")
     assert status == 200 and faults == []
 
@@ -76,13 +78,14 @@ def test_the_masters_cable_cut_and_mended(cell, connect, eds_files):
     twin, base = cell
     net = connect(twin)
     node1 = add_node(net, 1, eds_files["cmmp-as"])
-    node1.sdo.RESPONSE_TIMEOUT = 0.3
     assert node1.sdo.upload(0x1000, 0)
     status, fault = api(base, "POST", "/api/wire/bus/0/faults", {"fault": "cable-break"})
     assert status == 201, fault
     assert fault["reach"] == "outside"
+    timeout, node1.sdo.RESPONSE_TIMEOUT = node1.sdo.RESPONSE_TIMEOUT, 0.5
     with pytest.raises(canopen.SdoCommunicationError):
         node1.sdo.upload(0x1000, 0)
+    node1.sdo.RESPONSE_TIMEOUT = timeout
     status, faults = api(base, "DELETE", f"/api/wire/bus/0/faults/{fault['id']}")
     assert status == 200 and faults == []
     assert node1.sdo.upload(0x1000, 0)
@@ -93,7 +96,7 @@ def test_corrupted_frames_are_counted_by_the_nodes_not_answered(cell, raw_bus):
 
     twin, base = cell
     bus = raw_bus(twin)
-    status, fault = api(base, "POST", "/api/wire/bus/0/faults", {"fault": "corrupt", "frames": 2})
+    status, fault = api(base, "POST", "/api/wire/bus/0/faults", {"fault": "corrupt", "frames": 20})
     assert status == 201, fault
     request = can.Message(arbitration_id=0x601, data=[0x40, 0x00, 0x10, 0, 0, 0, 0, 0],
                           is_extended_id=False)
@@ -111,23 +114,25 @@ def test_corrupted_frames_are_counted_by_the_nodes_not_answered(cell, raw_bus):
         errors = {e["node"]: e for e in buses[0]["node_errors"]}
         return errors if 1 in errors and 2 in errors else None
 
-    bus.send(request)
-    bus.send(request)
+    for _ in range(20):
+        bus.send(request)
     # REC +1 per error frame, -1 per good frame since (node 1's heartbeats every 100 ms).
-    errors = wait_until(counted, 1.0, interval=0.005, what="the nodes to count the error frames")
-    assert errors[1]["rec"] in (1, 2) and errors[2]["rec"] in (1, 2), errors
+    errors = wait_until(lambda: (e := counted()) and e[1]["rec"] >= 10 and e[2]["rec"] >= 10 and e,
+                        2.0, interval=0.005, what="the nodes to count the error frames")
+    assert errors[1]["rec"] <= 20 and errors[2]["rec"] <= 20, errors
     assert errors[1]["state"] == "error active"
     assert answer(0.3) is None, "a frame that fails its CRC is no request"
     bus.send(request)
-    assert answer(1.0) is not None, "the fault took its two frames"
+    assert answer(1.0) is not None, "the fault took its twenty frames"
 
 
-def test_a_trace_of_the_bus_from_the_api(cell, tmp_path):
+def test_a_trace_of_the_bus_from_the_api(cell):
     twin, base = cell
-    path = tmp_path / "bus0.pcap"
-    status, t = api(base, "POST", "/api/buses/0/trace", {"path": str(path)})
+    name = f"interop-{os.getpid()}-bus0.pcap"
+    status, t = api(base, "POST", "/api/buses/0/trace", {"name": name})
     assert status == 201, t
-    assert t["path"] == str(path)
+    path = Path(t["path"])
+    assert path.name == name
     time.sleep(0.5)
     status, _ = api(base, "DELETE", "/api/buses/0/trace")
     assert status == 204
@@ -142,6 +147,7 @@ def test_a_trace_of_the_bus_from_the_api(cell, tmp_path):
         ids.append(can_id)
         off += 16 + incl
     assert ids.count(0x701) >= 3, ids
+    path.unlink()
     status, e = api(base, "DELETE", "/api/buses/0/trace")
     assert status == 404, e
 

@@ -227,12 +227,13 @@ async fn bad_faults_get_4xx_with_a_message() {
 async fn a_trace_of_a_bus_started_and_stopped() {
     let cell = cell();
     let app = app(&cell);
-    let file = std::env::temp_dir().join(format!("wire-api-{}.pcap", std::process::id()));
+    let name = format!("wire-api-{}.pcap", std::process::id());
+    let file = std::env::temp_dir().join(&name);
     let (status, t) = send(
         &app,
         "POST",
         "/api/buses/0/trace",
-        Some(json!({"path": file.display().to_string()})),
+        Some(json!({ "name": name })),
     )
     .await;
     assert_eq!(status, StatusCode::CREATED, "{t}");
@@ -261,10 +262,20 @@ async fn a_trace_of_a_bus_started_and_stopped() {
         &app,
         "POST",
         "/api/buses/0/trace",
-        Some(json!({"path": "/tmp/x.txt"})),
+        Some(json!({"name": "x.txt"})),
     )
     .await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{e}");
+    for bad in ["../x.pcap", "/tmp/x.pcap", ".x.pcap", "a b.pcap"] {
+        let (status, e) = send(
+            &app,
+            "POST",
+            "/api/buses/0/trace",
+            Some(json!({ "name": bad })),
+        )
+        .await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{bad}: {e}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -65,9 +65,9 @@ fn bad(error: impl Into<String>) -> ApiError {
     ApiError::new(StatusCode::BAD_REQUEST, error)
 }
 
-/// Starts a scenario (the TOML of a scenario file) on the live cell.
+/// Starts a scenario (the TOML of a scenario file, sent as text) on the live cell.
 #[utoipa::path(post, path = "/api/scenarios", tag = "scenarios",
-    request_body(content = String, content_type = "application/toml",
+    request_body(content = String, content_type = "text/plain",
         description = "a scenario file (its `cell` is not used: the run is the live cell's)"),
     responses((status = 202, body = ScenarioRun), (status = 400, body = ApiError), (status = 401, body = ApiError),
         (status = 413, body = ApiError), (status = 429, body = ApiError)))]

@@ -2,8 +2,6 @@
 //! and pcap traces of a bus, started and stopped while the cell runs
 //! ([`crate::cell::wire_faults`]).
 
-use std::path::PathBuf;
-
 use axum::extract::rejection::JsonRejection;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
@@ -153,7 +151,7 @@ async fn list_faults(
         ("index" = u32, Path, description = "the bus, Modbus drive or EtherCAT chain (from 0)")),
     request_body = FaultSpec,
     responses((status = 201, body = FaultView), (status = 400, body = ApiError), (status = 401, body = ApiError),
-        (status = 404, body = ApiError), (status = 415, body = ApiError)))]
+        (status = 404, body = ApiError), (status = 410, body = ApiError), (status = 415, body = ApiError)))]
 async fn add_fault(
     State(s): State<AppState>,
     Path((front, index)): Path<(String, String)>,
@@ -229,13 +227,33 @@ async fn remove_fault(
     .map(Json)
 }
 
-/// Where to write a trace.
+/// What to call a trace.
 #[derive(Debug, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TraceBody {
-    /// A `.pcap` (LINKTYPE_CAN_SOCKETCAN) or `.log` (candump) file; none: a new pcap in the
-    /// system's temporary directory.
-    pub path: Option<String>,
+    /// A file name (letters, digits, `-`, `_`, `.`) ending in `.pcap` (LINKTYPE_CAN_SOCKETCAN)
+    /// or `.log` (candump), made in the system's temporary directory; none: a new pcap there.
+    pub name: Option<String>,
+}
+
+/// Decision: a client names the file, never its directory: the console (loopback, or a
+/// token) must not let a request write anywhere the process may (it often runs as root on
+/// a test machine). The answer gives the whole path.
+fn trace_name(name: &str) -> Result<&str, ApiError> {
+    let plain = !name.starts_with('.')
+        && name.len() <= 128
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    let kind = name.ends_with(".pcap") || name.ends_with(".log");
+    if plain && kind {
+        Ok(name)
+    } else {
+        Err(bad(format!(
+            "trace name {name:?}: a file name of letters, digits, '-', '_', '.' ending in .pcap \
+             or .log (no directory)"
+        )))
+    }
 }
 
 #[derive(Debug, Serialize, ToSchema)]
@@ -263,14 +281,8 @@ async fn start_trace(
 ) -> Result<(StatusCode, Json<TraceView>), ApiError> {
     let bus = parse_bus(&bus)?;
     let Json(body) = body?;
-    let path = match body.path {
-        Some(p) => {
-            let p = PathBuf::from(p);
-            if !p.extension().is_some_and(|e| e == "pcap" || e == "log") {
-                return Err(bad("a trace is a .pcap or a .log (candump) file"));
-            }
-            p
-        }
+    let path = match body.name {
+        Some(n) => std::env::temp_dir().join(trace_name(&n)?),
         None => {
             let stamp = std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
