@@ -104,7 +104,7 @@ impl WireFault {
 pub const MAX_DELAY: Duration = Duration::from_secs(60);
 
 /// Frames a tap holds before newer ones are dropped.
-pub const TAP_QUEUE: usize = 64 * 1024;
+pub const TAP_QUEUE: usize = 16 * 1024;
 
 /// Faults active at once on one front end at most.
 pub const MAX_FAULTS: usize = 64;
