@@ -3,15 +3,19 @@
 malformed clients and bus faults, while the twin's resident memory and open file descriptors
 are sampled (issue 15, point 3).
 
-The cell: a CMMP-AS (node 1) and a Nanotec SMCI47-S (node 34) on one socketcand bus, and a
-CMMO-ST on Modbus TCP. The clients, all at once:
-  - python-canopen SDO loops on both CAN drives (reads, and writes that are refused),
+The cell: a CMMP-AS (node 1), a Nanotec SMCI47-S (node 34) and a Kinco FD3 (node 5, also on
+RS232 through a pty) on one socketcand bus, and a CMMO-ST on Modbus TCP. The clients, all at
+once:
+  - python-canopen SDO loops on the three CAN drives (reads, and writes that are refused),
+  - a pyserial client polling the Kinco's statusword over RS232 (KINCO-232 telegrams),
   - python-can connections that come, see a heartbeat and go, every 0.3 s,
   - a socketcand client that never reads (the twin must drop it, not wait for it),
   - raw connections that send garbage to both servers, and NMT resets of both nodes,
   - a pymodbus FHPP client that exchanges FC 0x17 and reconnects every few seconds.
 At the end every drive must still answer, resident memory must be flat after the warm-up
-(growth at most --max-growth-kib), and the descriptors back at their baseline.
+(growth at most --max-growth-kib), the descriptors back at their baseline, and the cell loop
+must have served 99 % of its due timers within --max-late-ms (the twin prints its lateness
+figures when it stops).
 
   scripts/soak.py --seconds 120                 # the test command's run
   scripts/soak.py --seconds 3600 --report docs/soak.md
@@ -23,6 +27,7 @@ import argparse
 import contextlib
 import os
 import random
+import re
 import signal
 import socket
 import subprocess
@@ -144,6 +149,22 @@ def garbage_loop(can_port, modbus_port, stop, c: Counters, rng, resets=True):
         stop.wait(1.0)
 
 
+def rs232_loop(path: Path, stop, c: Counters):
+    """Polls the Kinco's statusword (6041h) over RS232 the way public Kinco drivers do (the
+    station is the node-ID, 5)."""
+    import serial
+
+    body = bytes([5, 0x40, 0x41, 0x60, 0, 0, 0, 0, 0])
+    telegram = body + bytes([(-sum(body)) & 0xFF])
+    with serial.Serial(str(path), 38400, timeout=0.2) as port:
+        while not stop.is_set():
+            port.reset_input_buffer()
+            port.write(telegram)
+            a = port.read(10)
+            ok = len(a) == 10 and sum(a) & 0xFF == 0 and a[1] == 0x4B
+            c.add("rs232 ok" if ok else "rs232 unanswered")
+
+
 def modbus_loop(port, stop, c: Counters):
     from pymodbus.client import ModbusTcpClient
 
@@ -175,6 +196,8 @@ def main() -> int:
     ap.add_argument("--bin", default=os.environ.get("DRIVETWIN_BIN",
                                                     REPO / "target" / "release" / "drivetwin"))
     ap.add_argument("--max-growth-kib", type=int, default=4096)
+    ap.add_argument("--max-late-ms", type=float, default=16.0,
+                    help="bound on the cell loop's 99th percentile timer lateness")
     ap.add_argument("--report", type=Path)
     ap.add_argument("--no-resets", action="store_true", help="leave out the NMT resets")
     args = ap.parse_args()
@@ -200,12 +223,19 @@ node = 34
 "1017:00" = 100
 
 [[drive]]
+device = "kinco-fd3"
+node = 5
+rs232 = "{tmp / 'ttyKINCO'}"
+[drive.objects]
+"1017:00" = 100
+
+[[drive]]
 device = "cmmo-st"
 modbus = "{HOST}:{modbus_port}"
 modbus_timeout_ms = 0
 """)
     eds = {}
-    for dev in ("cmmp-as", "nanotec-smci47s"):
+    for dev in ("cmmp-as", "nanotec-smci47s", "kinco-fd3"):
         out = subprocess.run([str(args.bin), "eds", "--device", dev], check=True,
                              capture_output=True, text=True).stdout
         eds[dev] = tmp / f"{dev}.eds"
@@ -221,7 +251,8 @@ modbus_timeout_ms = 0
             break
         if time.monotonic() - started > 10:
             break
-    threading.Thread(target=lambda: [None for _ in twin.stdout], daemon=True).start()
+    twin_lines: list[str] = []
+    threading.Thread(target=lambda: twin_lines.extend(twin.stdout), daemon=True).start()
     if twin.poll() is not None:
         print((tmp / "twin.stderr").read_text(), file=sys.stderr)
         return 1
@@ -232,6 +263,8 @@ modbus_timeout_ms = 0
     threads = [
         threading.Thread(target=sdo_loop, args=(can_port, eds["cmmp-as"], 1, stop, c, random.Random(1))),
         threading.Thread(target=sdo_loop, args=(can_port, eds["nanotec-smci47s"], 34, stop, c, random.Random(2))),
+        threading.Thread(target=sdo_loop, args=(can_port, eds["kinco-fd3"], 5, stop, c, random.Random(3))),
+        threading.Thread(target=rs232_loop, args=(tmp / "ttyKINCO", stop, c)),
         threading.Thread(target=churn_loop, args=(can_port, stop, c)),
         threading.Thread(target=slow_client_loop, args=(can_port, stop, c)),
         threading.Thread(target=garbage_loop, args=(can_port, modbus_port, stop, c, rng, not args.no_resets)),
@@ -271,7 +304,7 @@ modbus_timeout_ms = 0
         from pymodbus.client import ModbusTcpClient
 
         bus = can.Bus(interface="socketcand", host=HOST, port=can_port, channel="vcan0")
-        for node in (1, 34):
+        for node in (1, 34, 5):
             bus.send(can.Message(arbitration_id=0x600 + node,
                                  data=bytes.fromhex("4018100100000000"), is_extended_id=False))
             deadline = time.monotonic() + 2
@@ -287,11 +320,18 @@ modbus_timeout_ms = 0
         mb.close()
         twin.send_signal(signal.SIGTERM)
         twin.wait(10)
+        time.sleep(0.2)  # the reader thread takes the last lines
+
+    # "cell loop: N timers served, late p50 ≤ …, p99 ≤ …µs, …" (cell/lateness.rs)
+    loop_line = next((l.strip() for l in twin_lines if l.startswith("cell loop:")), "")
+    p99 = re.search(r"p99 ≤ ([0-9.]+)(µs|ms|s)", loop_line)
+    p99_ms = (float(p99.group(1)) * {"µs": 1e-3, "ms": 1.0, "s": 1e3}[p99.group(2)]) if p99 else float("inf")
 
     warm = [s for s in samples if s[0] >= min(20.0, args.seconds / 4)]
     growth = (warm[-1][1] - warm[0][1]) if len(warm) >= 2 else 0
     peak_fds = max((s[2] for s in samples), default=0)
     ok = (alive and all(answers.values()) and growth <= args.max_growth_kib
+          and p99_ms <= args.max_late_ms and c.n.get("rs232 ok", 0) > 0
           and end_fds <= baseline_fds + 2 and c.n.get("unexpected write accepted", 0) == 0
           and not any(k.startswith("sdo timeout") for k in c.n))
     lines = [
@@ -303,6 +343,8 @@ modbus_timeout_ms = 0
         f"{warm[-1][1] if warm else 0} KiB (growth {growth} KiB, bound {args.max_growth_kib} KiB)",
         f"- file descriptors: {baseline_fds} at the start, at most {peak_fds} under load, "
         f"{end_fds} after the clients left",
+        f"- the cell loop's timers: {loop_line.removeprefix('cell loop: ') or 'no figures printed'} "
+        f"(bound on p99: {args.max_late_ms} ms)",
         "- client counts: " + ", ".join(f"{k} {v}" for k, v in sorted(c.n.items())),
     ]
     text = "\n".join(lines)

@@ -1,18 +1,20 @@
 """A CAN bus with a bit rate, in real time over socketcand: a python-canopen master sends SYNC
 every 10 ms to 20 CMMP-AS whose TPDO1 is synchronous, on a 500 kbit/s bus. The bus load the
-twin reports (web console /api/buses, from the control handle) is within 5 % of the load the
-CAN bit formula gives for the frames a python-can client saw on the bus.
+twin reports (web console /api/buses, from the control handle) and the load `drivetwin monitor
+--bitrate` prints are within 5 % of the load the CAN bit formula gives for the frames a
+python-can client saw on the bus.
 """
 
 from __future__ import annotations
 
 import json
+import subprocess
 import threading
 import time
 import urllib.error
 import urllib.request
 
-from conftest import CHANNEL, wait_until
+from conftest import CHANNEL, DRIVETWIN_BIN, wait_until
 
 BITRATE = 500_000
 NODES = 20
@@ -81,13 +83,25 @@ def test_bus_load_at_500_kbit_matches_the_bit_formula(launch, connect, raw_bus, 
     net = connect(twin)
     net.nmt.state = "OPERATIONAL"  # broadcast: every node
     net.sync.start(SYNC_PERIOD)
+    monitor = None
     try:
         time.sleep(1.0)  # steady state
         start = time.monotonic()
+        # Its output to a file: a pipe read only at the end would stall it.
+        monitor_out = (tmp_path / "monitor.jsonl").open("w")
+        monitor = subprocess.Popen(
+            [str(DRIVETWIN_BIN), "monitor", "--bitrate", str(BITRATE), "--seconds", "2.2",
+             "--json", "--socketcand", twin.addr],
+            stdout=monitor_out, stderr=subprocess.PIPE, text=True)
         time.sleep(2.0)
         end = time.monotonic()
         buses = json.load(urllib.request.urlopen(url + "api/buses", timeout=5))
+        _, err = monitor.communicate(timeout=10)
+        monitor_out.close()
+        out = (tmp_path / "monitor.jsonl").read_text()
     finally:
+        if monitor is not None and monitor.poll() is None:
+            monitor.kill()
         net.sync.stop()
         stop.set()
         listener.join(2)
@@ -101,6 +115,13 @@ def test_bus_load_at_500_kbit_matches_the_bit_formula(launch, connect, raw_bus, 
     # 21 frames of 47…80 bits every 10 ms at 500 kbit/s: about a third of the bus.
     assert 20 < computed < 50, computed
     assert abs(b["load_percent"] - computed) <= 0.05 * computed, (b, computed)
+    # The monitor's windows: every frame it saw for its bit time, over 500 ms.
+    assert monitor.returncode == 0, err
+    loads = [json.loads(l)["bus_load_percent"] for l in out.splitlines() if "bus_load_percent" in l]
+    assert len(loads) >= 3, out[-2000:]
+    # The first window starts with the monitor's connection, part-way into a SYNC cycle.
+    seen_by_monitor = sum(loads[1:]) / len(loads[1:])
+    assert abs(seen_by_monitor - computed) <= 0.05 * computed, (loads, computed)
     # A late frame is real here: a master held off the CPU sends its missed SYNCs in a burst,
     # and 20 TPDOs behind each of them wait for the bus. Rare, never lost.
     assert b["dropped"] == 0 and b["late"] <= 0.02 * b["frames"], json.dumps(b)

@@ -331,3 +331,72 @@ def test_a_real_device_path_is_opened_not_linked(launch, tmp_path):
         assert os.path.exists(name), "a device is never removed"
     finally:
         os.close(master)
+
+
+def test_base_node_402_moves_the_drive_while_rs232_polls_its_position(launch, connect, eds_files,
+                                                                     tmp_path):
+    """Issue 13: one drive, two masters at once, as a machine with a PLC on CANopen and a
+    service PC on RS232 has them. python-canopen's BaseNode402 runs the CiA 402 state machine
+    and a profile position move over socketcand while a pyserial client polls 6063h (position
+    actual, increments) over RS232 every 10 ms: every poll is answered, the positions it sees
+    climb to the target, and both masters read the same end position."""
+    import threading
+
+    from canopen.profiles.p402 import BaseNode402
+
+    from conftest import SDO_TIMEOUT
+
+    path = tmp_path / "ttyKINCO"
+    twin = launch("kinco-fd3", 1, extra=("--rs232", str(path)))
+    _line(twin, "RS232", path)
+    net = connect(twin)
+    node = BaseNode402(1, str(eds_files["kinco-fd3"]))
+    net.add_node(node)
+    node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+    node.sdo[0x2010][3].raw = 0  # DIN1 and DIN3 give the controlword and the mode to the bus
+    node.sdo[0x2010][5].raw = 0
+    node.sdo[0x6060].raw = 1
+    node.setup_402_state_machine(read_pdos=False)
+
+    port = KincoPort(path)
+    seen: list[int] = []
+    unanswered = [0]
+    stop = threading.Event()
+
+    def poll():
+        while not stop.is_set():
+            a = port.exchange(telegram(1, 0x40, 0x6063, 0))
+            if len(a) != 10 or sum(a) & 0xFF or a[1] != 0x43:
+                unanswered[0] += 1
+            else:
+                seen.append(int.from_bytes(a[5:9], "little", signed=True))
+            time.sleep(0.01)
+
+    poller = threading.Thread(target=poll, daemon=True)
+    poller.start()
+    try:
+        node.op_mode = "PROFILED POSITION"
+        node.sdo[0x6081].raw = int(600 * 512 * 10_000 / 1875)  # 600 rpm in DEC
+        node.sdo[0x6083].raw = int(100 * 65536 * 10_000 / 4_000_000)  # 100 rps² in DEC
+        node.sdo[0x6084].raw = int(100 * 65536 * 10_000 / 4_000_000)
+        node.state = "OPERATION ENABLED"
+        start = node.sdo[0x6063].raw
+        target = start + 100_000
+        node.sdo[0x607A].raw = target
+        node.controlword = 0x1F  # new set-point, absolute
+        wait_until(lambda: node.statusword & 0x1000, 1.0, what="set-point acknowledged")
+        node.controlword = 0x0F
+        wait_until(lambda: node.statusword & 0x0400, 5.0, interval=0.01, what="target reached")
+        time.sleep(0.1)  # a few more polls at the target
+    finally:
+        stop.set()
+        poller.join(2)
+        port.close()
+    end = node.sdo[0x6063].raw
+    assert abs(end - target) <= 20, (end, target)
+    assert unanswered[0] == 0, f"{unanswered[0]} RS232 polls unanswered of {len(seen)}"
+    assert len(seen) >= 30, len(seen)
+    moving = [p for p in seen if start + 100 < p < target - 100]
+    assert len(moving) >= 5, f"RS232 saw the move: {seen[:5]} … {seen[-5:]}"
+    assert all(b >= a - 20 for a, b in zip(seen, seen[1:])), "the position climbs"
+    assert abs(seen[-1] - end) <= 20, (seen[-1], end)

@@ -93,8 +93,15 @@ pub struct HeartbeatConsumer {
 impl HeartbeatConsumer {
     /// Re-reads 1016h (sub 1…): `node << 16 | time_ms`, 0 = unused.
     fn refresh(&mut self, od: &dyn ObjectAccess) {
+        // Only the sub-indices 1016h:00 counts (a device without 1016h watches nothing): the
+        // consumer refreshes at every poll.
+        let entries = od.read_u8(0x1016, 0).unwrap_or(0);
         for (i, w) in self.watches.iter_mut().enumerate() {
-            let v = od.read_u32(0x1016, (i + 1) as u8).unwrap_or(0);
+            let v = if i < usize::from(entries) {
+                od.read_u32(0x1016, (i + 1) as u8).unwrap_or(0)
+            } else {
+                0
+            };
             let node = ((v >> 16) & 0xFF) as u8;
             let period_ms = (v & 0xFFFF) as u16;
             if node != w.node || period_ms != w.period_ms {

@@ -3,6 +3,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod bus_load;
 pub mod ci_terminal;
 pub mod decode;
 pub mod emcy;

@@ -71,6 +71,15 @@ pub fn generate(d: &Device) -> String {
         let _ = writeln!(s, "        }},");
     }
     let _ = writeln!(s, "    ],");
+    let _ = writeln!(s, "    diagnostics: &[");
+    for g in &d.diagnostics {
+        let _ = writeln!(
+            s,
+            "        od::Diagnostic {{ number: {:?}, code: {:?}, register: 0x{:02X}, reaction: od::Reaction::{:?}, text: {:?}, display: {:?}, classes: {:?}, reactions: {:?}, memory: {:?}, ack: {:?}, source: {:?} }},",
+            g.number, g.code, g.register, g.reaction, g.text, g.display, g.classes, g.reactions, g.memory, g.ack, g.source
+        );
+    }
+    let _ = writeln!(s, "    ],");
     let _ = writeln!(s, "    storage_size: {offset},");
     let _ = writeln!(s, "}};");
     s

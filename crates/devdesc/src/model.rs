@@ -4,7 +4,7 @@ use std::path::Path;
 
 use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
-use crate::schema::{EntryFields, File, ObjectSection, ProfileName};
+use crate::schema::{DiagnosticSection, EntryFields, File, ObjectSection, ProfileName};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DescError {
@@ -24,6 +24,8 @@ pub enum DescError {
     Object { index: u16, what: String },
     #[error("device: {0}")]
     Device(String),
+    #[error("diagnostic {number}: {what}")]
+    Diagnostic { number: String, what: String },
 }
 
 #[derive(Debug, Clone)]
@@ -45,6 +47,23 @@ pub struct Device {
     pub interfaces_rule: String,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
+    pub diagnostics: Vec<Diag>,
+}
+
+/// A checked `[[diagnostic]]` row.
+#[derive(Debug, Clone)]
+pub struct Diag {
+    pub number: String,
+    pub code: Option<u16>,
+    pub register: u8,
+    pub reaction: od::Reaction,
+    pub text: String,
+    pub display: String,
+    pub classes: String,
+    pub reactions: String,
+    pub memory: String,
+    pub ack: String,
+    pub source: String,
 }
 
 #[derive(Debug, Clone)]
@@ -186,6 +205,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         }
         .to_owned()
     });
+    let diagnostics = diagnostics(&file.diagnostic)?;
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -217,7 +237,59 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             lss_unsupported: d.lss_unsupported,
         },
         objects,
+        diagnostics,
     })
+}
+
+/// The `[[diagnostic]]` rows, checked: a number once, a known reaction.
+fn diagnostics(rows: &[DiagnosticSection]) -> Result<Vec<Diag>, DescError> {
+    let mut out: Vec<Diag> = Vec::with_capacity(rows.len());
+    for r in rows {
+        let err = |what: &str| DescError::Diagnostic {
+            number: r.number.clone(),
+            what: what.into(),
+        };
+        if r.number.is_empty() || r.text.is_empty() {
+            return Err(err("number and text must not be empty"));
+        }
+        if out.iter().any(|d| d.number.eq_ignore_ascii_case(&r.number)) {
+            return Err(err("defined twice"));
+        }
+        let reaction = match r.reaction.as_str() {
+            "ps_off" => od::Reaction::PsOff,
+            "quick_stop" => od::Reaction::QuickStop,
+            "configurable" => od::Reaction::Configurable,
+            "warning" => od::Reaction::Warning,
+            "ignore" => od::Reaction::Ignore,
+            "unstated" => od::Reaction::Unstated,
+            _ => return Err(err(
+                "reaction must be ps_off, quick_stop, configurable, warning, ignore or unstated",
+            )),
+        };
+        if !matches!(r.memory.as_str(), "" | "always" | "optional") {
+            return Err(err("memory must be always or optional"));
+        }
+        if !matches!(r.ack.as_str(), "" | "immediately" | "after_cause" | "reset") {
+            return Err(err("ack must be immediately, after_cause or reset"));
+        }
+        if !r.reactions.chars().all(|c| ('A'..='G').contains(&c)) {
+            return Err(err("reactions are letters A…G"));
+        }
+        out.push(Diag {
+            number: r.number.clone(),
+            code: r.code,
+            register: r.register,
+            reaction,
+            text: r.text.clone(),
+            display: r.display.clone(),
+            classes: r.classes.clone(),
+            reactions: r.reactions.clone(),
+            memory: r.memory.clone(),
+            ack: r.ack.clone(),
+            source: r.source.clone(),
+        });
+    }
+    Ok(out)
 }
 
 fn object(o: &ObjectSection) -> Result<Obj, DescError> {
@@ -588,6 +660,23 @@ mod tests {
             Ok(_) => panic!("accepted: {objects}"),
             Err(e) => e.to_string(),
         }
+    }
+
+    #[test]
+    fn diagnostic_rows_are_checked() {
+        let row = |n: &str, r: &str| {
+            format!("[[diagnostic]]\nnumber = \"{n}\"\ncode = 0x4310\nreaction = \"{r}\"\ntext = \"x\"\n")
+        };
+        let d = parse(&format!("{HEAD}{}", row("03-0", "quick_stop")), "t.toml").expect("valid");
+        assert_eq!(d.diagnostics.len(), 1);
+        assert_eq!(d.diagnostics[0].reaction, od::Reaction::QuickStop);
+        assert!(err(&(row("03-0", "ps_off") + &row("03-0", "ps_off"))).contains("defined twice"));
+        assert!(err(&row("03-0", "stop")).contains("reaction must be"));
+        assert!(err(&format!(
+            "{}reactions = \"AZ\"\n",
+            row("2Fh", "configurable")
+        ))
+        .contains("A…G"));
     }
 
     #[test]

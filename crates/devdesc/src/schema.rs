@@ -8,6 +8,36 @@ pub struct File {
     pub device: DeviceSection,
     #[serde(default)]
     pub object: Vec<ObjectSection>,
+    #[serde(default)]
+    pub diagnostic: Vec<DiagnosticSection>,
+}
+
+/// One row of the manual's diagnostic table (`[[diagnostic]]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnosticSection {
+    /// As the manual prints it: "08-2", "2Fh", …
+    pub number: String,
+    /// The CiA 301 EMCY code; none where the manual assigns none.
+    pub code: Option<u16>,
+    /// Error register 1001h bits (default 0: the stack adds bit 0).
+    #[serde(default)]
+    pub register: u8,
+    /// ps_off | quick_stop | configurable | warning | ignore | unstated
+    pub reaction: String,
+    pub text: String,
+    #[serde(default)]
+    pub display: String,
+    #[serde(default)]
+    pub classes: String,
+    #[serde(default)]
+    pub reactions: String,
+    #[serde(default)]
+    pub memory: String,
+    #[serde(default)]
+    pub ack: String,
+    #[serde(default)]
+    pub source: String,
 }
 
 #[derive(Debug, Deserialize)]

@@ -21,6 +21,10 @@ use drive::fhpp::device::{FhppDevice, FhppSettings};
 use drive::fhpp::{Ccon, Cpos, OutputData};
 use drive::travel::TravelSettings;
 use od::{Instant, ObjectAccess, ObjectDictionary};
+use support::thread_cpu_time;
+
+#[path = "support/mod.rs"]
+mod support;
 
 /// Axes in real time per core before this work (commit c1c54dd, same bench and machine, best
 /// of two runs): the reference the plot draws.
@@ -117,19 +121,6 @@ fn cmmo_st() -> (FhppDevice<Vec<u8>>, Instant) {
     (dev, now)
 }
 
-/// The CPU time this thread has used (the machine is shared: wall time would count the
-/// other processes that preempt the bench).
-fn thread_cpu_time() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid timespec for the call to fill.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime");
-    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
-}
-
 /// CPU time of one simulated second of `make`'s axis, stepped in 1 ms calls after a 200 ms
 /// run-up: the best of [`RUNS`] runs of [`SIM_S`] s each.
 fn per_simulated_second<D: Stepped>(make: impl Fn() -> (D, Instant)) -> Duration {
@@ -211,33 +202,9 @@ mod plot {
     use std::path::Path;
 
     use plotters::prelude::*;
-    use plotters::style::{register_font, FontStyle};
-
-    /// Fonts tried for the labels (the plot needs one; the bench still reports without it).
-    const FONTS: [&str; 3] = [
-        "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-        "/usr/share/fonts/TTF/DejaVuSans.ttf",
-        "/Library/Fonts/Arial.ttf",
-    ];
-
-    fn load_font() -> Result<(), String> {
-        let path = std::env::var("DRIVETWIN_PLOT_FONT")
-            .ok()
-            .into_iter()
-            .chain(FONTS.iter().map(|s| s.to_string()))
-            .find(|p| Path::new(p).exists())
-            .ok_or("no TrueType font found (set DRIVETWIN_PLOT_FONT)")?;
-        let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
-        register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            Box::leak(bytes.into_boxed_slice()),
-        )
-        .map_err(|_| format!("{path}: not a usable font"))
-    }
 
     pub fn axes_per_core(path: &Path, now: &[f64; 3]) -> Result<(), String> {
-        load_font()?;
+        crate::support::load_font()?;
         let root = BitMapBackend::new(path, (900, 540)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let top = super::BASELINE

@@ -25,6 +25,7 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+pub mod diagnostics;
 mod feed_constant;
 mod homing_run;
 pub(crate) mod object_writes;
@@ -119,7 +120,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
 /// by binary search, which the compiler folds to a constant for the literal keys of the
 /// call sites.
-const PARAMS: [(u16, u8); 66] = [
+const PARAMS: [(u16, u8); 75] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 8),
@@ -131,6 +132,17 @@ const PARAMS: [(u16, u8); 66] = [
     (0x200A, 0),
     (0x200A, 1),
     (0x200B, 0),
+    // Kinco 2010h: DIN polarity, simulate and the seven function codes (in input order, one
+    // after the other: `din_function_code` counts on it), read every cycle.
+    (0x2010, 1),
+    (0x2010, 2),
+    (0x2010, 3),
+    (0x2010, 4),
+    (0x2010, 5),
+    (0x2010, 6),
+    (0x2010, 7),
+    (0x2010, 8),
+    (0x2010, 9),
     (0x2011, 0),
     (0x2020, 0),
     (0x2045, 0),
@@ -200,7 +212,7 @@ const _: () = {
 
 /// The slot of `(index, sub)` in [`PARAMS`].
 #[inline(always)]
-const fn param_slot(index: u16, sub: u8) -> Option<usize> {
+pub(crate) const fn param_slot(index: u16, sub: u8) -> Option<usize> {
     let key = (index as u32) << 8 | sub as u32;
     let (mut lo, mut hi) = (0, PARAMS.len());
     while lo < hi {
@@ -337,6 +349,9 @@ pub struct Drive<S> {
     pub(crate) dc_link_mv: Option<u32>,
     /// The diagnostic memory: messages with their additional information, oldest first.
     pub(crate) memory: Deque<MemoryEntry, 16>,
+    /// Messages raised by their number from outside ([`Drive::raise_diagnostic`]), until
+    /// cleared.
+    pub(crate) injected: heapless::Vec<&'static od::Diagnostic, 16>,
 }
 
 /// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
@@ -497,6 +512,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             safe_standstill: false,
             dc_link_mv: None,
             memory: Deque::new(),
+            injected: heapless::Vec::new(),
         };
         d.vendor_power_on();
         d.reload_factor_group();
@@ -684,7 +700,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The error's EMCY and the device control's fault reaction.
-    fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
+    pub(crate) fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
         match reaction {
             ErrorReaction::Ignore => return,
             ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
@@ -741,7 +757,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let error = self
             .faults
             .iter()
-            .find_map(|c| messages::by_code(*c))
+            .find_map(|c| self.message_of(*c))
             .map(|m| m.number);
         let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
         let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
@@ -778,7 +794,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let info = messages::undervoltage_info(self.dc.state() as u16, mv);
             self.raise_with_info(e.code, e.register, e.critical, info);
         } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
-            self.causes.remove(i);
+            if !self.injected_code(e.code) {
+                self.causes.remove(i);
+            }
         }
     }
 
@@ -802,6 +820,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.raise(code, register, false);
             }
             (true, Some(_)) => self.raise(code, register, false),
+            // A message raised by its number stays until it is cleared.
+            (false, Some(_)) if self.injected_code(code) => {}
             (false, Some(i)) => {
                 self.causes.remove(i);
             }
@@ -916,13 +936,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ => self.input_levels(self.plant_position()).enables(),
         };
         let before = self.dc.state();
-        // A fault-reset pulse shorter than a cycle still counts (latched at the write).
-        if self.cw_rising.contains(Controlword::FAULT_RESET)
-            && !cw.contains(Controlword::FAULT_RESET)
-        {
-            let _ = self
-                .dc
-                .controlword((cw | Controlword::FAULT_RESET).bits(), fault, enables);
+        // A fault-reset pulse shorter than a cycle still counts (latched at the write); so
+        // does a rising edge written within one cycle after the bit was seen set (0080h,
+        // 0000h, 0080h between two steps): the device control sees the low level first.
+        if self.cw_rising.contains(Controlword::FAULT_RESET) {
+            let other = if cw.contains(Controlword::FAULT_RESET) {
+                cw.difference(Controlword::FAULT_RESET)
+            } else {
+                cw | Controlword::FAULT_RESET
+            };
+            let _ = self.dc.controlword(other.bits(), fault, enables);
         }
         let reaction = self.dc.controlword(cw.bits(), fault, enables);
         self.react(reaction);

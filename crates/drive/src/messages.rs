@@ -1,8 +1,10 @@
 //! CMMP-AS diagnostic messages (App. B): the message number "main-sub" shown on the display,
 //! its CiA 301 error code, and the error reaction of the error management 2100h (§5.18).
 //!
-//! Only the messages the twin can raise (or is asked to inject) are listed; the table is data,
-//! a message missing from it is still reported by its code.
+//! The table is App. B.3 complete, as data: the `[[diagnostic]]` rows of
+//! `devices/cmmp-as.toml`, generated into [`devices::CMMP_AS`].
+
+use od::{Diagnostic, Reaction};
 
 /// A message number, e.g. 08-2: main index (error group) and sub-index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -11,62 +13,62 @@ pub struct Number {
     pub sub: u8,
 }
 
-/// The reaction column of App. B.2.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Fixed {
-    /// "PS off": output stage off, not configurable.
-    PsOff,
-    /// "QStop": quick stop with the parameterised profile, not configurable.
-    QuickStop,
-    /// "configurable" through 2100h.
-    Configurable,
-}
-
-/// One row of App. B.2.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Message {
-    pub code: u16,
-    pub number: Number,
-    pub reaction: Fixed,
-}
-
-const fn m(code: u16, main: u8, sub: u8, reaction: Fixed) -> Message {
-    Message {
-        code,
-        number: Number { main, sub },
-        reaction,
+impl Number {
+    /// "08-2" or "8-2" (App. B.3 prints the main index without its leading zero).
+    pub fn parse(text: &str) -> Option<Number> {
+        let (main, sub) = text.trim().split_once('-')?;
+        Some(Number {
+            main: main.parse().ok()?,
+            sub: sub.parse().ok()?,
+        })
     }
 }
 
-use Fixed::{Configurable as C, PsOff as P, QuickStop as Q};
+/// One row of App. B.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Message {
+    /// The CiA code; 1000h generic error where App. B prints "–" (see the device file).
+    pub code: u16,
+    pub number: Number,
+    pub reaction: Reaction,
+    pub row: &'static Diagnostic,
+}
 
-/// App. B.2 (L6830–6960), the rows the twin uses.
-pub const MESSAGES: &[Message] = &[
-    m(0x2312, 31, 0, C),
-    m(0x3220, 2, 0, C),
-    m(0x4310, 3, 0, Q),
-    m(0x5114, 5, 0, P),
-    m(0x5115, 5, 1, P),
-    m(0x6180, 1, 0, P),
-    m(0x7382, 8, 2, C),
-    m(0x8081, 43, 0, C),
-    m(0x8082, 43, 1, C),
-    m(0x8083, 43, 2, C),
-    m(0x8611, 17, 0, C),
-    m(0x8780, 34, 0, C),
-    m(0x8781, 34, 1, C),
-    m(0x8A80, 11, 0, C),
-    m(0x8A81, 11, 1, C),
-    m(0x8A82, 11, 2, C),
-    m(0x8A83, 11, 3, C),
-    m(0x8A84, 11, 4, C),
-    m(0x8A85, 11, 5, C),
-    m(0x8A86, 11, 6, C),
-];
+/// Decision: the EMCY code of a message App. B gives none (CiA 301 Tab. 21 "generic error").
+pub const GENERIC_ERROR: u16 = 0x1000;
 
-/// The message of an error code.
-pub fn by_code(code: u16) -> Option<&'static Message> {
-    MESSAGES.iter().find(|m| m.code == code)
+/// App. B as the device file gives it.
+pub fn table() -> &'static [Diagnostic] {
+    devices::CMMP_AS.diagnostics
+}
+
+/// The message of a row (`None` for a row whose number is not "main-sub").
+pub fn message(row: &'static Diagnostic) -> Option<Message> {
+    Some(Message {
+        code: row.code.unwrap_or(GENERIC_ERROR),
+        number: Number::parse(row.number)?,
+        reaction: row.reaction,
+        row,
+    })
+}
+
+/// Every message of App. B, in table order.
+pub fn messages() -> impl Iterator<Item = Message> {
+    table().iter().filter_map(message)
+}
+
+/// The message of an error code: the first row with it (04-x, 17-0 before 27-0, as B.2 lists
+/// them).
+pub fn by_code(code: u16) -> Option<Message> {
+    table()
+        .iter()
+        .filter(|d| d.code == Some(code))
+        .find_map(message)
+}
+
+/// The message numbered `number`.
+pub fn by_number(number: Number) -> Option<Message> {
+    messages().find(|m| m.number == number)
 }
 
 /// 2100h:02 error_reaction_code values (§5.18).
@@ -96,7 +98,7 @@ impl Default for Reactions {
     /// 6510h:22 and is "no action" while that limit is 0 (cmmp-as-2 §5.7).
     fn default() -> Self {
         let mut codes = [reaction::CONTROLLER_ENABLE_OFF; MAX_MAIN as usize + 1];
-        for msg in MESSAGES {
+        for msg in messages() {
             if let (Some(c), Some(min)) = (
                 codes.get_mut(usize::from(msg.number.main)),
                 minimum(msg.number.main),
@@ -106,6 +108,18 @@ impl Default for Reactions {
         }
         if let Some(c) = codes.get_mut(17) {
             *c = reaction::NONE;
+        }
+        // Decision: a group whose every message is "Warn" (66, 84) shows the warning reaction
+        // (3) in 2100h, the reaction the message has.
+        for (main, c) in codes.iter_mut().enumerate() {
+            let mut group = messages().filter(|m| usize::from(m.number.main) == main);
+            if let Some(first) = group.next() {
+                if first.reaction == Reaction::Warning
+                    && group.all(|m| m.reaction == Reaction::Warning)
+                {
+                    *c = reaction::WARNING;
+                }
+            }
         }
         Reactions { codes }
     }
@@ -119,13 +133,12 @@ pub fn minimum(main: u8) -> Option<u8> {
         return None;
     }
     Some(
-        MESSAGES
-            .iter()
+        messages()
             .filter(|m| m.number.main == main)
             .map(|m| match m.reaction {
-                Fixed::PsOff => reaction::OUTPUT_STAGE_OFF,
-                Fixed::QuickStop => reaction::CONTROLLER_ENABLE_OFF,
-                Fixed::Configurable => reaction::NONE,
+                Reaction::PsOff => reaction::OUTPUT_STAGE_OFF,
+                Reaction::QuickStop => reaction::CONTROLLER_ENABLE_OFF,
+                _ => reaction::NONE,
             })
             .max()
             .unwrap_or(reaction::NONE),

@@ -722,3 +722,22 @@ fn cmmp_tq_04_max_current_4000_in_the_drive() {
     r.run_ms(2);
     assert!((r.d.axis().gains().i_max - 5.0).abs() < 1e-9);
 }
+
+/// A master that writes 0000h and 0080h back to back (python-canopen's SDOs within one
+/// control cycle) after an attempt while the cause was present: the rising edge still counts.
+#[test]
+fn fault_reset_edge_written_within_one_cycle() {
+    let mut r = Rig::quick();
+    r.enable();
+    r.d.raise_diagnostic("05-0").expect("App. B 05-0");
+    r.run_ms(200);
+    assert_eq!(r.d.state(), State::Fault);
+    r.cw(0x00);
+    r.cw(0x80);
+    assert_eq!(r.d.state(), State::Fault, "the cause is still raised");
+    r.d.clear_diagnostic("05-0").expect("raised");
+    r.d.write(0x6040, 0, &[0x00, 0x00]).expect("controlword");
+    r.d.write(0x6040, 0, &[0x80, 0x00]).expect("controlword");
+    r.run_ms(2);
+    assert_eq!(r.d.state(), State::SwitchOnDisabled);
+}

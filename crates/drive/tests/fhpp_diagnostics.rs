@@ -4,7 +4,7 @@
 
 mod fhpp_bench;
 use drive::fhpp::device::diag;
-use drive::fhpp::diagnostics::{self, Class, DIAGNOSTICS};
+use drive::fhpp::diagnostics::{self, Class};
 use drive::fhpp::seven_segment::SevenSegment;
 use drive::fhpp::{Ack, Ccon, Cdir, Cpos, InputData, OutputData, Reaction, Rsb, Scon, Spos};
 use drive::stepper::StepperMode;
@@ -113,7 +113,7 @@ fn app_d_table_matches_the_error_management_defaults_of_the_device_file() {
         );
         assert_eq!(got, want, "PNU 234/238/242/246 sub {sub}");
     }
-    assert_eq!(DIAGNOSTICS.len(), 57);
+    assert_eq!(diagnostics::all().count(), 57);
     // FHPP-FPC-10 (fhpp §8.1 example 2): 0x0037 = A, B, C, E, F (11h…14h, sub = n + 1).
     assert_eq!(b.r16(234, 0x12), 0x0037);
 }

@@ -123,6 +123,10 @@ pub enum Command {
         /// Stop after this many seconds.
         #[arg(long)]
         seconds: Option<f64>,
+        /// The bus's bit rate: print the bus load of every 500 ms window (the frames seen,
+        /// each for its exact bit time), as the cell measures it.
+        #[arg(long)]
+        bitrate: Option<u32>,
         #[command(flatten)]
         bus: BusArgs,
     },

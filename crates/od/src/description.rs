@@ -219,6 +219,8 @@ pub struct DeviceDescription {
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],
+    /// The manual's diagnostic table (`[[diagnostic]]` rows), in file order.
+    pub diagnostics: &'static [crate::Diagnostic],
     /// Size of the value buffer an `ObjectDictionary` needs.
     pub storage_size: usize,
 }
@@ -233,6 +235,11 @@ impl DeviceDescription {
     }
     pub fn entry(&self, index: u16, sub: u8) -> Option<&'static Entry> {
         self.object(index).and_then(|o| o.entry(sub))
+    }
+    /// The diagnostic message numbered `number` as the manual prints it ("08-2", "2Fh").
+    pub fn diagnostic(&self, number: &str) -> Option<&'static crate::Diagnostic> {
+        let rows: &'static [crate::Diagnostic] = self.diagnostics;
+        rows.iter().find(|d| d.number.eq_ignore_ascii_case(number))
     }
     /// Every entry of every object, in dictionary order.
     pub fn entries(&self) -> impl Iterator<Item = &'static Entry> {

@@ -12,6 +12,7 @@ pub mod access;
 pub mod cob_id;
 pub mod data_type;
 pub mod description;
+pub mod diagnostic;
 pub mod dictionary;
 pub mod eds;
 pub mod parameter_file;
@@ -26,6 +27,7 @@ pub use description::{
     Behaviour, Cia301Options, DeviceDescription, Entry, InterfaceOffer, Limit, Object, ObjectKind,
     Profile,
 };
+pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
 pub use time::Instant;
 pub use value::Value;

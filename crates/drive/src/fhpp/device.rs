@@ -144,7 +144,7 @@ pub const fn pnu_index(pnu: u16) -> u16 {
 }
 
 /// Names of the diagnostic numbers the twin raises (App. D; the full list is
-/// [`super::diagnostics::DIAGNOSTICS`]).
+/// [`super::diagnostics::table`]).
 pub use super::diagnostics::code as diag;
 
 /// Settings of the simulation that no PNU holds.
@@ -718,7 +718,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         Some(self.class_of(d))
     }
 
-    fn class_of(&self, d: &Diagnostic) -> Class {
+    fn class_of(&self, d: Diagnostic) -> Class {
         let sub = diagnostics::subindex(d.code);
         let handling = get_i64(&self.od, 246, sub) as u16;
         let reaction = get_i64(&self.od, 242, sub) as u16;
@@ -768,6 +768,40 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             Class::Information | Class::Event => self.log_event(d, class),
         }
         Ok(class)
+    }
+
+    /// Raises App. D message `number` as printed ("2Fh") from outside, as [`Self::inject`];
+    /// it stays until [`Self::clear_diagnostic`].
+    pub fn raise_diagnostic(
+        &mut self,
+        number: &str,
+    ) -> Result<Class, crate::drive::diagnostics::DiagnosticError> {
+        let code = diagnostics::number(number)
+            .ok_or(crate::drive::diagnostics::DiagnosticError::Unknown)?;
+        self.inject(code)
+            .map_err(|_| crate::drive::diagnostics::DiagnosticError::Unknown)
+    }
+
+    /// Clears App. D message `number` raised by [`Self::raise_diagnostic`]: its cause is gone
+    /// (an error may be acknowledged with CCON.RESET, a warning ends).
+    pub fn clear_diagnostic(
+        &mut self,
+        number: &str,
+    ) -> Result<(), crate::drive::diagnostics::DiagnosticError> {
+        let code = diagnostics::number(number)
+            .filter(|c| diagnostics::lookup((*c).into()).is_some())
+            .ok_or(crate::drive::diagnostics::DiagnosticError::Unknown)?;
+        self.clear_fault(code);
+        Ok(())
+    }
+
+    /// Whether message `code` is active: the fault shown (PNU 205), a raised cause or a
+    /// present warning.
+    pub fn diagnostic_active(&self, code: u8) -> bool {
+        let bit = 1u128.checked_shl(u32::from(code)).unwrap_or(0);
+        self.fhpp.fault().is_some_and(|f| f.code == code)
+            || self.injected & bit != 0
+            || self.warnings & bit != 0
     }
 
     /// The load (intermediate circuit) voltage is switched on or off: SCON.VLOAD, the T2
@@ -847,7 +881,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
     }
 
-    fn log_event(&mut self, d: &Diagnostic, class: Class) {
+    fn log_event(&mut self, d: Diagnostic, class: Class) {
         let event = match class {
             Class::Fault(_) => EventType::Fault,
             Class::Warning => EventType::Warning,

@@ -1,5 +1,5 @@
-//! The diagnostic messages of the CMMO-ST (manual App. D, §7.2.2 Tab. 7.9) as data, and the
-//! error-management coding of PNU 234 / 238 / 242 / 246 (§B.4.5, fhpp §3.2.1).
+//! The diagnostic messages of the CMMO-ST (manual App. D, §7.2.2 Tab. 7.9) as data (the
+//! `[[diagnostic]]` rows of `devices/cmmo-st.toml`), and the error-management coding of PNU 234 / 238 / 242 / 246 (§B.4.5, fhpp §3.2.1).
 //!
 //! Every message has a number, a name, the classes it may be given (F error / W warning /
 //! I information), whether it is always logged or logging is configurable, its acknowledge
@@ -43,9 +43,6 @@ impl Classes {
     pub const F: Classes = Classes(1);
     pub const W: Classes = Classes(2);
     pub const I: Classes = Classes(4);
-    const FW: Classes = Classes(3);
-    const FWI: Classes = Classes(7);
-    const WI: Classes = Classes(6);
     const NONE: Classes = Classes(0);
 
     pub const fn contains(self, other: Classes) -> bool {
@@ -78,10 +75,7 @@ pub struct Diagnostic {
     pub reactions: u16,
 }
 
-const A: u16 = 0x01;
 const B: u16 = 0x02;
-const C: u16 = 0x04;
-const D: u16 = 0x08;
 const E: u16 = 0x10;
 const F: u16 = 0x20;
 const G: u16 = 0x40;
@@ -196,274 +190,69 @@ impl Diagnostic {
     }
 }
 
-const fn d(
-    code: u8,
-    name: &'static str,
-    classes: Classes,
-    logging: Logging,
-    ack: Ack,
-    reactions: u16,
-) -> Diagnostic {
-    Diagnostic {
-        code,
-        name,
-        classes,
-        logging,
-        ack,
-        reactions,
+impl Diagnostic {
+    /// The message a `[[diagnostic]]` row of `devices/cmmo-st.toml` gives ("2Fh", classes
+    /// "F/W/-", reactions "BC", memory, ack); `None` for a row that is not one.
+    pub fn of(row: &'static od::Diagnostic) -> Option<Diagnostic> {
+        let code = number(row.number)?;
+        let mut classes = Classes::NONE;
+        for (i, c) in row.classes.split('/').enumerate() {
+            match (i, c) {
+                (0, "F") => classes.0 |= Classes::F.0,
+                (1, "W") => classes.0 |= Classes::W.0,
+                (2, "I") => classes.0 |= Classes::I.0,
+                (_, "-") => {}
+                _ => return None,
+            }
+        }
+        let reactions = row
+            .reactions
+            .bytes()
+            .filter(|b| (b'A'..=b'G').contains(b))
+            .fold(0u16, |r, b| r | 1 << (b - b'A'));
+        Some(Diagnostic {
+            code,
+            name: row.text,
+            classes,
+            logging: match row.memory {
+                "optional" => Logging::Optional,
+                _ => Logging::Always,
+            },
+            ack: match row.ack {
+                "after_cause" => Ack::AfterCause,
+                "reset" => Ack::NotAckable,
+                _ => Ack::Immediately,
+            },
+            reactions,
+        })
     }
 }
 
-use Ack::{AfterCause as AC, Immediately as IMM, NotAckable as RST};
-use Logging::{Always as ALW, Optional as OPT};
-const FO: Classes = Classes::F;
-const WO: Classes = Classes::W;
+/// A diagnostic number as App. D prints it ("2Fh"; "2F" and "0x2F" too).
+pub fn number(text: &str) -> Option<u8> {
+    let t = text.trim();
+    let t = t.strip_prefix("0x").unwrap_or(t);
+    let t = t
+        .strip_suffix('h')
+        .or_else(|| t.strip_suffix('H'))
+        .unwrap_or(t);
+    u8::from_str_radix(t, 16).ok()
+}
 
-/// App. D, sorted by number.
-pub static DIAGNOSTICS: [Diagnostic; 57] = [
-    d(0x01, "Software error", FO, ALW, RST, A),
-    d(0x02, "Default parameter file invalid", FO, ALW, RST, A),
-    d(0x05, "Zero angle determination", FO, ALW, IMM, A),
-    d(0x06, "Encoder", FO, ALW, RST, A),
-    d(
-        0x09,
-        "Offset determination for current measurement",
-        FO,
-        ALW,
-        RST,
-        A,
-    ),
-    d(0x0A, "General error", FO, ALW, IMM, B),
-    d(0x0B, "Parameter file invalid", FO, ALW, IMM, A),
-    d(0x0C, "Firmware update execution error", FO, OPT, RST, A),
-    d(0x0D, "Overcurrent", FO, ALW, RST, A),
-    d(0x0E, "I2t malfunction motor", FO, ALW, AC, B | C),
-    d(
-        0x11,
-        "Software limit positive",
-        FO,
-        OPT,
-        IMM,
-        A | B | C | E | F,
-    ),
-    d(
-        0x12,
-        "Software limit negative",
-        FO,
-        OPT,
-        IMM,
-        A | B | C | E | F,
-    ),
-    d(
-        0x13,
-        "Positive direction locked",
-        FO,
-        OPT,
-        IMM,
-        A | B | C | E | F,
-    ),
-    d(
-        0x14,
-        "Negative direction locked",
-        FO,
-        OPT,
-        IMM,
-        A | B | C | E | F,
-    ),
-    d(
-        0x15,
-        "Output stage temperature exceeded",
-        FO,
-        OPT,
-        AC,
-        A | B | C | D,
-    ),
-    d(
-        0x16,
-        "Output stage temperature too low",
-        FO,
-        OPT,
-        AC,
-        A | B | C | D,
-    ),
-    d(0x17, "Logic voltage exceeded", FO, OPT, AC, A | B),
-    d(0x18, "Logic voltage too low", FO, OPT, RST, A),
-    d(0x19, "Real-time error LM-CPU", FO, OPT, IMM, A | B),
-    d(
-        0x1A,
-        "Intermediate circuit voltage exceeded",
-        FO,
-        ALW,
-        AC,
-        A | B,
-    ),
-    d(
-        0x1B,
-        "Intermediate circuit voltage too low",
-        Classes::FW,
-        OPT,
-        AC,
-        A,
-    ),
-    d(0x22, "Homing", FO, OPT, IMM, B | C | E | F),
-    d(0x23, "No index pulse found", FO, OPT, RST, B | C | E | F),
-    d(
-        0x24,
-        "Drive function not supported in open-loop operation",
-        Classes::FW,
-        OPT,
-        IMM,
-        E | F,
-    ),
-    d(0x25, "Path calculation", FO, OPT, IMM, A),
-    d(0x27, "Save parameters", FO, OPT, IMM, F | G),
-    d(
-        0x28,
-        "Homing required",
-        Classes::FW,
-        OPT,
-        IMM,
-        B | C | D | E | F | G,
-    ),
-    d(
-        0x29,
-        "Target position behind negative software limit",
-        FO,
-        OPT,
-        IMM,
-        B | C | E | F,
-    ),
-    d(
-        0x2A,
-        "Target position behind positive software limit",
-        FO,
-        OPT,
-        IMM,
-        B | C | E | F,
-    ),
-    d(
-        0x2B,
-        "Firmware update, invalid firmware",
-        Classes::FW,
-        OPT,
-        IMM,
-        A,
-    ),
-    d(0x2D, "I2t warning motor", Classes::WI, OPT, IMM, 0),
-    d(
-        0x2E,
-        "Index pulse too close to proximity sensor",
-        FO,
-        OPT,
-        IMM,
-        B | C | E | F,
-    ),
-    d(
-        0x2F,
-        "Following error",
-        Classes::FWI,
-        OPT,
-        AC,
-        B | C | E | F,
-    ),
-    d(
-        0x32,
-        "FCT connection with master control",
-        FO,
-        OPT,
-        IMM,
-        B | C | D | E | F | G,
-    ),
-    d(
-        0x33,
-        "Output stage temperature warning",
-        Classes::WI,
-        OPT,
-        IMM,
-        0,
-    ),
-    // App. D prints "0" as the reactions of STO: none selectable.
-    d(0x34, "Safe Torque Off (STO)", Classes::FWI, OPT, AC, 0),
-    d(0x37, "Standstill monitoring", Classes::WI, OPT, IMM, 0),
-    d(0x38, "Parameter file access", FO, OPT, AC, F | G),
-    d(0x39, "Trace warning", WO, OPT, IMM, 0),
-    d(0x3A, "Homing timeout", FO, OPT, IMM, B | C | E | F),
-    d(0x3B, "Homing method invalid", FO, OPT, IMM, E | F),
-    d(0x3C, "Two edges in one cycle", FO, OPT, IMM, B | C | E | F),
-    d(0x3D, "Start-up event", Classes::NONE, ALW, IMM, 0),
-    d(0x3E, "Diagnostic memory", FO, ALW, IMM, F | G),
-    d(0x3F, "Record invalid", FO, OPT, IMM, B | C | D | E | F | G),
-    d(
-        0x40,
-        "Last teaching not successful",
-        Classes::WI,
-        OPT,
-        IMM,
-        0,
-    ),
-    d(0x41, "System reset", FO, ALW, IMM, A),
-    d(
-        0x43,
-        "FCT connection without master control",
-        Classes::WI,
-        OPT,
-        IMM,
-        0,
-    ),
-    d(
-        0x44,
-        "Parameter file not compatible with firmware",
-        Classes::WI,
-        ALW,
-        IMM,
-        0,
-    ),
-    d(0x45, "IO-Link system error", FO, ALW, AC, A | B | C | D),
-    d(
-        0x46,
-        "IO-Link communication error",
-        FO,
-        OPT,
-        AC,
-        B | C | E | F,
-    ),
-    d(
-        0x47,
-        "Modbus connection with master control",
-        FO,
-        OPT,
-        IMM,
-        B | C | D | E | F | G,
-    ),
-    d(
-        0x48,
-        "Modbus connection without master control",
-        Classes::WI,
-        OPT,
-        IMM,
-        0,
-    ),
-    // Printed "40h" (a duplicate); 4Ch assumed (device file D6).
-    d(
-        0x4C,
-        "Value is out of range",
-        FO,
-        OPT,
-        IMM,
-        B | C | D | E | F | G,
-    ),
-    d(0x4D, "Bootloader memory error", FO, ALW, RST, A),
-    d(0x4E, "Overload 24V outputs", FO, ALW, AC, A | B),
-    d(0x4F, "System information", Classes::NONE, ALW, IMM, 0),
-];
+/// App. D as the device file gives it (`[[diagnostic]]` of `devices/cmmo-st.toml`).
+pub fn table() -> &'static [od::Diagnostic] {
+    devices::CMMO_ST.diagnostics
+}
+
+/// Every message of App. D, sorted by number.
+pub fn all() -> impl Iterator<Item = Diagnostic> {
+    table().iter().filter_map(Diagnostic::of)
+}
 
 /// The message with number `code`, `None` for an unassigned number.
-pub fn lookup(code: u16) -> Option<&'static Diagnostic> {
+pub fn lookup(code: u16) -> Option<Diagnostic> {
     let c = u8::try_from(code).ok()?;
-    DIAGNOSTICS
-        .binary_search_by_key(&c, |d| d.code)
-        .ok()
-        .and_then(|i| DIAGNOSTICS.get(i))
+    all().find(|d| d.code == c)
 }
 
 /// The error-management subindex of diagnostic `code` (fhpp §8.4: number + 1).
@@ -524,7 +313,9 @@ mod tests {
 
     #[test]
     fn table_is_sorted_and_unique() {
-        assert!(DIAGNOSTICS.windows(2).all(|w| w[0].code < w[1].code));
+        let all: heapless::Vec<u8, 64> = all().map(|d| d.code).collect();
+        assert!(all.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(all.len(), table().len(), "every row is an App. D message");
         assert_eq!(lookup(0x2F).map(|d| d.name), Some("Following error"));
         assert!(lookup(0x03).is_none());
         assert!(lookup(0x12F).is_none());

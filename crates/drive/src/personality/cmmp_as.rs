@@ -206,22 +206,42 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// A diagnostic message with the reaction 2100h sets for its main number (§5.18): none /
     /// buffer entry change nothing, a warning shows in 200Fh, the display and statusword bit
-    /// 7, a stopping reaction reports the error (EMCY) and stops. A code missing from
-    /// [`messages::MESSAGES`] stops; `critical` ones switch the output stage off at once.
+    /// 7, a stopping reaction reports the error (EMCY) and stops. A code missing from App. B
+    /// stops; `critical` ones switch the output stage off at once.
     pub(crate) fn cmmp_error_reaction(
         &mut self,
         code: u16,
         critical: bool,
         info: u32,
     ) -> ErrorReaction {
-        let message = messages::by_code(code);
+        let message = self.message_of(code);
+        self.cmmp_message_reaction(code, message, critical, info)
+    }
+
+    /// [`Drive::cmmp_error_reaction`] for a message known by its number (two messages may
+    /// share a code: 17-0 and 27-0 are both 8611h).
+    pub(crate) fn cmmp_message_reaction(
+        &mut self,
+        code: u16,
+        message: Option<messages::Message>,
+        critical: bool,
+        info: u32,
+    ) -> ErrorReaction {
         if let Some(m) = message {
             // Every reaction but "no action" makes an entry, once per occurrence: an error
             // until it is acknowledged, a warning while active, a plain entry while it is
             // the newest one.
-            let logged = match self.reactions.get(m.number.main).unwrap_or(0) {
+            let fixed = match m.reaction {
+                od::Reaction::Ignore => Some(reaction::BUFFER_ENTRY),
+                od::Reaction::Warning => Some(reaction::WARNING),
+                _ => None,
+            };
+            let logged = match fixed.or(self.reactions.get(m.number.main)).unwrap_or(0) {
                 reaction::NONE => true,
-                reaction::BUFFER_ENTRY => self.memory.back().is_some_and(|e| e.code == code),
+                reaction::BUFFER_ENTRY => self
+                    .memory
+                    .back()
+                    .is_some_and(|e| e.code == code && e.number == m.number),
                 reaction::WARNING => self.warning == Some((m.number, true)),
                 _ => self.faults.contains(&code),
             };
@@ -236,13 +256,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 });
             }
         }
-        let r = message
-            .and_then(|m| self.reactions.get(m.number.main))
-            .unwrap_or(if critical {
-                reaction::OUTPUT_STAGE_OFF
-            } else {
-                reaction::CONTROLLER_ENABLE_OFF
-            });
+        // App. B.3 "Ignore" (a memory entry only) and "Warn" are not configurable; the others
+        // follow 2100h.
+        let r = match message.map(|m| m.reaction) {
+            Some(od::Reaction::Ignore) => reaction::BUFFER_ENTRY,
+            Some(od::Reaction::Warning) => reaction::WARNING,
+            _ => message
+                .and_then(|m| self.reactions.get(m.number.main))
+                .unwrap_or(if critical {
+                    reaction::OUTPUT_STAGE_OFF
+                } else {
+                    reaction::CONTROLLER_ENABLE_OFF
+                }),
+        };
         match (r, message) {
             (reaction::NONE | reaction::BUFFER_ENTRY, _) => ErrorReaction::Ignore,
             (reaction::WARNING, Some(m)) => {
@@ -253,6 +279,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (reaction::BRAKE_MAX_CURRENT, _) => ErrorReaction::BrakeMaxCurrent,
             _ => ErrorReaction::QuickStop,
         }
+    }
+
+    /// The App. B message behind error `code`: one raised by its number, else the first with
+    /// the code.
+    pub(crate) fn message_of(&self, code: u16) -> Option<messages::Message> {
+        self.injected
+            .iter()
+            .filter_map(|d| messages::message(d))
+            .find(|m| m.code == code)
+            .or_else(|| messages::by_code(code))
     }
 
     /// 200Fh last_warning_code and statusword bit 7 (§5.18).

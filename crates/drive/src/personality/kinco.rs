@@ -184,66 +184,49 @@ pub struct KincoError {
     pub emcy: Option<u16>,
 }
 
-const fn e(word: ErrorWord, bit: u8, name: &'static str, emcy: u16) -> KincoError {
-    KincoError {
-        word,
-        bit,
-        name,
-        emcy: Some(emcy),
+impl KincoError {
+    /// The error a `[[diagnostic]]` row names: "Error_State.5", "Error_State2.0".
+    pub fn of(row: &'static od::Diagnostic) -> Option<KincoError> {
+        let (word, bit) = row.number.split_once('.')?;
+        let word = match word {
+            "Error_State" => ErrorWord::State,
+            "Error_State2" => ErrorWord::State2,
+            _ => return None,
+        };
+        Some(KincoError {
+            word,
+            bit: bit.parse().ok().filter(|b| *b < 16)?,
+            name: row.text,
+            emcy: row.code,
+        })
     }
 }
 
-/// Tab. 5-7 (L1150-1175), Tab. 8-1 (L1950-1968): Error_State.
+/// §7 Tab. 5-7 / 5-8 (Tab. 8-1 / 8-2) as the device file gives them (`[[diagnostic]]` of
+/// `devices/kinco-fd3.toml`; the CD3's file has the same rows).
 ///
-/// Decision: bit 14 "Encoder information" keeps the printed 7331h, the code of bit 1 too
-/// (spec/kinco-fd-cd.md §7): nothing says which one is the slip.
-pub const ERROR_STATE: [KincoError; 16] = [
-    KincoError {
-        word: ErrorWord::State,
-        bit: 0,
-        name: "Extended Error",
-        emcy: None,
-    },
-    e(ErrorWord::State, 1, "Encoder not connected", 0x7331),
-    e(ErrorWord::State, 2, "Encoder internal", 0x7320),
-    e(ErrorWord::State, 3, "Encoder CRC", 0x7330),
-    e(ErrorWord::State, 4, "Controller Temperature", 0x4210),
-    e(ErrorWord::State, 5, "Overvoltage", 0x3210),
-    e(ErrorWord::State, 6, "Undervoltage", 0x3220),
-    e(ErrorWord::State, 7, "Overcurrent", 0x2320),
-    e(ErrorWord::State, 8, "Chop Resistor", 0x7110),
-    e(ErrorWord::State, 9, "Following Error", 0x8611),
-    e(ErrorWord::State, 10, "Low Logic Voltage", 0x5112),
-    e(ErrorWord::State, 11, "Motor or controller IIt", 0x2350),
-    e(ErrorWord::State, 12, "Overfrequency", 0x8A80),
-    e(ErrorWord::State, 13, "Motor Temperature", 0x4310),
-    e(ErrorWord::State, 14, "Encoder information", 0x7331),
-    e(ErrorWord::State, 15, "EEPROM data", 0x6310),
-];
-
-/// Tab. 5-8 (L1176-1196), Tab. 8-2 (L1970-1980): Error_State2; bits 5-7, 12 and 14 are
-/// reserved. Bit 15's code is printed "7306" without 0x and read as 7306h.
-pub const ERROR_STATE2: [KincoError; 11] = [
-    e(ErrorWord::State2, 0, "Current sensor", 0x5210),
-    e(ErrorWord::State2, 1, "Watchdog", 0x6010),
-    e(ErrorWord::State2, 2, "Wrong interrupt", 0x6011),
-    e(ErrorWord::State2, 3, "MCU ID", 0x7400),
-    e(ErrorWord::State2, 4, "Motor configuration", 0x6320),
-    e(ErrorWord::State2, 8, "External enable", 0x5443),
-    e(ErrorWord::State2, 9, "Positive limit", 0x5442),
-    e(ErrorWord::State2, 10, "Negative limit", 0x5441),
-    e(ErrorWord::State2, 11, "SPI internal", 0x6012),
-    e(ErrorWord::State2, 13, "Closed loop direction", 0x8A81),
-    e(ErrorWord::State2, 15, "Master counting", 0x7306),
-];
+/// Decision: Error_State bit 14 "Encoder information" keeps the printed 7331h, the code of
+/// bit 1 too (spec/kinco-fd-cd.md §7): nothing says which one is the slip. Error_State2's
+/// bits 5-7, 12 and 14 are reserved; bit 15's code is printed "7306" without 0x and read as
+/// 7306h. Error_State bit 0 "Extended Error" (no EMCY) is the summary of Error_State2.
+pub fn errors() -> impl Iterator<Item = KincoError> {
+    devices::KINCO_FD3
+        .diagnostics
+        .iter()
+        .filter_map(KincoError::of)
+}
 
 /// The error of bit `bit` in `word`.
-pub fn error(word: ErrorWord, bit: u8) -> Option<&'static KincoError> {
-    let table: &[KincoError] = match word {
-        ErrorWord::State => &ERROR_STATE,
-        ErrorWord::State2 => &ERROR_STATE2,
-    };
-    table.iter().find(|e| e.bit == bit)
+pub fn error(word: ErrorWord, bit: u8) -> Option<KincoError> {
+    if word == ErrorWord::State && bit == 0 {
+        return Some(KincoError {
+            word,
+            bit,
+            name: "Extended Error",
+            emcy: None,
+        });
+    }
+    errors().find(|e| e.word == word && e.bit == bit)
 }
 
 /// The panel's alarm code of a bit (ch. 8, §4.2): the bit's value in four hex digits with a
@@ -337,17 +320,29 @@ pub const DIN_FUNCTIONS: [(u16, DinFunction); 30] = [
 /// mask, as they do for the single-bit codes (Tab. 6-1: "several functions on one input");
 /// functions of different groups cannot share an input (the manual does not say how).
 pub fn din_has(code: u16, function: DinFunction) -> bool {
-    DIN_FUNCTIONS
-        .iter()
-        .filter(|(_, f)| *f == function)
-        .any(|&(c, _)| {
-            if c & 0x8000 == 0 {
-                code & 0x8000 == 0 && code & c == c
-            } else {
-                code & 0xF000 == c & 0xF000 && code & c & 0x0FFF == c & 0x0FFF
-            }
-        })
+    // The table lists the functions in their declaration order (checked below): the row of
+    // a function is its discriminant, no search in the logic cycle.
+    let Some(&(c, _)) = DIN_FUNCTIONS.get(function as usize) else {
+        return false;
+    };
+    if c & 0x8000 == 0 {
+        code & 0x8000 == 0 && code & c == c
+    } else {
+        code & 0xF000 == c & 0xF000 && code & c & 0x0FFF == c & 0x0FFF
+    }
 }
+
+// Row n of DIN_FUNCTIONS is the function with discriminant n.
+const _: () = {
+    let mut i = 0;
+    while i < DIN_FUNCTIONS.len() {
+        assert!(
+            DIN_FUNCTIONS[i].1 as usize == i,
+            "DIN_FUNCTIONS out of order"
+        );
+        i += 1;
+    }
+};
 
 /// A DOUT function of Tab. 6-2 (L955-995).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

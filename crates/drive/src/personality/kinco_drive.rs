@@ -280,7 +280,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// shows (ch. 8: "the drive stops and shows the code"), so every error is a fault with
     /// the output stage off.
     pub(crate) fn kinco_error_reaction(&mut self, code: u16) -> ErrorReaction {
-        if let Some((word, bit)) = error_bit(code) {
+        if let Some((word, bit)) = self.kinco_error_bit(code) {
             let mask = match word {
                 ErrorWord::State => self.value(0x2605, 0x01),
                 ErrorWord::State2 => self.value(0x2605, 0x04),
@@ -317,6 +317,29 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
+    /// The error word and bit of `code`: a row raised by its number first (Error_State bits 1
+    /// and 14 share 7331h), else the first row with the code.
+    pub(crate) fn kinco_error_bit(&self, code: u16) -> Option<(ErrorWord, u8)> {
+        self.injected
+            .iter()
+            .filter_map(|d| kinco::KincoError::of(d))
+            .find(|e| e.emcy == Some(code))
+            .map(|e| (e.word, e.bit))
+            .or_else(|| error_bit(code))
+    }
+
+    /// The panel's alarm code (ch. 8): the oldest error's bit value (`002.0`); an Error_State2
+    /// error shows as Error_State bit 0, `000.1` (SET then opens d1.16). `None` without error.
+    pub fn kinco_led(&self) -> Option<[u8; 5]> {
+        self.faults
+            .iter()
+            .find_map(|c| self.kinco_error_bit(*c))
+            .map(|(word, bit)| match word {
+                ErrorWord::State => kinco::led_code(bit),
+                ErrorWord::State2 => kinco::led_code(0),
+            })
+    }
+
     /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
     pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
         self.kinco.history.iter().copied()
@@ -329,7 +352,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.kinco_publish_analog();
         let (mut state, mut state2) = (0u16, 0u16);
         for code in self.faults.iter() {
-            match error_bit(*code) {
+            match self.kinco_error_bit(*code) {
                 Some((ErrorWord::State, bit)) => state |= 1 << bit,
                 Some((ErrorWord::State2, bit)) => state2 |= 1 << bit,
                 None => {}
@@ -535,11 +558,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 }
 
 /// The error word and bit of an EMCY code; Error_State bit 14 shares 7331h with bit 1 and
-/// is never the answer (see [`kinco::ERROR_STATE`]).
+/// is the answer only when raised by its number (see [`kinco::errors`]).
 pub(crate) fn error_bit(code: u16) -> Option<(ErrorWord, u8)> {
-    kinco::ERROR_STATE
-        .iter()
-        .chain(kinco::ERROR_STATE2.iter())
+    kinco::errors()
         .find(|e| e.emcy == Some(code))
         .map(|e| (e.word, e.bit))
 }

@@ -55,8 +55,16 @@ pub(crate) struct DinMemory {
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// DINn_Function (2010h:03 + n), read through its resolved entry (every logic cycle
+    /// asks for each input several times).
     fn din_function_code(&self, n: u8) -> u16 {
-        self.value(0x2010, 0x03 + n).clamp(0, 0xFFFF) as u16
+        let first = crate::drive::param_slot(0x2010, 0x03).unwrap_or(usize::MAX);
+        let entry = (n < DINS)
+            .then(|| self.params.get(first.wrapping_add(usize::from(n))))
+            .flatten()
+            .copied()
+            .flatten();
+        self.read(entry).clamp(0, 0xFFFF) as u16
     }
 
     /// Din_Real: the wires at `position` (see the module doc), forced inputs over them.

@@ -5,6 +5,7 @@
 
 use std::time::Duration;
 
+use canopen::bus_load::LoadWindow;
 use canopen::timed_bus::{TimedBus, Transmission};
 use canopen::CanFrame;
 use od::Instant;
@@ -44,11 +45,8 @@ pub struct BusTiming {
     bus: TimedBus<MAX_QUEUED>,
     late_after: Duration,
     figures: BusFigures,
-    window_start: Instant,
-    /// Bit time asked in the current window: frames submitted, each counted once.
-    window_asked: u64,
-    /// Whether a window has completed (else the load is of the window so far).
-    complete: bool,
+    /// Bit time asked of the bus: frames submitted, each counted once, carried or lost.
+    load: LoadWindow,
 }
 
 impl BusTiming {
@@ -61,17 +59,16 @@ impl BusTiming {
                 bitrate: bitrate.max(1),
                 ..BusFigures::default()
             },
-            window_start: Instant::ZERO,
-            window_asked: 0,
-            complete: false,
+            load: LoadWindow::new(
+                u64::try_from(LOAD_WINDOW.as_nanos()).unwrap_or(u64::MAX),
+                Instant::ZERO,
+            ),
         }
     }
 
     /// `source` (a drive's index, or [`OUTSIDE`]) has `frame` ready at `now`.
     pub fn submit(&mut self, now: Instant, source: u16, frame: CanFrame) {
-        self.roll_window(now);
-        // Asked of the bus, carried or lost.
-        self.window_asked += self.bus.frame_nanos(&frame);
+        self.load.add(now, self.bus.frame_nanos(&frame));
         match self.bus.submit(now, source, frame) {
             Ok(()) => {}
             Err(_) => {
@@ -103,36 +100,9 @@ impl BusTiming {
 
     /// The figures as of `now`.
     pub fn figures(&mut self, now: Instant) -> BusFigures {
-        self.roll_window(now);
         let mut figures = self.figures;
         figures.queued = self.bus.queued();
-        if !self.complete {
-            figures.load_percent = load(self.window_asked, now.as_nanos());
-        }
+        figures.load_percent = self.load.load_percent(now);
         figures
     }
-
-    /// Decision: the load of a window is the bit time asked of the bus in it over the
-    /// window's length, so an overloaded bus shows more than 100 % (the busy time alone
-    /// stops at 100 % and hides by how much the bus is short).
-    fn roll_window(&mut self, now: Instant) {
-        let window = u64::try_from(LOAD_WINDOW.as_nanos()).unwrap_or(u64::MAX);
-        let elapsed = now.as_nanos().saturating_sub(self.window_start.as_nanos());
-        if elapsed < window {
-            return;
-        }
-        self.figures.load_percent = load(self.window_asked, elapsed);
-        self.complete = true;
-        self.window_asked = 0;
-        self.window_start = now;
-    }
-}
-
-/// `asked` ns of bit time in `elapsed` ns, percent.
-fn load(asked: u64, elapsed: u64) -> f64 {
-    if elapsed == 0 {
-        return 0.0;
-    }
-    // Precision: f64 is exact for these nanosecond counts below 2^53 (104 days).
-    asked as f64 * 100.0 / elapsed as f64
 }

@@ -58,6 +58,12 @@ pub enum ConfigError {
         node: u8,
         source: crate::cell::interfaces::InterfaceError,
     },
+    #[error("drive {node}: [[drive.diagnostic]] {number:?}: {what}")]
+    Diagnostic {
+        node: u8,
+        number: String,
+        what: String,
+    },
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -245,6 +251,11 @@ pub struct DriveSection {
     /// its order among the drives of that chain in the file); implies `"ethercat"` in
     /// `interfaces`. Without it, a drive with `"ethercat"` is on the chain of `--ethercat`.
     pub ethercat: Option<String>,
+    /// Diagnostic messages raised (or cleared) at a time of the cell's clock:
+    /// `[[drive.diagnostic]]` with `at_ms`, `number` ("08-2", as the drive's manual prints
+    /// it) and `action` (`raise`, the default, or `clear`). CANopen drives.
+    #[serde(default)]
+    pub diagnostic: Vec<crate::cell::diagnostics::PlannedDiagnostic>,
     /// The drive's RS232 port (a Kinco's X3, the 10-byte telegrams): a path made a link to a
     /// pty of the twin, or a real serial device. Drives that name one path form a ring.
     pub rs232: Option<String>,
@@ -690,6 +701,9 @@ pub struct DriveSpec {
     /// An EtherCAT slave: `Some(chain)`, the chain's network interface when the cell file
     /// names it (else `--ethercat`'s).
     pub ethercat: Option<Option<String>>,
+    /// `[[drive.diagnostic]]`: messages planned on the cell's clock (checked against the
+    /// device's table).
+    pub diagnostics: Vec<crate::cell::diagnostics::PlannedDiagnostic>,
 }
 
 impl DriveSpec {
@@ -754,6 +768,7 @@ impl CellFile {
                 ethercat: None,
                 rs232: None,
                 rs485: None,
+                diagnostic: Vec::new(),
             }],
         }
     }
@@ -983,6 +998,19 @@ impl CellFile {
                     bytes: vec![p.node_id],
                 });
             }
+            for p in &d.diagnostic {
+                let err = |what: &str| ConfigError::Diagnostic {
+                    node,
+                    number: p.number.clone(),
+                    what: what.to_owned(),
+                };
+                if desc.diagnostic(&p.number).is_none() {
+                    return Err(err(&format!("{} has no such message", desc.name)));
+                }
+                if !canopen || fhpp.is_some() {
+                    return Err(err("planned messages need a CANopen drive"));
+                }
+            }
             specs.push(DriveSpec {
                 desc,
                 node,
@@ -993,6 +1021,7 @@ impl CellFile {
                 bus,
                 canopen,
                 ethercat,
+                diagnostics: d.diagnostic.clone(),
             });
         }
         Ok(specs)

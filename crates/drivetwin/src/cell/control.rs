@@ -88,6 +88,9 @@ pub enum ControlError {
     NoPlant(usize),
     #[error("refused: {0:?}")]
     Abort(AbortCode),
+    /// A diagnostic message that the drive's table does not have, or that was not raised.
+    #[error("diagnostic message: {0:?}")]
+    Diagnostic(drive::drive::diagnostics::DiagnosticError),
 }
 
 /// A CAN bus of the cell.
@@ -145,6 +148,16 @@ pub(crate) enum Command {
         every: Duration,
         samples: SyncSender<PlantSample>,
         reply: SyncSender<Result<(), ControlError>>,
+    },
+    Diagnostics {
+        drive: usize,
+        reply: SyncSender<Result<Vec<crate::cell::diagnostics::DiagnosticState>, ControlError>>,
+    },
+    SetDiagnostic {
+        drive: usize,
+        number: String,
+        action: crate::cell::diagnostics::Action,
+        reply: SyncSender<Result<&'static od::Diagnostic, ControlError>>,
     },
     /// Wire faults and traces ([`crate::cell::wire_faults`]).
     Wire {
@@ -267,6 +280,43 @@ impl ControlHandle {
             reply,
         })??;
         Ok(rx)
+    }
+
+    /// The drive's diagnostic table (its manual's messages) with what is active now.
+    pub fn diagnostics(
+        &self,
+        drive: usize,
+    ) -> Result<Vec<crate::cell::diagnostics::DiagnosticState>, ControlError> {
+        self.ask(|reply| Command::Diagnostics { drive, reply })?
+    }
+
+    /// Raises message `number` ("08-2", "2Fh": as the manual prints it) of drive `drive`: it
+    /// reacts as if it had detected it, until [`ControlHandle::clear_diagnostic`].
+    pub fn raise_diagnostic(
+        &self,
+        drive: usize,
+        number: &str,
+    ) -> Result<&'static od::Diagnostic, ControlError> {
+        self.ask(|reply| Command::SetDiagnostic {
+            drive,
+            number: number.to_owned(),
+            action: crate::cell::diagnostics::Action::Raise,
+            reply,
+        })?
+    }
+
+    /// Clears message `number` raised by [`ControlHandle::raise_diagnostic`].
+    pub fn clear_diagnostic(
+        &self,
+        drive: usize,
+        number: &str,
+    ) -> Result<&'static od::Diagnostic, ControlError> {
+        self.ask(|reply| Command::SetDiagnostic {
+            drive,
+            number: number.to_owned(),
+            action: crate::cell::diagnostics::Action::Clear,
+            reply,
+        })?
     }
 
     /// A wire fault, a trace or a tap on a front end ([`crate::cell::wire_faults`]).

@@ -7,8 +7,10 @@ pub mod ci_console;
 pub mod config;
 pub mod control;
 pub mod device_model;
+pub mod diagnostics;
 pub mod fieldbus_switches;
 pub mod interfaces;
+pub mod lateness;
 pub mod param_store;
 pub mod poll_loop;
 pub mod realtime;
@@ -39,6 +41,8 @@ pub struct Cell {
     faults: Vec<NodeFaults>,
     /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
     planned: Vec<(Instant, u8, u32)>,
+    /// Diagnostic messages the cell file plans: at a time, the drive (cell order), what.
+    planned_diagnostics: Vec<(Instant, usize, diagnostics::PlannedDiagnostic)>,
     /// Faults on the wire between the drives and the front ends ([`wire_faults`]).
     wire: WireFaults,
     /// Frames a fault delays: when they arrive, the frame, its sender (in arrival order).
@@ -72,6 +76,7 @@ impl Cell {
             timing: None,
             faults,
             planned: Vec::new(),
+            planned_diagnostics: Vec::new(),
             wire: WireFaults::default(),
             delayed: Vec::new(),
         }
@@ -194,6 +199,7 @@ impl Cell {
     pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
         self.fit_faults();
         self.start_planned(now);
+        self.start_planned_diagnostics(now);
         self.release_delayed(now, out);
         let Cell {
             drives,
@@ -213,7 +219,10 @@ impl Cell {
 
     pub fn deadline(&self) -> Option<Instant> {
         let bus = self.timing.as_ref().and_then(|t| t.deadline());
-        let planned = self.planned.iter().map(|(t, _, _)| *t).min();
+        let planned = earliest(
+            self.planned.iter().map(|(t, _, _)| *t).min(),
+            self.planned_diagnostics_deadline(),
+        );
         let planned = earliest(planned, self.delayed.first().map(|(t, _, _)| *t));
         let recovery = self
             .faults

@@ -183,8 +183,9 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Monitor {
             count,
             seconds,
+            bitrate,
             bus,
-        } => network::monitor(count, seconds, bus).await,
+        } => network::monitor(count, seconds, bitrate, bus).await,
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco { command, port } => kinco::kinco(command, port),
         Command::Scenario(args) => scenario::scenario(args),

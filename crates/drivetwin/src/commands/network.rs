@@ -28,9 +28,17 @@ pub(crate) async fn nmt(command: NmtArg, node: u8, bus: BusArgs) -> Result<(), C
 pub(crate) async fn monitor(
     count: Option<u64>,
     seconds: Option<f64>,
+    bitrate: Option<u32>,
     bus: BusArgs,
 ) -> Result<(), CommandError> {
+    if bitrate == Some(0) {
+        return Err(CommandError::Usage("--bitrate must be above 0".into()));
+    }
     let mut link = connect(&bus).await?;
+    let started = tokio::time::Instant::now();
+    let since_start = || od::Instant::from_nanos(started.elapsed().as_nanos() as u64);
+    let window = drivetwin::cell::bus_timing::LOAD_WINDOW.as_nanos() as u64;
+    let mut load = bitrate.map(|b| (b, canopen::bus_load::LoadWindow::new(window, since_start())));
     let deadline = match seconds {
         Some(s) if s.is_finite() && s >= 0.0 => {
             Some(tokio::time::Instant::now() + Duration::from_secs_f64(s))
@@ -52,6 +60,15 @@ pub(crate) async fn monitor(
             None => link.recv().await?,
         };
         seen += 1;
+        if let Some((bitrate, window)) = load.as_mut() {
+            let nanos = canopen::frame_time::bits_to_nanos(
+                canopen::frame_time::frame_bits(&frame),
+                *bitrate,
+            );
+            if let Some((percent, frames)) = window.add(since_start(), nanos) {
+                print_load(bus.json, *bitrate, percent, frames);
+            }
+        }
         let mut text = String::new();
         let _ = canopen::decode::describe(&frame, &mut text);
         let t = SystemTime::now()
@@ -87,6 +104,19 @@ pub(crate) async fn monitor(
         }
     }
     Ok(())
+}
+
+/// One window's bus load, as a line between the frames.
+fn print_load(json: bool, bitrate: u32, percent: f64, frames: u32) {
+    let window_ms = drivetwin::cell::bus_timing::LOAD_WINDOW.as_millis();
+    if json {
+        out!(
+            "{}",
+            serde_json::json!({"bus_load_percent": percent, "bitrate": bitrate, "window_ms": window_ms, "frames": frames})
+        );
+    } else {
+        out!("-- bus load {percent:.1} % at {bitrate} bit/s ({frames} frames in {window_ms} ms)");
+    }
 }
 
 pub(crate) async fn sync(

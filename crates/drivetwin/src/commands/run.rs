@@ -42,7 +42,9 @@ pub(crate) fn build_cell(
 ) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
     let mut drives: Vec<Vec<CanDrive>> = buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
-    for spec in specs {
+    // `[[drive.diagnostic]]`: (bus, drive in its cell, messages).
+    let mut diagnostics = Vec::new();
+    for mut spec in specs {
         in_cell.push(None);
         if spec.fhpp.is_some() || !spec.canopen {
             // The CMMO-ST runs beside the bus (Modbus TCP); an EtherCAT-only drive is its
@@ -79,6 +81,7 @@ pub(crate) fn build_cell(
                 continue;
             }
         }
+        let planned = std::mem::take(&mut spec.diagnostics);
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         let bus = spec.bus;
         let Some(on_bus) = drives.get_mut(bus) else {
@@ -96,6 +99,9 @@ pub(crate) fn build_cell(
             drive.serve_coe();
         }
         on_bus.push(drive);
+        if !planned.is_empty() {
+            diagnostics.push((bus, on_bus.len() - 1, planned));
+        }
         if let Some(last) = in_cell.last_mut() {
             *last = Some(OnBus {
                 bus,
@@ -103,7 +109,7 @@ pub(crate) fn build_cell(
             });
         }
     }
-    let cells = drives
+    let mut cells = drives
         .into_iter()
         .zip(buses)
         .map(|(d, section)| {
@@ -116,7 +122,14 @@ pub(crate) fn build_cell(
             }
             cell
         })
-        .collect();
+        .collect::<Vec<Cell>>();
+    for (bus, drive, planned) in diagnostics {
+        if let Some(cell) = cells.get_mut(bus) {
+            for p in planned {
+                cell.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
+            }
+        }
+    }
     Ok((cells, in_cell))
 }
 
@@ -184,6 +197,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     };
     let mut stops = Vec::new();
     let mut threads = Vec::new();
+    let mut lateness = Vec::new();
     for (i, cell_loop) in loops.into_iter().enumerate() {
         stops.push(cell_loop.stop_handle());
         let name = if i == 0 {
@@ -191,6 +205,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         } else {
             format!("cell-{i}")
         };
+        lateness.push((name.clone(), cell_loop.lateness()));
         threads.push(
             std::thread::Builder::new()
                 .name(name)
@@ -230,6 +245,9 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         result
             .map_err(|_| failed("panicked"))?
             .map_err(io("cell loop"))?;
+    }
+    for (name, l) in &lateness {
+        out!("{name} loop: {}", l.figures());
     }
     out!("stopped");
     Ok(())

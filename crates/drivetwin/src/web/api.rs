@@ -46,11 +46,11 @@ impl ApiError {
         }
     }
 
-    fn bad(error: impl Into<String>) -> ApiError {
+    pub(super) fn bad(error: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::BAD_REQUEST, error)
     }
 
-    fn not_found(error: impl Into<String>) -> ApiError {
+    pub(super) fn not_found(error: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::NOT_FOUND, error)
     }
 
@@ -80,6 +80,7 @@ impl From<ControlError> for ApiError {
                 ApiError::not_found(e.to_string())
             }
             ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
+            ControlError::Diagnostic(d) => super::diagnostics::refusal(d),
         }
     }
 }
@@ -102,10 +103,10 @@ impl IntoResponse for ApiError {
     }
 }
 
-type ApiResult<T> = Result<Json<T>, ApiError>;
+pub(super) type ApiResult<T> = Result<Json<T>, ApiError>;
 
 /// Runs a blocking call on the control handle off the runtime's workers.
-async fn call<T: Send + 'static>(
+pub(super) async fn call<T: Send + 'static>(
     handle: &ControlHandle,
     f: impl FnOnce(&ControlHandle) -> Result<T, ApiError> + Send + 'static,
 ) -> Result<T, ApiError> {
@@ -210,7 +211,7 @@ fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError
     })
 }
 
-fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
+pub(super) fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
     let index: usize = drive
         .parse()
         .map_err(|_| ApiError::bad(format!("drive {drive:?}: not a drive index (0, 1, …)")))?;
@@ -826,7 +827,9 @@ async fn set_load(
 pub struct ApiDoc;
 
 async fn openapi() -> Response {
-    match super::wire::merged(ApiDoc::openapi()).to_json() {
+    let mut doc = ApiDoc::openapi();
+    doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
+    match super::wire::merged(doc).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],
             text,

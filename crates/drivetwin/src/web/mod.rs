@@ -19,6 +19,7 @@
 
 pub mod api;
 pub mod auth;
+pub mod diagnostics;
 pub mod live;
 pub mod page;
 pub mod scenarios;
@@ -79,6 +80,7 @@ pub fn router(state: AppState) -> Router {
     Router::new()
         .merge(api::routes())
         .merge(live::routes())
+        .merge(diagnostics::routes())
         .merge(page::routes())
         .merge(wire::routes())
         .layer(axum::middleware::from_fn_with_state(

@@ -12,11 +12,16 @@ use od::Instant;
 /// The default cell's CMMP-AS (node 1, heartbeat and CiA 402 FAULT value commissioned), its
 /// parameters kept in `store` if given; not yet booted.
 pub fn cmmp_cell(store: Option<ParamStore>) -> Cell {
-    let spec = CellFile::single("cmmp-as", 1)
+    device_cell("cmmp-as", store)
+}
+
+/// The default cell of device file `device` (node 1), not yet booted.
+pub fn device_cell(device: &str, store: Option<ParamStore>) -> Cell {
+    let spec = CellFile::single(device, 1)
         .drives()
         .expect("the default cell")
         .remove(0);
-    assert!(spec.settings.is_some(), "cmmp-as is a CiA 402 drive");
+    assert!(spec.settings.is_some(), "{device} is a CiA 402 drive");
     let d = CanDrive::with_settings(
         spec.desc,
         spec.node,
@@ -24,7 +29,7 @@ pub fn cmmp_cell(store: Option<ParamStore>) -> Cell {
         spec.commissioning,
         spec.settings,
     )
-    .expect("the CMMP-AS");
+    .expect("the drive");
     Cell::new(vec![d])
 }
 
@@ -37,8 +42,13 @@ pub struct CanBench {
 
 impl CanBench {
     pub fn new(store: Option<ParamStore>) -> Self {
+        Self::device("cmmp-as", store)
+    }
+
+    /// [`CanBench::new`] with the drive of device file `device`.
+    pub fn device(device: &str, store: Option<ParamStore>) -> Self {
         let mut b = CanBench {
-            cell: cmmp_cell(store),
+            cell: device_cell(device, store),
             now: Instant::ZERO,
             out: Vec::new(),
         };

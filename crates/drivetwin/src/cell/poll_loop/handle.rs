@@ -118,11 +118,49 @@ impl CellLoop {
                     });
                     let _ = reply.send(done);
                 }
+                Command::Diagnostics { drive, reply } => {
+                    let _ = reply.send(self.diagnostics(drive));
+                }
+                Command::SetDiagnostic {
+                    drive,
+                    number,
+                    action,
+                    reply,
+                } => {
+                    let _ = reply.send(self.set_diagnostic(drive, &number, action));
+                }
                 Command::Wire { request, reply } => {
                     let _ = reply.send(self.wire(request, now));
                 }
             }
         }
+    }
+
+    fn diagnostics(
+        &mut self,
+        drive: usize,
+    ) -> Result<Vec<crate::cell::diagnostics::DiagnosticState>, ControlError> {
+        use crate::cell::diagnostics as diag;
+        Ok(match self.target(drive)? {
+            Target::Can(model) => diag::list_model(model),
+            Target::Modbus(dev) => diag::list_fhpp(&lock(&dev)),
+        })
+    }
+
+    fn set_diagnostic(
+        &mut self,
+        drive: usize,
+        number: &str,
+        action: crate::cell::diagnostics::Action,
+    ) -> Result<&'static od::Diagnostic, ControlError> {
+        use crate::cell::diagnostics::{self as diag, Action};
+        match (self.target(drive)?, action) {
+            (Target::Can(model), Action::Raise) => diag::raise_model(model, number),
+            (Target::Can(model), Action::Clear) => diag::clear_model(model, number),
+            (Target::Modbus(dev), Action::Raise) => diag::raise_fhpp(&mut lock(&dev), number),
+            (Target::Modbus(dev), Action::Clear) => diag::clear_fhpp(&mut lock(&dev), number),
+        }
+        .map_err(ControlError::Diagnostic)
     }
 
     /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.

@@ -43,6 +43,7 @@ use crate::ecat::chain::{trace_frame, BusDrives, EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
+mod fine_timer;
 mod handle;
 mod serial;
 mod wire;
@@ -58,6 +59,8 @@ const READS_PER_TURN: usize = 16;
 const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
+/// The loop's sub-millisecond timer ([`fine_timer`]).
+const TIMER: Token = Token(FIRST_SERIAL - 1);
 /// Bus `b` has tokens `1 + 3b` (its socketcand server), `2 + 3b` (its SocketCAN socket) and
 /// `3 + 3b` (the socketcand server it joins).
 pub const MAX_BUSES: usize = 7;
@@ -182,6 +185,10 @@ pub struct CellLoop {
     poll: Poll,
     stop: Arc<AtomicBool>,
     waker: Arc<Waker>,
+    /// Wakes the loop between milliseconds; without it (no timerfd) the poll's timeout does.
+    timer: Option<fine_timer::FineTimer>,
+    /// How late the loop serves due timers.
+    lateness: Arc<crate::cell::lateness::Lateness>,
     buses: Vec<BusState>,
     /// The cell clock's zero.
     origin: Instant,
@@ -293,6 +300,11 @@ impl CellLoop {
         }
         let poll = Poll::new()?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKER)?);
+        let timer = fine_timer::FineTimer::new(poll.registry(), TIMER)
+            .map_err(
+                |e| tracing::warn!(error = %e, "no timerfd: the loop wakes on whole milliseconds"),
+            )
+            .ok();
         let mut buses = Vec::new();
         for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
             let mut socketcand = None;
@@ -389,6 +401,8 @@ impl CellLoop {
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
+            timer,
+            lateness: Arc::default(),
             buses,
             origin: Instant::now(),
             listeners,
@@ -407,6 +421,11 @@ impl CellLoop {
             text: Vec::with_capacity(64),
             effects: Vec::new(),
         })
+    }
+
+    /// How late the loop serves its timers, readable while it runs and after.
+    pub fn lateness(&self) -> Arc<crate::cell::lateness::Lateness> {
+        Arc::clone(&self.lateness)
     }
 
     pub fn stop_handle(&self) -> StopHandle {
@@ -469,8 +488,13 @@ impl CellLoop {
             {
                 Some(Duration::ZERO)
             } else {
-                self.deadline()
-                    .map(|d| d.saturating_duration_since(Instant::now()))
+                let wait = self
+                    .deadline()
+                    .map(|d| d.saturating_duration_since(Instant::now()));
+                if let (Some(w), Some(timer)) = (wait, &self.timer) {
+                    timer.arm(w);
+                }
+                wait
             };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
@@ -484,6 +508,11 @@ impl CellLoop {
             for event in &events {
                 match event.token() {
                     WAKER => {}
+                    TIMER => {
+                        if let Some(timer) = &self.timer {
+                            timer.clear();
+                        }
+                    }
                     Token(t) if t >= FIRST_SERIAL => {
                         self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
                     }
@@ -598,7 +627,8 @@ impl CellLoop {
             let Some(bus) = self.buses.get_mut(b) else {
                 break;
             };
-            if bus.cell.deadline().is_some_and(|d| d <= t) {
+            if let Some(due) = bus.cell.deadline().filter(|d| *d <= t) {
+                self.lateness.record(t.saturating_since(due));
                 let mut out = std::mem::take(&mut self.out);
                 bus.cell.poll(t, &mut out);
                 self.drives_sent(b, now, &mut out);
@@ -606,7 +636,8 @@ impl CellLoop {
             }
         }
         for chain in &mut self.chains {
-            if chain.chain.deadline().is_some_and(|d| d <= t) {
+            if let Some(due) = chain.chain.deadline().filter(|d| *d <= t) {
+                self.lateness.record(t.saturating_since(due));
                 chain.chain.poll_with(t, &mut Buses(&mut self.buses));
             }
         }
@@ -617,7 +648,13 @@ impl CellLoop {
         for drive in 0..self.modbus.len() {
             let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {
-                Some(m) => m.cycle(t),
+                Some(m) => {
+                    let due = m.next_cycle();
+                    if due <= t {
+                        self.lateness.record(t.saturating_since(due));
+                    }
+                    m.cycle(t)
+                }
                 None => false,
             };
             if closed {

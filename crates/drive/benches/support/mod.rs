@@ -1,0 +1,44 @@
+//! What the benches of several crates share: the thread's CPU time and the plots' font. Each
+//! bench includes it with `#[path]` (a bench is its own crate).
+#![allow(dead_code)] // each bench uses a part of it
+
+use std::path::Path;
+use std::time::Duration;
+
+/// The CPU time this thread has used (the machine is shared: wall time would count the
+/// other processes that preempt the bench).
+pub fn thread_cpu_time() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime");
+    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+}
+
+/// Fonts tried for the plots' labels (a plot needs one; the benches still report without).
+const FONTS: [&str; 3] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/Library/Fonts/Arial.ttf",
+];
+
+/// Registers a TrueType font as plotters' "sans-serif" (`DRIVETWIN_PLOT_FONT`, else the
+/// first of [`FONTS`] found).
+pub fn load_font() -> Result<(), String> {
+    let path = std::env::var("DRIVETWIN_PLOT_FONT")
+        .ok()
+        .into_iter()
+        .chain(FONTS.iter().map(|s| s.to_string()))
+        .find(|p| Path::new(p).exists())
+        .ok_or("no TrueType font found (set DRIVETWIN_PLOT_FONT)")?;
+    let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
+    plotters::style::register_font(
+        "sans-serif",
+        plotters::style::FontStyle::Normal,
+        Box::leak(bytes.into_boxed_slice()),
+    )
+    .map_err(|_| format!("{path}: not a usable font"))
+}

@@ -1,0 +1,197 @@
+//! Diagnostic messages raised and cleared from outside the drive, by the number its manual
+//! prints ("08-2", "2Fh", "0800h", "Error_State.9"): from the cell (a scenario, the cell file's
+//! `[[drive.diagnostic]]`), the control handle and the REST API. The drive then reacts as if
+//! its own supervision had raised the message (`drive::drive::diagnostics`).
+
+use drive::drive::diagnostics::{emcy_code, DiagnosticError};
+use drive::fhpp::device::FhppDevice;
+use od::{Diagnostic, Instant};
+use serde::Deserialize;
+
+use super::control::ControlError;
+use super::device_model::Model;
+use super::Cell;
+
+/// One message of a drive's table and whether it is active now.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DiagnosticState {
+    pub row: &'static Diagnostic,
+    /// The EMCY code it is reported with (CiA 402 drives; 1000h where the manual gives none).
+    pub emcy: Option<u16>,
+    pub active: bool,
+}
+
+/// Raise or clear.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Action {
+    Raise,
+    Clear,
+}
+
+/// `[[drive.diagnostic]]` of a cell file: at `at_ms` on the cell's clock, raise (or clear)
+/// message `number` of the drive.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannedDiagnostic {
+    pub at_ms: u64,
+    pub number: String,
+    #[serde(default = "raise")]
+    pub action: Action,
+}
+
+fn raise() -> Action {
+    Action::Raise
+}
+
+fn refused(e: DiagnosticError) -> ControlError {
+    ControlError::Diagnostic(e)
+}
+
+/// Raises message `number` of a CiA 402 drive model.
+pub fn raise_model(
+    model: &mut Model,
+    number: &str,
+) -> Result<&'static Diagnostic, DiagnosticError> {
+    match model.drive_mut() {
+        Some(d) => d.raise_diagnostic(number),
+        None => Err(DiagnosticError::Unknown),
+    }
+}
+
+/// Clears message `number` of a CiA 402 drive model.
+pub fn clear_model(
+    model: &mut Model,
+    number: &str,
+) -> Result<&'static Diagnostic, DiagnosticError> {
+    match model.drive_mut() {
+        Some(d) => d.clear_diagnostic(number),
+        None => Err(DiagnosticError::Unknown),
+    }
+}
+
+/// The table of a CiA 402 drive model with what is active (empty for a plain device).
+pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
+    let Some(d) = model.drive() else {
+        return Vec::new();
+    };
+    d.diagnostic_table()
+        .iter()
+        .map(|row| DiagnosticState {
+            row,
+            emcy: Some(emcy_code(row)),
+            active: d.diagnostic_active(row),
+        })
+        .collect()
+}
+
+/// Raises message `number` of the CMMO-ST.
+pub fn raise_fhpp(
+    dev: &mut FhppDevice<Vec<u8>>,
+    number: &str,
+) -> Result<&'static Diagnostic, DiagnosticError> {
+    let row = dev
+        .od()
+        .description()
+        .diagnostic(number)
+        .ok_or(DiagnosticError::Unknown)?;
+    dev.raise_diagnostic(row.number)?;
+    Ok(row)
+}
+
+/// Clears message `number` of the CMMO-ST.
+pub fn clear_fhpp(
+    dev: &mut FhppDevice<Vec<u8>>,
+    number: &str,
+) -> Result<&'static Diagnostic, DiagnosticError> {
+    let row = dev
+        .od()
+        .description()
+        .diagnostic(number)
+        .ok_or(DiagnosticError::Unknown)?;
+    dev.clear_diagnostic(row.number)?;
+    Ok(row)
+}
+
+/// The CMMO-ST's App. D with what is active.
+pub fn list_fhpp(dev: &FhppDevice<Vec<u8>>) -> Vec<DiagnosticState> {
+    dev.od()
+        .description()
+        .diagnostics
+        .iter()
+        .map(|row| DiagnosticState {
+            row,
+            emcy: None,
+            active: drive::fhpp::diagnostics::number(row.number)
+                .is_some_and(|c| dev.diagnostic_active(c)),
+        })
+        .collect()
+}
+
+impl Cell {
+    /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of drive
+    /// `drive` (cell order): the drive reacts as if it had detected it (reaction, EMCY, 1003h,
+    /// statusword, display) and keeps it until [`Cell::clear_diagnostic`]. The frames go out
+    /// at the next [`Cell::poll`].
+    pub fn raise_diagnostic(
+        &mut self,
+        drive: usize,
+        number: &str,
+    ) -> Result<&'static Diagnostic, ControlError> {
+        let d = self
+            .drives
+            .get_mut(drive)
+            .ok_or(ControlError::NoDrive(drive))?;
+        raise_model(&mut d.model, number).map_err(refused)
+    }
+
+    /// Clears message `number` raised by [`Cell::raise_diagnostic`]: its cause is gone; an
+    /// error then waits for the fault reset.
+    pub fn clear_diagnostic(
+        &mut self,
+        drive: usize,
+        number: &str,
+    ) -> Result<&'static Diagnostic, ControlError> {
+        let d = self
+            .drives
+            .get_mut(drive)
+            .ok_or(ControlError::NoDrive(drive))?;
+        clear_model(&mut d.model, number).map_err(refused)
+    }
+
+    /// Drive `drive`'s diagnostic table with what is active.
+    pub fn diagnostics(&self, drive: usize) -> Result<Vec<DiagnosticState>, ControlError> {
+        let d = self.drives.get(drive).ok_or(ControlError::NoDrive(drive))?;
+        Ok(list_model(&d.model))
+    }
+
+    /// Plans [`Cell::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
+    /// file's `[[drive.diagnostic]]`).
+    pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
+        self.planned_diagnostics.push((at, drive, planned));
+    }
+
+    /// Carries out the planned messages that are due.
+    pub(super) fn start_planned_diagnostics(&mut self, now: Instant) {
+        let mut i = 0;
+        while let Some((at, _, _)) = self.planned_diagnostics.get(i) {
+            if *at > now {
+                i += 1;
+                continue;
+            }
+            let (_, drive, p) = self.planned_diagnostics.remove(i);
+            let done = match p.action {
+                Action::Raise => self.raise_diagnostic(drive, &p.number),
+                Action::Clear => self.clear_diagnostic(drive, &p.number),
+            };
+            if let Err(e) = done {
+                tracing::warn!(drive, number = %p.number, "planned diagnostic: {e}");
+            }
+        }
+    }
+
+    /// The earliest planned message.
+    pub(super) fn planned_diagnostics_deadline(&self) -> Option<Instant> {
+        self.planned_diagnostics.iter().map(|(t, _, _)| *t).min()
+    }
+}
