@@ -130,6 +130,22 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
+    /// Run a scenario file (a cell and a timeline of actions and expectations) on the
+    /// virtual clock: prints the report; exit code 0 when every expectation is met, 1 if not.
+    Scenario(ScenarioArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ScenarioArgs {
+    /// The scenario file (TOML).
+    pub file: PathBuf,
+    /// Write every frame of the run to this file (pcap; `*.log`: candump), stamped with the
+    /// virtual clock.
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug)]

@@ -19,6 +19,7 @@ pub mod ecat;
 pub mod export;
 pub mod master;
 pub mod modbus_tcp;
+pub mod scenario;
 pub mod serial;
 pub mod trace;
 pub mod value_text;

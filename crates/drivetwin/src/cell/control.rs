@@ -159,6 +159,13 @@ pub(crate) enum Command {
         action: crate::cell::diagnostics::Action,
         reply: SyncSender<Result<&'static od::Diagnostic, ControlError>>,
     },
+    /// Wire faults and traces ([`crate::cell::wire_faults`]).
+    Wire {
+        request: crate::cell::wire_faults::WireRequest,
+        reply: SyncSender<
+            Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError>,
+        >,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -310,5 +317,14 @@ impl ControlHandle {
             action: crate::cell::diagnostics::Action::Clear,
             reply,
         })?
+    }
+
+    /// A wire fault, a trace or a tap on a front end ([`crate::cell::wire_faults`]).
+    pub fn wire(
+        &self,
+        request: crate::cell::wire_faults::WireRequest,
+    ) -> Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError> {
+        self.ask(|reply| Command::Wire { request, reply })
+            .map_err(|_| crate::cell::wire_faults::WireError::Stopped)?
     }
 }

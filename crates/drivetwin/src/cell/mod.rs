@@ -15,6 +15,7 @@ pub mod param_store;
 pub mod poll_loop;
 pub mod realtime;
 pub mod runtime;
+pub mod wire_faults;
 
 use std::collections::VecDeque;
 
@@ -25,6 +26,7 @@ use od::{time::earliest, Instant};
 
 use crate::can::drive::CanDrive;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
+use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError, WireFaults};
 
 /// Decision: without a bit rate the bus has no bit time, but a bus-off node still needs one
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
@@ -41,6 +43,10 @@ pub struct Cell {
     planned: Vec<(Instant, u8, u32)>,
     /// Diagnostic messages the cell file plans: at a time, the drive (cell order), what.
     planned_diagnostics: Vec<(Instant, usize, diagnostics::PlannedDiagnostic)>,
+    /// Faults on the wire between the drives and the front ends ([`wire_faults`]).
+    wire: WireFaults,
+    /// Frames a fault delays: when they arrive, the frame, its sender (in arrival order).
+    delayed: Vec<(Instant, CanFrame, Option<usize>)>,
 }
 
 /// One drive's CAN controller.
@@ -71,6 +77,8 @@ impl Cell {
             faults,
             planned: Vec::new(),
             planned_diagnostics: Vec::new(),
+            wire: WireFaults::default(),
+            delayed: Vec::new(),
         }
     }
 
@@ -104,6 +112,30 @@ impl Cell {
         self.planned.push((at, node, frames));
     }
 
+    /// Starts a fault on the bus's wire at `now` ([`wire_faults`]); its id.
+    pub fn add_wire_fault(
+        &mut self,
+        now: Instant,
+        fault: WireFault,
+    ) -> Result<u32, WireFaultError> {
+        self.wire.add(now, fault)
+    }
+
+    /// Ends wire fault `id`.
+    pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
+        self.wire.remove(id)
+    }
+
+    /// Ends every wire fault; frames already delayed still arrive.
+    pub fn clear_wire_faults(&mut self) {
+        self.wire.clear();
+    }
+
+    /// The wire faults active at `now`.
+    pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
+        self.wire.active(now).to_vec()
+    }
+
     /// Each drive's CAN controller, in cell order.
     pub fn node_faults(&self) -> &[NodeFaults] {
         &self.faults
@@ -127,7 +159,7 @@ impl Cell {
             self.deliver(now, out);
             return;
         }
-        self.attempt(None, frame, now, out);
+        self.attempt(None, frame, now, out, true);
         self.deliver(now, out);
     }
 
@@ -168,6 +200,7 @@ impl Cell {
         self.fit_faults();
         self.start_planned(now);
         self.start_planned_diagnostics(now);
+        self.release_delayed(now, out);
         let Cell {
             drives,
             queue,
@@ -190,6 +223,7 @@ impl Cell {
             self.planned.iter().map(|(t, _, _)| *t).min(),
             self.planned_diagnostics_deadline(),
         );
+        let planned = earliest(planned, self.delayed.first().map(|(t, _, _)| *t));
         let recovery = self
             .faults
             .iter()
@@ -205,6 +239,16 @@ impl Cell {
     /// A drive added after the cell was made gets its controller.
     fn fit_faults(&mut self) {
         self.faults.resize(self.drives.len(), NodeFaults::default());
+    }
+
+    /// Delayed frames due by `now` arrive (they have had their fault; on a timed bus they
+    /// do not queue for the bus again).
+    fn release_delayed(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        while self.delayed.first().is_some_and(|(t, _, _)| *t <= now) {
+            let (at, frame, origin) = self.delayed.remove(0);
+            while self.attempt(origin, &frame, at, out, false) == Attempt::Failed {}
+        }
+        self.deliver(now, out);
     }
 
     fn start_planned(&mut self, now: Instant) {
@@ -240,7 +284,7 @@ impl Cell {
         }
         while let Some((frame, origin)) = self.queue.pop_front() {
             // A failed frame is sent again at once, until it passes or its node is off.
-            while self.attempt(origin, &frame, now, out) == Attempt::Failed {}
+            while self.attempt(origin, &frame, now, out, true) == Attempt::Failed {}
         }
     }
 
@@ -252,7 +296,7 @@ impl Cell {
         self.submit_queue(now);
         while let Some(tx) = self.timing.as_mut().and_then(|t| t.poll(now)) {
             let origin = (tx.source != OUTSIDE).then_some(usize::from(tx.source));
-            if self.attempt(origin, &tx.frame, tx.end, out) == Attempt::Failed {
+            if self.attempt(origin, &tx.frame, tx.end, out, true) == Attempt::Failed {
                 let bitrate = self.bitrate();
                 let again = Instant::from_nanos(
                     tx.end.as_nanos() + bits_to_nanos(ERROR_FRAME_BITS, bitrate),
@@ -289,21 +333,62 @@ impl Cell {
 
     /// One transmission of `frame` by `origin` (`None`: from outside) ending at `at`: an
     /// error frame when the sender is disturbed, else the frame on the bus, to `out` (a
-    /// drive's) and to every other drive on the bus. The controllers count either.
+    /// drive's) and to every other drive on the bus. The controllers count either. With
+    /// `judge`, the wire's faults decide first what becomes of the frame.
     fn attempt(
         &mut self,
         origin: Option<usize>,
         frame: &CanFrame,
         at: Instant,
         out: &mut Vec<CanFrame>,
+        judge: bool,
     ) -> Attempt {
         let bitrate = self.bitrate();
+        let sender = match origin.and_then(|i| self.drives.get(i)) {
+            Some(d) => Sender::Node(d.node_id()),
+            None => Sender::Outside,
+        };
+        let verdict = if judge {
+            self.wire.judge(at, sender, frame.id)
+        } else {
+            Verdict::Pass
+        };
+        match verdict {
+            Verdict::Pass | Verdict::Corrupt => {}
+            // Decision: a frame of a node whose cable is cut, or dropped, is simply not on
+            // the bus; the node's controller is not made to count missing acknowledgements.
+            Verdict::Lost => return Attempt::Dropped,
+            Verdict::Delay(when) => {
+                let i = self.delayed.partition_point(|(t, _, _)| *t <= when);
+                self.delayed.insert(i, (when, *frame, origin));
+                return Attempt::Delivered;
+            }
+        }
+        let corrupt = verdict == Verdict::Corrupt;
         let Cell {
             drives,
             queue,
             faults,
+            wire,
             ..
         } = self;
+        if corrupt && origin.is_none() {
+            // ISO 11898-1: every receiver sees the CRC fail and counts it; the outside
+            // sender's own retransmission is its host's, not simulated: the frame is lost.
+            for j in 0..drives.len() {
+                let node = drives.get(j).map_or(0, |d| d.node_id());
+                if wire.cut_off(at, Sender::Node(node)) {
+                    continue;
+                }
+                let t = faults
+                    .get_mut(j)
+                    .and_then(|f| f.confinement.receive_error());
+                if let (Some(t), Some(d)) = (t, drives.get_mut(j)) {
+                    d.bus_state_changed(at, t, &mut |f| queue.push_back((f, Some(j))));
+                }
+            }
+            return Attempt::Dropped;
+        }
         let react = |drives: &mut Vec<CanDrive>,
                      queue: &mut VecDeque<(CanFrame, Option<usize>)>,
                      i: usize,
@@ -319,8 +404,10 @@ impl Cell {
             if !f.confinement.on_bus() {
                 return Attempt::Dropped;
             }
-            if f.disturb > 0 {
-                f.disturb -= 1;
+            if corrupt || f.disturb > 0 {
+                if !corrupt {
+                    f.disturb -= 1;
+                }
                 let t = f.confinement.transmit_error(at, bitrate);
                 react(drives, queue, i, t);
                 for j in 0..faults.len() {
@@ -340,10 +427,16 @@ impl Cell {
             }
             let t = f.confinement.transmit_ok();
             react(drives, queue, i, t);
-            out.push(*frame);
+            if !wire.cut_off(at, Sender::Outside) {
+                out.push(*frame);
+            }
         }
         for j in 0..drives.len() {
             if Some(j) == origin {
+                continue;
+            }
+            let node = drives.get(j).map_or(0, |d| d.node_id());
+            if wire.cut_off(at, Sender::Node(node)) {
                 continue;
             }
             let Some(f) = faults.get_mut(j) else {

@@ -87,6 +87,9 @@ pub enum CommandError {
         what: String,
         source: std::io::Error,
     },
+    /// A scenario ran and an expectation was not met (the report has been printed).
+    #[error("{0}")]
+    ScenarioFailed(String),
 }
 
 impl CommandError {
@@ -118,6 +121,7 @@ impl CommandError {
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
             CommandError::Kinco(e) => kinco::exit_code(e),
+            CommandError::ScenarioFailed(_) => EXIT_FAILURE,
         }
     }
 }
@@ -130,6 +134,7 @@ mod lss;
 mod network;
 mod pdo;
 mod run;
+mod scenario;
 mod sdo;
 
 pub(crate) fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> CommandError {
@@ -183,6 +188,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         } => network::monitor(count, seconds, bitrate, bus).await,
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco { command, port } => kinco::kinco(command, port),
+        Command::Scenario(args) => scenario::scenario(args),
     }
 }
 

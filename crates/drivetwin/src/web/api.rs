@@ -829,7 +829,7 @@ pub struct ApiDoc;
 async fn openapi() -> Response {
     let mut doc = ApiDoc::openapi();
     doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
-    match doc.to_json() {
+    match super::wire::merged(doc).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],
             text,

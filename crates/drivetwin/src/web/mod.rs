@@ -14,14 +14,17 @@
 //! - [`live`]: samples over a WebSocket, decimated for the browser;
 //! - [`statusword`]: the CiA 402 statusword decoded bit by bit;
 //! - [`page`]: the console page and its script;
-//! - [`auth`]: the write token.
+//! - [`auth`]: the write token;
+//! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell.
 
 pub mod api;
 pub mod auth;
 pub mod diagnostics;
 pub mod live;
 pub mod page;
+pub mod scenarios;
 pub mod statusword;
+pub mod wire;
 
 use std::net::{SocketAddr, TcpListener};
 use std::sync::Arc;
@@ -79,6 +82,7 @@ pub fn router(state: AppState) -> Router {
         .merge(live::routes())
         .merge(diagnostics::routes())
         .merge(page::routes())
+        .merge(wire::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

@@ -129,6 +129,9 @@ impl CellLoop {
                 } => {
                     let _ = reply.send(self.set_diagnostic(drive, &number, action));
                 }
+                Command::Wire { request, reply } => {
+                    let _ = reply.send(self.wire(request, now));
+                }
             }
         }
     }

@@ -46,6 +46,7 @@ use crate::trace::TraceWriter;
 mod fine_timer;
 mod handle;
 mod serial;
+mod wire;
 
 /// Bytes a client may leave unread before it is dropped.
 pub const MAX_PENDING: usize = 256 * 1024;
@@ -217,6 +218,13 @@ pub struct CellLoop {
     control_tx: std::sync::mpsc::Sender<Command>,
     control_rx: std::sync::mpsc::Receiver<Command>,
     subscriptions: Vec<Subscription>,
+    /// Faults on the Modbus and EtherCAT front ends (a bus's are its cell's).
+    front_faults: Vec<(
+        crate::cell::wire_faults::FrontEnd,
+        crate::cell::wire_faults::WireFaults,
+    )>,
+    /// Receivers of every frame of a bus ([`crate::cell::wire_faults::WireRequest::Tap`]).
+    taps: Vec<(usize, std::sync::mpsc::SyncSender<(Duration, CanFrame)>)>,
 }
 
 /// A subscriber to a drive's plant samples.
@@ -388,6 +396,8 @@ impl CellLoop {
             control_tx,
             control_rx,
             subscriptions: Vec::new(),
+            front_faults: Vec::new(),
+            taps: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -904,6 +914,13 @@ impl CellLoop {
             Kind::Modbus { drive } => {
                 let drive = *drive;
                 let t = cell_time(self.origin, now);
+                if wire::lost(
+                    &mut self.front_faults,
+                    crate::cell::wire_faults::FrontEnd::Modbus(drive),
+                    t,
+                ) {
+                    return;
+                }
                 let result = match self.modbus.get_mut(drive) {
                     Some(m) => m.answer(bytes, t, &mut conn.pending),
                     None => Ok(()),
@@ -1146,6 +1163,12 @@ impl CellLoop {
         bus.last_stamp = stamp;
         bus.totals.frames += 1;
         bus.totals.bytes += frame.payload().len() as u64;
+        if !self.taps.is_empty() {
+            self.tap(b, &frame, now);
+        }
+        let Some(bus) = self.buses.get_mut(b) else {
+            return;
+        };
         let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
         if let Some(w) = bus.trace.as_mut() {
             if let Err(e) = w.write(since_epoch, &frame) {
@@ -1302,6 +1325,13 @@ impl CellLoop {
             };
             trace_frame(chain.trace.as_ref(), f);
             let t = cell_time(self.origin, Instant::now());
+            let front = crate::cell::wire_faults::FrontEnd::Ethercat(c);
+            if wire::lost(&mut self.front_faults, front, t) {
+                continue;
+            }
+            let Some(chain) = self.chains.get_mut(c) else {
+                break;
+            };
             shared |= chain.chain.has_bus_drives();
             if chain
                 .chain

@@ -1,0 +1,161 @@
+//! The wire's side of the cell loop ([`crate::cell::wire_faults`]): faults of a bus go to its
+//! cell, those of a Modbus server or an EtherCAT chain stay here; traces of a bus started and
+//! stopped while the cell runs; taps that see every frame of a bus.
+
+use std::time::{Duration, Instant};
+
+use canopen::CanFrame;
+
+use super::CellLoop;
+use crate::cell::wire_faults::FaultKind;
+use crate::cell::wire_faults::{
+    FrontEnd, Sender, Verdict, WireAnswer, WireError, WireFaultError, WireFaults, WireRequest,
+};
+use crate::trace::TraceWriter;
+
+/// Whether a request or frame from outside on `front` is lost at `now` (dropped, corrupted:
+/// the checksum discards it, or the cable is cut).
+pub(super) fn lost(
+    faults: &mut [(FrontEnd, WireFaults)],
+    front: FrontEnd,
+    now: od::Instant,
+) -> bool {
+    let Some((_, f)) = faults.iter_mut().find(|(fe, _)| *fe == front) else {
+        return false;
+    };
+    f.judge(now, Sender::Outside, 0) != Verdict::Pass
+}
+
+impl CellLoop {
+    pub(super) fn wire(
+        &mut self,
+        request: WireRequest,
+        now: Instant,
+    ) -> Result<WireAnswer, WireError> {
+        let t = self.now(now);
+        match request {
+            WireRequest::Now => Ok(WireAnswer::Now(now.saturating_duration_since(self.origin))),
+            WireRequest::Add { front, fault } => {
+                if let FrontEnd::Bus(b) = front {
+                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    return Ok(WireAnswer::Added(bus.cell.add_wire_fault(t, fault)?));
+                }
+                self.check_front(front)?;
+                if matches!(fault.kind, FaultKind::Delay { .. }) {
+                    // Decision: a Modbus request or an EtherCAT frame held back would need a
+                    // queue per connection in the loop; a master's timeout is what a late frame
+                    // gives it, and a drop tests that.
+                    return Err(WireFaultError::NoDelay.into());
+                }
+                Ok(WireAnswer::Added(self.faults_of(front)?.add(t, fault)?))
+            }
+            WireRequest::Remove { front, id } => {
+                if let FrontEnd::Bus(b) = front {
+                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    bus.cell.remove_wire_fault(id)?;
+                    return Ok(WireAnswer::Done);
+                }
+                self.check_front(front)?;
+                self.faults_of(front)?.remove(id)?;
+                Ok(WireAnswer::Done)
+            }
+            WireRequest::Clear { front } => {
+                if let FrontEnd::Bus(b) = front {
+                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    bus.cell.clear_wire_faults();
+                    return Ok(WireAnswer::Done);
+                }
+                self.check_front(front)?;
+                self.faults_of(front)?.clear();
+                Ok(WireAnswer::Done)
+            }
+            WireRequest::List { front } => {
+                if let FrontEnd::Bus(b) = front {
+                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    return Ok(WireAnswer::Faults(bus.cell.wire_faults(t)));
+                }
+                self.check_front(front)?;
+                Ok(WireAnswer::Faults(
+                    self.faults_of(front)?.active(t).to_vec(),
+                ))
+            }
+            WireRequest::StartTrace { bus, path } => {
+                let b = self
+                    .buses
+                    .get_mut(bus)
+                    .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
+                if b.trace.is_some() {
+                    return Err(WireError::Tracing(bus));
+                }
+                let channel = format!("can{bus}");
+                let w = TraceWriter::create(&path, &channel)
+                    .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
+                b.trace = Some(w);
+                Ok(WireAnswer::Done)
+            }
+            WireRequest::StopTrace { bus } => {
+                let b = self
+                    .buses
+                    .get_mut(bus)
+                    .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
+                let mut w = b.trace.take().ok_or(WireError::NoTrace(bus))?;
+                b.trace_dirty = false;
+                w.flush().map_err(|e| WireError::Trace(e.to_string()))?;
+                Ok(WireAnswer::Done)
+            }
+            WireRequest::Send { bus, frame } => {
+                if bus >= self.buses.len() {
+                    return Err(WireError::NoFrontEnd(FrontEnd::Bus(bus)));
+                }
+                // Decision: as from a client that is none of the connected ones (no slot has
+                // this number), so that every client, the interface and the drives get it.
+                self.bus(bus, frame, super::Source::Client(usize::MAX), now);
+                self.flush_dirty();
+                Ok(WireAnswer::Done)
+            }
+            WireRequest::Tap { bus, frames } => {
+                if bus >= self.buses.len() {
+                    return Err(WireError::NoFrontEnd(FrontEnd::Bus(bus)));
+                }
+                self.taps.push((bus, frames));
+                Ok(WireAnswer::Done)
+            }
+        }
+    }
+
+    fn check_front(&self, front: FrontEnd) -> Result<(), WireError> {
+        let there = match front {
+            FrontEnd::Bus(b) => b < self.buses.len(),
+            FrontEnd::Modbus(m) => m < self.modbus.len(),
+            FrontEnd::Ethercat(c) => c < self.chains.len(),
+        };
+        if there {
+            Ok(())
+        } else {
+            Err(WireError::NoFrontEnd(front))
+        }
+    }
+
+    fn faults_of(&mut self, front: FrontEnd) -> Result<&mut WireFaults, WireError> {
+        if !self.front_faults.iter().any(|(f, _)| *f == front) {
+            self.front_faults.push((front, WireFaults::default()));
+        }
+        self.front_faults
+            .iter_mut()
+            .find(|(f, _)| *f == front)
+            .map(|(_, w)| w)
+            .ok_or(WireError::NoFrontEnd(front))
+    }
+
+    /// A frame on bus `b` to its taps; a tap gone is forgotten, a full one loses the frame.
+    pub(super) fn tap(&mut self, b: usize, frame: &CanFrame, now: Instant) {
+        let at: Duration = now.saturating_duration_since(self.origin);
+        self.taps.retain(|(bus, tx)| {
+            *bus != b
+                || !matches!(
+                    tx.try_send((at, *frame)),
+                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
+                )
+        });
+    }
+}

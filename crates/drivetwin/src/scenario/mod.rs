@@ -1,0 +1,19 @@
+//! Scenarios: a TOML timeline of actions and expectations run against a cell, on the virtual
+//! clock for CI (`drivetwin scenario FILE`: the same file gives the same report and trace bit
+//! for bit) or on a live cell through its control handle (`POST /api/scenarios`).
+//!
+//! - [`file`]: the file format and what each step means;
+//! - [`runner`]: the timeline against a [`runner::Rig`];
+//! - [`virtual_rig`]: the rig of the virtual clock (the CANopen drives of the cell's first
+//!   bus);
+//! - [`live`]: the rig of a running cell;
+//! - [`report`]: the pass / fail report.
+
+pub mod file;
+pub mod live;
+pub mod report;
+pub mod runner;
+pub mod virtual_rig;
+
+pub use file::{Scenario, ScenarioError};
+pub use report::Report;

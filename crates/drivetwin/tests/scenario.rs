@@ -1,0 +1,167 @@
+//! Issue 16, point 4: the example scenarios on the virtual clock. Each runs twice: the reports
+//! and the traces are equal bit for bit; the passing one passes (a limit switch and a broken
+//! cable leading to the drive's fault and the EMCYs), the one meant to fail fails with a
+//! report that names the expectation.
+
+use std::path::PathBuf;
+
+use drivetwin::scenario::runner;
+use drivetwin::scenario::virtual_rig::VirtualRig;
+use drivetwin::scenario::{Report, Scenario};
+
+fn example(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/scenarios")
+        .join(name)
+}
+
+/// Runs the example once; its report and its trace's bytes.
+fn run(name: &str, run: u32) -> (Report, Vec<u8>) {
+    let s = Scenario::load(&example(name)).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let trace =
+        std::env::temp_dir().join(format!("scenario-{}-{name}-{run}.pcap", std::process::id()));
+    rig.trace_to(&trace).expect("trace");
+    let report = runner::run(&s, &mut rig);
+    rig.finish().expect("trace written");
+    let bytes = std::fs::read(&trace).expect("trace");
+    let _ = std::fs::remove_file(&trace);
+    (report, bytes)
+}
+
+#[test]
+fn the_examples_give_the_same_report_and_trace_twice() {
+    for name in ["limit_switch.toml", "must_fail.toml", "stopped_sync.toml"] {
+        let (a, trace_a) = run(name, 1);
+        let (b, trace_b) = run(name, 2);
+        assert_eq!(a.text(), b.text(), "{name}");
+        assert_eq!(a, b, "{name}");
+        assert!(trace_a.len() > 24, "{name}: frames traced");
+        assert_eq!(trace_a, trace_b, "{name}: the traces are equal bit for bit");
+    }
+}
+
+#[test]
+fn a_limit_switch_and_a_broken_cable_lead_to_faults_and_emcys() {
+    let (report, _) = run("limit_switch.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    let names: Vec<&str> = report
+        .expectations
+        .iter()
+        .map(|o| o.name.as_str())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "the drive is enabled",
+            "the limit switch faults the drive",
+            "the drive reports the limit switch",
+            "no heartbeat of node 1 while its cable is cut",
+            "node 2 misses node 1's heartbeat",
+            "node 1 beats again once the cable is whole",
+        ]
+    );
+    let emcy = &report.expectations[4];
+    assert!(
+        emcy.detail.contains("082#3081"),
+        "CiA 301 8130h: {}",
+        emcy.detail
+    );
+}
+
+#[test]
+fn a_stopped_sync_stops_the_sync_tpdo() {
+    let (report, _) = run("stopped_sync.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 3);
+}
+
+#[test]
+fn the_scenario_meant_to_fail_fails_naming_its_expectation() {
+    let (report, _) = run("must_fail.toml", 0);
+    assert!(!report.passed);
+    let failed: Vec<&str> = report
+        .expectations
+        .iter()
+        .filter(|o| !o.passed)
+        .map(|o| o.name.as_str())
+        .collect();
+    assert_eq!(
+        failed,
+        ["the drive stays enabled with its limit switch closed"]
+    );
+    let text = report.text();
+    assert!(text.starts_with("scenario a drive that ignores its limit switch (must fail): FAIL"));
+    assert!(
+        text.contains("FAIL  the drive stays enabled with its limit switch closed: not met from 0.350000s to 0.450000s; last seen 6041:00 = "),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_refused_action_fails_the_run() {
+    let text = r#"
+        [cell]
+        [[cell.drive]]
+        device = "cmmp-as"
+        node = 1
+
+        [[step]]
+        at = "1ms"
+        write = "1000:00"
+        value = 1
+
+        [[step]]
+        at = "1ms"
+        node = 9
+        din = 3
+    "#;
+    let s = Scenario::parse(text, "refusals", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(!report.passed);
+    assert_eq!(report.errors.len(), 2, "{}", report.text());
+    assert!(
+        report.errors[0].contains("1000:00 refused: SDO abort 0x06010002"),
+        "{}",
+        report.errors[0]
+    );
+    assert!(
+        report.errors[1].contains("no node 9"),
+        "{}",
+        report.errors[1]
+    );
+}
+
+/// `equals` below zero is compared in the object's width: 607Ah (INTEGER32) written -1000.
+#[test]
+fn a_negative_value_is_compared_in_the_objects_width() {
+    let text = r#"
+        [cell]
+        [[cell.drive]]
+        device = "cmmp-as"
+        node = 1
+
+        [[step]]
+        at = "1ms"
+        write = "607A:00"
+        value = -1000
+
+        [[step]]
+        at = "1ms"
+        expect = "607A:00"
+        equals = -1000
+        within = "1ms"
+    "#;
+    let s = Scenario::parse(text, "negative", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(report.passed, "{}", report.text());
+    assert!(
+        report.expectations[0]
+            .detail
+            .contains("607A:00 = 0xFFFFFC18"),
+        "{}",
+        report.text()
+    );
+}
