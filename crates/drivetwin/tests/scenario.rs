@@ -31,7 +31,12 @@ fn run(name: &str, run: u32) -> (Report, Vec<u8>) {
 
 #[test]
 fn the_examples_give_the_same_report_and_trace_twice() {
-    for name in ["limit_switch.toml", "must_fail.toml", "stopped_sync.toml"] {
+    for name in [
+        "limit_switch.toml",
+        "must_fail.toml",
+        "stopped_sync.toml",
+        "diagnostic.toml",
+    ] {
         let (a, trace_a) = run(name, 1);
         let (b, trace_b) = run(name, 2);
         assert_eq!(a.text(), b.text(), "{name}");
@@ -65,6 +70,21 @@ fn a_limit_switch_and_a_broken_cable_lead_to_faults_and_emcys() {
     assert!(
         emcy.detail.contains("082#3081"),
         "CiA 301 8130h: {}",
+        emcy.detail
+    );
+}
+
+/// A diagnostic message raised by its number in the timeline: the EMCY, the fault, the refused
+/// reset while it stays raised, the acknowledgement once cleared.
+#[test]
+fn a_diagnostic_raised_by_number_faults_the_drive_until_cleared() {
+    let (report, _) = run("diagnostic.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 5);
+    let emcy = &report.expectations[1];
+    assert!(
+        emcy.detail.contains("081#1451"),
+        "EMCY 5114h: {}",
         emcy.detail
     );
 }

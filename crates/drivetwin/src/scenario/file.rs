@@ -22,7 +22,8 @@
 //! within = "50ms"
 //! ```
 //!
-//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`, `fault`,
+//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`, `raise`,
+//! `clear` (a diagnostic message by its number), `fault`,
 //! `clear_faults`, `nmt`, `frame`) or an expectation (`expect`, `expect_state`, `expect_emcy`,
 //! `expect_frame`); an action with `repeat` and `every` is done that many times. [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
 //! new action is a field here, a variant of [`Action`] and its arm in each rig.
@@ -134,6 +135,11 @@ pub struct Step {
     pub level: Option<bool>,
     /// Load torque on the shaft, N·m.
     pub load: Option<f64>,
+    /// A diagnostic message raised by its number as the manual writes it (`"08-2"`,
+    /// `"2Fh"`, `"0x8611"` …), as if the drive's supervision had found it.
+    pub raise: Option<String>,
+    /// A raised diagnostic message cleared by its number.
+    pub clear: Option<String>,
     /// A wire fault ([`crate::cell::wire_faults`]) with `node`, `reach`, `cob_id`, `share`,
     /// `delay`, `frames`, `for`.
     pub fault: Option<FaultName>,
@@ -205,6 +211,12 @@ pub enum Action {
     },
     ClearFaults {
         bus: usize,
+    },
+    /// A diagnostic message of the drive's table raised (`raise = true`) or cleared.
+    Diagnostic {
+        node: Option<u8>,
+        number: String,
+        raise: bool,
     },
     /// A frame from outside on bus `bus` (NMT commands are such frames).
     Frame {
@@ -298,6 +310,8 @@ impl Step {
             ("sdo_write", self.sdo_write.is_some()),
             ("din", self.din.is_some()),
             ("load", self.load.is_some()),
+            ("raise", self.raise.is_some()),
+            ("clear", self.clear.is_some()),
             ("fault", self.fault.is_some()),
             ("clear_faults", self.clear_faults.is_some()),
             ("nmt", self.nmt.is_some()),
@@ -310,8 +324,8 @@ impl Step {
         let given: Vec<&str> = keys.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect();
         let [key] = given.as_slice() else {
             return Err(format!(
-                "one of write, sdo_write, din, load, fault, clear_faults, nmt, frame, expect, \
-                 expect_state, expect_emcy, expect_frame (found {})",
+                "one of write, sdo_write, din, load, raise, clear, fault, clear_faults, nmt, \
+                 frame, expect, expect_state, expect_emcy, expect_frame (found {})",
                 if given.is_empty() {
                     "none".to_string()
                 } else {
@@ -386,6 +400,16 @@ impl Step {
                     torque_nm,
                 })
             }
+            "raise" | "clear" => act(Action::Diagnostic {
+                node: self.node,
+                number: self
+                    .raise
+                    .as_deref()
+                    .or(self.clear.as_deref())
+                    .unwrap_or("")
+                    .to_string(),
+                raise: self.raise.is_some(),
+            }),
             "fault" => {
                 let spec = FaultSpec {
                     fault: self.fault,

@@ -155,6 +155,19 @@ impl Rig for LiveRig {
                 let i = self.drive(*node)?.index;
                 self.handle.set_load(i, *torque_nm).map_err(err)
             }
+            Action::Diagnostic {
+                node,
+                number,
+                raise,
+            } => {
+                let i = self.drive(*node)?.index;
+                let done = if *raise {
+                    self.handle.raise_diagnostic(i, number)
+                } else {
+                    self.handle.clear_diagnostic(i, number)
+                };
+                done.map(|_| ()).map_err(err)
+            }
             Action::Fault { bus, fault } => self
                 .handle
                 .wire(WireRequest::Add {

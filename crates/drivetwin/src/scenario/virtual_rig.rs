@@ -238,6 +238,19 @@ impl Rig for VirtualRig {
                 d.axis_mut().motor_mut().set_load_torque(*torque_nm);
                 Ok(())
             }
+            Action::Diagnostic {
+                node,
+                number,
+                raise,
+            } => {
+                let i = self.drive(*node)?;
+                let done = if *raise {
+                    self.cell.raise_diagnostic(i, number)
+                } else {
+                    self.cell.clear_diagnostic(i, number)
+                };
+                done.map(|_| ()).map_err(|e| e.to_string())
+            }
             Action::Fault { bus, fault } => {
                 Self::bus0(*bus)?;
                 self.cell
