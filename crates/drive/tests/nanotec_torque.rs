@@ -114,4 +114,3 @@ fn halt_reports_stopped_only_once_the_motor_stands() {
     // friction may hunt by a few units, never by a step.
     assert!((b - a).abs() < 10, "{a} → {b} after bit 10");
 }
-

@@ -146,6 +146,11 @@ pub(crate) enum Command {
         samples: SyncSender<PlantSample>,
         reply: SyncSender<Result<(), ControlError>>,
     },
+    Fhpp {
+        drive: usize,
+        request: FhppRequest,
+        reply: SyncSender<Result<FhppState, ControlError>>,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -261,4 +266,45 @@ impl ControlHandle {
         })??;
         Ok(rx)
     }
+
+    /// The FHPP side of a CMMO-ST: its telegrams, control authority and diagnostic memory,
+    /// after `request` is carried out (the console's FHPP buttons and the device's own web
+    /// server, [`crate::web::motion`]).
+    pub fn fhpp(&self, drive: usize, request: FhppRequest) -> Result<FhppState, ControlError> {
+        self.ask(|reply| Command::Fhpp {
+            drive,
+            request,
+            reply,
+        })?
+    }
+}
+
+/// What [`ControlHandle::fhpp`] asks of a CMMO-ST.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FhppRequest {
+    /// Nothing: the state only.
+    Status,
+    /// The 8-byte output telegram (CCON, CPOS, …) as a fieldbus master writes it; taken at
+    /// the drive's next cycle.
+    SetOutputs([u8; 8]),
+    /// The web server takes device control (`true`) or gives it back to the fieldbus (CMMO-ST
+    /// §2.2 "Device Control", PNU 125 §3.1.1); refused while the PLC sets CCON.LOCK.
+    DeviceControl(bool),
+}
+
+/// A CMMO-ST's FHPP state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FhppState {
+    /// The input telegram of the last cycle: SCON, SPOS, byte 3…8.
+    pub inputs: [u8; 8],
+    /// The output telegram in force.
+    pub outputs: [u8; 8],
+    /// Who holds device control.
+    pub authority: drive::fhpp::Authority,
+    /// The active fault's diagnostic number (0: none).
+    pub fault: u8,
+    /// The diagnostic memory, newest first: (PNU 200 event type, PNU 201 number, PNU 202 ms).
+    pub memory: Vec<(u8, u16, u32)>,
+    /// Why a [`FhppRequest::DeviceControl`] was refused (the parameter-channel error number).
+    pub refused: Option<u8>,
 }

@@ -158,7 +158,7 @@ fn profile_name(desc: &DeviceDescription) -> String {
     format!("{:?}", desc.profile).to_ascii_lowercase()
 }
 
-fn display_text(d: &DisplayState) -> String {
+pub(crate) fn display_text(d: &DisplayState) -> String {
     match d {
         DisplayState::Cia402(d) => d.text().to_string(),
         DisplayState::Fhpp(s) => s.to_string(),
@@ -826,7 +826,9 @@ async fn set_load(
 pub struct ApiDoc;
 
 async fn openapi() -> Response {
-    match ApiDoc::openapi().to_json() {
+    let mut doc = ApiDoc::openapi();
+    doc.merge(super::motion::MotionDoc::openapi());
+    match doc.to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],
             text,

@@ -34,6 +34,54 @@ pub struct LiveQuery {
     /// Milliseconds between two messages, 20…1000 (default 50).
     #[param(minimum = 20, maximum = 1000)]
     pub batch_ms: Option<u64>,
+    /// Objects to sample beside the plant, comma-separated `index:sub` in hex (`60F4:0,6041:0`,
+    /// at most 8). Read once per message (decimated to the batch period) and given with the
+    /// message's last sample.
+    pub objects: Option<String>,
+}
+
+/// Objects a subscription may name at most.
+pub const MAX_OBJECTS: usize = 8;
+
+/// An object named in `objects`, resolved against the drive's description.
+#[derive(Debug, Clone, Copy)]
+struct Named {
+    index: u16,
+    sub: u8,
+    ty: od::DataType,
+}
+
+impl Named {
+    fn key(&self) -> String {
+        format!("{:04X}:{:02X}", self.index, self.sub)
+    }
+}
+
+/// `60F4:0,6041:0` → the entries, or a message for the 400.
+fn named_objects(desc: &od::DeviceDescription, list: &str) -> Result<Vec<Named>, String> {
+    let mut out = Vec::new();
+    for item in list.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+        let (i, s) = item.split_once(':').unwrap_or((item, "0"));
+        let index = u16::from_str_radix(i.trim_end_matches(['h', 'H']), 16)
+            .map_err(|_| format!("object {item:?}: index:sub in hex, e.g. 60F4:0"))?;
+        let sub = u8::from_str_radix(s, 16)
+            .map_err(|_| format!("object {item:?}: index:sub in hex, e.g. 60F4:0"))?;
+        let e = desc
+            .entry(index, sub)
+            .ok_or_else(|| format!("object {item:?} is not in {}", desc.name))?;
+        if !e.access.readable() {
+            return Err(format!("object {item:?} cannot be read"));
+        }
+        out.push(Named {
+            index,
+            sub,
+            ty: e.data_type,
+        });
+    }
+    if out.len() > MAX_OBJECTS {
+        return Err(format!("at most {MAX_OBJECTS} objects"));
+    }
+    Ok(out)
 }
 
 /// One message on the WebSocket: the samples since the last one.
@@ -53,6 +101,9 @@ pub struct SamplePoint {
     pub position: Option<f64>,
     pub velocity: Option<f64>,
     pub current: Option<f64>,
+    /// The named objects' values (`"60F4:00": -12`), on the last sample of a message.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub objects: std::collections::BTreeMap<String, f64>,
 }
 
 impl From<&PlantSample> for SamplePoint {
@@ -63,6 +114,7 @@ impl From<&PlantSample> for SamplePoint {
             position: v.position,
             velocity: v.velocity,
             current: v.current,
+            objects: std::collections::BTreeMap::new(),
         }
     }
 }
@@ -122,6 +174,33 @@ pub async fn samples(
                 .into_response(),
         };
     };
+    let named = match q.objects.as_deref().filter(|o| !o.trim().is_empty()) {
+        None => Vec::new(),
+        Some(list) => {
+            let handle = s.handle.clone();
+            let desc = tokio::task::spawn_blocking(move || {
+                handle
+                    .drives()
+                    .ok()
+                    .and_then(|d| d.into_iter().find(|d| d.index == index))
+                    .and_then(|d| devices::by_name(d.device))
+            })
+            .await
+            .ok()
+            .flatten();
+            let Some(desc) = desc else {
+                return ApiError::new(
+                    StatusCode::NOT_FOUND,
+                    format!("no drive {index} in the cell"),
+                )
+                .into_response();
+            };
+            match named_objects(desc, list) {
+                Ok(n) => n,
+                Err(m) => return ApiError::new(StatusCode::BAD_REQUEST, m).into_response(),
+            }
+        }
+    };
     let handle = s.handle.clone();
     let every = Duration::from_micros(1_000_000 / u64::from(rate));
     let subscribed = tokio::task::spawn_blocking(move || handle.subscribe(index, every)).await;
@@ -133,7 +212,39 @@ pub async fn samples(
                 .into_response()
         }
     };
-    ws.on_upgrade(move |socket| stream(socket, index, rx, Duration::from_millis(batch)))
+    let handle = s.handle.clone();
+    ws.on_upgrade(move |socket| {
+        stream(
+            socket,
+            index,
+            rx,
+            Duration::from_millis(batch),
+            handle,
+            named,
+        )
+    })
+}
+
+/// The named objects now, by key; an object that cannot be read now is left out.
+async fn read_named(
+    handle: &crate::cell::control::ControlHandle,
+    drive: usize,
+    named: &[Named],
+) -> std::collections::BTreeMap<String, f64> {
+    let handle = handle.clone();
+    let named = named.to_vec();
+    tokio::task::spawn_blocking(move || {
+        named
+            .iter()
+            .filter_map(|n| {
+                let bytes = handle.read(drive, n.index, n.sub).ok()?;
+                let value = crate::value_text::decode(n.ty, &bytes)?;
+                Some((n.key(), value.parse::<f64>().ok()?))
+            })
+            .collect()
+    })
+    .await
+    .unwrap_or_default()
 }
 
 async fn stream(
@@ -141,6 +252,8 @@ async fn stream(
     drive: usize,
     rx: std::sync::mpsc::Receiver<PlantSample>,
     period: Duration,
+    handle: crate::cell::control::ControlHandle,
+    named: Vec<Named>,
 ) {
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
@@ -151,10 +264,17 @@ async fn stream(
                 if got.is_empty() {
                     continue;
                 }
+                let mut samples: Vec<SamplePoint> = got.iter().map(SamplePoint::from).collect();
+                if !named.is_empty() {
+                    let values = read_named(&handle, drive, &named).await;
+                    if let Some(last) = samples.last_mut() {
+                        last.objects = values;
+                    }
+                }
                 let message = SampleBatch {
                     drive,
                     display: got.last().and_then(|s| PlantView::from(s).display),
-                    samples: got.iter().map(SamplePoint::from).collect(),
+                    samples,
                 };
                 let Ok(text) = serde_json::to_string(&message) else {
                     break;

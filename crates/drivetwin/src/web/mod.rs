@@ -18,7 +18,9 @@
 
 pub mod api;
 pub mod auth;
+pub mod error_text;
 pub mod live;
+pub mod motion;
 pub mod page;
 pub mod statusword;
 
@@ -77,6 +79,7 @@ pub fn router(state: AppState) -> Router {
         .merge(api::routes())
         .merge(live::routes())
         .merge(page::routes())
+        .merge(motion::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

@@ -118,6 +118,13 @@ impl CellLoop {
                     });
                     let _ = reply.send(done);
                 }
+                Command::Fhpp {
+                    drive,
+                    request,
+                    reply,
+                } => {
+                    let _ = reply.send(self.fhpp(drive, request));
+                }
             }
         }
     }
@@ -307,6 +314,54 @@ impl CellLoop {
                 })
             }
         }
+    }
+}
+
+impl CellLoop {
+    /// A CMMO-ST's FHPP side for the console ([`crate::cell::control::ControlHandle::fhpp`]).
+    fn fhpp(
+        &mut self,
+        drive: usize,
+        request: crate::cell::control::FhppRequest,
+    ) -> Result<crate::cell::control::FhppState, ControlError> {
+        use crate::cell::control::{FhppRequest, FhppState};
+        let Target::Modbus(dev) = self.target(drive)? else {
+            return Err(ControlError::NoPlant(drive));
+        };
+        let mut dev = lock(&dev);
+        let mut refused = None;
+        match request {
+            FhppRequest::Status => {}
+            FhppRequest::SetOutputs(image) => {
+                // Eight bytes are always a valid FHPP Standard telegram.
+                let _ = dev.set_outputs(&image);
+            }
+            FhppRequest::DeviceControl(true) => {
+                if let Err(e) = dev
+                    .fhpp_mut()
+                    .request_local_control(::drive::fhpp::Authority::WebServer)
+                {
+                    refused = Some(e.fpc_error());
+                }
+            }
+            FhppRequest::DeviceControl(false) => {
+                if dev.fhpp().authority() == ::drive::fhpp::Authority::WebServer {
+                    dev.fhpp_mut().release_local_control();
+                }
+            }
+        }
+        Ok(FhppState {
+            inputs: dev.inputs(),
+            outputs: dev.outputs().to_bytes(),
+            authority: dev.fhpp().authority(),
+            fault: dev.fault_number(),
+            memory: dev
+                .diagnostic_memory()
+                .iter()
+                .map(|e| (e.event.value(), e.number, e.time_ms))
+                .collect(),
+            refused,
+        })
     }
 }
 
