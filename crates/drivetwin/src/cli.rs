@@ -126,6 +126,18 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
+    /// Write the IO-Link device descriptions (IODD 1.1) of a personality: for the CMMO-ST the
+    /// two files its manual names (FHPP 8 bytes, FHPP + FPC 16 bytes).
+    Iodd {
+        #[arg(long, default_value = "cmmo-st")]
+        device: String,
+        /// The folder to write them to.
+        #[arg(long, default_value = ".")]
+        output_dir: PathBuf,
+        /// The files' date, YYYY-MM-DD (their names carry it as YYYYMMDD).
+        #[arg(long, default_value = "2017-05-01")]
+        date: String,
+    },
 }
 
 #[derive(Args, Debug)]

@@ -125,6 +125,7 @@ impl CommandError {
 mod drive;
 mod ecat;
 mod fhpp;
+mod iodd;
 mod kinco;
 mod lss;
 mod network;
@@ -182,6 +183,11 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         } => network::monitor(count, seconds, bus).await,
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco { command, port } => kinco::kinco(command, port),
+        Command::Iodd {
+            device,
+            output_dir,
+            date,
+        } => iodd::iodd(&device, &output_dir, &date),
     }
 }
 

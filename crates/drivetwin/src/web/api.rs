@@ -828,6 +828,7 @@ pub struct ApiDoc;
 async fn openapi() -> Response {
     let mut doc = ApiDoc::openapi();
     doc.merge(super::motion::MotionDoc::openapi());
+    doc.merge(super::cmmo_st::CmmoStDoc::openapi());
     match doc.to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],

@@ -18,6 +18,7 @@
 
 pub mod api;
 pub mod auth;
+pub mod cmmo_st;
 pub mod error_text;
 pub mod live;
 pub mod motion;
@@ -80,6 +81,7 @@ pub fn router(state: AppState) -> Router {
         .merge(live::routes())
         .merge(page::routes())
         .merge(motion::routes())
+        .merge(cmmo_st::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

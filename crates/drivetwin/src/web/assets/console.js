@@ -77,6 +77,8 @@ function showDrive(view) {
   $("#statusword").textContent = view.profile === "cia402" ? `6041h = ${hex(view.word, 4)}`
     : `SCON = ${hex(view.word & 0xFF, 2)} SPOS = ${hex(view.word >> 8, 2)}`;
   $("#display").textContent = view.display ?? "";
+  $("#web-server-link").hidden = view.profile !== "fhpp";
+  $("#web-server").href = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
   $("#active-error").textContent = view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none";
   $("#device-control").textContent = view.device_control ? `device control: ${view.device_control}` : "";
   $("#status-bits tbody").replaceChildren(...view.bits.map((b) =>
