@@ -465,29 +465,24 @@ fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> 
         })
         .collect();
     let code = h.read(drive, 0x603F, 0).ok().map(|b| u16_of(&b));
-    let active_error = (sw & 0x0008 != 0)
-        .then(|| code.filter(|c| *c != 0))
-        .flatten()
-        .map(|c| error_text::cia_error(c));
     // 1003h: sub 0 the number of errors, sub 1 the newest (CiA 301 §7.5.2.5).
     let count = h
         .read(drive, 0x1003, 0)
         .ok()
         .and_then(|b| b.first().copied())
         .unwrap_or(0);
-    let history = (1..=count)
+    let codes: Vec<u16> = (1..=count)
         .filter_map(|sub| h.read(drive, 0x1003, sub).ok())
-        .map(|b| {
-            let v = u32::from_le_bytes([
-                b.first().copied().unwrap_or(0),
-                b.get(1).copied().unwrap_or(0),
-                b.get(2).copied().unwrap_or(0),
-                b.get(3).copied().unwrap_or(0),
-            ]);
-            // Low 16 bits: the error code; high 16: manufacturer-specific information.
-            error_text::cia_error((v & 0xFFFF) as u16)
-        })
+        // Low 16 bits: the error code; high 16: manufacturer-specific information.
+        .map(|b| u16_of(&b))
         .collect();
+    // In FAULT: 603Fh, the code of the last error (CiA 402 §6.3.3); a drive that leaves it 0
+    // names the fault by its newest 1003h entry.
+    let active_error = (sw & 0x0008 != 0)
+        .then(|| code.filter(|c| *c != 0).or_else(|| codes.first().copied()))
+        .flatten()
+        .map(error_text::cia_error);
+    let history = codes.into_iter().map(error_text::cia_error).collect();
     Ok(MotionView {
         drive,
         profile: "cia402".into(),
