@@ -80,6 +80,7 @@ function showDrive(view) {
   $("#web-server-link").hidden = view.profile !== "fhpp";
   $("#web-server").href = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
   $("#active-error").textContent = view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none";
+  $("#active-error").className = view.active_error ? "fault" : "muted";
   $("#device-control").textContent = view.device_control ? `device control: ${view.device_control}` : "";
   $("#status-bits tbody").replaceChildren(...view.bits.map((b) =>
     el("tr", { class: b.set ? "bit-on" : "", "data-bit": `${b.word}.${b.bit}` }, el("td", {}, b.word),
