@@ -151,6 +151,13 @@ pub(crate) enum Command {
         request: FhppRequest,
         reply: SyncSender<Result<FhppState, ControlError>>,
     },
+    SubscribeObjects {
+        drive: usize,
+        every: Duration,
+        objects: Vec<(u16, u8)>,
+        samples: SyncSender<ObjectsSample>,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -277,6 +284,52 @@ impl ControlHandle {
             reply,
         })?
     }
+
+    /// Samples of the drive's plant and of up to [`MAX_SAMPLED_OBJECTS`] objects every
+    /// `every`, read on the loop at the same instant (the scope's "any objects").
+    pub fn subscribe_objects(
+        &self,
+        drive: usize,
+        every: Duration,
+        objects: &[(u16, u8)],
+    ) -> Result<Receiver<ObjectsSample>, ControlError> {
+        let (samples, rx) = mpsc::sync_channel(SAMPLE_QUEUE);
+        let objects = objects.iter().copied().take(MAX_SAMPLED_OBJECTS).collect();
+        self.ask(|reply| Command::SubscribeObjects {
+            drive,
+            every,
+            objects,
+            samples,
+            reply,
+        })??;
+        Ok(rx)
+    }
+}
+
+/// Objects one subscription may name at most.
+pub const MAX_SAMPLED_OBJECTS: usize = 8;
+
+/// One object's value in an [`ObjectsSample`]: its bytes (little-endian, as on CANopen), or
+/// `len` 0 when it could not be read at that sample or is longer than 8 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SampledValue {
+    pub len: u8,
+    pub bytes: [u8; 8],
+}
+
+impl SampledValue {
+    pub fn get(&self) -> Option<&[u8]> {
+        (self.len > 0).then(|| self.bytes.get(..usize::from(self.len)))?
+    }
+}
+
+/// The plant and named objects of one drive at one time of the cell's clock (no allocation
+/// in the loop: a fixed array).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectsSample {
+    pub plant: PlantSample,
+    /// In the order the subscription named them; the rest `len` 0.
+    pub values: [SampledValue; MAX_SAMPLED_OBJECTS],
 }
 
 /// What [`ControlHandle::fhpp`] asks of a CMMO-ST.

@@ -1,5 +1,6 @@
-//! Live plant samples over a WebSocket. The cell loop samples the plant at the rate asked
-//! (its subscription, [`ControlHandle::subscribe`]); the console sends what has come in as
+//! Live plant samples over a WebSocket, with any objects named in the request. The cell loop
+//! samples the plant (and reads the named objects) at the rate asked (its subscription,
+//! [`ControlHandle::subscribe`]); the console sends what has come in as
 //! one JSON message per batch period, so the browser draws at a screen's pace whatever the
 //! control rate. A browser that does not keep up loses samples in the loop's bounded queue,
 //! never delays the loop.
@@ -20,7 +21,7 @@ use utoipa::{IntoParams, ToSchema};
 
 use super::api::{ApiError, PlantView};
 use super::AppState;
-use crate::cell::control::PlantSample;
+use crate::cell::control::{ObjectsSample, PlantSample};
 
 /// The fastest sampling a browser may ask for: the control rate of the drives (1 kHz).
 pub const MAX_RATE_HZ: u32 = 1000;
@@ -35,13 +36,12 @@ pub struct LiveQuery {
     #[param(minimum = 20, maximum = 1000)]
     pub batch_ms: Option<u64>,
     /// Objects to sample beside the plant, comma-separated `index:sub` in hex (`60F4:0,6041:0`,
-    /// at most 8). Read once per message (decimated to the batch period) and given with the
-    /// message's last sample.
+    /// at most 8, of at most 8 bytes each), read on the cell loop with every plant sample.
     pub objects: Option<String>,
 }
 
 /// Objects a subscription may name at most.
-pub const MAX_OBJECTS: usize = 8;
+pub const MAX_OBJECTS: usize = crate::cell::control::MAX_SAMPLED_OBJECTS;
 
 /// An object named in `objects`, resolved against the drive's description.
 #[derive(Debug, Clone, Copy)]
@@ -101,7 +101,7 @@ pub struct SamplePoint {
     pub position: Option<f64>,
     pub velocity: Option<f64>,
     pub current: Option<f64>,
-    /// The named objects' values (`"60F4:00": -12`), on the last sample of a message.
+    /// The named objects' values at this sample (`"60F4:00": -12`).
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub objects: std::collections::BTreeMap<String, f64>,
 }
@@ -203,7 +203,17 @@ pub async fn samples(
     };
     let handle = s.handle.clone();
     let every = Duration::from_micros(1_000_000 / u64::from(rate));
-    let subscribed = tokio::task::spawn_blocking(move || handle.subscribe(index, every)).await;
+    let wanted: Vec<(u16, u8)> = named.iter().map(|n| (n.index, n.sub)).collect();
+    let subscribed = tokio::task::spawn_blocking(move || {
+        if wanted.is_empty() {
+            handle.subscribe(index, every).map(Source::Plant)
+        } else {
+            handle
+                .subscribe_objects(index, every, &wanted)
+                .map(Source::Objects)
+        }
+    })
+    .await;
     let rx = match subscribed {
         Ok(Ok(rx)) => rx,
         Ok(Err(e)) => return ApiError::from(e).into_response(),
@@ -212,47 +222,58 @@ pub async fn samples(
                 .into_response()
         }
     };
-    let handle = s.handle.clone();
-    ws.on_upgrade(move |socket| {
-        stream(
-            socket,
-            index,
-            rx,
-            Duration::from_millis(batch),
-            handle,
-            named,
-        )
-    })
+    ws.on_upgrade(move |socket| stream(socket, index, rx, Duration::from_millis(batch), named))
 }
 
-/// The named objects now, by key; an object that cannot be read now is left out.
-async fn read_named(
-    handle: &crate::cell::control::ControlHandle,
-    drive: usize,
-    named: &[Named],
-) -> std::collections::BTreeMap<String, f64> {
-    let handle = handle.clone();
-    let named = named.to_vec();
-    tokio::task::spawn_blocking(move || {
-        named
-            .iter()
-            .filter_map(|n| {
-                let bytes = handle.read(drive, n.index, n.sub).ok()?;
-                let value = crate::value_text::decode(n.ty, &bytes)?;
-                Some((n.key(), value.parse::<f64>().ok()?))
-            })
-            .collect()
-    })
-    .await
-    .unwrap_or_default()
+/// Where the samples come from: the plant alone, or the plant with named objects, read on
+/// the loop at each sample ([`ControlHandle::subscribe_objects`]).
+///
+/// [`ControlHandle::subscribe_objects`]: crate::cell::control::ControlHandle::subscribe_objects
+enum Source {
+    Plant(std::sync::mpsc::Receiver<PlantSample>),
+    Objects(std::sync::mpsc::Receiver<ObjectsSample>),
+}
+
+impl Source {
+    /// What has come in, as the browser's points, with the last plant sample.
+    fn take(&self, named: &[Named]) -> (Vec<SamplePoint>, Option<PlantSample>) {
+        match self {
+            Source::Plant(rx) => {
+                let got: Vec<PlantSample> = rx.try_iter().collect();
+                (
+                    got.iter().map(SamplePoint::from).collect(),
+                    got.last().copied(),
+                )
+            }
+            Source::Objects(rx) => {
+                let got: Vec<ObjectsSample> = rx.try_iter().collect();
+                let points = got
+                    .iter()
+                    .map(|s| {
+                        let mut p = SamplePoint::from(&s.plant);
+                        for (n, v) in named.iter().zip(s.values.iter()) {
+                            let value = v
+                                .get()
+                                .and_then(|b| crate::value_text::decode(n.ty, b))
+                                .and_then(|t| t.parse::<f64>().ok());
+                            if let Some(value) = value {
+                                p.objects.insert(n.key(), value);
+                            }
+                        }
+                        p
+                    })
+                    .collect();
+                (points, got.last().map(|s| s.plant))
+            }
+        }
+    }
 }
 
 async fn stream(
     mut socket: WebSocket,
     drive: usize,
-    rx: std::sync::mpsc::Receiver<PlantSample>,
+    source: Source,
     period: Duration,
-    handle: crate::cell::control::ControlHandle,
     named: Vec<Named>,
 ) {
     let mut tick = tokio::time::interval(period);
@@ -260,20 +281,13 @@ async fn stream(
     loop {
         tokio::select! {
             _ = tick.tick() => {
-                let got: Vec<PlantSample> = rx.try_iter().collect();
-                if got.is_empty() {
+                let (samples, last) = source.take(&named);
+                if samples.is_empty() {
                     continue;
-                }
-                let mut samples: Vec<SamplePoint> = got.iter().map(SamplePoint::from).collect();
-                if !named.is_empty() {
-                    let values = read_named(&handle, drive, &named).await;
-                    if let Some(last) = samples.last_mut() {
-                        last.objects = values;
-                    }
                 }
                 let message = SampleBatch {
                     drive,
-                    display: got.last().and_then(|s| PlantView::from(s).display),
+                    display: last.and_then(|s| PlantView::from(&s).display),
                     samples,
                 };
                 let Ok(text) = serde_json::to_string(&message) else {
@@ -289,7 +303,7 @@ async fn stream(
             },
         }
     }
-    // Dropping `rx` ends the subscription at the loop's next sample.
+    // Dropping the receiver ends the subscription at the loop's next sample.
 }
 
 pub fn routes() -> Router<AppState> {

@@ -210,6 +210,7 @@ pub struct CellLoop {
     control_tx: std::sync::mpsc::Sender<Command>,
     control_rx: std::sync::mpsc::Receiver<Command>,
     subscriptions: Vec<Subscription>,
+    object_subscriptions: Vec<handle::ObjectSubscription>,
 }
 
 /// A subscriber to a drive's plant samples.
@@ -376,6 +377,7 @@ impl CellLoop {
             control_tx,
             control_rx,
             subscriptions: Vec::new(),
+            object_subscriptions: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -574,6 +576,9 @@ impl CellLoop {
             take(c.chain.deadline().map(|d| self.wall(d)));
         }
         for s in &self.subscriptions {
+            take(Some(s.next));
+        }
+        for s in &self.object_subscriptions {
             take(Some(s.next));
         }
         for l in &self.serial {
