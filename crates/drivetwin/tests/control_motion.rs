@@ -15,7 +15,11 @@ use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::web::motion::{self, Handle};
 
 fn cell() -> (ControlHandle, impl FnOnce()) {
-    let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
+    cell_of("cmmp-as")
+}
+
+fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
+    let cmmp = devices::by_name(device).expect("device");
     let drive =
         CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
@@ -135,4 +139,35 @@ fn fhpp_device_control_gates_the_console_telegram() {
     // The CAN drive has no FHPP side.
     assert!(handle.fhpp(0, FhppRequest::Status).is_err());
     stop();
+}
+
+#[test]
+fn the_same_sequences_drive_the_nanotec_and_kinco_drives() {
+    for device in ["nanotec-pd4n", "nanotec-smci47s", "kinco-fd3", "kinco-cd3"] {
+        let (handle, stop) = cell_of(device);
+        let io = Handle {
+            handle: &handle,
+            drive: 0,
+        };
+        if device.starts_with("kinco") {
+            // Kinco §6: at the factory the digital inputs own the controlword; the drive refuses
+            // the console as it refuses any master, until 2010h:03 / :05 give it to the bus.
+            assert_eq!(
+                motion::enable(&io),
+                Err(motion::MotionError::Control(
+                    drivetwin::cell::control::ControlError::Abort(od::AbortCode::LOCAL_CONTROL)
+                )),
+                "{device}"
+            );
+            handle.write(0, 0x2010, 3, &[0, 0]).expect("2010h:03");
+            handle.write(0, 0x2010, 5, &[0, 0]).expect("2010h:05");
+        }
+        let sw = motion::enable(&io).unwrap_or_else(|e| panic!("{device}: {e}"));
+        assert_eq!(sw & 0x6F, 0x27, "{device}");
+        motion::jog(&io, 100).unwrap_or_else(|e| panic!("{device}: jog: {e}"));
+        motion::move_to(&io, 1000, true).unwrap_or_else(|e| panic!("{device}: move: {e}"));
+        motion::home(&io).unwrap_or_else(|e| panic!("{device}: home: {e}"));
+        motion::disable(&io).unwrap_or_else(|e| panic!("{device}: disable: {e}"));
+        stop();
+    }
 }

@@ -97,6 +97,7 @@ const TRIES: u32 = 60;
 /// Modes of operation 6060h (CiA 402 §6.2; CMMP-AS §6.1.6 Tab. 6.9).
 pub mod mode {
     pub const PROFILE_POSITION: i8 = 1;
+    pub const VELOCITY: i8 = 2;
     pub const PROFILE_VELOCITY: i8 = 3;
     pub const HOMING: i8 = 6;
 }
@@ -211,11 +212,29 @@ fn set_mode(io: &impl Objects, wanted: i8) -> Result<(), MotionError> {
 
 /// Jog in profile velocity mode: 6060h = 3, target velocity 60FFh = `velocity` (the drive's
 /// velocity units; negative: backwards, 0: stop), enable operation (CMMP-AS §6.4, CiA 402
-/// §10). The drive must be enabled.
+/// §10). A drive whose supported drive modes (6502h) lack profile velocity but have velocity
+/// mode (the Nanotec PD4-N, 6502h = 6Bh) jogs in velocity mode: 6060h = 2, vl target
+/// velocity 6042h (INTEGER16, rpm; CiA 402 §9, Nanotec §5.5). The drive must be enabled.
 pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
     require_enabled(io)?;
-    set_mode(io, mode::PROFILE_VELOCITY)?;
-    io.write(0x60FF, 0, &velocity.to_le_bytes())?;
+    let supported = io.read(0x6502, 0).ok().map(|b| {
+        u32::from_le_bytes([
+            b.first().copied().unwrap_or(0),
+            b.get(1).copied().unwrap_or(0),
+            b.get(2).copied().unwrap_or(0),
+            b.get(3).copied().unwrap_or(0),
+        ])
+    });
+    // 6502h bit 2: profile velocity; bit 1: velocity mode (CiA 402 §6.4.4).
+    let vl_only = supported.is_some_and(|m| m & 0b100 == 0 && m & 0b010 != 0);
+    if vl_only {
+        set_mode(io, mode::VELOCITY)?;
+        let rpm = velocity.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
+        io.write(0x6042, 0, &rpm.to_le_bytes())?;
+    } else {
+        set_mode(io, mode::PROFILE_VELOCITY)?;
+        io.write(0x60FF, 0, &velocity.to_le_bytes())?;
+    }
     controlword(io, cw::ENABLE_OPERATION)?;
     Ok(statusword_of(io)?)
 }
@@ -927,6 +946,17 @@ mod tests {
         assert!(jog(&d, -300).is_ok());
         assert_eq!(d.read(0x6061, 0), Ok(vec![3]));
         assert_eq!(d.read(0x60FF, 0), Ok((-300i32).to_le_bytes().to_vec()));
+    }
+
+    #[test]
+    fn a_drive_without_profile_velocity_jogs_in_velocity_mode() {
+        // Nanotec PD4-N 6502h = 6Bh: PP, VL, TQ, HM, IP, no PV.
+        let d = FakeDrive::new(0x0227);
+        d.set(0x6502, 0x6Bu32.to_le_bytes().to_vec());
+        assert!(jog(&d, -120).is_ok());
+        assert_eq!(d.read(0x6061, 0), Ok(vec![2]));
+        assert_eq!(d.read(0x6042, 0), Ok((-120i16).to_le_bytes().to_vec()));
+        assert!(d.read(0x60FF, 0).is_err(), "60FFh untouched");
     }
 
     #[test]
