@@ -59,7 +59,15 @@ def test_enable_and_jog_in_the_page_move_the_scope_trace(launch, node_of, browse
     page.wait_for_function(
         "window.consoleState.samples.filter((p) => p.following_error != null).length > 50")
     assert page.evaluate("window.consoleState.samples.slice(-20).every((p) => p.following_error != null)")
+    page.wait_for_timeout(1500)
     screenshot(page, "console-drive.png")
+    # Any object beside them: 6041h, sampled and plotted as "object".
+    page.fill("#scope-object", "6041:0")
+    page.click("#scope-object-set")
+    page.wait_for_function(
+        "window.consoleState.samples.filter((p) => p.object != null).length > 20")
+    assert page.evaluate("window.consoleState.samples.at(-1).object") & 0x6F == 0x27
+    assert page.text_content("#connection") == ""
 
     # Release: the jog stops (60FFh = 0) and the motor comes to rest.
     page.dispatch_event("#jog-pos", "pointerup")
@@ -123,6 +131,7 @@ def test_a_forced_limit_switch_shows_the_fault_and_its_text(launch, browser):  #
     page.wait_for_function(
         "[...document.querySelectorAll('#history td')].some((td) => td.textContent.startsWith('limit switch'))")
     page.dispatch_event("#jog-pos", "pointerup")
+    page.wait_for_function("document.querySelector('#message').textContent === 'jog stopped'")
     screenshot(page, "console-fault.png")
     # The cell page: the drive's state and its error with the text.
     page.goto(url + "#")

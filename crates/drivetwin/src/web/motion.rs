@@ -216,6 +216,11 @@ fn set_mode(io: &impl Objects, wanted: i8) -> Result<(), MotionError> {
 /// mode (the Nanotec PD4-N, 6502h = 6Bh) jogs in velocity mode: 6060h = 2, vl target
 /// velocity 6042h (INTEGER16, rpm; CiA 402 §9, Nanotec §5.5). The drive must be enabled.
 pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
+    let sw = statusword_of(io)?;
+    if velocity == 0 && !enabled(sw) {
+        // Stopping a drive that cannot move (a fault stopped it) asks nothing of it.
+        return Ok(sw);
+    }
     require_enabled(io)?;
     let supported = io.read(0x6502, 0).ok().map(|b| {
         u32::from_le_bytes([
@@ -377,6 +382,12 @@ fn fhpp_require_enabled(io: &impl FhppIo) -> Result<FhppState, MotionError> {
 /// Jog while CPOS.JOGP (positive) or JOGN (negative) is set; `direction` 0 clears both
 /// (CMMO-ST §6.6 "Jog mode", Tab. 5.15).
 pub fn fhpp_jog(io: &impl FhppIo, direction: i8) -> Result<FhppState, MotionError> {
+    if direction == 0 {
+        let s = fhpp_status(io)?;
+        if !scon(&s).contains(Scon::ENABLED) {
+            return Ok(s);
+        }
+    }
     let s = fhpp_require_enabled(io)?;
     let mut out = OutputData::from_bytes(s.outputs);
     let jog = match direction.signum() {
@@ -940,6 +951,12 @@ mod tests {
             jog(&d, 300),
             Err(MotionError::NotEnabled("SWITCH ON DISABLED".into())),
             "a drive not enabled is refused, nothing written"
+        );
+        assert!(d.writes.borrow().is_empty());
+        assert_eq!(
+            jog(&d, 0),
+            Ok(0x0240),
+            "a stop asks nothing of a drive that stands"
         );
         assert!(d.writes.borrow().is_empty());
         enable(&d).unwrap_or_default();

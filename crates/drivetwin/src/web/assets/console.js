@@ -172,13 +172,25 @@ function applyFilter() {
 const KEEP_S = 60;
 
 async function connectSamples(drive) {
-  if (consoleState.socket) consoleState.socket.close();
+  const old = consoleState.socket;
+  consoleState.socket = null;
+  if (old) old.close();
   consoleState.samples = [];
   consoleState.capture = null;
   consoleState.triggers = 0;
   // 60F4h following error actual value, where the drive has it, sampled with the plant.
-  let objects = "";
-  try { await api("GET", `/api/drives/${drive}/objects/60F4/0`); objects = "&objects=60F4:0"; } catch (e) { /* none */ }
+  const named = [];
+  try { await api("GET", `/api/drives/${drive}/objects/60F4/0`); named.push("60F4:0"); } catch (e) { /* none */ }
+  // One more object of the user's choice, plotted as "object" (read on the loop with every sample).
+  const extra = $("#scope-object").value.trim();
+  consoleState.objectKey = null;
+  if (/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(extra)) {
+    const [i, sub] = extra.split(":");
+    consoleState.objectKey = `${i.toUpperCase().padStart(4, "0")}:${sub.toUpperCase().padStart(2, "0")}`;
+    named.push(extra);
+  }
+  $("#object-name").textContent = consoleState.objectKey ? `object ${consoleState.objectKey}` : "";
+  const objects = named.length ? `&objects=${named.join(",")}` : "";
   const proto = location.protocol === "https:" ? "wss" : "ws";
   const ws = new WebSocket(`${proto}://${location.host}/api/drives/${drive}/samples?rate_hz=200&batch_ms=50${objects}`);
   ws.onmessage = (ev) => {
@@ -187,6 +199,7 @@ async function connectSamples(drive) {
     const s = consoleState.samples;
     for (const p of batch.samples) {
       if (p.objects && p.objects["60F4:00"] != null) p.following_error = p.objects["60F4:00"];
+      if (p.objects && consoleState.objectKey && p.objects[consoleState.objectKey] != null) p.object = p.objects[consoleState.objectKey];
       s.push(p);
     }
     const last = s[s.length - 1];
@@ -194,6 +207,7 @@ async function connectSamples(drive) {
     if (batch.display != null) $("#display").textContent = batch.display;
     checkTrigger();
   };
+  ws.onopen = () => { if (consoleState.socket === ws) $("#connection").textContent = ""; };
   ws.onclose = () => { if (consoleState.socket === ws) $("#connection").textContent = "samples stopped"; };
   consoleState.socket = ws;
 }
@@ -244,7 +258,8 @@ function checkTrigger() {
   }
 }
 
-const TRACES = [["position", "#4fc3f7"], ["velocity", "#aed581"], ["current", "#ffb74d"], ["following_error", "#e57373"]];
+const TRACES = [["position", "#4fc3f7"], ["velocity", "#aed581"], ["current", "#ffb74d"], ["following_error", "#e57373"],
+                ["object", "#ce93d8"]];
 
 function drawScope() {
   const canvas = $("#scope");
@@ -312,15 +327,19 @@ function setPaused(p) {
 async function route() {
   const m = location.hash.match(/^#drive\/(\d+)$/);
   consoleState.drive = m ? Number(m[1]) : null;
-  await loadCell();
   $("#drive").hidden = consoleState.drive === null;
   if (consoleState.drive === null) {
-    if (consoleState.socket) consoleState.socket.close();
+    const old = consoleState.socket;
     consoleState.socket = null;
+    if (old) old.close();
+    await loadCell();
     return;
   }
   say("");
+  // The drive's state first, then the cell (whose links show the page is ready).
+  try { consoleState.drives = await api("GET", "/api/drives"); } catch (e) { /* loadCell says */ }
   await refreshDrive();
+  await loadCell();
   await connectSamples(consoleState.drive);
   await loadParams();
 }
@@ -383,6 +402,12 @@ for (const [id, dir] of [["#jog-pos", 1], ["#jog-neg", -1]]) {
     b.addEventListener(ev, () => { if (consoleState.jogging) { consoleState.jogging = false; motion("jog", { direction: 0 }, "jog stopped"); } });
   }
 }
+$("#scope-object-set").addEventListener("click", async () => {
+  const v = $("#scope-object").value.trim();
+  if (v && !/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(v)) { say(`object ${v}: index:sub in hex, e.g. 6041:0`, true); return; }
+  await connectSamples(consoleState.drive);
+  say(v ? `sampling ${v}` : "sampling the plant");
+});
 $("#home").addEventListener("click", () => motion("home", undefined, "homing started"));
 $("#move").addEventListener("click", () => motion("move",
   { target: Number($("#move-target").value) || 0, relative: $("#move-relative").checked },
