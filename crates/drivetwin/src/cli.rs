@@ -133,6 +133,18 @@ pub enum Command {
     /// Run a scenario file (a cell and a timeline of actions and expectations) on the
     /// virtual clock: prints the report; exit code 0 when every expectation is met, 1 if not.
     Scenario(ScenarioArgs),
+    /// Write the IO-Link device descriptions (IODD 1.1) of a personality: for the CMMO-ST the
+    /// two files its manual names (FHPP 8 bytes, FHPP + FPC 16 bytes).
+    Iodd {
+        #[arg(long, default_value = "cmmo-st")]
+        device: String,
+        /// The folder to write them to.
+        #[arg(long, default_value = ".")]
+        output_dir: PathBuf,
+        /// The files' date, YYYY-MM-DD (their names carry it as YYYYMMDD).
+        #[arg(long, default_value = "2017-05-01")]
+        date: String,
+    },
 }
 
 #[derive(Args, Debug)]

@@ -166,6 +166,18 @@ pub(crate) enum Command {
             Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError>,
         >,
     },
+    Fhpp {
+        drive: usize,
+        request: FhppRequest,
+        reply: SyncSender<Result<FhppState, ControlError>>,
+    },
+    SubscribeObjects {
+        drive: usize,
+        every: Duration,
+        objects: Vec<(u16, u8)>,
+        samples: SyncSender<ObjectsSample>,
+        reply: SyncSender<Result<(), ControlError>>,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -305,6 +317,17 @@ impl ControlHandle {
         })?
     }
 
+    /// The FHPP side of a CMMO-ST: its telegrams, control authority and diagnostic memory,
+    /// after `request` is carried out (the console's FHPP buttons and the device's own web
+    /// server, [`crate::web::motion`]).
+    pub fn fhpp(&self, drive: usize, request: FhppRequest) -> Result<FhppState, ControlError> {
+        self.ask(|reply| Command::Fhpp {
+            drive,
+            request,
+            reply,
+        })?
+    }
+
     /// Clears message `number` raised by [`ControlHandle::raise_diagnostic`].
     pub fn clear_diagnostic(
         &self,
@@ -327,4 +350,80 @@ impl ControlHandle {
         self.ask(|reply| Command::Wire { request, reply })
             .map_err(|_| crate::cell::wire_faults::WireError::Stopped)?
     }
+
+    /// Samples of the drive's plant and of up to [`MAX_SAMPLED_OBJECTS`] objects every
+    /// `every`, read on the loop at the same instant (the scope's "any objects").
+    pub fn subscribe_objects(
+        &self,
+        drive: usize,
+        every: Duration,
+        objects: &[(u16, u8)],
+    ) -> Result<Receiver<ObjectsSample>, ControlError> {
+        let (samples, rx) = mpsc::sync_channel(SAMPLE_QUEUE);
+        let objects = objects.iter().copied().take(MAX_SAMPLED_OBJECTS).collect();
+        self.ask(|reply| Command::SubscribeObjects {
+            drive,
+            every,
+            objects,
+            samples,
+            reply,
+        })??;
+        Ok(rx)
+    }
+}
+
+/// Objects one subscription may name at most.
+pub const MAX_SAMPLED_OBJECTS: usize = 8;
+
+/// One object's value in an [`ObjectsSample`]: its bytes (little-endian, as on CANopen), or
+/// `len` 0 when it could not be read at that sample or is longer than 8 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SampledValue {
+    pub len: u8,
+    pub bytes: [u8; 8],
+}
+
+impl SampledValue {
+    pub fn get(&self) -> Option<&[u8]> {
+        (self.len > 0).then(|| self.bytes.get(..usize::from(self.len)))?
+    }
+}
+
+/// The plant and named objects of one drive at one time of the cell's clock (no allocation
+/// in the loop: a fixed array).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectsSample {
+    pub plant: PlantSample,
+    /// In the order the subscription named them; the rest `len` 0.
+    pub values: [SampledValue; MAX_SAMPLED_OBJECTS],
+}
+
+/// What [`ControlHandle::fhpp`] asks of a CMMO-ST.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FhppRequest {
+    /// Nothing: the state only.
+    Status,
+    /// The 8-byte output telegram (CCON, CPOS, …) as a fieldbus master writes it; taken at
+    /// the drive's next cycle.
+    SetOutputs([u8; 8]),
+    /// The web server takes device control (`true`) or gives it back to the fieldbus (CMMO-ST
+    /// §2.2 "Device Control", PNU 125 §3.1.1); refused while the PLC sets CCON.LOCK.
+    DeviceControl(bool),
+}
+
+/// A CMMO-ST's FHPP state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FhppState {
+    /// The input telegram of the last cycle: SCON, SPOS, byte 3…8.
+    pub inputs: [u8; 8],
+    /// The output telegram in force.
+    pub outputs: [u8; 8],
+    /// Who holds device control.
+    pub authority: drive::fhpp::Authority,
+    /// The active fault's diagnostic number (0: none).
+    pub fault: u8,
+    /// The diagnostic memory, newest first: (PNU 200 event type, PNU 201 number, PNU 202 ms).
+    pub memory: Vec<(u8, u16, u32)>,
+    /// Why a [`FhppRequest::DeviceControl`] was refused (the parameter-channel error number).
+    pub refused: Option<u8>,
 }

@@ -129,6 +129,7 @@ impl CommandError {
 mod drive;
 mod ecat;
 mod fhpp;
+mod iodd;
 mod kinco;
 mod lss;
 mod network;
@@ -189,6 +190,11 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco { command, port } => kinco::kinco(command, port),
         Command::Scenario(args) => scenario::scenario(args),
+        Command::Iodd {
+            device,
+            output_dir,
+            date,
+        } => iodd::iodd(&device, &output_dir, &date),
     }
 }
 

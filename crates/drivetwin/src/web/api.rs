@@ -159,7 +159,7 @@ fn profile_name(desc: &DeviceDescription) -> String {
     format!("{:?}", desc.profile).to_ascii_lowercase()
 }
 
-fn display_text(d: &DisplayState) -> String {
+pub(crate) fn display_text(d: &DisplayState) -> String {
     match d {
         DisplayState::Cia402(d) => d.text().to_string(),
         DisplayState::Fhpp(s) => s.to_string(),
@@ -829,6 +829,8 @@ pub struct ApiDoc;
 async fn openapi() -> Response {
     let mut doc = ApiDoc::openapi();
     doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
+    doc.merge(super::motion::MotionDoc::openapi());
+    doc.merge(super::cmmo_st::CmmoStDoc::openapi());
     match super::wire::merged(doc).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],

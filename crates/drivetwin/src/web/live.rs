@@ -1,5 +1,6 @@
-//! Live plant samples over a WebSocket. The cell loop samples the plant at the rate asked
-//! (its subscription, [`ControlHandle::subscribe`]); the console sends what has come in as
+//! Live plant samples over a WebSocket, with any objects named in the request. The cell loop
+//! samples the plant (and reads the named objects) at the rate asked (its subscription,
+//! [`ControlHandle::subscribe`]); the console sends what has come in as
 //! one JSON message per batch period, so the browser draws at a screen's pace whatever the
 //! control rate. A browser that does not keep up loses samples in the loop's bounded queue,
 //! never delays the loop.
@@ -20,7 +21,7 @@ use utoipa::{IntoParams, ToSchema};
 
 use super::api::{ApiError, PlantView};
 use super::AppState;
-use crate::cell::control::PlantSample;
+use crate::cell::control::{ObjectsSample, PlantSample};
 
 /// The fastest sampling a browser may ask for: the control rate of the drives (1 kHz).
 pub const MAX_RATE_HZ: u32 = 1000;
@@ -34,6 +35,53 @@ pub struct LiveQuery {
     /// Milliseconds between two messages, 20…1000 (default 50).
     #[param(minimum = 20, maximum = 1000)]
     pub batch_ms: Option<u64>,
+    /// Objects to sample beside the plant, comma-separated `index:sub` in hex (`60F4:0,6041:0`,
+    /// at most 8, of at most 8 bytes each), read on the cell loop with every plant sample.
+    pub objects: Option<String>,
+}
+
+/// Objects a subscription may name at most.
+pub const MAX_OBJECTS: usize = crate::cell::control::MAX_SAMPLED_OBJECTS;
+
+/// An object named in `objects`, resolved against the drive's description.
+#[derive(Debug, Clone, Copy)]
+struct Named {
+    index: u16,
+    sub: u8,
+    ty: od::DataType,
+}
+
+impl Named {
+    fn key(&self) -> String {
+        format!("{:04X}:{:02X}", self.index, self.sub)
+    }
+}
+
+/// `60F4:0,6041:0` → the entries, or a message for the 400.
+fn named_objects(desc: &od::DeviceDescription, list: &str) -> Result<Vec<Named>, String> {
+    let mut out = Vec::new();
+    for item in list.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+        let (i, s) = item.split_once(':').unwrap_or((item, "0"));
+        let index = u16::from_str_radix(i.trim_end_matches(['h', 'H']), 16)
+            .map_err(|_| format!("object {item:?}: index:sub in hex, e.g. 60F4:0"))?;
+        let sub = u8::from_str_radix(s, 16)
+            .map_err(|_| format!("object {item:?}: index:sub in hex, e.g. 60F4:0"))?;
+        let e = desc
+            .entry(index, sub)
+            .ok_or_else(|| format!("object {item:?} is not in {}", desc.name))?;
+        if !e.access.readable() {
+            return Err(format!("object {item:?} cannot be read"));
+        }
+        out.push(Named {
+            index,
+            sub,
+            ty: e.data_type,
+        });
+    }
+    if out.len() > MAX_OBJECTS {
+        return Err(format!("at most {MAX_OBJECTS} objects"));
+    }
+    Ok(out)
 }
 
 /// One message on the WebSocket: the samples since the last one.
@@ -53,6 +101,9 @@ pub struct SamplePoint {
     pub position: Option<f64>,
     pub velocity: Option<f64>,
     pub current: Option<f64>,
+    /// The named objects' values at this sample (`"60F4:00": -12`).
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub objects: std::collections::BTreeMap<String, f64>,
 }
 
 impl From<&PlantSample> for SamplePoint {
@@ -63,6 +114,7 @@ impl From<&PlantSample> for SamplePoint {
             position: v.position,
             velocity: v.velocity,
             current: v.current,
+            objects: std::collections::BTreeMap::new(),
         }
     }
 }
@@ -122,9 +174,46 @@ pub async fn samples(
                 .into_response(),
         };
     };
+    let named = match q.objects.as_deref().filter(|o| !o.trim().is_empty()) {
+        None => Vec::new(),
+        Some(list) => {
+            let handle = s.handle.clone();
+            let desc = tokio::task::spawn_blocking(move || {
+                handle
+                    .drives()
+                    .ok()
+                    .and_then(|d| d.into_iter().find(|d| d.index == index))
+                    .and_then(|d| devices::by_name(d.device))
+            })
+            .await
+            .ok()
+            .flatten();
+            let Some(desc) = desc else {
+                return ApiError::new(
+                    StatusCode::NOT_FOUND,
+                    format!("no drive {index} in the cell"),
+                )
+                .into_response();
+            };
+            match named_objects(desc, list) {
+                Ok(n) => n,
+                Err(m) => return ApiError::new(StatusCode::BAD_REQUEST, m).into_response(),
+            }
+        }
+    };
     let handle = s.handle.clone();
     let every = Duration::from_micros(1_000_000 / u64::from(rate));
-    let subscribed = tokio::task::spawn_blocking(move || handle.subscribe(index, every)).await;
+    let wanted: Vec<(u16, u8)> = named.iter().map(|n| (n.index, n.sub)).collect();
+    let subscribed = tokio::task::spawn_blocking(move || {
+        if wanted.is_empty() {
+            handle.subscribe(index, every).map(Source::Plant)
+        } else {
+            handle
+                .subscribe_objects(index, every, &wanted)
+                .map(Source::Objects)
+        }
+    })
+    .await;
     let rx = match subscribed {
         Ok(Ok(rx)) => rx,
         Ok(Err(e)) => return ApiError::from(e).into_response(),
@@ -133,28 +222,73 @@ pub async fn samples(
                 .into_response()
         }
     };
-    ws.on_upgrade(move |socket| stream(socket, index, rx, Duration::from_millis(batch)))
+    ws.on_upgrade(move |socket| stream(socket, index, rx, Duration::from_millis(batch), named))
+}
+
+/// Where the samples come from: the plant alone, or the plant with named objects, read on
+/// the loop at each sample ([`ControlHandle::subscribe_objects`]).
+///
+/// [`ControlHandle::subscribe_objects`]: crate::cell::control::ControlHandle::subscribe_objects
+enum Source {
+    Plant(std::sync::mpsc::Receiver<PlantSample>),
+    Objects(std::sync::mpsc::Receiver<ObjectsSample>),
+}
+
+impl Source {
+    /// What has come in, as the browser's points, with the last plant sample.
+    fn take(&self, named: &[Named]) -> (Vec<SamplePoint>, Option<PlantSample>) {
+        match self {
+            Source::Plant(rx) => {
+                let got: Vec<PlantSample> = rx.try_iter().collect();
+                (
+                    got.iter().map(SamplePoint::from).collect(),
+                    got.last().copied(),
+                )
+            }
+            Source::Objects(rx) => {
+                let got: Vec<ObjectsSample> = rx.try_iter().collect();
+                let points = got
+                    .iter()
+                    .map(|s| {
+                        let mut p = SamplePoint::from(&s.plant);
+                        for (n, v) in named.iter().zip(s.values.iter()) {
+                            let value = v
+                                .get()
+                                .and_then(|b| crate::value_text::decode(n.ty, b))
+                                .and_then(|t| t.parse::<f64>().ok());
+                            if let Some(value) = value {
+                                p.objects.insert(n.key(), value);
+                            }
+                        }
+                        p
+                    })
+                    .collect();
+                (points, got.last().map(|s| s.plant))
+            }
+        }
+    }
 }
 
 async fn stream(
     mut socket: WebSocket,
     drive: usize,
-    rx: std::sync::mpsc::Receiver<PlantSample>,
+    source: Source,
     period: Duration,
+    named: Vec<Named>,
 ) {
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         tokio::select! {
             _ = tick.tick() => {
-                let got: Vec<PlantSample> = rx.try_iter().collect();
-                if got.is_empty() {
+                let (samples, last) = source.take(&named);
+                if samples.is_empty() {
                     continue;
                 }
                 let message = SampleBatch {
                     drive,
-                    display: got.last().and_then(|s| PlantView::from(s).display),
-                    samples: got.iter().map(SamplePoint::from).collect(),
+                    display: last.and_then(|s| PlantView::from(&s).display),
+                    samples,
                 };
                 let Ok(text) = serde_json::to_string(&message) else {
                     break;
@@ -169,7 +303,7 @@ async fn stream(
             },
         }
     }
-    // Dropping `rx` ends the subscription at the loop's next sample.
+    // Dropping the receiver ends the subscription at the loop's next sample.
 }
 
 pub fn routes() -> Router<AppState> {

@@ -19,8 +19,11 @@
 
 pub mod api;
 pub mod auth;
+pub mod cmmo_st;
 pub mod diagnostics;
+pub mod error_text;
 pub mod live;
+pub mod motion;
 pub mod page;
 pub mod scenarios;
 pub mod statusword;
@@ -83,6 +86,8 @@ pub fn router(state: AppState) -> Router {
         .merge(diagnostics::routes())
         .merge(page::routes())
         .merge(wire::routes())
+        .merge(motion::routes())
+        .merge(cmmo_st::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

@@ -132,6 +132,31 @@ impl CellLoop {
                 Command::Wire { request, reply } => {
                     let _ = reply.send(self.wire(request, now));
                 }
+                Command::Fhpp {
+                    drive,
+                    request,
+                    reply,
+                } => {
+                    let _ = reply.send(self.fhpp(drive, request));
+                }
+                Command::SubscribeObjects {
+                    drive,
+                    every,
+                    objects,
+                    samples,
+                    reply,
+                } => {
+                    let done = self.sample(drive, now).map(|_| {
+                        self.object_subscriptions.push(ObjectSubscription {
+                            drive,
+                            every: every.max(Duration::from_micros(100)),
+                            next: now,
+                            objects,
+                            samples,
+                        });
+                    });
+                    let _ = reply.send(done);
+                }
             }
         }
     }
@@ -165,6 +190,7 @@ impl CellLoop {
 
     /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
     pub(super) fn samples(&mut self, now: Instant) {
+        self.object_samples(now);
         let mut i = 0;
         while i < self.subscriptions.len() {
             let Some(sub) = self.subscriptions.get(i) else {
@@ -348,6 +374,127 @@ impl CellLoop {
                 })
             }
         }
+    }
+}
+
+/// A subscriber to a drive's plant and named objects ([`Command::SubscribeObjects`]).
+pub(super) struct ObjectSubscription {
+    drive: usize,
+    every: Duration,
+    pub(super) next: Instant,
+    objects: Vec<(u16, u8)>,
+    samples: std::sync::mpsc::SyncSender<crate::cell::control::ObjectsSample>,
+}
+
+impl CellLoop {
+    /// Object samples due; as [`Self::samples`], without allocating: each value is read into
+    /// the sample's own fixed array.
+    fn object_samples(&mut self, now: Instant) {
+        use crate::cell::control::{ObjectsSample, SampledValue, MAX_SAMPLED_OBJECTS};
+        let mut i = 0;
+        while i < self.object_subscriptions.len() {
+            let Some(sub) = self.object_subscriptions.get(i) else {
+                break;
+            };
+            if sub.next > now {
+                i += 1;
+                continue;
+            }
+            let drive = sub.drive;
+            let mut wanted = [(0u16, 0u8); MAX_SAMPLED_OBJECTS];
+            let n = sub.objects.len().min(MAX_SAMPLED_OBJECTS);
+            for (w, o) in wanted.iter_mut().zip(sub.objects.iter()) {
+                *w = *o;
+            }
+            let sample = self.sample(drive, now).map(|plant| {
+                let mut values = [SampledValue::default(); MAX_SAMPLED_OBJECTS];
+                for (v, (index, sub)) in values.iter_mut().zip(wanted.iter()).take(n) {
+                    let mut buf = [0u8; 8];
+                    if let Ok(len) = self.read_into(drive, *index, *sub, &mut buf) {
+                        v.len = u8::try_from(len).unwrap_or(0);
+                        v.bytes = buf;
+                    }
+                }
+                ObjectsSample { plant, values }
+            });
+            let Some(sub) = self.object_subscriptions.get_mut(i) else {
+                break;
+            };
+            sub.next = now + sub.every;
+            let gone = match sample {
+                Ok(s) => matches!(
+                    sub.samples.try_send(s),
+                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
+                ),
+                Err(_) => true,
+            };
+            if gone {
+                self.object_subscriptions.swap_remove(i);
+            } else {
+                i += 1;
+            }
+        }
+    }
+
+    /// An object's value into `buf` (an object longer than `buf` is an error).
+    fn read_into(
+        &mut self,
+        drive: usize,
+        index: u16,
+        sub: u8,
+        buf: &mut [u8],
+    ) -> Result<usize, ControlError> {
+        match self.target(drive)? {
+            Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, buf),
+            Target::Modbus(dev) => od::ObjectAccess::read(&*lock(&dev), index, sub, buf),
+        }
+        .map_err(ControlError::Abort)
+    }
+
+    /// A CMMO-ST's FHPP side for the console ([`crate::cell::control::ControlHandle::fhpp`]).
+    fn fhpp(
+        &mut self,
+        drive: usize,
+        request: crate::cell::control::FhppRequest,
+    ) -> Result<crate::cell::control::FhppState, ControlError> {
+        use crate::cell::control::{FhppRequest, FhppState};
+        let Target::Modbus(dev) = self.target(drive)? else {
+            return Err(ControlError::NoPlant(drive));
+        };
+        let mut dev = lock(&dev);
+        let mut refused = None;
+        match request {
+            FhppRequest::Status => {}
+            FhppRequest::SetOutputs(image) => {
+                // Eight bytes are always a valid FHPP Standard telegram.
+                let _ = dev.set_outputs(&image);
+            }
+            FhppRequest::DeviceControl(true) => {
+                if let Err(e) = dev
+                    .fhpp_mut()
+                    .request_local_control(::drive::fhpp::Authority::WebServer)
+                {
+                    refused = Some(e.fpc_error());
+                }
+            }
+            FhppRequest::DeviceControl(false) => {
+                if dev.fhpp().authority() == ::drive::fhpp::Authority::WebServer {
+                    dev.fhpp_mut().release_local_control();
+                }
+            }
+        }
+        Ok(FhppState {
+            inputs: dev.inputs(),
+            outputs: dev.outputs().to_bytes(),
+            authority: dev.fhpp().authority(),
+            fault: dev.fault_number(),
+            memory: dev
+                .diagnostic_memory()
+                .iter()
+                .map(|e| (e.event.value(), e.number, e.time_ms))
+                .collect(),
+            refused,
+        })
     }
 }
 

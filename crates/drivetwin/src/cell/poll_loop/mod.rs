@@ -225,6 +225,7 @@ pub struct CellLoop {
     )>,
     /// Receivers of every frame of a bus ([`crate::cell::wire_faults::WireRequest::Tap`]).
     taps: Vec<(usize, std::sync::mpsc::SyncSender<(Duration, CanFrame)>)>,
+    object_subscriptions: Vec<handle::ObjectSubscription>,
 }
 
 /// A subscriber to a drive's plant samples.
@@ -398,6 +399,7 @@ impl CellLoop {
             subscriptions: Vec::new(),
             front_faults: Vec::new(),
             taps: Vec::new(),
+            object_subscriptions: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -613,6 +615,9 @@ impl CellLoop {
             take(c.chain.deadline().map(|d| self.wall(d)));
         }
         for s in &self.subscriptions {
+            take(Some(s.next));
+        }
+        for s in &self.object_subscriptions {
             take(Some(s.next));
         }
         for l in &self.serial {

@@ -5,7 +5,7 @@
 
 const token = new URLSearchParams(location.search).get("token");
 const WINDOW_S = 10;
-const consoleState = { drive: null, drives: [], samples: [], paused: false, socket: null };
+const consoleState = { drive: null, drives: [], samples: [], paused: false, socket: null, jogging: false };
 window.consoleState = consoleState;
 
 const $ = (sel) => document.querySelector(sel);
@@ -49,38 +49,54 @@ async function loadCell() {
   nav.replaceChildren(...consoleState.drives.map((d) =>
     el("a", { href: `#drive/${d.index}`, class: "drive-link" + (d.index === consoleState.drive ? " current" : ""),
               "data-drive": String(d.index) }, `${d.index}: ${d.device}`)));
-  $("#cell-table tbody").replaceChildren(...consoleState.drives.map((d) => el("tr", {},
-    el("td", {}, String(d.index)), el("td", {}, d.device), el("td", {}, d.product),
-    el("td", {}, d.interface + (d.node != null ? ` node ${d.node}` : "")),
-    el("td", { class: d.state === "FAULT" ? "fault" : "" }, d.state ?? "–"),
-    el("td", { class: "mono" }, d.display ?? ""))));
+  // The state and active error of each drive, from its motion view (CiA 402 or FHPP alike).
+  const views = await Promise.all(consoleState.drives.map((d) =>
+    api("GET", `/api/drives/${d.index}/motion`).catch(() => null)));
+  $("#cell-table tbody").replaceChildren(...consoleState.drives.map((d, i) => {
+    const v = views[i];
+    const state = v ? v.state : (d.state ?? "–");
+    const err = v && v.active_error ? `${v.active_error.code} ${v.active_error.text}` : "";
+    return el("tr", { "data-drive": String(d.index) },
+      el("td", {}, String(d.index)), el("td", {}, el("a", { href: `#drive/${d.index}` }, d.device)), el("td", {}, d.product),
+      el("td", {}, d.interface + (d.node != null ? ` node ${d.node}` : "")),
+      el("td", { class: "state" + (state.startsWith("FAULT") ? " fault" : "") }, state),
+      el("td", { class: "mono" }, (v && v.display) ?? d.display ?? ""),
+      el("td", { class: "error fault" }, err));
+  }));
 }
 
 // --------------------------------------------------------------------------------- drive
 
 function showDrive(view) {
-  $("#drive-title").textContent = `Drive ${view.index}: ${view.product} (${view.device}, ${view.profile})`;
+  const d = consoleState.drives.find((x) => x.index === view.drive) || {};
+  $("#drive-title").textContent = `Drive ${view.drive}: ${d.product ?? ""} (${d.device ?? ""}, ${view.profile})`;
   const state = $("#state");
-  state.textContent = view.state ?? "no CiA 402 state";
-  state.className = "state" + (view.state === "FAULT" ? " fault" : "");
-  $("#statusword").textContent = view.statusword != null
-    ? "6041h = 0x" + view.statusword.toString(16).toUpperCase().padStart(4, "0") : "";
+  state.textContent = view.state;
+  state.className = "state" + (view.state.startsWith("FAULT") ? " fault" : "");
+  const hex = (v, n) => "0x" + v.toString(16).toUpperCase().padStart(n, "0");
+  $("#statusword").textContent = view.profile === "cia402" ? `6041h = ${hex(view.word, 4)}`
+    : `SCON = ${hex(view.word & 0xFF, 2)} SPOS = ${hex(view.word >> 8, 2)}`;
   $("#display").textContent = view.display ?? "";
-  $("#status-bits tbody").replaceChildren(...view.status_bits.map((b) =>
-    el("tr", { class: b.set ? "bit-on" : "" }, el("td", {}, String(b.bit)), el("td", {}, b.set ? "1" : "0"),
-       el("td", {}, b.name))));
-  const cia402 = view.statusword != null;
-  $("#enable").disabled = !cia402;
-  $("#disable").disabled = !cia402;
+  $("#web-server-link").hidden = view.profile !== "fhpp";
+  $("#web-server").href = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
+  $("#active-error").textContent = view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none";
+  $("#active-error").className = view.active_error ? "fault" : "muted";
+  $("#device-control").textContent = view.device_control ? `device control: ${view.device_control}` : "";
+  $("#status-bits tbody").replaceChildren(...view.bits.map((b) =>
+    el("tr", { class: b.set ? "bit-on" : "", "data-bit": `${b.word}.${b.bit}` }, el("td", {}, b.word),
+       el("td", {}, String(b.bit)), el("td", {}, b.set ? "1" : "0"), el("td", {}, b.name))));
+  $("#history tbody").replaceChildren(...view.history.map((h, i) =>
+    el("tr", {}, el("td", {}, String(i + 1)), el("td", { class: "mono" }, h.code), el("td", {}, h.text),
+       el("td", {}, h.event ?? ""), el("td", {}, h.time_ms == null ? "" : String(h.time_ms)))));
 }
 
 // Every request for the drive's view takes a number; an answer that a later request has
 // overtaken (a periodic refresh sent before Enable was clicked) is not shown.
 let viewSeq = 0;
 
-async function fetchView(method, path) {
+async function fetchView(method, path, body) {
   const seq = ++viewSeq;
-  const view = await api(method, path);
+  const view = await api(method, path, body);
   if (seq === viewSeq) showDrive(view);
   return view;
 }
@@ -88,7 +104,7 @@ async function fetchView(method, path) {
 async function refreshDrive() {
   if (consoleState.drive === null) return;
   try {
-    await fetchView("GET", `/api/drives/${consoleState.drive}`);
+    await fetchView("GET", `/api/drives/${consoleState.drive}/motion`);
   } catch (e) {
     say(e.message, true);
   }
@@ -150,25 +166,100 @@ function applyFilter() {
 
 // --------------------------------------------------------------------------------- scope
 
-function connectSamples(drive) {
-  if (consoleState.socket) consoleState.socket.close();
+// The scope keeps the last minute of samples; a trigger (a level crossed by a chosen signal,
+// rising or falling) freezes one window around the crossing, `pre-trigger` percent of it
+// before. Free running, it shows the last window.
+const KEEP_S = 60;
+
+async function connectSamples(drive) {
+  const old = consoleState.socket;
+  consoleState.socket = null;
+  if (old) old.close();
   consoleState.samples = [];
+  consoleState.capture = null;
+  consoleState.triggers = 0;
+  // 60F4h following error actual value, where the drive has it, sampled with the plant.
+  const named = [];
+  try { await api("GET", `/api/drives/${drive}/objects/60F4/0`); named.push("60F4:0"); } catch (e) { /* none */ }
+  // One more object of the user's choice, plotted as "object" (read on the loop with every sample).
+  const extra = $("#scope-object").value.trim();
+  consoleState.objectKey = null;
+  if (/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(extra)) {
+    const [i, sub] = extra.split(":");
+    consoleState.objectKey = `${i.toUpperCase().padStart(4, "0")}:${sub.toUpperCase().padStart(2, "0")}`;
+    named.push(extra);
+  }
+  $("#object-name").textContent = consoleState.objectKey ? `object ${consoleState.objectKey}` : "";
+  const objects = named.length ? `&objects=${named.join(",")}` : "";
   const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/api/drives/${drive}/samples?rate_hz=100&batch_ms=50`);
+  const ws = new WebSocket(`${proto}://${location.host}/api/drives/${drive}/samples?rate_hz=200&batch_ms=50${objects}`);
   ws.onmessage = (ev) => {
     if (consoleState.paused) return;
     const batch = JSON.parse(ev.data);
     const s = consoleState.samples;
-    s.push(...batch.samples);
+    for (const p of batch.samples) {
+      if (p.objects && p.objects["60F4:00"] != null) p.following_error = p.objects["60F4:00"];
+      if (p.objects && consoleState.objectKey && p.objects[consoleState.objectKey] != null) p.object = p.objects[consoleState.objectKey];
+      s.push(p);
+    }
     const last = s[s.length - 1];
-    while (s.length && last.t - s[0].t > WINDOW_S) s.shift();
+    while (s.length && last.t - s[0].t > KEEP_S) s.shift();
     if (batch.display != null) $("#display").textContent = batch.display;
+    checkTrigger();
   };
+  ws.onopen = () => { if (consoleState.socket === ws) $("#connection").textContent = ""; };
   ws.onclose = () => { if (consoleState.socket === ws) $("#connection").textContent = "samples stopped"; };
   consoleState.socket = ws;
 }
 
-const TRACES = [["position", "#4fc3f7"], ["velocity", "#aed581"], ["current", "#ffb74d"]];
+function scopeWindow() {
+  const w = Number($("#window").value);
+  return w >= 0.5 && w <= 60 ? w : 10;
+}
+
+// Looks for the trigger's crossing in the samples not yet searched; once the window after it
+// is full, the capture is taken (and in "single" the scope pauses).
+function checkTrigger() {
+  const signal = $("#trig-signal").value;
+  const status = $("#trig-status");
+  if (!signal) { consoleState.capture = null; status.textContent = ""; return; }
+  const s = consoleState.samples, win = scopeWindow();
+  const pre = Math.min(Math.max(Number($("#trig-pre").value) || 0, 0), 90) / 100;
+  const level = Number($("#trig-level").value), rising = $("#trig-edge").value === "rising";
+  const last = s[s.length - 1];
+  if (consoleState.pending == null) {
+    let prev = null;
+    const from = consoleState.searchedTo ?? -Infinity;
+    for (const p of s) {
+      const v = p[signal];
+      if (v == null) continue;
+      if (prev != null && p.t > from) {
+        const crossed = rising ? prev < level && v >= level : prev > level && v <= level;
+        if (crossed) { consoleState.pending = p.t; break; }
+      }
+      prev = v;
+    }
+    consoleState.searchedTo = last ? last.t : from;
+  }
+  if (consoleState.pending != null) {
+    const t0 = consoleState.pending - pre * win, t1 = t0 + win;
+    if (last && last.t >= t1) {
+      consoleState.capture = { t0, t1, at: consoleState.pending, samples: s.filter((p) => p.t >= t0 && p.t <= t1) };
+      consoleState.triggers += 1;
+      consoleState.pending = null;
+      consoleState.searchedTo = t1;
+      status.textContent = `triggered at t = ${consoleState.capture.at.toFixed(3)} s (${consoleState.triggers})`;
+      if ($("#trig-single").checked) setPaused(true);
+    } else {
+      status.textContent = "triggered, filling the window…";
+    }
+  } else if (!consoleState.capture) {
+    status.textContent = "armed";
+  }
+}
+
+const TRACES = [["position", "#4fc3f7"], ["velocity", "#aed581"], ["current", "#ffb74d"], ["following_error", "#e57373"],
+                ["object", "#ce93d8"]];
 
 function drawScope() {
   const canvas = $("#scope");
@@ -181,30 +272,54 @@ function drawScope() {
   for (let i = 1; i < 10; i++) {
     g.beginPath(); g.moveTo((w * i) / 10, 0); g.lineTo((w * i) / 10, h); g.stroke();
   }
-  const s = consoleState.samples;
+  const win = scopeWindow();
+  let s = consoleState.samples, t0, t1;
+  if ($("#trig-signal").value && consoleState.capture) {
+    ({ t0, t1 } = consoleState.capture);
+    s = consoleState.capture.samples;
+    const x = ((consoleState.capture.at - t0) / win) * w;
+    g.strokeStyle = "#888"; g.setLineDash([4, 4]);
+    g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h); g.stroke(); g.setLineDash([]);
+  } else if (s.length) {
+    t1 = s[s.length - 1].t; t0 = t1 - win;
+    s = s.filter((p) => p.t >= t0);
+  }
   if (s.length >= 2) {
-    const t1 = s[s.length - 1].t, t0 = t1 - WINDOW_S;
     for (const [name, color] of TRACES) {
       const vals = s.map((p) => p[name]).filter((v) => v != null);
       if (!vals.length) continue;
       let lo = Math.min(...vals), hi = Math.max(...vals);
+      if (name === $("#trig-signal").value) {
+        const level = Number($("#trig-level").value);
+        lo = Math.min(lo, level); hi = Math.max(hi, level);
+      }
       if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
+      const y = (v) => h - 8 - ((v - lo) / (hi - lo)) * (h - 16);
       g.strokeStyle = color;
       g.lineWidth = 1.5;
       g.beginPath();
       let first = true;
       for (const p of s) {
         if (p[name] == null) continue;
-        const x = ((p.t - t0) / WINDOW_S) * w;
-        const y = h - 8 - ((p[name] - lo) / (hi - lo)) * (h - 16);
-        if (first) { g.moveTo(x, y); first = false; } else g.lineTo(x, y);
+        const x = ((p.t - t0) / win) * w;
+        if (first) { g.moveTo(x, y(p[name])); first = false; } else g.lineTo(x, y(p[name]));
       }
       g.stroke();
-      const v = s[s.length - 1][name];
+      if (name === $("#trig-signal").value) {
+        g.strokeStyle = color; g.setLineDash([2, 6]);
+        g.beginPath(); g.moveTo(0, y(Number($("#trig-level").value))); g.lineTo(w, y(Number($("#trig-level").value))); g.stroke();
+        g.setLineDash([]);
+      }
+      const v = vals[vals.length - 1];
       $(`#v-${name}`).textContent = v == null ? "–" : Number(v).toFixed(1);
     }
   }
   requestAnimationFrame(drawScope);
+}
+
+function setPaused(p) {
+  consoleState.paused = p;
+  $("#pause").textContent = p ? "Run" : "Pause";
 }
 
 // -------------------------------------------------------------------------------- wiring
@@ -212,28 +327,32 @@ function drawScope() {
 async function route() {
   const m = location.hash.match(/^#drive\/(\d+)$/);
   consoleState.drive = m ? Number(m[1]) : null;
-  await loadCell();
   $("#drive").hidden = consoleState.drive === null;
   if (consoleState.drive === null) {
-    if (consoleState.socket) consoleState.socket.close();
+    const old = consoleState.socket;
     consoleState.socket = null;
+    if (old) old.close();
+    await loadCell();
     return;
   }
   say("");
+  // The drive's state first, then the cell (whose links show the page is ready).
+  try { consoleState.drives = await api("GET", "/api/drives"); } catch (e) { /* loadCell says */ }
   await refreshDrive();
-  connectSamples(consoleState.drive);
+  await loadCell();
+  await connectSamples(consoleState.drive);
   await loadParams();
 }
 
 $("#enable").addEventListener("click", async () => {
   try {
-    await fetchView("POST", `/api/drives/${consoleState.drive}/enable`);
+    await fetchView("POST", `/api/drives/${consoleState.drive}/motion/enable`);
     say("enabled");
   } catch (e) { say(e.message, true); }
 });
 $("#disable").addEventListener("click", async () => {
   try {
-    await fetchView("POST", `/api/drives/${consoleState.drive}/disable`);
+    await fetchView("POST", `/api/drives/${consoleState.drive}/motion/disable`);
     say("disabled");
   } catch (e) { say(e.message, true); }
 });
@@ -258,10 +377,41 @@ async function refreshPlant() {
   if (consoleState.drive === null) return;
   try { showPlant(await api("GET", `/api/drives/${consoleState.drive}/plant`)); } catch (e) { /* shown by the view */ }
 }
-$("#pause").addEventListener("click", () => {
-  consoleState.paused = !consoleState.paused;
-  $("#pause").textContent = consoleState.paused ? "Run" : "Pause";
+$("#pause").addEventListener("click", () => setPaused(!consoleState.paused));
+for (const id of ["#trig-signal", "#trig-level", "#trig-edge", "#trig-pre", "#window"]) {
+  $(id).addEventListener("change", () => {
+    consoleState.capture = null; consoleState.pending = null;
+    const s = consoleState.samples;
+    consoleState.searchedTo = s.length ? s[s.length - 1].t : undefined;
+    checkTrigger();
+  });
+}
+
+// Motion: jog while the button is held; home; move to a target.
+async function motion(path, body, text) {
+  try {
+    await fetchView("POST", `/api/drives/${consoleState.drive}/motion/${path}`, body);
+    say(text);
+  } catch (e) { say(e.message, true); }
+}
+for (const [id, dir] of [["#jog-pos", 1], ["#jog-neg", -1]]) {
+  const b = $(id);
+  b.addEventListener("pointerdown", () => (consoleState.jogging = true) && motion("jog", { direction: dir, velocity: Number($("#jog-speed").value) || 0 },
+                                                  `jogging ${dir > 0 ? "+" : "−"}`));
+  for (const ev of ["pointerup", "pointerleave"]) {
+    b.addEventListener(ev, () => { if (consoleState.jogging) { consoleState.jogging = false; motion("jog", { direction: 0 }, "jog stopped"); } });
+  }
+}
+$("#scope-object-set").addEventListener("click", async () => {
+  const v = $("#scope-object").value.trim();
+  if (v && !/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(v)) { say(`object ${v}: index:sub in hex, e.g. 6041:0`, true); return; }
+  await connectSamples(consoleState.drive);
+  say(v ? `sampling ${v}` : "sampling the plant");
 });
+$("#home").addEventListener("click", () => motion("home", undefined, "homing started"));
+$("#move").addEventListener("click", () => motion("move",
+  { target: Number($("#move-target").value) || 0, relative: $("#move-relative").checked },
+  `moving to ${$("#move-target").value}`));
 $("#filter").addEventListener("input", applyFilter);
 window.addEventListener("hashchange", route);
 setInterval(() => { refreshDrive(); refreshPlant(); loadCell(); }, 1000);

@@ -1,0 +1,147 @@
+//! Texts of the errors the console shows: CiA 301 / CiA 402 error codes (1003h, 603Fh, EMCY)
+//! with the CMMP-AS message number where App. B lists one, and the CMMO-ST's diagnostic
+//! numbers with the names of its App. D.
+
+use super::motion::ErrorView;
+
+/// Error codes with their meaning: CiA 301 §7.2.7.1 Tab. 21 (the classes) and the drive
+/// codes of CiA 402-2 (IEC 61800-7-201) Annex, the ones the twin's drives raise. A code not
+/// listed takes the text of its class (the longest listed prefix).
+const CODES: &[(u16, &str)] = &[
+    (0x0000, "no error"),
+    (0x1000, "generic error"),
+    (0x2000, "current"),
+    (0x2300, "current, device output side"),
+    (0x2310, "continuous over-current"),
+    (0x2312, "over-current (I²t)"),
+    (0x3000, "voltage"),
+    (0x3100, "mains voltage"),
+    (0x3200, "voltage inside the device"),
+    (0x3210, "DC link over-voltage"),
+    (0x3220, "DC link under-voltage"),
+    (0x4000, "temperature"),
+    (0x4200, "device temperature"),
+    (0x4310, "drive temperature too high"),
+    (0x5000, "device hardware"),
+    (0x5100, "supply"),
+    (0x5114, "supply: logic voltage too low"),
+    (0x5115, "supply: driver supply voltage"),
+    (0x6000, "device software"),
+    (0x6100, "internal software"),
+    (0x6180, "internal software: stack overflow"),
+    (0x6300, "data set"),
+    (0x7000, "additional modules"),
+    (0x7300, "sensor"),
+    (0x7382, "sensor: encoder / resolver fault"),
+    (0x8000, "monitoring"),
+    (0x8081, "limit switch: negative set-point blocked"),
+    (0x8082, "limit switch: positive set-point blocked"),
+    (0x8083, "limit switches: both directions blocked"),
+    (0x8100, "communication"),
+    (0x8110, "CAN overrun (objects lost)"),
+    (0x8120, "CAN in error passive mode"),
+    (0x8130, "life guard or heartbeat error"),
+    (0x8140, "recovered from bus off"),
+    (0x8200, "protocol error"),
+    (0x8210, "PDO not processed: length error"),
+    (0x8220, "PDO length exceeded"),
+    (0x8250, "RPDO timeout"),
+    (0x8600, "positioning controller"),
+    (0x8611, "following error"),
+    (0x8612, "reference limit"),
+    (0x8700, "sync controller"),
+    (0x8780, "SYNC missing"),
+    (0x8781, "SYNC interval wrong"),
+    (0x8A00, "position controller"),
+    (0x8A80, "homing: error at start"),
+    (0x8A81, "homing: aborted"),
+    (0x8A82, "homing: no index pulse"),
+    (0x8A83, "homing: time-out"),
+    (0x8A84, "homing: limit switch reached"),
+    (0x8A85, "homing: travel too long"),
+    (0x8A86, "homing: encoder fault"),
+    (0x9000, "external error"),
+    (0xF000, "additional functions"),
+    (0xFF00, "device specific"),
+];
+
+/// The text of a CiA 301 error code: the code's own where listed, else its class's.
+pub fn cia_text(code: u16) -> &'static str {
+    // Exact, then the class by two hex digits, then by one (Tab. 21 groups by the high digits).
+    [0xFFFF, 0xFFF0, 0xFF00, 0xF000]
+        .iter()
+        .find_map(|mask| {
+            CODES
+                .iter()
+                .find(|(c, _)| *c == code & mask)
+                .map(|(_, t)| *t)
+        })
+        .unwrap_or("unknown error code")
+}
+
+/// An error code as the console shows it, with the CMMP-AS message number (App. B.2).
+pub fn cia_error(code: u16) -> ErrorView {
+    let text = match drive::messages::by_code(code) {
+        Some(m) => format!(
+            "{} (message {:02}-{})",
+            cia_text(code),
+            m.number.main,
+            m.number.sub
+        ),
+        None => cia_text(code).to_owned(),
+    };
+    ErrorView {
+        code: format!("{code:04X}h"),
+        text,
+        event: None,
+        time_ms: None,
+    }
+}
+
+/// A CMMO-ST diagnostic number with its App. D name.
+pub fn fhpp_diagnostic(number: u16) -> ErrorView {
+    let text = drive::fhpp::diagnostics::lookup(number)
+        .map_or("unknown diagnostic number", |d| d.name)
+        .to_owned();
+    ErrorView {
+        code: format!("{number:02X}h"),
+        text,
+        event: None,
+        time_ms: None,
+    }
+}
+
+/// PNU 200 event types (CMMO-ST §7.3.2).
+pub fn fhpp_event(t: u8) -> &'static str {
+    match t {
+        0x00 => "gone",
+        0x01 => "fault",
+        0x05 => "warning",
+        0x07 => "switch-on",
+        0x09 => "information",
+        _ => "unknown",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_code_takes_its_own_text_or_its_class() {
+        assert_eq!(cia_text(0x8611), "following error");
+        assert_eq!(cia_text(0x8613), "positioning controller");
+        assert_eq!(cia_text(0x4321), "temperature");
+        assert_eq!(cia_text(0x8082), "limit switch: positive set-point blocked");
+        assert_eq!(
+            cia_error(0x8082).text,
+            "limit switch: positive set-point blocked (message 43-1)"
+        );
+    }
+
+    #[test]
+    fn fhpp_numbers_take_the_app_d_name() {
+        assert_eq!(fhpp_diagnostic(0x4D).text, "Bootloader memory error");
+        assert_eq!(fhpp_diagnostic(0x4D).code, "4Dh");
+    }
+}

@@ -1,0 +1,1106 @@
+//! Manual motion from the console: enable, disable, jog, move to a position and home, done
+//! the way each manual tells a master to do it, through the control handle's object writes
+//! (CiA 402 drives: CMMP-AS, Nanotec, Kinco) or the FHPP output telegram (CMMO-ST).
+//!
+//! The sequences are plain functions over [`Objects`] / [`FhppIo`], so a test runs them
+//! against a fake drive that records what was written; the REST endpoints at the end of the
+//! file call them on the cell's [`ControlHandle`]. Where the drive refuses (an SDO abort, a
+//! state that does not allow the step) the answer is a 409 that says why.
+
+use std::time::Duration;
+
+use axum::extract::rejection::JsonRejection;
+use axum::extract::{Path, State};
+use axum::http::StatusCode;
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use drive::fhpp::{Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, Spos};
+use serde::{Deserialize, Serialize};
+use utoipa::{OpenApi, ToSchema};
+
+use super::api::ApiError;
+use super::{error_text, statusword, AppState};
+use crate::cell::control::{ControlError, ControlHandle, FhppRequest, FhppState, Interface};
+
+// ------------------------------------------------------------------------------- the access
+
+/// What a CiA 402 sequence needs of a drive.
+pub trait Objects {
+    fn read(&self, index: u16, sub: u8) -> Result<Vec<u8>, ControlError>;
+    fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), ControlError>;
+    /// Lets the drive run for `d` (its cycles go on in the cell loop).
+    fn wait(&self, d: Duration);
+}
+
+/// What an FHPP sequence needs of a CMMO-ST.
+pub trait FhppIo {
+    fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError>;
+    fn wait(&self, d: Duration);
+}
+
+/// One drive of a running cell, through its control handle.
+pub struct Handle<'a> {
+    pub handle: &'a ControlHandle,
+    pub drive: usize,
+}
+
+impl Objects for Handle<'_> {
+    fn read(&self, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
+        self.handle.read(self.drive, index, sub)
+    }
+    fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), ControlError> {
+        self.handle.write(self.drive, index, sub, data)
+    }
+    fn wait(&self, d: Duration) {
+        std::thread::sleep(d);
+    }
+}
+
+impl FhppIo for Handle<'_> {
+    fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError> {
+        self.handle.fhpp(self.drive, request)
+    }
+    fn wait(&self, d: Duration) {
+        std::thread::sleep(d);
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MotionError {
+    #[error(transparent)]
+    Control(#[from] ControlError),
+    #[error("the drive is in {0}; enable it first (OPERATION ENABLED)")]
+    NotEnabled(String),
+    #[error("the drive did not reach {wanted}: it shows {shown}")]
+    NotReached { wanted: String, shown: String },
+    #[error("modes of operation 6061h shows {shown}, not {wanted}: the drive kept its mode")]
+    ModeNotTaken { wanted: i8, shown: i8 },
+    #[error("no set-point acknowledge (6041h bit 12) within {0} ms")]
+    NoAcknowledge(u64),
+    #[error("the web server holds Device Control: the drive ignores the FHPP control bytes (PNU 125); give Device Control back first")]
+    WebServerHasControl,
+    #[error("FCT holds device control (SCON.FCT/MMI)")]
+    FctHasControl,
+    #[error("the CMMO-ST is not enabled (SCON {scon}); enable it first")]
+    FhppNotEnabled { scon: String },
+    #[error("the CMMO-ST did not acknowledge the start (SPOS.ACK) within {0} ms")]
+    FhppNoAck(u64),
+}
+
+/// How long a step may take before the drive counts as not following (its cycle is 1 ms,
+/// the cell loop answers between two socket events).
+const STEP_WAIT: Duration = Duration::from_millis(5);
+const TRIES: u32 = 60;
+
+// ------------------------------------------------------------------------------- CiA 402
+
+/// Modes of operation 6060h (CiA 402 §6.2; CMMP-AS §6.1.6 Tab. 6.9).
+pub mod mode {
+    pub const PROFILE_POSITION: i8 = 1;
+    pub const VELOCITY: i8 = 2;
+    pub const PROFILE_VELOCITY: i8 = 3;
+    pub const HOMING: i8 = 6;
+}
+
+/// Controlword bits (CMMP-AS §6.1.3 Tab. 6.3, CiA 402 §6.3.1).
+pub mod cw {
+    pub const SHUTDOWN: u16 = 0x0006;
+    pub const SWITCH_ON: u16 = 0x0007;
+    pub const ENABLE_OPERATION: u16 = 0x000F;
+    pub const FAULT_RESET: u16 = 0x0080;
+    /// Profile position: new set-point; homing: homing operation start (bit 4).
+    pub const NEW_SET_POINT: u16 = 0x0010;
+    /// Profile position: change set immediately (bit 5).
+    pub const CHANGE_IMMEDIATELY: u16 = 0x0020;
+    /// Profile position: target relative (bit 6).
+    pub const RELATIVE: u16 = 0x0040;
+}
+
+fn u16_of(b: &[u8]) -> u16 {
+    u16::from_le_bytes([
+        b.first().copied().unwrap_or(0),
+        b.get(1).copied().unwrap_or(0),
+    ])
+}
+
+fn statusword_of(io: &impl Objects) -> Result<u16, ControlError> {
+    io.read(0x6041, 0).map(|b| u16_of(&b))
+}
+
+fn state_name(sw: u16) -> String {
+    statusword::state(sw).map_or_else(|| format!("6041h = {sw:#06X}"), |s| s.name().to_owned())
+}
+
+fn controlword(io: &impl Objects, word: u16) -> Result<(), ControlError> {
+    io.write(0x6040, 0, &word.to_le_bytes())?;
+    io.wait(STEP_WAIT);
+    Ok(())
+}
+
+/// Polls the statusword until `done` holds.
+fn await_status(
+    io: &impl Objects,
+    done: impl Fn(u16) -> bool,
+) -> Result<Result<u16, u16>, ControlError> {
+    let mut sw = statusword_of(io)?;
+    for _ in 0..TRIES {
+        if done(sw) {
+            return Ok(Ok(sw));
+        }
+        io.wait(STEP_WAIT);
+        sw = statusword_of(io)?;
+    }
+    Ok(if done(sw) { Ok(sw) } else { Err(sw) })
+}
+
+const fn enabled(sw: u16) -> bool {
+    sw & 0x6F == 0x27
+}
+
+/// To OPERATION ENABLED: a fault reset first when in FAULT (rising edge of bit 7), then
+/// shutdown, switch on, enable operation (CMMP-AS §6.1.3 Tab. 6.4, CiA 402 Fig. 5).
+pub fn enable(io: &impl Objects) -> Result<u16, MotionError> {
+    let sw = statusword_of(io)?;
+    if enabled(sw) {
+        return Ok(sw);
+    }
+    if sw & 0x0008 != 0 {
+        controlword(io, 0)?;
+        controlword(io, cw::FAULT_RESET)?;
+    }
+    for word in [cw::SHUTDOWN, cw::SWITCH_ON, cw::ENABLE_OPERATION] {
+        controlword(io, word)?;
+    }
+    await_status(io, enabled)?.map_err(|sw| MotionError::NotReached {
+        wanted: "OPERATION ENABLED".into(),
+        shown: state_name(sw),
+    })
+}
+
+/// The power stage off: "shutdown" to READY TO SWITCH ON (Tab. 6.4, transition 8).
+pub fn disable(io: &impl Objects) -> Result<u16, MotionError> {
+    controlword(io, cw::SHUTDOWN)?;
+    Ok(statusword_of(io)?)
+}
+
+fn require_enabled(io: &impl Objects) -> Result<(), MotionError> {
+    let sw = statusword_of(io)?;
+    if enabled(sw) {
+        Ok(())
+    } else {
+        Err(MotionError::NotEnabled(state_name(sw)))
+    }
+}
+
+/// 6060h := `wanted`, then waits for 6061h to show it (CiA 402 §6.2: the mode is in force
+/// once 6061h shows it).
+fn set_mode(io: &impl Objects, wanted: i8) -> Result<(), MotionError> {
+    io.write(0x6060, 0, &wanted.to_le_bytes())?;
+    let mut shown = 0;
+    for _ in 0..TRIES {
+        shown = io
+            .read(0x6061, 0)?
+            .first()
+            .map_or(0, |b| i8::from_le_bytes([*b]));
+        if shown == wanted {
+            return Ok(());
+        }
+        io.wait(STEP_WAIT);
+    }
+    Err(MotionError::ModeNotTaken { wanted, shown })
+}
+
+/// Jog in profile velocity mode: 6060h = 3, target velocity 60FFh = `velocity` (the drive's
+/// velocity units; negative: backwards, 0: stop), enable operation (CMMP-AS §6.4, CiA 402
+/// §10). A drive whose supported drive modes (6502h) lack profile velocity but have velocity
+/// mode (the Nanotec PD4-N, 6502h = 6Bh) jogs in velocity mode: 6060h = 2, vl target
+/// velocity 6042h (INTEGER16, rpm; CiA 402 §9, Nanotec §5.5). The drive must be enabled.
+pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
+    let sw = statusword_of(io)?;
+    if velocity == 0 && !enabled(sw) {
+        // Stopping a drive that cannot move (a fault stopped it) asks nothing of it.
+        return Ok(sw);
+    }
+    require_enabled(io)?;
+    let supported = io.read(0x6502, 0).ok().map(|b| {
+        u32::from_le_bytes([
+            b.first().copied().unwrap_or(0),
+            b.get(1).copied().unwrap_or(0),
+            b.get(2).copied().unwrap_or(0),
+            b.get(3).copied().unwrap_or(0),
+        ])
+    });
+    // 6502h bit 2: profile velocity; bit 1: velocity mode (CiA 402 §6.4.4).
+    let vl_only = supported.is_some_and(|m| m & 0b100 == 0 && m & 0b010 != 0);
+    if vl_only {
+        set_mode(io, mode::VELOCITY)?;
+        let rpm = velocity.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
+        io.write(0x6042, 0, &rpm.to_le_bytes())?;
+    } else {
+        set_mode(io, mode::PROFILE_VELOCITY)?;
+        io.write(0x60FF, 0, &velocity.to_le_bytes())?;
+    }
+    controlword(io, cw::ENABLE_OPERATION)?;
+    Ok(statusword_of(io)?)
+}
+
+/// A move in profile position mode: 6060h = 1, target 607Ah, then the new-set-point handshake:
+/// bit 4 rises (with bit 5 "change immediately" and bit 6 "relative"), the drive answers with
+/// set-point acknowledge (6041h bit 12), bit 4 falls (CMMP-AS §6.3 Fig. 6.6, CiA 402 §12.2).
+pub fn move_to(io: &impl Objects, target: i32, relative: bool) -> Result<u16, MotionError> {
+    require_enabled(io)?;
+    set_mode(io, mode::PROFILE_POSITION)?;
+    io.write(0x607A, 0, &target.to_le_bytes())?;
+    let base = cw::ENABLE_OPERATION | if relative { cw::RELATIVE } else { 0 };
+    controlword(io, base)?;
+    controlword(io, base | cw::NEW_SET_POINT | cw::CHANGE_IMMEDIATELY)?;
+    let acked = await_status(io, |sw| sw & 0x1000 != 0)?;
+    controlword(io, base)?;
+    match acked {
+        Ok(sw) => Ok(sw),
+        Err(_) => Err(MotionError::NoAcknowledge(
+            STEP_WAIT.as_millis() as u64 * u64::from(TRIES),
+        )),
+    }
+}
+
+/// Homing with the method in 6098h: 6060h = 6, then bit 4 "homing operation start" rises
+/// and stays set while homing runs (CMMP-AS §6.2, CiA 402 §11: bit 4 falling interrupts).
+pub fn home(io: &impl Objects) -> Result<u16, MotionError> {
+    require_enabled(io)?;
+    set_mode(io, mode::HOMING)?;
+    controlword(io, cw::ENABLE_OPERATION)?;
+    controlword(io, cw::ENABLE_OPERATION | cw::NEW_SET_POINT)?;
+    Ok(statusword_of(io)?)
+}
+
+// ---------------------------------------------------------------------------------- FHPP
+
+/// The CMMO-ST takes the console's telegram only while the fieldbus holds device control
+/// (§5.1 Tab. 5.2 T2: "the PLC has control authority").
+///
+/// Decision: the console acts as the fieldbus master (it writes the output telegram a Modbus
+/// master would write, CMMO-ST §5.3.2); a Modbus master connected at the same time
+/// overwrites it at its next write, as a second master on the real device would.
+fn fhpp_status(io: &impl FhppIo) -> Result<FhppState, MotionError> {
+    let s = io.fhpp(FhppRequest::Status)?;
+    match s.authority {
+        Authority::Fieldbus => Ok(s),
+        Authority::WebServer => Err(MotionError::WebServerHasControl),
+        Authority::Fct => Err(MotionError::FctHasControl),
+    }
+}
+
+fn scon(s: &FhppState) -> Scon {
+    Scon(s.inputs[0])
+}
+
+fn spos(s: &FhppState) -> Spos {
+    Spos(s.inputs[1])
+}
+
+fn bits_text(value: u8, names: &[(u8, &str)]) -> String {
+    let set: Vec<&str> = names
+        .iter()
+        .filter(|(bit, _)| value & bit != 0)
+        .map(|(_, n)| *n)
+        .collect();
+    format!("{value:#04X} [{}]", set.join(" "))
+}
+
+fn scon_text(s: &FhppState) -> String {
+    let names: Vec<(u8, &str)> = Scon::NAMES.iter().map(|(b, n)| (b.0, *n)).collect();
+    bits_text(s.inputs[0], &names)
+}
+
+fn put(io: &impl FhppIo, out: OutputData) -> Result<FhppState, MotionError> {
+    let s = io.fhpp(FhppRequest::SetOutputs(out.to_bytes()))?;
+    // Two drive cycles: the telegram is taken at the next one.
+    io.wait(STEP_WAIT);
+    Ok(s)
+}
+
+fn await_fhpp(
+    io: &impl FhppIo,
+    done: impl Fn(&FhppState) -> bool,
+) -> Result<Result<FhppState, FhppState>, MotionError> {
+    let mut s = io.fhpp(FhppRequest::Status)?;
+    for _ in 0..TRIES {
+        if done(&s) {
+            return Ok(Ok(s));
+        }
+        io.wait(STEP_WAIT);
+        s = io.fhpp(FhppRequest::Status)?;
+    }
+    Ok(if done(&s) { Ok(s) } else { Err(s) })
+}
+
+/// CCON.ENABLE and STOP with CPOS.HALT (T2, T3, §5.1 Tab. 5.2); a pending fault is
+/// acknowledged first by a rising edge of CCON.RESET (T8).
+pub fn fhpp_enable(io: &impl FhppIo) -> Result<FhppState, MotionError> {
+    let s = fhpp_status(io)?;
+    let mut out = OutputData::from_bytes(s.outputs);
+    if scon(&s).contains(Scon::FAULT) {
+        out.ccon = Ccon(out.ccon.0 & !Ccon::RESET.0);
+        put(io, out)?;
+        out.ccon = out.ccon.union(Ccon::RESET);
+        put(io, out)?;
+    }
+    out.ccon = Ccon(out.ccon.0 & !Ccon::RESET.0).union(Ccon::ENABLE.union(Ccon::STOP));
+    out.cpos = Cpos::HALT;
+    put(io, out)?;
+    await_fhpp(io, |s| {
+        scon(s).contains(Scon::ENABLED) && spos(s).contains(Spos::HALT)
+    })?
+    .map_err(|s| MotionError::NotReached {
+        wanted: "operation enabled (SCON.ENABLED, SPOS.HALT)".into(),
+        shown: format!("SCON {}", scon_text(&s)),
+    })
+}
+
+/// CCON.ENABLE = 0: the drive is disabled, a running task stops (Tab. 5.14).
+pub fn fhpp_disable(io: &impl FhppIo) -> Result<FhppState, MotionError> {
+    let s = fhpp_status(io)?;
+    let mut out = OutputData::from_bytes(s.outputs);
+    out.ccon = Ccon(out.ccon.0 & !(Ccon::ENABLE.0 | Ccon::RESET.0));
+    out.cpos = Cpos::HALT;
+    put(io, out)?;
+    Ok(io.fhpp(FhppRequest::Status)?)
+}
+
+fn fhpp_require_enabled(io: &impl FhppIo) -> Result<FhppState, MotionError> {
+    let s = fhpp_status(io)?;
+    if scon(&s).contains(Scon::ENABLED) {
+        Ok(s)
+    } else {
+        Err(MotionError::FhppNotEnabled {
+            scon: scon_text(&s),
+        })
+    }
+}
+
+/// Jog while CPOS.JOGP (positive) or JOGN (negative) is set; `direction` 0 clears both
+/// (CMMO-ST §6.6 "Jog mode", Tab. 5.15).
+pub fn fhpp_jog(io: &impl FhppIo, direction: i8) -> Result<FhppState, MotionError> {
+    if direction == 0 {
+        let s = fhpp_status(io)?;
+        if !scon(&s).contains(Scon::ENABLED) {
+            return Ok(s);
+        }
+    }
+    let s = fhpp_require_enabled(io)?;
+    let mut out = OutputData::from_bytes(s.outputs);
+    let jog = match direction.signum() {
+        1 => Cpos::JOGP.0,
+        -1 => Cpos::JOGN.0,
+        _ => 0,
+    };
+    out.cpos = Cpos(Cpos::HALT.0 | jog);
+    put(io, out)?;
+    Ok(io.fhpp(FhppRequest::Status)?)
+}
+
+/// Homing: a rising edge of CPOS.HOM with HALT = 1 (SA1 → SA4, §5.1.2).
+pub fn fhpp_home(io: &impl FhppIo) -> Result<FhppState, MotionError> {
+    let s = fhpp_require_enabled(io)?;
+    let mut out = OutputData::from_bytes(s.outputs);
+    out.cpos = Cpos::HALT;
+    put(io, out)?;
+    out.cpos = Cpos(Cpos::HALT.0 | Cpos::HOM.0);
+    put(io, out)?;
+    Ok(io.fhpp(FhppRequest::Status)?)
+}
+
+/// A positioning task in direct mode (§5.4.1 Tab. 5.16–5.18): OPM = direct (changes only in
+/// SA1 "ready"), CDIR.ABS (1 = relative), COM = position; set-point 1 the velocity in % of
+/// the maximum, set-point 2 the position; START rises, the drive acknowledges with SPOS.ACK,
+/// START falls (§5.4.2 Fig. 5.5).
+pub fn fhpp_move(
+    io: &impl FhppIo,
+    target: i32,
+    relative: bool,
+    velocity_percent: u8,
+) -> Result<FhppState, MotionError> {
+    let s = fhpp_require_enabled(io)?;
+    let ccon = Ccon(s.outputs[0] & !Ccon::RESET.0).with_operating_mode(OperatingMode::Direct);
+    let cdir = if relative { Cdir::ABS } else { Cdir(0) };
+    let set = |cpos: Cpos| OutputData::direct(ccon, cpos, cdir, velocity_percent, target);
+    put(io, set(Cpos::HALT))?;
+    await_fhpp(io, |s| Scon(s.inputs[0]).intersects(Scon::OPM1))?.map_err(|s| {
+        MotionError::NotReached {
+            wanted: "direct mode (SCON.OPM1)".into(),
+            shown: format!("SCON {}", scon_text(&s)),
+        }
+    })?;
+    put(io, set(Cpos(Cpos::HALT.0 | Cpos::START.0)))?;
+    let acked = await_fhpp(io, |s| spos(s).contains(Spos::ACK))?;
+    put(io, set(Cpos::HALT))?;
+    acked.map_err(|_| MotionError::FhppNoAck(STEP_WAIT.as_millis() as u64 * u64::from(TRIES)))
+}
+
+// ---------------------------------------------------------------------------- REST: views
+
+/// One bit of a status word or byte.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct BitView {
+    /// `6041h`, `SCON` or `SPOS`.
+    pub word: String,
+    pub bit: u8,
+    pub name: String,
+    pub set: bool,
+}
+
+/// An error, with its text.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct ErrorView {
+    /// CiA 301 error code (CiA 402 drives) or FHPP diagnostic number (CMMO-ST), hex.
+    pub code: String,
+    pub text: String,
+    /// The CMMO-ST memory's event type (fault, warning, gone, switch-on) and time stamp.
+    pub event: Option<String>,
+    pub time_ms: Option<u32>,
+}
+
+/// What a drive's page shows above its parameters.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct MotionView {
+    pub drive: usize,
+    /// `cia402` or `fhpp`.
+    pub profile: String,
+    /// CiA 402 state or FHPP state (from SCON).
+    pub state: String,
+    /// 6041h, or SCON and SPOS as one word (SCON low byte).
+    pub word: u16,
+    pub bits: Vec<BitView>,
+    /// The active error, if any.
+    pub active_error: Option<ErrorView>,
+    /// 1003h (CiA 402, newest first) or the diagnostic memory (CMMO-ST, newest first).
+    pub history: Vec<ErrorView>,
+    /// CMMO-ST: who holds device control (`fieldbus`, `web server`, `FCT`).
+    pub device_control: Option<String>,
+    /// The 7-segment display.
+    pub display: Option<String>,
+}
+
+fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> {
+    let sw = u16_of(&h.read(drive, 0x6041, 0)?);
+    let bits = statusword::BITS
+        .iter()
+        .zip(0u8..)
+        .map(|(name, bit)| BitView {
+            word: "6041h".into(),
+            bit,
+            name: (*name).to_owned(),
+            set: sw & (1 << bit) != 0,
+        })
+        .collect();
+    let code = h.read(drive, 0x603F, 0).ok().map(|b| u16_of(&b));
+    // 1003h: sub 0 the number of errors, sub 1 the newest (CiA 301 §7.5.2.5).
+    let count = h
+        .read(drive, 0x1003, 0)
+        .ok()
+        .and_then(|b| b.first().copied())
+        .unwrap_or(0);
+    let codes: Vec<u16> = (1..=count)
+        .filter_map(|sub| h.read(drive, 0x1003, sub).ok())
+        // Low 16 bits: the error code; high 16: manufacturer-specific information.
+        .map(|b| u16_of(&b))
+        .collect();
+    // In FAULT: 603Fh, the code of the last error (CiA 402 §6.3.3); a drive that leaves it 0
+    // names the fault by its newest 1003h entry.
+    let active_error = (sw & 0x0008 != 0)
+        .then(|| code.filter(|c| *c != 0).or_else(|| codes.first().copied()))
+        .flatten()
+        .map(error_text::cia_error);
+    let history = codes.into_iter().map(error_text::cia_error).collect();
+    Ok(MotionView {
+        drive,
+        profile: "cia402".into(),
+        state: state_name(sw),
+        word: sw,
+        bits,
+        active_error,
+        history,
+        device_control: None,
+        display: display_of(h, drive),
+    })
+}
+
+fn display_of(h: &ControlHandle, drive: usize) -> Option<String> {
+    h.plant(drive)
+        .ok()
+        .and_then(|s| s.display)
+        .map(|d| super::api::display_text(&d))
+}
+
+/// The FHPP state a person reads from SCON (§5.1 Tab. 5.1).
+fn fhpp_state(s: &FhppState) -> String {
+    let scon = scon(s);
+    let mode = match scon.0 >> 6 {
+        0 => "record selection",
+        1 => "direct mode",
+        _ => "reserved mode",
+    };
+    if scon.contains(Scon::FAULT) {
+        format!("FAULT ({mode})")
+    } else if scon.contains(Scon::ENABLED) {
+        format!("OPERATION ENABLED ({mode})")
+    } else {
+        format!("DISABLED ({mode})")
+    }
+}
+
+fn authority_name(a: Authority) -> &'static str {
+    match a {
+        Authority::Fieldbus => "fieldbus",
+        Authority::WebServer => "web server",
+        Authority::Fct => "FCT",
+    }
+}
+
+fn fhpp_view(h: &ControlHandle, drive: usize, s: &FhppState) -> MotionView {
+    let mut bits = Vec::with_capacity(16);
+    for (word, byte, names) in [
+        (
+            "SCON",
+            s.inputs[0],
+            Scon::NAMES
+                .iter()
+                .map(|(b, n)| (b.0, *n))
+                .collect::<Vec<_>>(),
+        ),
+        (
+            "SPOS",
+            s.inputs[1],
+            Spos::NAMES.iter().map(|(b, n)| (b.0, *n)).collect(),
+        ),
+    ] {
+        for (mask, name) in names {
+            bits.push(BitView {
+                word: word.into(),
+                bit: mask.trailing_zeros() as u8,
+                name: name.to_owned(),
+                set: byte & mask != 0,
+            });
+        }
+    }
+    MotionView {
+        drive,
+        profile: "fhpp".into(),
+        state: fhpp_state(s),
+        word: u16::from_le_bytes([s.inputs[0], s.inputs[1]]),
+        bits,
+        active_error: (s.fault != 0).then(|| error_text::fhpp_diagnostic(u16::from(s.fault))),
+        history: s
+            .memory
+            .iter()
+            .map(|(event, number, time_ms)| ErrorView {
+                event: Some(error_text::fhpp_event(*event).to_owned()),
+                time_ms: Some(*time_ms),
+                ..error_text::fhpp_diagnostic(*number)
+            })
+            .collect(),
+        device_control: Some(authority_name(s.authority).to_owned()),
+        display: display_of(h, drive),
+    }
+}
+
+enum Kind {
+    Cia402,
+    Fhpp,
+}
+
+fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
+    let index: usize = drive.parse().map_err(|_| {
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            format!("drive {drive:?}: not a drive index (0, 1, …)"),
+        )
+    })?;
+    let info = h
+        .drives()?
+        .into_iter()
+        .find(|d| d.index == index)
+        .ok_or_else(|| {
+            ApiError::new(
+                StatusCode::NOT_FOUND,
+                format!("no drive {index} in the cell"),
+            )
+        })?;
+    let desc = devices::by_name(info.device);
+    if info.interface == Interface::ModbusTcp {
+        Ok((index, Kind::Fhpp))
+    } else if desc.is_some_and(|d| d.entry(0x6040, 0).is_some()) {
+        Ok((index, Kind::Cia402))
+    } else {
+        Err(ApiError::new(
+            StatusCode::CONFLICT,
+            format!(
+                "drive {index} ({}) has neither a CiA 402 controlword nor FHPP",
+                info.device
+            ),
+        ))
+    }
+}
+
+fn view(h: &ControlHandle, drive: usize, k: &Kind) -> Result<MotionView, ApiError> {
+    match k {
+        Kind::Cia402 => cia402_view(h, drive),
+        Kind::Fhpp => Ok(fhpp_view(h, drive, &h.fhpp(drive, FhppRequest::Status)?)),
+    }
+}
+
+impl From<MotionError> for ApiError {
+    fn from(e: MotionError) -> ApiError {
+        match e {
+            MotionError::Control(c) => ApiError::from(c),
+            other => ApiError::new(StatusCode::CONFLICT, other.to_string()),
+        }
+    }
+}
+
+async fn run(
+    s: &AppState,
+    drive: String,
+    f: impl FnOnce(&Handle<'_>, &Kind) -> Result<(), MotionError> + Send + 'static,
+) -> Result<Json<MotionView>, ApiError> {
+    let handle = s.handle.clone();
+    tokio::task::spawn_blocking(move || {
+        let (index, k) = kind(&handle, &drive)?;
+        f(
+            &Handle {
+                handle: &handle,
+                drive: index,
+            },
+            &k,
+        )?;
+        view(&handle, index, &k)
+    })
+    .await
+    .map_err(|_| ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "the request was lost"))?
+    .map(Json)
+}
+
+// ------------------------------------------------------------------------- REST: endpoints
+
+/// The drive's status word (or FHPP SCON / SPOS) bit by bit, its active error and error
+/// history with their texts, the display.
+#[utoipa::path(get, path = "/api/drives/{drive}/motion", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn status(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+) -> Result<Json<MotionView>, ApiError> {
+    run(&s, drive, |_, _| Ok(())).await
+}
+
+/// Enables the drive (CiA 402: to OPERATION ENABLED, a fault reset first; FHPP: CCON.ENABLE
+/// and STOP, a RESET edge first).
+#[utoipa::path(post, path = "/api/drives/{drive}/motion/enable", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn post_enable(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+) -> Result<Json<MotionView>, ApiError> {
+    run(&s, drive, |io, k| match k {
+        Kind::Cia402 => enable(io).map(drop),
+        Kind::Fhpp => fhpp_enable(io).map(drop),
+    })
+    .await
+}
+
+/// Disables the drive (CiA 402: shutdown; FHPP: CCON.ENABLE = 0).
+#[utoipa::path(post, path = "/api/drives/{drive}/motion/disable", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn post_disable(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+) -> Result<Json<MotionView>, ApiError> {
+    run(&s, drive, |io, k| match k {
+        Kind::Cia402 => disable(io).map(drop),
+        Kind::Fhpp => fhpp_disable(io).map(drop),
+    })
+    .await
+}
+
+/// A jog command.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JogBody {
+    /// 1: forwards, -1: backwards, 0: stop.
+    #[schema(minimum = -1, maximum = 1)]
+    pub direction: i8,
+    /// CiA 402: the speed, in the drive's velocity units (60FFh); default 300. The CMMO-ST
+    /// jogs with its own jog parameters (PNU 530…).
+    #[schema(minimum = 0, maximum = 100000)]
+    pub velocity: Option<u32>,
+}
+
+/// Jogs the drive (CiA 402: profile velocity 60FFh; FHPP: CPOS.JOGP / JOGN).
+#[utoipa::path(post, path = "/api/drives/{drive}/motion/jog", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    request_body = JogBody,
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError), (status = 415, body = ApiError)))]
+async fn post_jog(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    body: Result<Json<JogBody>, JsonRejection>,
+) -> Result<Json<MotionView>, ApiError> {
+    let Json(body) = body?;
+    let speed = body.velocity.unwrap_or(300);
+    if !(-1..=1).contains(&body.direction) || speed > 100_000 {
+        return Err(ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "direction -1, 0 or 1; velocity 0…100000",
+        ));
+    }
+    run(&s, drive, move |io, k| match k {
+        Kind::Cia402 => jog(io, i32::from(body.direction) * speed as i32).map(drop),
+        Kind::Fhpp => fhpp_jog(io, body.direction).map(drop),
+    })
+    .await
+}
+
+/// A move to a position.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MoveBody {
+    /// The target (CiA 402: 607Ah in position units; CMMO-ST: set-point 2 in its SI unit).
+    pub target: i32,
+    /// Relative to the last target (default: absolute).
+    #[serde(default)]
+    pub relative: bool,
+    /// CMMO-ST only: velocity, % of the maximum (1…100, default 100).
+    #[schema(minimum = 1, maximum = 100)]
+    pub velocity_percent: Option<u8>,
+}
+
+/// Moves the drive to a position (CiA 402: profile position with the new-set-point handshake;
+/// FHPP: a direct-mode positioning task).
+#[utoipa::path(post, path = "/api/drives/{drive}/motion/move", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    request_body = MoveBody,
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError), (status = 415, body = ApiError)))]
+async fn post_move(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    body: Result<Json<MoveBody>, JsonRejection>,
+) -> Result<Json<MotionView>, ApiError> {
+    let Json(body) = body?;
+    let percent = body.velocity_percent.unwrap_or(100);
+    if !(1..=100).contains(&percent) {
+        return Err(ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "velocity_percent 1…100",
+        ));
+    }
+    run(&s, drive, move |io, k| match k {
+        Kind::Cia402 => move_to(io, body.target, body.relative).map(drop),
+        Kind::Fhpp => fhpp_move(io, body.target, body.relative, percent).map(drop),
+    })
+    .await
+}
+
+/// Starts homing (CiA 402: homing mode, bit 4; FHPP: CPOS.HOM).
+#[utoipa::path(post, path = "/api/drives/{drive}/motion/home", tag = "motion",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    responses((status = 200, body = MotionView), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn post_home(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+) -> Result<Json<MotionView>, ApiError> {
+    run(&s, drive, |io, k| match k {
+        Kind::Cia402 => home(io).map(drop),
+        Kind::Fhpp => fhpp_home(io).map(drop),
+    })
+    .await
+}
+
+#[derive(OpenApi)]
+#[openapi(
+    paths(status, post_enable, post_disable, post_jog, post_move, post_home),
+    components(schemas(MotionView, BitView, ErrorView, JogBody, MoveBody))
+)]
+pub struct MotionDoc;
+
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/api/drives/{drive}/motion", get(status))
+        .route("/api/drives/{drive}/motion/enable", post(post_enable))
+        .route("/api/drives/{drive}/motion/disable", post(post_disable))
+        .route("/api/drives/{drive}/motion/jog", post(post_jog))
+        .route("/api/drives/{drive}/motion/move", post(post_move))
+        .route("/api/drives/{drive}/motion/home", post(post_home))
+}
+
+// ----------------------------------------------------------------------------------- tests
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::RefCell;
+    use std::collections::BTreeMap;
+
+    /// A CiA 402 drive reduced to what the sequences look at: its state machine follows the
+    /// controlword, 6061h follows 6060h (unless `refuse_mode`), set-point acknowledge follows
+    /// bit 4 in profile position.
+    #[derive(Default)]
+    struct FakeDrive {
+        objects: RefCell<BTreeMap<(u16, u8), Vec<u8>>>,
+        writes: RefCell<Vec<(u16, u8, Vec<u8>)>>,
+        refuse_mode: Option<i8>,
+    }
+
+    impl FakeDrive {
+        fn new(sw: u16) -> Self {
+            let d = FakeDrive::default();
+            d.set(0x6041, sw.to_le_bytes().to_vec());
+            d.set(0x6061, vec![0]);
+            d
+        }
+        fn set(&self, index: u16, v: Vec<u8>) {
+            self.objects.borrow_mut().insert((index, 0), v);
+        }
+        fn sw(&self) -> u16 {
+            u16_of(&self.objects.borrow()[&(0x6041, 0)])
+        }
+        fn controlwords(&self) -> Vec<u16> {
+            self.writes
+                .borrow()
+                .iter()
+                .filter(|(i, _, _)| *i == 0x6040)
+                .map(|(_, _, d)| u16_of(d))
+                .collect()
+        }
+    }
+
+    impl Objects for FakeDrive {
+        fn read(&self, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {
+            self.objects
+                .borrow()
+                .get(&(index, sub))
+                .cloned()
+                .ok_or(ControlError::Abort(od::AbortCode::NO_OBJECT))
+        }
+        fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), ControlError> {
+            self.writes.borrow_mut().push((index, sub, data.to_vec()));
+            if index == 0x6060 {
+                let m = data.first().map_or(0, |b| *b as i8);
+                if self.refuse_mode == Some(m) {
+                    return Err(ControlError::Abort(od::AbortCode(0x0609_0030)));
+                }
+                self.set(0x6061, data.to_vec());
+            }
+            if index == 0x6040 {
+                let c = u16_of(data);
+                let sw = self.sw();
+                let mode = self.objects.borrow()[&(0x6061, 0)][0] as i8;
+                let next = if sw & 0x08 != 0 {
+                    if c & 0x80 != 0 {
+                        0x0240
+                    } else {
+                        sw
+                    }
+                } else {
+                    match c & 0x0F {
+                        0x06 => 0x0221,
+                        0x07 => 0x0223,
+                        0x0F => 0x0227,
+                        _ => 0x0240,
+                    }
+                };
+                let ack = mode == mode::PROFILE_POSITION && c & 0x10 != 0 && next & 0x6F == 0x27;
+                self.set(
+                    0x6041,
+                    (next | if ack { 0x1000 } else { 0 }).to_le_bytes().to_vec(),
+                );
+            }
+            self.set(index, data.to_vec());
+            Ok(())
+        }
+        fn wait(&self, _d: Duration) {}
+    }
+
+    #[test]
+    fn enable_walks_shutdown_switch_on_enable_operation() {
+        let d = FakeDrive::new(0x0240);
+        assert_eq!(enable(&d).map(|sw| sw & 0x6F), Ok(0x27));
+        assert_eq!(d.controlwords(), vec![0x06, 0x07, 0x0F]);
+    }
+
+    #[test]
+    fn enable_from_fault_resets_on_a_rising_bit_7_first() {
+        let d = FakeDrive::new(0x0218);
+        assert!(enable(&d).is_ok());
+        assert_eq!(d.controlwords(), vec![0x00, 0x80, 0x06, 0x07, 0x0F]);
+    }
+
+    #[test]
+    fn jog_sets_profile_velocity_and_60ff() {
+        let d = FakeDrive::new(0x0240);
+        assert_eq!(
+            jog(&d, 300),
+            Err(MotionError::NotEnabled("SWITCH ON DISABLED".into())),
+            "a drive not enabled is refused, nothing written"
+        );
+        assert!(d.writes.borrow().is_empty());
+        assert_eq!(
+            jog(&d, 0),
+            Ok(0x0240),
+            "a stop asks nothing of a drive that stands"
+        );
+        assert!(d.writes.borrow().is_empty());
+        enable(&d).unwrap_or_default();
+        assert!(jog(&d, -300).is_ok());
+        assert_eq!(d.read(0x6061, 0), Ok(vec![3]));
+        assert_eq!(d.read(0x60FF, 0), Ok((-300i32).to_le_bytes().to_vec()));
+    }
+
+    #[test]
+    fn a_drive_without_profile_velocity_jogs_in_velocity_mode() {
+        // Nanotec PD4-N 6502h = 6Bh: PP, VL, TQ, HM, IP, no PV.
+        let d = FakeDrive::new(0x0227);
+        d.set(0x6502, 0x6Bu32.to_le_bytes().to_vec());
+        assert!(jog(&d, -120).is_ok());
+        assert_eq!(d.read(0x6061, 0), Ok(vec![2]));
+        assert_eq!(d.read(0x6042, 0), Ok((-120i16).to_le_bytes().to_vec()));
+        assert!(d.read(0x60FF, 0).is_err(), "60FFh untouched");
+    }
+
+    #[test]
+    fn move_does_the_new_set_point_handshake() {
+        let d = FakeDrive::new(0x0227);
+        let sw = move_to(&d, 10_000, true);
+        assert!(
+            sw.is_ok_and(|sw| sw & 0x1000 != 0),
+            "set-point acknowledged"
+        );
+        assert_eq!(d.read(0x607A, 0), Ok(10_000i32.to_le_bytes().to_vec()));
+        // Relative bit 6 throughout; bit 4 (with 5) rises once and falls again.
+        assert_eq!(d.controlwords(), vec![0x4F, 0x7F, 0x4F]);
+    }
+
+    #[test]
+    fn a_mode_the_drive_refuses_is_an_sdo_abort() {
+        let d = FakeDrive {
+            refuse_mode: Some(mode::HOMING),
+            ..FakeDrive::new(0x0227)
+        };
+        assert_eq!(
+            home(&d),
+            Err(MotionError::Control(ControlError::Abort(od::AbortCode(
+                0x0609_0030
+            ))))
+        );
+    }
+
+    #[test]
+    fn home_sets_mode_6_and_raises_bit_4() {
+        let d = FakeDrive::new(0x0227);
+        assert!(home(&d).is_ok());
+        assert_eq!(d.read(0x6061, 0), Ok(vec![6]));
+        assert_eq!(d.controlwords(), vec![0x0F, 0x1F]);
+    }
+
+    /// An FHPP device reduced to SCON / SPOS following CCON / CPOS.
+    struct FakeFhpp {
+        state: RefCell<FhppState>,
+        telegrams: RefCell<Vec<[u8; 8]>>,
+    }
+
+    impl FakeFhpp {
+        fn new(authority: Authority, scon: u8) -> Self {
+            FakeFhpp {
+                state: RefCell::new(FhppState {
+                    inputs: [scon, 0, 0, 0, 0, 0, 0, 0],
+                    outputs: [0; 8],
+                    authority,
+                    fault: 0,
+                    memory: Vec::new(),
+                    refused: None,
+                }),
+                telegrams: RefCell::new(Vec::new()),
+            }
+        }
+    }
+
+    impl FhppIo for FakeFhpp {
+        fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError> {
+            let mut s = self.state.borrow_mut();
+            if let FhppRequest::SetOutputs(o) = request {
+                self.telegrams.borrow_mut().push(o);
+                s.outputs = o;
+                let ccon = Ccon(o[0]);
+                let mut scon = Scon::VLOAD;
+                if ccon.contains(Ccon::ENABLE) {
+                    scon = scon.union(Scon::ENABLED);
+                }
+                s.inputs[0] = scon.0 | (ccon.0 & 0xC0);
+                let cpos = Cpos(o[1]);
+                s.inputs[1] = (o[1] & Spos::HALT.0)
+                    | if cpos.contains(Cpos::START) {
+                        Spos::ACK.0
+                    } else {
+                        0
+                    };
+            }
+            Ok(s.clone())
+        }
+        fn wait(&self, _d: Duration) {}
+    }
+
+    #[test]
+    fn fhpp_enable_sets_ccon_enable_stop_and_cpos_halt() {
+        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
+        assert!(fhpp_enable(&d).is_ok());
+        assert_eq!(
+            d.telegrams.borrow().last().map(|t| (t[0], t[1])),
+            Some((0x03, 0x01))
+        );
+    }
+
+    #[test]
+    fn fhpp_move_in_direct_mode_with_start_handshake() {
+        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
+        fhpp_enable(&d).unwrap_or_else(|e| panic!("{e}"));
+        assert!(fhpp_move(&d, 5000, false, 50).is_ok());
+        let t = d.telegrams.borrow();
+        let n = t.len();
+        // OPM direct (0x40) with ENABLE and STOP; START rises once and falls.
+        assert_eq!(t[n - 3][..4], [0x43, 0x01, 0x00, 50]);
+        assert_eq!(t[n - 2][1], 0x03);
+        assert_eq!(t[n - 1][1], 0x01);
+        assert_eq!(t[n - 2][4..], 5000i32.to_be_bytes());
+    }
+
+    #[test]
+    fn fhpp_refuses_while_the_web_server_holds_device_control() {
+        let d = FakeFhpp::new(Authority::WebServer, Scon::VLOAD.0);
+        assert_eq!(fhpp_enable(&d), Err(MotionError::WebServerHasControl));
+        assert!(d.telegrams.borrow().is_empty());
+        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
+        assert!(matches!(
+            fhpp_jog(&d, 1),
+            Err(MotionError::FhppNotEnabled { .. })
+        ));
+    }
+
+    #[test]
+    fn fhpp_jog_sets_and_clears_jogp_jogn() {
+        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
+        fhpp_enable(&d).unwrap_or_else(|e| panic!("{e}"));
+        fhpp_jog(&d, -1).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.telegrams.borrow().last().map(|t| t[1]), Some(0x11));
+        fhpp_jog(&d, 0).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.telegrams.borrow().last().map(|t| t[1]), Some(0x01));
+    }
+}
