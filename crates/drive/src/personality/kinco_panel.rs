@@ -230,6 +230,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         devices::addresses(self.od.description().name).unwrap_or(&devices::KINCO_FD3_ADDRESSES)
     }
 
+    /// Whether the drive has the Kinco LED panel (a Kinco personality).
+    pub fn has_kinco_panel(&self) -> bool {
+        self.personality.vendor == super::Vendor::Kinco
+    }
+
     /// The access lock of §4.3: the parameters were initialised, or the motor type
     /// (6410h:01) is not the one confirmed in EA01.
     pub fn kinco_panel_locked(&self) -> bool {

@@ -21,6 +21,7 @@ pub mod auth;
 pub mod diagnostics;
 pub mod live;
 pub mod page;
+pub mod panel;
 pub mod statusword;
 
 use std::net::{SocketAddr, TcpListener};
@@ -78,6 +79,7 @@ pub fn router(state: AppState) -> Router {
         .merge(api::routes())
         .merge(live::routes())
         .merge(diagnostics::routes())
+        .merge(panel::routes())
         .merge(page::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),

@@ -129,6 +129,17 @@ impl CellLoop {
                 } => {
                     let _ = reply.send(self.set_diagnostic(drive, &number, action));
                 }
+                Command::Panel { drive, key, reply } => {
+                    let _ = reply.send(self.cia402_mut(drive).and_then(|d| {
+                        if !d.has_kinco_panel() {
+                            return Err(ControlError::NoPanel(drive));
+                        }
+                        if let Some((key, pressed)) = key {
+                            d.kinco_panel_key(key, pressed);
+                        }
+                        Ok(d.kinco_panel())
+                    }));
+                }
             }
         }
     }
@@ -330,7 +341,11 @@ impl CellLoop {
                         current_ma: axis.current_ma(),
                         digital_inputs: inputs,
                     },
-                    display: Some(DisplayState::Cia402(d.display())),
+                    display: Some(if d.has_kinco_panel() {
+                        DisplayState::KincoPanel(d.kinco_panel())
+                    } else {
+                        DisplayState::Cia402(d.display())
+                    }),
                 })
             }
             Target::Modbus(dev) => {
