@@ -263,3 +263,41 @@ fn long_mode_leaves_the_edit() {
     assert_eq!(text(&r), " d3.47");
     assert_eq!(r.i(0x2FF0, 0x23), 30);
 }
+
+/// §4.3.2 / §5.9: tn03 = 1 from the panel starts the inertia tuning (no WriteFUN_CTL needed
+/// as over communication; 3041h:05 is back to 0 after); KINCO-SC-11: tn04 shows Safe_Dist 22.
+#[test]
+fn tune_tn03_starts_tuning_from_the_panel() {
+    let mut r = Rig::new();
+    r.enable_in(3);
+    browse_to(&mut r, 9, "tn04");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), "   22");
+    long_press(&mut r, PanelKey::Mode);
+    assert_eq!(text(&r), " tn04", "a long MODE goes back to the list");
+    up_to(&mut r, "tn03");
+    press(&mut r, PanelKey::Set);
+    press(&mut r, PanelKey::Up);
+    press(&mut r, PanelKey::Set);
+    assert_eq!(r.d.kinco_panel().dots & DOT5, DOT5, "tn03 := 1 accepted");
+    assert_eq!(r.i(0x3041, 0x05), 0);
+    r.run_ms(3000);
+    assert_ne!(r.i(0x3040, 0x09), 0, "the run ended with a result");
+}
+
+fn long_press(r: &mut Rig, key: PanelKey) {
+    r.d.kinco_panel_key(key, true);
+    r.run_ms(1100);
+    r.d.kinco_panel_key(key, false);
+    r.run_ms(10);
+}
+
+fn up_to(r: &mut Rig, key: &str) {
+    for _ in 0..10 {
+        if text(r).trim() == key {
+            return;
+        }
+        press(r, PanelKey::Up);
+    }
+    panic!("{key} not found");
+}

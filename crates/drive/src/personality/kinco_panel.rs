@@ -517,7 +517,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let len = (entry.capacity as usize).clamp(1, 8);
         let bytes = value.to_le_bytes();
         let data = bytes.get(..len).ok_or(AbortCode::LENGTH_MISMATCH)?;
-        self.write(index, sub, data)?;
+        if key.starts_with("tn") {
+            // §5.9: over communication WriteFUN_CTL 3041h:05 = 1 opens the tuning objects
+            // (Tuning_Method, Stiffness); the panel's tunE writes them directly. Decision:
+            // the panel opens it for its write and restores it after.
+            let before = self.value(0x3041, 0x05);
+            self.write(0x3041, 0x05, &[1])?;
+            let done = self.write(index, sub, data);
+            let _ = self.write(0x3041, 0x05, &[before.clamp(0, 255) as u8]);
+            done?;
+        } else {
+            self.write(index, sub, data)?;
+        }
         if key == "EA01" {
             self.kinco.panel.confirmed_motor = Some(self.value(0x6410, 0x01));
             self.kinco.panel.initialised = false;
@@ -680,5 +691,33 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         d.dot5_blinks = self.state() == State::OperationEnabled;
         d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// §4.1: DEC in five digits; beyond, the 16-bit halves in HEX with point 4, point 3 on the
+    /// high half (123 456 = 0001_E240h).
+    #[test]
+    fn value_formats() {
+        assert_eq!(format_value(30, false).0.text().as_str(), "   30");
+        assert_eq!(format_value(-250, false).0.text().as_str(), "- 250");
+        let (low, hex) = format_value(123_456, false);
+        assert!(hex);
+        assert_eq!(low.text().as_str(), " E24.0");
+        assert_eq!(format_value(123_456, true).0.text().as_str(), " 00.0.1");
+    }
+
+    /// §4.1 point 3 separates group and address; Tab. 4-6 "02.00" style for the history.
+    #[test]
+    fn address_and_hex_layout() {
+        assert_eq!(address_display("d3.01").text().as_str(), " d3.01");
+        assert_eq!(address_display("EA02").text().as_str(), " EA02");
+        assert_eq!(
+            PanelDisplay::text4(&hex4(0x0200), DOT3).text().as_str(),
+            " 02.00"
+        );
     }
 }
