@@ -301,3 +301,30 @@ fn up_to(r: &mut Rig, key: &str) {
     }
     panic!("{key} not found");
 }
+
+/// §4.3: EA00 = 10 initialises the parameters (Store_Data 2FF0h:01 := 10) and locks EASY to
+/// EA00 / EA01 and tunE to tn00, without "FFF.F" (the motor is unchanged); EA01 unlocks.
+#[test]
+fn ea00_initialise_locks_until_ea01() {
+    let mut r = Rig::new();
+    browse_to(&mut r, 8, "EA00");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), "    0");
+    press(&mut r, PanelKey::Mode);
+    press(&mut r, PanelKey::Up); // 10
+    press(&mut r, PanelKey::Set);
+    assert!(r.d.kinco_panel_locked());
+    long_press(&mut r, PanelKey::Mode);
+    press(&mut r, PanelKey::Mode); // tunE
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " tn00");
+    press(&mut r, PanelKey::Up);
+    assert_eq!(text(&r), " tn00", "tunE: only tn00 while locked");
+    press(&mut r, PanelKey::Mode); // back to tunE
+    press(&mut r, PanelKey::Mode); // monitor
+    assert_eq!(r.d.kinco_panel().blink, Blink::Steady);
+    browse_to(&mut r, 8, "EA01");
+    press(&mut r, PanelKey::Set);
+    press(&mut r, PanelKey::Set);
+    assert!(!r.d.kinco_panel_locked());
+}

@@ -265,9 +265,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 .filter(move |k| !locked || UNLOCKED.contains(k))
         };
         let last = move |k: &&str| special && k.ends_with("00");
+        // EA00 / tn00 (§4.3.1 "save"): no object of their own in the manual; the panel's
+        // own item where the device file gives none (see `panel_save`).
+        let save = match menu {
+            EASY => Some("EA00"),
+            TUNE => Some("tn00"),
+            _ => None,
+        }
+        .filter(|k| self.panel_addresses().panel(k).is_none());
         keys()
             .filter(move |k| !last(k))
             .chain(keys().filter(move |k| last(k)))
+            .chain(save)
     }
 
     fn panel_count(&self, menu: u8) -> u8 {
@@ -446,13 +455,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     }
                     return;
                 }
-                let Some((index, sub)) = self.panel_addresses().panel(key) else {
-                    return;
-                };
+                // The save items read 0 (§4.3.1 EA00 "/" default).
+                let value = self
+                    .panel_addresses()
+                    .panel(key)
+                    .map_or(0, |(index, sub)| self.value(index, sub));
                 self.kinco.panel.screen = Screen::Edit {
                     menu,
                     item,
-                    value: self.value(index, sub),
+                    value,
                     cursor: 0,
                     high: false,
                 };
@@ -509,6 +520,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// and side effects of a CANopen or RS232 write); EA01 confirms the motor type, value 10
     /// in a save item initialises the parameters and locks EASY / tunE (§4.3).
     fn panel_write(&mut self, key: &str, value: i64) -> Result<(), AbortCode> {
+        if (key == "EA00" || key == "tn00") && self.panel_addresses().panel(key).is_none() {
+            return self.panel_save(value);
+        }
         let (index, sub) = self
             .panel_addresses()
             .panel(key)
@@ -538,6 +552,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.kinco.panel.initialised = true;
         }
         Ok(())
+    }
+
+    /// EA00 / tn00 (§4.3.1): 1 saves the control and the motor parameters (Store_Data
+    /// 2FF0h:01 := 1, Store_Motor_Data 2FF0h:03 := 1), 2 saves and reboots, 3 reboots, 10
+    /// initialises the control parameters (2FF0h:01 := 10) and locks EASY / tunE (§4.3).
+    ///
+    /// Decision: the reboot of 2 and 3 is not the drive's to do (the cell restarts a twin);
+    /// the panel saves for 2 and accepts 3 without effect. Other values are refused.
+    fn panel_save(&mut self, value: i64) -> Result<(), AbortCode> {
+        match value {
+            1 | 2 => {
+                self.write(0x2FF0, 0x01, &[1])?;
+                self.write(0x2FF0, 0x03, &[1])
+            }
+            3 => Ok(()),
+            INIT_VALUE => {
+                self.write(0x2FF0, 0x01, &[INIT_VALUE as u8])?;
+                self.kinco.panel.initialised = true;
+                Ok(())
+            }
+            _ => Err(AbortCode::INVALID_VALUE),
+        }
     }
 
     /// The Error_State word and bit of history entry `item` (oldest first).
