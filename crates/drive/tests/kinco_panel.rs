@@ -328,3 +328,46 @@ fn ea00_initialise_locks_until_ea01() {
     press(&mut r, PanelKey::Set);
     assert!(!r.d.kinco_panel_locked());
 }
+
+/// KINCO-DIAG-06 on the panel: an Error_State2 error (External enable, bit 8) blinks
+/// "000.1" (extended error); SET shows its Error_State2 code "010.0", SET again "000.1".
+#[test]
+fn kinco_diag_06_set_opens_error_state2() {
+    let mut r = Rig::new();
+    r.d.inject_fault(0x5443, 0x01);
+    r.run_ms(5);
+    assert_eq!(text(&r), " 000.1");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " 010.0");
+    assert_eq!(r.d.kinco_panel().blink, Blink::Error);
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " 000.1");
+}
+
+/// §4.1: a 32-bit value beyond five digits shows in HEX halves; a long SET on the monitor
+/// toggles to the high half (point 3). d1.19 Pos_Actual after a move past 99 999.
+#[test]
+fn monitor_32_bit_halves() {
+    let mut r = Rig::new();
+    browse_to(&mut r, 1, "d1.19");
+    press(&mut r, PanelKey::Set);
+    r.w16(0x2FF0, 0x23, 3000);
+    r.enable_in(3);
+    r.d.jog(1);
+    r.run_ms(1500);
+    r.d.jog(0);
+    r.run_ms(500);
+    let pos = r.i(0x6063, 0);
+    assert!(pos > 99_999, "{pos}");
+    let low = r.d.kinco_panel();
+    assert_eq!(low.dots & (DOT3 | DOT4), DOT4, "HEX, low half");
+    let want = format!("{:04X}", pos & 0xFFFF);
+    assert_eq!(low.text().replace(['.', ' '], ""), want);
+    r.d.kinco_panel_key(PanelKey::Set, true);
+    r.run_ms(1100);
+    r.d.kinco_panel_key(PanelKey::Set, false);
+    let high = r.d.kinco_panel();
+    assert_eq!(high.dots & (DOT3 | DOT4), DOT3 | DOT4, "HEX, high half");
+    let want = format!("{:04X}", (r.i(0x6063, 0) >> 16) & 0xFFFF);
+    assert_eq!(high.text().replace(['.', ' '], ""), want);
+}

@@ -171,6 +171,10 @@ pub struct Panel {
     initialised: bool,
     /// The panel enabled the drive for jog.
     jog_enabled: bool,
+    /// Monitor: SET on an extended error shows Error_State2 (ch. 8, KINCO-DIAG-06).
+    monitor_second: bool,
+    /// Monitor: a long SET shows the high half of a 32-bit value (§4.1).
+    monitor_high: bool,
 }
 
 /// A value in the panel's formats: DEC in five digits where it fits (a '-' in front), else
@@ -393,6 +397,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn panel_mode(&mut self, long: bool) {
         self.kinco.panel.changed = false;
         let p = &mut self.kinco.panel;
+        p.monitor_second = false;
+        p.monitor_high = false;
         p.screen = match p.screen {
             Screen::Monitor => Screen::Menu(0),
             Screen::Menu(m) if usize::from(m) + 1 < MENUS.len() => Screen::Menu(m + 1),
@@ -425,7 +431,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn panel_set(&mut self, long: bool) {
         self.kinco.panel.changed = false;
         match self.kinco.panel.screen {
-            Screen::Monitor => {}
+            Screen::Monitor => {
+                let p = &mut self.kinco.panel;
+                if long {
+                    p.monitor_high = !p.monitor_high;
+                } else {
+                    p.monitor_second = !p.monitor_second;
+                }
+            }
             Screen::Menu(F006) => {
                 self.kinco.panel.screen = Screen::JogCheck {
                     shown: 40,
@@ -705,7 +718,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 blink: Blink::Error,
                 ..PanelDisplay::text4(b"FFFF", DOT4)
             }
-        } else if let Some(code) = self.kinco_led() {
+        } else if let Some(code) = self.kinco_led().map(|code| {
+            // ch. 8: "000.1" is the extended error; SET shows Error_State2 (d1.16).
+            let state2 = self.value(0x2602, 0) as u16;
+            if self.kinco.panel.monitor_second && &code == b"000.1" && state2 != 0 {
+                super::kinco::led_code(state2.trailing_zeros() as u8)
+            } else {
+                code
+            }
+        }) {
             let digits: heapless::Vec<u8, 5> =
                 code.iter().copied().filter(|c| *c != b'.').collect();
             let dot = code.iter().position(|c| *c == b'.').unwrap_or(3);
@@ -719,7 +740,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let mut key: heapless::String<5> = heapless::String::new();
             let _ = core::fmt::write(&mut key, format_args!("d1.{n:02}"));
             let (index, sub) = self.panel_addresses().panel(&key).unwrap_or((0x2FF0, 0x14));
-            let mut d = format_value(self.value(index, sub), false).0;
+            let mut d = format_value(self.value(index, sub), self.kinco.panel.monitor_high).0;
             if self.kinco.warnings != 0 {
                 d.blink = Blink::Warning;
             }
