@@ -130,7 +130,11 @@ impl CellLoop {
                     let _ = reply.send(self.set_diagnostic(drive, &number, action));
                 }
                 Command::Panel { drive, key, reply } => {
-                    let _ = reply.send(self.cia402_mut(drive).and_then(|d| {
+                    let d = self.cia402_mut(drive).map_err(|e| match e {
+                        ControlError::NoPlant(_) => ControlError::NoPanel(drive),
+                        e => e,
+                    });
+                    let _ = reply.send(d.and_then(|d| {
                         if !d.has_kinco_panel() {
                             return Err(ControlError::NoPanel(drive));
                         }
