@@ -34,9 +34,8 @@ def test_panel_keys_over_http_change_jog_rpm_and_jog_the_motor(launch, node_of):
     twin = launch("kinco-fd3", 1, extra=("--http", "127.0.0.1:0"))
     base = console_url(twin) + "api/drives/0/panel"
     node = node_of(twin)
-    # The bus owns the controlword (the factory DIN1 Enable would hold the drive off).
-    node.sdo[0x2010][3].raw = 0
-    node.sdo[0x2010][5].raw = 0
+    # The factory set-up: DIN1 Enable owns the controlword (a bus write of 6040h is refused);
+    # the panel's jog runs "independent of other settings" (§4.3.3) all the same.
 
     def key(k: str, action: str = "click") -> str:
         return request(base + "/keys", {"key": k, "action": action})["text"]
@@ -74,6 +73,7 @@ def test_panel_keys_over_http_change_jog_rpm_and_jog_the_motor(launch, node_of):
     wait_until(lambda: node.sdo[0x6041].raw & 0x6F == 0x27, 3.0, what="enabled by the panel")
     wait_until(lambda: abs(node.sdo[0x2FF0][0x14].raw - 50) <= 3, 3.0, what="50 rpm")
     assert node.sdo[0x6061].raw == -3
+    assert node.sdo[0x2010][3].raw != 0, "DIN1 still has a function"
     time.sleep(0.3)
     assert node.sdo[0x6063].raw > p0, "the motor turned"
     key("up", "release")

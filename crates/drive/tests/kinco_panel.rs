@@ -371,3 +371,19 @@ fn monitor_32_bit_halves() {
     let want = format!("{:04X}", (r.i(0x6063, 0) >> 16) & 0xFFFF);
     assert_eq!(high.text().replace(['.', ' '], ""), want);
 }
+
+/// §4.3.3 "independent of other settings": on the factory set-up (DIN1 Enable owns the
+/// controlword, DIN3 the mode) jog still enables and turns.
+#[test]
+fn f006_jog_on_the_factory_set_up() {
+    let mut r = Rig::factory();
+    r.w16(0x2FF0, 0x23, 200);
+    jog_ready(&mut r);
+    r.d.kinco_panel_key(PanelKey::Down, true);
+    r.run_ms(400);
+    assert_eq!(r.d.state(), State::OperationEnabled);
+    assert!((r.rpm() + 200.0).abs() < 10.0, "{}", r.rpm());
+    r.d.kinco_panel_key(PanelKey::Down, false);
+    r.run_ms(300);
+    assert_ne!(r.d.state(), State::OperationEnabled);
+}

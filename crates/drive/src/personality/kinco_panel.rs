@@ -628,6 +628,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Once a logic cycle: the timeouts, and jog (§4.3.3): while ▲ / ▼ is held the panel
     /// enables the drive (6040h 06h, then 0Fh: Tab. 6-5) and turns at Jog_RPM in mode −3;
     /// on release it stops and disables again.
+    ///
+    /// Decision: jog runs "independent of other settings" (§4.3.3), so the panel sets the
+    /// controlword as a DIN function does (a local source, not refused where the Enable DIN
+    /// owns 6040h, L1287); a Pre_Enable DIN still has to be active (External enable).
     pub(crate) fn kinco_panel_cycle(&mut self) {
         self.kinco_panel_timeouts(self.now);
         let direction = match self.kinco.panel.screen {
@@ -641,7 +645,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 _ => None,
             };
             if let Some(cw) = cw {
-                let _ = self.write(0x6040, 0, &[cw, 0]);
+                self.kinco_set_controlword(u16::from(cw));
             }
             self.kinco.panel.jog_enabled = true;
             if self.state() == State::OperationEnabled {
@@ -650,7 +654,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else if self.kinco.panel.jog_enabled {
             self.kinco.panel.jog_enabled = false;
             self.jog(0);
-            let _ = self.write(0x6040, 0, &[0x06, 0]);
+            self.kinco_set_controlword(0x06);
         }
     }
 
