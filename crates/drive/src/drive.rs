@@ -610,7 +610,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.cmmp_power_on();
             }
             Vendor::Nanotec => self.nanotec_power_on(),
-            Vendor::Kinco => self.kinco_power_on(),
+            Vendor::Kinco => {
+                self.kinco_power_on();
+                self.kinco_panel_power_on();
+            }
         }
     }
 
@@ -923,6 +926,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.personality.vendor == Vendor::Kinco {
             // The DIN functions own the controlword and the mode (Kinco L1287).
             self.kinco_din_cycle();
+            self.kinco_panel_cycle();
         }
         self.stepper_mode();
         self.supervise_dc_link();

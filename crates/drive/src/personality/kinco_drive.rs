@@ -56,6 +56,8 @@ pub(crate) struct KincoState {
     pub(crate) jog: Option<(i8, i8)>,
     /// Warning_Word 2680h as injected.
     pub(crate) warnings: u16,
+    /// The LED panel (kinco_panel.rs).
+    pub(crate) panel: super::kinco_panel::Panel,
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).

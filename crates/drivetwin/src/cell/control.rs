@@ -48,6 +48,8 @@ pub enum DisplayState {
     Cia402(drive::display::Display),
     /// The CMMO-ST 7-segment display.
     Fhpp(drive::fhpp::seven_segment::SevenSegment),
+    /// The Kinco CD3 / FD3 LED panel (five digits, their points, the blink).
+    KincoPanel(drive::personality::kinco_panel::PanelDisplay),
 }
 
 /// The plant of one drive at one time of the cell's clock.
@@ -91,6 +93,8 @@ pub enum ControlError {
     /// A diagnostic message that the drive's table does not have, or that was not raised.
     #[error("diagnostic message: {0:?}")]
     Diagnostic(drive::drive::diagnostics::DiagnosticError),
+    #[error("drive {0} has no LED panel")]
+    NoPanel(usize),
 }
 
 /// A CAN bus of the cell.
@@ -177,6 +181,12 @@ pub(crate) enum Command {
         objects: Vec<(u16, u8)>,
         samples: SyncSender<ObjectsSample>,
         reply: SyncSender<Result<(), ControlError>>,
+    },
+    /// The Kinco LED panel: a key going down or up (none: only read the display).
+    Panel {
+        drive: usize,
+        key: Option<(drive::personality::kinco_panel::PanelKey, bool)>,
+        reply: SyncSender<Result<drive::personality::kinco_panel::PanelDisplay, ControlError>>,
     },
 }
 
@@ -369,6 +379,33 @@ impl ControlHandle {
             reply,
         })??;
         Ok(rx)
+    }
+
+    /// What the Kinco LED panel of drive `drive` shows.
+    pub fn panel(
+        &self,
+        drive: usize,
+    ) -> Result<drive::personality::kinco_panel::PanelDisplay, ControlError> {
+        self.ask(|reply| Command::Panel {
+            drive,
+            key: None,
+            reply,
+        })?
+    }
+
+    /// A key of the Kinco LED panel goes down (`pressed`) or up, at the cell's clock; the
+    /// display after it. MODE and SET act when released (a long press: held 1 s or more).
+    pub fn panel_key(
+        &self,
+        drive: usize,
+        key: drive::personality::kinco_panel::PanelKey,
+        pressed: bool,
+    ) -> Result<drive::personality::kinco_panel::PanelDisplay, ControlError> {
+        self.ask(|reply| Command::Panel {
+            drive,
+            key: Some((key, pressed)),
+            reply,
+        })?
     }
 }
 

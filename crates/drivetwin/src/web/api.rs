@@ -76,9 +76,10 @@ impl From<ControlError> for ApiError {
     fn from(e: ControlError) -> ApiError {
         match e {
             ControlError::Abort(code) => ApiError::abort(code),
-            ControlError::NoDrive(_) | ControlError::NoPlant(_) | ControlError::NoNode { .. } => {
-                ApiError::not_found(e.to_string())
-            }
+            ControlError::NoDrive(_)
+            | ControlError::NoPlant(_)
+            | ControlError::NoNode { .. }
+            | ControlError::NoPanel(_) => ApiError::not_found(e.to_string()),
             ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
             ControlError::Diagnostic(d) => super::diagnostics::refusal(d),
         }
@@ -163,6 +164,7 @@ pub(crate) fn display_text(d: &DisplayState) -> String {
     match d {
         DisplayState::Cia402(d) => d.text().to_string(),
         DisplayState::Fhpp(s) => s.to_string(),
+        DisplayState::KincoPanel(p) => p.text().to_string(),
     }
 }
 
@@ -831,6 +833,7 @@ async fn openapi() -> Response {
     doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
     doc.merge(super::motion::MotionDoc::openapi());
     doc.merge(super::cmmo_st::CmmoStDoc::openapi());
+    doc.merge(super::panel::PanelDoc::openapi());
     match super::wire::merged(doc).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],

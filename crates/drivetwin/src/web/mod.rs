@@ -25,6 +25,7 @@ pub mod error_text;
 pub mod live;
 pub mod motion;
 pub mod page;
+pub mod panel;
 pub mod scenarios;
 pub mod statusword;
 pub mod wire;
@@ -84,6 +85,7 @@ pub fn router(state: AppState) -> Router {
         .merge(api::routes())
         .merge(live::routes())
         .merge(diagnostics::routes())
+        .merge(panel::routes())
         .merge(page::routes())
         .merge(wire::routes())
         .merge(motion::routes())

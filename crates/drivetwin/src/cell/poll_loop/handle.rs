@@ -157,6 +157,21 @@ impl CellLoop {
                     });
                     let _ = reply.send(done);
                 }
+                Command::Panel { drive, key, reply } => {
+                    let d = self.cia402_mut(drive).map_err(|e| match e {
+                        ControlError::NoPlant(_) => ControlError::NoPanel(drive),
+                        e => e,
+                    });
+                    let _ = reply.send(d.and_then(|d| {
+                        if !d.has_kinco_panel() {
+                            return Err(ControlError::NoPanel(drive));
+                        }
+                        if let Some((key, pressed)) = key {
+                            d.kinco_panel_key(key, pressed);
+                        }
+                        Ok(d.kinco_panel())
+                    }));
+                }
             }
         }
     }
@@ -359,7 +374,11 @@ impl CellLoop {
                         current_ma: axis.current_ma(),
                         digital_inputs: inputs,
                     },
-                    display: Some(DisplayState::Cia402(d.display())),
+                    display: Some(if d.has_kinco_panel() {
+                        DisplayState::KincoPanel(d.kinco_panel())
+                    } else {
+                        DisplayState::Cia402(d.display())
+                    }),
                 })
             }
             Target::Modbus(dev) => {
