@@ -262,3 +262,42 @@ def test_iodd_writes_the_two_files_of_the_manual(tmp_path):
             assert subprocess.run(["xmllint", "--noout", str(tmp_path / name)]).returncode == 0
     bad = run_cli("iodd", "--device", "cmmp-as", "--output-dir", str(tmp_path))
     assert bad.returncode != 0 and "IO-Link" in bad.stderr
+
+
+def test_the_kinco_panel_on_the_drive_page_walks_its_menus(launch, node_of, browser):  # noqa: F811
+    """Issue 13 point 4 in the page: the Kinco FD3's five digits and its four keys. MODE three
+    times and SET open F003's first parameter; the digits follow each key; a CMMP-AS page
+    has no panel."""
+    twin = launch("kinco-fd3", 1, extra=("--http", "127.0.0.1:0"))
+    page = browser.new_page()
+    page.goto(console_url(twin) + "#drive/0")
+    page.wait_for_selector("#kinco-panel:not([hidden])")
+    page.wait_for_function("document.querySelector('#panel-digits').textContent === '    0'")
+
+    def click(key: str):
+        sel = f".panel-key[data-key='{key}']"
+        page.dispatch_event(sel, "pointerdown")
+        page.dispatch_event(sel, "pointerup")
+
+    shown = []
+    for _ in range(3):
+        click("mode")
+        page.wait_for_function(
+            f"document.querySelector('#panel-digits').textContent.trim() === 'F00{len(shown) + 1}'")
+        shown.append(page.text_content("#panel-digits").strip())
+    assert shown == ["F001", "F002", "F003"]
+    click("set")
+    page.wait_for_function("/^ d3\\.\\d\\d$/.test(document.querySelector('#panel-digits').textContent)")
+    # The page shows what the drive shows (the REST view of the same panel).
+    import json
+    import urllib.request
+
+    with urllib.request.urlopen(console_url(twin) + "api/drives/0/panel", timeout=5) as r:
+        assert json.loads(r.read())["text"] == page.text_content("#panel-digits")
+    page.close()
+
+    other = launch("cmmp-as", 2, extra=("--http", "127.0.0.1:0"))
+    page = browser.new_page()
+    page.goto(console_url(other) + "#drive/0")
+    page.wait_for_function("document.querySelector('#state').textContent.length > 0")
+    assert page.is_hidden("#kinco-panel")

@@ -108,6 +108,30 @@ async function refreshDrive() {
   } catch (e) {
     say(e.message, true);
   }
+  await refreshPanel();
+}
+
+// The Kinco LED panel (GET /api/drives/N/panel; a drive without one answers 404).
+function showPanel(p) {
+  $("#kinco-panel").hidden = !p;
+  if (!p) return;
+  $("#panel-digits").textContent = p.text;
+  $("#panel-blink").textContent = p.blink === "steady" ? "" : `(blinking: ${p.blink})`;
+}
+async function refreshPanel() {
+  const drive = consoleState.drive;
+  if (drive === null) return;
+  // Only the Kinco drives have one: no request (and no 404) for the others.
+  const d = (consoleState.drives || []).find((x) => x.index === drive);
+  if (!d || !d.vendor.toLowerCase().startsWith("kinco")) { showPanel(null); return; }
+  let p = null;
+  try { p = await api("GET", `/api/drives/${drive}/panel`); } catch (e) { p = null; }
+  if (drive === consoleState.drive) showPanel(p);
+}
+async function panelKey(key, action) {
+  try {
+    showPanel(await api("POST", `/api/drives/${consoleState.drive}/panel/keys`, { key, action }));
+  } catch (e) { say(e.message, true); }
 }
 
 function paramKey(o) {
@@ -400,6 +424,14 @@ for (const [id, dir] of [["#jog-pos", 1], ["#jog-neg", -1]]) {
                                                   `jogging ${dir > 0 ? "+" : "−"}`));
   for (const ev of ["pointerup", "pointerleave"]) {
     b.addEventListener(ev, () => { if (consoleState.jogging) { consoleState.jogging = false; motion("jog", { direction: 0 }, "jog stopped"); } });
+  }
+}
+// A panel key goes down on press and up on release: a held key is a long press, ▲ / ▼ held in
+// F006 jog the motor.
+for (const b of document.querySelectorAll(".panel-key")) {
+  b.addEventListener("pointerdown", () => { b.dataset.down = "1"; panelKey(b.dataset.key, "press"); });
+  for (const ev of ["pointerup", "pointerleave"]) {
+    b.addEventListener(ev, () => { if (b.dataset.down) { delete b.dataset.down; panelKey(b.dataset.key, "release"); } });
   }
 }
 $("#scope-object-set").addEventListener("click", async () => {
