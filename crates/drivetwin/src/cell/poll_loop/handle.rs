@@ -220,7 +220,7 @@ impl CellLoop {
             let Some(sub) = self.subscriptions.get_mut(i) else {
                 break;
             };
-            sub.next = now + sub.every;
+            sub.next = next_due(sub.next, sub.every, now);
             let gone = match sample {
                 Ok(s) => matches!(
                     sub.samples.try_send(s),
@@ -439,7 +439,7 @@ impl CellLoop {
             let Some(sub) = self.object_subscriptions.get_mut(i) else {
                 break;
             };
-            sub.next = now + sub.every;
+            sub.next = next_due(sub.next, sub.every, now);
             let gone = match sample {
                 Ok(s) => matches!(
                     sub.samples.try_send(s),
@@ -520,4 +520,34 @@ impl CellLoop {
 enum Target<'a> {
     Can(&'a mut Model),
     Modbus(crate::modbus_tcp::fhpp::SharedDevice),
+}
+
+/// The next sample time of a subscription: one period after the last due time, so that the
+/// loop's lateness does not stretch the period (1 kHz stays 1 kHz); after a stall of more
+/// than a period the missed samples are skipped, not sent in a burst.
+fn next_due(due: Instant, every: Duration, now: Instant) -> Instant {
+    let next = due + every;
+    if next <= now {
+        now + every
+    } else {
+        next
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_late_sample_does_not_stretch_the_period() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis(1);
+        // Served 60 µs late: the next is still due at 2 ms.
+        assert_eq!(
+            next_due(t0 + ms, ms, t0 + ms + Duration::from_micros(60)),
+            t0 + 2 * ms
+        );
+        // Served 5 ms late: the missed ones are skipped.
+        assert_eq!(next_due(t0 + ms, ms, t0 + 6 * ms), t0 + 7 * ms);
+    }
 }
