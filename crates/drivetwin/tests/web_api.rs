@@ -3,109 +3,18 @@
 //! with their description, SDO aborts as JSON, bad input as 4xx with a message, the write
 //! token, enable and the plant moving, the OpenAPI document.
 
+mod web_rig;
+
 use std::net::TcpListener;
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use axum::body::Body;
-use axum::http::{Request, StatusCode};
-use drivetwin::can::drive::CanDrive;
-use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::control::ControlHandle;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
-use drivetwin::cell::Cell;
-use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
-use drivetwin::modbus_tcp::server::ModbusConfig;
-use drivetwin::web::{self, AppState, HttpSetting};
-use http_body_util::BodyExt;
+use axum::http::StatusCode;
+use drivetwin::web::{self, HttpSetting};
 use serde_json::{json, Value};
-use tower::ServiceExt;
-
-struct Running {
-    handle: ControlHandle,
-    stop: StopHandle,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.stop.stop();
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+use web_rig::{app, send, Running};
 
 fn cell() -> Running {
-    let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
-    let drive =
-        CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
-    let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
-    let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
-    let can = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let front = FrontEnds {
-        buses: vec![CanBus {
-            socketcand: Some((can, ServerConfig::new("vcan0"))),
-            ..CanBus::new(Cell::new(vec![drive]))
-        }],
-        modbus: vec![ModbusDrive::new(
-            mb,
-            Arc::new(Mutex::new(dev)),
-            ModbusConfig::default(),
-            None,
-        )],
-        ..FrontEnds::default()
-    };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
-    let handle = cell_loop.control_handle();
-    let stop = cell_loop.stop_handle();
-    let thread = std::thread::spawn(move || {
-        cell_loop.run().expect("runs");
-    });
-    Running {
-        handle,
-        stop,
-        thread: Some(thread),
-    }
-}
-
-async fn send(
-    app: &axum::Router,
-    method: &str,
-    path: &str,
-    body: Option<Value>,
-    token: Option<&str>,
-) -> (StatusCode, Value) {
-    let mut req = Request::builder().method(method).uri(path);
-    if let Some(t) = token {
-        req = req.header(web::auth::TOKEN_HEADER, t);
-    }
-    let req = match body {
-        Some(b) => req
-            .header("content-type", "application/json")
-            .body(Body::from(b.to_string())),
-        None => req.body(Body::empty()),
-    }
-    .expect("request");
-    let res = app.clone().oneshot(req).await.expect("answer");
-    let status = res.status();
-    let bytes = res.into_body().collect().await.expect("body").to_bytes();
-    let json = serde_json::from_slice(&bytes).unwrap_or_else(|_| {
-        panic!(
-            "{method} {path}: {status}, not JSON: {}",
-            String::from_utf8_lossy(&bytes)
-        )
-    });
-    (status, json)
-}
-
-fn app(running: &Running, token: Option<&str>) -> axum::Router {
-    web::router(AppState {
-        handle: running.handle.clone(),
-        token: token.map(Arc::from),
-    })
+    web_rig::cmmp_and_cmmo_st()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -3,99 +3,26 @@
 //! router: the monitor display, key presses walking F003 to d3.47 Jog_RPM and changing it
 //! (seen by an object read), 4xx for a drive without panel and a bad key, the OpenAPI paths.
 
-use std::net::TcpListener;
-use std::sync::Arc;
+mod web_rig;
 
-use axum::body::Body;
-use axum::http::{Request, StatusCode};
-use drivetwin::can::drive::CanDrive;
-use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::control::ControlHandle;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
-use drivetwin::cell::Cell;
-use drivetwin::web::{self, AppState};
-use http_body_util::BodyExt;
+use axum::http::StatusCode;
+use drivetwin::cell::poll_loop::FrontEnds;
 use serde_json::Value;
-use tower::ServiceExt;
+use web_rig::{app, send, Running};
 
-struct Running {
-    handle: ControlHandle,
-    stop: StopHandle,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.stop.stop();
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
+/// Drive 0 a Kinco FD3 (node 2), drive 1 a CMMP-AS (node 1), on one bus.
 fn cell() -> Running {
-    let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
-    let drive =
-        CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
-    let kinco = devices::by_name("kinco-fd3").expect("kinco-fd3");
-    let fd3 =
-        CanDrive::with_settings(kinco, 2, None, vec![], Some(Default::default())).expect("drive");
-    let can = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let front = FrontEnds {
-        buses: vec![CanBus {
-            socketcand: Some((can, ServerConfig::new("vcan0"))),
-            ..CanBus::new(Cell::new(vec![fd3, drive]))
-        }],
-        ..FrontEnds::default()
-    };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
-    let handle = cell_loop.control_handle();
-    let stop = cell_loop.stop_handle();
-    let thread = std::thread::spawn(move || {
-        cell_loop.run().expect("runs");
-    });
-    Running {
-        handle,
-        stop,
-        thread: Some(thread),
-    }
-}
-
-async fn send(
-    app: &axum::Router,
-    method: &str,
-    path: &str,
-    body: Option<Value>,
-    token: Option<&str>,
-) -> (StatusCode, Value) {
-    let mut req = Request::builder().method(method).uri(path);
-    if let Some(t) = token {
-        req = req.header(web::auth::TOKEN_HEADER, t);
-    }
-    let req = match body {
-        Some(b) => req
-            .header("content-type", "application/json")
-            .body(Body::from(b.to_string())),
-        None => req.body(Body::empty()),
-    }
-    .expect("request");
-    let res = app.clone().oneshot(req).await.expect("answer");
-    let status = res.status();
-    let bytes = res.into_body().collect().await.expect("body").to_bytes();
-    let json = serde_json::from_slice(&bytes).unwrap_or_else(|_| {
-        panic!(
-            "{method} {path}: {status}, not JSON: {}",
-            String::from_utf8_lossy(&bytes)
-        )
-    });
-    (status, json)
-}
-
-fn app(running: &Running, token: Option<&str>) -> axum::Router {
-    web::router(AppState {
-        handle: running.handle.clone(),
-        token: token.map(Arc::from),
-    })
+    let bus = web_rig::bus(vec![
+        web_rig::can_drive("kinco-fd3", 2),
+        web_rig::can_drive("cmmp-as", 1),
+    ]);
+    web_rig::start(
+        FrontEnds {
+            buses: vec![bus],
+            ..FrontEnds::default()
+        },
+        None,
+    )
 }
 
 async fn key(app: &axum::Router, key: &str) -> Value {

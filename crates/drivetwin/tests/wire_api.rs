@@ -3,69 +3,17 @@
 //! input as a 4xx with a message, a pcap trace of a bus started and stopped, the paths in the
 //! OpenAPI document.
 
-use std::net::TcpListener;
-use std::sync::{Arc, Mutex};
+mod web_rig;
 
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
-use drivetwin::can::drive::CanDrive;
-use drivetwin::cell::control::ControlHandle;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
-use drivetwin::cell::Cell;
-use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
-use drivetwin::modbus_tcp::server::ModbusConfig;
-use drivetwin::web::{self, AppState};
 use http_body_util::BodyExt;
 use serde_json::{json, Value};
 use tower::ServiceExt;
-
-struct Running {
-    handle: ControlHandle,
-    modbus: std::net::SocketAddr,
-    stop: StopHandle,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.stop.stop();
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+use web_rig::Running;
 
 fn cell() -> Running {
-    let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
-    let drive =
-        CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
-    let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
-    let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
-    let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let modbus = mb.local_addr().expect("addr");
-    let front = FrontEnds {
-        buses: vec![CanBus::new(Cell::new(vec![drive]))],
-        modbus: vec![ModbusDrive::new(
-            mb,
-            Arc::new(Mutex::new(dev)),
-            ModbusConfig::default(),
-            None,
-        )],
-        ..FrontEnds::default()
-    };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
-    let handle = cell_loop.control_handle();
-    let stop = cell_loop.stop_handle();
-    let thread = std::thread::spawn(move || {
-        cell_loop.run().expect("runs");
-    });
-    Running {
-        handle,
-        modbus,
-        stop,
-        thread: Some(thread),
-    }
+    web_rig::cmmp_and_cmmo_st()
 }
 
 async fn send(
@@ -74,35 +22,11 @@ async fn send(
     path: &str,
     body: Option<Value>,
 ) -> (StatusCode, Value) {
-    let req = Request::builder().method(method).uri(path);
-    let req = match body {
-        Some(b) => req
-            .header("content-type", "application/json")
-            .body(Body::from(b.to_string())),
-        None => req.body(Body::empty()),
-    }
-    .expect("request");
-    let res = app.clone().oneshot(req).await.expect("answer");
-    let status = res.status();
-    let bytes = res.into_body().collect().await.expect("body").to_bytes();
-    let json = if bytes.is_empty() {
-        Value::Null
-    } else {
-        serde_json::from_slice(&bytes).unwrap_or_else(|_| {
-            panic!(
-                "{method} {path}: {status}, not JSON: {}",
-                String::from_utf8_lossy(&bytes)
-            )
-        })
-    };
-    (status, json)
+    web_rig::send(app, method, path, body, None).await
 }
 
 fn app(running: &Running) -> axum::Router {
-    web::router(AppState {
-        handle: running.handle.clone(),
-        token: None,
-    })
+    web_rig::app(running, None)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -413,7 +337,8 @@ fn modbus_request(
 async fn a_modbus_servers_requests_dropped_and_corrupted() {
     let cell = cell();
     let app = app(&cell);
-    let mut stream = std::net::TcpStream::connect(cell.modbus).expect("connect");
+    let mut stream =
+        std::net::TcpStream::connect(cell.modbus.expect("a Modbus drive")).expect("connect");
     let short = std::time::Duration::from_millis(300);
     let answer = modbus_request(&mut stream, 1, std::time::Duration::from_secs(2)).expect("answer");
     assert_eq!(&answer[..2], &[0, 1]);

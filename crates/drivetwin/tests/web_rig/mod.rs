@@ -1,0 +1,131 @@
+//! The rig of the web API tests: a cell loop running on its thread, the console's router on
+//! its control handle, requests through tower's `oneshot` with their JSON answers.
+#![allow(dead_code)] // each test file uses a part of it
+
+use std::net::{SocketAddr, TcpListener};
+use std::sync::{Arc, Mutex};
+
+use axum::body::Body;
+use axum::http::{Request, StatusCode};
+use drivetwin::can::drive::CanDrive;
+use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::control::ControlHandle;
+use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
+use drivetwin::cell::Cell;
+use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
+use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::web::{self, AppState};
+use http_body_util::BodyExt;
+use serde_json::Value;
+use tower::ServiceExt;
+
+/// A cell loop on its thread; stopped and joined when dropped.
+pub struct Running {
+    pub handle: ControlHandle,
+    /// The Modbus TCP server of the cell's first Modbus drive, if it has one.
+    pub modbus: Option<SocketAddr>,
+    stop: StopHandle,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.stop.stop();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Runs the cell of `front` on a thread of its own.
+pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
+    let cell_loop = CellLoop::with_buses(front).expect("loop");
+    let handle = cell_loop.control_handle();
+    let stop = cell_loop.stop_handle();
+    let thread = std::thread::spawn(move || {
+        cell_loop.run().expect("runs");
+    });
+    Running {
+        handle,
+        modbus,
+        stop,
+        thread: Some(thread),
+    }
+}
+
+/// A CiA 402 drive with its motor, as a cell file makes it.
+pub fn can_drive(device: &str, node: u8) -> CanDrive {
+    let desc = devices::by_name(device).expect("a personality of the workspace");
+    CanDrive::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
+}
+
+/// The CAN drives `drives` on one bus with a socketcand server on a free loopback port.
+pub fn bus(drives: Vec<CanDrive>) -> CanBus {
+    let can = TcpListener::bind("127.0.0.1:0").expect("bind");
+    CanBus {
+        socketcand: Some((can, ServerConfig::new("vcan0"))),
+        ..CanBus::new(Cell::new(drives))
+    }
+}
+
+/// Drive 0 a CMMP-AS (node 1) on CAN, drive 1 a CMMO-ST on Modbus TCP.
+pub fn cmmp_and_cmmo_st() -> Running {
+    let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
+    let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
+    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let addr = mb.local_addr().expect("addr");
+    let front = FrontEnds {
+        buses: vec![bus(vec![can_drive("cmmp-as", 1)])],
+        modbus: vec![ModbusDrive::new(
+            mb,
+            Arc::new(Mutex::new(dev)),
+            ModbusConfig::default(),
+            None,
+        )],
+        ..FrontEnds::default()
+    };
+    start(front, Some(addr))
+}
+
+/// The console's router on `running`, with the write token `token` (`None`: loopback, none).
+pub fn app(running: &Running, token: Option<&str>) -> axum::Router {
+    web::router(AppState {
+        handle: running.handle.clone(),
+        token: token.map(Arc::from),
+    })
+}
+
+/// One request; the status and the JSON answer (`Null` for an empty body).
+pub async fn send(
+    app: &axum::Router,
+    method: &str,
+    path: &str,
+    body: Option<Value>,
+    token: Option<&str>,
+) -> (StatusCode, Value) {
+    let mut req = Request::builder().method(method).uri(path);
+    if let Some(t) = token {
+        req = req.header(web::auth::TOKEN_HEADER, t);
+    }
+    let req = match body {
+        Some(b) => req
+            .header("content-type", "application/json")
+            .body(Body::from(b.to_string())),
+        None => req.body(Body::empty()),
+    }
+    .expect("request");
+    let res = app.clone().oneshot(req).await.expect("answer");
+    let status = res.status();
+    let bytes = res.into_body().collect().await.expect("body").to_bytes();
+    if bytes.is_empty() {
+        return (status, Value::Null);
+    }
+    let json = serde_json::from_slice(&bytes).unwrap_or_else(|_| {
+        panic!(
+            "{method} {path}: {status}, not JSON: {}",
+            String::from_utf8_lossy(&bytes)
+        )
+    });
+    (status, json)
+}
