@@ -611,22 +611,8 @@ enum Kind {
 }
 
 fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
-    let index: usize = drive.parse().map_err(|_| {
-        ApiError::new(
-            StatusCode::BAD_REQUEST,
-            format!("drive {drive:?}: not a drive index (0, 1, …)"),
-        )
-    })?;
-    let info = h
-        .drives()?
-        .into_iter()
-        .find(|d| d.index == index)
-        .ok_or_else(|| {
-            ApiError::new(
-                StatusCode::NOT_FOUND,
-                format!("no drive {index} in the cell"),
-            )
-        })?;
+    let info = super::api::find_drive(h, drive)?;
+    let index = info.index;
     let desc = devices::by_name(info.device);
     if info.interface == Interface::ModbusTcp {
         Ok((index, Kind::Fhpp))
