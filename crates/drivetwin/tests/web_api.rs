@@ -233,6 +233,72 @@ async fn enable_in_profile_velocity_and_the_plant_moves() {
     assert_eq!(p["kind"], "stepper");
 }
 
+/// The supply voltage set through the API is what the CMMP-AS measures (6079h, 6510h:34),
+/// and below 6510h:36 with 6510h:37 = 1 its own supervision raises 02-0 (3220h) and the drive
+/// faults; back at the nominal voltage the fault reset acknowledges it (cmmp-as-2 §5.4).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_low_supply_is_measured_and_faults_the_cmmp_as() {
+    let cell = cell();
+    let app = app(&cell, None);
+    let put = |path: &'static str, value: Value| {
+        let app = app.clone();
+        async move { send(&app, "PUT", path, Some(value), None).await }
+    };
+    for (path, value) in [
+        ("/api/drives/0/objects/6510/36", 200_000),
+        ("/api/drives/0/objects/6510/37", 1),
+    ] {
+        let (status, v) = put(path, json!({ "value": value })).await;
+        assert_eq!(status, StatusCode::OK, "{path}: {v}");
+    }
+    let (status, d) = send(&app, "POST", "/api/drives/0/enable", None, None).await;
+    assert_eq!(
+        (status, &d["state"]),
+        (StatusCode::OK, &json!("OPERATION ENABLED"))
+    );
+    let (status, p) = put("/api/drives/0/supply", json!({"volts": 150.0})).await;
+    assert_eq!(status, StatusCode::OK, "{p}");
+    let mut state = Value::Null;
+    for _ in 0..100 {
+        let (_, d) = send(&app, "GET", "/api/drives/0", None, None).await;
+        state = d["state"].clone();
+        if state != json!("OPERATION ENABLED") {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    assert!(
+        state.as_str().is_some_and(|s| s.contains("FAULT")),
+        "undervoltage faults the drive: {state}"
+    );
+    let (_, v) = send(&app, "GET", "/api/drives/0/objects/6510/34", None, None).await;
+    assert_eq!(v["value"], json!("150000"), "measured, mV: {v}");
+    let (_, v) = send(&app, "GET", "/api/drives/0/objects/1003/1", None, None).await;
+    let newest: u64 = v["value"]
+        .as_str()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(0);
+    assert_eq!(
+        newest & 0xFFFF,
+        0x3220,
+        "02-0 DC-link undervoltage in 1003h: {v}"
+    );
+    // Bad input, and a drive without a supply.
+    let (status, e) = put("/api/drives/0/supply", json!({"volts": -5})).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{e}");
+    let (status, e) = put("/api/drives/1/supply", json!({"volts": 24})).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{e}");
+    // Nominal again: the fault reset acknowledges it.
+    let (status, _) = put("/api/drives/0/supply", json!({"volts": null})).await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, d) = send(&app, "POST", "/api/drives/0/enable", None, None).await;
+    assert_eq!(
+        (status, &d["state"]),
+        (StatusCode::OK, &json!("OPERATION ENABLED")),
+        "{d}"
+    );
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn openapi_document_names_every_route() {
     let cell = cell();
@@ -250,6 +316,7 @@ async fn openapi_document_names_every_route() {
         "/api/drives/{drive}/plant",
         "/api/drives/{drive}/inputs",
         "/api/drives/{drive}/load",
+        "/api/drives/{drive}/supply",
         "/api/drives/{drive}/samples",
     ] {
         assert!(doc["paths"][path].is_object(), "{path} missing");

@@ -95,6 +95,8 @@ pub enum ControlError {
     Diagnostic(drive::drive::diagnostics::DiagnosticError),
     #[error("drive {0} has no LED panel")]
     NoPanel(usize),
+    #[error("drive {0} has no simulated supply (a CiA 402 drive with its motor has one)")]
+    NoSupply(usize),
 }
 
 /// A CAN bus of the cell.
@@ -187,6 +189,12 @@ pub(crate) enum Command {
         drive: usize,
         key: Option<(drive::personality::kinco_panel::PanelKey, bool)>,
         reply: SyncSender<Result<drive::personality::kinco_panel::PanelDisplay, ControlError>>,
+    },
+    /// The drive's supply (DC-link) voltage: `None` is the nominal one.
+    SetSupply {
+        drive: usize,
+        millivolts: Option<u32>,
+        reply: SyncSender<Result<(), ControlError>>,
     },
 }
 
@@ -404,6 +412,18 @@ impl ControlHandle {
         self.ask(|reply| Command::Panel {
             drive,
             key: Some((key, pressed)),
+            reply,
+        })?
+    }
+
+    /// The supply of drive `drive` at `millivolts` (`None`: back to the nominal voltage of
+    /// its device file): the drive measures it (CMMP-AS 6510h:34, 6079h), its current
+    /// controller has that much voltage, and its own supervision reacts (CMMP-AS 02-0 below
+    /// 6510h:36 with 6510h:37 = 1).
+    pub fn set_supply(&self, drive: usize, millivolts: Option<u32>) -> Result<(), ControlError> {
+        self.ask(|reply| Command::SetSupply {
+            drive,
+            millivolts,
             reply,
         })?
     }

@@ -79,7 +79,8 @@ impl From<ControlError> for ApiError {
             ControlError::NoDrive(_)
             | ControlError::NoPlant(_)
             | ControlError::NoNode { .. }
-            | ControlError::NoPanel(_) => ApiError::not_found(e.to_string()),
+            | ControlError::NoPanel(_)
+            | ControlError::NoSupply(_) => ApiError::not_found(e.to_string()),
             ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
             ControlError::Diagnostic(d) => super::diagnostics::refusal(d),
         }
@@ -760,6 +761,49 @@ pub struct LoadBody {
     pub torque_nm: f64,
 }
 
+/// The supply voltage of a drive.
+#[derive(Debug, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SupplyBody {
+    /// V, 0 … 1000; `null`: the nominal voltage of the device file.
+    #[schema(minimum = 0.0, maximum = 1000.0)]
+    pub volts: Option<f64>,
+}
+
+/// Sets the drive's supply (DC-link) voltage: it shows in the drive's measured values, limits
+/// its current controller, and its own supervision reacts as its manual says (CMMP-AS 02-0
+/// undervoltage below 6510h:36 when 6510h:37 = 1).
+#[utoipa::path(put, path = "/api/drives/{drive}/supply", tag = "plant",
+    params(("drive" = u32, Path, description = "the drive's index in the cell")),
+    request_body = SupplyBody,
+    responses((status = 415, body = ApiError), (status = 200, body = PlantView), (status = 400, body = ApiError),
+        (status = 401, body = ApiError), (status = 404, body = ApiError)))]
+async fn set_supply(
+    State(s): State<AppState>,
+    Path(drive): Path<String>,
+    body: Result<Json<SupplyBody>, JsonRejection>,
+) -> ApiResult<PlantView> {
+    let Json(body) = body?;
+    let millivolts = match body.volts {
+        None => None,
+        Some(v) if v.is_finite() && (0.0..=1000.0).contains(&v) => {
+            Some((v * 1000.0).round() as u32)
+        }
+        Some(v) => {
+            return Err(ApiError::bad(format!(
+                "volts {v}: a finite number of V within 0 … 1000 (or null: nominal)"
+            )))
+        }
+    };
+    call(&s.handle, move |h| {
+        let info = find_drive(h, &drive)?;
+        h.set_supply(info.index, millivolts)?;
+        Ok(PlantView::from(&h.plant(info.index)?))
+    })
+    .await
+    .map(Json)
+}
+
 /// Sets the load torque on the drive's motor shaft.
 #[utoipa::path(put, path = "/api/drives/{drive}/load", tag = "plant",
     params(("drive" = u32, Path, description = "the drive's index in the cell")),
@@ -808,6 +852,7 @@ async fn set_load(
         get_plant,
         set_inputs,
         set_load,
+        set_supply,
         super::live::samples
     ),
     components(schemas(
@@ -822,6 +867,7 @@ async fn set_load(
         PlantView,
         InputsBody,
         LoadBody,
+        SupplyBody,
         super::live::SampleBatch,
         super::live::SamplePoint
     ))
@@ -865,5 +911,6 @@ pub fn routes() -> Router<AppState> {
         .route("/api/drives/{drive}/plant", get(get_plant))
         .route("/api/drives/{drive}/inputs", put(set_inputs))
         .route("/api/drives/{drive}/load", put(set_load))
+        .route("/api/drives/{drive}/supply", put(set_supply))
         .route("/api/{*rest}", axum::routing::any(no_route))
 }

@@ -172,6 +172,21 @@ impl CellLoop {
                         Ok(d.kinco_panel())
                     }));
                 }
+                Command::SetSupply {
+                    drive,
+                    millivolts,
+                    reply,
+                } => {
+                    let done = match self.cia402_mut(drive) {
+                        Ok(d) => {
+                            d.set_dc_link_voltage(millivolts);
+                            Ok(())
+                        }
+                        Err(ControlError::NoPlant(d)) => Err(ControlError::NoSupply(d)),
+                        Err(e) => Err(e),
+                    };
+                    let _ = reply.send(done);
+                }
             }
         }
     }
