@@ -199,6 +199,7 @@ def test_coe_store_survives_kill9(veth, tmp_path):
     confirmed, attempted = 0, 0
     seen = {"old": 0, "new": 0, "answered": 0, "mid-write": 0}
     save_ms = 0.0
+    mid_write = False
     started = time.monotonic()
     for g in range(1, ROUNDS + 2):
         proc, log, _ = ecat_twin_start(veth, tmp_path, "--state-dir", str(state))
@@ -213,6 +214,9 @@ def test_coe_store_survives_kill9(veth, tmp_path):
             assert now in (confirmed, attempted), f"round {g}: generation {now}, saved {confirmed}, tried {attempted}"
             if attempted != confirmed:
                 seen["new" if now == attempted else "old"] += 1
+            # Killed inside the write (its temporary file left behind): the rename never happened,
+            # the old file stands.
+            assert not mid_write or now == confirmed, f"round {g}: generation {now} from a write killed midway"
             confirmed = now
             if g > ROUNDS:
                 break  # the last start only checks
@@ -240,7 +244,8 @@ def test_coe_store_survives_kill9(veth, tmp_path):
             # A temporary file of this save left behind: the kill fell inside the write
             # (param_store.rs writes `….params.tmp`, fsyncs it and renames it over the file).
             tmp_after = tmp_stamp(state)
-            seen["mid-write"] += tmp_after is not None and tmp_after != tmp_before
+            mid_write = tmp_after is not None and tmp_after != tmp_before
+            seen["mid-write"] += mid_write
         finally:
             master.close()
             if proc.poll() is None:
