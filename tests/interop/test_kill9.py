@@ -8,7 +8,7 @@ and kills the process 0…4 ms later (before, during or after the write of the f
 start must show one generation for all objects: the last one whose save was answered, or the
 one killed during its save. `KILL9_ROUNDS` sets the rounds (50 here; `KILL9_ROUNDS=1000` is
 the long form of issue 15). The CoE rounds (a CMMP-AS EtherCAT slave on a veth pair, SOEM as
-the master, about 0.1 s a round) need root and pysoem and skip otherwise, as the other
+the master, about 0.25 s a round) need root and pysoem and skip otherwise, as the other
 EtherCAT tests do.
 """
 
