@@ -546,29 +546,41 @@ def veth():
         ip("netns", "del", ns)
 
 
-@contextlib.contextmanager
-def ecat_twin_run(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
-    """`drivetwin run --ethercat` in the `veth` namespace (`extra` arguments): (master-side
-    interface, banner lines) while the block runs; stopped by SIGTERM and checked after it."""
-    ns, twin_if, master_if = veth
+def ecat_twin_start(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
+    """Starts `drivetwin run --ethercat` in the `veth` namespace (`extra` arguments) and waits
+    for its banner: (process, log file, banner lines). `ip netns exec` execs the twin, so the
+    process is the twin itself (a signal to it reaches drivetwin)."""
+    ns, twin_if, _ = veth
     log = (tmp_path / "drivetwin-ecat.log").open("w")
     prefix = realtime_prefix() if realtime else []
     proc = subprocess.Popen([*prefix, "ip", "netns", "exec", ns, str(DRIVETWIN_BIN), "run", "--ethercat", twin_if,
                              *extra],
                             stdout=subprocess.PIPE, stderr=log, text=True)
     lines = []
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line.strip())
+        if line.startswith("running"):
+            break
+    if not (lines and lines[-1].startswith("running")):
+        proc.kill()
+        proc.wait()
+        log.close()
+        pytest.fail(f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}")
+    assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
+    return proc, log, lines
+
+
+@contextlib.contextmanager
+def ecat_twin_run(veth, tmp_path, *extra: str, realtime: bool = False, slaves: int = 1):
+    """`drivetwin run --ethercat` in the `veth` namespace (`extra` arguments): (master-side
+    interface, banner lines) while the block runs; stopped by SIGTERM and checked after it."""
+    master_if = veth[2]
+    proc, log, lines = ecat_twin_start(veth, tmp_path, *extra, realtime=realtime, slaves=slaves)
     try:
-        deadline = time.monotonic() + 10
-        while time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            lines.append(line.strip())
-            if line.startswith("running"):
-                break
-        assert lines and lines[-1].startswith("running"), \
-            f"drivetwin did not start: {lines} / {(tmp_path / 'drivetwin-ecat.log').read_text()}"
-        assert any(f"EtherCAT on {twin_if}: {slaves} slave" in l for l in lines), lines
         yield master_if, lines
     finally:
         if proc.poll() is None:
