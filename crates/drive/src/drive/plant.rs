@@ -99,7 +99,51 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub fn plant_position(&self) -> i64 {
         match &self.stepper {
             Some(s) => s.position(),
-            None => self.axis.position_increments(),
+            None => match self.hall_edges() {
+                // Nanotec 2004h:07 = 1: the position counts Hall edges.
+                Some(n) => self.axis.position_increments() * 65536 / i64::from(n),
+                None => self.axis.position_increments(),
+            },
+        }
+    }
+
+    /// Hall edges per revolution when a BLDC runs on its Hall sensors alone (2004h:07 = 1).
+    fn hall_edges(&self) -> Option<u32> {
+        self.bldc
+            .filter(|_| self.motor_type == 1)
+            .map(|b| b.hall_edges_per_rev())
+    }
+
+    /// The motor type 2004h:07 the output stage runs. Decision: the manual names no moment
+    /// at which a new type applies; the twin takes it while the output stage is off (not
+    /// while a motor is being driven), so a change made in Operation Enabled applies at the
+    /// next disable. A BLDC's position resolution follows: type 1 counts Hall edges
+    /// (6 × pole pairs a turn), type 2 the quadrature encoder (the servo motor data's
+    /// increments).
+    fn take_motor_type(&mut self) {
+        let t = self.value(0x2004, 7).clamp(0, 2) as u8;
+        if t == self.motor_type {
+            return;
+        }
+        self.motor_type = t;
+        let Some(b) = self.bldc else {
+            return;
+        };
+        let increments = if t == 1 {
+            b.hall_edges_per_rev()
+        } else {
+            crate::motor::INCREMENTS_PER_REV
+        };
+        if self.axis.motor().data().increments_per_rev != increments {
+            let angle = self.axis.motor().angle();
+            let data = crate::motor::MotorData {
+                increments_per_rev: increments,
+                ..*self.axis.motor().data()
+            };
+            let params = *self.axis.params();
+            self.axis = crate::axis::Axis::new(data, params);
+            self.axis.motor_mut().set_angle(angle);
+            self.place_hard_stops();
         }
     }
 
@@ -131,10 +175,49 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// One current-controller cycle of the plant.
     pub(crate) fn plant_step(&mut self) {
         let dt = self.cycle.as_secs_f64();
-        match &mut self.stepper {
-            Some(s) => s.step(dt, self.demand),
-            None => self.axis.step(self.demand),
+        if self.demand == Demand::Off && self.personality.stepper_plant {
+            self.take_motor_type();
         }
+        let mode = self.value(0x2004, 0x0C) as u32;
+        let edges = self.hall_edges();
+        match (&mut self.stepper, self.bldc) {
+            // Decision: BLDC selected with a stepper connected ("can destroy the stepper",
+            // §6): the twin's stepper refuses to run — no current, the shaft stays put; the
+            // manual names no error for it, so none is raised.
+            (Some(s), _) if self.motor_type != 0 => s.step(dt, Demand::Off),
+            (Some(s), _) => s.step(dt, self.demand),
+            // A BLDC with type 0: the stepper's micro-stepping does not turn it.
+            (None, Some(_)) if self.motor_type == 0 => {
+                self.axis.motor_mut().set_torque_factor(0.0);
+                self.axis.step(Demand::Off);
+            }
+            (None, Some(b)) => {
+                let factor = b.torque_factor(mode, self.axis.motor().angle());
+                self.axis.motor_mut().set_torque_factor(factor);
+                let demand = match (self.demand, edges) {
+                    (
+                        Demand::Position {
+                            increments,
+                            velocity_ff_rpm,
+                        },
+                        Some(n),
+                    ) => Demand::Position {
+                        increments: crate::rounding::round(
+                            increments as f64 * f64::from(n) / INC_PER_REV,
+                        ) as i64,
+                        velocity_ff_rpm,
+                    },
+                    (d, _) => d,
+                };
+                self.axis.step(demand);
+            }
+            (None, None) => self.axis.step(self.demand),
+        }
+    }
+
+    /// The BLDC connected to a stepper personality, if any.
+    pub fn bldc(&self) -> Option<&crate::bldc::BldcData> {
+        self.bldc.as_ref()
     }
 
     /// The stepper's control structure from 2001h / 2011h (see the module doc), 200Ah.
