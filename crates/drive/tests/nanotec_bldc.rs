@@ -8,6 +8,7 @@ use drive::bldc::{self, BldcData, DB42_HALL_SEQUENCE, DB57_HALL_SEQUENCE};
 use drive::drive::DriveSettings;
 use drive::personality::nanotec_units::{hall_mode, HALL_TYPE_1, HALL_TYPE_2};
 use nanotec_rig::Rig;
+use od::ObjectAccess;
 
 /// A Nanotec with the default (DB57-like) BLDC connected and 2004h:07 = `motor_type`.
 fn bldc_rig(motor_type: i8, data: BldcData) -> Rig {
@@ -155,4 +156,51 @@ fn bldc_type_with_a_stepper_connected_does_not_turn_it() {
         "at {}",
         r.d.plant_position()
     );
+}
+
+/// Velocity mode (6060h = 2, 6042h in user units, 604Ch = 60/2000): 2000 → 60 min⁻¹ with
+/// the BLDC too.
+#[test]
+fn vl_runs_the_bldc_at_its_speed() {
+    let mut r = bldc_rig(2, BldcData::default());
+    r.enable();
+    r.w8(0x6060, 0, 2);
+    r.run_ms(5);
+    r.d.write(0x6042, 0, &2000i16.to_le_bytes()).unwrap();
+    r.run_ms(2000);
+    let before = r.d.plant_position();
+    r.run_ms(1000);
+    let rpm = (r.d.plant_position() - before) as f64 / 65536.0 * 60.0;
+    assert!((rpm - 60.0).abs() < 1.0, "{rpm} min⁻¹");
+}
+
+/// Torque mode: a BLDC is closed loop (200Ah = 1), 6071h accelerates it to the 607Fh limit.
+#[test]
+fn torque_mode_runs_the_bldc_to_its_speed_limit() {
+    let mut r = bldc_rig(2, BldcData::default());
+    assert_eq!(r.i(0x200A, 0), 1, "closed loop");
+    r.enable();
+    r.w8(0x6060, 0, 4);
+    r.run_ms(5);
+    assert_eq!(r.i(0x6061, 0), 4);
+    r.d.write(0x2004, 1, &[100]).unwrap();
+    r.w32(0x607F, 0, 300);
+    r.d.write(0x6071, 0, &500i16.to_le_bytes()).unwrap();
+    r.run_ms(2000);
+    let rpm = r.d.plant_velocity_rpm();
+    assert!(rpm > 250.0 && rpm < 310.0, "{rpm} min⁻¹");
+}
+
+/// A new 2004h:07 applies once the output stage is off: written in Operation Enabled it
+/// waits for the next disable.
+#[test]
+fn the_motor_type_applies_with_the_output_stage_off() {
+    let mut r = bldc_rig(2, BldcData::default());
+    r.enable();
+    r.w8(0x2004, 7, 0);
+    r.run_ms(10);
+    assert_eq!(r.i(0x200A, 0), 1, "still the BLDC");
+    r.cw(0x0006);
+    r.run_ms(10);
+    assert_eq!(r.i(0x200A, 0), 0, "type 0 taken");
 }

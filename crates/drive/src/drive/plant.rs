@@ -222,6 +222,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The stepper's control structure from 2001h / 2011h (see the module doc), 200Ah.
     pub(crate) fn stepper_mode(&mut self) {
+        if self.bldc.is_some() {
+            // Decision: a BLDC runs commutated from its Hall sensors, its current, speed and
+            // position controlled: closed loop (200Ah = 1) whenever 2004h:07 selects it.
+            self.store(self.param(0x200A, 0), i64::from(self.motor_type != 0));
+            return;
+        }
         if self.stepper.is_none() {
             return;
         }
