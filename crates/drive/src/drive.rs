@@ -124,12 +124,14 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
 /// by binary search, which the compiler folds to a constant for the literal keys of the
 /// call sites.
-const PARAMS: [(u16, u8); 77] = [
+const PARAMS: [(u16, u8); 79] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 7),
     (0x2004, 8),
     (0x2004, 0x0C),
+    (0x2004, 0x0D),
+    (0x2004, 0x0E),
     (0x2005, 1),
     (0x2006, 0),
     (0x2007, 1),

@@ -100,7 +100,7 @@ fn hall_only_position_resolution() {
     let mut r = bldc_rig(1, BldcData::default());
     move_to(&mut r, 3000);
     let mut seen = std::collections::BTreeSet::new();
-    for _ in 0..400 {
+    for _ in 0..800 {
         r.run_ms(5);
         seen.insert(r.d.plant_position());
     }
@@ -225,4 +225,36 @@ fn homing_to_the_index_mark_with_the_bldc() {
         }
     }
     assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
+}
+
+/// The largest |current| (A) during a 3000-unit PP move.
+fn peak_current_of_a_move(r: &mut Rig) -> f64 {
+    r.w32(0x6081, 0, 100_000);
+    r.w32(0x6083, 0, 20_000_000);
+    r.w32(0x6084, 0, 20_000_000);
+    move_to(r, 3000);
+    let mut peak: f64 = 0.0;
+    for _ in 0..500 {
+        r.run_ms(1);
+        peak = peak.max(r.d.axis().motor().current().abs());
+    }
+    peak
+}
+
+/// 2004h:01 (20 % of the motor's 1.3 A by default) limits the BLDC's current; 2004h:0D above
+/// it (here 60 %) lets it reach the peak for a while (2004h:0E = 500 ms).
+#[test]
+fn drive_current_and_peak_current_limit_the_bldc() {
+    let rated = DriveSettings::default().motor.rated_current;
+    let mut r = bldc_rig(2, BldcData::default());
+    let plain = peak_current_of_a_move(&mut r);
+    assert!(plain <= 0.2 * rated * 1.05, "{plain} A");
+    assert!(plain >= 0.2 * rated * 0.8, "{plain} A");
+    let mut r = bldc_rig(2, BldcData::default());
+    r.w32(0x2004, 0x0D, 60);
+    r.w32(0x2004, 0x0E, 500);
+    r.run_ms(2);
+    let peak = peak_current_of_a_move(&mut r);
+    assert!(peak > 0.4 * rated, "{peak} A");
+    assert!(peak <= 0.6 * rated * 1.05, "{peak} A");
 }

@@ -122,6 +122,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// increments).
     fn take_motor_type(&mut self) {
         let t = self.value(0x2004, 7).clamp(0, 2) as u8;
+        self.bldc_currents();
         if t == self.motor_type {
             return;
         }
@@ -212,6 +213,32 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.axis.step(demand);
             }
             (None, None) => self.axis.step(self.demand),
+        }
+    }
+
+    /// The BLDC's current limits, taken with the output stage off: 2004h:01 % of the motor's
+    /// rated current continuously; 2004h:0D, when above 2004h:01, for a while of 2004h:0E
+    /// (the axis's I²t). Decisions: the manual gives no unit for 0Dh / 0Eh; 0Dh is read in %
+    /// like sub 1, 0Eh in ms (the I²t time); with 0Dh ≤ sub 1 (default 0) the limit is sub 1.
+    fn bldc_currents(&mut self) {
+        if self.bldc.is_none() {
+            return;
+        }
+        let rated = self.axis.motor().data().rated_current * 1000.0;
+        let percent = self.value(0x2004, 1).clamp(1, 100) as f64;
+        let peak = self.value(0x2004, 0x0D).clamp(0, 1000) as f64;
+        let time = self.value(0x2004, 0x0E).clamp(0, i64::from(u16::MAX)) as u16;
+        let mut params = *self.axis.params();
+        params.motor_rated_current_ma = (rated * percent / 100.0).max(1.0) as u32;
+        let (permille, time) = if peak > percent {
+            ((peak / percent * 1000.0) as u16, time.max(1))
+        } else {
+            (1000, params.iit_time_motor_ms)
+        };
+        params.max_current_permille = permille;
+        params.iit_time_motor_ms = time;
+        if params != *self.axis.params() {
+            self.axis.set_params(params);
         }
     }
 
