@@ -75,6 +75,9 @@ pub struct DriveSettings {
     /// The hybrid stepper motor of a stepper personality (Nanotec); `None`: the
     /// personality's plant with its defaults (the servo motor for the CMMP-AS).
     pub stepper: Option<crate::stepper::StepperData>,
+    /// A brushless motor with Hall sensors is connected to the stepper personality (Nanotec
+    /// 2004h:07 = 1 / 2 drives it; `crate::bldc`); `None`: the stepper.
+    pub bldc: Option<crate::bldc::BldcData>,
     /// The longest distance one homing search step may travel, increments (0: no limit);
     /// beyond it homing ends with 11-6 "end of search distance". Default 128 revolutions,
     /// more than the default travel.
@@ -91,6 +94,7 @@ impl Default for DriveSettings {
             ethercat: false,
             travel: TravelSettings::default(),
             stepper: None,
+            bldc: None,
             homing_max_distance: 128 * 65536,
         }
     }
@@ -120,10 +124,14 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub): [`param_slot`] finds a key
 /// by binary search, which the compiler folds to a constant for the literal keys of the
 /// call sites.
-const PARAMS: [(u16, u8); 75] = [
+const PARAMS: [(u16, u8); 79] = [
     (0x2001, 0),
     (0x2004, 1),
+    (0x2004, 7),
     (0x2004, 8),
+    (0x2004, 0x0C),
+    (0x2004, 0x0D),
+    (0x2004, 0x0E),
     (0x2005, 1),
     (0x2006, 0),
     (0x2007, 1),
@@ -261,6 +269,10 @@ pub struct Drive<S> {
     pub(crate) axis: Axis,
     /// The stepper plant of a stepper personality; the servo axis is then not stepped.
     pub(crate) stepper: Option<StepperPlant>,
+    /// The BLDC connected instead of the stepper: the servo axis, block-commutated.
+    pub(crate) bldc: Option<crate::bldc::BldcData>,
+    /// The motor type 2004h:07 the output stage runs (taken while it is off).
+    pub(crate) motor_type: u8,
     pub(crate) fg: FactorGroup,
     pub(crate) hot: Hot,
     pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
@@ -444,11 +456,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 quick_stop_option: personality.option_code(personality::QUICK_STOP_OPTION, 2),
             }),
             axis,
-            stepper: (personality.stepper_plant || settings.stepper.is_some()).then(|| {
+            stepper: ((personality.stepper_plant && settings.bldc.is_none())
+                || settings.stepper.is_some())
+            .then(|| {
                 StepperPlant::new(crate::stepper::Stepper::new(
                     settings.stepper.unwrap_or_default(),
                 ))
             }),
+            bldc: settings.bldc.filter(|_| personality.stepper_plant),
+            motor_type: 0,
             fg: FactorGroup::default(),
             hot,
             params: param_entries,

@@ -6,6 +6,7 @@
 
 pub mod axis;
 mod bit_word;
+pub mod bldc;
 pub mod control;
 pub mod controlword;
 pub mod device_control;

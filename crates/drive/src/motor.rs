@@ -126,6 +126,9 @@ pub struct Motor {
     mech_j: f64,
     /// 2π / increments per revolution.
     rad_per_inc: f64,
+    /// The share of Kt·i that turns the shaft: 1 for the servo's field-oriented control; the
+    /// block commutation of a BLDC sets it per sector (`crate::bldc`).
+    torque_factor: f64,
 }
 
 fn sign(x: f64) -> f64 {
@@ -158,6 +161,7 @@ impl Motor {
             mech_k: 0.0,
             mech_j: 0.0,
             rad_per_inc: 2.0 * PI / inc as f64,
+            torque_factor: 1.0,
         }
     }
 
@@ -226,6 +230,11 @@ impl Motor {
     /// Electromagnetic torque Kt·i, N·m.
     pub fn torque(&self) -> f64 {
         self.data.torque_constant * self.current
+    }
+
+    /// The commutation's share of Kt·i that turns the shaft (1 unless a BLDC sets it).
+    pub fn set_torque_factor(&mut self, factor: f64) {
+        self.torque_factor = factor;
     }
 
     /// Radians per encoder increment.
@@ -301,7 +310,7 @@ impl Motor {
             return;
         }
         let d = &self.data;
-        let drive = d.torque_constant * self.current - d.load_torque;
+        let drive = d.torque_constant * self.current * self.torque_factor - d.load_torque;
         let hold = d.coulomb_friction
             + if self.brake {
                 d.brake_holding_torque

@@ -99,7 +99,52 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub fn plant_position(&self) -> i64 {
         match &self.stepper {
             Some(s) => s.position(),
-            None => self.axis.position_increments(),
+            None => match self.hall_edges() {
+                // Nanotec 2004h:07 = 1: the position counts Hall edges.
+                Some(n) => self.axis.position_increments() * 65536 / i64::from(n),
+                None => self.axis.position_increments(),
+            },
+        }
+    }
+
+    /// Hall edges per revolution when a BLDC runs on its Hall sensors alone (2004h:07 = 1).
+    fn hall_edges(&self) -> Option<u32> {
+        self.bldc
+            .filter(|_| self.motor_type == 1)
+            .map(|b| b.hall_edges_per_rev())
+    }
+
+    /// The motor type 2004h:07 the output stage runs. Decision: the manual names no moment
+    /// at which a new type applies; the twin takes it while the output stage is off (not
+    /// while a motor is being driven), so a change made in Operation Enabled applies at the
+    /// next disable. A BLDC's position resolution follows: type 1 counts Hall edges
+    /// (6 × pole pairs a turn), type 2 the quadrature encoder (the servo motor data's
+    /// increments).
+    fn take_motor_type(&mut self) {
+        let t = self.value(0x2004, 7).clamp(0, 2) as u8;
+        self.bldc_currents();
+        if t == self.motor_type {
+            return;
+        }
+        self.motor_type = t;
+        let Some(b) = self.bldc else {
+            return;
+        };
+        let increments = if t == 1 {
+            b.hall_edges_per_rev()
+        } else {
+            crate::motor::INCREMENTS_PER_REV
+        };
+        if self.axis.motor().data().increments_per_rev != increments {
+            let angle = self.axis.motor().angle();
+            let data = crate::motor::MotorData {
+                increments_per_rev: increments,
+                ..*self.axis.motor().data()
+            };
+            let params = *self.axis.params();
+            self.axis = crate::axis::Axis::new(data, params);
+            self.axis.motor_mut().set_angle(angle);
+            self.place_hard_stops();
         }
     }
 
@@ -131,14 +176,85 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// One current-controller cycle of the plant.
     pub(crate) fn plant_step(&mut self) {
         let dt = self.cycle.as_secs_f64();
-        match &mut self.stepper {
-            Some(s) => s.step(dt, self.demand),
-            None => self.axis.step(self.demand),
+        if self.demand == Demand::Off && self.personality.stepper_plant {
+            self.take_motor_type();
         }
+        let mode = self.value(0x2004, 0x0C) as u32;
+        let edges = self.hall_edges();
+        match (&mut self.stepper, self.bldc) {
+            // Decision: BLDC selected with a stepper connected ("can destroy the stepper",
+            // §6): the twin's stepper refuses to run — no current, the shaft stays put; the
+            // manual names no error for it, so none is raised.
+            (Some(s), _) if self.motor_type != 0 => s.step(dt, Demand::Off),
+            (Some(s), _) => s.step(dt, self.demand),
+            // A BLDC with type 0: the stepper's micro-stepping does not turn it.
+            (None, Some(_)) if self.motor_type == 0 => {
+                self.axis.motor_mut().set_torque_factor(0.0);
+                self.axis.step(Demand::Off);
+            }
+            (None, Some(b)) => {
+                let factor = b.torque_factor(mode, self.axis.motor().angle());
+                self.axis.motor_mut().set_torque_factor(factor);
+                let demand = match (self.demand, edges) {
+                    (
+                        Demand::Position {
+                            increments,
+                            velocity_ff_rpm,
+                        },
+                        Some(n),
+                    ) => Demand::Position {
+                        increments: crate::rounding::round(
+                            increments as f64 * f64::from(n) / INC_PER_REV,
+                        ) as i64,
+                        velocity_ff_rpm,
+                    },
+                    (d, _) => d,
+                };
+                self.axis.step(demand);
+            }
+            (None, None) => self.axis.step(self.demand),
+        }
+    }
+
+    /// The BLDC's current limits, taken with the output stage off: 2004h:01 % of the motor's
+    /// rated current continuously; 2004h:0D, when above 2004h:01, for a while of 2004h:0E
+    /// (the axis's I²t). Decisions: the manual gives no unit for 0Dh / 0Eh; 0Dh is read in %
+    /// like sub 1, 0Eh in ms (the I²t time); with 0Dh ≤ sub 1 (default 0) the limit is sub 1.
+    fn bldc_currents(&mut self) {
+        if self.bldc.is_none() {
+            return;
+        }
+        let rated = self.axis.motor().data().rated_current * 1000.0;
+        let percent = self.value(0x2004, 1).clamp(1, 100) as f64;
+        let peak = self.value(0x2004, 0x0D).clamp(0, 1000) as f64;
+        let time = self.value(0x2004, 0x0E).clamp(0, i64::from(u16::MAX)) as u16;
+        let mut params = *self.axis.params();
+        params.motor_rated_current_ma = (rated * percent / 100.0).max(1.0) as u32;
+        let (permille, time) = if peak > percent {
+            ((peak / percent * 1000.0) as u16, time.max(1))
+        } else {
+            (1000, params.iit_time_motor_ms)
+        };
+        params.max_current_permille = permille;
+        params.iit_time_motor_ms = time;
+        if params != *self.axis.params() {
+            self.axis.set_params(params);
+        }
+    }
+
+    /// The BLDC connected to a stepper personality, if any.
+    pub fn bldc(&self) -> Option<&crate::bldc::BldcData> {
+        self.bldc.as_ref()
     }
 
     /// The stepper's control structure from 2001h / 2011h (see the module doc), 200Ah.
     pub(crate) fn stepper_mode(&mut self) {
+        if self.bldc.is_some() {
+            // Decision: a BLDC runs commutated from its Hall sensors, its current, speed and
+            // position controlled: closed loop (200Ah = 1) whenever 2004h:07 selects it.
+            self.store(self.param(0x200A, 0), i64::from(self.motor_type != 0));
+            return;
+        }
         if self.stepper.is_none() {
             return;
         }

@@ -387,9 +387,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.target_reached = stands && (self.target_reached || (rpm.abs() < 1.0 && settled));
             return;
         }
-        let rated_ma = self
+        // A BLDC (2004h:07 = 1 / 2) is the servo axis's motor.
+        let rated = self
             .stepper()
-            .map_or(0, |s| (s.data().rated_current * 1000.0) as u32);
+            .map_or(self.axis.motor().data().rated_current, |s| {
+                s.data().rated_current
+            });
+        let rated_ma = (rated * 1000.0) as u32;
         let percent = self.value(0x2004, 1).clamp(0, 100) as u8;
         let target = self.value(0x6071, 0).clamp(-1000, 1000) as i16;
         let current_a = torque_current_ma(target, percent, rated_ma) / 1000.0;
