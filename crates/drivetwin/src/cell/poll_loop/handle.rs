@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use super::{CellLoop, EthercatChain, Subscription};
+use super::{CellLoop, EthercatChain, SampleSink, Subscription};
 use crate::cell::control::{
     BusInfo, Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
@@ -113,7 +113,8 @@ impl CellLoop {
                             drive,
                             every: every.max(Duration::from_micros(100)),
                             next: now,
-                            samples,
+                            objects: Vec::new(),
+                            sink: SampleSink::Plant(samples),
                         });
                     });
                     let _ = reply.send(done);
@@ -147,12 +148,12 @@ impl CellLoop {
                     reply,
                 } => {
                     let done = self.sample(drive, now).map(|_| {
-                        self.object_subscriptions.push(ObjectSubscription {
+                        self.subscriptions.push(Subscription {
                             drive,
                             every: every.max(Duration::from_micros(100)),
                             next: now,
                             objects,
-                            samples,
+                            sink: SampleSink::Objects(samples),
                         });
                     });
                     let _ = reply.send(done);
@@ -219,8 +220,10 @@ impl CellLoop {
     }
 
     /// Samples due to subscribers; a subscriber gone is forgotten, a full one loses the sample.
+    /// Named objects are read into the sample's own fixed array: no allocation.
     pub(super) fn samples(&mut self, now: Instant) {
-        self.object_samples(now);
+        use crate::cell::control::{ObjectsSample, SampledValue, MAX_SAMPLED_OBJECTS};
+        use std::sync::mpsc::TrySendError;
         let mut i = 0;
         while i < self.subscriptions.len() {
             let Some(sub) = self.subscriptions.get(i) else {
@@ -231,17 +234,35 @@ impl CellLoop {
                 continue;
             }
             let drive = sub.drive;
-            let sample = self.sample(drive, now);
+            let mut wanted = [(0u16, 0u8); MAX_SAMPLED_OBJECTS];
+            let n = sub.objects.len().min(MAX_SAMPLED_OBJECTS);
+            for (w, o) in wanted.iter_mut().zip(sub.objects.iter()) {
+                *w = *o;
+            }
+            let plant = self.sample(drive, now);
+            let mut values = [SampledValue::default(); MAX_SAMPLED_OBJECTS];
+            if plant.is_ok() {
+                for (v, (index, sub)) in values.iter_mut().zip(wanted.iter()).take(n) {
+                    let mut buf = [0u8; 8];
+                    if let Ok(len) = self.read_into(drive, *index, *sub, &mut buf) {
+                        v.len = u8::try_from(len).unwrap_or(0);
+                        v.bytes = buf;
+                    }
+                }
+            }
             let Some(sub) = self.subscriptions.get_mut(i) else {
                 break;
             };
             sub.next = next_due(sub.next, sub.every, now);
-            let gone = match sample {
-                Ok(s) => matches!(
-                    sub.samples.try_send(s),
-                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
+            let gone = match (plant, &sub.sink) {
+                (Ok(p), SampleSink::Plant(tx)) => {
+                    matches!(tx.try_send(p), Err(TrySendError::Disconnected(_)))
+                }
+                (Ok(plant), SampleSink::Objects(tx)) => matches!(
+                    tx.try_send(ObjectsSample { plant, values }),
+                    Err(TrySendError::Disconnected(_))
                 ),
-                Err(_) => true,
+                (Err(_), _) => true,
             };
             if gone {
                 self.subscriptions.swap_remove(i);
@@ -411,65 +432,7 @@ impl CellLoop {
     }
 }
 
-/// A subscriber to a drive's plant and named objects ([`Command::SubscribeObjects`]).
-pub(super) struct ObjectSubscription {
-    drive: usize,
-    every: Duration,
-    pub(super) next: Instant,
-    objects: Vec<(u16, u8)>,
-    samples: std::sync::mpsc::SyncSender<crate::cell::control::ObjectsSample>,
-}
-
 impl CellLoop {
-    /// Object samples due; as [`Self::samples`], without allocating: each value is read into
-    /// the sample's own fixed array.
-    fn object_samples(&mut self, now: Instant) {
-        use crate::cell::control::{ObjectsSample, SampledValue, MAX_SAMPLED_OBJECTS};
-        let mut i = 0;
-        while i < self.object_subscriptions.len() {
-            let Some(sub) = self.object_subscriptions.get(i) else {
-                break;
-            };
-            if sub.next > now {
-                i += 1;
-                continue;
-            }
-            let drive = sub.drive;
-            let mut wanted = [(0u16, 0u8); MAX_SAMPLED_OBJECTS];
-            let n = sub.objects.len().min(MAX_SAMPLED_OBJECTS);
-            for (w, o) in wanted.iter_mut().zip(sub.objects.iter()) {
-                *w = *o;
-            }
-            let sample = self.sample(drive, now).map(|plant| {
-                let mut values = [SampledValue::default(); MAX_SAMPLED_OBJECTS];
-                for (v, (index, sub)) in values.iter_mut().zip(wanted.iter()).take(n) {
-                    let mut buf = [0u8; 8];
-                    if let Ok(len) = self.read_into(drive, *index, *sub, &mut buf) {
-                        v.len = u8::try_from(len).unwrap_or(0);
-                        v.bytes = buf;
-                    }
-                }
-                ObjectsSample { plant, values }
-            });
-            let Some(sub) = self.object_subscriptions.get_mut(i) else {
-                break;
-            };
-            sub.next = next_due(sub.next, sub.every, now);
-            let gone = match sample {
-                Ok(s) => matches!(
-                    sub.samples.try_send(s),
-                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
-                ),
-                Err(_) => true,
-            };
-            if gone {
-                self.object_subscriptions.swap_remove(i);
-            } else {
-                i += 1;
-            }
-        }
-    }
-
     /// An object's value into `buf` (an object longer than `buf` is an error).
     fn read_into(
         &mut self,

@@ -225,15 +225,23 @@ pub struct CellLoop {
     )>,
     /// Receivers of every frame of a bus ([`crate::cell::wire_faults::WireRequest::Tap`]).
     taps: Vec<(usize, std::sync::mpsc::SyncSender<(Duration, CanFrame)>)>,
-    object_subscriptions: Vec<handle::ObjectSubscription>,
 }
 
-/// A subscriber to a drive's plant samples.
+/// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
 struct Subscription {
     drive: usize,
     every: Duration,
     next: Instant,
-    samples: std::sync::mpsc::SyncSender<PlantSample>,
+    /// Read with each sample (at most [`crate::cell::control::MAX_SAMPLED_OBJECTS`]); only
+    /// for a [`SampleSink::Objects`].
+    objects: Vec<(u16, u8)>,
+    sink: SampleSink,
+}
+
+/// Where a subscription's samples go.
+enum SampleSink {
+    Plant(std::sync::mpsc::SyncSender<PlantSample>),
+    Objects(std::sync::mpsc::SyncSender<crate::cell::control::ObjectsSample>),
 }
 
 enum Listener {
@@ -399,7 +407,6 @@ impl CellLoop {
             subscriptions: Vec::new(),
             front_faults: Vec::new(),
             taps: Vec::new(),
-            object_subscriptions: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -615,9 +622,6 @@ impl CellLoop {
             take(c.chain.deadline().map(|d| self.wall(d)));
         }
         for s in &self.subscriptions {
-            take(Some(s.next));
-        }
-        for s in &self.object_subscriptions {
             take(Some(s.next));
         }
         for l in &self.serial {
