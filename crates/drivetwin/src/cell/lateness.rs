@@ -44,11 +44,8 @@ impl Lateness {
     }
 
     pub fn figures(&self) -> LatenessFigures {
-        let counts: Vec<u64> = self
-            .buckets
-            .iter()
-            .map(|b| b.load(Ordering::Relaxed))
-            .collect();
+        let counts: [u64; BUCKETS] =
+            core::array::from_fn(|i| self.buckets.get(i).map_or(0, |b| b.load(Ordering::Relaxed)));
         let served: u64 = counts.iter().sum();
         let quantile = |q: f64| {
             let rank = (served as f64 * q).ceil() as u64;
