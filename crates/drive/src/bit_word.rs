@@ -2,22 +2,16 @@
 //! control bytes (`fhpp/control_bytes.rs`): callers write `cw.contains(Controlword::HALT)`,
 //! never `cw & 0x0100`.
 
-/// Declares a `u16` newtype with named bit constants and set operations.
-macro_rules! bit_word {
-    (
-        $(#[$meta:meta])*
-        $name:ident { $( $(#[$bmeta:meta])* $bit:ident = $value:expr; )* }
-    ) => {
-        $(#[$meta])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-        pub struct $name(pub u16);
-
+/// The set operations every named-bit newtype has, over its integer type: `bits`,
+/// `contains`, `intersects`, `with`, `when`, `union`, `difference`, `|`, `|=`, `&`.
+/// Shared by [`bit_word!`] and the FHPP control and status bytes (`fhpp::bit_byte!`).
+macro_rules! bit_set_ops {
+    ($name:ident, $int:ty) => {
         impl $name {
-            $( $(#[$bmeta])* pub const $bit: $name = $name($value); )*
             /// No bit set.
             pub const EMPTY: $name = $name(0);
 
-            pub const fn bits(self) -> u16 {
+            pub const fn bits(self) -> $int {
                 self.0
             }
             /// Whether every bit of `other` is set.
@@ -75,4 +69,23 @@ macro_rules! bit_word {
     };
 }
 
+/// Declares a `u16` newtype with named bit constants and set operations.
+macro_rules! bit_word {
+    (
+        $(#[$meta:meta])*
+        $name:ident { $( $(#[$bmeta:meta])* $bit:ident = $value:expr; )* }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+        pub struct $name(pub u16);
+
+        impl $name {
+            $( $(#[$bmeta])* pub const $bit: $name = $name($value); )*
+        }
+
+        $crate::bit_word::bit_set_ops!($name, u16);
+    };
+}
+
+pub(crate) use bit_set_ops;
 pub(crate) use bit_word;

@@ -86,58 +86,11 @@ macro_rules! bit_byte {
 
         impl $name {
             $( $(#[$bmeta])* pub const $bit: $name = $name($value); )*
-            /// No bit set.
-            pub const EMPTY: $name = $name(0);
             /// Every named bit, with the name the manual prints, B0 first.
             pub const NAMES: &'static [($name, &'static str)] = &[$( ($name($value), $text), )*];
-
-            pub const fn bits(self) -> u8 {
-                self.0
-            }
-            /// Whether every bit of `other` is set.
-            pub const fn contains(self, other: $name) -> bool {
-                self.0 & other.0 == other.0
-            }
-            /// Whether any bit of `other` is set.
-            pub const fn intersects(self, other: $name) -> bool {
-                self.0 & other.0 != 0
-            }
-            /// `self` with the bits of `other` set (`on`) or cleared.
-            #[must_use]
-            pub const fn with(self, other: $name, on: bool) -> $name {
-                if on {
-                    $name(self.0 | other.0)
-                } else {
-                    $name(self.0 & !other.0)
-                }
-            }
-            pub const fn union(self, other: $name) -> $name {
-                $name(self.0 | other.0)
-            }
-            pub const fn difference(self, other: $name) -> $name {
-                $name(self.0 & !other.0)
-            }
         }
 
-        impl core::ops::BitOr for $name {
-            type Output = $name;
-            fn bitor(self, rhs: $name) -> $name {
-                $name(self.0 | rhs.0)
-            }
-        }
-
-        impl core::ops::BitOrAssign for $name {
-            fn bitor_assign(&mut self, rhs: $name) {
-                self.0 |= rhs.0;
-            }
-        }
-
-        impl core::ops::BitAnd for $name {
-            type Output = $name;
-            fn bitand(self, rhs: $name) -> $name {
-                $name(self.0 & rhs.0)
-            }
-        }
+        $crate::bit_word::bit_set_ops!($name, u8);
 
         /// The names of the set bits joined by `|` (B7 first), then the byte as `0001.0011`.
         impl core::fmt::Display for $name {
