@@ -58,6 +58,8 @@ pub(crate) struct KincoState {
     pub(crate) warnings: u16,
     /// The LED panel (kinco_panel.rs).
     pub(crate) panel: super::kinco_panel::Panel,
+    /// The position limits after homing (kinco_limits.rs).
+    pub(crate) limits: super::kinco_limits::LimitState,
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).

@@ -126,11 +126,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         )
     }
 
+    /// The directions blocked now (negative, positive): a limit switch or a position limit
+    /// after homing (kinco_limits.rs).
     pub(crate) fn kinco_limits_active(&self) -> (bool, bool) {
         let internal = self.din_now();
+        let (below, above) = self.kinco_position_limits_blocking();
         (
-            self.din_level(internal, DinFunction::NegativeLimit) == Some(false),
-            self.din_level(internal, DinFunction::PositiveLimit) == Some(false),
+            self.din_level(internal, DinFunction::NegativeLimit) == Some(false) || below,
+            self.din_level(internal, DinFunction::PositiveLimit) == Some(false) || above,
         )
     }
 
@@ -256,6 +259,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             );
         }
         self.kinco_capture(before, now, position);
+        self.kinco_position_limits_cycle();
     }
 
     /// Gain switching (§5.5.4), in the manual's order: the Gain Switch inputs (PI_Pointer =

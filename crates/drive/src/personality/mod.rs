@@ -13,6 +13,7 @@ pub mod kinco;
 pub(crate) mod kinco_analog;
 pub(crate) mod kinco_drive;
 pub(crate) mod kinco_io;
+pub mod kinco_limits;
 pub mod kinco_panel;
 pub(crate) mod kinco_pulse;
 pub mod kinco_table;
