@@ -164,6 +164,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             } else {
                 d.velocity_control_time_us
             },
+            // The analog max torque (kinco_analog.rs) in the velocity and position loops.
+            limit_current_ma: self.kinco.analog.max_current_ma,
             ..d
         }
     }
@@ -488,10 +490,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.halted {
             percent = 0.0;
         }
-        let current_a = self
+        let mut current_a = self
             .axis
             .params()
             .current_for_torque_permille(percent.clamp(-300.0, 300.0) * 10.0);
+        if let Some(max) = self.kinco_analog_max_current_a() {
+            // The analog max torque (§6.3, kinco_analog.rs).
+            current_a = current_a.clamp(-max, max);
+        }
         let max_dec = self.value(0x607F, 0).clamp(0, u32::MAX as i64) as u32;
         let limit = if max_dec == 0 {
             self.value(0x6080, 0).max(0) as f64
