@@ -1243,6 +1243,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 mode::HOMING => self.homing(cw, dt),
                 _ => self.hold(dt),
             }
+            self.kinco_velocity_feed_forward();
             return;
         }
         match self.mode {

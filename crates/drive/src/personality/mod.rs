@@ -14,6 +14,7 @@ pub(crate) mod kinco_analog;
 pub(crate) mod kinco_drive;
 pub(crate) mod kinco_io;
 pub mod kinco_limits;
+pub mod kinco_loops;
 pub mod kinco_panel;
 pub(crate) mod kinco_pulse;
 pub mod kinco_table;
