@@ -159,6 +159,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 Self::kinco_write_gain
             }
             (0x2FF0, 0x0A) => Self::kinco_write_velocity_bw,
+            (0x2FF0, 0x01 | 0x03) => Self::kinco_write_store,
+            (0x3041, 0x03) => Self::kinco_write_easy_settings,
             (0x3040, 0x08 | 0x0B) => Self::kinco_write_stiffness,
             _ => return None,
         })

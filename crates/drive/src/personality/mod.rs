@@ -12,6 +12,7 @@ pub mod cmmp_as;
 pub mod kinco;
 pub(crate) mod kinco_analog;
 pub(crate) mod kinco_drive;
+pub mod kinco_easy;
 pub(crate) mod kinco_io;
 pub mod kinco_limits;
 pub mod kinco_loops;
