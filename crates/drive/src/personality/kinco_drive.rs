@@ -186,10 +186,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// 6060h: owned by the Operation Mode Sel DIN as 6040h is by Enable (L1287).
     fn kinco_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if self.kinco_din_configured(DinFunction::OperationModeSel) {
-            return Err(AbortCode::LOCAL_CONTROL);
-        }
-        self.write_mode(index, sub, data)
+        self.write_mode_unless(index, sub, data, |d, _| {
+            d.kinco_din_configured(DinFunction::OperationModeSel)
+                .then_some(AbortCode::LOCAL_CONTROL)
+        })
     }
 
     /// PI_Pointer 60F9h:28: owned by the Gain Switch inputs where one is configured (L1287);
