@@ -79,3 +79,34 @@ def test_panel_keys_over_http_change_jog_rpm_and_jog_the_motor(launch, node_of):
     key("up", "release")
     wait_until(lambda: node.sdo[0x6041].raw & 0x6F != 0x27, 3.0, what="disabled on release")
     wait_until(lambda: abs(node.sdo[0x2FF0][0x14].raw) <= 1, 3.0, what="stopped")
+
+
+def test_panel_ea00_3_reboots_the_drive(launch, node_of):
+    """EASY EA00 = 3 (§4.3.1 Tab. 4-2: "reboot the servo drive") over the HTTP panel: the twin
+    restarts the drive as after NMT reset node — its boot-up message on CAN, and a value set
+    over CANopen and never stored (Jog_RPM 2FF0h:23) back at its default 30."""
+    twin = launch("kinco-fd3", 1, extra=("--http", "127.0.0.1:0"))
+    base = console_url(twin) + "api/drives/0/panel"
+    node = node_of(twin)
+    node.sdo[0x2FF0][0x23].raw = 77
+    assert node.sdo[0x2FF0][0x23].raw == 77
+
+    def key(k: str) -> str:
+        return request(base + "/keys", {"key": k, "action": "click"})["text"]
+
+    for _ in range(8):
+        text = key("mode")
+    assert text.strip() == "EASY"
+    text = key("set")
+    for _ in range(12):
+        if text.strip() == "EA00":
+            break
+        text = key("up")
+    assert text.strip() == "EA00"
+    assert key("set") == "    0"
+    for _ in range(3):
+        text = key("up")
+    assert text == "    3"
+    key("set")
+    node.nmt.wait_for_bootup(5.0)
+    assert node.sdo[0x2FF0][0x23].raw == 30, "the power-on value after the reboot"

@@ -103,8 +103,16 @@ impl Default for DriveSettings {
 /// What the drive reports to its communication side (EMCY).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DriveEvent {
-    Error { code: u16, register: u8 },
-    Cleared { code: u16 },
+    Error {
+        code: u16,
+        register: u8,
+    },
+    Cleared {
+        code: u16,
+    },
+    /// The drive asks to be restarted as at power-on (Kinco EA00 / tn00 = 2 / 3): the
+    /// runtime reloads the stored set and boots the drive's nodes.
+    Reboot,
 }
 
 /// min⁻¹ per increment/s (for the personality modules).
@@ -1243,6 +1251,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 mode::HOMING => self.homing(cw, dt),
                 _ => self.hold(dt),
             }
+            self.kinco_velocity_feed_forward();
             return;
         }
         match self.mode {

@@ -6,6 +6,7 @@ mod kinco_rig;
 use drive::device_control::State;
 use drive::personality::kinco_panel::{Blink, PanelKey, DOT3, DOT4, DOT5};
 use kinco_rig::Rig;
+use od::ObjectAccess;
 
 /// A short press (down, 50 ms, up).
 fn press(r: &mut Rig, key: PanelKey) {
@@ -386,4 +387,109 @@ fn f006_jog_on_the_factory_set_up() {
     r.d.kinco_panel_key(PanelKey::Down, false);
     r.run_ms(300);
     assert_ne!(r.d.state(), State::OperationEnabled);
+}
+
+/// Browses EASY to `key`, opens it and enters `value` digit by digit from the right
+/// (▲ on each digit, MODE to the next), then SET.
+fn easy_enter(r: &mut Rig, key: &str, value: u32) {
+    browse_to(r, 8, key);
+    press(r, PanelKey::Set);
+    let mut v = value;
+    let mut shown = text(r).trim().parse::<u32>().unwrap_or(0);
+    for _ in 0..5 {
+        let (want, have) = (v % 10, shown % 10);
+        presses(r, PanelKey::Up, ((want + 10 - have) % 10) as usize);
+        press(r, PanelKey::Mode);
+        v /= 10;
+        shown /= 10;
+    }
+    press(r, PanelKey::Set);
+}
+
+/// From an EASY item (browsing or editing) back to the monitor display: a long MODE leaves
+/// the edit, then MODE to EASY, tunE and the monitor.
+fn back_to_monitor(r: &mut Rig) {
+    long_press(r, PanelKey::Mode);
+    for _ in 0..4 {
+        if text(r).trim() == "tunE" {
+            press(r, PanelKey::Mode);
+            return;
+        }
+        press(r, PanelKey::Mode);
+    }
+}
+
+/// EA00 = 2 (§4.3.1 Tab. 4-2: "save the control and motor parameters and reboot"): Store_Data
+/// and Store_Motor_Data read 1, the runtime is asked to save and then to reboot; 3 only
+/// reboots.
+#[test]
+fn ea00_2_saves_and_reboots_3_reboots() {
+    use drive::drive::DriveEvent;
+    let mut r = Rig::new();
+    r.events();
+    easy_enter(&mut r, "EA00", 2);
+    assert_eq!((r.i(0x2FF0, 0x01), r.i(0x2FF0, 0x03)), (1, 1));
+    assert_eq!(
+        r.d.od_mut().take_request(),
+        Some(od::StorageRequest::Save { sub: 1 }),
+        "the save"
+    );
+    assert!(r.events().contains(&DriveEvent::Reboot), "the reboot");
+    back_to_monitor(&mut r);
+    easy_enter(&mut r, "EA00", 3);
+    assert_eq!(r.d.od_mut().take_request(), None, "3: no save");
+    assert!(r.events().contains(&DriveEvent::Reboot));
+}
+
+/// EA06 (Tab. 4-2, default 1001: belt, P2P, limit switches, OUT5 normally open) at 3041h:03:
+/// 1102 over the panel removes the P limit± functions at once (DIN5 / DIN6 0010h / 0020h
+/// → 0) and keeps OUT5 normally open; the EA00 save then sets the loop of a ball screw
+/// (tn01 13, tn02 30: Kpp 1250 of Tab. 7-2). 0102 makes OUT5 normally closed; 1003 is
+/// refused.
+#[test]
+fn ea06_load_type_limit_switches_out5() {
+    let mut r = Rig::new();
+    browse_to(&mut r, 8, "EA06");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " 1001");
+    back_to_monitor(&mut r);
+    easy_enter(&mut r, "EA06", 1102);
+    assert_eq!(r.i(0x3041, 0x03), 1102);
+    assert_eq!(
+        (r.i(0x2010, 0x07), r.i(0x2010, 0x08)),
+        (0, 0),
+        "limit switches removed"
+    );
+    assert_ne!(r.i(0x2010, 0x0D) & 0x10, 0, "OUT5 normally open");
+    assert_eq!(r.i(0x3040, 0x08), 12, "the load type waits for the save");
+    back_to_monitor(&mut r);
+    easy_enter(&mut r, "EA00", 1);
+    assert_eq!((r.i(0x3040, 0x08), r.i(0x3040, 0x0B)), (13, 30));
+    assert_eq!(r.i(0x60FB, 0x01), 1250);
+    r.d.write(0x3041, 0x03, &102u16.to_le_bytes()).unwrap();
+    assert_eq!(r.i(0x2010, 0x0D) & 0x10, 0, "OUT5 normally closed");
+    assert_eq!(
+        r.d.write(0x3041, 0x03, &1003u16.to_le_bytes()),
+        Err(od::AbortCode::INVALID_VALUE)
+    );
+}
+
+/// EA03 / EA04 (Tab. 4-2: gear numerator / denominator, "DEC; above 9999 HEX") are
+/// Gear_Factor[0] / Gear_Divider[0]: 1000 in DEC; 12000 as 2EE0 with point 4.
+#[test]
+fn ea03_ea04_gear_in_dec_then_hex() {
+    let mut r = Rig::new();
+    browse_to(&mut r, 8, "EA03");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " 1000");
+    back_to_monitor(&mut r);
+    r.w16(0x2508, 0x01, 12000);
+    browse_to(&mut r, 8, "EA03");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r).replace('.', ""), " 2EE0");
+    assert_eq!(r.d.kinco_panel().dots & DOT4, DOT4, "HEX");
+    back_to_monitor(&mut r);
+    browse_to(&mut r, 8, "EA04");
+    press(&mut r, PanelKey::Set);
+    assert_eq!(text(&r), " 1000");
 }

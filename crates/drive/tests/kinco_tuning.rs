@@ -69,7 +69,11 @@ fn tuning_measures_the_inertia_ratio() {
         span.1 - span.0 <= 2_300,
         "within Safe_Dist 0.22 rev: {span:?}"
     );
-    assert!((r.position() - start).abs() < 50, "back where it started");
+    assert!(
+        (r.position() - start).abs() < 50,
+        "back where it started: {} from {start}",
+        r.position()
+    );
     assert_eq!(r.i(0x3040, 0x01), 1, "Tuning_Method reads 1");
     assert_eq!(r.i(0x3040, 0x09), 1);
     assert_eq!(r.i(0x3040, 0x0B), 30);

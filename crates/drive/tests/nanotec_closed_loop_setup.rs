@@ -47,7 +47,7 @@ fn short_test_run_aligns_once_and_enables_the_closed_loop() {
     assert_eq!(r.i(0x200A, 0), 1, "closed loop enabled");
     assert_eq!(r.d.stepper().unwrap().mode(), StepperMode::ClosedLoop);
     // A second run keeps the offset: it is determined only while 200Bh is 0.
-    r.w16(0x200B, 1234);
+    r.w16(0x200B, 0, 1234);
     r.cw(0x000F);
     r.cw(0x001F);
     r.run_ms(600);
@@ -62,14 +62,4 @@ fn bit_4_low_aborts_a_test_run() {
     r.cw(0x000F);
     r.run_ms(1000);
     assert_eq!(r.i(0x200B, 0), 0, "aborted: nothing found");
-}
-
-trait W16 {
-    fn w16(&mut self, index: u16, v: u16);
-}
-
-impl W16 for Rig {
-    fn w16(&mut self, index: u16, v: u16) {
-        od::ObjectAccess::write(&mut self.d, index, 0, &v.to_le_bytes()).unwrap();
-    }
 }

@@ -230,6 +230,9 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
             Output::Ethercat { chain, frame } => {
                 outputs.push((t, 10 + chain as u8, frame.to_vec()));
             }
+            Output::Serial { line, bytes } => {
+                outputs.push((t, 20 + line as u8, bytes.to_vec()));
+            }
         },
     );
     outputs

@@ -131,6 +131,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
         self.request.take()
     }
 
+    /// A save the device logic asks for through an object of its own (Kinco Store_Data
+    /// 2FF0h:01 = 1): carried out by the runtime as a write of "save" to 1010h:`sub`.
+    pub fn request_save(&mut self, sub: u8) {
+        self.request = Some(StorageRequest::Save { sub });
+    }
+
     /// The raw bytes of an entry (the current length for strings and domains).
     pub fn raw(&self, e: &Entry) -> &[u8] {
         let data = self.data.as_ref();

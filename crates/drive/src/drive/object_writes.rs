@@ -79,6 +79,29 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(())
     }
 
+    /// 6060h through a personality's rule: the entry exists and the mode is one the
+    /// personality has (else 0609 0030h) before `refusal` says whether the drive takes it now
+    /// (an input owns the mode, a brake wait runs, …); then [`Drive::write_mode`].
+    pub(crate) fn write_mode_unless(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        refusal: impl FnOnce(&Self, i8) -> Option<AbortCode>,
+    ) -> Result<(), AbortCode> {
+        self.od.entry(index, sub)?;
+        if let [b] = data {
+            let m = *b as i8;
+            if !self.personality.accepts_mode(m, self.settings.ethercat) {
+                return Err(AbortCode::INVALID_VALUE);
+            }
+            if let Some(abort) = refusal(self, m) {
+                return Err(abort);
+            }
+        }
+        self.write_mode(index, sub, data)
+    }
+
     /// 6093h / 6094h / 6097h: a factor group numerator or divisor, checked before it is stored.
     fn write_factor(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let obj = match index {

@@ -410,6 +410,23 @@ pub fn analog_speed_rpm(out: i32, factor: i32) -> i32 {
     out * factor / 100
 }
 
+/// §6.2.1, Analog_Dead_High / Analog_Dead_Low 2502h:0D / :0E: "if not 0, Analog_out above
+/// Analog_Dead_High is treated as 0", likewise below Analog_Dead_Low. `out` with the command
+/// it gives, or 0 where a window edge that is not 0 cuts it off.
+///
+/// Decision: the manual prints ">" for both edges (L1331-1332); for Dead_Low that would zero
+/// every value above it, Dead_High's rule included, so it is read as "<" (spec §9.2): the two
+/// are a window outside which the speed command is 0 (a broken wire reading full scale stops
+/// the motor). Their unit is not printed; Analog_out's 0.01 V is taken. The window applies to
+/// the speed command only: §6.3 names it for no torque command.
+pub fn analog_window(out: i32, dead_high: i32, dead_low: i32) -> i32 {
+    if (dead_high != 0 && out > dead_high) || (dead_low != 0 && out < dead_low) {
+        0
+    } else {
+        out
+    }
+}
+
 /// Notch_N 60F9h:03 → notch frequency in Hz (ch. 7, KINCO-SC-06).
 pub const fn notch_hz(n: u32) -> u32 {
     n * 10 + 100
@@ -563,6 +580,13 @@ mod tests {
         let out = analog_out(-500, 200, 100);
         assert_eq!((out, analog_speed_rpm(out, 100)), (-600, -600));
         assert_eq!(analog_out(250, 200, 100), 0, "inside the dead band");
+        // The same example with Analog_Dead_High = 1 V, Analog_Dead_Low = −5 V: +5 V gives
+        // 2 V, beyond 1 V: 0 rpm; −5 V gives −6 V, below −5 V: 0 rpm; 2.5 V + 2 V offset
+        // gives 0.5 V − dead band... inside.
+        assert_eq!(analog_window(200, 100, -500), 0);
+        assert_eq!(analog_window(-600, 100, -500), 0);
+        assert_eq!(analog_window(50, 100, -500), 50);
+        assert_eq!(analog_window(-600, 0, 0), -600, "0 = no edge");
     }
 
     /// KINCO-SC-03/04/05: the BCD selections of DIN speed (Index1 → 2), gear set (MF1 + MF2 →

@@ -1,21 +1,47 @@
 //! Kinco analog inputs AIN1 / AIN2 (§6.2.1, §6.3; spec/kinco-fd-cd.md §5.2, §5.3, §6 item 2):
-//! the voltage minus Analog_Offset, reduced by Analog_Dead toward zero (0 inside the dead
-//! band), is the speed command of modes −3 / 3 at Analog_Speed_Factor 2502h:0A rpm/V when
-//! Analog_Speed_Con 2502h:07 names the input, and the torque command of mode 4 at
-//! Voltage_Torque_Factor 2FF0h:21 mNm/V when Analog_Torque_Con 2502h:08 names it.
+//! the voltage through the input filter Analog1/2_Filter 2502h:01 / :04, minus Analog_Offset,
+//! reduced by Analog_Dead toward zero (0 inside the dead band), is Analog1/2_out 2502h:0F /
+//! :10. That is
+//! - the speed command of modes −3 / 3 at Analog_Speed_Factor 2502h:0A rpm/V when
+//!   Analog_Speed_Con 2502h:07 names the input, 0 outside the window Analog_Dead_Low …
+//!   Analog_Dead_High 2502h:0E / :0D ([`analog_window`]);
+//! - the torque command of mode 4 at Voltage_Torque_Factor 2FF0h:21 mNm/V when
+//!   Analog_Torque_Con 2502h:08 names it;
+//! - the maximum torque at Voltage_MaxT_Factor 2FF0h:22 mNm/V when Analog_MaxT_Con 2502h:09
+//!   names it ("Max torque [Nm] = Analog_out [V] × Analog_MaxT_Factor [Nm/V]", L1343).
 //!
 //! The twin has no analog connector: the voltages are simulated ([`Drive::set_analog_input`])
 //! and show in AN_V1 / AN_V2 2FF0h:16 / :17, the processed values in Analog1_out /
-//! Analog2_out 2502h:0F / :10 (0.01 V). Decision: Analog_Dead_High / Low and the input
-//! filters 2502h:01 / :04 are not simulated (an ideal, noiseless source).
+//! Analog2_out (0.01 V).
+//!
+//! Decisions: the filter is a first-order low pass whose time constant is Analog_Filter in ms
+//! (the manual: "AIN1 filter (unit: ms)", no order given), stepped every logic cycle from the
+//! voltage at power-on; the maximum torque limits the current set-point in every mode
+//! (in mode 4 the torque command, in the others the velocity controller's output), by its
+//! magnitude (a limit has no sign), through the motor's torque constant 6410h:0F; with
+//! Analog_MaxT_Con = 0 the limit is the drive's own.
 
-use super::kinco::{analog_out, analog_speed_rpm};
+use super::kinco::{analog_out, analog_speed_rpm, analog_window};
 use crate::drive::Drive;
 
-/// The simulated voltages of AIN1 and AIN2, 0.01 V.
+/// The simulated voltages of AIN1 and AIN2, 0.01 V, and the filter's state.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct AnalogInputs {
     pub(crate) centivolts: [i32; 2],
+    /// The filtered voltages, 0.01 V; `None` until the first logic cycle.
+    pub(crate) filtered: [Option<f64>; 2],
+    /// The maximum current the analog max torque sets, mA (`None`: no analog limit), as the
+    /// controller has it.
+    pub(crate) max_current_ma: Option<u32>,
+}
+
+/// Analog_MaxT_Con 2502h:09 (and the speed / torque selectors): 1 = AIN1, 2 = AIN2.
+fn input_of(selector: i64) -> Option<u8> {
+    match selector {
+        1 => Some(1),
+        2 => Some(2),
+        _ => None,
+    }
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
@@ -33,16 +59,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// Analog`n`_out of input `n` (1, 2) in 0.01 V: offset and dead band applied.
+    /// Analog`n`_out of input `n` (1, 2) in 0.01 V: filter, offset and dead band applied.
     fn analog_processed(&self, n: u8) -> i32 {
         let (dead, offset) = if n == 1 { (0x1D, 0x1E) } else { (0x1F, 0x20) };
+        let i = usize::from(n.wrapping_sub(1));
+        let raw = self.kinco.analog.centivolts.get(i).copied().unwrap_or(0);
         let v_in = self
             .kinco
             .analog
-            .centivolts
-            .get(usize::from(n.wrapping_sub(1)))
+            .filtered
+            .get(i)
             .copied()
-            .unwrap_or(0);
+            .flatten()
+            .map_or(raw, |f| libm::round(f) as i32);
         analog_out(
             v_in,
             self.value(0x2FF0, offset) as i32,
@@ -52,41 +81,69 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The speed command in rpm where Analog_Speed_Con 2502h:07 names an input.
     pub(crate) fn kinco_analog_speed_rpm(&self) -> Option<i32> {
-        let n = match self.value(0x2502, 0x07) {
-            1 => 1,
-            2 => 2,
-            _ => return None,
-        };
+        let n = input_of(self.value(0x2502, 0x07))?;
         let factor = self.value(0x2502, 0x0A) as i32;
-        Some(analog_speed_rpm(self.analog_processed(n), factor))
+        let out = analog_window(
+            self.analog_processed(n),
+            self.value(0x2502, 0x0D) as i32,
+            self.value(0x2502, 0x0E) as i32,
+        );
+        Some(analog_speed_rpm(out, factor))
     }
 
     /// The torque command in mN·m where Analog_Torque_Con 2502h:08 names an input.
     pub(crate) fn kinco_analog_torque_mnm(&self) -> Option<i64> {
-        let n = match self.value(0x2502, 0x08) {
-            1 => 1,
-            2 => 2,
-            _ => return None,
-        };
+        let n = input_of(self.value(0x2502, 0x08))?;
         let factor = self.value(0x2FF0, 0x21);
         Some(i64::from(self.analog_processed(n)) * factor / 100)
     }
 
-    /// AN_V1 / AN_V2 and Analog1_out / Analog2_out.
+    /// The maximum torque in mN·m where Analog_MaxT_Con 2502h:09 names an input (§6.2.1).
+    pub(crate) fn kinco_analog_max_torque_mnm(&self) -> Option<i64> {
+        let n = input_of(self.value(0x2502, 0x09))?;
+        let factor = self.value(0x2FF0, 0x22);
+        Some((i64::from(self.analog_processed(n)) * factor / 100).abs())
+    }
+
+    /// The maximum current of the analog max torque, A, for the torque mode's own clamp.
+    pub(crate) fn kinco_analog_max_current_a(&self) -> Option<f64> {
+        self.kinco
+            .analog
+            .max_current_ma
+            .map(|ma| f64::from(ma) / 1000.0)
+    }
+
+    /// One logic cycle: the input filters, AN_V1 / AN_V2 and Analog1_out / Analog2_out, and
+    /// the analog max torque as the controller's current limit.
     pub(crate) fn kinco_publish_analog(&mut self) {
+        let dt_ms = self.cycle.as_secs_f64() * f64::from(self.logic_every) * 1000.0;
         for n in [1u8, 2] {
-            let raw = self
-                .kinco
-                .analog
-                .centivolts
-                .get(usize::from(n - 1))
-                .copied()
-                .unwrap_or(0);
+            let i = usize::from(n - 1);
+            let raw = self.kinco.analog.centivolts.get(i).copied().unwrap_or(0);
+            let tau_ms = self.value(0x2502, if n == 1 { 0x01 } else { 0x04 }).max(0) as f64;
+            if let Some(slot) = self.kinco.analog.filtered.get_mut(i) {
+                let f = slot.get_or_insert(f64::from(raw));
+                let alpha = if tau_ms > 0.0 {
+                    1.0 - libm::exp(-dt_ms / tau_ms)
+                } else {
+                    1.0
+                };
+                *f += (f64::from(raw) - *f) * alpha;
+            }
             let out = self.analog_processed(n);
             let d = self.od.description();
             let (a, b) = (d.entry(0x2FF0, 0x15 + n), d.entry(0x2502, 0x0E + n));
             self.store(a, i64::from(raw));
             self.store(b, i64::from(out));
+        }
+        let kt = self.settings.motor.torque_constant;
+        let limit = self
+            .kinco_analog_max_torque_mnm()
+            .filter(|_| kt > 0.0)
+            .map(|mnm| libm::round(mnm as f64 / kt) as u32);
+        if limit != self.kinco.analog.max_current_ma {
+            self.kinco.analog.max_current_ma = limit;
+            self.params_dirty = true;
         }
     }
 }

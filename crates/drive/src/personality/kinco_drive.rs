@@ -58,6 +58,8 @@ pub(crate) struct KincoState {
     pub(crate) warnings: u16,
     /// The LED panel (kinco_panel.rs).
     pub(crate) panel: super::kinco_panel::Panel,
+    /// The position limits after homing (kinco_limits.rs).
+    pub(crate) limits: super::kinco_limits::LimitState,
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
@@ -117,53 +119,26 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// The controller parameters: the engine's servo controller tuned for the motor above.
-    /// Decision: Kinco's loop objects (60F6h, 60F9h, 60FBh: Kcp, Kvp, Kpp in the drive's own
-    /// units, ch. 7) are not the engine's CMMP-AS parameters of the same indices and are not
-    /// read; the currents come from the motor data and the speed limit from 6080h.
-    ///
-    /// Gain sets (§5.5.4, Tab. 5-5): the engine's controller stands for set 0; the set
-    /// PI_Pointer 60F9h:28 selects scales its velocity gain by Kvp[x] / Kvp[0] and its
-    /// position gain by Kpp[x] / Kpp[0] (Kvp[0] 60F9h:01, Kpp[0] 60FBh:01, sets 1–3 in
-    /// 2340h:04 … :0C); the Kvi Off input turns the velocity integral off. Decision: the Kvi
-    /// values are not mapped (their default 0 would take the engine's integral away).
+    /// The controller parameters: the engine's servo controller for the motor above (its
+    /// current loop, currents from the motor data, the speed limit from 6080h), with the
+    /// velocity and position loops of the Kinco loop objects of the active gain set
+    /// (`kinco_loops.rs`, §5.5.4, ch. 7).
     pub(crate) fn kinco_control_params(&self) -> ControlParams {
         let m = self.settings.motor;
         let d = ControlParams::default();
         let rated_ma = (m.rated_current * 1000.0) as u32;
         let peak_ma = (m.peak_current * 1000.0) as u32;
-        let set = self.value(0x60F9, 0x28).clamp(0, 3) as u8;
-        let ratio = |base: (u16, u8), first_sub: u8| {
-            let base = self.value(base.0, base.1);
-            let v = if set == 0 {
-                base
-            } else {
-                self.value(0x2340, first_sub + 3 * (set - 1))
-            };
-            if base > 0 && v > 0 {
-                v as f64 / base as f64
-            } else {
-                1.0
-            }
-        };
-        let scale =
-            |gain: u16, r: f64| (f64::from(gain) * r).clamp(1.0, f64::from(u16::MAX)) as u16;
-        let kvi_off = self.kinco.din.kvi_off;
-        ControlParams {
+        let base = ControlParams {
             motor_rated_current_ma: rated_ma,
             max_current_permille: (peak_ma * 1000 / rated_ma.max(1)).min(u32::from(u16::MAX))
                 as u16,
             peak_current_ma: peak_ma,
             max_motor_speed_rpm: self.value(0x6080, 0).clamp(1, 32768) as u32,
-            velocity_control_gain: scale(d.velocity_control_gain, ratio((0x60F9, 0x01), 0x04)),
-            position_control_gain: scale(d.position_control_gain, ratio((0x60FB, 0x01), 0x06)),
-            velocity_control_time_us: if kvi_off {
-                0
-            } else {
-                d.velocity_control_time_us
-            },
+            // The analog max torque (kinco_analog.rs) in the velocity and position loops.
+            limit_current_ma: self.kinco.analog.max_current_ma,
             ..d
-        }
+        };
+        self.kinco_loop_params(base)
     }
 
     fn kinco_set_following_error_limit(&mut self) {
@@ -180,7 +155,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (0x607E, 0x00) => Self::kinco_write_invert_dir,
             (0x60F9, 0x28) => Self::kinco_write_pi_pointer,
             (0x3040, 0x01) => Self::kinco_write_tuning_method,
-            (0x2340, _) | (0x60F9, 0x01) | (0x60FB, 0x01) => Self::kinco_write_gain,
+            (0x2340, _) | (0x60F9, 0x01 | 0x02 | 0x07) | (0x60FB, 0x01) | (0x2FF0, 0x19) => {
+                Self::kinco_write_gain
+            }
+            (0x2FF0, 0x0A) => Self::kinco_write_velocity_bw,
+            (0x2FF0, 0x01 | 0x03) => Self::kinco_write_store,
+            (0x3041, 0x03) => Self::kinco_write_easy_settings,
+            (0x3040, 0x08 | 0x0B) => Self::kinco_write_stiffness,
             _ => return None,
         })
     }
@@ -205,10 +186,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// 6060h: owned by the Operation Mode Sel DIN as 6040h is by Enable (L1287).
     fn kinco_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if self.kinco_din_configured(DinFunction::OperationModeSel) {
-            return Err(AbortCode::LOCAL_CONTROL);
-        }
-        self.write_mode(index, sub, data)
+        self.write_mode_unless(index, sub, data, |d, _| {
+            d.kinco_din_configured(DinFunction::OperationModeSel)
+                .then_some(AbortCode::LOCAL_CONTROL)
+        })
     }
 
     /// PI_Pointer 60F9h:28: owned by the Gain Switch inputs where one is configured (L1287);
@@ -226,13 +207,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             return Err(AbortCode::LOCAL_CONTROL);
         }
         self.kinco_write_gain(index, sub, data)
-    }
-
-    /// A gain of a set: the controller is retuned.
-    fn kinco_write_gain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.od.write(index, sub, data)?;
-        self.params_dirty = true;
-        Ok(())
     }
 
     /// 2FF0h:0E Max_Following_Error_16: 6065h = 100 × it (§6 item 3, KINCO-SC-09).
@@ -349,7 +323,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for
     /// any Error_State2 bit) and Error_State2 2602h (§7, KINCO-DIAG-01/06); the following
-    /// error Pos_Error 60FBh:08 and Real_Speed_RPM 2FF0h:14.
+    /// error Pos_Error 60FBh:08 and Real_Speed_RPM 2FF0h:14 (filtered for the display).
     pub(crate) fn kinco_publish(&mut self, following_error: i64) {
         self.kinco_publish_analog();
         let (mut state, mut state2) = (0u16, 0u16);
@@ -370,7 +344,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (
                 0x2FF0,
                 0x14,
-                libm::round(f64::from(self.plant_velocity_rpm())) as i64,
+                // Decision: the display value (d1.25) is the speed through the engine's
+                // display filter (20 ms), so that it does not flicker with the loop's ripple.
+                libm::round(f64::from(self.axis.velocity_display_rpm())) as i64,
             ),
         ] {
             let e = self.od.description().entry(index, sub);
@@ -445,7 +421,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.value(0x60F9, 0x0A).clamp(0, u32::MAX as i64) as u32,
         ) as f64
             / 4096.0;
-        let error = f64::from(self.plant_velocity_rpm()) - rpm;
+        // Decision: on the display-filtered speed (as Real_Speed_RPM), not on the loop's
+        // ripple of a fraction of an rpm.
+        let error = f64::from(self.axis.velocity_display_rpm()) - rpm;
         self.target_reached = self.velocity_set == target && error.abs() <= window.max(1.0);
     }
 
@@ -486,10 +464,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.halted {
             percent = 0.0;
         }
-        let current_a = self
+        let mut current_a = self
             .axis
             .params()
             .current_for_torque_permille(percent.clamp(-300.0, 300.0) * 10.0);
+        if let Some(max) = self.kinco_analog_max_current_a() {
+            // The analog max torque (§6.3, kinco_analog.rs).
+            current_a = current_a.clamp(-max, max);
+        }
         let max_dec = self.value(0x607F, 0).clamp(0, u32::MAX as i64) as u32;
         let limit = if max_dec == 0 {
             self.value(0x6080, 0).max(0) as f64

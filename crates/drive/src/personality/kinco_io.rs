@@ -54,9 +54,26 @@ pub(crate) struct DinMemory {
     pub(crate) kvi_off: bool,
 }
 
+// `din_function_code` reads DINn_Function from slot `param_slot(2010h:03) + n` of the
+// drive's PARAMS: the seven keys 2010h:03 … :09 must stay in consecutive slots there.
+const _: () = {
+    let first = match crate::drive::param_slot(0x2010, 0x03) {
+        Some(s) => s,
+        None => panic!("2010h:03 is not in PARAMS"),
+    };
+    let mut n = 0;
+    while n < DINS {
+        match crate::drive::param_slot(0x2010, 0x03 + n) {
+            Some(s) if s == first + n as usize => {}
+            _ => panic!("DINx_Function not in consecutive PARAMS slots"),
+        }
+        n += 1;
+    }
+};
+
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// DINn_Function (2010h:03 + n), read through its resolved entry (every logic cycle
-    /// asks for each input several times).
+    /// asks for each input several times; the slots are consecutive, checked above).
     fn din_function_code(&self, n: u8) -> u16 {
         let first = crate::drive::param_slot(0x2010, 0x03).unwrap_or(usize::MAX);
         let entry = (n < DINS)
@@ -126,11 +143,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         )
     }
 
+    /// The directions blocked now (negative, positive): a limit switch or a position limit
+    /// after homing (kinco_limits.rs).
     pub(crate) fn kinco_limits_active(&self) -> (bool, bool) {
         let internal = self.din_now();
+        let (below, above) = self.kinco_position_limits_blocking();
         (
-            self.din_level(internal, DinFunction::NegativeLimit) == Some(false),
-            self.din_level(internal, DinFunction::PositiveLimit) == Some(false),
+            self.din_level(internal, DinFunction::NegativeLimit) == Some(false) || below,
+            self.din_level(internal, DinFunction::PositiveLimit) == Some(false) || above,
         )
     }
 
@@ -256,6 +276,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             );
         }
         self.kinco_capture(before, now, position);
+        self.kinco_position_limits_cycle();
     }
 
     /// Gain switching (§5.5.4), in the manual's order: the Gain Switch inputs (PI_Pointer =

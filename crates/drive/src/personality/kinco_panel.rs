@@ -181,10 +181,23 @@ pub struct Panel {
 /// the 16-bit half in four HEX digits with point 4 (point 3 for the high half).
 ///
 /// Decision: §4.1 says point 4 marks HEX and point 3 the high half of 32-bit data, and that
-/// EA03/EA04 switch to HEX above 9999; it does not say where other values switch. Here: DEC
-/// for −9999…99999, HEX outside.
+/// EA03/EA04 switch to HEX above 9999 ([`format_value_of`]); it does not say where other
+/// values switch. Here: DEC for −9999…99999, HEX outside.
 fn format_value(v: i64, high: bool) -> (PanelDisplay, bool) {
-    if (-9999..=99999).contains(&v) {
+    format_value_up_to(v, high, 99999)
+}
+
+/// [`format_value`] for the item `key`: EA03 / EA04 (the gear, Tab. 4-2 L583-584) "in DEC;
+/// above 9999 in HEX".
+fn format_value_of(key: Option<&str>, v: i64, high: bool) -> (PanelDisplay, bool) {
+    match key {
+        Some("EA03" | "EA04") => format_value_up_to(v, high, 9999),
+        _ => format_value(v, high),
+    }
+}
+
+fn format_value_up_to(v: i64, high: bool, dec_max: i64) -> (PanelDisplay, bool) {
+    if (-9999..=dec_max).contains(&v) {
         let mut chars = *b"     ";
         let mut n = v.unsigned_abs();
         for c in chars.iter_mut().rev() {
@@ -323,8 +336,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn panel_step(&mut self, d: i8) {
-        let p = &mut self.kinco.panel;
-        match p.screen {
+        let screen = self.kinco.panel.screen;
+        match screen {
             Screen::Menu(_) | Screen::Monitor => {}
             Screen::Browse { menu, item } => {
                 let n = self.panel_count(menu);
@@ -344,14 +357,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 cursor,
                 high,
             } => {
-                let hex = format_value(value, high).1;
+                let hex = format_value_of(self.panel_item(menu, item), value, high).1;
                 let step: i64 = if hex {
                     16i64.pow(u32::from(cursor)) << if high { 16 } else { 0 }
                 } else {
                     10i64.pow(u32::from(cursor))
                 };
                 let value = value.saturating_add(i64::from(d) * step);
-                p.screen = Screen::Edit {
+                self.kinco.panel.screen = Screen::Edit {
                     menu,
                     item,
                     value,
@@ -366,12 +379,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 } else {
                     shown.saturating_sub(1)
                 };
-                p.screen = Screen::JogCheck {
+                self.kinco.panel.screen = Screen::JogCheck {
                     shown,
                     reached_15: reached_15 || shown == 15,
                 };
             }
-            Screen::Jog { .. } => p.screen = Screen::Jog { direction: d },
+            Screen::Jog { .. } => self.kinco.panel.screen = Screen::Jog { direction: d },
             Screen::History { item, .. } => {
                 let n = self.kinco.history.len().min(255) as u8;
                 if n > 0 {
@@ -399,7 +412,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let p = &mut self.kinco.panel;
         p.monitor_second = false;
         p.monitor_high = false;
-        p.screen = match p.screen {
+        let screen = p.screen;
+        self.kinco.panel.screen = match screen {
             Screen::Monitor => Screen::Menu(0),
             Screen::Menu(m) if usize::from(m) + 1 < MENUS.len() => Screen::Menu(m + 1),
             Screen::Menu(_) => Screen::Monitor,
@@ -410,7 +424,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 cursor,
                 high,
             } if !long => {
-                let digits = if format_value(value, high).1 { 4 } else { 5 };
+                let key = self.panel_item(menu, item);
+                let digits = if format_value_of(key, value, high).1 {
+                    4
+                } else {
+                    5
+                };
                 Screen::Edit {
                     menu,
                     item,
@@ -489,7 +508,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 high,
             } => {
                 if long {
-                    if format_value(value, high).1 {
+                    if format_value_of(self.panel_item(menu, item), value, high).1 {
                         self.kinco.panel.screen = Screen::Edit {
                             menu,
                             item,
@@ -567,19 +586,22 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(())
     }
 
-    /// EA00 / tn00 (§4.3.1): 1 saves the control and the motor parameters (Store_Data
-    /// 2FF0h:01 := 1, Store_Motor_Data 2FF0h:03 := 1), 2 saves and reboots, 3 reboots, 10
-    /// initialises the control parameters (2FF0h:01 := 10) and locks EASY / tunE (§4.3).
-    ///
-    /// Decision: the reboot of 2 and 3 is not the drive's to do (the cell restarts a twin);
-    /// the panel saves for 2 and accepts 3 without effect. Other values are refused.
+    /// EA00 / tn00 (§4.3.1): 1 saves the control and the motor parameters (the loop set by
+    /// EA06's load type first, then Store_Data 2FF0h:01 := 1, Store_Motor_Data 2FF0h:03 :=
+    /// 1), 2 saves and reboots, 3 reboots (`kinco_easy.rs`), 10 initialises the control
+    /// parameters (2FF0h:01 := 10) and locks EASY / tunE (§4.3). Other values are refused.
     fn panel_save(&mut self, value: i64) -> Result<(), AbortCode> {
         match value {
-            1 | 2 => {
-                self.write(0x2FF0, 0x01, &[1])?;
-                self.write(0x2FF0, 0x03, &[1])
+            1 => self.kinco_easy_save(),
+            2 => {
+                self.kinco_easy_save()?;
+                self.kinco_reboot();
+                Ok(())
             }
-            3 => Ok(()),
+            3 => {
+                self.kinco_reboot();
+                Ok(())
+            }
             INIT_VALUE => {
                 self.write(0x2FF0, 0x01, &[INIT_VALUE as u8])?;
                 self.kinco.panel.initialised = true;
@@ -670,12 +692,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 .panel_item(menu, item)
                 .map_or(PanelDisplay::text4(b"----", 0), address_display),
             Screen::Edit {
+                menu,
+                item,
                 value,
                 cursor,
                 high,
-                ..
             } => {
-                let mut d = format_value(value, high).0;
+                let mut d = format_value_of(self.panel_item(menu, item), value, high).0;
                 d.cursor = Some(5 - cursor);
                 d
             }

@@ -8,7 +8,7 @@
 //! 2FF0h:0A from the stiffness table (Tab. 7-2).
 //!
 //! Decisions: the run is 0.8 s, four periods of a 5 Hz sine of ±Safe_Dist / 2 around the
-//! position where it starts, with the drive enabled (Operation Enabled; otherwise result 0 at
+//! position where it starts under a half-sine envelope (at rest at both ends), with the drive enabled (Operation Enabled; otherwise result 0 at
 //! once); the measured inertia is the plant's (motor and load) against the rotor's Jr_Motor
 //! 6410h:10; the stiffness is 12 − (ratio − 10) / 20 within 4 … 12 on success, 8 for −3,
 //! unchanged otherwise;
@@ -76,8 +76,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let t = self.now.saturating_since(start).as_secs_f64();
         let amplitude = self.value(0x3040, 0x06).clamp(0, 40) as f64 * 0.01 * 65536.0 / 2.0;
         let w = 2.0 * core::f64::consts::PI * FREQUENCY;
-        self.traj.position = center + amplitude * libm::sin(w * t);
-        self.traj.velocity = amplitude * w * libm::cos(w * t);
+        // A half-sine envelope over the run: it starts and ends at rest, where it started.
+        let wt = core::f64::consts::PI / TUNING_RUN.as_secs_f64();
+        let (env, d_env) = (libm::sin(wt * t), wt * libm::cos(wt * t));
+        self.traj.position = center + amplitude * env * libm::sin(w * t);
+        self.traj.velocity = amplitude * (d_env * libm::sin(w * t) + env * w * libm::cos(w * t));
         let v = self.traj.velocity;
         self.position_demand(v);
         if self.now >= end {
@@ -106,12 +109,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         set(self, 0x3040, 0x01, i64::from(result));
         set(self, 0x3040, 0x09, i64::from(result));
         set(self, 0x3040, 0x0B, i64::from(ratio));
-        if let Some(s) = stiffness.and_then(|s| usize::try_from(s).ok()) {
-            if let Some(row) = STIFFNESS.get(s) {
-                set(self, 0x3040, 0x08, s as i64);
-                set(self, 0x60FB, 0x01, i64::from(row.kpp));
-                set(self, 0x2FF0, 0x0A, i64::from(row.kvp_bandwidth / 10));
-            }
+        if let Some(s) =
+            stiffness.filter(|s| usize::try_from(*s).is_ok_and(|s| s < STIFFNESS.len()))
+        {
+            // Kpp, Velocity_BW and Kvp from the table's row at the measured ratio
+            // (kinco_loops.rs).
+            set(self, 0x3040, 0x08, i64::from(s));
+            self.kinco_apply_stiffness();
         }
     }
 }

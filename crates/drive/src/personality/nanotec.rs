@@ -331,15 +331,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Decision: the manual does not say what happens without it; the write is refused with
     /// 0800 0022h (present device state), so a master learns it at once.
     fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.od.entry(index, sub)?;
-        match data {
-            [b] if !self.personality.accepts_mode(*b as i8, false) => Err(AbortCode::INVALID_VALUE),
-            [4] if self.value(0x200A, 0) == 0 => Err(AbortCode::DEVICE_STATE),
+        self.write_mode_unless(index, sub, data, |d, m| {
+            let closed_loop = d.value(0x200A, 0) != 0;
             // §4.2: "while a brake wait time (2007h) is running, mode changes are not
             // executed".
-            _ if self.brake_wait() => Err(AbortCode::DEVICE_STATE),
-            _ => self.write_mode(index, sub, data),
-        }
+            ((m == 4 && !closed_loop) || d.brake_wait()).then_some(AbortCode::DEVICE_STATE)
+        })
     }
 
     /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;

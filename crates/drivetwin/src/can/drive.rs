@@ -283,6 +283,7 @@ impl CanDrive {
     /// Carries out what the stack asked for.
     fn service(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
         // The drive's errors go out as EMCY through the stack (CiA 301 §7.2.7).
+        let mut reboot = false;
         while let Some(ev) = self.model.take_event() {
             if let Some(q) = self.coe_events.as_mut() {
                 if q.len() >= MAX_COE_EVENTS {
@@ -300,6 +301,7 @@ impl CanDrive {
                         .raise_error(&mut self.model, code, register, [0; 5])
                 }
                 DriveEvent::Cleared { code } => self.node.clear_error(&mut self.model, code),
+                DriveEvent::Reboot => reboot = true,
             }
         }
         // A request from another path than the SDO server (none today) is carried out here.
@@ -308,6 +310,14 @@ impl CanDrive {
             if let Err(e) = access.carry_out(req) {
                 tracing::error!(node = self.node_id(), error = %e, "storage request failed");
             }
+        }
+        if reboot {
+            // After a save asked for in the same cycle: the drive restarts from the stored set,
+            // as after NMT reset node.
+            tracing::info!(node = self.node_id(), "drive reboot");
+            self.model.od_mut().set_node_id(self.node.node_id());
+            self.reload(|_| true);
+            self.node.boot(now, &self.model, out);
         }
         while let Some(ev) = self.node.take_event() {
             match ev {

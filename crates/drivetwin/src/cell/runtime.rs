@@ -7,9 +7,12 @@ use canopen::CanFrame;
 use od::time::earliest;
 use od::Instant;
 
+use crate::cell::poll_loop::OnBus;
 use crate::cell::Cell;
 use crate::ecat::chain::EthercatCell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
+use crate::serial::line::VirtualLine;
+use crate::serial::LineDrives;
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
 /// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
@@ -69,6 +72,9 @@ pub enum Input {
     Modbus { drive: usize, bytes: Vec<u8> },
     /// An Ethernet frame from the master of EtherCAT chain `chain`.
     Ethercat { chain: usize, frame: Vec<u8> },
+    /// Bytes the host writes on serial line `line` (RS232 / RS485), at once; they cross the
+    /// wire at its bit rate.
+    Serial { line: usize, bytes: Vec<u8> },
 }
 
 /// What the cell sent, at a time on the virtual clock.
@@ -80,6 +86,22 @@ pub enum Output<'a> {
     Modbus { drive: usize, bytes: &'a [u8] },
     /// A frame of chain `chain` back to its master, as it left the last slave.
     Ethercat { chain: usize, frame: &'a [u8] },
+    /// Bytes of serial line `line` that have crossed to its host by then.
+    Serial { line: usize, bytes: &'a [u8] },
+}
+
+/// The cell's drives as a virtual serial line reaches them (bus 0, the cell's).
+struct CellLineDrives<'a> {
+    cell: &'a mut Cell,
+    out: &'a mut Vec<CanFrame>,
+}
+
+impl LineDrives for CellLineDrives<'_> {
+    fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn od::ObjectAccess)) {
+        if at.bus == 0 {
+            self.cell.local_access(at.drive, now, self.out, f);
+        }
+    }
 }
 
 /// Runs the CAN drives of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
@@ -96,6 +118,23 @@ pub fn run_virtual_mixed(
     until: Duration,
     sink: &mut dyn FnMut(Duration, Output<'_>),
 ) {
+    run_virtual_lines(cell, modbus, chains, &mut [], inputs, until, sink);
+}
+
+/// [`run_virtual_mixed`] with the serial lines `lines` (built by
+/// [`crate::serial::setup::virtual_lines`]) on the same clock: their wire times, frame ends
+/// and answers are deadlines like the others; at one instant they come after the chains and
+/// before the input. A line's answers go to `sink` when they have crossed.
+pub fn run_virtual_lines(
+    cell: &mut Cell,
+    modbus: &mut [ModbusDrive],
+    chains: &mut [EthercatCell],
+    lines: &mut [VirtualLine],
+    inputs: &[(Duration, Input)],
+    until: Duration,
+    sink: &mut dyn FnMut(Duration, Output<'_>),
+) {
+    let mut crossed = Vec::with_capacity(256);
     let to_instant =
         |d: Duration| Instant::from_nanos(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
     let at = |now: Instant| Duration::from_nanos(now.as_nanos());
@@ -126,6 +165,9 @@ pub fn run_virtual_mixed(
         let wake = chains
             .iter()
             .fold(wake, |acc, c| earliest(acc, c.deadline()));
+        let wake = lines
+            .iter()
+            .fold(wake, |acc, l| earliest(acc, l.deadline()));
         let Some(wake) = wake else {
             break;
         };
@@ -148,6 +190,25 @@ pub fn run_virtual_mixed(
         for c in chains.iter_mut() {
             if c.deadline().is_some_and(|d| d <= now) {
                 c.poll_with(now, cell);
+            }
+        }
+        for (i, l) in lines.iter_mut().enumerate() {
+            if l.deadline().is_some_and(|d| d <= now) {
+                crossed.clear();
+                let mut drives = CellLineDrives {
+                    cell,
+                    out: &mut out,
+                };
+                l.due(now, &mut drives, &mut crossed);
+                if !crossed.is_empty() {
+                    sink(
+                        at(now),
+                        Output::Serial {
+                            line: i,
+                            bytes: &crossed,
+                        },
+                    );
+                }
             }
         }
         if input_at == Some(wake) {
@@ -190,6 +251,11 @@ pub fn run_virtual_mixed(
                             // As the cell loop does: the CANopen side looks at once.
                             cell.poll(now, &mut out);
                         }
+                    }
+                }
+                Some((_, Input::Serial { line, bytes })) => {
+                    if let Some(l) = lines.get_mut(*line) {
+                        l.input(now, bytes);
                     }
                 }
                 None => {}

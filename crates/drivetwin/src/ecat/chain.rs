@@ -548,6 +548,8 @@ impl Bound<'_> {
             };
             // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
             let emcy = match ev {
+                // A reboot is the CANopen side's (no EtherCAT drive asks for one).
+                DriveEvent::Reboot => continue,
                 DriveEvent::Error { code, register } => Emergency::new(code, register, [0; 5]),
                 // "Error reset": code 0000h with the error register that remains.
                 DriveEvent::Cleared { .. } => {

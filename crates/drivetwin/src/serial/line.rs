@@ -34,45 +34,25 @@ pub struct LineCounters {
     pub rtu: Option<RtuCounters>,
 }
 
-pub struct SerialLine {
-    kind: Kind,
-    path: PathBuf,
-    port: Port,
+/// A line's wire and protocol with its drives, without a port: what the cell loop's
+/// [`SerialLine`] and the virtual clock's [`VirtualLine`] share. Bytes in with
+/// [`LineCore::receive`], the line's work at [`LineCore::due`], the crossed answers out with
+/// [`LineCore::flush`].
+pub struct LineCore {
     wire: Wire,
     protocol: Protocol,
-    /// Bytes the host did not read were dropped: said once.
-    warned: bool,
     /// Scratch: bytes complete on the wire, with their times.
     arrived: Vec<(Instant, u8)>,
 }
 
-impl SerialLine {
-    /// Opens `path` (a pty link, or a device) for a line at `baud` bit/s speaking `protocol`.
-    pub fn open(kind: Kind, path: &Path, baud: u32, protocol: Protocol) -> Result<Self, PortError> {
-        let port = Port::open(path, baud)?;
-        // A real UART times the line itself.
-        let wire = Wire::new(if port.is_pty() { baud } else { 0 });
-        Ok(SerialLine {
-            kind,
-            path: path.to_path_buf(),
-            port,
-            wire,
+impl LineCore {
+    /// A line at `baud` bit/s (0: no timing, a real UART times itself) speaking `protocol`.
+    pub fn new(baud: u32, protocol: Protocol) -> Self {
+        LineCore {
+            wire: Wire::new(baud),
             protocol,
-            warned: false,
             arrived: Vec::with_capacity(256),
-        })
-    }
-
-    pub fn kind(&self) -> Kind {
-        self.kind
-    }
-
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    pub fn port(&self) -> &Port {
-        &self.port
+        }
     }
 
     pub fn counters(&self) -> LineCounters {
@@ -89,26 +69,15 @@ impl SerialLine {
         }
     }
 
-    /// The port has bytes (read at `now`).
-    pub fn readable(&mut self, now: Instant, drives: &mut dyn LineDrives) {
-        let mut buf = [0u8; 1024];
-        for _ in 0..READS_PER_TURN {
-            match self.port.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => self.wire.receive(now, buf.get(..n).unwrap_or(&[])),
-                Err(e) => {
-                    // EIO while a pty has no reader: nothing to read.
-                    tracing::debug!(path = %self.path.display(), error = %e, "serial read");
-                    break;
-                }
-            }
-        }
-        self.due(now, drives);
+    /// The host wrote `bytes` at `now`.
+    pub fn receive(&mut self, now: Instant, bytes: &[u8]) {
+        self.wire.receive(now, bytes);
     }
 
     /// Whatever is due at `now`: bytes complete on the wire, a frame ended by silence,
-    /// answers that have crossed.
-    pub fn due(&mut self, now: Instant, drives: &mut dyn LineDrives) {
+    /// answers that have crossed. Returns the answer bytes dropped because the host left
+    /// too many unread.
+    pub fn due(&mut self, now: Instant, drives: &mut dyn LineDrives) -> u64 {
         self.arrived.clear();
         let arrived = &mut self.arrived;
         self.wire.arrived(now, &mut |at, b| arrived.push((at, b)));
@@ -121,7 +90,83 @@ impl SerialLine {
         if let Protocol::Rtu(r) = &mut self.protocol {
             r.poll(now, drives, &mut self.wire);
         }
-        if self.wire.crossed(now) > 0 && !self.warned {
+        self.wire.crossed(now)
+    }
+
+    /// What has crossed goes to `write`, as much as it takes.
+    pub fn flush(&mut self, write: &mut dyn FnMut(&[u8]) -> usize) {
+        self.wire.flush(write);
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        let protocol = match &self.protocol {
+            Protocol::Rtu(r) => r.deadline(),
+            Protocol::Telegrams(_) => None,
+        };
+        od::time::earliest(self.wire.deadline(), protocol)
+    }
+}
+
+pub struct SerialLine {
+    kind: Kind,
+    path: PathBuf,
+    port: Port,
+    core: LineCore,
+    /// Bytes the host did not read were dropped: said once.
+    warned: bool,
+}
+
+impl SerialLine {
+    /// Opens `path` (a pty link, or a device) for a line at `baud` bit/s speaking `protocol`.
+    pub fn open(kind: Kind, path: &Path, baud: u32, protocol: Protocol) -> Result<Self, PortError> {
+        let port = Port::open(path, baud)?;
+        // A real UART times the line itself.
+        let core = LineCore::new(if port.is_pty() { baud } else { 0 }, protocol);
+        Ok(SerialLine {
+            kind,
+            path: path.to_path_buf(),
+            port,
+            core,
+            warned: false,
+        })
+    }
+
+    pub fn kind(&self) -> Kind {
+        self.kind
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn port(&self) -> &Port {
+        &self.port
+    }
+
+    pub fn counters(&self) -> LineCounters {
+        self.core.counters()
+    }
+
+    /// The port has bytes (read at `now`).
+    pub fn readable(&mut self, now: Instant, drives: &mut dyn LineDrives) {
+        let mut buf = [0u8; 1024];
+        for _ in 0..READS_PER_TURN {
+            match self.port.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => self.core.receive(now, buf.get(..n).unwrap_or(&[])),
+                Err(e) => {
+                    // EIO while a pty has no reader: nothing to read.
+                    tracing::debug!(path = %self.path.display(), error = %e, "serial read");
+                    break;
+                }
+            }
+        }
+        self.due(now, drives);
+    }
+
+    /// Whatever is due at `now` ([`LineCore::due`]), then out to the port.
+    pub fn due(&mut self, now: Instant, drives: &mut dyn LineDrives) {
+        if self.core.due(now, drives) > 0 && !self.warned {
             self.warned = true;
             tracing::warn!(
                 path = %self.path.display(),
@@ -134,14 +179,55 @@ impl SerialLine {
     /// The port takes bytes again: what has crossed goes out.
     pub fn writable(&mut self) {
         let port = &self.port;
-        self.wire.flush(&mut |b| port.write(b));
+        self.core.flush(&mut |b| port.write(b));
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        let protocol = match &self.protocol {
-            Protocol::Rtu(r) => r.deadline(),
-            Protocol::Telegrams(_) => None,
-        };
-        od::time::earliest(self.wire.deadline(), protocol)
+        self.core.deadline()
+    }
+}
+
+/// A line of the virtual clock ([`crate::cell::runtime::run_virtual_lines`]): the same wire
+/// timing and protocol as a port's line, its host's bytes given as inputs at their virtual
+/// times and its answers taken as outputs when they have crossed, so that two runs give the
+/// same bytes at the same times.
+pub struct VirtualLine {
+    kind: Kind,
+    core: LineCore,
+}
+
+impl VirtualLine {
+    /// A line at `baud` bit/s (timed as a pty's) speaking `protocol`.
+    pub fn new(kind: Kind, baud: u32, protocol: Protocol) -> Self {
+        VirtualLine {
+            kind,
+            core: LineCore::new(baud, protocol),
+        }
+    }
+
+    pub fn kind(&self) -> Kind {
+        self.kind
+    }
+
+    pub fn counters(&self) -> LineCounters {
+        self.core.counters()
+    }
+
+    /// The host writes `bytes` at `now`.
+    pub fn input(&mut self, now: Instant, bytes: &[u8]) {
+        self.core.receive(now, bytes);
+    }
+
+    /// The line's work at `now`; the answers that have crossed by then are appended to `out`.
+    pub fn due(&mut self, now: Instant, drives: &mut dyn LineDrives, out: &mut Vec<u8>) {
+        self.core.due(now, drives);
+        self.core.flush(&mut |b| {
+            out.extend_from_slice(b);
+            b.len()
+        });
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        self.core.deadline()
     }
 }

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use canopen::kinco_rs232::KincoRs232;
 use modbus::kinco_rtu::RegisterMapping;
 
-use super::line::{Protocol, SerialLine};
+use super::line::{Protocol, SerialLine, VirtualLine};
 use super::pty::PortError;
 use super::rs232_line::{TelegramLine, Topology};
 use super::rtu_line::{RtuDrive, RtuLine};
@@ -79,6 +79,30 @@ pub fn check(cells: &[Cell], at: OnBus, kind: Kind) -> Result<(), SetupError> {
 
 /// Opens one line per path of `requests` (in order of first mention).
 pub fn open_lines(requests: &[LineRequest], cells: &[Cell]) -> Result<Vec<SerialLine>, SetupError> {
+    let mut lines = Vec::new();
+    for (kind, path, baud, protocol) in line_protocols(requests, cells)? {
+        lines.push(SerialLine::open(kind, path, baud, protocol)?);
+    }
+    Ok(lines)
+}
+
+/// The lines of `requests` for the virtual clock ([`crate::cell::runtime::run_virtual_lines`]):
+/// as [`open_lines`] builds them, without ports (a path only names the line its drives share).
+pub fn virtual_lines(
+    requests: &[LineRequest],
+    cells: &[Cell],
+) -> Result<Vec<VirtualLine>, SetupError> {
+    Ok(line_protocols(requests, cells)?
+        .into_iter()
+        .map(|(kind, _, baud, protocol)| VirtualLine::new(kind, baud, protocol))
+        .collect())
+}
+
+/// One line per path of `requests`: its kind, path, bit rate and protocol with its drives.
+fn line_protocols<'a>(
+    requests: &'a [LineRequest],
+    cells: &[Cell],
+) -> Result<Vec<(Kind, &'a Path, u32, Protocol)>, SetupError> {
     let mut paths: Vec<&Path> = Vec::new();
     for r in requests {
         check(cells, r.drive, r.kind)?;
@@ -166,8 +190,7 @@ pub fn open_lines(requests: &[LineRequest], cells: &[Cell]) -> Result<Vec<Serial
                 .collect();
             Protocol::Rtu(Box::new(RtuLine::new(baud, drives)))
         };
-        let line = SerialLine::open(kind, path, baud, protocol)?;
-        lines.push(line);
+        lines.push((kind, path, baud, protocol));
     }
     Ok(lines)
 }
