@@ -232,3 +232,47 @@ def test_each_bus_writes_its_own_trace(launch, connect, eds_files, tmp_path):
     a_ids, b_ids = ids(a_log), ids(b_log)
     assert {0x601, 0x581, 0x701} <= a_ids and not {0x602, 0x582, 0x702} & a_ids, a_ids
     assert {0x602, 0x582, 0x702} <= b_ids and not {0x601, 0x581, 0x701} & b_ids, b_ids
+
+
+def test_the_trace_of_a_timed_bus_has_its_load_beside_it(launch, tmp_path):
+    """Issue 14: `trace` on a `[[bus]]` with a bit rate writes `<trace>.load.csv`, the bus load
+    per 500 ms window; each window's load is the bit time (test_bus_timing.frame_bits) of the
+    pcap's frames in it over its length, and tshark reads the pcap as before."""
+    from conftest import CHANNEL
+    from test_bus_timing import frame_bits
+
+    bitrate = 125_000
+    pcap = tmp_path / "bus.pcap"
+    cell = tmp_path / "timed.toml"
+    cell.write_text("\n".join([
+        "[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', f"bitrate = {bitrate}",
+        f'trace = "{pcap}"', "",
+        "[[drive]]", 'device = "cmmp-as"', "node = 1", "[drive.objects]", '"1017:00" = 10', "",
+        "[[drive]]", 'device = "cmmp-as"', "node = 2", "[drive.objects]", '"1017:00" = 10', "",
+    ]))
+    twin = launch(config=cell)
+    time.sleep(2.0)
+    twin.stop()
+    frames = read_pcap(pcap)
+    lines = (tmp_path / "bus.pcap.load.csv").read_text().splitlines()
+    assert lines[0] == (f"# drivetwin bus load: bitrate {bitrate} bit/s, window 500 ms, times in s "
+                        "on the trace's clock"), lines[0]
+    assert lines[1] == "end_s,window_s,load_percent,frames"
+    rows = [l.split(",") for l in lines[2:]]
+    assert len(rows) >= 2, lines
+    start = frames[0][0]
+    for end, window, load, count in rows:
+        end, window, load, count = float(end), float(window), float(load), int(count)
+        assert abs(window - (end - start)) < 2e-6, (start, end, window)
+        inside = [f for f in frames if start - 1e-7 <= f[0] < end - 1e-7]
+        assert len(inside) == count, (end, count, len(inside))
+        bits = sum(frame_bits(i, bytes(d)) for _, i, _, d in inside)
+        assert abs(load - bits / bitrate / window * 100) < 0.05, (load, bits, window)
+        start = end
+    # Two heartbeats every 10 ms at 125 kbit/s: about 9 % of the bus.
+    assert 6 < float(rows[-1][2]) < 12, rows
+    if shutil.which("tshark"):
+        out = subprocess.run([shutil.which("tshark"), "-r", str(pcap), "-T", "fields", "-e", "can.id"],
+                             capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+        assert len(out.stdout.split()) == len(frames)

@@ -258,3 +258,63 @@ fn drive_current_and_peak_current_limit_the_bldc() {
     assert!(peak > 0.4 * rated, "{peak} A");
     assert!(peak <= 0.6 * rated * 1.05, "{peak} A");
 }
+
+/// Appendix 18.2: 2004h:07 selecting a BLDC loads the BLDC's default load-angle curve into
+/// 200Ch:01 … 07 (16384, 16500, 17000 … 19000); back to the stepper (0) the stepper's of
+/// 18.1; 1 ↔ 2 (the same BLDC) and a curve written after the type are kept.
+#[test]
+fn appendix_18_2_bldc_load_angles_follow_the_motor_type() {
+    use drive::personality::nanotec::{BLDC_LOAD_ANGLES, STEPPER_LOAD_ANGLES};
+    let curve = |r: &Rig| -> Vec<i64> { (1..=7).map(|n| r.i(0x200C, n)).collect() };
+    let mut r = Rig::with(DriveSettings {
+        bldc: Some(BldcData::default()),
+        ..DriveSettings::default()
+    });
+    // The dictionary's defaults (§11.13) before any type is chosen.
+    assert_eq!(
+        curve(&r),
+        vec![16384, 17000, 17500, 17750, 18000, 18000, 18000]
+    );
+    r.w8(0x2004, 7, 1);
+    let bldc: Vec<i64> = BLDC_LOAD_ANGLES.iter().map(|a| i64::from(*a)).collect();
+    assert_eq!(curve(&r), bldc, "18.2 at 2004h:07 = 1");
+    assert_eq!(
+        bldc,
+        vec![16384, 16500, 17000, 17500, 18000, 18500, 19000],
+        "the appendix's values"
+    );
+    assert_eq!(r.i(0x200C, 8), 18000, "sub 8 is not used and stays");
+    r.d.write(0x200C, 3, &17250u16.to_le_bytes()).unwrap();
+    r.w8(0x2004, 7, 2);
+    assert_eq!(
+        r.i(0x200C, 3),
+        17250,
+        "1 → 2: the same motor family, the curve stays"
+    );
+    r.w8(0x2004, 7, 0);
+    let stepper: Vec<i64> = STEPPER_LOAD_ANGLES.iter().map(|a| i64::from(*a)).collect();
+    assert_eq!(curve(&r), stepper, "18.1 back at the stepper");
+    // An out-of-range type is refused and changes nothing.
+    assert!(r.d.write(0x2004, 7, &[3]).is_err());
+    assert_eq!(curve(&r), stepper);
+}
+
+/// The long test run (6060h = −1) with a BLDC measures Appendix 18.2's curve.
+#[test]
+fn the_long_test_run_of_a_bldc_measures_the_bldc_curve() {
+    use drive::personality::nanotec::BLDC_LOAD_ANGLES;
+    let mut r = bldc_rig(2, BldcData::default());
+    // A curve of its own first: the test run overwrites it.
+    r.d.write(0x200C, 2, &20000u16.to_le_bytes()).unwrap();
+    r.enable();
+    r.w8(0x6060, 0, -1);
+    r.run_ms(5);
+    r.cw(0x001F);
+    r.run_ms(2200);
+    assert_ne!(r.sw() & 0x0400, 0, "done");
+    for (n, angle) in (1u8..).zip(BLDC_LOAD_ANGLES) {
+        assert_eq!(r.i(0x200C, n), i64::from(angle), "200Ch:{n}");
+        assert_eq!(r.i(0x2013, n), i64::from(angle), "2013h:{n}");
+    }
+    assert!(r.i(0x2012, 1) > 0, "the BLDC's rated current");
+}

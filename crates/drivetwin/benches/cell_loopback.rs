@@ -23,6 +23,10 @@
 //!
 //! `cargo bench -p drivetwin --bench cell_loopback`; `CELL_BENCH_COUNT` sets the round trips
 //! per server and placement (default 20000), `CELL_BENCH_ROUNDS` the interleaved rounds (10).
+//!
+//! It draws the figures into `docs/round-trip-latency.png` (`CELL_BENCH_PLOT` another path):
+//! p50 and p99 of each path, floor beside twin, per placement. The machine the figures in
+//! `docs/cell.md` come from is shared: a run measures the neighbours' load too.
 
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -37,7 +41,12 @@ use drivetwin::cell::Cell;
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 
+#[path = "../../drive/benches/support/mod.rs"]
+mod support;
+
 const WARM_UP: usize = 500;
+/// Longer than any round trip of a loaded machine: an answer not there by then is lost.
+const READ_TIMEOUT: Duration = Duration::from_secs(5);
 const SDO_UPLOAD_1000: &[u8] = b"< send 601 8 40 00 10 00 00 00 00 00 >";
 const FLOOR_FRAME: &[u8] = b"< frame 581 1764000000.000000 4300100092010200 >";
 /// FC 17h: read 4 registers at 0, write 4 registers at 0 (8 data bytes), unit 1.
@@ -135,6 +144,8 @@ impl CanClient {
     fn connect(addr: SocketAddr, handshake: bool) -> io::Result<CanClient> {
         let s = TcpStream::connect(addr)?;
         s.set_nodelay(true)?;
+        // A lost answer ends the run with an error instead of a hang.
+        s.set_read_timeout(Some(READ_TIMEOUT))?;
         let mut c = CanClient {
             s,
             buf: Vec::with_capacity(4096),
@@ -203,6 +214,7 @@ impl Client for ModbusClient {
 fn modbus_client(addr: SocketAddr) -> io::Result<ModbusClient> {
     let s = TcpStream::connect(addr)?;
     s.set_nodelay(true)?;
+    s.set_read_timeout(Some(READ_TIMEOUT))?;
     Ok(ModbusClient { s })
 }
 
@@ -227,8 +239,14 @@ fn env_usize(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
+/// The figures of one placement: its label and (path, p50, p99) of each server.
+struct Placement {
+    label: String,
+    figures: Vec<(&'static str, Duration, Duration)>,
+}
+
 /// One placement: servers on CPU `server_cpu`, the client on `client_cpu`.
-fn placement(label: &str, server_cpu: usize, client_cpu: usize) -> Result<(), String> {
+fn placement(label: &str, server_cpu: usize, client_cpu: usize) -> Result<Placement, String> {
     let count = env_usize("CELL_BENCH_COUNT", 20_000);
     let rounds = env_usize("CELL_BENCH_ROUNDS", 10).max(1);
     let floor_can = floor(server_cpu, FLOOR_FRAME).map_err(|e| e.to_string())?;
@@ -280,6 +298,7 @@ fn placement(label: &str, server_cpu: usize, client_cpu: usize) -> Result<(), St
     stop.stop();
     println!("\n{label} (servers on CPU {server_cpu}, client on CPU {client_cpu}), {count} round trips each:");
     let mut p50s = Vec::new();
+    let mut figures = Vec::new();
     for s in &mut series {
         s.samples.sort_unstable();
         p50s.push(percentile(&s.samples, 0.5));
@@ -303,24 +322,174 @@ fn placement(label: &str, server_cpu: usize, client_cpu: usize) -> Result<(), St
             p50.as_secs_f64() * 1e6,
             p99.as_secs_f64() * 1e6
         );
+        figures.push((s.name, p50, p99));
     }
-    Ok(())
+    Ok(Placement {
+        label: label.to_string(),
+        figures,
+    })
+}
+
+/// Draws the placements into `docs/round-trip-latency.png` (or `CELL_BENCH_PLOT`).
+fn draw(placements: &[Placement]) {
+    let path = std::env::var_os("CELL_BENCH_PLOT")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../../docs/round-trip-latency.png")
+        });
+    match plot::round_trips(&path, placements) {
+        Ok(()) => println!("\nplot: {}", path.display()),
+        Err(e) => println!("\nplot not drawn: {e}"),
+    }
+}
+
+mod plot {
+    //! Grouped bars on a logarithmic axis (p50 is tens of µs, p99 on a loaded machine up to
+    //! milliseconds): per placement and path (socketcand, Modbus) the floor and the twin, each
+    //! a p50 bar with its p99 as a thin bar on top, in µs.
+
+    use std::path::Path;
+
+    use plotters::prelude::*;
+
+    use super::Placement;
+
+    /// Bars per placement: floor / twin socketcand, floor / twin Modbus.
+    const BARS: f64 = 4.0;
+    /// The bars' foot, µs (the logarithmic axis has no 0).
+    const FOOT: f64 = 1.0;
+
+    pub fn round_trips(path: &Path, placements: &[Placement]) -> Result<(), String> {
+        crate::support::load_font()?;
+        let us = |d: std::time::Duration| (d.as_secs_f64() * 1e6).max(FOOT);
+        let top = placements
+            .iter()
+            .flat_map(|p| p.figures.iter().map(|f| us(f.2)))
+            .fold(100.0, f64::max)
+            * 12.0;
+        let width = placements.len().max(1) as f64 * (BARS + 1.0);
+        let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "Round trip over loopback TCP: the twin against the floor (p50 bar, p99 on top)",
+                ("sans-serif", 22),
+            )
+            .margin(16)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..width, (FOOT..top).log_scale())
+            .map_err(|e| e.to_string())?;
+        // Group centres lie on the 0.5 grid: 2.5, 7.5, …
+        let labels: Vec<(f64, String)> = placements
+            .iter()
+            .enumerate()
+            .map(|(g, p)| (g as f64 * (BARS + 1.0) + 0.5 + BARS / 2.0, p.label.clone()))
+            .collect();
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels((width * 2.0) as usize + 1)
+            .x_label_formatter(&|x: &f64| {
+                labels
+                    .iter()
+                    .find(|(at, _)| (at - x).abs() < 0.01)
+                    .map_or(String::new(), |(_, l)| l.clone())
+            })
+            .y_label_formatter(&|y: &f64| format!("{y:.0}"))
+            .y_desc("round trip, µs (log scale)")
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let floor = RGBColor(170, 170, 170);
+        let twin = RGBColor(40, 90, 170);
+        let p99 = RGBColor(230, 120, 40);
+        for (g, p) in placements.iter().enumerate() {
+            for (i, (name, p50v, p99v)) in p.figures.iter().enumerate() {
+                let x0 = g as f64 * (BARS + 1.0) + 0.5 + i as f64;
+                let color = if name.starts_with("floor") {
+                    floor
+                } else {
+                    twin
+                };
+                let (a, b) = (us(*p50v), us(*p99v).max(us(*p50v)));
+                chart
+                    .draw_series([
+                        Rectangle::new([(x0 + 0.1, FOOT), (x0 + 0.9, a)], color.filled()),
+                        Rectangle::new([(x0 + 0.4, a), (x0 + 0.6, b)], p99.filled()),
+                    ])
+                    .map_err(|e| e.to_string())?;
+                // Text hangs from its point: the p50 inside its bar, the p99 and the path's
+                // two words above the p99 bar.
+                let (who, what) = name.split_once(' ').unwrap_or((name, ""));
+                let label = |t: String, y: f64, color: &RGBColor| {
+                    Text::new(
+                        t,
+                        (x0 + 0.12, y),
+                        ("sans-serif", 13).into_font().color(color),
+                    )
+                };
+                chart
+                    .draw_series([
+                        label(format!("{a:.1}"), a / 1.25, &WHITE),
+                        label(format!("{b:.0}"), b * 1.45, &BLACK),
+                        label(what.to_string(), b * 2.1, &BLACK),
+                        label(who.to_string(), b * 3.0, &BLACK),
+                    ])
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        for (label, color) in [
+            ("floor: a blocking thread answering at once (p50)", floor),
+            ("twin: the cell loop with its drives (p50)", twin),
+            ("p99", p99),
+        ] {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(0.0, FOOT), (0.0, FOOT)],
+                    color.filled(),
+                )))
+                .map_err(|e| e.to_string())?
+                .label(label)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 6), (x + 20, y + 6)], color.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        root.present().map_err(|e| e.to_string())
+    }
 }
 
 fn main() -> ExitCode {
     // `cargo bench` passes `--bench`; a filter argument is ignored.
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    if let Err(e) = placement("same CPU", 0, 0) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
+    let mut placements = Vec::new();
+    match placement("same CPU", 0, 0) {
+        Ok(p) => placements.push(p),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
     }
     if cpus < 2 {
         println!("\nsplit CPUs: skipped, one CPU only");
-        return ExitCode::SUCCESS;
+    } else {
+        match placement("split CPUs", 0, 1) {
+            Ok(p) => placements.push(p),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
     }
-    if let Err(e) = placement("split CPUs", 0, 1) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
+    draw(&placements);
     ExitCode::SUCCESS
 }

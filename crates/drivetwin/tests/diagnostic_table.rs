@@ -192,7 +192,12 @@ fn acknowledge(b: &mut Bench, number: &str) {
 fn nanotec_every_section_7_1_code_over_the_bus() {
     use drive::personality::nanotec::{Reaction as NtReaction, REACTIONS};
     for device in ["nanotec-smci47s", "nanotec-pd4n"] {
-        let rows = devices::by_name(device).expect("device").diagnostics;
+        let all = devices::by_name(device).expect("device").diagnostics;
+        // The §7.1 rows: 2020h selects their reaction ("configurable").
+        let rows: Vec<_> = all
+            .iter()
+            .filter(|r| r.reaction == Reaction::Configurable)
+            .collect();
         assert_eq!(rows.len(), 12, "§7.1 lists 12 codes");
         let mut b = Bench::device(device, None);
         assert_eq!(b.read(0x2020, 0), 1, "legacy format by default");
@@ -234,6 +239,75 @@ fn nanotec_every_section_7_1_code_over_the_bus() {
                     b.run_ms(5);
                 }
             }
+        }
+    }
+}
+
+/// Nanotec §7.2 (§17), every CiA code the firmware names (0000h, the reset EMCY, is no
+/// row): raised by its name, the EMCY with its code and register (bit 4 for the
+/// communication codes 81xxh / 82xxh), 1003h:01, and the reaction the row's decision gives:
+/// "ps_off" FAULT at once, "quick_stop" the quick-stop ramp while moving, then FAULT,
+/// "warning" the EMCY only (the drive keeps moving; EMCY 0000h when cleared).
+#[test]
+fn nanotec_every_section_7_2_code_over_the_bus() {
+    for device in ["nanotec-smci47s", "nanotec-pd4n"] {
+        let rows: Vec<_> = devices::by_name(device)
+            .expect("device")
+            .diagnostics
+            .iter()
+            .filter(|r| r.reaction != Reaction::Configurable)
+            .collect();
+        assert_eq!(rows.len(), 33, "§7.2 lists 34 codes, 0000h is the reset");
+        let mut b = Bench::device(device, None);
+        for row in rows {
+            let number = row.number;
+            let code = row.code.expect("§7.2 codes");
+            assert_eq!(row.text, format!("CAN_EMERGENCY_ERROR_CODE_{number}"));
+            let communication = (0x8100..0x8300).contains(&code);
+            assert_eq!(row.register, if communication { 0x11 } else { 0x01 });
+            b.enable();
+            // Moving in VL, so a quick stop has a ramp to run.
+            b.write(0x6060, 0, &[2]);
+            b.write(0x6042, 0, &2000i16.to_le_bytes());
+            b.run_ms(300);
+            b.sent();
+            b.drive().raise_diagnostic(number).expect("a row");
+            b.run_ms(2);
+            let frames = emcy(&b.sent());
+            assert_emcy(&mut b, &frames, row, true);
+            match row.reaction {
+                Reaction::PsOff => {
+                    assert_eq!(
+                        b.statusword() & 0x4F,
+                        0x08,
+                        "{device} {number} FAULT at once"
+                    );
+                    acknowledge(&mut b, number);
+                }
+                Reaction::QuickStop => {
+                    assert_eq!(
+                        b.statusword() & 0x4F,
+                        0x0F & 0x4F,
+                        "{device} {number} fault reaction active (the ramp)"
+                    );
+                    b.run_ms(500);
+                    assert_eq!(b.statusword() & 0x4F, 0x08, "{device} {number} FAULT");
+                    acknowledge(&mut b, number);
+                }
+                _ => {
+                    assert_eq!(
+                        b.statusword() & 0x6F,
+                        0x27,
+                        "{device} {number} keeps running"
+                    );
+                    b.drive().clear_diagnostic(number).expect("raised");
+                    b.run_ms(5);
+                    assert_eq!(emcy(&b.sent()), vec![[0; 8]], "{number} EMCY 0000h");
+                    b.write(0x6040, 0, &[0x06, 0]);
+                    b.run_ms(5);
+                }
+            }
+            b.write(0x6042, 0, &0i16.to_le_bytes());
         }
     }
 }

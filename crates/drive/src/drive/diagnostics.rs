@@ -60,6 +60,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 let r = self.cmmp_message_reaction(code, message, critical, 0);
                 self.report_error(code, row.register, r);
             }
+            // Nanotec §7.2: a row with a fixed reaction (the §7.1 rows are "configurable").
+            Vendor::Nanotec if row.reaction != od::Reaction::Configurable => {
+                let r = crate::personality::nanotec::fixed_reaction(row.reaction);
+                self.report_error(code, row.register, r);
+            }
             _ => self.raise(code, row.register, critical),
         }
         // Only an error blocks the fault reset; a warning or a log entry does not.

@@ -150,6 +150,18 @@ impl From<Reaction> for ErrorReaction {
     }
 }
 
+/// The reaction of a diagnostic row with a fixed reaction (the §7.2 rows of the device
+/// file; each row's comment gives the decision): "ps_off" Power Off, "quick_stop"
+/// Quickstop + Power Off, "warning" the EMCY only; anything else as §7.1's default for a
+/// code it does not list (Quickstop + Power Off).
+pub fn fixed_reaction(r: od::Reaction) -> ErrorReaction {
+    match r {
+        od::Reaction::PsOff => Reaction::PowerOff.into(),
+        od::Reaction::Warning | od::Reaction::Ignore => Reaction::MessageOnly.into(),
+        _ => Reaction::QuickStopPowerOff.into(),
+    }
+}
+
 /// One row of §7.1: the code and its reactions, legacy (2020h = 1) and new (2020h = 0), at
 /// standstill and while moving.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -279,6 +291,20 @@ pub const SHORT_TEST_RUN: core::time::Duration = core::time::Duration::from_mill
 /// Appendix 18.1, the default load-angle curve of a stepper (65536 = 360° electrical).
 pub const STEPPER_LOAD_ANGLES: [u16; 7] = [16384, 18384, 20384, 22384, 24384, 26384, 28384];
 
+/// Appendix 18.2 ("Default Werte für BLDC Motoren"), the default load-angle curve of a BLDC
+/// (200Ch:01 … 07, 65536 = 360° electrical). Appendix 18 lists no other BLDC default.
+pub const BLDC_LOAD_ANGLES: [u16; 7] = [16384, 16500, 17000, 17500, 18000, 18500, 19000];
+
+/// The default load-angle curve of Appendix 18 for motor type 2004h:07 = `motor_type`: 18.1
+/// for a stepper (0), 18.2 for a BLDC (1, 2).
+pub const fn default_load_angles(motor_type: u8) -> [u16; 7] {
+    if motor_type == 0 {
+        STEPPER_LOAD_ANGLES
+    } else {
+        BLDC_LOAD_ANGLES
+    }
+}
+
 /// Statusword bits 0–3, 5, 6 of each state (§4.2, measured in the §2.4 example: 0260h,
 /// 0221h, 0233h, 0237h with bits 4 and 9 added). Bit 5 is set in Switch On Disabled.
 const STATE_BITS: [(State, u16); 8] = [
@@ -321,6 +347,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
             (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
+            (0x2004, 0x07) => Self::nanotec_write_motor_type,
             _ => return None,
         })
     }
@@ -337,6 +364,38 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // executed".
             ((m == 4 && !closed_loop) || d.brake_wait()).then_some(AbortCode::DEVICE_STATE)
         })
+    }
+
+    /// 2004h:07, the motor type (§1.2 "Motortyp", §11.5): a write that changes the motor
+    /// family (stepper 0 ↔ BLDC 1 / 2) loads the family's default load-angle curve of
+    /// Appendix 18 into 200Ch:01 … 07 (18.2 for a BLDC, 18.1 for a stepper).
+    ///
+    /// Decision: the manual lists the appendix's curves as the motors' "Default Werte"
+    /// without saying when the firmware takes them; the twin takes them when the motor
+    /// type names the other family, so a BLDC starts with its own curve (a curve written
+    /// after the type, or measured by the test run, stays). 1 ↔ 2 (the same BLDC, with or
+    /// without encoder) keeps the curve; sub 8 … 10 are not used (§11.13) and stay.
+    fn nanotec_write_motor_type(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        let before = self.value(index, sub) != 0;
+        self.od.write(index, sub, data)?;
+        let after = self.value(index, sub);
+        if before != (after != 0) {
+            self.store_load_angles(&default_load_angles(after.clamp(0, 2) as u8));
+        }
+        Ok(())
+    }
+
+    /// 200Ch:01 … 07 := `angles`.
+    fn store_load_angles(&mut self, angles: &[u16; 7]) {
+        for (n, angle) in (1u8..).zip(angles) {
+            let e = self.od.description().entry(0x200C, n);
+            self.store(e, i64::from(*angle));
+        }
     }
 
     /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;
@@ -418,7 +477,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// rising edge of bit 4 in Operation Enabled, as homing does, and bit 4 low aborts it; the
     /// long run takes [`LONG_TEST_RUN`], the short one [`SHORT_TEST_RUN`], with the shaft
     /// standing; the end shows as target reached (bit 10). The measured curve is Appendix
-    /// 18.1's stepper curve (the twin's motor has no load angle of its own), at the support
+    /// 18's default curve of the motor type 2004h:07 (18.1 a stepper, 18.2 a BLDC; the
+    /// twin's motor has no load angle of its own), at the support
     /// points of 2004h:08; 2012h holds the motor's rated current in mA; 200Bh is the
     /// electrical angle of the index pulse, `index position × pole pairs` in 65536ths.
     pub(crate) fn nanotec_test_run(&mut self, cw: Controlword, dt: f64) {
@@ -449,10 +509,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     fn store_load_angle_curve(&mut self) {
         let spacing = load_angle_spacing_rpm(self.value(0x2004, 8).clamp(0, 0xFFFF) as u16);
-        let rated_ma = self
+        // A BLDC (no stepper) is the servo axis's motor.
+        let rated = self
             .stepper()
-            .map_or(0, |s| (s.data().rated_current * 1000.0) as i64);
-        for (n, angle) in (1u8..).zip(STEPPER_LOAD_ANGLES) {
+            .map_or(self.axis.motor().data().rated_current, |s| {
+                s.data().rated_current
+            });
+        let rated_ma = (rated * 1000.0) as i64;
+        let curve = default_load_angles(self.value(0x2004, 7).clamp(0, 2) as u8);
+        for (n, angle) in (1u8..).zip(curve) {
             let rpm = libm::round(f64::from(n - 1) * spacing) as i64;
             for (index, value) in [
                 (0x200C, i64::from(angle)),

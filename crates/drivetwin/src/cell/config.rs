@@ -231,6 +231,9 @@ pub struct DriveSection {
     /// The CMMP-AS switch positions or input levels that give node number, bit rate and
     /// CAN activation (manual §2.3–2.4); when given, its node number wins over `node`.
     pub switches: Option<SwitchesSection>,
+    /// A Nanotec's motor (2004h:07, §1.2 "Motortyp"): `"stepper"` (the default),
+    /// `"bldc-hall"` or `"bldc-hall-encoder"`; see [`NanotecMotorType`].
+    pub motor_type: Option<NanotecMotorType>,
     /// A Nanotec's hexadecimal rotary switches (§1.1.1): node-ID and bit rate at power-on;
     /// when they give a node-ID it wins over `node`.
     pub rotary_switches: Option<RotarySwitchesSection>,
@@ -278,6 +281,55 @@ pub struct StepperSection {
     pub coulomb_friction: Option<f64>,
     pub viscous_friction: Option<f64>,
     pub supply_voltage: Option<f64>,
+}
+
+/// `motor_type` of a Nanotec drive: the motor connected and the 2004h:07 it starts with
+/// (Nanotec §1.2 "Motortyp", §11.5 sub 7: 0 stepper with or without quadrature encoder, 1 BLDC
+/// with Hall sensors, 2 BLDC with Hall sensors and quadrature encoder).
+///
+/// A BLDC is `drive::bldc`'s default (DB57-like: 4 pole pairs, the DB57 Hall sequence that the
+/// default 2004h:0C = 243015h turns) with `[drive.motor]` as its electrical and mechanical
+/// data; it starts with 2004h:07 = 1 / 2 and the BLDC load-angle curve of Appendix 18.2 in
+/// 200Ch:01 … 07. Values of `[drive.objects]` and a stored set still win, as for every
+/// commissioning value.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum NanotecMotorType {
+    Stepper,
+    BldcHall,
+    #[serde(alias = "bldc-encoder")]
+    BldcHallEncoder,
+}
+
+impl NanotecMotorType {
+    /// The value of 2004h:07.
+    pub fn code(self) -> u8 {
+        match self {
+            NanotecMotorType::Stepper => 0,
+            NanotecMotorType::BldcHall => 1,
+            NanotecMotorType::BldcHallEncoder => 2,
+        }
+    }
+
+    /// The commissioning values the motor type sets: 2004h:07 and, for a BLDC, the load-angle
+    /// curve of Appendix 18.2 (200Ch:01 … 07), as the drive loads it when 2004h:07 selects a
+    /// BLDC over SDO.
+    fn commissioning(self) -> Vec<Commissioning> {
+        let mut v = vec![Commissioning {
+            index: 0x2004,
+            sub: 7,
+            bytes: vec![self.code()],
+        }];
+        if self != NanotecMotorType::Stepper {
+            let curve = drive::personality::nanotec::default_load_angles(self.code());
+            v.extend((1u8..).zip(curve).map(|(sub, a)| Commissioning {
+                index: 0x200C,
+                sub,
+                bytes: a.to_le_bytes().to_vec(),
+            }));
+        }
+        v
+    }
 }
 
 /// `mode` of `[drive.stepper]`.
@@ -760,6 +812,7 @@ impl CellFile {
                 stepper: StepperSection::default(),
                 axis: AxisSection::default(),
                 switches: None,
+                motor_type: None,
                 rotary_switches: None,
                 ci_terminal: None,
                 bus: None,
@@ -935,6 +988,12 @@ impl CellFile {
                 }
                 None
             };
+            if d.motor_type.is_some() && !(is_cia402(desc) && desc.entry(0x2004, 7).is_some()) {
+                return Err(err(
+                    "motor_type",
+                    format!("{} has no motor type 2004h:07 (a Nanotec's)", desc.name),
+                ));
+            }
             let mut commissioning = Vec::new();
             let settings = if is_cia402(desc) {
                 d.motor.check().map_err(|what| ConfigError::Object {
@@ -971,6 +1030,12 @@ impl CellFile {
                 // command: modelled as a power stage that cannot be switched on.
                 if rotary.is_some_and(|p| !p.motion_allowed) {
                     s.enables_present = false;
+                }
+                if let Some(t) = d.motor_type {
+                    if t != NanotecMotorType::Stepper {
+                        s.bldc = Some(drive::bldc::BldcData::default());
+                    }
+                    commissioning.extend(t.commissioning());
                 }
                 Some(s)
             } else {
@@ -1295,6 +1360,53 @@ mod switches_tests {
         )
         .unwrap();
         assert!(d.settings.expect("a drive").enables_present);
+    }
+
+    /// `motor_type`: a BLDC connected (the DB57-like default), 2004h:07 and Appendix 18.2's
+    /// load-angle curve as commissioning values, `[drive.objects]` after them (so they win);
+    /// `stepper` sets 2004h:07 = 0 only; a drive without 2004h:07 refuses the key.
+    #[test]
+    fn nanotec_motor_type_sets_2004h_07_and_the_bldc() {
+        let value = |d: &DriveSpec, index: u16, sub: u8| -> Vec<Vec<u8>> {
+            d.commissioning
+                .iter()
+                .filter(|c| (c.index, c.sub) == (index, sub))
+                .map(|c| c.bytes.clone())
+                .collect()
+        };
+        for (name, code) in [
+            ("bldc-hall", 1u8),
+            ("bldc-hall-encoder", 2),
+            ("bldc-encoder", 2),
+        ] {
+            let d = nanotec("nanotec-smci47s", &format!("motor_type = \"{name}\"")).unwrap();
+            assert_eq!(value(&d, 0x2004, 7), vec![vec![code]], "{name}");
+            assert_eq!(value(&d, 0x200C, 2), vec![16500u16.to_le_bytes().to_vec()]);
+            assert_eq!(value(&d, 0x200C, 7), vec![19000u16.to_le_bytes().to_vec()]);
+            assert!(d.settings.expect("a drive").bldc.is_some(), "{name}");
+        }
+        let d = nanotec("nanotec-pd4n", "motor_type = \"stepper\"").unwrap();
+        assert_eq!(value(&d, 0x2004, 7), vec![vec![0]]);
+        assert!(value(&d, 0x200C, 1).is_empty());
+        assert!(d.settings.expect("a drive").bldc.is_none());
+        let d = nanotec(
+            "nanotec-pd4n",
+            "motor_type = \"bldc-hall\"\n[drive.objects]\n\"200C:02\" = 16000",
+        )
+        .unwrap();
+        assert_eq!(
+            value(&d, 0x200C, 2).last(),
+            Some(&16000u16.to_le_bytes().to_vec()),
+            "[drive.objects] comes last"
+        );
+        for (device, bad, says) in [
+            ("cmmp-as", "motor_type = \"bldc-hall\"", "2004h:07"),
+            ("cmmo-st", "motor_type = \"stepper\"", "2004h:07"),
+            ("nanotec-pd4n", "motor_type = \"servo\"", "unknown variant"),
+        ] {
+            let err = nanotec(device, bad).unwrap_err().to_string();
+            assert!(err.contains(says), "{device} {bad}: {err}");
+        }
     }
 
     /// NT-NODE-01 from a cell file: SMCI47-S left = 1, right = 2 → node 33 (over `node`), and

@@ -89,6 +89,11 @@ impl Cell {
         self
     }
 
+    /// The bus's bit rate, if it has one (`bitrate` on its `[[bus]]`).
+    pub fn timed_bitrate(&self) -> Option<u32> {
+        self.timing.as_ref().map(|t| t.bitrate())
+    }
+
     /// The bus's figures as of `now` (none without a bit rate).
     pub fn bus_figures(&mut self, now: Instant) -> Option<BusFigures> {
         self.timing.as_mut().map(|t| t.figures(now))

@@ -383,7 +383,10 @@ async fn prepare_cell(
             None => Vec::new(),
         };
         let mut writer = match trace_path {
-            Some(p) => Some(TraceWriter::create(p, channel).map_err(io(p.display().to_string()))?),
+            Some(p) => Some(
+                TraceWriter::create_for_bus(p, channel, cell.timed_bitrate())
+                    .map_err(io(p.display().to_string()))?,
+            ),
             None => None,
         };
         let mut count = 0u64;
@@ -462,8 +465,8 @@ async fn prepare_cell(
         // `[[bus]]` its bus.
         let first_bus_trace = trace_path.filter(|_| b == 0 && pcap_writers.is_empty());
         if let Some(p) = section.trace.as_ref().or(first_bus_trace) {
-            let writer =
-                TraceWriter::create(p, &section.channel).map_err(io(p.display().to_string()))?;
+            let writer = TraceWriter::create_for_bus(p, &section.channel, section.bitrate)
+                .map_err(io(p.display().to_string()))?;
             out!("tracing to {}", p.display());
             bus.trace = Some(writer);
         }

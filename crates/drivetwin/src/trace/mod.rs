@@ -1,6 +1,8 @@
-//! Bus traces: pcap (LINKTYPE_CAN_SOCKETCAN) or candump `.log`, chosen by the file name, and
-//! the candump reader that feeds scripted frames to a virtual-clock run.
+//! Bus traces: pcap (LINKTYPE_CAN_SOCKETCAN) or candump `.log`, chosen by the file name, with
+//! the bus load beside them (`bus_load`: `<trace>.load.csv` for a bus with a bit rate), and the
+//! candump reader that feeds scripted frames to a virtual-clock run.
 
+pub mod bus_load;
 pub mod pcap;
 
 use std::fs::File;
@@ -10,10 +12,16 @@ use std::time::Duration;
 
 use canopen::CanFrame;
 
+use crate::trace::bus_load::LoadLog;
 use crate::trace::pcap::{CandumpWriter, PcapWriter};
 
-/// A trace file being written.
-pub enum TraceWriter {
+/// A trace file being written, and its bus-load file.
+pub struct TraceWriter {
+    file: TraceFile,
+    load: Option<LoadLog<BufWriter<File>>>,
+}
+
+enum TraceFile {
     Pcap(PcapWriter<BufWriter<File>>),
     Candump(CandumpWriter<BufWriter<File>>),
 }
@@ -22,24 +30,48 @@ impl TraceWriter {
     /// `*.log` is candump format, anything else pcap.
     pub fn create(path: &Path, channel: &str) -> std::io::Result<Self> {
         let f = BufWriter::new(File::create(path)?);
-        if path.extension().is_some_and(|e| e == "log") {
-            Ok(TraceWriter::Candump(CandumpWriter::new(f, channel)))
+        let file = if path.extension().is_some_and(|e| e == "log") {
+            TraceFile::Candump(CandumpWriter::new(f, channel))
         } else {
-            Ok(TraceWriter::Pcap(PcapWriter::new(f)?))
+            TraceFile::Pcap(PcapWriter::new(f)?)
+        };
+        Ok(TraceWriter { file, load: None })
+    }
+
+    /// As [`TraceWriter::create`], for a bus at `bitrate` bit/s: with a bit rate its load per
+    /// window goes to [`bus_load::load_path`] of `path` as well.
+    pub fn create_for_bus(
+        path: &Path,
+        channel: &str,
+        bitrate: Option<u32>,
+    ) -> std::io::Result<Self> {
+        let mut w = Self::create(path, channel)?;
+        if let Some(b) = bitrate {
+            let f = BufWriter::new(File::create(bus_load::load_path(path))?);
+            w.load = Some(LoadLog::new(f, b)?);
         }
+        Ok(w)
     }
 
     pub fn write(&mut self, since_epoch: Duration, frame: &CanFrame) -> std::io::Result<()> {
-        match self {
-            TraceWriter::Pcap(w) => w.write_frame_at(since_epoch, frame),
-            TraceWriter::Candump(w) => w.write_frame_at(since_epoch, frame),
+        match &mut self.file {
+            TraceFile::Pcap(w) => w.write_frame_at(since_epoch, frame)?,
+            TraceFile::Candump(w) => w.write_frame_at(since_epoch, frame)?,
+        }
+        match self.load.as_mut() {
+            Some(l) => l.frame(since_epoch, frame),
+            None => Ok(()),
         }
     }
 
     pub fn flush(&mut self) -> std::io::Result<()> {
-        match self {
-            TraceWriter::Pcap(w) => w.flush(),
-            TraceWriter::Candump(w) => w.flush(),
+        match &mut self.file {
+            TraceFile::Pcap(w) => w.flush()?,
+            TraceFile::Candump(w) => w.flush()?,
+        }
+        match self.load.as_mut() {
+            Some(l) => l.flush(),
+            None => Ok(()),
         }
     }
 }

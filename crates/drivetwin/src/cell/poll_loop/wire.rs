@@ -88,7 +88,7 @@ impl CellLoop {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
-                let w = TraceWriter::create(&path, &channel)
+                let w = TraceWriter::create_for_bus(&path, &channel, b.cell.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
                 b.trace = Some(w);
                 Ok(WireAnswer::Done)
