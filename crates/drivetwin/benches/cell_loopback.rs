@@ -22,7 +22,12 @@
 //! server and placement and the ratio of each twin path to its floor (target: p50 ≤ 1.2×).
 //!
 //! `cargo bench -p drivetwin --bench cell_loopback`; `CELL_BENCH_COUNT` sets the round trips
-//! per server and placement (default 20000), `CELL_BENCH_ROUNDS` the interleaved rounds (10).
+//! per server and placement (default 20000), `CELL_BENCH_ROUNDS` the interleaved rounds (default:
+//! enough that a round sends at most 800 requests). A socketcand client may send no faster than
+//! its bus carries frames after a burst of 1024 (`can::frame_budget`; an untimed bus counts as
+//! 1 Mbit/s, about 21 000 frames/s), and a blocking client at 15 µs a round trip is three times
+//! that: a round that fits the burst, with the other servers' rounds between, keeps every
+//! request on the bus (longer rounds lose requests, as a flooding master would).
 //!
 //! It draws the figures into `docs/round-trip-latency.png` (`CELL_BENCH_PLOT` another path):
 //! p50 and p99 of each path, floor beside twin, per placement. The machine the figures in
@@ -45,6 +50,8 @@ use drivetwin::modbus_tcp::server::ModbusConfig;
 mod support;
 
 const WARM_UP: usize = 500;
+/// Requests per server and round: within the socketcand client's burst of 1024 frames.
+const MAX_PER_ROUND: usize = 800;
 /// Longer than any round trip of a loaded machine: an answer not there by then is lost.
 const READ_TIMEOUT: Duration = Duration::from_secs(5);
 const SDO_UPLOAD_1000: &[u8] = b"< send 601 8 40 00 10 00 00 00 00 00 >";
@@ -248,7 +255,7 @@ struct Placement {
 /// One placement: servers on CPU `server_cpu`, the client on `client_cpu`.
 fn placement(label: &str, server_cpu: usize, client_cpu: usize) -> Result<Placement, String> {
     let count = env_usize("CELL_BENCH_COUNT", 20_000);
-    let rounds = env_usize("CELL_BENCH_ROUNDS", 10).max(1);
+    let rounds = env_usize("CELL_BENCH_ROUNDS", count.div_ceil(MAX_PER_ROUND).max(10)).max(1);
     let floor_can = floor(server_cpu, FLOOR_FRAME).map_err(|e| e.to_string())?;
     let floor_mb = floor(server_cpu, &[0u8; FC17_RESPONSE_LEN]).map_err(|e| e.to_string())?;
     let (twin_can, twin_mb, stop) = twin(server_cpu)?;
