@@ -301,7 +301,45 @@ mod plot {
 
 criterion_group!(benches, criterion_1ms);
 
+/// `DRIVE_BENCH_PROFILE=cmmp-as|nanotec|cmmo-st` (and `DRIVE_BENCH_MS`, default 1000): only
+/// step that axis for so many simulated milliseconds after the run-up, for a profiler
+/// (`valgrind --tool=callgrind --toggle-collect='*run_steps*'` counts just the steps).
+fn profile(which: &str) {
+    let ms = std::env::var("DRIVE_BENCH_MS")
+        .ok()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or(1000);
+    match which {
+        "cmmp-as" => profiled_steps(cmmp_as, ms),
+        "nanotec" => profiled_steps(nanotec, ms),
+        "cmmo-st" => profiled_steps(cmmo_st, ms),
+        _ => println!("DRIVE_BENCH_PROFILE: cmmp-as, nanotec or cmmo-st"),
+    }
+}
+
+#[inline(never)]
+fn profiled_steps<D: Stepped>(make: impl Fn() -> (D, Instant), ms: u64) {
+    let (mut d, mut now) = make();
+    for _ in 0..200 {
+        now = now + Duration::from_millis(1);
+        d.step_to(now);
+    }
+    run_steps(&mut d, now, ms);
+}
+
+#[inline(never)]
+fn run_steps<D: Stepped>(d: &mut D, mut now: Instant, ms: u64) {
+    for _ in 0..ms {
+        now = now + Duration::from_millis(1);
+        d.step_to(black_box(now));
+    }
+}
+
 fn main() {
+    if let Ok(which) = std::env::var("DRIVE_BENCH_PROFILE") {
+        profile(&which);
+        return;
+    }
     report();
     benches();
     Criterion::default().configure_from_args().final_summary();
