@@ -391,51 +391,77 @@ fn clamp(x: f64, lim: f64) -> f64 {
 /// 1 / 2π.
 const INV_TAU: f64 = 1.0 / TAU;
 
-/// `x` reduced to [−π, π) (to within one period for the rare quotient that rounds across a
-/// half: [`sin_cos`] takes any argument up to 4π).
-#[inline]
-fn wrap(x: f64) -> f64 {
-    x - TAU * crate::rounding::floor(x * INV_TAU + 0.5)
+/// 1.5·2⁵²: `y + ROUND_MAGIC − ROUND_MAGIC` is `y` rounded to the nearest integer (ties to
+/// even) for |y| < 2⁵¹, without a branch or a conversion, and the low bits of
+/// `(y + ROUND_MAGIC).to_bits()` are that integer in two's complement.
+const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// `y` rounded to the nearest integer, as `f64` and its bits plus [`ROUND_MAGIC`] (|y| < 2⁵¹;
+/// outside, a value within one of it).
+#[inline(always)]
+fn round_magic(y: f64) -> (f64, u64) {
+    let t = y + ROUND_MAGIC;
+    (t - ROUND_MAGIC, t.to_bits())
 }
 
-/// `(sin x, cos x)` for |x| ≤ 4π, inline and within an ulp or two of `libm::sincos` (the
-/// plant calls it once or twice per 50 µs sub-step; libm's general argument reduction and
-/// call cost more than the rest of the sub-step). The argument is reduced by the nearest
-/// multiple of π/2 in two parts (the first exact for the few multiples here), then the
-/// Taylor series, whose first omitted term is below 5·10⁻¹⁷ for |r| ≤ π/4, gives both values.
+/// `x` reduced to [−π, π] (to within an ulp at the ends: [`sin_cos`] takes any argument).
+#[inline(always)]
+fn wrap(x: f64) -> f64 {
+    x - TAU * round_magic(x * INV_TAU).0
+}
+
+/// Beyond this |x| [`sin_cos`] first reduces by whole turns (2¹⁹ quarter turns keep the
+/// product with [`PIO2_HI`] exact).
+const SIN_COS_DIRECT: f64 = 524_288.0 * FRAC_PI_2;
+
+/// π/2 to 33 bits (so q·PIO2_HI is exact for |q| < 2²⁰) and the rest of it.
+const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
+
+/// `(sin x, cos x)`, inline and within an ulp or two of `libm::sincos` (the plant calls it
+/// once or twice per sub-step; libm's general argument reduction and call cost more than
+/// the rest of the sub-step). The argument is reduced by the nearest multiple of π/2 in two
+/// parts (the first exact for the multiples here; larger arguments are first reduced by
+/// whole turns), then the Taylor series, whose first omitted term is below 5·10⁻¹⁷ for
+/// |r| ≤ π/4, gives both values. Branch-free: the rounding by [`ROUND_MAGIC`], the
+/// polynomials in Estrin's form (half the dependent operations of Horner's), the quadrant
+/// by bit masks (the quadrant changes every few sub-steps at speed: a branch on it was
+/// mispredicted).
 #[inline(always)]
 fn sin_cos(x: f64) -> (f64, f64) {
-    /// π/2 to 33 bits (so q·PIO2_HI is exact for |q| < 2²⁰) and the rest of it.
-    const PIO2_HI: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
-    const PIO2_LO: f64 = f64::from_bits(0x3DD0_B461_1A62_6331);
-    let q = crate::rounding::round_i64(x * core::f64::consts::FRAC_2_PI);
-    let qf = q as f64;
+    let x = if libm::fabs(x) < SIN_COS_DIRECT {
+        x
+    } else {
+        wrap(x)
+    };
+    let (qf, bits) = round_magic(x * core::f64::consts::FRAC_2_PI);
     let r = (x - qf * PIO2_HI) - qf * PIO2_LO;
     let r2 = r * r;
-    // 1/3!, 1/5!, … 1/15! and 1/2!, 1/4!, … 1/16! with alternating signs.
+    let r4 = r2 * r2;
+    let r8 = r4 * r4;
+    // sin r = r + r³·(S0 + S1·r² + … + S6·r¹²), S = −1/3!, 1/5!, … −1/15!.
     let s = r + r
         * r2
-        * (-1.0 / 6.0
-            + r2 * (1.0 / 120.0
-                + r2 * (-1.0 / 5040.0
-                    + r2 * (1.0 / 362_880.0
-                        + r2 * (-1.0 / 39_916_800.0
-                            + r2 * (1.0 / 6_227_020_800.0 + r2 * (-1.0 / 1_307_674_368_000.0)))))));
+        * ((-1.0 / 6.0 + r2 * (1.0 / 120.0))
+            + r4 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0))
+            + r8 * ((-1.0 / 39_916_800.0 + r2 * (1.0 / 6_227_020_800.0))
+                + r4 * (-1.0 / 1_307_674_368_000.0)));
+    // cos r = 1 − r²/2 + r⁴·(C0 + C1·r² + … + C6·r¹²), C = 1/4!, −1/6!, … 1/16!.
     let c = 1.0 - 0.5 * r2
-        + r2 * r2
-            * (1.0 / 24.0
-                + r2 * (-1.0 / 720.0
-                    + r2 * (1.0 / 40_320.0
-                        + r2 * (-1.0 / 3_628_800.0
-                            + r2 * (1.0 / 479_001_600.0
-                                + r2 * (-1.0 / 87_178_291_200.0
-                                    + r2 * (1.0 / 20_922_789_888_000.0)))))));
-    match q & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+        + r4 * ((1.0 / 24.0 + r2 * (-1.0 / 720.0))
+            + r4 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0))
+            + r8 * ((1.0 / 479_001_600.0 + r2 * (-1.0 / 87_178_291_200.0))
+                + r4 * (1.0 / 20_922_789_888_000.0)));
+    // Quadrant q: (s, c), (c, −s), (−s, −c), (−c, s) for q mod 4 = 0, 1, 2, 3.
+    let swap = 0u64.wrapping_sub(bits & 1);
+    let (sb, cb) = (s.to_bits(), c.to_bits());
+    let sin = (sb & !swap) | (cb & swap);
+    let cos = (cb & !swap) | (sb & swap);
+    let sign = 1u64 << 63;
+    let neg_sin = (bits & 2) << 62;
+    let neg_cos = (bits.wrapping_add(1) & 2) << 62;
+    debug_assert!(neg_sin | neg_cos | sign == sign);
+    (f64::from_bits(sin ^ neg_sin), f64::from_bits(cos ^ neg_cos))
 }
 
 /// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
@@ -484,8 +510,9 @@ pub struct Stepper {
     // ---- derived constants (from `data`) ----
     /// Pole pairs N_r.
     np: f64,
-    /// Torque constant k.
+    /// Torque constant k and 1/k (0 without a torque constant).
     k: f64,
+    inv_k: f64,
     j: f64,
     /// Micro-steps per full step and per revolution, encoder increments per revolution.
     micro: i64,
@@ -508,6 +535,8 @@ pub struct Stepper {
     /// explicit stiffness bound).
     elec_inv_b: f64,
     j_per_h2: f64,
+    /// 1 / (J + B·h): the mechanics' denominator without implicit damping or stiffness.
+    inv_den0: f64,
     /// No winding dynamics (R = L = 0): the current is its reference.
     ideal: bool,
     obs_k1h: f64,
@@ -556,6 +585,7 @@ impl Stepper {
             mode: StepperMode::OpenLoop,
             np: 1.0,
             k: 0.0,
+            inv_k: 0.0,
             j: 1.0,
             micro: 1,
             micro_rev: 1,
@@ -571,6 +601,7 @@ impl Stepper {
             elec_b: 0.0,
             elec_inv_b: 0.0,
             j_per_h2: 0.0,
+            inv_den0: 0.0,
             ideal: false,
             obs_k1h: 0.0,
             obs_k2h: 0.0,
@@ -606,6 +637,7 @@ impl Stepper {
         let d = &self.data;
         self.np = d.pole_pairs();
         self.k = d.torque_constant();
+        self.inv_k = if positive(self.k) { 1.0 / self.k } else { 0.0 };
         self.j = d.inertia();
         let full = if d.full_steps_per_rev == 0 {
             FULL_STEPS_PER_REV
@@ -784,6 +816,7 @@ impl Stepper {
         };
         self.elec_inv_b = if self.ideal { 0.0 } else { 1.0 / self.elec_b };
         self.j_per_h2 = self.j / (h * h);
+        self.inv_den0 = 1.0 / (self.j + d.viscous_friction.max(0.0) * h);
         self.obs_k1h = 2.0 * wo * h;
         self.obs_k2h = wo * wo * h;
         self.coeff_h = h;
@@ -886,7 +919,7 @@ impl Stepper {
 
         // Phase currents through the choppers. A saturated bridge leaves its phase current to
         // the back-EMF: d(i_a)/dω = b·k·sin φ, d(i_b)/dω = −b·k·cos φ.
-        let (s, c) = sin_cos(wrap(self.np * self.angle));
+        let (s, c) = sin_cos(self.np * self.angle);
         let kw = self.k * self.velocity;
         let (mut sat_a, mut sat_b) = (false, false);
         if !self.energised {
@@ -948,11 +981,11 @@ impl Stepper {
         if !positive(self.k) {
             return (0.0, 0.0);
         }
-        let mag = libm::fabs(t) / self.k;
-        let lead = if t < 0.0 { -FRAC_PI_2 } else { FRAC_PI_2 };
-        let ang = wrap(self.np * (self.obs_angle + self.obs_vel * h)) + lead;
-        let (s, c) = sin_cos(ang);
-        (mag * c, mag * s)
+        // The current vector at the observed electrical angle ±90° (the sign of the torque):
+        // magnitude |T|/k, so (cos, sin)(φ + 90°)·|T|/k = (−sin φ, cos φ)·T/k.
+        let (s, c) = sin_cos(self.np * (self.obs_angle + self.obs_vel * h));
+        let i = t * self.inv_k;
+        (-i * s, i * c)
     }
 
     /// One phase: the chopper drives the current to `i_ref` within the step if the supply
@@ -982,18 +1015,24 @@ impl Stepper {
         // update integrates stably (ω_n·h ≤ 1) is taken implicitly: none with sane data.
         let k = stiffness - self.j_per_h2;
         let k = if k > 0.0 { k } else { 0.0 };
-        let jd = self.j + damping.max(0.0) * h;
-        let den = jd + d.viscous_friction.max(0.0) * h + k * h * h;
+        let damping = damping.max(0.0);
+        let jd = self.j + damping * h;
+        // 1/den: kept with the sub-step coefficients while nothing adds to J + B·h.
+        let inv_den = if damping == 0.0 && k == 0.0 {
+            self.inv_den0
+        } else {
+            1.0 / (jd + d.viscous_friction.max(0.0) * h + k * h * h)
+        };
         let w0 = self.velocity;
         let w1 = if w0 == 0.0 {
             if libm::fabs(drive) <= hold {
                 0.0
             } else {
-                h * (drive - sign(drive) * hold) / den
+                h * (drive - sign(drive) * hold) * inv_den
             }
         } else {
             let s = sign(w0);
-            let w = (jd * w0 + h * (drive - s * hold)) / den;
+            let w = (jd * w0 + h * (drive - s * hold)) * inv_den;
             if w * s < 0.0 {
                 0.0
             } else {
@@ -1232,8 +1271,8 @@ pub fn si_to_sinc(value: f64, notation_index: i8, dimension_index: u8) -> Option
 mod tests {
     use super::*;
 
-    /// The inline sine and cosine agree with libm to within 2 ulp of 1 over the whole range
-    /// the plant calls them with (|x| ≤ 4π).
+    /// The inline sine and cosine agree with libm to within 2 ulp of 1 over a few turns, and
+    /// to within the argument's own precision far out.
     #[test]
     fn sin_cos_matches_libm() {
         let n = 200_000;
@@ -1243,6 +1282,15 @@ mod tests {
             let (ls, lc) = libm::sincos(x);
             assert!((s - ls).abs() <= 4.5e-16, "sin {x}: {s} vs {ls}");
             assert!((c - lc).abs() <= 4.5e-16, "cos {x}: {c} vs {lc}");
+        }
+        // Beyond 2¹⁹ quarter turns (long runs) the argument is first reduced by whole turns:
+        // the error is that of the argument itself, a few ulp of x.
+        for i in 0..=2000 {
+            let x = (if i % 2 == 0 { 1.0 } else { -1.0 }) * (8.0e5 + 1.0e9 * i as f64 / 2000.0);
+            let (s, c) = sin_cos(x);
+            let (ls, lc) = libm::sincos(x);
+            let tol = 4.0 * f64::EPSILON * x.abs();
+            assert!((s - ls).abs() <= tol && (c - lc).abs() <= tol, "{x}");
         }
         for x in [0.0, FRAC_PI_2, PI, -PI, 1e-300, -1e-12] {
             let (s, c) = sin_cos(x);
