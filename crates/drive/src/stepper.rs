@@ -521,6 +521,12 @@ pub struct Stepper {
     /// rad per micro-step and per increment.
     rad_per_micro: f64,
     rad_per_inc: f64,
+    /// Increments per rad (1 / `rad_per_inc`).
+    inc_per_rad: f64,
+    /// Electrical rad per micro-step, and micro-steps per electrical period − 1 when that
+    /// is a power of two (else 0).
+    elec_per_micro: f64,
+    period_mask: i64,
     /// Servo gains: position (1/s), velocity P (N·m·s/rad), velocity I (N·m/rad).
     kv: f64,
     kp: f64,
@@ -592,6 +598,9 @@ impl Stepper {
             inc_rev: 1,
             rad_per_micro: 1.0,
             rad_per_inc: 1.0,
+            inc_per_rad: 1.0,
+            elec_per_micro: 0.0,
+            period_mask: 0,
             kv: 0.0,
             kp: 0.0,
             ki: 0.0,
@@ -653,6 +662,14 @@ impl Stepper {
         } as i64;
         self.rad_per_micro = TAU / self.micro_rev as f64;
         self.rad_per_inc = TAU / self.inc_rev as f64;
+        self.inc_per_rad = self.inc_rev as f64 / TAU;
+        self.elec_per_micro = FRAC_PI_2 / self.micro as f64;
+        let period = 4 * self.micro;
+        self.period_mask = if period.count_ones() == 1 {
+            period - 1
+        } else {
+            0
+        };
         let wv = if d.velocity_bandwidth > 0.0 && d.velocity_bandwidth.is_finite() {
             d.velocity_bandwidth
         } else {
@@ -758,9 +775,12 @@ impl Stepper {
     }
 
     fn set_command_vector(&mut self) {
-        let period = 4 * self.micro;
-        let m = self.cmd_micro.rem_euclid(period);
-        let ang = m as f64 * (FRAC_PI_2 / self.micro as f64);
+        let m = if self.period_mask != 0 {
+            self.cmd_micro & self.period_mask
+        } else {
+            self.cmd_micro.rem_euclid(4 * self.micro)
+        };
+        let ang = m as f64 * self.elec_per_micro;
         let (s, c) = sin_cos(ang);
         self.cmd_cos = c;
         self.cmd_sin = s;
@@ -1086,7 +1106,18 @@ impl Stepper {
     }
 
     fn encoder_of(&self, angle: f64) -> i64 {
-        crate::rounding::floor(angle / self.rad_per_inc) as i64
+        // ⌊angle / rad_per_inc⌋, by a multiplication: it differs from the quotient by a few
+        // ulp, which changes the floor only within them of a whole increment (a shaft
+        // placed on an increment, say); there the division decides.
+        let y = angle * self.inc_per_rad;
+        let f = crate::rounding::floor_i64(y);
+        let frac = y - f as f64;
+        let tol = 8.0 * f64::EPSILON * libm::fabs(y);
+        if frac > tol && frac < 1.0 - tol {
+            f
+        } else {
+            crate::rounding::floor(angle / self.rad_per_inc) as i64
+        }
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.
