@@ -413,6 +413,30 @@ pub struct MemoryEntry {
 /// per control cycle).
 #[inline(always)]
 fn decode_i64(e: &Entry, raw: &[u8]) -> i64 {
+    // The fixed-size integers by their type (one dispatch, one load); anything else, or a
+    // value of another length, as the general decoding below has it.
+    let fast = match e.data_type {
+        DataType::Integer8 => le::<1>(raw).map(|b| i64::from(i8::from_le_bytes(b))),
+        DataType::Boolean | DataType::Unsigned8 => le::<1>(raw).map(|b| i64::from(b[0])),
+        DataType::Integer16 => le::<2>(raw).map(|b| i64::from(i16::from_le_bytes(b))),
+        DataType::Unsigned16 => le::<2>(raw).map(|b| i64::from(u16::from_le_bytes(b))),
+        DataType::Integer32 => le::<4>(raw).map(|b| i64::from(i32::from_le_bytes(b))),
+        DataType::Unsigned32 => le::<4>(raw).map(|b| i64::from(u32::from_le_bytes(b))),
+        _ => None,
+    };
+    match fast {
+        Some(v) => v,
+        None => decode_i64_general(e, raw),
+    }
+}
+
+/// `raw` as an array of exactly `N` bytes.
+#[inline(always)]
+fn le<const N: usize>(raw: &[u8]) -> Option<[u8; N]> {
+    raw.try_into().ok()
+}
+
+fn decode_i64_general(e: &Entry, raw: &[u8]) -> i64 {
     let u = match *raw {
         [a] => u64::from(a),
         [a, b] => u64::from(u16::from_le_bytes([a, b])),
