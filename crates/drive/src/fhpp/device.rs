@@ -119,7 +119,7 @@
 
 use core::time::Duration;
 
-use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
+use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::axis_mechanics::AxisMechanics;
 use super::control_bytes::{ControlMode, OutputData};
@@ -449,9 +449,21 @@ impl PublishedEntries {
         let Some(e) = e else {
             return;
         };
-        // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored.
+        // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored. The
+        // 32-bit integers most actual values are without the general encoding.
         let mut b = [0u8; 8];
-        if let Some(len) = v.encode(e.data_type, &mut b) {
+        let len = match (e.data_type, v) {
+            (DataType::Integer32, Value::Signed(x)) => i32::try_from(x).ok().map(|x| {
+                b = i64::from(x).to_le_bytes();
+                4
+            }),
+            (DataType::Unsigned32, Value::Unsigned(x)) => u32::try_from(x).ok().map(|x| {
+                b = u64::from(x).to_le_bytes();
+                4
+            }),
+            _ => v.encode(e.data_type, &mut b),
+        };
+        if let Some(len) = len {
             od.store(e, b.get(..len).unwrap_or(&[]));
         }
     }
@@ -1187,7 +1199,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
         let v = f64::from(self.stepper.estimated_velocity_rpm()) / 60.0 * inc_rev / k;
         // Quantisation noise of the observer at rest is not motion.
-        libm::round(v) * self.params.polarity
+        crate::rounding::round(v) * self.params.polarity
     }
 
     /// Actual current in ‰ of PNU 555 (the force actual value).
@@ -2095,7 +2107,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.stepper.set_current_limit(homing_limit);
         self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
-        let increments = libm::round(self.traj.position * k) as i64;
+        let increments = crate::rounding::round(self.traj.position * k) as i64;
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
         // No speed feed-forward under force control: the force comes from the deviation.
         let ff = if matches!(self.motion, Motion::Force { .. }) {
@@ -2300,7 +2312,7 @@ fn stop_room(v: f64, decel: f64, dt: f64) -> f64 {
 }
 
 fn sat_i32(v: f64) -> i32 {
-    let r = libm::round(v);
+    let r = crate::rounding::round(v);
     if r >= i32::MAX as f64 {
         i32::MAX
     } else if r <= i32::MIN as f64 {
