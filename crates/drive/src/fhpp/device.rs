@@ -406,6 +406,11 @@ pub struct FhppDevice<S> {
     /// The entries [`Self::publish`] wrote in the last cycle, in call order: it writes the
     /// same ones every cycle, so it looks each up once.
     published: PublishedEntries,
+    /// App. D's following error (2Fh), looked up once: the monitoring asks for its class
+    /// every cycle.
+    following_error_diagnostic: Option<Diagnostic>,
+    /// Its PNU 246 and 242 entries (class and reaction).
+    following_error_entries: (Option<&'static Entry>, Option<&'static Entry>),
     // ---- record chaining, software limits ----
     chain: Option<Chain>,
     /// Whose comparators PNU 312 shows in record selection (the last record started).
@@ -470,7 +475,12 @@ impl PublishedEntries {
 }
 
 fn get_i64<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>, pnu: u16, sub: u8) -> i64 {
-    match od.value(pnu_index(pnu), sub) {
+    as_i64(od.value(pnu_index(pnu), sub))
+}
+
+/// A PNU value as [`get_i64`] reads it.
+fn as_i64(v: Option<Value>) -> i64 {
+    match v {
         Some(Value::Signed(v)) => v,
         Some(Value::Unsigned(v)) => i64::try_from(v).unwrap_or(i64::MAX),
         Some(Value::Bool(b)) => i64::from(b),
@@ -490,6 +500,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
         let mut stepper = Stepper::new(data);
         stepper.set_mode(settings.mode);
+        let following_error_entries = {
+            let sub = diagnostics::subindex(diag::FOLLOWING_ERROR);
+            let desc = od.description();
+            (
+                desc.entry(pnu_index(246), sub),
+                desc.entry(pnu_index(242), sub),
+            )
+        };
         stepper.set_end_stops(settings.mechanics.stops_rad());
         let mut dev = FhppDevice {
             od,
@@ -537,6 +555,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             memory: DiagnosticMemory::power_on(0),
             memory_dirty: true,
             published: PublishedEntries::default(),
+            following_error_diagnostic: diagnostics::lookup(diag::FOLLOWING_ERROR.into()),
+            following_error_entries,
             chain: None,
             comparator_record: None,
             comparator_since: [None; 3],
@@ -726,14 +746,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The class diagnostic `code` has now: App. D through PNU 246 (class) and 242
     /// (reaction), subindex = number + 1 (fhpp §8.4). `None` for an unassigned number.
     pub fn diagnostic_class(&self, code: u8) -> Option<Class> {
-        let d = diagnostics::lookup(code.into())?;
+        let d = self.diagnostic(code)?;
         Some(self.class_of(d))
+    }
+
+    /// App. D's message `code` (the following error without a search).
+    fn diagnostic(&self, code: u8) -> Option<Diagnostic> {
+        match self.following_error_diagnostic {
+            Some(d) if d.code == code => Some(d),
+            _ => diagnostics::lookup(code.into()),
+        }
     }
 
     fn class_of(&self, d: Diagnostic) -> Class {
         let sub = diagnostics::subindex(d.code);
-        let handling = get_i64(&self.od, 246, sub) as u16;
-        let reaction = get_i64(&self.od, 242, sub) as u16;
+        let (handling, reaction) = match self.following_error_entries {
+            (Some(h), Some(r)) if d.code == diag::FOLLOWING_ERROR => {
+                let value = |e: &Entry| as_i64(Value::decode(e.data_type, self.od.raw(e))) as u16;
+                (value(h), value(r))
+            }
+            _ => (
+                get_i64(&self.od, 246, sub) as u16,
+                get_i64(&self.od, 242, sub) as u16,
+            ),
+        };
         d.class(handling, reaction)
     }
 
@@ -742,7 +778,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     }
 
     fn fault_for(&self, code: u8) -> Option<Fault> {
-        let d = diagnostics::lookup(code.into())?;
+        let d = self.diagnostic(code)?;
         match self.class_of(d) {
             Class::Fault(reaction) => Some(Fault {
                 code,
