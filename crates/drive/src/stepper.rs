@@ -531,6 +531,21 @@ pub struct Stepper {
     kv: f64,
     kp: f64,
     ki: f64,
+    /// Closed loop: the amplitude of the detent torque the controller compensates, N·m.
+    ///
+    /// Without it the axis hunted at standstill: half a full step off a detent position the
+    /// detent's negative stiffness (4·N_r·T_d = 4 N·m/rad by default) exceeds the position
+    /// loop's (kv·kp = J·ω_v²/4 = 0.8 N·m/rad), the shaft falls into a detent, the
+    /// integrator winds up against the friction that holds it there and breaks it away into
+    /// the next one, back and forth (±5 increments) for as long as the set-point stands.
+    /// Decision: the manuals say nothing of the controller's structure; the twin's
+    /// controller adds T_k·sin 4φ̂ at the observed angle, with T_k just so large that the
+    /// detent's remaining negative stiffness is at most half the position loop's
+    /// (T_k = T_d − kv·kp / (8·N_r), 90 % of T_d by default): the loop is stable at every
+    /// angle, and what remains of the detent still pulls the shaft onto a detent position
+    /// (full compensation left it creeping past its target for a while). A load is held
+    /// by the integrator as before.
+    detent_compensation: f64,
     // ---- sub-step coefficients ----
     coeff_h: f64,
     /// The last call's `dt`, its sub-steps (count, width) and whether in closed loop.
@@ -604,6 +619,7 @@ impl Stepper {
             kv: 0.0,
             kp: 0.0,
             ki: 0.0,
+            detent_compensation: 0.0,
             coeff_h: 0.0,
             split: (0.0, 1, 0.0, false),
             elec_a: 0.0,
@@ -678,6 +694,12 @@ impl Stepper {
         self.kp = self.j * wv;
         self.ki = self.j * wv * wv / 4.0;
         self.kv = wv / 4.0;
+        let td = if d.detent_torque.is_finite() {
+            d.detent_torque.max(0.0)
+        } else {
+            0.0
+        };
+        self.detent_compensation = (td - self.kv * self.kp / (8.0 * self.np)).max(0.0);
         self.coeff_h = 0.0;
         self.encoder = self.encoder_of(self.angle);
         self.set_command_vector();
@@ -982,9 +1004,17 @@ impl Stepper {
         let i_max = self.data.max_current.max(0.0);
         let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
         let t_max = self.k * i_max;
+        // The electrical angle the current vector is placed at: the observed one, one step
+        // ahead.
+        let (s, c) = sin_cos(self.np * (self.obs_angle + self.obs_vel * h));
         let t = match self.torque_demand {
             Some(t) => t,
-            None => self.kp * ew + self.integral + t_ff,
+            None => {
+                // Detent compensation (see `detent_compensation`).
+                let (s2, c2) = (2.0 * s * c, c * c - s * s);
+                let detent = self.detent_compensation * 2.0 * s2 * c2;
+                self.kp * ew + self.integral + t_ff + detent
+            }
         };
         let t = if t > t_max {
             t_max
@@ -1003,7 +1033,6 @@ impl Stepper {
         }
         // The current vector at the observed electrical angle ±90° (the sign of the torque):
         // magnitude |T|/k, so (cos, sin)(φ + 90°)·|T|/k = (−sin φ, cos φ)·T/k.
-        let (s, c) = sin_cos(self.np * (self.obs_angle + self.obs_vel * h));
         let i = t * self.inv_k;
         (-i * s, i * c)
     }
