@@ -4,7 +4,8 @@
 //! - CMMP-AS: profile position, the servo axis at the manual's controller cycles (6510h:B0–B3:
 //!   current 125 µs, velocity 250 µs, position and device logic 500 µs, trajectory 1000 µs);
 //! - Nanotec SMCI47-S: profile position, the hybrid stepper in open loop;
-//! - CMMO-ST: FHPP jog (1 ms FHPP cycle), the same stepper model in open loop.
+//! - CMMO-ST: FHPP jog (1 ms FHPP cycle), the same stepper model in closed loop (the
+//!   CMMO-ST's default control structure, `FhppSettings::default`).
 //!
 //! Reports the CPU time per simulated second of one axis and how many axes one core runs in
 //! real time (target ≥ 1000, i.e. ≤ 1 ms of CPU per simulated second), then draws the figures

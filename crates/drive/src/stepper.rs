@@ -1331,6 +1331,56 @@ pub fn si_to_sinc(value: f64, notation_index: i8, dimension_index: u8) -> Option
 mod tests {
     use super::*;
 
+    /// `mul_div` gives the exact floor / rounding of the quotient, saturated.
+    #[test]
+    fn mul_div_is_exact() {
+        let reference = |a: i64, b: i64, d: i64, round: bool| {
+            let (n, d) = (i128::from(a) * i128::from(b), i128::from(d));
+            let q = if round {
+                let h = d / 2;
+                if n >= 0 {
+                    (n + h) / d
+                } else {
+                    -((-n + h) / d)
+                }
+            } else {
+                n.div_euclid(d)
+            };
+            q.clamp(i128::from(i64::MIN), i128::from(i64::MAX)) as i64
+        };
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for i in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let a = (x as i64) >> (i % 40 + 12);
+            let b = [2000, 3200, 4096, 51_200, 1, 3, 65_536][i % 7];
+            let d = [3200, 2000, 51_200, 4096, 7, 1, 3][(i / 7) % 7];
+            for round in [false, true] {
+                assert_eq!(
+                    mul_div(a, b, d, round),
+                    reference(a, b, d, round),
+                    "{a}·{b}/{d}"
+                );
+            }
+        }
+        for (a, b, d) in [
+            (3, 1, 2),
+            (-3, 1, 2),
+            (5, 1, 10),
+            (-5, 1, 10),
+            (1 << 50, 3, 2),
+        ] {
+            for round in [false, true] {
+                assert_eq!(
+                    mul_div(a, b, d, round),
+                    reference(a, b, d, round),
+                    "{a}·{b}/{d}"
+                );
+            }
+        }
+    }
+
     /// The inline sine and cosine agree with libm to within 2 ulp of 1 over a few turns, and
     /// to within the argument's own precision far out.
     #[test]
