@@ -271,7 +271,7 @@ mod plot {
             ))
             .map_err(|e| e.to_string())?
             .label("target 1000 axes (≤ 1 ms CPU per simulated second)")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
+            .legend(crate::support::line_swatch(RED.stroke_width(2)));
         chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(0.0, 0.0), (0.0, 0.0)],
@@ -288,14 +288,7 @@ mod plot {
             .map_err(|e| e.to_string())?
             .label("now")
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], blue.filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 15))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        crate::support::draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(|e| e.to_string())
     }
 }
