@@ -49,8 +49,8 @@
 //! bandwidth [`StepperData::observer_bandwidth`]) for a sub-increment angle and the speed →
 //! position controller (P on the integer increment error, plus the speed feed-forward) →
 //! velocity controller (PI, bandwidth [`StepperData::velocity_bandwidth`], plus the
-//! acceleration feed-forward `J·Δω_ff/Δt`, cf. PNU 1080) → torque set-point, clamped to
-//! `k·max_current` → current vector of amplitude `|T|/k` at the observed electrical angle
+//! acceleration feed-forward `J·Δω_ff/Δt`, cf. PNU 1080, and the detent compensation, see
+//! `Stepper::detent_compensation`) → torque set-point, clamped to `k·max_current` → current vector of amplitude `|T|/k` at the observed electrical angle
 //! advanced by one step of rotation, ±90° electrical (maximum torque per ampere). Below the
 //! peak torque no step is lost, and the current follows the load instead of being the full
 //! rated current all the time. The encoder is assumed aligned with phase A (the controller's
@@ -87,8 +87,8 @@
 //! oscillate against each other.
 //! Coulomb friction uses the stick/slip treatment of [`crate::motor`]: at rest
 //! the shaft breaks away only above `T_c`, and friction never reverses the motion within one
-//! step. Trigonometric arguments are reduced to one period first, so long runs keep both
-//! precision and speed.
+//! step. Trigonometric arguments are reduced by quarter periods (whole turns first for
+//! very long runs), so long runs keep both precision and speed.
 //!
 //! Determinism: plain `f64` arithmetic and `libm`, no state outside the struct; the same
 //! calls give the same results bit for bit. No allocation, no panics (NaN demands count as 0,
