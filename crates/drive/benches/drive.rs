@@ -4,7 +4,8 @@
 //! - CMMP-AS: profile position, the servo axis at the manual's controller cycles (6510h:B0–B3:
 //!   current 125 µs, velocity 250 µs, position and device logic 500 µs, trajectory 1000 µs);
 //! - Nanotec SMCI47-S: profile position, the hybrid stepper in open loop;
-//! - CMMO-ST: FHPP jog (1 ms FHPP cycle), the same stepper model in open loop.
+//! - CMMO-ST: FHPP jog (1 ms FHPP cycle), the same stepper model in closed loop (the
+//!   CMMO-ST's default control structure, `FhppSettings::default`).
 //!
 //! Reports the CPU time per simulated second of one axis and how many axes one core runs in
 //! real time (target ≥ 1000, i.e. ≤ 1 ms of CPU per simulated second), then draws the figures
@@ -270,7 +271,7 @@ mod plot {
             ))
             .map_err(|e| e.to_string())?
             .label("target 1000 axes (≤ 1 ms CPU per simulated second)")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
+            .legend(crate::support::line_swatch(RED.stroke_width(2)));
         chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(0.0, 0.0), (0.0, 0.0)],
@@ -287,21 +288,52 @@ mod plot {
             .map_err(|e| e.to_string())?
             .label("now")
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], blue.filled()));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 15))
-            .draw()
-            .map_err(|e| e.to_string())?;
+        crate::support::draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(|e| e.to_string())
     }
 }
 
 criterion_group!(benches, criterion_1ms);
 
+/// `DRIVE_BENCH_PROFILE=cmmp-as|nanotec|cmmo-st` (and `DRIVE_BENCH_MS`, default 1000): only
+/// step that axis for so many simulated milliseconds after the run-up, for a profiler
+/// (`valgrind --tool=callgrind --toggle-collect='*run_steps*'` counts just the steps).
+fn profile(which: &str) {
+    let ms = std::env::var("DRIVE_BENCH_MS")
+        .ok()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or(1000);
+    match which {
+        "cmmp-as" => profiled_steps(cmmp_as, ms),
+        "nanotec" => profiled_steps(nanotec, ms),
+        "cmmo-st" => profiled_steps(cmmo_st, ms),
+        _ => println!("DRIVE_BENCH_PROFILE: cmmp-as, nanotec or cmmo-st"),
+    }
+}
+
+#[inline(never)]
+fn profiled_steps<D: Stepped>(make: impl Fn() -> (D, Instant), ms: u64) {
+    let (mut d, mut now) = make();
+    for _ in 0..200 {
+        now = now + Duration::from_millis(1);
+        d.step_to(now);
+    }
+    run_steps(&mut d, now, ms);
+}
+
+#[inline(never)]
+fn run_steps<D: Stepped>(d: &mut D, mut now: Instant, ms: u64) {
+    for _ in 0..ms {
+        now = now + Duration::from_millis(1);
+        d.step_to(black_box(now));
+    }
+}
+
 fn main() {
+    if let Ok(which) = std::env::var("DRIVE_BENCH_PROFILE") {
+        profile(&which);
+        return;
+    }
     report();
     benches();
     Criterion::default().configure_from_args().final_summary();

@@ -13,11 +13,8 @@ pub fn floor_i64(x: f64) -> i64 {
     if x.abs() >= INTEGRAL || x.is_nan() {
         return t;
     }
-    if (t as f64) > x {
-        t - 1
-    } else {
-        t
-    }
+    // Branch-free: the sign of a fraction is as likely one way as the other.
+    t - i64::from((t as f64) > x)
 }
 
 /// `x` rounded to the nearest integer, halves away from zero, as `i64` (saturating;
@@ -30,13 +27,8 @@ pub fn round_i64(x: f64) -> i64 {
         return t;
     }
     let frac = x - t as f64;
-    if frac >= 0.5 {
-        t + 1
-    } else if frac <= -0.5 {
-        t - 1
-    } else {
-        t
-    }
+    // Branch-free: which way a fraction rounds is as likely one way as the other.
+    t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
 }
 
 /// Below this magnitude an `f64` may have a fraction; at and above it every one is an

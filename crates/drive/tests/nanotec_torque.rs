@@ -108,9 +108,8 @@ fn halt_reports_stopped_only_once_the_motor_stands() {
     for _ in 0..400 {
         r.run_ms(1);
         assert_ne!(r.sw() & 0x0400, 0, "stays stopped");
+        // The closed loop holds the shaft where it stopped: no hunting against the detent
+        // and the friction (the controller compensates the detent, stepper.rs).
+        assert_eq!(r.i(0x6064, 0), a, "stands still after bit 10");
     }
-    let b = r.i(0x6064, 0);
-    // Within a full step (10 units): the closed loop's PI against the shaft's Coulomb
-    // friction may hunt by a few units, never by a step.
-    assert!((b - a).abs() < 10, "{a} → {b} after bit 10");
 }

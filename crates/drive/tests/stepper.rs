@@ -430,6 +430,47 @@ fn blocked_shaft_and_output_stage_off() {
     assert!(s.encoder_increments() < -100);
 }
 
+/// Closed loop at standstill half a full step off a detent position (the detent's unstable
+/// point), with and without a load: the axis settles at the set-point and stays there, it
+/// does not hunt between the neighbouring detent positions (it did, by ±5 increments,
+/// before the controller compensated the detent), and a load stays held.
+#[test]
+fn closed_loop_stands_still_between_detent_positions() {
+    for load in [0.0, 0.05, 0.2] {
+        for target in [5i64, 15, 55, 95, 13, 40] {
+            let mut s = stepper(StepperMode::ClosedLoop);
+            s.set_load_torque(load);
+            // There at 300 min⁻¹ (10 increments per ms), then the set-point stands.
+            let mut sp = 0;
+            while sp < target {
+                sp = (sp + 10).min(target);
+                s.step(
+                    1e-3,
+                    StepperDemand::PositionIncrements {
+                        increments: sp,
+                        velocity_ff_rpm: 300.0,
+                    },
+                );
+            }
+            let hold = StepperDemand::PositionIncrements {
+                increments: target,
+                velocity_ff_rpm: 0.0,
+            };
+            for _ in 0..300 {
+                s.step(1e-3, hold);
+            }
+            for ms in 0..2000 {
+                s.step(1e-3, hold);
+                assert_eq!(
+                    s.encoder_increments(),
+                    target,
+                    "load {load} N·m, target {target}: {ms} ms into the standstill"
+                );
+            }
+        }
+    }
+}
+
 // ---- determinism and robustness -------------------------------------------------------------
 
 fn fingerprint(mode: StepperMode) -> Vec<u64> {

@@ -207,9 +207,7 @@ mod plot {
                 .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))
                 .map_err(|e| e.to_string())?
                 .label(format!("SYNC every {period} ms"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+                .legend(crate::support::line_swatch(color.stroke_width(2)));
             chart
                 .draw_series(
                     points
@@ -225,15 +223,8 @@ mod plot {
             ))
             .map_err(|e| e.to_string())?
             .label("100 %: the bus is full, frames wait and are lost")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(1)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 15))
-            .draw()
-            .map_err(|e| e.to_string())?;
+            .legend(crate::support::line_swatch(BLACK.stroke_width(1)));
+        crate::support::draw_legend(&mut chart, SeriesLabelPosition::LowerLeft)?;
         root.present().map_err(|e| e.to_string())
     }
 }

@@ -1,5 +1,5 @@
-//! What the benches of several crates share: the thread's CPU time and the plots' font. Each
-//! bench includes it with `#[path]` (a bench is its own crate).
+//! What the benches of several crates share: the thread's CPU time, the plots' font and
+//! legend. Each bench includes it with `#[path]` (a bench is its own crate).
 #![allow(dead_code)] // each bench uses a part of it
 
 use std::path::Path;
@@ -41,4 +41,31 @@ pub fn load_font() -> Result<(), String> {
         Box::leak(bytes.into_boxed_slice()),
     )
     .map_err(|_| format!("{path}: not a usable font"))
+}
+
+/// The legend box of the plots: white, framed, 15 px labels, at `position`.
+pub fn draw_legend<'a, DB, CT>(
+    chart: &mut plotters::chart::ChartContext<'a, DB, CT>,
+    position: plotters::chart::SeriesLabelPosition,
+) -> Result<(), String>
+where
+    DB: plotters::prelude::DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate,
+{
+    use plotters::style::{Color, BLACK, WHITE};
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
+/// A legend entry's swatch for a line drawn in `style`: a 20 px stroke.
+pub fn line_swatch(
+    style: plotters::style::ShapeStyle,
+) -> impl Fn((i32, i32)) -> plotters::element::PathElement<(i32, i32)> {
+    move |(x, y)| plotters::element::PathElement::new([(x, y), (x + 20, y)], style)
 }

@@ -29,6 +29,9 @@ pub struct StepperPlant {
     /// A velocity demand integrated into a position set-point, internal increments.
     set_point: f64,
     following_velocity: bool,
+    /// The last encoder reading, the encoder's increments per revolution and the position
+    /// in internal increments (the logic asks several times per cycle).
+    position_memo: core::cell::Cell<(i64, u32, i64)>,
 }
 
 impl StepperPlant {
@@ -37,6 +40,7 @@ impl StepperPlant {
             motor,
             set_point: 0.0,
             following_velocity: false,
+            position_memo: core::cell::Cell::new((0, 0, 0)),
         }
     }
 
@@ -46,9 +50,16 @@ impl StepperPlant {
 
     /// The encoder position in internal increments.
     fn position(&self) -> i64 {
-        crate::rounding::round(
-            self.motor.encoder_increments() as f64 * INC_PER_REV / self.encoder_per_rev(),
-        ) as i64
+        let encoder = self.motor.encoder_increments();
+        let per_rev = self.motor.data().encoder_increments_per_rev;
+        let (last, last_per_rev, position) = self.position_memo.get();
+        if encoder == last && per_rev == last_per_rev {
+            return position;
+        }
+        let position =
+            crate::rounding::round(encoder as f64 * INC_PER_REV / self.encoder_per_rev()) as i64;
+        self.position_memo.set((encoder, per_rev, position));
+        position
     }
 
     /// One cycle of `dt` s with the engine's demand.
@@ -179,20 +190,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if self.demand == Demand::Off && self.personality.stepper_plant {
             self.take_motor_type();
         }
-        let mode = self.value(0x2004, 0x0C) as u32;
-        let edges = self.hall_edges();
-        match (&mut self.stepper, self.bldc) {
+        if let Some(s) = &mut self.stepper {
             // Decision: BLDC selected with a stepper connected ("can destroy the stepper",
             // §6): the twin's stepper refuses to run — no current, the shaft stays put; the
             // manual names no error for it, so none is raised.
-            (Some(s), _) if self.motor_type != 0 => s.step(dt, Demand::Off),
-            (Some(s), _) => s.step(dt, self.demand),
+            let demand = if self.motor_type != 0 {
+                Demand::Off
+            } else {
+                self.demand
+            };
+            s.step(dt, demand);
+            return;
+        }
+        match self.bldc {
             // A BLDC with type 0: the stepper's micro-stepping does not turn it.
-            (None, Some(_)) if self.motor_type == 0 => {
+            Some(_) if self.motor_type == 0 => {
                 self.axis.motor_mut().set_torque_factor(0.0);
                 self.axis.step(Demand::Off);
             }
-            (None, Some(b)) => {
+            Some(b) => {
+                let mode = self.value(0x2004, 0x0C) as u32;
+                let edges = self.hall_edges();
                 let factor = b.torque_factor(mode, self.axis.motor().angle());
                 self.axis.motor_mut().set_torque_factor(factor);
                 let demand = match (self.demand, edges) {
@@ -212,7 +230,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 };
                 self.axis.step(demand);
             }
-            (None, None) => self.axis.step(self.demand),
+            None => self.axis.step(self.demand),
         }
     }
 

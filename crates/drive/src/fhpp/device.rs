@@ -119,7 +119,7 @@
 
 use core::time::Duration;
 
-use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
+use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::axis_mechanics::AxisMechanics;
 use super::control_bytes::{ControlMode, OutputData};
@@ -406,6 +406,11 @@ pub struct FhppDevice<S> {
     /// The entries [`Self::publish`] wrote in the last cycle, in call order: it writes the
     /// same ones every cycle, so it looks each up once.
     published: PublishedEntries,
+    /// App. D's following error (2Fh), looked up once: the monitoring asks for its class
+    /// every cycle.
+    following_error_diagnostic: Option<Diagnostic>,
+    /// Its PNU 246 and 242 entries (class and reaction).
+    following_error_entries: (Option<&'static Entry>, Option<&'static Entry>),
     // ---- record chaining, software limits ----
     chain: Option<Chain>,
     /// Whose comparators PNU 312 shows in record selection (the last record started).
@@ -449,16 +454,33 @@ impl PublishedEntries {
         let Some(e) = e else {
             return;
         };
-        // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored.
+        // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored. The
+        // 32-bit integers most actual values are without the general encoding.
         let mut b = [0u8; 8];
-        if let Some(len) = v.encode(e.data_type, &mut b) {
+        let len = match (e.data_type, v) {
+            (DataType::Integer32, Value::Signed(x)) => i32::try_from(x).ok().map(|x| {
+                b = i64::from(x).to_le_bytes();
+                4
+            }),
+            (DataType::Unsigned32, Value::Unsigned(x)) => u32::try_from(x).ok().map(|x| {
+                b = u64::from(x).to_le_bytes();
+                4
+            }),
+            _ => v.encode(e.data_type, &mut b),
+        };
+        if let Some(len) = len {
             od.store(e, b.get(..len).unwrap_or(&[]));
         }
     }
 }
 
 fn get_i64<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>, pnu: u16, sub: u8) -> i64 {
-    match od.value(pnu_index(pnu), sub) {
+    as_i64(od.value(pnu_index(pnu), sub))
+}
+
+/// A PNU value as [`get_i64`] reads it.
+fn as_i64(v: Option<Value>) -> i64 {
+    match v {
         Some(Value::Signed(v)) => v,
         Some(Value::Unsigned(v)) => i64::try_from(v).unwrap_or(i64::MAX),
         Some(Value::Bool(b)) => i64::from(b),
@@ -478,6 +500,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
         let mut stepper = Stepper::new(data);
         stepper.set_mode(settings.mode);
+        let following_error_entries = {
+            let sub = diagnostics::subindex(diag::FOLLOWING_ERROR);
+            let desc = od.description();
+            (
+                desc.entry(pnu_index(246), sub),
+                desc.entry(pnu_index(242), sub),
+            )
+        };
         stepper.set_end_stops(settings.mechanics.stops_rad());
         let mut dev = FhppDevice {
             od,
@@ -525,6 +555,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             memory: DiagnosticMemory::power_on(0),
             memory_dirty: true,
             published: PublishedEntries::default(),
+            following_error_diagnostic: diagnostics::lookup(diag::FOLLOWING_ERROR.into()),
+            following_error_entries,
             chain: None,
             comparator_record: None,
             comparator_since: [None; 3],
@@ -714,14 +746,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The class diagnostic `code` has now: App. D through PNU 246 (class) and 242
     /// (reaction), subindex = number + 1 (fhpp §8.4). `None` for an unassigned number.
     pub fn diagnostic_class(&self, code: u8) -> Option<Class> {
-        let d = diagnostics::lookup(code.into())?;
+        let d = self.diagnostic(code)?;
         Some(self.class_of(d))
+    }
+
+    /// App. D's message `code` (the following error without a search).
+    fn diagnostic(&self, code: u8) -> Option<Diagnostic> {
+        match self.following_error_diagnostic {
+            Some(d) if d.code == code => Some(d),
+            _ => diagnostics::lookup(code.into()),
+        }
     }
 
     fn class_of(&self, d: Diagnostic) -> Class {
         let sub = diagnostics::subindex(d.code);
-        let handling = get_i64(&self.od, 246, sub) as u16;
-        let reaction = get_i64(&self.od, 242, sub) as u16;
+        let (handling, reaction) = match self.following_error_entries {
+            (Some(h), Some(r)) if d.code == diag::FOLLOWING_ERROR => {
+                let value = |e: &Entry| as_i64(Value::decode(e.data_type, self.od.raw(e))) as u16;
+                (value(h), value(r))
+            }
+            _ => (
+                get_i64(&self.od, 246, sub) as u16,
+                get_i64(&self.od, 242, sub) as u16,
+            ),
+        };
         d.class(handling, reaction)
     }
 
@@ -730,7 +778,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     }
 
     fn fault_for(&self, code: u8) -> Option<Fault> {
-        let d = diagnostics::lookup(code.into())?;
+        let d = self.diagnostic(code)?;
         match self.class_of(d) {
             Class::Fault(reaction) => Some(Fault {
                 code,
@@ -1187,7 +1235,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
         let v = f64::from(self.stepper.estimated_velocity_rpm()) / 60.0 * inc_rev / k;
         // Quantisation noise of the observer at rest is not motion.
-        libm::round(v) * self.params.polarity
+        crate::rounding::round(v) * self.params.polarity
     }
 
     /// Actual current in ‰ of PNU 555 (the force actual value).
@@ -2095,7 +2143,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         self.stepper.set_current_limit(homing_limit);
         self.watch_limits();
         let k = p.einc_per_sinc * p.polarity;
-        let increments = libm::round(self.traj.position * k) as i64;
+        let increments = crate::rounding::round(self.traj.position * k) as i64;
         let inc_rev = f64::from(self.stepper.data().encoder_increments_per_rev.max(1));
         // No speed feed-forward under force control: the force comes from the deviation.
         let ff = if matches!(self.motion, Motion::Force { .. }) {
@@ -2300,7 +2348,7 @@ fn stop_room(v: f64, decel: f64, dt: f64) -> f64 {
 }
 
 fn sat_i32(v: f64) -> i32 {
-    let r = libm::round(v);
+    let r = crate::rounding::round(v);
     if r >= i32::MAX as f64 {
         i32::MAX
     } else if r <= i32::MIN as f64 {

@@ -230,6 +230,13 @@ impl Diagnostic {
 
 /// A diagnostic number as App. D prints it ("2Fh"; "2F" and "0x2F" too).
 pub fn number(text: &str) -> Option<u8> {
+    // As App. D prints it ("2Fh"), without the general parse.
+    if let &[hi, lo, b'h'] = text.as_bytes() {
+        let digit = |b: u8| char::from(b).to_digit(16);
+        if let (Some(hi), Some(lo)) = (digit(hi), digit(lo)) {
+            return u8::try_from(hi << 4 | lo).ok();
+        }
+    }
     let t = text.trim();
     let t = t.strip_prefix("0x").unwrap_or(t);
     let t = t
@@ -252,7 +259,14 @@ pub fn all() -> impl Iterator<Item = Diagnostic> {
 /// The message with number `code`, `None` for an unassigned number.
 pub fn lookup(code: u16) -> Option<Diagnostic> {
     let c = u8::try_from(code).ok()?;
-    all().find(|d| d.code == c)
+    // App. D is sorted by number (`table_is_sorted_and_unique`): a binary search parses a
+    // few numbers and one row, not every row before it (the device asks every cycle while
+    // a following error lasts).
+    let t = table();
+    let i = t
+        .binary_search_by_key(&Some(c), |r| number(r.number))
+        .ok()?;
+    t.get(i).and_then(Diagnostic::of)
 }
 
 /// The error-management subindex of diagnostic `code` (fhpp §8.4: number + 1).
