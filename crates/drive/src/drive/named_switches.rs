@@ -31,8 +31,18 @@ impl NamedSwitch {
     /// `limit_negative` / `negative_limit` / `limit-`, `E0`; `home` / `home_switch` /
     /// `reference` / `home_signal`.
     pub fn parse(name: &str) -> Option<Self> {
-        let n = name.trim().to_ascii_lowercase().replace([' ', '-'], "_");
-        Some(match n.as_str() {
+        // Lower case, ' ' and '-' as '_', in a buffer of its own (no allocation).
+        let mut buf = [0u8; 24];
+        let t = name.trim().as_bytes();
+        let b = buf.get_mut(..t.len())?;
+        for (o, c) in b.iter_mut().zip(t) {
+            *o = match c.to_ascii_lowercase() {
+                b' ' | b'-' => b'_',
+                c => c,
+            };
+        }
+        let n = core::str::from_utf8(b).ok()?;
+        Some(match n {
             "limit_positive" | "positive_limit" | "limit+" | "p_limit+" | "e1" => {
                 NamedSwitch::LimitPositive
             }

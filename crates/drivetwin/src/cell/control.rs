@@ -97,6 +97,8 @@ pub enum ControlError {
     NoPanel(usize),
     #[error("drive {0} has no simulated supply (a CiA 402 drive with its motor has one)")]
     NoSupply(usize),
+    #[error("drive {drive} has no input with the function {switch}")]
+    NoSwitch { drive: usize, switch: &'static str },
 }
 
 /// A CAN bus of the cell.
@@ -196,6 +198,8 @@ pub(crate) enum Command {
         millivolts: Option<u32>,
         reply: SyncSender<Result<(), ControlError>>,
     },
+    /// Temperatures, encoder and named switches ([`PhysicsRequest`]).
+    Physics(PhysicsRequest),
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -483,4 +487,83 @@ pub struct FhppState {
     pub memory: Vec<(u8, u16, u32)>,
     /// Why a [`FhppRequest::DeviceControl`] was refused (the parameter-channel error number).
     pub refused: Option<u8>,
+}
+
+/// The plant's physics of one drive that its own supervision watches: temperatures and the
+/// encoder (`drive::thermal`, `drive::encoder_fault`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantPhysics {
+    pub ambient_c: f64,
+    /// The motor winding, °C.
+    pub motor_c: f64,
+    /// The power (output) stage, °C.
+    pub power_stage_c: f64,
+    pub encoder: drive::encoder_fault::EncoderFault,
+}
+
+/// A change of the plant's physics ([`ControlHandle::physics`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PhysicsChange {
+    /// Nothing: read only.
+    None,
+    /// The ambient temperature, °C.
+    Ambient(f64),
+    /// The encoder faulted or repaired.
+    Encoder(drive::encoder_fault::EncoderFault),
+    /// The thermal figures (time constants, rises).
+    Thermal(drive::thermal::ThermalData),
+    /// A limit or home switch by name: actuated, released, or back to the travel (`None`).
+    Switch(drive::drive::named_switches::NamedSwitch, Option<bool>),
+}
+
+/// A request of the plant's physics to the loop (appended to [`Command`] through
+/// [`Command::Physics`]).
+pub(crate) struct PhysicsRequest {
+    pub drive: usize,
+    pub change: PhysicsChange,
+    pub reply: SyncSender<Result<PlantPhysics, ControlError>>,
+}
+
+impl ControlHandle {
+    /// The plant's temperatures and encoder after `change` (see [`PhysicsChange`]).
+    pub fn physics(
+        &self,
+        drive: usize,
+        change: PhysicsChange,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.ask(|reply| {
+            Command::Physics(PhysicsRequest {
+                drive,
+                change,
+                reply,
+            })
+        })?
+    }
+
+    /// The ambient temperature of drive `drive` and its motor, °C: motor and power stage
+    /// heat or cool towards it; the drive's supervision raises its manual's temperature
+    /// messages.
+    pub fn set_ambient(&self, drive: usize, celsius: f64) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Ambient(celsius))
+    }
+
+    /// Faults (or repairs) the encoder of drive `drive`.
+    pub fn set_encoder_fault(
+        &self,
+        drive: usize,
+        fault: drive::encoder_fault::EncoderFault,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Encoder(fault))
+    }
+
+    /// Actuates (`Some(true)`), releases (`Some(false)`) or gives back to the travel (`None`)
+    /// a limit or home switch by name; it is forced on the input its function is on.
+    pub fn set_switch(
+        &self,
+        drive: usize,
+        switch: drive::drive::named_switches::NamedSwitch,
+        actuated: Option<bool>,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Switch(switch, actuated))
+    }
 }

@@ -346,6 +346,7 @@ pub struct WireDoc;
 pub fn merged(mut doc: utoipa::openapi::OpenApi) -> utoipa::openapi::OpenApi {
     doc.merge(WireDoc::openapi());
     doc.merge(super::scenarios::ScenarioDoc::openapi());
+    doc.merge(super::physics::PhysicsDoc::openapi());
     doc
 }
 

@@ -188,6 +188,60 @@ impl CellLoop {
                     };
                     let _ = reply.send(done);
                 }
+                Command::Physics(r) => {
+                    let _ = r.reply.send(self.physics(r.drive, r.change));
+                }
+            }
+        }
+    }
+
+    /// A drive's temperatures and encoder after `change` ([`crate::cell::control::PhysicsChange`]).
+    fn physics(
+        &mut self,
+        drive: usize,
+        change: crate::cell::control::PhysicsChange,
+    ) -> Result<crate::cell::control::PlantPhysics, ControlError> {
+        use crate::cell::control::{PhysicsChange, PlantPhysics};
+        let view = |w: &::drive::drive::plant_supervision::PlantWatch| PlantPhysics {
+            ambient_c: w.thermal.ambient_c(),
+            motor_c: w.thermal.motor_c(),
+            power_stage_c: w.thermal.stage_c(),
+            encoder: w.encoder.fault(),
+        };
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
+                match change {
+                    PhysicsChange::None => {}
+                    PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+                    PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+                    PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+                    PhysicsChange::Switch(s, on) => {
+                        d.set_switch(s, on).ok_or(ControlError::NoSwitch {
+                            drive,
+                            switch: s.name(),
+                        })?;
+                    }
+                }
+                Ok(view(d.plant_watch()))
+            }
+            Target::Modbus(dev) => {
+                let mut d = lock(&dev);
+                match change {
+                    PhysicsChange::None => {}
+                    PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+                    PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+                    PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+                    // Decision: the CMMO-ST's switches are its axis's end stops and
+                    // reference switch (FHPP homing), not DINs a console could force.
+                    PhysicsChange::Switch(s, _) => {
+                        return Err(ControlError::NoSwitch {
+                            drive,
+                            switch: s.name(),
+                        })
+                    }
+                }
+                Ok(view(d.plant_watch()))
             }
         }
     }
