@@ -115,6 +115,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         })
     }
 
+    /// The inputs forced from outside: (mask, levels), bit n as [`Drive::force_inputs`].
+    pub fn forced_inputs(&self) -> (u16, u16) {
+        (self.forced_mask, self.forced_levels)
+    }
+
     /// Puts `switch` where it is: actuated (`Some(true)`), released (`Some(false)`) or back to
     /// the simulated travel (`None`). Returns its input, `None` where no input has it.
     pub fn set_switch(

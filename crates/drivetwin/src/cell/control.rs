@@ -499,6 +499,32 @@ pub struct PlantPhysics {
     /// The power (output) stage, °C.
     pub power_stage_c: f64,
     pub encoder: drive::encoder_fault::EncoderFault,
+    /// The inputs forced from outside (mask, levels; bit n = DINn), named switches included.
+    pub forced_inputs: (u16, u16),
+}
+
+/// Carries out `change` on a CiA 402 drive; `Err` names a switch no input has.
+pub fn apply_physics(
+    d: &mut drive::drive::Drive<Vec<u8>>,
+    change: PhysicsChange,
+) -> Result<PlantPhysics, &'static str> {
+    match change {
+        PhysicsChange::None => {}
+        PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+        PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+        PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+        PhysicsChange::Switch(s, on) => {
+            d.set_switch(s, on).ok_or(s.name())?;
+        }
+    }
+    let w = d.plant_watch();
+    Ok(PlantPhysics {
+        ambient_c: w.thermal.ambient_c(),
+        motor_c: w.thermal.motor_c(),
+        power_stage_c: w.thermal.stage_c(),
+        encoder: w.encoder.fault(),
+        forced_inputs: d.forced_inputs(),
+    })
 }
 
 /// A change of the plant's physics ([`ControlHandle::physics`]).

@@ -22,7 +22,8 @@
 //! within = "50ms"
 //! ```
 //!
-//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`, `raise`,
+//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`,
+//! `ambient`, `encoder`, `switch` (the plant's physics), `raise`,
 //! `clear` (a diagnostic message by its number), `fault`,
 //! `clear_faults`, `nmt`, `frame`) or an expectation (`expect`, `expect_state`, `expect_emcy`,
 //! `expect_frame`); an action with `repeat` and `every` is done that many times. [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
@@ -135,6 +136,18 @@ pub struct Step {
     pub level: Option<bool>,
     /// Load torque on the shaft, N·m.
     pub load: Option<f64>,
+    /// The ambient temperature of the drive and its motor, °C (the plant heats or cools
+    /// towards it; the drive's supervision raises its temperature messages).
+    pub ambient: Option<f64>,
+    /// The encoder: `disconnected`, `noisy` (with `noise`, increments; default 100) or
+    /// `connected`.
+    pub encoder: Option<String>,
+    pub noise: Option<u32>,
+    /// A limit or home switch by name (`limit_positive`, `limit_negative`, `home`), on the
+    /// input its function is on: actuated (`level = true`, the default), released (`false`)
+    /// or back to the travel (`release = true`).
+    pub switch: Option<String>,
+    pub release: Option<bool>,
     /// A diagnostic message raised by its number as the manual writes it (`"08-2"`,
     /// `"2Fh"`, `"0x8611"` …), as if the drive's supervision had found it.
     pub raise: Option<String>,
@@ -211,6 +224,11 @@ pub enum Action {
     },
     ClearFaults {
         bus: usize,
+    },
+    /// The plant's physics: ambient temperature, encoder, a switch by name.
+    Physics {
+        node: Option<u8>,
+        change: crate::cell::control::PhysicsChange,
     },
     /// A diagnostic message of the drive's table raised (`raise = true`) or cleared.
     Diagnostic {
@@ -310,6 +328,9 @@ impl Step {
             ("sdo_write", self.sdo_write.is_some()),
             ("din", self.din.is_some()),
             ("load", self.load.is_some()),
+            ("ambient", self.ambient.is_some()),
+            ("encoder", self.encoder.is_some()),
+            ("switch", self.switch.is_some()),
             ("raise", self.raise.is_some()),
             ("clear", self.clear.is_some()),
             ("fault", self.fault.is_some()),
@@ -324,8 +345,9 @@ impl Step {
         let given: Vec<&str> = keys.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect();
         let [key] = given.as_slice() else {
             return Err(format!(
-                "one of write, sdo_write, din, load, raise, clear, fault, clear_faults, nmt, \
-                 frame, expect, expect_state, expect_emcy, expect_frame (found {})",
+                "one of write, sdo_write, din, load, ambient, encoder, switch, raise, clear, \
+                 fault, clear_faults, nmt, frame, expect, expect_state, expect_emcy, \
+                 expect_frame (found {})",
                 if given.is_empty() {
                     "none".to_string()
                 } else {
@@ -398,6 +420,44 @@ impl Step {
                 act(Action::Load {
                     node: self.node,
                     torque_nm,
+                })
+            }
+            "ambient" => {
+                let c = self.ambient.unwrap_or(0.0);
+                if !(c.is_finite() && (-50.0..=200.0).contains(&c)) {
+                    return Err(format!("ambient {c}: °C within −50 … 200"));
+                }
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Ambient(c),
+                })
+            }
+            "encoder" => {
+                let name = self.encoder.as_deref().unwrap_or("");
+                let fault =
+                    drive::drive::plant_supervision::encoder_fault(name, self.noise.unwrap_or(100))
+                        .ok_or_else(|| {
+                            format!("encoder {name:?}: connected, disconnected or noisy")
+                        })?;
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Encoder(fault),
+                })
+            }
+            "switch" => {
+                let name = self.switch.as_deref().unwrap_or("");
+                let switch =
+                    drive::drive::named_switches::NamedSwitch::parse(name).ok_or_else(|| {
+                        format!("switch {name:?}: limit_positive, limit_negative or home")
+                    })?;
+                let state = if self.release == Some(true) {
+                    None
+                } else {
+                    Some(self.level.unwrap_or(true))
+                };
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Switch(switch, state),
                 })
             }
             "raise" | "clear" => act(Action::Diagnostic {

@@ -155,6 +155,15 @@ impl Rig for LiveRig {
                 let i = self.drive(*node)?.index;
                 self.handle.set_load(i, *torque_nm).map_err(err)
             }
+            Action::Physics { node, change } => {
+                let i = self.drive(*node)?.index;
+                let p = self.handle.physics(i, *change).map_err(err)?;
+                // A switch forced by name joins the inputs forced by number.
+                if let Some(f) = self.forced.get_mut(i) {
+                    *f = p.forced_inputs;
+                }
+                Ok(())
+            }
             Action::Diagnostic {
                 node,
                 number,

@@ -34,7 +34,8 @@ impl VirtualRig {
         let cell_err = |e: String| ScenarioError::Cell(e);
         let specs = file.drives().map_err(|e| cell_err(e.to_string()))?;
         let mut drives = Vec::new();
-        for spec in specs {
+        let mut plans = Vec::new();
+        for mut spec in specs {
             if spec.fhpp.is_some() || !spec.canopen || spec.ethercat.is_some() || spec.bus != 0 {
                 return Err(cell_err(format!(
                     "drive {} node {}: the virtual clock runs the CANopen drives of the first \
@@ -50,6 +51,10 @@ impl VirtualRig {
                 spec.settings,
             )
             .map_err(|e| cell_err(e.to_string()))?;
+            plans.push((
+                std::mem::take(&mut spec.diagnostics),
+                std::mem::take(&mut spec.physics),
+            ));
             drives.push(d);
         }
         if drives.is_empty() {
@@ -63,6 +68,15 @@ impl VirtualRig {
         };
         for p in bus.map(|b| b.disturb.as_slice()).unwrap_or(&[]) {
             cell.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
+        }
+        // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual clock.
+        for (drive, (diagnostics, physics)) in plans.into_iter().enumerate() {
+            for p in diagnostics {
+                cell.plan_diagnostic(Instant::from_millis(p.at_ms), drive, p);
+            }
+            for (at_ms, change) in physics {
+                cell.plan_physics(Instant::from_millis(at_ms), drive, change);
+            }
         }
         let mut out = Vec::with_capacity(256);
         cell.boot(Instant::ZERO, &mut out);
@@ -236,6 +250,24 @@ impl Rig for VirtualRig {
                     .and_then(|d| d.model.drive_mut())
                     .ok_or("the drive has no simulated motor")?;
                 d.axis_mut().motor_mut().set_load_torque(*torque_nm);
+                Ok(())
+            }
+            Action::Physics { node, change } => {
+                let i = self.drive(*node)?;
+                let d = self
+                    .cell
+                    .drives
+                    .get_mut(i)
+                    .and_then(|d| d.model.drive_mut())
+                    .ok_or("the drive has no simulated plant")?;
+                crate::cell::control::apply_physics(d, *change)
+                    .map_err(|s| format!("the drive has no input with the function {s}"))?;
+                if let crate::cell::control::PhysicsChange::Switch(..) = change {
+                    // A switch forced by name joins the inputs forced by number.
+                    if let Some(f) = self.forced.get_mut(i) {
+                        *f = d.forced_inputs();
+                    }
+                }
                 Ok(())
             }
             Action::Diagnostic {

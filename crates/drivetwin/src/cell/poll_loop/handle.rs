@@ -202,28 +202,11 @@ impl CellLoop {
         change: crate::cell::control::PhysicsChange,
     ) -> Result<crate::cell::control::PlantPhysics, ControlError> {
         use crate::cell::control::{PhysicsChange, PlantPhysics};
-        let view = |w: &::drive::drive::plant_supervision::PlantWatch| PlantPhysics {
-            ambient_c: w.thermal.ambient_c(),
-            motor_c: w.thermal.motor_c(),
-            power_stage_c: w.thermal.stage_c(),
-            encoder: w.encoder.fault(),
-        };
         match self.target(drive)? {
             Target::Can(model) => {
                 let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
-                match change {
-                    PhysicsChange::None => {}
-                    PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
-                    PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
-                    PhysicsChange::Thermal(t) => d.set_thermal_data(t),
-                    PhysicsChange::Switch(s, on) => {
-                        d.set_switch(s, on).ok_or(ControlError::NoSwitch {
-                            drive,
-                            switch: s.name(),
-                        })?;
-                    }
-                }
-                Ok(view(d.plant_watch()))
+                crate::cell::control::apply_physics(d, change)
+                    .map_err(|switch| ControlError::NoSwitch { drive, switch })
             }
             Target::Modbus(dev) => {
                 let mut d = lock(&dev);
@@ -241,7 +224,14 @@ impl CellLoop {
                         })
                     }
                 }
-                Ok(view(d.plant_watch()))
+                let w = d.plant_watch();
+                Ok(PlantPhysics {
+                    ambient_c: w.thermal.ambient_c(),
+                    motor_c: w.thermal.motor_c(),
+                    power_stage_c: w.thermal.stage_c(),
+                    encoder: w.encoder.fault(),
+                    forced_inputs: (0, 0),
+                })
             }
         }
     }
