@@ -528,9 +528,10 @@ pub fn apply_physics(
 }
 
 /// A change of the plant's physics ([`ControlHandle::physics`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum PhysicsChange {
     /// Nothing: read only.
+    #[default]
     None,
     /// The ambient temperature, °C.
     Ambient(f64),
