@@ -7,26 +7,95 @@ use std::time::{Duration, Instant};
 use canopen::CanFrame;
 
 use super::CellLoop;
-use crate::cell::wire_faults::FaultKind;
 use crate::cell::wire_faults::{
-    FrontEnd, Sender, Verdict, WireAnswer, WireError, WireFaultError, WireFaults, WireRequest,
+    FrontEnd, Sender, Verdict, WireAnswer, WireError, WireFaults, WireRequest,
 };
 use crate::trace::TraceWriter;
 
-/// Whether a request or frame from outside on `front` is lost at `now` (dropped, corrupted:
-/// the checksum discards it, or the cable is cut).
-pub(super) fn lost(
+/// What the faults of `front` make of a request or frame from outside at `now`.
+pub(super) fn judge(
     faults: &mut [(FrontEnd, WireFaults)],
     front: FrontEnd,
     now: od::Instant,
-) -> bool {
-    let Some((_, f)) = faults.iter_mut().find(|(fe, _)| *fe == front) else {
-        return false;
-    };
-    f.judge(now, Sender::Outside, 0) != Verdict::Pass
+) -> Verdict {
+    match faults.iter_mut().find(|(fe, _)| *fe == front) {
+        Some((_, f)) => f.judge(now, Sender::Outside, 0),
+        None => Verdict::Pass,
+    }
+}
+
+/// A Modbus request's bytes or an EtherCAT frame a `delay` fault holds back until `at` (the
+/// cell's clock); later ones of the same front end wait behind it, so the order stays.
+#[derive(Debug)]
+pub(super) enum Held {
+    Modbus {
+        slot: usize,
+        drive: usize,
+        bytes: Vec<u8>,
+        at: od::Instant,
+    },
+    Ethercat {
+        chain: usize,
+        frame: Vec<u8>,
+        at: od::Instant,
+    },
+}
+
+impl Held {
+    pub(super) fn at(&self) -> od::Instant {
+        match self {
+            Held::Modbus { at, .. } | Held::Ethercat { at, .. } => *at,
+        }
+    }
+
+    fn front(&self) -> FrontEnd {
+        match self {
+            Held::Modbus { drive, .. } => FrontEnd::Modbus(*drive),
+            Held::Ethercat { chain, .. } => FrontEnd::Ethercat(*chain),
+        }
+    }
 }
 
 impl CellLoop {
+    /// Whether what arrives now on `front` must wait: delayed by a fault until `delay`, or
+    /// behind an earlier one still held. `None`: it is taken at once (or lost, `Some(None)`).
+    pub(super) fn hold_until(
+        &mut self,
+        front: FrontEnd,
+        t: od::Instant,
+    ) -> Option<Option<od::Instant>> {
+        let behind = self
+            .held
+            .iter()
+            .filter(|h| h.front() == front)
+            .map(Held::at)
+            .max();
+        match (judge(&mut self.front_faults, front, t), behind) {
+            (Verdict::Lost | Verdict::Corrupt, _) => Some(None),
+            (Verdict::Delay(at), b) => Some(Some(b.map_or(at, |b| b.max(at)))),
+            (Verdict::Pass, Some(b)) => Some(Some(b)),
+            (Verdict::Pass, None) => None,
+        }
+    }
+
+    /// The earliest held request or frame.
+    pub(super) fn held_deadline(&self) -> Option<Instant> {
+        self.held.iter().map(Held::at).min().map(|t| self.wall(t))
+    }
+
+    /// Held requests and frames whose time has come arrive, in the order they came.
+    pub(super) fn release_held(&mut self, now: Instant) {
+        let t = self.now(now);
+        while let Some(i) = self.held.iter().position(|h| h.at() <= t) {
+            match self.held.remove(i) {
+                Held::Modbus {
+                    slot, drive, bytes, ..
+                } => self.modbus_request(slot, drive, &bytes, t),
+                Held::Ethercat { chain, frame, .. } => self.ethercat_frame(chain, frame, t),
+            }
+        }
+    }
+
     pub(super) fn wire(
         &mut self,
         request: WireRequest,
@@ -41,12 +110,8 @@ impl CellLoop {
                     return Ok(WireAnswer::Added(bus.cell.add_wire_fault(t, fault)?));
                 }
                 self.check_front(front)?;
-                if matches!(fault.kind, FaultKind::Delay { .. }) {
-                    // Decision: a Modbus request or an EtherCAT frame held back would need a
-                    // queue per connection in the loop; a master's timeout is what a late frame
-                    // gives it, and a drop tests that.
-                    return Err(WireFaultError::NoDelay.into());
-                }
+                // A delayed Modbus request or EtherCAT frame is held in the loop until it is
+                // due ([`Held`]).
                 Ok(WireAnswer::Added(self.faults_of(front)?.add(t, fault)?))
             }
             WireRequest::Remove { front, id } => {
