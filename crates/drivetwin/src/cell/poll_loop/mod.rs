@@ -1050,6 +1050,25 @@ impl CellLoop {
                             continue;
                         }
                         let bus = *bus;
+                        let port = peer.port();
+                        if self.client_faults() {
+                            let t = self.now(now);
+                            let id = frame.id;
+                            match self.client_verdict(slot, port, false, id, t) {
+                                None => {}
+                                Some(None) => continue,
+                                Some(Some(at)) => {
+                                    self.held.push(wire::Held::FromClient {
+                                        slot,
+                                        port,
+                                        bus,
+                                        frame,
+                                        at,
+                                    });
+                                    continue;
+                                }
+                            }
+                        }
                         self.bus(bus, frame, Source::Client(slot), now);
                     }
                 }
@@ -1225,7 +1244,35 @@ impl CellLoop {
             let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
             self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
-            for (slot, c) in self.slots.iter_mut().enumerate() {
+            let per_client = self.client_faults();
+            let t = self.now(now);
+            for slot in 0..self.slots.len() {
+                if per_client {
+                    let to = match self.slots.get(slot) {
+                        Some(Some(c)) if matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b) => {
+                            Some(c.peer.port())
+                        }
+                        _ => None,
+                    };
+                    if let Some(port) = to.filter(|_| source != Source::Client(slot)) {
+                        match self.client_verdict(slot, port, true, frame.id, t) {
+                            None => {}
+                            Some(None) => continue,
+                            Some(Some(at)) => {
+                                self.held.push(wire::Held::ToClient {
+                                    slot,
+                                    port,
+                                    text: self.text.clone(),
+                                    at,
+                                });
+                                continue;
+                            }
+                        }
+                    }
+                }
+                let Some(c) = self.slots.get_mut(slot) else {
+                    continue;
+                };
                 let Some(conn) = c else {
                     continue;
                 };

@@ -39,12 +39,30 @@ pub(super) enum Held {
         frame: Vec<u8>,
         at: od::Instant,
     },
+    /// A frame socketcand client `slot` (port `port`) sent to bus `bus`.
+    FromClient {
+        slot: usize,
+        port: u16,
+        bus: usize,
+        frame: CanFrame,
+        at: od::Instant,
+    },
+    /// A frame of the bus as socketcand text for client `slot` (port `port`).
+    ToClient {
+        slot: usize,
+        port: u16,
+        text: Vec<u8>,
+        at: od::Instant,
+    },
 }
 
 impl Held {
     pub(super) fn at(&self) -> od::Instant {
         match self {
-            Held::Modbus { at, .. } | Held::Ethercat { at, .. } => *at,
+            Held::Modbus { at, .. }
+            | Held::Ethercat { at, .. }
+            | Held::FromClient { at, .. }
+            | Held::ToClient { at, .. } => *at,
         }
     }
 
@@ -52,6 +70,16 @@ impl Held {
         match self {
             Held::Modbus { drive, .. } => FrontEnd::Modbus(*drive),
             Held::Ethercat { chain, .. } => FrontEnd::Ethercat(*chain),
+            Held::FromClient { port, .. } | Held::ToClient { port, .. } => FrontEnd::Client(*port),
+        }
+    }
+
+    /// Held for client `slot`, in the direction `to_client`.
+    fn is_client(&self, slot: usize, to_client: bool) -> bool {
+        match self {
+            Held::FromClient { slot: s, .. } => *s == slot && !to_client,
+            Held::ToClient { slot: s, .. } => *s == slot && to_client,
+            _ => false,
         }
     }
 }
@@ -92,7 +120,58 @@ impl CellLoop {
                     slot, drive, bytes, ..
                 } => self.modbus_request(slot, drive, &bytes, t),
                 Held::Ethercat { chain, frame, .. } => self.ethercat_frame(chain, frame, t),
+                Held::FromClient {
+                    slot, bus, frame, ..
+                } => {
+                    // Still connected: its frame reaches the bus now.
+                    if self.slots.get(slot).is_some_and(Option::is_some) {
+                        self.bus(bus, frame, super::Source::Client(slot), now);
+                    }
+                }
+                Held::ToClient { slot, text, .. } => {
+                    if let Some(Some(conn)) = self.slots.get_mut(slot) {
+                        conn.pending.extend_from_slice(&text);
+                        self.mark_dirty(slot);
+                    }
+                }
             }
+        }
+    }
+
+    /// Whether some fault is on a single client (the per-frame check is skipped otherwise).
+    pub(super) fn client_faults(&self) -> bool {
+        self.front_faults
+            .iter()
+            .any(|(f, w)| matches!(f, FrontEnd::Client(_)) && !w.is_empty())
+    }
+
+    /// What the faults of client `port` (connection `slot`) make of frame `id` at `t` in one
+    /// direction: `None` passes now, `Some(None)` is lost (dropped, corrupted: the checksum
+    /// discards it, the cable cut), `Some(Some(at))` arrives then (behind what is held).
+    pub(super) fn client_verdict(
+        &mut self,
+        slot: usize,
+        port: u16,
+        to_client: bool,
+        id: u32,
+        t: od::Instant,
+    ) -> Option<Option<od::Instant>> {
+        let front = FrontEnd::Client(port);
+        let behind = self
+            .held
+            .iter()
+            .filter(|h| h.is_client(slot, to_client))
+            .map(Held::at)
+            .max();
+        let verdict = match self.front_faults.iter_mut().find(|(f, _)| *f == front) {
+            Some((_, f)) => f.judge(t, Sender::Outside, id),
+            None => Verdict::Pass,
+        };
+        match (verdict, behind) {
+            (Verdict::Lost | Verdict::Corrupt, _) => Some(None),
+            (Verdict::Delay(at), b) => Some(Some(b.map_or(at, |b| b.max(at)))),
+            (Verdict::Pass, Some(b)) => Some(Some(b)),
+            (Verdict::Pass, None) => None,
         }
     }
 
@@ -189,11 +268,15 @@ impl CellLoop {
     }
 
     fn check_front(&self, front: FrontEnd) -> Result<(), WireError> {
-        let there = match front {
-            FrontEnd::Bus(b) => b < self.buses.len(),
-            FrontEnd::Modbus(m) => m < self.modbus.len(),
-            FrontEnd::Ethercat(c) => c < self.chains.len(),
-        };
+        let there =
+            match front {
+                FrontEnd::Bus(b) => b < self.buses.len(),
+                FrontEnd::Modbus(m) => m < self.modbus.len(),
+                FrontEnd::Ethercat(c) => c < self.chains.len(),
+                FrontEnd::Client(port) => self.slots.iter().flatten().any(|c| {
+                    c.peer.port() == port && matches!(c.kind, super::Kind::Socketcand { .. })
+                }),
+            };
         if there {
             Ok(())
         } else {
