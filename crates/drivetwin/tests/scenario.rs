@@ -37,6 +37,7 @@ fn the_examples_give_the_same_report_and_trace_twice() {
         "stopped_sync.toml",
         "diagnostic.toml",
         "plant_physics.toml",
+        "two_buses.toml",
     ] {
         let (a, trace_a) = run(name, 1);
         let (b, trace_b) = run(name, 2);
@@ -236,4 +237,13 @@ within = "100ms"
         .err()
         .expect("refused");
     assert!(e.to_string().contains("melted"), "{e}");
+}
+
+/// Two CAN buses on the virtual clock: a frame stays on its bus, a cable break on one bus
+/// leaves the other alone, a node is found on its bus.
+#[test]
+fn two_buses_on_the_virtual_clock() {
+    let (report, _) = run("two_buses.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 7);
 }
