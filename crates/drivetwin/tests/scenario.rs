@@ -38,6 +38,7 @@ fn the_examples_give_the_same_report_and_trace_twice() {
         "diagnostic.toml",
         "plant_physics.toml",
         "two_buses.toml",
+        "cmmo_st_modbus.toml",
     ] {
         let (a, trace_a) = run(name, 1);
         let (b, trace_b) = run(name, 2);
@@ -246,4 +247,13 @@ fn two_buses_on_the_virtual_clock() {
     let (report, _) = run("two_buses.toml", 0);
     assert!(report.passed, "{}", report.text());
     assert_eq!(report.expectations.len(), 7);
+}
+
+/// A CMMO-ST on Modbus TCP beside a CMMP-AS on CAN on one virtual clock: the PLC's output
+/// telegram and CCON.RESET sent as scripted Modbus requests, PNU 205 read as an expectation.
+#[test]
+fn a_cmmo_st_over_modbus_on_the_virtual_clock() {
+    let (report, _) = run("cmmo_st_modbus.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 5);
 }

@@ -169,6 +169,9 @@ pub struct Step {
     pub nmt: Option<String>,
     /// A raw CAN frame, cansend style: `"601#4000100000000000"`.
     pub frame: Option<String>,
+    /// A Modbus TCP request (the ADU in hex, MBAP header first) to the CMMO-ST `node`, as
+    /// its one client sends it (the virtual clock's rig).
+    pub modbus_request: Option<String>,
 
     // Expectations.
     /// Object `"IIII:SS"` whose value & `mask` == `equals` within `within`.
@@ -235,6 +238,11 @@ pub enum Action {
         node: Option<u8>,
         number: String,
         raise: bool,
+    },
+    /// A Modbus TCP request to a CMMO-ST.
+    Modbus {
+        node: Option<u8>,
+        request: Vec<u8>,
     },
     /// A frame from outside on bus `bus` (NMT commands are such frames).
     Frame {
@@ -337,6 +345,7 @@ impl Step {
             ("clear_faults", self.clear_faults.is_some()),
             ("nmt", self.nmt.is_some()),
             ("frame", self.frame.is_some()),
+            ("modbus_request", self.modbus_request.is_some()),
             ("expect", self.expect.is_some()),
             ("expect_state", self.expect_state.is_some()),
             ("expect_emcy", self.expect_emcy.is_some()),
@@ -346,8 +355,8 @@ impl Step {
         let [key] = given.as_slice() else {
             return Err(format!(
                 "one of write, sdo_write, din, load, ambient, encoder, switch, raise, clear, \
-                 fault, clear_faults, nmt, frame, expect, expect_state, expect_emcy, \
-                 expect_frame (found {})",
+                 fault, clear_faults, nmt, frame, modbus_request, expect, expect_state, \
+                 expect_emcy, expect_frame (found {})",
                 if given.is_empty() {
                     "none".to_string()
                 } else {
@@ -499,6 +508,18 @@ impl Step {
                 let frame = CanFrame::new(0x000, &[cmd as u8, self.node.unwrap_or(0)])
                     .map_err(|e| format!("{e:?}"))?;
                 act(Action::Frame { bus, frame })
+            }
+            "modbus_request" => {
+                let text = self.modbus_request.as_deref().unwrap_or("");
+                let request = crate::value_text::parse_hex(text)
+                    .filter(|r| (8..=260).contains(&r.len()))
+                    .ok_or_else(|| {
+                        format!("modbus_request {text:?}: an ADU in hex (8 … 260 bytes)")
+                    })?;
+                act(Action::Modbus {
+                    node: self.node,
+                    request,
+                })
             }
             "frame" => {
                 let (id, data) = parse_frame(self.frame.as_deref().unwrap_or(""))?;

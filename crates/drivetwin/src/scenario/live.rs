@@ -111,6 +111,11 @@ impl Rig for LiveRig {
         let err = |e: crate::cell::control::ControlError| e.to_string();
         match action {
             Action::Frame { bus, frame } => self.send(*bus, *frame),
+            // Decision: on a live cell the CMMO-ST's Modbus server has its own clients; a
+            // scripted request is the virtual clock's.
+            Action::Modbus { .. } => {
+                Err("modbus_request runs on the virtual clock (drivetwin scenario)".into())
+            }
             Action::SdoWrite {
                 bus,
                 node,

@@ -33,6 +33,9 @@ pub struct VirtualRig {
     forced: Vec<Vec<(u16, u16)>>,
     /// Frames sent and not yet seen, with their bus.
     pending: Vec<(usize, CanFrame)>,
+    /// The CMMO-STs (FHPP over Modbus TCP, no socket: requests come from the steps), by the
+    /// node-ID their cell file gives them; stepped on the same clock.
+    modbus: Vec<(u8, crate::modbus_tcp::cell_drive::ModbusDrive)>,
 }
 
 impl VirtualRig {
@@ -43,11 +46,23 @@ impl VirtualRig {
         let sections = file.bus.all();
         let mut drives: Vec<Vec<CanDrive>> = sections.iter().map(|_| Vec::new()).collect();
         let mut plans: Vec<Vec<_>> = sections.iter().map(|_| Vec::new()).collect();
+        let mut modbus = Vec::new();
         for mut spec in specs {
-            if spec.fhpp.is_some() || !spec.canopen || spec.ethercat.is_some() {
+            if let Some(fhpp) = &spec.fhpp {
+                if !spec.diagnostics.is_empty() || !spec.physics.is_empty() {
+                    return Err(cell_err(format!(
+                        "drive {} node {}: on the virtual clock a CMMO-ST's changes are \
+                         scenario steps, not [[drive.diagnostic]] / [[drive.plant]]",
+                        spec.desc.name, spec.node
+                    )));
+                }
+                modbus.push((spec.node, cmmo_st(&spec, fhpp).map_err(cell_err)?));
+                continue;
+            }
+            if !spec.canopen || spec.ethercat.is_some() {
                 return Err(cell_err(format!(
                     "drive {} node {}: the virtual clock runs the CANopen drives of the cell's \
-                     buses (no Modbus or EtherCAT)",
+                     buses and its CMMO-STs (no EtherCAT)",
                     spec.desc.name, spec.node
                 )));
             }
@@ -72,8 +87,11 @@ impl VirtualRig {
             ));
             on_bus.push(d);
         }
-        if drives.iter().all(Vec::is_empty) {
-            return Err(cell_err("no CANopen drive".into()));
+        if drives.iter().all(Vec::is_empty) && modbus.is_empty() {
+            return Err(cell_err("no drive".into()));
+        }
+        for (_, m) in &mut modbus {
+            m.open_connection(Instant::ZERO);
         }
         let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
@@ -105,6 +123,7 @@ impl VirtualRig {
             trace: None,
             forced,
             pending: Vec::new(),
+            modbus,
         };
         // Booted in bus order; the boot-up frames wait in `pending` for the first emit.
         for b in 0..rig.cells.len() {
@@ -190,6 +209,17 @@ impl VirtualRig {
         }
     }
 
+    /// The CMMO-ST with node-ID `node` (a CANopen node of that number wins).
+    fn cmmo_st(&self, node: Option<u8>) -> Option<crate::modbus_tcp::fhpp::SharedDevice> {
+        let cia402 = self.drive(node).is_ok();
+        let found = match node {
+            None if self.cells.iter().all(|c| c.drives.is_empty()) => self.modbus.first(),
+            Some(n) if !cia402 => self.modbus.iter().find(|(m, _)| *m == n),
+            _ => None,
+        };
+        found.map(|(_, m)| m.device().clone())
+    }
+
     fn cell(&self, bus: usize) -> Result<&Cell, String> {
         self.cells
             .get(bus)
@@ -241,6 +271,7 @@ impl Rig for VirtualRig {
                 .cells
                 .iter()
                 .filter_map(Cell::deadline)
+                .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
                 .min()
                 .filter(|w| *w <= end);
             let Some(wake) = wake else {
@@ -253,6 +284,10 @@ impl Rig for VirtualRig {
                 break;
             }
             self.now = wake.max(self.now);
+            // Modbus cycles first, then the buses in order (as `run_virtual_mixed`).
+            for (_, m) in &mut self.modbus {
+                m.cycle(self.now);
+            }
             for b in 0..self.cells.len() {
                 let now = self.now;
                 let mut out = std::mem::take(&mut self.out);
@@ -276,6 +311,10 @@ impl Rig for VirtualRig {
         seen: &mut dyn FnMut(usize, Duration, &CanFrame),
     ) -> Result<(), String> {
         let now = self.now;
+        if let Some(r) = self.act_cmmo_st(action, now) {
+            self.flush(seen);
+            return r;
+        }
         let on: usize;
         let result = match action {
             Action::Frame { bus, frame } => {
@@ -404,12 +443,21 @@ impl Rig for VirtualRig {
                 self.cell_mut(*bus)?.clear_wire_faults();
                 Ok(())
             }
+            // Answered by `act_cmmo_st` when the node is a CMMO-ST.
+            Action::Modbus { .. } => return Err("no CMMO-ST with that node".into()),
         };
         self.emit(on, seen);
         result
     }
 
     fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
+        if let Some(dev) = self.cmmo_st(node) {
+            let mut buf = [0u8; 8];
+            let n = lock(&dev)
+                .read(index, sub, &mut buf)
+                .map_err(|code| format!("{index:04X}:{sub:02X}: abort {:#010X}", code.0))?;
+            return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
+        }
         let (b, i) = self.drive(node)?;
         let d = self.cell(b)?.drives.get(i).ok_or("no drive")?;
         let mut buf = [0u8; 8];
@@ -419,6 +467,125 @@ impl Rig for VirtualRig {
             .map_err(|code| format!("{index:04X}:{sub:02X}: SDO abort {:#010X}", code.0))?;
         Ok((unsigned(buf.get(..n).unwrap_or(&[])), n))
     }
+}
+
+impl VirtualRig {
+    /// An action addressed to a CMMO-ST (`None`: not one of its actions or not a CMMO-ST).
+    fn act_cmmo_st(&mut self, action: &Action, now: Instant) -> Option<Result<(), String>> {
+        let node = match action {
+            Action::Write { node, .. }
+            | Action::Diagnostic { node, .. }
+            | Action::Physics { node, .. }
+            | Action::Load { node, .. } => *node,
+            Action::Modbus { node, .. } => *node,
+            _ => return None,
+        };
+        let Some(dev) = self.cmmo_st(node) else {
+            return match action {
+                Action::Modbus { .. } => Some(Err("no CMMO-ST with that node".into())),
+                _ => None,
+            };
+        };
+        Some(match action {
+            Action::Modbus { request, .. } => {
+                let Some((_, m)) = self
+                    .modbus
+                    .iter_mut()
+                    .find(|(_, m)| std::sync::Arc::ptr_eq(m.device(), &dev))
+                else {
+                    return Some(Err("no CMMO-ST".into()));
+                };
+                let mut answer = Vec::new();
+                m.answer(request, now, &mut answer)
+                    .map_err(|e| format!("Modbus connection closed: {e:?}"))
+            }
+            Action::Write {
+                index, sub, value, ..
+            } => {
+                let mut d = lock(&dev);
+                let e = d.od().description().entry(*index, *sub);
+                match e {
+                    None => Err(format!("{index:04X}:{sub:02X}: no such object")),
+                    Some(e) => crate::value_text::encode(e.data_type, value).and_then(|bytes| {
+                        d.write(*index, *sub, &bytes).map_err(|code| {
+                            format!("{index:04X}:{sub:02X} refused: {:#010X}", code.0)
+                        })
+                    }),
+                }
+            }
+            Action::Diagnostic { number, raise, .. } => {
+                let mut d = lock(&dev);
+                let done = if *raise {
+                    crate::cell::diagnostics::raise_fhpp(&mut d, number).map(|_| ())
+                } else {
+                    crate::cell::diagnostics::clear_fhpp(&mut d, number).map(|_| ())
+                };
+                done.map_err(|e| format!("{e:?}"))
+            }
+            Action::Physics { change, .. } => {
+                use crate::cell::control::PhysicsChange;
+                let mut d = lock(&dev);
+                match change {
+                    PhysicsChange::None => Ok(()),
+                    PhysicsChange::Ambient(c) => {
+                        d.set_ambient_temperature(*c);
+                        Ok(())
+                    }
+                    PhysicsChange::Encoder(f) => {
+                        d.set_encoder_fault(*f);
+                        Ok(())
+                    }
+                    PhysicsChange::Thermal(t) => {
+                        d.set_thermal_data(*t);
+                        Ok(())
+                    }
+                    PhysicsChange::Switch(s, _) => Err(format!(
+                        "the CMMO-ST has no input with the function {}",
+                        s.name()
+                    )),
+                }
+            }
+            Action::Load { torque_nm, .. } => {
+                lock(&dev).stepper_mut().set_load_torque(*torque_nm);
+                Ok(())
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// A CMMO-ST as `drivetwin run` makes it (its dictionary with the cell file's values), served
+/// by scripted Modbus requests.
+fn cmmo_st(
+    spec: &crate::cell::config::DriveSpec,
+    fhpp: &crate::cell::config::FhppSpec,
+) -> Result<crate::modbus_tcp::cell_drive::ModbusDrive, String> {
+    let desc = spec.desc;
+    let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
+        .map_err(|_| "dictionary storage too small".to_string())?;
+    for c in &spec.commissioning {
+        if let Some(e) = desc.entry(c.index, c.sub) {
+            od.store(e, &c.bytes);
+        }
+    }
+    let dev = drive::fhpp::device::FhppDevice::new(od, fhpp.settings);
+    let mut config = crate::modbus_tcp::server::ModbusConfig::default();
+    if let Some(ms) = fhpp.watchdog_ms {
+        config.watchdog_ms = ms;
+    }
+    Ok(
+        crate::modbus_tcp::cell_drive::ModbusDrive::without_listener(
+            std::sync::Arc::new(std::sync::Mutex::new(dev)),
+            config,
+            None,
+        ),
+    )
+}
+
+fn lock(
+    dev: &crate::modbus_tcp::fhpp::SharedDevice,
+) -> std::sync::MutexGuard<'_, drive::fhpp::device::FhppDevice<Vec<u8>>> {
+    crate::modbus_tcp::server::lock(dev)
 }
 
 /// Little-endian bytes as a number (at most 8).
