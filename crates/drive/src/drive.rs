@@ -28,8 +28,10 @@ use crate::travel::{Inputs, TravelSettings};
 pub mod diagnostics;
 mod feed_constant;
 mod homing_run;
+pub mod named_switches;
 pub(crate) mod object_writes;
 mod plant;
+pub mod plant_supervision;
 mod publish;
 mod target_limits;
 mod velocity_mode;
@@ -132,7 +134,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
 /// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
 /// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 79] = [
+const PARAMS: [(u16, u8); 81] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 7),
@@ -210,6 +212,8 @@ const PARAMS: [(u16, u8); 79] = [
     (0x6510, 0x15),
     (0x6510, 0x18),
     (0x6510, 0x22),
+    (0x6510, 0x2F),
+    (0x6510, 0x32),
     (0x6510, 0x36),
     (0x6510, 0x37),
     (0x6510, 0x38),
@@ -405,6 +409,10 @@ pub struct Drive<S> {
     /// Messages raised by their number from outside ([`Drive::raise_diagnostic`]), until
     /// cleared.
     pub(crate) injected: heapless::Vec<&'static od::Diagnostic, 16>,
+    /// The motor's and the power stage's temperatures, the encoder between the shaft and
+    /// the reading, and what the drive's supervision has found in them
+    /// ([`plant_supervision`]).
+    pub(crate) plant_watch: plant_supervision::PlantWatch,
 }
 
 /// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
@@ -594,6 +602,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             dc_link_mv: None,
             memory: Deque::new(),
             injected: heapless::Vec::new(),
+            plant_watch: plant_supervision::PlantWatch::default(),
         };
         d.vendor_power_on();
         d.reload_factor_group();
@@ -1012,6 +1021,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.stepper_mode();
         self.supervise_dc_link();
         self.supervise_i2t();
+        self.supervise_plant(dt);
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();

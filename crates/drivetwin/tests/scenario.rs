@@ -36,6 +36,9 @@ fn the_examples_give_the_same_report_and_trace_twice() {
         "must_fail.toml",
         "stopped_sync.toml",
         "diagnostic.toml",
+        "plant_physics.toml",
+        "two_buses.toml",
+        "cmmo_st_modbus.toml",
     ] {
         let (a, trace_a) = run(name, 1);
         let (b, trace_b) = run(name, 2);
@@ -184,4 +187,73 @@ fn a_negative_value_is_compared_in_the_objects_width() {
         "{}",
         report.text()
     );
+}
+
+/// The plant's physics in a timeline and in the cell file (`[cell.drive.thermal]`): a motor
+/// heated by its current warns (18-0) and then faults (03-0, EMCY 4310h), a pulled encoder
+/// cable is 08-0 (7380h), a limit switch actuated by name is found on its DIN (43-1, 8082h).
+#[test]
+fn the_plant_physics_raise_the_manuals_messages() {
+    let (report, _) = run("plant_physics.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 7);
+}
+
+/// `[[drive.plant]]` in the cell file plans the same changes on the cell's clock; bad keys
+/// are refused with the step's text.
+#[test]
+fn planned_plant_changes_in_the_cell_file() {
+    let text = r#"
+name = "planned encoder"
+[cell]
+[[cell.drive]]
+device = "cmmp-as"
+node = 1
+[[cell.drive.plant]]
+at_ms = 200
+encoder = "disconnected"
+[[cell.drive.diagnostic]]
+at_ms = 100
+number = "05-0"
+
+[[step]]
+at = "0s"
+name = "the planned message"
+expect_emcy = 0x5114
+within = "150ms"
+
+[[step]]
+at = "150ms"
+name = "the planned encoder fault"
+expect_emcy = 0x7380
+within = "100ms"
+"#;
+    let s = Scenario::parse(text, "planned", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(report.passed, "{}", report.text());
+    let bad = text.replace("encoder = \"disconnected\"", "encoder = \"melted\"");
+    let s = Scenario::parse(&bad, "bad", None).expect("scenario");
+    let e = VirtualRig::new(s.cell.as_ref().expect("cell"))
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("melted"), "{e}");
+}
+
+/// Two CAN buses on the virtual clock: a frame stays on its bus, a cable break on one bus
+/// leaves the other alone, a node is found on its bus.
+#[test]
+fn two_buses_on_the_virtual_clock() {
+    let (report, _) = run("two_buses.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 7);
+}
+
+/// A CMMO-ST on Modbus TCP beside a CMMP-AS on CAN on one virtual clock: the PLC's output
+/// telegram and CCON.RESET sent as scripted Modbus requests, PNU 205 read as an expectation.
+#[test]
+fn a_cmmo_st_over_modbus_on_the_virtual_clock() {
+    let (report, _) = run("cmmo_st_modbus.toml", 0);
+    assert!(report.passed, "{}", report.text());
+    assert_eq!(report.expectations.len(), 5);
 }

@@ -106,8 +106,16 @@ impl StepperPlant {
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// The actual position of the plant, internal increments (without the homing offset).
+    /// The actual position as the drive reads it, internal increments (without the homing
+    /// offset): the shaft through a possibly faulted encoder (`crate::encoder_fault`).
+    #[inline]
     pub fn plant_position(&self) -> i64 {
+        self.shaft_position()
+            .wrapping_add(self.plant_watch.encoder.error())
+    }
+
+    /// The shaft's true position, internal increments.
+    pub(crate) fn shaft_position(&self) -> i64 {
         match &self.stepper {
             Some(s) => s.position(),
             None => match self.hall_edges() {

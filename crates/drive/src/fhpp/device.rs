@@ -395,6 +395,9 @@ pub struct FhppDevice<S> {
     once_warnings: u128,
     /// Injected faults still present.
     injected: u128,
+    /// The output stage's temperature and the encoder, and what their supervision raised
+    /// ([`super::plant_supervision`]).
+    pub(super) plant_watch: crate::drive::plant_supervision::PlantWatch,
     /// Faults present at the end of the last cycle (PNU 220; new ones are logged).
     faults_present: u128,
     /// Warnings already logged (a new warning bit is logged once).
@@ -549,6 +552,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             warnings: 0,
             once_warnings: 0,
             injected: 0,
+            plant_watch: Default::default(),
             faults_present: 0,
             warnings_logged: 0,
             last_fault: None,
@@ -1117,6 +1121,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             }
         }
         self.advance(dt);
+        self.supervise_plant(dt);
         self.compare();
         self.check_chain();
         self.cycles += 1;
@@ -1223,7 +1228,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         if k <= 0.0 {
             return 0.0;
         }
-        self.stepper.encoder_increments() as f64 / k * self.params.polarity
+        (self.stepper.encoder_increments() + self.plant_watch.encoder.error()) as f64 / k
+            * self.params.polarity
     }
 
     /// Actual velocity, SINC/s (as the controller's encoder observer sees it).

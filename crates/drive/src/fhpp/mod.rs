@@ -35,6 +35,7 @@ pub mod homing;
 pub mod parameter_channel;
 pub mod parameter_file;
 pub mod parameter_file_transfer;
+pub mod plant_supervision;
 pub mod record_table;
 pub mod seven_segment;
 pub mod state_machine;

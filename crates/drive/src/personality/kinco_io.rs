@@ -105,6 +105,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         ((self.kinco_din_real(position) | simulate) ^ !polarity) & 0x7F
     }
 
+    /// The first input (0 = DIN1) that has `function`.
+    pub(crate) fn kinco_din_with(&self, function: DinFunction) -> Option<u8> {
+        (0..DINS).find(|n| din_has(self.din_function_code(*n), function))
+    }
+
     /// Whether an input has `function`.
     pub(crate) fn kinco_din_configured(&self, function: DinFunction) -> bool {
         (0..DINS).any(|n| din_has(self.din_function_code(n), function))

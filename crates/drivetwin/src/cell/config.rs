@@ -259,12 +259,78 @@ pub struct DriveSection {
     /// it) and `action` (`raise`, the default, or `clear`). CANopen drives.
     #[serde(default)]
     pub diagnostic: Vec<crate::cell::diagnostics::PlannedDiagnostic>,
+    /// The plant's physics changed at a time of the cell's clock: `[[drive.plant]]` with
+    /// `at_ms` and one of `ambient_c`, `encoder` (+ `noise`), `switch` (+ `actuated`,
+    /// `release`).
+    #[serde(default)]
+    pub plant: Vec<crate::cell::diagnostics::PlannedPhysics>,
+    /// `[drive.thermal]`: the ambient temperature and the thermal figures of motor and power
+    /// stage (`drive::thermal`).
+    pub thermal: Option<ThermalSection>,
     /// The drive's RS232 port (a Kinco's X3, the 10-byte telegrams): a path made a link to a
     /// pty of the twin, or a real serial device. Drives that name one path form a ring.
     pub rs232: Option<String>,
     /// The drive's RS485 port (a Kinco FD3's, Modbus RTU): as `rs232`; drives that name one
     /// path share the line, each answering its station number (= node-ID).
     pub rs485: Option<String>,
+}
+
+/// `[drive.thermal]`: unset figures keep the defaults of `drive::thermal::ThermalData`.
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalSection {
+    /// °C, −50 … 200 (default 25).
+    pub ambient_c: Option<f64>,
+    pub motor_rise_k: Option<f64>,
+    pub motor_time_constant_s: Option<f64>,
+    pub stage_rise_k: Option<f64>,
+    pub stage_time_constant_s: Option<f64>,
+}
+
+impl ThermalSection {
+    /// The changes it makes at power-on.
+    pub fn changes(&self) -> Result<Vec<crate::cell::control::PhysicsChange>, String> {
+        use crate::cell::control::PhysicsChange;
+        let d = drive::thermal::ThermalData::default();
+        let mut figures = [
+            ("motor_rise_k", self.motor_rise_k, d.motor_rise_k),
+            (
+                "motor_time_constant_s",
+                self.motor_time_constant_s,
+                d.motor_time_constant_s,
+            ),
+            ("stage_rise_k", self.stage_rise_k, d.stage_rise_k),
+            (
+                "stage_time_constant_s",
+                self.stage_time_constant_s,
+                d.stage_time_constant_s,
+            ),
+        ]
+        .into_iter()
+        .map(|(name, v, default)| match v {
+            Some(v) if !(v.is_finite() && (0.0..=1e6).contains(&v)) => {
+                Err(format!("thermal.{name} {v}: within 0 … 10⁶"))
+            }
+            v => Ok(v.unwrap_or(default)),
+        })
+        .collect::<Result<Vec<f64>, String>>()?
+        .into_iter();
+        let mut next = || figures.next().unwrap_or(0.0);
+        let data = drive::thermal::ThermalData {
+            motor_rise_k: next(),
+            motor_time_constant_s: next(),
+            stage_rise_k: next(),
+            stage_time_constant_s: next(),
+        };
+        let mut out = vec![PhysicsChange::Thermal(data)];
+        if let Some(c) = self.ambient_c {
+            if !(c.is_finite() && (-50.0..=200.0).contains(&c)) {
+                return Err(format!("thermal.ambient_c {c}: °C within −50 … 200"));
+            }
+            out.push(PhysicsChange::Ambient(c));
+        }
+        Ok(out)
+    }
 }
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
@@ -756,6 +822,9 @@ pub struct DriveSpec {
     /// `[[drive.diagnostic]]`: messages planned on the cell's clock (checked against the
     /// device's table).
     pub diagnostics: Vec<crate::cell::diagnostics::PlannedDiagnostic>,
+    /// `[drive.thermal]` (at 0) and `[[drive.plant]]`: the plant's physics changed at a time
+    /// of the cell's clock, ms.
+    pub physics: Vec<(u64, crate::cell::control::PhysicsChange)>,
 }
 
 impl DriveSpec {
@@ -822,6 +891,8 @@ impl CellFile {
                 rs232: None,
                 rs485: None,
                 diagnostic: Vec::new(),
+                plant: Vec::new(),
+                thermal: None,
             }],
         }
     }
@@ -1072,9 +1143,20 @@ impl CellFile {
                 if desc.diagnostic(&p.number).is_none() {
                     return Err(err(&format!("{} has no such message", desc.name)));
                 }
-                if !canopen || fhpp.is_some() {
-                    return Err(err("planned messages need a CANopen drive"));
+            }
+            let plant_err = |what: String| ConfigError::Object {
+                node,
+                key: "plant".into(),
+                what,
+            };
+            let mut physics = Vec::new();
+            if let Some(t) = &d.thermal {
+                for c in t.changes().map_err(plant_err)? {
+                    physics.push((0, c));
                 }
+            }
+            for p in &d.plant {
+                physics.push((p.at_ms, p.change().map_err(plant_err)?));
             }
             specs.push(DriveSpec {
                 desc,
@@ -1087,6 +1169,7 @@ impl CellFile {
                 canopen,
                 ethercat,
                 diagnostics: d.diagnostic.clone(),
+                physics,
             });
         }
         Ok(specs)

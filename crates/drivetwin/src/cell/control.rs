@@ -97,6 +97,8 @@ pub enum ControlError {
     NoPanel(usize),
     #[error("drive {0} has no simulated supply (a CiA 402 drive with its motor has one)")]
     NoSupply(usize),
+    #[error("drive {drive} has no input with the function {switch}")]
+    NoSwitch { drive: usize, switch: &'static str },
 }
 
 /// A CAN bus of the cell.
@@ -196,6 +198,8 @@ pub(crate) enum Command {
         millivolts: Option<u32>,
         reply: SyncSender<Result<(), ControlError>>,
     },
+    /// Temperatures, encoder and named switches ([`PhysicsRequest`]).
+    Physics(PhysicsRequest),
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -483,4 +487,110 @@ pub struct FhppState {
     pub memory: Vec<(u8, u16, u32)>,
     /// Why a [`FhppRequest::DeviceControl`] was refused (the parameter-channel error number).
     pub refused: Option<u8>,
+}
+
+/// The plant's physics of one drive that its own supervision watches: temperatures and the
+/// encoder (`drive::thermal`, `drive::encoder_fault`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantPhysics {
+    pub ambient_c: f64,
+    /// The motor winding, °C.
+    pub motor_c: f64,
+    /// The power (output) stage, °C.
+    pub power_stage_c: f64,
+    pub encoder: drive::encoder_fault::EncoderFault,
+    /// The inputs forced from outside (mask, levels; bit n = DINn), named switches included.
+    pub forced_inputs: (u16, u16),
+}
+
+/// Carries out `change` on a CiA 402 drive; `Err` names a switch no input has.
+pub fn apply_physics(
+    d: &mut drive::drive::Drive<Vec<u8>>,
+    change: PhysicsChange,
+) -> Result<PlantPhysics, &'static str> {
+    match change {
+        PhysicsChange::None => {}
+        PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+        PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+        PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+        PhysicsChange::Switch(s, on) => {
+            d.set_switch(s, on).ok_or(s.name())?;
+        }
+    }
+    let w = d.plant_watch();
+    Ok(PlantPhysics {
+        ambient_c: w.thermal.ambient_c(),
+        motor_c: w.thermal.motor_c(),
+        power_stage_c: w.thermal.stage_c(),
+        encoder: w.encoder.fault(),
+        forced_inputs: d.forced_inputs(),
+    })
+}
+
+/// A change of the plant's physics ([`ControlHandle::physics`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum PhysicsChange {
+    /// Nothing: read only.
+    #[default]
+    None,
+    /// The ambient temperature, °C.
+    Ambient(f64),
+    /// The encoder faulted or repaired.
+    Encoder(drive::encoder_fault::EncoderFault),
+    /// The thermal figures (time constants, rises).
+    Thermal(drive::thermal::ThermalData),
+    /// A limit or home switch by name: actuated, released, or back to the travel (`None`).
+    Switch(drive::drive::named_switches::NamedSwitch, Option<bool>),
+}
+
+/// A request of the plant's physics to the loop (appended to [`Command`] through
+/// [`Command::Physics`]).
+pub(crate) struct PhysicsRequest {
+    pub drive: usize,
+    pub change: PhysicsChange,
+    pub reply: SyncSender<Result<PlantPhysics, ControlError>>,
+}
+
+impl ControlHandle {
+    /// The plant's temperatures and encoder after `change` (see [`PhysicsChange`]).
+    pub fn physics(
+        &self,
+        drive: usize,
+        change: PhysicsChange,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.ask(|reply| {
+            Command::Physics(PhysicsRequest {
+                drive,
+                change,
+                reply,
+            })
+        })?
+    }
+
+    /// The ambient temperature of drive `drive` and its motor, °C: motor and power stage
+    /// heat or cool towards it; the drive's supervision raises its manual's temperature
+    /// messages.
+    pub fn set_ambient(&self, drive: usize, celsius: f64) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Ambient(celsius))
+    }
+
+    /// Faults (or repairs) the encoder of drive `drive`.
+    pub fn set_encoder_fault(
+        &self,
+        drive: usize,
+        fault: drive::encoder_fault::EncoderFault,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Encoder(fault))
+    }
+
+    /// Actuates (`Some(true)`), releases (`Some(false)`) or gives back to the travel (`None`)
+    /// a limit or home switch by name; it is forced on the input its function is on.
+    pub fn set_switch(
+        &self,
+        drive: usize,
+        switch: drive::drive::named_switches::NamedSwitch,
+        actuated: Option<bool>,
+    ) -> Result<PlantPhysics, ControlError> {
+        self.physics(drive, PhysicsChange::Switch(switch, actuated))
+    }
 }

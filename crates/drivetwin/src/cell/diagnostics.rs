@@ -44,6 +44,64 @@ fn raise() -> Action {
     Action::Raise
 }
 
+/// `[[drive.plant]]` of a cell file: at `at_ms` (default 0) on the cell's clock, the plant's
+/// physics change: `ambient_c`, `encoder` (with `noise`), `switch` (with `actuated`, default
+/// true; `release = true`: back to the travel). `[drive.thermal]` gives the figures.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PlannedPhysics {
+    #[serde(default)]
+    pub at_ms: u64,
+    pub ambient_c: Option<f64>,
+    pub encoder: Option<String>,
+    pub noise: Option<u32>,
+    pub switch: Option<String>,
+    pub actuated: Option<bool>,
+    pub release: Option<bool>,
+}
+
+impl PlannedPhysics {
+    /// What it changes; an error says which keys do not fit.
+    pub fn change(&self) -> Result<super::control::PhysicsChange, String> {
+        use super::control::PhysicsChange;
+        let given = [
+            self.ambient_c.is_some(),
+            self.encoder.is_some(),
+            self.switch.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err("one of ambient_c, encoder, switch".into());
+        }
+        if let Some(c) = self.ambient_c {
+            if !(c.is_finite() && (-50.0..=200.0).contains(&c)) {
+                return Err(format!("ambient_c {c}: °C within −50 … 200"));
+            }
+            return Ok(PhysicsChange::Ambient(c));
+        }
+        if let Some(name) = &self.encoder {
+            return drive::drive::plant_supervision::encoder_fault(name, self.noise.unwrap_or(100))
+                .map(PhysicsChange::Encoder)
+                .ok_or_else(|| format!("encoder {name:?}: connected, disconnected or noisy"));
+        }
+        let name = self.switch.as_deref().unwrap_or("");
+        let switch = drive::drive::named_switches::NamedSwitch::parse(name)
+            .ok_or_else(|| format!("switch {name:?}: limit_positive, limit_negative or home"))?;
+        let state = if self.release == Some(true) {
+            None
+        } else {
+            Some(self.actuated.unwrap_or(true))
+        };
+        Ok(PhysicsChange::Switch(switch, state))
+    }
+}
+
+/// Something the cell file plans for a drive at a time of the cell's clock.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Planned {
+    Diagnostic(PlannedDiagnostic),
+    Physics(super::control::PhysicsChange),
+}
+
 fn refused(e: DiagnosticError) -> ControlError {
     ControlError::Diagnostic(e)
 }
@@ -168,7 +226,20 @@ impl Cell {
     /// Plans [`Cell::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
     /// file's `[[drive.diagnostic]]`).
     pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
-        self.planned_diagnostics.push((at, drive, planned));
+        self.planned_diagnostics
+            .push((at, drive, Planned::Diagnostic(planned)));
+    }
+
+    /// Plans a change of drive `drive`'s plant physics at `at` (the cell file's
+    /// `[[drive.plant]]` and `[drive.thermal]`).
+    pub fn plan_physics(
+        &mut self,
+        at: Instant,
+        drive: usize,
+        change: super::control::PhysicsChange,
+    ) {
+        self.planned_diagnostics
+            .push((at, drive, Planned::Physics(change)));
     }
 
     /// Carries out the planned messages that are due.
@@ -180,12 +251,26 @@ impl Cell {
                 continue;
             }
             let (_, drive, p) = self.planned_diagnostics.remove(i);
-            let done = match p.action {
-                Action::Raise => self.raise_diagnostic(drive, &p.number),
-                Action::Clear => self.clear_diagnostic(drive, &p.number),
-            };
-            if let Err(e) = done {
-                tracing::warn!(drive, number = %p.number, "planned diagnostic: {e}");
+            match p {
+                Planned::Diagnostic(p) => {
+                    let done = match p.action {
+                        Action::Raise => self.raise_diagnostic(drive, &p.number),
+                        Action::Clear => self.clear_diagnostic(drive, &p.number),
+                    };
+                    if let Err(e) = done {
+                        tracing::warn!(drive, number = %p.number, "planned diagnostic: {e}");
+                    }
+                }
+                Planned::Physics(change) => {
+                    let d = self.drives.get_mut(drive).and_then(|d| d.model.drive_mut());
+                    let done = match d {
+                        Some(d) => super::control::apply_physics(d, change).map(|_| ()),
+                        None => Err("no simulated plant"),
+                    };
+                    if let Err(e) = done {
+                        tracing::warn!(drive, ?change, "planned plant change: {e}");
+                    }
+                }
             }
         }
     }

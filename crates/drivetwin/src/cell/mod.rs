@@ -12,6 +12,7 @@ pub mod fieldbus_switches;
 pub mod interfaces;
 pub mod lateness;
 pub mod param_store;
+pub mod planned;
 pub mod poll_loop;
 pub mod realtime;
 pub mod runtime;
@@ -42,7 +43,7 @@ pub struct Cell {
     /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
     planned: Vec<(Instant, u8, u32)>,
     /// Diagnostic messages the cell file plans: at a time, the drive (cell order), what.
-    planned_diagnostics: Vec<(Instant, usize, diagnostics::PlannedDiagnostic)>,
+    planned_diagnostics: Vec<(Instant, usize, diagnostics::Planned)>,
     /// Faults on the wire between the drives and the front ends ([`wire_faults`]).
     wire: WireFaults,
     /// Frames a fault delays: when they arrive, the frame, its sender (in arrival order).

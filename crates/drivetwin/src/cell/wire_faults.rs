@@ -279,6 +279,9 @@ pub enum FrontEnd {
     Modbus(usize),
     /// EtherCAT chain `n`.
     Ethercat(usize),
+    /// One socketcand client of a bus, by its TCP port (the client's local port): the
+    /// frames it sends to the bus and those the bus sends it, for it alone.
+    Client(u16),
 }
 
 /// What a control handle asks of the wire ([`crate::cell::control::ControlHandle::wire`]).

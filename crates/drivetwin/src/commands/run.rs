@@ -82,6 +82,7 @@ pub(crate) fn build_cell(
             }
         }
         let planned = std::mem::take(&mut spec.diagnostics);
+        let physics = std::mem::take(&mut spec.physics);
         let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
         let bus = spec.bus;
         let Some(on_bus) = drives.get_mut(bus) else {
@@ -99,8 +100,8 @@ pub(crate) fn build_cell(
             drive.serve_coe();
         }
         on_bus.push(drive);
-        if !planned.is_empty() {
-            diagnostics.push((bus, on_bus.len() - 1, planned));
+        if !planned.is_empty() || !physics.is_empty() {
+            diagnostics.push((bus, on_bus.len() - 1, planned, physics));
         }
         if let Some(last) = in_cell.last_mut() {
             *last = Some(OnBus {
@@ -123,10 +124,13 @@ pub(crate) fn build_cell(
             cell
         })
         .collect::<Vec<Cell>>();
-    for (bus, drive, planned) in diagnostics {
+    for (bus, drive, planned, physics) in diagnostics {
         if let Some(cell) = cells.get_mut(bus) {
             for p in planned {
                 cell.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
+            }
+            for (at_ms, change) in physics {
+                cell.plan_physics(od::Instant::from_millis(at_ms), drive, change);
             }
         }
     }
@@ -348,6 +352,8 @@ async fn prepare_cell(
         .filter(|(_, s)| s.ethercat.is_some())
         .map(|(i, s)| (i, s.clone()))
         .collect();
+    // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN cells.
+    let outside = drivetwin::cell::planned::outside_plans(&specs, in_loop);
     let (cells, in_cell) = build_cell(specs, &buses, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
@@ -474,10 +480,26 @@ async fn prepare_cell(
     }
     front.ci_terminals = ci_consoles(file, &in_cell, ci_terminal)?;
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
+    if fhpp_drives > 0 && !in_loop && specs_had_fhpp_plans(file) {
+        tracing::warn!(
+            "planned changes of a CMMO-ST run with --modbus-io cell only (its own thread has no \
+             control handle)"
+        );
+    }
+    let _ = drivetwin::cell::planned::start(cell_loop.control_handle(), outside)
+        .map_err(io("cell plans"))?;
     Ok(Prepared::Loop {
         cell_loop: Box::new(cell_loop),
         fhpp: fhpp_tasks,
         pcap: pcap_writers,
+    })
+}
+
+/// Whether a CMMO-ST of `file` plans a diagnostic message or a plant change.
+fn specs_had_fhpp_plans(file: &CellFile) -> bool {
+    file.drive.iter().any(|d| {
+        devices::by_name(&d.device).is_some_and(|desc| desc.name == "cmmo-st")
+            && (!d.diagnostic.is_empty() || !d.plant.is_empty() || d.thermal.is_some())
     })
 }
 

@@ -22,7 +22,8 @@
 //! within = "50ms"
 //! ```
 //!
-//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`, `raise`,
+//! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`,
+//! `ambient`, `encoder`, `switch` (the plant's physics), `raise`,
 //! `clear` (a diagnostic message by its number), `fault`,
 //! `clear_faults`, `nmt`, `frame`) or an expectation (`expect`, `expect_state`, `expect_emcy`,
 //! `expect_frame`); an action with `repeat` and `every` is done that many times. [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
@@ -135,6 +136,18 @@ pub struct Step {
     pub level: Option<bool>,
     /// Load torque on the shaft, N·m.
     pub load: Option<f64>,
+    /// The ambient temperature of the drive and its motor, °C (the plant heats or cools
+    /// towards it; the drive's supervision raises its temperature messages).
+    pub ambient: Option<f64>,
+    /// The encoder: `disconnected`, `noisy` (with `noise`, increments; default 100) or
+    /// `connected`.
+    pub encoder: Option<String>,
+    pub noise: Option<u32>,
+    /// A limit or home switch by name (`limit_positive`, `limit_negative`, `home`), on the
+    /// input its function is on: actuated (`level = true`, the default), released (`false`)
+    /// or back to the travel (`release = true`).
+    pub switch: Option<String>,
+    pub release: Option<bool>,
     /// A diagnostic message raised by its number as the manual writes it (`"08-2"`,
     /// `"2Fh"`, `"0x8611"` …), as if the drive's supervision had found it.
     pub raise: Option<String>,
@@ -156,6 +169,9 @@ pub struct Step {
     pub nmt: Option<String>,
     /// A raw CAN frame, cansend style: `"601#4000100000000000"`.
     pub frame: Option<String>,
+    /// A Modbus TCP request (the ADU in hex, MBAP header first) to the CMMO-ST `node`, as
+    /// its one client sends it (the virtual clock's rig).
+    pub modbus_request: Option<String>,
 
     // Expectations.
     /// Object `"IIII:SS"` whose value & `mask` == `equals` within `within`.
@@ -212,11 +228,21 @@ pub enum Action {
     ClearFaults {
         bus: usize,
     },
+    /// The plant's physics: ambient temperature, encoder, a switch by name.
+    Physics {
+        node: Option<u8>,
+        change: crate::cell::control::PhysicsChange,
+    },
     /// A diagnostic message of the drive's table raised (`raise = true`) or cleared.
     Diagnostic {
         node: Option<u8>,
         number: String,
         raise: bool,
+    },
+    /// A Modbus TCP request to a CMMO-ST.
+    Modbus {
+        node: Option<u8>,
+        request: Vec<u8>,
     },
     /// A frame from outside on bus `bus` (NMT commands are such frames).
     Frame {
@@ -310,12 +336,16 @@ impl Step {
             ("sdo_write", self.sdo_write.is_some()),
             ("din", self.din.is_some()),
             ("load", self.load.is_some()),
+            ("ambient", self.ambient.is_some()),
+            ("encoder", self.encoder.is_some()),
+            ("switch", self.switch.is_some()),
             ("raise", self.raise.is_some()),
             ("clear", self.clear.is_some()),
             ("fault", self.fault.is_some()),
             ("clear_faults", self.clear_faults.is_some()),
             ("nmt", self.nmt.is_some()),
             ("frame", self.frame.is_some()),
+            ("modbus_request", self.modbus_request.is_some()),
             ("expect", self.expect.is_some()),
             ("expect_state", self.expect_state.is_some()),
             ("expect_emcy", self.expect_emcy.is_some()),
@@ -324,8 +354,9 @@ impl Step {
         let given: Vec<&str> = keys.iter().filter(|(_, g)| *g).map(|(k, _)| *k).collect();
         let [key] = given.as_slice() else {
             return Err(format!(
-                "one of write, sdo_write, din, load, raise, clear, fault, clear_faults, nmt, \
-                 frame, expect, expect_state, expect_emcy, expect_frame (found {})",
+                "one of write, sdo_write, din, load, ambient, encoder, switch, raise, clear, \
+                 fault, clear_faults, nmt, frame, modbus_request, expect, expect_state, \
+                 expect_emcy, expect_frame (found {})",
                 if given.is_empty() {
                     "none".to_string()
                 } else {
@@ -400,6 +431,44 @@ impl Step {
                     torque_nm,
                 })
             }
+            "ambient" => {
+                let c = self.ambient.unwrap_or(0.0);
+                if !(c.is_finite() && (-50.0..=200.0).contains(&c)) {
+                    return Err(format!("ambient {c}: °C within −50 … 200"));
+                }
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Ambient(c),
+                })
+            }
+            "encoder" => {
+                let name = self.encoder.as_deref().unwrap_or("");
+                let fault =
+                    drive::drive::plant_supervision::encoder_fault(name, self.noise.unwrap_or(100))
+                        .ok_or_else(|| {
+                            format!("encoder {name:?}: connected, disconnected or noisy")
+                        })?;
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Encoder(fault),
+                })
+            }
+            "switch" => {
+                let name = self.switch.as_deref().unwrap_or("");
+                let switch =
+                    drive::drive::named_switches::NamedSwitch::parse(name).ok_or_else(|| {
+                        format!("switch {name:?}: limit_positive, limit_negative or home")
+                    })?;
+                let state = if self.release == Some(true) {
+                    None
+                } else {
+                    Some(self.level.unwrap_or(true))
+                };
+                act(Action::Physics {
+                    node: self.node,
+                    change: crate::cell::control::PhysicsChange::Switch(switch, state),
+                })
+            }
             "raise" | "clear" => act(Action::Diagnostic {
                 node: self.node,
                 number: self
@@ -439,6 +508,18 @@ impl Step {
                 let frame = CanFrame::new(0x000, &[cmd as u8, self.node.unwrap_or(0)])
                     .map_err(|e| format!("{e:?}"))?;
                 act(Action::Frame { bus, frame })
+            }
+            "modbus_request" => {
+                let text = self.modbus_request.as_deref().unwrap_or("");
+                let request = crate::value_text::parse_hex(text)
+                    .filter(|r| (8..=260).contains(&r.len()))
+                    .ok_or_else(|| {
+                        format!("modbus_request {text:?}: an ADU in hex (8 … 260 bytes)")
+                    })?;
+                act(Action::Modbus {
+                    node: self.node,
+                    request,
+                })
             }
             "frame" => {
                 let (id, data) = parse_frame(self.frame.as_deref().unwrap_or(""))?;

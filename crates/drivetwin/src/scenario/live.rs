@@ -111,6 +111,11 @@ impl Rig for LiveRig {
         let err = |e: crate::cell::control::ControlError| e.to_string();
         match action {
             Action::Frame { bus, frame } => self.send(*bus, *frame),
+            // Decision: on a live cell the CMMO-ST's Modbus server has its own clients; a
+            // scripted request is the virtual clock's.
+            Action::Modbus { .. } => {
+                Err("modbus_request runs on the virtual clock (drivetwin scenario)".into())
+            }
             Action::SdoWrite {
                 bus,
                 node,
@@ -154,6 +159,15 @@ impl Rig for LiveRig {
             Action::Load { node, torque_nm } => {
                 let i = self.drive(*node)?.index;
                 self.handle.set_load(i, *torque_nm).map_err(err)
+            }
+            Action::Physics { node, change } => {
+                let i = self.drive(*node)?.index;
+                let p = self.handle.physics(i, *change).map_err(err)?;
+                // A switch forced by name joins the inputs forced by number.
+                if let Some(f) = self.forced.get_mut(i) {
+                    *f = p.forced_inputs;
+                }
+                Ok(())
             }
             Action::Diagnostic {
                 node,

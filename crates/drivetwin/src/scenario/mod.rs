@@ -4,8 +4,7 @@
 //!
 //! - [`file`]: the file format and what each step means;
 //! - [`runner`]: the timeline against a [`runner::Rig`];
-//! - [`virtual_rig`]: the rig of the virtual clock (the CANopen drives of the cell's first
-//!   bus);
+//! - [`virtual_rig`]: the rig of the virtual clock (the CANopen drives of the cell's buses);
 //! - [`live`]: the rig of a running cell;
 //! - [`report`]: the pass / fail report.
 

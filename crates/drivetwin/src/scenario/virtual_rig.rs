@@ -1,7 +1,12 @@
-//! The virtual clock's rig: the CANopen drives of the cell file's first bus, stepped from one
-//! deadline to the next as [`crate::cell::runtime::run_virtual`] does, with the scenario's
-//! actions between; every frame optionally to a trace whose time stamps are the virtual
-//! clock's (so two runs give the same file).
+//! The virtual clock's rig: the CANopen drives of the cell file's buses (`[[bus]]`, each its
+//! own [`Cell`]), stepped from one deadline to the next as
+//! [`crate::cell::runtime::run_virtual`] does, with the scenario's actions between; every
+//! frame of the first bus optionally to a trace whose time stamps are the virtual clock's (so
+//! two runs give the same file).
+//!
+//! Decisions: at one instant the buses are polled in their order, so a run is the same bit
+//! for bit; a step's `node` is looked up on the buses in order (the first bus that has it),
+//! a frame, an SDO write, a fault go to the step's `bus`.
 
 use std::path::Path;
 use std::time::Duration;
@@ -20,25 +25,44 @@ use crate::trace::TraceWriter;
 const STUCK: u32 = 10_000;
 
 pub struct VirtualRig {
-    cell: Cell,
+    cells: Vec<Cell>,
     now: Instant,
     out: Vec<CanFrame>,
     trace: Option<TraceWriter>,
-    /// The inputs each drive has forced so far: (mask, levels).
-    forced: Vec<(u16, u16)>,
+    /// The inputs each drive has forced so far: (mask, levels), per bus and drive.
+    forced: Vec<Vec<(u16, u16)>>,
+    /// Frames sent and not yet seen, with their bus.
+    pending: Vec<(usize, CanFrame)>,
+    /// The CMMO-STs (FHPP over Modbus TCP, no socket: requests come from the steps), by the
+    /// node-ID their cell file gives them; stepped on the same clock.
+    modbus: Vec<(u8, crate::modbus_tcp::cell_drive::ModbusDrive)>,
 }
 
 impl VirtualRig {
-    /// The CANopen drives of `file`'s first bus, booted at 0.
+    /// The CANopen drives of `file`'s buses, booted at 0.
     pub fn new(file: &CellFile) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);
         let specs = file.drives().map_err(|e| cell_err(e.to_string()))?;
-        let mut drives = Vec::new();
-        for spec in specs {
-            if spec.fhpp.is_some() || !spec.canopen || spec.ethercat.is_some() || spec.bus != 0 {
+        let sections = file.bus.all();
+        let mut drives: Vec<Vec<CanDrive>> = sections.iter().map(|_| Vec::new()).collect();
+        let mut plans: Vec<Vec<_>> = sections.iter().map(|_| Vec::new()).collect();
+        let mut modbus = Vec::new();
+        for mut spec in specs {
+            if let Some(fhpp) = &spec.fhpp {
+                if !spec.diagnostics.is_empty() || !spec.physics.is_empty() {
+                    return Err(cell_err(format!(
+                        "drive {} node {}: on the virtual clock a CMMO-ST's changes are \
+                         scenario steps, not [[drive.diagnostic]] / [[drive.plant]]",
+                        spec.desc.name, spec.node
+                    )));
+                }
+                modbus.push((spec.node, cmmo_st(&spec, fhpp).map_err(cell_err)?));
+                continue;
+            }
+            if !spec.canopen || spec.ethercat.is_some() {
                 return Err(cell_err(format!(
-                    "drive {} node {}: the virtual clock runs the CANopen drives of the first \
-                     bus (no Modbus, EtherCAT or second bus)",
+                    "drive {} node {}: the virtual clock runs the CANopen drives of the cell's \
+                     buses and its CMMO-STs (no EtherCAT)",
                     spec.desc.name, spec.node
                 )));
             }
@@ -50,33 +74,69 @@ impl VirtualRig {
                 spec.settings,
             )
             .map_err(|e| cell_err(e.to_string()))?;
-            drives.push(d);
+            let (Some(on_bus), Some(p)) = (drives.get_mut(spec.bus), plans.get_mut(spec.bus))
+            else {
+                return Err(cell_err(format!(
+                    "drive node {}: no bus {}",
+                    spec.node, spec.bus
+                )));
+            };
+            p.push((
+                std::mem::take(&mut spec.diagnostics),
+                std::mem::take(&mut spec.physics),
+            ));
+            on_bus.push(d);
         }
-        if drives.is_empty() {
-            return Err(cell_err("no CANopen drive".into()));
+        if drives.iter().all(Vec::is_empty) && modbus.is_empty() {
+            return Err(cell_err("no drive".into()));
         }
-        let forced = vec![(0, 0); drives.len()];
-        let bus = file.bus.all().first();
-        let mut cell = match bus.and_then(|b| b.timing()) {
-            Some((bitrate, late)) => Cell::new(drives).with_bitrate(bitrate, late),
-            None => Cell::new(drives),
-        };
-        for p in bus.map(|b| b.disturb.as_slice()).unwrap_or(&[]) {
-            cell.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
+        for (_, m) in &mut modbus {
+            m.open_connection(Instant::ZERO);
         }
+        let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
-        cell.boot(Instant::ZERO, &mut out);
-        Ok(VirtualRig {
-            cell,
+        let mut cells = Vec::new();
+        for ((d, section), plans) in drives.into_iter().zip(sections).zip(plans) {
+            let mut cell = match section.timing() {
+                Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
+                None => Cell::new(d),
+            };
+            for p in &section.disturb {
+                cell.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
+            }
+            // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual
+            // clock.
+            for (drive, (diagnostics, physics)) in plans.into_iter().enumerate() {
+                for p in diagnostics {
+                    cell.plan_diagnostic(Instant::from_millis(p.at_ms), drive, p);
+                }
+                for (at_ms, change) in physics {
+                    cell.plan_physics(Instant::from_millis(at_ms), drive, change);
+                }
+            }
+            cells.push(cell);
+        }
+        let mut rig = VirtualRig {
+            cells,
             now: Instant::ZERO,
-            out,
+            out: Vec::new(),
             trace: None,
             forced,
-        })
+            pending: Vec::new(),
+            modbus,
+        };
+        // Booted in bus order; the boot-up frames wait in `pending` for the first emit.
+        for b in 0..rig.cells.len() {
+            if let Some(c) = rig.cells.get_mut(b) {
+                c.boot(Instant::ZERO, &mut out);
+            }
+            rig.pending.extend(out.drain(..).map(|f| (b, f)));
+        }
+        Ok(rig)
     }
 
-    /// Every frame of the run into `path` (pcap; `*.log`: candump), stamped with the virtual
-    /// clock.
+    /// Every frame of the first bus into `path` (pcap; `*.log`: candump), stamped with the
+    /// virtual clock.
     pub fn trace_to(&mut self, path: &Path) -> std::io::Result<()> {
         self.trace = Some(TraceWriter::create(path, "vcan0")?);
         Ok(())
@@ -90,34 +150,97 @@ impl VirtualRig {
         }
     }
 
-    /// The frames the drives sent at `now` are on the bus.
-    fn emit(&mut self, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
+    /// The frames bus `b`'s drives sent at `now` are on the bus (and those still pending).
+    fn emit(&mut self, b: usize, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
+        let frames = std::mem::take(&mut self.out);
+        self.pending.extend(frames.into_iter().map(|f| (b, f)));
+        self.flush(seen);
+    }
+
+    fn flush(&mut self, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
         let t = Duration::from_nanos(self.now.as_nanos());
-        for f in self.out.drain(..) {
-            if let Some(w) = self.trace.as_mut() {
-                if let Err(e) = w.write(t, &f) {
-                    tracing::error!(error = %e, "writing the trace failed; trace stopped");
-                    self.trace = None;
+        for (b, f) in self.pending.drain(..) {
+            if b == 0 {
+                if let Some(w) = self.trace.as_mut() {
+                    if let Err(e) = w.write(t, &f) {
+                        tracing::error!(error = %e, "writing the trace failed; trace stopped");
+                        self.trace = None;
+                    }
                 }
             }
-            seen(0, t, &f);
+            seen(b, t, &f);
         }
     }
 
-    fn drive(&self, node: Option<u8>) -> Result<usize, String> {
+    /// Bus and place of the drive with node-ID `node` (the first drive of the first bus
+    /// without one).
+    fn drive(&self, node: Option<u8>) -> Result<(usize, usize), String> {
         match node {
-            None => Ok(0),
-            Some(n) => self
-                .cell
-                .drives
+            None => self
+                .cells
                 .iter()
-                .position(|d| d.node_id() == n)
+                .position(|c| !c.drives.is_empty())
+                .map(|b| (b, 0))
+                .ok_or_else(|| "no drive".to_string()),
+            Some(n) => self
+                .cells
+                .iter()
+                .enumerate()
+                .find_map(|(b, c)| {
+                    c.drives
+                        .iter()
+                        .position(|d| d.node_id() == n)
+                        .map(|i| (b, i))
+                })
                 .ok_or_else(|| format!("no node {n} in the cell")),
         }
     }
 
-    fn encode(&self, i: usize, index: u16, sub: u8, value: &str) -> Result<Vec<u8>, String> {
-        let d = self.cell.drives.get(i).ok_or("no drive")?;
+    /// Drive `node` on bus `bus` (the bus's first without a node).
+    fn drive_on(&self, bus: usize, node: Option<u8>) -> Result<usize, String> {
+        let c = self.cell(bus)?;
+        match node {
+            None => (!c.drives.is_empty()).then_some(0).ok_or("no drive".into()),
+            Some(n) => c
+                .drives
+                .iter()
+                .position(|d| d.node_id() == n)
+                .ok_or_else(|| format!("no node {n} on bus {bus}")),
+        }
+    }
+
+    /// The CMMO-ST with node-ID `node` (a CANopen node of that number wins).
+    fn cmmo_st(&self, node: Option<u8>) -> Option<crate::modbus_tcp::fhpp::SharedDevice> {
+        let cia402 = self.drive(node).is_ok();
+        let found = match node {
+            None if self.cells.iter().all(|c| c.drives.is_empty()) => self.modbus.first(),
+            Some(n) if !cia402 => self.modbus.iter().find(|(m, _)| *m == n),
+            _ => None,
+        };
+        found.map(|(_, m)| m.device().clone())
+    }
+
+    fn cell(&self, bus: usize) -> Result<&Cell, String> {
+        self.cells
+            .get(bus)
+            .ok_or_else(|| format!("bus {bus}: the cell has {} bus(es)", self.cells.len()))
+    }
+
+    fn cell_mut(&mut self, bus: usize) -> Result<&mut Cell, String> {
+        let n = self.cells.len();
+        self.cells
+            .get_mut(bus)
+            .ok_or_else(|| format!("bus {bus}: the cell has {n} bus(es)"))
+    }
+
+    fn encode(
+        &self,
+        (b, i): (usize, usize),
+        index: u16,
+        sub: u8,
+        value: &str,
+    ) -> Result<Vec<u8>, String> {
+        let d = self.cell(b)?.drives.get(i).ok_or("no drive")?;
         let e = d
             .od()
             .description()
@@ -126,23 +249,34 @@ impl VirtualRig {
         crate::value_text::encode(e.data_type, value)
     }
 
-    fn bus0(bus: usize) -> Result<(), String> {
-        if bus == 0 {
-            Ok(())
-        } else {
-            Err(format!(
-                "bus {bus}: the virtual clock runs the first bus only"
-            ))
-        }
+    fn plant(
+        &mut self,
+        (b, i): (usize, usize),
+    ) -> Result<&mut drive::drive::Drive<Vec<u8>>, String> {
+        self.cell_mut(b)?
+            .drives
+            .get_mut(i)
+            .and_then(|d| d.model.drive_mut())
+            .ok_or_else(|| "the drive has no simulated plant".to_string())
     }
 }
 
 impl Rig for VirtualRig {
     fn run_until(&mut self, t: Duration, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
         let end = Instant::from_nanos(u64::try_from(t.as_nanos()).unwrap_or(u64::MAX));
-        self.emit(seen);
+        self.flush(seen);
         let mut stuck = 0u32;
-        while let Some(wake) = self.cell.deadline().filter(|w| *w <= end) {
+        loop {
+            let wake = self
+                .cells
+                .iter()
+                .filter_map(Cell::deadline)
+                .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
+                .min()
+                .filter(|w| *w <= end);
+            let Some(wake) = wake else {
+                break;
+            };
             // A deadline that does not move would spin forever: give up loudly instead.
             stuck = if wake <= self.now { stuck + 1 } else { 0 };
             if stuck > STUCK {
@@ -150,8 +284,23 @@ impl Rig for VirtualRig {
                 break;
             }
             self.now = wake.max(self.now);
-            self.cell.poll(self.now, &mut self.out);
-            self.emit(seen);
+            // Modbus cycles first, then the buses in order (as `run_virtual_mixed`).
+            for (_, m) in &mut self.modbus {
+                m.cycle(self.now);
+            }
+            for b in 0..self.cells.len() {
+                let now = self.now;
+                let mut out = std::mem::take(&mut self.out);
+                if let Some(c) = self
+                    .cells
+                    .get_mut(b)
+                    .filter(|c| c.deadline().is_some_and(|d| d <= now))
+                {
+                    c.poll(now, &mut out);
+                }
+                self.out = out;
+                self.emit(b, seen);
+            }
         }
         self.now = end.max(self.now);
     }
@@ -162,12 +311,20 @@ impl Rig for VirtualRig {
         seen: &mut dyn FnMut(usize, Duration, &CanFrame),
     ) -> Result<(), String> {
         let now = self.now;
+        if let Some(r) = self.act_cmmo_st(action, now) {
+            self.flush(seen);
+            return r;
+        }
+        let on: usize;
         let result = match action {
             Action::Frame { bus, frame } => {
-                Self::bus0(*bus)?;
+                on = *bus;
+                self.cell(*bus)?;
                 self.out.push(*frame);
-                self.emit(seen);
-                self.cell.on_frame(now, frame, &mut self.out);
+                self.emit(*bus, seen);
+                let mut out = std::mem::take(&mut self.out);
+                self.cell_mut(*bus)?.on_frame(now, frame, &mut out);
+                self.out = out;
                 Ok(())
             }
             Action::SdoWrite {
@@ -177,14 +334,16 @@ impl Rig for VirtualRig {
                 sub,
                 value,
             } => {
-                Self::bus0(*bus)?;
-                let i = self.drive(*node)?;
-                let bytes = self.encode(i, *index, *sub, value)?;
-                let node = self.cell.drives.get(i).map_or(0, |d| d.node_id());
+                on = *bus;
+                let i = self.drive_on(*bus, *node)?;
+                let bytes = self.encode((*bus, i), *index, *sub, value)?;
+                let node = self.cell(*bus)?.drives.get(i).map_or(0, |d| d.node_id());
                 let frame = expedited_download(node, *index, *sub, &bytes)?;
                 self.out.push(frame);
-                self.emit(seen);
-                self.cell.on_frame(now, &frame, &mut self.out);
+                self.emit(*bus, seen);
+                let mut out = std::mem::take(&mut self.out);
+                self.cell_mut(*bus)?.on_frame(now, &frame, &mut out);
+                self.out = out;
                 Ok(())
             }
             Action::Write {
@@ -193,12 +352,15 @@ impl Rig for VirtualRig {
                 sub,
                 value,
             } => {
-                let i = self.drive(*node)?;
-                let bytes = self.encode(i, *index, *sub, value)?;
+                let (b, i) = self.drive(*node)?;
+                on = b;
+                let bytes = self.encode((b, i), *index, *sub, value)?;
                 let mut result = Ok(());
-                self.cell.local_access(i, now, &mut self.out, &mut |a| {
+                let mut out = std::mem::take(&mut self.out);
+                self.cell_mut(b)?.local_access(i, now, &mut out, &mut |a| {
                     result = a.write(*index, *sub, &bytes);
                 });
+                self.out = out;
                 result.map_err(|code| {
                     format!(
                         "{index:04X}:{sub:02X} refused: SDO abort {:#010X} ({})",
@@ -208,34 +370,50 @@ impl Rig for VirtualRig {
                 })
             }
             Action::Input { node, din, level } => {
-                let i = self.drive(*node)?;
-                let (mask, levels) = self.forced.get(i).copied().unwrap_or_default();
+                let (b, i) = self.drive(*node)?;
+                on = b;
+                let (mask, levels) = self
+                    .forced
+                    .get(b)
+                    .and_then(|f| f.get(i))
+                    .copied()
+                    .unwrap_or_default();
                 let bit = 1u16 << din;
                 let forced = (
                     mask | bit,
                     if *level { levels | bit } else { levels & !bit },
                 );
-                let d = self
-                    .cell
-                    .drives
-                    .get_mut(i)
-                    .and_then(|d| d.model.drive_mut())
-                    .ok_or("the drive has no simulated inputs")?;
-                d.force_inputs(forced.0, forced.1);
-                if let Some(f) = self.forced.get_mut(i) {
+                self.plant((b, i))
+                    .map_err(|_| "the drive has no simulated inputs".to_string())?
+                    .force_inputs(forced.0, forced.1);
+                if let Some(f) = self.forced.get_mut(b).and_then(|f| f.get_mut(i)) {
                     *f = forced;
                 }
                 Ok(())
             }
             Action::Load { node, torque_nm } => {
-                let i = self.drive(*node)?;
-                let d = self
-                    .cell
-                    .drives
-                    .get_mut(i)
-                    .and_then(|d| d.model.drive_mut())
-                    .ok_or("the drive has no simulated motor")?;
-                d.axis_mut().motor_mut().set_load_torque(*torque_nm);
+                let (b, i) = self.drive(*node)?;
+                on = b;
+                self.plant((b, i))
+                    .map_err(|_| "the drive has no simulated motor".to_string())?
+                    .axis_mut()
+                    .motor_mut()
+                    .set_load_torque(*torque_nm);
+                Ok(())
+            }
+            Action::Physics { node, change } => {
+                let (b, i) = self.drive(*node)?;
+                on = b;
+                let d = self.plant((b, i))?;
+                crate::cell::control::apply_physics(d, *change)
+                    .map_err(|s| format!("the drive has no input with the function {s}"))?;
+                let now_forced = d.forced_inputs();
+                if let crate::cell::control::PhysicsChange::Switch(..) = change {
+                    // A switch forced by name joins the inputs forced by number.
+                    if let Some(f) = self.forced.get_mut(b).and_then(|f| f.get_mut(i)) {
+                        *f = now_forced;
+                    }
+                }
                 Ok(())
             }
             Action::Diagnostic {
@@ -243,34 +421,45 @@ impl Rig for VirtualRig {
                 number,
                 raise,
             } => {
-                let i = self.drive(*node)?;
+                let (b, i) = self.drive(*node)?;
+                on = b;
+                let cell = self.cell_mut(b)?;
                 let done = if *raise {
-                    self.cell.raise_diagnostic(i, number)
+                    cell.raise_diagnostic(i, number)
                 } else {
-                    self.cell.clear_diagnostic(i, number)
+                    cell.clear_diagnostic(i, number)
                 };
                 done.map(|_| ()).map_err(|e| e.to_string())
             }
             Action::Fault { bus, fault } => {
-                Self::bus0(*bus)?;
-                self.cell
+                on = *bus;
+                self.cell_mut(*bus)?
                     .add_wire_fault(now, *fault)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }
             Action::ClearFaults { bus } => {
-                Self::bus0(*bus)?;
-                self.cell.clear_wire_faults();
+                on = *bus;
+                self.cell_mut(*bus)?.clear_wire_faults();
                 Ok(())
             }
+            // Answered by `act_cmmo_st` when the node is a CMMO-ST.
+            Action::Modbus { .. } => return Err("no CMMO-ST with that node".into()),
         };
-        self.emit(seen);
+        self.emit(on, seen);
         result
     }
 
     fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
-        let i = self.drive(node)?;
-        let d = self.cell.drives.get(i).ok_or("no drive")?;
+        if let Some(dev) = self.cmmo_st(node) {
+            let mut buf = [0u8; 8];
+            let n = lock(&dev)
+                .read(index, sub, &mut buf)
+                .map_err(|code| format!("{index:04X}:{sub:02X}: abort {:#010X}", code.0))?;
+            return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
+        }
+        let (b, i) = self.drive(node)?;
+        let d = self.cell(b)?.drives.get(i).ok_or("no drive")?;
         let mut buf = [0u8; 8];
         let n = d
             .model
@@ -278,6 +467,125 @@ impl Rig for VirtualRig {
             .map_err(|code| format!("{index:04X}:{sub:02X}: SDO abort {:#010X}", code.0))?;
         Ok((unsigned(buf.get(..n).unwrap_or(&[])), n))
     }
+}
+
+impl VirtualRig {
+    /// An action addressed to a CMMO-ST (`None`: not one of its actions or not a CMMO-ST).
+    fn act_cmmo_st(&mut self, action: &Action, now: Instant) -> Option<Result<(), String>> {
+        let node = match action {
+            Action::Write { node, .. }
+            | Action::Diagnostic { node, .. }
+            | Action::Physics { node, .. }
+            | Action::Load { node, .. } => *node,
+            Action::Modbus { node, .. } => *node,
+            _ => return None,
+        };
+        let Some(dev) = self.cmmo_st(node) else {
+            return match action {
+                Action::Modbus { .. } => Some(Err("no CMMO-ST with that node".into())),
+                _ => None,
+            };
+        };
+        Some(match action {
+            Action::Modbus { request, .. } => {
+                let Some((_, m)) = self
+                    .modbus
+                    .iter_mut()
+                    .find(|(_, m)| std::sync::Arc::ptr_eq(m.device(), &dev))
+                else {
+                    return Some(Err("no CMMO-ST".into()));
+                };
+                let mut answer = Vec::new();
+                m.answer(request, now, &mut answer)
+                    .map_err(|e| format!("Modbus connection closed: {e:?}"))
+            }
+            Action::Write {
+                index, sub, value, ..
+            } => {
+                let mut d = lock(&dev);
+                let e = d.od().description().entry(*index, *sub);
+                match e {
+                    None => Err(format!("{index:04X}:{sub:02X}: no such object")),
+                    Some(e) => crate::value_text::encode(e.data_type, value).and_then(|bytes| {
+                        d.write(*index, *sub, &bytes).map_err(|code| {
+                            format!("{index:04X}:{sub:02X} refused: {:#010X}", code.0)
+                        })
+                    }),
+                }
+            }
+            Action::Diagnostic { number, raise, .. } => {
+                let mut d = lock(&dev);
+                let done = if *raise {
+                    crate::cell::diagnostics::raise_fhpp(&mut d, number).map(|_| ())
+                } else {
+                    crate::cell::diagnostics::clear_fhpp(&mut d, number).map(|_| ())
+                };
+                done.map_err(|e| format!("{e:?}"))
+            }
+            Action::Physics { change, .. } => {
+                use crate::cell::control::PhysicsChange;
+                let mut d = lock(&dev);
+                match change {
+                    PhysicsChange::None => Ok(()),
+                    PhysicsChange::Ambient(c) => {
+                        d.set_ambient_temperature(*c);
+                        Ok(())
+                    }
+                    PhysicsChange::Encoder(f) => {
+                        d.set_encoder_fault(*f);
+                        Ok(())
+                    }
+                    PhysicsChange::Thermal(t) => {
+                        d.set_thermal_data(*t);
+                        Ok(())
+                    }
+                    PhysicsChange::Switch(s, _) => Err(format!(
+                        "the CMMO-ST has no input with the function {}",
+                        s.name()
+                    )),
+                }
+            }
+            Action::Load { torque_nm, .. } => {
+                lock(&dev).stepper_mut().set_load_torque(*torque_nm);
+                Ok(())
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// A CMMO-ST as `drivetwin run` makes it (its dictionary with the cell file's values), served
+/// by scripted Modbus requests.
+fn cmmo_st(
+    spec: &crate::cell::config::DriveSpec,
+    fhpp: &crate::cell::config::FhppSpec,
+) -> Result<crate::modbus_tcp::cell_drive::ModbusDrive, String> {
+    let desc = spec.desc;
+    let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
+        .map_err(|_| "dictionary storage too small".to_string())?;
+    for c in &spec.commissioning {
+        if let Some(e) = desc.entry(c.index, c.sub) {
+            od.store(e, &c.bytes);
+        }
+    }
+    let dev = drive::fhpp::device::FhppDevice::new(od, fhpp.settings);
+    let mut config = crate::modbus_tcp::server::ModbusConfig::default();
+    if let Some(ms) = fhpp.watchdog_ms {
+        config.watchdog_ms = ms;
+    }
+    Ok(
+        crate::modbus_tcp::cell_drive::ModbusDrive::without_listener(
+            std::sync::Arc::new(std::sync::Mutex::new(dev)),
+            config,
+            None,
+        ),
+    )
+}
+
+fn lock(
+    dev: &crate::modbus_tcp::fhpp::SharedDevice,
+) -> std::sync::MutexGuard<'_, drive::fhpp::device::FhppDevice<Vec<u8>>> {
+    crate::modbus_tcp::server::lock(dev)
 }
 
 /// Little-endian bytes as a number (at most 8).

@@ -80,7 +80,8 @@ impl From<ControlError> for ApiError {
             | ControlError::NoPlant(_)
             | ControlError::NoNode { .. }
             | ControlError::NoPanel(_)
-            | ControlError::NoSupply(_) => ApiError::not_found(e.to_string()),
+            | ControlError::NoSupply(_)
+            | ControlError::NoSwitch { .. } => ApiError::not_found(e.to_string()),
             ControlError::Stopped => ApiError::new(StatusCode::SERVICE_UNAVAILABLE, e.to_string()),
             ControlError::Diagnostic(d) => super::diagnostics::refusal(d),
         }

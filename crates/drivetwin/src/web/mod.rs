@@ -26,6 +26,7 @@ pub mod live;
 pub mod motion;
 pub mod page;
 pub mod panel;
+pub mod physics;
 pub mod scenarios;
 pub mod statusword;
 pub mod wire;
@@ -90,6 +91,7 @@ pub fn router(state: AppState) -> Router {
         .merge(wire::routes())
         .merge(motion::routes())
         .merge(cmmo_st::routes())
+        .merge(physics::routes())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,

@@ -57,9 +57,13 @@ fn front_end(kind: &str, index: &str) -> Result<FrontEnd, ApiError> {
         "bus" => Ok(FrontEnd::Bus(n)),
         "modbus" => Ok(FrontEnd::Modbus(n)),
         "ethercat" => Ok(FrontEnd::Ethercat(n)),
+        // One socketcand client, by its TCP port.
+        "client" => u16::try_from(n)
+            .map(FrontEnd::Client)
+            .map_err(|_| bad(format!("{index:?}: a client's TCP port (1 … 65535)"))),
         other => Err(ApiError::new(
             StatusCode::NOT_FOUND,
-            format!("{other:?}: a front end is bus, modbus or ethercat"),
+            format!("{other:?}: a front end is bus, modbus, ethercat or client"),
         )),
     }
 }
@@ -147,8 +151,8 @@ async fn list_faults(
 /// `{"fault": "corrupt", "frames": 3}`, `{"fault": "stop-sync"}`. Without a node the fault
 /// takes what the front end's clients send in (`"reach": "bus"`: every frame).
 #[utoipa::path(post, path = "/api/wire/{front}/{index}/faults", tag = "wire",
-    params(("front" = String, Path, description = "bus, modbus or ethercat"),
-        ("index" = u32, Path, description = "the bus, Modbus drive or EtherCAT chain (from 0)")),
+    params(("front" = String, Path, description = "bus, modbus, ethercat or client"),
+        ("index" = u32, Path, description = "the bus, Modbus drive or EtherCAT chain (from 0), or a socketcand client's TCP port")),
     request_body = FaultSpec,
     responses((status = 201, body = FaultView), (status = 400, body = ApiError), (status = 401, body = ApiError),
         (status = 404, body = ApiError), (status = 410, body = ApiError), (status = 415, body = ApiError)))]
@@ -164,6 +168,11 @@ async fn add_fault(
         && (matches!(fault.reach, Reach::Node(_)) || fault.cob_id.is_some())
     {
         return Err(bad("a node and a cob_id are a CAN bus's"));
+    }
+    if matches!(front, FrontEnd::Client(_)) && matches!(fault.reach, Reach::Node(_)) {
+        // Decision: a client's fault takes the frames to and from that client (a cob_id
+        // narrows it); a node's frames are a bus fault's.
+        return Err(bad("a client's fault takes no node (a cob_id narrows it)"));
     }
     call(&s.handle, move |h| {
         let id = match h.wire(WireRequest::Add { front, fault })? {
@@ -346,6 +355,7 @@ pub struct WireDoc;
 pub fn merged(mut doc: utoipa::openapi::OpenApi) -> utoipa::openapi::OpenApi {
     doc.merge(WireDoc::openapi());
     doc.merge(super::scenarios::ScenarioDoc::openapi());
+    doc.merge(super::physics::PhysicsDoc::openapi());
     doc
 }
 

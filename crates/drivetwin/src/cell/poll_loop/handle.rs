@@ -188,6 +188,50 @@ impl CellLoop {
                     };
                     let _ = reply.send(done);
                 }
+                Command::Physics(r) => {
+                    let _ = r.reply.send(self.physics(r.drive, r.change));
+                }
+            }
+        }
+    }
+
+    /// A drive's temperatures and encoder after `change` ([`crate::cell::control::PhysicsChange`]).
+    fn physics(
+        &mut self,
+        drive: usize,
+        change: crate::cell::control::PhysicsChange,
+    ) -> Result<crate::cell::control::PlantPhysics, ControlError> {
+        use crate::cell::control::{PhysicsChange, PlantPhysics};
+        match self.target(drive)? {
+            Target::Can(model) => {
+                let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
+                crate::cell::control::apply_physics(d, change)
+                    .map_err(|switch| ControlError::NoSwitch { drive, switch })
+            }
+            Target::Modbus(dev) => {
+                let mut d = lock(&dev);
+                match change {
+                    PhysicsChange::None => {}
+                    PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+                    PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+                    PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+                    // Decision: the CMMO-ST's switches are its axis's end stops and
+                    // reference switch (FHPP homing), not DINs a console could force.
+                    PhysicsChange::Switch(s, _) => {
+                        return Err(ControlError::NoSwitch {
+                            drive,
+                            switch: s.name(),
+                        })
+                    }
+                }
+                let w = d.plant_watch();
+                Ok(PlantPhysics {
+                    ambient_c: w.thermal.ambient_c(),
+                    motor_c: w.thermal.motor_c(),
+                    power_stage_c: w.thermal.stage_c(),
+                    encoder: w.encoder.fault(),
+                    forced_inputs: (0, 0),
+                })
             }
         }
     }

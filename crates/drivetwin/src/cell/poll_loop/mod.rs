@@ -225,6 +225,8 @@ pub struct CellLoop {
     )>,
     /// Receivers of every frame of a bus ([`crate::cell::wire_faults::WireRequest::Tap`]).
     taps: Vec<(usize, std::sync::mpsc::SyncSender<(Duration, CanFrame)>)>,
+    /// Modbus requests and EtherCAT frames a `delay` fault holds back.
+    held: Vec<wire::Held>,
 }
 
 /// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
@@ -407,6 +409,7 @@ impl CellLoop {
             subscriptions: Vec::new(),
             front_faults: Vec::new(),
             taps: Vec::new(),
+            held: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -627,6 +630,7 @@ impl CellLoop {
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));
         }
+        take(self.held_deadline());
         at
     }
 
@@ -654,6 +658,7 @@ impl CellLoop {
             self.session_timers(slot, now);
         }
         self.serial_timers(now);
+        self.release_held(now);
         for drive in 0..self.modbus.len() {
             let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {
@@ -923,24 +928,34 @@ impl CellLoop {
             Kind::Modbus { drive } => {
                 let drive = *drive;
                 let t = cell_time(self.origin, now);
-                if wire::lost(
-                    &mut self.front_faults,
-                    crate::cell::wire_faults::FrontEnd::Modbus(drive),
-                    t,
-                ) {
-                    return;
-                }
-                let result = match self.modbus.get_mut(drive) {
-                    Some(m) => m.answer(bytes, t, &mut conn.pending),
-                    None => Ok(()),
-                };
-                self.mark_dirty(slot);
-                if let Err(reason) = result {
-                    // The answers before a broken stream still go out.
-                    self.write_pending(slot);
-                    self.close(slot, reason);
+                match self.hold_until(crate::cell::wire_faults::FrontEnd::Modbus(drive), t) {
+                    None => self.modbus_request(slot, drive, bytes, t),
+                    Some(None) => {}
+                    Some(Some(at)) => self.held.push(wire::Held::Modbus {
+                        slot,
+                        drive,
+                        bytes: bytes.to_vec(),
+                        at,
+                    }),
                 }
             }
+        }
+    }
+
+    /// A Modbus request's bytes on connection `slot` of drive `drive`, answered at `t`.
+    fn modbus_request(&mut self, slot: usize, drive: usize, bytes: &[u8], t: od::Instant) {
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        let result = match self.modbus.get_mut(drive) {
+            Some(m) => m.answer(bytes, t, &mut conn.pending),
+            None => Ok(()),
+        };
+        self.mark_dirty(slot);
+        if let Err(reason) = result {
+            // The answers before a broken stream still go out.
+            self.write_pending(slot);
+            self.close(slot, reason);
         }
     }
 
@@ -1035,6 +1050,25 @@ impl CellLoop {
                             continue;
                         }
                         let bus = *bus;
+                        let port = peer.port();
+                        if self.client_faults() {
+                            let t = self.now(now);
+                            let id = frame.id;
+                            match self.client_verdict(slot, port, false, id, t) {
+                                None => {}
+                                Some(None) => continue,
+                                Some(Some(at)) => {
+                                    self.held.push(wire::Held::FromClient {
+                                        slot,
+                                        port,
+                                        bus,
+                                        frame,
+                                        at,
+                                    });
+                                    continue;
+                                }
+                            }
+                        }
                         self.bus(bus, frame, Source::Client(slot), now);
                     }
                 }
@@ -1210,7 +1244,35 @@ impl CellLoop {
             let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
             self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
-            for (slot, c) in self.slots.iter_mut().enumerate() {
+            let per_client = self.client_faults();
+            let t = self.now(now);
+            for slot in 0..self.slots.len() {
+                if per_client {
+                    let to = match self.slots.get(slot) {
+                        Some(Some(c)) if matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b) => {
+                            Some(c.peer.port())
+                        }
+                        _ => None,
+                    };
+                    if let Some(port) = to.filter(|_| source != Source::Client(slot)) {
+                        match self.client_verdict(slot, port, true, frame.id, t) {
+                            None => {}
+                            Some(None) => continue,
+                            Some(Some(at)) => {
+                                self.held.push(wire::Held::ToClient {
+                                    slot,
+                                    port,
+                                    text: self.text.clone(),
+                                    at,
+                                });
+                                continue;
+                            }
+                        }
+                    }
+                }
+                let Some(c) = self.slots.get_mut(slot) else {
+                    continue;
+                };
                 let Some(conn) = c else {
                     continue;
                 };
@@ -1335,32 +1397,23 @@ impl CellLoop {
             trace_frame(chain.trace.as_ref(), f);
             let t = cell_time(self.origin, Instant::now());
             let front = crate::cell::wire_faults::FrontEnd::Ethercat(c);
-            if wire::lost(&mut self.front_faults, front, t) {
-                continue;
+            match self.hold_until(front, t) {
+                None => {}
+                Some(None) => continue,
+                Some(Some(at)) => {
+                    self.held.push(wire::Held::Ethercat {
+                        chain: c,
+                        frame: f.to_vec(),
+                        at,
+                    });
+                    continue;
+                }
             }
             let Some(chain) = self.chains.get_mut(c) else {
                 break;
             };
             shared |= chain.chain.has_bus_drives();
-            if chain
-                .chain
-                .on_frame_with(t, f, &mut Buses(&mut self.buses))
-                .forward()
-            {
-                trace_frame(chain.trace.as_ref(), f);
-                match chain.socket.send(f) {
-                    Ok(()) => {}
-                    Err(e) if crate::ecat::link::is_queue_full(&e) => {
-                        tracing::warn!(
-                            interface = chain.socket.interface(),
-                            "TX queue full, frame lost"
-                        );
-                    }
-                    Err(e) => {
-                        tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
-                    }
-                }
-            }
+            Self::pass_chain(chain, f, t, &mut self.buses);
         }
         self.frame = frame;
         if shared {
@@ -1385,6 +1438,37 @@ impl CellLoop {
             }
         }
     }
+
+    /// One frame through chain `chain` and back out on its socket.
+    #[cfg(target_os = "linux")]
+    fn pass_chain(chain: &mut EthercatChain, f: &mut [u8], t: od::Instant, buses: &mut [BusState]) {
+        if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
+            trace_frame(chain.trace.as_ref(), f);
+            match chain.socket.send(f) {
+                Ok(()) => {}
+                Err(e) if crate::ecat::link::is_queue_full(&e) => {
+                    tracing::warn!(
+                        interface = chain.socket.interface(),
+                        "TX queue full, frame lost"
+                    );
+                }
+                Err(e) => {
+                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
+                }
+            }
+        }
+    }
+
+    /// A frame a `delay` fault held back arrives at chain `c` at `t`.
+    #[cfg(target_os = "linux")]
+    fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
+        if let Some(chain) = self.chains.get_mut(c) {
+            Self::pass_chain(chain, &mut frame, t, &mut self.buses);
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn ethercat_frame(&mut self, _c: usize, _frame: Vec<u8>, _t: od::Instant) {}
 
     #[cfg(not(target_os = "linux"))]
     fn read_ethercat(&mut self, _c: usize) {}

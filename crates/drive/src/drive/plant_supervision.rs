@@ -1,0 +1,291 @@
+//! The drive's own supervision of its plant's physics: the motor and power-stage
+//! temperatures of [`crate::thermal`] and the encoder of [`crate::encoder_fault`]. Each
+//! personality raises its manual's message for what it finds, as its manual names it, through
+//! the same path as every other message (reaction, EMCY, 1003h, display):
+//!
+//! | condition                    | CMMP-AS (App. B)      | Nanotec (§7.1)       | Kinco (§7)              |
+//! |------------------------------|-----------------------|----------------------|-------------------------|
+//! | motor within 5 K of its limit| 18-0 (warning)        | –                    | –                       |
+//! | motor above its limit        | 03-0                  | –                    | Error_State.13          |
+//! | power stage above its limit  | 04-0                  | 0002h Overtemperature| Error_State.4           |
+//! | encoder signal lost          | 08-0                  | –                    | Error_State.1           |
+//! | implausible encoder counts   | 08-0                  | –                    | Error_State.3 (CRC)     |
+//!
+//! Limits: the CMMP-AS's objects 6510h:2F max_motor_temperature (18-0 "more than 5° below
+//! T_max", App. B.3, read as within 5 K of it) and 6510h:32 max_power_stage_temperature
+//! (cmmp-as-1 §3.5: "above this: output stage off plus error"); it shows the temperatures in
+//! 6510h:2E and 6510h:31. The Kinco shows the drive's temperature in 60F7h:0B Temp_Device.
+//! Where a manual has no limit object the limit is CHOSEN ([`CHOSEN_MOTOR_LIMIT_C`],
+//! [`CHOSEN_STAGE_LIMIT_C`]).
+//!
+//! A cause stays while its condition does and goes [`HYSTERESIS_K`] below the limit (CHOSEN,
+//! so a temperature at the limit does not chatter); an error then waits for the fault reset
+//! as any other. A message raised by its number from outside is not touched.
+
+use od::{Diagnostic, Value};
+
+use super::diagnostics::emcy_code;
+use super::Drive;
+use crate::encoder_fault::{Encoder, EncoderFault};
+use crate::messages;
+use crate::personality::Vendor;
+use crate::thermal::{self, Thermal};
+
+/// Decision (CHOSEN): the motor limit of a drive without a limit object, °C (the CMMP-AS's
+/// default of 6510h:2F).
+pub const CHOSEN_MOTOR_LIMIT_C: f64 = 100.0;
+/// Decision (CHOSEN): the power-stage limit of a drive without a limit object, °C.
+pub const CHOSEN_STAGE_LIMIT_C: f64 = 90.0;
+/// Decision (CHOSEN): a cause goes this far below its limit, K.
+pub const HYSTERESIS_K: f64 = 2.0;
+/// CMMP-AS App. B.3 18-0: the warning "more than 5° below T_max" (read as: within 5 K).
+const CMMP_WARNING_MARGIN_K: f64 = 5.0;
+
+/// A condition the supervision watches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+enum Condition {
+    MotorWarning = 0,
+    MotorOver = 1,
+    StageOver = 2,
+    EncoderLost = 3,
+    EncoderImplausible = 4,
+}
+
+const CONDITIONS: [Condition; 5] = [
+    Condition::MotorWarning,
+    Condition::MotorOver,
+    Condition::StageOver,
+    Condition::EncoderLost,
+    Condition::EncoderImplausible,
+];
+
+/// The message numbers one personality raises, in [`CONDITIONS`] order (`None`: its manual
+/// has no such message).
+struct Messages {
+    vendor: Vendor,
+    numbers: [Option<&'static str>; 5],
+}
+
+/// The table of the module doc.
+const MESSAGES: [Messages; 3] = [
+    Messages {
+        vendor: Vendor::CmmpAs,
+        numbers: [
+            Some("18-0"),
+            Some("03-0"),
+            Some("04-0"),
+            Some("08-0"),
+            Some("08-0"),
+        ],
+    },
+    Messages {
+        vendor: Vendor::Nanotec,
+        numbers: [None, None, Some("0002h"), None, None],
+    },
+    Messages {
+        vendor: Vendor::Kinco,
+        numbers: [
+            None,
+            Some("Error_State.13"),
+            Some("Error_State.4"),
+            Some("Error_State.1"),
+            Some("Error_State.3"),
+        ],
+    },
+];
+
+/// The plant's temperatures and encoder, and what the supervision has raised from them.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlantWatch {
+    pub thermal: Thermal,
+    pub encoder: Encoder,
+    /// Bit n: condition n raised by the supervision (not yet gone).
+    pub(crate) raised: u8,
+    /// The whole degrees last shown (motor, stage), so the objects are written on a change.
+    pub(crate) shown: Option<(i16, i16)>,
+    /// Limits read once from read-only objects (CMMO-ST PNU 1068), °C.
+    pub(crate) limits: Option<(f64, f64)>,
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// The plant's temperatures and encoder.
+    pub fn plant_watch(&self) -> &PlantWatch {
+        &self.plant_watch
+    }
+
+    /// The ambient temperature of the drive and its motor, °C.
+    pub fn set_ambient_temperature(&mut self, celsius: f64) {
+        self.plant_watch.thermal.set_ambient_c(celsius);
+    }
+
+    /// The thermal figures (time constants, rises) of the motor and the power stage.
+    pub fn set_thermal_data(&mut self, data: thermal::ThermalData) {
+        self.plant_watch.thermal.set_data(data);
+    }
+
+    /// Faults the encoder (or repairs it).
+    pub fn set_encoder_fault(&mut self, fault: EncoderFault) {
+        self.plant_watch.encoder.set_fault(fault);
+    }
+
+    /// One logic cycle of `dt` s: the temperatures follow the motor current, the encoder
+    /// takes its reading, the supervision compares them with its limits.
+    pub(super) fn supervise_plant(&mut self, dt: f64) {
+        let (current, rated) = match &self.stepper {
+            Some(s) => (s.motor.current_a(), s.motor.data().rated_current),
+            None => (
+                self.axis.motor().current(),
+                self.axis.motor().data().rated_current,
+            ),
+        };
+        let w = &mut self.plant_watch;
+        w.thermal.step(dt, thermal::load(current, rated));
+        let shaft = self.shaft_position();
+        self.plant_watch.encoder.update(shaft);
+        self.show_temperatures();
+        let (motor_limit, stage_limit) = self.temperature_limits();
+        let motor = self.plant_watch.thermal.motor_c();
+        let stage = self.plant_watch.thermal.stage_c();
+        let encoder = self.plant_watch.encoder;
+        for c in CONDITIONS {
+            let raised = self.plant_watch.raised & (1 << c as u8) != 0;
+            let over = |t: f64, limit: f64| {
+                if raised {
+                    t > limit - HYSTERESIS_K
+                } else {
+                    t > limit
+                }
+            };
+            let present = match c {
+                Condition::MotorWarning => over(motor, motor_limit - CMMP_WARNING_MARGIN_K),
+                Condition::MotorOver => over(motor, motor_limit),
+                Condition::StageOver => over(stage, stage_limit),
+                Condition::EncoderLost => encoder.signal_lost(),
+                Condition::EncoderImplausible => encoder.implausible(),
+            };
+            if present != raised {
+                self.plant_condition(c, present);
+            }
+        }
+    }
+
+    /// The motor's and the power stage's limit, °C.
+    fn temperature_limits(&self) -> (f64, f64) {
+        match self.personality.vendor {
+            Vendor::CmmpAs => (
+                self.value(0x6510, 0x2F) as f64,
+                self.value(0x6510, 0x32) as f64,
+            ),
+            _ => (CHOSEN_MOTOR_LIMIT_C, CHOSEN_STAGE_LIMIT_C),
+        }
+    }
+
+    /// The temperatures in the drive's objects, when a whole degree changes.
+    fn show_temperatures(&mut self) {
+        let t = &self.plant_watch.thermal;
+        let degrees = |c: f64| crate::rounding::round(c).clamp(-32768.0, 32767.0) as i16;
+        let now = (degrees(t.motor_c()), degrees(t.stage_c()));
+        if self.plant_watch.shown == Some(now) {
+            return;
+        }
+        self.plant_watch.shown = Some(now);
+        let (motor, stage) = now;
+        match self.personality.vendor {
+            Vendor::CmmpAs => {
+                let _ = self.od.set_value(0x6510, 0x2E, Value::Signed(motor.into()));
+                let _ = self.od.set_value(0x6510, 0x31, Value::Signed(stage.into()));
+            }
+            Vendor::Kinco => {
+                let _ = self.od.set_value(0x60F7, 0x0B, Value::Signed(stage.into()));
+            }
+            Vendor::Nanotec => {}
+        }
+    }
+
+    /// Condition `c` has come (`present`) or gone: its message raised or its cause ended.
+    fn plant_condition(&mut self, c: Condition, present: bool) {
+        let bit = 1u8 << c as u8;
+        if present {
+            self.plant_watch.raised |= bit;
+        } else {
+            self.plant_watch.raised &= !bit;
+        }
+        let vendor = self.personality.vendor;
+        let Some(number) = MESSAGES
+            .iter()
+            .find(|m| m.vendor == vendor)
+            .and_then(|m| m.numbers.get(c as usize).copied().flatten())
+        else {
+            return;
+        };
+        let Some(row) = self.od.description().diagnostic(number) else {
+            return;
+        };
+        // Two conditions may share a message (CMMP-AS 08-0): it goes when both have.
+        let shared = CONDITIONS.iter().any(|o| {
+            *o != c
+                && self.plant_watch.raised & (1 << *o as u8) != 0
+                && MESSAGES
+                    .iter()
+                    .find(|m| m.vendor == vendor)
+                    .and_then(|m| m.numbers.get(*o as usize).copied().flatten())
+                    == Some(number)
+        });
+        if present {
+            if !shared {
+                self.raise_row(row);
+            }
+        } else if !shared {
+            self.end_row(row);
+        }
+    }
+
+    /// Message `row` raised by the drive's own supervision: the personality's reaction, and
+    /// an error stays a cause (it blocks the fault reset) until [`Drive::end_row`].
+    pub(crate) fn raise_row(&mut self, row: &'static Diagnostic) {
+        let code = emcy_code(row);
+        let critical = row.reaction == od::Reaction::PsOff;
+        match self.personality.vendor {
+            Vendor::CmmpAs => {
+                let r = self.cmmp_message_reaction(code, messages::message(row), critical, 0);
+                self.report_error(code, row.register, r);
+            }
+            _ => self.raise(code, row.register, critical),
+        }
+        if (self.faults.contains(&code) || self.notices.contains(&code))
+            && !self.causes.contains(&code)
+        {
+            let _ = self.causes.push(code);
+        }
+    }
+
+    /// The cause of message `row` has gone: a warning or an EMCY-only message ends, an error
+    /// waits for the fault reset. A message also raised by its number stays.
+    pub(crate) fn end_row(&mut self, row: &'static Diagnostic) {
+        let code = emcy_code(row);
+        if self.injected_code(code) {
+            return;
+        }
+        if let Some(i) = self.causes.iter().position(|c| *c == code) {
+            self.causes.remove(i);
+        }
+        if let Some(m) = messages::message(row) {
+            if self.personality.vendor == Vendor::CmmpAs {
+                self.end_warning(m.number);
+            }
+        }
+        self.clear_notice(code);
+    }
+}
+
+/// An encoder fault from its name: `ok` / `connected`, `disconnected`, `noisy` (with an
+/// amplitude in internal increments).
+pub fn encoder_fault(name: &str, amplitude: u32) -> Option<EncoderFault> {
+    Some(match name {
+        "ok" | "connected" => EncoderFault::Connected,
+        "disconnected" | "broken" => EncoderFault::Disconnected,
+        "noisy" => EncoderFault::Noisy { amplitude },
+        _ => return None,
+    })
+}

@@ -1,0 +1,88 @@
+//! The CMMO-ST's own supervision of its plant's physics (`drive::fhpp::plant_supervision`):
+//! App. D 33h, 15h and 16h from the output stage's temperature (PNU 1066 against PNU 1068),
+//! 06h from the encoder.
+
+mod fhpp_bench;
+use drive::encoder_fault::EncoderFault;
+use drive::fhpp::seven_segment::SevenSegment;
+use drive::fhpp::{Ccon, Cpos, OutputData, Scon};
+use drive::stepper::StepperMode;
+use drive::thermal::ThermalData;
+use fhpp_bench::Bench;
+use od::ObjectAccess;
+
+fn bench() -> Bench {
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
+    b.dev.set_thermal_data(ThermalData {
+        stage_time_constant_s: 1.0,
+        ..ThermalData::default()
+    });
+    b
+}
+
+/// CCON.RESET rising edge (enable off), then away again.
+fn reset(b: &mut Bench) {
+    let ccon = Ccon(0x00);
+    b.send(OutputData::record(ccon, Cpos::HALT, 0));
+    b.send(OutputData::record(ccon | Ccon::RESET, Cpos::HALT, 0));
+    b.send(OutputData::record(ccon, Cpos::HALT, 0));
+}
+
+fn stage(b: &Bench) -> i8 {
+    b.dev.read_u8(0x2000 + 1066, 1).unwrap() as i8
+}
+
+/// A hot cabinet: 33h (SCON.WARN) within 5 K of PNU 1068:2, then 15h (SCON.FAULT); the
+/// acknowledgement (CCON.RESET) is refused until the stage is back in range.
+#[test]
+fn a_hot_output_stage_warns_33h_then_faults_15h() {
+    let mut b = bench();
+    b.enable_record();
+    assert_eq!(stage(&b), 25);
+    b.dev.set_ambient_temperature(100.0);
+    let mut warned = None;
+    for ms in 0..5000 {
+        b.run(1);
+        let i = b.input();
+        if warned.is_none() && i.scon.contains(Scon::WARN) {
+            assert!(!i.scon.contains(Scon::FAULT), "{i:?}");
+            assert!(b.dev.diagnostic_active(0x33));
+            warned = Some(ms);
+        }
+        if i.scon.contains(Scon::FAULT) {
+            assert!(warned.is_some(), "33h before 15h");
+            break;
+        }
+    }
+    assert_eq!(b.dev.fault_number(), 0x15);
+    assert_eq!(b.dev.seven_segment(), SevenSegment::showing(Some(0x15), 0));
+    assert!(stage(&b) >= 85, "PNU 1066 shows it");
+    // Still hot: CCON.RESET does not acknowledge it.
+    reset(&mut b);
+    assert_eq!(b.dev.fault_number(), 0x15);
+    b.dev.set_ambient_temperature(25.0);
+    b.run(10_000);
+    reset(&mut b);
+    assert_eq!(b.dev.fault_number(), 0, "acknowledged once cooled");
+    assert!(!b.input().scon.contains(Scon::WARN));
+}
+
+/// A freezing cabinet: 16h below PNU 1068:1.
+#[test]
+fn a_cold_output_stage_is_16h() {
+    let mut b = bench();
+    b.dev.set_ambient_temperature(-30.0);
+    b.run(5000);
+    assert_eq!(b.dev.fault_number(), 0x16);
+}
+
+/// A pulled encoder cable: 06h.
+#[test]
+fn a_pulled_encoder_cable_is_06h() {
+    let mut b = bench();
+    b.enable_record();
+    b.dev.set_encoder_fault(EncoderFault::Disconnected);
+    b.run(5);
+    assert_eq!(b.dev.fault_number(), 0x06);
+    assert!(b.input().scon.contains(Scon::FAULT));
+}
