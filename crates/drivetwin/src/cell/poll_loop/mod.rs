@@ -500,11 +500,10 @@ impl CellLoop {
             {
                 Some(Duration::ZERO)
             } else {
-                let wait = self
-                    .deadline()
-                    .map(|d| d.saturating_duration_since(Instant::now()));
-                if let (Some(w), Some(timer)) = (wait, &self.timer) {
-                    timer.arm(w);
+                let deadline = self.deadline();
+                let wait = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+                if let (Some(d), Some(w), Some(timer)) = (deadline, wait, &self.timer) {
+                    timer.arm(d, w);
                 }
                 wait
             };
