@@ -155,10 +155,13 @@ pub struct SlaveDevice {
     saving: Option<SaveInFlight>,
 }
 
+/// The thread writing a save's file; its result is the stored set read back.
+type SaveJob = JoinHandle<Result<Vec<StoredValue>, StoreError>>;
+
 /// A 1010h "save" over CoE in progress: the file is written and synced on a thread of its own
 /// (the stored set read back is its result); the CoE reply waits here until it is done.
 struct SaveInFlight {
-    job: JoinHandle<Result<Vec<StoredValue>, StoreError>>,
+    job: SaveJob,
     /// 1010h:`sub`, for the abort if the file cannot be written.
     sub: u8,
     /// The mailbox message the CoE server made; posted when the file is written.
@@ -988,7 +991,7 @@ struct Deferring<'a> {
     model: &'a mut Model,
     store: Option<&'a ParamStore>,
     stored: &'a mut Vec<StoredValue>,
-    started: Option<(JoinHandle<Result<Vec<StoredValue>, StoreError>>, u8)>,
+    started: Option<(SaveJob, u8)>,
 }
 
 impl ObjectAccess for Deferring<'_> {
