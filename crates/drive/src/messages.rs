@@ -88,6 +88,8 @@ pub const MAX_MAIN: u8 = 96;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Reactions {
     codes: [u8; MAX_MAIN as usize + 1],
+    /// Each group's [`minimum`], taken from App. B once (a write clamps to it).
+    minimum: [u8; MAX_MAIN as usize + 1],
 }
 
 impl Default for Reactions {
@@ -131,7 +133,10 @@ impl Default for Reactions {
                 *c = reaction::WARNING;
             }
         }
-        Reactions { codes }
+        Reactions {
+            codes,
+            minimum: fixed.map(|f| f.unwrap_or(reaction::NONE)),
+        }
     }
 }
 
@@ -183,7 +188,13 @@ impl Reactions {
         if !matches!(code, 0 | 1 | 3 | 5 | 7 | 8) {
             return Err(ReactionError::Code);
         }
-        let min = minimum(main).ok_or(ReactionError::Number)?;
+        if main == 0 {
+            return Err(ReactionError::Number);
+        }
+        let min = *self
+            .minimum
+            .get(usize::from(main))
+            .ok_or(ReactionError::Number)?;
         let slot = self
             .codes
             .get_mut(usize::from(main))
@@ -247,6 +258,15 @@ mod tests {
                 reaction::CONTROLLER_ENABLE_OFF
             };
             assert_eq!(r.get(main), Some(want), "group {main}");
+            let mut w = r.clone();
+            assert_eq!(
+                w.set(main, 0),
+                Ok(minimum(main).unwrap()),
+                "group {main} clamps to its minimum"
+            );
         }
+        let mut w = r.clone();
+        assert_eq!(w.set(0, 5), Err(ReactionError::Number));
+        assert_eq!(w.set(MAX_MAIN + 1, 5), Err(ReactionError::Number));
     }
 }
