@@ -543,7 +543,8 @@ ethercat = "{pair[0]}"
         "- client counts: " + ", ".join(f"{k} {v}" for k, v in sorted(c.n.items())),
     ]
     if ecat_figures is None:
-        lines.append("- EtherCAT: no drive (the machine does not allow a veth pair and pysoem here)")
+        lines.append("- EtherCAT: no drive (--ethercat off)" if args.ethercat == "off" else
+                     "- EtherCAT: no drive (the machine does not allow a veth pair and pysoem here)")
     else:
         e = ecat_figures
         lines.append(
