@@ -3,6 +3,7 @@
 the spec extracts) and from the protocol's everyday messages. Writes corpus/TARGET/seed-*;
 libFuzzer grows the corpus from there. Usage: seeds.py SPEC_DIR"""
 
+import json
 import re
 import struct
 import sys
@@ -120,6 +121,56 @@ def coe_seeds():
     return 3
 
 
+REPO = HERE.parent
+TELEGRAM = re.compile(r'"((?:[0-9A-F]{2} ){9}[0-9A-F]{2})"')
+JSON_BODY = re.compile(r"json!\((\{.*?\})\)")
+# The first key of a body names its route (the byte fuzz/fuzz_targets/http_body.rs reads).
+ROUTE_OF_KEY = {
+    "node": 0, "frames": 0, "value": 1, "raw": 1, "mask": 2, "levels": 2, "volts": 3,
+    "torque_nm": 4, "direction": 5, "velocity": 5, "target": 6, "relative": 6,
+    "velocity_percent": 6, "settings": 7, "active": 8, "key": 9, "action": 9, "name": 10,
+    "fault": 11,
+}
+
+
+def kinco_seeds():
+    """The telegrams of the Kinco RS232 tests (KINCO-232-01...), point to point and in a ring."""
+    telegrams = []
+    for f in [REPO / "crates/canopen/src/kinco_rs232.rs", *sorted((REPO / "crates/drive/tests").glob("kinco*.rs"))]:
+        if f.is_file():
+            telegrams += [bytes.fromhex(t) for t in TELEGRAM.findall(f.read_text(encoding="utf-8"))]
+    for setup, name in ((0x01, "p2p"), (0x81, "ring")):
+        body = bytes([setup])
+        for t in telegrams:
+            body += bytes([10]) + t + b"\xff\x05"
+        # A telegram cut by a pause longer than the gap, then one whole.
+        if telegrams:
+            body += bytes([4]) + telegrams[0][:4] + b"\xff\x30" + bytes([10]) + telegrams[0]
+        write("kinco_rs232", name, body)
+    return len(telegrams)
+
+
+def http_seeds():
+    """The JSON bodies of the web API tests, each with the route its first key names."""
+    n = 0
+    files = sorted((REPO / "crates/drivetwin/tests").glob("*.rs")) + sorted((REPO / "crates/drivetwin/src/web").glob("*.rs"))
+    seen = set()
+    for f in files:
+        for body in JSON_BODY.findall(f.read_text(encoding="utf-8")):
+            try:
+                obj = json.loads(body)
+            except ValueError:
+                continue  # a body built from variables
+            key = next(iter(obj), "value")
+            route = ROUTE_OF_KEY.get(key, 1)
+            data = bytes([route, 0x80]) + json.dumps(obj).encode()
+            if data not in seen:
+                seen.add(data)
+                write("http_body", f"{n:03}", data)
+                n += 1
+    return n
+
+
 def main():
     spec = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parent.parent / "shared" / "spec"
     if not spec.is_dir():
@@ -130,6 +181,8 @@ def main():
         "modbus": modbus_seeds(),
         "socketcand_text": socketcand_seeds(),
         "coe_mailbox": coe_seeds(),
+        "kinco_rs232": kinco_seeds(),
+        "http_body": http_seeds(),
     }
     for k, v in counts.items():
         print(f"{k}: {v} seeds")

@@ -4,27 +4,38 @@ malformed clients and bus faults, while the twin's resident memory and open file
 are sampled (issue 15, point 3).
 
 The cell: a CMMP-AS (node 1), a Nanotec SMCI47-S (node 34) and a Kinco FD3 (node 5, also on
-RS232 through a pty) on one socketcand bus, and a CMMO-ST on Modbus TCP. The clients, all at
+RS232 through a pty) on one socketcand bus, a CMMO-ST on Modbus TCP, and, where the machine
+allows it (root, iproute2, pysoem), a CMMP-AS on EtherCAT over a veth pair. The clients, all at
 once:
   - python-canopen SDO loops on the three CAN drives (reads, and writes that are refused),
   - a pyserial client polling the Kinco's statusword over RS232 (KINCO-232 telegrams),
   - python-can connections that come, see a heartbeat and go, every 0.3 s,
   - a socketcand client that never reads (the twin must drop it, not wait for it),
   - raw connections that send garbage to both servers, and NMT resets of both nodes,
-  - a pymodbus FHPP client that exchanges FC 0x17 and reconnects every few seconds.
-At the end every drive must still answer, resident memory must be flat after the warm-up
+  - a pymodbus FHPP client that exchanges FC 0x17 and reconnects every few seconds,
+  - a pysoem master (a process of its own, so that the other clients' threads do not hold it
+    off its cycle) that takes the EtherCAT CMMP-AS to Op in cyclic synchronous position,
+    enables it and cycles its PDOs every --ecat-cycle-ms, reading 1018h:01 over CoE now and
+    then; it counts frames that did not come back within 20 ms (lost) and frames with a wrong
+    working counter.
+At the end every drive must still answer, the EtherCAT frames lost at most --max-lost-permille
+of the cycles, no wrong working counter, resident memory must be flat after the warm-up
 (growth at most --max-growth-kib), the descriptors back at their baseline, and the cell loop
 must have served 99 % of its due timers within --max-late-ms (the twin prints its lateness
 figures when it stops).
 
   scripts/soak.py --seconds 120                 # the test command's run
-  scripts/soak.py --seconds 3600 --report docs/soak.md
+  scripts/soak.py --seconds 3600 --report docs/soak-report.md
+  scripts/soak 3600                             # the same, report into docs/soak-report.md
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import json
+import shutil
+import struct
 import os
 import random
 import re
@@ -186,7 +197,147 @@ def modbus_loop(port, stop, c: Counters):
         client.close()
 
 
+def ecat_master(iface: str, seconds: float, cycle_ms: float) -> dict:
+    """The pysoem master of the EtherCAT CMMP-AS (run with --ecat-master in a process of its
+    own): Pre-Op SDOs, CSP PDOs (RxPDO3 1602h: controlword + target, TxPDO3 1A02h: statusword +
+    position), Op, enable, then a PDO exchange every `cycle_ms` holding the position, and
+    1018h:01 read over CoE every 500 cycles. Returns its counters."""
+    import pysoem
+
+    r = {"cycles": 0, "lost": 0, "wrong_wkc": 0, "left_op": 0, "sdo_ok": 0, "sdo_failed": 0,
+         "answered_at_end": False, "error": ""}
+    errors = (pysoem.SdoError, pysoem.MailboxError, pysoem.PacketError, pysoem.WkcError)
+    m = pysoem.Master()
+    m.open(iface)
+    try:
+        if m.config_init() != 1:
+            r["error"] = "config_init found no slave"
+            return r
+        s = m.slaves[0]
+        for index, pdo in ((0x1C12, 0x1602), (0x1C13, 0x1A02)):
+            s.sdo_write(index, 0, bytes([0]))
+            s.sdo_write(index, 1, struct.pack("<H", pdo))
+            s.sdo_write(index, 0, bytes([1]))
+        s.sdo_write(0x6060, 0, bytes([8]))
+        m.config_map()
+        if m.state_check(pysoem.SAFEOP_STATE, 2_000_000) != pysoem.SAFEOP_STATE:
+            r["error"] = f"no Safe-Op (AL status code {s.al_status:#x})"
+            return r
+        # A frame is lost when it is not back within 20 ms: the bound on the cell loop's p99
+        # lateness (--max-late-ms, 16 ms) and a margin.
+        timeout_us = int(max(20.0, 5 * cycle_ms) * 1000)
+
+        def cycle(cw, target):
+            s.output = struct.pack("<Hi", cw, target)
+            m.send_processdata()
+            wkc = m.receive_processdata(timeout_us)
+            sw, pos = struct.unpack("<Hi", bytes(s.input))
+            return wkc, sw, pos
+
+        m.state = pysoem.OP_STATE
+        _, _, pos = cycle(0, 0)
+        m.write_state()
+        for _ in range(400):
+            _, _, pos = cycle(0, pos)
+            if m.read_state() == pysoem.OP_STATE:
+                break
+            time.sleep(cycle_ms / 1000)
+        if s.state != pysoem.OP_STATE:
+            r["error"] = f"no Op (state {s.state:#x}, AL status code {s.al_status:#x})"
+            return r
+        expected = m.expected_wkc
+        cw = 0x06
+        dt = cycle_ms / 1000
+        nxt = time.monotonic()
+        end = nxt + seconds
+        while time.monotonic() < end:
+            wkc, sw, actual = cycle(cw, pos)
+            r["cycles"] += 1
+            if wkc < 0:
+                r["lost"] += 1
+            elif wkc != expected:
+                r["wrong_wkc"] += 1
+                if m.read_state() != pysoem.OP_STATE:
+                    # Fell back (watchdog, SYNC): counted, acknowledged and taken back to Op.
+                    r["left_op"] += 1
+                    s.state = pysoem.SAFEOP_STATE + pysoem.STATE_ACK
+                    s.write_state()
+                    s.state = pysoem.OP_STATE
+                    s.write_state()
+            # CiA 402: fault reset, shutdown, switch on, enable; the target follows the actual
+            # position until the drive is enabled, then holds it.
+            state = sw & 0x6F
+            if sw & 0x08:
+                cw = 0x80 if cw != 0x80 else 0x00
+            elif state in (0x23, 0x27):
+                cw = 0x0F
+            elif state == 0x21:
+                cw = 0x07
+            else:
+                cw = 0x06
+            if state != 0x27:
+                pos = actual
+            if r["cycles"] % 500 == 0:
+                try:
+                    s.sdo_read(0x1018, 1)
+                    r["sdo_ok"] += 1
+                except errors:
+                    r["sdo_failed"] += 1
+            nxt += dt
+            delay = nxt - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            else:
+                nxt = time.monotonic()  # held off the CPU: skip the missed cycles, no burst
+        try:
+            r["answered_at_end"] = int.from_bytes(s.sdo_read(0x1018, 1), "little") == 0x1D
+        except errors as e:
+            r["error"] = f"1018h:01 at the end: {e}"
+        m.state = pysoem.INIT_STATE
+        m.write_state()
+    finally:
+        m.close()
+    return r
+
+
+@contextlib.contextmanager
+def veth_pair(want: str):
+    """(twin-side, master-side) interfaces of a veth pair in this namespace, or None where the
+    machine does not allow one (not root, no iproute2, no pysoem) and `want` is "auto"."""
+    why = ""
+    if os.geteuid() != 0:
+        why = "not root (raw sockets)"
+    elif shutil.which("ip") is None:
+        why = "no iproute2"
+    else:
+        try:
+            import pysoem  # noqa: F401
+        except ImportError:
+            why = "pysoem is not installed"
+    tag = f"{os.getpid() % 100000}"
+    twin_if, master_if = f"dtwSa{tag}", f"dtwSb{tag}"
+    if not why:
+        for step in (("link", "add", master_if, "type", "veth", "peer", "name", twin_if),
+                     ("link", "set", twin_if, "up"), ("link", "set", master_if, "up")):
+            p = subprocess.run(["ip", *step], capture_output=True, text=True)
+            if p.returncode != 0:
+                why = f"ip {' '.join(step)}: {p.stderr.strip()}"
+                break
+    try:
+        if why and want == "on":
+            raise SystemExit(f"EtherCAT asked for, but {why}")
+        if why:
+            print(f"soak: no EtherCAT drive ({why})", file=sys.stderr)
+        yield None if why else (twin_if, master_if)
+    finally:
+        subprocess.run(["ip", "link", "del", master_if], capture_output=True)
+
+
 def main() -> int:
+    if len(sys.argv) > 1 and sys.argv[1] == "--ecat-master":
+        iface, seconds, cycle_ms = sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+        print(json.dumps(ecat_master(iface, seconds, cycle_ms)), flush=True)
+        return 0
     import logging
 
     logging.getLogger("can").setLevel(logging.ERROR)
@@ -200,7 +351,19 @@ def main() -> int:
                     help="bound on the cell loop's 99th percentile timer lateness")
     ap.add_argument("--report", type=Path)
     ap.add_argument("--no-resets", action="store_true", help="leave out the NMT resets")
+    ap.add_argument("--ethercat", choices=("auto", "on", "off"), default="auto",
+                    help="the CMMP-AS on EtherCAT (veth pair, pysoem): where the machine allows it")
+    ap.add_argument("--ecat-cycle-ms", type=float, default=2.0)
+    ap.add_argument("--max-lost-permille", type=float, default=1.0,
+                    help="bound on the EtherCAT frames lost, per mille of the cycles")
     args = ap.parse_args()
+    if args.ethercat == "off":
+        return soak(args, None)
+    with veth_pair(args.ethercat) as pair:
+        return soak(args, pair)
+
+
+def soak(args, pair) -> int:
 
     tmp = Path(tempfile.mkdtemp(prefix="soak-"))
     can_port, modbus_port = free_port(), free_port()
@@ -233,6 +396,17 @@ rs232 = "{tmp / 'ttyKINCO'}"
 device = "cmmo-st"
 modbus = "{HOST}:{modbus_port}"
 modbus_timeout_ms = 0
+""")
+    if pair:
+        with cell.open("a") as f:
+            f.write(f"""
+[[drive]]
+device = "cmmp-as"
+node = 2
+interfaces = ["ethercat"]
+ethercat = "{pair[0]}"
+[drive.objects]
+"6510:F0" = 0x80
 """)
     eds = {}
     for dev in ("cmmp-as", "nanotec-smci47s", "kinco-fd3"):
@@ -271,6 +445,10 @@ modbus_timeout_ms = 0
         threading.Thread(target=modbus_loop, args=(modbus_port, stop, c)),
     ]
     baseline_fds = fds(twin.pid)
+    ecat = None
+    if pair:
+        ecat = subprocess.Popen([sys.executable, __file__, "--ecat-master", pair[1], str(args.seconds),
+                                 str(args.ecat_cycle_ms)], stdout=subprocess.PIPE, text=True)
     for t in threads:
         t.start()
     samples = []
@@ -281,6 +459,14 @@ modbus_timeout_ms = 0
     stop.set()
     for t in threads:
         t.join(15)
+    ecat_figures = None
+    if ecat:
+        try:
+            out, _ = ecat.communicate(timeout=60)
+            ecat_figures = json.loads(out.strip().splitlines()[-1])
+        except (subprocess.TimeoutExpired, ValueError, IndexError) as e:
+            ecat.kill()
+            ecat_figures = {"error": f"the pysoem master: {e!r}"}
     # Closed connections leave the twin's loop.
     settle = time.monotonic() + 5.0
     while twin.poll() is None and fds(twin.pid) > baseline_fds + 2 and time.monotonic() < settle:
@@ -327,13 +513,22 @@ modbus_timeout_ms = 0
     p99 = re.search(r"p99 ≤ ([0-9.]+)(µs|ms|s)", loop_line)
     p99_ms = (float(p99.group(1)) * {"µs": 1e-3, "ms": 1.0, "s": 1e3}[p99.group(2)]) if p99 else float("inf")
 
+    ecat_ok = True
+    if ecat_figures is not None:
+        n = ecat_figures.get("cycles", 0)
+        lost_bound = args.max_lost_permille / 1000 * n
+        twin_lost = (tmp / "twin.stderr").read_text(errors="replace").count("frame lost")
+        ecat_figures["twin_tx_lost"] = twin_lost
+        ecat_ok = (not ecat_figures.get("error") and n > 0 and ecat_figures.get("answered_at_end")
+                   and ecat_figures.get("lost", 0) + twin_lost <= lost_bound
+                   and ecat_figures.get("wrong_wkc", 0) == 0)
     warm = [s for s in samples if s[0] >= min(20.0, args.seconds / 4)]
     growth = (warm[-1][1] - warm[0][1]) if len(warm) >= 2 else 0
     peak_fds = max((s[2] for s in samples), default=0)
     ok = (alive and all(answers.values()) and growth <= args.max_growth_kib
           and p99_ms <= args.max_late_ms and c.n.get("rs232 ok", 0) > 0
           and end_fds <= baseline_fds + 2 and c.n.get("unexpected write accepted", 0) == 0
-          and not any(k.startswith("sdo timeout") for k in c.n))
+          and not any(k.startswith("sdo timeout") for k in c.n) and ecat_ok)
     lines = [
         f"Soak of {args.seconds:.0f} s ({time.strftime('%Y-%m-%d', time.gmtime())}, {os.cpu_count()} CPUs): "
         f"{'PASS' if ok else 'FAIL'}",
@@ -347,10 +542,24 @@ modbus_timeout_ms = 0
         f"(bound on p99: {args.max_late_ms} ms)",
         "- client counts: " + ", ".join(f"{k} {v}" for k, v in sorted(c.n.items())),
     ]
+    if ecat_figures is None:
+        lines.append("- EtherCAT: no drive (--ethercat off)" if args.ethercat == "off" else
+                     "- EtherCAT: no drive (the machine does not allow a veth pair and pysoem here)")
+    else:
+        e = ecat_figures
+        lines.append(
+            f"- EtherCAT (CMMP-AS, CSP PDOs every {args.ecat_cycle_ms} ms, pysoem): {e.get('cycles', 0)} cycles, "
+            f"{e.get('lost', 0)} frames lost at the master and {e.get('twin_tx_lost', 0)} at the twin's send queue "
+            f"(bound {args.max_lost_permille}‰ of the cycles), {e.get('wrong_wkc', 0)} wrong working counters "
+            f"({e.get('left_op', 0)} times out of Op), CoE reads {e.get('sdo_ok', 0)} ok / {e.get('sdo_failed', 0)} failed, "
+            f"answered at the end: {e.get('answered_at_end')}" + (f"; error: {e['error']}" if e.get("error") else ""))
     text = "\n".join(lines)
     print(text)
     if args.report:
-        args.report.write_text("# Soak report\n\n" + text + "\n")
+        args.report.write_text(
+            "# Soak report\n\nWritten by `scripts/soak "
+            f"{args.seconds:.0f} --report` (scripts/soak.py: the cell, the clients and the bounds are "
+            "described there).\n\n" + text + "\n")
     return 0 if ok else 1
 
 

@@ -1,6 +1,10 @@
 //! FHPP telegrams (8 or 16 bytes: control bytes and the parameter channel with its file
 //! transfer) into a CMMO-ST, each held for some 1 ms cycles, open or closed loop: no panic,
 //! the 16-byte input image starts with the 8-byte one.
+//!
+//! Speed (about 10^3 executions/s before): the dictionary with its defaults is built once and
+//! copied for every input, and an input runs at most [`MAX_CYCLES`] cycles (a telegram held
+//! 1…16 of them as before; a longer input stops there).
 #![no_main]
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
@@ -8,10 +12,23 @@ use drive::stepper::StepperMode;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
 use od::{Instant, ObjectDictionary};
+use std::sync::OnceLock;
+
+/// At most this many 1 ms cycles per input.
+const MAX_CYCLES: u64 = 256;
+
+/// The CMMO-ST's dictionary with its defaults, built once.
+fn dictionary() -> Option<ObjectDictionary<Vec<u8>>> {
+    static OD: OnceLock<Option<ObjectDictionary<Vec<u8>>>> = OnceLock::new();
+    OD.get_or_init(|| {
+        let desc = &devices::CMMO_ST;
+        ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).ok()
+    })
+    .clone()
+}
 
 fn run(u: &mut Unstructured) -> Result<()> {
-    let desc = &devices::CMMO_ST;
-    let Ok(od) = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]) else {
+    let Some(od) = dictionary() else {
         return Ok(());
     };
     let mode = if u.arbitrary::<bool>()? {
@@ -27,7 +44,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         },
     );
     let mut t_ms = 0u64;
-    while !u.is_empty() {
+    while !u.is_empty() && t_ms < MAX_CYCLES {
         let len = if u.arbitrary::<bool>()? { 16 } else { 8 };
         let mut telegram = [0u8; 16];
         u.fill_buffer(&mut telegram[..len])?;

@@ -88,6 +88,8 @@ pub const MAX_MAIN: u8 = 96;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Reactions {
     codes: [u8; MAX_MAIN as usize + 1],
+    /// Each group's [`minimum`], taken from App. B once (a write clamps to it).
+    minimum: [u8; MAX_MAIN as usize + 1],
 }
 
 impl Default for Reactions {
@@ -97,13 +99,28 @@ impl Default for Reactions {
     /// the drive with the quick-stop ramp (5), except 17 following error, which follows
     /// 6510h:22 and is "no action" while that limit is 0 (cmmp-as-2 §5.7).
     fn default() -> Self {
-        let mut codes = [reaction::CONTROLLER_ENABLE_OFF; MAX_MAIN as usize + 1];
+        // One pass over App. B (a drive is built with these; a pass per group made building
+        // one take a millisecond): each group's fixed minimum (as [`minimum`]) and whether
+        // every message of it is a warning.
+        const GROUPS: usize = MAX_MAIN as usize + 1;
+        let mut fixed: [Option<u8>; GROUPS] = [None; GROUPS];
+        let mut warnings_only: [Option<bool>; GROUPS] = [None; GROUPS];
         for msg in messages() {
-            if let (Some(c), Some(min)) = (
-                codes.get_mut(usize::from(msg.number.main)),
-                minimum(msg.number.main),
-            ) {
-                *c = (*c).max(min);
+            let main = usize::from(msg.number.main);
+            if let Some(f) = fixed.get_mut(main) {
+                *f = Some(
+                    f.unwrap_or(reaction::NONE)
+                        .max(fixed_reaction(msg.reaction)),
+                );
+            }
+            if let Some(w) = warnings_only.get_mut(main) {
+                *w = Some(w.unwrap_or(true) && msg.reaction == Reaction::Warning);
+            }
+        }
+        let mut codes = [reaction::CONTROLLER_ENABLE_OFF; GROUPS];
+        for (main, (c, f)) in codes.iter_mut().zip(fixed).enumerate() {
+            if let (true, Some(f)) = (main != 0, f) {
+                *c = (*c).max(f);
             }
         }
         if let Some(c) = codes.get_mut(17) {
@@ -111,17 +128,24 @@ impl Default for Reactions {
         }
         // Decision: a group whose every message is "Warn" (66, 84) shows the warning reaction
         // (3) in 2100h, the reaction the message has.
-        for (main, c) in codes.iter_mut().enumerate() {
-            let mut group = messages().filter(|m| usize::from(m.number.main) == main);
-            if let Some(first) = group.next() {
-                if first.reaction == Reaction::Warning
-                    && group.all(|m| m.reaction == Reaction::Warning)
-                {
-                    *c = reaction::WARNING;
-                }
+        for (c, w) in codes.iter_mut().zip(warnings_only) {
+            if w == Some(true) {
+                *c = reaction::WARNING;
             }
         }
-        Reactions { codes }
+        Reactions {
+            codes,
+            minimum: fixed.map(|f| f.unwrap_or(reaction::NONE)),
+        }
+    }
+}
+
+/// The 2100h code of a message's fixed reaction (0 where it is configurable).
+fn fixed_reaction(r: Reaction) -> u8 {
+    match r {
+        Reaction::PsOff => reaction::OUTPUT_STAGE_OFF,
+        Reaction::QuickStop => reaction::CONTROLLER_ENABLE_OFF,
+        _ => reaction::NONE,
     }
 }
 
@@ -135,11 +159,7 @@ pub fn minimum(main: u8) -> Option<u8> {
     Some(
         messages()
             .filter(|m| m.number.main == main)
-            .map(|m| match m.reaction {
-                Reaction::PsOff => reaction::OUTPUT_STAGE_OFF,
-                Reaction::QuickStop => reaction::CONTROLLER_ENABLE_OFF,
-                _ => reaction::NONE,
-            })
+            .map(|m| fixed_reaction(m.reaction))
             .max()
             .unwrap_or(reaction::NONE),
     )
@@ -168,7 +188,13 @@ impl Reactions {
         if !matches!(code, 0 | 1 | 3 | 5 | 7 | 8) {
             return Err(ReactionError::Code);
         }
-        let min = minimum(main).ok_or(ReactionError::Number)?;
+        if main == 0 {
+            return Err(ReactionError::Number);
+        }
+        let min = *self
+            .minimum
+            .get(usize::from(main))
+            .ok_or(ReactionError::Number)?;
         let slot = self
             .codes
             .get_mut(usize::from(main))
@@ -207,4 +233,40 @@ pub fn decode_warning_code(code: u16) -> (Number, bool) {
 pub fn undervoltage_info(state: u16, dc_link_mv: u32) -> u32 {
     let digits = libm::round(f64::from(dc_link_mv) * 17.1 / 1000.0).min(f64::from(u16::MAX));
     (u32::from(state) << 16) | digits as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one-pass defaults are the per-group rule written out: at least controller enable
+    /// off and the group's fixed minimum, 17 "no action", a group of warnings only 3.
+    #[test]
+    fn default_reactions_follow_each_groups_messages() {
+        let r = Reactions::default();
+        for main in 1..=MAX_MAIN {
+            let mut group = messages().filter(|m| m.number.main == main).peekable();
+            let listed = group.peek().is_some();
+            let warnings_only = listed && group.all(|m| m.reaction == Reaction::Warning);
+            let want = if warnings_only {
+                reaction::WARNING
+            } else if main == 17 {
+                reaction::NONE
+            } else if listed {
+                reaction::CONTROLLER_ENABLE_OFF.max(minimum(main).unwrap_or(0))
+            } else {
+                reaction::CONTROLLER_ENABLE_OFF
+            };
+            assert_eq!(r.get(main), Some(want), "group {main}");
+            let mut w = r.clone();
+            assert_eq!(
+                w.set(main, 0),
+                Ok(minimum(main).unwrap()),
+                "group {main} clamps to its minimum"
+            );
+        }
+        let mut w = r.clone();
+        assert_eq!(w.set(0, 5), Err(ReactionError::Number));
+        assert_eq!(w.set(MAX_MAIN + 1, 5), Err(ReactionError::Number));
+    }
 }

@@ -51,7 +51,9 @@ pub struct StorageTooSmall {
 }
 
 /// The current values of one drive. `S` is the byte buffer: a `Vec<u8>` on a host, a
-/// `[u8; N]` on a microcontroller.
+/// `[u8; N]` on a microcontroller. A clone is a copy of the values (a fuzz target starts each
+/// input from a copy of one dictionary built with its defaults).
+#[derive(Clone)]
 pub struct ObjectDictionary<S> {
     desc: &'static DeviceDescription,
     node_id: u8,

@@ -143,6 +143,22 @@ impl ParamStore {
         od: &ObjectDictionary<S>,
         sub: u8,
     ) -> Result<(), StoreError> {
+        self.write_text(&self.save_text(od, sub))
+    }
+
+    /// Replaces the stored set with `text` as [`save_text`](Self::save_text) made it (the
+    /// slow part of a save, the file written and synced; it may run on a thread of its own).
+    pub fn write_text(&self, text: &str) -> Result<(), StoreError> {
+        write_atomically(&self.path, text.as_bytes())
+    }
+
+    /// The file [`save`](Self::save) writes: the dictionary's storable values now (1010h:`sub`,
+    /// merged with what is stored for the groups `sub` does not cover).
+    pub fn save_text<S: AsRef<[u8]> + AsMut<[u8]>>(
+        &self,
+        od: &ObjectDictionary<S>,
+        sub: u8,
+    ) -> String {
         let mut text =
             String::from("# drivetwin stored parameter set: IIII:SS=little-endian hex\n");
         let desc = od.description();
@@ -165,7 +181,7 @@ impl ParamStore {
         for (e, bytes) in od.storable_values(sub) {
             let _ = parameter_file::write_line(&mut text, e, bytes);
         }
-        write_atomically(&self.path, text.as_bytes())
+        text
     }
 }
 

@@ -39,24 +39,34 @@
 //!   layout is taken on Pre-Op → Safe-Op.
 //!
 //! * Stored parameters: with a state directory, 1010h "save" over CoE writes the drive's
-//!   file before the answer (as over CANopen) and the next start loads it.
+//!   file before the answer (as over CANopen) and the next start loads it. The file is written
+//!   on a thread of its own ([`SaveInFlight`]): the reply waits in the device until the file is
+//!   synced (0800 0020h if that failed) and the mailbox serves nothing else meanwhile, while the
+//!   ESC, hardware on a real slave, goes on answering every frame with its working counter.
+//!   Written on the loop thread, two fsyncs under load held the loop for tens of ms and the
+//!   master's frames of that time came back late or not at all (`tests/interop/test_kill9.py`
+//!   saw pysoem's 1010h write fail with a wrong working counter after ~18 ms).
 
 use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::Mutex;
+use std::thread::JoinHandle;
 use std::time::Duration;
 
 use drive::drive::DriveEvent;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
+use ethercat::esc::MAILBOX_MAX;
 use ethercat::sii::{self, SiiConfig};
 use ethercat::{AlHook, AlState, AlStatusCode, Esc, FrameOutcome, SyncMonitor};
 use od::pdo_rules::{check_map_entry, MapEntry};
-use od::{time::earliest, DeviceDescription, Instant, ObjectAccess};
+use od::{
+    time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
+};
 
 use crate::can::drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
-use crate::cell::param_store::{ParamStore, StoredValue};
+use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
 use crate::cell::poll_loop::OnBus;
 
 /// How often the drives run at least when no frame arrives.
@@ -141,6 +151,21 @@ pub struct SlaveDevice {
     pub outputs_ignored: u64,
     /// Mapped objects the device refused to take.
     pub write_errors: u64,
+    /// A 1010h "save" whose file is being written, with the reply that waits for it.
+    saving: Option<SaveInFlight>,
+}
+
+/// The thread writing a save's file; its result is the stored set read back.
+type SaveJob = JoinHandle<Result<Vec<StoredValue>, StoreError>>;
+
+/// A 1010h "save" over CoE in progress: the file is written and synced on a thread of its own
+/// (the stored set read back is its result); the CoE reply waits here until it is done.
+struct SaveInFlight {
+    job: SaveJob,
+    /// 1010h:`sub`, for the abort if the file cannot be written.
+    sub: u8,
+    /// The mailbox message the CoE server made; posted when the file is written.
+    reply: Vec<u8>,
 }
 
 /// The drive behind a slave.
@@ -242,7 +267,13 @@ impl SlaveDevice {
             outputs_applied: 0,
             outputs_ignored: 0,
             write_errors: 0,
+            saving: None,
         }
+    }
+
+    /// Whether a 1010h "save" is still writing its file (its CoE reply waits).
+    pub fn saving(&self) -> bool {
+        self.saving.is_some()
     }
 
     /// The personality the slave was built for.
@@ -519,8 +550,39 @@ impl Bound<'_> {
 
     /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h).
     fn mailbox(&mut self, esc: &mut Esc<'_>) {
-        let mut access = Persisting::new(self.model, self.store, self.stored);
-        coe::pump(esc, &mut self.dev.coe, &mut access);
+        if !self.finish_save(esc) {
+            return;
+        }
+        if self.shared_events.is_some() {
+            // A drive shared with CANopen saves as its CANopen side does (before the answer):
+            // one writer of its file.
+            let mut access = Persisting::new(self.model, self.store, self.stored);
+            coe::pump(esc, &mut self.dev.coe, &mut access);
+        } else {
+            let mut out = [0u8; MAILBOX_MAX];
+            let mut access = Deferring {
+                model: self.model,
+                store: self.store,
+                stored: self.stored,
+                started: None,
+            };
+            let n = coe::serve(esc, &mut self.dev.coe, &mut access, &mut out);
+            let started = access.started.take();
+            let reply = n.and_then(|n| out.get(..n)).unwrap_or(&[]);
+            match started {
+                Some((job, sub)) => {
+                    self.dev.saving = Some(SaveInFlight {
+                        job,
+                        sub,
+                        reply: reply.to_vec(),
+                    })
+                }
+                None if !reply.is_empty() => {
+                    let _ = esc.mailbox_write(reply);
+                }
+                None => {}
+            }
+        }
         // A request from another path than the SDO server (none today) is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
             let mut access = Persisting::new(self.model, self.store, self.stored);
@@ -528,6 +590,54 @@ impl Bound<'_> {
                 tracing::error!(error = %e, "storage request failed");
             }
         }
+    }
+
+    /// Posts the reply of a save whose file is written (or the abort 0800 0020h if it could
+    /// not be); whether the mailbox is free to serve the next message.
+    fn finish_save(&mut self, esc: &mut Esc<'_>) -> bool {
+        if !self
+            .dev
+            .saving
+            .as_ref()
+            .is_some_and(|s| s.job.is_finished())
+        {
+            return self.dev.saving.is_none();
+        }
+        let Some(SaveInFlight {
+            job,
+            sub,
+            mut reply,
+        }) = self.dev.saving.take()
+        else {
+            return true;
+        };
+        let node = self.model.od().node_id();
+        let failed = match job.join() {
+            Ok(Ok(stored)) => {
+                *self.stored = stored;
+                tracing::info!(node, "parameters saved");
+                None
+            }
+            Ok(Err(e)) => Some(e.to_string()),
+            Err(_) => Some("the writer thread panicked".to_owned()),
+        };
+        if let Some(error) = failed {
+            // CiA 301 / CMMP-AS: a store that failed is refused with 0800 0020h.
+            tracing::error!(node, error, "saving parameters failed");
+            reply.truncate(ethercat::mailbox::HEADER_LEN);
+            reply.resize(ethercat::mailbox::HEADER_LEN + 10, 0);
+            if let Some(p) = reply.get_mut(ethercat::mailbox::HEADER_LEN..) {
+                let _ = coe::abort::encode(p, 0x1010, sub, AbortCode::CANNOT_STORE);
+            }
+            if let Some(len) = reply.get_mut(..2) {
+                len.copy_from_slice(&10u16.to_le_bytes());
+            }
+        }
+        // A master that took the mailbox down (Init) meanwhile gets no reply.
+        if reply.len() > ethercat::mailbox::HEADER_LEN && esc.mailbox_running() {
+            let _ = esc.mailbox_write(&reply);
+        }
+        true
     }
 
     fn step(&mut self, now: Instant) {
@@ -874,6 +984,57 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
         store,
         stored,
     })
+}
+
+/// The dictionary as the CoE server sees it: as [`Persisting`], but a "save" with a file
+/// starts writing it on a thread of its own (`started`) instead of holding the loop; the
+/// caller holds the reply until it is done.
+struct Deferring<'a> {
+    model: &'a mut Model,
+    store: Option<&'a ParamStore>,
+    stored: &'a mut Vec<StoredValue>,
+    started: Option<(SaveJob, u8)>,
+}
+
+impl ObjectAccess for Deferring<'_> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.model.entry(index, sub)
+    }
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.model.read(index, sub, buf)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write(index, sub, data)?;
+        match (self.model.od_mut().take_request(), self.store) {
+            (Some(StorageRequest::Save { sub }), Some(store)) => {
+                // The values as they are now; the file is written after.
+                let text = store.save_text(self.model.od(), sub);
+                let store = store.clone();
+                let job = std::thread::Builder::new()
+                    .name("parameter-save".into())
+                    .spawn(move || {
+                        store.write_text(&text)?;
+                        store.load()
+                    })
+                    .map_err(|e| {
+                        tracing::error!(error = %e, "no thread to save the parameters");
+                        AbortCode::CANNOT_STORE
+                    })?;
+                self.started = Some((job, sub));
+            }
+            (Some(req), _) => Persisting::new(self.model, self.store, self.stored)
+                .carry_out(req)
+                .map_err(|e| {
+                    tracing::error!(error = %e, "saving parameters failed");
+                    AbortCode::CANNOT_STORE
+                })?,
+            (None, _) => {}
+        }
+        Ok(())
+    }
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write_internal(index, sub, data)
+    }
 }
 
 /// A copy of a frame for the trace, with the wall-clock time it was seen.

@@ -333,9 +333,7 @@ async fn disturb(
     let bus: usize = bus
         .parse()
         .map_err(|_| ApiError::bad(format!("bus {bus:?}: not a bus index (0, 1, …)")))?;
-    if !(1..=127).contains(&body.node) || !(1..=1000).contains(&body.frames) {
-        return Err(ApiError::bad("node 1…127 and frames 1…1000".to_owned()));
-    }
+    body.check()?;
     call(&s.handle, move |h| {
         h.disturb(bus, body.node, body.frames)?;
         bus_views(h)
@@ -617,25 +615,7 @@ async fn write_object(
         let info = find_drive(h, &drive)?;
         let desc = description(&info)?;
         let e = find_entry(desc, &index, &sub)?;
-        let bytes = match &body {
-            WriteBody::Raw(WriteRaw { raw }) => value_text::parse_hex(raw)
-                .ok_or_else(|| ApiError::bad(format!("raw {raw:?} is not hex")))?,
-            WriteBody::Value(WriteValue { value }) => {
-                let text = match value {
-                    serde_json::Value::String(t) => t.clone(),
-                    serde_json::Value::Number(n) => n.to_string(),
-                    serde_json::Value::Bool(b) => u8::from(*b).to_string(),
-                    other => {
-                        return Err(ApiError::bad(format!(
-                            "value {other}: a string or a number"
-                        )))
-                    }
-                };
-                value_text::encode(e.data_type, &text).map_err(|m| {
-                    ApiError::bad(format!("{:#06x}:{:02x} {}: {m}", e.index, e.sub, e.name))
-                })?
-            }
-        };
+        let bytes = body.bytes(e)?;
         h.write(info.index, e.index, e.sub, &bytes)?;
         let v = object_view(desc, e);
         Ok(if e.access.readable() {
@@ -785,17 +765,7 @@ async fn set_supply(
     body: Result<Json<SupplyBody>, JsonRejection>,
 ) -> ApiResult<PlantView> {
     let Json(body) = body?;
-    let millivolts = match body.volts {
-        None => None,
-        Some(v) if v.is_finite() && (0.0..=1000.0).contains(&v) => {
-            Some((v * 1000.0).round() as u32)
-        }
-        Some(v) => {
-            return Err(ApiError::bad(format!(
-                "volts {v}: a finite number of V within 0 … 1000 (or null: nominal)"
-            )))
-        }
-    };
+    let millivolts = body.millivolts()?;
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
         h.set_supply(info.index, millivolts)?;
@@ -817,12 +787,7 @@ async fn set_load(
     body: Result<Json<LoadBody>, JsonRejection>,
 ) -> ApiResult<PlantView> {
     let Json(body) = body?;
-    if !(body.torque_nm.is_finite() && body.torque_nm.abs() <= 1000.0) {
-        return Err(ApiError::bad(format!(
-            "torque_nm {}: a finite number of N·m within ±1000",
-            body.torque_nm
-        )));
-    }
+    body.check()?;
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
         h.set_load(info.index, body.torque_nm)?;
@@ -830,6 +795,78 @@ async fn set_load(
     })
     .await
     .map(Json)
+}
+
+// -------------------------------------------------------------------------- request bodies
+//
+// The checks of the request bodies that need no cell, shared by the handlers above and the
+// fuzz target `http_body` (which feeds any bytes to `parse_body` and then these).
+
+/// A body parsed as the `Json` extractor parses it (serde_json over the same `Deserialize`
+/// impls); a body that is not JSON of the right shape is a 400.
+pub fn parse_body<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
+    serde_json::from_slice(bytes).map_err(|e| ApiError::bad(e.to_string()))
+}
+
+impl DisturbBody {
+    pub fn check(&self) -> Result<(), ApiError> {
+        if !(1..=127).contains(&self.node) || !(1..=1000).contains(&self.frames) {
+            return Err(ApiError::bad("node 1…127 and frames 1…1000".to_owned()));
+        }
+        Ok(())
+    }
+}
+
+impl WriteBody {
+    /// The bytes to write to entry `e`.
+    pub fn bytes(&self, e: &Entry) -> Result<Vec<u8>, ApiError> {
+        Ok(match self {
+            WriteBody::Raw(WriteRaw { raw }) => value_text::parse_hex(raw)
+                .ok_or_else(|| ApiError::bad(format!("raw {raw:?} is not hex")))?,
+            WriteBody::Value(WriteValue { value }) => {
+                let text = match value {
+                    serde_json::Value::String(t) => t.clone(),
+                    serde_json::Value::Number(n) => n.to_string(),
+                    serde_json::Value::Bool(b) => u8::from(*b).to_string(),
+                    other => {
+                        return Err(ApiError::bad(format!(
+                            "value {other}: a string or a number"
+                        )))
+                    }
+                };
+                value_text::encode(e.data_type, &text).map_err(|m| {
+                    ApiError::bad(format!("{:#06x}:{:02x} {}: {m}", e.index, e.sub, e.name))
+                })?
+            }
+        })
+    }
+}
+
+impl SupplyBody {
+    /// The voltage in mV, `None`: the nominal one.
+    pub fn millivolts(&self) -> Result<Option<u32>, ApiError> {
+        match self.volts {
+            None => Ok(None),
+            Some(v) if v.is_finite() && (0.0..=1000.0).contains(&v) => {
+                Ok(Some((v * 1000.0).round() as u32))
+            }
+            Some(v) => Err(ApiError::bad(format!(
+                "volts {v}: a finite number of V within 0 … 1000 (or null: nominal)"
+            ))),
+        }
+    }
+}
+
+impl LoadBody {
+    pub fn check(&self) -> Result<(), ApiError> {
+        if !(self.torque_nm.is_finite() && self.torque_nm.abs() <= 1000.0) {
+            return Err(ApiError::bad(format!(
+                "torque_nm {}: a finite number of N·m within ±1000",
+                self.torque_nm
+            )));
+        }
+        Ok(())
+    }
 }
 
 // --------------------------------------------------------------------------------- openapi

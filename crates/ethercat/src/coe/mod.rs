@@ -314,21 +314,35 @@ pub fn pump<const N: usize>(
     coe: &mut CoeServer<N>,
     od: &mut dyn ObjectAccess,
 ) -> bool {
+    let mut out = [0u8; MAILBOX_MAX];
+    match serve(esc, coe, od, &mut out).and_then(|n| out.get(..n)) {
+        Some(msg) => esc.mailbox_write(msg).is_ok(),
+        None => false,
+    }
+}
+
+/// As [`pump`], but the message is left in `out` (its length returned) for the caller to post
+/// with [`Esc::mailbox_write`] when it is ready: a device that answers a request only once a
+/// slow action is done (1010h "save" writing its file) holds the reply meanwhile, and serves
+/// nothing else, while the ESC goes on answering frames.
+pub fn serve<const N: usize>(
+    esc: &mut Esc<'_>,
+    coe: &mut CoeServer<N>,
+    od: &mut dyn ObjectAccess,
+    out: &mut [u8; MAILBOX_MAX],
+) -> Option<usize> {
     if !esc.mailbox_running() {
         coe.reset();
-        return false;
+        return None;
     }
     if !esc.mailbox_write_ready() {
-        return false;
+        return None;
     }
     let size = esc
         .sync_manager(SM_MAILBOX_IN)
         .map_or(0, |s| usize::from(s.length))
         .min(MAILBOX_MAX);
-    let mut out = [0u8; MAILBOX_MAX];
-    let Some(out) = out.get_mut(..size) else {
-        return false;
-    };
+    let out = out.get_mut(..size)?;
     // A request first: a master that sends one has given up any fragmented reply.
     let mut req = [0u8; MAILBOX_MAX];
     let taken = esc.mailbox_read().map(|m| {
@@ -347,8 +361,5 @@ pub fn pump<const N: usize>(
         }
         None => coe.poll(out),
     };
-    match n.and_then(|n| out.get(..n)) {
-        Some(msg) => esc.mailbox_write(msg).is_ok(),
-        None => false,
-    }
+    n.filter(|&n| n <= out.len())
 }
