@@ -69,6 +69,10 @@ pub struct Axis {
     limited: bool,
     following_error: i64,
     steps: u64,
+    /// The encoder is a BLDC's Hall sensors alone (see [`Axis::set_hall_only`]).
+    hall_only: bool,
+    /// Hall only: the shaft stands on the edge of a standing set-point (no current).
+    edge_hold: bool,
 }
 
 impl Axis {
@@ -96,7 +100,17 @@ impl Axis {
             limited: false,
             following_error: 0,
             steps: 0,
+            hall_only: false,
+            edge_hold: false,
         }
+    }
+
+    /// The encoder is a BLDC's Hall sensors alone (Nanotec 2004h:07 = 1): one increment is
+    /// one Hall edge, and the position and velocity controllers hold a shaft they cannot see
+    /// inside an edge (see [`Axis::step`]).
+    pub fn set_hall_only(&mut self, hall_only: bool) {
+        self.hall_only = hall_only;
+        self.edge_hold = false;
     }
 
     /// Replaces the drive parameters (after an SDO write, say). Controller states are kept;
@@ -231,7 +245,11 @@ impl Axis {
                 if pos_run {
                     let mut e = increments.wrapping_sub(inc);
                     self.following_error = e;
-                    if e.unsigned_abs() < g.pos_window as u64 {
+                    // Decision: on Hall edges alone the drive cannot see inside an edge: an error
+                    // below one edge (0 edges) is none, and 60FBh:05 (encoder increments, a
+                    // fraction of an edge) widens nothing — a band of ±1 edge would leave the
+                    // shaft beside its target, outside 6067h.
+                    if e.unsigned_abs() < g.pos_window as u64 && !self.hall_only {
                         e = 0;
                     }
                     let e = e as f64;
@@ -245,11 +263,22 @@ impl Axis {
                     }
                     let w = v + finite(velocity_ff_rpm as f64) * RPM_TO_RAD_S;
                     self.speed_set = w.max(-g.max_speed).min(g.max_speed);
+                    // Decision: Hall only, the shaft on the edge of a standing set-point gets
+                    // no current (friction holds it there): any current would push it off an
+                    // edge the drive cannot see inside, and it would hunt by an edge or two.
+                    self.edge_hold = self.hall_only && e == 0.0 && w == 0.0;
                 }
-                if vel_run {
-                    self.vel_out =
-                        self.vel_pi
-                            .step(self.speed_set - self.speed, g.vel_kp, g.vel_ki, lim);
+                if self.edge_hold {
+                    self.vel_pi.reset();
+                    self.vel_out = 0.0;
+                } else if vel_run {
+                    // Decision: Hall only, the speed (one edge difference per cycle) is 0
+                    // between edges; an integral would wind up over the edge period and throw
+                    // the shaft through its target edge: the velocity controller is P only.
+                    let ki = if self.hall_only { 0.0 } else { g.vel_ki };
+                    self.vel_out = self
+                        .vel_pi
+                        .step(self.speed_set - self.speed, g.vel_kp, ki, lim);
                 }
                 self.vel_out
             }

@@ -165,6 +165,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.axis.motor_mut().set_angle(angle);
             self.place_hard_stops();
         }
+        // Hall only: the cascade holds on whole Hall edges (`Axis::set_hall_only`).
+        self.axis.set_hall_only(t == 1);
     }
 
     /// The actual speed, min⁻¹.
