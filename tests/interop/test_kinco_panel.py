@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 import time
 import urllib.request
 
@@ -107,6 +108,10 @@ def test_panel_ea00_3_reboots_the_drive(launch, node_of):
     for _ in range(3):
         text = key("up")
     assert text == "    3"
+    # Listen before the key: the boot-up may be on the bus before the HTTP answer is back
+    # (python-canopen's wait_for_bootup only sees one that comes after it is called).
+    booted = threading.Event()
+    node.nmt.add_heartbeat_callback(lambda state: state == 0 and booted.set())
     key("set")
-    node.nmt.wait_for_bootup(5.0)
+    assert booted.wait(5.0), "no boot-up message after EA00 = 3"
     assert node.sdo[0x2FF0][0x23].raw == 30, "the power-on value after the reboot"
