@@ -8,6 +8,7 @@
 //! controller (when due); current controller; motor for one cycle; I²t.
 
 use crate::control::{clamp, ControlParams, Gains, I2t, Pi};
+use crate::current_filters::FilterState;
 use crate::motor::{Motor, MotorData, RAD_S_TO_RPM, RPM_TO_RAD_S};
 
 /// A demand that is not a number counts as 0 (a NaN must not poison the plant state).
@@ -73,6 +74,8 @@ pub struct Axis {
     hall_only: bool,
     /// Hall only: the shaft stands on the edge of a standing set-point (no current).
     edge_hold: bool,
+    /// The current set-point's filters ([`crate::current_filters`]).
+    filter: FilterState,
 }
 
 impl Axis {
@@ -102,6 +105,7 @@ impl Axis {
             steps: 0,
             hall_only: false,
             edge_hold: false,
+            filter: FilterState::default(),
         }
     }
 
@@ -208,6 +212,7 @@ impl Axis {
             Demand::Off => {
                 self.cur_pi.reset();
                 self.vel_pi.reset();
+                self.filter.reset();
                 self.pos_int = 0.0;
                 self.speed_set = 0.0;
                 self.vel_out = 0.0;
@@ -235,6 +240,7 @@ impl Axis {
                     self.vel_out =
                         self.vel_pi
                             .step(self.speed_set - self.speed, g.vel_kp, g.vel_ki, lim);
+                    self.limit_integral(lim);
                 }
                 self.vel_out
             }
@@ -279,9 +285,16 @@ impl Axis {
                     self.vel_out = self
                         .vel_pi
                         .step(self.speed_set - self.speed, g.vel_kp, ki, lim);
+                    self.limit_integral(lim);
                 }
                 self.vel_out
             }
+        };
+        let g = &self.g;
+        let i_demand = if g.filters.is_pass_through() {
+            i_demand
+        } else {
+            self.filter.step(&g.filters, i_demand)
         };
 
         // Current set-point limit.
@@ -299,6 +312,15 @@ impl Axis {
         self.motor.step(g.dt, u);
         self.i2t.step(self.motor.current(), g);
         self.steps = self.steps.wrapping_add(1);
+    }
+
+    /// The velocity integrator within its own limit (Kinco Kvi_Sum_Limit), a share of the
+    /// current limit `lim`; the whole limit (the engine's default) changes nothing.
+    fn limit_integral(&mut self, lim: f64) {
+        let share = self.g.filters.integral_share;
+        if share < 1.0 {
+            self.vel_pi.integral = clamp(self.vel_pi.integral, lim * share);
+        }
     }
 
     // ---- actual values -------------------------------------------------------------------

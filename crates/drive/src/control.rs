@@ -27,6 +27,7 @@
 //! The integral actions are the usual `Kp/Tn` with the time constants of 60F6h:02, 60F9h:02
 //! and 60FBh:02 (0 = no integrator).
 
+use crate::current_filters::{CurrentFilterParams, CurrentFilters};
 use crate::motor::{MotorData, RPM_TO_RAD_S};
 
 /// Stored value of a controller gain: gain × 256, rounded (cmmp-as-2 §6: 1.5 → 384).
@@ -114,6 +115,9 @@ pub struct ControlParams {
     pub cycletime_velocity_us: u32,
     /// 6510h:B2 cycletime_position_controller, µs (500).
     pub cycletime_position_us: u32,
+    /// The current set-point's filters and the velocity integrator's limit (the Kinco's;
+    /// off for the others).
+    pub filters: CurrentFilterParams,
 }
 
 impl Default for ControlParams {
@@ -142,6 +146,7 @@ impl Default for ControlParams {
             cycletime_current_us: 125,
             cycletime_velocity_us: 250,
             cycletime_position_us: 500,
+            filters: CurrentFilterParams::default(),
         }
     }
 }
@@ -243,6 +248,8 @@ pub struct Gains {
     pub i_rated: f64,
     /// I²t: ∫(i² − I_rated²)dt that makes 100 % = (I_max² − I_rated²) × 6410h:03.
     pub i2t_full: f64,
+    /// The current set-point's filters, per current cycle.
+    pub filters: CurrentFilters,
 }
 
 /// √(3/2): DC-link voltage → largest equivalent winding voltage (see [`Gains::u_max`]).
@@ -311,6 +318,7 @@ impl Gains {
             },
             i_rated,
             i2t_full,
+            filters: CurrentFilters::new(&p.filters, dt),
         }
     }
 }

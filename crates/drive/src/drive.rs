@@ -1800,6 +1800,7 @@ pub fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) ->
         cycletime_current_us: u(0x6510, 0xB0, d.cycletime_current_us.into()) as u32,
         cycletime_velocity_us: u(0x6510, 0xB1, d.cycletime_velocity_us.into()) as u32,
         cycletime_position_us: u(0x6510, 0xB2, d.cycletime_position_us.into()) as u32,
+        filters: d.filters,
     }
 }
 

@@ -9,6 +9,7 @@ mod bit_word;
 pub mod bldc;
 pub mod control;
 pub mod controlword;
+pub mod current_filters;
 pub mod device_control;
 pub mod digital_inputs;
 pub mod display;

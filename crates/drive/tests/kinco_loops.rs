@@ -153,3 +153,78 @@ fn stiffness_sets_the_loop_from_the_table() {
     let want = 1000.0 / 3334.0;
     assert!((e20 / e12 / want - 1.0).abs() < 0.1, "{e20} / {e12}");
 }
+
+/// Kvi_Sum_Limit 60F9h:08 bounds the velocity integrator (of 2¹⁵ = the current limit): at the
+/// default the integral carries a load torque and the speed error goes; limited to 0 it
+/// carries nothing and the error stays as without Kvi.
+#[test]
+fn kvi_sum_limit_bounds_the_integral() {
+    let error = |limit: i64| {
+        let mut r = Rig::new();
+        sdo_write(&mut r, 0x2FF0, 0x19, 320, 2);
+        sdo_write(&mut r, 0x60F9, 0x08, limit, 2);
+        r.enable_in(-3);
+        r.w32(0x60FF, 0, dec_rpm(300.0));
+        r.d.axis_mut().motor_mut().set_load_torque(0.3);
+        r.run_ms(1000);
+        (r.rpm() - 300.0).abs()
+    };
+    let (free, none) = (error(32768), error(0));
+    assert!(free < 2.0, "Kvi_Sum_Limit 2^15: {free} rpm off");
+    assert!(none > 20.0, "Kvi_Sum_Limit 0: {none} rpm off");
+}
+
+/// Output_Filter_N 60F9h:15 low-passes the current set-point (f = −ln(1 − 1/N) / (2π ·
+/// 62.5 µs): 20 Hz at N = 127), so a speed step rises later than unfiltered (N = 1).
+#[test]
+fn output_filter_slows_the_current_set_point() {
+    let rise = |n: i64| {
+        let mut r = Rig::new();
+        sdo_write(&mut r, 0x60F9, 0x15, n, 1);
+        rise_ms(&mut r)
+    };
+    let (plain, filtered) = (rise(1), rise(127));
+    assert!(
+        filtered >= plain + 3,
+        "N = 1: {plain} ms, N = 127: {filtered} ms"
+    );
+}
+
+/// The notch (Notch_On 60F9h:04 = 1, Notch_N 60F9h:03: 10 · N + 100 Hz) takes its frequency
+/// out of the current set-point: against a 100 Hz load torque the velocity loop answers with
+/// a 100 Hz current; with the notch on at 100 Hz (N = 0) that current is mostly gone, and a
+/// notch at 1000 Hz (N = 90) leaves it as it was.
+#[test]
+fn the_notch_takes_its_frequency_out_of_the_current() {
+    let ripple = |on: bool, n: i64| {
+        let mut r = Rig::new();
+        sdo_write(&mut r, 0x60F9, 0x03, n, 1);
+        sdo_write(&mut r, 0x60F9, 0x04, i64::from(on), 1);
+        r.enable_in(-3);
+        r.w32(0x60FF, 0, dec_rpm(300.0));
+        r.run_ms(300);
+        let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+        // 100 Hz: ten load values a period, one per millisecond.
+        for k in 0..300 {
+            let t = f64::from(k) * 1e-3;
+            let load = 0.2 * libm::sin(2.0 * std::f64::consts::PI * 100.0 * t);
+            r.d.axis_mut().motor_mut().set_load_torque(load);
+            r.run_ms(1);
+            if k >= 100 {
+                let i = r.d.axis().current_demand_ma() as f32;
+                lo = lo.min(i);
+                hi = hi.max(i);
+            }
+        }
+        hi - lo
+    };
+    let (off, at_100, at_1000) = (ripple(false, 0), ripple(true, 0), ripple(true, 90));
+    assert!(
+        at_100 < 0.5 * off,
+        "off {off} mA, notch at 100 Hz {at_100} mA"
+    );
+    assert!(
+        (at_1000 - off).abs() < 0.15 * off,
+        "off {off} mA, notch at 1000 Hz {at_1000} mA"
+    );
+}

@@ -28,15 +28,18 @@
 //!   no clamp);
 //! - writing Stiffness 3040h:08 or Inertia_Ratio 3040h:0B sets Kpp[0], Velocity_BW and
 //!   Kvp[0] from the stiffness table's row at the ratio;
-//! - K_Acc_FF 2FF0h:1B / 60FBh:03, Kvi_Sum_Limit, the notch, output and speed feedback
-//!   filters (Speed_Fb_N, Speed_Mode) are stored only: the engine's cascade has no current
-//!   feed-forward input and no torque filters, and its speed filter (400 µs) stays;
-//!   Kcp / Kci stay the engine's current loop (`kinco_drive.rs`).
+//! - Speed_Fb_N 60F9h:05 sets the actual-speed filter (bandwidth 100 + 20·N Hz);
+//!   Output_Filter_N 60F9h:15, the notch (Notch_N 60F9h:03 at 10·N + 100 Hz while Notch_On
+//!   60F9h:04 = 1) and Kvi_Sum_Limit 60F9h:08 (the velocity integrator's limit, of 2¹⁵ = the
+//!   current limit) act on the current set-point (`current_filters.rs`);
+//! - K_Acc_FF 2FF0h:1B / 60FBh:03 and Speed_Mode are stored only: the engine's cascade has no
+//!   current feed-forward input; Kcp / Kci stay the engine's current loop (`kinco_drive.rs`).
 
 use od::{AbortCode, ObjectAccess as _};
 
 use super::kinco::STIFFNESS;
 use crate::control::ControlParams;
+use crate::current_filters::{kinco_notch_hz, kinco_speed_feedback_time_us, CurrentFilterParams};
 use crate::drive::Drive;
 use crate::motor::RPM_TO_RAD_S;
 
@@ -122,6 +125,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             velocity_control_time_us: integral_time_us(kvi_hz),
             position_control_gain: raw(position_gain(g.kpp), 100.0),
             position_control_v_max_rpm: base.max_motor_speed_rpm,
+            // Kinco ch. 7: Speed_Fb_N sets the actual-speed filter's bandwidth; the output
+            // filter, the notch and Kvi_Sum_Limit shape the current set-point.
+            velocity_control_filter_time_us: kinco_speed_feedback_time_us(
+                self.value(0x60F9, 0x05).clamp(0, 45) as u32,
+            ),
+            filters: CurrentFilterParams {
+                output_filter_n: self.value(0x60F9, 0x15).clamp(1, 127) as u16,
+                notch_hz: (self.value(0x60F9, 0x04) == 1)
+                    .then(|| kinco_notch_hz(self.value(0x60F9, 0x03).clamp(0, 127) as u32)),
+                velocity_integral_limit: self.value(0x60F9, 0x08).clamp(0, 32768) as u16,
+            },
             ..base
         }
     }
