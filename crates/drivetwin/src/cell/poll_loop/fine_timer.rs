@@ -3,7 +3,6 @@
 //! serial line at 115200 Bd, whose characters are 87 µs apart, paid for it. A timerfd armed
 //! for the exact wait wakes the loop on time; the rounded timeout stays as the fallback.
 
-use std::cell::Cell;
 use std::io;
 use std::os::fd::{AsRawFd, OwnedFd};
 use std::time::{Duration, Instant};
@@ -22,7 +21,7 @@ pub(super) struct FineTimer {
     /// that reprograms the CPU's timer, several microseconds on a VM: a loop answering
     /// requests one after another under the same deadline (a Modbus client between two
     /// cycles) arms it once, not once per request.
-    armed: Cell<Option<Instant>>,
+    armed: Option<Instant>,
 }
 
 impl FineTimer {
@@ -32,17 +31,14 @@ impl FineTimer {
             TimerfdFlags::NONBLOCK | TimerfdFlags::CLOEXEC,
         )?;
         registry.register(&mut SourceFd(&fd.as_raw_fd()), token, Interest::READABLE)?;
-        Ok(FineTimer {
-            fd,
-            armed: Cell::new(None),
-        })
+        Ok(FineTimer { fd, armed: None })
     }
 
     /// Wakes the loop at `deadline`, `wait` from now (replacing the last deadline). A zero
     /// wait needs no timer: the poll then does not sleep. The deadline it is already armed
     /// for is not armed again.
-    pub(super) fn arm(&self, deadline: Instant, wait: Duration) {
-        if wait.is_zero() || self.armed.get() == Some(deadline) {
+    pub(super) fn arm(&mut self, deadline: Instant, wait: Duration) {
+        if wait.is_zero() || self.armed == Some(deadline) {
             return;
         }
         let spec = Itimerspec {
@@ -56,18 +52,18 @@ impl FineTimer {
             },
         };
         match timerfd_settime(&self.fd, TimerfdTimerFlags::empty(), &spec) {
-            Ok(_) => self.armed.set(Some(deadline)),
+            Ok(_) => self.armed = Some(deadline),
             Err(e) => {
                 // The poll's rounded timeout still wakes the loop, a little late.
-                self.armed.set(None);
+                self.armed = None;
                 tracing::debug!(error = %e, "timerfd not armed");
             }
         }
     }
 
     /// After its event: takes the expirations so that the descriptor is quiet again.
-    pub(super) fn clear(&self) {
-        self.armed.set(None);
+    pub(super) fn clear(&mut self) {
+        self.armed = None;
         let mut expirations = [0u8; 8];
         let _ = rustix::io::read(&self.fd, &mut expirations);
     }
@@ -83,7 +79,7 @@ mod tests {
     #[test]
     fn a_sub_millisecond_wait_wakes_the_poll() {
         let mut poll = Poll::new().expect("poll");
-        let timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
         let mut events = Events::with_capacity(4);
         let mut best = Duration::MAX;
         // The best of several: a loaded machine delays a wake-up, never advances it.
@@ -110,12 +106,12 @@ mod tests {
     #[test]
     fn the_same_deadline_is_armed_once() {
         let mut poll = Poll::new().expect("poll");
-        let timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
         let mut events = Events::with_capacity(4);
         let wait = Duration::from_micros(500);
         let deadline = Instant::now() + wait;
         timer.arm(deadline, wait);
-        assert_eq!(timer.armed.get(), Some(deadline));
+        assert_eq!(timer.armed, Some(deadline));
         // Armed again for the same deadline with a shorter wait (time has passed): no change.
         timer.arm(deadline, Duration::from_micros(100));
         poll.poll(&mut events, Some(Duration::from_secs(1)))
@@ -126,9 +122,9 @@ mod tests {
             "it fired at the first arming's time"
         );
         timer.clear();
-        assert_eq!(timer.armed.get(), None);
+        assert_eq!(timer.armed, None);
         let later = Instant::now() + wait;
         timer.arm(later, wait);
-        assert_eq!(timer.armed.get(), Some(later));
+        assert_eq!(timer.armed, Some(later));
     }
 }

@@ -502,7 +502,7 @@ impl CellLoop {
             } else {
                 let deadline = self.deadline();
                 let wait = deadline.map(|d| d.saturating_duration_since(Instant::now()));
-                if let (Some(d), Some(w), Some(timer)) = (deadline, wait, &self.timer) {
+                if let (Some(d), Some(w), Some(timer)) = (deadline, wait, &mut self.timer) {
                     timer.arm(d, w);
                 }
                 wait
@@ -520,7 +520,7 @@ impl CellLoop {
                 match event.token() {
                     WAKER => {}
                     TIMER => {
-                        if let Some(timer) = &self.timer {
+                        if let Some(timer) = &mut self.timer {
                             timer.clear();
                         }
                     }
