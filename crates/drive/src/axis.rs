@@ -120,6 +120,9 @@ impl Axis {
     /// Replaces the drive parameters (after an SDO write, say). Controller states are kept;
     /// the loop phases restart at the next call.
     pub fn set_params(&mut self, params: ControlParams) {
+        if params.filters != self.params.filters {
+            self.filter.settle_at(self.current_set);
+        }
         self.params = params;
         self.g = params.gains(self.motor.data().increments_per_rev);
         self.vel_due = self.vel_due.min(self.g.vel_every - 1);

@@ -131,6 +131,18 @@ impl FilterState {
     pub fn reset(&mut self) {
         *self = FilterState::default();
     }
+
+    /// Settled at set-point `x`: filters switched on while a current flows start from it
+    /// instead of from zero (the notch passes a steady value unchanged).
+    pub fn settle_at(&mut self, x: f64) {
+        *self = FilterState {
+            output: x,
+            x1: x,
+            x2: x,
+            y1: x,
+            y2: x,
+        };
+    }
 }
 
 /// The Kinco's Notch_N → centre frequency: `F = Notch_N × 10 + 100` Hz (Tab. 7-5).
@@ -203,6 +215,22 @@ mod tests {
         let fc = -libm::log(0.5) / (2.0 * PI * 62.5e-6);
         let g = gain(&f, fc, 62.5e-6);
         assert!((g - core::f64::consts::FRAC_1_SQRT_2).abs() < 0.08, "{g}");
+    }
+
+    /// Switched on while a current flows, the filters hold it instead of dropping to zero.
+    #[test]
+    fn filters_settled_at_a_current_keep_it() {
+        let p = CurrentFilterParams {
+            output_filter_n: 64,
+            notch_hz: Some(550),
+            ..CurrentFilterParams::default()
+        };
+        let f = CurrentFilters::new(&p, 125e-6);
+        let mut s = FilterState::default();
+        s.settle_at(1.5);
+        for _ in 0..100 {
+            assert!((s.step(&f, 1.5) - 1.5).abs() < 1e-9);
+        }
     }
 
     #[test]
