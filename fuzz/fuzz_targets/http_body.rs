@@ -10,6 +10,7 @@ use drivetwin::web::api::{
 use drivetwin::web::cmmo_st::{DeviceControlBody, SaveBody};
 use drivetwin::web::motion::{JogBody, MoveBody};
 use drivetwin::web::panel::KeyBody;
+use drivetwin::web::physics::{AmbientBody, EncoderBody, SwitchBody, ThermalBody};
 use drivetwin::web::wire::TraceBody;
 use libfuzzer_sys::fuzz_target;
 
@@ -25,7 +26,7 @@ fn run(data: &[u8]) {
     let [route, pick, body @ ..] = data else {
         return;
     };
-    match route % 13 {
+    match route % 16 {
         0 => refused(parse_body::<DisturbBody>(body).and_then(|b| b.check())),
         1 => {
             let entries: Vec<_> = devices::CMMP_AS.entries().collect();
@@ -39,10 +40,14 @@ fn run(data: &[u8]) {
         4 => refused(parse_body::<LoadBody>(body).and_then(|b| b.check())),
         5 => refused(parse_body::<JogBody>(body).map(drop)),
         6 => refused(parse_body::<MoveBody>(body).map(drop)),
-        7 => refused(parse_body::<SaveBody>(body).map(drop)),
+        7 => refused(parse_body::<SaveBody>(body).and_then(|b| b.enabled_by().map(drop))),
         8 => refused(parse_body::<DeviceControlBody>(body).map(drop)),
         9 => refused(parse_body::<KeyBody>(body).map(drop)),
         10 => refused(parse_body::<TraceBody>(body).map(drop)),
+        11 => refused(parse_body::<AmbientBody>(body).and_then(|b| b.check())),
+        12 => refused(parse_body::<ThermalBody>(body).and_then(|b| b.data().map(drop))),
+        13 => refused(parse_body::<EncoderBody>(body).and_then(|b| b.fault().map(drop))),
+        14 => refused(parse_body::<SwitchBody>(body).map(drop)),
         _ => {
             // A wire fault: parsed, then turned into the fault the cell would inject.
             if let Ok(spec) = parse_body::<FaultSpec>(body) {

@@ -165,6 +165,25 @@ pub struct SaveBody {
     pub enabled_by: String,
 }
 
+impl SaveBody {
+    /// The settings checked; PNU 128's value (the index of `enabled_by` in its list).
+    /// Shared with the fuzz target `http_body`.
+    pub fn enabled_by(&self) -> Result<usize, ApiError> {
+        self.settings
+            .check()
+            .map_err(|m| ApiError::new(StatusCode::BAD_REQUEST, m))?;
+        ENABLED_BY
+            .iter()
+            .position(|e| *e == self.enabled_by)
+            .ok_or_else(|| {
+                ApiError::new(
+                    StatusCode::BAD_REQUEST,
+                    format!("enabled_by {:?}: one of {ENABLED_BY:?}", self.enabled_by),
+                )
+            })
+    }
+}
+
 #[derive(Debug, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DeviceControlBody {
@@ -326,18 +345,7 @@ async fn save(
     body: Result<Json<SaveBody>, JsonRejection>,
 ) -> Result<Json<WebServerView>, ApiError> {
     let Json(body) = body?;
-    body.settings
-        .check()
-        .map_err(|m| ApiError::new(StatusCode::BAD_REQUEST, m))?;
-    let enabled_by = ENABLED_BY
-        .iter()
-        .position(|e| *e == body.enabled_by)
-        .ok_or_else(|| {
-            ApiError::new(
-                StatusCode::BAD_REQUEST,
-                format!("enabled_by {:?}: one of {ENABLED_BY:?}", body.enabled_by),
-            )
-        })?;
+    let enabled_by = body.enabled_by()?;
     call(&s, move |h| {
         let d = cmmo_st(h, &drive)?;
         if h.fhpp(d, FhppRequest::Status)?.authority != Authority::WebServer {

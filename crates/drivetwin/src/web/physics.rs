@@ -8,7 +8,9 @@ use axum::extract::{Path, State};
 use axum::routing::{get, put};
 use axum::{Json, Router};
 use drive::drive::named_switches::NamedSwitch;
+use drive::drive::plant_supervision;
 use drive::encoder_fault::EncoderFault;
+use drive::thermal::ThermalData;
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
@@ -86,6 +88,62 @@ pub struct SwitchBody {
     pub actuated: Option<bool>,
 }
 
+// The checks of the bodies that need no cell, shared by the handlers below and the fuzz target
+// `http_body` (after `super::api::parse_body`).
+
+impl AmbientBody {
+    pub fn check(&self) -> Result<(), ApiError> {
+        if !(self.celsius.is_finite() && (-50.0..=200.0).contains(&self.celsius)) {
+            return Err(ApiError::bad(format!(
+                "celsius {}: a finite number within −50 … 200",
+                self.celsius
+            )));
+        }
+        Ok(())
+    }
+}
+
+impl ThermalBody {
+    /// The figures given over the defaults; each within 0 … 10⁶.
+    pub fn data(&self) -> Result<ThermalData, ApiError> {
+        let fields = [
+            ("motor_rise_k", self.motor_rise_k),
+            ("motor_time_constant_s", self.motor_time_constant_s),
+            ("stage_rise_k", self.stage_rise_k),
+            ("stage_time_constant_s", self.stage_time_constant_s),
+        ];
+        for (name, v) in fields {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=1e6).contains(v))) {
+                return Err(ApiError::bad(format!("{name} {v}: within 0 … 10⁶")));
+            }
+        }
+        let d = ThermalData::default();
+        Ok(ThermalData {
+            motor_rise_k: self.motor_rise_k.unwrap_or(d.motor_rise_k),
+            motor_time_constant_s: self
+                .motor_time_constant_s
+                .unwrap_or(d.motor_time_constant_s),
+            stage_rise_k: self.stage_rise_k.unwrap_or(d.stage_rise_k),
+            stage_time_constant_s: self
+                .stage_time_constant_s
+                .unwrap_or(d.stage_time_constant_s),
+        })
+    }
+}
+
+impl EncoderBody {
+    /// The encoder state named (a noisy one 100 increments unless given).
+    pub fn fault(&self) -> Result<EncoderFault, ApiError> {
+        plant_supervision::encoder_fault(&self.fault, self.noise_increments.unwrap_or(100))
+            .ok_or_else(|| {
+                ApiError::bad(format!(
+                    "fault {:?}: one of connected, disconnected, noisy",
+                    self.fault
+                ))
+            })
+    }
+}
+
 async fn change(s: AppState, drive: String, change: PhysicsChange) -> ApiResult<PhysicsView> {
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
@@ -119,12 +177,7 @@ async fn set_ambient(
     body: Result<Json<AmbientBody>, JsonRejection>,
 ) -> ApiResult<PhysicsView> {
     let Json(body) = body?;
-    if !(body.celsius.is_finite() && (-50.0..=200.0).contains(&body.celsius)) {
-        return Err(ApiError::bad(format!(
-            "celsius {}: a finite number within −50 … 200",
-            body.celsius
-        )));
-    }
+    body.check()?;
     change(s, drive, PhysicsChange::Ambient(body.celsius)).await
 }
 
@@ -141,41 +194,8 @@ async fn set_thermal(
     body: Result<Json<ThermalBody>, JsonRejection>,
 ) -> ApiResult<PhysicsView> {
     let Json(body) = body?;
-    let fields = [
-        ("motor_rise_k", body.motor_rise_k),
-        ("motor_time_constant_s", body.motor_time_constant_s),
-        ("stage_rise_k", body.stage_rise_k),
-        ("stage_time_constant_s", body.stage_time_constant_s),
-    ];
-    for (name, v) in fields {
-        if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=1e6).contains(v))) {
-            return Err(ApiError::bad(format!("{name} {v}: within 0 … 10⁶")));
-        }
-    }
-    call(&s.handle, move |h| {
-        let info = find_drive(h, &drive)?;
-        let d = thermal_with(&body);
-        Ok(PhysicsView::from(
-            h.physics(info.index, PhysicsChange::Thermal(d))?,
-        ))
-    })
-    .await
-    .map(Json)
-}
-
-/// The figures of `body` over the defaults.
-pub fn thermal_with(body: &ThermalBody) -> drive::thermal::ThermalData {
-    let d = drive::thermal::ThermalData::default();
-    drive::thermal::ThermalData {
-        motor_rise_k: body.motor_rise_k.unwrap_or(d.motor_rise_k),
-        motor_time_constant_s: body
-            .motor_time_constant_s
-            .unwrap_or(d.motor_time_constant_s),
-        stage_rise_k: body.stage_rise_k.unwrap_or(d.stage_rise_k),
-        stage_time_constant_s: body
-            .stage_time_constant_s
-            .unwrap_or(d.stage_time_constant_s),
-    }
+    let data = body.data()?;
+    change(s, drive, PhysicsChange::Thermal(data)).await
 }
 
 /// Faults or repairs the encoder: `disconnected` (the reading stands still; CMMP-AS 08-0,
@@ -193,16 +213,7 @@ async fn set_encoder(
     body: Result<Json<EncoderBody>, JsonRejection>,
 ) -> ApiResult<PhysicsView> {
     let Json(body) = body?;
-    let fault = drive::drive::plant_supervision::encoder_fault(
-        &body.fault,
-        body.noise_increments.unwrap_or(100),
-    )
-    .ok_or_else(|| {
-        ApiError::bad(format!(
-            "fault {:?}: one of connected, disconnected, noisy",
-            body.fault
-        ))
-    })?;
+    let fault = body.fault()?;
     change(s, drive, PhysicsChange::Encoder(fault)).await
 }
 
