@@ -15,13 +15,29 @@ pub struct Number {
 
 impl Number {
     /// "08-2" or "8-2" (App. B.3 prints the main index without its leading zero).
+    ///
+    /// Over the bytes: every drive built parses App. B once ([`Reactions::default`]), and
+    /// `str` trimming and `u8::from_str` were most of building one.
     pub fn parse(text: &str) -> Option<Number> {
-        let (main, sub) = text.trim().split_once('-')?;
+        let text = text.as_bytes().trim_ascii();
+        let dash = text.iter().position(|&b| b == b'-')?;
+        let (main, sub) = (text.get(..dash)?, text.get(dash + 1..)?);
         Some(Number {
-            main: main.parse().ok()?,
-            sub: sub.parse().ok()?,
+            main: decimal(main)?,
+            sub: decimal(sub)?,
         })
     }
+}
+
+/// One to three decimal digits as a `u8`.
+fn decimal(digits: &[u8]) -> Option<u8> {
+    if digits.is_empty() {
+        return None;
+    }
+    digits.iter().try_fold(0u8, |n, &b| {
+        let d = b.checked_sub(b'0').filter(|d| *d <= 9)?;
+        n.checked_mul(10)?.checked_add(d)
+    })
 }
 
 /// One row of App. B.
@@ -238,6 +254,32 @@ pub fn undervoltage_info(state: u16, dc_link_mv: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The byte parse takes what "main-sub" through `str::parse::<u8>` took (no sign).
+        #[test]
+        fn number_parse_is_the_str_parse(text in "[ 0-9+-]{0,8}") {
+            let by_str = text.trim().split_once('-').and_then(|(m, s)| {
+                let plain = |t: &str| !t.starts_with('+');
+                Some(Number {
+                    main: m.parse().ok().filter(|_| plain(m))?,
+                    sub: s.parse().ok().filter(|_| plain(s))?,
+                })
+            });
+            prop_assert_eq!(Number::parse(&text), by_str);
+        }
+    }
+
+    #[test]
+    fn numbers_as_app_b_prints_them() {
+        assert_eq!(Number::parse("08-2"), Some(Number { main: 8, sub: 2 }));
+        assert_eq!(Number::parse(" 8-2 "), Some(Number { main: 8, sub: 2 }));
+        assert_eq!(Number::parse("255-0"), Some(Number { main: 255, sub: 0 }));
+        for bad in ["256-0", "8-", "-2", "8", "8-2-1", "a-1", ""] {
+            assert_eq!(Number::parse(bad), None, "{bad:?}");
+        }
+    }
 
     /// The one-pass defaults are the per-group rule written out: at least controller enable
     /// off and the group's fixed minimum, 17 "no action", a group of warnings only 3.

@@ -346,6 +346,7 @@ struct Pending {
 }
 
 /// The CMMO-ST: dictionary, FHPP state machine, record list, motion and stepper plant.
+#[derive(Clone)]
 pub struct FhppDevice<S> {
     od: ObjectDictionary<S>,
     settings: FhppSettings,

@@ -344,6 +344,7 @@ pub mod data_memory {
 /// The permanent memory (the "EEPROM") of the drive: one parameter file. Empty until the
 /// first save or download, which means the factory settings: the twin starts from the
 /// dictionary's defaults, so that is what its EEPROM holds at power-on.
+#[derive(Clone)]
 pub struct PermanentMemory {
     /// The stored file; empty until first needed, then the factory file.
     file: FileBuffer,

@@ -104,6 +104,7 @@ pub enum Phase {
 }
 
 /// The transfer state machine with its receive buffer.
+#[derive(Clone)]
 pub struct FileTransfer {
     phase: Phase,
     rx: FileBuffer,

@@ -169,7 +169,7 @@ pub fn execute<A: ObjectAccess + ?Sized>(
 
 /// The EFPC server state: the last request, the answer shown, the zero-request latch, the
 /// file transfer and the permanent memory it reads and writes.
-#[derive(Default)]
+#[derive(Default, Clone)]
 pub struct ParameterChannel {
     last: [u8; 8],
     response: [u8; 8],
