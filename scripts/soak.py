@@ -58,6 +58,15 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def tenths(samples: list, seconds: float) -> list:
+    """(time, resident KiB) of the samples nearest to each tenth of the run, so a report
+    shows whether memory levels off or keeps growing."""
+    if not samples:
+        return []
+    picked = [min(samples, key=lambda s: abs(s[0] - seconds * k / 10)) for k in range(1, 11)]
+    return [(t, kib) for t, kib, _ in picked]
+
+
 def rss_kib(pid: int) -> int:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):
@@ -536,6 +545,8 @@ ethercat = "{pair[0]}"
         f"- twin alive at the end: {alive}; every drive answered: {answers}",
         f"- resident memory after the warm-up: {warm[0][1] if warm else 0} KiB -> "
         f"{warm[-1][1] if warm else 0} KiB (growth {growth} KiB, bound {args.max_growth_kib} KiB)",
+        "- resident memory at each tenth of the run (s: KiB): " + ", ".join(
+            f"{t:.0f}: {kib}" for t, kib in tenths(samples, args.seconds)),
         f"- file descriptors: {baseline_fds} at the start, at most {peak_fds} under load, "
         f"{end_fds} after the clients left",
         f"- the cell loop's timers: {loop_line.removeprefix('cell loop: ') or 'no figures printed'} "
