@@ -103,6 +103,27 @@ fn record_move_uses_the_record_list() {
     assert!((i.actual2 + 18_000).abs() <= 180, "actual {}", i.actual2);
 }
 
+/// A record PNU written while the device runs: that record is read again at the next cycle
+/// (only that one: the others keep what the table held), and a start goes to the new target.
+#[test]
+fn a_record_written_while_running_is_read_again() {
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.home_here();
+    let other = b.dev.records().get(4).map(|r| r.target);
+    b.pnu_write_i32(404, 3, 9_000);
+    b.pnu_write_i32(406, 3, 20_000);
+    b.run(1);
+    let r3 = b.dev.records().get(3).copied();
+    assert_eq!(r3.map(|r| (r.target, r.velocity)), Some((9_000, 20_000)));
+    assert_eq!(b.dev.records().get(4).map(|r| r.target), other);
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
+    b.send(OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 3));
+    b.send(OutputData::record(ENABLED, Cpos::HALT, 3));
+    let i = b.until(5000, |i| i.spos.contains(Spos::MC));
+    assert!((i.actual2 - 9_000).abs() <= 180, "actual {}", i.actual2);
+}
+
 /// FHPP-ST-14, FHPP-ST-15, FHPP-ST-16, FHPP-ST-17 end to end: JOGP rising moves towards increasing
 /// actual values and keeps moving while the bit is held (level-controlled); JOGP falling stops
 /// the axis; JOGN moves back the same way and stops when it falls.

@@ -352,7 +352,9 @@ pub struct FhppDevice<S> {
     settings: FhppSettings,
     fhpp: Fhpp,
     records: RecordTable,
-    records_dirty: bool,
+    /// The records to read again from their PNUs at the next cycle (bit n − 1: record n): a
+    /// write to one record PNU reads that record, not the table.
+    records_dirty: u64,
     params: Params,
     params_dirty: bool,
     stepper: Stepper,
@@ -518,7 +520,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             settings,
             fhpp: Fhpp::default(),
             records: RecordTable::default(),
-            records_dirty: true,
+            records_dirty: ALL_RECORDS,
             params: Params::default(),
             params_dirty: true,
             stepper,
@@ -590,7 +592,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The dictionary for the device's own writes; parameters are re-read at the next cycle.
     pub fn od_mut(&mut self) -> &mut ObjectDictionary<S> {
         self.params_dirty = true;
-        self.records_dirty = true;
+        self.records_dirty = ALL_RECORDS;
         &mut self.od
     }
 
@@ -710,7 +712,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// parameter file of this device changes nothing and is refused.
     pub fn power_on_from_memory(&mut self, file: &[u8]) -> Result<(), FormatError> {
         self.fpc.memory_mut().power_on_from(&mut self.od, file)?;
-        self.records_dirty = true;
+        self.records_dirty = ALL_RECORDS;
         Ok(())
     }
 
@@ -1093,7 +1095,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         if self.params_dirty {
             self.refresh();
         }
-        if self.records_dirty {
+        if self.records_dirty != 0 {
             self.rebuild_records();
         }
         let mut events: heapless::Vec<Event, 24> = heapless::Vec::new();
@@ -1210,9 +1212,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     }
 
     fn rebuild_records(&mut self) {
-        self.records_dirty = false;
         let od = &self.od;
-        for n in 1u8..=64 {
+        let mut dirty = core::mem::take(&mut self.records_dirty);
+        while dirty != 0 {
+            let n = dirty.trailing_zeros() as u8 + 1;
+            dirty &= dirty - 1;
             let g = |pnu| get_i64(od, pnu, n);
             let Some(r) = self.records.get_mut(n) else {
                 continue;
@@ -1809,7 +1813,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         };
         let _ = self.od.set_value(pnu_index(pnu), sub, Value::Signed(value));
         self.params_dirty = true;
-        self.records_dirty = true;
+        if is_record_pnu(pnu_index(pnu)) {
+            self.records_dirty |= record_bit(sub);
+        }
         // A successful teach ends a 40h warning.
         self.clear_warning(diag::TEACH_FAILED);
     }
@@ -2370,6 +2376,17 @@ fn is_record_pnu(index: u16) -> bool {
     (pnu_index(401)..=pnu_index(442)).contains(&index)
 }
 
+/// Every record of the table (1…64) in [`FhppDevice::records_dirty`].
+const ALL_RECORDS: u64 = u64::MAX;
+
+/// Record `sub`'s bit in [`FhppDevice::records_dirty`] (none for a sub-index that is no
+/// record, 0 or above 64).
+fn record_bit(sub: u8) -> u64 {
+    sub.checked_sub(1)
+        .and_then(|n| 1u64.checked_shl(u32::from(n)))
+        .unwrap_or(0)
+}
+
 impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
     fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         self.od.entry(index, sub)
@@ -2407,7 +2424,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
                 .memory_mut()
                 .command(sub, &mut self.od)
                 .map_err(|_| AbortCode::CANNOT_STORE)?;
-            self.records_dirty |= reloaded;
+            if reloaded {
+                self.records_dirty = ALL_RECORDS;
+            }
         }
         Ok(())
     }
@@ -2424,7 +2443,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     fn after_write(&mut self, index: u16, sub: u8) {
         self.params_dirty = true;
         if is_record_pnu(index) {
-            self.records_dirty = true;
+            self.records_dirty |= record_bit(sub);
         }
         if index == pnu_index(204) && sub == 3 {
             // PNU 204:3 = 1 (the dictionary admits 1 only): clear the diagnostic memory.
