@@ -455,6 +455,32 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
 }
 
+/// Fuzz finding `ethercat_chain` crash-2ad63ffb: a master that sets a SYNC0 cycle of a few
+/// nanoseconds (in Pre-Op, where nothing checks it against 60C2h) made the chain due every few
+/// nanoseconds: 100 000 polls did not get the clock 0.5 ms further, and the runtime spun. Such
+/// a grid is served at most every `SYNC0_SERVICE_FLOOR`, its events counted in batches.
+#[test]
+fn sync0_cycle_of_nanoseconds_does_not_spin_the_loop_fuzz_ecat_2ad63ffb() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    let first = dc_sync0(&mut m, 3);
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time);
+    let end = m.now + std::time::Duration::from_millis(5);
+    let mut polls = 0u32;
+    while let Some(t) = m.cell.deadline().filter(|t| *t <= end) {
+        polls += 1;
+        assert!(polls <= 1_000, "{polls} polls, the deadline at {t:?}");
+        m.now = t.max(m.now);
+        m.cell.poll(m.now);
+    }
+    assert!(polls >= 5, "the events are still served: {polls} polls");
+    // The slave goes on answering and the drive stays where a SYNC0 grid in Pre-Op leaves it.
+    assert_eq!(m.al(), (0x0002, 0));
+    let drive = m.cell.model(0).unwrap().drive().unwrap();
+    assert!(drive.errors().is_empty(), "{:?}", drive.errors());
+}
+
 #[test]
 fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
     // The ESI of the CMMP-AS's CiA 402 EtherCAT interface is "…CIA402_IP7": IP mode with the

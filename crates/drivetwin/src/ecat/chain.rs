@@ -84,6 +84,15 @@ pub const SYNC_LOST_EMCY: u16 = drive::drive::diag::FIELDBUS_SYNC_ERROR;
 const SYNC_LOST_REGISTER: u8 = 0x11;
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
 const MAX_SYNC0_BURST: u64 = 16;
+/// A SYNC0 grid finer than this is served at most this often, its events counted in batches
+/// (the burst above). Decision: 0x09A0 takes any cycle and nothing checks it before Pre-Op →
+/// Safe-Op (0x0036 against 60C2h), where a real ESC would pulse that fast and the drive's PDI
+/// could not follow; served event by event, a grid of nanoseconds made the chain due every
+/// few nanoseconds and the runtime spin (fuzz finding, `ethercat_cell.rs`
+/// `sync0_cycle_of_nanoseconds_does_not_spin_the_loop_fuzz_ecat_2ad63ffb`). 50 µs lies below
+/// the drive's 250 µs controller cycle (6510h:B1): every grid it could follow is served event
+/// by event as before.
+pub const SYNC0_SERVICE_FLOOR: Duration = Duration::from_micros(50);
 
 #[derive(Debug, thiserror::Error)]
 pub enum EcatCellError {
@@ -500,10 +509,12 @@ impl Bound<'_> {
             }
             self.dev.next_sync0_sys = Some(at_sys.wrapping_add(events.wrapping_mul(cycle)));
         }
-        self.dev.next_sync0 = self
-            .dev
-            .next_sync0_sys
-            .map(|t| Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now))));
+        let floor =
+            (cycle < SYNC0_SERVICE_FLOOR.as_nanos() as u64).then(|| now + SYNC0_SERVICE_FLOOR);
+        self.dev.next_sync0 = self.dev.next_sync0_sys.map(|t| {
+            let at = Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now)));
+            floor.map_or(at, |f| at.max(f))
+        });
     }
 
     /// A SYNC for the drive (interpolated position mode's time base).
