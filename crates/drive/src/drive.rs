@@ -1479,6 +1479,32 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
+    /// Moves the velocity set-point towards `target` (increments/s), along the ramp
+    /// `(acceleration, deceleration)` where one is given, and makes it the cycle's demand. The
+    /// position set-point follows the actual position at the set-point's speed, so a quick
+    /// stop brakes from there.
+    pub(crate) fn command_velocity(&mut self, target: f64, ramp: Option<(f64, f64)>, dt: f64) {
+        self.velocity_set = match ramp {
+            Some((acc, dec)) => {
+                let mut t = Trajectory {
+                    position: 0.0,
+                    velocity: self.velocity_set,
+                };
+                t.step_velocity(target, acc, dec, dt);
+                t.velocity
+            }
+            None => target,
+        };
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: self.velocity_set,
+        };
+        self.demand_position = self.traj.position;
+        self.demand = Demand::Velocity {
+            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
+        };
+    }
+
     fn profile_velocity(&mut self, dt: f64) {
         let user = self
             .read(self.hot.target_velocity)
@@ -1493,31 +1519,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if ramps || self.halted {
             // 2090h: separate ramps for positive and negative speed (6083h/6084h write them).
             let positive = self.velocity_set >= 0.0 && target >= 0.0;
-            let (acc, dec) = if self.halted {
+            let ramp = if self.halted {
                 (self.accel(0x6084), self.accel(0x6084))
             } else if positive {
                 (self.accel2(0x2090, 2), self.accel2(0x2090, 3))
             } else {
                 (self.accel2(0x2090, 4), self.accel2(0x2090, 5))
             };
-            let mut t = Trajectory {
-                position: 0.0,
-                velocity: self.velocity_set,
-            };
-            t.step_velocity(target, acc, dec, dt);
-            self.velocity_set = t.velocity;
+            self.command_velocity(target, Some(ramp), dt);
         } else {
-            self.velocity_set = target;
+            self.command_velocity(target, None, dt);
         }
-        // The set-point keeps the ramp's speed, so a quick stop brakes from there.
-        self.traj = Trajectory {
-            position: self.actual_internal() as f64,
-            velocity: self.velocity_set,
-        };
-        self.demand_position = self.traj.position;
-        self.demand = Demand::Velocity {
-            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
-        };
         // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
         let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;

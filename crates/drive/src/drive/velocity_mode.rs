@@ -81,21 +81,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         let acc = self.vl_ramp(0x6048).unwrap_or(f64::INFINITY);
         let dec = self.vl_ramp(0x6049).unwrap_or(f64::INFINITY);
-        let mut t = Trajectory {
-            position: 0.0,
-            velocity: self.velocity_set,
-        };
-        t.step_velocity(target, acc, dec, dt);
-        self.velocity_set = t.velocity;
-        // The set-point keeps the ramp's speed, so a quick stop brakes from there.
-        self.traj = Trajectory {
-            position: self.actual_internal() as f64,
-            velocity: self.velocity_set,
-        };
-        self.demand_position = self.traj.position;
-        self.demand = Demand::Velocity {
-            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
-        };
+        self.command_velocity(target, Some((acc, dec)), dt);
         self.target_reached = self.velocity_set == target;
         self.publish_vl();
     }

@@ -364,15 +364,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             // Jog (§4, F006): Jog_RPM 2FF0h:23, "independent of other settings", the limit
             // switches not active.
             let rpm = f64::from(direction.signum()) * self.value(0x2FF0, 0x23) as f64;
-            self.velocity_set = rpm.clamp(-rpm_max, rpm_max) / RPM_PER_INCREMENT_S;
-            self.demand = Demand::Velocity {
-                rpm: (self.velocity_set * RPM_PER_INCREMENT_S) as f32,
-            };
-            self.traj = Trajectory {
-                position: self.actual_internal() as f64,
-                velocity: self.velocity_set,
-            };
-            self.demand_position = self.traj.position;
+            self.command_velocity(rpm.clamp(-rpm_max, rpm_max) / RPM_PER_INCREMENT_S, None, dt);
             return;
         }
         let mut rpm = match self.kinco_din_speed_rpm().or(self.kinco_analog_speed_rpm()) {
@@ -394,28 +386,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         let target = rpm / RPM_PER_INCREMENT_S;
         if ramped || self.halted {
-            let (acc, dec) = if self.halted {
+            let ramp = if self.halted {
                 (self.accel(0x6084), self.accel(0x6084))
             } else {
                 (self.accel(0x6083), self.accel(0x6084))
             };
-            let mut t = Trajectory {
-                position: 0.0,
-                velocity: self.velocity_set,
-            };
-            t.step_velocity(target, acc, dec, dt);
-            self.velocity_set = t.velocity;
+            self.command_velocity(target, Some(ramp), dt);
         } else {
-            self.velocity_set = target;
+            self.command_velocity(target, None, dt);
         }
-        self.traj = Trajectory {
-            position: self.actual_internal() as f64,
-            velocity: self.velocity_set,
-        };
-        self.demand_position = self.traj.position;
-        self.demand = Demand::Velocity {
-            rpm: (self.velocity_set * RPM_PER_INCREMENT_S) as f32,
-        };
         // Speed Reached (Tab. 5-3): |speed error| < Target_Speed_Window 60F9h:0A (DEC).
         let window = self.fg.velocity_magnitude_to_internal(
             self.value(0x60F9, 0x0A).clamp(0, u32::MAX as i64) as u32,
