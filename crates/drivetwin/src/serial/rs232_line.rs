@@ -179,63 +179,79 @@ mod tests {
             .collect()
     }
 
-    /// Feeds `bytes` written at `at` through the wire to the line; what the host reads by
-    /// `until`.
-    fn exchange(
-        line: &mut TelegramLine,
-        wire: &mut Wire,
-        drives: &mut Dictionaries,
-        at: Instant,
-        bytes: &[u8],
-        until: Instant,
-    ) -> Vec<u8> {
-        wire.receive(at, bytes);
-        let mut arrived = Vec::new();
-        wire.arrived(until, &mut |t, b| arrived.push((t, b)));
-        for (t, b) in arrived {
-            line.on_byte(t, b, drives, wire);
+    /// Kinco FD3s on one telegram line at `baud`: station `i + 1` on drive `i`, each port
+    /// echoing in a ring where `echo` says so.
+    struct Rig {
+        drives: Dictionaries,
+        wire: Wire,
+        line: TelegramLine,
+    }
+
+    impl Rig {
+        fn new(
+            baud: u32,
+            stations: u8,
+            echo: bool,
+            topology: Topology,
+            u2brg: Option<u64>,
+        ) -> Self {
+            let ports = (0..stations)
+                .map(|i| (on(usize::from(i)), KincoRs232::new(i + 1, echo)))
+                .collect();
+            Rig {
+                drives: Dictionaries::fd3(stations),
+                wire: Wire::new(baud),
+                line: TelegramLine::new(ports, topology, u2brg),
+            }
         }
-        wire.crossed(until);
-        let mut got = Vec::new();
-        wire.flush(&mut |b| {
-            got.extend_from_slice(b);
-            b.len()
-        });
-        got
+
+        /// Feeds `bytes` written at `at` through the wire to the line; what the host reads by
+        /// `until`.
+        fn exchange(&mut self, at: Instant, bytes: &[u8], until: Instant) -> Vec<u8> {
+            self.wire.receive(at, bytes);
+            let mut arrived = Vec::new();
+            self.wire.arrived(until, &mut |t, b| arrived.push((t, b)));
+            for (t, b) in arrived {
+                self.line.on_byte(t, b, &mut self.drives, &mut self.wire);
+            }
+            self.wire.crossed(until);
+            let mut got = Vec::new();
+            self.wire.flush(&mut |b| {
+                got.extend_from_slice(b);
+                b.len()
+            });
+            got
+        }
+    }
+
+    /// A telegram writing the 16-bit `value` to `index`:0 of `station`.
+    fn write16(station: u8, index: u16, value: u16) -> [u8; TELEGRAM_LEN] {
+        let [lo, hi] = value.to_le_bytes();
+        canopen::kinco_rs232::Request::Write {
+            index,
+            sub: 0,
+            data: [lo, hi, 0, 0],
+            len: 2,
+        }
+        .emit(station)
     }
 
     /// KINCO-232-01 / -05 through the line: the answer is read when its 10 bytes have crossed
     /// after the request's 10, 20 character times at 38400 bit/s (5.2 ms).
     #[test]
     fn kinco_232_01_answer_after_twenty_characters() {
-        let mut drives = Dictionaries::fd3(1);
-        let mut wire = Wire::new(38_400);
-        let mut line = TelegramLine::new(
-            vec![(on(0), KincoRs232::new(1, false))],
-            Topology::Ring,
-            Some(270),
-        );
+        let mut rig = Rig::new(38_400, 1, false, Topology::Ring, Some(270));
         let t = hex("01 2B 40 60 00 2F 00 00 00 05");
-        let early = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            Instant::ZERO,
-            &t,
-            Instant::from_nanos(5_208_000),
-        );
+        let early = rig.exchange(Instant::ZERO, &t, Instant::from_nanos(5_208_000));
         assert!(early.is_empty(), "{early:02X?}");
-        let got = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
+        let got = rig.exchange(
             Instant::from_nanos(5_208_000),
             &[],
             Instant::from_nanos(5_208_320),
         );
         assert_eq!(got, hex("01 60 40 60 00 00 00 00 00 FF"));
         assert_eq!(
-            drives.0.first().and_then(|d| d.get_unsigned(0x6040, 0)),
+            rig.drives.0.first().and_then(|d| d.get_unsigned(0x6040, 0)),
             Some(0x2F)
         );
     }
@@ -244,52 +260,22 @@ mod tests {
     /// get no answer; the next good telegram after a silence is answered.
     #[test]
     fn kinco_232_07_08_bad_input_then_a_good_telegram() {
-        let mut drives = Dictionaries::fd3(1);
-        let mut wire = Wire::new(115_200);
-        let mut line = TelegramLine::new(
-            vec![(on(0), KincoRs232::new(1, false))],
-            Topology::Ring,
-            None,
-        );
+        let mut rig = Rig::new(115_200, 1, false, Topology::Ring, None);
         let ms = Instant::from_millis;
-        let mut got = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
+        let mut got = rig.exchange(
             ms(0),
             &hex("01 2B 40 60 00 2F 00 00 00 06 02 2B 40 60 00 2F 00 00 00 04"),
             ms(10),
         );
-        got.extend(exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            ms(10),
-            &[0x01, 0x40, 0x41],
-            ms(11),
-        ));
+        got.extend(rig.exchange(ms(10), &[0x01, 0x40, 0x41], ms(11)));
         let noise: Vec<u8> = (0..=255u8).cycle().take(777).collect();
-        got.extend(exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            ms(100),
-            &noise,
-            ms(200),
-        ));
+        got.extend(rig.exchange(ms(100), &noise, ms(200)));
         assert!(got.len() <= 10 * 78, "noise may form telegrams, never more");
-        let c = line.counters();
+        let c = rig.line.counters();
         assert_eq!(c.other_station, 1);
         assert!(c.bad_checksum >= 1);
         assert!(c.partial >= 1);
-        let answer = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            ms(300),
-            &hex("01 40 41 60 00 00 00 00 00 1E"),
-            ms(310),
-        );
+        let answer = rig.exchange(ms(300), &hex("01 40 41 60 00 00 00 00 00 1E"), ms(310));
         assert_eq!(answer.get(..5), Some(&hex("01 4B 41 60 00")[..]));
     }
 
@@ -297,39 +283,17 @@ mod tests {
     /// of the drive addressed, whichever it is.
     #[test]
     fn kinco_232_09_two_drives_in_a_ring() {
-        let mut drives = Dictionaries::fd3(2);
-        let mut wire = Wire::new(38_400);
-        let mut line = TelegramLine::new(
-            vec![
-                (on(0), KincoRs232::new(1, true)),
-                (on(1), KincoRs232::new(2, true)),
-            ],
-            Topology::Ring,
-            None,
-        );
+        let mut rig = Rig::new(38_400, 2, true, Topology::Ring, None);
         let ms = Instant::from_millis;
         for (i, station) in [1u8, 2].into_iter().enumerate() {
-            let t = canopen::kinco_rs232::Request::Write {
-                index: 0x6040,
-                sub: 0,
-                data: [0x0F, 0, 0, 0],
-                len: 2,
-            }
-            .emit(station);
+            let t = write16(station, 0x6040, 0x0F);
             let start = ms(100 * i as u64);
-            let got = exchange(
-                &mut line,
-                &mut wire,
-                &mut drives,
-                start,
-                &t,
-                start + std::time::Duration::from_millis(50),
-            );
+            let got = rig.exchange(start, &t, start + std::time::Duration::from_millis(50));
             assert_eq!(got.len(), 20, "{got:02X?}");
             assert_eq!(got.get(..10), Some(&t[..]));
             assert_eq!(got.get(10..12), Some(&[station, 0x60][..]));
         }
-        for d in &drives.0 {
+        for d in &rig.drives.0 {
             assert_eq!(d.get_unsigned(0x6040, 0), Some(0x0F));
         }
         // A station no drive has: only the echo.
@@ -338,70 +302,37 @@ mod tests {
             sub: 0,
         }
         .emit(9);
-        let got = exchange(&mut line, &mut wire, &mut drives, ms(500), &t, ms(550));
+        let got = rig.exchange(ms(500), &t, ms(550));
         assert_eq!(got, t.to_vec());
     }
 
     /// RS485 with RS485_Protocol = 1: every drive hears the host, the one addressed answers.
     #[test]
     fn telegrams_on_an_rs485_bus() {
-        let mut drives = Dictionaries::fd3(2);
-        let mut wire = Wire::new(19_200);
-        let mut line = TelegramLine::new(
-            vec![
-                (on(0), KincoRs232::new(1, false)),
-                (on(1), KincoRs232::new(2, false)),
-            ],
-            Topology::Bus,
-            None,
-        );
-        let t = canopen::kinco_rs232::Request::Write {
-            index: 0x6040,
-            sub: 0,
-            data: [0x06, 0, 0, 0],
-            len: 2,
-        }
-        .emit(2);
-        let got = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            Instant::ZERO,
-            &t,
-            Instant::from_millis(50),
-        );
+        let mut rig = Rig::new(19_200, 2, false, Topology::Bus, None);
+        let t = write16(2, 0x6040, 0x06);
+        let got = rig.exchange(Instant::ZERO, &t, Instant::from_millis(50));
         assert_eq!(got.len(), 10);
         assert_eq!(got.get(..2), Some(&[2, 0x60][..]));
-        let cw: Vec<_> = drives.0.iter().map(|d| d.get_unsigned(0x6040, 0)).collect();
+        let cw: Vec<_> = rig
+            .drives
+            .0
+            .iter()
+            .map(|d| d.get_unsigned(0x6040, 0))
+            .collect();
         assert_eq!(cw, [Some(0), Some(6)]);
     }
 
     /// U2BRG (2FE1h) written over the line applies at once, after the answer.
     #[test]
     fn u2brg_applies_at_once() {
-        let mut drives = Dictionaries::fd3(1);
-        let mut wire = Wire::new(38_400);
-        let mut line = TelegramLine::new(
-            vec![(on(0), KincoRs232::new(1, false))],
-            Topology::Ring,
-            Some(270),
-        );
-        let t = canopen::kinco_rs232::Request::Write {
-            index: 0x2FE1,
-            sub: 0,
-            data: 90u32.to_le_bytes(),
-            len: 2,
-        }
-        .emit(1);
-        let got = exchange(
-            &mut line,
-            &mut wire,
-            &mut drives,
-            Instant::ZERO,
-            &t,
-            Instant::from_millis(20),
-        );
+        let mut rig = Rig::new(38_400, 1, false, Topology::Ring, Some(270));
+        let t = write16(1, 0x2FE1, 90);
+        let got = rig.exchange(Instant::ZERO, &t, Instant::from_millis(20));
         assert_eq!(got.get(1), Some(&0x60));
-        assert_eq!(wire.char_time(), crate::serial::wire::char_time(115_200));
+        assert_eq!(
+            rig.wire.char_time(),
+            crate::serial::wire::char_time(115_200)
+        );
     }
 }
