@@ -9,7 +9,9 @@ import canopen
 import pytest
 from pymodbus.client import ModbusTcpClient
 
-from conftest import CHANNEL, HOST, add_node, free_port, wait_until
+from conftest import CHANNEL, HOST, add_node, free_port, run_cli, wait_until
+from test_fhpp_modbus import (CCON_RECORD_ENABLED, CPOS_HALT, SCON_ENABLED, cycle_until, exchange,
+                              telegram)
 
 
 def _cell(path, bus_b: int, ci: int, modbus: int):
@@ -95,3 +97,35 @@ def test_an_interface_combination_the_device_lacks_is_refused(tmp_path):
     r = run_cli("run", "--config", str(cell), "--socketcand", f"{HOST}:{free_port()}")
     assert r.returncode != 0
     assert "§2.3" in r.stderr and "allow_unreal_interfaces" in r.stderr, r.stderr
+
+
+def test_two_cmmo_sts_each_on_its_own_modbus_address(launch, tmp_path):
+    """Two CMMO-STs in one cell, each on the address of its `modbus` key, are two drives: the
+    one enabled shows SCON.ENABLED, the other stays at its power-on bytes. `--modbus` gives one
+    address, so with two CMMO-STs it is refused as a usage error (exit 2)."""
+    ports = [free_port(), free_port()]
+    cell = tmp_path / "cell.toml"
+    cell.write_text("\n".join([
+        "[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
+        "[[drive]]", 'device = "cmmp-as"', "node = 1", "",
+        *(line for port in ports
+          for line in ("[[drive]]", 'device = "cmmo-st"', f'modbus = "{HOST}:{port}"', "")),
+    ]))
+    r = run_cli("run", "--config", str(cell), "--modbus", f"{HOST}:{free_port()}", timeout=20)
+    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
+    assert "several CMMO-STs" in r.stderr, r.stderr
+
+    twin = launch(config=cell)
+    for port in ports:
+        assert f"modbus server on {HOST}:{port}" in twin.stdout_lines, twin.stdout_lines
+    first, second = (ModbusTcpClient(HOST, port=p, timeout=3, retries=0) for p in ports)
+    try:
+        assert first.connect() and second.connect()
+        cycle_until(first, telegram(CCON_RECORD_ENABLED, CPOS_HALT),
+                    lambda s: s["scon"] & SCON_ENABLED, what="the first CMMO-ST enabled")
+        s = exchange(second, telegram(0, 0))
+        assert (s["scon"], s["spos"]) == (0x10, 0x04), s  # power-on (CMMO-ST Example 1)
+        assert exchange(first, telegram(CCON_RECORD_ENABLED, CPOS_HALT))["scon"] & SCON_ENABLED
+    finally:
+        first.close()
+        second.close()

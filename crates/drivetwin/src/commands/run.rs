@@ -625,18 +625,8 @@ fn cell_modbus_drives(
     specs: &[DriveSpec],
     args: &RunArgs,
 ) -> Result<Vec<ModbusDrive>, CommandError> {
-    use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
-    check_one_modbus_address(specs, args)?;
     let mut drives = Vec::new();
-    for spec in specs {
-        let Some(fhpp) = &spec.fhpp else {
-            continue;
-        };
-        let addr = args
-            .modbus
-            .as_deref()
-            .or(fhpp.modbus.as_deref())
-            .unwrap_or(DEFAULT_ADDR);
+    for (spec, fhpp, addr) in fhpp_addresses(specs, args)? {
         let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
         let listener =
             std::net::TcpListener::bind(addr).map_err(io(format!("Modbus listen on {addr}")))?;
@@ -653,15 +643,35 @@ fn cell_modbus_drives(
     Ok(drives)
 }
 
-fn check_one_modbus_address(specs: &[DriveSpec], args: &RunArgs) -> Result<(), CommandError> {
-    if args.modbus.is_some() && specs.iter().filter(|s| s.fhpp.is_some()).count() > 1 {
+/// The cell's CMMO-STs, each with the address its Modbus TCP server listens on: `--modbus`
+/// (allowed for one CMMO-ST only), else the drive's `modbus` key, else the default.
+fn fhpp_addresses<'a>(
+    specs: &'a [DriveSpec],
+    args: &'a RunArgs,
+) -> Result<Vec<(&'a DriveSpec, &'a FhppSpec, &'a str)>, CommandError> {
+    use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
+    let fhpp: Vec<_> = specs
+        .iter()
+        .filter_map(|spec| Some((spec, spec.fhpp.as_ref()?)))
+        .collect();
+    if args.modbus.is_some() && fhpp.len() > 1 {
         return Err(CommandError::Usage(
             "--modbus: the cell has several CMMO-STs; give each its `modbus` address in the \
              cell file"
                 .into(),
         ));
     }
-    Ok(())
+    Ok(fhpp
+        .into_iter()
+        .map(|(spec, fhpp)| {
+            let addr = args
+                .modbus
+                .as_deref()
+                .or(fhpp.modbus.as_deref())
+                .unwrap_or(DEFAULT_ADDR);
+            (spec, fhpp, addr)
+        })
+        .collect())
 }
 
 /// The cell's EtherCAT chains, one per network interface in order of first mention, each
@@ -824,18 +834,8 @@ async fn start_fhpp_drives(
     specs: &[DriveSpec],
     args: &RunArgs,
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
-    use drivetwin::modbus_tcp::server::DEFAULT_ADDR;
-    check_one_modbus_address(specs, args)?;
     let mut tasks = Vec::new();
-    for spec in specs {
-        let Some(fhpp) = &spec.fhpp else {
-            continue;
-        };
-        let addr = args
-            .modbus
-            .as_deref()
-            .or(fhpp.modbus.as_deref())
-            .unwrap_or(DEFAULT_ADDR);
+    for (spec, fhpp, addr) in fhpp_addresses(specs, args)? {
         let (listener, dev, options) = prepare_cmmo_st(spec, fhpp, addr, args).await?;
         tasks.push(tokio::spawn(fhpp_modbus::run_cmmo_st(
             listener,
