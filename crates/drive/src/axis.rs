@@ -70,12 +70,53 @@ pub struct Axis {
     limited: bool,
     following_error: i64,
     steps: u64,
-    /// The encoder is a BLDC's Hall sensors alone (see [`Axis::set_hall_only`]).
-    hall_only: bool,
+    /// What the controllers see of the shaft (see [`Axis::set_hall_only`]).
+    feedback: Feedback,
     /// Hall only: the shaft stands on the edge of a standing set-point (no current).
     edge_hold: bool,
     /// The current set-point's filters ([`crate::current_filters`]).
     filter: FilterState,
+}
+
+/// What the position and velocity controllers see of the shaft. On a BLDC's Hall sensors
+/// alone the drive cannot see inside an edge, and three rules of the cascade change: each a
+/// decision of ours, as the Nanotec manual names motor type 1 (2004h:07, "BLDC with Hall, no
+/// encoder") but not how its controllers run on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Feedback {
+    Encoder,
+    /// Nanotec 2004h:07 = 1: one increment is one Hall edge.
+    HallEdges,
+}
+
+impl Feedback {
+    /// The error the position controller acts on: none within the window 60FBh:05. On Hall
+    /// edges an error below one edge is already 0, and the window (encoder increments, a
+    /// fraction of an edge) widens nothing: a band of ±1 edge would leave the shaft beside
+    /// its target, outside 6067h.
+    fn position_error(self, e: i64, window: i64) -> i64 {
+        match self {
+            Feedback::Encoder if e.unsigned_abs() < window as u64 => 0,
+            _ => e,
+        }
+    }
+
+    /// On Hall edges, a shaft on the edge of a standing set-point gets no current (friction
+    /// holds it there): any current would push it off an edge the drive cannot see inside,
+    /// and it would hunt by an edge or two.
+    fn holds_without_current(self, error: f64, speed_set: f64) -> bool {
+        self == Feedback::HallEdges && error == 0.0 && speed_set == 0.0
+    }
+
+    /// The velocity controller's integral gain. On Hall edges the speed (one edge difference
+    /// per cycle) is 0 between edges; an integral would wind up over the edge period and
+    /// throw the shaft through its target edge: the controller is P only.
+    fn velocity_ki(self, ki: f64) -> f64 {
+        match self {
+            Feedback::Encoder => ki,
+            Feedback::HallEdges => 0.0,
+        }
+    }
 }
 
 impl Axis {
@@ -103,7 +144,7 @@ impl Axis {
             limited: false,
             following_error: 0,
             steps: 0,
-            hall_only: false,
+            feedback: Feedback::Encoder,
             edge_hold: false,
             filter: FilterState::default(),
         }
@@ -113,7 +154,11 @@ impl Axis {
     /// one Hall edge, and the position and velocity controllers hold a shaft they cannot see
     /// inside an edge (see [`Axis::step`]).
     pub fn set_hall_only(&mut self, hall_only: bool) {
-        self.hall_only = hall_only;
+        self.feedback = if hall_only {
+            Feedback::HallEdges
+        } else {
+            Feedback::Encoder
+        };
         self.edge_hold = false;
     }
 
@@ -252,16 +297,9 @@ impl Axis {
                 velocity_ff_rpm,
             } => {
                 if pos_run {
-                    let mut e = increments.wrapping_sub(inc);
+                    let e = increments.wrapping_sub(inc);
                     self.following_error = e;
-                    // Decision: on Hall edges alone the drive cannot see inside an edge: an error
-                    // below one edge (0 edges) is none, and 60FBh:05 (encoder increments, a
-                    // fraction of an edge) widens nothing — a band of ±1 edge would leave the
-                    // shaft beside its target, outside 6067h.
-                    if e.unsigned_abs() < g.pos_window as u64 && !self.hall_only {
-                        e = 0;
-                    }
-                    let e = e as f64;
+                    let e = self.feedback.position_error(e, g.pos_window) as f64;
                     let mut v = g.pos_kv * e + self.pos_int + g.pos_ki * e;
                     if v > g.pos_vmax {
                         v = g.pos_vmax;
@@ -272,19 +310,13 @@ impl Axis {
                     }
                     let w = v + finite(velocity_ff_rpm as f64) * RPM_TO_RAD_S;
                     self.speed_set = w.max(-g.max_speed).min(g.max_speed);
-                    // Decision: Hall only, the shaft on the edge of a standing set-point gets
-                    // no current (friction holds it there): any current would push it off an
-                    // edge the drive cannot see inside, and it would hunt by an edge or two.
-                    self.edge_hold = self.hall_only && e == 0.0 && w == 0.0;
+                    self.edge_hold = self.feedback.holds_without_current(e, w);
                 }
                 if self.edge_hold {
                     self.vel_pi.reset();
                     self.vel_out = 0.0;
                 } else if vel_run {
-                    // Decision: Hall only, the speed (one edge difference per cycle) is 0
-                    // between edges; an integral would wind up over the edge period and throw
-                    // the shaft through its target edge: the velocity controller is P only.
-                    let ki = if self.hall_only { 0.0 } else { g.vel_ki };
+                    let ki = self.feedback.velocity_ki(g.vel_ki);
                     self.vel_out = self
                         .vel_pi
                         .step(self.speed_set - self.speed, g.vel_kp, ki, lim);
