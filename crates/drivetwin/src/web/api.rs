@@ -694,8 +694,18 @@ impl From<&PlantSample> for PlantView {
     params(("drive" = u32, Path, description = "the drive's index in the cell")),
     responses((status = 200, body = PlantView), (status = 400, body = ApiError), (status = 404, body = ApiError)))]
 async fn get_plant(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<PlantView> {
+    plant_after(&s, drive, |_, _| Ok(())).await
+}
+
+/// The drive's plant after `act` on the drive (by its index): the answer of the plant routes.
+async fn plant_after(
+    s: &AppState,
+    drive: String,
+    act: impl FnOnce(&ControlHandle, usize) -> Result<(), ControlError> + Send + 'static,
+) -> ApiResult<PlantView> {
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
+        act(h, info.index)?;
         Ok(PlantView::from(&h.plant(info.index)?))
     })
     .await
@@ -724,13 +734,10 @@ async fn set_inputs(
     body: Result<Json<InputsBody>, JsonRejection>,
 ) -> ApiResult<PlantView> {
     let Json(body) = body?;
-    call(&s.handle, move |h| {
-        let info = find_drive(h, &drive)?;
-        h.set_inputs(info.index, body.mask, body.levels)?;
-        Ok(PlantView::from(&h.plant(info.index)?))
+    plant_after(&s, drive, move |h, i| {
+        h.set_inputs(i, body.mask, body.levels)
     })
     .await
-    .map(Json)
 }
 
 /// The load torque on the motor shaft.
@@ -766,13 +773,7 @@ async fn set_supply(
 ) -> ApiResult<PlantView> {
     let Json(body) = body?;
     let millivolts = body.millivolts()?;
-    call(&s.handle, move |h| {
-        let info = find_drive(h, &drive)?;
-        h.set_supply(info.index, millivolts)?;
-        Ok(PlantView::from(&h.plant(info.index)?))
-    })
-    .await
-    .map(Json)
+    plant_after(&s, drive, move |h, i| h.set_supply(i, millivolts)).await
 }
 
 /// Sets the load torque on the drive's motor shaft.
@@ -788,13 +789,7 @@ async fn set_load(
 ) -> ApiResult<PlantView> {
     let Json(body) = body?;
     body.check()?;
-    call(&s.handle, move |h| {
-        let info = find_drive(h, &drive)?;
-        h.set_load(info.index, body.torque_nm)?;
-        Ok(PlantView::from(&h.plant(info.index)?))
-    })
-    .await
-    .map(Json)
+    plant_after(&s, drive, move |h, i| h.set_load(i, body.torque_nm)).await
 }
 
 // -------------------------------------------------------------------------- request bodies
