@@ -115,6 +115,24 @@ pub struct PlantWatch {
 /// drive step 2 % of its time. The encoder is read every cycle while it is faulted.
 const THERMAL_PERIOD_S: f64 = 0.010;
 
+impl PlantWatch {
+    /// Adds one cycle of `dt` s at `load` ((I / I_rated)², [`thermal::load`]) and steps the
+    /// thermal model with the mean load once [`THERMAL_PERIOD_S`] has gathered, or at once
+    /// with `now`; true when it stepped, and the supervision is due.
+    pub(crate) fn heat(&mut self, dt: f64, load: f64, now: bool) -> bool {
+        self.pending.0 += dt;
+        self.pending.1 += load * dt;
+        if !now && self.pending.0 < THERMAL_PERIOD_S {
+            return false;
+        }
+        let (elapsed, load_dt) = core::mem::take(&mut self.pending);
+        if elapsed > 0.0 {
+            self.thermal.step(elapsed, load_dt / elapsed);
+        }
+        true
+    }
+}
+
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// The plant's temperatures and encoder.
     pub fn plant_watch(&self) -> &PlantWatch {
@@ -146,24 +164,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 self.axis.motor().data().rated_current,
             ),
         };
-        let w = &mut self.plant_watch;
-        w.pending.0 += dt;
-        w.pending.1 += thermal::load(current, rated) * dt;
-        let faulted = w.encoder.fault() != EncoderFault::Connected;
+        let faulted = self.plant_watch.encoder.fault() != EncoderFault::Connected;
         if faulted {
             // A connected encoder reads true (its error is 0 since it was connected).
             let shaft = self.shaft_position();
             self.plant_watch.encoder.update(shaft);
-        } else if self.plant_watch.pending.0 < THERMAL_PERIOD_S
-            && self.plant_watch.raised == 0
-            && self.plant_watch.shown.is_some()
-        {
-            return;
         }
         let w = &mut self.plant_watch;
-        let (elapsed, load_dt) = core::mem::take(&mut w.pending);
-        if elapsed > 0.0 {
-            w.thermal.step(elapsed, load_dt / elapsed);
+        // Every cycle while a condition is raised or the encoder faulted, and at the first.
+        let now = faulted || w.raised != 0 || w.shown.is_none();
+        if !w.heat(dt, thermal::load(current, rated), now) {
+            return;
         }
         self.show_temperatures();
         let (motor_limit, stage_limit) = self.temperature_limits();

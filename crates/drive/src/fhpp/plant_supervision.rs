@@ -59,7 +59,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let load = thermal::load(stepper.current_a(), stepper.data().rated_current);
         let shaft = stepper.encoder_increments();
         let w = &mut self.plant_watch;
-        w.thermal.step(dt, load);
+        w.heat(dt, load, true);
         w.encoder.update(shaft);
         let stage = w.thermal.stage_c();
         let shown = crate::rounding::round(stage).clamp(-128.0, 127.0) as i8;
