@@ -106,25 +106,16 @@ fn refused(e: DiagnosticError) -> ControlError {
     ControlError::Diagnostic(e)
 }
 
-/// Raises message `number` of a CiA 402 drive model.
-pub fn raise_model(
+/// Raises (or clears) message `number` of a CiA 402 drive model.
+pub fn set_model(
     model: &mut Model,
     number: &str,
+    action: Action,
 ) -> Result<&'static Diagnostic, DiagnosticError> {
-    match model.drive_mut() {
-        Some(d) => d.raise_diagnostic(number),
-        None => Err(DiagnosticError::Unknown),
-    }
-}
-
-/// Clears message `number` of a CiA 402 drive model.
-pub fn clear_model(
-    model: &mut Model,
-    number: &str,
-) -> Result<&'static Diagnostic, DiagnosticError> {
-    match model.drive_mut() {
-        Some(d) => d.clear_diagnostic(number),
-        None => Err(DiagnosticError::Unknown),
+    let d = model.drive_mut().ok_or(DiagnosticError::Unknown)?;
+    match action {
+        Action::Raise => d.raise_diagnostic(number),
+        Action::Clear => d.clear_diagnostic(number),
     }
 }
 
@@ -143,31 +134,21 @@ pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
         .collect()
 }
 
-/// Raises message `number` of the CMMO-ST.
-pub fn raise_fhpp(
+/// Raises (or clears) message `number` of the CMMO-ST.
+pub fn set_fhpp(
     dev: &mut FhppDevice<Vec<u8>>,
     number: &str,
+    action: Action,
 ) -> Result<&'static Diagnostic, DiagnosticError> {
     let row = dev
         .od()
         .description()
         .diagnostic(number)
         .ok_or(DiagnosticError::Unknown)?;
-    dev.raise_diagnostic(row.number)?;
-    Ok(row)
-}
-
-/// Clears message `number` of the CMMO-ST.
-pub fn clear_fhpp(
-    dev: &mut FhppDevice<Vec<u8>>,
-    number: &str,
-) -> Result<&'static Diagnostic, DiagnosticError> {
-    let row = dev
-        .od()
-        .description()
-        .diagnostic(number)
-        .ok_or(DiagnosticError::Unknown)?;
-    dev.clear_diagnostic(row.number)?;
+    match action {
+        Action::Raise => dev.raise_diagnostic(row.number).map(|_| ())?,
+        Action::Clear => dev.clear_diagnostic(row.number)?,
+    }
     Ok(row)
 }
 
@@ -200,7 +181,7 @@ impl Cell {
             .drives
             .get_mut(drive)
             .ok_or(ControlError::NoDrive(drive))?;
-        raise_model(&mut d.model, number).map_err(refused)
+        set_model(&mut d.model, number, Action::Raise).map_err(refused)
     }
 
     /// Clears message `number` raised by [`Cell::raise_diagnostic`]: its cause is gone; an
@@ -214,7 +195,7 @@ impl Cell {
             .drives
             .get_mut(drive)
             .ok_or(ControlError::NoDrive(drive))?;
-        clear_model(&mut d.model, number).map_err(refused)
+        set_model(&mut d.model, number, Action::Clear).map_err(refused)
     }
 
     /// Drive `drive`'s diagnostic table with what is active.

@@ -514,13 +514,11 @@ impl VirtualRig {
                 }
             }
             Action::Diagnostic { number, raise, .. } => {
-                let mut d = lock(&dev);
-                let done = if *raise {
-                    crate::cell::diagnostics::raise_fhpp(&mut d, number).map(|_| ())
-                } else {
-                    crate::cell::diagnostics::clear_fhpp(&mut d, number).map(|_| ())
-                };
-                done.map_err(|e| format!("{e:?}"))
+                use crate::cell::diagnostics::{set_fhpp, Action};
+                let action = if *raise { Action::Raise } else { Action::Clear };
+                set_fhpp(&mut lock(&dev), number, action)
+                    .map(|_| ())
+                    .map_err(|e| format!("{e:?}"))
             }
             Action::Physics { change, .. } => {
                 use crate::cell::control::PhysicsChange;

@@ -253,12 +253,10 @@ impl CellLoop {
         number: &str,
         action: crate::cell::diagnostics::Action,
     ) -> Result<&'static od::Diagnostic, ControlError> {
-        use crate::cell::diagnostics::{self as diag, Action};
-        match (self.target(drive)?, action) {
-            (Target::Can(model), Action::Raise) => diag::raise_model(model, number),
-            (Target::Can(model), Action::Clear) => diag::clear_model(model, number),
-            (Target::Modbus(dev), Action::Raise) => diag::raise_fhpp(&mut lock(&dev), number),
-            (Target::Modbus(dev), Action::Clear) => diag::clear_fhpp(&mut lock(&dev), number),
+        use crate::cell::diagnostics as diag;
+        match self.target(drive)? {
+            Target::Can(model) => diag::set_model(model, number, action),
+            Target::Modbus(dev) => diag::set_fhpp(&mut lock(&dev), number, action),
         }
         .map_err(ControlError::Diagnostic)
     }
