@@ -8,7 +8,7 @@
 //! - the torque command of mode 4 at Voltage_Torque_Factor 2FF0h:21 mNm/V when
 //!   Analog_Torque_Con 2502h:08 names it;
 //! - the maximum torque at Voltage_MaxT_Factor 2FF0h:22 mNm/V when Analog_MaxT_Con 2502h:09
-//!   names it ("Max torque [Nm] = Analog_out [V] × Analog_MaxT_Factor [Nm/V]", L1343).
+//!   names it ("Max torque \[Nm\] = Analog_out \[V\] × Analog_MaxT_Factor \[Nm/V\]", L1343).
 //!
 //! The twin has no analog connector: the voltages are simulated ([`Drive::set_analog_input`])
 //! and show in AN_V1 / AN_V2 2FF0h:16 / :17, the processed values in Analog1_out /

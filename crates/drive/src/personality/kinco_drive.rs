@@ -5,7 +5,7 @@
 //! 2FF0h:0E, the DIN-owned controlword and mode) and the velocity and torque modes −3, 3, 4.
 //!
 //! Units. The manual defines no internal units (spec §6 item 12); the sibling FD manuals
-//! give them [EXT] with the encoder resolution: velocities in DEC = rpm × 512 × resolution /
+//! give them \[EXT\] with the encoder resolution: velocities in DEC = rpm × 512 × resolution /
 //! 1875, accelerations in DEC = rps/s × 65536 × resolution / 4 000 000.
 //! Decision: the twin's Kinco has the 2500-line (10 000 increments per revolution) encoder
 //! of the Kinco AS motors (Encoder_Out_Res 2340h:0F = 10 000 by default): positions in those
@@ -355,7 +355,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// Modes 3 (ramped with Profile_Acc / Profile_Dec 6083h / 6084h) and −3 (no ramp, §5.2):
-    /// the speed Target_Speed 60FFh, or Din_Speed[x] (rpm) where a Din Vel Index function is
+    /// the speed Target_Speed 60FFh, or `Din_Speed[x]` (rpm) where a Din Vel Index function is
     /// on a DIN (§6.2.2), or the analog input Analog_Speed_Con names (§6.2.1); the Invert Direction DIN turns it round; Max_Speed_RPM 6080h
     /// limits it; a limit switch blocks its direction.
     pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {

@@ -12,7 +12,7 @@
 //!   on its rising edge; Activate Command drives bit 4; Quick Stop the quick-stop command;
 //!   the limit switches are normally closed (0 = that direction blocked); Pre Enable 0 refuses
 //!   the enable with "External enable"; Motor Error raises "Motor Temperature"; Din Vel Index
-//!   selects Din_Speed[x] in the velocity modes; Fast_Capture latches 6063h on the first edge.
+//!   selects `Din_Speed[x]` in the velocity modes; Fast_Capture latches 6063h on the first edge.
 //!
 //! Decisions:
 //! - the simulation objects are not printed in this part; the sibling FD manuals' Din_Simulate
@@ -170,7 +170,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// Din_Speed[x] in rpm where a Din Vel Index function is on an input (§6.2.2,
+    /// `Din_Speed[x]` in rpm where a Din Vel Index function is on an input (§6.2.2,
     /// KINCO-SC-03): x = Index0 + 2·Index1 + 4·Index2, an index no input has counts 0.
     pub(crate) fn kinco_din_speed_rpm(&self) -> Option<i32> {
         let internal = self.din_now();

@@ -4,10 +4,10 @@
 //! feed-forward, Velocity_BW, Stiffness or Inertia_Ratio does to the loop.
 //!
 //! The manual's rules:
-//! - Kpp[x] (60FBh:01, 2340h:06 / :09 / :0C) is the position-loop gain in 0.01 Hz
+//! - `Kpp[x]` (60FBh:01, 2340h:06 / :09 / :0C) is the position-loop gain in 0.01 Hz
 //!   ("Kpp = 100 × Pc_Loop_BW", the print's "103" read as 10², spec §6 item 7);
-//! - Kvp[x] (60F9h:01, 2340h:04 / :07 / :0A) "can be shown in Hz if the inertia ratio is
-//!   right"; "writing Velocity_BW 2FF0h:0A changes Kvp[0] by the inertia ratio"; Tab. 7-2
+//! - `Kvp[x]` (60F9h:01, 2340h:04 / :07 / :0A) "can be shown in Hz if the inertia ratio is
+//!   right"; "writing Velocity_BW 2FF0h:0A changes `Kvp[0]` by the inertia ratio"; Tab. 7-2
 //!   gives Kvp in 0.1 Hz per stiffness; "tn01 / tn02 take effect at once" (§4.3.2);
 //! - Kvi_Mix 2FF0h:19 = 32 × Kvi 60F9h:02 + Kvi/32 60F9h:07; a write of Kvi_Mix sets Kvi = 0
 //!   and Kvi/32 = the value (Tab. 7-3);
@@ -18,7 +18,7 @@
 //! - Kvp is the velocity-loop bandwidth in 0.1 Hz the loop would have with the rotor alone
 //!   (Jr_Motor 6410h:10): gain [A·s/rad] = 2π · Kvp / 10 · Jr / Kt. With a load the bandwidth
 //!   is Kvp / Inertia_Ratio Hz when the inertia ratio is right; Velocity_BW (Hz) writes
-//!   Kvp[0] = Velocity_BW × Inertia_Ratio, and Tab. 7-2's "Kvp" column is Kvp at ratio 1.0;
+//!   `Kvp[0]` = Velocity_BW × Inertia_Ratio, and Tab. 7-2's "Kvp" column is Kvp at ratio 1.0;
 //! - Kvi is the PI corner frequency in Hz, Kvi + Kvi/32 / 32 for set 0 (sets 1-3 have no
 //!   Kvi/32): integral time 1 / (2π · Kvi); 0 = no integral (Kvi Off forces that);
 //! - Kpp: gain [1/s] = 2π · Kpp / 100;
@@ -26,8 +26,8 @@
 //!   and Kpp are quantised to about 1 % at their defaults;
 //! - the position loop's output is not clamped below the top speed 6080h (the manual names
 //!   no clamp);
-//! - writing Stiffness 3040h:08 or Inertia_Ratio 3040h:0B sets Kpp[0], Velocity_BW and
-//!   Kvp[0] from the stiffness table's row at the ratio;
+//! - writing Stiffness 3040h:08 or Inertia_Ratio 3040h:0B sets `Kpp[0]`, Velocity_BW and
+//!   `Kvp[0]` from the stiffness table's row at the ratio;
 //! - Speed_Fb_N 60F9h:05 sets the actual-speed filter (bandwidth 100 + 20·N Hz);
 //!   Output_Filter_N 60F9h:15, the notch (Notch_N 60F9h:03 at 10·N + 100 Hz while Notch_On
 //!   60F9h:04 = 1) and Kvi_Sum_Limit 60F9h:08 (the velocity integrator's limit, of 2¹⁵ = the
@@ -76,7 +76,7 @@ pub fn integral_time_us(hz: f64) -> u16 {
     libm::round(1e6 / (2.0 * core::f64::consts::PI * hz)).clamp(1.0, 65535.0) as u16
 }
 
-/// Kvp[0] for a velocity bandwidth `bw_hz` at Inertia_Ratio `ratio` (0.1).
+/// `Kvp[0]` for a velocity bandwidth `bw_hz` at Inertia_Ratio `ratio` (0.1).
 pub fn kvp_of_bandwidth(bw_hz: i64, ratio: i64) -> i64 {
     (bw_hz * ratio).clamp(1, 32767)
 }
@@ -171,7 +171,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(())
     }
 
-    /// Velocity_BW 2FF0h:0A: Kvp[0] = Velocity_BW × Inertia_Ratio.
+    /// Velocity_BW 2FF0h:0A: `Kvp[0]` = Velocity_BW × Inertia_Ratio.
     pub(crate) fn kinco_write_velocity_bw(
         &mut self,
         index: u16,
@@ -197,7 +197,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         Ok(())
     }
 
-    /// Kpp[0], Velocity_BW and Kvp[0] from the row of Stiffness 3040h:08 at Inertia_Ratio.
+    /// `Kpp[0]`, Velocity_BW and `Kvp[0]` from the row of Stiffness 3040h:08 at Inertia_Ratio.
     pub(crate) fn kinco_apply_stiffness(&mut self) {
         let s = self.value(0x3040, 0x08);
         let Some(row) = usize::try_from(s).ok().and_then(|s| STIFFNESS.get(s)) else {
