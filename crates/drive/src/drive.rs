@@ -25,13 +25,20 @@ use crate::statusword::Statusword;
 use crate::trajectory::{Limits, Trajectory};
 use crate::travel::{Inputs, TravelSettings};
 
+mod brake;
 pub mod diagnostics;
+mod digital_io;
+mod faults;
 mod feed_constant;
 mod homing_run;
 pub mod named_switches;
 pub(crate) mod object_writes;
 mod plant;
 pub mod plant_supervision;
+mod position_modes;
+mod power_supervision;
+mod profile_torque;
+mod profile_velocity;
 mod publish;
 mod target_limits;
 mod velocity_mode;
@@ -742,98 +749,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.fg = if fg.validate().is_ok() { fg } else { d };
     }
 
-    /// Raises a fault from outside (fault injection, a test): EMCY, fault reaction (quick-stop
-    /// ramp), FAULT.
-    /// The cause stays until [`Drive::clear_fault`].
-    pub fn inject_fault(&mut self, code: u16, register: u8) {
-        if !self.causes.contains(&code) {
-            let _ = self.causes.push(code);
-        }
-        self.raise(code, register, false);
-    }
-
-    /// Removes an injected fault's cause; a fault reset then acknowledges the error.
-    pub fn clear_fault(&mut self, code: u16) {
-        if let Some(i) = self.causes.iter().position(|c| *c == code) {
-            self.causes.remove(i);
-        }
-        if let Some(m) = messages::by_code(code) {
-            self.end_warning(m.number);
-        }
-        self.clear_notice(code);
-    }
-
-    /// Reports the error `code` with the reaction the personality's error management gives
-    /// it (CMMP-AS: 2100h; Nanotec: the reaction table of §7.1); `critical` errors without a
-    /// reaction of their own switch the output stage off at once.
-    pub(crate) fn raise(&mut self, code: u16, register: u8, critical: bool) {
-        self.raise_with_info(code, register, critical, 0);
-    }
-
-    /// [`Drive::raise`] with the message's additional information for the diagnostic
-    /// memory.
-    pub(crate) fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
-        let reaction = match self.personality.vendor {
-            Vendor::CmmpAs => self.cmmp_error_reaction(code, critical, info),
-            Vendor::Nanotec => self.nanotec_error_reaction(code, critical),
-            Vendor::Kinco => self.kinco_error_reaction(code),
-        };
-        self.report_error(code, register, reaction);
-    }
-
-    /// Raises the personality's error for `fault`; `false` where the drive has none.
-    pub(crate) fn raise_fault(&mut self, fault: Fault) -> bool {
-        match self.personality.error(fault) {
-            Some(e) => {
-                self.raise(e.code, e.register, e.critical);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// The error's EMCY and the device control's fault reaction.
-    pub(crate) fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
-        match reaction {
-            ErrorReaction::Ignore => return,
-            ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
-                if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
-                    self.push_event(DriveEvent::Error { code, register });
-                }
-                if reaction == ErrorReaction::QuickStopNoFault {
-                    let r = self.dc.quick_stop();
-                    self.react(r);
-                }
-                return;
-            }
-            _ => {}
-        }
-        if !self.faults.contains(&code) {
-            let _ = self.faults.push(code);
-            self.push_event(DriveEvent::Error { code, register });
-        }
-        let r = match reaction {
-            ErrorReaction::OutputStageOff => self.dc.fault_immediate(),
-            ErrorReaction::BrakeMaxCurrent => {
-                // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
-                // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
-                // current limit caps.
-                self.limit_stop = true;
-                self.dc.fault()
-            }
-            _ => self.dc.fault(),
-        };
-        self.react(r);
-    }
-
-    /// A message-only error (EMCY without a fault) is over: the EMCY "error reset".
-    pub(crate) fn clear_notice(&mut self, code: u16) {
-        if let Some(i) = self.notices.iter().position(|c| *c == code) {
-            self.notices.remove(i);
-            self.push_event(DriveEvent::Cleared { code });
-        }
-    }
-
     /// The highest speed a profile may ask for, increments/s: 6080h max_motor_speed where
     /// the drive has it, else the controller's limit.
     pub(crate) fn max_motor_speed(&self) -> f64 {
@@ -842,84 +757,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             None => f64::from(self.axis.params().max_motor_speed_rpm),
         };
         rpm * 4096.0 * INC_S_PER_VEL
-    }
-
-    /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
-    /// "H" for safe standstill, else "A" while 6510h:C0 commissioning_state is 0.
-    pub fn display(&self) -> Display {
-        let error = self
-            .faults
-            .iter()
-            .find_map(|c| self.message_of(*c))
-            .map(|m| m.number);
-        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
-        let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
-        Display::select(error, warning, self.safe_standstill, commissioning)
-    }
-
-    /// The diagnostic memory, oldest entry first.
-    pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
-        self.memory.iter()
-    }
-
-    /// The supply: the DC-link voltage in mV (`None`: the nominal 6510h:33). It shows in
-    /// 6510h:34 and 6079h, limits the current controller's output voltage, and below
-    /// 6510h:36 with 6510h:37 = 1 it is error 02-0.
-    pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {
-        self.dc_link_mv = mv;
-        publish_supply(&mut self.od, mv);
-        self.params_dirty = true;
-    }
-
-    /// CMMP-AS 02-0 DC-link undervoltage (6510h:36 min_dc_link_circuit_voltage, 6510h:37
-    /// enable_dc_link_undervoltage_error); the cause stays while the voltage is low.
-    fn supervise_dc_link(&mut self) {
-        let Some(e) = self.personality.error(Fault::DcLinkUndervoltage) else {
-            return;
-        };
-        let enabled = self.value(0x6510, 0x37) == 1;
-        let min = self.value(0x6510, 0x36);
-        let low = self.dc_link_mv.filter(|mv| enabled && i64::from(*mv) < min);
-        if let Some(mv) = low {
-            if !self.causes.contains(&e.code) {
-                let _ = self.causes.push(e.code);
-            }
-            let info = messages::undervoltage_info(self.dc.state() as u16, mv);
-            self.raise_with_info(e.code, e.register, e.critical, info);
-        } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
-            if !self.injected_code(e.code) {
-                self.causes.remove(i);
-            }
-        }
-    }
-
-    /// CMMP-AS 31-0 I²t motor (§5.5, 6510h:38 iit_error_enable = 1): the motor I²t at 100 %
-    /// is an error, not only the limitation to the rated current; the cause stays until the
-    /// I²t has fallen below the release threshold.
-    fn supervise_i2t(&mut self) {
-        let over = self.value(0x6510, 0x38) == 1 && self.axis.i2t_limit_active();
-        if let Some(e) = self.personality.error(Fault::I2tMotor) {
-            self.cause(e.code, over, e.register);
-        }
-    }
-
-    /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
-    /// went lets the fault reset acknowledge the error.
-    pub(crate) fn cause(&mut self, code: u16, present: bool, register: u8) {
-        let at = self.causes.iter().position(|c| *c == code);
-        match (present, at) {
-            (true, None) => {
-                let _ = self.causes.push(code);
-                self.raise(code, register, false);
-            }
-            (true, Some(_)) => self.raise(code, register, false),
-            // A message raised by its number stays until it is cleared.
-            (false, Some(_)) if self.injected_code(code) => {}
-            (false, Some(i)) => {
-                self.causes.remove(i);
-            }
-            (false, None) => {}
-        }
     }
 
     /// The safety module (CAMC-G-S1) reports safe standstill or not: 2000h:01 bit 8 and
@@ -1108,83 +945,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// The personality's brake timing: CMMP-AS §5.16 one delay 6510h:18 (brake open at once,
-    /// the set-point after it; output stage off after it); Nanotec §5.8 2007h:01 power on →
-    /// brake off, :02 brake off → operational, :03 brake on → power off.
-    fn brake_delays(&self) -> BrakeDelays {
-        let ms = |i: u16, s: u8| Duration::from_millis(self.value(i, s).max(0) as u64);
-        match self.personality.vendor {
-            Vendor::CmmpAs => BrakeDelays {
-                release: Duration::ZERO,
-                motion: ms(0x6510, 0x18),
-                engage: ms(0x6510, 0x18),
-            },
-            Vendor::Nanotec => BrakeDelays {
-                release: ms(0x2007, 1),
-                motion: ms(0x2007, 1) + ms(0x2007, 2),
-                engage: ms(0x2007, 3),
-            },
-            // Kinco 6410h:12 Brake_Delay: "with a brake the drive keeps running until the
-            // brake is closed"; Decision: the set-point waits as long after the enable.
-            // Without a brake (6410h:17 bit 0 clear) nothing waits.
-            Vendor::Kinco if !self.settings.brake_fitted => BrakeDelays {
-                release: Duration::ZERO,
-                motion: Duration::ZERO,
-                engage: Duration::ZERO,
-            },
-            Vendor::Kinco => BrakeDelays {
-                release: Duration::ZERO,
-                motion: ms(0x6410, 0x12),
-                engage: ms(0x6410, 0x12),
-            },
-        }
-    }
-
-    /// A brake delay is running (Nanotec §5.8: mode changes wait for it).
-    pub(crate) fn brake_wait(&self) -> bool {
-        self.power_off_at.is_some() || self.release_at.is_some_and(|t| self.now < t)
-    }
-
-    pub(crate) fn power_off(&mut self) {
-        self.power_off_at = None;
-        self.demand = Demand::Off;
-        if self.settings.brake_fitted {
-            self.brake_engaged = true;
-            self.axis.hold_brake(true);
-        }
-    }
-
-    fn brake_timers(&mut self) {
-        if self.power_off_at.is_some_and(|t| self.now >= t) {
-            self.power_off();
-        }
-        if self.brake_release_at.is_some_and(|t| self.now >= t) {
-            self.brake_release_at = None;
-            self.brake_engaged = false;
-        }
-        // CMMP-AS §5.13/5.16: with 60FEh:02 bit 0 set the host works the brake through
-        // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
-        // output stage.
-        if self.settings.brake_fitted {
-            let manual = self.value(0x60FE, 2) & 1 != 0;
-            let engaged = if manual {
-                self.value(0x60FE, 1) & 1 != 0
-            } else {
-                self.brake_engaged
-            };
-            if self.axis.motor().brake() != engaged {
-                self.axis.hold_brake(engaged);
-            }
-            // Without host control 60FEh:01 bit 0 reads the brake's state ("depends on the
-            // state of the brake", L4203–4215).
-            let data = self.value(0x60FE, 1);
-            let shown = (data & !1) | i64::from(engaged);
-            if !manual && shown != data && self.personality.capabilities.brake_in_60fe {
-                self.store(self.param(0x60FE, 1), shown);
-            }
-        }
-    }
-
     pub(crate) fn actual_internal(&self) -> i64 {
         self.plant_position() + self.position_offset
     }
@@ -1339,283 +1099,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    /// No mode that moves: the set-point brakes with 6084h and stands.
-    pub(crate) fn hold(&mut self, dt: f64) {
-        let decel = self.accel(0x6084);
-        self.traj.step_stop(decel, dt);
-        self.position_demand(self.traj.velocity);
-    }
-
-    pub(crate) fn profile_position(&mut self, cw: Controlword, dt: f64) {
-        let bit4 = cw.contains(Controlword::NEW_SET_POINT)
-            || self.cw_rising.contains(Controlword::NEW_SET_POINT);
-        let demand = self.traj.position;
-        let fg = self.fg;
-        let max_speed = self.max_motor_speed();
-        let target_limits = self.personality.capabilities.pp_target_limits;
-        let abrupt_zero = self.personality.capabilities.zero_ramp_is_abrupt;
-        // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
-        // the set-point is taken; a refused one becomes a job that stays where it is.
-        let checked = (bit4 && target_limits).then(|| self.check_target(cw));
-        let get = |i: u16| self.value(i, 0);
-        // Read the set-point only while bit 4 is high (a rising edge may be taking it).
-        let req = bit4.then(|| {
-            let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-            let (user, relative) = match checked {
-                Some(Ok(absolute)) => (absolute, false),
-                Some(Err(_)) => (0, true),
-                None => (user, cw.contains(Controlword::RELATIVE)),
-            };
-            let target = fg.position_to_internal(user) as f64;
-            let vel = |i| {
-                fg.velocity_magnitude_to_internal(get(i).clamp(0, u32::MAX as i64) as u32) as f64
-                    * INC_S_PER_VEL
-            };
-            let acc = |i| match fg.acceleration_to_internal(get(i).clamp(0, u32::MAX as i64) as u32)
-            {
-                0 if abrupt_zero => ABRUPT_STOP,
-                a => a as f64 * INC_S2_PER_ACC,
-            };
-            Request {
-                target,
-                relative,
-                immediately: cw.contains(Controlword::CHANGE_SET_IMMEDIATELY),
-                job: Job {
-                    target,
-                    velocity: vel(0x6081).min(max_speed),
-                    // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
-                    // end velocity; bit 9 decides whether a queued job follows at speed.
-                    end_velocity: if target_limits { 0.0 } else { vel(0x6082) },
-                    acceleration: acc(0x6083),
-                    deceleration: acc(0x6084),
-                },
-            }
-        });
-        let request = move || {
-            req.unwrap_or(Request {
-                target: demand,
-                relative: false,
-                immediately: false,
-                job: Job {
-                    target: demand,
-                    velocity: 0.0,
-                    end_velocity: 0.0,
-                    acceleration: 1.0,
-                    deceleration: 1.0,
-                },
-            })
-        };
-        // While halted new set-points are still acknowledged but not run (CMMP-AS §6.1.3).
-        let accepted = self.setpoints.update(bit4, demand, request);
-        if let (true, Some(result)) = (accepted, checked) {
-            self.target_taken(result, cw);
-        }
-        if accepted {
-            self.target_reached = false;
-            self.window_since = None;
-            // 6086h = 2: jerk-free, the acceleration ramps over the window (a quarter of the
-            // time to profile velocity, at most the buffer).
-            let jerk_free = self.value(0x6086, 0) == 2;
-            let window = match (jerk_free, self.setpoints.active) {
-                (true, Some(job)) if self.traj.velocity == 0.0 => {
-                    let t_acc = job.velocity / job.acceleration.max(1.0);
-                    let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
-                    libm::round(t_acc * 0.5 / dt) as usize
-                }
-                _ => self.smoother.window(),
-            };
-            if window != self.smoother.window() && self.smoother.settled(self.traj.position) {
-                self.smoother.reset(self.demand_position, window);
-            }
-        }
-        if self.halted {
-            // Halt: brake with the profile deceleration; the job is dropped, and target
-            // reached is set once standing (CMMP-AS Tab. 6.5).
-            let decel = self.accel(0x6084);
-            let stopped = self.traj.step_stop(decel, dt);
-            self.setpoints.abort();
-            self.position_demand(self.traj.velocity);
-            if stopped {
-                self.target_reached = true;
-            }
-            return;
-        }
-        match self.setpoints.active {
-            Some(job) => {
-                let lim = Limits {
-                    velocity: job.velocity.max(1.0),
-                    acceleration: job.acceleration.max(1.0),
-                    deceleration: job.deceleration.max(1.0),
-                };
-                let end = self.setpoints.end_velocity();
-                if self.traj.step_to(job.target, end, lim, dt) {
-                    self.setpoints.finished();
-                }
-                self.position_demand(self.traj.velocity);
-            }
-            None => {
-                self.position_demand(0.0);
-                // Target reached: generator done (smoothing included) and the actual position
-                // inside the window for the window time (6067h, 6068h).
-                let done = self.smoother.settled(self.traj.position);
-                if let Some(target) = self.setpoints.last_target.filter(|_| done) {
-                    let window = self.fg.position_magnitude_to_internal(
-                        self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
-                    );
-                    let inside =
-                        (self.actual_internal() - libm::round(target) as i64).abs() <= window;
-                    let time = Duration::from_millis(self.value(0x6068, 0).max(0) as u64);
-                    if inside {
-                        let since = *self.window_since.get_or_insert(self.now);
-                        if self.now.saturating_since(since) >= time {
-                            self.target_reached = true;
-                        }
-                    } else {
-                        self.window_since = None;
-                        self.target_reached = false;
-                    }
-                }
-            }
-        }
-    }
-
-    /// Moves the velocity set-point towards `target` (increments/s), along the ramp
-    /// `(acceleration, deceleration)` where one is given, and makes it the cycle's demand. The
-    /// position set-point follows the actual position at the set-point's speed, so a quick
-    /// stop brakes from there.
-    pub(crate) fn command_velocity(&mut self, target: f64, ramp: Option<(f64, f64)>, dt: f64) {
-        self.velocity_set = match ramp {
-            Some((acc, dec)) => {
-                let mut t = Trajectory {
-                    position: 0.0,
-                    velocity: self.velocity_set,
-                };
-                t.step_velocity(target, acc, dec, dt);
-                t.velocity
-            }
-            None => target,
-        };
-        self.traj = Trajectory {
-            position: self.actual_internal() as f64,
-            velocity: self.velocity_set,
-        };
-        self.demand_position = self.traj.position;
-        self.demand = Demand::Velocity {
-            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
-        };
-    }
-
-    fn profile_velocity(&mut self, dt: f64) {
-        let user = self
-            .read(self.hot.target_velocity)
-            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        let max = self.value(0x6080, 0).max(0) as f64 * 4096.0 * INC_S_PER_VEL;
-        let mut target =
-            (self.fg.velocity_to_internal(user) as f64 * INC_S_PER_VEL).clamp(-max, max);
-        if self.halted {
-            target = 0.0; // Halt: to zero with the profile deceleration, resumed when cleared.
-        }
-        let ramps = self.value(0x2090, 1) != 0;
-        if ramps || self.halted {
-            // 2090h: separate ramps for positive and negative speed (6083h/6084h write them).
-            let positive = self.velocity_set >= 0.0 && target >= 0.0;
-            let ramp = if self.halted {
-                (self.accel(0x6084), self.accel(0x6084))
-            } else if positive {
-                (self.accel2(0x2090, 2), self.accel2(0x2090, 3))
-            } else {
-                (self.accel2(0x2090, 4), self.accel2(0x2090, 5))
-            };
-            self.command_velocity(target, Some(ramp), dt);
-        } else {
-            self.command_velocity(target, None, dt);
-        }
-        // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
-        let v_act = f64::from(self.plant_velocity_internal());
-        let target_internal = target / INC_S_PER_VEL;
-        let window = self
-            .fg
-            .velocity_magnitude_to_internal(self.value(0x606D, 0).max(0) as u32)
-            as f64;
-        let time = Duration::from_millis(self.value(0x606E, 0).max(0) as u64);
-        if (v_act - target_internal).abs() < window {
-            let since = *self.window_since.get_or_insert(self.now);
-            self.target_reached = self.now.saturating_since(since) >= time;
-        } else {
-            self.window_since = None;
-            self.target_reached = false;
-        }
-    }
-
-    /// CSP (CiA 402 §13): the master sends a position every cycle; it is the set-point as it
-    /// stands, with the speed between two set-points as feed-forward. The CMMP-AS runs the
-    /// interpolator on the frame cycle (CMMP-AS §4: "the EtherCAT cycle equals the
-    /// interpolator cycle"), so no further interpolation happens here.
-    fn cyclic_synchronous_position(&mut self, dt: f64) {
-        let user = self
-            .value(0x607A, 0)
-            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        let target = self.fg.position_to_internal(user) as f64;
-        if target != self.traj.position {
-            // The feed-forward is the speed between the last two set-points, over the time
-            // they really came apart (the master's cycle, not ours).
-            let elapsed = self
-                .csp_changed_at
-                .map(|t| self.now.saturating_since(t).as_secs_f64())
-                .unwrap_or(dt)
-                .max(dt);
-            self.traj.velocity = (target - self.traj.position) / elapsed;
-            self.traj.position = target;
-            self.csp_changed_at = Some(self.now);
-        } else if self
-            .csp_changed_at
-            .is_none_or(|t| self.now.saturating_since(t).as_secs_f64() > 4.0 * dt.max(0.001))
-        {
-            // Set-points stopped coming: standstill at the last one.
-            self.traj.velocity = 0.0;
-        }
-        let v = self.traj.velocity;
-        self.position_demand(v);
-        self.target_reached = false;
-    }
-
-    /// Interpolated position (CMMP-AS §7.4): with enable_ip_mode (bit 4) on the SYNC grid
-    /// the drive takes one set-point of 60C1h:01 per SYNC and moves linearly between them;
-    /// without, it holds.
-    fn interpolated_position(&mut self, cw: Controlword, dt: f64) {
-        let enable = cw.contains(Controlword::ENABLE_IP_MODE);
-        if enable && !self.ip.is_active() {
-            if self.ip.is_synchronised() {
-                // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
-                // first set-point (the manual's warning: write the actual position first).
-                let pending = self.personality.capabilities.ip_follows_sync.then(|| {
-                    let user = self
-                        .value(0x60C1, 1)
-                        .clamp(i32::MIN as i64, i32::MAX as i64);
-                    self.fg.position_to_internal(user as i32) as f64
-                });
-                self.ip.activate_with(self.traj.position, self.now, pending);
-            } else if self.cw_rising.contains(Controlword::ENABLE_IP_MODE) {
-                // CMMP-AS 34-0: activation without synchronisation.
-                self.raise_fault(Fault::NoFieldbusSync);
-                return;
-            }
-        } else if !enable && self.ip.is_active() {
-            self.ip.deactivate();
-        }
-        if self.ip.is_engaged() {
-            let (position, velocity) = self.ip.demand(self.now);
-            self.traj.position = position;
-            self.traj.velocity = velocity;
-            self.position_demand(velocity);
-        } else {
-            let decel = self.accel(0x6084);
-            self.traj.step_stop(decel, dt);
-            self.position_demand(self.traj.velocity);
-        }
-        self.target_reached = false;
-    }
-
     pub(crate) fn accel2(&self, index: u16, sub: u8) -> f64 {
         let user = self.value(index, sub).clamp(0, u32::MAX as i64) as u32;
         self.ramp(self.fg.acceleration_to_internal(user) as f64 * INC_S2_PER_ACC)
@@ -1631,124 +1114,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
     }
 
-    fn profile_torque(&mut self, dt: f64) {
-        let max = self.value(0x6072, 0).max(0) as f64;
-        let mut target = (self.read(self.hot.target_torque) as f64).clamp(-max, max);
-        if self.halted {
-            target = 0.0;
-        }
-        // 6087h: ‰ of rated torque per second (CMMP-AS §7.7).
-        let slope = (self.value(0x6087, 0).max(0) as f64) * dt;
-        let d = target - self.torque_set;
-        self.torque_set += d.clamp(-slope, slope);
-        self.target_reached = self.torque_set == target;
-        self.traj = Trajectory {
-            position: self.actual_internal() as f64,
-            velocity: f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S,
-        };
-        self.demand_position = self.traj.position;
-        let current = self
-            .axis
-            .params()
-            .current_for_torque_permille(self.torque_set);
-        self.demand = Demand::Torque {
-            current_a: current as f32,
-        };
-    }
-
-    /// Mechanical hard stops of the travel into the motor model.
-    fn place_hard_stops(&mut self) {
-        let t = self.settings.travel;
-        let rad = self.axis.motor().rad_per_increment();
-        self.axis.motor_mut().set_stops(
-            t.negative_stop.map(|p| p as f64 * rad),
-            t.positive_stop.map(|p| p as f64 * rad),
-        );
-        // The stepper plant has the same stops (a shaft angle, 65536 increments a turn).
-        if let Some(s) = self.stepper.as_mut() {
-            let rad = core::f64::consts::TAU / 65536.0;
-            let stops = match (t.negative_stop, t.positive_stop) {
-                (None, None) => None,
-                (lo, hi) => Some((
-                    lo.map_or(f64::MIN, |p| p as f64 * rad),
-                    hi.map_or(f64::MAX, |p| p as f64 * rad),
-                )),
-            };
-            s.motor.set_end_stops(stops);
-        }
-    }
-
-    /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
-    /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
-    /// switch emergency stop ramp"); motion away stays possible after the fault reset.
-    fn supervise_limit_switches(&mut self) {
-        let inputs = self.switch_inputs(self.plant_position());
-        let v = self.traj.velocity;
-        let fault = if inputs.negative_limit && v < 0.0 {
-            Fault::LimitSwitchNegative
-        } else if inputs.positive_limit && v > 0.0 {
-            Fault::LimitSwitchPositive
-        } else {
-            return;
-        };
-        if self.personality.error(fault).is_some() {
-            self.limit_stop = true;
-            self.raise_fault(fault);
-        }
-    }
-
-    /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
-    /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
-    fn input_levels(&self, position: i64) -> Levels {
-        Levels::wired(
-            self.settings.travel.inputs(position),
-            self.settings.enables_present,
-        )
-        .forced(self.forced_mask, self.forced_levels)
-    }
-
-    fn switch_config(&self) -> SwitchConfig {
-        if !self.personality.capabilities.switch_polarity_objects {
-            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
-            // closed, 20/22 normally open); the simulated switches are read as they are.
-            return SwitchConfig::from_objects(1, 0, 0, 1);
-        }
-        SwitchConfig::from_objects(
-            self.value(0x6510, 0x11),
-            self.value(0x6510, 0x12),
-            self.value(0x6510, 0x13),
-            self.value(0x6510, 0x14),
-        )
-    }
-
-    /// The switches as the drive reads them (CMMP-AS §5.14): 6510h:11 / :14 = 0 (normally
-    /// closed) against the normally open switches of the simulation reads them inverted, and
-    /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
-    /// then trips over, as on the real drive.
-    fn switch_inputs(&self, position: i64) -> Inputs {
-        if self.personality.vendor == Vendor::Kinco {
-            return self.kinco_switches(position);
-        }
-        self.switch_config().switches(self.input_levels(position))
-    }
-
-    /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`
-    /// (bit n = DINn) take the level in `levels`; the others follow the simulated wiring.
-    /// Forcing DIN4 or DIN5 LOW removes a hardware enable (CMMP-AS 60FDh bit 3).
-    pub fn force_inputs(&mut self, mask: u16, levels: u16) {
-        self.forced_mask = mask;
-        self.forced_levels = levels;
-    }
-
-    /// The output levels the host commands through 60FEh (CMMP-AS §5.13): bit 0 the holding
-    /// brake (1 = applied), the other bits of 60FEh:01 where 60FEh:02 puts them under bus
-    /// control. Outputs left to their 2420h function are not simulated and read 0.
-    pub fn digital_outputs(&self) -> u32 {
-        let data = self.value(0x60FE, 1) as u32;
-        let mask = self.value(0x60FE, 2) as u32;
-        (data & mask & !1) | u32::from(self.axis.motor().brake())
-    }
-
     pub(crate) fn clear_target_reached(&mut self) {
         self.target_reached = false;
         self.window_since = None;
@@ -1757,8 +1122,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 }
 
-/// The supply of the twin is ideal: the DC link sits at its nominal voltage (6510h:33 into
-/// 6510h:34 and 6079h).
 /// 60C2h as the interpolation period; the default 1 ms for a value outside the ranges.
 fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> Duration {
     let units = od.get_unsigned(0x60C2, 1).unwrap_or(1);
@@ -1775,6 +1138,8 @@ fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) 
 /// The interpolation period of the default 60C2h (1 × 10⁻³ s).
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
+/// The DC link voltage the drive measures, 6510h:34 and 6079h: `mv`, or without it the
+/// nominal voltage 6510h:33 (an ideal supply).
 fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>, mv: Option<u32>) {
     let nominal = mv
         .map(u64::from)
@@ -1840,17 +1205,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write_internal(index, sub, data)
     }
-}
-
-/// The brake's delays after the output stage goes on and before it goes off.
-#[derive(Debug, Clone, Copy)]
-struct BrakeDelays {
-    /// Output stage on → brake open.
-    release: Duration,
-    /// Output stage on → the set-point released (operational).
-    motion: Duration,
-    /// Brake closed → output stage off.
-    engage: Duration,
 }
 
 /// Where a homing run stands.

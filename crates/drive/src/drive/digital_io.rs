@@ -1,0 +1,99 @@
+//! The digital inputs and outputs: input levels, forced inputs, limit and reference switches
+//! and the axis's hard stops.
+
+use super::*;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// Mechanical hard stops of the travel into the motor model.
+    pub(super) fn place_hard_stops(&mut self) {
+        let t = self.settings.travel;
+        let rad = self.axis.motor().rad_per_increment();
+        self.axis.motor_mut().set_stops(
+            t.negative_stop.map(|p| p as f64 * rad),
+            t.positive_stop.map(|p| p as f64 * rad),
+        );
+        // The stepper plant has the same stops (a shaft angle, 65536 increments a turn).
+        if let Some(s) = self.stepper.as_mut() {
+            let rad = core::f64::consts::TAU / 65536.0;
+            let stops = match (t.negative_stop, t.positive_stop) {
+                (None, None) => None,
+                (lo, hi) => Some((
+                    lo.map_or(f64::MIN, |p| p as f64 * rad),
+                    hi.map_or(f64::MAX, |p| p as f64 * rad),
+                )),
+            };
+            s.motor.set_end_stops(stops);
+        }
+    }
+
+    /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
+    /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
+    /// switch emergency stop ramp"); motion away stays possible after the fault reset.
+    pub(super) fn supervise_limit_switches(&mut self) {
+        let inputs = self.switch_inputs(self.plant_position());
+        let v = self.traj.velocity;
+        let fault = if inputs.negative_limit && v < 0.0 {
+            Fault::LimitSwitchNegative
+        } else if inputs.positive_limit && v > 0.0 {
+            Fault::LimitSwitchPositive
+        } else {
+            return;
+        };
+        if self.personality.error(fault).is_some() {
+            self.limit_stop = true;
+            self.raise_fault(fault);
+        }
+    }
+
+    /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
+    /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
+    pub(super) fn input_levels(&self, position: i64) -> Levels {
+        Levels::wired(
+            self.settings.travel.inputs(position),
+            self.settings.enables_present,
+        )
+        .forced(self.forced_mask, self.forced_levels)
+    }
+
+    pub(super) fn switch_config(&self) -> SwitchConfig {
+        if !self.personality.capabilities.switch_polarity_objects {
+            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
+            // closed, 20/22 normally open); the simulated switches are read as they are.
+            return SwitchConfig::from_objects(1, 0, 0, 1);
+        }
+        SwitchConfig::from_objects(
+            self.value(0x6510, 0x11),
+            self.value(0x6510, 0x12),
+            self.value(0x6510, 0x13),
+            self.value(0x6510, 0x14),
+        )
+    }
+
+    /// The switches as the drive reads them (CMMP-AS §5.14): 6510h:11 / :14 = 0 (normally
+    /// closed) against the normally open switches of the simulation reads them inverted, and
+    /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
+    /// then trips over, as on the real drive.
+    pub(super) fn switch_inputs(&self, position: i64) -> Inputs {
+        if self.personality.vendor == Vendor::Kinco {
+            return self.kinco_switches(position);
+        }
+        self.switch_config().switches(self.input_levels(position))
+    }
+
+    /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`
+    /// (bit n = DINn) take the level in `levels`; the others follow the simulated wiring.
+    /// Forcing DIN4 or DIN5 LOW removes a hardware enable (CMMP-AS 60FDh bit 3).
+    pub fn force_inputs(&mut self, mask: u16, levels: u16) {
+        self.forced_mask = mask;
+        self.forced_levels = levels;
+    }
+
+    /// The output levels the host commands through 60FEh (CMMP-AS §5.13): bit 0 the holding
+    /// brake (1 = applied), the other bits of 60FEh:01 where 60FEh:02 puts them under bus
+    /// control. Outputs left to their 2420h function are not simulated and read 0.
+    pub fn digital_outputs(&self) -> u32 {
+        let data = self.value(0x60FE, 1) as u32;
+        let mask = self.value(0x60FE, 2) as u32;
+        (data & mask & !1) | u32::from(self.axis.motor().brake())
+    }
+}

@@ -1,0 +1,135 @@
+//! The drive's faults: errors injected, raised and reported (1001h, 1003h, EMCY, the
+//! display), their causes kept while present, cleared and acknowledged.
+
+use super::*;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// Raises a fault from outside (fault injection, a test): EMCY, fault reaction (quick-stop
+    /// ramp), FAULT.
+    /// The cause stays until [`Drive::clear_fault`].
+    pub fn inject_fault(&mut self, code: u16, register: u8) {
+        if !self.causes.contains(&code) {
+            let _ = self.causes.push(code);
+        }
+        self.raise(code, register, false);
+    }
+
+    /// Removes an injected fault's cause; a fault reset then acknowledges the error.
+    pub fn clear_fault(&mut self, code: u16) {
+        if let Some(i) = self.causes.iter().position(|c| *c == code) {
+            self.causes.remove(i);
+        }
+        if let Some(m) = messages::by_code(code) {
+            self.end_warning(m.number);
+        }
+        self.clear_notice(code);
+    }
+
+    /// Reports the error `code` with the reaction the personality's error management gives
+    /// it (CMMP-AS: 2100h; Nanotec: the reaction table of §7.1); `critical` errors without a
+    /// reaction of their own switch the output stage off at once.
+    pub(crate) fn raise(&mut self, code: u16, register: u8, critical: bool) {
+        self.raise_with_info(code, register, critical, 0);
+    }
+
+    /// [`Drive::raise`] with the message's additional information for the diagnostic
+    /// memory.
+    pub(crate) fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
+        let reaction = match self.personality.vendor {
+            Vendor::CmmpAs => self.cmmp_error_reaction(code, critical, info),
+            Vendor::Nanotec => self.nanotec_error_reaction(code, critical),
+            Vendor::Kinco => self.kinco_error_reaction(code),
+        };
+        self.report_error(code, register, reaction);
+    }
+
+    /// Raises the personality's error for `fault`; `false` where the drive has none.
+    pub(crate) fn raise_fault(&mut self, fault: Fault) -> bool {
+        match self.personality.error(fault) {
+            Some(e) => {
+                self.raise(e.code, e.register, e.critical);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The error's EMCY and the device control's fault reaction.
+    pub(crate) fn report_error(&mut self, code: u16, register: u8, reaction: ErrorReaction) {
+        match reaction {
+            ErrorReaction::Ignore => return,
+            ErrorReaction::MessageOnly | ErrorReaction::QuickStopNoFault => {
+                if !self.notices.contains(&code) && self.notices.push(code).is_ok() {
+                    self.push_event(DriveEvent::Error { code, register });
+                }
+                if reaction == ErrorReaction::QuickStopNoFault {
+                    let r = self.dc.quick_stop();
+                    self.react(r);
+                }
+                return;
+            }
+            _ => {}
+        }
+        if !self.faults.contains(&code) {
+            let _ = self.faults.push(code);
+            self.push_event(DriveEvent::Error { code, register });
+        }
+        let r = match reaction {
+            ErrorReaction::OutputStageOff => self.dc.fault_immediate(),
+            ErrorReaction::BrakeMaxCurrent => {
+                // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
+                // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
+                // current limit caps.
+                self.limit_stop = true;
+                self.dc.fault()
+            }
+            _ => self.dc.fault(),
+        };
+        self.react(r);
+    }
+
+    /// A message-only error (EMCY without a fault) is over: the EMCY "error reset".
+    pub(crate) fn clear_notice(&mut self, code: u16) {
+        if let Some(i) = self.notices.iter().position(|c| *c == code) {
+            self.notices.remove(i);
+            self.push_event(DriveEvent::Cleared { code });
+        }
+    }
+
+    /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
+    /// "H" for safe standstill, else "A" while 6510h:C0 commissioning_state is 0.
+    pub fn display(&self) -> Display {
+        let error = self
+            .faults
+            .iter()
+            .find_map(|c| self.message_of(*c))
+            .map(|m| m.number);
+        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
+        let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
+        Display::select(error, warning, self.safe_standstill, commissioning)
+    }
+
+    /// The diagnostic memory, oldest entry first.
+    pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
+        self.memory.iter()
+    }
+
+    /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that
+    /// went lets the fault reset acknowledge the error.
+    pub(crate) fn cause(&mut self, code: u16, present: bool, register: u8) {
+        let at = self.causes.iter().position(|c| *c == code);
+        match (present, at) {
+            (true, None) => {
+                let _ = self.causes.push(code);
+                self.raise(code, register, false);
+            }
+            (true, Some(_)) => self.raise(code, register, false),
+            // A message raised by its number stays until it is cleared.
+            (false, Some(_)) if self.injected_code(code) => {}
+            (false, Some(i)) => {
+                self.causes.remove(i);
+            }
+            (false, None) => {}
+        }
+    }
+}

@@ -1,0 +1,74 @@
+//! Profile velocity (pv, 6060h = 3): the target velocity 60FFh along the profile ramps,
+//! the velocity set-point as the cycle's demand.
+
+use super::*;
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+    /// Moves the velocity set-point towards `target` (increments/s), along the ramp
+    /// `(acceleration, deceleration)` where one is given, and makes it the cycle's demand. The
+    /// position set-point follows the actual position at the set-point's speed, so a quick
+    /// stop brakes from there.
+    pub(crate) fn command_velocity(&mut self, target: f64, ramp: Option<(f64, f64)>, dt: f64) {
+        self.velocity_set = match ramp {
+            Some((acc, dec)) => {
+                let mut t = Trajectory {
+                    position: 0.0,
+                    velocity: self.velocity_set,
+                };
+                t.step_velocity(target, acc, dec, dt);
+                t.velocity
+            }
+            None => target,
+        };
+        self.traj = Trajectory {
+            position: self.actual_internal() as f64,
+            velocity: self.velocity_set,
+        };
+        self.demand_position = self.traj.position;
+        self.demand = Demand::Velocity {
+            rpm: (self.velocity_set * RPM_PER_INC_S) as f32,
+        };
+    }
+
+    pub(super) fn profile_velocity(&mut self, dt: f64) {
+        let user = self
+            .read(self.hot.target_velocity)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let max = self.value(0x6080, 0).max(0) as f64 * 4096.0 * INC_S_PER_VEL;
+        let mut target =
+            (self.fg.velocity_to_internal(user) as f64 * INC_S_PER_VEL).clamp(-max, max);
+        if self.halted {
+            target = 0.0; // Halt: to zero with the profile deceleration, resumed when cleared.
+        }
+        let ramps = self.value(0x2090, 1) != 0;
+        if ramps || self.halted {
+            // 2090h: separate ramps for positive and negative speed (6083h/6084h write them).
+            let positive = self.velocity_set >= 0.0 && target >= 0.0;
+            let ramp = if self.halted {
+                (self.accel(0x6084), self.accel(0x6084))
+            } else if positive {
+                (self.accel2(0x2090, 2), self.accel2(0x2090, 3))
+            } else {
+                (self.accel2(0x2090, 4), self.accel2(0x2090, 5))
+            };
+            self.command_velocity(target, Some(ramp), dt);
+        } else {
+            self.command_velocity(target, None, dt);
+        }
+        // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
+        let v_act = f64::from(self.plant_velocity_internal());
+        let target_internal = target / INC_S_PER_VEL;
+        let window = self
+            .fg
+            .velocity_magnitude_to_internal(self.value(0x606D, 0).max(0) as u32)
+            as f64;
+        let time = Duration::from_millis(self.value(0x606E, 0).max(0) as u64);
+        if (v_act - target_internal).abs() < window {
+            let since = *self.window_since.get_or_insert(self.now);
+            self.target_reached = self.now.saturating_since(since) >= time;
+        } else {
+            self.window_since = None;
+            self.target_reached = false;
+        }
+    }
+}
