@@ -45,3 +45,76 @@ impl Controlword {
     /// Enable operation (transition 4): 1111b.
     pub const ENABLE_OPERATION_CMD: Controlword = Controlword(0x000F);
 }
+
+/// The controlwords written since the device control last ran, in the order their writes
+/// were confirmed.
+///
+/// **Decision** (DESIGN "a confirmed write has been taken"): every acknowledged write of 6040h
+/// reaches the state machine, in order, at the drive's next logic cycle. A master that waits
+/// for each answer before the next write can then never outrun the drive: 06h, 07h, 0Fh
+/// written within one cycle run transitions 2, 3 and 4 as they do on the real bus, where the
+/// next write cannot arrive before the device has answered (and so taken) the one before.
+/// CiA 402 §6.3 drives the state machine by the commands the master sends, not by samples of
+/// the object; the manuals print no sampling rule (CMMP-AS §6.1.3, Nanotec §4.2, Kinco
+/// §6.2 all describe the commands in sequence).
+///
+/// Only changes are kept (a cyclic RPDO repeating one controlword adds nothing). More changes
+/// in one cycle than the queue holds (a flood no master waiting for answers can send) keep the
+/// newest: the oldest is dropped, as the sampled word would have lost it anyway.
+#[derive(Debug, Clone, Default)]
+pub struct ControlwordQueue {
+    words: heapless::Deque<u16, { ControlwordQueue::CAPACITY }>,
+}
+
+impl ControlwordQueue {
+    /// Changes kept between two logic cycles.
+    pub const CAPACITY: usize = 16;
+
+    /// A confirmed write of `cw`; `previous` is the value the object held before it.
+    pub fn push(&mut self, cw: u16, previous: u16) {
+        let last = self.words.back().copied().unwrap_or(previous);
+        if cw == last {
+            return;
+        }
+        if self.words.is_full() {
+            self.words.pop_front();
+        }
+        let _ = self.words.push_back(cw);
+    }
+
+    /// The oldest write not yet applied.
+    pub fn pop(&mut self) -> Option<u16> {
+        self.words.pop_front()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.words.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ControlwordQueue;
+
+    #[test]
+    fn keeps_changes_in_order_and_drops_repeats() {
+        let mut q = ControlwordQueue::default();
+        for cw in [0x00, 0x00, 0x80, 0x06, 0x06, 0x07, 0x0F, 0x0F] {
+            q.push(cw, 0x00);
+        }
+        let got: heapless::Vec<u16, 32> = core::iter::from_fn(|| q.pop()).collect();
+        assert_eq!(got.as_slice(), [0x80, 0x06, 0x07, 0x0F]);
+    }
+
+    #[test]
+    fn a_flood_keeps_the_newest() {
+        let mut q = ControlwordQueue::default();
+        for cw in 1..=40u16 {
+            q.push(cw, 0);
+        }
+        let got: heapless::Vec<u16, 32> = core::iter::from_fn(|| q.pop()).collect();
+        assert_eq!(got.len(), ControlwordQueue::CAPACITY);
+        assert_eq!(got.last(), Some(&40));
+        assert_eq!(got.first(), Some(&(41 - ControlwordQueue::CAPACITY as u16)));
+    }
+}

@@ -9,7 +9,7 @@ use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Va
 
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
-use crate::controlword::Controlword;
+use crate::controlword::{Controlword, ControlwordQueue};
 use crate::device_control::{DeviceControl, Reaction, Rules, State};
 use crate::digital_inputs::{Levels, SwitchConfig};
 use crate::display::Display;
@@ -376,6 +376,8 @@ pub struct Drive<S> {
     /// Controlword edges latched at the write, so a short pulse is never missed.
     pub(crate) cw_rising: Controlword,
     pub(crate) last_cw: Controlword,
+    /// Every confirmed controlword since the last logic cycle, for the state machine in order.
+    pub(crate) cw_written: ControlwordQueue,
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
@@ -588,6 +590,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             limit_stop: false,
             cw_rising: Controlword::EMPTY,
             last_cw: Controlword::EMPTY,
+            cw_written: ControlwordQueue::default(),
             brake_engaged: true,
             power_off_at: None,
             brake_release_at: None,
@@ -867,25 +870,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             Vendor::Kinco => self.kinco_pre_enable(),
             _ => self.input_levels(self.plant_position()).enables(),
         };
-        let before = self.dc.state();
-        // A fault-reset pulse shorter than a cycle still counts (latched at the write); so
-        // does a rising edge written within one cycle after the bit was seen set (0080h,
-        // 0000h, 0080h between two steps): the device control sees the low level first.
-        if self.cw_rising.contains(Controlword::FAULT_RESET) {
-            let other = if cw.contains(Controlword::FAULT_RESET) {
-                cw.difference(Controlword::FAULT_RESET)
-            } else {
-                cw | Controlword::FAULT_RESET
-            };
-            let _ = self.dc.controlword(other.bits(), fault, enables);
+        if self.cw_written.is_empty() {
+            self.device_control_sampled(cw, fault, enables);
         }
-        let reaction = self.dc.controlword(cw.bits(), fault, enables);
-        self.react(reaction);
-        if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
-            // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
-            while let Some(code) = self.faults.pop() {
-                self.push_event(DriveEvent::Cleared { code });
-            }
+        while let Some(written) = self.cw_written.pop() {
+            self.device_control_command(written, fault, enables);
         }
         self.halted = cw.contains(Controlword::HALT);
         // Mode change (6061h shows −1 meanwhile).
@@ -901,6 +890,36 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.brake_timers();
         self.cw_rising = Controlword::EMPTY;
         self.publish();
+    }
+
+    /// The state machine on the controlword as it stands, when no write came since the last
+    /// cycle (an input function or the panel set it, or nothing changed).
+    fn device_control_sampled(&mut self, cw: Controlword, fault: bool, enables: bool) {
+        // A fault-reset pulse shorter than a cycle still counts (latched at the write); so
+        // does a rising edge written within one cycle after the bit was seen set (0080h,
+        // 0000h, 0080h between two steps): the device control sees the low level first.
+        if self.cw_rising.contains(Controlword::FAULT_RESET) {
+            let other = if cw.contains(Controlword::FAULT_RESET) {
+                cw.difference(Controlword::FAULT_RESET)
+            } else {
+                cw | Controlword::FAULT_RESET
+            };
+            self.device_control_command(other.bits(), fault, enables);
+        }
+        self.device_control_command(cw.bits(), fault, enables);
+    }
+
+    /// One controlword through the state machine, with the reaction of its transition.
+    fn device_control_command(&mut self, cw: u16, fault: bool, enables: bool) {
+        let before = self.dc.state();
+        let reaction = self.dc.controlword(cw, fault, enables);
+        self.react(reaction);
+        if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
+            // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
+            while let Some(code) = self.faults.pop() {
+                self.push_event(DriveEvent::Cleared { code });
+            }
+        }
     }
 
     fn react(&mut self, r: Reaction) {

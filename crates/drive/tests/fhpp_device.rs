@@ -409,3 +409,34 @@ fn force_task_without_a_workpiece_stops_at_the_stroke_limit() {
     );
     assert!(!i.scon.contains(Scon::FAULT));
 }
+
+/// A confirmed write has been taken: telegrams a PLC sets faster than the FHPP cycle (each
+/// Modbus write answered before the next) are each seen by the state machine, in order. The
+/// enable and a record start pulsed within one cycle (START set and taken away before the
+/// cycle ran) still start the record; on the device the Modbus answer comes after the
+/// telegram was taken.
+#[test]
+fn telegrams_set_within_one_cycle_are_all_taken_in_order() {
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
+    b.send(OutputData::record(Ccon(0), Cpos(0), 0));
+    let set = |b: &mut Bench, out: OutputData| b.dev.set_outputs(&out.to_bytes()).unwrap();
+    set(&mut b, OutputData::record(ENABLED, Cpos::HALT, 0));
+    set(
+        &mut b,
+        OutputData::record(ENABLED, Cpos::HALT | Cpos::HOM, 0),
+    );
+    set(&mut b, OutputData::record(ENABLED, Cpos::HALT, 0));
+    let i = b.until(200, |i| i.spos.contains(Spos::MC | Spos::REF));
+    assert_eq!(i.scon.0 & 0x03, 0x03, "enabled: {i:?}");
+    // Record 1 started by a START pulse shorter than a cycle.
+    b.pnu_write_i32(404, 1, 36_000);
+    set(
+        &mut b,
+        OutputData::record(ENABLED, Cpos::HALT | Cpos::START, 1),
+    );
+    set(&mut b, OutputData::record(ENABLED, Cpos::HALT, 1));
+    b.run(30);
+    assert!(b.input().spos.contains(Spos::MOV), "{:?}", b.input());
+    let i = b.until(5000, |i| i.spos.contains(Spos::MC));
+    assert!((i.actual2 - 36_000).abs() <= 180, "{i:?}");
+}

@@ -46,9 +46,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     ) -> Result<(), AbortCode> {
         self.od.write(index, sub, data)?;
         let cw = Controlword(self.read(self.hot.controlword) as u16);
-        let rising = cw.difference(self.last_cw);
-        self.cw_rising |= rising;
-        self.last_cw = cw;
+        let rising = self.take_controlword(cw);
         if rising.contains(Controlword::HOMING_START) && self.mode == mode::HOMING {
             // A new homing start: the old result goes at once, so a master reading
             // the statusword right after never sees it (python-canopen's homing()).
@@ -61,6 +59,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.store(self.hot.statusword, sw);
         }
         Ok(())
+    }
+
+    /// A controlword that has been set (a confirmed write, an input function, the panel): its
+    /// rising edges latched for the modes, the word queued for the state machine in order
+    /// ([`ControlwordQueue`]). Returns the rising edges.
+    pub(crate) fn take_controlword(&mut self, cw: Controlword) -> Controlword {
+        let rising = cw.difference(self.last_cw);
+        self.cw_rising |= rising;
+        self.cw_written.push(cw.bits(), self.last_cw.bits());
+        self.last_cw = cw;
+        rising
     }
 
     /// 6060h: the modes the personality has, taking effect after the mode change time.

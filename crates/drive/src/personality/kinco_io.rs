@@ -361,9 +361,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// A controlword an input function sets, with the edges a bus write would latch.
     pub(crate) fn kinco_set_controlword(&mut self, cw: u16) {
         let _ = self.od.write_internal(0x6040, 0, &cw.to_le_bytes());
-        let cw = Controlword(cw);
-        self.cw_rising |= cw.difference(self.last_cw);
-        self.last_cw = cw;
+        self.take_controlword(Controlword(cw));
     }
 
     /// The status of one DOUT function (Tab. 5-3).

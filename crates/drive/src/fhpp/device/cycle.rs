@@ -42,7 +42,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
         let mut events: heapless::Vec<Event, 24> = heapless::Vec::new();
         let status = self.status;
-        let input = self.fhpp.cycle(&self.outputs, &self.records, &status, |e| {
+        if let Some(next) = self.telegrams.pop_front() {
+            self.applied = next;
+        }
+        let input = self.fhpp.cycle(&self.applied, &self.records, &status, |e| {
             let _ = events.push(e);
         });
         self.inputs = input.to_bytes();

@@ -35,6 +35,8 @@
 
 use core::time::Duration;
 
+use heapless::Deque;
+
 use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::axis_mechanics::AxisMechanics;
@@ -224,6 +226,9 @@ enum HomingPhase {
 /// either side) gives no reproducible REF. The manual names no distance; decision: 5 %.
 const MIN_INDEX_DISTANCE: f64 = 0.05;
 
+/// Output telegrams that may wait for their cycle ([`FhppDevice::set_outputs`]).
+pub const TELEGRAM_QUEUE: usize = 16;
+
 /// Which MC condition the current task has.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Task {
@@ -281,7 +286,12 @@ pub struct FhppDevice<S> {
     params: Params,
     params_dirty: bool,
     stepper: Stepper,
+    /// The output telegram last set (what a read-back of the outputs shows).
     outputs: OutputData,
+    /// The telegrams set since the cycle last took one, oldest first ([`FhppDevice::set_outputs`]).
+    telegrams: Deque<OutputData, TELEGRAM_QUEUE>,
+    /// The telegram the state machine runs on this cycle.
+    applied: OutputData,
     fpc_out: [u8; 8],
     fpc_in: [u8; 8],
     /// The EFPC server and the permanent memory (App. C, PNU 127).
@@ -448,6 +458,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             params_dirty: true,
             stepper,
             outputs: OutputData::default(),
+            telegrams: Deque::new(),
+            applied: OutputData::default(),
             fpc_out: [0; 8],
             fpc_in: [0; 8],
             fpc: ParameterChannel::default(),
@@ -599,8 +611,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
 
     /// The output telegram of the PLC: 8 bytes (FHPP Standard) or 16 (FHPP + FPC). It is
     /// taken at the next cycle.
+    ///
+    /// **Decision** (DESIGN "a confirmed write has been taken"): every telegram set is seen by
+    /// the state machine for at least one cycle, in the order set, so an edge (START, RESET,
+    /// ENABLE) a PLC writes and takes back before the next cycle still counts, as it does on
+    /// the device, whose Modbus answer comes after the telegram was taken. Telegrams set
+    /// faster than the cycle wait their turn (the twin is then slower than the bus, never
+    /// faster); more than [`TELEGRAM_QUEUE`] waiting drop the oldest.
     pub fn set_outputs(&mut self, image: &[u8]) -> Result<(), BadLength> {
         let (out, fpc) = OutputData::parse(image).ok_or(BadLength(image.len()))?;
+        if out != self.outputs {
+            if self.telegrams.is_full() {
+                self.telegrams.pop_front();
+            }
+            let _ = self.telegrams.push_back(out);
+        }
         self.outputs = out;
         if let Some(f) = fpc {
             self.fpc_out = f;
