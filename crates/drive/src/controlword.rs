@@ -56,7 +56,7 @@ impl Controlword {
 /// next write cannot arrive before the device has answered (and so taken) the one before.
 /// CiA 402 §6.3 drives the state machine by the commands the master sends, not by samples of
 /// the object; the manuals print no sampling rule (CMMP-AS §6.1.3, Nanotec §4.2, Kinco
-/// §6.2 all describe the commands in sequence).
+/// Tab. 6-5 all describe the commands in sequence).
 ///
 /// Only changes are kept (a cyclic RPDO repeating one controlword adds nothing). More changes
 /// in one cycle than the queue holds (a flood no master waiting for answers can send) keep the
