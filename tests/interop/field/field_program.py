@@ -132,7 +132,7 @@ def enable_every_run(client, sequence: tuple[int, ...]):
         ok, sw = statusword_until(client, enabled, ENABLE_TIMEOUT)
         if not ok:
             failed.setdefault(f"{state_of(sw)} (6041h = {sw:04X}h)", []).append(run)
-            if run == 3 and len(failed) == 1 and len(next(iter(failed.values()))) == 3:
+            if run == 3 and sum(map(len, failed.values())) == 3:
                 break
     left = "; ".join(f"runs {', '.join(map(str, numbers))} in {state}"
                      for state, numbers in failed.items())

@@ -20,12 +20,8 @@ from field_program import PERSONALITIES, enable_every_run, pp_move, setup
 class CanopenSdo:
     """python-canopen's SDO client: `node.sdo[...].raw = value`, as every example does."""
 
-    def __init__(self, twin, eds, node: int):
-        self.net = canopen.Network()
-        self.net.NOTIFIER_CYCLE = 0.05
-        self.net.connect(interface="socketcand", host="127.0.0.1", port=twin.port, channel="vcan0")
-        self.node = self.net.add_node(node, str(eds))
-        self.node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+    def __init__(self, node):
+        self.node = node
 
     def _entry(self, index: int, sub: int):
         entry = self.node.sdo[index]
@@ -37,15 +33,12 @@ class CanopenSdo:
     def read(self, index: int, sub: int = 0) -> int:
         return self._entry(index, sub).raw
 
-    def close(self):
-        self.net.disconnect()
-
 
 class RawSdo:
     """Expedited SDO frames written by hand on python-can, one request, then its answer."""
 
-    def __init__(self, twin, node: int, short_frames: bool):
-        self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=twin.port, channel="vcan0")
+    def __init__(self, bus, node: int, short_frames: bool):
+        self.bus = bus
         self.node = node
         # The Nanotec manual prints its requests without the unused bytes (DLC 5 / 6).
         self.short = short_frames
@@ -71,9 +64,6 @@ class RawSdo:
         value = int.from_bytes(answer[4:4 + size], "little")
         return value - (1 << 32) if size == 4 and value & 0x8000_0000 else value
 
-    def close(self):
-        self.bus.shutdown()
-
 
 CASES = [pytest.param(device, sequence, id=f"{device}-" + "-".join(f"{w:02X}" for w in sequence))
          for device, p in PERSONALITIES.items() for sequence in p.enable]
@@ -81,14 +71,11 @@ CASES = [pytest.param(device, sequence, id=f"{device}-" + "-".join(f"{w:02X}" fo
 
 @pytest.mark.parametrize("client", ["python-canopen", "raw-frames"])
 @pytest.mark.parametrize("device,sequence", CASES)
-def test_back_to_back_enable_then_move(launch, eds_files, device, sequence, client):
+def test_back_to_back_enable_then_move(launch, node_of, raw_bus, device, sequence, client):
     p = PERSONALITIES[device]
     twin = launch(device, p.node)
-    sdo = (CanopenSdo(twin, eds_files[device], p.node) if client == "python-canopen"
-           else RawSdo(twin, p.node, short_frames=device.startswith("nanotec")))
-    try:
-        setup(sdo, p)
-        enable_every_run(sdo, sequence)
-        pp_move(sdo, p)
-    finally:
-        sdo.close()
+    sdo = (CanopenSdo(node_of(twin)) if client == "python-canopen"
+           else RawSdo(raw_bus(twin), p.node, short_frames=device.startswith("nanotec")))
+    setup(sdo, p)
+    enable_every_run(sdo, sequence)
+    pp_move(sdo, p)
