@@ -25,6 +25,13 @@ fn range(r: &mut Rig, index: u16, sub: u8, ms: u64) -> (i64, i64) {
     (lo, hi)
 }
 
+/// 06h, 07h, 0Fh: OPERATION ENABLED.
+fn enable(r: &mut Rig) {
+    r.cw(0x06);
+    r.cw(0x07);
+    r.cw(0x0F);
+}
+
 fn within(range: (i64, i64), set: i64, percent: i64) -> bool {
     let tolerance = set.abs() * percent / 100;
     (range.0 - set).abs() <= tolerance && (range.1 - set).abs() <= tolerance
@@ -35,9 +42,7 @@ fn nanotec_vl(device: &str, closed_loop: bool, target: i16) -> Rig {
     let mut r = Rig::device(device, 1, DriveSettings::default());
     r.w8(0x2001, 0, i8::from(closed_loop));
     r.run_ms(5);
-    r.cw(0x06);
-    r.cw(0x07);
-    r.cw(0x0F);
+    enable(&mut r);
     r.w8(0x6060, 0, 2);
     r.run_ms(5);
     r.w16(0x6042, 0, i64::from(target));
@@ -95,9 +100,7 @@ fn cmmp_as_pv_reads_steady() {
     let mut r = Rig::device("cmmp-as", 1, DriveSettings::default());
     r.w8(0x6060, 0, 3);
     r.run_ms(500);
-    r.cw(0x06);
-    r.cw(0x07);
-    r.cw(0x0F);
+    enable(&mut r);
     r.w32(0x60FF, 0, 1000);
     r.run_ms(2000);
     assert_eq!(r.sw() & 0x6F, 0x27, "operation enabled");
@@ -123,9 +126,7 @@ fn kinco_velocity_mode_reads_steady() {
     r.w16(0x2010, 0x05, 0);
     r.w8(0x6060, 0, 3);
     r.run_ms(5);
-    r.cw(0x06);
-    r.cw(0x07);
-    r.cw(0x0F);
+    enable(&mut r);
     let dec_600_rpm = (600.0f64 * 512.0 * 10_000.0 / 1875.0).round() as i64;
     r.w32(0x60FF, 0, dec_600_rpm);
     r.run_ms(2000);

@@ -151,6 +151,18 @@ mod tests {
         RtuLine::new(19_200, drives)
     }
 
+    /// A line at `baud` bit/s with one FD3 as station 1.
+    fn one_drive(baud: u32) -> RtuLine {
+        RtuLine::new(
+            baud,
+            vec![RtuDrive {
+                at: on(0),
+                station: 1,
+                map: register_map("kinco-fd3"),
+            }],
+        )
+    }
+
     fn exchange(
         line: &mut RtuLine,
         wire: &mut Wire,
@@ -233,14 +245,7 @@ mod tests {
         let baud = 115_200;
         let mut drives = Dictionaries::fd3(1);
         let mut wire = Wire::new(baud);
-        let mut l = RtuLine::new(
-            baud,
-            vec![RtuDrive {
-                at: on(0),
-                station: 1,
-                map: register_map("kinco-fd3"),
-            }],
-        );
+        let mut l = one_drive(baud);
         let mut broadcast = vec![0x00, 0x06, 0x31, 0x00, 0x00, 0x06];
         broadcast.extend(modbus::rtu::crc_bytes(&broadcast));
         let read = [0x01, 0x03, 0x32, 0x00, 0x00, 0x02, 0xCA, 0xB3];
@@ -322,14 +327,7 @@ mod tests {
         for baud in [9600, 19_200, 38_400, 115_200] {
             let mut drives = Dictionaries::fd3(1);
             let mut wire = Wire::new(baud);
-            let mut l = RtuLine::new(
-                baud,
-                vec![RtuDrive {
-                    at: on(0),
-                    station: 1,
-                    map: register_map("kinco-fd3"),
-                }],
-            );
+            let mut l = one_drive(baud);
             let noise: Vec<u8> = (0..600u32).map(|i| (i * 37 % 251) as u8).collect();
             let _ = exchange(&mut l, &mut wire, &mut drives, Instant::ZERO, &noise);
             let (got, _) = exchange(
