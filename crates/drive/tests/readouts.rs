@@ -117,7 +117,7 @@ fn cmmp_as_pv_reads_steady() {
 }
 
 /// Kinco FD3 in mode 3 at 600 rpm: Speed_Real 606Ch (DEC) within 1 % and Real_Speed_RPM
-/// d1.25 (2FF0h:14) at 600 for a second.
+/// d1.25 (2FF0h:14) at 600 for a second; Speed_1ms, d1.26 and d1.29 show the motion too.
 #[test]
 fn kinco_velocity_mode_reads_steady() {
     let mut r = Rig::device("kinco-fd3", 1, DriveSettings::default());
@@ -133,6 +133,13 @@ fn kinco_velocity_mode_reads_steady() {
     let seen = range(&mut r, 0x606C, 0, 1000);
     assert!(within(seen, dec_600_rpm, 1), "{seen:?} of {dec_600_rpm}");
     assert_eq!(range(&mut r, 0x2FF0, 0x14, 200), (600, 600));
+    // Speed_1ms: 600 rpm = 100 increments per ms (10 000 per revolution).
+    let speed_1ms = range(&mut r, 0x60F9, 0x1A, 200);
+    assert!(speed_1ms.0 >= 99 && speed_1ms.1 <= 100, "{speed_1ms:?}");
+    // d1.26 in 0.01 rpm holds 600 rpm within its 16 bits.
+    assert_eq!(range(&mut r, 0x60F9, 0x19, 200), (32767, 32767));
+    // d1.29 I_q_Arms: the friction's current, in 0.1 Arms, never negative turning forward.
+    assert!(range(&mut r, 0x2FF0, 0x18, 200).0 >= 0);
 }
 
 /// CMMO-ST, a direct-mode velocity task at 36000 SINC/s (one turn a second): PNU 310:1 and the
