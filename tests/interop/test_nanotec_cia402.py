@@ -199,13 +199,10 @@ def test_velocity_mode_vl_turns_the_shaft(nanotec):
     assert node.sdo[0x6041].raw & 0x0400, "speed reached"
     # 1000 VL units = 30 min⁻¹ = 1000 position units/s.
     assert_speed(lambda: position(node), 0.5, 900, 1100)
-    # 6044h is the rotor's speed: in open loop it swings around the step rate, on average
-    # the demand.
-    samples = []
-    for _ in range(20):
-        samples.append(node.sdo[0x6044].raw)
-        time.sleep(0.007)
-    assert 850 < sum(samples) / len(samples) < 1150 and len(set(samples)) > 1, samples
+    # 6044h shows a value in closed loop only (§6.5: "Nur bei aktiviertem Closed Loop wird ein
+    # Wert ausgegeben"); the factory drive runs open loop.
+    assert node.sdo[0x200A].raw == 0
+    assert {node.sdo[0x6044].raw for _ in range(20)} == {0}
     # Backwards (§5.3: negative = counter-clockwise).
     node.sdo[0x6042].raw = -1000
     wait_until(lambda: node.sdo[0x6043].raw == -1000, 3.0, what="reversed")
@@ -217,6 +214,20 @@ def test_velocity_mode_vl_turns_the_shaft(nanotec):
     assert node.sdo[0x6041].raw & 0x0800
     node.sdo[0x6042].raw = 0
     wait_until(lambda: node.sdo[0x6043].raw == 0, 3.0, what="stopped")
+
+
+def test_vl_in_closed_loop_reads_a_steady_6044h(nanotec):
+    """Closed loop (2001h = 1): 6044h is the measured speed, steady within a few % at
+    6042h = 2000 (60 min⁻¹) however often a master polls it."""
+    _, node = nanotec
+    node.sdo[0x2001].raw = 1
+    wait_until(lambda: node.sdo[0x200A].raw == 1, 1.0, what="closed loop on (200Ah)")
+    enable(node, "VELOCITY")
+    node.sdo[0x6042].raw = 2000
+    wait_until(lambda: node.sdo[0x6043].raw == 2000, 3.0, what="the ramp's end")
+    wait_until(lambda: abs(node.sdo[0x6044].raw - 2000) < 60, 2.0, what="6044h at the speed")
+    samples = [node.sdo[0x6044].raw for _ in range(100)]
+    assert all(abs(v - 2000) <= 60 for v in samples), samples
 
 
 def test_torque_in_closed_loop_accelerates_to_the_607f_limit(nanotec):

@@ -10,6 +10,11 @@
 //! Sans-IO: [`LineCutter`] cuts a byte stream into lines, [`execute`] answers one line from an
 //! [`ObjectAccess`]. The manual says the syntax is for tests only and may change; the twin
 //! accepts lower-case hex digits and answers in upper case.
+//!
+//! **Decision:** §3.2.3 prints no line ends. A request ends at CR, LF or CR LF (the empty line
+//! between CR and LF gets no answer); an answer ends with CR alone ([`ANSWER_END`]), as the
+//! device sends it: programs written for the CMMP-AS send `?606100` CR and read the answer up
+//! to CR, and an LF after it would start their next answer.
 
 use core::fmt::Write as _;
 
@@ -21,6 +26,9 @@ pub const MAX_LINE: usize = 16;
 
 /// An answer line without its terminator: `=XXXXSU:WWWWWWWW` at most.
 pub type Reply = String<MAX_LINE>;
+
+/// What ends every answer on the wire: CR alone (see the module's decision).
+pub const ANSWER_END: u8 = b'\r';
 
 /// One parsed command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,7 +158,7 @@ pub enum Cut {
     TooLong,
 }
 
-/// Cuts a byte stream into lines at CR or LF; empty lines are skipped. A line longer than any
+/// Cuts a byte stream into lines at CR or LF; empty lines are skipped, so CR LF ends one line. A line longer than any
 /// command is dropped whole and reported at its end as [`Cut::TooLong`].
 #[derive(Debug, Default)]
 pub struct LineCutter {

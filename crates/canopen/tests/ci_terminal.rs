@@ -1,6 +1,6 @@
 //! SDO simulation over the CI terminal (CMMP-AS §3.2.3), answered from the CMMP-AS dictionary.
 
-use canopen::ci_terminal::{execute, CiTerminal};
+use canopen::ci_terminal::{execute, CiTerminal, ANSWER_END};
 use od::{ObjectDictionary, Value};
 use proptest::prelude::*;
 
@@ -107,6 +107,30 @@ fn terminal_cuts_lines_and_survives_garbage() {
         }
     }
     assert_eq!(replies, ["!05040001", "=606100:01"]);
+}
+
+/// A request ends with CR, LF or CR LF: each gets exactly one answer (no answer to the empty
+/// line between CR and LF), and an answer ends with CR alone, as the device's.
+#[test]
+fn each_request_ending_gets_one_answer_ended_with_cr() {
+    let mut od = od();
+    od.set_value(0x6061, 0, Value::Signed(1)).unwrap();
+    let mut t = CiTerminal::default();
+    for ending in [&b"\r"[..], b"\n", b"\r\n"] {
+        let mut wire = Vec::new();
+        for &b in b"?606100"
+            .iter()
+            .chain(ending)
+            .chain(b"=604000:0006")
+            .chain(ending)
+        {
+            if let Some(r) = t.on_byte(b, &mut od) {
+                wire.extend_from_slice(r.as_bytes());
+                wire.push(ANSWER_END);
+            }
+        }
+        assert_eq!(wire, b"=606100:01\r=604000:0006\r", "ending {ending:?}");
+    }
 }
 
 proptest! {

@@ -310,6 +310,8 @@ pub(crate) struct Hot {
     pub(crate) target_velocity: Option<&'static Entry>,
     pub(crate) target_torque: Option<&'static Entry>,
     pub(crate) digital_inputs: Option<&'static Entry>,
+    pub(crate) vl_velocity_actual: Option<&'static Entry>,
+    pub(crate) velocity_actual_filtered: Option<&'static Entry>,
 }
 
 pub struct Drive<S> {
@@ -343,6 +345,8 @@ pub struct Drive<S> {
     pub(crate) smoother: Smoother,
     /// The position set-point the axis follows (after smoothing), increments.
     pub(crate) demand_position: f64,
+    /// The encoder's speed as the drive measures it for its readouts (`publish.rs`).
+    pub(crate) velocity_readout: crate::measured_velocity::MeasuredVelocity,
     pub(crate) setpoints: SetPoints,
     pub(crate) demand: Demand,
     /// When the CSP set-point last changed.
@@ -520,6 +524,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             target_velocity: e(0x60FF, 0),
             target_torque: e(0x6071, 0),
             digital_inputs: e(0x60FD, 0),
+            vl_velocity_actual: e(0x6044, 0),
+            velocity_actual_filtered: e(0x2074, 0),
         };
         let mut param_entries = [None; PARAMS.len()];
         for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
@@ -561,6 +567,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             traj: Trajectory::default(),
             smoother: Smoother::default(),
             demand_position: 0.0,
+            velocity_readout: Default::default(),
             setpoints: SetPoints::overwriting(personality.pp_overwrite_queued),
             demand: Demand::Off,
             csp_changed_at: None,

@@ -19,6 +19,7 @@ pub mod factor_group;
 pub mod fhpp;
 pub mod homing;
 pub mod interpolated_position;
+pub mod measured_velocity;
 pub mod messages;
 pub mod motor;
 pub mod personality;

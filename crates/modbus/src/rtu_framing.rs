@@ -4,7 +4,9 @@
 //! with the time they arrived, and calls [`RtuFramer::poll`] at [`RtuFramer::deadline`].
 //!
 //! The standard's rules, and the decisions:
-//! - t3.5 is 3.5 character times; above 19200 bit/s it is fixed at 1.75 ms.
+//! - t3.5 is 3.5 character times; above 19200 bit/s the standard recommends a fixed 1.75 ms
+//!   ([`t3_5`], [`RtuFramer::new`]). A device whose manual asks 3.5 characters at every rate
+//!   frames with [`three_and_a_half_characters`] ([`RtuFramer::with_gap`]).
 //! - Decision: a character is 10 bits, the Kinco line's 8N1 (§12.2: 8 data bits, 1 stop bit,
 //!   no parity); the standard's 11 bits are for lines with parity or two stop bits.
 //! - A frame longer than 256 bytes is dropped whole (and counted), as a frame the server
@@ -21,12 +23,18 @@ use crate::kinco_rtu::MAX_FRAME;
 /// Bits of one character on an 8N1 line.
 pub const BITS_PER_CHAR: u64 = 10;
 
-/// The silence that ends a frame at `baud` bit/s: 3.5 characters, at least 1.75 ms above
-/// 19200 bit/s (the standard's fixed value); a baud rate of 0 is taken as 1.
+/// The silence that ends a frame at `baud` bit/s: 3.5 characters, fixed at 1.75 ms above
+/// 19200 bit/s (the standard's recommended value); a baud rate of 0 is taken as 1.
 pub fn t3_5(baud: u32) -> Duration {
     if baud > 19_200 {
         return Duration::from_micros(1750);
     }
+    three_and_a_half_characters(baud)
+}
+
+/// 3.5 characters at `baud` bit/s at every rate, without the standard's 1.75 ms above
+/// 19200 bit/s; a baud rate of 0 is taken as 1.
+pub fn three_and_a_half_characters(baud: u32) -> Duration {
     let ns = 35 * BITS_PER_CHAR * 100_000_000 / u64::from(baud.max(1));
     Duration::from_nanos(ns)
 }
@@ -50,14 +58,19 @@ pub struct RtuFramer {
 }
 
 impl RtuFramer {
-    /// A framer for a line at `baud` bit/s.
+    /// A framer for a line at `baud` bit/s, frames ended by the standard's [`t3_5`].
     pub fn new(baud: u32) -> Self {
+        Self::with_gap(t3_5(baud))
+    }
+
+    /// A framer whose frames end after `gap` of silence.
+    pub fn with_gap(gap: Duration) -> Self {
         RtuFramer {
             buf: [0; MAX_FRAME],
             len: 0,
             overflow: false,
             last: None,
-            gap: t3_5(baud),
+            gap,
             dropped: Dropped::default(),
         }
     }
@@ -120,6 +133,36 @@ mod tests {
         assert_eq!(t3_5(19200), Duration::from_nanos(1_822_916));
         assert_eq!(t3_5(38400), Duration::from_micros(1750));
         assert_eq!(t3_5(115_200), Duration::from_micros(1750));
+        assert_eq!(three_and_a_half_characters(19200), t3_5(19200));
+        assert_eq!(
+            three_and_a_half_characters(38400),
+            Duration::from_nanos(911_458)
+        );
+        assert_eq!(
+            three_and_a_half_characters(115_200),
+            Duration::from_nanos(303_819)
+        );
+    }
+
+    /// A framer with 3.5 characters at 115200 bit/s ends a frame after 0.31 ms of silence,
+    /// where the standard's framer still waits.
+    #[test]
+    fn a_framer_of_three_and_a_half_characters_at_115200() {
+        let gap = three_and_a_half_characters(115_200);
+        let mut f = RtuFramer::with_gap(gap);
+        let mut standard = RtuFramer::new(115_200);
+        let mut frames: Vec<Vec<u8>> = Vec::new();
+        let us = |n: u64| Instant::from_nanos(n * 1000);
+        let request = [0x01, 0x06, 0x31, 0x00, 0x00, 0x0F, 0xC7, 0x32];
+        f.on_bytes(us(0), &request, &mut |_| {});
+        standard.on_bytes(us(0), &request, &mut |_| {});
+        f.on_bytes(us(400), &[0x01], &mut |b| frames.push(b.to_vec()));
+        standard.on_bytes(us(400), &[0x01], &mut |b| frames.push(b.to_vec()));
+        assert_eq!(
+            frames,
+            vec![request.to_vec()],
+            "only the 3.5-character framer"
+        );
     }
 
     /// A frame split over two reads is one frame; it is handed out after the silence, at the

@@ -1,8 +1,24 @@
 //! The statusword 6041h and the actual values, written once per logic cycle: the state
 //! bits and manufacturer bits from the personality, target reached, internal limit,
 //! following error and the mode's bits 12 / 13, then positions, speeds, currents.
+//!
+//! Readouts are what the device reports, not the plant's raw state:
+//! - CMMP-AS 606Ch is the actual speed through the velocity controller's filter 60F9h:04
+//!   ("actual-speed filter", §5.4), as the controller uses it; 2074h the display value
+//!   through 2073h (20 ms by default, §7.5.2: "for display only"). 6077h / 6078h: the manual
+//!   names no filter; they are the current controller's measured values.
+//! - Kinco 606Ch (Speed_Real) is the speed feedback through Speed_Fb_N 60F9h:05 (bandwidth
+//!   100 + 20·N Hz, ch. 7); d1.25 Real_Speed_RPM the display value (`kinco_drive.rs`).
+//! - Nanotec 6044h: 0 in open loop (§6.5: "only with closed loop activated is a value
+//!   output"); in closed loop the encoder's speed through [`VL_ACTUAL_FILTER_S`].
 
 use super::*;
+
+/// **Decision:** the time constant of the Nanotec's measured speed 6044h in closed loop. The
+/// manual names no filter (§6.5); 20 ms, the CMMP-AS display filter's default (2073h), reads
+/// steady at the speeds a stepper runs (within 1 % at 60 min⁻¹) and still follows a ramp a
+/// master polls every 100 ms.
+pub const VL_ACTUAL_FILTER_S: f64 = 0.020;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Writes the statusword and every actual value.
@@ -176,5 +192,33 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.hot.torque_demand,
             i64::from(self.axis.torque_demand_permille()),
         );
+        self.publish_velocity_readouts();
+    }
+
+    /// 6044h (the measured speed, or 0 where the personality shows it in closed loop only)
+    /// and 2074h (the display-filtered speed). Each only where the dictionary has it.
+    fn publish_velocity_readouts(&mut self) {
+        if let Some(e) = self.hot.vl_velocity_actual {
+            let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
+            let position = self.plant_position();
+            let measured = self
+                .velocity_readout
+                .sample(position, dt, VL_ACTUAL_FILTER_S);
+            let shown = !self.personality.capabilities.vl_actual_closed_loop_only
+                || self.value(0x200A, 0) != 0;
+            let v = if shown {
+                self.vl_actual_user(measured)
+            } else {
+                0
+            };
+            self.store(Some(e), v);
+        }
+        if let Some(e) = self.hot.velocity_actual_filtered {
+            let internal = f64::from(self.axis.velocity_display_rpm()) * 4096.0;
+            let v = self
+                .fg
+                .velocity_from_internal(crate::rounding::round(internal) as i64);
+            self.store(Some(e), i64::from(v));
+        }
     }
 }

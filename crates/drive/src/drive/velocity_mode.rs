@@ -38,9 +38,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// Increments/s as a VL user velocity.
-    fn vl_from_internal(&self, increments_per_s: f64) -> f64 {
+    pub(crate) fn vl_from_internal(&self, increments_per_s: f64) -> f64 {
         let (num, den) = self.vl_dimension_factor();
         increments_per_s * RPM_PER_INC_S * den / num
+    }
+
+    /// A speed in increments/s as 6044h shows it: VL user units, the polarity 607Eh bit 6
+    /// applied, rounded and held within INTEGER16.
+    pub(crate) fn vl_actual_user(&self, increments_per_s: f64) -> i64 {
+        let polarity = self.value(0x607E, 0) as u8 & VELOCITY_POLARITY != 0;
+        let sign = if polarity { -1.0 } else { 1.0 };
+        let user = libm::round(sign * self.vl_from_internal(increments_per_s)) as i64;
+        user.clamp(i64::from(i16::MIN), i64::from(i16::MAX))
     }
 
     /// A ramp record (6048h, 6049h, 604Ah): Δv / Δt in increments/s²; `None` if a part is 0.
@@ -86,7 +95,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.publish_vl();
     }
 
-    /// 6043h demand and 6044h actual velocity in user units (§5.3).
+    /// 6043h demand velocity in user units (§5.3); 6044h is a readout of every mode
+    /// (`publish.rs`).
     pub(crate) fn publish_vl(&mut self) {
         let sign = if self.value(0x607E, 0) as u8 & VELOCITY_POLARITY != 0 {
             -1.0
@@ -94,14 +104,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             1.0
         };
         let demand = libm::round(sign * self.vl_from_internal(self.velocity_set)) as i64;
-        let actual_internal = f64::from(self.plant_velocity_rpm()) / RPM_PER_INC_S;
-        let actual = libm::round(sign * self.vl_from_internal(actual_internal)) as i64;
         let clamp = |v: i64| v.clamp(i64::from(i16::MIN), i64::from(i16::MAX));
         if let Some(e) = self.od.description().entry(0x6043, 0) {
             self.store(Some(e), clamp(demand));
-        }
-        if let Some(e) = self.od.description().entry(0x6044, 0) {
-            self.store(Some(e), clamp(actual));
         }
     }
 }

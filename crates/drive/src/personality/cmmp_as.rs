@@ -141,6 +141,7 @@ pub const CMMP_AS: Personality = Personality {
         switch_polarity_objects: true,
         brake_in_60fe: true,
         zero_ramp_is_abrupt: false,
+        vl_actual_closed_loop_only: false,
     },
     homing_methods: &METHODS,
     external_home_switch: None,

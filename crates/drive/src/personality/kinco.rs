@@ -64,6 +64,7 @@ pub const KINCO: Personality = Personality {
         switch_polarity_objects: false,
         brake_in_60fe: false,
         zero_ramp_is_abrupt: true,
+        vl_actual_closed_loop_only: false,
     },
     homing_methods: &HOMING_METHODS,
     external_home_switch: None,

@@ -127,6 +127,9 @@ pub struct Capabilities {
     /// An acceleration or deceleration of 0 means no ramp (the set-point steps) instead of
     /// no motion (Kinco: 6083h / 6084h print no default, mode −3 runs without a ramp).
     pub zero_ramp_is_abrupt: bool,
+    /// 6044h vl_velocity_actual_value shows a value in closed loop only, 0 in open loop
+    /// (Nanotec §6.5: "Nur bei aktiviertem Closed Loop wird ein Wert ausgegeben").
+    pub vl_actual_closed_loop_only: bool,
 }
 
 /// A reference switch a master supplies through an object (an RPDO from an external I/O

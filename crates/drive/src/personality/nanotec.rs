@@ -111,6 +111,7 @@ pub const NANOTEC: Personality = Personality {
         switch_polarity_objects: false,
         brake_in_60fe: false,
         zero_ramp_is_abrupt: false,
+        vl_actual_closed_loop_only: true,
     },
     homing_methods: &HOMING_METHODS,
     // §5.2 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.

@@ -69,6 +69,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             }
         }
         self.advance(dt);
+        self.measure_velocity(dt);
         self.supervise_plant(dt);
         self.compare();
         self.check_chain();
@@ -139,6 +140,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             force_window: pos(g(552, 1)),
             soft_lower: g(501, 1),
             soft_upper: g(501, 2),
+            velocity_filter_s: pos(g(1024, 6)) * 1e-3,
         };
         let cfg = self.fhpp.config_mut();
         cfg.base_velocity = u32::try_from(g(540, 1).max(0)).unwrap_or(u32::MAX);

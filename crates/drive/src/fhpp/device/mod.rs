@@ -154,6 +154,8 @@ struct Params {
     /// PNU 501:1 / 501:2, relative to AZ; both 0 = no software limits.
     soft_lower: i64,
     soft_upper: i64,
+    /// PNU 1024:6, the time constant filtering the motor speed, seconds.
+    velocity_filter_s: f64,
 }
 
 /// What the executor is doing to the set-point.
@@ -325,6 +327,8 @@ pub struct FhppDevice<S> {
     standstill_target: Option<f64>,
     still_since: Option<u64>,
     standstill_error: bool,
+    /// The motor speed as the controller measures it, EINC/s (`coordinates.rs`).
+    velocity_readout: crate::measured_velocity::MeasuredVelocity,
     /// Warnings present, bit n = diagnostic n.
     warnings: u128,
     /// Warnings raised by a single event (a refused start): they show until the next start.
@@ -487,6 +491,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             standstill_target: None,
             still_since: None,
             standstill_error: false,
+            velocity_readout: Default::default(),
             warnings: 0,
             once_warnings: 0,
             injected: 0,
@@ -589,7 +594,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             velocity_limit: self.velocity_limited,
             stroke_limit: self.stroke_reached,
             actual_position: sat_i32(self.to_pz(actual)),
-            actual_velocity: sat_i32(velocity),
+            actual_velocity: sat_i32(self.reported_velocity()),
             actual_force: self.actual_force(),
             warning: self.warnings != 0,
             fault,

@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use canopen::ci_terminal::{syntax_error, Cut, LineCutter};
+use canopen::ci_terminal::{self, syntax_error, Cut, LineCutter};
 use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
@@ -986,7 +986,7 @@ impl CellLoop {
             };
             if let Some(Some(conn)) = self.slots.get_mut(slot) {
                 conn.pending.extend_from_slice(reply.as_bytes());
-                conn.pending.extend_from_slice(b"\r\n");
+                conn.pending.push(ci_terminal::ANSWER_END);
             }
         }
         self.mark_dirty(slot);
