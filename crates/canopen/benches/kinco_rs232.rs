@@ -1,4 +1,10 @@
 //! The Kinco RS232 codec alone (issue 13's benchmark): a 10-byte telegram in, the answer out.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::kinco_rs232::KincoRs232;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};

@@ -1,4 +1,10 @@
 //! The PDO path: one SYNC in, every TPDO of a drive with 4 synchronous TPDOs out.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::{CanFrame, Node};
 use criterion::{black_box, criterion_group, criterion_main, Criterion};

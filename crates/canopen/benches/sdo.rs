@@ -1,4 +1,10 @@
 //! The sans-IO stack alone: an SDO expedited upload request in, the response out.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::{CanFrame, Node};
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};

@@ -1,5 +1,11 @@
 //! The cost of the timed CAN bus model per frame: bit-exact frame length (stuffing and
 //! CRC-15) and the arbitration among waiting frames (issue 14: "bus-model cost per frame").
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::frame_time::frame_bits;
 use canopen::timed_bus::TimedBus;

@@ -57,8 +57,8 @@ impl Transmission {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct QueueFull;
 
-/// The arbitration field as a number: the lower wins. Standard: ID[10:0], RTR, IDE = 0;
-/// extended: ID[28:18], SRR = 1, IDE = 1, ID[17:0], RTR.
+/// The arbitration field as a number: the lower wins. Standard: `ID[10:0]`, RTR, IDE = 0;
+/// extended: `ID[28:18]`, SRR = 1, IDE = 1, `ID[17:0]`, RTR.
 pub fn arbitration_key(frame: &CanFrame) -> u64 {
     let rtr = u64::from(frame.rtr);
     if frame.extended {

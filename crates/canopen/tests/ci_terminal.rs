@@ -1,4 +1,10 @@
 //! SDO simulation over the CI terminal (CMMP-AS §3.2.3), answered from the CMMP-AS dictionary.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::ci_terminal::{execute, CiTerminal, ANSWER_END};
 use od::{ObjectDictionary, Value};

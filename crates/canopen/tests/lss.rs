@@ -1,6 +1,12 @@
 //! LSS slave (CiA 305; spec `canopen-protocols.md` §6): every command with its exact bytes on
 //! 7E5h/7E4h, wrong-state and malformed requests, and python-canopen 2.4.1's
 //! `LssMaster.fast_scan()` played bit by bit against simulated slaves.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::lss::{
     bit_rate_kbit, LssAction, LssAddress, LssSlave, LssState, LSS_REQUEST_ID, LSS_RESPONSE_ID,

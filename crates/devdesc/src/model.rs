@@ -140,11 +140,13 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
     objects.sort_by_key(|o| o.index);
     unique_addresses(&objects)?;
     for pair in objects.windows(2) {
-        if pair[0].index == pair[1].index {
-            return Err(DescError::Object {
-                index: pair[0].index,
-                what: "defined twice".into(),
-            });
+        if let [a, b] = pair {
+            if a.index == b.index {
+                return Err(DescError::Object {
+                    index: a.index,
+                    what: "defined twice".into(),
+                });
+            }
         }
     }
     // The profile and the device type 1000h must agree (CiA 301: bits 0…15 are the device
@@ -154,7 +156,8 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         .find(|o| o.index == 0x1000)
         .and_then(|o| o.entries.first())
         .and_then(|e| e.default.get(..2))
-        .map(|b| u16::from_le_bytes([b[0], b[1]]));
+        .and_then(|b| <[u8; 2]>::try_from(b).ok())
+        .map(u16::from_le_bytes);
     let profile = match d.profile {
         ProfileName::Cia402 => od::Profile::Cia402,
         ProfileName::Fhpp => od::Profile::Fhpp,
@@ -325,12 +328,14 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
         }
         entries.sort_by_key(|e| e.sub);
         for pair in entries.windows(2) {
-            if pair[0].sub == pair[1].sub {
-                return Err(DescError::Entry {
-                    index: o.index,
-                    sub: pair[0].sub,
-                    what: "defined twice".into(),
-                });
+            if let [a, b] = pair {
+                if a.sub == b.sub {
+                    return Err(DescError::Entry {
+                        index: o.index,
+                        sub: a.sub,
+                        what: "defined twice".into(),
+                    });
+                }
             }
         }
         let highest = entries.last().map(|e| e.sub).unwrap_or(0);
@@ -614,7 +619,8 @@ fn encode_default(t: DataType, v: &toml::Value) -> Result<(Vec<u8>, bool), Strin
             let n = v
                 .encode(t, &mut buf)
                 .ok_or_else(|| format!("default {v} does not fit {}", t.name()))?;
-            Ok((buf[..n].to_vec(), plus_node))
+            let bytes = buf.get(..n).ok_or("default longer than 8 bytes")?;
+            Ok((bytes.to_vec(), plus_node))
         }
     }
 }

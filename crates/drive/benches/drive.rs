@@ -11,6 +11,12 @@
 //! real time (target ≥ 1000, i.e. ≤ 1 ms of CPU per simulated second), then draws the figures
 //! with the baseline into `docs/axes-per-core.png`. The machine is shared: each figure is the
 //! thread's CPU time (not wall time), the best of several runs.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::hint::black_box;
 use std::path::PathBuf;

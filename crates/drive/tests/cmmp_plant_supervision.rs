@@ -1,6 +1,12 @@
 //! The CMMP-AS's own supervision of its plant's physics (`drive::drive::plant_supervision`):
 //! a motor heated by its current raises 18-0 (warning) and then 03-0 (App. B), a hot power
 //! stage 04-0, a pulled encoder cable 08-0, each with its reaction, EMCY and display.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

@@ -1,6 +1,12 @@
 //! The CMMP-AS drive end to end on the virtual clock: device control through the
 //! dictionary, profile position / velocity / torque with the simulated motor, quick stop,
 //! following error, fault and reset, and the object rules of the manual.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

@@ -2,6 +2,12 @@
 //! spec/vectors.md §1.7 (CMMP-FG-01 … CMMP-FG-18, each named in full at its test), plus
 //! rounding, round trips, polarity, the 2²⁴ limit, zero divisors and the INT32 edges. The
 //! drive applying them through its dictionary: crates/drive/tests/drive.rs.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drive::factor_group::{
     acceleration_factor, feed_constant, position_factor, velocity_factor, FactorError, FactorGroup,

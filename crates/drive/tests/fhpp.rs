@@ -2,6 +2,12 @@
 //! spec/vectors.md §2.1 (FHPP-CB-01 … FHPP-CB-16, Examples 1–6) and §2.2 (FHPP-ST-01 …
 //! FHPP-ST-19, Tab. 5.2/5.3), each test naming its IDs in full,
 //! the reference status values of spec/cmmo-st-fhpp.md §4.3 and §8.1, and the handshakes.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drive::fhpp::control_bytes::{percent_of, Edges};
 use drive::fhpp::record_table::RecordSelect;

@@ -3,6 +3,12 @@
 //! −0.05…+0.05 rev and index pulse at 0.3 rev; 1 rev = 36000 SINC with the dictionary's
 //! defaults), the
 //! SPOS.ACK / MC / REF handshake and the homing diagnostics 22h, 23h, 24h, 2Eh, 3Ah, 3Bh.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod fhpp_bench;
 use core::f64::consts::TAU;

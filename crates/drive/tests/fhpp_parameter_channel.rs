@@ -1,5 +1,11 @@
 //! The CMMO-ST parameter channel (EFPC, manual App. C) end to end on the device: 16-byte
 //! output images in, FPCS and the answer out, one FHPP cycle per exchange.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
 use drive::fhpp::diagnostic_memory::EventType;

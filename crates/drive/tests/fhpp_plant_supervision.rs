@@ -1,6 +1,12 @@
 //! The CMMO-ST's own supervision of its plant's physics (`drive::fhpp::plant_supervision`):
 //! App. D 33h, 15h and 16h from the output stage's temperature (PNU 1066 against PNU 1068),
 //! 06h from the encoder.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod fhpp_bench;
 use drive::encoder_fault::EncoderFault;

@@ -2,6 +2,12 @@
 //! travel of `drive::travel` (limit switches from −20 / +64 revolutions, hard stops at −22 /
 //! +66, home cam 40 000 … 90 000, index at 16 384 + k·65 536): every method of Tab. 7.1 ends at its
 //! reference point, searching the right way, with the statusword bits and the group-11 errors.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

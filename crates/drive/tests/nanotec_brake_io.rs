@@ -1,5 +1,11 @@
 //! The SMCI47-S brake timing 2007h and the digital-output mask 60FEh:02
 //! (spec/nanotec-canopen.md §5.8).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod nanotec_rig;
 

@@ -2,6 +2,12 @@
 //! pull-out torque falling with speed, holding), closed loop (servo-lite), determinism, and
 //! the SINC scaling vectors of spec/vectors.md §2.5 (FHPP-SC-01, FHPP-SC-02, FHPP-SC-03) by
 //! their IDs.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::f64::consts::TAU;
 

@@ -2,6 +2,12 @@
 //! bytes, 6 input bytes, as SOEM maps a CSP drive) and, in a second case, the FRMW of DC and
 //! an FPRD of AL status as ethercrab appends (spec/ethercat-esc.md §7.5, §9.4 step 18).
 //! Target (issue 5): under 2 µs per frame.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use ethercat::datagram::Command;

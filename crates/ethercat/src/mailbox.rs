@@ -137,11 +137,10 @@ impl<T: AsRef<[u8]>> Mailbox<T> {
 impl<T: AsRef<[u8]> + AsMut<[u8]>> Mailbox<T> {
     /// Write the header fields.
     pub fn set_header(&mut self, length: u16, address: u16, kind: MailboxType, counter: u8) {
-        if let Some(h) = self.buffer.as_mut().get_mut(0..HEADER_LEN) {
-            h[0..2].copy_from_slice(&length.to_le_bytes());
-            h[2..4].copy_from_slice(&address.to_le_bytes());
-            h[4] = 0;
-            h[5] = kind.to_u8() | ((counter & 0x07) << 4);
+        if let Some(h) = self.buffer.as_mut().first_chunk_mut::<HEADER_LEN>() {
+            let [l0, l1] = length.to_le_bytes();
+            let [a0, a1] = address.to_le_bytes();
+            *h = [l0, l1, a0, a1, 0, kind.to_u8() | ((counter & 0x07) << 4)];
         }
     }
 

@@ -160,6 +160,8 @@ pub const fn ecat_write_mask(addr: u16) -> u8 {
     }
 }
 
+// Evaluated when compiling (`ECAT_WRITE_MASK`); `a` stays below the array's length.
+#[allow(clippy::indexing_slicing)]
 const fn build_write_masks() -> [u8; 0x1000] {
     let mut t = [0u8; 0x1000];
     let mut a = 0usize;

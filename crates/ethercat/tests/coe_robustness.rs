@@ -3,6 +3,12 @@
 //! requests with any command byte, index and data) gets replies that are whole mailbox
 //! messages of the send mailbox's size at most, never a panic; and afterwards an expedited
 //! upload of 1018h:01 is answered with the dictionary's value (spec/ethercat-esc.md §5).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use ethercat::coe::{CoeConfig, CoeServer};
 use ethercat::mailbox::next_counter;

@@ -1,4 +1,10 @@
 //! Every datagram command, its working counter and its addressing (spec/ethercat-esc.md §1).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod common;
 

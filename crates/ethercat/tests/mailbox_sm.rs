@@ -1,5 +1,11 @@
 //! Mailbox sync managers: full/empty handshake, refusals, repeat request, mailbox header
 //! (spec/ethercat-esc.md §5).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod common;
 

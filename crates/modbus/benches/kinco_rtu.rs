@@ -1,5 +1,11 @@
 //! The Kinco Modbus RTU server alone (issue 13's benchmark): the manual's §12.3 frames in, the
 //! replies out.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use modbus::kinco_rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};

@@ -1,6 +1,12 @@
 //! The codec against the MODBUS Application Protocol V1.1b3 rules: every function code,
 //! every exception, the MBAP checks, device identification access modes, stream framing,
 //! the RTU CRC and the client encoders.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod common;
 

@@ -2,6 +2,12 @@
 //! message boundaries): however a client's requests are cut into reads — one byte at a time,
 //! several ADUs in one read, an ADU across reads — the server gives the same answers, in
 //! order, and leaves the registers the same as when each ADU comes whole.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use modbus::client;
 use modbus::{handle_adu, Exception, Framer, RegisterMap, MAX_ADU_LEN};

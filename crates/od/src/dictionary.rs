@@ -146,7 +146,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
         if e.is_variable() {
             let len = data
                 .get(off..off + 2)
-                .map(|b| u16::from_le_bytes([b[0], b[1]]) as usize)
+                .and_then(|b| <[u8; 2]>::try_from(b).ok())
+                .map(|b| u16::from_le_bytes(b) as usize)
                 .unwrap_or(0)
                 .min(e.capacity as usize);
             data.get(off + 2..off + 2 + len).unwrap_or(&[])

@@ -1,5 +1,10 @@
 //! A booted node on a dictionary, driven frame by frame with hand-made instants.
-
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 #![allow(dead_code)]
 
 use canopen::{CanFrame, Node, NodeEvent};

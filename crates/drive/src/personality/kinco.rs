@@ -94,22 +94,28 @@ const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
 
 /// The homing method `number` of the CiA 402 table the engine runs (`homing::METHODS`, the
 /// CMMP-AS's steps of CiA 402's figures) or of the home-switch methods 19 … 22.
+// Only called in the const table below: an unknown number fails the build, never a drive.
+#[allow(clippy::panic)]
 const fn cia_method(number: i8) -> Method {
-    let mut i = 0;
-    while i < homing::METHODS.len() {
-        if homing::METHODS[i].0 == number {
-            return homing::METHODS[i];
-        }
-        i += 1;
+    match find_method(&homing::METHODS, number) {
+        Some(m) => m,
+        None => match find_method(&super::nanotec::HOMING_METHODS, number) {
+            Some(m) => m,
+            None => panic!("no such homing method"),
+        },
     }
-    let mut i = 0;
-    while i < super::nanotec::HOMING_METHODS.len() {
-        if super::nanotec::HOMING_METHODS[i].0 == number {
-            return super::nanotec::HOMING_METHODS[i];
+}
+
+/// The method `number` of `table`.
+const fn find_method(table: &[Method], number: i8) -> Option<Method> {
+    let mut rest = table;
+    while let [m, tail @ ..] = rest {
+        if m.0 == number {
+            return Some(*m);
         }
-        i += 1;
+        rest = tail;
     }
-    panic!("no such homing method")
+    None
 }
 
 /// Tab. 6-19 (L1690-1720, spec/kinco-fd-cd.md §5.7): the CiA 402 methods the manual lists
@@ -335,12 +341,11 @@ pub fn din_has(code: u16, function: DinFunction) -> bool {
 
 // Row n of DIN_FUNCTIONS is the function with discriminant n.
 const _: () = {
+    let mut rest: &[(u16, DinFunction)] = &DIN_FUNCTIONS;
     let mut i = 0;
-    while i < DIN_FUNCTIONS.len() {
-        assert!(
-            DIN_FUNCTIONS[i].1 as usize == i,
-            "DIN_FUNCTIONS out of order"
-        );
+    while let [row, tail @ ..] = rest {
+        assert!(row.1 as usize == i, "DIN_FUNCTIONS out of order");
+        rest = tail;
         i += 1;
     }
 };

@@ -1,6 +1,12 @@
 //! The CMMP-AS drive alone on the virtual clock: the rig of the drive-level tests. Each test
 //! file adds the helpers it needs in its own `impl Rig`.
 #![allow(dead_code)] // each test file uses a part of it
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

@@ -2,6 +2,12 @@
 //! its CANopen node for SDO frames: the rig of the drive-level tests. The vendors' rigs
 //! (`kinco_rig`, `nanotec_rig`) add their constructors and helpers in their own `impl Rig`.
 #![allow(dead_code)] // each test file uses a part of it
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

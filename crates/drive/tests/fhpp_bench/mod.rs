@@ -2,6 +2,12 @@
 //! telegram in, FHPP cycles of 1 ms run, the input telegram out. Each file adds its own
 //! helpers in an `impl Bench` block of its own.
 #![allow(dead_code)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drive::fhpp::device::{FhppDevice, FhppSettings};
 use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Spos};

@@ -40,7 +40,7 @@
 //!
 //! * Stored parameters: with a state directory, 1010h "save" over CoE writes the drive's
 //!   file before the answer (as over CANopen) and the next start loads it. The file is written
-//!   on a thread of its own ([`SaveInFlight`]): the reply waits in the device until the file is
+//!   on a thread of its own (`SaveInFlight`): the reply waits in the device until the file is
 //!   synced (0800 0020h if that failed) and the mailbox serves nothing else meanwhile, while the
 //!   ESC, hardware on a real slave, goes on answering every frame with its working counter.
 //!   Written on the loop thread, two fsyncs under load held the loop for tens of ms and the

@@ -2,7 +2,7 @@
 //! clock for CI (`drivetwin scenario FILE`: the same file gives the same report and trace bit
 //! for bit) or on a live cell through its control handle (`POST /api/scenarios`).
 //!
-//! - [`file`]: the file format and what each step means;
+//! - [`file`](mod@file): the file format and what each step means;
 //! - [`runner`]: the timeline against a [`runner::Rig`];
 //! - [`virtual_rig`]: the rig of the virtual clock (the CANopen drives of the cell's buses);
 //! - [`live`]: the rig of a running cell;

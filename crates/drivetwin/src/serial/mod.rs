@@ -8,7 +8,7 @@
 //! - [`rs232_line`]: the telegram protocol on a line, point to point, a ring, or on RS485;
 //! - [`rtu_line`]: Modbus RTU on an RS485 line, frames cut by the 3.5-character silence,
 //!   several drives by station number;
-//! - [`line`]: a line as the cell loop serves it: port, wire and protocol together.
+//! - [`line`](mod@line): a line as the cell loop serves it: port, wire and protocol together.
 //!
 //! The cell loop ([`crate::cell::poll_loop`]) owns the ports' descriptors with its other
 //! sockets and calls [`line::SerialLine`] when one is readable or a line's deadline is due;

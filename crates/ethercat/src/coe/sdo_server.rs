@@ -286,10 +286,8 @@ impl<const N: usize> CoeServer<N> {
         }
         let reply = 0x20 | (cmd & TOGGLE);
         self.write_message(out, MailboxType::Coe, |p| {
-            let d = p.get_mut(..10)?;
-            d.fill(0);
-            d[1] = 0x30;
-            d[2] = reply;
+            let d = p.first_chunk_mut::<10>()?;
+            *d = [0, 0x30, reply, 0, 0, 0, 0, 0, 0, 0];
             Some(10)
         })
     }
@@ -384,8 +382,7 @@ impl<const N: usize> CoeServer<N> {
         let src = self.buf.get(pos..end)?;
         let p = out.get_mut(HEADER_LEN..HEADER_LEN + n)?;
         p.fill(0);
-        p[1] = 0x30;
-        p[2] = reply;
+        p.get_mut(1..3)?.copy_from_slice(&[0x30, reply]);
         p.get_mut(3..3 + k)?.copy_from_slice(src);
         let r = self.finish(out, MailboxType::Coe, n)?;
         self.transfer = if last {

@@ -1,6 +1,12 @@
 //! A tiny master for the tests: builds frames with `FrameWriter`, passes them through a
 //! chain of ESCs, and decodes the returned datagrams.
 #![allow(dead_code)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter, ETHERNET_HEADER_LEN};

@@ -3,6 +3,12 @@
 //! go to the output image, reads come from the input image. The FHPP behaviour itself
 //! (what SCON/SPOS become) belongs to the device; here the test sets the input image.
 #![allow(dead_code)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use modbus::{ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap};
 
