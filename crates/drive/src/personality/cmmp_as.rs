@@ -7,7 +7,8 @@
 use od::{AbortCode, ObjectAccess, Value};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+    Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec, OptionCode,
+    Personality, Vendor,
 };
 use crate::controlword::Controlword;
 use crate::device_control::State;
@@ -144,6 +145,12 @@ pub const CMMP_AS: Personality = Personality {
     },
     homing_methods: &METHODS,
     external_home_switch: None,
+    hardware_enable: Some(HardwareEnable {
+        what: "DIN4 output-stage enable and DIN5 controller enable",
+        effect: "the drive stays in SWITCH ON DISABLED",
+        rule: "CMMP-AS §6.1.3 Tab. 6.4 transition 2: SWITCH ON DISABLED → READY TO SWITCH ON \
+            needs output-stage enable and controller enable present, plus Shutdown",
+    }),
 };
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {

@@ -67,6 +67,8 @@ pub const KINCO: Personality = Personality {
     },
     homing_methods: &HOMING_METHODS,
     external_home_switch: None,
+    // The enables are DIN functions (Enable, Pre Enable: kinco_io.rs).
+    hardware_enable: None,
 };
 
 /// The 1001h error-register bits of an EMCY code (CiA 301 §7.5.2.2: bit 0 generic always;
