@@ -77,7 +77,10 @@ pub const NANOTEC: Personality = Personality {
         mode(6, Some(5)),
         mode(7, Some(6)),
     ],
-    // 605Ah = 3, the only value: "brake with maximum current, then Switch On Disabled".
+    // 605Ah = 3, the only value (§4.4). Decision: §4.4 reads it "brake with maximum current,
+    // then Switch On Disabled", §4.2 (L769) says the quick stop brakes "with the ramp set in
+    // 6085h" (604Ah in VL, abrupt in IP, §5.4); the twin brakes with 6085h, then Switch On
+    // Disabled (NT-CW-07), the rule that names an object a master sets (docs/decisions.md).
     option_codes: &[OptionCode {
         index: super::QUICK_STOP_OPTION,
         value: 3,
