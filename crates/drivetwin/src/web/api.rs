@@ -72,12 +72,17 @@ impl ApiError {
         }
     }
 
-    /// The refusal with the drive's reason: a 409 whose message is the reason (the abort code,
-    /// if any, stays beside it).
+    /// The refusal with the drive's reason: a 409 whose message starts with the reason, the
+    /// drive's own answer (an SDO abort, a state not reached) after it.
     pub fn with_reason(self, reason: ReasonView) -> ApiError {
+        let error = if self.error.is_empty() {
+            reason.text.clone()
+        } else {
+            format!("{}; {}", reason.text, self.error)
+        };
         ApiError {
             status: StatusCode::CONFLICT,
-            error: reason.text.clone(),
+            error,
             reason: Some(Box::new(reason)),
             ..self
         }
