@@ -145,3 +145,44 @@ fn a_nanotec_says_why_it_takes_no_motion_command_or_no_torque_mode() {
     r.run_ms(2);
     assert_eq!(r.d.refusal(Request::Mode(4)), None);
 }
+
+/// Parameters the CMMP-AS locks in a state (0800 0022h) say why: 1011h with the output stage
+/// on (§5.1, CMMP-SDO-10), 60C1h:01 while the IP buffer is locked (§7.4.2); the Kinco's tuning
+/// start without WriteFUN_CTL (§7.1). Each refusal is the one the drive answers the write with.
+#[test]
+fn locked_parameters_name_their_rule() {
+    let mut r = Rig::device("cmmp-as", 1, DriveSettings::default());
+    let write = |index, sub| Request::Write { index, sub };
+    assert!(matches!(
+        r.d.refusal(write(0x60C1, 1)),
+        Some(Refusal::State { rule, .. }) if rule.contains("§7.4.2")
+    ));
+    assert_eq!(
+        r.d.write(0x60C1, 1, &0i32.to_le_bytes()),
+        Err(AbortCode::DEVICE_STATE)
+    );
+    assert_eq!(r.d.refusal(write(0x1011, 1)), None, "output stage off");
+    for cw in [0x06, 0x07, 0x0F] {
+        r.cw(cw);
+    }
+    r.run_ms(20);
+    assert_eq!(r.d.state(), State::OperationEnabled);
+    assert!(matches!(
+        r.d.refusal(write(0x1011, 1)),
+        Some(Refusal::State { rule, .. }) if rule.contains("§5.1")
+    ));
+    assert_eq!(
+        r.d.write(0x1011, 1, b"load"),
+        Err(AbortCode::DEVICE_STATE),
+        "CMMP-SDO-10"
+    );
+
+    let mut k = Rig::device("kinco-fd3", 1, DriveSettings::default());
+    assert!(matches!(
+        k.d.refusal(write(0x3040, 1)),
+        Some(Refusal::State { reason, .. }) if reason.contains("WriteFUN_CTL")
+    ));
+    assert_eq!(k.d.write(0x3040, 1, &[1]), Err(AbortCode::DEVICE_STATE));
+    k.w8(0x3041, 0x05, 1);
+    assert_eq!(k.d.refusal(write(0x3040, 1)), None);
+}

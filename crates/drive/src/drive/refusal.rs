@@ -136,7 +136,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let vendor = match self.personality.vendor {
             Vendor::Kinco => self.kinco_refusal(request),
             Vendor::Nanotec => self.nanotec_refusal(request),
-            Vendor::CmmpAs => None,
+            Vendor::CmmpAs => self.cmmp_refusal(request),
         };
         vendor.or_else(|| self.engine_refusal(request))
     }

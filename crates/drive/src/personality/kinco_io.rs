@@ -246,15 +246,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 })
             }),
             Request::Mode(_) => self.kinco_owner(0x6060, 0),
-            Request::Write { index, sub } => self.kinco_owner(index, sub).or_else(|| {
-                ((index, sub) == (0x60F9, 0x28) && self.value(0x6069, 0x09) == 1).then_some(
-                    Refusal::State {
+            Request::Write { index, sub } => {
+                self.kinco_owner(index, sub).or_else(|| match (index, sub) {
+                    (0x60F9, 0x28) if self.value(0x6069, 0x09) == 1 => Some(Refusal::State {
                         reason: "PI_Switch 6069h:09 = 1 switches the gain set itself",
                         rule: "Kinco FD/CD §5.5.4: PI_Pointer is set by the Gain Switch \
                             inputs, else by PI_Switch (6069h:09 = 1), else by hand",
-                    },
-                )
-            }),
+                    }),
+                    (0x3040, 0x01) if self.value(0x3041, 0x05) != 1 => Some(Refusal::State {
+                        reason: "a tuning run needs WriteFUN_CTL 3041h:05 = 1",
+                        rule: "Kinco FD/CD §7.1: over communication, WriteFUN_CTL 3041h:05 \
+                            must be 1 before a tuning run starts",
+                    }),
+                    _ => None,
+                })
+            }
         }
     }
 
