@@ -186,3 +186,23 @@ fn locked_parameters_name_their_rule() {
     k.w8(0x3041, 0x05, 1);
     assert_eq!(k.d.refusal(write(0x3040, 1)), None);
 }
+
+/// A fault whose cause is still there: the fault reset does not acknowledge it (CiA 402
+/// transition 15), and the enable says so until the cause is gone.
+#[test]
+fn a_present_fault_cause_is_named() {
+    let mut r = Rig::device("cmmp-as", 1, DriveSettings::default());
+    r.d.inject_fault(0x4310, 0x09);
+    r.run_ms(10);
+    assert_eq!(r.d.state(), State::Fault);
+    assert_eq!(
+        r.d.refusal(Request::Enable),
+        Some(Refusal::CausePresent { code: 0x4310 })
+    );
+    r.cw(0x00);
+    r.cw(0x80);
+    r.run_ms(5);
+    assert_eq!(r.d.state(), State::Fault, "the reset does not take");
+    r.d.clear_fault(0x4310);
+    assert_eq!(r.d.refusal(Request::Enable), None);
+}

@@ -7,23 +7,12 @@
 mod web_rig;
 
 use axum::http::StatusCode;
-use drivetwin::cell::poll_loop::FrontEnds;
 use serde_json::{json, Value};
-use web_rig::{app, send, Running};
+use web_rig::{app, put, send, Running};
 
 /// Drive 0 a Kinco FD3 (node 2) at factory defaults, drive 1 a CMMP-AS (node 1), on one bus.
 fn cell() -> Running {
-    let bus = web_rig::bus(vec![
-        web_rig::can_drive("kinco-fd3", 2),
-        web_rig::can_drive("cmmp-as", 1),
-    ]);
-    web_rig::start(
-        FrontEnds {
-            buses: vec![bus],
-            ..FrontEnds::default()
-        },
-        None,
-    )
+    web_rig::kinco_and_cmmp()
 }
 
 fn text(v: &Value) -> &str {
@@ -78,14 +67,7 @@ async fn enable_on_a_factory_kinco_answers_409_naming_din1_and_the_rule() {
     assert!(reason(&e).1.starts_with("DIN1"), "{e}");
 
     // The controlword and the mode written in the parameter table: the owner is named.
-    let (status, e) = send(
-        &app,
-        "PUT",
-        "/api/drives/0/objects/6060/0",
-        Some(json!({"value": 3})),
-        None,
-    )
-    .await;
+    let (status, e) = put(&app, "/api/drives/0/objects/6060/0", json!({"value": 3})).await;
     assert_eq!(status, StatusCode::CONFLICT, "{e}");
     assert!(
         reason(&e)
@@ -96,12 +78,10 @@ async fn enable_on_a_factory_kinco_answers_409_naming_din1_and_the_rule() {
 
     // Din1_Function and Din3_Function := 0, as a bus master does: Enable goes through.
     for sub in ["3", "5"] {
-        let (status, o) = send(
+        let (status, o) = put(
             &app,
-            "PUT",
             &format!("/api/drives/0/objects/2010/{sub}"),
-            Some(json!({"value": 0})),
-            None,
+            json!({"value": 0}),
         )
         .await;
         assert_eq!(status, StatusCode::OK, "{o}");
@@ -116,12 +96,10 @@ async fn a_cmmp_as_without_din4_says_its_hardware_enable_is_missing() {
     let cell = cell();
     let app = app(&cell, None);
     // DIN4 (output-stage enable) forced low.
-    let (status, _) = send(
+    let (status, _) = put(
         &app,
-        "PUT",
         "/api/drives/1/inputs",
-        Some(json!({"mask": 0x10, "levels": 0})),
-        None,
+        json!({"mask": 0x10, "levels": 0}),
     )
     .await;
     assert_eq!(status, StatusCode::OK);
@@ -132,12 +110,10 @@ async fn a_cmmp_as_without_din4_says_its_hardware_enable_is_missing() {
     assert!(why.contains("DIN4 output-stage enable"), "{why}");
     assert!(rule.contains("Tab. 6.4 transition 2"), "{rule}");
     // Given back: enabled.
-    send(
+    put(
         &app,
-        "PUT",
         "/api/drives/1/inputs",
-        Some(json!({"mask": 0, "levels": 0})),
-        None,
+        json!({"mask": 0, "levels": 0}),
     )
     .await;
     let (status, v) = send(&app, "POST", "/api/drives/1/motion/enable", None, None).await;
@@ -146,14 +122,7 @@ async fn a_cmmp_as_without_din4_says_its_hardware_enable_is_missing() {
         (StatusCode::OK, &json!("OPERATION ENABLED"))
     );
     // A mode the CMMP-AS does not have: the reason and CiA 402's rule.
-    let (status, e) = send(
-        &app,
-        "PUT",
-        "/api/drives/1/objects/6060/0",
-        Some(json!({"value": 2})),
-        None,
-    )
-    .await;
+    let (status, e) = put(&app, "/api/drives/1/objects/6060/0", json!({"value": 2})).await;
     assert_eq!(status, StatusCode::CONFLICT, "{e}");
     assert_eq!(e["abort_code"], "0x06090030");
     assert_eq!(reason(&e).0, "mode_not_supported", "{e}");
