@@ -25,7 +25,7 @@ def test_pdo_remap_with_python_canopen_save_and_read(cmmp, node_of):
     _pre_op(node)
     node.tpdo.read()
     node.rpdo.read()
-    # Defaults of the manual (CMMP-PDO-10/15): TPDO1 statusword, disabled.
+    # Defaults of the manual (CMMP-PDO-10 and CMMP-PDO-15): TPDO1 statusword, disabled.
     assert [v.index for v in node.tpdo[1].map] == [0x6041]
     assert not node.tpdo[1].enabled
     t = node.tpdo[3]

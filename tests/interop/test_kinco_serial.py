@@ -61,7 +61,7 @@ def _line(twin, kind: str, path: Path):
 
 
 def test_rs232_like_a_public_kinco_driver(launch, node_of, tmp_path):
-    """KINCO-232-01, -03, -04/-06, -05, -07, -08, -11 through pyserial; the value written over
+    """KINCO-232-01, KINCO-232-03, KINCO-232-04, KINCO-232-06, KINCO-232-05, KINCO-232-07, KINCO-232-08 and KINCO-232-11 through pyserial; the value written over
     RS232 is read back over CANopen, and one written over CANopen over RS232."""
     path = tmp_path / "ttyKINCO"
     twin = launch("kinco-fd3", 1, extra=("--rs232", str(path)))
@@ -73,11 +73,11 @@ def test_rs232_like_a_public_kinco_driver(launch, node_of, tmp_path):
     node.sdo[0x2010][5].raw = 0
     port = KincoPort(path)
     try:
-        # KINCO-232-04 / -06: the statusword, 16 bit.
+        # KINCO-232-04 and KINCO-232-06: the statusword, 16 bit.
         code, sw = port.read(0x6041)
         assert code == 0x4B
         assert sw == node.sdo[0x6041].raw
-        # KINCO-232-01 / -05: controlword := 2Fh, answered 60h.
+        # KINCO-232-01 and KINCO-232-05: controlword := 2Fh, answered 60h.
         a = port.exchange(bytes.fromhex("01 2B 40 60 00 2F 00 00 00 05"))
         assert a[:5] == bytes.fromhex("01 60 40 60 00") and sum(a) & 0xFF == 0, a.hex(" ")
         assert node.sdo[0x6040].raw == 0x2F, "CANopen reads what RS232 wrote"
@@ -179,7 +179,7 @@ def _rtu_client(path: Path, baud: int = 19200):
 
 
 def test_rs485_modbus_rtu_with_pymodbus(launch, node_of, tmp_path):
-    """KINCO-MB-01, -02, -03 through pymodbus's serial client; a bad CRC and another station get
+    """KINCO-MB-01, KINCO-MB-02 and KINCO-MB-03 through pymodbus's serial client; a bad CRC and another station get
     no answer; the registers are the CANopen objects."""
     from pymodbus.exceptions import ModbusIOException
 

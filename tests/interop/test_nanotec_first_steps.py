@@ -1,7 +1,7 @@
 """The Nanotec manual's "first steps" (seeds/003_ef071fe40f10c01c.txt §2.2-2.7; spec/nanotec-canopen.md
 §8.3-8.7), sent frame by frame with python-can to `drivetwin run --device nanotec-smci47s --node 34`
 and answered byte for byte as printed. The requests are the manual's IXXAT MiniMon frames, short
-ones included (DLC 4, 5, 6); every answer has DLC 8. Vectors NT-NMT-01, NT-CW-01...04, NT-PP-01...03.
+ones included (DLC 4, 5, 6); every answer has DLC 8. Vectors NT-NMT-01, NT-CW-01, NT-CW-02, NT-CW-03 and NT-CW-04, NT-PP-01, NT-PP-02 and NT-PP-03.
 Frames go out PAUSE apart, as an operator types them: the drive takes a controlword in its next
 cycle, so a statusword query in the same millisecond would still see the old state.
 """
@@ -91,7 +91,7 @@ def test_first_steps_frame_by_frame(launch, raw_bus):
 
 
 def test_rpdo1_remapping_with_python_canopen(launch, node_of):
-    """§12.2 (L4131-4247), NT-PDO-01...12 through python-canopen's PdoMap and the drive's EDS:
+    """§12.2 (L4131-4247), NT-PDO-01, NT-PDO-02, NT-PDO-03, NT-PDO-04, NT-PDO-05, NT-PDO-06, NT-PDO-07, NT-PDO-08, NT-PDO-09, NT-PDO-10, NT-PDO-11 and NT-PDO-12 through python-canopen's PdoMap and the drive's EDS:
     RPDO1 re-mapped in Pre-Operational to the controlword with the length left to the
     firmware's rules, then the power-up of §2.4 over RPDO1, each step seen in the default
     TPDO1 (the statusword, sent on change)."""
@@ -141,3 +141,45 @@ def test_rotary_switches_give_node_34_beside_a_cmmp_as(launch, connect, eds_file
     assert nanotec.sdo[0x2009].raw == NODE
     assert nanotec.sdo[0x1018][1].raw == 0x26C and cmmp.sdo[0x1018][1].raw == 0x1D
     assert nanotec.sdo[0x6041].raw == 0x0260
+
+
+def test_nt_node_07_no_bit_rate_code_answers_but_takes_no_motion_command(launch, connect, eds_files,
+                                                                         tmp_path):
+    """NT-NODE-07 end to end (§1.1.3 step 7, L333): an SMCI47-S whose rotary switches read
+    node + 128 (16 * 8 + 5 = 133: node 5) with no bit-rate code in 2005h "answers on CAN but
+    accepts no motion commands". python-canopen reads it over SDO and writes the controlword
+    steps, each acknowledged; the drive stays in Switch On Disabled, and the console's Enable
+    answers 409 with that reason and the manual's rule."""
+    import json
+    import urllib.error
+    import urllib.request
+
+    from conftest import add_node, wait_until
+
+    cfg = tmp_path / "cell.toml"
+    cfg.write_text('[bus]\nsocketcand = "127.0.0.1:1"\nchannel = "vcan0"\n\n'
+                   '[[drive]]\ndevice = "nanotec-smci47s"\nnode = 9\n'
+                   '[drive.rotary_switches]\nleft = 5\nright = 8\n'
+                   '[drive.objects]\n"2005:00" = 0\n')
+    twin = launch(config=cfg, extra=("--http", "127.0.0.1:0"))
+    net = connect(twin)
+    node = add_node(net, 5, eds_files["nanotec-smci47s"])
+    assert node.sdo[0x1018][1].raw == 0x26C, "NT-NODE-07: it answers on CAN as node 5"
+    for cw in (0x06, 0x07, 0x0F):
+        node.sdo[0x6040].raw = cw
+    assert node.sdo[0x6041].raw & 0x4F == 0x40, "NT-NODE-07: no motion command: Switch On Disabled"
+
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")),
+                                   None), 5.0, what="the 'web console on' line")
+    url = line.split("web console on ", 1)[1].strip()
+    req = urllib.request.Request(url + "api/drives/0/motion/enable", method="POST")
+    try:
+        with urllib.request.urlopen(req, timeout=10) as r:
+            status, body = r.status, json.load(r)
+    except urllib.error.HTTPError as e:
+        status, body = e.code, json.load(e)
+    assert status == 409, body
+    assert body["reason"]["kind"] == "hardware_enable_missing", body
+    assert "accepts no motion commands" in body["reason"]["text"], body
+    assert "§1.1.3 step 7" in body["reason"]["rule"], body
+    assert node.sdo[0x6041].raw & 0x4F == 0x40, "NT-NODE-07: still Switch On Disabled"

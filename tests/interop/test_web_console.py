@@ -114,6 +114,39 @@ def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
     page.wait_for_function("document.querySelector('#message').textContent.includes('not a number')")
 
 
+def test_enable_on_a_factory_kinco_shows_din1_and_the_rule_next_to_the_button(
+        launch, node_of, browser):
+    """A factory Kinco FD3: DIN1 has the function Enable and owns the controlword (manual
+    §5.5, L1287). Enable clicked in the page is refused, and the page says why beside the
+    button: DIN1, Din1_Function 2010h:03, the manual's rule. With Din1_Function = 0 written
+    over SDO, as a bus master does, the same click enables the drive and the reason goes."""
+    twin = launch("kinco-fd3", 1, extra=("--http", "127.0.0.1:0"))
+    node = node_of(twin)
+    page = browser.new_page()
+    page.goto(console_url(twin) + "#drive/0")
+    page.wait_for_selector("#drives a[data-drive='0']")
+    page.wait_for_function("document.querySelector('#state').textContent === 'READY TO SWITCH ON'")
+    assert page.is_hidden("#enable-why")
+
+    page.click("#enable")
+    page.wait_for_selector("#enable-why", state="visible", timeout=5000)
+    reason = page.text_content("#enable-why .reason")
+    rule = page.text_content("#enable-why .rule")
+    assert reason.startswith("DIN1 has the function Enable (2010h:03)"), reason
+    assert "6040h" in reason, reason
+    assert "L1287" in rule and "highest priority" in rule, rule
+    assert page.get_attribute("#enable-why", "data-kind") == "input_owns_object"
+    assert page.get_attribute("#message", "class") == "error"
+    assert node.sdo[0x6041].raw & 0x6F == 0x21, "still READY TO SWITCH ON"
+
+    node.sdo[0x2010][0x03].raw = 0
+    page.click("#enable")
+    page.wait_for_function("document.querySelector('#state').textContent === 'OPERATION ENABLED'",
+                           timeout=5000)
+    assert page.is_hidden("#enable-why")
+    assert node.sdo[0x6041].raw & 0x6F == 0x27
+
+
 def test_inputs_forced_in_the_page_show_in_60fd_over_sdo(launch, node_of, browser):
     twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
     node = node_of(twin)

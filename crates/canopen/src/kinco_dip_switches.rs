@@ -4,7 +4,7 @@
 //!
 //! The manual's rules:
 //! * SW1…SW8 are a binary number, SW1 = bit 0 … SW8 = bit 7: SW1 → 1, SW2 → 2, SW1 + SW2 → 3,
-//!   SW3 → 4, all ON → 255 (KINCO-DIP-01…05).
+//!   SW3 → 4, all ON → 255 (the KINCO-DIP vectors).
 //! * All OFF: the station number is the stored one, changeable in 2F80h:01 (printed
 //!   "0x2F800108", KINCO-DIP-06). A change applies after a reboot.
 //! * Only the FD3-LA / -CA have the switches (L347); the CD3 takes 100Bh.
@@ -54,14 +54,14 @@ mod tests {
         on
     }
 
-    /// KINCO-DIP-01…05: SW1 → 1, SW2 → 2, SW1 + SW2 → 3, SW3 → 4, all ON → 255.
+    /// SW1 → 1, SW2 → 2, SW1 + SW2 → 3, SW3 → 4, all ON → 255.
     #[test]
     fn kinco_dip_01_to_05_binary_station() {
-        assert_eq!(station(sw(&[1])), Station::Switches(1));
-        assert_eq!(station(sw(&[2])), Station::Switches(2));
-        assert_eq!(station(sw(&[1, 2])), Station::Switches(3));
-        assert_eq!(station(sw(&[3])), Station::Switches(4));
-        assert_eq!(station([true; 8]), Station::Switches(255));
+        assert_eq!(station(sw(&[1])), Station::Switches(1), "KINCO-DIP-01");
+        assert_eq!(station(sw(&[2])), Station::Switches(2), "KINCO-DIP-02");
+        assert_eq!(station(sw(&[1, 2])), Station::Switches(3), "KINCO-DIP-03");
+        assert_eq!(station(sw(&[3])), Station::Switches(4), "KINCO-DIP-04");
+        assert_eq!(station([true; 8]), Station::Switches(255), "KINCO-DIP-05");
         assert_eq!(can_node_id(255), None, "RS232/RS485 only");
         assert_eq!(can_node_id(4), Some(4));
     }

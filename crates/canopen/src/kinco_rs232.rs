@@ -15,7 +15,7 @@
 //! What the manual says, and the decisions where it is silent or wrong:
 //! - Checksum: printed "CHKS = SUM(byte0…byte8), low byte" (L2187). Decision: the **negated**
 //!   sum, (−Σ byte 0…8) mod 256, so that all ten bytes sum to 0: the four printed telegrams
-//!   of §10.4 (L2286-2292) verify only this way (KINCO-232-01…04).
+//!   of §10.4 (L2286-2292) verify only this way (their KINCO-232 vectors).
 //! - A wrong checksum or another station's ID: no answer, the telegram is dropped (L2201,
 //!   L2215) and counted here.
 //! - Ring (RS232_Loop_Enable 6510h:0B = 1, §10.2.2 L2203-2217): every drive passes each
@@ -492,18 +492,18 @@ mod tests {
         out
     }
 
-    /// KINCO-232-01…04: the four telegrams of §10.4 (L2286-2292) carry the negated sum.
+    /// The four telegrams of §10.4 (L2286-2292) carry the negated sum.
     #[test]
     fn kinco_232_01_to_04_printed_checksums() {
-        for (t, chks) in [
-            ("01 2B 40 60 00 2F 00 00 00 05", 0x05),
-            ("01 2F 60 60 00 06 00 00 00 0A", 0x0A),
-            ("01 23 7A 60 00 50 C3 00 00 EF", 0xEF),
-            ("01 40 41 60 00 00 00 00 00 1E", 0x1E),
+        for (id, t, chks) in [
+            ("KINCO-232-01", "01 2B 40 60 00 2F 00 00 00 05", 0x05),
+            ("KINCO-232-02", "01 2F 60 60 00 06 00 00 00 0A", 0x0A),
+            ("KINCO-232-03", "01 23 7A 60 00 50 C3 00 00 EF", 0xEF),
+            ("KINCO-232-04", "01 40 41 60 00 00 00 00 00 1E", 0x1E),
         ] {
             let t = hex(t);
-            assert_eq!(checksum(&t[..9]), chks);
-            assert!(checksum_ok(&t));
+            assert_eq!(checksum(&t[..9]), chks, "{id}");
+            assert!(checksum_ok(&t), "{id}");
         }
     }
 

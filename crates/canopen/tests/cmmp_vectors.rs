@@ -171,22 +171,46 @@ fn read_u32(b: &mut Bench, index: u16, sub: u8) -> u32 {
 #[test]
 fn cmmp_pdo_10_to_16_default_pdo_configuration() {
     let mut b = cmmp();
-    // CMMP-PDO-10…13: TPDO communication and mapping defaults (node 1).
+    // TPDO communication and mapping defaults (node 1), one vector per TPDO.
     let tpdo = [
-        (0x1800, 0xC000_0181u32, 0x1A00, vec![0x6041_0010u32]),
-        (0x1801, 0xC000_0281, 0x1A01, vec![0x6041_0010, 0x6061_0008]),
-        (0x1802, 0xC000_0381, 0x1A02, vec![0x6041_0010, 0x6064_0020]),
-        (0x1803, 0xC000_0481, 0x1A03, vec![0x6041_0010, 0x606C_0020]),
+        (
+            "CMMP-PDO-10",
+            0x1800,
+            0xC000_0181u32,
+            0x1A00,
+            vec![0x6041_0010u32],
+        ),
+        (
+            "CMMP-PDO-11",
+            0x1801,
+            0xC000_0281,
+            0x1A01,
+            vec![0x6041_0010, 0x6061_0008],
+        ),
+        (
+            "CMMP-PDO-12",
+            0x1802,
+            0xC000_0381,
+            0x1A02,
+            vec![0x6041_0010, 0x6064_0020],
+        ),
+        (
+            "CMMP-PDO-13",
+            0x1803,
+            0xC000_0481,
+            0x1A03,
+            vec![0x6041_0010, 0x606C_0020],
+        ),
     ];
-    for (comm, cob, map, entries) in tpdo {
-        assert_eq!(read_u32(&mut b, comm, 0), 3);
-        assert_eq!(read_u32(&mut b, comm, 1), cob);
-        assert_eq!(read_u32(&mut b, comm, 2), 0xFF);
-        assert_eq!(read_u32(&mut b, comm, 3), 0);
-        assert_eq!(read_u32(&mut b, map, 0), entries.len() as u32);
+    for (id, comm, cob, map, entries) in tpdo {
+        assert_eq!(read_u32(&mut b, comm, 0), 3, "{id}");
+        assert_eq!(read_u32(&mut b, comm, 1), cob, "{id}");
+        assert_eq!(read_u32(&mut b, comm, 2), 0xFF, "{id}");
+        assert_eq!(read_u32(&mut b, comm, 3), 0, "{id}");
+        assert_eq!(read_u32(&mut b, map, 0), entries.len() as u32, "{id}");
         for sub in 1..=4u8 {
             let want = entries.get(sub as usize - 1).copied().unwrap_or(0);
-            assert_eq!(read_u32(&mut b, map, sub), want, "{map:04X}:{sub}");
+            assert_eq!(read_u32(&mut b, map, sub), want, "{id}: {map:04X}:{sub}");
         }
     }
     // CMMP-PDO-14: transmit masks.

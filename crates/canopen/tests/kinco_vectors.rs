@@ -1,5 +1,5 @@
 //! The CiA 301 side of the Kinco FD3 (seeds/001_da459f46c7138f7b.txt ch. 11, spec/vectors.md
-//! §4.5): vectors KINCO-CAN-01…05, frame by frame, on the device description
+//! §4.5): its KINCO-CAN vectors, each at its test, frame by frame, on the device description
 //! `devices/kinco-fd3.toml` alone. What the drive does with a controlword is the
 //! personality's, not tested here.
 

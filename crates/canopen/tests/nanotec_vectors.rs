@@ -1,6 +1,6 @@
 //! The CiA 301 side of the Nanotec SMCI47-S (seeds/003_ef071fe40f10c01c.txt, spec/vectors.md
-//! §3.1–3.3 and §3.5): vectors NT-NODE-05, -06, -08, NT-SDO-01…04, NT-NMT-01…08 and
-//! NT-PDO-01…13, frame by frame as the manual prints them (short request frames included), on
+//! §3.1–3.3 and §3.5): its NT-NODE, NT-SDO, NT-NMT and NT-PDO vectors, each named at its test,
+//! frame by frame as the manual prints them (short request frames included), on
 //! the device description `devices/nanotec-smci47s.toml` alone. What the drive does with a
 //! controlword is the personality's, not tested here.
 
@@ -207,6 +207,11 @@ fn nt_nmt_01_start_node_34() {
 
 /// NT-NMT-02: `000: 02 22` Stopped (04h); `000: 80 22` Pre-Operational (7Fh); `000: 81 22` and
 /// `000: 82 22` restart with the settings last stored, then Pre-Operational (7Fh).
+///
+/// Decision: §2.2 (L459–465) gives 82h the text of 81h ("firmware restart, all CANopen
+/// settings reset to the values last stored in EEPROM"); the twin follows CiA 301: 81h resets
+/// the application (every object from the stored set), 82h the communication (1000h–1FFFh
+/// from the stored set, `can/drive.rs`), which are "all CANopen settings" (docs/decisions.md).
 #[test]
 fn nt_nmt_02_node_control_commands() {
     let mut b = smci(34);

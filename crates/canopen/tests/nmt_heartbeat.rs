@@ -48,15 +48,19 @@ fn nmt_commands_addressed_and_broadcast() {
 fn resets_ask_the_runtime_and_boot_again() {
     let mut b = bench();
     b.events();
-    // CMMP-NMT-05/06: reset communication / node, then boot-up 700h+id: 00.
+    // Reset communication, then reset node, each followed by boot-up 700h+id: 00.
     b.send(0x000, &[0x82, 0x01]);
-    assert_eq!(b.node.nmt_state(), NmtState::Initialising);
-    assert_eq!(b.events(), vec![NodeEvent::ResetCommunication]);
+    assert_eq!(b.node.nmt_state(), NmtState::Initialising, "CMMP-NMT-05");
+    assert_eq!(
+        b.events(),
+        vec![NodeEvent::ResetCommunication],
+        "CMMP-NMT-05"
+    );
     assert!(
         b.sdo(&[0x40, 0x00, 0x10, 0x00]).is_empty(),
         "no SDO while initialising"
     );
-    assert_eq!(b.boot(), vec![frame(0x701, &[0x00])]);
+    assert_eq!(b.boot(), vec![frame(0x701, &[0x00])], "CMMP-NMT-05");
     assert_eq!(b.node.nmt_state(), NmtState::PreOperational);
     b.send(0x000, &[0x81, 0x00]);
     assert_eq!(
@@ -64,7 +68,8 @@ fn resets_ask_the_runtime_and_boot_again() {
         vec![
             NodeEvent::State(NmtState::PreOperational),
             NodeEvent::ResetApplication
-        ]
+        ],
+        "CMMP-NMT-06"
     );
 }
 

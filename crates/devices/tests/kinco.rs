@@ -288,15 +288,15 @@ fn addresses_of(name: &str) -> &'static [devices::PanelAddress] {
     addr(name).panel
 }
 
-/// KINCO-MB-01…03 (the register part): 3200h statusword, 3100h controlword, 6F00h target
+/// The register part of the §12.3 examples: 3200h statusword, 3100h controlword, 6F00h target
 /// velocity (32 bit: two registers).
 #[test]
 fn kinco_mb_01_03_registers() {
     let a = addr("kinco-fd3");
     let r = |i, s| a.modbus_register(i, s).map(|r| (r.register, r.words));
-    assert_eq!(r(0x6041, 0), Some((0x3200, 1)));
-    assert_eq!(r(0x6040, 0), Some((0x3100, 1)));
-    assert_eq!(r(0x60FF, 0), Some((0x6F00, 2)));
+    assert_eq!(r(0x6041, 0), Some((0x3200, 1)), "KINCO-MB-01");
+    assert_eq!(r(0x6040, 0), Some((0x3100, 1)), "KINCO-MB-02");
+    assert_eq!(r(0x60FF, 0), Some((0x6F00, 2)), "KINCO-MB-03");
     for reg in a.modbus {
         let e = devices::KINCO_FD3.entry(reg.index, reg.sub).unwrap();
         assert_eq!(reg.words as u32, e.capacity.div_ceil(2));

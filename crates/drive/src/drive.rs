@@ -40,6 +40,7 @@ mod power_supervision;
 mod profile_torque;
 mod profile_velocity;
 mod publish;
+pub mod refusal;
 mod target_limits;
 mod velocity_mode;
 pub use plant::StepperPlant;

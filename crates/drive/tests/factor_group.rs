@@ -410,10 +410,11 @@ fn limit_is_on_the_quotient_and_inclusive() {
             Err(FactorError::ExceedsLimit(obj))
         );
     }
-    // The CANopen test CMMP-SDO-05/06 writes 6093h = 12345678h / 13h: 16074731 ≤ 2^24.
+    // The CANopen tests write 6093h = 12345678h / 13h: 16074731 ≤ 2^24.
     assert_eq!(
         Ratio::new(0x1234_5678, 0x13).check(FactorObject::Position),
-        Ok(())
+        Ok(()),
+        "CMMP-SDO-05 (6093h:01), CMMP-SDO-06 (6093h:02)"
     );
     // 6097h has no printed limit.
     assert_eq!(

@@ -1,11 +1,11 @@
 //! Kinco analog inputs through the drive (manual §6.2.1, §6.3; spec/kinco-fd-cd.md §5.2,
-//! §5.3): the KINCO-SC-01/02 speed example and the analog torque command.
+//! §5.3): the §6.2.1 speed example and the analog torque command.
 
 mod kinco_rig;
 
 use kinco_rig::{dec_rpm, Rig};
 
-/// KINCO-SC-01 / -02: Analog1_Dead = 1 V, Analog1_Offset = 2 V, Analog_Speed_Factor =
+/// The §6.2.1 example: Analog1_Dead = 1 V, Analog1_Offset = 2 V, Analog_Speed_Factor =
 /// 100 rpm/V, Analog_Speed_Con = 1: AIN1 = +5 V runs 200 rpm (Analog1_out 2 V), −5 V runs
 /// −600 rpm (−6 V).
 #[test]
@@ -16,12 +16,19 @@ fn kinco_sc_01_02_analog_speed() {
     r.w16(0x2502, 0x0A, 100);
     r.w8(0x2502, 0x07, 1);
     r.enable_in(-3);
-    for (volts, out, rpm) in [(5.0, 200, 200.0), (-5.0, -600, -600.0)] {
+    for (id, volts, out, rpm) in [
+        ("KINCO-SC-01", 5.0, 200, 200.0),
+        ("KINCO-SC-02", -5.0, -600, -600.0),
+    ] {
         r.d.set_analog_input(1, volts);
         r.run_ms(500);
-        assert_eq!(r.i(0x2FF0, 0x16), (volts * 100.0) as i64, "AN_V1");
-        assert_eq!(r.i(0x2502, 0x0F), out, "Analog1_out");
-        assert!((r.rpm() - rpm).abs() < 10.0, "{volts} V: {} rpm", r.rpm());
+        assert_eq!(r.i(0x2FF0, 0x16), (volts * 100.0) as i64, "{id}: AN_V1");
+        assert_eq!(r.i(0x2502, 0x0F), out, "{id}: Analog1_out");
+        assert!(
+            (r.rpm() - rpm).abs() < 10.0,
+            "{id}: {volts} V: {} rpm",
+            r.rpm()
+        );
     }
     r.d.set_analog_input(1, 2.5);
     r.run_ms(300);

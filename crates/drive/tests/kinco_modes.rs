@@ -1,6 +1,7 @@
 //! Kinco operating modes through the drive (spec/kinco-fd-cd.md §5, §8.15; manual Tab. 6-5,
-//! seeds/001_da459f46c7138f7b.txt L1272): the controlword sequences KINCO-CW-01…05 move the
-//! motor, modes 3 / −3 / 4 / 6 as the manual describes them.
+//! seeds/001_da459f46c7138f7b.txt L1272): the controlword sequences of Tab. 6-5 move the
+//! motor, modes 3 / −3 / 4 / 6 and the position table as the manual describes them; each
+//! vector is named at its test.
 
 mod kinco_rig;
 
@@ -25,7 +26,9 @@ fn factory_inputs_own_the_controlword_and_the_mode() {
     assert_eq!(r.sw() & 0x6F, 0x21, "ready to switch on");
 }
 
-/// KINCO-CW-05: in modes 3, −3, −4 and 4, 0Fh (or 2Fh) after 06h enables the drive.
+/// KINCO-CW-05: in modes 3, −3, −4 and 4, and in the position table (mode 1 with a Start
+/// PosTable input, §6.4.1), 0Fh (or 2Fh) after 06h enables the drive in that mode; the
+/// table then runs from its start input.
 #[test]
 fn kinco_cw_05_enable_in_each_mode() {
     for (m, cw) in [(3, 0x0F), (-3, 0x2F), (-4, 0x0F), (4, 0x2F)] {
@@ -38,11 +41,43 @@ fn kinco_cw_05_enable_in_each_mode() {
         assert_eq!(
             r.sw() & 0x6F,
             OPERATION_ENABLED,
-            "mode {m}: enabled by {cw:02X}h"
+            "KINCO-CW-05: mode {m}: enabled by {cw:02X}h"
         );
         assert_eq!(r.i(0x6061, 0), i64::from(m));
         r.cw(0x06);
         assert_eq!(r.sw() & 0x6F, 0x21, "06h disables");
+    }
+    // The position table: DIN4 Start PosTable (9004h), one task to 20 000 increments.
+    for cw in [0x0F, 0x2F] {
+        let mut r = Rig::new();
+        r.w16(0x2010, 0x06, 0x9004);
+        let mut table = drive::personality::kinco_table::PositionTable::default();
+        table.tasks[0] = drive::personality::kinco_table::Task {
+            ctl: 0,
+            position: 20_000,
+            speed_rpm: 600,
+            delay_ms: 0,
+            acc: 0,
+            dec: 0,
+            loops: 0,
+        };
+        r.d.set_position_table(table);
+        r.w8(0x6060, 0, 1);
+        r.cw(0x06);
+        r.cw(cw);
+        r.run_ms(5);
+        assert_eq!(
+            (r.sw() & 0x6F, r.i(0x6061, 0)),
+            (OPERATION_ENABLED, 1),
+            "KINCO-CW-05: position table enabled by {cw:02X}h"
+        );
+        r.w16(0x2010, 0x02, 1 << 3);
+        assert!(r.until_sw(TARGET_REACHED, 2_000), "the table's task ran");
+        assert!(
+            (r.position() - 20_000).abs() <= 20,
+            "KINCO-CW-05: position table task 0 at {}",
+            r.position()
+        );
     }
 }
 

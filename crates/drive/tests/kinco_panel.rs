@@ -115,14 +115,15 @@ fn f001_chooses_the_monitor_item() {
     assert_eq!(text(&r).trim(), r.i(0x60F7, 0x12).to_string());
 }
 
-/// KINCO-DIAG-02/03 on the panel (ch. 8): an error blinks its alarm code on the monitor.
+/// On the panel (ch. 8): an error blinks its alarm code on the monitor (Overvoltage, Error_State
+/// bit 5).
 #[test]
 fn kinco_diag_02_error_blinks_on_the_monitor() {
     let mut r = Rig::new();
     r.d.inject_fault(0x3210, 0x05);
     r.run_ms(5);
     let d = r.d.kinco_panel();
-    assert_eq!(d.text().as_str(), " 002.0");
+    assert_eq!(d.text().as_str(), " 002.0", "KINCO-DIAG-02");
     assert_eq!(d.blink, Blink::Error);
 }
 
@@ -498,4 +499,35 @@ fn ea03_ea04_gear_in_dec_then_hex() {
     browse_to(&mut r, 8, "EA04");
     press(&mut r, PanelKey::Set);
     assert_eq!(text(&r), " 1000");
+}
+
+/// KINCO-SC-14 through the drive: Motor_Num 6410h:01 written over the bus with a motor code
+/// reads back as the two ASCII characters (the first in the low byte); on the drive it is the
+/// motor type the panel guards (§4.3): a code that is not the confirmed motor blinks "FFF.F"
+/// and locks EASY / tunE until EA01 confirms it.
+#[test]
+fn kinco_sc_14_motor_num_through_the_drive() {
+    for (code, value) in [
+        (*b"JY", 0x594A),
+        (*b"Y0", 0x3059),
+        (*b"Y1", 0x3159),
+        (*b"Y2", 0x3259),
+    ] {
+        let mut r = Rig::new();
+        assert_eq!(r.d.write(0x6410, 0x01, &code), Ok(()));
+        r.run_ms(5);
+        assert_eq!(r.i(0x6410, 0x01), value, "KINCO-SC-14: {code:?}");
+        assert!(r.d.kinco_panel_locked(), "KINCO-SC-14: another motor");
+        let d = r.d.kinco_panel();
+        assert_eq!(
+            (d.text().as_str(), d.blink),
+            (" FFF.F", Blink::Error),
+            "KINCO-SC-14: {code:?}"
+        );
+        presses(&mut r, PanelKey::Mode, 8);
+        press(&mut r, PanelKey::Set);
+        browse_to_confirm_ea01(&mut r);
+        assert!(!r.d.kinco_panel_locked(), "KINCO-SC-14: {code:?} confirmed");
+        assert_eq!(r.i(0x6410, 0x01), value);
+    }
 }

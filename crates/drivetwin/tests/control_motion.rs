@@ -154,10 +154,22 @@ fn the_same_sequences_drive_the_nanotec_and_kinco_drives() {
             // the console as it refuses any master, until 2010h:03 / :05 give it to the bus.
             assert_eq!(
                 motion::enable(&io),
-                Err(motion::MotionError::Control(
-                    drivetwin::cell::control::ControlError::Abort(od::AbortCode::LOCAL_CONTROL)
-                )),
+                Err(motion::MotionError::Refused {
+                    index: 0x6040,
+                    sub: 0,
+                    error: drivetwin::cell::control::ControlError::Abort(
+                        od::AbortCode::LOCAL_CONTROL
+                    )
+                }),
                 "{device}"
+            );
+            // The drive says why: DIN1's Enable owns the controlword (L1287).
+            let why = handle
+                .refusal(0, drive::drive::refusal::Request::Enable)
+                .expect("refusal");
+            assert!(
+                why.is_some_and(|w| w.to_string().starts_with("DIN1 has the function Enable")),
+                "{device}: {why:?}"
             );
             handle.write(0, 0x2010, 3, &[0, 0]).expect("2010h:03");
             handle.write(0, 0x2010, 5, &[0, 0]).expect("2010h:05");

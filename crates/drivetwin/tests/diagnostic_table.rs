@@ -4,9 +4,10 @@
 //! acknowledgement once the message is cleared. Table-driven: the expected values come from
 //! the row (`devices/*.toml`), the test only knows the manual's rules for the columns.
 //!
-//! Vectors: CMMP-EMCY-02/03/04 (EMCY bytes and register of 31-0, 03-0, 11-3), CMMP-EMCY-06
-//! (1003h:01 newest entry), CMMP-EMCY-01 (the reset EMCY 0000h), CMMP-DIAG-01/02 (display
-//! "-E010-", "-170-").
+//! Vectors: CMMP-EMCY-02, CMMP-EMCY-03, CMMP-EMCY-04 (EMCY bytes and register of 31-0, 03-0,
+//! 11-3), CMMP-EMCY-06 (1003h:01 newest entry), CMMP-EMCY-01 (the reset EMCY 0000h),
+//! CMMP-DIAG-01 and CMMP-DIAG-02 (display "-E010-", "-170-"); the Kinco's KINCO-DIAG vectors
+//! at their rows.
 
 use canopen::CanFrame;
 use drive::messages::{self, Number};
@@ -314,7 +315,7 @@ fn nanotec_every_section_7_2_code_over_the_bus() {
 
 /// Kinco §7 (FD3 over CANopen), every bit of Error_State and Error_State2 with an EMCY code: output stage off
 /// (FAULT), the EMCY, 1003h, the bit in 2601h / 2602h (2601h bit 0 for Error_State2) and the
-/// LED code of ch. 8 (KINCO-DIAG-01…07).
+/// LED code of ch. 8, each KINCO-DIAG vector named at its row ([`kinco_diag_vector`]).
 #[test]
 fn kinco_every_section_7_error_over_the_bus() {
     use drive::personality::kinco::{ErrorWord, KincoError};
@@ -355,24 +356,40 @@ fn kinco_every_section_7_error_over_the_bus() {
             );
             let (state, state2) = (b.read(0x2601, 0) as u16, b.read(0x2602, 0) as u16);
             let led = b.drive().kinco_led().expect("an error on the panel");
+            let id = kinco_diag_vector(e.word, e.bit);
             match e.word {
                 ErrorWord::State => {
                     assert_eq!(state, 1 << e.bit, "{device} {number} 2601h");
-                    assert_eq!(&led, row.display.as_bytes(), "{device} {number} LED");
+                    assert_eq!(&led, row.display.as_bytes(), "{id} {device} {number} LED");
                 }
                 ErrorWord::State2 => {
                     assert_eq!((state, state2), (1, 1 << e.bit), "{device} {number}");
-                    assert_eq!(&led, b"000.1", "{device} {number} LED: extended error");
+                    assert_eq!(&led, b"000.1", "{id} {device} {number} LED: extended error");
                     assert_eq!(
                         drive::personality::kinco::led_code(e.bit).as_slice(),
                         row.display.as_bytes(),
-                        "{device} {number} d1.16"
+                        "{id} {device} {number} d1.16"
                     );
                 }
             }
             assert_eq!(b.statusword() & 0x4F, 0x08, "{device} {number} FAULT");
             acknowledge(&mut b, number);
         }
+    }
+}
+
+/// The vector of spec/vectors.md §4.7 an Error_State / Error_State2 bit is the example of
+/// ("" for the bits without one).
+fn kinco_diag_vector(word: drive::personality::kinco::ErrorWord, bit: u8) -> &'static str {
+    use drive::personality::kinco::ErrorWord::{State, State2};
+    match (word, bit) {
+        (State, 0) => "KINCO-DIAG-01",
+        (State, 5) => "KINCO-DIAG-02",
+        (State, 9) => "KINCO-DIAG-03",
+        (State, 15) => "KINCO-DIAG-04",
+        (State2, 0 | 9) => "KINCO-DIAG-06",
+        (State2, 15) => "KINCO-DIAG-07",
+        _ => "",
     }
 }
 

@@ -6,23 +6,12 @@
 mod web_rig;
 
 use axum::http::StatusCode;
-use drivetwin::cell::poll_loop::FrontEnds;
 use serde_json::Value;
 use web_rig::{app, send, Running};
 
 /// Drive 0 a Kinco FD3 (node 2), drive 1 a CMMP-AS (node 1), on one bus.
 fn cell() -> Running {
-    let bus = web_rig::bus(vec![
-        web_rig::can_drive("kinco-fd3", 2),
-        web_rig::can_drive("cmmp-as", 1),
-    ]);
-    web_rig::start(
-        FrontEnds {
-            buses: vec![bus],
-            ..FrontEnds::default()
-        },
-        None,
-    )
+    web_rig::kinco_and_cmmp()
 }
 
 async fn key(app: &axum::Router, key: &str) -> Value {

@@ -7,11 +7,13 @@
 use od::{AbortCode, ObjectAccess, Value};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, Fault, ModeSpec, OptionCode, Personality, Vendor,
+    Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec, OptionCode,
+    Personality, Vendor,
 };
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
+use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, MemoryEntry};
 use crate::homing::{HomingError, METHODS};
 use crate::messages::{self, reaction, Number};
@@ -145,6 +147,12 @@ pub const CMMP_AS: Personality = Personality {
     },
     homing_methods: &METHODS,
     external_home_switch: None,
+    hardware_enable: Some(HardwareEnable {
+        what: "DIN4 output-stage enable and DIN5 controller enable",
+        effect: "the drive stays in SWITCH ON DISABLED",
+        rule: "CMMP-AS §6.1.3 Tab. 6.4 transition 2: SWITCH ON DISABLED → READY TO SWITCH ON \
+            needs output-stage enable and controller enable present, plus Shutdown",
+    }),
 };
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
@@ -384,12 +392,43 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sub: u8,
         data: &[u8],
     ) -> Result<(), AbortCode> {
-        if self.dc.state().power_enabled() {
-            // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
             self.od.entry(index, sub)?;
             return Err(AbortCode::DEVICE_STATE);
         }
         self.write_plain(index, sub, data)
+    }
+
+    /// The objects the CMMP-AS locks in some states (0800 0022h); the write hooks refuse by
+    /// these rules.
+    pub(crate) fn cmmp_refusal(&self, request: Request) -> Option<Refusal> {
+        let Request::Write { index, sub } = request else {
+            return None;
+        };
+        match (index, sub) {
+            // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
+            (0x1011, _) if self.dc.state().power_enabled() => Some(Refusal::State {
+                reason: "1011h restores the defaults only with the output stage off",
+                rule: "CMMP-AS §5.1 (L2364): default values are loaded only while the output \
+                    stage is switched off",
+            }),
+            (0x60C1, 0x01) if !self.ip.is_unlocked() => Some(Refusal::State {
+                reason: "60C1h is locked: 60C4h:06 buffer_clear = 1 unlocks it",
+                rule: "CMMP-AS §7.4.2 (L6233–6235): with buffer_clear 60C4h:06 = 0 the buffer \
+                    is cleared and access to 60C1h is not allowed",
+            }),
+            (0x6098, 0x00)
+                if self.mode == crate::drive::mode::HOMING
+                    && self.dc.state() == State::OperationEnabled
+                    && self.last_cw.contains(Controlword::HOMING_START) =>
+            {
+                Some(Refusal::State {
+                    reason: "homing is running: the method cannot change",
+                    rule: "CMMP-AS §7.2: 6098h is writable only while homing is not active",
+                })
+            }
+            _ => None,
+        }
     }
 
     /// 6083h / 6084h: the profile ramps, also the 2090h ramps.
@@ -415,7 +454,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         // Decision: 60C1h written while locked (60C4h:06 = 0) is refused with the
         // device-state abort; the manual says only "access is not allowed".
         self.od.entry(index, sub)?;
-        if !self.ip.is_unlocked() {
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
             return Err(AbortCode::DEVICE_STATE);
         }
         self.od.write(index, sub, data)?;
@@ -452,10 +491,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// 6098h: the homing method.
     fn write_homing_method(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if self.mode == crate::drive::mode::HOMING
-            && self.dc.state() == State::OperationEnabled
-            && self.last_cw.contains(Controlword::HOMING_START)
-        {
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
             // CMMP-AS 7.2: the method is writable only while homing is not active.
             return Err(AbortCode::DEVICE_STATE);
         }

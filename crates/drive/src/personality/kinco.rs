@@ -68,6 +68,8 @@ pub const KINCO: Personality = Personality {
     },
     homing_methods: &HOMING_METHODS,
     external_home_switch: None,
+    // The enables are DIN functions (Enable, Pre Enable: kinco_io.rs).
+    hardware_enable: None,
 };
 
 /// The 1001h error-register bits of an EMCY code (CiA 301 §7.5.2.2: bit 0 generic always;
@@ -146,7 +148,7 @@ pub const HOMING_METHODS: [Method; 17] = [
     cia_method(35),
 ];
 
-/// The controlword values of Tab. 6-5 (L1272, KINCO-CW-01…05).
+/// The controlword values of Tab. 6-5 (L1272; the KINCO-CW vectors).
 pub mod controlword {
     use super::Controlword;
 
@@ -536,23 +538,41 @@ pub const fn max_following_error(max_16: u16) -> u32 {
 mod tests {
     use super::*;
 
-    /// KINCO-CW-01…05 (the values): Tab. 6-5's controlwords are CiA 402 commands.
+    /// The values of Tab. 6-5: its controlwords are CiA 402 commands (the sequences through
+    /// the drive: `tests/kinco_modes.rs`).
     #[test]
     fn kinco_cw_values_are_cia402_commands() {
         use controlword::*;
         assert_eq!(DISABLE, Controlword::SHUTDOWN);
-        assert_eq!(ENABLE, Controlword::ENABLE_OPERATION_CMD);
-        assert!(ENABLE_IMMEDIATE.contains(Controlword::CHANGE_SET_IMMEDIATELY));
-        for (from, to) in [
-            (ENABLE_IMMEDIATE, START_ABSOLUTE),
-            (RELATIVE, START_RELATIVE),
-            (ENABLE, START_HOMING),
+        assert_eq!(ENABLE, Controlword::ENABLE_OPERATION_CMD, "KINCO-CW-05");
+        assert!(
+            ENABLE_IMMEDIATE.contains(Controlword::CHANGE_SET_IMMEDIATELY),
+            "KINCO-CW-05"
+        );
+        for (id, from, to) in [
+            ("KINCO-CW-01", ENABLE_IMMEDIATE, START_ABSOLUTE),
+            ("KINCO-CW-02", RELATIVE, START_RELATIVE),
+            ("KINCO-CW-03", ENABLE, START_HOMING),
         ] {
-            assert_eq!(to.0 & !from.0, Controlword::NEW_SET_POINT.0, "rising bit 4");
+            assert_eq!(
+                to.0 & !from.0,
+                Controlword::NEW_SET_POINT.0,
+                "{id}: rising bit 4"
+            );
         }
-        assert!(START_RELATIVE.contains(Controlword::RELATIVE));
-        assert!(!START_ABSOLUTE.contains(Controlword::RELATIVE));
-        assert_eq!(FAULT_RESET.0 & !DISABLE.0, Controlword::FAULT_RESET.0);
+        assert!(
+            START_RELATIVE.contains(Controlword::RELATIVE),
+            "KINCO-CW-02"
+        );
+        assert!(
+            !START_ABSOLUTE.contains(Controlword::RELATIVE),
+            "KINCO-CW-01"
+        );
+        assert_eq!(
+            FAULT_RESET.0 & !DISABLE.0,
+            Controlword::FAULT_RESET.0,
+            "KINCO-CW-04"
+        );
         let modes: [i8; 6] = MODES.map(|m| m.mode);
         assert_eq!(modes, [-4, -3, 1, 3, 4, 6]);
         let bits = MODES
@@ -562,29 +582,61 @@ mod tests {
         assert_eq!(bits, 0x2D, "6502h of the device file");
     }
 
-    /// KINCO-DIAG-01…07: LED codes and EMCY codes of both error words; FFF.F.
+    /// The LED codes and EMCY codes of both error words (Tab. 5-7, 5-8, ch. 8), each vector at
+    /// its row; FFF.F.
     #[test]
-    fn kinco_diag_01_to_07_led_and_emcy() {
+    fn kinco_diag_led_and_emcy() {
         let led = |w, b| (led_code(b), error(w, b).and_then(|e| e.emcy));
-        assert_eq!(led(ErrorWord::State, 0), (*b"000.1", None));
-        assert_eq!(led(ErrorWord::State, 5), (*b"002.0", Some(0x3210)));
-        assert_eq!(led(ErrorWord::State, 9), (*b"020.0", Some(0x8611)));
-        assert_eq!(led(ErrorWord::State, 15), (*b"800.0", Some(0x6310)));
-        assert_eq!(LED_MOTOR_TYPE, *b"FFF.F");
-        assert_eq!(led(ErrorWord::State2, 0), (*b"000.1", Some(0x5210)));
-        assert_eq!(led(ErrorWord::State2, 9), (*b"020.0", Some(0x5442)));
-        assert_eq!(led(ErrorWord::State2, 15), (*b"800.0", Some(0x7306)));
+        assert_eq!(led(ErrorWord::State, 0), (*b"000.1", None), "KINCO-DIAG-01");
+        assert_eq!(
+            led(ErrorWord::State, 5),
+            (*b"002.0", Some(0x3210)),
+            "KINCO-DIAG-02"
+        );
+        assert_eq!(
+            led(ErrorWord::State, 9),
+            (*b"020.0", Some(0x8611)),
+            "KINCO-DIAG-03"
+        );
+        assert_eq!(
+            led(ErrorWord::State, 15),
+            (*b"800.0", Some(0x6310)),
+            "KINCO-DIAG-04"
+        );
+        assert_eq!(LED_MOTOR_TYPE, *b"FFF.F", "KINCO-DIAG-05");
+        assert_eq!(
+            led(ErrorWord::State2, 0),
+            (*b"000.1", Some(0x5210)),
+            "KINCO-DIAG-06 (bit 0)"
+        );
+        assert_eq!(
+            led(ErrorWord::State2, 9),
+            (*b"020.0", Some(0x5442)),
+            "KINCO-DIAG-06 (bit 9)"
+        );
+        assert_eq!(
+            led(ErrorWord::State2, 15),
+            (*b"800.0", Some(0x7306)),
+            "KINCO-DIAG-07"
+        );
         assert!(error(ErrorWord::State2, 5).is_none(), "reserved");
     }
 
-    /// KINCO-SC-01/02: offset 2 V, dead band 1 V, 100 rpm/V: +5 V → 2 V → 200 rpm;
-    /// −5 V → −6 V → −600 rpm.
+    /// The §6.2.1 analog speed example: offset 2 V, dead band 1 V, 100 rpm/V.
     #[test]
     fn kinco_sc_01_02_analog_speed() {
         let out = analog_out(500, 200, 100);
-        assert_eq!((out, analog_speed_rpm(out, 100)), (200, 200));
+        assert_eq!(
+            (out, analog_speed_rpm(out, 100)),
+            (200, 200),
+            "KINCO-SC-01: +5 V → 2 V → 200 rpm"
+        );
         let out = analog_out(-500, 200, 100);
-        assert_eq!((out, analog_speed_rpm(out, 100)), (-600, -600));
+        assert_eq!(
+            (out, analog_speed_rpm(out, 100)),
+            (-600, -600),
+            "KINCO-SC-02: −5 V → −6 V → −600 rpm"
+        );
         assert_eq!(analog_out(250, 200, 100), 0, "inside the dead band");
         // The same example with Analog_Dead_High = 1 V, Analog_Dead_Low = −5 V: +5 V gives
         // 2 V, beyond 1 V: 0 rpm; −5 V gives −6 V, below −5 V: 0 rpm; 2.5 V + 2 V offset
@@ -595,13 +647,25 @@ mod tests {
         assert_eq!(analog_window(-600, 0, 0), -600, "0 = no edge");
     }
 
-    /// KINCO-SC-03/04/05: the BCD selections of DIN speed (Index1 → 2), gear set (MF1 + MF2 →
-    /// 6) and gain set (Gain Switch0 → 1); an input without the function counts 0.
+    /// The BCD selections of DIN speed, gear set and gain set; an input without the function
+    /// counts 0.
     #[test]
     fn kinco_sc_03_04_05_bcd_selection() {
-        assert_eq!(selected_index(&[Some(false), Some(true), Some(false)]), 2);
-        assert_eq!(selected_index(&[Some(false), Some(true), Some(true)]), 6);
-        assert_eq!(selected_index(&[Some(true), Some(false)]), 1);
+        assert_eq!(
+            selected_index(&[Some(false), Some(true), Some(false)]),
+            2,
+            "KINCO-SC-03: Din Vel Index1 → Din_Speed[2]"
+        );
+        assert_eq!(
+            selected_index(&[Some(false), Some(true), Some(true)]),
+            6,
+            "KINCO-SC-04: Multifunction1 + 2 → gear set 6"
+        );
+        assert_eq!(
+            selected_index(&[Some(true), Some(false)]),
+            1,
+            "KINCO-SC-05: Gain_Switch0 → PI_Pointer 1"
+        );
         assert_eq!(selected_index(&[None, Some(true), None]), 2);
         assert!(din_has(0x0003, DinFunction::Enable) && din_has(0x0003, DinFunction::ResetErrors));
         assert!(din_has(0x8004, DinFunction::Multifunction0));
@@ -612,13 +676,20 @@ mod tests {
         assert!(!din_has(0x9004, DinFunction::Multifunction0));
     }
 
-    /// KINCO-SC-06/07/08: notch 40 → 500 Hz, 45 → 550 Hz; feedback filter 25 → 600 Hz,
-    /// 0 → 100, 45 → 1000; output filter N = 2…8 → 1765, 1032, 733, 568, 464, 392, 340 Hz.
+    /// The filter formulas of ch. 7.
     #[test]
     fn kinco_sc_06_07_08_filters() {
-        assert_eq!((notch_hz(40), notch_hz(45)), (500, 550));
-        assert_eq!([25, 0, 45].map(speed_feedback_hz), [600, 100, 1000]);
-        assert_eq!(output_filter_hz(1), None);
+        assert_eq!(
+            (notch_hz(40), notch_hz(45)),
+            (500, 550),
+            "KINCO-SC-06: notch 40 → 500 Hz, 45 → 550 Hz"
+        );
+        assert_eq!(
+            [25, 0, 45].map(speed_feedback_hz),
+            [600, 100, 1000],
+            "KINCO-SC-07: Speed_Fb_N 25, 0, 45"
+        );
+        assert_eq!(output_filter_hz(1), None, "KINCO-SC-08: N = 1, no filter");
         for (n, printed) in [
             (2, 1765.0),
             (3, 1032.0),
@@ -629,28 +700,40 @@ mod tests {
             (8, 340.0),
         ] {
             let f = output_filter_hz(n).unwrap_or(0.0);
-            assert!((f - printed).abs() < 1.0, "N = {n}: {f}");
+            assert!((f - printed).abs() < 1.0, "KINCO-SC-08: N = {n}: {f}");
         }
     }
 
-    /// KINCO-SC-09, -10, -12: following error limit, inertia ratio, tuning results.
+    /// The following error limit, the inertia ratio and the tuning results.
     #[test]
     fn kinco_sc_09_10_12_limits_and_tuning() {
-        assert_eq!(max_following_error(5242), 524_200);
-        assert_eq!(inertia_ratio(2.0, 1.0), 30);
-        assert_eq!(tuning_result(251), (-3, 251));
-        assert_eq!(tuning_result(501), (-4, 30));
+        assert_eq!(max_following_error(5242), 524_200, "KINCO-SC-09");
+        assert_eq!(inertia_ratio(2.0, 1.0), 30, "KINCO-SC-10");
+        assert_eq!(tuning_result(251), (-3, 251), "KINCO-SC-12: > 250");
+        assert_eq!(tuning_result(501), (-4, 30), "KINCO-SC-12: > 500");
         assert_eq!(tuning_result(30), (1, 30));
     }
 
-    /// KINCO-SC-13: stiffness 0, 12, 23, 31; the table's filter column is the output filter
-    /// formula's value of some N.
+    /// The stiffness table (Tab. 4-5 / 7-2) as data; the table's filter column is the output
+    /// filter formula's value of some N. Through the drive: `tests/kinco_tuning.rs`.
     #[test]
     fn kinco_sc_13_stiffness_table() {
-        assert_eq!(STIFFNESS[0], s(70, 25, 18));
-        assert_eq!(STIFFNESS[12], s(1056, 380, 268));
-        assert_eq!(STIFFNESS[23], s(5556, 2000, 1765));
-        assert_eq!(STIFFNESS[31], s(13889, 5000, 0));
+        assert_eq!(STIFFNESS[0], s(70, 25, 18), "KINCO-SC-13: stiffness 0");
+        assert_eq!(
+            STIFFNESS[12],
+            s(1056, 380, 268),
+            "KINCO-SC-13: stiffness 12"
+        );
+        assert_eq!(
+            STIFFNESS[23],
+            s(5556, 2000, 1765),
+            "KINCO-SC-13: stiffness 23"
+        );
+        assert_eq!(
+            STIFFNESS[31],
+            s(13889, 5000, 0),
+            "KINCO-SC-13: stiffness 31"
+        );
         assert!(STIFFNESS.windows(2).all(|w| w[0].kpp < w[1].kpp));
         for n in 2..=8 {
             let f = output_filter_hz(n).unwrap_or(0.0);

@@ -23,6 +23,7 @@ use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
+use crate::drive::refusal::Request;
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::factor_group::{FactorGroup, Ratio};
 use crate::motor::MotorData;
@@ -178,7 +179,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sub: u8,
         data: &[u8],
     ) -> Result<(), AbortCode> {
-        if self.kinco_din_configured(DinFunction::Enable) {
+        if self.kinco_refusal(Request::Write { index, sub }).is_some() {
             return Err(AbortCode::LOCAL_CONTROL);
         }
         self.write_controlword(index, sub, data)
@@ -186,9 +187,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// 6060h: owned by the Operation Mode Sel DIN as 6040h is by Enable (L1287).
     fn kinco_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.write_mode_unless(index, sub, data, |d, _| {
-            d.kinco_din_configured(DinFunction::OperationModeSel)
-                .then_some(AbortCode::LOCAL_CONTROL)
+        self.write_mode_unless(index, sub, data, |d, m| {
+            d.kinco_refusal(Request::Mode(m))
+                .map(|_| AbortCode::LOCAL_CONTROL)
         })
     }
 
@@ -200,10 +201,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         sub: u8,
         data: &[u8],
     ) -> Result<(), AbortCode> {
-        if self.kinco_din_configured(DinFunction::GainSwitch0)
-            || self.kinco_din_configured(DinFunction::GainSwitch1)
-            || self.value(0x6069, 0x09) == 1
-        {
+        if self.kinco_refusal(Request::Write { index, sub }).is_some() {
             return Err(AbortCode::LOCAL_CONTROL);
         }
         self.kinco_write_gain(index, sub, data)

@@ -29,6 +29,7 @@ use super::kinco::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNC
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, HomingRun};
 use crate::travel::Inputs;
 use od::ObjectAccess;
@@ -42,6 +43,28 @@ pub const DOUTS: u8 = 5;
 const MOTOR_TEMPERATURE: u16 = 0x4310;
 /// External enable (Error_State2 bit 8), an enable without Pre Enable.
 const EXTERNAL_ENABLE: u16 = 0x5443;
+
+/// L1287: "the DIN function has the highest priority".
+const DIN_PRIORITY: &str = "Kinco FD/CD §5.5 (L1287): the DIN function has the highest \
+    priority; an object a DIN function sets can no longer be changed by hand, e.g. with Enable \
+    configured the controlword cannot be changed";
+
+/// Tab. 6-1 (8200h) and Tab. 5-8 bit 8.
+const PRE_ENABLE: &str = "Kinco FD/CD Tab. 6-1 (8200h Pre Enable): 0 = the drive cannot be \
+    enabled; an enable then raises \"External enable\" (5443h, Tab. 5-8 bit 8)";
+
+/// The input functions that own an object, with the manual's name (Tab. 6-1).
+const OWNERS: [(DinFunction, &str, u16, u8); 4] = [
+    (DinFunction::Enable, "Enable", 0x6040, 0x00),
+    (
+        DinFunction::OperationModeSel,
+        "Operation Mode Sel",
+        0x6060,
+        0x00,
+    ),
+    (DinFunction::GainSwitch0, "Gain Switch0", 0x60F9, 0x28),
+    (DinFunction::GainSwitch1, "Gain Switch1", 0x60F9, 0x28),
+];
 
 /// What the inputs were at the last cycle (for their edges).
 #[derive(Debug, Clone, Copy, Default)]
@@ -189,6 +212,56 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.value(0x2020, sub)
                 .clamp(i32::MIN as i64, i32::MAX as i64) as i32,
         )
+    }
+
+    /// The input that owns object `index:sub` (L1287), as a refusal.
+    fn kinco_owner(&self, index: u16, sub: u8) -> Option<Refusal> {
+        OWNERS
+            .iter()
+            .filter(|(_, _, i, s)| (*i, *s) == (index, sub))
+            .find_map(|&(f, name, _, _)| {
+                let n = self.kinco_din_with(f)?;
+                Some(Refusal::InputOwns {
+                    input: n + 1,
+                    function: name,
+                    function_object: (0x2010, 0x03 + n),
+                    index,
+                    sub,
+                    rule: DIN_PRIORITY,
+                })
+            })
+    }
+
+    /// What the Kinco's input functions refuse: the objects they own (6040h, 6060h,
+    /// PI_Pointer 60F9h:28, which PI_Switch 6069h:09 = 1 owns as well), an enable without
+    /// Pre Enable. The write hooks of `kinco_drive.rs` refuse by the same rules.
+    pub(crate) fn kinco_refusal(&self, request: Request) -> Option<Refusal> {
+        match request {
+            Request::Enable => self.kinco_owner(0x6040, 0).or_else(|| {
+                let n = self.kinco_din_with(DinFunction::PreEnable)?;
+                (!self.kinco_pre_enable()).then_some(Refusal::InputInactive {
+                    input: n + 1,
+                    function: "Pre Enable",
+                    rule: PRE_ENABLE,
+                })
+            }),
+            Request::Mode(_) => self.kinco_owner(0x6060, 0),
+            Request::Write { index, sub } => {
+                self.kinco_owner(index, sub).or_else(|| match (index, sub) {
+                    (0x60F9, 0x28) if self.value(0x6069, 0x09) == 1 => Some(Refusal::State {
+                        reason: "PI_Switch 6069h:09 = 1 switches the gain set itself",
+                        rule: "Kinco FD/CD §5.5.4: PI_Pointer is set by the Gain Switch \
+                            inputs, else by PI_Switch (6069h:09 = 1), else by hand",
+                    }),
+                    (0x3040, 0x01) if self.value(0x3041, 0x05) != 1 => Some(Refusal::State {
+                        reason: "a tuning run needs WriteFUN_CTL 3041h:05 = 1",
+                        rule: "Kinco FD/CD §7.1: over communication, WriteFUN_CTL 3041h:05 \
+                            must be 1 before a tuning run starts",
+                    }),
+                    _ => None,
+                })
+            }
+        }
     }
 
     /// Transition 2 / 3 may happen: no Pre Enable input, or it is active.

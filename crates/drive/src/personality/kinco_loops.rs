@@ -27,7 +27,9 @@
 //! - the position loop's output is not clamped below the top speed 6080h (the manual names
 //!   no clamp);
 //! - writing Stiffness 3040h:08 or Inertia_Ratio 3040h:0B sets `Kpp[0]`, Velocity_BW and
-//!   `Kvp[0]` from the stiffness table's row at the ratio;
+//!   `Kvp[0]` from the stiffness table's row at the ratio; the row's filter column sets
+//!   nothing (the manual names no object for it, and its 18 Hz needs an Output_Filter_N
+//!   beyond 60F9h:15's 1…127);
 //! - Speed_Fb_N 60F9h:05 sets the actual-speed filter (bandwidth 100 + 20·N Hz);
 //!   Output_Filter_N 60F9h:15, the notch (Notch_N 60F9h:03 at 10·N + 100 Hz while Notch_On
 //!   60F9h:04 = 1) and Kvi_Sum_Limit 60F9h:08 (the velocity integrator's limit, of 2¹⁵ = the

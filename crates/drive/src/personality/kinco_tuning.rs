@@ -16,6 +16,7 @@
 
 use core::time::Duration;
 
+use crate::drive::refusal::Request;
 use od::{AbortCode, ObjectAccess as _};
 
 use super::kinco::{inertia_ratio, tuning_result, STIFFNESS};
@@ -46,7 +47,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if data.first() != Some(&1) {
             return self.od.write(index, sub, data);
         }
-        if self.value(0x3041, 0x05) != 1 {
+        if self.kinco_refusal(Request::Write { index, sub }).is_some() {
             return Err(AbortCode::DEVICE_STATE);
         }
         self.od.write(index, sub, data)?;

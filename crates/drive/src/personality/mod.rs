@@ -163,6 +163,20 @@ pub struct Personality {
     /// The homing methods 6098h selects.
     pub homing_methods: &'static [Method],
     pub external_home_switch: Option<ExternalHomeSwitch>,
+    /// What stands for the hardware enables transition 2 needs
+    /// ([`crate::drive::DriveSettings::enables_present`]); `None`: the drive has none (its
+    /// enables are input functions, [`crate::drive::refusal`]).
+    pub hardware_enable: Option<HardwareEnable>,
+}
+
+/// The hardware enables of a drive, as its manual names them: what is missing while
+/// [`crate::drive::DriveSettings::enables_present`] is false (or the inputs are forced low),
+/// what that does, and the rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HardwareEnable {
+    pub what: &'static str,
+    pub effect: &'static str,
+    pub rule: &'static str,
 }
 
 impl Personality {

@@ -11,13 +11,14 @@
 use od::{AbortCode, ObjectAccess};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, ModeSpec, OptionCode,
-    Personality, Vendor,
+    Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable, ModeSpec,
+    OptionCode, Personality, Vendor,
 };
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::object_writes::Hook;
+use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
 use crate::personality::nanotec_units::{load_angle_spacing_rpm, torque_current_ma};
@@ -76,7 +77,10 @@ pub const NANOTEC: Personality = Personality {
         mode(6, Some(5)),
         mode(7, Some(6)),
     ],
-    // 605Ah = 3, the only value: "brake with maximum current, then Switch On Disabled".
+    // 605Ah = 3, the only value (§4.4). Decision: §4.4 reads it "brake with maximum current,
+    // then Switch On Disabled", §4.2 (L769) says the quick stop brakes "with the ramp set in
+    // 6085h" (604Ah in VL, abrupt in IP, §5.4); the twin brakes with 6085h, then Switch On
+    // Disabled (NT-CW-07), the rule that names an object a master sets (docs/decisions.md).
     option_codes: &[OptionCode {
         index: super::QUICK_STOP_OPTION,
         value: 3,
@@ -120,6 +124,12 @@ pub const NANOTEC: Personality = Personality {
         bit_sub: 1,
         value_sub: 2,
         methods: &[-4, -5, -6, -7],
+    }),
+    hardware_enable: Some(HardwareEnable {
+        what: "a bit-rate code in 2005h (the rotary switch is node + 128)",
+        effect: "the controller answers on CAN but accepts no motion commands",
+        rule: "Nanotec §1.1.3 step 7 (L333): with the switch at node + 128 and a value outside \
+            130…135 in 2005h the controller answers on CAN but accepts no motion commands",
     }),
 };
 
@@ -360,10 +370,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// 0800 0022h (present device state), so a master learns it at once.
     fn nanotec_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.write_mode_unless(index, sub, data, |d, m| {
-            let closed_loop = d.value(0x200A, 0) != 0;
-            // §4.2: "while a brake wait time (2007h) is running, mode changes are not
-            // executed".
-            ((m == 4 && !closed_loop) || d.brake_wait()).then_some(AbortCode::DEVICE_STATE)
+            d.nanotec_refusal(Request::Mode(m))
+                .map(|_| AbortCode::DEVICE_STATE)
+        })
+    }
+
+    /// What the Nanotec refuses beyond the engine's rules: torque mode without the closed
+    /// loop, a mode change while a brake wait time runs.
+    pub(crate) fn nanotec_refusal(&self, request: Request) -> Option<Refusal> {
+        let Request::Mode(m) = request else {
+            return None;
+        };
+        if m == 4 && self.value(0x200A, 0) == 0 {
+            return Some(Refusal::State {
+                reason: "torque mode needs the closed loop (200Ah = 1)",
+                rule: "Nanotec §5.5: for the torque mode the closed loop must be active",
+            });
+        }
+        // §4.2: "while a brake wait time (2007h) is running, mode changes are not executed".
+        self.brake_wait().then_some(Refusal::State {
+            reason: "a brake wait time (2007h) is running",
+            rule: "Nanotec §4.2: while a brake wait time (2007h) is running, mode changes \
+                are not executed",
         })
     }
 

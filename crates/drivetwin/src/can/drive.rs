@@ -327,6 +327,9 @@ impl CanDrive {
                     self.node.boot(now, &self.model, out);
                 }
                 NodeEvent::ResetCommunication => {
+                    // Decision: CiA 301 reset communication (1000h–1FFFh from the stored set)
+                    // for every device, the Nanotec too, whose §2.2 (L465) describes 82h as
+                    // 81h (docs/decisions.md).
                     // The node-ID may have changed (LSS): node-relative defaults follow it.
                     self.model.od_mut().set_node_id(self.node.node_id());
                     self.reload(|i| (0x1000..0x2000).contains(&i));

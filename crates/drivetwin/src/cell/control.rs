@@ -200,6 +200,12 @@ pub(crate) enum Command {
     },
     /// Temperatures, encoder and named switches ([`PhysicsRequest`]).
     Physics(PhysicsRequest),
+    /// Why the drive does not take a request ([`ControlHandle::refusal`]).
+    Refusal {
+        drive: usize,
+        request: drive::drive::refusal::Request,
+        reply: SyncSender<Result<Option<drive::drive::refusal::Refusal>, ControlError>>,
+    },
 }
 
 /// A handle to a running cell; cheap to clone, usable from any thread.
@@ -286,6 +292,21 @@ impl ControlHandle {
             drive,
             mask,
             levels,
+            reply,
+        })?
+    }
+
+    /// Why drive `drive` does not take `request` now, with its manual's rule (an input owns
+    /// the object, the hardware enables are missing, …); `None`: the drive knows of nothing
+    /// in the way (a drive without CiA 402 logic never says).
+    pub fn refusal(
+        &self,
+        drive: usize,
+        request: drive::drive::refusal::Request,
+    ) -> Result<Option<drive::drive::refusal::Refusal>, ControlError> {
+        self.ask(|reply| Command::Refusal {
+            drive,
+            request,
             reply,
         })?
     }

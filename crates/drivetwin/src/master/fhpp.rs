@@ -678,8 +678,8 @@ mod tests {
         m.move_to(9000, 100, false, t).await.unwrap();
         assert_eq!(m.input().scon.0, 0x53);
         assert!((m.input().actual2 - 9000).abs() <= 180, "{:?}", m.input());
-        // FHPP-FPC-01 / 02: PNU 1041 is the same actual position; PNU 9999 does not exist
-        // (Tab. C.7 code 0).
+        // FHPP-FPC-01 and FHPP-FPC-02: PNU 1041 is the same actual position; PNU 9999 does
+        // not exist (Tab. C.7 code 0).
         let pos = m.read_parameter(1041, 1, t).await.unwrap() as i32;
         assert!((pos - m.input().actual2).abs() <= 18, "{pos}");
         match m.read_parameter(9999, 1, t).await {

@@ -236,8 +236,8 @@ mod tests {
         .emit(station)
     }
 
-    /// KINCO-232-01 / -05 through the line: the answer is read when its 10 bytes have crossed
-    /// after the request's 10, 20 character times at 38400 bit/s (5.2 ms).
+    /// KINCO-232-01 and KINCO-232-05 through the line: the answer is read when its 10 bytes
+    /// have crossed after the request's 10, 20 character times at 38400 bit/s (5.2 ms).
     #[test]
     fn kinco_232_01_answer_after_twenty_characters() {
         let mut rig = Rig::new(38_400, 1, false, Topology::Ring, Some(270));
@@ -256,8 +256,8 @@ mod tests {
         );
     }
 
-    /// KINCO-232-07 / -08 and garbage: a bad checksum, another ID, short telegrams and noise
-    /// get no answer; the next good telegram after a silence is answered.
+    /// KINCO-232-07, KINCO-232-08 and garbage: a bad checksum, another ID, short telegrams
+    /// and noise get no answer; the next good telegram after a silence is answered.
     #[test]
     fn kinco_232_07_08_bad_input_then_a_good_telegram() {
         let mut rig = Rig::new(115_200, 1, false, Topology::Ring, None);

@@ -271,8 +271,8 @@ mod tests {
         );
     }
 
-    /// KINCO-MB-01 / -03 at two drives of one line: each answers its own station; a bad CRC
-    /// and a station none has get no answer.
+    /// KINCO-MB-01 and KINCO-MB-03 at two drives of one line: each answers its own station; a
+    /// bad CRC and a station none has get no answer.
     #[test]
     fn kinco_mb_two_drives_by_station_bad_crc_and_other_station() {
         let mut drives = Dictionaries::fd3(2);

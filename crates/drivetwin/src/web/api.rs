@@ -3,8 +3,6 @@
 //! answers bad input with a 4xx and a message (JSON [`ApiError`]), never a 5xx or a panic;
 //! an SDO abort becomes its code and its CiA 301 text.
 
-use std::time::Duration;
-
 use axum::extract::rejection::JsonRejection;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
@@ -20,6 +18,7 @@ use crate::cell::control::{
     ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
 use crate::value_text;
+use drive::drive::refusal::{Refusal, Request};
 
 /// The JSON body of every refusal.
 #[derive(Debug, Serialize, ToSchema)]
@@ -34,6 +33,32 @@ pub struct ApiError {
     /// The abort code's CiA 301 text.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub abort_text: Option<String>,
+    /// Why the drive refused, with its manual's rule (an input owns the object, a hardware
+    /// enable is missing, the mode is not the device's, …).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<Box<ReasonView>>,
+}
+
+/// Why a drive does not take a command, as the drive says it.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ReasonView {
+    /// For programs: `input_owns_object`, `input_inactive`, `hardware_enable_missing`,
+    /// `mode_not_supported`, `device_state`, `fault_cause_present`, `device_control`.
+    pub kind: String,
+    /// The reason, for a person (e.g. "DIN1 has the function Enable (2010h:03): …").
+    pub text: String,
+    /// The manual's rule, with its section.
+    pub rule: String,
+}
+
+impl From<Refusal> for ReasonView {
+    fn from(r: Refusal) -> ReasonView {
+        ReasonView {
+            kind: r.kind().to_owned(),
+            text: r.to_string(),
+            rule: r.rule().to_owned(),
+        }
+    }
 }
 
 impl ApiError {
@@ -43,6 +68,31 @@ impl ApiError {
             error: error.into(),
             abort_code: None,
             abort_text: None,
+            reason: None,
+        }
+    }
+
+    /// The refusal with the drive's reason: a 409 whose message starts with the reason, the
+    /// drive's own answer (an SDO abort, a state not reached) after it.
+    pub fn with_reason(self, reason: ReasonView) -> ApiError {
+        let error = if self.error.is_empty() {
+            reason.text.clone()
+        } else {
+            format!("{}; {}", reason.text, self.error)
+        };
+        ApiError {
+            status: StatusCode::CONFLICT,
+            error,
+            reason: Some(Box::new(reason)),
+            ..self
+        }
+    }
+
+    /// `self` with the drive's reason for refusing `request`, where the drive names one.
+    pub(super) fn asking(self, h: &ControlHandle, drive: usize, request: Request) -> ApiError {
+        match h.refusal(drive, request) {
+            Ok(Some(r)) => self.with_reason(r.into()),
+            _ => self,
         }
     }
 
@@ -68,6 +118,7 @@ impl ApiError {
             error: format!("SDO abort {:#010X}: {text}", code.0),
             abort_code: Some(format!("{:#010X}", code.0)),
             abort_text: Some(text.to_owned()),
+            reason: None,
         }
     }
 }
@@ -352,17 +403,6 @@ async fn get_drive(State(s): State<AppState>, Path(drive): Path<String>) -> ApiR
         .map(Json)
 }
 
-/// Controlword steps to OPERATION ENABLED (CMMP-AS §6.1.3 Tab. 6.4): fault reset when in
-/// FAULT, then shutdown, switch on, enable operation.
-const ENABLE: [u16; 3] = [0x0006, 0x0007, 0x000F];
-
-fn write_controlword(h: &ControlHandle, drive: usize, cw: u16) -> Result<(), ApiError> {
-    h.write(drive, 0x6040, 0, &cw.to_le_bytes())?;
-    // The state machine follows the controlword within a cycle of the drive.
-    std::thread::sleep(Duration::from_millis(5));
-    Ok(())
-}
-
 fn cia402_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
     let info = find_drive(h, drive)?;
     let desc = description(&info)?;
@@ -370,30 +410,27 @@ fn cia402_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
         return Err(ApiError::new(
             StatusCode::CONFLICT,
             format!(
-                "drive {} ({}) has no CiA 402 controlword; its FHPP control bytes are not in the console yet",
-                info.index, info.device
+                "drive {} ({}) has no CiA 402 controlword; its FHPP control is under /api/drives/{}/motion",
+                info.index, info.device, info.index
             ),
         ));
     }
     Ok(info)
 }
 
-/// Enables the drive's power stage: CiA 402 controlword steps to OPERATION ENABLED.
+/// Enables the drive's power stage: CiA 402 controlword steps to OPERATION ENABLED (a fault
+/// reset first). A drive that does not get there answers 409 with its reason.
 #[utoipa::path(post, path = "/api/drives/{drive}/enable", tag = "drives",
     params(("drive" = u32, Path, description = "the drive's index in the cell")),
     responses((status = 400, body = ApiError), (status = 200, body = DriveView), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn enable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
     call(&s.handle, move |h| {
         let info = cia402_drive(h, &drive)?;
-        let view = drive_view(h, &info)?;
-        if view.statusword.is_some_and(|sw| sw & 0x0008 != 0) {
-            // Fault reset is the rising edge of bit 7.
-            write_controlword(h, info.index, 0x0000)?;
-            write_controlword(h, info.index, 0x0080)?;
-        }
-        for cw in ENABLE {
-            write_controlword(h, info.index, cw)?;
-        }
+        let io = super::motion::Handle {
+            handle: h,
+            drive: info.index,
+        };
+        super::motion::enable(&io).map_err(|e| super::motion::refusal(h, info.index, e))?;
         drive_view(h, &info)
     })
     .await
@@ -407,7 +444,11 @@ async fn enable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResu
 async fn disable(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<DriveView> {
     call(&s.handle, move |h| {
         let info = cia402_drive(h, &drive)?;
-        write_controlword(h, info.index, 0x0006)?;
+        let io = super::motion::Handle {
+            handle: h,
+            drive: info.index,
+        };
+        super::motion::disable(&io).map_err(|e| super::motion::refusal(h, info.index, e))?;
         drive_view(h, &info)
     })
     .await
@@ -616,7 +657,14 @@ async fn write_object(
         let desc = description(&info)?;
         let e = find_entry(desc, &index, &sub)?;
         let bytes = body.bytes(e)?;
-        h.write(info.index, e.index, e.sub, &bytes)?;
+        h.write(info.index, e.index, e.sub, &bytes).map_err(|err| {
+            // 6060h is a mode change: the drive says why it does not take that mode.
+            let request = match (e.index, e.sub, bytes.as_slice()) {
+                (0x6060, 0, [m]) => Request::Mode(*m as i8),
+                (index, sub, _) => Request::Write { index, sub },
+            };
+            ApiError::from(err).asking(h, info.index, request)
+        })?;
         let v = object_view(desc, e);
         Ok(if e.access.readable() {
             with_value(v, e.data_type, h.read(info.index, e.index, e.sub))
@@ -890,6 +938,7 @@ impl LoadBody {
     ),
     components(schemas(
         ApiError,
+        ReasonView,
         BusView,
         NodeErrorView,
         DisturbBody,

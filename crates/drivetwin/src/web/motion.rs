@@ -18,9 +18,10 @@ use drive::fhpp::{Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, 
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::api::ApiError;
+use super::api::{ApiError, ReasonView};
 use super::{error_text, statusword, AppState};
 use crate::cell::control::{ControlError, ControlHandle, FhppRequest, FhppState, Interface};
+use drive::drive::refusal::Request;
 
 // ------------------------------------------------------------------------------- the access
 
@@ -69,6 +70,16 @@ impl FhppIo for Handle<'_> {
 pub enum MotionError {
     #[error(transparent)]
     Control(#[from] ControlError),
+    /// A write of the sequence was refused (the drive's answer in `error`).
+    #[error("{index:04X}h:{sub:02X}: {error}")]
+    Refused {
+        index: u16,
+        sub: u8,
+        error: ControlError,
+    },
+    /// 6060h := `wanted` was refused.
+    #[error("modes of operation 6060h := {wanted}: {error}")]
+    ModeRefused { wanted: i8, error: ControlError },
     #[error("the drive is in {0}; enable it first (OPERATION ENABLED)")]
     NotEnabled(String),
     #[error("the drive did not reach {wanted}: it shows {shown}")]
@@ -131,8 +142,14 @@ fn state_name(sw: u16) -> String {
     statusword::state(sw).map_or_else(|| format!("6041h = {sw:#06X}"), |s| s.name().to_owned())
 }
 
-fn controlword(io: &impl Objects, word: u16) -> Result<(), ControlError> {
-    io.write(0x6040, 0, &word.to_le_bytes())?;
+/// A write of the sequence; a refusal names the object.
+fn write(io: &impl Objects, index: u16, sub: u8, data: &[u8]) -> Result<(), MotionError> {
+    io.write(index, sub, data)
+        .map_err(|error| MotionError::Refused { index, sub, error })
+}
+
+fn controlword(io: &impl Objects, word: u16) -> Result<(), MotionError> {
+    write(io, 0x6040, 0, &word.to_le_bytes())?;
     io.wait(STEP_WAIT);
     Ok(())
 }
@@ -195,7 +212,8 @@ fn require_enabled(io: &impl Objects) -> Result<(), MotionError> {
 /// 6060h := `wanted`, then waits for 6061h to show it (CiA 402 §6.2: the mode is in force
 /// once 6061h shows it).
 fn set_mode(io: &impl Objects, wanted: i8) -> Result<(), MotionError> {
-    io.write(0x6060, 0, &wanted.to_le_bytes())?;
+    io.write(0x6060, 0, &wanted.to_le_bytes())
+        .map_err(|error| MotionError::ModeRefused { wanted, error })?;
     let mut shown = 0;
     for _ in 0..TRIES {
         shown = io
@@ -235,10 +253,10 @@ pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
     if vl_only {
         set_mode(io, mode::VELOCITY)?;
         let rpm = velocity.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
-        io.write(0x6042, 0, &rpm.to_le_bytes())?;
+        write(io, 0x6042, 0, &rpm.to_le_bytes())?;
     } else {
         set_mode(io, mode::PROFILE_VELOCITY)?;
-        io.write(0x60FF, 0, &velocity.to_le_bytes())?;
+        write(io, 0x60FF, 0, &velocity.to_le_bytes())?;
     }
     controlword(io, cw::ENABLE_OPERATION)?;
     Ok(statusword_of(io)?)
@@ -250,7 +268,7 @@ pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
 pub fn move_to(io: &impl Objects, target: i32, relative: bool) -> Result<u16, MotionError> {
     require_enabled(io)?;
     set_mode(io, mode::PROFILE_POSITION)?;
-    io.write(0x607A, 0, &target.to_le_bytes())?;
+    write(io, 0x607A, 0, &target.to_le_bytes())?;
     let base = cw::ENABLE_OPERATION | if relative { cw::RELATIVE } else { 0 };
     controlword(io, base)?;
     controlword(io, base | cw::NEW_SET_POINT | cw::CHANGE_IMMEDIATELY)?;
@@ -640,8 +658,52 @@ impl From<MotionError> for ApiError {
     fn from(e: MotionError) -> ApiError {
         match e {
             MotionError::Control(c) => ApiError::from(c),
+            MotionError::Refused { error, .. } | MotionError::ModeRefused { error, .. } => {
+                ApiError::from(error)
+            }
+            MotionError::WebServerHasControl => device_control(e.to_string(), "the web server"),
+            MotionError::FctHasControl => device_control(e.to_string(), "FCT"),
             other => ApiError::new(StatusCode::CONFLICT, other.to_string()),
         }
+    }
+}
+
+/// CMMO-ST §5.1 Tab. 5.2 T2: the control bytes act only while the fieldbus (the PLC) has
+/// control authority.
+fn device_control(text: String, holder: &str) -> ApiError {
+    ApiError::new(StatusCode::CONFLICT, "").with_reason(ReasonView {
+        kind: "device_control".into(),
+        text,
+        rule: format!(
+            "CMMO-ST §5.1 Tab. 5.2 T2: the drive follows the FHPP control bytes only while the \
+             PLC has control authority; {holder} holds it (PNU 125)"
+        ),
+    })
+}
+
+/// What the drive was asked when `e` stopped a sequence.
+fn request_of(e: &MotionError) -> Option<Request> {
+    match e {
+        MotionError::Refused { index, sub, .. } => Some(Request::Write {
+            index: *index,
+            sub: *sub,
+        }),
+        MotionError::ModeRefused { wanted, .. } | MotionError::ModeNotTaken { wanted, .. } => {
+            Some(Request::Mode(*wanted))
+        }
+        MotionError::NotEnabled(_) | MotionError::NotReached { .. } => Some(Request::Enable),
+        _ => None,
+    }
+}
+
+/// The answer to a sequence that `e` stopped: its error with the drive's reason where the
+/// drive names one, so a click on a control is never a silent no-op.
+pub(super) fn refusal(h: &ControlHandle, drive: usize, e: MotionError) -> ApiError {
+    let request = request_of(&e);
+    let error = ApiError::from(e);
+    match request {
+        Some(r) => error.asking(h, drive, r),
+        None => error,
     }
 }
 
@@ -659,7 +721,8 @@ async fn run(
                 drive: index,
             },
             &k,
-        )?;
+        )
+        .map_err(|e| refusal(&handle, index, e))?;
         view(&handle, index, &k)
     })
     .await
@@ -983,9 +1046,18 @@ mod tests {
         };
         assert_eq!(
             home(&d),
-            Err(MotionError::Control(ControlError::Abort(od::AbortCode(
-                0x0609_0030
-            ))))
+            Err(MotionError::ModeRefused {
+                wanted: mode::HOMING,
+                error: ControlError::Abort(od::AbortCode(0x0609_0030))
+            })
+        );
+        assert_eq!(
+            request_of(&MotionError::ModeRefused {
+                wanted: mode::HOMING,
+                error: ControlError::Abort(od::AbortCode(0x0609_0030))
+            }),
+            Some(Request::Mode(mode::HOMING)),
+            "the drive is asked why it refused that mode"
         );
     }
 

@@ -88,12 +88,31 @@ pub fn cmmp_and_cmmo_st() -> Running {
     start(front, Some(addr))
 }
 
+/// Drive 0 a Kinco FD3 (node 2) at factory defaults, drive 1 a CMMP-AS (node 1), on one bus.
+pub fn kinco_and_cmmp() -> Running {
+    start(
+        FrontEnds {
+            buses: vec![bus(vec![
+                can_drive("kinco-fd3", 2),
+                can_drive("cmmp-as", 1),
+            ])],
+            ..FrontEnds::default()
+        },
+        None,
+    )
+}
+
 /// The console's router on `running`, with the write token `token` (`None`: loopback, none).
 pub fn app(running: &Running, token: Option<&str>) -> axum::Router {
     web::router(AppState {
         handle: running.handle.clone(),
         token: token.map(Arc::from),
     })
+}
+
+/// A PUT of `body` to `path`, without a token.
+pub async fn put(app: &axum::Router, path: &str, body: Value) -> (StatusCode, Value) {
+    send(app, "PUT", path, Some(body), None).await
 }
 
 /// One request; the status and the JSON answer (`Null` for an empty body).

@@ -191,6 +191,20 @@ impl CellLoop {
                 Command::Physics(r) => {
                     let _ = r.reply.send(self.physics(r.drive, r.change));
                 }
+                Command::Refusal {
+                    drive,
+                    request,
+                    reply,
+                } => {
+                    let why = match self.target(drive) {
+                        Ok(Target::Can(model)) => {
+                            Ok(model.drive_mut().and_then(|d| d.refusal(request)))
+                        }
+                        Ok(Target::Modbus(_)) => Ok(None),
+                        Err(e) => Err(e),
+                    };
+                    let _ = reply.send(why);
+                }
             }
         }
     }

@@ -25,8 +25,23 @@ async function api(method, path, body) {
   if (token) headers["x-drivetwin-token"] = token;
   const r = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
   const data = await r.json().catch(() => ({ error: `HTTP ${r.status}` }));
-  if (!r.ok) throw new Error(data.error || `HTTP ${r.status}`);
+  if (!r.ok) {
+    // A refusal carries the drive's reason and its manual's rule (`reason`).
+    const e = new Error(data.error || `HTTP ${r.status}`);
+    e.reason = data.reason ?? null;
+    throw e;
+  }
   return data;
+}
+
+// The reason a control was refused, shown next to it: the drive's reason and the manual's rule.
+function showWhy(sel, e) {
+  const w = $(sel);
+  if (!e) { w.hidden = true; w.replaceChildren(); return; }
+  w.replaceChildren(el("span", { class: "reason" }, e.reason ? e.reason.text : e.message));
+  if (e.reason) w.append(el("br"), el("span", { class: "rule" }, e.reason.rule));
+  w.dataset.kind = e.reason ? e.reason.kind : "";
+  w.hidden = false;
 }
 
 function say(text, error = false) {
@@ -158,7 +173,7 @@ function paramRow(o) {
         say(`${o.index}:${o.sub} ${o.name} = ${back.value ?? input.value}`);
         input.value = "";
       } catch (e) {
-        say(`${o.index}:${o.sub} ${o.name}: ${e.message}`, true);
+        say(`${o.index}:${o.sub} ${o.name}: ${e.message}` + (e.reason ? ` (${e.reason.rule})` : ""), true);
       }
     };
     button.addEventListener("click", write);
@@ -360,6 +375,8 @@ async function route() {
     return;
   }
   say("");
+  showWhy("#enable-why", null);
+  showWhy("#motion-why", null);
   // The drive's state first, then the cell (whose links show the page is ready).
   try { consoleState.drives = await api("GET", "/api/drives"); } catch (e) { /* loadCell says */ }
   await refreshDrive();
@@ -371,14 +388,16 @@ async function route() {
 $("#enable").addEventListener("click", async () => {
   try {
     await fetchView("POST", `/api/drives/${consoleState.drive}/motion/enable`);
+    showWhy("#enable-why", null);
     say("enabled");
-  } catch (e) { say(e.message, true); }
+  } catch (e) { say(e.message, true); showWhy("#enable-why", e); }
 });
 $("#disable").addEventListener("click", async () => {
   try {
     await fetchView("POST", `/api/drives/${consoleState.drive}/motion/disable`);
+    showWhy("#enable-why", null);
     say("disabled");
-  } catch (e) { say(e.message, true); }
+  } catch (e) { say(e.message, true); showWhy("#enable-why", e); }
 });
 $("#set-load").addEventListener("click", async () => {
   try {
@@ -415,8 +434,9 @@ for (const id of ["#trig-signal", "#trig-level", "#trig-edge", "#trig-pre", "#wi
 async function motion(path, body, text) {
   try {
     await fetchView("POST", `/api/drives/${consoleState.drive}/motion/${path}`, body);
+    showWhy("#motion-why", null);
     say(text);
-  } catch (e) { say(e.message, true); }
+  } catch (e) { say(e.message, true); showWhy("#motion-why", e); }
 }
 for (const [id, dir] of [["#jog-pos", 1], ["#jog-neg", -1]]) {
   const b = $(id);
