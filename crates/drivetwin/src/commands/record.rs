@@ -1,0 +1,65 @@
+//! `drivetwin record`: a script run against a node, every request and answer written with its
+//! time (`master::recording::file`).
+
+use std::path::Path;
+
+use drivetwin::master::recorder::Recorder;
+use drivetwin::master::recording::script::{self, CandumpOptions};
+use drivetwin::master::recording::{file, LineError, Recording};
+
+use super::*;
+
+/// A mistake in `path`, with its line.
+pub(crate) fn at_line(path: &Path) -> impl Fn(LineError) -> CommandError + '_ {
+    move |e| CommandError::Script {
+        path: path.to_path_buf(),
+        line: e.line,
+        what: e.what,
+    }
+}
+
+/// Writes `recording` to `path`, or to standard output.
+pub(crate) fn write_recording(
+    recording: &Recording,
+    path: Option<&Path>,
+) -> Result<(), CommandError> {
+    let text = file::emit(recording);
+    match path {
+        Some(p) => std::fs::write(p, text).map_err(io(p.display().to_string())),
+        None => {
+            out_raw!(text);
+            Ok(())
+        }
+    }
+}
+
+pub(crate) async fn record(args: RecordArgs) -> Result<(), CommandError> {
+    let path = args.script.as_path();
+    let text = std::fs::read_to_string(path).map_err(io(path.display().to_string()))?;
+    let parsed = if path.extension().is_some_and(|e| e == "toml") {
+        script::parse_toml(&text)
+    } else {
+        script::parse_candump(
+            &text,
+            CandumpOptions {
+                sdo_timeout: Duration::from_millis(args.sdo_timeout_ms),
+                quiet: Duration::from_millis(args.quiet_ms),
+            },
+        )
+    }
+    .map_err(at_line(path))?;
+    let mut link = connect(&args.bus).await?;
+    let mut recorder = Recorder::new(&mut link, parsed.ignore.clone());
+    recorder.run_script(parsed).await?;
+    let recording = recorder.finish();
+    write_recording(&recording, args.output.as_deref())?;
+    let unanswered = recording.steps.iter().filter(|s| !s.awaited_came()).count();
+    let answers: usize = recording.steps.iter().map(|s| s.answers.len()).sum();
+    tracing::info!(
+        steps = recording.steps.len(),
+        answers,
+        unanswered,
+        "recorded"
+    );
+    Ok(())
+}

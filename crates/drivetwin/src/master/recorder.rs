@@ -1,0 +1,116 @@
+//! Runs the steps of a script, or the requests of a recording, against a node over a link and
+//! records every request and its answers with their times (`master::recording` decides what
+//! answers; this only moves frames and reads the clock).
+
+use std::time::Duration;
+
+use tokio::time::Instant;
+
+use super::link::{Link, LinkError};
+use super::recording::gather::Gathering;
+use super::recording::script::{Action, Script};
+use super::recording::{CobRange, RecordedStep, Recording, Step};
+
+/// Frames already queued when a step starts are read and dropped, at most this many.
+const MAX_STALE: usize = 4096;
+
+/// A recording being made.
+pub struct Recorder<'a> {
+    link: &'a mut Link,
+    start: Instant,
+    ignore: Vec<CobRange>,
+    steps: Vec<RecordedStep>,
+}
+
+impl<'a> Recorder<'a> {
+    pub fn new(link: &'a mut Link, ignore: Vec<CobRange>) -> Self {
+        Recorder {
+            link,
+            start: Instant::now(),
+            ignore,
+            steps: Vec::new(),
+        }
+    }
+
+    /// Frames that came after the last step ended belong to no step: a late answer is not
+    /// taken for the next request's.
+    async fn drop_stale(&mut self) -> Result<(), LinkError> {
+        for _ in 0..MAX_STALE {
+            match tokio::time::timeout(Duration::ZERO, self.link.recv()).await {
+                Ok(frame) => {
+                    let frame = frame?;
+                    tracing::debug!(?frame, "a frame between steps");
+                }
+                Err(_) => break,
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends one request and gathers its answers.
+    async fn run_step(&mut self, step: Step) -> Result<&RecordedStep, LinkError> {
+        self.drop_stale().await?;
+        let sent = Instant::now();
+        self.link.send(&step.request).await?;
+        let mut gathering = Gathering::new(step.rule, &self.ignore);
+        loop {
+            if gathering.done(sent.elapsed()) {
+                break;
+            }
+            let deadline = sent + gathering.deadline();
+            if let Ok(frame) = tokio::time::timeout_at(deadline, self.link.recv()).await {
+                gathering.frame(sent.elapsed(), frame?);
+            }
+        }
+        let answers = gathering.into_answers();
+        self.steps.push(RecordedStep {
+            step,
+            sent_at: sent.saturating_duration_since(self.start),
+            answers,
+        });
+        self.steps.last().ok_or(LinkError::Closed)
+    }
+
+    /// Runs every action of a script; an SDO transfer sends its next request after each answer.
+    pub async fn run_script(&mut self, script: Script) -> Result<(), LinkError> {
+        for action in script.actions {
+            match action {
+                Action::Frame(step) => {
+                    self.run_step(step).await?;
+                }
+                Action::Sdo(mut transfer) => {
+                    let mut step = transfer.first();
+                    loop {
+                        let awaited = step.rule.until.map(|a| a.cob_id);
+                        let done = self.run_step(step).await?;
+                        let answer = done
+                            .answers
+                            .iter()
+                            .find(|a| a.frame.cob_id() == awaited && awaited.is_some())
+                            .map(|a| a.frame.payload().to_vec());
+                        match transfer.next(answer.as_deref()) {
+                            Some(next) => step = next,
+                            None => break,
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends the requests of a recording, each with its recorded rule.
+    pub async fn replay(&mut self, recording: &Recording) -> Result<(), LinkError> {
+        for s in &recording.steps {
+            self.run_step(s.step.clone()).await?;
+        }
+        Ok(())
+    }
+
+    pub fn finish(self) -> Recording {
+        Recording {
+            ignore: self.ignore,
+            steps: self.steps,
+        }
+    }
+}
