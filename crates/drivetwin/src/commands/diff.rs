@@ -7,7 +7,7 @@ use drivetwin::master::recorder::Recorder;
 use drivetwin::master::recording::compare::{compare, Difference, StepDifferences};
 use drivetwin::master::recording::{file, Recording};
 
-use super::record::{at_line, write_recording};
+use super::record::{at_line, target, write_recording};
 use super::*;
 
 fn read_recording(path: &Path) -> Result<Recording, CommandError> {
@@ -53,7 +53,11 @@ pub(crate) async fn diff(args: DiffArgs) -> Result<(), CommandError> {
         }
     };
     if let Some(out) = &args.output {
-        write_recording(&replayed, Some(out))?;
+        let notes = [
+            format!("replay of {}", args.recording.display()),
+            target(&args.bus),
+        ];
+        write_recording(&replayed, &notes, Some(out))?;
     }
     let differing = compare(&recorded, &replayed, tolerance);
     let steps = recorded.steps.len().max(replayed.steps.len());

@@ -18,12 +18,21 @@ pub(crate) fn at_line(path: &Path) -> impl Fn(LineError) -> CommandError + '_ {
     }
 }
 
-/// Writes `recording` to `path`, or to standard output.
+/// Where the frames went, for the recording's head.
+pub(crate) fn target(bus: &BusArgs) -> String {
+    match &bus.can {
+        Some(ifname) => format!("target: SocketCAN {ifname}"),
+        None => format!("target: socketcand {} {}", bus.socketcand, bus.channel),
+    }
+}
+
+/// Writes `recording` with `notes` to `path`, or to standard output.
 pub(crate) fn write_recording(
     recording: &Recording,
+    notes: &[String],
     path: Option<&Path>,
 ) -> Result<(), CommandError> {
-    let text = file::emit(recording);
+    let text = file::emit_noted(recording, notes);
     match path {
         Some(p) => std::fs::write(p, text).map_err(io(p.display().to_string())),
         None => {
@@ -52,7 +61,8 @@ pub(crate) async fn record(args: RecordArgs) -> Result<(), CommandError> {
     let mut recorder = Recorder::new(&mut link, parsed.ignore.clone());
     recorder.run_script(parsed).await?;
     let recording = recorder.finish();
-    write_recording(&recording, args.output.as_deref())?;
+    let notes = [format!("script: {}", path.display()), target(&args.bus)];
+    write_recording(&recording, &notes, args.output.as_deref())?;
     let unanswered = recording.steps.iter().filter(|s| !s.awaited_came()).count();
     let answers: usize = recording.steps.iter().map(|s| s.answers.len()).sum();
     tracing::info!(

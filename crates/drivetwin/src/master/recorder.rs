@@ -2,7 +2,8 @@
 //! records every request and its answers with their times (`master::recording` decides what
 //! answers; this only moves frames and reads the clock).
 
-use std::time::Duration;
+use std::future::Future;
+use std::task::{Context, Poll, Waker};
 
 use tokio::time::Instant;
 
@@ -13,6 +14,18 @@ use super::recording::{CobRange, RecordedStep, Recording, Step};
 
 /// Frames already queued when a step starts are read and dropped, at most this many.
 const MAX_STALE: usize = 4096;
+
+/// The future's output if it is ready now, without waiting.
+fn poll_once<F: Future>(future: F) -> Option<F::Output> {
+    let mut future = std::pin::pin!(future);
+    match future
+        .as_mut()
+        .poll(&mut Context::from_waker(Waker::noop()))
+    {
+        Poll::Ready(out) => Some(out),
+        Poll::Pending => None,
+    }
+}
 
 /// A recording being made.
 pub struct Recorder<'a> {
@@ -35,13 +48,15 @@ impl<'a> Recorder<'a> {
     /// Frames that came after the last step ended belong to no step: a late answer is not
     /// taken for the next request's.
     async fn drop_stale(&mut self) -> Result<(), LinkError> {
+        // Polled once, no timer: a zero timeout waits for the timer's next tick (1 ms), and
+        // a program for the device sends its next request at once. `recv` is cancel-safe.
         for _ in 0..MAX_STALE {
-            match tokio::time::timeout(Duration::ZERO, self.link.recv()).await {
-                Ok(frame) => {
+            match poll_once(self.link.recv()) {
+                Some(frame) => {
                     let frame = frame?;
                     tracing::debug!(?frame, "a frame between steps");
                 }
-                Err(_) => break,
+                None => break,
             }
         }
         Ok(())

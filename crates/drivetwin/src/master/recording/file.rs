@@ -1,6 +1,7 @@
-//! The recording file: a candump log (`candump -l`'s format, which python-can, canplayer and
-//! `drivetwin run --inject` read) whose interface names the direction, `req` for a request
-//! sent and `ans` for an answer seen, with times in seconds since the recording's start.
+//! The recording file: a candump log (`candump -l`'s format) whose interface names the
+//! direction, `req` for a request sent and `ans` for an answer seen, with times in seconds
+//! since the recording's start; `grep -v '^#'` leaves a plain candump log (python-can's
+//! `CanutilsLogReader` reads it).
 //! A `# step` line before each request says what the step does and how its answers were
 //! gathered, so a recording replays without its script:
 //!
@@ -70,9 +71,19 @@ fn emit_rule(rule: &AnswerRule) -> String {
 
 /// Writes a recording.
 pub fn emit(recording: &Recording) -> String {
+    emit_noted(recording, &[])
+}
+
+/// Writes a recording with `notes` (what was run against what) as comments in its head.
+pub fn emit_noted(recording: &Recording, notes: &[String]) -> String {
     let mut out = String::with_capacity(128 * recording.steps.len() + 256);
     out.push_str(MAGIC);
     out.push('\n');
+    for note in notes {
+        for line in note.lines() {
+            let _ = writeln!(out, "# {line}");
+        }
+    }
     out.push_str("# times in seconds since the start; req: a request sent, ans: an answer seen\n");
     let ignore: Vec<String> = recording.ignore.iter().map(|r| r.to_string()).collect();
     let _ = writeln!(out, "# ignore {}", ignore.join(" "));
