@@ -36,6 +36,8 @@ use canopen::{CanFrame, NmtCommand};
 use serde::Deserialize;
 
 use super::sdo_transfer::SdoTransfer;
+use crate::value_text::Number;
+
 use super::{AnswerRule, Awaited, CobRange, LineError, Step, DEFAULT_IGNORE};
 
 const DEFAULT_SDO_TIMEOUT_MS: u64 = 1000;
@@ -76,25 +78,6 @@ struct ScriptFile {
     step: Vec<toml::Spanned<StepSpec>>,
 }
 
-/// A value to write: a number or a text.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
-enum Value {
-    Int(i64),
-    Float(f64),
-    Text(String),
-}
-
-impl Value {
-    fn text(&self) -> String {
-        match self {
-            Value::Int(i) => i.to_string(),
-            Value::Float(f) => f.to_string(),
-            Value::Text(t) => t.clone(),
-        }
-    }
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StepSpec {
@@ -106,7 +89,7 @@ struct StepSpec {
     write: Option<String>,
     #[serde(rename = "type")]
     type_name: Option<String>,
-    value: Option<Value>,
+    value: Option<Number>,
     data: Option<String>,
     nmt: Option<String>,
     rpdo: Option<u8>,
