@@ -144,3 +144,24 @@ def test_bad_input_exits_2_naming_file_and_line(tmp_path):
     assert r.returncode == 2, (r.stdout, r.stderr)
     r = run_cli("diff", str(RECORDING), "--with", str(RECORDING), "--time-tolerance", "-1")
     assert r.returncode == 2, r.stderr
+
+
+def test_a_syncs_answer_is_the_tpdo_and_a_changed_mapped_object_differs_there(launch, tmp_path):
+    recorded = launch(config=_cell(tmp_path, "a.toml", {}))
+    changed = launch(config=_cell(tmp_path, "b.toml", {CHANGED: 5000}))
+    same = launch(config=_cell(tmp_path, "c.toml", {}))
+    rec = tmp_path / "a.log"
+    text = _record(recorded, DATA / "record_pdo.toml", rec)
+    sync = text.split(": SYNC (line")[1]
+    # the statusword, then the following error window: 9101 (238Dh), the default
+    assert re.search(r" ans 181#[0-9A-F]{4}8D230000\n", sync.split("# step")[0]), text
+
+    r = _diff(rec, changed, "--json")
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    report = json.loads(r.stdout)
+    assert [(d["label"], [x["kind"] for x in d["differences"]]) for d in report["differing"]] == [
+        ("SYNC", ["bytes"])], report
+    assert re.search(r"replayed 181#[0-9A-F]{4}88130000", report["differing"][0]["differences"][0]["text"])
+
+    r = _diff(rec, same)
+    assert r.returncode == 0, (r.stdout, r.stderr)
