@@ -216,6 +216,13 @@ fn step_action(s: &StepSpec, node: u8, sdo_timeout: Duration) -> Result<Action, 
         if data.is_empty() {
             return Err("write: no bytes to write".into());
         }
+        let most = 7 * super::sdo_transfer::MAX_SEGMENTS as usize;
+        if data.len() > most {
+            return Err(format!(
+                "write: {} bytes, a script writes at most {most}",
+                data.len()
+            ));
+        }
         return Ok(Action::Sdo(
             SdoTransfer::write(node, index, sub, data, sdo_rule(node), 0).named(s.name.clone()),
         ));

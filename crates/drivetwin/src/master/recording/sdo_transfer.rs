@@ -8,7 +8,7 @@ use crate::master::recording::AnswerRule;
 use canopen::CanFrame;
 
 /// No transfer of a script runs longer than this many segments (7 bytes each).
-const MAX_SEGMENTS: u32 = 4096;
+pub const MAX_SEGMENTS: u32 = 4096;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
