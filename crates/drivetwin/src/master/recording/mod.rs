@@ -165,3 +165,32 @@ impl LineError {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cob_ranges_parse_and_print_as_the_recording_writes_them() {
+        let r = CobRange::parse("701-77F").expect("range");
+        assert!(r.contains(0x701) && r.contains(0x77F) && !r.contains(0x700));
+        assert_eq!(r.to_string(), "701-77F");
+        assert_eq!(
+            CobRange::parse("080").map(|r| r.to_string()).as_deref(),
+            Some("080")
+        );
+        assert_eq!(CobRange::parse("77F-701"), None);
+        assert_eq!(CobRange::parse("800"), None);
+        assert_eq!(CobRange::parse("x"), None);
+    }
+
+    #[test]
+    fn a_heartbeats_time_does_not_count_and_a_boot_ups_does() {
+        let f = |id, data: &[u8]| CanFrame::new(id, data).expect("frame");
+        assert!(!time_matters(&f(0x701, &[0x05])));
+        assert!(time_matters(&f(0x701, &[0x00])));
+        assert!(is_boot_up(&f(0x77F, &[0x00])));
+        assert!(!is_boot_up(&f(0x581, &[0x00])));
+        assert!(time_matters(&f(0x581, &[0x60, 0, 0, 0, 0, 0, 0, 0])));
+    }
+}
