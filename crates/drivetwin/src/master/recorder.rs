@@ -62,8 +62,9 @@ impl<'a> Recorder<'a> {
         Ok(())
     }
 
-    /// Sends one request and gathers its answers.
-    async fn run_step(&mut self, step: Step) -> Result<&RecordedStep, LinkError> {
+    /// Sends one request, gathers its answers and keeps the step; returns the awaited
+    /// answer's data, if it came.
+    async fn run_step(&mut self, step: Step) -> Result<Option<Vec<u8>>, LinkError> {
         self.drop_stale().await?;
         let sent = Instant::now();
         self.link.send(&step.request).await?;
@@ -78,12 +79,18 @@ impl<'a> Recorder<'a> {
             }
         }
         let answers = gathering.into_answers();
+        let awaited = step.rule.until.and_then(|a| {
+            answers
+                .iter()
+                .find(|x| x.frame.cob_id() == Some(a.cob_id))
+                .map(|x| x.frame.payload().to_vec())
+        });
         self.steps.push(RecordedStep {
             step,
             sent_at: sent.saturating_duration_since(self.start),
             answers,
         });
-        self.steps.last().ok_or(LinkError::Closed)
+        Ok(awaited)
     }
 
     /// Runs every action of a script; an SDO transfer sends its next request after each answer.
@@ -96,13 +103,7 @@ impl<'a> Recorder<'a> {
                 Action::Sdo(mut transfer) => {
                     let mut step = transfer.first();
                     loop {
-                        let awaited = step.rule.until.map(|a| a.cob_id);
-                        let done = self.run_step(step).await?;
-                        let answer = done
-                            .answers
-                            .iter()
-                            .find(|a| a.frame.cob_id() == awaited && awaited.is_some())
-                            .map(|a| a.frame.payload().to_vec());
+                        let answer = self.run_step(step).await?;
                         match transfer.next(answer.as_deref()) {
                             Some(next) => step = next,
                             None => break,
