@@ -8,11 +8,12 @@ bit rate: these tests are about which answers come, not how fast."""
 
 import json
 import re
+import subprocess
 from pathlib import Path
 
 import can
 
-from conftest import free_port, run_cli, write_cell
+from conftest import DRIVETWIN_BIN, free_port, recv_id, run_cli, write_cell
 
 DATA = Path(__file__).resolve().parent / "data"
 SCRIPT = DATA / "record_cmmp_as.toml"
@@ -165,3 +166,28 @@ def test_a_syncs_answer_is_the_tpdo_and_a_changed_mapped_object_differs_there(la
 
     r = _diff(rec, same)
     assert r.returncode == 0, (r.stdout, r.stderr)
+
+
+def test_a_link_lost_halfway_leaves_the_steps_run_so_far(launch, raw_bus, tmp_path):
+    twin = launch("cmmp-as", 1)
+    script = tmp_path / "s.toml"
+    # node 5 is absent: its read waits 20 s, long enough to stop the twin under it
+    script.write_text('[[step]]\nread = "1018:01"\n\n[[step]]\nread = "1018:01"\nnode = 5\n'
+                      'wait_ms = 20000\n')
+    out = tmp_path / "r.log"
+    bus = raw_bus(twin)
+    proc = subprocess.Popen([str(DRIVETWIN_BIN), "record", str(script), "--socketcand", twin.addr,
+                             "-o", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert recv_id(bus, 0x605, timeout=10.0) is not None, "the second request never came"
+        bus.shutdown()
+        twin.stop()
+        _, err = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 3, err  # the bus connection
+    text = out.read_text()
+    assert "# cut short: the bus connection was closed" in text, text
+    assert " ans 581#431810011D000000" in text and " req 605#4018100100000000" in text, text

@@ -59,10 +59,15 @@ pub(crate) async fn record(args: RecordArgs) -> Result<(), CommandError> {
     .map_err(at_line(path))?;
     let mut link = connect(&args.bus).await?;
     let mut recorder = Recorder::new(&mut link, parsed.ignore.clone());
-    recorder.run_script(parsed).await?;
+    // A link lost halfway still leaves the steps run so far on file.
+    let run = recorder.run_script(parsed).await;
     let recording = recorder.finish();
-    let notes = [format!("script: {}", path.display()), target(&args.bus)];
+    let mut notes = vec![format!("script: {}", path.display()), target(&args.bus)];
+    if let Err(e) = &run {
+        notes.push(format!("cut short: {e}"));
+    }
     write_recording(&recording, &notes, args.output.as_deref())?;
+    run?;
     let unanswered = recording.steps.iter().filter(|s| !s.awaited_came()).count();
     let answers: usize = recording.steps.iter().map(|s| s.answers.len()).sum();
     tracing::info!(

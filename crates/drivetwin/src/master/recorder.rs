@@ -69,13 +69,17 @@ impl<'a> Recorder<'a> {
         let sent = Instant::now();
         self.link.send(&step.request).await?;
         let mut gathering = Gathering::new(step.rule, &self.ignore);
-        loop {
-            if gathering.done(sent.elapsed()) {
-                break;
-            }
+        // A link lost during the step ends it; the step stays in the recording as far as it got.
+        let mut lost = None;
+        while !gathering.done(sent.elapsed()) {
             let deadline = sent + gathering.deadline();
-            if let Ok(frame) = tokio::time::timeout_at(deadline, self.link.recv()).await {
-                gathering.frame(sent.elapsed(), frame?);
+            match tokio::time::timeout_at(deadline, self.link.recv()).await {
+                Ok(Ok(frame)) => gathering.frame(sent.elapsed(), frame),
+                Ok(Err(e)) => {
+                    lost = Some(e);
+                    break;
+                }
+                Err(_) => {}
             }
         }
         let answers = gathering.into_answers();
@@ -90,7 +94,10 @@ impl<'a> Recorder<'a> {
             sent_at: sent.saturating_duration_since(self.start),
             answers,
         });
-        Ok(awaited)
+        match lost {
+            Some(e) => Err(e),
+            None => Ok(awaited),
+        }
     }
 
     /// Runs every action of a script; an SDO transfer sends its next request after each answer.
