@@ -4,7 +4,7 @@
 //!
 //! Sans-IO: [`script`] turns a TOML script or a candump log into steps, [`sdo_transfer`]
 //! expands an SDO read or write into its request frames, [`gather`] decides which frames
-//! answer a request and when a step is over, [`file`] parses and emits the recording (a
+//! answer a request and when a step is over, [`file`](mod@file) parses and emits the recording (a
 //! candump log with `req` / `ans` as the interface and `# step` lines), [`compare`] reports
 //! what differs. `master::recorder` moves the frames.
 //!
