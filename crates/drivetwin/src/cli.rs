@@ -130,6 +130,12 @@ pub enum Command {
         #[command(flatten)]
         bus: BusArgs,
     },
+    /// Run a script of requests (SDO, NMT and PDO steps in a TOML file, or a candump log)
+    /// against a node and write every request and answer with its time: a recording.
+    Record(RecordArgs),
+    /// Replay a recording's requests against a node and report each answer that differs:
+    /// exit code 0 when every answer is equal, 1 when any differs, 2 on a usage or I/O error.
+    Diff(DiffArgs),
     /// Run a scenario file (a cell and a timeline of actions and expectations) on the
     /// virtual clock: prints the report; exit code 0 when every expectation is met, 1 if not.
     Scenario(ScenarioArgs),
@@ -145,6 +151,41 @@ pub enum Command {
         #[arg(long, default_value = "2017-05-01")]
         date: String,
     },
+}
+
+#[derive(Args, Debug)]
+pub struct RecordArgs {
+    /// The script: a TOML file (`*.toml`) of steps, or a candump log whose master frames are
+    /// the requests.
+    pub script: PathBuf,
+    /// Write the recording to this file (default: standard output).
+    #[arg(long, short)]
+    pub output: Option<PathBuf>,
+    /// In a candump log, how long an SDO request waits for its answer, ms.
+    #[arg(long, default_value_t = 1000)]
+    pub sdo_timeout_ms: u64,
+    /// In a candump log, how long the answers to the last request are gathered, ms.
+    #[arg(long, default_value_t = 200)]
+    pub quiet_ms: u64,
+    #[command(flatten)]
+    pub bus: BusArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct DiffArgs {
+    /// The recording whose requests are replayed (`drivetwin record`'s output).
+    pub recording: PathBuf,
+    /// How far apart an answer's delays after its request may be, ms.
+    #[arg(long, default_value_t = 50.0)]
+    pub time_tolerance: f64,
+    /// Compare with this recording instead of replaying on a bus.
+    #[arg(long)]
+    pub with: Option<PathBuf>,
+    /// Write the replay as a recording to this file.
+    #[arg(long, short)]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub bus: BusArgs,
 }
 
 #[derive(Args, Debug)]

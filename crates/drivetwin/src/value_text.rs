@@ -86,6 +86,40 @@ pub fn hex(data: &[u8]) -> String {
     data.iter().map(|b| format!("{b:02X}")).collect()
 }
 
+/// A value in a file (a scenario's step, a record script's write): a number or a text (a
+/// string, a hex number).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Number {
+    Int(i64),
+    Float(f64),
+    Text(String),
+}
+
+impl Number {
+    /// As the command line types it, for [`encode`].
+    pub fn text(&self) -> String {
+        match self {
+            Number::Int(i) => i.to_string(),
+            Number::Float(f) => f.to_string(),
+            Number::Text(t) => t.clone(),
+        }
+    }
+
+    /// The value as an integer, when it is one (`0x` hex in a text too).
+    pub fn integer(&self) -> Option<i64> {
+        match self {
+            Number::Int(i) => Some(*i),
+            Number::Float(_) => None,
+            Number::Text(t) => match parse_number(t)? {
+                od::Value::Signed(i) => Some(i),
+                od::Value::Unsigned(u) => i64::try_from(u).ok(),
+                _ => None,
+            },
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,7 +19,7 @@ use od::DataType;
 use crate::cli::{
     BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
 };
-use crate::cli::{FhppArgs, FhppCommand, PnuCommand};
+use crate::cli::{DiffArgs, FhppArgs, FhppCommand, PnuCommand, RecordArgs};
 use drivetwin::master::cia402::{self, Cia402Error};
 use drivetwin::master::fhpp::FhppError;
 use drivetwin::master::lss::{LssError, LssMaster};
@@ -90,6 +90,19 @@ pub enum CommandError {
     /// A scenario ran and an expectation was not met (the report has been printed).
     #[error("{0}")]
     ScenarioFailed(String),
+    /// A script or a recording that cannot be read, at a line.
+    #[error("{}:{line}: {what}", path.display())]
+    Script {
+        path: PathBuf,
+        line: usize,
+        what: String,
+    },
+    /// A replay's answers differ from the recording (the report has been printed).
+    #[error("{0}")]
+    Differs(String),
+    /// `drivetwin diff` could not compare: exit code 2 whatever the cause, as `diff`.
+    #[error(transparent)]
+    Unusable(Box<CommandError>),
 }
 
 impl CommandError {
@@ -121,11 +134,13 @@ impl CommandError {
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
             CommandError::Kinco(e) => kinco::exit_code(e),
-            CommandError::ScenarioFailed(_) => EXIT_FAILURE,
+            CommandError::ScenarioFailed(_) | CommandError::Differs(_) => EXIT_FAILURE,
+            CommandError::Script { .. } | CommandError::Unusable(_) => EXIT_USAGE,
         }
     }
 }
 
+mod diff;
 mod drive;
 mod ecat;
 mod fhpp;
@@ -134,6 +149,7 @@ mod kinco;
 mod lss;
 mod network;
 mod pdo;
+mod record;
 mod run;
 mod scenario;
 mod sdo;
@@ -190,6 +206,11 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco { command, port } => kinco::kinco(command, port),
         Command::Scenario(args) => scenario::scenario(args),
+        Command::Record(args) => record::record(args).await,
+        Command::Diff(args) => diff::diff(args).await.map_err(|e| match e {
+            CommandError::Differs(_) => e,
+            other => CommandError::Unusable(Box::new(other)),
+        }),
         Command::Iodd {
             device,
             output_dir,

@@ -8,4 +8,6 @@ pub mod link;
 pub mod lss;
 pub mod modbus_tcp;
 pub mod pdo_config;
+pub mod recorder;
+pub mod recording;
 pub mod sdo_client;

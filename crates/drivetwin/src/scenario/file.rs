@@ -81,37 +81,7 @@ pub enum CellRef {
     Inline(Box<CellFile>),
 }
 
-/// A value in a step: a number or a text (a string, a hex number).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(untagged)]
-pub enum Number {
-    Int(i64),
-    Float(f64),
-    Text(String),
-}
-
-impl Number {
-    /// As the command line types it, for [`crate::value_text::encode`].
-    pub fn text(&self) -> String {
-        match self {
-            Number::Int(i) => i.to_string(),
-            Number::Float(f) => f.to_string(),
-            Number::Text(t) => t.clone(),
-        }
-    }
-
-    fn integer(&self) -> Option<i64> {
-        match self {
-            Number::Int(i) => Some(*i),
-            Number::Float(_) => None,
-            Number::Text(t) => match crate::value_text::parse_number(t)? {
-                od::Value::Signed(i) => Some(i),
-                od::Value::Unsigned(u) => i64::try_from(u).ok(),
-                _ => None,
-            },
-        }
-    }
-}
+pub use crate::value_text::Number;
 
 /// One `[[step]]` as written.
 #[derive(Debug, Clone, Default, Deserialize)]

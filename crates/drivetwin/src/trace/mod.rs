@@ -83,8 +83,27 @@ pub struct CandumpParseError {
     pub what: &'static str,
 }
 
-/// Parses candump `.log` text: `(SEC.USEC) IFACE ID#DATA` or `ID#R`; blank lines skipped.
+/// Parses candump `.log` text: `(SEC.USEC) IFACE ID#DATA` or `ID#R`; blank lines and `#`
+/// comments skipped.
 pub fn parse_candump(text: &str) -> Result<Vec<(Duration, CanFrame)>, CandumpParseError> {
+    Ok(parse_candump_lines(text)?
+        .into_iter()
+        .map(|l| (l.time, l.frame))
+        .collect())
+}
+
+/// One frame line of a candump log.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CandumpLine<'a> {
+    /// 1-based.
+    pub line: usize,
+    pub time: Duration,
+    pub interface: &'a str,
+    pub frame: CanFrame,
+}
+
+/// As [`parse_candump`], with each frame's line number and interface.
+pub fn parse_candump_lines(text: &str) -> Result<Vec<CandumpLine<'_>>, CandumpParseError> {
     let mut frames = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let err = |what| CandumpParseError { line: i + 1, what };
@@ -104,33 +123,38 @@ pub fn parse_candump(text: &str) -> Result<Vec<(Duration, CanFrame)>, CandumpPar
         if usec >= 1_000_000 || usec.to_string().len() > 6 && usec != 0 {
             return Err(err("bad microseconds"));
         }
-        let _iface = parts.next().ok_or(err("missing interface"))?;
+        let interface = parts.next().ok_or(err("missing interface"))?;
         let body = parts.next().ok_or(err("missing ID#DATA"))?;
-        let (id, data) = body.split_once('#').ok_or(err("expected ID#DATA"))?;
-        let extended = id.len() != 3;
-        let id = u32::from_str_radix(id, 16).map_err(|_| err("bad identifier"))?;
-        let frame = if let Some(rest) = data.strip_prefix('R') {
-            let len = if rest.is_empty() {
-                0
-            } else {
-                rest.parse::<u8>().map_err(|_| err("bad RTR length"))?
-            };
-            let mut f =
-                CanFrame::with_id(id, extended, &[]).map_err(|_| err("identifier out of range"))?;
-            f.rtr = true;
-            f.len = len.min(8);
-            f
-        } else {
-            let bytes = crate::value_text::parse_hex(data).ok_or(err("bad data"))?;
-            CanFrame::with_id(id, extended, &bytes)
-                .map_err(|_| err("more than 8 bytes or bad identifier"))?
-        };
-        frames.push((
-            Duration::from_secs(sec) + Duration::from_micros(u64::from(usec)),
+        let frame = parse_candump_frame(body).map_err(err)?;
+        frames.push(CandumpLine {
+            line: i + 1,
+            time: Duration::from_secs(sec) + Duration::from_micros(u64::from(usec)),
+            interface,
             frame,
-        ));
+        });
     }
     Ok(frames)
+}
+
+/// A frame as candump writes it: `ID#DATA` (hex, 3 digits: standard, 8: extended) or `ID#R`.
+pub fn parse_candump_frame(body: &str) -> Result<CanFrame, &'static str> {
+    let (id, data) = body.split_once('#').ok_or("expected ID#DATA")?;
+    let extended = id.len() != 3;
+    let id = u32::from_str_radix(id, 16).map_err(|_| "bad identifier")?;
+    if let Some(rest) = data.strip_prefix('R') {
+        let len = if rest.is_empty() {
+            0
+        } else {
+            rest.parse::<u8>().map_err(|_| "bad RTR length")?
+        };
+        let mut f = CanFrame::with_id(id, extended, &[]).map_err(|_| "identifier out of range")?;
+        f.rtr = true;
+        f.len = len.min(8);
+        Ok(f)
+    } else {
+        let bytes = crate::value_text::parse_hex(data).ok_or("bad data")?;
+        CanFrame::with_id(id, extended, &bytes).map_err(|_| "more than 8 bytes or bad identifier")
+    }
 }
 
 /// Flushes a trace writer, logging instead of failing (a trace must not stop the cell).

@@ -147,28 +147,35 @@ impl<W: Write> PcapWriter<W> {
 /// One candump `-l` log line (without newline), e.g. `(1700000000.000100) vcan0 605#4018100100000000`.
 /// Remote frames are written `ID#R` with the DLC digit appended when it is not zero.
 pub fn candump_line(since_epoch: Duration, interface: &str, frame: &CanFrame) -> String {
-    let mut line = format!(
-        "({:010}.{:06}) {} ",
+    format!(
+        "({:010}.{:06}) {} {}",
         since_epoch.as_secs(),
         since_epoch.subsec_micros(),
-        interface
-    );
+        interface,
+        candump_frame(frame)
+    )
+}
+
+/// A frame as candump writes it: `ID#DATA` or `ID#R` (with the length when it is not 0).
+pub fn candump_frame(frame: &CanFrame) -> String {
+    use std::fmt::Write as _;
+    let mut text = String::with_capacity(26);
     if frame.extended {
-        line.push_str(&format!("{:08X}#", frame.id & CanFrame::MAX_EXTENDED_ID));
+        let _ = write!(text, "{:08X}#", frame.id & CanFrame::MAX_EXTENDED_ID);
     } else {
-        line.push_str(&format!("{:03X}#", frame.id & CanFrame::MAX_STANDARD_ID));
+        let _ = write!(text, "{:03X}#", frame.id & CanFrame::MAX_STANDARD_ID);
     }
     if frame.rtr {
-        line.push('R');
+        text.push('R');
         if frame.len > 0 {
-            line.push_str(&format!("{}", frame.len.min(8)));
+            let _ = write!(text, "{}", frame.len.min(8));
         }
     } else {
         for b in frame.payload() {
-            line.push_str(&format!("{b:02X}"));
+            let _ = write!(text, "{b:02X}");
         }
     }
-    line
+    text
 }
 
 /// Writes candump `.log` files (one [`candump_line`] per frame), as `candump -l` and python-can's
