@@ -17,6 +17,9 @@ pub const SERIAL: [(u16, u32); 4] = [(1080, 9600), (540, 19200), (270, 38400), (
 /// The CAN codes and their bit rates in kbit/s (2F81h).
 pub const CAN: [(u8, u16); 5] = [(100, 1000), (50, 500), (25, 250), (12, 125), (5, 50)];
 
+/// The CAN bit rate of the 2F81h default 50, kbit/s; kept for a code outside [`CAN`].
+pub const DEFAULT_CAN_KBIT: u16 = 500;
+
 /// The bit rate of a serial code (2FE0h, 2FE1h, 2FE2h).
 pub fn serial_bit_rate(code: u16) -> Option<u32> {
     SERIAL.iter().find(|(c, _)| *c == code).map(|&(_, b)| b)

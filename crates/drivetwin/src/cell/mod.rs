@@ -2,6 +2,7 @@
 //! reach the other drives of the cell as well as the bus; with a bit rate
 //! ([`bus_timing`]) they do so when they have crossed the bus, after the arbitration.
 
+pub mod bus_rate;
 pub mod bus_timing;
 pub mod ci_console;
 pub mod config;
