@@ -379,18 +379,29 @@ class HeartbeatLog:
             return [s for _, s in self.states[since:since + count]]
 
 
-def write_cell(path: Path, drives: list[tuple[str, int, dict]]) -> Path:
-    """A cell TOML with the given (device, node, {"IIII:SS": value}) drives. The bus address in
-    the file is a placeholder: --socketcand on the command line overrides it."""
+def write_cell(path: Path, drives: list[tuple]) -> Path:
+    """A cell TOML with the given (device, node, {"IIII:SS": value}[, [more lines]]) drives;
+    the more lines are tables of the drive (`cmmp_switches`). The bus address in the file is a
+    placeholder: --socketcand on the command line overrides it."""
     lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
-    for device, node, objects in drives:
+    for device, node, objects, *more in drives:
         lines += ["[[drive]]", f'device = "{device}"', f"node = {node}"]
         if objects:
             lines.append("[drive.objects]")
             lines += [f'"{key}" = {value}' for key, value in objects.items()]
+        for extra in more:
+            lines += extra
         lines.append("")
     path.write_text("\n".join(lines))
     return path
+
+
+def cmmp_switches(node: int, kbit: int = 1000) -> list[str]:
+    """`[drive.switches]` of a CMMP-AS M3 at `node` (its FCT base address, DIP1…5 OFF) and
+    `kbit` (DIP6/DIP7, Tab. 2.4), CANopen on (DIP8): a CMMP-AS set to share a bus with drives
+    at that rate (untouched it runs at 125 kbit/s; a Nanotec at 1 Mbit/s, a Kinco at 500)."""
+    dips = {125: [], 250: [6], 500: [7], 1000: [6, 7]}[kbit] + [8]
+    return ["[drive.switches]", 'variant = "m3"', f"base_address = {node}", f"on = {dips}"]
 
 
 class RawClient:
