@@ -18,46 +18,11 @@ import time
 import urllib.error
 import urllib.request
 
-from conftest import CHANNEL, DRIVETWIN_BIN, add_node, run_cli, wait_until
-from test_trace import read_pcap
+from conftest import CHANNEL, DRIVETWIN_BIN, add_node, frame_bits, read_pcap, run_cli, wait_until
 
 BITRATE = 500_000
 NODES = 20
 SYNC_PERIOD = 0.010
-
-
-def crc15(bits: list[int]) -> int:
-    """CAN CRC-15 (polynomial 0x4599) over the bits from SOF to the end of the data."""
-    crc = 0
-    for b in bits:
-        nxt = b ^ ((crc >> 14) & 1)
-        crc = (crc << 1) & 0x7FFF
-        if nxt:
-            crc ^= 0x4599
-    return crc
-
-
-def frame_bits(can_id: int, data: bytes) -> int:
-    """Bits of a standard data frame on the wire, SOF to the end of the intermission, with the
-    stuff bits of SOF…CRC (ISO 11898-1)."""
-    bits = [0]  # SOF
-    bits += [(can_id >> i) & 1 for i in range(10, -1, -1)]
-    bits += [0, 0, 0]  # RTR, IDE, r0
-    bits += [(len(data) >> i) & 1 for i in range(3, -1, -1)]
-    for byte in data:
-        bits += [(byte >> i) & 1 for i in range(7, -1, -1)]
-    crc = crc15(bits)
-    bits += [(crc >> i) & 1 for i in range(14, -1, -1)]
-    stuffed, run, last = 0, 0, None
-    for b in bits:
-        if b == last:
-            run += 1
-        else:
-            run, last = 1, b
-        if run == 5:
-            stuffed += 1
-            run, last = 1, 1 - b  # the stuff bit starts a run of its own
-    return len(bits) + stuffed + 1 + 2 + 7 + 3  # CRC delimiter, ACK, EOF, intermission
 
 
 def test_bus_load_at_500_kbit_matches_the_bit_formula(launch, connect, raw_bus, tmp_path):
@@ -209,9 +174,11 @@ def test_default_cell_sdo_round_trip_takes_the_frames_bit_time(launch, connect, 
         bit_time = (frame_bits(0x601, data) + frame_bits(0x581, answer[3])) / DEFAULT_CELL_BITRATE
         rounds.append((answer[0] - t, bit_time))
     assert len(rounds) >= 20, rounds
-    # Two frames of about 130 bits at 125 kbit/s: about 2 ms, never less.
-    assert all(gap >= bits for gap, bits in rounds), rounds
-    assert min(took) >= min(bits for _, bits in rounds), (took, rounds)
+    # Two frames of about 120 bits at 125 kbit/s: about 2 ms (on the instant bus some 50 µs).
+    # The request is stamped as the loop writes it to the trace, a few µs after it entered
+    # the bus: 5 % of slack in the trace, none for the client, which sent before it entered.
+    assert all(gap >= 0.95 * bits for gap, bits in rounds), rounds
+    assert min(took) >= max(bits for _, bits in rounds), (took, rounds)
 
 
 def test_instant_bus_on_the_command_line(launch, connect, eds_files):

@@ -360,9 +360,6 @@ async fn prepare_cell(
     // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN cells.
     let outside = drivetwin::cell::planned::outside_plans(&specs, in_loop);
     let rates = file.bus_rates(&specs)?;
-    for (section, rate) in buses.iter().zip(&rates) {
-        out!("bus {}: {rate}", section.label());
-    }
     let (cells, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
@@ -371,6 +368,9 @@ async fn prepare_cell(
             d.node_id(),
             d.od().description().product_name
         );
+    }
+    for (section, rate) in buses.iter().zip(&rates) {
+        out!("bus {}: {rate}", section.label());
     }
 
     if let Some(seconds) = args.virtual_seconds {
