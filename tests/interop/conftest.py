@@ -397,6 +397,18 @@ def write_cell(path: Path, drives: list[tuple]) -> Path:
     return path
 
 
+def map_pdo(pdo, objects: list[int], trans_type: int):
+    """Maps `objects` into python-canopen's `pdo` with `trans_type`, enabled, and saves it to
+    the node (SDO downloads of the communication and mapping parameters)."""
+    pdo.clear()
+    for index in objects:
+        pdo.add_variable(index)
+    pdo.trans_type = trans_type
+    pdo.enabled = True
+    pdo.save()
+    return pdo
+
+
 def cmmp_switches(node: int, kbit: int = 1000) -> list[str]:
     """`[drive.switches]` of a CMMP-AS M3 at `node` (its FCT base address, DIP1…5 OFF) and
     `kbit` (DIP6/DIP7, Tab. 2.4), CANopen on (DIP8): a CMMP-AS set to share a bus with drives

@@ -12,7 +12,7 @@ import can
 import canopen
 import pytest
 
-from conftest import recv_id, wait_until
+from conftest import map_pdo, recv_id, wait_until
 
 
 def _pre_op(node):
@@ -28,20 +28,8 @@ def test_pdo_remap_with_python_canopen_save_and_read(cmmp, node_of):
     # Defaults of the manual (CMMP-PDO-10/15): TPDO1 statusword, disabled.
     assert [v.index for v in node.tpdo[1].map] == [0x6041]
     assert not node.tpdo[1].enabled
-    t = node.tpdo[3]
-    t.clear()
-    t.add_variable(0x6041)
-    t.add_variable(0x6064)
-    t.trans_type = 2
-    t.enabled = True
-    t.save()
-    r = node.rpdo[3]
-    r.clear()
-    r.add_variable(0x6040)
-    r.add_variable(0x607A)
-    r.trans_type = 1
-    r.enabled = True
-    r.save()
+    map_pdo(node.tpdo[3], [0x6041, 0x6064], trans_type=2)
+    map_pdo(node.rpdo[3], [0x6040, 0x607A], trans_type=1)
     # A fresh read sees exactly what was saved.
     node.tpdo.read()
     node.rpdo.read()

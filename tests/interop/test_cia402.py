@@ -9,7 +9,7 @@ import time
 import pytest
 from canopen.profiles.p402 import BaseNode402
 
-from conftest import wait_until
+from conftest import map_pdo, wait_until
 
 
 @pytest.fixture
@@ -68,13 +68,7 @@ def test_velocity_ramp_and_torque_step(drive):
     # master reads its process data: two SDO reads lie milliseconds apart on the bus, and the
     # velocity moves meanwhile.
     drive.tpdo.read()
-    snapshot = drive.tpdo[3]
-    snapshot.clear()
-    snapshot.add_variable(0x6041)
-    snapshot.add_variable(0x606C)
-    snapshot.trans_type = 1
-    snapshot.enabled = True
-    snapshot.save()
+    snapshot = map_pdo(drive.tpdo[3], [0x6041, 0x606C], trans_type=1)
     drive.nmt.state = "OPERATIONAL"
     window = drive.sdo[0x606D].raw
     drive.sdo[0x60FF].raw = 2000

@@ -623,14 +623,7 @@ pub struct DipSwitchesSection {
 impl DipSwitchesSection {
     /// The station number the switches select, or `None` for the stored one (all OFF).
     fn station(&self) -> Result<Option<u8>, String> {
-        let mut sw = [false; 8];
-        for &n in &self.on {
-            let slot = usize::from(n)
-                .checked_sub(1)
-                .and_then(|i| sw.get_mut(i))
-                .ok_or(format!("SW{n}: the FD3 has SW1…SW8"))?;
-            *slot = true;
-        }
+        let sw = eight_switches(&self.on, |n| format!("SW{n}: the FD3 has SW1…SW8"))?;
         match kinco_dip_switches::station(sw) {
             Station::Stored => Ok(None),
             Station::Switches(s) => kinco_dip_switches::can_node_id(s).map(Some).ok_or(format!(
@@ -639,6 +632,20 @@ impl DipSwitchesSection {
             )),
         }
     }
+}
+
+/// A block of eight switches numbered from 1 with those of `on` ON (`[0]` is switch 1);
+/// `bad` names a number outside 1…8.
+fn eight_switches(on: &[u8], bad: impl Fn(u8) -> String) -> Result<[bool; 8], String> {
+    let mut block = [false; 8];
+    for &n in on {
+        let slot = usize::from(n)
+            .checked_sub(1)
+            .and_then(|i| block.get_mut(i))
+            .ok_or_else(|| bad(n))?;
+        *slot = true;
+    }
+    Ok(block)
 }
 
 fn yes() -> bool {
@@ -669,14 +676,8 @@ impl SwitchesSection {
     pub fn settings(&self) -> Result<FieldbusSettings, String> {
         match self.variant {
             SwitchVariant::M3 => {
-                let mut dip = [false; 8];
-                for &n in &self.on {
-                    let slot = usize::from(n)
-                        .checked_sub(1)
-                        .and_then(|i| dip.get_mut(i))
-                        .ok_or(format!("DIP {n}: the M3 block has DIP 1…8"))?;
-                    *slot = true;
-                }
+                let dip =
+                    eight_switches(&self.on, |n| format!("DIP {n}: the M3 block has DIP 1…8"))?;
                 Ok(m3_power_on(self.base_address, dip))
             }
             SwitchVariant::M0 => {
@@ -980,11 +981,7 @@ impl CellFile {
             })?;
             let fieldbus = match &d.switches {
                 Some(sw) => {
-                    let err = |what: String| ConfigError::Object {
-                        node: d.node,
-                        key: "switches".into(),
-                        what,
-                    };
+                    let err = key_error(d, "switches");
                     if desc.name != "cmmp-as" {
                         return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
                     }
@@ -994,11 +991,7 @@ impl CellFile {
             };
             let rotary = match &d.rotary_switches {
                 Some(rs) => {
-                    let err = |what: String| ConfigError::Object {
-                        node: d.node,
-                        key: "rotary_switches".into(),
-                        what,
-                    };
+                    let err = key_error(d, "rotary_switches");
                     let switches = rs.switches(desc.rotary_switches).map_err(err)?;
                     let eeprom = |index| stored_u8(desc, d, index, 0).map_err(err);
                     let p = power_on(switches, eeprom(0x2009)?, eeprom(0x2005)?);
@@ -1018,11 +1011,7 @@ impl CellFile {
             };
             let station = match &d.dip_switches {
                 Some(dip) => {
-                    let err = |what: String| ConfigError::Object {
-                        node: d.node,
-                        key: "dip_switches".into(),
-                        what,
-                    };
+                    let err = key_error(d, "dip_switches");
                     if desc.name != "kinco-fd3" {
                         return Err(err(format!(
                             "{} has no DIP switches SW1…SW8 (Kinco §3.8: the FD3's)",
@@ -1262,6 +1251,15 @@ impl CellFile {
     }
 }
 
+/// The error of drive `d`'s key `key`.
+fn key_error<'a>(d: &'a DriveSection, key: &'a str) -> impl Fn(String) -> ConfigError + Copy + 'a {
+    move |what| ConfigError::Object {
+        node: d.node,
+        key: key.into(),
+        what,
+    }
+}
+
 /// The value of an 8-bit entry at power-on: `[drive.objects]`'s, else the device's default.
 fn stored_u8(
     desc: &od::DeviceDescription,
@@ -1298,11 +1296,7 @@ fn node_rate(
     if desc.baud_rates.is_empty() {
         return Ok(None);
     }
-    let err = |what: String| ConfigError::Object {
-        node: d.node,
-        key: "objects".into(),
-        what,
-    };
+    let err = key_error(d, "objects");
     Ok(match desc.name {
         "cmmp-as" => Some(NodeRate::cmmp_as(
             fieldbus.zip(d.switches.as_ref().map(SwitchesSection::rate_key)),
