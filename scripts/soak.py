@@ -381,10 +381,14 @@ def soak(args, pair) -> int:
 [bus]
 socketcand = "{HOST}:{can_port}"
 channel = "vcan0"
+# No bitrate: the bus runs at its drives' 1 Mbit/s (the Nanotec's switches fix it).
 
 [[drive]]
 device = "cmmp-as"
 node = 1
+[drive.switches]              # DIP6/DIP7 ON: 1 Mbit/s; DIP8 ON: CANopen; node 1
+variant = "m3"
+on = [6, 7, 8]
 [drive.objects]
 "1017:00" = 100
 
@@ -400,6 +404,7 @@ node = 5
 rs232 = "{tmp / 'ttyKINCO'}"
 [drive.objects]
 "1017:00" = 100
+"2F81:00" = 100               # CAN_Baudrate: 1 Mbit/s
 
 [[drive]]
 device = "cmmo-st"

@@ -12,6 +12,7 @@ import os
 import shutil
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import threading
@@ -379,18 +380,41 @@ class HeartbeatLog:
             return [s for _, s in self.states[since:since + count]]
 
 
-def write_cell(path: Path, drives: list[tuple[str, int, dict]]) -> Path:
-    """A cell TOML with the given (device, node, {"IIII:SS": value}) drives. The bus address in
-    the file is a placeholder: --socketcand on the command line overrides it."""
+def write_cell(path: Path, drives: list[tuple]) -> Path:
+    """A cell TOML with the given (device, node, {"IIII:SS": value}[, [more lines]]) drives;
+    the more lines are tables of the drive (`cmmp_switches`). The bus address in the file is a
+    placeholder: --socketcand on the command line overrides it."""
     lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
-    for device, node, objects in drives:
+    for device, node, objects, *more in drives:
         lines += ["[[drive]]", f'device = "{device}"', f"node = {node}"]
         if objects:
             lines.append("[drive.objects]")
             lines += [f'"{key}" = {value}' for key, value in objects.items()]
+        for extra in more:
+            lines += extra
         lines.append("")
     path.write_text("\n".join(lines))
     return path
+
+
+def map_pdo(pdo, objects: list[int], trans_type: int):
+    """Maps `objects` into python-canopen's `pdo` with `trans_type`, enabled, and saves it to
+    the node (SDO downloads of the communication and mapping parameters)."""
+    pdo.clear()
+    for index in objects:
+        pdo.add_variable(index)
+    pdo.trans_type = trans_type
+    pdo.enabled = True
+    pdo.save()
+    return pdo
+
+
+def cmmp_switches(node: int, kbit: int = 1000) -> list[str]:
+    """`[drive.switches]` of a CMMP-AS M3 at `node` (its FCT base address, DIP1…5 OFF) and
+    `kbit` (DIP6/DIP7, Tab. 2.4), CANopen on (DIP8): a CMMP-AS set to share a bus with drives
+    at that rate (untouched it runs at 125 kbit/s; a Nanotec at 1 Mbit/s, a Kinco at 500)."""
+    dips = {125: [], 250: [6], 500: [7], 1000: [6, 7]}[kbit] + [8]
+    return ["[drive.switches]", 'variant = "m3"', f"base_address = {node}", f"on = {dips}"]
 
 
 class RawClient:
@@ -594,3 +618,74 @@ def ecat_twin_run(veth, tmp_path, *extra: str, realtime: bool = False, slaves: i
             assert "stopped" in rest, rest
             assert proc.returncode == 0, proc.returncode
         log.close()
+
+
+LINKTYPE_CAN_SOCKETCAN = 227
+
+
+def read_pcap(path):
+    """[(seconds, can_id, flags, data)] from a pcap of LINKTYPE_CAN_SOCKETCAN, parsed by hand."""
+    raw = path.read_bytes()
+    assert len(raw) >= 24, "no pcap global header"
+    magic = raw[:4]
+    if magic in (b"\xd4\xc3\xb2\xa1", b"\x4d\x3c\xb2\xa1"):
+        endian = "<"
+    elif magic in (b"\xa1\xb2\xc3\xd4", b"\xa1\xb2\x3c\x4d"):
+        endian = ">"
+    else:
+        pytest.fail(f"not a pcap file: magic {magic.hex()}")
+    nanos = magic in (b"\x4d\x3c\xb2\xa1", b"\xa1\xb2\x3c\x4d")
+    major, minor, _zone, _sigfigs, snaplen, linktype = struct.unpack(endian + "HHiIII", raw[4:24])
+    assert (major, minor) == (2, 4)
+    assert linktype == LINKTYPE_CAN_SOCKETCAN
+    assert snaplen >= 16
+    frames = []
+    off = 24
+    while off < len(raw):
+        assert off + 16 <= len(raw), "torn record header"
+        sec, frac, incl, orig = struct.unpack(endian + "IIII", raw[off:off + 16])
+        off += 16
+        assert incl == 16 and orig == 16, "a classic SocketCAN frame is 16 bytes"
+        assert off + incl <= len(raw), "torn record"
+        rec = raw[off:off + incl]
+        off += incl
+        can_id_flags, = struct.unpack(">I", rec[:4])  # SocketCAN header: CAN ID big-endian
+        length = rec[4]
+        assert length <= 8
+        t = sec + frac / (1e9 if nanos else 1e6)
+        frames.append((t, can_id_flags & 0x1FFFFFFF, can_id_flags & 0xE0000000, rec[8:8 + length]))
+    return frames
+
+
+def crc15(bits: list[int]) -> int:
+    """CAN CRC-15 (polynomial 0x4599) over the bits from SOF to the end of the data."""
+    crc = 0
+    for b in bits:
+        nxt = b ^ ((crc >> 14) & 1)
+        crc = (crc << 1) & 0x7FFF
+        if nxt:
+            crc ^= 0x4599
+    return crc
+
+
+def frame_bits(can_id: int, data: bytes) -> int:
+    """Bits of a standard data frame on the wire, SOF to the end of the intermission, with the
+    stuff bits of SOF…CRC (ISO 11898-1)."""
+    bits = [0]  # SOF
+    bits += [(can_id >> i) & 1 for i in range(10, -1, -1)]
+    bits += [0, 0, 0]  # RTR, IDE, r0
+    bits += [(len(data) >> i) & 1 for i in range(3, -1, -1)]
+    for byte in data:
+        bits += [(byte >> i) & 1 for i in range(7, -1, -1)]
+    crc = crc15(bits)
+    bits += [(crc >> i) & 1 for i in range(14, -1, -1)]
+    stuffed, run, last = 0, 0, None
+    for b in bits:
+        if b == last:
+            run += 1
+        else:
+            run, last = 1, b
+        if run == 5:
+            stuffed += 1
+            run, last = 1, 1 - b  # the stuff bit starts a run of its own
+    return len(bits) + stuffed + 1 + 2 + 7 + 3  # CRC delimiter, ACK, EOF, intermission

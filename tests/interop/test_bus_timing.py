@@ -3,6 +3,10 @@ every 10 ms to 20 CMMP-AS whose TPDO1 is synchronous, on a 500 kbit/s bus. The b
 twin reports (web console /api/buses, from the control handle) and the load `drivetwin monitor
 --bitrate` prints are within 5 % of the load the CAN bit formula gives for the frames a
 python-can client saw on the bus.
+
+The default cell's bus runs at its node's rate (a CMMP-AS with DIP6/DIP7 OFF: 125 kbit/s): an
+SDO round trip in its trace takes at least the bit time of its two frames; a cell whose nodes
+are set to different rates and that names no `bitrate` is refused.
 """
 
 from __future__ import annotations
@@ -14,53 +18,22 @@ import time
 import urllib.error
 import urllib.request
 
-from conftest import CHANNEL, DRIVETWIN_BIN, wait_until
+from conftest import CHANNEL, DRIVETWIN_BIN, add_node, frame_bits, read_pcap, run_cli, wait_until
 
 BITRATE = 500_000
 NODES = 20
 SYNC_PERIOD = 0.010
 
 
-def crc15(bits: list[int]) -> int:
-    """CAN CRC-15 (polynomial 0x4599) over the bits from SOF to the end of the data."""
-    crc = 0
-    for b in bits:
-        nxt = b ^ ((crc >> 14) & 1)
-        crc = (crc << 1) & 0x7FFF
-        if nxt:
-            crc ^= 0x4599
-    return crc
-
-
-def frame_bits(can_id: int, data: bytes) -> int:
-    """Bits of a standard data frame on the wire, SOF to the end of the intermission, with the
-    stuff bits of SOF…CRC (ISO 11898-1)."""
-    bits = [0]  # SOF
-    bits += [(can_id >> i) & 1 for i in range(10, -1, -1)]
-    bits += [0, 0, 0]  # RTR, IDE, r0
-    bits += [(len(data) >> i) & 1 for i in range(3, -1, -1)]
-    for byte in data:
-        bits += [(byte >> i) & 1 for i in range(7, -1, -1)]
-    crc = crc15(bits)
-    bits += [(crc >> i) & 1 for i in range(14, -1, -1)]
-    stuffed, run, last = 0, 0, None
-    for b in bits:
-        if b == last:
-            run += 1
-        else:
-            run, last = 1, b
-        if run == 5:
-            stuffed += 1
-            run, last = 1, 1 - b  # the stuff bit starts a run of its own
-    return len(bits) + stuffed + 1 + 2 + 7 + 3  # CRC delimiter, ACK, EOF, intermission
-
-
 def test_bus_load_at_500_kbit_matches_the_bit_formula(launch, connect, raw_bus, tmp_path):
     lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"',
              f"bitrate = {BITRATE}", "late_after_us = 10000", ""]
+    # Each drive's DIP7 and DIP8 ON: 500 kbit/s, CANopen on (CMMP-AS Tab. 2.4 / 2.5), the
+    # node number its FCT base address; at another rate it would stay silent.
     for n in range(1, NODES + 1):
         lines += ["[[drive]]", 'device = "cmmp-as"', f"node = {n}", "[drive.objects]",
-                  f'"1800:01" = {0x40000180 + n}', '"1800:02" = 1', ""]
+                  f'"1800:01" = {0x40000180 + n}', '"1800:02" = 1', "[drive.switches]",
+                  'variant = "m3"', f"base_address = {n}", "on = [7, 8]", ""]
     cell = tmp_path / "bus.toml"
     cell.write_text("\n".join(lines))
     twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
@@ -135,8 +108,12 @@ def test_bus_faults_from_the_cell_file_and_the_web_console(launch, connect, eds_
     cell.write_text("\n".join([
         "[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', f"bitrate = {BITRATE}",
         "[[bus.disturb]]", "at_ms = 1500", "node = 1", "frames = 32", "",
-        "[[drive]]", 'device = "cmmp-as"', "node = 1", "[drive.objects]", '"1017:00" = 20', "",
-        "[[drive]]", 'device = "nanotec-smci47s"', "node = 3", "[drive.objects]", '"1017:00" = 20', "",
+        # Both set to the bus's 500 kbit/s: the CMMP-AS by DIP7 (DIP8: CANopen on), the Nanotec
+        # by rotary switches 83h (node 3, bit rate from 2005h = 134, Nanotec §1.1.1).
+        "[[drive]]", 'device = "cmmp-as"', "node = 1", "[drive.objects]", '"1017:00" = 20',
+        "[drive.switches]", 'variant = "m3"', "on = [7, 8]", "",
+        "[[drive]]", 'device = "nanotec-smci47s"', "node = 3", "[drive.objects]", '"1017:00" = 20',
+        '"2005:00" = 134', "[drive.rotary_switches]", "left = 3", "right = 8", "",
     ]))
     twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
     line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
@@ -167,3 +144,72 @@ def test_bus_faults_from_the_cell_file_and_the_web_console(launch, connect, eds_
         raise AssertionError("a node not on the bus is refused")
     except urllib.error.HTTPError as e:
         assert e.code == 404, e.code
+
+
+DEFAULT_CELL_BITRATE = 125_000  # CMMP-AS DIP6/DIP7 OFF (Tab. 2.4)
+
+
+def test_default_cell_sdo_round_trip_takes_the_frames_bit_time(launch, connect, eds_files, tmp_path):
+    """`drivetwin run` with no bit rate: the bus takes the CMMP-AS's 125 kbit/s, and in the
+    bus's trace each expedited SDO answer (581h) follows its request (601h, stamped as it
+    reached the bus) by at least the bit time of both frames; python-canopen's round trip too."""
+    trace = tmp_path / "bus.pcap"
+    twin = launch("cmmp-as", 1, trace=trace)
+    assert "bus vcan0: 125 kbit/s, its nodes' bit rate" in twin.stdout_lines, twin.stdout_lines
+    net = connect(twin)
+    node = add_node(net, 1, eds_files["cmmp-as"])
+    took = []
+    for _ in range(20):
+        start = time.monotonic()
+        assert node.sdo[0x1018][1].raw == 0x1D
+        took.append(time.monotonic() - start)
+    twin.stop()
+    frames = read_pcap(trace)
+    rounds = []
+    for i, (t, can_id, _, data) in enumerate(frames):
+        if can_id != 0x601:
+            continue
+        answer = next((f for f in frames[i + 1:] if f[1] == 0x581), None)
+        assert answer is not None, f"no answer to the request at {t}"
+        bit_time = (frame_bits(0x601, data) + frame_bits(0x581, answer[3])) / DEFAULT_CELL_BITRATE
+        rounds.append((answer[0] - t, bit_time))
+    assert len(rounds) >= 20, rounds
+    # Two frames of about 120 bits at 125 kbit/s: about 2 ms (on the instant bus some 50 µs).
+    # The request is stamped as the loop writes it to the trace, a few µs after it entered
+    # the bus: 5 % of slack in the trace, none for the client, which sent before it entered.
+    assert all(gap >= 0.95 * bits for gap, bits in rounds), rounds
+    assert min(took) >= max(bits for _, bits in rounds), (took, rounds)
+
+
+def test_instant_bus_on_the_command_line(launch, connect, eds_files):
+    """`--bitrate instant` keeps the instant bus (frames cross at once) for fast tests."""
+    twin = launch("cmmp-as", 1, extra=("--bitrate", "instant"))
+    assert "bus vcan0: instant (frames cross at once)" in twin.stdout_lines, twin.stdout_lines
+    node = add_node(connect(twin), 1, eds_files["cmmp-as"])
+    assert node.sdo[0x1018][1].raw == 0x1D
+
+
+def test_nodes_at_different_rates_are_refused_without_a_bitrate(tmp_path):
+    """A CMMP-AS (125 kbit/s, its DIP6/DIP7 OFF) and a Kinco FD3 (2F81h = 50: 500 kbit/s) on one
+    bus with no `bitrate`: the cell file is refused, exit code 2, naming each node's rate and
+    the key that sets it. Set to one rate (2F81h = 12) they run."""
+    cell = tmp_path / "cell.toml"
+
+    def write(kinco_objects: list[str]):
+        cell.write_text("\n".join([
+            "[bus]", 'socketcand = "127.0.0.1:0"', f'channel = "{CHANNEL}"', "",
+            "[[drive]]", 'device = "cmmp-as"', "node = 1", "",
+            "[[drive]]", 'device = "kinco-fd3"', "node = 2", "[drive.objects]", *kinco_objects, "",
+        ]))
+
+    write([])
+    r = run_cli("run", "--config", str(cell), "--http", "off")
+    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
+    assert "its nodes are set to different bit rates" in r.stderr, r.stderr
+    assert "cmmp-as node 1: 125 kbit/s, set by [drive.switches]" in r.stderr, r.stderr
+    assert 'kinco-fd3 node 2: 500 kbit/s, set by [drive.objects] "2F81:00"' in r.stderr, r.stderr
+    assert "`bitrate`" in r.stderr, r.stderr
+    write(['"2F81:00" = 12'])
+    r = run_cli("run", "--config", str(cell), "--virtual-seconds", "0.1")
+    assert r.returncode == 0, r.stderr
+    assert "bus vcan0: 125 kbit/s, its nodes' bit rate" in r.stdout, r.stdout

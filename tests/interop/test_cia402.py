@@ -9,7 +9,7 @@ import time
 import pytest
 from canopen.profiles.p402 import BaseNode402
 
-from conftest import wait_until
+from conftest import map_pdo, wait_until
 
 
 @pytest.fixture
@@ -64,9 +64,22 @@ def test_profile_position_move_ends_in_the_window_with_target_reached(drive):
 def test_velocity_ramp_and_torque_step(drive):
     drive.op_mode = "PROFILED VELOCITY"
     drive.state = "OPERATION ENABLED"
+    # Statusword and actual velocity in one synchronous TPDO, one snapshot of the drive as a
+    # master reads its process data: two SDO reads lie milliseconds apart on the bus, and the
+    # velocity moves meanwhile.
+    drive.tpdo.read()
+    snapshot = map_pdo(drive.tpdo[3], [0x6041, 0x606C], trans_type=1)
+    drive.nmt.state = "OPERATIONAL"
+    window = drive.sdo[0x606D].raw
     drive.sdo[0x60FF].raw = 2000
-    wait_until(lambda: drive.statusword & 0x0400, 2.0, what="velocity reached")
-    assert abs(drive.sdo[0x606C].raw - 2000) <= drive.sdo[0x606D].raw
+
+    def reached():
+        drive.network.sync.transmit()
+        snapshot.wait_for_reception(0.5)
+        return snapshot[0x6041].raw & 0x0400 and snapshot[0x606C].raw
+
+    velocity = wait_until(reached, 2.0, what="velocity reached")
+    assert abs(velocity - 2000) <= window, velocity
     drive.sdo[0x60FF].raw = 0
     wait_until(lambda: drive.statusword & 0x1000, 2.0, what="speed 0")
     drive.op_mode = "PROFILED TORQUE"

@@ -21,8 +21,8 @@ import pytest
 from canopen import SdoAbortedError
 from canopen.profiles.p402 import BaseNode402
 
-from conftest import (DRIVETWIN_BIN, HOST, Realtime, realtime_prefix, run_cli, wait_until,
-                      write_cell)
+from conftest import (DRIVETWIN_BIN, HOST, Realtime, cmmp_switches, realtime_prefix, run_cli,
+                      wait_until, write_cell)
 
 NODE = 34
 PERIOD = 0.010  # SYNC, s
@@ -328,7 +328,9 @@ def test_software_limit_emcy_0800h_through_the_emcy_consumer(nanotec):
 
 
 def test_one_network_moves_a_cmmp_as_and_a_nanotec_at_once(launch, connect, eds_files, tmp_path):
-    cfg = write_cell(tmp_path / "cell.toml", [("cmmp-as", 1, {}), ("nanotec-smci47s", NODE, {})])
+    # The CMMP-AS's DIP6/DIP7 set to the Nanotec's 1 Mbit/s: one bus, one rate.
+    cfg = write_cell(tmp_path / "cell.toml",
+                     [("cmmp-as", 1, {}, cmmp_switches(1)), ("nanotec-smci47s", NODE, {})])
     twin = launch(config=cfg)
     net = connect(twin)
     cmmp = node402(net, 1, eds_files["cmmp-as"], nanotec=False)
@@ -366,7 +368,9 @@ def test_drivetwin_drive_moves_a_nanotec_and_a_cmmp_as(launch, tmp_path):
     6077h, 6078h, no PV and no 6087h; the CMMP-AS keeps its PV and its actual values."""
     import json
 
-    cfg = write_cell(tmp_path / "cell.toml", [("cmmp-as", 1, {}), ("nanotec-smci47s", NODE, {})])
+    # The CMMP-AS's DIP6/DIP7 set to the Nanotec's 1 Mbit/s: one bus, one rate.
+    cfg = write_cell(tmp_path / "cell.toml",
+                     [("cmmp-as", 1, {}, cmmp_switches(1)), ("nanotec-smci47s", NODE, {})])
     twin = launch(config=cfg)
     for node in ("1", str(NODE)):
         assert drive_cli(twin, node, "enable").startswith("OPERATION ENABLED")

@@ -125,12 +125,13 @@ def test_rpdo1_remapping_with_python_canopen(launch, node_of):
 def test_rotary_switches_give_node_34_beside_a_cmmp_as(launch, connect, eds_files, tmp_path):
     """A cell with a CMMP-AS (node 1) and an SMCI47-S whose rotary switches read left = 2,
     right = 2: 16 * 2 + 2 = 34 (§1.1.1, NT-NODE-01's rule), over the file's `node`; 2009h
-    reads the switch value (§11.10)."""
-    from conftest import add_node
+    reads the switch value (§11.10). Switches 1…127 fix 1 Mbit/s: the CMMP-AS's DIP6/DIP7 set
+    to it."""
+    from conftest import add_node, cmmp_switches
 
     cfg = tmp_path / "cell.toml"
     cfg.write_text('[bus]\nsocketcand = "127.0.0.1:1"\nchannel = "vcan0"\n\n'
-                   '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n'
+                   '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n' + "\n".join(cmmp_switches(1)) + "\n\n"
                    '[[drive]]\ndevice = "nanotec-smci47s"\nnode = 9\n'
                    '[drive.rotary_switches]\nleft = 2\nright = 2\n')
     twin = launch(config=cfg)

@@ -7,16 +7,25 @@ from __future__ import annotations
 
 import json
 
-from conftest import CHANNEL, run_cli, wait_until
+from conftest import CHANNEL, cmmp_switches, run_cli, wait_until
 
 # CiA 402 personalities answer 1000h with their device type; the test bench is a CiA 301 device.
 PERSONALITIES = ["cmmp-as", "nanotec-smci47s", "testbench", "nanotec-pd4n"]
 
 
+def drive(device: str, node: int) -> list[str]:
+    """A `[[drive]]` on a 1 Mbit/s bus: a Nanotec's switches at its node-ID fix 1 Mbit/s; a
+    CMMP-AS needs DIP6 and DIP7 ON."""
+    lines = ["[[drive]]", f'device = "{device}"', f"node = {node}"]
+    if device == "cmmp-as":
+        lines += cmmp_switches(node)
+    return lines + [""]
+
+
 def test_127_nodes_of_mixed_personalities_pass_scan_and_sdo(launch, connect, eds_files, tmp_path):
     lines = ["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', ""]
     for n in range(1, 128):
-        lines += ["[[drive]]", f'device = "{PERSONALITIES[n % len(PERSONALITIES)]}"', f"node = {n}", ""]
+        lines += drive(PERSONALITIES[n % len(PERSONALITIES)], n)
     cell = tmp_path / "machine.toml"
     cell.write_text("\n".join(lines))
     twin = launch(config=cell)
@@ -38,15 +47,13 @@ def test_127_nodes_of_mixed_personalities_pass_scan_and_sdo(launch, connect, eds
 def test_two_twin_processes_make_one_bus(launch, connect, raw_bus, eds_files, tmp_path):
     first = tmp_path / "first.toml"
     first.write_text("\n".join(["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
-                                "[[drive]]", 'device = "cmmp-as"', "node = 1", "",
-                                "[[drive]]", 'device = "cmmp-as"', "node = 2", ""]))
+                                *drive("cmmp-as", 1), *drive("cmmp-as", 2)]))
     a = launch(config=first)
     # A master on a third connection, there before the second twin boots: it sees its boot-up.
     bus = raw_bus(a)
     second = tmp_path / "second.toml"
     second.write_text("\n".join(["[bus]", 'socketcand = "127.0.0.1:1"', f'channel = "{CHANNEL}"', "",
-                                 "[[drive]]", 'device = "nanotec-smci47s"', "node = 3", "",
-                                 "[[drive]]", 'device = "testbench"', "node = 4", ""]))
+                                 *drive("nanotec-smci47s", 3), *drive("testbench", 4)]))
     b = launch(config=second, extra=("--socketcand-join", a.addr))
     joined = f"joined socketcand server {a.addr}, channel {CHANNEL}"
     wait_until(lambda: joined in b.stdout_lines, 5.0, what=joined)

@@ -9,43 +9,7 @@ import time
 import can
 import pytest
 
-from conftest import HeartbeatLog, run_cli
-
-LINKTYPE_CAN_SOCKETCAN = 227
-
-
-def read_pcap(path):
-    """[(seconds, can_id, flags, data)] from a pcap of LINKTYPE_CAN_SOCKETCAN, parsed by hand."""
-    raw = path.read_bytes()
-    assert len(raw) >= 24, "no pcap global header"
-    magic = raw[:4]
-    if magic in (b"\xd4\xc3\xb2\xa1", b"\x4d\x3c\xb2\xa1"):
-        endian = "<"
-    elif magic in (b"\xa1\xb2\xc3\xd4", b"\xa1\xb2\x3c\x4d"):
-        endian = ">"
-    else:
-        pytest.fail(f"not a pcap file: magic {magic.hex()}")
-    nanos = magic in (b"\x4d\x3c\xb2\xa1", b"\xa1\xb2\x3c\x4d")
-    major, minor, _zone, _sigfigs, snaplen, linktype = struct.unpack(endian + "HHiIII", raw[4:24])
-    assert (major, minor) == (2, 4)
-    assert linktype == LINKTYPE_CAN_SOCKETCAN
-    assert snaplen >= 16
-    frames = []
-    off = 24
-    while off < len(raw):
-        assert off + 16 <= len(raw), "torn record header"
-        sec, frac, incl, orig = struct.unpack(endian + "IIII", raw[off:off + 16])
-        off += 16
-        assert incl == 16 and orig == 16, "a classic SocketCAN frame is 16 bytes"
-        assert off + incl <= len(raw), "torn record"
-        rec = raw[off:off + incl]
-        off += incl
-        can_id_flags, = struct.unpack(">I", rec[:4])  # SocketCAN header: CAN ID big-endian
-        length = rec[4]
-        assert length <= 8
-        t = sec + frac / (1e9 if nanos else 1e6)
-        frames.append((t, can_id_flags & 0x1FFFFFFF, can_id_flags & 0xE0000000, rec[8:8 + length]))
-    return frames
+from conftest import HeartbeatLog, frame_bits, read_pcap, run_cli
 
 
 def _tshark():
@@ -147,12 +111,17 @@ def test_virtual_clock_is_deterministic_and_fast(tmp_path):
     inject = tmp_path / "in.log"
     inject.write_text(INJECT)
     out1, out2 = tmp_path / "out1.pcap", tmp_path / "out2.pcap"
+    # The instant bus: the heartbeat producer's period read from the trace to the microsecond,
+    # with no bit time in the stamps (test_virtual_clock_without_inject runs the real bus).
+    instant = ("--bitrate", "instant")
     t0 = time.monotonic()
-    r1 = run_cli("run", "--virtual-seconds", "5", "--inject", str(inject), "--trace", str(out1))
+    r1 = run_cli("run", "--virtual-seconds", "5", "--inject", str(inject), "--trace", str(out1),
+                 *instant)
     wall = time.monotonic() - t0
     assert r1.returncode == 0, r1.stderr
     assert wall < 2.5, f"5 virtual seconds took {wall:.2f} s of wall time"
-    r2 = run_cli("run", "--virtual-seconds", "5", "--inject", str(inject), "--trace", str(out2))
+    r2 = run_cli("run", "--virtual-seconds", "5", "--inject", str(inject), "--trace", str(out2),
+                 *instant)
     assert r2.returncode == 0, r2.stderr
     assert out1.read_bytes() == out2.read_bytes(), "two runs of the same input differ"
 
@@ -195,11 +164,16 @@ def test_virtual_clock_without_inject(tmp_path):
     r = run_cli("run", "--virtual-seconds", "10", "--trace", str(out))
     assert r.returncode == 0, r.stderr
     frames = read_pcap(out)
+    # The default cell's bus at the CMMP-AS's 125 kbit/s: a frame is stamped once it has
+    # crossed, its bit time after it was sent.
+    def crossed(at: float, data: bytes) -> float:
+        return pytest.approx(at + frame_bits(0x701, data) / 125_000, abs=1e-6)
+
     # the commissioned 1017h = 1000 ms: boot-up, then one heartbeat a second
-    assert [(t, i, bytes(d)) for t, i, _, d in frames][0] == (0.0, 0x701, b"\x00")
+    assert [(t, i, bytes(d)) for t, i, _, d in frames][0] == (crossed(0.0, b"\x00"), 0x701, b"\x00")
     beats = [t for t, i, _, d in frames[1:] if i == 0x701 and bytes(d) == b"\x7f"]
     assert len(frames) - 1 == len(beats)
-    assert beats[0] == pytest.approx(1.0)
+    assert beats[0] == crossed(1.0, b"\x7f")
     assert len(beats) in (9, 10)
 
 
@@ -236,10 +210,9 @@ def test_each_bus_writes_its_own_trace(launch, connect, eds_files, tmp_path):
 
 def test_the_trace_of_a_timed_bus_has_its_load_beside_it(launch, tmp_path):
     """Issue 14: `trace` on a `[[bus]]` with a bit rate writes `<trace>.load.csv`, the bus load
-    per 500 ms window; each window's load is the bit time (test_bus_timing.frame_bits) of the
+    per 500 ms window; each window's load is the bit time (conftest.frame_bits) of the
     pcap's frames in it over its length, and tshark reads the pcap as before."""
     from conftest import CHANNEL
-    from test_bus_timing import frame_bits
 
     bitrate = 125_000
     pcap = tmp_path / "bus.pcap"

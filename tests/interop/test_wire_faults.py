@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import add_node, wait_until, write_cell
+from conftest import add_node, cmmp_switches, wait_until, write_cell
 
 
 def console(twin) -> str:
@@ -42,8 +42,9 @@ def api(base: str, method: str, path: str, body: dict | None = None) -> tuple[in
 
 @pytest.fixture
 def cell(launch, tmp_path):
-    """Node 1, a CMMP-AS beating every 100 ms; node 2, a Kinco FD watching it (250 ms)."""
-    cfg = write_cell(tmp_path / "cell.toml", [("cmmp-as", 1, {"1017:00": 100}),
+    """Node 1, a CMMP-AS beating every 100 ms; node 2, a Kinco FD watching it (250 ms); the
+    CMMP-AS's DIP7 set to the Kinco's 500 kbit/s."""
+    cfg = write_cell(tmp_path / "cell.toml", [("cmmp-as", 1, {"1017:00": 100}, cmmp_switches(1, 500)),
                                               ("kinco-fd3", 2, {"1016:01": 0x000100FA})])
     twin = launch(config=cfg, extra=("--http", "127.0.0.1:0"))
     return twin, console(twin)

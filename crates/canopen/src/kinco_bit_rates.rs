@@ -8,14 +8,18 @@
 //! * CAN_Baudrate 2F81h: 100 = 1 Mbit/s, 50 = 500, 25 = 250, 12 = 125, 5 = 50 kbit/s
 //!   (KINCO-CAN-06). 125 kbit/s is 12, not 12.5: a lookup, not code × 10.
 //!
-//! Decision: a code outside the lists gives `None`; the runtime then keeps the default line
-//! speed (38400 bit/s RS232, 19200 bit/s RS485, 500 kbit/s CAN) rather than guess a divider.
+//! Decision: a code outside the lists gives `None`, also 180 (57 600 bit/s by the formula, but
+//! not listed); the runtime then keeps the line speed it has (U2BRG) or refuses the line
+//! (2FE0h, 2FE2h at power-on), and the CAN bus keeps 500 kbit/s, rather than guess a divider.
 
 /// The serial divider codes and their bit rates (2FE0h-2FE2h).
 pub const SERIAL: [(u16, u32); 4] = [(1080, 9600), (540, 19200), (270, 38400), (90, 115_200)];
 
 /// The CAN codes and their bit rates in kbit/s (2F81h).
 pub const CAN: [(u8, u16); 5] = [(100, 1000), (50, 500), (25, 250), (12, 125), (5, 50)];
+
+/// The CAN bit rate of the 2F81h default 50, kbit/s; kept for a code outside [`CAN`].
+pub const DEFAULT_CAN_KBIT: u16 = 500;
 
 /// The bit rate of a serial code (2FE0h, 2FE1h, 2FE2h).
 pub fn serial_bit_rate(code: u16) -> Option<u32> {

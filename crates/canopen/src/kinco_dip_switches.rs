@@ -9,9 +9,13 @@
 //!   "0x2F800108", KINCO-DIP-06). A change applies after a reboot.
 //! * Only the FD3-LA / -CA have the switches (L347); the CD3 takes 100Bh.
 //!
+//! * The table gives no bit rate: the CAN bit rate is CAN_Baudrate 2F81h
+//!   ([`crate::kinco_bit_rates`]).
+//!
 //! Decision: a switch value above 127 is a valid RS232 / RS485 station number (the panel's
 //! 100Bh range is 0~255, L2144) but not a CANopen node-ID (1…127, §11.1): [`can_node_id`]
-//! gives `None` for it, and the node stays off the CAN bus rather than taking another ID.
+//! gives `None` for it, and the cell file refuses it (`[drive.dip_switches]`) rather than give
+//! the node another ID.
 
 /// Where the station number comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -99,6 +99,8 @@ pub struct PowerOn {
     pub node_id: u8,
     /// The bit rate; `None` when the switches take it from an EEPROM code outside 130…135.
     pub bit_rate_kbit: Option<u16>,
+    /// Whether the bit rate is the EEPROM's (2005h): switch values 80h and above.
+    pub bit_rate_from_eeprom: bool,
     /// Whether the switches gave the node-ID (then 2009h holds the switch value).
     pub node_id_from_switches: bool,
     /// False when the bit rate comes from an invalid EEPROM code: the controller answers on
@@ -122,6 +124,7 @@ pub fn power_on(switches: RotarySwitches, eeprom_node_id: u8, eeprom_bit_rate: u
     PowerOn {
         node_id: if node == 0 { eeprom_node_id } else { node },
         bit_rate_kbit,
+        bit_rate_from_eeprom: rate_from_eeprom,
         node_id_from_switches: node != 0,
         motion_allowed,
     }

@@ -14,7 +14,10 @@
 //!   write 4 at 0: the FHPP cyclic telegram).
 //!
 //! The twin's two drives are one cell on one loop and one clock: its CMMP-AS steps while the
-//! CMMO-ST cycles every millisecond.
+//! CMMO-ST cycles every millisecond. Its CAN bus is the instant bus (a [`Cell`] without a bit
+//! rate, as `bitrate = "instant"` in a cell file): frames cross at once, so the figures are the
+//! loop's and the kernel's, not a bus's bit time (about 2 ms a round trip at the default
+//! cell's 125 kbit/s).
 //!
 //! Two placements: `same CPU` (client and every server thread pinned to CPU 0; a round trip is
 //! two context switches on one CPU) and `split CPUs` (servers on CPU 0, client on CPU 1: two
@@ -112,6 +115,7 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((can_listener, ServerConfig::new("vcan0"))),
+            // The instant bus: no `with_bitrate`.
             ..CanBus::new(Cell::new(vec![drive]))
         }],
         modbus: vec![ModbusDrive::new(

@@ -215,6 +215,11 @@ pub struct RunArgs {
     /// Bus name socketcand clients open.
     #[arg(long)]
     pub channel: Option<String>,
+    /// The bit rate of every CAN bus, bit/s, or `instant` (frames cross at once: fast tests,
+    /// latency benchmarks). Default: a bus's `bitrate` in the cell file, else the rate its
+    /// nodes' switches and objects set (the CMMP-AS's DIP6/DIP7: 125 kbit/s untouched).
+    #[arg(long, value_name = "BIT/S|instant")]
+    pub bitrate: Option<drivetwin::cell::bus_rate::BitrateSetting>,
     /// Bridge this SocketCAN interface (e.g. vcan0, can0) onto the bus.
     #[arg(long)]
     pub socketcan: Option<String>,

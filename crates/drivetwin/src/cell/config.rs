@@ -5,11 +5,13 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use canopen::kinco_dip_switches::{self, Station};
 use canopen::rotary_switches::{power_on, RotarySwitches};
 use od::{DataType, Value};
 use serde::Deserialize;
 
 use crate::can::drive::Commissioning;
+use crate::cell::bus_rate::{self, BitrateSetting, BusNode, BusRate, NodeRate};
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
@@ -64,6 +66,8 @@ pub enum ConfigError {
         number: String,
         what: String,
     },
+    #[error(transparent)]
+    BusRate(#[from] bus_rate::Disagreement),
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -77,11 +81,23 @@ pub struct CellFile {
 }
 
 /// The cell's CAN buses.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone)]
 pub enum Buses {
     One(BusSection),
     Many(Vec<BusSection>),
+}
+
+/// `[bus]` or `[[bus]]`, by the value's shape, so a bad key reports its own error (an
+/// untagged enum would only say that neither form matched).
+impl<'de> Deserialize<'de> for Buses {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        match toml::Value::deserialize(d)? {
+            v @ toml::Value::Array(_) => Vec::<BusSection>::deserialize(v).map(Buses::Many),
+            v => BusSection::deserialize(v).map(Buses::One),
+        }
+        .map_err(D::Error::custom)
+    }
 }
 
 impl Default for Buses {
@@ -94,6 +110,13 @@ impl Buses {
     pub fn all(&self) -> &[BusSection] {
         match self {
             Buses::One(b) => std::slice::from_ref(b),
+            Buses::Many(v) => v,
+        }
+    }
+
+    pub fn all_mut(&mut self) -> &mut [BusSection] {
+        match self {
+            Buses::One(b) => std::slice::from_mut(b),
             Buses::Many(v) => v,
         }
     }
@@ -117,10 +140,7 @@ impl Buses {
     pub fn index(&self, name: Option<&str>) -> Option<usize> {
         match name {
             None => Some(0),
-            Some(n) => self
-                .all()
-                .iter()
-                .position(|b| b.name.as_deref().unwrap_or(&b.channel) == n),
+            Some(n) => self.all().iter().position(|b| b.label() == n),
         }
     }
 }
@@ -138,9 +158,11 @@ pub struct BusSection {
     /// A SocketCAN interface to bridge (real hardware or vcan).
     pub socketcan: Option<String>,
     /// Bit rate, bit/s: frames take the bus for their bit time and wait for the arbitration
-    /// (`cell::bus_timing`); without it they cross at once. A drive whose switches set
-    /// another bit rate stays silent, as on a real bus.
-    pub bitrate: Option<u32>,
+    /// (`cell::bus_timing`). Without it the bus runs at the rate its nodes are set to (their
+    /// switches and objects), and nodes set to different rates are refused
+    /// ([`crate::cell::bus_rate`]); with it a node set to another rate stays silent, as on a
+    /// real bus. `"instant"`: frames cross at once (fast tests, latency benchmarks).
+    pub bitrate: Option<BitrateSetting>,
     /// A frame that waits longer than this for the bus counts as late (default 1000 µs).
     pub late_after_us: Option<u32>,
     /// Join the socketcand server at this address as a client: the bus is that server's
@@ -168,10 +190,14 @@ pub struct DisturbSection {
 }
 
 impl BusSection {
-    /// The bus's timing: bit rate and late limit, when it has a bit rate.
-    pub fn timing(&self) -> Option<(u32, std::time::Duration)> {
-        let late = std::time::Duration::from_micros(u64::from(self.late_after_us.unwrap_or(1000)));
-        self.bitrate.map(|b| (b, late))
+    /// What drives call the bus: its name, else its channel.
+    pub fn label(&self) -> &str {
+        self.name.as_deref().unwrap_or(&self.channel)
+    }
+
+    /// A frame that waits longer than this for the bus counts as late.
+    pub fn late_after(&self) -> std::time::Duration {
+        std::time::Duration::from_micros(u64::from(self.late_after_us.unwrap_or(1000)))
     }
 }
 
@@ -237,6 +263,9 @@ pub struct DriveSection {
     /// A Nanotec's hexadecimal rotary switches (§1.1.1): node-ID and bit rate at power-on;
     /// when they give a node-ID it wins over `node`.
     pub rotary_switches: Option<RotarySwitchesSection>,
+    /// A Kinco FD3's DIP switches SW1…SW8 (§3.8): the station number at power-on; when they
+    /// give one it wins over `node`.
+    pub dip_switches: Option<DipSwitchesSection>,
     /// TCP address (loopback only) of the drive's CI terminal, the debug console whose SDO
     /// simulation the CMMP-AS manual describes (§3.2.3); none by default.
     pub ci_terminal: Option<String>,
@@ -580,6 +609,45 @@ impl RotarySwitchesSection {
     }
 }
 
+/// `[drive.dip_switches]`: the DIP switches SW1…SW8 of a Kinco FD3 that are ON (`on = [1,
+/// 2]` is station 3; none ON: the stored station number 2F80h:01 of `[drive.objects]`, else
+/// its default). The table of §3.8 (Tab. 3-8) gives the station number only; the CAN bit rate
+/// is CAN_Baudrate 2F81h.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DipSwitchesSection {
+    #[serde(default)]
+    pub on: Vec<u8>,
+}
+
+impl DipSwitchesSection {
+    /// The station number the switches select, or `None` for the stored one (all OFF).
+    fn station(&self) -> Result<Option<u8>, String> {
+        let sw = eight_switches(&self.on, |n| format!("SW{n}: the FD3 has SW1…SW8"))?;
+        match kinco_dip_switches::station(sw) {
+            Station::Stored => Ok(None),
+            Station::Switches(s) => kinco_dip_switches::can_node_id(s).map(Some).ok_or(format!(
+                "station {s}: a CANopen node-ID is 1…127 (§11.1); the twin runs the FD3 as a \
+                 CANopen node, so 128…255 (RS232 / RS485 only) is not simulated"
+            )),
+        }
+    }
+}
+
+/// A block of eight switches numbered from 1 with those of `on` ON (`[0]` is switch 1);
+/// `bad` names a number outside 1…8.
+fn eight_switches(on: &[u8], bad: impl Fn(u8) -> String) -> Result<[bool; 8], String> {
+    let mut block = [false; 8];
+    for &n in on {
+        let slot = usize::from(n)
+            .checked_sub(1)
+            .and_then(|i| block.get_mut(i))
+            .ok_or_else(|| bad(n))?;
+        *slot = true;
+    }
+    Ok(block)
+}
+
 fn yes() -> bool {
     true
 }
@@ -595,18 +663,21 @@ pub enum SwitchVariant {
 }
 
 impl SwitchesSection {
+    /// What sets the bit rate, for messages: the switches, the inputs or FCT.
+    fn rate_key(&self) -> &'static str {
+        match (self.variant, self.via_din) {
+            (SwitchVariant::M3, _) => "[drive.switches] DIP6/DIP7",
+            (SwitchVariant::M0, true) => "[drive.switches] DIN12/DIN13",
+            (SwitchVariant::M0, false) => "[drive.switches] fct_bit_rate_kbit",
+        }
+    }
+
     /// The settings at power-on.
     pub fn settings(&self) -> Result<FieldbusSettings, String> {
         match self.variant {
             SwitchVariant::M3 => {
-                let mut dip = [false; 8];
-                for &n in &self.on {
-                    let slot = usize::from(n)
-                        .checked_sub(1)
-                        .and_then(|i| dip.get_mut(i))
-                        .ok_or(format!("DIP {n}: the M3 block has DIP 1…8"))?;
-                    *slot = true;
-                }
+                let dip =
+                    eight_switches(&self.on, |n| format!("DIP {n}: the M3 block has DIP 1…8"))?;
                 Ok(m3_power_on(self.base_address, dip))
             }
             SwitchVariant::M0 => {
@@ -812,6 +883,9 @@ pub struct DriveSpec {
     pub fhpp: Option<FhppSpec>,
     /// From `[drive.switches]`, if given.
     pub fieldbus: Option<FieldbusSettings>,
+    /// The CAN bit rate its switches and objects set, and what sets it; `None`: none of its
+    /// own (no CAN interface, a Nanotec whose 2005h holds no code, the test bench).
+    pub bit_rate: Option<NodeRate>,
     /// The index of the bus (of [`Buses::all`]) its CANopen node is on.
     pub bus: usize,
     /// A CANopen node on its bus (false: EtherCAT only, or the CMMO-ST).
@@ -883,6 +957,7 @@ impl CellFile {
                 switches: None,
                 motor_type: None,
                 rotary_switches: None,
+                dip_switches: None,
                 ci_terminal: None,
                 bus: None,
                 interfaces: None,
@@ -906,11 +981,7 @@ impl CellFile {
             })?;
             let fieldbus = match &d.switches {
                 Some(sw) => {
-                    let err = |what: String| ConfigError::Object {
-                        node: d.node,
-                        key: "switches".into(),
-                        what,
-                    };
+                    let err = key_error(d, "switches");
                     if desc.name != "cmmp-as" {
                         return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
                     }
@@ -920,28 +991,9 @@ impl CellFile {
             };
             let rotary = match &d.rotary_switches {
                 Some(rs) => {
-                    let err = |what: String| ConfigError::Object {
-                        node: d.node,
-                        key: "rotary_switches".into(),
-                        what,
-                    };
+                    let err = key_error(d, "rotary_switches");
                     let switches = rs.switches(desc.rotary_switches).map_err(err)?;
-                    let eeprom = |index: u16| -> Result<u8, ConfigError> {
-                        let key = format!("{index:04X}:00");
-                        match d
-                            .objects
-                            .iter()
-                            .find(|(k, _)| parse_key(k) == Some((index, 0)))
-                        {
-                            Some((_, toml::Value::Integer(v))) => u8::try_from(*v)
-                                .map_err(|_| err(format!("{key} = {v} is not a u8"))),
-                            Some(_) => Err(err(format!("{key} must be an integer"))),
-                            None => Ok(desc
-                                .entry(index, 0)
-                                .and_then(|e| e.default.first().copied())
-                                .unwrap_or(0)),
-                        }
-                    };
+                    let eeprom = |index| stored_u8(desc, d, index, 0).map_err(err);
                     let p = power_on(switches, eeprom(0x2009)?, eeprom(0x2005)?);
                     if !(1..=127).contains(&p.node_id) {
                         return Err(err(format!("node-ID {} from 2009h", p.node_id)));
@@ -957,10 +1009,32 @@ impl CellFile {
                 }
                 None => None,
             };
-            let node = match rotary {
-                Some(p) => p.node_id,
-                None => fieldbus.map_or(d.node, |f| f.node_id),
+            let station = match &d.dip_switches {
+                Some(dip) => {
+                    let err = key_error(d, "dip_switches");
+                    if desc.name != "kinco-fd3" {
+                        return Err(err(format!(
+                            "{} has no DIP switches SW1…SW8 (Kinco §3.8: the FD3's)",
+                            desc.name
+                        )));
+                    }
+                    // All OFF: the stored station number 2F80h:01 (§3.8).
+                    match dip.station().map_err(err)? {
+                        Some(s) => Some(s),
+                        None => match stored_u8(desc, d, 0x2F80, 1).map_err(err)? {
+                            s @ 1..=127 => Some(s),
+                            s => return Err(err(format!("station {s} from 2F80h:01"))),
+                        },
+                    }
+                }
+                None => None,
             };
+            let node = match (rotary, station) {
+                (Some(p), _) => p.node_id,
+                (None, Some(s)) => s,
+                (None, None) => fieldbus.map_or(d.node, |f| f.node_id),
+            };
+            let bit_rate = node_rate(desc, d, fieldbus, rotary)?;
             let bus = self
                 .bus
                 .index(d.bus.as_deref())
@@ -971,7 +1045,7 @@ impl CellFile {
                         .bus
                         .all()
                         .iter()
-                        .map(|b| b.name.as_deref().unwrap_or(&b.channel))
+                        .map(BusSection::label)
                         .collect::<Vec<_>>()
                         .join(", "),
                 })?;
@@ -1165,6 +1239,7 @@ impl CellFile {
                 settings,
                 fhpp,
                 fieldbus,
+                bit_rate,
                 bus,
                 canopen,
                 ethercat,
@@ -1173,6 +1248,103 @@ impl CellFile {
             });
         }
         Ok(specs)
+    }
+}
+
+/// The error of drive `d`'s key `key`.
+fn key_error<'a>(d: &'a DriveSection, key: &'a str) -> impl Fn(String) -> ConfigError + Copy + 'a {
+    move |what| ConfigError::Object {
+        node: d.node,
+        key: key.into(),
+        what,
+    }
+}
+
+/// The value of an 8-bit entry at power-on: `[drive.objects]`'s, else the device's default.
+fn stored_u8(
+    desc: &od::DeviceDescription,
+    d: &DriveSection,
+    index: u16,
+    sub: u8,
+) -> Result<u8, String> {
+    let key = format!("{index:04X}:{sub:02X}");
+    match d
+        .objects
+        .iter()
+        .find(|(k, _)| parse_key(k) == Some((index, sub)))
+    {
+        Some((_, toml::Value::Integer(v))) => {
+            u8::try_from(*v).map_err(|_| format!("{key} = {v} is not a u8"))
+        }
+        Some(_) => Err(format!("{key} must be an integer")),
+        None => Ok(desc
+            .entry(index, sub)
+            .and_then(|e| e.default.first().copied())
+            .unwrap_or(0)),
+    }
+}
+
+/// The CAN bit rate a drive's switches and objects set ([`bus_rate::NodeRate`]): the CMMP-AS's
+/// switches, a Nanotec's rotary switches and 2005h, a Kinco FD3's 2F81h; none for a device
+/// without CAN bit rates (its device file lists none) or without rules of its own.
+fn node_rate(
+    desc: &od::DeviceDescription,
+    d: &DriveSection,
+    fieldbus: Option<FieldbusSettings>,
+    rotary: Option<canopen::rotary_switches::PowerOn>,
+) -> Result<Option<NodeRate>, ConfigError> {
+    if desc.baud_rates.is_empty() {
+        return Ok(None);
+    }
+    let err = key_error(d, "objects");
+    Ok(match desc.name {
+        "cmmp-as" => Some(NodeRate::cmmp_as(
+            fieldbus.zip(d.switches.as_ref().map(SwitchesSection::rate_key)),
+        )),
+        _ if desc.rotary_switches > 0 => {
+            NodeRate::nanotec(rotary, stored_u8(desc, d, 0x2005, 0).map_err(err)?)
+        }
+        "kinco-fd3" => {
+            let set = d.objects.keys().any(|k| parse_key(k) == Some((0x2F81, 0)));
+            let code = stored_u8(desc, d, 0x2F81, 0).map_err(err)?;
+            Some(NodeRate::kinco(set.then_some(code)))
+        }
+        _ => None,
+    })
+}
+
+impl CellFile {
+    /// The bit rate of each bus (of [`Buses::all`]) with the drives of `specs` on it: its
+    /// `bitrate`, else its nodes' ([`bus_rate::resolve`]; refused where they differ). The
+    /// nodes are the CANopen drives whose switches leave CAN on.
+    pub fn bus_rates(&self, specs: &[DriveSpec]) -> Result<Vec<BusRate>, ConfigError> {
+        self.bus
+            .all()
+            .iter()
+            .enumerate()
+            .map(|(i, section)| {
+                let nodes: Vec<BusNode> = specs
+                    .iter()
+                    .filter(|s| s.bus == i && s.canopen && s.fhpp.is_none())
+                    .filter(|s| s.on_can().unwrap_or(false))
+                    .filter_map(|s| {
+                        s.bit_rate.clone().map(|rate| BusNode {
+                            device: s.desc.name,
+                            node: s.node,
+                            rate,
+                        })
+                    })
+                    .collect();
+                Ok(bus_rate::resolve(section.label(), section.bitrate, &nodes)?)
+            })
+            .collect()
+    }
+
+    /// Sets the bit rate of every bus (`drivetwin run --bitrate`).
+    pub fn set_bitrate(&mut self, setting: BitrateSetting) {
+        for b in self.bus.all_mut() {
+            b.bitrate = Some(setting);
+        }
     }
 }
 
@@ -1407,6 +1579,9 @@ mod example_tests {
                     .drives()
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 assert!(!drives.is_empty(), "{}", path.display());
+                // Its buses' rates: named, or the nodes agree.
+                file.bus_rates(&drives)
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 seen += 1;
             }
         }
@@ -1603,5 +1778,154 @@ mod switches_tests {
         )
         .unwrap_err();
         assert!(matches!(err, ConfigError::DuplicateNode(1)), "{err}");
+    }
+}
+
+#[cfg(test)]
+mod bus_rate_tests {
+    use super::*;
+
+    fn file(text: &str) -> CellFile {
+        toml::from_str(text).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn rates(text: &str) -> Result<Vec<BusRate>, ConfigError> {
+        let f = file(text);
+        f.bus_rates(&f.drives()?)
+    }
+
+    fn timed(bitrate: u32, from_nodes: bool) -> BusRate {
+        BusRate::Timed {
+            bitrate,
+            from_nodes,
+        }
+    }
+
+    /// The default cell runs at its CMMP-AS's 125 kbit/s; a Nanotec's at 1 Mbit/s; agreeing
+    /// nodes of different personalities give the bus their rate.
+    #[test]
+    fn the_nodes_rate_without_a_bitrate() {
+        let single = CellFile::single("cmmp-as", 1);
+        assert_eq!(
+            single.bus_rates(&single.drives().unwrap()).unwrap(),
+            [timed(125_000, true)]
+        );
+        assert_eq!(
+            rates("[[drive]]\ndevice = \"nanotec-pd4n\"\n").unwrap(),
+            [timed(1_000_000, true)]
+        );
+        // CMMP-AS DIP6 + DIP7 (1 Mbit/s), Nanotec, Kinco 2F81h = 100: all at 1 Mbit/s.
+        let agree = "[[drive]]\ndevice = \"cmmp-as\"\n[drive.switches]\nvariant = \"m3\"\n\
+                     on = [6, 7, 8]\n\
+                     [[drive]]\ndevice = \"nanotec-smci47s\"\nnode = 2\n\
+                     [[drive]]\ndevice = \"kinco-fd3\"\nnode = 3\n[drive.objects]\n\
+                     \"2F81:00\" = 100\n";
+        assert_eq!(rates(agree).unwrap(), [timed(1_000_000, true)]);
+        // A bus of test bench nodes (no rate of their own): 1 Mbit/s.
+        assert_eq!(
+            rates("[[drive]]\ndevice = \"testbench\"\n").unwrap(),
+            [timed(bus_rate::WITHOUT_NODE_RATES, true)]
+        );
+    }
+
+    /// Nodes at different rates and no `bitrate`: refused, naming each node's rate and key.
+    /// Drives kept off the bus (DIP8 OFF) or on another bus do not count.
+    #[test]
+    fn disagreeing_nodes_are_refused() {
+        let err = rates(
+            "[[drive]]\ndevice = \"cmmp-as\"\n\
+             [[drive]]\ndevice = \"nanotec-smci47s\"\nnode = 2\n\
+             [drive.rotary_switches]\nleft = 2\nright = 8\n[drive.objects]\n\"2005:00\" = 133\n",
+        )
+        .unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, ConfigError::BusRate(_)), "{text}");
+        assert!(text.contains("cmmp-as node 1: 125 kbit/s"), "{text}");
+        assert!(
+            text.contains(
+                "nanotec-smci47s node 2: 250 kbit/s, set by [drive.objects] \"2005:00\" = 133"
+            ),
+            "{text}"
+        );
+        // The CMMP-AS's CAN off: only the Nanotec counts.
+        assert_eq!(
+            rates(
+                "[[drive]]\ndevice = \"cmmp-as\"\n[drive.switches]\nvariant = \"m3\"\n\
+                 [[drive]]\ndevice = \"nanotec-smci47s\"\nnode = 2\n"
+            )
+            .unwrap(),
+            [timed(1_000_000, true)]
+        );
+        // Each bus its own rate.
+        let two = "[[bus]]\nname = \"a\"\n[[bus]]\nname = \"b\"\nchannel = \"vcan1\"\n\
+                   [[drive]]\ndevice = \"cmmp-as\"\nbus = \"a\"\n\
+                   [[drive]]\ndevice = \"nanotec-smci47s\"\nbus = \"b\"\n";
+        assert_eq!(
+            rates(two).unwrap(),
+            [timed(125_000, true), timed(1_000_000, true)]
+        );
+    }
+
+    /// A named `bitrate` wins over the nodes (a node at another rate is silent); `"instant"`
+    /// and `--bitrate` (`set_bitrate`) too.
+    #[test]
+    fn an_explicit_bitrate_or_instant_wins() {
+        let mixed = "[[drive]]\ndevice = \"cmmp-as\"\n\
+                     [[drive]]\ndevice = \"kinco-fd3\"\nnode = 2\n";
+        assert_eq!(
+            rates(&format!("[bus]\nbitrate = 500000\n{mixed}")).unwrap(),
+            [timed(500_000, false)]
+        );
+        assert_eq!(
+            rates(&format!("[bus]\nbitrate = \"instant\"\n{mixed}")).unwrap(),
+            [BusRate::Instant]
+        );
+        let mut f = file(mixed);
+        f.set_bitrate(BitrateSetting::Instant);
+        assert_eq!(
+            f.bus_rates(&f.drives().unwrap()).unwrap(),
+            [BusRate::Instant]
+        );
+        let err = toml::from_str::<CellFile>("[bus]\nbitrate = \"fast\"\n").unwrap_err();
+        assert!(err.to_string().contains("instant"), "{err}");
+    }
+
+    /// KINCO-DIP-01…06 from a cell file: `[drive.dip_switches]` gives the FD3's station number
+    /// (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices are refused.
+    #[test]
+    fn kinco_dip_switches_give_the_station_number() {
+        let fd3 = |section: &str| {
+            let text = format!("[[drive]]\ndevice = \"kinco-fd3\"\nnode = 9\n{section}\n");
+            file(&text).drives().map(|mut v| v.remove(0))
+        };
+        // KINCO-DIP-03: SW1 + SW2 → 3.
+        assert_eq!(fd3("[drive.dip_switches]\non = [1, 2]").unwrap().node, 3);
+        // KINCO-DIP-04: SW3 → 4.
+        assert_eq!(fd3("[drive.dip_switches]\non = [3]").unwrap().node, 4);
+        // KINCO-DIP-06: all OFF → the stored station number 2F80h:01 (default 1).
+        assert_eq!(fd3("[drive.dip_switches]\non = []").unwrap().node, 1);
+        assert_eq!(
+            fd3("[drive.dip_switches]\n[drive.objects]\n\"2F80:01\" = 42")
+                .unwrap()
+                .node,
+            42
+        );
+        // KINCO-DIP-05: all ON is station 255, RS232 / RS485 only.
+        let err = fd3("[drive.dip_switches]\non = [1, 2, 3, 4, 5, 6, 7, 8]")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("station 255"), "{err}");
+        let err = fd3("[drive.dip_switches]\non = [9]")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("SW9"), "{err}");
+        // The switches give no bit rate: 2F81h does.
+        let d = fd3("[drive.dip_switches]\non = [1]\n[drive.objects]\n\"2F81:00\" = 25").unwrap();
+        assert_eq!(d.bit_rate.map(|r| r.kbit), Some(250));
+        let err = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\non = [1]\n")
+            .drives()
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("no DIP switches"), "{err}");
     }
 }

@@ -2,6 +2,7 @@
 //! reach the other drives of the cell as well as the bus; with a bit rate
 //! ([`bus_timing`]) they do so when they have crossed the bus, after the arbitration.
 
+pub mod bus_rate;
 pub mod bus_timing;
 pub mod ci_console;
 pub mod config;
@@ -29,14 +30,14 @@ use crate::can::drive::CanDrive;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
 use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError, WireFaults};
 
-/// Decision: without a bit rate the bus has no bit time, but a bus-off node still needs one
+/// Decision: the instant bus has no bit time, but a bus-off node still needs one
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
 pub struct Cell {
     pub drives: Vec<CanDrive>,
     queue: VecDeque<(CanFrame, Option<usize>)>,
-    /// The bus's bit time; none: frames cross at once (no bit rate in the cell file).
+    /// The bus's bit time; none: frames cross at once (the instant bus).
     timing: Option<Box<BusTiming>>,
     /// Each drive's CAN controller: error counters and the transmit errors still to inject.
     faults: Vec<NodeFaults>,
@@ -95,7 +96,7 @@ impl Cell {
         self.timing.as_ref().map(|t| t.bitrate())
     }
 
-    /// The bus's figures as of `now` (none without a bit rate).
+    /// The bus's figures as of `now` (none on the instant bus).
     pub fn bus_figures(&mut self, now: Instant) -> Option<BusFigures> {
         self.timing.as_mut().map(|t| t.figures(now))
     }

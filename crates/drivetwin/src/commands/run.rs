@@ -1,5 +1,6 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::bus_rate::BusRate;
 use drivetwin::cell::config::BusSection;
 use drivetwin::cell::poll_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, OnBus};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -32,12 +33,13 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-/// The drives that are on CAN, one cell per bus of the cell file (`buses` of them), and for
-/// each drive of `specs` (the cell file's, in order) its place (`None`: a CMMO-ST, or its
-/// switches keep it off the bus).
+/// The drives that are on CAN, one cell per bus of the cell file (`buses` of them, running at
+/// `rates`), and for each drive of `specs` (the cell file's, in order) its place (`None`: a
+/// CMMO-ST, or its switches keep it off the bus).
 pub(crate) fn build_cell(
     specs: Vec<DriveSpec>,
     buses: &[BusSection],
+    rates: &[BusRate],
     state_dir: Option<&PathBuf>,
 ) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
     let mut drives: Vec<Vec<CanDrive>> = buses.iter().map(|_| Vec::new()).collect();
@@ -51,32 +53,30 @@ pub(crate) fn build_cell(
             // chain's (`ethercat_chains`).
             continue;
         }
-        if let Some(f) = spec.fieldbus {
-            if !spec.on_can()? {
-                out!(
-                    "drive {} node {}: CANopen deactivated by its switches, silent on the bus",
-                    spec.desc.name,
-                    spec.node
-                );
-                continue;
-            }
+        if !spec.on_can()? {
             out!(
-                "drive {} node {}: {} kbit/s from its switches",
+                "drive {} node {}: CANopen deactivated by its switches, silent on the bus",
+                spec.desc.name,
+                spec.node
+            );
+            continue;
+        }
+        // A node set to another rate than the bus's sees only error frames and never sends
+        // (ISO 11898-1; CMMP-AS §2.3); only a named `bitrate` can differ from the nodes'.
+        if let (Some(rate), Some(bus)) = (&spec.bit_rate, rates.get(spec.bus)) {
+            out!(
+                "drive {} node {}: {} kbit/s, set by {}",
                 spec.desc.name,
                 spec.node,
-                f.bit_rate_kbit
+                rate.kbit,
+                rate.set_by
             );
-            // A bus with a bit rate: a node set to another one sees only error frames and
-            // never sends (CiA 301; CMMP-AS §2.3). Without one, socketcand does not carry it
-            // and the node is only reported.
-            let bus_bitrate = buses.get(spec.bus).and_then(|b| b.bitrate);
-            if let Some(rate) = bus_bitrate.filter(|r| *r != u32::from(f.bit_rate_kbit) * 1000) {
+            if !bus.carries(rate) {
                 out!(
-                    "drive {} node {}: its {} kbit/s is not the bus's {} kbit/s, silent on the bus",
+                    "drive {} node {}: its {} kbit/s is not the bus's {bus}, silent on the bus",
                     spec.desc.name,
                     spec.node,
-                    f.bit_rate_kbit,
-                    rate / 1000
+                    rate.kbit
                 );
                 continue;
             }
@@ -112,10 +112,10 @@ pub(crate) fn build_cell(
     }
     let mut cells = drives
         .into_iter()
-        .zip(buses)
-        .map(|(d, section)| {
-            let mut cell = match section.timing() {
-                Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
+        .zip(buses.iter().zip(rates))
+        .map(|(d, (section, rate))| {
+            let mut cell = match rate.bitrate() {
+                Some(bitrate) => Cell::new(d).with_bitrate(bitrate, section.late_after()),
                 None => Cell::new(d),
             };
             for p in &section.disturb {
@@ -153,6 +153,11 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
              --modbus-io thread|async"
                 .into(),
         ));
+    }
+    if let Some(b) = args.bitrate {
+        for file in &mut files {
+            file.set_bitrate(b);
+        }
     }
     if let Some(first) = files.first_mut() {
         if let Some(s) = &args.socketcand {
@@ -354,7 +359,8 @@ async fn prepare_cell(
         .collect();
     // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN cells.
     let outside = drivetwin::cell::planned::outside_plans(&specs, in_loop);
-    let (cells, in_cell) = build_cell(specs, &buses, args.state_dir.as_ref())?;
+    let rates = file.bus_rates(&specs)?;
+    let (cells, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
             "drive {} node {} ({})",
@@ -362,6 +368,9 @@ async fn prepare_cell(
             d.node_id(),
             d.od().description().product_name
         );
+    }
+    for (section, rate) in buses.iter().zip(&rates) {
+        out!("bus {}: {rate}", section.label());
     }
 
     if let Some(seconds) = args.virtual_seconds {
@@ -437,7 +446,7 @@ async fn prepare_cell(
         busy_poll: args.busy_poll,
         ..FrontEnds::default()
     };
-    for (b, (cell, section)) in cells.into_iter().zip(&buses).enumerate() {
+    for (b, ((cell, section), rate)) in cells.into_iter().zip(&buses).zip(&rates).enumerate() {
         let mut bus = CanBus::new(cell);
         // A bus without drives (a cell of CMMO-STs only) has no socketcand server.
         if !bus.cell.drives.is_empty() && !section.socketcand.is_empty() {
@@ -471,7 +480,7 @@ async fn prepare_cell(
         // `[[bus]]` its bus.
         let first_bus_trace = trace_path.filter(|_| b == 0 && pcap_writers.is_empty());
         if let Some(p) = section.trace.as_ref().or(first_bus_trace) {
-            let writer = TraceWriter::create_for_bus(p, &section.channel, section.bitrate)
+            let writer = TraceWriter::create_for_bus(p, &section.channel, rate.bitrate())
                 .map_err(io(p.display().to_string()))?;
             out!("tracing to {}", p.display());
             bus.trace = Some(writer);

@@ -43,6 +43,9 @@ impl VirtualRig {
     pub fn new(file: &CellFile) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);
         let specs = file.drives().map_err(|e| cell_err(e.to_string()))?;
+        let rates = file
+            .bus_rates(&specs)
+            .map_err(|e| cell_err(e.to_string()))?;
         let sections = file.bus.all();
         let mut drives: Vec<Vec<CanDrive>> = sections.iter().map(|_| Vec::new()).collect();
         let mut plans: Vec<Vec<_>> = sections.iter().map(|_| Vec::new()).collect();
@@ -65,6 +68,15 @@ impl VirtualRig {
                      buses and its CMMO-STs (no EtherCAT)",
                     spec.desc.name, spec.node
                 )));
+            }
+            // Silent on the bus as in `drivetwin run`: CAN off by its switches, or set to
+            // another rate than the bus's named `bitrate`.
+            let carried = match (&spec.bit_rate, rates.get(spec.bus)) {
+                (Some(rate), Some(bus)) => bus.carries(rate),
+                _ => true,
+            };
+            if !spec.on_can().map_err(|e| cell_err(e.to_string()))? || !carried {
+                continue;
             }
             let d = CanDrive::with_settings(
                 spec.desc,
@@ -96,9 +108,10 @@ impl VirtualRig {
         let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
         let mut cells = Vec::new();
-        for ((d, section), plans) in drives.into_iter().zip(sections).zip(plans) {
-            let mut cell = match section.timing() {
-                Some((bitrate, late)) => Cell::new(d).with_bitrate(bitrate, late),
+        for (((d, section), rate), plans) in drives.into_iter().zip(sections).zip(&rates).zip(plans)
+        {
+            let mut cell = match rate.bitrate() {
+                Some(bitrate) => Cell::new(d).with_bitrate(bitrate, section.late_after()),
                 None => Cell::new(d),
             };
             for p in &section.disturb {

@@ -34,17 +34,13 @@ pub trait LineDrives {
     fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess));
 }
 
-/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h: `code = 10 368 000 / baud`,
-/// §2.1, KINCO-232-10); `None` for a code no rate gives.
+/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
+/// ([`canopen::kinco_bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it does not
+/// list.
 pub fn baud_of_code(code: u64) -> Option<u32> {
-    const CODES: [(u64, u32); 5] = [
-        (1080, 9600),
-        (540, 19_200),
-        (270, 38_400),
-        (180, 57_600),
-        (90, 115_200),
-    ];
-    CODES.iter().find(|(c, _)| *c == code).map(|&(_, b)| b)
+    u16::try_from(code)
+        .ok()
+        .and_then(canopen::kinco_bit_rates::serial_bit_rate)
 }
 
 /// Which personalities have which serial ports (data: the manual's connector table).
@@ -90,6 +86,9 @@ mod tests {
         assert_eq!(baud_of_code(90), Some(115_200));
         assert_eq!(baud_of_code(1080), Some(9600));
         assert_eq!(baud_of_code(0), None);
+        // 180 would be 57600 by the formula, but the manual lists no such code.
+        assert_eq!(baud_of_code(180), None);
+        assert_eq!(baud_of_code(0x1_0000 + 270), None);
         assert!(has_port("kinco-fd3", Kind::Rs485));
         assert!(!has_port("kinco-cd3", Kind::Rs485));
         assert!(!has_port("cmmp-as", Kind::Rs232));

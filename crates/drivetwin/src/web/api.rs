@@ -293,7 +293,7 @@ pub struct BusView {
     pub index: usize,
     /// CANopen nodes of the cell on it.
     pub drives: usize,
-    /// Bit rate, bit/s (`null`: no bit rate in the cell file; frames cross at once).
+    /// Bit rate, bit/s (`null`: the instant bus, `bitrate = "instant"`; frames cross at once).
     pub bitrate: Option<u32>,
     /// Bus load, percent: the bit time asked of the bus over the last window (500 ms); more
     /// than 100 means it falls behind.
