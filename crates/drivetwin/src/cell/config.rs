@@ -1890,14 +1890,20 @@ mod bus_rate_tests {
         assert!(err.to_string().contains("instant"), "{err}");
     }
 
-    /// KINCO-DIP-01…06 from a cell file: `[drive.dip_switches]` gives the FD3's station number
-    /// (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices are refused.
+    /// The Kinco DIP vectors from a cell file (each named at its assertion; the switch table
+    /// itself is `canopen::kinco_dip_switches`): `[drive.dip_switches]` gives the FD3's station
+    /// number (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices are
+    /// refused.
     #[test]
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {
             let text = format!("[[drive]]\ndevice = \"kinco-fd3\"\nnode = 9\n{section}\n");
             file(&text).drives().map(|mut v| v.remove(0))
         };
+        // KINCO-DIP-01: SW1 → 1.
+        assert_eq!(fd3("[drive.dip_switches]\non = [1]").unwrap().node, 1);
+        // KINCO-DIP-02: SW2 → 2.
+        assert_eq!(fd3("[drive.dip_switches]\non = [2]").unwrap().node, 2);
         // KINCO-DIP-03: SW1 + SW2 → 3.
         assert_eq!(fd3("[drive.dip_switches]\non = [1, 2]").unwrap().node, 3);
         // KINCO-DIP-04: SW3 → 4.
