@@ -213,3 +213,23 @@ def test_nodes_at_different_rates_are_refused_without_a_bitrate(tmp_path):
     r = run_cli("run", "--config", str(cell), "--virtual-seconds", "0.1")
     assert r.returncode == 0, r.stderr
     assert "bus vcan0: 125 kbit/s, its nodes' bit rate" in r.stdout, r.stdout
+
+
+def test_a_saved_kinco_can_baudrate_sets_the_bus_after_a_restart(launch, connect, eds_files, tmp_path):
+    """A Kinco FD3 written CAN_Baudrate 2F81h := 25 (250 kbit/s, KINCO-CAN-06) and saved with
+    Store_Data 2FF0h:01 := 1 over python-canopen comes back at 250 kbit/s after a restart with
+    the same state directory, and so does the bus, whose cell names no `bitrate`: the stored
+    value wins over the default, as the real drive powers on at its saved rate."""
+    state = tmp_path / "kinco-state"
+    twin = launch("kinco-fd3", 1, state_dir=state)
+    assert "bus vcan0: 500 kbit/s, its nodes' bit rate" in twin.stdout_lines, twin.stdout_lines
+    node = add_node(connect(twin), 1, eds_files["kinco-fd3"])
+    node.sdo[0x2F81].raw = 25
+    node.sdo[0x2FF0][1].raw = 1
+    twin.stop()
+    twin.start()
+    assert "bus vcan0: 250 kbit/s, its nodes' bit rate" in twin.stdout_lines, twin.stdout_lines
+    assert any(line.startswith('drive kinco-fd3 node 1: 250 kbit/s, set by "2F81:00" = 25')
+               and "stored in" in line for line in twin.stdout_lines), twin.stdout_lines
+    node = add_node(connect(twin), 1, eds_files["kinco-fd3"])
+    assert node.sdo[0x2F81].raw == 25

@@ -9,10 +9,11 @@
 //! Pure rules, no I/O: [`resolve`] takes the bus's setting and each node's rate.
 
 use std::fmt;
+use std::path::Path;
 use std::str::FromStr;
 
 use canopen::kinco_bit_rates;
-use canopen::rotary_switches::PowerOn;
+use canopen::rotary_switches::{self, PowerOn};
 use serde::Deserialize;
 
 use crate::cell::fieldbus_switches::FieldbusSettings;
@@ -103,51 +104,127 @@ impl NodeRate {
     }
 
     /// A Nanotec: its rotary switches at power-on (§1.1.1), or without
-    /// `[drive.rotary_switches]` switches set to the node-ID, which fix 1 Mbit/s. `None`:
-    /// 2005h holds no bit-rate code (§1.1.3 step 7: the controller still answers on CAN, so
-    /// it follows the bus).
-    pub fn nanotec(power_on: Option<PowerOn>, code_2005h: u8) -> Option<Self> {
+    /// `[drive.rotary_switches]` switches set to the node-ID, which fix 1 Mbit/s. Switches
+    /// 80h and above take the rate from `code_2005h`; `None`: it holds no bit-rate code
+    /// (§1.1.3 step 7: the controller still answers on CAN, so it follows the bus).
+    pub fn nanotec(power_on: Option<PowerOn>, code_2005h: &RateCode) -> Option<Self> {
         match power_on {
             None => Some(NodeRate::new(
                 1000,
                 "[drive.rotary_switches] (none: switches at the node-ID fix 1 Mbit/s, \
                  Nanotec §1.1.1)",
             )),
-            Some(p) => {
-                let kbit = p.bit_rate_kbit?;
-                Some(if p.bit_rate_from_eeprom {
-                    NodeRate::new(
-                        kbit,
-                        format!(
-                            "[drive.objects] \"2005:00\" = {code_2005h} (rotary switches 80h \
-                             and above)"
-                        ),
-                    )
-                } else {
-                    NodeRate::new(kbit, "[drive.rotary_switches] (1…127 fix 1 Mbit/s)")
-                })
-            }
+            Some(p) if p.bit_rate_from_eeprom => Some(NodeRate::new(
+                rotary_switches::bit_rate_kbit(code_2005h.code())?,
+                code_2005h.set_by("2005:00", "rotary switches 80h and above"),
+            )),
+            Some(_) => Some(NodeRate::new(
+                1000,
+                "[drive.rotary_switches] (1…127 fix 1 Mbit/s)",
+            )),
         }
     }
 
-    /// A Kinco FD3: CAN_Baudrate 2F81h (`Some(code)` when `[drive.objects]` sets it). Its DIP
-    /// switches give only the station number (§3.8, Tab. 3-8). A code outside the table
-    /// keeps 500 kbit/s, the default (see [`kinco_bit_rates`]).
-    pub fn kinco(code: Option<u8>) -> Self {
-        match code {
-            Some(c) => NodeRate::new(
-                kinco_bit_rates::can_kbit(c).unwrap_or(kinco_bit_rates::DEFAULT_CAN_KBIT),
-                format!("[drive.objects] \"2F81:00\" = {c} (CAN_Baudrate)"),
-            ),
-            None => NodeRate::new(
-                kinco_bit_rates::DEFAULT_CAN_KBIT,
-                "[drive.objects] \"2F81:00\" (CAN_Baudrate, default 50)",
-            ),
-        }
+    /// A Kinco FD3: CAN_Baudrate 2F81h. Its DIP switches give only the station number (§3.8,
+    /// Tab. 3-8). A code outside the table keeps 500 kbit/s, the default (see
+    /// [`kinco_bit_rates`]).
+    pub fn kinco(code: &RateCode) -> Self {
+        NodeRate::new(
+            kinco_bit_rates::can_kbit(code.code()).unwrap_or(kinco_bit_rates::DEFAULT_CAN_KBIT),
+            code.set_by("2F81:00", "CAN_Baudrate"),
+        )
     }
 
     pub fn bits(&self) -> u32 {
         u32::from(self.kbit) * 1000
+    }
+}
+
+/// The value of the object that sets a node's rate (Kinco 2F81h, Nanotec 2005h) at power-on,
+/// and where it comes from. The twin powers a drive on as the device does
+/// ([`crate::can::drive::CanDrive::with_settings`]): the default, then the cell file's
+/// `[drive.objects]` (what a commissioning tool wrote), then the stored set (`--state-dir`,
+/// what the drive saved), which wins.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RateCode {
+    default: u8,
+    cell_file: Option<u8>,
+    /// The stored value and the file that holds it.
+    stored: Option<(u8, String)>,
+}
+
+impl RateCode {
+    /// The device's `default`, overwritten by the cell file's value, if it names one.
+    pub fn new(default: u8, cell_file: Option<u8>) -> Self {
+        RateCode {
+            default,
+            cell_file,
+            stored: None,
+        }
+    }
+
+    /// With the value the node's stored set in `file` holds.
+    pub fn stored(self, code: u8, file: &Path) -> Self {
+        RateCode {
+            stored: Some((code, file.display().to_string())),
+            ..self
+        }
+    }
+
+    /// The value the drive powers on with.
+    pub fn code(&self) -> u8 {
+        match (&self.stored, self.cell_file) {
+            (Some((code, _)), _) => *code,
+            (None, Some(code)) => code,
+            (None, None) => self.default,
+        }
+    }
+
+    /// Where object `key` (named `name`) got its value, for a refusal to point at.
+    fn set_by(&self, key: &str, name: &str) -> String {
+        match (&self.stored, self.cell_file) {
+            (Some((code, file)), _) => format!("\"{key}\" = {code} ({name}) stored in {file}"),
+            (None, Some(code)) => format!("[drive.objects] \"{key}\" = {code} ({name})"),
+            (None, None) => format!(
+                "[drive.objects] \"{key}\" ({name}, default {})",
+                self.default
+            ),
+        }
+    }
+}
+
+/// A node whose rate one of its objects sets, so that its stored set can change the rate.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RateObject {
+    /// A Kinco FD3's CAN_Baudrate 2F81h.
+    Kinco(RateCode),
+    /// A Nanotec's 2005h, read where its rotary switches say so.
+    Nanotec(Option<PowerOn>, RateCode),
+}
+
+impl RateObject {
+    /// The object's index (sub-index 0).
+    pub fn index(&self) -> u16 {
+        match self {
+            RateObject::Kinco(_) => 0x2F81,
+            RateObject::Nanotec(..) => 0x2005,
+        }
+    }
+
+    /// The node's rate ([`NodeRate::kinco`], [`NodeRate::nanotec`]).
+    pub fn rate(&self) -> Option<NodeRate> {
+        match self {
+            RateObject::Kinco(code) => Some(NodeRate::kinco(code)),
+            RateObject::Nanotec(p, code) => NodeRate::nanotec(*p, code),
+        }
+    }
+
+    /// With the value the node's stored set in `file` holds, which wins at power-on.
+    pub fn stored(self, code: u8, file: &Path) -> Self {
+        match self {
+            RateObject::Kinco(c) => RateObject::Kinco(c.stored(code, file)),
+            RateObject::Nanotec(p, c) => RateObject::Nanotec(p, c.stored(code, file)),
+        }
     }
 }
 
@@ -271,17 +348,30 @@ mod tests {
         BusNode { device, node, rate }
     }
 
+    /// A Kinco FD3 whose cell file sets 2F81h to `code`, if to anything (default 50).
+    fn kinco(code: Option<u8>) -> NodeRate {
+        NodeRate::kinco(&RateCode::new(50, code))
+    }
+
+    /// A Nanotec's 2005h as its cell file sets it.
+    fn code_2005h(code: u8) -> RateCode {
+        RateCode::new(0, Some(code))
+    }
+
     /// The factory rates: a CMMP-AS without switches 125 kbit/s, a Nanotec without rotary
     /// switches 1 Mbit/s, a Kinco FD3 with 2F81h = 50 500 kbit/s (KINCO-CAN-06).
     #[test]
     fn each_personality_has_its_factory_rate() {
         assert_eq!(NodeRate::cmmp_as(None).kbit, 125);
-        assert_eq!(NodeRate::nanotec(None, 135).map(|r| r.kbit), Some(1000));
-        assert_eq!(NodeRate::kinco(None).kbit, 500);
-        assert_eq!(NodeRate::kinco(Some(100)).kbit, 1000);
-        assert_eq!(NodeRate::kinco(Some(12)).kbit, 125);
+        assert_eq!(
+            NodeRate::nanotec(None, &code_2005h(135)).map(|r| r.kbit),
+            Some(1000)
+        );
+        assert_eq!(kinco(None).kbit, 500);
+        assert_eq!(kinco(Some(100)).kbit, 1000);
+        assert_eq!(kinco(Some(12)).kbit, 125);
         // Outside the table: the default (kinco_bit_rates' Decision).
-        assert_eq!(NodeRate::kinco(Some(13)).kbit, 500);
+        assert_eq!(kinco(Some(13)).kbit, 500);
     }
 
     /// CMMP-NODE-05 through the rate: DIP6/DIP7 ON/ON is 1 Mbit/s, named by the key.
@@ -302,19 +392,60 @@ mod tests {
     #[test]
     fn nanotec_switches_and_2005h_give_the_rate() {
         let two = |left, right| RotarySwitches::Two { left, right };
-        let r = NodeRate::nanotec(Some(power_on(two(5, 8), 1, 134)), 134).unwrap();
+        let r = NodeRate::nanotec(Some(power_on(two(5, 8), 1, 134)), &code_2005h(134)).unwrap();
         assert_eq!(r.kbit, 500);
         assert!(r.set_by.contains("\"2005:00\" = 134"), "{}", r.set_by);
-        let r = NodeRate::nanotec(Some(power_on(two(5, 0), 1, 134)), 134).unwrap();
+        let r = NodeRate::nanotec(Some(power_on(two(5, 0), 1, 134)), &code_2005h(134)).unwrap();
         assert_eq!(r.kbit, 1000);
-        assert_eq!(NodeRate::nanotec(Some(power_on(two(5, 8), 1, 0)), 0), None);
+        assert_eq!(
+            NodeRate::nanotec(Some(power_on(two(5, 8), 1, 0)), &code_2005h(0)),
+            None
+        );
+    }
+
+    /// A saved rate object wins at power-on over the cell file's value, as the drive loads its
+    /// stored set after the commissioning values (`CanDrive::with_settings`), and a refusal
+    /// names the stored file: a Kinco saved at 2F81h = 25 (250 kbit/s, KINCO-CAN-06), a Nanotec
+    /// at switches 80h + node with 2005h = 133 (250 kbit/s, §1.1.3 step 4).
+    #[test]
+    fn a_stored_rate_object_wins_over_the_cell_file() {
+        let file = Path::new("state/kinco-fd3-node2.params");
+        let kinco = RateObject::Kinco(RateCode::new(50, Some(100)));
+        assert_eq!(kinco.rate().map(|r| r.kbit), Some(1000));
+        let stored = kinco.stored(25, file).rate().unwrap();
+        assert_eq!(stored.kbit, 250);
+        assert_eq!(
+            stored.set_by,
+            "\"2F81:00\" = 25 (CAN_Baudrate) stored in state/kinco-fd3-node2.params"
+        );
+        let switches = RotarySwitches::Two { left: 1, right: 8 };
+        let nanotec = RateObject::Nanotec(Some(power_on(switches, 1, 135)), code_2005h(135))
+            .stored(133, Path::new("state/n.params"));
+        assert_eq!(nanotec.index(), 0x2005);
+        assert_eq!(nanotec.rate().map(|r| r.kbit), Some(250));
+        let nodes = [
+            node("cmmp-as", 1, NodeRate::cmmp_as(None)),
+            node("kinco-fd3", 2, stored),
+        ];
+        let text = resolve("vcan0", None, &nodes).unwrap_err().to_string();
+        assert!(
+            text.contains(
+                "kinco-fd3 node 2: 250 kbit/s, set by \"2F81:00\" = 25 (CAN_Baudrate) \
+                           stored in state/kinco-fd3-node2.params"
+            ),
+            "{text}"
+        );
     }
 
     #[test]
     fn agreeing_nodes_give_the_bus_their_rate() {
         let nodes = [
-            node("nanotec-smci47s", 1, NodeRate::nanotec(None, 135).unwrap()),
-            node("kinco-fd3", 2, NodeRate::kinco(Some(100))),
+            node(
+                "nanotec-smci47s",
+                1,
+                NodeRate::nanotec(None, &code_2005h(135)).unwrap(),
+            ),
+            node("kinco-fd3", 2, kinco(Some(100))),
         ];
         assert_eq!(
             resolve("vcan0", None, &nodes),
@@ -336,8 +467,12 @@ mod tests {
     fn disagreeing_nodes_are_refused_naming_each_rate_and_key() {
         let nodes = [
             node("cmmp-as", 1, NodeRate::cmmp_as(None)),
-            node("nanotec-smci47s", 2, NodeRate::nanotec(None, 135).unwrap()),
-            node("kinco-fd3", 3, NodeRate::kinco(None)),
+            node(
+                "nanotec-smci47s",
+                2,
+                NodeRate::nanotec(None, &code_2005h(135)).unwrap(),
+            ),
+            node("kinco-fd3", 3, kinco(None)),
         ];
         let err = resolve("line-a", None, &nodes).unwrap_err();
         let text = err.to_string();
@@ -358,7 +493,7 @@ mod tests {
     fn an_explicit_bitrate_wins_and_silences_other_nodes() {
         let nodes = [
             node("cmmp-as", 1, NodeRate::cmmp_as(None)),
-            node("kinco-fd3", 2, NodeRate::kinco(None)),
+            node("kinco-fd3", 2, kinco(None)),
         ];
         let bus = resolve("vcan0", Some(BitrateSetting::Bits(500_000)), &nodes).unwrap();
         assert_eq!(bus.bitrate(), Some(500_000));

@@ -11,12 +11,15 @@ use od::{DataType, Value};
 use serde::Deserialize;
 
 use crate::can::drive::Commissioning;
-use crate::cell::bus_rate::{self, BitrateSetting, BusNode, BusRate, NodeRate};
+use crate::cell::bus_rate::{
+    self, BitrateSetting, BusNode, BusRate, NodeRate, RateCode, RateObject,
+};
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
 };
 use crate::cell::interfaces::InterfaceName;
+use crate::cell::param_store::StoredValue;
 use drive::drive::DriveSettings;
 use drive::fhpp::axis_mechanics::AxisMechanics;
 use drive::fhpp::device::FhppSettings;
@@ -886,6 +889,9 @@ pub struct DriveSpec {
     /// The CAN bit rate its switches and objects set, and what sets it; `None`: none of its
     /// own (no CAN interface, a Nanotec whose 2005h holds no code, the test bench).
     pub bit_rate: Option<NodeRate>,
+    /// The object that sets that rate (Kinco 2F81h, Nanotec 2005h), which a stored set may
+    /// change ([`DriveSpec::load_stored_rate`]).
+    pub rate_object: Option<RateObject>,
     /// The index of the bus (of [`Buses::all`]) its CANopen node is on.
     pub bus: usize,
     /// A CANopen node on its bus (false: EtherCAT only, or the CMMO-ST).
@@ -1034,7 +1040,7 @@ impl CellFile {
                 (None, Some(s)) => s,
                 (None, None) => fieldbus.map_or(d.node, |f| f.node_id),
             };
-            let bit_rate = node_rate(desc, d, fieldbus, rotary)?;
+            let (bit_rate, rate_object) = node_rate(desc, d, fieldbus, rotary)?;
             let bus = self
                 .bus
                 .index(d.bus.as_deref())
@@ -1240,6 +1246,7 @@ impl CellFile {
                 fhpp,
                 fieldbus,
                 bit_rate,
+                rate_object,
                 bus,
                 canopen,
                 ethercat,
@@ -1286,31 +1293,61 @@ fn stored_u8(
 
 /// The CAN bit rate a drive's switches and objects set ([`bus_rate::NodeRate`]): the CMMP-AS's
 /// switches, a Nanotec's rotary switches and 2005h, a Kinco FD3's 2F81h; none for a device
-/// without CAN bit rates (its device file lists none) or without rules of its own.
+/// without CAN bit rates (its device file lists none) or without rules of its own. With it,
+/// the object that sets the rate, if one does.
 fn node_rate(
     desc: &od::DeviceDescription,
     d: &DriveSection,
     fieldbus: Option<FieldbusSettings>,
     rotary: Option<canopen::rotary_switches::PowerOn>,
-) -> Result<Option<NodeRate>, ConfigError> {
+) -> Result<(Option<NodeRate>, Option<RateObject>), ConfigError> {
     if desc.baud_rates.is_empty() {
-        return Ok(None);
+        return Ok((None, None));
     }
     let err = key_error(d, "objects");
-    Ok(match desc.name {
-        "cmmp-as" => Some(NodeRate::cmmp_as(
-            fieldbus.zip(d.switches.as_ref().map(SwitchesSection::rate_key)),
-        )),
-        _ if desc.rotary_switches > 0 => {
-            NodeRate::nanotec(rotary, stored_u8(desc, d, 0x2005, 0).map_err(err)?)
+    let code = |index| -> Result<RateCode, ConfigError> {
+        let default = desc
+            .entry(index, 0)
+            .and_then(|e| e.default.first().copied())
+            .unwrap_or(0);
+        let set = d.objects.keys().any(|k| parse_key(k) == Some((index, 0)));
+        let value = stored_u8(desc, d, index, 0).map_err(err)?;
+        Ok(RateCode::new(default, set.then_some(value)))
+    };
+    let object = match desc.name {
+        "cmmp-as" => {
+            let switches = fieldbus.zip(d.switches.as_ref().map(SwitchesSection::rate_key));
+            return Ok((Some(NodeRate::cmmp_as(switches)), None));
         }
-        "kinco-fd3" => {
-            let set = d.objects.keys().any(|k| parse_key(k) == Some((0x2F81, 0)));
-            let code = stored_u8(desc, d, 0x2F81, 0).map_err(err)?;
-            Some(NodeRate::kinco(set.then_some(code)))
-        }
-        _ => None,
-    })
+        _ if desc.rotary_switches > 0 => RateObject::Nanotec(rotary, code(0x2005)?),
+        "kinco-fd3" => RateObject::Kinco(code(0x2F81)?),
+        _ => return Ok((None, None)),
+    };
+    Ok((object.rate(), Some(object)))
+}
+
+impl DriveSpec {
+    /// Its bit rate with the node's stored parameter set (`--state-dir`), read from `file`:
+    /// a saved rate object wins over the cell file's, as the drive loads it at power-on.
+    pub fn load_stored_rate(&mut self, stored: &[StoredValue], file: &Path) {
+        let Some(object) = self.rate_object.take() else {
+            return;
+        };
+        let index = object.index();
+        let saved = stored
+            .iter()
+            .find(|v| v.index == index && v.sub == 0)
+            .and_then(|v| match v.bytes.as_slice() {
+                [code] => Some(*code),
+                _ => None,
+            });
+        let object = match saved {
+            Some(code) => object.stored(code, file),
+            None => object,
+        };
+        self.bit_rate = object.rate();
+        self.rate_object = Some(object);
+    }
 }
 
 impl CellFile {

@@ -359,6 +359,14 @@ async fn prepare_cell(
         .collect();
     // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN cells.
     let outside = drivetwin::cell::planned::outside_plans(&specs, in_loop);
+    // A rate object the node saved wins over the cell file's, as at power-on.
+    if let Some(dir) = &args.state_dir {
+        for spec in specs.iter_mut().filter(|s| s.rate_object.is_some()) {
+            let store = ParamStore::new(dir, spec.desc.name, spec.node);
+            let stored = store.load().map_err(DriveError::from)?;
+            spec.load_stored_rate(&stored, store.path());
+        }
+    }
     let rates = file.bus_rates(&specs)?;
     let (cells, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
