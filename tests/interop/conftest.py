@@ -57,6 +57,18 @@ def run_cli(*args: str, timeout: float = 30.0, check: bool = False) -> subproces
     )
 
 
+def read_to_cr(f) -> bytes:
+    """One answer of the CMMP-AS CI terminal from a file-like `f`, up to and with its CR (the
+    device ends answers with CR alone; `readline` would wait for an LF that never comes)."""
+    line = b""
+    while not line.endswith(b"\r"):
+        b = f.read(1)
+        if not b:
+            break
+        line += b
+    return line
+
+
 def wait_until(predicate, timeout: float, interval: float = 0.02, what: str = "condition"):
     """Poll `predicate` until it returns something truthy; fail the test after `timeout` s."""
     deadline = time.monotonic() + timeout

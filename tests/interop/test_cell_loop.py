@@ -9,7 +9,7 @@ import canopen
 import pytest
 from pymodbus.client import ModbusTcpClient
 
-from conftest import CHANNEL, HOST, add_node, free_port, run_cli, wait_until
+from conftest import CHANNEL, HOST, add_node, free_port, read_to_cr, run_cli, wait_until
 from test_fhpp_modbus import (CCON_RECORD_ENABLED, CPOS_HALT, SCON_ENABLED, cycle_until, exchange,
                               telegram)
 
@@ -71,9 +71,9 @@ def test_two_buses_a_ci_terminal_and_modbus_on_one_loop(launch, tmp_path, eds_fi
         assert a.sdo[0x607A].raw == 1111 and b.sdo[0x607A].raw == 2222
         # The CI terminal of the first drive sees what CANopen wrote, and the other way round.
         f.write(b"?607A00\r\n")
-        assert f.readline() == b"=607A00:00000457\r\n"
+        assert read_to_cr(f) == b"=607A00:00000457\r"
         f.write(b"=607A00:00000D05\r\n")
-        assert f.readline() == b"=607A00:00000D05\r\n"
+        assert read_to_cr(f) == b"=607A00:00000D05\r"
         assert a.sdo[0x607A].raw == 0xD05
         # The CMMO-ST answers on Modbus TCP meanwhile.
         assert mb.connect()

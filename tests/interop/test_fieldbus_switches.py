@@ -6,7 +6,7 @@ import socket
 import canopen
 import pytest
 
-from conftest import CHANNEL, HOST, add_node, free_port, wait_until
+from conftest import CHANNEL, HOST, add_node, free_port, read_to_cr, wait_until
 
 
 def _cell(path, drives):
@@ -45,4 +45,4 @@ def test_dip_offset_27_and_dip8_off(launch, tmp_path, connect, eds_files):
     with socket.create_connection((HOST, port), timeout=3) as s:
         f = s.makefile("rwb", buffering=0)
         f.write(b"?180001\r\n")
-        assert f.readline() == b"=180001:C000019B\r\n"
+        assert read_to_cr(f) == b"=180001:C000019B\r"
