@@ -47,7 +47,7 @@ impl Controlword {
 }
 
 /// The controlwords written since the device control last ran, in the order their writes
-/// were confirmed.
+/// were confirmed ([`ConfirmedWrites`] of 16).
 ///
 /// **Decision** (DESIGN "a confirmed write has been taken"): every acknowledged write of 6040h
 /// reaches the state machine, in order, at the drive's next logic cycle. A master that waits
@@ -57,38 +57,40 @@ impl Controlword {
 /// CiA 402 §6.3 drives the state machine by the commands the master sends, not by samples of
 /// the object; the manuals print no sampling rule (CMMP-AS §6.1.3, Nanotec §4.2, Kinco
 /// Tab. 6-5 all describe the commands in sequence).
-///
-/// Only changes are kept (a cyclic RPDO repeating one controlword adds nothing). More changes
-/// in one cycle than the queue holds (a flood no master waiting for answers can send) keep the
-/// newest: the oldest is dropped, as the sampled word would have lost it anyway.
+pub type ControlwordQueue = ConfirmedWrites<u16, 16>;
+
+/// Values written since their consumer last ran, oldest first: only changes are kept (a
+/// cyclic RPDO or telegram repeating one value adds nothing), and more changes than the queue
+/// holds (a flood no master waiting for answers can send) keep the newest, as a sampled value
+/// would have lost the oldest anyway.
 #[derive(Debug, Clone, Default)]
-pub struct ControlwordQueue {
-    words: heapless::Deque<u16, { ControlwordQueue::CAPACITY }>,
+pub struct ConfirmedWrites<T, const N: usize> {
+    values: heapless::Deque<T, N>,
 }
 
-impl ControlwordQueue {
-    /// Changes kept between two logic cycles.
-    pub const CAPACITY: usize = 16;
+impl<T: Copy + PartialEq, const N: usize> ConfirmedWrites<T, N> {
+    /// Changes kept between two runs of the consumer.
+    pub const CAPACITY: usize = N;
 
-    /// A confirmed write of `cw`; `previous` is the value the object held before it.
-    pub fn push(&mut self, cw: u16, previous: u16) {
-        let last = self.words.back().copied().unwrap_or(previous);
-        if cw == last {
+    /// A confirmed write of `value`; `previous` is what the object held before it.
+    pub fn push(&mut self, value: T, previous: T) {
+        let last = self.values.back().copied().unwrap_or(previous);
+        if value == last {
             return;
         }
-        if self.words.is_full() {
-            self.words.pop_front();
+        if self.values.is_full() {
+            self.values.pop_front();
         }
-        let _ = self.words.push_back(cw);
+        let _ = self.values.push_back(value);
     }
 
-    /// The oldest write not yet applied.
-    pub fn pop(&mut self) -> Option<u16> {
-        self.words.pop_front()
+    /// The oldest write not yet taken.
+    pub fn pop(&mut self) -> Option<T> {
+        self.values.pop_front()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.words.is_empty()
+        self.values.is_empty()
     }
 }
 

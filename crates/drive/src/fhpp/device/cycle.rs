@@ -42,7 +42,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         }
         let mut events: heapless::Vec<Event, 24> = heapless::Vec::new();
         let status = self.status;
-        if let Some(next) = self.telegrams.pop_front() {
+        if let Some(next) = self.telegrams.pop() {
             self.applied = next;
         }
         let input = self.fhpp.cycle(&self.applied, &self.records, &status, |e| {

@@ -35,8 +35,6 @@
 
 use core::time::Duration;
 
-use heapless::Deque;
-
 use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::axis_mechanics::AxisMechanics;
@@ -52,6 +50,7 @@ use super::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
 };
 use super::{FHPP_FPC_LEN, FHPP_STD_LEN};
+use crate::controlword::ConfirmedWrites;
 use crate::fhpp::record_table::StartBehaviour;
 use crate::stepper::{sinc_to_si, Stepper, StepperData, StepperDemand, StepperMode};
 use crate::trajectory::{Limits, Trajectory};
@@ -291,7 +290,7 @@ pub struct FhppDevice<S> {
     /// The output telegram last set (what a read-back of the outputs shows).
     outputs: OutputData,
     /// The telegrams set since the cycle last took one, oldest first ([`FhppDevice::set_outputs`]).
-    telegrams: Deque<OutputData, TELEGRAM_QUEUE>,
+    telegrams: ConfirmedWrites<OutputData, TELEGRAM_QUEUE>,
     /// The telegram the state machine runs on this cycle.
     applied: OutputData,
     fpc_out: [u8; 8],
@@ -462,7 +461,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             params_dirty: true,
             stepper,
             outputs: OutputData::default(),
-            telegrams: Deque::new(),
+            telegrams: ConfirmedWrites::default(),
             applied: OutputData::default(),
             fpc_out: [0; 8],
             fpc_in: [0; 8],
@@ -625,12 +624,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// faster); more than [`TELEGRAM_QUEUE`] waiting drop the oldest.
     pub fn set_outputs(&mut self, image: &[u8]) -> Result<(), BadLength> {
         let (out, fpc) = OutputData::parse(image).ok_or(BadLength(image.len()))?;
-        if out != self.outputs {
-            if self.telegrams.is_full() {
-                self.telegrams.pop_front();
-            }
-            let _ = self.telegrams.push_back(out);
-        }
+        self.telegrams.push(out, self.outputs);
         self.outputs = out;
         if let Some(f) = fpc {
             self.fpc_out = f;
