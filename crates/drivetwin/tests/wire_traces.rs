@@ -646,10 +646,10 @@ fn cmmo_st() -> Rig {
         ModbusConfig::default(),
         None,
     )];
-    // CCON ENABLE | STOP | OPM1 (direct); CPOS HALT; CDIR 0 (absolute position);
-    // velocity 50 %; the position, little-endian (Tab. 5.12).
+    // CCON ENABLE | STOP | OPM1 (direct); CPOS as given; CDIR 0 (absolute position);
+    // velocity 50 %; the position in SINC, high byte first on Modbus (Tab. 5.12, §5.3.1).
     let direct = |cpos: u8, position: i32| {
-        let p = position.to_le_bytes();
+        let p = position.to_be_bytes();
         [0x43, cpos, 0x00, 50, p[0], p[1], p[2], p[3]]
     };
     let mut s = Script::default();
