@@ -1,9 +1,12 @@
 //! Recorded wire traces, one per personality and front end: a scripted master drives the cell
 //! on the virtual clock, and every byte that crosses a wire in either direction, with its
-//! virtual time, must equal the golden file in `tests/data/traces/<name>.trace`. The scripts
-//! cover the start-up (NMT start, SDO reads and writes, PDO mapping, SYNC where the device
-//! has them), the enable sequence 06h / 07h / 0Fh, a profile-position move, an error and its
-//! reset; the FHPP and serial scripts do the same in their own telegrams.
+//! virtual time, must equal the golden file in `tests/data/traces/<name>.trace`. The CANopen
+//! and CoE scripts cover the start-up (NMT or AL state changes, SDO reads and writes, PDO
+//! mapping and SYNC on CAN), the enable sequence 06h / 07h / 0Fh, a profile-position move, an
+//! SDO abort, and a drive error with its reset (on EtherCAT an AL state error and its
+//! acknowledge); the FHPP script enables, homes and moves in FHPP telegrams, with an error
+//! and CCON.RESET; the serial script enables and moves over RS232 and Modbus RTU, with a bad
+//! checksum and a register the map lacks as its errors.
 //!
 //! The traces pin the wire behaviour, so a change to the code that is meant to keep every
 //! byte shows here with the first line that differs. A change that is meant to alter the
