@@ -11,7 +11,9 @@
 //! - [`trace`]: pcap and candump writers and readers;
 //! - [`export`]: ESI XML for EtherCAT configurators;
 //! - [`master`]: the command-line master's protocol clients;
-//! - [`web`]: the web console (HTTP API, live samples, the page).
+//! - [`web`]: the web console (HTTP API, live samples, the page);
+//! - `sys`: the platform calls, the only place with `unsafe` code.
+#![deny(unsafe_code)]
 
 pub mod can;
 pub mod cell;
@@ -21,6 +23,8 @@ pub mod master;
 pub mod modbus_tcp;
 pub mod scenario;
 pub mod serial;
+#[allow(unsafe_code)]
+mod sys;
 pub mod trace;
 pub mod value_text;
 pub mod web;

@@ -81,7 +81,6 @@ pub struct CanBus {
     /// The socketcand server and its settings (the bus name it serves).
     pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
     /// A SocketCAN interface the bus is bridged to.
-    #[cfg(target_os = "linux")]
     pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// Where every frame on the bus is written.
     pub trace: Option<TraceWriter>,
@@ -96,7 +95,6 @@ impl CanBus {
         CanBus {
             cell,
             socketcand: None,
-            #[cfg(target_os = "linux")]
             socketcan: None,
             trace: None,
             upstream: None,
@@ -107,7 +105,6 @@ impl CanBus {
 /// An EtherCAT chain of the cell on one network interface.
 pub struct EthercatChain {
     pub chain: EthercatCell,
-    #[cfg(target_os = "linux")]
     pub socket: crate::ecat::link::SlaveSocket,
     /// Where each request and each answer is copied (`--trace`, a pcap).
     pub trace: Option<FrameTap>,
@@ -145,7 +142,6 @@ pub struct FrontEnds {
 struct BusState {
     cell: Cell,
     socketcand: Option<(TcpListener, ServerConfig)>,
-    #[cfg(target_os = "linux")]
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     trace: Option<TraceWriter>,
     trace_dirty: bool,
@@ -326,7 +322,6 @@ impl CellLoop {
                     .register(&mut l, Token(1 + 3 * b), Interest::READABLE)?;
                 socketcand = Some((l, config));
             }
-            #[cfg(target_os = "linux")]
             if let Some(s) = &bus.socketcan {
                 poll.registry().register(
                     &mut mio::unix::SourceFd(&s.as_raw_fd()),
@@ -353,7 +348,6 @@ impl CellLoop {
                 upstream,
                 cell: bus.cell,
                 socketcand,
-                #[cfg(target_os = "linux")]
                 socketcan: bus.socketcan,
                 trace: bus.trace,
                 trace_dirty: false,
@@ -367,7 +361,6 @@ impl CellLoop {
                 front.ethercat.len()
             )));
         }
-        #[cfg(target_os = "linux")]
         for (c, chain) in front.ethercat.iter().enumerate() {
             use std::os::fd::AsRawFd;
             poll.registry().register(
@@ -819,7 +812,6 @@ impl CellLoop {
         if let Err(e) = stream.set_nodelay(true) {
             tracing::debug!(%peer, error = %e, "could not set TCP_NODELAY");
         }
-        #[cfg(target_os = "linux")]
         limit_send_buffer(&stream, peer);
         let slot = match self.slots.iter().position(Option::is_none) {
             Some(s) => s,
@@ -1164,7 +1156,6 @@ impl CellLoop {
         }
     }
 
-    #[cfg(target_os = "linux")]
     fn read_socketcan(&mut self, b: usize, now: Instant) {
         loop {
             let Some(s) = self.buses.get(b).and_then(|x| x.socketcan.as_ref()) else {
@@ -1185,9 +1176,6 @@ impl CellLoop {
             }
         }
     }
-
-    #[cfg(not(target_os = "linux"))]
-    fn read_socketcan(&mut self, _b: usize, _now: Instant) {}
 
     /// Frames the drives of bus `b` sent: on the bus.
     fn drives_sent(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) {
@@ -1219,7 +1207,6 @@ impl CellLoop {
             }
             bus.trace_dirty = true;
         }
-        #[cfg(target_os = "linux")]
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {
@@ -1315,23 +1302,11 @@ impl CellLoop {
 /// The kernel's send buffer of a client connection, bounded: what a client leaves unread
 /// waits in its own [`MAX_PENDING`] buffer, where the loop sees it, instead of megabytes of
 /// autotuned kernel buffer that would hide a client that never reads.
-#[cfg(target_os = "linux")]
 fn limit_send_buffer(stream: &TcpStream, peer: SocketAddr) {
-    use std::os::fd::AsRawFd;
-    const SEND_BUFFER: libc::c_int = 64 * 1024;
-    // SAFETY: a valid socket descriptor for the call; the option value is a c_int whose size
-    // is passed.
-    let rc = unsafe {
-        libc::setsockopt(
-            stream.as_raw_fd(),
-            libc::SOL_SOCKET,
-            libc::SO_SNDBUF,
-            (&SEND_BUFFER as *const libc::c_int).cast(),
-            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
-    };
-    if rc != 0 {
-        tracing::debug!(%peer, error = %io::Error::last_os_error(), "could not bound SO_SNDBUF");
+    use std::os::fd::AsFd;
+    const SEND_BUFFER: u32 = 64 * 1024;
+    if let Err(e) = crate::sys::tcp::set_send_buffer(stream.as_fd(), SEND_BUFFER) {
+        tracing::debug!(%peer, error = %e, "could not bound SO_SNDBUF");
     }
 }
 
@@ -1367,7 +1342,6 @@ impl BusDrives for Buses<'_> {
 impl CellLoop {
     /// Reads EtherCAT frames of chain `c` until none waits (at most [`FRAMES_PER_TURN`]):
     /// each passes the chain and goes back out at once, as through a line of real slaves.
-    #[cfg(target_os = "linux")]
     fn read_ethercat(&mut self, c: usize) {
         let mut frame = std::mem::take(&mut self.frame);
         let mut shared = false;
@@ -1439,7 +1413,6 @@ impl CellLoop {
     }
 
     /// One frame through chain `chain` and back out on its socket.
-    #[cfg(target_os = "linux")]
     fn pass_chain(chain: &mut EthercatChain, f: &mut [u8], t: od::Instant, buses: &mut [BusState]) {
         if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
             trace_frame(chain.trace.as_ref(), f);
@@ -1459,18 +1432,11 @@ impl CellLoop {
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
-    #[cfg(target_os = "linux")]
     fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
         if let Some(chain) = self.chains.get_mut(c) {
             Self::pass_chain(chain, &mut frame, t, &mut self.buses);
         }
     }
-
-    #[cfg(not(target_os = "linux"))]
-    fn ethercat_frame(&mut self, _c: usize, _frame: Vec<u8>, _t: od::Instant) {}
-
-    #[cfg(not(target_os = "linux"))]
-    fn read_ethercat(&mut self, _c: usize) {}
 }
 
 impl CellLoop {
