@@ -19,6 +19,10 @@
 //! [`MAX_PENDING`]; a client whose buffer would grow beyond it is dropped, so a client that
 //! does not read never delays the others, nor the drives.
 //!
+//! The loop is where the cell meets its transports: it uses both, and neither uses it (the
+//! transports reach the drives through [`crate::cell`]'s types and their own traits, such as
+//! [`crate::ecat::chain::BusDrives`] and [`crate::serial::LineDrives`]).
+//!
 //! Sockets are registered for readability only; a client whose socket does not take all of an
 //! answer is registered for writability until its buffer is empty (no wake-up per `ACK`).
 
@@ -33,12 +37,12 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
-use crate::can::drive::CanDrive;
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
+use crate::cell::can_drive::CanDrive;
 use crate::cell::control::{Command, ControlHandle, PlantSample};
-use crate::cell::Cell;
+use crate::cell::{Cell, OnBus};
 use crate::ecat::chain::{trace_frame, BusDrives, EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
@@ -46,6 +50,7 @@ use crate::trace::TraceWriter;
 mod fine_timer;
 mod handle;
 mod serial;
+pub mod virtual_clock;
 mod wire;
 
 /// Bytes a client may leave unread before it is dropped.
@@ -108,13 +113,6 @@ pub struct EthercatChain {
     pub socket: crate::ecat::link::SlaveSocket,
     /// Where each request and each answer is copied (`--trace`, a pcap).
     pub trace: Option<FrameTap>,
-}
-
-/// A drive on a bus: the bus's index in the cell, the drive's in the bus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct OnBus {
-    pub bus: usize,
-    pub drive: usize,
 }
 
 /// Every socket a cell serves, bound before the loop starts.
