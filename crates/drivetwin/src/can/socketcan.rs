@@ -4,7 +4,7 @@
 //! The socket is a plain `CAN_RAW` socket with the kernel defaults: it does not receive its
 //! own frames (so the bridge cannot loop), other sockets on the same host do see them, no
 //! CAN FD and no error frames. Frames are exchanged as the 16-byte `struct can_frame`, whose
-//! identifier is in host byte order. The socket is Linux's ([`crate::sys::socketcan`]).
+//! identifier is in host byte order. The socket is Linux's (`sys::socketcan`).
 
 use std::io;
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};

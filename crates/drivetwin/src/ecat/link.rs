@@ -18,7 +18,7 @@
 //! master measures is the wire latency of the slave).
 //!
 //! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`); the socket is
-//! Linux's ([`crate::sys::packet_socket`]).
+//! Linux's (`sys::packet_socket`).
 
 use std::io;
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};
