@@ -5,7 +5,7 @@
 //!
 //! - `floor socketcand`: a thread that blocks in `read` and answers every request at once
 //!   with a fixed socketcand frame, no device (the lowest a sleeping server gets);
-//! - `twin socketcand`: the cell loop ([`drivetwin::cell::poll_loop`]) with a CMMP-AS, node 1,
+//! - `twin socketcand`: the cell loop ([`drivetwin::cell_loop`]) with a CMMP-AS, node 1,
 //!   answering an expedited SDO upload of 1000h (`< send 601 8 40 00 10 00 … >` →
 //!   `< frame 581 … 43 00 10 00 … >`) after the socketcand handshake;
 //! - `floor modbus`: the same blocking thread answering a Modbus FC 17h request with a fixed
@@ -49,10 +49,10 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 

@@ -16,10 +16,10 @@ use std::time::Duration;
 use canopen::CanFrame;
 use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
-use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::bus_timing::BusTiming;
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 use support::thread_cpu_time;
 

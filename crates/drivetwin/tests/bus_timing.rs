@@ -7,10 +7,10 @@ use std::time::Duration;
 
 use canopen::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::bus_timing::BusFigures;
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 
 fn commissioning(values: &[(u16, u8, &[u8])]) -> Vec<Commissioning> {

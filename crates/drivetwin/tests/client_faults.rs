@@ -9,9 +9,9 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CanBus, FrontEnds};
 use drivetwin::cell::wire_faults::{FaultSpec, FrontEnd, WireRequest};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, FrontEnds};
 
 struct Client {
     s: TcpStream,

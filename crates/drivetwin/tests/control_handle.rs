@@ -6,11 +6,11 @@ use std::net::{TcpListener, TcpStream};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{Interface, Plant};
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 

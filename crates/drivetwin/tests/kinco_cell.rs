@@ -4,7 +4,7 @@
 //! of §8.15 (KINCO-CW-01), and the following-error EMCY 8611h (KINCO-DIAG-03).
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::Cell;
 use od::Instant;

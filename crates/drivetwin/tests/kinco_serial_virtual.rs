@@ -9,10 +9,10 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
-use drivetwin::cell::poll_loop::OnBus;
-use drivetwin::cell::runtime::{run_virtual_lines, Input, Output};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell::OnBus;
+use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::serial::setup::{virtual_lines, LineRequest};
 use drivetwin::serial::Kind;
 

@@ -1,7 +1,7 @@
 //! Stored parameter sets: round trip through the state directory, atomic replacement, and
 //! clear errors for damaged files.
 
-use drivetwin::can::drive::{CanDrive, Commissioning};
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::param_store::ParamStore;
 use od::{ObjectAccess, Value};
 

@@ -8,9 +8,9 @@ use std::time::Duration;
 
 use canopen::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use drivetwin::trace::bus_load::{load_path, parse_load};
 use drivetwin::trace::TraceWriter;
 use od::Instant;

@@ -6,9 +6,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
-use drivetwin::cell::runtime::{run_virtual_mixed, Input, Output};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::wire_faults::{FaultKind, Reach, WireFault};
 use drivetwin::cell::Cell;
 use od::Instant;

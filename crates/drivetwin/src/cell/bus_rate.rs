@@ -142,7 +142,7 @@ impl NodeRate {
 
 /// The value of the object that sets a node's rate (Kinco 2F81h, Nanotec 2005h) at power-on,
 /// and where it comes from. The twin powers a drive on as the device does
-/// ([`crate::can::drive::CanDrive::with_settings`]): the default, then the cell file's
+/// ([`crate::cell::can_drive::CanDrive::with_settings`]): the default, then the cell file's
 /// `[drive.objects]` (what a commissioning tool wrote), then the stored set (`--state-dir`,
 /// what the drive saved), which wins.
 #[derive(Debug, Clone, PartialEq, Eq)]

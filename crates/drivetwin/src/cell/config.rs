@@ -10,10 +10,10 @@ use canopen::rotary_switches::{power_on, RotarySwitches};
 use od::{DataType, Value};
 use serde::Deserialize;
 
-use crate::can::drive::Commissioning;
 use crate::cell::bus_rate::{
     self, BitrateSetting, BusNode, BusRate, NodeRate, RateCode, RateObject,
 };
+use crate::cell::can_drive::Commissioning;
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,

@@ -3,7 +3,7 @@
 //! access as every front end (a write is seen at once on the wire), reads the plant and the
 //! display, sets inputs and load, and subscribes to samples of the plant.
 //!
-//! A request goes to the cell loop ([`crate::cell::poll_loop`]) and is carried out there,
+//! A request goes to the cell loop ([`crate::cell_loop`]) and is carried out there,
 //! between two socket events, on the cell's clock; the caller waits for the answer. Samples
 //! come on a bounded channel: when the subscriber does not keep up, samples are dropped,
 //! never waited for (the loop serves sockets first).

@@ -63,11 +63,11 @@ use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
 };
 
-use crate::can::drive::{CanDrive, DriveError, Persisting};
+use crate::cell::can_drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);

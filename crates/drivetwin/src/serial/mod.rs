@@ -10,7 +10,7 @@
 //!   several drives by station number;
 //! - [`line`](mod@line): a line as the cell loop serves it: port, wire and protocol together.
 //!
-//! The cell loop ([`crate::cell::poll_loop`]) owns the ports' descriptors with its other
+//! The cell loop ([`crate::cell_loop`]) owns the ports' descriptors with its other
 //! sockets and calls [`line::SerialLine`] when one is readable or a line's deadline is due;
 //! a line reaches its drives through [`LineDrives`], one object access at a time, on the
 //! cell's clock.
@@ -24,7 +24,7 @@ pub mod wire;
 
 use od::{Instant, ObjectAccess};
 
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How a line reaches the drives of the cell.
 pub trait LineDrives {

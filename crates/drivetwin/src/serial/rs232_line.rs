@@ -23,7 +23,7 @@ use od::Instant;
 
 use super::wire::Wire;
 use super::{baud_of_code, LineDrives};
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How the drives of a telegram line are wired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -20,7 +20,7 @@ use od::Instant;
 
 use super::wire::Wire;
 use super::LineDrives;
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// One drive on an RTU line.
 pub struct RtuDrive {

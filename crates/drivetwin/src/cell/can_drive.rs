@@ -170,14 +170,14 @@ impl CanDrive {
     }
 
     /// Its CAN controller changed error state: the personality's reaction
-    /// ([`crate::can::bus_faults`]).
+    /// ([`crate::cell::bus_faults`]).
     pub fn bus_state_changed(
         &mut self,
         now: Instant,
         t: canopen::fault_confinement::Transition,
         out: &mut dyn FnMut(CanFrame),
     ) {
-        use crate::can::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
+        use crate::cell::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
         tracing::warn!(
             node = self.node_id(),
             from = t.from.name(),
