@@ -42,6 +42,12 @@
 //! It draws the figures into `docs/round-trip-latency.png` (`CELL_BENCH_PLOT` another path):
 //! p50 and p99 of each path, floor beside twin, per placement. The machine the figures in
 //! `docs/cell.md` come from is shared: a run measures the neighbours' load too.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};

@@ -8,6 +8,12 @@
 //! - the bus load of that cell (TPDO1 at every SYNC) against the bit rate at four SYNC
 //!   periods, drawn into
 //!   `docs/bus-load-127-nodes.png`.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::hint::black_box;
 use std::path::PathBuf;

@@ -29,6 +29,12 @@
 //!
 //! `cargo bench -p drivetwin --bench console_jitter`; `CONSOLE_JITTER_ROUNDS` repeats the pair
 //! of runs (default 1), each round printing its own figures (the machine may be shared).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::collections::BTreeMap;
 use std::io;

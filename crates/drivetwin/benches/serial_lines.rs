@@ -9,6 +9,12 @@
 //!   (target: the twin adds under 10 %). `SERIAL_BENCH_COUNT` round trips per rate (200).
 //!
 //! `cargo bench -p drivetwin --bench serial_lines`.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::{Duration, Instant as StdInstant};
 

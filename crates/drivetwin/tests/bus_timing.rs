@@ -2,6 +2,12 @@
 //! heartbeats at 125 kbit/s leave one after the other in identifier order, each taking its
 //! exact bit time; a SYNC with 40 synchronous TPDOs behind it overloads 250 kbit/s (load above
 //! 100 %, late frames) and fits at 1 Mbit/s.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

@@ -1,6 +1,12 @@
 //! Faults on one socketcand client of a bus (`FrontEnd::Client(port)`, REST
 //! `/api/wire/client/{port}/faults`): drop and delay of the frames that client sends and of
 //! those the bus sends it, the other clients untouched.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod web_rig;
 

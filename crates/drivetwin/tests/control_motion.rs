@@ -1,6 +1,12 @@
 //! The control handle's requests for the console's pages: samples of named objects read on
 //! the loop with every plant sample, the CMMO-ST's FHPP telegram and Device Control, and the
 //! console's motion sequences run on a real cell.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

@@ -3,6 +3,12 @@
 //! (`<trace>.load.csv`, `drivetwin::trace::bus_load`) read back holds one line per 500 ms
 //! window, each the bit time of the frames of that window over its length, near the load the
 //! cell's timed bus reports; the pcap itself is the classic one (magic, link type 227).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 

@@ -1,6 +1,12 @@
 //! Issue 12's determinism point: a cell with a CMMP-AS on CANopen, a CMMP-AS on EtherCAT and a
 //! CMMO-ST on Modbus TCP, inputs on the three protocols, run twice on the virtual clock: the
 //! outputs are equal bit for bit.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;

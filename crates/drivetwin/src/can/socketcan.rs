@@ -35,11 +35,12 @@ pub fn encode_can_frame(frame: &CanFrame) -> [u8; CAN_MTU] {
         id |= CAN_RTR_FLAG;
     }
     let mut out = [0u8; CAN_MTU];
-    let (head, data) = out.split_at_mut(8);
-    head[..4].copy_from_slice(&id.to_ne_bytes());
-    head[4] = frame.len.min(8);
-    let payload = frame.payload();
-    data[..payload.len()].copy_from_slice(payload);
+    let [i0, i1, i2, i3] = id.to_ne_bytes();
+    // can_id, can_dlc, 3 bytes of padding, then the data (payload() holds at most 8 bytes).
+    let head = [i0, i1, i2, i3, frame.len.min(8), 0, 0, 0];
+    for (dst, src) in out.iter_mut().zip(head.iter().chain(frame.payload())) {
+        *dst = *src;
+    }
     out
 }
 

@@ -134,6 +134,7 @@ impl Buses {
         }
         match self {
             Buses::One(b) => b,
+            #[allow(clippy::indexing_slicing, reason = "made non-empty above")]
             Buses::Many(v) => &mut v[0],
         }
     }
@@ -687,7 +688,11 @@ impl SwitchesSection {
                 let mut i = M0Inputs::default();
                 for &n in &self.on {
                     match n {
-                        0..=3 => i.din0_3[usize::from(n)] = true,
+                        0..=3 => {
+                            if let Some(din) = i.din0_3.get_mut(usize::from(n)) {
+                                *din = true;
+                            }
+                        }
                         8 => i.din8 = true,
                         9 => i.din9 = true,
                         12 => i.din12 = true,
