@@ -26,17 +26,24 @@
 //! the identifier and the data bytes, elsewhere the bytes, in hex. Lines starting with `#`
 //! are comments.
 
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
-use drivetwin::cell::poll_loop::OnBus;
-use drivetwin::cell::runtime::{run_virtual_lines, Input, Output};
 use drivetwin::cell::Cell;
+use drivetwin::cell::OnBus;
+use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
