@@ -12,8 +12,8 @@
 
 use std::time::{Duration, Instant as StdInstant};
 
-use canopen::kinco_rs232::{KincoRs232, Request};
 use criterion::{black_box, Criterion};
+use drive::vendors::kinco::rs232::{KincoRs232, Request};
 use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::poll_loop::{CellLoop, FrontEnds, OnBus};
 use drivetwin::cell::Cell;

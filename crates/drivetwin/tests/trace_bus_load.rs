@@ -6,7 +6,7 @@
 
 use std::time::Duration;
 
-use canopen::frame_time::{bits_to_nanos, frame_bits};
+use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
 use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::runtime::run_virtual;

@@ -35,12 +35,12 @@ pub trait LineDrives {
 }
 
 /// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
-/// ([`canopen::kinco_bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it does not
+/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it does not
 /// list.
 pub fn baud_of_code(code: u64) -> Option<u32> {
     u16::try_from(code)
         .ok()
-        .and_then(canopen::kinco_bit_rates::serial_bit_rate)
+        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
 }
 
 /// Which personalities have which serial ports (data: the manual's connector table).

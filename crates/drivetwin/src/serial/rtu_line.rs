@@ -1,5 +1,5 @@
 //! Modbus RTU on an RS485 line (`spec/kinco-fd-cd.md` §2.3, the codecs
-//! `modbus::rtu_framing` and `modbus::kinco_rtu`): a frame ends with 3.5 character times of
+//! `modbus::rtu_framing` and `drive::vendors::kinco::rtu`): a frame ends with 3.5 character times of
 //! silence at the line's baud rate, and every drive of the line hears it; the one whose
 //! station number (= node-ID 100Bh, §12.2) it names answers, once the silence has passed.
 //!
@@ -14,7 +14,7 @@
 //!   a longer gap than the device does and merge frames the device tells apart. The answer
 //!   leaves once that silence has passed, the earliest the device can know a frame ended.
 
-use modbus::kinco_rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu_framing::{three_and_a_half_characters, RtuFramer};
 use od::Instant;
 

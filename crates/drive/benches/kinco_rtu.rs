@@ -8,7 +8,7 @@
 )]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use modbus::kinco_rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
 use od::ObjectDictionary;
 
 fn kinco_rtu(c: &mut Criterion) {

@@ -2,7 +2,7 @@
 //! L2530-2640; spec/kinco-fd-cd.md §2.3): registers are a mapping onto the drive's objects, not
 //! a second copy. What the manual says:
 //!
-//! - Frame `station, function, data, CRC-16` (low byte first, [`crate::rtu`]), frames apart by
+//! - Frame `station, function, data, CRC-16` (low byte first, [`modbus::rtu`]), frames apart by
 //!   at least 3.5 character times (L2546); station = ID_Com 100Bh (L2528).
 //! - FC 03h read, 06h write one register, 10h write several (L2555-2637). A register address
 //!   is a Kinco code, looked up in a table ([`RegisterMapping`], the device file's `modbus`
@@ -35,15 +35,12 @@
 
 use od::{AbortCode, ObjectAccess};
 
-use crate::exception::Exception;
-use crate::function_code::{READ_HOLDING_REGISTERS, WRITE_MULTIPLE_REGISTERS};
-use crate::rtu;
-
-/// FC 06h write single register (not in [`crate::function_code`], which lists the CMMO-ST's).
-pub const WRITE_SINGLE_REGISTER: u8 = 0x06;
-
-/// Longest RTU frame (Modbus over Serial Line §2.5.1): 256 bytes.
-pub const MAX_FRAME: usize = 256;
+use modbus::exception::Exception;
+use modbus::function_code::{
+    READ_HOLDING_REGISTERS, WRITE_MULTIPLE_REGISTERS, WRITE_SINGLE_REGISTER,
+};
+use modbus::rtu;
+pub use modbus::rtu::MAX_FRAME;
 
 /// One register of the map: `register` (and the next ones for a longer value) is object
 /// `index`:`sub`.

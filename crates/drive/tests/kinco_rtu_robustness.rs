@@ -2,7 +2,7 @@
 //! it answers without a panic, only to its own station, with a frame whose CRC is right and
 //! whose function code is the request's or an error code (issue 13, "bad input").
 
-use modbus::kinco_rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu;
 use od::ObjectDictionary;
 use proptest::prelude::*;

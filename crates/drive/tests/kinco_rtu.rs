@@ -7,7 +7,7 @@
     clippy::panic
 )]
 
-use modbus::kinco_rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu;
 use od::{ObjectAccess, ObjectDictionary, Value};
 
