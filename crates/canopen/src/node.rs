@@ -90,7 +90,8 @@ struct SdoView<'a> {
 
 impl SdoView<'_> {
     /// The device file's `life_time_max_ms`: guard time × life time factor may not exceed it
-    /// (the manual that sets it gives one minute); a write that would make it longer is refused with 0604 0043h (general parameter incompatibility).
+    /// (the manual that sets it gives one minute); a write that would make it longer is
+    /// refused with 0604 0043h (general parameter incompatibility).
     fn check_life_time(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
         let Some(max) = self.life_time_max_ms else {
             return Ok(());
@@ -444,7 +445,8 @@ impl<const N: usize> Node<N> {
             return;
         }
         // Decision (seeds/003_ef071fe40f10c01c.txt L467–488 prints no toggle bit): CiA 301's
-        // toggle in bit 7 for every personality; it starts at 0, so the first answer is the manual's 7Fh.
+        // toggle in bit 7 for every personality; it starts at 0, so the first answer is the
+        // manual's 7Fh.
         let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
         self.guarding.toggle = !self.guarding.toggle;
         out(self.error_control_frame(byte));

@@ -10,7 +10,12 @@ use ethercat::{Esc, EscConfig, MailboxLayout};
 #[test]
 fn esc_with_cmmp_as_sii() {
     let mut image = vec![0u8; DEFAULT_IMAGE_SIZE];
-    build_sii(&devices::CMMP_AS, &SiiConfig::CMMP_AS, &mut image).expect("image");
+    build_sii(
+        &devices::CMMP_AS,
+        &SiiConfig::from_description(&devices::CMMP_AS),
+        &mut image,
+    )
+    .expect("image");
     let image: &'static [u8] = Box::leak(image.into_boxed_slice());
     let cfg = EscConfig::from_sii(image);
     assert_eq!(cfg.mailbox, Some(mailbox_layout()));

@@ -584,7 +584,8 @@ pub struct SwitchesSection {
 }
 
 /// `[drive.rotary_switches]`: `left` and `right` on a two-switch Nanotec (SMCI47-S; the value
-/// is 16 · right + left, see `drive::vendors::nanotec::rotary_switches`), `switch` on a one-switch one (PD4-N).
+/// is 16 · right + left, see `drive::vendors::nanotec::rotary_switches`), `switch` on a
+/// one-switch one (PD4-N).
 /// The EEPROM values they may select are 2009h (node-ID) and 2005h (bit rate) of
 /// `[drive.objects]`, else the defaults.
 #[derive(Debug, Clone, Deserialize)]
@@ -988,7 +989,7 @@ impl CellFile {
             let fieldbus = match &d.switches {
                 Some(sw) => {
                     let err = key_error(d, "switches");
-                    if desc.name != "cmmp-as" {
+                    if !desc.fieldbus_switches {
                         return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
                     }
                     Some(sw.settings().map_err(err)?)
@@ -1928,9 +1929,9 @@ mod bus_rate_tests {
     }
 
     /// The Kinco DIP vectors from a cell file (each named at its assertion; the switch table
-    /// itself is `drive::vendors::kinco::dip_switches`): `[drive.dip_switches]` gives the FD3's station
-    /// number (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices are
-    /// refused.
+    /// itself is `drive::vendors::kinco::dip_switches`): `[drive.dip_switches]` gives the FD3's
+    /// station number (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices
+    /// are refused.
     #[test]
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {

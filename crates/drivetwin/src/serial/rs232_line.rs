@@ -11,8 +11,8 @@
 //!   addressed answers.
 //!
 //! Decisions:
-//! - A partial telegram is dropped after [`drive::vendors::kinco::rs232::DEFAULT_GAP`] of silence on
-//!   the wire (the codec's rule), counted here.
+//! - A partial telegram is dropped after [`drive::vendors::kinco::rs232::DEFAULT_GAP`] of
+//!   silence on the wire (the codec's rule), counted here.
 //! - In a ring a drive passes a telegram on when it is whole, not byte by byte: the host
 //!   reads the same 20 bytes, 10 character times later than through a real repeater chain.
 //! - U2BRG (2FE1h) applies at once (§9.1 item 7): after each answer the line takes the rate
