@@ -27,7 +27,7 @@ fn kinco_rtu(c: &mut Criterion) {
     let server = KincoRtu {
         station: 1,
         map: &map,
-        errors: ErrorStyle::Manual,
+        errors: ErrorStyle::Read81h,
     };
     // KINCO-MB-01, -02, -03.
     let frames: [(&str, &[u8]); 3] = [

@@ -37,7 +37,7 @@ proptest! {
         let mut od = ObjectDictionary::new(d, 1, vec![0; d.storage_size]).unwrap();
         let map: Vec<RegisterMapping> = devices::addresses("kinco-fd3").unwrap().modbus.iter()
             .map(|r| RegisterMapping { register: r.register, index: r.index, sub: r.sub }).collect();
-        let server = KincoRtu { station: 1, map: &map, errors: ErrorStyle::Manual };
+        let server = KincoRtu { station: 1, map: &map, errors: ErrorStyle::Read81h };
         for f in frames {
             let mut out = [0u8; MAX_FRAME];
             if let Ok(n) = server.handle_frame(&f, &mut od, &mut out) {

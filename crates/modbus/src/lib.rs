@@ -22,6 +22,8 @@
 //! - [`watchdog`]: the CMMO-ST connection monitoring ("Node Guard / Timeout", §4.3.4).
 //! - [`rtu`]: the Modbus RTU CRC-16 for serial transports.
 //! - [`rtu_framing`]: RTU frames cut from a serial byte stream by the 3.5-character silence.
+//! - [`object_registers`]: an RTU server (FC 03h / 06h / 10h) whose holding registers are a
+//!   table mapping them onto a device's objects.
 //!
 //! Nothing here allocates, panics on wire data, reads a clock or touches a socket.
 #![no_std]
@@ -35,6 +37,7 @@ pub mod exception;
 pub mod framing;
 pub mod function_code;
 pub mod mbap;
+pub mod object_registers;
 pub mod request;
 pub mod rtu;
 pub mod rtu_framing;

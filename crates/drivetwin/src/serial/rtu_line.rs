@@ -5,7 +5,7 @@
 //!
 //! - A bad CRC or a station no drive of the line has: no answer, counted (KINCO-MB, §12.3).
 //! - Station 0 (broadcast): every drive carries out a write; none answers.
-//! - FC 03h errors answer 81h as the manual prints (the codec's `ErrorStyle::Manual`, see its
+//! - FC 03h errors answer 81h as the manual prints (the codec's `ErrorStyle::Read81h`, see its
 //!   decision), 86h / 90h for FC 06h / 10h.
 //! - The drives do not hear each other's answers (a reply is no request to another station).
 //! - **Decision:** a frame ends after 3.5 characters of silence at every baud rate, as the
@@ -54,7 +54,7 @@ impl RtuLine {
         RtuLine {
             framer: RtuFramer::with_gap(three_and_a_half_characters(baud)),
             drives,
-            errors: ErrorStyle::Manual,
+            errors: ErrorStyle::Read81h,
             counters: RtuCounters::default(),
             frame: Vec::with_capacity(MAX_FRAME),
         }
