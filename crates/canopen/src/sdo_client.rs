@@ -423,11 +423,11 @@ mod tests {
                 request: [0x60, 0, 0, 0, 0, 0, 0, 0]
             })
         );
-        let r = [0x00, b'C', b'M', b'M', b'P', b'-', b'A', b'S'];
+        let r = [0x00, b'd', b'r', b'i', b'v', b'e', b' ', b'1'];
         assert_eq!(
             c.on_response(&r, &[]),
             Ok(Progress::Next {
-                data: b"CMMP-AS",
+                data: b"drive 1",
                 request: [0x70, 0, 0, 0, 0, 0, 0, 0]
             })
         );

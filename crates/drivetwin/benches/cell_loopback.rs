@@ -22,7 +22,7 @@
 //! Last, the realistic bus: the same SDO upload against a CMMP-AS alone on a bus at the default
 //! cell's 125 kbit/s (`CELL_BENCH_BITRATE` another), client and loop on CPU 0,
 //! `CELL_BENCH_BUS_COUNT` round trips (default 2000). It prints the p50 beside what the bus
-//! alone costs: the request's and the answer's bit time (`canopen::frame_time`), plus the
+//! alone costs: the request's and the answer's bit time (`canbus::frame_time`), plus the
 //! drive's answer time, none (the answer leaves as the request has crossed; docs/decisions.md),
 //! and the ratio (target: within 5 %).
 //!
@@ -167,7 +167,7 @@ fn realistic_bus() -> Result<(), String> {
     }
     stop.stop();
     samples.sort_unstable();
-    let bus = canopen::timed_bus::TimedBus::<1>::new(bitrate);
+    let bus = canbus::timed_bus::TimedBus::<1>::new(bitrate);
     let frame =
         |id: u16, data: &[u8]| canopen::CanFrame::new(id, data).map_err(|e| format!("{e:?}"));
     let request = frame(0x601, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0])?;

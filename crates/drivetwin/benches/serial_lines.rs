@@ -18,8 +18,8 @@
 
 use std::time::{Duration, Instant as StdInstant};
 
-use canopen::kinco_rs232::{KincoRs232, Request};
 use criterion::{black_box, Criterion};
+use drive::vendors::kinco::rs232::{KincoRs232, Request};
 use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;

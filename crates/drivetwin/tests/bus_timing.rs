@@ -11,7 +11,7 @@
 
 use std::time::Duration;
 
-use canopen::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
+use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
 use drivetwin::cell::bus_timing::BusFigures;
 use drivetwin::cell::can_drive::{CanDrive, Commissioning};
@@ -257,5 +257,5 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     assert!(cell
         .node_faults()
         .iter()
-        .all(|f| f.confinement.state() == canopen::fault_confinement::ErrorState::Active));
+        .all(|f| f.confinement.state() == canbus::fault_confinement::ErrorState::Active));
 }

@@ -12,7 +12,7 @@
 
 use std::time::Duration;
 
-use canopen::frame_time::{bits_to_nanos, frame_bits};
+use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
 use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;

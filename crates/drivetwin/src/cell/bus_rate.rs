@@ -12,8 +12,8 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-use canopen::kinco_bit_rates;
-use canopen::rotary_switches::{self, PowerOn};
+use drive::vendors::kinco::bit_rates as kinco_bit_rates;
+use drive::vendors::nanotec::rotary_switches::{self, PowerOn};
 use serde::Deserialize;
 
 use crate::cell::fieldbus_switches::FieldbusSettings;
@@ -342,7 +342,7 @@ pub fn resolve(
 mod tests {
     use super::*;
     use crate::cell::fieldbus_switches::m3_power_on;
-    use canopen::rotary_switches::{power_on, RotarySwitches};
+    use drive::vendors::nanotec::rotary_switches::{power_on, RotarySwitches};
 
     fn node(device: &'static str, node: u8, rate: NodeRate) -> BusNode {
         BusNode { device, node, rate }

@@ -4,8 +4,9 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use canopen::{ci_terminal, CanFrame, Node, NodeEvent};
+use canopen::{CanFrame, Node, NodeEvent};
 use drive::drive::{DriveEvent, DriveSettings};
+use drive::vendors::festo_cmmp_as::ci_terminal;
 use od::{
     time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest,
 };
@@ -174,7 +175,7 @@ impl CanDrive {
     pub fn bus_state_changed(
         &mut self,
         now: Instant,
-        t: canopen::fault_confinement::Transition,
+        t: canbus::fault_confinement::Transition,
         out: &mut dyn FnMut(CanFrame),
     ) {
         use crate::cell::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};

@@ -110,7 +110,7 @@ pub struct BusInfo {
     /// With a bit rate in the cell file: what the bus did (load, late and lost frames).
     pub timing: Option<crate::cell::bus_timing::BusFigures>,
     /// Nodes whose CAN controller counts errors: (node-ID, state, TEC, REC).
-    pub node_errors: Vec<(u8, canopen::fault_confinement::ErrorState, u16, u16)>,
+    pub node_errors: Vec<(u8, canbus::fault_confinement::ErrorState, u16, u16)>,
 }
 
 /// One request to the loop.

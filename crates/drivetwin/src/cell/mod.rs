@@ -21,8 +21,8 @@ pub mod wire_faults;
 
 use std::collections::VecDeque;
 
-use canopen::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
-use canopen::frame_time::bits_to_nanos;
+use canbus::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
+use canbus::frame_time::bits_to_nanos;
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
@@ -184,7 +184,7 @@ impl Cell {
         now: Instant,
         line: &[u8],
         out: &mut Vec<CanFrame>,
-    ) -> Option<canopen::ci_terminal::Reply> {
+    ) -> Option<drive::vendors::festo_cmmp_as::ci_terminal::Reply> {
         let Cell { drives, queue, .. } = self;
         let d = drives.get_mut(drive)?;
         let reply = d.ci_line(now, line, &mut |f| queue.push_back((f, Some(drive))));

@@ -32,8 +32,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use canopen::ci_terminal::{self, syntax_error, Cut, LineCutter};
 use canopen::CanFrame;
+use drive::vendors::festo_cmmp_as::ci_terminal::{self, syntax_error, Cut, LineCutter};
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 

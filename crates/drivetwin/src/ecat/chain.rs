@@ -831,11 +831,14 @@ impl EthercatCell {
         desc: &'static DeviceDescription,
         drive: SlaveDrive,
     ) -> Result<(), EcatCellError> {
-        let cfg = SiiConfig::CMMP_AS;
+        let cfg = SiiConfig::from_description(desc);
         let image = sii_image(desc, &cfg)?;
         self.escs.push(Esc::with_sii(image));
-        self.devices
-            .push(SlaveDevice::new(cfg, CoeConfig::CMMP_AS, desc));
+        self.devices.push(SlaveDevice::new(
+            cfg,
+            CoeConfig::from_description(desc),
+            desc,
+        ));
         self.drives.push(drive);
         Ok(())
     }

@@ -42,23 +42,21 @@ pub struct EsiConfig<'a> {
 }
 
 impl EsiConfig<'static> {
-    /// The CMMP-AS (cmmp-as-1 §2.13; SII baseline of spec/ethercat-esc.md §3.5).
-    pub const CMMP_AS: EsiConfig<'static> = EsiConfig {
-        sii: SiiConfig::CMMP_AS,
-        group_name: "Festo Electric-Drive",
-        eeprom_size: sii::DEFAULT_IMAGE_SIZE,
-    };
-}
-
-impl Default for EsiConfig<'static> {
-    fn default() -> Self {
-        Self::CMMP_AS
+    /// What `desc`'s device file says (`[device.ethercat]`, on the SII baseline of
+    /// spec/ethercat-esc.md §3.5 without it).
+    pub fn from_description(desc: &DeviceDescription) -> Self {
+        EsiConfig {
+            sii: SiiConfig::from_description(desc),
+            group_name: desc.ethercat.map_or("Drives", |e| e.group_name),
+            eeprom_size: sii::DEFAULT_IMAGE_SIZE,
+        }
     }
 }
 
-/// Writes the ESI XML of `desc` with the CMMP-AS defaults ([`EsiConfig::CMMP_AS`]).
+/// Writes the ESI XML of `desc` as its device file describes it
+/// ([`EsiConfig::from_description`]).
 pub fn write_esi(desc: &DeviceDescription, w: &mut impl Write) -> fmt::Result {
-    write_esi_with(desc, &EsiConfig::CMMP_AS, w)
+    write_esi_with(desc, &EsiConfig::from_description(desc), w)
 }
 
 /// XML text or attribute value with `& < > " '` escaped and control characters replaced.
@@ -811,7 +809,7 @@ mod tests {
         let mut s = String::new();
         let cfg = EsiConfig {
             group_name: "<Drives & \"Motors\">",
-            ..EsiConfig::CMMP_AS
+            ..EsiConfig::from_description(cmmp())
         };
         write_esi_with(cmmp(), &cfg, &mut s).unwrap();
         let doc = roxmltree::Document::parse(&s).unwrap();

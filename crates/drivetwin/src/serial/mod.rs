@@ -35,23 +35,13 @@ pub trait LineDrives {
 }
 
 /// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
-/// ([`canopen::kinco_bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it does not
-/// list.
+/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it
+/// does not list.
 pub fn baud_of_code(code: u64) -> Option<u32> {
     u16::try_from(code)
         .ok()
-        .and_then(canopen::kinco_bit_rates::serial_bit_rate)
+        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
 }
-
-/// Which personalities have which serial ports (data: the manual's connector table).
-/// Kinco §1.1 / Tab. 3-7: X3 RS232 on the CD3 and the FD3; RS485 on the FD3 (X10 of the
-/// -LA variant). Decision: the twin's FD3 serves RS485 beside CANopen, as its device file
-/// says (one personality for both variants, issue 13).
-pub const SERIAL_PORTS: &[(&str, Kind)] = &[
-    ("kinco-fd3", Kind::Rs232),
-    ("kinco-fd3", Kind::Rs485),
-    ("kinco-cd3", Kind::Rs232),
-];
 
 /// A serial port of a drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,9 +59,10 @@ impl Kind {
     }
 }
 
-/// Whether personality `device` has a port of `kind`.
+/// Whether personality `device` has a port of `kind`: its device file lists it among its
+/// `interfaces` (`rs232`, `rs485`; the manual's connector table).
 pub fn has_port(device: &str, kind: Kind) -> bool {
-    SERIAL_PORTS.iter().any(|&(d, k)| d == device && k == kind)
+    devices::by_name(device).is_some_and(|d| d.interfaces.has.contains(&kind.as_str()))
 }
 
 #[cfg(test)]

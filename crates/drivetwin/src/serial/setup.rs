@@ -14,8 +14,8 @@
 
 use std::path::{Path, PathBuf};
 
-use canopen::kinco_rs232::KincoRs232;
-use modbus::kinco_rtu::RegisterMapping;
+use drive::vendors::kinco::rs232::KincoRs232;
+use drive::vendors::kinco::rtu::RegisterMapping;
 
 use super::line::{Protocol, SerialLine, VirtualLine};
 use super::pty::PortError;

@@ -1,0 +1,3 @@
+//! The Festo CMMP-AS servo drive.
+
+pub mod ci_terminal;

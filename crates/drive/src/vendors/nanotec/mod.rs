@@ -1,0 +1,3 @@
+//! The Nanotec SMCI / PD drives.
+
+pub mod rotary_switches;
