@@ -25,6 +25,13 @@
 //!
 //! Sockets are registered for readability only; a client whose socket does not take all of an
 //! answer is registered for writability until its buffer is empty (no wake-up per `ACK`).
+//!
+//! One `impl CellLoop` per concern, each in its own file: this one runs the loop (its
+//! tokens, its wait, the timers due); `connections` accepts, reads and writes the TCP
+//! connections; `socketcand`, `console` and `modbus_drives` serve what arrives on them;
+//! `can_bus` carries a frame to every node of a bus; `ethercat_chains` passes frames
+//! through the chains; `serial` serves the serial lines; `handle` the control handle's
+//! requests and samples; `wire` the wire faults and taps.
 
 use std::io;
 use std::net::SocketAddr;
