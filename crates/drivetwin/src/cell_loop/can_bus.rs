@@ -1,0 +1,155 @@
+//! The cell's CAN bus on the loop: a frame from any node (the drives, a socketcand client, the
+//! SocketCAN interface, the server joined) reaches every other node, the trace and the taps.
+
+use std::io::{self, Write};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+use canopen::CanFrame;
+
+use super::{wire, CellLoop, Kind, Source, MAX_HELD};
+use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
+use crate::can::socketcand::session::Session;
+
+impl CellLoop {
+    pub(super) fn read_socketcan(&mut self, b: usize, now: Instant) {
+        loop {
+            let Some(s) = self.buses.get(b).and_then(|x| x.socketcan.as_ref()) else {
+                return;
+            };
+            match s.try_recv() {
+                Ok(Some(frame)) => self.bus(b, frame, Source::SocketCan, now),
+                Ok(None) => {}
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    tracing::error!(error = %e, "SocketCAN receive failed; interface closed");
+                    if let Some(x) = self.buses.get_mut(b) {
+                        x.socketcan = None;
+                    }
+                    return;
+                }
+            }
+        }
+    }
+
+    /// Frames the drives of bus `b` sent: on the bus.
+    pub(super) fn drives_sent(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) {
+        for f in out.drain(..) {
+            self.bus(b, f, Source::Drives, now);
+        }
+    }
+
+    /// One frame on bus `b`: to every node of it but its source.
+    pub(super) fn bus(&mut self, b: usize, frame: CanFrame, source: Source, now: Instant) {
+        let Some(bus) = self.buses.get_mut(b) else {
+            return;
+        };
+        let stamp = SystemTime::now().max(bus.last_stamp);
+        bus.last_stamp = stamp;
+        bus.totals.frames += 1;
+        bus.totals.bytes += frame.payload().len() as u64;
+        if !self.taps.is_empty() {
+            self.tap(b, &frame, now);
+        }
+        let Some(bus) = self.buses.get_mut(b) else {
+            return;
+        };
+        let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
+        if let Some(w) = bus.trace.as_mut() {
+            if let Err(e) = w.write(since_epoch, &frame) {
+                tracing::error!(error = %e, "writing the trace failed; trace stopped");
+                bus.trace = None;
+            }
+            bus.trace_dirty = true;
+        }
+        if source != Source::SocketCan {
+            if let Some(s) = &bus.socketcan {
+                if let Err(e) = s.try_send(&frame) {
+                    tracing::warn!(error = %e, "SocketCAN: frame not sent");
+                }
+            }
+        }
+        if source != Source::Upstream {
+            if let Some(up) = bus.upstream.as_mut() {
+                // Formatted into the buffer: no allocation per frame.
+                let _ = write!(
+                    up.pending,
+                    "{}",
+                    crate::can::socketcand::Message::Send(frame)
+                );
+            }
+            self.flush_upstream(b);
+        }
+        if Session::forwards(&frame) {
+            let mut text = [0u8; FRAME_TEXT_MAX];
+            let n = emit_frame(&frame, since_epoch, &mut text);
+            self.text.clear();
+            self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
+            let per_client = self.client_faults();
+            let t = self.now(now);
+            for slot in 0..self.slots.len() {
+                if per_client {
+                    let to = match self.slots.get(slot) {
+                        Some(Some(c)) if matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b) => {
+                            Some(c.peer.port())
+                        }
+                        _ => None,
+                    };
+                    if let Some(port) = to.filter(|_| source != Source::Client(slot)) {
+                        match self.client_verdict(slot, port, true, frame.id, t) {
+                            None => {}
+                            Some(None) => continue,
+                            Some(Some(at)) => {
+                                self.held.push(wire::Held::ToClient {
+                                    slot,
+                                    port,
+                                    text: self.text.clone(),
+                                    at,
+                                });
+                                continue;
+                            }
+                        }
+                    }
+                }
+                let Some(c) = self.slots.get_mut(slot) else {
+                    continue;
+                };
+                let Some(conn) = c else {
+                    continue;
+                };
+                if source == Source::Client(slot) {
+                    continue;
+                }
+                let Kind::Socketcand {
+                    session, held, bus, ..
+                } = &mut conn.kind
+                else {
+                    continue;
+                };
+                if *bus != b {
+                    continue;
+                }
+                if session.is_streaming() {
+                    conn.pending.extend_from_slice(&self.text);
+                } else if session.wants_frames() && held.len() + self.text.len() <= MAX_HELD {
+                    held.extend_from_slice(&self.text);
+                    continue;
+                } else {
+                    continue;
+                }
+                if !self.dirty.contains(&slot) {
+                    self.dirty.push(slot);
+                }
+            }
+        }
+        if source != Source::Drives {
+            let mut out = std::mem::take(&mut self.out);
+            let t = self.now(now);
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.cell.on_frame(t, &frame, &mut out);
+            }
+            self.drives_sent(b, now, &mut out);
+            self.out = out;
+        }
+    }
+}

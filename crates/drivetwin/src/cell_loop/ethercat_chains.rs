@@ -1,0 +1,125 @@
+//! EtherCAT chains on the loop: a frame from the master passes the chain's slaves and goes
+//! back out at once; a slave that is a CANopen drive of the cell as well reaches that drive.
+
+use std::io;
+use std::time::Instant;
+
+use super::{cell_time, wire, BusState, CellLoop, EthercatChain, FRAMES_PER_TURN};
+use crate::cell::can_drive::CanDrive;
+use crate::cell::OnBus;
+use crate::ecat::chain::{trace_frame, BusDrives};
+
+/// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
+/// drive as well finds its drive.
+pub(super) struct Buses<'a>(pub(super) &'a mut [BusState]);
+
+impl BusDrives for Buses<'_> {
+    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
+        self.0.get_mut(at.bus)?.cell.drives.get_mut(at.drive)
+    }
+}
+
+impl CellLoop {
+    /// Reads EtherCAT frames of chain `c` until none waits (at most [`FRAMES_PER_TURN`]):
+    /// each passes the chain and goes back out at once, as through a line of real slaves.
+    pub(super) fn read_ethercat(&mut self, c: usize) {
+        let mut frame = std::mem::take(&mut self.frame);
+        let mut shared = false;
+        for turn in 0..=FRAMES_PER_TURN {
+            let Some(chain) = self.chains.get_mut(c) else {
+                break;
+            };
+            if turn == FRAMES_PER_TURN {
+                // More may wait: read on next turn, after the other sockets.
+                self.chains_to_read.push(c);
+                break;
+            }
+            let n = match chain.socket.try_recv(&mut frame) {
+                Ok(Some(n)) => n,
+                Ok(None) => continue,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT receive failed");
+                    break;
+                }
+            };
+            let Some(f) = frame.get_mut(..n) else {
+                continue;
+            };
+            trace_frame(chain.trace.as_ref(), f);
+            let t = cell_time(self.origin, Instant::now());
+            let front = crate::cell::wire_faults::FrontEnd::Ethercat(c);
+            match self.hold_until(front, t) {
+                None => {}
+                Some(None) => continue,
+                Some(Some(at)) => {
+                    self.held.push(wire::Held::Ethercat {
+                        chain: c,
+                        frame: f.to_vec(),
+                        at,
+                    });
+                    continue;
+                }
+            }
+            let Some(chain) = self.chains.get_mut(c) else {
+                break;
+            };
+            shared |= chain.chain.has_bus_drives();
+            Self::pass_chain(chain, f, t, &mut self.buses);
+        }
+        self.frame = frame;
+        if shared {
+            // A value the master wrote may be due in a TPDO (on change): the CANopen side of
+            // the chain's shared drives looks at once.
+            let now = Instant::now();
+            let t = self.now(now);
+            for b in 0..self.buses.len() {
+                let on_bus = self
+                    .chains
+                    .get(c)
+                    .is_some_and(|ch| ch.chain.has_drives_on_bus(b));
+                if !on_bus {
+                    continue;
+                }
+                let mut out = std::mem::take(&mut self.out);
+                if let Some(bus) = self.buses.get_mut(b) {
+                    bus.cell.poll(t, &mut out);
+                }
+                self.drives_sent(b, now, &mut out);
+                self.out = out;
+            }
+        }
+    }
+
+    /// One frame through chain `chain` and back out on its socket.
+    pub(super) fn pass_chain(
+        chain: &mut EthercatChain,
+        f: &mut [u8],
+        t: od::Instant,
+        buses: &mut [BusState],
+    ) {
+        if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
+            trace_frame(chain.trace.as_ref(), f);
+            match chain.socket.send(f) {
+                Ok(()) => {}
+                Err(e) if crate::ecat::link::is_queue_full(&e) => {
+                    tracing::warn!(
+                        interface = chain.socket.interface(),
+                        "TX queue full, frame lost"
+                    );
+                }
+                Err(e) => {
+                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
+                }
+            }
+        }
+    }
+
+    /// A frame a `delay` fault held back arrives at chain `c` at `t`.
+    pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
+        if let Some(chain) = self.chains.get_mut(c) {
+            Self::pass_chain(chain, &mut frame, t, &mut self.buses);
+        }
+    }
+}

@@ -1,0 +1,75 @@
+//! Modbus TCP drives on the loop: one connection per drive at a time, its requests answered
+//! as they arrive ([`crate::modbus_tcp::cell_drive`]).
+
+use std::net::SocketAddr;
+use std::time::Instant;
+
+use mio::net::TcpStream;
+
+use super::connections::peer_has_closed;
+use super::{CellLoop, Kind};
+
+impl CellLoop {
+    /// The CMMO-ST serves one connection at a time: a second one is closed at once without a
+    /// byte, unless the first has been closed by its client meanwhile
+    /// ([`crate::modbus_tcp::server`]).
+    pub(super) fn accept_modbus(&mut self, stream: TcpStream, peer: SocketAddr, drive: usize) {
+        let active = self.slots.iter().position(|c| {
+            c.as_ref()
+                .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
+        });
+        if let Some(slot) = active {
+            let closed = self
+                .slots
+                .get(slot)
+                .and_then(Option::as_ref)
+                .is_some_and(|c| peer_has_closed(&c.stream));
+            if !closed {
+                tracing::warn!(%peer, "Modbus: one connection at a time, refusing");
+                return;
+            }
+            self.close(slot, modbus::CloseReason::Peer);
+        }
+        let t = self.now(Instant::now());
+        let Some(m) = self.modbus.get_mut(drive) else {
+            return;
+        };
+        m.open_connection(t);
+        tracing::info!(%peer, "Modbus client connected");
+        self.add(stream, peer, Kind::Modbus { drive });
+    }
+
+    pub(super) fn close_modbus_of(&mut self, drive: usize) {
+        let slot = self.slots.iter().position(|c| {
+            c.as_ref()
+                .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
+        });
+        if let Some(slot) = slot {
+            // The drive has already seen the close (watchdog, stalled writes).
+            self.remove(slot);
+        }
+    }
+
+    /// A Modbus request's bytes on connection `slot` of drive `drive`, answered at `t`.
+    pub(super) fn modbus_request(
+        &mut self,
+        slot: usize,
+        drive: usize,
+        bytes: &[u8],
+        t: od::Instant,
+    ) {
+        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+            return;
+        };
+        let result = match self.modbus.get_mut(drive) {
+            Some(m) => m.answer(bytes, t, &mut conn.pending),
+            None => Ok(()),
+        };
+        self.mark_dirty(slot);
+        if let Err(reason) = result {
+            // The answers before a broken stream still go out.
+            self.write_pending(slot);
+            self.close(slot, reason);
+        }
+    }
+}
