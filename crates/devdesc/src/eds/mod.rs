@@ -30,20 +30,35 @@ pub struct Eds {
     pub node_id: Option<u8>,
     /// Where the device type 1000h's value is (for [`Eds::require_cia402`]).
     device_type_at: Location,
+    /// Where the profile's objects are listed (`[OptionalObjects] SupportedObjects`).
+    profile_objects_at: Location,
 }
+
+/// The objects every CiA 402 drive has (CiA 402 §6: controlword, statusword, modes of
+/// operation and its display).
+const CIA402_OBJECTS: [u16; 4] = [0x6040, 0x6041, 0x6060, 0x6061];
 
 impl Eds {
     /// Refuses a file whose device type 1000h does not name CiA 402 (bits 0–15 = 402, CiA 301
     /// §7.5.2.1).
+    /// A drive also has the objects of [`CIA402_OBJECTS`].
     pub fn require_cia402(&self) -> Result<(), EdsError> {
-        if self.device.profile == od::Profile::Cia402 {
-            return Ok(());
+        if self.device.profile != od::Profile::Cia402 {
+            return Err(EdsError::Invalid {
+                at: self.device_type_at.clone(),
+                what:
+                    "the device type 1000h does not name CiA 402 (bits 0-15 = 0192h): not a drive"
+                        .into(),
+            });
         }
-        Err(EdsError::Invalid {
-            at: self.device_type_at.clone(),
-            what: "the device type 1000h does not name CiA 402 (bits 0-15 = 0192h): not a drive"
-                .into(),
-        })
+        let has = |index: u16| self.device.objects.iter().any(|o| o.index == index);
+        match CIA402_OBJECTS.iter().find(|i| !has(**i)) {
+            None => Ok(()),
+            Some(missing) => Err(EdsError::Missing {
+                at: self.profile_objects_at.clone(),
+                what: format!("object {missing:04X}h, which every CiA 402 drive has (CiA 402 §6)"),
+            }),
+        }
     }
 }
 
@@ -232,10 +247,17 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         objects,
         diagnostics: Vec::new(),
     };
+    let profile_objects_at = OBJECT_LISTS
+        .iter()
+        .rev()
+        .skip(1)
+        .find_map(|l| ini.section(l))
+        .map_or_else(|| ini.at(info, ""), |s| ini.at(s, "SupportedObjects"));
     Ok(Eds {
         device,
         node_id,
         device_type_at,
+        profile_objects_at,
     })
 }
 

@@ -61,7 +61,15 @@ fn identity_types_access_and_profile() {
     assert_eq!(d.baud_rates, [125, 500]);
     assert!(!d.cia301.lss_unsupported);
     assert_eq!(d.profile, od::Profile::Cia402);
-    e.require_cia402().unwrap();
+    // A drive without its statusword is refused at the list of the profile's objects.
+    let line = line_of(&[0x6040], CONTROLWORD, "[OptionalObjects]") + 1;
+    assert_eq!(
+        e.require_cia402().unwrap_err().to_string(),
+        format!(
+            "dir/EPOS4 like.eds:{line}: [OptionalObjects] SupportedObjects: missing: object \
+             6041h, which every CiA 402 drive has (CiA 402 §6)"
+        )
+    );
     let cw = &d
         .objects
         .iter()
