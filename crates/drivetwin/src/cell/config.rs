@@ -951,6 +951,7 @@ impl CellFile {
         let desc = crate::cell::eds_drive::load(eds)?;
         let mut file = Self::single("", node);
         if let Some(d) = file.drive.first_mut() {
+            d.device = default_device();
             d.eds = Some(eds.to_path_buf());
             if desc.entry(0x1017, 0).is_none() {
                 d.objects.clear();
@@ -1011,6 +1012,13 @@ impl CellFile {
         let mut specs: Vec<DriveSpec> = Vec::new();
         for d in &self.drive {
             let desc = match &d.eds {
+                Some(_) if d.device != default_device() => {
+                    return Err(ConfigError::Object {
+                        node: d.node,
+                        key: "eds".into(),
+                        what: format!("a drive is `device = {:?}` or `eds`, not both", d.device),
+                    })
+                }
                 Some(eds) => crate::cell::eds_drive::load(eds)?,
                 None => devices::by_name(&d.device).ok_or_else(|| {
                     let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();

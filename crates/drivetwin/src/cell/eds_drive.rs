@@ -282,3 +282,52 @@ mod tests {
         assert_eq!(d.od().value(0x6064, 0), Some(od::Value::Signed(1000)));
     }
 }
+
+#[cfg(test)]
+mod cell_file_tests {
+    use super::*;
+    use crate::cell::config::{CellFile, ConfigError};
+
+    /// `eds = "…"` is relative to the cell file; `device` and `eds` together are refused; a
+    /// broken file is refused with its line.
+    #[test]
+    fn eds_on_a_drive_of_a_cell_file() {
+        let dir = std::env::temp_dir().join(format!("drivetwin-eds-cell-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("drives")).unwrap();
+        let source = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let text = std::fs::read_to_string(&source).unwrap();
+        std::fs::write(dir.join("drives/axis.eds"), &text).unwrap();
+        let cell = dir.join("cell.toml");
+        std::fs::write(&cell, "[[drive]]\neds = \"drives/axis.eds\"\nnode = 4\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].desc.name, "axis");
+        assert_eq!(specs[0].node, 4);
+        assert!(
+            specs[0].settings.is_some(),
+            "a CiA 402 drive with its motor"
+        );
+
+        std::fs::write(
+            &cell,
+            "[[drive]]\ndevice = \"nanotec-pd4n\"\neds = \"drives/axis.eds\"\n",
+        )
+        .unwrap();
+        let err = CellFile::load(&cell).unwrap().drives().unwrap_err();
+        assert!(err.to_string().contains("not both"), "{err}");
+
+        let broken = text.replacen("AccessType=rw\n", "AccessType=rx\n", 1);
+        let line = broken.lines().position(|l| l == "AccessType=rx").unwrap() + 1;
+        std::fs::write(dir.join("drives/broken.eds"), broken).unwrap();
+        std::fs::write(&cell, "[[drive]]\neds = \"drives/broken.eds\"\n").unwrap();
+        let err = CellFile::load(&cell).unwrap().drives().unwrap_err();
+        assert!(matches!(err, ConfigError::Eds(_)));
+        let path = dir.join("drives/broken.eds");
+        assert!(
+            err.to_string()
+                .starts_with(&format!("{}:{line}: [", path.display())),
+            "{err}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
