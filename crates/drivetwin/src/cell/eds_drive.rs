@@ -12,7 +12,7 @@ use std::sync::Mutex;
 use devdesc::eds::EdsError;
 use drive::drive::mode;
 use drive::homing::{Method, METHODS};
-use drive::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality, Vendor};
+use drive::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality};
 use od::DeviceDescription;
 
 /// A file read, its description and the personality the engine runs it with.
@@ -91,10 +91,11 @@ const MODES: [(u8, i8, &[u16]); 7] = [
 /// The generic CiA 402 personality of `desc`: CiA 402's defaults where the engine asks a
 /// personality, the modes and homing methods from the file.
 ///
-/// Decision: until the engine has a vendor of CiA 402's defaults, the generic drive runs on
-/// the engine's CMMP-AS path (`Vendor::CmmpAs`), the one the engine falls back to: the
-/// vendor is chosen on one line below. What that path adds beyond CiA 402 applies only where
-/// the file has the CMMP-AS's objects (6510h, 2100h, 2090h, 2045h).
+/// Decision: the behaviour a table cannot hold is the engine's fallback for a device without a
+/// personality of its own ([`drive::personality::for_device`]), chosen on one line below:
+/// the CMMP-AS's path until the engine has a vendor of CiA 402's defaults. What that path
+/// adds beyond CiA 402 reads objects the file may lack (6510h, 2090h, 2045h), which then
+/// read as 0.
 fn personality(desc: &'static DeviceDescription) -> Personality {
     let has = |index: u16| desc.object(index).is_some();
     // Without 6502h the objects alone say which modes there are.
@@ -134,7 +135,7 @@ fn personality(desc: &'static DeviceDescription) -> Personality {
         .filter(|(m, _)| listed.as_ref().is_none_or(|l| l.contains(&i64::from(*m))))
         .collect();
     Personality {
-        vendor: Vendor::CmmpAs,
+        vendor: drive::personality::for_device(desc.name).vendor,
         devices: Box::leak(vec![desc.name].into_boxed_slice()),
         modes: Box::leak(modes.into_boxed_slice()),
         // CiA 402 §6.3.4–6.3.8: the engine's defaults where the file's option codes say
