@@ -190,6 +190,9 @@ mod tests {
         assert!(e.to_string().starts_with("f.eds:2: "), "{e}");
         let e = Ini::parse("x=1\n", "f.eds").unwrap_err();
         assert!(e.to_string().starts_with("f.eds:1: "), "{e}");
+        // CR LF line ends, as most EDS tools write them.
+        let ini = Ini::parse("[A]\r\nx = 1\r\n", "f.eds").unwrap();
+        assert_eq!(ini.section("a").unwrap().value("x"), Some("1"));
         let e = Ini::parse("[A\n", "f.eds").unwrap_err();
         assert!(e.to_string().contains("section header"), "{e}");
     }

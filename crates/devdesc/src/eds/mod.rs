@@ -82,7 +82,8 @@ const OBJECT_LISTS: [&str; 3] = ["MandatoryObjects", "OptionalObjects", "Manufac
 
 /// Reads an EDS or DCF from `text`; `file` names it in errors and gives the device its name.
 pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
-    let ini = Ini::parse(text, file)?;
+    // A byte-order mark some editors write is not part of the first line.
+    let ini = Ini::parse(text.strip_prefix('\u{feff}').unwrap_or(text), file)?;
     let info = ini.section("DeviceInfo").ok_or_else(|| EdsError::Missing {
         at: Location {
             file: file.to_owned(),
@@ -143,7 +144,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         }
     }
     for s in &ini.sections {
-        if let Some(index) = object_section(&s.name) {
+        if let Some(index) = object_section(&s.name).or(sub_section(&s.name).map(|(i, _)| i)) {
             if !listed.iter().any(|(i, _)| *i == index) {
                 return Err(EdsError::Invalid {
                     at: ini.at(s, ""),

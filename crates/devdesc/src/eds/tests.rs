@@ -210,6 +210,11 @@ fn structure_mistakes_are_named() {
     )
     .contains("[6040] ParameterName: missing"));
     assert!(err(&[0x6040], &CONTROLWORD.replace("0x7", "0x3")).contains("no object code"));
+    // A sub-index of an object no list names.
+    let orphan = "[2002sub1]\nParameterName=x\nDataType=0x0007\nAccessType=rw\n\n";
+    assert!(err(&[], orphan).contains("[2002sub1]: object 2002h is in none of"));
+    // A byte-order mark is not part of the first line.
+    assert!(parse(&format!("\u{feff}{}", eds(&[], "")), "t.eds").is_ok());
     // SupportedObjects and its numbered keys agree.
     let text = eds(&[0x6040], CONTROLWORD).replace("1=0x6040\n", "1=0x6040\n2=0x6041\n");
     let msg = parse(&text, "t.eds").unwrap_err().to_string();
