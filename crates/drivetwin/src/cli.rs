@@ -209,6 +209,10 @@ pub struct RunArgs {
     /// Node-ID of the single drive (ignored with --config).
     #[arg(long, default_value_t = 1)]
     pub node: u8,
+    /// The single drive is a CiA 402 drive from this EDS or DCF (CiA 306) instead of a
+    /// built-in --device: its dictionary, modes and homing methods, the default servo motor.
+    #[arg(long, value_name = "FILE", conflicts_with = "config")]
+    pub eds: Option<PathBuf>,
     /// socketcand server address.
     #[arg(long)]
     pub socketcand: Option<String>,

@@ -71,6 +71,9 @@ pub enum ConfigError {
     },
     #[error(transparent)]
     BusRate(#[from] bus_rate::Disagreement),
+    /// A drive's EDS / DCF (`eds`, `--eds`) refused, with its file, line, section and key.
+    #[error(transparent)]
+    Eds(#[from] devdesc::eds::EdsError),
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -234,6 +237,10 @@ fn default_channel() -> String {
 pub struct DriveSection {
     #[serde(default = "default_device")]
     pub device: String,
+    /// A CiA 402 drive from its EDS or DCF (CiA 306) instead of a built-in `device`: the
+    /// file's dictionary on the engine's standard behaviour ([`crate::cell::eds_drive`]). A
+    /// relative path is relative to the cell file.
+    pub eds: Option<PathBuf>,
     #[serde(default = "default_node")]
     pub node: u8,
     /// Commissioning values, `"IIII:SS" = value` (hex index and sub-index).
@@ -931,10 +938,32 @@ impl CellFile {
             path: path.to_path_buf(),
             source,
         })?;
-        toml::from_str(&text).map_err(|source| ConfigError::Toml {
+        let mut file: CellFile = toml::from_str(&text).map_err(|source| ConfigError::Toml {
             path: path.to_path_buf(),
             source,
-        })
+        })?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        for d in &mut file.drive {
+            if let Some(eds) = d.eds.as_mut().filter(|p| p.is_relative()) {
+                *eds = dir.join(&*eds);
+            }
+        }
+        Ok(file)
+    }
+
+    /// The default cell with one drive from its EDS or DCF (`--eds`), as [`CellFile::single`]:
+    /// the heartbeat where the file has 1017h.
+    pub fn single_eds(eds: &Path, node: u8) -> Result<Self, ConfigError> {
+        let desc = crate::cell::eds_drive::load(eds)?;
+        let mut file = Self::single("", node);
+        if let Some(d) = file.drive.first_mut() {
+            d.device = default_device();
+            d.eds = Some(eds.to_path_buf());
+            if desc.entry(0x1017, 0).is_none() {
+                d.objects.clear();
+            }
+        }
+        Ok(file)
     }
 
     /// The default cell with one drive: heartbeat 1000 ms, and for a CiA 402 drive the
@@ -957,6 +986,7 @@ impl CellFile {
             bus: Buses::default(),
             drive: vec![DriveSection {
                 device: device.to_string(),
+                eds: None,
                 node,
                 objects,
                 motor: MotorSection::default(),
@@ -987,10 +1017,20 @@ impl CellFile {
     pub fn drives(&self) -> Result<Vec<DriveSpec>, ConfigError> {
         let mut specs: Vec<DriveSpec> = Vec::new();
         for d in &self.drive {
-            let desc = devices::by_name(&d.device).ok_or_else(|| {
-                let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
-                ConfigError::UnknownDevice(d.device.clone(), known.join(", "))
-            })?;
+            let desc = match &d.eds {
+                Some(_) if d.device != default_device() => {
+                    return Err(ConfigError::Object {
+                        node: d.node,
+                        key: "eds".into(),
+                        what: format!("a drive is `device = {:?}` or `eds`, not both", d.device),
+                    })
+                }
+                Some(eds) => crate::cell::eds_drive::load(eds)?,
+                None => devices::by_name(&d.device).ok_or_else(|| {
+                    let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
+                    ConfigError::UnknownDevice(d.device.clone(), known.join(", "))
+                })?,
+            };
             let fieldbus = match &d.switches {
                 Some(sw) => {
                     let err = key_error(d, "switches");

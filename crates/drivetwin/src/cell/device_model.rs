@@ -23,7 +23,13 @@ impl Model {
     /// A drive model when the personality is a CiA 402 device and `settings` are given.
     pub fn new(od: ObjectDictionary<Vec<u8>>, settings: Option<DriveSettings>) -> Self {
         match settings {
-            Some(s) if is_cia402(od.description()) => Model::Drive(Box::new(Drive::new(od, s))),
+            Some(s) if is_cia402(od.description()) => {
+                let drive = match crate::cell::eds_drive::personality_of(od.description()) {
+                    Some(p) => Drive::with_personality(od, s, p),
+                    None => Drive::new(od, s),
+                };
+                Model::Drive(Box::new(drive))
+            }
             _ => Model::Plain(od),
         }
     }

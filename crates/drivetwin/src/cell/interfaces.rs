@@ -35,7 +35,7 @@ impl InterfaceName {
 
 /// What `device` offers (a personality the twin does not know: CANopen only).
 pub fn offer(device: &str) -> od::InterfaceOffer {
-    devices::by_name(device)
+    crate::cell::eds_drive::by_name(device)
         .map(|d| d.interfaces)
         .unwrap_or(od::InterfaceOffer {
             has: &["canopen"],

@@ -11,6 +11,7 @@ pub mod config;
 pub mod control;
 pub mod device_model;
 pub mod diagnostics;
+pub mod eds_drive;
 pub mod fieldbus_switches;
 pub mod interfaces;
 pub mod lateness;

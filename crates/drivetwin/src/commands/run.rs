@@ -144,7 +144,10 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         files.push(CellFile::load(path)?);
     }
     if files.is_empty() {
-        files.push(CellFile::single(&args.device, args.node));
+        files.push(match &args.eds {
+            Some(eds) => CellFile::single_eds(eds, args.node)?,
+            None => CellFile::single(&args.device, args.node),
+        });
     }
     if files.len() > 1
         && (args.virtual_seconds.is_some() || args.modbus_io != crate::cli::ModbusIo::Cell)

@@ -65,7 +65,7 @@ impl LiveRig {
     }
 
     fn encode(info: &DriveInfo, index: u16, sub: u8, value: &str) -> Result<Vec<u8>, String> {
-        let desc = devices::by_name(info.device).ok_or("no device description")?;
+        let desc = crate::cell::eds_drive::by_name(info.device).ok_or("no device description")?;
         let e = desc
             .entry(index, sub)
             .ok_or_else(|| format!("{index:04X}:{sub:02X}: no such object"))?;

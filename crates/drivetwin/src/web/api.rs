@@ -207,7 +207,7 @@ pub struct StatusBit {
 }
 
 fn description(info: &DriveInfo) -> Result<&'static DeviceDescription, ApiError> {
-    devices::by_name(info.device)
+    crate::cell::eds_drive::by_name(info.device)
         .ok_or_else(|| ApiError::not_found(format!("no device description {:?}", info.device)))
 }
 

@@ -183,7 +183,7 @@ pub async fn samples(
                     .drives()
                     .ok()
                     .and_then(|d| d.into_iter().find(|d| d.index == index))
-                    .and_then(|d| devices::by_name(d.device))
+                    .and_then(|d| crate::cell::eds_drive::by_name(d.device))
             })
             .await
             .ok()

@@ -633,7 +633,7 @@ enum Kind {
 fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
     let info = super::api::find_drive(h, drive)?;
     let index = info.index;
-    let desc = devices::by_name(info.device);
+    let desc = crate::cell::eds_drive::by_name(info.device);
     if info.interface == Interface::ModbusTcp {
         Ok((index, Kind::Fhpp))
     } else if desc.is_some_and(|d| d.entry(0x6040, 0).is_some()) {

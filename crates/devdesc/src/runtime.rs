@@ -1,0 +1,134 @@
+//! A checked description turned into an `od::DeviceDescription` while the program runs, for
+//! devices that are not compiled in (a drive from its EDS). The build-time path
+//! ([`crate::codegen`]) writes the same tables as Rust source; both lay out the storage
+//! buffer the same way.
+//!
+//! `od::DeviceDescription` holds `&'static` tables so that the `no_std` dictionary and drive
+//! need no allocator. A description built here is therefore leaked: once per file, at
+//! start-up, in the std runtime, and it lives as long as the process, as a compiled-in one
+//! does.
+
+use crate::model::Device;
+
+/// The description of `d`, leaked to live for the rest of the process (see the module doc:
+/// call it once per device, at start-up).
+pub fn leak(d: &Device) -> &'static od::DeviceDescription {
+    let mut offset: u32 = 0;
+    let objects: Vec<od::Object> = d
+        .objects
+        .iter()
+        .map(|o| {
+            let entries: Vec<od::Entry> = o
+                .entries
+                .iter()
+                .map(|e| {
+                    let entry = od::Entry {
+                        index: e.index,
+                        sub: e.sub,
+                        name: text(&e.name),
+                        data_type: e.data_type,
+                        access: e.access,
+                        pdo_mappable: e.pdo,
+                        default: Box::leak(e.default.clone().into_boxed_slice()),
+                        default_plus_node_id: e.default_plus_node_id,
+                        min: e.min,
+                        max: e.max,
+                        unit: text(&e.unit),
+                        behaviour: e.behaviour,
+                        storable: e.storable,
+                        kept_on_restore: e.kept_on_restore,
+                        allowed_bits: e.allowed_bits,
+                        offset,
+                        capacity: e.capacity,
+                    };
+                    offset += entry.storage_len() as u32;
+                    entry
+                })
+                .collect();
+            od::Object {
+                index: o.index,
+                name: text(&o.name),
+                kind: o.kind,
+                min_max: o.min_max,
+                entries: Box::leak(entries.into_boxed_slice()),
+            }
+        })
+        .collect();
+    let diagnostics: Vec<od::Diagnostic> = d
+        .diagnostics
+        .iter()
+        .map(|g| od::Diagnostic {
+            number: text(&g.number),
+            code: g.code,
+            register: g.register,
+            reaction: g.reaction,
+            text: text(&g.text),
+            display: text(&g.display),
+            classes: text(&g.classes),
+            reactions: text(&g.reactions),
+            memory: text(&g.memory),
+            ack: text(&g.ack),
+            source: text(&g.source),
+        })
+        .collect();
+    let texts = |v: &[String]| -> &'static [&'static str] {
+        Box::leak(
+            v.iter()
+                .map(|s| text(s))
+                .collect::<Vec<_>>()
+                .into_boxed_slice(),
+        )
+    };
+    Box::leak(Box::new(od::DeviceDescription {
+        name: text(&d.name),
+        product_name: text(&d.product_name),
+        vendor_name: text(&d.vendor_name),
+        vendor_id: d.vendor_id,
+        product_code: d.product_code,
+        revision: d.revision,
+        order_code: text(&d.order_code),
+        description: text(&d.description),
+        profile: d.profile,
+        default_node_id: d.default_node_id,
+        baud_rates: Box::leak(d.baud_rates.clone().into_boxed_slice()),
+        rotary_switches: d.rotary_switches,
+        interfaces: od::InterfaceOffer {
+            has: texts(&d.interfaces),
+            one_of: texts(&d.interfaces_one_of),
+            rule: text(&d.interfaces_rule),
+        },
+        cia301: d.cia301,
+        objects: Box::leak(objects.into_boxed_slice()),
+        diagnostics: Box::leak(diagnostics.into_boxed_slice()),
+        storage_size: offset as usize,
+    }))
+}
+
+fn text(s: &str) -> &'static str {
+    Box::leak(s.to_owned().into_boxed_str())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A compiled-in device and the same file built at run time lay out the same dictionary.
+    #[test]
+    fn the_same_tables_as_the_code_generator() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../devices/cmmp-as.toml");
+        let d = crate::load_file(&path).unwrap();
+        let desc = leak(&d);
+        let source = crate::codegen::generate(&d);
+        assert!(source.contains(&format!("storage_size: {},", desc.storage_size)));
+        let last = desc.entries().last().unwrap();
+        assert!(source.contains(&format!(
+            "offset: {}, capacity: {}",
+            last.offset, last.capacity
+        )));
+        assert_eq!(
+            desc.entry(0x6040, 0).unwrap().data_type,
+            od::DataType::Unsigned16
+        );
+    }
+}

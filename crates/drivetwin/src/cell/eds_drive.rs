@@ -1,0 +1,334 @@
+//! A CiA 402 drive from its EDS or DCF (CiA 306): the dictionary is the file's, the modes
+//! are those its 6502h supported_drive_modes and its objects allow, the homing methods those
+//! of 60E3h (or every method the engine knows), the motor the default servo motor.
+//!
+//! The description and the personality are built once per file at start-up and leaked: the
+//! `no_std` engine holds `&'static` tables ([`devdesc::runtime`]), and a loaded drive lives as
+//! long as the process. A file named twice (a cell file and `--eds`) is read once.
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use devdesc::eds::EdsError;
+use drive::drive::mode;
+use drive::homing::{Method, METHODS};
+use drive::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality};
+use od::DeviceDescription;
+
+/// A file read, its description and the personality the engine runs it with.
+struct Loaded {
+    path: PathBuf,
+    desc: &'static DeviceDescription,
+    personality: &'static Personality,
+}
+
+/// Every EDS / DCF loaded by this process.
+static LOADED: Mutex<Vec<Loaded>> = Mutex::new(Vec::new());
+
+/// The description of the CiA 402 drive the EDS / DCF at `path` describes, read and checked
+/// on the first call for the file.
+pub fn load(path: &Path) -> Result<&'static DeviceDescription, EdsError> {
+    let key = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    let mut loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(l) = loaded.iter().find(|l| l.path == key) {
+        return Ok(l.desc);
+    }
+    let eds = devdesc::eds::load_file(path)?;
+    eds.require_cia402()?;
+    let mut device = eds.device;
+    // The name tells drives apart in the console and the API: never a built-in device's,
+    // never another file's.
+    let base = if devices::by_name(&device.name).is_some() {
+        format!("eds-{}", device.name)
+    } else {
+        device.name.clone()
+    };
+    device.name = base.clone();
+    let mut n = 2;
+    while loaded.iter().any(|l| l.desc.name == device.name) {
+        device.name = format!("{base}-{n}");
+        n += 1;
+    }
+    let desc = devdesc::runtime::leak(&device);
+    let personality = Box::leak(Box::new(personality(desc)));
+    loaded.push(Loaded {
+        path: key,
+        desc,
+        personality,
+    });
+    Ok(desc)
+}
+
+/// The personality of a drive loaded from an EDS; `None` for a built-in device.
+pub fn personality_of(desc: &DeviceDescription) -> Option<&'static Personality> {
+    let loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
+    loaded
+        .iter()
+        .find(|l| std::ptr::eq(l.desc, desc))
+        .map(|l| l.personality)
+}
+
+/// A built-in device, or a drive loaded from an EDS, by its name.
+pub fn by_name(name: &str) -> Option<&'static DeviceDescription> {
+    devices::by_name(name).or_else(|| {
+        let loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
+        loaded.iter().find(|l| l.desc.name == name).map(|l| l.desc)
+    })
+}
+
+/// CiA 402 §6.4.4 (6502h) bit, 6060h value, and the objects a mode cannot run without, for
+/// each mode the engine implements.
+const MODES: [(u8, i8, &[u16]); 7] = [
+    (0, mode::PROFILE_POSITION, &[0x607A, 0x6081]),
+    (1, mode::VELOCITY, &[0x6042]),
+    (2, mode::PROFILE_VELOCITY, &[0x60FF]),
+    (3, mode::PROFILE_TORQUE, &[0x6071]),
+    (5, mode::HOMING, &[0x6098]),
+    (6, mode::INTERPOLATED_POSITION, &[0x60C1]),
+    (7, mode::CYCLIC_SYNCHRONOUS_POSITION, &[0x607A]),
+];
+
+/// The generic CiA 402 personality of `desc`: CiA 402's defaults where the engine asks a
+/// personality, the modes and homing methods from the file.
+///
+/// Decision: the behaviour a table cannot hold is the engine's fallback for a device without a
+/// personality of its own ([`drive::personality::for_device`]), chosen on one line below:
+/// the CMMP-AS's path until the engine has a vendor of CiA 402's defaults. What that path
+/// adds beyond CiA 402 reads objects the file may lack (6510h, 2090h, 2045h), which then
+/// read as 0.
+fn personality(desc: &'static DeviceDescription) -> Personality {
+    let has = |index: u16| desc.object(index).is_some();
+    // Without 6502h the objects alone say which modes there are.
+    let supported = desc
+        .entry(0x6502, 0)
+        .and_then(|e| od::Value::decode(e.data_type, e.default))
+        .and_then(|v| match v {
+            od::Value::Unsigned(u) => Some(u),
+            _ => None,
+        });
+    let modes: Vec<ModeSpec> = MODES
+        .iter()
+        .filter(|(bit, _, needs)| {
+            supported.is_none_or(|s| s & (1 << bit) != 0) && needs.iter().all(|i| has(*i))
+        })
+        .map(|(bit, mode, _)| ModeSpec {
+            mode: *mode,
+            bit: Some(*bit),
+            ethercat_only: false,
+        })
+        .collect();
+    // 60E3h supported_homing_methods (CiA 402 §8.4.1): sub 1… each a method.
+    let listed: Option<Vec<i64>> = desc.object(0x60E3).map(|o| {
+        o.entries
+            .iter()
+            .filter(|e| e.sub > 0)
+            .filter_map(|e| match od::Value::decode(e.data_type, e.default) {
+                Some(od::Value::Signed(s)) => Some(s),
+                Some(od::Value::Unsigned(u)) => i64::try_from(u).ok(),
+                _ => None,
+            })
+            .collect()
+    });
+    let homing_methods: Vec<Method> = METHODS
+        .iter()
+        .copied()
+        .filter(|(m, _)| listed.as_ref().is_none_or(|l| l.contains(&i64::from(*m))))
+        .collect();
+    Personality {
+        vendor: drive::personality::for_device(desc.name).vendor,
+        devices: Box::leak(vec![desc.name].into_boxed_slice()),
+        modes: Box::leak(modes.into_boxed_slice()),
+        // CiA 402 §6.3.4–6.3.8: the engine's defaults where the file's option codes say
+        // nothing else.
+        option_codes: &[],
+        // CiA 402 §6.1.1: "Switch on + enable operation" (0Fh) runs transitions 3 and 4.
+        enable_from_ready: true,
+        errors: &ERRORS,
+        stepper_plant: false,
+        pp_overwrite_queued: false,
+        capabilities: Capabilities {
+            feed_constant: false,
+            pp_target_limits: false,
+            ip_follows_sync: false,
+            ip_changing_until_synchronised: false,
+            ip_abrupt_quick_stop: false,
+            homing_immediate: false,
+            switch_polarity_objects: desc.entry(0x6510, 0x11).is_some(),
+            brake_in_60fe: false,
+            zero_ramp_is_abrupt: false,
+            vl_actual_closed_loop_only: false,
+        },
+        homing_methods: Box::leak(homing_methods.into_boxed_slice()),
+        external_home_switch: None,
+        // No hardware enables: a drive from its EDS is enabled by its controlword alone.
+        hardware_enable: None,
+    }
+}
+
+/// The errors the engine detects, with the EMCY codes of CiA 402 §6.4 (Tab. 22) and the
+/// error register bits of CiA 301 §7.5.2.2. A condition CiA 402 gives no code (homing,
+/// limit switches, SYNC) is reported by the statusword alone.
+const ERRORS: [ErrorSpec; 3] = [
+    ErrorSpec {
+        fault: Fault::DcLinkUndervoltage,
+        code: 0x3220,
+        register: 0x04,
+        critical: false,
+    },
+    ErrorSpec {
+        fault: Fault::FollowingError,
+        code: 0x8611,
+        register: 0x20,
+        critical: true,
+    },
+    ErrorSpec {
+        fault: Fault::I2tMotor,
+        code: 0x2310,
+        register: 0x02,
+        critical: false,
+    },
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive::drive::{Drive, DriveSettings};
+    use od::{Instant, ObjectAccess, ObjectDictionary};
+
+    fn data(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/interop/data/eds")
+            .join(name)
+    }
+
+    fn modes(p: &Personality) -> Vec<i8> {
+        p.modes.iter().map(|m| m.mode).collect()
+    }
+
+    #[test]
+    fn modes_and_homing_methods_from_the_file() {
+        let epos = load(&data("epos4_like.eds")).unwrap();
+        let p = personality_of(epos).unwrap();
+        // 6502h = PPM, PVM, HMM, CSP, CSV, CST: CSV and CST the engine does not run.
+        assert_eq!(modes(p), [1, 3, 6, 8]);
+        assert_eq!(
+            p.homing_methods.len(),
+            METHODS.len(),
+            "no 60E3h: every method"
+        );
+        let lxm = load(&data("lexium32_like.eds")).unwrap();
+        let p = personality_of(lxm).unwrap();
+        // 6502h = PP, PV, PT, HM, IP, CSP, CSV, CST; IP has its 60C1h.
+        assert_eq!(modes(p), [1, 3, 4, 6, 7, 8]);
+        let methods: Vec<i8> = p.homing_methods.iter().map(|(m, _)| *m).collect();
+        assert_eq!(methods, [1, 2, 7, 11, 17, 18, 23, 27, 33, 34, 35]);
+        // Read once: the same description again, found by its name too.
+        assert!(std::ptr::eq(load(&data("epos4_like.eds")).unwrap(), epos));
+        assert!(std::ptr::eq(by_name("lexium32-like").unwrap(), lxm));
+        assert!(personality_of(&devices::CMMP_AS).is_none());
+    }
+
+    /// The generic drive on the engine: enabled by its controlword alone, a PP move, homing
+    /// method 35 on the spot (CiA 402 §8.4, the actual position is the home position).
+    #[test]
+    fn enable_move_and_home_on_the_virtual_clock() {
+        let desc = load(&data("lexium32_like.eds")).unwrap();
+        let od = ObjectDictionary::new(desc, 5, vec![0; desc.storage_size]).unwrap();
+        assert_eq!(
+            od.get_unsigned(0x1800, 1),
+            Some(0x4000_0185),
+            "$NODEID+0x40000180"
+        );
+        let mut d =
+            Drive::with_personality(od, DriveSettings::default(), personality_of(desc).unwrap());
+        let mut now = Instant::ZERO;
+        let mut run = |d: &mut Drive<Vec<u8>>, ms: u64| {
+            for _ in 0..ms {
+                now = now + core::time::Duration::from_millis(1);
+                d.step(now);
+            }
+        };
+        let sw = |d: &Drive<Vec<u8>>| d.od().get_unsigned(0x6041, 0).unwrap();
+        run(&mut d, 10);
+        d.write(0x6060, 0, &[1]).unwrap();
+        for cw in [0x06u16, 0x0F] {
+            d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+            run(&mut d, 20);
+        }
+        assert_eq!(sw(&d) & 0x6F, 0x27, "OPERATION ENABLED: {:#06x}", sw(&d));
+        d.write(0x607A, 0, &20_000i32.to_le_bytes()).unwrap();
+        d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+        run(&mut d, 3000);
+        let pos = d.od().value(0x6064, 0);
+        assert!(
+            sw(&d) & 0x0400 != 0,
+            "target reached: {:#06x}, 6064h {pos:?}",
+            sw(&d)
+        );
+        // Within the position window 6067h = 16 of the file.
+        assert!(
+            matches!(pos, Some(od::Value::Signed(p)) if (p - 20_000).abs() <= 16),
+            "{pos:?}"
+        );
+        // 6098h refuses a method the file lists but the engine does not run.
+        assert!(d.write(0x6098, 0, &[3]).is_err());
+        d.write(0x6098, 0, &[35]).unwrap();
+        d.write(0x607C, 0, &1000i32.to_le_bytes()).unwrap();
+        d.write(0x6060, 0, &[6]).unwrap();
+        d.write(0x6040, 0, &0x0Fu16.to_le_bytes()).unwrap();
+        run(&mut d, 20);
+        d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+        run(&mut d, 100);
+        assert_eq!(sw(&d) & 0x3400, 0x1400, "homing attained: {:#06x}", sw(&d));
+        assert_eq!(d.od().value(0x6064, 0), Some(od::Value::Signed(1000)));
+    }
+}
+
+#[cfg(test)]
+mod cell_file_tests {
+    use super::*;
+    use crate::cell::config::{CellFile, ConfigError};
+
+    /// `eds = "…"` is relative to the cell file; `device` and `eds` together are refused; a
+    /// broken file is refused with its line.
+    #[test]
+    fn eds_on_a_drive_of_a_cell_file() {
+        let dir = std::env::temp_dir().join(format!("drivetwin-eds-cell-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("drives")).unwrap();
+        let source = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let text = std::fs::read_to_string(&source).unwrap();
+        std::fs::write(dir.join("drives/axis.eds"), &text).unwrap();
+        let cell = dir.join("cell.toml");
+        std::fs::write(&cell, "[[drive]]\neds = \"drives/axis.eds\"\nnode = 4\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].desc.name, "axis");
+        assert_eq!(specs[0].node, 4);
+        assert!(
+            specs[0].settings.is_some(),
+            "a CiA 402 drive with its motor"
+        );
+
+        std::fs::write(
+            &cell,
+            "[[drive]]\ndevice = \"nanotec-pd4n\"\neds = \"drives/axis.eds\"\n",
+        )
+        .unwrap();
+        let err = CellFile::load(&cell).unwrap().drives().unwrap_err();
+        assert!(err.to_string().contains("not both"), "{err}");
+
+        let broken = text.replacen("AccessType=rw\n", "AccessType=rx\n", 1);
+        let line = broken.lines().position(|l| l == "AccessType=rx").unwrap() + 1;
+        std::fs::write(dir.join("drives/broken.eds"), broken).unwrap();
+        std::fs::write(&cell, "[[drive]]\neds = \"drives/broken.eds\"\n").unwrap();
+        let err = CellFile::load(&cell).unwrap().drives().unwrap_err();
+        assert!(matches!(err, ConfigError::Eds(_)));
+        let path = dir.join("drives/broken.eds");
+        assert!(
+            err.to_string()
+                .starts_with(&format!("{}:{line}: [", path.display())),
+            "{err}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
