@@ -238,6 +238,8 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         default_node_id: node_id.unwrap_or(1),
         baud_rates,
         rotary_switches: 0,
+        fieldbus_switches: false,
+        ethercat: None,
         interfaces: vec!["canopen".into()],
         interfaces_one_of: Vec::new(),
         interfaces_rule: "a CANopen device (its EDS)".into(),
