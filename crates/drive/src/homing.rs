@@ -77,6 +77,18 @@ use Until::{Active, Inactive, Index, Stop, StopOrLimit};
 /// found it: the drive first crawls back out of the cam (not printed, but the only way the
 /// switch can *become* active again), then onto it — reference: the positive edge for −23,
 /// the negative edge for −27 (cmmp-as-3 §9 "keep this distinction").
+/// The method `number` of `table`.
+pub const fn find_method(table: &[Method], number: i8) -> Option<Method> {
+    let mut rest = table;
+    while let [m, tail @ ..] = rest {
+        if m.0 == number {
+            return Some(*m);
+        }
+        rest = tail;
+    }
+    None
+}
+
 /// A homing method: its 6098h number and its steps.
 pub type Method = (i8, &'static [Step]);
 

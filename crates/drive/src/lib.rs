@@ -31,3 +31,4 @@ pub mod stepper;
 pub mod thermal;
 pub mod trajectory;
 pub mod travel;
+pub mod vendors;

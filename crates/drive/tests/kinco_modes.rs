@@ -294,9 +294,11 @@ fn homing_on_the_mechanical_stop() {
 fn cd3_runs_as_a_kinco() {
     let desc = devices::by_name("kinco-cd3").expect("the CD3 device file");
     let od = od::ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("dictionary");
-    let mut d = drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
+    let mut d: drive::drive::Drive<_, drive::personality::kinco::Kinco> =
+        drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
     let mut now = od::Instant::ZERO;
-    let mut run = |d: &mut drive::drive::Drive<Vec<u8>>, ms: u64| {
+    let mut run = |d: &mut drive::drive::Drive<Vec<u8>, drive::personality::kinco::Kinco>,
+                   ms: u64| {
         now = now + std::time::Duration::from_millis(ms);
         d.step(now);
     };

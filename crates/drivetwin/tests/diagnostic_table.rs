@@ -350,12 +350,22 @@ fn kinco_every_section_7_error_over_the_bus() {
             // Store_Mask_ON / ON2 (2605h:02 / :05): the error history keeps it.
             let store = b.read(0x2605, if e.word == ErrorWord::State { 2 } else { 5 }) as u16;
             assert_eq!(
-                b.drive().error_history().last() == Some(e.emcy.unwrap_or(0)),
+                b.drive()
+                    .as_kinco()
+                    .expect("a Kinco")
+                    .error_history()
+                    .last()
+                    == Some(e.emcy.unwrap_or(0)),
                 store & (1 << e.bit) != 0,
                 "{device} {number} error history"
             );
             let (state, state2) = (b.read(0x2601, 0) as u16, b.read(0x2602, 0) as u16);
-            let led = b.drive().kinco_led().expect("an error on the panel");
+            let led = b
+                .drive()
+                .as_kinco()
+                .expect("a Kinco")
+                .kinco_led()
+                .expect("an error on the panel");
             let id = kinco_diag_vector(e.word, e.bit);
             match e.word {
                 ErrorWord::State => {

@@ -7,16 +7,17 @@
 use od::{AbortCode, ObjectAccess, Value};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec, OptionCode,
-    Personality, Vendor,
+    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
+    OptionCode, Personality, PlantSupervision, Vendor,
 };
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
-use crate::drive::{Drive, MemoryEntry};
+use crate::drive::Drive;
 use crate::homing::{HomingError, METHODS};
-use crate::messages::{self, reaction, Number};
+use crate::messages::{self, reaction};
 use crate::statusword::Statusword;
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
@@ -64,7 +65,6 @@ const fn error(fault: Fault, code: u16, register: u8, critical: bool) -> ErrorSp
 
 /// The CMMP-AS.
 pub const CMMP_AS: Personality = Personality {
-    vendor: Vendor::CmmpAs,
     devices: &["cmmp-as"],
     // §7.1 6060h: 1, 3, 4, 6, 7 over CANopen; 8 CSP over EtherCAT only.
     modes: &[
@@ -144,6 +144,7 @@ pub const CMMP_AS: Personality = Personality {
         brake_in_60fe: true,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: false,
+        internal_position_in_user_units: false,
     },
     homing_methods: &METHODS,
     external_home_switch: None,
@@ -153,9 +154,93 @@ pub const CMMP_AS: Personality = Personality {
         rule: "CMMP-AS §6.1.3 Tab. 6.4 transition 2: SWITCH ON DISABLED → READY TO SWITCH ON \
             needs output-stage enable and controller enable present, plus Shutdown",
     }),
+    // §5.16: one delay 6510h:18: the brake opens with the output stage, the set-point
+    // follows after the delay; the output stage goes off the delay after the brake closes.
+    brake: BrakeTiming {
+        release: &[],
+        motion: &[(0x6510, 0x18)],
+        engage: &[(0x6510, 0x18)],
+        only_with_brake: false,
+    },
+    // App. B.3: 18-0 (warning, "more than 5° below T_max", read as within 5 K), 03-0, 04-0,
+    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and
+    // 6510h:32 max_power_stage_temperature (cmmp-as-1 §3.5: "above this: output stage off
+    // plus error"), the temperatures shown in 6510h:2E and 6510h:31.
+    plant: PlantSupervision {
+        messages: [
+            Some("18-0"),
+            Some("03-0"),
+            Some("04-0"),
+            Some("08-0"),
+            Some("08-0"),
+        ],
+        limits: Some([(0x6510, 0x2F), (0x6510, 0x32)]),
+        motor_temperature: Some((0x6510, 0x2E)),
+        stage_temperature: Some((0x6510, 0x31)),
+    },
 };
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+/// The CMMP-AS: its error management 2100h, statusword and write rules. It keeps no state of
+/// its own beside the engine's.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CmmpAs;
+
+impl Vendor for CmmpAs {
+    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        (&CMMP_AS, CmmpAs)
+    }
+
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.following_error_reaction();
+        d.cmmp_power_on();
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        Drive::<S, Self>::cmmp_write_hook(index, sub)
+    }
+
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        d.cmmp_refusal(request)
+    }
+
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        moving: bool,
+    ) -> Statusword {
+        d.cmmp_state_bits(state, power, moving)
+    }
+
+    fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) -> Statusword {
+        d.cmmp_manufacturer_bits()
+    }
+
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        code: u16,
+        critical: bool,
+        info: u32,
+    ) -> ErrorReaction {
+        d.cmmp_error_reaction(code, critical, info)
+    }
+
+    /// By its number, so two messages sharing a code keep their own reaction (17-0 and 27-0
+    /// are both 8611h).
+    fn message_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        row: &'static od::Diagnostic,
+        _by_number: bool,
+    ) -> ErrorReaction {
+        let critical = row.reaction == od::Reaction::PsOff;
+        d.numbered_message_reaction(emcy_code(row), messages::message(row), critical, 0)
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
     /// At power-on and after a reload. §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs +
     /// CAN") whenever CANopen is active, also after a reset.
     pub(crate) fn cmmp_power_on(&mut self) {
@@ -163,7 +248,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The objects whose CMMP-AS rules do more than store a value.
-    pub(crate) fn cmmp_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+    pub(crate) fn cmmp_write_hook(index: u16, sub: u8) -> Option<Hook<S, CmmpAs>> {
         Some(match (index, sub) {
             (0x1011, _) => Self::write_restore_defaults,
             (0x6510, 0xF0) => Self::write_compatibility,
@@ -224,98 +309,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         info: u32,
     ) -> ErrorReaction {
         let message = self.message_of(code);
-        self.cmmp_message_reaction(code, message, critical, info)
-    }
-
-    /// [`Drive::cmmp_error_reaction`] for a message known by its number (two messages may
-    /// share a code: 17-0 and 27-0 are both 8611h).
-    pub(crate) fn cmmp_message_reaction(
-        &mut self,
-        code: u16,
-        message: Option<messages::Message>,
-        critical: bool,
-        info: u32,
-    ) -> ErrorReaction {
-        if let Some(m) = message {
-            // Every reaction but "no action" makes an entry, once per occurrence: an error
-            // until it is acknowledged, a warning while active, a plain entry while it is
-            // the newest one.
-            let fixed = match m.reaction {
-                od::Reaction::Ignore => Some(reaction::BUFFER_ENTRY),
-                od::Reaction::Warning => Some(reaction::WARNING),
-                _ => None,
-            };
-            let logged = match fixed.or(self.reactions.get(m.number.main)).unwrap_or(0) {
-                reaction::NONE => true,
-                reaction::BUFFER_ENTRY => self
-                    .memory
-                    .back()
-                    .is_some_and(|e| e.code == code && e.number == m.number),
-                reaction::WARNING => self.warning == Some((m.number, true)),
-                _ => self.faults.contains(&code),
-            };
-            if !logged {
-                if self.memory.is_full() {
-                    self.memory.pop_front();
-                }
-                let _ = self.memory.push_back(MemoryEntry {
-                    number: m.number,
-                    code,
-                    info,
-                });
-            }
-        }
-        // App. B.3 "Ignore" (a memory entry only) and "Warn" are not configurable; the others
-        // follow 2100h.
-        let r = match message.map(|m| m.reaction) {
-            Some(od::Reaction::Ignore) => reaction::BUFFER_ENTRY,
-            Some(od::Reaction::Warning) => reaction::WARNING,
-            _ => message
-                .and_then(|m| self.reactions.get(m.number.main))
-                .unwrap_or(if critical {
-                    reaction::OUTPUT_STAGE_OFF
-                } else {
-                    reaction::CONTROLLER_ENABLE_OFF
-                }),
-        };
-        match (r, message) {
-            (reaction::NONE | reaction::BUFFER_ENTRY, _) => ErrorReaction::Ignore,
-            (reaction::WARNING, Some(m)) => {
-                self.set_warning(m.number, true);
-                ErrorReaction::Ignore
-            }
-            (reaction::OUTPUT_STAGE_OFF, _) => ErrorReaction::OutputStageOff,
-            (reaction::BRAKE_MAX_CURRENT, _) => ErrorReaction::BrakeMaxCurrent,
-            _ => ErrorReaction::QuickStop,
-        }
-    }
-
-    /// The App. B message behind error `code`: one raised by its number, else the first with
-    /// the code.
-    pub(crate) fn message_of(&self, code: u16) -> Option<messages::Message> {
-        self.injected
-            .iter()
-            .filter_map(|d| messages::message(d))
-            .find(|m| m.code == code)
-            .or_else(|| messages::by_code(code))
-    }
-
-    /// 200Fh last_warning_code and statusword bit 7 (§5.18).
-    pub(crate) fn set_warning(&mut self, number: Number, active: bool) {
-        if self.warning == Some((number, active)) {
-            return;
-        }
-        self.warning = Some((number, active));
-        let code = messages::warning_code(number, active);
-        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
-    }
-
-    /// Ends the warning `number` if it is the active one (its cause is gone; the CMMP-AS
-    /// resets warnings itself).
-    pub(crate) fn end_warning(&mut self, number: Number) {
-        if self.warning == Some((number, true)) {
-            self.set_warning(number, false);
-        }
+        self.numbered_message_reaction(code, message, critical, info)
     }
 
     /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action

@@ -14,8 +14,9 @@
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
-use super::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality, Vendor};
-use crate::homing::{self, Method};
+pub use super::kinco_drive::Kinco;
+use super::{BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision};
+use crate::homing::{self, find_method, Method};
 
 const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
     ModeSpec {
@@ -43,7 +44,6 @@ pub const MODES: [ModeSpec; 6] = [
 /// CiA 402's, with 0Fh / 2Fh enabling from READY TO SWITCH ON at once (Tab. 6-5: "06h … 0Fh
 /// enable"), no option codes (CiA 402's defaults), the servo motor plant.
 pub const KINCO: Personality = Personality {
-    vendor: Vendor::Kinco,
     devices: &["kinco-fd3", "kinco-cd3"],
     modes: &MODES,
     option_codes: &[],
@@ -65,11 +65,35 @@ pub const KINCO: Personality = Personality {
         brake_in_60fe: false,
         zero_ramp_is_abrupt: true,
         vl_actual_closed_loop_only: false,
+        internal_position_in_user_units: true,
     },
     homing_methods: &HOMING_METHODS,
     external_home_switch: None,
     // The enables are DIN functions (Enable, Pre Enable: kinco_io.rs).
     hardware_enable: None,
+    // 6410h:12 Brake_Delay: "with a brake the drive keeps running until the brake is
+    // closed"; Decision: the set-point waits as long after the enable. Without a brake
+    // (6410h:17 bit 0 clear) nothing waits.
+    brake: BrakeTiming {
+        release: &[],
+        motion: &[(0x6410, 0x12)],
+        engage: &[(0x6410, 0x12)],
+        only_with_brake: true,
+    },
+    // §7: Error_State.13 motor, .4 drive overtemperature, .1 encoder lost, .3 encoder CRC;
+    // the drive's temperature shown in 60F7h:0B Temp_Device.
+    plant: PlantSupervision {
+        messages: [
+            None,
+            Some("Error_State.13"),
+            Some("Error_State.4"),
+            Some("Error_State.1"),
+            Some("Error_State.3"),
+        ],
+        limits: None,
+        motor_temperature: None,
+        stage_temperature: Some((0x60F7, 0x0B)),
+    },
 };
 
 /// The 1001h error-register bits of an EMCY code (CiA 301 §7.5.2.2: bit 0 generic always;
@@ -106,18 +130,6 @@ const fn cia_method(number: i8) -> Method {
             None => panic!("no such homing method"),
         },
     }
-}
-
-/// The method `number` of `table`.
-const fn find_method(table: &[Method], number: i8) -> Option<Method> {
-    let mut rest = table;
-    while let [m, tail @ ..] = rest {
-        if m.0 == number {
-            return Some(*m);
-        }
-        rest = tail;
-    }
-    None
 }
 
 /// Tab. 6-19 (L1690-1720, spec/kinco-fd-cd.md §5.7): the CiA 402 methods the manual lists

@@ -17,18 +17,20 @@
 use od::{AbortCode, ObjectAccess};
 
 use super::kinco::{self, DinFunction, ErrorWord};
-use super::ErrorReaction;
+use super::{ErrorReaction, Personality, Vendor};
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
-use crate::drive::refusal::Request;
-use crate::drive::{Drive, RPM_PER_INCREMENT_S};
+use crate::drive::refusal::{Refusal, Request};
+use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::factor_group::{FactorGroup, Ratio};
 use crate::motor::MotorData;
 use crate::statusword::Statusword;
 use crate::trajectory::Trajectory;
+use crate::travel::Inputs;
 
 /// The factor group of the units above (see the module doc).
 pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
@@ -38,9 +40,9 @@ pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
     polarity: 0,
 };
 
-/// What only a Kinco keeps beside the CiA 402 engine's state.
+/// The Kinco: what it keeps beside the CiA 402 engine's state.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct KincoState {
+pub struct Kinco {
     /// The inputs at the last cycle (their edges), the Start Homing return, Kvi Off.
     pub(crate) din: super::kinco_io::DinMemory,
     /// The simulated pulse input of mode −4.
@@ -63,6 +65,137 @@ pub(crate) struct KincoState {
     pub(crate) limits: super::kinco_limits::LimitState,
 }
 
+impl Vendor for Kinco {
+    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        (&kinco::KINCO, Kinco::default())
+    }
+
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.kinco_power_on();
+        d.kinco_panel_power_on();
+    }
+
+    /// Fixed units (the module doc), 607Eh the direction.
+    fn factor_group<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> Option<FactorGroup> {
+        let mut fg = FACTOR_GROUP;
+        let invert = d.od().get_unsigned(0x607E, 0).unwrap_or(0) != 0;
+        fg.polarity = if invert { 0xC0 } else { 0 };
+        Some(fg)
+    }
+
+    fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
+        d.kinco_control_params()
+    }
+
+    /// The DIN functions own the controlword and the mode (L1287); the panel runs.
+    fn before_device_control<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.kinco_din_cycle();
+        d.kinco_panel_cycle();
+    }
+
+    fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.kinco_pre_enable()
+    }
+
+    /// The Kinco's own modes (−3, −4, its PP, PV and torque) and the tuning run.
+    fn mode_step<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        cw: Controlword,
+        dt: f64,
+    ) -> bool {
+        if d.kinco_tuning_active() {
+            d.kinco_tuning_step();
+            return true;
+        }
+        match d.mode {
+            mode::PROFILE_POSITION => d.kinco_profile_position(cw, dt),
+            mode::PROFILE_VELOCITY => d.kinco_velocity(true, dt),
+            -3 => d.kinco_velocity(false, dt),
+            -4 => d.kinco_pulse_mode(dt),
+            mode::PROFILE_TORQUE => d.kinco_torque(dt),
+            mode::HOMING => d.homing(cw, dt),
+            _ => d.hold(dt),
+        }
+        d.kinco_velocity_feed_forward();
+        true
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        Drive::<S, Self>::kinco_write_hook(index, sub)
+    }
+
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        d.kinco_refusal(request)
+    }
+
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        _moving: bool,
+    ) -> Statusword {
+        d.kinco_state_bits(state, power)
+    }
+
+    fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) -> Statusword {
+        d.kinco_manufacturer_bits()
+    }
+
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, fe: i64) {
+        d.kinco_supervise_following_error(fe);
+        let user = i64::from(d.factor_group().position_from_internal(fe));
+        d.kinco_publish(user);
+    }
+
+    /// 60FDh stays 0: the inputs show in the Kinco's own objects.
+    fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, _position: i64) -> u32 {
+        d.kinco_publish_io();
+        0
+    }
+
+    fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
+        d.kinco_switches(position)
+    }
+
+    /// The DIN with the switch's function, its polarity from 2010h:01.
+    fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        switch: NamedSwitch,
+    ) -> Option<SwitchInput> {
+        let function = match switch {
+            NamedSwitch::LimitPositive => DinFunction::PositiveLimit,
+            NamedSwitch::LimitNegative => DinFunction::NegativeLimit,
+            NamedSwitch::Home => DinFunction::HomeSignal,
+        };
+        let n = d.kinco_din_with(function)?;
+        let normal_polarity = d.value(0x2010, 0x01) & (1 << n) != 0;
+        // Internal = Real XOR NOT Polarity: a limit is actuated at internal 0, home at 1.
+        let internal_actuated = switch == NamedSwitch::Home;
+        Some(SwitchInput {
+            mask: 1 << n,
+            actuated_high: internal_actuated == normal_polarity,
+        })
+    }
+
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        code: u16,
+        _critical: bool,
+        _info: u32,
+    ) -> ErrorReaction {
+        d.kinco_error_reaction(code)
+    }
+
+    /// §6.6 Home_Offset_Mode 6099h:05 = 0: "move to the offset point, the actual position is
+    /// 0 there"; 1: the home point reads Home_Offset.
+    fn homing_to_offset_point<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.value(0x6099, 0x05) == 0
+    }
+}
+
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
 pub const INCREMENTS_PER_REV: i64 = 10_000;
 
@@ -78,7 +211,7 @@ const STATE_BITS: [(State, u16); 8] = [
     (State::Fault, 0x0008),
 ];
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// At power-on (and after a reload): Max_Following_Error 6065h = 100 × 2FF0h:0E
     /// (§6 item 3), a holding brake where Addition_Device 6410h:17 bit 0 says the motor has
     /// one; at power-on the motor of the motor-data objects 6410h.
@@ -136,7 +269,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             peak_current_ma: peak_ma,
             max_motor_speed_rpm: self.value(0x6080, 0).clamp(1, 32768) as u32,
             // The analog max torque (kinco_analog.rs) in the velocity and position loops.
-            limit_current_ma: self.kinco.analog.max_current_ma,
+            limit_current_ma: self.vendor.analog.max_current_ma,
             ..d
         };
         self.kinco_loop_params(base)
@@ -148,7 +281,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The objects whose Kinco rules do more than store a value.
-    pub(crate) fn kinco_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+    pub(crate) fn kinco_write_hook(index: u16, sub: u8) -> Option<Hook<S, Kinco>> {
         Some(match (index, sub) {
             (0x6040, 0x00) => Self::kinco_write_controlword,
             (0x6060, 0x00) => Self::kinco_write_mode,
@@ -233,7 +366,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Bit 15: the reference is found; bit 7 (CiA 402 warning) while Warning_Word 2680h is
     /// not 0.
     pub(crate) fn kinco_manufacturer_bits(&self) -> Statusword {
-        kinco::HOME_FOUND.when(self.referenced) | Statusword::WARNING.when(self.kinco.warnings != 0)
+        kinco::HOME_FOUND.when(self.referenced)
+            | Statusword::WARNING.when(self.vendor.warnings != 0)
     }
 
     /// Warning_Word 2680h (§7: bit 0 battery low, bit 1 mixed warning, bit 2 encoder busy)
@@ -241,9 +375,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// (8002h) and statusword bit 7 show it. Decision: the twin's encoder has no battery, so
     /// the warnings are injected only; bit 7 is CiA 402's warning bit.
     pub fn set_warnings(&mut self, bits: u16) {
-        self.kinco.warnings = bits & 0x0007;
+        self.vendor.warnings = bits & 0x0007;
         let e = self.od.description().entry(0x2680, 0);
-        self.store(e, i64::from(self.kinco.warnings));
+        self.store(e, i64::from(self.vendor.warnings));
     }
 
     /// The reaction to an error: none where its bit is masked out (Error_Mask 2605h:01,
@@ -284,10 +418,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (ErrorWord::State2, false) => 0x06,
         };
         if self.value(0x2605, sub) & (1 << bit) != 0 {
-            if self.kinco.history.is_full() {
-                self.kinco.history.pop_front();
+            if self.vendor.history.is_full() {
+                self.vendor.history.pop_front();
             }
-            let _ = self.kinco.history.push_back(code);
+            let _ = self.vendor.history.push_back(code);
         }
     }
 
@@ -316,7 +450,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
     pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
-        self.kinco.history.iter().copied()
+        self.vendor.history.iter().copied()
     }
 
     /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for
@@ -370,7 +504,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// limits it; a limit switch blocks its direction.
     pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {
         let rpm_max = self.value(0x6080, 0).max(0) as f64;
-        if let Some((direction, _)) = self.kinco.jog {
+        if let Some((direction, _)) = self.vendor.jog {
             // Jog (§4, F006): Jog_RPM 2FF0h:23, "independent of other settings", the limit
             // switches not active.
             let rpm = f64::from(direction.signum()) * self.value(0x2FF0, 0x23) as f64;
@@ -421,15 +555,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// returns. Decision: jog moves an enabled drive only (the panel's own enable is the
     /// panel's business).
     pub fn jog(&mut self, direction: i8) {
-        match (direction, self.kinco.jog) {
+        match (direction, self.vendor.jog) {
             (0, Some((_, previous))) => {
-                self.kinco.jog = None;
+                self.vendor.jog = None;
                 let _ = self.write_mode(0x6060, 0, &[previous as u8]);
             }
             (0, None) => {}
-            (d, Some((_, previous))) => self.kinco.jog = Some((d, previous)),
+            (d, Some((_, previous))) => self.vendor.jog = Some((d, previous)),
             (d, None) => {
-                self.kinco.jog = Some((d, self.mode));
+                self.vendor.jog = Some((d, self.mode));
                 let _ = self.write_mode(0x6060, 0, &[(-3i8) as u8]);
             }
         }

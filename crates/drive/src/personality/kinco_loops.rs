@@ -40,6 +40,7 @@
 use od::{AbortCode, ObjectAccess as _};
 
 use super::kinco::STIFFNESS;
+use super::kinco_drive::Kinco;
 use crate::control::ControlParams;
 use crate::current_filters::{kinco_notch_hz, kinco_speed_feedback_time_us, CurrentFilterParams};
 use crate::drive::Drive;
@@ -83,7 +84,7 @@ pub fn kvp_of_bandwidth(bw_hz: i64, ratio: i64) -> i64 {
     (bw_hz * ratio).clamp(1, 32767)
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The gains of set `set` (PI_Pointer, 0-3): set 0 in 60F9h / 60FBh, sets 1-3 in 2340h.
     pub(crate) fn kinco_loop_gains(&self, set: u8) -> LoopGains {
         if set == 0 {
@@ -117,7 +118,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let vel_unit = i_peak / (1000.0 * RPM_TO_RAD_S);
         let raw =
             |gain: f64, unit: f64| libm::round(gain / unit * 256.0).clamp(1.0, 65535.0) as u16;
-        let kvi_hz = if self.kinco.din.kvi_off {
+        let kvi_hz = if self.vendor.din.kvi_off {
             0.0
         } else {
             g.kvi_hz

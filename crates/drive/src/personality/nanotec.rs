@@ -11,15 +11,16 @@
 use od::{AbortCode, ObjectAccess};
 
 use super::{
-    Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, Vendor,
+    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable,
+    ModeSpec, OptionCode, Personality, PlantSupervision, Vendor,
 };
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
-use crate::drive::{Drive, RPM_PER_INCREMENT_S};
+use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
 use crate::personality::nanotec_units::{load_angle_spacing_rpm, torque_current_ma};
 use crate::statusword::Statusword;
@@ -63,7 +64,6 @@ const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
 /// Decision: 6060h lists 3 (PV) but 6502h and the text say PV is not supported (§9): 3 is
 /// refused with 0609 0030h. 0 ("no mode") is taken; the drive then holds its position.
 pub const NANOTEC: Personality = Personality {
-    vendor: Vendor::Nanotec,
     devices: &["nanotec-smci47s", "nanotec-pd4n"],
     // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
     // the closed-loop test runs (§5.6).
@@ -116,6 +116,7 @@ pub const NANOTEC: Personality = Personality {
         brake_in_60fe: false,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: true,
+        internal_position_in_user_units: false,
     },
     homing_methods: &HOMING_METHODS,
     // §5.2 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.
@@ -131,6 +132,21 @@ pub const NANOTEC: Personality = Personality {
         rule: "Nanotec §1.1.3 step 7 (L333): with the switch at node + 128 and a value outside \
             130…135 in 2005h the controller answers on CAN but accepts no motion commands",
     }),
+    // §5.8: 2007h:01 power on → brake off, :02 brake off → operational, :03 brake on →
+    // power off.
+    brake: BrakeTiming {
+        release: &[(0x2007, 1)],
+        motion: &[(0x2007, 1), (0x2007, 2)],
+        engage: &[(0x2007, 3)],
+        only_with_brake: false,
+    },
+    // §7.1: 0002h Overtemperature for the power stage; no temperature objects.
+    plant: PlantSupervision {
+        messages: [None, None, Some("0002h"), None, None],
+        limits: None,
+        motor_temperature: None,
+        stage_temperature: None,
+    },
 };
 
 /// A reaction of the §7.1 table.
@@ -329,7 +345,85 @@ const STATE_BITS: [(State, u16); 8] = [
     (State::Fault, 0x0008),
 ];
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+/// The Nanotec: its statusword, reaction table, torque mode and closed-loop test runs.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Nanotec {
+    /// A closed-loop test run in progress (6060h = −1 / −2) and when it ends.
+    pub(crate) test_run: Option<(i8, od::Instant)>,
+}
+
+impl Vendor for Nanotec {
+    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        (&NANOTEC, Nanotec::default())
+    }
+
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.nanotec_power_on();
+    }
+
+    /// Torque mode is the Nanotec's own (§5.5); the negative modes are the test runs (§5.6).
+    fn mode_step<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        cw: Controlword,
+        dt: f64,
+    ) -> bool {
+        match d.mode {
+            mode::PROFILE_TORQUE => d.nanotec_torque(dt),
+            m if m < 0 => d.nanotec_test_run(cw, dt),
+            _ => return false,
+        }
+        true
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        Drive::<S, Self>::nanotec_write_hook(index, sub)
+    }
+
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        d.nanotec_refusal(request)
+    }
+
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        _moving: bool,
+    ) -> Statusword {
+        d.nanotec_state_bits(state, power)
+    }
+
+    fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
+        d.nanotec_digital_inputs(position)
+    }
+
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        code: u16,
+        critical: bool,
+        _info: u32,
+    ) -> ErrorReaction {
+        d.nanotec_error_reaction(code, critical)
+    }
+
+    /// §7.2: a message raised by its number with a fixed reaction keeps it (the §7.1 rows are
+    /// "configurable" and follow the reaction table).
+    fn message_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        row: &'static od::Diagnostic,
+        by_number: bool,
+    ) -> ErrorReaction {
+        if by_number && row.reaction != od::Reaction::Configurable {
+            return fixed_reaction(row.reaction);
+        }
+        let critical = row.reaction == od::Reaction::PsOff;
+        d.nanotec_error_reaction(emcy_code(row), critical)
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
     /// At power-on and after a reload: the motor's pole pairs 2006h (50 → 1.8°, 100 → 0.9°;
     /// "takes effect after a power cycle", §11.7) set the stepper's full steps per
     /// revolution, 4 × pole pairs.
@@ -354,7 +448,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// The objects whose Nanotec rules do more than store a value.
-    pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+    pub(crate) fn nanotec_write_hook(index: u16, sub: u8) -> Option<Hook<S, Nanotec>> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
             (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
@@ -512,21 +606,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// electrical angle of the index pulse, `index position × pole pairs` in 65536ths.
     pub(crate) fn nanotec_test_run(&mut self, cw: Controlword, dt: f64) {
         self.hold(dt);
-        if self.cw_rising.contains(Controlword::NEW_SET_POINT) && self.test_run.is_none() {
+        if self.cw_rising.contains(Controlword::NEW_SET_POINT) && self.vendor.test_run.is_none() {
             let length = if self.mode == -1 {
                 LONG_TEST_RUN
             } else {
                 SHORT_TEST_RUN
             };
-            self.test_run = Some((self.mode, self.now + length));
+            self.vendor.test_run = Some((self.mode, self.now + length));
             self.target_reached = false;
         }
-        if !cw.contains(Controlword::NEW_SET_POINT) && self.test_run.is_some() {
-            self.test_run = None;
+        if !cw.contains(Controlword::NEW_SET_POINT) && self.vendor.test_run.is_some() {
+            self.vendor.test_run = None;
             return;
         }
-        if let Some((mode, _)) = self.test_run.filter(|(_, end)| self.now >= *end) {
-            self.test_run = None;
+        if let Some((mode, _)) = self.vendor.test_run.filter(|(_, end)| self.now >= *end) {
+            self.vendor.test_run = None;
             self.target_reached = true;
             if mode == -1 {
                 self.store_load_angle_curve();

@@ -526,7 +526,7 @@ pub struct PlantPhysics {
 
 /// Carries out `change` on a CiA 402 drive; `Err` names a switch no input has.
 pub fn apply_physics(
-    d: &mut drive::drive::Drive<Vec<u8>>,
+    d: &mut drive::vendors::AnyDrive<Vec<u8>>,
     change: PhysicsChange,
 ) -> Result<PlantPhysics, &'static str> {
     match change {

@@ -1,12 +1,13 @@
 //! What stands behind a node's dictionary: plain data (a CiA 301 device such as the test
 //! bench) or a CiA 402 drive with its motor. The stack sees both through `ObjectAccess`.
 
-use drive::drive::{Drive, DriveEvent, DriveSettings};
+use drive::drive::{DriveEvent, DriveSettings};
+use drive::vendors::AnyDrive;
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary};
 
 pub enum Model {
     Plain(ObjectDictionary<Vec<u8>>),
-    Drive(Box<Drive<Vec<u8>>>),
+    Drive(Box<AnyDrive<Vec<u8>>>),
 }
 
 /// A CiA 402 drive (`profile = "cia402"` in its device file, checked against 1000h).
@@ -23,7 +24,7 @@ impl Model {
     /// A drive model when the personality is a CiA 402 device and `settings` are given.
     pub fn new(od: ObjectDictionary<Vec<u8>>, settings: Option<DriveSettings>) -> Self {
         match settings {
-            Some(s) if is_cia402(od.description()) => Model::Drive(Box::new(Drive::new(od, s))),
+            Some(s) if is_cia402(od.description()) => Model::Drive(Box::new(AnyDrive::new(od, s))),
             _ => Model::Plain(od),
         }
     }
@@ -42,14 +43,14 @@ impl Model {
         }
     }
 
-    pub fn drive(&self) -> Option<&Drive<Vec<u8>>> {
+    pub fn drive(&self) -> Option<&AnyDrive<Vec<u8>>> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,
         }
     }
 
-    pub fn drive_mut(&mut self) -> Option<&mut Drive<Vec<u8>>> {
+    pub fn drive_mut(&mut self) -> Option<&mut AnyDrive<Vec<u8>>> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,
