@@ -18,9 +18,9 @@
     clippy::panic
 )]
 
-use drive::personality::cmmp_as::CmmpAs;
-use drive::personality::nanotec::Nanotec;
 use drive::personality::Vendor;
+use drive::vendors::festo_cmmp_as::CmmpAs;
+use drive::vendors::nanotec::Nanotec;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Duration;

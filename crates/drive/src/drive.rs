@@ -62,9 +62,6 @@ pub mod mode {
     pub const CHANGING: i8 = -1;
 }
 
-/// The CMMP-AS's diagnostic messages (its personality's error table).
-pub use crate::personality::cmmp_as::diag;
-
 /// Settings of the simulation that no object holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DriveSettings {

@@ -3,15 +3,15 @@
 //! personality has them, and every homing method fits 6098h.
 
 use drive::drive::DriveSettings;
-use drive::personality::{self, Personality};
+use drive::personality::Personality;
 use drive::vendors::AnyDrive;
 use od::{ObjectDictionary, Value};
 
 /// Every vendor's personality, by the vendor's name.
 const ALL: [(&str, &Personality); 3] = [
-    ("CMMP-AS", &personality::cmmp_as::CMMP_AS),
-    ("Nanotec", &personality::nanotec::NANOTEC),
-    ("Kinco", &personality::kinco::KINCO),
+    ("CMMP-AS", &drive::vendors::festo_cmmp_as::CMMP_AS),
+    ("Nanotec", &drive::vendors::nanotec::NANOTEC),
+    ("Kinco", &drive::vendors::kinco::KINCO),
 ];
 
 #[test]
@@ -53,7 +53,7 @@ fn tables_agree_with_the_device_files() {
 /// The CMMP-AS reached over EtherCAT adds CSP (6502h bit 7), as before the split.
 #[test]
 fn cmmp_as_csp_over_ethercat_only() {
-    let p = &personality::cmmp_as::CMMP_AS;
+    let p = &drive::vendors::festo_cmmp_as::CMMP_AS;
     assert_eq!(p.supported_drive_modes(false), 0x6D);
     assert_eq!(p.supported_drive_modes(true), 0xED);
     assert!(!p.accepts_mode(8, false));

@@ -6,6 +6,9 @@
 //! device file no vendor serves runs as the standard CiA 402 drive ([`Cia402`]).
 
 pub mod cia402;
+pub mod festo_cmmp_as;
+pub mod kinco;
+pub mod nanotec;
 
 use core::time::Duration;
 
@@ -21,13 +24,13 @@ use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, DriveEvent, DriveSettings, MemoryEntry};
 use crate::encoder_fault::EncoderFault;
 use crate::factor_group::FactorGroup;
-use crate::personality::cmmp_as::{CmmpAs, CMMP_AS};
-use crate::personality::kinco::{Kinco, KINCO};
-use crate::personality::nanotec::{Nanotec, NANOTEC};
 use crate::personality::Personality;
 use crate::stepper::Stepper;
 use crate::thermal::ThermalData;
 pub use cia402::Cia402;
+use festo_cmmp_as::{CmmpAs, CMMP_AS};
+use kinco::{Kinco, KINCO};
+use nanotec::{Nanotec, NANOTEC};
 
 /// A drive of any vendor, chosen by the device file's name: what a runtime holds when the
 /// vendor is known only when the device file is read.

@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use drive::drive::{Drive, DriveSettings};
-use drive::personality::cmmp_as::CmmpAs;
+use drive::vendors::festo_cmmp_as::CmmpAs;
 use od::{Instant, ObjectAccess, ObjectDictionary, Value};
 
 pub struct Rig {

@@ -7,7 +7,7 @@ mod drive_rig;
 
 use drive::drive::Drive;
 use drive::drive::DriveSettings;
-use drive::personality::kinco::Kinco;
+use drive::vendors::kinco::Kinco;
 
 /// The rig of one Kinco drive.
 pub type Rig = drive_rig::DeviceRig<Drive<Vec<u8>, Kinco>>;

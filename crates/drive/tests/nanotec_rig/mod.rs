@@ -7,7 +7,7 @@ mod drive_rig;
 
 use drive::drive::Drive;
 use drive::drive::DriveSettings;
-use drive::personality::nanotec::Nanotec;
+use drive::vendors::nanotec::Nanotec;
 
 /// The rig of one Nanotec drive.
 pub type Rig = drive_rig::DeviceRig<Drive<Vec<u8>, Nanotec>>;

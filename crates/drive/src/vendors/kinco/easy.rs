@@ -28,9 +28,9 @@
 
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::{DinFunction, DIN_FUNCTIONS};
-use super::kinco_drive::Kinco;
-use super::kinco_io::DINS;
+use super::hooks::Kinco;
+use super::io::DINS;
+use super::{DinFunction, DIN_FUNCTIONS};
 use crate::drive::{Drive, DriveEvent};
 
 /// The digits of EA06 from the right.

@@ -1,27 +1,8 @@
 //! A CiA 402 personality: what one vendor's drive is, as data the engine in
-//! [`crate::drive`] reads. The tables are the manuals' tables (modes, option codes, error
-//! numbers with their EMCY codes and error-register bits, homing methods); what a table
-//! cannot hold (the CMMP-AS's error management 2100h, Nanotec's statusword bits) is an
-//! `impl Drive` block in the vendor's module, chosen by [`Vendor`].
-//!
-//! Decision: the device file names its personality by its `name` ([`for_device`]); a CiA 402
-//! device file without a personality of its own runs as the CMMP-AS, as every CiA 402 drive
-//! did before the split.
-
-pub mod cmmp_as;
-pub mod kinco;
-pub(crate) mod kinco_analog;
-pub(crate) mod kinco_drive;
-pub mod kinco_easy;
-pub(crate) mod kinco_io;
-pub mod kinco_limits;
-pub mod kinco_loops;
-pub mod kinco_panel;
-pub(crate) mod kinco_pulse;
-pub mod kinco_table;
-pub mod kinco_tuning;
-pub mod nanotec;
-pub mod nanotec_units;
+//! [`crate::drive`] reads, and the hooks it calls where a table cannot say it ([`Vendor`]).
+//! The tables are the manuals' tables (modes, option codes, error numbers with their EMCY
+//! codes and error-register bits, homing methods, brake delays, the plant's messages); each
+//! vendor's tables and hooks live in its folder under [`crate::vendors`].
 
 use crate::control::ControlParams;
 use crate::controlword::Controlword;

@@ -11,12 +11,25 @@
 //! `kinco_drive.rs` (power-on, statusword, error words, modes −3 / 3 / 4, the following-error
 //! limit) and `kinco_io.rs` (the DIN and DOUT functions with their simulation objects).
 
+mod analog;
+pub mod easy;
+mod hooks;
+mod io;
+pub mod limits;
+pub mod loops;
+pub mod panel;
+mod pulse;
+pub mod table;
+pub mod tuning;
+
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
-pub use super::kinco_drive::Kinco;
-use super::{BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision};
 use crate::homing::{self, find_method, Method};
+use crate::personality::{
+    BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision,
+};
+pub use hooks::Kinco;
 
 const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
     ModeSpec {
@@ -125,7 +138,7 @@ const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
 const fn cia_method(number: i8) -> Method {
     match find_method(&homing::METHODS, number) {
         Some(m) => m,
-        None => match find_method(&super::nanotec::HOMING_METHODS, number) {
+        None => match find_method(&crate::vendors::nanotec::HOMING_METHODS, number) {
             Some(m) => m,
             None => panic!("no such homing method"),
         },

@@ -21,8 +21,8 @@
 
 use core::time::Duration;
 
-use super::kinco::{selected_index, DinFunction};
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::{selected_index, DinFunction};
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::trajectory::Limits;
 use od::Instant;

@@ -20,7 +20,7 @@
 //! - jog (F006) ignores the limits as it ignores the limit switches ("independent of other
 //!   settings").
 
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
 use crate::drive::Drive;
 
 /// Positive limit, Error_State2 bit 9.
@@ -72,7 +72,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             (below, before.below, NEGATIVE_LIMIT),
         ] {
             if now && !was && !self.faults.contains(&code) {
-                self.raise(code, super::kinco::error_register(code), true);
+                self.raise(code, super::error_register(code), true);
             }
         }
     }

@@ -1,5 +1,5 @@
 //! The Kinco CD3 / FD3 in the CiA 402 engine (seeds/001_da459f46c7138f7b.txt, extract
-//! spec/kinco-fd-cd.md): what [`KINCO`](super::kinco::KINCO)'s tables cannot say. The motor
+//! spec/kinco-fd-cd.md): what [`KINCO`](super::KINCO)'s tables cannot say. The motor
 //! of the motor-data objects 6410h, the units, the statusword, the error words Error_State /
 //! Error_State2 with their masks and the following-error limit, the object rules (6065h from
 //! 2FF0h:0E, the DIN-owned controlword and mode) and the velocity and torque modes −3, 3, 4.
@@ -16,8 +16,7 @@
 
 use od::{AbortCode, ObjectAccess};
 
-use super::kinco::{self, DinFunction, ErrorWord};
-use super::{ErrorReaction, Personality, Vendor};
+use super::{DinFunction, ErrorWord};
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
@@ -28,6 +27,7 @@ use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::factor_group::{FactorGroup, Ratio};
 use crate::motor::MotorData;
+use crate::personality::{ErrorReaction, Personality, Vendor};
 use crate::statusword::Statusword;
 use crate::trajectory::Trajectory;
 use crate::travel::Inputs;
@@ -44,30 +44,30 @@ pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
 #[derive(Debug, Clone, Default)]
 pub struct Kinco {
     /// The inputs at the last cycle (their edges), the Start Homing return, Kvi Off.
-    pub(crate) din: super::kinco_io::DinMemory,
+    pub(crate) din: super::io::DinMemory,
     /// The simulated pulse input of mode −4.
-    pub(crate) pulse: super::kinco_pulse::PulseInput,
+    pub(crate) pulse: super::pulse::PulseInput,
     /// The error history (the last 8 errors).
     pub(crate) history: heapless::Deque<u16, 8>,
     /// The position table and its flow.
-    pub(crate) table: super::kinco_table::TableRun,
+    pub(crate) table: super::table::TableRun,
     /// The simulated analog inputs.
-    pub(crate) analog: super::kinco_analog::AnalogInputs,
+    pub(crate) analog: super::analog::AnalogInputs,
     /// An auto-tuning run.
-    pub(crate) tuning: super::kinco_tuning::TuningRun,
+    pub(crate) tuning: super::tuning::TuningRun,
     /// Jog (F006): the direction and the mode to return to.
     pub(crate) jog: Option<(i8, i8)>,
     /// Warning_Word 2680h as injected.
     pub(crate) warnings: u16,
     /// The LED panel (kinco_panel.rs).
-    pub(crate) panel: super::kinco_panel::Panel,
+    pub(crate) panel: super::panel::Panel,
     /// The position limits after homing (kinco_limits.rs).
-    pub(crate) limits: super::kinco_limits::LimitState,
+    pub(crate) limits: super::limits::LimitState,
 }
 
 impl Vendor for Kinco {
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
-        (&kinco::KINCO, Kinco::default())
+        (&super::KINCO, Kinco::default())
     }
 
     fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
@@ -276,7 +276,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     }
 
     fn kinco_set_following_error_limit(&mut self) {
-        let limit = kinco::max_following_error(self.value(0x2FF0, 0x0E).clamp(0, 0xFFFF) as u16);
+        let limit = super::max_following_error(self.value(0x2FF0, 0x0E).clamp(0, 0xFFFF) as u16);
         let _ = self.od.write_internal(0x6065, 0, &limit.to_le_bytes());
     }
 
@@ -353,7 +353,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     }
 
     /// Statusword (§4.1: CiA 402's; bit 15 "reference found" of the sibling FD manuals,
-    /// [`kinco::HOME_FOUND`]): bit 4 voltage enabled while the output stage is on. Decision:
+    /// [`super::HOME_FOUND`]): bit 4 voltage enabled while the output stage is on. Decision:
     /// bit 9 remote stays 0 (the manual names no remote condition).
     pub(crate) fn kinco_state_bits(&self, state: State, power: bool) -> Statusword {
         let bits = STATE_BITS
@@ -366,7 +366,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// Bit 15: the reference is found; bit 7 (CiA 402 warning) while Warning_Word 2680h is
     /// not 0.
     pub(crate) fn kinco_manufacturer_bits(&self) -> Statusword {
-        kinco::HOME_FOUND.when(self.referenced)
+        super::HOME_FOUND.when(self.referenced)
             | Statusword::WARNING.when(self.vendor.warnings != 0)
     }
 
@@ -430,7 +430,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     pub(crate) fn kinco_error_bit(&self, code: u16) -> Option<(ErrorWord, u8)> {
         self.injected
             .iter()
-            .filter_map(|d| kinco::KincoError::of(d))
+            .filter_map(|d| super::KincoError::of(d))
             .find(|e| e.emcy == Some(code))
             .map(|e| (e.word, e.bit))
             .or_else(|| error_bit(code))
@@ -443,8 +443,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             .iter()
             .find_map(|c| self.kinco_error_bit(*c))
             .map(|(word, bit)| match word {
-                ErrorWord::State => kinco::led_code(bit),
-                ErrorWord::State2 => kinco::led_code(0),
+                ErrorWord::State => super::led_code(bit),
+                ErrorWord::State2 => super::led_code(0),
             })
     }
 
@@ -665,9 +665,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 }
 
 /// The error word and bit of an EMCY code; Error_State bit 14 shares 7331h with bit 1 and
-/// is the answer only when raised by its number (see [`kinco::errors`]).
+/// is the answer only when raised by its number (see [`super::errors`]).
 pub(crate) fn error_bit(code: u16) -> Option<(ErrorWord, u8)> {
-    kinco::errors()
+    super::errors()
         .find(|e| e.emcy == Some(code))
         .map(|e| (e.word, e.bit))
 }

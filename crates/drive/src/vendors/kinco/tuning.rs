@@ -16,11 +16,11 @@
 
 use core::time::Duration;
 
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
 use crate::drive::refusal::Request;
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::{inertia_ratio, tuning_result, STIFFNESS};
+use super::{inertia_ratio, tuning_result, STIFFNESS};
 use crate::device_control::State;
 use crate::drive::Drive;
 use od::Instant;

@@ -6,10 +6,6 @@
 
 use od::{AbortCode, ObjectAccess, Value};
 
-use super::{
-    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, PlantSupervision, Vendor,
-};
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::drive::diagnostics::emcy_code;
@@ -18,6 +14,10 @@ use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
 use crate::homing::{HomingError, METHODS};
 use crate::messages::{self, reaction};
+use crate::personality::{
+    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
+    OptionCode, Personality, PlantSupervision, Vendor,
+};
 use crate::statusword::Statusword;
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
@@ -77,10 +77,10 @@ pub const CMMP_AS: Personality = Personality {
     ],
     // §6.1.6: every option code has one value only; the reactions are set per error in 2100h.
     option_codes: &[
-        fixed(super::QUICK_STOP_OPTION, 2),
-        fixed(super::SHUTDOWN_OPTION, 0),
-        fixed(super::DISABLE_OPERATION_OPTION, -1),
-        fixed(super::FAULT_REACTION_OPTION, 0),
+        fixed(crate::personality::QUICK_STOP_OPTION, 2),
+        fixed(crate::personality::SHUTDOWN_OPTION, 0),
+        fixed(crate::personality::DISABLE_OPERATION_OPTION, -1),
+        fixed(crate::personality::FAULT_REACTION_OPTION, 0),
     ],
     // Tab. 6.2: 0Fh in READY TO SWITCH ON runs transitions 3 and 4.
     enable_from_ready: true,

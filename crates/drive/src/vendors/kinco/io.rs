@@ -25,8 +25,8 @@
 //! - Ready is "no error and not switch-on disabled" (the manual: "ready to switch on"),
 //!   Motor Brake is "brake released".
 
-use super::kinco::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNCTIONS};
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNCTIONS};
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
@@ -340,7 +340,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         self.cause(
             MOTOR_TEMPERATURE,
             motor_error,
-            super::kinco::error_register(MOTOR_TEMPERATURE),
+            super::error_register(MOTOR_TEMPERATURE),
         );
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let enabling = cw.contains(Controlword::ENABLE_OPERATION_CMD);
@@ -350,7 +350,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         if refused && !self.faults.contains(&EXTERNAL_ENABLE) {
             self.raise(
                 EXTERNAL_ENABLE,
-                super::kinco::error_register(EXTERNAL_ENABLE),
+                super::error_register(EXTERNAL_ENABLE),
                 true,
             );
         }
@@ -460,7 +460,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             DoutFunction::ZeroSpeed => {
                 // Speed_1ms (whole inc/ms) against Zero_Speed_Window 2010h:18 (inc/ms).
                 let inc_per_ms = f64::from(self.plant_velocity_rpm())
-                    * super::kinco_drive::INCREMENTS_PER_REV as f64
+                    * super::hooks::INCREMENTS_PER_REV as f64
                     / 60_000.0;
                 (inc_per_ms as i64).abs() <= self.value(0x2010, 0x18).max(0)
             }

@@ -21,8 +21,8 @@
 //! magnitude (a limit has no sign), through the motor's torque constant 6410h:0F; with
 //! Analog_MaxT_Con = 0 the limit is the drive's own.
 
-use super::kinco::{analog_out, analog_speed_rpm, analog_window};
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::{analog_out, analog_speed_rpm, analog_window};
 use crate::drive::Drive;
 
 /// The simulated voltages of AIN1 and AIN2, 0.01 V, and the filter's state.

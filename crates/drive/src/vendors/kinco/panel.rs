@@ -13,8 +13,8 @@
 
 use od::{AbortCode, Instant, ObjectAccess};
 
-use super::kinco::ErrorWord;
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::ErrorWord;
 use crate::device_control::State;
 use crate::drive::Drive;
 
@@ -745,7 +745,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             // ch. 8: "000.1" is the extended error; SET shows Error_State2 (d1.16).
             let state2 = self.value(0x2602, 0) as u16;
             if self.vendor.panel.monitor_second && &code == b"000.1" && state2 != 0 {
-                super::kinco::led_code(state2.trailing_zeros() as u8)
+                super::led_code(state2.trailing_zeros() as u8)
             } else {
                 code
             }

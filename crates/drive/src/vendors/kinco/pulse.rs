@@ -13,8 +13,8 @@
 
 use core::time::Duration;
 
-use super::kinco::{selected_index, DinFunction};
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::{selected_index, DinFunction};
 use crate::drive::Drive;
 use od::Instant;
 

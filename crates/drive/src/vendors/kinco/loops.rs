@@ -39,8 +39,8 @@
 
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::STIFFNESS;
-use super::kinco_drive::Kinco;
+use super::hooks::Kinco;
+use super::STIFFNESS;
 use crate::control::ControlParams;
 use crate::current_filters::{kinco_notch_hz, kinco_speed_feedback_time_us, CurrentFilterParams};
 use crate::drive::Drive;

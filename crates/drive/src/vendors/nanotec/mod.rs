@@ -8,12 +8,10 @@
 //! PV, torque only in closed loop, no change during a brake wait), the shared target
 //! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
 
+pub mod units;
+
 use od::{AbortCode, ObjectAccess};
 
-use super::{
-    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable,
-    ModeSpec, OptionCode, Personality, PlantSupervision, Vendor,
-};
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
@@ -22,10 +20,14 @@ use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{Method, Speed, Step, Until};
-use crate::personality::nanotec_units::{load_angle_spacing_rpm, torque_current_ma};
+use crate::personality::{
+    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable,
+    ModeSpec, OptionCode, Personality, PlantSupervision, Vendor,
+};
 use crate::statusword::Statusword;
 use crate::stepper::StepperData;
 use crate::trajectory::Trajectory;
+use units::{load_angle_spacing_rpm, torque_current_ma};
 
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
 ///
@@ -82,7 +84,7 @@ pub const NANOTEC: Personality = Personality {
     // 6085h" (604Ah in VL, abrupt in IP, §5.4); the twin brakes with 6085h, then Switch On
     // Disabled (NT-CW-07), the rule that names an object a master sets (docs/decisions.md).
     option_codes: &[OptionCode {
-        index: super::QUICK_STOP_OPTION,
+        index: crate::personality::QUICK_STOP_OPTION,
         value: 3,
         fixed: true,
     }],
