@@ -1,7 +1,7 @@
 //! What a write to one of the drive's objects does beyond storing it, as a table of hooks
 //! (object and sub-index to a handler): the personality's own hooks first
 //! (`personality/*.rs`), then the CiA 402 ones here. An object without a hook is stored as it
-//! is ([`Drive::write_plain`]).
+//! is (`Drive::write_plain`).
 
 use super::*;
 

@@ -3,7 +3,7 @@
 //! personality raises its manual's message for what it finds, as its manual names it, through
 //! the same path as every other message (reaction, EMCY, 1003h, display):
 //!
-//! | condition                                      | field of [`PlantSupervision::messages`] |
+//! | condition                                      | field of [`PlantSupervision::messages`](crate::personality::PlantSupervision::messages) |
 //! |------------------------------------------------|------------------------------------------|
 //! | motor within [`WARNING_MARGIN_K`] of its limit | 0                                        |
 //! | motor above its limit                          | 1                                        |
@@ -12,7 +12,7 @@
 //! | implausible encoder counts                     | 4                                        |
 //!
 //! The personality names its messages, the objects holding the limits and those showing the
-//! temperatures ([`PlantSupervision`]). Where a manual has no limit object the limit is
+//! temperatures ([`crate::personality::PlantSupervision`]). Where a manual has no limit object the limit is
 //! CHOSEN ([`CHOSEN_MOTOR_LIMIT_C`], [`CHOSEN_STAGE_LIMIT_C`]).
 //!
 //! A cause stays while its condition does and goes [`HYSTERESIS_K`] below the limit (CHOSEN,

@@ -1,5 +1,5 @@
 //! The vendors: each folder one drive's manual where it departs from CiA 402 (its
-//! [`Personality`] tables and its [`Vendor`] hooks with the vendor's own state), and
+//! [`Personality`] tables and its [`Vendor`](crate::personality::Vendor) hooks with the vendor's own state), and
 //! [`AnyDrive`], the drive a device file names.
 //!
 //! Decision: the device file names its vendor by its `name` ([`AnyDrive::new`]); a CiA 402

@@ -42,7 +42,7 @@ use od::{AbortCode, ObjectAccess as _};
 use super::hooks::Kinco;
 use super::STIFFNESS;
 use crate::control::ControlParams;
-use crate::current_filters::{kinco_notch_hz, kinco_speed_feedback_time_us, CurrentFilterParams};
+use crate::current_filters::CurrentFilterParams;
 use crate::drive::Drive;
 use crate::motor::RPM_TO_RAD_S;
 
@@ -221,6 +221,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     }
 }
 
+/// The Kinco's Notch_N → centre frequency: `F = Notch_N × 10 + 100` Hz (Tab. 7-5).
+fn kinco_notch_hz(notch_n: u32) -> u32 {
+    notch_n * 10 + 100
+}
+
+/// The Kinco's Speed_Fb_N → the actual-speed filter's time constant, µs: bandwidth
+/// `100 + 20 × N` Hz (§9.2 d2.05), `τ = 1 / (2π f)`.
+fn kinco_speed_feedback_time_us(speed_fb_n: u32) -> u16 {
+    let hz = 100.0 + 20.0 * f64::from(speed_fb_n);
+    libm::round(1e6 / (2.0 * core::f64::consts::PI * hz)).clamp(1.0, 65535.0) as u16
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,5 +249,12 @@ mod tests {
         assert_eq!(integral_time_us(0.0), 0);
         assert_eq!(integral_time_us(10.0), 15_915);
         assert_eq!(kvp_of_bandwidth(40, 30), 1200);
+    }
+
+    #[test]
+    fn speed_feedback_bandwidth() {
+        // N = 25 (default): 600 Hz → 265 µs.
+        assert_eq!(kinco_speed_feedback_time_us(25), 265);
+        assert_eq!(kinco_speed_feedback_time_us(0), 1592);
     }
 }
