@@ -136,7 +136,7 @@ ROUTE_OF_KEY = {
 def kinco_seeds():
     """The telegrams of the Kinco RS232 tests (KINCO-232-01...), point to point and in a ring."""
     telegrams = []
-    for f in [REPO / "crates/canopen/src/kinco_rs232.rs", *sorted((REPO / "crates/drive/tests").glob("kinco*.rs"))]:
+    for f in [REPO / "crates/drive/src/vendors/kinco/rs232.rs", *sorted((REPO / "crates/drive/tests").glob("kinco*.rs"))]:
         if f.is_file():
             telegrams += [bytes.fromhex(t) for t in TELEGRAM.findall(f.read_text(encoding="utf-8"))]
     for setup, name in ((0x01, "p2p"), (0x81, "ring")):

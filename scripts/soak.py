@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Soak: a mixed cell at load for a given time, with clients coming and going, slow and
 malformed clients and bus faults, while the twin's resident memory and open file descriptors
-are sampled (issue 15, point 3).
+are sampled.
 
 The cell: a CMMP-AS (node 1), a Nanotec SMCI47-S (node 34) and a Kinco FD3 (node 5, also on
 RS232 through a pty) on one socketcand bus, a CMMO-ST on Modbus TCP, and, where the machine

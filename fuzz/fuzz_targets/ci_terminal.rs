@@ -2,7 +2,7 @@
 //! dictionary: no panic, and every answer is one line that starts with `=` or `!`.
 #![no_main]
 
-use canopen::ci_terminal::CiTerminal;
+use drive::vendors::festo_cmmp_as::ci_terminal::CiTerminal;
 use libfuzzer_sys::fuzz_target;
 use od::ObjectDictionary;
 

@@ -25,7 +25,7 @@ fn run(data: &[u8]) {
     let (desc, cfg) = if kind & 1 == 1 {
         (&devices::TESTBENCH, CoeConfig::FULL)
     } else {
-        (&devices::CMMP_AS, CoeConfig::CMMP_AS)
+        (&devices::CMMP_AS, CoeConfig::from_description(&devices::CMMP_AS))
     };
     let Ok(mut od) = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]) else {
         return;

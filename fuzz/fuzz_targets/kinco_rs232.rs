@@ -4,7 +4,7 @@
 //! drive's own station, and in a ring every complete telegram is passed on unchanged first.
 #![no_main]
 
-use canopen::kinco_rs232::{checksum_ok, KincoRs232, Response, DEFAULT_GAP, TELEGRAM_LEN};
+use drive::vendors::kinco::rs232::{checksum_ok, KincoRs232, Response, DEFAULT_GAP, TELEGRAM_LEN};
 use libfuzzer_sys::fuzz_target;
 use od::{Instant, ObjectDictionary};
 

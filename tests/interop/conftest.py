@@ -3,6 +3,10 @@
 Every test starts its own `drivetwin run` on a free loopback port with its own state directory,
 talks to it over socketcand with python-canopen / python-can (or raw TCP), and stops it with
 SIGTERM, checking that it stopped cleanly.
+
+The tests cite the manuals: `seeds/NNN_….txt` is a manual's text and `spec/….md` its English
+extract, both kept beside the project in `../shared` (not in this repository); `spec/vectors.md`
+is the catalogue of the manuals' worked examples, named in the tests by their IDs.
 """
 
 from __future__ import annotations

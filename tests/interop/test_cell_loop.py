@@ -1,4 +1,4 @@
-"""Issue 12: one cell, one loop. A cell file with two CAN buses ([[bus]]), a CMMP-AS on each
+"""One cell, one loop. A cell file with two CAN buses ([[bus]]), a CMMP-AS on each
 (both node 1: node-IDs are per bus), the first with its CI terminal, and a CMMO-ST on Modbus
 TCP, all served by the one cell loop of one process: python-canopen on both buses, the CI
 terminal and pymodbus at once."""

@@ -1,7 +1,7 @@
 """CiA 301 §7.3.5 over socketcand: no configurable COB-ID of any personality takes a
 restricted CAN-ID (000h, 001h–07Fh, 101h–180h, 581h–5FFh, 601h–67Fh, 6E0h–6FFh, 701h–77Fh,
 780h–7FFh): SYNC 1005h, EMCY 1014h where it is writable, every RPDO and TPDO. A refused
-write is aborted with 0609 0030h and leaves the old value (issue 15, conformance gaps)."""
+write is aborted with 0609 0030h and leaves the old value."""
 
 import struct
 

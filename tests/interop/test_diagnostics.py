@@ -1,5 +1,5 @@
 """Diagnostic messages injected through the REST API of `drivetwin run --http`, seen on the bus
-by python-canopen (issue 16 point 3): POST /api/drives/0/diagnostics/03-0 makes the CMMP-AS
+by python-canopen: POST /api/drives/0/diagnostics/03-0 makes the CMMP-AS
 send EMCY 4310h with the temperature bit (CMMP-EMCY-03), put 4310h in 1003h:01 and go to
 FAULT; DELETE and a fault reset acknowledge it with EMCY 0000h (CMMP-EMCY-01)."""
 

@@ -8,9 +8,9 @@ mapping over CoE (1C12h/1C13h, 1600h/1A00h), the slave goes to Safe-Op and Op, a
 working counter checked on every cycle.
 
 Needs root (network namespaces, raw sockets) and `ip` (iproute2); skips with a message
-otherwise. ETHERCAT_CYCLIC_SECONDS sets the length of the cyclic run (default 2 s; the
-issue's acceptance run is 10 s or more: `ETHERCAT_CYCLIC_SECONDS=10 pytest ...`); the CSP
-session runs ETHERCAT_CSP_SECONDS (default 10 s, the issue's figure). A third test runs the drive on
+otherwise. ETHERCAT_CYCLIC_SECONDS sets the length of the cyclic run (default 2 s; an
+acceptance run is 10 s or more: `ETHERCAT_CYCLIC_SECONDS=10 pytest ...`); the CSP
+session runs ETHERCAT_CSP_SECONDS (default 10 s, an acceptance run). A third test runs the drive on
 DC SYNC0 (10 ms) and stops the master to provoke the synchronisation error.
 """
 
@@ -30,7 +30,7 @@ from conftest import Realtime, ecat_twin_run, product_code
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
 CYCLIC_SECONDS = float(os.environ.get("ETHERCAT_CYCLIC_SECONDS", "2"))
-# The CSP session: the issue's acceptance figure, 10 s at 1 kHz.
+# The CSP session: an acceptance run, 10 s at 1 kHz.
 CSP_SECONDS = float(os.environ.get("ETHERCAT_CSP_SECONDS", "10"))
 CYCLE_S = 0.001
 FESTO = 0x1D

@@ -1,4 +1,4 @@
-"""Stored parameters survive kill -9 (issue 15): the twin is killed with SIGKILL at random
+"""Stored parameters survive kill -9: the twin is killed with SIGKILL at random
 moments while it saves its parameters (1010h:01 "save" over CANopen and over EtherCAT CoE,
 PNU 127:2 on the CMMO-ST), and every next start comes up with either the old or the new set,
 never a mixture, never a refusal to start.
@@ -7,7 +7,7 @@ Each round writes a new generation g to several objects of different sizes, asks
 and kills the process 0…4 ms later (before, during or after the write of the file); the next
 start must show one generation for all objects: the last one whose save was answered, or the
 one killed during its save. `KILL9_ROUNDS` sets the rounds (50 here; `KILL9_ROUNDS=1000` is
-the long form of issue 15). The CoE rounds (a CMMP-AS EtherCAT slave on a veth pair, SOEM as
+the long form). The CoE rounds (a CMMP-AS EtherCAT slave on a veth pair, SOEM as
 the master, about 0.25 s a round) need root and pysoem and skip otherwise, as the other
 EtherCAT tests do.
 """

@@ -1,4 +1,5 @@
-"""The Kinco FD3's serial front ends (issue 13 point 3; spec/kinco-fd-cd.md §2.1-2.3) through
+"""The Kinco FD3's serial front ends (Kinco FD/CD manual extract spec/kinco-fd-cd.md §2.1-2.3,
+kept beside the project) through
 the real binary: `drivetwin run --rs232 PATH / --rs485 PATH` make PATH a link to a pty of the
 twin, opened here the way public Kinco programs open a serial port (pyserial, 38400 8N1,
 exclusive, 80 ms read timeout, one 10-byte telegram then a 10-byte read) and by pymodbus's
@@ -110,7 +111,7 @@ def test_rs232_like_a_public_kinco_driver(launch, node_of, tmp_path):
 
 
 def test_rs232_round_trip_takes_the_wire_time(launch, tmp_path):
-    """Issue 13: 10 bytes at 38400 bit/s take 2.6 ms; a telegram and its answer 5.2 ms, and
+    """10 bytes at 38400 bit/s take 2.6 ms; a telegram and its answer 5.2 ms, and
     the twin adds little to it."""
     path = tmp_path / "ttyKINCO"
     twin = launch("kinco-fd3", 1, extra=("--rs232", str(path)))
@@ -251,7 +252,7 @@ def test_two_drives_on_one_rs485_line(launch, node_of, tmp_path):
 
 
 def test_drivetwin_kinco_master_over_the_pty(launch, node_of, tmp_path):
-    """Issue 13 point 5: `drivetwin kinco read|write|status --port PATH --id N` against the
+    """`drivetwin kinco read|write|status --port PATH --id N` against the
     twin's RS232 pty, checked over CANopen."""
     from conftest import run_cli
 
@@ -335,7 +336,7 @@ def test_a_real_device_path_is_opened_not_linked(launch, tmp_path):
 
 def test_base_node_402_moves_the_drive_while_rs232_polls_its_position(launch, connect, eds_files,
                                                                      tmp_path):
-    """Issue 13: one drive, two masters at once, as a machine with a PLC on CANopen and a
+    """One drive, two masters at once, as a machine with a PLC on CANopen and a
     service PC on RS232 has them. python-canopen's BaseNode402 runs the CiA 402 state machine
     and a profile position move over socketcand while a pyserial client polls 6063h (position
     actual, increments) over RS232 every 10 ms: every poll is answered, the positions it sees

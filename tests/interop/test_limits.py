@@ -1,4 +1,4 @@
-"""Limits on the socketcand front end (issue 15, point 4): 100 clients of which 10 never read
+"""Limits on the socketcand front end: 100 clients of which 10 never read
 while a 1 ms heartbeat streams to them all; a client that floods the bus with frames. The SDO
 round trips of a client that behaves stay as they were within noise, the clients that never
 read are dropped after their bounded queue, the flood cannot starve the others, and the twin

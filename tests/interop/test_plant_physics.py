@@ -1,5 +1,5 @@
 """The plant's physics through the REST API of `drivetwin run --http`, seen on the bus by
-python-canopen (issue 16): a hot cabinet heats the CMMP-AS's motor past 6510h:2F and its own
+python-canopen: a hot cabinet heats the CMMP-AS's motor past 6510h:2F and its own
 supervision sends EMCY 4310h (03-0) with 6510h:2E showing the temperature; a pulled encoder
 cable is EMCY 7380h (08-0); the positive limit switch actuated by name shows in 60FDh bit 1."""
 

@@ -1,4 +1,4 @@
-"""Scenarios in CI (issue 16, point 4): `drivetwin scenario FILE` as a subprocess on the
+"""Scenarios in CI: `drivetwin scenario FILE` as a subprocess on the
 virtual clock. The passing example (a limit switch and a broken cable leading to the drive's
 fault and the EMCYs) exits 0 and prints the same report and writes the same trace twice; the
 one meant to fail exits 1 and names the expectation it missed; a bad file is a usage error."""

@@ -209,7 +209,7 @@ def test_each_bus_writes_its_own_trace(launch, connect, eds_files, tmp_path):
 
 
 def test_the_trace_of_a_timed_bus_has_its_load_beside_it(launch, tmp_path):
-    """Issue 14: `trace` on a `[[bus]]` with a bit rate writes `<trace>.load.csv`, the bus load
+    """`trace` on a `[[bus]]` with a bit rate writes `<trace>.load.csv`, the bus load
     per 500 ms window; each window's load is the bit time (conftest.frame_bits) of the
     pcap's frames in it over its length, and tshark reads the pcap as before."""
     from conftest import CHANNEL

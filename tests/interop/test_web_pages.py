@@ -265,7 +265,7 @@ def test_iodd_writes_the_two_files_of_the_manual(tmp_path):
 
 
 def test_the_kinco_panel_on_the_drive_page_walks_its_menus(launch, node_of, browser):  # noqa: F811
-    """Issue 13 point 4 in the page: the Kinco FD3's five digits and its four keys. MODE three
+    """The Kinco panel in the page: the Kinco FD3's five digits and its four keys. MODE three
     times and SET open F003's first parameter; the digits follow each key; a CMMP-AS page
     has no panel."""
     twin = launch("kinco-fd3", 1, extra=("--http", "127.0.0.1:0"))

@@ -1,4 +1,4 @@
-"""Faults on the wire through the web console's API (issue 16, point 2), seen by a master on
+"""Faults on the wire through the web console's API, seen by a master on
 socketcand with python-canopen / python-can: a cut cable silences a node's heartbeat and its
 heartbeat consumer (a Kinco FD) reports it with EMCY 8130h (CiA 301), then both come back; a
 master whose own cable is cut gets no SDO answer; corrupted frames are error frames the nodes

@@ -1,4 +1,4 @@
-"""Faults on an EtherCAT chain's wire through the API (issue 16, point 2): SOEM (pysoem) over a
+"""Faults on an EtherCAT chain's wire through the API: SOEM (pysoem) over a
 veth pair finds the twin's slave; with the chain's cable cut it finds none (every frame lost),
 nor with its frames corrupted (the Ethernet FCS discards them); mended, it finds it again.
 The twin runs in the veth's network namespace, so the API is called from inside it."""

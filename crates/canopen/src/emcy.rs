@@ -39,7 +39,7 @@ pub struct EmcyProducer {
 
 impl EmcyProducer {
     /// An error appears: EMCY with its code and the new error register, entry in 1003h.
-    /// Raising an error that is already active does nothing (CMMP-AS Tab. 3.8: one EMCY per
+    /// Raising an error that is already active does nothing (CiA 301: one EMCY per error
     /// occurrence).
     pub fn raise(
         &mut self,

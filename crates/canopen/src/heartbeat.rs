@@ -5,7 +5,7 @@ use core::time::Duration;
 use od::{Instant, ObjectAccess};
 
 /// Sends the node's state every 1017h milliseconds; the boot-up message counts as the first
-/// heartbeat (CMMP-AS §3.8.3).
+/// heartbeat (CiA 301, heartbeat protocol).
 #[derive(Debug, Default, Clone)]
 pub struct HeartbeatProducer {
     period_ms: u16,

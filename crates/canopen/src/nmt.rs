@@ -23,7 +23,8 @@ impl NmtState {
             _ => return None,
         })
     }
-    /// SDO is served in Pre-Operational and Operational only (CMMP-AS Tab. 3.11).
+    /// SDO is served in Pre-Operational and Operational only (CiA 301, NMT states and the
+    /// services they allow).
     pub const fn serves_sdo(self) -> bool {
         matches!(self, NmtState::PreOperational | NmtState::Operational)
     }

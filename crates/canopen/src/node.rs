@@ -36,7 +36,8 @@ pub enum NodeEvent {
     State(NmtState),
     /// A consumed heartbeat timed out or came back.
     Heartbeat(ConsumerEvent),
-    /// Node guarding: no guarding request within the life time (CMMP-AS: error 12-4).
+    /// Node guarding: no guarding request within the life time (the device's diagnostic table
+    /// names the error it shows).
     LifeGuardingLost,
     /// A guarding request arrived again after a life-guarding error.
     LifeGuardingResumed,
@@ -88,8 +89,9 @@ struct SdoView<'a> {
 }
 
 impl SdoView<'_> {
-    /// Nanotec §11.23: guard time × life time factor may not exceed one minute; a write that
-    /// would make it longer is refused with 0604 0043h (general parameter incompatibility).
+    /// The device file's `life_time_max_ms`: guard time × life time factor may not exceed it
+    /// (the manual that sets it gives one minute); a write that would make it longer is
+    /// refused with 0604 0043h (general parameter incompatibility).
     fn check_life_time(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
         let Some(max) = self.life_time_max_ms else {
             return Ok(());
@@ -118,7 +120,7 @@ impl ObjectAccess for SdoView<'_> {
     }
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if self.lock_pdo_params && (0x1400..=0x1BFF).contains(&index) {
-            // CMMP-AS §3.3.3: PDOs are parameterised outside Operational only.
+            // `pdo_config_outside_operational`: PDOs are parameterised outside Operational only.
             self.od.entry(index, sub)?;
             return Err(AbortCode::DEVICE_STATE);
         }
@@ -224,7 +226,7 @@ impl<const N: usize> Node<N> {
         }
         self.sdo.reset();
         self.consumer.clear();
-        // CMMP-AS §3.9: the toggle bit is reset by reset communication.
+        // CiA 301, node guarding: only reset communication resets the toggle bit.
         self.guarding = Guarding::default();
         self.emcy.reset_communication();
         self.pdos.reload(od);
@@ -416,7 +418,7 @@ impl<const N: usize> Node<N> {
         out: &mut dyn FnMut(CanFrame),
     ) {
         // CiA 301 §7.2.5: with 1019h the SYNC carries a counter byte; without, none. A device
-        // without 1019h (CMMP-AS) takes both.
+        // without 1019h takes both.
         let ok = match od.read_u8(0x1019, 0) {
             Some(0) => data.is_empty(),
             Some(_) => data.len() == 1,
@@ -438,12 +440,13 @@ impl<const N: usize> Node<N> {
         od: &mut dyn ObjectAccess,
         out: &mut dyn FnMut(CanFrame),
     ) {
-        // CMMP-AS §3.9: with both configured only the heartbeat runs.
+        // CiA 301: with both configured only the heartbeat runs.
         if od.read_u16(0x1017, 0).unwrap_or(0) != 0 {
             return;
         }
-        // Decision (Nanotec §2.3, L467–488, prints no toggle bit): CiA 301's toggle in bit 7
-        // for every personality; it starts at 0, so the first answer is the manual's 7Fh.
+        // Decision (seeds/003_ef071fe40f10c01c.txt L467–488 prints no toggle bit): CiA 301's
+        // toggle in bit 7 for every personality; it starts at 0, so the first answer is the
+        // manual's 7Fh.
         let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
         self.guarding.toggle = !self.guarding.toggle;
         out(self.error_control_frame(byte));
@@ -459,8 +462,8 @@ impl<const N: usize> Node<N> {
         }
     }
 
-    /// The EMCY code of a life-guarding error: CiA 301's 8130h unless the personality has its
-    /// own (Nanotec §13.3: 0004h).
+    /// The EMCY code of a life-guarding error: CiA 301's 8130h unless the device file gives its
+    /// own (`life_guard_emcy_code`).
     fn life_guard_code(&self) -> u16 {
         self.opts
             .life_guard_emcy_code
@@ -496,8 +499,9 @@ impl<const N: usize> Node<N> {
                     self.pdos.set_operational(now, s == NmtState::Operational);
                     self.push(NodeEvent::State(s));
                 }
-                // Nanotec §12.2 (seeds/003_ef071fe40f10c01c.txt L4153, L4237) prints the node's
-                // answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`.
+                // `nmt_command_answered_with_state` (seeds/003_ef071fe40f10c01c.txt L4153, L4237
+                // prints the node's answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as
+                // `701: 05`).
                 // Decision: CiA 301 has no NMT answer, but the manual labels both lines
                 // "Antwort Node 1", with heartbeat off by default: the personality sends the
                 // state byte as a heartbeat carries it (no guarding toggle). CiA masters take

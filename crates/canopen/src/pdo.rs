@@ -197,7 +197,7 @@ impl Pdos {
 
     fn mask(&self, od: &dyn ObjectAccess, n: u16) -> u64 {
         match self.opts.tpdo_transmit_mask_index {
-            // CMMP-AS §3.3.1: low word = PDO bytes 0–3, high word = bytes 4–7.
+            // `tpdo_transmit_mask_index`: low word = PDO bytes 0–3, high word = bytes 4–7.
             Some(base) => {
                 let lo = od.read_u32(base + n, 1).unwrap_or(u32::MAX);
                 let hi = od.read_u32(base + n, 2).unwrap_or(u32::MAX);
@@ -315,7 +315,7 @@ impl Pdos {
         {
             let inhibit = Duration::from_micros(u64::from(t.cfg.inhibit_100us) * 100);
             if t.cfg.ttype == 254 && cyclic_inhibit {
-                // CMMP-AS Tab. 3.7: FEh sends cyclically, the period is the inhibit time.
+                // `tpdo_254_cyclic_inhibit`: FEh sends cyclically, the period is the inhibit time.
                 if inhibit.is_zero() {
                     continue;
                 }

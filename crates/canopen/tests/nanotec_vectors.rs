@@ -42,7 +42,7 @@ fn carry_out_reset(b: &mut Bench) -> Vec<CanFrame> {
 }
 
 // ------------------------------------------------------------------------------------------
-// 3.1 Node-ID and bit rate (the switch rules are in canopen::rotary_switches)
+// 3.1 Node-ID and bit rate (the switch rules are in drive::vendors::nanotec::rotary_switches)
 
 /// NT-NODE-08: node 34 (22h) answers SDOs on 5A2 to requests on 622, error control on 722.
 #[test]

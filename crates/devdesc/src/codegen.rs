@@ -38,6 +38,35 @@ pub fn generate(d: &Device) -> String {
         "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",
         d.interfaces, d.interfaces_one_of, d.interfaces_rule
     );
+    let _ = writeln!(s, "    fieldbus_switches: {},", d.fieldbus_switches);
+    match &d.ethercat {
+        None => {
+            let _ = writeln!(s, "    ethercat: None,");
+        }
+        Some(e) => {
+            let _ = writeln!(
+                s,
+                "    ethercat: Some(od::EthercatSlave {{ group_type: {:?}, group_name: {:?}, pdi_control: 0x{:04X}, mailbox_out: (0x{:04X}, 0x{:04X}), mailbox_in: (0x{:04X}, 0x{:04X}), outputs_start: 0x{:04X}, inputs_start: 0x{:04X}, rx_assigned: &{:?}, tx_assigned: &{:?}, ds402_channels: {}, physical_ports: 0x{:04X}, complete_access: {}, sdo_info: {}, coe_hidden: &{:?}, version: {} }}),",
+                e.group_type,
+                e.group_name,
+                e.pdi_control,
+                e.mailbox_out[0],
+                e.mailbox_out[1],
+                e.mailbox_in[0],
+                e.mailbox_in[1],
+                e.outputs_start,
+                e.inputs_start,
+                e.rx_assigned,
+                e.tx_assigned,
+                e.ds402_channels,
+                e.physical_ports,
+                e.complete_access,
+                e.sdo_info,
+                e.coe_hidden,
+                e.version
+            );
+        }
+    }
     let c = &d.cia301;
     let _ = writeln!(
         s,

@@ -45,6 +45,8 @@ pub struct Device {
     pub interfaces: Vec<String>,
     pub interfaces_one_of: Vec<String>,
     pub interfaces_rule: String,
+    pub fieldbus_switches: bool,
+    pub ethercat: Option<crate::schema::EthercatSection>,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
     pub diagnostics: Vec<Diag>,
@@ -200,6 +202,27 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             "interfaces_one_of {bad:?} is not in interfaces"
         )));
     }
+    let has_ethercat = interfaces.iter().any(|i| i == "ethercat");
+    if has_ethercat != d.ethercat.is_some() {
+        return Err(DescError::Device(
+            "an `ethercat` interface and a [device.ethercat] section go together".into(),
+        ));
+    }
+    if let Some(e) = &d.ethercat {
+        let rx = e
+            .rx_assigned
+            .iter()
+            .find(|i| !(0x1600..=0x17FF).contains(*i));
+        let tx = e
+            .tx_assigned
+            .iter()
+            .find(|i| !(0x1A00..=0x1BFF).contains(*i));
+        if let Some(bad) = rx.or(tx) {
+            return Err(DescError::Device(format!(
+                "[device.ethercat] assigns {bad:04X}h, which is no PDO mapping object of its direction"
+            )));
+        }
+    }
     let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
         if fhpp {
             "its fieldbus is Modbus TCP"
@@ -225,6 +248,8 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         interfaces,
         interfaces_one_of: d.interfaces_one_of,
         interfaces_rule,
+        fieldbus_switches: d.fieldbus_switches,
+        ethercat: d.ethercat,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
@@ -805,5 +830,30 @@ mod tests {
             var("type = \"UNSIGNED8\"\naccess = \"rw\"")
         );
         assert!(err(&twice).contains("defined twice"));
+    }
+
+    /// An EtherCAT slave's SII and CoE data come with its `ethercat` interface, and PDO
+    /// assignments name mapping objects of their direction.
+    #[test]
+    fn an_ethercat_interface_comes_with_its_section() {
+        let section = "[device.ethercat]\ngroup_type = \"g\"\ngroup_name = \"n\"\npdi_control = 5\nmailbox_out = [0x1000, 0x80]\nmailbox_in = [0x1080, 0x80]\noutputs_start = 0x1100\ninputs_start = 0x1180\nrx_assigned = [0x1600]\ntx_assigned = [0x1A00]\nds402_channels = 1\nphysical_ports = 0x11\ncomplete_access = false\nsdo_info = true\nversion = 1\n";
+        let with = |interfaces: &str, section: &str| {
+            format!("{HEAD}interfaces = [{interfaces}]\n{section}")
+        };
+        let d = parse(&with("\"ethercat\"", section), "t.toml").expect("valid");
+        let e = d.ethercat.expect("section");
+        assert!(!d.fieldbus_switches);
+        assert_eq!(
+            (e.mailbox_in, e.rx_assigned),
+            ([0x1080, 0x80], vec![0x1600])
+        );
+        let go_together = "go together";
+        let alone = parse(&with("\"ethercat\"", ""), "t.toml").unwrap_err();
+        assert!(alone.to_string().contains(go_together), "{alone}");
+        let stray = parse(&with("\"canopen\"", section), "t.toml").unwrap_err();
+        assert!(stray.to_string().contains(go_together), "{stray}");
+        let crossed = section.replace("rx_assigned = [0x1600]", "rx_assigned = [0x1A00]");
+        let crossed = parse(&with("\"ethercat\"", &crossed), "t.toml").unwrap_err();
+        assert!(crossed.to_string().contains("1A00h"), "{crossed}");
     }
 }

@@ -94,6 +94,37 @@ pub struct DeviceSection {
     #[serde(default)]
     pub interfaces_one_of: Vec<String>,
     pub interfaces_rule: Option<String>,
+    /// DIP switches (or inputs) select node-ID offset, bit rate and fieldbus at power-on.
+    #[serde(default)]
+    pub fieldbus_switches: bool,
+    /// `[device.ethercat]`: what an EtherCAT master reads of the slave beyond the dictionary.
+    pub ethercat: Option<EthercatSection>,
+}
+
+/// `[device.ethercat]`: the SII's layout and names and what the CoE mailbox serves
+/// (`od::EthercatSlave`). Every key but `coe_hidden` is required: the manual's values, or the
+/// ESC reference baseline with a comment saying so.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EthercatSection {
+    pub group_type: String,
+    pub group_name: String,
+    pub pdi_control: u16,
+    /// SM0 start address and size.
+    pub mailbox_out: [u16; 2],
+    /// SM1 start address and size.
+    pub mailbox_in: [u16; 2],
+    pub outputs_start: u16,
+    pub inputs_start: u16,
+    pub rx_assigned: Vec<u16>,
+    pub tx_assigned: Vec<u16>,
+    pub ds402_channels: u8,
+    pub physical_ports: u16,
+    pub complete_access: bool,
+    pub sdo_info: bool,
+    #[serde(default)]
+    pub coe_hidden: Vec<u16>,
+    pub version: u16,
 }
 
 /// `panel = "d3.01"` or `panel = ["d2.00", "d3.00"]`: one object may have several panel

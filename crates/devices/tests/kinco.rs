@@ -1,6 +1,8 @@
-//! The two Kinco personalities (seeds/001_da459f46c7138f7b.txt, spec/kinco-fd-cd.md): what the
-//! FD3 (CANopen) and the CD3 have, the defaults and ranges the manual prints, and the panel
-//! address and Modbus register of each object. Vectors of spec/vectors.md by ID.
+//! The two Kinco personalities (the Kinco CD3 / FD3 manual, kept beside the project as
+//! seeds/001_da459f46c7138f7b.txt with its English extract spec/kinco-fd-cd.md): what the FD3
+//! (CANopen) and the CD3 have, the defaults and ranges the manual prints, and the panel address
+//! and Modbus register of each object. The manual's worked examples by their vector IDs
+//! (spec/vectors.md).
 
 use od::{AbortCode, DataType, ObjectAccess, ObjectDictionary, Profile, Value};
 

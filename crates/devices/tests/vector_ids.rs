@@ -1,5 +1,5 @@
-//! Every vector of the catalogue (`shared/spec/vectors.md`, beside the repository as
-//! `../shared`) is named by its own ID in a test: a file under a `tests/` folder, or the part of
+//! Every vector of the catalogue of the manuals' worked examples (`spec/vectors.md`, kept beside
+//! the repository in `../shared`) is named by its own ID in a test: a file under a `tests/` folder, or the part of
 //! a source file from its first `#[cfg(test)]` on. A range or an abbreviation ("KINCO-DIAG-01…07",
 //! "KINCO-SC-01/02", "KINCO-MB-01, -02") names only its first ID and is refused as well. The
 //! count per device is printed.

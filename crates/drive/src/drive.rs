@@ -72,7 +72,7 @@ pub struct DriveSettings {
     pub mode_change_time: Duration,
     /// The hardware enables (DIN4 output stage, DIN5 controller enable) transition 2 needs.
     /// False also for a Nanotec that "accepts no motion commands" (NT-NODE-07: switch =
-    /// node + 128 with no bit-rate code in 2005h; `canopen::rotary_switches`).
+    /// node + 128 with no bit-rate code in 2005h; `drive::vendors::nanotec::rotary_switches`).
     pub enables_present: bool,
     /// A holding brake is fitted: it holds the shaft while the output stage is off.
     pub brake_fitted: bool,

@@ -2,6 +2,7 @@
 //! bits 0–3, 5, 6 show the device control state, the others the drive and the mode.
 
 use crate::bit_word::bit_word;
+use crate::device_control::State;
 
 bit_word! {
     /// 6041h statusword.
@@ -55,4 +56,84 @@ impl Statusword {
     pub const IP_MODE_ACTIVE: Statusword = Statusword::OPERATION_MODE_SPECIFIC_12;
     /// PV speed zero (bit 12).
     pub const SPEED_ZERO: Statusword = Statusword::OPERATION_MODE_SPECIFIC_12;
+}
+
+impl Statusword {
+    /// The bits' names for display (CiA 402 §6.3.3; CMMP-AS §6.1.4 Tab. 6.7); bits 12 and 13
+    /// depend on the mode of operation, so each names its meanings.
+    pub const BIT_NAMES: [&'static str; 16] = [
+        "ready to switch on",
+        "switched on",
+        "operation enabled",
+        "fault",
+        "voltage enabled",
+        "quick stop",
+        "switch on disabled",
+        "warning",
+        "manufacturer specific (8)",
+        "remote",
+        "target reached",
+        "internal limit active",
+        "set-point acknowledge / speed 0 / homing attained",
+        "following error / homing error",
+        "manufacturer specific (14)",
+        "manufacturer specific (15)",
+    ];
+
+    /// The device control state bits 0–3, 5 and 6 show (CiA 402 §6.3.3 Tab. 30; CMMP-AS
+    /// Tab. 6.6), `None` for a combination no state has. 000Fh is FAULT REACTION ACTIVE, as
+    /// the table has it (a CMMP-AS without 6510h:F0 bit 7 shows FAULT that way too).
+    pub const fn state(self) -> Option<State> {
+        let sw = self.0;
+        Some(if sw & 0x4F == 0x00 {
+            State::NotReadyToSwitchOn
+        } else if sw & 0x4F == 0x40 {
+            State::SwitchOnDisabled
+        } else if sw & 0x6F == 0x21 {
+            State::ReadyToSwitchOn
+        } else if sw & 0x6F == 0x23 {
+            State::SwitchedOn
+        } else if sw & 0x6F == 0x27 {
+            State::OperationEnabled
+        } else if sw & 0x6F == 0x07 {
+            State::QuickStopActive
+        } else if sw & 0x4F == 0x0F {
+            State::FaultReactionActive
+        } else if sw & 0x4F == 0x08 {
+            State::Fault
+        } else {
+            return None;
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Statusword;
+    use crate::device_control::State;
+
+    #[test]
+    fn every_state_reads_back_from_its_own_bits() {
+        for s in [
+            State::NotReadyToSwitchOn,
+            State::SwitchOnDisabled,
+            State::ReadyToSwitchOn,
+            State::SwitchedOn,
+            State::OperationEnabled,
+            State::QuickStopActive,
+            State::FaultReactionActive,
+            State::Fault,
+        ] {
+            // With voltage enabled and remote set, as a running drive shows them.
+            let sw = Statusword(s.statusword_bits(true) | 0x0210);
+            assert_eq!(sw.state(), Some(s), "{s:?}");
+        }
+        assert_eq!(
+            Statusword(State::Fault.statusword_bits(false)).state(),
+            Some(State::FaultReactionActive),
+            "CMMP-AS FAULT without 6510h:F0 bit 7 shows 000Fh"
+        );
+        assert_eq!(Statusword(0x0637).state(), Some(State::OperationEnabled));
+        assert_eq!(Statusword(0x0025).state(), None, "bits 0 and 2 without 1");
+    }
 }

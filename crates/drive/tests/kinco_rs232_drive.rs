@@ -7,7 +7,7 @@
 
 mod kinco_rig;
 
-use canopen::kinco_rs232::{checksum, KincoRs232};
+use drive::vendors::kinco::rs232::{checksum, KincoRs232};
 use kinco_rig::Rig;
 
 /// The telegram of station 1 with `body` (bytes 1…8) and its negated-sum checksum.

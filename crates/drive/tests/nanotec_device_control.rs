@@ -152,8 +152,8 @@ fn nt_cw_08_fault_reset_needs_a_rising_edge() {
 
 /// NT-NODE-07, the drive's side: switch = node + 128 with a 2005h outside 130…135 leaves a
 /// controller that "answers on CAN but accepts no motion commands" (§1.1.3 step 7, L333;
-/// `canopen::rotary_switches` decides it from the switches). The cell gives such a drive no
-/// hardware enables (`DriveSettings::enables_present`): SDO answers, the statusword reads
+/// `drive::vendors::nanotec::rotary_switches` decides it from the switches). The cell gives
+/// such a drive no hardware enables (`DriveSettings::enables_present`): SDO answers, the statusword reads
 /// Switch On Disabled, and neither Shutdown nor the §2.4 power-up nor a PP start moves it.
 ///
 /// Decision: the manual names no object or state for the refusal; a power stage that cannot

@@ -5,7 +5,7 @@
 //!
 //! - `floor socketcand`: a thread that blocks in `read` and answers every request at once
 //!   with a fixed socketcand frame, no device (the lowest a sleeping server gets);
-//! - `twin socketcand`: the cell loop ([`drivetwin::cell::poll_loop`]) with a CMMP-AS, node 1,
+//! - `twin socketcand`: the cell loop ([`drivetwin::cell_loop`]) with a CMMP-AS, node 1,
 //!   answering an expedited SDO upload of 1000h (`< send 601 8 40 00 10 00 … >` →
 //!   `< frame 581 … 43 00 10 00 … >`) after the socketcand handshake;
 //! - `floor modbus`: the same blocking thread answering a Modbus FC 17h request with a fixed
@@ -22,7 +22,7 @@
 //! Last, the realistic bus: the same SDO upload against a CMMP-AS alone on a bus at the default
 //! cell's 125 kbit/s (`CELL_BENCH_BITRATE` another), client and loop on CPU 0,
 //! `CELL_BENCH_BUS_COUNT` round trips (default 2000). It prints the p50 beside what the bus
-//! alone costs: the request's and the answer's bit time (`canopen::frame_time`), plus the
+//! alone costs: the request's and the answer's bit time (`canbus::frame_time`), plus the
 //! drive's answer time, none (the answer leaves as the request has crossed; docs/decisions.md),
 //! and the ratio (target: within 5 %).
 //!
@@ -42,6 +42,12 @@
 //! It draws the figures into `docs/round-trip-latency.png` (`CELL_BENCH_PLOT` another path):
 //! p50 and p99 of each path, floor beside twin, per placement. The machine the figures in
 //! `docs/cell.md` come from is shared: a run measures the neighbours' load too.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -49,10 +55,10 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 
@@ -161,7 +167,7 @@ fn realistic_bus() -> Result<(), String> {
     }
     stop.stop();
     samples.sort_unstable();
-    let bus = canopen::timed_bus::TimedBus::<1>::new(bitrate);
+    let bus = canbus::timed_bus::TimedBus::<1>::new(bitrate);
     let frame =
         |id: u16, data: &[u8]| canopen::CanFrame::new(id, data).map_err(|e| format!("{e:?}"));
     let request = frame(0x601, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0])?;

@@ -8,6 +8,12 @@
 //! - the bus load of that cell (TPDO1 at every SYNC) against the bit rate at four SYNC
 //!   periods, drawn into
 //!   `docs/bus-load-127-nodes.png`.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -16,10 +22,10 @@ use std::time::Duration;
 use canopen::CanFrame;
 use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
-use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::bus_timing::BusTiming;
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 use support::thread_cpu_time;
 

@@ -29,6 +29,12 @@
 //!
 //! `cargo bench -p drivetwin --bench console_jitter`; `CONSOLE_JITTER_ROUNDS` repeats the pair
 //! of runs (default 1), each round printing its own figures (the machine may be shared).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::collections::BTreeMap;
 use std::io;
@@ -37,11 +43,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::lateness::LatenessFigures;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::web::{self, HttpSetting};
 
 const DRIVES: usize = 16;

@@ -18,6 +18,12 @@
 //! Needs root (network namespace, raw sockets) and `ip`; otherwise prints why and exits 0.
 //! `cargo bench -p drivetwin --bench ecat_veth_roundtrip`; without cargo bench's `--bench`
 //! argument (e.g. `cargo test --benches`) it runs for 1 s as a smoke test.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 #[path = "../tests/support/ecat_veth.rs"]
 mod ecat_veth;

@@ -31,6 +31,12 @@
 //!
 //! `cargo bench -p drivetwin --bench modbus_loopback`; `MODBUS_BENCH_COUNT` sets the cycles per
 //! server (default 10000). Without python3 or pymodbus it says so and exits 0.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::net::TcpListener as StdListener;
 use std::path::PathBuf;

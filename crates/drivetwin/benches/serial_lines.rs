@@ -9,14 +9,21 @@
 //!   (target: the twin adds under 10 %). `SERIAL_BENCH_COUNT` round trips per rate (200).
 //!
 //! `cargo bench -p drivetwin --bench serial_lines`.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::{Duration, Instant as StdInstant};
 
-use canopen::kinco_rs232::{KincoRs232, Request};
 use criterion::{black_box, Criterion};
-use drivetwin::can::drive::{CanDrive, Commissioning};
-use drivetwin::cell::poll_loop::{CellLoop, FrontEnds, OnBus};
+use drive::vendors::kinco::rs232::{KincoRs232, Request};
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell::OnBus;
+use drivetwin::cell_loop::{CellLoop, FrontEnds};
 use drivetwin::serial::pty::Port;
 use drivetwin::serial::rs232_line::{TelegramLine, Topology};
 use drivetwin::serial::rtu_line::{RtuDrive, RtuLine};

@@ -1,4 +1,5 @@
 //! `drivetwin`: run a cell of simulated drives, or act as a master on a CAN bus.
+#![deny(unsafe_code)]
 
 use std::process::ExitCode;
 

@@ -2,15 +2,21 @@
 //! heartbeats at 125 kbit/s leave one after the other in identifier order, each taking its
 //! exact bit time; a SYNC with 40 synchronous TPDOs behind it overloads 250 kbit/s (load above
 //! 100 %, late frames) and fits at 1 Mbit/s.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 
-use canopen::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
+use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
 use drivetwin::cell::bus_timing::BusFigures;
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 
 fn commissioning(values: &[(u16, u8, &[u8])]) -> Vec<Commissioning> {
@@ -251,5 +257,5 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     assert!(cell
         .node_faults()
         .iter()
-        .all(|f| f.confinement.state() == canopen::fault_confinement::ErrorState::Active));
+        .all(|f| f.confinement.state() == canbus::fault_confinement::ErrorState::Active));
 }

@@ -1,4 +1,10 @@
 //! The cell file's `[[bus]]` entries and the interfaces a `[[drive]]` lists.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drivetwin::cell::config::{CellFile, ConfigError};
 

@@ -1,13 +1,19 @@
 //! The cell loop over real loopback TCP: one thread owns the drives and every socket.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
 
 fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");

@@ -1,5 +1,11 @@
 //! The default cell's CMMP-AS is a CiA 402 drive: it steps on the cell's clock and answers
 //! the enable sequence through the CANopen stack.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::CanFrame;
 use drivetwin::cell::Cell;

@@ -1,6 +1,12 @@
 //! Faults on one socketcand client of a bus (`FrontEnd::Client(port)`, REST
 //! `/api/wire/client/{port}/faults`): drop and delay of the frames that client sends and of
 //! those the bus sends it, the other clients untouched.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 mod web_rig;
 
@@ -9,9 +15,9 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::poll_loop::{CanBus, FrontEnds};
 use drivetwin::cell::wire_faults::{FaultSpec, FrontEnd, WireRequest};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, FrontEnds};
 
 struct Client {
     s: TcpStream,

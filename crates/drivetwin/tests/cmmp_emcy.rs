@@ -1,5 +1,11 @@
 //! EMCY frames and the error history 1003h of the CMMP-AS over CANopen, on the virtual clock:
 //! errors the drive raises go out as EMCY through the CiA 301 stack (spec/vectors.md §1.6).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::CanFrame;
 use drive::device_control::State;

@@ -1,16 +1,22 @@
 //! The control handle of a running cell: the drives listed, objects written through it and
 //! read over SDO (and the other way round), plant samples, inputs and load.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{Interface, Plant};
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 

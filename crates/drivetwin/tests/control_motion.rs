@@ -1,15 +1,21 @@
 //! The control handle's requests for the console's pages: samples of named objects read on
 //! the loop with every plant sample, the CMMO-ST's FHPP telegram and Device Control, and the
 //! console's motion sequences run on a real cell.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use drive::fhpp::Authority;
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{ControlHandle, FhppRequest};
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::web::motion::{self, Handle};

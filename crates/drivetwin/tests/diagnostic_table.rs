@@ -8,6 +8,12 @@
 //! 11-3), CMMP-EMCY-06 (1003h:01 newest entry), CMMP-EMCY-01 (the reset EMCY 0000h),
 //! CMMP-DIAG-01 and CMMP-DIAG-02 (display "-E010-", "-170-"); the Kinco's KINCO-DIAG vectors
 //! at their rows.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::CanFrame;
 use drive::messages::{self, Number};

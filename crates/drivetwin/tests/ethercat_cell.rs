@@ -2,6 +2,12 @@
 //! from the SII, Pre-Op, a refused and an accepted Safe-Op, Op, and a cyclic exchange in
 //! which the controlword and target written in the outputs reach the CiA 402 drive and its
 //! statusword and position come back in the inputs.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drivetwin::cell::config::CellFile;
 use drivetwin::ecat::chain::EthercatCell;

@@ -41,6 +41,12 @@
 //! allowed, as a DC master and a drive's firmware run: on a loaded 2-CPU machine a master held
 //! off the CPU for three SYNC0 cycles is (rightly) a synchronisation error. Timing is judged by
 //! counting cycles and working counters; the figures are printed.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 #[path = "support/ecat_veth.rs"]
 mod ecat_veth;

@@ -13,6 +13,12 @@
 //! Needs root (network namespaces, raw sockets) and `ip` (iproute2); otherwise it prints why
 //! and passes as skipped. `ETHERCAT_CYCLIC_SECONDS` sets the length of the ramp (default 10 s,
 //! the acceptance figure).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 #[path = "support/ecat_veth.rs"]
 mod ecat_veth;

@@ -3,6 +3,12 @@
 //! CMMP-IP-03, CMMP-IP-04, CMMP-IP-05, CMMP-IP-06, CMMP-IP-07; spec cmmp-as-3 §8), the drive
 //! synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced set-points interpolated
 //! linearly, and the errors 34-0 / 34-1.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use drivetwin::cell::param_store::ParamStore;
 

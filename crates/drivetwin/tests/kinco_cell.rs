@@ -2,9 +2,15 @@
 //! clock, frame by frame: a bus master's set-up (no DIN owns the controlword or the mode),
 //! the enable of Tab. 6-5 (06h → 0Fh), mode 3 at 300 rpm read back in DEC, the absolute move
 //! of §8.15 (KINCO-CW-01), and the following-error EMCY 8611h (KINCO-DIAG-03).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::Cell;
 use od::Instant;

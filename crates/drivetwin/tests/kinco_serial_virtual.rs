@@ -4,15 +4,21 @@
 //! CANopen enables node 2, whose position the RTU host polls. Run twice: the outputs are equal
 //! bit for bit, and the lines keep their wire time (a telegram's answer 20 characters after
 //! the request began, at 38 400 bit/s 5.2 ms).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
-use drivetwin::cell::poll_loop::OnBus;
-use drivetwin::cell::runtime::{run_virtual_lines, Input, Output};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell::OnBus;
+use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::serial::setup::{virtual_lines, LineRequest};
 use drivetwin::serial::Kind;
 

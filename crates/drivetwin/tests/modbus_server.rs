@@ -3,6 +3,12 @@
 //! pymodbus`); that test is skipped, with a message, otherwise. Every test runs against both
 //! transports: the tokio server (`modbus_server`) and the cycle thread's
 //! (`modbus_cycle_server`).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::net::SocketAddr;
 use std::process::Stdio;

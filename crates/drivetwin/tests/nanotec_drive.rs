@@ -4,6 +4,12 @@
 //! or 6087h and no profile velocity mode (spec/nanotec-canopen.md §3.4, 6502h = 6Bh): the
 //! state is printed without them, `velocity` runs in VL (6060h = 2, 6042h), `torque --slope`
 //! names the missing 6087h, and torque mode in open loop is refused with the reason (§5.5).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;

@@ -1,7 +1,13 @@
 //! Stored parameter sets: round trip through the state directory, atomic replacement, and
 //! clear errors for damaged files.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
-use drivetwin::can::drive::{CanDrive, Commissioning};
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::param_store::ParamStore;
 use od::{ObjectAccess, Value};
 

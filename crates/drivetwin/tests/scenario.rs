@@ -2,6 +2,12 @@
 //! and the traces are equal bit for bit; the passing one passes (a limit switch and a broken
 //! cable leading to the drive's fault and the EMCYs), the one meant to fail fails with a
 //! report that names the expectation.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::path::PathBuf;
 

@@ -3,14 +3,20 @@
 //! (`<trace>.load.csv`, `drivetwin::trace::bus_load`) read back holds one line per 500 ms
 //! window, each the bit time of the frames of that window over its length, near the load the
 //! cell's timed bus reports; the pcap itself is the classic one (magic, link type 227).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 
-use canopen::frame_time::{bits_to_nanos, frame_bits};
+use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
-use drivetwin::cell::runtime::run_virtual;
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::run_virtual;
 use drivetwin::trace::bus_load::{load_path, parse_load};
 use drivetwin::trace::TraceWriter;
 use od::Instant;

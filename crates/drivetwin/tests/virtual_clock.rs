@@ -1,14 +1,20 @@
 //! Issue 12's determinism point: a cell with a CMMP-AS on CANopen, a CMMP-AS on EtherCAT and a
 //! CMMO-ST on Modbus TCP, inputs on the three protocols, run twice on the virtual clock: the
 //! outputs are equal bit for bit.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
-use drivetwin::cell::runtime::{run_virtual_mixed, Input, Output};
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;

@@ -2,11 +2,17 @@
 //! silences a node both ways and its heartbeat consumer reacts by itself (CiA 301 §7.2.8.3.2.2:
 //! EMCY 8130h); a corrupted frame is an error frame the receivers count, never a wrong
 //! payload; a stopped SYNC takes 080h only; a delayed frame arrives later.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
 
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::can::drive::{CanDrive, Commissioning};
+use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::wire_faults::{FaultKind, Reach, WireFault};
 use drivetwin::cell::Cell;
 use od::Instant;

@@ -1,6 +1,6 @@
 //! Application-layer state machine (ESM): AL control 0x0120, AL status 0x0130 and the
-//! transition table (spec/ethercat-esc.md §4.1–§4.2; CMMP-AS: spec/cmmp-as-1-communication.md
-//! §4.2 — Init, Pre-Op, Safe-Op, Op; no Bootstrap).
+//! transition table (spec/ethercat-esc.md §4.1–§4.2: Init, Pre-Op, Safe-Op, Op; Bootstrap
+//! where the device has it).
 
 use crate::al_status_code::AlStatusCode;
 
@@ -107,7 +107,7 @@ impl AlStatus {
 /// the refusal otherwise (spec §4.2 table):
 ///
 /// * unknown state value (0, 5–7, 9–15) → 0x0012;
-/// * Bootstrap requested from Init when not supported (CMMP-AS) → 0x0013;
+/// * Bootstrap requested from Init when not supported → 0x0013;
 /// * skipping states upwards (Init → Safe-Op/Op, Pre-Op → Op), Bootstrap from anything but
 ///   Init, or leaving Bootstrap for anything but Init → 0x0011;
 /// * every downward transition and "stay" is allowed.

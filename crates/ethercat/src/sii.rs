@@ -11,19 +11,20 @@
 //!   RXPDO (51), END (0xFFFF) (spec §3.3).
 //!
 //! Decisions (spec/ethercat-esc.md §3.5 is the baseline):
-//! * Sync manager addresses and mailbox sizes: 0x1000/0x80 (SM0), 0x1080/0x80 (SM1), 0x1100
-//!   (SM2), 0x1180 (SM3). The CMMP-AS ESI excerpt (cmmp-as-1 §2.13) gives no SM addresses or
-//!   sizes, only the structure, so the ESC reference baseline is used.
+//! * Sync manager addresses and mailbox sizes, group type, ports, default PDO assignment and
+//!   CoE details are the device file's (`[device.ethercat]`, [`od::EthercatSlave`]); a device
+//!   without that section gets the ESC reference baseline ([`SiiConfig::BASELINE`]):
+//!   0x1000/0x80 (SM0), 0x1080/0x80 (SM1), 0x1100 (SM2), 0x1180 (SM3).
 //! * The SII PDO categories list every mapping object of the description (1600h–17FFh,
 //!   1A00h–1BFFh) with its default mapping; only the PDOs of [`SiiConfig::rx_assigned`] /
 //!   [`SiiConfig::tx_assigned`] (default 1600h / 1A00h) carry an SM number, the others SM 0xFF,
 //!   so SOEM's SII fall-back and ethercrab's EEPROM path compute the same SM sizes (spec §3.3,
 //!   §7.1). They must match the 1C12h/1C13h defaults of the drive model.
-//! * CoE details 0x0D (SDO, PDO assign, PDO config; no SDO Info, no complete access: the
-//!   CMMP-AS transfers at most 4 bytes per object, cmmp-as-1 §2.11).
+//! * CoE details: SDO, PDO assign and PDO config always; SDO information and complete access
+//!   as the device serves them ([`od::EthercatSlave::sdo_info`], `complete_access`).
 //! * General bytes 14–15 are 0 (ethercrab reads its "ports" there, KickCAT a GroupIdx copy);
-//!   the physical port descriptor goes at ETG.2010's offset 16–17 (0x0011: ports 0 and 1 MII,
-//!   the CMMP-AS has two 100Base-TX RJ45 ports X1/X2, cmmp-as-1 §2.11). ethercrab reads 16–17
+//!   the physical port descriptor goes at ETG.2010's offset 16–17 (the baseline 0x0011: ports
+//!   0 and 1 MII, two 100Base-TX ports). ethercrab reads 16–17
 //!   as the ident address, used only with flag bit 4, which is 0.
 //! * No word inside the categories is 0xFFFF: KickCAT stops reading at the first such word
 //!   (spec §3.4). [`build_sii`] checks it.
@@ -116,7 +117,8 @@ pub const SM3_CONTROL: u8 = 0x20;
 /// SM enable byte of the SII: bit 0 only (SOEM copies it into the activate register, §2.6).
 pub const SM_ENABLE: u8 = 0x01;
 
-/// Bytes of the SII image [`SiiConfig::CMMP_AS`] expects: 2 KiB (16 kbit, word 0x3E = 15).
+/// Bytes of the SII image of the baseline ([`SiiConfig::BASELINE`]): 2 KiB (16 kbit, word
+/// 0x3E = 15).
 pub const DEFAULT_IMAGE_SIZE: usize = 2048;
 
 /// Why an image could not be built.
@@ -185,9 +187,9 @@ pub struct SiiConfig<'a> {
 }
 
 impl SiiConfig<'static> {
-    /// The baseline of spec/ethercat-esc.md §3.5 for the Festo CMMP-AS: group type from the
-    /// Festo ESI (cmmp-as-1 §2.13), one CiA 402 axis, two MII ports.
-    pub const CMMP_AS: SiiConfig<'static> = SiiConfig {
+    /// The ESC reference baseline of spec/ethercat-esc.md §3.5: one CiA 402 axis, two MII
+    /// ports, CoE with SDO information, no complete access, PDOs 1600h / 1A00h on SM2 / SM3.
+    pub const BASELINE: SiiConfig<'static> = SiiConfig {
         pdi_control: 0x0005,
         pdi_config: 0,
         sync_impulse_len: 0,
@@ -198,8 +200,6 @@ impl SiiConfig<'static> {
         outputs_start: 0x1100,
         inputs_start: 0x1180,
         mailbox_protocols: mailbox_protocol::COE,
-        // SDO information is served (ethercat::coe, for masters that browse the dictionary);
-        // complete access is not: the CMMP-AS moves at most 4 bytes per object (cmmp-as-1 §2.11).
         coe_details: coe_details::SDO
             | coe_details::SDO_INFO
             | coe_details::PDO_ASSIGN
@@ -208,17 +208,47 @@ impl SiiConfig<'static> {
         flags: 0,
         ebus_current_ma: 0,
         physical_ports: 0x0011,
-        group_type: "Festo Electric-Drives",
+        group_type: "Drives",
         device_name: "",
         rx_assigned: &[0x1600],
         tx_assigned: &[0x1A00],
         version: 1,
     };
+
+    /// The layout of `desc`'s device file (`[device.ethercat]`) on the baseline; the baseline
+    /// alone for a description without an EtherCAT section.
+    pub fn from_description(desc: &od::DeviceDescription) -> Self {
+        let Some(e) = desc.ethercat else {
+            return Self::BASELINE;
+        };
+        let mut coe = coe_details::SDO | coe_details::PDO_ASSIGN | coe_details::PDO_CONFIG;
+        if e.sdo_info {
+            coe |= coe_details::SDO_INFO;
+        }
+        if e.complete_access {
+            coe |= coe_details::SDO_COMPLETE_ACCESS;
+        }
+        SiiConfig {
+            pdi_control: e.pdi_control,
+            mailbox_out: e.mailbox_out,
+            mailbox_in: e.mailbox_in,
+            outputs_start: e.outputs_start,
+            inputs_start: e.inputs_start,
+            coe_details: coe,
+            ds402_channels: e.ds402_channels,
+            physical_ports: e.physical_ports,
+            group_type: e.group_type,
+            rx_assigned: e.rx_assigned,
+            tx_assigned: e.tx_assigned,
+            version: e.version,
+            ..Self::BASELINE
+        }
+    }
 }
 
 impl Default for SiiConfig<'static> {
     fn default() -> Self {
-        Self::CMMP_AS
+        Self::BASELINE
     }
 }
 
@@ -338,8 +368,8 @@ pub fn pdo_objects(
 }
 
 /// A PDO's display name, shared by the SII and the ESI export: the PDOs assigned by default
-/// are "Outputs" / "Inputs" as the Festo ESI requires (cmmp-as-1 §2.13: "Name must be
-/// 'Outputs' for RxPDO and 'Inputs' for TxPDO"); the optional ones "RxPDO n" / "TxPDO n"
+/// are "Outputs" / "Inputs", as ESI files of drives require ("Name must be 'Outputs' for RxPDO
+/// and 'Inputs' for TxPDO"); the optional ones "RxPDO n" / "TxPDO n"
 /// with n counted from 1 (1601h = RxPDO 2, as CiA 301 numbers them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PdoName {

@@ -1,8 +1,7 @@
 //! Application synchronisation: when the device takes the outputs of SM2 and latches its
-//! inputs, and when it declares the synchronisation lost (spec/ethercat-esc.md §7.5, §8.2;
-//! CMMP-AS: spec/cmmp-as-1-communication.md §2.11).
+//! inputs, and when it declares the synchronisation lost (spec/ethercat-esc.md §7.5, §8.2).
 //!
-//! Two modes, as the CMMP-AS runs them:
+//! Two modes, as a drive runs them:
 //! * **Free run / SM-synchronous** (no SYNC0): the arrival of the frame is the time base; the
 //!   device takes each output buffer when it arrives ("without DC the firmware can use the
 //!   arrival of the EtherCAT frame as the time base").

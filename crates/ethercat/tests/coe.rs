@@ -30,7 +30,10 @@ fn testbench() -> (CoeServer, Od) {
 
 fn cmmp_as() -> (CoeServer, Od) {
     (
-        CoeServer::new(&devices::CMMP_AS, CoeConfig::CMMP_AS),
+        CoeServer::new(
+            &devices::CMMP_AS,
+            CoeConfig::from_description(&devices::CMMP_AS),
+        ),
         dict(&devices::CMMP_AS),
     )
 }
@@ -462,7 +465,7 @@ fn complete_access_read_of_identity() {
 fn complete_access_write_of_pdo_mapping_and_assignment() {
     let cfg = CoeConfig {
         complete_access: true,
-        ..CoeConfig::CMMP_AS
+        ..CoeConfig::from_description(&devices::CMMP_AS)
     };
     let mut l = Link::new(
         (
@@ -579,7 +582,11 @@ fn sdo_info_fragments_through_a_large_dictionary() {
         .objects
         .iter()
         .map(|o| o.index)
-        .filter(|i| !CoeConfig::CMMP_AS.hidden.contains(i))
+        .filter(|i| {
+            !CoeConfig::from_description(&devices::CMMP_AS)
+                .hidden
+                .contains(i)
+        })
         .collect();
     let mut r = l.coe(&info(0x01, &[0x01, 0x00]));
     let mut got = Vec::new();
@@ -803,7 +810,12 @@ const ST: u16 = 0x1001;
 
 fn esc_bus() -> Bus {
     let mut image = vec![0u8; DEFAULT_IMAGE_SIZE];
-    build_sii(&devices::CMMP_AS, &SiiConfig::CMMP_AS, &mut image).expect("image");
+    build_sii(
+        &devices::CMMP_AS,
+        &SiiConfig::from_description(&devices::CMMP_AS),
+        &mut image,
+    )
+    .expect("image");
     let image: &'static [u8] = Box::leak(image.into_boxed_slice());
     let mut bus = Bus::new(vec![Esc::with_sii(image)]);
     bus.assign_addresses();
@@ -899,7 +911,8 @@ fn end_to_end_through_an_esc() {
     }
     assert_eq!(
         got.len(),
-        devices::CMMP_AS.objects.len() - CoeConfig::CMMP_AS.hidden.len()
+        devices::CMMP_AS.objects.len()
+            - CoeConfig::from_description(&devices::CMMP_AS).hidden.len()
     );
 
     // Back to Init: the mailbox stops and the server forgets its state.
@@ -951,7 +964,10 @@ fn arbitrary_bytes_never_panic() {
             .wrapping_add(1442695040888963407);
         (x >> 33) as u32
     };
-    for cfg in [CoeConfig::FULL, CoeConfig::CMMP_AS] {
+    for cfg in [
+        CoeConfig::FULL,
+        CoeConfig::from_description(&devices::CMMP_AS),
+    ] {
         for desc in [&devices::TESTBENCH, &devices::CMMP_AS] {
             let mut srv: CoeServer = CoeServer::new(desc, cfg);
             let mut od = dict(desc);

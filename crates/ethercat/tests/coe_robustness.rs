@@ -118,7 +118,7 @@ proptest! {
 
     #[test]
     fn any_mailbox_messages_cmmp_as(messages in prop::collection::vec(message(), 1..40)) {
-        run(&devices::CMMP_AS, CoeConfig::CMMP_AS, &messages)?;
+        run(&devices::CMMP_AS, CoeConfig::from_description(&devices::CMMP_AS), &messages)?;
     }
 
     #[test]

@@ -23,7 +23,12 @@ fn cmmp() -> &'static od::DeviceDescription {
 
 fn image() -> (Vec<u8>, usize) {
     let mut buf = vec![0u8; DEFAULT_IMAGE_SIZE];
-    let used = build_sii(cmmp(), &SiiConfig::CMMP_AS, &mut buf).expect("image builds");
+    let used = build_sii(
+        cmmp(),
+        &SiiConfig::from_description(&devices::CMMP_AS),
+        &mut buf,
+    )
+    .expect("image builds");
     (buf, used)
 }
 
@@ -184,7 +189,7 @@ fn checksum_over_words_0_to_6() {
     let mut buf = vec![0u8; DEFAULT_IMAGE_SIZE];
     let cfg = SiiConfig {
         station_alias: 0xABCD,
-        ..SiiConfig::CMMP_AS
+        ..SiiConfig::from_description(&devices::CMMP_AS)
     };
     build_sii(cmmp(), &cfg, &mut buf).unwrap();
     assert_eq!(buf, img);
@@ -454,7 +459,7 @@ fn other_assignments_resize_sm2_and_sm3() {
     let cfg = SiiConfig {
         rx_assigned: &[0x1601, 0x1602],
         tx_assigned: &[0x1A02, 0x1A03],
-        ..SiiConfig::CMMP_AS
+        ..SiiConfig::from_description(&devices::CMMP_AS)
     };
     let mut img = vec![0u8; DEFAULT_IMAGE_SIZE];
     build_sii(cmmp(), &cfg, &mut img).unwrap();
@@ -505,18 +510,26 @@ fn esc_register_reads() {
 fn errors() {
     let mut small = vec![0u8; 256];
     assert_eq!(
-        build_sii(cmmp(), &SiiConfig::CMMP_AS, &mut small),
+        build_sii(
+            cmmp(),
+            &SiiConfig::from_description(&devices::CMMP_AS),
+            &mut small
+        ),
         Err(SiiError::BufferTooSmall)
     );
     let mut odd = vec![0u8; 1000];
     assert_eq!(
-        build_sii(cmmp(), &SiiConfig::CMMP_AS, &mut odd),
+        build_sii(
+            cmmp(),
+            &SiiConfig::from_description(&devices::CMMP_AS),
+            &mut odd
+        ),
         Err(SiiError::BufferTooSmall)
     );
     let mut buf = vec![0u8; DEFAULT_IMAGE_SIZE];
     let cfg = SiiConfig {
         rx_assigned: &[0x1604],
-        ..SiiConfig::CMMP_AS
+        ..SiiConfig::from_description(&devices::CMMP_AS)
     };
     assert_eq!(
         build_sii(cmmp(), &cfg, &mut buf),
@@ -524,12 +537,17 @@ fn errors() {
     );
     let cfg = SiiConfig {
         inputs_start: 0x1102,
-        ..SiiConfig::CMMP_AS
+        ..SiiConfig::from_description(&devices::CMMP_AS)
     };
     assert_eq!(build_sii(cmmp(), &cfg, &mut buf), Err(SiiError::SmOverlap));
     // A 4 KiB EEPROM: size word 31, same content.
     let mut big = vec![0u8; 4096];
-    let used = build_sii(cmmp(), &SiiConfig::CMMP_AS, &mut big).unwrap();
+    let used = build_sii(
+        cmmp(),
+        &SiiConfig::from_description(&devices::CMMP_AS),
+        &mut big,
+    )
+    .unwrap();
     assert_eq!(w(&big, 0x3E), 31);
     let (img, used2) = image();
     assert_eq!(used, used2);
@@ -543,7 +561,7 @@ fn every_personality_builds() {
         let cfg = SiiConfig {
             rx_assigned: if has(0x1600..=0x1600) { &[0x1600] } else { &[] },
             tx_assigned: if has(0x1A00..=0x1A00) { &[0x1A00] } else { &[] },
-            ..SiiConfig::CMMP_AS
+            ..SiiConfig::from_description(&devices::CMMP_AS)
         };
         let mut buf = vec![0u8; DEFAULT_IMAGE_SIZE];
         let used = build_sii(d, &cfg, &mut buf).unwrap_or_else(|e| panic!("{}: {e:?}", d.name));

@@ -2,6 +2,8 @@
 
 /// 0x03 Read Holding Registers.
 pub const READ_HOLDING_REGISTERS: u8 = 0x03;
+/// 0x06 Write Single Register.
+pub const WRITE_SINGLE_REGISTER: u8 = 0x06;
 /// 0x07 Read Exception Status (serial line only in the standard; the CMMO-ST answers it on
 /// Modbus TCP, manual Tab. 4.3).
 pub const READ_EXCEPTION_STATUS: u8 = 0x07;

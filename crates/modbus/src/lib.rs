@@ -1,8 +1,8 @@
 //! Modbus application protocol, sans-IO and `no_std`: request bytes in, response bytes out.
 //!
 //! The crate is the server side of MODBUS Application Protocol Specification V1.1b3 and of
-//! MODBUS Messaging on TCP/IP Implementation Guide V1.0b for the function codes the Festo
-//! CMMO-ST supports (manual GDCP-CMMO-ST-LK-C-HP-ZH §4.3.2, Tab. 4.3):
+//! MODBUS Messaging on TCP/IP Implementation Guide V1.0b for these function codes (those of
+//! the FHPP device, manual GDCP-CMMO-ST-LK-C-HP-ZH §4.3.2, Tab. 4.3):
 //!
 //! | FC | Name | Module |
 //! |---|---|---|
@@ -22,8 +22,8 @@
 //! - [`watchdog`]: the CMMO-ST connection monitoring ("Node Guard / Timeout", §4.3.4).
 //! - [`rtu`]: the Modbus RTU CRC-16 for serial transports.
 //! - [`rtu_framing`]: RTU frames cut from a serial byte stream by the 3.5-character silence.
-//! - [`kinco_rtu`]: the Kinco FD/CD drives' RTU server (FC 03h / 06h / 10h, their error
-//!   function codes 81h / 86h / 90h), its registers a mapping onto the drive's objects.
+//! - [`object_registers`]: an RTU server (FC 03h / 06h / 10h) whose holding registers are a
+//!   table mapping them onto a device's objects.
 //!
 //! Nothing here allocates, panics on wire data, reads a clock or touches a socket.
 #![no_std]
@@ -36,8 +36,8 @@ pub mod device_identification;
 pub mod exception;
 pub mod framing;
 pub mod function_code;
-pub mod kinco_rtu;
 pub mod mbap;
+pub mod object_registers;
 pub mod request;
 pub mod rtu;
 pub mod rtu_framing;

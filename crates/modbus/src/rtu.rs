@@ -4,6 +4,9 @@
 
 use crc::{Crc, CRC_16_MODBUS};
 
+/// Longest RTU frame (Modbus over Serial Line §2.5.1): 256 bytes.
+pub const MAX_FRAME: usize = 256;
+
 const MODBUS: Crc<u16> = Crc::<u16>::new(&CRC_16_MODBUS);
 
 /// The CRC-16 of `data`.

@@ -1,14 +1,14 @@
 //! Modbus RTU framing on a serial line: a frame ends with a silence of 3.5 character times
-//! (Modbus over Serial Line V1.02 §2.5.1.1; Kinco CD3 / FD3 manual §12.3, L2546: "at least
-//! 3.5 characters of silence between frames"). Sans-IO: the caller passes each read's bytes
+//! (Modbus over Serial Line V1.02 §2.5.1.1). Sans-IO: the caller passes each read's bytes
 //! with the time they arrived, and calls [`RtuFramer::poll`] at [`RtuFramer::deadline`].
 //!
 //! The standard's rules, and the decisions:
 //! - t3.5 is 3.5 character times; above 19200 bit/s the standard recommends a fixed 1.75 ms
 //!   ([`t3_5`], [`RtuFramer::new`]). A device whose manual asks 3.5 characters at every rate
 //!   frames with [`three_and_a_half_characters`] ([`RtuFramer::with_gap`]).
-//! - Decision: a character is 10 bits, the Kinco line's 8N1 (§12.2: 8 data bits, 1 stop bit,
-//!   no parity); the standard's 11 bits are for lines with parity or two stop bits.
+//! - Decision: a character is 10 bits, an 8N1 line's (8 data bits, 1 stop bit, no parity, as
+//!   the drives' serial lines run); the standard's 11 bits are for lines with parity or two
+//!   stop bits.
 //! - A frame longer than 256 bytes is dropped whole (and counted), as a frame the server
 //!   cannot have been sent.
 //! - Bytes of one read share its time, so two frames are told apart only by the silence the
@@ -18,7 +18,7 @@ use core::time::Duration;
 
 use od::Instant;
 
-use crate::kinco_rtu::MAX_FRAME;
+use crate::rtu::MAX_FRAME;
 
 /// Bits of one character on an 8N1 line.
 pub const BITS_PER_CHAR: u64 = 10;

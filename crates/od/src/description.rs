@@ -194,6 +194,44 @@ pub struct InterfaceOffer {
     pub rule: &'static str,
 }
 
+/// What an EtherCAT master reads of a slave beyond the dictionary: the SII's layout and names
+/// and what its CoE mailbox serves (device file `[device.ethercat]`, ETG.1000.6 §5.4,
+/// ETG.2010). Sync manager addresses and sizes are the device's; the identity (vendor id,
+/// product code, revision, names) is the description's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EthercatSlave {
+    /// ESI `GroupType` (the SII GENERAL GroupIdx string).
+    pub group_type: &'static str,
+    /// ESI `<Group><Name>`.
+    pub group_name: &'static str,
+    /// SII word 0: PDI control (low byte) and ESC configuration (high byte).
+    pub pdi_control: u16,
+    /// SM0, the receive mailbox (master → slave): start address and size in bytes.
+    pub mailbox_out: (u16, u16),
+    /// SM1, the send mailbox (slave → master): start address and size in bytes.
+    pub mailbox_in: (u16, u16),
+    /// SM2 (process-data outputs) start address.
+    pub outputs_start: u16,
+    /// SM3 (process-data inputs) start address.
+    pub inputs_start: u16,
+    /// RxPDOs assigned to SM2 by default (1C12h).
+    pub rx_assigned: &'static [u16],
+    /// TxPDOs assigned to SM3 by default (1C13h).
+    pub tx_assigned: &'static [u16],
+    /// CiA 402 axes (SII GENERAL byte 9).
+    pub ds402_channels: u8,
+    /// Physical ports, 4 bits each, 1 = MII (ETG.2010 GENERAL bytes 16–17).
+    pub physical_ports: u16,
+    /// SDO complete access is served (and advertised in the SII).
+    pub complete_access: bool,
+    /// The SDO information service is served (and advertised in the SII).
+    pub sdo_info: bool,
+    /// Indices not served over CoE (abort 0602 0000h), though the dictionary has them.
+    pub coe_hidden: &'static [u16],
+    /// SII word 0x3F.
+    pub version: u16,
+}
+
 /// A device personality: identity and the complete object list.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeviceDescription {
@@ -216,6 +254,11 @@ pub struct DeviceDescription {
     pub rotary_switches: u8,
     /// Which interfaces the real device has.
     pub interfaces: InterfaceOffer,
+    /// DIP switches (or inputs) select node-ID offset, bit rate and fieldbus at power-on
+    /// (device file `fieldbus_switches`).
+    pub fieldbus_switches: bool,
+    /// The EtherCAT slave's SII and CoE data, for a device with an EtherCAT interface.
+    pub ethercat: Option<EthercatSlave>,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

@@ -1,6 +1,7 @@
 //! The vendors: each folder one drive's manual where it departs from CiA 402 (its
-//! [`Personality`] tables and its [`Vendor`](crate::personality::Vendor) hooks with the vendor's own state), and
-//! [`AnyDrive`], the drive a device file names.
+//! [`Personality`] tables and its [`Vendor`](crate::personality::Vendor) hooks with the
+//! vendor's own state) and what no standard describes (serial protocols, switches, codes),
+//! and [`AnyDrive`], the drive a device file names.
 //!
 //! Decision: the device file names its vendor by its `name` ([`AnyDrive::new`]); a CiA 402
 //! device file no vendor serves runs as the standard CiA 402 drive ([`Cia402`]).

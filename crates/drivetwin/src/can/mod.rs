@@ -1,9 +1,7 @@
-//! CAN transports and the CANopen drives on them: the in-process bus, the socketcand TCP
-//! server, the SocketCAN bridge, and a drive's CiA 301 node.
+//! CAN transports: the in-process bus, the socketcand TCP server and the SocketCAN bridge.
+//! The drives on a bus, with their CiA 301 nodes, are the cell's ([`crate::cell::can_drive`]).
 
 pub mod bus;
-pub mod bus_faults;
-pub mod drive;
 pub mod frame_budget;
 pub mod socketcan;
 pub mod socketcand;

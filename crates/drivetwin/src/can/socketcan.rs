@@ -4,13 +4,10 @@
 //! The socket is a plain `CAN_RAW` socket with the kernel defaults: it does not receive its
 //! own frames (so the bridge cannot loop), other sockets on the same host do see them, no
 //! CAN FD and no error frames. Frames are exchanged as the 16-byte `struct can_frame`, whose
-//! identifier is in host byte order.
-#![cfg(target_os = "linux")]
+//! identifier is in host byte order. The socket is Linux's (`sys::socketcan`).
 
-use std::ffi::CString;
 use std::io;
-use std::mem;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};
 use std::time::Duration;
 
 use canopen::CanFrame;
@@ -38,11 +35,12 @@ pub fn encode_can_frame(frame: &CanFrame) -> [u8; CAN_MTU] {
         id |= CAN_RTR_FLAG;
     }
     let mut out = [0u8; CAN_MTU];
-    let (head, data) = out.split_at_mut(8);
-    head[..4].copy_from_slice(&id.to_ne_bytes());
-    head[4] = frame.len.min(8);
-    let payload = frame.payload();
-    data[..payload.len()].copy_from_slice(payload);
+    let [i0, i1, i2, i3] = id.to_ne_bytes();
+    // can_id, can_dlc, 3 bytes of padding, then the data (payload() holds at most 8 bytes).
+    let head = [i0, i1, i2, i3, frame.len.min(8), 0, 0, 0];
+    for (dst, src) in out.iter_mut().zip(head.iter().chain(frame.payload())) {
+        *dst = *src;
+    }
     out
 }
 
@@ -91,10 +89,7 @@ impl CanSocket {
     /// Open a `CAN_RAW` socket on `interface` (e.g. `can0`, `vcan0`). Must be called inside a
     /// tokio runtime.
     pub fn open(interface: &str) -> io::Result<CanSocket> {
-        let fd = open_raw(interface)?;
-        // SAFETY: the `OwnedFd` moves into the `AsyncFd`, which owns it until dropped, so the
-        // descriptor stays open and the same for the registration's whole lifetime.
-        let fd = unsafe { AsyncFd::register(fd) }?;
+        let fd = crate::sys::fd::register_async(crate::sys::socketcan::open(interface)?)?;
         Ok(CanSocket {
             fd,
             interface: interface.to_owned(),
@@ -109,7 +104,7 @@ impl CanSocket {
     pub async fn recv(&self) -> io::Result<CanFrame> {
         loop {
             let mut guard = self.fd.readable().await?;
-            match guard.try_io(|fd| read_once(fd.as_raw_fd())) {
+            match guard.try_io(|fd| read_once(fd.get_ref().as_fd())) {
                 Ok(Ok(Some(frame))) => return Ok(frame),
                 Ok(Ok(None)) => continue,
                 Ok(Err(e)) => return Err(e),
@@ -125,7 +120,7 @@ impl CanSocket {
         let deadline = tokio::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
         loop {
             let mut guard = self.fd.writable().await?;
-            match guard.try_io(|fd| write_once(fd.as_raw_fd(), &bytes)) {
+            match guard.try_io(|fd| write_once(fd.get_ref().as_fd(), &bytes)) {
                 Ok(Ok(())) => return Ok(()),
                 Ok(Err(e)) if is_queue_full(&e) && tokio::time::Instant::now() < deadline => {
                     drop(guard);
@@ -136,40 +131,6 @@ impl CanSocket {
             }
         }
     }
-}
-
-/// A non-blocking `CAN_RAW` socket bound to `interface`.
-fn open_raw(interface: &str) -> io::Result<OwnedFd> {
-    let ifindex = crate::ecat::net_interface::index(interface)?;
-    // SAFETY: plain socket(2) call; the result is checked before use.
-    let raw = unsafe {
-        libc::socket(
-            libc::PF_CAN,
-            libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
-            libc::CAN_RAW,
-        )
-    };
-    if raw < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
-    let fd = unsafe { OwnedFd::from_raw_fd(raw) };
-    // SAFETY: `sockaddr_can` is plain old data; all-zero is a valid value.
-    let mut addr: libc::sockaddr_can = unsafe { mem::zeroed() };
-    addr.can_family = libc::AF_CAN as libc::sa_family_t;
-    addr.can_ifindex = ifindex;
-    // SAFETY: `addr` is a properly initialised `sockaddr_can` and the length matches it.
-    let rc = unsafe {
-        libc::bind(
-            fd.as_raw_fd(),
-            (&addr as *const libc::sockaddr_can).cast::<libc::sockaddr>(),
-            mem::size_of::<libc::sockaddr_can>() as libc::socklen_t,
-        )
-    };
-    if rc < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    Ok(fd)
 }
 
 /// A non-blocking raw CAN socket for a poll loop (the cell loop registers its descriptor).
@@ -183,7 +144,7 @@ impl RawCanSocket {
     /// Open a `CAN_RAW` socket on `interface`, non-blocking.
     pub fn open(interface: &str) -> io::Result<RawCanSocket> {
         Ok(RawCanSocket {
-            fd: open_raw(interface)?,
+            fd: crate::sys::socketcan::open(interface)?,
             interface: interface.to_owned(),
         })
     }
@@ -199,39 +160,30 @@ impl RawCanSocket {
     /// One received frame; `Ok(None)` for a frame that is not classic CAN (skipped);
     /// `WouldBlock` when nothing waits.
     pub fn try_recv(&self) -> io::Result<Option<CanFrame>> {
-        read_once(self.fd.as_raw_fd())
+        read_once(self.fd.as_fd())
     }
 
     /// Transmit one frame now, or fail (`ENOBUFS`: the TX queue is full, the frame is lost
     /// as a controller drops it).
     pub fn try_send(&self, frame: &CanFrame) -> io::Result<()> {
-        write_once(self.fd.as_raw_fd(), &encode_can_frame(frame))
+        write_once(self.fd.as_fd(), &encode_can_frame(frame))
     }
 }
 
 fn is_queue_full(e: &io::Error) -> bool {
-    e.raw_os_error() == Some(libc::ENOBUFS)
+    crate::sys::fd::is_queue_full(e)
 }
 
-fn read_once(fd: RawFd) -> io::Result<Option<CanFrame>> {
+fn read_once(fd: BorrowedFd<'_>) -> io::Result<Option<CanFrame>> {
     // Room for a CAN FD frame (72 bytes) so an FD frame is read whole and then skipped.
     let mut buf = [0u8; 72];
-    // SAFETY: `buf` is valid for writes of `buf.len()` bytes.
-    let n = unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) };
-    if n < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    let n = usize::try_from(n).unwrap_or(0);
+    let n = crate::sys::fd::read(fd, &mut buf)?;
     Ok(buf.get(..n).and_then(decode_can_frame))
 }
 
-fn write_once(fd: RawFd, bytes: &[u8; CAN_MTU]) -> io::Result<()> {
-    // SAFETY: `bytes` is valid for reads of `bytes.len()` bytes.
-    let n = unsafe { libc::write(fd, bytes.as_ptr().cast(), bytes.len()) };
-    if n < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    if usize::try_from(n).ok() != Some(bytes.len()) {
+fn write_once(fd: BorrowedFd<'_>, bytes: &[u8; CAN_MTU]) -> io::Result<()> {
+    let n = crate::sys::fd::write(fd, bytes)?;
+    if n != bytes.len() {
         return Err(io::Error::new(
             io::ErrorKind::WriteZero,
             "short CAN frame write",
@@ -271,11 +223,7 @@ pub async fn bridge_interface(interface: &str, bus: &Bus) -> io::Result<()> {
 
 /// Whether a network interface with this name exists (e.g. to skip tests without `vcan0`).
 pub fn interface_exists(interface: &str) -> bool {
-    match CString::new(interface) {
-        // SAFETY: valid NUL-terminated string for the duration of the call.
-        Ok(name) => unsafe { libc::if_nametoindex(name.as_ptr()) != 0 },
-        Err(_) => false,
-    }
+    crate::sys::net_interface::exists(interface)
 }
 
 #[cfg(test)]

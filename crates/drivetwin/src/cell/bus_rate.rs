@@ -12,8 +12,8 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-use canopen::kinco_bit_rates;
-use canopen::rotary_switches::{self, PowerOn};
+use drive::vendors::kinco::bit_rates as kinco_bit_rates;
+use drive::vendors::nanotec::rotary_switches::{self, PowerOn};
 use serde::Deserialize;
 
 use crate::cell::fieldbus_switches::FieldbusSettings;
@@ -142,7 +142,7 @@ impl NodeRate {
 
 /// The value of the object that sets a node's rate (Kinco 2F81h, Nanotec 2005h) at power-on,
 /// and where it comes from. The twin powers a drive on as the device does
-/// ([`crate::can::drive::CanDrive::with_settings`]): the default, then the cell file's
+/// ([`crate::cell::can_drive::CanDrive::with_settings`]): the default, then the cell file's
 /// `[drive.objects]` (what a commissioning tool wrote), then the stored set (`--state-dir`,
 /// what the drive saved), which wins.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -342,7 +342,7 @@ pub fn resolve(
 mod tests {
     use super::*;
     use crate::cell::fieldbus_switches::m3_power_on;
-    use canopen::rotary_switches::{power_on, RotarySwitches};
+    use drive::vendors::nanotec::rotary_switches::{power_on, RotarySwitches};
 
     fn node(device: &'static str, node: u8, rate: NodeRate) -> BusNode {
         BusNode { device, node, rate }

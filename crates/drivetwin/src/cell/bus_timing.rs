@@ -1,12 +1,12 @@
 //! The time a cell's CAN bus takes (`bitrate = …` on a `[[bus]]`): every frame, a drive's or
 //! an outside client's, waits for the bus, wins or loses the arbitration and occupies the wire
-//! for its exact bit time ([`canopen::timed_bus`]); the drives receive it when it has crossed.
+//! for its exact bit time ([`canbus::timed_bus`]); the drives receive it when it has crossed.
 //! Counted here: frames, late frames, frames lost to a full transmit queue, the bus load.
 
 use std::time::Duration;
 
-use canopen::bus_load::LoadWindow;
-use canopen::timed_bus::{TimedBus, Transmission};
+use canbus::bus_load::LoadWindow;
+use canbus::timed_bus::{TimedBus, Transmission};
 use canopen::CanFrame;
 use od::Instant;
 

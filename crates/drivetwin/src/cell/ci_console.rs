@@ -1,8 +1,9 @@
 //! The CI terminal of a drive (the CMMP-AS RS232 debug console, manual §3.2.3) as a TCP
 //! service: lines of `?XXXXSU` / `=XXXXSU:W…` in, one answer line each out, ended with CR
-//! alone as the device ends it ([`canopen::ci_terminal::ANSWER_END`]). Bound to loopback only: the console writes any object without authentication.
+//! alone as the device ends it ([`drive::vendors::festo_cmmp_as::ci_terminal::ANSWER_END`]).
+//! Bound to loopback only: the console writes any object without authentication.
 //!
-//! The cell loop ([`crate::cell::poll_loop`]) owns the connections: it cuts their lines and
+//! The cell loop ([`crate::cell_loop`]) owns the connections: it cuts their lines and
 //! answers each from the drive's dictionary on the cell's clock.
 
 use std::net::SocketAddr;

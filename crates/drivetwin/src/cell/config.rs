@@ -5,15 +5,15 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use canopen::kinco_dip_switches::{self, Station};
-use canopen::rotary_switches::{power_on, RotarySwitches};
+use drive::vendors::kinco::dip_switches::{self as kinco_dip_switches, Station};
+use drive::vendors::nanotec::rotary_switches::{power_on, RotarySwitches};
 use od::{DataType, Value};
 use serde::Deserialize;
 
-use crate::can::drive::Commissioning;
 use crate::cell::bus_rate::{
     self, BitrateSetting, BusNode, BusRate, NodeRate, RateCode, RateObject,
 };
+use crate::cell::can_drive::Commissioning;
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
@@ -134,6 +134,7 @@ impl Buses {
         }
         match self {
             Buses::One(b) => b,
+            #[allow(clippy::indexing_slicing, reason = "made non-empty above")]
             Buses::Many(v) => &mut v[0],
         }
     }
@@ -584,7 +585,8 @@ pub struct SwitchesSection {
 }
 
 /// `[drive.rotary_switches]`: `left` and `right` on a two-switch Nanotec (SMCI47-S; the value
-/// is 16 · right + left, see `canopen::rotary_switches`), `switch` on a one-switch one (PD4-N).
+/// is 16 · right + left, see `drive::vendors::nanotec::rotary_switches`), `switch` on a
+/// one-switch one (PD4-N).
 /// The EEPROM values they may select are 2009h (node-ID) and 2005h (bit rate) of
 /// `[drive.objects]`, else the defaults.
 #[derive(Debug, Clone, Deserialize)]
@@ -687,7 +689,11 @@ impl SwitchesSection {
                 let mut i = M0Inputs::default();
                 for &n in &self.on {
                     match n {
-                        0..=3 => i.din0_3[usize::from(n)] = true,
+                        0..=3 => {
+                            if let Some(din) = i.din0_3.get_mut(usize::from(n)) {
+                                *din = true;
+                            }
+                        }
                         8 => i.din8 = true,
                         9 => i.din9 = true,
                         12 => i.din12 = true,
@@ -988,7 +994,7 @@ impl CellFile {
             let fieldbus = match &d.switches {
                 Some(sw) => {
                     let err = key_error(d, "switches");
-                    if desc.name != "cmmp-as" {
+                    if !desc.fieldbus_switches {
                         return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
                     }
                     Some(sw.settings().map_err(err)?)
@@ -1299,7 +1305,7 @@ fn node_rate(
     desc: &od::DeviceDescription,
     d: &DriveSection,
     fieldbus: Option<FieldbusSettings>,
-    rotary: Option<canopen::rotary_switches::PowerOn>,
+    rotary: Option<drive::vendors::nanotec::rotary_switches::PowerOn>,
 ) -> Result<(Option<NodeRate>, Option<RateObject>), ConfigError> {
     if desc.baud_rates.is_empty() {
         return Ok((None, None));
@@ -1928,9 +1934,9 @@ mod bus_rate_tests {
     }
 
     /// The Kinco DIP vectors from a cell file (each named at its assertion; the switch table
-    /// itself is `canopen::kinco_dip_switches`): `[drive.dip_switches]` gives the FD3's station
-    /// number (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices are
-    /// refused.
+    /// itself is `drive::vendors::kinco::dip_switches`): `[drive.dip_switches]` gives the FD3's
+    /// station number (node-ID) over `node`; all OFF takes 2F80h:01; 128…255 and other devices
+    /// are refused.
     #[test]
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {

@@ -3,7 +3,7 @@
 //! access as every front end (a write is seen at once on the wire), reads the plant and the
 //! display, sets inputs and load, and subscribes to samples of the plant.
 //!
-//! A request goes to the cell loop ([`crate::cell::poll_loop`]) and is carried out there,
+//! A request goes to the cell loop ([`crate::cell_loop`]) and is carried out there,
 //! between two socket events, on the cell's clock; the caller waits for the answer. Samples
 //! come on a bounded channel: when the subscriber does not keep up, samples are dropped,
 //! never waited for (the loop serves sockets first).
@@ -110,7 +110,7 @@ pub struct BusInfo {
     /// With a bit rate in the cell file: what the bus did (load, late and lost frames).
     pub timing: Option<crate::cell::bus_timing::BusFigures>,
     /// Nodes whose CAN controller counts errors: (node-ID, state, TEC, REC).
-    pub node_errors: Vec<(u8, canopen::fault_confinement::ErrorState, u16, u16)>,
+    pub node_errors: Vec<(u8, canbus::fault_confinement::ErrorState, u16, u16)>,
 }
 
 /// One request to the loop.

@@ -28,7 +28,13 @@ pub struct FieldbusSettings {
 }
 
 fn bit_rate(low: bool, high: bool) -> u16 {
-    BIT_RATES_KBIT[usize::from(low) | usize::from(high) << 1]
+    let [r00, r01, r10, r11] = BIT_RATES_KBIT;
+    match (high, low) {
+        (false, false) => r00,
+        (false, true) => r01,
+        (true, false) => r10,
+        (true, true) => r11,
+    }
 }
 
 /// Node number from the FCT base address and the switch offset: the sum, clamped to 127;

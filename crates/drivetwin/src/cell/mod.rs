@@ -2,8 +2,10 @@
 //! reach the other drives of the cell as well as the bus; with a bit rate
 //! ([`bus_timing`]) they do so when they have crossed the bus, after the arbitration.
 
+pub mod bus_faults;
 pub mod bus_rate;
 pub mod bus_timing;
+pub mod can_drive;
 pub mod ci_console;
 pub mod config;
 pub mod control;
@@ -14,21 +16,26 @@ pub mod interfaces;
 pub mod lateness;
 pub mod param_store;
 pub mod planned;
-pub mod poll_loop;
 pub mod realtime;
-pub mod runtime;
 pub mod wire_faults;
 
 use std::collections::VecDeque;
 
-use canopen::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
-use canopen::frame_time::bits_to_nanos;
+use canbus::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
+use canbus::frame_time::bits_to_nanos;
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
-use crate::can::drive::CanDrive;
+use crate::cell::can_drive::CanDrive;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
 use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError, WireFaults};
+
+/// A drive on a bus: the bus's index in the cell, the drive's in the bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnBus {
+    pub bus: usize,
+    pub drive: usize,
+}
 
 /// Decision: the instant bus has no bit time, but a bus-off node still needs one
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
@@ -177,7 +184,7 @@ impl Cell {
         now: Instant,
         line: &[u8],
         out: &mut Vec<CanFrame>,
-    ) -> Option<canopen::ci_terminal::Reply> {
+    ) -> Option<drive::vendors::festo_cmmp_as::ci_terminal::Reply> {
         let Cell { drives, queue, .. } = self;
         let d = drives.get_mut(drive)?;
         let reply = d.ci_line(now, line, &mut |f| queue.push_back((f, Some(drive))));

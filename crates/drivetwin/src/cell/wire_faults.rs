@@ -8,7 +8,7 @@
 //!
 //! What a fault does to a CAN frame is CAN's own (`spec/cia301.md`, ISO 11898-1): a corrupted
 //! frame fails its CRC, every receiver sends an error frame and counts it in its fault
-//! confinement ([`canopen::fault_confinement`]), the sender counts a transmit error and tries
+//! confinement ([`canbus::fault_confinement`]), the sender counts a transmit error and tries
 //! again; nobody gets a wrong payload. A corrupted Modbus TCP or EtherCAT frame is discarded
 //! by the receiver's checksum (Ethernet FCS), so it is lost as a dropped one.
 

@@ -1,4 +1,6 @@
 use super::*;
+use ::drive::device_control::State;
+use ::drive::statusword::Statusword;
 use drivetwin::master::cia402::VelocityMode;
 
 pub(crate) async fn drive_command(
@@ -49,7 +51,7 @@ pub(crate) async fn drive_command(
         }
         // Target reached in OPERATION ENABLED (bit 10 with the state bits).
         cia402::wait_for(&mut c, "target reached", timeout, |sw| {
-            sw & 0x0400 != 0 && sw & 0x6F == 0x27
+            sw.contains(Statusword::TARGET_REACHED) && sw.state() == Some(State::OperationEnabled)
         })
         .await?;
     }

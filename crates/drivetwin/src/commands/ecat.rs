@@ -370,9 +370,15 @@ async fn sdo(cmd: EcatSdoCommand) -> Result<(), CommandError> {
 fn report(json: bool, head: serde_json::Value, e: EcatError) -> CommandError {
     if json {
         let mut j = merge(head, serde_json::json!({"error": e.to_string()}));
-        if let EcatError::Abort { code, .. } = &e {
-            j["abort_code"] = serde_json::json!(format!("0x{:08X}", code.0));
-            j["abort_text"] = serde_json::json!(abort_description(*code));
+        if let (EcatError::Abort { code, .. }, Some(o)) = (&e, j.as_object_mut()) {
+            o.insert(
+                "abort_code".into(),
+                serde_json::json!(format!("0x{:08X}", code.0)),
+            );
+            o.insert(
+                "abort_text".into(),
+                serde_json::json!(abort_description(*code)),
+            );
         }
         out!("{j}");
     }

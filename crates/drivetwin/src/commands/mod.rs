@@ -4,11 +4,12 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
-use drivetwin::can::drive::{CanDrive, DriveError};
+use drivetwin::cell::can_drive::{CanDrive, DriveError};
+use drivetwin::cell::ci_console;
 use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::Cell;
-use drivetwin::cell::{ci_console, runtime};
+use drivetwin::cell_loop::virtual_clock;
 use drivetwin::master::link::{Link, LinkError};
 use drivetwin::master::sdo_client::{SdoClient, SdoError};
 use drivetwin::modbus_tcp::fhpp as fhpp_modbus;
@@ -130,7 +131,7 @@ impl CommandError {
                 SdoError::Link(_) => EXIT_LINK,
             },
             CommandError::Fhpp(e) => fhpp::exit_code(e),
-            CommandError::Drive(drivetwin::can::drive::DriveError::NodeId(_)) => EXIT_USAGE,
+            CommandError::Drive(drivetwin::cell::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
             CommandError::Kinco(e) => kinco::exit_code(e),

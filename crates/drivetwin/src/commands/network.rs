@@ -38,7 +38,7 @@ pub(crate) async fn monitor(
     let started = tokio::time::Instant::now();
     let since_start = || od::Instant::from_nanos(started.elapsed().as_nanos() as u64);
     let window = drivetwin::cell::bus_timing::LOAD_WINDOW.as_nanos() as u64;
-    let mut load = bitrate.map(|b| (b, canopen::bus_load::LoadWindow::new(window, since_start())));
+    let mut load = bitrate.map(|b| (b, canbus::bus_load::LoadWindow::new(window, since_start())));
     let deadline = match seconds {
         Some(s) if s.is_finite() && s >= 0.0 => {
             Some(tokio::time::Instant::now() + Duration::from_secs_f64(s))
@@ -61,10 +61,8 @@ pub(crate) async fn monitor(
         };
         seen += 1;
         if let Some((bitrate, window)) = load.as_mut() {
-            let nanos = canopen::frame_time::bits_to_nanos(
-                canopen::frame_time::frame_bits(&frame),
-                *bitrate,
-            );
+            let nanos =
+                canbus::frame_time::bits_to_nanos(canbus::frame_time::frame_bits(&frame), *bitrate);
             if let Some((percent, frames)) = window.add(since_start(), nanos) {
                 print_load(bus.json, *bitrate, percent, frames);
             }

@@ -2,7 +2,8 @@ use super::*;
 use drivetwin::can::socketcand::ServerConfig;
 use drivetwin::cell::bus_rate::BusRate;
 use drivetwin::cell::config::BusSection;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, OnBus};
+use drivetwin::cell::OnBus;
+use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
@@ -414,7 +415,7 @@ async fn prepare_cell(
         };
         let mut count = 0u64;
         let mut failed = None;
-        runtime::run_virtual(
+        virtual_clock::run_virtual(
             &mut cell,
             &inputs,
             Duration::from_secs_f64(seconds),

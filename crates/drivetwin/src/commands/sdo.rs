@@ -91,9 +91,12 @@ fn report_sdo_error(bus: &BusArgs, node: u8, index: u16, sub: u8, e: SdoError) -
         let mut j = serde_json::json!({
             "node": node, "index": format!("0x{index:04X}"), "sub": sub, "error": e.to_string(),
         });
-        if let SdoError::Abort(code) = &e {
-            j["abort_code"] = serde_json::json!(format!("0x{:08X}", code.0));
-            j["abort_text"] = serde_json::json!(code.description());
+        if let (SdoError::Abort(code), Some(o)) = (&e, j.as_object_mut()) {
+            o.insert(
+                "abort_code".into(),
+                serde_json::json!(format!("0x{:08X}", code.0)),
+            );
+            o.insert("abort_text".into(), serde_json::json!(code.description()));
         }
         out!("{j}");
     }
@@ -118,8 +121,10 @@ pub(crate) fn print_upload(ty: Option<DataType>, data: &[u8], head: Option<serde
             (_, Some(v)) => serde_json::Value::String(v.clone()),
             _ => serde_json::Value::Null,
         };
-        j["data"] = serde_json::json!(value_text::hex(data));
-        j["value"] = json_value;
+        if let Some(o) = j.as_object_mut() {
+            o.insert("data".into(), serde_json::json!(value_text::hex(data)));
+            o.insert("value".into(), json_value);
+        }
         out!("{j}");
     } else {
         match value {

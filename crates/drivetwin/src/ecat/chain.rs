@@ -63,11 +63,11 @@ use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
 };
 
-use crate::can::drive::{CanDrive, DriveError, Persisting};
+use crate::cell::can_drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
@@ -831,11 +831,14 @@ impl EthercatCell {
         desc: &'static DeviceDescription,
         drive: SlaveDrive,
     ) -> Result<(), EcatCellError> {
-        let cfg = SiiConfig::CMMP_AS;
+        let cfg = SiiConfig::from_description(desc);
         let image = sii_image(desc, &cfg)?;
         self.escs.push(Esc::with_sii(image));
-        self.devices
-            .push(SlaveDevice::new(cfg, CoeConfig::CMMP_AS, desc));
+        self.devices.push(SlaveDevice::new(
+            cfg,
+            CoeConfig::from_description(desc),
+            desc,
+        ));
         self.drives.push(drive);
         Ok(())
     }

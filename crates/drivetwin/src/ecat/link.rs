@@ -17,12 +17,11 @@
 //! kernel hands it over, without an async runtime's wake-up in between (the round trip a
 //! master measures is the wire latency of the slave).
 //!
-//! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`).
-#![cfg(target_os = "linux")]
+//! Opening the socket needs `CAP_NET_RAW` (root, or `setcap cap_net_raw+ep`); the socket is
+//! Linux's (`sys::packet_socket`).
 
 use std::io;
-use std::mem;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd, RawFd};
 use std::time::Duration;
 
 use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
@@ -32,11 +31,6 @@ pub use super::MAX_FRAME;
 
 /// Offset of the first source-MAC byte in an Ethernet frame.
 const SOURCE_MAC_FIRST: usize = 6;
-
-/// `linux/if_packet.h`: packet type of a copy of a frame this host sent.
-const PACKET_OUTGOING: u8 = 4;
-/// `linux/if_packet.h`: socket option that stops delivery of outgoing copies (Linux 4.20+).
-const PACKET_IGNORE_OUTGOING: libc::c_int = 23;
 
 /// How long [`EthercatSocket::send`] keeps retrying while the interface's TX queue is full.
 const TX_QUEUE_FULL_PATIENCE: Duration = Duration::from_millis(10);
@@ -52,10 +46,7 @@ impl EthercatSocket {
     /// Open an `AF_PACKET` socket for EtherType 0x88A4 on `interface` (e.g. `eth1`, a veth
     /// end). Must be called inside a tokio runtime.
     pub fn open(interface: &str) -> io::Result<EthercatSocket> {
-        let fd = open_raw(interface)?;
-        // SAFETY: the `OwnedFd` moves into the `AsyncFd`, which owns it until dropped, so the
-        // descriptor stays open and the same for the registration's whole lifetime.
-        let fd = unsafe { AsyncFd::register(fd) }?;
+        let fd = crate::sys::fd::register_async(open_raw(interface)?)?;
         Ok(EthercatSocket {
             fd,
             interface: interface.to_owned(),
@@ -82,7 +73,7 @@ impl EthercatSocket {
     async fn recv_where(&self, buf: &mut [u8], want: Want) -> io::Result<usize> {
         loop {
             let mut guard = self.fd.readable().await?;
-            match guard.try_io(|fd| recv_once(fd.as_raw_fd(), buf, want)) {
+            match guard.try_io(|fd| recv_once(fd.get_ref().as_fd(), buf, want)) {
                 Ok(Ok(Some(n))) => return Ok(n),
                 Ok(Ok(None)) => continue,
                 Ok(Err(e)) => return Err(e),
@@ -97,7 +88,7 @@ impl EthercatSocket {
         let deadline = tokio::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
         loop {
             let mut guard = self.fd.writable().await?;
-            match guard.try_io(|fd| send_once(fd.as_raw_fd(), frame)) {
+            match guard.try_io(|fd| send_once(fd.get_ref().as_fd(), frame)) {
                 Ok(Ok(())) => return Ok(()),
                 Ok(Err(e)) if is_queue_full(&e) && tokio::time::Instant::now() < deadline => {
                     drop(guard);
@@ -114,50 +105,7 @@ impl EthercatSocket {
 /// outgoing copies switched off where the kernel can (also for tools that drive the wire
 /// themselves, such as the round-trip benchmark's master).
 pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
-    let ifindex = crate::ecat::net_interface::index(interface)?;
-    let protocol = ETHERTYPE_ETHERCAT.to_be();
-    // SAFETY: plain socket(2) call; the result is checked before use.
-    let raw = unsafe {
-        libc::socket(
-            libc::AF_PACKET,
-            libc::SOCK_RAW | libc::SOCK_NONBLOCK | libc::SOCK_CLOEXEC,
-            libc::c_int::from(protocol),
-        )
-    };
-    if raw < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    // SAFETY: `raw` is a fresh, valid descriptor owned by nobody else.
-    let fd = unsafe { OwnedFd::from_raw_fd(raw) };
-    // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-    let mut addr: libc::sockaddr_ll = unsafe { mem::zeroed() };
-    addr.sll_family = libc::AF_PACKET as libc::c_ushort;
-    addr.sll_protocol = protocol;
-    addr.sll_ifindex = ifindex;
-    // SAFETY: `addr` is a properly initialised `sockaddr_ll` and the length matches it.
-    let rc = unsafe {
-        libc::bind(
-            fd.as_raw_fd(),
-            (&addr as *const libc::sockaddr_ll).cast::<libc::sockaddr>(),
-            mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t,
-        )
-    };
-    if rc < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    let one: libc::c_int = 1;
-    // SAFETY: `one` is a valid c_int for the duration of the call and the length matches.
-    // Older kernels refuse the option (ENOPROTOOPT); `recv` filters by packet type then.
-    let _ = unsafe {
-        libc::setsockopt(
-            fd.as_raw_fd(),
-            libc::SOL_PACKET,
-            PACKET_IGNORE_OUTGOING,
-            (&one as *const libc::c_int).cast(),
-            mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
-    };
-    Ok(fd)
+    crate::sys::packet_socket::open(interface, ETHERTYPE_ETHERCAT)
 }
 
 /// The raw socket of a chain in the cell loop: the loop waits for it with the cell's other
@@ -184,14 +132,14 @@ impl SlaveSocket {
     /// One read: `Ok(Some(len))` a request from the master in `buf`, `Ok(None)` a frame to
     /// skip (our own, or one on its way back); `WouldBlock` when nothing waits.
     pub fn try_recv(&self, buf: &mut [u8]) -> io::Result<Option<usize>> {
-        recv_once(self.fd.as_raw_fd(), buf, Want::Requests)
+        recv_once(self.fd.as_fd(), buf, Want::Requests)
     }
 
     /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
     pub fn send(&self, frame: &[u8]) -> io::Result<()> {
         let deadline = std::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
         loop {
-            match send_once(self.fd.as_raw_fd(), frame) {
+            match send_once(self.fd.as_fd(), frame) {
                 Err(e)
                     if (is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock)
                         && std::time::Instant::now() < deadline =>
@@ -212,7 +160,7 @@ impl AsRawFd for SlaveSocket {
 
 /// The TX queue of the interface is full.
 pub fn is_queue_full(e: &io::Error) -> bool {
-    e.raw_os_error() == Some(libc::ENOBUFS)
+    crate::sys::fd::is_queue_full(e)
 }
 
 /// Whether a received frame is a request for the chain: not one that already passed a slave
@@ -231,27 +179,10 @@ enum Want {
 }
 
 /// One `recvfrom`: `Some(len)` for a frame to process, `None` for one to skip.
-fn recv_once(fd: RawFd, buf: &mut [u8], want: Want) -> io::Result<Option<usize>> {
-    // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-    let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
-    let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
-    // SAFETY: `buf` is valid for writes of `buf.len()` bytes, `from` for `from_len` bytes.
-    // MSG_TRUNC makes the call return the real length of a frame longer than `buf`.
-    let n = unsafe {
-        libc::recvfrom(
-            fd,
-            buf.as_mut_ptr().cast(),
-            buf.len(),
-            libc::MSG_TRUNC,
-            (&mut from as *mut libc::sockaddr_ll).cast::<libc::sockaddr>(),
-            &mut from_len,
-        )
-    };
-    if n < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    let n = usize::try_from(n).unwrap_or(0);
-    if from.sll_pkttype == PACKET_OUTGOING || n > buf.len() {
+fn recv_once(fd: BorrowedFd<'_>, buf: &mut [u8], want: Want) -> io::Result<Option<usize>> {
+    let received = crate::sys::packet_socket::recv(fd, buf)?;
+    let n = received.len;
+    if received.outgoing || n > buf.len() {
         return Ok(None);
     }
     let take = |f: &&[u8]| match want {
@@ -261,14 +192,9 @@ fn recv_once(fd: RawFd, buf: &mut [u8], want: Want) -> io::Result<Option<usize>>
     Ok(buf.get(..n).filter(take).map(|_| n))
 }
 
-fn send_once(fd: RawFd, frame: &[u8]) -> io::Result<()> {
-    // SAFETY: `frame` is valid for reads of `frame.len()` bytes; the socket is bound, so the
-    // kernel sends on the bound interface without a destination address.
-    let n = unsafe { libc::send(fd, frame.as_ptr().cast(), frame.len(), 0) };
-    if n < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    if usize::try_from(n).ok() != Some(frame.len()) {
+fn send_once(fd: BorrowedFd<'_>, frame: &[u8]) -> io::Result<()> {
+    let n = crate::sys::packet_socket::send(fd, frame)?;
+    if n != frame.len() {
         return Err(io::Error::new(
             io::ErrorKind::WriteZero,
             "short EtherCAT frame write",

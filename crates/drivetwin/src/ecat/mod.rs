@@ -3,8 +3,6 @@
 
 pub mod chain;
 pub mod link;
-#[cfg(target_os = "linux")]
-pub mod net_interface;
 
 /// Largest frame read: an Ethernet frame without FCS is at most 1514 bytes (1518 with a VLAN
 /// tag); anything longer is not EtherCAT and is dropped as truncated.

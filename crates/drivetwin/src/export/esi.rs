@@ -42,23 +42,21 @@ pub struct EsiConfig<'a> {
 }
 
 impl EsiConfig<'static> {
-    /// The CMMP-AS (cmmp-as-1 §2.13; SII baseline of spec/ethercat-esc.md §3.5).
-    pub const CMMP_AS: EsiConfig<'static> = EsiConfig {
-        sii: SiiConfig::CMMP_AS,
-        group_name: "Festo Electric-Drive",
-        eeprom_size: sii::DEFAULT_IMAGE_SIZE,
-    };
-}
-
-impl Default for EsiConfig<'static> {
-    fn default() -> Self {
-        Self::CMMP_AS
+    /// What `desc`'s device file says (`[device.ethercat]`, on the SII baseline of
+    /// spec/ethercat-esc.md §3.5 without it).
+    pub fn from_description(desc: &DeviceDescription) -> Self {
+        EsiConfig {
+            sii: SiiConfig::from_description(desc),
+            group_name: desc.ethercat.map_or("Drives", |e| e.group_name),
+            eeprom_size: sii::DEFAULT_IMAGE_SIZE,
+        }
     }
 }
 
-/// Writes the ESI XML of `desc` with the CMMP-AS defaults ([`EsiConfig::CMMP_AS`]).
+/// Writes the ESI XML of `desc` as its device file describes it
+/// ([`EsiConfig::from_description`]).
 pub fn write_esi(desc: &DeviceDescription, w: &mut impl Write) -> fmt::Result {
-    write_esi_with(desc, &EsiConfig::CMMP_AS, w)
+    write_esi_with(desc, &EsiConfig::from_description(desc), w)
 }
 
 /// XML text or attribute value with `& < > " '` escaped and control characters replaced.
@@ -135,11 +133,14 @@ fn hex(bytes: &[u8]) -> String {
 fn default_bytes(desc: &DeviceDescription, e: &Entry) -> Vec<u8> {
     let mut v = e.default.to_vec();
     if e.default_plus_node_id && e.data_type.is_numeric() {
-        let n = v.len().min(8);
         let mut b = [0u8; 8];
-        b[..n].copy_from_slice(&v[..n]);
+        for (dst, src) in b.iter_mut().zip(&v) {
+            *dst = *src;
+        }
         let sum = u64::from_le_bytes(b).wrapping_add(u64::from(desc.default_node_id));
-        v[..n].copy_from_slice(&sum.to_le_bytes()[..n]);
+        for (dst, src) in v.iter_mut().zip(sum.to_le_bytes()) {
+            *dst = src;
+        }
     }
     v
 }
@@ -148,7 +149,7 @@ fn limit_bytes(e: &Entry, l: Limit) -> Option<Vec<u8>> {
     let size = e.data_type.fixed_size()?;
     let mut b = [0u8; 8];
     Value::from_limit(l).encode(e.data_type, &mut b)?;
-    Some(b[..size].to_vec())
+    b.get(..size).map(<[u8]>::to_vec)
 }
 
 /// Name of the data type of an object: the entry's type for a VAR, `DTxxxx` otherwise.
@@ -185,7 +186,11 @@ pub fn write_esi_with(
     let sii = &cfg.sii;
     let image = sii_image(desc, cfg);
     // ConfigData: the ESC configuration area, words 0–3, as the SII holds it.
-    let config_data = image.as_deref().map(|i| hex(&i[..8])).unwrap_or_default();
+    let config_data = image
+        .as_deref()
+        .and_then(|i| i.get(..8))
+        .map(hex)
+        .unwrap_or_default();
     let out_bytes = sii::assigned_bits(desc, sii.rx_assigned)
         .unwrap_or(0)
         .div_ceil(8);
@@ -804,7 +809,7 @@ mod tests {
         let mut s = String::new();
         let cfg = EsiConfig {
             group_name: "<Drives & \"Motors\">",
-            ..EsiConfig::CMMP_AS
+            ..EsiConfig::from_description(cmmp())
         };
         write_esi_with(cmmp(), &cfg, &mut s).unwrap();
         let doc = roxmltree::Document::parse(&s).unwrap();

@@ -3,23 +3,16 @@
 
 use std::time::Duration;
 
+use drive::controlword::Controlword;
+use drive::device_control::State;
+use drive::statusword::Statusword;
 use od::AbortCode;
 
 use super::sdo_client::{SdoClient, SdoError};
 
-/// CiA 402 state names from the statusword (masks of CiA 402 Tab. 30, CMMP-AS Tab. 6.6).
+/// The state the statusword shows, by its CiA 402 name ("UNKNOWN" for bits no state has).
 pub fn state_name(sw: u16) -> &'static str {
-    match (sw & 0x4F, sw & 0x6F) {
-        (0x00, _) => "NOT READY TO SWITCH ON",
-        (0x40, _) => "SWITCH ON DISABLED",
-        (_, 0x21) => "READY TO SWITCH ON",
-        (_, 0x23) => "SWITCHED ON",
-        (_, 0x27) => "OPERATION ENABLED",
-        (_, 0x07) => "QUICK STOP ACTIVE",
-        (0x0F, _) => "FAULT REACTION ACTIVE",
-        (0x08, _) => "FAULT",
-        _ => "UNKNOWN",
-    }
+    Statusword(sw).state().map_or("UNKNOWN", State::name)
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -152,13 +145,13 @@ pub async fn snapshot(c: &mut SdoClient<'_>) -> Result<Snapshot, SdoError> {
         velocity_object,
         current_permille: read_optional(c, 0x6078, 0).await?.map(|v| v as i16),
         torque_permille: read_optional(c, 0x6077, 0).await?.map(|v| v as i16),
-        target_reached: sw & 0x0400 != 0,
-        following_error: sw & 0x2000 != 0,
+        target_reached: Statusword(sw).contains(Statusword::TARGET_REACHED),
+        following_error: Statusword(sw).contains(Statusword::FOLLOWING_ERROR),
     })
 }
 
-pub async fn controlword(c: &mut SdoClient<'_>, cw: u16) -> Result<(), SdoError> {
-    c.download(0x6040, 0, &cw.to_le_bytes()).await
+pub async fn controlword(c: &mut SdoClient<'_>, cw: Controlword) -> Result<(), SdoError> {
+    c.download(0x6040, 0, &cw.bits().to_le_bytes()).await
 }
 
 /// Polls the statusword until `done` holds.
@@ -166,12 +159,12 @@ pub async fn wait_for(
     c: &mut SdoClient<'_>,
     want: &'static str,
     timeout: Duration,
-    done: impl Fn(u16) -> bool,
+    done: impl Fn(Statusword) -> bool,
 ) -> Result<u16, Cia402Error> {
     let deadline = tokio::time::Instant::now() + timeout;
     loop {
         let sw = statusword(c).await?;
-        if done(sw) {
+        if done(Statusword(sw)) {
             return Ok(sw);
         }
         if tokio::time::Instant::now() > deadline {
@@ -186,30 +179,59 @@ pub async fn wait_for(
     }
 }
 
+/// Whether the statusword shows `state`.
+fn shows(state: State) -> impl Fn(Statusword) -> bool {
+    move |sw| sw.state() == Some(state)
+}
+
 /// Fault reset if needed, then shutdown → switch on → enable operation, each confirmed.
 pub async fn enable(c: &mut SdoClient<'_>, timeout: Duration) -> Result<(), Cia402Error> {
-    let sw = statusword(c).await?;
-    if matches!(state_name(sw), "FAULT" | "FAULT REACTION ACTIVE") {
-        controlword(c, 0x0000).await?;
-        controlword(c, 0x0080).await?;
-        wait_for(c, "SWITCH ON DISABLED", timeout, |sw| sw & 0x4F == 0x40).await?;
+    let sw = Statusword(statusword(c).await?);
+    if matches!(sw.state(), Some(State::Fault | State::FaultReactionActive)) {
+        controlword(c, Controlword::EMPTY).await?;
+        controlword(c, Controlword::FAULT_RESET).await?;
+        wait_for(
+            c,
+            "SWITCH ON DISABLED",
+            timeout,
+            shows(State::SwitchOnDisabled),
+        )
+        .await?;
     }
-    if state_name(statusword(c).await?) == "OPERATION ENABLED" {
+    if Statusword(statusword(c).await?).state() == Some(State::OperationEnabled) {
         return Ok(());
     }
-    controlword(c, 0x0006).await?;
-    wait_for(c, "READY TO SWITCH ON", timeout, |sw| sw & 0x6F == 0x21).await?;
-    controlword(c, 0x0007).await?;
-    wait_for(c, "SWITCHED ON", timeout, |sw| sw & 0x6F == 0x23).await?;
-    controlword(c, 0x000F).await?;
-    wait_for(c, "OPERATION ENABLED", timeout, |sw| sw & 0x6F == 0x27).await?;
+    controlword(c, Controlword::SHUTDOWN).await?;
+    wait_for(
+        c,
+        "READY TO SWITCH ON",
+        timeout,
+        shows(State::ReadyToSwitchOn),
+    )
+    .await?;
+    controlword(c, Controlword::SWITCH_ON_CMD).await?;
+    wait_for(c, "SWITCHED ON", timeout, shows(State::SwitchedOn)).await?;
+    controlword(c, Controlword::ENABLE_OPERATION_CMD).await?;
+    wait_for(
+        c,
+        "OPERATION ENABLED",
+        timeout,
+        shows(State::OperationEnabled),
+    )
+    .await?;
     Ok(())
 }
 
 /// Shutdown (transition 8/6): READY TO SWITCH ON, output stage off.
 pub async fn disable(c: &mut SdoClient<'_>, timeout: Duration) -> Result<(), Cia402Error> {
-    controlword(c, 0x0006).await?;
-    wait_for(c, "READY TO SWITCH ON", timeout, |sw| sw & 0x6F == 0x21).await?;
+    controlword(c, Controlword::SHUTDOWN).await?;
+    wait_for(
+        c,
+        "READY TO SWITCH ON",
+        timeout,
+        shows(State::ReadyToSwitchOn),
+    )
+    .await?;
     Ok(())
 }
 
@@ -281,10 +303,13 @@ pub async fn move_to(
         write_object(c, 0x6084, 0, &d.to_le_bytes(), "profile deceleration").await?;
     }
     c.download(0x607A, 0, &target.to_le_bytes()).await?;
-    let base = if relative { 0x004F } else { 0x000F };
+    let base = Controlword::ENABLE_OPERATION_CMD.with(Controlword::RELATIVE, relative);
     controlword(c, base).await?;
-    controlword(c, base | 0x0010).await?;
-    wait_for(c, "set-point acknowledge", timeout, |sw| sw & 0x1000 != 0).await?;
+    controlword(c, base | Controlword::NEW_SET_POINT).await?;
+    wait_for(c, "set-point acknowledge", timeout, |sw| {
+        sw.contains(Statusword::SET_POINT_ACKNOWLEDGE)
+    })
+    .await?;
     controlword(c, base).await?;
     Ok(())
 }

@@ -292,7 +292,12 @@ impl FhppMaster {
     pub async fn read(&mut self) -> Result<&InputData, FhppError> {
         let mut regs = [0u16; FPC_REGISTERS];
         let n = self.registers();
-        self.link.read_holding(0, &mut regs[..n]).await?;
+        #[allow(
+            clippy::indexing_slicing,
+            reason = "registers() is STD_REGISTERS or FPC_REGISTERS, the array's length"
+        )]
+        let read = &mut regs[..n];
+        self.link.read_holding(0, read).await?;
         self.take_input(&regs);
         Ok(&self.input)
     }
@@ -300,17 +305,24 @@ impl FhppMaster {
     /// One cycle: FC 0x17 writes the output telegram and reads the input telegram.
     pub async fn exchange(&mut self) -> Result<&InputData, FhppError> {
         let mut image = [0u8; 16];
-        image[..8].copy_from_slice(&self.out.to_bytes());
-        image[8..].copy_from_slice(&self.fpc_out);
+        let telegram = self.out.to_bytes().into_iter().chain(self.fpc_out);
+        for (dst, src) in image.iter_mut().zip(telegram) {
+            *dst = src;
+        }
         let mut values = [0u16; FPC_REGISTERS];
         for (v, chunk) in values.iter_mut().zip(image.chunks_exact(2)) {
-            *v = u16::from_be_bytes([chunk[0], chunk[1]]);
+            if let [hi, lo] = *chunk {
+                *v = u16::from_be_bytes([hi, lo]);
+            }
         }
         let n = self.registers();
         let mut regs = [0u16; FPC_REGISTERS];
-        self.link
-            .read_write(0, &mut regs[..n], 0, &values[..n])
-            .await?;
+        #[allow(
+            clippy::indexing_slicing,
+            reason = "registers() is STD_REGISTERS or FPC_REGISTERS, the arrays' length"
+        )]
+        let (read, write) = (&mut regs[..n], &values[..n]);
+        self.link.read_write(0, read, 0, write).await?;
         self.take_input(&regs);
         Ok(&self.input)
     }

@@ -1,5 +1,5 @@
 //! The master side of the Kinco RS232 telegrams (`spec/kinco-fd-cd.md` §2.1–2.2, the codec
-//! `canopen::kinco_rs232`): one 10-byte telegram out, one 10-byte answer in, over a serial
+//! `drive::vendors::kinco::rs232`): one 10-byte telegram out, one 10-byte answer in, over a serial
 //! port (a real drive on a USB adapter, or a twin's pty link). Blocking: a command-line tool.
 //!
 //! Decisions: bytes that come before the answer (a ring's echo of the telegram, §2.1
@@ -10,7 +10,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use canopen::kinco_rs232::{Request, Response, Telegram, TELEGRAM_LEN};
+use drive::vendors::kinco::rs232::{Request, Response, Telegram, TELEGRAM_LEN};
 use od::AbortCode;
 
 use crate::serial::pty::{Port, PortError};

@@ -48,8 +48,9 @@ impl<'a> LssMaster<'a> {
                     let f = f?;
                     if f.cob_id() == Some(LSS_RESPONSE_ID) {
                         let mut r = [0u8; 8];
-                        let p = f.payload();
-                        r[..p.len()].copy_from_slice(p);
+                        for (dst, src) in r.iter_mut().zip(f.payload()) {
+                            *dst = *src;
+                        }
                         return Ok(Some(r));
                     }
                 }
@@ -124,15 +125,14 @@ impl<'a> LssMaster<'a> {
         if !self.fastscan_step(0, 0x80, 0, 0).await? {
             return Ok(None);
         }
-        for sub in 0u8..4 {
-            let i = usize::from(sub);
+        for (sub, part) in (0u8..4).zip(id.iter_mut()) {
             for bit in (0u8..32).rev() {
-                if !self.fastscan_step(id[i], bit, sub, sub).await? {
-                    id[i] |= 1 << bit;
+                if !self.fastscan_step(*part, bit, sub, sub).await? {
+                    *part |= 1 << bit;
                 }
             }
             let next = (sub + 1) & 3;
-            if !self.fastscan_step(id[i], 0, sub, next).await? {
+            if !self.fastscan_step(*part, 0, sub, next).await? {
                 return Ok(None);
             }
         }

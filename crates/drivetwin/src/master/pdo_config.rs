@@ -69,8 +69,9 @@ fn optional<T>(r: Result<T, SdoError>) -> Result<Option<T>, SdoError> {
 async fn read_uint(c: &mut SdoClient<'_>, index: u16, sub: u8) -> Result<u32, SdoError> {
     let d = c.upload(index, sub).await?;
     let mut b = [0u8; 4];
-    let n = d.len().min(4);
-    b[..n].copy_from_slice(&d[..n]);
+    for (dst, src) in b.iter_mut().zip(&d) {
+        *dst = *src;
+    }
     Ok(u32::from_le_bytes(b))
 }
 

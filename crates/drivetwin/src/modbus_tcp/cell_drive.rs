@@ -1,4 +1,4 @@
-//! A CMMO-ST as the cell loop ([`crate::cell::poll_loop`]) serves it: the device, its Modbus
+//! A CMMO-ST as the cell loop ([`crate::cell_loop`]) serves it: the device, its Modbus
 //! register map, its FHPP cycle (every millisecond on the cell's clock) and the state of its
 //! one Modbus TCP connection (framer, watchdog). The loop owns the sockets; this module holds
 //! what happens to the bytes and when the device steps.

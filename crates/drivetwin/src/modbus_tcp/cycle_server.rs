@@ -27,7 +27,7 @@
 
 use std::io::{self, Read};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::os::fd::{AsRawFd, RawFd};
+use std::os::fd::{AsFd, BorrowedFd};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -239,7 +239,7 @@ impl Connection {
         until: Instant,
     ) -> Result<usize, CloseReason> {
         if !self.pending.is_empty() {
-            wait_writable(self.stream.as_raw_fd(), until);
+            wait_writable(self.stream.as_fd(), until);
             return self.flush().map(|()| 0);
         }
         match self.stream.read(buf) {
@@ -283,7 +283,7 @@ impl Connection {
     /// Writes what the socket takes now without blocking; the rest stays pending.
     fn flush(&mut self) -> Result<(), CloseReason> {
         while !self.pending.is_empty() {
-            match send_nonblocking(self.stream.as_raw_fd(), &self.pending) {
+            match crate::sys::tcp::send_nonblocking(self.stream.as_fd(), &self.pending) {
                 Ok(n) => {
                     self.pending.drain(..n.min(self.pending.len()));
                 }
@@ -315,7 +315,7 @@ impl Connection {
     /// Whether the client has closed its end (end of file waiting, nothing else).
     fn peer_has_closed(&self) -> bool {
         let mut byte = [0u8; 1];
-        match recv_nonblocking(self.stream.as_raw_fd(), &mut byte, libc::MSG_PEEK) {
+        match crate::sys::tcp::peek_nonblocking(self.stream.as_fd(), &mut byte) {
             Ok(n) => n == 0,
             Err(e) => !matches!(
                 e.kind(),
@@ -325,49 +325,12 @@ impl Connection {
     }
 }
 
-/// `send(2)` that never blocks, whatever the socket's mode.
-fn send_nonblocking(fd: RawFd, buf: &[u8]) -> io::Result<usize> {
-    // SAFETY: `buf` is a valid slice for its length; `fd` is a socket owned by the caller
-    // for the duration of the call.
-    let n = unsafe {
-        libc::send(
-            fd,
-            buf.as_ptr().cast(),
-            buf.len(),
-            libc::MSG_DONTWAIT | libc::MSG_NOSIGNAL,
-        )
-    };
-    usize::try_from(n).map_err(|_| io::Error::last_os_error())
-}
-
-/// `recv(2)` with `flags` that never blocks, whatever the socket's mode.
-fn recv_nonblocking(fd: RawFd, buf: &mut [u8], flags: libc::c_int) -> io::Result<usize> {
-    // SAFETY: `buf` is a valid, writable slice for its length; `fd` is a socket owned by the
-    // caller for the duration of the call.
-    let n = unsafe {
-        libc::recv(
-            fd,
-            buf.as_mut_ptr().cast(),
-            buf.len(),
-            flags | libc::MSG_DONTWAIT,
-        )
-    };
-    usize::try_from(n).map_err(|_| io::Error::last_os_error())
-}
-
 /// Waits until `fd` takes more data or `until` passes.
-fn wait_writable(fd: RawFd, until: Instant) {
+fn wait_writable(fd: BorrowedFd<'_>, until: Instant) {
     let ms = until
         .saturating_duration_since(Instant::now())
         .as_millis()
         .clamp(1, 1000);
-    let mut pfd = libc::pollfd {
-        fd,
-        events: libc::POLLOUT,
-        revents: 0,
-    };
-    // SAFETY: one valid pollfd; the timeout is 1…1000 ms.
-    unsafe {
-        libc::poll(&mut pfd, 1, ms as libc::c_int);
-    }
+    let wait = Duration::from_millis(u64::try_from(ms).unwrap_or(1000));
+    let _ = crate::sys::fd::wait(fd, crate::sys::fd::Readiness::Writable, wait);
 }

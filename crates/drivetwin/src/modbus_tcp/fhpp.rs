@@ -118,7 +118,9 @@ impl FhppModbus {
     fn read_image(dev: &FhppDevice<Vec<u8>>, out: &mut [u16]) {
         let image = dev.inputs_fpc();
         for (r, chunk) in out.iter_mut().zip(image.chunks_exact(2)) {
-            *r = u16::from_be_bytes([chunk[0], chunk[1]]);
+            if let [hi, lo] = *chunk {
+                *r = u16::from_be_bytes([hi, lo]);
+            }
         }
     }
 }

@@ -1,6 +1,6 @@
 //! The virtual clock's rig: the CANopen drives of the cell file's buses (`[[bus]]`, each its
 //! own [`Cell`]), stepped from one deadline to the next as
-//! [`crate::cell::runtime::run_virtual`] does, with the scenario's actions between; every
+//! [`crate::cell_loop::virtual_clock::run_virtual`] does, with the scenario's actions between; every
 //! frame of the first bus optionally to a trace whose time stamps are the virtual clock's (so
 //! two runs give the same file).
 //!
@@ -16,7 +16,7 @@ use od::{Instant, ObjectAccess};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
-use crate::can::drive::CanDrive;
+use crate::cell::can_drive::CanDrive;
 use crate::cell::config::CellFile;
 use crate::cell::Cell;
 use crate::trace::TraceWriter;

@@ -187,7 +187,7 @@ impl SerialLine {
     }
 }
 
-/// A line of the virtual clock ([`crate::cell::runtime::run_virtual_lines`]): the same wire
+/// A line of the virtual clock ([`crate::cell_loop::virtual_clock::run_virtual_lines`]): the same wire
 /// timing and protocol as a port's line, its host's bytes given as inputs at their virtual
 /// times and its answers taken as outputs when they have crossed, so that two runs give the
 /// same bytes at the same times.

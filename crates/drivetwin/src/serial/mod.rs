@@ -10,7 +10,7 @@
 //!   several drives by station number;
 //! - [`line`](mod@line): a line as the cell loop serves it: port, wire and protocol together.
 //!
-//! The cell loop ([`crate::cell::poll_loop`]) owns the ports' descriptors with its other
+//! The cell loop ([`crate::cell_loop`]) owns the ports' descriptors with its other
 //! sockets and calls [`line::SerialLine`] when one is readable or a line's deadline is due;
 //! a line reaches its drives through [`LineDrives`], one object access at a time, on the
 //! cell's clock.
@@ -24,7 +24,7 @@ pub mod wire;
 
 use od::{Instant, ObjectAccess};
 
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How a line reaches the drives of the cell.
 pub trait LineDrives {
@@ -35,23 +35,13 @@ pub trait LineDrives {
 }
 
 /// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
-/// ([`canopen::kinco_bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it does not
-/// list.
+/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it
+/// does not list.
 pub fn baud_of_code(code: u64) -> Option<u32> {
     u16::try_from(code)
         .ok()
-        .and_then(canopen::kinco_bit_rates::serial_bit_rate)
+        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
 }
-
-/// Which personalities have which serial ports (data: the manual's connector table).
-/// Kinco §1.1 / Tab. 3-7: X3 RS232 on the CD3 and the FD3; RS485 on the FD3 (X10 of the
-/// -LA variant). Decision: the twin's FD3 serves RS485 beside CANopen, as its device file
-/// says (one personality for both variants, issue 13).
-pub const SERIAL_PORTS: &[(&str, Kind)] = &[
-    ("kinco-fd3", Kind::Rs232),
-    ("kinco-fd3", Kind::Rs485),
-    ("kinco-cd3", Kind::Rs232),
-];
 
 /// A serial port of a drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,9 +59,10 @@ impl Kind {
     }
 }
 
-/// Whether personality `device` has a port of `kind`.
+/// Whether personality `device` has a port of `kind`: its device file lists it among its
+/// `interfaces` (`rs232`, `rs485`; the manual's connector table).
 pub fn has_port(device: &str, kind: Kind) -> bool {
-    SERIAL_PORTS.iter().any(|&(d, k)| d == device && k == kind)
+    devices::by_name(device).is_some_and(|d| d.interfaces.has.contains(&kind.as_str()))
 }
 
 #[cfg(test)]

@@ -13,11 +13,13 @@
 //! hang-up while no program has the port open (no busy loop), and a program that does not
 //! set the terminal mode (`cat`) still gets raw bytes, no echo, no line editing.
 
-use std::ffi::CStr;
 use std::io;
-use std::os::fd::{AsRawFd, FromRawFd, OwnedFd, RawFd};
+use std::os::fd::{AsFd, AsRawFd, OwnedFd, RawFd};
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
+
+use crate::sys::fd::Readiness;
+use crate::sys::termios::Speed;
 
 /// What is wrong with a serial port path.
 #[derive(Debug, thiserror::Error)]
@@ -44,14 +46,6 @@ fn err(path: &Path) -> impl Fn(io::Error) -> PortError + '_ {
     move |source| PortError::Io {
         path: path.to_path_buf(),
         source,
-    }
-}
-
-fn cvt(r: libc::c_int) -> io::Result<libc::c_int> {
-    if r < 0 {
-        Err(io::Error::last_os_error())
-    } else {
-        Ok(r)
     }
 }
 
@@ -85,36 +79,14 @@ impl Port {
     /// A new pty, `path` a link to its slave.
     fn pty(path: &Path) -> Result<Port, PortError> {
         let e = err(path);
-        // SAFETY: posix_openpt returns a new descriptor we own, or -1.
-        let master =
-            cvt(unsafe { libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY) }).map_err(&e)?;
-        // SAFETY: `master` is a valid descriptor nobody else owns.
-        let master = unsafe { OwnedFd::from_raw_fd(master) };
-        let m = master.as_raw_fd();
-        // SAFETY: plain calls on a valid pty master.
-        cvt(unsafe { libc::grantpt(m) }).map_err(&e)?;
-        cvt(unsafe { libc::unlockpt(m) }).map_err(&e)?;
-        let mut name = [0 as libc::c_char; 128];
-        // SAFETY: the buffer is as long as we say.
-        let r = unsafe { libc::ptsname_r(m, name.as_mut_ptr(), name.len()) };
-        if r != 0 {
-            return Err(e(io::Error::from_raw_os_error(r)));
-        }
-        // SAFETY: ptsname_r wrote a NUL-terminated name into the buffer.
-        let slave_name = unsafe { CStr::from_ptr(name.as_ptr()) };
-        // SAFETY: open returns a new descriptor we own, or -1.
-        let slave = cvt(unsafe { libc::open(slave_name.as_ptr(), libc::O_RDWR | libc::O_NOCTTY) })
-            .map_err(&e)?;
-        // SAFETY: `slave` is a valid descriptor nobody else owns.
-        let slave = unsafe { OwnedFd::from_raw_fd(slave) };
-        set_raw(slave.as_raw_fd(), None).map_err(&e)?;
-        set_nonblocking(m).map_err(&e)?;
-        let pts = PathBuf::from(slave_name.to_string_lossy().into_owned());
-        std::os::unix::fs::symlink(&pts, path).map_err(&e)?;
+        let pty = crate::sys::pty::open().map_err(&e)?;
+        crate::sys::termios::set_raw(pty.slave.as_fd(), None).map_err(&e)?;
+        crate::sys::fd::set_nonblocking_cloexec(pty.master.as_fd()).map_err(&e)?;
+        std::os::unix::fs::symlink(&pty.slave_name, path).map_err(&e)?;
         Ok(Port {
-            fd: master,
-            _slave: Some(slave),
-            link: Some((path.to_path_buf(), pts)),
+            fd: pty.master,
+            _slave: Some(pty.slave),
+            link: Some((path.to_path_buf(), pty.slave_name)),
         })
     }
 
@@ -124,20 +96,11 @@ impl Port {
         let e = err(path);
         let c = std::ffi::CString::new(path.as_os_str().as_encoded_bytes())
             .map_err(|_| PortError::NotADevice(path.to_path_buf()))?;
-        // SAFETY: open returns a new descriptor we own, or -1.
-        let fd = cvt(unsafe {
-            libc::open(
-                c.as_ptr(),
-                libc::O_RDWR | libc::O_NOCTTY | libc::O_NONBLOCK | libc::O_CLOEXEC,
-            )
-        })
-        .map_err(&e)?;
-        // SAFETY: `fd` is a valid descriptor nobody else owns.
-        let fd = unsafe { OwnedFd::from_raw_fd(fd) };
-        let speed = speed(baud).ok_or_else(|| PortError::Baud(path.to_path_buf(), baud))?;
-        set_raw(fd.as_raw_fd(), Some(speed)).map_err(&e)?;
-        // SAFETY: TIOCEXCL takes no argument.
-        cvt(unsafe { libc::ioctl(fd.as_raw_fd(), libc::TIOCEXCL) }).map_err(&e)?;
+        let fd = crate::sys::termios::open_device(&c).map_err(&e)?;
+        let speed =
+            Speed::from_baud(baud).ok_or_else(|| PortError::Baud(path.to_path_buf(), baud))?;
+        crate::sys::termios::set_raw(fd.as_fd(), Some(speed)).map_err(&e)?;
+        crate::sys::termios::set_exclusive(fd.as_fd(), true).map_err(&e)?;
         Ok(Port {
             fd,
             _slave: None,
@@ -161,36 +124,27 @@ impl Port {
 
     /// Reads what waits; `Ok(0)` when nothing does (non-blocking).
     pub fn read(&self, buf: &mut [u8]) -> io::Result<usize> {
-        // SAFETY: the buffer is as long as we say.
-        let n = unsafe { libc::read(self.raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
-        if n < 0 {
-            let e = io::Error::last_os_error();
-            return match e.kind() {
-                io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted => Ok(0),
-                _ => Err(e),
-            };
+        match crate::sys::fd::read(self.fd.as_fd(), buf) {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
+            }
+            r => r,
         }
-        Ok(usize::try_from(n).unwrap_or(0))
     }
 
     /// Waits up to `timeout` for bytes to read; whether some wait.
     pub fn wait_readable(&self, timeout: std::time::Duration) -> io::Result<bool> {
-        let mut p = libc::pollfd {
-            fd: self.raw_fd(),
-            events: libc::POLLIN,
-            revents: 0,
-        };
-        let ms = libc::c_int::try_from(timeout.as_millis()).unwrap_or(libc::c_int::MAX);
-        // SAFETY: one valid pollfd.
-        let n = cvt(unsafe { libc::poll(&mut p, 1, ms) })?;
-        Ok(n > 0)
+        crate::sys::fd::wait(self.fd.as_fd(), Readiness::Readable, timeout)
     }
 
     /// Writes what the port takes now; 0 when it is full.
     pub fn write(&self, bytes: &[u8]) -> usize {
-        // SAFETY: the buffer is as long as we say.
-        let n = unsafe { libc::write(self.raw_fd(), bytes.as_ptr().cast(), bytes.len()) };
-        usize::try_from(n).unwrap_or(0)
+        crate::sys::fd::write(self.fd.as_fd(), bytes).unwrap_or(0)
     }
 }
 
@@ -199,8 +153,7 @@ impl Drop for Port {
         if self.link.is_none() {
             // TIOCEXCL outlives the descriptor while another keeps the terminal open (a twin
             // holds its pty's slave): give the port back.
-            // SAFETY: TIOCNXCL takes no argument.
-            unsafe { libc::ioctl(self.fd.as_raw_fd(), libc::TIOCNXCL) };
+            let _ = crate::sys::termios::set_exclusive(self.fd.as_fd(), false);
         }
         if let Some((link, pts)) = &self.link {
             // Only the link to this pty: another twin may have taken the path since.
@@ -209,48 +162,6 @@ impl Drop for Port {
             }
         }
     }
-}
-
-fn set_nonblocking(fd: RawFd) -> io::Result<()> {
-    // SAFETY: fcntl on a valid descriptor.
-    let flags = cvt(unsafe { libc::fcntl(fd, libc::F_GETFL) })?;
-    cvt(unsafe { libc::fcntl(fd, libc::F_SETFL, flags | libc::O_NONBLOCK) })?;
-    // SAFETY: as above.
-    let fdflags = cvt(unsafe { libc::fcntl(fd, libc::F_GETFD) })?;
-    cvt(unsafe { libc::fcntl(fd, libc::F_SETFD, fdflags | libc::FD_CLOEXEC) })?;
-    Ok(())
-}
-
-/// Raw mode, 8N1, receiver on, no modem control; at `speed` when given.
-fn set_raw(fd: RawFd, speed: Option<libc::speed_t>) -> io::Result<()> {
-    // SAFETY: termios is plain data; tcgetattr fills it.
-    let mut t: libc::termios = unsafe { std::mem::zeroed() };
-    cvt(unsafe { libc::tcgetattr(fd, &mut t) })?;
-    // SAFETY: cfmakeraw and cfset*speed only change the struct.
-    unsafe { libc::cfmakeraw(&mut t) };
-    t.c_cflag &= !(libc::CSTOPB | libc::PARENB | libc::CRTSCTS);
-    t.c_cflag |= libc::CS8 | libc::CREAD | libc::CLOCAL;
-    t.c_cc[libc::VMIN] = 0;
-    t.c_cc[libc::VTIME] = 0;
-    if let Some(s) = speed {
-        cvt(unsafe { libc::cfsetispeed(&mut t, s) })?;
-        cvt(unsafe { libc::cfsetospeed(&mut t, s) })?;
-    }
-    // SAFETY: a valid descriptor and a filled struct.
-    cvt(unsafe { libc::tcsetattr(fd, libc::TCSANOW, &t) })?;
-    Ok(())
-}
-
-/// The termios speed of `baud` bit/s.
-fn speed(baud: u32) -> Option<libc::speed_t> {
-    Some(match baud {
-        9600 => libc::B9600,
-        19_200 => libc::B19200,
-        38_400 => libc::B38400,
-        57_600 => libc::B57600,
-        115_200 => libc::B115200,
-        _ => return None,
-    })
 }
 
 #[cfg(test)]

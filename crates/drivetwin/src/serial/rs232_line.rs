@@ -1,5 +1,5 @@
 //! The Kinco telegram protocol on a line (`spec/kinco-fd-cd.md` §2.1–2.2, the codec
-//! `canopen::kinco_rs232`): bytes become 10-byte telegrams, each answered by the drive it
+//! `drive::vendors::kinco::rs232`): bytes become 10-byte telegrams, each answered by the drive it
 //! addresses through its object access.
 //!
 //! Topologies:
@@ -11,19 +11,19 @@
 //!   addressed answers.
 //!
 //! Decisions:
-//! - A partial telegram is dropped after [`canopen::kinco_rs232::DEFAULT_GAP`] of silence on
-//!   the wire (the codec's rule), counted here.
+//! - A partial telegram is dropped after [`drive::vendors::kinco::rs232::DEFAULT_GAP`] of
+//!   silence on the wire (the codec's rule), counted here.
 //! - In a ring a drive passes a telegram on when it is whole, not byte by byte: the host
 //!   reads the same 20 bytes, 10 character times later than through a real repeater chain.
 //! - U2BRG (2FE1h) applies at once (§9.1 item 7): after each answer the line takes the rate
 //!   its code gives, for the bytes after the answer.
 
-use canopen::kinco_rs232::{KincoRs232, TelegramCutter, DEFAULT_GAP, TELEGRAM_LEN};
+use drive::vendors::kinco::rs232::{KincoRs232, TelegramCutter, DEFAULT_GAP, TELEGRAM_LEN};
 use od::Instant;
 
 use super::wire::Wire;
 use super::{baud_of_code, LineDrives};
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// How the drives of a telegram line are wired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -227,7 +227,7 @@ mod tests {
     /// A telegram writing the 16-bit `value` to `index`:0 of `station`.
     fn write16(station: u8, index: u16, value: u16) -> [u8; TELEGRAM_LEN] {
         let [lo, hi] = value.to_le_bytes();
-        canopen::kinco_rs232::Request::Write {
+        drive::vendors::kinco::rs232::Request::Write {
             index,
             sub: 0,
             data: [lo, hi, 0, 0],
@@ -297,7 +297,7 @@ mod tests {
             assert_eq!(d.get_unsigned(0x6040, 0), Some(0x0F));
         }
         // A station no drive has: only the echo.
-        let t = canopen::kinco_rs232::Request::Read {
+        let t = drive::vendors::kinco::rs232::Request::Read {
             index: 0x6041,
             sub: 0,
         }

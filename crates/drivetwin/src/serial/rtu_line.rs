@@ -1,11 +1,11 @@
 //! Modbus RTU on an RS485 line (`spec/kinco-fd-cd.md` §2.3, the codecs
-//! `modbus::rtu_framing` and `modbus::kinco_rtu`): a frame ends with 3.5 character times of
-//! silence at the line's baud rate, and every drive of the line hears it; the one whose
+//! `modbus::rtu_framing` and `drive::vendors::kinco::rtu`): a frame ends with 3.5 character
+//! times of silence at the line's baud rate, and every drive of the line hears it; the one whose
 //! station number (= node-ID 100Bh, §12.2) it names answers, once the silence has passed.
 //!
 //! - A bad CRC or a station no drive of the line has: no answer, counted (KINCO-MB, §12.3).
 //! - Station 0 (broadcast): every drive carries out a write; none answers.
-//! - FC 03h errors answer 81h as the manual prints (the codec's `ErrorStyle::Manual`, see its
+//! - FC 03h errors answer 81h as the manual prints (the codec's `ErrorStyle::Read81h`, see its
 //!   decision), 86h / 90h for FC 06h / 10h.
 //! - The drives do not hear each other's answers (a reply is no request to another station).
 //! - **Decision:** a frame ends after 3.5 characters of silence at every baud rate, as the
@@ -14,13 +14,13 @@
 //!   a longer gap than the device does and merge frames the device tells apart. The answer
 //!   leaves once that silence has passed, the earliest the device can know a frame ended.
 
-use modbus::kinco_rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu_framing::{three_and_a_half_characters, RtuFramer};
 use od::Instant;
 
 use super::wire::Wire;
 use super::LineDrives;
-use crate::cell::poll_loop::OnBus;
+use crate::cell::OnBus;
 
 /// One drive on an RTU line.
 pub struct RtuDrive {
@@ -54,7 +54,7 @@ impl RtuLine {
         RtuLine {
             framer: RtuFramer::with_gap(three_and_a_half_characters(baud)),
             drives,
-            errors: ErrorStyle::Manual,
+            errors: ErrorStyle::Read81h,
             counters: RtuCounters::default(),
             frame: Vec::with_capacity(MAX_FRAME),
         }

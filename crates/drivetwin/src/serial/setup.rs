@@ -14,17 +14,17 @@
 
 use std::path::{Path, PathBuf};
 
-use canopen::kinco_rs232::KincoRs232;
-use modbus::kinco_rtu::RegisterMapping;
+use drive::vendors::kinco::rs232::KincoRs232;
+use drive::vendors::kinco::rtu::RegisterMapping;
 
 use super::line::{Protocol, SerialLine, VirtualLine};
 use super::pty::PortError;
 use super::rs232_line::{TelegramLine, Topology};
 use super::rtu_line::{RtuDrive, RtuLine};
 use super::{baud_of_code, has_port, Kind};
-use crate::can::drive::CanDrive;
-use crate::cell::poll_loop::OnBus;
+use crate::cell::can_drive::CanDrive;
 use crate::cell::Cell;
+use crate::cell::OnBus;
 
 /// A drive's port on a path.
 #[derive(Debug, Clone)]
@@ -86,7 +86,7 @@ pub fn open_lines(requests: &[LineRequest], cells: &[Cell]) -> Result<Vec<Serial
     Ok(lines)
 }
 
-/// The lines of `requests` for the virtual clock ([`crate::cell::runtime::run_virtual_lines`]):
+/// The lines of `requests` for the virtual clock ([`crate::cell_loop::virtual_clock::run_virtual_lines`]):
 /// as [`open_lines`] builds them, without ports (a path only names the line its drives share).
 pub fn virtual_lines(
     requests: &[LineRequest],

@@ -1,7 +1,7 @@
 //! The bus load beside a CAN trace: `<trace>.load.csv` (`trace.pcap` → `trace.pcap.load.csv`),
 //! one line per window of [`LOAD_WINDOW`] (500 ms, as `drivetwin monitor` and the cell's
-//! timed bus measure it, [`canopen::bus_load::LoadWindow`]) with the load of the frames the
-//! trace holds: each frame's bit time at the bus's bit rate (`canopen::frame_time`, stuff
+//! timed bus measure it, [`canbus::bus_load::LoadWindow`]) with the load of the frames the
+//! trace holds: each frame's bit time at the bus's bit rate (`canbus::frame_time`, stuff
 //! bits included) over the window's length.
 //!
 //! ```text
@@ -24,8 +24,8 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use canopen::bus_load::LoadWindow;
-use canopen::frame_time::{bits_to_nanos, frame_bits};
+use canbus::bus_load::LoadWindow;
+use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
 use od::Instant;
 

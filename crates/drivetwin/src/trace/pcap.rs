@@ -47,11 +47,12 @@ pub fn socketcan_record(frame: &CanFrame) -> [u8; 16] {
         id |= CAN_RTR_FLAG;
     }
     let mut out = [0u8; 16];
-    let (head, data) = out.split_at_mut(8);
-    head[..4].copy_from_slice(&id.to_be_bytes());
-    head[4] = frame.len.min(8);
-    let payload = frame.payload();
-    data[..payload.len()].copy_from_slice(payload);
+    let [i0, i1, i2, i3] = id.to_be_bytes();
+    // can_id, can_dlc, 3 bytes of padding, then the data (payload() holds at most 8 bytes).
+    let head = [i0, i1, i2, i3, frame.len.min(8), 0, 0, 0];
+    for (dst, src) in out.iter_mut().zip(head.iter().chain(frame.payload())) {
+        *dst = *src;
+    }
     out
 }
 
@@ -84,10 +85,8 @@ impl<W: Write> PcapWriter<W> {
             &SNAPLEN.to_le_bytes(),
             &link_type.to_le_bytes(),
         ];
-        let mut at = 0;
-        for field in fields {
-            header[at..at + field.len()].copy_from_slice(field);
-            at += field.len();
+        for (dst, src) in header.iter_mut().zip(fields.into_iter().flatten()) {
+            *dst = *src;
         }
         out.write_all(&header)?;
         Ok(PcapWriter { out })
@@ -106,12 +105,20 @@ impl<W: Write> PcapWriter<W> {
     pub fn write_frame_at(&mut self, since_epoch: Duration, frame: &CanFrame) -> io::Result<()> {
         let secs = u32::try_from(since_epoch.as_secs()).unwrap_or(u32::MAX);
         let mut record = [0u8; 32];
-        let (header, body) = record.split_at_mut(16);
-        header[0..4].copy_from_slice(&secs.to_le_bytes());
-        header[4..8].copy_from_slice(&since_epoch.subsec_micros().to_le_bytes());
-        header[8..12].copy_from_slice(&CAN_FRAME_LEN.to_le_bytes());
-        header[12..16].copy_from_slice(&CAN_FRAME_LEN.to_le_bytes());
-        body.copy_from_slice(&socketcan_record(frame));
+        // ts_sec, ts_usec, incl_len, orig_len, then the frame.
+        let fields = [
+            secs.to_le_bytes(),
+            since_epoch.subsec_micros().to_le_bytes(),
+            CAN_FRAME_LEN.to_le_bytes(),
+            CAN_FRAME_LEN.to_le_bytes(),
+        ];
+        let body = socketcan_record(frame);
+        for (dst, src) in record
+            .iter_mut()
+            .zip(fields.iter().flatten().chain(body.iter()))
+        {
+            *dst = *src;
+        }
         self.out.write_all(&record)
     }
 

@@ -13,12 +13,14 @@ use od::{AbortCode, DataType, DeviceDescription, Entry, Limit};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::{statusword, AppState};
+use super::AppState;
 use crate::cell::control::{
     ControlError, ControlHandle, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
 use crate::value_text;
+use drive::device_control::State as Cia402State;
 use drive::drive::refusal::{Refusal, Request};
+use drive::statusword::Statusword;
 
 /// The JSON body of every refusal.
 #[derive(Debug, Serialize, ToSchema)]
@@ -221,6 +223,18 @@ pub(crate) fn display_text(d: &DisplayState) -> String {
     }
 }
 
+/// The CiA 402 state the console shows for a statusword, `None` for bits no state has.
+///
+/// **Decision:** 000Fh is FAULT REACTION ACTIVE in CiA 402 Tab. 30, but a CMMP-AS without
+/// 6510h:F0 bit 7 shows FAULT itself as 000Fh (CMMP-AS Tab. 6.6 footnote); the reaction lasts
+/// milliseconds, so the console shows FAULT, the state a person must act on.
+pub(super) fn console_state(sw: u16) -> Option<Cia402State> {
+    Statusword(sw).state().map(|s| match s {
+        Cia402State::FaultReactionActive => Cia402State::Fault,
+        s => s,
+    })
+}
+
 fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError> {
     let desc = description(info)?;
     let statusword = desc
@@ -247,11 +261,11 @@ fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError
         node,
         statusword,
         state: statusword
-            .and_then(statusword::state)
+            .and_then(console_state)
             .map(|s| s.name().to_owned()),
         status_bits: statusword
             .map(|sw| {
-                statusword::BITS
+                Statusword::BIT_NAMES
                     .iter()
                     .zip(0u8..)
                     .map(|(name, bit)| StatusBit {
@@ -995,4 +1009,21 @@ pub fn routes() -> Router<AppState> {
         .route("/api/drives/{drive}/load", put(set_load))
         .route("/api/drives/{drive}/supply", put(set_supply))
         .route("/api/{*rest}", axum::routing::any(no_route))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_console_shows_000fh_as_fault() {
+        assert_eq!(
+            console_state(0x0F),
+            Some(Cia402State::Fault),
+            "CMMP-AS FAULT without 6510h:F0 bit 7"
+        );
+        assert_eq!(console_state(0x0218), Some(Cia402State::Fault));
+        assert_eq!(console_state(0x0637), Some(Cia402State::OperationEnabled));
+        assert_eq!(console_state(0x0025), None);
+    }
 }

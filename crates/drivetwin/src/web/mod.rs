@@ -12,7 +12,6 @@
 //!
 //! - [`api`]: the REST handlers and the OpenAPI document;
 //! - [`live`]: samples over a WebSocket, decimated for the browser;
-//! - [`statusword`]: the CiA 402 statusword decoded bit by bit;
 //! - [`page`]: the console page and its script;
 //! - [`auth`]: the write token;
 //! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell.
@@ -28,7 +27,6 @@ pub mod page;
 pub mod panel;
 pub mod physics;
 pub mod scenarios;
-pub mod statusword;
 pub mod wire;
 
 use std::net::{SocketAddr, TcpListener};

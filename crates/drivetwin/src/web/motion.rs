@@ -18,10 +18,13 @@ use drive::fhpp::{Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, 
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::api::{ApiError, ReasonView};
-use super::{error_text, statusword, AppState};
+use super::api::{console_state, ApiError, ReasonView};
+use super::{error_text, AppState};
 use crate::cell::control::{ControlError, ControlHandle, FhppRequest, FhppState, Interface};
+use drive::controlword::Controlword;
+use drive::device_control::State as Cia402State;
 use drive::drive::refusal::Request;
+use drive::statusword::Statusword;
 
 // ------------------------------------------------------------------------------- the access
 
@@ -113,20 +116,6 @@ pub mod mode {
     pub const HOMING: i8 = 6;
 }
 
-/// Controlword bits (CMMP-AS §6.1.3 Tab. 6.3, CiA 402 §6.3.1).
-pub mod cw {
-    pub const SHUTDOWN: u16 = 0x0006;
-    pub const SWITCH_ON: u16 = 0x0007;
-    pub const ENABLE_OPERATION: u16 = 0x000F;
-    pub const FAULT_RESET: u16 = 0x0080;
-    /// Profile position: new set-point; homing: homing operation start (bit 4).
-    pub const NEW_SET_POINT: u16 = 0x0010;
-    /// Profile position: change set immediately (bit 5).
-    pub const CHANGE_IMMEDIATELY: u16 = 0x0020;
-    /// Profile position: target relative (bit 6).
-    pub const RELATIVE: u16 = 0x0040;
-}
-
 fn u16_of(b: &[u8]) -> u16 {
     u16::from_le_bytes([
         b.first().copied().unwrap_or(0),
@@ -139,7 +128,7 @@ fn statusword_of(io: &impl Objects) -> Result<u16, ControlError> {
 }
 
 fn state_name(sw: u16) -> String {
-    statusword::state(sw).map_or_else(|| format!("6041h = {sw:#06X}"), |s| s.name().to_owned())
+    console_state(sw).map_or_else(|| format!("6041h = {sw:#06X}"), |s| s.name().to_owned())
 }
 
 /// A write of the sequence; a refusal names the object.
@@ -148,8 +137,8 @@ fn write(io: &impl Objects, index: u16, sub: u8, data: &[u8]) -> Result<(), Moti
         .map_err(|error| MotionError::Refused { index, sub, error })
 }
 
-fn controlword(io: &impl Objects, word: u16) -> Result<(), MotionError> {
-    write(io, 0x6040, 0, &word.to_le_bytes())?;
+fn controlword(io: &impl Objects, word: Controlword) -> Result<(), MotionError> {
+    write(io, 0x6040, 0, &word.bits().to_le_bytes())?;
     io.wait(STEP_WAIT);
     Ok(())
 }
@@ -170,8 +159,8 @@ fn await_status(
     Ok(if done(sw) { Ok(sw) } else { Err(sw) })
 }
 
-const fn enabled(sw: u16) -> bool {
-    sw & 0x6F == 0x27
+fn enabled(sw: u16) -> bool {
+    Statusword(sw).state() == Some(Cia402State::OperationEnabled)
 }
 
 /// To OPERATION ENABLED: a fault reset first when in FAULT (rising edge of bit 7), then
@@ -181,11 +170,15 @@ pub fn enable(io: &impl Objects) -> Result<u16, MotionError> {
     if enabled(sw) {
         return Ok(sw);
     }
-    if sw & 0x0008 != 0 {
-        controlword(io, 0)?;
-        controlword(io, cw::FAULT_RESET)?;
+    if Statusword(sw).contains(Statusword::FAULT) {
+        controlword(io, Controlword::EMPTY)?;
+        controlword(io, Controlword::FAULT_RESET)?;
     }
-    for word in [cw::SHUTDOWN, cw::SWITCH_ON, cw::ENABLE_OPERATION] {
+    for word in [
+        Controlword::SHUTDOWN,
+        Controlword::SWITCH_ON_CMD,
+        Controlword::ENABLE_OPERATION_CMD,
+    ] {
         controlword(io, word)?;
     }
     await_status(io, enabled)?.map_err(|sw| MotionError::NotReached {
@@ -196,7 +189,7 @@ pub fn enable(io: &impl Objects) -> Result<u16, MotionError> {
 
 /// The power stage off: "shutdown" to READY TO SWITCH ON (Tab. 6.4, transition 8).
 pub fn disable(io: &impl Objects) -> Result<u16, MotionError> {
-    controlword(io, cw::SHUTDOWN)?;
+    controlword(io, Controlword::SHUTDOWN)?;
     Ok(statusword_of(io)?)
 }
 
@@ -258,7 +251,7 @@ pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
         set_mode(io, mode::PROFILE_VELOCITY)?;
         write(io, 0x60FF, 0, &velocity.to_le_bytes())?;
     }
-    controlword(io, cw::ENABLE_OPERATION)?;
+    controlword(io, Controlword::ENABLE_OPERATION_CMD)?;
     Ok(statusword_of(io)?)
 }
 
@@ -269,10 +262,15 @@ pub fn move_to(io: &impl Objects, target: i32, relative: bool) -> Result<u16, Mo
     require_enabled(io)?;
     set_mode(io, mode::PROFILE_POSITION)?;
     write(io, 0x607A, 0, &target.to_le_bytes())?;
-    let base = cw::ENABLE_OPERATION | if relative { cw::RELATIVE } else { 0 };
+    let base = Controlword::ENABLE_OPERATION_CMD.with(Controlword::RELATIVE, relative);
     controlword(io, base)?;
-    controlword(io, base | cw::NEW_SET_POINT | cw::CHANGE_IMMEDIATELY)?;
-    let acked = await_status(io, |sw| sw & 0x1000 != 0)?;
+    controlword(
+        io,
+        base | Controlword::NEW_SET_POINT | Controlword::CHANGE_SET_IMMEDIATELY,
+    )?;
+    let acked = await_status(io, |sw| {
+        Statusword(sw).contains(Statusword::SET_POINT_ACKNOWLEDGE)
+    })?;
     controlword(io, base)?;
     match acked {
         Ok(sw) => Ok(sw),
@@ -287,8 +285,11 @@ pub fn move_to(io: &impl Objects, target: i32, relative: bool) -> Result<u16, Mo
 pub fn home(io: &impl Objects) -> Result<u16, MotionError> {
     require_enabled(io)?;
     set_mode(io, mode::HOMING)?;
-    controlword(io, cw::ENABLE_OPERATION)?;
-    controlword(io, cw::ENABLE_OPERATION | cw::NEW_SET_POINT)?;
+    controlword(io, Controlword::ENABLE_OPERATION_CMD)?;
+    controlword(
+        io,
+        Controlword::ENABLE_OPERATION_CMD | Controlword::HOMING_START,
+    )?;
     Ok(statusword_of(io)?)
 }
 
@@ -502,7 +503,7 @@ pub struct MotionView {
 
 fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> {
     let sw = u16_of(&h.read(drive, 0x6041, 0)?);
-    let bits = statusword::BITS
+    let bits = Statusword::BIT_NAMES
         .iter()
         .zip(0u8..)
         .map(|(name, bit)| BitView {
@@ -526,7 +527,8 @@ fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> 
         .collect();
     // In FAULT: 603Fh, the code of the last error (CiA 402 §6.3.3); a drive that leaves it 0
     // names the fault by its newest 1003h entry.
-    let active_error = (sw & 0x0008 != 0)
+    let active_error = Statusword(sw)
+        .contains(Statusword::FAULT)
         .then(|| code.filter(|c| *c != 0).or_else(|| codes.first().copied()))
         .flatten()
         .map(error_text::cia_error);

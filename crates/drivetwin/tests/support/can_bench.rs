@@ -3,7 +3,7 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use canopen::CanFrame;
-use drivetwin::can::drive::CanDrive;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::Cell;

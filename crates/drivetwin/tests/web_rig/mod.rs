@@ -7,11 +7,11 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
-use drivetwin::can::drive::CanDrive;
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::ControlHandle;
-use drivetwin::cell::poll_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::cell::Cell;
+use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::web::{self, AppState};

@@ -5,8 +5,8 @@
 //! CoE header 0x1000 | error code (u16) | error register (1001h) | 5 manufacturer bytes
 //! ```
 //!
-//! The CMMP-AS fills bytes 3–7 with zeros (cmmp-as-1 §2.8); the device decides. Emergencies are
-//! queued by the device ([`super::CoeServer::queue_emergency`]) and posted only when the send
+//! Bytes 3–7 are the device's (a drive may fill them with zeros); the device decides.
+//! Emergencies are queued by the device ([`super::CoeServer::queue_emergency`]) and posted only when the send
 //! mailbox is empty and no SDO transfer or SDO info reply is in progress: ethercrab panics on
 //! an emergency where it expects an SDO response (spec §5.6).
 

@@ -15,12 +15,12 @@
 //! Mailbox-level decisions (spec §5):
 //! * fewer than 6 bytes: mailbox error 0x0001 (syntax); length 0, type 0 (a master does not
 //!   send error messages) or a length beyond the message: 0x0005 (invalid header); a type other
-//!   than CoE: 0x0002 (protocol not supported; the CMMP-AS speaks only CoE, cmmp-as-1 §2.11);
+//!   than CoE: 0x0002 (protocol not supported; the slave speaks only CoE);
 //!   a CoE message without its 2-byte CoE header: 0x0006 (data too short); an SDO request
 //!   shorter than its 8-byte fixed part or an SDO information request shorter than its
 //!   request: 0x0008 (invalid size, as SOES); CoE services other than SDO request (2) and SDO
-//!   information (8), in particular PDOs through the mailbox (4–7, not supported by the
-//!   CMMP-AS, cmmp-as-1 §2.11): 0x0004 (service not supported).
+//!   information (8), in particular PDOs through the mailbox (4–7): 0x0004 (service not
+//!   supported).
 //! * a request whose counter is not 0 and equals the previous request's counter is a
 //!   repetition and is dropped without reply (spec §5.3, SOES `ESC_mbxprocess`); every message
 //!   the server sends carries its own counter 1 → 7 → 1.
@@ -78,23 +78,30 @@ impl CoeConfig {
         hidden: &[],
     };
 
-    /// The CMMP-AS with CAMC-EC (cmmp-as-1 §2.11, §3.3):
-    /// * no complete access: "Data (optional): not supported: only standard objects, max 32
-    ///   bits", segmented transfers at most one 4-byte segment; a CA transfer of a record is
-    ///   longer than that, and the SII (sii.rs, `coe_details`) does not advertise CA. A CA
-    ///   request is answered with 0601 0004h.
-    /// * SDO information on: the manual does not list it, but issue 5 asks for it so that
-    ///   pysoem `od` / TwinCAT can browse the twin. It is a superset that no configuration
-    ///   step uses (spec §6.6); advertise it with SII `coe_details::SDO_INFO`.
-    /// * Tab. 4.9: 1008h, 1009h, 100Ah and 6089h–608Eh are not supported under CoE (abort
-    ///   0602 0000h, spec §6.8).
-    pub const CMMP_AS: CoeConfig = CoeConfig {
+    /// What the SII baseline ([`SiiConfig::BASELINE`](crate::sii::SiiConfig::BASELINE))
+    /// advertises: SDO information, no complete access, nothing hidden.
+    pub const BASELINE: CoeConfig = CoeConfig {
         complete_access: false,
         sdo_info: true,
-        hidden: &[
-            0x1008, 0x1009, 0x100A, 0x6089, 0x608A, 0x608B, 0x608C, 0x608D, 0x608E,
-        ],
+        hidden: &[],
     };
+
+    /// What `desc`'s device file says its CoE serves (`[device.ethercat]`: `complete_access`,
+    /// `sdo_info`, `coe_hidden`); [`CoeConfig::BASELINE`] for a description without an
+    /// EtherCAT section.
+    /// Complete access must agree with the SII's CoE details
+    /// ([`SiiConfig::from_description`](crate::sii::SiiConfig::from_description) takes both
+    /// from the same keys).
+    pub fn from_description(desc: &DeviceDescription) -> Self {
+        match desc.ethercat {
+            Some(e) => CoeConfig {
+                complete_access: e.complete_access,
+                sdo_info: e.sdo_info,
+                hidden: e.coe_hidden,
+            },
+            None => CoeConfig::BASELINE,
+        }
+    }
 
     fn is_hidden(&self, index: u16) -> bool {
         self.hidden.contains(&index)

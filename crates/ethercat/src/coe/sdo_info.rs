@@ -26,7 +26,7 @@
 //!   their bits echoed only then; the unit type (0x08) is never included (the description's
 //!   units are text, not CiA 303-2 codes). Object access: readable in Pre-Op/Safe-Op/Op (bits
 //!   0–2); writable in all three (bits 3–5), except the PDO mapping and SM assignment objects
-//!   (1600h–17FFh, 1A00h–1BFFh, 1C10h–1C2Fh): Pre-Op only (cmmp-as-1 §2.11); bit 6 RxPDO and
+//!   (1600h–17FFh, 1A00h–1BFFh, 1C10h–1C2Fh): Pre-Op only (ETG.1000.6); bit 6 RxPDO and
 //!   bit 7 TxPDO mappable as for the lists; bit 8 backup and bit 9 setting as lists 4 and 5.
 //!   Data type, bit length (size or capacity × 8; BOOLEAN is 8 bits as the dictionary
 //!   stores it), then the optional values, then the name.

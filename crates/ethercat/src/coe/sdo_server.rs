@@ -37,7 +37,7 @@
 //!   value is skipped (e.g. the ro "highest sub-index" of a record), with another value it
 //!   aborts with 0601 0002h. A CA write is not atomic: entries before a failing one keep their
 //!   new values (a PDO mapping then keeps count 0, i.e. stays disabled).
-//! * CMMP-AS (cmmp-as-1 §2.11): with every object ≤ 4 bytes all transfers end up expedited;
+//! * A device whose objects are all ≤ 4 bytes has every transfer end up expedited;
 //!   the segmented services are still accepted. Hidden objects ([`super::CoeConfig::hidden`])
 //!   answer 0602 0000h.
 

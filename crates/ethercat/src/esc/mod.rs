@@ -34,7 +34,7 @@
 //!   Init → Pre-Op (0x0016) and the SM2/SM3 structure for Pre-Op → Safe-Op (0x001D, 0x001E,
 //!   0x0017); sizes and PDO mapping are the device's, through [`AlHook::check_transition`]
 //!   (use [`Esc::check_process_data`] or [`FixedProcessData`]). Bootstrap is refused with
-//!   0x0013 (CMMP-AS, spec/cmmp-as-1-communication.md §4.2) unless configured.
+//!   0x0013 unless configured ([`EscConfig::bootstrap_supported`]).
 //! * DC (§2.7, §8.2 "minimal DC"): local time = `now` (+ a configurable offset); a write
 //!   touching 0x0900 latches receive times; 0x0910 reads local + offset; a write to 0x0910
 //!   (BWR, or ARMW/FRMW at a non-reference slave) makes the system time converge to the
@@ -84,7 +84,7 @@ pub const MAILBOX_MAX: usize = 1024;
 /// Largest output (SM2) image the PDI copy holds.
 pub const PROCESS_DATA_MAX: usize = 1024;
 
-/// SM index of the receive mailbox (master → slave), fixed on the CMMP-AS (§2.11).
+/// SM index of the receive mailbox (master → slave): SM0, as ETG.1000.6 assigns it.
 pub const SM_MAILBOX_OUT: usize = 0;
 /// SM index of the send mailbox (slave → master).
 pub const SM_MAILBOX_IN: usize = 1;
@@ -154,7 +154,7 @@ pub struct EscConfig {
     pub sync_pulse_length: u16,
     /// Expected mailbox SM layout, checked on Init → Pre-Op; `None`: no mailbox.
     pub mailbox: Option<MailboxLayout>,
-    /// Bootstrap state implemented (the CMMP-AS has none: 0x0013).
+    /// Bootstrap state implemented (without it: 0x0013).
     pub bootstrap_supported: bool,
     /// Safe-Op → Op only after a complete SM2 write (else 0x0019). Off by default:
     /// ethercrab's `into_op()` sends no process data first (spec §4.2 note).

@@ -72,7 +72,7 @@ impl<'a> Esc<'a> {
 
     /// The newest complete output buffer (SM2) if the master completed one since the last
     /// call. The ESC hands it over in every state; the device applies set-points only in Op
-    /// (spec/cmmp-as-1-communication.md §4.2: Safe-Op ignores set-points).
+    /// (ETG.1000.6 ESM: Safe-Op ignores set-points).
     pub fn process_outputs(&mut self) -> Option<&[u8]> {
         if !self.pd_out_new {
             return None;

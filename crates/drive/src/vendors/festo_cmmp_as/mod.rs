@@ -4,6 +4,8 @@
 //! (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15
 //! referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
 
+pub mod ci_terminal;
+
 use od::{AbortCode, ObjectAccess, Value};
 
 use crate::controlword::Controlword;

@@ -8,6 +8,8 @@
 //! PV, torque only in closed loop, no change during a brake wait), the shared target
 //! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
 
+pub mod rotary_switches;
+
 pub mod units;
 
 use od::{AbortCode, ObjectAccess};

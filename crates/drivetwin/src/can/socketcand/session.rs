@@ -1,7 +1,7 @@
 //! One socketcand client session, sans-IO: what a message from the client does, which frames
 //! of the bus the client is sent, and when its timers (stream start, statistics) are due.
 //! Time comes in as an argument and effects go out through a callback, so the async server
-//! ([`super::server`]) and the cell loop ([`crate::cell::poll_loop`]) run the same rules.
+//! ([`super::server`]) and the cell loop ([`crate::cell_loop`]) run the same rules.
 //!
 //! Session states follow socketcand (`spec/anchors.md` §3.3): NO_BUS (after `< hi >`; `open`
 //! and the `B` / `C` bus configuration commands) → BCM (default after `open`) ⇄ RAW /

@@ -303,7 +303,7 @@ impl BenchLink {
         let cfg = ethercat::sii::SiiConfig {
             rx_assigned: &[],
             tx_assigned: &[],
-            ..ethercat::sii::SiiConfig::CMMP_AS
+            ..ethercat::sii::SiiConfig::from_description(&devices::CMMP_AS)
         };
         let mut image = vec![0u8; ethercat::sii::DEFAULT_IMAGE_SIZE];
         ethercat::sii::build_sii(desc, &cfg, &mut image).expect("bench SII");

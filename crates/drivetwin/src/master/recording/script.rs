@@ -398,7 +398,7 @@ mod tests {
     fn first_step(action: &Action) -> Step {
         match action {
             Action::Frame(s) => s.clone(),
-            Action::Sdo(t) => t.first(),
+            Action::Sdo(t) => t.clone().first(),
         }
     }
 

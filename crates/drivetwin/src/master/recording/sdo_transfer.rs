@@ -1,21 +1,19 @@
 //! An SDO read or write of a script as the request frames a client sends (CiA 301 §7.2.4.3):
 //! the initiate request, then, when the server chose a segmented transfer, one segment
-//! request per answer. The next request depends only on the previous answer, so a recording
-//! holds each frame as a step of its own and a replay sends the same frames.
+//! request per answer, as `canopen`'s SDO client decides them. The next request depends only
+//! on the previous answer, so a recording holds each frame as a step of its own and a replay
+//! sends the same frames.
+//!
+//! **Decision:** an abort the client would end a transfer with is not sent: a recording holds
+//! the script's requests and the node's answers, and a transfer that went wrong ends there.
 
 use super::Step;
 use crate::master::recording::AnswerRule;
+use canopen::sdo_client::{Progress, SdoClient};
 use canopen::CanFrame;
 
 /// No transfer of a script runs longer than this many segments (7 bytes each).
 pub const MAX_SEGMENTS: u32 = 4096;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    Initiate,
-    Segment,
-    Done,
-}
 
 /// One transfer, one request at a time.
 #[derive(Debug, Clone)]
@@ -25,11 +23,8 @@ pub struct SdoTransfer {
     sub: u8,
     /// `None` reads; the bytes to write otherwise.
     data: Option<Vec<u8>>,
-    phase: Phase,
-    toggle: u8,
+    client: SdoClient,
     segments: u32,
-    /// Bytes of `data` already sent in segments.
-    sent: usize,
     rule: AnswerRule,
     line: usize,
     /// The script's name for the transfer (default: `sdo read IIII:SS`).
@@ -65,10 +60,8 @@ impl SdoTransfer {
             index,
             sub,
             data,
-            phase: Phase::Initiate,
-            toggle: 0,
+            client: SdoClient::new(),
             segments: 0,
-            sent: 0,
             rule,
             line,
             name: None,
@@ -105,22 +98,11 @@ impl SdoTransfer {
     }
 
     /// The first request.
-    pub fn first(&self) -> Step {
-        let [i0, i1] = self.index.to_le_bytes();
-        let mut req = [0u8; 8];
-        match &self.data {
-            None => req = [0x40, i0, i1, self.sub, 0, 0, 0, 0],
-            Some(d) if (1..=4).contains(&d.len()) => {
-                req[..4].copy_from_slice(&[0x23 | (((4 - d.len()) as u8) << 2), i0, i1, self.sub]);
-                if let Some(dst) = req.get_mut(4..4 + d.len()) {
-                    dst.copy_from_slice(d);
-                }
-            }
-            Some(d) => {
-                let [s0, s1, s2, s3] = (d.len() as u32).to_le_bytes();
-                req = [0x21, i0, i1, self.sub, s0, s1, s2, s3];
-            }
-        }
+    pub fn first(&mut self) -> Step {
+        let req = match &self.data {
+            None => self.client.upload(self.index, self.sub),
+            Some(d) => self.client.download(self.index, self.sub, d),
+        };
         let label = match &self.data {
             Some(_) if self.name.is_some() => self.object(),
             Some(d) => format!("{} = {}", self.object(), canopen::decode::Hex(d)),
@@ -131,51 +113,21 @@ impl SdoTransfer {
 
     /// The request after `answer` (`None`: nothing came), or `None` when the transfer is over.
     pub fn next(&mut self, answer: Option<&[u8]>) -> Option<Step> {
-        let cs = answer.and_then(|a| a.first()).copied();
-        let Some(cs) = cs else {
-            self.phase = Phase::Done;
+        let answer = answer.filter(|a| !a.is_empty())?;
+        let mut response = [0u8; 8];
+        for (dst, src) in response.iter_mut().zip(answer) {
+            *dst = *src;
+        }
+        let value = self.data.as_deref().unwrap_or(&[]);
+        let Ok(Progress::Next { request, .. }) = self.client.on_response(&response, value) else {
             return None;
         };
-        let more = match (self.phase, &self.data) {
-            // A segmented upload: initiate response without the expedited bit.
-            (Phase::Initiate, None) => cs & 0xE0 == 0x40 && cs & 0x02 == 0,
-            (Phase::Initiate, Some(d)) => cs == 0x60 && d.len() > 4,
-            (Phase::Segment, None) => {
-                cs & 0xE0 == 0x00 && cs & 0x01 == 0 && {
-                    self.toggle ^= 1;
-                    true
-                }
-            }
-            (Phase::Segment, Some(d)) => {
-                cs & 0xE0 == 0x20 && self.sent < d.len() && {
-                    self.toggle ^= 1;
-                    true
-                }
-            }
-            (Phase::Done, _) => false,
-        };
-        if !more || self.segments >= MAX_SEGMENTS {
-            self.phase = Phase::Done;
+        if self.segments >= MAX_SEGMENTS {
             return None;
         }
-        self.phase = Phase::Segment;
         self.segments += 1;
-        let mut req = [0u8; 8];
-        match &self.data {
-            None => req[0] = 0x60 | (self.toggle << 4),
-            Some(d) => {
-                let chunk = d.get(self.sent..).unwrap_or(&[]);
-                let chunk = chunk.get(..7).unwrap_or(chunk);
-                self.sent += chunk.len();
-                let last = self.sent >= d.len();
-                req[0] = (self.toggle << 4) | (((7 - chunk.len()) as u8) << 1) | u8::from(last);
-                if let Some(dst) = req.get_mut(1..1 + chunk.len()) {
-                    dst.copy_from_slice(chunk);
-                }
-            }
-        }
         let label = format!("{}, segment {}", self.object(), self.segments);
-        Some(self.step(req, label))
+        Some(self.step(request, label))
     }
 }
 
@@ -226,7 +178,7 @@ mod tests {
 
     #[test]
     fn writes_are_expedited_up_to_four_bytes_and_segmented_above() {
-        let t = SdoTransfer::write(2, 0x6040, 0, vec![0x06, 0x00], rule(), 1);
+        let mut t = SdoTransfer::write(2, 0x6040, 0, vec![0x06, 0x00], rule(), 1);
         let s = t.first();
         assert_eq!(s.request.id, 0x602);
         assert_eq!(s.request.payload(), &[0x2B, 0x40, 0x60, 0, 6, 0, 0, 0]);

@@ -19,6 +19,10 @@
 //! [`MAX_PENDING`]; a client whose buffer would grow beyond it is dropped, so a client that
 //! does not read never delays the others, nor the drives.
 //!
+//! The loop is where the cell meets its transports: it uses both, and neither uses it (the
+//! transports reach the drives through [`crate::cell`]'s types and their own traits, such as
+//! [`crate::ecat::chain::BusDrives`] and [`crate::serial::LineDrives`]).
+//!
 //! Sockets are registered for readability only; a client whose socket does not take all of an
 //! answer is registered for writability until its buffer is empty (no wake-up per `ACK`).
 
@@ -28,17 +32,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use canopen::ci_terminal::{self, syntax_error, Cut, LineCutter};
 use canopen::CanFrame;
+use drive::vendors::festo_cmmp_as::ci_terminal::{self, syntax_error, Cut, LineCutter};
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
-use crate::can::drive::CanDrive;
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
+use crate::cell::can_drive::CanDrive;
 use crate::cell::control::{Command, ControlHandle, PlantSample};
-use crate::cell::Cell;
+use crate::cell::{Cell, OnBus};
 use crate::ecat::chain::{trace_frame, BusDrives, EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
@@ -46,6 +50,7 @@ use crate::trace::TraceWriter;
 mod fine_timer;
 mod handle;
 mod serial;
+pub mod virtual_clock;
 mod wire;
 
 /// Bytes a client may leave unread before it is dropped.
@@ -81,7 +86,6 @@ pub struct CanBus {
     /// The socketcand server and its settings (the bus name it serves).
     pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
     /// A SocketCAN interface the bus is bridged to.
-    #[cfg(target_os = "linux")]
     pub socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// Where every frame on the bus is written.
     pub trace: Option<TraceWriter>,
@@ -96,7 +100,6 @@ impl CanBus {
         CanBus {
             cell,
             socketcand: None,
-            #[cfg(target_os = "linux")]
             socketcan: None,
             trace: None,
             upstream: None,
@@ -107,17 +110,9 @@ impl CanBus {
 /// An EtherCAT chain of the cell on one network interface.
 pub struct EthercatChain {
     pub chain: EthercatCell,
-    #[cfg(target_os = "linux")]
     pub socket: crate::ecat::link::SlaveSocket,
     /// Where each request and each answer is copied (`--trace`, a pcap).
     pub trace: Option<FrameTap>,
-}
-
-/// A drive on a bus: the bus's index in the cell, the drive's in the bus.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct OnBus {
-    pub bus: usize,
-    pub drive: usize,
 }
 
 /// Every socket a cell serves, bound before the loop starts.
@@ -145,7 +140,6 @@ pub struct FrontEnds {
 struct BusState {
     cell: Cell,
     socketcand: Option<(TcpListener, ServerConfig)>,
-    #[cfg(target_os = "linux")]
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     trace: Option<TraceWriter>,
     trace_dirty: bool,
@@ -326,7 +320,6 @@ impl CellLoop {
                     .register(&mut l, Token(1 + 3 * b), Interest::READABLE)?;
                 socketcand = Some((l, config));
             }
-            #[cfg(target_os = "linux")]
             if let Some(s) = &bus.socketcan {
                 poll.registry().register(
                     &mut mio::unix::SourceFd(&s.as_raw_fd()),
@@ -353,7 +346,6 @@ impl CellLoop {
                 upstream,
                 cell: bus.cell,
                 socketcand,
-                #[cfg(target_os = "linux")]
                 socketcan: bus.socketcan,
                 trace: bus.trace,
                 trace_dirty: false,
@@ -367,7 +359,6 @@ impl CellLoop {
                 front.ethercat.len()
             )));
         }
-        #[cfg(target_os = "linux")]
         for (c, chain) in front.ethercat.iter().enumerate() {
             use std::os::fd::AsRawFd;
             poll.registry().register(
@@ -819,7 +810,6 @@ impl CellLoop {
         if let Err(e) = stream.set_nodelay(true) {
             tracing::debug!(%peer, error = %e, "could not set TCP_NODELAY");
         }
-        #[cfg(target_os = "linux")]
         limit_send_buffer(&stream, peer);
         let slot = match self.slots.iter().position(Option::is_none) {
             Some(s) => s,
@@ -1164,7 +1154,6 @@ impl CellLoop {
         }
     }
 
-    #[cfg(target_os = "linux")]
     fn read_socketcan(&mut self, b: usize, now: Instant) {
         loop {
             let Some(s) = self.buses.get(b).and_then(|x| x.socketcan.as_ref()) else {
@@ -1185,9 +1174,6 @@ impl CellLoop {
             }
         }
     }
-
-    #[cfg(not(target_os = "linux"))]
-    fn read_socketcan(&mut self, _b: usize, _now: Instant) {}
 
     /// Frames the drives of bus `b` sent: on the bus.
     fn drives_sent(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) {
@@ -1219,7 +1205,6 @@ impl CellLoop {
             }
             bus.trace_dirty = true;
         }
-        #[cfg(target_os = "linux")]
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {
@@ -1315,23 +1300,11 @@ impl CellLoop {
 /// The kernel's send buffer of a client connection, bounded: what a client leaves unread
 /// waits in its own [`MAX_PENDING`] buffer, where the loop sees it, instead of megabytes of
 /// autotuned kernel buffer that would hide a client that never reads.
-#[cfg(target_os = "linux")]
 fn limit_send_buffer(stream: &TcpStream, peer: SocketAddr) {
-    use std::os::fd::AsRawFd;
-    const SEND_BUFFER: libc::c_int = 64 * 1024;
-    // SAFETY: a valid socket descriptor for the call; the option value is a c_int whose size
-    // is passed.
-    let rc = unsafe {
-        libc::setsockopt(
-            stream.as_raw_fd(),
-            libc::SOL_SOCKET,
-            libc::SO_SNDBUF,
-            (&SEND_BUFFER as *const libc::c_int).cast(),
-            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
-    };
-    if rc != 0 {
-        tracing::debug!(%peer, error = %io::Error::last_os_error(), "could not bound SO_SNDBUF");
+    use std::os::fd::AsFd;
+    const SEND_BUFFER: u32 = 64 * 1024;
+    if let Err(e) = crate::sys::tcp::set_send_buffer(stream.as_fd(), SEND_BUFFER) {
+        tracing::debug!(%peer, error = %e, "could not bound SO_SNDBUF");
     }
 }
 
@@ -1367,7 +1340,6 @@ impl BusDrives for Buses<'_> {
 impl CellLoop {
     /// Reads EtherCAT frames of chain `c` until none waits (at most [`FRAMES_PER_TURN`]):
     /// each passes the chain and goes back out at once, as through a line of real slaves.
-    #[cfg(target_os = "linux")]
     fn read_ethercat(&mut self, c: usize) {
         let mut frame = std::mem::take(&mut self.frame);
         let mut shared = false;
@@ -1439,7 +1411,6 @@ impl CellLoop {
     }
 
     /// One frame through chain `chain` and back out on its socket.
-    #[cfg(target_os = "linux")]
     fn pass_chain(chain: &mut EthercatChain, f: &mut [u8], t: od::Instant, buses: &mut [BusState]) {
         if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
             trace_frame(chain.trace.as_ref(), f);
@@ -1459,18 +1430,11 @@ impl CellLoop {
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
-    #[cfg(target_os = "linux")]
     fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
         if let Some(chain) = self.chains.get_mut(c) {
             Self::pass_chain(chain, &mut frame, t, &mut self.buses);
         }
     }
-
-    #[cfg(not(target_os = "linux"))]
-    fn ethercat_frame(&mut self, _c: usize, _frame: Vec<u8>, _t: od::Instant) {}
-
-    #[cfg(not(target_os = "linux"))]
-    fn read_ethercat(&mut self, _c: usize) {}
 }
 
 impl CellLoop {

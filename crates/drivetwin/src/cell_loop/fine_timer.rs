@@ -4,19 +4,17 @@
 //! for the exact wait wakes the loop on time; the rounded timeout stays as the fallback.
 
 use std::io;
-use std::os::fd::{AsRawFd, OwnedFd};
+use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
 use mio::unix::SourceFd;
 use mio::{Interest, Registry, Token};
-use rustix::time::{
-    timerfd_create, timerfd_settime, Itimerspec, TimerfdClockId, TimerfdFlags, TimerfdTimerFlags,
-    Timespec,
-};
+
+use crate::sys::timer::Timer;
 
 /// A one-shot timerfd registered with the loop's poll.
 pub(super) struct FineTimer {
-    fd: OwnedFd,
+    timer: Timer,
     /// The deadline the timer is armed for, until it fires. Arming a timer is a system call
     /// that reprograms the CPU's timer, several microseconds on a VM: a loop answering
     /// requests one after another under the same deadline (a Modbus client between two
@@ -26,12 +24,9 @@ pub(super) struct FineTimer {
 
 impl FineTimer {
     pub(super) fn new(registry: &Registry, token: Token) -> io::Result<Self> {
-        let fd = timerfd_create(
-            TimerfdClockId::Monotonic,
-            TimerfdFlags::NONBLOCK | TimerfdFlags::CLOEXEC,
-        )?;
-        registry.register(&mut SourceFd(&fd.as_raw_fd()), token, Interest::READABLE)?;
-        Ok(FineTimer { fd, armed: None })
+        let timer = Timer::new()?;
+        registry.register(&mut SourceFd(&timer.as_raw_fd()), token, Interest::READABLE)?;
+        Ok(FineTimer { timer, armed: None })
     }
 
     /// Wakes the loop at `deadline`, `wait` from now (replacing the last deadline). A zero
@@ -41,17 +36,7 @@ impl FineTimer {
         if wait.is_zero() || self.armed == Some(deadline) {
             return;
         }
-        let spec = Itimerspec {
-            it_interval: Timespec {
-                tv_sec: 0,
-                tv_nsec: 0,
-            },
-            it_value: Timespec {
-                tv_sec: i64::try_from(wait.as_secs()).unwrap_or(i64::MAX),
-                tv_nsec: i64::from(wait.subsec_nanos()),
-            },
-        };
-        match timerfd_settime(&self.fd, TimerfdTimerFlags::empty(), &spec) {
+        match self.timer.arm(wait) {
             Ok(_) => self.armed = Some(deadline),
             Err(e) => {
                 // The poll's rounded timeout still wakes the loop, a little late.
@@ -64,8 +49,7 @@ impl FineTimer {
     /// After its event: takes the expirations so that the descriptor is quiet again.
     pub(super) fn clear(&mut self) {
         self.armed = None;
-        let mut expirations = [0u8; 8];
-        let _ = rustix::io::read(&self.fd, &mut expirations);
+        self.timer.clear();
     }
 }
 

@@ -10,7 +10,8 @@
 //! bytes and are answered 60h; 40h reads and is answered 43h / 4Bh / 4Fh with 4 / 2 / 1 bytes;
 //! 80h answers an error with its cause in bytes 4…7. ID is the station number 100Bh (§10.2).
 //! The drive never speaks unasked. It maps onto object access the way the CMMP-AS CI terminal
-//! does ([`crate::ci_terminal`]): one telegram, one [`ObjectAccess`] read or write.
+//! does ([`crate::vendors::festo_cmmp_as::ci_terminal`]): one telegram, one [`ObjectAccess`]
+//! read or write.
 //!
 //! What the manual says, and the decisions where it is silent or wrong:
 //! - Checksum: printed "CHKS = SUM(byte0…byte8), low byte" (L2187). Decision: the **negated**

@@ -6,7 +6,7 @@
     clippy::panic
 )]
 
-use canopen::ci_terminal::{execute, CiTerminal, ANSWER_END};
+use drive::vendors::festo_cmmp_as::ci_terminal::{execute, CiTerminal, ANSWER_END};
 use od::{ObjectDictionary, Value};
 use proptest::prelude::*;
 

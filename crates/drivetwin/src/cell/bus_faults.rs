@@ -1,4 +1,4 @@
-//! What a drive does when its CAN controller changes error state (`canopen::fault_confinement`),
+//! What a drive does when its CAN controller changes error state (`canbus::fault_confinement`),
 //! as its manual gives it: a table, one row per personality, CiA 301's usage for the rest.
 //!
 //! - CiA 301 (`spec/canopen-protocols.md` §4.6): EMCY 8120h "CAN in error-passive mode" when
@@ -11,7 +11,7 @@
 //! - Nanotec (`spec/nanotec-canopen.md` §7.2): MONITORING_COMM_PASSIVE 8120h and
 //!   MONITORING_COMM_BUSRECOVERY 8140h, as CiA 301.
 
-use canopen::fault_confinement::{ErrorState, Transition};
+use canbus::fault_confinement::{ErrorState, Transition};
 
 /// One reaction of a drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -18,3 +18,12 @@ pub fn index(interface: &str) -> io::Result<libc::c_int> {
     libc::c_int::try_from(index)
         .map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "interface index too large"))
 }
+
+/// Whether a network interface with this name exists.
+pub fn exists(interface: &str) -> bool {
+    match CString::new(interface) {
+        // SAFETY: valid NUL-terminated string for the duration of the call.
+        Ok(name) => unsafe { libc::if_nametoindex(name.as_ptr()) != 0 },
+        Err(_) => false,
+    }
+}

@@ -10,7 +10,7 @@
 //! * Only the FD3-LA / -CA have the switches (L347); the CD3 takes 100Bh.
 //!
 //! * The table gives no bit rate: the CAN bit rate is CAN_Baudrate 2F81h
-//!   ([`crate::kinco_bit_rates`]).
+//!   ([`super::bit_rates`]).
 //!
 //! Decision: a switch value above 127 is a valid RS232 / RS485 station number (the panel's
 //! 100Bh range is 0~255, L2144) but not a CANopen node-ID (1…127, §11.1): [`can_node_id`]

@@ -1,5 +1,5 @@
 //! The virtual clock: it jumps from one deadline to the next, so the same cell and inputs give
-//! the same frames bit for bit. Real time is the cell loop's ([`crate::cell::poll_loop`]).
+//! the same frames bit for bit. Real time is the cell loop's ([`crate::cell_loop`]).
 
 use std::time::Duration;
 
@@ -7,8 +7,8 @@ use canopen::CanFrame;
 use od::time::earliest;
 use od::Instant;
 
-use crate::cell::poll_loop::OnBus;
 use crate::cell::Cell;
+use crate::cell::OnBus;
 use crate::ecat::chain::EthercatCell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::serial::line::VirtualLine;

@@ -2,7 +2,7 @@
 //! it answers without a panic, only to its own station, with a frame whose CRC is right and
 //! whose function code is the request's or an error code (issue 13, "bad input").
 
-use modbus::kinco_rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu;
 use od::ObjectDictionary;
 use proptest::prelude::*;
@@ -37,7 +37,7 @@ proptest! {
         let mut od = ObjectDictionary::new(d, 1, vec![0; d.storage_size]).unwrap();
         let map: Vec<RegisterMapping> = devices::addresses("kinco-fd3").unwrap().modbus.iter()
             .map(|r| RegisterMapping { register: r.register, index: r.index, sub: r.sub }).collect();
-        let server = KincoRtu { station: 1, map: &map, errors: ErrorStyle::Manual };
+        let server = KincoRtu { station: 1, map: &map, errors: ErrorStyle::Read81h };
         for f in frames {
             let mut out = [0u8; MAX_FRAME];
             if let Ok(n) = server.handle_frame(&f, &mut od, &mut out) {

@@ -3,7 +3,9 @@
 //! telegrams go out, everything else is counted, and a valid telegram after a silence is
 //! answered (issue 13, "bad input").
 
-use canopen::kinco_rs232::{checksum, checksum_ok, KincoRs232, Request, Telegram, DEFAULT_GAP};
+use drive::vendors::kinco::rs232::{
+    checksum, checksum_ok, KincoRs232, Request, Telegram, DEFAULT_GAP,
+};
 use od::{Instant, ObjectDictionary};
 use proptest::prelude::*;
 

@@ -6,8 +6,8 @@
     clippy::panic
 )]
 
-use canopen::kinco_rs232::KincoRs232;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use drive::vendors::kinco::rs232::KincoRs232;
 use od::{Instant, ObjectDictionary};
 
 fn kinco_rs232(c: &mut Criterion) {

@@ -7,9 +7,9 @@
     clippy::panic
 )]
 
-use canopen::frame_time::frame_bits;
-use canopen::timed_bus::TimedBus;
-use canopen::CanFrame;
+use canbus::frame_time::frame_bits;
+use canbus::timed_bus::TimedBus;
+use canbus::CanFrame;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use od::Instant;
 

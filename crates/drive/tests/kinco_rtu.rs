@@ -7,7 +7,7 @@
     clippy::panic
 )]
 
-use modbus::kinco_rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu;
 use od::{ObjectAccess, ObjectDictionary, Value};
 
@@ -67,7 +67,7 @@ fn kinco_mb_01_read_statusword() {
         .unwrap();
     let frame = hex("01 03 32 00 00 02 CA B3");
     assert!(rtu::check_frame(&frame), "the printed CRC");
-    let reply = exchange(&mut od, ErrorStyle::Manual, &frame).unwrap();
+    let reply = exchange(&mut od, ErrorStyle::Read81h, &frame).unwrap();
     assert_eq!(reply, with_crc(hex("01 03 04 06 37 00 00")));
 }
 
@@ -79,7 +79,7 @@ fn kinco_mb_02_write_controlword_echo() {
     let frame = hex("01 06 31 00 00 0F C7 32");
     assert!(rtu::check_frame(&frame));
     assert_eq!(
-        exchange(&mut od, ErrorStyle::Manual, &frame).unwrap(),
+        exchange(&mut od, ErrorStyle::Read81h, &frame).unwrap(),
         frame
     );
     assert_eq!(od.get_unsigned(0x6040, 0), Some(0x0F));
@@ -96,12 +96,12 @@ fn kinco_mb_03_write_target_velocity_low_word_first() {
     assert!(!rtu::check_frame(&hex(
         "01 10 6F 00 00 02 04 55 55 00 08 47 1A"
     )));
-    let reply = exchange(&mut od, ErrorStyle::Manual, &frame).unwrap();
+    let reply = exchange(&mut od, ErrorStyle::Read81h, &frame).unwrap();
     assert_eq!(reply, hex("01 10 6F 00 00 02 5C DC"));
     assert_eq!(od.value(0x60FF, 0), Some(Value::Signed(0x0008_5555)));
     // And read back the same way: two registers, low word first.
     let read = with_crc(hex("01 03 6F 00 00 02"));
-    let reply = exchange(&mut od, ErrorStyle::Manual, &read).unwrap();
+    let reply = exchange(&mut od, ErrorStyle::Read81h, &read).unwrap();
     assert_eq!(reply, with_crc(hex("01 03 04 55 55 00 08")));
 }
 
@@ -111,21 +111,21 @@ fn kinco_mb_03_write_target_velocity_low_word_first() {
 fn kinco_mb_04_error_function_codes() {
     let mut od = fd3();
     let read_missing = with_crc(hex("01 03 12 34 00 01"));
-    let r = exchange(&mut od, ErrorStyle::Manual, &read_missing).unwrap();
+    let r = exchange(&mut od, ErrorStyle::Read81h, &read_missing).unwrap();
     assert_eq!(r, with_crc(hex("01 81 02")));
     let r = exchange(&mut od, ErrorStyle::Standard, &read_missing).unwrap();
     assert_eq!(r, with_crc(hex("01 83 02")));
     // FC 06h to the read-only statusword, and to a register that maps nothing.
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 06 32 00 00 01")),
     )
     .unwrap();
     assert_eq!(r, with_crc(hex("01 86 02")));
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 06 12 34 00 01")),
     )
     .unwrap();
@@ -133,14 +133,14 @@ fn kinco_mb_04_error_function_codes() {
     // FC 10h to a non-existent address; half of the 32-bit target velocity.
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 10 12 34 00 01 02 00 01")),
     )
     .unwrap();
     assert_eq!(r, with_crc(hex("01 90 02")));
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 10 6F 00 00 01 02 00 01")),
     )
     .unwrap();
@@ -148,7 +148,7 @@ fn kinco_mb_04_error_function_codes() {
     // A value out of range: 03.
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 06 47 00 00 02")),
     )
     .unwrap();
@@ -160,7 +160,7 @@ fn kinco_mb_04_error_function_codes() {
     // FC 06h on a 32-bit object is refused (half a value).
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 06 6F 00 00 01")),
     )
     .unwrap();
@@ -172,13 +172,17 @@ fn kinco_mb_04_error_function_codes() {
 fn bad_crc_other_station_and_broadcast() {
     let mut od = fd3();
     assert_eq!(
-        exchange(&mut od, ErrorStyle::Manual, &hex("01 06 31 00 00 0F C7 33")),
+        exchange(
+            &mut od,
+            ErrorStyle::Read81h,
+            &hex("01 06 31 00 00 0F C7 33")
+        ),
         Err(Ignored::Crc)
     );
     assert_eq!(
         exchange(
             &mut od,
-            ErrorStyle::Manual,
+            ErrorStyle::Read81h,
             &with_crc(hex("02 06 31 00 00 0F"))
         ),
         Err(Ignored::OtherStation)
@@ -187,14 +191,14 @@ fn bad_crc_other_station_and_broadcast() {
     assert_eq!(
         exchange(
             &mut od,
-            ErrorStyle::Manual,
+            ErrorStyle::Read81h,
             &with_crc(hex("00 06 31 00 00 06"))
         ),
         Err(Ignored::Broadcast)
     );
     assert_eq!(od.get_unsigned(0x6040, 0), Some(6));
     assert_eq!(
-        exchange(&mut od, ErrorStyle::Manual, &[0x01]),
+        exchange(&mut od, ErrorStyle::Read81h, &[0x01]),
         Err(Ignored::Crc)
     );
 }
@@ -204,11 +208,11 @@ fn bad_crc_other_station_and_broadcast() {
 fn eight_bit_objects_through_one_register() {
     let mut od = fd3();
     let f = with_crc(hex("01 06 35 00 FF FC"));
-    assert_eq!(exchange(&mut od, ErrorStyle::Manual, &f).unwrap(), f);
+    assert_eq!(exchange(&mut od, ErrorStyle::Read81h, &f).unwrap(), f);
     assert_eq!(od.value(0x6060, 0), Some(Value::Signed(-4)));
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 03 35 00 00 01")),
     )
     .unwrap();
@@ -217,14 +221,14 @@ fn eight_bit_objects_through_one_register() {
     od.write(0x6071, 0, &(-100i16).to_le_bytes()).unwrap();
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 03 3C 00 00 02")),
     )
     .unwrap();
     assert_eq!(r, with_crc(hex("01 03 04 FF 9C FF FF")));
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 06 35 00 01 00")),
     )
     .unwrap();
@@ -237,13 +241,13 @@ fn eight_bit_objects_through_one_register() {
 fn write_multiple_covers_whole_objects() {
     let mut od = fd3();
     let f = with_crc(hex("01 10 40 00 00 02 04 86 A0 00 01"));
-    let r = exchange(&mut od, ErrorStyle::Manual, &f).unwrap();
+    let r = exchange(&mut od, ErrorStyle::Read81h, &f).unwrap();
     assert_eq!(r, with_crc(hex("01 10 40 00 00 02")));
     assert_eq!(od.value(0x607A, 0), Some(Value::Signed(100_000)));
     // Byte count that does not match the quantity.
     let r = exchange(
         &mut od,
-        ErrorStyle::Manual,
+        ErrorStyle::Read81h,
         &with_crc(hex("01 10 40 00 00 02 02 00 01")),
     )
     .unwrap();

@@ -1,55 +1,43 @@
-//! Kinco's Modbus RTU on RS485 (Kinco CD3 / FD3 manual ch. 12, seeds/001_da459f46c7138f7b.txt
-//! L2530-2640; spec/kinco-fd-cd.md §2.3): registers are a mapping onto the drive's objects, not
-//! a second copy. What the manual says:
+//! A Modbus RTU server whose holding registers are a mapping onto a device's objects, not a
+//! second copy (MODBUS Application Protocol V1.1b3 §6.3, §6.6, §6.12; Modbus over Serial Line
+//! V1.02 §2.2, §2.5.1). The table is data: [`RegisterMapping`] rows, from a device file's
+//! `modbus` keys.
 //!
-//! - Frame `station, function, data, CRC-16` (low byte first, [`crate::rtu`]), frames apart by
-//!   at least 3.5 character times (L2546); station = ID_Com 100Bh (L2528).
-//! - FC 03h read, 06h write one register, 10h write several (L2555-2637). A register address
-//!   is a Kinco code, looked up in a table ([`RegisterMapping`], the device file's `modbus`
-//!   keys): 3100h controlword 6040h, 3200h statusword 6041h, 6F00h target velocity 60FFh.
-//! - A 32-bit object takes two registers, the **low word first**, each word big-endian
-//!   (L2630: `55 55 00 08` is 0008 5555h).
-//! - Errors are answered with function code 81h for FC 03h ("e.g. a non-existent address",
-//!   L2568), 86h for FC 06h and 90h for FC 10h (address out of range, non-existent or
-//!   read-only, L2593, L2621). No exception byte is described.
+//! - Frame `station, function, data, CRC-16` (low byte first, [`crate::rtu`]); station 0 is the
+//!   broadcast: its writes are carried out, never answered (Serial Line §2.2). A bad CRC or
+//!   another station: no answer, counted by the caller ([`Ignored`]).
+//! - FC 03h read, 06h write one register, 10h write several.
+//! - A 32-bit object takes two registers, the **low word first**, each word big-endian; an 8 or
+//!   16-bit object one register.
+//! - Errors: the function code + 80h with the standard exception byte (02 address, 03 value,
+//!   04 device failure) that a client such as pymodbus needs to decode the reply. Some devices
+//!   answer an FC 03h error with 81h instead ([`ErrorStyle::Read81h`]).
 //!
 //! Decisions:
-//! - FC 03h's error function code: the manual's **81h** by default ([`ErrorStyle::Manual`]),
-//!   because the programs written for these drives check for it; [`ErrorStyle::Standard`]
-//!   answers 83h as MODBUS Application Protocol §7 prescribes. 86h and 90h are both.
-//! - Every error reply carries the standard exception byte (02 address, 03 value, 04 device
-//!   failure): a Modbus client such as pymodbus needs it to decode the reply.
 //! - A read of more registers than the object at the start address has reads its sign
 //!   extension (0000h, or FFFFh for a negative signed value) from the registers after it that
 //!   map nothing, so that two registers read from any object are its 32-bit value, low word
-//!   first (KINCO-MB-01 reads two registers from the 16-bit statusword); an 8-bit value's
-//!   register is sign-extended the same way (−4 reads FFFCh, as FC 06h takes it). A read
-//!   whose first register maps nothing is an error.
+//!   first; an 8-bit value's register is sign-extended the same way (−4 reads FFFCh, as FC 06h
+//!   takes it). A read whose first register maps nothing is an error.
 //! - FC 06h writes an object of one register (8 or 16 bit); an 8-bit object takes the
 //!   register's low byte when the value fits 8 bits signed or unsigned (−4 may come as FFFCh).
-//!   Half a 32-bit object is not written: 86h.
+//!   Half a 32-bit object is not written: an error.
 //! - FC 10h must cover whole objects; the objects are written in address order and a failure
-//!   stops there (the ones before stay written, as on the drive's sequential firmware).
-//! - Station 0 (broadcast) is not answered; its writes are carried out (Modbus over Serial
-//!   Line §2.2). A bad CRC or another station: no answer, counted by the caller.
+//!   stops there (the ones before stay written, as a sequential firmware does).
 
 use od::{AbortCode, ObjectAccess};
 
 use crate::exception::Exception;
-use crate::function_code::{READ_HOLDING_REGISTERS, WRITE_MULTIPLE_REGISTERS};
-use crate::rtu;
-
-/// FC 06h write single register (not in [`crate::function_code`], which lists the CMMO-ST's).
-pub const WRITE_SINGLE_REGISTER: u8 = 0x06;
-
-/// Longest RTU frame (Modbus over Serial Line §2.5.1): 256 bytes.
-pub const MAX_FRAME: usize = 256;
+use crate::function_code::{
+    READ_HOLDING_REGISTERS, WRITE_MULTIPLE_REGISTERS, WRITE_SINGLE_REGISTER,
+};
+use crate::rtu::{self, MAX_FRAME};
 
 /// One register of the map: `register` (and the next ones for a longer value) is object
 /// `index`:`sub`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RegisterMapping {
-    /// The Kinco register address (3100h).
+    /// The register address.
     pub register: u16,
     /// The object's index.
     pub index: u16,
@@ -60,11 +48,11 @@ pub struct RegisterMapping {
 /// How an FC 03h error is answered (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ErrorStyle {
-    /// 81h, as the manual prints.
+    /// 83h, as MODBUS Application Protocol §7 prescribes.
     #[default]
-    Manual,
-    /// 83h, as the Modbus standard has it.
     Standard,
+    /// 81h, as some device manuals print it.
+    Read81h,
 }
 
 /// Why a frame got no answer.
@@ -138,10 +126,10 @@ fn be16(b: &[u8], at: usize) -> Option<u16> {
     Some(u16::from_be_bytes([*b.get(at)?, *b.get(at + 1)?]))
 }
 
-/// The Kinco RTU server of one drive.
+/// The RTU server of one device: its station and its register map.
 #[derive(Debug, Clone, Copy)]
-pub struct KincoRtu<'a> {
-    /// The drive's station number (100Bh at power-up).
+pub struct ObjectRegisters<'a> {
+    /// The device's station number.
     pub station: u8,
     /// The register map (the device file's `modbus` keys).
     pub map: &'a [RegisterMapping],
@@ -149,7 +137,7 @@ pub struct KincoRtu<'a> {
     pub errors: ErrorStyle,
 }
 
-impl KincoRtu<'_> {
+impl ObjectRegisters<'_> {
     /// Handles one frame (station, PDU, CRC): the reply is written to `out` (at least
     /// [`MAX_FRAME`] bytes) and its length returned, or why there is none.
     pub fn handle_frame(
@@ -181,7 +169,7 @@ impl KincoRtu<'_> {
                     *first = f.exception.code();
                 }
                 let code = match (function, self.errors) {
-                    (READ_HOLDING_REGISTERS, ErrorStyle::Manual) => 0x81,
+                    (READ_HOLDING_REGISTERS, ErrorStyle::Read81h) => 0x81,
                     _ => function | 0x80,
                 };
                 (code, 1)

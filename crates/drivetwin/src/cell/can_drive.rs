@@ -4,8 +4,9 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use canopen::{ci_terminal, CanFrame, Node, NodeEvent};
+use canopen::{CanFrame, Node, NodeEvent};
 use drive::drive::{DriveEvent, DriveSettings};
+use drive::vendors::festo_cmmp_as::ci_terminal;
 use od::{
     time::earliest, AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary, StorageRequest,
 };
@@ -170,14 +171,14 @@ impl CanDrive {
     }
 
     /// Its CAN controller changed error state: the personality's reaction
-    /// ([`crate::can::bus_faults`]).
+    /// ([`crate::cell::bus_faults`]).
     pub fn bus_state_changed(
         &mut self,
         now: Instant,
-        t: canopen::fault_confinement::Transition,
+        t: canbus::fault_confinement::Transition,
         out: &mut dyn FnMut(CanFrame),
     ) {
-        use crate::can::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
+        use crate::cell::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
         tracing::warn!(
             node = self.node_id(),
             from = t.from.name(),

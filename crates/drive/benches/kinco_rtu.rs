@@ -8,7 +8,7 @@
 )]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use modbus::kinco_rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
+use drive::vendors::kinco::rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
 use od::ObjectDictionary;
 
 fn kinco_rtu(c: &mut Criterion) {
@@ -27,7 +27,7 @@ fn kinco_rtu(c: &mut Criterion) {
     let server = KincoRtu {
         station: 1,
         map: &map,
-        errors: ErrorStyle::Manual,
+        errors: ErrorStyle::Read81h,
     };
     // KINCO-MB-01, -02, -03.
     let frames: [(&str, &[u8]); 3] = [
