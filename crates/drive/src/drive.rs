@@ -636,9 +636,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             .read(d.hot.mode_display)
             .clamp(i8::MIN as i64, i8::MAX as i64) as i8;
         if d.settings.ethercat {
-            // CiA 402 6502h: the modes reached over EtherCAT only (CMMP-AS: bit 7 CSP).
-            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0)
-                | u64::from(d.personality.supported_drive_modes(true));
+            // CiA 402 6502h: the modes a personality reaches over EtherCAT only join those
+            // the device file lists.
+            let ethercat_only = d.personality.supported_drive_modes(true)
+                & !d.personality.supported_drive_modes(false);
+            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0) | u64::from(ethercat_only);
             let _ = d.od.set_value(0x6502, 0, Value::Unsigned(modes));
         }
         d.dc.initialised();

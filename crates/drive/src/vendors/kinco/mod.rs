@@ -143,7 +143,7 @@ const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
 const fn cia_method(number: i8) -> Method {
     match find_method(&homing::METHODS, number) {
         Some(m) => m,
-        None => match find_method(&crate::vendors::nanotec::HOMING_METHODS, number) {
+        None => match find_method(&homing::HOME_SWITCH_METHODS, number) {
             Some(m) => m,
             None => panic!("no such homing method"),
         },

@@ -252,6 +252,16 @@ use crate::homing::Signal::Home;
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index};
 
+/// The home-switch method `number` of the engine's table.
+// Only called in the const table below: an unknown number fails the build, never a drive.
+#[allow(clippy::panic)]
+const fn home_switch_method(number: i8) -> Method {
+    match crate::homing::find_method(&crate::homing::HOME_SWITCH_METHODS, number) {
+        Some(m) => m,
+        None => panic!("no such homing method"),
+    }
+}
+
 /// §5.2: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
 /// methods −4 … −7. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
@@ -260,26 +270,11 @@ use Until::{Active, Inactive, Index};
 /// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
 /// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
 pub const HOMING_METHODS: [Method; 13] = [
-    // 19: CW at 6099h:01 until the switch, then CCW at 6099h:02 until it is free.
-    (
-        19,
-        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
-    ),
-    // 20: CCW until the switch, CW off it.
-    (
-        20,
-        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
-    ),
-    // 21: CCW until the switch, CW off it.
-    (
-        21,
-        &[step(-1, Fast, Active(Home)), step(1, Crawl, Inactive(Home))],
-    ),
-    // 22: CW until the switch, CCW off it.
-    (
-        22,
-        &[step(1, Fast, Active(Home)), step(-1, Crawl, Inactive(Home))],
-    ),
+    // 19 … 22: the home-switch methods of CiA 402 (`homing::HOME_SWITCH_METHODS`).
+    home_switch_method(19),
+    home_switch_method(20),
+    home_switch_method(21),
+    home_switch_method(22),
     // 33: CW at 6099h:02 to the index mark, then reverse: CCW off the mark, stop (§5.2).
     // Decision: the index pulse is a point, so "moves off the index mark" is the pass back
     // over it; the reference is the mark, met on the way back at 6099h:02 with the immediate
