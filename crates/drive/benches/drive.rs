@@ -18,6 +18,9 @@
     clippy::panic
 )]
 
+use drive::personality::Vendor;
+use drive::vendors::festo_cmmp_as::CmmpAs;
+use drive::vendors::nanotec::Nanotec;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -48,7 +51,7 @@ trait Stepped {
     fn speed_rpm(&self) -> f32;
 }
 
-impl Stepped for Drive<Vec<u8>> {
+impl<V: Vendor> Stepped for Drive<Vec<u8>, V> {
     fn step_to(&mut self, now: Instant) {
         self.step(now);
     }
@@ -67,7 +70,10 @@ impl Stepped for FhppDevice<Vec<u8>> {
 }
 
 /// `desc`'s drive in profile position towards `target` (user units).
-fn moving(desc: &'static od::DeviceDescription, target: i32) -> (Drive<Vec<u8>>, Instant) {
+fn moving<V: Vendor>(
+    desc: &'static od::DeviceDescription,
+    target: i32,
+) -> (Drive<Vec<u8>, V>, Instant) {
     let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("storage");
     // No limit switches or hard stops: the axis travels for as long as the bench runs (the
     // default travel's positive limit switch would stop it after 64 revolutions, ≈ 4 s).
@@ -84,7 +90,7 @@ fn moving(desc: &'static od::DeviceDescription, target: i32) -> (Drive<Vec<u8>>,
     };
     let mut d = Drive::new(od, settings);
     let mut now = Instant::ZERO;
-    let mut step = |d: &mut Drive<Vec<u8>>, ms: u64| {
+    let mut step = |d: &mut Drive<Vec<u8>, V>, ms: u64| {
         now = now + Duration::from_millis(ms);
         d.step(now);
     };
@@ -100,11 +106,11 @@ fn moving(desc: &'static od::DeviceDescription, target: i32) -> (Drive<Vec<u8>>,
     (d, now)
 }
 
-fn cmmp_as() -> (Drive<Vec<u8>>, Instant) {
+fn cmmp_as() -> (Drive<Vec<u8>, CmmpAs>, Instant) {
     moving(&devices::CMMP_AS, 1_000_000_000)
 }
 
-fn nanotec() -> (Drive<Vec<u8>>, Instant) {
+fn nanotec() -> (Drive<Vec<u8>, Nanotec>, Instant) {
     moving(&devices::NANOTEC_SMCI47S, 100_000_000)
 }
 

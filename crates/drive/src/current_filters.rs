@@ -145,18 +145,6 @@ impl FilterState {
     }
 }
 
-/// The Kinco's Notch_N → centre frequency: `F = Notch_N × 10 + 100` Hz (Tab. 7-5).
-pub fn kinco_notch_hz(notch_n: u32) -> u32 {
-    notch_n * 10 + 100
-}
-
-/// The Kinco's Speed_Fb_N → the actual-speed filter's time constant, µs: bandwidth
-/// `100 + 20 × N` Hz (§9.2 d2.05), `τ = 1 / (2π f)`.
-pub fn kinco_speed_feedback_time_us(speed_fb_n: u32) -> u16 {
-    let hz = 100.0 + 20.0 * f64::from(speed_fb_n);
-    libm::round(1e6 / (2.0 * PI * hz)).clamp(1.0, 65535.0) as u16
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,7 +168,7 @@ mod tests {
     fn the_notch_takes_out_its_frequency_and_passes_the_others() {
         let dt = 125e-6;
         let p = CurrentFilterParams {
-            notch_hz: Some(kinco_notch_hz(45)), // 550 Hz, the Kinco default Notch_N
+            notch_hz: Some(550),
             ..CurrentFilterParams::default()
         };
         let f = CurrentFilters::new(&p, dt);
@@ -237,12 +225,5 @@ mod tests {
     fn a_notch_beyond_half_the_sample_rate_is_off() {
         assert!(Notch::new(5000.0, 125e-6).is_none());
         assert!(Notch::new(0.0, 125e-6).is_none());
-    }
-
-    #[test]
-    fn speed_feedback_bandwidth() {
-        // N = 25 (default): 600 Hz → 265 µs.
-        assert_eq!(kinco_speed_feedback_time_us(25), 265);
-        assert_eq!(kinco_speed_feedback_time_us(0), 1592);
     }
 }

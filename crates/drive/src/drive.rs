@@ -28,11 +28,13 @@ use crate::travel::{Inputs, TravelSettings};
 mod brake;
 pub mod diagnostics;
 mod digital_io;
+mod error_management;
 mod faults;
 mod feed_constant;
 mod homing_run;
 pub mod named_switches;
-pub(crate) mod object_writes;
+pub mod object_writes;
+pub use object_writes::Hook;
 mod plant;
 pub mod plant_supervision;
 mod position_modes;
@@ -59,9 +61,6 @@ pub mod mode {
     /// 6061h while a mode change is in progress (CMMP-AS §7.1).
     pub const CHANGING: i8 = -1;
 }
-
-/// The CMMP-AS's diagnostic messages (its personality's error table).
-pub use crate::personality::cmmp_as::diag;
 
 /// Settings of the simulation that no object holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -320,7 +319,10 @@ pub(crate) struct Hot {
     pub(crate) velocity_actual_filtered: Option<&'static Entry>,
 }
 
-pub struct Drive<S> {
+/// A CiA 402 drive over its object dictionary `S`, generic over its vendor `V`: the
+/// behaviour where a vendor's manual departs from CiA 402 ([`Vendor`]) and that vendor's own
+/// state.
+pub struct Drive<S, V> {
     /// What the drive is: modes, option codes, errors, homing methods, vendor behaviour.
     pub(crate) personality: &'static Personality,
     pub(crate) od: ObjectDictionary<S>,
@@ -391,8 +393,6 @@ pub struct Drive<S> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
-    /// A closed-loop test run in progress (Nanotec 6060h = −1 / −2) and when it ends.
-    pub(crate) test_run: Option<(i8, Instant)>,
     /// The short closed-loop test run has aligned the encoder (Nanotec 200Bh found).
     pub(crate) closed_loop_aligned: bool,
     /// The brake opens then (a personality that releases it after the output stage).
@@ -411,9 +411,8 @@ pub struct Drive<S> {
     pub(crate) forced_levels: u16,
     /// Error management 2100h: the reaction per main error number.
     pub(crate) reactions: Reactions,
-    /// What only a Kinco keeps (inputs, pulse and analog sources, history, position table,
-    /// tuning).
-    pub(crate) kinco: personality::kinco_drive::KincoState,
+    /// What only the vendor keeps beside the CiA 402 engine's state.
+    pub(crate) vendor: V,
     /// The last warning and whether it is still active (200Fh).
     pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
@@ -495,19 +494,21 @@ fn decode_i64_general(e: &Entry, raw: &[u8]) -> i64 {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// A drive at power-on over `od` (holding defaults, commissioning and stored values),
-    /// with the personality its device file names ([`personality::for_device`]).
+    /// with the personality and the state its vendor gives the device file
+    /// ([`Vendor::for_device`]).
     pub fn new(od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
-        let personality = personality::for_device(od.description().name);
-        Self::with_personality(od, settings, personality)
+        let (personality, vendor) = V::for_device(od.description());
+        Self::with_vendor(od, settings, personality, vendor)
     }
 
-    /// A drive at power-on over `od` with `personality`.
-    pub fn with_personality(
+    /// A drive at power-on over `od` with `personality` and the vendor's state `vendor`.
+    pub fn with_vendor(
         mut od: ObjectDictionary<S>,
         settings: DriveSettings,
         personality: &'static Personality,
+        vendor: V,
     ) -> Self {
         publish_supply(&mut od, None);
         let desc = od.description();
@@ -607,7 +608,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             brake_engaged: true,
             power_off_at: None,
             brake_release_at: None,
-            test_run: None,
             closed_loop_aligned: false,
             release_at: None,
             faults: heapless::Vec::new(),
@@ -618,7 +618,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             forced_mask: 0,
             forced_levels: 0,
             reactions: Reactions::default(),
-            kinco: Default::default(),
+            vendor,
             warning: None,
             internal_limit: false,
             safe_standstill: false,
@@ -636,9 +636,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             .read(d.hot.mode_display)
             .clamp(i8::MIN as i64, i8::MAX as i64) as i8;
         if d.settings.ethercat {
-            // CiA 402 6502h: the modes reached over EtherCAT only (CMMP-AS: bit 7 CSP).
-            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0)
-                | u64::from(d.personality.supported_drive_modes(true));
+            // CiA 402 6502h: the modes a personality reaches over EtherCAT only join those
+            // the device file lists.
+            let ethercat_only = d.personality.supported_drive_modes(true)
+                & !d.personality.supported_drive_modes(false);
+            let modes = d.od.get_unsigned(0x6502, 0).unwrap_or(0) | u64::from(ethercat_only);
             let _ = d.od.set_value(0x6502, 0, Value::Unsigned(modes));
         }
         d.dc.initialised();
@@ -717,17 +719,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// What the personality sets at power-on and after a reload.
     fn vendor_power_on(&mut self) {
-        match self.personality.vendor {
-            Vendor::CmmpAs => {
-                self.following_error_reaction();
-                self.cmmp_power_on();
-            }
-            Vendor::Nanotec => self.nanotec_power_on(),
-            Vendor::Kinco => {
-                self.kinco_power_on();
-                self.kinco_panel_power_on();
-            }
-        }
+        V::power_on(self);
     }
 
     pub(crate) fn reload_factor_group(&mut self) {
@@ -735,11 +727,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.fg = self.feed_constant_factor_group();
             return;
         }
-        if self.personality.vendor == Vendor::Kinco {
-            // Kinco: fixed units (personality/kinco_drive.rs), 607Eh the direction.
-            let mut fg = personality::kinco_drive::FACTOR_GROUP;
-            let invert = self.od.get_unsigned(0x607E, 0).unwrap_or(0) != 0;
-            fg.polarity = if invert { 0xC0 } else { 0 };
+        if let Some(fg) = V::factor_group(self) {
+            // A vendor's fixed units.
             self.fg = fg;
             return;
         }
@@ -860,17 +849,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let dt = self.cycle.as_secs_f64() * f64::from(self.logic_every);
         if self.params_dirty {
             self.params_dirty = false;
-            let params = match self.personality.vendor {
-                Vendor::Kinco => self.kinco_control_params(),
-                _ => control_params(&self.od),
-            };
+            let params = V::control_params(self);
             self.axis.set_params(params);
         }
-        if self.personality.vendor == Vendor::Kinco {
-            // The DIN functions own the controlword and the mode (Kinco L1287).
-            self.kinco_din_cycle();
-            self.kinco_panel_cycle();
-        }
+        V::before_device_control(self);
         self.stepper_mode();
         self.supervise_dc_link();
         self.supervise_i2t();
@@ -879,10 +861,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
         // Transition 2 needs both hardware enables (DIN4, DIN5).
-        let enables = match self.personality.vendor {
-            Vendor::Kinco => self.kinco_pre_enable(),
-            _ => self.input_levels(self.plant_position()).enables(),
-        };
+        let enables = V::enables(self);
         if self.cw_written.is_empty() {
             self.device_control_sampled(cw, fault, enables);
         }
@@ -1096,37 +1075,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 return;
             }
         }
-        if self.personality.vendor == Vendor::Kinco {
-            if self.kinco_tuning_active() {
-                self.kinco_tuning_step();
-                return;
-            }
-            match self.mode {
-                mode::PROFILE_POSITION => self.kinco_profile_position(cw, dt),
-                mode::PROFILE_VELOCITY => self.kinco_velocity(true, dt),
-                -3 => self.kinco_velocity(false, dt),
-                -4 => self.kinco_pulse_mode(dt),
-                mode::PROFILE_TORQUE => self.kinco_torque(dt),
-                mode::HOMING => self.homing(cw, dt),
-                _ => self.hold(dt),
-            }
-            self.kinco_velocity_feed_forward();
+        if V::mode_step(self, cw, dt) {
             return;
         }
         match self.mode {
             mode::PROFILE_POSITION => self.profile_position(cw, dt),
             mode::PROFILE_VELOCITY => self.profile_velocity(dt),
             mode::VELOCITY => self.velocity_mode(dt),
-            mode::PROFILE_TORQUE if self.personality.vendor == Vendor::Nanotec => {
-                self.nanotec_torque(dt)
-            }
             mode::PROFILE_TORQUE => self.profile_torque(dt),
             mode::HOMING => self.homing(cw, dt),
             mode::CYCLIC_SYNCHRONOUS_POSITION => self.cyclic_synchronous_position(dt),
             mode::INTERPOLATED_POSITION => self.interpolated_position(cw, dt),
-            m if m < 0 && self.personality.vendor == Vendor::Nanotec => {
-                self.nanotec_test_run(cw, dt)
-            }
             _ => self.hold(dt),
         }
     }
@@ -1221,7 +1180,7 @@ fn is_control_parameter(index: u16) -> bool {
     )
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> ObjectAccess for Drive<S, V> {
     fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         self.od.entry(index, sub)
     }

@@ -77,6 +77,59 @@ use Until::{Active, Inactive, Index, Stop, StopOrLimit};
 /// found it: the drive first crawls back out of the cam (not printed, but the only way the
 /// switch can *become* active again), then onto it — reference: the positive edge for −23,
 /// the negative edge for −27 (cmmp-as-3 §9 "keep this distinction").
+/// The method `number` of `table`.
+pub const fn find_method(table: &[Method], number: i8) -> Option<Method> {
+    let mut rest = table;
+    while let [m, tail @ ..] = rest {
+        if m.0 == number {
+            return Some(*m);
+        }
+        rest = tail;
+    }
+    None
+}
+
+/// The home-switch methods 19 … 22 (CiA 402 §6.7.4.3), positive the clockwise direction.
+///
+/// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)
+/// and 20/22 (normally open) differ only in the input's level, which the switch wiring of the
+/// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
+pub const HOME_SWITCH_METHODS: [Method; 4] = [
+    // 19: CW at the search speed 6099h:01 until the switch, then CCW at the creep speed
+    // 6099h:02 until it is free.
+    (
+        19,
+        &[
+            step(1, Fast, Active(Home), false),
+            step(-1, Crawl, Inactive(Home), false),
+        ],
+    ),
+    // 20: CCW until the switch, CW off it.
+    (
+        20,
+        &[
+            step(-1, Fast, Active(Home), false),
+            step(1, Crawl, Inactive(Home), false),
+        ],
+    ),
+    // 21: CCW until the switch, CW off it.
+    (
+        21,
+        &[
+            step(-1, Fast, Active(Home), false),
+            step(1, Crawl, Inactive(Home), false),
+        ],
+    ),
+    // 22: CW until the switch, CCW off it.
+    (
+        22,
+        &[
+            step(1, Fast, Active(Home), false),
+            step(-1, Crawl, Inactive(Home), false),
+        ],
+    ),
+];
+
 /// A homing method: its 6098h number and its steps.
 pub type Method = (i8, &'static [Step]);
 

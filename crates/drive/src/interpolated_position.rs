@@ -287,7 +287,7 @@ mod tests {
     }
 
     #[test]
-    fn cmmp_ip_08_both_encodings_mean_4_ms() {
+    fn ip_08_both_encodings_mean_4_ms() {
         // CMMP-IP-08: (−3, 4) and (−4, 40) are both 4 ms.
         assert_eq!(period_from_60c2(4, -3), Some(Duration::from_millis(4)));
         assert_eq!(period_from_60c2(40, -4), Some(Duration::from_millis(4)));

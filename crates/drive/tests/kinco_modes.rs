@@ -51,8 +51,8 @@ fn kinco_cw_05_enable_in_each_mode() {
     for cw in [0x0F, 0x2F] {
         let mut r = Rig::new();
         r.w16(0x2010, 0x06, 0x9004);
-        let mut table = drive::personality::kinco_table::PositionTable::default();
-        table.tasks[0] = drive::personality::kinco_table::Task {
+        let mut table = drive::vendors::kinco::table::PositionTable::default();
+        table.tasks[0] = drive::vendors::kinco::table::Task {
             ctl: 0,
             position: 20_000,
             speed_rpm: 600,
@@ -294,9 +294,10 @@ fn homing_on_the_mechanical_stop() {
 fn cd3_runs_as_a_kinco() {
     let desc = devices::by_name("kinco-cd3").expect("the CD3 device file");
     let od = od::ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("dictionary");
-    let mut d = drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
+    let mut d: drive::drive::Drive<_, drive::vendors::kinco::Kinco> =
+        drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
     let mut now = od::Instant::ZERO;
-    let mut run = |d: &mut drive::drive::Drive<Vec<u8>>, ms: u64| {
+    let mut run = |d: &mut drive::drive::Drive<Vec<u8>, drive::vendors::kinco::Kinco>, ms: u64| {
         now = now + std::time::Duration::from_millis(ms);
         d.step(now);
     };

@@ -10,7 +10,7 @@
 mod kinco_rig;
 
 use drive::device_control::State;
-use drive::personality::kinco_panel::{Blink, PanelKey, DOT3, DOT4, DOT5};
+use drive::vendors::kinco::panel::{Blink, PanelKey, DOT3, DOT4, DOT5};
 use kinco_rig::Rig;
 use od::ObjectAccess;
 

@@ -5,7 +5,7 @@
 
 mod kinco_rig;
 
-use drive::personality::kinco_table::{PositionTable, Task};
+use drive::vendors::kinco::table::{PositionTable, Task};
 use kinco_rig::Rig;
 
 const START: i64 = 1 << 3; // DIN4: Start PosTable

@@ -6,7 +6,7 @@ mod nanotec_rig;
 
 use drive::bldc::{self, BldcData, DB42_HALL_SEQUENCE, DB57_HALL_SEQUENCE};
 use drive::drive::DriveSettings;
-use drive::personality::nanotec_units::{hall_mode, HALL_TYPE_1, HALL_TYPE_2};
+use drive::vendors::nanotec::units::{hall_mode, HALL_TYPE_1, HALL_TYPE_2};
 use nanotec_rig::Rig;
 use od::ObjectAccess;
 
@@ -264,7 +264,7 @@ fn drive_current_and_peak_current_limit_the_bldc() {
 /// 18.1; 1 ↔ 2 (the same BLDC) and a curve written after the type are kept.
 #[test]
 fn appendix_18_2_bldc_load_angles_follow_the_motor_type() {
-    use drive::personality::nanotec::{BLDC_LOAD_ANGLES, STEPPER_LOAD_ANGLES};
+    use drive::vendors::nanotec::{BLDC_LOAD_ANGLES, STEPPER_LOAD_ANGLES};
     let curve = |r: &Rig| -> Vec<i64> { (1..=7).map(|n| r.i(0x200C, n)).collect() };
     let mut r = Rig::with(DriveSettings {
         bldc: Some(BldcData::default()),
@@ -302,7 +302,7 @@ fn appendix_18_2_bldc_load_angles_follow_the_motor_type() {
 /// The long test run (6060h = −1) with a BLDC measures Appendix 18.2's curve.
 #[test]
 fn the_long_test_run_of_a_bldc_measures_the_bldc_curve() {
-    use drive::personality::nanotec::BLDC_LOAD_ANGLES;
+    use drive::vendors::nanotec::BLDC_LOAD_ANGLES;
     let mut r = bldc_rig(2, BldcData::default());
     // A curve of its own first: the test run overwrites it.
     r.d.write(0x200C, 2, &20000u16.to_le_bytes()).unwrap();

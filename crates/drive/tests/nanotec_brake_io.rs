@@ -91,7 +91,8 @@ fn output_mask_outside_16_to_18_is_discarded() {
 fn pd4n_has_no_brake() {
     let desc = &devices::NANOTEC_PD4N;
     let od = od::ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
-    let d = drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
+    let d: drive::drive::Drive<_, drive::vendors::nanotec::Nanotec> =
+        drive::drive::Drive::new(od, drive::drive::DriveSettings::default());
     assert!(!d.axis().motor().brake());
     let r = Rig::new();
     assert!(r.d.axis().motor().brake());

@@ -5,8 +5,8 @@
 
 mod nanotec_rig;
 
-use drive::personality::nanotec::STEPPER_LOAD_ANGLES;
 use drive::stepper::StepperMode;
+use drive::vendors::nanotec::STEPPER_LOAD_ANGLES;
 use nanotec_rig::Rig;
 
 fn run(r: &mut Rig, mode: i8, ms: u64) {

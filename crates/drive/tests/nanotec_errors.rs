@@ -5,7 +5,7 @@ mod nanotec_rig;
 
 use drive::device_control::State;
 use drive::drive::DriveEvent;
-use drive::personality::nanotec::{emcy, Reaction, REACTIONS};
+use drive::vendors::nanotec::{emcy, Reaction, REACTIONS};
 use nanotec_rig::Rig;
 
 /// Operation Enabled in PP, moving towards a far target.

@@ -5,8 +5,8 @@
 mod nanotec_rig;
 
 use drive::drive::DriveSettings;
-use drive::personality::nanotec::NANOTEC;
 use drive::travel::TravelSettings;
+use drive::vendors::nanotec::NANOTEC;
 use nanotec_rig::Rig;
 
 /// The home switch cam of the default travel starts at 40 000 increments.

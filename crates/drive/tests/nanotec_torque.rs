@@ -83,7 +83,7 @@ trait Writes {
     fn write_i16(&mut self, index: u16, v: i16);
 }
 
-impl Writes for drive::drive::Drive<Vec<u8>> {
+impl Writes for drive::drive::Drive<Vec<u8>, drive::vendors::nanotec::Nanotec> {
     fn write_u8(&mut self, index: u16, sub: u8, v: u8) {
         od::ObjectAccess::write(self, index, sub, &[v]).unwrap();
     }

@@ -3,11 +3,11 @@
 
 mod nanotec_rig;
 
-use drive::personality::nanotec::NANOTEC;
-use drive::personality::nanotec_units::{
+use drive::vendors::nanotec::units::{
     encoder_increments, hall_mode, load_angle_spacing_rpm, max_acceleration, max_velocity,
     step_angle_deg, torque_current_ma, HALL_TYPE_1, HALL_TYPE_2, STEP_MODES,
 };
+use drive::vendors::nanotec::NANOTEC;
 use nanotec_rig::Rig;
 use od::ObjectAccess;
 

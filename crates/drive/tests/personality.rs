@@ -2,21 +2,32 @@
 //! a CiA 402 drive, 6502h says the modes 6060h accepts, the option codes read as the
 //! personality has them, and every homing method fits 6098h.
 
-use drive::personality::{self, ALL};
+use drive::drive::DriveSettings;
+use drive::personality::Personality;
+use drive::vendors::AnyDrive;
 use od::{ObjectDictionary, Value};
+
+/// Every vendor's personality, by the vendor's name.
+const ALL: [(&str, &Personality); 3] = [
+    ("CMMP-AS", &drive::vendors::festo_cmmp_as::CMMP_AS),
+    ("Nanotec", &drive::vendors::nanotec::NANOTEC),
+    ("Kinco", &drive::vendors::kinco::KINCO),
+];
 
 #[test]
 fn tables_agree_with_the_device_files() {
-    for p in ALL {
-        assert!(
-            !p.devices.is_empty(),
-            "{:?} serves no device file",
-            p.vendor
-        );
+    for (vendor, p) in ALL {
+        assert!(!p.devices.is_empty(), "{vendor} serves no device file");
         for name in p.devices {
             let desc = devices::by_name(name).expect("a device file of this name");
             assert_eq!(desc.profile, od::Profile::Cia402, "{name}");
-            assert_eq!(personality::for_device(name).vendor, p.vendor, "{name}");
+            let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+            let any = AnyDrive::new(od, DriveSettings::default());
+            assert_eq!(
+                any.personality().devices,
+                p.devices,
+                "{name} runs as {vendor}"
+            );
             let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
             assert_eq!(
                 od.get_unsigned(0x6502, 0),
@@ -42,7 +53,7 @@ fn tables_agree_with_the_device_files() {
 /// The CMMP-AS reached over EtherCAT adds CSP (6502h bit 7), as before the split.
 #[test]
 fn cmmp_as_csp_over_ethercat_only() {
-    let p = &personality::cmmp_as::CMMP_AS;
+    let p = &drive::vendors::festo_cmmp_as::CMMP_AS;
     assert_eq!(p.supported_drive_modes(false), 0x6D);
     assert_eq!(p.supported_drive_modes(true), 0xED);
     assert!(!p.accepts_mode(8, false));

@@ -116,8 +116,18 @@ fn run_steps(r: &mut Rig, device: &str, steps: &[Step]) -> Result<(), TestCaseEr
                 r.d.sync(now);
             }
             Step::Inputs(levels) => r.d.force_inputs(0x7F, *levels),
-            Step::Analog(n, v) => r.d.set_analog_input(*n, *v),
-            Step::Pulses(f) => r.d.set_pulse_input(*f),
+            Step::Analog(n, v) => {
+                // The analog inputs are the Kinco's.
+                if let Some(k) = r.d.as_kinco_mut() {
+                    k.set_analog_input(*n, *v);
+                }
+            }
+            Step::Pulses(f) => {
+                // The pulse input is the Kinco's.
+                if let Some(k) = r.d.as_kinco_mut() {
+                    k.set_pulse_input(*f);
+                }
+            }
             Step::Run(ms) => r.run_ms(*ms),
         }
     }
@@ -192,7 +202,9 @@ proptest! {
             let _ = r.d.write(0x2010, sub, &[0, 0]);
         }
         r.d.force_inputs(0, 0);
-        r.d.set_pulse_input(0.0);
+        if let Some(k) = r.d.as_kinco_mut() {
+            k.set_pulse_input(0.0);
+        }
         let _ = r.d.write(0x6060, 0, &[3]);
         r.run_ms(20);
         enables_or_reports(&mut r, &[0x0000, 0x0080, 0x0000, 0x0006, 0x000F])?;

@@ -197,7 +197,7 @@ fn acknowledge(b: &mut Bench, number: &str) {
 /// cause is cleared).
 #[test]
 fn nanotec_every_section_7_1_code_over_the_bus() {
-    use drive::personality::nanotec::{Reaction as NtReaction, REACTIONS};
+    use drive::vendors::nanotec::{Reaction as NtReaction, REACTIONS};
     for device in ["nanotec-smci47s", "nanotec-pd4n"] {
         let all = devices::by_name(device).expect("device").diagnostics;
         // The §7.1 rows: 2020h selects their reaction ("configurable").
@@ -324,7 +324,7 @@ fn nanotec_every_section_7_2_code_over_the_bus() {
 /// LED code of ch. 8, each KINCO-DIAG vector named at its row ([`kinco_diag_vector`]).
 #[test]
 fn kinco_every_section_7_error_over_the_bus() {
-    use drive::personality::kinco::{ErrorWord, KincoError};
+    use drive::vendors::kinco::{ErrorWord, KincoError};
     // The CD3 has no fieldbus port (serial only): the same table, reached over RS232.
     let fd3 = devices::by_name("kinco-fd3").expect("device").diagnostics;
     assert_eq!(
@@ -356,12 +356,22 @@ fn kinco_every_section_7_error_over_the_bus() {
             // Store_Mask_ON / ON2 (2605h:02 / :05): the error history keeps it.
             let store = b.read(0x2605, if e.word == ErrorWord::State { 2 } else { 5 }) as u16;
             assert_eq!(
-                b.drive().error_history().last() == Some(e.emcy.unwrap_or(0)),
+                b.drive()
+                    .as_kinco()
+                    .expect("a Kinco")
+                    .error_history()
+                    .last()
+                    == Some(e.emcy.unwrap_or(0)),
                 store & (1 << e.bit) != 0,
                 "{device} {number} error history"
             );
             let (state, state2) = (b.read(0x2601, 0) as u16, b.read(0x2602, 0) as u16);
-            let led = b.drive().kinco_led().expect("an error on the panel");
+            let led = b
+                .drive()
+                .as_kinco()
+                .expect("a Kinco")
+                .kinco_led()
+                .expect("an error on the panel");
             let id = kinco_diag_vector(e.word, e.bit);
             match e.word {
                 ErrorWord::State => {
@@ -372,7 +382,7 @@ fn kinco_every_section_7_error_over_the_bus() {
                     assert_eq!((state, state2), (1, 1 << e.bit), "{device} {number}");
                     assert_eq!(&led, b"000.1", "{id} {device} {number} LED: extended error");
                     assert_eq!(
-                        drive::personality::kinco::led_code(e.bit).as_slice(),
+                        drive::vendors::kinco::led_code(e.bit).as_slice(),
                         row.display.as_bytes(),
                         "{id} {device} {number} d1.16"
                     );
@@ -386,8 +396,8 @@ fn kinco_every_section_7_error_over_the_bus() {
 
 /// The vector of spec/vectors.md §4.7 an Error_State / Error_State2 bit is the example of
 /// ("" for the bits without one).
-fn kinco_diag_vector(word: drive::personality::kinco::ErrorWord, bit: u8) -> &'static str {
-    use drive::personality::kinco::ErrorWord::{State, State2};
+fn kinco_diag_vector(word: drive::vendors::kinco::ErrorWord, bit: u8) -> &'static str {
+    use drive::vendors::kinco::ErrorWord::{State, State2};
     match (word, bit) {
         (State, 0) => "KINCO-DIAG-01",
         (State, 5) => "KINCO-DIAG-02",

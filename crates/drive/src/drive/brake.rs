@@ -3,36 +3,27 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
-    /// The personality's brake timing: CMMP-AS §5.16 one delay 6510h:18 (brake open at once,
-    /// the set-point after it; output stage off after it); Nanotec §5.8 2007h:01 power on →
-    /// brake off, :02 brake off → operational, :03 brake on → power off.
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
+    /// The personality's brake timing ([`personality::BrakeTiming`]): each delay the sum of
+    /// its objects in ms.
     pub(super) fn brake_delays(&self) -> BrakeDelays {
-        let ms = |i: u16, s: u8| Duration::from_millis(self.value(i, s).max(0) as u64);
-        match self.personality.vendor {
-            Vendor::CmmpAs => BrakeDelays {
-                release: Duration::ZERO,
-                motion: ms(0x6510, 0x18),
-                engage: ms(0x6510, 0x18),
-            },
-            Vendor::Nanotec => BrakeDelays {
-                release: ms(0x2007, 1),
-                motion: ms(0x2007, 1) + ms(0x2007, 2),
-                engage: ms(0x2007, 3),
-            },
-            // Kinco 6410h:12 Brake_Delay: "with a brake the drive keeps running until the
-            // brake is closed"; Decision: the set-point waits as long after the enable.
-            // Without a brake (6410h:17 bit 0 clear) nothing waits.
-            Vendor::Kinco if !self.settings.brake_fitted => BrakeDelays {
+        let timing = &self.personality.brake;
+        if timing.only_with_brake && !self.settings.brake_fitted {
+            return BrakeDelays {
                 release: Duration::ZERO,
                 motion: Duration::ZERO,
                 engage: Duration::ZERO,
-            },
-            Vendor::Kinco => BrakeDelays {
-                release: Duration::ZERO,
-                motion: ms(0x6410, 0x12),
-                engage: ms(0x6410, 0x12),
-            },
+            };
+        }
+        let ms = |objects: &[(u16, u8)]| {
+            objects.iter().fold(Duration::ZERO, |sum, (i, s)| {
+                sum + Duration::from_millis(self.value(*i, *s).max(0) as u64)
+            })
+        };
+        BrakeDelays {
+            release: ms(timing.release),
+            motion: ms(timing.motion),
+            engage: ms(timing.engage),
         }
     }
 

@@ -32,7 +32,7 @@ pub fn emcy_code(row: &Diagnostic) -> u16 {
     row.code.unwrap_or(messages::GENERIC_ERROR)
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The device's diagnostic table (`[[diagnostic]]` of its device file).
     pub fn diagnostic_table(&self) -> &'static [Diagnostic] {
         self.od.description().diagnostics
@@ -53,20 +53,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.injected.push(row).map_err(|_| DiagnosticError::Full)?;
         }
         let code = emcy_code(row);
-        let critical = row.reaction == od::Reaction::PsOff;
-        match self.personality.vendor {
-            Vendor::CmmpAs => {
-                let message = messages::message(row);
-                let r = self.cmmp_message_reaction(code, message, critical, 0);
-                self.report_error(code, row.register, r);
-            }
-            // Nanotec §7.2: a row with a fixed reaction (the §7.1 rows are "configurable").
-            Vendor::Nanotec if row.reaction != od::Reaction::Configurable => {
-                let r = crate::personality::nanotec::fixed_reaction(row.reaction);
-                self.report_error(code, row.register, r);
-            }
-            _ => self.raise(code, row.register, critical),
-        }
+        let r = V::message_reaction(self, row, true);
+        self.report_error(code, row.register, r);
         // Only an error blocks the fault reset; a warning or a log entry does not.
         if (self.faults.contains(&code) || self.notices.contains(&code))
             && !self.causes.contains(&code)
@@ -94,10 +82,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             .ok_or(DiagnosticError::NotRaised)?;
         self.injected.remove(at);
         let code = emcy_code(row);
+        // Only the error management by message numbers sets a warning.
         if let Some(m) = messages::message(row) {
-            if self.personality.vendor == Vendor::CmmpAs {
-                self.end_warning(m.number);
-            }
+            self.end_warning(m.number);
         }
         // Another raised message with the same code keeps the cause.
         if !self.injected.iter().any(|d| emcy_code(d) == code) {
@@ -138,7 +125,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             return true;
         }
         let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
-        self.personality.vendor == Vendor::CmmpAs
-            && warning.is_some_and(|n| messages::message(row).is_some_and(|m| m.number == n))
+        warning.is_some_and(|n| messages::message(row).is_some_and(|m| m.number == n))
     }
 }

@@ -3,7 +3,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Mechanical hard stops of the travel into the motor model.
     pub(super) fn place_hard_stops(&mut self) {
         let t = self.settings.travel;
@@ -47,7 +47,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
     /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
-    pub(super) fn input_levels(&self, position: i64) -> Levels {
+    pub(crate) fn input_levels(&self, position: i64) -> Levels {
         Levels::wired(
             self.settings.travel.inputs(position),
             self.settings.enables_present,
@@ -55,7 +55,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         .forced(self.forced_mask, self.forced_levels)
     }
 
-    pub(super) fn switch_config(&self) -> SwitchConfig {
+    pub(crate) fn switch_config(&self) -> SwitchConfig {
         if !self.personality.capabilities.switch_polarity_objects {
             // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
             // closed, 20/22 normally open); the simulated switches are read as they are.
@@ -74,10 +74,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
     /// then trips over, as on the real drive.
     pub(super) fn switch_inputs(&self, position: i64) -> Inputs {
-        if self.personality.vendor == Vendor::Kinco {
-            return self.kinco_switches(position);
-        }
-        self.switch_config().switches(self.input_levels(position))
+        V::switches(self, position)
     }
 
     /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`

@@ -3,7 +3,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Raises a fault from outside (fault injection, a test): EMCY, fault reaction (quick-stop
     /// ramp), FAULT.
     /// The cause stays until [`Drive::clear_fault`].
@@ -35,11 +35,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// [`Drive::raise`] with the message's additional information for the diagnostic
     /// memory.
     pub(crate) fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
-        let reaction = match self.personality.vendor {
-            Vendor::CmmpAs => self.cmmp_error_reaction(code, critical, info),
-            Vendor::Nanotec => self.nanotec_error_reaction(code, critical),
-            Vendor::Kinco => self.kinco_error_reaction(code),
-        };
+        let reaction = V::error_reaction(self, code, critical, info);
         self.report_error(code, register, reaction);
     }
 

@@ -23,7 +23,7 @@ fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
 /// The feed constant of the defaults (Nanotec §6: 2000 units = one output revolution).
 const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The factor group from 6091h and 6092h; the defaults where they break the rules.
     pub(crate) fn feed_constant_factor_group(&self) -> FactorGroup {
         let ratio = |index: u16, dflt: Ratio| {

@@ -5,12 +5,12 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
     /// aborts it (Tab. 7.2); halt aborts with homing_error (ch. 6). The search of
     /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
     /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
-    pub(super) fn homing(&mut self, cw: Controlword, dt: f64) {
+    pub(crate) fn homing(&mut self, cw: Controlword, dt: f64) {
         let bit4 = cw.contains(Controlword::HOMING_START);
         let idle = matches!(self.homing, HomingRun::Idle);
         if self.cw_rising.contains(Controlword::HOMING_START)
@@ -104,11 +104,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                                 self.homing_settle = Some(self.now + Duration::from_millis(ms));
                             }
                         }
-                        let to_zero = match self.personality.vendor {
-                            // Kinco 6099h:05 Home_Offset_Mode 0: to the offset point.
-                            Vendor::Kinco => self.value(0x6099, 0x05) == 0,
-                            _ => self.value(0x6510, 0xF0) & 0x0040 != 0,
-                        };
+                        let to_zero = V::homing_to_offset_point(self)
+                            || self.value(0x6510, 0xF0) & 0x0040 != 0;
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
                                 Then::ToZero
@@ -232,10 +229,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let home = self
             .value(0x607C, 0)
             .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        // Kinco §6.6 Home_Offset_Mode 6099h:05 = 0: "move to the offset point, the actual
-        // position is 0 there": the offset point lies Home_Offset beyond the home point, which
-        // then reads −Home_Offset; 1: the home point reads Home_Offset.
-        let home = if self.personality.vendor == Vendor::Kinco && self.value(0x6099, 0x05) == 0 {
+        // Homing to the offset point: the offset point lies the home offset beyond the home
+        // point, which then reads −607Ch; otherwise the home point reads 607Ch.
+        let home = if V::homing_to_offset_point(self) {
             home.saturating_neg()
         } else {
             home

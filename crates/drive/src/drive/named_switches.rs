@@ -15,7 +15,6 @@
 //! until it is released (`None`: back to the simulated travel).
 
 use super::Drive;
-use crate::personality::kinco::DinFunction;
 use crate::personality::Vendor;
 
 /// A switch of the axis, by its function.
@@ -74,25 +73,16 @@ pub struct SwitchInput {
     pub actuated_high: bool,
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The input carrying `switch` (`None`: no input has its function).
     pub fn switch_input(&self, switch: NamedSwitch) -> Option<SwitchInput> {
+        V::switch_input(self, switch)
+    }
+
+    /// The input carrying `switch` as the simulated wiring has it (DIN6 / DIN7 the limit
+    /// switches, DIN8 / DIN9 the home switch).
+    pub(crate) fn wired_switch_input(&self, switch: NamedSwitch) -> Option<SwitchInput> {
         use crate::digital_inputs::{DIN6, DIN7, DIN8, DIN9};
-        if self.personality.vendor == Vendor::Kinco {
-            let function = match switch {
-                NamedSwitch::LimitPositive => DinFunction::PositiveLimit,
-                NamedSwitch::LimitNegative => DinFunction::NegativeLimit,
-                NamedSwitch::Home => DinFunction::HomeSignal,
-            };
-            let n = self.kinco_din_with(function)?;
-            let normal_polarity = self.value(0x2010, 0x01) & (1 << n) != 0;
-            // Internal = Real XOR NOT Polarity: a limit is actuated at internal 0, home at 1.
-            let internal_actuated = switch == NamedSwitch::Home;
-            return Some(SwitchInput {
-                mask: 1 << n,
-                actuated_high: internal_actuated == normal_polarity,
-            });
-        }
         let c = self.switch_config();
         let (e0, e1) = if c.limits_swapped {
             (DIN7, DIN6)

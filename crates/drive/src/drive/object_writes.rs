@@ -1,22 +1,17 @@
 //! What a write to one of the drive's objects does beyond storing it, as a table of hooks
 //! (object and sub-index to a handler): the personality's own hooks first
 //! (`personality/*.rs`), then the CiA 402 ones here. An object without a hook is stored as it
-//! is ([`Drive::write_plain`]).
+//! is (`Drive::write_plain`).
 
 use super::*;
 
 /// A write handler: the drive, the object's index and sub-index, the value.
-pub(crate) type Hook<S> = fn(&mut Drive<S>, u16, u8, &[u8]) -> Result<(), AbortCode>;
+pub type Hook<S, V> = fn(&mut Drive<S, V>, u16, u8, &[u8]) -> Result<(), AbortCode>;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The objects whose writes do more than store a value, and their handlers.
-    fn write_hook(&self, index: u16, sub: u8) -> Hook<S> {
-        let vendor = match self.personality.vendor {
-            Vendor::CmmpAs => Self::cmmp_write_hook(index, sub),
-            Vendor::Nanotec => Self::nanotec_write_hook(index, sub),
-            Vendor::Kinco => Self::kinco_write_hook(index, sub),
-        };
-        vendor.unwrap_or(match (index, sub) {
+    fn write_hook(&self, index: u16, sub: u8) -> Hook<S, V> {
+        V::write_hook(index, sub).unwrap_or(match (index, sub) {
             (0x6040, 0x00) => Self::write_controlword,
             (0x6060, 0x00) => Self::write_mode,
             (0x6093 | 0x6094 | 0x6097, 0x01 | 0x02) => Self::write_factor,

@@ -105,7 +105,7 @@ impl StepperPlant {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The actual position as the drive reads it, internal increments (without the homing
     /// offset): the shaft through a possibly faulted encoder (`crate::encoder_fault`).
     #[inline]

@@ -3,20 +3,17 @@
 //! personality raises its manual's message for what it finds, as its manual names it, through
 //! the same path as every other message (reaction, EMCY, 1003h, display):
 //!
-//! | condition                    | CMMP-AS (App. B)      | Nanotec (§7.1)       | Kinco (§7)              |
-//! |------------------------------|-----------------------|----------------------|-------------------------|
-//! | motor within 5 K of its limit| 18-0 (warning)        | –                    | –                       |
-//! | motor above its limit        | 03-0                  | –                    | Error_State.13          |
-//! | power stage above its limit  | 04-0                  | 0002h Overtemperature| Error_State.4           |
-//! | encoder signal lost          | 08-0                  | –                    | Error_State.1           |
-//! | implausible encoder counts   | 08-0                  | –                    | Error_State.3 (CRC)     |
+//! | condition                                      | field of [`PlantSupervision::messages`](crate::personality::PlantSupervision::messages) |
+//! |------------------------------------------------|------------------------------------------|
+//! | motor within [`WARNING_MARGIN_K`] of its limit | 0                                        |
+//! | motor above its limit                          | 1                                        |
+//! | power stage above its limit                    | 2                                        |
+//! | encoder signal lost                            | 3                                        |
+//! | implausible encoder counts                     | 4                                        |
 //!
-//! Limits: the CMMP-AS's objects 6510h:2F max_motor_temperature (18-0 "more than 5° below
-//! T_max", App. B.3, read as within 5 K of it) and 6510h:32 max_power_stage_temperature
-//! (cmmp-as-1 §3.5: "above this: output stage off plus error"); it shows the temperatures in
-//! 6510h:2E and 6510h:31. The Kinco shows the drive's temperature in 60F7h:0B Temp_Device.
-//! Where a manual has no limit object the limit is CHOSEN ([`CHOSEN_MOTOR_LIMIT_C`],
-//! [`CHOSEN_STAGE_LIMIT_C`]).
+//! The personality names its messages, the objects holding the limits and those showing the
+//! temperatures ([`crate::personality::PlantSupervision`]). Where a manual has no limit object the limit is
+//! CHOSEN ([`CHOSEN_MOTOR_LIMIT_C`], [`CHOSEN_STAGE_LIMIT_C`]).
 //!
 //! A cause stays while its condition does and goes [`HYSTERESIS_K`] below the limit (CHOSEN,
 //! so a temperature at the limit does not chatter); an error then waits for the fault reset
@@ -31,15 +28,14 @@ use crate::messages;
 use crate::personality::Vendor;
 use crate::thermal::{self, Thermal};
 
-/// Decision (CHOSEN): the motor limit of a drive without a limit object, °C (the CMMP-AS's
-/// default of 6510h:2F).
+/// Decision (CHOSEN): the motor limit of a drive without a limit object, °C.
 pub const CHOSEN_MOTOR_LIMIT_C: f64 = 100.0;
 /// Decision (CHOSEN): the power-stage limit of a drive without a limit object, °C.
 pub const CHOSEN_STAGE_LIMIT_C: f64 = 90.0;
 /// Decision (CHOSEN): a cause goes this far below its limit, K.
 pub const HYSTERESIS_K: f64 = 2.0;
-/// CMMP-AS App. B.3 18-0: the warning "more than 5° below T_max" (read as: within 5 K).
-const CMMP_WARNING_MARGIN_K: f64 = 5.0;
+/// The motor warning comes this far below the motor's limit, K.
+pub const WARNING_MARGIN_K: f64 = 5.0;
 
 /// A condition the supervision watches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,41 +54,6 @@ const CONDITIONS: [Condition; 5] = [
     Condition::StageOver,
     Condition::EncoderLost,
     Condition::EncoderImplausible,
-];
-
-/// The message numbers one personality raises, in [`CONDITIONS`] order (`None`: its manual
-/// has no such message).
-struct Messages {
-    vendor: Vendor,
-    numbers: [Option<&'static str>; 5],
-}
-
-/// The table of the module doc.
-const MESSAGES: [Messages; 3] = [
-    Messages {
-        vendor: Vendor::CmmpAs,
-        numbers: [
-            Some("18-0"),
-            Some("03-0"),
-            Some("04-0"),
-            Some("08-0"),
-            Some("08-0"),
-        ],
-    },
-    Messages {
-        vendor: Vendor::Nanotec,
-        numbers: [None, None, Some("0002h"), None, None],
-    },
-    Messages {
-        vendor: Vendor::Kinco,
-        numbers: [
-            None,
-            Some("Error_State.13"),
-            Some("Error_State.4"),
-            Some("Error_State.1"),
-            Some("Error_State.3"),
-        ],
-    },
 ];
 
 /// The plant's temperatures and encoder, and what the supervision has raised from them.
@@ -133,7 +94,7 @@ impl PlantWatch {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The plant's temperatures and encoder.
     pub fn plant_watch(&self) -> &PlantWatch {
         &self.plant_watch
@@ -191,7 +152,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             };
             let present = match c {
-                Condition::MotorWarning => over(motor, motor_limit - CMMP_WARNING_MARGIN_K),
+                Condition::MotorWarning => over(motor, motor_limit - WARNING_MARGIN_K),
                 Condition::MotorOver => over(motor, motor_limit),
                 Condition::StageOver => over(stage, stage_limit),
                 Condition::EncoderLost => encoder.signal_lost(),
@@ -205,12 +166,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The motor's and the power stage's limit, °C.
     fn temperature_limits(&self) -> (f64, f64) {
-        match self.personality.vendor {
-            Vendor::CmmpAs => (
-                self.value(0x6510, 0x2F) as f64,
-                self.value(0x6510, 0x32) as f64,
-            ),
-            _ => (CHOSEN_MOTOR_LIMIT_C, CHOSEN_STAGE_LIMIT_C),
+        match self.personality.plant.limits {
+            Some([(mi, ms), (si, ss)]) => (self.value(mi, ms) as f64, self.value(si, ss) as f64),
+            None => (CHOSEN_MOTOR_LIMIT_C, CHOSEN_STAGE_LIMIT_C),
         }
     }
 
@@ -224,15 +182,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         }
         self.plant_watch.shown = Some(now);
         let (motor, stage) = now;
-        match self.personality.vendor {
-            Vendor::CmmpAs => {
-                let _ = self.od.set_value(0x6510, 0x2E, Value::Signed(motor.into()));
-                let _ = self.od.set_value(0x6510, 0x31, Value::Signed(stage.into()));
-            }
-            Vendor::Kinco => {
-                let _ = self.od.set_value(0x60F7, 0x0B, Value::Signed(stage.into()));
-            }
-            Vendor::Nanotec => {}
+        let plant = &self.personality.plant;
+        if let Some((i, sub)) = plant.motor_temperature {
+            let _ = self.od.set_value(i, sub, Value::Signed(motor.into()));
+        }
+        if let Some((i, sub)) = plant.stage_temperature {
+            let _ = self.od.set_value(i, sub, Value::Signed(stage.into()));
         }
     }
 
@@ -244,12 +199,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else {
             self.plant_watch.raised &= !bit;
         }
-        let vendor = self.personality.vendor;
-        let Some(number) = MESSAGES
-            .iter()
-            .find(|m| m.vendor == vendor)
-            .and_then(|m| m.numbers.get(c as usize).copied().flatten())
-        else {
+        let personality: &'static crate::personality::Personality = self.personality;
+        let messages = &personality.plant.messages;
+        let Some(number) = messages.get(c as usize).copied().flatten() else {
             return;
         };
         let Some(row) = self.od.description().diagnostic(number) else {
@@ -259,11 +211,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let shared = CONDITIONS.iter().any(|o| {
             *o != c
                 && self.plant_watch.raised & (1 << *o as u8) != 0
-                && MESSAGES
-                    .iter()
-                    .find(|m| m.vendor == vendor)
-                    .and_then(|m| m.numbers.get(*o as usize).copied().flatten())
-                    == Some(number)
+                && messages.get(*o as usize).copied().flatten() == Some(number)
         });
         if present {
             if !shared {
@@ -278,14 +226,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// an error stays a cause (it blocks the fault reset) until [`Drive::end_row`].
     pub(crate) fn raise_row(&mut self, row: &'static Diagnostic) {
         let code = emcy_code(row);
-        let critical = row.reaction == od::Reaction::PsOff;
-        match self.personality.vendor {
-            Vendor::CmmpAs => {
-                let r = self.cmmp_message_reaction(code, messages::message(row), critical, 0);
-                self.report_error(code, row.register, r);
-            }
-            _ => self.raise(code, row.register, critical),
-        }
+        let r = V::message_reaction(self, row, false);
+        self.report_error(code, row.register, r);
         if (self.faults.contains(&code) || self.notices.contains(&code))
             && !self.causes.contains(&code)
         {
@@ -303,10 +245,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if let Some(i) = self.causes.iter().position(|c| *c == code) {
             self.causes.remove(i);
         }
+        // Only the error management by message numbers sets a warning.
         if let Some(m) = messages::message(row) {
-            if self.personality.vendor == Vendor::CmmpAs {
-                self.end_warning(m.number);
-            }
+            self.end_warning(m.number);
         }
         self.clear_notice(code);
     }

@@ -3,7 +3,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// No mode that moves: the set-point brakes with 6084h and stands.
     pub(crate) fn hold(&mut self, dt: f64) {
         let decel = self.accel(0x6084);

@@ -3,7 +3,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The supply: the DC-link voltage in mV (`None`: the nominal 6510h:33). It shows in
     /// 6510h:34 and 6079h, limits the current controller's output voltage, and below
     /// 6510h:36 with 6510h:37 = 1 it is error 02-0.

@@ -2,7 +2,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     pub(super) fn profile_torque(&mut self, dt: f64) {
         let max = self.value(0x6072, 0).max(0) as f64;
         let mut target = (self.read(self.hot.target_torque) as f64).clamp(-max, max);

@@ -3,7 +3,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Moves the velocity set-point towards `target` (increments/s), along the ramp
     /// `(acceleration, deceleration)` where one is given, and makes it the cycle's demand. The
     /// position set-point follows the actual position at the set-point's speed, so a quick

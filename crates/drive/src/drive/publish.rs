@@ -20,7 +20,7 @@ use super::*;
 /// master polls every 100 ms.
 pub const VL_ACTUAL_FILTER_S: f64 = 0.020;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Writes the statusword and every actual value.
     pub(super) fn publish(&mut self) {
         let state = self.dc.state();
@@ -42,11 +42,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.over_threshold_since = None;
             self.speed_zero = true;
         }
-        let mut sw = match self.personality.vendor {
-            Vendor::CmmpAs => self.cmmp_state_bits(state, power, moving),
-            Vendor::Nanotec => self.nanotec_state_bits(state, power),
-            Vendor::Kinco => self.kinco_state_bits(state, power),
-        };
+        let mut sw = V::state_bits(self, state, power, moving);
         let in_oe = state == State::OperationEnabled;
         sw |= Statusword::TARGET_REACHED.when(self.target_reached && in_oe);
         sw |= Statusword::INTERNAL_LIMIT_ACTIVE
@@ -65,10 +61,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.fe_since = None;
             self.following_error = false;
         }
-        if self.personality.vendor == Vendor::Kinco {
-            self.kinco_supervise_following_error(fe);
-            self.kinco_publish(i64::from(self.fg.position_from_internal(fe)));
-        }
+        V::following_error(self, fe);
         // 6510h:22 > 0: hard limit, output stage off and error 17-0.
         let hard = self.value(0x6510, 0x22);
         if power
@@ -110,26 +103,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
             _ => Statusword::EMPTY,
         };
-        sw |= match self.personality.vendor {
-            Vendor::CmmpAs => self.cmmp_manufacturer_bits(),
-            Vendor::Nanotec => Statusword::EMPTY,
-            Vendor::Kinco => self.kinco_manufacturer_bits(),
-        };
+        sw |= V::manufacturer_bits(self);
         // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
         sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.plant_position();
-        let inputs = match self.personality.vendor {
-            Vendor::CmmpAs => self
-                .switch_config()
-                .digital_inputs(self.input_levels(position)),
-            Vendor::Nanotec => self.nanotec_digital_inputs(position),
-            Vendor::Kinco => {
-                self.kinco_publish_io();
-                0
-            }
-        };
+        let inputs = V::digital_inputs(self, position);
         self.store(self.hot.digital_inputs, i64::from(inputs));
         // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
@@ -143,10 +123,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         };
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
-        let internal = match self.personality.vendor {
-            _ if self.personality.capabilities.feed_constant => self.encoder_position(actual),
-            Vendor::Kinco => i64::from(self.fg.position_from_internal(actual)),
-            _ => actual,
+        let caps = &self.personality.capabilities;
+        let internal = if caps.feed_constant {
+            self.encoder_position(actual)
+        } else if caps.internal_position_in_user_units {
+            i64::from(self.fg.position_from_internal(actual))
+        } else {
+            actual
         };
         self.store(self.hot.position_internal, internal);
         let fg = self.fg;

@@ -129,16 +129,11 @@ impl fmt::Display for Refusal {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Why the drive does not (or did not) take `request` now; `None`: nothing the drive
     /// knows of stands in its way.
     pub fn refusal(&self, request: Request) -> Option<Refusal> {
-        let vendor = match self.personality.vendor {
-            Vendor::Kinco => self.kinco_refusal(request),
-            Vendor::Nanotec => self.nanotec_refusal(request),
-            Vendor::CmmpAs => self.cmmp_refusal(request),
-        };
-        vendor.or_else(|| self.engine_refusal(request))
+        V::refusal(self, request).or_else(|| self.engine_refusal(request))
     }
 
     /// What the engine itself checks: the hardware enables of transition 2, a fault cause,
@@ -149,12 +144,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 if let Some(&code) = self.causes.first() {
                     return Some(Refusal::CausePresent { code });
                 }
-                let enables = self.personality.vendor == Vendor::Kinco
-                    || self.input_levels(self.plant_position()).enables();
-                match self.personality.hardware_enable.as_ref() {
-                    Some(h) if !enables => Some(Refusal::HardwareEnable(h)),
-                    _ => None,
-                }
+                // A drive without hardware enables of its own has none to miss.
+                let h = self.personality.hardware_enable.as_ref()?;
+                let enables = self.input_levels(self.plant_position()).enables();
+                (!enables).then_some(Refusal::HardwareEnable(h))
             }
             Request::Mode(m) => (!self.personality.accepts_mode(m, self.settings.ethercat))
                 .then_some(Refusal::ModeUnsupported { mode: m }),

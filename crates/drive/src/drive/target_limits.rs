@@ -5,7 +5,7 @@
 
 use super::*;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
     /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
     /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;

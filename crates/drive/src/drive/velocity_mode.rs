@@ -19,7 +19,7 @@ use super::*;
 /// 607Eh bit 6: velocity polarity.
 const VELOCITY_POLARITY: u8 = 0x40;
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// 604Ch as (numerator, denominator); 1/1 where a part is 0 or missing.
     fn vl_dimension_factor(&self) -> (f64, f64) {
         let num = self.value(0x604C, 1);

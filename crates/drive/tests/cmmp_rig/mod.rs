@@ -11,10 +11,11 @@
 use std::time::Duration;
 
 use drive::drive::{Drive, DriveSettings};
+use drive::vendors::festo_cmmp_as::CmmpAs;
 use od::{Instant, ObjectAccess, ObjectDictionary, Value};
 
 pub struct Rig {
-    pub d: Drive<Vec<u8>>,
+    pub d: Drive<Vec<u8>, CmmpAs>,
     pub now: Instant,
 }
 

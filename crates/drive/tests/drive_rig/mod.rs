@@ -12,24 +12,67 @@
 use std::time::Duration;
 
 use drive::drive::{Drive, DriveEvent, DriveSettings};
+use drive::personality::Vendor;
+use drive::vendors::AnyDrive;
 use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary, Value};
 
-pub struct Rig {
-    pub d: Drive<Vec<u8>>,
+/// What the rig needs of its drive: a drive of one vendor, or any drive.
+pub trait RigDrive: ObjectAccess {
+    fn power_on(od: ObjectDictionary<Vec<u8>>, settings: DriveSettings) -> Self;
+    fn step_to(&mut self, now: Instant);
+    fn dictionary(&self) -> &ObjectDictionary<Vec<u8>>;
+    fn next_event(&mut self) -> Option<DriveEvent>;
+}
+
+impl<V: Vendor> RigDrive for Drive<Vec<u8>, V> {
+    fn power_on(od: ObjectDictionary<Vec<u8>>, settings: DriveSettings) -> Self {
+        Drive::new(od, settings)
+    }
+    fn step_to(&mut self, now: Instant) {
+        self.step(now);
+    }
+    fn dictionary(&self) -> &ObjectDictionary<Vec<u8>> {
+        self.od()
+    }
+    fn next_event(&mut self) -> Option<DriveEvent> {
+        self.take_event()
+    }
+}
+
+impl RigDrive for AnyDrive<Vec<u8>> {
+    fn power_on(od: ObjectDictionary<Vec<u8>>, settings: DriveSettings) -> Self {
+        AnyDrive::new(od, settings)
+    }
+    fn step_to(&mut self, now: Instant) {
+        self.step(now);
+    }
+    fn dictionary(&self) -> &ObjectDictionary<Vec<u8>> {
+        self.od()
+    }
+    fn next_event(&mut self) -> Option<DriveEvent> {
+        self.take_event()
+    }
+}
+
+/// The rig of any drive of the device files.
+pub type Rig = DeviceRig<AnyDrive<Vec<u8>>>;
+
+pub struct DeviceRig<D> {
+    pub d: D,
     pub now: Instant,
     /// The drive's CANopen node.
     pub node: canopen::Node,
 }
 
-impl Rig {
+impl<D: RigDrive> DeviceRig<D> {
     /// The drive of device file `name` as node `node`, with `settings`, one millisecond after
     /// power-on.
     pub fn device(name: &str, node: u8, settings: DriveSettings) -> Self {
         let desc = devices::by_name(name).expect("a device file of that name");
         let od =
             ObjectDictionary::new(desc, node, vec![0; desc.storage_size]).expect("the dictionary");
-        let mut r = Rig {
-            d: Drive::new(od, settings),
+        let mut r = DeviceRig {
+            d: D::power_on(od, settings),
             now: Instant::ZERO,
             node: canopen::Node::new(node, desc.cia301),
         };
@@ -41,7 +84,7 @@ impl Rig {
     /// Steps the drive to `ms` later (it runs every cycle up to then).
     pub fn run_ms(&mut self, ms: u64) {
         self.now = self.now + Duration::from_millis(ms);
-        self.d.step(self.now);
+        self.d.step_to(self.now);
     }
 
     /// One SDO request to the node (600h + node-ID), the bytes as a manual prints them (short
@@ -70,7 +113,7 @@ impl Rig {
     }
 
     pub fn sw(&self) -> u16 {
-        self.d.od().get_unsigned(0x6041, 0).unwrap() as u16
+        self.d.dictionary().get_unsigned(0x6041, 0).unwrap() as u16
     }
 
     /// A 32-bit write (`v` as its two's complement); it must be taken.
@@ -88,7 +131,7 @@ impl Rig {
 
     /// The value of `index`:`sub` as i64.
     pub fn i(&self, index: u16, sub: u8) -> i64 {
-        match self.d.od().value(index, sub).unwrap() {
+        match self.d.dictionary().value(index, sub).unwrap() {
             Value::Signed(s) => s,
             Value::Unsigned(u) => u as i64,
             v => panic!("{v:?}"),
@@ -97,7 +140,7 @@ impl Rig {
 
     /// Every event the drive has reported since the last call.
     pub fn events(&mut self) -> Vec<DriveEvent> {
-        std::iter::from_fn(|| self.d.take_event()).collect()
+        std::iter::from_fn(|| self.d.next_event()).collect()
     }
 
     /// Runs until the statusword has `mask` set, at most `ms`.

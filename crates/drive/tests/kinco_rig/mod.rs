@@ -5,8 +5,12 @@
 #[path = "../drive_rig/mod.rs"]
 mod drive_rig;
 
+use drive::drive::Drive;
 use drive::drive::DriveSettings;
-pub use drive_rig::Rig;
+use drive::vendors::kinco::Kinco;
+
+/// The rig of one Kinco drive.
+pub type Rig = drive_rig::DeviceRig<Drive<Vec<u8>, Kinco>>;
 
 /// Encoder increments per revolution of the twin's Kinco motor.
 pub const INC_PER_REV: i64 = 10_000;

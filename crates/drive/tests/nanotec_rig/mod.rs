@@ -5,8 +5,12 @@
 #[path = "../drive_rig/mod.rs"]
 mod drive_rig;
 
+use drive::drive::Drive;
 use drive::drive::DriveSettings;
-pub use drive_rig::Rig;
+use drive::vendors::nanotec::Nanotec;
+
+/// The rig of one Nanotec drive.
+pub type Rig = drive_rig::DeviceRig<Drive<Vec<u8>, Nanotec>>;
 
 impl Rig {
     /// The Nanotec drive with `settings`, one millisecond after power-on.

@@ -427,7 +427,7 @@ impl NanotecMotorType {
             bytes: vec![self.code()],
         }];
         if self != NanotecMotorType::Stepper {
-            let curve = drive::personality::nanotec::default_load_angles(self.code());
+            let curve = drive::vendors::nanotec::default_load_angles(self.code());
             v.extend((1u8..).zip(curve).map(|(sub, a)| Commissioning {
                 index: 0x200C,
                 sub,

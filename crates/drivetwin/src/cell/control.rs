@@ -49,7 +49,7 @@ pub enum DisplayState {
     /// The CMMO-ST 7-segment display.
     Fhpp(drive::fhpp::seven_segment::SevenSegment),
     /// The Kinco CD3 / FD3 LED panel (five digits, their points, the blink).
-    KincoPanel(drive::personality::kinco_panel::PanelDisplay),
+    KincoPanel(drive::vendors::kinco::panel::PanelDisplay),
 }
 
 /// The plant of one drive at one time of the cell's clock.
@@ -189,8 +189,8 @@ pub(crate) enum Command {
     /// The Kinco LED panel: a key going down or up (none: only read the display).
     Panel {
         drive: usize,
-        key: Option<(drive::personality::kinco_panel::PanelKey, bool)>,
-        reply: SyncSender<Result<drive::personality::kinco_panel::PanelDisplay, ControlError>>,
+        key: Option<(drive::vendors::kinco::panel::PanelKey, bool)>,
+        reply: SyncSender<Result<drive::vendors::kinco::panel::PanelDisplay, ControlError>>,
     },
     /// The drive's supply (DC-link) voltage: `None` is the nominal one.
     SetSupply {
@@ -418,7 +418,7 @@ impl ControlHandle {
     pub fn panel(
         &self,
         drive: usize,
-    ) -> Result<drive::personality::kinco_panel::PanelDisplay, ControlError> {
+    ) -> Result<drive::vendors::kinco::panel::PanelDisplay, ControlError> {
         self.ask(|reply| Command::Panel {
             drive,
             key: None,
@@ -431,9 +431,9 @@ impl ControlHandle {
     pub fn panel_key(
         &self,
         drive: usize,
-        key: drive::personality::kinco_panel::PanelKey,
+        key: drive::vendors::kinco::panel::PanelKey,
         pressed: bool,
-    ) -> Result<drive::personality::kinco_panel::PanelDisplay, ControlError> {
+    ) -> Result<drive::vendors::kinco::panel::PanelDisplay, ControlError> {
         self.ask(|reply| Command::Panel {
             drive,
             key: Some((key, pressed)),
@@ -526,7 +526,7 @@ pub struct PlantPhysics {
 
 /// Carries out `change` on a CiA 402 drive; `Err` names a switch no input has.
 pub fn apply_physics(
-    d: &mut drive::drive::Drive<Vec<u8>>,
+    d: &mut drive::vendors::AnyDrive<Vec<u8>>,
     change: PhysicsChange,
 ) -> Result<PlantPhysics, &'static str> {
     match change {

@@ -2,11 +2,12 @@
 //! bench) or a CiA 402 drive with its motor. The stack sees both through `ObjectAccess`.
 
 use drive::drive::{Drive, DriveEvent, DriveSettings};
+use drive::vendors::{AnyDrive, Cia402};
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary};
 
 pub enum Model {
     Plain(ObjectDictionary<Vec<u8>>),
-    Drive(Box<Drive<Vec<u8>>>),
+    Drive(Box<AnyDrive<Vec<u8>>>),
 }
 
 /// A CiA 402 drive (`profile = "cia402"` in its device file, checked against 1000h).
@@ -24,9 +25,11 @@ impl Model {
     pub fn new(od: ObjectDictionary<Vec<u8>>, settings: Option<DriveSettings>) -> Self {
         match settings {
             Some(s) if is_cia402(od.description()) => {
+                // A drive from its EDS runs the standard CiA 402 vendor with the personality
+                // read from its file; a device file's drive, the vendor its name chooses.
                 let drive = match crate::cell::eds_drive::personality_of(od.description()) {
-                    Some(p) => Drive::with_personality(od, s, p),
-                    None => Drive::new(od, s),
+                    Some(p) => AnyDrive::Cia402(Drive::with_vendor(od, s, p, Cia402)),
+                    None => AnyDrive::new(od, s),
                 };
                 Model::Drive(Box::new(drive))
             }
@@ -48,14 +51,14 @@ impl Model {
         }
     }
 
-    pub fn drive(&self) -> Option<&Drive<Vec<u8>>> {
+    pub fn drive(&self) -> Option<&AnyDrive<Vec<u8>>> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,
         }
     }
 
-    pub fn drive_mut(&mut self) -> Option<&mut Drive<Vec<u8>>> {
+    pub fn drive_mut(&mut self) -> Option<&mut AnyDrive<Vec<u8>>> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,

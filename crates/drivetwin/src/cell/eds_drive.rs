@@ -12,7 +12,8 @@ use std::sync::Mutex;
 use devdesc::eds::EdsError;
 use drive::drive::mode;
 use drive::homing::{Method, METHODS};
-use drive::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality};
+use drive::personality::{Capabilities, ModeSpec, Personality};
+use drive::vendors::cia402::{CIA402, CIA402_FEED_CONSTANT};
 use od::DeviceDescription;
 
 /// A file read, its description and the personality the engine runs it with.
@@ -91,11 +92,8 @@ const MODES: [(u8, i8, &[u16]); 7] = [
 /// The generic CiA 402 personality of `desc`: CiA 402's defaults where the engine asks a
 /// personality, the modes and homing methods from the file.
 ///
-/// Decision: the behaviour a table cannot hold is the engine's fallback for a device without a
-/// personality of its own ([`drive::personality::for_device`]), chosen on one line below:
-/// the CMMP-AS's path until the engine has a vendor of CiA 402's defaults. What that path
-/// adds beyond CiA 402 reads objects the file may lack (6510h, 2090h, 2045h), which then
-/// read as 0.
+/// The behaviour a table cannot hold is the standard CiA 402 vendor's
+/// ([`drive::vendors::Cia402`]): every hook at CiA 402's default.
 fn personality(desc: &'static DeviceDescription) -> Personality {
     let has = |index: u16| desc.object(index).is_some();
     // Without 6502h the objects alone say which modes there are.
@@ -134,65 +132,29 @@ fn personality(desc: &'static DeviceDescription) -> Personality {
         .copied()
         .filter(|(m, _)| listed.as_ref().is_none_or(|l| l.contains(&i64::from(*m))))
         .collect();
+    // The standard CiA 402 drive's personality, narrowed to what the file offers.
+    let base = if has(0x6092) {
+        &CIA402_FEED_CONSTANT
+    } else {
+        &CIA402
+    };
     Personality {
-        vendor: drive::personality::for_device(desc.name).vendor,
         devices: Box::leak(vec![desc.name].into_boxed_slice()),
         modes: Box::leak(modes.into_boxed_slice()),
-        // CiA 402 §6.3.4–6.3.8: the engine's defaults where the file's option codes say
-        // nothing else.
-        option_codes: &[],
-        // CiA 402 §6.1.1: "Switch on + enable operation" (0Fh) runs transitions 3 and 4.
-        enable_from_ready: true,
-        errors: &ERRORS,
-        stepper_plant: false,
-        pp_overwrite_queued: false,
         capabilities: Capabilities {
-            feed_constant: false,
-            pp_target_limits: false,
-            ip_follows_sync: false,
-            ip_changing_until_synchronised: false,
-            ip_abrupt_quick_stop: false,
-            homing_immediate: false,
             switch_polarity_objects: desc.entry(0x6510, 0x11).is_some(),
-            brake_in_60fe: false,
-            zero_ramp_is_abrupt: false,
-            vl_actual_closed_loop_only: false,
+            ..base.capabilities
         },
         homing_methods: Box::leak(homing_methods.into_boxed_slice()),
-        external_home_switch: None,
-        // No hardware enables: a drive from its EDS is enabled by its controlword alone.
-        hardware_enable: None,
+        ..*base
     }
 }
-
-/// The errors the engine detects, with the EMCY codes of CiA 402 §6.4 (Tab. 22) and the
-/// error register bits of CiA 301 §7.5.2.2. A condition CiA 402 gives no code (homing,
-/// limit switches, SYNC) is reported by the statusword alone.
-const ERRORS: [ErrorSpec; 3] = [
-    ErrorSpec {
-        fault: Fault::DcLinkUndervoltage,
-        code: 0x3220,
-        register: 0x04,
-        critical: false,
-    },
-    ErrorSpec {
-        fault: Fault::FollowingError,
-        code: 0x8611,
-        register: 0x20,
-        critical: true,
-    },
-    ErrorSpec {
-        fault: Fault::I2tMotor,
-        code: 0x2310,
-        register: 0x02,
-        critical: false,
-    },
-];
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use drive::drive::{Drive, DriveSettings};
+    use drive::vendors::Cia402;
     use od::{Instant, ObjectAccess, ObjectDictionary};
 
     fn data(name: &str) -> PathBuf {
@@ -239,16 +201,20 @@ mod tests {
             Some(0x4000_0185),
             "$NODEID+0x40000180"
         );
-        let mut d =
-            Drive::with_personality(od, DriveSettings::default(), personality_of(desc).unwrap());
+        let mut d = Drive::with_vendor(
+            od,
+            DriveSettings::default(),
+            personality_of(desc).unwrap(),
+            Cia402,
+        );
         let mut now = Instant::ZERO;
-        let mut run = |d: &mut Drive<Vec<u8>>, ms: u64| {
+        let mut run = |d: &mut Drive<Vec<u8>, Cia402>, ms: u64| {
             for _ in 0..ms {
                 now = now + core::time::Duration::from_millis(1);
                 d.step(now);
             }
         };
-        let sw = |d: &Drive<Vec<u8>>| d.od().get_unsigned(0x6041, 0).unwrap();
+        let sw = |d: &Drive<Vec<u8>, Cia402>| d.od().get_unsigned(0x6041, 0).unwrap();
         run(&mut d, 10);
         d.write(0x6060, 0, &[1]).unwrap();
         for cw in [0x06u16, 0x0F] {

@@ -164,9 +164,9 @@ impl CellLoop {
                         e => e,
                     });
                     let _ = reply.send(d.and_then(|d| {
-                        if !d.has_kinco_panel() {
+                        let Some(d) = d.as_kinco_mut() else {
                             return Err(ControlError::NoPanel(drive));
-                        }
+                        };
                         if let Some((key, pressed)) = key {
                             d.kinco_panel_key(key, pressed);
                         }
@@ -429,7 +429,7 @@ impl CellLoop {
     fn cia402_mut(
         &mut self,
         drive: usize,
-    ) -> Result<&mut ::drive::drive::Drive<Vec<u8>>, ControlError> {
+    ) -> Result<&mut ::drive::vendors::AnyDrive<Vec<u8>>, ControlError> {
         match self.target(drive)? {
             Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
             Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
@@ -466,10 +466,9 @@ impl CellLoop {
                         current_ma: axis.current_ma(),
                         digital_inputs: inputs,
                     },
-                    display: Some(if d.has_kinco_panel() {
-                        DisplayState::KincoPanel(d.kinco_panel())
-                    } else {
-                        DisplayState::Cia402(d.display())
+                    display: Some(match d.as_kinco() {
+                        Some(k) => DisplayState::KincoPanel(k.kinco_panel()),
+                        None => DisplayState::Cia402(d.display()),
                     }),
                 })
             }

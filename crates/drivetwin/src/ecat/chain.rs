@@ -79,7 +79,7 @@ const TX_ASSIGN: u16 = 0x1C13;
 /// Emergency code of a lost synchronisation. CMMP-AS B.3 63-4 "EtherCAT: no SYNC in IPO
 /// cycle" has no CiA code in Tab. B.2; decision: send 8781h, the manual's code for
 /// "fieldbus synchronisation error" (34-1), the one it gives for a lost SYNC.
-pub const SYNC_LOST_EMCY: u16 = drive::drive::diag::FIELDBUS_SYNC_ERROR;
+pub const SYNC_LOST_EMCY: u16 = drive::vendors::festo_cmmp_as::diag::FIELDBUS_SYNC_ERROR;
 /// Error register with it: generic + communication error (CiA 301 1001h bits 0 and 4).
 const SYNC_LOST_REGISTER: u8 = 0x11;
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.

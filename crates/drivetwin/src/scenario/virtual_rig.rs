@@ -265,7 +265,7 @@ impl VirtualRig {
     fn plant(
         &mut self,
         (b, i): (usize, usize),
-    ) -> Result<&mut drive::drive::Drive<Vec<u8>>, String> {
+    ) -> Result<&mut drive::vendors::AnyDrive<Vec<u8>>, String> {
         self.cell_mut(b)?
             .drives
             .get_mut(i)

@@ -1,7 +1,7 @@
 //! The Kinco CD3 / FD3 LED panel over REST (spec/kinco-fd-cd.md §5.12, §4.3): the five
 //! digits as text with their points and blink, and key presses (MODE / SET / ▲ / ▼) as the
 //! panel's own keys. A press goes to the drive's panel state machine
-//! (`drive::personality::kinco_panel`); what it changes is changed through the drive's object
+//! (`drive::vendors::kinco::panel`); what it changes is changed through the drive's object
 //! write, so CANopen, RS232 and Modbus see it at once.
 
 use axum::extract::rejection::JsonRejection;
@@ -9,7 +9,7 @@ use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use drive::personality::kinco_panel::{Blink, PanelDisplay, PanelKey};
+use drive::vendors::kinco::panel::{Blink, PanelDisplay, PanelKey};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 

@@ -146,7 +146,7 @@ impl CanBench {
         }
     }
 
-    pub fn drive(&mut self) -> &mut drive::drive::Drive<Vec<u8>> {
+    pub fn drive(&mut self) -> &mut drive::vendors::AnyDrive<Vec<u8>> {
         self.cell.drives[0]
             .model
             .drive_mut()

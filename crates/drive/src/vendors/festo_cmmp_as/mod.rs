@@ -1,3 +1,508 @@
-//! The Festo CMMP-AS servo drive.
+//! The Festo CMMP-AS (seeds 001/002, `spec/cmmp-as*.md`): its modes, option codes, homing
+//! methods (Tab. 7.1) and error numbers as tables, and as behaviour the error management
+//! 2100h (§5.18) with warnings and the diagnostic memory, the statusword's manufacturer bits
+//! (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15
+//! referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
+
+use od::{AbortCode, ObjectAccess, Value};
+
+use crate::controlword::Controlword;
+use crate::device_control::State;
+use crate::drive::diagnostics::emcy_code;
+use crate::drive::object_writes::Hook;
+use crate::drive::refusal::{Refusal, Request};
+use crate::drive::Drive;
+use crate::homing::{HomingError, METHODS};
+use crate::messages::{self, reaction};
+use crate::personality::{
+    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
+    OptionCode, Personality, PlantSupervision, Vendor,
+};
+use crate::statusword::Statusword;
+
+/// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
+pub mod diag {
+    /// 02-0 DC-link undervoltage (below 6510h:36 with 6510h:37 = 1).
+    pub const DC_LINK_UNDERVOLTAGE: u16 = 0x3220;
+    /// 17-0 following error: the hard limit 6510h:22 was exceeded.
+    pub const FOLLOWING_ERROR: u16 = 0x8611;
+    /// 31-0 I²t motor (with 6510h:38 = 1).
+    pub const I2T_MOTOR: u16 = 0x2312;
+    /// 34-0 no fieldbus synchronisation: IP mode activated off the SYNC grid.
+    pub const NO_FIELDBUS_SYNC: u16 = 0x8780;
+    /// 34-1 fieldbus synchronisation error: the SYNC grid lost while interpolating.
+    pub const FIELDBUS_SYNC_ERROR: u16 = 0x8781;
+    /// 43-0 limit switch: negative set-point blocked (the negative hardware limit switch).
+    pub const LIMIT_SWITCH_NEGATIVE: u16 = 0x8081;
+    /// 43-1 limit switch: positive set-point blocked.
+    pub const LIMIT_SWITCH_POSITIVE: u16 = 0x8082;
+}
+
+const fn mode(mode: i8, bit: u8, ethercat_only: bool) -> ModeSpec {
+    ModeSpec {
+        mode,
+        bit: Some(bit),
+        ethercat_only,
+    }
+}
+
+const fn fixed(index: u16, value: i16) -> OptionCode {
+    OptionCode {
+        index,
+        value,
+        fixed: true,
+    }
+}
+
+const fn error(fault: Fault, code: u16, register: u8, critical: bool) -> ErrorSpec {
+    ErrorSpec {
+        fault,
+        code,
+        register,
+        critical,
+    }
+}
+
+/// The CMMP-AS.
+pub const CMMP_AS: Personality = Personality {
+    devices: &["cmmp-as"],
+    // §7.1 6060h: 1, 3, 4, 6, 7 over CANopen; 8 CSP over EtherCAT only.
+    modes: &[
+        mode(1, 0, false),
+        mode(3, 2, false),
+        mode(4, 3, false),
+        mode(6, 5, false),
+        mode(7, 6, false),
+        mode(8, 7, true),
+    ],
+    // §6.1.6: every option code has one value only; the reactions are set per error in 2100h.
+    option_codes: &[
+        fixed(crate::personality::QUICK_STOP_OPTION, 2),
+        fixed(crate::personality::SHUTDOWN_OPTION, 0),
+        fixed(crate::personality::DISABLE_OPERATION_OPTION, -1),
+        fixed(crate::personality::FAULT_REACTION_OPTION, 0),
+    ],
+    // Tab. 6.2: 0Fh in READY TO SWITCH ON runs transitions 3 and 4.
+    enable_from_ready: true,
+    errors: &[
+        error(
+            Fault::DcLinkUndervoltage,
+            diag::DC_LINK_UNDERVOLTAGE,
+            0x04,
+            false,
+        ),
+        error(Fault::FollowingError, diag::FOLLOWING_ERROR, 0x01, true),
+        error(Fault::I2tMotor, diag::I2T_MOTOR, 0x02, false),
+        error(Fault::NoFieldbusSync, diag::NO_FIELDBUS_SYNC, 0x11, false),
+        error(
+            Fault::FieldbusSyncError,
+            diag::FIELDBUS_SYNC_ERROR,
+            0x11,
+            false,
+        ),
+        error(
+            Fault::LimitSwitchNegative,
+            diag::LIMIT_SWITCH_NEGATIVE,
+            0x01,
+            false,
+        ),
+        error(
+            Fault::LimitSwitchPositive,
+            diag::LIMIT_SWITCH_POSITIVE,
+            0x01,
+            false,
+        ),
+        // B.2 11-0 … 11-6: 8A80h … 8A86h.
+        error(Fault::Homing(HomingError::Start), 0x8A80, 0x01, false),
+        error(Fault::Homing(HomingError::Aborted), 0x8A81, 0x01, false),
+        error(Fault::Homing(HomingError::NoIndex), 0x8A82, 0x01, false),
+        error(Fault::Homing(HomingError::Timeout), 0x8A83, 0x01, false),
+        error(Fault::Homing(HomingError::LimitSwitch), 0x8A84, 0x01, false),
+        error(
+            Fault::Homing(HomingError::FollowingError),
+            0x8A85,
+            0x01,
+            false,
+        ),
+        error(
+            Fault::Homing(HomingError::SearchDistance),
+            0x8A86,
+            0x01,
+            false,
+        ),
+    ],
+    stepper_plant: false,
+    pp_overwrite_queued: false,
+    capabilities: Capabilities {
+        feed_constant: false,
+        pp_target_limits: false,
+        ip_follows_sync: false,
+        ip_changing_until_synchronised: true,
+        ip_abrupt_quick_stop: false,
+        homing_immediate: false,
+        switch_polarity_objects: true,
+        brake_in_60fe: true,
+        zero_ramp_is_abrupt: false,
+        vl_actual_closed_loop_only: false,
+        internal_position_in_user_units: false,
+    },
+    homing_methods: &METHODS,
+    external_home_switch: None,
+    hardware_enable: Some(HardwareEnable {
+        what: "DIN4 output-stage enable and DIN5 controller enable",
+        effect: "the drive stays in SWITCH ON DISABLED",
+        rule: "CMMP-AS §6.1.3 Tab. 6.4 transition 2: SWITCH ON DISABLED → READY TO SWITCH ON \
+            needs output-stage enable and controller enable present, plus Shutdown",
+    }),
+    // §5.16: one delay 6510h:18: the brake opens with the output stage, the set-point
+    // follows after the delay; the output stage goes off the delay after the brake closes.
+    brake: BrakeTiming {
+        release: &[],
+        motion: &[(0x6510, 0x18)],
+        engage: &[(0x6510, 0x18)],
+        only_with_brake: false,
+    },
+    // App. B.3: 18-0 (warning, "more than 5° below T_max", read as within 5 K), 03-0, 04-0,
+    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and
+    // 6510h:32 max_power_stage_temperature (cmmp-as-1 §3.5: "above this: output stage off
+    // plus error"), the temperatures shown in 6510h:2E and 6510h:31.
+    plant: PlantSupervision {
+        messages: [
+            Some("18-0"),
+            Some("03-0"),
+            Some("04-0"),
+            Some("08-0"),
+            Some("08-0"),
+        ],
+        limits: Some([(0x6510, 0x2F), (0x6510, 0x32)]),
+        motor_temperature: Some((0x6510, 0x2E)),
+        stage_temperature: Some((0x6510, 0x31)),
+    },
+};
+
+/// The CMMP-AS: its error management 2100h, statusword and write rules. It keeps no state of
+/// its own beside the engine's.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CmmpAs;
+
+impl Vendor for CmmpAs {
+    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        (&CMMP_AS, CmmpAs)
+    }
+
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.following_error_reaction();
+        d.cmmp_power_on();
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        Drive::<S, Self>::cmmp_write_hook(index, sub)
+    }
+
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        d.cmmp_refusal(request)
+    }
+
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        moving: bool,
+    ) -> Statusword {
+        d.cmmp_state_bits(state, power, moving)
+    }
+
+    fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) -> Statusword {
+        d.cmmp_manufacturer_bits()
+    }
+
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        code: u16,
+        critical: bool,
+        info: u32,
+    ) -> ErrorReaction {
+        d.cmmp_error_reaction(code, critical, info)
+    }
+
+    /// By its number, so two messages sharing a code keep their own reaction (17-0 and 27-0
+    /// are both 8611h).
+    fn message_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        row: &'static od::Diagnostic,
+        _by_number: bool,
+    ) -> ErrorReaction {
+        let critical = row.reaction == od::Reaction::PsOff;
+        d.numbered_message_reaction(emcy_code(row), messages::message(row), critical, 0)
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
+    /// At power-on and after a reload. §5.4 (CMMP-SDO-16): enable_logic is set to 2 ("DINs +
+    /// CAN") whenever CANopen is active, also after a reset.
+    pub(crate) fn cmmp_power_on(&mut self) {
+        let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+    }
+
+    /// The objects whose CMMP-AS rules do more than store a value.
+    pub(crate) fn cmmp_write_hook(index: u16, sub: u8) -> Option<Hook<S, CmmpAs>> {
+        Some(match (index, sub) {
+            (0x1011, _) => Self::write_restore_defaults,
+            (0x6510, 0xF0) => Self::write_compatibility,
+            (0x2100, 0x01) => Self::write_reaction_group,
+            (0x2100, 0x02) => Self::write_reaction,
+            (0x6510, 0x22) => Self::write_following_error_reaction,
+            (0x6083 | 0x6084, 0x00) => Self::write_profile_ramp,
+            (0x60C4, 0x06) => Self::write_buffer_clear,
+            (0x60C1, 0x01) => Self::write_ip_set_point,
+            (0x2030, 0x00) => Self::write_set_position_absolute,
+            (0x6098, 0x00) => Self::write_homing_method,
+            _ => return None,
+        })
+    }
+
+    /// Statusword bits 0–6, 8 and 9 (Tab. 6.6, 6.7). 6510h:F0 bit 7 is CiA 402 v2.0's
+    /// FAULT (0008h instead of 000Fh) and "high voltage applied" in bit 4.
+    pub(crate) fn cmmp_state_bits(&self, state: State, power: bool, moving: bool) -> Statusword {
+        let compat = self.value(0x6510, 0xF0) as u16;
+        let mut sw = Statusword(state.statusword_bits(compat & 0x0080 != 0));
+        // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
+        // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
+        sw |= Statusword::VOLTAGE_ENABLED.when(power || compat & 0x0080 != 0);
+        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
+        // manual's "within" as the translation slip it is).
+        sw |= Statusword::BIT_8.when(moving);
+        // Bit 9 remote: enable_logic 2 (DINs + CAN).
+        sw |= Statusword::REMOTE.when(self.value(0x6510, 0x10) == 2);
+        sw
+    }
+
+    /// Bits 14 and 15 and manufacturer_statusword_1 2000h:01. Bit 14: ((2000h:01 XOR
+    /// 200Ah:01) AND 2005h:01) ≠ 0 (CMMP-AS §6.1.4); bit 15 referenced.
+    pub(crate) fn cmmp_manufacturer_bits(&mut self) -> Statusword {
+        let state = self.dc.state();
+        let ready = self.faults.is_empty() && !state.power_enabled();
+        let msw = u32::from(self.referenced)
+            | 0x2 // commutation valid
+            | if ready { 0x4 } else { 0 }
+            | if self.setpoints.active.is_none() { 0x8 } else { 0 }
+            | if self.safe_standstill { 0x100 } else { 0 };
+        self.store(self.hot.manufacturer_status, i64::from(msw));
+        let invert = self.value(0x200A, 1) as u32;
+        let mask = self.value(0x2005, 1) as u32;
+        Statusword::MANUFACTURER_14.when(crate::device_control::manufacturer_bit_14(
+            msw, invert, mask,
+        )) | Statusword::MANUFACTURER_15.when(self.referenced)
+    }
+
+    /// A diagnostic message with the reaction 2100h sets for its main number (§5.18): none /
+    /// buffer entry change nothing, a warning shows in 200Fh, the display and statusword bit
+    /// 7, a stopping reaction reports the error (EMCY) and stops. A code missing from App. B
+    /// stops; `critical` ones switch the output stage off at once.
+    pub(crate) fn cmmp_error_reaction(
+        &mut self,
+        code: u16,
+        critical: bool,
+        info: u32,
+    ) -> ErrorReaction {
+        let message = self.message_of(code);
+        self.numbered_message_reaction(code, message, critical, info)
+    }
+
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
+    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    pub(crate) fn following_error_reaction(&mut self) {
+        let r = if self.value(0x6510, 0x22) > 0 {
+            reaction::OUTPUT_STAGE_OFF
+        } else {
+            reaction::NONE
+        };
+        let _ = self.reactions.set(17, r);
+        self.show_reaction();
+    }
+
+    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
+    fn show_reaction(&mut self) {
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        if let Some(r) = self.reactions.get(main) {
+            let _ = self.od.write_internal(0x2100, 2, &[r]);
+        }
+    }
+
+    /// 6510h:F0h: the compatibility settings.
+    fn write_compatibility(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // CMMP-AS §5.2 (CMMP-SDO-15): bits 0 and 2 (homing method scheme) mirror each other.
+        let v = match data {
+            [a, b] => u16::from_le_bytes([*a, *b]),
+            _ => return self.od.write(index, sub, data),
+        };
+        let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
+        self.od.write(index, sub, &v.to_le_bytes())
+    }
+
+    /// 2100h:01h: the error group whose reaction 2100h:02h shows.
+    fn write_reaction_group(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.show_reaction();
+        Ok(())
+    }
+
+    /// 2100h:02h: the reaction of the selected error group.
+    fn write_reaction(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // CMMP-AS §5.18: a reaction below the manufacturer's minimum is clamped to it.
+        self.od.entry(index, sub)?;
+        let code = match data {
+            [b] => *b,
+            _ => return self.od.write(index, sub, data),
+        };
+        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
+        self.reactions
+            .set(main, code)
+            .map_err(|_| AbortCode::INVALID_VALUE)?;
+        self.show_reaction();
+        Ok(())
+    }
+
+    /// 6510h:22h: the following-error reaction.
+    fn write_following_error_reaction(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.following_error_reaction();
+        self.params_dirty = true;
+        Ok(())
+    }
+
+    /// 1011h: restore defaults, not with the output stage on.
+    fn write_restore_defaults(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
+            self.od.entry(index, sub)?;
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.write_plain(index, sub, data)
+    }
+
+    /// The objects the CMMP-AS locks in some states (0800 0022h); the write hooks refuse by
+    /// these rules.
+    pub(crate) fn cmmp_refusal(&self, request: Request) -> Option<Refusal> {
+        let Request::Write { index, sub } = request else {
+            return None;
+        };
+        match (index, sub) {
+            // CMMP-AS §5.1 (CMMP-SDO-10): defaults only with the output stage off.
+            (0x1011, _) if self.dc.state().power_enabled() => Some(Refusal::State {
+                reason: "1011h restores the defaults only with the output stage off",
+                rule: "CMMP-AS §5.1 (L2364): default values are loaded only while the output \
+                    stage is switched off",
+            }),
+            (0x60C1, 0x01) if !self.ip.is_unlocked() => Some(Refusal::State {
+                reason: "60C1h is locked: 60C4h:06 buffer_clear = 1 unlocks it",
+                rule: "CMMP-AS §7.4.2 (L6233–6235): with buffer_clear 60C4h:06 = 0 the buffer \
+                    is cleared and access to 60C1h is not allowed",
+            }),
+            (0x6098, 0x00)
+                if self.mode == crate::drive::mode::HOMING
+                    && self.dc.state() == State::OperationEnabled
+                    && self.last_cw.contains(Controlword::HOMING_START) =>
+            {
+                Some(Refusal::State {
+                    reason: "homing is running: the method cannot change",
+                    rule: "CMMP-AS §7.2: 6098h is writable only while homing is not active",
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// 6083h / 6084h: the profile ramps, also the 2090h ramps.
+    fn write_profile_ramp(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        // CMMP-AS §7.6: 6083h/6084h and the 2090h ramps are the same values.
+        let (a, b) = if index == 0x6083 { (2, 4) } else { (3, 5) };
+        let _ = self.od.write_internal(0x2090, a, data);
+        let _ = self.od.write_internal(0x2090, b, data);
+        Ok(())
+    }
+
+    /// 60C4h:06h: buffer_clear of interpolated position.
+    fn write_buffer_clear(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // buffer_clear: 1 unlocks 60C1h, 0 clears the buffer and locks it (§7.4.2).
+        self.od.write(index, sub, data)?;
+        self.ip.set_unlocked(data.first() == Some(&1));
+        Ok(())
+    }
+
+    /// 60C1h:01h: an interpolated-position set-point.
+    fn write_ip_set_point(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // Decision: 60C1h written while locked (60C4h:06 = 0) is refused with the
+        // device-state abort; the manual says only "access is not allowed".
+        self.od.entry(index, sub)?;
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.od.write(index, sub, data)?;
+        let user = self
+            .value(0x60C1, 1)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let increments = self.fg.position_to_internal(user) as f64;
+        // 60C1h:02 = 1: a relative distance from the last set-point.
+        let target = if self.value(0x60C1, 2) == 1 {
+            self.ip.last_set_point() + increments
+        } else {
+            increments
+        };
+        self.ip.set_point(target);
+        Ok(())
+    }
+
+    /// 2030h: set_position_absolute.
+    fn write_set_position_absolute(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        // set_position_absolute: the actual position becomes this value, no motion.
+        self.od.write(index, sub, data)?;
+        let user = self
+            .value(0x2030, 0)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        self.position_offset = self.fg.position_to_internal(user) - self.plant_position();
+        self.resync_trajectory();
+        Ok(())
+    }
+
+    /// 6098h: the homing method.
+    fn write_homing_method(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if self.cmmp_refusal(Request::Write { index, sub }).is_some() {
+            // CMMP-AS 7.2: the method is writable only while homing is not active.
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        let m = match data {
+            [b] => *b as i8,
+            _ => return self.od.write(index, sub, data),
+        };
+        // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
+        // the printed range only and fails at the start (see `start_homing`).
+        // Beyond −27 … 35 the dictionary's range check answers.
+        let listed = m == 32 || self.personality.homing_method(m);
+        if !listed && (-27..=35).contains(&m) {
+            self.od.entry(index, sub)?;
+            return Err(AbortCode::INVALID_VALUE);
+        }
+        self.od.write(index, sub, data)
+    }
+}

@@ -28,8 +28,9 @@
 
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::{DinFunction, DIN_FUNCTIONS};
-use super::kinco_io::DINS;
+use super::hooks::Kinco;
+use super::io::DINS;
+use super::{DinFunction, DIN_FUNCTIONS};
 use crate::drive::{Drive, DriveEvent};
 
 /// The digits of EA06 from the right.
@@ -67,7 +68,7 @@ impl EasySettings {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// Store_Data 2FF0h:01 / Store_Motor_Data 2FF0h:03: 1 saves.
     pub(crate) fn kinco_write_store(
         &mut self,

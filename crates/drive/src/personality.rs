@@ -1,36 +1,148 @@
 //! A CiA 402 personality: what one vendor's drive is, as data the engine in
-//! [`crate::drive`] reads. The tables are the manuals' tables (modes, option codes, error
-//! numbers with their EMCY codes and error-register bits, homing methods); what a table
-//! cannot hold (the CMMP-AS's error management 2100h, Nanotec's statusword bits) is an
-//! `impl Drive` block in the vendor's module, chosen by [`Vendor`].
-//!
-//! Decision: the device file names its personality by its `name` ([`for_device`]); a CiA 402
-//! device file without a personality of its own runs as the CMMP-AS, as every CiA 402 drive
-//! did before the split.
+//! [`crate::drive`] reads, and the hooks it calls where a table cannot say it ([`Vendor`]).
+//! The tables are the manuals' tables (modes, option codes, error numbers with their EMCY
+//! codes and error-register bits, homing methods, brake delays, the plant's messages); each
+//! vendor's tables and hooks live in its folder under [`crate::vendors`].
 
-pub mod cmmp_as;
-pub mod kinco;
-pub(crate) mod kinco_analog;
-pub(crate) mod kinco_drive;
-pub mod kinco_easy;
-pub(crate) mod kinco_io;
-pub mod kinco_limits;
-pub mod kinco_loops;
-pub mod kinco_panel;
-pub(crate) mod kinco_pulse;
-pub mod kinco_table;
-pub mod kinco_tuning;
-pub mod nanotec;
-pub mod nanotec_units;
-
+use crate::control::ControlParams;
+use crate::controlword::Controlword;
+use crate::device_control::State;
+use crate::drive::diagnostics::emcy_code;
+use crate::drive::named_switches::{NamedSwitch, SwitchInput};
+use crate::drive::object_writes::Hook;
+use crate::drive::refusal::{Refusal, Request};
+use crate::drive::Drive;
+use crate::factor_group::FactorGroup;
 use crate::homing::{HomingError, Method};
+use crate::statusword::Statusword;
+use crate::travel::Inputs;
 
-/// Which vendor module holds the behaviour a table cannot say.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Vendor {
-    CmmpAs,
-    Nanotec,
-    Kinco,
+/// What one vendor's drive does where its manual departs from CiA 402: the engine calls these
+/// hooks at the points where the manuals differ, each with CiA 402's behaviour as its
+/// default. The vendor type is also the vendor's own state ([`Drive`]'s `vendor` field).
+/// Static dispatch: the engine is generic over its vendor.
+pub trait Vendor: Sized {
+    /// The personality of a drive over `desc` and the vendor's state at power-on.
+    fn for_device(desc: &'static od::DeviceDescription) -> (&'static Personality, Self);
+
+    /// At power-on and after a reload (the objects the drive sets itself).
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>) {}
+
+    /// Fixed units instead of the factor group 6093h / 6094h / 6097h; `None`: the factor
+    /// group objects (or the feed constant, [`Capabilities::feed_constant`]).
+    fn factor_group<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> Option<FactorGroup> {
+        None
+    }
+
+    /// The controller parameters as the drive's objects give them.
+    fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
+        crate::drive::control_params(d.od())
+    }
+
+    /// Each logic cycle before device control: inputs that own the controlword or the mode.
+    fn before_device_control<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>) {}
+
+    /// The hardware enables transition 2 needs are present (CiA 402 §6.3.1: the drive's own
+    /// condition for READY TO SWITCH ON).
+    fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.input_levels(d.plant_position()).enables()
+    }
+
+    /// Runs the mode of this cycle where the vendor's own rules drive it; `false`: the
+    /// engine's CiA 402 modes.
+    fn mode_step<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &mut Drive<S, Self>,
+        _cw: Controlword,
+        _dt: f64,
+    ) -> bool {
+        false
+    }
+
+    /// The vendor's handler of a write to `index:sub`; `None`: the engine's (CiA 402).
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(_index: u16, _sub: u8) -> Option<Hook<S, Self>> {
+        None
+    }
+
+    /// What the vendor refuses beyond the engine's rules.
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+        _request: Request,
+    ) -> Option<Refusal> {
+        None
+    }
+
+    /// Statusword bits 0–6, 8 and 9: CiA 402 §6.3.2 (bit 4 voltage enabled with the output
+    /// stage, bit 9 remote).
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        _moving: bool,
+    ) -> Statusword {
+        Statusword(state.statusword_bits(true))
+            | Statusword::VOLTAGE_ENABLED.when(power)
+            | Statusword::REMOTE
+    }
+
+    /// Statusword bits 14 and 15 (manufacturer specific) and what goes with them.
+    fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>) -> Statusword {
+        Statusword::EMPTY
+    }
+
+    /// After the following error is known each cycle (increments, actual − demand).
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>, _fe: i64) {}
+
+    /// 60FDh digital_inputs at `position` (CiA 402 §6.6.4: bit 0 negative limit, 1 positive
+    /// limit, 2 home).
+    fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
+        d.switch_config().digital_inputs(d.input_levels(position))
+    }
+
+    /// The limit and home switches as the drive reads them at `position`.
+    fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
+        d.switch_config().switches(d.input_levels(position))
+    }
+
+    /// The input carrying `switch` (`None`: no input has its function).
+    fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        switch: NamedSwitch,
+    ) -> Option<SwitchInput> {
+        d.wired_switch_input(switch)
+    }
+
+    /// What error `code` does (`critical`: switch the output stage off without a reaction
+    /// of its own); `info` the message's additional information. CiA 402 §6.3.1: the fault
+    /// reaction, the output stage off for a critical one.
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &mut Drive<S, Self>,
+        _code: u16,
+        critical: bool,
+        _info: u32,
+    ) -> ErrorReaction {
+        if critical {
+            ErrorReaction::OutputStageOff
+        } else {
+            ErrorReaction::QuickStop
+        }
+    }
+
+    /// What diagnostic message `row` does when raised (`by_number`: from outside by its
+    /// number, not by the drive's own supervision).
+    fn message_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        row: &'static od::Diagnostic,
+        _by_number: bool,
+    ) -> ErrorReaction {
+        let critical = row.reaction == od::Reaction::PsOff;
+        Self::error_reaction(d, emcy_code(row), critical, 0)
+    }
+
+    /// Homing ends at the offset point: the home point reads −607Ch and the drive travels to
+    /// where the position is 0.
+    fn homing_to_offset_point<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).
@@ -130,6 +242,41 @@ pub struct Capabilities {
     /// 6044h vl_velocity_actual_value shows a value in closed loop only, 0 in open loop
     /// (Nanotec §6.5: "Nur bei aktiviertem Closed Loop wird ein Wert ausgegeben").
     pub vl_actual_closed_loop_only: bool,
+    /// 6063h position_actual_value* is in the user's position units, as 6064h (a drive
+    /// with fixed units); otherwise in the engine's internal increments.
+    pub internal_position_in_user_units: bool,
+}
+
+/// The holding brake's delays, each the sum of its objects' values in ms (an empty list:
+/// none).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BrakeTiming {
+    /// Output stage on → brake open.
+    pub release: &'static [(u16, u8)],
+    /// Output stage on → the set-point released.
+    pub motion: &'static [(u16, u8)],
+    /// Brake closed → output stage off.
+    pub engage: &'static [(u16, u8)],
+    /// Without a holding brake fitted nothing waits.
+    pub only_with_brake: bool,
+}
+
+/// What the drive's own supervision of its plant raises and shows
+/// ([`crate::drive::plant_supervision`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlantSupervision {
+    /// The diagnostic messages (numbers as the device file prints them) for: the motor
+    /// within the warning margin of its limit, the motor above its limit, the power stage
+    /// above its limit, the encoder signal lost, implausible encoder counts; `None`: the
+    /// manual has no such message.
+    pub messages: [Option<&'static str>; 5],
+    /// The objects holding the motor's and the power stage's limits, °C; `None`: the CHOSEN
+    /// limits of [`crate::drive::plant_supervision`].
+    pub limits: Option<[(u16, u8); 2]>,
+    /// Where the drive shows the motor's temperature, °C.
+    pub motor_temperature: Option<(u16, u8)>,
+    /// Where the drive shows the power stage's temperature, °C.
+    pub stage_temperature: Option<(u16, u8)>,
 }
 
 /// A reference switch a master supplies through an object (an RPDO from an external I/O
@@ -146,7 +293,6 @@ pub struct ExternalHomeSwitch {
 /// A CiA 402 personality.
 #[derive(Debug)]
 pub struct Personality {
-    pub vendor: Vendor,
     /// The device files (`[device] name`) it serves.
     pub devices: &'static [&'static str],
     /// The modes 6060h accepts.
@@ -167,6 +313,8 @@ pub struct Personality {
     /// ([`crate::drive::DriveSettings::enables_present`]); `None`: the drive has none (its
     /// enables are input functions, [`crate::drive::refusal`]).
     pub hardware_enable: Option<HardwareEnable>,
+    pub brake: BrakeTiming,
+    pub plant: PlantSupervision,
 }
 
 /// The hardware enables of a drive, as its manual names them: what is missing while
@@ -213,17 +361,6 @@ impl Personality {
     pub fn homing_method(&self, method: i8) -> bool {
         self.homing_methods.iter().any(|(m, _)| *m == method)
     }
-}
-
-/// Every personality.
-pub const ALL: [&Personality; 3] = [&cmmp_as::CMMP_AS, &nanotec::NANOTEC, &kinco::KINCO];
-
-/// The personality of the device file `name` (see the module doc for the fallback).
-pub fn for_device(name: &str) -> &'static Personality {
-    ALL.iter()
-        .copied()
-        .find(|p| p.devices.contains(&name))
-        .unwrap_or(&cmmp_as::CMMP_AS)
 }
 
 /// What a reported error does to the drive, as the personality's error management decides.

@@ -21,7 +21,8 @@
 
 use core::time::Duration;
 
-use super::kinco::{selected_index, DinFunction};
+use super::hooks::Kinco;
+use super::{selected_index, DinFunction};
 use crate::drive::{Drive, RPM_PER_INCREMENT_S};
 use crate::trajectory::Limits;
 use od::Instant;
@@ -108,41 +109,41 @@ pub(crate) struct TableRun {
     pub(crate) cond1_rising: bool,
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The position table KincoServo's "Write table" would write.
     pub fn set_position_table(&mut self, table: PositionTable) {
-        self.kinco.table.table = table;
+        self.vendor.table.table = table;
     }
 
     /// The position table flow is running (the PosTable Active output).
     pub(crate) fn kinco_table_active(&self) -> bool {
-        self.kinco.table.flow != Flow::Idle
+        self.vendor.table.flow != Flow::Idle
     }
 
     /// Ends the flow at once (an error, another mode, the enable gone).
     pub(crate) fn kinco_table_abort(&mut self) {
-        self.kinco.table.flow = Flow::Idle;
-        self.kinco.table.queued = None;
+        self.vendor.table.flow = Flow::Idle;
+        self.vendor.table.queued = None;
     }
 
     fn start_task(&mut self, i: usize) {
-        let Some(task) = self.kinco.table.table.tasks.get(i).copied() else {
+        let Some(task) = self.vendor.table.table.tasks.get(i).copied() else {
             self.kinco_table_abort();
             return;
         };
-        let run = &mut self.kinco.table;
+        let run = &mut self.vendor.table;
         if let Some(c) = run.counts.get_mut(i) {
             *c = c.saturating_add(1);
         }
         run.cond1_edge = false;
         let offset = self.fg.position_to_internal(task.position) as f64;
         let target = match (task.ctl >> 12) & 0x3 {
-            1 => self.kinco.table.last_target + offset,
+            1 => self.vendor.table.last_target + offset,
             2 => self.actual_internal() as f64 + offset,
             _ => offset,
         };
-        self.kinco.table.last_target = target;
-        self.kinco.table.flow = Flow::Running(i);
+        self.vendor.table.last_target = target;
+        self.vendor.table.flow = Flow::Running(i);
         let e = self.od.description().entry(0x3044, 0);
         self.store(e, i as i64);
     }
@@ -151,7 +152,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let cond0 = task.ctl & 0x0200 != 0;
         let cond1 = task.ctl & 0x0400 != 0;
         let c0 = self.kinco_din_active(DinFunction::PosTableCond0);
-        let c1 = self.kinco.table.cond1_edge;
+        let c1 = self.vendor.table.cond1_edge;
         match (cond0, cond1) {
             (false, false) => true,
             (true, false) => c0,
@@ -163,7 +164,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The loop check before task `next` follows task `i`.
     fn loops_allow(&self, i: usize, next: usize) -> bool {
-        let run = &self.kinco.table;
+        let run = &self.vendor.table;
         let done = |k: usize| {
             let loops = run.table.tasks.get(k).map_or(0, |t| t.loops);
             loops != 0 && run.counts.get(k).copied().unwrap_or(0) >= loops
@@ -174,16 +175,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// One cycle of the table in mode 1; `false` while no flow runs (the mode is plain
     /// profile position then).
     pub(crate) fn kinco_table_cycle(&mut self, dt: f64) -> bool {
-        let run = &mut self.kinco.table;
+        let run = &mut self.vendor.table;
         let (start, abort, cond1) = (run.start_edge, run.abort_edge, run.cond1_rising);
         run.start_edge = false;
         run.abort_edge = false;
         run.cond1_rising = false;
         if cond1 {
-            self.kinco.table.cond1_edge = true;
+            self.vendor.table.cond1_edge = true;
         }
         if abort && self.kinco_table_active() {
-            self.kinco.table.abort_after = true;
+            self.vendor.table.abort_after = true;
         }
         if start {
             let bits = [
@@ -196,34 +197,34 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .then(|| self.kinco_din_active(f))
             });
             let i = usize::from(selected_index(&bits));
-            match self.kinco.table.flow {
+            match self.vendor.table.flow {
                 Flow::Running(_) => {
                     let cond = self
-                        .kinco
+                        .vendor
                         .table
                         .table
                         .tasks
                         .get(i)
                         .map_or(0, Task::start_condition);
                     match cond {
-                        1 => self.kinco.table.queued = Some(i),
+                        1 => self.vendor.table.queued = Some(i),
                         2 => self.start_task(i),
                         _ => {}
                     }
                 }
                 _ => {
-                    self.kinco.table.counts = [0; TASKS];
-                    self.kinco.table.abort_after = false;
-                    self.kinco.table.last_target = self.traj.position;
+                    self.vendor.table.counts = [0; TASKS];
+                    self.vendor.table.abort_after = false;
+                    self.vendor.table.last_target = self.traj.position;
                     self.start_task(i);
                 }
             }
         }
-        match self.kinco.table.flow {
+        match self.vendor.table.flow {
             Flow::Idle => return false,
             Flow::Running(i) => {
                 let task = self
-                    .kinco
+                    .vendor
                     .table
                     .table
                     .tasks
@@ -232,7 +233,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .unwrap_or_default();
                 let acc = |k: u8| {
                     let rps2 = self
-                        .kinco
+                        .vendor
                         .table
                         .table
                         .accelerations
@@ -246,7 +247,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     acceleration: acc(task.acc),
                     deceleration: acc(task.dec),
                 };
-                let target = self.kinco.table.last_target;
+                let target = self.vendor.table.last_target;
                 let done = self.traj.step_to(target, 0.0, lim, dt);
                 let v = self.traj.velocity;
                 self.position_demand(v);
@@ -265,24 +266,24 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
         }
-        self.target_reached = !matches!(self.kinco.table.flow, Flow::Running(_));
+        self.target_reached = !matches!(self.vendor.table.flow, Flow::Running(_));
         true
     }
 
     fn task_finished(&mut self, i: usize) {
         let task = self
-            .kinco
+            .vendor
             .table
             .table
             .tasks
             .get(i)
             .copied()
             .unwrap_or_default();
-        if let Some(q) = self.kinco.table.queued.take() {
+        if let Some(q) = self.vendor.table.queued.take() {
             self.start_task(q);
             return;
         }
-        if self.kinco.table.abort_after || !task.goes_on() {
+        if self.vendor.table.abort_after || !task.goes_on() {
             self.kinco_table_abort();
             return;
         }
@@ -291,7 +292,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.kinco_table_abort();
             return;
         }
-        self.kinco.table.flow = if self.condition_holds(&task) {
+        self.vendor.table.flow = if self.condition_holds(&task) {
             let delay = Duration::from_millis(u64::from(task.delay_ms));
             Flow::Delay(next, self.now + delay)
         } else {

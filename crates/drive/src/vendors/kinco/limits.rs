@@ -20,6 +20,7 @@
 //! - jog (F006) ignores the limits as it ignores the limit switches ("independent of other
 //!   settings").
 
+use super::hooks::Kinco;
 use crate::drive::Drive;
 
 /// Positive limit, Error_State2 bit 9.
@@ -45,7 +46,7 @@ pub fn beyond(position: i64, min: i64, max: i64) -> (bool, bool) {
     (position < min, position > max)
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The limits at Pos_Actual 6063h now: (below, above); none before homing.
     fn kinco_position_beyond(&self) -> (bool, bool) {
         if !self.referenced {
@@ -61,8 +62,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// One logic cycle: a crossing raises its error where Limit_Function is 0.
     pub(crate) fn kinco_position_limits_cycle(&mut self) {
         let (below, above) = self.kinco_position_beyond();
-        let before = self.kinco.limits;
-        self.kinco.limits = LimitState { below, above };
+        let before = self.vendor.limits;
+        self.vendor.limits = LimitState { below, above };
         if self.value(0x2010, 0x19) != 0 {
             return;
         }
@@ -71,14 +72,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (below, before.below, NEGATIVE_LIMIT),
         ] {
             if now && !was && !self.faults.contains(&code) {
-                self.raise(code, super::kinco::error_register(code), true);
+                self.raise(code, super::error_register(code), true);
             }
         }
     }
 
     /// The directions the position limits block (negative, positive).
     pub(crate) fn kinco_position_limits_blocking(&self) -> (bool, bool) {
-        (self.kinco.limits.below, self.kinco.limits.above)
+        (self.vendor.limits.below, self.vendor.limits.above)
     }
 }
 

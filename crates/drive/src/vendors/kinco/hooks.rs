@@ -1,5 +1,5 @@
 //! The Kinco CD3 / FD3 in the CiA 402 engine (seeds/001_da459f46c7138f7b.txt, extract
-//! spec/kinco-fd-cd.md): what [`KINCO`](super::kinco::KINCO)'s tables cannot say. The motor
+//! spec/kinco-fd-cd.md): what [`KINCO`](super::KINCO)'s tables cannot say. The motor
 //! of the motor-data objects 6410h, the units, the statusword, the error words Error_State /
 //! Error_State2 with their masks and the following-error limit, the object rules (6065h from
 //! 2FF0h:0E, the DIN-owned controlword and mode) and the velocity and torque modes −3, 3, 4.
@@ -16,19 +16,21 @@
 
 use od::{AbortCode, ObjectAccess};
 
-use super::kinco::{self, DinFunction, ErrorWord};
-use super::ErrorReaction;
+use super::{DinFunction, ErrorWord};
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
-use crate::drive::refusal::Request;
-use crate::drive::{Drive, RPM_PER_INCREMENT_S};
+use crate::drive::refusal::{Refusal, Request};
+use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::factor_group::{FactorGroup, Ratio};
 use crate::motor::MotorData;
+use crate::personality::{ErrorReaction, Personality, Vendor};
 use crate::statusword::Statusword;
 use crate::trajectory::Trajectory;
+use crate::travel::Inputs;
 
 /// The factor group of the units above (see the module doc).
 pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
@@ -38,29 +40,160 @@ pub(crate) const FACTOR_GROUP: FactorGroup = FactorGroup {
     polarity: 0,
 };
 
-/// What only a Kinco keeps beside the CiA 402 engine's state.
+/// The Kinco: what it keeps beside the CiA 402 engine's state.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct KincoState {
+pub struct Kinco {
     /// The inputs at the last cycle (their edges), the Start Homing return, Kvi Off.
-    pub(crate) din: super::kinco_io::DinMemory,
+    pub(crate) din: super::io::DinMemory,
     /// The simulated pulse input of mode −4.
-    pub(crate) pulse: super::kinco_pulse::PulseInput,
+    pub(crate) pulse: super::pulse::PulseInput,
     /// The error history (the last 8 errors).
     pub(crate) history: heapless::Deque<u16, 8>,
     /// The position table and its flow.
-    pub(crate) table: super::kinco_table::TableRun,
+    pub(crate) table: super::table::TableRun,
     /// The simulated analog inputs.
-    pub(crate) analog: super::kinco_analog::AnalogInputs,
+    pub(crate) analog: super::analog::AnalogInputs,
     /// An auto-tuning run.
-    pub(crate) tuning: super::kinco_tuning::TuningRun,
+    pub(crate) tuning: super::tuning::TuningRun,
     /// Jog (F006): the direction and the mode to return to.
     pub(crate) jog: Option<(i8, i8)>,
     /// Warning_Word 2680h as injected.
     pub(crate) warnings: u16,
     /// The LED panel (kinco_panel.rs).
-    pub(crate) panel: super::kinco_panel::Panel,
+    pub(crate) panel: super::panel::Panel,
     /// The position limits after homing (kinco_limits.rs).
-    pub(crate) limits: super::kinco_limits::LimitState,
+    pub(crate) limits: super::limits::LimitState,
+}
+
+impl Vendor for Kinco {
+    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        (&super::KINCO, Kinco::default())
+    }
+
+    fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.kinco_power_on();
+        d.kinco_panel_power_on();
+    }
+
+    /// Fixed units (the module doc), 607Eh the direction.
+    fn factor_group<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> Option<FactorGroup> {
+        let mut fg = FACTOR_GROUP;
+        let invert = d.od().get_unsigned(0x607E, 0).unwrap_or(0) != 0;
+        fg.polarity = if invert { 0xC0 } else { 0 };
+        Some(fg)
+    }
+
+    fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
+        d.kinco_control_params()
+    }
+
+    /// The DIN functions own the controlword and the mode (L1287); the panel runs.
+    fn before_device_control<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
+        d.kinco_din_cycle();
+        d.kinco_panel_cycle();
+    }
+
+    fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.kinco_pre_enable()
+    }
+
+    /// The Kinco's own modes (−3, −4, its PP, PV and torque) and the tuning run.
+    fn mode_step<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        cw: Controlword,
+        dt: f64,
+    ) -> bool {
+        if d.kinco_tuning_active() {
+            d.kinco_tuning_step();
+            return true;
+        }
+        match d.mode {
+            mode::PROFILE_POSITION => d.kinco_profile_position(cw, dt),
+            mode::PROFILE_VELOCITY => d.kinco_velocity(true, dt),
+            -3 => d.kinco_velocity(false, dt),
+            -4 => d.kinco_pulse_mode(dt),
+            mode::PROFILE_TORQUE => d.kinco_torque(dt),
+            mode::HOMING => d.homing(cw, dt),
+            _ => d.hold(dt),
+        }
+        d.kinco_velocity_feed_forward();
+        true
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        Drive::<S, Self>::kinco_write_hook(index, sub)
+    }
+
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        d.kinco_refusal(request)
+    }
+
+    fn state_bits<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        state: State,
+        power: bool,
+        _moving: bool,
+    ) -> Statusword {
+        d.kinco_state_bits(state, power)
+    }
+
+    fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) -> Statusword {
+        d.kinco_manufacturer_bits()
+    }
+
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, fe: i64) {
+        d.kinco_supervise_following_error(fe);
+        let user = i64::from(d.factor_group().position_from_internal(fe));
+        d.kinco_publish(user);
+    }
+
+    /// 60FDh stays 0: the inputs show in the Kinco's own objects.
+    fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, _position: i64) -> u32 {
+        d.kinco_publish_io();
+        0
+    }
+
+    fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
+        d.kinco_switches(position)
+    }
+
+    /// The DIN with the switch's function, its polarity from 2010h:01.
+    fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        switch: NamedSwitch,
+    ) -> Option<SwitchInput> {
+        let function = match switch {
+            NamedSwitch::LimitPositive => DinFunction::PositiveLimit,
+            NamedSwitch::LimitNegative => DinFunction::NegativeLimit,
+            NamedSwitch::Home => DinFunction::HomeSignal,
+        };
+        let n = d.kinco_din_with(function)?;
+        let normal_polarity = d.value(0x2010, 0x01) & (1 << n) != 0;
+        // Internal = Real XOR NOT Polarity: a limit is actuated at internal 0, home at 1.
+        let internal_actuated = switch == NamedSwitch::Home;
+        Some(SwitchInput {
+            mask: 1 << n,
+            actuated_high: internal_actuated == normal_polarity,
+        })
+    }
+
+    fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        code: u16,
+        _critical: bool,
+        _info: u32,
+    ) -> ErrorReaction {
+        d.kinco_error_reaction(code)
+    }
+
+    /// §6.6 Home_Offset_Mode 6099h:05 = 0: "move to the offset point, the actual position is
+    /// 0 there"; 1: the home point reads Home_Offset.
+    fn homing_to_offset_point<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.value(0x6099, 0x05) == 0
+    }
 }
 
 /// Encoder increments per revolution of the twin's Kinco motor (module doc).
@@ -78,7 +211,7 @@ const STATE_BITS: [(State, u16); 8] = [
     (State::Fault, 0x0008),
 ];
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// At power-on (and after a reload): Max_Following_Error 6065h = 100 × 2FF0h:0E
     /// (§6 item 3), a holding brake where Addition_Device 6410h:17 bit 0 says the motor has
     /// one; at power-on the motor of the motor-data objects 6410h.
@@ -136,19 +269,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             peak_current_ma: peak_ma,
             max_motor_speed_rpm: self.value(0x6080, 0).clamp(1, 32768) as u32,
             // The analog max torque (kinco_analog.rs) in the velocity and position loops.
-            limit_current_ma: self.kinco.analog.max_current_ma,
+            limit_current_ma: self.vendor.analog.max_current_ma,
             ..d
         };
         self.kinco_loop_params(base)
     }
 
     fn kinco_set_following_error_limit(&mut self) {
-        let limit = kinco::max_following_error(self.value(0x2FF0, 0x0E).clamp(0, 0xFFFF) as u16);
+        let limit = super::max_following_error(self.value(0x2FF0, 0x0E).clamp(0, 0xFFFF) as u16);
         let _ = self.od.write_internal(0x6065, 0, &limit.to_le_bytes());
     }
 
     /// The objects whose Kinco rules do more than store a value.
-    pub(crate) fn kinco_write_hook(index: u16, sub: u8) -> Option<Hook<S>> {
+    pub(crate) fn kinco_write_hook(index: u16, sub: u8) -> Option<Hook<S, Kinco>> {
         Some(match (index, sub) {
             (0x6040, 0x00) => Self::kinco_write_controlword,
             (0x6060, 0x00) => Self::kinco_write_mode,
@@ -220,7 +353,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     /// Statusword (§4.1: CiA 402's; bit 15 "reference found" of the sibling FD manuals,
-    /// [`kinco::HOME_FOUND`]): bit 4 voltage enabled while the output stage is on. Decision:
+    /// [`super::HOME_FOUND`]): bit 4 voltage enabled while the output stage is on. Decision:
     /// bit 9 remote stays 0 (the manual names no remote condition).
     pub(crate) fn kinco_state_bits(&self, state: State, power: bool) -> Statusword {
         let bits = STATE_BITS
@@ -233,7 +366,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Bit 15: the reference is found; bit 7 (CiA 402 warning) while Warning_Word 2680h is
     /// not 0.
     pub(crate) fn kinco_manufacturer_bits(&self) -> Statusword {
-        kinco::HOME_FOUND.when(self.referenced) | Statusword::WARNING.when(self.kinco.warnings != 0)
+        super::HOME_FOUND.when(self.referenced)
+            | Statusword::WARNING.when(self.vendor.warnings != 0)
     }
 
     /// Warning_Word 2680h (§7: bit 0 battery low, bit 1 mixed warning, bit 2 encoder busy)
@@ -241,9 +375,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// (8002h) and statusword bit 7 show it. Decision: the twin's encoder has no battery, so
     /// the warnings are injected only; bit 7 is CiA 402's warning bit.
     pub fn set_warnings(&mut self, bits: u16) {
-        self.kinco.warnings = bits & 0x0007;
+        self.vendor.warnings = bits & 0x0007;
         let e = self.od.description().entry(0x2680, 0);
-        self.store(e, i64::from(self.kinco.warnings));
+        self.store(e, i64::from(self.vendor.warnings));
     }
 
     /// The reaction to an error: none where its bit is masked out (Error_Mask 2605h:01,
@@ -284,10 +418,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             (ErrorWord::State2, false) => 0x06,
         };
         if self.value(0x2605, sub) & (1 << bit) != 0 {
-            if self.kinco.history.is_full() {
-                self.kinco.history.pop_front();
+            if self.vendor.history.is_full() {
+                self.vendor.history.pop_front();
             }
-            let _ = self.kinco.history.push_back(code);
+            let _ = self.vendor.history.push_back(code);
         }
     }
 
@@ -296,7 +430,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn kinco_error_bit(&self, code: u16) -> Option<(ErrorWord, u8)> {
         self.injected
             .iter()
-            .filter_map(|d| kinco::KincoError::of(d))
+            .filter_map(|d| super::KincoError::of(d))
             .find(|e| e.emcy == Some(code))
             .map(|e| (e.word, e.bit))
             .or_else(|| error_bit(code))
@@ -309,14 +443,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             .iter()
             .find_map(|c| self.kinco_error_bit(*c))
             .map(|(word, bit)| match word {
-                ErrorWord::State => kinco::led_code(bit),
-                ErrorWord::State2 => kinco::led_code(0),
+                ErrorWord::State => super::led_code(bit),
+                ErrorWord::State2 => super::led_code(0),
             })
     }
 
     /// The error history, the oldest of the last 8 first (EMCY codes; Kinco §7).
     pub fn error_history(&self) -> impl Iterator<Item = u16> + '_ {
-        self.kinco.history.iter().copied()
+        self.vendor.history.iter().copied()
     }
 
     /// The error words of the errors raised and not yet reset: Error_State 2601h (bit 0 for
@@ -370,7 +504,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// limits it; a limit switch blocks its direction.
     pub(crate) fn kinco_velocity(&mut self, ramped: bool, dt: f64) {
         let rpm_max = self.value(0x6080, 0).max(0) as f64;
-        if let Some((direction, _)) = self.kinco.jog {
+        if let Some((direction, _)) = self.vendor.jog {
             // Jog (§4, F006): Jog_RPM 2FF0h:23, "independent of other settings", the limit
             // switches not active.
             let rpm = f64::from(direction.signum()) * self.value(0x2FF0, 0x23) as f64;
@@ -421,15 +555,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// returns. Decision: jog moves an enabled drive only (the panel's own enable is the
     /// panel's business).
     pub fn jog(&mut self, direction: i8) {
-        match (direction, self.kinco.jog) {
+        match (direction, self.vendor.jog) {
             (0, Some((_, previous))) => {
-                self.kinco.jog = None;
+                self.vendor.jog = None;
                 let _ = self.write_mode(0x6060, 0, &[previous as u8]);
             }
             (0, None) => {}
-            (d, Some((_, previous))) => self.kinco.jog = Some((d, previous)),
+            (d, Some((_, previous))) => self.vendor.jog = Some((d, previous)),
             (d, None) => {
-                self.kinco.jog = Some((d, self.mode));
+                self.vendor.jog = Some((d, self.mode));
                 let _ = self.write_mode(0x6060, 0, &[(-3i8) as u8]);
             }
         }
@@ -531,9 +665,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 }
 
 /// The error word and bit of an EMCY code; Error_State bit 14 shares 7331h with bit 1 and
-/// is the answer only when raised by its number (see [`kinco::errors`]).
+/// is the answer only when raised by its number (see [`super::errors`]).
 pub(crate) fn error_bit(code: u16) -> Option<(ErrorWord, u8)> {
-    kinco::errors()
+    super::errors()
         .find(|e| e.emcy == Some(code))
         .map(|e| (e.word, e.bit))
 }

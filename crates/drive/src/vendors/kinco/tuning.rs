@@ -16,10 +16,11 @@
 
 use core::time::Duration;
 
+use super::hooks::Kinco;
 use crate::drive::refusal::Request;
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::{inertia_ratio, tuning_result, STIFFNESS};
+use super::{inertia_ratio, tuning_result, STIFFNESS};
 use crate::device_control::State;
 use crate::drive::Drive;
 use od::Instant;
@@ -36,7 +37,7 @@ pub(crate) struct TuningRun {
     pub(crate) run: Option<(Instant, Instant, f64)>,
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// 3040h:01 Tuning_Method: 1 starts a run (module doc).
     pub(crate) fn kinco_write_tuning_method(
         &mut self,
@@ -53,7 +54,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.od.write(index, sub, data)?;
         if self.dc.state() == State::OperationEnabled {
             let center = self.traj.position;
-            self.kinco.tuning.run = Some((self.now, self.now + TUNING_RUN, center));
+            self.vendor.tuning.run = Some((self.now, self.now + TUNING_RUN, center));
         } else {
             self.kinco_tuning_result(0, 30, None);
         }
@@ -61,16 +62,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     pub(crate) fn kinco_tuning_active(&self) -> bool {
-        self.kinco.tuning.run.is_some()
+        self.vendor.tuning.run.is_some()
     }
 
     /// One cycle of the run: the oscillation, then the result.
     pub(crate) fn kinco_tuning_step(&mut self) {
-        let Some((start, end, center)) = self.kinco.tuning.run else {
+        let Some((start, end, center)) = self.vendor.tuning.run else {
             return;
         };
         if self.dc.state() != State::OperationEnabled {
-            self.kinco.tuning.run = None;
+            self.vendor.tuning.run = None;
             self.kinco_tuning_result(0, 30, None);
             return;
         }
@@ -85,7 +86,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let v = self.traj.velocity;
         self.position_demand(v);
         if self.now >= end {
-            self.kinco.tuning.run = None;
+            self.vendor.tuning.run = None;
             self.traj.position = center;
             self.traj.velocity = 0.0;
             let j_total = self.axis.motor().data().inertia;

@@ -25,7 +25,8 @@
 //! - Ready is "no error and not switch-on disabled" (the manual: "ready to switch on"),
 //!   Motor Brake is "brake released".
 
-use super::kinco::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNCTIONS};
+use super::hooks::Kinco;
+use super::{din_has, selected_index, DinFunction, DoutFunction, DOUT_FUNCTIONS};
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
@@ -94,7 +95,7 @@ const _: () = {
     }
 };
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// DINn_Function (2010h:03 + n), read through its resolved entry (every logic cycle
     /// asks for each input several times; the slots are consecutive, checked above).
     fn din_function_code(&self, n: u8) -> u16 {
@@ -150,7 +151,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The internal levels of this logic cycle (read once by [`Drive::kinco_din_cycle`]).
     fn din_now(&self) -> u8 {
-        self.kinco
+        self.vendor
             .din
             .internal
             .unwrap_or_else(|| self.kinco_din_internal(self.plant_position()))
@@ -274,8 +275,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     pub(crate) fn kinco_din_cycle(&mut self) {
         let position = self.plant_position();
         let now = self.kinco_din_internal(position);
-        let before = self.kinco.din.internal;
-        self.kinco.din.internal = Some(now);
+        let before = self.vendor.din.internal;
+        self.vendor.din.internal = Some(now);
         let level = |d: &Self, f| d.din_level(now, f);
         let changed = |d: &Self, f| {
             let was = before.and_then(|b| d.din_level(b, f));
@@ -311,7 +312,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.kinco_set_controlword((cw & !0x0004) | 0x0002);
         }
         if rising(self, DinFunction::StartHoming) && self.dc.state() == State::OperationEnabled {
-            self.kinco.din.homing_return = Some(self.mode);
+            self.vendor.din.homing_return = Some(self.mode);
             let _ = self.write_mode(0x6060, 0, &[mode::HOMING as u8]);
             let cw = Controlword(self.read(self.hot.controlword) as u16);
             self.kinco_set_controlword((cw | Controlword::HOMING_START).bits());
@@ -319,17 +320,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.kinco_homing_return();
         // The position table (§6.4.1): its edges for the next mode-1 cycle; an error, another
         // mode or the enable gone end the flow at once.
-        self.kinco.table.start_edge |= rising(self, DinFunction::StartPosTable);
-        self.kinco.table.abort_edge |= rising(self, DinFunction::AbortPosTable)
+        self.vendor.table.start_edge |= rising(self, DinFunction::StartPosTable);
+        self.vendor.table.abort_edge |= rising(self, DinFunction::AbortPosTable)
             || !self.kinco_din_configured(DinFunction::StartPosTable);
-        self.kinco.table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
+        self.vendor.table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
         if self.mode != mode::PROFILE_POSITION
             || self.dc.state() != State::OperationEnabled
             || !self.faults.is_empty()
         {
             self.kinco_table_abort();
-            self.kinco.table.start_edge = false;
-            self.kinco.table.abort_edge = false;
+            self.vendor.table.start_edge = false;
+            self.vendor.table.abort_edge = false;
         }
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
@@ -339,7 +340,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.cause(
             MOTOR_TEMPERATURE,
             motor_error,
-            super::kinco::error_register(MOTOR_TEMPERATURE),
+            super::error_register(MOTOR_TEMPERATURE),
         );
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let enabling = cw.contains(Controlword::ENABLE_OPERATION_CMD);
@@ -349,7 +350,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         if refused && !self.faults.contains(&EXTERNAL_ENABLE) {
             self.raise(
                 EXTERNAL_ENABLE,
-                super::kinco::error_register(EXTERNAL_ENABLE),
+                super::error_register(EXTERNAL_ENABLE),
                 true,
             );
         }
@@ -379,8 +380,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.params_dirty = true;
         }
         let kvi_off = self.din_level(internal, DinFunction::KviOff) == Some(true);
-        if kvi_off != self.kinco.din.kvi_off {
-            self.kinco.din.kvi_off = kvi_off;
+        if kvi_off != self.vendor.din.kvi_off {
+            self.vendor.din.kvi_off = kvi_off;
             self.params_dirty = true;
         }
     }
@@ -388,14 +389,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// "After homing started by the input the drive returns to the previous mode" (Tab.
     /// 5-2): once the homing has ended (attained or failed), the mode and bit 4 go back.
     fn kinco_homing_return(&mut self) {
-        let Some(previous) = self.kinco.din.homing_return else {
+        let Some(previous) = self.vendor.din.homing_return else {
             return;
         };
         let ended = matches!(self.homing, HomingRun::Idle)
             && (self.homing_attained || self.homing_error)
             && self.mode_pending.is_none();
         if ended || self.dc.state() != State::OperationEnabled {
-            self.kinco.din.homing_return = None;
+            self.vendor.din.homing_return = None;
             let _ = self.write_mode(0x6060, 0, &[previous as u8]);
             let cw = Controlword(self.read(self.hot.controlword) as u16);
             self.kinco_set_controlword(cw.difference(Controlword::HOMING_START).bits());
@@ -459,7 +460,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             DoutFunction::ZeroSpeed => {
                 // Speed_1ms (whole inc/ms) against Zero_Speed_Window 2010h:18 (inc/ms).
                 let inc_per_ms = f64::from(self.plant_velocity_rpm())
-                    * super::kinco_drive::INCREMENTS_PER_REV as f64
+                    * super::hooks::INCREMENTS_PER_REV as f64
                     / 60_000.0;
                 (inc_per_ms as i64).abs() <= self.value(0x2010, 0x18).max(0)
             }
@@ -478,7 +479,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             DoutFunction::PositionLimit => negative || positive,
             DoutFunction::HomeFound => self.referenced,
             DoutFunction::PosTableActive => self.kinco_table_active(),
-            DoutFunction::EncWarning => self.kinco.warnings != 0,
+            DoutFunction::EncWarning => self.vendor.warnings != 0,
             DoutFunction::EncIndex => false,
         }
     }

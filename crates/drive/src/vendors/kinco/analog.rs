@@ -21,7 +21,8 @@
 //! magnitude (a limit has no sign), through the motor's torque constant 6410h:0F; with
 //! Analog_MaxT_Con = 0 the limit is the drive's own.
 
-use super::kinco::{analog_out, analog_speed_rpm, analog_window};
+use super::hooks::Kinco;
+use super::{analog_out, analog_speed_rpm, analog_window};
 use crate::drive::Drive;
 
 /// The simulated voltages of AIN1 and AIN2, 0.01 V, and the filter's state.
@@ -44,13 +45,13 @@ fn input_of(selector: i64) -> Option<u8> {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The voltage at AIN`input` (1 or 2), volts, clamped to ±10 V.
     pub fn set_analog_input(&mut self, input: u8, volts: f64) {
         let v = if volts.is_finite() { volts } else { 0.0 };
         let cv = libm::round(v.clamp(-10.0, 10.0) * 100.0) as i32;
         if let Some(slot) = self
-            .kinco
+            .vendor
             .analog
             .centivolts
             .get_mut(usize::from(input.wrapping_sub(1)))
@@ -63,9 +64,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     fn analog_processed(&self, n: u8) -> i32 {
         let (dead, offset) = if n == 1 { (0x1D, 0x1E) } else { (0x1F, 0x20) };
         let i = usize::from(n.wrapping_sub(1));
-        let raw = self.kinco.analog.centivolts.get(i).copied().unwrap_or(0);
+        let raw = self.vendor.analog.centivolts.get(i).copied().unwrap_or(0);
         let v_in = self
-            .kinco
+            .vendor
             .analog
             .filtered
             .get(i)
@@ -107,7 +108,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The maximum current of the analog max torque, A, for the torque mode's own clamp.
     pub(crate) fn kinco_analog_max_current_a(&self) -> Option<f64> {
-        self.kinco
+        self.vendor
             .analog
             .max_current_ma
             .map(|ma| f64::from(ma) / 1000.0)
@@ -119,9 +120,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let dt_ms = self.cycle.as_secs_f64() * f64::from(self.logic_every) * 1000.0;
         for n in [1u8, 2] {
             let i = usize::from(n - 1);
-            let raw = self.kinco.analog.centivolts.get(i).copied().unwrap_or(0);
+            let raw = self.vendor.analog.centivolts.get(i).copied().unwrap_or(0);
             let tau_ms = self.value(0x2502, if n == 1 { 0x01 } else { 0x04 }).max(0) as f64;
-            if let Some(slot) = self.kinco.analog.filtered.get_mut(i) {
+            if let Some(slot) = self.vendor.analog.filtered.get_mut(i) {
                 let f = slot.get_or_insert(f64::from(raw));
                 let alpha = if tau_ms > 0.0 {
                     1.0 - libm::exp(-dt_ms / tau_ms)
@@ -141,8 +142,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             .kinco_analog_max_torque_mnm()
             .filter(|_| kt > 0.0)
             .map(|mnm| libm::round(mnm as f64 / kt) as u32);
-        if limit != self.kinco.analog.max_current_ma {
-            self.kinco.analog.max_current_ma = limit;
+        if limit != self.vendor.analog.max_current_ma {
+            self.vendor.analog.max_current_ma = limit;
             self.params_dirty = true;
         }
     }

@@ -13,7 +13,8 @@
 
 use od::{AbortCode, Instant, ObjectAccess};
 
-use super::kinco::ErrorWord;
+use super::hooks::Kinco;
+use super::ErrorWord;
 use crate::device_control::State;
 use crate::drive::Drive;
 
@@ -242,24 +243,19 @@ fn address_display(key: &str) -> PanelDisplay {
     }
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     fn panel_addresses(&self) -> &'static devices::Addresses {
         devices::addresses(self.od.description().name).unwrap_or(&devices::KINCO_FD3_ADDRESSES)
-    }
-
-    /// Whether the drive has the Kinco LED panel (a Kinco personality).
-    pub fn has_kinco_panel(&self) -> bool {
-        self.personality.vendor == super::Vendor::Kinco
     }
 
     /// The access lock of §4.3: the parameters were initialised, or the motor type
     /// (6410h:01) is not the one confirmed in EA01.
     pub fn kinco_panel_locked(&self) -> bool {
-        self.kinco.panel.initialised || self.kinco_motor_mismatch()
+        self.vendor.panel.initialised || self.kinco_motor_mismatch()
     }
 
     fn kinco_motor_mismatch(&self) -> bool {
-        self.kinco
+        self.vendor
             .panel
             .confirmed_motor
             .is_some_and(|m| m != self.value(0x6410, 0x01))
@@ -305,20 +301,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let now = self.now;
         self.kinco_panel_timeouts(now);
         let slot = key.slot();
-        let down_at = self.kinco.panel.held.get(slot).copied().flatten();
-        if let Some(h) = self.kinco.panel.held.get_mut(slot) {
+        let down_at = self.vendor.panel.held.get(slot).copied().flatten();
+        if let Some(h) = self.vendor.panel.held.get_mut(slot) {
             *h = if pressed { down_at.or(Some(now)) } else { None };
         }
-        self.kinco.panel.last_key = Some(now);
+        self.vendor.panel.last_key = Some(now);
         match (key, pressed) {
             // ▲ / ▼ act when they go down; jog runs while they are held.
             (PanelKey::Up | PanelKey::Down, true) if down_at.is_none() => {
-                self.kinco.panel.changed = false;
+                self.vendor.panel.changed = false;
                 self.panel_step(if key == PanelKey::Up { 1 } else { -1 });
             }
             (PanelKey::Up | PanelKey::Down, false) => {
-                if let Screen::Jog { .. } = self.kinco.panel.screen {
-                    self.kinco.panel.screen = Screen::Jog { direction: 0 };
+                if let Screen::Jog { .. } = self.vendor.panel.screen {
+                    self.vendor.panel.screen = Screen::Jog { direction: 0 };
                 }
             }
             // MODE and SET act when they come up: short or long.
@@ -336,7 +332,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 
     fn panel_step(&mut self, d: i8) {
-        let screen = self.kinco.panel.screen;
+        let screen = self.vendor.panel.screen;
         match screen {
             Screen::Menu(_) | Screen::Monitor => {}
             Screen::Browse { menu, item } => {
@@ -347,7 +343,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     } else {
                         (item + n - 1) % n
                     };
-                    self.kinco.panel.screen = Screen::Browse { menu, item };
+                    self.vendor.panel.screen = Screen::Browse { menu, item };
                 }
             }
             Screen::Edit {
@@ -364,7 +360,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     10i64.pow(u32::from(cursor))
                 };
                 let value = value.saturating_add(i64::from(d) * step);
-                self.kinco.panel.screen = Screen::Edit {
+                self.vendor.panel.screen = Screen::Edit {
                     menu,
                     item,
                     value,
@@ -379,21 +375,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 } else {
                     shown.saturating_sub(1)
                 };
-                self.kinco.panel.screen = Screen::JogCheck {
+                self.vendor.panel.screen = Screen::JogCheck {
                     shown,
                     reached_15: reached_15 || shown == 15,
                 };
             }
-            Screen::Jog { .. } => self.kinco.panel.screen = Screen::Jog { direction: d },
+            Screen::Jog { .. } => self.vendor.panel.screen = Screen::Jog { direction: d },
             Screen::History { item, .. } => {
-                let n = self.kinco.history.len().min(255) as u8;
+                let n = self.vendor.history.len().min(255) as u8;
                 if n > 0 {
                     let item = if d > 0 {
                         (item + 1) % n
                     } else {
                         (item + n - 1) % n
                     };
-                    self.kinco.panel.screen = Screen::History {
+                    self.vendor.panel.screen = Screen::History {
                         item,
                         second: false,
                     };
@@ -408,12 +404,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// Decision: after tunE MODE returns to the monitor display; in a parameter list or a
     /// special screen MODE (short or long) goes back to its menu.
     fn panel_mode(&mut self, long: bool) {
-        self.kinco.panel.changed = false;
-        let p = &mut self.kinco.panel;
+        self.vendor.panel.changed = false;
+        let p = &mut self.vendor.panel;
         p.monitor_second = false;
         p.monitor_high = false;
         let screen = p.screen;
-        self.kinco.panel.screen = match screen {
+        self.vendor.panel.screen = match screen {
             Screen::Monitor => Screen::Menu(0),
             Screen::Menu(m) if usize::from(m) + 1 < MENUS.len() => Screen::Menu(m + 1),
             Screen::Menu(_) => Screen::Monitor,
@@ -448,10 +444,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// SET (§4.1): enter a menu, show a value, confirm and go on. A long press on a HEX
     /// (32-bit) value toggles its high / low half.
     fn panel_set(&mut self, long: bool) {
-        self.kinco.panel.changed = false;
-        match self.kinco.panel.screen {
+        self.vendor.panel.changed = false;
+        match self.vendor.panel.screen {
             Screen::Monitor => {
-                let p = &mut self.kinco.panel;
+                let p = &mut self.vendor.panel;
                 if long {
                     p.monitor_high = !p.monitor_high;
                 } else {
@@ -459,19 +455,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                 }
             }
             Screen::Menu(F006) => {
-                self.kinco.panel.screen = Screen::JogCheck {
+                self.vendor.panel.screen = Screen::JogCheck {
                     shown: 40,
                     reached_15: false,
                 }
             }
             Screen::Menu(F007) => {
-                let n = self.kinco.history.len().min(255) as u8;
-                self.kinco.panel.screen = Screen::History {
+                let n = self.vendor.history.len().min(255) as u8;
+                self.vendor.panel.screen = Screen::History {
                     item: n.saturating_sub(1),
                     second: false,
                 }
             }
-            Screen::Menu(menu) => self.kinco.panel.screen = Screen::Browse { menu, item: 0 },
+            Screen::Menu(menu) => self.vendor.panel.screen = Screen::Browse { menu, item: 0 },
             Screen::Browse { menu, item } => {
                 let Some(key) = self.panel_item(menu, item) else {
                     return;
@@ -483,7 +479,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                         .and_then(|s| s.parse::<u8>().ok())
                         .unwrap_or(25);
                     if self.write(0x2FF0, 0x04, &[n]).is_ok() {
-                        self.kinco.panel.screen = Screen::Monitor;
+                        self.vendor.panel.screen = Screen::Monitor;
                     }
                     return;
                 }
@@ -492,7 +488,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .panel_addresses()
                     .panel(key)
                     .map_or(0, |(index, sub)| self.value(index, sub));
-                self.kinco.panel.screen = Screen::Edit {
+                self.vendor.panel.screen = Screen::Edit {
                     menu,
                     item,
                     value,
@@ -509,7 +505,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             } => {
                 if long {
                     if format_value_of(self.panel_item(menu, item), value, high).1 {
-                        self.kinco.panel.screen = Screen::Edit {
+                        self.vendor.panel.screen = Screen::Edit {
                             menu,
                             item,
                             value,
@@ -523,13 +519,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     return;
                 };
                 if self.panel_write(key, value).is_ok() {
-                    self.kinco.panel.changed = true;
+                    self.vendor.panel.changed = true;
                 }
-                self.kinco.panel.screen = Screen::Browse { menu, item };
+                self.vendor.panel.screen = Screen::Browse { menu, item };
             }
             Screen::JogCheck { shown, reached_15 } => {
                 if reached_15 && shown == 25 {
-                    self.kinco.panel.screen = Screen::Jog { direction: 0 };
+                    self.vendor.panel.screen = Screen::Jog { direction: 0 };
                 }
             }
             Screen::Jog { .. } => {}
@@ -539,7 +535,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
                     .history_word(item)
                     .is_some_and(|(w, _)| w == ErrorWord::State2);
                 if ext {
-                    self.kinco.panel.screen = Screen::History {
+                    self.vendor.panel.screen = Screen::History {
                         item,
                         second: !second,
                     };
@@ -576,12 +572,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             self.write(index, sub, data)?;
         }
         if key == "EA01" {
-            self.kinco.panel.confirmed_motor = Some(self.value(0x6410, 0x01));
-            self.kinco.panel.initialised = false;
+            self.vendor.panel.confirmed_motor = Some(self.value(0x6410, 0x01));
+            self.vendor.panel.initialised = false;
         } else if ((index, sub) == (0x2FF0, 0x01) || key == "EA00" || key == "tn00")
             && value == INIT_VALUE
         {
-            self.kinco.panel.initialised = true;
+            self.vendor.panel.initialised = true;
         }
         Ok(())
     }
@@ -604,7 +600,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             }
             INIT_VALUE => {
                 self.write(0x2FF0, 0x01, &[INIT_VALUE as u8])?;
-                self.kinco.panel.initialised = true;
+                self.vendor.panel.initialised = true;
                 Ok(())
             }
             _ => Err(AbortCode::INVALID_VALUE),
@@ -613,27 +609,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// The Error_State word and bit of history entry `item` (oldest first).
     fn history_word(&self, item: u8) -> Option<(ErrorWord, u8)> {
-        let code = self.kinco.history.iter().nth(usize::from(item))?;
+        let code = self.vendor.history.iter().nth(usize::from(item))?;
         self.kinco_error_bit(*code)
     }
 
     /// The confirmed motor type at first power-on: the motor found (§4.3.1 EA01: a new drive
     /// on a motor recognises and stores it).
     pub(crate) fn kinco_panel_power_on(&mut self) {
-        if self.kinco.panel.confirmed_motor.is_none() {
-            self.kinco.panel.confirmed_motor = Some(self.value(0x6410, 0x01));
+        if self.vendor.panel.confirmed_motor.is_none() {
+            self.vendor.panel.confirmed_motor = Some(self.value(0x6410, 0x01));
         }
     }
 
     fn kinco_panel_timeouts(&mut self, now: Instant) {
         let idle = self
-            .kinco
+            .vendor
             .panel
             .last_key
             .map(|t| now.saturating_since(t).as_nanos())
             .unwrap_or(0);
-        let any_held = self.kinco.panel.held.iter().any(Option::is_some);
-        let limit = match self.kinco.panel.screen {
+        let any_held = self.vendor.panel.held.iter().any(Option::is_some);
+        let limit = match self.vendor.panel.screen {
             Screen::JogCheck { .. } | Screen::Jog { .. } => JOG_TIMEOUT_NS,
             Screen::Browse { menu, .. } | Screen::Edit { menu, .. }
                 if menu == EASY || menu == TUNE =>
@@ -643,7 +639,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             _ => return,
         };
         if !any_held && idle >= u128::from(limit) {
-            self.kinco.panel.screen = Screen::Monitor;
+            self.vendor.panel.screen = Screen::Monitor;
         }
     }
 
@@ -656,7 +652,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// owns 6040h, L1287); a Pre_Enable DIN still has to be active (External enable).
     pub(crate) fn kinco_panel_cycle(&mut self) {
         self.kinco_panel_timeouts(self.now);
-        let direction = match self.kinco.panel.screen {
+        let direction = match self.vendor.panel.screen {
             Screen::Jog { direction } => direction,
             _ => 0,
         };
@@ -669,12 +665,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             if let Some(cw) = cw {
                 self.kinco_set_controlword(u16::from(cw));
             }
-            self.kinco.panel.jog_enabled = true;
+            self.vendor.panel.jog_enabled = true;
             if self.state() == State::OperationEnabled {
                 self.jog(direction);
             }
-        } else if self.kinco.panel.jog_enabled {
-            self.kinco.panel.jog_enabled = false;
+        } else if self.vendor.panel.jog_enabled {
+            self.vendor.panel.jog_enabled = false;
             self.jog(0);
             self.kinco_set_controlword(0x06);
         }
@@ -682,7 +678,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// What the panel shows now.
     pub fn kinco_panel(&self) -> PanelDisplay {
-        let p = &self.kinco.panel;
+        let p = &self.vendor.panel;
         let mut d = match p.screen {
             Screen::Monitor => return self.panel_monitor(),
             Screen::Menu(m) => {
@@ -718,7 +714,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     /// F007 (§4.3.4, Tab. 4-6): the entry's Error_State value in HEX, point 3 on the earliest
     /// and point 4 on the latest entry. Decision: an empty history shows "----".
     fn panel_history(&self, item: u8, second: bool) -> PanelDisplay {
-        let n = self.kinco.history.len();
+        let n = self.vendor.history.len();
         let Some((word, bit)) = self.history_word(item) else {
             return PanelDisplay::text4(b"----", 0);
         };
@@ -748,8 +744,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         } else if let Some(code) = self.kinco_led().map(|code| {
             // ch. 8: "000.1" is the extended error; SET shows Error_State2 (d1.16).
             let state2 = self.value(0x2602, 0) as u16;
-            if self.kinco.panel.monitor_second && &code == b"000.1" && state2 != 0 {
-                super::kinco::led_code(state2.trailing_zeros() as u8)
+            if self.vendor.panel.monitor_second && &code == b"000.1" && state2 != 0 {
+                super::led_code(state2.trailing_zeros() as u8)
             } else {
                 code
             }
@@ -767,8 +763,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             let mut key: heapless::String<5> = heapless::String::new();
             let _ = core::fmt::write(&mut key, format_args!("d1.{n:02}"));
             let (index, sub) = self.panel_addresses().panel(&key).unwrap_or((0x2FF0, 0x14));
-            let mut d = format_value(self.value(index, sub), self.kinco.panel.monitor_high).0;
-            if self.kinco.warnings != 0 {
+            let mut d = format_value(self.value(index, sub), self.vendor.panel.monitor_high).0;
+            if self.vendor.warnings != 0 {
                 d.blink = Blink::Warning;
             }
             d

@@ -39,9 +39,10 @@
 
 use od::{AbortCode, ObjectAccess as _};
 
-use super::kinco::STIFFNESS;
+use super::hooks::Kinco;
+use super::STIFFNESS;
 use crate::control::ControlParams;
-use crate::current_filters::{kinco_notch_hz, kinco_speed_feedback_time_us, CurrentFilterParams};
+use crate::current_filters::CurrentFilterParams;
 use crate::drive::Drive;
 use crate::motor::RPM_TO_RAD_S;
 
@@ -83,7 +84,7 @@ pub fn kvp_of_bandwidth(bw_hz: i64, ratio: i64) -> i64 {
     (bw_hz * ratio).clamp(1, 32767)
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The gains of set `set` (PI_Pointer, 0-3): set 0 in 60F9h / 60FBh, sets 1-3 in 2340h.
     pub(crate) fn kinco_loop_gains(&self, set: u8) -> LoopGains {
         if set == 0 {
@@ -117,7 +118,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         let vel_unit = i_peak / (1000.0 * RPM_TO_RAD_S);
         let raw =
             |gain: f64, unit: f64| libm::round(gain / unit * 256.0).clamp(1.0, 65535.0) as u16;
-        let kvi_hz = if self.kinco.din.kvi_off {
+        let kvi_hz = if self.vendor.din.kvi_off {
             0.0
         } else {
             g.kvi_hz
@@ -220,6 +221,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
     }
 }
 
+/// The Kinco's Notch_N → centre frequency: `F = Notch_N × 10 + 100` Hz (Tab. 7-5).
+fn kinco_notch_hz(notch_n: u32) -> u32 {
+    notch_n * 10 + 100
+}
+
+/// The Kinco's Speed_Fb_N → the actual-speed filter's time constant, µs: bandwidth
+/// `100 + 20 × N` Hz (§9.2 d2.05), `τ = 1 / (2π f)`.
+fn kinco_speed_feedback_time_us(speed_fb_n: u32) -> u16 {
+    let hz = 100.0 + 20.0 * f64::from(speed_fb_n);
+    libm::round(1e6 / (2.0 * core::f64::consts::PI * hz)).clamp(1.0, 65535.0) as u16
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -236,5 +249,12 @@ mod tests {
         assert_eq!(integral_time_us(0.0), 0);
         assert_eq!(integral_time_us(10.0), 15_915);
         assert_eq!(kvp_of_bandwidth(40, 30), 1200);
+    }
+
+    #[test]
+    fn speed_feedback_bandwidth() {
+        // N = 25 (default): 600 Hz → 265 µs.
+        assert_eq!(kinco_speed_feedback_time_us(25), 265);
+        assert_eq!(kinco_speed_feedback_time_us(0), 1592);
     }
 }

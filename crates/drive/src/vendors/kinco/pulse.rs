@@ -13,7 +13,8 @@
 
 use core::time::Duration;
 
-use super::kinco::{selected_index, DinFunction};
+use super::hooks::Kinco;
+use super::{selected_index, DinFunction};
 use crate::drive::Drive;
 use od::Instant;
 
@@ -33,11 +34,11 @@ pub(crate) struct PulseInput {
     pub(crate) commanded: i64,
 }
 
-impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// The simulated pulse input of mode −4: `pulses_per_s` pulses per second (negative:
     /// the other direction) from now on.
     pub fn set_pulse_input(&mut self, pulses_per_s: f64) {
-        self.kinco.pulse.frequency = if pulses_per_s.is_finite() {
+        self.vendor.pulse.frequency = if pulses_per_s.is_finite() {
             pulses_per_s
         } else {
             0.0
@@ -67,7 +68,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
 
     /// One logic cycle of mode −4.
     pub(crate) fn kinco_pulse_mode(&mut self, dt: f64) {
-        let p = &mut self.kinco.pulse;
+        let p = &mut self.vendor.pulse;
         p.pending += p.frequency * dt;
         let pulses = libm::trunc(p.pending);
         p.pending -= pulses;
@@ -78,18 +79,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             return;
         }
         let (factor, divider) = self.kinco_gear();
-        let exact = pulses * factor as f64 / divider as f64 + self.kinco.pulse.remainder;
+        let exact = pulses * factor as f64 / divider as f64 + self.vendor.pulse.remainder;
         let out = libm::trunc(exact);
-        self.kinco.pulse.remainder = exact - out;
+        self.vendor.pulse.remainder = exact - out;
         if pulses != 0.0 {
-            self.kinco.pulse.last_pulse = Some(self.now);
+            self.vendor.pulse.last_pulse = Some(self.now);
             for (sub, add) in [(0x04, pulses as i64), (0x05, out as i64)] {
                 let v = self.value(0x2508, sub).wrapping_add(add) as i32;
                 let e = self.od.description().entry(0x2508, sub);
                 self.store(e, i64::from(v));
             }
         }
-        let mut before = self.kinco.pulse.commanded;
+        let mut before = self.vendor.pulse.commanded;
         let mut after = before.saturating_add(out as i64);
         if after.abs() > 1 << 30 {
             // Re-based by whole multiples of 625 increments (4096 internal ones, exact).
@@ -97,7 +98,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
             before -= k;
             after -= k;
         }
-        self.kinco.pulse.commanded = after;
+        self.vendor.pulse.commanded = after;
         let to_internal = |v: i64| {
             self.fg
                 .position_to_internal(v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32)
@@ -109,7 +110,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S> {
         self.position_demand(v);
         let window = Duration::from_millis(self.value(0x2508, 0x09).max(0) as u64);
         self.target_reached = self
-            .kinco
+            .vendor
             .pulse
             .last_pulse
             .is_none_or(|t| self.now.saturating_since(t) >= window);

@@ -1,0 +1,184 @@
+//! The standard CiA 402 drive: every [`Vendor`] hook at its default, the modes a device
+//! description's 6502h supported_drive_modes allows, the factor group of the objects the
+//! description has (the feed constant 6092h where it has one, else 6093h / 6094h / 6097h).
+//! A device file without a vendor of its own runs as this drive.
+
+use od::{AbortCode, DeviceDescription, Value};
+
+use crate::drive::refusal::{Refusal, Request};
+use crate::drive::{Drive, Hook};
+use crate::homing::{self, find_method, Method};
+use crate::personality::{
+    BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision, Vendor,
+};
+
+/// The generic CiA 402 drive; it keeps no state beside the engine's.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Cia402;
+
+const fn mode(mode: i8, bit: u8) -> ModeSpec {
+    ModeSpec {
+        mode,
+        bit: Some(bit),
+        ethercat_only: false,
+    }
+}
+
+/// The CiA 402 modes the engine runs (§6.4.4 6502h bits): profile position, velocity (VL),
+/// profile velocity, profile torque, homing, interpolated position, cyclic synchronous
+/// position. [`Cia402::refusal`] narrows them to the device's 6502h.
+const MODES: [ModeSpec; 7] = [
+    mode(1, 0),
+    mode(2, 1),
+    mode(3, 2),
+    mode(4, 3),
+    mode(6, 5),
+    mode(7, 6),
+    mode(8, 7),
+];
+
+/// CiA 402 §6.3.1 error codes (the EMCY codes of CiA 301 §7.2.7.1 Tab. 21 for drives) with
+/// the generic bit of the error register and the bit of their class (CiA 301 §7.5.2.2).
+const ERRORS: [ErrorSpec; 3] = [
+    ErrorSpec {
+        fault: Fault::FollowingError,
+        code: 0x8611,
+        register: 0x01,
+        critical: false,
+    },
+    ErrorSpec {
+        fault: Fault::DcLinkUndervoltage,
+        code: 0x3220,
+        register: 0x05,
+        critical: false,
+    },
+    ErrorSpec {
+        fault: Fault::I2tMotor,
+        code: 0x2310,
+        register: 0x03,
+        critical: false,
+    },
+];
+
+/// The method `number` of the engine's CiA 402 table.
+// Only called in the const table below: an unknown number fails the build, never a drive.
+#[allow(clippy::panic)]
+const fn cia_method(number: i8) -> Method {
+    match find_method(&homing::METHODS, number) {
+        Some(m) => m,
+        None => panic!("no such homing method"),
+    }
+}
+
+/// The CiA 402 homing methods (§6.7.4) the engine has steps for.
+const HOMING_METHODS: [Method; 11] = [
+    cia_method(1),
+    cia_method(2),
+    cia_method(7),
+    cia_method(11),
+    cia_method(17),
+    cia_method(18),
+    cia_method(23),
+    cia_method(27),
+    cia_method(33),
+    cia_method(34),
+    cia_method(35),
+];
+
+const fn personality(feed_constant: bool) -> Personality {
+    Personality {
+        devices: &[],
+        modes: &MODES,
+        option_codes: &[],
+        // CiA 402 §6.1.1 Tab. 3: "Switch on + enable operation" (0Fh) in READY TO SWITCH ON
+        // runs transition 3 and then 4.
+        enable_from_ready: true,
+        errors: &ERRORS,
+        stepper_plant: false,
+        pp_overwrite_queued: false,
+        capabilities: Capabilities {
+            feed_constant,
+            pp_target_limits: false,
+            ip_follows_sync: false,
+            ip_changing_until_synchronised: false,
+            ip_abrupt_quick_stop: false,
+            homing_immediate: false,
+            switch_polarity_objects: false,
+            brake_in_60fe: false,
+            zero_ramp_is_abrupt: false,
+            vl_actual_closed_loop_only: false,
+            internal_position_in_user_units: false,
+        },
+        homing_methods: &HOMING_METHODS,
+        external_home_switch: None,
+        hardware_enable: None,
+        brake: BrakeTiming {
+            release: &[],
+            motion: &[],
+            engage: &[],
+            only_with_brake: false,
+        },
+        plant: PlantSupervision {
+            messages: [None; 5],
+            limits: None,
+            motor_temperature: None,
+            stage_temperature: None,
+        },
+    }
+}
+
+/// The standard drive with the factor group 6093h / 6094h / 6097h.
+pub const CIA402: Personality = personality(false);
+/// The standard drive with the feed constant 6092h and the gear ratio 6091h (CiA 402 v2).
+pub const CIA402_FEED_CONSTANT: Personality = personality(true);
+
+impl Vendor for Cia402 {
+    fn for_device(desc: &'static DeviceDescription) -> (&'static Personality, Self) {
+        let personality = if desc.object(0x6092).is_some() {
+            &CIA402_FEED_CONSTANT
+        } else {
+            &CIA402
+        };
+        (personality, Cia402)
+    }
+
+    fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
+        match (index, sub) {
+            (0x6060, 0x00) => Some(Drive::<S, Self>::cia402_write_mode),
+            _ => None,
+        }
+    }
+
+    /// A mode 6502h does not list is not supported (§6.4.4).
+    fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        request: Request,
+    ) -> Option<Refusal> {
+        match request {
+            Request::Mode(m) if !d.cia402_supports(m) => Some(Refusal::ModeUnsupported { mode: m }),
+            _ => None,
+        }
+    }
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Cia402> {
+    /// Whether 6502h supported_drive_modes has the bit of `mode` (a device without 6502h:
+    /// every mode of the engine).
+    fn cia402_supports(&self, mode: i8) -> bool {
+        let Some(Value::Unsigned(modes)) = self.od().value(0x6502, 0) else {
+            return true;
+        };
+        MODES
+            .iter()
+            .find(|m| m.mode == mode)
+            .and_then(|m| m.bit)
+            .is_some_and(|bit| modes & (1 << bit) != 0)
+    }
+
+    /// 6060h: a mode outside 6502h is refused with 0609 0030h (value range).
+    fn cia402_write_mode(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.write_mode_unless(index, sub, data, |d, m| {
+            (!d.cia402_supports(m)).then_some(AbortCode::INVALID_VALUE)
+        })
+    }
+}
