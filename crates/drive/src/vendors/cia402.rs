@@ -3,7 +3,7 @@
 //! description has (the feed constant 6092h where it has one, else 6093h / 6094h / 6097h).
 //! A device file without a vendor of its own runs as this drive.
 
-use od::{AbortCode, DeviceDescription, Value};
+use od::{AbortCode, DeviceDescription, ObjectAccess, Value};
 
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, Hook};
@@ -145,6 +145,7 @@ impl Vendor for Cia402 {
     fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
         match (index, sub) {
             (0x6060, 0x00) => Some(Drive::<S, Self>::cia402_write_mode),
+            (0x6098, 0x00) => Some(Drive::<S, Self>::cia402_write_homing_method),
             _ => None,
         }
     }
@@ -180,5 +181,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Cia402> {
         self.write_mode_unless(index, sub, data, |d, m| {
             (!d.cia402_supports(m)).then_some(AbortCode::INVALID_VALUE)
         })
+    }
+
+    /// 6098h: a method the drive has no steps for (not in its personality, e.g. not in the
+    /// 60E3h of its EDS) is refused with 0609 0030h (value range), as CiA 402 §6.7.4 leaves
+    /// the supported methods to the device and 60E3h lists them.
+    fn cia402_write_homing_method(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<(), AbortCode> {
+        if let [b] = data {
+            if !self.personality.homing_method(*b as i8) {
+                self.od.entry(index, sub)?;
+                return Err(AbortCode::INVALID_VALUE);
+            }
+        }
+        self.od.write(index, sub, data)
     }
 }
