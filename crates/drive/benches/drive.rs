@@ -86,6 +86,15 @@ fn moving<V: Vendor>(
     desc: &'static od::DeviceDescription,
     target: i32,
 ) -> (Drive<Vec<u8>, V>, Instant) {
+    moving_after(desc, target, |_| {})
+}
+
+/// [`moving`], with `setup` applied to the drive at power-on.
+fn moving_after<V: Vendor>(
+    desc: &'static od::DeviceDescription,
+    target: i32,
+    setup: impl Fn(&mut Drive<Vec<u8>, V>),
+) -> (Drive<Vec<u8>, V>, Instant) {
     let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).expect("storage");
     // No limit switches or hard stops: the axis travels for as long as the bench runs (the
     // default travel's positive limit switch would stop it after 64 revolutions, ≈ 4 s).
@@ -101,6 +110,7 @@ fn moving<V: Vendor>(
         ..DriveSettings::default()
     };
     let mut d = Drive::new(od, settings);
+    setup(&mut d);
     let mut now = Instant::ZERO;
     let mut step = |d: &mut Drive<Vec<u8>, V>, ms: u64| {
         now = now + Duration::from_millis(ms);
@@ -126,8 +136,28 @@ fn nanotec() -> (Drive<Vec<u8>, Nanotec>, Instant) {
     moving(&devices::NANOTEC_SMCI47S, 100_000_000)
 }
 
+/// The Kinco as a bus master sets it up (EA02 = 8): no DIN owns the controlword (2010h:03)
+/// or the mode (2010h:05), so the master's 6040h / 6060h writes are taken.
 fn kinco() -> (Drive<Vec<u8>, Kinco>, Instant) {
-    moving(&devices::KINCO_FD3, 1_000_000_000)
+    let (mut d, mut now) = moving_after(&devices::KINCO_FD3, 100_000_000, |d| {
+        for sub in [0x03, 0x05] {
+            d.write(0x2010, sub, &0u16.to_le_bytes()).expect("DIN function");
+        }
+        // Profile velocity 600 min⁻¹, acceleration and deceleration 100 rps/s, in the
+        // Kinco's DEC units (§8.2: rpm × 512 × 10 000 / 1875, rps/s × 65536 × 10 000 / 4e6).
+        let rpm = (600.0f64 * 512.0 * 10_000.0 / 1875.0).round() as u32;
+        let rps2 = (100.0f64 * 65536.0 * 10_000.0 / 4_000_000.0).round() as u32;
+        for (index, value) in [(0x6081, rpm), (0x6083, rps2), (0x6084, rps2)] {
+            d.write(index, 0, &value.to_le_bytes()).expect("profile");
+        }
+    });
+    // Kinco §8.15 (KINCO-CW-01): a new set-point is 2Fh → 3Fh.
+    for cw in [0x2Fu16, 0x3F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).expect("cw");
+        now = now + Duration::from_millis(2);
+        d.step(now);
+    }
+    (d, now)
 }
 
 /// The generic drive on the dictionary of an EDS, read once.
