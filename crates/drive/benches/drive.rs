@@ -141,7 +141,8 @@ fn nanotec() -> (Drive<Vec<u8>, Nanotec>, Instant) {
 fn kinco() -> (Drive<Vec<u8>, Kinco>, Instant) {
     let (mut d, mut now) = moving_after(&devices::KINCO_FD3, 100_000_000, |d| {
         for sub in [0x03, 0x05] {
-            d.write(0x2010, sub, &0u16.to_le_bytes()).expect("DIN function");
+            d.write(0x2010, sub, &0u16.to_le_bytes())
+                .expect("DIN function");
         }
         // Profile velocity 600 min⁻¹, acceleration and deceleration 100 rps/s, in the
         // Kinco's DEC units (§8.2: rpm × 512 × 10 000 / 1875, rps/s × 65536 × 10 000 / 4e6).

@@ -141,7 +141,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
 /// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
 /// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 81] = [
+const PARAMS: [(u16, u8); 90] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 7),
@@ -168,6 +168,15 @@ const PARAMS: [(u16, u8); 81] = [
     (0x2010, 7),
     (0x2010, 8),
     (0x2010, 9),
+    (0x2010, 0x0A),
+    (0x2010, 0x0D),
+    (0x2010, 0x0E),
+    (0x2010, 0x0F),
+    (0x2010, 0x10),
+    (0x2010, 0x11),
+    (0x2010, 0x12),
+    (0x2010, 0x13),
+    (0x2010, 0x14),
     (0x2011, 0),
     (0x2020, 0),
     (0x2045, 0),

@@ -140,13 +140,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     }
 
     fn din_level(&self, internal: u8, function: DinFunction) -> Option<bool> {
-        let mut inputs = (0..DINS).filter(|n| din_has(self.din_function_code(*n), function));
-        let first = inputs.next()?;
-        Some(
-            core::iter::once(first)
-                .chain(inputs)
-                .any(|n| internal & (1 << n) != 0),
-        )
+        din_level_of(&self.din_codes(), internal, function)
+    }
+
+    /// DIN1…DIN7's function codes, read once for the many questions of one cycle.
+    fn din_codes(&self) -> [u16; DINS as usize] {
+        core::array::from_fn(|n| self.din_function_code(n as u8))
     }
 
     /// The internal levels of this logic cycle (read once by [`Drive::kinco_din_cycle`]).
@@ -277,10 +276,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let now = self.kinco_din_internal(position);
         let before = self.vendor.din.internal;
         self.vendor.din.internal = Some(now);
-        let level = |d: &Self, f| d.din_level(now, f);
-        let changed = |d: &Self, f| {
-            let was = before.and_then(|b| d.din_level(b, f));
-            let is = d.din_level(now, f);
+        // The functions are the inputs' until the next SDO write, never changed by this cycle.
+        let codes = self.din_codes();
+        let level = |_: &Self, f| din_level_of(&codes, now, f);
+        let changed = |_: &Self, f| {
+            let was = before.and_then(|b| din_level_of(&codes, b, f));
+            let is = din_level_of(&codes, now, f);
             (is.is_some() && is != was).then_some(is == Some(true))
         };
         let rising = |d: &Self, f| changed(d, f) == Some(true) && before.is_some();
@@ -509,9 +510,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     pub(crate) fn kinco_publish_io(&mut self) {
         let din = self.kinco_din_real(self.plant_position());
         let dout = self.kinco_dout_real();
-        let d = self.od.description();
-        let (a, b) = (d.entry(0x2010, 0x0A), d.entry(0x2010, 0x14));
+        // Resolved once at power-on (the engine's parameter slots): this runs every cycle.
+        let entry = |sub| {
+            crate::drive::param_slot(0x2010, sub)
+                .and_then(|slot| self.params.get(slot).copied().flatten())
+        };
+        let (a, b) = (entry(0x0A), entry(0x14));
         self.store(a, i64::from(din));
         self.store(b, i64::from(dout));
     }
+}
+
+/// The level of `function` from the internal levels `internal` and the inputs' function codes:
+/// `None` if no input has it, else whether any input that has it is active.
+fn din_level_of(codes: &[u16; DINS as usize], internal: u8, function: DinFunction) -> Option<bool> {
+    let mut any = false;
+    let mut active = false;
+    for (n, code) in codes.iter().enumerate() {
+        if din_has(*code, function) {
+            any = true;
+            active |= internal & (1 << n) != 0;
+        }
+    }
+    any.then_some(active)
 }
