@@ -36,8 +36,8 @@ use support::thread_cpu_time;
 #[path = "support/mod.rs"]
 mod support;
 
-/// Axes in real time per core before this work (commit c1c54dd, same bench and machine, best
-/// of two runs): the reference the plot draws.
+/// Axes in real time per core at commit c1c54dd (same bench and machine, best of two runs):
+/// the reference the plot draws.
 const BASELINE: [(&str, f64); 3] = [("CMMP-AS", 754.0), ("Nanotec", 391.0), ("CMMO-ST", 402.0)];
 
 /// Simulated seconds per timed run, runs per figure.
@@ -184,7 +184,7 @@ fn criterion_1ms(c: &mut Criterion) {
     });
 }
 
-/// The figures of the issue, printed and drawn.
+/// Axes per core of each personality, printed and drawn against the baseline.
 fn report() {
     let figures = [
         ("CMMP-AS", per_simulated_second(cmmp_as)),

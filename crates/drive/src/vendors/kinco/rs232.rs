@@ -367,7 +367,7 @@ impl TelegramCutter {
     }
 }
 
-/// What the server counted (the "counted and dropped").
+/// What the server counted: the telegrams it answered and, by cause, those it dropped.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {
     pub answered: u32,
