@@ -243,7 +243,7 @@ fn soem_startup_and_cia402_enable_with_default_mapping() {
 #[test]
 fn remapped_pdos_carry_target_and_position() {
     let mut m = Master::new(cell());
-    // What a master's CoE start-up would write in Pre-Op (CoE is not here yet): outputs
+    // What a master's CoE start-up writes in Pre-Op, written into the dictionary: outputs
     // controlword + mode + target position, inputs statusword + position actual value.
     {
         let model = m.cell.model_mut(0).unwrap();

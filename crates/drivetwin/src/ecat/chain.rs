@@ -594,7 +594,7 @@ impl Bound<'_> {
                 None => {}
             }
         }
-        // A request from another path than the SDO server (none today) is carried out here.
+        // A storage request left by another path than the SDO server is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
             let mut access = Persisting::new(self.model, self.store, self.stored);
             if let Err(e) = access.carry_out(req) {
