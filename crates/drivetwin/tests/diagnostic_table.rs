@@ -1,8 +1,8 @@
-//! Every message of each manual's diagnostic table raised once by its number, checked over the
-//! bus on the virtual clock (issue 16 point 3): the EMCY frame (code, error register), 1003h:01
-//! read back by an SDO upload, the display, the reaction (statusword after it), and the
-//! acknowledgement once the message is cleared. Table-driven: the expected values come from
-//! the row (`devices/*.toml`), the test only knows the manual's rules for the columns.
+//! Every message of each manual's diagnostic table raised once by its number, checked over the bus
+//! on the virtual clock: the EMCY frame (code, error register), 1003h:01 read back by an SDO
+//! upload, the display, the reaction (statusword after it), and the acknowledgement once the
+//! message is cleared. Table-driven: the expected values come from the row (`devices/*.toml`), the
+//! test only knows the manual's rules for the columns.
 //!
 //! Vectors: CMMP-EMCY-02, CMMP-EMCY-03, CMMP-EMCY-04 (EMCY bytes and register of 31-0, 03-0,
 //! 11-3), CMMP-EMCY-06 (1003h:01 newest entry), CMMP-EMCY-01 (the reset EMCY 0000h),
