@@ -517,7 +517,7 @@ fn deterministic_bit_for_bit() {
 fn long_calls_are_sub_stepped() {
     // 1 ms calls = 8 sub-steps of 125 µs in open loop: the same, bit for bit, as 8 calls of
     // 125 µs while holding; and within 2·10⁻⁵ rad (a hundredth of an encoder increment) of
-    // 20 calls of 50 µs, the old fixed sub-step.
+    // 20 calls of 50 µs (a finer fixed sub-step).
     let mut a = stepper(StepperMode::OpenLoop);
     let mut b = a.clone();
     let mut c = a.clone();

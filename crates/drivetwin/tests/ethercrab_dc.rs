@@ -31,10 +31,10 @@
 //!   each SDO request (and one arriving in the middle of an SDO transfer trips an `assert_ne!`,
 //!   spec §5.6); the test reads the mailbox itself with `Command::fprd` before any SDO.
 //!
-//! Found here and fixed in the twin: the system time difference 092Ch kept the difference of
-//! ethercrab's reset write to 0910h for ever (the reference clock receives no system time
-//! after it), so ethercrab's alignment loop (examples/dc.rs: wait for 092Ch < 500 ns) would
-//! never end; an ESC resets it with the speed counter start 0930h the masters write next.
+//! The system time difference 092Ch is reset by the speed counter start 0930h the masters
+//! write after their reset write to 0910h, as an ESC does: the reference clock receives no
+//! system time after that write, so a 092Ch that kept its difference would never let
+//! ethercrab's alignment loop (examples/dc.rs: wait for 092Ch < 500 ns) end.
 //!
 //! Both tests need root (network namespaces, raw sockets) and `ip`; otherwise they print why and
 //! pass as skipped. They run one after the other (a lock), master and twin at SCHED_FIFO where
