@@ -11,8 +11,7 @@
 //! on every cycle and the actual position following the commanded path.
 //!
 //! Needs root (network namespaces, raw sockets) and `ip` (iproute2); otherwise it prints why
-//! and passes as skipped. `ETHERCAT_CYCLIC_SECONDS` sets the length of the ramp (default 10 s,
-//! the acceptance figure).
+//! and passes as skipped. `ETHERCAT_CYCLIC_SECONDS` sets the length of the ramp (default 10 s).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
