@@ -1,7 +1,6 @@
-//! Interpolated position mode (CiA 402 mode 7) as the CMMP-AS runs it (manual §7.4,
-//! spec/cmmp-as-3-modes-diagnostics.md §2.3, §4.3, §5.3): linear interpolation without
-//! buffer (60C0h = −2) between set-points that arrive one per SYNC on a fixed grid, the
-//! interpolation period 60C2h.
+//! Interpolated position mode (CiA 402 mode 7) as the CMMP-AS runs it (manual §7.4): linear
+//! interpolation without buffer (60C0h = −2) between set-points that arrive one per SYNC on a fixed
+//! grid, the interpolation period 60C2h.
 //!
 //! Sans-IO: the drive tells the interpolator of each SYNC ([`Interpolator::sync`]: a CANopen
 //! SYNC, an EtherCAT SYNC0 event, or the EtherCAT frame in free run), hands it the set-points

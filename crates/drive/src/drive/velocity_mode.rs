@@ -8,7 +8,7 @@
 //!
 //! Decisions:
 //! * 604Ch: `min⁻¹ = user × numerator / denominator`, the worked example of §6.10 (2000 ×
-//!   60/2000 = 60 min⁻¹), not the inverse formula of §9.27 (spec §9 ambiguity list); Δv of
+//!   60/2000 = 60 min⁻¹), not the inverse formula of §9.27 (the manual contradicts itself); Δv of
 //!   the ramps is in the same user unit, Δt in seconds.
 //! * The halt bit is read as a level: its rising edge brakes, its falling edge resumes, and a
 //!   bit held at 1 keeps the motor stopped, which is what the two edges of §5.3 describe.
