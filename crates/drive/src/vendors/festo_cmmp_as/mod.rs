@@ -1,8 +1,8 @@
-//! The Festo CMMP-AS (seeds 001/002, `spec/cmmp-as*.md`): its modes, option codes, homing
-//! methods (Tab. 7.1) and error numbers as tables, and as behaviour the error management
-//! 2100h (§5.18) with warnings and the diagnostic memory, the statusword's manufacturer bits
-//! (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15
-//! referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
+//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's appendix): its
+//! modes, option codes, homing methods (Tab. 7.1) and error numbers as tables, and as behaviour the
+//! error management 2100h (§5.18) with warnings and the diagnostic memory, the statusword's
+//! manufacturer bits (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h,
+//! bit 15 referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
 
@@ -274,8 +274,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
         // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
         sw |= Statusword::VOLTAGE_ENABLED.when(power || compat & 0x0080 != 0);
-        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
-        // manual's "within" as the translation slip it is).
+        // Bit 8: moving when |v| is above velocity_threshold (the manual's "within" is read as
+        // the translation slip it is).
         sw |= Statusword::BIT_8.when(moving);
         // Bit 9 remote: enable_logic 2 (DINs + CAN).
         sw |= Statusword::REMOTE.when(self.value(0x6510, 0x10) == 2);

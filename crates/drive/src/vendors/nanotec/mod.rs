@@ -1,12 +1,12 @@
-//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
-//! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
-//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1 with their
-//! reaction table (legacy and new by 2020h), the homing methods of §5.2 and the
-//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the
-//! SYNC interval, immediate homing speed changes) as tables; as behaviour the statusword (bit
-//! 9 remote always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no
-//! PV, torque only in closed loop, no change during a brake wait), the shared target
-//! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
+//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N; the CANopen
+//! reference manual and its extract, kept beside the project): the modes of 6502h (§9.43), the one
+//! option code 605Ah = 3, the bit-valued EMCY codes of §13.3 with their reaction table (legacy and
+//! new by 2020h; §7.1 of the extract), the homing methods of §5.3 (§5.2 of the extract) and the
+//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the SYNC
+//! interval, immediate homing speed changes) as tables; as behaviour the statusword (bit 9 remote
+//! always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no PV, torque only
+//! in closed loop, no change during a brake wait), the shared target 60C1h:01 / 607Ah and torque
+//! mode on the stepper's closed loop.
 
 pub mod rotary_switches;
 
@@ -34,7 +34,7 @@ use units::{load_angle_spacing_rpm, torque_current_ma};
 /// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
 ///
 /// Decision: the manual does not say which code set goes into bytes 0–1 of the EMCY in the
-/// legacy and the new format (2020h; spec §7.1 note); the twin sends these §7.1 codes in
+/// legacy and the new format (2020h); the twin sends these §7.1 codes in
 /// both, as §13.2 calls bytes 0–1 the "Emergency Error Code" beside the §13.3 table of these
 /// codes, and the error register 1001h bit 0 (generic, §7.4). The CiA codes of §17 are the
 /// firmware's names for the standard ranges; no Nanotec cause is mapped to them in the text.
