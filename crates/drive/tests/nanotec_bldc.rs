@@ -1,6 +1,6 @@
-//! Nanotec with a BLDC motor (spec/nanotec-canopen.md §6 2004h:07 / 2004h:0C; seed 003
-//! "Motortyp", "Hall-Sensor-Modus"): the Hall table, block commutation with the right and a
-//! wrong table, the Hall-only position resolution, and a stepper that refuses BLDC.
+//! Nanotec with a BLDC motor (Nanotec §1.2 and §11.5: 2004h:07 "Motortyp", 2004h:0C
+//! "Hall-Sensor-Modus"): the Hall table, block commutation with the right and a wrong table, the
+//! Hall-only position resolution, and a stepper that refuses BLDC.
 
 mod nanotec_rig;
 

@@ -1,5 +1,4 @@
-//! The SMCI47-S brake timing 2007h and the digital-output mask 60FEh:02
-//! (spec/nanotec-canopen.md §5.8).
+//! The SMCI47-S brake timing 2007h and the digital-output mask 60FEh:02 (Nanotec §11.8, §9.2–9.3).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,7 +1,7 @@
-//! The Nanotec power state machine (spec/nanotec-canopen.md §4.2, §9 item 4): the §2.4
-//! power-up sequence frame by frame through the CANopen node, the statusword values with
-//! bit 9 remote, the only multi-step jump (Ready to Switch On → Operation Enabled), quick
-//! stop into Switch On Disabled and the fault reset edge.
+//! The Nanotec power state machine (Nanotec ch. 3; the extract's §9 item 4): the §2.4 power-up
+//! sequence frame by frame through the CANopen node, the statusword values with bit 9 remote, the
+//! only multi-step jump (Ready to Switch On → Operation Enabled), quick stop into Switch On
+//! Disabled and the fault reset edge.
 
 mod nanotec_rig;
 

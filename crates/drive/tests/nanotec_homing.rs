@@ -1,6 +1,6 @@
-//! Nanotec homing (spec/nanotec-canopen.md §5.2, §9 item 10): the methods of 6098h, the
-//! 6099h speeds, 609Ah only when starting, the immediate speed change at the switch and the
-//! immediate stop at the end, bit 4 low aborts, bits 12 / 13.
+//! Nanotec homing (Nanotec ch. 5; the extract's §9 item 10): the methods of 6098h, the 6099h
+//! speeds, 609Ah only when starting, the immediate speed change at the switch and the immediate
+//! stop at the end, bit 4 low aborts, bits 12 / 13.
 
 mod nanotec_rig;
 

@@ -1,6 +1,6 @@
-//! Nanotec Profile Position (spec/nanotec-canopen.md §5.1, §9 item 6): the §2.5–2.7 frames
-//! through the CANopen node, the bit 12 handshake with the one-deep queue, relative targets,
-//! change on set-point, and the target checks with their EMCYs and bit 11.
+//! Nanotec Profile Position (Nanotec ch. 4; the extract's §9 item 6): the §2.5–2.7 frames through
+//! the CANopen node, the bit 12 handshake with the one-deep queue, relative targets, change on
+//! set-point, and the target checks with their EMCYs and bit 11.
 
 mod nanotec_rig;
 

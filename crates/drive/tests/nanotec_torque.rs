@@ -1,6 +1,5 @@
-//! Nanotec torque mode (spec/nanotec-canopen.md §5.5, §9 item 9): only in closed loop
-//! (200Ah = 1), the current from 6071h and 2004h:01, the speed limited by 607Fh, halt and
-//! statusword bit 10.
+//! Nanotec torque mode (Nanotec ch. 8; the extract's §9 item 9): only in closed loop (200Ah = 1),
+//! the current from 6071h and 2004h:01, the speed limited by 607Fh, halt and statusword bit 10.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

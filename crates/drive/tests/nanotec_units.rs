@@ -1,5 +1,5 @@
-//! Nanotec units, scaling and velocity mode (spec/nanotec-canopen.md §5.3, §6): the NT-SC
-//! vectors of spec/vectors.md.
+//! Nanotec units, scaling and velocity mode (Nanotec §1.2, ch. 6): the NT-SC vectors of the
+//! catalogue of the manuals' worked examples kept beside the project.
 
 mod nanotec_rig;
 
