@@ -6,7 +6,7 @@
 //! personality, the simulated drive and motor, built exactly as the CANopen cell builds them
 //! (cell file, motor commissioning, [`CanDrive::with_settings`]).
 //!
-//! Process data (spec/cmmp-as-1-communication.md §2):
+//! Process data (the manual's extract kept beside the project, `cmmp-as-1-communication.md` §2):
 //!
 //! * On Pre-Op → Safe-Op the device takes the PDO assignment (1C12h / 1C13h when the
 //!   dictionary has them, else the SII defaults 1600h / 1A00h: the CMMP-AS maps its EtherCAT

@@ -2,10 +2,11 @@
 //! other configurators import. The same description and the same [`SiiConfig`] give the SII
 //! image (`ethercat::sii`), so the ESI and the EEPROM agree on SM addresses, PDOs and names.
 //!
-//! Structure and naming follow the Festo CMMP-AS ESI excerpt (spec/cmmp-as-1-communication.md
-//! §2.13): vendor `#x1D`, group type "Festo Electric-Drives" / name "Festo Electric-Drive",
-//! `Device Physics="YY"`, RxPDO entries with Index/SubIndex/BitLen/Name/DataType, the PDO
-//! assigned to SM2 named "Outputs" and the one assigned to SM3 "Inputs". Decisions:
+//! Structure and naming follow the Festo CMMP-AS ESI excerpt (the manual's extract kept beside the
+//! project, `cmmp-as-1-communication.md` §2.13): vendor `#x1D`, group type "Festo Electric-Drives"
+//! / name "Festo Electric-Drive", `Device Physics="YY"`, RxPDO entries with
+//! Index/SubIndex/BitLen/Name/DataType, the PDO assigned to SM2 named "Outputs" and the one
+//! assigned to SM3 "Inputs". Decisions:
 //! * Element names are ETG.2000's `RxPdo` / `TxPdo` (the manual prints `<RxPDO>`, which the
 //!   ETG schema and TwinCAT do not know; its `<Index#>x6060</Index>` typo is not copied either).
 //! * The vendor name is the description's `vendor_name` ("Festo AG & Co. KG"), not the
