@@ -1,8 +1,8 @@
-//! The CiA 301 side of the Nanotec SMCI47-S (seeds/003_ef071fe40f10c01c.txt, spec/vectors.md
-//! §3.1–3.3 and §3.5): its NT-NODE, NT-SDO, NT-NMT and NT-PDO vectors, each named at its test,
-//! frame by frame as the manual prints them (short request frames included), on
-//! the device description `devices/nanotec-smci47s.toml` alone. What the drive does with a
-//! controlword is the personality's, not tested here.
+//! The CiA 301 side of the Nanotec SMCI47-S (its CANopen reference manual; the vector catalogue
+//! kept beside the project, §3.1–3.3 and §3.5): its NT-NODE, NT-SDO, NT-NMT and NT-PDO vectors,
+//! each named at its test, frame by frame as the manual prints them (short request frames
+//! included), on the device description `devices/nanotec-smci47s.toml` alone. What the drive does
+//! with a controlword is the personality's, not tested here.
 
 mod common;
 use canopen::{CanFrame, NmtState, NodeEvent};
@@ -627,7 +627,7 @@ fn nmt_reset_boots_again() {
 }
 
 // ------------------------------------------------------------------------------------------
-// The SDO abort codes of §16 (spec/nanotec-canopen.md §7.3), each for its cause
+// The SDO abort codes of §16, each for its cause
 
 #[test]
 fn sdo_abort_codes_for_their_causes() {
