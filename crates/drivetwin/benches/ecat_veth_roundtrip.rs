@@ -244,7 +244,8 @@ impl Master {
         self.exchange(Command::Lrw, Address::Logical(0), &io)
     }
 
-    /// Init → Pre-Op → Safe-Op → Op with the default mapping (spec/ethercat-esc.md §9.1).
+    /// Init → Pre-Op → Safe-Op → Op with the default mapping (the ESC reference kept beside the
+    /// project, §9.1).
     fn start_up(&mut self) {
         let r = self.exchange(
             Command::Bwr,

@@ -126,7 +126,7 @@ fn cell() -> EthercatCell {
     EthercatCell::from_cell_file(&CellFile::single("cmmp-as", 1)).expect("cell")
 }
 
-/// ecx_config_init up to Pre-Op (spec/ethercat-esc.md §9.1, abridged).
+/// ecx_config_init up to Pre-Op (the ESC reference kept beside the project, §9.1, abridged).
 fn to_preop(m: &mut Master) {
     let r = m.one(Command::Bwr, phys(0, 0x0120), &[0x11, 0x00]);
     assert_eq!(r.wkc, 1);

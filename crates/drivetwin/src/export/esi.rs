@@ -44,7 +44,7 @@ pub struct EsiConfig<'a> {
 
 impl EsiConfig<'static> {
     /// What `desc`'s device file says (`[device.ethercat]`, on the SII baseline of
-    /// spec/ethercat-esc.md §3.5 without it).
+    /// the ESC reference kept beside the project, §3.5 without it).
     pub fn from_description(desc: &DeviceDescription) -> Self {
         EsiConfig {
             sii: SiiConfig::from_description(desc),
