@@ -310,7 +310,7 @@ impl<const N: usize> Node<N> {
                 }
             }
             // Node guarding request: an RTR, or over socketcand (which carries no RTR) a
-            // zero-length frame (spec/anchors.md §3.3).
+            // zero-length frame (the notes on open-source systems kept beside the project, §3.3).
             c if c == 0x700 + own && (frame.rtr || frame.payload().is_empty()) => {
                 self.on_guarding(now, od, out)
             }

@@ -1,5 +1,5 @@
-//! Worked examples of the Festo CMMP-AS manual (spec/vectors.md §1.2, §1.4–1.6) that the
-//! CiA 301 layer and the device description decide.
+//! Worked examples of the Festo CMMP-AS manual (the vector catalogue kept beside the project, §1.2,
+//! §1.4–1.6) that the CiA 301 layer and the device description decide.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

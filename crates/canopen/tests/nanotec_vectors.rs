@@ -373,9 +373,10 @@ fn nt_pdo_01_to_10_rpdo1_remapping_as_printed() {
     assert_eq!(b.od.take_request(), Some(StorageRequest::Save { sub: 1 }));
 }
 
-/// NT-PDO-08 as printed: command 2Fh (one byte) for a four-byte COB-ID. Decision: CiA 301
-/// wins over the example (spec/vectors.md §5.3 corrects it): the size the client indicates is
-/// the size written, so the frame is refused with 0607 0013h and RPDO1 stays disabled.
+/// NT-PDO-08 as printed: command 2Fh (one byte) for a four-byte COB-ID. Decision: CiA 301 wins over
+/// the example (the vector catalogue kept beside the project, §5.3 corrects it): the size the
+/// client indicates is the size written, so the frame is refused with 0607 0013h and RPDO1 stays
+/// disabled.
 #[test]
 fn nt_pdo_08_printed_command_byte_is_refused() {
     let mut b = smci(1);

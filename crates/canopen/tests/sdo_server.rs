@@ -1,5 +1,5 @@
 //! SDO server behaviour on the test bench personality: every transfer kind and every abort
-//! cause of CiA 301 §7.2.4 (vectors in spec/canopen-protocols.md §1).
+//! cause of CiA 301 §7.2.4 (vectors in the CiA 301 / 305 notes kept beside the project, §1).
 
 mod common;
 use common::*;

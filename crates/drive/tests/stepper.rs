@@ -1,7 +1,7 @@
-//! The simulated CMMO-ST stepper plant: open-loop micro-stepping (following, lost steps,
-//! pull-out torque falling with speed, holding), closed loop (servo-lite), determinism, and
-//! the SINC scaling vectors of spec/vectors.md §2.5 (FHPP-SC-01, FHPP-SC-02, FHPP-SC-03) by
-//! their IDs.
+//! The simulated CMMO-ST stepper plant: open-loop micro-stepping (following, lost steps, pull-out
+//! torque falling with speed, holding), closed loop (servo-lite), determinism, and the SINC scaling
+//! vectors of the vector catalogue kept beside the project, §2.5 (FHPP-SC-01, FHPP-SC-02,
+//! FHPP-SC-03) by their IDs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -611,7 +611,7 @@ fn bad_inputs_do_not_poison_the_state() {
     assert!(z.angle().is_finite());
 }
 
-// ---- SINC scaling (spec/vectors.md §2.5) ----------------------------------------------------
+// ---- SINC scaling (vector catalogue §2.5) -------------------------------------------------------
 
 /// FHPP-SC-01: PNU 600 = −7, PNU 601 = 01h → 1 SINC = 0.1 µm, 10 000 SINC = 1 mm.
 #[test]

@@ -394,8 +394,8 @@ fn kinco_every_section_7_error_over_the_bus() {
     }
 }
 
-/// The vector of spec/vectors.md §4.7 an Error_State / Error_State2 bit is the example of
-/// ("" for the bits without one).
+/// The vector of the vector catalogue kept beside the project, §4.7 an Error_State /
+/// Error_State2 bit is the example of ("" for the bits without one).
 fn kinco_diag_vector(word: drive::vendors::kinco::ErrorWord, bit: u8) -> &'static str {
     use drive::vendors::kinco::ErrorWord::{State, State2};
     match (word, bit) {
