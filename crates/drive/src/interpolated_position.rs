@@ -43,7 +43,7 @@ pub enum SyncChange {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interpolator {
     period: Duration,
-    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec §5.4: 60C2h
+    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec ch. 7: 60C2h
     /// is ignored), not 60C2h; 60C1h needs no unlocking.
     follows_sync: bool,
     unlocked: bool,
@@ -87,7 +87,7 @@ impl Interpolator {
         self.period
     }
 
-    /// An interpolator whose period is the SYNC interval (Nanotec §5.4): the first two
+    /// An interpolator whose period is the SYNC interval (Nanotec ch. 7): the first two
     /// intervals within half of each other lock it; 60C1h is always open.
     pub fn following_sync() -> Self {
         Interpolator {

@@ -20,7 +20,7 @@ fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
     })
 }
 
-/// The feed constant of the defaults (Nanotec §6: 2000 units = one output revolution).
+/// The feed constant of the defaults (Nanotec §1.2: 2000 units = one output revolution).
 const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
