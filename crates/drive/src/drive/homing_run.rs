@@ -139,7 +139,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::ToZero => {
-                // 6510h:F0 bit 6: to the zero position at 6099h:01 (cmmp-as-3 §3.2 note).
+                // 6510h:F0 bit 6: to the zero position at 6099h:01 (CMMP-AS §7.2).
                 let zero = self.fg.position_to_internal(0) as f64;
                 let lim = Limits {
                     velocity: self.homing_speed(Speed::Search).max(1.0),
