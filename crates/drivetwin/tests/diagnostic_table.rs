@@ -41,7 +41,7 @@ enum Expect {
     Warning,
     /// A diagnostic-memory entry only.
     LogOnly,
-    /// 2100h "no action" (17-x while 6510h:22 is 0, cmmp-as-2 §5.7).
+    /// 2100h "no action" (17-x while 6510h:22 is 0, the CMMP-AS manual's extract, part 2 §5.7).
     Nothing,
 }
 

@@ -38,8 +38,8 @@ fn esc_with_cmmp_as_sii() {
 }
 
 /// The device file's `[device.ethercat]` gives the layout of the ESC reference kept beside the
-/// project, §3.5 with the CMMP-AS's group (cmmp-as-1 §2.13) and CoE services (§2.11, Tab. 4.9): the
-/// SII image and the CoE answers the interop tests were written against.
+/// project, §3.5 with the CMMP-AS's group and CoE services (its manual's extract, part 1 §2.13,
+/// §2.11, Tab. 4.9): the SII image and the CoE answers the interop tests were written against.
 #[test]
 fn cmmp_as_layout_and_coe_services_from_its_device_file() {
     use ethercat::coe::CoeConfig;

@@ -326,7 +326,8 @@ mod tests {
         );
     }
 
-    /// The CANopen frames of anchors.md §7, in order, at 1 ms steps.
+    /// The CANopen frames of the notes on open-source systems kept beside the project (§7), in
+    /// order, at 1 ms steps.
     fn canopen_sample() -> Vec<CanFrame> {
         vec![
             f(0x000, &[0x01, 0x05]),                         // NMT start node 5

@@ -165,8 +165,8 @@ pub const CMMP_AS: Personality = Personality {
         only_with_brake: false,
     },
     // App. B.3: 18-0 (warning, "more than 5° below T_max", read as within 5 K), 03-0, 04-0,
-    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and
-    // 6510h:32 max_power_stage_temperature (cmmp-as-1 §3.5: "above this: output stage off
+    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and 6510h:32
+    // max_power_stage_temperature (the manual's extract, part 1 §3.5: "above this: output stage off
     // plus error"), the temperatures shown in 6510h:2E and 6510h:31.
     plant: PlantSupervision {
         messages: [
@@ -314,8 +314,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         self.numbered_message_reaction(code, message, critical, info)
     }
 
-    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
-    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action (the manual's
+    /// extract, part 2 §5.7); 2100h can change it afterwards.
     pub(crate) fn following_error_reaction(&mut self) {
         let r = if self.value(0x6510, 0x22) > 0 {
             reaction::OUTPUT_STAGE_OFF
@@ -495,9 +495,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
             [b] => *b as i8,
             _ => return self.od.write(index, sub, data),
         };
-        // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
-        // the printed range only and fails at the start (see `start_homing`).
-        // Beyond −27 … 35 the dictionary's range check answers.
+        // The printed 6098h range plus −23/−27 of Tab. 7.1 (the manual's extract, part 3 §9); 32 is
+        // in the printed range only and fails at the start (see `start_homing`). Beyond
+        // −27 … 35 the dictionary's range check answers.
         let listed = m == 32 || self.personality.homing_method(m);
         if !listed && (-27..=35).contains(&m) {
             self.od.entry(index, sub)?;
