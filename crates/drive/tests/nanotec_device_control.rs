@@ -135,7 +135,7 @@ fn nt_cw_08_fault_reset_needs_a_rising_edge() {
     let mut r = Rig::new();
     r.enable();
     r.cw(0x0080);
-    r.d.inject_fault(0x0080, 0x01); // overcurrent (§7.1)
+    r.d.inject_fault(0x0080, 0x01); // overcurrent (§13.3)
     r.run_ms(10);
     r.d.clear_fault(0x0080);
     r.run_ms(200);

@@ -57,7 +57,7 @@ fn torque_accelerates_to_the_607f_speed_limit() {
     assert!((-305.0..-270.0).contains(&rpm), "{rpm} min⁻¹");
 }
 
-/// Bit 10 with bit 8 (§5.5 table): set torque reached (1, 0); braking (0, 1); stopped (1, 1).
+/// Bit 10 with bit 8 (§8.3 table): set torque reached (1, 0); braking (0, 1); stopped (1, 1).
 #[test]
 fn halt_and_bit_10() {
     let mut r = Rig::new();

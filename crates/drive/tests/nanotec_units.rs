@@ -209,7 +209,7 @@ fn nt_sc_11_vl_min_max_clamping() {
     );
 }
 
-/// §5.3: halt brakes with 6049h and its falling edge accelerates again; a quick stop brakes
+/// §6.1: halt brakes with 6049h and its falling edge accelerates again; a quick stop brakes
 /// with 604Ah and ends in Switch On Disabled.
 #[test]
 fn vl_halt_and_quick_stop() {

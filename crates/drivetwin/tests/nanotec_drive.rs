@@ -262,7 +262,7 @@ fn drive_torque_on_a_nanotec_names_what_is_missing() {
     assert!(!out.status.success());
     assert!(err.contains("refused mode 4"), "{err}");
     assert!(err.contains("closed loop on (200Ah = 1"), "{err}");
-    // Closed loop on (2001h = 1, §5.6), then torque moves the motor up to 607Fh.
+    // Closed loop on (2001h = 1, §11.2), then torque moves the motor up to 607Fh.
     let sdo = |args: &[&str]| {
         let out = Command::new(binary())
             .args(["sdo", "write", NODE])
