@@ -444,7 +444,7 @@ impl<const N: usize> Node<N> {
         if od.read_u16(0x1017, 0).unwrap_or(0) != 0 {
             return;
         }
-        // Decision (a manual's guarding example prints no toggle bit): CiA 301's
+        // Decision (a manual's node-state query by RTR prints no toggle bit): CiA 301's
         // toggle in bit 7 for every personality; it starts at 0, so the first answer is the
         // manual's 7Fh.
         let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
