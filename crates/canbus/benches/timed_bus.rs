@@ -1,5 +1,5 @@
 //! The cost of the timed CAN bus model per frame: bit-exact frame length (stuffing and
-//! CRC-15) and the arbitration among waiting frames (issue 14: "bus-model cost per frame").
+//! CRC-15) and the arbitration among waiting frames.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -238,8 +238,8 @@ mod tests {
         assert_eq!(order.as_slice(), &[0x705, 0x081, 0x181]);
     }
 
-    /// Issue 14: 127 heartbeats at 125 kbit/s, all due at once, leave one after the other
-    /// over the time the bit formula gives (55…65 bits each, 56…66 ms in all).
+    /// 127 heartbeats at 125 kbit/s, all due at once, leave one after the other over the time the
+    /// bit formula gives (55…65 bits each, 56…66 ms in all).
     #[test]
     fn heartbeats_of_127_nodes_spread_over_the_bit_time() {
         let mut bus: TimedBus<128> = TimedBus::new(125_000);

@@ -2,6 +2,9 @@
 //! 7E4h (slave → master), selection by the 128-bit LSS address (1018h:01…04) or by fastscan.
 //! Sans-IO: request bytes in, response bytes out, and an [`LssAction`] for what only the
 //! owner can do (reset communication, persist, change the bit rate).
+//!
+//! "spec §n" below is a section of `canopen-protocols.md`, the notes on CiA 301 / 305 kept
+//! beside the project with the manuals' extracts.
 
 use od::ObjectAccess;
 

@@ -310,7 +310,7 @@ impl<const N: usize> Node<N> {
                 }
             }
             // Node guarding request: an RTR, or over socketcand (which carries no RTR) a
-            // zero-length frame (spec/anchors.md §3.3).
+            // zero-length frame (the notes on open-source systems kept beside the project, §3.3).
             c if c == 0x700 + own && (frame.rtr || frame.payload().is_empty()) => {
                 self.on_guarding(now, od, out)
             }
@@ -444,7 +444,7 @@ impl<const N: usize> Node<N> {
         if od.read_u16(0x1017, 0).unwrap_or(0) != 0 {
             return;
         }
-        // Decision (seeds/003_ef071fe40f10c01c.txt L467–488 prints no toggle bit): CiA 301's
+        // Decision (a manual's node-state query by RTR prints no toggle bit): CiA 301's
         // toggle in bit 7 for every personality; it starts at 0, so the first answer is the
         // manual's 7Fh.
         let byte = self.nmt.state().code() | if self.guarding.toggle { 0x80 } else { 0 };
@@ -499,10 +499,9 @@ impl<const N: usize> Node<N> {
                     self.pdos.set_operational(now, s == NmtState::Operational);
                     self.push(NodeEvent::State(s));
                 }
-                // `nmt_command_answered_with_state` (seeds/003_ef071fe40f10c01c.txt L4153, L4237
-                // prints the node's answer to `000: 80 01` as `701: 7F` and to `000: 01 01` as
-                // `701: 05`).
-                // Decision: CiA 301 has no NMT answer, but the manual labels both lines
+                // `nmt_command_answered_with_state` (a manual prints the node's answer to
+                // `000: 80 01` as `701: 7F` and to `000: 01 01` as `701: 05`).
+                // Decision: CiA 301 has no NMT answer, but that manual labels both lines
                 // "Antwort Node 1", with heartbeat off by default: the personality sends the
                 // state byte as a heartbeat carries it (no guarding toggle). CiA masters take
                 // it as an extra heartbeat.

@@ -13,7 +13,7 @@ pub fn crc16(data: &[u8]) -> u16 {
 mod tests {
     use super::crc16;
 
-    // Test values of spec/canopen-protocols.md §1.5.
+    // Test values of the CiA 301 / 305 notes kept beside the project, §1.5.
     #[test]
     fn crc_matches_the_published_check_values() {
         assert_eq!(crc16(b"123456789"), 0x31C3);

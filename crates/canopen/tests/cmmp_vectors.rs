@@ -1,5 +1,5 @@
-//! Worked examples of the Festo CMMP-AS manual (spec/vectors.md §1.2, §1.4–1.6) that the
-//! CiA 301 layer and the device description decide.
+//! Worked examples of the Festo CMMP-AS manual (the vector catalogue kept beside the project, §1.2,
+//! §1.4–1.6) that the CiA 301 layer and the device description decide.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -243,7 +243,7 @@ fn cmmp_pdo_10_to_16_default_pdo_configuration() {
 
 #[test]
 fn pdo_cob_ids_follow_the_node_id() {
-    // spec §9: defaults printed for node 1 are $NODEID-relative.
+    // The manual prints the default COB-IDs for node 1; they are $NODEID-relative.
     let mut b = Bench::new(&devices::CMMP_AS, 27);
     assert_eq!(read_u32(&mut b, 0x1800, 1), 0xC000_0180 + 27);
     assert_eq!(read_u32(&mut b, 0x1014, 0), 0x80 + 27);

@@ -1,6 +1,6 @@
-//! The CiA 301 side of the Kinco FD3 (seeds/001_da459f46c7138f7b.txt ch. 11, spec/vectors.md
-//! §4.5): its KINCO-CAN vectors, each at its test, frame by frame, on the device description
-//! `devices/kinco-fd3.toml` alone. What the drive does with a controlword is the
+//! The CiA 301 side of the Kinco FD3 (Kinco CD3 / FD3 manual ch. 11; the vector catalogue kept
+//! beside the project, §4.5): its KINCO-CAN vectors, each at its test, frame by frame, on the
+//! device description `devices/kinco-fd3.toml` alone. What the drive does with a controlword is the
 //! personality's, not tested here.
 
 mod common;

@@ -325,7 +325,7 @@ fn configuration_commands_ignored_while_waiting() {
 #[test]
 fn malformed_requests_ignored() {
     let mut s = unconfigured();
-    // Not 8 data bytes (spec §6.1: CANopenNode ignores DLC ≠ 8).
+    // Not 8 data bytes (CANopenNode ignores DLC ≠ 8).
     ignored(&mut s, &[]);
     ignored(&mut s, &[0x04, 0x01]);
     ignored(&mut s, &[0x4C, 0, 0, 0, 0, 0, 0]);

@@ -1,8 +1,8 @@
-//! The CiA 301 side of the Nanotec SMCI47-S (seeds/003_ef071fe40f10c01c.txt, spec/vectors.md
-//! §3.1–3.3 and §3.5): its NT-NODE, NT-SDO, NT-NMT and NT-PDO vectors, each named at its test,
-//! frame by frame as the manual prints them (short request frames included), on
-//! the device description `devices/nanotec-smci47s.toml` alone. What the drive does with a
-//! controlword is the personality's, not tested here.
+//! The CiA 301 side of the Nanotec SMCI47-S (its CANopen reference manual; the vector catalogue
+//! kept beside the project, §3.1–3.3 and §3.5): its NT-NODE, NT-SDO, NT-NMT and NT-PDO vectors,
+//! each named at its test, frame by frame as the manual prints them (short request frames
+//! included), on the device description `devices/nanotec-smci47s.toml` alone. What the drive does
+//! with a controlword is the personality's, not tested here.
 
 mod common;
 use canopen::{CanFrame, NmtState, NodeEvent};
@@ -373,9 +373,10 @@ fn nt_pdo_01_to_10_rpdo1_remapping_as_printed() {
     assert_eq!(b.od.take_request(), Some(StorageRequest::Save { sub: 1 }));
 }
 
-/// NT-PDO-08 as printed: command 2Fh (one byte) for a four-byte COB-ID. Decision: CiA 301
-/// wins over the example (spec/vectors.md §5.3 corrects it): the size the client indicates is
-/// the size written, so the frame is refused with 0607 0013h and RPDO1 stays disabled.
+/// NT-PDO-08 as printed: command 2Fh (one byte) for a four-byte COB-ID. Decision: CiA 301 wins over
+/// the example (the vector catalogue kept beside the project, §5.3 corrects it): the size the
+/// client indicates is the size written, so the frame is refused with 0607 0013h and RPDO1 stays
+/// disabled.
 #[test]
 fn nt_pdo_08_printed_command_byte_is_refused() {
     let mut b = smci(1);
@@ -627,7 +628,7 @@ fn nmt_reset_boots_again() {
 }
 
 // ------------------------------------------------------------------------------------------
-// The SDO abort codes of §16 (spec/nanotec-canopen.md §7.3), each for its cause
+// The SDO abort codes of §16, each for its cause
 
 #[test]
 fn sdo_abort_codes_for_their_causes() {

@@ -128,9 +128,9 @@ proptest! {
     }
 }
 
-/// Found by the property above: a node reset by NMT waits for its application to boot it,
-/// and until then nothing is due. Its deadline used to stay at the reset's instant, so a
-/// runtime polling on `deadline()` before booting it would spin for ever.
+/// A node reset by NMT waits for its application to boot it, and until then nothing is due:
+/// a deadline left at the reset's instant would make a runtime that polls on `deadline()`
+/// before booting it spin for ever.
 #[test]
 fn a_reset_node_has_no_deadline_until_it_is_booted() {
     let mut b = Bench::new(&devices::CMMP_AS, NODE as u8);

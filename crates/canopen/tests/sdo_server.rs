@@ -1,5 +1,5 @@
 //! SDO server behaviour on the test bench personality: every transfer kind and every abort
-//! cause of CiA 301 §7.2.4 (vectors in spec/canopen-protocols.md §1).
+//! cause of CiA 301 §7.2.4 (vectors in the CiA 301 / 305 notes kept beside the project, §1).
 
 mod common;
 use common::*;
@@ -104,7 +104,7 @@ fn abort_causes() {
 #[test]
 fn short_requests_are_zero_padded() {
     let mut b = bench();
-    // Nanotec-style 4-byte upload request (spec/nanotec-canopen.md §9).
+    // Nanotec-style 4-byte upload request (the Nanotec manual prints short request frames).
     assert_eq!(
         b.sdo1(&[0x40, 0x00, 0x10]),
         p8(&[0x43, 0x00, 0x10, 0x00, 0, 0, 0, 0])

@@ -1,8 +1,7 @@
-//! The two Kinco personalities (the Kinco CD3 / FD3 manual, kept beside the project as
-//! seeds/001_da459f46c7138f7b.txt with its English extract spec/kinco-fd-cd.md): what the FD3
-//! (CANopen) and the CD3 have, the defaults and ranges the manual prints, and the panel address
-//! and Modbus register of each object. The manual's worked examples by their vector IDs
-//! (spec/vectors.md).
+//! The two Kinco personalities (the Kinco CD3 / FD3 manual, kept beside the project with its
+//! English extract): what the FD3 (CANopen) and the CD3 have, the defaults and ranges the manual
+//! prints, and the panel address and Modbus register of each object. The manual's worked examples
+//! by their vector IDs (the catalogue of the manuals' worked examples kept beside the project).
 
 use od::{AbortCode, DataType, ObjectAccess, ObjectDictionary, Profile, Value};
 

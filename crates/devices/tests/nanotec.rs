@@ -1,6 +1,5 @@
 //! The two Nanotec personalities (the Nanotec "Referenzhandbuch CANopen" V2.5, kept beside the
-//! project as seeds/003_ef071fe40f10c01c.txt): what each device has, and the dictionary values
-//! the manual prints.
+//! project): what each device has, and the dictionary values the manual prints.
 
 use od::{ObjectDictionary, Profile, Value};
 

@@ -41,9 +41,9 @@ use support::thread_cpu_time;
 #[path = "support/mod.rs"]
 mod support;
 
-/// Axes in real time per core of the first measurement (commit c1c54dd, same bench and
-/// machine, best of two runs): the reference the plot draws. The Kinco and the generic drive
-/// were not measured then (NaN: no bar).
+/// Axes in real time per core at commit c1c54dd (same bench and machine, best of two runs):
+/// the reference the plot draws. The Kinco and the generic drive were not measured then
+/// (NaN: no bar).
 const BASELINE: [(&str, f64); 5] = [
     ("CMMP-AS", 754.0),
     ("Nanotec", 391.0),
@@ -244,7 +244,7 @@ fn criterion_1ms(c: &mut Criterion) {
     });
 }
 
-/// The figures of the issue, printed and drawn.
+/// Axes per core of each personality, printed and drawn against the baseline.
 fn report() {
     let figures = [
         ("CMMP-AS", per_simulated_second(cmmp_as)),

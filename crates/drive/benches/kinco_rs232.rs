@@ -1,4 +1,4 @@
-//! The Kinco RS232 codec alone (issue 13's benchmark): a 10-byte telegram in, the answer out.
+//! The Kinco RS232 codec alone: a 10-byte telegram in, the answer out.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,5 +1,4 @@
-//! The Kinco Modbus RTU server alone (issue 13's benchmark): the manual's §12.3 frames in, the
-//! replies out.
+//! The Kinco Modbus RTU server alone: the manual's §12.3 frames in, the replies out.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

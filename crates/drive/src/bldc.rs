@@ -1,7 +1,7 @@
-//! A brushless DC motor with Hall sensors behind a Nanotec (spec/nanotec-canopen.md §6,
-//! 2004h:07 / 2004h:0C; seeds/003_ef071fe40f10c01c.txt "Motortyp", "Hall-Sensor-Modus"):
-//! the servo [`crate::axis::Axis`] (its PMSM and its current / velocity / position cascade)
-//! with block (six-step) commutation from the Hall sectors.
+//! A brushless DC motor with Hall sensors behind a Nanotec (Nanotec §1.2 and §11.5:
+//! 2004h:07 "Motortyp", 2004h:0C "Hall-Sensor-Modus"): the servo [`crate::axis::Axis`] (its PMSM
+//! and its current / velocity / position cascade) with block (six-step) commutation from the Hall
+//! sectors.
 //!
 //! Model: the rotor's electrical angle `θe = pole pairs × θ` lies in one of six 60° sectors
 //! `k = ⌊θe / 60°⌋`; the motor's Hall sequence (its data sheet) gives the Hall state of sector

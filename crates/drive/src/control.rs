@@ -1,9 +1,9 @@
-//! The CMMP-AS control cascade (cmmp-as-2 §3.1–3.4, §5 "Position-controller functions",
-//! §6): position controller (P, optional integrator, speed feed-forward, output clamp
-//! 60FBh:04, dead band 60FBh:05) → velocity controller (PI, actual-speed filter 60F9h:04,
-//! output = current set-point limited by 6073h, 2415h and I²t) → current controller (PI,
-//! output voltage limited by the DC-link voltage 6510h:34) → motor. Plus the motor I²t
-//! monitor of 6410h:03/04.
+//! The CMMP-AS control cascade (CMMP-AS §5.5–5.8; units as the manual's extract kept beside the
+//! project gives them, part 2 §6): position controller (P, optional integrator, speed feed-forward,
+//! output clamp 60FBh:04, dead band 60FBh:05) → velocity controller (PI, actual-speed filter
+//! 60F9h:04, output = current set-point limited by 6073h, 2415h and I²t) → current controller (PI,
+//! output voltage limited by the DC-link voltage 6510h:34) → motor. Plus the motor I²t monitor of
+//! 6410h:03/04.
 //!
 //! [`ControlParams`] holds the parameters in the manual's object units (gains × 256, times in
 //! µs, currents in mA, speeds in min⁻¹, positions in increments); [`Gains`] is the same set
@@ -30,7 +30,7 @@
 use crate::current_filters::{CurrentFilterParams, CurrentFilters};
 use crate::motor::{MotorData, RPM_TO_RAD_S};
 
-/// Stored value of a controller gain: gain × 256, rounded (cmmp-as-2 §6: 1.5 → 384).
+/// Stored value of a controller gain: gain × 256, rounded (manual's extract, part 2 §6: 1.5 → 384).
 pub fn gain_to_raw(gain: f64) -> u16 {
     libm::round(gain * 256.0) as u16
 }
@@ -41,7 +41,7 @@ pub fn gain_from_raw(raw: u16) -> f64 {
 }
 
 /// Stored value of a controller time constant: the parameterisation software shows ms, the
-/// objects hold µs (cmmp-as-2 §6: 0.6 ms → 600).
+/// objects hold µs (manual's extract, part 2 §6: 0.6 ms → 600).
 pub fn time_ms_to_us(ms: f64) -> u16 {
     libm::round(ms * 1000.0) as u16
 }
@@ -54,12 +54,12 @@ pub fn encoder_offset_angle_from_degrees(degrees: f64) -> i16 {
 }
 
 /// Maximum current in mA from 6075h (mA) and 6073h (‰ of 6075h):
-/// `I_max = 6075h × 6073h / 1000` (cmmp-as-2 §6).
+/// `I_max = 6075h × 6073h / 1000` (manual's extract, part 2 §6).
 pub fn max_current_ma(rated_current_ma: u32, max_current_permille: u16) -> f64 {
     rated_current_ma as f64 * max_current_permille as f64 / 1000.0
 }
 
-/// 6073h value for an overload factor (cmmp-as-2 §3.1: factor 4 → 4000).
+/// 6073h value for an overload factor (CMMP-AS §5.5: factor 4 → 4000).
 pub fn overload_factor_to_permille(factor: f64) -> u16 {
     libm::round(factor * 1000.0) as u16
 }
@@ -121,7 +121,7 @@ pub struct ControlParams {
 }
 
 impl Default for ControlParams {
-    /// The manual's defaults (cmmp-as-2 §3.1–3.3, §3.13; device file cmmp-as.toml for the
+    /// The manual's defaults (CMMP-AS §5.5–5.7, §5.17; device file cmmp-as.toml for the
     /// device-dependent 6510h values).
     fn default() -> Self {
         ControlParams {
@@ -178,7 +178,7 @@ impl ControlParams {
     }
 
     /// Current (A) for a torque in ‰ of 6076h motor_rated_torque. 6076h is the torque at
-    /// 6075h (both nameplate values; cmmp-as-3 §3.6 ties 6072h to 6073h), so ‰ of rated
+    /// 6075h (both nameplate values; CMMP-AS §7.7 ties 6072h to 6073h), so ‰ of rated
     /// torque = ‰ of rated current.
     pub fn current_for_torque_permille(&self, permille: f64) -> f64 {
         self.rated_current_a() * permille / 1000.0

@@ -24,7 +24,7 @@ bit_word! {
         FAULT_RESET = 0x0080;
         /// Bit 8 halt.
         HALT = 0x0100;
-        /// Bit 9 (PP): change on set-point (Nanotec §5.1; CiA 402 v3).
+        /// Bit 9 (PP): change on set-point (Nanotec §4.2; CiA 402 v3).
         CHANGE_ON_SET_POINT = 0x0200;
     }
 }

@@ -1,9 +1,8 @@
-//! The filters between the velocity controller and the current controller: a first-order
-//! output filter and a notch on the current set-point, and the velocity integrator's own
-//! limit. The Kinco servo has all three (seeds/001_da459f46c7138f7b.txt ch. 7, Tab. 7-3 and
-//! 7-5; spec/kinco-fd-cd.md §5.5.4): Output_Filter_N 60F9h:15, Notch_N / Notch_On 60F9h:03 /
-//! :04, Kvi_Sum_Limit 60F9h:08. The CMMP-AS has none of them: its parameters leave them off,
-//! and the cascade is then the same, bit for bit, as without this module.
+//! The filters between the velocity controller and the current controller: a first-order output
+//! filter and a notch on the current set-point, and the velocity integrator's own limit. The Kinco
+//! servo has all three (Kinco manual ch. 7, Tab. 7-3 and 7-5): Output_Filter_N 60F9h:15, Notch_N /
+//! Notch_On 60F9h:03 / :04, Kvi_Sum_Limit 60F9h:08. The CMMP-AS has none of them: its parameters
+//! leave them off, and the cascade is then the same, bit for bit, as without this module.
 
 use core::f64::consts::PI;
 

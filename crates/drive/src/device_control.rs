@@ -236,15 +236,15 @@ impl DeviceControl {
             (ReadyToSwitchOn, EnableOperation) if self.rules.enable_from_ready => {
                 (OperationEnabled, Reaction::Enable) // 3+4
             }
-            // 7: the manual lists Quick Stop only; CiA 402 also Disable Voltage (spec §9.3).
+            // 7: the manual (ch. 6) lists Quick Stop only; CiA 402 also Disable Voltage.
             (ReadyToSwitchOn, DisableVoltage | QuickStop) => (SwitchOnDisabled, Reaction::None),
             (SwitchedOn, EnableOperation) => (OperationEnabled, Reaction::Enable), // 4
             (SwitchedOn, Shutdown) => (ReadyToSwitchOn, Reaction::Coast),          // 6
-            // 10: the manual lists Disable Voltage only; CiA 402 also Quick Stop (spec §9.3).
+            // 10: the manual (ch. 6) lists Disable Voltage only; CiA 402 also Quick Stop.
             (SwitchedOn, DisableVoltage | QuickStop) => (SwitchOnDisabled, Reaction::Coast),
             // 5: the transition table says "coast", 605Ch = −1 says "brake with the quick-stop
             // deceleration": the option code is the object a master reads, so it wins; the
-            // output stage stays on in SWITCHED ON (spec cmmp-as-2 §9.2).
+            // output stage stays on in SWITCHED ON (CMMP-AS Tab. 6.1 footnote 1).
             (OperationEnabled, SwitchOn) => (SwitchedOn, Reaction::QuickStopRamp),
             (OperationEnabled, Shutdown) => (ReadyToSwitchOn, Reaction::Coast), // 8 (605Bh = 0)
             (OperationEnabled, DisableVoltage) => (SwitchOnDisabled, Reaction::Coast), // 9

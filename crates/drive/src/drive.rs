@@ -1051,12 +1051,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 self.accel2(0x6510, 0x15)
             } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
             {
-                // VL brakes with its own quick-stop ramp 604Ah (Nanotec §4.2).
+                // VL brakes with its own quick-stop ramp 604Ah (Nanotec §6.1).
                 ramp
             } else if self.personality.capabilities.ip_abrupt_quick_stop
                 && self.mode == mode::INTERPOLATED_POSITION
             {
-                // Nanotec §5.4: in IP a quick stop stops the motor abruptly, without a ramp.
+                // Nanotec §7.3: in IP a quick stop stops the motor abruptly, without a ramp.
                 ABRUPT_STOP
             } else {
                 self.accel(0x6085)

@@ -1,6 +1,6 @@
-//! CiA 402 factor group of the Festo CMMP-AS (manual GDCP-CMMP-M3/-M0-C-CO-RU §5.3,
-//! seed 000 L2427–2704; English edition p.80–89): conversion between the user units of the
-//! bus objects and the drive's internal units.
+//! CiA 402 factor group of the Festo CMMP-AS (manual GDCP-CMMP-M3/-M0-C-CO-RU §5.3, lines
+//! L2427–2704 of its text kept beside the project; English edition p.80–89): conversion between the
+//! user units of the bus objects and the drive's internal units.
 //!
 //! # Internal units (Tab. 5.3, L2440–2447; 6093h L2459, 6094h L2534, 6097h L2608)
 //!
@@ -17,7 +17,7 @@
 //! value 3600 (360.0°) is 3600 × 4096 / 225 = 65536 increments, one revolution; and 6093h "converts
 //! … from position_units into increments" (L2459).
 //!
-//! # Rounding policy (the manual states none; spec note 27)
+//! # Rounding policy (the manual states none)
 //!
 //! Every conversion is computed exactly in `i128` and rounded once, **to the nearest integer,
 //! ties away from zero**. Because the rule is symmetric in sign, flipping a polarity flag
@@ -55,7 +55,7 @@
 //!   6084h, 6085h, 609Ah).
 //!
 //! The flags act on access only: values already stored internally are not converted when
-//! 607Eh or a factor changes (L2436–2438, L2689; spec note 28). The manual lists the range
+//! 607Eh or a factor changes (L2436–2438, L2689). The manual lists the range
 //! 40h, 80h, C0h with default 0; [`FactorGroup::validate`] accepts 0, 40h, 80h, C0h and refuses
 //! the reserved bits 0–5.
 //!

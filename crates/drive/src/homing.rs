@@ -76,7 +76,7 @@ use Until::{Active, Inactive, Index, Stop, StopOrLimit};
 /// Methods −23/−27 crawl "until the home switch becomes active" after the search has already
 /// found it: the drive first crawls back out of the cam (not printed, but the only way the
 /// switch can *become* active again), then onto it — reference: the positive edge for −23,
-/// the negative edge for −27 (cmmp-as-3 §9 "keep this distinction").
+/// the negative edge for −27 (the manual's extract, part 3 §9: "keep this distinction").
 /// The method `number` of `table`.
 pub const fn find_method(table: &[Method], number: i8) -> Option<Method> {
     let mut rest = table;

@@ -1,7 +1,6 @@
-//! Interpolated position mode (CiA 402 mode 7) as the CMMP-AS runs it (manual §7.4,
-//! spec/cmmp-as-3-modes-diagnostics.md §2.3, §4.3, §5.3): linear interpolation without
-//! buffer (60C0h = −2) between set-points that arrive one per SYNC on a fixed grid, the
-//! interpolation period 60C2h.
+//! Interpolated position mode (CiA 402 mode 7) as the CMMP-AS runs it (manual §7.4): linear
+//! interpolation without buffer (60C0h = −2) between set-points that arrive one per SYNC on a fixed
+//! grid, the interpolation period 60C2h.
 //!
 //! Sans-IO: the drive tells the interpolator of each SYNC ([`Interpolator::sync`]: a CANopen
 //! SYNC, an EtherCAT SYNC0 event, or the EtherCAT frame in free run), hands it the set-points
@@ -44,7 +43,7 @@ pub enum SyncChange {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interpolator {
     period: Duration,
-    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec §5.4: 60C2h
+    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec ch. 7: 60C2h
     /// is ignored), not 60C2h; 60C1h needs no unlocking.
     follows_sync: bool,
     unlocked: bool,
@@ -88,7 +87,7 @@ impl Interpolator {
         self.period
     }
 
-    /// An interpolator whose period is the SYNC interval (Nanotec §5.4): the first two
+    /// An interpolator whose period is the SYNC interval (Nanotec ch. 7): the first two
     /// intervals within half of each other lock it; 60C1h is always open.
     pub fn following_sync() -> Self {
         Interpolator {

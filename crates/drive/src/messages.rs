@@ -113,7 +113,7 @@ impl Default for Reactions {
     /// enable off with the quick-stop ramp). Decision: App. B prints no default for the
     /// configurable groups (the reaction column of B.3 is empty in the manual); they stop
     /// the drive with the quick-stop ramp (5), except 17 following error, which follows
-    /// 6510h:22 and is "no action" while that limit is 0 (cmmp-as-2 §5.7).
+    /// 6510h:22 and is "no action" while that limit is 0 (the manual's extract, part 2 §5.7).
     fn default() -> Self {
         // One pass over App. B (a drive is built with these; a pass per group made building
         // one take a millisecond): each group's fixed minimum (as [`minimum`]) and whether

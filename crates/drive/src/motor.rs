@@ -25,8 +25,9 @@
 
 use core::f64::consts::PI;
 
-/// Encoder increments per motor revolution of the CMMP-AS internal position unit and of the
-/// X2A resolver input (cmmp-as-2 §3.5 2024h:01, §6 "65536 increments = 1 revolution").
+/// Encoder increments per motor revolution of the CMMP-AS internal position unit and of the X2A
+/// resolver input (CMMP-AS §5.9, 2024h:01; the manual's extract, part 2 §6: "65536 increments =
+/// 1 revolution").
 pub const INCREMENTS_PER_REV: u32 = 65536;
 
 /// rad/s → min⁻¹.

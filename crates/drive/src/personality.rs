@@ -214,7 +214,7 @@ pub struct ErrorSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Capabilities {
     /// Positions from the feed constant 6092h and the gear ratio 6091h, 6063h in the
-    /// encoder increments of 608Fh (Nanotec §6); otherwise the factors 6093h / 6094h / 6097h
+    /// encoder increments of 608Fh (Nanotec §1.2); otherwise the factors 6093h / 6094h / 6097h
     /// (CMMP-AS §5.3).
     pub feed_constant: bool,
     /// Profile Position checks a target against 607Bh (wrap) and 607Dh, and a relative one
@@ -222,15 +222,15 @@ pub struct Capabilities {
     /// §5.1). Otherwise 6082h is the end velocity of continuous positioning (CMMP-AS).
     pub pp_target_limits: bool,
     /// Interpolated position: the period is the SYNC interval (a PLL), 60C1h:01 needs no
-    /// unlocking and the target it shares with 607Ah is the first set-point (Nanotec §5.4);
+    /// unlocking and the target it shares with 607Ah is the first set-point (Nanotec ch. 7);
     /// otherwise 60C2h on a fixed grid with 60C4h:06 (CMMP-AS §7.4).
     pub ip_follows_sync: bool,
     /// 6061h shows −1 in IP until the drive is on the SYNC grid (CMMP-AS §7.4).
     pub ip_changing_until_synchronised: bool,
-    /// A quick stop in IP stops without a ramp (Nanotec §5.4).
+    /// A quick stop in IP stops without a ramp (Nanotec §7.3).
     pub ip_abrupt_quick_stop: bool,
     /// Homing accelerates with 609Ah only when starting; at the switch the speed changes
-    /// at once, at the end the motor stops at once (Nanotec §5.2).
+    /// at once, at the end the motor stops at once (Nanotec ch. 5).
     pub homing_immediate: bool,
     /// The switches are read through 6510h:11 … :14 (CMMP-AS §5.14); otherwise as wired.
     pub switch_polarity_objects: bool,
@@ -368,7 +368,8 @@ impl Personality {
 pub enum ErrorReaction {
     /// Nothing beyond what the vendor module already did (a warning, a log entry).
     Ignore,
-    /// An EMCY and nothing else: no fault state (Nanotec §7.1 "–").
+    /// An EMCY and nothing else: no fault state ("–" in the Nanotec reaction table, the extract's
+    /// §7.1).
     MessageOnly,
     /// An EMCY and a quick stop (the state machine's, not a fault).
     QuickStopNoFault,

@@ -24,7 +24,7 @@ pub struct SetPoints {
     new_set_point: bool,
     /// The last job that ran to its end: relative moves count from it.
     pub last_target: Option<f64>,
-    /// A new set-point while the buffer is full replaces the buffered one (Nanotec §5.1: "the
+    /// A new set-point while the buffer is full replaces the buffered one (Nanotec ch. 4: "the
     /// newest (queued) job is overwritten"); otherwise it is not taken (CMMP-AS).
     pub overwrite_buffered: bool,
 }

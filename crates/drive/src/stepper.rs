@@ -5,9 +5,9 @@
 //! closes a position/velocity loop that commutates the current vector field-oriented).
 //!
 //! Positions come out in encoder increments (PNU 1001:1, default 2000 per revolution,
-//! spec/cmmo-st-fhpp.md §3.7) and in motor micro-steps. The SINC scaling of the user interface
+//! CMMO-ST Tab. B.123) and in motor micro-steps. The SINC scaling of the user interface
 //! (PNU 600/601) belongs to the device layer; [`sinc_to_si`] and [`si_to_sinc`] are the pure
-//! conversions it needs (spec §6, vectors FHPP-SC-01, FHPP-SC-02, FHPP-SC-03).
+//! conversions it needs (CMMO-ST App. A.1.2, vectors FHPP-SC-01, FHPP-SC-02, FHPP-SC-03).
 //!
 //! # Model (SI units)
 //!
@@ -100,7 +100,7 @@ use core::f64::consts::{FRAC_PI_2, PI, TAU};
 /// Full steps per revolution of a 1.8° hybrid stepper.
 pub const FULL_STEPS_PER_REV: u32 = 200;
 
-/// Default encoder resolution of the CMMO-ST: PNU 1001:1 = 0x000007D0 (spec §3.7).
+/// Default encoder resolution of the CMMO-ST: PNU 1001:1 = 0x000007D0 (Tab. B.123).
 pub const ENCODER_INCREMENTS_PER_REV: u32 = 2000;
 
 /// Default micro-step resolution: micro-steps per full step.
@@ -1224,7 +1224,7 @@ impl Stepper {
 
 // ---- SINC scaling (PNU 600 / 601) ---------------------------------------------------------
 
-/// The unit of PNU 601 "Position Dimension Index" (spec §3.6, Tab. B.121).
+/// The unit of PNU 601 "Position Dimension Index" (Tab. B.121).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SincUnit {
     /// 0x00: undefined / user-specific (no physical size).

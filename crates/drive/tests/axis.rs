@@ -1,5 +1,6 @@
-//! The simulated CMMP-AS servo axis: plant, control cascade, limits, I²t, determinism, and
-//! the manual's vectors of spec/vectors.md §1.11/§1.12 that concern the control loops.
+//! The simulated CMMP-AS servo axis: plant, control cascade, limits, I²t, determinism, and the
+//! manual's vectors of the vector catalogue kept beside the project, §1.11/§1.12 that concern the
+//! control loops.
 
 use drive::axis::{Axis, Demand};
 use drive::control::{
@@ -537,7 +538,7 @@ fn loops_run_at_the_6510h_b0_b2_cycle_times() {
     assert!(a.control_effort_rpm() < 0.0);
 }
 
-// ---- spec/vectors.md §1.11 Torque and current limits -------------------------------------
+// ---- vector catalogue §1.11 Torque and current limits -------------------------------------------
 
 /// CMMP-TQ-02.
 #[test]
@@ -580,7 +581,7 @@ fn cmmp_tq_05_default_max_current_598_8_ma() {
     assert!((a.gains().i_max - 0.598808).abs() < 1e-12);
 }
 
-// ---- spec/vectors.md §1.12 Controller gains, time constants and scaled defaults ----------
+// ---- vector catalogue §1.12 Controller gains, time constants and scaled defaults ----------------
 
 /// CMMP-GAIN-01.
 #[test]

@@ -1,5 +1,6 @@
-//! Power-on values of the CMMP-AS dictionary that the manual prints (spec/vectors.md
-//! §1.9, §1.11, §1.12): read through the dictionary as a master's SDO upload would.
+//! Power-on values of the CMMP-AS dictionary that the manual prints (the vector catalogue kept
+//! beside the project §1.9, §1.11, §1.12): read through the dictionary as a master's SDO upload
+//! would.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

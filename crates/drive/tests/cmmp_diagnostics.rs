@@ -1,5 +1,6 @@
-//! CMMP-AS diagnostics: the error management 2100h, the last warning 200Fh and the
-//! 7-segment display (CMMP-AS §5.17, §5.18, App. B; spec/vectors.md §1.12, §1.13).
+//! CMMP-AS diagnostics: the error management 2100h, the last warning 200Fh and the 7-segment
+//! display (CMMP-AS §5.17, §5.18, App. B; the vector catalogue kept beside the project, §1.12,
+//! §1.13).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

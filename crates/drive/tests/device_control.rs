@@ -1,5 +1,5 @@
 //! Every transition of the CiA 402 state machine as the CMMP-AS manual (ch. 6) gives it, and
-//! the statusword state values of Tab. 6.6 (spec cmmp-as-2 §4, §8.1–8.3).
+//! the statusword state values of Tab. 6.6.
 
 use drive::device_control::{manufacturer_bit_14, DeviceControl, Reaction, State};
 

@@ -1,6 +1,6 @@
 //! Digital inputs and outputs of the CMMP-AS (CMMP-AS §5.13, §5.14): 60FDh from the input
 //! levels and the switch assignment 6510h:11 … :14, 60FEh host control of the brake and the
-//! outputs (spec/vectors.md §1.15).
+//! outputs (the vector catalogue kept beside the project, §1.15).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

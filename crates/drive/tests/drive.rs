@@ -313,7 +313,8 @@ impl Rig {
 /// device_control.rs): bit 14 from the drive's own 2000h:01.
 #[test]
 fn manufacturer_status_bit_14_examples() {
-    // cmmp-as-2 §8.8 (a): homed → bit 14 with mask 1; (c) not ready for enable OR homed.
+    // The CMMP-AS manual's extract, part 2 §8.8 (a): homed → bit 14 with mask 1; (c) not ready for
+    // enable OR homed.
     let mut r = Rig::quick();
     r.w32(0x2005, 1, 0x1);
     r.run_ms(1);

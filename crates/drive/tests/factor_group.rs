@@ -1,7 +1,7 @@
-//! Factor group (6093h, 6094h, 6097h, 607Eh) of the Festo CMMP-AS: every vector of
-//! spec/vectors.md §1.7 (CMMP-FG-01 … CMMP-FG-18, each named in full at its test), plus
-//! rounding, round trips, polarity, the 2²⁴ limit, zero divisors and the INT32 edges. The
-//! drive applying them through its dictionary: crates/drive/tests/drive.rs.
+//! Factor group (6093h, 6094h, 6097h, 607Eh) of the Festo CMMP-AS: every vector of the vector
+//! catalogue kept beside the project §1.7 (CMMP-FG-01 … CMMP-FG-18, each named in full at its
+//! test), plus rounding, round trips, polarity, the 2²⁴ limit, zero divisors and the INT32 edges.
+//! The drive applying them through its dictionary: crates/drive/tests/drive.rs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,7 +1,7 @@
-//! FHPP cyclic data and state machine of the CMMO-ST (seed 002 ch. 5, 6): every vector of
-//! spec/vectors.md §2.1 (FHPP-CB-01 … FHPP-CB-16, Examples 1–6) and §2.2 (FHPP-ST-01 …
-//! FHPP-ST-19, Tab. 5.2/5.3), each test naming its IDs in full,
-//! the reference status values of spec/cmmo-st-fhpp.md §4.3 and §8.1, and the handshakes.
+//! FHPP cyclic data and state machine of the CMMO-ST (manual ch. 5, 6): every vector of the vector
+//! catalogue kept beside the project §2.1 (FHPP-CB-01 … FHPP-CB-16, Examples 1–6) and
+//! §2.2 (FHPP-ST-01 … FHPP-ST-19, Tab. 5.2/5.3), each test naming its IDs in full, the reference
+//! status values of the manual's extract kept beside the project (§4.3, §8.1), and the handshakes.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,6 +1,6 @@
 //! CMMO-ST App. D, every message raised once by its number ("2Fh") with the factory error
 //! management (PNU 242 / 246 defaults, `devices/cmmo-st.toml` decision D8), seen in the FHPP
-//! telegram and the parameters (issue 16 point 3; FHPP-DIAG-03, FHPP-FPC-13, FHPP-MB-05):
+//! telegram and the parameters (FHPP-DIAG-03, FHPP-FPC-13, FHPP-MB-05):
 //! an error sets SCON.FAULT, PNU 205 and the 7-segment display, goes to the diagnostic memory
 //! (PNU 200), and CCON.RESET acknowledges it as its "Ack" column says once it is cleared; a
 //! warning sets SCON.WARN and PNU 221 until cleared; an information or event only logs.

@@ -1,9 +1,8 @@
-//! Whatever a master writes, the CMMO-ST goes on: any sequence of 16-byte telegrams (FHPP
-//! bytes and parameter-channel bytes, 8 or 16 at a time), held for any number of cycles,
-//! leaves the device stepping without a panic, and taking ENABLE away switches the output
-//! stage off (T5 / T6: SCON.ENABLED = 0, spec/cmmo-st-fhpp.md §4.1) whatever state the
-//! sequence left it in, except in S6 "fault", which only RESET leaves: RESET with ENABLE = 0
-//! (T9) then switches it off once the fault is gone.
+//! Whatever a master writes, the CMMO-ST goes on: any sequence of 16-byte telegrams (FHPP bytes and
+//! parameter-channel bytes, 8 or 16 at a time), held for any number of cycles, leaves the device
+//! stepping without a panic, and taking ENABLE away switches the output stage off (T5 / T6 of
+//! Tab. 5.2: SCON.ENABLED = 0) whatever state the sequence left it in, except in S6 "fault", which
+//! only RESET leaves: RESET with ENABLE = 0 (T9) then switches it off once the fault is gone.
 
 mod fhpp_bench;
 

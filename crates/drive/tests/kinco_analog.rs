@@ -1,5 +1,5 @@
-//! Kinco analog inputs through the drive (manual §6.2.1, §6.3; spec/kinco-fd-cd.md §5.2,
-//! §5.3): the §6.2.1 speed example and the analog torque command.
+//! Kinco analog inputs through the drive (manual §6.2.1, §6.3): the §6.2.1 speed example and the
+//! analog torque command.
 
 mod kinco_rig;
 

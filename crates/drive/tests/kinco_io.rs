@@ -1,6 +1,6 @@
-//! Kinco digital inputs and outputs (manual §5.5 Tab. 5-2 / 5-3, §6.1 L1287; spec/kinco-fd-cd.md
-//! §3.6, §3.7, §5.11), the following-error limit and the error words (§7): through the
-//! drive, with the inputs simulated by Din_Simulate 2010h:02 and the travel's switches.
+//! Kinco digital inputs and outputs (manual §5.5 Tab. 5-2 / 5-3, §6.1 L1287), the following-error
+//! limit and the error words (§7): through the drive, with the inputs simulated by Din_Simulate
+//! 2010h:02 and the travel's switches.
 
 mod kinco_rig;
 

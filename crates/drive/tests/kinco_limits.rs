@@ -1,7 +1,7 @@
 //! Kinco position limits after homing (manual §7 Tab. 5-8 / 8-2 Error_State2 bits 9 / 10,
-//! seeds/001_da459f46c7138f7b.txt L1189-1191; spec/kinco-fd-cd.md §9.1 item 10): software
-//! limits 607Dh act once the drive is homed; Limit_Function 2010h:19 = 0 makes a crossing an
-//! error (5442h / 5441h, output stage off), any other value only blocks the direction.
+//! L1189-1191 of its text kept beside the project): software limits 607Dh act once the drive is
+//! homed; Limit_Function 2010h:19 = 0 makes a crossing an error (5442h / 5441h, output stage off),
+//! any other value only blocks the direction.
 
 mod kinco_rig;
 

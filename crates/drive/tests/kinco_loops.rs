@@ -1,8 +1,8 @@
 //! The Kinco loop objects as the controller's gains (manual ch. 7 §7.3, Tab. 7-3 / 7-4,
-//! seeds/001_da459f46c7138f7b.txt L1846-1905; crates/drive/src/personality/kinco_loops.rs):
+//! L1846-1905 of its text kept beside the project; crates/drive/src/vendors/kinco/loops.rs):
 //! written over SDO, they change the loop as the manual's units say — Kpp in 0.01 Hz sets the
-//! following error v / (2π · Kpp / 100), K_Velocity_FF‰ takes it away, Velocity_BW × the
-//! inertia ratio sets the velocity loop's bandwidth, Kvi removes a load's speed error.
+//! following error v / (2π · Kpp / 100), K_Velocity_FF‰ takes it away, Velocity_BW × the inertia
+//! ratio sets the velocity loop's bandwidth, Kvi removes a load's speed error.
 
 mod kinco_rig;
 

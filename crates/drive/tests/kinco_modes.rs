@@ -1,7 +1,6 @@
-//! Kinco operating modes through the drive (spec/kinco-fd-cd.md §5, §8.15; manual Tab. 6-5,
-//! seeds/001_da459f46c7138f7b.txt L1272): the controlword sequences of Tab. 6-5 move the
-//! motor, modes 3 / −3 / 4 / 6 and the position table as the manual describes them; each
-//! vector is named at its test.
+//! Kinco operating modes through the drive (manual Tab. 6-5, L1272 of its text kept beside the
+//! project): the controlword sequences of Tab. 6-5 move the motor, modes 3 / −3 / 4 / 6 and the
+//! position table as the manual describes them; each vector is named at its test.
 
 mod kinco_rig;
 

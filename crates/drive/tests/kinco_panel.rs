@@ -1,5 +1,5 @@
-//! The Kinco LED panel (seeds/001_da459f46c7138f7b.txt ch. 4, ch. 9; spec/kinco-fd-cd.md
-//! §5.12, §4.3, §7): the manual's key sequences on a Kinco FD3.
+//! The Kinco LED panel (Kinco CD3 / FD3 manual ch. 4, ch. 9): the manual's key sequences on a Kinco
+//! FD3.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,7 +1,6 @@
-//! The Kinco position table (manual §6.4.1, spec/kinco-fd-cd.md §4.4, §5.6) through the
-//! drive: Start PosTable, the task modes A / RN / RA, NEXT with the delay, a Cond0 level
-//! waited for, Cur_Indexof_Table 3044h, the PosTable Active output, the loop count and
-//! StartCond.
+//! The Kinco position table (manual §6.4.1) through the drive: Start PosTable, the task modes A /
+//! RN / RA, NEXT with the delay, a Cond0 level waited for, Cur_Indexof_Table 3044h, the PosTable
+//! Active output, the loop count and StartCond.
 
 mod kinco_rig;
 

@@ -1,6 +1,6 @@
-//! Kinco mode −4, pulse / gear (manual §6.5, §5.5.3; spec/kinco-fd-cd.md §5.5, KINCO-SC-04)
-//! with the simulated pulse input: the gear set the Multifunction inputs select, the
-//! counters Gear_Master / Gear_Slave and the Overfrequency error.
+//! Kinco mode −4, pulse / gear (manual §6.5, §5.5.3; KINCO-SC-04) with the simulated pulse input:
+//! the gear set the Multifunction inputs select, the counters Gear_Master / Gear_Slave and the
+//! Overfrequency error.
 
 mod kinco_rig;
 

@@ -1,8 +1,8 @@
-//! The RS232 telegrams of the manual (§10.4, seeds/001_da459f46c7138f7b.txt L2286-2292;
-//! the KINCO-232 vectors, each named where it is sent) against the drive itself, the way public Kinco RS232 drivers talk to
-//! the real one: one 10-byte telegram, one 10-byte answer. On the factory set-up the
-//! controlword telegram is answered 80h with 0800 0021h (the Enable input owns it, L1287);
-//! once Din1_Function and Din3_Function are 0, the printed sequence enables the drive and
+//! The RS232 telegrams of the manual (§10.4, L2286-2292 of its text kept beside the project; the
+//! KINCO-232 vectors, each named where it is sent) against the drive itself, the way public Kinco
+//! RS232 drivers talk to the real one: one 10-byte telegram, one 10-byte answer. On the factory
+//! set-up the controlword telegram is answered 80h with 0800 0021h (the Enable input owns it,
+//! L1287); once Din1_Function and Din3_Function are 0, the printed sequence enables the drive and
 //! an absolute move runs to 607Ah = 50 000.
 
 mod kinco_rig;

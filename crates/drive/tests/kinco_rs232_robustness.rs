@@ -1,7 +1,7 @@
 //! Whatever arrives on a Kinco RS232 line (short telegrams, bad checksums, other stations,
 //! garbage at any pace), the port goes on: no panic, only whole checksum-valid 10-byte
 //! telegrams go out, everything else is counted, and a valid telegram after a silence is
-//! answered (issue 13, "bad input").
+//! answered.
 
 use drive::vendors::kinco::rs232::{
     checksum, checksum_ok, KincoRs232, Request, Telegram, DEFAULT_GAP,

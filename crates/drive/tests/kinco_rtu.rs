@@ -1,5 +1,5 @@
-//! Kinco Modbus RTU (seeds/001_da459f46c7138f7b.txt §12.3, spec/kinco-fd-cd.md §2.3, §8.2) on
-//! the FD3's dictionary and its register map (devices/kinco-fd3.toml `modbus` keys).
+//! Kinco Modbus RTU (Kinco CD3 / FD3 manual §12.3) on the FD3's dictionary and its register map
+//! (devices/kinco-fd3.toml `modbus` keys).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,6 +1,6 @@
 //! Whatever frame reaches the Kinco RTU server (any bytes, any length, a valid CRC or not),
 //! it answers without a panic, only to its own station, with a frame whose CRC is right and
-//! whose function code is the request's or an error code (issue 13, "bad input").
+//! whose function code is the request's or an error code.
 
 use drive::vendors::kinco::rtu::{ErrorStyle, KincoRtu, RegisterMapping, MAX_FRAME};
 use modbus::rtu;

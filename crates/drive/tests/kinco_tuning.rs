@@ -1,4 +1,4 @@
-//! Kinco auto-tuning through the drive (manual §7.1, §4.3.2; spec/kinco-fd-cd.md §5.9):
+//! Kinco auto-tuning through the drive (manual §7.1, §4.3.2):
 //! WriteFUN_CTL, the oscillation within Safe_Dist, the results for the plant's inertia and the
 //! stiffness table's rows as the drive sets them.
 

@@ -1,6 +1,6 @@
-//! Nanotec with a BLDC motor (spec/nanotec-canopen.md §6 2004h:07 / 2004h:0C; seed 003
-//! "Motortyp", "Hall-Sensor-Modus"): the Hall table, block commutation with the right and a
-//! wrong table, the Hall-only position resolution, and a stepper that refuses BLDC.
+//! Nanotec with a BLDC motor (Nanotec §1.2 and §11.5: 2004h:07 "Motortyp", 2004h:0C
+//! "Hall-Sensor-Modus"): the Hall table, block commutation with the right and a wrong table, the
+//! Hall-only position resolution, and a stepper that refuses BLDC.
 
 mod nanotec_rig;
 
@@ -319,10 +319,10 @@ fn the_long_test_run_of_a_bldc_measures_the_bldc_curve() {
     assert!(r.i(0x2012, 1) > 0, "the BLDC's rated current");
 }
 
-/// Type 1 (Hall only) settles at its PP target (issue 11): on the target's Hall edge the
-/// cascade holds without hunting, so once target reached (bit 10) 6064h stays constant and
-/// bit 10 set for the next second, the position on the target's edge (inside 6067h); there
-/// and back, and to a second target.
+/// Type 1 (Hall only) settles at its PP target: on the target's Hall edge the cascade holds without
+/// hunting, so once target reached (bit 10) 6064h stays constant and bit 10 set for the next
+/// second, the position on the target's edge (inside 6067h); there and back, and to a second
+/// target.
 #[test]
 fn hall_only_pp_settles_at_the_target() {
     let mut r = bldc_rig(1, BldcData::default());

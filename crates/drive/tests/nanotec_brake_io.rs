@@ -1,5 +1,4 @@
-//! The SMCI47-S brake timing 2007h and the digital-output mask 60FEh:02
-//! (spec/nanotec-canopen.md §5.8).
+//! The SMCI47-S brake timing 2007h and the digital-output mask 60FEh:02 (Nanotec §11.8, §9.2–9.3).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -62,7 +61,7 @@ fn brake_wait_times_2007h() {
     );
 }
 
-/// §5.8: 60FEh:02 takes bits 16 … 18 only; any other bit discards the whole write (the
+/// §9.3: 60FEh:02 takes bits 16 … 18 only; any other bit discards the whole write (the
 /// device file's `allowed_bits`, through the drive's object access).
 #[test]
 fn output_mask_outside_16_to_18_is_discarded() {

@@ -1,7 +1,6 @@
-//! The Nanotec closed-loop set-up (spec/nanotec-canopen.md §5.6): the long test run
-//! (6060h = −1) fills the load-angle curve 200Ch and its readings 2012h / 2013h / 2018h; the
-//! short one (−2) finds the encoder offset 200Bh once and, with 2001h = 3, enables the closed
-//! loop (200Ah = 1).
+//! The Nanotec closed-loop set-up (Nanotec §11.2): the long test run (6060h = −1) fills the
+//! load-angle curve 200Ch and its readings 2012h / 2013h / 2018h; the short one (−2) finds the
+//! encoder offset 200Bh once and, with 2001h = 3, enables the closed loop (200Ah = 1).
 
 mod nanotec_rig;
 

@@ -1,7 +1,7 @@
-//! The Nanotec power state machine (spec/nanotec-canopen.md §4.2, §9 item 4): the §2.4
-//! power-up sequence frame by frame through the CANopen node, the statusword values with
-//! bit 9 remote, the only multi-step jump (Ready to Switch On → Operation Enabled), quick
-//! stop into Switch On Disabled and the fault reset edge.
+//! The Nanotec power state machine (Nanotec ch. 3; the extract's §9 item 4): the §2.4 power-up
+//! sequence frame by frame through the CANopen node, the statusword values with bit 9 remote, the
+//! only multi-step jump (Ready to Switch On → Operation Enabled), quick stop into Switch On
+//! Disabled and the fault reset edge.
 
 mod nanotec_rig;
 
@@ -135,7 +135,7 @@ fn nt_cw_08_fault_reset_needs_a_rising_edge() {
     let mut r = Rig::new();
     r.enable();
     r.cw(0x0080);
-    r.d.inject_fault(0x0080, 0x01); // overcurrent (§7.1)
+    r.d.inject_fault(0x0080, 0x01); // overcurrent (§13.3)
     r.run_ms(10);
     r.d.clear_fault(0x0080);
     r.run_ms(200);

@@ -1,4 +1,4 @@
-//! Nanotec errors (spec/nanotec-canopen.md §7.1): the bit-valued EMCY codes and the reaction
+//! Nanotec errors (Nanotec §13.3; the extract's §7.1): the bit-valued EMCY codes and the reaction
 //! table, legacy (2020h = 1, the default) and new (2020h = 0), at standstill and moving.
 
 mod nanotec_rig;

@@ -1,6 +1,6 @@
-//! Nanotec homing (spec/nanotec-canopen.md §5.2, §9 item 10): the methods of 6098h, the
-//! 6099h speeds, 609Ah only when starting, the immediate speed change at the switch and the
-//! immediate stop at the end, bit 4 low aborts, bits 12 / 13.
+//! Nanotec homing (Nanotec ch. 5; the extract's §9 item 10): the methods of 6098h, the 6099h
+//! speeds, 609Ah only when starting, the immediate speed change at the switch and the immediate
+//! stop at the end, bit 4 low aborts, bits 12 / 13.
 
 mod nanotec_rig;
 
@@ -89,7 +89,7 @@ fn method_19_switch_reversal_is_immediate() {
     assert_eq!(r.i(0x6062, 0), p);
 }
 
-/// Methods 33 / 34 (§5.2): at 6099h:02 to the index mark (a quarter revolution into every
+/// Methods 33 / 34 (§5.3): at 6099h:02 to the index mark (a quarter revolution into every
 /// revolution of the default travel), reverse, move off the mark, stop; the mark reads the
 /// home offset.
 #[test]
@@ -228,7 +228,7 @@ fn bit_4_low_aborts() {
     assert_eq!(r.i(0x6062, 0), p, "stopped");
 }
 
-/// §5.8: the reference switch is input 6, in 60FDh bit 2 and bit 21.
+/// §9.1: the reference switch is input 6, in 60FDh bit 2 and bit 21.
 #[test]
 fn reference_switch_is_input_6_in_60fd() {
     let mut r = Rig::new();

@@ -1,7 +1,7 @@
-//! Nanotec Interpolated Position (spec/nanotec-canopen.md §5.4, §9 item 7): the PLL locks on
-//! the SYNC interval (60C2h ignored) and shows it in bit 8; a set-point sent after SYNC k is
-//! latched at SYNC k+1 and reached at SYNC k+2 (the two-period lag of the manual's figure);
-//! 60C1h:01 and 607Ah are one target; a quick stop stops abruptly.
+//! Nanotec Interpolated Position (Nanotec ch. 7; the extract's §9 item 7): the PLL locks on the
+//! SYNC interval (60C2h ignored) and shows it in bit 8; a set-point sent after SYNC k is latched at
+//! SYNC k+1 and reached at SYNC k+2 (the two-period lag of the manual's figure); 60C1h:01 and 607Ah
+//! are one target; a quick stop stops abruptly.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

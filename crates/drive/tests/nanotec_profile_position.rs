@@ -1,6 +1,6 @@
-//! Nanotec Profile Position (spec/nanotec-canopen.md §5.1, §9 item 6): the §2.5–2.7 frames
-//! through the CANopen node, the bit 12 handshake with the one-deep queue, relative targets,
-//! change on set-point, and the target checks with their EMCYs and bit 11.
+//! Nanotec Profile Position (Nanotec ch. 4; the extract's §9 item 6): the §2.5–2.7 frames through
+//! the CANopen node, the bit 12 handshake with the one-deep queue, relative targets, change on
+//! set-point, and the target checks with their EMCYs and bit 11.
 
 mod nanotec_rig;
 
@@ -199,7 +199,7 @@ fn nt_pp_06_software_limit_and_overflow_emcy_with_bit_11() {
     assert_ne!(r.sw() & 0x0800, 0);
 }
 
-/// §5.1 item 1: a target outside the position range limit 607Bh wraps round inside
+/// §4.1: a target outside the position range limit 607Bh wraps round inside
 /// [min, max] ("controlled overflow") and sets bit 11.
 #[test]
 fn range_limit_wraps_the_target_with_bit_11() {
@@ -221,7 +221,7 @@ fn range_limit_wraps_the_target_with_bit_11() {
     assert_eq!(r.sw() & 0x0800, 0, "a target inside clears bit 11");
 }
 
-/// §5.1 bit 9: a queued job with change on set-point follows without braking at the first
+/// §4.2 bit 9: a queued job with change on set-point follows without braking at the first
 /// target; without bit 9 the drive stops there first.
 #[test]
 fn change_on_set_point_passes_the_first_target_at_speed() {

@@ -60,7 +60,7 @@ fn open_loop_loses_steps_above_the_pull_out_torque() {
         (demand - actual).abs() > 100,
         "commanded {demand} and encoder {actual} diverge"
     );
-    // §5.1: bit 13 following error is a closed-loop bit; the open loop does not know it.
+    // §4.3: bit 13 following error is a closed-loop bit; the open loop does not know it.
     assert_eq!(r.sw() & 0x2000, 0);
 }
 
@@ -77,7 +77,7 @@ fn closed_loop_holds_the_same_load() {
     assert!((actual - 10_000).abs() <= 2, "arrived: {actual}");
 }
 
-/// §5.1: in closed loop a blocked shaft is a following error beyond 6065h for 6066h: bit 13.
+/// §4.1: in closed loop a blocked shaft is a following error beyond 6065h for 6066h: bit 13.
 #[test]
 fn closed_loop_following_error_bit_13() {
     let mut r = rig();

@@ -1,6 +1,5 @@
-//! Nanotec torque mode (spec/nanotec-canopen.md §5.5, §9 item 9): only in closed loop
-//! (200Ah = 1), the current from 6071h and 2004h:01, the speed limited by 607Fh, halt and
-//! statusword bit 10.
+//! Nanotec torque mode (Nanotec ch. 8; the extract's §9 item 9): only in closed loop (200Ah = 1),
+//! the current from 6071h and 2004h:01, the speed limited by 607Fh, halt and statusword bit 10.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -58,7 +57,7 @@ fn torque_accelerates_to_the_607f_speed_limit() {
     assert!((-305.0..-270.0).contains(&rpm), "{rpm} min⁻¹");
 }
 
-/// Bit 10 with bit 8 (§5.5 table): set torque reached (1, 0); braking (0, 1); stopped (1, 1).
+/// Bit 10 with bit 8 (§8.3 table): set torque reached (1, 0); braking (0, 1); stopped (1, 1).
 #[test]
 fn halt_and_bit_10() {
     let mut r = Rig::new();

@@ -1,5 +1,5 @@
-//! Nanotec units, scaling and velocity mode (spec/nanotec-canopen.md §5.3, §6): the NT-SC
-//! vectors of spec/vectors.md.
+//! Nanotec units, scaling and velocity mode (Nanotec §1.2, ch. 6): the NT-SC vectors of the
+//! catalogue of the manuals' worked examples kept beside the project.
 
 mod nanotec_rig;
 
@@ -209,7 +209,7 @@ fn nt_sc_11_vl_min_max_clamping() {
     );
 }
 
-/// §5.3: halt brakes with 6049h and its falling edge accelerates again; a quick stop brakes
+/// §6.1: halt brakes with 6049h and its falling edge accelerates again; a quick stop brakes
 /// with 604Ah and ends in Switch On Disabled.
 #[test]
 fn vl_halt_and_quick_stop() {

@@ -50,7 +50,7 @@ fn tables_agree_with_the_device_files() {
     }
 }
 
-/// The CMMP-AS reached over EtherCAT adds CSP (6502h bit 7), as before the split.
+/// The CMMP-AS reached over EtherCAT adds CSP (6502h bit 7, mode 8); otherwise it refuses mode 8.
 #[test]
 fn cmmp_as_csp_over_ethercat_only() {
     let p = &drive::vendors::festo_cmmp_as::CMMP_AS;

@@ -50,9 +50,9 @@ fn nanotec_vl(device: &str, closed_loop: bool, target: i16) -> Rig {
     r
 }
 
-/// The issue's example in open loop (the Nanotec's default): at 6042h = 100 with the default
-/// dimension factor the position advances 100 units/s, and 6044h shows no value (§6.5: "only
-/// with closed loop activated is a value output") instead of the rotor's swing of −900 … +1200.
+/// Open loop (the Nanotec's default): at 6042h = 100 with the default dimension factor the position
+/// advances 100 units/s, and 6044h shows no value (§6.5: "only with closed loop activated is a
+/// value output") instead of the rotor's swing of −900 … +1200.
 #[test]
 fn nanotec_vl_open_loop_shows_no_actual_velocity() {
     for device in ["nanotec-smci47s", "nanotec-pd4n"] {
@@ -69,9 +69,9 @@ fn nanotec_vl_open_loop_shows_no_actual_velocity() {
     }
 }
 
-/// Closed loop: 6044h is the encoder's speed through 20 ms; at 6042h = 2000 (60 min⁻¹) it
-/// stays within 3 % for a second; at the issue's 100 (3 min⁻¹, ten full steps a second) its
-/// mean over the second is 100 and no reading leaves 45 … 160.
+/// Closed loop: 6044h is the encoder's speed through 20 ms; at 6042h = 2000 (60 min⁻¹) it stays
+/// within 3 % for a second; at 100 (3 min⁻¹, ten full steps a second) its mean over the second is
+/// 100 and no reading leaves 45 … 160.
 #[test]
 fn nanotec_vl_closed_loop_reads_the_measured_speed() {
     let mut r = nanotec_vl("nanotec-smci47s", true, 2000);

@@ -4,7 +4,7 @@
 //! bytes), controlwords, modes, the device's own inputs (SYNC; digital, analog and pulse
 //! inputs) and time steps never panics, every refused write answers an SDO abort code, and
 //! afterwards the drive still takes the CiA 402 enable sequence once its faults are reset
-//! (spec cmmp-as §6, CiA 402 transitions 15, 2, 3, 4), or reports its fault.
+//! (CMMP-AS ch. 6, CiA 402 transitions 15, 2, 3, 4), or reports its fault.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,7 +1,7 @@
-//! The simulated CMMO-ST stepper plant: open-loop micro-stepping (following, lost steps,
-//! pull-out torque falling with speed, holding), closed loop (servo-lite), determinism, and
-//! the SINC scaling vectors of spec/vectors.md §2.5 (FHPP-SC-01, FHPP-SC-02, FHPP-SC-03) by
-//! their IDs.
+//! The simulated CMMO-ST stepper plant: open-loop micro-stepping (following, lost steps, pull-out
+//! torque falling with speed, holding), closed loop (servo-lite), determinism, and the SINC scaling
+//! vectors of the vector catalogue kept beside the project, §2.5 (FHPP-SC-01, FHPP-SC-02,
+//! FHPP-SC-03) by their IDs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -517,7 +517,7 @@ fn deterministic_bit_for_bit() {
 fn long_calls_are_sub_stepped() {
     // 1 ms calls = 8 sub-steps of 125 µs in open loop: the same, bit for bit, as 8 calls of
     // 125 µs while holding; and within 2·10⁻⁵ rad (a hundredth of an encoder increment) of
-    // 20 calls of 50 µs, the old fixed sub-step.
+    // 20 calls of 50 µs (a finer fixed sub-step).
     let mut a = stepper(StepperMode::OpenLoop);
     let mut b = a.clone();
     let mut c = a.clone();
@@ -611,7 +611,7 @@ fn bad_inputs_do_not_poison_the_state() {
     assert!(z.angle().is_finite());
 }
 
-// ---- SINC scaling (spec/vectors.md §2.5) ----------------------------------------------------
+// ---- SINC scaling (vector catalogue §2.5) -------------------------------------------------------
 
 /// FHPP-SC-01: PNU 600 = −7, PNU 601 = 01h → 1 SINC = 0.1 µm, 10 000 SINC = 1 mm.
 #[test]

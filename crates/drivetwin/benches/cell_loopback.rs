@@ -1,4 +1,4 @@
-//! Issue 12's latency point: the cell loop against the kernel's floor, in one run.
+//! The cell loop's latency against the kernel's floor, in one run.
 //!
 //! One plain blocking client (std `TcpStream`, `TCP_NODELAY`, blocking `read`) measures
 //! sequential round trips against four servers, in interleaved rounds:

@@ -1,4 +1,4 @@
-//! Issue 14's whole machine on the virtual clock:
+//! A whole machine on the virtual clock:
 //!
 //! - the bus model's cost per frame (a frame submitted to the timed bus and taken off it when
 //!   it has crossed), criterion;

@@ -1,4 +1,4 @@
-//! Issue 16's performance point: does the web console move the cell loop's jitter?
+//! Does the web console move the cell loop's jitter?
 //!
 //! A cell of 16 CMMP-AS (CiA 402, each with its simulated drive and motor, nodes 1…16 on one
 //! CAN bus) runs in real time on its loop thread, enabled in profile velocity mode, each

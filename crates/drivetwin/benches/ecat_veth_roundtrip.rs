@@ -6,8 +6,7 @@
 //! default mapping 1600h/1A00h — controlword out, statusword in — Safe-Op, Op), then one LRW
 //! frame every 1 ms for `ECAT_ROUNDTRIP_SECONDS` (default 10): the time from `send` to the
 //! reply's `recv` is recorded, and p50 / p99 / p99.9 / max are printed with the count of lost
-//! frames (no reply within 100 ms) and of wrong working counters. The target: p99
-//! under 100 µs.
+//! frames (no reply within 100 ms) and of wrong working counters. Target: p99 under 100 µs.
 //!
 //! `ECAT_ROUNDTRIP_FIFO=1` runs this master and every thread of the twin under `SCHED_FIFO`
 //! (priority 49), as a production EtherCAT master runs: the figures then show the twin and the
@@ -245,7 +244,8 @@ impl Master {
         self.exchange(Command::Lrw, Address::Logical(0), &io)
     }
 
-    /// Init → Pre-Op → Safe-Op → Op with the default mapping (spec/ethercat-esc.md §9.1).
+    /// Init → Pre-Op → Safe-Op → Op with the default mapping (the ESC reference kept beside the
+    /// project, §9.1).
     fn start_up(&mut self) {
         let r = self.exchange(
             Command::Bwr,

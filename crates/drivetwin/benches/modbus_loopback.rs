@@ -1,6 +1,6 @@
-//! Issue 6's performance point: requests per second and p99 latency of a 4-register FC 0x17
-//! read/write cycle over loopback, the drivetwin CMMO-ST server side by side with pymodbus's
-//! own server on the same machine (target: at least 10× pymodbus).
+//! Requests per second and p99 latency of a 4-register FC 0x17 read/write cycle over loopback,
+//! the drivetwin CMMO-ST server side by side with pymodbus's own server on the same machine
+//! (target: at least 10× pymodbus).
 //!
 //! Every server runs as its own process: `drivetwin run --device cmmo-st --bitrate instant
 //! --modbus …` (the binary Cargo builds for this bench; the instant bus stated, so that no

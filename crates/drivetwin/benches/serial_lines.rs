@@ -1,9 +1,9 @@
-//! Issue 13's benchmark of the serial front ends.
+//! The serial front ends, timed.
 //!
 //! - `serial_lines/*` (criterion): one telegram or RTU frame through a line, sans-IO: the
 //!   wire's timing, the cutter or the 3.5-character framer, the codec and the drive's object
-//!   access (a plain FD3 dictionary). The codecs alone are `cargo bench -p canopen --bench
-//!   kinco_rs232` and `cargo bench -p modbus --bench kinco_rtu`.
+//!   access (a plain FD3 dictionary). The codecs alone are `cargo bench -p drive --bench
+//!   kinco_rs232` and `cargo bench -p drive --bench kinco_rtu`.
 //! - Then, printed: the round trip of a 10-byte telegram and its 10-byte answer over the pty
 //!   of a running cell loop at 38400 and 115200 bit/s, against the wire time of the 20 bytes
 //!   (target: the twin adds under 10 %). `SERIAL_BENCH_COUNT` round trips per rate (200).

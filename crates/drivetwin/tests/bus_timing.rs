@@ -1,7 +1,7 @@
-//! Issue 14, the bus that takes time: a cell with a bit rate on the virtual clock. 127
-//! heartbeats at 125 kbit/s leave one after the other in identifier order, each taking its
-//! exact bit time; a SYNC with 40 synchronous TPDOs behind it overloads 250 kbit/s (load above
-//! 100 %, late frames) and fits at 1 Mbit/s.
+//! The bus that takes time: a cell with a bit rate on the virtual clock. 127 heartbeats at
+//! 125 kbit/s leave one after the other in identifier order, each taking its exact bit time; a SYNC
+//! with 40 synchronous TPDOs behind it overloads 250 kbit/s (load above 100 %, late frames) and
+//! fits at 1 Mbit/s.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -50,10 +50,10 @@ fn run(
     out
 }
 
-/// ISSUE14: 127 heartbeats at 125 kbit/s, all due at the same instant, arrive one after the
-/// other in identifier order, each after its exact bit time. Decision: the issue's "≈ 47–55
-/// bits, ≈ 50 ms" leaves out the 3-bit intermission and the stuff bits; with them a 1-byte
-/// frame is 55–65 bits and the 127 take ≈ 58 ms, which the test asserts exactly.
+/// 127 heartbeats at 125 kbit/s, all due at the same instant, arrive one after the other in
+/// identifier order, each after its exact bit time. Decision: an estimate of "≈ 47–55 bits,
+/// ≈ 50 ms" leaves out the 3-bit intermission and the stuff bits; with them a 1-byte frame is
+/// 55–65 bits and the 127 take ≈ 58 ms, which the test asserts exactly.
 #[test]
 fn heartbeats_of_127_nodes_take_the_bit_time_the_formula_gives() {
     let heartbeat_ms = 100u16.to_le_bytes();
@@ -119,11 +119,10 @@ fn sync_cell(bitrate: u32) -> (Vec<(Duration, CanFrame)>, BusFigures) {
     (out, figures)
 }
 
-/// ISSUE14: a SYNC with 40 synchronous TPDOs. The bit formula decides the cycle: 40 frames of
-/// at least 47 bits are 1.9 ms at 1 Mbit/s, more than the issue's 1 ms SYNC cycle, so the test
-/// runs the SYNC at 5 ms (decision: the issue's "fits at 1 Mbit/s" holds for this cycle, not
-/// for 1 ms). At 250 kbit/s the TPDOs need ≈ 11 ms per 5 ms cycle: load above 100 %, late
-/// frames, a growing queue; at 1 Mbit/s the same cell fits.
+/// A SYNC with 40 synchronous TPDOs. The bit formula decides the cycle: 40 frames of at least
+/// 47 bits are 1.9 ms at 1 Mbit/s, more than a 1 ms SYNC cycle, so the test runs the SYNC at 5 ms
+/// (decision: 1 Mbit/s fits this cycle, not a 1 ms one). At 250 kbit/s the TPDOs need ≈ 11 ms per
+/// 5 ms cycle: load above 100 %, late frames, a growing queue; at 1 Mbit/s the same cell fits.
 #[test]
 fn a_sync_with_40_tpdos_overloads_250_kbit_and_fits_at_1_mbit() {
     let (out, slow) = sync_cell(250_000);
@@ -198,12 +197,12 @@ fn heartbeats(out: &[(Duration, CanFrame)], node: u32) -> Vec<Duration> {
         .collect()
 }
 
-/// ISSUE14 faults: a disturbed node's transmit errors (8 each) make it error passive at 16 and
-/// take it off the bus at 32 (ISO 11898-1); each personality reacts as its manual says. The
-/// Kinco FD3 (CiA 301's usage: its manual has no entry) sends EMCY 8120h when passive and 0000h
-/// when active again; the Nanotec
-/// 8140h and 0000h after bus-off recovery; the CMMP-AS goes to FAULT with 12-1 "CAN: bus off" (8120h),
-/// whose EMCY leaves once it is back on the bus (1408 bit times later).
+/// Bus faults: a disturbed node's transmit errors (8 each) make it error passive at 16 and take it
+/// off the bus at 32 (ISO 11898-1); each personality reacts as its manual says. The Kinco
+/// FD3 (CiA 301's usage: its manual has no entry) sends EMCY 8120h when passive and 0000h when
+/// active again; the Nanotec 8140h and 0000h after bus-off recovery; the CMMP-AS goes to FAULT with
+/// 12-1 "CAN: bus off" (8120h), whose EMCY leaves once it is back on the bus (1408 bit times
+/// later).
 #[test]
 fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     let heartbeat = 10u16.to_le_bytes();

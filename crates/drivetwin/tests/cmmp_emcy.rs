@@ -1,5 +1,6 @@
 //! EMCY frames and the error history 1003h of the CMMP-AS over CANopen, on the virtual clock:
-//! errors the drive raises go out as EMCY through the CiA 301 stack (spec/vectors.md §1.6).
+//! errors the drive raises go out as EMCY through the CiA 301 stack (the vector catalogue kept
+//! beside the project §1.6).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

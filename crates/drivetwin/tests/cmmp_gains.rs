@@ -1,6 +1,6 @@
-//! Controller time constants written over SDO change the controller the drive runs, as the
-//! CMMP-AS manual scales them (spec/vectors.md §1.12): 60F6h:02 and 60F9h:02 are the reset
-//! (integral) times of the current and speed controllers in µs.
+//! Controller time constants written over SDO change the controller the drive runs, as the CMMP-AS
+//! manual scales them (the vector catalogue kept beside the project, §1.12): 60F6h:02 and
+//! 60F9h:02 are the reset (integral) times of the current and speed controllers in µs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,8 +1,8 @@
-//! Every message of each manual's diagnostic table raised once by its number, checked over the
-//! bus on the virtual clock (issue 16 point 3): the EMCY frame (code, error register), 1003h:01
-//! read back by an SDO upload, the display, the reaction (statusword after it), and the
-//! acknowledgement once the message is cleared. Table-driven: the expected values come from
-//! the row (`devices/*.toml`), the test only knows the manual's rules for the columns.
+//! Every message of each manual's diagnostic table raised once by its number, checked over the bus
+//! on the virtual clock: the EMCY frame (code, error register), 1003h:01 read back by an SDO
+//! upload, the display, the reaction (statusword after it), and the acknowledgement once the
+//! message is cleared. Table-driven: the expected values come from the row (`devices/*.toml`), the
+//! test only knows the manual's rules for the columns.
 //!
 //! Vectors: CMMP-EMCY-02, CMMP-EMCY-03, CMMP-EMCY-04 (EMCY bytes and register of 31-0, 03-0,
 //! 11-3), CMMP-EMCY-06 (1003h:01 newest entry), CMMP-EMCY-01 (the reset EMCY 0000h),
@@ -41,7 +41,7 @@ enum Expect {
     Warning,
     /// A diagnostic-memory entry only.
     LogOnly,
-    /// 2100h "no action" (17-x while 6510h:22 is 0, cmmp-as-2 §5.7).
+    /// 2100h "no action" (17-x while 6510h:22 is 0, the CMMP-AS manual's extract, part 2 §5.7).
     Nothing,
 }
 
@@ -394,8 +394,8 @@ fn kinco_every_section_7_error_over_the_bus() {
     }
 }
 
-/// The vector of spec/vectors.md §4.7 an Error_State / Error_State2 bit is the example of
-/// ("" for the bits without one).
+/// The vector of the vector catalogue kept beside the project, §4.7 an Error_State /
+/// Error_State2 bit is the example of ("" for the bits without one).
 fn kinco_diag_vector(word: drive::vendors::kinco::ErrorWord, bit: u8) -> &'static str {
     use drive::vendors::kinco::ErrorWord::{State, State2};
     match (word, bit) {

@@ -126,7 +126,7 @@ fn cell() -> EthercatCell {
     EthercatCell::from_cell_file(&CellFile::single("cmmp-as", 1)).expect("cell")
 }
 
-/// ecx_config_init up to Pre-Op (spec/ethercat-esc.md §9.1, abridged).
+/// ecx_config_init up to Pre-Op (the ESC reference kept beside the project, §9.1, abridged).
 fn to_preop(m: &mut Master) {
     let r = m.one(Command::Bwr, phys(0, 0x0120), &[0x11, 0x00]);
     assert_eq!(r.wkc, 1);
@@ -243,7 +243,7 @@ fn soem_startup_and_cia402_enable_with_default_mapping() {
 #[test]
 fn remapped_pdos_carry_target_and_position() {
     let mut m = Master::new(cell());
-    // What a master's CoE start-up would write in Pre-Op (CoE is not here yet): outputs
+    // What a master's CoE start-up writes in Pre-Op, written into the dictionary: outputs
     // controlword + mode + target position, inputs statusword + position actual value.
     {
         let model = m.cell.model_mut(0).unwrap();

@@ -18,7 +18,8 @@
 //!   default 60C2h, which a twin that ignored 60C2h would take) against 60C2h = 2 ms: Pre-Op →
 //!   Safe-Op is refused, Pre-Op + error with 0x0036 "DC Sync0 cycle time".
 //!
-//! ethercrab 0.7.1 limitations met here (the twin follows ETG.1000.6, spec/ethercat-esc.md §4.2):
+//! ethercrab 0.7.1 limitations met here (the twin follows ETG.1000.6, the ESC reference kept beside
+//! the project, §4.2):
 //! * a group transition polls only the state bits of AL status 0130h, not the error indication
 //!   (bit 4), so a refused transition surfaces as `Error::Timeout` after
 //!   `Timeouts::state_transition`, and the group is gone with it; the code is read from 0134h
@@ -29,12 +30,12 @@
 //!   later PDU times out. The test reads the AL status through a second MainDevice.
 //! * it has no emergency service: an emergency waiting in SM1 is discarded by the flush before
 //!   each SDO request (and one arriving in the middle of an SDO transfer trips an `assert_ne!`,
-//!   spec §5.6); the test reads the mailbox itself with `Command::fprd` before any SDO.
+//!   ESC reference §5.6); the test reads the mailbox itself with `Command::fprd` before any SDO.
 //!
-//! Found here and fixed in the twin: the system time difference 092Ch kept the difference of
-//! ethercrab's reset write to 0910h for ever (the reference clock receives no system time
-//! after it), so ethercrab's alignment loop (examples/dc.rs: wait for 092Ch < 500 ns) would
-//! never end; an ESC resets it with the speed counter start 0930h the masters write next.
+//! The system time difference 092Ch is reset by the speed counter start 0930h the masters
+//! write after their reset write to 0910h, as an ESC does: the reference clock receives no
+//! system time after that write, so a 092Ch that kept its difference would never let
+//! ethercrab's alignment loop (examples/dc.rs: wait for 092Ch < 500 ns) end.
 //!
 //! Both tests need root (network namespaces, raw sockets) and `ip`; otherwise they print why and
 //! pass as skipped. They run one after the other (a lock), master and twin at SCHED_FIFO where
@@ -602,8 +603,8 @@ async fn good_session(master_if: &str, product_code: u32) {
     );
 
     // The master stops cycling for 20 SYNC0 cycles: no new outputs at the events, the slave
-    // declares the synchronisation lost (spec/ethercat-esc.md §4.2 table, Safe-Op → Op column:
-    // 0x001A synchronisation error) and falls back to Safe-Op.
+    // declares the synchronisation lost (the ESC reference kept beside the project, §4.2 table,
+    // Safe-Op → Op column: 0x001A synchronisation error) and falls back to Safe-Op.
     std::thread::sleep(period * 20);
     let slave = group.subdevice(maindevice, 0).expect("slave 0");
     match slave.status().await {
@@ -635,7 +636,7 @@ async fn good_session(master_if: &str, product_code: u32) {
         "the drive reports the error: statusword {sw:#06x}"
     );
 
-    // Acknowledge (Safe-Op + ack, spec §4.2 step 3), then ethercrab's way down.
+    // Acknowledge (Safe-Op + ack, ESC reference §4.2 step 3), then ethercrab's way down.
     acknowledge(maindevice, station, 0x0004, "acknowledged").await;
     let group = group.into_safe_op(maindevice).await.expect("→ Safe-Op");
     let group = group.into_pre_op(maindevice).await.expect("→ Pre-Op");

@@ -1,6 +1,6 @@
 //! Interpolated position mode (6060h = 7) of the CMMP-AS over CANopen, on the virtual clock:
 //! the manual's preparation and activation sequence (vectors CMMP-IP-01, CMMP-IP-02,
-//! CMMP-IP-03, CMMP-IP-04, CMMP-IP-05, CMMP-IP-06, CMMP-IP-07; spec cmmp-as-3 §8), the drive
+//! CMMP-IP-03, CMMP-IP-04, CMMP-IP-05, CMMP-IP-06, CMMP-IP-07), the drive
 //! synchronising to the SYNC grid (6061h −1 → 7), the SYNC-paced set-points interpolated
 //! linearly, and the errors 34-0 / 34-1.
 #![allow(

@@ -103,7 +103,7 @@ impl Bench {
     }
 }
 
-/// DEC of `rpm` (spec/kinco-fd-cd.md §6 item 12, 10 000 increments per revolution).
+/// DEC of `rpm` (as the sibling FD manuals give it, 10 000 increments per revolution).
 fn dec(rpm: i64) -> i64 {
     rpm * 512 * 10_000 / 1875
 }

@@ -1,9 +1,9 @@
-//! Issue 13 on the virtual clock: two Kinco FD3s, node 1 on an RS232 line (the 10-byte
-//! telegrams, spec/kinco-fd-cd.md §2.1-2.2) and node 2 on an RS485 line (Modbus RTU, §2.3),
-//! both on the CAN bus as well. The RS232 host enables node 1 in mode 3 and polls its position;
-//! CANopen enables node 2, whose position the RTU host polls. Run twice: the outputs are equal
-//! bit for bit, and the lines keep their wire time (a telegram's answer 20 characters after
-//! the request began, at 38 400 bit/s 5.2 ms).
+//! The serial lines on the virtual clock: two Kinco FD3s, node 1 on an RS232 line (the 10-byte
+//! telegrams, Kinco manual §10.2–10.3) and node 2 on an RS485 line (Modbus RTU, §12.3), both on the
+//! CAN bus as well. The RS232 host enables node 1 in mode 3 and polls its position; CANopen enables
+//! node 2, whose position the RTU host polls. Run twice: the outputs are equal bit for bit, and the
+//! lines keep their wire time (a telegram's answer 20 characters after the request began, at
+//! 38 400 bit/s 5.2 ms).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,9 +1,9 @@
 //! `drivetwin drive`, the CLI's CiA 402 master, against a Nanotec SMCI47-S twin (`drivetwin
 //! run --device nanotec-smci47s --node 34`) over socketcand, both the real binary: the
 //! master must not need the CMMP-AS's objects. A Nanotec has no 606Ch, 6077h, 6078h, 60FFh
-//! or 6087h and no profile velocity mode (spec/nanotec-canopen.md §3.4, 6502h = 6Bh): the
+//! or 6087h and no profile velocity mode (Nanotec §9.43: 6502h = 6Bh): the
 //! state is printed without them, `velocity` runs in VL (6060h = 2, 6042h), `torque --slope`
-//! names the missing 6087h, and torque mode in open loop is refused with the reason (§5.5).
+//! names the missing 6087h, and torque mode in open loop is refused with the reason (ch. 8).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -262,7 +262,7 @@ fn drive_torque_on_a_nanotec_names_what_is_missing() {
     assert!(!out.status.success());
     assert!(err.contains("refused mode 4"), "{err}");
     assert!(err.contains("closed loop on (200Ah = 1"), "{err}");
-    // Closed loop on (2001h = 1, §5.6), then torque moves the motor up to 607Fh.
+    // Closed loop on (2001h = 1, §11.2), then torque moves the motor up to 607Fh.
     let sdo = |args: &[&str]| {
         let out = Command::new(binary())
             .args(["sdo", "write", NODE])

@@ -1,7 +1,7 @@
-//! Issue 16, point 4: the example scenarios on the virtual clock. Each runs twice: the reports
-//! and the traces are equal bit for bit; the passing one passes (a limit switch and a broken
-//! cable leading to the drive's fault and the EMCYs), the one meant to fail fails with a
-//! report that names the expectation.
+//! The example scenarios on the virtual clock. Each runs twice: the reports and the traces are
+//! equal bit for bit; the passing one passes (a limit switch and a broken cable leading to the
+//! drive's fault and the EMCYs), the one meant to fail fails with a report that names the
+//! expectation.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,8 +1,8 @@
-//! Issue 14: the bus load in the trace. A cell of 40 drives with synchronous TPDOs at 1 Mbit/s
-//! on the virtual clock, traced to a pcap with the bus's bit rate: the load file beside it
-//! (`<trace>.load.csv`, `drivetwin::trace::bus_load`) read back holds one line per 500 ms
-//! window, each the bit time of the frames of that window over its length, near the load the
-//! cell's timed bus reports; the pcap itself is the classic one (magic, link type 227).
+//! The bus load in the trace. A cell of 40 drives with synchronous TPDOs at 1 Mbit/s on the virtual
+//! clock, traced to a pcap with the bus's bit rate: the load file beside it (`<trace>.load.csv`,
+//! `drivetwin::trace::bus_load`) read back holds one line per 500 ms window, each the bit time of
+//! the frames of that window over its length, near the load the cell's timed bus reports; the pcap
+//! itself is the classic one (magic, link type 227).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

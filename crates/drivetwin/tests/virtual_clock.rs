@@ -1,6 +1,6 @@
-//! Issue 12's determinism point: a cell with a CMMP-AS on CANopen, a CMMP-AS on EtherCAT and a
-//! CMMO-ST on Modbus TCP, inputs on the three protocols, run twice on the virtual clock: the
-//! outputs are equal bit for bit.
+//! Determinism: a cell with a CMMP-AS on CANopen, a CMMP-AS on EtherCAT and a CMMO-ST on Modbus
+//! TCP, inputs on the three protocols, run twice on the virtual clock: the outputs are equal
+//! bit for bit.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -239,9 +239,9 @@ async fn enable_in_profile_velocity_and_the_plant_moves() {
     assert_eq!(p["kind"], "stepper");
 }
 
-/// The supply voltage set through the API is what the CMMP-AS measures (6079h, 6510h:34),
-/// and below 6510h:36 with 6510h:37 = 1 its own supervision raises 02-0 (3220h) and the drive
-/// faults; back at the nominal voltage the fault reset acknowledges it (cmmp-as-2 §5.4).
+/// The supply voltage set through the API is what the CMMP-AS measures (6079h, 6510h:34), and below
+/// 6510h:36 with 6510h:37 = 1 its own supervision raises 02-0 (3220h) and the drive faults; back at
+/// the nominal voltage the fault reset acknowledges it (the CMMP-AS manual's extract, part 2 §5.4).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_low_supply_is_measured_and_faults_the_cmmp_as() {
     let cell = cell();

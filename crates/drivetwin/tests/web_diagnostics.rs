@@ -1,7 +1,7 @@
-//! Fault injection by diagnostic message through the REST API (issue 16 point 3), against a
-//! running cell loop (a CMMP-AS on CAN, a CMMO-ST on Modbus TCP) through the router: the table
-//! with texts, raise and clear by number, what the drive then shows (FAULT, the display, the
-//! message active), 4xx JSON for unknown drives and numbers, the OpenAPI paths.
+//! Fault injection by diagnostic message through the REST API, against a running cell loop (a
+//! CMMP-AS on CAN, a CMMO-ST on Modbus TCP) through the router: the table with texts, raise and
+//! clear by number, what the drive then shows (FAULT, the display, the message active), 4xx JSON
+//! for unknown drives and numbers, the OpenAPI paths.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,7 +1,7 @@
-//! The Kinco LED panel through the REST API (issue 13 point 4, issue 16 "displays"): a Kinco
-//! FD3 (drive 0) and a CMMP-AS (drive 1) on one CAN bus of a running cell loop, through the
-//! router: the monitor display, key presses walking F003 to d3.47 Jog_RPM and changing it
-//! (seen by an object read), 4xx for a drive without panel and a bad key, the OpenAPI paths.
+//! The Kinco LED panel through the REST API: a Kinco FD3 (drive 0) and a CMMP-AS (drive 1) on one
+//! CAN bus of a running cell loop, through the router: the monitor display, key presses walking
+//! F003 to d3.47 Jog_RPM and changing it (seen by an object read), 4xx for a drive without panel
+//! and a bad key, the OpenAPI paths.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

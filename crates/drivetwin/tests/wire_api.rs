@@ -1,7 +1,6 @@
-//! Issue 16, point 2: the wire's REST API against a running cell loop (a CMMP-AS on CAN, a
-//! CMMO-ST on Modbus TCP): faults started, listed and ended on a bus and a Modbus server, bad
-//! input as a 4xx with a message, a pcap trace of a bus started and stopped, the paths in the
-//! OpenAPI document.
+//! The wire's REST API against a running cell loop (a CMMP-AS on CAN, a CMMO-ST on Modbus TCP):
+//! faults started, listed and ended on a bus and a Modbus server, bad input as a 4xx with a
+//! message, a pcap trace of a bus started and stopped, the paths in the OpenAPI document.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -287,8 +286,8 @@ async fn send_text(app: &axum::Router, path: &str, text: &str) -> (StatusCode, V
     (status, serde_json::from_slice(&bytes).expect("JSON"))
 }
 
-/// Issue 16, point 4: a scenario on the live cell through the API: heartbeats seen, a cut
-/// cable silences them, the report names each expectation.
+/// A scenario on the live cell through the API: heartbeats seen, a cut cable silences them, the
+/// report names each expectation.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_scenario_runs_on_the_live_cell() {
     let cell = cell();

@@ -1,7 +1,7 @@
-//! Issue 16, point 2: faults on the wire of a cell's bus, on the virtual clock. A cut cable
-//! silences a node both ways and its heartbeat consumer reacts by itself (CiA 301 §7.2.8.3.2.2:
-//! EMCY 8130h); a corrupted frame is an error frame the receivers count, never a wrong
-//! payload; a stopped SYNC takes 080h only; a delayed frame arrives later.
+//! Faults on the wire of a cell's bus, on the virtual clock. A cut cable silences a node both ways
+//! and its heartbeat consumer reacts by itself (CiA 301 §7.2.8.3.2.2: EMCY 8130h); a corrupted
+//! frame is an error frame the receivers count, never a wrong payload; a stopped SYNC takes 080h
+//! only; a delayed frame arrives later.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,5 +1,5 @@
 //! Application-layer state machine (ESM): AL control 0x0120, AL status 0x0130 and the
-//! transition table (spec/ethercat-esc.md §4.1–§4.2: Init, Pre-Op, Safe-Op, Op; Bootstrap
+//! transition table (spec §4.1–§4.2: Init, Pre-Op, Safe-Op, Op; Bootstrap
 //! where the device has it).
 
 use crate::al_status_code::AlStatusCode;

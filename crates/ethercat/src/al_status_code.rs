@@ -1,4 +1,4 @@
-//! AL status codes, register 0x0134 (ETG.1000.6; spec/ethercat-esc.md §4.3).
+//! AL status codes, register 0x0134 (ETG.1000.6; spec §4.3).
 
 use core::fmt;
 

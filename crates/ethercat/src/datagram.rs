@@ -1,5 +1,5 @@
 //! Zero-copy view of one EtherCAT datagram (DLPDU) and the command codes
-//! (spec/ethercat-esc.md §1.3, §1.4; ETG.1000.4).
+//! (spec §1.3, §1.4; ETG.1000.4).
 //!
 //! ```text
 //! 0      1      2          4          6                  8      10       10+n

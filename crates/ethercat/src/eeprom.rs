@@ -1,4 +1,4 @@
-//! The SII EEPROM interface of the ESC, registers 0x0500–0x050F (spec/ethercat-esc.md §2.4).
+//! The SII EEPROM interface of the ESC, registers 0x0500–0x050F (spec §2.4).
 //! The image itself (its words and categories) is [`crate::sii`]'s business; this module is
 //! the control/status word and the storage the ESC reads commands from.
 

@@ -1,4 +1,4 @@
-//! Fieldbus memory management units: logical → physical mapping (spec/ethercat-esc.md §2.5,
+//! Fieldbus memory management units: logical → physical mapping (spec §2.5,
 //! §7.4, §7.5).
 //!
 //! A mapping covers `(length − 1) × 8 + (stop bit − start bit + 1)` bits; logical bit `i` lies

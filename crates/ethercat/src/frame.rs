@@ -1,7 +1,7 @@
 //! Zero-copy views of the Ethernet frame and the EtherCAT frame header, and a writer that
 //! builds frames (for tests and the master side), in the manner of smoltcp's `wire` layer.
 //!
-//! Layout (spec/ethercat-esc.md §1.2): Ethernet header (destination, source, EtherType
+//! Layout (spec §1.2): Ethernet header (destination, source, EtherType
 //! 0x88A4 big-endian), then the 2-byte EtherCAT header (little-endian: bits 0–10 length of
 //! all datagrams that follow, bit 11 reserved, bits 12–15 type; type 1 = EtherCAT commands),
 //! then the datagrams ([`crate::datagram`]). Every getter is total: a buffer that is too short

@@ -1,5 +1,9 @@
 //! EtherCAT slave controller emulation, sans-IO and `no_std`: an Ethernet frame in, the same
-//! frame processed out, as the ESC chip does on the fly (ETG.1000, spec/ethercat-esc.md).
+//! frame processed out, as the ESC chip does on the fly (ETG.1000).
+//!
+//! "spec §n" in this crate is a section of `ethercat-esc.md`, the notes on ETG.1000 and on what
+//! SOEM, ethercrab and KickCAT expect of a slave, kept beside the project with the manuals'
+//! extracts.
 //!
 //! Layout (one file per concept, named as ethercrab names it):
 //! * wire views: [`frame`] (Ethernet + EtherCAT header, [`frame::FrameWriter`]),

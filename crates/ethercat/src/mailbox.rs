@@ -1,4 +1,4 @@
-//! The 6-byte mailbox header and mailbox error replies (spec/ethercat-esc.md §5.1, §5.3,
+//! The 6-byte mailbox header and mailbox error replies (spec §5.1, §5.3,
 //! §5.5). The ESC's mailbox sync managers are in [`crate::esc`]; CoE comes in a later part.
 //!
 //! ```text

@@ -1,4 +1,4 @@
-//! The ESC address space and register map (spec/ethercat-esc.md §2; ET1100-compatible
+//! The ESC address space and register map (spec §2; ET1100-compatible
 //! register set as in the Infineon ECAT0 SVD and ethercrab `register.rs`).
 //!
 //! Memory of the emulated ESC: 0x0000–0x0FFF registers (4 KiB) and 8 KiB process-data RAM at

@@ -1,5 +1,5 @@
 //! SII EEPROM image (ETG.1000.6 §5.4, ETG.2010): the slave information the ESC loads at power-on
-//! and the masters read through registers 0x0500–0x050F (spec/ethercat-esc.md §2.4, §3).
+//! and the masters read through registers 0x0500–0x050F (spec §2.4, §3).
 //!
 //! The image is built from a device description into a caller-provided buffer, without
 //! allocation. Layout (word addresses, 16-bit little-endian words):
@@ -10,7 +10,7 @@
 //! * from word 0x40: categories STRINGS (10), GENERAL (30), FMMU (40), SYNCM (41), TXPDO (50),
 //!   RXPDO (51), END (0xFFFF) (spec §3.3).
 //!
-//! Decisions (spec/ethercat-esc.md §3.5 is the baseline):
+//! Decisions (spec §3.5 is the baseline):
 //! * Sync manager addresses and mailbox sizes, group type, ports, default PDO assignment and
 //!   CoE details are the device file's (`[device.ethercat]`, [`od::EthercatSlave`]); a device
 //!   without that section gets the ESC reference baseline ([`SiiConfig::BASELINE`]):
@@ -187,7 +187,7 @@ pub struct SiiConfig<'a> {
 }
 
 impl SiiConfig<'static> {
-    /// The ESC reference baseline of spec/ethercat-esc.md §3.5: one CiA 402 axis, two MII
+    /// The ESC reference baseline of spec §3.5: one CiA 402 axis, two MII
     /// ports, CoE with SDO information, no complete access, PDOs 1600h / 1A00h on SM2 / SM3.
     pub const BASELINE: SiiConfig<'static> = SiiConfig {
         pdi_control: 0x0005,

@@ -1,4 +1,4 @@
-//! Sync manager register blocks (spec/ethercat-esc.md §2.6, §5.2, §7.3).
+//! Sync manager register blocks (spec §2.6, §5.2, §7.3).
 //!
 //! Mailbox mode (one buffer): the writer fills the whole window; the write that covers the
 //! last byte makes it "full" (status bit 3); the reader's access that covers the last byte

@@ -1,5 +1,5 @@
 //! Application synchronisation: when the device takes the outputs of SM2 and latches its
-//! inputs, and when it declares the synchronisation lost (spec/ethercat-esc.md §7.5, §8.2).
+//! inputs, and when it declares the synchronisation lost (spec §7.5, §8.2).
 //!
 //! Two modes, as a drive runs them:
 //! * **Free run / SM-synchronous** (no SYNC0): the arrival of the frame is the time base; the

@@ -1,5 +1,5 @@
-//! AL state machine: every transition accepted and refused, status codes, error
-//! acknowledge, hook (spec/ethercat-esc.md §4; cmmp-as-1 §4.2).
+//! AL state machine: every transition accepted and refused, status codes, error acknowledge, hook
+//! (the ESC reference kept beside the project, §4; the CMMP-AS manual's extract, part 1 §4.2).
 
 mod common;
 

@@ -37,9 +37,9 @@ fn esc_with_cmmp_as_sii() {
     assert_eq!(bus.al(0x1001), (0x0002, 0));
 }
 
-/// The device file's `[device.ethercat]` gives the layout of spec/ethercat-esc.md §3.5 with
-/// the CMMP-AS's group (cmmp-as-1 §2.13) and CoE services (§2.11, Tab. 4.9): the SII image
-/// and the CoE answers the interop tests were written against.
+/// The device file's `[device.ethercat]` gives the layout of the ESC reference kept beside the
+/// project, §3.5 with the CMMP-AS's group and CoE services (its manual's extract, part 1 §2.13,
+/// §2.11, Tab. 4.9): the SII image and the CoE answers the interop tests were written against.
 #[test]
 fn cmmp_as_layout_and_coe_services_from_its_device_file() {
     use ethercat::coe::CoeConfig;

@@ -1,5 +1,5 @@
 //! CoE: SDO over the mailbox, complete access, SDO information, emergencies, mailbox-level
-//! checks, and a round trip through an ESC (spec/ethercat-esc.md §5, §6).
+//! checks, and a round trip through an ESC (the ESC reference kept beside the project, §5, §6).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

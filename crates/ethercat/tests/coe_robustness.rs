@@ -1,8 +1,8 @@
 //! Whatever a master writes into the receive mailbox, the CoE server goes on: any sequence of
-//! mailbox messages (bad lengths, other types, repeated counters, SDO and SDO-information
-//! requests with any command byte, index and data) gets replies that are whole mailbox
-//! messages of the send mailbox's size at most, never a panic; and afterwards an expedited
-//! upload of 1018h:01 is answered with the dictionary's value (spec/ethercat-esc.md §5).
+//! mailbox messages (bad lengths, other types, repeated counters, SDO and SDO-information requests
+//! with any command byte, index and data) gets replies that are whole mailbox messages of the send
+//! mailbox's size at most, never a panic; and afterwards an expedited upload of 1018h:01 is
+//! answered with the dictionary's value (the ESC reference kept beside the project, §5).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,4 +1,5 @@
-//! Every datagram command, its working counter and its addressing (spec/ethercat-esc.md §1).
+//! Every datagram command, its working counter and its addressing (the ESC reference kept beside
+//! the project, §1).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

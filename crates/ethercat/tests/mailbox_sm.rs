@@ -1,5 +1,5 @@
 //! Mailbox sync managers: full/empty handshake, refusals, repeat request, mailbox header
-//! (spec/ethercat-esc.md §5).
+//! (the ESC reference kept beside the project, §5).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -1,5 +1,5 @@
 //! FMMUs and buffered sync managers: LRD/LWR/LRW through one and two slaves
-//! (spec/ethercat-esc.md §2.5, §7.3–§7.5).
+//! (the ESC reference kept beside the project, §2.5, §7.3–§7.5).
 
 mod common;
 

@@ -1,4 +1,5 @@
-//! The SII image of the CMMP-AS, read back the way the masters read it (spec/ethercat-esc.md §3).
+//! The SII image of the CMMP-AS, read back the way the masters read it (the ESC reference kept
+//! beside the project, §3).
 //!
 //! The category walker, the PDO size computation and the KickCAT read rule below are written
 //! here, independently of `ethercat::sii`, after SOEM 1.4 `ecx_siifind` / `ecx_siiPDO` and
@@ -133,7 +134,7 @@ fn pdos(img: &[u8], cat: u16) -> Vec<Pdo> {
 
 #[test]
 fn crc8_matches_the_akd_vectors() {
-    // spec/ethercat-esc.md §3.2 (ethercrab's tests on an AKD dump).
+    // the ESC reference kept beside the project, §3.2 (ethercrab's tests on an AKD dump).
     let a = [0x09, 0, 0, 0x08, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
     assert_eq!(crc8(&a), 0x10);
     let b = [0x09, 0, 0, 0x08, 0, 0, 0, 0, 0xCD, 0xAB, 0, 0, 0, 0];

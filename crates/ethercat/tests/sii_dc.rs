@@ -1,5 +1,5 @@
 //! SII EEPROM interface (0x0500–0x050F) and distributed clocks (0x0900–0x09FF)
-//! (spec/ethercat-esc.md §2.4, §2.7, §8).
+//! (the ESC reference kept beside the project, §2.4, §2.7, §8).
 
 mod common;
 

@@ -1,8 +1,8 @@
 //! The datagrams SOEM 1.4 / pysoem send to a single slave from `config_init()` through
-//! `config_map()`, `config_dc()`, `dc_sync()` to cyclic Op and shutdown, in order, with
-//! the working counters and data a real slave returns (spec/ethercat-esc.md §2.8, §9.1–§9.3).
-//! The CoE PDO discovery of step 38 is represented by one mailbox round trip answered by a
-//! stand-in device (CoE itself is a later part).
+//! `config_map()`, `config_dc()`, `dc_sync()` to cyclic Op and shutdown, in order, with the working
+//! counters and data a real slave returns (the ESC reference kept beside the project, §2.8,
+//! §9.1–§9.3). The CoE PDO discovery of step 38 is represented by one mailbox round trip answered
+//! by a stand-in device (CoE itself is a later part).
 
 mod common;
 

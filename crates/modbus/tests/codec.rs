@@ -586,7 +586,7 @@ fn framing_rejects_impossible_lengths() {
 fn rtu_crc_vectors() {
     // CRC-16/MODBUS catalogue check value
     assert_eq!(rtu::crc16(b"123456789"), 0x4B37);
-    // Kinco FD3 manual (seed 001) §12.3: KINCO-MB-01, KINCO-MB-02 and KINCO-MB-03
+    // Kinco FD3 manual §12.3: KINCO-MB-01, KINCO-MB-02 and KINCO-MB-03
     // (corrected: 1A 47)
     assert_eq!(rtu::crc_bytes(&hex("01 03 32 00 00 02")), [0xCA, 0xB3]);
     assert_eq!(rtu::crc_bytes(&hex("01 06 31 00 00 0F")), [0xC7, 0x32]);

@@ -1,4 +1,5 @@
-//! The Modbus TCP vectors of `spec/vectors.md` §2.3, by ID (FHPP-MB-01 … FHPP-MB-08).
+//! The Modbus TCP vectors of the vector catalogue kept beside the project, §2.3, by ID
+//! (FHPP-MB-01 … FHPP-MB-08).
 
 mod common;
 

@@ -27,7 +27,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// A brake delay is running (Nanotec §5.8: mode changes wait for it).
+    /// A brake delay is running (Nanotec §11.8: mode changes wait for it).
     pub(crate) fn brake_wait(&self) -> bool {
         self.power_off_at.is_some() || self.release_at.is_some_and(|t| self.now < t)
     }

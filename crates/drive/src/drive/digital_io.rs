@@ -57,7 +57,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     pub(crate) fn switch_config(&self) -> SwitchConfig {
         if !self.personality.capabilities.switch_polarity_objects {
-            // Nanotec §5.2: the methods name the switch type themselves (19/21 normally
+            // Nanotec §5.3: the methods name the switch type themselves (19/21 normally
             // closed, 20/22 normally open); the simulated switches are read as they are.
             return SwitchConfig::from_objects(1, 0, 0, 1);
         }

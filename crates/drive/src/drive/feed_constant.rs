@@ -1,4 +1,4 @@
-//! The factor group of CiA 402 v2 as Nanotec uses it (spec/nanotec-canopen.md §6): user
+//! The factor group of CiA 402 v2 as Nanotec uses it (Nanotec §1.2, §9.38–9.40): user
 //! positions from the feed constant 6092h and the gear ratio 6091h (default 2000 units per
 //! output revolution, "regardless of step mode"), velocities in units/s, accelerations in
 //! units/s², and 6063h in the encoder increments of 608Fh. The CMMP-AS has the older
@@ -20,7 +20,7 @@ fn factor_group(gear: Ratio, feed: Ratio, polarity: u8) -> Option<FactorGroup> {
     })
 }
 
-/// The feed constant of the defaults (Nanotec §6: 2000 units = one output revolution).
+/// The feed constant of the defaults (Nanotec §1.2: 2000 units = one output revolution).
 const DEFAULT_FEED: Ratio = Ratio::new(2000, 1);
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {

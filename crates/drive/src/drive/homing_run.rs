@@ -1,5 +1,5 @@
 //! Homing (CiA 402 mode 6) on the engine: controlword bit 4 starts the personality's method
-//! (CMMP-AS Tab. 7.1, Nanotec §5.2), [`crate::homing`] searches the reference point against
+//! (CMMP-AS Tab. 7.1, Nanotec ch. 5), [`crate::homing`] searches the reference point against
 //! the switches, the block or an external switch, and the drive brakes, settles, travels to
 //! zero where the personality does, and sets the position.
 
@@ -38,7 +38,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             }
         }
         let acc = self.accel(0x609A);
-        // Nanotec §5.2: 609Ah only when starting; at the switch the speed changes at once, at
+        // Nanotec ch. 5: 609Ah only when starting; at the switch the speed changes at once, at
         // the end the motor stops at once.
         let immediate = self.personality.capabilities.homing_immediate;
         let (switch_acc, stop_dec) = if immediate {
@@ -98,7 +98,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                         if immediate {
                             self.traj.velocity = 0.0;
                             if stalled {
-                                // Nanotec §5.2 (−2 / −3): the position is set on the block
+                                // Nanotec §5.3 (−2 / −3): the position is set on the block
                                 // after the settle time 2004h:05.
                                 let ms = self.value(0x2004, 5).max(0) as u64;
                                 self.homing_settle = Some(self.now + Duration::from_millis(ms));
@@ -139,7 +139,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::ToZero => {
-                // 6510h:F0 bit 6: to the zero position at 6099h:01 (cmmp-as-3 §3.2 note).
+                // 6510h:F0 bit 6: to the zero position at 6099h:01 (CMMP-AS §7.2).
                 let zero = self.fg.position_to_internal(0) as f64;
                 let lim = Limits {
                     velocity: self.homing_speed(Speed::Search).max(1.0),

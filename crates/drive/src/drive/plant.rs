@@ -7,7 +7,7 @@
 //! closed loop (the encoder closes the loops; no step is lost below the peak torque).
 //!
 //! Decisions:
-//! * Nanotec §5.6: closed loop is on with an encoder (2011h ≠ 0) once 2001h ENABLE_CL is 1
+//! * Nanotec §11.2: closed loop is on with an encoder (2011h ≠ 0) once 2001h ENABLE_CL is 1
 //!   or 2 (the long test run and the homing the real drive needs first are taken as done),
 //!   or 3 after the short test run (6060h = −2); 200Ah shows it.
 //! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper

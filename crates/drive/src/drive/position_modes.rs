@@ -19,7 +19,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let max_speed = self.max_motor_speed();
         let target_limits = self.personality.capabilities.pp_target_limits;
         let abrupt_zero = self.personality.capabilities.zero_ramp_is_abrupt;
-        // Nanotec §5.1: range-limit wrap, software limits and relative overflow checked before
+        // Nanotec §4.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
         let checked = (bit4 && target_limits).then(|| self.check_target(cw));
         let get = |i: u16| self.value(i, 0);
@@ -48,7 +48,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 job: Job {
                     target,
                     velocity: vel(0x6081).min(max_speed),
-                    // Nanotec §5.1: 6082h is the start / stop speed of the ramp, not an
+                    // Nanotec §4.9, §4.2: 6082h is the start / stop speed of the ramp, not an
                     // end velocity; bit 9 decides whether a queued job follows at speed.
                     end_velocity: if target_limits { 0.0 } else { vel(0x6082) },
                     acceleration: acc(0x6083),
@@ -183,7 +183,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let enable = cw.contains(Controlword::ENABLE_IP_MODE);
         if enable && !self.ip.is_active() {
             if self.ip.is_synchronised() {
-                // Nanotec §5.4: 60C1h:01 is the target 607Ah shares; what it holds is the
+                // Nanotec ch. 7: 60C1h:01 is the target 607Ah shares; what it holds is the
                 // first set-point (the manual's warning: write the actual position first).
                 let pending = self.personality.capabilities.ip_follows_sync.then(|| {
                     let user = self

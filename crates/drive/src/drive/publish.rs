@@ -77,7 +77,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         } else {
             self.end_warning(Number { main: 17, sub: 0 });
         }
-        // Nanotec §5.1: the following error is watched in closed loop only; an open-loop
+        // Nanotec §4.1: the following error is watched in closed loop only; an open-loop
         // stepper does not know it.
         let open_loop = self
             .stepper

@@ -1,12 +1,12 @@
 //! Profile Position targets checked before they are taken (CiA 402 607Bh position range
-//! limit, 607Dh software position limit; spec/nanotec-canopen.md §4.1 / §5.1), and the
+//! limit, 607Dh software position limit; Nanotec §4.1 "Positions-Fehlerbehandlung"), and the
 //! change-on-set-point bit 9 of a queued job. A personality turns them on with
 //! [`crate::personality::Capabilities::pp_target_limits`].
 
 use super::*;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
-    /// The PP target of 607Ah checked as §4.1 / §5.1 lists it, user units: (1) outside the
+    /// The PP target of 607Ah checked as Nanotec §4.1 lists it, user units: (1) outside the
     /// position range limit 607Bh it wraps round inside [min, max] (bit 11); (2) outside the
     /// software limits 607Dh, corrected by the home offset, it is refused with EMCY 0800h;
     /// (3) a relative target that overflows the position is refused with EMCY 1000h.

@@ -1,18 +1,18 @@
-//! Velocity mode VL (CiA 402 §10, 6060h = 2; Nanotec §5.3): the target 6042h clamped by
+//! Velocity mode VL (CiA 402 §10, 6060h = 2; Nanotec ch. 6): the target 6042h clamped by
 //! the min / max amounts 6046h, ramps 6048h / 6049h / 604Ah given as fractions Δv / Δt, and
 //! the dimension factor 604Ch between the user unit and min⁻¹.
 //!
-//! Rules (Nanotec §5.3, §9 item 8): target 0 stops; a magnitude below min runs at min; a
-//! magnitude above max runs at max with statusword bit 11; halt (bit 8) brakes with 6049h
+//! Rules (Nanotec ch. 6; the extract's §9 item 8): target 0 stops; a magnitude below min runs at
+//! min; a magnitude above max runs at max with statusword bit 11; halt (bit 8) brakes with 6049h
 //! and a falling edge accelerates again; a quick stop brakes with 604Ah.
 //!
 //! Decisions:
 //! * 604Ch: `min⁻¹ = user × numerator / denominator`, the worked example of §6.10 (2000 ×
-//!   60/2000 = 60 min⁻¹), not the inverse formula of §9.27 (spec §9 ambiguity list); Δv of
+//!   60/2000 = 60 min⁻¹), not the inverse formula of §9.27 (the manual contradicts itself); Δv of
 //!   the ramps is in the same user unit, Δt in seconds.
 //! * The halt bit is read as a level: its rising edge brakes, its falling edge resumes, and a
-//!   bit held at 1 keeps the motor stopped, which is what the two edges of §5.3 describe.
-//! * 607Eh bit 6 turns the direction over (§5.8).
+//!   bit held at 1 keeps the motor stopped, which is what the two edges of §6.1 describe.
+//! * 607Eh bit 6 turns the direction over (§9.4).
 
 use super::*;
 

@@ -1,5 +1,5 @@
 //! FHPP, the Festo Handling and Positioning Profile, as the CMMO-ST manual
-//! (GDCP-CMMO-ST-LK-C-HP, seed 002, ch. 5 and 6) defines it: the 8 bytes of cyclic control and
+//! (GDCP-CMMO-ST-LK-C-HP, ch. 5 and 6) defines it: the 8 bytes of cyclic control and
 //! status data (16 with the parameter channel, [`parameter_channel`]), the FHPP state
 //! machine S1…S6 with its transitions T1…T11, the sub-states SA1…SA6 of "operation enabled"
 //! with TA1…TA12, control authority (fieldbus against FCT / web server), and the start /

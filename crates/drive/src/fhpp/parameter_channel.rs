@@ -17,8 +17,9 @@
 //! fixed order for them; C.2.1 says words and double words follow the bus master's convention
 //! ("Intel/Motorola") and names Modbus as "big endian" (also §4.3.2: "Byte order always big
 //! endian"). The manual's own example (English edition Fig. C.1: write PNU 440:2 = 4660 →
-//! PNU bytes `01 B8`, PWE `00 00 12 34`) and spec §8.2 c (`16 01 04 11` = PNU 1041) print
-//! MSB first, and IO-Link is big-endian as well. So both fields are big-endian here.
+//! PNU bytes `01 B8`, PWE `00 00 12 34`) and a frame derived from its tables in the manual's
+//! extract kept beside the project (`16 01 04 11` = PNU 1041) print MSB first, and IO-Link is
+//! big-endian as well. So both fields are big-endian here.
 //!
 //! **File mode** (Tab. C.8/C.9): byte 2 the packet ID (3 control/status bits, 5-bit sequence
 //! number), bytes 3–8 six bytes of user data. *User data is little-endian* (C.4.3: "the LSB of

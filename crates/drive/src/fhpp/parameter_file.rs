@@ -2,7 +2,7 @@
 //! set", moved by the EFPC file transfer and kept in the permanent memory (the "EEPROM").
 //!
 //! The manual gives the parts but not their content. The English edition's Fig. C.2 (the
-//! figure is missing from the Chinese seed) draws **a 256-byte header, n bytes of data
+//! figure is missing from the Chinese edition) draws **a 256-byte header, n bytes of data
 //! ("objects") and a 2-byte CRC check value**. The content is decided here:
 //!
 //! | Offset | Size | Field (little-endian, like the file transfer's user data, C.4.3) |

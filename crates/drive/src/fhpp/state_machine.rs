@@ -14,9 +14,9 @@
 //! | S5 | fault reaction active | FAULT = 1 |
 //! | S6 | fault | FAULT = 1 |
 //!
-//! The brief called S6 "quick stop / stop": the manual has no such state. CCON.STOP = 0 is T4
-//! (S4 → S3 with the Quick-Stop deceleration) and S5/S6 are the fault states of Tab. 5.2 (T7, T8
-//! and the acknowledge transitions T9–T11 leave from S6); the code follows the manual.
+//! There is no "quick stop / stop" state: CCON.STOP = 0 is T4 (S4 → S3 with the Quick-Stop
+//! deceleration) and S5/S6 are the fault states of Tab. 5.2 (T7, T8 lead to them and the
+//! acknowledge transitions T9–T11 leave from S6).
 //!
 //! One call of [`Fhpp::cycle`] is one bus cycle: the level transitions of Tab. 5.2 settle within
 //! it (power-on CCON 00h → 03h answers SCON 13h at once, as Example 1 step 1.3 shows), each edge

@@ -39,7 +39,7 @@ bit_byte! {
         TEACH = 0x08, "TEACH";
         /// 1 = axis speed ≥ limit value.
         MOV = 0x10, "MOV";
-        /// 1 = following error active (the brief's "DEV"; the manual names it FOLERR).
+        /// 1 = following error active (FOLERR, as the manual names it).
         FOLERR = 0x20, "FOLERR";
         /// 1 = after MC the axis has left the standstill window.
         STILL = 0x40, "STILL";

@@ -15,7 +15,7 @@ pub type Rig = drive_rig::DeviceRig<Drive<Vec<u8>, Kinco>>;
 /// Encoder increments per revolution of the twin's Kinco motor.
 pub const INC_PER_REV: i64 = 10_000;
 
-/// DEC of 1 rpm (spec/kinco-fd-cd.md §6 item 12: rpm × 512 × 10 000 / 1875).
+/// DEC of 1 rpm (rpm × 512 × 10 000 / 1875, as the sibling FD manuals give it).
 pub fn dec_rpm(rpm: f64) -> i64 {
     (rpm * 512.0 * 10_000.0 / 1875.0).round() as i64
 }

@@ -1,14 +1,14 @@
 //! What a drive does when its CAN controller changes error state (`canbus::fault_confinement`),
 //! as its manual gives it: a table, one row per personality, CiA 301's usage for the rest.
 //!
-//! - CiA 301 (`spec/canopen-protocols.md` §4.6): EMCY 8120h "CAN in error-passive mode" when
+//! - CiA 301 (its emergency error codes): EMCY 8120h "CAN in error-passive mode" when
 //!   the node goes passive, cleared (EMCY 0000h) when it is active again; 8140h "recovered
 //!   from bus off" once back on the bus.
-//! - CMMP-AS (`spec/cmmp-as-3-modes-diagnostics.md`, B.2 / 12-1): "CAN: bus off", EMCY 8120h,
+//! - CMMP-AS (manual App. B.2, error 12-1): "CAN: bus off", EMCY 8120h,
 //!   a configurable fault reaction; the manual has no error-passive entry. The fault is raised
 //!   when the controller goes bus off and its EMCY goes out once the node is back (a node off
 //!   the bus sends nothing); a fault reset clears it.
-//! - Nanotec (`spec/nanotec-canopen.md` §7.2): MONITORING_COMM_PASSIVE 8120h and
+//! - Nanotec (Nanotec §17): MONITORING_COMM_PASSIVE 8120h and
 //!   MONITORING_COMM_BUSRECOVERY 8140h, as CiA 301.
 
 use canbus::fault_confinement::{ErrorState, Transition};

@@ -305,7 +305,7 @@ impl CanDrive {
                 DriveEvent::Reboot => reboot = true,
             }
         }
-        // A request from another path than the SDO server (none today) is carried out here.
+        // A storage request left by another path than the SDO server is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
             let (_, mut access) = self.node_and_access();
             if let Err(e) = access.carry_out(req) {

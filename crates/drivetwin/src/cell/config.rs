@@ -79,7 +79,7 @@ pub enum ConfigError {
 #[derive(Debug, Clone, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct CellFile {
-    /// `[bus]` (one bus, the earlier form) or `[[bus]]` entries (several CAN buses).
+    /// `[bus]` (one bus) or `[[bus]]` entries (several CAN buses).
     #[serde(default)]
     pub bus: Buses,
     #[serde(default)]
@@ -1101,8 +1101,8 @@ impl CellFile {
                         .collect::<Vec<_>>()
                         .join(", "),
                 })?;
-            // Decision: without `interfaces` a drive keeps the earlier rules (its profile's
-            // fieldbus, `ci_terminal`, `modbus`), checked below as before.
+            // Decision: without `interfaces` a drive's interfaces follow from its profile's
+            // fieldbus, `ci_terminal` and `modbus`, checked below.
             if let Some(interfaces) = &d.interfaces {
                 crate::cell::interfaces::check(desc.name, interfaces, d.allow_unreal_interfaces)
                     .map_err(|source| ConfigError::Interfaces { node, source })?;

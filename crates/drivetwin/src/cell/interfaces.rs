@@ -6,9 +6,9 @@
 //! EtherCAT at once to compare the two).
 //!
 //! The rules are the device files' (`interfaces`, `interfaces_one_of`, `interfaces_rule`:
-//! `od::InterfaceOffer`): the CMMP-AS has CANopen, EtherCAT and the CI terminal, one fieldbus at
-//! a time (`spec/cmmp-as-1-communication.md` §2.3); the CMMO-ST Modbus TCP only; a device file
-//! without them its profile's fieldbus.
+//! `od::InterfaceOffer`): the CMMP-AS has CANopen, EtherCAT and the CI terminal, one fieldbus at a
+//! time (the manual's extract kept beside the project, `cmmp-as-1-communication.md` §2.3); the
+//! CMMO-ST Modbus TCP only; a device file without them its profile's fieldbus.
 
 use serde::Deserialize;
 

@@ -6,7 +6,7 @@
 //! same faults on the virtual clock give the same frames bit for bit. The CAN bus applies them
 //! in [`crate::cell::Cell`]; the cell loop applies those of the Modbus and EtherCAT front ends.
 //!
-//! What a fault does to a CAN frame is CAN's own (`spec/cia301.md`, ISO 11898-1): a corrupted
+//! What a fault does to a CAN frame is CAN's own (ISO 11898-1): a corrupted
 //! frame fails its CRC, every receiver sends an error frame and counts it in its fault
 //! confinement ([`canbus::fault_confinement`]), the sender counts a transmit error and tries
 //! again; nobody gets a wrong payload. A corrupted Modbus TCP or EtherCAT frame is discarded

@@ -6,7 +6,7 @@
 //! personality, the simulated drive and motor, built exactly as the CANopen cell builds them
 //! (cell file, motor commissioning, [`CanDrive::with_settings`]).
 //!
-//! Process data (spec/cmmp-as-1-communication.md §2):
+//! Process data (the manual's extract kept beside the project, `cmmp-as-1-communication.md` §2):
 //!
 //! * On Pre-Op → Safe-Op the device takes the PDO assignment (1C12h / 1C13h when the
 //!   dictionary has them, else the SII defaults 1600h / 1A00h: the CMMP-AS maps its EtherCAT
@@ -594,7 +594,7 @@ impl Bound<'_> {
                 None => {}
             }
         }
-        // A request from another path than the SDO server (none today) is carried out here.
+        // A storage request left by another path than the SDO server is carried out here.
         if let Some(req) = self.model.od_mut().take_request() {
             let mut access = Persisting::new(self.model, self.store, self.stored);
             if let Err(e) = access.carry_out(req) {

@@ -2,21 +2,22 @@
 //! other configurators import. The same description and the same [`SiiConfig`] give the SII
 //! image (`ethercat::sii`), so the ESI and the EEPROM agree on SM addresses, PDOs and names.
 //!
-//! Structure and naming follow the Festo CMMP-AS ESI excerpt (spec/cmmp-as-1-communication.md
-//! §2.13): vendor `#x1D`, group type "Festo Electric-Drives" / name "Festo Electric-Drive",
-//! `Device Physics="YY"`, RxPDO entries with Index/SubIndex/BitLen/Name/DataType, the PDO
-//! assigned to SM2 named "Outputs" and the one assigned to SM3 "Inputs". Decisions:
+//! Structure and naming follow the Festo CMMP-AS ESI excerpt (the manual's extract kept beside the
+//! project, `cmmp-as-1-communication.md` §2.13): vendor `#x1D`, group type "Festo Electric-Drives"
+//! / name "Festo Electric-Drive", `Device Physics="YY"`, RxPDO entries with
+//! Index/SubIndex/BitLen/Name/DataType, the PDO assigned to SM2 named "Outputs" and the one
+//! assigned to SM3 "Inputs". Decisions:
 //! * Element names are ETG.2000's `RxPdo` / `TxPdo` (the manual prints `<RxPDO>`, which the
 //!   ETG schema and TwinCAT do not know; its `<Index#>x6060</Index>` typo is not copied either).
 //! * The vendor name is the description's `vendor_name` ("Festo AG & Co. KG"), not the
 //!   excerpt's "Festo SE": the description is the single source of truth; masters match the Id.
-//! * PDOs are not `Fixed`: the CMMP-AS mapping objects are writable (cmmp-as-1 §3.2); only the
-//!   default assignment (1C12h/1C13h of [`SiiConfig`]) carries `Sm`.
+//! * PDOs are not `Fixed`: the CMMP-AS mapping objects are writable (the manual's extract,
+//!   part 1 §3.2); only the default assignment (1C12h/1C13h of [`SiiConfig`]) carries `Sm`.
 //! * Records and arrays are both described as `DTxxxx` data types with one `SubItem` per
 //!   present sub-index (arrays with gaps, e.g. 1010h with only sub 1, stay exact that way);
 //!   sub 0 takes 16 bits (8 + 8 padding) as in Beckhoff's files, the rest follow packed.
 //! * Every object of the description is listed, including 1008h–100Ah and 6089h–608Eh which
-//!   the CMMP-AS rejects under CoE (cmmp-as-1 §3.3 Tab. 4.9): the description has no
+//!   the CMMP-AS rejects under CoE (Tab. 4.9): the description has no
 //!   per-protocol flag; that is for the CoE front end to refuse.
 //! * Defaults are `DefaultData` (little-endian hex, as on the wire), strings `DefaultString`;
 //!   `$NODEID` defaults are given for the description's default node ID. Limits are
@@ -43,7 +44,7 @@ pub struct EsiConfig<'a> {
 
 impl EsiConfig<'static> {
     /// What `desc`'s device file says (`[device.ethercat]`, on the SII baseline of
-    /// spec/ethercat-esc.md §3.5 without it).
+    /// the ESC reference kept beside the project, §3.5 without it).
     pub fn from_description(desc: &DeviceDescription) -> Self {
         EsiConfig {
             sii: SiiConfig::from_description(desc),

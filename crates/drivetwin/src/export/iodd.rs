@@ -1,6 +1,5 @@
-//! The CMMO-ST's IO-Link device descriptions (IODD 1.1, IO-Link Interface Spec V1.1): the
-//! two files the manual names (spec/cmmo-st-fhpp.md §2.3, seeds/002_0d4121ca26bfc67a.txt
-//! Tab. 2.2), one per device profile:
+//! The CMMO-ST's IO-Link device descriptions (IODD 1.1, IO-Link Interface Spec V1.1): the two files
+//! the manual names (Tab. 2.2), one per device profile:
 //!
 //! - `Festo-CMMO-ST-C5-1-LKP_FHPP-<date>-IODD1.1.xml`: FHPP Standard, 8 bytes each way;
 //! - `Festo-CMMO-ST-C5-1-LKP_FHPP_and_FPC-<date>-IODD1.1.xml`: FHPP + FPC, 16 bytes.

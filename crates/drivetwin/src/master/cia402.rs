@@ -120,7 +120,7 @@ pub async fn statusword(c: &mut SdoClient<'_>) -> Result<u16, SdoError> {
 /// (a few of its cycles; the twins' cycle is 1 ms).
 pub const SET_POINT_SETTLE: Duration = Duration::from_millis(30);
 
-/// VL velocity mode (CiA 402 §10; Nanotec §5.3).
+/// VL velocity mode (CiA 402 §10; Nanotec ch. 6).
 const MODE_VL: i8 = 2;
 
 pub async fn snapshot(c: &mut SdoClient<'_>) -> Result<Snapshot, SdoError> {

@@ -1,8 +1,8 @@
 //! An FHPP master for the Festo CMMO-ST over Modbus TCP, as a PLC drives it (manual
-//! GDCP-CMMO-ST-LK-C-HP §4.3 and ch. 5–6, spec/cmmo-st-fhpp.md §2.5–2.8, §4, §5): one
-//! connection, the 8-byte output telegram written and the input telegram read with one FC 0x17
-//! (start address 0, 4 registers, or 8 with the parameter channel) every cycle, and the
-//! handshakes of the state machine and of the start / acknowledge protocol on top.
+//! GDCP-CMMO-ST-LK-C-HP §4.3 and ch. 5–6): one connection, the 8-byte output telegram written and
+//! the input telegram read with one FC 0x17 (start address 0, 4 registers, or 8 with the parameter
+//! channel) every cycle, and the handshakes of the state machine and of the start / acknowledge
+//! protocol on top.
 //!
 //! The CMMO-ST serves one Modbus client and may watch the connection (the "Node Guard /
 //! Timeout" watchdog), so a command keeps exchanging telegrams every cycle while it waits and

@@ -1,4 +1,4 @@
-//! The master side of the Kinco RS232 telegrams (`spec/kinco-fd-cd.md` §2.1–2.2, the codec
+//! The master side of the Kinco RS232 telegrams (Kinco CD3 / FD3 manual ch. 10, the codec
 //! `drive::vendors::kinco::rs232`): one 10-byte telegram out, one 10-byte answer in, over a serial
 //! port (a real drive on a USB adapter, or a twin's pty link). Blocking: a command-line tool.
 //!

@@ -1,4 +1,4 @@
-//! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3, spec/cmmo-st-fhpp.md §2.5):
+//! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3):
 //! the [`RegisterMap`] that puts the FHPP cyclic telegrams on Modbus registers, and the
 //! runner that serves it and steps the device on the real clock.
 //!

@@ -1,6 +1,6 @@
-//! The serial ports of a drive: the Kinco FD3 / CD3 answer on RS232 (the 10-byte telegrams,
-//! `spec/kinco-fd-cd.md` §2.1–2.2) and on RS485 (Modbus RTU, §2.3) at the same time as on
-//! CANopen, all three on the same objects (issue 13).
+//! The serial ports of a drive: the Kinco FD3 / CD3 answer on RS232 (the 10-byte telegrams, Kinco
+//! manual ch. 10) and on RS485 (Modbus RTU, ch. 12) at the same time as on CANopen, all three on
+//! the same objects.
 //!
 //! - [`pty`]: the file behind a line, a pseudo-terminal the twin makes (PATH a link to it) or
 //!   a real device;

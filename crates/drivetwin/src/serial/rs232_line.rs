@@ -1,4 +1,4 @@
-//! The Kinco telegram protocol on a line (`spec/kinco-fd-cd.md` §2.1–2.2, the codec
+//! The Kinco telegram protocol on a line (Kinco CD3 / FD3 manual ch. 10, the codec
 //! `drive::vendors::kinco::rs232`): bytes become 10-byte telegrams, each answered by the drive it
 //! addresses through its object access.
 //!

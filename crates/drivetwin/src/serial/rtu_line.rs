@@ -1,7 +1,7 @@
-//! Modbus RTU on an RS485 line (`spec/kinco-fd-cd.md` §2.3, the codecs
-//! `modbus::rtu_framing` and `drive::vendors::kinco::rtu`): a frame ends with 3.5 character
-//! times of silence at the line's baud rate, and every drive of the line hears it; the one whose
-//! station number (= node-ID 100Bh, §12.2) it names answers, once the silence has passed.
+//! Modbus RTU on an RS485 line (Kinco CD3 / FD3 manual ch. 12, the codecs `modbus::rtu_framing` and
+//! `drive::vendors::kinco::rtu`): a frame ends with 3.5 character times of silence at the line's
+//! baud rate, and every drive of the line hears it; the one whose station number (= node-ID 100Bh,
+//! §12.2) it names answers, once the silence has passed.
 //!
 //! - A bad CRC or a station no drive of the line has: no answer, counted (KINCO-MB, §12.3).
 //! - Station 0 (broadcast): every drive carries out a write; none answers.

@@ -6,8 +6,8 @@
 //!   other one character time apart (10 bits, 8N1: Kinco manual §10.1 / §12.2). Byte `i` of
 //!   what waits is complete at `start + (i + 1) · t_char`, and is handed to the protocol then.
 //! - Sent bytes: an answer starts when the drive has it and the wire is free, and is written
-//!   to the host when its last byte would have crossed, in one write (`10 bytes at 38400
-//!   bit/s take 2.6 ms`, issue 13). A half-duplex line (RS485) shares one transmitter.
+//!   to the host when its last byte would have crossed, in one write (10 bytes at 38400 bit/s
+//!   take 2.6 ms). A half-duplex line (RS485) shares one transmitter.
 //! - Bounded both ways: at most [`MAX_RX`] bytes wait for the wire and [`MAX_OUT`] for the
 //!   host to read; beyond that bytes are dropped and counted, so a host that never reads, or
 //!   one that floods the line, never stalls it nor the drives.
@@ -182,8 +182,7 @@ impl Wire {
 mod tests {
     use super::*;
 
-    /// Issue 13: 10 bytes at 38400 bit/s take 2.6 ms; the answer is there 2.6 ms after it
-    /// started.
+    /// 10 bytes at 38400 bit/s take 2.6 ms; the answer is there 2.6 ms after it started.
     #[test]
     fn ten_bytes_at_38400_take_2_6_ms() {
         let mut w = Wire::new(38_400);

@@ -1,8 +1,9 @@
 //! Trace writers: pcap with link type 227 (LINKTYPE_CAN_SOCKETCAN) and candump `.log` for CAN,
 //! pcap with link type 1 (LINKTYPE_ETHERNET) for EtherCAT frames.
 //!
-//! Wireshark / tshark read them: CANopen with `tshark -r FILE -d can.subdissector,canopen`
-//! (spec/anchors.md §7), EtherCAT (EtherType 88A4h) and its CoE mailbox without options.
+//! Wireshark / tshark read them: CANopen with `tshark -r FILE -d can.subdissector,canopen` (the
+//! notes on open-source systems kept beside the project, §7), EtherCAT (EtherType 88A4h) and its
+//! CoE mailbox without options.
 //!
 //! pcap record body, the SocketCAN `struct can_frame` with the identifier in network byte
 //! order (as Wireshark expects for link type 227):
@@ -325,7 +326,8 @@ mod tests {
         );
     }
 
-    /// The CANopen frames of anchors.md §7, in order, at 1 ms steps.
+    /// The CANopen frames of the notes on open-source systems kept beside the project (§7), in
+    /// order, at 1 ms steps.
     fn canopen_sample() -> Vec<CanFrame> {
         vec![
             f(0x000, &[0x01, 0x05]),                         // NMT start node 5

@@ -1,8 +1,8 @@
-//! The CMMO-ST's own web server, as its manual describes it (spec/cmmo-st-fhpp.md §2.2): the
-//! tabs "Control Interface", "FHPP Profile", "Network" and "Info"; "Device Control" must be
-//! activated before parameters can be saved; changes to the control interface, the device
-//! profile, the interface parameters (TCP port, timeout) and the network take effect only
-//! after the controller restarts, and the page marks them so.
+//! The CMMO-ST's own web server, as its manual describes it (its extract kept beside the project,
+//! `cmmo-st-fhpp.md` §2.2): the tabs "Control Interface", "FHPP Profile", "Network" and "Info";
+//! "Device Control" must be activated before parameters can be saved; changes to the control
+//! interface, the device profile, the interface parameters (TCP port, timeout) and the network take
+//! effect only after the controller restarts, and the page marks them so.
 //!
 //! Decision: served by the console at `/cmmo-st/{drive}` (API under `/api/cmmo-st/{drive}/…`),
 //! not on a port of its own as on the real device (`http://192.168.178.1/`, port 80): a cell

@@ -225,7 +225,7 @@ fn set_mode(io: &impl Objects, wanted: i8) -> Result<(), MotionError> {
 /// velocity units; negative: backwards, 0: stop), enable operation (CMMP-AS §6.4, CiA 402
 /// §10). A drive whose supported drive modes (6502h) lack profile velocity but have velocity
 /// mode (the Nanotec PD4-N, 6502h = 6Bh) jogs in velocity mode: 6060h = 2, vl target
-/// velocity 6042h (INTEGER16, rpm; CiA 402 §9, Nanotec §5.5). The drive must be enabled.
+/// velocity 6042h (INTEGER16, rpm; CiA 402 §9, Nanotec §6.3). The drive must be enabled.
 pub fn jog(io: &impl Objects, velocity: i32) -> Result<u16, MotionError> {
     let sw = statusword_of(io)?;
     if velocity == 0 && !enabled(sw) {

@@ -1,4 +1,4 @@
-//! The Kinco CD3 / FD3 LED panel over REST (spec/kinco-fd-cd.md §5.12, §4.3): the five
+//! The Kinco CD3 / FD3 LED panel over REST (Kinco CD3 / FD3 manual ch. 4): the five
 //! digits as text with their points and blink, and key presses (MODE / SET / ▲ / ▼) as the
 //! panel's own keys. A press goes to the drive's panel state machine
 //! (`drive::vendors::kinco::panel`); what it changes is changed through the drive's object

@@ -1,4 +1,4 @@
-//! The SDO abort message over CoE (spec/ethercat-esc.md §6.5) and the abort codes ETG.1000.6
+//! The SDO abort message over CoE (spec §6.5) and the abort codes ETG.1000.6
 //! adds to CiA 301 for complete access and the mailbox.
 //!
 //! ```text

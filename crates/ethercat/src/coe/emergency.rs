@@ -1,4 +1,4 @@
-//! CoE emergency (CoE service 1, spec/ethercat-esc.md §6.7): the 8-byte CiA 301 EMCY payload
+//! CoE emergency (CoE service 1, spec §6.7): the 8-byte CiA 301 EMCY payload
 //! after the CoE header, mailbox length 10.
 //!
 //! ```text

@@ -1,8 +1,8 @@
-//! The PDO assignment and mapping are changed in Pre-Op only (ETG.1000.6 §5.6.7.4, ETG.2000
-//! "the PDO configuration is taken on Pre-Op → Safe-Op"; issue 5 point 3): in Safe-Op and Op
-//! a download to 1C12h / 1C13h or to a mapping object 1600h–17FFh / 1A00h–1BFFh is refused
-//! with 0800 0022h ("… because of the present device state"), the code SOES and TwinCAT's
-//! slaves give. Reads stay open. Everything else passes through unchanged.
+//! The PDO assignment and mapping are changed in Pre-Op only (ETG.1000.6 §5.6.7.4, ETG.2000 "the
+//! PDO configuration is taken on Pre-Op → Safe-Op"): in Safe-Op and Op a download to 1C12h / 1C13h
+//! or to a mapping object 1600h–17FFh / 1A00h–1BFFh is refused with 0800 0022h ("… because of the
+//! present device state"), the code SOES and TwinCAT's slaves give. Reads stay open. Everything
+//! else passes through unchanged.
 
 use od::{AbortCode, Entry, ObjectAccess};
 

@@ -1,4 +1,4 @@
-//! CANopen over EtherCAT (ETG.1000.6 §5.6; spec/ethercat-esc.md §5, §6): the device side of
+//! CANopen over EtherCAT (ETG.1000.6 §5.6; spec §5, §6): the device side of
 //! the mailbox protocol CoE. Sans-IO: one complete mailbox message in (mailbox header, CoE
 //! header, service data, as [`crate::Esc::mailbox_read`] hands it over), the reply mailbox
 //! message out into a caller buffer whose length is the send mailbox (SM1) size.

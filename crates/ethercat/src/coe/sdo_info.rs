@@ -1,4 +1,4 @@
-//! SDO information service (CoE service 8; ETG.1000.6 §5.6.3; spec/ethercat-esc.md §6.6):
+//! SDO information service (CoE service 8; ETG.1000.6 §5.6.3; spec §6.6):
 //! what pysoem's `slave.od`, SOEM `slaveinfo -sdo`, ethercrab and TwinCAT use to browse
 //! the dictionary.
 //!

@@ -1,4 +1,4 @@
-//! SDO request/response over CoE (ETG.1000.6 §5.6.2; spec/ethercat-esc.md §6.2–§6.5).
+//! SDO request/response over CoE (ETG.1000.6 §5.6.2; spec §6.2–§6.5).
 //!
 //! ```text
 //! CoE header | command | index (u16) | sub | data (4 bytes, or size u32 + data)

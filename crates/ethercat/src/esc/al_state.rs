@@ -1,4 +1,4 @@
-//! The AL state machine (spec/ethercat-esc.md §4.2): AL control processed, the ESC's own
+//! The AL state machine (spec §4.2): AL control processed, the ESC's own
 //! checks of the mailbox and process-data SMs, the device's hook asked, AL status and its
 //! event.
 

@@ -1,4 +1,4 @@
-//! Frame processing (spec/ethercat-esc.md §1–§2): the datagrams of a frame walked in place,
+//! Frame processing (spec §1–§2): the datagrams of a frame walked in place,
 //! each command addressed to this slave executed, working counters and auto-increment
 //! addresses updated, the side effects of a datagram applied right after it.
 

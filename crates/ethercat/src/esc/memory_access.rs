@@ -1,4 +1,4 @@
-//! ECAT reads and writes of the ESC's memory (spec/ethercat-esc.md §1.4): registers computed
+//! ECAT reads and writes of the ESC's memory (spec §1.4): registers computed
 //! when read (system time, next SYNC0), and the registers whose write has an effect after
 //! the datagram, marked dirty.
 

@@ -1,5 +1,5 @@
 //! One emulated EtherCAT slave controller: a frame in, the same frame processed out, as the
-//! chip does on the fly (spec/ethercat-esc.md §1–§8).
+//! chip does on the fly (spec §1–§8).
 //!
 //! * [`Esc::process`] walks the datagrams of an Ethernet frame in place (or
 //!   [`Esc::process_ecat`] for a buffer that starts at the EtherCAT header), executes every

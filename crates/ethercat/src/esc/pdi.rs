@@ -1,4 +1,4 @@
-//! The PDI side: what the device behind the ESC does (spec/ethercat-esc.md §5, §7): mailbox
+//! The PDI side: what the device behind the ESC does (spec §5, §7): mailbox
 //! read and write, process outputs taken, inputs set.
 
 use super::*;

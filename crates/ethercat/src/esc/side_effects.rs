@@ -1,4 +1,4 @@
-//! What follows a datagram (spec/ethercat-esc.md §2.4 "after the whole datagram"): SM and
+//! What follows a datagram (spec §2.4 "after the whole datagram"): SM and
 //! FMMU reconfiguration, the EEPROM (SII) command, AL control, the DC latch and system time.
 
 use super::*;

@@ -1,4 +1,4 @@
-//! The sync managers' access rules (spec/ethercat-esc.md §1.4 rule 2, §5.2, §7.3): which ECAT
+//! The sync managers' access rules (spec §1.4 rule 2, §5.2, §7.3): which ECAT
 //! accesses an SM window allows, and the mailbox and buffered-mode bookkeeping of an access
 //! that covers its first or last byte.
 

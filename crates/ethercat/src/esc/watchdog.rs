@@ -1,4 +1,4 @@
-//! The process-data watchdog (spec/ethercat-esc.md §7.6): in Op, with SM2 watchdog-triggered
+//! The process-data watchdog (spec §7.6): in Op, with SM2 watchdog-triggered
 //! and an active write FMMU, no complete SM2 write within 0x0420 × (0x0400 + 2) × 40 ns drops
 //! the slave to Safe-Op with 0x001B.
 

@@ -2,7 +2,7 @@
 //! puts into datagrams and reads back out of them. The frame and datagram views themselves
 //! are [`crate::frame`] and [`crate::datagram`]; this module adds the master's conventions:
 //!
-//! * addressing as SOEM does it (spec/ethercat-esc.md §2.8): auto-increment position −n,
+//! * addressing as SOEM does it (spec §2.8): auto-increment position −n,
 //!   configured station address 0x1000 + slave number (1-based);
 //! * the SII EEPROM read command (§2.4), the AL control request and the AL status block
 //!   0x0130–0x0135 (§4);

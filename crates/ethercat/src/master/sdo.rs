@@ -1,6 +1,6 @@
 //! CoE SDO client messages: the requests a master writes into the receive mailbox (SM0) and
 //! the decoding of what the slave posts in the send mailbox (SM1) (ETG.1000.6 §5.6.2;
-//! spec/ethercat-esc.md §5.1, §6.2–§6.5). The server side is [`crate::coe::sdo_server`].
+//! spec §5.1, §6.2–§6.5). The server side is [`crate::coe::sdo_server`].
 //!
 //! ```text
 //! mailbox header (6) | CoE header (2) | command | index (u16) | sub | data (4, or size + data)

@@ -1,4 +1,4 @@
-//! What a master takes from an SII image it has read word by word (spec/ethercat-esc.md §3):
+//! What a master takes from an SII image it has read word by word (spec §3):
 //! when it has read enough, the identity, the standard mailbox, the device name and the sync
 //! manager defaults. The image layout and the category walk are [`crate::sii`]'s.
 

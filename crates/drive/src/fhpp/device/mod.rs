@@ -23,7 +23,7 @@
 //!   one job per cycle through this device's own [`ObjectAccess`]; PNU 127 saves to and loads
 //!   from the permanent memory, which also holds the parameter file.
 //!
-//! # Not modelled yet
+//! # Not modelled
 //!
 //! The torque limits (PNU 418, 512, 581), jerk limitation, final velocities, the causes the
 //! plant cannot produce (temperatures, voltages, I²t, encoder: inject them with

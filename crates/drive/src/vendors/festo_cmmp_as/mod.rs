@@ -1,8 +1,8 @@
-//! The Festo CMMP-AS (seeds 001/002, `spec/cmmp-as*.md`): its modes, option codes, homing
-//! methods (Tab. 7.1) and error numbers as tables, and as behaviour the error management
-//! 2100h (§5.18) with warnings and the diagnostic memory, the statusword's manufacturer bits
-//! (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15
-//! referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
+//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's appendix): its
+//! modes, option codes, homing methods (Tab. 7.1) and error numbers as tables, and as behaviour the
+//! error management 2100h (§5.18) with warnings and the diagnostic memory, the statusword's
+//! manufacturer bits (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h,
+//! bit 15 referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
 
@@ -165,8 +165,8 @@ pub const CMMP_AS: Personality = Personality {
         only_with_brake: false,
     },
     // App. B.3: 18-0 (warning, "more than 5° below T_max", read as within 5 K), 03-0, 04-0,
-    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and
-    // 6510h:32 max_power_stage_temperature (cmmp-as-1 §3.5: "above this: output stage off
+    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and 6510h:32
+    // max_power_stage_temperature (the manual's extract, part 1 §3.5: "above this: output stage off
     // plus error"), the temperatures shown in 6510h:2E and 6510h:31.
     plant: PlantSupervision {
         messages: [
@@ -274,8 +274,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         // Bit 4 voltage enabled: output-stage transistors on (CMMP-AS Tab. 6.7); with
         // 6510h:F0 bit 7 CiA 402 v2.0's "high voltage applied", always true in the twin.
         sw |= Statusword::VOLTAGE_ENABLED.when(power || compat & 0x0080 != 0);
-        // Bit 8: moving when |v| is above velocity_threshold (spec cmmp-as-2 §9.5 reads the
-        // manual's "within" as the translation slip it is).
+        // Bit 8: moving when |v| is above velocity_threshold (the manual's "within" is read as
+        // the translation slip it is).
         sw |= Statusword::BIT_8.when(moving);
         // Bit 9 remote: enable_logic 2 (DINs + CAN).
         sw |= Statusword::REMOTE.when(self.value(0x6510, 0x10) == 2);
@@ -314,8 +314,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         self.numbered_message_reaction(code, message, critical, info)
     }
 
-    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action
-    /// (cmmp-as-2 §5.7); 2100h can change it afterwards.
+    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action (the manual's
+    /// extract, part 2 §5.7); 2100h can change it afterwards.
     pub(crate) fn following_error_reaction(&mut self) {
         let r = if self.value(0x6510, 0x22) > 0 {
             reaction::OUTPUT_STAGE_OFF
@@ -495,9 +495,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
             [b] => *b as i8,
             _ => return self.od.write(index, sub, data),
         };
-        // The printed 6098h range plus −23/−27 of Tab. 7.1 (cmmp-as-3 §9); 32 is in
-        // the printed range only and fails at the start (see `start_homing`).
-        // Beyond −27 … 35 the dictionary's range check answers.
+        // The printed 6098h range plus −23/−27 of Tab. 7.1 (the manual's extract, part 3 §9); 32 is
+        // in the printed range only and fails at the start (see `start_homing`). Beyond
+        // −27 … 35 the dictionary's range check answers.
         let listed = m == 32 || self.personality.homing_method(m);
         if !listed && (-27..=35).contains(&m) {
             self.od.entry(index, sub)?;

@@ -1,4 +1,4 @@
-//! Kinco analog inputs AIN1 / AIN2 (§6.2.1, §6.3; spec/kinco-fd-cd.md §5.2, §5.3, §6 item 2):
+//! Kinco analog inputs AIN1 / AIN2 (§6.2.1, §6.3):
 //! the voltage through the input filter Analog1/2_Filter 2502h:01 / :04, minus Analog_Offset,
 //! reduced by Analog_Dead toward zero (0 inside the dead band), is Analog1/2_out 2502h:0F /
 //! :10. That is

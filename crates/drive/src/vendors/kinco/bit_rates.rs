@@ -1,5 +1,5 @@
 //! The codes Kinco drives store for their line speeds (Kinco CD3 / FD3 manual §9.5,
-//! seeds/001_da459f46c7138f7b.txt L2145-2154; spec/kinco-fd-cd.md §2.1, §2.4):
+//! lines L2145-2154 of its text kept beside the project):
 //!
 //! * RS232_Baudrate 2FE0h, U2BRG 2FE1h and RS485_Baudrate 2FE2h hold a divider code:
 //!   1080 = 9600, 540 = 19200, 270 = 38400, 90 = 115200 bit/s (KINCO-232-10). All four fit

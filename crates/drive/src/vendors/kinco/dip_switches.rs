@@ -1,6 +1,6 @@
-//! The station number of a Kinco FD3 from its DIP switches SW1…SW8, read once at power-on
-//! (Kinco CD3 / FD3 manual §3.8, Tab. 3-8, seeds/001_da459f46c7138f7b.txt L504-518;
-//! spec/kinco-fd-cd.md §1.3). Pure rules, no I/O: the cell file gives the switch positions.
+//! The station number of a Kinco FD3 from its DIP switches SW1…SW8, read once at power-on (Kinco
+//! CD3 / FD3 manual §3.8, Tab. 3-8, lines L504-518 of its text kept beside the project). Pure
+//! rules, no I/O: the cell file gives the switch positions.
 //!
 //! The manual's rules:
 //! * SW1…SW8 are a binary number, SW1 = bit 0 … SW8 = bit 7: SW1 → 1, SW2 → 2, SW1 + SW2 → 3,

@@ -1,12 +1,11 @@
-//! The Kinco EASY settings that act beyond storing a value (§4.3.1 Tab. 4-2,
-//! seeds/001_da459f46c7138f7b.txt L575-600; spec/kinco-fd-cd.md §5.1, §9.1 item 7): Store_Data
-//! 2FF0h:01 / Store_Motor_Data 2FF0h:03 = 1 save, EA00 / tn00 = 2 save and reboot, 3 reboot,
-//! and EA06, whose four digits (from the right) are the load type (0 none, 1 belt, 2 ball
-//! screw), the application (0 P2P, 1 CNC, 2 master / slave), the limit switches (0 default,
-//! 1 removed) and OUT5's polarity (0 normally closed, 1 normally open); default 1001. "After
-//! saving, the drive sets the loop parameters by the load type and the application"; after
-//! EASY "the drive sets the default stiffness and inertia ratio by EA06" (§4.3.2), tn01
-//! "belt 10, screw 13", tn02 "belt 50, screw 30".
+//! The Kinco EASY settings that act beyond storing a value (§4.3.1 Tab. 4-2, lines L575-600 of the
+//! manual's text kept beside the project): Store_Data 2FF0h:01 / Store_Motor_Data 2FF0h:03 =
+//! 1 save, EA00 / tn00 = 2 save and reboot, 3 reboot, and EA06, whose four digits (from the right)
+//! are the load type (0 none, 1 belt, 2 ball screw), the application (0 P2P, 1 CNC, 2 master /
+//! slave), the limit switches (0 default, 1 removed) and OUT5's polarity (0 normally closed,
+//! 1 normally open); default 1001. "After saving, the drive sets the loop parameters by the load
+//! type and the application"; after EASY "the drive sets the default stiffness and inertia ratio by
+//! EA06" (§4.3.2), tn01 "belt 10, screw 13", tn02 "belt 50, screw 30".
 //!
 //! Decisions:
 //! - EA06 has no object in the manual; the gap 3041h:03 between EA02 Command_Type 3041h:02

@@ -1,10 +1,10 @@
-//! The Kinco CD3 / FD3 in the CiA 402 engine (seeds/001_da459f46c7138f7b.txt, extract
-//! spec/kinco-fd-cd.md): what [`KINCO`](super::KINCO)'s tables cannot say. The motor
-//! of the motor-data objects 6410h, the units, the statusword, the error words Error_State /
-//! Error_State2 with their masks and the following-error limit, the object rules (6065h from
-//! 2FF0h:0E, the DIN-owned controlword and mode) and the velocity and torque modes −3, 3, 4.
+//! The Kinco CD3 / FD3 in the CiA 402 engine (the CD3 / FD3 user manual): what
+//! [`KINCO`](super::KINCO)'s tables cannot say. The motor of the motor-data objects 6410h, the
+//! units, the statusword, the error words Error_State / Error_State2 with their masks and the
+//! following-error limit, the object rules (6065h from 2FF0h:0E, the DIN-owned controlword and
+//! mode) and the velocity and torque modes −3, 3, 4.
 //!
-//! Units. The manual defines no internal units (spec §6 item 12); the sibling FD manuals
+//! Units. The manual defines no internal units; the sibling FD manuals
 //! give them \[EXT\] with the encoder resolution: velocities in DEC = rpm × 512 × resolution /
 //! 1875, accelerations in DEC = rps/s × 65536 × resolution / 4 000 000.
 //! Decision: the twin's Kinco has the 2500-line (10 000 increments per revolution) encoder

@@ -1,6 +1,5 @@
-//! Kinco digital inputs and outputs (§5.5, Tab. 5-2 / 6-1, Tab. 5-3 / 6-2; spec/kinco-fd-cd.md
-//! §3.6, §3.7, §5.11): seven DINs and five DOUTs, each with its function codes, polarity and
-//! simulation.
+//! Kinco digital inputs and outputs (§5.5, Tab. 5-2 / 6-1, Tab. 5-3 / 6-2): seven DINs and five
+//! DOUTs, each with its function codes, polarity and simulation.
 //!
 //! The manual's rules:
 //! - inputs: `Internal = (Real OR Simulate) XOR (NOT Polarity)`, Din_Polarity 2010h:01,
@@ -16,7 +15,7 @@
 //!
 //! Decisions:
 //! - the simulation objects are not printed in this part; the sibling FD manuals' Din_Simulate
-//!   2010h:02 and Dout_Simulate 2010h:0E are taken (spec §5.11, EXT);
+//!   2010h:02 and Dout_Simulate 2010h:0E are taken (the extract's §5.11, EXT);
 //! - the twin has no cabinet: the travel's switches are wired to the inputs whose function
 //!   names them (P limit± as normally closed contacts, the home switch normally open);
 //!   [`Drive::force_inputs`] bit n − 1 drives DINn's wire;
@@ -404,7 +403,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         }
     }
 
-    /// Fast capture (§5.5.5, KINCO-spec §5.10): the first edge of Fast_Capture1 / 2 sets its
+    /// Fast capture (§5.5.5): the first edge of Fast_Capture1 / 2 sets its
     /// flag 2010h:20 … :23 and latches Pos_Actual 6063h into 2010h:24 … :27; later edges are
     /// ignored until the flag is written back to 0.
     fn kinco_capture(&mut self, before: Option<u8>, now: u8, _position: i64) {

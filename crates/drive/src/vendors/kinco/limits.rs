@@ -1,8 +1,8 @@
-//! Kinco position limits after homing (§7 Tab. 5-8 / 8-2, Error_State2 bits 9 and 10,
-//! seeds/001_da459f46c7138f7b.txt L1189-1191, L1976-1977; spec/kinco-fd-cd.md §7, §9.1
-//! item 10): "Positive limit (after homing): the position limit raises the error only when
-//! Limit_Function 2010h:19 is 0", likewise "Negative limit"; the Position Limit output
-//! (Tab. 6-2) shows "the position-limit function is active".
+//! Kinco position limits after homing (§7 Tab. 5-8 / 8-2, Error_State2 bits 9 and 10, lines
+//! L1189-1191, L1976-1977 of the manual's text kept beside the project): "Positive limit (after
+//! homing): the position limit raises the error only when Limit_Function 2010h:19 is 0", likewise
+//! "Negative limit"; the Position Limit output (Tab. 6-2) shows "the position-limit function is
+//! active".
 //!
 //! Decisions (the manual names the errors but not the limits' objects nor what happens
 //! without the error):
@@ -15,7 +15,7 @@
 //! - beyond a limit, with any Limit_Function, the direction further out is blocked as a
 //!   limit switch blocks it (velocity 0, torque 0, a move stopped with Profile_Dec), so that
 //!   after the error is reset the master moves the axis back in; Limit_Function ≠ 0 only
-//!   blocks ("presumably", spec §9.1 item 10). The error is raised again only on the next
+//!   blocks ("presumably", the extract's §9.1 item 10). The error is raised again only on the next
 //!   crossing from inside;
 //! - jog (F006) ignores the limits as it ignores the limit switches ("independent of other
 //!   settings").

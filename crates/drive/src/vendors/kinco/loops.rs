@@ -1,11 +1,11 @@
-//! The Kinco velocity and position loop objects as the controller's gains (ch. 7 §7.3,
-//! Tab. 7-3 / 7-4, Tab. 7-2 = 4-5; seeds/001_da459f46c7138f7b.txt L1846-1905, L670-691;
-//! spec/kinco-fd-cd.md §3.3, §6 items 5-9, 13): what a write of Kvp, Kvi, Kpp, the velocity
-//! feed-forward, Velocity_BW, Stiffness or Inertia_Ratio does to the loop.
+//! The Kinco velocity and position loop objects as the controller's gains (ch. 7 §7.3, Tab. 7-3 /
+//! 7-4, Tab. 7-2 = 4-5; lines L1846-1905, L670-691 of the manual's text kept beside the project):
+//! what a write of Kvp, Kvi, Kpp, the velocity feed-forward, Velocity_BW, Stiffness or
+//! Inertia_Ratio does to the loop.
 //!
 //! The manual's rules:
 //! - `Kpp[x]` (60FBh:01, 2340h:06 / :09 / :0C) is the position-loop gain in 0.01 Hz
-//!   ("Kpp = 100 × Pc_Loop_BW", the print's "103" read as 10², spec §6 item 7);
+//!   ("Kpp = 100 × Pc_Loop_BW", the print's "103" read as 10²);
 //! - `Kvp[x]` (60F9h:01, 2340h:04 / :07 / :0A) "can be shown in Hz if the inertia ratio is
 //!   right"; "writing Velocity_BW 2FF0h:0A changes `Kvp[0]` by the inertia ratio"; Tab. 7-2
 //!   gives Kvp in 0.1 Hz per stiffness; "tn01 / tn02 take effect at once" (§4.3.2);

@@ -1,11 +1,11 @@
-//! Kinco CD3 / FD3 servo drives (seeds/001_da459f46c7138f7b.txt, extract spec/kinco-fd-cd.md):
-//! the tables a Kinco personality reads, before the engine knows the vendor. The manual's
-//! tables as data: the modes 6060h takes (Tab. 6-5), the controlword values of Tab. 6-5
-//! (§8.15 of the extract), the Error_State / Error_State2 bits with their LED codes and EMCY
-//! codes (Tab. 5-7, 5-8, ch. 8), the DIN and DOUT function codes (Tab. 6-1, 6-2), the BCD
-//! selection of DIN speed, gear and gain sets (§5.5.3, §5.5.4, §6.2.2), the analog input's
-//! offset and dead band (§6.2.1), the filter formulas and the stiffness table (ch. 7, Tab.
-//! 4-5 = 7-2), the inertia ratio and the auto-tuning results (§7.1-7.2).
+//! Kinco CD3 / FD3 servo drives (the CD3 / FD3 user manual; its text and its extract are kept
+//! beside the project): the tables a Kinco personality reads, before the engine knows the vendor.
+//! The manual's tables as data: the modes 6060h takes (Tab. 6-5), the controlword values of
+//! Tab. 6-5 (§8.15 of the extract), the Error_State / Error_State2 bits with their LED codes and
+//! EMCY codes (Tab. 5-7, 5-8, ch. 8), the DIN and DOUT function codes (Tab. 6-1, 6-2), the BCD
+//! selection of DIN speed, gear and gain sets (§5.5.3, §5.5.4, §6.2.2), the analog input's offset
+//! and dead band (§6.2.1), the filter formulas and the stiffness table (ch. 7, Tab. 4-5 = 7-2), the
+//! inertia ratio and the auto-tuning results (§7.1-7.2).
 //!
 //! The [`KINCO`] personality points at these tables; the behaviour a table cannot hold is in
 //! `kinco_drive.rs` (power-on, statusword, error words, modes −3 / 3 / 4, the following-error
@@ -58,7 +58,7 @@ pub const MODES: [ModeSpec; 6] = [
 
 /// The Kinco CD3 / FD3.
 ///
-/// Decisions (the manual defines no state machine of its own, spec/kinco-fd-cd.md §4.1):
+/// Decisions (the manual defines no state machine of its own):
 /// CiA 402's, with 0Fh / 2Fh enabling from READY TO SWITCH ON at once (Tab. 6-5: "06h … 0Fh
 /// enable"), no option codes (CiA 402's defaults), the servo motor plant.
 pub const KINCO: Personality = Personality {
@@ -150,7 +150,7 @@ const fn cia_method(number: i8) -> Method {
     }
 }
 
-/// Tab. 6-19 (L1690-1720, spec/kinco-fd-cd.md §5.7): the CiA 402 methods the manual lists
+/// Tab. 6-19 (§6.6, L1690-1720): the CiA 402 methods the manual lists
 /// with rows that survived the OCR and the engine has steps for — 1, 2 (limit switch and
 /// index), 7, 11, 23, 27 (limit switch and home switch), 17, 18 (limit switch), 19 … 22 (home
 /// switch), 33, 34 (index), 35 (here) — and Kinco's −17 / −18 on the mechanical stop
@@ -200,8 +200,8 @@ pub mod controlword {
     pub const FAULT_RESET: Controlword = Controlword(0x86);
 }
 
-/// Statusword bit 15: reference found. Decision: from the sibling FD manuals (spec/kinco-fd-cd.md
-/// §4.1, EXT); this manual defines no statusword bits, so the rest is CiA 402's.
+/// Statusword bit 15: reference found. Decision: from the sibling FD manuals (as the extract
+/// notes, §4.1, EXT); this manual defines no statusword bits, so the rest is CiA 402's.
 pub const HOME_FOUND: Statusword = Statusword(0x8000);
 
 /// Which error word a bit is in.
@@ -245,7 +245,7 @@ impl KincoError {
 /// `devices/kinco-fd3.toml`; the CD3's file has the same rows).
 ///
 /// Decision: Error_State bit 14 "Encoder information" keeps the printed 7331h, the code of
-/// bit 1 too (spec/kinco-fd-cd.md §7): nothing says which one is the slip. Error_State2's
+/// bit 1 too: nothing says which one is the slip. Error_State2's
 /// bits 5-7, 12 and 14 are reserved; bit 15's code is printed "7306" without 0x and read as
 /// 7306h. Error_State bit 0 "Extended Error" (no EMCY) is the summary of Error_State2.
 pub fn errors() -> impl Iterator<Item = KincoError> {
@@ -404,7 +404,7 @@ pub enum DoutFunction {
 ///
 /// Decision: Speed Limit, Driver Enable, Position Limit and Home Found are printed 0200h,
 /// 0400h, 0800h, 0400h (0080h skipped, 0400h twice): the single-bit sequence 0080h, 0100h,
-/// 0200h, 0400h is taken, as the sibling FD manuals have it (spec/kinco-fd-cd.md §3.7).
+/// 0200h, 0400h is taken, as the sibling FD manuals have it (the extract's §3.7).
 pub const DOUT_FUNCTIONS: [(u16, DoutFunction); 13] = [
     (0x0001, DoutFunction::Ready),
     (0x0002, DoutFunction::Error),
@@ -453,7 +453,7 @@ pub fn analog_speed_rpm(out: i32, factor: i32) -> i32 {
 /// it gives, or 0 where a window edge that is not 0 cuts it off.
 ///
 /// Decision: the manual prints ">" for both edges (L1331-1332); for Dead_Low that would zero
-/// every value above it, Dead_High's rule included, so it is read as "<" (spec §9.2): the two
+/// every value above it, Dead_High's rule included, so it is read as "<": the two
 /// are a window outside which the speed command is 0 (a broken wire reading full scale stops
 /// the motor). Their unit is not printed; Analog_out's 0.01 V is taken. The window applies to
 /// the speed command only: §6.3 names it for no torque command.

@@ -1,7 +1,7 @@
-//! The Kinco CD3 / FD3 LED panel (seeds/001_da459f46c7138f7b.txt ch. 4, ch. 9; extract
-//! spec/kinco-fd-cd.md §5.12, §4.3, §7): five 7-segment digits with their points and the keys
-//! MODE / SET / ▲ / ▼, as a state machine on the drive. Key presses come in with the drive's
-//! clock (the time of its last step); the display is read as five characters and points.
+//! The Kinco CD3 / FD3 LED panel (Kinco CD3 / FD3 manual ch. 4, ch. 9): five 7-segment digits with
+//! their points and the keys MODE / SET / ▲ / ▼, as a state machine on the drive. Key presses come
+//! in with the drive's clock (the time of its last step); the display is read as five characters
+//! and points.
 //!
 //! The parameter groups are data: the panel addresses of the device file (`panel = "d3.01"`,
 //! generated into `devices::*_ADDRESSES`), so every address the manual gives is reachable and

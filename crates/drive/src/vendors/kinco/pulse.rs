@@ -1,4 +1,4 @@
-//! Kinco mode −4, pulse / gear (§6.5, spec/kinco-fd-cd.md §5.5): the position command is
+//! Kinco mode −4, pulse / gear (§6.5): the position command is
 //! the pulse input times the gear ratio `Gear_Factor[x]` / `Gear_Divider[x]` of the set the
 //! Multifunction inputs select (§5.5.3, KINCO-SC-04), counted in Gear_Master 2508h:04 (before
 //! the gear) and Gear_Slave 2508h:05 (after it); more than Frequency_Check 2508h:08 pulses

@@ -1,5 +1,5 @@
-//! The Kinco RS232 telegram protocol (Kinco CD3 / FD3 manual ch. 10, seeds/001_da459f46c7138f7b.txt
-//! L2170-2310; spec/kinco-fd-cd.md §2.1-2.2): every telegram is 10 bytes,
+//! The Kinco RS232 telegram protocol (Kinco CD3 / FD3 manual ch. 10, lines L2170-2310 of its
+//! text kept beside the project): every telegram is 10 bytes,
 //!
 //! ```text
 //! byte 0   bytes 1…8                                      byte 9
@@ -367,7 +367,7 @@ impl TelegramCutter {
     }
 }
 
-/// What the server counted (the issue's "counted and dropped").
+/// What the server counted: the telegrams it answered and, by cause, those it dropped.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {
     pub answered: u32,

@@ -1,8 +1,8 @@
-//! Kinco's Modbus RTU on RS485 (Kinco CD3 / FD3 manual ch. 12, seeds/001_da459f46c7138f7b.txt
-//! L2530-2640; spec/kinco-fd-cd.md §2.3): registers are a mapping onto the drive's objects, not
-//! a second copy. The server is modbus's registers-over-objects
-//! ([`modbus::object_registers`]); what is the Kinco's is its table (the device file's
-//! `modbus` keys) and how it answers an FC 03h error. What the manual says:
+//! Kinco's Modbus RTU on RS485 (Kinco CD3 / FD3 manual ch. 12, lines L2530-2640 of its text kept
+//! beside the project): registers are a mapping onto the drive's objects, not a second copy. The
+//! server is modbus's registers-over-objects ([`modbus::object_registers`]); what is the Kinco's is
+//! its table (the device file's `modbus` keys) and how it answers an FC 03h error. What the manual
+//! says:
 //!
 //! - Frame `station, function, data, CRC-16` (low byte first, [`modbus::rtu`]), frames apart by
 //!   at least 3.5 character times (L2546); station = ID_Com 100Bh (L2528).

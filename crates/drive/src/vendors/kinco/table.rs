@@ -1,4 +1,4 @@
-//! The Kinco position table (§6.4.1, spec/kinco-fd-cd.md §4.4, §5.6): 32 tasks run in mode 1
+//! The Kinco position table (§6.4.1): 32 tasks run in mode 1
 //! by the PosTable inputs. Each task has a target (absolute, relative to the last target or
 //! to the actual position), a speed, one of 8 shared accelerations and decelerations, a delay
 //! before the next task, the CTL register (next index, NEXT/STOP, the conditions Cond0

@@ -1,4 +1,4 @@
-//! Kinco auto-tuning, the inertia measurement (§7.1, §4.3.2 tn03; spec/kinco-fd-cd.md §5.9):
+//! Kinco auto-tuning, the inertia measurement (§7.1, §4.3.2 tn03):
 //! over communication WriteFUN_CTL 3041h:05 = 1, then Tuning_Method 3040h:01 = 1; the motor
 //! oscillates for under a second within Safe_Dist 3040h:06 (0.01 rev); the result is in
 //! Tuning_Method and Inertia_Get_Result 3040h:09 (1 success; 0 the drive could not be

@@ -1,12 +1,12 @@
-//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N;
-//! `seeds/003_ef071fe40f10c01c.txt`, extract `spec/nanotec-canopen.md`): the modes of 6502h
-//! (§9.43), the one option code 605Ah = 3, the bit-valued EMCY codes of §7.1 with their
-//! reaction table (legacy and new by 2020h), the homing methods of §5.2 and the
-//! [`Capabilities`] it switches on in the engine (feed constant, PP target limits, IP on the
-//! SYNC interval, immediate homing speed changes) as tables; as behaviour the statusword (bit
-//! 9 remote always set, bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no
-//! PV, torque only in closed loop, no change during a brake wait), the shared target
-//! 60C1h:01 / 607Ah and torque mode on the stepper's closed loop.
+//! Nanotec stepper and BLDC controllers with the CANopen firmware (SMCI47-S, PD4-N; the CANopen
+//! reference manual and its extract, kept beside the project): the modes of 6502h (§9.43), the one
+//! option code 605Ah = 3, the bit-valued EMCY codes of §13.3 with their reaction table (legacy and
+//! new by 2020h; §7.1 of the extract), the homing methods of §5.3 and the [`Capabilities`] it
+//! switches on in the engine (feed constant, PP target limits, IP on the SYNC interval, immediate
+//! homing speed changes) as tables; as behaviour the statusword (bit 9 remote always set,
+//! bit 4 from Switched On, bit 8 PLL sync), 60FDh, the 6060h rules (no PV, torque only in closed
+//! loop, no change during a brake wait), the shared target 60C1h:01 / 607Ah and torque mode on the
+//! stepper's closed loop.
 
 pub mod rotary_switches;
 
@@ -31,10 +31,10 @@ use crate::stepper::StepperData;
 use crate::trajectory::Trajectory;
 use units::{load_angle_spacing_rpm, torque_current_ma};
 
-/// Nanotec EMCY codes (§7.1, §13.3): one bit per cause.
+/// Nanotec EMCY codes (§13.3): one bit per cause.
 ///
 /// Decision: the manual does not say which code set goes into bytes 0–1 of the EMCY in the
-/// legacy and the new format (2020h; spec §7.1 note); the twin sends these §7.1 codes in
+/// legacy and the new format (2020h); the twin sends these §13.3 codes in
 /// both, as §13.2 calls bytes 0–1 the "Emergency Error Code" beside the §13.3 table of these
 /// codes, and the error register 1001h bit 0 (generic, §7.4). The CiA codes of §17 are the
 /// firmware's names for the standard ranges; no Nanotec cause is mapped to them in the text.
@@ -70,7 +70,7 @@ const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
 pub const NANOTEC: Personality = Personality {
     devices: &["nanotec-smci47s", "nanotec-pd4n"],
     // §9.43 6502h = 6Bh: PP bit 0, VL bit 1, TQ bit 3, HM bit 5, IP bit 6 (NT-SC-10); −1 / −2
-    // the closed-loop test runs (§5.6).
+    // the closed-loop test runs (§11.2).
     modes: &[
         mode(-2, None),
         mode(-1, None),
@@ -83,7 +83,7 @@ pub const NANOTEC: Personality = Personality {
     ],
     // 605Ah = 3, the only value (§4.4). Decision: §4.4 reads it "brake with maximum current,
     // then Switch On Disabled", §4.2 (L769) says the quick stop brakes "with the ramp set in
-    // 6085h" (604Ah in VL, abrupt in IP, §5.4); the twin brakes with 6085h, then Switch On
+    // 6085h" (604Ah in VL, abrupt in IP, §7.3); the twin brakes with 6085h, then Switch On
     // Disabled (NT-CW-07), the rule that names an object a master sets (docs/decisions.md).
     option_codes: &[OptionCode {
         index: crate::personality::QUICK_STOP_OPTION,
@@ -123,7 +123,7 @@ pub const NANOTEC: Personality = Personality {
         internal_position_in_user_units: false,
     },
     homing_methods: &HOMING_METHODS,
-    // §5.2 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.
+    // §5.3 −4 … −7 and §11.17: the bit 2010h:01 of 2010h:02, written by an RPDO.
     external_home_switch: Some(ExternalHomeSwitch {
         index: 0x2010,
         bit_sub: 1,
@@ -136,7 +136,7 @@ pub const NANOTEC: Personality = Personality {
         rule: "Nanotec §1.1.3 step 7 (L333): with the switch at node + 128 and a value outside \
             130…135 in 2005h the controller answers on CAN but accepts no motion commands",
     }),
-    // §5.8: 2007h:01 power on → brake off, :02 brake off → operational, :03 brake on →
+    // §11.8: 2007h:01 power on → brake off, :02 brake off → operational, :03 brake on →
     // power off.
     brake: BrakeTiming {
         release: &[(0x2007, 1)],
@@ -144,7 +144,7 @@ pub const NANOTEC: Personality = Personality {
         engage: &[(0x2007, 3)],
         only_with_brake: false,
     },
-    // §7.1: 0002h Overtemperature for the power stage; no temperature objects.
+    // §13.3: 0002h Overtemperature for the power stage; no temperature objects.
     plant: PlantSupervision {
         messages: [None, None, Some("0002h"), None, None],
         limits: None,
@@ -153,7 +153,7 @@ pub const NANOTEC: Personality = Personality {
     },
 };
 
-/// A reaction of the §7.1 table.
+/// A reaction of the reaction table (the extract's §7.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reaction {
     /// "Power Off": the power stage off (fault).
@@ -181,10 +181,10 @@ impl From<Reaction> for ErrorReaction {
     }
 }
 
-/// The reaction of a diagnostic row with a fixed reaction (the §7.2 rows of the device
-/// file; each row's comment gives the decision): "ps_off" Power Off, "quick_stop"
-/// Quickstop + Power Off, "warning" the EMCY only; anything else as §7.1's default for a
-/// code it does not list (Quickstop + Power Off).
+/// The reaction of a diagnostic row with a fixed reaction (the §17 rows of the device file; each
+/// row's comment gives the decision): "ps_off" Power Off, "quick_stop" Quickstop + Power Off,
+/// "warning" the EMCY only; anything else as the reaction table's default for a code it does not
+/// list (Quickstop + Power Off).
 pub fn fixed_reaction(r: od::Reaction) -> ErrorReaction {
     match r {
         od::Reaction::PsOff => Reaction::PowerOff.into(),
@@ -193,8 +193,8 @@ pub fn fixed_reaction(r: od::Reaction) -> ErrorReaction {
     }
 }
 
-/// One row of §7.1: the code and its reactions, legacy (2020h = 1) and new (2020h = 0), at
-/// standstill and while moving.
+/// One row of the reaction table (the extract's §7.1): the code and its reactions, legacy
+/// (2020h = 1) and new (2020h = 0), at standstill and while moving.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ReactionRow {
     pub code: u16,
@@ -223,7 +223,7 @@ const fn reactions(
 
 use Reaction::{MessageOnly as Msg, PowerOff as Off, QuickStop as Qs, QuickStopPowerOff as QsOff};
 
-/// §7.1 (§13.3), as printed; 0010h is not used.
+/// The codes of §13.3 with their reactions (the extract's §7.1), as printed; 0010h is not used.
 pub const REACTIONS: [ReactionRow; 12] = [
     reactions(emcy::UNDERVOLTAGE, (Off, QsOff), (Off, QsOff)),
     reactions(emcy::OVERTEMPERATURE, (Off, Off), (Off, Off)),
@@ -262,7 +262,7 @@ const fn home_switch_method(number: i8) -> Method {
     }
 }
 
-/// §5.2: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
+/// §5.3: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
 /// methods −4 … −7. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
 ///
@@ -275,7 +275,7 @@ pub const HOMING_METHODS: [Method; 13] = [
     home_switch_method(20),
     home_switch_method(21),
     home_switch_method(22),
-    // 33: CW at 6099h:02 to the index mark, then reverse: CCW off the mark, stop (§5.2).
+    // 33: CW at 6099h:02 to the index mark, then reverse: CCW off the mark, stop (§5.3).
     // Decision: the index pulse is a point, so "moves off the index mark" is the pass back
     // over it; the reference is the mark, met on the way back at 6099h:02 with the immediate
     // stop of homing_immediate, so the shaft stands just on the mark's CCW side.
@@ -360,7 +360,7 @@ impl Vendor for Nanotec {
         d.nanotec_power_on();
     }
 
-    /// Torque mode is the Nanotec's own (§5.5); the negative modes are the test runs (§5.6).
+    /// Torque mode is the Nanotec's own (ch. 8); the negative modes are the test runs (§11.2).
     fn mode_step<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &mut Drive<S, Self>,
         cw: Controlword,
@@ -407,7 +407,7 @@ impl Vendor for Nanotec {
         d.nanotec_error_reaction(code, critical)
     }
 
-    /// §7.2: a message raised by its number with a fixed reaction keeps it (the §7.1 rows are
+    /// §17: a message raised by its number with a fixed reaction keeps it (the §13.3 rows are
     /// "configurable" and follow the reaction table).
     fn message_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &mut Drive<S, Self>,
@@ -457,7 +457,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
     }
 
     /// 6060h: PV (3) is refused (see [`NANOTEC`]); torque mode (4) needs the closed loop
-    /// (§5.5: "closed loop must be active", 200Ah = 1).
+    /// (§8.1: "closed loop must be active", 200Ah = 1).
     ///
     /// Decision: the manual does not say what happens without it; the write is refused with
     /// 0800 0022h (present device state), so a master learns it at once.
@@ -520,7 +520,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
         }
     }
 
-    /// 60C1h:01 and 607Ah are one internal target (§5.4): a write to either shows in both;
+    /// 60C1h:01 and 607Ah are one internal target (ch. 7): a write to either shows in both;
     /// in IP a set-point goes to the interpolator, which takes it at the next SYNC.
     fn nanotec_write_target(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write(index, sub, data)?;
@@ -538,7 +538,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
         Ok(())
     }
 
-    /// Torque mode (§5.5): the current `6071h / 1000 × 2004h:01 % × rated current` as the
+    /// Torque mode (ch. 8): the current `6071h / 1000 × 2004h:01 % × rated current` as the
     /// closed loop's torque, the speed limited to 607Fh min⁻¹ in both directions; halt holds
     /// the motor (its falling edge starts again). Bit 10: without halt the set torque is
     /// reached (not cut by the speed limit), with halt the motor stands.
@@ -590,7 +590,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
         self.demand_position = self.traj.position;
     }
 
-    /// The closed-loop test runs (§5.6): 6060h = −1 "CL Motor Setup" measures the load-angle
+    /// The closed-loop test runs (§11.2): 6060h = −1 "CL Motor Setup" measures the load-angle
     /// curve into 200Ch (and 2012h / 2013h / 2018h until the next restart), −2 "Short CL
     /// Motor Setup" the encoder offset 200Bh, only while it is 0, and then enables the closed
     /// loop for 2001h = 3.
@@ -666,7 +666,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
         self.closed_loop_aligned = true;
     }
 
-    /// 60FDh (§5.8): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
+    /// 60FDh (§9.1): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
     /// bit 2. Input 6 follows the simulated home switch; [`Drive::force_inputs`] bit n drives
     /// input n.
     pub(crate) fn nanotec_digital_inputs(&self, position: i64) -> u32 {
@@ -684,7 +684,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
     }
 
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On
-    /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, §5.4).
+    /// (the motor is energised), bit 9 remote always, bit 8 PLL sync complete (IP, ch. 7).
     pub(crate) fn nanotec_state_bits(&self, state: State, power: bool) -> Statusword {
         let bits = STATE_BITS
             .iter()
@@ -696,9 +696,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
             | Statusword::BIT_8.when(self.ip.is_synchronised())
     }
 
-    /// The reaction of §7.1 to `code`: the table's column for 2020h (1 legacy, 0 new) and
-    /// whether the motor is moving. A code the table does not list switches the power off
-    /// (with the quick-stop ramp unless `critical`).
+    /// The reaction of the reaction table (the extract's §7.1) to `code`: the table's column for
+    /// 2020h (1 legacy, 0 new) and whether the motor is moving. A code the table does not list
+    /// switches the power off (with the quick-stop ramp unless `critical`).
     pub(crate) fn nanotec_error_reaction(&mut self, code: u16, critical: bool) -> ErrorReaction {
         let legacy = self.value(0x2020, 0) != 0;
         let moving = self.traj.velocity != 0.0 || self.velocity_set != 0.0;

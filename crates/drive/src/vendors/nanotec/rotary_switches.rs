@@ -1,7 +1,7 @@
 //! Node-ID and bit rate from a Nanotec controller's hexadecimal rotary switches, read once at
-//! power-on (Nanotec §1.1.1, seeds/003_ef071fe40f10c01c.txt L263–310; spec/nanotec-canopen.md
-//! §2.2). Pure rules, no I/O: the cell file gives the switch positions, the EEPROM values are
-//! 2009h (node-ID) and 2005h (bit-rate code).
+//! power-on (Nanotec §1.1.1, lines L263–310 of the manual's text kept beside the project). Pure
+//! rules, no I/O: the cell file gives the switch positions, the EEPROM values are 2009h (node-ID)
+//! and 2005h (bit-rate code).
 //!
 //! The manual's rules:
 //! * Two switches (SMCI47-S) make a value 00h…FFh, one switch (PD4-N) 0h…Fh.
@@ -18,7 +18,7 @@
 //! the 16s digit, and works the example left = 1, right = 2 → 16·2 + 1 = 33 (L268, L288–292);
 //! §1.1.3 step 1 (L316) says "left 0, right 1" gives the value 1, which by that rule is 16. The
 //! rule and its worked example agree with each other and step 1 agrees with neither, so the
-//! value is 16 · right + left (spec/nanotec-canopen.md §9; vector NT-NODE-01). Step 1's
+//! value is 16 · right + left (vector NT-NODE-01). Step 1's
 //! "left 0, right 1" is read as the slip.
 
 /// The rotary switches a device has (`rotary_switches` in its device file).

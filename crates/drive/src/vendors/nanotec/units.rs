@@ -1,4 +1,4 @@
-//! Nanotec units and scaling (spec/nanotec-canopen.md §6; seed 003 §1.2, §6.10, §8.4, 2004h):
+//! Nanotec units and scaling (Nanotec §1.2, §6.10, §8.4, 2004h):
 //! encoder resolution, step angle, the step-mode limits table, torque current, the Hall
 //! sensor assignment 2004h:0C and the load-angle support spacing 2004h:08.
 

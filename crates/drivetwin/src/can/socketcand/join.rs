@@ -1,7 +1,7 @@
-//! Joining another socketcand server as a client (`--socketcand-join ADDR`): the cell's bus is
-//! then that server's bus, so one plant larger than a process runs on several processes or
-//! machines over the existing protocol (`spec/anchors.md` §3.3): `< hi >`, `< open CH >`,
-//! `< rawmode >`, then frames both ways.
+//! Joining another socketcand server as a client (`--socketcand-join ADDR`): the cell's bus is then
+//! that server's bus, so one plant larger than a process runs on several processes or machines over
+//! the existing protocol (the notes on open-source systems kept beside the project, §3.3):
+//! `< hi >`, `< open CH >`, `< rawmode >`, then frames both ways.
 
 use std::io::{self, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};

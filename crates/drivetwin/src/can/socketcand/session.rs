@@ -3,11 +3,11 @@
 //! Time comes in as an argument and effects go out through a callback, so the async server
 //! ([`super::server`]) and the cell loop ([`crate::cell_loop`]) run the same rules.
 //!
-//! Session states follow socketcand (`spec/anchors.md` §3.3): NO_BUS (after `< hi >`; `open`
-//! and the `B` / `C` bus configuration commands) → BCM (default after `open`) ⇄ RAW /
-//! CONTROL. Only RAW streams bus frames, and only after [`ServerConfig::stream_delay`] from
-//! the `< ok >` to `rawmode`. BCM jobs and ISO-TP are answered with `< error ... >`; `send`
-//! works in BCM and RAW.
+//! Session states follow socketcand (the notes on open-source systems kept beside the project,
+//! §3.3): NO_BUS (after `< hi >`; `open` and the `B` / `C` bus configuration commands) → BCM
+//! (default after `open`) ⇄ RAW / CONTROL. Only RAW streams bus frames, and only after
+//! [`ServerConfig::stream_delay`] from the `< ok >` to `rawmode`. BCM jobs and ISO-TP are answered
+//! with `< error ... >`; `send` works in BCM and RAW.
 
 use std::time::{Duration, Instant};
 
@@ -86,7 +86,7 @@ impl Session {
 
     /// A bus frame as the client is sent it, or `None`: socketcand does not forward remote
     /// frames, and a zero-length frame instead would look like a broken heartbeat to
-    /// python-canopen (`spec/anchors.md` §3.3).
+    /// python-canopen (the notes on open-source systems kept beside the project, §3.3).
     pub fn forwards(frame: &CanFrame) -> bool {
         !frame.rtr
     }

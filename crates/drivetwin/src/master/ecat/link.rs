@@ -58,9 +58,9 @@ impl FrameLink for SocketLink {
                 Err(_elapsed) => return Ok(false),
                 Ok(r) => r?,
             };
-            // A slave returns the bytes it got (spec §1.1); a real NIC pads a short frame to
-            // 60 bytes on the way, so the reply may be longer. A shorter one, or a late reply
-            // to an earlier request with another index, is not ours.
+            // A slave returns the bytes it got (ESC reference §1.1); a real NIC pads a short frame
+            // to 60 bytes on the way, so the reply may be longer. A shorter one, or a late reply to
+            // an earlier request with another index, is not ours.
             let Some(reply) = self.rx.get(..n).and_then(|r| r.get(..frame.len())) else {
                 continue;
             };

@@ -7,9 +7,9 @@
 //! ([`ethercat::frame::FrameWriter`], [`ethercat::master`]); [`link::FrameLink`] carries them
 //! (a raw socket on Linux, [`link::SocketLink`]).
 //!
-//! Conventions (spec/ethercat-esc.md §2.8, SOEM `ecx_config_init`): slaves are numbered from 1
-//! in wire order; slave n gets station address 0x1000 + n (APWR 0x0010); everything after
-//! that is configured addressing (FPRD/FPWR) and expects a working counter of 1.
+//! Conventions (the ESC reference kept beside the project, §2.8, SOEM `ecx_config_init`): slaves
+//! are numbered from 1 in wire order; slave n gets station address 0x1000 + n (APWR 0x0010);
+//! everything after that is configured addressing (FPRD/FPWR) and expects a working counter of 1.
 
 pub mod link;
 mod sdo;
@@ -98,7 +98,7 @@ fn state_text(s: Option<AlState>) -> &'static str {
     s.map_or("an invalid state", m::state_name)
 }
 
-/// The text of an abort code: CiA 301's, or ETG.1000.6's CoE-only codes (spec §6.5).
+/// The text of an abort code: CiA 301's, or ETG.1000.6's CoE-only codes (ESC reference §6.5).
 pub fn abort_description(code: AbortCode) -> Option<&'static str> {
     match code {
         ethercat::coe::CA_NOT_SUPPORTED => Some("Complete access not supported"),
@@ -129,9 +129,9 @@ pub struct EcatMaster<L> {
     /// How long to wait for one frame to come back.
     pub frame_timeout: Duration,
     /// How often a frame that did not come back is sent again (SOEM resends the same frame,
-    /// spec §1.1).
+    /// ESC reference §1.1).
     pub retries: u32,
-    /// Mailbox counters per slave (spec §5.3).
+    /// Mailbox counters per slave (ESC reference §5.3).
     counters: std::collections::HashMap<u16, u8>,
 }
 
@@ -191,7 +191,7 @@ impl<L: FrameLink> EcatMaster<L> {
         Err(EcatError::NoReply(self.frame_timeout))
     }
 
-    /// Number of slaves: the working counter of a BRD (every slave adds 1, spec §1.4).
+    /// Number of slaves: the working counter of a BRD (every slave adds 1, ESC reference §1.4).
     pub async fn count_slaves(&mut self) -> Result<u16, EcatError> {
         let r = self
             .datagram(

@@ -1,6 +1,6 @@
-//! CoE SDO transfers through a slave's mailbox (spec/ethercat-esc.md §5.2, §6.3): write the
-//! request into the receive mailbox SM0 once it is empty, poll the send mailbox SM1 until it
-//! is full, read it. The messages are [`ethercat::master::sdo`]'s.
+//! CoE SDO transfers through a slave's mailbox (the ESC reference kept beside the project, §5.2,
+//! §6.3): write the request into the receive mailbox SM0 once it is empty, poll the send mailbox
+//! SM1 until it is full, read it. The messages are [`ethercat::master::sdo`]'s.
 
 use std::time::Duration;
 
@@ -50,7 +50,7 @@ impl<L: FrameLink> EcatMaster<L> {
     }
 
     /// The next request counter for `slave`: 1 → 7 → 1. The first request of this process
-    /// carries 0 ("counter not used", spec §5.3): the slave drops a request whose counter
+    /// carries 0 ("counter not used", ESC reference §5.3): the slave drops a request whose counter
     /// equals the previous one's, and a previous `drivetwin ecat` run may have ended on the
     /// counter this run would start with.
     fn next_counter(&mut self, slave: u16) -> u8 {
@@ -112,7 +112,7 @@ impl<L: FrameLink> EcatMaster<L> {
         let poll = MailboxPoll::new(slave, "receive mailbox stays full", timeout);
         loop {
             if !self.sm_full(slave, 0).await? {
-                // Refused (WKC 0) while full (spec §5.2): try again.
+                // Refused (WKC 0) while full (ESC reference §5.2): try again.
                 if self.write_wkc(slave, mbx.rx.start, window).await?.wkc == 1 {
                     return Ok(());
                 }
@@ -332,7 +332,7 @@ impl<L: FrameLink> EcatMaster<L> {
     }
 
     /// Bytes of process data the PDOs assigned by `assign` (1C12h outputs, 1C13h inputs)
-    /// map, read over CoE as SOEM's `config_map` does (spec §7.1); `None` when the slave
+    /// map, read over CoE as SOEM's `config_map` does (ESC reference §7.1); `None` when the slave
     /// has no such object.
     pub async fn pdo_bytes(
         &mut self,

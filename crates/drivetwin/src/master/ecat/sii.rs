@@ -1,5 +1,5 @@
 //! Reading a slave's SII EEPROM through the ESC's EEPROM interface 0x0500–0x050F
-//! (spec/ethercat-esc.md §2.4), as SOEM and ethercrab do it.
+//! (the ESC reference kept beside the project, §2.4), as SOEM and ethercrab do it.
 
 use std::time::Duration;
 
@@ -37,7 +37,8 @@ impl<L: FrameLink> EcatMaster<L> {
             match EepromStatus::from_u16(word) {
                 EepromStatus::Ready { read_8 } => return Ok(read_8),
                 EepromStatus::Error(status) => {
-                    // A NOP clears the error bits (spec §2.4), so the next command can run.
+                    // A NOP clears the error bits (ESC reference §2.4), so the next command can
+                    // run.
                     self.write(slave, R::SiiControl.addr(), &[0, 0]).await?;
                     return Err(EcatError::Eeprom { slave, status });
                 }
@@ -52,7 +53,7 @@ impl<L: FrameLink> EcatMaster<L> {
         }
     }
 
-    /// 4 or 8 bytes of the EEPROM from word `word` (spec §2.4 steps 1–4).
+    /// 4 or 8 bytes of the EEPROM from word `word` (ESC reference §2.4 steps 1–4).
     pub async fn eeprom_read(&mut self, slave: u16, word: u16) -> Result<Vec<u8>, EcatError> {
         self.eeprom_idle(slave).await?;
         self.write(slave, R::SiiControl.addr(), &m::eeprom_read_command(word))
@@ -63,7 +64,7 @@ impl<L: FrameLink> EcatMaster<L> {
     }
 
     /// The SII image from word 0 up to its END category (at most 4 KiB). The EEPROM is
-    /// taken for the master first (0x0500 = 2, then 0; spec §2.8 steps 16–17) and offered
+    /// taken for the master first (0x0500 = 2, then 0; ESC reference §2.8 steps 16–17) and offered
     /// back to the PDI afterwards if it was before (0x0500 bit 0, as SOEM leaves it).
     pub async fn read_sii(&mut self, slave: u16) -> Result<Vec<u8>, EcatError> {
         let config = R::SiiConfig.addr();

@@ -1,6 +1,6 @@
-//! Requesting an AL state (spec/ethercat-esc.md §4) and the set-up a slave checks before it
-//! goes up: the mailbox sync managers before Pre-Op, the process-data sync managers and
-//! FMMUs before Safe-Op (§2.5, §2.6, §4.2 table).
+//! Requesting an AL state (the ESC reference kept beside the project, §4) and the set-up a slave
+//! checks before it goes up: the mailbox sync managers before Pre-Op, the process-data sync
+//! managers and FMMUs before Safe-Op (§2.5, §2.6, §4.2 table).
 //!
 //! One request is one write to AL control, as SOEM's `write_state`: Init → Op is refused by
 //! the slave (0x0011), not walked through. That is the point of a checker.
@@ -100,7 +100,7 @@ impl<L: FrameLink> EcatMaster<L> {
     }
 
     /// SM0 and SM1 from the SII (mailbox words and SYNC_M), in one 16-byte write at 0x0800
-    /// as SOEM does (spec §2.6, §2.8 step 31).
+    /// as SOEM does (ESC reference §2.6, §2.8 step 31).
     async fn configure_mailbox(&mut self, slave: u16) -> Result<(), EcatError> {
         let image = self.read_sii(slave).await?;
         let Some([sm0, sm1]) = sii_image::mailbox_sync_managers(&image) else {
@@ -114,12 +114,12 @@ impl<L: FrameLink> EcatMaster<L> {
         self.write(slave, R::sync_manager(0), &block).await
     }
 
-    /// SM2 / SM3 sized from the PDO assignment read over CoE (or the SII default lengths
-    /// without 1C12h / 1C13h), FMMU0 / FMMU1 onto them, as SOEM's `config_map` (spec §2.8).
+    /// SM2 / SM3 sized from the PDO assignment read over CoE (or the SII default lengths without
+    /// 1C12h / 1C13h), FMMU0 / FMMU1 onto them, as SOEM's `config_map` (ESC reference §2.8).
     ///
-    /// The process-data watchdog is switched off (0x0420 = 0, "0 disables", spec §2.1): this
-    /// master exchanges no cyclic process data, and with the watchdog on a slave drops from
-    /// Op back to Safe-Op with 0x001B a watchdog time (100 ms) after reaching it.
+    /// The process-data watchdog is switched off (0x0420 = 0, "0 disables", ESC reference §2.1):
+    /// this master exchanges no cyclic process data, and with the watchdog on a slave drops from Op
+    /// back to Safe-Op with 0x001B a watchdog time (100 ms) after reaching it.
     async fn configure_process_data(
         &mut self,
         slave: u16,

@@ -229,7 +229,7 @@ async fn sdo_read_write_and_abort_in_pre_op() {
         }
         other => panic!("abort expected: {other:?}"),
     }
-    // Hidden under CoE (cmmp-as-1 Tab. 4.9): 1008h answers 0602 0000h.
+    // Hidden under CoE (CMMP-AS Tab. 4.9): 1008h answers 0602 0000h.
     let e = m.sdo_upload(1, 0x1008, 0, T).await.expect_err("hidden");
     assert!(
         e.to_string().contains("0x06020000 (Object does not exist"),

@@ -1,4 +1,4 @@
-//! The names of the CMMO-ST diagnostic numbers (manual Appendix D, spec/cmmo-st-fhpp.md §7.2),
+//! The names of the CMMO-ST diagnostic numbers (manual Appendix D),
 //! as data: the master prints them next to the fault number of FC 0x07.
 
 /// `(number, name)` of every diagnostic message of Appendix D.
@@ -56,7 +56,7 @@ pub const NAMES: &[(u8, &str)] = &[
     (0x46, "IO-Link communication error"),
     (0x47, "Modbus connection with master control"),
     (0x48, "Modbus connection without master control"),
-    // The manual prints "40h" twice; 4Ch is the spec extract's inference (§7.2).
+    // The manual prints "40h" twice; 4Ch is the inference of its extract kept beside the project.
     (0x4C, "value is out of range"),
     (0x4D, "bootloader memory error"),
     (0x4E, "overload 24V outputs"),
