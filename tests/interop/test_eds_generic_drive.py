@@ -84,12 +84,8 @@ def test_profile_position_move(drive):
     assert drive.op_mode == "PROFILED POSITION"
 
 
-def test_profile_velocity_run(drive, request):
-    if 0x6080 not in drive.object_dictionary:
-        # CiA 402 makes 6080h max_motor_speed optional; the engine's Profile Velocity clamps
-        # 60FFh to it and reads an absent 6080h as 0 (crates/drive profile_velocity.rs).
-        request.applymarker(pytest.mark.xfail(
-            strict=True, reason="engine: Profile Velocity needs 6080h, which this file lacks"))
+def test_profile_velocity_run(drive):
+    # CiA 402 makes 6080h max_motor_speed optional: a file without it runs uncapped.
     drive.op_mode = "PROFILED VELOCITY"
     drive.sdo[0x6083].raw = 6000
     drive.sdo[0x6084].raw = 6000

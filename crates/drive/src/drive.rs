@@ -247,6 +247,13 @@ const _: () = {
     }
 };
 
+/// An object of the manufacturer area 2000h–5FFFh (CiA 301 §7.4.1) or the drive data 6510h,
+/// which CiA 402 leaves to the manufacturer: the engine reads and writes it only for a vendor
+/// that gives it a meaning ([`Vendor::MANUFACTURER_OBJECTS`]).
+pub(crate) const fn manufacturer_object(index: u16) -> bool {
+    matches!(index, 0x2000..=0x5FFF | 0x6510)
+}
+
 /// `(index, sub)` as one key.
 #[inline(always)]
 const fn param_key(index: u16, sub: u8) -> u32 {
@@ -519,9 +526,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         personality: &'static Personality,
         vendor: V,
     ) -> Self {
-        publish_supply(&mut od, None);
+        publish_supply(&mut od, None, V::MANUFACTURER_OBJECTS);
         let desc = od.description();
-        let e = |i, s| desc.entry(i, s);
+        let e = |i: u16, s| {
+            if V::MANUFACTURER_OBJECTS || !manufacturer_object(i) {
+                desc.entry(i, s)
+            } else {
+                None
+            }
+        };
         let hot = Hot {
             controlword: e(0x6040, 0),
             statusword: e(0x6041, 0),
@@ -545,9 +558,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         };
         let mut param_entries = [None; PARAMS.len()];
         for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
-            *slot = desc.entry(*i, *s);
+            *slot = e(*i, *s);
         }
-        let params = control_params(&od);
+        let params = control_params_of(&od, V::MANUFACTURER_OBJECTS);
         let axis = Axis::new(settings.motor, params);
         let cycle = Duration::from_micros(u64::from(params.cycletime_current_us.max(1)));
         let logic_every = axis.gains().pos_every.max(1);
@@ -716,7 +729,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The dictionary's values changed behind the drive's back (restore, reload after a
     /// reset): re-read what the drive caches.
     pub fn reload(&mut self) {
-        publish_supply(&mut self.od, self.dc_link_mv);
+        publish_supply(&mut self.od, self.dc_link_mv, V::MANUFACTURER_OBJECTS);
         self.reload_factor_group();
         // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
         self.ip.reset(interpolation_period(&self.od));
@@ -795,6 +808,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     pub(crate) fn value(&self, index: u16, sub: u8) -> i64 {
         if let Some(pos) = param_slot(index, sub) {
             return self.read(self.params.get(pos).copied().flatten());
+        }
+        if !V::MANUFACTURER_OBJECTS && manufacturer_object(index) {
+            return 0;
         }
         match self.od.value(index, sub) {
             Some(Value::Signed(s)) => s,
@@ -1047,7 +1063,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
             // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
-            let decel = if self.limit_stop {
+            let decel = if self.limit_stop && !V::MANUFACTURER_OBJECTS {
+                // A limit switch stops with the quick-stop deceleration 6085h where the
+                // drive data 6510h has no limit-switch ramp of the vendor's.
+                self.accel(0x6085)
+            } else if self.limit_stop {
                 self.accel2(0x6510, 0x15)
             } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
             {
@@ -1139,19 +1159,42 @@ fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) 
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
 /// The DC link voltage the drive measures, 6510h:34 and 6079h: `mv`, or without it the
-/// nominal voltage 6510h:33 (an ideal supply).
-fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(od: &mut ObjectDictionary<S>, mv: Option<u32>) {
+/// nominal voltage 6510h:33 (an ideal supply); 6079h alone where the vendor gives 6510h no
+/// meaning (`drive_data` false).
+fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(
+    od: &mut ObjectDictionary<S>,
+    mv: Option<u32>,
+    drive_data: bool,
+) {
+    let stored = || drive_data.then(|| od.get_unsigned(0x6510, 0x33)).flatten();
     let nominal = mv
         .map(u64::from)
-        .unwrap_or_else(|| od.get_unsigned(0x6510, 0x33).unwrap_or(325_000));
-    let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
+        .unwrap_or_else(|| stored().unwrap_or(325_000));
+    if drive_data {
+        let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
+    }
     let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
 }
 
 /// The controller parameters the dictionary holds (CMMP-AS §5.5–5.8).
 pub fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> ControlParams {
+    control_params_of(od, true)
+}
+
+/// [`control_params`], the manufacturer-specific objects ([`manufacturer_object`]) read only
+/// with `manufacturer` (else their defaults).
+pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>>(
+    od: &ObjectDictionary<S>,
+    manufacturer: bool,
+) -> ControlParams {
     let d = ControlParams::default();
-    let u = |i: u16, s: u8, dflt: u64| od.get_unsigned(i, s).unwrap_or(dflt);
+    let u = |i: u16, s: u8, dflt: u64| {
+        if manufacturer || !manufacturer_object(i) {
+            od.get_unsigned(i, s).unwrap_or(dflt)
+        } else {
+            dflt
+        }
+    };
     ControlParams {
         motor_rated_current_ma: u(0x6075, 0, d.motor_rated_current_ma.into()) as u32,
         max_current_permille: u(0x6073, 0, d.max_current_permille.into()) as u16,

@@ -22,6 +22,12 @@ use crate::travel::Inputs;
 /// default. The vendor type is also the vendor's own state ([`Drive`]'s `vendor` field).
 /// Static dispatch: the engine is generic over its vendor.
 pub trait Vendor: Sized {
+    /// The engine gives the manufacturer-specific objects it knows (the area 2000h–5FFFh of
+    /// CiA 301 §7.4.1 and the drive data 6510h) the meaning the vendors' manuals give them.
+    /// `false`, CiA 402's default: the engine reads and writes none of them, so a device
+    /// file with other objects at those indices keeps its own meanings.
+    const MANUFACTURER_OBJECTS: bool = false;
+
     /// The personality of a drive over `desc` and the vendor's state at power-on.
     fn for_device(desc: &'static od::DeviceDescription) -> (&'static Personality, Self);
 
@@ -36,7 +42,7 @@ pub trait Vendor: Sized {
 
     /// The controller parameters as the drive's objects give them.
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
-        crate::drive::control_params(d.od())
+        crate::drive::control_params_of(d.od(), Self::MANUFACTURER_OBJECTS)
     }
 
     /// Each logic cycle before device control: inputs that own the controlword or the mode.
@@ -82,6 +88,16 @@ pub trait Vendor: Sized {
         Statusword(state.statusword_bits(true))
             | Statusword::VOLTAGE_ENABLED.when(power)
             | Statusword::REMOTE
+    }
+
+    /// The profile velocity ramp (acceleration, deceleration, increments/s²) towards a
+    /// target on the `positive` side (`None`: the set-point jumps to the target). CiA 402
+    /// §6.5: 6083h profile acceleration and 6084h profile deceleration.
+    fn profile_velocity_ramp<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        _positive: bool,
+    ) -> Option<(f64, f64)> {
+        Some((d.accel(0x6083), d.accel(0x6084)))
     }
 
     /// Statusword bits 14 and 15 (manufacturer specific) and what goes with them.

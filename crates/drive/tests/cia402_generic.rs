@@ -63,3 +63,155 @@ fn enables_and_moves_in_profile_position() {
     let window = d.od().get_unsigned(0x6067, 0).unwrap() as i64;
     assert!((pos - 10_000).abs() <= window, "{pos}");
 }
+
+/// A drive over the Lexium-like EDS of the interop tests: no 6080h max_motor_speed, no
+/// manufacturer objects.
+fn eds_drive() -> (Drive<Vec<u8>, Cia402>, Instant) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/lexium32_like.eds");
+    let eds = devdesc::eds::load_file(&path).unwrap();
+    let desc = devdesc::runtime::leak(&eds.device);
+    assert!(desc.object(0x6080).is_none());
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let mut d: Drive<Vec<u8>, Cia402> = Drive::new(od, DriveSettings::default());
+    let now = Instant::ZERO + Duration::from_millis(1);
+    d.step(now);
+    (d, now)
+}
+
+fn signed(d: &Drive<Vec<u8>, Cia402>, index: u16) -> i64 {
+    match d.od().value(index, 0) {
+        Some(od::Value::Signed(v)) => v,
+        Some(od::Value::Unsigned(v)) => v as i64,
+        v => panic!("{index:04X}h: {v:?}"),
+    }
+}
+
+/// Enables in profile velocity with the ramps 6083h / 6084h and asks for `target`.
+fn profile_velocity(
+    d: &mut Drive<Vec<u8>, Cia402>,
+    now: &mut Instant,
+    acceleration: u32,
+    target: i32,
+) {
+    d.write(0x6060, 0, &[3]).unwrap();
+    d.write(0x6083, 0, &acceleration.to_le_bytes()).unwrap();
+    d.write(0x6084, 0, &acceleration.to_le_bytes()).unwrap();
+    for cw in [0x06u16, 0x07, 0x0F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+        *now = *now + Duration::from_millis(5);
+        d.step(*now);
+    }
+    assert_eq!(sw(d) & 0x006F, 0x0027, "{:#06x}", sw(d));
+    d.write(0x60FF, 0, &target.to_le_bytes()).unwrap();
+}
+
+/// CiA 402 §6.5: 6080h max_motor_speed is optional; a drive without it runs profile
+/// velocity to the target, uncapped.
+#[test]
+fn profile_velocity_runs_without_6080h() {
+    let (mut d, mut now) = eds_drive();
+    profile_velocity(&mut d, &mut now, 100_000, 300);
+    for _ in 0..600 {
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    let v = signed(&d, 0x606C);
+    assert!((v - 300).abs() <= 15, "606Ch {v}");
+}
+
+/// CiA 402 §6.5: the velocity set-point ramps by 6083h profile acceleration towards the
+/// target and by 6084h profile deceleration back to 0.
+#[test]
+fn profile_velocity_ramps_by_6083h_and_6084h() {
+    let (mut d, mut now) = eds_drive();
+    // 600 per s to 300: half a second.
+    profile_velocity(&mut d, &mut now, 600, 300);
+    for _ in 0..20 {
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    let early = signed(&d, 0x606B);
+    assert!((40..=80).contains(&early), "606Bh after 100 ms: {early}");
+    for _ in 0..200 {
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    assert_eq!(signed(&d, 0x606B), 300);
+    d.write(0x60FF, 0, &0i32.to_le_bytes()).unwrap();
+    for _ in 0..20 {
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    let braking = signed(&d, 0x606B);
+    assert!(
+        (220..=260).contains(&braking),
+        "606Bh 100 ms into braking: {braking}"
+    );
+}
+
+/// CiA 402 §6.3.2 Tab. 30: FAULT reads xxxx xxxx x0xx 1000 (0008h), whatever a vendor
+/// object at 6510h:F0 holds.
+#[test]
+fn fault_reads_0008h() {
+    let (mut d, mut now) = drive();
+    for compat in [0u64, 0x80] {
+        d.od_mut()
+            .set_value(0x6510, 0xF0, od::Value::Unsigned(compat))
+            .unwrap();
+        d.inject_fault(0x8611, 0x01);
+        now = now + Duration::from_millis(50);
+        d.step(now);
+        assert_eq!(sw(&d) & 0x004F, 0x0008, "{:#06x}", sw(&d));
+        d.clear_fault(0x8611);
+        d.write(0x6040, 0, &0x80u16.to_le_bytes()).unwrap();
+        now = now + Duration::from_millis(5);
+        d.step(now);
+        d.write(0x6040, 0, &0u16.to_le_bytes()).unwrap();
+    }
+}
+
+/// CiA 402 §6.3.2: bit 9 remote, the controlword processed: the drive is controlled over the
+/// fieldbus, whatever a vendor object at 6510h:10 holds.
+#[test]
+fn remote_is_set_whatever_6510h_10_holds() {
+    let (mut d, mut now) = drive();
+    for logic in [0u64, 2] {
+        d.od_mut()
+            .set_value(0x6510, 0x10, od::Value::Unsigned(logic))
+            .unwrap();
+        now = now + Duration::from_millis(5);
+        d.step(now);
+        assert_ne!(sw(&d) & 0x0200, 0, "{:#06x}", sw(&d));
+    }
+}
+
+/// The manufacturer area (2000h–5FFFh) and 6510h keep their values: the standard drive gives
+/// them no meaning, neither reads nor writes them.
+#[test]
+fn manufacturer_objects_are_left_alone() {
+    let (mut d, mut now) = drive();
+    let before: Vec<_> = [(0x2000u16, 1u8), (0x2074, 0), (0x200F, 0), (0x6510, 0x34)]
+        .iter()
+        .map(|&(i, s)| d.od().value(i, s))
+        .collect();
+    // 6510h:37 = 1 with a minimum above the supply would be the CMMP-AS's undervoltage.
+    d.od_mut()
+        .set_value(0x6510, 0x36, od::Value::Unsigned(1_000_000))
+        .unwrap();
+    d.od_mut()
+        .set_value(0x6510, 0x37, od::Value::Unsigned(1))
+        .unwrap();
+    d.set_dc_link_voltage(Some(200_000));
+    for cw in [0x06u16, 0x07, 0x0F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    assert_eq!(sw(&d) & 0x006F, 0x0027, "{:#06x}", sw(&d));
+    let after: Vec<_> = [(0x2000u16, 1u8), (0x2074, 0), (0x200F, 0), (0x6510, 0x34)]
+        .iter()
+        .map(|&(i, s)| d.od().value(i, s))
+        .collect();
+    assert_eq!(before, after);
+}

@@ -89,7 +89,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
         self.warning = Some((number, active));
         let code = messages::warning_code(number, active);
-        let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
+        if V::MANUFACTURER_OBJECTS {
+            let _ = self.od.write_internal(0x200F, 0, &code.to_le_bytes());
+        }
     }
 
     /// Ends the warning `number` if it is the active one (its cause is gone; the drive

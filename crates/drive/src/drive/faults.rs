@@ -101,7 +101,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             .find_map(|c| self.message_of(*c))
             .map(|m| m.number);
         let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
-        let commissioning = self.od.get_unsigned(0x6510, 0xC0).unwrap_or(0) as u32;
+        let commissioning = self.value(0x6510, 0xC0) as u32;
         Display::select(error, warning, self.safe_standstill, commissioning)
     }
 

@@ -9,7 +9,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// 6510h:36 with 6510h:37 = 1 it is error 02-0.
     pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {
         self.dc_link_mv = mv;
-        publish_supply(&mut self.od, mv);
+        publish_supply(&mut self.od, mv, V::MANUFACTURER_OBJECTS);
         self.params_dirty = true;
     }
 

@@ -34,27 +34,26 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let user = self
             .read(self.hot.target_velocity)
             .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
-        let max = self.value(0x6080, 0).max(0) as f64 * 4096.0 * INC_S_PER_VEL;
-        let mut target =
-            (self.fg.velocity_to_internal(user) as f64 * INC_S_PER_VEL).clamp(-max, max);
+        // 6080h max_motor_speed caps the target where the drive has it (CiA 402 §6.5: an
+        // optional object; without it no such cap).
+        let user = self.fg.velocity_to_internal(user) as f64 * INC_S_PER_VEL;
+        let mut target = match self.param(0x6080, 0) {
+            Some(_) => {
+                let max = self.value(0x6080, 0).max(0) as f64 * 4096.0 * INC_S_PER_VEL;
+                user.clamp(-max, max)
+            }
+            None => user,
+        };
         if self.halted {
             target = 0.0; // Halt: to zero with the profile deceleration, resumed when cleared.
         }
-        let ramps = self.value(0x2090, 1) != 0;
-        if ramps || self.halted {
-            // 2090h: separate ramps for positive and negative speed (6083h/6084h write them).
-            let positive = self.velocity_set >= 0.0 && target >= 0.0;
-            let ramp = if self.halted {
-                (self.accel(0x6084), self.accel(0x6084))
-            } else if positive {
-                (self.accel2(0x2090, 2), self.accel2(0x2090, 3))
-            } else {
-                (self.accel2(0x2090, 4), self.accel2(0x2090, 5))
-            };
-            self.command_velocity(target, Some(ramp), dt);
+        let ramp = if self.halted {
+            Some((self.accel(0x6084), self.accel(0x6084)))
         } else {
-            self.command_velocity(target, None, dt);
-        }
+            let positive = self.velocity_set >= 0.0 && target >= 0.0;
+            V::profile_velocity_ramp(self, positive)
+        };
+        self.command_velocity(target, ramp, dt);
         // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
         let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;

@@ -188,6 +188,8 @@ pub const CMMP_AS: Personality = Personality {
 pub struct CmmpAs;
 
 impl Vendor for CmmpAs {
+    const MANUFACTURER_OBJECTS: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&CMMP_AS, CmmpAs)
     }
@@ -219,6 +221,21 @@ impl Vendor for CmmpAs {
 
     fn manufacturer_bits<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) -> Statusword {
         d.cmmp_manufacturer_bits()
+    }
+
+    /// §7.6: the ramps 2090h (separate for positive and negative speed, 6083h / 6084h write
+    /// them) where 2090h:01 enables them; else the set-point jumps to the target.
+    fn profile_velocity_ramp<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        positive: bool,
+    ) -> Option<(f64, f64)> {
+        if d.value(0x2090, 1) == 0 {
+            None
+        } else if positive {
+            Some((d.accel2(0x2090, 2), d.accel2(0x2090, 3)))
+        } else {
+            Some((d.accel2(0x2090, 4), d.accel2(0x2090, 5)))
+        }
     }
 
     fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(

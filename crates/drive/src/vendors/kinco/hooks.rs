@@ -66,6 +66,8 @@ pub struct Kinco {
 }
 
 impl Vendor for Kinco {
+    const MANUFACTURER_OBJECTS: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&super::KINCO, Kinco::default())
     }

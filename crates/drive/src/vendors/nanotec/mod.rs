@@ -352,6 +352,8 @@ pub struct Nanotec {
 }
 
 impl Vendor for Nanotec {
+    const MANUFACTURER_OBJECTS: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&NANOTEC, Nanotec::default())
     }
