@@ -8,7 +8,7 @@
 //! a longer input stops there).
 #![no_main]
 
-use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
 use drive::stepper::StepperMode;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;

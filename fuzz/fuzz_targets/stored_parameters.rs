@@ -7,7 +7,7 @@
 //! the parse buffer is allocated once.
 #![no_main]
 
-use drive::fhpp::device::{FhppDevice, FhppSettings};
+use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
 use drivetwin::cell::param_store::{apply, StoredValue};
 use libfuzzer_sys::fuzz_target;
 use od::{DeviceDescription, ObjectDictionary};

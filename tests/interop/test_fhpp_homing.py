@@ -3,8 +3,8 @@
 The homing method PNU 1011, the search velocity PNU 1012:1 and the axis zero point offset
 PNU 1010 are written through the parameter channel (FC 0x17 with 8 registers, manual App. C),
 then CPOS.HOM starts the run (manual §6.2). The twin's default mechanics have the negative
-fixed stop 3 motor revolutions below the power-on position (crates/drive/src/fhpp/
-axis_mechanics.rs); with the dictionary's default axis 1 revolution = 36000 SINC.
+fixed stop 3 motor revolutions below the power-on position (crates/drive/src/vendors/
+festo_cmmo_st/axis_mechanics.rs); with the dictionary's default axis 1 revolution = 36000 SINC.
 """
 
 from __future__ import annotations

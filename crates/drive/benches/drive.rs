@@ -32,9 +32,9 @@ use std::time::Duration;
 
 use criterion::{criterion_group, Criterion};
 use drive::drive::{Drive, DriveSettings};
-use drive::fhpp::device::{FhppDevice, FhppSettings};
-use drive::fhpp::{Ccon, Cpos, OutputData};
 use drive::travel::TravelSettings;
+use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cpos, OutputData};
 use od::{Instant, ObjectAccess, ObjectDictionary};
 use support::thread_cpu_time;
 

@@ -1,10 +1,10 @@
 //! A 16-bit word of named bits (CiA 402 controlword and statusword), built like the FHPP
-//! control bytes (`fhpp/control_bytes.rs`): callers write `cw.contains(Controlword::HALT)`,
+//! control bytes (`vendors/festo_cmmo_st/fhpp/control_bytes.rs`): callers write `cw.contains(Controlword::HALT)`,
 //! never `cw & 0x0100`.
 
 /// The set operations every named-bit newtype has, over its integer type: `bits`,
 /// `contains`, `intersects`, `with`, `when`, `union`, `difference`, `|`, `|=`, `&`.
-/// Shared by [`bit_word!`] and the FHPP control and status bytes (`fhpp::bit_byte!`).
+/// Shared by [`bit_word!`] and the FHPP control and status bytes (`festo_cmmo_st::fhpp::bit_byte!`).
 macro_rules! bit_set_ops {
     ($name:ident, $int:ty) => {
         impl $name {

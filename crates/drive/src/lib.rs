@@ -16,7 +16,6 @@ pub mod display;
 pub mod drive;
 pub mod encoder_fault;
 pub mod factor_group;
-pub mod fhpp;
 pub mod homing;
 pub mod interpolated_position;
 pub mod measured_velocity;

@@ -1,8 +1,8 @@
 //! The CiA 402 engine names no vendor: outside `src/vendors/` no code line names a vendor
-//! (Kinco, Nanotec, the Festo CMMP-AS) or a `Vendor::` variant, and no engine module imports
-//! a vendor module (vendors import the engine, never the reverse). Comments may cite a
-//! manual, and a file's unit tests may name the drive their vectors come from; a vendor's
-//! behaviour is a [`drive::personality::Vendor`] hook or personality data.
+//! (Kinco, Nanotec, the Festo CMMP-AS, the CMMO-ST and its FHPP) or a `Vendor::` variant, and
+//! no engine module imports a vendor module (vendors import the engine, never the reverse).
+//! Comments may cite a manual, and a file's unit tests may name the drive their vectors come
+//! from; a vendor's behaviour is a [`drive::personality::Vendor`] hook or personality data.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::path::{Path, PathBuf};
@@ -15,10 +15,6 @@ const KNOWN: [(&str, usize, &str); 2] = [
     // A refusal's rule text cites the manual it follows (shown to the user).
     ("drive/refusal.rs", 1, "a rule text citing the manual"),
 ];
-
-/// The CMMO-ST's FHPP device model: a device of its own beside the CiA 402 engine, to become
-/// a vendor folder of its own.
-const OTHER_DEVICES: [&str; 1] = ["fhpp"];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("a source folder") {
@@ -45,7 +41,7 @@ fn code(line: &str) -> &str {
 
 fn names_vendor(code: &str) -> bool {
     let lower = code.to_lowercase();
-    ["kinco", "nanotec", "cmmp", "festo"]
+    ["kinco", "nanotec", "cmmp", "cmmo", "fhpp", "festo"]
         .iter()
         .any(|v| lower.contains(v))
         || code.contains("Vendor::")
@@ -64,7 +60,7 @@ fn engine_code_names_no_vendor() {
             .to_string_lossy()
             .replace('\\', "/");
         let top = rel.split('/').next().unwrap_or_default();
-        if top == "vendors" || OTHER_DEVICES.contains(&top) {
+        if top == "vendors" {
             continue;
         }
         let text = std::fs::read_to_string(&path).unwrap();

@@ -9,9 +9,9 @@
     clippy::panic
 )]
 
-use drive::fhpp::control_bytes::{percent_of, Edges};
-use drive::fhpp::record_table::RecordSelect;
-use drive::fhpp::{
+use drive::vendors::festo_cmmo_st::fhpp::control_bytes::{percent_of, Edges};
+use drive::vendors::festo_cmmo_st::fhpp::record_table::RecordSelect;
+use drive::vendors::festo_cmmo_st::fhpp::{
     Ack, Authority, AuthorityError, BitPattern, Ccon, Cdir, ChainCondition, Config, ControlMode,
     Cpos, Event, Fault, Fhpp, InputData, MotionCommand, MotionStatus, OpState, OperatingMode,
     OutputData, Rcb1, Reaction, RecordTable, Refusal, RelativeTo, Rsb, Scon, Sdir, Spos,
@@ -1518,13 +1518,13 @@ fn record_table_data() {
     assert_eq!((Rcb1::COM1 | Rcb1::COM2).control_mode(), None);
     assert_eq!(Rcb1::COM1.control_mode(), Some(ControlMode::Force));
     // FHPP-SC-02 comparator: −50 mm … −40 mm at 0.1 µm per SINC.
-    let c = drive::fhpp::Comparator {
+    let c = drive::vendors::festo_cmmo_st::fhpp::Comparator {
         min: -500_000,
         max: -400_000,
         window_time_ms: 0,
     };
     assert!(c.contains(-450_000) && !c.contains(-399_999) && !c.contains(-500_001));
-    let never = drive::fhpp::Comparator {
+    let never = drive::vendors::festo_cmmo_st::fhpp::Comparator {
         min: 1,
         max: 0,
         window_time_ms: 0,

@@ -1,4 +1,4 @@
-//! The CMMO-ST device (`drive::fhpp::device`): FHPP telegrams in, the stepper plant moving,
+//! The CMMO-ST device (`drive::vendors::festo_cmmo_st::device`): FHPP telegrams in, the stepper plant moving,
 //! status telegrams out — the manual's reference values and handshakes end to end.
 #![allow(
     clippy::unwrap_used,
@@ -8,9 +8,9 @@
 )]
 
 mod fhpp_bench;
-use drive::fhpp::device::diag;
-use drive::fhpp::{Ccon, Cdir, Cpos, OutputData, Scon, Sdir, Spos, State};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::device::diag;
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cdir, Cpos, OutputData, Scon, Sdir, Spos, State};
 use fhpp_bench::{Bench, ENABLED};
 use od::ObjectAccess;
 

@@ -6,10 +6,10 @@
 //! warning sets SCON.WARN and PNU 221 until cleared; an information or event only logs.
 
 mod fhpp_bench;
-use drive::fhpp::diagnostics::{self, Class, Diagnostic};
-use drive::fhpp::seven_segment::SevenSegment;
-use drive::fhpp::{Ack, Ccon, Cpos, InputData, OutputData, Scon};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::diagnostics::{self, Class, Diagnostic};
+use drive::vendors::festo_cmmo_st::fhpp::{Ack, Ccon, Cpos, InputData, OutputData, Scon};
+use drive::vendors::festo_cmmo_st::seven_segment::SevenSegment;
 use fhpp_bench::{Bench, ENABLED};
 use od::ObjectAccess;
 

@@ -9,11 +9,13 @@
 )]
 
 mod fhpp_bench;
-use drive::fhpp::device::diag;
-use drive::fhpp::diagnostics::{self, Class};
-use drive::fhpp::seven_segment::SevenSegment;
-use drive::fhpp::{Ack, Ccon, Cdir, Cpos, InputData, OutputData, Reaction, Rsb, Scon, Spos};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::device::diag;
+use drive::vendors::festo_cmmo_st::diagnostics::{self, Class};
+use drive::vendors::festo_cmmo_st::fhpp::{
+    Ack, Ccon, Cdir, Cpos, InputData, OutputData, Reaction, Rsb, Scon, Spos,
+};
+use drive::vendors::festo_cmmo_st::seven_segment::SevenSegment;
 use fhpp_bench::{Bench, ENABLED};
 use od::{AbortCode, ObjectAccess};
 

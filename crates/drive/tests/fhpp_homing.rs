@@ -15,11 +15,11 @@ use core::f64::consts::TAU;
 use core::time::Duration;
 use fhpp_bench::{Bench, ENABLED};
 
-use drive::fhpp::axis_mechanics::AxisMechanics;
-use drive::fhpp::device::FhppSettings;
-use drive::fhpp::diagnostics::Class;
-use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Scon, Spos};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::axis_mechanics::AxisMechanics;
+use drive::vendors::festo_cmmo_st::device::FhppSettings;
+use drive::vendors::festo_cmmo_st::diagnostics::Class;
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cpos, InputData, OutputData, Scon, Spos};
 use od::ObjectAccess;
 
 const REV: f64 = 36_000.0; // SINC per motor revolution (PNU 1003 default)

@@ -7,16 +7,18 @@
     clippy::panic
 )]
 
-use drive::fhpp::device::{FhppDevice, FhppSettings};
-use drive::fhpp::diagnostic_memory::EventType;
-use drive::fhpp::parameter_channel::{
+use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
+use drive::vendors::festo_cmmo_st::diagnostic_memory::EventType;
+use drive::vendors::festo_cmmo_st::fhpp::parameter_channel::{
     ErrorCode, FileDirection, FileError, FileResponse, Packet, PacketKind, ParameterRequest,
     ParameterResponse, Request, Response,
 };
-use drive::fhpp::parameter_file::{self, FormatError, CRC_LEN, HEADER_LEN};
-use drive::fhpp::parameter_file_transfer::{DOWNLOAD_INTERVAL_MS, PACKET_TIMEOUT_MS};
-use drive::fhpp::seven_segment::SevenSegment;
-use drive::fhpp::{Authority, Ccon, Cpos, OutputData};
+use drive::vendors::festo_cmmo_st::fhpp::parameter_file::{self, FormatError, CRC_LEN, HEADER_LEN};
+use drive::vendors::festo_cmmo_st::fhpp::parameter_file_transfer::{
+    DOWNLOAD_INTERVAL_MS, PACKET_TIMEOUT_MS,
+};
+use drive::vendors::festo_cmmo_st::fhpp::{Authority, Ccon, Cpos, OutputData};
+use drive::vendors::festo_cmmo_st::seven_segment::SevenSegment;
 use od::{Instant, ObjectAccess, ObjectDictionary};
 
 const ENABLED: Ccon = Ccon(0x03); // ENABLE + STOP
@@ -151,7 +153,7 @@ impl Bench {
         let mut file = Vec::new();
         let mut seq = 0;
         while file.len() < size {
-            seq = drive::fhpp::parameter_channel::next_sequence(seq);
+            seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
             let p = self.ack(up, Packet::data(seq, [0; 6]));
             file.extend_from_slice(&p.data);
         }
@@ -169,7 +171,7 @@ impl Bench {
         let mut seq = 0;
         let mut packets = vec![Packet::start(file.len() as u32)];
         for chunk in file.chunks(6) {
-            seq = drive::fhpp::parameter_channel::next_sequence(seq);
+            seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
             let mut d = [0u8; 6];
             d[..chunk.len()].copy_from_slice(chunk);
             packets.push(Packet::data(seq, d));
@@ -519,7 +521,7 @@ fn fhpp_fpc_14_frames_of_a_100_byte_download() {
     let mut ids = Vec::new();
     let mut last = [0u8; 8];
     for chunk in file.chunks(6) {
-        seq = drive::fhpp::parameter_channel::next_sequence(seq);
+        seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
         let mut d = [0u8; 6];
         d[..chunk.len()].copy_from_slice(chunk);
         last = Request::File {
@@ -551,7 +553,7 @@ fn sequence_numbers_run_1_to_31_then_0() {
     let mut seen = Vec::new();
     let mut seq = 0;
     for _ in 0..33 {
-        seq = drive::fhpp::parameter_channel::next_sequence(seq);
+        seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
         seen.push(b.ack(up, Packet::data(seq, [0; 6])).sequence);
     }
     assert_eq!(seen[..31], (1..=31).collect::<Vec<u8>>()[..]);
@@ -654,10 +656,10 @@ fn every_type_2_error_and_its_effect() {
     let packets = good.len().div_ceil(6);
     let mut seq = 0;
     for _ in 0..packets {
-        seq = drive::fhpp::parameter_channel::next_sequence(seq);
+        seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
         b.ack(up, Packet::data(seq, [0; 6]));
     }
-    seq = drive::fhpp::parameter_channel::next_sequence(seq);
+    seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
     let r = b.file_packet(up, Packet::data(seq, [0; 6]));
     expect_type2(&mut b, r, FileError::Amount);
     acknowledge(&mut b);
@@ -692,7 +694,7 @@ fn every_type_2_error_and_its_effect() {
         let mut seq = 0;
         let mut sent = 0;
         loop {
-            seq = drive::fhpp::parameter_channel::next_sequence(seq);
+            seq = drive::vendors::festo_cmmo_st::fhpp::parameter_channel::next_sequence(seq);
             let at = sent * 6;
             let mut d = [0u8; 6];
             d.copy_from_slice(&bad[at..at + 6]);
@@ -844,7 +846,7 @@ fn codec_round_trips_both_directions() {
 
 #[test]
 fn codec_refuses_reserved_values() {
-    use drive::fhpp::parameter_channel::DecodeError;
+    use drive::vendors::festo_cmmo_st::fhpp::parameter_channel::DecodeError;
     assert_eq!(
         Request::decode(&[0x26, 0, 0, 0, 0, 0, 0, 0]),
         Err(DecodeError::ReservedMode { mode: 2, id: 6 })

@@ -1,4 +1,4 @@
-//! The CMMO-ST's own supervision of its plant's physics (`drive::fhpp::plant_supervision`):
+//! The CMMO-ST's own supervision of its plant's physics (`drive::vendors::festo_cmmo_st::plant_supervision`):
 //! App. D 33h, 15h and 16h from the output stage's temperature (PNU 1066 against PNU 1068),
 //! 06h from the encoder.
 #![allow(
@@ -10,10 +10,10 @@
 
 mod fhpp_bench;
 use drive::encoder_fault::EncoderFault;
-use drive::fhpp::seven_segment::SevenSegment;
-use drive::fhpp::{Ccon, Cpos, OutputData, Scon};
 use drive::stepper::StepperMode;
 use drive::thermal::ThermalData;
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cpos, OutputData, Scon};
+use drive::vendors::festo_cmmo_st::seven_segment::SevenSegment;
 use fhpp_bench::Bench;
 use od::ObjectAccess;
 

@@ -8,8 +8,8 @@ mod fhpp_bench;
 
 use fhpp_bench::Bench;
 
-use drive::fhpp::{InputData, Scon};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::fhpp::{InputData, Scon};
 use proptest::prelude::*;
 
 /// One step of the master: the telegram (8 or 16 bytes) and how many cycles it stands.

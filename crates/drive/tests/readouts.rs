@@ -8,8 +8,8 @@ mod drive_rig;
 mod fhpp_bench;
 
 use drive::drive::DriveSettings;
-use drive::fhpp::{Ccon, Cdir, Cpos, OutputData};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cdir, Cpos, OutputData};
 use drive_rig::Rig;
 
 /// The least and greatest value of `index`:`sub` sampled every millisecond for `ms`.

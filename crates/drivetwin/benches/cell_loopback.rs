@@ -203,7 +203,7 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     let cmmo = devices::by_name("cmmo-st").ok_or("no cmmo-st")?;
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size])
         .map_err(|_| "CMMO-ST storage")?;
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let can_listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let can_addr = can_listener.local_addr().map_err(|e| e.to_string())?;
     let mb_listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;

@@ -77,7 +77,7 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
         CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let can = TcpListener::bind("127.0.0.1:0").expect("bind");
     let can_addr = can.local_addr().expect("addr");
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");

@@ -11,7 +11,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use drive::fhpp::Authority;
+use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{ControlHandle, FhppRequest};
 use drivetwin::cell::Cell;
@@ -30,7 +30,7 @@ fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
         CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let front = FrontEnds {
         buses: vec![CanBus::new(Cell::new(vec![drive]))],

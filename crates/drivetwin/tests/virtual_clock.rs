@@ -194,7 +194,7 @@ fn inputs() -> Vec<(Duration, Input)> {
 fn cmmo_st() -> ModbusDrive {
     let desc = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     ModbusDrive::without_listener(Arc::new(Mutex::new(dev)), ModbusConfig::default(), None)
 }
 

@@ -650,7 +650,7 @@ fn cmmo_st() -> Rig {
     let settings = spec.fhpp.expect("an FHPP drive").settings;
     let od =
         od::ObjectDictionary::new(spec.desc, 1, vec![0u8; spec.desc.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, settings);
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, settings);
     let modbus = vec![ModbusDrive::without_listener(
         Arc::new(Mutex::new(dev)),
         ModbusConfig::default(),

@@ -7,6 +7,7 @@
 //! device file no vendor serves runs as the standard CiA 402 drive ([`Cia402`]).
 
 pub mod cia402;
+pub mod festo_cmmo_st;
 pub mod festo_cmmp_as;
 pub mod kinco;
 pub mod nanotec;

@@ -9,9 +9,9 @@
     clippy::panic
 )]
 
-use drive::fhpp::device::{FhppDevice, FhppSettings};
-use drive::fhpp::{Ccon, Cpos, InputData, OutputData, Spos};
 use drive::stepper::StepperMode;
+use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
+use drive::vendors::festo_cmmo_st::fhpp::{Ccon, Cpos, InputData, OutputData, Spos};
 use od::{Instant, ObjectDictionary};
 
 /// CCON ENABLE + STOP, record selection.

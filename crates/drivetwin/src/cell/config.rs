@@ -21,11 +21,11 @@ use crate::cell::fieldbus_switches::{
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
 use drive::drive::DriveSettings;
-use drive::fhpp::axis_mechanics::AxisMechanics;
-use drive::fhpp::device::FhppSettings;
 use drive::motor::MotorData;
 use drive::stepper::{StepperData, StepperMode};
 use drive::travel::{HomeSwitch, TravelSettings};
+use drive::vendors::festo_cmmo_st::axis_mechanics::AxisMechanics;
+use drive::vendors::festo_cmmo_st::device::FhppSettings;
 
 pub const DEFAULT_SOCKETCAND: &str = "127.0.0.1:29536";
 pub const DEFAULT_CHANNEL: &str = "vcan0";

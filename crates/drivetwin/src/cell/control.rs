@@ -47,7 +47,7 @@ pub enum DisplayState {
     /// The CMMP-AS 7-segment display (App. B).
     Cia402(drive::display::Display),
     /// The CMMO-ST 7-segment display.
-    Fhpp(drive::fhpp::seven_segment::SevenSegment),
+    Fhpp(drive::vendors::festo_cmmo_st::seven_segment::SevenSegment),
     /// The Kinco CD3 / FD3 LED panel (five digits, their points, the blink).
     KincoPanel(drive::vendors::kinco::panel::PanelDisplay),
 }
@@ -501,7 +501,7 @@ pub struct FhppState {
     /// The output telegram in force.
     pub outputs: [u8; 8],
     /// Who holds device control.
-    pub authority: drive::fhpp::Authority,
+    pub authority: drive::vendors::festo_cmmo_st::fhpp::Authority,
     /// The active fault's diagnostic number (0: none).
     pub fault: u8,
     /// The diagnostic memory, newest first: (PNU 200 event type, PNU 201 number, PNU 202 ms).

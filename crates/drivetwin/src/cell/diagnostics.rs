@@ -4,7 +4,7 @@
 //! its own supervision had raised the message (`drive::drive::diagnostics`).
 
 use drive::drive::diagnostics::{emcy_code, DiagnosticError};
-use drive::fhpp::device::FhppDevice;
+use drive::vendors::festo_cmmo_st::device::FhppDevice;
 use od::{Diagnostic, Instant};
 use serde::Deserialize;
 
@@ -161,7 +161,7 @@ pub fn list_fhpp(dev: &FhppDevice<Vec<u8>>) -> Vec<DiagnosticState> {
         .map(|row| DiagnosticState {
             row,
             emcy: None,
-            active: drive::fhpp::diagnostics::number(row.number)
+            active: drive::vendors::festo_cmmo_st::diagnostics::number(row.number)
                 .is_some_and(|c| dev.diagnostic_active(c)),
         })
         .collect()

@@ -522,15 +522,16 @@ impl CellLoop {
                 let _ = dev.set_outputs(&image);
             }
             FhppRequest::DeviceControl(true) => {
-                if let Err(e) = dev
-                    .fhpp_mut()
-                    .request_local_control(::drive::fhpp::Authority::WebServer)
-                {
+                if let Err(e) = dev.fhpp_mut().request_local_control(
+                    ::drive::vendors::festo_cmmo_st::fhpp::Authority::WebServer,
+                ) {
                     refused = Some(e.fpc_error());
                 }
             }
             FhppRequest::DeviceControl(false) => {
-                if dev.fhpp().authority() == ::drive::fhpp::Authority::WebServer {
+                if dev.fhpp().authority()
+                    == ::drive::vendors::festo_cmmo_st::fhpp::Authority::WebServer
+                {
                     dev.fhpp_mut().release_local_control();
                 }
             }

@@ -1,7 +1,7 @@
 //! `drivetwin fhpp …`: the FHPP master commands to a CMMO-ST over Modbus TCP.
 
 use super::*;
-use ::drive::fhpp::device::pnu_index;
+use ::drive::vendors::festo_cmmo_st::device::pnu_index;
 use drivetwin::master::fhpp::{FhppMaster, MasterConfig};
 use drivetwin::master::modbus_tcp::ModbusTcpError;
 

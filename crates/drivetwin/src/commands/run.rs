@@ -876,12 +876,12 @@ fn cmmo_st_device(
     args: &RunArgs,
 ) -> Result<
     (
-        ::drive::fhpp::device::FhppDevice<Vec<u8>>,
+        ::drive::vendors::festo_cmmo_st::device::FhppDevice<Vec<u8>>,
         Option<ParamStore>,
     ),
     CommandError,
 > {
-    use ::drive::fhpp::device::FhppDevice;
+    use ::drive::vendors::festo_cmmo_st::device::FhppDevice;
     let desc = spec.desc;
     let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
         .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;

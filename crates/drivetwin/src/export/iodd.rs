@@ -261,9 +261,9 @@ pub fn write_iodd(
     let rows = devices::by_name("cmmo-st").map_or(&[][..], |d| d.diagnostics);
     for d in rows
         .iter()
-        .filter_map(drive::fhpp::diagnostics::Diagnostic::of)
+        .filter_map(drive::vendors::festo_cmmo_st::diagnostics::Diagnostic::of)
     {
-        use drive::fhpp::diagnostics::Classes;
+        use drive::vendors::festo_cmmo_st::diagnostics::Classes;
         let kind = if d.classes.contains(Classes::F) {
             "Error"
         } else if d.classes.contains(Classes::W) {

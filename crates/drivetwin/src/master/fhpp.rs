@@ -18,11 +18,11 @@ pub mod parameter;
 
 use std::time::Duration;
 
-use drive::fhpp::{
+use drive::vendors::festo_cmmo_st::fhpp::{
     Ccon, Cdir, ControlMode, Cpos, InputData, OperatingMode, OutputData, Scon, Spos,
 };
 
-use drive::fhpp::parameter_channel::ErrorCode;
+use drive::vendors::festo_cmmo_st::fhpp::parameter_channel::ErrorCode;
 
 use super::modbus_tcp::{ModbusTcpClient, ModbusTcpError};
 
@@ -647,7 +647,7 @@ mod tests {
     /// The twin's Modbus server in this process, on a free loopback port.
     async fn twin() -> (String, tokio::task::JoinHandle<()>) {
         use crate::modbus_tcp::fhpp::run_cmmo_st;
-        use drive::fhpp::device::{FhppDevice, FhppSettings};
+        use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
         use std::sync::{Arc, Mutex};
         let desc = &devices::CMMO_ST;
         let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();

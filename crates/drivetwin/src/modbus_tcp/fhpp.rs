@@ -12,7 +12,7 @@
 //!   start address answers exception 02 (illegal data address), another quantity 03 (illegal
 //!   data value); both quantities are accepted whatever the profile, the 8 FPC bytes of a
 //!   16-byte write go to the parameter channel (registers 4…7, answered at the device's next
-//!   cycle: `drive::fhpp::parameter_channel`), and FC 0x17 checks both halves before it
+//!   cycle: `drive::vendors::festo_cmmo_st::fhpp::parameter_channel`), and FC 0x17 checks both halves before it
 //!   writes anything.
 //! - **FC 0x07** answers the active fault number (the diagnostic number, 0 = no fault).
 //! - **FC 0x2B / 0x0E** (Tab. 4.4): 00 VendorName = PNU 122, 01 ProductCode = PNU 124,
@@ -32,8 +32,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use drive::fhpp::device::{diag, pnu_index, FhppDevice};
-use drive::fhpp::parameter_file::FormatError;
+use drive::vendors::festo_cmmo_st::device::{diag, pnu_index, FhppDevice};
+use drive::vendors::festo_cmmo_st::fhpp::parameter_file::FormatError;
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
 };
@@ -366,7 +366,7 @@ fn serve_async(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive::fhpp::device::FhppSettings;
+    use drive::vendors::festo_cmmo_st::device::FhppSettings;
     use modbus::handle_pdu;
     use od::ObjectDictionary;
 
@@ -638,7 +638,7 @@ mod tests {
         step(&m, 2);
         lock(&m.device)
             .fhpp_mut()
-            .request_local_control(drive::fhpp::Authority::Fct)
+            .request_local_control(drive::vendors::festo_cmmo_st::fhpp::Authority::Fct)
             .unwrap();
         assert!(!lock(&m.device).fieldbus_has_control());
         m.connection_event(ConnectionEvent::Opened);

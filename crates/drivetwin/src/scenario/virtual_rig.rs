@@ -579,7 +579,7 @@ fn cmmo_st(
             od.store(e, &c.bytes);
         }
     }
-    let dev = drive::fhpp::device::FhppDevice::new(od, fhpp.settings);
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, fhpp.settings);
     let mut config = crate::modbus_tcp::server::ModbusConfig::default();
     if let Some(ms) = fhpp.watchdog_ms {
         config.watchdog_ms = ms;
@@ -595,7 +595,7 @@ fn cmmo_st(
 
 fn lock(
     dev: &crate::modbus_tcp::fhpp::SharedDevice,
-) -> std::sync::MutexGuard<'_, drive::fhpp::device::FhppDevice<Vec<u8>>> {
+) -> std::sync::MutexGuard<'_, drive::vendors::festo_cmmo_st::device::FhppDevice<Vec<u8>>> {
     crate::modbus_tcp::server::lock(dev)
 }
 

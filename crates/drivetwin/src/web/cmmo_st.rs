@@ -23,8 +23,8 @@ use axum::http::StatusCode;
 use axum::response::IntoResponse;
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use drive::fhpp::device::pnu_index;
-use drive::fhpp::Authority;
+use drive::vendors::festo_cmmo_st::device::pnu_index;
+use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 

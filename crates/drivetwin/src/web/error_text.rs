@@ -100,7 +100,7 @@ pub fn cia_error(code: u16) -> ErrorView {
 
 /// A CMMO-ST diagnostic number with its App. D name.
 pub fn fhpp_diagnostic(number: u16) -> ErrorView {
-    let text = drive::fhpp::diagnostics::lookup(number)
+    let text = drive::vendors::festo_cmmo_st::diagnostics::lookup(number)
         .map_or("unknown diagnostic number", |d| d.name)
         .to_owned();
     ErrorView {

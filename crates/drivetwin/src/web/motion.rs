@@ -14,7 +14,9 @@ use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use drive::fhpp::{Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, Spos};
+use drive::vendors::festo_cmmo_st::fhpp::{
+    Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, Spos,
+};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 

@@ -1,7 +1,7 @@
 //! The plant's physics over REST: the motor's and the power stage's temperatures with the
 //! ambient they cool towards, the encoder (connected, disconnected, noisy), and the limit and
 //! home switches by name. The drive's own supervision raises its manual's messages from them
-//! (`drive::drive::plant_supervision`, `drive::fhpp::plant_supervision`).
+//! (`drive::drive::plant_supervision`, `drive::vendors::festo_cmmo_st::plant_supervision`).
 
 use axum::extract::rejection::JsonRejection;
 use axum::extract::{Path, State};

@@ -72,7 +72,7 @@ pub fn bus(drives: Vec<CanDrive>) -> CanBus {
 pub fn cmmp_and_cmmo_st() -> Running {
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::fhpp::device::FhppDevice::new(od, Default::default());
+    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = mb.local_addr().expect("addr");
     let front = FrontEnds {

@@ -1,5 +1,5 @@
 //! PNU read and write through the Enhanced Festo Parameter Channel (EFPC, I/O bytes 9…16,
-//! CMMO-ST manual App. C), with the wire codec of [`drive::fhpp::parameter_channel`].
+//! CMMO-ST manual App. C), with the wire codec of [`drive::vendors::festo_cmmo_st::fhpp::parameter_channel`].
 //!
 //! The procedure of C.3.2: the zero request ("no task", ReqID 0) until the drive answers
 //! "no response" (ResID 0), so an old answer cannot be taken for the new one; then the job
@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use drive::fhpp::parameter_channel::{
+use drive::vendors::festo_cmmo_st::fhpp::parameter_channel::{
     res_id, ParameterRequest, ParameterResponse, Request, MODE_PARAMETER,
 };
 

@@ -19,25 +19,16 @@
 //! - [`parameter_channel`]: the EFPC bytes 9…16 (App. C), wire codec for drive and master, and
 //!   the drive's server;
 //! - [`parameter_file`]: the parameter file and the permanent memory (C.4.3, PNU 127);
-//! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7);
-//! - [`diagnostics`]: the App. D messages and the error-management coding (PNU 234…246);
-//! - [`diagnostic_memory`]: the 200-entry ring of PNU 200…204 (§7.1.3);
-//! - [`seven_segment`]: what the 7-segment display shows (§7.1.2 Tab. 7.3);
-//! - [`homing`]: the homing methods of PNU 1011 (Tab. 6.2) as data;
-//! - [`axis_mechanics`]: the end stops, reference switch and index pulse homing finds.
+//! - [`parameter_file_transfer`]: its upload and download in 6-byte packets (C.4.5–C.4.7).
+//!
+//! The profile imports nothing of the CMMO-ST device ([`super`]): its diagnostics, homing
+//! methods and device model use the profile, never the reverse.
 
-pub mod axis_mechanics;
 pub mod control_bytes;
-pub mod device;
-pub mod diagnostic_memory;
-pub mod diagnostics;
-pub mod homing;
 pub mod parameter_channel;
 pub mod parameter_file;
 pub mod parameter_file_transfer;
-pub mod plant_supervision;
 pub mod record_table;
-pub mod seven_segment;
 pub mod state_machine;
 pub mod status_bytes;
 
@@ -109,7 +100,7 @@ macro_rules! bit_byte {
                 if first {
                     f.write_str("-")?;
                 }
-                write!(f, " ({})", $crate::fhpp::BitPattern(self.0))
+                write!(f, " ({})", $crate::vendors::festo_cmmo_st::fhpp::BitPattern(self.0))
             }
         }
     };

@@ -19,7 +19,7 @@
 //!   (1005:2 / 1005:3) / (1003:1 / 1003:2) (fhpp §6 inferred formula), PNU 1000 = 0x80 inverts
 //!   the sign. With the dictionary's defaults (rotary, 1 SINC = 0.01°, PNU 600 = −2, 601 = 41h,
 //!   feed 36000 SINC per revolution, encoder 2000) 1 EINC = 18 SINC.
-//! - **Parameter channel** ([`super::parameter_channel`]): bytes 9…16 of a 16-byte telegram,
+//! - **Parameter channel** ([`super::fhpp::parameter_channel`]): bytes 9…16 of a 16-byte telegram,
 //!   one job per cycle through this device's own [`ObjectAccess`]; PNU 127 saves to and loads
 //!   from the permanent memory, which also holds the parameter file.
 //!
@@ -38,20 +38,20 @@ use core::time::Duration;
 use od::{AbortCode, DataType, Entry, Instant, ObjectAccess, ObjectDictionary, Value};
 
 use super::axis_mechanics::AxisMechanics;
-use super::control_bytes::{ControlMode, OutputData};
 use super::diagnostic_memory::{self, DiagnosticMemory, EventType};
 use super::diagnostics::{self, Class, Diagnostic};
-use super::homing::{self, Method, Target};
-use super::parameter_channel::{self, ParameterChannel};
-use super::parameter_file::{FormatError, PermanentMemory};
-use super::record_table::{ChainCondition, Comparators, Rcb1, Record, RecordTable};
-use super::seven_segment::SevenSegment;
-use super::state_machine::{
+use super::fhpp::control_bytes::{ControlMode, OutputData};
+use super::fhpp::parameter_channel::{self, ParameterChannel};
+use super::fhpp::parameter_file::{FormatError, PermanentMemory};
+use super::fhpp::record_table::StartBehaviour;
+use super::fhpp::record_table::{ChainCondition, Comparators, Rcb1, Record, RecordTable};
+use super::fhpp::state_machine::{
     Ack, Authority, Event, Fault, Fhpp, MotionCommand, MotionStatus, RelativeTo,
 };
-use super::{FHPP_FPC_LEN, FHPP_STD_LEN};
+use super::fhpp::{FHPP_FPC_LEN, FHPP_STD_LEN};
+use super::homing::{self, Method, Target};
+use super::seven_segment::SevenSegment;
 use crate::controlword::ConfirmedWrites;
-use crate::fhpp::record_table::StartBehaviour;
 use crate::stepper::{sinc_to_si, Stepper, StepperData, StepperDemand, StepperMode};
 use crate::trajectory::{Limits, Trajectory};
 

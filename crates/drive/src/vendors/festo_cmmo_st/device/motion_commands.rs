@@ -446,7 +446,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// [min, max] for its window time (min > max: never); the time comparator counts from the
     /// task start. Result: PNU 312 and the chaining conditions 20…23.
     pub(super) fn compare(&mut self) {
-        let direct = self.fhpp.operating_mode() == crate::fhpp::OperatingMode::Direct;
+        let direct = self.fhpp.operating_mode()
+            == crate::vendors::festo_cmmo_st::fhpp::OperatingMode::Direct;
         let set = if direct {
             Some(self.params.direct_comparators)
         } else {

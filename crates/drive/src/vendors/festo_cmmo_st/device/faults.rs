@@ -2,7 +2,7 @@
 //!
 //! # Decisions
 //!
-//! - **Diagnostics** (§7, App. D): the messages are the table of [`crate::fhpp::diagnostics`]; the
+//! - **Diagnostics** (§7, App. D): the messages are the table of [`crate::vendors::festo_cmmo_st::diagnostics`]; the
 //!   class and reaction of each come from PNU 246 / 242 (subindex = number + 1), whose writes
 //!   are checked against PNU 234 / 238 (rw2: output stage off). Errors go to the state
 //!   machine (T7, the reaction A…G applied there), warnings to SCON.WARN / PNU 221,
@@ -14,7 +14,7 @@
 //!   11h…14h, 29h, 2Ah (software limits), 24h (force or index homing in open loop), 22h,
 //!   23h, 2Eh, 3Ah (homing), 40h (teach), 1Bh
 //!   ([`FhppDevice::set_load_voltage`]); 47h / 48h come from the Modbus runtime's watchdog.
-//! - **Diagnostic memory** ([`crate::fhpp::diagnostic_memory`]): incoming faults (01h), warnings
+//! - **Diagnostic memory** ([`crate::vendors::festo_cmmo_st::diagnostic_memory`]): incoming faults (01h), warnings
 //!   (05h) and informations (09h) when PNU 246 bit 7 (or App. D "always") says so, the end of
 //!   the active fault as 00h, 3Dh at power-on / clear / wrap; time stamps are the device's
 //!   cycle clock in ms. Mirrored into PNU 200…204:4 at the end of a cycle that changed it, so

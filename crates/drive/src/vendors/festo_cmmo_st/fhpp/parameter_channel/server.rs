@@ -34,9 +34,11 @@ use super::{
     DecodeError, ErrorCode, FileResponse, ParameterRequest, ParameterResponse, Request, Response,
     MODE_FILE, MODE_PARAMETER,
 };
-use crate::fhpp::parameter_file::PermanentMemory;
-use crate::fhpp::parameter_file_transfer::{FileTransfer, Reply, TransferContext};
-use crate::fhpp::state_machine::Authority;
+use crate::vendors::festo_cmmo_st::fhpp::parameter_file::PermanentMemory;
+use crate::vendors::festo_cmmo_st::fhpp::parameter_file_transfer::{
+    FileTransfer, Reply, TransferContext,
+};
+use crate::vendors::festo_cmmo_st::fhpp::state_machine::Authority;
 
 /// Diagnostic raised for an aborting file-transfer error: "E27" (C.4.7), 27h "save
 /// parameters" (App. D).

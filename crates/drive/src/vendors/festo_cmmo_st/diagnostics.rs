@@ -13,7 +13,7 @@
 //! another table layout); "value is out of range" is printed as a second "40h" and sits at
 //! 4Ch here (decision D6 of the device file).
 
-use super::state_machine::{Ack, Reaction};
+use super::fhpp::state_machine::{Ack, Reaction};
 
 /// The class a diagnostic has at run time (PNU 246 bits 5, 6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -2,8 +2,8 @@
 //!
 //! # Decisions
 //!
-//! - **Homing** (§6.2, PNU 1010…1017; the methods as data in [`crate::fhpp::homing`], the end
-//!   stops, reference switch and index pulse in [`crate::fhpp::axis_mechanics`], set through
+//! - **Homing** (§6.2, PNU 1010…1017; the methods as data in [`crate::vendors::festo_cmmo_st::homing`], the end
+//!   stops, reference switch and index pulse in [`crate::vendors::festo_cmmo_st::axis_mechanics`], set through
 //!   [`FhppSettings::mechanics`]): HOM voids the old reference (SPOS.REF = 0, software
 //!   limits off) and the method of PNU 1011 runs under the current limit PNU 1015 (‰ of
 //!   PNU 555) with the ramps of PNU 1013 and no following-error monitoring:
@@ -12,7 +12,7 @@
 //!   stop first: 23h); −17 / −18 at PNU 1012:1 into the stop until the block detection
 //!   (current at the PNU 1015 limit and actual velocity < PNU 1016, both for PNU 1017 ms)
 //!   takes the actual position as REF; 23 / 27 (CiA 402 numbering, see
-//!   [`crate::fhpp::homing::METHODS`]) at PNU 1012:1 onto the switch, back off it at the crawl
+//!   [`crate::vendors::festo_cmmo_st::homing::METHODS`]) at PNU 1012:1 onto the switch, back off it at the crawl
 //!   velocity PNU 1012:3 to its edge (23: the negative edge, 27: the positive one), REF = the
 //!   edge in open loop, the next index pulse behind it in closed loop (closer than 5 % of a
 //!   revolution to the edge: 2Eh); a stop before the switch is 22h (closed loop), an
