@@ -40,8 +40,8 @@ const CIA402_OBJECTS: [u16; 4] = [0x6040, 0x6041, 0x6060, 0x6061];
 
 impl Eds {
     /// Refuses a file whose device type 1000h does not name CiA 402 (bits 0–15 = 402, CiA 301
-    /// §7.5.2.1).
-    /// A drive also has the objects of [`CIA402_OBJECTS`].
+    /// §7.5.2.1), or that lacks one of the objects every drive has: the controlword 6040h,
+    /// the statusword 6041h, the modes 6060h and their display 6061h.
     pub fn require_cia402(&self) -> Result<(), EdsError> {
         if self.device.profile != od::Profile::Cia402 {
             return Err(EdsError::Invalid {
