@@ -249,7 +249,7 @@ const _: () = {
 
 /// An object of the manufacturer area 2000h–5FFFh (CiA 301 §7.4.1) or the drive data 6510h,
 /// which CiA 402 leaves to the manufacturer: the engine reads and writes it only for a vendor
-/// that gives it a meaning ([`Vendor::MANUFACTURER_OBJECTS`]).
+/// that gives it a meaning ([`MANUFACTURER_OBJECTS`](Vendor#associatedconstant.MANUFACTURER_OBJECTS)).
 pub(crate) const fn manufacturer_object(index: u16) -> bool {
     matches!(index, 0x2000..=0x5FFF | 0x6510)
 }
@@ -513,7 +513,7 @@ fn decode_i64_general(e: &Entry, raw: &[u8]) -> i64 {
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// A drive at power-on over `od` (holding defaults, commissioning and stored values),
     /// with the personality and the state its vendor gives the device file
-    /// ([`Vendor::for_device`]).
+    /// ([`for_device`](Vendor#tymethod.for_device)).
     pub fn new(od: ObjectDictionary<S>, settings: DriveSettings) -> Self {
         let (personality, vendor) = V::for_device(od.description());
         Self::with_vendor(od, settings, personality, vendor)

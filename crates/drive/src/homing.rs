@@ -89,6 +89,20 @@ pub const fn find_method(table: &[Method], number: i8) -> Option<Method> {
     None
 }
 
+/// The method `number` of the engine's tables ([`METHODS`], then [`HOME_SWITCH_METHODS`]),
+/// for a personality's const table of the methods it offers.
+// Only called in const tables: an unknown number fails the build, never a drive.
+#[allow(clippy::panic)]
+pub const fn engine_method(number: i8) -> Method {
+    match find_method(&METHODS, number) {
+        Some(m) => m,
+        None => match find_method(&HOME_SWITCH_METHODS, number) {
+            Some(m) => m,
+            None => panic!("no such homing method"),
+        },
+    }
+}
+
 /// The home-switch methods 19 … 22 (CiA 402 §6.7.4.3), positive the clockwise direction.
 ///
 /// Decision: the twin's home switch is logical (active on the cam); 19/21 (normally closed)

@@ -7,7 +7,7 @@ use od::{AbortCode, DeviceDescription, ObjectAccess, Value};
 
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, Hook};
-use crate::homing::{self, find_method, Method};
+use crate::homing::{engine_method, Method};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision, Vendor,
 };
@@ -60,29 +60,19 @@ const ERRORS: [ErrorSpec; 3] = [
     },
 ];
 
-/// The method `number` of the engine's CiA 402 table.
-// Only called in the const table below: an unknown number fails the build, never a drive.
-#[allow(clippy::panic)]
-const fn cia_method(number: i8) -> Method {
-    match find_method(&homing::METHODS, number) {
-        Some(m) => m,
-        None => panic!("no such homing method"),
-    }
-}
-
 /// The CiA 402 homing methods (§6.7.4) the engine has steps for.
 const HOMING_METHODS: [Method; 11] = [
-    cia_method(1),
-    cia_method(2),
-    cia_method(7),
-    cia_method(11),
-    cia_method(17),
-    cia_method(18),
-    cia_method(23),
-    cia_method(27),
-    cia_method(33),
-    cia_method(34),
-    cia_method(35),
+    engine_method(1),
+    engine_method(2),
+    engine_method(7),
+    engine_method(11),
+    engine_method(17),
+    engine_method(18),
+    engine_method(23),
+    engine_method(27),
+    engine_method(33),
+    engine_method(34),
+    engine_method(35),
 ];
 
 const fn personality(feed_constant: bool) -> Personality {

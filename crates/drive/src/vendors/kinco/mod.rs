@@ -30,7 +30,7 @@ pub mod tuning;
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
-use crate::homing::{self, find_method, Method};
+use crate::homing::{engine_method, Method};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision,
 };
@@ -136,20 +136,6 @@ const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
     }
 }
 
-/// The homing method `number` of the CiA 402 table the engine runs (`homing::METHODS`, the
-/// CMMP-AS's steps of CiA 402's figures) or of the home-switch methods 19 … 22.
-// Only called in the const table below: an unknown number fails the build, never a drive.
-#[allow(clippy::panic)]
-const fn cia_method(number: i8) -> Method {
-    match find_method(&homing::METHODS, number) {
-        Some(m) => m,
-        None => match find_method(&homing::HOME_SWITCH_METHODS, number) {
-            Some(m) => m,
-            None => panic!("no such homing method"),
-        },
-    }
-}
-
 /// Tab. 6-19 (§6.6, L1690-1720): the CiA 402 methods the manual lists
 /// with rows that survived the OCR and the engine has steps for — 1, 2 (limit switch and
 /// index), 7, 11, 23, 27 (limit switch and home switch), 17, 18 (limit switch), 19 … 22 (home
@@ -159,23 +145,23 @@ const fn cia_method(number: i8) -> Method {
 /// Decision: the rows lost in the OCR (3 … 6, 8 … 10, 12 … 14, 24 … 26, 28 … 30) are not
 /// offered; 6098h refuses them rather than guess their figures.
 pub const HOMING_METHODS: [Method; 17] = [
-    cia_method(-18),
-    cia_method(-17),
-    cia_method(1),
-    cia_method(2),
-    cia_method(7),
-    cia_method(11),
-    cia_method(17),
-    cia_method(18),
-    cia_method(19),
-    cia_method(20),
-    cia_method(21),
-    cia_method(22),
-    cia_method(23),
-    cia_method(27),
-    cia_method(33),
-    cia_method(34),
-    cia_method(35),
+    engine_method(-18),
+    engine_method(-17),
+    engine_method(1),
+    engine_method(2),
+    engine_method(7),
+    engine_method(11),
+    engine_method(17),
+    engine_method(18),
+    engine_method(19),
+    engine_method(20),
+    engine_method(21),
+    engine_method(22),
+    engine_method(23),
+    engine_method(27),
+    engine_method(33),
+    engine_method(34),
+    engine_method(35),
 ];
 
 /// The controlword values of Tab. 6-5 (L1272; the KINCO-CW vectors).

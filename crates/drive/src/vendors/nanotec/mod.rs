@@ -21,7 +21,7 @@ use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
-use crate::homing::{Method, Speed, Step, Until};
+use crate::homing::{engine_method, Method, Speed, Step, Until};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable,
     ModeSpec, OptionCode, Personality, PlantSupervision, Vendor,
@@ -252,16 +252,6 @@ use crate::homing::Signal::Home;
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index};
 
-/// The home-switch method `number` of the engine's table.
-// Only called in the const table below: an unknown number fails the build, never a drive.
-#[allow(clippy::panic)]
-const fn home_switch_method(number: i8) -> Method {
-    match crate::homing::find_method(&crate::homing::HOME_SWITCH_METHODS, number) {
-        Some(m) => m,
-        None => panic!("no such homing method"),
-    }
-}
-
 /// §5.3: all 13 methods, 19–22, 33–35, the block methods −2 / −3 and the external I/O
 /// methods −4 … −7. Clockwise is the positive direction (§9: positive VL speed is
 /// "Rechtslauf").
@@ -271,10 +261,10 @@ const fn home_switch_method(number: i8) -> Method {
 /// travel settings gives, so 19 and 22 run the same steps, as do 20 and 21.
 pub const HOMING_METHODS: [Method; 13] = [
     // 19 … 22: the home-switch methods of CiA 402 (`homing::HOME_SWITCH_METHODS`).
-    home_switch_method(19),
-    home_switch_method(20),
-    home_switch_method(21),
-    home_switch_method(22),
+    engine_method(19),
+    engine_method(20),
+    engine_method(21),
+    engine_method(22),
     // 33: CW at 6099h:02 to the index mark, then reverse: CCW off the mark, stop (§5.3).
     // Decision: the index pulse is a point, so "moves off the index mark" is the pass back
     // over it; the reference is the mark, met on the way back at 6099h:02 with the immediate
