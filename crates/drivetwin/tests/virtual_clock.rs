@@ -8,6 +8,10 @@
     clippy::panic
 )]
 
+#[path = "support/ecat_inputs.rs"]
+mod ecat_inputs;
+use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
+
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -19,7 +23,7 @@ use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use ethercat::datagram::Command;
-use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
+use ethercat::frame::{Address, EthernetFrame, Frame};
 
 fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
@@ -56,62 +60,6 @@ fn fhpp_cycle(tid: u16, ccon: u8, cpos: u8) -> Input {
             t0, t1, 0, 0, 0, 19, 1, 0x17, 0, 0, 0, 4, 0, 0, 0, 4, 8, ccon, cpos, 0, 0, 0, 0, 0, 0,
         ],
     }
-}
-
-/// One EtherCAT frame of the master with the datagrams `reqs`.
-fn ecat(reqs: &[(Command, Address, Vec<u8>)]) -> Input {
-    let mut buf = vec![0u8; 1514];
-    let mut w = FrameWriter::ethernet(&mut buf, [0x01; 6]).expect("writer");
-    for (i, (c, a, d)) in reqs.iter().enumerate() {
-        w.push(*c, i as u8, *a, d).expect("datagram");
-    }
-    let n = w.finish();
-    buf.truncate(n);
-    Input::Ethercat {
-        chain: 0,
-        frame: buf,
-    }
-}
-
-const STATION: u16 = 0x1001;
-
-fn fpwr(ado: u16, d: &[u8]) -> Input {
-    ecat(&[(
-        Command::Fpwr,
-        Address::Physical { adp: STATION, ado },
-        d.to_vec(),
-    )])
-}
-
-fn fprd(ado: u16, len: usize) -> Input {
-    ecat(&[(
-        Command::Fprd,
-        Address::Physical { adp: STATION, ado },
-        vec![0; len],
-    )])
-}
-
-/// A sync manager's 8 register bytes.
-fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
-    let mut v = start.to_le_bytes().to_vec();
-    v.extend_from_slice(&len.to_le_bytes());
-    v.extend_from_slice(&[control, 0, 0x01, 0]);
-    v
-}
-
-/// An expedited CoE SDO request written to the mailbox (SM0 at 1000h), counter `counter`.
-fn coe(counter: u8, sdo: &[u8]) -> Input {
-    let mut req = vec![0u8; 0x80];
-    req[..8].copy_from_slice(&[10, 0, 0, 0, 0, 0x03 | counter << 4, 0x00, 0x20]);
-    req[8..8 + sdo.len()].copy_from_slice(sdo);
-    fpwr(0x1000, &req)
-}
-
-fn coe_download(counter: u8, index: u16, sub: u8, data: &[u8]) -> Input {
-    let [i0, i1] = index.to_le_bytes();
-    let mut sdo = vec![0x23 | ((4 - data.len() as u8) << 2), i0, i1, sub];
-    sdo.extend_from_slice(data);
-    coe(counter, &sdo)
 }
 
 /// The EtherCAT script, from `t0`: SOEM's start-up to Pre-Op with the mailbox, then CoE

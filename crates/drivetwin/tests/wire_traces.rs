@@ -33,6 +33,10 @@
     clippy::panic
 )]
 
+#[path = "support/ecat_inputs.rs"]
+mod ecat_inputs;
+use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -51,7 +55,7 @@ use drivetwin::serial::line::VirtualLine;
 use drivetwin::serial::setup::{virtual_lines, LineRequest};
 use drivetwin::serial::Kind;
 use ethercat::datagram::Command;
-use ethercat::frame::{Address, FrameWriter};
+use ethercat::frame::Address;
 
 /// Whether to rewrite the golden files instead of comparing with them.
 const BLESS: &str = "DRIVETWIN_BLESS";
@@ -716,62 +720,6 @@ fn cmmo_st_on_modbus_tcp() {
 }
 
 // ---- CMMP-AS on EtherCAT ----
-
-/// One EtherCAT frame of the master with the datagrams `reqs`.
-fn ecat(reqs: &[(Command, Address, Vec<u8>)]) -> Input {
-    let mut buf = vec![0u8; 1514];
-    let mut w = FrameWriter::ethernet(&mut buf, [0x01; 6]).expect("writer");
-    for (i, (c, a, d)) in reqs.iter().enumerate() {
-        w.push(*c, i as u8, *a, d).expect("datagram");
-    }
-    let n = w.finish();
-    buf.truncate(n);
-    Input::Ethercat {
-        chain: 0,
-        frame: buf,
-    }
-}
-
-const STATION: u16 = 0x1001;
-
-fn fpwr(ado: u16, d: &[u8]) -> Input {
-    ecat(&[(
-        Command::Fpwr,
-        Address::Physical { adp: STATION, ado },
-        d.to_vec(),
-    )])
-}
-
-fn fprd(ado: u16, len: usize) -> Input {
-    ecat(&[(
-        Command::Fprd,
-        Address::Physical { adp: STATION, ado },
-        vec![0; len],
-    )])
-}
-
-/// A sync manager's 8 register bytes.
-fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
-    let mut v = start.to_le_bytes().to_vec();
-    v.extend_from_slice(&len.to_le_bytes());
-    v.extend_from_slice(&[control, 0, 0x01, 0]);
-    v
-}
-
-/// A CoE SDO request (ETG.1000.6 §5.6.2) in the mailbox (SM0 at 1000h), counter `counter`.
-fn coe(counter: u8, sdo: &[u8]) -> Input {
-    let mut req = vec![0u8; 0x80];
-    req[..8].copy_from_slice(&[10, 0, 0, 0, 0, 0x03 | counter << 4, 0x00, 0x20]);
-    req[8..8 + sdo.len()].copy_from_slice(sdo);
-    fpwr(0x1000, &req)
-}
-
-fn coe_download(counter: u8, index: u16, sub: u8, data: &[u8]) -> Input {
-    let [i0, i1] = index.to_le_bytes();
-    let mut sdo = vec![0x23 | ((4 - data.len() as u8) << 2), i0, i1, sub];
-    sdo.extend_from_slice(data);
-    coe(counter, &sdo)
-}
 
 /// The master's start-up to Pre-Op with the mailbox, AL status and identity reads, CoE
 /// writes that enable the drive and start a PP move, 6064h / 6041h uploads, an upload of an
