@@ -77,16 +77,15 @@ pub fn by_name(name: &str) -> Option<&'static DeviceDescription> {
     })
 }
 
-/// CiA 402 §6.4.4 (6502h) bit, 6060h value, and the objects a mode cannot run without, for
-/// each mode the engine implements.
-const MODES: [(u8, i8, &[u16]); 7] = [
-    (0, mode::PROFILE_POSITION, &[0x607A, 0x6081]),
-    (1, mode::VELOCITY, &[0x6042]),
-    (2, mode::PROFILE_VELOCITY, &[0x60FF]),
-    (3, mode::PROFILE_TORQUE, &[0x6071]),
-    (5, mode::HOMING, &[0x6098]),
-    (6, mode::INTERPOLATED_POSITION, &[0x60C1]),
-    (7, mode::CYCLIC_SYNCHRONOUS_POSITION, &[0x607A]),
+/// The objects a mode cannot run without (its 6060h value, the objects).
+const MODE_OBJECTS: [(i8, &[u16]); 7] = [
+    (mode::PROFILE_POSITION, &[0x607A, 0x6081]),
+    (mode::VELOCITY, &[0x6042]),
+    (mode::PROFILE_VELOCITY, &[0x60FF]),
+    (mode::PROFILE_TORQUE, &[0x6071]),
+    (mode::HOMING, &[0x6098]),
+    (mode::INTERPOLATED_POSITION, &[0x60C1]),
+    (mode::CYCLIC_SYNCHRONOUS_POSITION, &[0x607A]),
 ];
 
 /// The generic CiA 402 personality of `desc`: CiA 402's defaults where the engine asks a
@@ -104,16 +103,23 @@ fn personality(desc: &'static DeviceDescription) -> Personality {
             od::Value::Unsigned(u) => Some(u),
             _ => None,
         });
-    let modes: Vec<ModeSpec> = MODES
+    // The standard drive's modes (their 6502h bits), narrowed to the file's 6502h and to
+    // those whose objects the file has.
+    let runnable = |m: &ModeSpec| {
+        MODE_OBJECTS
+            .iter()
+            .find(|(mode, _)| *mode == m.mode)
+            .is_some_and(|(_, needs)| needs.iter().all(|i| has(*i)))
+    };
+    let modes: Vec<ModeSpec> = CIA402
+        .modes
         .iter()
-        .filter(|(bit, _, needs)| {
-            supported.is_none_or(|s| s & (1 << bit) != 0) && needs.iter().all(|i| has(*i))
+        .filter(|m| {
+            m.bit
+                .is_some_and(|bit| supported.is_none_or(|s| s & (1 << bit) != 0))
+                && runnable(m)
         })
-        .map(|(bit, mode, _)| ModeSpec {
-            mode: *mode,
-            bit: Some(*bit),
-            ethercat_only: false,
-        })
+        .copied()
         .collect();
     // 60E3h supported_homing_methods (CiA 402 §8.4.1): sub 1… each a method.
     let listed: Option<Vec<i64>> = desc.object(0x60E3).map(|o| {
