@@ -56,7 +56,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_drive::CanDrive;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -132,7 +132,7 @@ fn spawn_loop(front: FrontEnds, cpu: usize) -> Result<StopHandle, String> {
 /// `cpu`.
 fn twin_on_bus(cpu: usize, bitrate: u32) -> Result<(SocketAddr, StopHandle), String> {
     let cmmp = devices::by_name("cmmp-as").ok_or("no cmmp-as")?;
-    let drive = CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default()))
+    let drive = Station::with_settings(cmmp, 1, None, vec![], Some(Default::default()))
         .map_err(|e| e.to_string())?;
     let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let addr = listener.local_addr().map_err(|e| e.to_string())?;
@@ -198,7 +198,7 @@ fn realistic_bus() -> Result<(), String> {
 /// The twin: one cell loop with a CMMP-AS on socketcand and a CMMO-ST on Modbus TCP.
 fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     let cmmp = devices::by_name("cmmp-as").ok_or("no cmmp-as")?;
-    let drive = CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default()))
+    let drive = Station::with_settings(cmmp, 1, None, vec![], Some(Default::default()))
         .map_err(|e| e.to_string())?;
     let cmmo = devices::by_name("cmmo-st").ok_or("no cmmo-st")?;
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size])

@@ -23,7 +23,7 @@ use canopen::CanFrame;
 use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
 use drivetwin::cell::bus_timing::BusTiming;
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
+use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
@@ -52,7 +52,7 @@ fn cell(bitrate: u32, every: u8, motors: bool) -> Cell {
             .map(|(index, sub, bytes)| Commissioning { index, sub, bytes })
             .collect();
             let settings = motors.then(DriveSettings::default);
-            CanDrive::with_settings(desc, node, None, commissioning, settings).expect("a drive")
+            Station::with_settings(desc, node, None, commissioning, settings).expect("a drive")
         })
         .collect();
     Cell::new(drives).with_bitrate(bitrate, Duration::from_millis(1))

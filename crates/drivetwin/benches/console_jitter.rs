@@ -43,9 +43,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::lateness::LatenessFigures;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::web::{self, HttpSetting};
@@ -151,7 +151,7 @@ fn cell() -> Result<Cell, String> {
     let cmmp = devices::by_name("cmmp-as").ok_or("no cmmp-as")?;
     let drives = (1..=DRIVES as u8)
         .map(|node| {
-            CanDrive::with_settings(cmmp, node, None, vec![], Some(Default::default()))
+            Station::with_settings(cmmp, node, None, vec![], Some(Default::default()))
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, _>>()?;

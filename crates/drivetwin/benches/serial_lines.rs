@@ -20,7 +20,7 @@ use std::time::{Duration, Instant as StdInstant};
 
 use criterion::{black_box, Criterion};
 use drive::vendors::kinco::rs232::{KincoRs232, Request};
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
+use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CellLoop, FrontEnds};
@@ -119,7 +119,7 @@ fn pty_round_trip(baud: u32, code: u16, count: usize) -> Result<(), String> {
     let dir = std::env::temp_dir().join(format!("drivetwin-bench-{}-{baud}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
     let path = dir.join("ttyKINCO");
-    let drive = CanDrive::new(
+    let drive = Station::new(
         &devices::KINCO_FD3,
         1,
         None,

@@ -14,7 +14,7 @@ use std::time::Duration;
 use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
 use drivetwin::cell::bus_timing::BusFigures;
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
+use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
@@ -35,7 +35,7 @@ fn commissioning(values: &[(u16, u8, &[u8])]) -> Vec<Commissioning> {
 fn cell(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> Cell {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drives = (1..=n)
-        .map(|node| CanDrive::new(desc, node, None, per_node(node)).expect("drive"))
+        .map(|node| Station::new(desc, node, None, per_node(node)).expect("drive"))
         .collect();
     Cell::new(drives)
 }
@@ -211,9 +211,9 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     let kinco = devices::by_name("kinco-fd3").expect("kinco-fd3");
     let nanotec = devices::by_name("nanotec-smci47s").expect("nanotec");
     let drives = vec![
-        CanDrive::with_settings(cmmp, 1, None, hb.clone(), Some(Default::default())).expect("1"),
-        CanDrive::new(kinco, 2, None, hb.clone()).expect("2"),
-        CanDrive::with_settings(nanotec, 3, None, hb.clone(), Some(Default::default())).expect("3"),
+        Station::with_settings(cmmp, 1, None, hb.clone(), Some(Default::default())).expect("1"),
+        Station::new(kinco, 2, None, hb.clone()).expect("2"),
+        Station::with_settings(nanotec, 3, None, hb.clone(), Some(Default::default())).expect("3"),
     ];
     let mut cell = Cell::new(drives).with_bitrate(500_000, Duration::from_millis(1));
     let at = |ms| Instant::from_millis(ms);

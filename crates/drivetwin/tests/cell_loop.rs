@@ -11,13 +11,13 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_drive::CanDrive;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
 
 fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
-    let drive = CanDrive::new(desc, 1, None, vec![]).expect("drive");
+    let drive = Station::new(desc, 1, None, vec![]).expect("drive");
     let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = listener.local_addr().expect("addr");
     let mut config = ServerConfig::new("vcan0");
@@ -188,7 +188,7 @@ fn two_buses_on_one_loop_keep_their_frames_apart() {
     let mut addrs = Vec::new();
     for _ in 0..2 {
         // Node 1 on each bus: node-IDs are per bus.
-        let drive = CanDrive::new(desc, 1, None, vec![]).expect("drive");
+        let drive = Station::new(desc, 1, None, vec![]).expect("drive");
         let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
         addrs.push(listener.local_addr().expect("addr"));
         let mut config = ServerConfig::new("vcan0");

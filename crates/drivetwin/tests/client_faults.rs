@@ -75,7 +75,7 @@ fn cell() -> (web_rig::Running, SocketAddr) {
     let addr = listener.local_addr().expect("addr");
     let bus = CanBus {
         socketcand: Some((listener, ServerConfig::new("vcan0"))),
-        ..CanBus::new(Cell::new(vec![web_rig::can_drive("cmmp-as", 1)]))
+        ..CanBus::new(Cell::new(vec![web_rig::station("cmmp-as", 1)]))
     };
     let front = FrontEnds {
         buses: vec![bus],

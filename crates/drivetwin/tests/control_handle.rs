@@ -13,8 +13,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{Interface, Plant};
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -74,7 +74,7 @@ impl Client {
 fn one_dictionary_seen_through_the_handle_and_over_sdo() {
     let cmmp = devices::by_name("cmmp-as").expect("cmmp-as");
     let drive =
-        CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
+        Station::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());

@@ -12,8 +12,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use drive::vendors::festo_cmmo_st::fhpp::Authority;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::{ControlHandle, FhppRequest};
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -27,7 +27,7 @@ fn cell() -> (ControlHandle, impl FnOnce()) {
 fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
     let cmmp = devices::by_name(device).expect("device");
     let drive =
-        CanDrive::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
+        Station::with_settings(cmmp, 1, None, vec![], Some(Default::default())).expect("drive");
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());

@@ -10,8 +10,8 @@
 )]
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use od::Instant;
 
@@ -28,7 +28,7 @@ impl Bench {
             .expect("a Kinco cell")
             .remove(0);
         assert!(spec.settings.is_some(), "kinco-fd3 is a CiA 402 drive");
-        let d = CanDrive::with_settings(
+        let d = Station::with_settings(
             spec.desc,
             spec.node,
             None,

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::CanDrive;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
@@ -112,7 +112,7 @@ fn run() -> Outputs {
     let desc = devices::by_name("kinco-fd3").expect("kinco-fd3");
     let drives = (1..=2)
         .map(|n| {
-            CanDrive::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
+            Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
     let mut cell = Cell::new(drives);

@@ -7,8 +7,8 @@
     clippy::panic
 )]
 
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
 use drivetwin::cell::param_store::ParamStore;
+use drivetwin::cell::station::{Commissioning, Station};
 use od::{ObjectAccess, Value};
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
@@ -18,14 +18,14 @@ fn tmpdir(name: &str) -> std::path::PathBuf {
     d
 }
 
-fn drive(dir: &std::path::Path) -> CanDrive {
+fn drive(dir: &std::path::Path) -> Station {
     let store = ParamStore::new(dir, "testbench", 1);
     let hb = Commissioning {
         index: 0x1017,
         sub: 0,
         bytes: vec![0xE8, 0x03],
     };
-    CanDrive::new(&devices::TESTBENCH, 1, Some(store), vec![hb]).unwrap()
+    Station::new(&devices::TESTBENCH, 1, Some(store), vec![hb]).unwrap()
 }
 
 #[test]
@@ -77,7 +77,7 @@ fn a_damaged_file_is_a_clear_error() {
     )
     .unwrap();
     let store = ParamStore::new(&dir, "testbench", 1);
-    let err = CanDrive::new(&devices::TESTBENCH, 1, Some(store), vec![])
+    let err = Station::new(&devices::TESTBENCH, 1, Some(store), vec![])
         .err()
         .expect("refused");
     let text = err.to_string();
@@ -140,11 +140,11 @@ fn a_permanent_memory_is_kept_replaced_and_removed() {
 fn cmmp_reset_application_reloads_the_saved_set() {
     let dir = tmpdir("cmmp-reset");
     let store = ParamStore::new(&dir, "cmmp-as", 1);
-    let mut d = CanDrive::new(&devices::CMMP_AS, 1, Some(store), vec![]).unwrap();
+    let mut d = Station::new(&devices::CMMP_AS, 1, Some(store), vec![]).unwrap();
     let mut out = Vec::new();
     let t0 = od::Instant::ZERO;
     d.boot(t0, &mut |f| out.push(f));
-    let sdo = |d: &mut CanDrive, data: [u8; 8]| {
+    let sdo = |d: &mut Station, data: [u8; 8]| {
         let mut out = Vec::new();
         d.on_frame(t0, &canopen::CanFrame::full(0x601, data), &mut |f| {
             out.push(f)
@@ -189,7 +189,7 @@ fn nanotec_restore_writes_the_stored_set() {
     let dir = tmpdir("nanotec-restore");
     let open = || {
         let store = ParamStore::new(&dir, "nanotec-smci47s", 1);
-        CanDrive::new(&devices::NANOTEC_SMCI47S, 1, Some(store), vec![]).unwrap()
+        Station::new(&devices::NANOTEC_SMCI47S, 1, Some(store), vec![]).unwrap()
     };
     let mut d = open();
     d.model.write(0x1017, 0, &[0xFA, 0x00]).unwrap();

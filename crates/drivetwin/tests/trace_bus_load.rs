@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
+use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use drivetwin::trace::bus_load::{load_path, parse_load};
@@ -41,7 +41,7 @@ fn cell() -> Cell {
                     bytes: vec![1],
                 },
             ];
-            CanDrive::new(desc, node, None, c).expect("drive")
+            Station::new(desc, node, None, c).expect("drive")
         })
         .collect();
     Cell::new(drives).with_bitrate(BITRATE, Duration::from_millis(5))

@@ -16,7 +16,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::CanDrive;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, EthercatCell};
@@ -150,7 +150,7 @@ fn cmmo_st() -> ModbusDrive {
 fn run() -> Vec<(Duration, u8, Vec<u8>)> {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drive =
-        CanDrive::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
+        Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
     let mut cell = Cell::new(vec![drive]);
     let mut modbus = vec![cmmo_st()];
     let mut chain = EthercatCell::empty();

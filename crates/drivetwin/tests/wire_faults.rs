@@ -12,12 +12,12 @@
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::{CanDrive, Commissioning};
+use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::wire_faults::{FaultKind, Reach, WireFault};
 use drivetwin::cell::Cell;
 use od::Instant;
 
-fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> CanDrive {
+fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> Station {
     let desc = devices::by_name(device).expect("device");
     let commissioning = objects
         .iter()
@@ -27,7 +27,7 @@ fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> CanDrive {
             bytes: bytes.clone(),
         })
         .collect();
-    CanDrive::new(desc, node, None, commissioning).expect("drive")
+    Station::new(desc, node, None, commissioning).expect("drive")
 }
 
 /// Node 1 (a test bench) beats every 100 ms; node 2 (a Kinco FD, whose 1016h is a real consumer) watches it with 250 ms.

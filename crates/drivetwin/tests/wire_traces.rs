@@ -43,8 +43,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
@@ -266,7 +266,7 @@ fn can_cell(device: &str, node: u8) -> Cell {
         .drives()
         .expect("a cell of one drive")
         .remove(0);
-    let drive = CanDrive::with_settings(
+    let drive = Station::with_settings(
         spec.desc,
         spec.node,
         None,
@@ -542,7 +542,7 @@ fn kinco_serial() -> Rig {
     let desc = devices::by_name("kinco-fd3").expect("kinco-fd3");
     let drives = (1..=2)
         .map(|n| {
-            CanDrive::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
+            Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
     let cell = Cell::new(drives);

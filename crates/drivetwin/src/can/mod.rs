@@ -1,5 +1,5 @@
 //! CAN transports: the in-process bus, the socketcand TCP server and the SocketCAN bridge.
-//! The drives on a bus, with their CiA 301 nodes, are the cell's ([`crate::cell::can_drive`]).
+//! The drives on a bus, with their CiA 301 nodes, are the cell's ([`crate::cell::station`]).
 
 pub mod bus;
 pub mod frame_budget;

@@ -142,7 +142,7 @@ impl NodeRate {
 
 /// The value of the object that sets a node's rate (Kinco 2F81h, Nanotec 2005h) at power-on,
 /// and where it comes from. The twin powers a drive on as the device does
-/// ([`crate::cell::can_drive::CanDrive::with_settings`]): the default, then the cell file's
+/// ([`crate::cell::station::Station::with_settings`]): the default, then the cell file's
 /// `[drive.objects]` (what a commissioning tool wrote), then the stored set (`--state-dir`,
 /// what the drive saved), which wins.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -404,7 +404,7 @@ mod tests {
     }
 
     /// A saved rate object wins at power-on over the cell file's value, as the drive loads its
-    /// stored set after the commissioning values (`CanDrive::with_settings`), and a refusal
+    /// stored set after the commissioning values (`Station::with_settings`), and a refusal
     /// names the stored file: a Kinco saved at 2F81h = 25 (250 kbit/s, KINCO-CAN-06), a Nanotec
     /// at switches 80h + node with 2005h = 133 (250 kbit/s, §1.1.3 step 4).
     #[test]

@@ -13,13 +13,13 @@ use serde::Deserialize;
 use crate::cell::bus_rate::{
     self, BitrateSetting, BusNode, BusRate, NodeRate, RateCode, RateObject,
 };
-use crate::cell::can_drive::Commissioning;
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, Profile, BIT_RATES_KBIT,
 };
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
+use crate::cell::station::Commissioning;
 use drive::drive::DriveSettings;
 use drive::motor::MotorData;
 use drive::stepper::{StepperData, StepperMode};

@@ -5,7 +5,6 @@
 pub mod bus_faults;
 pub mod bus_rate;
 pub mod bus_timing;
-pub mod can_drive;
 pub mod ci_console;
 pub mod config;
 pub mod control;
@@ -18,6 +17,7 @@ pub mod lateness;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;
+pub mod station;
 pub mod wire_faults;
 
 use std::collections::VecDeque;
@@ -27,7 +27,7 @@ use canbus::frame_time::bits_to_nanos;
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
-use crate::cell::can_drive::CanDrive;
+use crate::cell::station::Station;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
 use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError, WireFaults};
 
@@ -43,7 +43,7 @@ pub struct OnBus {
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
 pub struct Cell {
-    pub drives: Vec<CanDrive>,
+    pub drives: Vec<Station>,
     queue: VecDeque<(CanFrame, Option<usize>)>,
     /// The bus's bit time; none: frames cross at once (the instant bus).
     timing: Option<Box<BusTiming>>,
@@ -78,7 +78,7 @@ enum Attempt {
 }
 
 impl Cell {
-    pub fn new(drives: Vec<CanDrive>) -> Self {
+    pub fn new(drives: Vec<Station>) -> Self {
         let faults = vec![NodeFaults::default(); drives.len()];
         Cell {
             drives,
@@ -404,7 +404,7 @@ impl Cell {
             }
             return Attempt::Dropped;
         }
-        let react = |drives: &mut Vec<CanDrive>,
+        let react = |drives: &mut Vec<Station>,
                      queue: &mut VecDeque<(CanFrame, Option<usize>)>,
                      i: usize,
                      t: Option<Transition>| {

@@ -5,7 +5,7 @@ use std::io;
 use std::time::Instant;
 
 use super::{cell_time, wire, BusState, CellLoop, EthercatChain, FRAMES_PER_TURN};
-use crate::cell::can_drive::CanDrive;
+use crate::cell::station::Station;
 use crate::cell::OnBus;
 use crate::ecat::chain::{trace_frame, BusDrives};
 
@@ -14,7 +14,7 @@ use crate::ecat::chain::{trace_frame, BusDrives};
 pub(super) struct Buses<'a>(pub(super) &'a mut [BusState]);
 
 impl BusDrives for Buses<'_> {
-    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
+    fn station(&mut self, at: OnBus) -> Option<&mut Station> {
         self.0.get_mut(at.bus)?.cell.drives.get_mut(at.drive)
     }
 }

@@ -4,10 +4,10 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
-use drivetwin::cell::can_drive::{CanDrive, DriveError};
 use drivetwin::cell::ci_console;
 use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
 use drivetwin::cell::param_store::ParamStore;
+use drivetwin::cell::station::{Station, StationError};
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock;
 use drivetwin::master::link::{Link, LinkError};
@@ -68,7 +68,7 @@ pub enum CommandError {
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
-    Drive(#[from] DriveError),
+    Drive(#[from] StationError),
     #[error(transparent)]
     Link(#[from] LinkError),
     #[error(transparent)]
@@ -131,7 +131,7 @@ impl CommandError {
                 SdoError::Link(_) => EXIT_LINK,
             },
             CommandError::Fhpp(e) => fhpp::exit_code(e),
-            CommandError::Drive(drivetwin::cell::can_drive::DriveError::NodeId(_)) => EXIT_USAGE,
+            CommandError::Drive(drivetwin::cell::station::StationError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
             CommandError::Kinco(e) => kinco::exit_code(e),

@@ -43,7 +43,7 @@ pub(crate) fn build_cell(
     rates: &[BusRate],
     state_dir: Option<&PathBuf>,
 ) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
-    let mut drives: Vec<Vec<CanDrive>> = buses.iter().map(|_| Vec::new()).collect();
+    let mut drives: Vec<Vec<Station>> = buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
     // `[[drive.diagnostic]]`: (bus, drive in its cell, messages).
     let mut diagnostics = Vec::new();
@@ -96,7 +96,7 @@ pub(crate) fn build_cell(
             s
         });
         let mut drive =
-            CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+            Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
         if shared {
             drive.serve_coe();
         }
@@ -367,7 +367,7 @@ async fn prepare_cell(
     if let Some(dir) = &args.state_dir {
         for spec in specs.iter_mut().filter(|s| s.rate_object.is_some()) {
             let store = ParamStore::new(dir, spec.desc.name, spec.node);
-            let stored = store.load().map_err(DriveError::from)?;
+            let stored = store.load().map_err(StationError::from)?;
             spec.load_stored_rate(&stored, store.path());
         }
     }

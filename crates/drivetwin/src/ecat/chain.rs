@@ -4,7 +4,7 @@
 //! Every slave is an [`Esc`] loaded with the SII image of its personality
 //! (`ethercat::sii::build_sii`) and a [`SlaveDevice`]: the dictionary and, for a CiA 402
 //! personality, the simulated drive and motor, built exactly as the CANopen cell builds them
-//! (cell file, motor commissioning, [`CanDrive::with_settings`]).
+//! (cell file, motor commissioning, [`Station::with_settings`]).
 //!
 //! Process data (the manual's extract kept beside the project, `cmmp-as-1-communication.md` §2):
 //!
@@ -63,10 +63,10 @@ use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
 };
 
-use crate::cell::can_drive::{CanDrive, DriveError, Persisting};
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
+use crate::cell::station::{Persisting, Station, StationError};
 use crate::cell::OnBus;
 
 /// How often the drives run at least when no frame arrives.
@@ -99,7 +99,7 @@ pub enum EcatCellError {
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
-    Drive(#[from] DriveError),
+    Drive(#[from] StationError),
     #[error("{device}: no SII image: {error:?}")]
     Sii {
         device: &'static str,
@@ -193,21 +193,21 @@ pub enum SlaveDrive {
 
 /// Where the drives of [`SlaveDrive::OnBus`] slaves live: the cell's CAN buses.
 pub trait BusDrives {
-    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive>;
+    fn station(&mut self, at: OnBus) -> Option<&mut Station>;
 }
 
 /// A chain without CAN buses: every slave has a drive of its own.
 pub struct NoBuses;
 
 impl BusDrives for NoBuses {
-    fn can_drive(&mut self, _: OnBus) -> Option<&mut CanDrive> {
+    fn station(&mut self, _: OnBus) -> Option<&mut Station> {
         None
     }
 }
 
 /// A cell of one CAN bus (the virtual clock's).
 impl BusDrives for crate::cell::Cell {
-    fn can_drive(&mut self, at: OnBus) -> Option<&mut CanDrive> {
+    fn station(&mut self, at: OnBus) -> Option<&mut Station> {
         if at.bus != 0 {
             return None;
         }
@@ -245,7 +245,7 @@ impl<'a> Bound<'a> {
                 shared_events: None,
             }),
             SlaveDrive::OnBus(at) => {
-                let (model, store, stored, events) = buses.can_drive(*at)?.coe_parts();
+                let (model, store, stored, events) = buses.station(*at)?.coe_parts();
                 Some(Bound {
                     dev,
                     model,
@@ -991,7 +991,7 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
         s
     });
     let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-    let drive = CanDrive::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+    let drive = Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
     let (model, store, stored) = drive.into_parts();
     Ok(SlaveDrive::Own {
         model,

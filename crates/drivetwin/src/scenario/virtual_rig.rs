@@ -16,8 +16,8 @@ use od::{Instant, ObjectAccess};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
-use crate::cell::can_drive::CanDrive;
 use crate::cell::config::CellFile;
+use crate::cell::station::Station;
 use crate::cell::Cell;
 use crate::trace::TraceWriter;
 
@@ -47,7 +47,7 @@ impl VirtualRig {
             .bus_rates(&specs)
             .map_err(|e| cell_err(e.to_string()))?;
         let sections = file.bus.all();
-        let mut drives: Vec<Vec<CanDrive>> = sections.iter().map(|_| Vec::new()).collect();
+        let mut drives: Vec<Vec<Station>> = sections.iter().map(|_| Vec::new()).collect();
         let mut plans: Vec<Vec<_>> = sections.iter().map(|_| Vec::new()).collect();
         let mut modbus = Vec::new();
         for mut spec in specs {
@@ -78,7 +78,7 @@ impl VirtualRig {
             if !spec.on_can().map_err(|e| cell_err(e.to_string()))? || !carried {
                 continue;
             }
-            let d = CanDrive::with_settings(
+            let d = Station::with_settings(
                 spec.desc,
                 spec.node,
                 None,

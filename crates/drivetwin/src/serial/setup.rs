@@ -22,7 +22,7 @@ use super::pty::PortError;
 use super::rs232_line::{TelegramLine, Topology};
 use super::rtu_line::{RtuDrive, RtuLine};
 use super::{baud_of_code, has_port, Kind};
-use crate::cell::can_drive::CanDrive;
+use crate::cell::station::Station;
 use crate::cell::Cell;
 use crate::cell::OnBus;
 
@@ -54,11 +54,11 @@ pub enum SetupError {
     Port(#[from] PortError),
 }
 
-fn drive(cells: &[Cell], at: OnBus) -> Option<&CanDrive> {
+fn drive(cells: &[Cell], at: OnBus) -> Option<&Station> {
     cells.get(at.bus)?.drives.get(at.drive)
 }
 
-fn code(d: &CanDrive, index: u16, sub: u8, default: u64) -> u64 {
+fn code(d: &Station, index: u16, sub: u8, default: u64) -> u64 {
     d.od().get_unsigned(index, sub).unwrap_or(default)
 }
 
@@ -117,11 +117,11 @@ fn line_protocols<'a>(
         if on.iter().any(|r| r.kind != kind) {
             return Err(SetupError::Mixed { path: path.into() });
         }
-        let drives: Vec<(OnBus, &CanDrive)> = on
+        let drives: Vec<(OnBus, &Station)> = on
             .iter()
             .filter_map(|r| drive(cells, r.drive).map(|d| (r.drive, d)))
             .collect();
-        let rate_of = |d: &CanDrive| -> Result<u32, SetupError> {
+        let rate_of = |d: &Station| -> Result<u32, SetupError> {
             let (index, default) = match kind {
                 Kind::Rs232 => (0x2FE0, 270),
                 Kind::Rs485 => (0x2FE2, 540),

@@ -3,9 +3,9 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use canopen::CanFrame;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::param_store::ParamStore;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use od::Instant;
 
@@ -22,7 +22,7 @@ pub fn device_cell(device: &str, store: Option<ParamStore>) -> Cell {
         .expect("the default cell")
         .remove(0);
     assert!(spec.settings.is_some(), "{device} is a CiA 402 drive");
-    let d = CanDrive::with_settings(
+    let d = Station::with_settings(
         spec.desc,
         spec.node,
         store,

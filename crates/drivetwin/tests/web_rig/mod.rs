@@ -8,8 +8,8 @@ use std::sync::{Arc, Mutex};
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_drive::CanDrive;
 use drivetwin::cell::control::ControlHandle;
+use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -54,13 +54,13 @@ pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
 }
 
 /// A CiA 402 drive with its motor, as a cell file makes it.
-pub fn can_drive(device: &str, node: u8) -> CanDrive {
+pub fn station(device: &str, node: u8) -> Station {
     let desc = devices::by_name(device).expect("a personality of the workspace");
-    CanDrive::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
+    Station::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
 }
 
 /// The CAN drives `drives` on one bus with a socketcand server on a free loopback port.
-pub fn bus(drives: Vec<CanDrive>) -> CanBus {
+pub fn bus(drives: Vec<Station>) -> CanBus {
     let can = TcpListener::bind("127.0.0.1:0").expect("bind");
     CanBus {
         socketcand: Some((can, ServerConfig::new("vcan0"))),
@@ -76,7 +76,7 @@ pub fn cmmp_and_cmmo_st() -> Running {
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = mb.local_addr().expect("addr");
     let front = FrontEnds {
-        buses: vec![bus(vec![can_drive("cmmp-as", 1)])],
+        buses: vec![bus(vec![station("cmmp-as", 1)])],
         modbus: vec![ModbusDrive::new(
             mb,
             Arc::new(Mutex::new(dev)),
@@ -92,10 +92,7 @@ pub fn cmmp_and_cmmo_st() -> Running {
 pub fn kinco_and_cmmp() -> Running {
     start(
         FrontEnds {
-            buses: vec![bus(vec![
-                can_drive("kinco-fd3", 2),
-                can_drive("cmmp-as", 1),
-            ])],
+            buses: vec![bus(vec![station("kinco-fd3", 2), station("cmmp-as", 1)])],
             ..FrontEnds::default()
         },
         None,

@@ -19,7 +19,7 @@ use crate::cell::param_store::{self, ParamStore, StoreError, StoredValue};
 const STEP_PERIOD: Duration = Duration::from_millis(1);
 
 #[derive(Debug, thiserror::Error)]
-pub enum DriveError {
+pub enum StationError {
     #[error("node-ID {0} is outside 1…127 (255 = unconfigured, waiting for LSS)")]
     NodeId(u8),
     #[error("commissioning value {index:04X}h:{sub:02X}h: {what}")]
@@ -37,7 +37,7 @@ pub struct Commissioning {
     pub bytes: Vec<u8>,
 }
 
-pub struct CanDrive {
+pub struct Station {
     pub model: Model,
     pub node: Node,
     store: Option<ParamStore>,
@@ -51,7 +51,7 @@ pub struct CanDrive {
 /// Drive events kept for the CoE side at most (it takes them at its next frame or tick).
 const MAX_COE_EVENTS: usize = 64;
 
-impl CanDrive {
+impl Station {
     /// A drive at power-on, not yet booted: defaults, then commissioning values, then the
     /// stored set.
     pub fn new(
@@ -59,11 +59,11 @@ impl CanDrive {
         node_id: u8,
         store: Option<ParamStore>,
         commissioning: Vec<Commissioning>,
-    ) -> Result<Self, DriveError> {
+    ) -> Result<Self, StationError> {
         Self::with_settings(desc, node_id, store, commissioning, None)
     }
 
-    /// As [`CanDrive::new`]; with `settings` a CiA 402 personality gets a simulated drive and
+    /// As [`Station::new`]; with `settings` a CiA 402 personality gets a simulated drive and
     /// motor behind its dictionary.
     pub fn with_settings(
         desc: &'static od::DeviceDescription,
@@ -71,9 +71,9 @@ impl CanDrive {
         store: Option<ParamStore>,
         commissioning: Vec<Commissioning>,
         settings: Option<DriveSettings>,
-    ) -> Result<Self, DriveError> {
+    ) -> Result<Self, StationError> {
         if !(1..=127).contains(&node_id) && node_id != canopen::lss::UNCONFIGURED {
-            return Err(DriveError::NodeId(node_id));
+            return Err(StationError::NodeId(node_id));
         }
         // A node-ID stored by LSS "store configuration" wins over the cell's (CiA 305).
         let node_id = store
@@ -81,7 +81,7 @@ impl CanDrive {
             .and_then(|s| s.load_lss_node_id())
             .unwrap_or(node_id);
         let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size]).map_err(|e| {
-            DriveError::Commissioning {
+            StationError::Commissioning {
                 index: 0,
                 sub: 0,
                 what: format!("storage {e:?}"),
@@ -90,7 +90,7 @@ impl CanDrive {
         for c in &commissioning {
             let e = desc
                 .entry(c.index, c.sub)
-                .ok_or_else(|| DriveError::Commissioning {
+                .ok_or_else(|| StationError::Commissioning {
                     index: c.index,
                     sub: c.sub,
                     what: "no such entry".into(),
@@ -100,7 +100,7 @@ impl CanDrive {
                 None => c.bytes.len() <= e.capacity as usize,
             };
             if !ok {
-                return Err(DriveError::Commissioning {
+                return Err(StationError::Commissioning {
                     index: c.index,
                     sub: c.sub,
                     what: format!("{} bytes do not fit {}", c.bytes.len(), e.data_type.name()),
@@ -113,7 +113,7 @@ impl CanDrive {
         };
         let mut od = od;
         load_all(&mut od, &commissioning, &stored, |_| true);
-        Ok(CanDrive {
+        Ok(Station {
             model: Model::new(od, settings),
             node: Node::new(node_id, desc.cia301),
             store,
@@ -259,7 +259,7 @@ impl CanDrive {
 
     /// The node, and the dictionary as its SDO server writes it (saves carried out).
     fn node_and_access(&mut self) -> (&mut Node, Persisting<'_>) {
-        let CanDrive {
+        let Station {
             model,
             node,
             store,
