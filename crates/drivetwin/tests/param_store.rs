@@ -96,7 +96,7 @@ fn reset_application_reloads_the_stored_set_and_boots() {
     d.model.write(0x2003, 0, &[50, 0]).unwrap();
     out.clear();
     let nmt = canopen::CanFrame::new(0, &[0x81, 1]).unwrap();
-    d.on_frame(od::Instant::ZERO, &nmt, &mut |f| out.push(f));
+    d.on_can_frame(od::Instant::ZERO, &nmt, &mut |f| out.push(f));
     assert_eq!(
         d.od().value(0x2003, 0),
         Some(Value::Signed(9)),
@@ -146,7 +146,7 @@ fn cmmp_reset_application_reloads_the_saved_set() {
     d.boot(t0, &mut |f| out.push(f));
     let sdo = |d: &mut Station, data: [u8; 8]| {
         let mut out = Vec::new();
-        d.on_frame(t0, &canopen::CanFrame::full(0x601, data), &mut |f| {
+        d.on_can_frame(t0, &canopen::CanFrame::full(0x601, data), &mut |f| {
             out.push(f)
         });
         out
@@ -156,14 +156,14 @@ fn cmmp_reset_application_reloads_the_saved_set() {
     let r = sdo(&mut d, [0x23, 0x10, 0x10, 0x01, 0x73, 0x61, 0x76, 0x65]);
     assert_eq!(r[0].data, [0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]);
     sdo(&mut d, [0x2B, 0x17, 0x10, 0x00, 0xFA, 0x00, 0, 0]);
-    d.on_frame(
+    d.on_can_frame(
         t0,
         &canopen::CanFrame::new(0, &[0x01, 0x01]).unwrap(),
         &mut |_| {},
     );
-    assert_eq!(d.node.nmt_state(), canopen::NmtState::Operational);
+    assert_eq!(d.canopen.nmt_state(), canopen::NmtState::Operational);
     out.clear();
-    d.on_frame(
+    d.on_can_frame(
         t0,
         &canopen::CanFrame::new(0, &[0x81, 0x01]).unwrap(),
         &mut |f| out.push(f),
@@ -179,7 +179,7 @@ fn cmmp_reset_application_reloads_the_saved_set() {
         (0x701, &[0u8][..]),
         "boot-up"
     );
-    assert_eq!(d.node.nmt_state(), canopen::NmtState::PreOperational);
+    assert_eq!(d.canopen.nmt_state(), canopen::NmtState::PreOperational);
 }
 
 /// Nanotec NT-SDO-01 with a state directory: "load" writes the defaults to the stored set at

@@ -224,7 +224,7 @@ impl Cell {
         } = self;
         for (i, (d, f)) in drives.iter_mut().zip(faults.iter_mut()).enumerate() {
             if let Some(t) = f.confinement.poll(now) {
-                d.bus_state_changed(now, t, &mut |f| queue.push_back((f, Some(i))));
+                d.can_state_changed(now, t, &mut |f| queue.push_back((f, Some(i))));
             }
             d.poll(now, &mut |f| queue.push_back((f, Some(i))));
         }
@@ -399,7 +399,7 @@ impl Cell {
                     .get_mut(j)
                     .and_then(|f| f.confinement.receive_error());
                 if let (Some(t), Some(d)) = (t, drives.get_mut(j)) {
-                    d.bus_state_changed(at, t, &mut |f| queue.push_back((f, Some(j))));
+                    d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(j))));
                 }
             }
             return Attempt::Dropped;
@@ -409,7 +409,7 @@ impl Cell {
                      i: usize,
                      t: Option<Transition>| {
             if let (Some(t), Some(d)) = (t, drives.get_mut(i)) {
-                d.bus_state_changed(at, t, &mut |f| queue.push_back((f, Some(i))));
+                d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(i))));
             }
         };
         if let Some(i) = origin {
@@ -463,7 +463,7 @@ impl Cell {
             let t = f.confinement.receive_ok();
             react(drives, queue, j, t);
             if let Some(d) = drives.get_mut(j) {
-                d.on_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
+                d.on_can_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
             }
         }
         Attempt::Delivered

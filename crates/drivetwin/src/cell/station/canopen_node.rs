@@ -1,0 +1,60 @@
+//! A station's CANopen front end: its CiA 301 node on the cell's CAN bus (boot-up, the
+//! frames it receives) and its CAN controller's error states.
+
+use canopen::CanFrame;
+use od::Instant;
+
+use super::Station;
+
+impl Station {
+    /// Its CAN controller changed error state: the personality's reaction
+    /// ([`crate::cell::bus_faults`]).
+    pub fn can_state_changed(
+        &mut self,
+        now: Instant,
+        t: canbus::fault_confinement::Transition,
+        out: &mut dyn FnMut(CanFrame),
+    ) {
+        use crate::cell::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
+        tracing::warn!(
+            node = self.node_id(),
+            from = t.from.name(),
+            to = t.to.name(),
+            "CAN controller"
+        );
+        let device = self.model.od().description().name;
+        for r in react(device, t) {
+            match *r {
+                Reaction::Raise(code) => {
+                    self.canopen
+                        .raise_error(&mut self.model, code, COMMUNICATION_REGISTER, [0; 5])
+                }
+                Reaction::Clear(code) => self.canopen.clear_error(&mut self.model, code),
+                Reaction::Repeat(code) => self.canopen.repeat_error(code),
+                Reaction::Fault(code) => {
+                    if let Some(d) = self.model.drive_mut() {
+                        // Raised once; its cause is gone with the bus back, so a fault reset
+                        // clears it. Its EMCY is lost with the bus off; `recovered` sends it.
+                        d.inject_fault(code, COMMUNICATION_REGISTER);
+                        d.clear_fault(code);
+                    }
+                }
+            }
+        }
+        self.poll(now, out);
+    }
+
+    /// Power-on finished: boot-up message.
+    pub fn boot(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
+        self.model.step(now);
+        self.canopen.boot(now, &self.model, out);
+    }
+
+    pub fn on_can_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
+        // The drive first runs up to the frame's time, so the frame acts on the right cycle.
+        self.model.step(now);
+        let (node, mut access) = self.node_and_access();
+        node.on_frame(now, frame, &mut access, out);
+        self.service(now, out);
+    }
+}

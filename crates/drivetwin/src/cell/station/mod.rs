@@ -1,0 +1,258 @@
+//! A station: one drive of the cell with all its front ends. The drive (its dictionary and,
+//! for a CiA 402 device, its engine and motor: [`Model`]) is stepped on the cell's clock;
+//! its front ends reach it through `od::ObjectAccess`: the CANopen node on a CAN bus
+//! ([`canopen_node`]), the CI terminal and the serial ports ([`local`]), the CoE side of an
+//! EtherCAT slave ([`ethercat`]). The runtime's share of the work (parameter files, resets,
+//! the drive's events as emergencies) is done here ([`parameters`]).
+//!
+//! One type split into files, each an `impl Station` with its own part of the doc.
+
+mod canopen_node;
+mod ethercat;
+mod local;
+mod parameters;
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use canopen::{CanFrame, Node, NodeEvent};
+use drive::drive::{DriveEvent, DriveSettings};
+use od::{time::earliest, Instant, ObjectDictionary};
+
+use crate::cell::device_model::Model;
+use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
+use parameters::load_all;
+pub use parameters::{Commissioning, Persisting};
+
+/// How often the runtime steps a drive at least: frames catch the drive up to their own
+/// time first, so a coarser step only batches cycles, it never reorders them.
+const STEP_PERIOD: Duration = Duration::from_millis(1);
+
+#[derive(Debug, thiserror::Error)]
+pub enum StationError {
+    #[error("node-ID {0} is outside 1…127 (255 = unconfigured, waiting for LSS)")]
+    NodeId(u8),
+    #[error("commissioning value {index:04X}h:{sub:02X}h: {what}")]
+    Commissioning { index: u16, sub: u8, what: String },
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
+/// One drive with all its front ends.
+pub struct Station {
+    /// The drive: its dictionary, and for a CiA 402 device its engine and motor.
+    pub model: Model,
+    /// Its CANopen front end: the CiA 301 node on the cell's CAN bus, through which the CI
+    /// terminal and the serial ports write as well.
+    pub canopen: Node,
+    /// Where its parameters are saved (none: kept for the life of the process).
+    store: Option<ParamStore>,
+    /// The set last saved.
+    stored: Vec<StoredValue>,
+    /// The values the cell file sets at power-on.
+    commissioning: Vec<Commissioning>,
+    /// When the drive is stepped next.
+    next_step: Option<Instant>,
+    /// Its EtherCAT front end's share, when the drive is a slave of a chain as well: a copy
+    /// of each drive event for the CoE emergencies.
+    coe_events: Option<VecDeque<DriveEvent>>,
+}
+
+impl Station {
+    /// A drive at power-on, not yet booted: defaults, then commissioning values, then the
+    /// stored set.
+    pub fn new(
+        desc: &'static od::DeviceDescription,
+        node_id: u8,
+        store: Option<ParamStore>,
+        commissioning: Vec<Commissioning>,
+    ) -> Result<Self, StationError> {
+        Self::with_settings(desc, node_id, store, commissioning, None)
+    }
+
+    /// As [`Station::new`]; with `settings` a CiA 402 personality gets a simulated drive and
+    /// motor behind its dictionary.
+    pub fn with_settings(
+        desc: &'static od::DeviceDescription,
+        node_id: u8,
+        store: Option<ParamStore>,
+        commissioning: Vec<Commissioning>,
+        settings: Option<DriveSettings>,
+    ) -> Result<Self, StationError> {
+        if !(1..=127).contains(&node_id) && node_id != canopen::lss::UNCONFIGURED {
+            return Err(StationError::NodeId(node_id));
+        }
+        // A node-ID stored by LSS "store configuration" wins over the cell's (CiA 305).
+        let node_id = store
+            .as_ref()
+            .and_then(|s| s.load_lss_node_id())
+            .unwrap_or(node_id);
+        let od = ObjectDictionary::new(desc, node_id, vec![0; desc.storage_size]).map_err(|e| {
+            StationError::Commissioning {
+                index: 0,
+                sub: 0,
+                what: format!("storage {e:?}"),
+            }
+        })?;
+        for c in &commissioning {
+            let e = desc
+                .entry(c.index, c.sub)
+                .ok_or_else(|| StationError::Commissioning {
+                    index: c.index,
+                    sub: c.sub,
+                    what: "no such entry".into(),
+                })?;
+            let ok = match e.data_type.fixed_size() {
+                Some(n) => c.bytes.len() == n,
+                None => c.bytes.len() <= e.capacity as usize,
+            };
+            if !ok {
+                return Err(StationError::Commissioning {
+                    index: c.index,
+                    sub: c.sub,
+                    what: format!("{} bytes do not fit {}", c.bytes.len(), e.data_type.name()),
+                });
+            }
+        }
+        let stored = match &store {
+            Some(s) => s.load()?,
+            None => Vec::new(),
+        };
+        let mut od = od;
+        load_all(&mut od, &commissioning, &stored, |_| true);
+        Ok(Station {
+            model: Model::new(od, settings),
+            canopen: Node::new(node_id, desc.cia301),
+            store,
+            stored,
+            commissioning,
+            next_step: None,
+            coe_events: None,
+        })
+    }
+
+    pub fn od(&self) -> &ObjectDictionary<Vec<u8>> {
+        self.model.od()
+    }
+
+    pub fn node_id(&self) -> u8 {
+        self.canopen.node_id()
+    }
+
+    /// Defaults, commissioning values and the stored set for the indices `filter` selects.
+    fn reload(&mut self, filter: impl Fn(u16) -> bool) {
+        load_all(
+            self.model.od_mut(),
+            &self.commissioning,
+            &self.stored,
+            filter,
+        );
+        self.model.reload();
+    }
+
+    /// The node, and the dictionary as its SDO server writes it (saves carried out).
+    pub(super) fn node_and_access(&mut self) -> (&mut Node, Persisting<'_>) {
+        let Station {
+            model,
+            canopen: node,
+            store,
+            stored,
+            ..
+        } = self;
+        (node, Persisting::new(model, store.as_ref(), stored))
+    }
+
+    pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
+        let next_step = self.model.step(now);
+        self.next_step = next_step.map(|t| t.max(now + STEP_PERIOD));
+        self.canopen.poll(now, &mut self.model, out);
+        self.service(now, out);
+        self.deadline()
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        earliest(self.canopen.deadline(), self.next_step)
+    }
+
+    /// Carries out what the stack asked for.
+    pub(super) fn service(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
+        // The drive's errors go out as EMCY through the stack (CiA 301 §7.2.7).
+        let mut reboot = false;
+        while let Some(ev) = self.model.take_event() {
+            self.keep_for_coe(ev);
+            match ev {
+                DriveEvent::Error { code, register } => {
+                    self.canopen
+                        .raise_error(&mut self.model, code, register, [0; 5])
+                }
+                DriveEvent::Cleared { code } => self.canopen.clear_error(&mut self.model, code),
+                DriveEvent::Reboot => reboot = true,
+            }
+        }
+        // A storage request left by another path than the SDO server is carried out here.
+        if let Some(req) = self.model.od_mut().take_request() {
+            let (_, mut access) = self.node_and_access();
+            if let Err(e) = access.carry_out(req) {
+                tracing::error!(node = self.node_id(), error = %e, "storage request failed");
+            }
+        }
+        if reboot {
+            // After a save asked for in the same cycle: the drive restarts from the stored set,
+            // as after NMT reset node.
+            tracing::info!(node = self.node_id(), "drive reboot");
+            self.model.od_mut().set_node_id(self.canopen.node_id());
+            self.reload(|_| true);
+            self.canopen.boot(now, &self.model, out);
+        }
+        while let Some(ev) = self.canopen.take_event() {
+            match ev {
+                NodeEvent::ResetApplication => {
+                    self.model.od_mut().set_node_id(self.canopen.node_id());
+                    self.reload(|_| true);
+                    self.canopen.boot(now, &self.model, out);
+                }
+                NodeEvent::ResetCommunication => {
+                    // Decision: CiA 301 reset communication (1000h–1FFFh from the stored set)
+                    // for every device, the Nanotec too, whose §2.2 (L465) describes 82h as
+                    // 81h (docs/decisions.md).
+                    // The node-ID may have changed (LSS): node-relative defaults follow it.
+                    self.model.od_mut().set_node_id(self.canopen.node_id());
+                    self.reload(|i| (0x1000..0x2000).contains(&i));
+                    self.canopen.boot(now, &self.model, out);
+                }
+                NodeEvent::LssStore { node_id } => match &self.store {
+                    Some(store) => match store.save_lss_node_id(node_id) {
+                        Ok(()) => tracing::info!(node_id, "LSS node-ID stored"),
+                        Err(e) => tracing::error!(error = %e, "storing the LSS node-ID failed"),
+                    },
+                    None => tracing::warn!(
+                        node_id,
+                        "LSS store without a state directory: kept until the process ends"
+                    ),
+                },
+                NodeEvent::State(s) => {
+                    tracing::debug!(node = self.node_id(), state = s.name(), "NMT")
+                }
+                NodeEvent::Heartbeat(e) => {
+                    tracing::warn!(node = self.node_id(), event = ?e, "heartbeat consumer")
+                }
+                NodeEvent::LifeGuardingLost => {
+                    tracing::warn!(
+                        node = self.node_id(),
+                        "life guarding: no request within the life time"
+                    )
+                }
+                NodeEvent::LifeGuardingResumed => {
+                    tracing::info!(node = self.node_id(), "life guarding resumed")
+                }
+                NodeEvent::Sync => {
+                    // The time base of interpolated position mode (CMMP-AS §7.4).
+                    if let Some(drive) = self.model.drive_mut() {
+                        drive.step(now);
+                        drive.sync(now);
+                    }
+                }
+            }
+        }
+    }
+}
