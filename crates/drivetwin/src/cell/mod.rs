@@ -11,9 +11,11 @@ pub mod control;
 pub mod device_model;
 pub mod diagnostics;
 pub mod eds_drive;
+pub mod fault_injector;
 pub mod fieldbus_switches;
 pub mod interfaces;
 pub mod lateness;
+pub mod link;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;
@@ -29,13 +31,33 @@ use od::{time::earliest, Instant};
 
 use crate::cell::station::Station;
 use bus_timing::{BusFigures, BusTiming, OUTSIDE};
-use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError, WireFaults};
+use fault_injector::FaultInjector;
+use link::{Addressed, At, Link, Wire};
+use wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError};
 
 /// A drive on a bus: the bus's index in the cell, the drive's in the bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OnBus {
     pub bus: usize,
     pub drive: usize,
+}
+
+/// A frame on the cell's bus as its link sees it: the frame, the drive that sent it (cell
+/// order; none: from outside the cell) and that drive's node-ID, by which faults take it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellFrame {
+    pub frame: CanFrame,
+    pub origin: Option<usize>,
+    pub sender: Sender,
+}
+
+impl Addressed for CellFrame {
+    fn sender(&self) -> Sender {
+        self.sender
+    }
+    fn id(&self) -> u32 {
+        self.frame.id
+    }
 }
 
 /// Decision: the instant bus has no bit time, but a bus-off node still needs one
@@ -53,10 +75,9 @@ pub struct Cell {
     planned: Vec<(Instant, u8, u32)>,
     /// Diagnostic messages the cell file plans: at a time, the drive (cell order), what.
     planned_diagnostics: Vec<(Instant, usize, diagnostics::Planned)>,
-    /// Faults on the wire between the drives and the front ends ([`wire_faults`]).
-    wire: WireFaults,
-    /// Frames a fault delays: when they arrive, the frame, its sender (in arrival order).
-    delayed: Vec<(Instant, CanFrame, Option<usize>)>,
+    /// The wire between the drives and the front ends, with its faults ([`wire_faults`]),
+    /// which hold the frames they delay.
+    link: FaultInjector<Wire<CellFrame>>,
 }
 
 /// One drive's CAN controller.
@@ -87,8 +108,7 @@ impl Cell {
             faults,
             planned: Vec::new(),
             planned_diagnostics: Vec::new(),
-            wire: WireFaults::default(),
-            delayed: Vec::new(),
+            link: FaultInjector::default(),
         }
     }
 
@@ -133,22 +153,22 @@ impl Cell {
         now: Instant,
         fault: WireFault,
     ) -> Result<u32, WireFaultError> {
-        self.wire.add(now, fault)
+        self.link.faults_mut().add(now, fault)
     }
 
     /// Ends wire fault `id`.
     pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
-        self.wire.remove(id)
+        self.link.faults_mut().remove(id)
     }
 
     /// Ends every wire fault; frames already delayed still arrive.
     pub fn clear_wire_faults(&mut self) {
-        self.wire.clear();
+        self.link.faults_mut().clear();
     }
 
     /// The wire faults active at `now`.
     pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
-        self.wire.active(now).to_vec()
+        self.link.faults_mut().active(now).to_vec()
     }
 
     /// Each drive's CAN controller, in cell order.
@@ -238,7 +258,7 @@ impl Cell {
             self.planned.iter().map(|(t, _, _)| *t).min(),
             self.planned_diagnostics_deadline(),
         );
-        let planned = earliest(planned, self.delayed.first().map(|(t, _, _)| *t));
+        let planned = earliest(planned, self.link.deadline());
         let recovery = self
             .faults
             .iter()
@@ -259,9 +279,8 @@ impl Cell {
     /// Delayed frames due by `now` arrive (they have had their fault; on a timed bus they
     /// do not queue for the bus again).
     fn release_delayed(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
-        while self.delayed.first().is_some_and(|(t, _, _)| *t <= now) {
-            let (at, frame, origin) = self.delayed.remove(0);
-            while self.attempt(origin, &frame, at, out, false) == Attempt::Failed {}
+        while let Some((at, f)) = self.link.release(now) {
+            while self.attempt(f.origin, &f.frame, at, out, false) == Attempt::Failed {}
         }
         self.deliver(now, out);
     }
@@ -364,7 +383,12 @@ impl Cell {
             None => Sender::Outside,
         };
         let verdict = if judge {
-            self.wire.judge(at, sender, frame.id)
+            let f = CellFrame {
+                frame: *frame,
+                origin,
+                sender,
+            };
+            self.link.cross(At::on_clock(at), &f)
         } else {
             Verdict::Pass
         };
@@ -373,18 +397,15 @@ impl Cell {
             // Decision: a frame of a node whose cable is cut, or dropped, is simply not on
             // the bus; the node's controller is not made to count missing acknowledgements.
             Verdict::Lost => return Attempt::Dropped,
-            Verdict::Delay(when) => {
-                let i = self.delayed.partition_point(|(t, _, _)| *t <= when);
-                self.delayed.insert(i, (when, *frame, origin));
-                return Attempt::Delivered;
-            }
+            // Held by the link until its time ([`Cell::release_delayed`]).
+            Verdict::Delay(_) => return Attempt::Delivered,
         }
         let corrupt = verdict == Verdict::Corrupt;
         let Cell {
             drives,
             queue,
             faults,
-            wire,
+            link,
             ..
         } = self;
         if corrupt && origin.is_none() {
@@ -392,7 +413,7 @@ impl Cell {
             // sender's own retransmission is its host's, not simulated: the frame is lost.
             for j in 0..drives.len() {
                 let node = drives.get(j).map_or(0, |d| d.node_id());
-                if wire.cut_off(at, Sender::Node(node)) {
+                if link.cut_off(at, Sender::Node(node)) {
                     continue;
                 }
                 let t = faults
@@ -442,7 +463,7 @@ impl Cell {
             }
             let t = f.confinement.transmit_ok();
             react(drives, queue, i, t);
-            if !wire.cut_off(at, Sender::Outside) {
+            if !link.cut_off(at, Sender::Outside) {
                 out.push(*frame);
             }
         }
@@ -451,7 +472,7 @@ impl Cell {
                 continue;
             }
             let node = drives.get(j).map_or(0, |d| d.node_id());
-            if wire.cut_off(at, Sender::Node(node)) {
+            if link.cut_off(at, Sender::Node(node)) {
                 continue;
             }
             let Some(f) = faults.get_mut(j) else {

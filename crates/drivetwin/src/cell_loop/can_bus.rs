@@ -1,14 +1,16 @@
 //! The cell's CAN bus on the loop: a frame from any node (the drives, a socketcand client, the
-//! SocketCAN interface, the server joined) reaches every other node, the trace and the taps.
+//! SocketCAN interface, the server joined) reaches every other node, and its link's trace and
+//! taps.
 
 use std::io::{self, Write};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
 
-use super::{wire, CellLoop, Kind, Source, MAX_HELD};
+use super::{cell_time, wire, CellLoop, Kind, Source, MAX_HELD};
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::Session;
+use crate::cell::link::{At, Link};
 
 impl CellLoop {
     pub(super) fn read_socketcan(&mut self, b: usize, now: Instant) {
@@ -48,20 +50,13 @@ impl CellLoop {
         bus.last_stamp = stamp;
         bus.totals.frames += 1;
         bus.totals.bytes += frame.payload().len() as u64;
-        if !self.taps.is_empty() {
-            self.tap(b, &frame, now);
-        }
-        let Some(bus) = self.buses.get_mut(b) else {
-            return;
-        };
         let since_epoch = stamp.duration_since(UNIX_EPOCH).unwrap_or_default();
-        if let Some(w) = bus.trace.as_mut() {
-            if let Err(e) = w.write(since_epoch, &frame) {
-                tracing::error!(error = %e, "writing the trace failed; trace stopped");
-                bus.trace = None;
-            }
-            bus.trace_dirty = true;
-        }
+        let at = At {
+            clock: cell_time(self.origin, now),
+            stamp: since_epoch,
+        };
+        // The loop's bus passes every frame; its link only traces and taps it.
+        let _ = bus.link.cross(at, &frame);
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {

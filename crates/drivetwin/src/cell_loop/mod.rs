@@ -31,7 +31,7 @@
 //! connections; `socketcand`, `console` and `modbus_drives` serve what arrives on them;
 //! `can_bus` carries a frame to every node of a bus; `ethercat_chains` passes frames
 //! through the chains; `serial` serves the serial lines; `handle` the control handle's
-//! requests and samples; `wire` the wire faults and taps.
+//! requests and samples; `wire` the wire faults, traces and taps.
 
 use std::io;
 use std::net::SocketAddr;
@@ -47,9 +47,11 @@ use mio::{Events, Interest, Poll, Token, Waker};
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::control::{Command, ControlHandle, PlantSample};
+use crate::cell::link::{Link, Wire};
 use crate::cell::{Cell, OnBus};
 use crate::ecat::chain::{EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
+use crate::trace::tracer::Tracer;
 use crate::trace::TraceWriter;
 use ethercat_chains::Buses;
 
@@ -153,8 +155,8 @@ struct BusState {
     cell: Cell,
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
-    trace: Option<TraceWriter>,
-    trace_dirty: bool,
+    /// The bus as the loop carries its frames: traced and tapped.
+    link: Tracer<Wire<CanFrame>>,
     totals: Totals,
     last_stamp: SystemTime,
     upstream: Option<Upstream>,
@@ -229,8 +231,6 @@ pub struct CellLoop {
         crate::cell::wire_faults::FrontEnd,
         crate::cell::wire_faults::WireFaults,
     )>,
-    /// Receivers of every frame of a bus ([`crate::cell::wire_faults::WireRequest::Tap`]).
-    taps: Vec<(usize, std::sync::mpsc::SyncSender<(Duration, CanFrame)>)>,
     /// Modbus requests and EtherCAT frames a `delay` fault holds back.
     held: Vec<wire::Held>,
 }
@@ -359,8 +359,7 @@ impl CellLoop {
                 cell: bus.cell,
                 socketcand,
                 socketcan: bus.socketcan,
-                trace: bus.trace,
-                trace_dirty: false,
+                link: Tracer::new(Wire::new(), bus.trace),
                 totals: Totals::default(),
                 last_stamp: UNIX_EPOCH,
             });
@@ -411,7 +410,6 @@ impl CellLoop {
             control_rx,
             subscriptions: Vec::new(),
             front_faults: Vec::new(),
-            taps: Vec::new(),
             held: Vec::new(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
@@ -576,11 +574,8 @@ impl CellLoop {
             self.samples(now);
             self.flush_dirty();
             if events.is_empty() {
-                for bus in self.buses.iter_mut().filter(|b| b.trace_dirty) {
-                    if let Some(w) = bus.trace.as_mut() {
-                        crate::trace::flush_quietly(w);
-                    }
-                    bus.trace_dirty = false;
+                for bus in self.buses.iter_mut().filter(|b| b.link.unflushed()) {
+                    bus.link.flush();
                 }
             }
         }
@@ -591,9 +586,7 @@ impl CellLoop {
             .buses
             .into_iter()
             .map(|mut b| {
-                if let Some(w) = b.trace.as_mut() {
-                    crate::trace::flush_quietly(w);
-                }
+                b.link.flush();
                 b.cell
             })
             .collect())
@@ -611,7 +604,7 @@ impl CellLoop {
         };
         for bus in &self.buses {
             take(bus.cell.deadline().map(|d| self.wall(d)));
-            if bus.trace_dirty {
+            if bus.link.unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
         }

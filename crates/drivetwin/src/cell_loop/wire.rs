@@ -1,8 +1,9 @@
 //! The wire's side of the cell loop ([`crate::cell::wire_faults`]): faults of a bus go to its
 //! cell, those of a Modbus server or an EtherCAT chain stay here; traces of a bus started and
-//! stopped while the cell runs; taps that see every frame of a bus.
+//! stopped while the cell runs, and taps that see every frame of a bus, on the bus's link
+//! ([`crate::trace::tracer::Tracer`]).
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use canopen::CanFrame;
 
@@ -228,13 +229,13 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                if b.trace.is_some() {
+                if b.link.is_tracing() {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
                 let w = TraceWriter::create_for_bus(&path, &channel, b.cell.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
-                b.trace = Some(w);
+                b.link.start(w);
                 Ok(WireAnswer::Done)
             }
             WireRequest::StopTrace { bus } => {
@@ -242,8 +243,7 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                let mut w = b.trace.take().ok_or(WireError::NoTrace(bus))?;
-                b.trace_dirty = false;
+                let mut w = b.link.stop().ok_or(WireError::NoTrace(bus))?;
                 w.flush().map_err(|e| WireError::Trace(e.to_string()))?;
                 Ok(WireAnswer::Done)
             }
@@ -258,10 +258,11 @@ impl CellLoop {
                 Ok(WireAnswer::Done)
             }
             WireRequest::Tap { bus, frames } => {
-                if bus >= self.buses.len() {
-                    return Err(WireError::NoFrontEnd(FrontEnd::Bus(bus)));
-                }
-                self.taps.push((bus, frames));
+                let b = self
+                    .buses
+                    .get_mut(bus)
+                    .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
+                b.link.tap(frames);
                 Ok(WireAnswer::Done)
             }
         }
@@ -293,17 +294,5 @@ impl CellLoop {
             .find(|(f, _)| *f == front)
             .map(|(_, w)| w)
             .ok_or(WireError::NoFrontEnd(front))
-    }
-
-    /// A frame on bus `b` to its taps; a tap gone is forgotten, a full one loses the frame.
-    pub(super) fn tap(&mut self, b: usize, frame: &CanFrame, now: Instant) {
-        let at: Duration = now.saturating_duration_since(self.origin);
-        self.taps.retain(|(bus, tx)| {
-            *bus != b
-                || !matches!(
-                    tx.try_send((at, *frame)),
-                    Err(std::sync::mpsc::TrySendError::Disconnected(_))
-                )
-        });
     }
 }

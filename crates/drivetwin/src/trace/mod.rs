@@ -4,6 +4,7 @@
 
 pub mod bus_load;
 pub mod pcap;
+pub mod tracer;
 
 use std::fs::File;
 use std::io::BufWriter;
