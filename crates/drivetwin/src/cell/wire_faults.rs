@@ -4,7 +4,9 @@
 //!
 //! Sans-IO and deterministic: a share of frames is taken by a counter, never at random, so the
 //! same faults on the virtual clock give the same frames bit for bit. The CAN bus applies them
-//! in [`crate::cell::Cell`]; the cell loop applies those of the Modbus and EtherCAT front ends.
+//! through its link, a [`crate::cell::fault_injector::FaultInjector`] in [`crate::cell::Cell`];
+//! the cell loop applies those of the Modbus and EtherCAT front ends and of single socketcand
+//! clients.
 //!
 //! What a fault does to a CAN frame is CAN's own (ISO 11898-1): a corrupted
 //! frame fails its CRC, every receiver sends an error frame and counts it in its fault

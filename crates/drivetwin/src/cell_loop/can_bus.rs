@@ -56,7 +56,7 @@ impl CellLoop {
             stamp: since_epoch,
         };
         // The loop's bus passes every frame; its link only traces and taps it.
-        let _ = bus.link.cross(at, &frame);
+        bus.link.cross(at, &frame);
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {

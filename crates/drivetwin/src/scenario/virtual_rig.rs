@@ -17,8 +17,10 @@ use od::{Instant, ObjectAccess};
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
 use crate::cell::config::CellFile;
+use crate::cell::link::{At, Link, Wire};
 use crate::cell::station::Station;
 use crate::cell::Cell;
+use crate::trace::tracer::Tracer;
 use crate::trace::TraceWriter;
 
 /// Steps at one instant before the clock is taken as stuck.
@@ -28,7 +30,8 @@ pub struct VirtualRig {
     cells: Vec<Cell>,
     now: Instant,
     out: Vec<CanFrame>,
-    trace: Option<TraceWriter>,
+    /// The first bus, traced (see [`VirtualRig::trace_to`]).
+    first_bus: Tracer<Wire<CanFrame>>,
     /// The inputs each drive has forced so far: (mask, levels), per bus and drive.
     forced: Vec<Vec<(u16, u16)>>,
     /// Frames sent and not yet seen, with their bus.
@@ -133,7 +136,7 @@ impl VirtualRig {
             cells,
             now: Instant::ZERO,
             out: Vec::new(),
-            trace: None,
+            first_bus: Tracer::new(Wire::new(), None),
             forced,
             pending: Vec::new(),
             modbus,
@@ -151,13 +154,13 @@ impl VirtualRig {
     /// Every frame of the first bus into `path` (pcap; `*.log`: candump), stamped with the
     /// virtual clock.
     pub fn trace_to(&mut self, path: &Path) -> std::io::Result<()> {
-        self.trace = Some(TraceWriter::create(path, "vcan0")?);
+        self.first_bus.start(TraceWriter::create(path, "vcan0")?);
         Ok(())
     }
 
     /// Ends the trace (the file complete).
     pub fn finish(&mut self) -> std::io::Result<()> {
-        match self.trace.take() {
+        match self.first_bus.stop() {
             Some(mut w) => w.flush(),
             None => Ok(()),
         }
@@ -174,12 +177,8 @@ impl VirtualRig {
         let t = Duration::from_nanos(self.now.as_nanos());
         for (b, f) in self.pending.drain(..) {
             if b == 0 {
-                if let Some(w) = self.trace.as_mut() {
-                    if let Err(e) = w.write(t, &f) {
-                        tracing::error!(error = %e, "writing the trace failed; trace stopped");
-                        self.trace = None;
-                    }
-                }
+                // The first bus passes every frame; its link only traces it.
+                self.first_bus.cross(At::on_clock(self.now), &f);
             }
             seen(b, t, &f);
         }
