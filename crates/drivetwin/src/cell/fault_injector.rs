@@ -92,3 +92,105 @@ where
         self.inner.flush()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::cell::link::Wire;
+    use crate::cell::wire_faults::{FaultKind, Reach, WireFault};
+    use canopen::CanFrame;
+
+    /// Counts the frames that reach it.
+    #[derive(Default)]
+    struct Counting(u32);
+
+    impl Link for Counting {
+        type Frame = CanFrame;
+        fn cross(&mut self, _: At, _: &CanFrame) -> Verdict {
+            self.0 += 1;
+            Verdict::Pass
+        }
+    }
+
+    fn fault(kind: FaultKind) -> WireFault {
+        WireFault {
+            reach: Reach::Outside,
+            kind,
+            cob_id: None,
+            frames: None,
+            lasting: None,
+        }
+    }
+
+    fn at(ms: u64) -> At {
+        At::on_clock(Instant::from_millis(ms))
+    }
+
+    fn frame(id: u16) -> CanFrame {
+        CanFrame::new(id, &[]).unwrap()
+    }
+
+    #[test]
+    fn a_lost_frame_never_reaches_the_inner_link() {
+        let mut link = FaultInjector::new(Counting::default());
+        link.faults_mut()
+            .add(Instant::ZERO, fault(FaultKind::Drop { share: 0.5 }))
+            .unwrap();
+        let verdicts: Vec<Verdict> = (0..4).map(|_| link.cross(at(1), &frame(0x601))).collect();
+        assert_eq!(
+            verdicts,
+            [Verdict::Pass, Verdict::Lost, Verdict::Pass, Verdict::Lost]
+        );
+        assert_eq!(link.inner_mut().0, 2);
+    }
+
+    #[test]
+    fn delayed_frames_come_back_at_their_time_in_the_order_they_came() {
+        let mut link: FaultInjector<Wire<CanFrame>> = FaultInjector::default();
+        let id = link
+            .faults_mut()
+            .add(
+                Instant::ZERO,
+                fault(FaultKind::Delay {
+                    by: Duration::from_millis(10),
+                }),
+            )
+            .unwrap();
+        assert_eq!(
+            link.cross(at(0), &frame(1)),
+            Verdict::Delay(Instant::from_millis(10))
+        );
+        assert_eq!(
+            link.cross(at(0), &frame(2)),
+            Verdict::Delay(Instant::from_millis(10))
+        );
+        link.faults_mut().remove(id).unwrap();
+        // Without the fault a frame passes at once, ahead of those held.
+        assert_eq!(link.cross(at(1), &frame(3)), Verdict::Pass);
+        assert_eq!(link.deadline(), Some(Instant::from_millis(10)));
+        assert!(link.release(Instant::from_millis(9)).is_none());
+        let released: Vec<(Instant, u32)> =
+            std::iter::from_fn(|| link.release(Instant::from_millis(20)))
+                .map(|(t, f)| (t, f.id))
+                .collect();
+        let ten = Instant::from_millis(10);
+        assert_eq!(released, [(ten, 1), (ten, 2)]);
+        assert_eq!(link.deadline(), None);
+    }
+
+    #[test]
+    fn a_cut_cable_cuts_off_its_node() {
+        let mut link: FaultInjector<Wire<CanFrame>> = FaultInjector::default();
+        link.faults_mut()
+            .add(
+                Instant::ZERO,
+                WireFault::cable_break(Reach::Node(3), Some(Duration::from_millis(5))),
+            )
+            .unwrap();
+        assert!(link.cut_off(Instant::from_millis(1), Sender::Node(3)));
+        assert!(!link.cut_off(Instant::from_millis(1), Sender::Node(4)));
+        assert!(!link.cut_off(Instant::from_millis(5), Sender::Node(3)));
+    }
+}

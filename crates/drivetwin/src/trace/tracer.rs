@@ -105,3 +105,45 @@ impl<L: Link<Frame = CanFrame>> Link for Tracer<L> {
         self.inner.flush();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell::link::Wire;
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(id, data).unwrap()
+    }
+
+    #[test]
+    fn taps_and_the_trace_see_every_frame_and_the_inner_link_decides() {
+        let path = std::env::temp_dir().join(format!("tracer-{}.log", std::process::id()));
+        let mut link = Tracer::new(Wire::new(), None);
+        let (tx, rx) = std::sync::mpsc::sync_channel(8);
+        link.tap(tx);
+        let (gone, _) = std::sync::mpsc::sync_channel(1);
+        link.tap(gone);
+        link.start(TraceWriter::create(&path, "vcan0").unwrap());
+        assert!(!link.unflushed());
+        let at = At {
+            clock: Instant::from_millis(3),
+            stamp: Duration::from_millis(1500),
+        };
+        assert_eq!(link.cross(at, &frame(0x181, &[1, 2])), Verdict::Pass);
+        assert!(link.unflushed());
+        link.flush();
+        assert!(!link.unflushed());
+        // The tap whose receiver is gone is forgotten at the first frame.
+        assert_eq!(link.taps.len(), 1);
+        assert_eq!(
+            rx.try_recv().unwrap(),
+            (Duration::from_millis(3), frame(0x181, &[1, 2]))
+        );
+        let mut w = link.stop().unwrap();
+        w.flush().unwrap();
+        assert!(!link.is_tracing());
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(text, "(0000000001.500000) vcan0 181#0102\n");
+    }
+}
