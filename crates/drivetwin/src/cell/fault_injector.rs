@@ -13,7 +13,10 @@ use crate::cell::link::{Addressed, At, Link};
 use crate::cell::wire_faults::{Sender, Verdict, WireFaults};
 
 /// A link with faults on its wire.
-pub struct FaultInjector<L: Link> {
+pub struct FaultInjector<L: Link>
+where
+    L::Frame: Sized,
+{
     inner: L,
     faults: WireFaults,
     /// Frames a fault delays: when they arrive and the frame, in arrival order (a frame
@@ -21,7 +24,10 @@ pub struct FaultInjector<L: Link> {
     delayed: Vec<(Instant, L::Frame)>,
 }
 
-impl<L: Link> FaultInjector<L> {
+impl<L: Link> FaultInjector<L>
+where
+    L::Frame: Sized,
+{
     /// `inner` with no fault yet.
     pub fn new(inner: L) -> Self {
         FaultInjector {
@@ -52,7 +58,10 @@ impl<L: Link> FaultInjector<L> {
     }
 }
 
-impl<L: Link + Default> Default for FaultInjector<L> {
+impl<L: Link + Default> Default for FaultInjector<L>
+where
+    L::Frame: Sized,
+{
     fn default() -> Self {
         Self::new(L::default())
     }

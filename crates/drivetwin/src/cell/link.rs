@@ -2,7 +2,7 @@
 //! its time. What watches or disturbs the frames on the way is a link that wraps a link, as
 //! smoltcp's `phy::Tracer` and `phy::FaultInjector` wrap a device, and wrappers stack:
 //! [`crate::cell::fault_injector::FaultInjector`] applies the wire faults,
-//! `crate::trace::tracer::Tracer` copies each frame to a trace file and to taps. The runtime
+//! `crate::trace::tracer::Tracer` copies each frame to a trace file, taps or a pcap queue. The runtime
 //! holds a wrapped link where it would otherwise hold a trace, taps and faults as fields of
 //! its own; a [`Wire`] is the link itself, which carries every frame.
 //!
@@ -57,8 +57,8 @@ impl Addressed for CanFrame {
 
 /// The frame path of one bus or front end.
 pub trait Link {
-    /// What crosses it.
-    type Frame;
+    /// What crosses it (a CAN frame, an Ethernet frame's bytes).
+    type Frame: ?Sized;
 
     /// `frame` crosses the link at `at`: whether it arrives now, later or never.
     fn cross(&mut self, at: At, frame: &Self::Frame) -> Verdict;
@@ -84,21 +84,21 @@ pub trait Link {
 
 /// The wire itself: every frame passes, at once.
 #[derive(Debug)]
-pub struct Wire<F>(PhantomData<fn(&F)>);
+pub struct Wire<F: ?Sized>(PhantomData<fn(&F)>);
 
-impl<F> Wire<F> {
+impl<F: ?Sized> Wire<F> {
     pub fn new() -> Self {
         Wire(PhantomData)
     }
 }
 
-impl<F> Default for Wire<F> {
+impl<F: ?Sized> Default for Wire<F> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<F> Link for Wire<F> {
+impl<F: ?Sized> Link for Wire<F> {
     type Frame = F;
 
     fn cross(&mut self, _: At, _: &F) -> Verdict {

@@ -4,10 +4,11 @@
 use std::io;
 use std::time::Instant;
 
-use super::{cell_time, wire, BusState, CellLoop, EthercatChain, FRAMES_PER_TURN};
+use super::{cell_time, wire, BusState, CellLoop, ChainState, FRAMES_PER_TURN};
+use crate::cell::link::{At, Link};
 use crate::cell::station::Station;
 use crate::cell::OnBus;
-use crate::ecat::chain::{trace_frame, BusDrives};
+use crate::ecat::chain::BusDrives;
 
 /// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
 /// drive as well finds its drive.
@@ -47,8 +48,8 @@ impl CellLoop {
             let Some(f) = frame.get_mut(..n) else {
                 continue;
             };
-            trace_frame(chain.trace.as_ref(), f);
             let t = cell_time(self.origin, Instant::now());
+            chain.link.cross(At::on_clock(t), f);
             let front = crate::cell::wire_faults::FrontEnd::Ethercat(c);
             match self.hold_until(front, t) {
                 None => {}
@@ -94,13 +95,13 @@ impl CellLoop {
 
     /// One frame through chain `chain` and back out on its socket.
     pub(super) fn pass_chain(
-        chain: &mut EthercatChain,
+        chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
         buses: &mut [BusState],
     ) {
         if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
-            trace_frame(chain.trace.as_ref(), f);
+            chain.link.cross(At::on_clock(t), f);
             match chain.socket.send(f) {
                 Ok(()) => {}
                 Err(e) if crate::ecat::link::is_queue_full(&e) => {

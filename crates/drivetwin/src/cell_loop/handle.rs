@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use super::{CellLoop, EthercatChain, SampleSink, Subscription};
+use super::{CellLoop, ChainState, SampleSink, Subscription};
 use crate::cell::control::{
     BusInfo, Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
 };
@@ -382,7 +382,7 @@ impl CellLoop {
         rest -= self.modbus.len();
         for c in &mut self.chains {
             // Only the chain's own drives: a shared one is listed with its bus.
-            let own = |c: &EthercatChain| {
+            let own = |c: &ChainState| {
                 (0..c.chain.len())
                     .filter(|&i| c.chain.model(i).is_some())
                     .count()

@@ -51,7 +51,7 @@ use crate::cell::link::{Link, Wire};
 use crate::cell::{Cell, OnBus};
 use crate::ecat::chain::{EthercatCell, FrameTap};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
-use crate::trace::tracer::Tracer;
+use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 use ethercat_chains::Buses;
 
@@ -129,6 +129,14 @@ pub struct EthercatChain {
     pub trace: Option<FrameTap>,
 }
 
+/// An EtherCAT chain while the loop runs.
+struct ChainState {
+    chain: EthercatCell,
+    socket: crate::ecat::link::SlaveSocket,
+    /// Its frames as they come in and go back out, copied to the trace's queue (`--trace`).
+    link: Tracer<Wire<[u8]>, Option<FrameTap>>,
+}
+
 /// Every socket a cell serves, bound before the loop starts.
 #[derive(Default)]
 pub struct FrontEnds {
@@ -156,7 +164,7 @@ struct BusState {
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// The bus as the loop carries its frames: traced and tapped.
-    link: Tracer<Wire<CanFrame>>,
+    link: Tracer<Wire<CanFrame>, CanTrace>,
     totals: Totals,
     last_stamp: SystemTime,
     upstream: Option<Upstream>,
@@ -204,7 +212,7 @@ pub struct CellLoop {
     listeners: Vec<Listener>,
     slots: Vec<Option<Connection>>,
     modbus: Vec<ModbusDrive>,
-    chains: Vec<EthercatChain>,
+    chains: Vec<ChainState>,
     serial: Vec<crate::serial::line::SerialLine>,
     /// Scratch: frames the drives sent while a serial line reached them, with their bus.
     serial_sent: Vec<(usize, CanFrame)>,
@@ -359,7 +367,7 @@ impl CellLoop {
                 cell: bus.cell,
                 socketcand,
                 socketcan: bus.socketcan,
-                link: Tracer::new(Wire::new(), bus.trace),
+                link: Tracer::new(Wire::new(), CanTrace::new(bus.trace)),
                 totals: Totals::default(),
                 last_stamp: UNIX_EPOCH,
             });
@@ -421,7 +429,15 @@ impl CellLoop {
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
-            chains: front.ethercat,
+            chains: front
+                .ethercat
+                .into_iter()
+                .map(|c| ChainState {
+                    chain: c.chain,
+                    socket: c.socket,
+                    link: Tracer::new(Wire::new(), c.trace),
+                })
+                .collect(),
             serial: front.serial,
             serial_sent: Vec::new(),
             chains_to_read: Vec::new(),

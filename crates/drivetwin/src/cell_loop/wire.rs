@@ -229,13 +229,13 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                if b.link.is_tracing() {
+                if b.link.sink_mut().is_tracing() {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
                 let w = TraceWriter::create_for_bus(&path, &channel, b.cell.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
-                b.link.start(w);
+                b.link.sink_mut().start(w);
                 Ok(WireAnswer::Done)
             }
             WireRequest::StopTrace { bus } => {
@@ -243,7 +243,7 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                let mut w = b.link.stop().ok_or(WireError::NoTrace(bus))?;
+                let mut w = b.link.sink_mut().stop().ok_or(WireError::NoTrace(bus))?;
                 w.flush().map_err(|e| WireError::Trace(e.to_string()))?;
                 Ok(WireAnswer::Done)
             }
@@ -262,7 +262,7 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                b.link.tap(frames);
+                b.link.sink_mut().tap(frames);
                 Ok(WireAnswer::Done)
             }
         }

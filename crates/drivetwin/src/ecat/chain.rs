@@ -1062,14 +1062,18 @@ pub struct TracedFrame {
 /// each processed frame as it went back. A full queue drops the copy, never the frame.
 pub type FrameTap = std::sync::mpsc::SyncSender<TracedFrame>;
 
-pub fn trace_frame(tap: Option<&FrameTap>, frame: &[u8]) {
-    if let Some(tap) = tap {
-        let copy = TracedFrame {
-            at: std::time::SystemTime::now(),
-            frame: frame.to_vec(),
-        };
-        if tap.try_send(copy).is_err() {
-            tracing::warn!("trace queue full, a frame copy is lost");
+/// A chain's frames copied to the trace's queue: the copy is stamped with the wall clock when
+/// it is taken (read only while tracing), as the pcap beside other captures wants.
+impl crate::trace::tracer::TraceSink<[u8]> for Option<FrameTap> {
+    fn write(&mut self, _: crate::cell::link::At, frame: &[u8]) {
+        if let Some(tap) = self {
+            let copy = TracedFrame {
+                at: std::time::SystemTime::now(),
+                frame: frame.to_vec(),
+            };
+            if tap.try_send(copy).is_err() {
+                tracing::warn!("trace queue full, a frame copy is lost");
+            }
         }
     }
 }

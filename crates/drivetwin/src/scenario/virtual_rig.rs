@@ -20,7 +20,7 @@ use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link, Wire};
 use crate::cell::station::Station;
 use crate::cell::Cell;
-use crate::trace::tracer::Tracer;
+use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 
 /// Steps at one instant before the clock is taken as stuck.
@@ -31,7 +31,7 @@ pub struct VirtualRig {
     now: Instant,
     out: Vec<CanFrame>,
     /// The first bus, traced (see [`VirtualRig::trace_to`]).
-    first_bus: Tracer<Wire<CanFrame>>,
+    first_bus: Tracer<Wire<CanFrame>, CanTrace>,
     /// The inputs each drive has forced so far: (mask, levels), per bus and drive.
     forced: Vec<Vec<(u16, u16)>>,
     /// Frames sent and not yet seen, with their bus.
@@ -136,7 +136,7 @@ impl VirtualRig {
             cells,
             now: Instant::ZERO,
             out: Vec::new(),
-            first_bus: Tracer::new(Wire::new(), None),
+            first_bus: Tracer::new(Wire::new(), CanTrace::new(None)),
             forced,
             pending: Vec::new(),
             modbus,
@@ -154,13 +154,15 @@ impl VirtualRig {
     /// Every frame of the first bus into `path` (pcap; `*.log`: candump), stamped with the
     /// virtual clock.
     pub fn trace_to(&mut self, path: &Path) -> std::io::Result<()> {
-        self.first_bus.start(TraceWriter::create(path, "vcan0")?);
+        self.first_bus
+            .sink_mut()
+            .start(TraceWriter::create(path, "vcan0")?);
         Ok(())
     }
 
     /// Ends the trace (the file complete).
     pub fn finish(&mut self) -> std::io::Result<()> {
-        match self.first_bus.stop() {
+        match self.first_bus.sink_mut().stop() {
             Some(mut w) => w.flush(),
             None => Ok(()),
         }
