@@ -65,6 +65,7 @@ impl Addressed for CellFrame {
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
 pub struct Cell {
+    /// The stations on the bus, in cell order.
     pub drives: Vec<Station>,
     queue: VecDeque<(CanFrame, Option<usize>)>,
     /// The bus's bit time; none: frames cross at once (the instant bus).

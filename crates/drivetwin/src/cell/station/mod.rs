@@ -1,9 +1,9 @@
 //! A station: one drive of the cell with all its front ends. The drive (its dictionary and,
 //! for a CiA 402 device, its engine and motor: [`Model`]) is stepped on the cell's clock;
 //! its front ends reach it through `od::ObjectAccess`: the CANopen node on a CAN bus
-//! ([`canopen_node`]), the CI terminal and the serial ports ([`local`]), the CoE side of an
-//! EtherCAT slave ([`ethercat`]). The runtime's share of the work (parameter files, resets,
-//! the drive's events as emergencies) is done here ([`parameters`]).
+//! (`canopen_node.rs`), the CI terminal and the serial ports (`local.rs`), the CoE side of an
+//! EtherCAT slave (`ethercat.rs`). The runtime's share of the work (parameter files, resets,
+//! the drive's events as emergencies) is done here (`parameters.rs`).
 //!
 //! One type split into files, each an `impl Station` with its own part of the doc.
 
