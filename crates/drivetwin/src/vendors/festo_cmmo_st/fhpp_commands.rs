@@ -46,6 +46,9 @@ pub struct FhppLinkArgs {
     pub json: bool,
 }
 
+// The doc comments are clap's help text: `[SINC]`, `PNU[:SUB]` are the command line's
+// notation, not links.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Subcommand, Debug)]
 pub enum FhppCommand {
     /// Print the decoded status bytes (FC 0x03 and 0x07; writes nothing).
@@ -74,6 +77,9 @@ pub enum FhppCommand {
     Pnu(PnuCommand),
 }
 
+// The doc comments are clap's help text: `[SINC]`, `PNU[:SUB]` are the command line's
+// notation, not links.
+#[allow(rustdoc::broken_intra_doc_links)]
 #[derive(Subcommand, Debug)]
 pub enum PnuCommand {
     /// Read PNU[:SUB] (decimal; SUB defaults to 1).
