@@ -4,12 +4,12 @@
 #![no_main]
 
 use drivetwin::cell::wire_faults::FaultSpec;
+use drivetwin::vendors::festo_cmmo_st::web_server::{DeviceControlBody, SaveBody};
+use drivetwin::vendors::kinco::panel_page::KeyBody;
 use drivetwin::web::api::{
     parse_body, ApiError, DisturbBody, InputsBody, LoadBody, SupplyBody, WriteBody,
 };
-use drivetwin::web::cmmo_st::{DeviceControlBody, SaveBody};
 use drivetwin::web::motion::{JogBody, MoveBody};
-use drivetwin::web::panel::KeyBody;
 use drivetwin::web::physics::{AmbientBody, EncoderBody, SwitchBody, ThermalBody};
 use drivetwin::web::wire::TraceBody;
 use libfuzzer_sys::fuzz_target;

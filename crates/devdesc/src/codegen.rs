@@ -39,6 +39,18 @@ pub fn generate(d: &Device) -> String {
         d.interfaces, d.interfaces_one_of, d.interfaces_rule
     );
     let _ = writeln!(s, "    fieldbus_switches: {},", d.fieldbus_switches);
+    match &d.fhpp {
+        None => {
+            let _ = writeln!(s, "    fhpp: None,");
+        }
+        Some(f) => {
+            let _ = writeln!(
+                s,
+                "    fhpp: Some(od::FhppParameters {{ records: {}, stage_off_pnus: &{:?} }}),",
+                f.records, f.stage_off_pnus
+            );
+        }
+    }
     match &d.ethercat {
         None => {
             let _ = writeln!(s, "    ethercat: None,");

@@ -47,9 +47,60 @@ pub struct Device {
     pub interfaces_rule: String,
     pub fieldbus_switches: bool,
     pub ethercat: Option<crate::schema::EthercatSection>,
+    pub fhpp: Option<crate::schema::FhppSection>,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
     pub diagnostics: Vec<Diag>,
+}
+
+/// `[device.fhpp]` goes with the FHPP profile; each PNU it names is a parameter (object
+/// 2000h + PNU) with a writable subindex, listed once and in order, and the record list
+/// (PNU 401, record control byte 1) has a subindex for every record.
+fn check_fhpp(
+    fhpp: bool,
+    section: Option<&crate::schema::FhppSection>,
+    objects: &[Obj],
+) -> Result<(), DescError> {
+    let Some(f) = section else {
+        return match fhpp {
+            true => Err(DescError::Device(
+                "profile \"fhpp\" needs a [device.fhpp] section".into(),
+            )),
+            false => Ok(()),
+        };
+    };
+    if !fhpp {
+        return Err(DescError::Device(
+            "[device.fhpp] belongs to a device of profile \"fhpp\"".into(),
+        ));
+    }
+    let object = |pnu: u16| {
+        0x2000u16
+            .checked_add(pnu)
+            .and_then(|index| objects.iter().find(|o| o.index == index))
+    };
+    if let Some(w) = f.stage_off_pnus.windows(2).find(|w| w.first() >= w.get(1)) {
+        return Err(DescError::Device(format!(
+            "[device.fhpp] stage_off_pnus: {w:?} is out of order or twice"
+        )));
+    }
+    if let Some(bad) = f.stage_off_pnus.iter().find(|p| {
+        !object(**p).is_some_and(|o| o.entries.iter().any(|e| e.sub > 0 && e.access.writable()))
+    }) {
+        return Err(DescError::Device(format!(
+            "[device.fhpp] stage_off_pnus: PNU {bad} is no writable parameter"
+        )));
+    }
+    let last_record = object(401)
+        .and_then(|o| o.entries.iter().map(|e| e.sub).max())
+        .unwrap_or(0);
+    if f.records == 0 || f.records > last_record {
+        return Err(DescError::Device(format!(
+            "[device.fhpp] records = {}: the record list (PNU 401) has subindices 1…{last_record}",
+            f.records
+        )));
+    }
+    Ok(())
 }
 
 /// A checked `[[diagnostic]]` row.
@@ -223,6 +274,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             )));
         }
     }
+    check_fhpp(fhpp, d.fhpp.as_ref(), &objects)?;
     let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
         if fhpp {
             "its fieldbus is Modbus TCP"
@@ -250,6 +302,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         interfaces_rule,
         fieldbus_switches: d.fieldbus_switches,
         ethercat: d.ethercat,
+        fhpp: d.fhpp,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
@@ -855,5 +908,41 @@ mod tests {
         let crossed = section.replace("rx_assigned = [0x1600]", "rx_assigned = [0x1A00]");
         let crossed = parse(&with("\"ethercat\"", &crossed), "t.toml").unwrap_err();
         assert!(crossed.to_string().contains("1A00h"), "{crossed}");
+    }
+
+    /// `[device.fhpp]` goes with the FHPP profile and names writable parameters in order,
+    /// and no more records than the record list (PNU 401) has subindices.
+    #[test]
+    fn the_fhpp_section_names_parameters_of_an_fhpp_device() {
+        let fhpp_head = HEAD.replace("profile = \"plain\"", "profile = \"fhpp\"");
+        let param = |pnu: u16, access: &str, subs: u8| {
+            let mut o = format!(
+                "[[object]]\nindex = 0x{:04X}\nname = \"p{pnu}\"\nkind = \"array\"\n",
+                0x2000 + pnu
+            );
+            for sub in 1..=subs {
+                o += &format!("[[object.sub]]\nsub = {sub}\nname = \"s{sub}\"\ntype = \"UNSIGNED8\"\naccess = \"{access}\"\n");
+            }
+            o
+        };
+        let objects = param(127, "rw", 1) + &param(128, "ro", 1) + &param(401, "rw", 4);
+        let file = |head: &str, section: &str| format!("{head}{section}{objects}");
+        let section = |records: u8, pnus: &str| {
+            format!("[device.fhpp]\nrecords = {records}\nstage_off_pnus = [{pnus}]\n")
+        };
+        let d = parse(&file(&fhpp_head, &section(4, "127")), "t.toml").expect("valid");
+        let f = d.fhpp.expect("section");
+        assert_eq!((f.records, f.stage_off_pnus), (4, vec![127]));
+        let refused = |head: &str, section: &str| match parse(&file(head, section), "t.toml") {
+            Ok(_) => panic!("accepted: {section}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(refused(&fhpp_head, "").contains("needs a [device.fhpp]"));
+        assert!(refused(HEAD, &section(4, "127")).contains("profile \"fhpp\""));
+        assert!(refused(&fhpp_head, &section(4, "128")).contains("PNU 128 is no writable"));
+        assert!(refused(&fhpp_head, &section(4, "129")).contains("PNU 129 is no writable"));
+        assert!(refused(&fhpp_head, &section(4, "127, 127")).contains("out of order"));
+        assert!(refused(&fhpp_head, &section(5, "127")).contains("subindices 1…4"));
+        assert!(refused(&fhpp_head, &section(0, "127")).contains("records = 0"));
     }
 }

@@ -93,6 +93,10 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
         baud_rates: Box::leak(d.baud_rates.clone().into_boxed_slice()),
         rotary_switches: d.rotary_switches,
         fieldbus_switches: d.fieldbus_switches,
+        fhpp: d.fhpp.as_ref().map(|f| od::FhppParameters {
+            records: f.records,
+            stage_off_pnus: Box::leak(f.stage_off_pnus.clone().into_boxed_slice()),
+        }),
         ethercat: d.ethercat.as_ref().map(|e| od::EthercatSlave {
             group_type: text(&e.group_type),
             group_name: text(&e.group_name),

@@ -99,6 +99,19 @@ pub struct DeviceSection {
     pub fieldbus_switches: bool,
     /// `[device.ethercat]`: what an EtherCAT master reads of the slave beyond the dictionary.
     pub ethercat: Option<EthercatSection>,
+    /// `[device.fhpp]`: what the FHPP profile needs beyond the parameters.
+    pub fhpp: Option<FhppSection>,
+}
+
+/// `[device.fhpp]` (`od::FhppParameters`): required with `profile = "fhpp"`, refused with
+/// another profile.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FhppSection {
+    /// Motion records of record selection, numbered 1…`records`.
+    pub records: u8,
+    /// PNUs writable only with the output stage off (access "rw2"), ascending.
+    pub stage_off_pnus: Vec<u16>,
 }
 
 /// `[device.ethercat]`: the SII's layout and names and what the CoE mailbox serves

@@ -21,6 +21,11 @@ use drive::vendors::festo_cmmo_st::fhpp::{
 const BASE_VELOCITY: u32 = 200_000; // PNU 540 [SINC/s]
 const BASE_ACCELERATION: u32 = 1_000_000; // PNU 560 [SINC/s²]
 
+/// The CMMO-ST's records, as its device file says (`[device.fhpp] records`).
+fn cmmo_st_records() -> u8 {
+    devices::CMMO_ST.fhpp.map_or(0, |f| f.records)
+}
+
 /// The state machine, a record table, a hand-driven motion status and the events of the last
 /// cycle.
 struct Rig {
@@ -38,7 +43,7 @@ impl Rig {
             base_acceleration: BASE_ACCELERATION,
             ..Config::default()
         };
-        let mut records = RecordTable::default();
+        let mut records = RecordTable::new(cmmo_st_records());
         for n in 1..=64u8 {
             let r = records.get_mut(n).unwrap();
             r.target = i32::from(n) * 1000;
@@ -615,10 +620,17 @@ fn fhpp_cb_15_velocity_percent_byte() {
 /// FHPP-CB-16: record-selection byte 3 = 0 starts homing, 1…64 select a record, others are refused.
 #[test]
 fn fhpp_cb_16_record_number_byte() {
-    assert_eq!(RecordSelect::from_byte(0), RecordSelect::Homing);
-    assert_eq!(RecordSelect::from_byte(1), RecordSelect::Record(1));
-    assert_eq!(RecordSelect::from_byte(64), RecordSelect::Record(64));
-    assert_eq!(RecordSelect::from_byte(65), RecordSelect::Invalid(65));
+    let records = cmmo_st_records();
+    assert_eq!(RecordSelect::from_byte(0, records), RecordSelect::Homing);
+    assert_eq!(RecordSelect::from_byte(1, records), RecordSelect::Record(1));
+    assert_eq!(
+        RecordSelect::from_byte(64, records),
+        RecordSelect::Record(64)
+    );
+    assert_eq!(
+        RecordSelect::from_byte(65, records),
+        RecordSelect::Invalid(65)
+    );
     // 0 + START starts homing (TA7), even before the axis is referenced.
     let mut rig = Rig::new();
     rig.rec(0x03, 0x01, 0);
@@ -1484,7 +1496,7 @@ fn manual_brake_only_while_disabled() {
 
 #[test]
 fn record_table_data() {
-    let mut t = RecordTable::default();
+    let mut t = RecordTable::new(cmmo_st_records());
     assert!(t.get(0).is_none() && t.get(65).is_none());
     assert!(t.get(1).is_some() && t.get(64).is_some());
     assert_eq!(t.iter().count(), 64);

@@ -283,9 +283,13 @@ fn run(with_console: bool, secs: u64, loop_cpu_no: usize, fifo: bool) -> Result<
     enable_all(&handle)?;
     let counters: Vec<Arc<AtomicU64>> = (0..TABS).map(|_| Arc::default()).collect();
     let _console = if with_console {
-        let console = web::start(&HttpSetting::At("127.0.0.1:0".into()), handle.clone())
-            .map_err(|e| e.to_string())?
-            .ok_or("no console")?;
+        let console = web::start(
+            &HttpSetting::At("127.0.0.1:0".into()),
+            handle.clone(),
+            drivetwin::vendors::WEB_PAGES,
+        )
+        .map_err(|e| e.to_string())?
+        .ok_or("no console")?;
         for (n, c) in counters.iter().enumerate() {
             tab(console.addr, n, Arc::clone(c)).map_err(|e| e.to_string())?;
         }

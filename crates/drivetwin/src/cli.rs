@@ -78,12 +78,7 @@ pub enum Command {
     Lss(LssCommand),
     /// Kinco FD / CD drives over their RS232 telegrams (a serial port or a twin's pty link):
     /// read, write, status.
-    Kinco {
-        #[command(subcommand)]
-        command: KincoCommand,
-        #[command(flatten)]
-        port: KincoPortArgs,
-    },
+    Kinco(drivetwin::vendors::kinco::rs232_commands::KincoArgs),
     /// CiA 402 drive commands over SDO: state, enable, disable, move, velocity, torque.
     Drive {
         node: u8,
@@ -109,12 +104,7 @@ pub enum Command {
     #[command(subcommand)]
     Ecat(EcatCommand),
     /// FHPP master commands to a CMMO-ST over Modbus TCP: status, enable, home, move, records, PNUs.
-    Fhpp {
-        #[command(subcommand)]
-        command: FhppCommand,
-        #[command(flatten)]
-        link: FhppArgs,
-    },
+    Fhpp(drivetwin::vendors::festo_cmmo_st::fhpp_commands::FhppArgs),
     /// Print every frame on the bus, decoded.
     Monitor {
         /// Stop after this many frames.
@@ -141,16 +131,7 @@ pub enum Command {
     Scenario(ScenarioArgs),
     /// Write the IO-Link device descriptions (IODD 1.1) of a personality: for the CMMO-ST the
     /// two files its manual names (FHPP 8 bytes, FHPP + FPC 16 bytes).
-    Iodd {
-        #[arg(long, default_value = "cmmo-st")]
-        device: String,
-        /// The folder to write them to.
-        #[arg(long, default_value = ".")]
-        output_dir: PathBuf,
-        /// The files' date, YYYY-MM-DD (their names carry it as YYYYMMDD).
-        #[arg(long, default_value = "2017-05-01")]
-        date: String,
-    },
+    Iodd(drivetwin::vendors::festo_cmmo_st::iodd_command::IoddArgs),
 }
 
 #[derive(Args, Debug)]
@@ -489,30 +470,6 @@ pub struct EcatLinkArgs {
     pub json: bool,
 }
 
-#[derive(Args, Debug, Clone)]
-pub struct FhppArgs {
-    /// Modbus TCP address of the CMMO-ST.
-    #[arg(
-        long,
-        global = true,
-        value_name = "ADDR",
-        default_value = "127.0.0.1:1502"
-    )]
-    pub modbus: String,
-    /// Timeout of each handshake step and of the motion, ms.
-    #[arg(long, global = true, default_value_t = 10_000)]
-    pub timeout_ms: u64,
-    /// PLC cycle: one FC 0x17 exchange every this many ms while waiting.
-    #[arg(long, global = true, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
-    pub cycle_ms: u64,
-    /// Keep CCON.LOCK set: FCT and the web server cannot take device control.
-    #[arg(long, global = true)]
-    pub lock: bool,
-    /// Print JSON instead of text.
-    #[arg(long, global = true)]
-    pub json: bool,
-}
-
 #[derive(Subcommand, Debug)]
 pub enum EcatCommand {
     /// Count the slaves, give them station addresses (0x1000 + n) and print their SII
@@ -586,91 +543,4 @@ pub enum EcatStateArg {
     Preop,
     Safeop,
     Op,
-}
-
-#[derive(Subcommand, Debug)]
-pub enum FhppCommand {
-    /// Print the decoded status bytes (FC 0x03 and 0x07; writes nothing).
-    Status,
-    /// Acknowledge a fault if needed, then ENABLE and STOP to S4 "operation enabled".
-    Enable,
-    /// ENABLE = 0: drive disabled, output stage off.
-    Disable,
-    /// Homing (CPOS.HOM); waits for MC and REF.
-    Home,
-    /// Direct-mode position task to POSITION [SINC]; waits for MC.
-    Move {
-        #[arg(allow_hyphen_values = true)]
-        position: i32,
-        /// Velocity, % of PNU 540.
-        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=100))]
-        velocity: u8,
-        /// POSITION is relative (CDIR.ABS = 1).
-        #[arg(long)]
-        relative: bool,
-    },
-    /// Start record N (record selection, 0 = homing, 1…64); waits for MC.
-    Record { number: u8 },
-    /// Read or write a PNU through the parameter channel (EFPC, I/O bytes 9…16).
-    #[command(subcommand)]
-    Pnu(PnuCommand),
-}
-
-#[derive(Subcommand, Debug)]
-pub enum PnuCommand {
-    /// Read PNU[:SUB] (decimal; SUB defaults to 1).
-    Read { pnu: String },
-    /// Write VALUE (decimal, negative or 0x hex) to PNU[:SUB].
-    Write {
-        pnu: String,
-        #[arg(allow_hyphen_values = true)]
-        value: String,
-    },
-}
-
-/// The serial port of `drivetwin kinco`.
-#[derive(Args, Debug, Clone)]
-pub struct KincoPortArgs {
-    /// The serial port: a device (/dev/ttyUSB0) or a twin's `--rs232` link.
-    #[arg(long, global = true, default_value = "/dev/ttyUSB0")]
-    pub port: PathBuf,
-    /// The drive's station number (its node-ID, 100Bh).
-    #[arg(long, global = true, default_value_t = 1)]
-    pub id: u8,
-    /// Bit rate (RS232_Baudrate 2FE0h: 270 = 38400, the default).
-    #[arg(long, global = true, default_value_t = 38_400)]
-    pub baud: u32,
-    /// How long to wait for each answer, ms.
-    #[arg(long, global = true, default_value_t = 200)]
-    pub timeout_ms: u64,
-    /// The personality whose dictionary types the values.
-    #[arg(long, global = true, default_value = "kinco-fd3")]
-    pub device: String,
-}
-
-#[derive(Subcommand, Debug)]
-pub enum KincoCommand {
-    /// Read an object (upload, 40h), decoded by its type.
-    Read {
-        /// Index, hex (0x6041 or 6041).
-        index: String,
-        /// Sub-index, hex.
-        #[arg(default_value = "0")]
-        sub: String,
-        /// Type to decode as (u8 u16 u32 i8 i16 i32 hex); default the dictionary's.
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-    },
-    /// Write an object (download, 23h / 2Bh / 2Fh by its size).
-    Write {
-        index: String,
-        sub: String,
-        #[arg(allow_negative_numbers = true)]
-        value: String,
-        /// Type to encode as; default the dictionary's.
-        #[arg(long = "type", short = 't')]
-        data_type: Option<String>,
-    },
-    /// The drive's state: statusword, controlword, mode, position, speed, errors.
-    Status,
 }

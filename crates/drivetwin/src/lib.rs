@@ -19,6 +19,9 @@
 //! - [`scenario`]: scripted runs of a cell;
 //! - [`web`]: the web console (HTTP API, live samples, the page);
 //! - [`master`]: the command-line master's protocol clients;
+//! - [`vendors`]: what serves or speaks to one vendor's devices only (a device's own web
+//!   pages, a vendor protocol's master), one folder per device family; the layers above
+//!   name no vendor and get these through seams (`vendors::WEB_PAGES`);
 //! - [`export`] and [`value_text`]: ESI XML for EtherCAT configurators, values as text;
 //! - `sys`: the platform calls, the only place with `unsafe` code.
 #![deny(unsafe_code)]
@@ -36,4 +39,5 @@ pub mod serial;
 mod sys;
 pub mod trace;
 pub mod value_text;
+pub mod vendors;
 pub mod web;

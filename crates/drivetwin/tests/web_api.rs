@@ -335,22 +335,44 @@ fn default_address_gives_way_an_explicit_one_must_bind_and_beyond_loopback_a_tok
     let cell = cell();
     // Whoever has the default port (this test or another process), a second console gives way.
     let _held = TcpListener::bind(web::DEFAULT_ADDR);
-    let second = web::start(&HttpSetting::Default, cell.handle.clone()).expect("no error");
+    let second = web::start(
+        &HttpSetting::Default,
+        cell.handle.clone(),
+        drivetwin::vendors::WEB_PAGES,
+    )
+    .expect("no error");
     assert!(second.is_none());
     let taken = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = taken.local_addr().expect("addr").to_string();
-    assert!(web::start(&HttpSetting::At(addr), cell.handle.clone()).is_err());
+    assert!(web::start(
+        &HttpSetting::At(addr),
+        cell.handle.clone(),
+        drivetwin::vendors::WEB_PAGES
+    )
+    .is_err());
     assert_eq!(HttpSetting::parse(Some("off")), HttpSetting::Off);
-    assert!(web::start(&HttpSetting::Off, cell.handle.clone())
-        .expect("off")
-        .is_none());
-    let local = web::start(&HttpSetting::At("127.0.0.1:0".into()), cell.handle.clone())
-        .expect("binds")
-        .expect("serves");
+    assert!(web::start(
+        &HttpSetting::Off,
+        cell.handle.clone(),
+        drivetwin::vendors::WEB_PAGES
+    )
+    .expect("off")
+    .is_none());
+    let local = web::start(
+        &HttpSetting::At("127.0.0.1:0".into()),
+        cell.handle.clone(),
+        drivetwin::vendors::WEB_PAGES,
+    )
+    .expect("binds")
+    .expect("serves");
     assert!(local.token.is_none());
-    let wide = web::start(&HttpSetting::At("0.0.0.0:0".into()), cell.handle.clone())
-        .expect("binds")
-        .expect("serves");
+    let wide = web::start(
+        &HttpSetting::At("0.0.0.0:0".into()),
+        cell.handle.clone(),
+        drivetwin::vendors::WEB_PAGES,
+    )
+    .expect("binds")
+    .expect("serves");
     assert!(
         wide.token.as_deref().is_some_and(|t| t.len() == 32),
         "{wide:?}"

@@ -198,6 +198,18 @@ pub struct InterfaceOffer {
 /// and what its CoE mailbox serves (device file `[device.ethercat]`, ETG.1000.6 §5.4,
 /// ETG.2010). Sync manager addresses and sizes are the device's; the identity (vendor id,
 /// product code, revision, names) is the description's own.
+/// What an FHPP device (Festo Handling and Positioning Profile, parameters PNU n at object
+/// 2000h + n) says beyond its parameters (device file `[device.fhpp]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FhppParameters {
+    /// Motion records of record selection, numbered 1…`records` (the record list's
+    /// subindices; record number 0 is homing).
+    pub records: u8,
+    /// PNUs writable only with the output stage off (access "rw2"), sorted: a write while
+    /// the stage is on is refused.
+    pub stage_off_pnus: &'static [u16],
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct EthercatSlave {
     /// ESI `GroupType` (the SII GENERAL GroupIdx string).
@@ -259,6 +271,8 @@ pub struct DeviceDescription {
     pub fieldbus_switches: bool,
     /// The EtherCAT slave's SII and CoE data, for a device with an EtherCAT interface.
     pub ethercat: Option<EthercatSlave>,
+    /// What the FHPP profile needs beyond the parameters, for a device of that profile.
+    pub fhpp: Option<FhppParameters>,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

@@ -240,6 +240,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         rotary_switches: 0,
         fieldbus_switches: false,
         ethercat: None,
+        fhpp: None,
         interfaces: vec!["canopen".into()],
         interfaces_one_of: Vec::new(),
         interfaces_rule: "a CANopen device (its EDS)".into(),

@@ -15,14 +15,14 @@ use drivetwin::master::sdo_client::{SdoClient, SdoError};
 use drivetwin::modbus_tcp::fhpp as fhpp_modbus;
 use drivetwin::trace::{self, TraceWriter};
 use drivetwin::value_text;
+use drivetwin::vendors::Failure;
 use od::DataType;
 
 use crate::cli::{
     BusArgs, Cli, Command, DriveCommand, LssCommand, NmtArg, PdoCommand, RunArgs, SdoCommand,
 };
-use crate::cli::{DiffArgs, FhppArgs, FhppCommand, PnuCommand, RecordArgs};
+use crate::cli::{DiffArgs, RecordArgs};
 use drivetwin::master::cia402::{self, Cia402Error};
-use drivetwin::master::fhpp::FhppError;
 use drivetwin::master::lss::{LssError, LssMaster};
 use drivetwin::master::pdo_config::{self, Direction, Mapping, PdoSetting};
 
@@ -79,10 +79,9 @@ pub enum CommandError {
     Cia402(#[from] Cia402Error),
     #[error(transparent)]
     Ecat(#[from] drivetwin::master::ecat::EcatError),
+    /// A sub-command named for a device (`kinco`, `fhpp`, `iodd`), in its vendor folder.
     #[error(transparent)]
-    Fhpp(#[from] FhppError),
-    #[error(transparent)]
-    Kinco(#[from] drivetwin::master::kinco_rs232::KincoError),
+    Vendor(#[from] drivetwin::vendors::CommandError),
     #[error("{what}: {source}")]
     Io {
         what: String,
@@ -130,11 +129,18 @@ impl CommandError {
                 SdoError::Protocol(_) => EXIT_PROTOCOL,
                 SdoError::Link(_) => EXIT_LINK,
             },
-            CommandError::Fhpp(e) => fhpp::exit_code(e),
             CommandError::Drive(drivetwin::cell::station::StationError::NodeId(_)) => EXIT_USAGE,
             CommandError::Drive(_) | CommandError::Io { .. } => EXIT_FAILURE,
             CommandError::Ecat(e) => ecat::exit_code(e),
-            CommandError::Kinco(e) => kinco::exit_code(e),
+            CommandError::Vendor(e) => match e.failure() {
+                Failure::Usage => EXIT_USAGE,
+                Failure::Link => EXIT_LINK,
+                Failure::Timeout => EXIT_TIMEOUT,
+                Failure::Refused => EXIT_ABORT,
+                Failure::Protocol => EXIT_PROTOCOL,
+                Failure::Fault => EXIT_FAULT,
+                Failure::Other => EXIT_FAILURE,
+            },
             CommandError::ScenarioFailed(_) | CommandError::Differs(_) => EXIT_FAILURE,
             CommandError::Script { .. } | CommandError::Unusable(_) => EXIT_USAGE,
         }
@@ -144,9 +150,6 @@ impl CommandError {
 mod diff;
 mod drive;
 mod ecat;
-mod fhpp;
-mod iodd;
-mod kinco;
 mod lss;
 mod network;
 mod pdo;
@@ -197,7 +200,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
             timeout_ms,
             bus,
         } => drive::drive_command(node, command, wait, timeout_ms, bus).await,
-        Command::Fhpp { command, link } => fhpp::fhpp(command, link).await,
+        Command::Fhpp(args) => Ok(args.run(&mut print).await?),
         Command::Monitor {
             count,
             seconds,
@@ -205,19 +208,20 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
             bus,
         } => network::monitor(count, seconds, bitrate, bus).await,
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
-        Command::Kinco { command, port } => kinco::kinco(command, port),
+        Command::Kinco(args) => Ok(args.run(&mut print)?),
         Command::Scenario(args) => scenario::scenario(args),
         Command::Record(args) => record::record(args).await,
         Command::Diff(args) => diff::diff(args).await.map_err(|e| match e {
             CommandError::Differs(_) => e,
             other => CommandError::Unusable(Box::new(other)),
         }),
-        Command::Iodd {
-            device,
-            output_dir,
-            date,
-        } => iodd::iodd(&device, &output_dir, &date),
+        Command::Iodd(args) => Ok(args.run(&mut print)?),
     }
+}
+
+/// A line of a command's answer on standard output (as [`out!`]).
+fn print(line: &str) {
+    out!("{line}");
 }
 
 pub(crate) fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {

@@ -530,8 +530,12 @@ fn web_console(
     handle: drivetwin::cell::control::ControlHandle,
 ) -> Result<Option<drivetwin::web::WebConsole>, CommandError> {
     use drivetwin::web::{self, HttpSetting};
-    let console = web::start(&HttpSetting::parse(http), handle)
-        .map_err(|e| CommandError::Usage(e.to_string()))?;
+    let console = web::start(
+        &HttpSetting::parse(http),
+        handle,
+        drivetwin::vendors::WEB_PAGES,
+    )
+    .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(c) = &console {
         match &c.token {
             None => out!("web console on http://{}/", c.addr),

@@ -54,6 +54,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use drive::drive::DriveEvent;
+use drive::personality::Fault;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
 use ethercat::esc::MAILBOX_MAX;
 use ethercat::sii::{self, SiiConfig};
@@ -76,12 +77,6 @@ pub const TICK: Duration = Duration::from_millis(1);
 const RX_ASSIGN: u16 = 0x1C12;
 const TX_ASSIGN: u16 = 0x1C13;
 
-/// Emergency code of a lost synchronisation. CMMP-AS B.3 63-4 "EtherCAT: no SYNC in IPO
-/// cycle" has no CiA code in Tab. B.2; decision: send 8781h, the manual's code for
-/// "fieldbus synchronisation error" (34-1), the one it gives for a lost SYNC.
-pub const SYNC_LOST_EMCY: u16 = drive::vendors::festo_cmmp_as::diag::FIELDBUS_SYNC_ERROR;
-/// Error register with it: generic + communication error (CiA 301 1001h bits 0 and 4).
-const SYNC_LOST_REGISTER: u8 = 0x11;
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
 const MAX_SYNC0_BURST: u64 = 16;
 /// A SYNC0 grid finer than this is served at most this often, its events counted in batches
@@ -535,10 +530,18 @@ impl Bound<'_> {
         );
         esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);
         self.dev.layout_inputs_only();
-        if let Some(drive) = self.model.drive_mut() {
+        // The drive reports a lost synchronisation as its personality's fieldbus
+        // synchronisation error. The CMMP-AS's B.3 63-4 "EtherCAT: no SYNC in IPO cycle" has
+        // no CiA code in Tab. B.2; decision: its "fieldbus synchronisation error" (34-1,
+        // 8781h, error register 11h), the one the manual gives for a lost SYNC.
+        let error = self.model.drive_mut().and_then(|drive| {
+            let e = drive.personality().error(Fault::FieldbusSyncError)?;
+            Some((drive, e))
+        });
+        if let Some((drive, e)) = error {
             // The error is raised once; its cause is gone with it, so a fault reset clears it.
-            drive.inject_fault(SYNC_LOST_EMCY, SYNC_LOST_REGISTER);
-            drive.clear_fault(SYNC_LOST_EMCY);
+            drive.inject_fault(e.code, e.register);
+            drive.clear_fault(e.code);
         }
         self.forward_events();
     }

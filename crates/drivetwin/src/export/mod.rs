@@ -1,4 +1,3 @@
 //! What a device description exports for master tools (ESI XML for EtherCAT configurators).
 
 pub mod esi;
-pub mod iodd;

@@ -2,8 +2,6 @@
 
 pub mod cia402;
 pub mod ecat;
-pub mod fhpp;
-pub mod kinco_rs232;
 pub mod link;
 pub mod lss;
 pub mod modbus_tcp;

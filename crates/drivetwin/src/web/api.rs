@@ -98,11 +98,11 @@ impl ApiError {
         }
     }
 
-    pub(super) fn bad(error: impl Into<String>) -> ApiError {
+    pub(crate) fn bad(error: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::BAD_REQUEST, error)
     }
 
-    pub(super) fn not_found(error: impl Into<String>) -> ApiError {
+    pub(crate) fn not_found(error: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::NOT_FOUND, error)
     }
 
@@ -159,10 +159,10 @@ impl IntoResponse for ApiError {
     }
 }
 
-pub(super) type ApiResult<T> = Result<Json<T>, ApiError>;
+pub(crate) type ApiResult<T> = Result<Json<T>, ApiError>;
 
 /// Runs a blocking call on the control handle off the runtime's workers.
-pub(super) async fn call<T: Send + 'static>(
+pub(crate) async fn call<T: Send + 'static>(
     handle: &ControlHandle,
     f: impl FnOnce(&ControlHandle) -> Result<T, ApiError> + Send + 'static,
 ) -> Result<T, ApiError> {
@@ -280,7 +280,7 @@ fn drive_view(h: &ControlHandle, info: &DriveInfo) -> Result<DriveView, ApiError
     })
 }
 
-pub(super) fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
+pub(crate) fn find_drive(h: &ControlHandle, drive: &str) -> Result<DriveInfo, ApiError> {
     let index: usize = drive
         .parse()
         .map_err(|_| ApiError::bad(format!("drive {drive:?}: not a drive index (0, 1, …)")))?;
@@ -970,12 +970,13 @@ impl LoadBody {
 )]
 pub struct ApiDoc;
 
-async fn openapi() -> Response {
+async fn openapi(State(s): State<AppState>) -> Response {
     let mut doc = ApiDoc::openapi();
     doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
     doc.merge(super::motion::MotionDoc::openapi());
-    doc.merge(super::cmmo_st::CmmoStDoc::openapi());
-    doc.merge(super::panel::PanelDoc::openapi());
+    for pages in s.pages {
+        doc.merge((pages.openapi)());
+    }
     match super::wire::merged(doc).to_json() {
         Ok(text) => (
             [(axum::http::header::CONTENT_TYPE, "application/json")],

@@ -14,17 +14,17 @@
 //! - [`live`]: samples over a WebSocket, decimated for the browser;
 //! - [`page`]: the console page and its script;
 //! - [`auth`]: the write token;
-//! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell.
+//! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell;
+//! - [`DevicePages`]: a device's own pages, served beside these; the console names no device,
+//!   its caller hands it the pages (`drivetwin::vendors::WEB_PAGES`).
 
 pub mod api;
 pub mod auth;
-pub mod cmmo_st;
 pub mod diagnostics;
 pub mod error_text;
 pub mod live;
 pub mod motion;
 pub mod page;
-pub mod panel;
 pub mod physics;
 pub mod scenarios;
 pub mod wire;
@@ -71,25 +71,42 @@ pub enum WebError {
     Io(#[from] std::io::Error),
 }
 
-/// What the handlers share: the cell's handle and the write token (none on loopback).
+/// What the handlers share: the cell's handle, the write token (none on loopback) and the
+/// devices' own pages (their OpenAPI documents join the console's).
 #[derive(Clone)]
 pub struct AppState {
     pub handle: ControlHandle,
     pub token: Option<Arc<str>>,
+    pub pages: &'static [DevicePages],
 }
 
-/// The whole console: API, OpenAPI document, WebSocket and page.
+/// A device's own pages and API beside the console's, as the device's vendor folder defines
+/// them: the console serves them without naming the device, so that adding a device's pages
+/// touches its folder and the table that lists it (`drivetwin::vendors::WEB_PAGES`).
+#[derive(Debug, Clone, Copy)]
+pub struct DevicePages {
+    /// The routes, under a path of the device's own (`/cmmo-st/{drive}`, `/api/…/panel`).
+    pub routes: fn() -> Router<AppState>,
+    /// Their part of `/api/openapi.json`.
+    pub openapi: fn() -> utoipa::openapi::OpenApi,
+}
+
+/// The whole console: API, OpenAPI document, WebSocket and page, and the devices' pages
+/// of `state.pages`.
 pub fn router(state: AppState) -> Router {
+    let devices = state
+        .pages
+        .iter()
+        .fold(Router::new(), |r, pages| r.merge((pages.routes)()));
     Router::new()
         .merge(api::routes())
         .merge(live::routes())
         .merge(diagnostics::routes())
-        .merge(panel::routes())
         .merge(page::routes())
         .merge(wire::routes())
         .merge(motion::routes())
-        .merge(cmmo_st::routes())
         .merge(physics::routes())
+        .merge(devices)
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::require_token_for_writes,
@@ -107,8 +124,12 @@ pub struct WebConsole {
 }
 
 /// Binds the console's listener as `setting` says (`Ok(None)`: no console) and serves it on a
-/// thread of its own until the process ends.
-pub fn start(setting: &HttpSetting, handle: ControlHandle) -> Result<Option<WebConsole>, WebError> {
+/// thread of its own until the process ends, with the devices' own `pages`.
+pub fn start(
+    setting: &HttpSetting,
+    handle: ControlHandle,
+    pages: &'static [DevicePages],
+) -> Result<Option<WebConsole>, WebError> {
     let listener = match setting {
         HttpSetting::Off => return Ok(None),
         // Decision: the default console gives way to another instance (parallel test runs,
@@ -139,6 +160,7 @@ pub fn start(setting: &HttpSetting, handle: ControlHandle) -> Result<Option<WebC
     let state = AppState {
         handle,
         token: token.as_deref().map(Arc::from),
+        pages,
     };
     let thread = std::thread::Builder::new()
         .name("web".into())

@@ -104,6 +104,7 @@ pub fn app(running: &Running, token: Option<&str>) -> axum::Router {
     web::router(AppState {
         handle: running.handle.clone(),
         token: token.map(Arc::from),
+        pages: drivetwin::vendors::WEB_PAGES,
     })
 }
 

@@ -451,11 +451,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             )
         };
         stepper.set_end_stops(settings.mechanics.stops_rad());
+        let records = RecordTable::new(od.description().fhpp.map_or(0, |f| f.records));
         let mut dev = FhppDevice {
             od,
             settings,
             fhpp: Fhpp::default(),
-            records: RecordTable::default(),
+            records,
             records_dirty: ALL_RECORDS,
             params: Params::default(),
             params_dirty: true,
@@ -671,6 +672,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             authority: self.fhpp.authority(),
             fault: self.fhpp.fault().is_some(),
             now_ms: self.cycles,
+            stage_off_pnus: self.od.description().fhpp.map_or(&[], |f| f.stage_off_pnus),
         };
         let desc = self.od.description();
         if let Some(job) = self.fpc.receive(&self.fpc_out, &ctx, desc) {

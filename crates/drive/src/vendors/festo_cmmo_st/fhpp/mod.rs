@@ -15,7 +15,7 @@
 //! - [`control_bytes`]: CCON, CPOS, CDIR and the output telegram (Tab. 5.12, 5.14–5.20);
 //! - [`status_bytes`]: SCON, SPOS, SDIR, RSB and the input telegram (Tab. 5.13, 5.21–5.28);
 //! - [`state_machine`]: Fig. 5.1 / Tab. 5.2–5.4 and the handshakes of §5.2.3 and ch. 6;
-//! - [`record_table`]: the 64 records of PNU 401…442 (Tab. 6.7) with RCB1…RCB3 (data only);
+//! - [`record_table`]: the records of PNU 401…442 (Tab. 6.7) with RCB1…RCB3 (data only);
 //! - [`parameter_channel`]: the EFPC bytes 9…16 (App. C), wire codec for drive and master, and
 //!   the drive's server;
 //! - [`parameter_file`]: the parameter file and the permanent memory (C.4.3, PNU 127);

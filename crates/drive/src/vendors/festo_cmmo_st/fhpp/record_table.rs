@@ -1,29 +1,31 @@
-//! The record list of record selection (CMMO-ST manual §6.5.2 Tab. 6.7, PNU 401…442): 64
-//! records, subindex = record number; record number 0 in output byte 3 means homing.
+//! The record list of record selection (CMMO-ST manual §6.5.2 Tab. 6.7, PNU 401…442): as
+//! many records as the device file's `[device.fhpp] records` (the CMMO-ST: 64), subindex =
+//! record number; record number 0 in output byte 3 means homing.
 //! This part holds the data; the device executes chains (RCB2, PNU 416, 425, 426).
 
 use super::bit_byte;
 use super::control_bytes::ControlMode;
 
-/// Number of motion records (PNU 401…442 subindex 1…64).
-pub const RECORD_COUNT: usize = 64;
+/// The most records a table holds: the device keeps the records to rebuild as one 64-bit set.
+pub const MAX_RECORDS: u8 = 64;
 
 /// What record number byte 3 selects (§5.2.3 Example 5 step 5.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RecordSelect {
     /// 0 = homing.
     Homing,
-    /// 1…64 = a programmable motion record.
+    /// 1…`records` = a programmable motion record.
     Record(u8),
-    /// 65…255: no such record.
+    /// Above `records`: no such record.
     Invalid(u8),
 }
 
 impl RecordSelect {
-    pub const fn from_byte(b: u8) -> Self {
+    /// What byte 3 selects on a device with `records` records.
+    pub const fn from_byte(b: u8, records: u8) -> Self {
         match b {
             0 => RecordSelect::Homing,
-            1..=64 => RecordSelect::Record(b),
+            _ if b <= records => RecordSelect::Record(b),
             _ => RecordSelect::Invalid(b),
         }
     }
@@ -296,33 +298,54 @@ impl Record {
     }
 }
 
-/// The 64 motion records, addressed 1…64 as the PNU subindex and output byte 3 address them.
+/// The motion records, addressed 1…`count` as the PNU subindex and output byte 3 address
+/// them.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RecordTable {
-    records: [Record; RECORD_COUNT],
-}
-
-impl Default for RecordTable {
-    fn default() -> Self {
-        RecordTable {
-            records: [Record::default(); RECORD_COUNT],
-        }
-    }
+    records: [Record; MAX_RECORDS as usize],
+    count: u8,
 }
 
 impl RecordTable {
-    /// Record `number` (1…64); `None` for 0 (homing, which has no record data) and above 64.
-    pub fn get(&self, number: u8) -> Option<&Record> {
-        self.records.get(usize::from(number).checked_sub(1)?)
+    /// A table of `count` records (the device file's `[device.fhpp] records`), at most
+    /// [`MAX_RECORDS`].
+    pub fn new(count: u8) -> Self {
+        RecordTable {
+            records: [Record::default(); MAX_RECORDS as usize],
+            count: count.min(MAX_RECORDS),
+        }
     }
 
-    /// Record `number` (1…64) for writing.
+    /// How many records there are.
+    pub const fn count(&self) -> u8 {
+        self.count
+    }
+
+    /// What record number `b` (output byte 3) selects.
+    pub const fn select(&self, b: u8) -> RecordSelect {
+        RecordSelect::from_byte(b, self.count)
+    }
+
+    /// Record `number` (1…count); `None` for 0 (homing, which has no record data) and above.
+    pub fn get(&self, number: u8) -> Option<&Record> {
+        self.records.get(self.slot(number)?)
+    }
+
+    /// Record `number` (1…count) for writing.
     pub fn get_mut(&mut self, number: u8) -> Option<&mut Record> {
-        self.records.get_mut(usize::from(number).checked_sub(1)?)
+        let slot = self.slot(number)?;
+        self.records.get_mut(slot)
     }
 
     /// All records, record 1 first.
     pub fn iter(&self) -> impl Iterator<Item = (u8, &Record)> {
-        self.records.iter().zip(1u8..).map(|(r, n)| (n, r))
+        self.records
+            .iter()
+            .zip(1u8..=self.count)
+            .map(|(r, n)| (n, r))
+    }
+
+    fn slot(&self, number: u8) -> Option<usize> {
+        (number <= self.count).then_some(usize::from(number).checked_sub(1)?)
     }
 }

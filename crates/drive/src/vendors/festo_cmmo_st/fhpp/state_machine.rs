@@ -1194,7 +1194,7 @@ impl Fhpp {
         };
         match self.opm {
             OperatingMode::RecordSelection => {
-                let number = match RecordSelect::from_byte(out.record_number()) {
+                let number = match records.select(out.record_number()) {
                     RecordSelect::Homing => return Ok(homing),
                     RecordSelect::Record(n) => n,
                     RecordSelect::Invalid(n) => return Err(Refusal::InvalidRecord(n)),

@@ -18,8 +18,9 @@
 //!   subindex), access (read of a write-only 66h, write of a read-only 01h), control
 //!   authority for writes (0Bh: FCT or the web server holds control; PNU 125 itself is
 //!   exempt, it is how the fieldbus takes control back and answers 11h against FCT),
-//!   operating state (11h: an rw2 PNU with the output stage on, [`RW2_PNUS`]), value (02h:
-//!   outside the type or the dictionary's limits), then the device's own refusal (11h).
+//!   operating state (11h: an rw2 PNU with the output stage on, [`Context::stage_off_pnus`]),
+//!   value (02h: outside the type or the dictionary's limits), then the device's own refusal
+//!   (11h).
 //! - **PWE** is 32 bits for every type: signed types are sign-extended on read and must fit
 //!   the type when written as a signed 32-bit number (so int8 −1 is `FFFF FFFF`, and
 //!   `0000 00FF` is 02h "limit exceeded"); unsigned types must fit as unsigned.
@@ -44,14 +45,6 @@ use crate::vendors::festo_cmmo_st::fhpp::state_machine::Authority;
 /// parameters" (App. D).
 pub const DIAG_PARAMETER_FILE: u8 = 0x27;
 
-/// PNUs with access rw2, writable only with the output stage off: every PNU whose entries
-/// `devices/cmmo-st.toml` marks "# rw2" (App. B access column). Sorted.
-pub const RW2_PNUS: &[u16] = &[
-    127, 128, 242, 246, 501, 502, 503, 530, 531, 532, 534, 538, 539, 552, 561, 600, 601, 1000,
-    1002, 1003, 1005, 1012, 1013, 1015, 1016, 1017, 1022, 1023, 1025, 1026, 1029, 1036, 1042, 1043,
-    1045, 1071,
-];
-
 /// PNU 125 "control logic": written to take control back; only 1 is accepted (§3.1.1).
 const PNU_CONTROL_LOGIC: u16 = 125;
 
@@ -66,6 +59,9 @@ pub struct Context {
     pub fault: bool,
     /// The device's millisecond clock (cycles).
     pub now_ms: u64,
+    /// The PNUs with access rw2, writable only with the output stage off (App. B access
+    /// column), sorted: the device file's `[device.fhpp] stage_off_pnus`.
+    pub stage_off_pnus: &'static [u16],
 }
 
 /// Object index of PNU `pnu` (the dictionary's mapping rule, 2000h + PNU); `None` past FFFFh.
@@ -154,7 +150,7 @@ pub fn execute<A: ObjectAccess + ?Sized>(
             if ctx.authority != Authority::Fieldbus && pnu != PNU_CONTROL_LOGIC {
                 return Err(ErrorCode::NoAuthority);
             }
-            if ctx.stage_on && RW2_PNUS.binary_search(&pnu).is_ok() {
+            if ctx.stage_on && ctx.stage_off_pnus.binary_search(&pnu).is_ok() {
                 return Err(ErrorCode::NotInThisState);
             }
             let mut buf = [0u8; 8];

@@ -24,7 +24,7 @@ use drive::vendors::festo_cmmo_st::fhpp::{
 
 use drive::vendors::festo_cmmo_st::fhpp::parameter_channel::ErrorCode;
 
-use super::modbus_tcp::{ModbusTcpClient, ModbusTcpError};
+use crate::master::modbus_tcp::{ModbusTcpClient, ModbusTcpError};
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 const STD_REGISTERS: usize = 4;

@@ -13,8 +13,8 @@ use drive::vendors::kinco::panel::{Blink, PanelDisplay, PanelKey};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::api::{call, find_drive, ApiError, ApiResult};
-use super::AppState;
+use crate::web::api::{call, find_drive, ApiError, ApiResult};
+use crate::web::AppState;
 
 /// What the panel shows.
 #[derive(Debug, Serialize, ToSchema)]

@@ -28,11 +28,11 @@ use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::api::ApiError;
-use super::AppState;
 use crate::cell::control::{ControlHandle, FhppRequest, Interface};
+use crate::web::api::ApiError;
+use crate::web::AppState;
 
-const PAGE: &str = include_str!("assets/cmmo-st.html");
+const PAGE: &str = include_str!("web_server.html");
 
 /// The settings of the four tabs that need a restart (§2.2 "Restart required").
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -191,7 +191,7 @@ pub struct DeviceControlBody {
 }
 
 fn cmmo_st(h: &ControlHandle, drive: &str) -> Result<usize, ApiError> {
-    let info = super::api::find_drive(h, drive)?;
+    let info = crate::web::api::find_drive(h, drive)?;
     let index = info.index;
     if info.device != "cmmo-st" || info.interface != Interface::ModbusTcp {
         return Err(ApiError::new(

@@ -1,31 +1,129 @@
 //! `drivetwin fhpp …`: the FHPP master commands to a CMMO-ST over Modbus TCP.
 
-use super::*;
-use ::drive::vendors::festo_cmmo_st::device::pnu_index;
-use drivetwin::master::fhpp::{FhppMaster, MasterConfig};
-use drivetwin::master::modbus_tcp::ModbusTcpError;
+use std::time::Duration;
 
-/// Exit codes as for the CANopen commands: the link 3, timeouts 4, a refusal or a parameter
-/// channel error 5 (like an SDO abort), a malformed answer 6, a drive fault 7.
-pub(crate) fn exit_code(e: &FhppError) -> u8 {
+use clap::{Args, Subcommand};
+use drive::vendors::festo_cmmo_st::device::pnu_index;
+use od::DataType;
+
+use super::fhpp_master::{FhppError, FhppMaster, MasterConfig};
+use crate::master::modbus_tcp::ModbusTcpError;
+use crate::value_text;
+use crate::vendors::{CommandError, Failure};
+
+// `drivetwin fhpp`'s arguments: what to do, and the link (no doc comment: the sub-command's
+// help is the variant's in the binary's command list).
+#[derive(Args, Debug)]
+pub struct FhppArgs {
+    #[command(subcommand)]
+    pub command: FhppCommand,
+    #[command(flatten)]
+    pub link: FhppLinkArgs,
+}
+
+/// The Modbus TCP link of `drivetwin fhpp`.
+#[derive(Args, Debug, Clone)]
+pub struct FhppLinkArgs {
+    /// Modbus TCP address of the CMMO-ST.
+    #[arg(
+        long,
+        global = true,
+        value_name = "ADDR",
+        default_value = "127.0.0.1:1502"
+    )]
+    pub modbus: String,
+    /// Timeout of each handshake step and of the motion, ms.
+    #[arg(long, global = true, default_value_t = 10_000)]
+    pub timeout_ms: u64,
+    /// PLC cycle: one FC 0x17 exchange every this many ms while waiting.
+    #[arg(long, global = true, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub cycle_ms: u64,
+    /// Keep CCON.LOCK set: FCT and the web server cannot take device control.
+    #[arg(long, global = true)]
+    pub lock: bool,
+    /// Print JSON instead of text.
+    #[arg(long, global = true)]
+    pub json: bool,
+}
+
+// The doc comments are clap's help text: `[SINC]`, `PNU[:SUB]` are the command line's
+// notation, not links.
+#[allow(rustdoc::broken_intra_doc_links)]
+#[derive(Subcommand, Debug)]
+pub enum FhppCommand {
+    /// Print the decoded status bytes (FC 0x03 and 0x07; writes nothing).
+    Status,
+    /// Acknowledge a fault if needed, then ENABLE and STOP to S4 "operation enabled".
+    Enable,
+    /// ENABLE = 0: drive disabled, output stage off.
+    Disable,
+    /// Homing (CPOS.HOM); waits for MC and REF.
+    Home,
+    /// Direct-mode position task to POSITION [SINC]; waits for MC.
+    Move {
+        #[arg(allow_hyphen_values = true)]
+        position: i32,
+        /// Velocity, % of PNU 540.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=100))]
+        velocity: u8,
+        /// POSITION is relative (CDIR.ABS = 1).
+        #[arg(long)]
+        relative: bool,
+    },
+    /// Start record N (record selection, 0 = homing, 1…64); waits for MC.
+    Record { number: u8 },
+    /// Read or write a PNU through the parameter channel (EFPC, I/O bytes 9…16).
+    #[command(subcommand)]
+    Pnu(PnuCommand),
+}
+
+// The doc comments are clap's help text: `[SINC]`, `PNU[:SUB]` are the command line's
+// notation, not links.
+#[allow(rustdoc::broken_intra_doc_links)]
+#[derive(Subcommand, Debug)]
+pub enum PnuCommand {
+    /// Read PNU[:SUB] (decimal; SUB defaults to 1).
+    Read { pnu: String },
+    /// Write VALUE (decimal, negative or 0x hex) to PNU[:SUB].
+    Write {
+        pnu: String,
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+    },
+}
+
+/// As the CANopen commands: the link, time-outs, a refusal or a parameter channel error
+/// (like an SDO abort), a malformed answer, a drive fault.
+pub(crate) fn failure(e: &FhppError) -> Failure {
     match e {
         FhppError::Modbus(m) => match m {
             ModbusTcpError::Connect { .. } | ModbusTcpError::Io(_) | ModbusTcpError::Closed => {
-                EXIT_LINK
+                Failure::Link
             }
-            ModbusTcpError::Timeout(_) => EXIT_TIMEOUT,
-            ModbusTcpError::Exception { .. } => EXIT_ABORT,
-            ModbusTcpError::Protocol(_) => EXIT_PROTOCOL,
+            ModbusTcpError::Timeout(_) => Failure::Timeout,
+            ModbusTcpError::Exception { .. } => Failure::Refused,
+            ModbusTcpError::Protocol(_) => Failure::Protocol,
         },
-        FhppError::Refused { .. } | FhppError::Parameter { .. } => EXIT_ABORT,
-        FhppError::Timeout { .. } => EXIT_TIMEOUT,
-        FhppError::Fault { .. } => EXIT_FAULT,
-        FhppError::Protocol(_) => EXIT_PROTOCOL,
-        FhppError::NoParameterChannel => EXIT_FAILURE,
+        FhppError::Refused { .. } | FhppError::Parameter { .. } => Failure::Refused,
+        FhppError::Timeout { .. } => Failure::Timeout,
+        FhppError::Fault { .. } => Failure::Fault,
+        FhppError::Protocol(_) => Failure::Protocol,
+        FhppError::NoParameterChannel => Failure::Other,
     }
 }
 
-pub(crate) async fn fhpp(command: FhppCommand, link: FhppArgs) -> Result<(), CommandError> {
+impl FhppArgs {
+    /// Carries the command out; its answer goes to `out`.
+    pub async fn run(self, out: &mut (dyn FnMut(&str) + Send)) -> Result<(), CommandError> {
+        fhpp(self.command, self.link, out).await
+    }
+}
+
+async fn fhpp(
+    command: FhppCommand,
+    link: FhppLinkArgs,
+    out: &mut (dyn FnMut(&str) + Send),
+) -> Result<(), CommandError> {
     let config = MasterConfig {
         cycle: Duration::from_millis(link.cycle_ms),
         lock: link.lock,
@@ -34,7 +132,7 @@ pub(crate) async fn fhpp(command: FhppCommand, link: FhppArgs) -> Result<(), Com
     };
     let timeout = Duration::from_millis(link.timeout_ms);
     if let FhppCommand::Pnu(cmd) = command {
-        return pnu(cmd, &link, config, timeout).await;
+        return pnu(cmd, &link, config, timeout, out).await;
     }
     let mut m = FhppMaster::connect(&link.modbus, config).await?;
     match command {
@@ -51,9 +149,9 @@ pub(crate) async fn fhpp(command: FhppCommand, link: FhppArgs) -> Result<(), Com
     }
     let status = m.status().await?;
     if link.json {
-        out!("{}", serde_json::to_string(&status).unwrap_or_default());
+        out(&serde_json::to_string(&status).unwrap_or_default());
     } else {
-        out!("{}", status.to_text());
+        out(&status.to_text());
     }
     Ok(())
 }
@@ -117,9 +215,10 @@ struct PnuValue<'a> {
 
 async fn pnu(
     cmd: PnuCommand,
-    link: &FhppArgs,
+    link: &FhppLinkArgs,
     config: MasterConfig,
     timeout: Duration,
+    out: &mut (dyn FnMut(&str) + Send),
 ) -> Result<(), CommandError> {
     let (text, value) = match &cmd {
         PnuCommand::Read { pnu } => (pnu, None),
@@ -144,15 +243,15 @@ async fn pnu(
         pwe,
     };
     if link.json {
-        out!("{}", serde_json::to_string(&v).unwrap_or_default());
+        out(&serde_json::to_string(&v).unwrap_or_default());
     } else {
-        out!(
+        out(&format!(
             "PNU {}:{} {}= {}",
             v.pnu,
             v.sub,
             v.name.map(|n| format!("({n}) ")).unwrap_or_default(),
             v.value
-        );
+        ));
     }
     Ok(())
 }

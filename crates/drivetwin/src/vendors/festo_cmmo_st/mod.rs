@@ -1,0 +1,16 @@
+//! The Festo CMMO-ST (`drive::vendors::festo_cmmo_st`): its own web server's pages, a
+//! master for its FHPP over Modbus TCP and its IO-Link device descriptions (IODD).
+
+pub mod fhpp_commands;
+pub mod fhpp_master;
+pub mod iodd;
+pub mod iodd_command;
+pub mod web_server;
+
+use crate::web::DevicePages;
+
+/// The web server's page and API (`/cmmo-st/{drive}`, `/api/cmmo-st/{drive}/…`).
+pub const WEB_PAGES: DevicePages = DevicePages {
+    routes: web_server::routes,
+    openapi: <web_server::CmmoStDoc as utoipa::OpenApi>::openapi,
+};
