@@ -674,7 +674,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     fn ip_sync_change(&mut self, change: SyncChange) {
         if let SyncChange::Lost { while_active: true } = change {
-            // CMMP-AS 34-1: the SYNC grid was lost while interpolating.
+            // The SYNC grid was lost while interpolating.
             self.raise_fault(Fault::FieldbusSyncError);
         }
     }
@@ -908,7 +908,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let reaction = self.dc.controlword(cw, fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
-            // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
+            // CiA 402 §6.3.1 transition 15: the fault reset acknowledges the errors.
             while let Some(code) = self.faults.pop() {
                 self.push_event(DriveEvent::Cleared { code });
             }

@@ -74,7 +74,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
             }
             mode::PROFILE_VELOCITY => Statusword::SPEED_ZERO.when(self.speed_zero),
-            // Bit 12 ip_mode_active, bit 13 following error (CMMP-AS §7.4).
+            // Bit 12 ip_mode_active, bit 13 following error (CiA 402 interpolated position
+            // mode).
             mode::INTERPOLATED_POSITION => {
                 Statusword::IP_MODE_ACTIVE.when(self.ip.is_active()) | fe_bit
             }
@@ -96,7 +97,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let position = self.plant_position();
         let inputs = V::digital_inputs(self, position);
         self.store(self.hot.digital_inputs, i64::from(inputs));
-        // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
+        // A personality with `ip_changing_until_synchronised`: in IP mode 6061h shows −1
+        // until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION
                 && !self.ip.is_synchronised()

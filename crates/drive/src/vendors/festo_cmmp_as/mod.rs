@@ -1,9 +1,10 @@
-//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's appendix): its
-//! modes, option codes, homing methods (Tab. 7.1) and error numbers as tables, and as behaviour the
-//! error management 2100h (§5.18, [`error_management`]) with the messages of App. B
-//! ([`messages`]), warnings, the diagnostic memory and the 7-segment display ([`display`]), the statusword's
-//! manufacturer bits (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h,
-//! bit 15 referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
+//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's
+//! appendix): its modes, option codes, homing methods (Tab. 7.1) and error numbers as tables,
+//! and as behaviour the error management 2100h (§5.18, [`error_management`]) with the messages
+//! of App. B ([`messages`]), warnings, the diagnostic memory and the 7-segment display
+//! ([`display`]), the statusword's manufacturer bits (§6.1.4: bit 8 moving, bit 9 from
+//! enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15 referenced), the compatibility settings
+//! 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
 pub mod display;
