@@ -271,10 +271,3 @@ impl DeviceControl {
         }
     }
 }
-
-/// Statusword bit 14, the manufacturer's freely mapped bit (CMMP-AS §6.1.5, L5287): set when
-/// `((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0`, so any bit of manufacturer_statusword_1 can
-/// be shown, inverted or not.
-pub const fn manufacturer_bit_14(manufacturer_status: u32, invert: u32, mask: u32) -> bool {
-    (manufacturer_status ^ invert) & mask != 0
-}

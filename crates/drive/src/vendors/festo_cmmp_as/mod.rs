@@ -349,9 +349,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         self.store(self.hot.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
-        Statusword::MANUFACTURER_14.when(crate::device_control::manufacturer_bit_14(
-            msw, invert, mask,
-        )) | Statusword::MANUFACTURER_15.when(self.referenced)
+        Statusword::MANUFACTURER_14.when(manufacturer_bit_14(msw, invert, mask))
+            | Statusword::MANUFACTURER_15.when(self.referenced)
     }
 
     /// 6510h:F0h: the compatibility settings.
@@ -489,4 +488,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         }
         self.od.write(index, sub, data)
     }
+}
+
+/// Statusword bit 14, the manufacturer's freely mapped bit (§6.1.5, L5287): set when
+/// `((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0`, so any bit of manufacturer_statusword_1 can
+/// be shown, inverted or not.
+pub const fn manufacturer_bit_14(manufacturer_status: u32, invert: u32, mask: u32) -> bool {
+    (manufacturer_status ^ invert) & mask != 0
 }
