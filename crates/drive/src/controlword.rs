@@ -1,4 +1,4 @@
-//! The controlword 6040h (CiA 402 §6.3.2; CMMP-AS §6.1.3 Tab. 6.4; Nanotec §3.2 / §4.2): bits
+//! The controlword 6040h (CiA 402 §6.3.2): bits
 //! 0–3 and 7 command the device control state machine, 4–6, 8 and 9 belong to the mode.
 
 use crate::bit_word::bit_word;
@@ -24,7 +24,7 @@ bit_word! {
         FAULT_RESET = 0x0080;
         /// Bit 8 halt.
         HALT = 0x0100;
-        /// Bit 9 (PP): change on set-point (Nanotec §4.2; CiA 402 v3).
+        /// Bit 9 (PP): change on set-point (CiA 402 v3).
         CHANGE_ON_SET_POINT = 0x0200;
     }
 }
@@ -55,8 +55,8 @@ impl Controlword {
 /// written within one cycle run transitions 2, 3 and 4 as they do on the real bus, where the
 /// next write cannot arrive before the device has answered (and so taken) the one before.
 /// CiA 402 §6.3 drives the state machine by the commands the master sends, not by samples of
-/// the object; the manuals print no sampling rule (CMMP-AS §6.1.3, Nanotec §4.2, Kinco
-/// Tab. 6-5 all describe the commands in sequence).
+/// the object; the vendors' manuals print no sampling rule (they all describe the commands
+/// in sequence).
 pub type ControlwordQueue = ConfirmedWrites<u16, 16>;
 
 /// Values written since their consumer last ran, oldest first: only changes are kept (a

@@ -1,7 +1,8 @@
 //! CiA 402 device control (§6.3): the power state machine driven by the controlword, and the
-//! state bits of the statusword, as the Festo CMMP-AS manual (ch. 6) fixes them.
+//! state bits of the statusword; where a manual departs from it, a [`Rules`] switch or the
+//! personality's hook says so.
 
-/// The states of CiA 402 Fig. 27 (CMMP-AS §6.1.1).
+/// The states of CiA 402 Fig. 27.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum State {
     NotReadyToSwitchOn,
@@ -15,7 +16,8 @@ pub enum State {
 }
 
 impl State {
-    /// Whether the output stage is switched on (CMMP-AS Tab. 6.1 footnote 1).
+    /// Whether the output stage is switched on (CiA 402 §6.3.1: high voltage may be applied
+    /// to the motor from SWITCHED ON on).
     pub const fn power_enabled(self) -> bool {
         matches!(
             self,
@@ -26,8 +28,9 @@ impl State {
         )
     }
 
-    /// Statusword bits 0–3, 5, 6 of the state (CMMP-AS Tab. 6.6). `cia402_fault` is
-    /// 6510h:F0 bit 7: without it the CMMP-AS shows FAULT as 000Fh like FAULT_REACTION_ACTIVE.
+    /// Statusword bits 0–3, 5, 6 of the state (CiA 402 §6.3.3 Tab. 30). `cia402_fault`:
+    /// FAULT as CiA 402 prints it (xxxx xxxx x0xx 1000); without it FAULT shows as 000Fh like
+    /// FAULT_REACTION_ACTIVE (a manufacturer's coding a personality may keep).
     pub const fn statusword_bits(self, cia402_fault: bool) -> u16 {
         match self {
             State::NotReadyToSwitchOn => 0x0000,
@@ -61,7 +64,7 @@ impl State {
     }
 }
 
-/// A device-control command decoded from controlword bits 0–3 and 7 (CMMP-AS Tab. 6.4).
+/// A device-control command decoded from controlword bits 0–3 and 7 (CiA 402 §6.3.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Command {
     Shutdown,
@@ -115,7 +118,8 @@ pub struct Rules {
 }
 
 impl Default for Rules {
-    /// The CMMP-AS's: 3 + 4 allowed, 605Ah = 2.
+    /// 0Fh from READY TO SWITCH ON runs transitions 3 + 4; 605Ah = 2, CiA 402's default
+    /// (§6.3.4: slow down on the quick-stop ramp, then SWITCH ON DISABLED).
     fn default() -> Self {
         Rules {
             enable_from_ready: true,
@@ -174,8 +178,8 @@ impl DeviceControl {
         }
     }
 
-    /// A critical error: straight to FAULT, output stage off at once (CMMP-AS Tab. 6.2
-    /// transition 13: "critical errors go on to transition 14 at once").
+    /// A critical error: straight to FAULT, output stage off at once (CiA 402 §6.3.1
+    /// transitions 13 and 14 without a fault reaction).
     pub fn fault_immediate(&mut self) -> Reaction {
         let was_powered = self.state.power_enabled();
         self.state = State::Fault;
@@ -244,7 +248,7 @@ impl DeviceControl {
             (SwitchedOn, DisableVoltage | QuickStop) => (SwitchOnDisabled, Reaction::Coast),
             // 5: the transition table says "coast", 605Ch = −1 says "brake with the quick-stop
             // deceleration": the option code is the object a master reads, so it wins; the
-            // output stage stays on in SWITCHED ON (CMMP-AS Tab. 6.1 footnote 1).
+            // output stage stays on in SWITCHED ON (CiA 402 §6.3.1).
             (OperationEnabled, SwitchOn) => (SwitchedOn, Reaction::QuickStopRamp),
             (OperationEnabled, Shutdown) => (ReadyToSwitchOn, Reaction::Coast), // 8 (605Bh = 0)
             (OperationEnabled, DisableVoltage) => (SwitchOnDisabled, Reaction::Coast), // 9
@@ -266,11 +270,4 @@ impl DeviceControl {
             }
         }
     }
-}
-
-/// Statusword bit 14, the manufacturer's freely mapped bit (CMMP-AS §6.1.5, L5287): set when
-/// `((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0`, so any bit of manufacturer_statusword_1 can
-/// be shown, inverted or not.
-pub const fn manufacturer_bit_14(manufacturer_status: u32, invert: u32, mask: u32) -> bool {
-    (manufacturer_status ^ invert) & mask != 0
 }

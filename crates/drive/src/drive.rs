@@ -12,11 +12,9 @@ use crate::control::ControlParams;
 use crate::controlword::{Controlword, ControlwordQueue};
 use crate::device_control::{DeviceControl, Reaction, Rules, State};
 use crate::digital_inputs::{Levels, SwitchConfig};
-use crate::display::Display;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
-use crate::messages::{self, Number, Reactions};
 use crate::motor::MotorData;
 use crate::personality::{self, ErrorReaction, Fault, Personality, Vendor};
 use crate::profile_position::{Job, Request, SetPoints};
@@ -28,7 +26,6 @@ use crate::travel::{Inputs, TravelSettings};
 mod brake;
 pub mod diagnostics;
 mod digital_io;
-mod error_management;
 mod faults;
 mod feed_constant;
 mod homing_run;
@@ -425,12 +422,8 @@ pub struct Drive<S, V> {
     /// Digital inputs driven from outside ([`Drive::force_inputs`]).
     pub(crate) forced_mask: u16,
     pub(crate) forced_levels: u16,
-    /// Error management 2100h: the reaction per main error number.
-    pub(crate) reactions: Reactions,
     /// What only the vendor keeps beside the CiA 402 engine's state.
     pub(crate) vendor: V,
-    /// The last warning and whether it is still active (200Fh).
-    pub(crate) warning: Option<(Number, bool)>,
     /// Statusword bit 11 internal limit active, set by the mode (Nanotec: a clamped velocity,
     /// a wrapped or refused target).
     pub(crate) internal_limit: bool,
@@ -438,8 +431,6 @@ pub struct Drive<S, V> {
     pub(crate) safe_standstill: bool,
     /// The DC-link voltage the supply gives, mV; `None`: the nominal 6510h:33.
     pub(crate) dc_link_mv: Option<u32>,
-    /// The diagnostic memory: messages with their additional information, oldest first.
-    pub(crate) memory: Deque<MemoryEntry, 16>,
     /// Messages raised by their number from outside ([`Drive::raise_diagnostic`]), until
     /// cleared.
     pub(crate) injected: heapless::Vec<&'static od::Diagnostic, 16>,
@@ -447,16 +438,6 @@ pub struct Drive<S, V> {
     /// the reading, and what the drive's supervision has found in them
     /// ([`plant_supervision`]).
     pub(crate) plant_watch: plant_supervision::PlantWatch,
-}
-
-/// One entry of the diagnostic memory (CMMP-AS App. B: "No." and "additional information",
-/// read in FCT or through FHPP PNU 203/213).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MemoryEntry {
-    pub number: Number,
-    pub code: u16,
-    /// The message's additional information (e.g. 02-0: state number and DC-link voltage).
-    pub info: u32,
 }
 
 /// A numeric entry's value as `i64`, without going through `Value` (this runs several times
@@ -639,13 +620,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             params_dirty: false,
             forced_mask: 0,
             forced_levels: 0,
-            reactions: Reactions::default(),
             vendor,
-            warning: None,
             internal_limit: false,
             safe_standstill: false,
             dc_link_mv: None,
-            memory: Deque::new(),
             injected: heapless::Vec::new(),
             plant_watch: plant_supervision::PlantWatch::default(),
         };
@@ -696,7 +674,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     fn ip_sync_change(&mut self, change: SyncChange) {
         if let SyncChange::Lost { while_active: true } = change {
-            // CMMP-AS 34-1: the SYNC grid was lost while interpolating.
+            // The SYNC grid was lost while interpolating.
             self.raise_fault(Fault::FieldbusSyncError);
         }
     }
@@ -734,8 +712,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
         self.ip.reset(interpolation_period(&self.od));
         self.params_dirty = true;
-        // The reaction table is not part of the stored set: defaults again.
-        self.reactions = Reactions::default();
         self.vendor_power_on();
     }
 
@@ -932,7 +908,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let reaction = self.dc.controlword(cw, fault, enables);
         self.react(reaction);
         if before == State::Fault && self.dc.state() == State::SwitchOnDisabled {
-            // Transition 15: the errors are acknowledged (CMMP-AS Tab. 3.8 transition 4).
+            // CiA 402 §6.3.1 transition 15: the fault reset acknowledges the errors.
             while let Some(code) = self.faults.pop() {
                 self.push_event(DriveEvent::Cleared { code });
             }

@@ -1,6 +1,7 @@
-//! The homing search of the CMMP-AS (CiA 402 mode 6, CMMP-AS §7.2.3 Tab. 7.1): each method is
-//! a short list of steps ("at search speed negative until the negative limit switch is
-//! active", …) run against the switch inputs of [`crate::travel`]. This module finds the
+//! The homing search of CiA 402 homing mode 6 (the methods 6098h selects, as CiA 402 draws
+//! them; a personality lists those it has,
+//! [`crate::personality::Personality::homing_methods`]): each method is a short list of steps
+//! ("at search speed negative until the negative limit switch is active", …) run against the switch inputs of [`crate::travel`]. This module finds the
 //! reference point; the drive brakes, moves to zero (6510h:F0 bit 6) and sets the position.
 
 use crate::travel::{Inputs, TravelSettings};
@@ -241,38 +242,24 @@ pub const METHODS: [Method; 17] = [
     (35, &[]),
 ];
 
-/// The homing errors of CMMP-AS error group 11 (App. B.2/B.3).
+/// Why a homing run fails (statusword bit 13 homing error, CiA 402 homing mode); the
+/// personality names the error each raises ([`crate::personality::Fault::Homing`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HomingError {
-    /// 11-0: started without controller enable, or an unknown method.
+    /// Started without controller enable, or an unknown method.
     Start,
-    /// 11-1: aborted during homing.
+    /// Aborted during homing.
     Aborted,
-    /// 11-2: the index pulse the method needs did not come.
+    /// The index pulse the method needs did not come.
     NoIndex,
-    /// 11-3: 2045h homing_timeout exceeded.
+    /// 2045h homing_timeout exceeded.
     Timeout,
-    /// 11-4: limit switch missing, both active, or reached where it must not be.
+    /// Limit switch missing, both active, or reached where it must not be.
     LimitSwitch,
-    /// 11-5: following error (the axis stalled on a hard stop it was not looking for).
+    /// Following error (the axis stalled on a hard stop it was not looking for).
     FollowingError,
-    /// 11-6: the maximum search distance travelled without the reference.
+    /// The maximum search distance travelled without the reference.
     SearchDistance,
-}
-
-impl HomingError {
-    /// The CiA 402 EMCY code (B.2: 8A80h … 8A86h).
-    pub fn code(self) -> u16 {
-        match self {
-            HomingError::Start => 0x8A80,
-            HomingError::Aborted => 0x8A81,
-            HomingError::NoIndex => 0x8A82,
-            HomingError::Timeout => 0x8A83,
-            HomingError::LimitSwitch => 0x8A84,
-            HomingError::FollowingError => 0x8A85,
-            HomingError::SearchDistance => 0x8A86,
-        }
-    }
 }
 
 /// The axis as the search sees it in one cycle.

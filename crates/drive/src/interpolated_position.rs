@@ -32,8 +32,8 @@ pub enum SyncChange {
     None,
     /// The drive is now synchronised to the grid (6061h shows 7).
     Synchronised,
-    /// The grid was lost (6061h shows −1); `while_active`: interpolation was running
-    /// (CMMP-AS error 34-1).
+    /// The grid was lost (6061h shows −1); `while_active`: interpolation was running (the
+    /// personality's [`Fault::FieldbusSyncError`](crate::personality::Fault::FieldbusSyncError)).
     Lost {
         while_active: bool,
     },

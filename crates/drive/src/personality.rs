@@ -128,13 +128,14 @@ pub trait Vendor: Sized {
     }
 
     /// What error `code` does (`critical`: switch the output stage off without a reaction
-    /// of its own); `info` the message's additional information. CiA 402 §6.3.1: the fault
-    /// reaction, the output stage off for a critical one.
+    /// of its own); `fault`: the condition the engine detected, `None` for an error raised
+    /// from outside. CiA 402 §6.3.1: the fault reaction (605Eh fault_reaction_option_code),
+    /// the output stage off for a critical one.
     fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
         _d: &mut Drive<S, Self>,
         _code: u16,
         critical: bool,
-        _info: u32,
+        _fault: Option<Fault>,
     ) -> ErrorReaction {
         if critical {
             ErrorReaction::OutputStageOff
@@ -151,7 +152,28 @@ pub trait Vendor: Sized {
         _by_number: bool,
     ) -> ErrorReaction {
         let critical = row.reaction == od::Reaction::PsOff;
-        Self::error_reaction(d, emcy_code(row), critical, 0)
+        Self::error_reaction(d, emcy_code(row), critical, None)
+    }
+
+    /// The cause of error `code` has gone (a cleared fault injection): what the vendor's
+    /// error management ends with it beyond the engine's EMCY "error reset".
+    fn error_cleared<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>, _code: u16) {}
+
+    /// The cause of diagnostic message `row` has gone (cleared by its number, or the drive's
+    /// own supervision no longer finds it).
+    fn message_cleared<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &mut Drive<S, Self>,
+        _row: &'static od::Diagnostic,
+    ) {
+    }
+
+    /// The warning the vendor's error management shows, as a row of the device's diagnostic
+    /// table: it sets statusword bit 7 warning (CiA 402 §6.3.2) and the row is active.
+    /// `None`, CiA 402's default: the engine reports every error as an EMCY, none as a warning.
+    fn active_warning<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+    ) -> Option<&'static od::Diagnostic> {
+        None
     }
 
     /// Homing ends at the offset point: the home point reads −607Ch and the drive travels to

@@ -1,5 +1,6 @@
-//! The statusword 6041h (CiA 402 §6.3.3; CMMP-AS §6.1.4 Tab. 6.6–6.7; Nanotec §3.3 / §4.3):
-//! bits 0–3, 5, 6 show the device control state, the others the drive and the mode.
+//! The statusword 6041h (CiA 402 §6.3.3): bits 0–3, 5, 6 show the device control state, the
+//! others the drive and the mode; the manufacturer-specific bits 8, 14 and 15 are the
+//! personality's.
 
 use crate::bit_word::bit_word;
 use crate::device_control::State;
@@ -23,7 +24,7 @@ bit_word! {
         SWITCH_ON_DISABLED = 0x0040;
         /// Bit 7 warning.
         WARNING = 0x0080;
-        /// Bit 8: manufacturer-specific (CMMP-AS: moving; Nanotec: PLL sync complete).
+        /// Bit 8: manufacturer-specific (the personality gives it its meaning).
         BIT_8 = 0x0100;
         /// Bit 9 remote.
         REMOTE = 0x0200;
@@ -59,7 +60,7 @@ impl Statusword {
 }
 
 impl Statusword {
-    /// The bits' names for display (CiA 402 §6.3.3; CMMP-AS §6.1.4 Tab. 6.7); bits 12 and 13
+    /// The bits' names for display (CiA 402 §6.3.3); bits 12 and 13
     /// depend on the mode of operation, so each names its meanings.
     pub const BIT_NAMES: [&'static str; 16] = [
         "ready to switch on",
@@ -80,9 +81,9 @@ impl Statusword {
         "manufacturer specific (15)",
     ];
 
-    /// The device control state bits 0–3, 5 and 6 show (CiA 402 §6.3.3 Tab. 30; CMMP-AS
-    /// Tab. 6.6), `None` for a combination no state has. 000Fh is FAULT REACTION ACTIVE, as
-    /// the table has it (a CMMP-AS without 6510h:F0 bit 7 shows FAULT that way too).
+    /// The device control state bits 0–3, 5 and 6 show (CiA 402 §6.3.3 Tab. 30), `None` for
+    /// a combination no state has. 000Fh is FAULT REACTION ACTIVE, as the table has it (a
+    /// personality that codes FAULT as 000Fh shows FAULT that way too).
     pub const fn state(self) -> Option<State> {
         let sw = self.0;
         Some(if sw & 0x4F == 0x00 {

@@ -9,9 +9,9 @@
 )]
 
 use drive::device_control::State;
-use drive::display::Display;
 use drive::drive::DriveEvent;
-use drive::messages::{self, decode_warning_code, warning_code, Number};
+use drive::vendors::festo_cmmp_as::display::Display;
+use drive::vendors::festo_cmmp_as::messages::{self, decode_warning_code, warning_code, Number};
 use od::{AbortCode, ObjectAccess};
 
 mod cmmp_rig;

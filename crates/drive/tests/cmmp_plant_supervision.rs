@@ -11,11 +11,11 @@
 use std::time::Duration;
 
 use drive::device_control::State;
-use drive::display::Display;
 use drive::drive::{DriveEvent, DriveSettings};
 use drive::encoder_fault::EncoderFault;
-use drive::messages::Number;
 use drive::thermal::ThermalData;
+use drive::vendors::festo_cmmp_as::display::Display;
+use drive::vendors::festo_cmmp_as::messages::Number;
 use od::{ObjectAccess, Value};
 
 mod cmmp_rig;

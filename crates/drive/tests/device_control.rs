@@ -1,7 +1,8 @@
 //! Every transition of the CiA 402 state machine as the CMMP-AS manual (ch. 6) gives it, and
 //! the statusword state values of Tab. 6.6.
 
-use drive::device_control::{manufacturer_bit_14, DeviceControl, Reaction, State};
+use drive::device_control::{DeviceControl, Reaction, State};
+use drive::vendors::festo_cmmp_as::manufacturer_bit_14;
 
 fn at(state: State) -> DeviceControl {
     let mut dc = DeviceControl::default();

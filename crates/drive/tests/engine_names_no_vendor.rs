@@ -7,15 +7,6 @@
 
 use std::path::{Path, PathBuf};
 
-/// Engine code that still names a vendor, with the reason, until it moves to its vendor:
-/// the path below `src/` and the number of code lines naming one.
-const KNOWN: [(&str, usize, &str); 2] = [
-    // The error management by message numbers reads the CMMP-AS's App. B table.
-    ("messages.rs", 1, "the message table is the CMMP-AS's"),
-    // A refusal's rule text cites the manual it follows (shown to the user).
-    ("drive/refusal.rs", 1, "a rule text citing the manual"),
-];
-
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("a source folder") {
         let path = entry.expect("an entry").path();
@@ -72,14 +63,8 @@ fn engine_code_names_no_vendor() {
             .enumerate()
             .filter(|(_, l)| names_vendor(code(l)))
             .collect();
-        let allowed = KNOWN
-            .iter()
-            .find(|(p, _, _)| *p == rel)
-            .map_or(0, |(_, n, _)| *n);
-        if lines.len() > allowed {
-            for (n, l) in lines {
-                found.push(format!("src/{rel}:{}: {}", n + 1, l.trim()));
-            }
+        for (n, l) in lines {
+            found.push(format!("src/{rel}:{}: {}", n + 1, l.trim()));
         }
         for (n, l) in text.lines().enumerate() {
             if code(l).contains("crate::vendors") {

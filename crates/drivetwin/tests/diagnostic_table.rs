@@ -16,7 +16,7 @@
 )]
 
 use canopen::CanFrame;
-use drive::messages::{self, Number};
+use drive::vendors::festo_cmmp_as::messages::{self, Number};
 use od::Reaction;
 
 #[path = "support/can_bench.rs"]

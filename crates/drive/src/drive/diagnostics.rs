@@ -1,20 +1,25 @@
-//! Any message of the manual's diagnostic table raised and cleared by its number from outside
-//! (fault injection through the API, a scenario, the cell file): the drive reacts as if its
-//! own supervision had raised it — the personality's error management picks the reaction
-//! (CMMP-AS 2100h, Nanotec's reaction table, Kinco's masks), the EMCY and 1003h follow from
-//! the [`DriveEvent`](super::DriveEvent)s, the display from the message.
+//! Any message of the device file's diagnostic table (`[[diagnostic]]`) raised and cleared
+//! by its number from outside (fault injection through the API, a scenario, the cell file):
+//! the drive reacts as if its own supervision had raised it — the personality's error
+//! management picks the reaction ([`message_reaction`](Vendor#method.message_reaction)), the
+//! EMCY, 1001h and 1003h follow from the [`DriveEvent`](super::DriveEvent)s.
 //!
 //! A raised message stays a cause (it blocks the fault reset) until it is cleared; the fault
-//! reset then acknowledges it as the manual says (CMMP-AS Tab. 3.8 transition 4).
+//! reset then acknowledges it (CiA 402 §6.3.1 transition 15: the fault reset leaves FAULT
+//! once the cause is removed).
 //!
-//! Decision: a message the manual gives no CiA code ("–") is reported with 1000h, generic
-//! error (CiA 301 Tab. 21); its number still shows on the display and in the memory.
+//! Decision: a message the table gives no CiA code ("–") is reported with 1000h, generic
+//! error (CiA 301 §7.2.7.1 Tab. 21); the vendor's error management still knows it by its
+//! number.
 
 use od::Diagnostic;
 
 use super::Drive;
-use crate::messages;
 use crate::personality::Vendor;
+
+/// The EMCY code of a message without a CiA code of its own: 1000h generic error (CiA 301
+/// §7.2.7.1 Tab. 21).
+pub const GENERIC_ERROR: u16 = 0x1000;
 
 /// Why a message cannot be raised or cleared.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,7 +34,7 @@ pub enum DiagnosticError {
 
 /// The EMCY code a message is reported with.
 pub fn emcy_code(row: &Diagnostic) -> u16 {
-    row.code.unwrap_or(messages::GENERIC_ERROR)
+    row.code.unwrap_or(GENERIC_ERROR)
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
@@ -82,10 +87,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             .ok_or(DiagnosticError::NotRaised)?;
         self.injected.remove(at);
         let code = emcy_code(row);
-        // Only the error management by message numbers sets a warning.
-        if let Some(m) = messages::message(row) {
-            self.end_warning(m.number);
-        }
+        V::message_cleared(self, row);
         // Another raised message with the same code keeps the cause.
         if !self.injected.iter().any(|d| emcy_code(d) == code) {
             self.clear_fault(code);
@@ -105,7 +107,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     }
 
     /// Whether message `row` is active: raised by its number, or its code an error not yet
-    /// acknowledged, an EMCY-only message or (CMMP-AS) the active warning.
+    /// acknowledged, an EMCY-only message or the vendor's active warning
+    /// ([`active_warning`](Vendor#method.active_warning)).
     pub fn diagnostic_active(&self, row: &'static Diagnostic) -> bool {
         if self.injected.iter().any(|d| core::ptr::eq(*d, row)) {
             return true;
@@ -124,7 +127,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if self.faults.iter().any(by_code) || self.notices.iter().any(by_code) {
             return true;
         }
-        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
-        warning.is_some_and(|n| messages::message(row).is_some_and(|m| m.number == n))
+        V::active_warning(self).is_some_and(|w| w.number == row.number)
     }
 }

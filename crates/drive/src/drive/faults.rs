@@ -1,5 +1,7 @@
-//! The drive's faults: errors injected, raised and reported (1001h, 1003h, EMCY, the
-//! display), their causes kept while present, cleared and acknowledged.
+//! The drive's faults: errors injected, raised and reported (the [`DriveEvent`]s behind the
+//! EMCY, 1001h error register and 1003h predefined error field of CiA 301 §7.2.7.1 and
+//! 603Fh error code of CiA 402 §6.3.1), their causes kept while present, cleared and
+//! acknowledged.
 
 use super::*;
 
@@ -19,23 +21,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if let Some(i) = self.causes.iter().position(|c| *c == code) {
             self.causes.remove(i);
         }
-        if let Some(m) = messages::by_code(code) {
-            self.end_warning(m.number);
-        }
+        V::error_cleared(self, code);
         self.clear_notice(code);
     }
 
     /// Reports the error `code` with the reaction the personality's error management gives
-    /// it (CMMP-AS: 2100h; Nanotec: the reaction table of §7.1); `critical` errors without a
-    /// reaction of their own switch the output stage off at once.
+    /// it ([`error_reaction`](Vendor#method.error_reaction)); `critical` errors without a
+    /// reaction of their own switch the output stage off at once (CiA 402 §6.3.1).
     pub(crate) fn raise(&mut self, code: u16, register: u8, critical: bool) {
-        self.raise_with_info(code, register, critical, 0);
+        self.raise_detected(code, register, critical, None);
     }
 
-    /// [`Drive::raise`] with the message's additional information for the diagnostic
-    /// memory.
-    pub(crate) fn raise_with_info(&mut self, code: u16, register: u8, critical: bool, info: u32) {
-        let reaction = V::error_reaction(self, code, critical, info);
+    /// [`Drive::raise`] for a condition the engine detected (`fault`), so that the vendor's
+    /// error management can add what it records of it.
+    pub(crate) fn raise_detected(
+        &mut self,
+        code: u16,
+        register: u8,
+        critical: bool,
+        fault: Option<Fault>,
+    ) {
+        let reaction = V::error_reaction(self, code, critical, fault);
         self.report_error(code, register, reaction);
     }
 
@@ -43,7 +49,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     pub(crate) fn raise_fault(&mut self, fault: Fault) -> bool {
         match self.personality.error(fault) {
             Some(e) => {
-                self.raise(e.code, e.register, e.critical);
+                self.raise_detected(e.code, e.register, e.critical, Some(fault));
                 true
             }
             None => false,
@@ -90,24 +96,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             self.notices.remove(i);
             self.push_event(DriveEvent::Cleared { code });
         }
-    }
-
-    /// What the 7-segment display shows (App. B): the oldest error, else the warning, else
-    /// "H" for safe standstill, else "A" while 6510h:C0 commissioning_state is 0.
-    pub fn display(&self) -> Display {
-        let error = self
-            .faults
-            .iter()
-            .find_map(|c| self.message_of(*c))
-            .map(|m| m.number);
-        let warning = self.warning.filter(|(_, a)| *a).map(|(n, _)| n);
-        let commissioning = self.value(0x6510, 0xC0) as u32;
-        Display::select(error, warning, self.safe_standstill, commissioning)
-    }
-
-    /// The diagnostic memory, oldest entry first.
-    pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
-        self.memory.iter()
     }
 
     /// Keeps `code` as a cause while `present` and raises it (with `register`); a cause that

@@ -24,7 +24,6 @@ use od::{Diagnostic, Value};
 use super::diagnostics::emcy_code;
 use super::Drive;
 use crate::encoder_fault::{Encoder, EncoderFault};
-use crate::messages;
 use crate::personality::Vendor;
 use crate::thermal::{self, Thermal};
 
@@ -245,10 +244,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if let Some(i) = self.causes.iter().position(|c| *c == code) {
             self.causes.remove(i);
         }
-        // Only the error management by message numbers sets a warning.
-        if let Some(m) = messages::message(row) {
-            self.end_warning(m.number);
-        }
+        V::message_cleared(self, row);
         self.clear_notice(code);
     }
 }

@@ -22,12 +22,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let enabled = self.value(0x6510, 0x37) == 1;
         let min = self.value(0x6510, 0x36);
         let low = self.dc_link_mv.filter(|mv| enabled && i64::from(*mv) < min);
-        if let Some(mv) = low {
+        if low.is_some() {
             if !self.causes.contains(&e.code) {
                 let _ = self.causes.push(e.code);
             }
-            let info = messages::undervoltage_info(self.dc.state() as u16, mv);
-            self.raise_with_info(e.code, e.register, e.critical, info);
+            self.raise_detected(
+                e.code,
+                e.register,
+                e.critical,
+                Some(Fault::DcLinkUndervoltage),
+            );
         } else if let Some(i) = self.causes.iter().position(|c| *c == e.code) {
             if !self.injected_code(e.code) {
                 self.causes.remove(i);

@@ -9,7 +9,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if self.halted {
             target = 0.0;
         }
-        // 6087h: ‰ of rated torque per second (CMMP-AS §7.7).
+        // 6087h torque_slope: ‰ of rated torque per second (CiA 402 profile torque mode).
         let slope = (self.value(0x6087, 0).max(0) as f64) * dt;
         let d = target - self.torque_set;
         self.torque_set += d.clamp(-slope, slope);

@@ -54,7 +54,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             V::profile_velocity_ramp(self, positive)
         };
         self.command_velocity(target, ramp, dt);
-        // Target reached: |v − target| < 606Dh for 606Eh (CMMP-AS §7.5).
+        // Target reached: |v − target| < 606Dh velocity_window for 606Eh velocity_window_time
+        // (CiA 402 profile velocity mode).
         let v_act = f64::from(self.plant_velocity_internal());
         let target_internal = target / INC_S_PER_VEL;
         let window = self

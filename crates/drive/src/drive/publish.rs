@@ -62,21 +62,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             self.following_error = false;
         }
         V::following_error(self, fe);
-        // 6510h:22 > 0: hard limit, output stage off and error 17-0.
-        let hard = self.value(0x6510, 0x22);
-        if power
-            && hard > 0
-            && fe.abs()
-                > self
-                    .fg
-                    .position_magnitude_to_internal(hard.clamp(0, u32::MAX as i64) as u32)
-        {
-            // CMMP-AS §5.7: "the output stage switches off at once, the motor coasts" (the
-            // reaction 6510h:22 sets; 2100h may make it a warning).
-            self.raise_fault(Fault::FollowingError);
-        } else {
-            self.end_warning(Number { main: 17, sub: 0 });
-        }
         // Nanotec §4.1: the following error is watched in closed loop only; an open-loop
         // stepper does not know it.
         let open_loop = self
@@ -89,7 +74,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 Statusword::SET_POINT_ACKNOWLEDGE.when(self.setpoints.acknowledge) | fe_bit
             }
             mode::PROFILE_VELOCITY => Statusword::SPEED_ZERO.when(self.speed_zero),
-            // Bit 12 ip_mode_active, bit 13 following error (CMMP-AS §7.4).
+            // Bit 12 ip_mode_active, bit 13 following error (CiA 402 interpolated position
+            // mode).
             mode::INTERPOLATED_POSITION => {
                 Statusword::IP_MODE_ACTIVE.when(self.ip.is_active()) | fe_bit
             }
@@ -104,14 +90,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             _ => Statusword::EMPTY,
         };
         sw |= V::manufacturer_bits(self);
-        // Bit 7 warning (CMMP-AS §5.18: "warning on the display and in the statusword").
-        sw |= Statusword::WARNING.when(matches!(self.warning, Some((_, true))));
+        // Bit 7 warning (CiA 402 §6.3.2): the vendor's error management has a warning active.
+        sw |= Statusword::WARNING.when(V::active_warning(self).is_some());
         let sw = sw.bits();
         self.store(self.hot.statusword, i64::from(sw));
         let position = self.plant_position();
         let inputs = V::digital_inputs(self, position);
         self.store(self.hot.digital_inputs, i64::from(inputs));
-        // CMMP-AS §7.4: in IP mode 6061h shows −1 until the drive is on the SYNC grid.
+        // A personality with `ip_changing_until_synchronised`: in IP mode 6061h shows −1
+        // until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
             || (self.mode == mode::INTERPOLATED_POSITION
                 && !self.ip.is_synchronised()

@@ -3,8 +3,9 @@
 //! there. A master that writes over the bus learns only an SDO abort code or a state that does
 //! not move; a console asks [`Drive::refusal`] and shows the reason with the manual's rule.
 //!
-//! The rules are the personalities' (their manuals, cited in the text); the engine only asks
-//! them in the order the drive checks them.
+//! The engine's rules are CiA 402's; a personality adds its manual's rules (cited in their
+//! text, [`refusal`](Vendor#method.refusal)); the engine asks them in the order the drive
+//! checks them.
 
 use core::fmt;
 
@@ -83,14 +84,13 @@ impl Refusal {
     }
 }
 
-/// CiA 402 §6.4.4 (CMMP-AS §7.1, Nanotec §9.43, Kinco Tab. 6-5): only the modes of 6502h.
+/// CiA 402 §6.4.4: only the modes of 6502h.
 const MODE_RULE: &str = "CiA 402 §6.4.4: modes of operation 6060h takes only the modes \
     supported_drive_modes 6502h lists; another value is refused (SDO abort 0609 0030h)";
 
-/// CiA 402 §6.3.1 transition 15 (CMMP-AS §6.1.3 Tab. 6.4): the fault reset leaves FAULT once
-/// the error is removed.
-const CAUSE_RULE: &str = "CiA 402 §6.3.1 transition 15 (CMMP-AS §6.1.3 Tab. 6.4): a fault \
-    reset leaves FAULT only when the cause of the error has been removed";
+/// CiA 402 §6.3.1 transition 15: the fault reset leaves FAULT once no fault is present.
+const CAUSE_RULE: &str = "CiA 402 §6.3.1 transition 15: a fault reset leaves FAULT only when \
+    the cause of the error has been removed";
 
 impl fmt::Display for Refusal {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

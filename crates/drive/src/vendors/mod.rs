@@ -18,18 +18,19 @@ use od::{AbortCode, Diagnostic, Entry, Instant, ObjectAccess, ObjectDictionary};
 
 use crate::axis::{Axis, Demand};
 use crate::device_control::State;
-use crate::display::Display;
 use crate::drive::diagnostics::DiagnosticError;
 use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::plant_supervision::PlantWatch;
 use crate::drive::refusal::{Refusal, Request};
-use crate::drive::{Drive, DriveEvent, DriveSettings, MemoryEntry};
+use crate::drive::{Drive, DriveEvent, DriveSettings};
 use crate::encoder_fault::EncoderFault;
 use crate::factor_group::FactorGroup;
 use crate::personality::Personality;
 use crate::stepper::Stepper;
 use crate::thermal::ThermalData;
 pub use cia402::Cia402;
+use festo_cmmp_as::display::{self, Display};
+use festo_cmmp_as::error_management::MemoryEntry;
 use festo_cmmp_as::{CmmpAs, CMMP_AS};
 use kinco::{Kinco, KINCO};
 use nanotec::{Nanotec, NANOTEC};
@@ -120,9 +121,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> AnyDrive<S> {
         each!(self, d => d.injected.iter().copied())
     }
 
-    /// The diagnostic memory, oldest first.
+    /// The diagnostic memory, oldest first (the CMMP-AS's; the other drives keep none).
     pub fn diagnostic_memory(&self) -> impl Iterator<Item = &MemoryEntry> {
-        each!(self, d => d.memory.iter())
+        let memory = match self {
+            AnyDrive::CmmpAs(d) => Some(d.diagnostic_memory()),
+            _ => None,
+        };
+        memory.into_iter().flatten()
+    }
+
+    /// What the drive's display shows: the CMMP-AS's 7-segment display.
+    ///
+    /// Decision: a drive without a display model of its own (the Nanotec, the standard
+    /// CiA 402 drive; the Kinco's panel is its own) shows what the CMMP-AS's display would
+    /// for its errors, safe standstill and commissioning state, with no warning: the
+    /// console's display of a CiA 402 drive.
+    pub fn display(&self) -> Display {
+        match self {
+            AnyDrive::CmmpAs(d) => d.display(),
+            AnyDrive::Nanotec(d) => display::shown(d, None),
+            AnyDrive::Kinco(d) => display::shown(d, None),
+            AnyDrive::Cia402(d) => display::shown(d, None),
+        }
     }
 
     forward! {
@@ -149,7 +169,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> AnyDrive<S> {
         fn digital_outputs(&self) -> u32;
         fn inject_fault(&mut self, code: u16, register: u8);
         fn clear_fault(&mut self, code: u16);
-        fn display(&self) -> Display;
         fn switch_input(&self, switch: NamedSwitch) -> Option<SwitchInput>;
         fn forced_inputs(&self) -> (u16, u16);
         fn set_switch(&mut self, switch: NamedSwitch, actuated: Option<bool>) -> Option<SwitchInput>;

@@ -81,7 +81,7 @@ pub fn cia_text(code: u16) -> &'static str {
 
 /// An error code as the console shows it, with the CMMP-AS message number (App. B.2).
 pub fn cia_error(code: u16) -> ErrorView {
-    let text = match drive::messages::by_code(code) {
+    let text = match drive::vendors::festo_cmmp_as::messages::by_code(code) {
         Some(m) => format!(
             "{} (message {:02}-{})",
             cia_text(code),

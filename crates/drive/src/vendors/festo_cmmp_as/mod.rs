@@ -1,10 +1,15 @@
-//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's appendix): its
-//! modes, option codes, homing methods (Tab. 7.1) and error numbers as tables, and as behaviour the
-//! error management 2100h (§5.18) with warnings and the diagnostic memory, the statusword's
-//! manufacturer bits (§6.1.4: bit 8 moving, bit 9 from enable_logic, bit 14 from 2000h/200Ah/2005h,
-//! bit 15 referenced), the compatibility settings 6510h:F0 and the object rules of its manual.
+//! The Festo CMMP-AS (its CiA 402 manual, Russian edition, and the English edition's
+//! appendix): its modes, option codes, homing methods (Tab. 7.1) and error numbers as tables,
+//! and as behaviour the error management 2100h (§5.18, [`error_management`]) with the messages
+//! of App. B ([`messages`]), warnings, the diagnostic memory and the 7-segment display
+//! ([`display`]), the statusword's manufacturer bits (§6.1.4: bit 8 moving, bit 9 from
+//! enable_logic, bit 14 from 2000h/200Ah/2005h, bit 15 referenced), the compatibility settings
+//! 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
+pub mod display;
+pub mod error_management;
+pub mod messages;
 
 use od::{AbortCode, ObjectAccess, Value};
 
@@ -15,12 +20,12 @@ use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
 use crate::homing::{HomingError, METHODS};
-use crate::messages::{self, reaction};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
     OptionCode, Personality, PlantSupervision, Vendor,
 };
 use crate::statusword::Statusword;
+use error_management::ErrorManagement;
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
 pub mod diag {
@@ -182,20 +187,22 @@ pub const CMMP_AS: Personality = Personality {
     },
 };
 
-/// The CMMP-AS: its error management 2100h, statusword and write rules. It keeps no state of
-/// its own beside the engine's.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct CmmpAs;
+/// The CMMP-AS: its error management 2100h, statusword and write rules, and the state of its
+/// error management (the reactions, the warning, the diagnostic memory).
+#[derive(Debug, Clone, Default)]
+pub struct CmmpAs {
+    pub(crate) errors: ErrorManagement,
+}
 
 impl Vendor for CmmpAs {
     const MANUFACTURER_OBJECTS: bool = true;
 
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
-        (&CMMP_AS, CmmpAs)
+        (&CMMP_AS, CmmpAs::default())
     }
 
     fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
-        d.following_error_reaction();
+        d.reset_reactions();
         d.cmmp_power_on();
     }
 
@@ -242,9 +249,9 @@ impl Vendor for CmmpAs {
         d: &mut Drive<S, Self>,
         code: u16,
         critical: bool,
-        info: u32,
+        fault: Option<Fault>,
     ) -> ErrorReaction {
-        d.cmmp_error_reaction(code, critical, info)
+        d.cmmp_error_reaction(code, critical, fault)
     }
 
     /// By its number, so two messages sharing a code keep their own reaction (17-0 and 27-0
@@ -256,6 +263,36 @@ impl Vendor for CmmpAs {
     ) -> ErrorReaction {
         let critical = row.reaction == od::Reaction::PsOff;
         d.numbered_message_reaction(emcy_code(row), messages::message(row), critical, 0)
+    }
+
+    /// The warning of the first App. B message with the code ends.
+    fn error_cleared<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, code: u16) {
+        if let Some(m) = messages::by_code(code) {
+            d.end_warning(m.number);
+        }
+    }
+
+    /// The message's warning ends.
+    fn message_cleared<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        row: &'static od::Diagnostic,
+    ) {
+        if let Some(m) = messages::message(row) {
+            d.end_warning(m.number);
+        }
+    }
+
+    /// The warning in 200Fh while it is active (§5.18: "warning on the display and in the
+    /// statusword").
+    fn active_warning<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+    ) -> Option<&'static od::Diagnostic> {
+        d.vendor.errors.active_warning().map(|m| m.row)
+    }
+
+    /// The hard limit 6510h:22 (the manual's extract, part 2 §5.7): beyond it error 17-0.
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, fe: i64) {
+        d.supervise_following_error_limit(fe);
     }
 }
 
@@ -312,43 +349,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         self.store(self.hot.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
-        Statusword::MANUFACTURER_14.when(crate::device_control::manufacturer_bit_14(
-            msw, invert, mask,
-        )) | Statusword::MANUFACTURER_15.when(self.referenced)
-    }
-
-    /// A diagnostic message with the reaction 2100h sets for its main number (§5.18): none /
-    /// buffer entry change nothing, a warning shows in 200Fh, the display and statusword bit
-    /// 7, a stopping reaction reports the error (EMCY) and stops. A code missing from App. B
-    /// stops; `critical` ones switch the output stage off at once.
-    pub(crate) fn cmmp_error_reaction(
-        &mut self,
-        code: u16,
-        critical: bool,
-        info: u32,
-    ) -> ErrorReaction {
-        let message = self.message_of(code);
-        self.numbered_message_reaction(code, message, critical, info)
-    }
-
-    /// 6510h:22 > 0 sets the reaction of error 17 to output stage off, 0 to no action (the manual's
-    /// extract, part 2 §5.7); 2100h can change it afterwards.
-    pub(crate) fn following_error_reaction(&mut self) {
-        let r = if self.value(0x6510, 0x22) > 0 {
-            reaction::OUTPUT_STAGE_OFF
-        } else {
-            reaction::NONE
-        };
-        let _ = self.reactions.set(17, r);
-        self.show_reaction();
-    }
-
-    /// 2100h:02 shows the reaction of the main number selected in 2100h:01.
-    fn show_reaction(&mut self) {
-        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
-        if let Some(r) = self.reactions.get(main) {
-            let _ = self.od.write_internal(0x2100, 2, &[r]);
-        }
+        Statusword::MANUFACTURER_14.when(manufacturer_bit_14(msw, invert, mask))
+            | Statusword::MANUFACTURER_15.when(self.referenced)
     }
 
     /// 6510h:F0h: the compatibility settings.
@@ -360,42 +362,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         };
         let v = if v & 0x0005 != 0 { v | 0x0005 } else { v };
         self.od.write(index, sub, &v.to_le_bytes())
-    }
-
-    /// 2100h:01h: the error group whose reaction 2100h:02h shows.
-    fn write_reaction_group(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.od.write(index, sub, data)?;
-        self.show_reaction();
-        Ok(())
-    }
-
-    /// 2100h:02h: the reaction of the selected error group.
-    fn write_reaction(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        // CMMP-AS §5.18: a reaction below the manufacturer's minimum is clamped to it.
-        self.od.entry(index, sub)?;
-        let code = match data {
-            [b] => *b,
-            _ => return self.od.write(index, sub, data),
-        };
-        let main = self.od.get_unsigned(0x2100, 1).unwrap_or(1) as u8;
-        self.reactions
-            .set(main, code)
-            .map_err(|_| AbortCode::INVALID_VALUE)?;
-        self.show_reaction();
-        Ok(())
-    }
-
-    /// 6510h:22h: the following-error reaction.
-    fn write_following_error_reaction(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-    ) -> Result<(), AbortCode> {
-        self.od.write(index, sub, data)?;
-        self.following_error_reaction();
-        self.params_dirty = true;
-        Ok(())
     }
 
     /// 1011h: restore defaults, not with the output stage on.
@@ -522,4 +488,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
         }
         self.od.write(index, sub, data)
     }
+}
+
+/// Statusword bit 14, the manufacturer's freely mapped bit (§6.1.5, L5287): set when
+/// `((2000h:01 XOR 200Ah:01) AND 2005h:01) ≠ 0`, so any bit of manufacturer_statusword_1 can
+/// be shown, inverted or not.
+pub const fn manufacturer_bit_14(manufacturer_status: u32, invert: u32, mask: u32) -> bool {
+    (manufacturer_status ^ invert) & mask != 0
 }

@@ -186,7 +186,7 @@ impl Vendor for Kinco {
         d: &mut Drive<S, Self>,
         code: u16,
         _critical: bool,
-        _info: u32,
+        _fault: Option<crate::personality::Fault>,
     ) -> ErrorReaction {
         d.kinco_error_reaction(code)
     }

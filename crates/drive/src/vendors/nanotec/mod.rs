@@ -394,7 +394,7 @@ impl Vendor for Nanotec {
         d: &mut Drive<S, Self>,
         code: u16,
         critical: bool,
-        _info: u32,
+        _fault: Option<Fault>,
     ) -> ErrorReaction {
         d.nanotec_error_reaction(code, critical)
     }

@@ -4,7 +4,10 @@
 
 use core::fmt::Write;
 
-use crate::messages::Number;
+use super::messages::{self, Number};
+use super::CmmpAs;
+use crate::drive::Drive;
+use crate::personality::Vendor;
 
 /// What the display shows, by priority.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,5 +53,29 @@ impl Display {
             Display::Operating => Ok(()),
         };
         s
+    }
+}
+
+/// What the display of drive `d` shows with `warning` the active warning: the oldest error
+/// by its App. B number (a message raised by its number, else the first with the error's
+/// code), the warning, "H" for safe standstill, "A" while 6510h:C0 commissioning_state is 0.
+pub fn shown<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
+    d: &Drive<S, V>,
+    warning: Option<Number>,
+) -> Display {
+    let error = d
+        .faults
+        .iter()
+        .find_map(|c| messages::of_code(&d.injected, *c))
+        .map(|m| m.number);
+    let commissioning = d.value(0x6510, 0xC0) as u32;
+    Display::select(error, warning, d.safe_standstill, commissioning)
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
+    /// What the 7-segment display shows (App. B).
+    pub fn display(&self) -> Display {
+        let warning = self.vendor.errors.active_warning().map(|m| m.number);
+        shown(self, warning)
     }
 }

@@ -6,6 +6,8 @@
 
 use od::{Diagnostic, Reaction};
 
+pub use crate::drive::diagnostics::GENERIC_ERROR;
+
 /// A message number, e.g. 08-2: main index (error group) and sub-index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Number {
@@ -50,9 +52,6 @@ pub struct Message {
     pub row: &'static Diagnostic,
 }
 
-/// Decision: the EMCY code of a message App. B gives none (CiA 301 Tab. 21 "generic error").
-pub const GENERIC_ERROR: u16 = 0x1000;
-
 /// App. B as the device file gives it.
 pub fn table() -> &'static [Diagnostic] {
     devices::CMMP_AS.diagnostics
@@ -82,6 +81,16 @@ pub fn by_code(code: u16) -> Option<Message> {
         .find_map(message)
 }
 
+/// The message behind error `code`: one of the rows `raised` by their number, else the first
+/// of App. B with the code ([`by_code`]).
+pub fn of_code(raised: &[&'static Diagnostic], code: u16) -> Option<Message> {
+    raised
+        .iter()
+        .filter_map(|d| message(d))
+        .find(|m| m.code == code)
+        .or_else(|| by_code(code))
+}
+
 /// The message numbered `number`.
 pub fn by_number(number: Number) -> Option<Message> {
     messages().find(|m| m.number == number)
@@ -106,6 +115,8 @@ pub struct Reactions {
     codes: [u8; MAX_MAIN as usize + 1],
     /// Each group's [`minimum`], taken from App. B once (a write clamps to it).
     minimum: [u8; MAX_MAIN as usize + 1],
+    /// The defaults of `codes`, to return to without another pass over App. B.
+    defaults: [u8; MAX_MAIN as usize + 1],
 }
 
 impl Default for Reactions {
@@ -152,6 +163,7 @@ impl Default for Reactions {
         Reactions {
             codes,
             minimum: fixed.map(|f| f.unwrap_or(reaction::NONE)),
+            defaults: codes,
         }
     }
 }
@@ -191,6 +203,11 @@ pub enum ReactionError {
 }
 
 impl Reactions {
+    /// Every reaction back to its default (the table is not part of the stored set).
+    pub fn reset(&mut self) {
+        self.codes = self.defaults;
+    }
+
     pub fn get(&self, main: u8) -> Option<u8> {
         if main == 0 {
             return None;
