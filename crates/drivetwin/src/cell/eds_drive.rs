@@ -350,7 +350,8 @@ mod dcf_bit_rate_tests {
 
     /// A DCF's `Baudrate` is its node's rate: the bus takes it (`eds = "…"` and `--eds`);
     /// two DCFs at different rates are refused naming both files; a named `bitrate` wins
-    /// (the DCF's node at another rate stays silent, as any node set to another rate).
+    /// (the DCF's node at another rate stays silent, as any node set to another rate). Its
+    /// `NodeID` is the drive's node-ID where the cell file names none.
     #[test]
     fn a_dcf_sets_the_bus_rate() {
         let dir = std::env::temp_dir().join(format!("drivetwin-dcf-rate-{}", std::process::id()));
@@ -392,6 +393,14 @@ mod dcf_bit_rate_tests {
         let specs = single.drives().unwrap();
         assert_eq!(single.bus_rates(&specs).unwrap(), [timed(500_000, false)]);
         assert_eq!(specs[0].bit_rate.as_ref().map(|r| r.kbit), Some(250));
+
+        // Without `node` a drive from a DCF is at its `[DeviceComissioning] NodeID`.
+        std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].node, 4);
+        std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 9\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].node, 9);
 
         // A DCF beside a built-in drive at its rate: they agree.
         std::fs::write(

@@ -20,7 +20,11 @@ pub struct DriveSection {
     /// file's dictionary on the engine's standard behaviour ([`crate::cell::eds_drive`]). A
     /// relative path is relative to the cell file.
     pub eds: Option<PathBuf>,
+    /// Its node-ID as the file names it (1 where it names none).
     pub node: u8,
+    /// Whether the file names `node`. Without it the drive is at its device's default
+    /// node-ID: 1 for the built-in devices, a DCF's `[DeviceComissioning] NodeID`.
+    pub node_given: bool,
     /// Commissioning values, `"IIII:SS" = value` (hex index and sub-index).
     pub objects: BTreeMap<String, toml::Value>,
     /// The `[[bus]]` (by name or channel) the drive's CANopen node is on; default the first.
@@ -76,8 +80,7 @@ struct Written {
     #[serde(default = "default_device")]
     device: String,
     eds: Option<PathBuf>,
-    #[serde(default = "default_node")]
-    node: u8,
+    node: Option<u8>,
     #[serde(default)]
     objects: BTreeMap<String, toml::Value>,
     bus: Option<String>,
@@ -97,12 +100,14 @@ struct Written {
 impl<'de> Deserialize<'de> for DriveSection {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let w = Written::deserialize(d)?;
-        let keys = DeviceKeys::parse(&w.device, w.eds.as_deref(), w.node, w.rest)
+        let node = w.node.unwrap_or(1);
+        let keys = DeviceKeys::parse(&w.device, w.eds.as_deref(), node, w.rest)
             .map_err(<D::Error as serde::de::Error>::custom)?;
         Ok(DriveSection {
             device: w.device,
             eds: w.eds,
-            node: w.node,
+            node,
+            node_given: w.node.is_some(),
             objects: w.objects,
             bus: w.bus,
             interfaces: w.interfaces,
@@ -123,6 +128,7 @@ impl DriveSection {
             device: device.to_owned(),
             eds: None,
             node,
+            node_given: true,
             objects: BTreeMap::new(),
             bus: None,
             interfaces: None,
@@ -211,7 +217,4 @@ impl ThermalSection {
 
 pub(super) fn default_device() -> String {
     "cmmp-as".into()
-}
-fn default_node() -> u8 {
-    1
 }

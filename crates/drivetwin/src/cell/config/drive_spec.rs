@@ -143,7 +143,13 @@ impl CellFile {
             let node = match (rotary, station) {
                 (Some(p), _) => p.node_id,
                 (None, Some(s)) => s,
-                (None, None) => fieldbus.map_or(d.node, |f| f.node_id),
+                (None, None) => {
+                    let written = match d.node_given {
+                        true => d.node,
+                        false => desc.default_node_id,
+                    };
+                    fieldbus.map_or(written, |f| f.node_id)
+                }
             };
             let (bit_rate, rate_object) = node_rate(desc, d, fieldbus, rotary)?;
             let bus = self
