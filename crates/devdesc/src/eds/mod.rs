@@ -28,11 +28,25 @@ pub struct Eds {
     pub device: Device,
     /// `[DeviceComissioning] NodeID` of a DCF.
     pub node_id: Option<u8>,
+    /// `[DeviceComissioning] Baudrate` of a DCF: the CAN bit rate the device is commissioned
+    /// to, and where the file says so.
+    pub bit_rate: Option<BitRate>,
     /// Where the device type 1000h's value is (for [`Eds::require_cia402`]).
     device_type_at: Location,
     /// Where the profile's objects are listed (`[OptionalObjects] SupportedObjects`).
     profile_objects_at: Location,
 }
+
+/// A DCF's commissioned CAN bit rate (CiA 306 §4.7 `[DeviceComissioning] Baudrate`, kbit/s).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BitRate {
+    pub kbit: u16,
+    /// The `Baudrate` line.
+    pub at: Location,
+}
+
+/// The bit rates CiA 306 names (the `BaudRate_…` keys of `[DeviceInfo]`), kbit/s.
+const BIT_RATES_KBIT: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
 
 /// The objects every CiA 402 drive has (CiA 402 §6: controlword, statusword, modes of
 /// operation and its display).
@@ -196,12 +210,13 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
     };
     let text_of = |key: &str| info.value(key).unwrap_or("").to_owned();
     let mut baud_rates = Vec::new();
-    for rate in [10u16, 20, 50, 125, 250, 500, 800, 1000] {
+    for rate in BIT_RATES_KBIT {
         if number_of(&ini, info, &format!("BaudRate_{rate}"))? == Some(1) {
             baud_rates.push(rate);
         }
     }
     let lss = number_of(&ini, info, "LSS_Supported")? == Some(1);
+    let bit_rate = commissioned_bit_rate(&ini, &baud_rates)?;
     let node_id = match ini.section("DeviceComissioning") {
         Some(c) => match number_of(&ini, c, "NodeID")? {
             Some(n @ 1..=127) => Some(n as u8),
@@ -260,9 +275,39 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
     Ok(Eds {
         device,
         node_id,
+        bit_rate,
         device_type_at,
         profile_objects_at,
     })
+}
+
+/// A DCF's `[DeviceComissioning] Baudrate` (CiA 306 §4.7, the section's spelling), kbit/s:
+/// one of the rates CiA 306 names, and one `[DeviceInfo]` marks supported (`BaudRate_…=1`)
+/// where it marks any.
+fn commissioned_bit_rate(ini: &Ini, supported: &[u16]) -> Result<Option<BitRate>, EdsError> {
+    let Some(c) = ini.section("DeviceComissioning") else {
+        return Ok(None);
+    };
+    let Some(n) = number_of(ini, c, "Baudrate")? else {
+        return Ok(None);
+    };
+    let at = ini.at(c, "Baudrate");
+    let kbit = u16::try_from(n)
+        .ok()
+        .filter(|k| BIT_RATES_KBIT.contains(k))
+        .ok_or_else(|| EdsError::Invalid {
+            at: at.clone(),
+            what: format!("{n} kbit/s: one of {BIT_RATES_KBIT:?} (CiA 306)"),
+        })?;
+    if !supported.is_empty() && !supported.contains(&kbit) {
+        return Err(EdsError::Invalid {
+            at,
+            what: format!(
+                "{kbit} kbit/s, but [DeviceInfo] has no BaudRate_{kbit}=1 (it supports {supported:?})"
+            ),
+        });
+    }
+    Ok(Some(BitRate { kbit, at }))
 }
 
 /// The device's name from the file's: the stem in lower case, letters, digits and `-`.

@@ -360,3 +360,32 @@ fn a_written_eds_reads_back() {
         }
     }
 }
+
+/// CiA 306 §4.7: a DCF's `[DeviceComissioning] Baudrate` (kbit/s) is the bit rate it is
+/// commissioned to, with its line; a rate CiA 306 does not name, or one `[DeviceInfo]` does
+/// not mark supported, is refused at the key; an EDS has none.
+#[test]
+fn dcf_bit_rate() {
+    assert_eq!(parse(&eds(&[], ""), "t.eds").unwrap().bit_rate, None);
+    let extra = "[DeviceComissioning]\nNodeID=3\nBaudrate=500\n";
+    let e = parse(&eds(&[], extra), "drive.dcf").unwrap();
+    let rate = e.bit_rate.unwrap();
+    assert_eq!(rate.kbit, 500);
+    assert_eq!(rate.at.line, line_of(&[], extra, "Baudrate=500"));
+    assert_eq!(
+        rate.at.to_string(),
+        format!("drive.dcf:{}: [DeviceComissioning] Baudrate", rate.at.line)
+    );
+    assert_eq!(e.node_id, Some(3));
+    for (bad, says) in [
+        ("Baudrate=300", "300 kbit/s: one of"),
+        ("Baudrate=1000", "no BaudRate_1000=1"),
+        ("Baudrate=fast", "not a number"),
+    ] {
+        let e = err(&[], &format!("[DeviceComissioning]\n{bad}\n"));
+        assert!(
+            e.contains("[DeviceComissioning] Baudrate") && e.contains(says),
+            "{bad}: {e}"
+        );
+    }
+}

@@ -1,6 +1,7 @@
 //! The bit rate a cell's CAN bus runs at. Every node is set to one by its switches or its
 //! objects (CMMP-AS DIP6/DIP7 or DIN12/DIN13, manual Tab. 2.4 / 2.8; Nanotec rotary switches
-//! and 2005h, §1.1.1; Kinco CAN_Baudrate 2F81h, §9.5 d5.17), and a bus works only where they
+//! and 2005h, §1.1.1; Kinco CAN_Baudrate 2F81h, §9.5 d5.17; a DCF's `[DeviceComissioning]
+//! Baudrate`, CiA 306 §4.7), and a bus works only where they
 //! agree: the bus takes theirs. A `bitrate` on the `[[bus]]` (or `drivetwin run --bitrate`) is
 //! the rate the rest of the bus (the master) runs at: a node set to another one sees only
 //! error frames and stays silent (ISO 11898-1; CMMP-AS §2.3). `"instant"` gives the bus no bit
@@ -133,6 +134,12 @@ impl NodeRate {
             kinco_bit_rates::can_kbit(code.code()).unwrap_or(kinco_bit_rates::DEFAULT_CAN_KBIT),
             code.set_by("2F81:00", "CAN_Baudrate"),
         )
+    }
+
+    /// A drive from its DCF: the file's `[DeviceComissioning] Baudrate` (CiA 306 §4.7), named
+    /// with its file and line so that two files that disagree are both named.
+    pub fn dcf(rate: &devdesc::eds::BitRate) -> Self {
+        NodeRate::new(rate.kbit, rate.at.to_string())
     }
 
     pub fn bits(&self) -> u32 {

@@ -5,11 +5,15 @@
 //! The description and the personality are built once per file at start-up and leaked: the
 //! `no_std` engine holds `&'static` tables ([`devdesc::runtime`]), and a loaded drive lives as
 //! long as the process. A file named twice (a cell file and `--eds`) is read once.
+//!
+//! A DCF's commissioned bit rate (`[DeviceComissioning] Baudrate`) is the rate the node is set
+//! to, as a built-in device's switches or objects set its rate ([`bit_rate_of`],
+//! [`crate::cell::bus_rate`]); an EDS sets none, and its node follows the bus.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use devdesc::eds::EdsError;
+use devdesc::eds::{BitRate, EdsError};
 use drive::drive::mode;
 use drive::homing::{Method, METHODS};
 use drive::personality::{Capabilities, ModeSpec, Personality};
@@ -21,6 +25,8 @@ struct Loaded {
     path: PathBuf,
     desc: &'static DeviceDescription,
     personality: &'static Personality,
+    /// A DCF's `[DeviceComissioning] Baudrate`.
+    bit_rate: Option<BitRate>,
 }
 
 /// Every EDS / DCF loaded by this process.
@@ -36,6 +42,7 @@ pub fn load(path: &Path) -> Result<&'static DeviceDescription, EdsError> {
     }
     let eds = devdesc::eds::load_file(path)?;
     eds.require_cia402()?;
+    let bit_rate = eds.bit_rate;
     let mut device = eds.device;
     // The name tells drives apart in the console and the API: never a built-in device's,
     // never another file's.
@@ -56,6 +63,7 @@ pub fn load(path: &Path) -> Result<&'static DeviceDescription, EdsError> {
         path: key,
         desc,
         personality,
+        bit_rate,
     });
     Ok(desc)
 }
@@ -67,6 +75,16 @@ pub fn personality_of(desc: &DeviceDescription) -> Option<&'static Personality> 
         .iter()
         .find(|l| std::ptr::eq(l.desc, desc))
         .map(|l| l.personality)
+}
+
+/// The bit rate the DCF of a drive loaded from one is commissioned to; `None` for an EDS
+/// without `[DeviceComissioning] Baudrate` and for a built-in device.
+pub fn bit_rate_of(desc: &DeviceDescription) -> Option<BitRate> {
+    let loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
+    loaded
+        .iter()
+        .find(|l| std::ptr::eq(l.desc, desc))
+        .and_then(|l| l.bit_rate.clone())
 }
 
 /// A built-in device, or a drive loaded from an EDS, by its name.
@@ -301,6 +319,97 @@ mod cell_file_tests {
                 .starts_with(&format!("{}:{line}: [", path.display())),
             "{err}"
         );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+#[cfg(test)]
+mod dcf_bit_rate_tests {
+    use crate::cell::bus_rate::BusRate;
+    use crate::cell::config::{CellFile, ConfigError};
+    use std::path::{Path, PathBuf};
+
+    /// A DCF after the EPOS4-like EDS, commissioned to `kbit`, written as `dir/name`.
+    fn dcf(dir: &Path, name: &str, kbit: u16) -> PathBuf {
+        let source = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let text = std::fs::read_to_string(source).unwrap();
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            format!("{text}\n[DeviceComissioning]\nNodeID=4\nBaudrate={kbit}\n"),
+        )
+        .unwrap();
+        path
+    }
+
+    fn rates(cell: &Path) -> Result<Vec<BusRate>, ConfigError> {
+        let file = CellFile::load(cell)?;
+        file.bus_rates(&file.drives()?)
+    }
+
+    /// A DCF's `Baudrate` is its node's rate: the bus takes it (`eds = "…"` and `--eds`);
+    /// two DCFs at different rates are refused naming both files; a named `bitrate` wins
+    /// (the DCF's node at another rate stays silent, as any node set to another rate). Its
+    /// `NodeID` is the drive's node-ID where the cell file names none.
+    #[test]
+    fn a_dcf_sets_the_bus_rate() {
+        let dir = std::env::temp_dir().join(format!("drivetwin-dcf-rate-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let a = dcf(&dir, "axis_a.dcf", 500);
+        let b = dcf(&dir, "axis_b.dcf", 250);
+        let cell = dir.join("cell.toml");
+        let timed = |bitrate, from_nodes| BusRate::Timed {
+            bitrate,
+            from_nodes,
+        };
+
+        std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 4\n").unwrap();
+        assert_eq!(rates(&cell).unwrap(), [timed(500_000, true)]);
+        let single = CellFile::single_eds(&a, 4).unwrap();
+        assert_eq!(
+            single.bus_rates(&single.drives().unwrap()).unwrap(),
+            [timed(500_000, true)]
+        );
+
+        let two = "[[drive]]\neds = \"axis_a.dcf\"\nnode = 4\n\
+                   [[drive]]\neds = \"axis_b.dcf\"\nnode = 5\n";
+        std::fs::write(&cell, two).unwrap();
+        let err = rates(&cell).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, ConfigError::BusRate(_)), "{text}");
+        for (file, kbit) in [(&a, 500), (&b, 250)] {
+            assert!(
+                text.contains(&format!("{kbit} kbit/s, set by {}:", file.display()))
+                    && text.contains("[DeviceComissioning] Baudrate"),
+                "{text}"
+            );
+        }
+
+        std::fs::write(&cell, format!("[bus]\nbitrate = 1000000\n{two}")).unwrap();
+        assert_eq!(rates(&cell).unwrap(), [timed(1_000_000, false)]);
+        let mut single = CellFile::single_eds(&b, 4).unwrap();
+        single.set_bitrate(crate::cell::bus_rate::BitrateSetting::Bits(500_000));
+        let specs = single.drives().unwrap();
+        assert_eq!(single.bus_rates(&specs).unwrap(), [timed(500_000, false)]);
+        assert_eq!(specs[0].bit_rate.as_ref().map(|r| r.kbit), Some(250));
+
+        // Without `node` a drive from a DCF is at its `[DeviceComissioning] NodeID`.
+        std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].node, 4);
+        std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 9\n").unwrap();
+        let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].node, 9);
+
+        // A DCF beside a built-in drive at its rate: they agree.
+        std::fs::write(
+            &cell,
+            "[[drive]]\neds = \"axis_b.dcf\"\nnode = 4\n\
+             [[drive]]\ndevice = \"kinco-fd3\"\nnode = 2\n[drive.objects]\n\"2F81:00\" = 25\n",
+        )
+        .unwrap();
+        assert_eq!(rates(&cell).unwrap(), [timed(250_000, true)]);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -318,7 +318,7 @@ async fn prepare_cell(
     for addr in ci_terminal
         .iter()
         .copied()
-        .chain(file.drive.iter().filter_map(|d| d.ci_terminal.as_deref()))
+        .chain(file.drive.iter().filter_map(|d| d.ci_terminal()))
     {
         ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
     }
@@ -561,7 +561,7 @@ fn ci_consoles(
     let mut consoles = Vec::new();
     for (i, d) in file.drive.iter().enumerate() {
         let cli = if i == 0 { first } else { None };
-        let Some(addr) = cli.or(d.ci_terminal.as_deref()) else {
+        let Some(addr) = cli.or(d.ci_terminal()) else {
             continue;
         };
         // The console is the drive's own RS232, but a drive the switches keep off the bus is
@@ -605,11 +605,11 @@ fn serial_lines(
         for (kind, path) in [
             (
                 Kind::Rs232,
-                first(&args.rs232).or(d.rs232.as_ref().map(PathBuf::from)),
+                first(&args.rs232).or(d.rs232().map(PathBuf::from)),
             ),
             (
                 Kind::Rs485,
-                first(&args.rs485).or(d.rs485.as_ref().map(PathBuf::from)),
+                first(&args.rs485).or(d.rs485().map(PathBuf::from)),
             ),
         ] {
             let Some(path) = path else {
