@@ -141,7 +141,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
 /// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
 /// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 90] = [
+const PARAMS: [(u16, u8); 115] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 7),
@@ -157,8 +157,9 @@ const PARAMS: [(u16, u8); 90] = [
     (0x200A, 0),
     (0x200A, 1),
     (0x200B, 0),
-    // Kinco 2010h: DIN polarity, simulate and the seven function codes (in input order, one
-    // after the other: `din_function_code` counts on it), read every cycle.
+    // Kinco 2010h: DIN polarity, simulate and the seven function codes, the DOUT polarity,
+    // simulate and the five function codes (each in input / output order, one after the
+    // other: the Kinco's `function_codes` counts on it), read every cycle.
     (0x2010, 1),
     (0x2010, 2),
     (0x2010, 3),
@@ -177,6 +178,9 @@ const PARAMS: [(u16, u8); 90] = [
     (0x2010, 0x12),
     (0x2010, 0x13),
     (0x2010, 0x14),
+    // Kinco: Zero_Speed_Window, Limit_Function.
+    (0x2010, 0x18),
+    (0x2010, 0x19),
     (0x2011, 0),
     (0x2020, 0),
     (0x2045, 0),
@@ -185,10 +189,32 @@ const PARAMS: [(u16, u8); 90] = [
     (0x2090, 3),
     (0x2090, 4),
     (0x2090, 5),
+    // Kinco: the analog filters, selectors and outputs, the error words, the display values
+    // and the analog offsets and dead bands, read or written every logic cycle.
+    (0x2502, 0x01),
+    (0x2502, 0x04),
+    (0x2502, 0x07),
+    (0x2502, 0x08),
+    (0x2502, 0x09),
+    (0x2502, 0x0F),
+    (0x2502, 0x10),
+    (0x2601, 0),
+    (0x2602, 0),
+    (0x2FF0, 0x14),
+    (0x2FF0, 0x16),
+    (0x2FF0, 0x17),
+    (0x2FF0, 0x18),
+    (0x2FF0, 0x1A),
+    (0x2FF0, 0x1D),
+    (0x2FF0, 0x1E),
+    (0x2FF0, 0x1F),
+    (0x2FF0, 0x20),
     (0x6065, 0),
     (0x6066, 0),
     (0x6067, 0),
     (0x6068, 0),
+    // Kinco: PI_Switch.
+    (0x6069, 0x09),
     (0x606D, 0),
     (0x606E, 0),
     (0x606F, 0),
@@ -218,6 +244,11 @@ const PARAMS: [(u16, u8); 90] = [
     (0x6099, 2),
     (0x609A, 0),
     (0x60C1, 1),
+    // Kinco: the display speeds, Speed_1ms, PI_Pointer, Pos_Error.
+    (0x60F9, 0x19),
+    (0x60F9, 0x1A),
+    (0x60F9, 0x28),
+    (0x60FB, 0x08),
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
@@ -816,6 +847,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             Some(Value::Signed(s)) => s,
             Some(Value::Unsigned(u)) => u as i64,
             _ => 0,
+        }
+    }
+
+    /// [`Drive::value`] inlined at the call site, for the reads of every logic cycle: with a
+    /// literal key of [`PARAMS`] the slot is found when compiling and the read is a load and
+    /// a decode; any other key takes `value`'s path. (`value` itself stays out of line: the
+    /// parameter reads of the rarer paths would make the code grow.)
+    #[inline(always)]
+    pub(crate) fn cycle_value(&self, index: u16, sub: u8) -> i64 {
+        match param_slot(index, sub) {
+            Some(slot) => self.read(self.params.get(slot).copied().flatten()),
+            None => self.value(index, sub),
         }
     }
 
