@@ -390,6 +390,10 @@ pub struct Drive<S, V> {
     pub(crate) logic_every: u32,
     pub(crate) next_cycle: Option<Instant>,
     pub(crate) cycles: u64,
+    /// Counts up as [`Drive::step`] starts and as it returns: the dictionary is written only
+    /// between steps (by a master, a console, a restore), never by the cycles themselves, so
+    /// what a cycle read of it holds for the rest of the same step (a vendor's caches).
+    pub(crate) step_epoch: u64,
     pub(crate) now: Instant,
     /// Added to the encoder to give 6063h (2030h set_position_absolute, homing).
     pub(crate) position_offset: i64,
@@ -620,6 +624,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             logic_every,
             next_cycle: None,
             cycles: 0,
+            step_epoch: 0,
             now: Instant::ZERO,
             position_offset: 0,
             mode: 0,
@@ -889,6 +894,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     /// Runs every control cycle due up to `now`; returns when the next one is due.
     pub fn step(&mut self, now: Instant) -> Option<Instant> {
+        self.step_epoch = self.step_epoch.wrapping_add(1);
+        let next = self.step_cycles(now);
+        self.step_epoch = self.step_epoch.wrapping_add(1);
+        next
+    }
+
+    /// [`Drive::step`]'s cycles.
+    fn step_cycles(&mut self, now: Instant) -> Option<Instant> {
         let mut next = *self.next_cycle.get_or_insert(now);
         while next <= now {
             self.now = next;
