@@ -23,8 +23,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // the set-point is taken; a refused one becomes a job that stays where it is.
         let checked = (bit4 && target_limits).then(|| self.check_target(cw));
         let get = |i: u16| self.cycle_value(i, 0);
-        // Read the set-point only while bit 4 is high (a rising edge may be taking it).
-        let req = bit4.then(|| {
+        // Read and convert the set-point only on bit 4's rising edge, the only time
+        // `update` takes it (not in every cycle bit 4 is held).
+        let req = self.setpoints.rising(bit4).then(|| {
             let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
             let (user, relative) = match checked {
                 Some(Ok(absolute)) => (absolute, false),
