@@ -138,7 +138,7 @@ const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 /// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
 /// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
 /// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 90] = [
+const PARAMS: [(u16, u8); 115] = [
     (0x2001, 0),
     (0x2004, 1),
     (0x2004, 7),
@@ -154,8 +154,9 @@ const PARAMS: [(u16, u8); 90] = [
     (0x200A, 0),
     (0x200A, 1),
     (0x200B, 0),
-    // Kinco 2010h: DIN polarity, simulate and the seven function codes (in input order, one
-    // after the other: `din_function_code` counts on it), read every cycle.
+    // Kinco 2010h: DIN polarity, simulate and the seven function codes, the DOUT polarity,
+    // simulate and the five function codes (each in input / output order, one after the
+    // other: the Kinco's `function_codes` counts on it), read every cycle.
     (0x2010, 1),
     (0x2010, 2),
     (0x2010, 3),
@@ -174,6 +175,9 @@ const PARAMS: [(u16, u8); 90] = [
     (0x2010, 0x12),
     (0x2010, 0x13),
     (0x2010, 0x14),
+    // Kinco: Zero_Speed_Window, Limit_Function.
+    (0x2010, 0x18),
+    (0x2010, 0x19),
     (0x2011, 0),
     (0x2020, 0),
     (0x2045, 0),
@@ -182,10 +186,32 @@ const PARAMS: [(u16, u8); 90] = [
     (0x2090, 3),
     (0x2090, 4),
     (0x2090, 5),
+    // Kinco: the analog filters, selectors and outputs, the error words, the display values
+    // and the analog offsets and dead bands, read or written every logic cycle.
+    (0x2502, 0x01),
+    (0x2502, 0x04),
+    (0x2502, 0x07),
+    (0x2502, 0x08),
+    (0x2502, 0x09),
+    (0x2502, 0x0F),
+    (0x2502, 0x10),
+    (0x2601, 0),
+    (0x2602, 0),
+    (0x2FF0, 0x14),
+    (0x2FF0, 0x16),
+    (0x2FF0, 0x17),
+    (0x2FF0, 0x18),
+    (0x2FF0, 0x1A),
+    (0x2FF0, 0x1D),
+    (0x2FF0, 0x1E),
+    (0x2FF0, 0x1F),
+    (0x2FF0, 0x20),
     (0x6065, 0),
     (0x6066, 0),
     (0x6067, 0),
     (0x6068, 0),
+    // Kinco: PI_Switch.
+    (0x6069, 0x09),
     (0x606D, 0),
     (0x606E, 0),
     (0x606F, 0),
@@ -215,6 +241,11 @@ const PARAMS: [(u16, u8); 90] = [
     (0x6099, 2),
     (0x609A, 0),
     (0x60C1, 1),
+    // Kinco: the display speeds, Speed_1ms, PI_Pointer, Pos_Error.
+    (0x60F9, 0x19),
+    (0x60F9, 0x1A),
+    (0x60F9, 0x28),
+    (0x60FB, 0x08),
     (0x60FE, 1),
     (0x60FE, 2),
     (0x6510, 0x10),
@@ -356,6 +387,10 @@ pub struct Drive<S, V> {
     pub(crate) logic_every: u32,
     pub(crate) next_cycle: Option<Instant>,
     pub(crate) cycles: u64,
+    /// Counts up as [`Drive::step`] starts and as it returns: the dictionary is written only
+    /// between steps (by a master, a console, a restore), never by the cycles themselves, so
+    /// what a cycle read of it holds for the rest of the same step (a vendor's caches).
+    pub(crate) step_epoch: u64,
     pub(crate) now: Instant,
     /// Added to the encoder to give 6063h (2030h set_position_absolute, homing).
     pub(crate) position_offset: i64,
@@ -570,6 +605,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             logic_every,
             next_cycle: None,
             cycles: 0,
+            step_epoch: 0,
             now: Instant::ZERO,
             position_offset: 0,
             mode: 0,
@@ -795,6 +831,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
+    /// [`Drive::value`] inlined at the call site, for the reads of every logic cycle: with a
+    /// literal key of [`PARAMS`] the slot is found when compiling and the read is a load and
+    /// a decode; any other key takes `value`'s path. (`value` itself stays out of line: the
+    /// parameter reads of the rarer paths would make the code grow.)
+    #[inline(always)]
+    pub(crate) fn cycle_value(&self, index: u16, sub: u8) -> i64 {
+        match param_slot(index, sub) {
+            Some(slot) => self.read(self.params.get(slot).copied().flatten()),
+            None => self.value(index, sub),
+        }
+    }
+
     /// An INTEGER32 set-point with the other sign (saturating at −2³¹).
     pub(crate) fn negate_stored(&mut self, index: u16) {
         if let Some(Value::Signed(v)) = self.od.value(index, 0) {
@@ -822,6 +870,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     /// Runs every control cycle due up to `now`; returns when the next one is due.
     pub fn step(&mut self, now: Instant) -> Option<Instant> {
+        self.step_epoch = self.step_epoch.wrapping_add(1);
+        let next = self.step_cycles(now);
+        self.step_epoch = self.step_epoch.wrapping_add(1);
+        next
+    }
+
+    /// [`Drive::step`]'s cycles.
+    fn step_cycles(&mut self, now: Instant) -> Option<Instant> {
         let mut next = *self.next_cycle.get_or_insert(now);
         while next <= now {
             self.now = next;

@@ -54,7 +54,7 @@ impl SetPoints {
     /// `demand` is the present position set-point (relative moves count from the set-point,
     /// CMMP-AS §6.1.3 bit 6: "relative to position_demand_value").
     pub fn update(&mut self, bit4: bool, demand: f64, request: impl FnOnce() -> Request) -> bool {
-        let rising = bit4 && !self.new_set_point;
+        let rising = self.rising(bit4);
         self.new_set_point = bit4;
         let mut accepted = false;
         let replace = self.overwrite_buffered && self.buffered.is_some();
@@ -90,6 +90,12 @@ impl SetPoints {
             self.acknowledge = false;
         }
         accepted
+    }
+
+    /// Whether controlword bit 4 at `bit4` is its rising edge: the only time
+    /// [`SetPoints::update`] takes a request.
+    pub fn rising(&self, bit4: bool) -> bool {
+        bit4 && !self.new_set_point
     }
 
     /// The active job reached its target: the buffered one (if any) starts.

@@ -158,6 +158,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
 
     /// Stores bytes without any access or range check: device logic updating its own
     /// read-only objects, or stored parameters coming back. Over-long data is cut.
+    #[inline]
     pub fn store(&mut self, e: &Entry, bytes: &[u8]) {
         let data = self.data.as_mut();
         let off = e.offset as usize;
@@ -172,12 +173,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
                 dst.copy_from_slice(src);
             }
         } else if let Some(dst) = data.get_mut(off..off + cap) {
-            // Byte loops, not fill + copy_from_slice: values are 1–8 bytes and this runs for
-            // every actual value in every drive cycle, where library memset/memcpy calls cost
-            // more than the copy.
-            let mut src = bytes.iter();
-            for d in dst.iter_mut() {
-                *d = src.next().copied().unwrap_or(0);
+            // The integer widths as moves of their size; else byte loops, not fill +
+            // copy_from_slice: values are 1–8 bytes and this runs for every actual value in
+            // every drive cycle, where library memset/memcpy calls cost more than the copy.
+            let moved = match cap {
+                1 => copy_exact::<1>(dst, bytes),
+                2 => copy_exact::<2>(dst, bytes),
+                4 => copy_exact::<4>(dst, bytes),
+                8 => copy_exact::<8>(dst, bytes),
+                _ => false,
+            };
+            if !moved {
+                let mut src = bytes.iter();
+                for d in dst.iter_mut() {
+                    *d = src.next().copied().unwrap_or(0);
+                }
             }
         }
     }
@@ -436,5 +446,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
                 Ok(())
             }
         }
+    }
+}
+
+/// The first `N` bytes of `src` into `dst` when `dst` has exactly `N` bytes and `src` at
+/// least `N`; `false` (nothing copied) otherwise.
+#[inline(always)]
+fn copy_exact<const N: usize>(dst: &mut [u8], src: &[u8]) -> bool {
+    let src = src.get(..N).and_then(|s| <&[u8; N]>::try_from(s).ok());
+    match (<&mut [u8; N]>::try_from(dst), src) {
+        (Ok(d), Some(s)) => {
+            *d = *s;
+            true
+        }
+        _ => false,
     }
 }

@@ -22,9 +22,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // Nanotec §4.1: range-limit wrap, software limits and relative overflow checked before
         // the set-point is taken; a refused one becomes a job that stays where it is.
         let checked = (bit4 && target_limits).then(|| self.check_target(cw));
-        let get = |i: u16| self.value(i, 0);
-        // Read the set-point only while bit 4 is high (a rising edge may be taking it).
-        let req = bit4.then(|| {
+        let get = |i: u16| self.cycle_value(i, 0);
+        // Read and convert the set-point only on bit 4's rising edge, the only time
+        // `update` takes it (not in every cycle bit 4 is held).
+        let req = self.setpoints.rising(bit4).then(|| {
             let user = get(0x607A).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
             let (user, relative) = match checked {
                 Some(Ok(absolute)) => (absolute, false),
@@ -80,7 +81,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             self.window_since = None;
             // 6086h = 2: jerk-free, the acceleration ramps over the window (a quarter of the
             // time to profile velocity, at most the buffer).
-            let jerk_free = self.value(0x6086, 0) == 2;
+            let jerk_free = self.cycle_value(0x6086, 0) == 2;
             let window = match (jerk_free, self.setpoints.active) {
                 (true, Some(job)) if self.traj.velocity == 0.0 => {
                     let t_acc = job.velocity / job.acceleration.max(1.0);
@@ -125,11 +126,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 let done = self.smoother.settled(self.traj.position);
                 if let Some(target) = self.setpoints.last_target.filter(|_| done) {
                     let window = self.fg.position_magnitude_to_internal(
-                        self.value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
+                        self.cycle_value(0x6067, 0).clamp(0, u32::MAX as i64) as u32,
                     );
                     let inside =
                         (self.actual_internal() - libm::round(target) as i64).abs() <= window;
-                    let time = Duration::from_millis(self.value(0x6068, 0).max(0) as u64);
+                    let time = Duration::from_millis(self.cycle_value(0x6068, 0).max(0) as u64);
                     if inside {
                         let since = *self.window_since.get_or_insert(self.now);
                         if self.now.saturating_since(since) >= time {

@@ -28,13 +28,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let v_act = i64::from(self.plant_velocity_internal());
         let threshold = self
             .fg
-            .velocity_magnitude_to_internal(self.value(0x606F, 0).max(0) as u32);
+            .velocity_magnitude_to_internal(self.cycle_value(0x606F, 0).max(0) as u32);
         // |v| above velocity_threshold 606Fh; speed zero (PV bit 12) once it has been above
         // for 6070h.
         let moving = v_act.abs() > threshold;
         if moving {
             let since = *self.over_threshold_since.get_or_insert(self.now);
-            let time = Duration::from_millis(self.value(0x6070, 0).max(0) as u64);
+            let time = Duration::from_millis(self.cycle_value(0x6070, 0).max(0) as u64);
             if self.now.saturating_since(since) >= time {
                 self.speed_zero = false;
             }
@@ -50,12 +50,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // Following error (PP): |actual − demand| > 6065h for 6066h.
         let demand_pos = crate::rounding::round(self.demand_position) as i64;
         let fe = self.actual_internal() - demand_pos;
-        let fe_window = self
-            .fg
-            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32);
+        let fe_window = self.fg.position_magnitude_to_internal(
+            self.cycle_value(0x6065, 0).clamp(0, u32::MAX as i64) as u32,
+        );
         if power && fe.abs() > fe_window {
             let since = *self.fe_since.get_or_insert(self.now);
-            let time = Duration::from_millis(self.value(0x6066, 0).max(0) as u64);
+            let time = Duration::from_millis(self.cycle_value(0x6066, 0).max(0) as u64);
             self.following_error = self.now.saturating_since(since) >= time;
         } else {
             self.fe_since = None;
@@ -110,20 +110,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         };
         self.store(self.hot.mode_display, i64::from(display));
         let actual = self.actual_internal();
+        let fg = self.fg;
+        let actual_user = fg.position_from_internal(actual);
         let caps = &self.personality.capabilities;
         let internal = if caps.feed_constant {
             self.encoder_position(actual)
         } else if caps.internal_position_in_user_units {
-            i64::from(self.fg.position_from_internal(actual))
+            i64::from(actual_user)
         } else {
             actual
         };
         self.store(self.hot.position_internal, internal);
-        let fg = self.fg;
-        self.store(
-            self.hot.position_actual,
-            i64::from(fg.position_from_internal(actual)),
-        );
+        self.store(self.hot.position_actual, i64::from(actual_user));
         self.store(
             self.hot.position_demand,
             i64::from(fg.position_from_internal(demand_pos)),

@@ -195,7 +195,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
     /// 6510h:22 sets; 2100h may make it a warning); within it the warning 17-0 ends.
     pub(crate) fn supervise_following_error_limit(&mut self, fe: i64) {
         let power = !matches!(self.demand, Demand::Off);
-        let hard = self.value(0x6510, 0x22);
+        let hard = self.cycle_value(0x6510, 0x22);
         if power
             && hard > 0
             && fe.abs()

@@ -34,7 +34,70 @@ pub(crate) struct AnalogInputs {
     /// The maximum current the analog max torque sets, mA (`None`: no analog limit), as the
     /// controller has it.
     pub(crate) max_current_ma: Option<u32>,
+    /// Each filter's step factor with what it is for (Analog_Filter, the logic cycle):
+    /// `exp` only when one of them changes.
+    pub(crate) alpha: [FilterStep; 2],
 }
+
+/// A filter's step factor `1 − e^(−dt/τ)` and the τ (ms) and logic cycle it is for.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct FilterStep {
+    tau_ms: i64,
+    cycle: core::time::Duration,
+    every: u32,
+    alpha: f64,
+}
+
+/// AIN1's and AIN2's objects: Analog_Filter 2502h:01 / :04, Analog_Dead 2FF0h:1D / :1F,
+/// Analog_Offset 2FF0h:1E / :20, AN_V 2FF0h:16 / :17, Analog_out 2502h:0F / :10, as the
+/// drive's parameter slots (found when compiling: every logic cycle reads and writes them).
+#[derive(Clone, Copy)]
+struct AinObjects {
+    filter: usize,
+    dead: usize,
+    offset: usize,
+    voltage: usize,
+    out: usize,
+}
+
+/// The parameter slot of `index:sub` (`usize::MAX` if it has none: refused below).
+const fn slot(index: u16, sub: u8) -> usize {
+    match crate::drive::param_slot(index, sub) {
+        Some(s) => s,
+        None => usize::MAX,
+    }
+}
+
+const AIN: [AinObjects; 2] = [
+    AinObjects {
+        filter: slot(0x2502, 0x01),
+        dead: slot(0x2FF0, 0x1D),
+        offset: slot(0x2FF0, 0x1E),
+        voltage: slot(0x2FF0, 0x16),
+        out: slot(0x2502, 0x0F),
+    },
+    AinObjects {
+        filter: slot(0x2502, 0x04),
+        dead: slot(0x2FF0, 0x1F),
+        offset: slot(0x2FF0, 0x20),
+        voltage: slot(0x2FF0, 0x17),
+        out: slot(0x2502, 0x10),
+    },
+];
+
+// Every object of AIN is in PARAMS.
+const _: () = {
+    let mut rest: &[AinObjects] = &AIN;
+    while let [a, tail @ ..] = rest {
+        let slots = [a.filter, a.dead, a.offset, a.voltage, a.out];
+        let mut left: &[usize] = &slots;
+        while let [s, more @ ..] = left {
+            assert!(*s != usize::MAX, "an analog input object is not in PARAMS");
+            left = more;
+        }
+        rest = tail;
+    }
+};
 
 /// Analog_MaxT_Con 2502h:09 (and the speed / torque selectors): 1 = AIN1, 2 = AIN2.
 fn input_of(selector: i64) -> Option<u8> {
@@ -46,6 +109,12 @@ fn input_of(selector: i64) -> Option<u8> {
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
+    /// The entry in parameter slot `slot`.
+    #[inline(always)]
+    fn slot_entry(&self, slot: usize) -> Option<&'static od::Entry> {
+        self.params.get(slot).copied().flatten()
+    }
+
     /// The voltage at AIN`input` (1 or 2), volts, clamped to ±10 V.
     pub fn set_analog_input(&mut self, input: u8, volts: f64) {
         let v = if volts.is_finite() { volts } else { 0.0 };
@@ -62,8 +131,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 
     /// Analog`n`_out of input `n` (1, 2) in 0.01 V: filter, offset and dead band applied.
     fn analog_processed(&self, n: u8) -> i32 {
-        let (dead, offset) = if n == 1 { (0x1D, 0x1E) } else { (0x1F, 0x20) };
         let i = usize::from(n.wrapping_sub(1));
+        let Some(objects) = AIN.get(i) else {
+            return 0;
+        };
         let raw = self.vendor.analog.centivolts.get(i).copied().unwrap_or(0);
         let v_in = self
             .vendor
@@ -72,17 +143,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             .get(i)
             .copied()
             .flatten()
-            .map_or(raw, |f| libm::round(f) as i32);
+            // `libm::round(f) as i32`, without libm's software path.
+            .map_or(raw, |f| {
+                crate::rounding::round_i64(f).clamp(i32::MIN.into(), i32::MAX.into()) as i32
+            });
         analog_out(
             v_in,
-            self.value(0x2FF0, offset) as i32,
-            self.value(0x2FF0, dead) as i32,
+            self.read(self.slot_entry(objects.offset)) as i32,
+            self.read(self.slot_entry(objects.dead)) as i32,
         )
     }
 
     /// The speed command in rpm where Analog_Speed_Con 2502h:07 names an input.
     pub(crate) fn kinco_analog_speed_rpm(&self) -> Option<i32> {
-        let n = input_of(self.value(0x2502, 0x07))?;
+        let n = input_of(self.cycle_value(0x2502, 0x07))?;
         let factor = self.value(0x2502, 0x0A) as i32;
         let out = analog_window(
             self.analog_processed(n),
@@ -94,14 +168,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 
     /// The torque command in mN·m where Analog_Torque_Con 2502h:08 names an input.
     pub(crate) fn kinco_analog_torque_mnm(&self) -> Option<i64> {
-        let n = input_of(self.value(0x2502, 0x08))?;
+        let n = input_of(self.cycle_value(0x2502, 0x08))?;
         let factor = self.value(0x2FF0, 0x21);
         Some(i64::from(self.analog_processed(n)) * factor / 100)
     }
 
     /// The maximum torque in mN·m where Analog_MaxT_Con 2502h:09 names an input (§6.2.1).
     pub(crate) fn kinco_analog_max_torque_mnm(&self) -> Option<i64> {
-        let n = input_of(self.value(0x2502, 0x09))?;
+        let n = input_of(self.cycle_value(0x2502, 0x09))?;
         let factor = self.value(0x2FF0, 0x22);
         Some((i64::from(self.analog_processed(n)) * factor / 100).abs())
     }
@@ -117,31 +191,41 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// One logic cycle: the input filters, AN_V1 / AN_V2 and Analog1_out / Analog2_out, and
     /// the analog max torque as the controller's current limit.
     pub(crate) fn kinco_publish_analog(&mut self) {
-        let dt_ms = self.cycle.as_secs_f64() * f64::from(self.logic_every) * 1000.0;
-        for n in [1u8, 2] {
-            let i = usize::from(n - 1);
+        let (cycle, every) = (self.cycle, self.logic_every);
+        for (i, objects) in AIN.iter().enumerate() {
             let raw = self.vendor.analog.centivolts.get(i).copied().unwrap_or(0);
-            let tau_ms = self.value(0x2502, if n == 1 { 0x01 } else { 0x04 }).max(0) as f64;
-            if let Some(slot) = self.vendor.analog.filtered.get_mut(i) {
+            let tau = self.read(self.slot_entry(objects.filter)).max(0);
+            let analog = &mut self.vendor.analog;
+            if let (Some(slot), Some(cached)) =
+                (analog.filtered.get_mut(i), analog.alpha.get_mut(i))
+            {
                 let f = slot.get_or_insert(f64::from(raw));
-                let alpha = if tau_ms > 0.0 {
-                    1.0 - libm::exp(-dt_ms / tau_ms)
+                let alpha = if tau > 0 {
+                    if (cached.tau_ms, cached.cycle, cached.every) != (tau, cycle, every) {
+                        let dt_ms = cycle.as_secs_f64() * f64::from(every) * 1000.0;
+                        *cached = FilterStep {
+                            tau_ms: tau,
+                            cycle,
+                            every,
+                            alpha: 1.0 - libm::exp(-dt_ms / tau as f64),
+                        };
+                    }
+                    cached.alpha
                 } else {
                     1.0
                 };
                 *f += (f64::from(raw) - *f) * alpha;
             }
-            let out = self.analog_processed(n);
-            let d = self.od.description();
-            let (a, b) = (d.entry(0x2FF0, 0x15 + n), d.entry(0x2502, 0x0E + n));
-            self.store(a, i64::from(raw));
-            self.store(b, i64::from(out));
+            let out = self.analog_processed(i as u8 + 1);
+            for (slot, v) in [(objects.voltage, raw), (objects.out, out)] {
+                self.store(self.slot_entry(slot), i64::from(v));
+            }
         }
         let kt = self.settings.motor.torque_constant;
         let limit = self
             .kinco_analog_max_torque_mnm()
             .filter(|_| kt > 0.0)
-            .map(|mnm| libm::round(mnm as f64 / kt) as u32);
+            .map(|mnm| crate::rounding::round(mnm as f64 / kt) as u32);
         if limit != self.vendor.analog.max_current_ma {
             self.vendor.analog.max_current_ma = limit;
             self.params_dirty = true;

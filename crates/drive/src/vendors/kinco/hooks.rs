@@ -472,30 +472,34 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
             state |= 1;
         }
         let display_rpm = f64::from(self.axis.velocity_display_rpm());
-        let i16_range = |v: f64| (libm::round(v) as i64).clamp(i16::MIN.into(), i16::MAX.into());
-        for (index, sub, v) in [
-            (0x2601, 0, i64::from(state)),
-            (0x2602, 0, i64::from(state2)),
-            (0x60FB, 0x08, following_error),
+        // `rounding::round_i64` is `libm::round(v) as i64` bit for bit, without libm's
+        // software path.
+        let round = crate::rounding::round_i64;
+        let i16_range = |v: f64| round(v).clamp(i16::MIN.into(), i16::MAX.into());
+        // The entries by literal keys: their parameter slots are found when compiling.
+        for (e, v) in [
+            (self.kinco_entry(0x2601, 0), i64::from(state)),
+            (self.kinco_entry(0x2602, 0), i64::from(state2)),
+            (self.kinco_entry(0x60FB, 0x08), following_error),
             // Decision: the display values d1.25 (rpm) and d1.26 (0.01 rpm, printed range
             // "−10~10"; held within its 16 bits) are the speed through the engine's display
             // filter (20 ms), so that they do not flicker with the loop's ripple.
-            (0x2FF0, 0x14, libm::round(display_rpm) as i64),
-            (0x60F9, 0x19, i16_range(display_rpm * 100.0)),
+            (self.kinco_entry(0x2FF0, 0x14), round(display_rpm)),
+            (
+                self.kinco_entry(0x60F9, 0x19),
+                i16_range(display_rpm * 100.0),
+            ),
             // Speed_1ms (Tab. 6-2): the speed feedback (606Ch's) in whole increments per ms.
             (
-                0x60F9,
-                0x1A,
+                self.kinco_entry(0x60F9, 0x1A),
                 (f64::from(self.axis.velocity_rpm()) * INCREMENTS_PER_REV as f64 / 60_000.0) as i64,
             ),
             // d1.29 I_q_Arms, 0.1 Arms: the measured current, as 6078h.
             (
-                0x2FF0,
-                0x18,
+                self.kinco_entry(0x2FF0, 0x18),
                 i16_range(f64::from(self.axis.current_ma()) / 100.0),
             ),
         ] {
-            let e = self.od.description().entry(index, sub);
             self.store(e, v);
         }
     }
@@ -657,9 +661,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// §5.4, KINCO-DIAG-03), in every mode that controls the position.
     pub(crate) fn kinco_supervise_following_error(&mut self, following_error: i64) {
         let position_controlled = matches!(self.demand, Demand::Position { .. });
-        let limit = self
-            .fg
-            .position_magnitude_to_internal(self.value(0x6065, 0).clamp(0, u32::MAX as i64) as u32);
+        let limit = self.fg.position_magnitude_to_internal(
+            self.cycle_value(0x6065, 0).clamp(0, u32::MAX as i64) as u32,
+        );
         if position_controlled && following_error.abs() > limit {
             self.raise_fault(super::Fault::FollowingError);
         }

@@ -66,6 +66,48 @@ const OWNERS: [(DinFunction, &str, u16, u8); 4] = [
     (DinFunction::GainSwitch1, "Gain Switch1", 0x60F9, 0x28),
 ];
 
+/// Which inputs have each function of Tab. 6-1, from DIN1…DIN7's function codes. A logic
+/// cycle asks about a dozen functions, several times each; a function's inputs as a mask
+/// answer each question at once, and the map is rebuilt only when a code changes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct DinFunctions {
+    /// DINx_Function 2010h:03 + n − 1 as the map was built from ([`function_codes`]).
+    codes: u128,
+    /// Row r of [`DIN_FUNCTIONS`](super::DIN_FUNCTIONS) (the function with discriminant r):
+    /// its inputs, bit n − 1 = DINn.
+    inputs: [u8; super::DIN_FUNCTIONS.len()],
+}
+
+impl DinFunctions {
+    fn of(codes: u128) -> Self {
+        let mut inputs = [0u8; super::DIN_FUNCTIONS.len()];
+        for (mask, &(_, function)) in inputs.iter_mut().zip(super::DIN_FUNCTIONS.iter()) {
+            *mask = (0..DINS).fold(0u8, |acc, n| {
+                acc | (u8::from(din_has(code_of(codes, n), function)) << n)
+            });
+        }
+        DinFunctions { codes, inputs }
+    }
+
+    /// The inputs that have `function`, bit n − 1 = DINn.
+    fn inputs(&self, function: DinFunction) -> u8 {
+        self.inputs.get(function as usize).copied().unwrap_or(0)
+    }
+
+    /// The level of `function` from the internal levels `internal`: `None` if no input has
+    /// it, else whether any input that has it is active.
+    fn level(&self, internal: u8, function: DinFunction) -> Option<bool> {
+        let inputs = self.inputs(function);
+        (inputs != 0).then_some(internal & inputs != 0)
+    }
+
+    /// The first input (0 = DIN1) that has `function`.
+    fn first(&self, function: DinFunction) -> Option<u8> {
+        let inputs = self.inputs(function);
+        (inputs != 0).then_some(inputs.trailing_zeros() as u8)
+    }
+}
+
 /// What the inputs were at the last cycle (for their edges).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct DinMemory {
@@ -75,76 +117,178 @@ pub(crate) struct DinMemory {
     pub(crate) homing_return: Option<i8>,
     /// The Kvi Off input is active (the controller runs without the velocity integral).
     pub(crate) kvi_off: bool,
+    /// The input functions as of the last logic cycle (see [`Drive::kinco_din_functions`]).
+    pub(crate) functions: DinFunctions,
+    /// The output functions as of the last logic cycle (see [`Drive::kinco_dout_functions`]).
+    pub(crate) outputs: DoutFunctions,
+    /// The step whose logic built `functions` and `outputs` (the drive's `step_epoch`).
+    pub(crate) mapped_at: Option<u64>,
+    /// The levels this logic cycle found at the plant's position: (cycle, position, Din_Real,
+    /// internal levels). The cycle reads the inputs three times at the same position (the
+    /// input functions, the limit switches, Din_Real) with the same wiring and objects.
+    pub(crate) levels: Option<(u64, i64, u8, u8)>,
 }
 
-// `din_function_code` reads DINn_Function from slot `param_slot(2010h:03) + n` of the
-// drive's PARAMS: the seven keys 2010h:03 … :09 must stay in consecutive slots there.
-const _: () = {
-    let first = match crate::drive::param_slot(0x2010, 0x03) {
-        Some(s) => s,
-        None => panic!("2010h:03 is not in PARAMS"),
-    };
-    let mut n = 0;
-    while n < DINS {
-        match crate::drive::param_slot(0x2010, 0x03 + n) {
-            Some(s) if s == first + n as usize => {}
-            _ => panic!("DINx_Function not in consecutive PARAMS slots"),
+/// Which functions of Tab. 6-2 each output has, from OUT1…OUT5's function codes: the
+/// outputs' status is the OR of their functions, each function evaluated once a cycle.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct DoutFunctions {
+    /// DOUTx_Function 2010h:0F + n − 1 as the map was built from ([`function_codes`]).
+    codes: u128,
+    /// OUTn's functions, bit r = row r of [`DOUT_FUNCTIONS`].
+    rows: [u16; DOUTS as usize],
+}
+
+impl DoutFunctions {
+    fn of(codes: u128) -> Self {
+        DoutFunctions {
+            codes,
+            rows: core::array::from_fn(|n| dout_rows(code_of(codes, n as u8))),
         }
-        n += 1;
+    }
+}
+
+/// DIN1_Function 2010h:03 and DOUT1_Function 2010h:0F.
+const DIN1_FUNCTION: u8 = 0x03;
+const DOUT1_FUNCTION: u8 = 0x0F;
+
+// `function_codes` reads DINn_Function from slot `param_slot(2010h:03) + n − 1` of the
+// drive's PARAMS, DOUTn_Function from `param_slot(2010h:0F) + n − 1`: the keys 2010h:03 …
+// :09 and :0F … :13 must stay in consecutive slots there.
+const _: () = {
+    let mut group = 0;
+    while group < 2 {
+        let (first_sub, count) = if group == 0 {
+            (DIN1_FUNCTION, DINS)
+        } else {
+            (DOUT1_FUNCTION, DOUTS)
+        };
+        let first = match crate::drive::param_slot(0x2010, first_sub) {
+            Some(s) => s,
+            None => panic!("a function code is not in PARAMS"),
+        };
+        let mut n = 0;
+        while n < count {
+            match crate::drive::param_slot(0x2010, first_sub + n) {
+                Some(s) if s == first + n as usize => {}
+                _ => panic!("function codes not in consecutive PARAMS slots"),
+            }
+            n += 1;
+        }
+        group += 1;
     }
 };
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
-    /// DINn_Function (2010h:03 + n), read through its resolved entry (every logic cycle
-    /// asks for each input several times; the slots are consecutive, checked above).
-    fn din_function_code(&self, n: u8) -> u16 {
-        let first = crate::drive::param_slot(0x2010, 0x03).unwrap_or(usize::MAX);
-        let entry = (n < DINS)
-            .then(|| self.params.get(first.wrapping_add(usize::from(n))))
-            .flatten()
-            .copied()
-            .flatten();
-        self.read(entry).clamp(0, 0xFFFF) as u16
-    }
-
     /// Din_Real: the wires at `position` (see the module doc), forced inputs over them.
     pub(crate) fn kinco_din_real(&self, position: i64) -> u8 {
+        self.din_real_with(&self.kinco_din_functions(), position)
+    }
+
+    /// [`Drive::kinco_din_real`] with the input functions at hand.
+    fn din_real_with(&self, functions: &DinFunctions, position: i64) -> u8 {
+        if let Some((real, _)) = self.levels_found(position) {
+            return real;
+        }
         let switches = self.settings.travel.inputs(position);
-        let wired = (0..DINS).fold(0u8, |acc, n| {
-            let code = self.din_function_code(n);
-            let level = (din_has(code, DinFunction::PositiveLimit) && !switches.positive_limit)
-                || (din_has(code, DinFunction::NegativeLimit) && !switches.negative_limit)
-                || (din_has(code, DinFunction::HomeSignal) && switches.home);
-            acc | (u8::from(level) << n)
-        });
+        let wired_if = |on: bool, f| if on { functions.inputs(f) } else { 0 };
+        let wired = wired_if(!switches.positive_limit, DinFunction::PositiveLimit)
+            | wired_if(!switches.negative_limit, DinFunction::NegativeLimit)
+            | wired_if(switches.home, DinFunction::HomeSignal);
         let mask = self.forced_mask as u8;
         ((wired & !mask) | (self.forced_levels as u8 & mask)) & 0x7F
     }
 
     /// The internal levels: `(Real OR Simulate) XOR (NOT Polarity)`.
     pub(crate) fn kinco_din_internal(&self, position: i64) -> u8 {
-        let simulate = self.value(0x2010, 0x02) as u8;
-        let polarity = self.value(0x2010, 0x01) as u8;
-        ((self.kinco_din_real(position) | simulate) ^ !polarity) & 0x7F
+        self.din_internal_with(&self.kinco_din_functions(), position)
+    }
+
+    /// [`Drive::kinco_din_internal`] with the input functions at hand.
+    fn din_internal_with(&self, functions: &DinFunctions, position: i64) -> u8 {
+        if let Some((_, internal)) = self.levels_found(position) {
+            return internal;
+        }
+        let simulate = self.cycle_value(0x2010, 0x02) as u8;
+        let polarity = self.cycle_value(0x2010, 0x01) as u8;
+        ((self.din_real_with(functions, position) | simulate) ^ !polarity) & 0x7F
+    }
+
+    /// Din_Real and the internal levels at `position` as this logic cycle found them
+    /// (`None` between cycles, at another position or before the cycle read them).
+    fn levels_found(&self, position: i64) -> Option<(u8, u8)> {
+        match self.vendor.din.levels {
+            Some((cycle, at, real, internal)) if cycle == self.cycles && at == position => {
+                Some((real, internal))
+            }
+            _ => None,
+        }
     }
 
     /// The first input (0 = DIN1) that has `function`.
     pub(crate) fn kinco_din_with(&self, function: DinFunction) -> Option<u8> {
-        (0..DINS).find(|n| din_has(self.din_function_code(*n), function))
+        self.kinco_din_functions().first(function)
     }
 
     /// Whether an input has `function`.
     pub(crate) fn kinco_din_configured(&self, function: DinFunction) -> bool {
-        (0..DINS).any(|n| din_has(self.din_function_code(n), function))
+        self.kinco_din_functions().inputs(function) != 0
     }
 
     fn din_level(&self, internal: u8, function: DinFunction) -> Option<bool> {
-        din_level_of(&self.din_codes(), internal, function)
+        self.kinco_din_functions().level(internal, function)
     }
 
-    /// DIN1…DIN7's function codes, read once for the many questions of one cycle.
-    fn din_codes(&self) -> [u16; DINS as usize] {
-        core::array::from_fn(|n| self.din_function_code(n as u8))
+    /// DIN1…DIN7's function codes ([`function_codes`]).
+    fn din_codes(&self) -> u128 {
+        function_codes(self, DIN1_FUNCTION, DINS)
+    }
+
+    /// The input functions of DIN1…DIN7's codes as they stand. Within a step, those its
+    /// first logic cycle read (`kinco_io_map`): the dictionary is written only between steps
+    /// (a master, the panel, a restore), never by a cycle. Between steps, through whichever
+    /// path it was written, the codes are read and compared.
+    pub(crate) fn kinco_din_functions(&self) -> DinFunctions {
+        let last = &self.vendor.din.functions;
+        if self.vendor.din.mapped_at == Some(self.step_epoch) {
+            return *last;
+        }
+        let codes = self.din_codes();
+        if last.codes == codes {
+            *last
+        } else {
+            DinFunctions::of(codes)
+        }
+    }
+
+    /// The output functions of OUT1…OUT5's codes as they stand (as
+    /// [`Drive::kinco_din_functions`]).
+    fn kinco_dout_functions(&self) -> DoutFunctions {
+        let last = &self.vendor.din.outputs;
+        if self.vendor.din.mapped_at == Some(self.step_epoch) {
+            return *last;
+        }
+        let codes = function_codes(self, DOUT1_FUNCTION, DOUTS);
+        if last.codes == codes {
+            *last
+        } else {
+            DoutFunctions::of(codes)
+        }
+    }
+
+    /// At the start of a logic cycle: the input and output functions of the codes as they
+    /// stand, for the rest of the step.
+    fn kinco_io_map(&mut self) -> DinFunctions {
+        if self.vendor.din.mapped_at == Some(self.step_epoch) {
+            return self.vendor.din.functions;
+        }
+        let functions = self.kinco_din_functions();
+        let outputs = self.kinco_dout_functions();
+        let din = &mut self.vendor.din;
+        din.functions = functions;
+        din.outputs = outputs;
+        din.mapped_at = Some(self.step_epoch);
+        functions
     }
 
     /// The internal levels of this logic cycle (read once by [`Drive::kinco_din_cycle`]).
@@ -160,35 +304,27 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         self.din_level(self.din_now(), function).unwrap_or(false)
     }
 
-    /// The limit switches at `position` (negative, positive): a configured P limit input
-    /// that is 0 blocks its direction.
-    pub(crate) fn kinco_limits_at(&self, position: i64) -> (bool, bool) {
-        let internal = self.kinco_din_internal(position);
-        (
-            self.din_level(internal, DinFunction::NegativeLimit) == Some(false),
-            self.din_level(internal, DinFunction::PositiveLimit) == Some(false),
-        )
-    }
-
     /// The directions blocked now (negative, positive): a limit switch or a position limit
     /// after homing (kinco_limits.rs).
     pub(crate) fn kinco_limits_active(&self) -> (bool, bool) {
+        let functions = self.kinco_din_functions();
         let internal = self.din_now();
         let (below, above) = self.kinco_position_limits_blocking();
         (
-            self.din_level(internal, DinFunction::NegativeLimit) == Some(false) || below,
-            self.din_level(internal, DinFunction::PositiveLimit) == Some(false) || above,
+            functions.level(internal, DinFunction::NegativeLimit) == Some(false) || below,
+            functions.level(internal, DinFunction::PositiveLimit) == Some(false) || above,
         )
     }
 
-    /// The switches as homing reads them.
+    /// The switches as homing reads them: a configured P limit input that is 0 blocks its
+    /// direction.
     pub(crate) fn kinco_switches(&self, position: i64) -> Inputs {
-        let (negative_limit, positive_limit) = self.kinco_limits_at(position);
-        let internal = self.kinco_din_internal(position);
+        let functions = self.kinco_din_functions();
+        let internal = self.din_internal_with(&functions, position);
         Inputs {
-            negative_limit,
-            positive_limit,
-            home: self.din_level(internal, DinFunction::HomeSignal) == Some(true),
+            negative_limit: functions.level(internal, DinFunction::NegativeLimit) == Some(false),
+            positive_limit: functions.level(internal, DinFunction::PositiveLimit) == Some(false),
+            home: functions.level(internal, DinFunction::HomeSignal) == Some(true),
         }
     }
 
@@ -196,12 +332,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// KINCO-SC-03): x = Index0 + 2·Index1 + 4·Index2, an index no input has counts 0.
     pub(crate) fn kinco_din_speed_rpm(&self) -> Option<i32> {
         let internal = self.din_now();
+        let functions = self.kinco_din_functions();
         let bits = [
             DinFunction::DinVelIndex0,
             DinFunction::DinVelIndex1,
             DinFunction::DinVelIndex2,
         ]
-        .map(|f| self.din_level(internal, f));
+        .map(|f| functions.level(internal, f));
         if bits.iter().all(Option::is_none) {
             return None;
         }
@@ -272,15 +409,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// One logic cycle of the input functions, before the controlword is read.
     pub(crate) fn kinco_din_cycle(&mut self) {
         let position = self.plant_position();
-        let now = self.kinco_din_internal(position);
+        // The functions are the inputs' until the next write, never changed by this cycle.
+        let functions = self.kinco_io_map();
+        self.vendor.din.levels = None;
+        let real = self.din_real_with(&functions, position);
+        let now = self.din_internal_with(&functions, position);
+        self.vendor.din.levels = Some((self.cycles, position, real, now));
         let before = self.vendor.din.internal;
         self.vendor.din.internal = Some(now);
-        // The functions are the inputs' until the next SDO write, never changed by this cycle.
-        let codes = self.din_codes();
-        let level = |_: &Self, f| din_level_of(&codes, now, f);
+        let level = |_: &Self, f| functions.level(now, f);
         let changed = |_: &Self, f| {
-            let was = before.and_then(|b| din_level_of(&codes, b, f));
-            let is = din_level_of(&codes, now, f);
+            let was = before.and_then(|b| functions.level(b, f));
+            let is = functions.level(now, f);
             (is.is_some() && is != was).then_some(is == Some(true))
         };
         let rising = |d: &Self, f| changed(d, f) == Some(true) && before.is_some();
@@ -322,7 +462,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         // mode or the enable gone end the flow at once.
         self.vendor.table.start_edge |= rising(self, DinFunction::StartPosTable);
         self.vendor.table.abort_edge |= rising(self, DinFunction::AbortPosTable)
-            || !self.kinco_din_configured(DinFunction::StartPosTable);
+            || functions.inputs(DinFunction::StartPosTable) == 0;
         self.vendor.table.cond1_rising |= rising(self, DinFunction::PosTableCond1);
         if self.mode != mode::PROFILE_POSITION
             || self.dc.state() != State::OperationEnabled
@@ -335,7 +475,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         if rising(self, DinFunction::ResetErrors) {
             self.cw_rising |= Controlword::FAULT_RESET;
         }
-        self.kinco_gain_switching(now);
+        self.kinco_gain_switching(&functions, now);
         let motor_error = level(self, DinFunction::MotorError) == Some(true);
         self.cause(
             MOTOR_TEMPERATURE,
@@ -354,7 +494,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 true,
             );
         }
-        self.kinco_capture(before, now, position);
+        self.kinco_capture(&functions, before, now);
         self.kinco_position_limits_cycle();
     }
 
@@ -362,24 +502,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// BCD(GS1:GS0), an input not configured counts 0); else with PI_Switch 6069h:09 = 1 set 0
     /// while the motor turns and set 1 once Pos Reached or Zero Speed holds; else the
     /// PI_Pointer written. Kvi Off turns the velocity integral off.
-    fn kinco_gain_switching(&mut self, internal: u8) {
+    fn kinco_gain_switching(&mut self, functions: &DinFunctions, internal: u8) {
         let bits = [DinFunction::GainSwitch0, DinFunction::GainSwitch1]
-            .map(|f| self.din_level(internal, f));
+            .map(|f| functions.level(internal, f));
         let pointer = if bits.iter().any(Option::is_some) {
             Some(i64::from(selected_index(&bits)))
-        } else if self.value(0x6069, 0x09) == 1 {
+        } else if self.cycle_value(0x6069, 0x09) == 1 {
             let settled = self.dout_function(DoutFunction::PosReached)
                 || self.dout_function(DoutFunction::ZeroSpeed);
             Some(i64::from(settled))
         } else {
             None
         };
-        if let Some(p) = pointer.filter(|p| *p != self.value(0x60F9, 0x28)) {
-            let e = self.od.description().entry(0x60F9, 0x28);
-            self.store(e, p);
+        if let Some(p) = pointer.filter(|p| *p != self.cycle_value(0x60F9, 0x28)) {
+            self.kinco_store(0x60F9, 0x28, p);
             self.params_dirty = true;
         }
-        let kvi_off = self.din_level(internal, DinFunction::KviOff) == Some(true);
+        let kvi_off = functions.level(internal, DinFunction::KviOff) == Some(true);
         if kvi_off != self.vendor.din.kvi_off {
             self.vendor.din.kvi_off = kvi_off;
             self.params_dirty = true;
@@ -406,15 +545,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     /// Fast capture (§5.5.5): the first edge of Fast_Capture1 / 2 sets its
     /// flag 2010h:20 … :23 and latches Pos_Actual 6063h into 2010h:24 … :27; later edges are
     /// ignored until the flag is written back to 0.
-    fn kinco_capture(&mut self, before: Option<u8>, now: u8, _position: i64) {
+    fn kinco_capture(&mut self, functions: &DinFunctions, before: Option<u8>, now: u8) {
         let Some(before) = before else { return };
         for (function, flag) in [
             (DinFunction::FastCapture1, 0x20u8),
             (DinFunction::FastCapture2, 0x22u8),
         ] {
             let (Some(was), Some(is)) = (
-                self.din_level(before, function),
-                self.din_level(now, function),
+                functions.level(before, function),
+                functions.level(now, function),
             ) else {
                 continue;
             };
@@ -442,7 +581,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     fn dout_function(&self, f: DoutFunction) -> bool {
         let state = self.dc.state();
         let power = !matches!(self.demand, Demand::Off);
-        let (negative, positive) = self.kinco_limits_active();
         match f {
             DoutFunction::Ready => {
                 self.faults.is_empty()
@@ -462,7 +600,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 let inc_per_ms = f64::from(self.plant_velocity_rpm())
                     * super::hooks::INCREMENTS_PER_REV as f64
                     / 60_000.0;
-                (inc_per_ms as i64).abs() <= self.value(0x2010, 0x18).max(0)
+                (inc_per_ms as i64).abs() <= self.cycle_value(0x2010, 0x18).max(0)
             }
             DoutFunction::MotorBrake => power && !self.brake_engaged,
             DoutFunction::SpeedReached => {
@@ -476,7 +614,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                     && state == State::OperationEnabled
             }
             DoutFunction::DriverEnable => state == State::OperationEnabled,
-            DoutFunction::PositionLimit => negative || positive,
+            DoutFunction::PositionLimit => {
+                let (negative, positive) = self.kinco_limits_active();
+                negative || positive
+            }
             DoutFunction::HomeFound => self.referenced,
             DoutFunction::PosTableActive => self.kinco_table_active(),
             DoutFunction::EncWarning => self.vendor.warnings != 0,
@@ -484,24 +625,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         }
     }
 
-    /// The function status of OUTn (the OR of its functions).
-    fn dout_status(&self, n: u8) -> bool {
-        let code = self.value(0x2010, 0x0F + n).clamp(0, 0xFFFF) as u16;
-        DOUT_FUNCTIONS.iter().any(|&(c, f)| {
-            let has = if c & 0x8000 == 0 {
-                code & 0x8000 == 0 && code & c == c
-            } else {
-                code == c
-            };
-            has && self.dout_function(f)
-        })
+    /// The function status of OUT1…OUT5 (each the OR of its functions), bit n − 1 = OUTn:
+    /// each function the outputs have evaluated once.
+    fn dout_status(&self) -> u8 {
+        let rows = self.kinco_dout_functions().rows;
+        let wanted = rows.iter().fold(0u16, |acc, r| acc | r);
+        let active = DOUT_FUNCTIONS
+            .iter()
+            .enumerate()
+            .filter(|(row, _)| wanted & (1 << row) != 0)
+            .fold(0u16, |acc, (row, &(_, f))| {
+                acc | (u16::from(self.dout_function(f)) << row)
+            });
+        rows.iter()
+            .enumerate()
+            .fold(0u8, |acc, (n, r)| acc | (u8::from(r & active != 0) << n))
     }
 
     /// Dout_Real 2010h:14, bit n − 1 = OUTn: `(status OR Simulate) XOR (NOT Polarity)`.
     pub fn kinco_dout_real(&self) -> u8 {
-        let status = (0..DOUTS).fold(0u8, |acc, n| acc | (u8::from(self.dout_status(n)) << n));
-        let simulate = self.value(0x2010, 0x0E) as u8;
-        let polarity = self.value(0x2010, 0x0D) as u8;
+        let status = self.dout_status();
+        let simulate = self.cycle_value(0x2010, 0x0E) as u8;
+        let polarity = self.cycle_value(0x2010, 0x0D) as u8;
         ((status | simulate) ^ !polarity) & 0x1F
     }
 
@@ -520,16 +665,50 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
     }
 }
 
-/// The level of `function` from the internal levels `internal` and the inputs' function codes:
-/// `None` if no input has it, else whether any input that has it is active.
-fn din_level_of(codes: &[u16; DINS as usize], internal: u8, function: DinFunction) -> Option<bool> {
-    let mut any = false;
-    let mut active = false;
-    for (n, code) in codes.iter().enumerate() {
-        if din_has(*code, function) {
-            any = true;
-            active |= internal & (1 << n) != 0;
-        }
-    }
-    any.then_some(active)
+// A DOUT function's row is a bit of a u16.
+const _: () = assert!(DOUT_FUNCTIONS.len() <= 16);
+
+/// The rows of [`DOUT_FUNCTIONS`] a DOUTx_Function value `code` has (bit r = row r): a
+/// single-bit code combines with the others, a group code (8xxxh, 9xxxh) is that one function.
+fn dout_rows(code: u16) -> u16 {
+    DOUT_FUNCTIONS
+        .iter()
+        .enumerate()
+        .fold(0u16, |acc, (row, &(c, _))| {
+            let has = if c & 0x8000 == 0 {
+                code & 0x8000 == 0 && code & c == c
+            } else {
+                code == c
+            };
+            acc | (u16::from(has) << row)
+        })
+}
+
+/// The `count` function codes from 2010h:`first_sub` on, code n (from 0) in bits 16·n …
+/// 16·n + 15: one integer, compared with the last cycle's in registers (every logic cycle
+/// reads the inputs' and outputs' codes). Read through their resolved entries: the slots
+/// are consecutive, checked above.
+#[inline(always)]
+fn function_codes<S: AsRef<[u8]> + AsMut<[u8]>>(
+    d: &Drive<S, Kinco>,
+    first_sub: u8,
+    count: u8,
+) -> u128 {
+    let first = crate::drive::param_slot(0x2010, first_sub).unwrap_or(usize::MAX);
+    let entries = d
+        .params
+        .get(first..first.saturating_add(usize::from(count)))
+        .unwrap_or(&[]);
+    entries.iter().enumerate().fold(0u128, |acc, (n, e)| {
+        let code = d.read(*e).clamp(0, 0xFFFF) as u128;
+        acc | code << (16 * n)
+    })
+}
+
+// The inputs' and the outputs' codes each fit the integer.
+const _: () = assert!(16 * DINS as u32 <= 128 && 16 * DOUTS as u32 <= 128);
+
+/// Code n (from 0) of [`function_codes`]'s integer.
+fn code_of(codes: u128, n: u8) -> u16 {
+    (codes >> (16 * u32::from(n))) as u16
 }

@@ -64,7 +64,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let (below, above) = self.kinco_position_beyond();
         let before = self.vendor.limits;
         self.vendor.limits = LimitState { below, above };
-        if self.value(0x2010, 0x19) != 0 {
+        if self.cycle_value(0x2010, 0x19) != 0 {
             return;
         }
         for (now, was, code) in [

@@ -145,7 +145,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 
     /// K_Velocity_FF‰ 2FF0h:1A applied to the position set-point's speed feed-forward.
     pub(crate) fn kinco_velocity_feed_forward(&mut self) {
-        let k = self.value(0x2FF0, 0x1A).clamp(0, 4000) as f32 / 1000.0;
+        let k = self.cycle_value(0x2FF0, 0x1A).clamp(0, 4000) as f32 / 1000.0;
         if let crate::axis::Demand::Position {
             velocity_ff_rpm, ..
         } = &mut self.demand
@@ -216,8 +216,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 
     /// Stores a value past the write rules (a derived object).
     pub(crate) fn kinco_store(&mut self, index: u16, sub: u8, v: i64) {
-        let e = self.od.description().entry(index, sub);
+        let e = self.kinco_entry(index, sub);
         self.store(e, v);
+    }
+
+    /// The entry of `index:sub`: its parameter slot where it has one (the objects a logic
+    /// cycle writes, resolved at power-on), else looked up in the dictionary.
+    #[inline]
+    pub(crate) fn kinco_entry(&self, index: u16, sub: u8) -> Option<&'static od::Entry> {
+        self.param(index, sub)
+            .or_else(|| self.od.description().entry(index, sub))
     }
 }
 
