@@ -70,7 +70,24 @@ def _cell_args(request: pytest.FixtureRequest) -> Dict[str, Any]:
 
 def _start(request: pytest.FixtureRequest, args: Dict[str, Any]) -> Cell:
     args.setdefault("binary", request.config.getoption("--drivetwin-binary"))
-    return Cell(**args).__enter__()
+    cell = Cell(**args).__enter__()
+    cells = getattr(request.node, "_drivetwin_cells", [])
+    cells.append(cell)
+    request.node._drivetwin_cells = cells
+    return cell
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Any:
+    """A failed test's report carries what each of its cells printed (its addresses on
+    standard output, its log on standard error)."""
+    report = yield
+    if report.failed:
+        for i, cell in enumerate(getattr(item, "_drivetwin_cells", [])):
+            for name, text in (("stdout", "\n".join(cell.stdout_lines)), ("stderr", cell.stderr)):
+                if text.strip():
+                    report.sections.append((f"drivetwin cell {i} {name}", text[-8000:]))
+    return report
 
 
 @pytest.fixture
@@ -144,6 +161,9 @@ def drivetwin_node(drivetwin_cell: Cell, drivetwin_network: Any) -> Any:
     node_id = int(spec.get("node", 1))
     cls = RemoteNode if device in PLAIN_DEVICES else BaseNode402
     node = cls(node_id, str(eds))
+    # python-canopen waits 0.3 s for an SDO answer; a CI machine running many jobs at once
+    # can take longer (the twin answers within its manual's times; the host is late).
+    node.sdo.RESPONSE_TIMEOUT = max(node.sdo.RESPONSE_TIMEOUT, 2.0)
     drivetwin_network.add_node(node)
     node.nmt.wait_for_heartbeat(5)
     if isinstance(node, BaseNode402):
