@@ -99,3 +99,10 @@ def test_refusals_are_conflicts_with_the_abort_code(drivetwin_cell):
     with pytest.raises(drivetwin.ApiError) as e:
         drivetwin_cell.api.write(0, 0x1018, 1, 5)  # vendor-ID: read only
     assert e.value.status in (400, 409) and e.value.abort_code is not None
+
+
+def test_a_cell_stopped_as_soon_as_it_runs_stops_cleanly():
+    # SIGTERM right after "running; Ctrl-C stops": the binary listens before it says so.
+    for _ in range(10):
+        with drivetwin.Cell(http=False) as cell:
+            assert cell.running
