@@ -150,6 +150,7 @@ mod kinco;
 mod lss;
 mod network;
 mod pdo;
+mod progress;
 mod record;
 mod run;
 mod scenario;
