@@ -466,10 +466,18 @@ ethercat = "{pair[0]}"
     for t in threads:
         t.start()
     samples = []
+    # Progress on a terminal (one line, rewritten each second); nothing in CI or a log.
+    progress = sys.stderr.isatty()
     t0 = time.monotonic()
     while time.monotonic() - t0 < args.seconds and twin.poll() is None:
         samples.append((time.monotonic() - t0, rss_kib(twin.pid), fds(twin.pid)))
+        if progress:
+            at, rss, fd = samples[-1]
+            print(f"\rsoak: {at:.0f} / {args.seconds:.0f} s, RSS {rss} KiB, {fd} descriptors ",
+                  end="", file=sys.stderr, flush=True)
         time.sleep(1.0)
+    if progress:
+        print(file=sys.stderr)
     stop.set()
     for t in threads:
         t.join(15)

@@ -117,3 +117,17 @@ def test_devices_lists_the_nanotec_personalities():
     names = [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
     assert {"nanotec-smci47s", "nanotec-pd4n", "cmmp-as"} <= set(names), r.stdout
     assert any(line.startswith("nanotec-smci47s SMCI47-S (Nanotec") for line in r.stdout.splitlines())
+
+
+def test_version_names_the_device_files_the_binary_carries():
+    """`drivetwin --version`: the version, then every personality `drivetwin devices` lists
+    with its product; `-V` the version alone."""
+    r = run_cli("--version", check=True)
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("drivetwin 0.") and lines[1].startswith("device files"), lines
+    devices = run_cli("devices", check=True).stdout.split("\n")
+    names = [line.split()[0] for line in devices if line.strip()]
+    assert len(names) >= 7
+    listed = [line.split()[0] for line in lines[2:]]
+    assert listed == names, (listed, names)
+    assert run_cli("-V", check=True).stdout.strip() == lines[0]

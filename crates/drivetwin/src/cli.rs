@@ -4,10 +4,34 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+/// `drivetwin --version`: the version and the device files built into the binary
+/// (`devices/*.toml`), so that a report names what the binary simulates; `-V` is the version.
+fn long_version() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| {
+        let width = devices::ALL.iter().map(|d| d.name.len()).max().unwrap_or(0);
+        let mut text = format!(
+            "{}\ndevice files (devices/*.toml, built in):",
+            env!("CARGO_PKG_VERSION")
+        );
+        for d in devices::ALL {
+            text.push_str(&format!(
+                "\n  {:<width$} {} ({}), {} objects",
+                d.name,
+                d.product_name,
+                d.vendor_name,
+                d.objects.len()
+            ));
+        }
+        text
+    })
+}
+
 #[derive(Parser, Debug)]
 #[command(
     name = "drivetwin",
     version,
+    long_version = long_version(),
     about = "Software twins of fieldbus motor controllers, and a CANopen master",
     after_help = "Exit codes: 0 ok, 1 failure, 2 usage, 3 bus connection, 4 timeout, 5 SDO abort or refused, 6 protocol error, 7 drive fault."
 )]

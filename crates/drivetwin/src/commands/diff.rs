@@ -48,7 +48,21 @@ pub(crate) async fn diff(args: DiffArgs) -> Result<(), CommandError> {
         None => {
             let mut link = connect(&args.bus).await?;
             let mut recorder = Recorder::new(&mut link, recorded.ignore.clone());
-            recorder.replay(&recorded).await?;
+            // Step by step, for the progress shown on a terminal.
+            let bar = super::progress::bar(recorded.steps.len(), "replay");
+            for step in &recorded.steps {
+                let one = Recording {
+                    ignore: Vec::new(),
+                    steps: vec![step.clone()],
+                };
+                let replayed = recorder.replay(&one).await;
+                bar.inc(1);
+                if replayed.is_err() {
+                    bar.finish_and_clear();
+                }
+                replayed?;
+            }
+            bar.finish_and_clear();
             recorder.finish()
         }
     };

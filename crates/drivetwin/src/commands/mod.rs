@@ -153,6 +153,7 @@ mod ecat;
 mod lss;
 mod network;
 mod pdo;
+mod progress;
 mod record;
 mod run;
 mod scenario;
@@ -267,24 +268,34 @@ pub(crate) fn check_node(node: u8) -> Result<(), CommandError> {
 }
 
 /// Ctrl-C (SIGINT) or SIGTERM: both stop the cell cleanly, flushing the trace.
-pub(crate) async fn shutdown_signal() {
-    #[cfg(unix)]
-    {
-        use tokio::signal::unix::{signal, SignalKind};
-        match signal(SignalKind::terminate()) {
-            Ok(mut term) => {
+///
+/// The handlers are installed when this is called, not when the future is first polled: a
+/// supervisor (a test fixture) that sends SIGTERM as soon as the cell prints that it runs
+/// finds them in place, instead of the default action ending the process without "stopped".
+#[cfg(unix)]
+pub(crate) fn shutdown_signal() -> impl std::future::Future<Output = ()> + Send + 'static {
+    use tokio::signal::unix::{signal, SignalKind};
+    let interrupt = signal(SignalKind::interrupt()).ok();
+    let terminate = signal(SignalKind::terminate()).ok();
+    async move {
+        match (interrupt, terminate) {
+            (Some(mut interrupt), Some(mut terminate)) => {
                 tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
+                    _ = interrupt.recv() => {}
+                    _ = terminate.recv() => {}
                 }
             }
-            Err(_) => {
+            _ => {
                 let _ = tokio::signal::ctrl_c().await;
             }
         }
     }
-    #[cfg(not(unix))]
-    {
+}
+
+/// Ctrl-C: stops the cell cleanly, flushing the trace.
+#[cfg(not(unix))]
+pub(crate) fn shutdown_signal() -> impl std::future::Future<Output = ()> + Send + 'static {
+    async {
         let _ = tokio::signal::ctrl_c().await;
     }
 }

@@ -59,8 +59,22 @@ pub(crate) async fn record(args: RecordArgs) -> Result<(), CommandError> {
     .map_err(at_line(path))?;
     let mut link = connect(&args.bus).await?;
     let mut recorder = Recorder::new(&mut link, parsed.ignore.clone());
-    // A link lost halfway still leaves the steps run so far on file.
-    let run = recorder.run_script(parsed).await;
+    // A link lost halfway still leaves the steps run so far on file. Action by action, for
+    // the progress shown on a terminal.
+    let bar = super::progress::bar(parsed.actions.len(), "record");
+    let mut run = Ok(());
+    for action in parsed.actions {
+        let one = script::Script {
+            ignore: Vec::new(),
+            actions: vec![action],
+        };
+        run = recorder.run_script(one).await;
+        bar.inc(1);
+        if run.is_err() {
+            break;
+        }
+    }
+    bar.finish_and_clear();
     let recording = recorder.finish();
     let mut notes = vec![format!("script: {}", path.display()), target(&args.bus)];
     if let Err(e) = &run {

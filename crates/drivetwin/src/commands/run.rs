@@ -226,6 +226,8 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
                 .map_err(io("cell thread"))?,
         );
     }
+    // Listening before the line that tells a supervisor the cell runs.
+    let stop = shutdown_signal();
     out!("running; Ctrl-C stops");
     let finished = tokio::task::spawn_blocking(move || {
         threads.into_iter().map(|t| t.join()).collect::<Vec<_>>()
@@ -233,7 +235,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     tokio::pin!(finished);
     let stop_all = || stops.iter().for_each(|s| s.stop());
     let results = tokio::select! {
-        _ = shutdown_signal() => {
+        _ = stop => {
             stop_all();
             finished.await
         }
