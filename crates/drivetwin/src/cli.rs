@@ -211,9 +211,10 @@ pub struct RunArgs {
     /// Personality of the single drive (ignored with --config).
     #[arg(long, default_value = "cmmp-as")]
     pub device: String,
-    /// Node-ID of the single drive (ignored with --config).
-    #[arg(long, default_value_t = 1)]
-    pub node: u8,
+    /// Node-ID of the single drive (ignored with --config); default 1, or a DCF's
+    /// `[DeviceComissioning] NodeID` with --eds.
+    #[arg(long)]
+    pub node: Option<u8>,
     /// The single drive is a CiA 402 drive from this EDS or DCF (CiA 306) instead of a
     /// built-in --device: its dictionary, modes and homing methods, the default servo motor.
     #[arg(long, value_name = "FILE", conflicts_with = "config")]

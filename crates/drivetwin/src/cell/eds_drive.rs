@@ -366,7 +366,7 @@ mod dcf_bit_rate_tests {
 
         std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 4\n").unwrap();
         assert_eq!(rates(&cell).unwrap(), [timed(500_000, true)]);
-        let single = CellFile::single_eds(&a, 4).unwrap();
+        let single = CellFile::single_eds(&a, Some(4)).unwrap();
         assert_eq!(
             single.bus_rates(&single.drives().unwrap()).unwrap(),
             [timed(500_000, true)]
@@ -388,7 +388,7 @@ mod dcf_bit_rate_tests {
 
         std::fs::write(&cell, format!("[bus]\nbitrate = 1000000\n{two}")).unwrap();
         assert_eq!(rates(&cell).unwrap(), [timed(1_000_000, false)]);
-        let mut single = CellFile::single_eds(&b, 4).unwrap();
+        let mut single = CellFile::single_eds(&b, Some(4)).unwrap();
         single.set_bitrate(crate::cell::bus_rate::BitrateSetting::Bits(500_000));
         let specs = single.drives().unwrap();
         assert_eq!(single.bus_rates(&specs).unwrap(), [timed(500_000, false)]);
@@ -397,6 +397,9 @@ mod dcf_bit_rate_tests {
         // Without `node` a drive from a DCF is at its `[DeviceComissioning] NodeID`.
         std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\n").unwrap();
         let specs = CellFile::load(&cell).unwrap().drives().unwrap();
+        assert_eq!(specs[0].node, 4);
+        // `drivetwin run --eds` without --node: the same.
+        let specs = CellFile::single_eds(&a, None).unwrap().drives().unwrap();
         assert_eq!(specs[0].node, 4);
         std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 9\n").unwrap();
         let specs = CellFile::load(&cell).unwrap().drives().unwrap();

@@ -146,7 +146,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
     if files.is_empty() {
         files.push(match &args.eds {
             Some(eds) => CellFile::single_eds(eds, args.node)?,
-            None => CellFile::single(&args.device, args.node),
+            None => CellFile::single(&args.device, args.node.unwrap_or(1)),
         });
     }
     if files.len() > 1

@@ -19,11 +19,11 @@ use super::{
     NanotecMotorType, SwitchesSection,
 };
 use crate::cell::bus_rate::{NodeRate, RateCode, RateObject};
-use crate::cell::station::Commissioning;
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{FieldbusSettings, Profile};
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
+use crate::cell::station::Commissioning;
 
 /// A drive ready to build.
 #[derive(Debug, Clone)]

@@ -142,10 +142,13 @@ impl CellFile {
 
     /// The default cell with one drive from its EDS or DCF (`--eds`), as [`CellFile::single`]:
     /// the heartbeat where the file has 1017h.
-    pub fn single_eds(eds: &Path, node: u8) -> Result<Self, ConfigError> {
+    pub fn single_eds(eds: &Path, node: Option<u8>) -> Result<Self, ConfigError> {
         let desc = crate::cell::eds_drive::load(eds)?;
-        let mut file = Self::single("", node);
+        let mut file = Self::single("", node.unwrap_or(1));
         if let Some(d) = file.drive.first_mut() {
+            // Without --node, a DCF's `[DeviceComissioning] NodeID` (CiA 306), as in a cell
+            // file without `node`.
+            d.node_given = node.is_some();
             d.device = drive_section::default_device();
             d.eds = Some(eds.to_path_buf());
             d.keys = DeviceKeys::of_eds();
