@@ -102,9 +102,20 @@ def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, brows
     end = next(p["t"] for p in s0 if abs(p["position"] - target) <= 10)
     assert end > start
 
-    # Cursor A at the start (a click), B at the end (a shift-click) on the plot.
+    # Zoom onto the move: a drag across the plot narrows the time axis (to ms).
     page.locator("#scope-plot").scroll_into_view_if_needed()
+    box = page.locator("#scope-plot .u-over").bounding_box()
+    x0 = page.evaluate(f"window.scope.plot.valToPos({start - 0.03}, 'x')")
+    x1 = page.evaluate(f"window.scope.plot.valToPos({end + 0.03}, 'x')")
+    page.mouse.move(box["x"] + x0, box["y"] + 20)
+    page.mouse.down()
+    page.mouse.move(box["x"] + (x0 + x1) / 2, box["y"] + 20, steps=4)
+    page.mouse.move(box["x"] + x1, box["y"] + 20, steps=4)
+    page.mouse.up()
+    page.wait_for_function("window.scope.view !== null && window.scope.plot.scales.x.max - window.scope.plot.scales.x.min < 0.5")
+    page.wait_for_function("window.scope.axes()[0].label.startsWith('t [ms]')")
 
+    # Cursor A at the start (a click), B at the end (a shift-click) on the plot.
     def click_at(t: float, shift: bool) -> None:
         x = page.evaluate(f"window.scope.plot.valToPos({t}, 'x')")
         box = page.locator("#scope-plot .u-over").bounding_box()
@@ -124,23 +135,11 @@ def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, brows
     assert "ms" in page.text_content("#cursor-readout tbody tr:first-child td.dt")
     dpos = page.text_content("#cursor-readout tr[data-trace='position'] td.dv")
     assert abs(float(dpos) - 20000) <= 20000 * 0.05, dpos
+    page.click("#scope-follow")
+    page.wait_for_function("Math.abs(window.scope.plot.scales.x.max - window.scope.plot.scales.x.min - 2) < 1e-6")
     page.wait_for_timeout(300)
     if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
         page.locator("#scope-panel").screenshot(path=str(DOCS / "console-scope.png"))
-
-    # Zoom: a drag across the plot narrows the time axis (to ms); Follow shows the capture again.
-    box = page.locator("#scope-plot .u-over").bounding_box()
-    x0 = page.evaluate(f"window.scope.plot.valToPos({start}, 'x')")
-    x1 = page.evaluate(f"window.scope.plot.valToPos({end}, 'x')")
-    page.mouse.move(box["x"] + x0, box["y"] + 20)
-    page.mouse.down()
-    page.mouse.move(box["x"] + (x0 + x1) / 2, box["y"] + 20, steps=4)
-    page.mouse.move(box["x"] + x1, box["y"] + 20, steps=4)
-    page.mouse.up()
-    page.wait_for_function("window.scope.view !== null && window.scope.plot.scales.x.max - window.scope.plot.scales.x.min < 0.5")
-    page.wait_for_function("window.scope.axes()[0].label.startsWith('t [ms]')")
-    page.click("#scope-follow")
-    page.wait_for_function("Math.abs(window.scope.plot.scales.x.max - window.scope.plot.scales.x.min - 2) < 1e-6")
 
     # CSV: the capture's samples, each one as the samples endpoint sent it.
     with page.expect_download() as dl:

@@ -394,7 +394,13 @@
       return;
     }
     const us = units();
-    const axes = [{ scale: "x", label: xLabel, values: (u, splits) => splits.map((v) => fmtT(u, v)),
+    // Ticks at round times from the origin (the trigger on a capture), not from the clock's 0.
+    const xSplits = (u, i, min, max, incr) => {
+      const o = origin(), out = [];
+      for (let v = Math.ceil((min - o) / incr) * incr + o; v <= max + incr * 1e-6; v += incr) out.push(v);
+      return out;
+    };
+    const axes = [{ scale: "x", label: xLabel, splits: xSplits, values: (u, splits) => splits.map((v) => fmtT(u, v)),
                     stroke: "#ccc", grid: { stroke: "#333" }, ticks: { stroke: "#444" } }];
     const scales = { x: { time: false } };
     us.forEach((unit, i) => {
