@@ -48,3 +48,28 @@ pub fn routes() -> Router<AppState> {
             get(|| async { asset("text/css; charset=utf-8", UPLOT_STYLE) }),
         )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_page_loads_the_library_then_the_scope_then_the_console() {
+        let at = |s: &str| INDEX.find(s).unwrap_or(usize::MAX);
+        assert!(at("/uplot.css") < at("/console.css"));
+        assert!(at("/uplot.js") < at("/scope.js"));
+        assert!(at("/scope.js") < at("/console.js") && at("/console.js") < INDEX.len());
+    }
+
+    #[test]
+    fn the_scope_library_or_a_stand_in_that_says_how_to_build_it_is_embedded() {
+        // With web/node_modules: uPlot's own script; without: the stand-in the scope shows.
+        assert!(
+            UPLOT_SCRIPT.contains("uPlot")
+                && (UPLOT_SCRIPT.len() > 10_000 || UPLOT_SCRIPT.contains("run npm ci in web/")),
+            "{}",
+            UPLOT_SCRIPT.get(..200).unwrap_or(UPLOT_SCRIPT)
+        );
+        assert!(SCOPE_SCRIPT.contains("window.uPlotMissing"));
+    }
+}
