@@ -1,11 +1,10 @@
 // The drivetwin web console: the cell's drives, a drive's state and statusword bit by bit,
 // its parameters with edit, enable / disable, and a scope of position, velocity and current
-// fed by the live WebSocket. Plain script, no library.
+// (scope.js, on uPlot) fed by the live WebSocket.
 "use strict";
 
 const token = new URLSearchParams(location.search).get("token");
-const WINDOW_S = 10;
-const consoleState = { drive: null, drives: [], samples: [], paused: false, socket: null, jogging: false };
+const consoleState = { drive: null, drives: [], samples: [], paused: false, jogging: false };
 window.consoleState = consoleState;
 
 const $ = (sel) => document.querySelector(sel);
@@ -203,164 +202,6 @@ function applyFilter() {
   }
 }
 
-// --------------------------------------------------------------------------------- scope
-
-// The scope keeps the last minute of samples; a trigger (a level crossed by a chosen signal,
-// rising or falling) freezes one window around the crossing, `pre-trigger` percent of it
-// before. Free running, it shows the last window.
-const KEEP_S = 60;
-
-async function connectSamples(drive) {
-  const old = consoleState.socket;
-  consoleState.socket = null;
-  if (old) old.close();
-  consoleState.samples = [];
-  consoleState.capture = null;
-  consoleState.triggers = 0;
-  // 60F4h following error actual value, where the drive has it, sampled with the plant.
-  const named = [];
-  try { await api("GET", `/api/drives/${drive}/objects/60F4/0`); named.push("60F4:0"); } catch (e) { /* none */ }
-  // One more object of the user's choice, plotted as "object" (read on the loop with every sample).
-  const extra = $("#scope-object").value.trim();
-  consoleState.objectKey = null;
-  if (/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(extra)) {
-    const [i, sub] = extra.split(":");
-    consoleState.objectKey = `${i.toUpperCase().padStart(4, "0")}:${sub.toUpperCase().padStart(2, "0")}`;
-    named.push(extra);
-  }
-  $("#object-name").textContent = consoleState.objectKey ? `object ${consoleState.objectKey}` : "";
-  const objects = named.length ? `&objects=${named.join(",")}` : "";
-  const proto = location.protocol === "https:" ? "wss" : "ws";
-  const ws = new WebSocket(`${proto}://${location.host}/api/drives/${drive}/samples?rate_hz=200&batch_ms=50${objects}`);
-  ws.onmessage = (ev) => {
-    if (consoleState.paused) return;
-    const batch = JSON.parse(ev.data);
-    const s = consoleState.samples;
-    for (const p of batch.samples) {
-      if (p.objects && p.objects["60F4:00"] != null) p.following_error = p.objects["60F4:00"];
-      if (p.objects && consoleState.objectKey && p.objects[consoleState.objectKey] != null) p.object = p.objects[consoleState.objectKey];
-      s.push(p);
-    }
-    const last = s[s.length - 1];
-    while (s.length && last.t - s[0].t > KEEP_S) s.shift();
-    if (batch.display != null) $("#display").textContent = batch.display;
-    checkTrigger();
-  };
-  ws.onopen = () => { if (consoleState.socket === ws) $("#connection").textContent = ""; };
-  ws.onclose = () => { if (consoleState.socket === ws) $("#connection").textContent = "samples stopped"; };
-  consoleState.socket = ws;
-}
-
-function scopeWindow() {
-  const w = Number($("#window").value);
-  return w >= 0.5 && w <= 60 ? w : 10;
-}
-
-// Looks for the trigger's crossing in the samples not yet searched; once the window after it
-// is full, the capture is taken (and in "single" the scope pauses).
-function checkTrigger() {
-  const signal = $("#trig-signal").value;
-  const status = $("#trig-status");
-  if (!signal) { consoleState.capture = null; status.textContent = ""; return; }
-  const s = consoleState.samples, win = scopeWindow();
-  const pre = Math.min(Math.max(Number($("#trig-pre").value) || 0, 0), 90) / 100;
-  const level = Number($("#trig-level").value), rising = $("#trig-edge").value === "rising";
-  const last = s[s.length - 1];
-  if (consoleState.pending == null) {
-    let prev = null;
-    const from = consoleState.searchedTo ?? -Infinity;
-    for (const p of s) {
-      const v = p[signal];
-      if (v == null) continue;
-      if (prev != null && p.t > from) {
-        const crossed = rising ? prev < level && v >= level : prev > level && v <= level;
-        if (crossed) { consoleState.pending = p.t; break; }
-      }
-      prev = v;
-    }
-    consoleState.searchedTo = last ? last.t : from;
-  }
-  if (consoleState.pending != null) {
-    const t0 = consoleState.pending - pre * win, t1 = t0 + win;
-    if (last && last.t >= t1) {
-      consoleState.capture = { t0, t1, at: consoleState.pending, samples: s.filter((p) => p.t >= t0 && p.t <= t1) };
-      consoleState.triggers += 1;
-      consoleState.pending = null;
-      consoleState.searchedTo = t1;
-      status.textContent = `triggered at t = ${consoleState.capture.at.toFixed(3)} s (${consoleState.triggers})`;
-      if ($("#trig-single").checked) setPaused(true);
-    } else {
-      status.textContent = "triggered, filling the window…";
-    }
-  } else if (!consoleState.capture) {
-    status.textContent = "armed";
-  }
-}
-
-const TRACES = [["position", "#4fc3f7"], ["velocity", "#aed581"], ["current", "#ffb74d"], ["following_error", "#e57373"],
-                ["object", "#ce93d8"]];
-
-function drawScope() {
-  const canvas = $("#scope");
-  const g = canvas.getContext("2d");
-  const w = canvas.width, h = canvas.height;
-  g.fillStyle = "#111";
-  g.fillRect(0, 0, w, h);
-  g.strokeStyle = "#333";
-  g.lineWidth = 1;
-  for (let i = 1; i < 10; i++) {
-    g.beginPath(); g.moveTo((w * i) / 10, 0); g.lineTo((w * i) / 10, h); g.stroke();
-  }
-  const win = scopeWindow();
-  let s = consoleState.samples, t0, t1;
-  if ($("#trig-signal").value && consoleState.capture) {
-    ({ t0, t1 } = consoleState.capture);
-    s = consoleState.capture.samples;
-    const x = ((consoleState.capture.at - t0) / win) * w;
-    g.strokeStyle = "#888"; g.setLineDash([4, 4]);
-    g.beginPath(); g.moveTo(x, 0); g.lineTo(x, h); g.stroke(); g.setLineDash([]);
-  } else if (s.length) {
-    t1 = s[s.length - 1].t; t0 = t1 - win;
-    s = s.filter((p) => p.t >= t0);
-  }
-  if (s.length >= 2) {
-    for (const [name, color] of TRACES) {
-      const vals = s.map((p) => p[name]).filter((v) => v != null);
-      if (!vals.length) continue;
-      let lo = Math.min(...vals), hi = Math.max(...vals);
-      if (name === $("#trig-signal").value) {
-        const level = Number($("#trig-level").value);
-        lo = Math.min(lo, level); hi = Math.max(hi, level);
-      }
-      if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
-      const y = (v) => h - 8 - ((v - lo) / (hi - lo)) * (h - 16);
-      g.strokeStyle = color;
-      g.lineWidth = 1.5;
-      g.beginPath();
-      let first = true;
-      for (const p of s) {
-        if (p[name] == null) continue;
-        const x = ((p.t - t0) / win) * w;
-        if (first) { g.moveTo(x, y(p[name])); first = false; } else g.lineTo(x, y(p[name]));
-      }
-      g.stroke();
-      if (name === $("#trig-signal").value) {
-        g.strokeStyle = color; g.setLineDash([2, 6]);
-        g.beginPath(); g.moveTo(0, y(Number($("#trig-level").value))); g.lineTo(w, y(Number($("#trig-level").value))); g.stroke();
-        g.setLineDash([]);
-      }
-      const v = vals[vals.length - 1];
-      $(`#v-${name}`).textContent = v == null ? "–" : Number(v).toFixed(1);
-    }
-  }
-  requestAnimationFrame(drawScope);
-}
-
-function setPaused(p) {
-  consoleState.paused = p;
-  $("#pause").textContent = p ? "Run" : "Pause";
-}
-
 // -------------------------------------------------------------------------------- wiring
 
 async function route() {
@@ -368,9 +209,7 @@ async function route() {
   consoleState.drive = m ? Number(m[1]) : null;
   $("#drive").hidden = consoleState.drive === null;
   if (consoleState.drive === null) {
-    const old = consoleState.socket;
-    consoleState.socket = null;
-    if (old) old.close();
+    window.scope.close();
     await loadCell();
     return;
   }
@@ -381,7 +220,7 @@ async function route() {
   try { consoleState.drives = await api("GET", "/api/drives"); } catch (e) { /* loadCell says */ }
   await refreshDrive();
   await loadCell();
-  await connectSamples(consoleState.drive);
+  await window.scope.open(consoleState.drive);
   await loadParams();
 }
 
@@ -420,16 +259,6 @@ async function refreshPlant() {
   if (consoleState.drive === null) return;
   try { showPlant(await api("GET", `/api/drives/${consoleState.drive}/plant`)); } catch (e) { /* shown by the view */ }
 }
-$("#pause").addEventListener("click", () => setPaused(!consoleState.paused));
-for (const id of ["#trig-signal", "#trig-level", "#trig-edge", "#trig-pre", "#window"]) {
-  $(id).addEventListener("change", () => {
-    consoleState.capture = null; consoleState.pending = null;
-    const s = consoleState.samples;
-    consoleState.searchedTo = s.length ? s[s.length - 1].t : undefined;
-    checkTrigger();
-  });
-}
-
 // Motion: jog while the button is held; home; move to a target.
 async function motion(path, body, text) {
   try {
@@ -454,12 +283,6 @@ for (const b of document.querySelectorAll(".panel-key")) {
     b.addEventListener(ev, () => { if (b.dataset.down) { delete b.dataset.down; panelKey(b.dataset.key, "release"); } });
   }
 }
-$("#scope-object-set").addEventListener("click", async () => {
-  const v = $("#scope-object").value.trim();
-  if (v && !/^[0-9a-f]{1,4}:[0-9a-f]{1,2}$/i.test(v)) { say(`object ${v}: index:sub in hex, e.g. 6041:0`, true); return; }
-  await connectSamples(consoleState.drive);
-  say(v ? `sampling ${v}` : "sampling the plant");
-});
 $("#home").addEventListener("click", () => motion("home", undefined, "homing started"));
 $("#move").addEventListener("click", () => motion("move",
   { target: Number($("#move-target").value) || 0, relative: $("#move-relative").checked },
@@ -467,5 +290,4 @@ $("#move").addEventListener("click", () => motion("move",
 $("#filter").addEventListener("input", applyFilter);
 window.addEventListener("hashchange", route);
 setInterval(() => { refreshDrive(); refreshPlant(); loadCell(); }, 1000);
-requestAnimationFrame(drawScope);
 route();

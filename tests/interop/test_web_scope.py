@@ -1,0 +1,181 @@
+"""The console's scope in a real browser (headless Debian Chromium, Playwright) against
+`drivetwin run --http` with a CMMP-AS and a Kinco FD3 on one bus: its axes carry their units,
+a trigger captures a move made over REST, the two cursors read the move's duration within one
+sample, and the CSV export holds the very samples the REST endpoint sent
+(`/api/drives/N/samples`), of both drives on one time base.
+
+The scope's screenshot goes to docs/console-scope.png when DRIVETWIN_SCREENSHOTS=1.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import urllib.request
+
+from conftest import wait_until
+from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
+from test_web_pages import DOCS
+
+RATE_HZ = 200  # the scope's default sampling
+SAMPLE_S = 1.0 / RATE_HZ
+
+
+def post(url: str, body: dict | None = None) -> dict:
+    data = None if body is None else json.dumps(body).encode()
+    req = urllib.request.Request(url, data=data, method="POST",
+                                 headers={"content-type": "application/json"})
+    with urllib.request.urlopen(req, timeout=5) as r:
+        return json.loads(r.read())
+
+
+def get(url: str) -> dict:
+    with urllib.request.urlopen(url, timeout=5) as r:
+        return json.loads(r.read())
+
+
+def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, browser, tmp_path):  # noqa: F811
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
+    url = console_url(twin)
+    page = browser.new_page()
+    page.set_viewport_size({"width": 1400, "height": 1000})
+
+    # Every sample batch the samples endpoint sends the page, by drive.
+    frames: dict[int, list[dict]] = {0: [], 1: []}
+
+    def on_socket(ws):
+        if "/samples" in ws.url:
+            ws.on("framereceived", lambda payload: (
+                lambda b: frames.setdefault(b["drive"], []).extend(b["samples"]))(json.loads(payload)))
+    page.on("websocket", on_socket)
+
+    page.goto(url + "#drive/0")
+    page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
+    assert page.evaluate("typeof window.uPlot") == "function", "uPlot is built into the binary"
+    page.wait_for_function("window.scope.plot && window.scope.traces.length >= 4")
+
+    # A second drive's position on the same time base.
+    page.select_option("#trace-drive", "1")
+    page.fill("#trace-signal", "position")
+    page.click("#trace-add")
+    page.wait_for_selector("#trace-list [data-trace='d1.position']")
+
+    # Axes with units: the time axis, and one per unit (increments, rpm, A, 60F4h's own unit).
+    axes = page.evaluate("window.scope.axes()")
+    labels = [a["label"] for a in axes]
+    assert labels[0].startswith("t [s]") or labels[0].startswith("t [ms]"), labels
+    for unit in ("inc", "rpm", "A", "pos units"):
+        assert unit in labels, labels
+    chips = page.text_content("#trace-list")
+    assert "0: position [inc]" in chips and "0: velocity [rpm]" in chips and "1: position [inc]" in chips, chips
+
+    # Trigger: velocity rising through 20 rpm, 20 % before, a 2 s window, single shot.
+    page.select_option("#trig-signal", "velocity")
+    page.fill("#trig-level", "20")
+    page.fill("#trig-pre", "20")
+    page.fill("#window", "2")
+    page.dispatch_event("#window", "change")
+    page.check("#trig-single")
+    page.wait_for_function("document.querySelector('#trig-status').textContent === 'armed'")
+
+    # The move, over REST: enable, then a relative move of 20000 increments.
+    post(url + "api/drives/0/motion/enable")
+    wait_until(lambda: get(url + "api/drives/0/motion")["state"] == "OPERATION ENABLED", 5.0, what="enabled")
+    p_before = get(url + "api/drives/0/plant")["position"]
+    post(url + "api/drives/0/motion/move", {"target": 20000, "relative": True})
+    page.wait_for_function("window.consoleState.triggers === 1", timeout=10000)
+    assert page.evaluate("window.consoleState.paused"), "single shot pauses the scope"
+    cap = page.evaluate("(() => { const c = window.consoleState.capture; return {t0: c.t0, t1: c.t1, at: c.at}; })()")
+    assert abs((cap["t1"] - cap["t0"]) - 2.0) < 1e-9 and abs((cap["at"] - cap["t0"]) - 0.4) < 1e-9, cap
+    p_after = get(url + "api/drives/0/plant")["position"]
+    target = p_before + 20000
+    assert abs(p_after - target) <= 10, (p_before, p_after)
+
+    # The move's duration from the endpoint's own samples: the first sample off the start
+    # position to the first within 10 increments of the target (the drive settles there).
+    s0 = sorted((p for p in frames[0] if cap["t0"] <= p["t"] <= cap["t1"]), key=lambda p: p["t"])
+    start = next(p["t"] for p in s0 if p["position"] != p_before)
+    end = next(p["t"] for p in s0 if abs(p["position"] - target) <= 10)
+    assert end > start
+
+    # Zoom onto the move: a drag across the plot narrows the time axis (to ms).
+    page.locator("#scope-plot").scroll_into_view_if_needed()
+    box = page.locator("#scope-plot .u-over").bounding_box()
+    x0 = page.evaluate(f"window.scope.plot.valToPos({start - 0.03}, 'x')")
+    x1 = page.evaluate(f"window.scope.plot.valToPos({end + 0.03}, 'x')")
+    page.mouse.move(box["x"] + x0, box["y"] + 20)
+    page.mouse.down()
+    page.mouse.move(box["x"] + (x0 + x1) / 2, box["y"] + 20, steps=4)
+    page.mouse.move(box["x"] + x1, box["y"] + 20, steps=4)
+    page.mouse.up()
+    page.wait_for_function("window.scope.view !== null && window.scope.plot.scales.x.max - window.scope.plot.scales.x.min < 0.5")
+    page.wait_for_function("window.scope.axes()[0].label.startsWith('t [ms]')")
+
+    # Cursor A at the start (a click), B at the end (a shift-click) on the plot.
+    def click_at(t: float, shift: bool) -> None:
+        x = page.evaluate(f"window.scope.plot.valToPos({t}, 'x')")
+        box = page.locator("#scope-plot .u-over").bounding_box()
+        page.mouse.move(box["x"] + x, box["y"] + box["height"] / 2)
+        if shift:
+            page.keyboard.down("Shift")
+        page.mouse.down()
+        page.mouse.up()
+        if shift:
+            page.keyboard.up("Shift")
+
+    click_at(start, False)
+    click_at(end, True)
+    page.wait_for_function("document.querySelector('#cursor-dt').dataset.seconds")
+    dt = float(page.get_attribute("#cursor-dt", "data-seconds"))
+    assert abs(dt - (end - start)) <= SAMPLE_S + 1e-9, (dt, start, end)
+    assert "ms" in page.text_content("#cursor-readout tbody tr:first-child td.dt")
+    dpos = page.text_content("#cursor-readout tr[data-trace='position'] td.dv")
+    assert abs(float(dpos) - 20000) <= 20000 * 0.05, dpos
+    page.click("#scope-follow")
+    page.wait_for_function("Math.abs(window.scope.plot.scales.x.max - window.scope.plot.scales.x.min - 2) < 1e-6")
+    page.wait_for_timeout(300)
+    if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
+        page.locator("#scope-panel").screenshot(path=str(DOCS / "console-scope.png"))
+
+    # CSV: the capture's samples, each one as the samples endpoint sent it.
+    with page.expect_download() as dl:
+        page.click("#export-csv")
+    text = open(dl.value.path(), encoding="utf-8").read()
+    rows = list(csv.reader(io.StringIO(text)))
+    head, body = rows[0], rows[1:]
+    assert head[0] == "t_s"
+    col = {name: i for i, name in enumerate(head)}
+    assert "0: position [inc]" in col and "0: current [A]" in col and "1: position [inc]" in col, head
+    by_t = {d: {p["t"]: p for p in frames[d]} for d in (0, 1)}
+    # (a loaded machine's loop may skip a sample now and then; most of them are there)
+    assert len(body) >= 2.0 * RATE_HZ * 0.5, len(body)
+    # The drives sample at their own instants on the one clock: a row holds one drive's
+    # values or both.
+    rows_of = {0: 0, 1: 0}
+    for r in body:
+        t = float(r[0])
+        assert cap["t0"] <= t <= cap["t1"]
+        for d, name, f in ((0, "position", 1.0), (0, "velocity", 1.0), (0, "current", 0.001), (1, "position", 1.0)):
+            cell_text = r[col[f"{d}: {name} [{'A' if name == 'current' else 'rpm' if name == 'velocity' else 'inc'}]"]]
+            if cell_text == "":
+                continue
+            p = by_t[d].get(t)
+            assert p is not None, (d, t)
+            assert abs(float(cell_text) - p[name] * f) < 1e-9, (d, name, t, cell_text, p[name])
+            rows_of[d] += name == "position"
+    assert rows_of[0] == len(s0) and rows_of[1] > 0, (rows_of, len(s0), len(body))
+    assert abs(float(body[-1][col["0: position [inc]"]]) - p_after) <= 2, "the drive at rest, as REST reads it"
+
+    # The trace file carries the same columns and units, and opens again in the page.
+    with page.expect_download() as dl:
+        page.click("#export-trace")
+    trace = json.loads(open(dl.value.path(), encoding="utf-8").read())
+    assert trace["format"] == "drivetwin-scope-trace" and len(trace["t"]) == len(body)
+    assert {t["unit"] for t in trace["traces"]} >= {"inc", "rpm", "A"}
+    page.set_input_files("#open-trace", str(dl.value.path()))
+    page.wait_for_function("window.scope.loaded !== null")
+    assert page.evaluate("window.scope.csv()") == text
