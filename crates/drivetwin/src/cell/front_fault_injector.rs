@@ -43,15 +43,6 @@ impl Arrivals {
     }
 }
 
-/// One way of a front end's link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Way {
-    /// Into the cell: a request, a master's frame, a client's frame to the bus.
-    In,
-    /// Out of the cell: a frame of the bus to a client.
-    Out,
-}
-
 /// A frame a fault held back: when it arrives, its number in [`Arrivals`], the frame.
 #[derive(Debug)]
 struct Held<F> {
@@ -141,8 +132,8 @@ impl<I, O> FrontFaultInjector<I, O> {
         &mut self.faults
     }
 
-    /// A frame with identifier `id` (0 where the front end's frames have none) crosses
-    /// way `way` at `now`: [`Verdict::Pass`], it is taken in at once; lost or corrupted, it
+    /// A frame with identifier `id` (0 where the front end's frames have none) comes in at
+    /// `now`: [`Verdict::Pass`], it is taken in at once; lost or corrupted, it
     /// is gone; [`Verdict::Delay`], it is held until then, kept as `frame` (called only
     /// then, so a passing frame costs no copy).
     pub fn cross_in(
