@@ -26,12 +26,15 @@ use crate::cell::wire_faults::{Sender, Verdict, WireFaults};
 /// The order in which frames were held, over every front end of the cell: each held frame
 /// takes the next number.
 ///
-/// Shared by all the front ends' injectors because the runtime releases frames due at the
-/// same turn across front ends in the order they arrived (a Modbus request held before an
-/// EtherCAT frame is answered before the chain passes it, when both are due), so a run is
-/// the same whatever the number of front ends. Within one way of one front end the order of
-/// arrival is also the order of time (see the module doc), so the earliest arrival due is
-/// always at the head of some injector's queue ([`FrontFaultInjector::due`]).
+/// Shared by all the front ends' injectors because front ends meet in the cell: a client's
+/// SDO request, an EtherCAT master's CoE write and a Modbus request can reach the same drive
+/// (a chain's slave may be a drive on a bus as well). Frames due at the same turn are
+/// therefore taken in across front ends in the order they arrived, so a drive sees writes
+/// in the order the wires carried them, not in the order its front ends are looked at; the
+/// order does not depend on the times the faults gave them either, so a run is the same bit
+/// for bit. Within one way of one front end the order of arrival is also the order of time
+/// (see the module doc), so the earliest arrival due is always at the head of some
+/// injector's queue ([`FrontFaultInjector::due`]).
 #[derive(Debug, Default)]
 pub struct Arrivals(u64);
 
