@@ -158,3 +158,42 @@ fn a_delayed_client_gets_its_answers_late() {
     assert!(b_took < Duration::from_millis(250), "{b_took:?}");
     assert!(a_took >= Duration::from_millis(300), "{a_took:?}");
 }
+
+/// A client's frames keep their order: when its delay ends while a frame is still held, the
+/// next one it sends waits behind that frame (a TCP stream never reorders).
+#[test]
+fn a_client_s_frames_keep_their_order_when_its_delay_ends() {
+    let (running, addr) = cell();
+    let mut a = Client::connect(addr);
+    let mut b = Client::connect(addr);
+    running
+        .handle
+        .wire(WireRequest::Add {
+            front: FrontEnd::Client(a.port()),
+            fault: fault(serde_json::json!({"fault": "delay", "delay": "300ms"})),
+        })
+        .expect("added");
+    // 1000h device type, held 300 ms (the loop has read it before the fault ends).
+    a.send(REQUEST);
+    std::thread::sleep(Duration::from_millis(50));
+    running
+        .handle
+        .wire(WireRequest::Clear {
+            front: FrontEnd::Client(a.port()),
+        })
+        .expect("cleared");
+    // 1018h sub 1 vendor-ID, sent with no fault: behind the held one all the same.
+    a.send("< send 601 8 40 18 10 01 00 00 00 00 >");
+    let first = "4000100000000000 >";
+    let second = "4018100100000000 >";
+    // Had the second overtaken the first, waiting for the first would take the second with
+    // it and nothing would be left to find.
+    assert!(
+        b.wait_for(first, Duration::from_secs(2)),
+        "B sees the first"
+    );
+    assert!(
+        b.wait_for(second, Duration::from_secs(2)),
+        "and the second after it"
+    );
+}

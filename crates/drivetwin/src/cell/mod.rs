@@ -13,6 +13,7 @@ pub mod diagnostics;
 pub mod eds_drive;
 pub mod fault_injector;
 pub mod fieldbus_switches;
+pub mod front_fault_injector;
 pub mod interfaces;
 pub mod lateness;
 pub mod link;

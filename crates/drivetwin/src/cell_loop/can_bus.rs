@@ -7,10 +7,11 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
 
-use super::{cell_time, wire, CellLoop, Kind, Source, MAX_HELD};
+use super::{cell_time, CellLoop, Kind, Source, MAX_HELD};
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::Session;
 use crate::cell::link::{At, Link};
+use crate::cell::wire_faults::Verdict;
 
 impl CellLoop {
     pub(super) fn read_socketcan(&mut self, b: usize, now: Instant) {
@@ -80,32 +81,8 @@ impl CellLoop {
             let n = emit_frame(&frame, since_epoch, &mut text);
             self.text.clear();
             self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
-            let per_client = self.client_faults();
             let t = self.now(now);
             for slot in 0..self.slots.len() {
-                if per_client {
-                    let to = match self.slots.get(slot) {
-                        Some(Some(c)) if matches!(c.kind, Kind::Socketcand { bus, .. } if bus == b) => {
-                            Some(c.peer.port())
-                        }
-                        _ => None,
-                    };
-                    if let Some(port) = to.filter(|_| source != Source::Client(slot)) {
-                        match self.client_verdict(slot, port, true, frame.id, t) {
-                            None => {}
-                            Some(None) => continue,
-                            Some(Some(at)) => {
-                                self.held.push(wire::Held::ToClient {
-                                    slot,
-                                    port,
-                                    text: self.text.clone(),
-                                    at,
-                                });
-                                continue;
-                            }
-                        }
-                    }
-                }
                 let Some(c) = self.slots.get_mut(slot) else {
                     continue;
                 };
@@ -116,13 +93,22 @@ impl CellLoop {
                     continue;
                 }
                 let Kind::Socketcand {
-                    session, held, bus, ..
+                    session,
+                    held,
+                    bus,
+                    faults,
+                    ..
                 } = &mut conn.kind
                 else {
                     continue;
                 };
                 if *bus != b {
                     continue;
+                }
+                match faults.cross_out(t, frame.id, &mut self.arrivals, || self.text.clone()) {
+                    Verdict::Pass => {}
+                    // Lost, or held by the client's link until its time.
+                    Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
                 }
                 if session.is_streaming() {
                     conn.pending.extend_from_slice(&self.text);

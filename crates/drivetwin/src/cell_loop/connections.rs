@@ -10,6 +10,8 @@ use drive::vendors::festo_cmmp_as::ci_terminal::LineCutter;
 use mio::net::TcpStream;
 use mio::{Interest, Token};
 
+use crate::cell::wire_faults::Verdict;
+
 use super::{
     cell_time, wire, CellLoop, Connection, Kind, Listener, FIRST_DYNAMIC, MAX_PENDING,
     READS_PER_TURN,
@@ -161,15 +163,16 @@ impl CellLoop {
             Kind::Modbus { drive } => {
                 let drive = *drive;
                 let t = cell_time(self.origin, now);
-                match self.hold_until(crate::cell::wire_faults::FrontEnd::Modbus(drive), t) {
-                    None => self.modbus_request(slot, drive, bytes, t),
-                    Some(None) => {}
-                    Some(Some(at)) => self.held.push(wire::Held::Modbus {
+                let verdict = match self.modbus_faults.get_mut(drive) {
+                    Some(link) => link.cross_in(t, 0, &mut self.arrivals, || wire::HeldRequest {
                         slot,
-                        drive,
                         bytes: bytes.to_vec(),
-                        at,
                     }),
+                    None => Verdict::Pass,
+                };
+                // Otherwise lost, or held by the server's link until its time.
+                if verdict == Verdict::Pass {
+                    self.modbus_request(slot, drive, bytes, t);
                 }
             }
         }

@@ -4,9 +4,10 @@
 use std::io;
 use std::time::Instant;
 
-use super::{cell_time, wire, BusState, CellLoop, ChainState, FRAMES_PER_TURN};
+use super::{cell_time, BusState, CellLoop, ChainState, FRAMES_PER_TURN};
 use crate::cell::link::{At, Link};
 use crate::cell::station::Station;
+use crate::cell::wire_faults::Verdict;
 use crate::cell::OnBus;
 use crate::ecat::chain::BusDrives;
 
@@ -50,22 +51,14 @@ impl CellLoop {
             };
             let t = cell_time(self.origin, Instant::now());
             chain.link.cross(At::on_clock(t), f);
-            let front = crate::cell::wire_faults::FrontEnd::Ethercat(c);
-            match self.hold_until(front, t) {
-                None => {}
-                Some(None) => continue,
-                Some(Some(at)) => {
-                    self.held.push(wire::Held::Ethercat {
-                        chain: c,
-                        frame: f.to_vec(),
-                        at,
-                    });
-                    continue;
-                }
+            match chain
+                .faults
+                .cross_in(t, 0, &mut self.arrivals, || f.to_vec())
+            {
+                Verdict::Pass => {}
+                // Lost, or held by the chain's link until its time.
+                Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
             }
-            let Some(chain) = self.chains.get_mut(c) else {
-                break;
-            };
             shared |= chain.chain.has_bus_drives();
             Self::pass_chain(chain, f, t, &mut self.buses);
         }

@@ -47,6 +47,7 @@ use mio::{Events, Interest, Poll, Token, Waker};
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::control::{Command, ControlHandle, PlantSample};
+use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, Wire};
 use crate::cell::{Cell, OnBus};
 use crate::ecat::chain::{EthercatCell, FrameTap};
@@ -135,6 +136,9 @@ struct ChainState {
     socket: crate::ecat::link::SlaveSocket,
     /// Its frames as they come in and go back out, copied to the trace's queue (`--trace`).
     link: Tracer<Wire<[u8]>, Option<FrameTap>>,
+    /// The faults on the master's frames as they come in (after the trace has seen them),
+    /// and the frames they hold back.
+    faults: FrontFaultInjector<Vec<u8>>,
 }
 
 /// Every socket a cell serves, bound before the loop starts.
@@ -234,13 +238,13 @@ pub struct CellLoop {
     control_tx: std::sync::mpsc::Sender<Command>,
     control_rx: std::sync::mpsc::Receiver<Command>,
     subscriptions: Vec<Subscription>,
-    /// Faults on the Modbus and EtherCAT front ends (a bus's are its cell's).
-    front_faults: Vec<(
-        crate::cell::wire_faults::FrontEnd,
-        crate::cell::wire_faults::WireFaults,
-    )>,
-    /// Modbus requests and EtherCAT frames a `delay` fault holds back.
-    held: Vec<wire::Held>,
+    /// The faults on each Modbus drive's server and the requests they hold back, by drive
+    /// (a chain's are in its [`ChainState`], a socketcand client's in its connection, a
+    /// bus's in its cell).
+    modbus_faults: Vec<FrontFaultInjector<wire::HeldRequest>>,
+    /// The order in which the front ends' faults held their frames, over all of them: what
+    /// is due at one turn is released in that order ([`Arrivals`]).
+    arrivals: Arrivals,
 }
 
 /// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
@@ -296,6 +300,10 @@ enum Kind {
         held: Vec<u8>,
         /// What it may put on the bus (the bus's frame rate).
         budget: crate::can::frame_budget::FrameBudget,
+        /// The faults on this client alone ([`crate::cell::wire_faults::FrontEnd::Client`]):
+        /// its frames to the bus (in) and the bus's frames as text to it (out), and those
+        /// they hold back.
+        faults: Box<FrontFaultInjector<CanFrame, Vec<u8>>>,
     },
     Console {
         drive: OnBus,
@@ -417,8 +425,12 @@ impl CellLoop {
             control_tx,
             control_rx,
             subscriptions: Vec::new(),
-            front_faults: Vec::new(),
-            held: Vec::new(),
+            modbus_faults: front
+                .modbus
+                .iter()
+                .map(|_| FrontFaultInjector::new())
+                .collect(),
+            arrivals: Arrivals::default(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -436,6 +448,7 @@ impl CellLoop {
                     chain: c.chain,
                     socket: c.socket,
                     link: Tracer::new(Wire::new(), c.trace),
+                    faults: FrontFaultInjector::new(),
                 })
                 .collect(),
             serial: front.serial,

@@ -7,9 +7,10 @@ use std::time::Instant;
 
 use mio::{Interest, Token};
 
-use super::{wire, CellLoop, Connection, Kind, Source, MAX_PENDING, READS_PER_TURN};
+use super::{CellLoop, Connection, Kind, Source, MAX_PENDING, READS_PER_TURN};
 use crate::can::socketcand::session::{Effect, Session};
 use crate::can::socketcand::Decoder;
+use crate::cell::wire_faults::Verdict;
 
 impl CellLoop {
     pub(super) fn session_timers(&mut self, slot: usize, now: Instant) {
@@ -65,6 +66,7 @@ impl CellLoop {
                         decoder: Decoder::with_max_len(max_len),
                         held: Vec::new(),
                         budget: crate::can::frame_budget::FrameBudget::for_bitrate(bitrate),
+                        faults: Box::default(),
                     };
                     tracing::info!(%peer, "socketcand client connected");
                     if let Some(slot) = self.add(stream, peer, kind) {
@@ -125,8 +127,15 @@ impl CellLoop {
                     }
                 }
                 Effect::Send(frame) => {
+                    let t = self.now(now);
                     if let Some(Some(Connection {
-                        kind: Kind::Socketcand { bus, budget, .. },
+                        kind:
+                            Kind::Socketcand {
+                                bus,
+                                budget,
+                                faults,
+                                ..
+                            },
                         peer,
                         ..
                     })) = self.slots.get_mut(slot)
@@ -139,24 +148,10 @@ impl CellLoop {
                             continue;
                         }
                         let bus = *bus;
-                        let port = peer.port();
-                        if self.client_faults() {
-                            let t = self.now(now);
-                            let id = frame.id;
-                            match self.client_verdict(slot, port, false, id, t) {
-                                None => {}
-                                Some(None) => continue,
-                                Some(Some(at)) => {
-                                    self.held.push(wire::Held::FromClient {
-                                        slot,
-                                        port,
-                                        bus,
-                                        frame,
-                                        at,
-                                    });
-                                    continue;
-                                }
-                            }
+                        match faults.cross_in(t, frame.id, &mut self.arrivals, || frame) {
+                            Verdict::Pass => {}
+                            // Lost, or held by the client's link until its time.
+                            Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
                         }
                         self.bus(bus, frame, Source::Client(slot), now);
                     }

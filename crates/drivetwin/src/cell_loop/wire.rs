@@ -1,178 +1,126 @@
 //! The wire's side of the cell loop ([`crate::cell::wire_faults`]): faults of a bus go to its
-//! cell, those of a Modbus server or an EtherCAT chain stay here; traces of a bus started and
-//! stopped while the cell runs, and taps that see every frame of a bus, on the bus's link
+//! cell; those of a Modbus server, an EtherCAT chain or a single socketcand client to that
+//! front end's link ([`FrontFaultInjector`]), which holds the frames they delay until the
+//! loop releases them, across front ends in the order they arrived; traces of a bus started
+//! and stopped while the cell runs, and taps that see every frame of a bus, on the bus's link
 //! ([`crate::trace::tracer::Tracer`]).
 
 use std::time::Instant;
 
-use canopen::CanFrame;
+use od::time::earliest;
 
-use super::CellLoop;
-use crate::cell::wire_faults::{
-    FrontEnd, Sender, Verdict, WireAnswer, WireError, WireFaults, WireRequest,
-};
+use super::{CellLoop, Connection, Kind};
+use crate::cell::front_fault_injector::{FrontFaultInjector, Released};
+use crate::cell::wire_faults::{FrontEnd, WireAnswer, WireError, WireFaults, WireRequest};
 use crate::trace::TraceWriter;
 
-/// What the faults of `front` make of a request or frame from outside at `now`.
-pub(super) fn judge(
-    faults: &mut [(FrontEnd, WireFaults)],
-    front: FrontEnd,
-    now: od::Instant,
-) -> Verdict {
-    match faults.iter_mut().find(|(fe, _)| *fe == front) {
-        Some((_, f)) => f.judge(now, Sender::Outside, 0),
-        None => Verdict::Pass,
-    }
-}
-
-/// A Modbus request's bytes or an EtherCAT frame a `delay` fault holds back until `at` (the
-/// cell's clock); later ones of the same front end wait behind it, so the order stays.
+/// A Modbus request's bytes a `delay` fault holds back, with the connection they came on.
 #[derive(Debug)]
-pub(super) enum Held {
-    Modbus {
-        slot: usize,
-        drive: usize,
-        bytes: Vec<u8>,
-        at: od::Instant,
-    },
-    Ethercat {
-        chain: usize,
-        frame: Vec<u8>,
-        at: od::Instant,
-    },
-    /// A frame socketcand client `slot` (port `port`) sent to bus `bus`.
-    FromClient {
-        slot: usize,
-        port: u16,
-        bus: usize,
-        frame: CanFrame,
-        at: od::Instant,
-    },
-    /// A frame of the bus as socketcand text for client `slot` (port `port`).
-    ToClient {
-        slot: usize,
-        port: u16,
-        text: Vec<u8>,
-        at: od::Instant,
-    },
+pub(super) struct HeldRequest {
+    pub(super) slot: usize,
+    pub(super) bytes: Vec<u8>,
 }
 
-impl Held {
-    pub(super) fn at(&self) -> od::Instant {
-        match self {
-            Held::Modbus { at, .. }
-            | Held::Ethercat { at, .. }
-            | Held::FromClient { at, .. }
-            | Held::ToClient { at, .. } => *at,
-        }
-    }
-
-    fn front(&self) -> FrontEnd {
-        match self {
-            Held::Modbus { drive, .. } => FrontEnd::Modbus(*drive),
-            Held::Ethercat { chain, .. } => FrontEnd::Ethercat(*chain),
-            Held::FromClient { port, .. } | Held::ToClient { port, .. } => FrontEnd::Client(*port),
-        }
-    }
-
-    /// Held for client `slot`, in the direction `to_client`.
-    fn is_client(&self, slot: usize, to_client: bool) -> bool {
-        match self {
-            Held::FromClient { slot: s, .. } => *s == slot && !to_client,
-            Held::ToClient { slot: s, .. } => *s == slot && to_client,
-            _ => false,
-        }
-    }
+/// The front end whose held frame is due first.
+enum Holder {
+    Modbus(usize),
+    Chain(usize),
+    /// A socketcand client, by its connection.
+    Client(usize),
 }
 
 impl CellLoop {
-    /// Whether what arrives now on `front` must wait: delayed by a fault until `delay`, or
-    /// behind an earlier one still held. `None`: it is taken at once (or lost, `Some(None)`).
-    pub(super) fn hold_until(
-        &mut self,
-        front: FrontEnd,
-        t: od::Instant,
-    ) -> Option<Option<od::Instant>> {
-        let behind = self
-            .held
-            .iter()
-            .filter(|h| h.front() == front)
-            .map(Held::at)
-            .max();
-        match (judge(&mut self.front_faults, front, t), behind) {
-            (Verdict::Lost | Verdict::Corrupt, _) => Some(None),
-            (Verdict::Delay(at), b) => Some(Some(b.map_or(at, |b| b.max(at)))),
-            (Verdict::Pass, Some(b)) => Some(Some(b)),
-            (Verdict::Pass, None) => None,
-        }
-    }
-
-    /// The earliest held request or frame.
+    /// The earliest held request or frame, of every front end.
     pub(super) fn held_deadline(&self) -> Option<Instant> {
-        self.held.iter().map(Held::at).min().map(|t| self.wall(t))
+        let mut at = None;
+        for m in &self.modbus_faults {
+            at = earliest(at, m.deadline());
+        }
+        for c in &self.chains {
+            at = earliest(at, c.faults.deadline());
+        }
+        for c in self.slots.iter().flatten() {
+            if let Kind::Socketcand { faults, .. } = &c.kind {
+                at = earliest(at, faults.deadline());
+            }
+        }
+        at.map(|t| self.wall(t))
     }
 
-    /// Held requests and frames whose time has come arrive, in the order they came.
+    /// Of the held requests and frames due by `t`, the front end of the one that arrived
+    /// first ([`crate::cell::front_fault_injector::Arrivals`]).
+    fn first_due(&self, t: od::Instant) -> Option<Holder> {
+        let mut first: Option<(u64, Holder)> = None;
+        let mut take = |arrival: Option<u64>, holder: Holder| {
+            if let Some(a) = arrival {
+                if first.as_ref().is_none_or(|(f, _)| a < *f) {
+                    first = Some((a, holder));
+                }
+            }
+        };
+        for (d, m) in self.modbus_faults.iter().enumerate() {
+            take(m.due(t), Holder::Modbus(d));
+        }
+        for (c, chain) in self.chains.iter().enumerate() {
+            take(chain.faults.due(t), Holder::Chain(c));
+        }
+        for (slot, c) in self.slots.iter().enumerate() {
+            if let Some(Connection {
+                kind: Kind::Socketcand { faults, .. },
+                ..
+            }) = c
+            {
+                take(faults.due(t), Holder::Client(slot));
+            }
+        }
+        first.map(|(_, h)| h)
+    }
+
+    /// Held requests and frames whose time has come arrive, in the order they came, across
+    /// front ends as well.
     pub(super) fn release_held(&mut self, now: Instant) {
         let t = self.now(now);
-        while let Some(i) = self.held.iter().position(|h| h.at() <= t) {
-            match self.held.remove(i) {
-                Held::Modbus {
-                    slot, drive, bytes, ..
-                } => self.modbus_request(slot, drive, &bytes, t),
-                Held::Ethercat { chain, frame, .. } => self.ethercat_frame(chain, frame, t),
-                Held::FromClient {
-                    slot, bus, frame, ..
-                } => {
-                    // Still connected: its frame reaches the bus now.
-                    if self.slots.get(slot).is_some_and(Option::is_some) {
-                        self.bus(bus, frame, super::Source::Client(slot), now);
-                    }
+        while let Some(holder) = self.first_due(t) {
+            match holder {
+                Holder::Modbus(drive) => {
+                    let Some(Released::In(_, r)) =
+                        self.modbus_faults.get_mut(drive).and_then(|m| m.release(t))
+                    else {
+                        break;
+                    };
+                    self.modbus_request(r.slot, drive, &r.bytes, t);
                 }
-                Held::ToClient { slot, text, .. } => {
-                    if let Some(Some(conn)) = self.slots.get_mut(slot) {
-                        conn.pending.extend_from_slice(&text);
-                        self.mark_dirty(slot);
+                Holder::Chain(c) => {
+                    let Some(Released::In(_, frame)) =
+                        self.chains.get_mut(c).and_then(|ch| ch.faults.release(t))
+                    else {
+                        break;
+                    };
+                    self.ethercat_frame(c, frame, t);
+                }
+                Holder::Client(slot) => {
+                    let Some(Some(Connection {
+                        kind: Kind::Socketcand { faults, bus, .. },
+                        pending,
+                        ..
+                    })) = self.slots.get_mut(slot)
+                    else {
+                        break;
+                    };
+                    match faults.release(t) {
+                        // Its frame reaches the bus now.
+                        Some(Released::In(_, frame)) => {
+                            let bus = *bus;
+                            self.bus(bus, frame, super::Source::Client(slot), now);
+                        }
+                        Some(Released::Out(_, text)) => {
+                            pending.extend_from_slice(&text);
+                            self.mark_dirty(slot);
+                        }
+                        None => break,
                     }
                 }
             }
-        }
-    }
-
-    /// Whether some fault is on a single client (the per-frame check is skipped otherwise).
-    pub(super) fn client_faults(&self) -> bool {
-        self.front_faults
-            .iter()
-            .any(|(f, w)| matches!(f, FrontEnd::Client(_)) && !w.is_empty())
-    }
-
-    /// What the faults of client `port` (connection `slot`) make of frame `id` at `t` in one
-    /// direction: `None` passes now, `Some(None)` is lost (dropped, corrupted: the checksum
-    /// discards it, the cable cut), `Some(Some(at))` arrives then (behind what is held).
-    pub(super) fn client_verdict(
-        &mut self,
-        slot: usize,
-        port: u16,
-        to_client: bool,
-        id: u32,
-        t: od::Instant,
-    ) -> Option<Option<od::Instant>> {
-        let front = FrontEnd::Client(port);
-        let behind = self
-            .held
-            .iter()
-            .filter(|h| h.is_client(slot, to_client))
-            .map(Held::at)
-            .max();
-        let verdict = match self.front_faults.iter_mut().find(|(f, _)| *f == front) {
-            Some((_, f)) => f.judge(t, Sender::Outside, id),
-            None => Verdict::Pass,
-        };
-        match (verdict, behind) {
-            (Verdict::Lost | Verdict::Corrupt, _) => Some(None),
-            (Verdict::Delay(at), b) => Some(Some(b.map_or(at, |b| b.max(at)))),
-            (Verdict::Pass, Some(b)) => Some(Some(b)),
-            (Verdict::Pass, None) => None,
         }
     }
 
@@ -190,8 +138,8 @@ impl CellLoop {
                     return Ok(WireAnswer::Added(bus.cell.add_wire_fault(t, fault)?));
                 }
                 self.check_front(front)?;
-                // A delayed Modbus request or EtherCAT frame is held in the loop until it is
-                // due ([`Held`]).
+                // A delayed request or frame is held by the front end's link until it is due
+                // ([`FrontFaultInjector`]).
                 Ok(WireAnswer::Added(self.faults_of(front)?.add(t, fault)?))
             }
             WireRequest::Remove { front, id } => {
@@ -269,15 +217,16 @@ impl CellLoop {
     }
 
     fn check_front(&self, front: FrontEnd) -> Result<(), WireError> {
-        let there =
-            match front {
-                FrontEnd::Bus(b) => b < self.buses.len(),
-                FrontEnd::Modbus(m) => m < self.modbus.len(),
-                FrontEnd::Ethercat(c) => c < self.chains.len(),
-                FrontEnd::Client(port) => self.slots.iter().flatten().any(|c| {
-                    c.peer.port() == port && matches!(c.kind, super::Kind::Socketcand { .. })
-                }),
-            };
+        let there = match front {
+            FrontEnd::Bus(b) => b < self.buses.len(),
+            FrontEnd::Modbus(m) => m < self.modbus.len(),
+            FrontEnd::Ethercat(c) => c < self.chains.len(),
+            FrontEnd::Client(port) => self
+                .slots
+                .iter()
+                .flatten()
+                .any(|c| c.peer.port() == port && matches!(c.kind, Kind::Socketcand { .. })),
+        };
         if there {
             Ok(())
         } else {
@@ -285,14 +234,27 @@ impl CellLoop {
         }
     }
 
+    /// The faults of `front`'s link (a bus's are its cell's); a client by its port.
     fn faults_of(&mut self, front: FrontEnd) -> Result<&mut WireFaults, WireError> {
-        if !self.front_faults.iter().any(|(f, _)| *f == front) {
-            self.front_faults.push((front, WireFaults::default()));
-        }
-        self.front_faults
-            .iter_mut()
-            .find(|(f, _)| *f == front)
-            .map(|(_, w)| w)
-            .ok_or(WireError::NoFrontEnd(front))
+        let faults = match front {
+            FrontEnd::Bus(_) => None,
+            FrontEnd::Modbus(m) => self
+                .modbus_faults
+                .get_mut(m)
+                .map(FrontFaultInjector::faults_mut),
+            FrontEnd::Ethercat(c) => self.chains.get_mut(c).map(|c| c.faults.faults_mut()),
+            FrontEnd::Client(port) => {
+                self.slots
+                    .iter_mut()
+                    .flatten()
+                    .find_map(|c| match &mut c.kind {
+                        Kind::Socketcand { faults, .. } if c.peer.port() == port => {
+                            Some(faults.faults_mut())
+                        }
+                        _ => None,
+                    })
+            }
+        };
+        faults.ok_or(WireError::NoFrontEnd(front))
     }
 }
