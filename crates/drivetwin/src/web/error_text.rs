@@ -1,5 +1,5 @@
 //! Texts of the errors the console shows: CiA 301 / CiA 402 error codes (1003h, 603Fh, EMCY)
-//! with the CMMP-AS message number where App. B lists one, and the CMMO-ST's diagnostic
+//! with the number the drive's own diagnostic table gives the code, and the CMMO-ST's diagnostic
 //! numbers with the names of its App. D.
 
 use super::motion::ErrorView;
@@ -79,15 +79,12 @@ pub fn cia_text(code: u16) -> &'static str {
         .unwrap_or("unknown error code")
 }
 
-/// An error code as the console shows it, with the CMMP-AS message number (App. B.2).
-pub fn cia_error(code: u16) -> ErrorView {
-    let text = match drive::vendors::festo_cmmp_as::messages::by_code(code) {
-        Some(m) => format!(
-            "{} (message {:02}-{})",
-            cia_text(code),
-            m.number.main,
-            m.number.sub
-        ),
+/// An error code as the console shows it, with the number the drive's manual gives the
+/// first message of its diagnostic table `table` with that code (the CMMP-AS's App. B.2
+/// "43-1", the Nanotec's "0800h", the Kinco's "ES.5").
+pub fn cia_error(table: &[od::Diagnostic], code: u16) -> ErrorView {
+    let text = match table.iter().find(|d| d.code == Some(code)) {
+        Some(d) => format!("{} (message {})", cia_text(code), d.number),
         None => cia_text(code).to_owned(),
     };
     ErrorView {
@@ -134,9 +131,18 @@ mod tests {
         assert_eq!(cia_text(0x4321), "temperature");
         assert_eq!(cia_text(0x8082), "limit switch: positive set-point blocked");
         assert_eq!(
-            cia_error(0x8082).text,
+            cia_error(devices::CMMP_AS.diagnostics, 0x8082).text,
             "limit switch: positive set-point blocked (message 43-1)"
         );
+        // Each drive's own numbering, not the CMMP-AS's: the Nanotec's error bit codes.
+        let nanotec = devices::by_name("nanotec-pd4n").unwrap().diagnostics;
+        let row = nanotec.iter().find(|d| d.code.is_some()).unwrap();
+        let code = row.code.unwrap();
+        assert_eq!(
+            cia_error(nanotec, code).text,
+            format!("{} (message {})", cia_text(code), row.number)
+        );
+        assert_eq!(cia_error(&[], 0x8082).text, cia_text(0x8082));
     }
 
     #[test]

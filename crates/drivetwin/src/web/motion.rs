@@ -503,7 +503,11 @@ pub struct MotionView {
     pub display: Option<String>,
 }
 
-fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> {
+fn cia402_view(
+    h: &ControlHandle,
+    drive: usize,
+    table: &'static [od::Diagnostic],
+) -> Result<MotionView, ApiError> {
     let sw = u16_of(&h.read(drive, 0x6041, 0)?);
     let bits = Statusword::BIT_NAMES
         .iter()
@@ -533,8 +537,11 @@ fn cia402_view(h: &ControlHandle, drive: usize) -> Result<MotionView, ApiError> 
         .contains(Statusword::FAULT)
         .then(|| code.filter(|c| *c != 0).or_else(|| codes.first().copied()))
         .flatten()
-        .map(error_text::cia_error);
-    let history = codes.into_iter().map(error_text::cia_error).collect();
+        .map(|c| error_text::cia_error(table, c));
+    let history = codes
+        .into_iter()
+        .map(|c| error_text::cia_error(table, c))
+        .collect();
     Ok(MotionView {
         drive,
         profile: "cia402".into(),
@@ -628,7 +635,8 @@ fn fhpp_view(h: &ControlHandle, drive: usize, s: &FhppState) -> MotionView {
 }
 
 enum Kind {
-    Cia402,
+    /// With the drive's diagnostic table, which names its error codes.
+    Cia402(&'static [od::Diagnostic]),
     Fhpp,
 }
 
@@ -638,8 +646,8 @@ fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
     let desc = crate::cell::eds_drive::by_name(info.device);
     if info.interface == Interface::ModbusTcp {
         Ok((index, Kind::Fhpp))
-    } else if desc.is_some_and(|d| d.entry(0x6040, 0).is_some()) {
-        Ok((index, Kind::Cia402))
+    } else if let Some(d) = desc.filter(|d| d.entry(0x6040, 0).is_some()) {
+        Ok((index, Kind::Cia402(d.diagnostics)))
     } else {
         Err(ApiError::new(
             StatusCode::CONFLICT,
@@ -653,7 +661,7 @@ fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
 
 fn view(h: &ControlHandle, drive: usize, k: &Kind) -> Result<MotionView, ApiError> {
     match k {
-        Kind::Cia402 => cia402_view(h, drive),
+        Kind::Cia402(table) => cia402_view(h, drive, table),
         Kind::Fhpp => Ok(fhpp_view(h, drive, &h.fhpp(drive, FhppRequest::Status)?)),
     }
 }
@@ -760,7 +768,7 @@ async fn post_enable(
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
-        Kind::Cia402 => enable(io).map(drop),
+        Kind::Cia402(_) => enable(io).map(drop),
         Kind::Fhpp => fhpp_enable(io).map(drop),
     })
     .await
@@ -776,7 +784,7 @@ async fn post_disable(
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
-        Kind::Cia402 => disable(io).map(drop),
+        Kind::Cia402(_) => disable(io).map(drop),
         Kind::Fhpp => fhpp_disable(io).map(drop),
     })
     .await
@@ -815,7 +823,7 @@ async fn post_jog(
         ));
     }
     run(&s, drive, move |io, k| match k {
-        Kind::Cia402 => jog(io, i32::from(body.direction) * speed as i32).map(drop),
+        Kind::Cia402(_) => jog(io, i32::from(body.direction) * speed as i32).map(drop),
         Kind::Fhpp => fhpp_jog(io, body.direction).map(drop),
     })
     .await
@@ -856,7 +864,7 @@ async fn post_move(
         ));
     }
     run(&s, drive, move |io, k| match k {
-        Kind::Cia402 => move_to(io, body.target, body.relative).map(drop),
+        Kind::Cia402(_) => move_to(io, body.target, body.relative).map(drop),
         Kind::Fhpp => fhpp_move(io, body.target, body.relative, percent).map(drop),
     })
     .await
@@ -872,7 +880,7 @@ async fn post_home(
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
-        Kind::Cia402 => home(io).map(drop),
+        Kind::Cia402(_) => home(io).map(drop),
         Kind::Fhpp => fhpp_home(io).map(drop),
     })
     .await
