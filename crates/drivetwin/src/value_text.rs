@@ -120,9 +120,50 @@ impl Number {
     }
 }
 
+/// `text` (`0x6041` or `6041`) as a hexadecimal number of the type `parse` reads; the error
+/// names `what` is not hex.
+pub fn parse_hex_number<T>(
+    text: &str,
+    what: &str,
+    parse: fn(&str, u32) -> Result<T, std::num::ParseIntError>,
+) -> Result<T, String> {
+    let t = text.trim_start_matches("0x").trim_start_matches("0X");
+    parse(t, 16).map_err(|_| format!("{what} {text:?} is not hex"))
+}
+
+/// The built-in device named `name` (`--device`), or an error listing the known ones.
+pub fn device_named(name: &str) -> Result<&'static od::DeviceDescription, String> {
+    devices::by_name(name).ok_or_else(|| {
+        let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
+        format!("unknown device {name:?} (known: {})", known.join(", "))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hex_numbers_and_device_names_as_typed() {
+        assert_eq!(
+            parse_hex_number("0x6041", "index", u16::from_str_radix),
+            Ok(0x6041)
+        );
+        assert_eq!(
+            parse_hex_number("1A", "sub-index", u8::from_str_radix),
+            Ok(0x1A)
+        );
+        assert_eq!(
+            parse_hex_number("1FF", "sub-index", u8::from_str_radix),
+            Err("sub-index \"1FF\" is not hex".to_owned())
+        );
+        assert_eq!(device_named("kinco-fd3").map(|d| d.name), Ok("kinco-fd3"));
+        let err = device_named("acme").unwrap_err();
+        assert!(
+            err.starts_with("unknown device \"acme\" (known: ") && err.contains("cmmp-as"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn typed_values_encode_and_refuse_overflow() {

@@ -226,13 +226,7 @@ fn print(line: &str) {
 }
 
 pub(crate) fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {
-    devices::by_name(name).ok_or_else(|| {
-        let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
-        CommandError::Usage(format!(
-            "unknown device {name:?} (known: {})",
-            known.join(", ")
-        ))
-    })
+    drivetwin::value_text::device_named(name).map_err(CommandError::Usage)
 }
 
 pub(crate) async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
@@ -248,13 +242,13 @@ pub(crate) async fn connect(bus: &BusArgs) -> Result<Link, CommandError> {
 }
 
 pub(crate) fn parse_hex_u16(s: &str, what: &str) -> Result<u16, CommandError> {
-    let t = s.trim_start_matches("0x").trim_start_matches("0X");
-    u16::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+    drivetwin::value_text::parse_hex_number(s, what, u16::from_str_radix)
+        .map_err(CommandError::Usage)
 }
 
 pub(crate) fn parse_hex_u8(s: &str, what: &str) -> Result<u8, CommandError> {
-    let t = s.trim_start_matches("0x").trim_start_matches("0X");
-    u8::from_str_radix(t, 16).map_err(|_| CommandError::Usage(format!("{what} {s:?} is not hex")))
+    drivetwin::value_text::parse_hex_number(s, what, u8::from_str_radix)
+        .map_err(CommandError::Usage)
 }
 
 pub(crate) fn check_node(node: u8) -> Result<(), CommandError> {

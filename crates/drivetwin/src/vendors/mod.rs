@@ -66,13 +66,7 @@ impl CommandError {
 
 /// The device file named `name`, or a usage error that lists the known ones.
 fn device(name: &str) -> Result<&'static od::DeviceDescription, CommandError> {
-    devices::by_name(name).ok_or_else(|| {
-        let known: Vec<&str> = devices::ALL.iter().map(|d| d.name).collect();
-        CommandError::Usage(format!(
-            "unknown device {name:?} (known: {})",
-            known.join(", ")
-        ))
-    })
+    crate::value_text::device_named(name).map_err(CommandError::Usage)
 }
 
 /// `text` (`0x6041` or `6041`) as a hexadecimal number, or a usage error naming `what`.
@@ -81,6 +75,5 @@ fn parse_hex<T>(
     what: &str,
     parse: fn(&str, u32) -> Result<T, std::num::ParseIntError>,
 ) -> Result<T, CommandError> {
-    let t = text.trim_start_matches("0x").trim_start_matches("0X");
-    parse(t, 16).map_err(|_| CommandError::Usage(format!("{what} {text:?} is not hex")))
+    crate::value_text::parse_hex_number(text, what, parse).map_err(CommandError::Usage)
 }
