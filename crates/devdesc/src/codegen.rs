@@ -82,7 +82,7 @@ pub fn generate(d: &Device) -> String {
     let c = &d.cia301;
     let _ = writeln!(
         s,
-        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?}, pdo_valid_without_mapping: {}, lss_unsupported: {} }},",
+        "    cia301: od::Cia301Options {{ pdo_params_locked_while_valid: {}, pdo_config_outside_operational: {}, tpdo_transmit_mask_index: {:?}, tpdo_254_cyclic_inhibit: {}, pdo_refuses_type_254: {}, pdo_map_length_filled: {}, nmt_command_answered_with_state: {}, life_guard_emcy_code: {:?}, restore_writes_stored_set: {}, life_time_max_ms: {:?}, pdo_valid_without_mapping: {}, lss_unsupported: {}, dummy_usage: {:?} }},",
         c.pdo_params_locked_while_valid,
         c.pdo_config_outside_operational,
         c.tpdo_transmit_mask_index,
@@ -94,7 +94,8 @@ pub fn generate(d: &Device) -> String {
         c.restore_writes_stored_set,
         c.life_time_max_ms,
         c.pdo_valid_without_mapping,
-        c.lss_unsupported
+        c.lss_unsupported,
+        c.dummy_usage
     );
     let _ = writeln!(s, "    objects: &[");
     for o in &d.objects {

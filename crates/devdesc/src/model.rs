@@ -316,6 +316,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             life_time_max_ms: d.life_time_max_ms,
             pdo_valid_without_mapping: d.pdo_valid_without_mapping,
             lss_unsupported: d.lss_unsupported,
+            dummy_usage: None,
         },
         objects,
         diagnostics,

@@ -78,6 +78,10 @@ pub struct Cia301Options {
     /// The device has no LSS slave (CiA 305): LSS requests on 7E5h go unanswered (the
     /// Nanotec's node-ID comes from its switches or 2009h only, §1.1).
     pub lss_unsupported: bool,
+    /// The dummy objects 0001h–0007h (CiA 301's static data types) that may be
+    /// mapped into a PDO, bit n for 000nh: an EDS's `[DummyUsage]` (CiA 306). `None`: the
+    /// device file lists the dummies it offers as objects with their mapping flag.
+    pub dummy_usage: Option<u8>,
 }
 
 /// One sub-index of an object (sub-index 0 for a VAR).

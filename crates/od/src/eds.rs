@@ -54,7 +54,10 @@ pub fn write_eds(w: &mut impl Write, desc: &DeviceDescription, date: &str) -> fm
     // CiA 306: a dummy is announced here, not as an object section. A device lists the
     // dummy objects it offers (Nanotec §9.44–9.50) with their mapping flag.
     for i in 1..=7u16 {
-        let usable = desc.entry(i, 0).is_some_and(|e| e.pdo_mappable);
+        let usable = match desc.cia301.dummy_usage {
+            Some(usage) => usage & (1 << i) != 0,
+            None => desc.entry(i, 0).is_some_and(|e| e.pdo_mappable),
+        };
         writeln!(w, "Dummy000{i}={}", usable as u8)?;
     }
     writeln!(w)?;

@@ -78,13 +78,17 @@ pub fn check_map_entry(desc: &DeviceDescription, transmit: bool, v: u32) -> Resu
         return Err(AbortCode::PDO_LENGTH);
     }
     if m.is_dummy() {
-        // Dummies only make sense where bytes are skipped: in RPDOs. A device that lists the
-        // dummy objects says which may be mapped (Nanotec §9.44: 0001h may not).
-        let listed = desc.entry(m.index, 0).map(|e| e.pdo_mappable);
+        // Dummies only make sense where bytes are skipped: in RPDOs. An EDS says which may be
+        // mapped in [DummyUsage] (CiA 306); a device file that lists the dummy objects says
+        // it by their mapping flag (Nanotec §9.44: 0001h may not).
+        let allowed = match desc.cia301.dummy_usage {
+            Some(usage) => usage & (1 << m.index) != 0,
+            None => desc.entry(m.index, 0).map(|e| e.pdo_mappable) != Some(false),
+        };
         let size = dummy_type(m.index)
             .and_then(|t| t.fixed_size())
             .unwrap_or(0) as u32;
-        return if !transmit && listed != Some(false) && u32::from(m.bits) == size * 8 {
+        return if !transmit && allowed && u32::from(m.bits) == size * 8 {
             Ok(())
         } else {
             Err(AbortCode::NOT_MAPPABLE)

@@ -173,7 +173,8 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         objects.push(object(&ini, *index, at, &mut defaults_at)?);
     }
     objects.sort_by_key(|o| o.index);
-    check_mappings(&objects, &defaults_at)?;
+    let dummy_usage = dummy_usage(&ini)?;
+    check_mappings(&objects, &defaults_at, dummy_usage)?;
 
     let default_of = |index: u16, sub: u8| {
         objects
@@ -261,6 +262,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         interfaces_rule: "a CANopen device (its EDS)".into(),
         cia301: od::Cia301Options {
             lss_unsupported: !lss,
+            dummy_usage,
             ..od::Cia301Options::default()
         },
         objects,
@@ -279,6 +281,48 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         device_type_at,
         profile_objects_at,
     })
+}
+
+/// `[DummyUsage]` (CiA 306): `Dummy000n=1` lets the dummy object 000nh (the static data type
+/// of that index in CiA 301's object dictionary) be mapped into a PDO, `=0` or no key does
+/// not; a mapping the file does not allow is refused with 0604 0041h (CiA 301: object cannot
+/// be mapped to the PDO). `None` for a file without the section.
+///
+/// Decision: a file without `[DummyUsage]` says nothing about dummies, and the drive takes a
+/// dummy 0002h–0007h in an RPDO as a drive without a list does (never stricter than a device
+/// the file may describe); a file with the section is taken at its word. Bit n of the result for 000nh. A value other
+/// than 0 or 1, or a key other than `Dummy0001`…`Dummy0007`, is refused.
+fn dummy_usage(ini: &Ini) -> Result<Option<u8>, EdsError> {
+    let Some(s) = ini.section("DummyUsage") else {
+        return Ok(None);
+    };
+    let mut usage = 0u8;
+    for k in &s.keys {
+        let at = ini.at(s, &k.name);
+        let n = k
+            .name
+            .get(..5)
+            .filter(|p| p.eq_ignore_ascii_case("Dummy"))
+            .and_then(|_| k.name.get(5..))
+            .filter(|d| d.len() == 4 && d.bytes().all(|b| b.is_ascii_hexdigit()))
+            .and_then(|d| u16::from_str_radix(d, 16).ok())
+            .filter(|n| (0x0001..=0x0007).contains(n))
+            .ok_or_else(|| EdsError::Invalid {
+                at: at.clone(),
+                what: "not a dummy object: Dummy0001 ... Dummy0007 (CiA 306 [DummyUsage])".into(),
+            })?;
+        match number::integer(&k.value) {
+            Some(0) => {}
+            Some(1) => usage |= 1 << n,
+            _ => {
+                return Err(EdsError::Invalid {
+                    at,
+                    what: format!("{:?}: 0 (not mappable) or 1 (mappable)", k.value),
+                })
+            }
+        }
+    }
+    Ok(Some(usage))
 }
 
 /// A DCF's `[DeviceComissioning] Baudrate` (CiA 306 §4.7, the section's spelling), kbit/s:
@@ -806,7 +850,11 @@ fn behaviour(index: u16, sub: u8) -> Behaviour {
 /// The PDO mappings a file sets up must be ones the device could be given (CiA 301
 /// §7.5.2.38): each mapped entry exists, may be mapped in that direction, is mapped whole,
 /// and one PDO carries at most 64 bits.
-fn check_mappings(objects: &[Obj], defaults_at: &DefaultsAt) -> Result<(), EdsError> {
+fn check_mappings(
+    objects: &[Obj],
+    defaults_at: &DefaultsAt,
+    dummy_usage: Option<u8>,
+) -> Result<(), EdsError> {
     let entry = |index: u16, sub: u8| {
         objects
             .iter()
@@ -853,6 +901,15 @@ fn check_mappings(objects: &[Obj], defaults_at: &DefaultsAt) -> Result<(), EdsEr
             let (index, sub, len) = ((v >> 16) as u16, (v >> 8) as u8, v as u8);
             bits += u32::from(len);
             if (0x0001..=0x0007).contains(&index) && sub == 0 && !transmit {
+                if dummy_usage.is_some_and(|u| u & (1 << index) == 0) {
+                    return Err(EdsError::Invalid {
+                        at: e_at,
+                        what: format!(
+                            "maps the dummy {index:04X}h, which [DummyUsage] does not allow \
+                             (Dummy{index:04X}=1)"
+                        ),
+                    });
+                }
                 continue;
             }
             let target = entry(index, sub).ok_or_else(|| EdsError::Invalid {

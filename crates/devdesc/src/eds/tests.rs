@@ -389,3 +389,80 @@ fn dcf_bit_rate() {
         );
     }
 }
+
+/// CiA 306 `[DummyUsage]`: `Dummy000n=1` lets 000nh be mapped; a default mapping of a dummy
+/// the file does not allow, a value other than 0 / 1 and a key that names no dummy are
+/// refused with their line; a file without the section says nothing (`None`).
+#[test]
+fn dummy_usage_says_which_dummies_map() {
+    let usage = "[DummyUsage]\nDummy0001=0\nDummy0002=1\nDummy0005=1\nDummy0007=0\n\n";
+    let d = parse(&eds(&[0x6040], &format!("{usage}{CONTROLWORD}")), "t.eds")
+        .unwrap()
+        .device;
+    assert_eq!(d.cia301.dummy_usage, Some(1 << 2 | 1 << 5));
+    let d = parse(&eds(&[0x6040], CONTROLWORD), "t.eds").unwrap().device;
+    assert_eq!(d.cia301.dummy_usage, None);
+
+    let rpdo = |dummy: &str| {
+        format!(
+            "{usage}{CONTROLWORD}[1600]\nParameterName=RPDO1 mapping\nObjectType=0x9\nSubNumber=3\n\n\
+             [1600sub0]\nParameterName=n\nDataType=0x0005\nAccessType=rw\nDefaultValue=2\n\n\
+             [1600sub1]\nParameterName=1\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x60400010\n\n\
+             [1600sub2]\nParameterName=2\nDataType=0x0007\nAccessType=rw\nDefaultValue={dummy}\n\n"
+        )
+    };
+    assert!(parse(&eds(&[0x1600, 0x6040], &rpdo("0x00050008")), "t.eds").is_ok());
+    let refused = rpdo("0x00060010");
+    let line = line_of(&[0x1600, 0x6040], &refused, "DefaultValue=0x00060010");
+    let msg = err(&[0x1600, 0x6040], &refused);
+    assert!(
+        msg.starts_with(&format!(
+            "dir/t.eds:{line}: [1600sub2] DefaultValue: maps the dummy 0006h"
+        )),
+        "{msg}"
+    );
+
+    let broken = "[DummyUsage]\nDummy0003=2\n\n";
+    let line = line_of(&[], broken, "Dummy0003=2");
+    let msg = err(&[], broken);
+    assert!(
+        msg.starts_with(&format!("dir/t.eds:{line}: [DummyUsage] Dummy0003: ")),
+        "{msg}"
+    );
+    let unknown = "[DummyUsage]\nDummy0008=1\n\n";
+    let line = line_of(&[], unknown, "Dummy0008=1");
+    let msg = err(&[], unknown);
+    assert!(
+        msg.starts_with(&format!("dir/t.eds:{line}: [DummyUsage] Dummy0008: ")),
+        "{msg}"
+    );
+}
+
+/// The drive's SDO side: an RPDO mapping entry of a dummy is taken only where `[DummyUsage]`
+/// allows it, else 0604 0041h (CiA 301: object cannot be mapped to the PDO); a file without
+/// the section takes the dummies 0002h–0007h, as before.
+#[test]
+fn dummy_mapping_follows_dummy_usage() {
+    use od::pdo_rules::check_map_entry;
+    let usage = "[DummyUsage]\nDummy0002=1\nDummy0004=0\n\n";
+    let d = parse(&eds(&[0x6040], &format!("{usage}{CONTROLWORD}")), "t.eds")
+        .unwrap()
+        .device;
+    let desc = crate::runtime::leak(&d);
+    assert_eq!(check_map_entry(desc, false, 0x0002_0008), Ok(()));
+    for refused in [0x0004_0020, 0x0001_0008, 0x0007_0020] {
+        assert_eq!(
+            check_map_entry(desc, false, refused),
+            Err(od::AbortCode::NOT_MAPPABLE),
+            "{refused:08X}"
+        );
+    }
+    // Never in a TPDO.
+    assert_eq!(
+        check_map_entry(desc, true, 0x0002_0008),
+        Err(od::AbortCode::NOT_MAPPABLE)
+    );
+    let d = parse(&eds(&[0x6040], CONTROLWORD), "t.eds").unwrap().device;
+    let desc = crate::runtime::leak(&d);
+    assert_eq!(check_map_entry(desc, false, 0x0004_0020), Ok(()));
+}
