@@ -665,7 +665,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         };
         d.vendor_power_on();
         d.reload_factor_group();
-        d.ip.reset(interpolation_period(&d.od));
+        d.reset_interpolator();
         d.axis.hold_brake(d.settings.brake_fitted);
         d.place_hard_stops();
         d.mode = d
@@ -745,10 +745,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     pub fn reload(&mut self) {
         publish_supply(&mut self.od, self.dc_link_mv, V::MANUFACTURER_OBJECTS);
         self.reload_factor_group();
-        // 60C2h takes effect after save and reset (CMMP-AS §7.4.1).
-        self.ip.reset(interpolation_period(&self.od));
+        self.reset_interpolator();
         self.params_dirty = true;
         self.vendor_power_on();
+    }
+
+    /// The interpolator as at power-on: the period of 60C2h, the buffer open or locked as
+    /// the vendor starts it.
+    fn reset_interpolator(&mut self) {
+        self.ip.reset(interpolation_period(&self.od));
+        let open = V::ip_buffer_open_at_reset(self);
+        self.ip.set_unlocked(open);
     }
 
     /// What the personality sets at power-on and after a reload.
@@ -785,7 +792,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         };
         // A stored set that breaks the rules falls back to the defaults rather than dividing
         // by zero.
-        self.fg = if fg.validate().is_ok() { fg } else { d };
+        self.fg = if fg.validate_within(V::factor_limit).is_ok() {
+            fg
+        } else {
+            d
+        };
     }
 
     /// The highest speed a profile may ask for, increments/s: 6080h max_motor_speed where
@@ -1175,7 +1186,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 }
 
 /// 60C2h as the interpolation period; the default 1 ms for a value outside the ranges.
-fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> Duration {
+pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(
+    od: &ObjectDictionary<S>,
+) -> Duration {
     let units = od.get_unsigned(0x60C2, 1).unwrap_or(1);
     let index = match od.value(0x60C2, 2) {
         Some(Value::Signed(v)) => v,

@@ -205,17 +205,35 @@ impl Ratio {
         }
     }
 
-    /// Checks this fraction as the value of `object`: divisor and numerator non-zero and, for
-    /// 6093h/6094h, numerator / divisor ≤ 2²⁴.
+    /// Checks this fraction as the value of `object` on the CMMP-AS: divisor and numerator
+    /// non-zero and, for 6093h/6094h, numerator / divisor ≤ 2²⁴.
     pub const fn check(self, object: FactorObject) -> Result<(), FactorError> {
+        let limit = if object.has_limit() {
+            Some(FACTOR_LIMIT)
+        } else {
+            None
+        };
+        self.check_within(object, limit)
+    }
+
+    /// Checks this fraction as the value of `object`: divisor and numerator non-zero and
+    /// numerator / divisor ≤ `limit` where the drive has one (CiA 402 sets none; the
+    /// vendor's, [`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)).
+    pub const fn check_within(
+        self,
+        object: FactorObject,
+        limit: Option<u32>,
+    ) -> Result<(), FactorError> {
         if self.divisor == 0 {
             return Err(FactorError::DivisorZero(object));
         }
         if self.numerator == 0 {
             return Err(FactorError::NumeratorZero(object));
         }
-        if object.has_limit() && self.numerator as u64 > FACTOR_LIMIT as u64 * self.divisor as u64 {
-            return Err(FactorError::ExceedsLimit(object));
+        if let Some(limit) = limit {
+            if self.numerator as u64 > limit as u64 * self.divisor as u64 {
+                return Err(FactorError::ExceedsLimit(object));
+            }
         }
         Ok(())
     }
@@ -292,6 +310,39 @@ impl FactorGroup {
             return Err(e);
         }
         check_polarity(self.polarity)
+    }
+
+    /// [`FactorGroup::validate`] with each factor's quotient limited by `limit` (CiA 402
+    /// sets none; the vendor's, [`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)).
+    pub fn validate_within(
+        &self,
+        limit: impl Fn(FactorObject) -> Option<u32>,
+    ) -> Result<(), FactorError> {
+        for (object, ratio) in [
+            (FactorObject::Position, self.position),
+            (FactorObject::Velocity, self.velocity),
+            (FactorObject::Acceleration, self.acceleration),
+        ] {
+            ratio.check_within(object, limit(object))?;
+        }
+        check_polarity(self.polarity)
+    }
+
+    /// Replaces one factor if it passes [`Ratio::check_within`] with `limit`; on error
+    /// nothing changes.
+    pub fn set_factor_within(
+        &mut self,
+        object: FactorObject,
+        ratio: Ratio,
+        limit: Option<u32>,
+    ) -> Result<(), FactorError> {
+        ratio.check_within(object, limit)?;
+        match object {
+            FactorObject::Position => self.position = ratio,
+            FactorObject::Velocity => self.velocity = ratio,
+            FactorObject::Acceleration => self.acceleration = ratio,
+        }
+        Ok(())
     }
 
     /// Replaces one factor if it passes [`Ratio::check`]; on error nothing changes.

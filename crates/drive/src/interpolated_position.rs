@@ -1,6 +1,9 @@
-//! Interpolated position mode (CiA 402 mode 7) as the CMMP-AS runs it (manual §7.4): linear
-//! interpolation without buffer (60C0h = −2) between set-points that arrive one per SYNC on a fixed
-//! grid, the interpolation period 60C2h.
+//! Interpolated position mode (CiA 402 mode 7): linear interpolation (CiA 402 60C0h
+//! sub-mode 0; the CMMP-AS's −2, "without buffer", §7.4, is the same one-deep data record)
+//! between set-points that arrive one per SYNC on a fixed grid, the interpolation period
+//! 60C2h. When a new 60C2h takes effect and whether the buffer 60C4h:06 starts locked are the
+//! vendor's ([`crate::personality::Vendor::ip_buffer_open_at_reset`], its write hooks); the
+//! engine's are CiA 402's (60C2h at once, the buffer as 60C4h:06 says).
 //!
 //! Sans-IO: the drive tells the interpolator of each SYNC ([`Interpolator::sync`]: a CANopen
 //! SYNC, an EtherCAT SYNC0 event, or the EtherCAT frame in free run), hands it the set-points
@@ -104,6 +107,14 @@ impl Interpolator {
         } else {
             Interpolator::new(period)
         };
+    }
+
+    /// A new interpolation period from 60C2h, in force at once (the grid is checked against
+    /// it from the next SYNC on); an interpolator that follows SYNC keeps measuring its own.
+    pub fn set_period(&mut self, period: Duration) {
+        if !self.follows_sync {
+            self.period = period;
+        }
     }
 
     /// 60C4h:06 buffer_clear: 1 unlocks 60C1h, 0 clears the (one-deep) buffer and locks it.

@@ -12,7 +12,7 @@ use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
-use crate::factor_group::FactorGroup;
+use crate::factor_group::{FactorGroup, FactorObject};
 use crate::homing::{HomingError, Method};
 use crate::statusword::Statusword;
 use crate::travel::Inputs;
@@ -180,6 +180,39 @@ pub trait Vendor: Sized {
     /// where the position is 0.
     fn homing_to_offset_point<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
         false
+    }
+
+    /// The DC-link voltage in mV below which the drive reports its
+    /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
+    /// 402's default: the profile names no threshold object (its object 6079h
+    /// dc_link_circuit_voltage only shows the voltage), so the drive raises no undervoltage
+    /// error of its own.
+    fn dc_link_undervoltage_mv<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> Option<i64> {
+        None
+    }
+
+    /// The motor's I²t at 100 % is an error ([`Fault::I2tMotor`]), not only the limitation
+    /// to the rated current. `false`, CiA 402's default: the drive limits the current to
+    /// 6075h motor_rated_current and reports nothing (the profile's current objects 6073h
+    /// max_current and 6075h are limits; it names no I²t error).
+    fn i2t_is_error<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
+
+    /// Whether 60C1h interpolation_data_record takes set-points when the interpolator starts
+    /// (power-on, reset). CiA 402's default: as 60C4h:06 buffer_clear says (1: access
+    /// enabled), open where the drive has no 60C4h:06 to open it with.
+    fn ip_buffer_open_at_reset<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.od().get_unsigned(0x60C4, 6).is_none_or(|v| v == 1)
+    }
+
+    /// The quotient numerator / divisor a factor of 6093h / 6094h / 6097h may not exceed
+    /// (checked on write; a stored set beyond it falls back to the defaults). `None`, CiA
+    /// 402's default: the profile's objects 6093h position_factor, 6094h
+    /// velocity_encoder_factor and 6097h acceleration_factor are two UNSIGNED32 each with no
+    /// bound on their quotient; a zero numerator or divisor stays refused (no inverse).
+    fn factor_limit(_object: FactorObject) -> Option<u32> {
+        None
     }
 }
 

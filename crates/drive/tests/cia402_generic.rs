@@ -215,3 +215,88 @@ fn manufacturer_objects_are_left_alone() {
         .collect();
     assert_eq!(before, after);
 }
+
+/// CiA 402's factor group bounds no quotient numerator / divisor (the CMMP-AS's 2²⁴ is its
+/// own, §5.3); a zero numerator or divisor stays refused.
+#[test]
+fn factors_have_no_quotient_limit() {
+    let (mut d, _) = drive();
+    let above = (1u32 << 24) + 1;
+    d.write(0x6093, 2, &1u32.to_le_bytes()).unwrap();
+    assert_eq!(d.write(0x6093, 1, &above.to_le_bytes()), Ok(()));
+    assert_eq!(d.factor_group().position.numerator, above);
+    assert_eq!(d.write(0x6094, 1, &above.to_le_bytes()), Ok(()));
+    assert_eq!(
+        d.write(0x6093, 2, &0u32.to_le_bytes()),
+        Err(AbortCode::INVALID_VALUE)
+    );
+    // A stored set beyond 2²⁴ is kept at a reload, not replaced by the defaults.
+    d.reload();
+    assert_eq!(d.factor_group().position.numerator, above);
+}
+
+/// No undervoltage or I²t error of its own: CiA 402 names no threshold for either.
+#[test]
+fn no_supply_or_i2t_error_without_a_vendor() {
+    let (mut d, mut now) = drive();
+    d.set_dc_link_voltage(Some(1));
+    for _ in 0..20 {
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    assert!(d.errors().is_empty(), "{:04X?}", d.errors());
+    assert_eq!(d.od().get_unsigned(0x6079, 0), Some(1));
+}
+
+/// Interpolated position as CiA 402 has it: 60C4h:06 buffer_clear opens 60C1h (closed, the
+/// file's default 0, 60C1h:01 is refused with 0800 0022h), a new 60C2h is in force at once
+/// (SYNCs every 2 ms synchronise after 60C2h = 2 ms without a reset), and each set-point of
+/// 60C1h:01 is taken at the next SYNC and interpolated.
+#[test]
+fn interpolated_position_from_60c1h_on_the_sync_grid() {
+    let (mut d, mut now) = drive();
+    assert_eq!(
+        d.write(0x60C1, 1, &100i32.to_le_bytes()),
+        Err(AbortCode::DEVICE_STATE)
+    );
+    d.write(0x60C4, 6, &[1]).unwrap();
+    d.write(0x60C2, 1, &[2]).unwrap();
+    assert_eq!(d.interpolation_period(), Duration::from_millis(2));
+    d.write(0x6060, 0, &[7]).unwrap();
+    for cw in [0x06u16, 0x07, 0x0F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+        now = now + Duration::from_millis(5);
+        d.step(now);
+    }
+    let tick = |d: &mut Drive<Vec<u8>, Cia402>, now: &mut Instant| {
+        for _ in 0..2 {
+            *now = *now + Duration::from_millis(1);
+            d.step(*now);
+        }
+        d.sync(*now);
+    };
+    for _ in 0..4 {
+        tick(&mut d, &mut now);
+    }
+    assert!(d.ip_synchronised());
+    d.write(0x60C1, 1, &0i32.to_le_bytes()).unwrap();
+    d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+    tick(&mut d, &mut now);
+    assert_ne!(sw(&d) & 0x1000, 0, "ip mode active: {:#06x}", sw(&d));
+    // 100 increments per 2 ms, to 20 000.
+    for k in 1..=200i32 {
+        d.write(0x60C1, 1, &(k * 100).to_le_bytes()).unwrap();
+        tick(&mut d, &mut now);
+    }
+    for _ in 0..200 {
+        tick(&mut d, &mut now);
+    }
+    let demand = signed(&d, 0x6062);
+    assert!((demand - 20_000).abs() <= 100, "6062h {demand}");
+    // 0 clears and locks the buffer again.
+    d.write(0x60C4, 6, &[0]).unwrap();
+    assert_eq!(
+        d.write(0x60C1, 1, &0i32.to_le_bytes()),
+        Err(AbortCode::DEVICE_STATE)
+    );
+}

@@ -17,6 +17,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             (0x6093 | 0x6094 | 0x6097, 0x01 | 0x02) => Self::write_factor,
             (0x607E, 0x00) => Self::write_polarity,
             (0x60FF | 0x6071, 0x00) => Self::write_target_value,
+            (0x60C1, 0x01) => Self::write_ip_data,
+            (0x60C2, 0x01 | 0x02) => Self::write_ip_period,
+            (0x60C4, 0x06) => Self::write_ip_buffer_clear,
             _ => Self::write_plain,
         })
     }
@@ -123,12 +126,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         } else {
             r.divisor = v;
         }
-        // CMMP-AS §5.3: the factor may not exceed 2^24, numerator and divisor not 0.
+        // Numerator and divisor not 0; the quotient within the vendor's limit, if it has one.
         let mut fg = self.fg;
-        fg.set_factor(obj, r).map_err(|e| match e {
-            crate::factor_group::FactorError::ExceedsLimit(_) => AbortCode::VALUE_TOO_HIGH,
-            _ => AbortCode::INVALID_VALUE,
-        })?;
+        fg.set_factor_within(obj, r, V::factor_limit(obj))
+            .map_err(|e| match e {
+                crate::factor_group::FactorError::ExceedsLimit(_) => AbortCode::VALUE_TOO_HIGH,
+                _ => AbortCode::INVALID_VALUE,
+            })?;
         self.od.write(index, sub, data)?;
         self.fg = fg;
         Ok(())
@@ -163,6 +167,39 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if before != self.value(index, sub) {
             self.clear_target_reached();
         }
+        Ok(())
+    }
+
+    /// 60C1h:01 interpolation data record (CiA 402 IP, linear interpolation): the position
+    /// set-point the interpolator takes at the next SYNC. Refused with 0800 0022h while
+    /// 60C4h:06 buffer_clear keeps the buffer locked (access disabled).
+    fn write_ip_data(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.entry(index, sub)?;
+        if !self.ip.is_unlocked() {
+            return Err(AbortCode::DEVICE_STATE);
+        }
+        self.od.write(index, sub, data)?;
+        let user = self
+            .value(0x60C1, 1)
+            .clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        let increments = self.fg.position_to_internal(user) as f64;
+        self.ip.set_point(increments);
+        Ok(())
+    }
+
+    /// 60C2h interpolation time period: in force at once (CiA 402 gives it no delay); the
+    /// SYNC grid is checked against it from the next SYNC on.
+    fn write_ip_period(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.ip.set_period(interpolation_period(&self.od));
+        Ok(())
+    }
+
+    /// 60C4h:06 buffer_clear: 1 enables access to the input buffer, 0 clears it and disables
+    /// access.
+    fn write_ip_buffer_clear(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.od.write(index, sub, data)?;
+        self.ip.set_unlocked(data.first() == Some(&1));
         Ok(())
     }
 

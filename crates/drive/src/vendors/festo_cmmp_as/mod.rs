@@ -19,6 +19,7 @@ use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
+use crate::factor_group::{FactorObject, FACTOR_LIMIT};
 use crate::homing::{HomingError, METHODS};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
@@ -245,6 +246,28 @@ impl Vendor for CmmpAs {
         }
     }
 
+    /// 02-0 DC-link undervoltage below 6510h:36 min_dc_link_circuit_voltage where 6510h:37
+    /// enable_dc_link_undervoltage_error is 1.
+    fn dc_link_undervoltage_mv<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> Option<i64> {
+        (d.value(0x6510, 0x37) == 1).then(|| d.value(0x6510, 0x36))
+    }
+
+    /// 31-0 I²t motor (§5.5) where 6510h:38 iit_error_enable is 1.
+    fn i2t_is_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.value(0x6510, 0x38) == 1
+    }
+
+    /// §7.4.2: 60C1h is locked after power-on until 60C4h:06 buffer_clear = 1 is written.
+    fn ip_buffer_open_at_reset<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
+
+    /// §5.3: "position_factor must not exceed 2²⁴" (L2504), "velocity_encoder_factor must
+    /// not exceed 2²⁴" (L2573); nothing is printed for acceleration_factor.
+    fn factor_limit(object: FactorObject) -> Option<u32> {
+        object.has_limit().then_some(FACTOR_LIMIT)
+    }
+
     fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &mut Drive<S, Self>,
         code: u16,
@@ -314,6 +337,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
             (0x6083 | 0x6084, 0x00) => Self::write_profile_ramp,
             (0x60C4, 0x06) => Self::write_buffer_clear,
             (0x60C1, 0x01) => Self::write_ip_set_point,
+            // §7.4.1: a new 60C2h takes effect after save and reset.
+            (0x60C2, 0x01 | 0x02) => Self::write_plain,
             (0x2030, 0x00) => Self::write_set_position_absolute,
             (0x6098, 0x00) => Self::write_homing_method,
             _ => return None,

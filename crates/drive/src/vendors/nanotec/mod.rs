@@ -370,6 +370,11 @@ impl Vendor for Nanotec {
         Drive::<S, Self>::nanotec_write_hook(index, sub)
     }
 
+    /// Ch. 7: 60C1h is the target 607Ah shares, always open.
+    fn ip_buffer_open_at_reset<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        true
+    }
+
     fn refusal<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &Drive<S, Self>,
         request: Request,
@@ -443,6 +448,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
         Some(match (index, sub) {
             (0x6060, 0x00) => Self::nanotec_write_mode,
             (0x60C1, 0x01) | (0x607A, 0x00) => Self::nanotec_write_target,
+            // Ch. 7: the interpolator follows SYNC (60C2h is ignored) and 60C1h is always
+            // open; 60C2h and 60C4h are stored only.
+            (0x60C2, 0x01 | 0x02) | (0x60C4, 0x06) => Self::write_plain,
             (0x2004, 0x07) => Self::nanotec_write_motor_type,
             _ => return None,
         })
