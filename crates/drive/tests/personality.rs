@@ -59,3 +59,26 @@ fn cmmp_as_csp_over_ethercat_only() {
     assert!(!p.accepts_mode(8, false));
     assert!(p.accepts_mode(8, true));
 }
+
+/// Only the CMMP-AS has the 7-segment display (App. B); the Nanotec's and the Kinco's manuals
+/// name none of that kind (the Kinco's LED panel is its own), nor does CiA 402 for a drive
+/// from its EDS.
+#[test]
+fn only_the_cmmp_as_has_the_seven_segment_display() {
+    let any = |name: &str| {
+        let desc = devices::by_name(name).expect("a device file of this name");
+        let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+        AnyDrive::new(od, DriveSettings::default())
+    };
+    assert!(any("cmmp-as").display().is_some());
+    for name in ["nanotec-smci47s", "nanotec-pd4n", "kinco-fd3", "kinco-cd3"] {
+        assert_eq!(any(name).display(), None, "{name}");
+    }
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/lexium32_like.eds");
+    let desc = devdesc::runtime::leak(&devdesc::eds::load_file(&path).unwrap().device);
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let generic = AnyDrive::new(od, DriveSettings::default());
+    assert!(matches!(generic, AnyDrive::Cia402(_)));
+    assert_eq!(generic.display(), None);
+}

@@ -76,7 +76,13 @@ fn cmmp_as_every_app_b_message_over_the_bus() {
             .expect("a row of the table");
         b.run_ms(2);
         let frames = emcy(&b.sent());
-        let text = b.drive().display().text().as_str().to_string();
+        let text = b
+            .drive()
+            .display()
+            .expect("the CMMP-AS has its display")
+            .text()
+            .as_str()
+            .to_string();
         match expect {
             Expect::Fault => {
                 let [c0, c1] = m.code.to_le_bytes();

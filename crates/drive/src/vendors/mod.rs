@@ -29,7 +29,7 @@ use crate::personality::Personality;
 use crate::stepper::Stepper;
 use crate::thermal::ThermalData;
 pub use cia402::Cia402;
-use festo_cmmp_as::display::{self, Display};
+use festo_cmmp_as::display::Display;
 use festo_cmmp_as::error_management::MemoryEntry;
 use festo_cmmp_as::{CmmpAs, CMMP_AS};
 use kinco::{Kinco, KINCO};
@@ -130,18 +130,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> AnyDrive<S> {
         memory.into_iter().flatten()
     }
 
-    /// What the drive's display shows: the CMMP-AS's 7-segment display.
-    ///
-    /// Decision: a drive without a display model of its own (the Nanotec, the standard
-    /// CiA 402 drive; the Kinco's panel is its own) shows what the CMMP-AS's display would
-    /// for its errors, safe standstill and commissioning state, with no warning: the
-    /// console's display of a CiA 402 drive.
-    pub fn display(&self) -> Display {
+    /// What the drive's display shows: the CMMP-AS's 7-segment display (App. B). `None`
+    /// for a drive whose manual names no such display: the Nanotec (its manual has none),
+    /// the standard CiA 402 drive (the profile has none), the Kinco (its LED panel is its
+    /// own, [`Drive::kinco_panel`]).
+    pub fn display(&self) -> Option<Display> {
         match self {
-            AnyDrive::CmmpAs(d) => d.display(),
-            AnyDrive::Nanotec(d) => display::shown(d, None),
-            AnyDrive::Kinco(d) => display::shown(d, None),
-            AnyDrive::Cia402(d) => display::shown(d, None),
+            AnyDrive::CmmpAs(d) => Some(d.display()),
+            AnyDrive::Nanotec(_) | AnyDrive::Kinco(_) | AnyDrive::Cia402(_) => None,
         }
     }
 

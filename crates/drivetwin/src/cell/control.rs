@@ -45,7 +45,7 @@ pub enum Interface {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DisplayState {
     /// The CMMP-AS 7-segment display (App. B).
-    Cia402(drive::vendors::festo_cmmp_as::display::Display),
+    CmmpAs(drive::vendors::festo_cmmp_as::display::Display),
     /// The CMMO-ST 7-segment display.
     Fhpp(drive::vendors::festo_cmmo_st::seven_segment::SevenSegment),
     /// The Kinco CD3 / FD3 LED panel (five digits, their points, the blink).

@@ -466,10 +466,10 @@ impl CellLoop {
                         current_ma: axis.current_ma(),
                         digital_inputs: inputs,
                     },
-                    display: Some(match d.as_kinco() {
-                        Some(k) => DisplayState::KincoPanel(k.kinco_panel()),
-                        None => DisplayState::Cia402(d.display()),
-                    }),
+                    display: match d.as_kinco() {
+                        Some(k) => Some(DisplayState::KincoPanel(k.kinco_panel())),
+                        None => d.display().map(DisplayState::CmmpAs),
+                    },
                 })
             }
             Target::Modbus(dev) => {

@@ -195,7 +195,8 @@ pub struct DriveView {
     pub state: Option<String>,
     /// The statusword bit by bit.
     pub status_bits: Vec<StatusBit>,
-    /// What the 7-segment display shows.
+    /// What the drive's display shows; `null` for a drive without one (the Nanotec, a
+    /// drive from its EDS).
     pub display: Option<String>,
 }
 
@@ -217,7 +218,7 @@ fn profile_name(desc: &DeviceDescription) -> String {
 
 pub(crate) fn display_text(d: &DisplayState) -> String {
     match d {
-        DisplayState::Cia402(d) => d.text().to_string(),
+        DisplayState::CmmpAs(d) => d.text().to_string(),
         DisplayState::Fhpp(s) => s.to_string(),
         DisplayState::KincoPanel(p) => p.text().to_string(),
     }

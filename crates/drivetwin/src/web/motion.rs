@@ -499,7 +499,7 @@ pub struct MotionView {
     pub history: Vec<ErrorView>,
     /// CMMO-ST: who holds device control (`fieldbus`, `web server`, `FCT`).
     pub device_control: Option<String>,
-    /// The 7-segment display.
+    /// The drive's display; `null` for a drive without one.
     pub display: Option<String>,
 }
 

@@ -59,7 +59,7 @@ impl Display {
 /// What the display of drive `d` shows with `warning` the active warning: the oldest error
 /// by its App. B number (a message raised by its number, else the first with the error's
 /// code), the warning, "H" for safe standstill, "A" while 6510h:C0 commissioning_state is 0.
-pub fn shown<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
+fn shown<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     d: &Drive<S, V>,
     warning: Option<Number>,
 ) -> Display {

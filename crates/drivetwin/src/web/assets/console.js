@@ -90,7 +90,9 @@ function showDrive(view) {
   const hex = (v, n) => "0x" + v.toString(16).toUpperCase().padStart(n, "0");
   $("#statusword").textContent = view.profile === "cia402" ? `6041h = ${hex(view.word, 4)}`
     : `SCON = ${hex(view.word & 0xFF, 2)} SPOS = ${hex(view.word >> 8, 2)}`;
+  // A drive without a display (null) shows none.
   $("#display").textContent = view.display ?? "";
+  $("#display-shown").hidden = view.display == null;
   $("#web-server-link").hidden = view.profile !== "fhpp";
   $("#web-server").href = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
   $("#active-error").textContent = view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none";
