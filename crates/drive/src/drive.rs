@@ -422,6 +422,9 @@ pub struct Drive<S, V> {
     pub(crate) over_threshold_since: Option<Instant>,
     pub(crate) homing_attained: bool,
     pub(crate) homing_error: bool,
+    /// Halt interrupted homing without an error (CiA 402); bit 4 must fall before a level
+    /// starts it again.
+    pub(crate) homing_interrupted: bool,
     pub(crate) referenced: bool,
     pub(crate) homing: HomingRun,
     pub(crate) homing_started: Instant,
@@ -634,6 +637,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             over_threshold_since: None,
             homing_attained: false,
             homing_error: false,
+            homing_interrupted: false,
             referenced: false,
             homing: HomingRun::Idle,
             homing_started: Instant::ZERO,

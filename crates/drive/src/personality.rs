@@ -182,6 +182,12 @@ pub trait Vendor: Sized {
         false
     }
 
+    /// Halt (controlword bit 8) during homing aborts it with statusword bit 13
+    /// homing_error. `false`, CiA 402's default: halt interrupts homing, which reads as
+    /// "interrupted or not started" (bits 13, 12 and 10 = 0, 0, 1 once stopped), not as an
+    /// error.
+    const HALT_IS_HOMING_ERROR: bool = false;
+
     /// The DC-link voltage in mV below which the drive reports its
     /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
     /// 402's default: the profile names no threshold object (its object 6079h

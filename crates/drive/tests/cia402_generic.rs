@@ -300,3 +300,40 @@ fn interpolated_position_from_60c1h_on_the_sync_grid() {
         Err(AbortCode::DEVICE_STATE)
     );
 }
+
+/// Halt during homing interrupts it (CiA 402: homing_error 0, homing_attained 0, target
+/// reached once stopped: "interrupted or not started"), not an error as on the CMMP-AS; with
+/// bit 4 still set it does not start again until bit 4 rises anew.
+#[test]
+fn halt_interrupts_homing_without_an_error() {
+    let (mut d, mut now) = drive();
+    let mut run = |d: &mut Drive<Vec<u8>, Cia402>, ms: u64| {
+        for _ in 0..ms {
+            now = now + Duration::from_millis(1);
+            d.step(now);
+        }
+    };
+    d.write(0x6060, 0, &[6]).unwrap();
+    d.write(0x6098, 0, &[17]).unwrap();
+    for cw in [0x06u16, 0x07, 0x0F] {
+        d.write(0x6040, 0, &cw.to_le_bytes()).unwrap();
+        run(&mut d, 5);
+    }
+    d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+    run(&mut d, 100);
+    assert!(signed(&d, 0x606C) != 0, "searching");
+    d.write(0x6040, 0, &0x11Fu16.to_le_bytes()).unwrap();
+    run(&mut d, 500);
+    assert_eq!(sw(&d) & 0x3400, 0x0400, "{:#06x}", sw(&d));
+    // Halt released, bit 4 still set: no new start.
+    d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+    run(&mut d, 200);
+    assert_eq!(signed(&d, 0x606C), 0);
+    assert_eq!(sw(&d) & 0x3400, 0x0400, "{:#06x}", sw(&d));
+    // A new rising edge of bit 4 starts it again.
+    d.write(0x6040, 0, &0x0Fu16.to_le_bytes()).unwrap();
+    run(&mut d, 2);
+    d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
+    run(&mut d, 100);
+    assert!(signed(&d, 0x606C) != 0, "searching again");
+}

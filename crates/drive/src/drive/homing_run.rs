@@ -7,14 +7,22 @@ use super::*;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
-    /// aborts it (Tab. 7.2); halt aborts with homing_error (ch. 6). The search of
+    /// aborts it (Tab. 7.2); halt aborts it, with homing_error where the vendor makes it
+    /// one ([`Vendor::HALT_IS_HOMING_ERROR`]). The search of
     /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
     /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
     pub(crate) fn homing(&mut self, cw: Controlword, dt: f64) {
         let bit4 = cw.contains(Controlword::HOMING_START);
         let idle = matches!(self.homing, HomingRun::Idle);
+        if !bit4 {
+            self.homing_interrupted = false;
+        }
         if self.cw_rising.contains(Controlword::HOMING_START)
-            || (bit4 && idle && !self.homing_attained && !self.homing_error)
+            || (bit4
+                && idle
+                && !self.homing_attained
+                && !self.homing_error
+                && !self.homing_interrupted)
         {
             self.start_homing();
         } else if !idle && !bit4 {
@@ -23,8 +31,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 then: Then::Nothing,
             };
         } else if !idle && self.halted && !matches!(self.homing, HomingRun::Brake { .. }) {
-            // ch. 6: halt aborts homing; homing_error is set.
-            self.homing_error = true;
+            // Halt aborts homing (CiA 402: interrupted); homing_error where the vendor says.
+            self.homing_error = V::HALT_IS_HOMING_ERROR;
+            self.homing_interrupted = !V::HALT_IS_HOMING_ERROR;
             self.homing = HomingRun::Brake {
                 then: Then::Nothing,
             };
@@ -180,6 +189,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     }
 
     fn start_homing(&mut self) {
+        self.homing_interrupted = false;
         self.homing_settle = None;
         self.homing_attained = false;
         self.homing_error = false;

@@ -198,6 +198,9 @@ pub struct CmmpAs {
 impl Vendor for CmmpAs {
     const MANUFACTURER_OBJECTS: bool = true;
 
+    /// Ch. 6: halt aborts homing and sets homing_error (statusword bit 13).
+    const HALT_IS_HOMING_ERROR: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&CMMP_AS, CmmpAs::default())
     }

@@ -68,6 +68,10 @@ pub struct Kinco {
 impl Vendor for Kinco {
     const MANUFACTURER_OBJECTS: bool = true;
 
+    /// The manual is silent on halt in homing; the abort is reported as homing_error, as
+    /// the twin has always run it.
+    const HALT_IS_HOMING_ERROR: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&super::KINCO, Kinco::default())
     }

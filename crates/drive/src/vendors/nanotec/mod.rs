@@ -344,6 +344,10 @@ pub struct Nanotec {
 impl Vendor for Nanotec {
     const MANUFACTURER_OBJECTS: bool = true;
 
+    /// §5.2 says only "halt: the motor stops"; the abort is reported as the CMMP-AS does
+    /// (homing_error), as the twin has always run it.
+    const HALT_IS_HOMING_ERROR: bool = true;
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&NANOTEC, Nanotec::default())
     }
