@@ -190,3 +190,37 @@ def test_a_broken_eds_in_a_cell_file_is_refused_with_its_line(tmp_path):
     r = run_cli("run", "--eds", str(other), "--virtual-seconds", "0.1")
     assert r.returncode != 0
     assert "[1000] DefaultValue: the device type 1000h does not name CiA 402" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("eds,node_id", [("epos4_like.eds", 3), ("lexium32_like.eds", 5)],
+                         ids=["maxon EPOS4", "Schneider Lexium 32"])
+def test_dummy_mapping_follows_dummy_usage(eds, node_id, launch, connect):
+    """CiA 306 [DummyUsage]: the EPOS4-like file allows the dummies 0002h-0007h, not 0001h;
+    the Lexium-like file none. python-canopen maps an allowed dummy into RPDO1 with its own
+    PdoMap (the dummies it read from the same section); a dummy the file does not allow is
+    refused with 0604 0041h (CiA 301: object cannot be mapped to the PDO)."""
+    import canopen
+
+    path = EDS_DIR / eds
+    twin = launch(node=node_id, extra=("--eds", str(path)))
+    net = connect(twin)
+    node = net.add_node(node_id, str(path))
+    node.sdo.RESPONSE_TIMEOUT = SDO_TIMEOUT
+    node.rpdo.read()
+    rpdo = node.rpdo[1]
+    allowed = 0x0002 in node.object_dictionary
+    assert allowed == (eds == "epos4_like.eds")
+    if allowed:
+        rpdo.clear()
+        rpdo.add_variable(0x0002)  # INTEGER8: one byte skipped
+        rpdo.add_variable(0x6040)
+        rpdo.save()
+        assert node.sdo[0x1600][1].raw == 0x00020008
+        assert node.sdo[0x1600][2].raw == 0x60400010
+    # Not allowed: 0001h in the EPOS4-like file, every dummy in the Lexium-like one.
+    refused = 0x00010008 if allowed else 0x00020008
+    node.sdo[0x1400][1].raw = node.sdo[0x1400][1].raw | 0x80000000
+    node.sdo[0x1600][0].raw = 0
+    with pytest.raises(canopen.SdoAbortedError) as e:
+        node.sdo[0x1600][1].raw = refused
+    assert e.value.code == 0x06040041
