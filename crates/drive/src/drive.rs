@@ -14,7 +14,7 @@ use crate::device_control::{DeviceControl, Reaction, Rules, State};
 use crate::digital_inputs::{Levels, SwitchConfig};
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
-use crate::interpolated_position::{period_from_60c2, Interpolator, SyncChange};
+use crate::interpolated_position::{Interpolator, SyncChange};
 use crate::motor::MotorData;
 use crate::personality::{self, ErrorReaction, Fault, Personality, Vendor};
 use crate::profile_position::{Job, Request, SetPoints};
@@ -757,7 +757,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The interpolator as at power-on: the period of 60C2h, the buffer open or locked as
     /// the vendor starts it.
     fn reset_interpolator(&mut self) {
-        self.ip.reset(interpolation_period(&self.od));
+        self.ip.reset(interpolation_period::<S, V>(&self.od));
         let open = V::ip_buffer_open_at_reset(self);
         self.ip.set_unlocked(open);
     }
@@ -1190,7 +1190,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 }
 
 /// 60C2h as the interpolation period; the default 1 ms for a value outside the ranges.
-pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(
+pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     od: &ObjectDictionary<S>,
 ) -> Duration {
     let units = od.get_unsigned(0x60C2, 1).unwrap_or(1);
@@ -1199,7 +1199,7 @@ pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>>(
         _ => -3,
     };
     match (u8::try_from(units), i8::try_from(index)) {
-        (Ok(u), Ok(i)) => period_from_60c2(u, i).unwrap_or(DEFAULT_IP_PERIOD),
+        (Ok(u), Ok(i)) => V::ip_period(u, i).unwrap_or(DEFAULT_IP_PERIOD),
         _ => DEFAULT_IP_PERIOD,
     }
 }

@@ -278,6 +278,18 @@ impl Interpolator {
     }
 }
 
+/// The interpolation period of 60C2h as CiA 402 defines it: ip_time_units × 10^ip_time_index
+/// s; `None` for a period of 0 or one the twin's nanoseconds cannot hold (index below −9 or
+/// above 3).
+pub fn period_of_60c2(units: u8, index: i8) -> Option<Duration> {
+    let exponent = u32::try_from(i32::from(index) + 9).ok()?;
+    if units == 0 || index > 3 {
+        return None;
+    }
+    let ns = 10u64.checked_pow(exponent)?.checked_mul(u64::from(units))?;
+    Some(Duration::from_nanos(ns))
+}
+
 /// The interpolation period of 60C2h (units × 10^index s); `None` outside the CMMP-AS ranges
 /// (index −3: 1…10 ms, index −4: 10…100 × 0.1 ms, CMMP-AS §7.4.2).
 pub fn period_from_60c2(units: u8, index: i8) -> Option<Duration> {
@@ -294,6 +306,19 @@ mod tests {
 
     fn ms(v: u64) -> Instant {
         Instant::from_millis(v)
+    }
+
+    #[test]
+    fn cia402_period_is_units_times_ten_to_the_index() {
+        assert_eq!(period_of_60c2(4, -3), Some(Duration::from_millis(4)));
+        assert_eq!(period_of_60c2(20, -3), Some(Duration::from_millis(20)));
+        assert_eq!(period_of_60c2(250, -6), Some(Duration::from_micros(250)));
+        assert_eq!(period_of_60c2(1, 0), Some(Duration::from_secs(1)));
+        assert_eq!(period_of_60c2(0, -3), None);
+        assert_eq!(period_of_60c2(1, -10), None);
+        assert_eq!(period_of_60c2(1, 4), None);
+        // The CMMP-AS takes 20 ms at −3 as outside its range.
+        assert_eq!(period_from_60c2(20, -3), None);
     }
 
     #[test]

@@ -205,6 +205,13 @@ pub trait Vendor: Sized {
         false
     }
 
+    /// The interpolation period 60C2h gives (ip_time_units, ip_time_index); `None`: outside
+    /// what the drive takes, which runs at the default 1 ms. CiA 402's default: units ×
+    /// 10^index s, any period the twin can hold.
+    fn ip_period(units: u8, index: i8) -> Option<core::time::Duration> {
+        crate::interpolated_position::period_of_60c2(units, index)
+    }
+
     /// Whether 60C1h interpolation_data_record takes set-points when the interpolator starts
     /// (power-on, reset). CiA 402's default: as 60C4h:06 buffer_clear says (1: access
     /// enabled), open where the drive has no 60C4h:06 to open it with.

@@ -260,6 +260,9 @@ fn interpolated_position_from_60c1h_on_the_sync_grid() {
         Err(AbortCode::DEVICE_STATE)
     );
     d.write(0x60C4, 6, &[1]).unwrap();
+    // Any period units × 10^index s (the CMMP-AS takes 1…10 ms at index −3 only).
+    d.write(0x60C2, 1, &[20]).unwrap();
+    assert_eq!(d.interpolation_period(), Duration::from_millis(20));
     d.write(0x60C2, 1, &[2]).unwrap();
     assert_eq!(d.interpolation_period(), Duration::from_millis(2));
     d.write(0x6060, 0, &[7]).unwrap();

@@ -191,7 +191,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// SYNC grid is checked against it from the next SYNC on.
     fn write_ip_period(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.od.write(index, sub, data)?;
-        self.ip.set_period(interpolation_period(&self.od));
+        self.ip.set_period(interpolation_period::<S, V>(&self.od));
         Ok(())
     }
 

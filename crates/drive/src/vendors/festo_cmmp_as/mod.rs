@@ -260,6 +260,11 @@ impl Vendor for CmmpAs {
         d.value(0x6510, 0x38) == 1
     }
 
+    /// §7.4.2: index −3 with 1…10 ms, index −4 with 10…100 × 0.1 ms.
+    fn ip_period(units: u8, index: i8) -> Option<core::time::Duration> {
+        crate::interpolated_position::period_from_60c2(units, index)
+    }
+
     /// §7.4.2: 60C1h is locked after power-on until 60C4h:06 buffer_clear = 1 is written.
     fn ip_buffer_open_at_reset<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
         false
