@@ -216,11 +216,7 @@ fn profile_name(desc: &DeviceDescription) -> String {
 }
 
 pub(crate) fn display_text(d: &DisplayState) -> String {
-    match d {
-        DisplayState::Cia402(d) => d.text().to_string(),
-        DisplayState::Fhpp(s) => s.to_string(),
-        DisplayState::KincoPanel(p) => p.text().to_string(),
-    }
+    d.text().to_owned()
 }
 
 /// The CiA 402 state the console shows for a statusword, `None` for bits no state has.
