@@ -659,3 +659,20 @@ impl ControlHandle {
         self.physics(drive, PhysicsChange::Switch(switch, actuated))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A display's text comes back as given; a text longer than any display's is cut on a
+    /// character, never inside one.
+    #[test]
+    fn a_display_keeps_its_text_cut_on_a_character() {
+        assert_eq!(DisplayState::new("-E081-").text(), "-E081-");
+        assert_eq!(DisplayState::new("F.0.0.1.2.").text(), "F.0.0.1.2.");
+        assert_eq!(DisplayState::new("").text(), "");
+        let long = "0123456789abcde°";
+        assert_eq!(long.len(), 17);
+        assert_eq!(DisplayState::new(long).text(), "0123456789abcde");
+    }
+}
