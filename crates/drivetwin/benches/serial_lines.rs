@@ -25,11 +25,12 @@ use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CellLoop, FrontEnds};
 use drivetwin::serial::pty::Port;
-use drivetwin::serial::rs232_line::{TelegramLine, Topology};
-use drivetwin::serial::rtu_line::{RtuDrive, RtuLine};
-use drivetwin::serial::setup::{open_lines, register_map, LineRequest};
 use drivetwin::serial::wire::Wire;
+use drivetwin::serial::LineRequest;
 use drivetwin::serial::{Kind, LineDrives};
+use drivetwin::vendors::kinco::rs232_line::{TelegramLine, Topology};
+use drivetwin::vendors::kinco::rtu_line::{RtuDrive, RtuLine};
+use drivetwin::vendors::kinco::serial_lines::{open_lines, register_map};
 use od::{Instant, ObjectAccess, ObjectDictionary};
 
 struct Plain(ObjectDictionary<Vec<u8>>);

@@ -19,8 +19,10 @@ use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
-use drivetwin::serial::setup::{virtual_lines, LineRequest};
 use drivetwin::serial::Kind;
+use drivetwin::serial::LineRequest;
+use drivetwin::vendors::kinco::rtu_line::RtuLine;
+use drivetwin::vendors::virtual_serial_lines as virtual_lines;
 
 fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
@@ -149,7 +151,8 @@ fn run() -> Outputs {
     );
     let rtu = lines
         .get(1)
-        .and_then(|l| l.counters().rtu)
+        .and_then(|l| l.protocol().as_any().downcast_ref::<RtuLine>())
+        .map(RtuLine::counters)
         .expect("the RTU line");
     assert_eq!((rtu.answered, rtu.bad_crc), (60, 0), "{rtu:?}");
     outputs

@@ -52,8 +52,9 @@ use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::serial::line::VirtualLine;
-use drivetwin::serial::setup::{virtual_lines, LineRequest};
 use drivetwin::serial::Kind;
+use drivetwin::serial::LineRequest;
+use drivetwin::vendors::virtual_serial_lines as virtual_lines;
 use ethercat::datagram::Command;
 use ethercat::frame::Address;
 

@@ -12,6 +12,7 @@ use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 use std::sync::Arc;
 use std::time::Duration;
 
+use drive::vendors::AnyDrive;
 use mio::Waker;
 use od::AbortCode;
 
@@ -41,16 +42,65 @@ pub enum Interface {
     Ethercat { chain: usize, position: usize },
 }
 
-/// What the drive's display shows.
+/// What the drive's display shows, as its characters read: a 7-segment display (the
+/// CMMP-AS's App. B, the CMMO-ST's) or an LED panel's digits with their points (the Kinco
+/// CD3 / FD3). Which display a drive has is its vendor's: [`DriveViews::display`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DisplayState {
-    /// The CMMP-AS 7-segment display (App. B).
-    CmmpAs(drive::vendors::festo_cmmp_as::display::Display),
-    /// The CMMO-ST 7-segment display.
-    Fhpp(drive::vendors::festo_cmmo_st::seven_segment::SevenSegment),
-    /// The Kinco CD3 / FD3 LED panel (five digits, their points, the blink).
-    KincoPanel(drive::vendors::kinco::panel::PanelDisplay),
+pub struct DisplayState {
+    text: [u8; DisplayState::MAX],
+    len: u8,
 }
+
+impl DisplayState {
+    /// The most bytes a display's text has (a panel's five digits, each with its point).
+    const MAX: usize = 16;
+
+    /// `text` as the display shows it (cut at 16 bytes, on a character).
+    pub fn new(text: &str) -> Self {
+        let mut end = text.len().min(Self::MAX);
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let mut buf = [0u8; Self::MAX];
+        let bytes = text.as_bytes().get(..end).unwrap_or_default();
+        if let Some(b) = buf.get_mut(..end) {
+            b.copy_from_slice(bytes);
+        }
+        DisplayState {
+            text: buf,
+            len: u8::try_from(end).unwrap_or(0),
+        }
+    }
+
+    /// The characters shown.
+    pub fn text(&self) -> &str {
+        self.text
+            .get(..usize::from(self.len))
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .unwrap_or_default()
+    }
+}
+
+/// What only a drive's vendor can tell the runtime about a CiA 402 drive, handed in by
+/// whoever builds the loop ([`crate::cell_loop::FrontEnds::views`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveViews {
+    /// What the drive's display shows; `None` for a drive whose manual names no display.
+    pub display: fn(&AnyDrive<Vec<u8>>) -> Option<DisplayState>,
+}
+
+impl Default for DriveViews {
+    /// The engine's display where the drive has one (the CMMP-AS's App. B 7-segment display).
+    fn default() -> Self {
+        DriveViews {
+            display: |d| d.display().map(|shown| DisplayState::new(&shown.text())),
+        }
+    }
+}
+
+/// Work on one CiA 402 drive in the loop's thread ([`ControlHandle::with_drive`]): it gets
+/// the drive, or why there is none, and sends its own answer.
+pub type DriveWork = Box<dyn FnOnce(Result<&mut AnyDrive<Vec<u8>>, ControlError>) + Send>;
 
 /// The plant of one drive at one time of the cell's clock.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -186,11 +236,10 @@ pub(crate) enum Command {
         samples: SyncSender<ObjectsSample>,
         reply: SyncSender<Result<(), ControlError>>,
     },
-    /// The Kinco LED panel: a key going down or up (none: only read the display).
-    Panel {
+    /// Work on a CiA 402 drive (a vendor's own API: the Kinco's LED panel).
+    WithDrive {
         drive: usize,
-        key: Option<(drive::vendors::kinco::panel::PanelKey, bool)>,
-        reply: SyncSender<Result<drive::vendors::kinco::panel::PanelDisplay, ControlError>>,
+        work: DriveWork,
     },
     /// The drive's supply (DC-link) voltage: `None` is the nominal one.
     SetSupply {
@@ -414,31 +463,25 @@ impl ControlHandle {
         Ok(rx)
     }
 
-    /// What the Kinco LED panel of drive `drive` shows.
-    pub fn panel(
+    /// Runs `work` on CiA 402 drive `drive` in the loop's thread, between two of its steps,
+    /// and returns what it returns: the way to a vendor's own API (the Kinco's LED panel),
+    /// which the runtime does not know. `work` gets [`ControlError::NoPlant`] for a drive that
+    /// is not a CiA 402 drive with its plant.
+    pub fn with_drive<T: Send + 'static>(
         &self,
         drive: usize,
-    ) -> Result<drive::vendors::kinco::panel::PanelDisplay, ControlError> {
-        self.ask(|reply| Command::Panel {
-            drive,
-            key: None,
-            reply,
-        })?
-    }
-
-    /// A key of the Kinco LED panel goes down (`pressed`) or up, at the cell's clock; the
-    /// display after it. MODE and SET act when released (a long press: held 1 s or more).
-    pub fn panel_key(
-        &self,
-        drive: usize,
-        key: drive::vendors::kinco::panel::PanelKey,
-        pressed: bool,
-    ) -> Result<drive::vendors::kinco::panel::PanelDisplay, ControlError> {
-        self.ask(|reply| Command::Panel {
-            drive,
-            key: Some((key, pressed)),
-            reply,
-        })?
+        work: impl FnOnce(Result<&mut AnyDrive<Vec<u8>>, ControlError>) -> Result<T, ControlError>
+            + Send
+            + 'static,
+    ) -> Result<T, ControlError> {
+        self.ask(
+            |reply: SyncSender<Result<T, ControlError>>| Command::WithDrive {
+                drive,
+                work: Box::new(move |d| {
+                    let _ = reply.send(work(d));
+                }),
+            },
+        )?
     }
 
     /// The supply of drive `drive` at `millivolts` (`None`: back to the nominal voltage of
@@ -613,5 +656,22 @@ impl ControlHandle {
         actuated: Option<bool>,
     ) -> Result<PlantPhysics, ControlError> {
         self.physics(drive, PhysicsChange::Switch(switch, actuated))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A display's text comes back as given; a text longer than any display's is cut on a
+    /// character, never inside one.
+    #[test]
+    fn a_display_keeps_its_text_cut_on_a_character() {
+        assert_eq!(DisplayState::new("-E081-").text(), "-E081-");
+        assert_eq!(DisplayState::new("F.0.0.1.2.").text(), "F.0.0.1.2.");
+        assert_eq!(DisplayState::new("").text(), "");
+        let long = "0123456789abcde°";
+        assert_eq!(long.len(), 17);
+        assert_eq!(DisplayState::new(long).text(), "0123456789abcde");
     }
 }

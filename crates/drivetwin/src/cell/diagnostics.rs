@@ -4,7 +4,6 @@
 //! its own supervision had raised the message (`drive::drive::diagnostics`).
 
 use drive::drive::diagnostics::{emcy_code, DiagnosticError};
-use drive::vendors::festo_cmmo_st::device::FhppDevice;
 use od::{Diagnostic, Instant};
 use serde::Deserialize;
 
@@ -130,39 +129,6 @@ pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
             row,
             emcy: Some(emcy_code(row)),
             active: d.diagnostic_active(row),
-        })
-        .collect()
-}
-
-/// Raises (or clears) message `number` of the CMMO-ST.
-pub fn set_fhpp(
-    dev: &mut FhppDevice<Vec<u8>>,
-    number: &str,
-    action: Action,
-) -> Result<&'static Diagnostic, DiagnosticError> {
-    let row = dev
-        .od()
-        .description()
-        .diagnostic(number)
-        .ok_or(DiagnosticError::Unknown)?;
-    match action {
-        Action::Raise => dev.raise_diagnostic(row.number).map(|_| ())?,
-        Action::Clear => dev.clear_diagnostic(row.number)?,
-    }
-    Ok(row)
-}
-
-/// The CMMO-ST's App. D with what is active.
-pub fn list_fhpp(dev: &FhppDevice<Vec<u8>>) -> Vec<DiagnosticState> {
-    dev.od()
-        .description()
-        .diagnostics
-        .iter()
-        .map(|row| DiagnosticState {
-            row,
-            emcy: None,
-            active: drive::vendors::festo_cmmo_st::diagnostics::number(row.number)
-                .is_some_and(|c| dev.diagnostic_active(c)),
         })
         .collect()
 }

@@ -200,22 +200,7 @@ impl Cell {
         self.deliver(now, out);
     }
 
-    /// A line typed at the CI terminal of drive `drive` (cell order); `None` without it.
-    pub fn ci_line(
-        &mut self,
-        drive: usize,
-        now: Instant,
-        line: &[u8],
-        out: &mut Vec<CanFrame>,
-    ) -> Option<drive::vendors::festo_cmmp_as::ci_terminal::Reply> {
-        let Cell { drives, queue, .. } = self;
-        let d = drives.get_mut(drive)?;
-        let reply = d.ci_line(now, line, &mut |f| queue.push_back((f, Some(drive))));
-        self.deliver(now, out);
-        Some(reply)
-    }
-
-    /// A local interface (a serial port) of drive `drive` (cell order) reaches its objects
+    /// A local interface (a serial port, a terminal) of drive `drive` (cell order) reaches its objects
     /// at `now` through `f`; the frames the drive sends meanwhile go to `out`.
     pub fn local_access(
         &mut self,

@@ -6,7 +6,6 @@ use std::io::{self, Read, Write};
 use std::net::SocketAddr;
 use std::time::Instant;
 
-use drive::vendors::festo_cmmp_as::ci_terminal::LineCutter;
 use mio::net::TcpStream;
 use mio::{Interest, Token};
 
@@ -21,18 +20,22 @@ impl CellLoop {
     pub(super) fn accept(&mut self, i: usize) {
         loop {
             let (accepted, console) = match self.listeners.get(i) {
-                Some(Listener::Console { listener, drive }) => (listener.accept(), Ok(*drive)),
+                Some(Listener::Console {
+                    listener,
+                    drive,
+                    terminal,
+                }) => (listener.accept(), Ok((*drive, *terminal))),
                 Some(Listener::Modbus { listener, drive }) => (listener.accept(), Err(*drive)),
                 None => return,
             };
             match accepted {
                 Ok((stream, peer)) => match console {
                     Err(modbus) => self.accept_modbus(stream, peer, modbus),
-                    Ok(drive) => {
+                    Ok((drive, terminal)) => {
                         tracing::info!(%peer, bus = drive.bus, drive = drive.drive, "CI terminal connected");
                         let kind = Kind::Console {
                             drive,
-                            lines: LineCutter::default(),
+                            terminal: terminal(),
                         };
                         self.add(stream, peer, kind);
                     }

@@ -1,42 +1,82 @@
-//! CI terminals on the loop: each complete line typed is answered by its drive at once.
+//! Terminals on the loop: a drive's line-based console on a TCP port (the CMMP-AS's CI
+//! terminal). The loop owns the connection and reaches the drive; the terminal, a vendor's
+//! protocol handed in by whoever builds the [`super::FrontEnds`], cuts the lines and answers
+//! them on the drive's objects. Each complete line is answered at once.
 
 use std::time::Instant;
 
-use drive::vendors::festo_cmmp_as::ci_terminal::{self, syntax_error, Cut};
+use od::ObjectAccess;
 
 use super::{CellLoop, Connection, Kind};
 use crate::cell::OnBus;
 
+/// A drive's terminal: the protocol of the lines typed at it. It reaches the drive as a
+/// local interface does ([`crate::cell::Cell::local_access`]): reads as they are, writes as
+/// SDO downloads of the drive's node.
+pub trait Terminal: Send {
+    /// Takes one byte typed; what it completed, if anything.
+    fn push(&mut self, byte: u8) -> Option<Typed>;
+    /// Appends the answer to `line`, on the drive's objects `od`, with its line end.
+    fn answer(&mut self, line: &[u8], od: &mut dyn ObjectAccess, answer: &mut Vec<u8>);
+    /// Appends the answer to a line that reaches no drive or is too long, with its line end.
+    fn refuse(&mut self, answer: &mut Vec<u8>);
+}
+
+/// What a byte typed at a [`Terminal`] completed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Typed {
+    /// A line, without its end.
+    Line(Vec<u8>),
+    /// A line longer than any the terminal takes; its bytes are gone.
+    TooLong,
+}
+
+/// A new terminal, one for each connection.
+pub type NewTerminal = fn() -> Box<dyn Terminal>;
+
+/// A drive's terminal on a TCP port, bound before the loop starts.
+pub struct TerminalPort {
+    pub listener: std::net::TcpListener,
+    /// Its drive.
+    pub drive: OnBus,
+    /// Its protocol.
+    pub terminal: NewTerminal,
+}
+
 impl CellLoop {
-    /// Bytes typed at a CI terminal: each complete line is answered by its drive at once.
+    /// Bytes typed at a terminal: each complete line is answered by its drive at once.
     pub(super) fn console_bytes(&mut self, slot: usize, drive: OnBus, bytes: &[u8], now: Instant) {
         let t = self.now(now);
         for &b in bytes {
             let Some(Some(Connection {
-                kind: Kind::Console { lines, .. },
+                kind: Kind::Console { terminal, .. },
                 ..
             })) = self.slots.get_mut(slot)
             else {
                 return;
             };
-            let reply = match lines.push(b) {
+            let mut answer = Vec::new();
+            match terminal.push(b) {
                 None => continue,
-                Some(Cut::TooLong) => syntax_error(),
-                Some(Cut::Line(line)) => {
+                Some(Typed::TooLong) => terminal.refuse(&mut answer),
+                Some(Typed::Line(line)) => {
                     let mut out = std::mem::take(&mut self.out);
-                    let reply = self
-                        .buses
-                        .get_mut(drive.bus)
-                        .and_then(|b| b.cell.ci_line(drive.drive, t, &line, &mut out))
-                        .unwrap_or_else(syntax_error);
+                    let mut answered = false;
+                    if let Some(bus) = self.buses.get_mut(drive.bus) {
+                        bus.cell.local_access(drive.drive, t, &mut out, &mut |od| {
+                            terminal.answer(&line, od, &mut answer);
+                            answered = true;
+                        });
+                    }
+                    if !answered {
+                        terminal.refuse(&mut answer);
+                    }
                     self.drives_sent(drive.bus, now, &mut out);
                     self.out = out;
-                    reply
                 }
-            };
+            }
             if let Some(Some(conn)) = self.slots.get_mut(slot) {
-                conn.pending.extend_from_slice(reply.as_bytes());
-                conn.pending.push(ci_terminal::ANSWER_END);
+                conn.pending.extend_from_slice(&answer);
             }
         }
         self.mark_dirty(slot);

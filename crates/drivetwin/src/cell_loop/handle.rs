@@ -158,21 +158,7 @@ impl CellLoop {
                     });
                     let _ = reply.send(done);
                 }
-                Command::Panel { drive, key, reply } => {
-                    let d = self.cia402_mut(drive).map_err(|e| match e {
-                        ControlError::NoPlant(_) => ControlError::NoPanel(drive),
-                        e => e,
-                    });
-                    let _ = reply.send(d.and_then(|d| {
-                        let Some(d) = d.as_kinco_mut() else {
-                            return Err(ControlError::NoPanel(drive));
-                        };
-                        if let Some((key, pressed)) = key {
-                            d.kinco_panel_key(key, pressed);
-                        }
-                        Ok(d.kinco_panel())
-                    }));
-                }
+                Command::WithDrive { drive, work } => work(self.cia402_mut(drive)),
                 Command::SetSupply {
                     drive,
                     millivolts,
@@ -257,7 +243,7 @@ impl CellLoop {
         use crate::cell::diagnostics as diag;
         Ok(match self.target(drive)? {
             Target::Can(model) => diag::list_model(model),
-            Target::Modbus(dev) => diag::list_fhpp(&lock(&dev)),
+            Target::Modbus(dev) => crate::modbus_tcp::fhpp::list_diagnostics(&lock(&dev)),
         })
     }
 
@@ -270,7 +256,9 @@ impl CellLoop {
         use crate::cell::diagnostics as diag;
         match self.target(drive)? {
             Target::Can(model) => diag::set_model(model, number, action),
-            Target::Modbus(dev) => diag::set_fhpp(&mut lock(&dev), number, action),
+            Target::Modbus(dev) => {
+                crate::modbus_tcp::fhpp::set_diagnostic(&mut lock(&dev), number, action)
+            }
         }
         .map_err(ControlError::Diagnostic)
     }
@@ -451,6 +439,7 @@ impl CellLoop {
 
     fn sample(&mut self, drive: usize, now: Instant) -> Result<PlantSample, ControlError> {
         let at = now.saturating_duration_since(self.origin);
+        let views = self.views;
         match self.target(drive)? {
             Target::Can(model) => {
                 let inputs = od::ObjectAccess::read_u32(&*model, 0x60FD, 0).unwrap_or(0);
@@ -466,10 +455,7 @@ impl CellLoop {
                         current_ma: axis.current_ma(),
                         digital_inputs: inputs,
                     },
-                    display: match d.as_kinco() {
-                        Some(k) => Some(DisplayState::KincoPanel(k.kinco_panel())),
-                        None => d.display().map(DisplayState::CmmpAs),
-                    },
+                    display: (views.display)(d),
                 })
             }
             Target::Modbus(dev) => {
@@ -480,7 +466,7 @@ impl CellLoop {
                         position_si: dev.actual_position_si(),
                         load_torque_nm: dev.stepper().load_torque(),
                     },
-                    display: Some(DisplayState::Fhpp(dev.seven_segment())),
+                    display: Some(DisplayState::new(&dev.seven_segment().to_string())),
                 })
             }
         }
@@ -509,45 +495,11 @@ impl CellLoop {
         drive: usize,
         request: crate::cell::control::FhppRequest,
     ) -> Result<crate::cell::control::FhppState, ControlError> {
-        use crate::cell::control::{FhppRequest, FhppState};
         let Target::Modbus(dev) = self.target(drive)? else {
             return Err(ControlError::NoPlant(drive));
         };
         let mut dev = lock(&dev);
-        let mut refused = None;
-        match request {
-            FhppRequest::Status => {}
-            FhppRequest::SetOutputs(image) => {
-                // Eight bytes are always a valid FHPP Standard telegram.
-                let _ = dev.set_outputs(&image);
-            }
-            FhppRequest::DeviceControl(true) => {
-                if let Err(e) = dev.fhpp_mut().request_local_control(
-                    ::drive::vendors::festo_cmmo_st::fhpp::Authority::WebServer,
-                ) {
-                    refused = Some(e.fpc_error());
-                }
-            }
-            FhppRequest::DeviceControl(false) => {
-                if dev.fhpp().authority()
-                    == ::drive::vendors::festo_cmmo_st::fhpp::Authority::WebServer
-                {
-                    dev.fhpp_mut().release_local_control();
-                }
-            }
-        }
-        Ok(FhppState {
-            inputs: dev.inputs(),
-            outputs: dev.outputs().to_bytes(),
-            authority: dev.fhpp().authority(),
-            fault: dev.fault_number(),
-            memory: dev
-                .diagnostic_memory()
-                .iter()
-                .map(|e| (e.event.value(), e.number, e.time_ms))
-                .collect(),
-            refused,
-        })
+        Ok(crate::modbus_tcp::fhpp::console_request(&mut dev, request))
     }
 }
 

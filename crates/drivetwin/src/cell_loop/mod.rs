@@ -40,13 +40,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
-use drive::vendors::festo_cmmp_as::ci_terminal::LineCutter;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
-use crate::cell::control::{Command, ControlHandle, PlantSample};
+use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, Wire};
 use crate::cell::{Cell, OnBus};
@@ -59,6 +58,7 @@ use ethercat_chains::Buses;
 mod can_bus;
 mod connections;
 mod console;
+pub use console::{NewTerminal, Terminal, TerminalPort, Typed};
 mod ethercat_chains;
 mod fine_timer;
 mod handle;
@@ -146,8 +146,9 @@ struct ChainState {
 pub struct FrontEnds {
     /// The cell's CAN buses (at most [`MAX_BUSES`]).
     pub buses: Vec<CanBus>,
-    /// CI terminals: a listener and its drive.
-    pub ci_terminals: Vec<(std::net::TcpListener, OnBus)>,
+    /// Terminals of drives (the CMMP-AS's CI terminal): a listener, its drive and its
+    /// protocol.
+    pub ci_terminals: Vec<TerminalPort>,
     /// Drives on Modbus TCP (the CMMO-ST), each with its own listener.
     pub modbus: Vec<ModbusDrive>,
     /// EtherCAT chains (at most [`MAX_CHAINS`]).
@@ -160,6 +161,8 @@ pub struct FrontEnds {
     /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
     /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
     pub busy_poll: bool,
+    /// What only the drives' vendors tell (the display a drive has).
+    pub views: DriveViews,
 }
 
 /// A bus while the loop runs.
@@ -226,6 +229,7 @@ pub struct CellLoop {
     frame: Vec<u8>,
     rt_priority: Option<u8>,
     busy_poll: bool,
+    views: DriveViews,
     /// Connections that had more to read than one turn takes.
     more_to_read: Vec<usize>,
     /// Connections with bytes to write before the loop waits again.
@@ -265,8 +269,15 @@ enum SampleSink {
 }
 
 enum Listener {
-    Console { listener: TcpListener, drive: OnBus },
-    Modbus { listener: TcpListener, drive: usize },
+    Console {
+        listener: TcpListener,
+        drive: OnBus,
+        terminal: NewTerminal,
+    },
+    Modbus {
+        listener: TcpListener,
+        drive: usize,
+    },
 }
 
 /// Where a frame on the cell's bus came from (it is not sent back there).
@@ -307,7 +318,7 @@ enum Kind {
     },
     Console {
         drive: OnBus,
-        lines: LineCutter,
+        terminal: Box<dyn Terminal>,
     },
     Modbus {
         drive: usize,
@@ -402,11 +413,12 @@ impl CellLoop {
             )?;
         }
         let mut listeners = Vec::new();
-        for (l, drive) in front.ci_terminals {
-            l.set_nonblocking(true)?;
+        for port in front.ci_terminals {
+            port.listener.set_nonblocking(true)?;
             listeners.push(Listener::Console {
-                listener: TcpListener::from_std(l),
-                drive,
+                listener: TcpListener::from_std(port.listener),
+                drive: port.drive,
+                terminal: port.terminal,
             });
         }
         for (drive, m) in front.modbus.iter_mut().enumerate() {
@@ -457,6 +469,7 @@ impl CellLoop {
             frame: vec![0; crate::ecat::MAX_FRAME],
             rt_priority: front.rt_priority,
             busy_poll: front.busy_poll,
+            views: front.views,
             more_to_read: Vec::new(),
             dirty: Vec::new(),
             out: Vec::with_capacity(256),

@@ -122,7 +122,7 @@ pub fn run_virtual_mixed(
 }
 
 /// [`run_virtual_mixed`] with the serial lines `lines` (built by
-/// [`crate::serial::setup::virtual_lines`]) on the same clock: their wire times, frame ends
+/// [`crate::vendors::virtual_serial_lines`]) on the same clock: their wire times, frame ends
 /// and answers are deadlines like the others; at one instant they come after the chains and
 /// before the input. A line's answers go to `sink` when they have crossed.
 pub fn run_virtual_lines(

@@ -3,7 +3,7 @@ use drivetwin::can::socketcand::ServerConfig;
 use drivetwin::cell::bus_rate::BusRate;
 use drivetwin::cell::config::BusSection;
 use drivetwin::cell::OnBus;
-use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds};
+use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, TerminalPort};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
@@ -458,6 +458,7 @@ async fn prepare_cell(
         serial,
         rt_priority: args.rt_priority,
         busy_poll: args.busy_poll,
+        views: drivetwin::vendors::DRIVE_VIEWS,
         ..FrontEnds::default()
     };
     for (b, ((cell, section), rate)) in cells.into_iter().zip(&buses).zip(&rates).enumerate() {
@@ -559,7 +560,7 @@ fn ci_consoles(
     file: &CellFile,
     in_cell: &[Option<OnBus>],
     first: Option<&str>,
-) -> Result<Vec<(std::net::TcpListener, OnBus)>, CommandError> {
+) -> Result<Vec<TerminalPort>, CommandError> {
     let mut consoles = Vec::new();
     for (i, d) in file.drive.iter().enumerate() {
         let cli = if i == 0 { first } else { None };
@@ -578,7 +579,11 @@ fn ci_consoles(
         let listener = ci_console::bind(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
         let local = listener.local_addr().map_err(io("CI terminal address"))?;
         out!("CI terminal of drive {} on {local}", i + 1);
-        consoles.push((listener, drive));
+        consoles.push(TerminalPort {
+            listener,
+            drive,
+            terminal: drivetwin::vendors::CI_TERMINAL,
+        });
     }
     Ok(consoles)
 }
@@ -592,8 +597,8 @@ fn serial_lines(
     first_cell: bool,
     cells: &[Cell],
 ) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
-    use drivetwin::serial::setup::{open_lines, LineRequest};
-    use drivetwin::serial::Kind;
+    use drivetwin::serial::{Kind, LineRequest};
+    use drivetwin::vendors::open_serial_lines;
     let mut requests = Vec::new();
     for (i, d) in file.drive.iter().enumerate() {
         // The command line's ports are the first drive's of the first cell.
@@ -628,7 +633,8 @@ fn serial_lines(
             requests.push(LineRequest { kind, path, drive });
         }
     }
-    let lines = open_lines(&requests, cells).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let lines =
+        open_serial_lines(&requests, cells).map_err(|e| CommandError::Usage(e.to_string()))?;
     for l in &lines {
         match l.port().pty_name() {
             Some(pty) => out!(
@@ -660,12 +666,7 @@ fn cell_modbus_drives(
         let local = listener.local_addr().map_err(io("Modbus address"))?;
         out!("modbus server on {local}");
         let config = modbus_config(fhpp, args);
-        drives.push(ModbusDrive::new(
-            listener,
-            std::sync::Arc::new(std::sync::Mutex::new(dev)),
-            config,
-            store,
-        ));
+        drives.push(ModbusDrive::new(listener, dev, config, store));
     }
     Ok(drives)
 }
@@ -880,14 +881,7 @@ fn cmmo_st_device(
     spec: &DriveSpec,
     fhpp: &FhppSpec,
     args: &RunArgs,
-) -> Result<
-    (
-        ::drive::vendors::festo_cmmo_st::device::FhppDevice<Vec<u8>>,
-        Option<ParamStore>,
-    ),
-    CommandError,
-> {
-    use ::drive::vendors::festo_cmmo_st::device::FhppDevice;
+) -> Result<(fhpp_modbus::SharedDevice, Option<ParamStore>), CommandError> {
     let desc = spec.desc;
     let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
         .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
@@ -896,14 +890,14 @@ fn cmmo_st_device(
             od.store(e, &c.bytes);
         }
     }
-    let mut dev = FhppDevice::new(od, fhpp.settings);
+    let dev = fhpp_modbus::shared_device(od, fhpp.settings);
     let store = args
         .state_dir
         .as_ref()
         .map(|dir| ParamStore::new(dir, desc.name, spec.node));
     out!("drive {} ({})", desc.name, desc.product_name);
     if let Some(store) = &store {
-        match fhpp_modbus::power_on(&mut dev, store) {
+        match fhpp_modbus::power_on(&dev, store) {
             Ok(()) => out!("permanent memory in {}", store.memory_path().display()),
             Err(e) => tracing::warn!("{e}"),
         }
@@ -934,7 +928,6 @@ async fn prepare_cmmo_st(
     ),
     CommandError,
 > {
-    use std::sync::{Arc, Mutex};
     let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
     let listener = tokio::net::TcpListener::bind(addr)
         .await
@@ -949,5 +942,5 @@ async fn prepare_cmmo_st(
         }
     };
     let options = fhpp_modbus::ServeOptions { config, io, store };
-    Ok((listener, Arc::new(Mutex::new(dev)), options))
+    Ok((listener, dev, options))
 }

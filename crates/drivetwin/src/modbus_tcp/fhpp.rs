@@ -1,6 +1,9 @@
 //! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3):
 //! the [`RegisterMap`] that puts the FHPP cyclic telegrams on Modbus registers, and the
-//! runner that serves it and steps the device on the real clock.
+//! runner that serves it and steps the device on the real clock; and what the runtime does
+//! with a CMMO-ST beside its registers: power-on ([`shared_device`], [`power_on`]), the web
+//! console's requests ([`console_request`]) and the diagnostics raised and listed from
+//! outside ([`set_diagnostic`], [`list_diagnostics`]).
 //!
 //! The register map, as the manual gives it:
 //!
@@ -32,14 +35,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use drive::vendors::festo_cmmo_st::device::{diag, pnu_index, FhppDevice};
+use drive::drive::diagnostics::DiagnosticError;
+use drive::vendors::festo_cmmo_st::device::{diag, pnu_index, FhppDevice, FhppSettings};
 use drive::vendors::festo_cmmo_st::fhpp::parameter_file::FormatError;
+use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
 };
-use od::ObjectAccess;
+use od::{Diagnostic, ObjectAccess};
 use tokio::net::TcpListener;
 
+use crate::cell::control::{FhppRequest, FhppState};
+use crate::cell::diagnostics::{Action, DiagnosticState};
 use crate::cell::param_store::{ParamStore, StoreError};
 use crate::modbus_tcp::cycle_server;
 use crate::modbus_tcp::server::{serve, ModbusConfig};
@@ -228,11 +235,18 @@ pub enum PowerOnError {
     },
 }
 
+/// A CMMO-ST on the dictionary `od` (its defaults and commissioning values) with the cell
+/// file's `settings`, as the runtime shares it.
+pub fn shared_device(od: od::ObjectDictionary<Vec<u8>>, settings: FhppSettings) -> SharedDevice {
+    Arc::new(Mutex::new(FhppDevice::new(od, settings)))
+}
+
 /// Power-on: the permanent memory `store` kept becomes the device's, and its values active.
 /// A file that cannot be read or is not a parameter file of this device (damaged, another
 /// firmware) is reported and the device keeps its factory settings; the file stays for the
 /// user to look at until the next save replaces it.
-pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<(), PowerOnError> {
+pub fn power_on(device: &SharedDevice, store: &ParamStore) -> Result<(), PowerOnError> {
+    let mut device = lock(device);
     match store.load_memory()? {
         None => Ok(()),
         Some(file) => {
@@ -361,6 +375,74 @@ fn serve_async(
             }
         }
     });
+}
+
+/// Raises (or clears) message `number` of the CMMO-ST.
+pub fn set_diagnostic(
+    dev: &mut FhppDevice<Vec<u8>>,
+    number: &str,
+    action: Action,
+) -> Result<&'static Diagnostic, DiagnosticError> {
+    let row = dev
+        .od()
+        .description()
+        .diagnostic(number)
+        .ok_or(DiagnosticError::Unknown)?;
+    match action {
+        Action::Raise => dev.raise_diagnostic(row.number).map(|_| ())?,
+        Action::Clear => dev.clear_diagnostic(row.number)?,
+    }
+    Ok(row)
+}
+
+/// The CMMO-ST's App. D with what is active.
+pub fn list_diagnostics(dev: &FhppDevice<Vec<u8>>) -> Vec<DiagnosticState> {
+    dev.od()
+        .description()
+        .diagnostics
+        .iter()
+        .map(|row| DiagnosticState {
+            row,
+            emcy: None,
+            active: drive::vendors::festo_cmmo_st::diagnostics::number(row.number)
+                .is_some_and(|c| dev.diagnostic_active(c)),
+        })
+        .collect()
+}
+
+/// A request of the web console on the CMMO-ST's FHPP side
+/// ([`crate::cell::control::ControlHandle::fhpp`]), and its state after it.
+pub fn console_request(dev: &mut FhppDevice<Vec<u8>>, request: FhppRequest) -> FhppState {
+    let mut refused = None;
+    match request {
+        FhppRequest::Status => {}
+        FhppRequest::SetOutputs(image) => {
+            // Eight bytes are always a valid FHPP Standard telegram.
+            let _ = dev.set_outputs(&image);
+        }
+        FhppRequest::DeviceControl(true) => {
+            if let Err(e) = dev.fhpp_mut().request_local_control(Authority::WebServer) {
+                refused = Some(e.fpc_error());
+            }
+        }
+        FhppRequest::DeviceControl(false) => {
+            if dev.fhpp().authority() == Authority::WebServer {
+                dev.fhpp_mut().release_local_control();
+            }
+        }
+    }
+    FhppState {
+        inputs: dev.inputs(),
+        outputs: dev.outputs().to_bytes(),
+        authority: dev.fhpp().authority(),
+        fault: dev.fault_number(),
+        memory: dev
+            .diagnostic_memory()
+            .iter()
+            .map(|e| (e.event.value(), e.number, e.time_ms))
+            .collect(),
+        refused,
+    }
 }
 
 #[cfg(test)]

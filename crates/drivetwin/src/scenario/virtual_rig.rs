@@ -20,6 +20,7 @@ use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link, Wire};
 use crate::cell::station::Station;
 use crate::cell::Cell;
+use crate::modbus_tcp::server::lock;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 
@@ -528,9 +529,10 @@ impl VirtualRig {
                 }
             }
             Action::Diagnostic { number, raise, .. } => {
-                use crate::cell::diagnostics::{set_fhpp, Action};
+                use crate::cell::diagnostics::Action;
+                use crate::modbus_tcp::fhpp::set_diagnostic;
                 let action = if *raise { Action::Raise } else { Action::Clear };
-                set_fhpp(&mut lock(&dev), number, action)
+                set_diagnostic(&mut lock(&dev), number, action)
                     .map(|_| ())
                     .map_err(|e| format!("{e:?}"))
             }
@@ -580,24 +582,12 @@ fn cmmo_st(
             od.store(e, &c.bytes);
         }
     }
-    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, fhpp.settings);
+    let dev = crate::modbus_tcp::fhpp::shared_device(od, fhpp.settings);
     let mut config = crate::modbus_tcp::server::ModbusConfig::default();
     if let Some(ms) = fhpp.watchdog_ms {
         config.watchdog_ms = ms;
     }
-    Ok(
-        crate::modbus_tcp::cell_drive::ModbusDrive::without_listener(
-            std::sync::Arc::new(std::sync::Mutex::new(dev)),
-            config,
-            None,
-        ),
-    )
-}
-
-fn lock(
-    dev: &crate::modbus_tcp::fhpp::SharedDevice,
-) -> std::sync::MutexGuard<'_, drive::vendors::festo_cmmo_st::device::FhppDevice<Vec<u8>>> {
-    crate::modbus_tcp::server::lock(dev)
+    Ok(crate::modbus_tcp::cell_drive::ModbusDrive::without_listener(dev, config, None))
 }
 
 /// Little-endian bytes as a number (at most 8).

@@ -12,26 +12,35 @@ use std::path::{Path, PathBuf};
 use od::Instant;
 
 use super::pty::{Port, PortError};
-use super::rs232_line::{TelegramCounters, TelegramLine};
-use super::rtu_line::{RtuCounters, RtuLine};
 use super::wire::{Wire, WireCounters};
 use super::{Kind, LineDrives};
 
 /// Bytes read from a port per turn of the loop at most (a flood does not starve the rest).
 const READS_PER_TURN: usize = 16;
 
-/// The protocol a line speaks.
-pub enum Protocol {
-    Telegrams(TelegramLine),
-    Rtu(Box<RtuLine>),
+/// The protocol a line speaks with its drives: a vendor's (the Kinco telegrams, its Modbus
+/// RTU), handed in by whoever builds the line. It takes the bytes as they complete on the
+/// wire and writes its answers onto the wire.
+pub trait LineProtocol: Send {
+    /// Byte `byte` has arrived at `at`.
+    fn on_byte(&mut self, at: Instant, byte: u8, drives: &mut dyn LineDrives, wire: &mut Wire);
+    /// The line's own work at `now` (a frame ended by silence), after the bytes arrived.
+    fn poll(&mut self, _now: Instant, _drives: &mut dyn LineDrives, _wire: &mut Wire) {}
+    /// When [`LineProtocol::poll`] has work next.
+    fn deadline(&self) -> Option<Instant> {
+        None
+    }
+    /// The protocol itself, for what only its own type tells (its counters).
+    fn as_any(&self) -> &dyn std::any::Any;
 }
 
-/// Everything a line counted.
+/// The protocol a line speaks.
+pub type Protocol = Box<dyn LineProtocol>;
+
+/// What a line counted on its wire (its protocol's own counts: [`LineCore::protocol`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct LineCounters {
     pub wire: WireCounters,
-    pub telegrams: Option<TelegramCounters>,
-    pub rtu: Option<RtuCounters>,
 }
 
 /// A line's wire and protocol with its drives, without a port: what the cell loop's
@@ -58,15 +67,12 @@ impl LineCore {
     pub fn counters(&self) -> LineCounters {
         LineCounters {
             wire: self.wire.counters(),
-            telegrams: match &self.protocol {
-                Protocol::Telegrams(t) => Some(t.counters()),
-                Protocol::Rtu(_) => None,
-            },
-            rtu: match &self.protocol {
-                Protocol::Rtu(r) => Some(r.counters()),
-                Protocol::Telegrams(_) => None,
-            },
         }
+    }
+
+    /// The protocol the line speaks.
+    pub fn protocol(&self) -> &dyn LineProtocol {
+        &*self.protocol
     }
 
     /// The host wrote `bytes` at `now`.
@@ -82,14 +88,9 @@ impl LineCore {
         let arrived = &mut self.arrived;
         self.wire.arrived(now, &mut |at, b| arrived.push((at, b)));
         for &(at, b) in &self.arrived {
-            match &mut self.protocol {
-                Protocol::Telegrams(t) => t.on_byte(at, b, drives, &mut self.wire),
-                Protocol::Rtu(r) => r.on_byte(at, b, drives, &mut self.wire),
-            }
+            self.protocol.on_byte(at, b, drives, &mut self.wire);
         }
-        if let Protocol::Rtu(r) = &mut self.protocol {
-            r.poll(now, drives, &mut self.wire);
-        }
+        self.protocol.poll(now, drives, &mut self.wire);
         self.wire.crossed(now)
     }
 
@@ -99,11 +100,7 @@ impl LineCore {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        let protocol = match &self.protocol {
-            Protocol::Rtu(r) => r.deadline(),
-            Protocol::Telegrams(_) => None,
-        };
-        od::time::earliest(self.wire.deadline(), protocol)
+        od::time::earliest(self.wire.deadline(), self.protocol.deadline())
     }
 }
 
@@ -145,6 +142,11 @@ impl SerialLine {
 
     pub fn counters(&self) -> LineCounters {
         self.core.counters()
+    }
+
+    /// The protocol the line speaks.
+    pub fn protocol(&self) -> &dyn LineProtocol {
+        self.core.protocol()
     }
 
     /// The port has bytes (read at `now`).
@@ -211,6 +213,11 @@ impl VirtualLine {
 
     pub fn counters(&self) -> LineCounters {
         self.core.counters()
+    }
+
+    /// The protocol the line speaks.
+    pub fn protocol(&self) -> &dyn LineProtocol {
+        self.core.protocol()
     }
 
     /// The host writes `bytes` at `now`.

@@ -1,13 +1,11 @@
-//! The serial ports of a drive: the Kinco FD3 / CD3 answer on RS232 (the 10-byte telegrams, Kinco
-//! manual ch. 10) and on RS485 (Modbus RTU, ch. 12) at the same time as on CANopen, all three on
-//! the same objects.
+//! The serial ports of a drive (RS232, RS485), served at the same time as its other front
+//! ends, on the same objects. The protocols on them are the vendors' (the Kinco FD3 / CD3's
+//! 10-byte telegrams and its Modbus RTU, `crate::vendors`), handed in as a
+//! [`line::LineProtocol`] by whoever builds the lines.
 //!
 //! - [`pty`]: the file behind a line, a pseudo-terminal the twin makes (PATH a link to it) or
 //!   a real device;
 //! - [`wire`]: the time bytes take on the line at its baud rate (pure);
-//! - [`rs232_line`]: the telegram protocol on a line, point to point, a ring, or on RS485;
-//! - [`rtu_line`]: Modbus RTU on an RS485 line, frames cut by the 3.5-character silence,
-//!   several drives by station number;
 //! - [`line`](mod@line): a line as the cell loop serves it: port, wire and protocol together.
 //!
 //! The cell loop ([`crate::cell_loop`]) owns the ports' descriptors with its other
@@ -17,9 +15,6 @@
 
 pub mod line;
 pub mod pty;
-pub mod rs232_line;
-pub mod rtu_line;
-pub mod setup;
 pub mod wire;
 
 use od::{Instant, ObjectAccess};
@@ -34,13 +29,12 @@ pub trait LineDrives {
     fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess));
 }
 
-/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
-/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it
-/// does not list.
-pub fn baud_of_code(code: u64) -> Option<u32> {
-    u16::try_from(code)
-        .ok()
-        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
+/// A drive's port on a path: drives that name one path share its line.
+#[derive(Debug, Clone)]
+pub struct LineRequest {
+    pub kind: Kind,
+    pub path: std::path::PathBuf,
+    pub drive: OnBus,
 }
 
 /// A serial port of a drive.
@@ -69,17 +63,9 @@ pub fn has_port(device: &str, kind: Kind) -> bool {
 mod tests {
     use super::*;
 
-    /// KINCO-232-10: the codes fit 10 368 000 / bit rate.
+    /// The ports are the device files' `interfaces` (Kinco §1.1, Tab. 3-7).
     #[test]
-    fn kinco_232_10_baud_rate_codes() {
-        assert_eq!(baud_of_code(540), Some(19_200));
-        assert_eq!(baud_of_code(270), Some(38_400));
-        assert_eq!(baud_of_code(90), Some(115_200));
-        assert_eq!(baud_of_code(1080), Some(9600));
-        assert_eq!(baud_of_code(0), None);
-        // 180 would be 57600 by the formula, but the manual lists no such code.
-        assert_eq!(baud_of_code(180), None);
-        assert_eq!(baud_of_code(0x1_0000 + 270), None);
+    fn ports_are_the_device_files_interfaces() {
         assert!(has_port("kinco-fd3", Kind::Rs485));
         assert!(!has_port("kinco-cd3", Kind::Rs485));
         assert!(!has_port("cmmp-as", Kind::Rs232));

@@ -5,6 +5,13 @@
 //! hands them (`scripts/structure` checks it):
 //!
 //! - [`WEB_PAGES`]: the devices' own pages of the web console ([`crate::web::DevicePages`]);
+//! - [`DRIVE_VIEWS`]: what the runtime shows of a drive that only its vendor knows (the
+//!   Kinco's LED panel as its display), [`crate::cell::control::DriveViews`]; the vendors'
+//!   own APIs on a running drive go through [`crate::cell::control::ControlHandle::with_drive`];
+//! - [`CI_TERMINAL`]: the terminal of a drive's `ci_terminal` port
+//!   ([`crate::cell_loop::Terminal`]);
+//! - [`open_serial_lines`], [`virtual_serial_lines`]: the serial lines of a cell, each with
+//!   its protocol ([`crate::serial::line::LineProtocol`]);
 //! - the sub-commands named for a device (`drivetwin kinco`, `fhpp`, `iodd`): their
 //!   arguments are types of the vendor folder with a `run` method, failing with
 //!   [`CommandError`], whose [`Failure`] the binary turns into its exit code.
@@ -13,15 +20,40 @@
 //!
 //! - [`festo_cmmo_st`]: the CMMO-ST's web server pages, its FHPP master over Modbus TCP and
 //!   its IODD;
-//! - [`kinco`]: the Kinco FD3 / CD3 panel page and the RS232 telegram master.
+//! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal;
+//! - [`kinco`]: the Kinco FD3 / CD3 serial lines (RS232 telegrams, Modbus RTU), its panel
+//!   page and the RS232 telegram master.
 
 pub mod festo_cmmo_st;
+pub mod festo_cmmp_as;
 pub mod kinco;
 
+use crate::cell::control::{DisplayState, DriveViews};
+use crate::cell_loop::NewTerminal;
 use crate::web::DevicePages;
 
 /// Every device's own web pages, in the order their OpenAPI documents join the console's.
 pub const WEB_PAGES: &[DevicePages] = &[festo_cmmo_st::WEB_PAGES, kinco::WEB_PAGES];
+
+/// What the drives' vendors tell the runtime: the Kinco's display is its LED panel, the
+/// other CiA 402 drives' the engine's (the CMMP-AS's 7-segment display; none for the rest).
+pub const DRIVE_VIEWS: DriveViews = DriveViews { display };
+
+fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
+    kinco::panel_page::display(d).or_else(|| (DriveViews::default().display)(d))
+}
+
+/// The terminal a drive's `ci_terminal` port (and `--ci-terminal`) serves: the CMMP-AS's CI
+/// terminal, the only drive with one.
+pub const CI_TERMINAL: NewTerminal = festo_cmmp_as::ci_terminal::new;
+
+/// The serial lines that drives' `rs232` / `rs485` ports (and `--rs232`, `--rs485`) ask
+/// for, opened, and the same lines on the virtual clock; the Kinco FD3 / CD3 are the drives
+/// with serial ports.
+pub use kinco::serial_lines::{
+    open_lines as open_serial_lines, virtual_lines as virtual_serial_lines,
+    SetupError as SerialSetupError,
+};
 
 /// Why a vendor's sub-command (`drivetwin kinco`, `drivetwin fhpp`, `drivetwin iodd`)
 /// failed; [`CommandError::failure`] is the class the binary turns into its exit code.

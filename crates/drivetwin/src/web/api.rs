@@ -195,8 +195,7 @@ pub struct DriveView {
     pub state: Option<String>,
     /// The statusword bit by bit.
     pub status_bits: Vec<StatusBit>,
-    /// What the drive's display shows; `null` for a drive without one (the Nanotec, a
-    /// drive from its EDS).
+    /// What the 7-segment display shows.
     pub display: Option<String>,
 }
 
@@ -217,11 +216,7 @@ fn profile_name(desc: &DeviceDescription) -> String {
 }
 
 pub(crate) fn display_text(d: &DisplayState) -> String {
-    match d {
-        DisplayState::CmmpAs(d) => d.text().to_string(),
-        DisplayState::Fhpp(s) => s.to_string(),
-        DisplayState::KincoPanel(p) => p.text().to_string(),
-    }
+    d.text().to_owned()
 }
 
 /// The CiA 402 state the console shows for a statusword, `None` for bits no state has.

@@ -95,10 +95,14 @@ pub fn cia_error(table: &[od::Diagnostic], code: u16) -> ErrorView {
     }
 }
 
-/// A CMMO-ST diagnostic number with its App. D name.
-pub fn fhpp_diagnostic(number: u16) -> ErrorView {
-    let text = drive::vendors::festo_cmmo_st::diagnostics::lookup(number)
-        .map_or("unknown diagnostic number", |d| d.name)
+/// An FHPP diagnostic number with its name in the drive's diagnostic table `table` (the
+/// CMMO-ST's App. D, whose numbers are printed "4Dh").
+pub fn fhpp_diagnostic(table: &[od::Diagnostic], number: u16) -> ErrorView {
+    let printed = format!("{number:02X}h");
+    let text = table
+        .iter()
+        .find(|d| d.number.eq_ignore_ascii_case(&printed))
+        .map_or("unknown diagnostic number", |d| d.text)
         .to_owned();
     ErrorView {
         code: format!("{number:02X}h"),
@@ -147,7 +151,8 @@ mod tests {
 
     #[test]
     fn fhpp_numbers_take_the_app_d_name() {
-        assert_eq!(fhpp_diagnostic(0x4D).text, "Bootloader memory error");
-        assert_eq!(fhpp_diagnostic(0x4D).code, "4Dh");
+        let app_d = devices::CMMO_ST.diagnostics;
+        assert_eq!(fhpp_diagnostic(app_d, 0x4D).text, "Bootloader memory error");
+        assert_eq!(fhpp_diagnostic(app_d, 0x4D).code, "4Dh");
     }
 }

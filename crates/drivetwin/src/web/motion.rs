@@ -587,7 +587,12 @@ fn authority_name(a: Authority) -> &'static str {
     }
 }
 
-fn fhpp_view(h: &ControlHandle, drive: usize, s: &FhppState) -> MotionView {
+fn fhpp_view(
+    h: &ControlHandle,
+    drive: usize,
+    table: &[od::Diagnostic],
+    s: &FhppState,
+) -> MotionView {
     let mut bits = Vec::with_capacity(16);
     for (word, byte, names) in [
         (
@@ -619,14 +624,15 @@ fn fhpp_view(h: &ControlHandle, drive: usize, s: &FhppState) -> MotionView {
         state: fhpp_state(s),
         word: u16::from_le_bytes([s.inputs[0], s.inputs[1]]),
         bits,
-        active_error: (s.fault != 0).then(|| error_text::fhpp_diagnostic(u16::from(s.fault))),
+        active_error: (s.fault != 0)
+            .then(|| error_text::fhpp_diagnostic(table, u16::from(s.fault))),
         history: s
             .memory
             .iter()
             .map(|(event, number, time_ms)| ErrorView {
                 event: Some(error_text::fhpp_event(*event).to_owned()),
                 time_ms: Some(*time_ms),
-                ..error_text::fhpp_diagnostic(*number)
+                ..error_text::fhpp_diagnostic(table, *number)
             })
             .collect(),
         device_control: Some(authority_name(s.authority).to_owned()),
@@ -637,7 +643,8 @@ fn fhpp_view(h: &ControlHandle, drive: usize, s: &FhppState) -> MotionView {
 enum Kind {
     /// With the drive's diagnostic table, which names its error codes.
     Cia402(&'static [od::Diagnostic]),
-    Fhpp,
+    /// With the drive's diagnostic table, which names its diagnostic numbers.
+    Fhpp(&'static [od::Diagnostic]),
 }
 
 fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
@@ -645,7 +652,7 @@ fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
     let index = info.index;
     let desc = crate::cell::eds_drive::by_name(info.device);
     if info.interface == Interface::ModbusTcp {
-        Ok((index, Kind::Fhpp))
+        Ok((index, Kind::Fhpp(desc.map_or(&[], |d| d.diagnostics))))
     } else if let Some(d) = desc.filter(|d| d.entry(0x6040, 0).is_some()) {
         Ok((index, Kind::Cia402(d.diagnostics)))
     } else {
@@ -662,7 +669,12 @@ fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
 fn view(h: &ControlHandle, drive: usize, k: &Kind) -> Result<MotionView, ApiError> {
     match k {
         Kind::Cia402(table) => cia402_view(h, drive, table),
-        Kind::Fhpp => Ok(fhpp_view(h, drive, &h.fhpp(drive, FhppRequest::Status)?)),
+        Kind::Fhpp(table) => Ok(fhpp_view(
+            h,
+            drive,
+            table,
+            &h.fhpp(drive, FhppRequest::Status)?,
+        )),
     }
 }
 
@@ -769,7 +781,7 @@ async fn post_enable(
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
         Kind::Cia402(_) => enable(io).map(drop),
-        Kind::Fhpp => fhpp_enable(io).map(drop),
+        Kind::Fhpp(_) => fhpp_enable(io).map(drop),
     })
     .await
 }
@@ -785,7 +797,7 @@ async fn post_disable(
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
         Kind::Cia402(_) => disable(io).map(drop),
-        Kind::Fhpp => fhpp_disable(io).map(drop),
+        Kind::Fhpp(_) => fhpp_disable(io).map(drop),
     })
     .await
 }
@@ -824,7 +836,7 @@ async fn post_jog(
     }
     run(&s, drive, move |io, k| match k {
         Kind::Cia402(_) => jog(io, i32::from(body.direction) * speed as i32).map(drop),
-        Kind::Fhpp => fhpp_jog(io, body.direction).map(drop),
+        Kind::Fhpp(_) => fhpp_jog(io, body.direction).map(drop),
     })
     .await
 }
@@ -865,7 +877,7 @@ async fn post_move(
     }
     run(&s, drive, move |io, k| match k {
         Kind::Cia402(_) => move_to(io, body.target, body.relative).map(drop),
-        Kind::Fhpp => fhpp_move(io, body.target, body.relative, percent).map(drop),
+        Kind::Fhpp(_) => fhpp_move(io, body.target, body.relative, percent).map(drop),
     })
     .await
 }
@@ -881,7 +893,7 @@ async fn post_home(
 ) -> Result<Json<MotionView>, ApiError> {
     run(&s, drive, |io, k| match k {
         Kind::Cia402(_) => home(io).map(drop),
-        Kind::Fhpp => fhpp_home(io).map(drop),
+        Kind::Fhpp(_) => fhpp_home(io).map(drop),
     })
     .await
 }

@@ -39,6 +39,11 @@ impl Drop for Running {
 
 /// Runs the cell of `front` on a thread of its own.
 pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
+    // The drives' displays as the binary shows them.
+    let front = FrontEnds {
+        views: drivetwin::vendors::DRIVE_VIEWS,
+        ..front
+    };
     let cell_loop = CellLoop::with_buses(front).expect("loop");
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();

@@ -4,7 +4,6 @@ use super::*;
 use crate::cell::bus_rate::{self, BitrateSetting, BusRate};
 use drive::stepper::{StepperData, StepperMode};
 use drive::travel::TravelSettings;
-use drive::vendors::festo_cmmo_st::axis_mechanics::AxisMechanics;
 use std::path::{Path, PathBuf};
 
 mod travel_tests {
@@ -93,7 +92,7 @@ mod cmmo_st_tests {
         let f = drives[0].fhpp.as_ref().expect("an FHPP drive");
         assert_eq!(f.modbus, None);
         assert_eq!(f.settings.mode, StepperMode::ClosedLoop);
-        assert_eq!(f.settings.mechanics, AxisMechanics::default());
+        assert_eq!(f.settings.mechanics, Default::default());
         // A CMMO-ST and a CMMP-AS may both say node 1: only CAN drives share a bus.
         let both = spec("[[drive]]\ndevice = \"cmmp-as\"\n[[drive]]\ndevice = \"cmmo-st\"\n");
         assert_eq!(both.map(|d| d.len()), Ok(2));

@@ -3,31 +3,14 @@
 //! serial port, the CI terminal and CANopen see one set of objects.
 
 use canopen::{CanFrame, Node};
-use drive::vendors::festo_cmmp_as::ci_terminal;
 use od::{AbortCode, Entry, Instant, ObjectAccess};
 
 use super::{Persisting, Station};
 
 impl Station {
-    /// One line typed at the drive's CI terminal (CMMP-AS §3.2.3, SDO simulation); its
-    /// answer without the line end. Writes follow the SDO rules of the present NMT state.
-    pub fn ci_line(
-        &mut self,
-        now: Instant,
-        line: &[u8],
-        out: &mut dyn FnMut(CanFrame),
-    ) -> ci_terminal::Reply {
-        self.model.step(now);
-        let (node, access) = self.node_and_access();
-        let mut console = Console { node, access, now };
-        let reply = ci_terminal::execute(line, &mut console);
-        self.service(now, out);
-        reply
-    }
-
-    /// A local interface of the drive (a serial port) reaches its objects at `now`: reads as
-    /// they are, writes as SDO downloads of its node (as the CI terminal's); what the drive
-    /// sends meanwhile goes to `out`.
+    /// A local interface of the drive (a serial port, the CI terminal, CMMP-AS §3.2.3) reaches
+    /// its objects at `now`: reads as they are, writes as SDO downloads of its node, following
+    /// the SDO rules of the present NMT state; what the drive sends meanwhile goes to `out`.
     pub fn local_access(
         &mut self,
         now: Instant,
@@ -42,7 +25,7 @@ impl Station {
     }
 }
 
-/// The CI terminal's view of a drive: reads as they are, writes as SDO downloads of its node.
+/// A local interface's view of a drive: reads as they are, writes as SDO downloads of its node.
 struct Console<'a> {
     node: &'a mut Node,
     access: Persisting<'a>,

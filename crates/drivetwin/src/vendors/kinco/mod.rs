@@ -1,9 +1,19 @@
-//! The Kinco FD3 / CD3 (`drive::vendors::kinco`): its LED panel on the web console and a
-//! master for its RS232 telegrams.
+//! The Kinco FD3 / CD3 (`drive::vendors::kinco`): its serial lines (the RS232 telegrams,
+//! Kinco manual ch. 10, and Modbus RTU on RS485, ch. 12, served at the same time as CANopen,
+//! all on the same objects), its LED panel on the web console and a master for its RS232
+//! telegrams.
+//!
+//! - [`rs232_line`]: the telegram protocol on a line, point to point, a ring, or on RS485;
+//! - [`rtu_line`]: Modbus RTU on an RS485 line, frames cut by the 3.5-character silence,
+//!   several drives by station number;
+//! - [`serial_lines`]: the lines of a cell from the drives' ports and their objects.
 
 pub mod panel_page;
 pub mod rs232_commands;
+pub mod rs232_line;
 pub mod rs232_master;
+pub mod rtu_line;
+pub mod serial_lines;
 
 use crate::web::DevicePages;
 
@@ -12,3 +22,30 @@ pub const WEB_PAGES: DevicePages = DevicePages {
     routes: panel_page::routes,
     openapi: <panel_page::PanelDoc as utoipa::OpenApi>::openapi,
 };
+
+/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
+/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it
+/// does not list.
+pub fn baud_of_code(code: u64) -> Option<u32> {
+    u16::try_from(code)
+        .ok()
+        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// KINCO-232-10: the codes fit 10 368 000 / bit rate.
+    #[test]
+    fn kinco_232_10_baud_rate_codes() {
+        assert_eq!(baud_of_code(540), Some(19_200));
+        assert_eq!(baud_of_code(270), Some(38_400));
+        assert_eq!(baud_of_code(90), Some(115_200));
+        assert_eq!(baud_of_code(1080), Some(9600));
+        assert_eq!(baud_of_code(0), None);
+        // 180 would be 57600 by the formula, but the manual lists no such code.
+        assert_eq!(baud_of_code(180), None);
+        assert_eq!(baud_of_code(0x1_0000 + 270), None);
+    }
+}

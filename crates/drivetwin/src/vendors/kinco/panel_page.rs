@@ -13,6 +13,7 @@ use drive::vendors::kinco::panel::{Blink, PanelDisplay, PanelKey};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
+use crate::cell::control::{ControlError, ControlHandle, DisplayState};
 use crate::web::api::{call, find_drive, ApiError, ApiResult};
 use crate::web::AppState;
 
@@ -96,7 +97,7 @@ fn transitions(action: Option<&str>) -> Result<&'static [bool], ApiError> {
 async fn show(State(s): State<AppState>, Path(drive): Path<String>) -> ApiResult<PanelView> {
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
-        Ok(PanelView::from(h.panel(info.index)?))
+        Ok(PanelView::from(panel(h, info.index, None)?))
     })
     .await
     .map(Json)
@@ -119,14 +120,44 @@ async fn key(
     let steps = transitions(body.action.as_deref())?;
     call(&s.handle, move |h| {
         let info = find_drive(h, &drive)?;
-        let mut shown = h.panel(info.index)?;
+        let mut shown = panel(h, info.index, None)?;
         for pressed in steps {
-            shown = h.panel_key(info.index, key, *pressed)?;
+            shown = panel(h, info.index, Some((key, *pressed)))?;
         }
         Ok(PanelView::from(shown))
     })
     .await
     .map(Json)
+}
+
+/// What the LED panel of drive `drive` shows after `key` went down (`true`) or up, at the
+/// cell's clock (none: only read it). MODE and SET act when released (a long press: held
+/// 1 s or more).
+pub fn panel(
+    h: &ControlHandle,
+    drive: usize,
+    key: Option<(PanelKey, bool)>,
+) -> Result<PanelDisplay, ControlError> {
+    h.with_drive(drive, move |d| {
+        let d = d.map_err(|e| match e {
+            ControlError::NoPlant(_) => ControlError::NoPanel(drive),
+            e => e,
+        })?;
+        let Some(d) = d.as_kinco_mut() else {
+            return Err(ControlError::NoPanel(drive));
+        };
+        if let Some((key, pressed)) = key {
+            d.kinco_panel_key(key, pressed);
+        }
+        Ok(d.kinco_panel())
+    })
+}
+
+/// The display of a Kinco: its LED panel's digits with their points; `None` for another
+/// drive.
+pub fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
+    d.as_kinco()
+        .map(|k| DisplayState::new(&k.kinco_panel().text()))
 }
 
 #[derive(OpenApi)]

@@ -18,9 +18,10 @@ use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping,
 use modbus::rtu_framing::{three_and_a_half_characters, RtuFramer};
 use od::Instant;
 
-use super::wire::Wire;
-use super::LineDrives;
 use crate::cell::OnBus;
+use crate::serial::line::LineProtocol;
+use crate::serial::wire::Wire;
+use crate::serial::LineDrives;
 
 /// One drive on an RTU line.
 pub struct RtuDrive {
@@ -133,11 +134,29 @@ impl RtuLine {
     }
 }
 
+impl LineProtocol for RtuLine {
+    fn on_byte(&mut self, at: Instant, byte: u8, drives: &mut dyn LineDrives, wire: &mut Wire) {
+        RtuLine::on_byte(self, at, byte, drives, wire);
+    }
+
+    fn poll(&mut self, now: Instant, drives: &mut dyn LineDrives, wire: &mut Wire) {
+        RtuLine::poll(self, now, drives, wire);
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        RtuLine::deadline(self)
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::serial::setup::register_map;
     use crate::serial::test_drives::{on, Dictionaries};
+    use crate::vendors::kinco::serial_lines::register_map;
     use std::time::Duration;
 
     fn line(n: usize) -> RtuLine {

@@ -17,22 +17,15 @@ use std::path::{Path, PathBuf};
 use drive::vendors::kinco::rs232::KincoRs232;
 use drive::vendors::kinco::rtu::RegisterMapping;
 
-use super::line::{Protocol, SerialLine, VirtualLine};
-use super::pty::PortError;
+use super::baud_of_code;
 use super::rs232_line::{TelegramLine, Topology};
 use super::rtu_line::{RtuDrive, RtuLine};
-use super::{baud_of_code, has_port, Kind};
 use crate::cell::station::Station;
 use crate::cell::Cell;
 use crate::cell::OnBus;
-
-/// A drive's port on a path.
-#[derive(Debug, Clone)]
-pub struct LineRequest {
-    pub kind: Kind,
-    pub path: PathBuf,
-    pub drive: OnBus,
-}
+use crate::serial::line::{Protocol, SerialLine, VirtualLine};
+use crate::serial::pty::PortError;
+use crate::serial::{has_port, Kind, LineRequest};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
@@ -178,7 +171,7 @@ fn line_protocols<'a>(
             let u2brg = (kind == Kind::Rs232)
                 .then(|| on_line.first().map(|(_, d)| code(d, 0x2FE1, 0, 270)))
                 .flatten();
-            Protocol::Telegrams(TelegramLine::new(ports, topology, u2brg))
+            Box::new(TelegramLine::new(ports, topology, u2brg)) as Protocol
         } else {
             let drives = on_line
                 .iter()
@@ -188,7 +181,7 @@ fn line_protocols<'a>(
                     map: register_map(d.od().description().name),
                 })
                 .collect();
-            Protocol::Rtu(Box::new(RtuLine::new(baud, drives)))
+            Box::new(RtuLine::new(baud, drives))
         };
         lines.push((kind, path, baud, protocol));
     }

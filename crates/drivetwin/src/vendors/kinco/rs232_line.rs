@@ -21,9 +21,11 @@
 use drive::vendors::kinco::rs232::{KincoRs232, TelegramCutter, DEFAULT_GAP, TELEGRAM_LEN};
 use od::Instant;
 
-use super::wire::Wire;
-use super::{baud_of_code, LineDrives};
+use super::baud_of_code;
 use crate::cell::OnBus;
+use crate::serial::line::LineProtocol;
+use crate::serial::wire::Wire;
+use crate::serial::LineDrives;
 
 /// How the drives of a telegram line are wired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -165,6 +167,16 @@ impl TelegramLine {
                 }
             }
         }
+    }
+}
+
+impl LineProtocol for TelegramLine {
+    fn on_byte(&mut self, at: Instant, byte: u8, drives: &mut dyn LineDrives, wire: &mut Wire) {
+        TelegramLine::on_byte(self, at, byte, drives, wire);
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
     }
 }
 
