@@ -62,6 +62,7 @@ def test_the_overview_follows_a_move_and_shows_bus_load_and_wire_faults(launch, 
                what="live positions on the overview")
     assert page.text_content("#cell-table tr[data-drive='0'] td.state") == "SWITCH ON DISABLED"
     assert "load" in page.text_content("#bus-load .bus[data-bus='0']")
+    page.wait_for_selector("#wire-faults li.muted")
     assert page.text_content("#wire-faults") == "none"
 
     # A wire fault in force: a drop of half of node 2's frames.
