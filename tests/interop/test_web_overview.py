@@ -78,17 +78,11 @@ def test_the_overview_follows_a_move_and_shows_bus_load_and_wire_faults(launch, 
     call(url + "api/drives/0/motion/move", "POST", {"target": 20000, "relative": True})
     target = before + 20000
 
-    # The page's position passes through the move (a value between start and target) and
-    # settles on the target; the mode is profile position.
-    seen: list[float] = []
-
-    def arrived() -> bool:
-        p = page_position(page, 0)
-        if p is not None:
-            seen.append(p)
-        return p is not None and abs(p - target) <= 10
-
-    wait_until(arrived, 10.0, what="the overview's position at the move's target")
+    # The page's position settles on the target, and the samples its row was drawn from pass
+    # through the move (positions between start and target); the mode is profile position.
+    wait_until(lambda: (p := page_position(page, 0)) is not None and abs(p - target) <= 10, 10.0,
+               what="the overview's position at the move's target")
+    seen = page.evaluate("window.overview.samples.get(0).map((s) => s.position)")
     assert any(before + 100 < p < target - 100 for p in seen), ("no position between start and target", seen)
     assert page.text_content("#cell-table tr[data-drive='0'] td.mode") == "PP (1)"
     # The sparkline of the position has its points, rising to the right.
