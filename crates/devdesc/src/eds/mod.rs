@@ -11,8 +11,8 @@
 //! Everything refused names file, line, section and key ([`EdsError`]).
 
 pub mod error;
-mod ini;
-mod number;
+pub mod ini;
+pub mod number;
 
 use std::path::Path;
 

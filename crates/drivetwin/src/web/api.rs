@@ -970,6 +970,7 @@ async fn openapi(State(s): State<AppState>) -> Response {
     let mut doc = ApiDoc::openapi();
     doc.merge(super::diagnostics::DiagnosticsDoc::openapi());
     doc.merge(super::motion::MotionDoc::openapi());
+    doc.merge(super::parameters::ParametersDoc::openapi());
     for pages in s.pages {
         doc.merge((pages.openapi)());
     }

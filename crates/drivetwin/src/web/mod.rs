@@ -13,6 +13,7 @@
 //! - [`api`]: the REST handlers and the OpenAPI document;
 //! - [`live`]: samples over a WebSocket, decimated for the browser;
 //! - [`page`]: the console page and its script;
+//! - [`parameters`]: the parameter table, and the parameter set as a DCF (export, import);
 //! - [`auth`]: the write token;
 //! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell;
 //! - [`DevicePages`]: a device's own pages, served beside these; the console names no device,
@@ -25,6 +26,7 @@ pub mod error_text;
 pub mod live;
 pub mod motion;
 pub mod page;
+pub mod parameters;
 pub mod physics;
 pub mod scenarios;
 pub mod wire;
@@ -106,6 +108,7 @@ pub fn router(state: AppState) -> Router {
         .merge(wire::routes())
         .merge(motion::routes())
         .merge(physics::routes())
+        .merge(parameters::routes())
         .merge(devices)
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),

@@ -1,4 +1,5 @@
-//! The console page: one HTML file, its script and its style, and the scope's plotting
+//! The console page: one HTML file, its scripts (the console, the overview, the parameter
+//! table, the scope) and its style, and the scope's plotting
 //! library (uPlot, from the npm registry through `web/package.json`), all compiled into the
 //! binary (no CDN, nothing fetched at run time). `build.rs` puts the library in `OUT_DIR`, or
 //! a stand-in that makes the scope say how to build it.
@@ -14,6 +15,8 @@ const INDEX: &str = include_str!("assets/index.html");
 const SCRIPT: &str = include_str!("assets/console.js");
 const STYLE: &str = include_str!("assets/console.css");
 const SCOPE_SCRIPT: &str = include_str!("assets/scope.js");
+const OVERVIEW_SCRIPT: &str = include_str!("assets/overview.js");
+const PARAMETERS_SCRIPT: &str = include_str!("assets/parameters.js");
 const UPLOT_SCRIPT: &str = include_str!(concat!(env!("OUT_DIR"), "/uPlot.iife.min.js"));
 const UPLOT_STYLE: &str = include_str!(concat!(env!("OUT_DIR"), "/uPlot.min.css"));
 
@@ -40,6 +43,14 @@ pub fn routes() -> Router<AppState> {
             get(|| async { asset("text/javascript; charset=utf-8", SCOPE_SCRIPT) }),
         )
         .route(
+            "/overview.js",
+            get(|| async { asset("text/javascript; charset=utf-8", OVERVIEW_SCRIPT) }),
+        )
+        .route(
+            "/parameters.js",
+            get(|| async { asset("text/javascript; charset=utf-8", PARAMETERS_SCRIPT) }),
+        )
+        .route(
             "/uplot.js",
             get(|| async { asset("text/javascript; charset=utf-8", UPLOT_SCRIPT) }),
         )
@@ -59,6 +70,7 @@ mod tests {
         assert!(at("/uplot.css") < at("/console.css"));
         assert!(at("/uplot.js") < at("/scope.js"));
         assert!(at("/scope.js") < at("/console.js") && at("/console.js") < INDEX.len());
+        assert!(at("/overview.js") < at("/console.js") && at("/parameters.js") < at("/console.js"));
     }
 
     #[test]

@@ -1,6 +1,6 @@
-// The drivetwin web console: the cell's drives, a drive's state and statusword bit by bit,
-// its parameters with edit, enable / disable, and a scope of position, velocity and current
-// (scope.js, on uPlot) fed by the live WebSocket.
+// The drivetwin web console: the cell's drives (overview.js), a drive's state and statusword
+// bit by bit, its parameters with edit, export and import (parameters.js), enable / disable,
+// and a scope of position, velocity and current (scope.js, on uPlot) fed by the live WebSocket.
 "use strict";
 
 const token = new URLSearchParams(location.search).get("token");
@@ -63,20 +63,8 @@ async function loadCell() {
   nav.replaceChildren(...consoleState.drives.map((d) =>
     el("a", { href: `#drive/${d.index}`, class: "drive-link" + (d.index === consoleState.drive ? " current" : ""),
               "data-drive": String(d.index) }, `${d.index}: ${d.device}`)));
-  // The state and active error of each drive, from its motion view (CiA 402 or FHPP alike).
-  const views = await Promise.all(consoleState.drives.map((d) =>
-    api("GET", `/api/drives/${d.index}/motion`).catch(() => null)));
-  $("#cell-table tbody").replaceChildren(...consoleState.drives.map((d, i) => {
-    const v = views[i];
-    const state = v ? v.state : (d.state ?? "–");
-    const err = v && v.active_error ? `${v.active_error.code} ${v.active_error.text}` : "";
-    return el("tr", { "data-drive": String(d.index) },
-      el("td", {}, String(d.index)), el("td", {}, el("a", { href: `#drive/${d.index}` }, d.device)), el("td", {}, d.product),
-      el("td", {}, d.interface + (d.node != null ? ` node ${d.node}` : "")),
-      el("td", { class: "state" + (state.startsWith("FAULT") ? " fault" : "") }, state),
-      el("td", { class: "mono" }, (v && v.display) ?? d.display ?? ""),
-      el("td", { class: "error fault" }, err));
-  }));
+  // The overview (overview.js) while the cell page is shown.
+  if (consoleState.drive === null) await window.overview.refresh(api, consoleState.drives);
 }
 
 // --------------------------------------------------------------------------------- drive
@@ -150,60 +138,6 @@ async function panelKey(key, action) {
   } catch (e) { say(e.message, true); }
 }
 
-function paramKey(o) {
-  return `${o.index.replace(/^0x/i, "").toUpperCase()}:${o.sub.toString(16).toUpperCase().padStart(2, "0")}`;
-}
-
-function paramRow(o) {
-  const value = el("td", { class: "value" }, o.value ?? (o.read_error ? "–" : ""));
-  if (o.read_error) value.title = o.read_error;
-  const cells = [
-    el("td", { class: "mono" }, o.index), el("td", {}, String(o.sub)), el("td", {}, o.name),
-    el("td", {}, o.type), el("td", {}, o.access), el("td", {}, o.unit),
-    el("td", {}, o.min == null ? "" : String(o.min)), el("td", {}, o.max == null ? "" : String(o.max)), value,
-  ];
-  const edit = el("td");
-  if (o.access === "rw" || o.access === "wo") {
-    const input = el("input", { class: "edit", "aria-label": `new value of ${o.name}` });
-    const button = el("button", { type: "button", class: "write" }, "Write");
-    const write = async () => {
-      try {
-        const back = await api("PUT", `/api/drives/${consoleState.drive}/objects/${o.index}/${o.sub.toString(16)}`,
-                               { value: input.value });
-        value.textContent = back.value ?? "";
-        say(`${o.index}:${o.sub} ${o.name} = ${back.value ?? input.value}`);
-        input.value = "";
-      } catch (e) {
-        say(`${o.index}:${o.sub} ${o.name}: ${e.message}` + (e.reason ? ` (${e.reason.rule})` : ""), true);
-      }
-    };
-    button.addEventListener("click", write);
-    input.addEventListener("keydown", (ev) => { if (ev.key === "Enter") write(); });
-    edit.append(input, " ", button);
-  }
-  cells.push(edit);
-  return el("tr", { "data-key": paramKey(o) }, ...cells);
-}
-
-async function loadParams() {
-  const body = $("#params tbody");
-  body.replaceChildren(el("tr", {}, el("td", { colspan: "10" }, "reading…")));
-  try {
-    const objects = await api("GET", `/api/drives/${consoleState.drive}/objects`);
-    body.replaceChildren(...objects.map(paramRow));
-    applyFilter();
-  } catch (e) {
-    body.replaceChildren(el("tr", {}, el("td", { colspan: "10" }, e.message)));
-  }
-}
-
-function applyFilter() {
-  const f = $("#filter").value.trim().toLowerCase();
-  for (const tr of $("#params tbody").rows) {
-    tr.hidden = f !== "" && !tr.textContent.toLowerCase().includes(f);
-  }
-}
-
 // -------------------------------------------------------------------------------- wiring
 
 async function route() {
@@ -215,6 +149,7 @@ async function route() {
     await loadCell();
     return;
   }
+  window.overview.close();
   say("");
   showWhy("#enable-why", null);
   showWhy("#motion-why", null);
@@ -223,7 +158,7 @@ async function route() {
   await refreshDrive();
   await loadCell();
   await window.scope.open(consoleState.drive);
-  await loadParams();
+  await window.parameters.load(consoleState.drive);
 }
 
 $("#enable").addEventListener("click", async () => {
@@ -289,7 +224,6 @@ $("#home").addEventListener("click", () => motion("home", undefined, "homing sta
 $("#move").addEventListener("click", () => motion("move",
   { target: Number($("#move-target").value) || 0, relative: $("#move-relative").checked },
   `moving to ${$("#move-target").value}`));
-$("#filter").addEventListener("input", applyFilter);
 window.addEventListener("hashchange", route);
 setInterval(() => { refreshDrive(); refreshPlant(); loadCell(); }, 1000);
 route();
