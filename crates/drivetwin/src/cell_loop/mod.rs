@@ -60,6 +60,7 @@ mod can_bus;
 mod connections;
 mod console;
 mod ethercat_chains;
+mod ethercat_line;
 mod fine_timer;
 mod handle;
 mod modbus_drives;
