@@ -217,3 +217,25 @@ fn the_masters_own_cable_pulled_returns_nothing() {
         "no cable behind the last slave"
     );
 }
+
+/// `examples/ethercat-64.toml`: 64 CMMP-AS on one chain; a broadcast read counts them all,
+/// with the cable pulled after slave 32 it counts 32.
+#[test]
+fn the_64_drive_example_is_one_chain_of_64() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/ethercat-64.toml"
+    );
+    let file = CellFile::load(std::path::Path::new(path)).unwrap();
+    let mut m = Master {
+        cell: EthercatCell::from_cell_file(&file).unwrap(),
+        now: Instant::from_millis(1),
+    };
+    m.cell.boot(m.now);
+    assert_eq!(m.cell.len(), 64);
+    assert_eq!(m.slaves_found(), 64);
+    m.cell.pull_cable(32).unwrap();
+    assert_eq!(m.slaves_found(), 32);
+    m.cell.plug_cable();
+    assert_eq!(m.slaves_found(), 64);
+}

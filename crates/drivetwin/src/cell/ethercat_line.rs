@@ -5,6 +5,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use std::time::{Duration, Instant};
+
+use crate::cell::control::ControlHandle;
 use crate::cell::wire_faults::TimeSpan;
 
 /// One change to a chain's line.
@@ -97,6 +100,50 @@ pub struct TimedLineAction {
     pub action: LineAction,
 }
 
+/// Carries out a cell file's `[[ethercat_line]]` through `handle` at their times from now,
+/// on a thread of its own (none for none), as `cell::planned` does for a drive's plans: wall
+/// time since the loop started, to the thread's sleep resolution.
+pub fn start_planned(
+    handle: ControlHandle,
+    mut actions: Vec<TimedLineAction>,
+) -> std::io::Result<Option<std::thread::JoinHandle<()>>> {
+    if actions.is_empty() {
+        return Ok(None);
+    }
+    actions.sort_by_key(|a| a.at.map_or(Duration::ZERO, |t| t.0));
+    let start = Instant::now();
+    std::thread::Builder::new()
+        .name("ethercat-line".into())
+        .spawn(move || {
+            for a in actions {
+                let due = start + a.at.map_or(Duration::ZERO, |t| t.0);
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                }
+                let Some(chain) = chain_named(&handle, a.interface.as_deref()) else {
+                    tracing::warn!(interface = ?a.interface, "[[ethercat_line]]: no such chain");
+                    continue;
+                };
+                match handle.ethercat_line(chain, Some(a.action)) {
+                    Ok(_) => {}
+                    Err(LineControlError::Stopped) => return,
+                    Err(e) => tracing::warn!(action = ?a.action, "[[ethercat_line]]: {e}"),
+                }
+            }
+        })
+        .map(Some)
+}
+
+/// The index of the chain on `interface` (none: the first chain).
+fn chain_named(handle: &ControlHandle, interface: Option<&str>) -> Option<usize> {
+    // The chains answer from 0 up to the first that is not there.
+    (0..)
+        .map_while(|i| handle.ethercat_line(i, None).ok().map(|s| (i, s)))
+        .find(|(_, s)| interface.is_none_or(|name| s.interface == name))
+        .map(|(i, _)| i)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,5 +165,29 @@ mod tests {
         );
         assert_eq!(LineAction::clock_error(50.0, 0, 0).drift_ppb, 50_000);
         assert!(serde_json::from_str::<LineAction>(r#"{"action":"melt"}"#).is_err());
+    }
+
+    #[test]
+    fn a_cell_file_plans_line_faults() {
+        let f: crate::cell::config::CellFile = toml::from_str(
+            r#"
+[[ethercat_line]]
+at = "2s"
+action = "pull-cable"
+after = 32
+
+[[ethercat_line]]
+interface = "veth1"
+action = "clock"
+slave = 1
+drift_ppm = -20.5
+"#,
+        )
+        .unwrap();
+        assert_eq!(f.ethercat_line.len(), 2);
+        let a = &f.ethercat_line[0];
+        assert_eq!(a.at, Some(TimeSpan(Duration::from_secs(2))));
+        assert_eq!(a.action, LineAction::PullCable { after: 32 });
+        assert_eq!(f.ethercat_line[1].interface.as_deref(), Some("veth1"));
     }
 }

@@ -20,8 +20,16 @@ pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
-    let desc = device(name)?;
+pub(crate) fn esi(
+    name: &str,
+    eds: Option<&std::path::Path>,
+    output: Option<PathBuf>,
+) -> Result<(), CommandError> {
+    let desc = match eds {
+        Some(path) => drivetwin::cell::eds_drive::load(path)
+            .map_err(|e| CommandError::Usage(format!("{}: {e}", path.display())))?,
+        None => device(name)?,
+    };
     let mut text = String::new();
     drivetwin::export::esi::write_esi(desc, &mut text)
         .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
@@ -511,6 +519,11 @@ async fn prepare_cell(
     }
     let _ = drivetwin::cell::planned::start(cell_loop.control_handle(), outside)
         .map_err(io("cell plans"))?;
+    let _ = drivetwin::cell::ethercat_line::start_planned(
+        cell_loop.control_handle(),
+        file.ethercat_line.clone(),
+    )
+    .map_err(io("[[ethercat_line]]"))?;
     Ok(Prepared::Loop {
         cell_loop: Box::new(cell_loop),
         fhpp: fhpp_tasks,
