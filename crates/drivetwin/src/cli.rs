@@ -55,14 +55,10 @@ pub enum Command {
         #[arg(long, short)]
         output: Option<PathBuf>,
     },
-    /// Print the EtherCAT slave information (ESI, ETG.2000) XML of a personality, or of the
-    /// CiA 402 drive an EDS / DCF describes (as a cell serves it on EtherCAT: the SII baseline).
+    /// Print the EtherCAT slave information (ESI, ETG.2000) XML of a personality.
     Esi {
         #[arg(long, default_value = "cmmp-as")]
         device: String,
-        /// The drive of this EDS / DCF instead of a personality.
-        #[arg(long, conflicts_with = "device")]
-        eds: Option<PathBuf>,
         /// Write to a file instead of standard output.
         #[arg(long, short)]
         output: Option<PathBuf>,

@@ -20,16 +20,8 @@ pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-pub(crate) fn esi(
-    name: &str,
-    eds: Option<&std::path::Path>,
-    output: Option<PathBuf>,
-) -> Result<(), CommandError> {
-    let desc = match eds {
-        Some(path) => drivetwin::cell::eds_drive::load(path)
-            .map_err(|e| CommandError::Usage(format!("{}: {e}", path.display())))?,
-        None => device(name)?,
-    };
+pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
+    let desc = device(name)?;
     let mut text = String::new();
     drivetwin::export::esi::write_esi(desc, &mut text)
         .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
