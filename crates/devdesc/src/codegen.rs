@@ -58,7 +58,7 @@ pub fn generate(d: &Device) -> String {
         Some(e) => {
             let _ = writeln!(
                 s,
-                "    ethercat: Some(od::EthercatSlave {{ group_type: {:?}, group_name: {:?}, pdi_control: 0x{:04X}, mailbox_out: (0x{:04X}, 0x{:04X}), mailbox_in: (0x{:04X}, 0x{:04X}), outputs_start: 0x{:04X}, inputs_start: 0x{:04X}, rx_assigned: &{:?}, tx_assigned: &{:?}, ds402_channels: {}, physical_ports: 0x{:04X}, complete_access: {}, sdo_info: {}, coe_hidden: &{:?}, version: {} }}),",
+                "    ethercat: Some(od::EthercatSlave {{ group_type: {:?}, group_name: {:?}, pdi_control: 0x{:04X}, mailbox_out: (0x{:04X}, 0x{:04X}), mailbox_in: (0x{:04X}, 0x{:04X}), outputs_start: 0x{:04X}, inputs_start: 0x{:04X}, rx_assigned: &{:?}, tx_assigned: &{:?}, ds402_channels: {}, physical_ports: 0x{:04X}, complete_access: {}, sdo_info: {}, coe_hidden: &{:?}, version: {}, watchdog_diagnostic: {:?} }}),",
                 e.group_type,
                 e.group_name,
                 e.pdi_control,
@@ -75,7 +75,8 @@ pub fn generate(d: &Device) -> String {
                 e.complete_access,
                 e.sdo_info,
                 e.coe_hidden,
-                e.version
+                e.version,
+                e.watchdog_diagnostic
             );
         }
     }

@@ -113,6 +113,7 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
             sdo_info: e.sdo_info,
             coe_hidden: Box::leak(e.coe_hidden.clone().into_boxed_slice()),
             version: e.version,
+            watchdog_diagnostic: e.watchdog_diagnostic.as_deref().map(text),
         }),
         interfaces: od::InterfaceOffer {
             has: texts(&d.interfaces),

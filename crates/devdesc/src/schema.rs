@@ -138,6 +138,9 @@ pub struct EthercatSection {
     #[serde(default)]
     pub coe_hidden: Vec<u16>,
     pub version: u16,
+    /// The diagnostic number raised when the process-data watchdog expires in Op.
+    #[serde(default)]
+    pub watchdog_diagnostic: Option<String>,
 }
 
 /// `panel = "d3.01"` or `panel = ["d2.00", "d3.00"]`: one object may have several panel

@@ -324,10 +324,39 @@ async fn openapi_document_names_every_route() {
         "/api/drives/{drive}/load",
         "/api/drives/{drive}/supply",
         "/api/drives/{drive}/samples",
+        "/api/ethercat/{chain}/line",
     ] {
         assert!(doc["paths"][path].is_object(), "{path} missing");
     }
     assert!(doc["components"]["schemas"]["ApiError"].is_object());
+}
+
+/// The line of a chain the cell does not have: 404, and a line action that is none: 400
+/// (`tests/interop/test_ethercat_line.py` runs the line of a real chain).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ethercat_line_of_no_chain_is_not_found() {
+    let cell = cell();
+    let app = app(&cell, None);
+    let (status, d) = send(&app, "GET", "/api/ethercat/0/line", None, None).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{d}");
+    let (status, d) = send(
+        &app,
+        "POST",
+        "/api/ethercat/0/line",
+        Some(json!({"action": "pull-cable", "after": 1})),
+        None,
+    )
+    .await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{d}");
+    let (status, d) = send(
+        &app,
+        "POST",
+        "/api/ethercat/0/line",
+        Some(json!({"action": "melt"})),
+        None,
+    )
+    .await;
+    assert!(status.is_client_error(), "{d}");
 }
 
 #[test]

@@ -42,8 +42,8 @@ pub use al_status_code::AlStatusCode;
 pub use datagram::{Command, Datagram};
 pub use eeprom::Eeprom;
 pub use esc::{
-    process_chain, process_chain_with, AlHook, ErrorCounters, Esc, EscConfig, FixedProcessData,
-    FrameOutcome, MailboxLayout, NoHook, PdiError,
+    process_chain, process_chain_with, AlHook, ClockError, ErrorCounters, Esc, EscConfig,
+    FixedProcessData, FrameOutcome, MailboxLayout, NoHook, PdiError,
 };
 pub use fmmu::Fmmu;
 pub use frame::{Address, EthernetFrame, Frame, FrameWriter, WireError};

@@ -214,3 +214,44 @@ fn frmw_system_time_increases() {
         last = r.u64();
     }
 }
+
+/// A slave whose oscillator runs 50 ppm fast: the master's cyclic FRMW of the reference's
+/// system time (SOEM's DC sync, spec §8.1) finds it 50 ns ahead after each 1 ms cycle, stores
+/// that in 0x092C (sign bit: the local copy was ahead) and brings its system time back onto
+/// the reference's; the reference itself drifts not.
+#[test]
+fn a_drifting_clock_is_corrected_by_each_system_time_write() {
+    let mut bus = Bus::plain(2);
+    bus.assign_addresses();
+    bus.now = od::Instant::from_nanos(1_000_000);
+    bus.slaves[1].set_clock_error(
+        bus.now,
+        ethercat::ClockError {
+            drift_ppb: 50_000,
+            ..ethercat::ClockError::NONE
+        },
+    );
+    bus.one(Command::Frmw, phys(ST, 0x0910), &[0; 8]);
+    for cycle in 1..=5u64 {
+        bus.now = od::Instant::from_nanos(1_000_000 + cycle * 1_000_000);
+        assert_eq!(
+            bus.fprd(0x1002, 0x0910, 8).u64() - bus.fprd(ST, 0x0910, 8).u64(),
+            50,
+            "50 ppm of 1 ms ahead before the correction"
+        );
+        let r = bus.one(Command::Frmw, phys(ST, 0x0910), &[0; 8]);
+        assert_eq!(r.wkc, 2);
+        assert_eq!(bus.fprd(0x1002, 0x092C, 4).u32(), 0x8000_0000 | 50);
+        assert_eq!(
+            bus.fprd(0x1002, 0x0910, 8).u64(),
+            bus.fprd(ST, 0x0910, 8).u64(),
+            "corrected"
+        );
+    }
+    // The offset register carries the corrections: 5 × 50 ns.
+    assert_eq!(
+        bus.fprd(0x1002, 0x0920, 8).u64().wrapping_neg(),
+        250,
+        "offset follows the corrections"
+    );
+}

@@ -246,6 +246,10 @@ pub struct EthercatSlave {
     pub coe_hidden: &'static [u16],
     /// SII word 0x3F.
     pub version: u16,
+    /// The diagnostic message (its number in the device's table) the device raises when the
+    /// ESC's process-data watchdog expires in Op (the master's frames stopped); `None`: the
+    /// ESC's fall-back to Safe-Op (0x001B) alone.
+    pub watchdog_diagnostic: Option<&'static str>,
 }
 
 /// A device personality: identity and the complete object list.

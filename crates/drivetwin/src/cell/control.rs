@@ -217,6 +217,18 @@ pub(crate) enum Command {
         action: crate::cell::diagnostics::Action,
         reply: SyncSender<Result<&'static od::Diagnostic, ControlError>>,
     },
+    /// A change to an EtherCAT chain's line, or (none) its state
+    /// ([`crate::cell::ethercat_line`]).
+    EthercatLine {
+        chain: usize,
+        action: Option<crate::cell::ethercat_line::LineAction>,
+        reply: SyncSender<
+            Result<
+                crate::cell::ethercat_line::LineStatus,
+                crate::cell::ethercat_line::LineControlError,
+            >,
+        >,
+    },
     /// Wire faults and traces ([`crate::cell::wire_faults`]).
     Wire {
         request: crate::cell::wire_faults::WireRequest,
@@ -432,6 +444,22 @@ impl ControlHandle {
             action: crate::cell::diagnostics::Action::Clear,
             reply,
         })?
+    }
+
+    /// Changes EtherCAT chain `chain`'s line (a cable, a slave's power or clock), or with
+    /// `None` only reads it ([`crate::cell::ethercat_line`]).
+    pub fn ethercat_line(
+        &self,
+        chain: usize,
+        action: Option<crate::cell::ethercat_line::LineAction>,
+    ) -> Result<crate::cell::ethercat_line::LineStatus, crate::cell::ethercat_line::LineControlError>
+    {
+        self.ask(|reply| Command::EthercatLine {
+            chain,
+            action,
+            reply,
+        })
+        .map_err(|_| crate::cell::ethercat_line::LineControlError::Stopped)?
     }
 
     /// A wire fault, a trace or a tap on a front end ([`crate::cell::wire_faults`]).

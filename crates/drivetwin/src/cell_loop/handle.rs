@@ -130,6 +130,13 @@ impl CellLoop {
                 } => {
                     let _ = reply.send(self.set_diagnostic(drive, &number, action));
                 }
+                Command::EthercatLine {
+                    chain,
+                    action,
+                    reply,
+                } => {
+                    let _ = reply.send(self.ethercat_line(chain, action, now));
+                }
                 Command::Wire { request, reply } => {
                     let _ = reply.send(self.wire(request, now));
                 }

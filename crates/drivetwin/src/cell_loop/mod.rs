@@ -60,6 +60,7 @@ mod connections;
 mod console;
 pub use console::{NewTerminal, Terminal, TerminalPort, Typed};
 mod ethercat_chains;
+mod ethercat_line;
 mod fine_timer;
 mod handle;
 mod modbus_drives;

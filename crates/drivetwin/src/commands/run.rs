@@ -512,6 +512,11 @@ async fn prepare_cell(
     }
     let _ = drivetwin::cell::planned::start(cell_loop.control_handle(), outside)
         .map_err(io("cell plans"))?;
+    let _ = drivetwin::cell::ethercat_line::start_planned(
+        cell_loop.control_handle(),
+        file.ethercat_line.clone(),
+    )
+    .map_err(io("[[ethercat_line]]"))?;
     Ok(Prepared::Loop {
         cell_loop: Box::new(cell_loop),
         fhpp: fhpp_tasks,

@@ -48,7 +48,7 @@
 //!   saw pysoem's 1010h write fail with a wrong working counter after ~18 ms).
 
 use std::collections::VecDeque;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -58,7 +58,7 @@ use drive::personality::Fault;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
 use ethercat::esc::MAILBOX_MAX;
 use ethercat::sii::{self, SiiConfig};
-use ethercat::{AlHook, AlState, AlStatusCode, Esc, FrameOutcome, SyncMonitor};
+use ethercat::{AlHook, AlState, AlStatusCode, ClockError, Esc, FrameOutcome, SyncMonitor};
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
@@ -69,6 +69,8 @@ use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
 use crate::cell::station::{Persisting, Station, StationError};
 use crate::cell::OnBus;
+
+use super::line::{Line, LineError};
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
@@ -102,6 +104,8 @@ pub enum EcatCellError {
     },
     #[error("an EtherCAT chain needs at least one slave")]
     Empty,
+    #[error(transparent)]
+    Line(#[from] LineError),
 }
 
 /// One mapped object in a process image.
@@ -155,6 +159,8 @@ pub struct SlaveDevice {
     pub outputs_ignored: u64,
     /// Mapped objects the device refused to take.
     pub write_errors: u64,
+    /// Times the process-data watchdog expired in Op.
+    pub watchdog_expiries: u64,
     /// A 1010h "save" whose file is being written, with the reply that waits for it.
     saving: Option<SaveInFlight>,
 }
@@ -271,6 +277,7 @@ impl SlaveDevice {
             outputs_applied: 0,
             outputs_ignored: 0,
             write_errors: 0,
+            watchdog_expiries: 0,
             saving: None,
         }
     }
@@ -546,6 +553,23 @@ impl Bound<'_> {
         self.forward_events();
     }
 
+    /// The process-data watchdog expired in Op (the master's frames stopped): the device
+    /// raises the message its device file names for it (`watchdog_diagnostic`), with that
+    /// message's reaction. Its cause ends with the frames' absence being noticed, so a fault
+    /// reset clears it once the master is back.
+    fn watchdog_expired(&mut self) {
+        self.dev.watchdog_expiries += 1;
+        let Some(number) = self.dev.desc.ethercat.and_then(|e| e.watchdog_diagnostic) else {
+            return;
+        };
+        if let Some(drive) = self.model.drive_mut() {
+            if drive.raise_diagnostic(number).is_ok() {
+                let _ = drive.clear_diagnostic(number);
+            }
+        }
+        self.forward_events();
+    }
+
     /// SYNC0 on and its cycle differs from the interpolator cycle: 0x0036.
     fn check_sync0(&self, esc: &Esc<'_>) -> Result<(), AlStatusCode> {
         // The interpolator cycle tr is the drive's 60C2h as it took it at power-on (CMMP-AS
@@ -713,6 +737,9 @@ impl AlHook for Bound<'_> {
         tracing::debug!(?from, ?to, station = esc.station_address(), "AL state");
         if from == AlState::Op {
             self.dev.layout_inputs_only();
+            if esc.al_status_code() == AlStatusCode::SYNC_MANAGER_WATCHDOG {
+                self.watchdog_expired();
+            }
         }
         match to {
             AlState::SafeOp | AlState::Op => self.post_inputs(esc),
@@ -777,6 +804,12 @@ pub struct EthercatCell {
     escs: Vec<Esc<'static>>,
     devices: Vec<SlaveDevice>,
     drives: Vec<SlaveDrive>,
+    /// What each drive of its own is built from again when its slave is powered on.
+    specs: Vec<Option<DriveSpec>>,
+    /// Where the drives store their parameters.
+    state_dir: Option<PathBuf>,
+    /// Cables pulled and slaves switched off ([`Line`]).
+    line: Line,
     /// Frames processed (EtherCAT or not).
     pub frames: u64,
 }
@@ -810,10 +843,14 @@ impl EthercatCell {
             return Err(EcatCellError::Empty);
         }
         let mut chain = EthercatCell::empty();
+        chain.state_dir = state_dir.map(Path::to_path_buf);
         for spec in specs {
             let desc = spec.desc;
-            let drive = own_drive(spec, state_dir)?;
+            let drive = own_drive(spec.clone(), state_dir)?;
             chain.push(desc, drive)?;
+            if let Some(last) = chain.specs.last_mut() {
+                *last = Some(spec);
+            }
         }
         Ok(chain)
     }
@@ -824,6 +861,9 @@ impl EthercatCell {
             escs: Vec::new(),
             devices: Vec::new(),
             drives: Vec::new(),
+            specs: Vec::new(),
+            state_dir: None,
+            line: Line::default(),
             frames: 0,
         }
     }
@@ -843,6 +883,7 @@ impl EthercatCell {
             desc,
         ));
         self.drives.push(drive);
+        self.specs.push(None);
         Ok(())
     }
 
@@ -927,11 +968,17 @@ impl EthercatCell {
         buses: &mut dyn BusDrives,
     ) -> FrameOutcome {
         self.frames += 1;
+        // The frame returns from the last slave it reaches (its port 1 loop closed).
+        let reach = self.line.reach(self.escs.len());
+        if reach == 0 {
+            return FrameOutcome::Unreturned;
+        }
         let mut first = None;
         let slaves = self
             .escs
             .iter_mut()
-            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()))
+            .take(reach);
         for (esc, (dev, drive)) in slaves {
             let o = match Bound::new(dev, drive, buses) {
                 Some(mut hook) => esc.process_with(now, frame, &mut hook),
@@ -946,7 +993,8 @@ impl EthercatCell {
         let slaves = self
             .escs
             .iter_mut()
-            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()))
+            .take(reach);
         for (esc, (dev, drive)) in slaves {
             if let Some(mut b) = Bound::new(dev, drive, buses) {
                 b.exchange(esc, now);
@@ -963,11 +1011,14 @@ impl EthercatCell {
 
     /// As [`poll`](Self::poll), the drives of [`SlaveDrive::OnBus`] slaves found in `buses`.
     pub fn poll_with(&mut self, now: Instant, buses: &mut dyn BusDrives) -> Option<Instant> {
+        let line = &self.line;
         let slaves = self
             .escs
             .iter_mut()
-            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()));
-        for (esc, (dev, drive)) in slaves {
+            .zip(self.devices.iter_mut().zip(self.drives.iter_mut()))
+            .enumerate()
+            .filter(|(i, _)| line.powered(*i));
+        for (_, (esc, (dev, drive))) in slaves {
             match Bound::new(dev, drive, buses) {
                 Some(mut b) => b.poll(esc, now),
                 None => {
@@ -979,9 +1030,95 @@ impl EthercatCell {
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        self.devices.iter().fold(None, |acc, d| {
-            earliest(earliest(acc, d.next_step), d.next_sync0)
-        })
+        self.devices
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.line.powered(*i))
+            .fold(None, |acc, (_, d)| {
+                earliest(earliest(acc, d.next_step), d.next_sync0)
+            })
+    }
+
+    /// The line's physical state: cable, power.
+    pub fn line(&self) -> &Line {
+        &self.line
+    }
+
+    /// The cable behind `after` slaves pulled (0: the master's own): frames return from slave
+    /// `after`, the slaves behind it see none (their watchdogs expire, their drives react).
+    pub fn pull_cable(&mut self, after: usize) -> Result<(), LineError> {
+        self.line.pull_cable(after, self.escs.len())
+    }
+
+    /// The pulled cable plugged back: the slaves behind it see frames again, in the state
+    /// their watchdogs left them.
+    pub fn plug_cable(&mut self) {
+        self.line.plug_cable();
+    }
+
+    /// Slave `position` switched off: it and every slave behind it drop off the line; its
+    /// drive stops.
+    pub fn power_off(&mut self, position: usize) -> Result<(), LineError> {
+        self.line
+            .set_power(position, false, self.escs.len())
+            .map(|_| ())
+    }
+
+    /// Slave `position` switched on at `now`: its ESC starts from its reset values (AL Init,
+    /// no station address), its drive boots from its cell-file spec and stored parameters as
+    /// at power-on. A drive that is a CANopen node of the cell as well keeps running (its power
+    /// is the CAN side's); its ESC alone restarts.
+    pub fn power_on(
+        &mut self,
+        position: usize,
+        now: Instant,
+        buses: &mut dyn BusDrives,
+    ) -> Result<(), EcatCellError> {
+        let len = self.escs.len();
+        if !self.line.set_power(position, true, len)? {
+            return Ok(());
+        }
+        let (Some(esc), Some(dev)) = (self.escs.get_mut(position), self.devices.get_mut(position))
+        else {
+            return Ok(());
+        };
+        let desc = dev.desc;
+        let clock = esc.clock_error();
+        let cfg = SiiConfig::from_description(desc);
+        *esc = Esc::with_sii(sii_image(desc, &cfg)?);
+        // The oscillator is the board's: it runs off nominal as before.
+        esc.set_clock_error(now, clock);
+        *dev = SlaveDevice::new(cfg, CoeConfig::from_description(desc), desc);
+        if let (Some(Some(spec)), Some(drive)) =
+            (self.specs.get(position), self.drives.get_mut(position))
+        {
+            *drive = own_drive(spec.clone(), self.state_dir.as_deref())?;
+        }
+        if let (Some(dev), Some(drive)) = (
+            self.devices.get_mut(position),
+            self.drives.get_mut(position),
+        ) {
+            if let Some(mut b) = Bound::new(dev, drive, buses) {
+                b.step(now);
+            }
+        }
+        Ok(())
+    }
+
+    /// Slave `position`'s local clock runs off nominal from `now` on (drift, jitter).
+    pub fn set_clock_error(
+        &mut self,
+        position: usize,
+        now: Instant,
+        error: ClockError,
+    ) -> Result<(), LineError> {
+        let len = self.escs.len();
+        let esc = self
+            .escs
+            .get_mut(position)
+            .ok_or(LineError::NoSlave { position, len })?;
+        esc.set_clock_error(now, error);
+        Ok(())
     }
 }
 

@@ -2,6 +2,7 @@
 //! socket it sits on.
 
 pub mod chain;
+pub mod line;
 pub mod link;
 
 /// Largest frame read: an Ethernet frame without FCS is at most 1514 bytes (1518 with a VLAN

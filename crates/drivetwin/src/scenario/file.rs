@@ -25,7 +25,7 @@
 //! One key names what a step does: an action (`write`, `sdo_write`, `din`, `load`,
 //! `ambient`, `encoder`, `switch` (the plant's physics), `raise`,
 //! `clear` (a diagnostic message by its number), `fault`,
-//! `clear_faults`, `nmt`, `frame`) or an expectation (`expect`, `expect_state`, `expect_emcy`,
+//! `clear_faults`, `nmt`, `frame`, `ethercat_line` (a live cell's chain)) or an expectation (`expect`, `expect_state`, `expect_emcy`,
 //! `expect_frame`); an action with `repeat` and `every` is done that many times. [`Step::kind`] turns the keys into an [`Action`] or an [`Expectation`]; a
 //! new action is a field here, a variant of [`Action`] and its arm in each rig.
 
@@ -142,6 +142,11 @@ pub struct Step {
     /// A Modbus TCP request (the ADU in hex, MBAP header first) to the CMMO-ST `node`, as
     /// its one client sends it (the virtual clock's rig).
     pub modbus_request: Option<String>,
+    /// A change to an EtherCAT chain's line, as the API takes it:
+    /// `ethercat_line = { action = "pull-cable", after = 1 }` on chain `chain` (default 0)
+    /// ([`crate::cell::ethercat_line`]; a live cell's).
+    pub ethercat_line: Option<crate::cell::ethercat_line::LineAction>,
+    pub chain: Option<usize>,
 
     // Expectations.
     /// Object `"IIII:SS"` whose value & `mask` == `equals` within `within`.
@@ -213,6 +218,11 @@ pub enum Action {
     Modbus {
         node: Option<u8>,
         request: Vec<u8>,
+    },
+    /// A change to EtherCAT chain `chain`'s line.
+    EthercatLine {
+        chain: usize,
+        action: crate::cell::ethercat_line::LineAction,
     },
     /// A frame from outside on bus `bus` (NMT commands are such frames).
     Frame {
@@ -316,6 +326,7 @@ impl Step {
             ("nmt", self.nmt.is_some()),
             ("frame", self.frame.is_some()),
             ("modbus_request", self.modbus_request.is_some()),
+            ("ethercat_line", self.ethercat_line.is_some()),
             ("expect", self.expect.is_some()),
             ("expect_state", self.expect_state.is_some()),
             ("expect_emcy", self.expect_emcy.is_some()),
@@ -325,8 +336,8 @@ impl Step {
         let [key] = given.as_slice() else {
             return Err(format!(
                 "one of write, sdo_write, din, load, ambient, encoder, switch, raise, clear, \
-                 fault, clear_faults, nmt, frame, modbus_request, expect, expect_state, \
-                 expect_emcy, expect_frame (found {})",
+                 fault, clear_faults, nmt, frame, modbus_request, ethercat_line, expect, \
+                 expect_state, expect_emcy, expect_frame (found {})",
                 if given.is_empty() {
                     "none".to_string()
                 } else {
@@ -466,6 +477,13 @@ impl Step {
                 })
             }
             "clear_faults" => act(Action::ClearFaults { bus }),
+            "ethercat_line" => match self.ethercat_line {
+                Some(action) => act(Action::EthercatLine {
+                    chain: self.chain.unwrap_or(0),
+                    action,
+                }),
+                None => Err("ethercat_line: no action".into()),
+            },
             "nmt" => {
                 let name = self.nmt.as_deref().unwrap_or("");
                 let cmd = NMT
@@ -692,6 +710,28 @@ mod tests {
         expect_emcy = 0x8130
         node = 2
     "#;
+
+    #[test]
+    fn an_ethercat_line_step_is_the_apis_action() {
+        let text = r#"
+            [[step]]
+            at = "1s"
+            ethercat_line = { action = "pull-cable", after = 32 }
+            chain = 1
+        "#;
+        let s = Scenario::parse(text, "t", None).expect("parses");
+        let kinds: Vec<_> = s.steps.iter().map(|(_, k)| k.clone()).collect();
+        assert!(
+            matches!(
+                kinds.as_slice(),
+                [StepKind::Act(Action::EthercatLine {
+                    chain: 1,
+                    action: crate::cell::ethercat_line::LineAction::PullCable { after: 32 }
+                })]
+            ),
+            "{kinds:?}"
+        );
+    }
 
     #[test]
     fn a_scenario_parses_into_a_sorted_timeline() {

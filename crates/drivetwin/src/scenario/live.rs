@@ -197,6 +197,11 @@ impl Rig for LiveRig {
                 })
                 .map(|_| ())
                 .map_err(|e| e.to_string()),
+            Action::EthercatLine { chain, action } => self
+                .handle
+                .ethercat_line(*chain, Some(*action))
+                .map(|_| ())
+                .map_err(|e| e.to_string()),
         }
     }
 

@@ -460,6 +460,11 @@ impl Rig for VirtualRig {
             }
             // Answered by `act_cmmo_st` when the node is a CMMO-ST.
             Action::Modbus { .. } => return Err("no CMMO-ST with that node".into()),
+            // Decision: the virtual rig's cell has CAN buses only; a chain's line is a live
+            // cell's (a scenario posted to its console, `POST /api/scenarios`).
+            Action::EthercatLine { .. } => {
+                return Err("ethercat_line runs on a live cell with an EtherCAT chain".into())
+            }
         };
         self.emit(on, seen);
         result

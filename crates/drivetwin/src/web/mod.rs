@@ -23,6 +23,7 @@ pub mod api;
 pub mod auth;
 pub mod diagnostics;
 pub mod error_text;
+pub mod ethercat_line;
 pub mod live;
 pub mod motion;
 pub mod page;
@@ -106,6 +107,7 @@ pub fn router(state: AppState) -> Router {
         .merge(diagnostics::routes())
         .merge(page::routes())
         .merge(wire::routes())
+        .merge(ethercat_line::routes())
         .merge(motion::routes())
         .merge(physics::routes())
         .merge(parameters::routes())

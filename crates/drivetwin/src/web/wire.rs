@@ -354,6 +354,7 @@ pub struct WireDoc;
 /// The main document with the wire's (and the scenarios') paths.
 pub fn merged(mut doc: utoipa::openapi::OpenApi) -> utoipa::openapi::OpenApi {
     doc.merge(WireDoc::openapi());
+    doc.merge(super::ethercat_line::LineDoc::openapi());
     doc.merge(super::scenarios::ScenarioDoc::openapi());
     doc.merge(super::physics::PhysicsDoc::openapi());
     doc

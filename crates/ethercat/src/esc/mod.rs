@@ -50,7 +50,8 @@
 //! signals completion); SM event bits and the PDI-side AL event request 0x0220 (only the AL
 //! status event, 0x0210 bit 3, reaches the datagram IRQ field); device identification
 //! (AL control bit 5); PDI watchdog; write protection 0x0020/0x0030 and ESC reset 0x0040
-//! (stored, not enforced); DC drift, time-control slewing and the 32-bit start-time wrap;
+//! (stored, not enforced); DC time-control slewing (a drift set with [`Esc::set_clock_error`]
+//! is corrected at once by each system-time write) and the 32-bit start-time wrap;
 //! SYNC0/SYNC1 pulse status 0x098E/0x098F and latch units; FMMUs and SMs 8–15 (stored
 //! only); VLAN-tagged frames (not recognised as EtherCAT); EEPROM reload (a no-op).
 
@@ -71,6 +72,7 @@ use crate::sync_manager::{
 mod al_state;
 mod chain;
 mod frame;
+mod local_clock;
 mod memory_access;
 mod pdi;
 mod side_effects;
@@ -78,6 +80,8 @@ mod sm_access;
 mod watchdog;
 
 pub use chain::{process_chain, process_chain_with};
+pub use local_clock::ClockError;
+use local_clock::LocalClock;
 
 /// Largest mailbox message the device can post (and the size of the repeat backup).
 pub const MAILBOX_MAX: usize = 1024;
@@ -214,12 +218,15 @@ pub enum FrameOutcome {
     Ignored,
     /// Not an EtherCAT frame (or shorter than an Ethernet header): drop it.
     NotEtherCat,
+    /// No slave closed the loop: the link into the first one is down (its cable pulled, it
+    /// powered off), so nothing comes back to the master.
+    Unreturned,
 }
 
 impl FrameOutcome {
     /// The frame goes on to the next slave / back to the master.
     pub fn forward(&self) -> bool {
-        !matches!(self, FrameOutcome::NotEtherCat)
+        !matches!(self, FrameOutcome::NotEtherCat | FrameOutcome::Unreturned)
     }
 }
 
@@ -350,6 +357,7 @@ pub struct Esc<'a> {
     errors: ErrorCounters,
     dirty: Dirty,
     systime_write: [u8; 8],
+    clock: LocalClock,
 }
 
 impl<'a> Esc<'a> {
@@ -376,6 +384,7 @@ impl<'a> Esc<'a> {
             errors: ErrorCounters::default(),
             dirty: Dirty::default(),
             systime_write: [0; 8],
+            clock: LocalClock::default(),
         };
         esc.power_on();
         esc
@@ -536,10 +545,24 @@ impl<'a> Esc<'a> {
         self.mailbox_running
     }
 
-    /// The ESC's local clock at `now` (ns).
+    /// The ESC's local clock at `now` (ns): `now`, its offset, and the deviation of an
+    /// oscillator off nominal ([`Esc::set_clock_error`]).
     pub fn local_time_at(&self, now: Instant) -> u64 {
         now.as_nanos()
             .wrapping_add(self.config.local_clock_offset_ns)
+            .wrapping_add(self.clock.deviation(now) as u64)
+    }
+
+    /// From `now` on the local clock runs off nominal by `error` (drift and jitter); the time
+    /// it gained so far stays. The master's system-time writes correct it (0x092C shows the
+    /// difference each one found).
+    pub fn set_clock_error(&mut self, now: Instant, error: ClockError) {
+        self.clock.set(now, error);
+    }
+
+    /// How far the local clock runs off nominal.
+    pub fn clock_error(&self) -> ClockError {
+        self.clock.error()
     }
 
     /// DC system time at `now`: local time + offset 0x0920.

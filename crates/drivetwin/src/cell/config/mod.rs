@@ -105,6 +105,10 @@ pub struct CellFile {
     pub bus: Buses,
     #[serde(default)]
     pub drive: Vec<DriveSection>,
+    /// `[[ethercat_line]]`: faults of an EtherCAT chain's line at their times
+    /// ([`crate::cell::ethercat_line`]).
+    #[serde(default)]
+    pub ethercat_line: Vec<crate::cell::ethercat_line::TimedLineAction>,
 }
 
 /// A block of eight switches numbered from 1 with those of `on` ON (`[0]` is switch 1);
@@ -180,6 +184,7 @@ impl CellFile {
         CellFile {
             bus: Buses::default(),
             drive: vec![drive],
+            ethercat_line: Vec::new(),
         }
     }
 }
