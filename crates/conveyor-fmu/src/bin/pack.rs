@@ -61,7 +61,10 @@ fn model_description() -> Result<String, String> {
 fn pack(library: &PathBuf, output: &PathBuf) -> Result<(), String> {
     let xml = model_description()?;
     let lib = std::fs::read(library).map_err(|e| format!("{}: {e}", library.display()))?;
-    let file = std::fs::File::create(output).map_err(|e| format!("{}: {e}", output.display()))?;
+    // Written beside the output and renamed over it: a reader never sees half an archive.
+    let partial = output.with_extension("fmu.partial");
+    let file =
+        std::fs::File::create(&partial).map_err(|e| format!("{}: {e}", partial.display()))?;
     let mut zip = zip::ZipWriter::new(file);
     let opts = zip::write::SimpleFileOptions::default();
     let w = |e: zip::result::ZipError| format!("{}: {e}", output.display());
@@ -73,6 +76,7 @@ fn pack(library: &PathBuf, output: &PathBuf) -> Result<(), String> {
     zip.write_all(&lib)
         .map_err(|e| format!("{}: {e}", output.display()))?;
     zip.finish().map_err(w)?;
+    std::fs::rename(&partial, output).map_err(|e| format!("{}: {e}", output.display()))?;
     Ok(())
 }
 

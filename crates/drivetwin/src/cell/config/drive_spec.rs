@@ -56,6 +56,8 @@ pub struct DriveSpec {
     /// `[drive.thermal]` (at 0) and `[[drive.plant]]`: the plant's physics changed at a time
     /// of the cell's clock, ms.
     pub physics: Vec<(u64, crate::cell::control::PhysicsChange)>,
+    /// `[drive.load]`: the load FMU and its variables.
+    pub load: Option<crate::cosim::mapping::LoadMapping>,
 }
 
 impl DriveSpec {
@@ -346,6 +348,7 @@ impl CellFile {
                 ethercat,
                 diagnostics: d.diagnostic.clone(),
                 physics,
+                load: d.load.as_ref().map(|l| l.mapping()),
             });
         }
         Ok(specs)
