@@ -240,6 +240,16 @@ impl CellFile {
                 ));
             }
             let mut commissioning = Vec::new();
+            if d.load.is_some() && !is_cia402(desc) {
+                return Err(ConfigError::Object {
+                    node: d.node,
+                    key: "load".into(),
+                    what: format!(
+                        "{}: a load FMU is coupled to a CiA 402 drive's motor",
+                        desc.name
+                    ),
+                });
+            }
             let settings = if is_cia402(desc) {
                 let unset = Cia402Keys::default();
                 let k = d.keys.cia402.as_ref().unwrap_or(&unset);

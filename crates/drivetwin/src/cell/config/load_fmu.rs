@@ -55,3 +55,35 @@ impl LoadSection {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+
+    use super::super::CellFile;
+
+    #[test]
+    fn the_table_is_read_with_its_switches_and_parameters() {
+        let f: CellFile = toml::from_str(
+            "[[drive]]\n[drive.load]\nfmu = \"c.fmu\"\nspeed = \"w\"\nload_torque = \"t\"\n\
+             [drive.load.switches]\nhome = \"barrier\"\n[drive.load.parameters]\nmass = 2.0\n",
+        )
+        .unwrap();
+        let m = f.drive[0].load.as_ref().unwrap().mapping();
+        assert_eq!(m.speed.as_deref(), Some("w"));
+        assert_eq!(m.load_torque, "t");
+        assert_eq!(m.switches["home"], "barrier");
+        assert_eq!(m.parameters["mass"], 2.0);
+        assert_eq!(m.inputs().collect::<Vec<_>>(), [("speed", "w")]);
+    }
+
+    #[test]
+    fn a_load_on_a_drive_without_a_cia_402_motor_is_refused() {
+        let f: CellFile = toml::from_str(
+            "[[drive]]\ndevice = \"cmmo-st\"\n[drive.load]\nfmu = \"c.fmu\"\nload_torque = \"t\"\n",
+        )
+        .unwrap();
+        let e = f.drives().unwrap_err().to_string();
+        assert!(e.contains("a load FMU is coupled to a CiA 402 drive"), "{e}");
+    }
+}
