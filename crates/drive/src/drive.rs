@@ -26,6 +26,7 @@ use crate::travel::{Inputs, TravelSettings};
 mod brake;
 pub mod diagnostics;
 mod digital_io;
+pub mod external_load;
 mod faults;
 mod feed_constant;
 mod homing_run;

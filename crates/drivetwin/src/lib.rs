@@ -29,6 +29,7 @@
 pub mod can;
 pub mod cell;
 pub mod cell_loop;
+pub mod cosim;
 pub mod ecat;
 pub mod export;
 pub mod master;

@@ -263,3 +263,73 @@ fn a_cmmo_st_over_modbus_on_the_virtual_clock() {
     assert!(report.passed, "{}", report.text());
     assert_eq!(report.expectations.len(), 5);
 }
+
+/// The example conveyor FMU, built and packed from source (scripts/conveyor-fmu), where the
+/// example cell file looks for it; once for all the tests of this binary.
+fn conveyor_fmu() {
+    static BUILT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let built = BUILT.get_or_init(|| {
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+        std::process::Command::new(root.join("scripts/conveyor-fmu"))
+            .current_dir(&root)
+            .status()
+            .is_ok_and(|s| s.success())
+    });
+    assert!(built, "scripts/conveyor-fmu");
+}
+
+#[test]
+fn homing_on_the_conveyor_fmus_light_barrier_is_the_same_bit_for_bit_twice() {
+    conveyor_fmu();
+    let (a, trace_a) = run("conveyor_homing.toml", 1);
+    let (b, trace_b) = run("conveyor_homing.toml", 2);
+    assert!(a.passed, "{}", a.text());
+    assert_eq!(a.text(), b.text());
+    assert_eq!(a, b);
+    assert_eq!(trace_a, trace_b, "the traces are equal bit for bit");
+}
+
+#[test]
+fn a_load_fmu_without_a_mapped_variable_is_refused_naming_it() {
+    conveyor_fmu();
+    let fmu = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/fmu/conveyor.fmu");
+    let text = format!(
+        "name = \"missing\"\n[cell]\n[[cell.drive]]\ndevice = \"cmmp-as\"\n\
+         [cell.drive.load]\nfmu = {:?}\nspeed = \"shaft_speed\"\nload_torque = \"belt_torque\"\n",
+        fmu.display().to_string()
+    );
+    let s = Scenario::parse(&text, "missing", None).expect("scenario");
+    let Err(e) = VirtualRig::new(s.cell.as_ref().expect("cell")) else {
+        panic!("a load FMU without `belt_torque` was taken");
+    };
+    assert!(
+        e.to_string()
+            .contains("no variable `belt_torque` (mapped as `load_torque`)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_load_fmu_that_fails_stops_the_cell_with_its_error() {
+    conveyor_fmu();
+    let fmu = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/fmu/conveyor.fmu");
+    // A mass of -1 kg: the conveyor's doStep refuses it (and logs why).
+    let text = format!(
+        "name = \"failing load\"\nuntil = \"100ms\"\n[cell]\n[[cell.drive]]\ndevice = \"cmmp-as\"\n\
+         [cell.drive.load]\nfmu = {:?}\nspeed = \"shaft_speed\"\nload_torque = \"load_torque\"\n\
+         [cell.drive.load.parameters]\nmass = -1.0\n",
+        fmu.display().to_string()
+    );
+    let s = Scenario::parse(&text, "failing", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(!report.passed);
+    assert!(
+        report
+            .errors
+            .iter()
+            .any(|e| e.contains("the cell stopped") && e.contains("fmi3DoStep at t = 0 s")),
+        "{}",
+        report.text()
+    );
+}

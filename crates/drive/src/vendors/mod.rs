@@ -95,6 +95,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> AnyDrive<S> {
         }
     }
 
+    /// [`Drive::step_with_load`] on the drive it holds.
+    pub fn step_with_load<L: crate::drive::external_load::ExternalLoad>(
+        &mut self,
+        now: od::Instant,
+        load: &mut L,
+    ) -> Result<Option<od::Instant>, L::Error> {
+        each!(self, d => d.step_with_load(now, load))
+    }
+
+    /// [`Drive::shaft`] of the drive it holds.
+    pub fn shaft(&self) -> crate::drive::external_load::Shaft {
+        each!(self, d => d.shaft())
+    }
+
     /// The personality the drive runs with.
     pub fn personality(&self) -> &'static Personality {
         each!(self, d => d.personality)

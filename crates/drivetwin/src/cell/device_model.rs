@@ -5,9 +5,12 @@ use drive::drive::{Drive, DriveEvent, DriveSettings};
 use drive::vendors::{AnyDrive, Cia402};
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary};
 
+use crate::cosim::LoadedDrive;
+
 pub enum Model {
     Plain(ObjectDictionary<Vec<u8>>),
-    Drive(Box<AnyDrive<Vec<u8>>>),
+    /// A drive, with its load FMU where the cell file gives one.
+    Drive(Box<LoadedDrive>),
 }
 
 /// A CiA 402 drive (`profile = "cia402"` in its device file, checked against 1000h).
@@ -31,7 +34,7 @@ impl Model {
                     Some(p) => AnyDrive::Cia402(Drive::with_vendor(od, s, p, Cia402)),
                     None => AnyDrive::new(od, s),
                 };
-                Model::Drive(Box::new(drive))
+                Model::Drive(Box::new(LoadedDrive::new(drive)))
             }
             _ => Model::Plain(od),
         }
@@ -51,18 +54,37 @@ impl Model {
         }
     }
 
-    pub fn drive(&self) -> Option<&AnyDrive<Vec<u8>>> {
+    pub fn drive(&self) -> Option<&LoadedDrive> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,
         }
     }
 
-    pub fn drive_mut(&mut self) -> Option<&mut AnyDrive<Vec<u8>>> {
+    pub fn drive_mut(&mut self) -> Option<&mut LoadedDrive> {
         match self {
             Model::Drive(d) => Some(d),
             Model::Plain(_) => None,
         }
+    }
+
+    /// Couples the load FMU `mapping` names to the drive's shaft (`[drive.load]`).
+    pub fn couple_load(
+        &mut self,
+        mapping: &crate::cosim::LoadMapping,
+        node: u8,
+    ) -> Result<(), crate::cosim::FmuLoadError> {
+        let Model::Drive(d) = self else {
+            return Err(crate::cosim::FmuLoadError::NoShaft {
+                fmu: mapping.fmu.display().to_string(),
+            });
+        };
+        d.set_load(crate::cosim::FmuLoad::open(
+            mapping,
+            None,
+            &format!("load{node}"),
+        )?);
+        Ok(())
     }
 
     /// Runs the device up to `now`; the next time it wants to run.
@@ -90,14 +112,14 @@ impl Model {
     fn access(&self) -> &dyn ObjectAccess {
         match self {
             Model::Plain(od) => od,
-            Model::Drive(d) => d.as_ref(),
+            Model::Drive(d) => &***d,
         }
     }
 
     fn access_mut(&mut self) -> &mut dyn ObjectAccess {
         match self {
             Model::Plain(od) => od,
-            Model::Drive(d) => d.as_mut(),
+            Model::Drive(d) => &mut ***d,
         }
     }
 }

@@ -426,7 +426,10 @@ impl CellLoop {
         drive: usize,
     ) -> Result<&mut ::drive::vendors::AnyDrive<Vec<u8>>, ControlError> {
         match self.target(drive)? {
-            Target::Can(model) => model.drive_mut().ok_or(ControlError::NoPlant(drive)),
+            Target::Can(model) => model
+                .drive_mut()
+                .map(|d| &mut **d)
+                .ok_or(ControlError::NoPlant(drive)),
             Target::Modbus(_) => Err(ControlError::NoPlant(drive)),
         }
     }

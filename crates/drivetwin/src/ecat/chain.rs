@@ -1131,7 +1131,14 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
         s
     });
     let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
-    let drive = Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+    let mut drive =
+        Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
+    if let Some(load) = &spec.load {
+        drive
+            .model
+            .couple_load(load, spec.node)
+            .map_err(crate::cell::station::StationError::from)?;
+    }
     let (model, store, stored) = drive.into_parts();
     Ok(SlaveDrive::Own {
         model,

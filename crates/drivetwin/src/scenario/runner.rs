@@ -29,6 +29,10 @@ pub trait Rig {
     /// An object's value as an unsigned number (little-endian, as on CANopen) and its size
     /// in bytes.
     fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String>;
+    /// Why the cell has stopped, once a part of it has (a drive's load FMU that failed).
+    fn stopped(&self) -> Option<String> {
+        None
+    }
 }
 
 struct Pending {
@@ -178,6 +182,10 @@ pub fn run(scenario: &Scenario, rig: &mut dyn Rig) -> Report {
             }
         });
         now = target;
+        if let Some(why) = rig.stopped() {
+            errors.push(format!("the cell stopped at {}: {why}", seconds(now)));
+            break;
+        }
     }
     finished.extend(pending);
     finished.sort_by_key(|p| p.step);

@@ -82,7 +82,7 @@ impl VirtualRig {
             if !spec.on_can().map_err(|e| cell_err(e.to_string()))? || !carried {
                 continue;
             }
-            let d = Station::with_settings(
+            let mut d = Station::with_settings(
                 spec.desc,
                 spec.node,
                 None,
@@ -90,6 +90,11 @@ impl VirtualRig {
                 spec.settings,
             )
             .map_err(|e| cell_err(e.to_string()))?;
+            if let Some(load) = &spec.load {
+                d.model
+                    .couple_load(load, spec.node)
+                    .map_err(|e| cell_err(e.to_string()))?;
+            }
             let (Some(on_bus), Some(p)) = (drives.get_mut(spec.bus), plans.get_mut(spec.bus))
             else {
                 return Err(cell_err(format!(
@@ -271,12 +276,20 @@ impl VirtualRig {
         self.cell_mut(b)?
             .drives
             .get_mut(i)
-            .and_then(|d| d.model.drive_mut())
+            .and_then(|d| d.model.drive_mut().map(|d| &mut **d))
             .ok_or_else(|| "the drive has no simulated plant".to_string())
     }
 }
 
 impl Rig for VirtualRig {
+    fn stopped(&self) -> Option<String> {
+        self.cells
+            .iter()
+            .flat_map(|c| &c.drives)
+            .find_map(|d| d.model.drive()?.load_failure())
+            .map(|e| format!("load: {e}"))
+    }
+
     fn run_until(&mut self, t: Duration, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
         let end = Instant::from_nanos(u64::try_from(t.as_nanos()).unwrap_or(u64::MAX));
         self.flush(seen);

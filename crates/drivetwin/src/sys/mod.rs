@@ -10,6 +10,7 @@
 //!
 //! One file per concern:
 //! - [`fd`]: reads, writes and waits on any descriptor; descriptors for tokio;
+//! - [`fmu_instance`]: an FMU instance moved to the cell's thread;
 //! - [`net_interface`]: network interfaces by name;
 //! - [`socketcan`]: `AF_CAN` raw sockets;
 //! - [`packet_socket`]: `AF_PACKET` sockets for one EtherType;
@@ -19,6 +20,7 @@
 //! - [`timer`]: sub-millisecond one-shot timers a poll waits for.
 
 pub mod fd;
+pub mod fmu_instance;
 pub mod net_interface;
 pub mod packet_socket;
 pub mod pty;

@@ -51,13 +51,15 @@ pub struct DriveSection {
     /// `[drive.thermal]`: the ambient temperature and the thermal figures of motor and power
     /// stage (`drive::thermal`).
     pub thermal: Option<ThermalSection>,
+    /// `[drive.load]`: a co-simulation FMU as the load (CiA 402 drives).
+    pub load: Option<super::load_fmu::LoadSection>,
     /// The keys of its device, by `device` (or `eds`).
     pub keys: DeviceKeys,
 }
 
 /// The keys every drive has ([`DriveSection`]'s fields but `keys`), for the refusal of a key
 /// that no device has.
-pub const COMMON_KEYS: [&str; 11] = [
+pub const COMMON_KEYS: [&str; 12] = [
     "device",
     "eds",
     "node",
@@ -69,6 +71,7 @@ pub const COMMON_KEYS: [&str; 11] = [
     "diagnostic",
     "plant",
     "thermal",
+    "load",
 ];
 
 /// A `[[drive]]` as written: the common keys, and the rest for its device's sections.
@@ -93,6 +96,7 @@ struct Written {
     #[serde(default)]
     plant: Vec<PlannedPhysics>,
     thermal: Option<ThermalSection>,
+    load: Option<super::load_fmu::LoadSection>,
     #[serde(flatten)]
     rest: toml::Table,
 }
@@ -116,6 +120,7 @@ impl<'de> Deserialize<'de> for DriveSection {
             diagnostic: w.diagnostic,
             plant: w.plant,
             thermal: w.thermal,
+            load: w.load,
             keys,
         })
     }
@@ -137,6 +142,7 @@ impl DriveSection {
             diagnostic: Vec::new(),
             plant: Vec::new(),
             thermal: None,
+            load: None,
             keys: DeviceKeys::of_device(device),
         }
     }

@@ -56,6 +56,8 @@ pub struct DriveSpec {
     /// `[drive.thermal]` (at 0) and `[[drive.plant]]`: the plant's physics changed at a time
     /// of the cell's clock, ms.
     pub physics: Vec<(u64, crate::cell::control::PhysicsChange)>,
+    /// `[drive.load]`: the load FMU and its variables.
+    pub load: Option<crate::cosim::mapping::LoadMapping>,
 }
 
 impl DriveSpec {
@@ -238,6 +240,16 @@ impl CellFile {
                 ));
             }
             let mut commissioning = Vec::new();
+            if d.load.is_some() && !is_cia402(desc) {
+                return Err(ConfigError::Object {
+                    node: d.node,
+                    key: "load".into(),
+                    what: format!(
+                        "{}: a load FMU is coupled to a CiA 402 drive's motor",
+                        desc.name
+                    ),
+                });
+            }
             let settings = if is_cia402(desc) {
                 let unset = Cia402Keys::default();
                 let k = d.keys.cia402.as_ref().unwrap_or(&unset);
@@ -346,6 +358,7 @@ impl CellFile {
                 ethercat,
                 diagnostics: d.diagnostic.clone(),
                 physics,
+                load: d.load.as_ref().map(|l| l.mapping()),
             });
         }
         Ok(specs)

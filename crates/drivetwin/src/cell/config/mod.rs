@@ -16,6 +16,7 @@ pub mod device_keys;
 pub mod drive_section;
 mod drive_spec;
 pub mod kinco;
+pub mod load_fmu;
 pub mod nanotec;
 mod objects;
 #[cfg(test)]
@@ -139,6 +140,9 @@ impl CellFile {
         for d in &mut file.drive {
             if let Some(eds) = d.eds.as_mut().filter(|p| p.is_relative()) {
                 *eds = dir.join(&*eds);
+            }
+            if let Some(load) = d.load.as_mut().filter(|l| l.fmu.is_relative()) {
+                load.fmu = dir.join(&load.fmu);
             }
         }
         Ok(file)

@@ -786,9 +786,10 @@ mod device_keys_tests {
         // Every common key is read as one (none left for the sections).
         let all = "[[drive]]\ndevice = \"testbench\"\neds = \"x.eds\"\nnode = 2\nbus = \"b\"\n\
                    interfaces = []\nallow_unreal_interfaces = true\nethercat = \"veth0\"\n\
-                   diagnostic = []\nplant = []\n[drive.objects]\n[drive.thermal]\n";
+                   diagnostic = []\nplant = []\n[drive.objects]\n[drive.thermal]\n\
+                   [drive.load]\nfmu = \"x.fmu\"\nload_torque = \"t\"\n";
         let f = file(all).unwrap();
         assert!(f.drive[0].keys.foreign.is_empty());
-        assert_eq!(COMMON_KEYS.len(), 11);
+        assert_eq!(COMMON_KEYS.len(), 12);
     }
 }

@@ -36,6 +36,8 @@ pub enum StationError {
     Commissioning { index: u16, sub: u8, what: String },
     #[error(transparent)]
     Store(#[from] StoreError),
+    #[error("load: {0}")]
+    Load(#[from] crate::cosim::FmuLoadError),
 }
 
 /// One drive with all its front ends.

@@ -1,0 +1,156 @@
+//! A belt conveyor as an FMI 3.0 co-simulation FMU (FMI 3.0 §4 "Co-Simulation"): the example
+//! machine model a drivetwin drive takes as its load (`[drive.load]`, docs/cosimulation.md).
+//!
+//! Inputs: the motor shaft's angle and speed (and, for an importer that gives it, the motor's
+//! torque, which this model reports back as `motor_torque_seen` and does not integrate: the belt
+//! is coupled through its elasticity, [`belt`]). Outputs: the torque the belt puts on the shaft,
+//! the belt's position and speed, and a light barrier that is `true` while the belt position is
+//! within `barrier_from` … `barrier_to`.
+//!
+//! `fmi_export::export_fmu!` writes the FMI C functions; `conveyor-fmu-pack` (src/bin/pack.rs)
+//! writes `modelDescription.xml` from the same declarations and packs `conveyor.fmu`.
+
+pub mod belt;
+
+use belt::{Belt, BeltData};
+use fmi::fmi3::{Fmi3Error, Fmi3Res};
+use fmi_export::{
+    fmi3::{CSDoStepResult, Context, DefaultLoggingCategory, UserModel},
+    FmuModel,
+};
+
+/// A belt conveyor driven by a servo motor through a toothed belt, with a light barrier.
+#[derive(FmuModel, Default, Debug)]
+#[model(model_exchange = false, co_simulation = true, user_model = false)]
+pub struct Conveyor {
+    /// Motor shaft angle, rad.
+    #[variable(causality = Input, variability = Continuous, start = 0.0)]
+    pub shaft_angle: f64,
+    /// Motor shaft speed, rad/s.
+    #[variable(causality = Input, variability = Continuous, start = 0.0)]
+    pub shaft_speed: f64,
+    /// The motor's electromagnetic torque, N·m (reported back, not integrated).
+    #[variable(causality = Input, variability = Continuous, start = 0.0)]
+    pub motor_torque: f64,
+
+    /// Torque of the belt on the motor shaft, N·m, towards negative rotation.
+    #[variable(causality = Output, variability = Continuous)]
+    pub load_torque: f64,
+    /// Position of the belt (and its goods), m.
+    #[variable(causality = Output, variability = Continuous)]
+    pub belt_position: f64,
+    /// Speed of the belt, m/s.
+    #[variable(causality = Output, variability = Continuous)]
+    pub belt_speed: f64,
+    /// The motor torque of the last step's inputs, N·m.
+    #[variable(causality = Output, variability = Continuous)]
+    pub motor_torque_seen: f64,
+    /// Light barrier: true while the belt position is within `barrier_from` … `barrier_to`.
+    #[variable(causality = Output, variability = Discrete)]
+    pub light_barrier: bool,
+
+    /// Moving mass, kg.
+    #[variable(causality = Parameter, variability = Fixed, start = 0.5)]
+    pub mass: f64,
+    /// Pulley radius, m (belt travel per shaft radian).
+    #[variable(causality = Parameter, variability = Fixed, start = 0.01)]
+    pub pulley_radius: f64,
+    /// Belt stiffness, N/m.
+    #[variable(causality = Parameter, variability = Fixed, start = 1.0e5)]
+    pub stiffness: f64,
+    /// Belt damping, N·s/m.
+    #[variable(causality = Parameter, variability = Fixed, start = 100.0)]
+    pub damping: f64,
+    /// Viscous friction of the mass, N·s/m.
+    #[variable(causality = Parameter, variability = Fixed, start = 5.0)]
+    pub viscous_friction: f64,
+    /// Coulomb friction of the mass, N.
+    #[variable(causality = Parameter, variability = Fixed, start = 2.0)]
+    pub coulomb_friction: f64,
+    /// Start of the light barrier's window, m.
+    #[variable(causality = Parameter, variability = Fixed, start = 0.10)]
+    pub barrier_from: f64,
+    /// End of the light barrier's window, m.
+    #[variable(causality = Parameter, variability = Fixed, start = 0.12)]
+    pub barrier_to: f64,
+
+    /// The mass's state.
+    #[variable(skip = true)]
+    belt: Belt,
+}
+
+impl Conveyor {
+    fn data(&self) -> BeltData {
+        BeltData {
+            mass: self.mass,
+            pulley_radius: self.pulley_radius,
+            stiffness: self.stiffness,
+            damping: self.damping,
+            viscous_friction: self.viscous_friction,
+            coulomb_friction: self.coulomb_friction,
+        }
+    }
+
+    /// The outputs from the state and the inputs.
+    fn outputs(&mut self) {
+        let d = self.data();
+        self.load_torque = self
+            .belt
+            .load_torque(&d, self.shaft_angle, self.shaft_speed);
+        self.belt_position = self.belt.position;
+        self.belt_speed = self.belt.speed;
+        self.motor_torque_seen = self.motor_torque;
+        self.light_barrier =
+            self.belt.position >= self.barrier_from && self.belt.position <= self.barrier_to;
+    }
+}
+
+impl UserModel for Conveyor {
+    type LoggingCategory = DefaultLoggingCategory;
+
+    fn calculate_values(&mut self, _context: &dyn Context<Self>) -> Result<Fmi3Res, Fmi3Error> {
+        self.outputs();
+        Ok(Fmi3Res::OK)
+    }
+
+    fn do_step(
+        &mut self,
+        context: &mut dyn Context<Self>,
+        current_communication_point: f64,
+        communication_step_size: f64,
+        _no_set_fmu_state_prior_to_current_point: bool,
+    ) -> Result<CSDoStepResult, Fmi3Error> {
+        if !communication_step_size.is_finite() || communication_step_size < 0.0 {
+            context.log(
+                Fmi3Error::Error.into(),
+                DefaultLoggingCategory::LogAll,
+                format_args!("communication step size {communication_step_size} s is not a time"),
+            );
+            return Err(Fmi3Error::Error);
+        }
+        if self.mass.is_nan() || self.mass <= 0.0 {
+            context.log(
+                Fmi3Error::Error.into(),
+                DefaultLoggingCategory::LogAll,
+                format_args!("mass {} kg must be positive", self.mass),
+            );
+            return Err(Fmi3Error::Error);
+        }
+        let d = self.data();
+        self.belt.step(
+            &d,
+            self.shaft_angle,
+            self.shaft_speed,
+            communication_step_size,
+        );
+        // The shaft turned on while the step ran (the belt was stepped with it): the outputs
+        // are those of the step's end, until the importer sets the next inputs.
+        self.shaft_angle += self.shaft_speed * communication_step_size;
+        self.outputs();
+        let end = current_communication_point + communication_step_size;
+        context.set_time(end);
+        Ok(CSDoStepResult::completed(end))
+    }
+}
+
+fmi_export::export_fmu!(Conveyor);
