@@ -4,7 +4,9 @@
 use std::io;
 use std::time::Instant;
 
-use super::{cell_time, BusState, CellLoop, ChainState, FRAMES_PER_TURN};
+use mio::{Events, Token};
+
+use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
 use crate::cell::link::{At, Link};
 use crate::cell::station::Station;
 use crate::cell::wire_faults::Verdict;
@@ -22,6 +24,18 @@ impl BusDrives for Buses<'_> {
 }
 
 impl CellLoop {
+    /// The chains whose sockets `events` name (with `--busy-poll` every chain, without
+    /// waiting for an event) read and answer their frames: the first thing of a turn, before
+    /// the drives step, the timers run and the other sockets are served.
+    pub(super) fn answer_frames(&mut self, events: &Events) {
+        for c in 0..self.chains.len() {
+            let token = Token(FIRST_CHAIN + c);
+            if self.busy_poll || events.iter().any(|e| e.token() == token) {
+                self.read_ethercat(c);
+            }
+        }
+    }
+
     /// Reads EtherCAT frames of chain `c` until none waits (at most [`FRAMES_PER_TURN`]):
     /// each passes the chain and goes back out at once, as through a line of real slaves.
     pub(super) fn read_ethercat(&mut self, c: usize) {
@@ -60,6 +74,13 @@ impl CellLoop {
                 Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
             }
             shared |= chain.chain.has_bus_drives();
+            if chain.chain.due(t) {
+                // A frame carries what the devices posted by its arrival: a step or a SYNC0
+                // event that fell due before it runs first (a master's DC loop and its
+                // following-error check read those inputs). Other chains, the CAN drives
+                // and the timers wait until after the answer.
+                chain.chain.poll_with(t, &mut Buses(&mut self.buses));
+            }
             Self::pass_chain(chain, f, t, &mut self.buses);
         }
         self.frame = frame;
@@ -86,15 +107,15 @@ impl CellLoop {
         }
     }
 
-    /// One frame through chain `chain` and back out on its socket.
+    /// One frame through chain `chain` and back out on its socket; then the chain's devices
+    /// take their outputs and run their drives, while the answer is already on its way.
     pub(super) fn pass_chain(
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
         buses: &mut [BusState],
     ) {
-        if chain.chain.on_frame_with(t, f, &mut Buses(buses)).forward() {
-            chain.link.cross(At::on_clock(t), f);
+        if chain.chain.pass_with(t, f, &mut Buses(buses)).forward() {
             match chain.socket.send(f) {
                 Ok(()) => {}
                 Err(e) if crate::ecat::link::is_queue_full(&e) => {
@@ -107,7 +128,10 @@ impl CellLoop {
                     tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
                 }
             }
+            // The trace copies the answer once it is out.
+            chain.link.cross(At::on_clock(t), f);
         }
+        chain.chain.exchange_with(t, &mut Buses(buses));
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.

@@ -46,6 +46,11 @@ impl FineTimer {
         }
     }
 
+    /// Whether it is armed for `deadline` (and has not fired yet).
+    pub(super) fn armed_for(&self, deadline: Instant) -> bool {
+        self.armed == Some(deadline)
+    }
+
     /// After its event: takes the expirations so that the descriptor is quiet again.
     pub(super) fn clear(&mut self) {
         self.armed = None;

@@ -546,10 +546,20 @@ impl CellLoop {
             } else {
                 let deadline = self.deadline();
                 let wait = deadline.map(|d| d.saturating_duration_since(Instant::now()));
-                if let (Some(d), Some(w), Some(timer)) = (deadline, wait, &mut self.timer) {
-                    timer.arm(d, w);
+                match (deadline, wait, &mut self.timer) {
+                    (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
+                        timer.arm(d, w);
+                        // The timerfd wakes the loop then: epoll's own millisecond timer,
+                        // armed and cancelled at every wait, would only lengthen the wake-up
+                        // of a frame that comes first.
+                        if timer.armed_for(d) {
+                            None
+                        } else {
+                            wait
+                        }
+                    }
+                    _ => wait,
                 }
-                wait
             };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
@@ -558,7 +568,10 @@ impl CellLoop {
                 return Err(e);
             }
             let now = Instant::now();
-            // Timers first: an answer shows the drive as of now.
+            // A master's EtherCAT frames before anything else: each is answered before the
+            // drives step and the other sockets are served ([`ethercat_chains`]).
+            self.answer_frames(&events);
+            // Then the timers: an answer on the other front ends shows the drive as of now.
             self.timers(now);
             for event in &events {
                 match event.token() {
@@ -571,9 +584,8 @@ impl CellLoop {
                     Token(t) if t >= FIRST_SERIAL => {
                         self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
                     }
-                    Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {
-                        self.read_ethercat(t - FIRST_CHAIN);
-                    }
+                    // Answered first, above.
+                    Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {}
                     Token(t) if t < FIRST_DYNAMIC => {
                         let b = (t - 1) / 3;
                         match (t - 1) % 3 {

@@ -967,6 +967,22 @@ impl EthercatCell {
         frame: &mut [u8],
         buses: &mut dyn BusDrives,
     ) -> FrameOutcome {
+        let outcome = self.pass_with(now, frame, buses);
+        self.exchange_with(now, buses);
+        outcome
+    }
+
+    /// The frame's own part of [`on_frame_with`](Self::on_frame_with): it passes every slave
+    /// in order and is complete when this returns, so it can go back out before the devices
+    /// exchange their process data. A real ESC processes the frame on the fly, and the
+    /// device's firmware reads the outputs through the PDI after the frame has passed: the
+    /// inputs a frame carries are those the device posted before it.
+    pub fn pass_with(
+        &mut self,
+        now: Instant,
+        frame: &mut [u8],
+        buses: &mut dyn BusDrives,
+    ) -> FrameOutcome {
         self.frames += 1;
         // The frame returns from the last slave it reaches (its port 1 loop closed).
         let reach = self.line.reach(self.escs.len());
@@ -990,6 +1006,12 @@ impl EthercatCell {
                 break;
             }
         }
+        first.unwrap_or(FrameOutcome::Processed { datagrams: 0 })
+    }
+
+    /// The devices' part after a frame passed ([`pass_with`](Self::pass_with)): each takes
+    /// its outputs, its drive runs to `now`, it posts its inputs and serves its mailbox.
+    pub fn exchange_with(&mut self, now: Instant, buses: &mut dyn BusDrives) {
         let slaves = self
             .escs
             .iter_mut()
@@ -1000,7 +1022,6 @@ impl EthercatCell {
                 b.exchange(esc, now);
             }
         }
-        first.unwrap_or(FrameOutcome::Processed { datagrams: 0 })
     }
 
     /// Time passes without a frame: drives run, ESC watchdogs are checked, inputs refreshed.
@@ -1027,6 +1048,13 @@ impl EthercatCell {
             }
         }
         self.deadline()
+    }
+
+    /// Whether a device's step or SYNC0 event falls due by `now`: the inputs a frame reads
+    /// are those the device posted by the time it arrives, so what fell due before it runs
+    /// first.
+    pub fn due(&self, now: Instant) -> bool {
+        self.deadline().is_some_and(|at| at <= now)
     }
 
     pub fn deadline(&self) -> Option<Instant> {
