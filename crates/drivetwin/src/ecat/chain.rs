@@ -1012,6 +1012,8 @@ impl EthercatCell {
     /// The devices' part after a frame passed ([`pass_with`](Self::pass_with)): each takes
     /// its outputs, its drive runs to `now`, it posts its inputs and serves its mailbox.
     pub fn exchange_with(&mut self, now: Instant, buses: &mut dyn BusDrives) {
+        // Only the slaves the frame reached ([`pass_with`](Self::pass_with)) take outputs.
+        let reach = self.line.reach(self.escs.len());
         let slaves = self
             .escs
             .iter_mut()
