@@ -84,6 +84,9 @@ mod tests {
         )
         .unwrap();
         let e = f.drives().unwrap_err().to_string();
-        assert!(e.contains("a load FMU is coupled to a CiA 402 drive"), "{e}");
+        assert!(
+            e.contains("a load FMU is coupled to a CiA 402 drive"),
+            "{e}"
+        );
     }
 }
