@@ -49,7 +49,8 @@ async fn call(
 /// power, the clocks off nominal, every slave's AL state.
 #[utoipa::path(get, path = "/api/ethercat/{chain}/line", tag = "wire",
     params(("chain" = u32, Path, description = "the EtherCAT chain (from 0)")),
-    responses((status = 200, body = LineStatus), (status = 401, body = ApiError), (status = 404, body = ApiError)))]
+    responses((status = 200, body = LineStatus), (status = 400, body = ApiError), (status = 401, body = ApiError),
+        (status = 404, body = ApiError)))]
 async fn get_line(
     State(s): State<AppState>,
     Path(chain): Path<String>,
