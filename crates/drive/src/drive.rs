@@ -887,13 +887,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Runs every control cycle due up to `now`; returns when the next one is due.
     pub fn step(&mut self, now: Instant) -> Option<Instant> {
         self.step_epoch = self.step_epoch.wrapping_add(1);
-        let next = self.step_cycles(now);
+        let next = self.step_cycles(now, |_, _| Ok::<(), core::convert::Infallible>(()));
         self.step_epoch = self.step_epoch.wrapping_add(1);
-        next
+        next.ok()
     }
 
-    /// [`Drive::step`]'s cycles.
-    fn step_cycles(&mut self, now: Instant) -> Option<Instant> {
+    /// [`Drive::step`]'s cycles, `before_plant` called at the start of each plant cycle (an
+    /// external load's step, [`Drive::step_with_load`]). Its error ends the step at that
+    /// cycle, whose plant is not stepped; the next step resumes there.
+    pub(crate) fn step_cycles<E>(
+        &mut self,
+        now: Instant,
+        mut before_plant: impl FnMut(&mut Self, Instant) -> Result<(), E>,
+    ) -> Result<Instant, E> {
         let mut next = *self.next_cycle.get_or_insert(now);
         while next <= now {
             self.now = next;
@@ -908,12 +914,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             if due {
                 self.logic();
             }
+            if let Err(e) = before_plant(self, next) {
+                self.next_cycle = Some(next);
+                return Err(e);
+            }
             self.plant_step();
             self.cycles += 1;
             next = next + self.cycle;
         }
         self.next_cycle = Some(next);
-        Some(next)
+        Ok(next)
     }
 
     /// One position-loop cycle of device logic: controlword, state machine, mode, windows,

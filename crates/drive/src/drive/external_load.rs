@@ -67,43 +67,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         load: &mut L,
     ) -> Result<Option<Instant>, L::Error> {
         self.step_epoch = self.step_epoch.wrapping_add(1);
-        let next = self.step_cycles_with_load(now, load);
-        self.step_epoch = self.step_epoch.wrapping_add(1);
-        next
-    }
-
-    fn step_cycles_with_load<L: ExternalLoad>(
-        &mut self,
-        now: Instant,
-        load: &mut L,
-    ) -> Result<Option<Instant>, L::Error> {
-        let mut next = *self.next_cycle.get_or_insert(now);
         let dt = self.cycle.as_secs_f64();
-        while next <= now {
-            self.now = next;
-            let every = u64::from(self.logic_every);
-            let due = if every.is_power_of_two() {
-                self.cycles & (every - 1) == 0
-            } else {
-                self.cycles.is_multiple_of(every)
-            };
-            if due {
-                self.logic();
-            }
-            let reaction = match load.plant_step(next, dt, self.shaft()) {
-                Ok(r) => r,
-                Err(e) => {
-                    self.next_cycle = Some(next);
-                    return Err(e);
-                }
-            };
-            self.apply_load(&reaction);
-            self.plant_step();
-            self.cycles += 1;
-            next = next + self.cycle;
-        }
-        self.next_cycle = Some(next);
-        Ok(Some(next))
+        let next = self.step_cycles(now, |drive, at| {
+            let reaction = load.plant_step(at, dt, drive.shaft())?;
+            drive.apply_load(&reaction);
+            Ok(())
+        });
+        self.step_epoch = self.step_epoch.wrapping_add(1);
+        next.map(Some)
     }
 
     /// The shaft as an external load sees it.

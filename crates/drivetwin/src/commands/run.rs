@@ -97,12 +97,7 @@ pub(crate) fn build_cell(
         });
         let mut drive =
             Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
-        if let Some(load) = &spec.load {
-            drive
-                .model
-                .couple_load(load, spec.node)
-                .map_err(drivetwin::cell::station::StationError::from)?;
-        }
+        drive.couple_load(spec.load.as_ref(), spec.node)?;
         if shared {
             drive.serve_coe();
         }

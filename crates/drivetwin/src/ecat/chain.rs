@@ -1163,12 +1163,7 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
     let store = state_dir.map(|d| ParamStore::new(d, spec.desc.name, spec.node));
     let mut drive =
         Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
-    if let Some(load) = &spec.load {
-        drive
-            .model
-            .couple_load(load, spec.node)
-            .map_err(crate::cell::station::StationError::from)?;
-    }
+    drive.couple_load(spec.load.as_ref(), spec.node)?;
     let (model, store, stored) = drive.into_parts();
     Ok(SlaveDrive::Own {
         model,

@@ -90,11 +90,8 @@ impl VirtualRig {
                 spec.settings,
             )
             .map_err(|e| cell_err(e.to_string()))?;
-            if let Some(load) = &spec.load {
-                d.model
-                    .couple_load(load, spec.node)
-                    .map_err(|e| cell_err(e.to_string()))?;
-            }
+            d.couple_load(spec.load.as_ref(), spec.node)
+                .map_err(|e| cell_err(e.to_string()))?;
             let (Some(on_bus), Some(p)) = (drives.get_mut(spec.bus), plans.get_mut(spec.bus))
             else {
                 return Err(cell_err(format!(

@@ -72,6 +72,19 @@ impl Station {
         Self::with_settings(desc, node_id, store, commissioning, None)
     }
 
+    /// Couples the load FMU of a `[drive.load]` (none: the motor model's own load) to the
+    /// drive's shaft, the FMU's instance named for the node.
+    pub fn couple_load(
+        &mut self,
+        load: Option<&crate::cosim::LoadMapping>,
+        node: u8,
+    ) -> Result<(), StationError> {
+        match load {
+            Some(load) => Ok(self.model.couple_load(load, node)?),
+            None => Ok(()),
+        }
+    }
+
     /// As [`Station::new`]; with `settings` a CiA 402 personality gets a simulated drive and
     /// motor behind its dictionary.
     pub fn with_settings(
