@@ -218,7 +218,7 @@ impl Ratio {
 
     /// Checks this fraction as the value of `object`: divisor and numerator non-zero and
     /// numerator / divisor ≤ `limit` where the drive has one (CiA 402 sets none; the
-    /// vendor's, [`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)).
+    /// vendor's hook `factor_limit`).
     pub const fn check_within(
         self,
         object: FactorObject,
@@ -313,7 +313,7 @@ impl FactorGroup {
     }
 
     /// [`FactorGroup::validate`] with each factor's quotient limited by `limit` (CiA 402
-    /// sets none; the vendor's, [`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)).
+    /// sets none; the vendor's hook `factor_limit`).
     pub fn validate_within(
         &self,
         limit: impl Fn(FactorObject) -> Option<u32>,

@@ -2,7 +2,7 @@
 //! sub-mode 0; the CMMP-AS's −2, "without buffer", §7.4, is the same one-deep data record)
 //! between set-points that arrive one per SYNC on a fixed grid, the interpolation period
 //! 60C2h. When a new 60C2h takes effect and whether the buffer 60C4h:06 starts locked are the
-//! vendor's ([`crate::personality::Vendor::ip_buffer_open_at_reset`], its write hooks); the
+//! vendor's (the vendor hook `ip_buffer_open_at_reset`, its write hooks); the
 //! engine's are CiA 402's (60C2h at once, the buffer as 60C4h:06 says).
 //!
 //! Sans-IO: the drive tells the interpolator of each SYNC ([`Interpolator::sync`]: a CANopen

@@ -8,7 +8,7 @@ use super::*;
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
     /// aborts it (Tab. 7.2); halt aborts it, with homing_error where the vendor makes it
-    /// one ([`Vendor::HALT_IS_HOMING_ERROR`]). The search of
+    /// one (the vendor hook `HALT_IS_HOMING_ERROR`). The search of
     /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
     /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
     pub(crate) fn homing(&mut self, cw: Controlword, dt: f64) {

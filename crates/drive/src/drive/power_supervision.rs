@@ -1,7 +1,7 @@
 //! The supply and the motor's load as the drive supervises them: the DC link voltage
 //! (6079h dc_link_circuit_voltage; a vendor's undervoltage threshold,
-//! [`Vendor::dc_link_undervoltage_mv`]) and I²t, an error where the vendor makes it one
-//! ([`Vendor::i2t_is_error`]). CiA 402 names neither supervision: at the hooks' defaults the
+//! the vendor hook `dc_link_undervoltage_mv`) and I²t, an error where the vendor makes it one
+//! (the vendor hook `i2t_is_error`). CiA 402 names neither supervision: at the hooks' defaults the
 //! drive shows the voltage and limits the current, and reports nothing.
 
 use super::*;
@@ -10,7 +10,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The supply: the DC-link voltage in mV (`None`: the nominal one). It shows in 6079h
     /// (and where the vendor has it, the CMMP-AS's 6510h:34), limits the current
     /// controller's output voltage, and below the vendor's threshold it is the vendor's
-    /// undervoltage error ([`Vendor::dc_link_undervoltage_mv`]).
+    /// undervoltage error (the vendor hook `dc_link_undervoltage_mv`).
     pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {
         self.dc_link_mv = mv;
         publish_supply(&mut self.od, mv, V::MANUFACTURER_OBJECTS);

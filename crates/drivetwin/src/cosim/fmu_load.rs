@@ -92,6 +92,10 @@ pub struct FmuLoad {
     outputs: Vec<u32>,
     /// The switch outputs: (index into [`SWITCHES`], value reference).
     switches: Vec<(usize, u32)>,
+    /// The value references alone, as the FMI calls take them (made once: a plant step
+    /// allocates nothing).
+    input_vrs: Vec<u32>,
+    switch_vrs: Vec<u32>,
     /// The parameters to set before initialisation: (value reference, value).
     parameters: Vec<(u32, f64)>,
     /// The switch levels last given to the drive.
@@ -257,6 +261,8 @@ impl FmuLoad {
             input_values: vec![0.0; inputs.len()],
             output_values: vec![0.0; outputs.len()],
             switch_values: vec![false; switches.len()],
+            input_vrs: inputs.iter().map(|&(_, vr)| vr).collect(),
+            switch_vrs: switches.iter().map(|&(_, vr)| vr).collect(),
             inputs,
             outputs,
             switches,
@@ -329,12 +335,11 @@ impl ExternalLoad for FmuLoad {
                 Input::Angle => shaft.angle_rad,
             };
         }
-        let vrs: Vec<u32> = self.inputs.iter().map(|(_, vr)| *vr).collect();
-        if !vrs.is_empty() {
-            let values = self.input_values.clone();
-            self.instance
-                .set_float64(&vrs, &values)
-                .map_err(|e| self.call_error("fmi3SetFloat64", t, format!("{e:?}")))?;
+        if !self.input_vrs.is_empty() {
+            let set = self
+                .instance
+                .set_float64(&self.input_vrs, &self.input_values);
+            set.map_err(|e| self.call_error("fmi3SetFloat64", t, format!("{e:?}")))?;
         }
         let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
         let wall = WallClock::now();
@@ -368,11 +373,9 @@ impl ExternalLoad for FmuLoad {
                 );
             }
         }
-        let mut outputs = std::mem::take(&mut self.output_values);
         let read = self
             .instance
-            .get_float64(&self.outputs.clone(), &mut outputs);
-        self.output_values = outputs;
+            .get_float64(&self.outputs, &mut self.output_values);
         read.map_err(|e| self.call_error("fmi3GetFloat64", t + dt_s, format!("{e:?}")))?;
         let torque_nm = self.output_values.first().copied().unwrap_or(0.0);
         self.report.torque_nm = torque_nm;
@@ -384,10 +387,9 @@ impl ExternalLoad for FmuLoad {
             switches: [None; 3],
         };
         if !self.switches.is_empty() {
-            let vrs: Vec<u32> = self.switches.iter().map(|(_, vr)| *vr).collect();
-            let mut levels = std::mem::take(&mut self.switch_values);
-            let read = self.instance.get_boolean(&vrs, &mut levels);
-            self.switch_values = levels;
+            let read = self
+                .instance
+                .get_boolean(&self.switch_vrs, &mut self.switch_values);
             read.map_err(|e| self.call_error("fmi3GetBoolean", t + dt_s, format!("{e:?}")))?;
             for ((index, _), level) in self.switches.iter().zip(&self.switch_values) {
                 if let (Some(last), Some(out)) = (
