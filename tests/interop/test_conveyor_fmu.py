@@ -1,7 +1,8 @@
 """The example load FMU (crates/conveyor-fmu, docs/cosimulation.md), met by fmpy, an FMI importer
 nobody here wrote: its model description validates, and stepped with a turning shaft the belt
 follows, carries its friction as load torque on the shaft, and the light barrier sees the belt
-pass its window."""
+pass its window. Its FMI 2.0 build (the same library, target/fmu/conveyor-fmi2.fmu) validates as
+well and gives the same values, step for step."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ fmpy = pytest.importorskip("fmpy")
 from fmpy.validation import validate_fmu  # noqa: E402
 
 FMU = REPO_ROOT / "target" / "fmu" / "conveyor.fmu"
+FMU2 = REPO_ROOT / "target" / "fmu" / "conveyor-fmi2.fmu"
 
 
 @pytest.fixture(scope="module")
@@ -23,6 +25,12 @@ def conveyor_fmu():
     """Built from source and packed by scripts/conveyor-fmu (a no-op rebuild when it is)."""
     subprocess.run([str(REPO_ROOT / "scripts" / "conveyor-fmu")], check=True, cwd=REPO_ROOT)
     return str(FMU)
+
+
+@pytest.fixture(scope="module")
+def conveyor_fmu2(conveyor_fmu):
+    """The FMI 2.0 build, packed by the same scripts/conveyor-fmu run."""
+    return str(FMU2)
 
 
 def test_fmpy_finds_no_problem_in_the_conveyor_fmu(conveyor_fmu):
@@ -38,21 +46,39 @@ def test_fmpy_finds_no_problem_in_the_conveyor_fmu(conveyor_fmu):
     assert causality["light_barrier"] == ("output", "Boolean")
 
 
-def test_a_turning_shaft_moves_the_belt_through_the_light_barrier(conveyor_fmu):
-    # 10 rad/s on a 10 mm pulley: 0.1 m/s of belt; the barrier's window is 0.10 … 0.12 m.
+def test_fmpy_finds_no_problem_in_the_fmi2_build(conveyor_fmu2):
+    assert validate_fmu(conveyor_fmu2) == []
+    md = fmpy.read_model_description(conveyor_fmu2, validate=True)
+    assert md.fmiVersion == "2.0"
+    assert md.coSimulation.modelIdentifier == "conveyor"
+    causality = {v.name: (v.causality, v.type) for v in md.modelVariables}
+    assert causality["shaft_angle"] == ("input", "Real")
+    assert causality["shaft_speed"] == ("input", "Real")
+    assert causality["load_torque"] == ("output", "Real")
+    assert causality["light_barrier"] == ("output", "Boolean")
+    assert causality["mass"] == ("parameter", "Real")
+
+
+def turning_shaft(fmu: str):
+    """The FMU stepped by fmpy for 2 s at 1 ms with the shaft at 10 rad/s."""
     w = 10.0
     t = np.linspace(0.0, 2.0, 2001)
     signals = np.zeros(len(t), dtype=[("time", np.float64), ("shaft_angle", np.float64), ("shaft_speed", np.float64)])
     signals["time"] = t
     signals["shaft_angle"] = w * t
     signals["shaft_speed"] = w
-    r = fmpy.simulate_fmu(
-        conveyor_fmu,
+    return fmpy.simulate_fmu(
+        fmu,
         stop_time=2.0,
         step_size=1e-3,
         input=signals,
         output=["belt_position", "belt_speed", "load_torque", "light_barrier"],
     )
+
+
+def test_a_turning_shaft_moves_the_belt_through_the_light_barrier(conveyor_fmu):
+    # 10 rad/s on a 10 mm pulley: 0.1 m/s of belt; the barrier's window is 0.10 … 0.12 m.
+    r = turning_shaft(conveyor_fmu)
     end = r[-1]
     assert end["belt_speed"] == pytest.approx(0.1, rel=1e-6)
     # Steady: the belt carries the mass's friction, 5 N·s/m · 0.1 m/s + 2 N, on a 10 mm pulley.
@@ -61,3 +87,11 @@ def test_a_turning_shaft_moves_the_belt_through_the_light_barrier(conveyor_fmu):
     pos = r["belt_position"]
     assert inside.any()
     assert ((pos >= 0.10) & (pos <= 0.12) == inside).all()
+
+
+def test_the_fmi2_build_gives_the_same_values_step_for_step(conveyor_fmu, conveyor_fmu2):
+    r3 = turning_shaft(conveyor_fmu)
+    r2 = turning_shaft(conveyor_fmu2)
+    assert len(r2) == len(r3)
+    for name in ("belt_position", "belt_speed", "load_torque", "light_barrier"):
+        assert (r2[name] == r3[name]).all(), name

@@ -11,6 +11,7 @@
 //! writes `modelDescription.xml` from the same declarations and packs `conveyor.fmu`.
 
 pub mod belt;
+pub mod fmi2;
 
 use belt::{Belt, BeltData};
 use fmi::fmi3::{Fmi3Error, Fmi3Res};
@@ -91,8 +92,26 @@ impl Conveyor {
         }
     }
 
+    /// One communication step of `h` s, the same for the FMI 3.0 and the FMI 2.0 interface:
+    /// the belt is stepped while the shaft turns on at its speed, and the outputs are those of
+    /// the step's end until the importer sets the next inputs. The error is the message the
+    /// FMU logs with its `Error` status.
+    pub fn advance(&mut self, h: f64) -> Result<(), String> {
+        if !h.is_finite() || h < 0.0 {
+            return Err(format!("communication step size {h} s is not a time"));
+        }
+        if self.mass.is_nan() || self.mass <= 0.0 {
+            return Err(format!("mass {} kg must be positive", self.mass));
+        }
+        let d = self.data();
+        self.belt.step(&d, self.shaft_angle, self.shaft_speed, h);
+        self.shaft_angle += self.shaft_speed * h;
+        self.outputs();
+        Ok(())
+    }
+
     /// The outputs from the state and the inputs.
-    fn outputs(&mut self) {
+    pub fn outputs(&mut self) {
         let d = self.data();
         self.load_torque = self
             .belt
@@ -120,33 +139,14 @@ impl UserModel for Conveyor {
         communication_step_size: f64,
         _no_set_fmu_state_prior_to_current_point: bool,
     ) -> Result<CSDoStepResult, Fmi3Error> {
-        if !communication_step_size.is_finite() || communication_step_size < 0.0 {
+        if let Err(message) = self.advance(communication_step_size) {
             context.log(
                 Fmi3Error::Error.into(),
                 DefaultLoggingCategory::LogAll,
-                format_args!("communication step size {communication_step_size} s is not a time"),
+                format_args!("{message}"),
             );
             return Err(Fmi3Error::Error);
         }
-        if self.mass.is_nan() || self.mass <= 0.0 {
-            context.log(
-                Fmi3Error::Error.into(),
-                DefaultLoggingCategory::LogAll,
-                format_args!("mass {} kg must be positive", self.mass),
-            );
-            return Err(Fmi3Error::Error);
-        }
-        let d = self.data();
-        self.belt.step(
-            &d,
-            self.shaft_angle,
-            self.shaft_speed,
-            communication_step_size,
-        );
-        // The shaft turned on while the step ran (the belt was stepped with it): the outputs
-        // are those of the step's end, until the importer sets the next inputs.
-        self.shaft_angle += self.shaft_speed * communication_step_size;
-        self.outputs();
         let end = current_communication_point + communication_step_size;
         context.set_time(end);
         Ok(CSDoStepResult::completed(end))

@@ -289,6 +289,43 @@ fn homing_on_the_conveyor_fmus_light_barrier_is_the_same_bit_for_bit_twice() {
     assert_eq!(trace_a, trace_b, "the traces are equal bit for bit");
 }
 
+/// The same homing with the conveyor's FMI 2.0 build (the same model behind the FMI 2.0 C
+/// functions): the same report and the same bus trace, bit for bit, as with the FMI 3.0 one.
+#[test]
+fn homing_with_the_fmi2_conveyor_is_the_same_as_with_the_fmi3_one() {
+    conveyor_fmu();
+    let (fmi3, trace3) = run("conveyor_homing.toml", 3);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let scenario = std::fs::read_to_string(example("conveyor_homing.toml")).expect("scenario");
+    let cell = std::fs::read_to_string(root.join("examples/conveyor.toml")).expect("cell");
+    let fmu2 = root.join("target/fmu/conveyor-fmi2.fmu");
+    // The scenario's cell inline, its FMU the FMI 2.0 build; everything else as written.
+    let cell = cell
+        .replace("[[drive]]", "[[cell.drive]]")
+        .replace("[drive.", "[cell.drive.")
+        .replace(
+            "\"../target/fmu/conveyor.fmu\"",
+            &format!("{:?}", fmu2.display().to_string()),
+        );
+    let text = scenario.replace("cell = \"../conveyor.toml\"", "") + "\n[cell]\n" + &cell;
+    let s = Scenario::parse(&text, "fmi2", None).expect("scenario");
+    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    assert_eq!(
+        rig.load_fmi_version(1),
+        Some("2.0"),
+        "the FMI 2.0 build is coupled"
+    );
+    let trace = std::env::temp_dir().join(format!("scenario-{}-fmi2.pcap", std::process::id()));
+    rig.trace_to(&trace).expect("trace");
+    let fmi2 = runner::run(&s, &mut rig);
+    rig.finish().expect("trace written");
+    let trace2 = std::fs::read(&trace).expect("trace");
+    let _ = std::fs::remove_file(&trace);
+    assert!(fmi2.passed, "{}", fmi2.text());
+    assert_eq!(fmi2.text(), fmi3.text());
+    assert_eq!(trace2, trace3, "the traces are equal bit for bit");
+}
+
 #[test]
 fn a_load_fmu_without_a_mapped_variable_is_refused_naming_it() {
     conveyor_fmu();

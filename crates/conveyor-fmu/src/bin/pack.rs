@@ -1,8 +1,10 @@
 //! Packs the conveyor FMU (FMI 3.0 §2.5 "FMU Distribution"): `modelDescription.xml`, written
 //! from the model's own declarations, and the shared library as
-//! `binaries/x86_64-linux/conveyor.so`, into a ZIP archive.
+//! `binaries/x86_64-linux/conveyor.so`, into a ZIP archive. With `--fmi2`, the FMI 2.0 FMU of
+//! the same library (FMI 2.0 §2.5: `binaries/linux64/conveyor.so`, [`conveyor::fmi2`]).
 //!
-//! `conveyor-fmu-pack LIBRARY OUTPUT.fmu` (scripts/conveyor-fmu builds the library first).
+//! `conveyor-fmu-pack [--fmi2] LIBRARY OUTPUT.fmu` (scripts/conveyor-fmu builds the library
+//! first).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -58,8 +60,21 @@ fn model_description() -> Result<String, String> {
         .map_err(|e| format!("model description: {e}"))
 }
 
-fn pack(library: &PathBuf, output: &PathBuf) -> Result<(), String> {
-    let xml = model_description()?;
+/// Which standard the archive follows.
+#[derive(Clone, Copy, PartialEq)]
+enum Version {
+    Fmi3,
+    Fmi2,
+}
+
+fn pack(library: &PathBuf, output: &PathBuf, version: Version) -> Result<(), String> {
+    let (xml, platform) = match version {
+        Version::Fmi3 => (model_description()?, "x86_64-linux"),
+        Version::Fmi2 => (
+            conveyor::fmi2::model_description(MODEL_IDENTIFIER),
+            "linux64",
+        ),
+    };
     let lib = std::fs::read(library).map_err(|e| format!("{}: {e}", library.display()))?;
     // Written beside the output and renamed over it: a reader never sees half an archive.
     let partial = output.with_extension("fmu.partial");
@@ -71,7 +86,7 @@ fn pack(library: &PathBuf, output: &PathBuf) -> Result<(), String> {
     zip.start_file("modelDescription.xml", opts).map_err(w)?;
     zip.write_all(xml.as_bytes())
         .map_err(|e| format!("{}: {e}", output.display()))?;
-    zip.start_file(format!("binaries/x86_64-linux/{MODEL_IDENTIFIER}.so"), opts)
+    zip.start_file(format!("binaries/{platform}/{MODEL_IDENTIFIER}.so"), opts)
         .map_err(w)?;
     zip.write_all(&lib)
         .map_err(|e| format!("{}: {e}", output.display()))?;
@@ -81,12 +96,19 @@ fn pack(library: &PathBuf, output: &PathBuf) -> Result<(), String> {
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let version = match args.iter().position(|a| a == "--fmi2") {
+        Some(i) => {
+            args.remove(i);
+            Version::Fmi2
+        }
+        None => Version::Fmi3,
+    };
     let [library, output] = args.as_slice() else {
-        eprintln!("usage: conveyor-fmu-pack LIBRARY OUTPUT.fmu");
+        eprintln!("usage: conveyor-fmu-pack [--fmi2] LIBRARY OUTPUT.fmu");
         return ExitCode::from(2);
     };
-    match pack(&PathBuf::from(library), &PathBuf::from(output)) {
+    match pack(&PathBuf::from(library), &PathBuf::from(output), version) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("conveyor-fmu-pack: {e}");

@@ -102,6 +102,14 @@ enum Attempt {
 }
 
 impl Cell {
+    /// Why a drive's load FMU stopped the cell, once one has (the first such drive's error):
+    /// every runner (`drivetwin run`, `--virtual-seconds`, a scenario) stops with it.
+    pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
+        self.drives
+            .iter()
+            .find_map(|d| d.model.drive()?.load_failure())
+    }
+
     pub fn new(drives: Vec<Station>) -> Self {
         let faults = vec![NodeFaults::default(); drives.len()];
         Cell {

@@ -514,7 +514,8 @@ impl CellLoop {
     }
 
     /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
-    /// back.
+    /// back. A drive's load FMU that fails ends the run with its error
+    /// ([`crate::cosim::FmuLoadError`] inside the `io::Error`).
     pub fn run(mut self) -> io::Result<Vec<Cell>> {
         if let Some(p) = self.rt_priority {
             if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
@@ -537,6 +538,7 @@ impl CellLoop {
             chain.chain.boot_with(t, &mut Buses(&mut self.buses));
         }
         self.flush_dirty();
+        let mut load_failure = None;
         while !self.stop.load(Ordering::Acquire) {
             let timeout = if self.busy_poll
                 || !self.more_to_read.is_empty()
@@ -633,9 +635,19 @@ impl CellLoop {
                     bus.link.flush();
                 }
             }
+            if let Some(e) = self.load_failure() {
+                load_failure = Some(e.clone());
+                break;
+            }
         }
         for m in &mut self.modbus {
             m.close_connection();
+        }
+        if let Some(e) = load_failure {
+            for bus in &mut self.buses {
+                bus.link.flush();
+            }
+            return Err(io::Error::other(e));
         }
         Ok(self
             .buses
@@ -645,6 +657,15 @@ impl CellLoop {
                 b.cell
             })
             .collect())
+    }
+
+    /// Why a drive's load FMU stopped the cell, once one has: on a CAN bus or a drive of a
+    /// chain's own.
+    fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
+        self.buses
+            .iter()
+            .find_map(|b| b.cell.load_failure())
+            .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
     }
 
     /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, or a

@@ -16,6 +16,7 @@ use crate::serial::LineDrives;
 
 /// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
 /// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
+/// A drive's load FMU that fails stops the run there ([`Cell::load_failure`]).
 pub fn run_virtual(
     cell: &mut Cell,
     inputs: &[(Duration, CanFrame)],
@@ -33,6 +34,9 @@ pub fn run_virtual(
     loop {
         for f in out.drain(..) {
             sink(Duration::from_nanos(now.as_nanos()), &f);
+        }
+        if cell.load_failure().is_some() {
+            break;
         }
         let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
         let wake = match (cell.deadline(), input_at) {

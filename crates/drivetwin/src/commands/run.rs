@@ -4,6 +4,7 @@ use drivetwin::cell::bus_rate::BusRate;
 use drivetwin::cell::config::BusSection;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, TerminalPort};
+use drivetwin::cosim::FmuLoadError;
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 
 pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
@@ -258,9 +259,13 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         source: std::io::Error::other(what.to_owned()),
     };
     for result in results.map_err(|e| failed(&e.to_string()))? {
-        result
-            .map_err(|_| failed("panicked"))?
-            .map_err(io("cell loop"))?;
+        result.map_err(|_| failed("panicked"))?.map_err(|e| {
+            // A load FMU that failed ends the run with its own error.
+            match e.get_ref().and_then(|e| e.downcast_ref::<FmuLoadError>()) {
+                Some(load) => CommandError::Drive(StationError::Load(load.clone())),
+                None => io("cell loop")(e),
+            }
+        })?;
     }
     for (name, l) in &lateness {
         out!("{name} loop: {}", l.figures());
@@ -439,6 +444,9 @@ async fn prepare_cell(
         }
         if let Some(e) = failed {
             return Err(io("trace")(e));
+        }
+        if let Some(e) = cell.load_failure() {
+            return Err(StationError::Load(e.clone()).into());
         }
         out!("virtual run of {seconds} s: {count} frames");
         return Ok(Prepared::Done);

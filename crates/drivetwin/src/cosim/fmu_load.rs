@@ -1,17 +1,17 @@
-//! A co-simulation FMU as a drive's load (FMI 3.0 §4 "Co-Simulation"): imported with the
-//! `fmi` crate, instantiated once, and stepped by the drive's plant cycles on the cell's clock
-//! ([`drive::drive::external_load`]).
+//! A co-simulation FMU as a drive's load (FMI 3.0 §4 "Co-Simulation", FMI 2.0 §4 "FMI for
+//! Co-Simulation"): imported with the `fmi` crate, instantiated once, and stepped by the
+//! drive's plant cycles on the cell's clock ([`drive::drive::external_load`]).
 //!
 //! Each plant cycle of `dt` at cell time `t`: the mapped inputs are set from the shaft as it
-//! is at `t` (`fmi3SetFloat64`), `fmi3DoStep(t, dt)` advances the FMU to `t + dt`, and the
-//! load torque, the position and the switch outputs are read (`fmi3GetFloat64`,
-//! `fmi3GetBoolean`). The communication points are the cell clock's nanoseconds as seconds,
+//! is at `t` (`fmi3SetFloat64`, `fmi2SetReal`), `fmi3DoStep(t, dt)` (`fmi2DoStep`) advances
+//! the FMU to `t + dt`, and the load torque, the position and the switch outputs are read
+//! (`fmi3GetFloat64` / `fmi2GetReal`, `fmi3GetBoolean` / `fmi2GetBoolean`). The communication points are the cell clock's nanoseconds as seconds,
 //! so the FMU sees the same times, and gives the same values, on every run; the wall time a
 //! step takes is measured only to report a slow FMU (a `doStep` longer than the virtual time
 //! it advances, which a real-time cell cannot keep up with), never to skip a step.
 //!
-//! Refused when the cell is built: an archive that does not open, an FMU that is not FMI 3.0
-//! co-simulation, a mapped variable the FMU lacks (named) or of the wrong type or causality.
+//! Refused when the cell is built: an archive that does not open, an FMU that is not FMI 2.0
+//! or 3.0 co-simulation, a mapped variable the FMU lacks (named) or of the wrong type or causality.
 //! An FMU call that returns an error stops the load: [`FmuLoad`] returns the error, and the
 //! cell stops with it.
 
@@ -20,23 +20,19 @@ use std::time::Instant as WallClock;
 
 use drive::drive::external_load::{ExternalLoad, LoadReaction, Shaft, SWITCHES};
 use drive::drive::named_switches::NamedSwitch;
-use fmi::fmi3::import::Fmi3Import;
-use fmi::fmi3::{CoSimulation, Common, Fmi3Model, GetSet};
-use fmi::schema::fmi3::{Causality, VariableType};
-use fmi::traits::FmiImport;
 use od::Instant;
 
+use super::load_instance::{LoadInstance, OpenError, Role, Type};
 use super::mapping::LoadMapping;
-use crate::sys::fmu_instance::FmuInstance;
 
 /// Why a load FMU was refused or stopped.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum FmuLoadError {
     #[error("{fmu}: {message}")]
     Import { fmu: String, message: String },
-    #[error("{fmu}: FMI {version} is not supported (an FMI 3.0 co-simulation FMU is)")]
+    #[error("{fmu}: FMI {version} is not supported (an FMI 2.0 or 3.0 co-simulation FMU is)")]
     Version { fmu: String, version: String },
-    #[error("{fmu}: no co-simulation interface (only FMI 3.0 co-simulation FMUs are loads)")]
+    #[error("{fmu}: no co-simulation interface (only co-simulation FMUs are loads)")]
     NotCoSimulation { fmu: String },
     #[error("{fmu}: no variable `{name}` (mapped as `{role}`)")]
     MissingVariable {
@@ -80,12 +76,19 @@ pub struct LoadReport {
     pub torque_nm: f64,
 }
 
+/// The value of a mapped variable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoadValue {
+    Float64(f64),
+    Boolean(bool),
+}
+
 /// A load FMU, instantiated and mapped.
 pub struct FmuLoad {
-    /// The instance first: it is freed before the library and the unpacked archive it uses.
-    instance: FmuInstance,
-    _import: Fmi3Import,
+    instance: LoadInstance,
     name: String,
+    /// The table it was coupled with.
+    mapping: LoadMapping,
     /// Value references of the inputs, in [`LoadMapping::inputs`]' order, with their role.
     inputs: Vec<(Input, u32)>,
     /// The load torque, then the position if mapped.
@@ -96,8 +99,9 @@ pub struct FmuLoad {
     /// allocates nothing).
     input_vrs: Vec<u32>,
     switch_vrs: Vec<u32>,
-    /// The parameters to set before initialisation: (value reference, value).
-    parameters: Vec<(u32, f64)>,
+    /// The parameters to set before initialisation: value references and values.
+    parameter_vrs: Vec<u32>,
+    parameter_values: Vec<f64>,
     /// The switch levels last given to the drive.
     levels: [Option<bool>; 3],
     /// The cell time the FMU was initialised at (its first plant cycle).
@@ -126,15 +130,14 @@ impl std::fmt::Debug for FmuLoad {
 
 /// The variable `name` of the FMU: its value reference, checked for `role`'s type and causality.
 fn variable(
-    import: &Fmi3Import,
+    instance: &LoadInstance,
     fmu: &str,
     role: &str,
     name: &str,
-    ty: VariableType,
-    causality: Causality,
+    ty: Type,
+    causality: Role,
 ) -> Result<u32, FmuLoadError> {
-    let vars = &import.model_description().model_variables;
-    let Some(v) = vars.iter_abstract().find(|v| v.name() == name) else {
+    let Some(v) = instance.variable(name) else {
         return Err(FmuLoadError::MissingVariable {
             fmu: fmu.into(),
             role: role.into(),
@@ -142,21 +145,21 @@ fn variable(
         });
     };
     let needed = match (ty, causality) {
-        (VariableType::FmiFloat64, Causality::Input) => "a Float64 input",
-        (VariableType::FmiFloat64, Causality::Parameter) => "a Float64 parameter",
-        (VariableType::FmiFloat64, _) => "a Float64 output",
+        (Type::Float64, Role::Input) => "a Float64 input",
+        (Type::Float64, Role::Parameter) => "a Float64 parameter",
+        (Type::Float64, _) => "a Float64 output",
         (_, _) => "a Boolean output",
     };
-    if v.data_type() != ty || v.causality() != causality {
+    if v.ty != ty || v.causality != causality {
         return Err(FmuLoadError::WrongVariable {
             fmu: fmu.into(),
             role: role.into(),
             name: name.into(),
-            found: format!("a {:?} {:?}", v.data_type(), v.causality()),
+            found: v.found,
             needed,
         });
     }
-    Ok(v.value_reference())
+    Ok(v.value_reference)
 }
 
 impl FmuLoad {
@@ -172,30 +175,20 @@ impl FmuLoad {
             _ => mapping.fmu.clone(),
         };
         let fmu = path.display().to_string();
-        let import_error = |e: fmi::Error| FmuLoadError::Import {
-            fmu: fmu.clone(),
-            message: e.to_string(),
-        };
-        let version = fmi::import::peek_descr_path(&path)
-            .map_err(import_error)?
-            .fmi_version;
-        if !version.starts_with("3.") {
-            return Err(FmuLoadError::Version { fmu, version });
-        }
-        let import: Fmi3Import = fmi::import::from_path(&path).map_err(import_error)?;
-        if import.model_description().co_simulation.is_none() {
-            return Err(FmuLoadError::NotCoSimulation { fmu });
-        }
+        let mut instance = LoadInstance::open(&path, instance).map_err(|e| match e {
+            OpenError::Import(message) => FmuLoadError::Import {
+                fmu: fmu.clone(),
+                message,
+            },
+            OpenError::Version(version) => FmuLoadError::Version {
+                fmu: fmu.clone(),
+                version,
+            },
+            OpenError::NotCoSimulation => FmuLoadError::NotCoSimulation { fmu: fmu.clone() },
+        })?;
         let mut inputs = Vec::new();
         for (role, name) in mapping.inputs() {
-            let vr = variable(
-                &import,
-                &fmu,
-                role,
-                name,
-                VariableType::FmiFloat64,
-                Causality::Input,
-            )?;
+            let vr = variable(&instance, &fmu, role, name, Type::Float64, Role::Input)?;
             let input = match role {
                 "torque" => Input::Torque,
                 "speed" => Input::Speed,
@@ -204,21 +197,21 @@ impl FmuLoad {
             inputs.push((input, vr));
         }
         let mut outputs = vec![variable(
-            &import,
+            &instance,
             &fmu,
             "load_torque",
             &mapping.load_torque,
-            VariableType::FmiFloat64,
-            Causality::Output,
+            Type::Float64,
+            Role::Output,
         )?];
         if let Some(p) = &mapping.position {
             outputs.push(variable(
-                &import,
+                &instance,
                 &fmu,
                 "position",
                 p,
-                VariableType::FmiFloat64,
-                Causality::Output,
+                Type::Float64,
+                Role::Output,
             )?);
         }
         let mut switches = Vec::new();
@@ -229,35 +222,26 @@ impl FmuLoad {
                     fmu: fmu.clone(),
                     name: switch.clone(),
                 })?;
-            let vr = variable(
-                &import,
-                &fmu,
-                switch,
-                name,
-                VariableType::FmiBoolean,
-                Causality::Output,
-            )?;
+            let vr = variable(&instance, &fmu, switch, name, Type::Boolean, Role::Output)?;
             switches.push((index, vr));
         }
         let mut parameters = Vec::new();
         for (name, value) in &mapping.parameters {
             let vr = variable(
-                &import,
+                &instance,
                 &fmu,
                 "parameter",
                 name,
-                VariableType::FmiFloat64,
-                Causality::Parameter,
+                Type::Float64,
+                Role::Parameter,
             )?;
             parameters.push((vr, *value));
         }
-        let instance_cs = import
-            .instantiate_cs(instance, false, true, false, false, &[])
-            .map_err(import_error)?;
+        instance.reserve_booleans(switches.len());
         Ok(FmuLoad {
-            instance: FmuInstance::new(instance_cs),
-            _import: import,
+            instance,
             name: fmu,
+            mapping: mapping.clone(),
             input_values: vec![0.0; inputs.len()],
             output_values: vec![0.0; outputs.len()],
             switch_values: vec![false; switches.len()],
@@ -266,7 +250,8 @@ impl FmuLoad {
             inputs,
             outputs,
             switches,
-            parameters,
+            parameter_vrs: parameters.iter().map(|&(vr, _)| vr).collect(),
+            parameter_values: parameters.iter().map(|&(_, v)| v).collect(),
             levels: [None; 3],
             start: None,
             report: LoadReport::default(),
@@ -292,25 +277,52 @@ impl FmuLoad {
         }
     }
 
-    /// Initialisation at the first plant cycle (FMI 3.0 §4.2.1): the parameters, start time
-    /// `time_s`, then step mode.
-    fn initialise(&mut self, time_s: f64) -> Result<(), FmuLoadError> {
-        // Parameters are set in Instantiated mode, before initialisation (FMI 3.0 §2.3.2).
-        if !self.parameters.is_empty() {
-            let (vrs, values): (Vec<u32>, Vec<f64>) = self.parameters.iter().copied().unzip();
-            self.instance
-                .set_float64(&vrs, &values)
-                .map_err(|e| self.call_error("fmi3SetFloat64", time_s, format!("{e:?}")))?;
+    /// "2.0" or "3.0".
+    pub fn fmi_version(&self) -> &'static str {
+        self.instance.fmi_version()
+    }
+
+    /// The table it was coupled with.
+    pub fn mapping(&self) -> &LoadMapping {
+        &self.mapping
+    }
+
+    /// The switches it drives.
+    pub fn switches(&self) -> impl Iterator<Item = NamedSwitch> + '_ {
+        self.switches
+            .iter()
+            .filter_map(|&(index, _)| SWITCHES.get(index).copied())
+    }
+
+    /// Each mapped variable with its value as last exchanged (the inputs as set, the outputs
+    /// as read after the last step; zero and false before the first): (role, variable, value).
+    pub fn values(&self) -> Vec<(String, String, LoadValue)> {
+        let m = &self.mapping;
+        let mut out: Vec<(String, String, LoadValue)> = m
+            .inputs()
+            .zip(&self.input_values)
+            .map(|((role, name), v)| (role.to_owned(), name.to_owned(), LoadValue::Float64(*v)))
+            .collect();
+        let outputs = std::iter::once(("load_torque", Some(&m.load_torque)))
+            .chain(std::iter::once(("position", m.position.as_ref())))
+            .filter_map(|(role, name)| Some((role, name?)));
+        for ((role, name), v) in outputs.zip(&self.output_values) {
+            out.push((role.to_owned(), name.clone(), LoadValue::Float64(*v)));
         }
-        self.instance
-            .enter_initialization_mode(None, time_s, None)
-            .map_err(|e| {
-                self.call_error("fmi3EnterInitializationMode", time_s, format!("{e:?}"))
-            })?;
-        self.instance
-            .exit_initialization_mode()
-            .map_err(|e| self.call_error("fmi3ExitInitializationMode", time_s, format!("{e:?}")))?;
-        Ok(())
+        // In the table's order, as `open` mapped them.
+        for ((switch, name), v) in m.switches.iter().zip(&self.switch_values) {
+            out.push((switch.clone(), name.clone(), LoadValue::Boolean(*v)));
+        }
+        out
+    }
+
+    /// Initialisation at the first plant cycle (FMI 3.0 §4.2.1, FMI 2.0 §4.2.4): the
+    /// parameters (in Instantiated mode, FMI 3.0 §2.3.2), start time `time_s`, then step mode.
+    fn initialise(&mut self, time_s: f64) -> Result<(), FmuLoadError> {
+        let init = self
+            .instance
+            .initialise(&self.parameter_vrs, &self.parameter_values, time_s);
+        init.map_err(|(call, status)| self.call_error(call, time_s, status))
     }
 }
 
@@ -339,24 +351,12 @@ impl ExternalLoad for FmuLoad {
             let set = self
                 .instance
                 .set_float64(&self.input_vrs, &self.input_values);
-            set.map_err(|e| self.call_error("fmi3SetFloat64", t, format!("{e:?}")))?;
+            set.map_err(|(call, status)| self.call_error(call, t, status))?;
         }
-        let (mut event, mut terminate, mut early, mut last) = (false, false, false, 0.0);
         let wall = WallClock::now();
-        let stepped = self.instance.do_step(
-            t,
-            dt_s,
-            true,
-            &mut event,
-            &mut terminate,
-            &mut early,
-            &mut last,
-        );
+        let stepped = self.instance.do_step(t, dt_s);
         let took = u64::try_from(wall.elapsed().as_nanos()).unwrap_or(u64::MAX);
-        stepped.map_err(|e| self.call_error("fmi3DoStep", t, format!("{e:?}")))?;
-        if terminate {
-            return Err(self.call_error("fmi3DoStep", t, "terminateSimulation".into()));
-        }
+        stepped.map_err(|(call, status)| self.call_error(call, t, status))?;
         self.report.steps += 1;
         self.report.worst_step_ns = self.report.worst_step_ns.max(took);
         if took as f64 > dt_s * 1e9 {
@@ -376,7 +376,7 @@ impl ExternalLoad for FmuLoad {
         let read = self
             .instance
             .get_float64(&self.outputs, &mut self.output_values);
-        read.map_err(|e| self.call_error("fmi3GetFloat64", t + dt_s, format!("{e:?}")))?;
+        read.map_err(|(call, status)| self.call_error(call, t + dt_s, status))?;
         let torque_nm = self.output_values.first().copied().unwrap_or(0.0);
         self.report.torque_nm = torque_nm;
         if let Some(p) = self.output_values.get(1) {
@@ -390,7 +390,7 @@ impl ExternalLoad for FmuLoad {
             let read = self
                 .instance
                 .get_boolean(&self.switch_vrs, &mut self.switch_values);
-            read.map_err(|e| self.call_error("fmi3GetBoolean", t + dt_s, format!("{e:?}")))?;
+            read.map_err(|(call, status)| self.call_error(call, t + dt_s, status))?;
             for ((index, _), level) in self.switches.iter().zip(&self.switch_values) {
                 if let (Some(last), Some(out)) = (
                     self.levels.get_mut(*index),

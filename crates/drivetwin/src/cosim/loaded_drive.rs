@@ -29,9 +29,24 @@ impl LoadedDrive {
         }
     }
 
-    /// Couples `load` to the shaft from the next step on.
+    /// Couples `load` to the shaft from the next step on (in place of any other, and of an
+    /// error a former one stopped the drive with).
     pub fn set_load(&mut self, load: FmuLoad) {
+        self.uncouple();
         self.load = Some(load);
+    }
+
+    /// Uncouples the load: the switches it drove go back to the travel, the shaft's load
+    /// torque to 0 N·m (the console's "load" sets another), and a failure it had is
+    /// forgotten: the drive steps again.
+    pub fn uncouple(&mut self) {
+        if let Some(load) = self.load.take() {
+            for s in load.switches() {
+                self.drive.set_switch(s, None);
+            }
+            self.drive.axis_mut().motor_mut().set_load_torque(0.0);
+        }
+        self.failure = None;
     }
 
     pub fn load(&self) -> Option<&FmuLoad> {

@@ -2,9 +2,10 @@
 //! the cell's clock (docs/cosimulation.md).
 
 pub mod fmu_load;
+pub mod load_instance;
 pub mod loaded_drive;
 pub mod mapping;
 
-pub use fmu_load::{FmuLoad, FmuLoadError, LoadReport};
+pub use fmu_load::{FmuLoad, FmuLoadError, LoadReport, LoadValue};
 pub use loaded_drive::LoadedDrive;
 pub use mapping::LoadMapping;

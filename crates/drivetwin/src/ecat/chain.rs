@@ -815,6 +815,15 @@ pub struct EthercatCell {
 }
 
 impl EthercatCell {
+    /// Why the load FMU of a drive of its own stopped the chain, once one has (as
+    /// [`crate::cell::Cell::load_failure`]; a drive of a CAN bus is its bus's).
+    pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
+        self.drives.iter().find_map(|d| match d {
+            SlaveDrive::Own { model, .. } => model.drive()?.load_failure(),
+            SlaveDrive::OnBus(_) => None,
+        })
+    }
+
     /// One slave per drive of the cell file, in file order. Node-IDs only name the drives;
     /// EtherCAT addresses them by position and station address.
     pub fn from_cell_file(file: &CellFile) -> Result<Self, EcatCellError> {

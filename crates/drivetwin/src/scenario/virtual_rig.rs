@@ -163,6 +163,18 @@ impl VirtualRig {
         Ok(())
     }
 
+    /// The FMI version of the load FMU coupled to node `node`'s drive, if it has one.
+    pub fn load_fmi_version(&self, node: u8) -> Option<&'static str> {
+        self.cells
+            .iter()
+            .flat_map(|c| &c.drives)
+            .find(|d| d.node_id() == node)?
+            .model
+            .drive()?
+            .load()
+            .map(|l| l.fmi_version())
+    }
+
     /// Ends the trace (the file complete).
     pub fn finish(&mut self) -> std::io::Result<()> {
         match self.first_bus.sink_mut().stop() {
@@ -282,8 +294,7 @@ impl Rig for VirtualRig {
     fn stopped(&self) -> Option<String> {
         self.cells
             .iter()
-            .flat_map(|c| &c.drives)
-            .find_map(|d| d.model.drive()?.load_failure())
+            .find_map(Cell::load_failure)
             .map(|e| format!("load: {e}"))
     }
 
