@@ -6,12 +6,16 @@ well and gives the same values, step for step."""
 
 from __future__ import annotations
 
+import json
+import re
 import subprocess
+import urllib.error
+import urllib.request
 
 import numpy as np
 import pytest
 
-from conftest import REPO_ROOT
+from conftest import DRIVETWIN_BIN, REPO_ROOT, run_cli, wait_until
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.validation import validate_fmu  # noqa: E402
@@ -95,3 +99,67 @@ def test_the_fmi2_build_gives_the_same_values_step_for_step(conveyor_fmu, convey
     assert len(r2) == len(r3)
     for name in ("belt_position", "belt_speed", "load_torque", "light_barrier"):
         assert (r2[name] == r3[name]).all(), name
+
+
+def api(url: str, method: str = "GET", body: dict | None = None) -> tuple[int, dict]:
+    """One REST call to the console; its status and JSON body."""
+    data = None if body is None else json.dumps(body).encode()
+    req = urllib.request.Request(url, data=data, method=method,
+                                 headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=10) as r:
+            return r.status, json.loads(r.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read())
+
+
+def console(twin) -> str:
+    line = wait_until(lambda: next((l for l in twin.stdout_lines if l.startswith("web console on ")), None),
+                      5.0, what="the 'web console on' line")
+    m = re.match(r"web console on (http://127\.0\.0\.1:\d+/)$", line)
+    assert m, line
+    return m.group(1)
+
+
+def test_a_load_fmu_is_coupled_shown_and_uncoupled_over_rest(launch, conveyor_fmu2):
+    """PUT /api/drives/0/load/fmu couples the FMI 2.0 conveyor while the cell runs; GET
+    /api/drives/0/load shows it stepping with its mapped values; a missing variable is refused
+    by name (400); DELETE uncouples it."""
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
+    load = console(twin) + "api/drives/0/load"
+    assert api(load) == (200, {"fmu": None, "failure": None})
+    table = {"fmu": conveyor_fmu2, "angle": "shaft_angle", "speed": "shaft_speed",
+             "load_torque": "load_torque", "position": "belt_position",
+             "switches": {"home": "light_barrier"}}
+    status, view = api(load + "/fmu", "PUT", table)
+    assert status == 200, view
+    assert view["fmu"]["fmi_version"] == "2.0"
+    assert view["fmu"]["mapping"]["load_torque"] == "load_torque"
+    stepping = wait_until(lambda: (v := api(load)[1])["fmu"]["steps"] > 100 and v, 5.0,
+                          what="the FMU to step")
+    roles = {v["role"]: v for v in stepping["fmu"]["variables"]}
+    assert roles["home"]["variable"] == "light_barrier"
+    assert roles["home"]["level"] is False
+    assert "value" in roles["load_torque"]
+    status, refused = api(load + "/fmu", "PUT", {**table, "load_torque": "belt_torque"})
+    assert status == 400
+    assert "no variable `belt_torque` (mapped as `load_torque`)" in refused["error"]
+    assert api(load + "/fmu", "DELETE") == (200, {"fmu": None, "failure": None})
+
+
+def test_drivetwin_run_stops_with_the_error_of_a_failing_load(tmp_path, conveyor_fmu):
+    """A load whose doStep returns an error (a mass of -1 kg) ends `drivetwin run`, on the
+    virtual clock and in real time, with the FMU's error and a non-zero exit."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text(
+        '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n[drive.load]\n'
+        f'fmu = "{conveyor_fmu}"\nspeed = "shaft_speed"\nload_torque = "load_torque"\n'
+        '[drive.load.parameters]\nmass = -1.0\n')
+    r = run_cli("run", "--config", str(cell), "--virtual-seconds", "1", timeout=60)
+    assert r.returncode != 0
+    assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr
+    r = subprocess.run([str(DRIVETWIN_BIN), "run", "--config", str(cell), "--socketcand",
+                        "127.0.0.1:0", "--http", "127.0.0.1:0"],
+                       capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert r.returncode != 0
+    assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr

@@ -261,6 +261,8 @@ pub(crate) enum Command {
     },
     /// Temperatures, encoder and named switches ([`PhysicsRequest`]).
     Physics(PhysicsRequest),
+    /// A drive's load FMU ([`crate::cell::load_control`]).
+    Load(crate::cell::load_control::LoadRequest),
     /// Why the drive does not take a request ([`ControlHandle::refusal`]).
     Refusal {
         drive: usize,
@@ -287,7 +289,10 @@ impl ControlHandle {
         ControlHandle { tx, waker }
     }
 
-    fn ask<T>(&self, make: impl FnOnce(SyncSender<T>) -> Command) -> Result<T, ControlError> {
+    pub(crate) fn ask<T>(
+        &self,
+        make: impl FnOnce(SyncSender<T>) -> Command,
+    ) -> Result<T, ControlError> {
         let (reply, answer) = mpsc::sync_channel(1);
         self.tx
             .send(make(reply))

@@ -18,6 +18,7 @@ pub mod front_fault_injector;
 pub mod interfaces;
 pub mod lateness;
 pub mod link;
+pub mod load_control;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;

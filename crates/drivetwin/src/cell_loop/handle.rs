@@ -184,6 +184,9 @@ impl CellLoop {
                 Command::Physics(r) => {
                     let _ = r.reply.send(self.physics(r.drive, r.change));
                 }
+                Command::Load(r) => {
+                    let _ = r.reply.send(self.load(r.drive, r.change));
+                }
                 Command::Refusal {
                     drive,
                     request,
@@ -240,6 +243,26 @@ impl CellLoop {
                     forced_inputs: (0, 0),
                 })
             }
+        }
+    }
+
+    /// A drive's load FMU after `change` ([`crate::cell::load_control`]); a CMMO-ST has none.
+    fn load(
+        &mut self,
+        drive: usize,
+        change: crate::cell::load_control::LoadChange,
+    ) -> Result<crate::cell::load_control::LoadState, crate::cell::load_control::LoadControlError>
+    {
+        use crate::cell::load_control::{apply, LoadChange, LoadState};
+        match self.target(drive)? {
+            Target::Can(model) => apply(model, change),
+            Target::Modbus(_) => match change {
+                LoadChange::Couple(load) => Err(crate::cosim::FmuLoadError::NoShaft {
+                    fmu: load.name().to_owned(),
+                }
+                .into()),
+                LoadChange::None | LoadChange::Uncouple => Ok(LoadState::default()),
+            },
         }
     }
 

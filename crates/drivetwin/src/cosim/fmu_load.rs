@@ -175,6 +175,13 @@ impl FmuLoad {
             _ => mapping.fmu.clone(),
         };
         let fmu = path.display().to_string();
+        // Only a regular file is an archive (a device or a pipe would be read without end).
+        if !path.is_file() {
+            return Err(FmuLoadError::Import {
+                fmu,
+                message: "no such file (an .fmu archive)".into(),
+            });
+        }
         let mut instance = LoadInstance::open(&path, instance).map_err(|e| match e {
             OpenError::Import(message) => FmuLoadError::Import {
                 fmu: fmu.clone(),

@@ -25,6 +25,7 @@ pub mod diagnostics;
 pub mod error_text;
 pub mod ethercat_line;
 pub mod live;
+pub mod load_fmu;
 pub mod motion;
 pub mod page;
 pub mod parameters;
@@ -110,6 +111,7 @@ pub fn router(state: AppState) -> Router {
         .merge(ethercat_line::routes())
         .merge(motion::routes())
         .merge(physics::routes())
+        .merge(load_fmu::routes())
         .merge(parameters::routes())
         .merge(devices)
         .layer(axum::middleware::from_fn_with_state(

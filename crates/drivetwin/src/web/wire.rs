@@ -357,6 +357,7 @@ pub fn merged(mut doc: utoipa::openapi::OpenApi) -> utoipa::openapi::OpenApi {
     doc.merge(super::ethercat_line::LineDoc::openapi());
     doc.merge(super::scenarios::ScenarioDoc::openapi());
     doc.merge(super::physics::PhysicsDoc::openapi());
+    doc.merge(super::load_fmu::LoadFmuDoc::openapi());
     doc
 }
 

@@ -1,0 +1,112 @@
+//! The importer's plant step allocates nothing (docs/cosimulation.md, "Limits"): a CMMP-AS
+//! stepped 100 ms of virtual time (800 plant cycles) with the example conveyor FMU as its load,
+//! FMI 3.0 and FMI 2.0, makes as many heap allocations as the same drive alone. Counted with a
+//! global allocator on the test's own thread; the FMU's library has its own allocator, so only
+//! the drive, the coupling and the `fmi` crate's calls are counted.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use drive::drive::DriveSettings;
+use drivetwin::cell::station::Station;
+use drivetwin::cosim::LoadMapping;
+use od::Instant;
+
+struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: every call goes to the system allocator; the count is a thread-local `Cell`.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.with(Cell::get) {
+            COUNT.with(|c| c.set(c.get() + 1));
+        }
+        // SAFETY: as the caller's contract.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: as the caller's contract.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.with(Cell::get) {
+            COUNT.with(|c| c.set(c.get() + 1));
+        }
+        // SAFETY: as the caller's contract.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+fn conveyor_fmus() -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let built = std::process::Command::new(root.join("scripts/conveyor-fmu"))
+        .current_dir(&root)
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(built, "scripts/conveyor-fmu");
+    root.join("target/fmu")
+}
+
+fn station(fmu: Option<PathBuf>) -> Station {
+    let desc = devices::by_name("cmmp-as").expect("the CMMP-AS");
+    let mut s = Station::with_settings(desc, 1, None, Vec::new(), Some(DriveSettings::default()))
+        .expect("a drive");
+    if let Some(fmu) = fmu {
+        let mapping = LoadMapping {
+            fmu,
+            angle: Some("shaft_angle".into()),
+            speed: Some("shaft_speed".into()),
+            torque: Some("motor_torque".into()),
+            load_torque: "load_torque".into(),
+            position: Some("belt_position".into()),
+            switches: [("home".to_string(), "light_barrier".to_string())].into(),
+            parameters: [("mass".to_string(), 0.8)].into(),
+        };
+        s.model.couple_load(&mapping, 1).expect("the conveyor FMU");
+    }
+    s
+}
+
+/// Heap allocations of 100 ms of steps, after 10 ms that initialise the FMU.
+fn allocations(mut s: Station) -> u64 {
+    let mut now = Instant::ZERO;
+    for _ in 0..10 {
+        now = now + Duration::from_millis(1);
+        s.model.step(now);
+    }
+    COUNT.with(|c| c.set(0));
+    COUNTING.with(|c| c.set(true));
+    for _ in 0..100 {
+        now = now + Duration::from_millis(1);
+        s.model.step(now);
+    }
+    COUNTING.with(|c| c.set(false));
+    assert!(s.model.drive().unwrap().load_failure().is_none());
+    COUNT.with(Cell::get)
+}
+
+#[test]
+fn a_plant_step_with_a_load_fmu_allocates_nothing_more_than_without() {
+    let dir = conveyor_fmus();
+    let alone = allocations(station(None));
+    for fmu in ["conveyor.fmu", "conveyor-fmi2.fmu"] {
+        let with = allocations(station(Some(dir.join(fmu))));
+        assert_eq!(with, alone, "{fmu}: allocations in 800 plant cycles");
+    }
+    assert_eq!(alone, 0, "the drive alone allocates in its plant cycles");
+}
