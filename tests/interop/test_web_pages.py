@@ -294,6 +294,10 @@ def test_the_kinco_panel_on_the_drive_page_walks_its_menus(launch, node_of, brow
 
     with urllib.request.urlopen(console_url(twin) + "api/drives/0/panel", timeout=5) as r:
         assert json.loads(r.read())["text"] == page.text_content("#panel-digits")
+    if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
+        page.set_viewport_size({"width": 1280, "height": 900})
+        page.locator("#kinco-panel").scroll_into_view_if_needed()
+        page.screenshot(path=str(DOCS / "console-kinco-panel.png"), full_page=False)
     page.close()
 
     other = launch("cmmp-as", 2, extra=("--http", "127.0.0.1:0"))

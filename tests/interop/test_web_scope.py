@@ -4,7 +4,8 @@ a trigger captures a move made over REST, the two cursors read the move's durati
 sample, and the CSV export holds the very samples the REST endpoint sent
 (`/api/drives/N/samples`), of both drives on one time base.
 
-The scope's screenshot goes to docs/console-scope.png when DRIVETWIN_SCREENSHOTS=1.
+The scope's screenshots go to docs/console-scope.png and docs/console-scope-user-units.png
+when DRIVETWIN_SCREENSHOTS=1.
 """
 
 from __future__ import annotations
@@ -181,3 +182,73 @@ def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, brows
     page.set_input_files("#open-trace", str(dl.value.path()))
     page.wait_for_function("window.scope.loaded !== null")
     assert page.evaluate("window.scope.csv()") == text
+
+
+def test_positions_in_user_units_and_a_trigger_on_the_paused_buffer(launch, browser):  # noqa: F811
+    """Positions in the drive's user units: 6093h position factor 65536/360 makes a CMMP-AS
+    read in degrees of the motor shaft (manual §5.3), and the scope's position trace is 6064h as
+    the drive reports it, on an axis labelled with the device file's unit. Paused after a
+    move, a trigger set on the held samples finds the move's crossing among them."""
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
+    url = console_url(twin)
+    for sub, value in ((1, 65536), (2, 360)):
+        req = urllib.request.Request(url + f"api/drives/0/objects/6093/{sub}", method="PUT",
+                                     data=json.dumps({"value": str(value)}).encode(),
+                                     headers={"content-type": "application/json"})
+        with urllib.request.urlopen(req, timeout=5):
+            pass
+    page = browser.new_page()
+    page.set_viewport_size({"width": 1400, "height": 1000})
+    page.goto(url + "#drive/0")
+    page.wait_for_function("window.scope.plot && window.scope.traces.length >= 4")
+    assert "0: position [inc]" in page.text_content("#trace-list")
+
+    page.select_option("#scope-pos-unit", "user")
+    page.wait_for_function("(window.scope.traces.find((t) => t.id === 'position') || {}).signal === '6064:00'")
+    chip = page.text_content("#trace-list [data-trace='position']")
+    assert chip.startswith("0: position [pos units]"), chip
+    labels = [a["label"] for a in page.evaluate("window.scope.axes()")]
+    assert "pos units" in labels and "inc" not in labels, labels
+    assert "6093h position factor 65536/360" in page.text_content("#pos-factor")
+
+    # A quarter turn: 90 user units (degrees) = 16384 increments.
+    p0 = int(get(url + "api/drives/0/objects/6064/0")["value"])
+    post(url + "api/drives/0/motion/enable")
+    wait_until(lambda: get(url + "api/drives/0/motion")["state"] == "OPERATION ENABLED", 5.0, what="enabled")
+    inc0 = get(url + "api/drives/0/plant")["position"]
+    post(url + "api/drives/0/motion/move", {"target": 90, "relative": True})
+    target = p0 + 90
+    wait_until(lambda: abs(int(get(url + "api/drives/0/objects/6064/0")["value"]) - target) <= 1, 10.0,
+               what="6064h at the target")
+    assert abs(get(url + "api/drives/0/plant")["position"] - inc0 - 16384) <= 200
+    # The scope has the drive at rest at the target, in user units.
+    page.wait_for_function(f"""(() => {{
+        const s = window.scope.buffers.get(0);
+        const p = s[s.length - 1];
+        return p && p.objects && Math.abs(p.objects['6064:00'] - {target}) <= 1; }})()""", timeout=10000)
+
+    page.click("#pause")
+    held = page.evaluate("window.scope.buffers.get(0).map((p) => [p.t, p.objects ? p.objects['6064:00'] : null])")
+
+    # The trigger, set on the paused scope: position rising through half the move.
+    level = p0 + 45
+    page.select_option("#trig-signal", "position")
+    page.fill("#trig-level", str(level))
+    page.fill("#trig-pre", "20")
+    page.fill("#window", "2")
+    page.dispatch_event("#window", "change")
+    page.wait_for_function("window.consoleState.capture !== null", timeout=5000)
+    cap = page.evaluate("(() => { const c = window.consoleState.capture; return {t0: c.t0, t1: c.t1, at: c.at}; })()")
+    # The crossing among the held samples, found the way the trigger defines it.
+    values = [(t, v) for t, v in held if v is not None]
+    crossing = next(t for (_, a), (t, b) in zip(values, values[1:]) if a < level <= b)
+    assert cap["at"] == crossing, (cap, crossing)
+    assert abs((cap["at"] - cap["t0"]) - 0.4) < 1e-9 and abs((cap["t1"] - cap["t0"]) - 2.0) < 1e-9, cap
+    assert page.text_content("#trig-status").startswith("triggered at t = ")
+    assert page.evaluate("window.consoleState.paused"), "still paused"
+    assert page.evaluate("window.scope.buffers.get(0).length") == len(held), "no sample taken while paused"
+    # The plot shows the capture: the time axis counts from the trigger.
+    page.wait_for_function("window.scope.axes()[0].label.endsWith('from the trigger')")
+    if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
+        page.wait_for_timeout(300)
+        page.locator("#scope-panel").screenshot(path=str(DOCS / "console-scope-user-units.png"))

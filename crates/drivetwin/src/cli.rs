@@ -195,13 +195,14 @@ pub struct DiffArgs {
 
 #[derive(Args, Debug)]
 pub struct ScenarioArgs {
-    /// The scenario file (TOML).
-    pub file: PathBuf,
+    /// The scenario files (TOML), run one after another, each on a cell of its own.
+    #[arg(value_name = "FILE", required = true, num_args = 1..)]
+    pub files: Vec<PathBuf>,
     /// Write every frame of the run to this file (pcap; `*.log`: candump), stamped with the
-    /// virtual clock.
+    /// virtual clock; with one scenario file only.
     #[arg(long)]
     pub trace: Option<PathBuf>,
-    /// Print the report as JSON.
+    /// Print the report as JSON (with several files: an array of reports, in their order).
     #[arg(long)]
     pub json: bool,
 }

@@ -150,9 +150,12 @@ fn merge(mut a: serde_json::Value, b: serde_json::Value) -> serde_json::Value {
 
 async fn scan(m: &mut EcatMaster<Link>, count: u16, json: bool) -> Result<(), CommandError> {
     let mut infos: Vec<SlaveInfo> = Vec::new();
+    let bar = super::progress::bar(usize::from(count), "ecat scan");
     for n in 1..=count {
         infos.push(m.slave_info(n).await?);
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     if json {
         let slaves: Vec<_> = infos
             .iter()

@@ -173,6 +173,7 @@ pub(crate) async fn scan(timeout_ms: u64, bus: BusArgs) -> Result<(), CommandErr
     }
     let deadline = tokio::time::Instant::now() + Duration::from_millis(timeout_ms);
     let mut found = std::collections::BTreeMap::new();
+    let spinner = super::progress::spinner("scan: 0 nodes answered");
     while let Ok(f) = tokio::time::timeout_at(deadline, link.recv()).await {
         let f = f?;
         if let Some(cob) = f.cob_id() {
@@ -185,9 +186,11 @@ pub(crate) async fn scan(timeout_ms: u64, bus: BusArgs) -> Result<(), CommandErr
                     _ => None,
                 };
                 found.insert((cob - 0x580) as u8, device_type);
+                spinner.set_message(format!("scan: {} nodes answered", found.len()));
             }
         }
     }
+    spinner.finish_and_clear();
     if bus.json {
         let nodes: Vec<_> = found
             .iter()

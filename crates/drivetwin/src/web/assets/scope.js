@@ -2,7 +2,11 @@
 // one clock, drawn with uPlot (embedded in the binary from the npm registry). Each unit has
 // its own y axis; the time axis reads in s or ms. A trigger (level, edge, pre-trigger, single
 // shot) freezes a window; two cursors read Δt and Δvalue; drag zooms, the wheel zooms and
-// pans; the buffer exports as CSV and as a trace file (JSON, loadable again).
+// pans; the buffer exports as CSV and as a trace file (JSON, loadable again). Positions read
+// in increments (the plant's encoder) or in the drive's user units: its position actual value
+// 6064h as the drive reports it through its factor group (6093h position factor, 6092h feed
+// constant …), with the unit its device file names. A trigger changed while the scope is
+// paused is evaluated over the samples held.
 //
 // Samples come from the live WebSocket of each drive (/api/drives/N/samples): the cell loop
 // samples the plant and the named objects at the chosen rate and the console batches them,
@@ -33,6 +37,7 @@
     plot: null,
     dirty: true,
     loaded: null, // a trace file opened in the page
+    positionUnit: "inc", // "inc": the plant's encoder increments; "user": 6064h, the drive's user units
   };
   window.scope = scope;
   const cs = () => window.consoleState;
@@ -54,6 +59,10 @@
     const p = PLANT[signal];
     if (p) {
       const kind = await kindOf(drive);
+      if (signal === "position" && scope.positionUnit === "user" && kind !== "stepper") {
+        const t = await userPositionTrace(drive, id);
+        if (t) return t;
+      }
       const f = p.scale;
       return { id: id ?? traceId(drive, signal), drive, signal, label: `${drive}: ${p.name}`,
                unit: p.unit(kind), get: (s) => (s[signal] == null ? null : s[signal] * f) };
@@ -65,6 +74,33 @@
     return { id: id ?? traceId(drive, key), drive, signal: key, object: true,
              label: `${drive}: ${o.name} (${i}h:${sub})`, unit: o.unit || "",
              get: (s) => (s.objects && s.objects[key] != null ? s.objects[key] : null) };
+  }
+
+  // A drive's position in its user units: 6064h position actual value, which the drive
+  // converts from increments through its factor group (CiA 402 §6.2: 6093h position factor, or
+  // 608Fh encoder resolution, 6091h gear ratio and 6092h feed constant), labelled with the unit
+  // its device file gives 6064h. None when the device has no 6064h (it reads increments only).
+  async function userPositionTrace(drive, id) {
+    let o;
+    try { o = await api("GET", `/api/drives/${drive}/objects/6064/0`); } catch (e) { return null; }
+    const key = "6064:00";
+    return { id: id ?? traceId(drive, "position"), drive, signal: key, object: true, plant: "position",
+             label: `${drive}: position`, unit: o.unit || "user units", factor: await factorText(drive),
+             get: (s) => (s.objects && s.objects[key] != null ? s.objects[key] : null) };
+  }
+
+  // The factor group's objects the drive has, as it reports them now ("6093h position factor
+  // 65536/360").
+  async function factorText(drive) {
+    const parts = [];
+    for (const [index, name] of [["6093", "position factor"], ["608F", "encoder resolution"],
+                                 ["6091", "gear ratio"], ["6092", "feed constant"]]) {
+      try {
+        const [a, b] = await Promise.all([1, 2].map((sub) => api("GET", `/api/drives/${drive}/objects/${index}/${sub}`)));
+        parts.push(`${index}h ${name} ${a.value}/${b.value}`);
+      } catch (e) { /* not in this device's dictionary */ }
+    }
+    return parts.join(", ");
   }
 
   async function kindOf(drive) {
@@ -186,11 +222,14 @@
   }
 
   function showTraces() {
+    const pos = scope.traces.find((t) => t.plant === "position" && t.drive === scope.page);
+    q("#pos-factor").textContent = pos ? `${pos.unit}${pos.factor ? `: ${pos.factor}` : ""}` : "";
     const list = q("#trace-list");
     list.replaceChildren(...scope.traces.map((t) => {
       const b = el("button", { type: "button", class: "trace-remove", title: `remove ${t.label}` }, "×");
       b.addEventListener("click", () => removeTrace(t.id));
       const chip = el("span", { class: "trace-chip", "data-trace": t.id }, `${t.label} [${t.unit || "–"}] `, b);
+      if (t.factor) chip.title = `6064h through the factor group: ${t.factor}`;
       chip.style.borderColor = t.color;
       return chip;
     }));
@@ -212,8 +251,10 @@
   }
 
   // Looks for the trigger's crossing in the samples not yet searched; once the window after it
-  // is full, the capture is taken (and in "single" the scope pauses).
-  function checkTrigger() {
+  // is full, the capture is taken (and in "single" the scope pauses). On a paused scope
+  // (`held`) no sample will come: the held samples are all there is, and a crossing's window
+  // is taken with what they hold after it.
+  function checkTrigger(held = false) {
     const c = cs();
     const id = q("#trig-signal").value;
     const status = q("#trig-status");
@@ -246,7 +287,7 @@
       // Every drive's samples up to the window's end (one time base).
       const lasts = [...scope.buffers.values()].filter((b) => b.length).map((b) => b[b.length - 1].t);
       const newest = lasts.length ? Math.min(...lasts) : -Infinity;
-      if (newest >= t1) {
+      if (held || newest >= t1) {
         const byDrive = new Map([...scope.buffers].map(([d, b]) => [d, b.filter((p) => p.t >= t0 && p.t <= t1)]));
         c.capture = { t0, t1, at: c.pending, samples: byDrive.get(scope.page) || [], byDrive };
         c.triggers += 1;
@@ -259,17 +300,24 @@
         status.textContent = "triggered, filling the window…";
       }
     } else if (!c.capture) {
-      status.textContent = "armed";
+      status.textContent = held ? "no crossing in the held samples" : "armed";
     }
   }
 
+  // A trigger changed: live, it waits for the next crossing; paused, it searches the held
+  // samples from the left edge of the range shown when zoomed or panned, else from the oldest.
   function rearm() {
     const c = cs();
     c.capture = null; c.pending = null;
-    const s = scope.buffers.get(scope.page) || [];
-    c.searchedTo = s.length ? s[s.length - 1].t : undefined;
+    const held = Boolean(c.paused) && !scope.loaded;
+    if (held) {
+      c.searchedTo = scope.view ? scope.view.min : undefined;
+    } else {
+      const s = scope.buffers.get(scope.page) || [];
+      c.searchedTo = s.length ? s[s.length - 1].t : undefined;
+    }
     scope.view = null;
-    checkTrigger();
+    checkTrigger(held);
     scope.dirty = true;
   }
 
@@ -595,6 +643,16 @@
     for (const b of scope.buffers.values()) b.length = 0;
     rearm();
     for (const d of scope.sockets.keys()) connect(d);
+  });
+  on("#scope-pos-unit", "change", async () => {
+    scope.positionUnit = q("#scope-pos-unit").value === "user" ? "user" : "inc";
+    try {
+      for (const t of scope.traces.filter((x) => x.signal === "position" || x.plant === "position")) {
+        await addTrace(t.drive, "position", t.id);
+      }
+      const pos = scope.traces.find((t) => t.plant === "position");
+      say(scope.positionUnit === "user" && !pos ? "positions in increments: no drive with 6064h" : `positions in ${scope.positionUnit === "user" ? "user units" : "increments"}`);
+    } catch (e) { say(e.message, true); }
   });
   on("#scope-follow", "click", () => { scope.view = null; scope.dirty = true; });
   on("#scope-left", "click", () => pan(-0.25));
