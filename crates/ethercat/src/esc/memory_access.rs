@@ -35,7 +35,7 @@ impl<'a> Esc<'a> {
                 dst.copy_from_slice(src);
             }
         }
-        if !or {
+        if !or && n < out.len() {
             if let Some(rest) = out.get_mut(n..) {
                 rest.fill(0);
             }

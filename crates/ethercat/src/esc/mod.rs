@@ -60,6 +60,7 @@ use od::Instant;
 use crate::al_control::{check_transition, is_upward, AlControl, AlState, AlStatus};
 use crate::al_status_code::AlStatusCode;
 use crate::datagram::{self, Command, Datagram};
+use crate::dl_status::DlStatus;
 use crate::eeprom::{self, Eeprom, SiiCommand};
 use crate::fmmu::{Fmmu, FMMU_LEN};
 use crate::frame::{EthernetFrame, WireError, ETHERTYPE_ETHERCAT};
@@ -75,6 +76,7 @@ mod frame;
 mod local_clock;
 mod memory_access;
 mod pdi;
+mod ports;
 mod side_effects;
 mod sm_access;
 mod watchdog;
@@ -144,8 +146,10 @@ pub struct EscConfig {
     pub features: u16,
     /// 0x0007.
     pub port_descriptor: u8,
-    /// 0x0110; default [`register::DL_STATUS_LINE_END`]. In a simulated chain every slave
-    /// reports "line end"; the masters then compute no propagation delays.
+    /// 0x0110 at power-on; default [`register::DL_STATUS_LINE_END`] (a link on port 0
+    /// only). A line of ESCs shows its links with [`Esc::set_port_link`]: port 1 of every
+    /// slave but the last has one. Every port latches the same receive time (0x0900), so the
+    /// masters compute no propagation delays either way.
     pub dl_status: u16,
     /// 0x0140 (SII word 0 low byte).
     pub pdi_control: u8,
