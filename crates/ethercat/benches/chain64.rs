@@ -8,8 +8,8 @@
 //! Criterion measures wall-clock time, which a machine shared with other processes stretches
 //! by every time slice they take in the middle of a sample. After the criterion runs the
 //! bench therefore also prints the CPU time this thread spent per frame (the scheduler's
-//! account in `/proc/thread-self/schedstat`, over rounds of about 200 ms: the minimum and
-//! the median of 7), which other processes do not stretch.
+//! account in `/proc/thread-self/schedstat`, over rounds of about 300 ms: the minimum and
+//! the median of 7), which other processes stretch less (their cache traffic remains).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -203,20 +203,23 @@ fn thread_cpu_ns() -> u64 {
         .unwrap_or(0)
 }
 
-/// Thread CPU time per `run`, in ns: (minimum, median) of 7 rounds of about 200 ms; `None`
-/// where the scheduler's account cannot be read.
+/// Thread CPU time per `run`, in ns: (minimum, median) of 7 rounds of about 300 ms of wall
+/// time each (the scheduler's account moves at its ticks and switches, so a round must span
+/// many); `None` where that account cannot be read.
 fn cpu_time_per_run(c: &mut Cycle) -> Option<(f64, f64)> {
-    let t0 = thread_cpu_ns();
+    if thread_cpu_ns() == 0 {
+        return None;
+    }
+    let t0 = std::time::Instant::now();
     let mut calibration = 0u64;
-    while thread_cpu_ns().saturating_sub(t0) < 20_000_000 {
+    while t0.elapsed() < Duration::from_millis(50) {
         black_box(c.run());
         calibration += 1;
     }
-    let spent = thread_cpu_ns().saturating_sub(t0);
-    if spent == 0 {
-        return None;
-    }
-    let n = (calibration * 200_000_000 / spent).max(1);
+    let spent = t0.elapsed().as_nanos().max(1);
+    let n = u64::try_from(u128::from(calibration) * 300_000_000 / spent)
+        .unwrap_or(1)
+        .max(1);
     let mut per_run: Vec<f64> = (0..7)
         .map(|_| {
             let t = thread_cpu_ns();
