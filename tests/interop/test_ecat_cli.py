@@ -3,7 +3,7 @@
 `drivetwin run --ethercat dtwA…` runs inside a private network namespace on one end of a veth
 pair (the fixture pattern of test_ethercat.py); the CLI opens the other end. Checked: the scan
 (slave count from the BRD working counter, station addresses 0x1000 + n, Festo vendor 0x1D,
-the product code of `drivetwin esi`), the AL state ladder Init → Pre-Op → Safe-Op → Op → Init
+the product code of `drivetwin esi`, the links of ports 0 and 1), the AL state ladder Init → Pre-Op → Safe-Op → Op → Init
 and a refused transition with its AL status code, CoE SDO read/write and an abort, a chain of
 two twins, and cross-checks with SOEM (pysoem) in both directions.
 
@@ -123,6 +123,13 @@ def test_a_chain_of_two_twins(chain):
     j = ecat_json("scan", "-i", iface)
     assert j["count"] == 2, j
     assert [s["station"] for s in j["slaves"]] == [0x1001, 0x1002]
+    # DL status 0x0110: the first slave has links on ports 0 and 1, the last on port 0 alone
+    # with its port 1 loop closed (the frame turns round there).
+    assert [s["dl_status"] for s in j["slaves"]] == [0x5A33, 0x5613], j
+    last_port_1 = j["slaves"][1]["ports"][1]
+    assert (last_port_1["link"], last_port_1["loop_closed"]) == (False, True), last_port_1
+    text = ecat("scan", "-i", iface).stdout
+    assert "0:up 1:up" in text and "0:up 1:down" in text, text
     assert all(s["vendor_id"] == FESTO for s in j["slaves"])
     (s,) = ecat_json("state", "-i", iface, "--slave", "2", "preop")
     assert (s["slave"], s["state"]) == (2, "PREOP")

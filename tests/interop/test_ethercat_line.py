@@ -2,10 +2,11 @@
 `drivetwin ecat` over a veth pair: a chain of three CMMP-AS with the cable pulled behind the
 first (the master counts one slave and the working counter drops to one slave's; the two
 behind time out on their SM watchdog, fall to Safe-Op with 0x001B and their drives fault with
-62-5), plugged back (three found, acknowledged, back in Op); a slave powered off (it and the
-one behind it vanish) and on (it is in Init); a DC drift of 50 ppm on the second slave that
-SOEM's cyclic system-time distribution corrects (0x092C holds the difference each cycle
-found, 0x0920 the corrections).
+62-5), plugged back (three found, acknowledged, back in Op); meanwhile the first slave's DL
+status shows its port 1 without a link and its loop closed, to SOEM and to `drivetwin ecat
+scan`; a slave powered off (it and the one behind it vanish) and on (it is in Init); a DC
+drift of 50 ppm on the second slave that SOEM's cyclic system-time distribution corrects
+(0x092C holds the difference each cycle found, 0x0920 the corrections).
 
 The twin runs in the veth's network namespace; the API is called from inside it. Needs root
 and `ip`; skips otherwise.
@@ -26,6 +27,14 @@ from conftest import ecat_twin_run, free_port, run_cli, write_cell
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
 CYCLE_S = 0.001
+# DL status 0x0110 (ETG.1000.4): port 1's link bit and its loop bit (1: closed).
+LINK_PORT_1 = 0x0020
+LOOP_PORT_1 = 0x0400
+
+
+def dl_status(slave) -> int:
+    """DL status 0x0110 of a pysoem slave, read with an FPRD."""
+    return struct.unpack("<H", slave._fprd(0x0110, 2, 100_000))[0]
 
 
 def api_in(ns: str, method: str, url: str, body: dict | None = None) -> tuple[int, dict]:
@@ -100,6 +109,7 @@ def test_a_pulled_cable_cuts_off_the_slaves_behind_and_plugged_back_they_return(
     master.open(master_if)
     try:
         assert master.config_init() == 3
+        assert [dl_status(s) for s in master.slaves] == [0x5A33, 0x5A33, 0x5613], "ports 0 and 1 linked"
         assert master.config_map() > 0
         assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
         to_op(master)
@@ -112,12 +122,17 @@ def test_a_pulled_cable_cuts_off_the_slaves_behind_and_plugged_back_they_return(
         assert set(wkcs) <= {full, 3}, wkcs
         # 150 cycles (the watchdog is 100 ms): every one returns from the first slave alone.
         assert cycle(master, 150) == [3] * 150
+        # The first slave's port 1 has lost its link and closed its loop (DL status 0x0110).
+        first = dl_status(master.slaves[0])
+        assert (first & LINK_PORT_1, first & LOOP_PORT_1) == (0, LOOP_PORT_1), hex(first)
 
         state, wkcs = while_cycling(master, lambda: line({"action": "plug-cable"}))
         # Back on the line, the two in Safe-Op count their SM2 write and SM3 read again.
         assert set(wkcs) <= {3, full}, wkcs
         assert state["reached"] == 3
         assert state["al_states"] == [8, 4, 4], state
+        first = dl_status(master.slaves[0])
+        assert (first & LINK_PORT_1, first & LOOP_PORT_1) == (LINK_PORT_1, 0), hex(first)
         master.read_state()
         assert master.slaves[0].state == pysoem.OP_STATE
         for s in master.slaves[1:]:
@@ -139,6 +154,30 @@ def test_a_pulled_cable_cuts_off_the_slaves_behind_and_plugged_back_they_return(
         assert cycle(master, 20) == [full] * 20
     finally:
         master.close()
+
+
+def test_drivetwin_ecat_scan_shows_where_the_line_is_cut(line3):
+    master_if, line = line3
+
+    def scan() -> dict:
+        r = run_cli("ecat", "scan", "-i", master_if, "--json")
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout)
+
+    j = scan()
+    assert j["count"] == 3, j
+    assert [[p["link"] for p in s["ports"]] for s in j["slaves"]] == [[True, True], [True, True], [True, False]]
+    line({"action": "pull-cable", "after": 1})
+    j = scan()
+    assert j["count"] == 1, j
+    (first,) = j["slaves"]
+    assert first["ports"][1] == {"port": 1, "link": False, "loop_closed": True, "communication": False}, first
+    r = run_cli("ecat", "scan", "-i", master_if)
+    assert "0:up 1:down" in r.stdout and "1 slave(s)" in r.stdout, r.stdout
+    line({"action": "plug-cable"})
+    j = scan()
+    assert j["count"] == 3, j
+    assert j["slaves"][0]["ports"][1]["link"] is True, j
 
 
 def test_a_slave_powered_off_vanishes_and_comes_back_in_init(line3):

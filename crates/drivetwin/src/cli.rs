@@ -499,7 +499,8 @@ pub struct EcatLinkArgs {
 #[derive(Subcommand, Debug)]
 pub enum EcatCommand {
     /// Count the slaves, give them station addresses (0x1000 + n) and print their SII
-    /// identity, name and AL state.
+    /// identity, name, AL state and the links of ports 0 and 1 (DL status 0x0110: where the
+    /// line is cut).
     Scan {
         #[command(flatten)]
         link: EcatLinkArgs,

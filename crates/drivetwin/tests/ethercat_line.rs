@@ -31,6 +31,7 @@ struct Master {
 
 struct Reply {
     wkc: u16,
+    data: Vec<u8>,
 }
 
 impl Master {
@@ -46,7 +47,18 @@ impl Master {
         let eth = EthernetFrame::new_checked(&buf[..]).unwrap();
         let f = Frame::new_checked(eth.payload()).unwrap();
         let d = f.datagrams().next().unwrap().unwrap();
-        Some(Reply { wkc: d.wkc() })
+        Some(Reply {
+            wkc: d.wkc(),
+            data: d.data().to_vec(),
+        })
+    }
+    /// DL status 0x0110 of `station`, read over the wire.
+    fn dl_status(&mut self, station: u16) -> u16 {
+        let r = self
+            .send(Command::Fprd, phys(station, 0x0110), &[0, 0])
+            .unwrap();
+        assert_eq!(r.wkc, 1, "station {station:#x} answers");
+        u16::from_le_bytes([r.data[0], r.data[1]])
     }
     fn wkc(&mut self, c: Command, a: Address, d: &[u8]) -> u16 {
         self.send(c, a, d).unwrap().wkc
@@ -177,6 +189,54 @@ fn a_pulled_cable_cuts_off_the_slaves_behind_it_until_plugged_back() {
         assert_eq!(m.al_state(usize::from(i)), AlState::Op);
     }
     assert_eq!(m.lrw(), 3 * SLAVES);
+}
+
+/// DL status 0x0110 (ETG.1000.4): inside the line ports 0 and 1 have a link with their loops
+/// open, the last slave's port 1 none with its loop closed; the cable pulled behind the first
+/// slave takes its port 1 link and closes that loop (the frame turns round there) and takes
+/// the second slave's port 0 link; plugged back, the links are there again.
+#[test]
+fn the_dl_status_shows_a_pulled_cable_and_its_return() {
+    let mut m = three_in_op();
+    assert_eq!(m.dl_status(0x1001), 0x5A33);
+    assert_eq!(m.dl_status(0x1002), 0x5A33);
+    assert_eq!(m.dl_status(0x1003), 0x5613, "the last slave: line end");
+
+    m.cell.pull_cable(1).unwrap();
+    let first = m.dl_status(0x1001);
+    assert_eq!(first & 0x0020, 0, "port 1: no link");
+    assert_eq!(
+        first & 0x0C00,
+        0x0400,
+        "port 1: loop closed, no communication"
+    );
+    assert_eq!(first, 0x5613);
+    // No frame reaches the second slave: its ESC shows it.
+    let second = m.cell.esc(1).unwrap().read_u16(0x0110);
+    assert_eq!(second & 0x0310, 0x0100, "port 0: no link, loop closed");
+
+    m.cell.plug_cable();
+    assert_eq!(m.dl_status(0x1001), 0x5A33, "port 1: link again");
+    assert_eq!(m.dl_status(0x1002), 0x5A33);
+    assert_eq!(m.dl_status(0x1003), 0x5613);
+}
+
+/// A slave without power takes the link of the ports facing it; powered on, its ESC starts
+/// from reset and shows the links it has.
+#[test]
+fn the_dl_status_shows_a_slave_without_power() {
+    let mut m = three_in_op();
+    m.cell.power_off(1).unwrap();
+    assert_eq!(
+        m.dl_status(0x1001),
+        0x5613,
+        "port 1 towards the dark slave: no link"
+    );
+    m.cell
+        .power_on(1, m.now, &mut drivetwin::ecat::chain::NoBuses)
+        .unwrap();
+    assert_eq!(m.dl_status(0x1001), 0x5A33);
+    assert_eq!(m.cell.esc(1).unwrap().read_u16(0x0110), 0x5A33);
 }
 
 #[test]

@@ -2,7 +2,14 @@
 //! reference clock's system time that SOEM and ethercrab send every cycle (the ESC reference
 //! kept beside the project, §8.1), then one LRW of 3 output and 6 input bytes per slave (a
 //! CSP drive as SOEM maps it), 576 bytes in all. Each slave's device side takes its outputs
-//! and posts its inputs after the frame, as the chain does. Target: 5 µs per frame.
+//! and posts its inputs after the frame, as the chain does. Target: 5 µs per frame. Its floor,
+//! in the same run: one LRW of the same 9 bytes through a line of one slave.
+//!
+//! Criterion measures wall-clock time, which a machine shared with other processes stretches
+//! by every time slice they take in the middle of a sample. After the criterion runs the
+//! bench therefore also prints the CPU time this thread spent per frame (the scheduler's
+//! account in `/proc/thread-self/schedstat`, over rounds of about 300 ms: the minimum and
+//! the median of 7), which other processes stretch less (their cache traffic remains).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -10,10 +17,12 @@
     clippy::panic
 )]
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use std::time::Duration;
+
+use criterion::{black_box, Criterion};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
-use ethercat::{process_chain, Eeprom, Esc, EscConfig, Fmmu, MailboxLayout};
+use ethercat::{process_chain, Eeprom, Esc, EscConfig, Fmmu, FrameOutcome, MailboxLayout};
 use od::Instant;
 
 const SLAVES: usize = 64;
@@ -40,9 +49,9 @@ fn send(line: &mut [Esc<'_>], reqs: &[(Command, Address, Vec<u8>)]) -> Vec<u16> 
     frame.datagrams().map(|d| d.unwrap().wkc()).collect()
 }
 
-/// 64 slaves configured as SOEM leaves them: station addresses, mailbox, SM2/SM3 and FMMUs
-/// at their logical offsets, in Op.
-fn line_in_op() -> Vec<Esc<'static>> {
+/// `slaves` slaves configured as SOEM leaves them: station addresses, mailbox, SM2/SM3 and
+/// FMMUs at their logical offsets, in Op.
+fn line_in_op(slaves: usize) -> Vec<Esc<'static>> {
     let cfg = EscConfig {
         mailbox: Some(MailboxLayout {
             rx_offset: 0x1000,
@@ -52,10 +61,10 @@ fn line_in_op() -> Vec<Esc<'static>> {
         }),
         ..EscConfig::default()
     };
-    let mut line: Vec<Esc<'static>> = (0..SLAVES)
+    let mut line: Vec<Esc<'static>> = (0..slaves)
         .map(|_| Esc::new(cfg.clone(), Eeprom::None))
         .collect();
-    for i in 0..SLAVES as u16 {
+    for i in 0..slaves as u16 {
         let adp = i.wrapping_neg();
         let st = 0x1001 + i;
         send(
@@ -94,8 +103,46 @@ fn line_in_op() -> Vec<Esc<'static>> {
     line
 }
 
-fn chain_cycle(c: &mut Criterion) {
-    let mut line = line_in_op();
+/// One cyclic frame: `template` copied in, passed through `line` at the next millisecond, then
+/// each slave's device side takes its outputs and posts its inputs.
+struct Cycle {
+    line: Vec<Esc<'static>>,
+    template: Vec<u8>,
+    frame: Vec<u8>,
+    now: u64,
+}
+
+impl Cycle {
+    fn new(line: Vec<Esc<'static>>, template: Vec<u8>) -> Self {
+        let frame = template.clone();
+        Cycle {
+            line,
+            template,
+            frame,
+            now: 2_000_000,
+        }
+    }
+
+    fn run(&mut self) -> FrameOutcome {
+        const INPUTS: [u8; 6] = [0x37, 0x02, 1, 2, 3, 4];
+        self.frame.copy_from_slice(&self.template);
+        self.now += 1_000_000;
+        let o = process_chain(
+            &mut self.line,
+            Instant::from_nanos(self.now),
+            black_box(&mut self.frame),
+        );
+        for esc in self.line.iter_mut() {
+            let _ = black_box(esc.process_outputs());
+            let _ = esc.set_inputs(&INPUTS);
+        }
+        o
+    }
+}
+
+/// The ARMW + LRW frame through 64 slaves.
+fn chain() -> Cycle {
+    let mut line = line_in_op(SLAVES);
     let bytes = SLAVES * usize::from(OUT + IN);
     let template = frame(&[
         (
@@ -123,22 +170,87 @@ fn chain_cycle(c: &mut Criterion) {
             "ARMW: every DC slave; LRW: 2 + 1 per slave"
         );
     }
-    let mut f = template.clone();
-    let mut now = 2_000_000u64;
-    let inputs = [0x37u8, 0x02, 1, 2, 3, 4];
+    Cycle::new(line, template)
+}
+
+/// The floor: one LRW of one slave's 9 bytes through a line of one slave.
+fn floor() -> Cycle {
+    let line = line_in_op(1);
+    let template = frame(&[(
+        Command::Lrw,
+        Address::Logical(0),
+        vec![0x0F; usize::from(OUT + IN)],
+    )]);
+    Cycle::new(line, template)
+}
+
+fn chain_cycle(c: &mut Criterion) {
+    let mut chain = chain();
     c.bench_function("armw_lrw_64_slave_frame", |b| {
-        b.iter(|| {
-            f.copy_from_slice(&template);
-            now += 1_000_000;
-            let o = process_chain(&mut line, Instant::from_nanos(now), black_box(&mut f));
-            for esc in line.iter_mut() {
-                let _ = black_box(esc.process_outputs());
-                let _ = esc.set_inputs(&inputs);
-            }
-            black_box(o)
-        })
+        b.iter(|| black_box(chain.run()))
+    });
+    let mut floor = floor();
+    c.bench_function("floor_lrw_1_slave_frame", |b| {
+        b.iter(|| black_box(floor.run()))
     });
 }
 
-criterion_group!(benches, chain_cycle);
-criterion_main!(benches);
+/// CPU time (ns) this thread has run, as the scheduler accounts it.
+fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+/// Thread CPU time per `run`, in ns: (minimum, median) of 7 rounds of about 300 ms of wall
+/// time each (the scheduler's account moves at its ticks and switches, so a round must span
+/// many); `None` where that account cannot be read.
+fn cpu_time_per_run(c: &mut Cycle) -> Option<(f64, f64)> {
+    if thread_cpu_ns() == 0 {
+        return None;
+    }
+    let t0 = std::time::Instant::now();
+    let mut calibration = 0u64;
+    while t0.elapsed() < Duration::from_millis(50) {
+        black_box(c.run());
+        calibration += 1;
+    }
+    let spent = t0.elapsed().as_nanos().max(1);
+    let n = u64::try_from(u128::from(calibration) * 300_000_000 / spent)
+        .unwrap_or(1)
+        .max(1);
+    let mut per_run: Vec<f64> = (0..7)
+        .map(|_| {
+            let t = thread_cpu_ns();
+            for _ in 0..n {
+                black_box(c.run());
+            }
+            thread_cpu_ns().saturating_sub(t) as f64 / n as f64
+        })
+        .collect();
+    per_run.sort_by(f64::total_cmp);
+    Some((per_run[0], per_run[3]))
+}
+
+fn main() {
+    let mut c = Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .configure_from_args();
+    chain_cycle(&mut c);
+    c.final_summary();
+    let figures = [
+        ("armw_lrw_64_slave_frame", cpu_time_per_run(&mut chain())),
+        ("floor_lrw_1_slave_frame", cpu_time_per_run(&mut floor())),
+    ];
+    for (name, f) in figures {
+        match f {
+            Some((min, median)) => println!(
+                "{name}: thread CPU time {:.3} µs per frame (median of 7 rounds; min {:.3} µs)",
+                median / 1000.0,
+                min / 1000.0
+            ),
+            None => println!("{name}: no thread CPU time (/proc/thread-self/schedstat)"),
+        }
+    }
+}

@@ -10,7 +10,8 @@
 //!   [`datagram`] (datagram header, [`datagram::Command`]), [`mailbox`] (mailbox header);
 //! * ESC: [`register`] (address map, write masks, reset values), [`fmmu`],
 //!   [`sync_manager`], [`eeprom`] (SII interface 0x0500), [`al_control`] and
-//!   [`al_status_code`] (application-layer state machine), [`esc`] (the controller);
+//!   [`al_status_code`] (application-layer state machine), [`dl_status`] (ports: link
+//!   and loop), [`esc`] (the controller);
 //! * [`sii`]: the SII EEPROM image;
 //! * [`sync_monitor`]: when the device takes outputs (frame or SYNC0) and loses sync;
 //! * [`master`]: the master side (addressing, SII reads, AL requests, SDO client messages).
@@ -25,6 +26,7 @@ pub mod al_control;
 pub mod al_status_code;
 pub mod coe;
 pub mod datagram;
+pub mod dl_status;
 pub mod eeprom;
 pub mod esc;
 mod field;
@@ -40,6 +42,7 @@ pub mod sync_monitor;
 pub use al_control::{AlControl, AlState, AlStatus};
 pub use al_status_code::AlStatusCode;
 pub use datagram::{Command, Datagram};
+pub use dl_status::{DlStatus, PortStatus};
 pub use eeprom::Eeprom;
 pub use esc::{
     process_chain, process_chain_with, AlHook, ClockError, ErrorCounters, Esc, EscConfig,

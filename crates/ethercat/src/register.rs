@@ -178,6 +178,9 @@ pub static ECAT_WRITE_MASK: [u8; 0x1000] = build_write_masks();
 /// DL status of a slave with a link on port 0 only (spec §2.3): PDI operational, PDI
 /// watchdog reloaded, link port 0, port 0 open with communication, ports 1–3 closed.
 pub const DL_STATUS_LINE_END: u16 = 0x5613;
+/// DL status of a slave inside a line (spec §2.3): as [`DL_STATUS_LINE_END`] with a link on
+/// port 1 as well, its loop open and communicating.
+pub const DL_STATUS_LINE_THROUGH: u16 = 0x5A33;
 /// DL control power-on value (Infineon ECAT0 reset value).
 pub const DL_CONTROL_RESET: u32 = 0x0007_C001;
 /// Watchdog divider reset value: 2498 → 100 µs ticks.

@@ -7,7 +7,7 @@ use super::*;
 use drivetwin::master::ecat::FrameLink;
 use drivetwin::master::ecat::{abort_description, EcatError, EcatMaster, SlaveInfo};
 use ethercat::master::{state_name, AlStatusBlock};
-use ethercat::AlState;
+use ethercat::{AlState, DlStatus};
 
 use crate::cli::{EcatCommand, EcatLinkArgs, EcatSdoCommand, EcatSdoTarget, EcatStateArg};
 
@@ -141,6 +141,32 @@ fn error_suffix(al: &AlStatusBlock) -> String {
     }
 }
 
+/// Ports 0 and 1, the two of a line: "0:up 1:down" (a link or none).
+fn ports_text(dl: DlStatus) -> String {
+    (0..2u8)
+        .filter_map(|n| {
+            dl.port(n)
+                .map(|p| format!("{n}:{}", if p.link { "up" } else { "down" }))
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The DL status as JSON: the raw register and ports 0 and 1.
+fn dl_json(dl: DlStatus) -> serde_json::Value {
+    let ports: Vec<_> = (0..2u8)
+        .filter_map(|n| {
+            dl.port(n).map(|p| {
+                serde_json::json!({
+                    "port": n, "link": p.link, "loop_closed": p.loop_closed,
+                    "communication": p.communication,
+                })
+            })
+        })
+        .collect();
+    serde_json::json!({"dl_status": dl.0, "ports": ports})
+}
+
 fn merge(mut a: serde_json::Value, b: serde_json::Value) -> serde_json::Value {
     if let (Some(a), serde_json::Value::Object(b)) = (a.as_object_mut(), b) {
         a.extend(b);
@@ -161,13 +187,17 @@ async fn scan(m: &mut EcatMaster<Link>, count: u16, json: bool) -> Result<(), Co
             .iter()
             .map(|i| {
                 merge(
-                    serde_json::json!({
-                        "slave": i.number, "station": i.station,
-                        "vendor_id": i.identity.vendor_id, "product_code": i.identity.product_code,
-                        "revision": i.identity.revision, "serial": i.identity.serial,
-                        "name": i.name,
-                    }),
-                    al_json(&i.al),
+                    merge(
+                        serde_json::json!({
+                            "slave": i.number, "station": i.station,
+                            "vendor_id": i.identity.vendor_id,
+                            "product_code": i.identity.product_code,
+                            "revision": i.identity.revision, "serial": i.identity.serial,
+                            "name": i.name,
+                        }),
+                        al_json(&i.al),
+                    ),
+                    dl_json(i.dl),
                 )
             })
             .collect();
@@ -179,18 +209,19 @@ async fn scan(m: &mut EcatMaster<Link>, count: u16, json: bool) -> Result<(), Co
         return Ok(());
     }
     out!(
-        "{:<5} {:<7} {:<10} {:<10} {:<10} {:<10} {:<7} name",
+        "{:<5} {:<7} {:<10} {:<10} {:<10} {:<10} {:<7} {:<11} name",
         "slave",
         "station",
         "vendor",
         "product",
         "revision",
         "serial",
-        "state"
+        "state",
+        "ports"
     );
     for i in &infos {
         out!(
-            "{:<5} {:#06x}  {:#010x} {:#010x} {:#010x} {:#010x} {:<7} {}{}",
+            "{:<5} {:#06x}  {:#010x} {:#010x} {:#010x} {:#010x} {:<7} {:<11} {}{}",
             i.number,
             i.station,
             i.identity.vendor_id,
@@ -198,6 +229,7 @@ async fn scan(m: &mut EcatMaster<Link>, count: u16, json: bool) -> Result<(), Co
             i.identity.revision,
             i.identity.serial,
             state_text(&i.al),
+            ports_text(i.dl),
             i.name.as_deref().unwrap_or("-"),
             error_suffix(&i.al)
         );

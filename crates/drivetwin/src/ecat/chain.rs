@@ -893,6 +893,7 @@ impl EthercatCell {
         ));
         self.drives.push(drive);
         self.specs.push(None);
+        self.show_line();
         Ok(())
     }
 
@@ -1086,21 +1087,33 @@ impl EthercatCell {
     /// The cable behind `after` slaves pulled (0: the master's own): frames return from slave
     /// `after`, the slaves behind it see none (their watchdogs expire, their drives react).
     pub fn pull_cable(&mut self, after: usize) -> Result<(), LineError> {
-        self.line.pull_cable(after, self.escs.len())
+        self.line.pull_cable(after, self.escs.len())?;
+        self.show_line();
+        Ok(())
     }
 
     /// The pulled cable plugged back: the slaves behind it see frames again, in the state
     /// their watchdogs left them.
     pub fn plug_cable(&mut self) {
         self.line.plug_cable();
+        self.show_line();
+    }
+
+    /// Every slave's DL status shows the links of its ports 0 and 1 as the line has them.
+    fn show_line(&mut self) {
+        let len = self.escs.len();
+        for (i, esc) in self.escs.iter_mut().enumerate() {
+            esc.set_port_link(0, self.line.linked(i, len));
+            esc.set_port_link(1, self.line.linked(i + 1, len));
+        }
     }
 
     /// Slave `position` switched off: it and every slave behind it drop off the line; its
     /// drive stops.
     pub fn power_off(&mut self, position: usize) -> Result<(), LineError> {
-        self.line
-            .set_power(position, false, self.escs.len())
-            .map(|_| ())
+        self.line.set_power(position, false, self.escs.len())?;
+        self.show_line();
+        Ok(())
     }
 
     /// Slave `position` switched on at `now`: its ESC starts from its reset values (AL Init,
@@ -1128,6 +1141,7 @@ impl EthercatCell {
         // The oscillator is the board's: it runs off nominal as before.
         esc.set_clock_error(now, clock);
         *dev = SlaveDevice::new(cfg, CoeConfig::from_description(desc), desc);
+        self.show_line();
         if let (Some(Some(spec)), Some(drive)) =
             (self.specs.get(position), self.drives.get_mut(position))
         {

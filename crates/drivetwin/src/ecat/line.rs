@@ -79,6 +79,17 @@ impl Line {
         })
     }
 
+    /// Whether the cable behind `after` slaves carries a link (0: the master's own cable): it
+    /// is plugged in and the slaves at both its ends have power. Behind the last slave there
+    /// is no cable. The ports at its ends show it in their DL status (ETG.1000.4).
+    pub fn linked(&self, after: usize, len: usize) -> bool {
+        let powered_before = after == 0 || self.powered(after - 1);
+        after < len
+            && self.cable_pulled_after != Some(after)
+            && powered_before
+            && self.powered(after)
+    }
+
     /// The slaves without power, in line order.
     pub fn powered_off(&self) -> impl Iterator<Item = usize> + '_ {
         self.powered_off.iter().copied()
@@ -112,6 +123,18 @@ mod tests {
         assert!(l.is_intact());
         l.pull_cable(0, 64).unwrap();
         assert_eq!(l.reach(64), 0, "the master's own cable: nothing returns");
+    }
+
+    #[test]
+    fn a_cable_links_two_powered_slaves_and_none_follows_the_last() {
+        let mut l = Line::default();
+        assert!(l.linked(0, 3) && l.linked(2, 3));
+        assert!(!l.linked(3, 3), "no cable behind the last slave");
+        l.pull_cable(1, 3).unwrap();
+        assert!(l.linked(0, 3) && !l.linked(1, 3) && l.linked(2, 3));
+        l.plug_cable();
+        l.set_power(1, false, 3).unwrap();
+        assert!(l.linked(0, 3) && !l.linked(1, 3) && !l.linked(2, 3));
     }
 
     #[test]

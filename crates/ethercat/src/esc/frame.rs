@@ -265,18 +265,20 @@ impl<'a> Esc<'a> {
     /// Logical commands through the FMMUs; +1 if any read FMMU hit, +1 (LWR) or +2 (LRW)
     /// if any write FMMU hit, whatever the number of FMMUs (spec §1.4 rule 4, §7.5).
     pub(super) fn logical(&mut self, cmd: Command, addr: u32, data: &mut [u8]) -> u16 {
-        if self.active_fmmus == 0 {
+        // No active mapping meets the datagram: nothing to do (most slaves of a long line
+        // for most logical datagrams).
+        if !self.fmmu_span.meets(addr, data.len()) {
             return 0;
         }
         let mut inc = 0;
         // Writes take the data as it arrived, so they go first (LRW, §7.5).
         if matches!(cmd, Command::Lwr | Command::Lrw) {
             let mut hit = false;
-            for i in 0..FMMU_COUNT {
+            for i in set_bits(self.active_fmmus) {
                 let Some(f) = self.fmmus.get(i).copied() else {
                     continue;
                 };
-                if self.active_fmmus & (1 << i) != 0 && f.write_enable {
+                if f.write_enable {
                     hit |= self.fmmu_write(&f, addr, data);
                 }
             }
@@ -286,11 +288,11 @@ impl<'a> Esc<'a> {
         }
         if matches!(cmd, Command::Lrd | Command::Lrw) {
             let mut hit = false;
-            for i in 0..FMMU_COUNT {
+            for i in set_bits(self.active_fmmus) {
                 let Some(f) = self.fmmus.get(i).copied() else {
                     continue;
                 };
-                if self.active_fmmus & (1 << i) != 0 && f.read_enable {
+                if f.read_enable {
                     hit |= self.fmmu_read(&f, addr, data);
                 }
             }

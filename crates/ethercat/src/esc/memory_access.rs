@@ -35,7 +35,7 @@ impl<'a> Esc<'a> {
                 dst.copy_from_slice(src);
             }
         }
-        if !or {
+        if !or && n < out.len() {
             if let Some(rest) = out.get_mut(n..) {
                 rest.fill(0);
             }
@@ -49,8 +49,23 @@ impl<'a> Esc<'a> {
         if start < 0x1000 {
             let rend = end.min(0x1000);
             self.note_register_write(start, rend);
-            for (i, &d) in data.iter().enumerate().take(rend - start) {
-                self.write_register_byte(start + i, d);
+            let systime = usize::from(R::DcSystemTime.addr());
+            match self
+                .systime_write
+                .get_mut(start.wrapping_sub(systime)..rend.wrapping_sub(systime))
+            {
+                // Within the system time (the ARMW / FRMW of every cycle): all of it an
+                // input to the time-control loop, as byte by byte below.
+                Some(dst) if start >= systime => {
+                    if let Some(src) = data.get(..dst.len()) {
+                        dst.copy_from_slice(src);
+                    }
+                }
+                _ => {
+                    for (i, &d) in data.iter().enumerate().take(rend - start) {
+                        self.write_register_byte(start + i, d);
+                    }
+                }
             }
         }
         let lo = start.max(0x1000);
@@ -114,7 +129,9 @@ impl<'a> Esc<'a> {
         if overlaps(a0, a1, 0x0910, 0x0918) && !self.dirty.system_time {
             self.dirty.system_time = true;
             // Bytes the datagram does not cover keep the current system time.
-            self.systime_write = self.system_time_at(self.now).to_le_bytes();
+            if a0 > 0x0910 || a1 < 0x0918 {
+                self.systime_write = self.system_time_at(self.now).to_le_bytes();
+            }
         }
         if overlaps(a0, a1, 0x0930, 0x0932) {
             self.dirty.speed_counter_start = true;

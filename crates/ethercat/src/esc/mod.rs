@@ -60,6 +60,7 @@ use od::Instant;
 use crate::al_control::{check_transition, is_upward, AlControl, AlState, AlStatus};
 use crate::al_status_code::AlStatusCode;
 use crate::datagram::{self, Command, Datagram};
+use crate::dl_status::DlStatus;
 use crate::eeprom::{self, Eeprom, SiiCommand};
 use crate::fmmu::{Fmmu, FMMU_LEN};
 use crate::frame::{EthernetFrame, WireError, ETHERTYPE_ETHERCAT};
@@ -75,6 +76,7 @@ mod frame;
 mod local_clock;
 mod memory_access;
 mod pdi;
+mod ports;
 mod side_effects;
 mod sm_access;
 mod watchdog;
@@ -144,8 +146,10 @@ pub struct EscConfig {
     pub features: u16,
     /// 0x0007.
     pub port_descriptor: u8,
-    /// 0x0110; default [`register::DL_STATUS_LINE_END`]. In a simulated chain every slave
-    /// reports "line end"; the masters then compute no propagation delays.
+    /// 0x0110 at power-on; default [`register::DL_STATUS_LINE_END`] (a link on port 0
+    /// only). A line of ESCs shows its links with [`Esc::set_port_link`]: port 1 of every
+    /// slave but the last has one. Every port latches the same receive time (0x0900), so the
+    /// masters compute no propagation delays either way.
     pub dl_status: u16,
     /// 0x0140 (SII word 0 low byte).
     pub pdi_control: u8,
@@ -334,6 +338,48 @@ fn overlaps(a0: usize, a1: usize, b0: usize, b1: usize) -> bool {
     a0 < b1 && b0 < a1
 }
 
+/// A half-open range of addresses, the union's hull of a few windows: what lies outside
+/// needs no look at the windows one by one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Span {
+    start: u64,
+    end: u64,
+}
+
+impl Span {
+    const EMPTY: Span = Span { start: 0, end: 0 };
+
+    /// The hull of `self` and `[start, end)`.
+    fn with(self, start: u64, end: u64) -> Span {
+        if self.start >= self.end {
+            Span { start, end }
+        } else {
+            Span {
+                start: self.start.min(start),
+                end: self.end.max(end),
+            }
+        }
+    }
+
+    /// `[addr, addr + len)` meets the span.
+    fn meets(&self, addr: u32, len: usize) -> bool {
+        let a = u64::from(addr);
+        len > 0 && a < self.end && a + len as u64 > self.start
+    }
+}
+
+/// The set bits of a mask, lowest first: the active FMMUs or SMs.
+fn set_bits(mut mask: u8) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        if mask == 0 {
+            return None;
+        }
+        let i = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        Some(i)
+    })
+}
+
 /// One emulated slave controller. `'a` is the lifetime of its SII EEPROM image.
 #[derive(Debug)]
 pub struct Esc<'a> {
@@ -342,8 +388,14 @@ pub struct Esc<'a> {
     eeprom: Eeprom<'a>,
     fmmus: [Fmmu; FMMU_COUNT],
     active_fmmus: u8,
+    /// The logical bytes `[start, end)` the active FMMUs map between them: a logical
+    /// datagram outside it is no business of this slave (kept with `active_fmmus`).
+    fmmu_span: Span,
     sms: [SyncManager; SM_COUNT],
     active_sms: u8,
+    /// The physical bytes `[start, end)` the active SM windows cover between them: an
+    /// access outside it meets no SM rule and completes no buffer (kept with `active_sms`).
+    sm_span: Span,
     mailbox_running: bool,
     mbx_backup: [u8; MAILBOX_MAX],
     mbx_backup_len: usize,
@@ -369,8 +421,10 @@ impl<'a> Esc<'a> {
             eeprom,
             fmmus: [Fmmu::default(); FMMU_COUNT],
             active_fmmus: 0,
+            fmmu_span: Span::EMPTY,
             sms: [SyncManager::default(); SM_COUNT],
             active_sms: 0,
+            sm_span: Span::EMPTY,
             mailbox_running: false,
             mbx_backup: [0; MAILBOX_MAX],
             mbx_backup_len: 0,
@@ -436,16 +490,31 @@ impl<'a> Esc<'a> {
         self.mem.get(usize::from(a)).copied().unwrap_or(0)
     }
 
+    /// `N` bytes from `a` on, when they all lie in the backed memory.
+    fn rd_array<const N: usize>(&self, a: u16) -> Option<[u8; N]> {
+        let s = usize::from(a);
+        self.mem.get(s..s + N)?.try_into().ok()
+    }
+
     fn rd16(&self, a: u16) -> u16 {
-        u16::from_le_bytes([self.rd8(a), self.rd8(a.wrapping_add(1))])
+        match self.rd_array(a) {
+            Some(b) => u16::from_le_bytes(b),
+            None => u16::from_le_bytes([self.rd8(a), self.rd8(a.wrapping_add(1))]),
+        }
     }
 
     fn rd32(&self, a: u16) -> u32 {
-        u32::from(self.rd16(a)) | (u32::from(self.rd16(a.wrapping_add(2))) << 16)
+        match self.rd_array(a) {
+            Some(b) => u32::from_le_bytes(b),
+            None => u32::from(self.rd16(a)) | (u32::from(self.rd16(a.wrapping_add(2))) << 16),
+        }
     }
 
     fn rd64(&self, a: u16) -> u64 {
-        u64::from(self.rd32(a)) | (u64::from(self.rd32(a.wrapping_add(4))) << 32)
+        match self.rd_array(a) {
+            Some(b) => u64::from_le_bytes(b),
+            None => u64::from(self.rd32(a)) | (u64::from(self.rd32(a.wrapping_add(4))) << 32),
+        }
     }
 
     fn wr_bytes(&mut self, a: u16, b: &[u8]) {

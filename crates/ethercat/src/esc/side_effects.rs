@@ -53,15 +53,18 @@ impl<'a> Esc<'a> {
 
     pub(super) fn recompute_active_sms(&mut self) {
         self.active_sms = 0;
+        self.sm_span = Span::EMPTY;
         for (n, s) in self.sms.iter().enumerate() {
             if s.is_active() {
                 self.active_sms |= 1 << n;
+                self.sm_span = self.sm_span.with(u64::from(s.start), u64::from(s.end()));
             }
         }
     }
 
     pub(super) fn refresh_fmmus(&mut self) {
         self.active_fmmus = 0;
+        self.fmmu_span = Span::EMPTY;
         for n in 0..FMMU_COUNT {
             let a = usize::from(R::fmmu(n as u8));
             let mut b = [0u8; FMMU_LEN];
@@ -71,6 +74,9 @@ impl<'a> Esc<'a> {
             let f = Fmmu::from_bytes(&b);
             if f.is_active() && f.bit_count() > 0 {
                 self.active_fmmus |= 1 << n;
+                // A mapping's logical bits all lie in its `length` bytes (fmmu.rs).
+                let start = u64::from(f.logical_start);
+                self.fmmu_span = self.fmmu_span.with(start, start + u64::from(f.length));
             }
             if let Some(c) = self.fmmus.get_mut(n) {
                 *c = f;

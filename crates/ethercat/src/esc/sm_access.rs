@@ -8,11 +8,12 @@ impl<'a> Esc<'a> {
     /// May an ECAT access of `len` bytes at `addr` in direction `dir` go ahead? (§1.4 rule
     /// 2, §5.2, §7.3.)
     pub(super) fn sm_allows(&self, addr: u32, len: usize, dir: Dir) -> bool {
-        if self.active_sms == 0 {
+        if !self.sm_span.meets(addr, len) {
             return true;
         }
-        for (i, s) in self.sms.iter().enumerate() {
-            if self.active_sms & (1 << i) == 0 || !s.overlaps(addr, len) {
+        for i in set_bits(self.active_sms) {
+            let s = self.sm(i);
+            if !s.overlaps(addr, len) {
                 continue;
             }
             let mailbox = s.mode() == SmMode::Mailbox;
@@ -54,15 +55,13 @@ impl<'a> Esc<'a> {
             let ev = self.rd16(R::EcatEventRequest.addr()) & !EVENT_AL_STATUS;
             self.wr16(R::EcatEventRequest.addr(), ev);
         }
-        if self.active_sms == 0 {
+        // Covering an SM's last byte means meeting its window.
+        if !self.sm_span.meets(addr, len) {
             return;
         }
-        for n in 0..SM_COUNT {
+        for n in set_bits(self.active_sms) {
             let s = self.sm(n);
-            if self.active_sms & (1 << n) == 0
-                || s.direction() != SmDirection::Read
-                || !s.covers_last_byte(addr, len)
-            {
+            if s.direction() != SmDirection::Read || !s.covers_last_byte(addr, len) {
                 continue;
             }
             let status = match s.mode() {
@@ -75,15 +74,12 @@ impl<'a> Esc<'a> {
 
     /// SM events of a completed ECAT write.
     pub(super) fn after_write(&mut self, addr: u32, len: usize) {
-        if self.active_sms == 0 {
+        if !self.sm_span.meets(addr, len) {
             return;
         }
-        for n in 0..SM_COUNT {
+        for n in set_bits(self.active_sms) {
             let s = self.sm(n);
-            if self.active_sms & (1 << n) == 0
-                || s.direction() != SmDirection::Write
-                || !s.covers_last_byte(addr, len)
-            {
+            if s.direction() != SmDirection::Write || !s.covers_last_byte(addr, len) {
                 continue;
             }
             match s.mode() {

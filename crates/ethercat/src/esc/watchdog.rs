@@ -27,8 +27,8 @@ impl<'a> Esc<'a> {
         let (Some(timeout), Some(last)) = (self.watchdog_timeout_ns(), self.wd_last) else {
             return;
         };
-        if !self.watchdog_armed()
-            || self.now.saturating_since(last).as_nanos() <= u128::from(timeout)
+        if self.now.saturating_since(last).as_nanos() <= u128::from(timeout)
+            || !self.watchdog_armed()
         {
             return;
         }

@@ -22,7 +22,7 @@ use ethercat::datagram::{self, Command};
 use ethercat::frame::{self, Address, FrameWriter};
 use ethercat::master::{self as m, AlStatusBlock};
 use ethercat::register::RegisterAddress as R;
-use ethercat::{AlState, AlStatusCode};
+use ethercat::{AlState, AlStatusCode, DlStatus};
 use od::AbortCode;
 
 pub use link::FrameLink;
@@ -278,6 +278,17 @@ impl<L: FrameLink> EcatMaster<L> {
             slave,
             what: "short AL status".into(),
         })
+    }
+    /// DL status (0x0110): the links and loops of the slave's ports (ETG.1000.4).
+    pub async fn dl_status(&mut self, slave: u16) -> Result<DlStatus, EcatError> {
+        let b = self.read(slave, R::DlStatus.addr(), 2).await?;
+        match b.as_slice() {
+            &[lo, hi] => Ok(DlStatus(u16::from_le_bytes([lo, hi]))),
+            _ => Err(EcatError::Protocol {
+                slave,
+                what: "short DL status".into(),
+            }),
+        }
     }
 }
 

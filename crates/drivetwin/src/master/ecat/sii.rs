@@ -6,6 +6,7 @@ use std::time::Duration;
 use ethercat::master::sii_image::{self, Identity};
 use ethercat::master::{self as m, EepromStatus};
 use ethercat::register::RegisterAddress as R;
+use ethercat::DlStatus;
 
 use super::{EcatError, EcatMaster, FrameLink};
 
@@ -22,6 +23,8 @@ pub struct SlaveInfo {
     /// SII string 1 (SOEM's slave name), lossy UTF-8.
     pub name: Option<String>,
     pub al: m::AlStatusBlock,
+    /// DL status 0x0110: its ports' links and loops, where a line is cut.
+    pub dl: DlStatus,
 }
 
 impl<L: FrameLink> EcatMaster<L> {
@@ -96,12 +99,14 @@ impl<L: FrameLink> EcatMaster<L> {
     pub async fn slave_info(&mut self, slave: u16) -> Result<SlaveInfo, EcatError> {
         let image = self.read_sii(slave).await?;
         let al = self.al_status(slave).await?;
+        let dl = self.dl_status(slave).await?;
         Ok(SlaveInfo {
             number: slave,
             station: m::station_address(slave),
             identity: sii_image::identity(&image),
             name: sii_image::name(&image).map(|n| String::from_utf8_lossy(n).into_owned()),
             al,
+            dl,
         })
     }
 }
