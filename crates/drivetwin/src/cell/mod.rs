@@ -18,6 +18,7 @@ pub mod front_fault_injector;
 pub mod interfaces;
 pub mod lateness;
 pub mod link;
+pub mod modbus_device;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;
