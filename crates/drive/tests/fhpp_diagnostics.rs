@@ -771,7 +771,7 @@ fn teach_into_a_relative_record_warns_40h() {
 /// FHPP-DIAG-01: the Modbus timeout diagnostics by their factory class: 47h "with master
 /// control" is an error (F: SCON.FAULT, PNU 205 = 47h), 48h "without master control" a
 /// warning (SCON.WARN, PNU 221 sub 3 bit 8, no fault). Which one the timeout raises is the
-/// Modbus runner's choice (`drivetwin::modbus_tcp::fhpp`, tested there).
+/// Modbus server's choice (`drivetwin::vendors::festo_cmmo_st::modbus_server`, tested there).
 #[test]
 fn fhpp_diag_01_modbus_timeout_47h_is_an_error_48h_a_warning() {
     let mut b = Bench::ready();

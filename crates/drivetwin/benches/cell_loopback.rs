@@ -52,7 +52,6 @@
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::process::ExitCode;
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
@@ -61,6 +60,7 @@ use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 
 #[path = "../../drive/benches/support/mod.rs"]
 mod support;
@@ -216,9 +216,8 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
         }],
         modbus: vec![ModbusDrive::new(
             mb_listener,
-            Arc::new(Mutex::new(dev)),
+            Box::new(FhppModbus::new(dev, None)),
             ModbusConfig::default(),
-            None,
         )],
         ..FrontEnds::default()
     };

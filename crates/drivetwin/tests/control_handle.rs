@@ -9,7 +9,6 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use drivetwin::can::socketcand::ServerConfig;
@@ -19,6 +18,7 @@ use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 
 /// A socketcand client in RAW mode; `sdo` sends a request to node 1 and returns its answer's
 /// 8 data bytes.
@@ -88,9 +88,8 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
         }],
         modbus: vec![ModbusDrive::new(
             mb,
-            Arc::new(Mutex::new(dev)),
+            Box::new(FhppModbus::new(dev, None)),
             ModbusConfig::default(),
-            None,
         )],
         ..FrontEnds::default()
     };

@@ -8,16 +8,18 @@
     clippy::panic
 )]
 
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use drive::vendors::festo_cmmo_st::fhpp::Authority;
-use drivetwin::cell::control::{ControlHandle, FhppRequest};
+use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::vendors::festo_cmmo_st::fhpp_console::{fhpp, FhppRequest};
+use drivetwin::vendors::festo_cmmo_st::fhpp_motion;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 use drivetwin::web::motion::{self, Handle};
 
 fn cell() -> (ControlHandle, impl FnOnce()) {
@@ -36,9 +38,8 @@ fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
         buses: vec![CanBus::new(Cell::new(vec![drive]))],
         modbus: vec![ModbusDrive::new(
             mb,
-            Arc::new(Mutex::new(dev)),
+            Box::new(FhppModbus::new(dev, None)),
             ModbusConfig::default(),
-            None,
         )],
         ..FrontEnds::default()
     };
@@ -114,9 +115,7 @@ fn cia402_jog_on_a_running_cell_turns_the_motor() {
 #[test]
 fn fhpp_device_control_gates_the_console_telegram() {
     let (handle, stop) = cell();
-    let s = handle
-        .fhpp(1, FhppRequest::DeviceControl(true))
-        .expect("fhpp");
+    let s = fhpp(&handle, 1, FhppRequest::DeviceControl(true)).expect("fhpp");
     assert_eq!(s.authority, Authority::WebServer);
     assert_eq!(s.refused, None);
     let io = Handle {
@@ -124,26 +123,22 @@ fn fhpp_device_control_gates_the_console_telegram() {
         drive: 1,
     };
     assert_eq!(
-        motion::fhpp_enable(&io),
-        Err(motion::MotionError::WebServerHasControl)
+        fhpp_motion::fhpp_enable(&io),
+        Err(fhpp_motion::FhppMotionError::WebServerHasControl)
     );
-    let s = handle
-        .fhpp(1, FhppRequest::DeviceControl(false))
-        .expect("fhpp");
+    let s = fhpp(&handle, 1, FhppRequest::DeviceControl(false)).expect("fhpp");
     assert_eq!(s.authority, Authority::Fieldbus);
-    let s = motion::fhpp_enable(&io).expect("enable");
+    let s = fhpp_motion::fhpp_enable(&io).expect("enable");
     assert_eq!(s.inputs[0] & 0x01, 0x01, "SCON.ENABLED");
     // CCON.LOCK = 1 (§5.3.2 Tab. 5.14): the web server cannot take device control.
     let mut out = s.outputs;
     out[0] |= 0x20;
-    handle.fhpp(1, FhppRequest::SetOutputs(out)).expect("lock");
+    fhpp(&handle, 1, FhppRequest::SetOutputs(out)).expect("lock");
     std::thread::sleep(Duration::from_millis(20));
-    let s = handle
-        .fhpp(1, FhppRequest::DeviceControl(true))
-        .expect("fhpp");
+    let s = fhpp(&handle, 1, FhppRequest::DeviceControl(true)).expect("fhpp");
     assert_eq!((s.authority, s.refused), (Authority::Fieldbus, Some(0x0B)));
     // The CAN drive has no FHPP side.
-    assert!(handle.fhpp(0, FhppRequest::Status).is_err());
+    assert!(fhpp(&handle, 0, FhppRequest::Status).is_err());
     stop();
 }
 

@@ -12,7 +12,6 @@
 mod ecat_inputs;
 use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
 
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
@@ -22,6 +21,7 @@ use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, EthercatCell};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame};
 
@@ -143,7 +143,10 @@ fn cmmo_st() -> ModbusDrive {
     let desc = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).expect("od");
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
-    ModbusDrive::without_listener(Arc::new(Mutex::new(dev)), ModbusConfig::default(), None)
+    ModbusDrive::without_listener(
+        Box::new(FhppModbus::new(dev, None)),
+        ModbusConfig::default(),
+    )
 }
 
 /// One run: every output as (time, tag, bytes).

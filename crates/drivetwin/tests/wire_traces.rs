@@ -39,7 +39,6 @@ use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use canopen::CanFrame;
@@ -54,6 +53,7 @@ use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::serial::line::VirtualLine;
 use drivetwin::serial::Kind;
 use drivetwin::serial::LineRequest;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 use drivetwin::vendors::virtual_serial_lines as virtual_lines;
 use ethercat::datagram::Command;
 use ethercat::frame::Address;
@@ -657,9 +657,8 @@ fn cmmo_st() -> Rig {
         od::ObjectDictionary::new(spec.desc, 1, vec![0u8; spec.desc.storage_size]).expect("od");
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, settings);
     let modbus = vec![ModbusDrive::without_listener(
-        Arc::new(Mutex::new(dev)),
+        Box::new(FhppModbus::new(dev, None)),
         ModbusConfig::default(),
-        None,
     )];
     // CCON ENABLE | STOP | OPM1 (direct); CPOS as given; CDIR 0 (absolute position);
     // velocity 50 %; the position in SINC, high byte first on Modbus (Tab. 5.12, §5.3.1).

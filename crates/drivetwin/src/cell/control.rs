@@ -16,6 +16,8 @@ use drive::vendors::AnyDrive;
 use mio::Waker;
 use od::AbortCode;
 
+use crate::cell::modbus_device::ModbusDevice;
+
 /// Samples waiting for a subscriber before newer ones are dropped.
 pub const SAMPLE_QUEUE: usize = 1024;
 
@@ -101,6 +103,11 @@ impl Default for DriveViews {
 /// Work on one CiA 402 drive in the loop's thread ([`ControlHandle::with_drive`]): it gets
 /// the drive, or why there is none, and sends its own answer.
 pub type DriveWork = Box<dyn FnOnce(Result<&mut AnyDrive<Vec<u8>>, ControlError>) + Send>;
+
+/// Work on one drive served over Modbus TCP in the loop's thread
+/// ([`ControlHandle::with_modbus_device`]): it gets the device, or why there is none, and
+/// sends its own answer.
+pub type ModbusWork = Box<dyn FnOnce(Result<&mut dyn ModbusDevice, ControlError>) + Send>;
 
 /// The plant of one drive at one time of the cell's clock.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -236,11 +243,6 @@ pub(crate) enum Command {
             Result<crate::cell::wire_faults::WireAnswer, crate::cell::wire_faults::WireError>,
         >,
     },
-    Fhpp {
-        drive: usize,
-        request: FhppRequest,
-        reply: SyncSender<Result<FhppState, ControlError>>,
-    },
     SubscribeObjects {
         drive: usize,
         every: Duration,
@@ -252,6 +254,11 @@ pub(crate) enum Command {
     WithDrive {
         drive: usize,
         work: DriveWork,
+    },
+    /// Work on a drive served over Modbus TCP (a vendor's own API: the CMMO-ST's FHPP).
+    WithModbusDevice {
+        drive: usize,
+        work: ModbusWork,
     },
     /// The drive's supply (DC-link) voltage: `None` is the nominal one.
     SetSupply {
@@ -426,17 +433,6 @@ impl ControlHandle {
         })?
     }
 
-    /// The FHPP side of a CMMO-ST: its telegrams, control authority and diagnostic memory,
-    /// after `request` is carried out (the console's FHPP buttons and the device's own web
-    /// server, [`crate::web::motion`]).
-    pub fn fhpp(&self, drive: usize, request: FhppRequest) -> Result<FhppState, ControlError> {
-        self.ask(|reply| Command::Fhpp {
-            drive,
-            request,
-            reply,
-        })?
-    }
-
     /// Clears message `number` raised by [`ControlHandle::raise_diagnostic`].
     pub fn clear_diagnostic(
         &self,
@@ -517,6 +513,28 @@ impl ControlHandle {
         )?
     }
 
+    /// Runs `work` on drive `drive` served over Modbus TCP in the loop's thread, between two
+    /// of its cycles, and returns what it returns: the way to a vendor's own API on it (the
+    /// CMMO-ST's FHPP side), which the runtime does not know
+    /// ([`ModbusDevice::as_any_mut`]). `work` gets [`ControlError::NoPlant`] for a drive that
+    /// is not served over Modbus TCP.
+    pub fn with_modbus_device<T: Send + 'static>(
+        &self,
+        drive: usize,
+        work: impl FnOnce(Result<&mut dyn ModbusDevice, ControlError>) -> Result<T, ControlError>
+            + Send
+            + 'static,
+    ) -> Result<T, ControlError> {
+        self.ask(
+            |reply: SyncSender<Result<T, ControlError>>| Command::WithModbusDevice {
+                drive,
+                work: Box::new(move |d| {
+                    let _ = reply.send(work(d));
+                }),
+            },
+        )?
+    }
+
     /// The supply of drive `drive` at `millivolts` (`None`: back to the nominal voltage of
     /// its device file): the drive measures it (CMMP-AS 6510h:34, 6079h), its current
     /// controller has that much voltage, and its own supervision reacts (CMMP-AS 02-0 below
@@ -554,36 +572,6 @@ pub struct ObjectsSample {
     pub plant: PlantSample,
     /// In the order the subscription named them; the rest `len` 0.
     pub values: [SampledValue; MAX_SAMPLED_OBJECTS],
-}
-
-/// What [`ControlHandle::fhpp`] asks of a CMMO-ST.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FhppRequest {
-    /// Nothing: the state only.
-    Status,
-    /// The 8-byte output telegram (CCON, CPOS, …) as a fieldbus master writes it; taken at
-    /// the drive's next cycle.
-    SetOutputs([u8; 8]),
-    /// The web server takes device control (`true`) or gives it back to the fieldbus (CMMO-ST
-    /// §2.2 "Device Control", PNU 125 §3.1.1); refused while the PLC sets CCON.LOCK.
-    DeviceControl(bool),
-}
-
-/// A CMMO-ST's FHPP state.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct FhppState {
-    /// The input telegram of the last cycle: SCON, SPOS, byte 3…8.
-    pub inputs: [u8; 8],
-    /// The output telegram in force.
-    pub outputs: [u8; 8],
-    /// Who holds device control.
-    pub authority: drive::vendors::festo_cmmo_st::fhpp::Authority,
-    /// The active fault's diagnostic number (0: none).
-    pub fault: u8,
-    /// The diagnostic memory, newest first: (PNU 200 event type, PNU 201 number, PNU 202 ms).
-    pub memory: Vec<(u8, u16, u32)>,
-    /// Why a [`FhppRequest::DeviceControl`] was refused (the parameter-channel error number).
-    pub refused: Option<u8>,
 }
 
 /// The plant's physics of one drive that its own supervision watches: temperatures and the

@@ -19,6 +19,7 @@ pub mod interfaces;
 pub mod lateness;
 pub mod link;
 pub mod load_control;
+pub mod modbus_device;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;

@@ -5,10 +5,9 @@ use std::time::{Duration, Instant};
 
 use super::{CellLoop, ChainState, SampleSink, Subscription};
 use crate::cell::control::{
-    BusInfo, Command, ControlError, DisplayState, DriveInfo, Interface, Plant, PlantSample,
+    BusInfo, Command, ControlError, DriveInfo, Interface, Plant, PlantSample,
 };
 use crate::cell::device_model::Model;
-use crate::modbus_tcp::server::lock;
 
 impl CellLoop {
     /// Carries out what control handles asked for.
@@ -140,13 +139,6 @@ impl CellLoop {
                 Command::Wire { request, reply } => {
                     let _ = reply.send(self.wire(request, now));
                 }
-                Command::Fhpp {
-                    drive,
-                    request,
-                    reply,
-                } => {
-                    let _ = reply.send(self.fhpp(drive, request));
-                }
                 Command::SubscribeObjects {
                     drive,
                     every,
@@ -166,6 +158,11 @@ impl CellLoop {
                     let _ = reply.send(done);
                 }
                 Command::WithDrive { drive, work } => work(self.cia402_mut(drive)),
+                Command::WithModbusDevice { drive, work } => match self.target(drive) {
+                    Ok(Target::Modbus(device)) => work(Ok(device)),
+                    Ok(Target::Can(_)) => work(Err(ControlError::NoPlant(drive))),
+                    Err(e) => work(Err(e)),
+                },
                 Command::SetSupply {
                     drive,
                     millivolts,
@@ -211,38 +208,15 @@ impl CellLoop {
         drive: usize,
         change: crate::cell::control::PhysicsChange,
     ) -> Result<crate::cell::control::PlantPhysics, ControlError> {
-        use crate::cell::control::{PhysicsChange, PlantPhysics};
         match self.target(drive)? {
             Target::Can(model) => {
                 let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
                 crate::cell::control::apply_physics(d, change)
                     .map_err(|switch| ControlError::NoSwitch { drive, switch })
             }
-            Target::Modbus(dev) => {
-                let mut d = lock(&dev);
-                match change {
-                    PhysicsChange::None => {}
-                    PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
-                    PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
-                    PhysicsChange::Thermal(t) => d.set_thermal_data(t),
-                    // Decision: the CMMO-ST's switches are its axis's end stops and
-                    // reference switch (FHPP homing), not DINs a console could force.
-                    PhysicsChange::Switch(s, _) => {
-                        return Err(ControlError::NoSwitch {
-                            drive,
-                            switch: s.name(),
-                        })
-                    }
-                }
-                let w = d.plant_watch();
-                Ok(PlantPhysics {
-                    ambient_c: w.thermal.ambient_c(),
-                    motor_c: w.thermal.motor_c(),
-                    power_stage_c: w.thermal.stage_c(),
-                    encoder: w.encoder.fault(),
-                    forced_inputs: (0, 0),
-                })
-            }
+            Target::Modbus(dev) => dev
+                .physics(change)
+                .map_err(|switch| ControlError::NoSwitch { drive, switch }),
         }
     }
 
@@ -273,7 +247,7 @@ impl CellLoop {
         use crate::cell::diagnostics as diag;
         Ok(match self.target(drive)? {
             Target::Can(model) => diag::list_model(model),
-            Target::Modbus(dev) => crate::modbus_tcp::fhpp::list_diagnostics(&lock(&dev)),
+            Target::Modbus(dev) => dev.diagnostics(),
         })
     }
 
@@ -286,9 +260,7 @@ impl CellLoop {
         use crate::cell::diagnostics as diag;
         match self.target(drive)? {
             Target::Can(model) => diag::set_model(model, number, action),
-            Target::Modbus(dev) => {
-                crate::modbus_tcp::fhpp::set_diagnostic(&mut lock(&dev), number, action)
-            }
+            Target::Modbus(dev) => dev.set_diagnostic(number, action),
         }
         .map_err(ControlError::Diagnostic)
     }
@@ -355,10 +327,10 @@ impl CellLoop {
                 let desc = d.od().description();
                 (desc, Interface::CanOpen { node: d.node_id() })
             });
-        let modbus = self.modbus.iter().map(|m| {
-            let dev = lock(m.device());
-            (dev.od().description(), Interface::ModbusTcp)
-        });
+        let modbus = self
+            .modbus
+            .iter()
+            .map(|m| (m.description(), Interface::ModbusTcp));
         let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
             (0..c.chain.len()).filter_map(move |position| {
                 c.chain.model(position).map(|m| {
@@ -394,10 +366,11 @@ impl CellLoop {
             }
             rest -= n;
         }
-        if let Some(m) = self.modbus.get(rest) {
-            return Ok(Target::Modbus(m.device().clone()));
+        let modbus = self.modbus.len();
+        if let Some(m) = self.modbus.get_mut(rest) {
+            return Ok(Target::Modbus(m.device_mut()));
         }
-        rest -= self.modbus.len();
+        rest -= modbus;
         for c in &mut self.chains {
             // Only the chain's own drives: a shared one is listed with its bus.
             let own = |c: &ChainState| {
@@ -424,7 +397,7 @@ impl CellLoop {
         let mut buf = [0u8; 256];
         let n = match self.target(drive)? {
             Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, &mut buf),
-            Target::Modbus(dev) => od::ObjectAccess::read(&*lock(&dev), index, sub, &mut buf),
+            Target::Modbus(dev) => dev.read_object(index, sub, &mut buf),
         }
         .map_err(ControlError::Abort)?;
         Ok(buf.get(..n).unwrap_or(&[]).to_vec())
@@ -439,7 +412,7 @@ impl CellLoop {
     ) -> Result<(), ControlError> {
         match self.target(drive)? {
             Target::Can(model) => od::ObjectAccess::write(model, index, sub, data),
-            Target::Modbus(dev) => od::ObjectAccess::write(&mut *lock(&dev), index, sub, data),
+            Target::Modbus(dev) => dev.write_object(index, sub, data),
         }
         .map_err(ControlError::Abort)
     }
@@ -463,9 +436,7 @@ impl CellLoop {
                 let d = model.drive_mut().ok_or(ControlError::NoPlant(drive))?;
                 d.axis_mut().motor_mut().set_load_torque(torque_nm);
             }
-            Target::Modbus(dev) => {
-                lock(&dev).stepper_mut().set_load_torque(torque_nm);
-            }
+            Target::Modbus(dev) => dev.set_load(torque_nm),
         }
         Ok(())
     }
@@ -492,15 +463,8 @@ impl CellLoop {
                 })
             }
             Target::Modbus(dev) => {
-                let dev = lock(&dev);
-                Ok(PlantSample {
-                    at,
-                    plant: Plant::Stepper {
-                        position_si: dev.actual_position_si(),
-                        load_torque_nm: dev.stepper().load_torque(),
-                    },
-                    display: Some(DisplayState::new(&dev.seven_segment().to_string())),
-                })
+                let (plant, display) = dev.plant();
+                Ok(PlantSample { at, plant, display })
             }
         }
     }
@@ -517,28 +481,15 @@ impl CellLoop {
     ) -> Result<usize, ControlError> {
         match self.target(drive)? {
             Target::Can(model) => od::ObjectAccess::read(&*model, index, sub, buf),
-            Target::Modbus(dev) => od::ObjectAccess::read(&*lock(&dev), index, sub, buf),
+            Target::Modbus(dev) => dev.read_object(index, sub, buf),
         }
         .map_err(ControlError::Abort)
-    }
-
-    /// A CMMO-ST's FHPP side for the console ([`crate::cell::control::ControlHandle::fhpp`]).
-    fn fhpp(
-        &mut self,
-        drive: usize,
-        request: crate::cell::control::FhppRequest,
-    ) -> Result<crate::cell::control::FhppState, ControlError> {
-        let Target::Modbus(dev) = self.target(drive)? else {
-            return Err(ControlError::NoPlant(drive));
-        };
-        let mut dev = lock(&dev);
-        Ok(crate::modbus_tcp::fhpp::console_request(&mut dev, request))
     }
 }
 
 enum Target<'a> {
     Can(&'a mut Model),
-    Modbus(crate::modbus_tcp::fhpp::SharedDevice),
+    Modbus(&'a mut dyn crate::cell::modbus_device::ModbusDevice),
 }
 
 /// The next sample time of a subscription: one period after the last due time, so that the

@@ -12,7 +12,7 @@ use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock;
 use drivetwin::master::link::{Link, LinkError};
 use drivetwin::master::sdo_client::{SdoClient, SdoError};
-use drivetwin::modbus_tcp::fhpp as fhpp_modbus;
+use drivetwin::modbus_tcp::device_thread;
 use drivetwin::trace::{self, TraceWriter};
 use drivetwin::value_text;
 use drivetwin::vendors::Failure;

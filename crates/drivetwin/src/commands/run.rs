@@ -674,13 +674,13 @@ fn cell_modbus_drives(
 ) -> Result<Vec<ModbusDrive>, CommandError> {
     let mut drives = Vec::new();
     for (spec, fhpp, addr) in fhpp_addresses(specs, args)? {
-        let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
+        let dev = modbus_device(spec, args)?;
         let listener =
             std::net::TcpListener::bind(addr).map_err(io(format!("Modbus listen on {addr}")))?;
         let local = listener.local_addr().map_err(io("Modbus address"))?;
         out!("modbus server on {local}");
         let config = modbus_config(fhpp, args);
-        drives.push(ModbusDrive::new(listener, dev, config, store));
+        drives.push(ModbusDrive::new(listener, dev, config));
     }
     Ok(drives)
 }
@@ -878,8 +878,8 @@ async fn start_fhpp_drives(
 ) -> Result<Vec<tokio::task::JoinHandle<()>>, CommandError> {
     let mut tasks = Vec::new();
     for (spec, fhpp, addr) in fhpp_addresses(specs, args)? {
-        let (listener, dev, options) = prepare_cmmo_st(spec, fhpp, addr, args).await?;
-        tasks.push(tokio::spawn(fhpp_modbus::run_cmmo_st(
+        let (listener, dev, options) = prepare_modbus_device(spec, fhpp, addr, args).await?;
+        tasks.push(tokio::spawn(device_thread::run(
             listener,
             dev,
             options,
@@ -891,32 +891,29 @@ async fn start_fhpp_drives(
 
 /// One CMMO-ST at power-on: defaults, the cell's commissioning values, then its permanent
 /// memory (`--state-dir`).
-fn cmmo_st_device(
+fn modbus_device(
     spec: &DriveSpec,
-    fhpp: &FhppSpec,
     args: &RunArgs,
-) -> Result<(fhpp_modbus::SharedDevice, Option<ParamStore>), CommandError> {
+) -> Result<Box<dyn drivetwin::cell::modbus_device::ModbusDevice>, CommandError> {
     let desc = spec.desc;
-    let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
-        .map_err(|_| CommandError::Usage("dictionary storage too small".into()))?;
-    for c in &spec.commissioning {
-        if let Some(e) = desc.entry(c.index, c.sub) {
-            od.store(e, &c.bytes);
-        }
-    }
-    let dev = fhpp_modbus::shared_device(od, fhpp.settings);
     let store = args
         .state_dir
         .as_ref()
         .map(|dir| ParamStore::new(dir, desc.name, spec.node));
+    let path = store.as_ref().map(|s| s.memory_path().to_path_buf());
+    let powered = (drivetwin::vendors::MODBUS_DEVICE)(spec, store)
+        .ok_or_else(|| {
+            CommandError::Usage(format!("drive {}: not served over Modbus TCP", desc.name))
+        })?
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     out!("drive {} ({})", desc.name, desc.product_name);
-    if let Some(store) = &store {
-        match fhpp_modbus::power_on(&dev, store) {
-            Ok(()) => out!("permanent memory in {}", store.memory_path().display()),
-            Err(e) => tracing::warn!("{e}"),
+    if let Some(path) = path {
+        match powered.memory_error {
+            None => out!("permanent memory in {}", path.display()),
+            Some(e) => tracing::warn!("{e}"),
         }
     }
-    Ok((dev, store))
+    Ok(powered.device)
 }
 
 fn modbus_config(fhpp: &FhppSpec, args: &RunArgs) -> drivetwin::modbus_tcp::server::ModbusConfig {
@@ -929,7 +926,7 @@ fn modbus_config(fhpp: &FhppSpec, args: &RunArgs) -> drivetwin::modbus_tcp::serv
 
 /// One CMMO-ST at power-on: defaults, the cell's commissioning values, then its permanent
 /// memory (`--state-dir`), and its Modbus listener bound.
-async fn prepare_cmmo_st(
+async fn prepare_modbus_device(
     spec: &DriveSpec,
     fhpp: &FhppSpec,
     addr: &str,
@@ -937,12 +934,12 @@ async fn prepare_cmmo_st(
 ) -> Result<
     (
         tokio::net::TcpListener,
-        fhpp_modbus::SharedDevice,
-        fhpp_modbus::ServeOptions,
+        Box<dyn drivetwin::cell::modbus_device::ModbusDevice>,
+        device_thread::ServeOptions,
     ),
     CommandError,
 > {
-    let (dev, store) = cmmo_st_device(spec, fhpp, args)?;
+    let dev = modbus_device(spec, args)?;
     let listener = tokio::net::TcpListener::bind(addr)
         .await
         .map_err(io(format!("Modbus listen on {addr}")))?;
@@ -950,11 +947,11 @@ async fn prepare_cmmo_st(
     out!("modbus server on {local}");
     let config = modbus_config(fhpp, args);
     let io = match args.modbus_io {
-        crate::cli::ModbusIo::Async => fhpp_modbus::ServerIo::Async,
+        crate::cli::ModbusIo::Async => device_thread::ServerIo::Async,
         crate::cli::ModbusIo::Thread | crate::cli::ModbusIo::Cell => {
-            fhpp_modbus::ServerIo::CycleThread
+            device_thread::ServerIo::CycleThread
         }
     };
-    let options = fhpp_modbus::ServeOptions { config, io, store };
+    let options = device_thread::ServeOptions { config, io };
     Ok((listener, dev, options))
 }

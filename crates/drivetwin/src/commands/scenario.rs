@@ -73,7 +73,8 @@ fn run_one(file: &Path, trace: Option<&Path>) -> Result<Report, CommandError> {
             file.display()
         ))
     })?;
-    let mut rig = VirtualRig::new(cell).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let mut rig = VirtualRig::new(cell, drivetwin::vendors::MODBUS_DEVICE)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(path) = trace {
         rig.trace_to(path)
             .map_err(super::io(format!("trace {}", path.display())))?;

@@ -1,7 +1,7 @@
-//! A CMMO-ST as the cell loop ([`crate::cell_loop`]) serves it: the device, its Modbus
-//! register map, its FHPP cycle (every millisecond on the cell's clock) and the state of its
-//! one Modbus TCP connection (framer, watchdog). The loop owns the sockets; this module holds
-//! what happens to the bytes and when the device steps.
+//! A drive served over Modbus TCP as the cell loop ([`crate::cell_loop`]) serves it: the
+//! device ([`ModbusDevice`], its register map and its cycle on the cell's clock) and the
+//! state of its one Modbus TCP connection (framer, watchdog). The loop owns the sockets; this
+//! module holds what happens to the bytes and when the device steps.
 //!
 //! It keeps the rules of the other two servers ([`crate::modbus_tcp::cycle_server`],
 //! [`crate::modbus_tcp::server`]): one connection at a time, the watchdog, exceptions, and
@@ -10,25 +10,22 @@
 
 use std::io;
 use std::net::SocketAddr;
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use std::time::Duration;
 
 use od::Instant;
 
-use modbus::{CloseReason, ConnectionEvent, Framer, RegisterMap, Watchdog};
+use modbus::{CloseReason, ConnectionEvent, Framer, Watchdog};
 
-use crate::cell::param_store::ParamStore;
-use crate::modbus_tcp::fhpp::{keep_memory, FhppModbus, SharedDevice, CYCLE};
+use crate::cell::modbus_device::ModbusDevice;
 use crate::modbus_tcp::server::{answer_all, lock, ModbusConfig};
 
-/// One CMMO-ST of a cell, with the listener of its Modbus TCP server.
+/// One drive of a cell served over Modbus TCP, with the listener of its server.
 pub struct ModbusDrive {
     listener: Option<std::net::TcpListener>,
-    device: SharedDevice,
-    map: Mutex<FhppModbus>,
+    device: Mutex<Box<dyn ModbusDevice>>,
+    cycle: Duration,
     config: ModbusConfig,
-    store: Option<ParamStore>,
-    generation: u32,
     next_cycle: Instant,
     connection: Option<ConnectionState>,
 }
@@ -40,43 +37,45 @@ struct ConnectionState {
 }
 
 impl ModbusDrive {
-    /// `device` served on `listener` with `config`; its permanent memory kept in `store`.
+    /// `device` served on `listener` with `config`.
     pub fn new(
         listener: std::net::TcpListener,
-        device: SharedDevice,
+        device: Box<dyn ModbusDevice>,
         config: ModbusConfig,
-        store: Option<ParamStore>,
     ) -> ModbusDrive {
-        let mut d = ModbusDrive::without_listener(device, config, store);
+        let mut d = ModbusDrive::without_listener(device, config);
         d.listener = Some(listener);
         d
     }
 
     /// A drive whose Modbus requests come from a script (the virtual clock's runs).
     pub fn without_listener(
-        device: SharedDevice,
+        mut device: Box<dyn ModbusDevice>,
         config: ModbusConfig,
-        store: Option<ParamStore>,
     ) -> ModbusDrive {
-        // One cycle before the first client: the input telegram shows the power-on state
-        // (SCON 10h, SPOS 04h) from the very first request.
-        lock(&device).step(od::Instant::ZERO);
-        let generation = lock(&device).permanent_memory().generation();
-        let map = Mutex::new(FhppModbus::new(Arc::clone(&device)));
+        // One cycle before the first client: the registers show the power-on state (the
+        // CMMO-ST's SCON 10h, SPOS 04h) from the very first request.
+        device.step(od::Instant::ZERO);
+        let cycle = device.cycle();
         ModbusDrive {
             listener: None,
-            device,
-            map,
+            device: Mutex::new(device),
+            cycle,
             config,
-            store,
-            generation,
             next_cycle: Instant::ZERO,
             connection: None,
         }
     }
 
-    pub fn device(&self) -> &SharedDevice {
-        &self.device
+    /// The device, for the control handle and the scenario rig.
+    pub fn device_mut(&mut self) -> &mut dyn ModbusDevice {
+        let device = self.device.get_mut().unwrap_or_else(|p| p.into_inner());
+        &mut **device
+    }
+
+    /// Its device file.
+    pub fn description(&self) -> &'static od::DeviceDescription {
+        lock(&self.device).description()
     }
 
     pub fn local_addr(&self) -> Option<SocketAddr> {
@@ -104,17 +103,11 @@ impl ModbusDrive {
         if now < self.next_cycle {
             return false;
         }
-        {
-            let mut dev = lock(&self.device);
-            dev.step(now);
-            if let Some(store) = &self.store {
-                keep_memory(&dev, store, &mut self.generation);
-            }
-        }
+        self.device_mut().step(now);
         // Cycles missed while the thread was not scheduled are not made up here: `step` itself
         // runs every cycle up to `now`.
-        let next = self.next_cycle + CYCLE;
-        self.next_cycle = if next > now { next } else { now + CYCLE };
+        let next = self.next_cycle + self.cycle;
+        self.next_cycle = if next > now { next } else { now + self.cycle };
         let expired = match self.connection.as_mut() {
             Some(c) => {
                 let ms = ms(now, c.opened);
@@ -141,7 +134,7 @@ impl ModbusDrive {
             watchdog,
             framer: Box::new(Framer::new()),
         });
-        lock(&self.map).connection_event(ConnectionEvent::Opened);
+        self.device_mut().connection_event(ConnectionEvent::Opened);
     }
 
     /// Answers the complete ADUs of `bytes` into `out`; an error: close the connection.
@@ -156,7 +149,7 @@ impl ModbusDrive {
         };
         let now_ms = ms(now, c.opened);
         let watchdog = &mut c.watchdog;
-        answer_all(&mut c.framer, bytes, &self.map, out, || {
+        answer_all(&mut c.framer, bytes, &self.device, out, || {
             watchdog.on_message(now_ms)
         })
     }
@@ -164,7 +157,8 @@ impl ModbusDrive {
     /// The connection ended for `reason`: the device is told.
     pub fn close_connection_because(&mut self, reason: CloseReason) {
         if self.connection.take().is_some() {
-            lock(&self.map).connection_event(ConnectionEvent::Closed(reason));
+            self.device_mut()
+                .connection_event(ConnectionEvent::Closed(reason));
         }
     }
 

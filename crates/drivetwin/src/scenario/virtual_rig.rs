@@ -18,9 +18,10 @@ use super::file::{Action, ScenarioError};
 use super::runner::Rig;
 use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link, Wire};
+use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
 use crate::cell::station::Station;
 use crate::cell::Cell;
-use crate::modbus_tcp::server::lock;
+use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 
@@ -39,12 +40,16 @@ pub struct VirtualRig {
     pending: Vec<(usize, CanFrame)>,
     /// The CMMO-STs (FHPP over Modbus TCP, no socket: requests come from the steps), by the
     /// node-ID their cell file gives them; stepped on the same clock.
-    modbus: Vec<(u8, crate::modbus_tcp::cell_drive::ModbusDrive)>,
+    modbus: Vec<(u8, ModbusDrive)>,
 }
 
 impl VirtualRig {
-    /// The CANopen drives of `file`'s buses, booted at 0.
-    pub fn new(file: &CellFile) -> Result<VirtualRig, ScenarioError> {
+    /// The CANopen drives of `file`'s buses, booted at 0, and its drives served over Modbus
+    /// TCP as `modbus_device` makes them (`drivetwin::vendors::MODBUS_DEVICE`).
+    pub fn new(
+        file: &CellFile,
+        modbus_device: NewModbusDevice,
+    ) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);
         let specs = file.drives().map_err(|e| cell_err(e.to_string()))?;
         let rates = file
@@ -63,7 +68,10 @@ impl VirtualRig {
                         spec.desc.name, spec.node
                     )));
                 }
-                modbus.push((spec.node, cmmo_st(&spec, fhpp).map_err(cell_err)?));
+                modbus.push((
+                    spec.node,
+                    served(&spec, fhpp, modbus_device).map_err(cell_err)?,
+                ));
                 continue;
             }
             if !spec.canopen || spec.ethercat.is_some() {
@@ -239,14 +247,20 @@ impl VirtualRig {
     }
 
     /// The CMMO-ST with node-ID `node` (a CANopen node of that number wins).
-    fn cmmo_st(&self, node: Option<u8>) -> Option<crate::modbus_tcp::fhpp::SharedDevice> {
+    fn cmmo_st(&self, node: Option<u8>) -> Option<usize> {
         let cia402 = self.drive(node).is_ok();
-        let found = match node {
-            None if self.cells.iter().all(|c| c.drives.is_empty()) => self.modbus.first(),
-            Some(n) if !cia402 => self.modbus.iter().find(|(m, _)| *m == n),
+        match node {
+            None if self.cells.iter().all(|c| c.drives.is_empty()) => {
+                (!self.modbus.is_empty()).then_some(0)
+            }
+            Some(n) if !cia402 => self.modbus.iter().position(|(m, _)| *m == n),
             _ => None,
-        };
-        found.map(|(_, m)| m.device().clone())
+        }
+    }
+
+    /// The device of the CMMO-ST at `i` of [`VirtualRig::cmmo_st`].
+    fn modbus_device(&mut self, i: usize) -> Option<&mut dyn ModbusDevice> {
+        self.modbus.get_mut(i).map(|(_, m)| m.device_mut())
     }
 
     fn cell(&self, bus: usize) -> Result<&Cell, String> {
@@ -492,10 +506,10 @@ impl Rig for VirtualRig {
     }
 
     fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
-        if let Some(dev) = self.cmmo_st(node) {
+        if let Some(dev) = self.cmmo_st(node).and_then(|i| self.modbus_device(i)) {
             let mut buf = [0u8; 8];
-            let n = lock(&dev)
-                .read(index, sub, &mut buf)
+            let n = dev
+                .read_object(index, sub, &mut buf)
                 .map_err(|code| format!("{index:04X}:{sub:02X}: abort {:#010X}", code.0))?;
             return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
         }
@@ -521,21 +535,15 @@ impl VirtualRig {
             Action::Modbus { node, .. } => *node,
             _ => return None,
         };
-        let Some(dev) = self.cmmo_st(node) else {
+        let Some(i) = self.cmmo_st(node) else {
             return match action {
                 Action::Modbus { .. } => Some(Err("no CMMO-ST with that node".into())),
                 _ => None,
             };
         };
+        let (_, m) = self.modbus.get_mut(i)?;
         Some(match action {
             Action::Modbus { request, .. } => {
-                let Some((_, m)) = self
-                    .modbus
-                    .iter_mut()
-                    .find(|(_, m)| std::sync::Arc::ptr_eq(m.device(), &dev))
-                else {
-                    return Some(Err("no CMMO-ST".into()));
-                };
                 let mut answer = Vec::new();
                 m.answer(request, now, &mut answer)
                     .map_err(|e| format!("Modbus connection closed: {e:?}"))
@@ -543,12 +551,12 @@ impl VirtualRig {
             Action::Write {
                 index, sub, value, ..
             } => {
-                let mut d = lock(&dev);
-                let e = d.od().description().entry(*index, *sub);
+                let d = m.device_mut();
+                let e = d.description().entry(*index, *sub);
                 match e {
                     None => Err(format!("{index:04X}:{sub:02X}: no such object")),
                     Some(e) => crate::value_text::encode(e.data_type, value).and_then(|bytes| {
-                        d.write(*index, *sub, &bytes).map_err(|code| {
+                        d.write_object(*index, *sub, &bytes).map_err(|code| {
                             format!("{index:04X}:{sub:02X} refused: {:#010X}", code.0)
                         })
                     }),
@@ -556,37 +564,19 @@ impl VirtualRig {
             }
             Action::Diagnostic { number, raise, .. } => {
                 use crate::cell::diagnostics::Action;
-                use crate::modbus_tcp::fhpp::set_diagnostic;
                 let action = if *raise { Action::Raise } else { Action::Clear };
-                set_diagnostic(&mut lock(&dev), number, action)
+                m.device_mut()
+                    .set_diagnostic(number, action)
                     .map(|_| ())
                     .map_err(|e| format!("{e:?}"))
             }
             Action::Physics { change, .. } => {
-                use crate::cell::control::PhysicsChange;
-                let mut d = lock(&dev);
-                match change {
-                    PhysicsChange::None => Ok(()),
-                    PhysicsChange::Ambient(c) => {
-                        d.set_ambient_temperature(*c);
-                        Ok(())
-                    }
-                    PhysicsChange::Encoder(f) => {
-                        d.set_encoder_fault(*f);
-                        Ok(())
-                    }
-                    PhysicsChange::Thermal(t) => {
-                        d.set_thermal_data(*t);
-                        Ok(())
-                    }
-                    PhysicsChange::Switch(s, _) => Err(format!(
-                        "the CMMO-ST has no input with the function {}",
-                        s.name()
-                    )),
-                }
+                m.device_mut().physics(*change).map(drop).map_err(|switch| {
+                    format!("the CMMO-ST has no input with the function {switch}")
+                })
             }
             Action::Load { torque_nm, .. } => {
-                lock(&dev).stepper_mut().set_load_torque(*torque_nm);
+                m.device_mut().set_load(*torque_nm);
                 Ok(())
             }
             _ => return None,
@@ -594,26 +584,22 @@ impl VirtualRig {
     }
 }
 
-/// A CMMO-ST as `drivetwin run` makes it (its dictionary with the cell file's values), served
-/// by scripted Modbus requests.
-fn cmmo_st(
+/// A drive served over Modbus TCP as `drivetwin run` makes it (its dictionary with the cell
+/// file's values), served by scripted Modbus requests.
+fn served(
     spec: &crate::cell::config::DriveSpec,
     fhpp: &crate::cell::config::FhppSpec,
-) -> Result<crate::modbus_tcp::cell_drive::ModbusDrive, String> {
-    let desc = spec.desc;
-    let mut od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size])
-        .map_err(|_| "dictionary storage too small".to_string())?;
-    for c in &spec.commissioning {
-        if let Some(e) = desc.entry(c.index, c.sub) {
-            od.store(e, &c.bytes);
-        }
-    }
-    let dev = crate::modbus_tcp::fhpp::shared_device(od, fhpp.settings);
+    modbus_device: NewModbusDevice,
+) -> Result<ModbusDrive, String> {
+    let device = modbus_device(spec, None)
+        .ok_or_else(|| format!("drive {}: not served over Modbus TCP", spec.desc.name))?
+        .map_err(|e| e.to_string())?
+        .device;
     let mut config = crate::modbus_tcp::server::ModbusConfig::default();
     if let Some(ms) = fhpp.watchdog_ms {
         config.watchdog_ms = ms;
     }
-    Ok(crate::modbus_tcp::cell_drive::ModbusDrive::without_listener(dev, config, None))
+    Ok(ModbusDrive::without_listener(device, config))
 }
 
 /// Little-endian bytes as a number (at most 8).

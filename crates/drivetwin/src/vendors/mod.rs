@@ -8,6 +8,10 @@
 //! - [`DRIVE_VIEWS`]: what the runtime shows of a drive that only its vendor knows (the
 //!   Kinco's LED panel as its display), [`crate::cell::control::DriveViews`]; the vendors'
 //!   own APIs on a running drive go through [`crate::cell::control::ControlHandle::with_drive`];
+//! - [`MODBUS_DEVICE`]: the drives served over Modbus TCP with a register image of their own
+//!   ([`crate::cell::modbus_device::ModbusDevice`]), as a cell file's drive makes them; the
+//!   vendors' own APIs on them go through
+//!   [`crate::cell::control::ControlHandle::with_modbus_device`];
 //! - [`CI_TERMINAL`]: the terminal of a drive's `ci_terminal` port
 //!   ([`crate::cell_loop::Terminal`]);
 //! - [`open_serial_lines`], [`virtual_serial_lines`]: the serial lines of a cell, each with
@@ -18,8 +22,8 @@
 //!
 //! The vendors:
 //!
-//! - [`festo_cmmo_st`]: the CMMO-ST's web server pages, its FHPP master over Modbus TCP and
-//!   its IODD;
+//! - [`festo_cmmo_st`]: the CMMO-ST's FHPP register image on Modbus TCP, its FHPP side on
+//!   the console, its web server pages, its FHPP master over Modbus TCP and its IODD;
 //! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal;
 //! - [`kinco`]: the Kinco FD3 / CD3 serial lines (RS232 telegrams, Modbus RTU), its panel
 //!   page and the RS232 telegram master.
@@ -29,6 +33,7 @@ pub mod festo_cmmp_as;
 pub mod kinco;
 
 use crate::cell::control::{DisplayState, DriveViews};
+use crate::cell::modbus_device::NewModbusDevice;
 use crate::cell_loop::NewTerminal;
 use crate::web::DevicePages;
 
@@ -42,6 +47,10 @@ pub const DRIVE_VIEWS: DriveViews = DriveViews { display };
 fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
     kinco::panel_page::display(d).or_else(|| (DriveViews::default().display)(d))
 }
+
+/// The device of a cell file's drive served over Modbus TCP: the CMMO-ST's FHPP register
+/// image, the only drive served so.
+pub const MODBUS_DEVICE: NewModbusDevice = festo_cmmo_st::modbus_server::new_device;
 
 /// The terminal a drive's `ci_terminal` port (and `--ci-terminal`) serves: the CMMP-AS's CI
 /// terminal, the only drive with one.

@@ -93,6 +93,9 @@ pub struct DevicePages {
     pub routes: fn() -> Router<AppState>,
     /// Their part of `/api/openapi.json`.
     pub openapi: fn() -> utoipa::openapi::OpenApi,
+    /// The motion page's way to move a drive whose profile is the device's own (the
+    /// CMMO-ST's FHPP); `None`: the device's drives move as CiA 402 drives, if at all.
+    pub motion: Option<motion::DeviceMotion>,
 }
 
 /// The whole console: API, OpenAPI document, WebSocket and page, and the devices' pages

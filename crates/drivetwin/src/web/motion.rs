@@ -1,11 +1,13 @@
 //! Manual motion from the console: enable, disable, jog, move to a position and home, done
-//! the way each manual tells a master to do it, through the control handle's object writes
-//! (CiA 402 drives: CMMP-AS, Nanotec, Kinco) or the FHPP output telegram (CMMO-ST).
+//! the way each manual tells a master to do it: through the control handle's object writes
+//! for the CiA 402 drives (CMMP-AS, Nanotec, Kinco, a drive from its EDS), and for a drive
+//! whose profile is its vendor's own (the CMMO-ST's FHPP) through the [`DeviceMotion`] its
+//! vendor folder gives the console with its pages ([`super::DevicePages::motion`]).
 //!
-//! The sequences are plain functions over [`Objects`] / [`FhppIo`], so a test runs them
-//! against a fake drive that records what was written; the REST endpoints at the end of the
-//! file call them on the cell's [`ControlHandle`]. Where the drive refuses (an SDO abort, a
-//! state that does not allow the step) the answer is a 409 that says why.
+//! The CiA 402 sequences are plain functions over [`Objects`], so a test runs them against a
+//! fake drive that records what was written; the REST endpoints at the end of the file call
+//! them on the cell's [`ControlHandle`]. Where the drive refuses (an SDO abort, a state that
+//! does not allow the step) the answer is a 409 that says why.
 
 use std::time::Duration;
 
@@ -14,15 +16,12 @@ use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use drive::vendors::festo_cmmo_st::fhpp::{
-    Authority, Ccon, Cdir, Cpos, OperatingMode, OutputData, Scon, Spos,
-};
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use super::api::{console_state, ApiError, ReasonView};
-use super::{error_text, AppState};
-use crate::cell::control::{ControlError, ControlHandle, FhppRequest, FhppState, Interface};
+use super::api::{console_state, ApiError};
+use super::{error_text, AppState, DevicePages};
+use crate::cell::control::{ControlError, ControlHandle, DriveInfo};
 use drive::controlword::Controlword;
 use drive::device_control::State as Cia402State;
 use drive::drive::refusal::Request;
@@ -38,12 +37,6 @@ pub trait Objects {
     fn wait(&self, d: Duration);
 }
 
-/// What an FHPP sequence needs of a CMMO-ST.
-pub trait FhppIo {
-    fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError>;
-    fn wait(&self, d: Duration);
-}
-
 /// One drive of a running cell, through its control handle.
 pub struct Handle<'a> {
     pub handle: &'a ControlHandle,
@@ -56,15 +49,6 @@ impl Objects for Handle<'_> {
     }
     fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), ControlError> {
         self.handle.write(self.drive, index, sub, data)
-    }
-    fn wait(&self, d: Duration) {
-        std::thread::sleep(d);
-    }
-}
-
-impl FhppIo for Handle<'_> {
-    fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError> {
-        self.handle.fhpp(self.drive, request)
     }
     fn wait(&self, d: Duration) {
         std::thread::sleep(d);
@@ -93,20 +77,13 @@ pub enum MotionError {
     ModeNotTaken { wanted: i8, shown: i8 },
     #[error("no set-point acknowledge (6041h bit 12) within {0} ms")]
     NoAcknowledge(u64),
-    #[error("the web server holds Device Control: the drive ignores the FHPP control bytes (PNU 125); give Device Control back first")]
-    WebServerHasControl,
-    #[error("FCT holds device control (SCON.FCT/MMI)")]
-    FctHasControl,
-    #[error("the CMMO-ST is not enabled (SCON {scon}); enable it first")]
-    FhppNotEnabled { scon: String },
-    #[error("the CMMO-ST did not acknowledge the start (SPOS.ACK) within {0} ms")]
-    FhppNoAck(u64),
 }
 
 /// How long a step may take before the drive counts as not following (its cycle is 1 ms,
 /// the cell loop answers between two socket events).
-const STEP_WAIT: Duration = Duration::from_millis(5);
-const TRIES: u32 = 60;
+pub const STEP_WAIT: Duration = Duration::from_millis(5);
+/// How many steps a sequence waits for the drive to follow.
+pub const TRIES: u32 = 60;
 
 // ------------------------------------------------------------------------------- CiA 402
 
@@ -295,170 +272,6 @@ pub fn home(io: &impl Objects) -> Result<u16, MotionError> {
     Ok(statusword_of(io)?)
 }
 
-// ---------------------------------------------------------------------------------- FHPP
-
-/// The CMMO-ST takes the console's telegram only while the fieldbus holds device control
-/// (§5.1 Tab. 5.2 T2: "the PLC has control authority").
-///
-/// Decision: the console acts as the fieldbus master (it writes the output telegram a Modbus
-/// master would write, CMMO-ST §5.3.2); a Modbus master connected at the same time
-/// overwrites it at its next write, as a second master on the real device would.
-fn fhpp_status(io: &impl FhppIo) -> Result<FhppState, MotionError> {
-    let s = io.fhpp(FhppRequest::Status)?;
-    match s.authority {
-        Authority::Fieldbus => Ok(s),
-        Authority::WebServer => Err(MotionError::WebServerHasControl),
-        Authority::Fct => Err(MotionError::FctHasControl),
-    }
-}
-
-fn scon(s: &FhppState) -> Scon {
-    Scon(s.inputs[0])
-}
-
-fn spos(s: &FhppState) -> Spos {
-    Spos(s.inputs[1])
-}
-
-fn bits_text(value: u8, names: &[(u8, &str)]) -> String {
-    let set: Vec<&str> = names
-        .iter()
-        .filter(|(bit, _)| value & bit != 0)
-        .map(|(_, n)| *n)
-        .collect();
-    format!("{value:#04X} [{}]", set.join(" "))
-}
-
-fn scon_text(s: &FhppState) -> String {
-    let names: Vec<(u8, &str)> = Scon::NAMES.iter().map(|(b, n)| (b.0, *n)).collect();
-    bits_text(s.inputs[0], &names)
-}
-
-fn put(io: &impl FhppIo, out: OutputData) -> Result<FhppState, MotionError> {
-    let s = io.fhpp(FhppRequest::SetOutputs(out.to_bytes()))?;
-    // Two drive cycles: the telegram is taken at the next one.
-    io.wait(STEP_WAIT);
-    Ok(s)
-}
-
-fn await_fhpp(
-    io: &impl FhppIo,
-    done: impl Fn(&FhppState) -> bool,
-) -> Result<Result<FhppState, FhppState>, MotionError> {
-    let mut s = io.fhpp(FhppRequest::Status)?;
-    for _ in 0..TRIES {
-        if done(&s) {
-            return Ok(Ok(s));
-        }
-        io.wait(STEP_WAIT);
-        s = io.fhpp(FhppRequest::Status)?;
-    }
-    Ok(if done(&s) { Ok(s) } else { Err(s) })
-}
-
-/// CCON.ENABLE and STOP with CPOS.HALT (T2, T3, §5.1 Tab. 5.2); a pending fault is
-/// acknowledged first by a rising edge of CCON.RESET (T8).
-pub fn fhpp_enable(io: &impl FhppIo) -> Result<FhppState, MotionError> {
-    let s = fhpp_status(io)?;
-    let mut out = OutputData::from_bytes(s.outputs);
-    if scon(&s).contains(Scon::FAULT) {
-        out.ccon = Ccon(out.ccon.0 & !Ccon::RESET.0);
-        put(io, out)?;
-        out.ccon = out.ccon.union(Ccon::RESET);
-        put(io, out)?;
-    }
-    out.ccon = Ccon(out.ccon.0 & !Ccon::RESET.0).union(Ccon::ENABLE.union(Ccon::STOP));
-    out.cpos = Cpos::HALT;
-    put(io, out)?;
-    await_fhpp(io, |s| {
-        scon(s).contains(Scon::ENABLED) && spos(s).contains(Spos::HALT)
-    })?
-    .map_err(|s| MotionError::NotReached {
-        wanted: "operation enabled (SCON.ENABLED, SPOS.HALT)".into(),
-        shown: format!("SCON {}", scon_text(&s)),
-    })
-}
-
-/// CCON.ENABLE = 0: the drive is disabled, a running task stops (Tab. 5.14).
-pub fn fhpp_disable(io: &impl FhppIo) -> Result<FhppState, MotionError> {
-    let s = fhpp_status(io)?;
-    let mut out = OutputData::from_bytes(s.outputs);
-    out.ccon = Ccon(out.ccon.0 & !(Ccon::ENABLE.0 | Ccon::RESET.0));
-    out.cpos = Cpos::HALT;
-    put(io, out)?;
-    Ok(io.fhpp(FhppRequest::Status)?)
-}
-
-fn fhpp_require_enabled(io: &impl FhppIo) -> Result<FhppState, MotionError> {
-    let s = fhpp_status(io)?;
-    if scon(&s).contains(Scon::ENABLED) {
-        Ok(s)
-    } else {
-        Err(MotionError::FhppNotEnabled {
-            scon: scon_text(&s),
-        })
-    }
-}
-
-/// Jog while CPOS.JOGP (positive) or JOGN (negative) is set; `direction` 0 clears both
-/// (CMMO-ST §6.6 "Jog mode", Tab. 5.15).
-pub fn fhpp_jog(io: &impl FhppIo, direction: i8) -> Result<FhppState, MotionError> {
-    if direction == 0 {
-        let s = fhpp_status(io)?;
-        if !scon(&s).contains(Scon::ENABLED) {
-            return Ok(s);
-        }
-    }
-    let s = fhpp_require_enabled(io)?;
-    let mut out = OutputData::from_bytes(s.outputs);
-    let jog = match direction.signum() {
-        1 => Cpos::JOGP.0,
-        -1 => Cpos::JOGN.0,
-        _ => 0,
-    };
-    out.cpos = Cpos(Cpos::HALT.0 | jog);
-    put(io, out)?;
-    Ok(io.fhpp(FhppRequest::Status)?)
-}
-
-/// Homing: a rising edge of CPOS.HOM with HALT = 1 (SA1 → SA4, §5.1.2).
-pub fn fhpp_home(io: &impl FhppIo) -> Result<FhppState, MotionError> {
-    let s = fhpp_require_enabled(io)?;
-    let mut out = OutputData::from_bytes(s.outputs);
-    out.cpos = Cpos::HALT;
-    put(io, out)?;
-    out.cpos = Cpos(Cpos::HALT.0 | Cpos::HOM.0);
-    put(io, out)?;
-    Ok(io.fhpp(FhppRequest::Status)?)
-}
-
-/// A positioning task in direct mode (§5.4.1 Tab. 5.16–5.18): OPM = direct (changes only in
-/// SA1 "ready"), CDIR.ABS (1 = relative), COM = position; set-point 1 the velocity in % of
-/// the maximum, set-point 2 the position; START rises, the drive acknowledges with SPOS.ACK,
-/// START falls (§5.4.2 Fig. 5.5).
-pub fn fhpp_move(
-    io: &impl FhppIo,
-    target: i32,
-    relative: bool,
-    velocity_percent: u8,
-) -> Result<FhppState, MotionError> {
-    let s = fhpp_require_enabled(io)?;
-    let ccon = Ccon(s.outputs[0] & !Ccon::RESET.0).with_operating_mode(OperatingMode::Direct);
-    let cdir = if relative { Cdir::ABS } else { Cdir(0) };
-    let set = |cpos: Cpos| OutputData::direct(ccon, cpos, cdir, velocity_percent, target);
-    put(io, set(Cpos::HALT))?;
-    await_fhpp(io, |s| Scon(s.inputs[0]).intersects(Scon::OPM1))?.map_err(|s| {
-        MotionError::NotReached {
-            wanted: "direct mode (SCON.OPM1)".into(),
-            shown: format!("SCON {}", scon_text(&s)),
-        }
-    })?;
-    put(io, set(Cpos(Cpos::HALT.0 | Cpos::START.0)))?;
-    let acked = await_fhpp(io, |s| spos(s).contains(Spos::ACK))?;
-    put(io, set(Cpos::HALT))?;
-    acked.map_err(|_| MotionError::FhppNoAck(STEP_WAIT.as_millis() as u64 * u64::from(TRIES)))
-}
-
 // ---------------------------------------------------------------------------- REST: views
 
 /// One bit of a status word or byte.
@@ -555,104 +368,67 @@ fn cia402_view(
     })
 }
 
-fn display_of(h: &ControlHandle, drive: usize) -> Option<String> {
+/// The drive's display as the motion page shows it.
+pub fn display_of(h: &ControlHandle, drive: usize) -> Option<String> {
     h.plant(drive)
         .ok()
         .and_then(|s| s.display)
         .map(|d| super::api::display_text(&d))
 }
 
-/// The FHPP state a person reads from SCON (§5.1 Tab. 5.1).
-fn fhpp_state(s: &FhppState) -> String {
-    let scon = scon(s);
-    let mode = match scon.0 >> 6 {
-        0 => "record selection",
-        1 => "direct mode",
-        _ => "reserved mode",
-    };
-    if scon.contains(Scon::FAULT) {
-        format!("FAULT ({mode})")
-    } else if scon.contains(Scon::ENABLED) {
-        format!("OPERATION ENABLED ({mode})")
-    } else {
-        format!("DISABLED ({mode})")
-    }
+/// The motion of a drive whose profile is its vendor's own (the CMMO-ST's FHPP): the
+/// vendor folder gives it to the console with its pages ([`DevicePages::motion`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DeviceMotion {
+    /// Whether this motion moves `drive`.
+    pub moves: fn(drive: &DriveInfo) -> bool,
+    /// The page's view of the drive, its diagnostic table naming its numbers.
+    pub view: fn(
+        h: &ControlHandle,
+        drive: usize,
+        table: &'static [od::Diagnostic],
+    ) -> Result<MotionView, ApiError>,
+    /// Carries out `command` the way the drive's manual tells a master to.
+    pub run: fn(h: &ControlHandle, drive: usize, command: MotionCommand) -> Result<(), ApiError>,
 }
 
-fn authority_name(a: Authority) -> &'static str {
-    match a {
-        Authority::Fieldbus => "fieldbus",
-        Authority::WebServer => "web server",
-        Authority::Fct => "FCT",
-    }
-}
-
-fn fhpp_view(
-    h: &ControlHandle,
-    drive: usize,
-    table: &[od::Diagnostic],
-    s: &FhppState,
-) -> MotionView {
-    let mut bits = Vec::with_capacity(16);
-    for (word, byte, names) in [
-        (
-            "SCON",
-            s.inputs[0],
-            Scon::NAMES
-                .iter()
-                .map(|(b, n)| (b.0, *n))
-                .collect::<Vec<_>>(),
-        ),
-        (
-            "SPOS",
-            s.inputs[1],
-            Spos::NAMES.iter().map(|(b, n)| (b.0, *n)).collect(),
-        ),
-    ] {
-        for (mask, name) in names {
-            bits.push(BitView {
-                word: word.into(),
-                bit: mask.trailing_zeros() as u8,
-                name: name.to_owned(),
-                set: byte & mask != 0,
-            });
-        }
-    }
-    MotionView {
-        drive,
-        profile: "fhpp".into(),
-        state: fhpp_state(s),
-        word: u16::from_le_bytes([s.inputs[0], s.inputs[1]]),
-        bits,
-        active_error: (s.fault != 0)
-            .then(|| error_text::fhpp_diagnostic(table, u16::from(s.fault))),
-        history: s
-            .memory
-            .iter()
-            .map(|(event, number, time_ms)| ErrorView {
-                event: Some(error_text::fhpp_event(*event).to_owned()),
-                time_ms: Some(*time_ms),
-                ..error_text::fhpp_diagnostic(table, *number)
-            })
-            .collect(),
-        device_control: Some(authority_name(s.authority).to_owned()),
-        display: display_of(h, drive),
-    }
+/// A command of the motion page, as its endpoints take it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionCommand {
+    Enable,
+    Disable,
+    /// `direction` 1, -1 or 0 (stop); `velocity` in the drive's velocity units where it jogs
+    /// at a given speed.
+    Jog {
+        direction: i8,
+        velocity: u32,
+    },
+    /// `velocity_percent`: of the maximum, where the drive takes a velocity so.
+    Move {
+        target: i32,
+        relative: bool,
+        velocity_percent: u8,
+    },
+    Home,
 }
 
 enum Kind {
     /// With the drive's diagnostic table, which names its error codes.
     Cia402(&'static [od::Diagnostic]),
-    /// With the drive's diagnostic table, which names its diagnostic numbers.
-    Fhpp(&'static [od::Diagnostic]),
+    /// A vendor's own motion, with the drive's diagnostic table.
+    Device(DeviceMotion, &'static [od::Diagnostic]),
 }
 
-fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
+fn kind(h: &ControlHandle, pages: &[DevicePages], drive: &str) -> Result<(usize, Kind), ApiError> {
     let info = super::api::find_drive(h, drive)?;
     let index = info.index;
     let desc = crate::cell::eds_drive::by_name(info.device);
-    if info.interface == Interface::ModbusTcp {
-        Ok((index, Kind::Fhpp(desc.map_or(&[], |d| d.diagnostics))))
+    let own = pages
+        .iter()
+        .filter_map(|p| p.motion)
+        .find(|m| (m.moves)(&info));
+    if let Some(m) = own {
+        Ok((index, Kind::Device(m, desc.map_or(&[], |d| d.diagnostics))))
     } else if let Some(d) = desc.filter(|d| d.entry(0x6040, 0).is_some()) {
         Ok((index, Kind::Cia402(d.diagnostics)))
     } else {
@@ -669,12 +445,7 @@ fn kind(h: &ControlHandle, drive: &str) -> Result<(usize, Kind), ApiError> {
 fn view(h: &ControlHandle, drive: usize, k: &Kind) -> Result<MotionView, ApiError> {
     match k {
         Kind::Cia402(table) => cia402_view(h, drive, table),
-        Kind::Fhpp(table) => Ok(fhpp_view(
-            h,
-            drive,
-            table,
-            &h.fhpp(drive, FhppRequest::Status)?,
-        )),
+        Kind::Device(m, table) => (m.view)(h, drive, table),
     }
 }
 
@@ -685,24 +456,9 @@ impl From<MotionError> for ApiError {
             MotionError::Refused { error, .. } | MotionError::ModeRefused { error, .. } => {
                 ApiError::from(error)
             }
-            MotionError::WebServerHasControl => device_control(e.to_string(), "the web server"),
-            MotionError::FctHasControl => device_control(e.to_string(), "FCT"),
             other => ApiError::new(StatusCode::CONFLICT, other.to_string()),
         }
     }
-}
-
-/// CMMO-ST §5.1 Tab. 5.2 T2: the control bytes act only while the fieldbus (the PLC) has
-/// control authority.
-fn device_control(text: String, holder: &str) -> ApiError {
-    ApiError::new(StatusCode::CONFLICT, "").with_reason(ReasonView {
-        kind: "device_control".into(),
-        text,
-        rule: format!(
-            "CMMO-ST §5.1 Tab. 5.2 T2: the drive follows the FHPP control bytes only while the \
-             PLC has control authority; {holder} holds it (PNU 125)"
-        ),
-    })
 }
 
 /// What the drive was asked when `e` stopped a sequence.
@@ -731,27 +487,46 @@ pub(super) fn refusal(h: &ControlHandle, drive: usize, e: MotionError) -> ApiErr
     }
 }
 
+/// Carries out `command` (none: only the view) on drive `drive` and answers its view.
 async fn run(
     s: &AppState,
     drive: String,
-    f: impl FnOnce(&Handle<'_>, &Kind) -> Result<(), MotionError> + Send + 'static,
+    command: Option<MotionCommand>,
 ) -> Result<Json<MotionView>, ApiError> {
     let handle = s.handle.clone();
+    let pages = s.pages;
     tokio::task::spawn_blocking(move || {
-        let (index, k) = kind(&handle, &drive)?;
-        f(
-            &Handle {
-                handle: &handle,
-                drive: index,
-            },
-            &k,
-        )
-        .map_err(|e| refusal(&handle, index, e))?;
+        let (index, k) = kind(&handle, pages, &drive)?;
+        if let Some(command) = command {
+            act(&handle, index, &k, command)?;
+        }
         view(&handle, index, &k)
     })
     .await
     .map_err(|_| ApiError::new(StatusCode::SERVICE_UNAVAILABLE, "the request was lost"))?
     .map(Json)
+}
+
+fn act(h: &ControlHandle, drive: usize, k: &Kind, command: MotionCommand) -> Result<(), ApiError> {
+    match k {
+        Kind::Device(m, _) => (m.run)(h, drive, command),
+        Kind::Cia402(_) => {
+            let io = Handle { handle: h, drive };
+            match command {
+                MotionCommand::Enable => enable(&io).map(drop),
+                MotionCommand::Disable => disable(&io).map(drop),
+                MotionCommand::Jog {
+                    direction,
+                    velocity,
+                } => jog(&io, i32::from(direction) * velocity as i32).map(drop),
+                MotionCommand::Move {
+                    target, relative, ..
+                } => move_to(&io, target, relative).map(drop),
+                MotionCommand::Home => home(&io).map(drop),
+            }
+            .map_err(|e| refusal(h, drive, e))
+        }
+    }
 }
 
 // ------------------------------------------------------------------------- REST: endpoints
@@ -766,7 +541,7 @@ async fn status(
     State(s): State<AppState>,
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
-    run(&s, drive, |_, _| Ok(())).await
+    run(&s, drive, None).await
 }
 
 /// Enables the drive (CiA 402: to OPERATION ENABLED, a fault reset first; FHPP: CCON.ENABLE
@@ -779,11 +554,7 @@ async fn post_enable(
     State(s): State<AppState>,
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
-    run(&s, drive, |io, k| match k {
-        Kind::Cia402(_) => enable(io).map(drop),
-        Kind::Fhpp(_) => fhpp_enable(io).map(drop),
-    })
-    .await
+    run(&s, drive, Some(MotionCommand::Enable)).await
 }
 
 /// Disables the drive (CiA 402: shutdown; FHPP: CCON.ENABLE = 0).
@@ -795,11 +566,7 @@ async fn post_disable(
     State(s): State<AppState>,
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
-    run(&s, drive, |io, k| match k {
-        Kind::Cia402(_) => disable(io).map(drop),
-        Kind::Fhpp(_) => fhpp_disable(io).map(drop),
-    })
-    .await
+    run(&s, drive, Some(MotionCommand::Disable)).await
 }
 
 /// A jog command.
@@ -834,11 +601,11 @@ async fn post_jog(
             "direction -1, 0 or 1; velocity 0…100000",
         ));
     }
-    run(&s, drive, move |io, k| match k {
-        Kind::Cia402(_) => jog(io, i32::from(body.direction) * speed as i32).map(drop),
-        Kind::Fhpp(_) => fhpp_jog(io, body.direction).map(drop),
-    })
-    .await
+    let command = MotionCommand::Jog {
+        direction: body.direction,
+        velocity: speed,
+    };
+    run(&s, drive, Some(command)).await
 }
 
 /// A move to a position.
@@ -875,11 +642,12 @@ async fn post_move(
             "velocity_percent 1…100",
         ));
     }
-    run(&s, drive, move |io, k| match k {
-        Kind::Cia402(_) => move_to(io, body.target, body.relative).map(drop),
-        Kind::Fhpp(_) => fhpp_move(io, body.target, body.relative, percent).map(drop),
-    })
-    .await
+    let command = MotionCommand::Move {
+        target: body.target,
+        relative: body.relative,
+        velocity_percent: percent,
+    };
+    run(&s, drive, Some(command)).await
 }
 
 /// Starts homing (CiA 402: homing mode, bit 4; FHPP: CPOS.HOM).
@@ -891,11 +659,7 @@ async fn post_home(
     State(s): State<AppState>,
     Path(drive): Path<String>,
 ) -> Result<Json<MotionView>, ApiError> {
-    run(&s, drive, |io, k| match k {
-        Kind::Cia402(_) => home(io).map(drop),
-        Kind::Fhpp(_) => fhpp_home(io).map(drop),
-    })
-    .await
+    run(&s, drive, Some(MotionCommand::Home)).await
 }
 
 #[derive(OpenApi)]
@@ -1091,98 +855,5 @@ mod tests {
         assert!(home(&d).is_ok());
         assert_eq!(d.read(0x6061, 0), Ok(vec![6]));
         assert_eq!(d.controlwords(), vec![0x0F, 0x1F]);
-    }
-
-    /// An FHPP device reduced to SCON / SPOS following CCON / CPOS.
-    struct FakeFhpp {
-        state: RefCell<FhppState>,
-        telegrams: RefCell<Vec<[u8; 8]>>,
-    }
-
-    impl FakeFhpp {
-        fn new(authority: Authority, scon: u8) -> Self {
-            FakeFhpp {
-                state: RefCell::new(FhppState {
-                    inputs: [scon, 0, 0, 0, 0, 0, 0, 0],
-                    outputs: [0; 8],
-                    authority,
-                    fault: 0,
-                    memory: Vec::new(),
-                    refused: None,
-                }),
-                telegrams: RefCell::new(Vec::new()),
-            }
-        }
-    }
-
-    impl FhppIo for FakeFhpp {
-        fn fhpp(&self, request: FhppRequest) -> Result<FhppState, ControlError> {
-            let mut s = self.state.borrow_mut();
-            if let FhppRequest::SetOutputs(o) = request {
-                self.telegrams.borrow_mut().push(o);
-                s.outputs = o;
-                let ccon = Ccon(o[0]);
-                let mut scon = Scon::VLOAD;
-                if ccon.contains(Ccon::ENABLE) {
-                    scon = scon.union(Scon::ENABLED);
-                }
-                s.inputs[0] = scon.0 | (ccon.0 & 0xC0);
-                let cpos = Cpos(o[1]);
-                s.inputs[1] = (o[1] & Spos::HALT.0)
-                    | if cpos.contains(Cpos::START) {
-                        Spos::ACK.0
-                    } else {
-                        0
-                    };
-            }
-            Ok(s.clone())
-        }
-        fn wait(&self, _d: Duration) {}
-    }
-
-    #[test]
-    fn fhpp_enable_sets_ccon_enable_stop_and_cpos_halt() {
-        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
-        assert!(fhpp_enable(&d).is_ok());
-        assert_eq!(
-            d.telegrams.borrow().last().map(|t| (t[0], t[1])),
-            Some((0x03, 0x01))
-        );
-    }
-
-    #[test]
-    fn fhpp_move_in_direct_mode_with_start_handshake() {
-        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
-        fhpp_enable(&d).unwrap_or_else(|e| panic!("{e}"));
-        assert!(fhpp_move(&d, 5000, false, 50).is_ok());
-        let t = d.telegrams.borrow();
-        let n = t.len();
-        // OPM direct (0x40) with ENABLE and STOP; START rises once and falls.
-        assert_eq!(t[n - 3][..4], [0x43, 0x01, 0x00, 50]);
-        assert_eq!(t[n - 2][1], 0x03);
-        assert_eq!(t[n - 1][1], 0x01);
-        assert_eq!(t[n - 2][4..], 5000i32.to_be_bytes());
-    }
-
-    #[test]
-    fn fhpp_refuses_while_the_web_server_holds_device_control() {
-        let d = FakeFhpp::new(Authority::WebServer, Scon::VLOAD.0);
-        assert_eq!(fhpp_enable(&d), Err(MotionError::WebServerHasControl));
-        assert!(d.telegrams.borrow().is_empty());
-        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
-        assert!(matches!(
-            fhpp_jog(&d, 1),
-            Err(MotionError::FhppNotEnabled { .. })
-        ));
-    }
-
-    #[test]
-    fn fhpp_jog_sets_and_clears_jogp_jogn() {
-        let d = FakeFhpp::new(Authority::Fieldbus, Scon::VLOAD.0);
-        fhpp_enable(&d).unwrap_or_else(|e| panic!("{e}"));
-        fhpp_jog(&d, -1).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(d.telegrams.borrow().last().map(|t| t[1]), Some(0x11));
-        fhpp_jog(&d, 0).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(d.telegrams.borrow().last().map(|t| t[1]), Some(0x01));
     }
 }

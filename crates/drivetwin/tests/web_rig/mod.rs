@@ -3,7 +3,7 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use std::net::{SocketAddr, TcpListener};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
@@ -14,6 +14,7 @@ use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
+use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 use drivetwin::web::{self, AppState};
 use http_body_util::BodyExt;
 use serde_json::Value;
@@ -84,9 +85,8 @@ pub fn cmmp_and_cmmo_st() -> Running {
         buses: vec![bus(vec![station("cmmp-as", 1)])],
         modbus: vec![ModbusDrive::new(
             mb,
-            Arc::new(Mutex::new(dev)),
+            Box::new(FhppModbus::new(dev, None)),
             ModbusConfig::default(),
-            None,
         )],
         ..FrontEnds::default()
     };

@@ -646,18 +646,21 @@ mod tests {
 
     /// The twin's Modbus server in this process, on a free loopback port.
     async fn twin() -> (String, tokio::task::JoinHandle<()>) {
-        use crate::modbus_tcp::fhpp::run_cmmo_st;
+        use super::super::modbus_server::FhppModbus;
+        use crate::modbus_tcp::device_thread::{run, ServeOptions};
         use drive::vendors::festo_cmmo_st::device::{FhppDevice, FhppSettings};
-        use std::sync::{Arc, Mutex};
         let desc = &devices::CMMO_ST;
         let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
-        let dev = Arc::new(Mutex::new(FhppDevice::new(od, FhppSettings::default())));
+        let dev = Box::new(FhppModbus::new(
+            FhppDevice::new(od, FhppSettings::default()),
+            None,
+        ));
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap().to_string();
-        let task = tokio::spawn(run_cmmo_st(
+        let task = tokio::spawn(run(
             listener,
             dev,
-            crate::modbus_tcp::fhpp::ServeOptions::default(),
+            ServeOptions::default(),
             std::future::pending(),
         ));
         (addr, task)

@@ -28,7 +28,8 @@ use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use serde::{Deserialize, Serialize};
 use utoipa::{OpenApi, ToSchema};
 
-use crate::cell::control::{ControlHandle, FhppRequest, Interface};
+use super::fhpp_console::{fhpp, FhppRequest};
+use crate::cell::control::{ControlHandle, Interface};
 use crate::web::api::ApiError;
 use crate::web::AppState;
 
@@ -225,7 +226,7 @@ fn chars(h: &ControlHandle, drive: usize, pnu: u16) -> String {
 }
 
 fn view(h: &ControlHandle, drive: usize) -> Result<WebServerView, ApiError> {
-    let s = h.fhpp(drive, FhppRequest::Status)?;
+    let s = fhpp(h, drive, FhppRequest::Status)?;
     let (active, pending) = with_kept(drive, |k| (k.active.clone(), k.pending.clone()));
     let pnu128 = read_u32(h, drive, pnu_index(128), 1).unwrap_or(0);
     let fw: Vec<String> = (1..=4u8)
@@ -315,7 +316,7 @@ async fn device_control(
     let Json(body) = body?;
     call(&s, move |h| {
         let d = cmmo_st(h, &drive)?;
-        let st = h.fhpp(d, FhppRequest::DeviceControl(body.active))?;
+        let st = fhpp(h, d, FhppRequest::DeviceControl(body.active))?;
         if body.active && st.authority != Authority::WebServer {
             let why = match (st.refused, st.authority) {
                 (Some(0x0B), _) => "the PLC locks it (CCON.LOCK = 1)",
@@ -348,7 +349,7 @@ async fn save(
     let enabled_by = body.enabled_by()?;
     call(&s, move |h| {
         let d = cmmo_st(h, &drive)?;
-        if h.fhpp(d, FhppRequest::Status)?.authority != Authority::WebServer {
+        if fhpp(h, d, FhppRequest::Status)?.authority != Authority::WebServer {
             return Err(ApiError::new(
                 StatusCode::CONFLICT,
                 "activate Device Control before saving parameters (CMMO-ST §2.2)",
@@ -378,7 +379,7 @@ async fn restart(
     call(&s, move |h| {
         let d = cmmo_st(h, &drive)?;
         h.write(d, pnu_index(127), 3, &[0x10])?;
-        h.fhpp(d, FhppRequest::DeviceControl(false))?;
+        fhpp(h, d, FhppRequest::DeviceControl(false))?;
         with_kept(d, |k| {
             if let Some(p) = k.pending.take() {
                 k.active = p;

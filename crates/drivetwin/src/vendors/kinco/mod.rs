@@ -21,6 +21,7 @@ use crate::web::DevicePages;
 pub const WEB_PAGES: DevicePages = DevicePages {
     routes: panel_page::routes,
     openapi: <panel_page::PanelDoc as utoipa::OpenApi>::openapi,
+    motion: None,
 };
 
 /// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table

@@ -1,9 +1,8 @@
-//! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3):
-//! the [`RegisterMap`] that puts the FHPP cyclic telegrams on Modbus registers, and the
-//! runner that serves it and steps the device on the real clock; and what the runtime does
-//! with a CMMO-ST beside its registers: power-on ([`shared_device`], [`power_on`]), the web
-//! console's requests ([`console_request`]) and the diagnostics raised and listed from
-//! outside ([`set_diagnostic`], [`list_diagnostics`]).
+//! The CMMO-ST over Modbus TCP (manual GDCP-CMMO-ST-LK-C-HP §4.3): the [`RegisterMap`]
+//! that puts the FHPP cyclic telegrams on Modbus registers, and the device as the runtime
+//! serves it ([`ModbusDevice`], handed in as `vendors::MODBUS_DEVICE`): power-on with its
+//! permanent memory ([`new_device`]), its cycle, what the console asks of it (objects,
+//! diagnostics, plant).
 //!
 //! The register map, as the manual gives it:
 //!
@@ -30,44 +29,42 @@
 //!   may then be acknowledged with CCON.RESET (it stays until then, visible in SCON.FAULT and
 //!   FC 0x07).
 
-use std::future::Future;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::any::Any;
 use std::time::Duration;
 
 use drive::drive::diagnostics::DiagnosticError;
 use drive::vendors::festo_cmmo_st::device::{diag, pnu_index, FhppDevice, FhppSettings};
 use drive::vendors::festo_cmmo_st::fhpp::parameter_file::FormatError;
-use drive::vendors::festo_cmmo_st::fhpp::Authority;
 use modbus::{
     CloseReason, ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap,
 };
-use od::{Diagnostic, ObjectAccess};
-use tokio::net::TcpListener;
+use od::{AbortCode, Diagnostic, Instant, ObjectAccess};
 
-use crate::cell::control::{FhppRequest, FhppState};
+use crate::cell::config::DriveSpec;
+use crate::cell::control::{DisplayState, PhysicsChange, Plant, PlantPhysics};
 use crate::cell::diagnostics::{Action, DiagnosticState};
+use crate::cell::modbus_device::{ModbusDevice, NewDeviceError, PoweredOn};
 use crate::cell::param_store::{ParamStore, StoreError};
-use crate::modbus_tcp::cycle_server;
-use crate::modbus_tcp::server::{serve, ModbusConfig};
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 pub const STD_REGISTERS: usize = 4;
 /// Registers of the FHPP + FPC telegram (16 bytes).
 pub const FPC_REGISTERS: usize = 8;
 
-/// The device as the runtime shares it.
-pub type SharedDevice = Arc<Mutex<FhppDevice<Vec<u8>>>>;
+/// The CMMO-ST's cycle (the FHPP device steps every millisecond).
+pub const CYCLE: Duration = Duration::from_millis(1);
 
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
-
-/// The CMMO-ST's Modbus register map (see the module documentation).
+/// The CMMO-ST as the runtime serves it: the device, its Modbus register map (see the module
+/// documentation) and where its permanent memory (PNU 127) is kept.
 pub struct FhppModbus {
-    device: SharedDevice,
+    device: FhppDevice<Vec<u8>>,
     /// Device identification objects 0x00…0x06 (index = object id).
     ident: [Vec<u8>; 7],
+    /// Where its permanent memory is kept across restarts; `None`: for the life of the
+    /// process only.
+    store: Option<ParamStore>,
+    /// The permanent memory's generation last written to `store`.
+    generation: u32,
 }
 
 /// A char-array PNU (one ASCII code per subindex, 00h-padded) as bytes.
@@ -93,13 +90,24 @@ fn identification(dev: &FhppDevice<Vec<u8>>) -> [Vec<u8>; 7] {
 }
 
 impl FhppModbus {
-    pub fn new(device: SharedDevice) -> Self {
-        let ident = identification(&lock(&device));
-        FhppModbus { device, ident }
+    /// `device` served, its permanent memory kept in `store`.
+    pub fn new(device: FhppDevice<Vec<u8>>, store: Option<ParamStore>) -> Self {
+        let ident = identification(&device);
+        let generation = device.permanent_memory().generation();
+        FhppModbus {
+            device,
+            ident,
+            store,
+            generation,
+        }
     }
 
-    pub fn device(&self) -> &SharedDevice {
+    pub fn device(&self) -> &FhppDevice<Vec<u8>> {
         &self.device
+    }
+
+    pub fn device_mut(&mut self) -> &mut FhppDevice<Vec<u8>> {
+        &mut self.device
     }
 
     fn check(address: u16, quantity: usize) -> Result<(), Exception> {
@@ -130,18 +138,38 @@ impl FhppModbus {
             }
         }
     }
+
+    /// Writes the permanent memory to its store when it changed since it was last written
+    /// (PNU 127 save or delete, a parameter-file download).
+    fn keep_memory(&mut self) {
+        let Some(store) = &self.store else {
+            return;
+        };
+        let memory = self.device.permanent_memory();
+        if memory.generation() == self.generation {
+            return;
+        }
+        self.generation = memory.generation();
+        // CMMO-ST: saving takes the drive a moment as well; the cycle catches up afterwards.
+        match store.save_memory(memory.stored()) {
+            Ok(()) => {
+                tracing::info!(path = %store.memory_path().display(), "permanent memory saved")
+            }
+            Err(e) => tracing::error!(error = %e, "permanent memory not saved"),
+        }
+    }
 }
 
 impl RegisterMap for FhppModbus {
     fn read(&mut self, address: u16, out: &mut [u16]) -> Result<(), Exception> {
         Self::check(address, out.len())?;
-        Self::read_image(&lock(&self.device), out);
+        Self::read_image(&self.device, out);
         Ok(())
     }
 
     fn write(&mut self, address: u16, values: &[u16]) -> Result<(), Exception> {
         Self::check(address, values.len())?;
-        Self::write_image(&mut lock(&self.device), values)
+        Self::write_image(&mut self.device, values)
     }
 
     fn read_write(
@@ -153,14 +181,13 @@ impl RegisterMap for FhppModbus {
     ) -> Result<(), Exception> {
         Self::check(read_address, out.len())?;
         Self::check(write_address, values.len())?;
-        let mut dev = lock(&self.device);
-        Self::write_image(&mut dev, values)?;
-        Self::read_image(&dev, out);
+        Self::write_image(&mut self.device, values)?;
+        Self::read_image(&self.device, out);
         Ok(())
     }
 
     fn exception_status(&mut self) -> Result<u8, Exception> {
-        Ok(lock(&self.device).fault_number())
+        Ok(self.device.fault_number())
     }
 
     fn device_id(&self, object: u8) -> Option<&[u8]> {
@@ -178,12 +205,12 @@ impl RegisterMap for FhppModbus {
     }
 
     fn connection_event(&mut self, event: ConnectionEvent) {
-        let mut dev = lock(&self.device);
+        let dev = &mut self.device;
         match event {
             ConnectionEvent::Opened => {
                 dev.clear_fault(diag::MODBUS_WITH_CONTROL);
                 dev.clear_fault(diag::MODBUS_WITHOUT_CONTROL);
-                self.ident = identification(&dev);
+                self.ident = identification(dev);
             }
             ConnectionEvent::Closed(CloseReason::WatchdogExpired) => {
                 let code = if dev.fieldbus_has_control() {
@@ -199,28 +226,79 @@ impl RegisterMap for FhppModbus {
     }
 }
 
-/// How the CMMO-ST's thread serves its Modbus connection.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ServerIo {
-    /// The cycle thread reads the connection itself, blocking until a request or the next
-    /// cycle ([`crate::modbus_tcp::cycle_server`]): the lowest latency.
-    #[default]
-    CycleThread,
-    /// A task of a single-threaded tokio runtime on that thread ([`crate::modbus_tcp::server`]).
-    Async,
-}
+impl ModbusDevice for FhppModbus {
+    fn description(&self) -> &'static od::DeviceDescription {
+        self.device.od().description()
+    }
 
-/// The CMMO-ST's cycle (the FHPP device steps every millisecond on the real clock).
-pub(crate) const CYCLE: Duration = Duration::from_millis(1);
+    fn cycle(&self) -> Duration {
+        CYCLE
+    }
 
-/// How a CMMO-ST is served.
-#[derive(Debug, Clone, Default)]
-pub struct ServeOptions {
-    pub config: ModbusConfig,
-    pub io: ServerIo,
-    /// Where its permanent memory (PNU 127) is kept across restarts; `None`: for the life of
-    /// the process only.
-    pub store: Option<ParamStore>,
+    fn step(&mut self, now: Instant) {
+        self.device.step(now);
+        self.keep_memory();
+    }
+
+    fn read_object(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        ObjectAccess::read(&self.device, index, sub, buf)
+    }
+
+    fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        ObjectAccess::write(&mut self.device, index, sub, data)
+    }
+
+    fn diagnostics(&self) -> Vec<DiagnosticState> {
+        list_diagnostics(&self.device)
+    }
+
+    fn set_diagnostic(
+        &mut self,
+        number: &str,
+        action: Action,
+    ) -> Result<&'static Diagnostic, DiagnosticError> {
+        set_diagnostic(&mut self.device, number, action)
+    }
+
+    fn physics(&mut self, change: PhysicsChange) -> Result<PlantPhysics, &'static str> {
+        let d = &mut self.device;
+        match change {
+            PhysicsChange::None => {}
+            PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
+            PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
+            PhysicsChange::Thermal(t) => d.set_thermal_data(t),
+            // Decision: the CMMO-ST's switches are its axis's end stops and reference switch
+            // (FHPP homing), not DINs a console could force.
+            PhysicsChange::Switch(s, _) => return Err(s.name()),
+        }
+        let w = d.plant_watch();
+        Ok(PlantPhysics {
+            ambient_c: w.thermal.ambient_c(),
+            motor_c: w.thermal.motor_c(),
+            power_stage_c: w.thermal.stage_c(),
+            encoder: w.encoder.fault(),
+            forced_inputs: (0, 0),
+        })
+    }
+
+    fn set_load(&mut self, torque_nm: f64) {
+        self.device.stepper_mut().set_load_torque(torque_nm);
+    }
+
+    fn plant(&self) -> (Plant, Option<DisplayState>) {
+        let dev = &self.device;
+        (
+            Plant::Stepper {
+                position_si: dev.actual_position_si(),
+                load_torque_nm: dev.stepper().load_torque(),
+            },
+            Some(DisplayState::new(&dev.seven_segment().to_string())),
+        )
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
 }
 
 /// Why a CMMO-ST powered on with its factory settings instead of its stored memory.
@@ -236,17 +314,16 @@ pub enum PowerOnError {
 }
 
 /// A CMMO-ST on the dictionary `od` (its defaults and commissioning values) with the cell
-/// file's `settings`, as the runtime shares it.
-pub fn shared_device(od: od::ObjectDictionary<Vec<u8>>, settings: FhppSettings) -> SharedDevice {
-    Arc::new(Mutex::new(FhppDevice::new(od, settings)))
+/// file's `settings`.
+pub fn device(od: od::ObjectDictionary<Vec<u8>>, settings: FhppSettings) -> FhppDevice<Vec<u8>> {
+    FhppDevice::new(od, settings)
 }
 
 /// Power-on: the permanent memory `store` kept becomes the device's, and its values active.
 /// A file that cannot be read or is not a parameter file of this device (damaged, another
 /// firmware) is reported and the device keeps its factory settings; the file stays for the
 /// user to look at until the next save replaces it.
-pub fn power_on(device: &SharedDevice, store: &ParamStore) -> Result<(), PowerOnError> {
-    let mut device = lock(device);
+pub fn power_on(device: &mut FhppDevice<Vec<u8>>, store: &ParamStore) -> Result<(), PowerOnError> {
     match store.load_memory()? {
         None => Ok(()),
         Some(file) => {
@@ -260,121 +337,32 @@ pub fn power_on(device: &SharedDevice, store: &ParamStore) -> Result<(), PowerOn
     }
 }
 
-/// Writes the permanent memory to `store` when it changed since `generation` (PNU 127 save
-/// or delete, a parameter-file download).
-pub(crate) fn keep_memory(device: &FhppDevice<Vec<u8>>, store: &ParamStore, generation: &mut u32) {
-    let memory = device.permanent_memory();
-    if memory.generation() == *generation {
-        return;
+/// The CMMO-ST of a cell file's drive at power-on (`vendors::MODBUS_DEVICE`): defaults, the
+/// cell's commissioning values and settings, then its permanent memory from `store`; `None`
+/// for a drive that is no CMMO-ST.
+pub fn new_device(
+    spec: &DriveSpec,
+    store: Option<ParamStore>,
+) -> Option<Result<PoweredOn, NewDeviceError>> {
+    let fhpp = spec.fhpp.as_ref()?;
+    let desc = spec.desc;
+    let Ok(mut od) = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]) else {
+        return Some(Err(NewDeviceError::Storage));
+    };
+    for c in &spec.commissioning {
+        if let Some(e) = desc.entry(c.index, c.sub) {
+            od.store(e, &c.bytes);
+        }
     }
-    *generation = memory.generation();
-    // CMMO-ST: saving takes the drive a moment as well; the cycle catches up afterwards.
-    match store.save_memory(memory.stored()) {
-        Ok(()) => tracing::info!(path = %store.memory_path().display(), "permanent memory saved"),
-        Err(e) => tracing::error!(error = %e, "permanent memory not saved"),
-    }
-}
-
-/// Serves the CMMO-ST on `listener` and steps it every millisecond on the real clock until
-/// `shutdown` completes.
-pub async fn run_cmmo_st(
-    listener: TcpListener,
-    device: SharedDevice,
-    options: ServeOptions,
-    shutdown: impl Future<Output = ()>,
-) {
-    let ServeOptions { config, io, store } = options;
-    // One cycle before the first client: the input telegram shows the power-on state
-    // (SCON 10h, SPOS 04h) from the very first request.
-    lock(&device).step(od::Instant::ZERO);
-    let map = Arc::new(Mutex::new(FhppModbus::new(Arc::clone(&device))));
-    // The device and its Modbus server run on one thread of their own: a request is read,
-    // answered and written by the thread the kernel wakes for it, and the FHPP cycle steps on
-    // the same thread, so no lock is ever waited for and no work is handed between threads
-    // (the request latency a PLC sees).
-    let stop = Arc::new(AtomicBool::new(false));
-    let std_listener = match listener.into_std() {
-        Ok(l) => l,
-        Err(e) => {
-            tracing::error!(error = %e, "Modbus listener");
-            return;
-        }
-    };
-    let thread_stop = Arc::clone(&stop);
-    let runner = std::thread::Builder::new()
-        .name("cmmo-st".into())
-        .spawn(move || {
-            let origin = std::time::Instant::now();
-            let mut generation = lock(&device).permanent_memory().generation();
-            let step = |now: std::time::Instant| {
-                let ns = u64::try_from(now.saturating_duration_since(origin).as_nanos())
-                    .unwrap_or(u64::MAX);
-                let mut dev = lock(&device);
-                dev.step(od::Instant::from_nanos(ns));
-                if let Some(store) = &store {
-                    keep_memory(&dev, store, &mut generation);
-                }
-            };
-            match io {
-                ServerIo::CycleThread => {
-                    cycle_server::serve(std_listener, &map, &config, CYCLE, &thread_stop, step)
-                }
-                ServerIo::Async => serve_async(std_listener, map, config, &thread_stop, step),
-            }
-        });
-    let runner = match runner {
-        Ok(t) => t,
-        Err(e) => {
-            tracing::error!(error = %e, "CMMO-ST thread");
-            return;
-        }
-    };
-    shutdown.await;
-    stop.store(true, Ordering::Relaxed);
-    let _ = tokio::task::spawn_blocking(move || runner.join()).await;
-}
-
-/// [`ServerIo::Async`]: the server as a task of a single-threaded runtime, the cycle as its
-/// interval timer, until `stop` is set.
-fn serve_async(
-    listener: std::net::TcpListener,
-    map: Arc<Mutex<FhppModbus>>,
-    config: ModbusConfig,
-    stop: &AtomicBool,
-    mut step: impl FnMut(std::time::Instant),
-) {
-    let rt = match tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            tracing::error!(error = %e, "Modbus runtime");
-            return;
-        }
-    };
-    rt.block_on(async move {
-        let listener = match listener
-            .set_nonblocking(true)
-            .and_then(|()| TcpListener::from_std(listener))
-        {
-            Ok(l) => l,
-            Err(e) => {
-                tracing::error!(error = %e, "Modbus listener");
-                return;
-            }
-        };
-        let server = serve(listener, map, config);
-        tokio::pin!(server);
-        let mut tick = tokio::time::interval(CYCLE);
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        while !stop.load(Ordering::Relaxed) {
-            tokio::select! {
-                () = &mut server => break,
-                _ = tick.tick() => step(std::time::Instant::now()),
-            }
-        }
-    });
+    let mut dev = device(od, fhpp.settings);
+    let memory_error = store
+        .as_ref()
+        .and_then(|store| power_on(&mut dev, store).err())
+        .map(|e| e.to_string());
+    Some(Ok(PoweredOn {
+        device: Box::new(FhppModbus::new(dev, store)),
+        memory_error,
+    }))
 }
 
 /// Raises (or clears) message `number` of the CMMO-ST.
@@ -410,41 +398,6 @@ pub fn list_diagnostics(dev: &FhppDevice<Vec<u8>>) -> Vec<DiagnosticState> {
         .collect()
 }
 
-/// A request of the web console on the CMMO-ST's FHPP side
-/// ([`crate::cell::control::ControlHandle::fhpp`]), and its state after it.
-pub fn console_request(dev: &mut FhppDevice<Vec<u8>>, request: FhppRequest) -> FhppState {
-    let mut refused = None;
-    match request {
-        FhppRequest::Status => {}
-        FhppRequest::SetOutputs(image) => {
-            // Eight bytes are always a valid FHPP Standard telegram.
-            let _ = dev.set_outputs(&image);
-        }
-        FhppRequest::DeviceControl(true) => {
-            if let Err(e) = dev.fhpp_mut().request_local_control(Authority::WebServer) {
-                refused = Some(e.fpc_error());
-            }
-        }
-        FhppRequest::DeviceControl(false) => {
-            if dev.fhpp().authority() == Authority::WebServer {
-                dev.fhpp_mut().release_local_control();
-            }
-        }
-    }
-    FhppState {
-        inputs: dev.inputs(),
-        outputs: dev.outputs().to_bytes(),
-        authority: dev.fhpp().authority(),
-        fault: dev.fault_number(),
-        memory: dev
-            .diagnostic_memory()
-            .iter()
-            .map(|e| (e.event.value(), e.number, e.time_ms))
-            .collect(),
-        refused,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -456,7 +409,7 @@ mod tests {
         let desc = &devices::CMMO_ST;
         let od = ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
         let dev = FhppDevice::new(od, FhppSettings::default());
-        FhppModbus::new(Arc::new(Mutex::new(dev)))
+        FhppModbus::new(dev, None)
     }
 
     fn pdu(m: &mut FhppModbus, req: &[u8]) -> Vec<u8> {
@@ -470,8 +423,8 @@ mod tests {
 
     impl Clock {
         /// Steps the device `ms` cycles on.
-        fn run(&mut self, m: &FhppModbus, ms: u64) {
-            let mut d = lock(&m.device);
+        fn run(&mut self, m: &mut FhppModbus, ms: u64) {
+            let d = &mut m.device;
             for _ in 0..ms {
                 d.step(od::Instant::from_millis(self.0));
                 self.0 += 1;
@@ -497,8 +450,8 @@ mod tests {
         assert_eq!(r[3] & 0x84, 0x84, "REF + MC: {r:02X?}");
     }
 
-    fn step(m: &FhppModbus, ms: u64) {
-        let mut d = lock(&m.device);
+    fn step(m: &mut FhppModbus, ms: u64) {
+        let d = &mut m.device;
         for t in 0..ms {
             d.step(od::Instant::from_millis(t));
         }
@@ -509,7 +462,7 @@ mod tests {
     #[test]
     fn power_on_then_enable_over_fc_0x17() {
         let mut m = map();
-        step(&m, 2);
+        step(&mut m, 2);
         assert_eq!(pdu(&mut m, &[0x03, 0, 0, 0, 4])[..4], [0x03, 8, 0x10, 0x04]);
         // FC 0x10 write the enable telegram (fhpp §8.2 a).
         let r = pdu(
@@ -518,7 +471,7 @@ mod tests {
         );
         assert_eq!(r, [0x10, 0, 0, 0, 4]);
         {
-            let mut d = lock(&m.device);
+            let d = &mut m.device;
             d.step(od::Instant::from_millis(10));
         }
         let r = pdu(&mut m, &[0x03, 0, 0, 0, 4]);
@@ -537,7 +490,7 @@ mod tests {
     #[test]
     fn parameter_channel_over_fc_0x17_with_8_registers() {
         let mut m = map();
-        step(&m, 1);
+        step(&mut m, 1);
         let fc17 = |fpc: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 16, 0, 0, 0, 0, 0, 0, 0, 0];
             req.extend_from_slice(&fpc);
@@ -546,11 +499,11 @@ mod tests {
         let no_task = [0x10, 0, 0, 0, 0, 0, 0, 0];
         let read_101_1 = [0x16, 0x01, 0x00, 0x65, 0, 0, 0, 0];
         pdu(&mut m, &fc17(no_task));
-        lock(&m.device).step(od::Instant::from_millis(1));
+        m.device.step(od::Instant::from_millis(1));
         let r = pdu(&mut m, &fc17(read_101_1));
         assert_eq!(r[..2], [0x17, 16]);
         assert_eq!(r[10..], no_task, "answered at the next cycle");
-        lock(&m.device).step(od::Instant::from_millis(2));
+        m.device.step(od::Instant::from_millis(2));
         let r = pdu(&mut m, &fc17(read_101_1));
         // Firmware major version 1 (PNU 101:1), PNU and PWE big-endian.
         assert_eq!(r[10..], [0x15, 0x01, 0x00, 0x65, 0, 0, 0, 1]);
@@ -564,29 +517,29 @@ mod tests {
     fn fhpp_mb_03_direct_move_over_fc_0x17() {
         let mut m = map();
         let mut clock = Clock(0);
-        clock.run(&m, 2);
+        clock.run(&mut m, 2);
         enable_and_home(&mut m, &mut clock);
-        clock.run(&m, 5);
+        clock.run(&mut m, 5);
         // Cycle 1: direct mode, START = 0.
         let cycle1 = [0x43, 0x01, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
         pdu(&mut m, &fc17(cycle1));
-        clock.run(&m, 5);
+        clock.run(&mut m, 5);
         let r = pdu(&mut m, &fc17(cycle1));
         assert_eq!(r[..4], [0x17, 8, 0x53, 0x85], "{r:02X?}");
         // Cycle 2: START rising.
         let cycle2 = [0x43, 0x03, 0x00, 0x64, 0x00, 0x00, 0x27, 0x10];
         pdu(&mut m, &fc17(cycle2));
-        clock.run(&m, 1);
+        clock.run(&mut m, 1);
         let r = pdu(&mut m, &fc17(cycle2));
         assert_eq!(r[..5], [0x17, 8, 0x53, 0x83, 0x00], "{r:02X?}");
-        clock.run(&m, 50);
+        clock.run(&mut m, 50);
         let r = pdu(&mut m, &fc17(cycle2));
         assert_eq!(r[3], 0x93, "MOV while moving: {r:02X?}");
         assert!(r[4] == 0 && r[5] > 0, "SDIR absolute, velocity %: {r:02X?}");
         pdu(&mut m, &fc17(cycle1));
         let mut last = Vec::new();
         for _ in 0..300 {
-            clock.run(&m, 10);
+            clock.run(&mut m, 10);
             last = pdu(&mut m, &fc17(cycle1));
             if last[3] & 0x04 != 0 {
                 break;
@@ -606,12 +559,12 @@ mod tests {
         let mut clock = Clock(0);
         // Homing on the current position with the AZ offset PNU 1010 = 1234 SINC: the actual
         // position becomes −1234 (§6.2.1), a value with every byte set.
-        lock(&m.device)
+        m.device
             .write(pnu_index(1010), 1, &1234i32.to_le_bytes())
             .unwrap();
-        clock.run(&m, 2);
+        clock.run(&mut m, 2);
         enable_and_home(&mut m, &mut clock);
-        clock.run(&m, 2);
+        clock.run(&mut m, 2);
         let request = |fpc: [u8; 8]| {
             let mut req = vec![0x17, 0, 0, 0, 8, 0, 0, 0, 8, 0x10];
             req.extend_from_slice(&[0x43, 0x01, 0, 0, 0, 0, 0, 0]);
@@ -619,14 +572,14 @@ mod tests {
             req
         };
         pdu(&mut m, &request([0x10, 0, 0, 0, 0, 0, 0, 0]));
-        clock.run(&m, 2);
+        clock.run(&mut m, 2);
         let read_1041 = [0x16, 0x01, 0x04, 0x11, 0, 0, 0, 0];
         pdu(&mut m, &request(read_1041));
-        clock.run(&m, 2);
+        clock.run(&mut m, 2);
         let r = pdu(&mut m, &request(read_1041));
         assert_eq!(r[..2], [0x17, 0x10]);
         assert_eq!(r[10..14], [0x15, 0x01, 0x04, 0x11], "{r:02X?}");
-        let actual = lock(&m.device).read_u32(pnu_index(1041), 1);
+        let actual = m.device.read_u32(pnu_index(1041), 1);
         assert_eq!(
             Some(u32::from_be_bytes([r[14], r[15], r[16], r[17]])),
             actual
@@ -639,10 +592,10 @@ mod tests {
     #[test]
     fn fhpp_mb_05_exception_status_is_the_fault_number() {
         let mut m = map();
-        step(&m, 2);
+        step(&mut m, 2);
         assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
         {
-            let mut d = lock(&m.device);
+            let d = &mut m.device;
             d.fault(diag::FOLLOWING_ERROR);
             for t in 2..10 {
                 d.step(od::Instant::from_millis(t));
@@ -691,12 +644,12 @@ mod tests {
     #[test]
     fn watchdog_raises_47h_with_control_and_fc07_shows_it() {
         let mut m = map();
-        step(&m, 2);
+        step(&mut m, 2);
         assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
         m.connection_event(ConnectionEvent::Opened);
         m.connection_event(ConnectionEvent::Closed(CloseReason::WatchdogExpired));
         {
-            let mut d = lock(&m.device);
+            let d = &mut m.device;
             for t in 2..10 {
                 d.step(od::Instant::from_millis(t));
             }
@@ -707,7 +660,7 @@ mod tests {
         // A closed-by-peer connection raises nothing.
         let mut m = map();
         m.connection_event(ConnectionEvent::Closed(CloseReason::Peer));
-        step(&m, 5);
+        step(&mut m, 5);
         assert_eq!(pdu(&mut m, &[0x07]), [0x07, 0x00]);
     }
 
@@ -717,16 +670,16 @@ mod tests {
     #[test]
     fn watchdog_without_control_warns_48h() {
         let mut m = map();
-        step(&m, 2);
-        lock(&m.device)
+        step(&mut m, 2);
+        m.device
             .fhpp_mut()
             .request_local_control(drive::vendors::festo_cmmo_st::fhpp::Authority::Fct)
             .unwrap();
-        assert!(!lock(&m.device).fieldbus_has_control());
+        assert!(!m.device.fieldbus_has_control());
         m.connection_event(ConnectionEvent::Opened);
         m.connection_event(ConnectionEvent::Closed(CloseReason::WatchdogExpired));
         {
-            let mut d = lock(&m.device);
+            let d = &mut m.device;
             for t in 2..10 {
                 d.step(od::Instant::from_millis(t));
             }
@@ -737,7 +690,7 @@ mod tests {
         assert_eq!(r[2] & 0x0C, 0x04, "SCON.WARN, not FAULT");
         m.connection_event(ConnectionEvent::Opened);
         {
-            let mut d = lock(&m.device);
+            let d = &mut m.device;
             for t in 10..14 {
                 d.step(od::Instant::from_millis(t));
             }
