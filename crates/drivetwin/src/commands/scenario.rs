@@ -1,6 +1,7 @@
 //! `drivetwin scenario FILE`: a scenario on the virtual clock, its report, its exit code.
 
 use drivetwin::scenario::runner;
+use drivetwin::scenario::samples::Sampled;
 use drivetwin::scenario::virtual_rig::VirtualRig;
 use drivetwin::scenario::Scenario;
 
@@ -20,7 +21,26 @@ pub(crate) fn scenario(args: ScenarioArgs) -> Result<(), CommandError> {
         rig.trace_to(path)
             .map_err(super::io(format!("trace {}", path.display())))?;
     }
-    let report = runner::run(&s, &mut rig);
+    let report = match &args.samples {
+        None => runner::run(&s, &mut rig),
+        Some(path) => {
+            if !(args.sample_ms.is_finite() && args.sample_ms > 0.0) {
+                return Err(CommandError::Usage(
+                    "--sample-ms must be a positive number".into(),
+                ));
+            }
+            let every = std::time::Duration::from_secs_f64(args.sample_ms / 1000.0);
+            let file = std::fs::File::create(path)
+                .map_err(super::io(format!("samples {}", path.display())))?;
+            let mut sampled = Sampled::new(&mut rig, every, std::io::BufWriter::new(file))
+                .map_err(super::io(format!("samples {}", path.display())))?;
+            let report = runner::run(&s, &mut sampled);
+            sampled
+                .finish()
+                .map_err(super::io(format!("samples {}", path.display())))?;
+            report
+        }
+    };
     rig.finish().map_err(super::io("trace"))?;
     if args.json {
         let text = serde_json::to_string_pretty(&report)
