@@ -46,8 +46,11 @@ def main() -> None:
               f"{row['node1.velocity']:17.6f} {row['node1.current']:12.6f} "
               f"{int(row['node1.statusword']):#06x}")
     if args.plot:
-        import matplotlib
-
+        try:
+            import matplotlib
+        except ImportError:
+            print("--plot needs matplotlib (pip install matplotlib)")
+            return
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
