@@ -153,6 +153,10 @@ pub enum Command {
     /// Run a scenario file (a cell and a timeline of actions and expectations) on the
     /// virtual clock: prints the report; exit code 0 when every expectation is met, 1 if not.
     Scenario(ScenarioArgs),
+    /// Write a cell as an FMI 3.0 co-simulation FMU: the importer's doStep advances the
+    /// cell's virtual clock; per drive, load torque and digital inputs in, shaft, current and
+    /// statusword out (docs/cosimulation.md).
+    Fmu(FmuArgs),
     /// Write the IO-Link device descriptions (IODD 1.1) of a personality: for the CMMO-ST the
     /// two files its manual names (FHPP 8 bytes, FHPP + FPC 16 bytes).
     Iodd(drivetwin::vendors::festo_cmmo_st::iodd_command::IoddArgs),
@@ -205,6 +209,31 @@ pub struct ScenarioArgs {
     /// Print the report as JSON (with several files: an array of reports, in their order).
     #[arg(long)]
     pub json: bool,
+    /// Write every drive's shaft, current and statusword to this CSV file, sampled on the
+    /// virtual clock every --sample-ms (from 0).
+    #[arg(long)]
+    pub samples: Option<PathBuf>,
+    /// The sampling period of --samples, ms.
+    #[arg(long, default_value_t = 1.0, requires = "samples")]
+    pub sample_ms: f64,
+}
+
+#[derive(Args, Debug)]
+pub struct FmuArgs {
+    /// The cell file (packed into the FMU's resources/).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// A scenario file whose actions run inside the FMU at their times (NMT start, modes,
+    /// enabling): the cell's start; its cell and its expectations are not used.
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// The FMU to write.
+    #[arg(long, short)]
+    pub output: PathBuf,
+    /// The FMU's binary, `libdrivetwin_cell.so` of crates/cell-fmu (`scripts/cell-fmu`
+    /// builds it); default: next to this drivetwin binary.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

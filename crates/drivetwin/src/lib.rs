@@ -17,6 +17,7 @@
 //! - [`cell_loop`]: a cell with its transports on a clock: real time (one thread owns every
 //!   socket) or virtual ([`cell_loop::virtual_clock`]);
 //! - [`scenario`]: scripted runs of a cell;
+//! - [`cell_fmu`]: a cell as an FMI 3.0 co-simulation FMU on the virtual clock;
 //! - [`web`]: the web console (HTTP API, live samples, the page);
 //! - [`master`]: the command-line master's protocol clients;
 //! - [`vendors`]: what serves or speaks to one vendor's devices only (a device's own web
@@ -28,6 +29,7 @@
 
 pub mod can;
 pub mod cell;
+pub mod cell_fmu;
 pub mod cell_loop;
 pub mod cosim;
 pub mod ecat;

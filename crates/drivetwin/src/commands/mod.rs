@@ -150,6 +150,7 @@ impl CommandError {
 mod diff;
 mod drive;
 mod ecat;
+mod fmu;
 mod lss;
 mod network;
 mod pdo;
@@ -211,6 +212,7 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
         Command::Ecat(cmd) => ecat::ecat(cmd).await,
         Command::Kinco(args) => Ok(args.run(&mut print)?),
         Command::Scenario(args) => scenario::scenario(args),
+        Command::Fmu(args) => fmu::fmu(args),
         Command::Record(args) => record::record(args).await,
         Command::Diff(args) => diff::diff(args).await.map_err(|e| match e {
             CommandError::Differs(_) => e,

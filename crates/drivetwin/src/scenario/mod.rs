@@ -6,12 +6,14 @@
 //! - [`runner`]: the timeline against a [`runner::Rig`];
 //! - [`virtual_rig`]: the rig of the virtual clock (the CANopen drives of the cell's buses);
 //! - [`live`]: the rig of a running cell;
+//! - [`samples`]: a virtual rig sampled at a fixed period (`--samples`);
 //! - [`report`]: the pass / fail report.
 
 pub mod file;
 pub mod live;
 pub mod report;
 pub mod runner;
+pub mod samples;
 pub mod virtual_rig;
 
 pub use file::{Scenario, ScenarioError};

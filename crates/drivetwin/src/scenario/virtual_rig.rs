@@ -304,6 +304,61 @@ impl VirtualRig {
     }
 }
 
+/// What a drive's plant and device control show at one instant: the quantities a cell shows
+/// to an importer that steps it (the cell as an FMU, `drivetwin scenario --samples`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Probe {
+    /// The motor shaft's angle, rad (the plant's, not the encoder's quantised reading).
+    pub position_rad: f64,
+    /// The shaft's angular velocity, rad/s.
+    pub velocity_rad_s: f64,
+    /// The winding current, A.
+    pub current_a: f64,
+    /// The statusword (6041h).
+    pub statusword: u16,
+    /// The position actual value (6064h), in the drive's position units.
+    pub position_actual: i32,
+}
+
+impl VirtualRig {
+    /// The node-IDs of the CANopen drives, bus by bus in the cell file's order.
+    pub fn nodes(&self) -> Vec<u8> {
+        self.cells
+            .iter()
+            .flat_map(|c| c.drives.iter().map(|d| d.node_id()))
+            .collect()
+    }
+
+    /// The time the rig has run to.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// Drive `node`'s plant and words now.
+    pub fn probe(&self, node: u8) -> Result<Probe, String> {
+        let (b, i) = self.drive(Some(node))?;
+        let station = self.cell(b)?.drives.get(i).ok_or("no drive")?;
+        let d = station
+            .model
+            .drive()
+            .ok_or_else(|| format!("node {node}: the drive has no simulated plant"))?;
+        let shaft = d.shaft();
+        let current_a = match d.stepper() {
+            Some(s) => s.current_a(),
+            None => d.axis().motor().current(),
+        };
+        let statusword = station.model.read_u16(0x6041, 0).unwrap_or(0);
+        let position_actual = station.model.read_u32(0x6064, 0).unwrap_or(0);
+        Ok(Probe {
+            position_rad: shaft.angle_rad,
+            velocity_rad_s: shaft.velocity_rad_s,
+            current_a,
+            statusword,
+            position_actual: i32::from_ne_bytes(position_actual.to_ne_bytes()),
+        })
+    }
+}
+
 impl Rig for VirtualRig {
     fn stopped(&self) -> Option<String> {
         self.cells

@@ -1,0 +1,50 @@
+//! The cell FMU's archive (FMI 3.0 §2.5): `modelDescription.xml`, the binary as
+//! `binaries/x86_64-linux/drivetwin_cell.so`, and in `resources/` the cell file and the
+//! timeline the instance reads when it is instantiated.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::{CellFmuError, CELL_FILE, MODEL_IDENTIFIER, TIMELINE_FILE};
+
+/// What goes into the archive.
+pub struct Contents<'a> {
+    pub model_description: &'a str,
+    /// The binary (`libdrivetwin_cell.so` of `crates/cell-fmu`).
+    pub library: &'a [u8],
+    /// The cell file's text.
+    pub cell: &'a str,
+    /// The timeline's text (a scenario file), if any.
+    pub timeline: Option<&'a str>,
+}
+
+/// Writes the archive to `output`.
+pub fn write(output: &Path, contents: &Contents<'_>) -> Result<(), CellFmuError> {
+    let file = std::fs::File::create(output).map_err(|source| CellFmuError::Io {
+        path: output.to_path_buf(),
+        source,
+    })?;
+    let mut zip = zip::ZipWriter::new(file);
+    let opts = zip::write::SimpleFileOptions::default();
+    let mut entries: Vec<(String, &[u8])> = vec![
+        (
+            "modelDescription.xml".into(),
+            contents.model_description.as_bytes(),
+        ),
+        (
+            format!("binaries/x86_64-linux/{MODEL_IDENTIFIER}.so"),
+            contents.library,
+        ),
+        (format!("resources/{CELL_FILE}"), contents.cell.as_bytes()),
+    ];
+    if let Some(t) = contents.timeline {
+        entries.push((format!("resources/{TIMELINE_FILE}"), t.as_bytes()));
+    }
+    let err = |e: String| CellFmuError::Archive(format!("{}: {e}", output.display()));
+    for (name, bytes) in entries {
+        zip.start_file(name, opts).map_err(|e| err(e.to_string()))?;
+        zip.write_all(bytes).map_err(|e| err(e.to_string()))?;
+    }
+    zip.finish().map_err(|e| err(e.to_string()))?;
+    Ok(())
+}
