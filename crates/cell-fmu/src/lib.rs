@@ -55,7 +55,9 @@ impl CellModel {
             return Ok(());
         }
         let resources = context.resource_path().clone();
-        match guarded(|| CellInstance::from_resources(&resources)) {
+        match guarded(|| {
+            CellInstance::from_resources(&resources, drivetwin::vendors::MODBUS_DEVICE)
+        }) {
             Ok(cell) => {
                 self.cell = Some(cell);
                 Ok(())

@@ -328,7 +328,11 @@ fn homing_with_the_fmi2_conveyor_is_the_same_as_with_the_fmi3_one() {
         );
     let text = scenario.replace("cell = \"../conveyor.toml\"", "") + "\n[cell]\n" + &cell;
     let s = Scenario::parse(&text, "fmi2", None).expect("scenario");
-    let mut rig = VirtualRig::new(s.cell.as_ref().expect("cell")).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::MODBUS_DEVICE,
+    )
+    .expect("rig");
     assert_eq!(
         rig.load_fmi_version(1),
         Some("2.0"),

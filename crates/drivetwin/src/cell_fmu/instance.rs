@@ -12,6 +12,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use crate::cell::config::CellFile;
+use crate::cell::modbus_device::NewModbusDevice;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::{Probe, VirtualRig};
@@ -46,7 +47,10 @@ pub struct CellInstance {
 impl CellInstance {
     /// The cell of `resources/cell.toml`, with the actions of `resources/timeline.toml` when
     /// there is one, booted at 0.
-    pub fn from_resources(resources: &Path) -> Result<CellInstance, CellFmuError> {
+    pub fn from_resources(
+        resources: &Path,
+        modbus_device: NewModbusDevice,
+    ) -> Result<CellInstance, CellFmuError> {
         let cell_path = resources.join(CELL_FILE);
         let cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let timeline_path = resources.join(TIMELINE_FILE);
@@ -63,12 +67,17 @@ impl CellInstance {
         } else {
             None
         };
-        CellInstance::new(&cell, timeline.as_ref())
+        CellInstance::new(&cell, timeline.as_ref(), modbus_device)
     }
 
     /// `cell`, with `timeline`'s actions (its expectations are not checked here).
-    pub fn new(cell: &CellFile, timeline: Option<&Scenario>) -> Result<CellInstance, CellFmuError> {
-        let rig = VirtualRig::new(cell).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+    pub fn new(
+        cell: &CellFile,
+        timeline: Option<&Scenario>,
+        modbus_device: NewModbusDevice,
+    ) -> Result<CellInstance, CellFmuError> {
+        let rig =
+            VirtualRig::new(cell, modbus_device).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let variables = Variables::new(rig.nodes())?;
         let timeline = timeline
             .map(|s| {
