@@ -75,6 +75,10 @@ use super::line::{Line, LineError};
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
 
+/// How late a loop in real time may step a drive that no frame stepped
+/// ([`EthercatCell::wake_by`]).
+pub const STEP_GRACE: Duration = Duration::from_micros(500);
+
 /// PDO assignment objects (ETG.1000.6): SM2 (RxPDO) and SM3 (TxPDO).
 const RX_ASSIGN: u16 = 0x1C12;
 const TX_ASSIGN: u16 = 0x1C13;
@@ -1066,6 +1070,24 @@ impl EthercatCell {
             .filter(|(i, _)| self.line.powered(*i))
             .fold(None, |acc, (_, d)| {
                 earliest(earliest(acc, d.next_step), d.next_sync0)
+            })
+    }
+
+    /// By when a loop in real time wakes for the chain (its wait; what is due stays
+    /// [`deadline`](Self::deadline)): a SYNC0 event at its time, a device's step up to
+    /// [`STEP_GRACE`] after it. Every frame steps the devices it reaches and moves their next
+    /// step a [`TICK`] on, so under a master that sends every [`TICK`] the step would fall
+    /// due just as the next frame comes: the loop would wake for it when the frame arrives
+    /// (or re-arm its timer at every frame). With the grace it wakes, if at all, between two
+    /// frames; a master that stops finds its drives stepped every [`TICK`] + [`STEP_GRACE`].
+    pub fn wake_by(&self) -> Option<Instant> {
+        self.devices
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.line.powered(*i))
+            .fold(None, |acc, (_, d)| {
+                let step = d.next_step.map(|t| t + STEP_GRACE);
+                earliest(earliest(acc, step), d.next_sync0)
             })
     }
 
