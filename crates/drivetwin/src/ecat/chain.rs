@@ -29,7 +29,9 @@
 //!   back to Safe-Op with 0x001A and the drive reports 63-4 "no SYNC in IPO cycle" with a
 //!   fault reaction.
 //! * Between frames the cell loop polls the chain at least every [`TICK`], so the drive (and the
-//!   ESC's process-data watchdog) runs while the master is silent.
+//!   ESC's process-data watchdog) runs while the master is silent; in real time up to
+//!   [`STEP_GRACE`] later ([`EthercatCell::wake_by`]), so that the loop's wake-up for it falls
+//!   between a master's frames, not onto them.
 //!
 //! * The mailbox speaks CoE ([`ethercat::coe`], the CMMP-AS set of services): after every
 //!   frame and every tick the device answers the request waiting in SM0 (or sends the next
