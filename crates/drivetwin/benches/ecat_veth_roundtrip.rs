@@ -30,9 +30,10 @@
 //! 1.5×, p99.9 ≤ 2× the floor, no late cycle; spinning master with `--busy-poll`: p50 ≤ 1.2×
 //! the floor.
 //!
-//! `ECAT_ROUNDTRIP_SECONDS` sets each row's length (default 10 s: 10 000 cycles; 60 for the
-//! targets' 60 000; a row ends at three times its length on a machine too loaded to keep the
-//! cycle). `ECAT_ROUNDTRIP_FIFO=1` runs the master and every server under `SCHED_FIFO`
+//! `ECAT_ROUNDTRIP_SECONDS` sets each row's length (default 10 s: 10 000 cycles; a row ends
+//! at three times its length on a machine too loaded to keep the cycle);
+//! `ECAT_ROUNDTRIP_CYCLES` sets it in cycles instead (60000 for the targets' 60 000).
+//! `ECAT_ROUNDTRIP_PLACEMENTS=one` (or `split`) runs that placement alone. `ECAT_ROUNDTRIP_FIFO=1` runs the master and every server under `SCHED_FIFO`
 //! (priority 49), as a production EtherCAT master runs; `ECAT_ROUNDTRIP_NICE=-20` gives them
 //! that nice value instead (a spinning task under `SCHED_FIFO` meets the kernel's real-time
 //! throttling, 50 ms of every second). `DRIVETWIN_BIN=path` runs
@@ -113,6 +114,24 @@ fn main() {
         Err(_) if smoke => 0.1,
         Err(_) => 10.0,
     };
+    let cycles = match std::env::var("ECAT_ROUNDTRIP_CYCLES") {
+        Ok(c) => c.parse::<usize>().unwrap_or_else(|_| {
+            eprintln!("ECAT_ROUNDTRIP_CYCLES={c:?} is not a number of cycles");
+            std::process::exit(2)
+        }),
+        Err(_) => (seconds * 1000.0).round() as usize,
+    }
+    .max(1);
+    let placements = std::env::var("ECAT_ROUNDTRIP_PLACEMENTS").unwrap_or_default();
+    let (one, split) = match placements.as_str() {
+        "" => (true, true),
+        "one" => (true, false),
+        "split" => (false, true),
+        other => {
+            eprintln!("ECAT_ROUNDTRIP_PLACEMENTS={other:?}: one or split");
+            std::process::exit(2)
+        }
+    };
     // DRIVETWIN_BIN (as for the pytest suite) benchmarks another build of the twin.
     let binary = std::env::var_os("DRIVETWIN_BIN")
         .map(PathBuf::from)
@@ -134,7 +153,6 @@ fn main() {
         }
     };
     let cpus = std::thread::available_parallelism().map_or(1, usize::from);
-    let cycles = ((seconds * 1000.0).round() as usize).max(1);
     println!(
         "ecat_veth_roundtrip: {cycles} LRW cycles at 1 kHz per row, {} CPUs, load average {}{}",
         cpus,
@@ -154,18 +172,20 @@ fn main() {
         veth,
     };
     let mut all = Vec::new();
-    all.extend(bench.placement(Placement {
-        label: "one CPU",
-        server_cpu: 0,
-        master_cpu: 0,
-    }));
-    if cpus > 1 {
+    if one {
+        all.extend(bench.placement(Placement {
+            label: "one CPU",
+            server_cpu: 0,
+            master_cpu: 0,
+        }));
+    }
+    if split && cpus > 1 {
         all.extend(bench.placement(Placement {
             label: "split CPUs",
             server_cpu: 0,
             master_cpu: 1,
         }));
-    } else {
+    } else if split {
         println!("\nsplit CPUs: skipped, one CPU only");
     }
     println!("\ntargets (each twin figure against the floor of its placement and master):");

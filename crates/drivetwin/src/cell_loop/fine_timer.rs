@@ -29,11 +29,12 @@ impl FineTimer {
         Ok(FineTimer { timer, armed: None })
     }
 
-    /// Wakes the loop at `deadline`, `wait` from now (replacing the last deadline). A zero
-    /// wait needs no timer: the poll then does not sleep. The deadline it is already armed
-    /// for is not armed again.
+    /// Wakes the loop by `deadline`, `wait` from now. A zero wait needs no timer: the poll
+    /// then does not sleep. A timer already armed for `deadline` or earlier is left as it
+    /// is: it wakes the loop early at worst, and the loop arms it then for what is due. Only
+    /// a deadline earlier than the armed one costs a system call on the path that moved it.
     pub(super) fn arm(&mut self, deadline: Instant, wait: Duration) {
-        if wait.is_zero() || self.armed == Some(deadline) {
+        if wait.is_zero() || self.armed_by(deadline) {
             return;
         }
         match self.timer.arm(wait) {
@@ -46,9 +47,9 @@ impl FineTimer {
         }
     }
 
-    /// Whether it is armed for `deadline` (and has not fired yet).
-    pub(super) fn armed_for(&self, deadline: Instant) -> bool {
-        self.armed == Some(deadline)
+    /// Whether it is armed to fire by `deadline` (and has not fired yet).
+    pub(super) fn armed_by(&self, deadline: Instant) -> bool {
+        self.armed.is_some_and(|at| at <= deadline)
     }
 
     /// After its event: takes the expirations so that the descriptor is quiet again.
@@ -115,5 +116,33 @@ mod tests {
         let later = Instant::now() + wait;
         timer.arm(later, wait);
         assert_eq!(timer.armed, Some(later));
+    }
+
+    /// A deadline that moves later leaves the timer as it is (it fires early, and the loop
+    /// arms it then); one that moves earlier arms it anew, so no deadline is passed asleep.
+    #[test]
+    fn only_an_earlier_deadline_arms_it_again() {
+        let mut poll = Poll::new().expect("poll");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let mut events = Events::with_capacity(4);
+        let start = Instant::now();
+        let first = start + Duration::from_micros(800);
+        timer.arm(first, Duration::from_micros(800));
+        timer.arm(
+            first + Duration::from_millis(1),
+            Duration::from_micros(1800),
+        );
+        assert_eq!(timer.armed, Some(first), "a later deadline keeps the timer");
+        assert!(timer.armed_by(first + Duration::from_millis(1)));
+        let earlier = start + Duration::from_micros(300);
+        timer.arm(earlier, Duration::from_micros(300));
+        assert_eq!(timer.armed, Some(earlier), "an earlier one arms it");
+        poll.poll(&mut events, Some(Duration::from_secs(1)))
+            .expect("poll");
+        assert!(events.iter().any(|e| e.token() == Token(7)));
+        let woke = start.elapsed();
+        assert!(woke >= Duration::from_micros(300), "{woke:?}");
+        timer.clear();
+        assert!(!timer.armed_by(first));
     }
 }

@@ -551,10 +551,10 @@ impl CellLoop {
                 match (deadline, wait, &mut self.timer) {
                     (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
                         timer.arm(d, w);
-                        // The timerfd wakes the loop then: epoll's own millisecond timer,
+                        // The timerfd wakes the loop by then: epoll's own millisecond timer,
                         // armed and cancelled at every wait, would only lengthen the wake-up
                         // of a frame that comes first.
-                        if timer.armed_for(d) {
+                        if timer.armed_by(d) {
                             None
                         } else {
                             wait
@@ -693,7 +693,7 @@ impl CellLoop {
             take(Some(self.wall(m.next_cycle())));
         }
         for c in &self.chains {
-            take(c.chain.deadline().map(|d| self.wall(d)));
+            take(c.chain.wake_by().map(|d| self.wall(d)));
         }
         for s in &self.subscriptions {
             take(Some(s.next));
@@ -721,7 +721,9 @@ impl CellLoop {
         }
         for chain in &mut self.chains {
             if let Some(due) = chain.chain.deadline().filter(|d| *d <= t) {
-                self.lateness.record(t.saturating_since(due));
+                // Late only past the chain's wake-up (a step's grace).
+                let by = chain.chain.wake_by().unwrap_or(due);
+                self.lateness.record(t.saturating_since(by));
                 chain.chain.poll_with(t, &mut Buses(&mut self.buses));
             }
         }

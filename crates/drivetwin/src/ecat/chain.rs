@@ -29,7 +29,9 @@
 //!   back to Safe-Op with 0x001A and the drive reports 63-4 "no SYNC in IPO cycle" with a
 //!   fault reaction.
 //! * Between frames the cell loop polls the chain at least every [`TICK`], so the drive (and the
-//!   ESC's process-data watchdog) runs while the master is silent.
+//!   ESC's process-data watchdog) runs while the master is silent; in real time up to
+//!   [`STEP_GRACE`] later ([`EthercatCell::wake_by`]), so that the loop's wake-up for it falls
+//!   between a master's frames, not onto them.
 //!
 //! * The mailbox speaks CoE ([`ethercat::coe`], the CMMP-AS set of services): after every
 //!   frame and every tick the device answers the request waiting in SM0 (or sends the next
@@ -74,6 +76,10 @@ use super::line::{Line, LineError};
 
 /// How often the drives run at least when no frame arrives.
 pub const TICK: Duration = Duration::from_millis(1);
+
+/// How late a loop in real time may step a drive that no frame stepped
+/// ([`EthercatCell::wake_by`]).
+pub const STEP_GRACE: Duration = Duration::from_micros(500);
 
 /// PDO assignment objects (ETG.1000.6): SM2 (RxPDO) and SM3 (TxPDO).
 const RX_ASSIGN: u16 = 0x1C12;
@@ -1076,6 +1082,24 @@ impl EthercatCell {
             .filter(|(i, _)| self.line.powered(*i))
             .fold(None, |acc, (_, d)| {
                 earliest(earliest(acc, d.next_step), d.next_sync0)
+            })
+    }
+
+    /// By when a loop in real time wakes for the chain (its wait; what is due stays
+    /// [`deadline`](Self::deadline)): a SYNC0 event at its time, a device's step up to
+    /// [`STEP_GRACE`] after it. Every frame steps the devices it reaches and moves their next
+    /// step a [`TICK`] on, so under a master that sends every [`TICK`] the step would fall
+    /// due just as the next frame comes: the loop would wake for it when the frame arrives
+    /// (or re-arm its timer at every frame). With the grace it wakes, if at all, between two
+    /// frames; a master that stops finds its drives stepped every [`TICK`] + [`STEP_GRACE`].
+    pub fn wake_by(&self) -> Option<Instant> {
+        self.devices
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.line.powered(*i))
+            .fold(None, |acc, (_, d)| {
+                let step = d.next_step.map(|t| t + STEP_GRACE);
+                earliest(earliest(acc, step), d.next_sync0)
             })
     }
 

@@ -27,6 +27,8 @@ use std::time::Duration;
 use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
 use tokio::io::unix::AsyncFd;
 
+use crate::sys::packet_socket::{Received, RxRing};
+
 pub use super::MAX_FRAME;
 
 /// Offset of the first source-MAC byte in an Ethernet frame.
@@ -110,8 +112,15 @@ pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
 
 /// The raw socket of a chain in the cell loop: the loop waits for it with the cell's other
 /// sockets (mio) and reads it until it would block; an answer is sent at once.
+///
+/// Frames are read from a receive ring shared with the kernel
+/// ([`crate::sys::packet_socket::RxRing`]) where one can be set up: the answer's path then
+/// has the poll's wake-up and the `send` as its only system calls, as a blocking echo has.
+/// Without one (another OS, a kernel that refuses) each frame is a `recvfrom`.
 #[derive(Debug)]
 pub struct SlaveSocket {
+    // Declared before the socket: the ring is unmapped before the socket closes.
+    ring: Option<RxRing>,
     fd: OwnedFd,
     interface: String,
 }
@@ -119,10 +128,26 @@ pub struct SlaveSocket {
 impl SlaveSocket {
     /// Open the socket on `interface` (see [`EthercatSocket::open`]).
     pub fn open(interface: &str) -> io::Result<SlaveSocket> {
-        Ok(SlaveSocket {
-            fd: open_raw(interface)?,
+        let fd = open_raw(interface)?;
+        let ring = match RxRing::new(fd.as_fd()) {
+            Ok(ring) => Some(ring),
+            Err(e) => {
+                tracing::debug!(interface, error = %e, "no receive ring: a recvfrom per frame");
+                None
+            }
+        };
+        let socket = SlaveSocket {
+            ring,
+            fd,
             interface: interface.to_owned(),
-        })
+        };
+        if socket.ring.is_some() {
+            // What came before the ring waits in the socket's queue, where the ring's reader
+            // does not look: such frames are old, and dropped.
+            let mut buf = [0u8; MAX_FRAME];
+            while recv_once(socket.fd.as_fd(), &mut buf, Want::Requests).is_ok() {}
+        }
+        Ok(socket)
     }
 
     pub fn interface(&self) -> &str {
@@ -131,8 +156,14 @@ impl SlaveSocket {
 
     /// One read: `Ok(Some(len))` a request from the master in `buf`, `Ok(None)` a frame to
     /// skip (our own, or one on its way back); `WouldBlock` when nothing waits.
-    pub fn try_recv(&self, buf: &mut [u8]) -> io::Result<Option<usize>> {
-        recv_once(self.fd.as_fd(), buf, Want::Requests)
+    pub fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<usize>> {
+        match &mut self.ring {
+            Some(ring) => match ring.recv(buf) {
+                Some(received) => Ok(request(received, buf, Want::Requests)),
+                None => Err(io::ErrorKind::WouldBlock.into()),
+            },
+            None => recv_once(self.fd.as_fd(), buf, Want::Requests),
+        }
     }
 
     /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
@@ -181,15 +212,20 @@ enum Want {
 /// One `recvfrom`: `Some(len)` for a frame to process, `None` for one to skip.
 fn recv_once(fd: BorrowedFd<'_>, buf: &mut [u8], want: Want) -> io::Result<Option<usize>> {
     let received = crate::sys::packet_socket::recv(fd, buf)?;
+    Ok(request(received, buf, want))
+}
+
+/// `Some(len)` for a frame `buf` received that is to be processed, `None` for one to skip.
+fn request(received: Received, buf: &[u8], want: Want) -> Option<usize> {
     let n = received.len;
     if received.outgoing || n > buf.len() {
-        return Ok(None);
+        return None;
     }
     let take = |f: &&[u8]| match want {
         Want::Requests => is_request(f),
         Want::Returned => f.len() > SOURCE_MAC_FIRST && !is_request(f),
     };
-    Ok(buf.get(..n).filter(take).map(|_| n))
+    buf.get(..n).filter(take).map(|_| n)
 }
 
 fn send_once(fd: BorrowedFd<'_>, frame: &[u8]) -> io::Result<()> {
