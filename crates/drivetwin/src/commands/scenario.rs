@@ -15,7 +15,8 @@ pub(crate) fn scenario(args: ScenarioArgs) -> Result<(), CommandError> {
             args.file.display()
         ))
     })?;
-    let mut rig = VirtualRig::new(cell).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let mut rig = VirtualRig::new(cell, drivetwin::vendors::CELL_SECTIONS)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(path) = &args.trace {
         rig.trace_to(path)
             .map_err(super::io(format!("trace {}", path.display())))?;

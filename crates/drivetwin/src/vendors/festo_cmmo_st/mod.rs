@@ -1,6 +1,8 @@
 //! The Festo CMMO-ST (`drive::vendors::festo_cmmo_st`): its own web server's pages, a
-//! master for its FHPP over Modbus TCP and its IO-Link device descriptions (IODD).
+//! master for its FHPP over Modbus TCP, its IO-Link device descriptions (IODD) and its section
+//! of the cell file (stepper, axis, Modbus server).
 
+pub mod cell_section;
 pub mod fhpp_commands;
 pub mod fhpp_master;
 pub mod iodd;
