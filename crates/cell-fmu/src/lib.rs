@@ -56,7 +56,11 @@ impl CellModel {
         }
         let resources = context.resource_path().clone();
         match guarded(|| {
-            CellInstance::from_resources(&resources, drivetwin::vendors::MODBUS_DEVICE)
+            CellInstance::from_resources(
+                &resources,
+                drivetwin::vendors::CELL_SECTIONS,
+                drivetwin::vendors::MODBUS_DEVICE,
+            )
         }) {
             Ok(cell) => {
                 self.cell = Some(cell);

@@ -33,6 +33,18 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    default_node_id: {},", d.default_node_id);
     let _ = writeln!(s, "    baud_rates: &{:?},", d.baud_rates);
     let _ = writeln!(s, "    rotary_switches: {},", d.rotary_switches);
+    match &d.can_bit_rate {
+        None => {
+            let _ = writeln!(s, "    can_bit_rate: None,");
+        }
+        Some(c) => {
+            let _ = writeln!(
+                s,
+                "    can_bit_rate: Some(od::CanBitRateCodes {{ index: 0x{:04X}, name: {:?}, codes: &{:?} }}),",
+                c.index, c.name, c.codes
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",

@@ -42,6 +42,8 @@ pub struct Device {
     pub default_node_id: u8,
     pub baud_rates: Vec<u16>,
     pub rotary_switches: u8,
+    /// The object whose code sets the CAN bit rate: its index, name and `(code, kbit/s)`.
+    pub can_bit_rate: Option<CanBitRate>,
     pub interfaces: Vec<String>,
     pub interfaces_one_of: Vec<String>,
     pub interfaces_rule: String,
@@ -51,6 +53,59 @@ pub struct Device {
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
     pub diagnostics: Vec<Diag>,
+}
+
+/// `can_bit_rate` of a device file, checked: an UNSIGNED8 object of the file, each code once.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CanBitRate {
+    pub index: u16,
+    pub name: String,
+    pub codes: Vec<(u8, u16)>,
+}
+
+/// `can_bit_rate` names an UNSIGNED8 object at sub-index 0 of the file, each code once, each
+/// bit rate one the device supports (`baud_rates`).
+fn check_can_bit_rate(
+    section: Option<&crate::schema::CanBitRateSection>,
+    baud_rates: &[u16],
+    objects: &[Obj],
+) -> Result<Option<CanBitRate>, DescError> {
+    let Some(c) = section else {
+        return Ok(None);
+    };
+    let err = |what: String| DescError::Device(format!("can_bit_rate: {what}"));
+    let entry = objects
+        .iter()
+        .find(|o| o.index == c.object)
+        .and_then(|o| o.entries.iter().find(|e| e.sub == 0));
+    match entry {
+        Some(e) if e.data_type == DataType::Unsigned8 => {}
+        _ => {
+            return Err(err(format!(
+                "object {:04X}h sub 0 is no UNSIGNED8 of this file",
+                c.object
+            )))
+        }
+    }
+    let mut codes: Vec<(u8, u16)> = Vec::with_capacity(c.codes.len());
+    for [code, kbit] in &c.codes {
+        let code = u8::try_from(*code).map_err(|_| err(format!("code {code} is no UNSIGNED8")))?;
+        if codes.iter().any(|(c, _)| *c == code) {
+            return Err(err(format!("code {code} listed twice")));
+        }
+        if !baud_rates.contains(kbit) {
+            return Err(err(format!("{kbit} kbit/s is not in baud_rates")));
+        }
+        codes.push((code, *kbit));
+    }
+    if codes.is_empty() {
+        return Err(err("no codes".into()));
+    }
+    Ok(Some(CanBitRate {
+        index: c.object,
+        name: c.name.clone(),
+        codes,
+    }))
 }
 
 /// `[device.fhpp]` goes with the FHPP profile; each PNU it names is a parameter (object
@@ -275,6 +330,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         }
     }
     check_fhpp(fhpp, d.fhpp.as_ref(), &objects)?;
+    let can_bit_rate = check_can_bit_rate(d.can_bit_rate.as_ref(), &d.baud_rates, &objects)?;
     let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
         if fhpp {
             "its fieldbus is Modbus TCP"
@@ -297,6 +353,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         default_node_id: d.default_node_id,
         baud_rates: d.baud_rates,
         rotary_switches: d.rotary_switches,
+        can_bit_rate,
         interfaces,
         interfaces_one_of: d.interfaces_one_of,
         interfaces_rule,

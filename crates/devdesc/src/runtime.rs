@@ -92,6 +92,11 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
         default_node_id: d.default_node_id,
         baud_rates: Box::leak(d.baud_rates.clone().into_boxed_slice()),
         rotary_switches: d.rotary_switches,
+        can_bit_rate: d.can_bit_rate.as_ref().map(|c| od::CanBitRateCodes {
+            index: c.index,
+            name: text(&c.name),
+            codes: Box::leak(c.codes.clone().into_boxed_slice()),
+        }),
         fieldbus_switches: d.fieldbus_switches,
         fhpp: d.fhpp.as_ref().map(|f| od::FhppParameters {
             records: f.records,

@@ -88,6 +88,9 @@ pub struct DeviceSection {
     /// Hexadecimal rotary switches that give node-ID and bit rate (Nanotec §1.1.1): 0, 1 or 2.
     #[serde(default)]
     pub rotary_switches: u8,
+    /// `can_bit_rate = { object = 0x2F81, name = "CAN_Baudrate", codes = [[100, 1000], …] }`:
+    /// the object whose code sets the CAN bit rate (`od::CanBitRateCodes`).
+    pub can_bit_rate: Option<CanBitRateSection>,
     /// The interfaces the real device has (default: its profile's fieldbus, CANopen or
     /// Modbus TCP), those of them that run one at a time, and the manual's rule.
     pub interfaces: Option<Vec<String>>,
@@ -101,6 +104,18 @@ pub struct DeviceSection {
     pub ethercat: Option<EthercatSection>,
     /// `[device.fhpp]`: what the FHPP profile needs beyond the parameters.
     pub fhpp: Option<FhppSection>,
+}
+
+/// `can_bit_rate` of `[device]`: an UNSIGNED8 object (sub-index 0) whose value is a code of
+/// the CAN bit rate, with the manual's table of codes and bit rates (kbit/s).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CanBitRateSection {
+    pub object: u16,
+    /// As the manual prints it.
+    pub name: String,
+    /// `[code, kbit/s]` pairs; each bit rate one of `baud_rates`.
+    pub codes: Vec<[u16; 2]>,
 }
 
 /// `[device.fhpp]` (`od::FhppParameters`): required with `profile = "fhpp"`, refused with

@@ -435,7 +435,10 @@ fn cell_raises_planned_messages_on_its_clock() {
         "#,
     )
     .expect("a cell file");
-    let spec = file.drives().expect("valid").remove(0);
+    let spec = file
+        .drives(drivetwin::vendors::CELL_SECTIONS)
+        .expect("valid")
+        .remove(0);
     assert_eq!(spec.diagnostics.len(), 2);
     let mut b = Bench::new(None);
     for p in spec.diagnostics {
@@ -485,6 +488,8 @@ fn cell_file_refuses_unknown_numbers() {
         "[[drive]]\ndevice = \"nanotec-pd4n\"\n[[drive.diagnostic]]\nat_ms = 1\nnumber = \"08-2\"\n",
     )
     .expect("parses");
-    let e = file.drives().expect_err("refused");
+    let e = file
+        .drives(drivetwin::vendors::CELL_SECTIONS)
+        .expect_err("refused");
     assert!(e.to_string().contains("08-2"), "{e}");
 }

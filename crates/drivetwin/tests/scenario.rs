@@ -26,6 +26,7 @@ fn run(name: &str, run: u32) -> (Report, Vec<u8>) {
     let s = Scenario::load(&example(name)).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");
@@ -152,6 +153,7 @@ fn a_refused_action_fails_the_run() {
     let s = Scenario::parse(text, "refusals", None).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");
@@ -193,6 +195,7 @@ fn a_negative_value_is_compared_in_the_objects_width() {
     let s = Scenario::parse(text, "negative", None).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");
@@ -249,6 +252,7 @@ within = "100ms"
     let s = Scenario::parse(text, "planned", None).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");
@@ -258,6 +262,7 @@ within = "100ms"
     let s = Scenario::parse(&bad, "bad", None).expect("scenario");
     let e = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .err()
@@ -330,6 +335,7 @@ fn homing_with_the_fmi2_conveyor_is_the_same_as_with_the_fmi3_one() {
     let s = Scenario::parse(&text, "fmi2", None).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");
@@ -361,6 +367,7 @@ fn a_load_fmu_without_a_mapped_variable_is_refused_naming_it() {
     let s = Scenario::parse(&text, "missing", None).expect("scenario");
     let Err(e) = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     ) else {
         panic!("a load FMU without `belt_torque` was taken");
@@ -386,6 +393,7 @@ fn a_load_fmu_that_fails_stops_the_cell_with_its_error() {
     let s = Scenario::parse(&text, "failing", None).expect("scenario");
     let mut rig = VirtualRig::new(
         s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::CELL_SECTIONS,
         drivetwin::vendors::MODBUS_DEVICE,
     )
     .expect("rig");

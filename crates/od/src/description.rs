@@ -202,6 +202,25 @@ pub struct InterfaceOffer {
 /// and what its CoE mailbox serves (device file `[device.ethercat]`, ETG.1000.6 §5.4,
 /// ETG.2010). Sync manager addresses and sizes are the device's; the identity (vendor id,
 /// product code, revision, names) is the description's own.
+/// The object whose value sets a device's CAN bit rate, and the codes it takes (device file
+/// `can_bit_rate`): code → kbit/s, as the manual's table lists them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CanBitRateCodes {
+    /// The object (sub-index 0).
+    pub index: u16,
+    /// Its name as the manual prints it, for a message that points at it.
+    pub name: &'static str,
+    /// Each code with its bit rate, kbit/s.
+    pub codes: &'static [(u8, u16)],
+}
+
+impl CanBitRateCodes {
+    /// The bit rate of `code` in kbit/s; `None` for a code the table does not list.
+    pub fn kbit(&self, code: u8) -> Option<u16> {
+        self.codes.iter().find(|(c, _)| *c == code).map(|&(_, k)| k)
+    }
+}
+
 /// What an FHPP device (Festo Handling and Positioning Profile, parameters PNU n at object
 /// 2000h + n) says beyond its parameters (device file `[device.fhpp]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -272,6 +291,9 @@ pub struct DeviceDescription {
     /// Hexadecimal rotary switches that select node-ID and bit rate at power-on (Nanotec
     /// §1.1.1: SMCI47-S two, PD4-N one), 0 for none.
     pub rotary_switches: u8,
+    /// The object that sets the CAN bit rate by a code, and its codes (device file
+    /// `can_bit_rate`); `None` where no object does, or where the vendor's rules decide.
+    pub can_bit_rate: Option<CanBitRateCodes>,
     /// Which interfaces the real device has.
     pub interfaces: InterfaceOffer,
     /// DIP switches (or inputs) select node-ID offset, bit rate and fieldbus at power-on

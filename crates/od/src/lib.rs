@@ -24,8 +24,8 @@ pub use abort_code::AbortCode;
 pub use access::Access;
 pub use data_type::DataType;
 pub use description::{
-    Behaviour, Cia301Options, DeviceDescription, Entry, EthercatSlave, FhppParameters,
-    InterfaceOffer, Limit, Object, ObjectKind, Profile,
+    Behaviour, CanBitRateCodes, Cia301Options, DeviceDescription, Entry, EthercatSlave,
+    FhppParameters, InterfaceOffer, Limit, Object, ObjectKind, Profile,
 };
 pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};

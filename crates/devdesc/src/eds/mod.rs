@@ -254,6 +254,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         default_node_id: node_id.unwrap_or(1),
         baud_rates,
         rotary_switches: 0,
+        can_bit_rate: None,
         fieldbus_switches: false,
         ethercat: None,
         fhpp: None,

@@ -29,6 +29,9 @@ use crate::personality::Personality;
 use crate::stepper::Stepper;
 use crate::thermal::ThermalData;
 pub use cia402::Cia402;
+/// How the runtime builds an FHPP drive (the CMMO-ST's stepper, axis and settings), as it
+/// holds the CiA 402 drives as [`AnyDrive`].
+pub use festo_cmmo_st::device::FhppSettings;
 use festo_cmmp_as::display::Display;
 use festo_cmmp_as::error_management::MemoryEntry;
 use festo_cmmp_as::{CmmpAs, CMMP_AS};

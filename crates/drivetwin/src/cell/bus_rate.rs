@@ -1,11 +1,11 @@
 //! The bit rate a cell's CAN bus runs at. Every node is set to one by its switches or its
-//! objects (CMMP-AS DIP6/DIP7 or DIN12/DIN13, manual Tab. 2.4 / 2.8; Nanotec rotary switches
-//! and 2005h, §1.1.1; Kinco CAN_Baudrate 2F81h, §9.5 d5.17; a DCF's `[DeviceComissioning]
-//! Baudrate`, CiA 306 §4.7), and a bus works only where they
-//! agree: the bus takes theirs. A `bitrate` on the `[[bus]]` (or `drivetwin run --bitrate`) is
-//! the rate the rest of the bus (the master) runs at: a node set to another one sees only
-//! error frames and stays silent (ISO 11898-1; CMMP-AS §2.3). `"instant"` gives the bus no bit
-//! time at all, for fast tests and latency benchmarks.
+//! objects (the rules of its vendor's manual, which its vendor's cell-file section applies; an
+//! object whose code the device file's `can_bit_rate` lists; a DCF's `[DeviceComissioning]
+//! Baudrate`, CiA 306 §4.7), and a bus works only where they agree: the bus takes theirs. A
+//! `bitrate` on the `[[bus]]` (or `drivetwin run --bitrate`) is the rate the rest of the bus
+//! (the master) runs at: a node set to another one sees only error frames and stays silent
+//! (ISO 11898-1). `"instant"` gives the bus no bit time at all, for fast tests and latency
+//! benchmarks.
 //!
 //! Pure rules, no I/O: [`resolve`] takes the bus's setting and each node's rate.
 
@@ -13,11 +13,7 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-use drive::vendors::kinco::bit_rates as kinco_bit_rates;
-use drive::vendors::nanotec::rotary_switches::{self, PowerOn};
 use serde::Deserialize;
-
-use crate::cell::fieldbus_switches::FieldbusSettings;
 
 /// `bitrate` of a `[[bus]]` and `drivetwin run --bitrate`: bit/s, or `"instant"`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -81,59 +77,11 @@ pub struct NodeRate {
 }
 
 impl NodeRate {
-    fn new(kbit: u16, set_by: impl Into<String>) -> Self {
+    pub fn new(kbit: u16, set_by: impl Into<String>) -> Self {
         NodeRate {
             kbit,
             set_by: set_by.into(),
         }
-    }
-
-    /// A CMMP-AS: its `[drive.switches]` (`key` names the switches or inputs that set the
-    /// rate), or without them an M3 whose block S1 has only DIP8 (CANopen on) ON.
-    ///
-    /// Decision: the manual prints no delivery state of S1 (Tab. 2.3–2.5). A drive without
-    /// `[drive.switches]` is taken as DIP6/DIP7 OFF, 125 kbit/s: the untouched position,
-    /// and the slowest rate the drive offers, so the twin is never faster than a real one.
-    pub fn cmmp_as(switches: Option<(FieldbusSettings, &str)>) -> Self {
-        match switches {
-            Some((f, key)) => NodeRate::new(f.bit_rate_kbit, key),
-            None => NodeRate::new(
-                125,
-                "[drive.switches] (none: DIP6/DIP7 OFF, CMMP-AS Tab. 2.4)",
-            ),
-        }
-    }
-
-    /// A Nanotec: its rotary switches at power-on (§1.1.1), or without
-    /// `[drive.rotary_switches]` switches set to the node-ID, which fix 1 Mbit/s. Switches
-    /// 80h and above take the rate from `code_2005h`; `None`: it holds no bit-rate code
-    /// (§1.1.3 step 7: the controller still answers on CAN, so it follows the bus).
-    pub fn nanotec(power_on: Option<PowerOn>, code_2005h: &RateCode) -> Option<Self> {
-        match power_on {
-            None => Some(NodeRate::new(
-                1000,
-                "[drive.rotary_switches] (none: switches at the node-ID fix 1 Mbit/s, \
-                 Nanotec §1.1.1)",
-            )),
-            Some(p) if p.bit_rate_from_eeprom => Some(NodeRate::new(
-                rotary_switches::bit_rate_kbit(code_2005h.code())?,
-                code_2005h.set_by("2005:00", "rotary switches 80h and above"),
-            )),
-            Some(_) => Some(NodeRate::new(
-                1000,
-                "[drive.rotary_switches] (1…127 fix 1 Mbit/s)",
-            )),
-        }
-    }
-
-    /// A Kinco FD3: CAN_Baudrate 2F81h. Its DIP switches give only the station number (§3.8,
-    /// Tab. 3-8). A code outside the table keeps 500 kbit/s, the default (see
-    /// [`kinco_bit_rates`]).
-    pub fn kinco(code: &RateCode) -> Self {
-        NodeRate::new(
-            kinco_bit_rates::can_kbit(code.code()).unwrap_or(kinco_bit_rates::DEFAULT_CAN_KBIT),
-            code.set_by("2F81:00", "CAN_Baudrate"),
-        )
     }
 
     /// A drive from its DCF: the file's `[DeviceComissioning] Baudrate` (CiA 306 §4.7), named
@@ -147,8 +95,8 @@ impl NodeRate {
     }
 }
 
-/// The value of the object that sets a node's rate (Kinco 2F81h, Nanotec 2005h) at power-on,
-/// and where it comes from. The twin powers a drive on as the device does
+/// The value of the object that sets a node's rate at power-on, and where it comes from. The
+/// twin powers a drive on as the device does
 /// ([`crate::cell::station::Station::with_settings`]): the default, then the cell file's
 /// `[drive.objects]` (what a commissioning tool wrote), then the stored set (`--state-dir`,
 /// what the drive saved), which wins.
@@ -187,6 +135,11 @@ impl RateCode {
         }
     }
 
+    /// The device's default.
+    pub fn default_code(&self) -> u8 {
+        self.default
+    }
+
     /// Where object `key` (named `name`) got its value, for a refusal to point at.
     fn set_by(&self, key: &str, name: &str) -> String {
         match (&self.stored, self.cell_file) {
@@ -200,37 +153,67 @@ impl RateCode {
     }
 }
 
-/// A node whose rate one of its objects sets, so that its stored set can change the rate.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum RateObject {
-    /// A Kinco FD3's CAN_Baudrate 2F81h.
-    Kinco(RateCode),
-    /// A Nanotec's 2005h, read where its rotary switches say so.
-    Nanotec(Option<PowerOn>, RateCode),
+/// How an object's code gives a bit rate.
+#[derive(Debug, Clone, Copy)]
+pub enum RateCodes {
+    /// The device file's table (`can_bit_rate`). Decision: a code outside it keeps the rate of
+    /// the object's default code, as the device file says, rather than guess one.
+    Device(&'static od::CanBitRateCodes),
+    /// A vendor's rule, in kbit/s; `None`: the code sets no rate, and the node follows the
+    /// bus.
+    Vendor(fn(u8) -> Option<u16>),
+}
+
+/// A node whose rate one of its objects sets (sub-index 0), so that its stored set can change
+/// the rate.
+#[derive(Debug, Clone)]
+pub struct RateObject {
+    index: u16,
+    /// What the object is, for a refusal to name.
+    name: &'static str,
+    code: RateCode,
+    codes: RateCodes,
 }
 
 impl RateObject {
-    /// The object's index (sub-index 0).
-    pub fn index(&self) -> u16 {
-        match self {
-            RateObject::Kinco(_) => 0x2F81,
-            RateObject::Nanotec(..) => 0x2005,
+    /// Object `index`, named `name`, holding `code`, read by `codes`.
+    pub fn new(index: u16, name: &'static str, code: RateCode, codes: RateCodes) -> Self {
+        RateObject {
+            index,
+            name,
+            code,
+            codes,
         }
     }
 
-    /// The node's rate ([`NodeRate::kinco`], [`NodeRate::nanotec`]).
+    /// The object the device file's `can_bit_rate` names, holding `code`.
+    pub fn of_device(codes: &'static od::CanBitRateCodes, code: RateCode) -> Self {
+        RateObject::new(codes.index, codes.name, code, RateCodes::Device(codes))
+    }
+
+    /// The object's index (sub-index 0).
+    pub fn index(&self) -> u16 {
+        self.index
+    }
+
+    /// The node's rate, named with the object's key and where its value comes from.
     pub fn rate(&self) -> Option<NodeRate> {
-        match self {
-            RateObject::Kinco(code) => Some(NodeRate::kinco(code)),
-            RateObject::Nanotec(p, code) => NodeRate::nanotec(*p, code),
-        }
+        let code = self.code.code();
+        let kbit = match self.codes {
+            RateCodes::Device(table) => table
+                .kbit(code)
+                .or_else(|| table.kbit(self.code.default_code()))?,
+            RateCodes::Vendor(rule) => rule(code)?,
+        };
+        let key = format!("{:04X}:00", self.index);
+        Some(NodeRate::new(kbit, self.code.set_by(&key, self.name)))
     }
 
     /// With the value the node's stored set in `file` holds, which wins at power-on.
     pub fn stored(self, code: u8, file: &Path) -> Self {
-        match self {
-            RateObject::Kinco(c) => RateObject::Kinco(c.stored(code, file)),
-            RateObject::Nanotec(p, c) => RateObject::Nanotec(p, c.stored(code, file)),
+        RateObject {
+            code: self.code.stored(code, file),
+            ..self
         }
     }
 }
@@ -348,76 +331,55 @@ pub fn resolve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cell::fieldbus_switches::m3_power_on;
-    use drive::vendors::nanotec::rotary_switches::{power_on, RotarySwitches};
 
     fn node(device: &'static str, node: u8, rate: NodeRate) -> BusNode {
         BusNode { device, node, rate }
     }
 
+    /// The CAN_Baudrate 2F81h codes of the Kinco FD3's device file.
+    fn kinco_codes() -> &'static od::CanBitRateCodes {
+        devices::by_name("kinco-fd3")
+            .and_then(|d| d.can_bit_rate.as_ref())
+            .expect("kinco-fd3's can_bit_rate")
+    }
+
     /// A Kinco FD3 whose cell file sets 2F81h to `code`, if to anything (default 50).
     fn kinco(code: Option<u8>) -> NodeRate {
-        NodeRate::kinco(&RateCode::new(50, code))
+        RateObject::of_device(kinco_codes(), RateCode::new(50, code))
+            .rate()
+            .expect("a rate")
     }
 
-    /// A Nanotec's 2005h as its cell file sets it.
-    fn code_2005h(code: u8) -> RateCode {
-        RateCode::new(0, Some(code))
+    /// A node at a fixed rate, named by `key`.
+    fn fixed(kbit: u16, key: &str) -> NodeRate {
+        NodeRate::new(kbit, key)
     }
 
-    /// The factory rates: a CMMP-AS without switches 125 kbit/s, a Nanotec without rotary
-    /// switches 1 Mbit/s, a Kinco FD3 with 2F81h = 50 500 kbit/s (KINCO-CAN-06).
+    /// KINCO-CAN-06 from the device file: 100, 50 (default), 25, 12, 5 → 1000, 500, 250, 125,
+    /// 50 kbit/s; 125 kbit/s is 12, not 12.5; a code outside the table keeps the default's
+    /// 500 kbit/s (the device file's Decision).
     #[test]
-    fn each_personality_has_its_factory_rate() {
-        assert_eq!(NodeRate::cmmp_as(None).kbit, 125);
+    fn kinco_can_06_codes_are_device_data() {
         assert_eq!(
-            NodeRate::nanotec(None, &code_2005h(135)).map(|r| r.kbit),
-            Some(1000)
+            [100, 50, 25, 12, 5].map(|c| kinco_codes().kbit(c)),
+            [Some(1000), Some(500), Some(250), Some(125), Some(50)]
         );
+        assert_eq!(kinco_codes().kbit(13), None);
+        assert_eq!(kinco_codes().index, 0x2F81);
         assert_eq!(kinco(None).kbit, 500);
         assert_eq!(kinco(Some(100)).kbit, 1000);
         assert_eq!(kinco(Some(12)).kbit, 125);
-        // Outside the table: the default (kinco_bit_rates' Decision).
         assert_eq!(kinco(Some(13)).kbit, 500);
-    }
-
-    /// CMMP-NODE-05 through the rate: DIP6/DIP7 ON/ON is 1 Mbit/s, named by the key.
-    #[test]
-    fn cmmp_as_switches_give_the_rate() {
-        let mut dip = [false; 8];
-        dip[5] = true;
-        dip[6] = true;
-        let r = NodeRate::cmmp_as(Some((m3_power_on(0, dip), "[drive.switches] DIP6/DIP7")));
-        assert_eq!(
-            (r.kbit, r.set_by.as_str()),
-            (1000, "[drive.switches] DIP6/DIP7")
-        );
-    }
-
-    /// NT-NODE-03 / NT-NODE-06 / NT-NODE-07 through the rate: switches ≥ 80h take 2005h,
-    /// 1…127 fix 1 Mbit/s, an invalid 2005h sets none (the node follows the bus).
-    #[test]
-    fn nanotec_switches_and_2005h_give_the_rate() {
-        let two = |left, right| RotarySwitches::Two { left, right };
-        let r = NodeRate::nanotec(Some(power_on(two(5, 8), 1, 134)), &code_2005h(134)).unwrap();
-        assert_eq!(r.kbit, 500);
-        assert!(r.set_by.contains("\"2005:00\" = 134"), "{}", r.set_by);
-        let r = NodeRate::nanotec(Some(power_on(two(5, 0), 1, 134)), &code_2005h(134)).unwrap();
-        assert_eq!(r.kbit, 1000);
-        assert_eq!(
-            NodeRate::nanotec(Some(power_on(two(5, 8), 1, 0)), &code_2005h(0)),
-            None
-        );
     }
 
     /// A saved rate object wins at power-on over the cell file's value, as the drive loads its
     /// stored set after the commissioning values (`Station::with_settings`), and a refusal
-    /// names the stored file: a Kinco saved at 2F81h = 25 (250 kbit/s, KINCO-CAN-06), a Nanotec
-    /// at switches 80h + node with 2005h = 133 (250 kbit/s, §1.1.3 step 4).
+    /// names the stored file: a Kinco saved at 2F81h = 25 (250 kbit/s, KINCO-CAN-06); a
+    /// vendor's rule that gives no rate leaves the node to the bus.
     #[test]
     fn a_stored_rate_object_wins_over_the_cell_file() {
         let file = Path::new("state/kinco-fd3-node2.params");
-        let kinco = RateObject::Kinco(RateCode::new(50, Some(100)));
+        let kinco = RateObject::of_device(kinco_codes(), RateCode::new(50, Some(100)));
         assert_eq!(kinco.rate().map(|r| r.kbit), Some(1000));
         let stored = kinco.stored(25, file).rate().unwrap();
         assert_eq!(stored.kbit, 250);
@@ -425,13 +387,14 @@ mod tests {
             stored.set_by,
             "\"2F81:00\" = 25 (CAN_Baudrate) stored in state/kinco-fd3-node2.params"
         );
-        let switches = RotarySwitches::Two { left: 1, right: 8 };
-        let nanotec = RateObject::Nanotec(Some(power_on(switches, 1, 135)), code_2005h(135))
-            .stored(133, Path::new("state/n.params"));
-        assert_eq!(nanotec.index(), 0x2005);
-        assert_eq!(nanotec.rate().map(|r| r.kbit), Some(250));
+        let rule = RateCodes::Vendor(|code| (code == 133).then_some(250));
+        let vendor = RateObject::new(0x2005, "a rule", RateCode::new(0, Some(135)), rule);
+        assert_eq!(vendor.rate(), None);
+        let vendor = vendor.stored(133, Path::new("state/n.params"));
+        assert_eq!(vendor.index(), 0x2005);
+        assert_eq!(vendor.rate().map(|r| r.kbit), Some(250));
         let nodes = [
-            node("cmmp-as", 1, NodeRate::cmmp_as(None)),
+            node("cmmp-as", 1, fixed(125, "[drive.switches]")),
             node("kinco-fd3", 2, stored),
         ];
         let text = resolve("vcan0", None, &nodes).unwrap_err().to_string();
@@ -447,11 +410,7 @@ mod tests {
     #[test]
     fn agreeing_nodes_give_the_bus_their_rate() {
         let nodes = [
-            node(
-                "nanotec-smci47s",
-                1,
-                NodeRate::nanotec(None, &code_2005h(135)).unwrap(),
-            ),
+            node("nanotec-smci47s", 1, fixed(1000, "[drive.rotary_switches]")),
             node("kinco-fd3", 2, kinco(Some(100))),
         ];
         assert_eq!(
@@ -473,11 +432,15 @@ mod tests {
     #[test]
     fn disagreeing_nodes_are_refused_naming_each_rate_and_key() {
         let nodes = [
-            node("cmmp-as", 1, NodeRate::cmmp_as(None)),
+            node(
+                "cmmp-as",
+                1,
+                fixed(125, "[drive.switches] (none: DIP6/DIP7 OFF"),
+            ),
             node(
                 "nanotec-smci47s",
                 2,
-                NodeRate::nanotec(None, &code_2005h(135)).unwrap(),
+                fixed(1000, "[drive.rotary_switches] (none:"),
             ),
             node("kinco-fd3", 3, kinco(None)),
         ];
@@ -499,7 +462,7 @@ mod tests {
     #[test]
     fn an_explicit_bitrate_wins_and_silences_other_nodes() {
         let nodes = [
-            node("cmmp-as", 1, NodeRate::cmmp_as(None)),
+            node("cmmp-as", 1, fixed(125, "[drive.switches]")),
             node("kinco-fd3", 2, kinco(None)),
         ];
         let bus = resolve("vcan0", Some(BitrateSetting::Bits(500_000)), &nodes).unwrap();

@@ -1,7 +1,7 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
 use drivetwin::cell::bus_rate::BusRate;
-use drivetwin::cell::config::BusSection;
+use drivetwin::cell::config::{BusSection, Ports};
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, TerminalPort};
 use drivetwin::cosim::FmuLoadError;
@@ -294,7 +294,7 @@ async fn prepare_cell(
     args: &RunArgs,
     first: bool,
 ) -> Result<Prepared, CommandError> {
-    let mut specs = file.drives()?;
+    let mut specs = file.drives(drivetwin::vendors::CELL_SECTIONS)?;
     // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
     // instead of CAN (as before the cell loop served both).
     let ethercat_if = args.ethercat.as_deref().filter(|_| first);
@@ -326,7 +326,7 @@ async fn prepare_cell(
     for addr in ci_terminal
         .iter()
         .copied()
-        .chain(file.drive.iter().filter_map(|d| d.ci_terminal()))
+        .chain(specs.iter().filter_map(|s| s.ports.ci_terminal.as_deref()))
     {
         ci_console::check_address(addr).map_err(|e| CommandError::Usage(e.to_string()))?;
     }
@@ -380,6 +380,8 @@ async fn prepare_cell(
         }
     }
     let rates = file.bus_rates(&specs)?;
+    // Each drive's CI terminal and serial ports, as its section names them.
+    let ports: Vec<Ports> = specs.iter().map(|s| s.ports.clone()).collect();
     let (cells, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
     for d in cells.iter().flat_map(|c| c.drives.iter()) {
         out!(
@@ -460,7 +462,7 @@ async fn prepare_cell(
         trace_path.map(|p| p.as_path()),
         cells.iter().all(|c| c.drives.is_empty()),
     )?;
-    let serial = serial_lines(file, &in_cell, args, first, &cells)?;
+    let serial = serial_lines(&ports, &in_cell, args, first, &cells)?;
     let mut front = FrontEnds {
         modbus,
         ethercat,
@@ -511,7 +513,7 @@ async fn prepare_cell(
         }
         front.buses.push(bus);
     }
-    front.ci_terminals = ci_consoles(file, &in_cell, ci_terminal)?;
+    front.ci_terminals = ci_consoles(&ports, &in_cell, ci_terminal)?;
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
     if fhpp_drives > 0 && !in_loop && specs_had_fhpp_plans(file) {
         tracing::warn!(
@@ -571,14 +573,14 @@ fn web_console(
 /// The CI terminals the cell file (or `--ci-terminal`, for the first drive) asks for, each a
 /// listener and the index of its drive in the cell; the cell loop answers their lines.
 fn ci_consoles(
-    file: &CellFile,
+    ports: &[Ports],
     in_cell: &[Option<OnBus>],
     first: Option<&str>,
 ) -> Result<Vec<TerminalPort>, CommandError> {
     let mut consoles = Vec::new();
-    for (i, d) in file.drive.iter().enumerate() {
+    for (i, d) in ports.iter().enumerate() {
         let cli = if i == 0 { first } else { None };
-        let Some(addr) = cli.or(d.ci_terminal()) else {
+        let Some(addr) = cli.or(d.ci_terminal.as_deref()) else {
             continue;
         };
         // The console is the drive's own RS232, but a drive the switches keep off the bus is
@@ -605,7 +607,7 @@ fn ci_consoles(
 /// The serial lines the cell file (or `--rs232` / `--rs485`, for the first drive) asks for,
 /// opened: links to the twin's ptys, or real devices.
 fn serial_lines(
-    file: &CellFile,
+    ports: &[Ports],
     in_cell: &[Option<OnBus>],
     args: &RunArgs,
     first_cell: bool,
@@ -614,7 +616,7 @@ fn serial_lines(
     use drivetwin::serial::{Kind, LineRequest};
     use drivetwin::vendors::open_serial_lines;
     let mut requests = Vec::new();
-    for (i, d) in file.drive.iter().enumerate() {
+    for (i, d) in ports.iter().enumerate() {
         // The command line's ports are the first drive's of the first cell.
         let first = |p: &Option<PathBuf>| {
             if i == 0 && first_cell {
@@ -626,11 +628,11 @@ fn serial_lines(
         for (kind, path) in [
             (
                 Kind::Rs232,
-                first(&args.rs232).or(d.rs232().map(PathBuf::from)),
+                first(&args.rs232).or(d.rs232.as_ref().map(PathBuf::from)),
             ),
             (
                 Kind::Rs485,
-                first(&args.rs485).or(d.rs485().map(PathBuf::from)),
+                first(&args.rs485).or(d.rs485.as_ref().map(PathBuf::from)),
             ),
         ] {
             let Some(path) = path else {

@@ -16,6 +16,8 @@
 //!   ([`crate::cell_loop::Terminal`]);
 //! - [`open_serial_lines`], [`virtual_serial_lines`]: the serial lines of a cell, each with
 //!   its protocol ([`crate::serial::line::LineProtocol`]);
+//! - [`CELL_SECTIONS`]: each device's own keys of a cell file's `[[drive]]`
+//!   ([`crate::cell::config::DeviceSection`]), read and checked against its drive;
 //! - the sub-commands named for a device (`drivetwin kinco`, `fhpp`, `iodd`): their
 //!   arguments are types of the vendor folder with a `run` method, failing with
 //!   [`CommandError`], whose [`Failure`] the binary turns into its exit code.
@@ -23,15 +25,21 @@
 //! The vendors:
 //!
 //! - [`festo_cmmo_st`]: the CMMO-ST's FHPP register image on Modbus TCP, its FHPP side on
-//!   the console, its web server pages, its FHPP master over Modbus TCP and its IODD;
-//! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal;
+//!   the console, its web server pages, its FHPP master over Modbus TCP, its IODD and its
+//!   cell file section;
+//! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal and cell file section;
 //! - [`kinco`]: the Kinco FD3 / CD3 serial lines (RS232 telegrams, Modbus RTU), its panel
-//!   page and the RS232 telegram master.
+//!   page, the RS232 telegram master and the cell file sections;
+//! - [`nanotec`]: the Nanotec drives' cell file section.
 
+#[cfg(test)]
+mod cell_file_tests;
 pub mod festo_cmmo_st;
 pub mod festo_cmmp_as;
 pub mod kinco;
+pub mod nanotec;
 
+use crate::cell::config::DeviceSections;
 use crate::cell::control::{DisplayState, DriveViews};
 use crate::cell::modbus_device::NewModbusDevice;
 use crate::cell_loop::NewTerminal;
@@ -51,6 +59,15 @@ fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
 /// The device of a cell file's drive served over Modbus TCP: the CMMO-ST's FHPP register
 /// image, the only drive served so.
 pub const MODBUS_DEVICE: NewModbusDevice = festo_cmmo_st::modbus_server::new_device;
+
+/// Each device's own section of a cell file's `[[drive]]`, by the device files it serves.
+pub const CELL_SECTIONS: DeviceSections = &[
+    festo_cmmp_as::cell_section::SECTION,
+    nanotec::cell_section::SECTION,
+    kinco::cell_section::FD3,
+    kinco::cell_section::CD3,
+    festo_cmmo_st::cell_section::SECTION,
+];
 
 /// The terminal a drive's `ci_terminal` port (and `--ci-terminal`) serves: the CMMP-AS's CI
 /// terminal, the only drive with one.

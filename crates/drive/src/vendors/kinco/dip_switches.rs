@@ -9,8 +9,8 @@
 //!   "0x2F800108", KINCO-DIP-06). A change applies after a reboot.
 //! * Only the FD3-LA / -CA have the switches (L347); the CD3 takes 100Bh.
 //!
-//! * The table gives no bit rate: the CAN bit rate is CAN_Baudrate 2F81h
-//!   ([`super::bit_rates`]).
+//! * The table gives no bit rate: the CAN bit rate is CAN_Baudrate 2F81h (its codes are the
+//!   device file's `can_bit_rate`).
 //!
 //! Decision: a switch value above 127 is a valid RS232 / RS485 station number (the panel's
 //! 100Bh range is 0~255, L2144) but not a CANopen node-ID (1…127, §11.1): [`can_node_id`]

@@ -1,14 +1,13 @@
 //! A `[[drive]]` of the cell file: the keys every drive has, and beside them, flat, the keys
-//! of its device ([`DeviceKeys`]: a CiA 402 drive's motor and travel, a vendor's switches and
-//! ports). A key of another device is refused when the drive is checked, naming the devices
-//! it belongs to; a key of none as an unknown field when the file is read.
+//! of its device (a CiA 402 drive's motor and travel, a vendor's switches and ports), kept as
+//! written until the drive is checked ([`super::device_keys`]): then a key of another device
+//! is refused naming the devices it belongs to, a key of none as an unknown field.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::device_keys::DeviceKeys;
 use crate::cell::diagnostics::{PlannedDiagnostic, PlannedPhysics};
 use crate::cell::interfaces::InterfaceName;
 
@@ -53,11 +52,12 @@ pub struct DriveSection {
     pub thermal: Option<ThermalSection>,
     /// `[drive.load]`: a co-simulation FMU as the load (CiA 402 drives).
     pub load: Option<super::load_fmu::LoadSection>,
-    /// The keys of its device, by `device` (or `eds`).
-    pub keys: DeviceKeys,
+    /// The keys of its device, by `device` (or `eds`), as written: read by the CiA 402 keys
+    /// and the device's section when the drive is checked ([`super::device_keys`]).
+    pub rest: toml::Table,
 }
 
-/// The keys every drive has ([`DriveSection`]'s fields but `keys`), for the refusal of a key
+/// The keys every drive has ([`DriveSection`]'s fields but `rest`), for the refusal of a key
 /// that no device has.
 pub const COMMON_KEYS: [&str; 12] = [
     "device",
@@ -105,8 +105,6 @@ impl<'de> Deserialize<'de> for DriveSection {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let w = Written::deserialize(d)?;
         let node = w.node.unwrap_or(1);
-        let keys = DeviceKeys::parse(&w.device, w.eds.as_deref(), node, w.rest)
-            .map_err(<D::Error as serde::de::Error>::custom)?;
         Ok(DriveSection {
             device: w.device,
             eds: w.eds,
@@ -121,7 +119,7 @@ impl<'de> Deserialize<'de> for DriveSection {
             plant: w.plant,
             thermal: w.thermal,
             load: w.load,
-            keys,
+            rest: w.rest,
         })
     }
 }
@@ -143,23 +141,8 @@ impl DriveSection {
             plant: Vec::new(),
             thermal: None,
             load: None,
-            keys: DeviceKeys::of_device(device),
+            rest: toml::Table::new(),
         }
-    }
-
-    /// Its CI terminal's address (`ci_terminal`, a CMMP-AS's).
-    pub fn ci_terminal(&self) -> Option<&str> {
-        self.keys.cmmp_as().and_then(|k| k.ci_terminal.as_deref())
-    }
-
-    /// Its RS232 port (`rs232`, a Kinco's).
-    pub fn rs232(&self) -> Option<&str> {
-        self.keys.rs232()
-    }
-
-    /// Its RS485 port (`rs485`, a Kinco FD3's).
-    pub fn rs485(&self) -> Option<&str> {
-        self.keys.rs485()
     }
 }
 

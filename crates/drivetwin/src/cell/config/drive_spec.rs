@@ -7,18 +7,13 @@ use std::path::Path;
 
 use drive::drive::DriveSettings;
 use drive::motor::MotorData;
-use drive::vendors::festo_cmmo_st::device::FhppSettings;
-use drive::vendors::nanotec::rotary_switches::power_on;
 use od::Value;
 
-use super::device_keys::Section;
+use super::device_keys::{self, DeviceSections, DriveContext, KeyRefusal, OwnRate, Ports};
 use super::drive_section::default_device;
 use super::objects::{encode_toml, parse_key};
-use super::{
-    BusSection, CellFile, Cia402Keys, CmmoStKeys, ConfigError, DriveSection, FhppSpec,
-    NanotecMotorType, SwitchesSection,
-};
-use crate::cell::bus_rate::{NodeRate, RateCode, RateObject};
+use super::{BusSection, CellFile, Cia402Keys, ConfigError, DriveSection, FhppSpec, ForeignKeyAt};
+use crate::cell::bus_rate::{NodeRate, RateObject};
 use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::fieldbus_switches::{FieldbusSettings, Profile};
 use crate::cell::interfaces::InterfaceName;
@@ -35,14 +30,16 @@ pub struct DriveSpec {
     pub settings: Option<DriveSettings>,
     /// For FHPP personalities (the CMMO-ST): the stepper, its axis and its Modbus server.
     pub fhpp: Option<FhppSpec>,
-    /// From `[drive.switches]`, if given.
+    /// The fieldbus settings its switches or inputs select, if its section names them.
     pub fieldbus: Option<FieldbusSettings>,
     /// The CAN bit rate its switches and objects set, and what sets it; `None`: none of its
-    /// own (no CAN interface, a Nanotec whose 2005h holds no code, the test bench).
+    /// own (no CAN interface, an object that holds no code of a rate, the test bench).
     pub bit_rate: Option<NodeRate>,
-    /// The object that sets that rate (Kinco 2F81h, Nanotec 2005h), which a stored set may
-    /// change ([`DriveSpec::load_stored_rate`]).
+    /// The object that sets that rate, which a stored set may change
+    /// ([`DriveSpec::load_stored_rate`]).
     pub rate_object: Option<RateObject>,
+    /// Its CI terminal and serial ports, as its section names them.
+    pub ports: Ports,
     /// The index of the bus (of [`super::Buses::all`]) its CANopen node is on.
     pub bus: usize,
     /// A CANopen node on its bus (false: EtherCAT only, or the CMMO-ST).
@@ -73,8 +70,9 @@ impl DriveSpec {
 }
 
 impl CellFile {
-    /// Its drives, each checked against its device and ready to build.
-    pub fn drives(&self) -> Result<Vec<DriveSpec>, ConfigError> {
+    /// Its drives, each checked against its device and ready to build; `sections`: the
+    /// devices' own sections of keys (`drivetwin::vendors::CELL_SECTIONS`).
+    pub fn drives(&self, sections: DeviceSections) -> Result<Vec<DriveSpec>, ConfigError> {
         let mut specs: Vec<DriveSpec> = Vec::new();
         for d in &self.drive {
             let desc = match &d.eds {
@@ -91,69 +89,44 @@ impl CellFile {
                     ConfigError::UnknownDevice(d.device.clone(), known.join(", "))
                 })?,
             };
-            if let Some(key) = d.keys.foreign.first() {
-                return Err(ConfigError::ForeignKey {
-                    node: d.node,
-                    device: desc.name.to_owned(),
-                    key: key.clone(),
-                });
-            }
-            let fieldbus = match d.keys.cmmp_as().and_then(|k| k.switches.as_ref()) {
-                Some(sw) => {
-                    let err = key_error(d, "switches");
-                    if !desc.fieldbus_switches {
-                        return Err(err(format!("{} has no CMMP-AS switches", desc.name)));
-                    }
-                    Some(sw.settings().map_err(err)?)
-                }
-                None => None,
-            };
-            let rotary = match d.keys.nanotec().and_then(|k| k.rotary_switches.as_ref()) {
-                Some(rs) => {
-                    let err = key_error(d, "rotary_switches");
-                    let switches = rs.switches(desc.rotary_switches).map_err(err)?;
-                    let eeprom = |index| stored_u8(desc, d, index, 0).map_err(err);
-                    let p = power_on(switches, eeprom(0x2009)?, eeprom(0x2005)?);
-                    if !(1..=127).contains(&p.node_id) {
-                        return Err(err(format!("node-ID {} from 2009h", p.node_id)));
-                    }
-                    if !p.motion_allowed {
-                        tracing::warn!(
-                            node = p.node_id,
-                            "2005h holds no bit-rate code (130…135): the controller answers on \
-                             CAN but accepts no motion commands (Nanotec §1.1.3 step 7)"
-                        );
-                    }
-                    Some(p)
-                }
-                None => None,
-            };
-            let station = match d.keys.kinco_fd3().and_then(|k| k.dip_switches.as_ref()) {
-                Some(dip) => {
-                    let err = key_error(d, "dip_switches");
-                    // All OFF: the stored station number 2F80h:01 (§3.8).
-                    match dip.station().map_err(err)? {
-                        Some(s) => Some(s),
-                        None => match stored_u8(desc, d, 0x2F80, 1).map_err(err)? {
-                            s @ 1..=127 => Some(s),
-                            s => return Err(err(format!("station {s} from 2F80h:01"))),
+            let keys = device_keys::split(desc, d.eds.as_deref(), d.node, &d.rest, sections)
+                .map_err(|refusal| match refusal {
+                    KeyRefusal::Foreign(key) => ConfigError::ForeignKey {
+                        node: d.node,
+                        at: Box::new(ForeignKeyAt {
+                            file: self.path.clone(),
+                            device: desc.name.to_owned(),
+                            key,
+                        }),
+                    },
+                    KeyRefusal::Unreadable(what) => ConfigError::DriveKeys {
+                        file: self.path.clone(),
+                        what,
+                    },
+                })?;
+            let mut own = match keys.own {
+                Some((section, table)) => {
+                    let context = DriveContext { desc, drive: d };
+                    (section.read)(table, &context).map_err(|e| match e {
+                        device_keys::SectionError::Read(e) => ConfigError::DriveKeys {
+                            file: self.path.clone(),
+                            what: format!("drive {} ({}): {e}", d.node, desc.name),
                         },
-                    }
+                        device_keys::SectionError::Key { key, what } => ConfigError::Object {
+                            node: d.node,
+                            key: key.into(),
+                            what,
+                        },
+                    })?
                 }
-                None => None,
+                None => device_keys::OwnSettings::default(),
             };
-            let node = match (rotary, station) {
-                (Some(p), _) => p.node_id,
-                (None, Some(s)) => s,
-                (None, None) => {
-                    let written = match d.node_given {
-                        true => d.node,
-                        false => desc.default_node_id,
-                    };
-                    fieldbus.map_or(written, |f| f.node_id)
-                }
-            };
-            let (bit_rate, rate_object) = node_rate(desc, d, fieldbus, rotary)?;
+            let fieldbus = own.fieldbus;
+            let node = own.node.unwrap_or(match d.node_given {
+                true => d.node,
+                false => desc.default_node_id,
+            });
+            let (bit_rate, rate_object) = node_rate(desc, d, own.rate.take())?;
             let bus = self
                 .bus
                 .index(d.bus.as_deref())
@@ -202,26 +175,8 @@ impl CellFile {
                 }
                 (None, None) => (!is_fhpp(desc), None),
             };
-            let err = |key: &str, what: String| ConfigError::Object {
-                node: d.node,
-                key: key.into(),
-                what,
-            };
             let fhpp = if is_fhpp(desc) {
-                let unset = CmmoStKeys::default();
-                let k = d.keys.cmmo_st().unwrap_or(&unset);
-                let (stepper, mode) = k.stepper.stepper().map_err(|w| err("stepper", w))?;
-                let mechanics = k.axis.mechanics().map_err(|w| err("axis", w))?;
-                Some(FhppSpec {
-                    settings: FhppSettings {
-                        stepper,
-                        mode,
-                        mechanics,
-                        ..FhppSettings::default()
-                    },
-                    modbus: k.modbus.clone(),
-                    watchdog_ms: k.modbus_timeout_ms,
-                })
+                Some(own.fhpp.take().unwrap_or_default())
             } else {
                 // The CAN node-IDs of one bus are unique.
                 if specs
@@ -232,13 +187,6 @@ impl CellFile {
                 }
                 None
             };
-            let motor_type = d.keys.nanotec().and_then(|k| k.motor_type);
-            if motor_type.is_some() && !(is_cia402(desc) && desc.entry(0x2004, 7).is_some()) {
-                return Err(err(
-                    "motor_type",
-                    format!("{} has no motor type 2004h:07 (a Nanotec's)", desc.name),
-                ));
-            }
             let mut commissioning = Vec::new();
             if d.load.is_some() && !is_cia402(desc) {
                 return Err(ConfigError::Object {
@@ -252,7 +200,7 @@ impl CellFile {
             }
             let settings = if is_cia402(desc) {
                 let unset = Cia402Keys::default();
-                let k = d.keys.cia402.as_ref().unwrap_or(&unset);
+                let k = keys.cia402.as_ref().unwrap_or(&unset);
                 k.motor.check().map_err(|what| ConfigError::Object {
                     node: d.node,
                     key: "motor".into(),
@@ -283,17 +231,15 @@ impl CellFile {
                     }
                     s.mode_change_time = std::time::Duration::from_secs_f64(ms / 1000.0);
                 }
-                // NT-NODE-07: no bit-rate code in 2005h, the controller takes no motion
-                // command: modelled as a power stage that cannot be switched on.
-                if rotary.is_some_and(|p| !p.motion_allowed) {
+                // A drive that takes no motion command: a power stage that cannot be
+                // switched on.
+                if own.no_enables {
                     s.enables_present = false;
                 }
-                if let Some(t) = motor_type {
-                    if t != NanotecMotorType::Stepper {
-                        s.bldc = Some(drive::bldc::BldcData::default());
-                    }
-                    commissioning.extend(t.commissioning());
+                if own.bldc.is_some() {
+                    s.bldc = own.bldc;
                 }
+                commissioning.append(&mut own.commissioning);
                 Some(s)
             } else {
                 None
@@ -312,14 +258,7 @@ impl CellFile {
                 let bytes = encode_toml(e.data_type, value).map_err(err)?;
                 commissioning.push(Commissioning { index, sub, bytes });
             }
-            // §11.10: with a node-ID from the switches, 2009h reads the switch value.
-            if let Some(p) = rotary.filter(|p| p.node_id_from_switches) {
-                commissioning.push(Commissioning {
-                    index: 0x2009,
-                    sub: 0,
-                    bytes: vec![p.node_id],
-                });
-            }
+            commissioning.append(&mut own.commissioning_last);
             for p in &d.diagnostic {
                 let err = |what: &str| ConfigError::Diagnostic {
                     node,
@@ -353,6 +292,7 @@ impl CellFile {
                 fieldbus,
                 bit_rate,
                 rate_object,
+                ports: own.ports,
                 bus,
                 canopen,
                 ethercat,
@@ -365,49 +305,14 @@ impl CellFile {
     }
 }
 
-/// The error of drive `d`'s key `key`.
-fn key_error<'a>(d: &'a DriveSection, key: &'a str) -> impl Fn(String) -> ConfigError + Copy + 'a {
-    move |what| ConfigError::Object {
-        node: d.node,
-        key: key.into(),
-        what,
-    }
-}
-
-/// The value of an 8-bit entry at power-on: `[drive.objects]`'s, else the device's default.
-fn stored_u8(
-    desc: &od::DeviceDescription,
-    d: &DriveSection,
-    index: u16,
-    sub: u8,
-) -> Result<u8, String> {
-    let key = format!("{index:04X}:{sub:02X}");
-    match d
-        .objects
-        .iter()
-        .find(|(k, _)| parse_key(k) == Some((index, sub)))
-    {
-        Some((_, toml::Value::Integer(v))) => {
-            u8::try_from(*v).map_err(|_| format!("{key} = {v} is not a u8"))
-        }
-        Some(_) => Err(format!("{key} must be an integer")),
-        None => Ok(desc
-            .entry(index, sub)
-            .and_then(|e| e.default.first().copied())
-            .unwrap_or(0)),
-    }
-}
-
-/// The CAN bit rate a drive's switches and objects set ([`NodeRate`]): the CMMP-AS's
-/// switches, a Nanotec's rotary switches and 2005h, a Kinco FD3's 2F81h, a DCF's
-/// `[DeviceComissioning] Baudrate`; none for a device
-/// without CAN bit rates (its device file lists none) or without rules of its own. With it,
-/// the object that sets the rate, if one does.
+/// The CAN bit rate a drive's switches and objects set ([`NodeRate`]): a DCF's
+/// `[DeviceComissioning] Baudrate`; none for a device without CAN bit rates (its device file
+/// lists none); else its section's (`own`), or the object the device file's `can_bit_rate`
+/// names. With it, the object that sets the rate, if one does.
 fn node_rate(
-    desc: &od::DeviceDescription,
+    desc: &'static od::DeviceDescription,
     d: &DriveSection,
-    fieldbus: Option<FieldbusSettings>,
-    rotary: Option<drive::vendors::nanotec::rotary_switches::PowerOn>,
+    own: Option<OwnRate>,
 ) -> Result<(Option<NodeRate>, Option<RateObject>), ConfigError> {
     if let Some(rate) = crate::cell::eds_drive::bit_rate_of(desc) {
         return Ok((Some(NodeRate::dcf(&rate)), None));
@@ -415,25 +320,21 @@ fn node_rate(
     if desc.baud_rates.is_empty() {
         return Ok((None, None));
     }
-    let err = key_error(d, "objects");
-    let code = |index| -> Result<RateCode, ConfigError> {
-        let default = desc
-            .entry(index, 0)
-            .and_then(|e| e.default.first().copied())
-            .unwrap_or(0);
-        let set = d.objects.keys().any(|k| parse_key(k) == Some((index, 0)));
-        let value = stored_u8(desc, d, index, 0).map_err(err)?;
-        Ok(RateCode::new(default, set.then_some(value)))
-    };
-    let object = match Section::of(desc.name) {
-        Some(Section::CmmpAs) => {
-            let switches = d.keys.cmmp_as().and_then(|k| k.switches.as_ref());
-            let switches = fieldbus.zip(switches.map(SwitchesSection::rate_key));
-            return Ok((Some(NodeRate::cmmp_as(switches)), None));
+    let object = match (own, &desc.can_bit_rate) {
+        (Some(OwnRate::Fixed(rate)), _) => return Ok((Some(rate), None)),
+        (Some(OwnRate::Object(object)), _) => object,
+        (None, Some(codes)) => {
+            let context = DriveContext { desc, drive: d };
+            let code = context
+                .rate_code(codes.index)
+                .map_err(|what| ConfigError::Object {
+                    node: d.node,
+                    key: "objects".into(),
+                    what,
+                })?;
+            RateObject::of_device(codes, code)
         }
-        Some(Section::Nanotec) => RateObject::Nanotec(rotary, code(0x2005)?),
-        Some(Section::KincoFd3) => RateObject::Kinco(code(0x2F81)?),
-        _ => return Ok((None, None)),
+        (None, None) => return Ok((None, None)),
     };
     Ok((object.rate(), Some(object)))
 }

@@ -3,24 +3,19 @@
 //! cell: one CMMP-AS, node 1, heartbeat 1000 ms, socketcand on 127.0.0.1:29536.
 //!
 //! The file is `[[bus]]` tables ([`bus_section`]) and `[[drive]]` tables
-//! ([`drive_section`]): the keys every drive has, and flat beside them the keys of its device,
-//! each device's in a file of its own ([`cia402`] for every CiA 402 drive, [`cmmp_as`],
-//! [`nanotec`], [`kinco`], [`cmmo_st`]; which device has which: [`device_keys`]).
+//! ([`drive_section`]): the keys every drive has, and flat beside them the keys of its device:
+//! the CiA 402 keys of every CiA 402 drive ([`cia402`]) and the device's own section, which
+//! its vendor folder reads ([`device_keys::DeviceSection`], handed in as
+//! [`DeviceSections`]: `drivetwin::vendors::CELL_SECTIONS`). The runtime knows no vendor.
 //! [`CellFile::drives`] checks each drive against its device ([`DriveSpec`]).
 
 pub mod bus_section;
 pub mod cia402;
-pub mod cmmo_st;
-pub mod cmmp_as;
 pub mod device_keys;
 pub mod drive_section;
 mod drive_spec;
-pub mod kinco;
 pub mod load_fmu;
-pub mod nanotec;
 mod objects;
-#[cfg(test)]
-mod tests;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,13 +27,11 @@ use crate::cell::device_model::{is_cia402, is_fhpp};
 
 pub use bus_section::{BusSection, Buses, DisturbSection, DEFAULT_CHANNEL, DEFAULT_SOCKETCAND};
 pub use cia402::{Cia402Keys, MotorSection, TravelSection};
-pub use cmmo_st::{AxisSection, CmmoStKeys, FhppSpec, Fitted, StepperModeName, StepperSection};
-pub use cmmp_as::{CmmpAsKeys, SwitchVariant, SwitchesSection};
-pub use device_keys::{DeviceKeys, VendorKeys};
+pub use device_keys::{
+    DeviceSection, DeviceSections, DriveContext, Key, OwnRate, OwnSettings, Ports, SectionError,
+};
 pub use drive_section::{DriveSection, ThermalSection};
 pub use drive_spec::DriveSpec;
-pub use kinco::{DipSwitchesSection, KincoCd3Keys, KincoFd3Keys};
-pub use nanotec::{NanotecKeys, NanotecMotorType, RotarySwitchesSection};
 pub use objects::parse_key;
 
 /// The default cell commissions a heartbeat so a master that joins later sees the node.
@@ -62,14 +55,14 @@ pub enum ConfigError {
     Object { node: u8, key: String, what: String },
     /// A key of other devices on a drive whose device does not have it.
     #[error(
-        "drive {node} ({device}): `{}` is a key of the {}, not of this device: {device} has no {}",
-        key.key, key.owners, key.what
+        "{}drive {node} ({}): `{}` is a key of the {}, not of this device: {} has no {}",
+        in_file(&at.file), at.device, at.key.key, at.key.owners, at.device, at.key.what
     )]
-    ForeignKey {
-        node: u8,
-        device: String,
-        key: device_keys::ForeignKey,
-    },
+    ForeignKey { node: u8, at: Box<ForeignKeyAt> },
+    /// A drive's keys that do not read: a key of no device (as serde words an unknown
+    /// field), or a value of the wrong type; `what` names the drive.
+    #[error("{}{what}", in_file(file))]
+    DriveKeys { file: Option<PathBuf>, what: String },
     #[error("node-ID {0} is used twice")]
     DuplicateNode(u8),
     #[error("drive {0}: its switches select FHPP over CANopen (M0 DIN9 HIGH), which the twin does not simulate for the CMMP-AS")]
@@ -98,6 +91,30 @@ pub enum ConfigError {
     Eds(#[from] devdesc::eds::EdsError),
 }
 
+/// A key of other devices on a drive of `device`, in the cell file `file` (if read from one).
+#[derive(Debug)]
+pub struct ForeignKeyAt {
+    pub file: Option<PathBuf>,
+    pub device: String,
+    pub key: device_keys::ForeignKey,
+}
+
+/// `path: ` before a message about a cell file read from `path`.
+fn in_file(path: &Option<PathBuf>) -> String {
+    path.as_ref()
+        .map(|p| format!("{}: ", p.display()))
+        .unwrap_or_default()
+}
+
+/// How a CMMO-ST of the cell (an FHPP drive) is served and simulated.
+#[derive(Debug, Clone, Default)]
+pub struct FhppSpec {
+    pub settings: drive::vendors::FhppSettings,
+    /// Its Modbus TCP server address, if the cell file gives one.
+    pub modbus: Option<String>,
+    pub watchdog_ms: Option<u16>,
+}
+
 #[derive(Debug, Clone, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct CellFile {
@@ -110,11 +127,14 @@ pub struct CellFile {
     /// ([`crate::cell::ethercat_line`]).
     #[serde(default)]
     pub ethercat_line: Vec<crate::cell::ethercat_line::TimedLineAction>,
+    /// The file it was read from ([`CellFile::load`]), which its refusals name.
+    #[serde(skip)]
+    pub path: Option<PathBuf>,
 }
 
 /// A block of eight switches numbered from 1 with those of `on` ON (`[0]` is switch 1);
 /// `bad` names a number outside 1…8.
-pub(super) fn eight_switches(on: &[u8], bad: impl Fn(u8) -> String) -> Result<[bool; 8], String> {
+pub fn eight_switches(on: &[u8], bad: impl Fn(u8) -> String) -> Result<[bool; 8], String> {
     let mut block = [false; 8];
     for &n in on {
         let slot = usize::from(n)
@@ -145,6 +165,7 @@ impl CellFile {
                 load.fmu = dir.join(&load.fmu);
             }
         }
+        file.path = Some(path.to_path_buf());
         Ok(file)
     }
 
@@ -159,7 +180,6 @@ impl CellFile {
             d.node_given = node.is_some();
             d.device = drive_section::default_device();
             d.eds = Some(eds.to_path_buf());
-            d.keys = DeviceKeys::of_eds();
             if desc.entry(0x1017, 0).is_none() {
                 d.objects.clear();
             }
@@ -189,6 +209,7 @@ impl CellFile {
             bus: Buses::default(),
             drive: vec![drive],
             ethercat_line: Vec::new(),
+            path: None,
         }
     }
 }

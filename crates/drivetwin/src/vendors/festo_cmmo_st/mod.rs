@@ -1,8 +1,9 @@
 //! The Festo CMMO-ST (`drive::vendors::festo_cmmo_st`): its FHPP register image on Modbus
 //! TCP and what the runtime serves of it, its FHPP side on the console (the motion page's
-//! FHPP half, its own web server's pages), a master for its FHPP over Modbus TCP and its
-//! IO-Link device descriptions (IODD).
+//! FHPP half, its own web server's pages), a master for its FHPP over Modbus TCP, its IO-Link
+//! device descriptions (IODD) and its section of the cell file (stepper, axis, Modbus server).
 
+pub mod cell_section;
 pub mod fhpp_commands;
 pub mod fhpp_console;
 pub mod fhpp_master;

@@ -1,3 +1,5 @@
-//! The Festo CMMP-AS (`drive::vendors::festo_cmmp_as`): its CI terminal on a TCP port.
+//! The Festo CMMP-AS (`drive::vendors::festo_cmmp_as`): its CI terminal on a TCP port and its
+//! section of the cell file (switches, CI terminal).
 
+pub mod cell_section;
 pub mod ci_terminal;

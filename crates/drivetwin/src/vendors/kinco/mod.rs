@@ -6,8 +6,10 @@
 //! - [`rs232_line`]: the telegram protocol on a line, point to point, a ring, or on RS485;
 //! - [`rtu_line`]: Modbus RTU on an RS485 line, frames cut by the 3.5-character silence,
 //!   several drives by station number;
-//! - [`serial_lines`]: the lines of a cell from the drives' ports and their objects.
+//! - [`serial_lines`]: the lines of a cell from the drives' ports and their objects;
+//! - [`cell_section`]: the FD3's and the CD3's keys of a cell file (DIP switches, ports).
 
+pub mod cell_section;
 pub mod panel_page;
 pub mod rs232_commands;
 pub mod rs232_line;

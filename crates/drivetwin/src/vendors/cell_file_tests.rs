@@ -1,7 +1,9 @@
-//! The cell file's tests: travel, CMMO-ST, the examples, switches, bus rates.
+//! The cell file's tests with the devices' sections of [`super::CELL_SECTIONS`]: travel,
+//! CMMO-ST, the examples, switches, bus rates, the keys of each device.
 
-use super::*;
+use super::CELL_SECTIONS;
 use crate::cell::bus_rate::{self, BitrateSetting, BusRate};
+use crate::cell::config::*;
 use drive::stepper::{StepperData, StepperMode};
 use drive::travel::TravelSettings;
 use std::path::{Path, PathBuf};
@@ -14,7 +16,7 @@ mod travel_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives()
+        file.drives(CELL_SECTIONS)
     }
 
     #[test]
@@ -58,7 +60,7 @@ mod cmmo_st_tests {
 
     fn spec(text: &str) -> Result<Vec<DriveSpec>, String> {
         let file: CellFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        file.drives().map_err(|e| e.to_string())
+        file.drives(CELL_SECTIONS).map_err(|e| e.to_string())
     }
 
     #[test]
@@ -163,7 +165,7 @@ mod example_tests {
             if path.extension().is_some_and(|e| e == "toml") {
                 let file = CellFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
                 let drives = file
-                    .drives()
+                    .drives(CELL_SECTIONS)
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 assert!(!drives.is_empty(), "{}", path.display());
                 // Its buses' rates: named, or the nodes agree.
@@ -294,7 +296,7 @@ mod switches_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives()
+        file.drives(CELL_SECTIONS)
     }
 
     fn drive(switches: &str) -> Result<DriveSpec, ConfigError> {
@@ -376,7 +378,7 @@ mod bus_rate_tests {
 
     fn rates(text: &str) -> Result<Vec<BusRate>, ConfigError> {
         let f = file(text);
-        f.bus_rates(&f.drives()?)
+        f.bus_rates(&f.drives(CELL_SECTIONS)?)
     }
 
     fn timed(bitrate: u32, from_nodes: bool) -> BusRate {
@@ -392,7 +394,9 @@ mod bus_rate_tests {
     fn the_nodes_rate_without_a_bitrate() {
         let single = CellFile::single("cmmp-as", 1);
         assert_eq!(
-            single.bus_rates(&single.drives().unwrap()).unwrap(),
+            single
+                .bus_rates(&single.drives(CELL_SECTIONS).unwrap())
+                .unwrap(),
             [timed(125_000, true)]
         );
         assert_eq!(
@@ -468,7 +472,7 @@ mod bus_rate_tests {
         let mut f = file(mixed);
         f.set_bitrate(BitrateSetting::Instant);
         assert_eq!(
-            f.bus_rates(&f.drives().unwrap()).unwrap(),
+            f.bus_rates(&f.drives(CELL_SECTIONS).unwrap()).unwrap(),
             [BusRate::Instant]
         );
         let err = toml::from_str::<CellFile>("[bus]\nbitrate = \"fast\"\n").unwrap_err();
@@ -483,7 +487,7 @@ mod bus_rate_tests {
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {
             let text = format!("[[drive]]\ndevice = \"kinco-fd3\"\nnode = 9\n{section}\n");
-            file(&text).drives().map(|mut v| v.remove(0))
+            file(&text).drives(CELL_SECTIONS).map(|mut v| v.remove(0))
         };
         // KINCO-DIP-01: SW1 → 1.
         assert_eq!(fd3("[drive.dip_switches]\non = [1]").unwrap().node, 1);
@@ -514,7 +518,7 @@ mod bus_rate_tests {
         let d = fd3("[drive.dip_switches]\non = [1]\n[drive.objects]\n\"2F81:00\" = 25").unwrap();
         assert_eq!(d.bit_rate.map(|r| r.kbit), Some(250));
         let err = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\non = [1]\n")
-            .drives()
+            .drives(CELL_SECTIONS)
             .unwrap_err()
             .to_string();
         assert!(err.contains("no DIP switches"), "{err}");
@@ -523,8 +527,9 @@ mod bus_rate_tests {
 
 /// The keys of each device's section, and the refusal of another device's keys.
 mod device_keys_tests {
+    use super::super::{festo_cmmo_st, festo_cmmp_as, kinco, nanotec};
     use super::*;
-    use crate::cell::config::device_keys::{Section, DEVICE_SECTIONS};
+    use crate::cell::config::device_keys::{section_of, sections_of};
     use crate::cell::config::drive_section::COMMON_KEYS;
 
     fn file(text: &str) -> Result<CellFile, String> {
@@ -535,7 +540,10 @@ mod device_keys_tests {
         let f = file(&format!(
             "[[drive]]\ndevice = \"{device}\"\nnode = {node}\n{keys}\n"
         ))?;
-        let spec = f.drives().map_err(|e| e.to_string())?.remove(0);
+        let spec = f
+            .drives(CELL_SECTIONS)
+            .map_err(|e| e.to_string())?
+            .remove(0);
         Ok((f.drive[0].clone(), spec))
     }
 
@@ -551,7 +559,8 @@ mod device_keys_tests {
              [drive.travel]\nnegative_limit = -100000",
         )
         .unwrap();
-        assert_eq!(d.ci_terminal(), Some("127.0.0.1:29540"));
+        assert_eq!(s.ports.ci_terminal.as_deref(), Some("127.0.0.1:29540"));
+        assert!(d.rest.contains_key("ci_terminal"), "kept for its section");
         assert_eq!(s.node, 1, "the switches' node");
         let settings = s.settings.unwrap();
         assert_eq!(settings.motor.inertia, 2e-5);
@@ -573,7 +582,7 @@ mod device_keys_tests {
         let (_, s) = one("nanotec-pd4n", 9, "[drive.rotary_switches]\nswitch = 2").unwrap();
         assert_eq!(s.node, 2);
 
-        let (d, s) = one(
+        let (_, s) = one(
             "kinco-fd3",
             9,
             "rs232 = \"/tmp/ttyA\"\nrs485 = \"/tmp/ttyB\"\n[drive.dip_switches]\non = [1, 2]\n\
@@ -581,17 +590,20 @@ mod device_keys_tests {
         )
         .unwrap();
         assert_eq!(
-            (d.rs232(), d.rs485()),
+            (s.ports.rs232.as_deref(), s.ports.rs485.as_deref()),
             (Some("/tmp/ttyA"), Some("/tmp/ttyB"))
         );
         assert_eq!(s.node, 3);
-        let (d, _) = one(
+        let (_, s) = one(
             "kinco-cd3",
             1,
             "rs232 = \"/tmp/ttyC\"\nmode_change_time_ms = 0",
         )
         .unwrap();
-        assert_eq!((d.rs232(), d.rs485()), (Some("/tmp/ttyC"), None));
+        assert_eq!(
+            (s.ports.rs232.as_deref(), s.ports.rs485.as_deref()),
+            (Some("/tmp/ttyC"), None)
+        );
 
         let (_, s) = one(
             "cmmo-st",
@@ -608,14 +620,15 @@ mod device_keys_tests {
         assert_eq!(f.settings.mechanics.index_pulse, None);
 
         // The common keys on a device without keys of its own.
-        let (d, _) = one(
+        let (d, s) = one(
             "testbench",
             7,
             "bus = \"vcan0\"\ninterfaces = [\"canopen\"]\n[drive.objects]\n\"1017:00\" = 100\n\
              [drive.thermal]\nambient_c = 30.0",
         )
         .unwrap();
-        assert!(d.keys.cia402.is_none() && matches!(d.keys.vendor, VendorKeys::None));
+        assert!(d.rest.is_empty());
+        assert!(matches!(sections_of(s.desc, CELL_SECTIONS), (false, None)));
     }
 
     /// A key of another device is refused naming the drive, the key and the devices that have
@@ -663,7 +676,7 @@ mod device_keys_tests {
         }
         let f = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\n").unwrap();
         assert!(matches!(
-            f.drives(),
+            f.drives(CELL_SECTIONS),
             Err(ConfigError::ForeignKey { node: 1, .. })
         ));
     }
@@ -697,7 +710,7 @@ mod device_keys_tests {
             .join("../../tests/interop/data/eds/epos4_like.eds");
         let drive = |keys: &str| {
             let text = format!("[[drive]]\neds = {:?}\nnode = 6\n{keys}\n", eds.display());
-            file(&text).and_then(|f| f.drives().map_err(|e| e.to_string()))
+            file(&text).and_then(|f| f.drives(CELL_SECTIONS).map_err(|e| e.to_string()))
         };
         let s = drive("mode_change_time_ms = 1.0\n[drive.motor]\ninertia = 3e-5").unwrap();
         assert_eq!(s[0].settings.unwrap().motor.inertia, 3e-5);
@@ -759,26 +772,53 @@ mod device_keys_tests {
     #[test]
     fn the_tables_of_keys_are_the_sections() {
         assert_eq!(names(&cia402::KEYS), fields_of::<Cia402Keys>());
-        assert_eq!(names(&cmmp_as::KEYS), fields_of::<CmmpAsKeys>());
-        assert_eq!(names(&nanotec::KEYS), fields_of::<NanotecKeys>());
-        assert_eq!(names(&kinco::FD3_KEYS), fields_of::<KincoFd3Keys>());
-        assert_eq!(names(&kinco::CD3_KEYS), fields_of::<KincoCd3Keys>());
-        assert_eq!(names(&cmmo_st::KEYS), fields_of::<CmmoStKeys>());
-        for (device, section) in DEVICE_SECTIONS {
-            let desc = devices::by_name(device).expect(device);
-            for k in section.keys() {
-                assert!(!COMMON_KEYS.contains(&k.name), "{}", k.name);
-                assert!(
-                    !(crate::cell::device_model::is_cia402(desc)
-                        && cia402::KEYS.iter().any(|c| c.name == k.name)),
-                    "{device}: {}",
-                    k.name
+        use festo_cmmo_st::cell_section::CmmoStKeys;
+        use festo_cmmp_as::cell_section::CmmpAsKeys;
+        use kinco::cell_section::{KincoCd3Keys, KincoFd3Keys};
+        use nanotec::cell_section::NanotecKeys;
+        assert_eq!(
+            names(&festo_cmmp_as::cell_section::KEYS),
+            fields_of::<CmmpAsKeys>()
+        );
+        assert_eq!(
+            names(&nanotec::cell_section::KEYS),
+            fields_of::<NanotecKeys>()
+        );
+        assert_eq!(
+            names(&kinco::cell_section::FD3_KEYS),
+            fields_of::<KincoFd3Keys>()
+        );
+        assert_eq!(
+            names(&kinco::cell_section::CD3_KEYS),
+            fields_of::<KincoCd3Keys>()
+        );
+        assert_eq!(
+            names(&festo_cmmo_st::cell_section::KEYS),
+            fields_of::<CmmoStKeys>()
+        );
+        for section in CELL_SECTIONS {
+            for device in section.devices {
+                let desc = devices::by_name(device).expect(device);
+                assert_eq!(
+                    section_of(CELL_SECTIONS, device).map(|s| s.keys),
+                    Some(section.keys),
+                    "{device} is in one section"
                 );
+                for k in section.keys {
+                    assert!(!COMMON_KEYS.contains(&k.name), "{}", k.name);
+                    assert!(
+                        !(crate::cell::device_model::is_cia402(desc)
+                            && cia402::KEYS.iter().any(|c| c.name == k.name)),
+                        "{device}: {}",
+                        k.name
+                    );
+                }
             }
         }
         for desc in devices::ALL {
             assert!(
-                desc.profile == od::Profile::Plain || Section::of(desc.name).is_some(),
+                desc.profile == od::Profile::Plain
+                    || section_of(CELL_SECTIONS, desc.name).is_some(),
                 "{} has no section of keys",
                 desc.name
             );
@@ -789,7 +829,7 @@ mod device_keys_tests {
                    diagnostic = []\nplant = []\n[drive.objects]\n[drive.thermal]\n\
                    [drive.load]\nfmu = \"x.fmu\"\nload_torque = \"t\"\n";
         let f = file(all).unwrap();
-        assert!(f.drive[0].keys.foreign.is_empty());
+        assert!(f.drive[0].rest.is_empty());
         assert_eq!(COMMON_KEYS.len(), 12);
     }
 }

@@ -1,11 +1,29 @@
-//! The Kinco drives' keys of a `[[drive]]`: the FD3's DIP switches SW1…SW8 (§3.8) and the
-//! serial ports, RS232 on X3 (FD3, CD3) and RS485 on X10 (FD3), §1.1 Tab. 3-7.
+//! The Kinco drives' keys of a `[[drive]]` (their sections of the cell file,
+//! [`crate::cell::config::DeviceSection`]): the FD3's DIP switches SW1…SW8 (§3.8), which set
+//! its station number, and the serial ports, RS232 on X3 (FD3, CD3) and RS485 on X10 (FD3),
+//! §1.1 Tab. 3-7. The CAN bit rate is CAN_Baudrate 2F81h, whose codes are the device file's
+//! (`can_bit_rate`).
 
 use drive::vendors::kinco::dip_switches::{self as kinco_dip_switches, Station};
 use serde::Deserialize;
 
-use super::device_keys::Key;
-use super::eight_switches;
+use crate::cell::config::{
+    eight_switches, DeviceSection, DriveContext, Key, OwnSettings, Ports, SectionError,
+};
+
+/// The Kinco FD3's section.
+pub const FD3: DeviceSection = DeviceSection {
+    devices: &["kinco-fd3"],
+    keys: &FD3_KEYS,
+    read: read_fd3,
+};
+
+/// The Kinco CD3's section.
+pub const CD3: DeviceSection = DeviceSection {
+    devices: &["kinco-cd3"],
+    keys: &CD3_KEYS,
+    read: read_cd3,
+};
 
 /// The keys of a Kinco FD3.
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -64,7 +82,7 @@ pub struct DipSwitchesSection {
 
 impl DipSwitchesSection {
     /// The station number the switches select, or `None` for the stored one (all OFF).
-    pub(super) fn station(&self) -> Result<Option<u8>, String> {
+    pub fn station(&self) -> Result<Option<u8>, String> {
         let sw = eight_switches(&self.on, |n| format!("SW{n}: the FD3 has SW1…SW8"))?;
         match kinco_dip_switches::station(sw) {
             Station::Stored => Ok(None),
@@ -74,4 +92,44 @@ impl DipSwitchesSection {
             )),
         }
     }
+}
+
+/// Reads an FD3's keys: the DIP switches' station number, the serial ports.
+fn read_fd3(table: toml::Table, drive: &DriveContext<'_>) -> Result<OwnSettings, SectionError> {
+    let keys = KincoFd3Keys::deserialize(toml::Value::Table(table))?;
+    let node = match &keys.dip_switches {
+        Some(dip) => {
+            let err = SectionError::key("dip_switches");
+            // All OFF: the stored station number 2F80h:01 (§3.8).
+            match dip.station().map_err(err)? {
+                Some(s) => Some(s),
+                None => match drive.stored_u8(0x2F80, 1).map_err(err)? {
+                    s @ 1..=127 => Some(s),
+                    s => return Err(err(format!("station {s} from 2F80h:01"))),
+                },
+            }
+        }
+        None => None,
+    };
+    Ok(OwnSettings {
+        node,
+        ports: Ports {
+            rs232: keys.rs232,
+            rs485: keys.rs485,
+            ..Ports::default()
+        },
+        ..OwnSettings::default()
+    })
+}
+
+/// Reads a CD3's keys: its RS232 port.
+fn read_cd3(table: toml::Table, _: &DriveContext<'_>) -> Result<OwnSettings, SectionError> {
+    let keys = KincoCd3Keys::deserialize(toml::Value::Table(table))?;
+    Ok(OwnSettings {
+        ports: Ports {
+            rs232: keys.rs232,
+            ..Ports::default()
+        },
+        ..OwnSettings::default()
+    })
 }

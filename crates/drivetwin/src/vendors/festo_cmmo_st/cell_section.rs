@@ -1,12 +1,20 @@
-//! The CMMO-ST's keys of a `[[drive]]`: its Modbus TCP server (`modbus`,
+//! The CMMO-ST's keys of a `[[drive]]` (its section of the cell file,
+//! [`crate::cell::config::DeviceSection`]): its Modbus TCP server (`modbus`,
 //! `modbus_timeout_ms`), its stepper motor (`[drive.stepper]`) and its axis (`[drive.axis]`).
 
 use serde::Deserialize;
 
-use super::device_keys::Key;
+use crate::cell::config::{DeviceSection, DriveContext, FhppSpec, Key, OwnSettings, SectionError};
 use drive::stepper::{StepperData, StepperMode};
 use drive::vendors::festo_cmmo_st::axis_mechanics::AxisMechanics;
 use drive::vendors::festo_cmmo_st::device::FhppSettings;
+
+/// The CMMO-ST's section.
+pub const SECTION: DeviceSection = DeviceSection {
+    devices: &["cmmo-st"],
+    keys: &KEYS,
+    read,
+};
 
 /// The keys only a CMMO-ST has.
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -44,6 +52,26 @@ pub const KEYS: [Key; 4] = [
         what: "axis section in revolutions (the CMMO-ST's [drive.axis])",
     },
 ];
+
+/// Reads a CMMO-ST's keys: how it is simulated (stepper, axis) and served (Modbus TCP).
+fn read(table: toml::Table, _: &DriveContext<'_>) -> Result<OwnSettings, SectionError> {
+    let k = CmmoStKeys::deserialize(toml::Value::Table(table))?;
+    let (stepper, mode) = k.stepper.stepper().map_err(SectionError::key("stepper"))?;
+    let mechanics = k.axis.mechanics().map_err(SectionError::key("axis"))?;
+    Ok(OwnSettings {
+        fhpp: Some(FhppSpec {
+            settings: FhppSettings {
+                stepper,
+                mode,
+                mechanics,
+                ..FhppSettings::default()
+            },
+            modbus: k.modbus,
+            watchdog_ms: k.modbus_timeout_ms,
+        }),
+        ..OwnSettings::default()
+    })
+}
 
 /// `[drive.stepper]`: the CMMO-ST's motor and load; unset fields keep the defaults of
 /// [`StepperData`] (an EMMS-ST-42-class motor with a light load, closed loop).
@@ -182,13 +210,4 @@ impl AxisSection {
             index_pulse,
         })
     }
-}
-
-/// How a CMMO-ST of the cell is served and simulated.
-#[derive(Debug, Clone)]
-pub struct FhppSpec {
-    pub settings: FhppSettings,
-    /// Its Modbus TCP server address, if the cell file gives one.
-    pub modbus: Option<String>,
-    pub watchdog_ms: Option<u16>,
 }

@@ -1,12 +1,23 @@
-//! The CMMP-AS's keys of a `[[drive]]`: its fieldbus switches (`[drive.switches]`, manual
-//! §2.3–2.4) and its CI terminal (`ci_terminal`, §3.2.3).
+//! The CMMP-AS's keys of a `[[drive]]` (its section of the cell file,
+//! [`crate::cell::config::DeviceSection`]): its fieldbus switches (`[drive.switches]`, manual
+//! §2.3–2.4), which set node number, bit rate and CAN activation, and its CI terminal
+//! (`ci_terminal`, §3.2.3).
 
 use serde::Deserialize;
 
-use super::device_keys::Key;
-use super::eight_switches;
+use crate::cell::bus_rate::NodeRate;
+use crate::cell::config::{
+    eight_switches, DeviceSection, DriveContext, Key, OwnRate, OwnSettings, Ports, SectionError,
+};
 use crate::cell::fieldbus_switches::{
     m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, BIT_RATES_KBIT,
+};
+
+/// The CMMP-AS's section.
+pub const SECTION: DeviceSection = DeviceSection {
+    devices: &["cmmp-as"],
+    keys: &KEYS,
+    read,
 };
 
 /// The keys only a CMMP-AS has.
@@ -68,9 +79,51 @@ pub enum SwitchVariant {
     M0,
 }
 
+/// Reads a CMMP-AS's keys: the switches' node-ID and bit rate, the CI terminal.
+fn read(table: toml::Table, drive: &DriveContext<'_>) -> Result<OwnSettings, SectionError> {
+    let keys = CmmpAsKeys::deserialize(toml::Value::Table(table))?;
+    let fieldbus = match &keys.switches {
+        Some(sw) => {
+            let err = SectionError::key("switches");
+            if !drive.desc.fieldbus_switches {
+                return Err(err(format!("{} has no CMMP-AS switches", drive.desc.name)));
+            }
+            Some(sw.settings().map_err(err)?)
+        }
+        None => None,
+    };
+    let switches = fieldbus.zip(keys.switches.as_ref().map(SwitchesSection::rate_key));
+    Ok(OwnSettings {
+        node: fieldbus.map(|f| f.node_id),
+        fieldbus,
+        rate: Some(OwnRate::Fixed(node_rate(switches))),
+        ports: Ports {
+            ci_terminal: keys.ci_terminal,
+            ..Ports::default()
+        },
+        ..OwnSettings::default()
+    })
+}
+
+/// A CMMP-AS's bit rate: its `[drive.switches]` (`key` names the switches or inputs that set
+/// the rate), or without them an M3 whose block S1 has only DIP8 (CANopen on) ON.
+///
+/// Decision: the manual prints no delivery state of S1 (Tab. 2.3–2.5). A drive without
+/// `[drive.switches]` is taken as DIP6/DIP7 OFF, 125 kbit/s: the untouched position, and the
+/// slowest rate the drive offers, so the twin is never faster than a real one.
+pub fn node_rate(switches: Option<(FieldbusSettings, &str)>) -> NodeRate {
+    match switches {
+        Some((f, key)) => NodeRate::new(f.bit_rate_kbit, key),
+        None => NodeRate::new(
+            125,
+            "[drive.switches] (none: DIP6/DIP7 OFF, CMMP-AS Tab. 2.4)",
+        ),
+    }
+}
+
 impl SwitchesSection {
     /// What sets the bit rate, for messages: the switches, the inputs or FCT.
-    pub(super) fn rate_key(&self) -> &'static str {
+    fn rate_key(&self) -> &'static str {
         match (self.variant, self.via_din) {
             (SwitchVariant::M3, _) => "[drive.switches] DIP6/DIP7",
             (SwitchVariant::M0, true) => "[drive.switches] DIN12/DIN13",
@@ -118,5 +171,29 @@ impl SwitchesSection {
                 )
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The factory rate: a CMMP-AS without switches runs at 125 kbit/s.
+    #[test]
+    fn without_switches_125_kbit() {
+        assert_eq!(node_rate(None).kbit, 125);
+    }
+
+    /// CMMP-NODE-05 through the rate: DIP6/DIP7 ON/ON is 1 Mbit/s, named by the key.
+    #[test]
+    fn cmmp_as_switches_give_the_rate() {
+        let mut dip = [false; 8];
+        dip[5] = true;
+        dip[6] = true;
+        let r = node_rate(Some((m3_power_on(0, dip), "[drive.switches] DIP6/DIP7")));
+        assert_eq!(
+            (r.kbit, r.set_by.as_str()),
+            (1000, "[drive.switches] DIP6/DIP7")
+        );
     }
 }
