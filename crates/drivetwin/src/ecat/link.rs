@@ -114,7 +114,7 @@ pub fn open_raw(interface: &str) -> io::Result<OwnedFd> {
 /// sockets (mio) and reads it until it would block; an answer is sent at once.
 ///
 /// Frames are read from a receive ring shared with the kernel
-/// ([`crate::sys::packet_socket::RxRing`]) where one can be set up: the answer's path then
+/// (`sys::packet_socket::RxRing`) where one can be set up: the answer's path then
 /// has the poll's wake-up and the `send` as its only system calls, as a blocking echo has.
 /// Without one (another OS, a kernel that refuses) each frame is a `recvfrom`.
 #[derive(Debug)]
