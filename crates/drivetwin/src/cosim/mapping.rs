@@ -6,8 +6,9 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-/// A drive's load FMU and its variables.
-#[derive(Debug, Clone, PartialEq, Default)]
+/// A drive's load FMU and its variables: as the cell file's `[drive.load]` writes them.
+#[derive(Debug, Clone, PartialEq, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LoadMapping {
     /// The FMU archive (`.fmu`).
     pub fmu: PathBuf,
@@ -23,8 +24,11 @@ pub struct LoadMapping {
     pub position: Option<String>,
     /// Boolean outputs → the drive's switches, by the switch's name (`home`,
     /// `limit_positive`, `limit_negative`): switch name → FMU variable.
+    #[serde(default)]
     pub switches: BTreeMap<String, String>,
-    /// Float64 parameters set before the FMU is initialised: FMU variable → value.
+    /// Float64 parameters set before the FMU is initialised: FMU variable → value
+    /// (`[drive.load.parameters]`).
+    #[serde(default)]
     pub parameters: BTreeMap<String, f64>,
 }
 

@@ -298,7 +298,7 @@ impl CellFile {
                 ethercat,
                 diagnostics: d.diagnostic.clone(),
                 physics,
-                load: d.load.as_ref().map(|l| l.mapping()),
+                load: d.load.clone(),
             });
         }
         Ok(specs)

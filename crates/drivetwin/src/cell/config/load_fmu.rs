@@ -15,46 +15,11 @@
 //! mass = 0.8
 //! ```
 
-use std::collections::BTreeMap;
-use std::path::PathBuf;
-
-use serde::Deserialize;
-
 use crate::cosim::mapping::LoadMapping;
 
-/// `[drive.load]` as written.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct LoadSection {
-    pub fmu: PathBuf,
-    pub torque: Option<String>,
-    pub speed: Option<String>,
-    pub angle: Option<String>,
-    pub load_torque: String,
-    pub position: Option<String>,
-    #[serde(default)]
-    pub switches: BTreeMap<String, String>,
-    /// `[drive.load.parameters]`: the FMU's Float64 parameters, set before it initialises.
-    #[serde(default)]
-    pub parameters: BTreeMap<String, f64>,
-}
-
-impl LoadSection {
-    /// The mapping it names (its FMU is opened, and its variables checked, when the cell is
-    /// built).
-    pub fn mapping(&self) -> LoadMapping {
-        LoadMapping {
-            fmu: self.fmu.clone(),
-            torque: self.torque.clone(),
-            speed: self.speed.clone(),
-            angle: self.angle.clone(),
-            load_torque: self.load_torque.clone(),
-            position: self.position.clone(),
-            switches: self.switches.clone(),
-            parameters: self.parameters.clone(),
-        }
-    }
-}
+/// `[drive.load]` as written: the mapping itself (its FMU is opened, and its variables
+/// checked, when the cell is built).
+pub type LoadSection = LoadMapping;
 
 #[cfg(test)]
 mod tests {
@@ -69,7 +34,7 @@ mod tests {
              [drive.load.switches]\nhome = \"barrier\"\n[drive.load.parameters]\nmass = 2.0\n",
         )
         .unwrap();
-        let m = f.drive[0].load.as_ref().unwrap().mapping();
+        let m = f.drive[0].load.clone().unwrap();
         assert_eq!(m.speed.as_deref(), Some("w"));
         assert_eq!(m.load_torque, "t");
         assert_eq!(m.switches["home"], "barrier");
