@@ -24,7 +24,8 @@ of the cycles, no wrong working counter, resident memory must be flat after the 
 must have served 99 % of its due timers within --max-late-ms (the twin prints its lateness
 figures when it stops).
 
-  scripts/soak.py --seconds 120                 # the test command's run
+  scripts/soak.py --seconds 30                  # the test command's run
+  scripts/soak.py --seconds 120                 # the default
   scripts/soak.py --seconds 3600 --report docs/soak-report.md
   scripts/soak 3600                             # the same, report into docs/soak-report.md
 """
@@ -65,6 +66,14 @@ def tenths(samples: list, seconds: float) -> list:
         return []
     picked = [min(samples, key=lambda s: abs(s[0] - seconds * k / 10)) for k in range(1, 11)]
     return [(t, kib) for t, kib, _ in picked]
+
+
+def progress_shown(stderr_is_terminal: bool, ci: str | None) -> bool:
+    """Progress is drawn only for a person at a terminal: standard error is one and `CI` is
+    unset, empty, 0 or false (the rule of the binary's progress bars, commands/progress.rs;
+    CI runners that give jobs a pseudo-terminal set CI)."""
+    in_ci = ci is not None and ci.strip() not in ("", "0", "false")
+    return stderr_is_terminal and not in_ci
 
 
 def rss_kib(pid: int) -> int:
@@ -467,7 +476,7 @@ ethercat = "{pair[0]}"
         t.start()
     samples = []
     # Progress on a terminal (one line, rewritten each second); nothing in CI or a log.
-    progress = sys.stderr.isatty()
+    progress = progress_shown(sys.stderr.isatty(), os.environ.get("CI"))
     t0 = time.monotonic()
     while time.monotonic() - t0 < args.seconds and twin.poll() is None:
         samples.append((time.monotonic() - t0, rss_kib(twin.pid), fds(twin.pid)))

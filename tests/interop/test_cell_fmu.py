@@ -7,6 +7,7 @@ model: the same trajectory as the same cell and start run natively on the virtua
 from __future__ import annotations
 
 import csv
+import os
 import subprocess
 
 import numpy as np
@@ -19,7 +20,11 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 CELL = REPO_ROOT / "examples" / "cell_fmu" / "cell.toml"
 START = REPO_ROOT / "examples" / "cell_fmu" / "start.toml"
-LIBRARY = REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
+# The library of the profile the binary under test was built with (target/release, or
+# target/dist when the test command runs the tests on the dist binary).
+_BUILT = DRIVETWIN_BIN.resolve().parent
+PROFILE = _BUILT.name if _BUILT.parent == REPO_ROOT.resolve() / "target" else "release"
+LIBRARY = REPO_ROOT / "target" / PROFILE / "libdrivetwin_cell.so"
 LOAD_AT = 1.0
 LOAD_NM = 0.5
 STOP = 5.0
@@ -30,7 +35,8 @@ STEP = 1e-3
 def cell_fmu(tmp_path_factory):
     """The example cell packed by the binary under test, with crates/cell-fmu's library built
     from source (scripts/cell-fmu; a no-op rebuild when it is)."""
-    subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT)
+    subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT,
+                   env={**os.environ, "CELL_FMU_PROFILE": PROFILE})
     out = tmp_path_factory.mktemp("cell_fmu") / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(CELL), "--scenario", str(START),
