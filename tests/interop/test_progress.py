@@ -89,3 +89,25 @@ def test_scan_on_a_terminal_outside_ci_turns_a_spinner_and_prints_the_same(cmmp)
     assert b"nodes answered" in tty, tty
     code, out, tty = stderr_on_a_terminal(args, env_without_ci(CI="1"))
     assert code == 0 and out.decode() == piped.stdout and tty == b"", tty
+
+
+def test_on_a_terminal_a_log_line_never_shares_its_line_with_the_bar():
+    """The cells log while the bar is drawn (a heartbeat lost at power-on in each file): each
+    log line starts on a line of its own, the bar cleared before it and drawn again after."""
+    files = FILES * 3  # more lines, each logged between two draws of the bar
+    code, out, tty = stderr_on_a_terminal(["scenario", *files], env_without_ci())
+    assert code == 0
+    stamps = [m.start() for m in re.finditer(rb"\d{4}-\d\d-\d\dT[\d:.]+Z", tty)]
+    assert stamps, f"the scenarios logged nothing: {tty!r}"
+    assert b"scenario " in tty, tty
+    for at in stamps:
+        line = tty[: at].rsplit(b"\n", 1)[-1]
+        # What the terminal still shows before the log line on its line: nothing after the
+        # last carriage return or line clear (colour codes aside).
+        shown = re.sub(rb"\x1b\[[0-9;]*m", b"", re.split(rb"\r|\x1b\[2K", line)[-1])
+        assert shown == b"", f"a log line after {shown!r} on one line: {tty[max(0, at - 120): at + 80]!r}"
+    # The log lines are the piped run's, and the bar ends drawn to the end and cleared.
+    piped = run_cli("scenario", *files, timeout=120)
+    assert out.decode() == piped.stdout
+    assert len(stamps) == len(re.findall(r"\d{4}-\d\d-\d\dT[\d:.]+Z", piped.stderr)), piped.stderr
+    assert f" {len(files)}/{len(files)} ".encode() in tty and tty.endswith(b"\r\x1b[2K"), tty[-200:]

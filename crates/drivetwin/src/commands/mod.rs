@@ -154,7 +154,7 @@ mod fmu;
 mod lss;
 mod network;
 mod pdo;
-mod progress;
+pub(crate) mod progress;
 mod record;
 mod run;
 mod scenario;
