@@ -13,6 +13,12 @@ the lateness histogram covers the whole run.
 
     DRIVETWIN_BIN=target/release/drivetwin python3 scripts/console_tabs.py [--rounds 3]
         [--seconds 15] [--tabs 5] [--rt-priority 80]
+
+Beside the lateness each run prints what the load and the machine's other work cannot blur:
+the loop thread's (`cell`) wake-ups per second (voluntary context switches), the times it was
+preempted per second (involuntary ones) and its CPU; the console's threads' CPU (`web`,
+`web-worker`); and the browser's CPU (every process below this one but the twin), each over
+the steady part of the run (after the tabs loaded), in percent of one CPU.
 """
 
 from __future__ import annotations
@@ -85,6 +91,58 @@ class Twin:
         return line.removeprefix("cell loop: ")
 
 
+TICK = os.sysconf("SC_CLK_TCK")
+
+
+def threads_of(pid: int) -> dict[str, list[int]]:
+    """Per thread name: [voluntary switches, involuntary switches, CPU ticks], summed."""
+    out: dict[str, list[int]] = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            name = Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
+            status = Path(f"/proc/{pid}/task/{tid}/status").read_text()
+            stat = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        vol = int(re.search(r"^voluntary_ctxt_switches:\s*(\d+)", status, re.M).group(1))
+        invol = int(re.search(r"^nonvoluntary_ctxt_switches:\s*(\d+)", status, re.M).group(1))
+        cpu = int(stat[11]) + int(stat[12])  # utime, stime
+        key = "web" if name.startswith("web") else name
+        acc = out.setdefault(key, [0, 0, 0])
+        for i, v in enumerate((vol, invol, cpu)):
+            acc[i] += v
+    return out
+
+
+def descendants_cpu(root: int, leave_out: int) -> int:
+    """CPU ticks of every process below `root` (the browser and its driver), `leave_out`'s
+    tree excepted."""
+    parent: dict[int, int] = {}
+    ticks: dict[int, int] = {}
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            f = Path(f"/proc/{d}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        parent[int(d)] = int(f[1])
+        ticks[int(d)] = int(f[11]) + int(f[12])
+    total = 0
+    for pid, t in ticks.items():
+        p, mine = pid, False
+        while p in parent and p > 1:
+            if p == leave_out:
+                break
+            if parent[p] == root:
+                mine = p != leave_out
+                break
+            p = parent[p]
+        if mine:
+            total += t
+    return total
+
+
 def mover(url: str, stop: threading.Event) -> None:
     """Drive 0 back and forth, one relative move each second."""
     call(url + "api/drives/0/motion/enable", "POST")
@@ -95,6 +153,31 @@ def mover(url: str, stop: threading.Event) -> None:
         except Exception:  # noqa: BLE001  (a move refused while the last one runs: next second)
             pass
         sign = -sign
+
+
+class Steady:
+    """The loop's, the console's and the browser's figures from now to `figures()`."""
+
+    def __init__(self, twin: int):
+        self.twin = twin
+        self.t0 = time.monotonic()
+        self.threads = threads_of(twin)
+        self.browser = descendants_cpu(os.getpid(), twin)
+
+    def figures(self) -> dict:
+        dt = time.monotonic() - self.t0
+        now = threads_of(self.twin)
+        browser = descendants_cpu(os.getpid(), self.twin)
+        d = {k: [b - a for a, b in zip(self.threads.get(k, [0, 0, 0]), v)] for k, v in now.items()}
+        cell = d.get("cell", [0, 0, 0])
+        pct = lambda ticks: round(100 * ticks / TICK / dt, 1)  # noqa: E731
+        return {
+            "loop_wakeups_per_s": round(cell[0] / dt),
+            "loop_preempted_per_s": round(cell[1] / dt),
+            "loop_cpu_pct": pct(cell[2]),
+            "console_cpu_pct": pct(d.get("web", [0, 0, 0])[2]),
+            "browser_cpu_pct": pct(browser - self.browser),
+        }
 
 
 def one_run(binary: str, cell: Path, seconds: float, tabs: int, rt: int | None) -> tuple[str, dict]:
@@ -120,11 +203,16 @@ def one_run(binary: str, cell: Path, seconds: float, tabs: int, rt: int | None) 
                     page.select_option("#scope-rate", "1000")
                     pages.append(page)
                 info["load_s"] = round(time.monotonic() - t0, 2)
-                time.sleep(max(0.0, seconds - (time.monotonic() - start)))
+                steady = Steady(twin.proc.pid)
+                time.sleep(max(1.0, seconds - (time.monotonic() - start)))
+                info.update(steady.figures())
                 info["scope_samples"] = [p.evaluate("(window.scope.buffers.get(0) || []).length") for p in pages]
                 ctx.close()
         else:
-            time.sleep(seconds)
+            time.sleep(min(2.0, seconds / 4))
+            steady = Steady(twin.proc.pid)
+            time.sleep(max(1.0, seconds - (time.monotonic() - start)))
+            info.update(steady.figures())
         info["run_s"] = round(time.monotonic() - start, 1)
     finally:
         stop.set()

@@ -107,11 +107,13 @@ impl CellLoop {
                     samples,
                     reply,
                 } => {
+                    let every = every.max(Duration::from_micros(100));
+                    let next = first_due(self.origin, every, now);
                     let done = self.sample(drive, now).map(|_| {
                         self.subscriptions.push(Subscription {
                             drive,
-                            every: every.max(Duration::from_micros(100)),
-                            next: now,
+                            every,
+                            next,
                             objects: Vec::new(),
                             sink: SampleSink::Plant(samples),
                         });
@@ -146,11 +148,13 @@ impl CellLoop {
                     samples,
                     reply,
                 } => {
+                    let every = every.max(Duration::from_micros(100));
+                    let next = first_due(self.origin, every, now);
                     let done = self.sample(drive, now).map(|_| {
                         self.subscriptions.push(Subscription {
                             drive,
-                            every: every.max(Duration::from_micros(100)),
-                            next: now,
+                            every,
+                            next,
                             objects,
                             sink: SampleSink::Objects(samples),
                         });
@@ -270,6 +274,8 @@ impl CellLoop {
     pub(super) fn samples(&mut self, now: Instant) {
         use crate::cell::control::{ObjectsSample, SampledValue, MAX_SAMPLED_OBJECTS};
         use std::sync::mpsc::TrySendError;
+        // Subscriptions of one drive due at one turn (tabs on its scope) share its sample.
+        let mut taken: Option<(usize, PlantSample)> = None;
         let mut i = 0;
         while i < self.subscriptions.len() {
             let Some(sub) = self.subscriptions.get(i) else {
@@ -285,7 +291,13 @@ impl CellLoop {
             for (w, o) in wanted.iter_mut().zip(sub.objects.iter()) {
                 *w = *o;
             }
-            let plant = self.sample(drive, now);
+            let plant = match taken {
+                Some((d, p)) if d == drive => Ok(p),
+                _ => self.sample(drive, now),
+            };
+            if let Ok(p) = plant {
+                taken = Some((drive, p));
+            }
             let mut values = [SampledValue::default(); MAX_SAMPLED_OBJECTS];
             if plant.is_ok() {
                 for (v, (index, sub)) in values.iter_mut().zip(wanted.iter()).take(n) {
@@ -492,16 +504,34 @@ enum Target<'a> {
     Modbus(&'a mut dyn crate::cell::modbus_device::ModbusDevice),
 }
 
+/// The first sample time of a subscription: the next multiple of its period on the cell's
+/// clock. Subscriptions of one period (five browser tabs on a scope at 1 kHz) are then due at
+/// the same instants and served in one wake-up of the loop, instead of one wake-up each at the
+/// phase each happened to subscribe at.
+fn first_due(origin: Instant, every: Duration, now: Instant) -> Instant {
+    let since = now.saturating_duration_since(origin).as_nanos();
+    let period = every.as_nanos().max(1);
+    let periods = since.div_ceil(period);
+    let at =
+        Duration::from_nanos(u64::try_from(periods.saturating_mul(period)).unwrap_or(u64::MAX));
+    origin.checked_add(at).unwrap_or(now)
+}
+
 /// The next sample time of a subscription: one period after the last due time, so that the
 /// loop's lateness does not stretch the period (1 kHz stays 1 kHz); after a stall of more
-/// than a period the missed samples are skipped, not sent in a burst.
+/// than a period the missed samples are skipped, not sent in a burst, and the next stays on
+/// the subscription's grid of periods ([`first_due`]).
 fn next_due(due: Instant, every: Duration, now: Instant) -> Instant {
     let next = due + every;
-    if next <= now {
-        now + every
-    } else {
-        next
+    if next > now {
+        return next;
     }
+    let behind = now.saturating_duration_since(next).as_nanos();
+    let period = every.as_nanos().max(1);
+    let skipped = behind / period + 1;
+    let ahead =
+        Duration::from_nanos(u64::try_from(skipped.saturating_mul(period)).unwrap_or(u64::MAX));
+    next.checked_add(ahead).unwrap_or(now + every)
 }
 
 #[cfg(test)]
@@ -519,5 +549,33 @@ mod tests {
         );
         // Served 5 ms late: the missed ones are skipped.
         assert_eq!(next_due(t0 + ms, ms, t0 + 6 * ms), t0 + 7 * ms);
+        // Served 5.3 ms late: skipped up to the grid's next instant, not 1 ms after `now`.
+        let late = t0 + 6 * ms + Duration::from_micros(300);
+        assert_eq!(next_due(t0 + ms, ms, late), t0 + 7 * ms);
+    }
+
+    #[test]
+    fn subscriptions_of_one_period_share_their_due_times() {
+        let origin = Instant::now();
+        let ms = Duration::from_millis(1);
+        let us = Duration::from_micros(1);
+        // Tabs that subscribed at 3.2 ms, 3.9 ms and 4.0 ms are all first due at 4 ms.
+        for at in [3200 * us, 3900 * us, 4 * ms] {
+            assert_eq!(first_due(origin, ms, origin + at), origin + 4 * ms);
+        }
+        // Each is then due on the same grid, late or not.
+        let mut a = first_due(origin, ms, origin + 3200 * us);
+        let mut b = first_due(origin, ms, origin + 3900 * us);
+        for now in [4 * ms + 30 * us, 5 * ms + 700 * us, 9 * ms + 100 * us] {
+            a = next_due(a, ms, origin + now);
+            b = next_due(b, ms, origin + now);
+            assert_eq!(a, b);
+            assert_eq!(a.duration_since(origin).as_nanos() % ms.as_nanos(), 0);
+        }
+        // A 2 ms subscription lands on every other of the 1 ms instants.
+        assert_eq!(
+            first_due(origin, 2 * ms, origin + 3200 * us),
+            origin + 4 * ms
+        );
     }
 }

@@ -16,7 +16,7 @@
 //! - [`packet_socket`]: `AF_PACKET` sockets for one EtherType;
 //! - [`tcp`]: socket options and non-blocking calls on TCP connections;
 //! - [`pty`] and [`termios`]: pseudo-terminals and serial devices;
-//! - [`sched`]: real-time scheduling of a thread;
+//! - [`sched`]: real-time or batch scheduling of a thread;
 //! - [`timer`]: sub-millisecond one-shot timers a poll waits for.
 
 pub mod fd;

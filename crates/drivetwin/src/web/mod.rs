@@ -182,11 +182,18 @@ pub fn start(
     }))
 }
 
-/// The console's own runtime: two workers, so a slow browser never holds up the API.
+/// The console's own runtime: two workers, so a slow browser never holds up the API. Its
+/// threads run `SCHED_BATCH` ([`crate::sys::sched::set_batch`]): the samples and pages they
+/// serve to the browsers' tabs wake them often, and those wake-ups must not take the CPU from
+/// the cell loop; where the policy cannot be set they run as they are.
 fn serve(listener: TcpListener, state: AppState) {
+    let _ = crate::sys::sched::set_batch();
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .thread_name("web-worker")
+        .on_thread_start(|| {
+            let _ = crate::sys::sched::set_batch();
+        })
         .enable_all()
         .build()
     {

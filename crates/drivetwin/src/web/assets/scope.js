@@ -324,20 +324,23 @@
   function setPaused(p) {
     cs().paused = p;
     q("#pause").textContent = p ? "Run" : "Pause";
+    scope.dirty = true; // paused, the plot holds the whole buffer (liveFrom)
   }
 
   // -------------------------------------------------------------------------------- data
 
-  // The samples shown: the trace file opened, the capture, or the whole buffer; as uPlot's
-  // aligned columns (the cell's clock, then one column per trace).
-  function columns() {
+  // The samples shown: the trace file opened, the capture, or the whole buffer (from `from`
+  // on the cell's clock, when given); as uPlot's aligned columns (the cell's clock, then one
+  // column per trace).
+  function columns(from = -Infinity) {
     if (scope.loaded) return scope.loaded.data;
     const c = cs();
     const src = c.capture && q("#trig-signal").value ? c.capture.byDrive : scope.buffers;
     const tables = [];
     const order = [];
-    for (const [drive, samples] of src) {
+    for (const [drive, all] of src) {
       const ts = scope.traces.filter((t) => t.drive === drive);
+      const samples = from === -Infinity ? all : all.slice(firstAt(all, from));
       if (!ts.length || !samples.length) continue;
       tables.push([samples.map((p) => p.t), ...ts.map((t) => samples.map((p) => t.get(p)))]);
       order.push(...ts);
@@ -346,6 +349,30 @@
     const joined = tables.length === 1 ? tables[0] : uPlotLib().join(tables);
     // Back into the traces' order.
     return [joined[0], ...scope.traces.map((t) => joined[1 + order.indexOf(t)] || joined[0].map(() => null))];
+  }
+
+  // The index of the first sample at or after `t` (the samples are in time order).
+  function firstAt(samples, t) {
+    let lo = 0, hi = samples.length;
+    while (lo < hi) {
+      const mid = (lo + hi) >> 1;
+      if (samples[mid].t < t) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+  }
+
+  // Where the plot's samples start while the scope runs free (live, following the newest
+  // sample, no cursor set): its time window, so that a redraw costs the window's samples and
+  // not the whole buffer's (KEEP_S at up to 1 kHz, per trace), most of what an open tab costs
+  // the machine the cell runs on. Anything else (paused, zoomed or panned, a capture, a trace
+  // file, a cursor to read) gets the whole buffer.
+  function liveFrom() {
+    const c = cs();
+    if (scope.loaded || scope.view || c.paused || (c.capture && q("#trig-signal").value)) return -Infinity;
+    if (scope.cursors.a != null || scope.cursors.b != null) return -Infinity;
+    let t1 = -Infinity;
+    for (const s of scope.buffers.values()) if (s.length) t1 = Math.max(t1, s[s.length - 1].t);
+    return t1 - win();
   }
 
   function traceMeta() {
@@ -601,7 +628,7 @@
     if (!u || !scope.dirty || now - lastDraw < 100) return;
     lastDraw = now;
     scope.dirty = false;
-    const data = columns();
+    const data = columns(liveFrom());
     u.setData(data, false);
     const x = data[0];
     if (scope.view) {
