@@ -227,12 +227,13 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=15.0)
     ap.add_argument("--tabs", type=int, default=5)
     ap.add_argument("--rt-priority", type=int, default=None)
+    ap.add_argument("--drives", type=int, default=DRIVES, help="CMMP-AS on the bus (default 8)")
     a = ap.parse_args()
     binary = os.environ.get("DRIVETWIN_BIN", str(Path(__file__).resolve().parent.parent / "target/release/drivetwin"))
     with tempfile.TemporaryDirectory() as d:
         cell = Path(d) / "cell.toml"
-        cell.write_text("".join(f'[[drive]]\ndevice = "cmmp-as"\nnode = {n}\n\n' for n in range(1, DRIVES + 1)))
-        print(f"{DRIVES} CMMP-AS, 125 kbit/s, {a.seconds:g} s per run, {a.tabs} tabs on drive 0's scope at 1 kHz,"
+        cell.write_text("".join(f'[[drive]]\ndevice = "cmmp-as"\nnode = {n}\n\n' for n in range(1, a.drives + 1)))
+        print(f"{a.drives} CMMP-AS, 125 kbit/s, {a.seconds:g} s per run, {a.tabs} tabs on drive 0's scope at 1 kHz,"
               f" loop {'SCHED_FIFO ' + str(a.rt_priority) if a.rt_priority else 'SCHED_OTHER'},"
               f" {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")
         for r in range(1, a.rounds + 1):
