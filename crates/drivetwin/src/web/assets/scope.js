@@ -178,7 +178,9 @@
     let cut = 0;
     while (cut < s.length && last.t - s[cut].t > KEEP_S) cut++;
     if (cut) s.splice(0, cut);
-    if (batch.drive === scope.page && batch.display != null) q("#display").textContent = batch.display;
+    // Written only when it changes: each write of the page's text costs a style, layout and
+    // paint of the page, 20 times a second per tab.
+    if (batch.drive === scope.page && batch.display != null) setText(q("#display"), batch.display);
     checkTrigger();
     scope.dirty = true;
   }
@@ -259,7 +261,7 @@
     const id = q("#trig-signal").value;
     const status = q("#trig-status");
     const trace = scope.traces.find((t) => t.id === id);
-    if (!trace) { c.capture = null; status.textContent = ""; return; }
+    if (!trace) { c.capture = null; setText(status, ""); return; }
     const s = scope.buffers.get(trace.drive) || [];
     const w = win();
     const pre = Math.min(Math.max(Number(q("#trig-pre").value) || 0, 0), 100) / 100;
@@ -297,10 +299,10 @@
         status.textContent = `triggered at t = ${c.capture.at.toFixed(3)} s (${c.triggers})`;
         if (q("#trig-single").checked) setPaused(true);
       } else {
-        status.textContent = "triggered, filling the window…";
+        setText(status, "triggered, filling the window…");
       }
     } else if (!c.capture) {
-      status.textContent = held ? "no crossing in the held samples" : "armed";
+      setText(status, held ? "no crossing in the held samples" : "armed");
     }
   }
 
@@ -349,6 +351,12 @@
     const joined = tables.length === 1 ? tables[0] : uPlotLib().join(tables);
     // Back into the traces' order.
     return [joined[0], ...scope.traces.map((t) => joined[1 + order.indexOf(t)] || joined[0].map(() => null))];
+  }
+
+  // An element's text, written only when it differs (a write, even of the same text, makes
+  // the browser lay out and paint the page again).
+  function setText(e, text) {
+    if (e.textContent !== text) e.textContent = text;
   }
 
   // The index of the first sample at or after `t` (the samples are in time order).
@@ -598,7 +606,11 @@
     const { a, b } = scope.cursors;
     const u = scope.plot;
     const body = q("#cursor-readout tbody");
-    if (!u || (a == null && b == null)) { body.replaceChildren(); q("#cursor-dt").textContent = ""; return; }
+    if (!u || (a == null && b == null)) {
+      if (body.childElementCount) body.replaceChildren();
+      setText(q("#cursor-dt"), "");
+      return;
+    }
 
     const dt = a != null && b != null ? b - a : null;
     q("#cursor-dt").textContent = dt == null ? "" : `Δt = ${(dt * 1000).toFixed(3)} ms`;
@@ -620,13 +632,20 @@
       }));
   }
 
-  // At most 10 redraws a second, only when something changed.
-  let lastDraw = 0;
-  function frame(now) {
-    requestAnimationFrame(frame);
+  // At most 10 redraws a second, only when something changed: a frame is asked for only
+  // then (a frame asked for at every refresh of the screen costs the tab's renderer even when
+  // it draws nothing).
+  let framePending = false;
+  setInterval(() => {
+    if (scope.dirty && !framePending) {
+      framePending = true;
+      requestAnimationFrame(frame);
+    }
+  }, 100);
+  function frame() {
+    framePending = false;
     const u = scope.plot;
-    if (!u || !scope.dirty || now - lastDraw < 100) return;
-    lastDraw = now;
+    if (!u || !scope.dirty) return;
     scope.dirty = false;
     const data = columns(liveFrom());
     u.setData(data, false);
@@ -718,5 +737,4 @@
   }
 
   Object.assign(scope, { open, close, addTrace, removeTrace, setCursor, csv, traceFile, openTraceFile, columns, setPaused });
-  requestAnimationFrame(frame);
 })();
