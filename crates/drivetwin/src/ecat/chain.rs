@@ -212,13 +212,13 @@ impl BusDrives for NoBuses {
     }
 }
 
-/// A cell of one CAN bus (the virtual clock's).
-impl BusDrives for crate::cell::Cell {
+/// The one CAN segment of a cell on the virtual clock (bus 0).
+impl BusDrives for crate::cell::can_segment::CanSegment {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
         if at.bus != 0 {
             return None;
         }
-        self.drives.get_mut(at.drive)
+        self.stations.get_mut(at.drive)
     }
 }
 
@@ -822,7 +822,7 @@ pub struct EthercatCell {
 
 impl EthercatCell {
     /// Why the load FMU of a drive of its own stopped the chain, once one has (as
-    /// [`crate::cell::Cell::load_failure`]; a drive of a CAN bus is its bus's).
+    /// [`crate::cell::can_segment::CanSegment::load_failure`]; a drive of a CAN bus is its bus's).
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
             SlaveDrive::Own { model, .. } => model.drive()?.load_failure(),
