@@ -186,13 +186,9 @@ struct SaveInFlight {
 
 /// The drive behind a slave.
 pub enum SlaveDrive {
-    /// Its own: an EtherCAT-only drive, with where 1010h "save" writes its parameters and
-    /// the set last saved.
-    Own {
-        model: Model,
-        store: Option<ParamStore>,
-        stored: Vec<StoredValue>,
-    },
+    /// Its own: the station of a drive on EtherCAT alone (no CANopen node), with where 1010h
+    /// "save" writes its parameters and the set last saved.
+    Own(Box<Station>),
     /// A CANopen drive of one of the cell's CAN buses, served over EtherCAT as well
     /// (`allow_unreal_interfaces`): a value written over CoE is the one SDO reads.
     OnBus(OnBus),
@@ -240,17 +236,16 @@ impl<'a> Bound<'a> {
         buses: &'a mut dyn BusDrives,
     ) -> Option<Self> {
         match drive {
-            SlaveDrive::Own {
-                model,
-                store,
-                stored,
-            } => Some(Bound {
-                dev,
-                model,
-                store: store.as_ref(),
-                stored,
-                shared_events: None,
-            }),
+            SlaveDrive::Own(station) => {
+                let (model, store, stored) = station.drive_parts();
+                Some(Bound {
+                    dev,
+                    model,
+                    store,
+                    stored,
+                    shared_events: None,
+                })
+            }
             SlaveDrive::OnBus(at) => {
                 let (model, store, stored, events) = buses.station(*at)?.coe_parts();
                 Some(Bound {
@@ -825,7 +820,7 @@ impl EthercatCell {
     /// [`crate::cell::can_segment::CanSegment::load_failure`]; a drive of a CAN bus is its bus's).
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
-            SlaveDrive::Own { model, .. } => model.drive()?.load_failure(),
+            SlaveDrive::Own(station) => station.model.drive()?.load_failure(),
             SlaveDrive::OnBus(_) => None,
         })
     }
@@ -928,14 +923,14 @@ impl EthercatCell {
     /// The drive of slave `i` when it is its own (not a CANopen drive's).
     pub fn model(&self, i: usize) -> Option<&Model> {
         match self.drives.get(i)? {
-            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::Own(station) => Some(&station.model),
             SlaveDrive::OnBus(_) => None,
         }
     }
 
     pub fn model_mut(&mut self, i: usize) -> Option<&mut Model> {
         match self.drives.get_mut(i)? {
-            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::Own(station) => Some(&mut station.model),
             SlaveDrive::OnBus(_) => None,
         }
     }
@@ -1204,8 +1199,8 @@ impl EthercatCell {
     }
 }
 
-/// An EtherCAT-only drive built from its spec, as the CANopen cell builds its drives (cell
-/// file, motor commissioning, stored set).
+/// A drive on EtherCAT alone built from its spec: a station without a CANopen node, built as
+/// a CAN bus's stations are (cell file, motor commissioning, stored set).
 pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive, EcatCellError> {
     let settings = spec.settings.map(|mut s| {
         // CSP (6060h = 8) exists only over EtherCAT.
@@ -1216,12 +1211,7 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
     let mut drive =
         Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
     drive.couple_load(spec.load.as_ref(), spec.node)?;
-    let (model, store, stored) = drive.into_parts();
-    Ok(SlaveDrive::Own {
-        model,
-        store,
-        stored,
-    })
+    Ok(SlaveDrive::Own(Box::new(drive.without_canopen())))
 }
 
 /// The dictionary as the CoE server sees it: as [`Persisting`], but a "save" with a file
