@@ -18,7 +18,7 @@ use canopen::CanFrame;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
-use drivetwin::ecat::chain::{own_drive, EthercatCell};
+use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
@@ -156,7 +156,7 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
         Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
     let mut cell = CanSegment::new(vec![drive]);
     let mut modbus = vec![cmmo_st()];
-    let mut chain = EthercatCell::empty();
+    let mut chain = SlaveChain::empty();
     let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("spec")

@@ -47,7 +47,7 @@ use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
-use drivetwin::ecat::chain::{own_drive, EthercatCell};
+use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::serial::line::VirtualLine;
@@ -359,7 +359,7 @@ fn serial_wire(line: usize) -> &'static str {
 struct Rig {
     cell: CanSegment,
     modbus: Vec<ModbusDrive>,
-    chains: Vec<EthercatCell>,
+    chains: Vec<SlaveChain>,
     lines: Vec<VirtualLine>,
     inputs: Vec<(Duration, Input)>,
     until: Duration,
@@ -727,7 +727,7 @@ fn cmmo_st_on_modbus_tcp() {
 /// AL status code) and the error acknowledge; each mailbox answer read from SM1 1 ms later.
 fn cmmp_ethercat() -> Rig {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
-    let mut chain = EthercatCell::empty();
+    let mut chain = SlaveChain::empty();
     let spec = CellFile::single("cmmp-as", 1)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("spec")

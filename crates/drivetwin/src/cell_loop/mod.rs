@@ -50,7 +50,7 @@ use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, Wire};
 use crate::cell::OnBus;
-use crate::ecat::chain::{EthercatCell, FrameTap};
+use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
@@ -127,7 +127,7 @@ impl CanBus {
 
 /// An EtherCAT chain of the cell on one network interface.
 pub struct EthercatChain {
-    pub chain: EthercatCell,
+    pub chain: SlaveChain,
     pub socket: crate::ecat::link::SlaveSocket,
     /// Where each request and each answer is copied (`--trace`, a pcap).
     pub trace: Option<FrameTap>,
@@ -135,7 +135,7 @@ pub struct EthercatChain {
 
 /// An EtherCAT chain while the loop runs.
 struct ChainState {
-    chain: EthercatCell,
+    chain: SlaveChain,
     socket: crate::ecat::link::SlaveSocket,
     /// Its frames as they come in and go back out, copied to the trace's queue (`--trace`).
     link: Tracer<Wire<[u8]>, Option<FrameTap>>,

@@ -9,7 +9,7 @@ use od::Instant;
 
 use crate::cell::can_segment::CanSegment;
 use crate::cell::OnBus;
-use crate::ecat::chain::EthercatCell;
+use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::serial::line::VirtualLine;
 use crate::serial::LineDrives;
@@ -117,7 +117,7 @@ impl LineDrives for SegmentLineDrives<'_> {
 pub fn run_virtual_mixed(
     segment: &mut CanSegment,
     modbus: &mut [ModbusDrive],
-    chains: &mut [EthercatCell],
+    chains: &mut [SlaveChain],
     inputs: &[(Duration, Input)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, Output<'_>),
@@ -132,7 +132,7 @@ pub fn run_virtual_mixed(
 pub fn run_virtual_lines(
     segment: &mut CanSegment,
     modbus: &mut [ModbusDrive],
-    chains: &mut [EthercatCell],
+    chains: &mut [SlaveChain],
     lines: &mut [VirtualLine],
     inputs: &[(Duration, Input)],
     until: Duration,

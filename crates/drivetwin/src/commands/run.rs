@@ -731,8 +731,8 @@ fn ethercat_chains(
     trace_path: Option<&std::path::Path>,
     no_can: bool,
 ) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
-    use drivetwin::ecat::chain::{own_drive, EthercatCell, SlaveDrive};
-    let mut chains: Vec<(String, EthercatCell)> = Vec::new();
+    use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
+    let mut chains: Vec<(String, SlaveChain)> = Vec::new();
     for (i, spec) in specs {
         let Some(chain) = spec.ethercat.clone() else {
             continue;
@@ -765,7 +765,7 @@ fn ethercat_chains(
         let at = match chains.iter().position(|(n, _)| *n == ifname) {
             Some(at) => at,
             None => {
-                chains.push((ifname, EthercatCell::empty()));
+                chains.push((ifname, SlaveChain::empty()));
                 chains.len() - 1
             }
         };
