@@ -14,7 +14,7 @@
 //!   write 4 at 0: the FHPP cyclic telegram).
 //!
 //! The twin's two drives are one cell on one loop and one clock: its CMMP-AS steps while the
-//! CMMO-ST cycles every millisecond. Its CAN bus is the instant bus (a [`Cell`] without a bit
+//! CMMO-ST cycles every millisecond. Its CAN bus is the instant bus (a [`CanSegment`] without a bit
 //! rate, as `bitrate = "instant"` in a cell file): frames cross at once, so the figures are the
 //! loop's and the kernel's, not a bus's bit time (about 2 ms a round trip at the default
 //! cell's 125 kbit/s).
@@ -55,8 +55,8 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -136,7 +136,7 @@ fn twin_on_bus(cpu: usize, bitrate: u32) -> Result<(SocketAddr, StopHandle), Str
         .map_err(|e| e.to_string())?;
     let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let addr = listener.local_addr().map_err(|e| e.to_string())?;
-    let cell = Cell::new(vec![drive]).with_bitrate(bitrate, Duration::from_millis(10));
+    let cell = CanSegment::new(vec![drive]).with_bitrate(bitrate, Duration::from_millis(10));
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((listener, ServerConfig::new("vcan0"))),
@@ -212,7 +212,7 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
         buses: vec![CanBus {
             socketcand: Some((can_listener, ServerConfig::new("vcan0"))),
             // The instant bus: no `with_bitrate`.
-            ..CanBus::new(Cell::new(vec![drive]))
+            ..CanBus::new(CanSegment::new(vec![drive]))
         }],
         modbus: vec![ModbusDrive::new(
             mb_listener,

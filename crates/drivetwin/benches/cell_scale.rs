@@ -23,8 +23,8 @@ use canopen::CanFrame;
 use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
 use drivetwin::cell::bus_timing::BusTiming;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 use support::thread_cpu_time;
@@ -39,7 +39,7 @@ const SYNC_PERIODS_MS: [u64; 4] = [5, 10, 20, 50];
 
 /// 127 nodes, TPDO1 synchronous (every `every`th SYNC), heartbeat 100 ms; `motors`: each
 /// with its simulated drive and motor (else the CANopen side only).
-fn cell(bitrate: u32, every: u8, motors: bool) -> Cell {
+fn cell(bitrate: u32, every: u8, motors: bool) -> CanSegment {
     let drives = (1..=NODES)
         .map(|node| {
             let name = PERSONALITIES[usize::from(node) % PERSONALITIES.len()];
@@ -55,7 +55,7 @@ fn cell(bitrate: u32, every: u8, motors: bool) -> Cell {
             Station::with_settings(desc, node, None, commissioning, settings).expect("a drive")
         })
         .collect();
-    Cell::new(drives).with_bitrate(bitrate, Duration::from_millis(1))
+    CanSegment::new(drives).with_bitrate(bitrate, Duration::from_millis(1))
 }
 
 /// NMT start for all at 10 ms, then SYNC every `period` until `until`.

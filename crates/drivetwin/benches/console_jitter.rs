@@ -43,10 +43,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::lateness::LatenessFigures;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::web::{self, HttpSetting};
 
@@ -147,7 +147,7 @@ impl CpuSnapshot {
 }
 
 /// 16 CMMP-AS with motors on one bus, nodes 1…16.
-fn cell() -> Result<Cell, String> {
+fn cell() -> Result<CanSegment, String> {
     let cmmp = devices::by_name("cmmp-as").ok_or("no cmmp-as")?;
     let drives = (1..=DRIVES as u8)
         .map(|node| {
@@ -155,7 +155,7 @@ fn cell() -> Result<Cell, String> {
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(Cell::new(drives))
+    Ok(CanSegment::new(drives))
 }
 
 /// Profile velocity mode, a target velocity, then the controlword steps to OPERATION ENABLED

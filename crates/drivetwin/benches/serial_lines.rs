@@ -20,8 +20,8 @@ use std::time::{Duration, Instant as StdInstant};
 
 use criterion::{black_box, Criterion};
 use drive::vendors::kinco::rs232::{KincoRs232, Request};
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
-use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CellLoop, FrontEnds};
 use drivetwin::serial::pty::Port;
@@ -131,7 +131,7 @@ fn pty_round_trip(baud: u32, code: u16, count: usize) -> Result<(), String> {
         }],
     )
     .map_err(|e| e.to_string())?;
-    let cell = Cell::new(vec![drive]);
+    let cell = CanSegment::new(vec![drive]);
     let requests = [LineRequest {
         kind: Kind::Rs232,
         path: path.clone(),

@@ -14,8 +14,8 @@ use std::time::Duration;
 use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
 use drivetwin::cell::bus_timing::BusFigures;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
 
@@ -32,16 +32,16 @@ fn commissioning(values: &[(u16, u8, &[u8])]) -> Vec<Commissioning> {
 
 /// `n` CMMP-AS dictionaries (no motor: only their CANopen side) with `values` commissioned,
 /// the node-ID substituted for `node` in each value by `per_node`.
-fn cell(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> Cell {
+fn cell(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> CanSegment {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drives = (1..=n)
         .map(|node| Station::new(desc, node, None, per_node(node)).expect("drive"))
         .collect();
-    Cell::new(drives)
+    CanSegment::new(drives)
 }
 
 fn run(
-    cell: &mut Cell,
+    cell: &mut CanSegment,
     inputs: &[(Duration, CanFrame)],
     until: Duration,
 ) -> Vec<(Duration, CanFrame)> {
@@ -215,7 +215,7 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
         Station::new(kinco, 2, None, hb.clone()).expect("2"),
         Station::with_settings(nanotec, 3, None, hb.clone(), Some(Default::default())).expect("3"),
     ];
-    let mut cell = Cell::new(drives).with_bitrate(500_000, Duration::from_millis(1));
+    let mut cell = CanSegment::new(drives).with_bitrate(500_000, Duration::from_millis(1));
     let at = |ms| Instant::from_millis(ms);
     cell.plan_disturbance(at(100), 2, 16);
     cell.plan_disturbance(at(200), 3, 32);
@@ -250,7 +250,7 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     let cm = emcys(&out, 1, Duration::from_millis(300));
     assert!(cm.iter().any(|(_, c)| *c == 0x8120), "{cm:?}");
     let mut sw = [0u8; 2];
-    od::ObjectAccess::read(&cell.drives[0].model, 0x6041, 0, &mut sw).expect("6041h");
+    od::ObjectAccess::read(&cell.stations[0].model, 0x6041, 0, &mut sw).expect("6041h");
     assert_ne!(u16::from_le_bytes(sw) & 0x0008, 0, "FAULT: {sw:02X?}");
     // Everybody is back on the bus and error active.
     assert!(cell

@@ -11,8 +11,8 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
 
 fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
@@ -25,7 +25,7 @@ fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((listener, config)),
-            ..CanBus::new(Cell::new(vec![drive]))
+            ..CanBus::new(CanSegment::new(vec![drive]))
         }],
         ..FrontEnds::default()
     };
@@ -195,7 +195,7 @@ fn two_buses_on_one_loop_keep_their_frames_apart() {
         config.stream_delay = Duration::from_millis(20);
         buses.push(CanBus {
             socketcand: Some((listener, config)),
-            ..CanBus::new(Cell::new(vec![drive]))
+            ..CanBus::new(CanSegment::new(vec![drive]))
         });
     }
     let cell_loop = CellLoop::with_buses(FrontEnds {

@@ -9,21 +9,21 @@
 
 use canopen::CanFrame;
 use drive::vendors::festo_cmmp_as::ci_terminal;
-use drivetwin::cell::Cell;
+use drivetwin::cell::can_segment::CanSegment;
 use od::Instant;
 
 #[path = "support/can_bench.rs"]
 mod can_bench;
 
-fn cell() -> Cell {
+fn cell() -> CanSegment {
     let mut c = can_bench::cmmp_cell(None);
     c.boot(Instant::ZERO, &mut Vec::new());
     c
 }
 
 /// The answer to `line` typed at the CI terminal of drive `drive`, which reaches the drive
-/// as its local interfaces do (`Cell::local_access`); `None` without the drive.
-fn ci_line(c: &mut Cell, drive: usize, now: Instant, line: &[u8]) -> Option<String> {
+/// as its local interfaces do (`CanSegment::local_access`); `None` without the drive.
+fn ci_line(c: &mut CanSegment, drive: usize, now: Instant, line: &[u8]) -> Option<String> {
     let mut reply = None;
     c.local_access(drive, now, &mut Vec::new(), &mut |od| {
         reply = Some(ci_terminal::execute(line, od).as_str().to_owned());
@@ -31,7 +31,7 @@ fn ci_line(c: &mut Cell, drive: usize, now: Instant, line: &[u8]) -> Option<Stri
     reply
 }
 
-fn ci(c: &mut Cell, now: Instant, line: &str) -> String {
+fn ci(c: &mut CanSegment, now: Instant, line: &str) -> String {
     ci_line(c, 0, now, line.as_bytes()).expect("drive 0")
 }
 
@@ -46,7 +46,7 @@ fn ci_vectors_on_a_cmmp_as_drive() {
     let t = Instant::from_millis(50);
     assert_eq!(ci(&mut c, t, "?606100"), "=606100:01");
     assert_eq!(ci(&mut c, t, "=604000:000F"), "=604000:000F");
-    assert_eq!(c.drives[0].od().get_unsigned(0x6040, 0), Some(0x0F));
+    assert_eq!(c.stations[0].od().get_unsigned(0x6040, 0), Some(0x0F));
     assert_eq!(ci(&mut c, t, "?609301"), "=609301:00000001");
     assert_eq!(ci(&mut c, t, "=604100:0000"), "!06010002");
     assert_eq!(ci(&mut c, t, "?1234"), "!05040001");

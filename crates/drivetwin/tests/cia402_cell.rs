@@ -8,7 +8,7 @@
 )]
 
 use canopen::CanFrame;
-use drivetwin::cell::Cell;
+use drivetwin::cell::can_segment::CanSegment;
 use od::Instant;
 
 #[path = "support/can_bench.rs"]
@@ -16,11 +16,11 @@ mod can_bench;
 
 use can_bench::cmmp_cell;
 
-fn cell() -> Cell {
+fn cell() -> CanSegment {
     cmmp_cell(None)
 }
 
-fn run_until(cell: &mut Cell, now: &mut Instant, until: Instant, out: &mut Vec<CanFrame>) {
+fn run_until(cell: &mut CanSegment, now: &mut Instant, until: Instant, out: &mut Vec<CanFrame>) {
     while let Some(t) = cell.deadline() {
         if t > until {
             break;
@@ -31,7 +31,7 @@ fn run_until(cell: &mut Cell, now: &mut Instant, until: Instant, out: &mut Vec<C
     *now = until;
 }
 
-fn sdo(cell: &mut Cell, now: Instant, data: [u8; 8]) -> [u8; 8] {
+fn sdo(cell: &mut CanSegment, now: Instant, data: [u8; 8]) -> [u8; 8] {
     let mut out = Vec::new();
     cell.on_frame(now, &CanFrame::full(0x601, data), &mut out);
     out.iter()
@@ -47,7 +47,7 @@ fn enable_sequence_over_sdo_on_the_virtual_clock() {
     let mut now = Instant::ZERO;
     c.boot(now, &mut out);
     run_until(&mut c, &mut now, Instant::from_millis(10), &mut out);
-    let sw = |c: &mut Cell, now| {
+    let sw = |c: &mut CanSegment, now| {
         let r = sdo(c, now, [0x40, 0x41, 0x60, 0, 0, 0, 0, 0]);
         u16::from_le_bytes([r[4], r[5]])
     };

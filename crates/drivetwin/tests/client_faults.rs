@@ -15,8 +15,8 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::wire_faults::{FaultSpec, FrontEnd, WireRequest};
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, FrontEnds};
 
 struct Client {
@@ -75,7 +75,7 @@ fn cell() -> (web_rig::Running, SocketAddr) {
     let addr = listener.local_addr().expect("addr");
     let bus = CanBus {
         socketcand: Some((listener, ServerConfig::new("vcan0"))),
-        ..CanBus::new(Cell::new(vec![web_rig::station("cmmp-as", 1)]))
+        ..CanBus::new(CanSegment::new(vec![web_rig::station("cmmp-as", 1)]))
     };
     let front = FrontEnds {
         buses: vec![bus],

@@ -12,9 +12,9 @@ use std::net::{TcpListener, TcpStream};
 use std::time::Duration;
 
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::control::{Interface, Plant};
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -84,7 +84,7 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((can, ServerConfig::new("vcan0"))),
-            ..CanBus::new(Cell::new(vec![drive]))
+            ..CanBus::new(CanSegment::new(vec![drive]))
         }],
         modbus: vec![ModbusDrive::new(
             mb,

@@ -11,9 +11,9 @@
 use std::time::Duration;
 
 use drive::vendors::festo_cmmo_st::fhpp::Authority;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -35,7 +35,7 @@ fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let front = FrontEnds {
-        buses: vec![CanBus::new(Cell::new(vec![drive]))],
+        buses: vec![CanBus::new(CanSegment::new(vec![drive]))],
         modbus: vec![ModbusDrive::new(
             mb,
             Box::new(FhppModbus::new(dev, None)),

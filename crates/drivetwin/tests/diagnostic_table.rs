@@ -415,7 +415,7 @@ fn kinco_diag_vector(word: drive::vendors::kinco::ErrorWord, bit: u8) -> &'stati
     }
 }
 
-/// The cell's own way in (what scenarios and the cell file use): `Cell::raise_diagnostic`,
+/// The cell's own way in (what scenarios and the cell file use): `CanSegment::raise_diagnostic`,
 /// and `[[drive.diagnostic]]` planned on the cell's clock: 43-0 at 50 ms, cleared at 80 ms.
 #[test]
 fn cell_raises_planned_messages_on_its_clock() {

@@ -10,7 +10,7 @@
 )]
 
 use drivetwin::cell::config::CellFile;
-use drivetwin::ecat::chain::EthercatCell;
+use drivetwin::ecat::chain::SlaveChain;
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, Fmmu};
@@ -33,12 +33,12 @@ impl Reply {
 }
 
 struct Master {
-    cell: EthercatCell,
+    cell: SlaveChain,
     now: Instant,
 }
 
 impl Master {
-    fn new(cell: EthercatCell) -> Self {
+    fn new(cell: SlaveChain) -> Self {
         let mut m = Master {
             cell,
             now: Instant::from_millis(1),
@@ -122,8 +122,8 @@ fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
     v
 }
 
-fn cell() -> EthercatCell {
-    EthercatCell::from_cell_file(
+fn cell() -> SlaveChain {
+    SlaveChain::from_cell_file(
         &CellFile::single("cmmp-as", 1),
         drivetwin::vendors::CELL_SECTIONS,
     )
@@ -329,7 +329,7 @@ fn chain_of_two_slaves_counts_both() {
     second.node = 2;
     file.drive.push(second);
     let mut m = Master::new(
-        EthercatCell::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).expect("cell"),
+        SlaveChain::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).expect("cell"),
     );
     assert_eq!(m.cell.len(), 2);
     let r = m.one(Command::Brd, phys(0, 0x0000), &[0, 0]);
@@ -705,7 +705,7 @@ fn save_over_coe_survives_a_restart_with_a_state_dir() {
     let file = CellFile::single("cmmp-as", 1);
     let start = |state: Option<&std::path::Path>| {
         let mut m = Master::new(
-            EthercatCell::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, state)
+            SlaveChain::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, state)
                 .expect("cell"),
         );
         to_preop(&mut m);
@@ -751,7 +751,7 @@ fn coe_save_holds_its_reply_not_the_loop_kill9_wrong_wkc() {
     let _ = std::fs::remove_dir_all(&dir);
     let file = CellFile::single("cmmp-as", 1);
     let mut m = Master::new(
-        EthercatCell::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, Some(&dir))
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, Some(&dir))
             .expect("cell"),
     );
     to_preop(&mut m);
@@ -789,7 +789,7 @@ fn coe_save_that_cannot_write_is_aborted_0800_0020() {
     std::fs::create_dir_all(dir.join("cmmp-as-node1.params.tmp")).unwrap();
     let file = CellFile::single("cmmp-as", 1);
     let mut m = Master::new(
-        EthercatCell::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, Some(&dir))
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::CELL_SECTIONS, Some(&dir))
             .expect("cell"),
     );
     to_preop(&mut m);

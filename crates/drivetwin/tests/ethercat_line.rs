@@ -14,7 +14,7 @@
 use std::time::Duration;
 
 use drivetwin::cell::config::CellFile;
-use drivetwin::ecat::chain::EthercatCell;
+use drivetwin::ecat::chain::SlaveChain;
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, AlStatusCode, Fmmu, FrameOutcome};
@@ -25,7 +25,7 @@ const SM2: u16 = 0x1100;
 const SM3: u16 = 0x1180;
 
 struct Master {
-    cell: EthercatCell,
+    cell: SlaveChain,
     now: Instant,
 }
 
@@ -112,7 +112,7 @@ fn three_in_op() -> Master {
         file.drive.push(d);
     }
     let mut m = Master {
-        cell: EthercatCell::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).unwrap(),
+        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).unwrap(),
         now: Instant::from_millis(1),
     };
     m.cell.boot(m.now);
@@ -288,7 +288,7 @@ fn the_64_drive_example_is_one_chain_of_64() {
     );
     let file = CellFile::load(std::path::Path::new(path)).unwrap();
     let mut m = Master {
-        cell: EthercatCell::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).unwrap(),
+        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS).unwrap(),
         now: Instant::from_millis(1),
     };
     m.cell.boot(m.now);

@@ -10,13 +10,13 @@
 )]
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use od::Instant;
 
 struct Bench {
-    cell: Cell,
+    cell: CanSegment,
     now: Instant,
     out: Vec<CanFrame>,
 }
@@ -37,7 +37,7 @@ impl Bench {
         )
         .expect("the Kinco FD3");
         let mut b = Bench {
-            cell: Cell::new(vec![d]),
+            cell: CanSegment::new(vec![d]),
             now: Instant::ZERO,
             out: Vec::new(),
         };

@@ -15,8 +15,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::serial::Kind;
@@ -117,7 +117,7 @@ fn run() -> Outputs {
             Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
-    let mut cell = Cell::new(drives);
+    let mut cell = CanSegment::new(drives);
     let requests = [
         LineRequest {
             kind: Kind::Rs232,

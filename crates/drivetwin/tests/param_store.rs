@@ -161,7 +161,10 @@ fn cmmp_reset_application_reloads_the_saved_set() {
         &canopen::CanFrame::new(0, &[0x01, 0x01]).unwrap(),
         &mut |_| {},
     );
-    assert_eq!(d.canopen.nmt_state(), canopen::NmtState::Operational);
+    assert_eq!(
+        d.canopen.as_ref().expect("a CANopen node").nmt_state(),
+        canopen::NmtState::Operational
+    );
     out.clear();
     d.on_can_frame(
         t0,
@@ -179,7 +182,10 @@ fn cmmp_reset_application_reloads_the_saved_set() {
         (0x701, &[0u8][..]),
         "boot-up"
     );
-    assert_eq!(d.canopen.nmt_state(), canopen::NmtState::PreOperational);
+    assert_eq!(
+        d.canopen.as_ref().expect("a CANopen node").nmt_state(),
+        canopen::NmtState::PreOperational
+    );
 }
 
 /// Nanotec NT-SDO-01 with a state directory: "load" writes the defaults to the stored set at
@@ -207,4 +213,36 @@ fn nanotec_restore_writes_the_stored_set() {
         "defaults stored at once"
     );
     assert_eq!(d2.od().get_unsigned(0x2005, 0), Some(132), "2005h kept");
+}
+
+/// A drive on EtherCAT alone is a station without a CANopen node: it sends no frame (no
+/// boot-up, no heartbeat though 1017h is set), ignores CAN frames, a local write goes to the
+/// dictionary, and a save still writes its parameter file.
+#[test]
+fn a_station_without_a_canopen_node_sends_nothing_and_still_saves() {
+    let dir = tmpdir("no-canopen");
+    let mut d = drive(&dir).without_canopen();
+    assert!(d.canopen.is_none());
+    assert_eq!(d.node_id(), 1, "the dictionary's node-ID");
+    let mut out = Vec::new();
+    let t0 = od::Instant::ZERO;
+    d.boot(t0, &mut |f| out.push(f));
+    d.on_can_frame(
+        t0,
+        &canopen::CanFrame::full(0x601, [0x40, 0x17, 0x10, 0, 0, 0, 0, 0]),
+        &mut |f| out.push(f),
+    );
+    let t = od::Instant::from_millis(2500);
+    for ms in (0..=2500).step_by(10) {
+        d.poll(od::Instant::from_millis(ms), &mut |f| out.push(f));
+    }
+    assert!(out.is_empty(), "no CANopen frame: {out:?}");
+    d.local_access(t, &mut |f| out.push(f), &mut |od| {
+        od.write(0x1017, 0, &[0xFA, 0x00]).expect("a local write");
+        od.write(0x1010, 1, b"save").expect("save");
+    });
+    assert!(out.is_empty(), "no CANopen frame: {out:?}");
+    assert_eq!(d.od().get_unsigned(0x1017, 0), Some(250));
+    let again = drive(&dir);
+    assert_eq!(again.od().get_unsigned(0x1017, 0), Some(250), "saved");
 }

@@ -14,8 +14,8 @@ use std::time::Duration;
 
 use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use drivetwin::trace::bus_load::{load_path, parse_load};
 use drivetwin::trace::TraceWriter;
@@ -24,7 +24,7 @@ use od::Instant;
 const BITRATE: u32 = 1_000_000;
 
 /// 40 CMMP-AS dictionaries, TPDO1 synchronous on every SYNC.
-fn cell() -> Cell {
+fn cell() -> CanSegment {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drives = (1..=40u8)
         .map(|node| {
@@ -44,7 +44,7 @@ fn cell() -> Cell {
             Station::new(desc, node, None, c).expect("drive")
         })
         .collect();
-    Cell::new(drives).with_bitrate(BITRATE, Duration::from_millis(5))
+    CanSegment::new(drives).with_bitrate(BITRATE, Duration::from_millis(5))
 }
 
 /// NMT start of every node, then a SYNC every 5 ms for 1.6 s.

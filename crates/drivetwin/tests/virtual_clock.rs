@@ -15,10 +15,10 @@ use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
-use drivetwin::ecat::chain::{own_drive, EthercatCell};
+use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
@@ -154,9 +154,9 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drive =
         Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
-    let mut cell = Cell::new(vec![drive]);
+    let mut cell = CanSegment::new(vec![drive]);
     let mut modbus = vec![cmmo_st()];
-    let mut chain = EthercatCell::empty();
+    let mut chain = SlaveChain::empty();
     let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("spec")

@@ -12,9 +12,9 @@
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::wire_faults::{FaultKind, Reach, WireFault};
-use drivetwin::cell::Cell;
 use od::Instant;
 
 fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> Station {
@@ -31,8 +31,8 @@ fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> Station {
 }
 
 /// Node 1 (a test bench) beats every 100 ms; node 2 (a Kinco FD, whose 1016h is a real consumer) watches it with 250 ms.
-fn cell() -> Cell {
-    Cell::new(vec![
+fn cell() -> CanSegment {
+    CanSegment::new(vec![
         drive(
             "testbench",
             1,
@@ -48,7 +48,7 @@ fn cell() -> Cell {
 
 /// Runs `cell` from `from` to `to` on the virtual clock; the frames that reach the outside.
 fn run(
-    cell: &mut Cell,
+    cell: &mut CanSegment,
     from: Instant,
     to: Instant,
     inputs: &[(Instant, CanFrame)],

@@ -42,12 +42,12 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
-use drivetwin::ecat::chain::{own_drive, EthercatCell};
+use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::serial::line::VirtualLine;
@@ -262,7 +262,7 @@ const KINCO: Device = Device {
 };
 
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
-fn can_cell(device: &str, node: u8) -> Cell {
+fn can_cell(device: &str, node: u8) -> CanSegment {
     let spec = CellFile::single(device, node)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("a cell of one drive")
@@ -275,7 +275,7 @@ fn can_cell(device: &str, node: u8) -> Cell {
         spec.settings,
     )
     .expect("the drive");
-    Cell::new(vec![drive])
+    CanSegment::new(vec![drive])
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -357,9 +357,9 @@ fn serial_wire(line: usize) -> &'static str {
 
 /// What one personality's trace runs: the cell's parts and the master's script.
 struct Rig {
-    cell: Cell,
+    cell: CanSegment,
     modbus: Vec<ModbusDrive>,
-    chains: Vec<EthercatCell>,
+    chains: Vec<SlaveChain>,
     lines: Vec<VirtualLine>,
     inputs: Vec<(Duration, Input)>,
     until: Duration,
@@ -546,7 +546,7 @@ fn kinco_serial() -> Rig {
             Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
-    let cell = Cell::new(drives);
+    let cell = CanSegment::new(drives);
     let requests = [
         LineRequest {
             kind: Kind::Rs232,
@@ -705,7 +705,7 @@ fn cmmo_st() -> Rig {
     );
     let until = ms(t + 20);
     Rig {
-        cell: Cell::new(Vec::new()),
+        cell: CanSegment::new(Vec::new()),
         modbus,
         chains: Vec::new(),
         lines: Vec::new(),
@@ -727,7 +727,7 @@ fn cmmo_st_on_modbus_tcp() {
 /// AL status code) and the error acknowledge; each mailbox answer read from SM1 1 ms later.
 fn cmmp_ethercat() -> Rig {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
-    let mut chain = EthercatCell::empty();
+    let mut chain = SlaveChain::empty();
     let spec = CellFile::single("cmmp-as", 1)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("spec")
@@ -806,7 +806,7 @@ fn cmmp_ethercat() -> Rig {
         .collect();
     let until = ms(5 + 10 * inputs.len() as u64 + 10);
     Rig {
-        cell: Cell::new(Vec::new()),
+        cell: CanSegment::new(Vec::new()),
         modbus: Vec::new(),
         chains: vec![chain],
         lines: Vec::new(),

@@ -7,9 +7,9 @@ use drive::drive::diagnostics::{emcy_code, DiagnosticError};
 use od::{Diagnostic, Instant};
 use serde::Deserialize;
 
+use super::can_segment::CanSegment;
 use super::control::ControlError;
 use super::device_model::Model;
-use super::Cell;
 
 /// One message of a drive's table and whether it is active now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -133,24 +133,24 @@ pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
         .collect()
 }
 
-impl Cell {
+impl CanSegment {
     /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of drive
     /// `drive` (cell order): the drive reacts as if it had detected it (reaction, EMCY, 1003h,
-    /// statusword, display) and keeps it until [`Cell::clear_diagnostic`]. The frames go out
-    /// at the next [`Cell::poll`].
+    /// statusword, display) and keeps it until [`CanSegment::clear_diagnostic`]. The frames go out
+    /// at the next [`CanSegment::poll`].
     pub fn raise_diagnostic(
         &mut self,
         drive: usize,
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
         let d = self
-            .drives
+            .stations
             .get_mut(drive)
             .ok_or(ControlError::NoDrive(drive))?;
         set_model(&mut d.model, number, Action::Raise).map_err(refused)
     }
 
-    /// Clears message `number` raised by [`Cell::raise_diagnostic`]: its cause is gone; an
+    /// Clears message `number` raised by [`CanSegment::raise_diagnostic`]: its cause is gone; an
     /// error then waits for the fault reset.
     pub fn clear_diagnostic(
         &mut self,
@@ -158,7 +158,7 @@ impl Cell {
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
         let d = self
-            .drives
+            .stations
             .get_mut(drive)
             .ok_or(ControlError::NoDrive(drive))?;
         set_model(&mut d.model, number, Action::Clear).map_err(refused)
@@ -166,11 +166,14 @@ impl Cell {
 
     /// Drive `drive`'s diagnostic table with what is active.
     pub fn diagnostics(&self, drive: usize) -> Result<Vec<DiagnosticState>, ControlError> {
-        let d = self.drives.get(drive).ok_or(ControlError::NoDrive(drive))?;
+        let d = self
+            .stations
+            .get(drive)
+            .ok_or(ControlError::NoDrive(drive))?;
         Ok(list_model(&d.model))
     }
 
-    /// Plans [`Cell::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
+    /// Plans [`CanSegment::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
     /// file's `[[drive.diagnostic]]`).
     pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
         self.planned_diagnostics
@@ -209,7 +212,10 @@ impl Cell {
                     }
                 }
                 Planned::Physics(change) => {
-                    let d = self.drives.get_mut(drive).and_then(|d| d.model.drive_mut());
+                    let d = self
+                        .stations
+                        .get_mut(drive)
+                        .and_then(|d| d.model.drive_mut());
                     let done = match d {
                         Some(d) => super::control::apply_physics(d, change).map(|_| ()),
                         None => Err("no simulated plant"),

@@ -1,8 +1,8 @@
 //! What a cell file plans for the drives outside the CAN cells — a CMMO-ST on Modbus TCP, an
 //! EtherCAT-only drive — (`[[drive.diagnostic]]`, `[[drive.plant]]`, `[drive.thermal]`):
 //! carried out through the cell loop's control handle at their times, on a thread of their
-//! own, as a console would. The CAN drives' plans run inside their [`super::Cell`]
-//! (`Cell::plan_diagnostic`, `Cell::plan_physics`), on the virtual clock too.
+//! own, as a console would. The CAN drives' plans run inside their [`super::can_segment::CanSegment`]
+//! (`CanSegment::plan_diagnostic`, `CanSegment::plan_physics`), on the virtual clock too.
 //!
 //! Decision: these drives run on the real clock only (the cell loop refuses the virtual one
 //! for them), so a time here is wall time since the loop started, to the thread's sleep

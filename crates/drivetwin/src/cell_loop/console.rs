@@ -11,7 +11,7 @@ use super::{CellLoop, Connection, Kind};
 use crate::cell::OnBus;
 
 /// A drive's terminal: the protocol of the lines typed at it. It reaches the drive as a
-/// local interface does ([`crate::cell::Cell::local_access`]): reads as they are, writes as
+/// local interface does ([`crate::cell::can_segment::CanSegment::local_access`]): reads as they are, writes as
 /// SDO downloads of the drive's node.
 pub trait Terminal: Send {
     /// Takes one byte typed; what it completed, if anything.
@@ -63,10 +63,11 @@ impl CellLoop {
                     let mut out = std::mem::take(&mut self.out);
                     let mut answered = false;
                     if let Some(bus) = self.buses.get_mut(drive.bus) {
-                        bus.cell.local_access(drive.drive, t, &mut out, &mut |od| {
-                            terminal.answer(&line, od, &mut answer);
-                            answered = true;
-                        });
+                        bus.segment
+                            .local_access(drive.drive, t, &mut out, &mut |od| {
+                                terminal.answer(&line, od, &mut answer);
+                                answered = true;
+                            });
                     }
                     if !answered {
                         terminal.refuse(&mut answer);

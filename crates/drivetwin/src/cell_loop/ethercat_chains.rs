@@ -19,7 +19,7 @@ pub(super) struct Buses<'a>(pub(super) &'a mut [BusState]);
 
 impl BusDrives for Buses<'_> {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        self.0.get_mut(at.bus)?.cell.drives.get_mut(at.drive)
+        self.0.get_mut(at.bus)?.segment.stations.get_mut(at.drive)
     }
 }
 
@@ -99,7 +99,7 @@ impl CellLoop {
                 }
                 let mut out = std::mem::take(&mut self.out);
                 if let Some(bus) = self.buses.get_mut(b) {
-                    bus.cell.poll(t, &mut out);
+                    bus.segment.poll(t, &mut out);
                 }
                 self.drives_sent(b, now, &mut out);
                 self.out = out;

@@ -26,13 +26,13 @@ impl CellLoop {
                         .enumerate()
                         .map(|(index, b)| BusInfo {
                             index,
-                            drives: b.cell.drives.len(),
-                            timing: b.cell.bus_figures(t),
+                            drives: b.segment.stations.len(),
+                            timing: b.segment.bus_figures(t),
                             node_errors: b
-                                .cell
-                                .drives
+                                .segment
+                                .stations
                                 .iter()
-                                .zip(b.cell.node_faults())
+                                .zip(b.segment.node_faults())
                                 .filter(|(_, f)| f.confinement.counters() != (0, 0))
                                 .map(|(d, f)| {
                                     let (tec, rec) = f.confinement.counters();
@@ -49,9 +49,9 @@ impl CellLoop {
                     frames,
                     reply,
                 } => {
-                    let cell = self.buses.get_mut(bus).map(|b| &mut b.cell);
-                    let at = cell.and_then(|c| {
-                        let i = c.drives.iter().position(|d| d.node_id() == node)?;
+                    let segment = self.buses.get_mut(bus).map(|b| &mut b.segment);
+                    let at = segment.and_then(|c| {
+                        let i = c.stations.iter().position(|d| d.node_id() == node)?;
                         Some(c.disturb(i, frames))
                     });
                     let _ = reply.send(match at {
@@ -334,7 +334,7 @@ impl CellLoop {
         let can = self
             .buses
             .iter()
-            .flat_map(|b| b.cell.drives.iter())
+            .flat_map(|b| b.segment.stations.iter())
             .map(|d| {
                 let desc = d.od().description();
                 (desc, Interface::CanOpen { node: d.node_id() })
@@ -369,9 +369,9 @@ impl CellLoop {
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
         let mut rest = drive;
         for bus in &mut self.buses {
-            let n = bus.cell.drives.len();
+            let n = bus.segment.stations.len();
             if rest < n {
-                return match bus.cell.drives.get_mut(rest) {
+                return match bus.segment.stations.get_mut(rest) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),
                 };

@@ -8,7 +8,7 @@
 //!
 //! The loop is the cell's CAN bus as well: a frame from a socketcand client reaches the drives,
 //! the SocketCAN interface, the trace and every other client in RAW mode; a frame of a drive
-//! reaches the other drives (`Cell::deliver`), the interface, the trace and every client.
+//! reaches the other stations of its segment (`CanSegment::deliver`), the interface, the trace and every client.
 //!
 //! The loop is the cell's EtherCAT segments as well: a frame from a master on a chain's
 //! network interface passes the chain's slaves in order and goes back out at once; a slave
@@ -45,11 +45,12 @@ use mio::{Events, Interest, Poll, Token, Waker};
 
 use crate::can::socketcand::session::{Effect, Session, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
+use crate::cell::can_segment::CanSegment;
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, Wire};
-use crate::cell::{Cell, OnBus};
-use crate::ecat::chain::{EthercatCell, FrameTap};
+use crate::cell::OnBus;
+use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
@@ -96,9 +97,10 @@ const FIRST_SERIAL: usize = 1 << 24;
 /// EtherCAT frames one chain takes per turn of the loop before the others get their turn.
 const FRAMES_PER_TURN: usize = 64;
 
-/// One CAN bus of a cell: the CANopen drives on it and its transports.
+/// One CAN bus of a cell: its segment (the stations on it and the bus model) and its
+/// transports.
 pub struct CanBus {
-    pub cell: Cell,
+    pub segment: CanSegment,
     /// The socketcand server and its settings (the bus name it serves).
     pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
     /// A SocketCAN interface the bus is bridged to.
@@ -111,10 +113,10 @@ pub struct CanBus {
 }
 
 impl CanBus {
-    /// The drives of `cell` on a bus without transports yet.
-    pub fn new(cell: Cell) -> CanBus {
+    /// The stations of `segment` on a bus without transports yet.
+    pub fn new(segment: CanSegment) -> CanBus {
         CanBus {
-            cell,
+            segment,
             socketcand: None,
             socketcan: None,
             trace: None,
@@ -125,7 +127,7 @@ impl CanBus {
 
 /// An EtherCAT chain of the cell on one network interface.
 pub struct EthercatChain {
-    pub chain: EthercatCell,
+    pub chain: SlaveChain,
     pub socket: crate::ecat::link::SlaveSocket,
     /// Where each request and each answer is copied (`--trace`, a pcap).
     pub trace: Option<FrameTap>,
@@ -133,7 +135,7 @@ pub struct EthercatChain {
 
 /// An EtherCAT chain while the loop runs.
 struct ChainState {
-    chain: EthercatCell,
+    chain: SlaveChain,
     socket: crate::ecat::link::SlaveSocket,
     /// Its frames as they come in and go back out, copied to the trace's queue (`--trace`).
     link: Tracer<Wire<[u8]>, Option<FrameTap>>,
@@ -168,7 +170,7 @@ pub struct FrontEnds {
 
 /// A bus while the loop runs.
 struct BusState {
-    cell: Cell,
+    segment: CanSegment,
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// The bus as the loop carries its frames: traced and tapped.
@@ -327,11 +329,11 @@ enum Kind {
 }
 
 impl CellLoop {
-    /// A cell of one CAN bus, `cell`, with the transports of `front` (whose own `buses` come
+    /// A cell of one CAN bus, `segment`, with the transports of `front` (whose own `buses` come
     /// after it).
-    pub fn new(cell: Cell, front: FrontEnds) -> io::Result<CellLoop> {
+    pub fn new(segment: CanSegment, front: FrontEnds) -> io::Result<CellLoop> {
         let mut front = front;
-        front.buses.insert(0, CanBus::new(cell));
+        front.buses.insert(0, CanBus::new(segment));
         CellLoop::with_buses(front)
     }
 
@@ -384,7 +386,7 @@ impl CellLoop {
             };
             buses.push(BusState {
                 upstream,
-                cell: bus.cell,
+                segment: bus.segment,
                 socketcand,
                 socketcan: bus.socketcan,
                 link: Tracer::new(Wire::new(), CanTrace::new(bus.trace)),
@@ -516,7 +518,7 @@ impl CellLoop {
     /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
     /// back. A drive's load FMU that fails ends the run with its error
     /// ([`crate::cosim::FmuLoadError`] inside the `io::Error`).
-    pub fn run(mut self) -> io::Result<Vec<Cell>> {
+    pub fn run(mut self) -> io::Result<Vec<CanSegment>> {
         if let Some(p) = self.rt_priority {
             if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
                 tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
@@ -528,7 +530,7 @@ impl CellLoop {
         for b in 0..self.buses.len() {
             let t = self.now(start);
             if let Some(bus) = self.buses.get_mut(b) {
-                bus.cell.boot(t, &mut out);
+                bus.segment.boot(t, &mut out);
             }
             self.drives_sent(b, start, &mut out);
         }
@@ -654,7 +656,7 @@ impl CellLoop {
             .into_iter()
             .map(|mut b| {
                 b.link.flush();
-                b.cell
+                b.segment
             })
             .collect())
     }
@@ -664,7 +666,7 @@ impl CellLoop {
     fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.buses
             .iter()
-            .find_map(|b| b.cell.load_failure())
+            .find_map(|b| b.segment.load_failure())
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
     }
 
@@ -679,7 +681,7 @@ impl CellLoop {
             }
         };
         for bus in &self.buses {
-            take(bus.cell.deadline().map(|d| self.wall(d)));
+            take(bus.segment.deadline().map(|d| self.wall(d)));
             if bus.link.unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
@@ -711,10 +713,10 @@ impl CellLoop {
             let Some(bus) = self.buses.get_mut(b) else {
                 break;
             };
-            if let Some(due) = bus.cell.deadline().filter(|d| *d <= t) {
+            if let Some(due) = bus.segment.deadline().filter(|d| *d <= t) {
                 self.lateness.record(t.saturating_since(due));
                 let mut out = std::mem::take(&mut self.out);
-                bus.cell.poll(t, &mut out);
+                bus.segment.poll(t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
             }

@@ -26,7 +26,7 @@ impl LineDrives for SerialDrives<'_> {
         let Some(bus) = self.buses.get_mut(at.bus) else {
             return;
         };
-        bus.cell.local_access(at.drive, now, &mut self.frames, f);
+        bus.segment.local_access(at.drive, now, &mut self.frames, f);
         self.sent
             .extend(self.frames.drain(..).map(|fr| (at.bus, fr)));
     }

@@ -59,7 +59,7 @@ impl CellLoop {
                         let _ = (&stream).write(b"< error too many clients >");
                         continue;
                     }
-                    let bitrate = self.buses.get(b).map_or(1_000_000, |x| x.cell.bitrate());
+                    let bitrate = self.buses.get(b).map_or(1_000_000, |x| x.segment.bitrate());
                     let kind = Kind::Socketcand {
                         bus: b,
                         session: Session::new(),

@@ -7,18 +7,18 @@ use canopen::CanFrame;
 use od::time::earliest;
 use od::Instant;
 
-use crate::cell::Cell;
+use crate::cell::can_segment::CanSegment;
 use crate::cell::OnBus;
-use crate::ecat::chain::EthercatCell;
+use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::serial::line::VirtualLine;
 use crate::serial::LineDrives;
 
-/// Runs `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
-/// frames from outside the cell; every frame on the bus goes to `sink` with its virtual time.
-/// A drive's load FMU that fails stops the run there ([`Cell::load_failure`]).
+/// Runs `segment` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
+/// frames from outside the segment; every frame on the bus goes to `sink` with its virtual time.
+/// A drive's load FMU that fails stops the run there ([`CanSegment::load_failure`]).
 pub fn run_virtual(
-    cell: &mut Cell,
+    segment: &mut CanSegment,
     inputs: &[(Duration, CanFrame)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, &CanFrame),
@@ -28,18 +28,18 @@ pub fn run_virtual(
     let end = to_instant(until);
     let mut out = Vec::with_capacity(256);
     let mut now = Instant::ZERO;
-    cell.boot(now, &mut out);
+    segment.boot(now, &mut out);
     let mut next_input = 0;
     let mut stuck = 0u32;
     loop {
         for f in out.drain(..) {
             sink(Duration::from_nanos(now.as_nanos()), &f);
         }
-        if cell.load_failure().is_some() {
+        if segment.load_failure().is_some() {
             break;
         }
         let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
-        let wake = match (cell.deadline(), input_at) {
+        let wake = match (segment.deadline(), input_at) {
             (Some(a), Some(b)) => a.min(b),
             (Some(a), None) => a,
             (None, Some(b)) => b,
@@ -58,11 +58,11 @@ pub fn run_virtual(
         if input_at == Some(wake) {
             if let Some((_, f)) = inputs.get(next_input) {
                 sink(Duration::from_nanos(now.as_nanos()), f);
-                cell.on_frame(now, f, &mut out);
+                segment.on_frame(now, f, &mut out);
             }
             next_input += 1;
         } else {
-            cell.poll(now, &mut out);
+            segment.poll(now, &mut out);
         }
     }
 }
@@ -94,35 +94,35 @@ pub enum Output<'a> {
     Serial { line: usize, bytes: &'a [u8] },
 }
 
-/// The cell's drives as a virtual serial line reaches them (bus 0, the cell's).
-struct CellLineDrives<'a> {
-    cell: &'a mut Cell,
+/// The segment's stations as a virtual serial line reaches them (bus 0).
+struct SegmentLineDrives<'a> {
+    segment: &'a mut CanSegment,
     out: &'a mut Vec<CanFrame>,
 }
 
-impl LineDrives for CellLineDrives<'_> {
+impl LineDrives for SegmentLineDrives<'_> {
     fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn od::ObjectAccess)) {
         if at.bus == 0 {
-            self.cell.local_access(at.drive, now, self.out, f);
+            self.segment.local_access(at.drive, now, self.out, f);
         }
     }
 }
 
-/// Runs the CAN drives of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
+/// Runs the CAN drives of `segment`, the Modbus drives `modbus` and the EtherCAT chains `chains`
 /// on one virtual clock from 0 to `until`, feeding `inputs` (sorted by time); everything the
 /// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: Modbus
 /// cycles, then the CAN drives' timers, then the chains' timers, then the input, so the same
 /// cell and inputs give the same outputs bit for bit. A slave whose drive is a CANopen drive
-/// as well finds it in `cell` (bus 0).
+/// as well finds it in `segment` (bus 0).
 pub fn run_virtual_mixed(
-    cell: &mut Cell,
+    segment: &mut CanSegment,
     modbus: &mut [ModbusDrive],
-    chains: &mut [EthercatCell],
+    chains: &mut [SlaveChain],
     inputs: &[(Duration, Input)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, Output<'_>),
 ) {
-    run_virtual_lines(cell, modbus, chains, &mut [], inputs, until, sink);
+    run_virtual_lines(segment, modbus, chains, &mut [], inputs, until, sink);
 }
 
 /// [`run_virtual_mixed`] with the serial lines `lines` (built by
@@ -130,9 +130,9 @@ pub fn run_virtual_mixed(
 /// and answers are deadlines like the others; at one instant they come after the chains and
 /// before the input. A line's answers go to `sink` when they have crossed.
 pub fn run_virtual_lines(
-    cell: &mut Cell,
+    segment: &mut CanSegment,
     modbus: &mut [ModbusDrive],
-    chains: &mut [EthercatCell],
+    chains: &mut [SlaveChain],
     lines: &mut [VirtualLine],
     inputs: &[(Duration, Input)],
     until: Duration,
@@ -147,9 +147,9 @@ pub fn run_virtual_lines(
     let mut answer = Vec::with_capacity(256);
     let mut frame = Vec::with_capacity(crate::ecat::MAX_FRAME);
     let mut now = Instant::ZERO;
-    cell.boot(now, &mut out);
+    segment.boot(now, &mut out);
     for c in chains.iter_mut() {
-        c.boot_with(now, cell);
+        c.boot_with(now, segment);
     }
     for m in modbus.iter_mut() {
         m.open_connection(now);
@@ -163,7 +163,7 @@ pub fn run_virtual_lines(
         let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
         let wake = modbus
             .iter()
-            .fold(earliest(cell.deadline(), input_at), |acc, m| {
+            .fold(earliest(segment.deadline(), input_at), |acc, m| {
                 earliest(acc, Some(m.next_cycle()))
             });
         let wake = chains
@@ -188,19 +188,19 @@ pub fn run_virtual_lines(
         for m in modbus.iter_mut() {
             m.cycle(now);
         }
-        if cell.deadline().is_some_and(|d| d <= now) {
-            cell.poll(now, &mut out);
+        if segment.deadline().is_some_and(|d| d <= now) {
+            segment.poll(now, &mut out);
         }
         for c in chains.iter_mut() {
             if c.deadline().is_some_and(|d| d <= now) {
-                c.poll_with(now, cell);
+                c.poll_with(now, segment);
             }
         }
         for (i, l) in lines.iter_mut().enumerate() {
             if l.deadline().is_some_and(|d| d <= now) {
                 crossed.clear();
-                let mut drives = CellLineDrives {
-                    cell,
+                let mut drives = SegmentLineDrives {
+                    segment,
                     out: &mut out,
                 };
                 l.due(now, &mut drives, &mut crossed);
@@ -219,7 +219,7 @@ pub fn run_virtual_lines(
             match inputs.get(next_input) {
                 Some((_, Input::Can(f))) => {
                     sink(at(now), Output::Can(f));
-                    cell.on_frame(now, f, &mut out);
+                    segment.on_frame(now, f, &mut out);
                 }
                 Some((_, Input::Modbus { drive, bytes })) => {
                     if let Some(m) = modbus.get_mut(*drive) {
@@ -242,7 +242,7 @@ pub fn run_virtual_lines(
                         frame.clear();
                         frame.extend_from_slice(f);
                         let shared = c.has_bus_drives();
-                        if c.on_frame_with(now, &mut frame, cell).forward() {
+                        if c.on_frame_with(now, &mut frame, segment).forward() {
                             sink(
                                 at(now),
                                 Output::Ethercat {
@@ -253,7 +253,7 @@ pub fn run_virtual_lines(
                         }
                         if shared {
                             // As the cell loop does: the CANopen side looks at once.
-                            cell.poll(now, &mut out);
+                            segment.poll(now, &mut out);
                         }
                     }
                 }

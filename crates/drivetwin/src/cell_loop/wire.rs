@@ -135,7 +135,7 @@ impl CellLoop {
             WireRequest::Add { front, fault } => {
                 if let FrontEnd::Bus(b) = front {
                     let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    return Ok(WireAnswer::Added(bus.cell.add_wire_fault(t, fault)?));
+                    return Ok(WireAnswer::Added(bus.segment.add_wire_fault(t, fault)?));
                 }
                 self.check_front(front)?;
                 // A delayed request or frame is held by the front end's link until it is due
@@ -145,7 +145,7 @@ impl CellLoop {
             WireRequest::Remove { front, id } => {
                 if let FrontEnd::Bus(b) = front {
                     let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    bus.cell.remove_wire_fault(id)?;
+                    bus.segment.remove_wire_fault(id)?;
                     return Ok(WireAnswer::Done);
                 }
                 self.check_front(front)?;
@@ -155,7 +155,7 @@ impl CellLoop {
             WireRequest::Clear { front } => {
                 if let FrontEnd::Bus(b) = front {
                     let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    bus.cell.clear_wire_faults();
+                    bus.segment.clear_wire_faults();
                     return Ok(WireAnswer::Done);
                 }
                 self.check_front(front)?;
@@ -165,7 +165,7 @@ impl CellLoop {
             WireRequest::List { front } => {
                 if let FrontEnd::Bus(b) = front {
                     let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    return Ok(WireAnswer::Faults(bus.cell.wire_faults(t)));
+                    return Ok(WireAnswer::Faults(bus.segment.wire_faults(t)));
                 }
                 self.check_front(front)?;
                 Ok(WireAnswer::Faults(
@@ -181,7 +181,7 @@ impl CellLoop {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
-                let w = TraceWriter::create_for_bus(&path, &channel, b.cell.timed_bitrate())
+                let w = TraceWriter::create_for_bus(&path, &channel, b.segment.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
                 b.link.sink_mut().start(w);
                 Ok(WireAnswer::Done)

@@ -4,11 +4,11 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::ci_console;
 use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::station::{Station, StationError};
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::virtual_clock;
 use drivetwin::master::link::{Link, LinkError};
 use drivetwin::master::sdo_client::{SdoClient, SdoError};

@@ -35,18 +35,18 @@ pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-/// The drives that are on CAN, one cell per bus of the cell file (`buses` of them, running at
+/// The stations that are on CAN, one segment per bus of the cell file (`buses` of them, running at
 /// `rates`), and for each drive of `specs` (the cell file's, in order) its place (`None`: a
 /// CMMO-ST, or its switches keep it off the bus).
-pub(crate) fn build_cell(
+pub(crate) fn build_segments(
     specs: Vec<DriveSpec>,
     buses: &[BusSection],
     rates: &[BusRate],
     state_dir: Option<&PathBuf>,
-) -> Result<(Vec<Cell>, Vec<Option<OnBus>>), CommandError> {
+) -> Result<(Vec<CanSegment>, Vec<Option<OnBus>>), CommandError> {
     let mut drives: Vec<Vec<Station>> = buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
-    // `[[drive.diagnostic]]`: (bus, drive in its cell, messages).
+    // `[[drive.diagnostic]]`: (bus, station in its segment, messages).
     let mut diagnostics = Vec::new();
     for mut spec in specs {
         in_cell.push(None);
@@ -113,31 +113,31 @@ pub(crate) fn build_cell(
             });
         }
     }
-    let mut cells = drives
+    let mut segments = drives
         .into_iter()
         .zip(buses.iter().zip(rates))
         .map(|(d, (section, rate))| {
-            let mut cell = match rate.bitrate() {
-                Some(bitrate) => Cell::new(d).with_bitrate(bitrate, section.late_after()),
-                None => Cell::new(d),
+            let mut segment = match rate.bitrate() {
+                Some(bitrate) => CanSegment::new(d).with_bitrate(bitrate, section.late_after()),
+                None => CanSegment::new(d),
             };
             for p in &section.disturb {
-                cell.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
+                segment.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
             }
-            cell
+            segment
         })
-        .collect::<Vec<Cell>>();
+        .collect::<Vec<CanSegment>>();
     for (bus, drive, planned, physics) in diagnostics {
-        if let Some(cell) = cells.get_mut(bus) {
+        if let Some(segment) = segments.get_mut(bus) {
             for p in planned {
-                cell.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
+                segment.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
             }
             for (at_ms, change) in physics {
-                cell.plan_physics(od::Instant::from_millis(at_ms), drive, change);
+                segment.plan_physics(od::Instant::from_millis(at_ms), drive, change);
             }
         }
     }
-    Ok((cells, in_cell))
+    Ok((segments, in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
@@ -369,7 +369,7 @@ async fn prepare_cell(
         .filter(|(_, s)| s.ethercat.is_some())
         .map(|(i, s)| (i, s.clone()))
         .collect();
-    // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN cells.
+    // `[[drive.diagnostic]]` / `[[drive.plant]]` of the drives outside the CAN segments.
     let outside = drivetwin::cell::planned::outside_plans(&specs, in_loop);
     // A rate object the node saved wins over the cell file's, as at power-on.
     if let Some(dir) = &args.state_dir {
@@ -382,8 +382,8 @@ async fn prepare_cell(
     let rates = file.bus_rates(&specs)?;
     // Each drive's CI terminal and serial ports, as its section names them.
     let ports: Vec<Ports> = specs.iter().map(|s| s.ports.clone()).collect();
-    let (cells, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
-    for d in cells.iter().flat_map(|c| c.drives.iter()) {
+    let (segments, in_cell) = build_segments(specs, &buses, &rates, args.state_dir.as_ref())?;
+    for d in segments.iter().flat_map(|c| c.stations.iter()) {
         out!(
             "drive {} node {} ({})",
             d.od().description().name,
@@ -396,13 +396,13 @@ async fn prepare_cell(
     }
 
     if let Some(seconds) = args.virtual_seconds {
-        let mut cells = cells;
-        if cells.len() != 1 {
+        let mut segments = segments;
+        if segments.len() != 1 {
             return Err(CommandError::Usage(
                 "--virtual-seconds runs a cell of one CAN bus".into(),
             ));
         }
-        let mut cell = cells.remove(0);
+        let mut cell = segments.remove(0);
         let channel = buses.first().map_or("vcan0", |b| b.channel.as_str());
         if !(seconds.is_finite() && seconds >= 0.0) {
             return Err(CommandError::Usage(
@@ -460,9 +460,9 @@ async fn prepare_cell(
         args,
         ethercat_if,
         trace_path.map(|p| p.as_path()),
-        cells.iter().all(|c| c.drives.is_empty()),
+        segments.iter().all(|c| c.stations.is_empty()),
     )?;
-    let serial = serial_lines(&ports, &in_cell, args, first, &cells)?;
+    let serial = serial_lines(&ports, &in_cell, args, first, &segments)?;
     let mut front = FrontEnds {
         modbus,
         ethercat,
@@ -472,10 +472,11 @@ async fn prepare_cell(
         views: drivetwin::vendors::DRIVE_VIEWS,
         ..FrontEnds::default()
     };
-    for (b, ((cell, section), rate)) in cells.into_iter().zip(&buses).zip(&rates).enumerate() {
-        let mut bus = CanBus::new(cell);
+    for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
+    {
+        let mut bus = CanBus::new(segment);
         // A bus without drives (a cell of CMMO-STs only) has no socketcand server.
-        if !bus.cell.drives.is_empty() && !section.socketcand.is_empty() {
+        if !bus.segment.stations.is_empty() && !section.socketcand.is_empty() {
             let listener = std::net::TcpListener::bind(&section.socketcand)
                 .map_err(io(format!("socketcand listen on {}", section.socketcand)))?;
             let addr = listener.local_addr().map_err(io("socketcand address"))?;
@@ -611,7 +612,7 @@ fn serial_lines(
     in_cell: &[Option<OnBus>],
     args: &RunArgs,
     first_cell: bool,
-    cells: &[Cell],
+    segments: &[CanSegment],
 ) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
     use drivetwin::serial::{Kind, LineRequest};
     use drivetwin::vendors::open_serial_lines;
@@ -650,7 +651,7 @@ fn serial_lines(
         }
     }
     let lines =
-        open_serial_lines(&requests, cells).map_err(|e| CommandError::Usage(e.to_string()))?;
+        open_serial_lines(&requests, segments).map_err(|e| CommandError::Usage(e.to_string()))?;
     for l in &lines {
         match l.port().pty_name() {
             Some(pty) => out!(
@@ -730,8 +731,8 @@ fn ethercat_chains(
     trace_path: Option<&std::path::Path>,
     no_can: bool,
 ) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
-    use drivetwin::ecat::chain::{own_drive, EthercatCell, SlaveDrive};
-    let mut chains: Vec<(String, EthercatCell)> = Vec::new();
+    use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
+    let mut chains: Vec<(String, SlaveChain)> = Vec::new();
     for (i, spec) in specs {
         let Some(chain) = spec.ethercat.clone() else {
             continue;
@@ -764,7 +765,7 @@ fn ethercat_chains(
         let at = match chains.iter().position(|(n, _)| *n == ifname) {
             Some(at) => at,
             None => {
-                chains.push((ifname, EthercatCell::empty()));
+                chains.push((ifname, SlaveChain::empty()));
                 chains.len() - 1
             }
         };

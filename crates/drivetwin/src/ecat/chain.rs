@@ -30,7 +30,7 @@
 //!   fault reaction.
 //! * Between frames the cell loop polls the chain at least every [`TICK`], so the drive (and the
 //!   ESC's process-data watchdog) runs while the master is silent; in real time up to
-//!   [`STEP_GRACE`] later ([`EthercatCell::wake_by`]), so that the loop's wake-up for it falls
+//!   [`STEP_GRACE`] later ([`SlaveChain::wake_by`]), so that the loop's wake-up for it falls
 //!   between a master's frames, not onto them.
 //!
 //! * The mailbox speaks CoE ([`ethercat::coe`], the CMMP-AS set of services): after every
@@ -78,7 +78,7 @@ use super::line::{Line, LineError};
 pub const TICK: Duration = Duration::from_millis(1);
 
 /// How late a loop in real time may step a drive that no frame stepped
-/// ([`EthercatCell::wake_by`]).
+/// ([`SlaveChain::wake_by`]).
 pub const STEP_GRACE: Duration = Duration::from_micros(500);
 
 /// PDO assignment objects (ETG.1000.6): SM2 (RxPDO) and SM3 (TxPDO).
@@ -98,7 +98,7 @@ const MAX_SYNC0_BURST: u64 = 16;
 pub const SYNC0_SERVICE_FLOOR: Duration = Duration::from_micros(50);
 
 #[derive(Debug, thiserror::Error)]
-pub enum EcatCellError {
+pub enum SlaveChainError {
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
@@ -186,13 +186,9 @@ struct SaveInFlight {
 
 /// The drive behind a slave.
 pub enum SlaveDrive {
-    /// Its own: an EtherCAT-only drive, with where 1010h "save" writes its parameters and
-    /// the set last saved.
-    Own {
-        model: Model,
-        store: Option<ParamStore>,
-        stored: Vec<StoredValue>,
-    },
+    /// Its own: the station of a drive on EtherCAT alone (no CANopen node), with where 1010h
+    /// "save" writes its parameters and the set last saved.
+    Own(Box<Station>),
     /// A CANopen drive of one of the cell's CAN buses, served over EtherCAT as well
     /// (`allow_unreal_interfaces`): a value written over CoE is the one SDO reads.
     OnBus(OnBus),
@@ -212,13 +208,13 @@ impl BusDrives for NoBuses {
     }
 }
 
-/// A cell of one CAN bus (the virtual clock's).
-impl BusDrives for crate::cell::Cell {
+/// The one CAN segment of a cell on the virtual clock (bus 0).
+impl BusDrives for crate::cell::can_segment::CanSegment {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
         if at.bus != 0 {
             return None;
         }
-        self.drives.get_mut(at.drive)
+        self.stations.get_mut(at.drive)
     }
 }
 
@@ -240,17 +236,16 @@ impl<'a> Bound<'a> {
         buses: &'a mut dyn BusDrives,
     ) -> Option<Self> {
         match drive {
-            SlaveDrive::Own {
-                model,
-                store,
-                stored,
-            } => Some(Bound {
-                dev,
-                model,
-                store: store.as_ref(),
-                stored,
-                shared_events: None,
-            }),
+            SlaveDrive::Own(station) => {
+                let (model, store, stored) = station.drive_parts();
+                Some(Bound {
+                    dev,
+                    model,
+                    store,
+                    stored,
+                    shared_events: None,
+                })
+            }
             SlaveDrive::OnBus(at) => {
                 let (model, store, stored, events) = buses.station(*at)?.coe_parts();
                 Some(Bound {
@@ -787,7 +782,7 @@ fn set_bits(dst: &mut [u8], offset: usize, bits: u8, src: &[u8]) {
 pub fn sii_image(
     desc: &'static DeviceDescription,
     cfg: &SiiConfig<'static>,
-) -> Result<&'static [u8], EcatCellError> {
+) -> Result<&'static [u8], SlaveChainError> {
     type Cache = Vec<(&'static str, SiiConfig<'static>, &'static [u8])>;
     static CACHE: Mutex<Cache> = Mutex::new(Vec::new());
     let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
@@ -795,7 +790,7 @@ pub fn sii_image(
         return Ok(image);
     }
     let mut buf = vec![0u8; sii::DEFAULT_IMAGE_SIZE];
-    sii::build_sii(desc, cfg, &mut buf).map_err(|error| EcatCellError::Sii {
+    sii::build_sii(desc, cfg, &mut buf).map_err(|error| SlaveChainError::Sii {
         device: desc.name,
         error,
     })?;
@@ -806,7 +801,7 @@ pub fn sii_image(
 }
 
 /// The chain: `escs[i]` with `devices[i]` and `drives[i]`, in wire order.
-pub struct EthercatCell {
+pub struct SlaveChain {
     escs: Vec<Esc<'static>>,
     devices: Vec<SlaveDevice>,
     drives: Vec<SlaveDrive>,
@@ -820,12 +815,12 @@ pub struct EthercatCell {
     pub frames: u64,
 }
 
-impl EthercatCell {
+impl SlaveChain {
     /// Why the load FMU of a drive of its own stopped the chain, once one has (as
-    /// [`crate::cell::Cell::load_failure`]; a drive of a CAN bus is its bus's).
+    /// [`crate::cell::can_segment::CanSegment::load_failure`]; a drive of a CAN bus is its bus's).
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
-            SlaveDrive::Own { model, .. } => model.drive()?.load_failure(),
+            SlaveDrive::Own(station) => station.model.drive()?.load_failure(),
             SlaveDrive::OnBus(_) => None,
         })
     }
@@ -836,7 +831,7 @@ impl EthercatCell {
     pub fn from_cell_file(
         file: &CellFile,
         sections: DeviceSections,
-    ) -> Result<Self, EcatCellError> {
+    ) -> Result<Self, SlaveChainError> {
         Self::new(file.drives(sections)?)
     }
 
@@ -846,11 +841,11 @@ impl EthercatCell {
         file: &CellFile,
         sections: DeviceSections,
         state_dir: Option<&Path>,
-    ) -> Result<Self, EcatCellError> {
+    ) -> Result<Self, SlaveChainError> {
         Self::with_stores(file.drives(sections)?, state_dir)
     }
 
-    pub fn new(specs: Vec<DriveSpec>) -> Result<Self, EcatCellError> {
+    pub fn new(specs: Vec<DriveSpec>) -> Result<Self, SlaveChainError> {
         Self::with_stores(specs, None)
     }
 
@@ -858,11 +853,11 @@ impl EthercatCell {
     pub fn with_stores(
         specs: Vec<DriveSpec>,
         state_dir: Option<&Path>,
-    ) -> Result<Self, EcatCellError> {
+    ) -> Result<Self, SlaveChainError> {
         if specs.is_empty() {
-            return Err(EcatCellError::Empty);
+            return Err(SlaveChainError::Empty);
         }
-        let mut chain = EthercatCell::empty();
+        let mut chain = SlaveChain::empty();
         chain.state_dir = state_dir.map(Path::to_path_buf);
         for spec in specs {
             let desc = spec.desc;
@@ -877,7 +872,7 @@ impl EthercatCell {
 
     /// A chain without slaves yet.
     pub fn empty() -> Self {
-        EthercatCell {
+        SlaveChain {
             escs: Vec::new(),
             devices: Vec::new(),
             drives: Vec::new(),
@@ -893,7 +888,7 @@ impl EthercatCell {
         &mut self,
         desc: &'static DeviceDescription,
         drive: SlaveDrive,
-    ) -> Result<(), EcatCellError> {
+    ) -> Result<(), SlaveChainError> {
         let cfg = SiiConfig::from_description(desc);
         let image = sii_image(desc, &cfg)?;
         self.escs.push(Esc::with_sii(image));
@@ -928,14 +923,14 @@ impl EthercatCell {
     /// The drive of slave `i` when it is its own (not a CANopen drive's).
     pub fn model(&self, i: usize) -> Option<&Model> {
         match self.drives.get(i)? {
-            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::Own(station) => Some(&station.model),
             SlaveDrive::OnBus(_) => None,
         }
     }
 
     pub fn model_mut(&mut self, i: usize) -> Option<&mut Model> {
         match self.drives.get_mut(i)? {
-            SlaveDrive::Own { model, .. } => Some(model),
+            SlaveDrive::Own(station) => Some(&mut station.model),
             SlaveDrive::OnBus(_) => None,
         }
     }
@@ -1154,7 +1149,7 @@ impl EthercatCell {
         position: usize,
         now: Instant,
         buses: &mut dyn BusDrives,
-    ) -> Result<(), EcatCellError> {
+    ) -> Result<(), SlaveChainError> {
         let len = self.escs.len();
         if !self.line.set_power(position, true, len)? {
             return Ok(());
@@ -1204,9 +1199,9 @@ impl EthercatCell {
     }
 }
 
-/// An EtherCAT-only drive built from its spec, as the CANopen cell builds its drives (cell
-/// file, motor commissioning, stored set).
-pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive, EcatCellError> {
+/// A drive on EtherCAT alone built from its spec: a station without a CANopen node, built as
+/// a CAN bus's stations are (cell file, motor commissioning, stored set).
+pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive, SlaveChainError> {
     let settings = spec.settings.map(|mut s| {
         // CSP (6060h = 8) exists only over EtherCAT.
         s.ethercat = true;
@@ -1216,12 +1211,7 @@ pub fn own_drive(spec: DriveSpec, state_dir: Option<&Path>) -> Result<SlaveDrive
     let mut drive =
         Station::with_settings(spec.desc, spec.node, store, spec.commissioning, settings)?;
     drive.couple_load(spec.load.as_ref(), spec.node)?;
-    let (model, store, stored) = drive.into_parts();
-    Ok(SlaveDrive::Own {
-        model,
-        store,
-        stored,
-    })
+    Ok(SlaveDrive::Own(Box::new(drive.without_canopen())))
 }
 
 /// The dictionary as the CoE server sees it: as [`Persisting`], but a "save" with a file

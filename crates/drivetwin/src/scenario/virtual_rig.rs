@@ -1,5 +1,5 @@
 //! The virtual clock's rig: the CANopen drives of the cell file's buses (`[[bus]]`, each its
-//! own [`Cell`]), stepped from one deadline to the next as
+//! own [`CanSegment`]), stepped from one deadline to the next as
 //! [`crate::cell_loop::virtual_clock::run_virtual`] does, with the scenario's actions between; every
 //! frame of the first bus optionally to a trace whose time stamps are the virtual clock's (so
 //! two runs give the same file).
@@ -16,11 +16,11 @@ use od::{Instant, ObjectAccess};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
+use crate::cell::can_segment::CanSegment;
 use crate::cell::config::{CellFile, DeviceSections};
 use crate::cell::link::{At, Link, Wire};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
 use crate::cell::station::Station;
-use crate::cell::Cell;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
@@ -29,7 +29,7 @@ use crate::trace::TraceWriter;
 const STUCK: u32 = 10_000;
 
 pub struct VirtualRig {
-    cells: Vec<Cell>,
+    segments: Vec<CanSegment>,
     now: Instant,
     out: Vec<CanFrame>,
     /// The first bus, traced (see [`VirtualRig::trace_to`]).
@@ -123,12 +123,12 @@ impl VirtualRig {
         }
         let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
-        let mut cells = Vec::new();
+        let mut segments = Vec::new();
         for (((d, section), rate), plans) in drives.into_iter().zip(sections).zip(&rates).zip(plans)
         {
             let mut cell = match rate.bitrate() {
-                Some(bitrate) => Cell::new(d).with_bitrate(bitrate, section.late_after()),
-                None => Cell::new(d),
+                Some(bitrate) => CanSegment::new(d).with_bitrate(bitrate, section.late_after()),
+                None => CanSegment::new(d),
             };
             for p in &section.disturb {
                 cell.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
@@ -143,10 +143,10 @@ impl VirtualRig {
                     cell.plan_physics(Instant::from_millis(at_ms), drive, change);
                 }
             }
-            cells.push(cell);
+            segments.push(cell);
         }
         let mut rig = VirtualRig {
-            cells,
+            segments,
             now: Instant::ZERO,
             out: Vec::new(),
             first_bus: Tracer::new(Wire::new(), CanTrace::new(None)),
@@ -155,8 +155,8 @@ impl VirtualRig {
             modbus,
         };
         // Booted in bus order; the boot-up frames wait in `pending` for the first emit.
-        for b in 0..rig.cells.len() {
-            if let Some(c) = rig.cells.get_mut(b) {
+        for b in 0..rig.segments.len() {
+            if let Some(c) = rig.segments.get_mut(b) {
                 c.boot(Instant::ZERO, &mut out);
             }
             rig.pending.extend(out.drain(..).map(|f| (b, f)));
@@ -175,9 +175,9 @@ impl VirtualRig {
 
     /// The FMI version of the load FMU coupled to node `node`'s drive, if it has one.
     pub fn load_fmi_version(&self, node: u8) -> Option<&'static str> {
-        self.cells
+        self.segments
             .iter()
-            .flat_map(|c| &c.drives)
+            .flat_map(|c| &c.stations)
             .find(|d| d.node_id() == node)?
             .model
             .drive()?
@@ -216,17 +216,17 @@ impl VirtualRig {
     fn drive(&self, node: Option<u8>) -> Result<(usize, usize), String> {
         match node {
             None => self
-                .cells
+                .segments
                 .iter()
-                .position(|c| !c.drives.is_empty())
+                .position(|c| !c.stations.is_empty())
                 .map(|b| (b, 0))
                 .ok_or_else(|| "no drive".to_string()),
             Some(n) => self
-                .cells
+                .segments
                 .iter()
                 .enumerate()
                 .find_map(|(b, c)| {
-                    c.drives
+                    c.stations
                         .iter()
                         .position(|d| d.node_id() == n)
                         .map(|i| (b, i))
@@ -237,11 +237,13 @@ impl VirtualRig {
 
     /// Drive `node` on bus `bus` (the bus's first without a node).
     fn drive_on(&self, bus: usize, node: Option<u8>) -> Result<usize, String> {
-        let c = self.cell(bus)?;
+        let c = self.segment(bus)?;
         match node {
-            None => (!c.drives.is_empty()).then_some(0).ok_or("no drive".into()),
+            None => (!c.stations.is_empty())
+                .then_some(0)
+                .ok_or("no drive".into()),
             Some(n) => c
-                .drives
+                .stations
                 .iter()
                 .position(|d| d.node_id() == n)
                 .ok_or_else(|| format!("no node {n} on bus {bus}")),
@@ -252,7 +254,7 @@ impl VirtualRig {
     fn cmmo_st(&self, node: Option<u8>) -> Option<usize> {
         let cia402 = self.drive(node).is_ok();
         match node {
-            None if self.cells.iter().all(|c| c.drives.is_empty()) => {
+            None if self.segments.iter().all(|c| c.stations.is_empty()) => {
                 (!self.modbus.is_empty()).then_some(0)
             }
             Some(n) if !cia402 => self.modbus.iter().position(|(m, _)| *m == n),
@@ -265,15 +267,15 @@ impl VirtualRig {
         self.modbus.get_mut(i).map(|(_, m)| m.device_mut())
     }
 
-    fn cell(&self, bus: usize) -> Result<&Cell, String> {
-        self.cells
+    fn segment(&self, bus: usize) -> Result<&CanSegment, String> {
+        self.segments
             .get(bus)
-            .ok_or_else(|| format!("bus {bus}: the cell has {} bus(es)", self.cells.len()))
+            .ok_or_else(|| format!("bus {bus}: the cell has {} bus(es)", self.segments.len()))
     }
 
-    fn cell_mut(&mut self, bus: usize) -> Result<&mut Cell, String> {
-        let n = self.cells.len();
-        self.cells
+    fn segment_mut(&mut self, bus: usize) -> Result<&mut CanSegment, String> {
+        let n = self.segments.len();
+        self.segments
             .get_mut(bus)
             .ok_or_else(|| format!("bus {bus}: the cell has {n} bus(es)"))
     }
@@ -285,7 +287,7 @@ impl VirtualRig {
         sub: u8,
         value: &str,
     ) -> Result<Vec<u8>, String> {
-        let d = self.cell(b)?.drives.get(i).ok_or("no drive")?;
+        let d = self.segment(b)?.stations.get(i).ok_or("no drive")?;
         let e = d
             .od()
             .description()
@@ -298,8 +300,8 @@ impl VirtualRig {
         &mut self,
         (b, i): (usize, usize),
     ) -> Result<&mut drive::vendors::AnyDrive<Vec<u8>>, String> {
-        self.cell_mut(b)?
-            .drives
+        self.segment_mut(b)?
+            .stations
             .get_mut(i)
             .and_then(|d| d.model.drive_mut().map(|d| &mut **d))
             .ok_or_else(|| "the drive has no simulated plant".to_string())
@@ -325,9 +327,9 @@ pub struct Probe {
 impl VirtualRig {
     /// The node-IDs of the CANopen drives, bus by bus in the cell file's order.
     pub fn nodes(&self) -> Vec<u8> {
-        self.cells
+        self.segments
             .iter()
-            .flat_map(|c| c.drives.iter().map(|d| d.node_id()))
+            .flat_map(|c| c.stations.iter().map(|d| d.node_id()))
             .collect()
     }
 
@@ -339,7 +341,7 @@ impl VirtualRig {
     /// Drive `node`'s plant and words now.
     pub fn probe(&self, node: u8) -> Result<Probe, String> {
         let (b, i) = self.drive(Some(node))?;
-        let station = self.cell(b)?.drives.get(i).ok_or("no drive")?;
+        let station = self.segment(b)?.stations.get(i).ok_or("no drive")?;
         let d = station
             .model
             .drive()
@@ -363,9 +365,9 @@ impl VirtualRig {
 
 impl Rig for VirtualRig {
     fn stopped(&self) -> Option<String> {
-        self.cells
+        self.segments
             .iter()
-            .find_map(Cell::load_failure)
+            .find_map(CanSegment::load_failure)
             .map(|e| format!("load: {e}"))
     }
 
@@ -375,9 +377,9 @@ impl Rig for VirtualRig {
         let mut stuck = 0u32;
         loop {
             let wake = self
-                .cells
+                .segments
                 .iter()
-                .filter_map(Cell::deadline)
+                .filter_map(CanSegment::deadline)
                 .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
                 .min()
                 .filter(|w| *w <= end);
@@ -395,11 +397,11 @@ impl Rig for VirtualRig {
             for (_, m) in &mut self.modbus {
                 m.cycle(self.now);
             }
-            for b in 0..self.cells.len() {
+            for b in 0..self.segments.len() {
                 let now = self.now;
                 let mut out = std::mem::take(&mut self.out);
                 if let Some(c) = self
-                    .cells
+                    .segments
                     .get_mut(b)
                     .filter(|c| c.deadline().is_some_and(|d| d <= now))
                 {
@@ -426,11 +428,11 @@ impl Rig for VirtualRig {
         let result = match action {
             Action::Frame { bus, frame } => {
                 on = *bus;
-                self.cell(*bus)?;
+                self.segment(*bus)?;
                 self.out.push(*frame);
                 self.emit(*bus, seen);
                 let mut out = std::mem::take(&mut self.out);
-                self.cell_mut(*bus)?.on_frame(now, frame, &mut out);
+                self.segment_mut(*bus)?.on_frame(now, frame, &mut out);
                 self.out = out;
                 Ok(())
             }
@@ -444,12 +446,16 @@ impl Rig for VirtualRig {
                 on = *bus;
                 let i = self.drive_on(*bus, *node)?;
                 let bytes = self.encode((*bus, i), *index, *sub, value)?;
-                let node = self.cell(*bus)?.drives.get(i).map_or(0, |d| d.node_id());
+                let node = self
+                    .segment(*bus)?
+                    .stations
+                    .get(i)
+                    .map_or(0, |d| d.node_id());
                 let frame = expedited_download(node, *index, *sub, &bytes)?;
                 self.out.push(frame);
                 self.emit(*bus, seen);
                 let mut out = std::mem::take(&mut self.out);
-                self.cell_mut(*bus)?.on_frame(now, &frame, &mut out);
+                self.segment_mut(*bus)?.on_frame(now, &frame, &mut out);
                 self.out = out;
                 Ok(())
             }
@@ -464,9 +470,10 @@ impl Rig for VirtualRig {
                 let bytes = self.encode((b, i), *index, *sub, value)?;
                 let mut result = Ok(());
                 let mut out = std::mem::take(&mut self.out);
-                self.cell_mut(b)?.local_access(i, now, &mut out, &mut |a| {
-                    result = a.write(*index, *sub, &bytes);
-                });
+                self.segment_mut(b)?
+                    .local_access(i, now, &mut out, &mut |a| {
+                        result = a.write(*index, *sub, &bytes);
+                    });
                 self.out = out;
                 result.map_err(|code| {
                     format!(
@@ -530,7 +537,7 @@ impl Rig for VirtualRig {
             } => {
                 let (b, i) = self.drive(*node)?;
                 on = b;
-                let cell = self.cell_mut(b)?;
+                let cell = self.segment_mut(b)?;
                 let done = if *raise {
                     cell.raise_diagnostic(i, number)
                 } else {
@@ -540,14 +547,14 @@ impl Rig for VirtualRig {
             }
             Action::Fault { bus, fault } => {
                 on = *bus;
-                self.cell_mut(*bus)?
+                self.segment_mut(*bus)?
                     .add_wire_fault(now, *fault)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }
             Action::ClearFaults { bus } => {
                 on = *bus;
-                self.cell_mut(*bus)?.clear_wire_faults();
+                self.segment_mut(*bus)?.clear_wire_faults();
                 Ok(())
             }
             // Answered by `act_cmmo_st` when the node is a CMMO-ST.
@@ -571,7 +578,7 @@ impl Rig for VirtualRig {
             return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
         }
         let (b, i) = self.drive(node)?;
-        let d = self.cell(b)?.drives.get(i).ok_or("no drive")?;
+        let d = self.segment(b)?.stations.get(i).ok_or("no drive")?;
         let mut buf = [0u8; 8];
         let n = d
             .model

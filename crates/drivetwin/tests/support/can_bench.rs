@@ -3,20 +3,20 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use canopen::CanFrame;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use od::Instant;
 
 /// The default cell's CMMP-AS (node 1, heartbeat and CiA 402 FAULT value commissioned), its
 /// parameters kept in `store` if given; not yet booted.
-pub fn cmmp_cell(store: Option<ParamStore>) -> Cell {
+pub fn cmmp_cell(store: Option<ParamStore>) -> CanSegment {
     device_cell("cmmp-as", store)
 }
 
 /// The default cell of device file `device` (node 1), not yet booted.
-pub fn device_cell(device: &str, store: Option<ParamStore>) -> Cell {
+pub fn device_cell(device: &str, store: Option<ParamStore>) -> CanSegment {
     let spec = CellFile::single(device, 1)
         .drives(drivetwin::vendors::CELL_SECTIONS)
         .expect("the default cell")
@@ -30,12 +30,12 @@ pub fn device_cell(device: &str, store: Option<ParamStore>) -> Cell {
         spec.settings,
     )
     .expect("the drive");
-    Cell::new(vec![d])
+    CanSegment::new(vec![d])
 }
 
 /// The cell booted and run 10 ms, the frames it sends collected.
 pub struct CanBench {
-    pub cell: Cell,
+    pub cell: CanSegment,
     pub now: Instant,
     pub out: Vec<CanFrame>,
 }
@@ -147,7 +147,7 @@ impl CanBench {
     }
 
     pub fn drive(&mut self) -> &mut drive::vendors::AnyDrive<Vec<u8>> {
-        self.cell.drives[0]
+        self.cell.stations[0]
             .model
             .drive_mut()
             .expect("a CiA 402 drive")

@@ -8,9 +8,9 @@ use std::sync::Arc;
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use drivetwin::can::socketcand::ServerConfig;
+use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::Cell;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
@@ -70,7 +70,7 @@ pub fn bus(drives: Vec<Station>) -> CanBus {
     let can = TcpListener::bind("127.0.0.1:0").expect("bind");
     CanBus {
         socketcand: Some((can, ServerConfig::new("vcan0"))),
-        ..CanBus::new(Cell::new(drives))
+        ..CanBus::new(CanSegment::new(drives))
     }
 }
 

@@ -1,5 +1,6 @@
-//! A station's CANopen front end: its CiA 301 node on the cell's CAN bus (boot-up, the
-//! frames it receives) and its CAN controller's error states.
+//! A station's CANopen front end, when its drive is on a CAN bus: its CiA 301 node on the
+//! bus (boot-up, the frames it receives) and its CAN controller's error states. A station
+//! without a node ignores them: it is on no CAN bus.
 
 use canopen::CanFrame;
 use od::Instant;
@@ -23,16 +24,19 @@ impl Station {
             "CAN controller"
         );
         let device = self.model.od().description().name;
+        let Station { model, canopen, .. } = self;
+        let Some(node) = canopen.as_mut() else {
+            return;
+        };
         for r in react(device, t) {
             match *r {
                 Reaction::Raise(code) => {
-                    self.canopen
-                        .raise_error(&mut self.model, code, COMMUNICATION_REGISTER, [0; 5])
+                    node.raise_error(model, code, COMMUNICATION_REGISTER, [0; 5])
                 }
-                Reaction::Clear(code) => self.canopen.clear_error(&mut self.model, code),
-                Reaction::Repeat(code) => self.canopen.repeat_error(code),
+                Reaction::Clear(code) => node.clear_error(model, code),
+                Reaction::Repeat(code) => node.repeat_error(code),
                 Reaction::Fault(code) => {
-                    if let Some(d) = self.model.drive_mut() {
+                    if let Some(d) = model.drive_mut() {
                         // Raised once; its cause is gone with the bus back, so a fault reset
                         // clears it. Its EMCY is lost with the bus off; `recovered` sends it.
                         d.inject_fault(code, COMMUNICATION_REGISTER);
@@ -47,13 +51,15 @@ impl Station {
     /// Power-on finished: boot-up message.
     pub fn boot(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
         self.model.step(now);
-        self.canopen.boot(now, &self.model, out);
+        self.boot_node(now, out);
     }
 
     pub fn on_can_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut dyn FnMut(CanFrame)) {
         // The drive first runs up to the frame's time, so the frame acts on the right cycle.
         self.model.step(now);
-        let (node, mut access) = self.node_and_access();
+        let (Some(node), mut access) = self.node_and_access() else {
+            return;
+        };
         node.on_frame(now, frame, &mut access, out);
         self.service(now, out);
     }

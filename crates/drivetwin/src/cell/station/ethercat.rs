@@ -1,6 +1,8 @@
-//! A station's EtherCAT front end, where its drive is a slave of one of the cell's chains as
-//! well: the CoE side reaches the very drive the CANopen node serves (what CoE writes SDO
-//! reads) and takes a copy of the drive's events for its emergencies.
+//! A station's EtherCAT front end, where its drive is a slave of one of the cell's chains.
+//! A drive on a CAN bus as well: the CoE side reaches the very drive the CANopen node serves
+//! (what CoE writes SDO reads) and takes a copy of the drive's events for its emergencies. A
+//! drive on EtherCAT alone: a station without a CANopen node, whose events the CoE side takes
+//! itself.
 
 use std::collections::VecDeque;
 
@@ -14,10 +16,10 @@ use crate::cell::param_store::{ParamStore, StoredValue};
 const MAX_COE_EVENTS: usize = 64;
 
 impl Station {
-    /// The drive without its CANopen node (e.g. for an EtherCAT slave): its model, where
-    /// its parameters are saved, and the set last saved.
-    pub fn into_parts(self) -> (Model, Option<ParamStore>, Vec<StoredValue>) {
-        (self.model, self.store, self.stored)
+    /// What the CoE side of a drive on EtherCAT alone reaches: the model (whose events it
+    /// takes itself), where "save" writes, and the set last saved.
+    pub fn drive_parts(&mut self) -> (&mut Model, Option<&ParamStore>, &mut Vec<StoredValue>) {
+        (&mut self.model, self.store.as_ref(), &mut self.stored)
     }
 
     /// The drive is an EtherCAT slave of the cell as well: its events are kept for the CoE
@@ -48,15 +50,16 @@ impl Station {
     /// A drive event, copied for the CoE emergencies when the drive is served over EtherCAT
     /// as well; the oldest is lost when the CoE side has not taken them.
     pub(super) fn keep_for_coe(&mut self, ev: DriveEvent) {
-        if let Some(q) = self.coe_events.as_mut() {
-            if q.len() >= MAX_COE_EVENTS {
-                q.pop_front();
-                tracing::warn!(
-                    node = self.canopen.node_id(),
-                    "CoE event queue full, oldest lost"
-                );
-            }
-            q.push_back(ev);
+        let Some(q) = self.coe_events.as_mut() else {
+            return;
+        };
+        let full = q.len() >= MAX_COE_EVENTS;
+        if full {
+            q.pop_front();
+        }
+        q.push_back(ev);
+        if full {
+            tracing::warn!(node = self.node_id(), "CoE event queue full, oldest lost");
         }
     }
 }

@@ -1,6 +1,7 @@
 //! A station's local front ends: the CI terminal and the serial ports reach its objects as
 //! a commissioning tool does, writes going in as SDO downloads of its CANopen node, so the
-//! serial port, the CI terminal and CANopen see one set of objects.
+//! serial port, the CI terminal and CANopen see one set of objects (without a node, writes go
+//! to the dictionary as the CoE side's do).
 
 use canopen::{CanFrame, Node};
 use od::{AbortCode, Entry, Instant, ObjectAccess};
@@ -27,7 +28,7 @@ impl Station {
 
 /// A local interface's view of a drive: reads as they are, writes as SDO downloads of its node.
 struct Console<'a> {
-    node: &'a mut Node,
+    node: Option<&'a mut Node>,
     access: Persisting<'a>,
     now: Instant,
 }
@@ -40,8 +41,10 @@ impl ObjectAccess for Console<'_> {
         self.access.read(index, sub, buf)
     }
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.node
-            .local_write(self.now, index, sub, data, &mut self.access)
+        match self.node.as_mut() {
+            Some(node) => node.local_write(self.now, index, sub, data, &mut self.access),
+            None => self.access.write(index, sub, data),
+        }
     }
     fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.access.write_internal(index, sub, data)

@@ -1,8 +1,9 @@
 //! A station: one drive of the cell with all its front ends. The drive (its dictionary and,
 //! for a CiA 402 device, its engine and motor: [`Model`]) is stepped on the cell's clock;
-//! its front ends reach it through `od::ObjectAccess`: the CANopen node on a CAN bus
-//! (`canopen_node.rs`), the CI terminal and the serial ports (`local.rs`), the CoE side of an
-//! EtherCAT slave (`ethercat.rs`). The runtime's share of the work (parameter files, resets,
+//! its front ends reach it through `od::ObjectAccess`: the CANopen node when the drive is on
+//! a CAN bus (`canopen_node.rs`), the CI terminal and the serial ports (`local.rs`), the CoE
+//! side of an EtherCAT slave (`ethercat.rs`). A drive served over EtherCAT alone is a station
+//! without a CANopen node. The runtime's share of the work (parameter files, resets,
 //! the drive's events as emergencies) is done here (`parameters.rs`).
 //!
 //! One type split into files, each an `impl Station` with its own part of the doc.
@@ -44,9 +45,10 @@ pub enum StationError {
 pub struct Station {
     /// The drive: its dictionary, and for a CiA 402 device its engine and motor.
     pub model: Model,
-    /// Its CANopen front end: the CiA 301 node on the cell's CAN bus, through which the CI
-    /// terminal and the serial ports write as well.
-    pub canopen: Node,
+    /// Its CANopen front end, when the drive is on a CAN bus: the CiA 301 node, through which
+    /// the CI terminal and the serial ports write as well (none: a drive served over EtherCAT
+    /// alone).
+    pub canopen: Option<Node>,
     /// Where its parameters are saved (none: kept for the life of the process).
     store: Option<ParamStore>,
     /// The set last saved.
@@ -137,7 +139,7 @@ impl Station {
         load_all(&mut od, &commissioning, &stored, |_| true);
         Ok(Station {
             model: Model::new(od, settings),
-            canopen: Node::new(node_id, desc.cia301),
+            canopen: Some(Node::new(node_id, desc.cia301)),
             store,
             stored,
             commissioning,
@@ -150,8 +152,19 @@ impl Station {
         self.model.od()
     }
 
+    /// The drive without its CANopen front end: one served over EtherCAT alone, whose CoE
+    /// side takes the drive's events itself.
+    pub fn without_canopen(mut self) -> Self {
+        self.canopen = None;
+        self
+    }
+
+    /// Its node-ID: its CANopen node's (LSS may change it), else its dictionary's.
     pub fn node_id(&self) -> u8 {
-        self.canopen.node_id()
+        match &self.canopen {
+            Some(node) => node.node_id(),
+            None => self.model.od().node_id(),
+        }
     }
 
     /// Defaults, commissioning values and the stored set for the indices `filter` selects.
@@ -165,28 +178,44 @@ impl Station {
         self.model.reload();
     }
 
-    /// The node, and the dictionary as its SDO server writes it (saves carried out).
-    pub(super) fn node_and_access(&mut self) -> (&mut Node, Persisting<'_>) {
+    /// The node (if the drive is on a CAN bus), and the dictionary as its SDO server writes it
+    /// (saves carried out).
+    pub(super) fn node_and_access(&mut self) -> (Option<&mut Node>, Persisting<'_>) {
         let Station {
             model,
-            canopen: node,
+            canopen,
             store,
             stored,
             ..
         } = self;
-        (node, Persisting::new(model, store.as_ref(), stored))
+        (
+            canopen.as_mut(),
+            Persisting::new(model, store.as_ref(), stored),
+        )
+    }
+
+    /// The CANopen node boots (its boot-up message to `out`), if the drive is on a CAN bus.
+    fn boot_node(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) {
+        if let Some(node) = self.canopen.as_mut() {
+            node.boot(now, &self.model, out);
+        }
     }
 
     pub fn poll(&mut self, now: Instant, out: &mut dyn FnMut(CanFrame)) -> Option<Instant> {
         let next_step = self.model.step(now);
         self.next_step = next_step.map(|t| t.max(now + STEP_PERIOD));
-        self.canopen.poll(now, &mut self.model, out);
+        if let Some(node) = self.canopen.as_mut() {
+            node.poll(now, &mut self.model, out);
+        }
         self.service(now, out);
         self.deadline()
     }
 
     pub fn deadline(&self) -> Option<Instant> {
-        earliest(self.canopen.deadline(), self.next_step)
+        earliest(
+            self.canopen.as_ref().and_then(Node::deadline),
+            self.next_step,
+        )
     }
 
     /// Carries out what the stack asked for.
@@ -195,13 +224,16 @@ impl Station {
         let mut reboot = false;
         while let Some(ev) = self.model.take_event() {
             self.keep_for_coe(ev);
-            match ev {
-                DriveEvent::Error { code, register } => {
-                    self.canopen
-                        .raise_error(&mut self.model, code, register, [0; 5])
+            match (ev, self.canopen.as_mut()) {
+                (DriveEvent::Error { code, register }, Some(node)) => {
+                    node.raise_error(&mut self.model, code, register, [0; 5])
                 }
-                DriveEvent::Cleared { code } => self.canopen.clear_error(&mut self.model, code),
-                DriveEvent::Reboot => reboot = true,
+                (DriveEvent::Cleared { code }, Some(node)) => {
+                    node.clear_error(&mut self.model, code)
+                }
+                (DriveEvent::Reboot, _) => reboot = true,
+                // Without a CANopen node the CoE side reports the drive's errors.
+                (DriveEvent::Error { .. } | DriveEvent::Cleared { .. }, None) => {}
             }
         }
         // A storage request left by another path than the SDO server is carried out here.
@@ -215,25 +247,28 @@ impl Station {
             // After a save asked for in the same cycle: the drive restarts from the stored set,
             // as after NMT reset node.
             tracing::info!(node = self.node_id(), "drive reboot");
-            self.model.od_mut().set_node_id(self.canopen.node_id());
+            let node_id = self.node_id();
+            self.model.od_mut().set_node_id(node_id);
             self.reload(|_| true);
-            self.canopen.boot(now, &self.model, out);
+            self.boot_node(now, out);
         }
-        while let Some(ev) = self.canopen.take_event() {
+        while let Some(ev) = self.canopen.as_mut().and_then(Node::take_event) {
             match ev {
                 NodeEvent::ResetApplication => {
-                    self.model.od_mut().set_node_id(self.canopen.node_id());
+                    let node_id = self.node_id();
+                    self.model.od_mut().set_node_id(node_id);
                     self.reload(|_| true);
-                    self.canopen.boot(now, &self.model, out);
+                    self.boot_node(now, out);
                 }
                 NodeEvent::ResetCommunication => {
                     // Decision: CiA 301 reset communication (1000h–1FFFh from the stored set)
                     // for every device, the Nanotec too, whose §2.2 (L465) describes 82h as
                     // 81h (docs/decisions.md).
                     // The node-ID may have changed (LSS): node-relative defaults follow it.
-                    self.model.od_mut().set_node_id(self.canopen.node_id());
+                    let node_id = self.node_id();
+                    self.model.od_mut().set_node_id(node_id);
                     self.reload(|i| (0x1000..0x2000).contains(&i));
-                    self.canopen.boot(now, &self.model, out);
+                    self.boot_node(now, out);
                 }
                 NodeEvent::LssStore { node_id } => match &self.store {
                     Some(store) => match store.save_lss_node_id(node_id) {

@@ -1,5 +1,5 @@
 //! The master against the twin's own EtherCAT chain, in process: every frame goes through
-//! [`EthercatCell::on_frame`] as it would through `drivetwin run --ethercat`.
+//! [`SlaveChain::on_frame`] as it would through `drivetwin run --ethercat`.
 
 use std::io;
 use std::time::Duration;
@@ -12,11 +12,11 @@ use od::{AbortCode, Instant};
 
 use super::*;
 use crate::cell::config::CellFile;
-use crate::ecat::chain::EthercatCell;
+use crate::ecat::chain::SlaveChain;
 
 /// The chain on a virtual clock (100 µs per frame); requests are recorded.
 pub(crate) struct CellLink {
-    pub cell: EthercatCell,
+    pub cell: SlaveChain,
     now_ns: u64,
     pub sent: Vec<Vec<u8>>,
 }
@@ -28,7 +28,7 @@ impl CellLink {
             let node = u8::try_from(i + 1).expect("few slaves");
             specs.extend(CellFile::single(d, node).drives(&[]).expect("known device"));
         }
-        let mut cell = EthercatCell::new(specs).expect("chain");
+        let mut cell = SlaveChain::new(specs).expect("chain");
         cell.boot(Instant::from_nanos(0));
         CellLink {
             cell,

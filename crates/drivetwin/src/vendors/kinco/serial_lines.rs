@@ -20,8 +20,8 @@ use drive::vendors::kinco::rtu::RegisterMapping;
 use super::baud_of_code;
 use super::rs232_line::{TelegramLine, Topology};
 use super::rtu_line::{RtuDrive, RtuLine};
+use crate::cell::can_segment::CanSegment;
 use crate::cell::station::Station;
-use crate::cell::Cell;
 use crate::cell::OnBus;
 use crate::serial::line::{Protocol, SerialLine, VirtualLine};
 use crate::serial::pty::PortError;
@@ -47,8 +47,8 @@ pub enum SetupError {
     Port(#[from] PortError),
 }
 
-fn drive(cells: &[Cell], at: OnBus) -> Option<&Station> {
-    cells.get(at.bus)?.drives.get(at.drive)
+fn drive(segments: &[CanSegment], at: OnBus) -> Option<&Station> {
+    segments.get(at.bus)?.stations.get(at.drive)
 }
 
 fn code(d: &Station, index: u16, sub: u8, default: u64) -> u64 {
@@ -56,8 +56,8 @@ fn code(d: &Station, index: u16, sub: u8, default: u64) -> u64 {
 }
 
 /// Whether drive `at` may have a port of `kind`.
-pub fn check(cells: &[Cell], at: OnBus, kind: Kind) -> Result<(), SetupError> {
-    let Some(d) = drive(cells, at) else {
+pub fn check(segments: &[CanSegment], at: OnBus, kind: Kind) -> Result<(), SetupError> {
+    let Some(d) = drive(segments, at) else {
         return Ok(());
     };
     let name = d.od().description().name;
@@ -71,9 +71,12 @@ pub fn check(cells: &[Cell], at: OnBus, kind: Kind) -> Result<(), SetupError> {
 }
 
 /// Opens one line per path of `requests` (in order of first mention).
-pub fn open_lines(requests: &[LineRequest], cells: &[Cell]) -> Result<Vec<SerialLine>, SetupError> {
+pub fn open_lines(
+    requests: &[LineRequest],
+    segments: &[CanSegment],
+) -> Result<Vec<SerialLine>, SetupError> {
     let mut lines = Vec::new();
-    for (kind, path, baud, protocol) in line_protocols(requests, cells)? {
+    for (kind, path, baud, protocol) in line_protocols(requests, segments)? {
         lines.push(SerialLine::open(kind, path, baud, protocol)?);
     }
     Ok(lines)
@@ -83,9 +86,9 @@ pub fn open_lines(requests: &[LineRequest], cells: &[Cell]) -> Result<Vec<Serial
 /// as [`open_lines`] builds them, without ports (a path only names the line its drives share).
 pub fn virtual_lines(
     requests: &[LineRequest],
-    cells: &[Cell],
+    segments: &[CanSegment],
 ) -> Result<Vec<VirtualLine>, SetupError> {
-    Ok(line_protocols(requests, cells)?
+    Ok(line_protocols(requests, segments)?
         .into_iter()
         .map(|(kind, _, baud, protocol)| VirtualLine::new(kind, baud, protocol))
         .collect())
@@ -94,11 +97,11 @@ pub fn virtual_lines(
 /// One line per path of `requests`: its kind, path, bit rate and protocol with its drives.
 fn line_protocols<'a>(
     requests: &'a [LineRequest],
-    cells: &[Cell],
+    segments: &[CanSegment],
 ) -> Result<Vec<(Kind, &'a Path, u32, Protocol)>, SetupError> {
     let mut paths: Vec<&Path> = Vec::new();
     for r in requests {
-        check(cells, r.drive, r.kind)?;
+        check(segments, r.drive, r.kind)?;
         if !paths.contains(&r.path.as_path()) {
             paths.push(&r.path);
         }
@@ -112,7 +115,7 @@ fn line_protocols<'a>(
         }
         let drives: Vec<(OnBus, &Station)> = on
             .iter()
-            .filter_map(|r| drive(cells, r.drive).map(|d| (r.drive, d)))
+            .filter_map(|r| drive(segments, r.drive).map(|d| (r.drive, d)))
             .collect();
         let rate_of = |d: &Station| -> Result<u32, SetupError> {
             let (index, default) = match kind {

@@ -1,0 +1,471 @@
+//! A CAN segment: the stations of one simulated CAN bus and the bus between them. Frames a
+//! station sends reach the other stations of the segment as well as the bus's front ends; with
+//! a bit rate ([`super::bus_timing`]) they do so when they have crossed the bus, after the
+//! arbitration. Each station's CAN controller counts its errors ([`NodeFaults`]), and the wire
+//! carries its faults ([`super::wire_faults`]).
+
+use std::collections::VecDeque;
+
+use canbus::fault_confinement::{FaultConfinement, Transition, ERROR_FRAME_BITS};
+use canbus::frame_time::bits_to_nanos;
+use canopen::CanFrame;
+use od::{time::earliest, Instant};
+
+use super::bus_timing::{BusFigures, BusTiming, OUTSIDE};
+use super::fault_injector::FaultInjector;
+use super::link::{Addressed, At, Link, Wire};
+use super::station::Station;
+use super::wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError};
+
+/// A frame on the segment as its link sees it: the frame, the station that sent it (segment
+/// order; none: from outside the segment) and that drive's node-ID, by which faults take it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SegmentFrame {
+    pub frame: CanFrame,
+    pub origin: Option<usize>,
+    pub sender: Sender,
+}
+
+impl Addressed for SegmentFrame {
+    fn sender(&self) -> Sender {
+        self.sender
+    }
+    fn id(&self) -> u32 {
+        self.frame.id
+    }
+}
+
+/// Decision: the instant bus has no bit time, but a bus-off node still needs one
+/// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
+const UNTIMED_BITRATE: u32 = 1_000_000;
+
+/// One simulated CAN bus: its stations (each with its CANopen node) and the bus between them.
+pub struct CanSegment {
+    /// The stations on the bus, in segment order.
+    pub stations: Vec<Station>,
+    queue: VecDeque<(CanFrame, Option<usize>)>,
+    /// The bus's bit time; none: frames cross at once (the instant bus).
+    timing: Option<Box<BusTiming>>,
+    /// Each drive's CAN controller: error counters and the transmit errors still to inject.
+    faults: Vec<NodeFaults>,
+    /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
+    planned: Vec<(Instant, u8, u32)>,
+    /// Diagnostic messages the cell file plans: at a time, the station (segment order), what.
+    pub(super) planned_diagnostics: Vec<(Instant, usize, super::diagnostics::Planned)>,
+    /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
+    /// which hold the frames they delay.
+    link: FaultInjector<Wire<SegmentFrame>>,
+}
+
+/// One drive's CAN controller.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NodeFaults {
+    pub confinement: FaultConfinement,
+    /// Its next transmissions that fail with an error frame.
+    pub disturb: u32,
+}
+
+/// What became of one transmission attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Attempt {
+    Delivered,
+    /// An error frame: the sender tries again if it is still on the bus.
+    Failed,
+    /// The sender is off the bus.
+    Dropped,
+}
+
+impl CanSegment {
+    /// Why a drive's load FMU stopped the cell, once one has (the first such drive's error):
+    /// every runner (`drivetwin run`, `--virtual-seconds`, a scenario) stops with it.
+    pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
+        self.stations
+            .iter()
+            .find_map(|d| d.model.drive()?.load_failure())
+    }
+
+    pub fn new(drives: Vec<Station>) -> Self {
+        let faults = vec![NodeFaults::default(); drives.len()];
+        CanSegment {
+            stations: drives,
+            queue: VecDeque::new(),
+            timing: None,
+            faults,
+            planned: Vec::new(),
+            planned_diagnostics: Vec::new(),
+            link: FaultInjector::default(),
+        }
+    }
+
+    /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
+    /// than `late_after` for it counts as late.
+    pub fn with_bitrate(mut self, bitrate: u32, late_after: std::time::Duration) -> Self {
+        self.timing = Some(Box::new(BusTiming::new(bitrate, late_after)));
+        self
+    }
+
+    /// The bus's bit rate, if it has one (`bitrate` on its `[[bus]]`).
+    pub fn timed_bitrate(&self) -> Option<u32> {
+        self.timing.as_ref().map(|t| t.bitrate())
+    }
+
+    /// The bus's figures as of `now` (none on the instant bus).
+    pub fn bus_figures(&mut self, now: Instant) -> Option<BusFigures> {
+        self.timing.as_mut().map(|t| t.figures(now))
+    }
+
+    /// The next `frames` transmissions of drive `drive` fail with an error frame (a
+    /// disturbed line at its connector): 16 make it error passive, 32 take it off the bus.
+    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
+        self.fit_faults();
+        match self.faults.get_mut(drive) {
+            Some(f) => {
+                f.disturb = f.disturb.saturating_add(frames);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Plans [`disturb`](Self::disturb) of the drive with node-ID `node` at `at`.
+    pub fn plan_disturbance(&mut self, at: Instant, node: u8, frames: u32) {
+        self.planned.push((at, node, frames));
+    }
+
+    /// Starts a fault on the bus's wire at `now` ([`super::wire_faults`]); its id.
+    pub fn add_wire_fault(
+        &mut self,
+        now: Instant,
+        fault: WireFault,
+    ) -> Result<u32, WireFaultError> {
+        self.link.faults_mut().add(now, fault)
+    }
+
+    /// Ends wire fault `id`.
+    pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
+        self.link.faults_mut().remove(id)
+    }
+
+    /// Ends every wire fault; frames already delayed still arrive.
+    pub fn clear_wire_faults(&mut self) {
+        self.link.faults_mut().clear();
+    }
+
+    /// The wire faults active at `now`.
+    pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
+        self.link.faults_mut().active(now).to_vec()
+    }
+
+    /// Each station's CAN controller, in segment order.
+    pub fn node_faults(&self) -> &[NodeFaults] {
+        &self.faults
+    }
+
+    /// Boots every drive; the boot-up messages go to `out`.
+    pub fn boot(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        self.fit_faults();
+        let CanSegment {
+            stations: drives,
+            queue,
+            ..
+        } = self;
+        for (i, d) in drives.iter_mut().enumerate() {
+            d.boot(now, &mut |f| queue.push_back((f, Some(i))));
+        }
+        self.deliver(now, out);
+    }
+
+    /// A frame from the bus (not from one of this segment's stations). With a bit rate it enters
+    /// the arbitration now and reaches the drives when it has crossed the bus.
+    pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut Vec<CanFrame>) {
+        if let Some(t) = self.timing.as_mut() {
+            t.submit(now, OUTSIDE, *frame);
+            self.deliver(now, out);
+            return;
+        }
+        self.attempt(None, frame, now, out, true);
+        self.deliver(now, out);
+    }
+
+    /// A local interface (a serial port, a terminal) of station `drive` (segment order) reaches its objects
+    /// at `now` through `f`; the frames the drive sends meanwhile go to `out`.
+    pub fn local_access(
+        &mut self,
+        drive: usize,
+        now: Instant,
+        out: &mut Vec<CanFrame>,
+        f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
+    ) {
+        let CanSegment {
+            stations: drives,
+            queue,
+            ..
+        } = self;
+        let Some(d) = drives.get_mut(drive) else {
+            return;
+        };
+        d.local_access(now, &mut |fr| queue.push_back((fr, Some(drive))), f);
+        self.deliver(now, out);
+    }
+
+    /// Runs the drives' timers; returns the next deadline.
+    pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
+        self.fit_faults();
+        self.start_planned(now);
+        self.start_planned_diagnostics(now);
+        self.release_delayed(now, out);
+        let CanSegment {
+            stations: drives,
+            queue,
+            faults,
+            ..
+        } = self;
+        for (i, (d, f)) in drives.iter_mut().zip(faults.iter_mut()).enumerate() {
+            if let Some(t) = f.confinement.poll(now) {
+                d.can_state_changed(now, t, &mut |f| queue.push_back((f, Some(i))));
+            }
+            d.poll(now, &mut |f| queue.push_back((f, Some(i))));
+        }
+        self.deliver(now, out);
+        self.deadline()
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        let bus = self.timing.as_ref().and_then(|t| t.deadline());
+        let planned = earliest(
+            self.planned.iter().map(|(t, _, _)| *t).min(),
+            self.planned_diagnostics_deadline(),
+        );
+        let planned = earliest(planned, self.link.deadline());
+        let recovery = self
+            .faults
+            .iter()
+            .filter_map(|f| f.confinement.deadline())
+            .min();
+        self.stations
+            .iter()
+            .fold(earliest(earliest(bus, planned), recovery), |acc, d| {
+                earliest(acc, d.deadline())
+            })
+    }
+
+    /// A station added after the segment was made gets its controller.
+    fn fit_faults(&mut self) {
+        self.faults
+            .resize(self.stations.len(), NodeFaults::default());
+    }
+
+    /// Delayed frames due by `now` arrive (they have had their fault; on a timed bus they
+    /// do not queue for the bus again).
+    fn release_delayed(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        while let Some((at, f)) = self.link.release(now) {
+            while self.attempt(f.origin, &f.frame, at, out, false) == Attempt::Failed {}
+        }
+        self.deliver(now, out);
+    }
+
+    fn start_planned(&mut self, now: Instant) {
+        let mut i = 0;
+        while let Some(&(at, node, frames)) = self.planned.get(i) {
+            if at > now {
+                i += 1;
+                continue;
+            }
+            self.planned.swap_remove(i);
+            match self.stations.iter().position(|d| d.node_id() == node) {
+                Some(d) => {
+                    self.disturb(d, frames);
+                }
+                None => tracing::warn!(node, "disturbance planned for a node not on the bus"),
+            }
+        }
+    }
+
+    /// The bus's bit rate (without one, 1 Mbit/s: the fastest CAN bus).
+    pub fn bitrate(&self) -> u32 {
+        self.timing
+            .as_ref()
+            .map_or(UNTIMED_BITRATE, |t| t.bitrate())
+    }
+
+    /// Sends queued frames to the bus and to every other station of the segment, in order; with a
+    /// bit rate, they enter the arbitration and go out as they cross the bus.
+    fn deliver(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        if self.timing.is_some() {
+            self.cross(now, out);
+            return;
+        }
+        while let Some((frame, origin)) = self.queue.pop_front() {
+            // A failed frame is sent again at once, until it passes or its node is off.
+            while self.attempt(origin, &frame, now, out, true) == Attempt::Failed {}
+        }
+    }
+
+    /// Timed bus: the drives' new frames enter the arbitration at `now`; every frame that has
+    /// crossed by `now` goes out (a drive's) and to the other drives at its end of frame,
+    /// whose answers enter the arbitration then. A failed frame tries again after its error
+    /// frame.
+    fn cross(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        self.submit_queue(now);
+        while let Some(tx) = self.timing.as_mut().and_then(|t| t.poll(now)) {
+            let origin = (tx.source != OUTSIDE).then_some(usize::from(tx.source));
+            if self.attempt(origin, &tx.frame, tx.end, out, true) == Attempt::Failed {
+                let bitrate = self.bitrate();
+                let again = Instant::from_nanos(
+                    tx.end.as_nanos() + bits_to_nanos(ERROR_FRAME_BITS, bitrate),
+                );
+                if let Some(t) = self.timing.as_mut() {
+                    t.submit(again, tx.source, tx.frame);
+                }
+            }
+            self.submit_queue(tx.end);
+        }
+    }
+
+    /// The drives' frames enter the arbitration at `at`; a node off the bus sends nothing.
+    fn submit_queue(&mut self, at: Instant) {
+        let CanSegment {
+            queue,
+            timing,
+            faults,
+            ..
+        } = self;
+        let Some(timing) = timing.as_mut() else {
+            return;
+        };
+        while let Some((frame, origin)) = queue.pop_front() {
+            if origin.is_some_and(|i| faults.get(i).is_some_and(|f| !f.confinement.on_bus())) {
+                continue;
+            }
+            let source = origin
+                .and_then(|i| u16::try_from(i).ok())
+                .unwrap_or(OUTSIDE);
+            timing.submit(at, source, frame);
+        }
+    }
+
+    /// One transmission of `frame` by `origin` (`None`: from outside) ending at `at`: an
+    /// error frame when the sender is disturbed, else the frame on the bus, to `out` (a
+    /// drive's) and to every other drive on the bus. The controllers count either. With
+    /// `judge`, the wire's faults decide first what becomes of the frame.
+    fn attempt(
+        &mut self,
+        origin: Option<usize>,
+        frame: &CanFrame,
+        at: Instant,
+        out: &mut Vec<CanFrame>,
+        judge: bool,
+    ) -> Attempt {
+        let bitrate = self.bitrate();
+        let sender = match origin.and_then(|i| self.stations.get(i)) {
+            Some(d) => Sender::Node(d.node_id()),
+            None => Sender::Outside,
+        };
+        let verdict = if judge {
+            let f = SegmentFrame {
+                frame: *frame,
+                origin,
+                sender,
+            };
+            self.link.cross(At::on_clock(at), &f)
+        } else {
+            Verdict::Pass
+        };
+        match verdict {
+            Verdict::Pass | Verdict::Corrupt => {}
+            // Decision: a frame of a node whose cable is cut, or dropped, is simply not on
+            // the bus; the node's controller is not made to count missing acknowledgements.
+            Verdict::Lost => return Attempt::Dropped,
+            // Held by the link until its time ([`CanSegment::release_delayed`]).
+            Verdict::Delay(_) => return Attempt::Delivered,
+        }
+        let corrupt = verdict == Verdict::Corrupt;
+        let CanSegment {
+            stations: drives,
+            queue,
+            faults,
+            link,
+            ..
+        } = self;
+        if corrupt && origin.is_none() {
+            // ISO 11898-1: every receiver sees the CRC fail and counts it; the outside
+            // sender's own retransmission is its host's, not simulated: the frame is lost.
+            for j in 0..drives.len() {
+                let node = drives.get(j).map_or(0, |d| d.node_id());
+                if link.cut_off(at, Sender::Node(node)) {
+                    continue;
+                }
+                let t = faults
+                    .get_mut(j)
+                    .and_then(|f| f.confinement.receive_error());
+                if let (Some(t), Some(d)) = (t, drives.get_mut(j)) {
+                    d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(j))));
+                }
+            }
+            return Attempt::Dropped;
+        }
+        let react = |drives: &mut Vec<Station>,
+                     queue: &mut VecDeque<(CanFrame, Option<usize>)>,
+                     i: usize,
+                     t: Option<Transition>| {
+            if let (Some(t), Some(d)) = (t, drives.get_mut(i)) {
+                d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(i))));
+            }
+        };
+        if let Some(i) = origin {
+            let Some(f) = faults.get_mut(i) else {
+                return Attempt::Dropped;
+            };
+            if !f.confinement.on_bus() {
+                return Attempt::Dropped;
+            }
+            if corrupt || f.disturb > 0 {
+                if !corrupt {
+                    f.disturb -= 1;
+                }
+                let t = f.confinement.transmit_error(at, bitrate);
+                react(drives, queue, i, t);
+                for j in 0..faults.len() {
+                    if j != i {
+                        let t = faults
+                            .get_mut(j)
+                            .and_then(|f| f.confinement.receive_error());
+                        react(drives, queue, j, t);
+                    }
+                }
+                let on_bus = faults.get(i).is_some_and(|f| f.confinement.on_bus());
+                return if on_bus {
+                    Attempt::Failed
+                } else {
+                    Attempt::Dropped
+                };
+            }
+            let t = f.confinement.transmit_ok();
+            react(drives, queue, i, t);
+            if !link.cut_off(at, Sender::Outside) {
+                out.push(*frame);
+            }
+        }
+        for j in 0..drives.len() {
+            if Some(j) == origin {
+                continue;
+            }
+            let node = drives.get(j).map_or(0, |d| d.node_id());
+            if link.cut_off(at, Sender::Node(node)) {
+                continue;
+            }
+            let Some(f) = faults.get_mut(j) else {
+                continue;
+            };
+            if !f.confinement.on_bus() {
+                continue;
+            }
+            let t = f.confinement.receive_ok();
+            react(drives, queue, j, t);
+            if let Some(d) = drives.get_mut(j) {
+                d.on_can_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
+            }
+        }
+        Attempt::Delivered
+    }
+}
