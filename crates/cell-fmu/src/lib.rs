@@ -388,3 +388,22 @@ impl UserModel for CellModel {
 
 #[allow(unsafe_code)]
 mod sys;
+
+#[cfg(test)]
+mod tests {
+    use super::binary_place;
+
+    #[test]
+    fn a_binary_values_place_reads_back_as_its_address_and_length() {
+        let value = [0x10u8, 0, 0, 0, 24, 0, 0, 0];
+        let mut place = [0u8; 2 * std::mem::size_of::<usize>()];
+        assert!(binary_place::write(&mut place, &value));
+        assert_eq!(
+            binary_place::read(&place),
+            Some((value.as_ptr().expose_provenance(), value.len()))
+        );
+        // Any other buffer is not the place.
+        assert!(!binary_place::write(&mut [0u8; 8], &value));
+        assert!(!binary_place::write(&mut [0u8; 24], &value));
+    }
+}
