@@ -9,8 +9,8 @@
 //! reads `resources/cell.toml` (and `resources/timeline.toml`) and builds it
 //! (`drivetwin::cell_fmu::instance::CellInstance`).
 //!
-//! The only `unsafe` is in `sys`: the C functions `export_fmu!` generates (raw pointers from
-//! the importer, `#[unsafe(export_name)]`). A panic inside
+//! The only `unsafe` is in `sys`: the FMI C functions (raw pointers from the importer,
+//! `#[unsafe(export_name)]`), which pass their calls on to `fmi-export`. A panic inside
 //! the cell must not cross the C boundary: every call into the cell runs under
 //! `catch_unwind` and becomes `fmi3Error` with a log message.
 #![deny(unsafe_code)]
@@ -216,10 +216,137 @@ impl ModelGetSet<CellModel> for CellModel {
     ) -> Result<usize, Fmi3Error> {
         self.get(vr, values, context, CellInstance::get_int32)
     }
+
+    /// An LS-BUS terminal's `Rx_Data` or `Tx_Data`: `values` is `sys::fmi3_get_binary`'s
+    /// place, into which the value's address and length go (see [`binary_place`]).
+    fn get_binary(
+        &self,
+        vr: binding::fmi3ValueReference,
+        values: &mut [&mut [u8]],
+        context: &dyn Context<CellModel>,
+    ) -> Result<Vec<usize>, Fmi3Error> {
+        let (Some(cell), Some(place)) = (&self.cell, values.first_mut()) else {
+            log_error(context, "get: the cell is not built");
+            return Err(Fmi3Error::Error);
+        };
+        match guarded(|| {
+            cell.get_binary(vr + 1)
+                .map(|b| binary_place::write(place, b))
+        }) {
+            Ok(true) => Ok(vec![place.len()]),
+            Ok(false) => {
+                log_error(context, "fmi3GetBinary: no place for the value");
+                Err(Fmi3Error::Error)
+            }
+            Err(e) => {
+                log_error(context, &e);
+                Err(Fmi3Error::Error)
+            }
+        }
+    }
+
+    fn set_binary(
+        &mut self,
+        vr: binding::fmi3ValueReference,
+        values: &[&[u8]],
+        context: &dyn Context<CellModel>,
+    ) -> Result<usize, Fmi3Error> {
+        self.set(vr, values, context, |c, vr, v| c.set_binary(vr, v))
+    }
+
+    fn get_clock(
+        &mut self,
+        vr: binding::fmi3ValueReference,
+        value: &mut binding::fmi3Clock,
+        context: &dyn Context<CellModel>,
+    ) -> Result<(), Fmi3Error> {
+        self.ensure(context)?;
+        let Some(cell) = &mut self.cell else {
+            return Err(Fmi3Error::Error);
+        };
+        match guarded(|| cell.get_clock(vr + 1)) {
+            Ok(tick) => {
+                *value = tick;
+                Ok(())
+            }
+            Err(e) => {
+                log_error(context, &e);
+                Err(Fmi3Error::Error)
+            }
+        }
+    }
+
+    fn set_clock(
+        &mut self,
+        vr: binding::fmi3ValueReference,
+        value: &binding::fmi3Clock,
+        context: &dyn Context<CellModel>,
+    ) -> Result<(), Fmi3Error> {
+        self.set(vr, std::slice::from_ref(value), context, |c, vr, v| {
+            c.set_clock(vr, v)
+        })
+        .map(drop)
+    }
+}
+
+/// How `sys::fmi3_get_binary` learns where a binary value is: `fmi-export` hands
+/// [`ModelGetSet::get_binary`] only buffers to copy into, so the model writes the address and
+/// the length of the bytes it holds into a buffer of `sys::BINARY_PLACE` bytes, and
+/// `fmi3GetBinary` gives the importer that address, as FMI 3.0 has it.
+pub mod binary_place {
+    const WORD: usize = std::mem::size_of::<usize>();
+
+    /// `bytes`' address and length into `place` (false: `place` is not the place).
+    pub fn write(place: &mut [u8], bytes: &[u8]) -> bool {
+        let Some((address, length)) = place.split_at_mut_checked(WORD) else {
+            return false;
+        };
+        if length.len() != WORD {
+            return false;
+        }
+        address.copy_from_slice(&bytes.as_ptr().expose_provenance().to_le_bytes());
+        length.copy_from_slice(&bytes.len().to_le_bytes());
+        true
+    }
+
+    /// The address and the length [`write`] put into `place`.
+    pub fn read(place: &[u8]) -> Option<(usize, usize)> {
+        let address = place
+            .get(..WORD)?
+            .try_into()
+            .ok()
+            .map(usize::from_le_bytes)?;
+        let length = place
+            .get(WORD..)?
+            .try_into()
+            .ok()
+            .map(usize::from_le_bytes)?;
+        Some((address, length))
+    }
 }
 
 impl UserModel for CellModel {
     type LoggingCategory = DefaultLoggingCategory;
+
+    /// `fmi3UpdateDiscreteStates`: the LS-BUS terminals take what their `Rx_Clock` brought.
+    fn event_update(
+        &mut self,
+        context: &dyn Context<Self>,
+        event_flags: &mut fmi::EventFlags,
+    ) -> Result<Fmi3Res, Fmi3Error> {
+        self.ensure(context)?;
+        if let Some(cell) = &mut self.cell {
+            if let Err(e) = guarded(|| {
+                cell.update_discrete_states();
+                Ok(())
+            }) {
+                log_error(context, &e);
+                return Err(Fmi3Error::Error);
+            }
+        }
+        event_flags.reset();
+        Ok(Fmi3Res::OK)
+    }
 
     /// Called before any get after a change: builds the cell the first time.
     fn calculate_values(&mut self, context: &dyn Context<Self>) -> Result<Fmi3Res, Fmi3Error> {
@@ -246,7 +373,10 @@ impl UserModel for CellModel {
             Ok(()) => {
                 let end = current_communication_point + communication_step_size;
                 context.set_time(end);
-                Ok(CSDoStepResult::completed(end))
+                let mut result = CSDoStepResult::completed(end);
+                // A Tx_Clock ticked: the importer enters Event Mode to read it.
+                result.event_handling_needed = cell.event_needed();
+                Ok(result)
             }
             Err(e) => {
                 log_error(&*context, &format!("fmi3DoStep: {e}"));
@@ -258,3 +388,22 @@ impl UserModel for CellModel {
 
 #[allow(unsafe_code)]
 mod sys;
+
+#[cfg(test)]
+mod tests {
+    use super::binary_place;
+
+    #[test]
+    fn a_binary_values_place_reads_back_as_its_address_and_length() {
+        let value = [0x10u8, 0, 0, 0, 24, 0, 0, 0];
+        let mut place = [0u8; 2 * std::mem::size_of::<usize>()];
+        assert!(binary_place::write(&mut place, &value));
+        assert_eq!(
+            binary_place::read(&place),
+            Some((value.as_ptr().expose_provenance(), value.len()))
+        );
+        // Any other buffer is not the place.
+        assert!(!binary_place::write(&mut [0u8; 8], &value));
+        assert!(!binary_place::write(&mut [0u8; 24], &value));
+    }
+}

@@ -1,11 +1,13 @@
 //! The cell FMU's archive (FMI 3.0 §2.5): `modelDescription.xml`, the binary as
 //! `binaries/x86_64-linux/drivetwin_cell.so`, and in `resources/` the cell file and the
-//! timeline the instance reads when it is instantiated.
+//! timeline the instance reads when it is instantiated; with CAN buses, the FMI-LS-BUS
+//! terminals (`terminalsAndIcons/terminalsAndIcons.xml`) and the layered standard's manifest
+//! (`extra/org.fmi-standard.fmi-ls-bus/fmi-ls-manifest.xml`).
 
 use std::io::Write;
 use std::path::Path;
 
-use super::{CellFmuError, CELL_FILE, MODEL_IDENTIFIER, TIMELINE_FILE};
+use super::{can_terminal, CellFmuError, CELL_FILE, MODEL_IDENTIFIER, TIMELINE_FILE};
 
 /// What goes into the archive.
 pub struct Contents<'a> {
@@ -16,6 +18,9 @@ pub struct Contents<'a> {
     pub cell: &'a str,
     /// The timeline's text (a scenario file), if any.
     pub timeline: Option<&'a str>,
+    /// The cell's CAN buses: each has an FMI-LS-BUS terminal, declared in
+    /// `terminalsAndIcons/terminalsAndIcons.xml`, with the layered standard's manifest.
+    pub buses: usize,
 }
 
 /// Writes the archive to `output`.
@@ -39,6 +44,17 @@ pub fn write(output: &Path, contents: &Contents<'_>) -> Result<(), CellFmuError>
     ];
     if let Some(t) = contents.timeline {
         entries.push((format!("resources/{TIMELINE_FILE}"), t.as_bytes()));
+    }
+    let terminals = can_terminal::terminals_and_icons(contents.buses);
+    if contents.buses > 0 {
+        entries.push((
+            "terminalsAndIcons/terminalsAndIcons.xml".into(),
+            terminals.as_bytes(),
+        ));
+        entries.push((
+            can_terminal::MANIFEST_PATH.into(),
+            can_terminal::MANIFEST.as_bytes(),
+        ));
     }
     let err = |e: String| CellFmuError::Archive(format!("{}: {e}", output.display()));
     for (name, bytes) in entries {

@@ -1,10 +1,11 @@
 //! One instance of the cell FMU: the cell file's CANopen drives on the virtual clock
 //! ([`VirtualRig`]), stepped by the importer.
 //!
-//! A `doStep(t, h)` does, in this order: the inputs set since the last step act at `t` (a load
-//! torque as a scenario's `load`, a digital input as its `din`), the timeline's actions due
-//! in `[t, t + h)` each at its time, then the cell runs to `t + h` from deadline to deadline
-//! as `drivetwin scenario` runs it. Times are the clock's nanoseconds (`t` rounded to the
+//! A `doStep(t, h)` does, in this order: the frames the LS-BUS terminals received go onto
+//! their buses at `t` ([`super::can_terminal`]), the inputs set since the last step act at `t`
+//! (a load torque as a scenario's `load`, a digital input as its `din`), the timeline's
+//! actions due in `[t, t + h)` each at its time, then the cell runs to `t + h` from deadline
+//! to deadline as `drivetwin scenario` runs it; the frames that crossed go to the terminals. Times are the clock's nanoseconds (`t` rounded to the
 //! nanosecond), so the same inputs at the same times give the same outputs bit for bit, and
 //! the same as the scenario with those inputs as its steps.
 
@@ -18,6 +19,7 @@ use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::{Probe, VirtualRig};
 use crate::scenario::Scenario;
 
+use super::can_terminal::CanTerminal;
 use super::variables::{Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
@@ -42,6 +44,8 @@ pub struct CellInstance {
     outputs: Vec<Probe>,
     /// The virtual clock, ns.
     now: u64,
+    /// The FMI-LS-BUS CAN terminal of each bus.
+    pub(super) terminals: Vec<CanTerminal>,
 }
 
 impl CellInstance {
@@ -93,6 +97,11 @@ impl CellInstance {
             })
             .unwrap_or_default();
         let n = variables.nodes.len();
+        let terminals = rig
+            .bus_bitrates()
+            .into_iter()
+            .map(CanTerminal::new)
+            .collect();
         let mut instance = CellInstance {
             rig,
             variables,
@@ -101,6 +110,7 @@ impl CellInstance {
             inputs: vec![Inputs::default(); n],
             outputs: vec![Probe::default(); n],
             now: 0,
+            terminals,
         };
         instance.refresh();
         Ok(instance)
@@ -208,7 +218,9 @@ impl CellInstance {
                 at: self.time(),
             });
         }
-        let mut ignore = |_: usize, _: Duration, _: &canopen::CanFrame| {};
+        let mut frames = Vec::new();
+        self.put_terminal_frames_on_bus(&mut frames)?;
+        let mut ignore = |b: usize, at: Duration, f: &canopen::CanFrame| frames.push((b, at, *f));
         self.apply_inputs(&mut ignore)?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
@@ -225,6 +237,7 @@ impl CellInstance {
             self.done += 1;
         }
         self.rig.run_until(Duration::from_nanos(end), &mut ignore);
+        self.terminals_saw(&frames);
         self.now = end;
         self.refresh();
         match self.rig.stopped() {
@@ -234,6 +247,33 @@ impl CellInstance {
             }),
             None => Ok(()),
         }
+    }
+
+    /// The frames the LS-BUS terminals received go onto their buses now, from outside the
+    /// cell's drives; the other frames that cross meanwhile (a drive's boot-up) go to `seen`.
+    fn put_terminal_frames_on_bus(
+        &mut self,
+        seen: &mut Vec<(usize, Duration, canopen::CanFrame)>,
+    ) -> Result<(), CellFmuError> {
+        for bus in 0..self.terminals.len() {
+            let Some(t) = self.terminals.get_mut(bus) else {
+                continue;
+            };
+            for frame in t.take_to_bus() {
+                let mut got = Vec::new();
+                self.rig
+                    .act(&Action::Frame { bus, frame }, &mut |b, at, f| {
+                        got.push((b, at, *f))
+                    })
+                    .map_err(|e| CellFmuError::Cell(format!("bus {bus}: LS-BUS frame: {e}")))?;
+                // The frame itself, as the rig reports it, is not an answer.
+                if let Some(i) = got.iter().position(|(b, _, f)| *b == bus && *f == frame) {
+                    got.remove(i);
+                }
+                seen.extend(got);
+            }
+        }
+        Ok(())
     }
 
     fn apply_inputs(

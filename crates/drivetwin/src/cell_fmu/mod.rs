@@ -5,13 +5,17 @@
 //! - [`variables`]: the FMU's variables and value references, from the cell's drives;
 //! - [`model_description`]: `modelDescription.xml` from those variables;
 //! - [`instance`]: one instance: the cell on the virtual clock, stepped by the importer;
-//! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file).
+//! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file);
+//! - [`ls_bus`]: FMI-LS-BUS CAN bus operations, parsed and emitted;
+//! - [`can_terminal`]: one FMI-LS-BUS CAN terminal per bus of the cell (`canB.Rx_Data`, …).
 //!
 //! The FMI C functions are in `crates/cell-fmu` (a `cdylib` on `fmi-export`), which holds an
 //! [`instance::CellInstance`]; `drivetwin fmu` writes the archive.
 
 pub mod archive;
+pub mod can_terminal;
 pub mod instance;
+pub mod ls_bus;
 pub mod model_description;
 pub mod variables;
 

@@ -1,9 +1,12 @@
 //! `modelDescription.xml` of a cell FMU (FMI 3.0 §2.4): the co-simulation interface, the units
 //! of the variables, the variables of [`super::variables`] and the model structure (every
-//! output is an output and an initial unknown, depending on every input).
+//! output is an output and an initial unknown, depending on every input), and the variables
+//! of each bus's FMI-LS-BUS CAN terminal ([`super::can_terminal`]).
 
 use std::fmt::Write;
 
+use super::can_terminal::{self, Member};
+use super::ls_bus;
 use super::variables::{Type, Variables};
 use super::{INSTANTIATION_TOKEN, MODEL_IDENTIFIER};
 
@@ -15,8 +18,9 @@ const UNITS: &[(&str, &str)] = &[
     ("A", r#"A="1""#),
 ];
 
-/// The description of a cell named `name` with `variables`.
-pub fn model_description(name: &str, variables: &Variables) -> String {
+/// The description of a cell named `name` with `variables` and `buses` CAN buses (each with
+/// its LS-BUS terminal).
+pub fn model_description(name: &str, variables: &Variables, buses: usize) -> String {
     let mut x = String::new();
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
@@ -28,7 +32,7 @@ pub fn model_description(name: &str, variables: &Variables) -> String {
     );
     let _ = writeln!(
         x,
-        r#"  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false" providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>"#
+        r#"  <CoSimulation modelIdentifier="{MODEL_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="true" providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>"#
     );
     x.push_str("  <UnitDefinitions>\n");
     for (unit, base) in UNITS {
@@ -69,6 +73,7 @@ pub fn model_description(name: &str, variables: &Variables) -> String {
         }
         x.push_str("/>\n");
     }
+    terminal_variables(&mut x, buses);
     x.push_str("  </ModelVariables>\n");
     x.push_str("  <ModelStructure>\n");
     let outputs: Vec<u32> = variables
@@ -79,12 +84,57 @@ pub fn model_description(name: &str, variables: &Variables) -> String {
     for vr in &outputs {
         let _ = writeln!(x, r#"    <Output valueReference="{vr}"/>"#);
     }
+    for b in 0..buses {
+        for m in [Member::TxData, Member::TxClock] {
+            let vr = can_terminal::value_reference(b, m);
+            let _ = writeln!(x, r#"    <Output valueReference="{vr}"/>"#);
+        }
+    }
     for vr in &outputs {
+        let _ = writeln!(x, r#"    <InitialUnknown valueReference="{vr}"/>"#);
+    }
+    // A clocked variable (Tx_Data) is no initial unknown; an output Clock is one (FMI 3.0
+    // §2.4.8: an output with `initial` calculated, the default, and no `clocks`).
+    for b in 0..buses {
+        let vr = can_terminal::value_reference(b, Member::TxClock);
         let _ = writeln!(x, r#"    <InitialUnknown valueReference="{vr}"/>"#);
     }
     x.push_str("  </ModelStructure>\n");
     x.push_str("</fmiModelDescription>\n");
     x
+}
+
+/// Each bus's terminal (FMI-LS-BUS 1.0 §4.2): `Rx_Clock` a triggered input Clock, `Rx_Data`
+/// a Binary input clocked by it, `Tx_Clock` a triggered output Clock, `Tx_Data` a Binary output
+/// clocked by it; the Binary variables carry the CAN MIME type (§4.2.5).
+fn terminal_variables(x: &mut String, buses: usize) {
+    let mime = escape(ls_bus::MIME_TYPE);
+    for b in 0..buses {
+        let name = can_terminal::terminal_name(b);
+        let vr = |m| can_terminal::value_reference(b, m);
+        let _ = writeln!(
+            x,
+            r#"    <Clock name="{name}.Rx_Clock" valueReference="{}" causality="input" variability="discrete" intervalVariability="triggered" description="ticks when Rx_Data holds bus operations for the cell"/>"#,
+            vr(Member::RxClock)
+        );
+        let _ = writeln!(
+            x,
+            r#"    <Binary name="{name}.Rx_Data" valueReference="{}" causality="input" variability="discrete" mimeType="{mime}" clocks="{}" description="FMI-LS-BUS CAN operations to the cell's bus {b}"><Start value=""/></Binary>"#,
+            vr(Member::RxData),
+            vr(Member::RxClock)
+        );
+        let _ = writeln!(
+            x,
+            r#"    <Clock name="{name}.Tx_Clock" valueReference="{}" causality="output" variability="discrete" intervalVariability="triggered" description="ticks at the end of a step in which frames crossed bus {b}"/>"#,
+            vr(Member::TxClock)
+        );
+        let _ = writeln!(
+            x,
+            r#"    <Binary name="{name}.Tx_Data" valueReference="{}" causality="output" variability="discrete" mimeType="{mime}" clocks="{}" description="FMI-LS-BUS CAN operations from the cell's bus {b}"/>"#,
+            vr(Member::TxData),
+            vr(Member::TxClock)
+        );
+    }
 }
 
 /// Text as an XML attribute value.
@@ -110,7 +160,7 @@ mod tests {
     #[test]
     fn the_description_parses_and_names_every_variable_once() {
         let vars = Variables::new(vec![1, 2]).unwrap();
-        let xml = model_description("a <cell> & \"more\"", &vars);
+        let xml = model_description("a <cell> & \"more\"", &vars, 0);
         let doc = roxmltree::Document::parse(&xml).unwrap();
         let root = doc.root_element();
         assert_eq!(root.attribute("fmiVersion"), Some("3.0"));
@@ -127,5 +177,35 @@ mod tests {
             .filter(|n| n.has_tag_name("Output"))
             .count();
         assert_eq!(outputs, 2 * 5);
+    }
+
+    #[test]
+    fn each_bus_has_a_terminal_whose_data_is_clocked_by_its_clock() {
+        let vars = Variables::new(vec![1]).unwrap();
+        let xml = model_description("cell", &vars, 2);
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let by_name = |n: &str| {
+            doc.descendants()
+                .find(|v| v.attribute("name") == Some(n))
+                .unwrap()
+        };
+        for b in 0..2 {
+            let rx = by_name(&format!("can{b}.Rx_Data"));
+            let rx_clock = by_name(&format!("can{b}.Rx_Clock"));
+            let tx = by_name(&format!("can{b}.Tx_Data"));
+            let tx_clock = by_name(&format!("can{b}.Tx_Clock"));
+            assert_eq!(rx.attribute("clocks"), rx_clock.attribute("valueReference"));
+            assert_eq!(tx.attribute("clocks"), tx_clock.attribute("valueReference"));
+            assert_eq!(rx.attribute("causality"), Some("input"));
+            assert_eq!(tx.attribute("causality"), Some("output"));
+            assert_eq!(rx_clock.attribute("intervalVariability"), Some("triggered"));
+            assert_eq!(tx_clock.attribute("intervalVariability"), Some("triggered"));
+            assert_eq!(rx.attribute("mimeType"), Some(ls_bus::MIME_TYPE));
+        }
+        let co = doc
+            .descendants()
+            .find(|n| n.has_tag_name("CoSimulation"))
+            .unwrap();
+        assert_eq!(co.attribute("hasEventMode"), Some("true"));
     }
 }

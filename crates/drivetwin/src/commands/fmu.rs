@@ -46,7 +46,7 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
         .config
         .file_stem()
         .map_or_else(|| "cell".to_string(), |s| s.to_string_lossy().into_owned());
-    let xml = model_description::model_description(&name, instance.variables());
+    let xml = model_description::model_description(&name, instance.variables(), instance.buses());
     let library = match &args.library {
         Some(p) => p.clone(),
         None => std::env::current_exe()
@@ -66,6 +66,7 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
             library: &lib,
             cell: &cell_text,
             timeline: timeline_text.as_deref(),
+            buses: instance.buses(),
         },
     )
     .map_err(|e| usage(e.to_string()))?;

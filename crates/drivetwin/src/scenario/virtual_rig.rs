@@ -333,6 +333,11 @@ impl VirtualRig {
             .collect()
     }
 
+    /// Each bus's bit rate, in the cell file's order (none: the instant bus).
+    pub fn bus_bitrates(&self) -> Vec<Option<u32>> {
+        self.cells.iter().map(Cell::timed_bitrate).collect()
+    }
+
     /// The time the rig has run to.
     pub fn now(&self) -> Instant {
         self.now
