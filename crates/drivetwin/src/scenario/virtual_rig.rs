@@ -335,7 +335,7 @@ impl VirtualRig {
 
     /// Each bus's bit rate, in the cell file's order (none: the instant bus).
     pub fn bus_bitrates(&self) -> Vec<Option<u32>> {
-        self.cells.iter().map(Cell::timed_bitrate).collect()
+        self.segments.iter().map(CanSegment::timed_bitrate).collect()
     }
 
     /// The time the rig has run to.
