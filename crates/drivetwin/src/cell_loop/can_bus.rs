@@ -7,10 +7,10 @@ use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use canopen::CanFrame;
 
-use super::{cell_time, CellLoop, Kind, Source, MAX_HELD};
-use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
+use super::{cell_time, CellLoop, Kind, Source};
+use crate::can::socketcand::client_link::FrameText;
 use crate::can::socketcand::session::Session;
-use crate::cell::link::{At, Link};
+use crate::cell::link::{At, FrontLink, Link};
 use crate::cell::wire_faults::Verdict;
 
 impl CellLoop {
@@ -69,7 +69,7 @@ impl CellLoop {
             if let Some(up) = bus.upstream.as_mut() {
                 // Formatted into the buffer: no allocation per frame.
                 let _ = write!(
-                    up.pending,
+                    up.pending.as_vec_mut(),
                     "{}",
                     crate::can::socketcand::Message::Send(frame)
                 );
@@ -77,11 +77,12 @@ impl CellLoop {
             self.flush_upstream(b);
         }
         if Session::forwards(&frame) {
-            let mut text = [0u8; FRAME_TEXT_MAX];
-            let n = emit_frame(&frame, since_epoch, &mut text);
-            self.text.clear();
-            self.text.extend_from_slice(text.get(..n).unwrap_or(&[]));
-            let t = self.now(now);
+            // Formatted once for every client: no allocation per frame.
+            let text = FrameText::new(&frame, since_epoch);
+            let t = At {
+                clock: self.now(now),
+                stamp: since_epoch,
+            };
             for slot in 0..self.slots.len() {
                 let Some(c) = self.slots.get_mut(slot) else {
                     continue;
@@ -92,30 +93,19 @@ impl CellLoop {
                 if source == Source::Client(slot) {
                     continue;
                 }
-                let Kind::Socketcand {
-                    session,
-                    held,
-                    bus,
-                    faults,
-                    ..
-                } = &mut conn.kind
-                else {
+                let Kind::Socketcand { bus, link, .. } = &mut conn.kind else {
                     continue;
                 };
                 if *bus != b {
                     continue;
                 }
-                match faults.cross_out(t, frame.id, &mut self.arrivals, || self.text.clone()) {
+                match link.transmit(t, &text) {
+                    // In its send buffer, or kept until its stream starts.
                     Verdict::Pass => {}
-                    // Lost, or held by the client's link until its time.
+                    // Lost, held by the client's link until its time, or not the client's.
                     Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
                 }
-                if session.is_streaming() {
-                    conn.pending.extend_from_slice(&self.text);
-                } else if session.wants_frames() && held.len() + self.text.len() <= MAX_HELD {
-                    held.extend_from_slice(&self.text);
-                    continue;
-                } else {
+                if !link.inner().session.is_streaming() {
                     continue;
                 }
                 if !self.dirty.contains(&slot) {

@@ -1,6 +1,7 @@
 //! The loop's TCP connections (socketcand clients, CI terminals, Modbus clients): accepted
-//! onto a slot, read a bounded number of times per turn, and written from a buffer of their
-//! own, so that a client that does not read never delays the others ([`MAX_PENDING`]).
+//! onto a slot, read a bounded number of times per turn, and written from their link's send
+//! buffer ([`send_buffer`]), so that a client that does not read never delays the others
+//! ([`MAX_PENDING`]).
 
 use std::io::{self, Read, Write};
 use std::net::SocketAddr;
@@ -9,12 +10,26 @@ use std::time::Instant;
 use mio::net::TcpStream;
 use mio::{Interest, Token};
 
+use crate::cell::link::{At, FrontLink, SendBuffer};
 use crate::cell::wire_faults::Verdict;
 
 use super::{
-    cell_time, wire, CellLoop, Connection, Kind, Listener, FIRST_DYNAMIC, MAX_PENDING,
+    cell_time, CellLoop, Connection, Kind, Listener, ModbusLink, FIRST_DYNAMIC, MAX_PENDING,
     READS_PER_TURN,
 };
+
+/// The send buffer of a connection of kind `kind`: a socketcand client's and a terminal's
+/// are their own, a Modbus connection's is its server's link's (one connection at a time).
+pub(super) fn send_buffer<'a>(
+    kind: &'a mut Kind,
+    modbus: &'a mut [ModbusLink],
+) -> Option<&'a mut SendBuffer> {
+    match kind {
+        Kind::Socketcand { link, .. } => Some(link.inner_mut().sent_mut()),
+        Kind::Console { sent, .. } => Some(sent),
+        Kind::Modbus { drive } => modbus.get_mut(*drive).map(ModbusLink::inner_mut),
+    }
+}
 
 impl CellLoop {
     pub(super) fn accept(&mut self, i: usize) {
@@ -36,6 +51,7 @@ impl CellLoop {
                         let kind = Kind::Console {
                             drive,
                             terminal: terminal(),
+                            sent: SendBuffer::with_capacity(1024),
                         };
                         self.add(stream, peer, kind);
                     }
@@ -80,7 +96,6 @@ impl CellLoop {
             stream,
             peer,
             kind,
-            pending: Vec::with_capacity(1024),
             wants_write: false,
             closing: false,
         };
@@ -107,6 +122,14 @@ impl CellLoop {
     pub(super) fn remove(&mut self, slot: usize) {
         if let Some(s) = self.slots.get_mut(slot) {
             if let Some(mut conn) = s.take() {
+                if let Kind::Modbus { drive } = conn.kind {
+                    // What was on its way to the client, and the requests a fault still
+                    // holds, went with the connection.
+                    if let Some(link) = self.modbus_links.get_mut(drive) {
+                        link.inner_mut().clear();
+                        link.forget_held();
+                    }
+                }
                 let _ = self.poll.registry().deregister(&mut conn.stream);
                 tracing::info!(peer = %conn.peer, "connection closed");
             }
@@ -166,11 +189,8 @@ impl CellLoop {
             Kind::Modbus { drive } => {
                 let drive = *drive;
                 let t = cell_time(self.origin, now);
-                let verdict = match self.modbus_faults.get_mut(drive) {
-                    Some(link) => link.cross_in(t, 0, &mut self.arrivals, || wire::HeldRequest {
-                        slot,
-                        bytes: bytes.to_vec(),
-                    }),
+                let verdict = match self.modbus_links.get_mut(drive) {
+                    Some(link) => link.receive(At::on_clock(t), bytes),
                     None => Verdict::Pass,
                 };
                 // Otherwise lost, or held by the server's link until its time.
@@ -187,7 +207,9 @@ impl CellLoop {
         let Some(Some(conn)) = self.slots.get_mut(slot) else {
             return;
         };
-        conn.pending.extend_from_slice(bytes);
+        if let Some(sent) = send_buffer(&mut conn.kind, &mut self.modbus_links) {
+            sent.push(bytes);
+        }
         self.write_pending(slot);
     }
 
@@ -209,12 +231,15 @@ impl CellLoop {
         let Some(Some(conn)) = self.slots.get_mut(slot) else {
             return;
         };
+        let Some(pending) = send_buffer(&mut conn.kind, &mut self.modbus_links) else {
+            return;
+        };
         let mut written = 0;
         let mut failed = false;
-        while written < conn.pending.len() {
+        while written < pending.len() {
             match conn
                 .stream
-                .write(conn.pending.get(written..).unwrap_or(&[]))
+                .write(pending.bytes().get(written..).unwrap_or(&[]))
             {
                 Ok(0) => {
                     failed = true;
@@ -230,22 +255,23 @@ impl CellLoop {
                 }
             }
         }
-        conn.pending.drain(..written);
+        pending.consume(written);
+        let (left, empty) = (pending.len(), pending.is_empty());
         if failed {
             self.close(slot, modbus::CloseReason::Peer);
             return;
         }
-        if conn.pending.len() > MAX_PENDING {
+        if left > MAX_PENDING {
             tracing::warn!(peer = %conn.peer, "client does not read its data: dropped");
             self.close(slot, modbus::CloseReason::Transport);
             return;
         }
-        if conn.pending.is_empty() && conn.closing {
+        if empty && conn.closing {
             let _ = conn.stream.shutdown(std::net::Shutdown::Both);
             self.remove(slot);
             return;
         }
-        let want = !conn.pending.is_empty();
+        let want = !empty;
         if want != conn.wants_write {
             let interest = if want {
                 Interest::READABLE | Interest::WRITABLE

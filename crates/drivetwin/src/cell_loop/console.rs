@@ -76,8 +76,12 @@ impl CellLoop {
                     self.out = out;
                 }
             }
-            if let Some(Some(conn)) = self.slots.get_mut(slot) {
-                conn.pending.extend_from_slice(&answer);
+            if let Some(Some(Connection {
+                kind: Kind::Console { sent, .. },
+                ..
+            })) = self.slots.get_mut(slot)
+            {
+                sent.push(&answer);
             }
         }
         self.mark_dirty(slot);

@@ -7,7 +7,7 @@ use std::time::Instant;
 use mio::{Events, Token};
 
 use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
-use crate::cell::link::{At, Link};
+use crate::cell::link::{At, FrontLink};
 use crate::cell::station::Station;
 use crate::cell::wire_faults::Verdict;
 use crate::cell::OnBus;
@@ -50,13 +50,13 @@ impl CellLoop {
                 self.chains_to_read.push(c);
                 break;
             }
-            let n = match chain.socket.try_recv(&mut frame) {
+            let n = match chain.socket().try_recv(&mut frame) {
                 Ok(Some(n)) => n,
                 Ok(None) => continue,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {
-                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT receive failed");
+                    tracing::error!(interface = chain.socket().interface(), error = %e, "EtherCAT receive failed");
                     break;
                 }
             };
@@ -64,11 +64,7 @@ impl CellLoop {
                 continue;
             };
             let t = cell_time(self.origin, Instant::now());
-            chain.link.cross(At::on_clock(t), f);
-            match chain
-                .faults
-                .cross_in(t, 0, &mut self.arrivals, || f.to_vec())
-            {
+            match chain.link.receive(At::on_clock(t), f) {
                 Verdict::Pass => {}
                 // Lost, or held by the chain's link until its time.
                 Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
@@ -116,20 +112,9 @@ impl CellLoop {
         buses: &mut [BusState],
     ) {
         if chain.chain.pass_with(t, f, &mut Buses(buses)).forward() {
-            match chain.socket.send(f) {
-                Ok(()) => {}
-                Err(e) if crate::ecat::link::is_queue_full(&e) => {
-                    tracing::warn!(
-                        interface = chain.socket.interface(),
-                        "TX queue full, frame lost"
-                    );
-                }
-                Err(e) => {
-                    tracing::error!(interface = chain.socket.interface(), error = %e, "EtherCAT send failed");
-                }
-            }
-            // The trace copies the answer once it is out.
-            chain.link.cross(At::on_clock(t), f);
+            // Out on the wire, then copied to the trace; a failed send is logged by the
+            // interface.
+            let _ = chain.link.transmit(At::on_clock(t), f);
         }
         chain.chain.exchange_with(t, &mut Buses(buses));
     }

@@ -68,7 +68,7 @@ fn line_status(index: usize, state: &ChainState) -> LineStatus {
         .collect();
     LineStatus {
         chain: index,
-        interface: state.socket.interface().to_owned(),
+        interface: state.interface().to_owned(),
         slaves: c.len(),
         reached: line.reach(c.len()),
         cable_pulled_after: line.cable_pulled_after(),

@@ -15,7 +15,13 @@
 //! whose drive is a CANopen drive of the cell (`allow_unreal_interfaces`) reaches the very
 //! drive the CANopen node serves, so a value written over CoE is the one SDO reads.
 //!
-//! Slow clients: what a client has not taken waits in its own buffer, bounded by
+//! Each front end is one link to its peer ([`crate::cell::link::FrontLink`]): a socketcand
+//! client's, a Modbus server's, an EtherCAT chain's. Its faults and its trace wrap it
+//! ([`FrontFaultInjector`], [`Tracer`]), and a TCP connection's send buffer is its innermost
+//! link; the loop reads the sockets, offers each link what came and writes what waits in
+//! its send buffer.
+//!
+//! Slow clients: what a client has not taken waits in its link's send buffer, bounded by
 //! [`MAX_PENDING`]; a client whose buffer would grow beyond it is dropped, so a client that
 //! does not read never delays the others, nor the drives.
 //!
@@ -43,12 +49,13 @@ use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
 use mio::{Events, Interest, Poll, Token, Waker};
 
-use crate::can::socketcand::session::{Effect, Session, Totals};
+use crate::can::socketcand::client_link::ClientStream;
+use crate::can::socketcand::session::{Effect, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::can_segment::CanSegment;
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
-use crate::cell::link::{Link, Wire};
+use crate::cell::link::{Link, SendBuffer, Wire};
 use crate::cell::OnBus;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
@@ -76,9 +83,6 @@ pub const MAX_PENDING: usize = 256 * 1024;
 /// Reads of 4 KiB one connection gets per turn of the loop: a client that floods the bus
 /// does not keep the loop from the others.
 const READS_PER_TURN: usize = 16;
-
-/// Frames held for a client while its RAW stream has not started yet.
-const MAX_HELD: usize = 64 * 1024;
 
 const WAKER: Token = Token(0);
 /// The loop's sub-millisecond timer ([`fine_timer`]).
@@ -133,15 +137,36 @@ pub struct EthercatChain {
     pub trace: Option<FrameTap>,
 }
 
+/// An EtherCAT chain's link: its network interface, the faults on the master's frames as
+/// they come in, and outermost its trace (`--trace`), which sees every frame the master sent
+/// and every answer.
+type ChainLink = Tracer<FrontFaultInjector<crate::ecat::link::SlaveSocket>, Option<FrameTap>>;
+
+/// A Modbus TCP server's link: its connection's send buffer (one connection at a time), and
+/// the faults on the requests, which outlast a connection.
+type ModbusLink = FrontFaultInjector<SendBuffer>;
+
+/// A socketcand client's link: its session and send buffer, and the faults on it alone
+/// ([`crate::cell::wire_faults::FrontEnd::Client`]), on its frames to the bus (in) and the
+/// bus's frames to it (out).
+type ClientLink = FrontFaultInjector<ClientStream>;
+
 /// An EtherCAT chain while the loop runs.
 struct ChainState {
     chain: SlaveChain,
-    socket: crate::ecat::link::SlaveSocket,
-    /// Its frames as they come in and go back out, copied to the trace's queue (`--trace`).
-    link: Tracer<Wire<[u8]>, Option<FrameTap>>,
-    /// The faults on the master's frames as they come in (after the trace has seen them),
-    /// and the frames they hold back.
-    faults: FrontFaultInjector<Vec<u8>>,
+    link: ChainLink,
+}
+
+impl ChainState {
+    /// The network interface the chain is on.
+    fn interface(&self) -> &str {
+        self.link.inner().inner().interface()
+    }
+
+    /// The chain's network interface, its link's innermost.
+    fn socket(&mut self) -> &mut crate::ecat::link::SlaveSocket {
+        self.link.inner_mut().inner_mut()
+    }
 }
 
 /// Every socket a cell serves, bound before the loop starts.
@@ -186,7 +211,7 @@ struct Upstream {
     stream: TcpStream,
     decoder: Decoder,
     /// Bytes the server has not taken yet.
-    pending: Vec<u8>,
+    pending: SendBuffer,
     wants_write: bool,
 }
 
@@ -239,16 +264,13 @@ pub struct CellLoop {
     dirty: Vec<usize>,
     /// Scratch: frames the drives sent.
     out: Vec<CanFrame>,
-    /// Scratch: one frame as socketcand text.
-    text: Vec<u8>,
     effects: Vec<Effect>,
     control_tx: std::sync::mpsc::Sender<Command>,
     control_rx: std::sync::mpsc::Receiver<Command>,
     subscriptions: Vec<Subscription>,
-    /// The faults on each Modbus drive's server and the requests they hold back, by drive
-    /// (a chain's are in its [`ChainState`], a socketcand client's in its connection, a
-    /// bus's in its cell).
-    modbus_faults: Vec<FrontFaultInjector<wire::HeldRequest>>,
+    /// Each Modbus drive's server's link, by drive (a chain's is in its [`ChainState`], a
+    /// socketcand client's in its connection, a bus's faults in its cell).
+    modbus_links: Vec<ModbusLink>,
     /// The order in which the front ends' faults held their frames, over all of them: what
     /// is due at one turn is released in that order ([`Arrivals`]).
     arrivals: Arrivals,
@@ -293,39 +315,33 @@ enum Source {
     Upstream,
 }
 
+/// A TCP connection; the bytes it has not taken yet are in its link's send buffer
+/// ([`connections::send_buffer`]).
 struct Connection {
     stream: TcpStream,
     peer: SocketAddr,
     kind: Kind,
-    /// Bytes the socket has not taken yet.
-    pending: Vec<u8>,
-    /// Registered for writability too (while `pending` is not empty).
+    /// Registered for writability too (while its send buffer is not empty).
     wants_write: bool,
-    /// Close once `pending` is written.
+    /// Close once its send buffer is written.
     closing: bool,
 }
 
 enum Kind {
     Socketcand {
         bus: usize,
-        session: Session,
         decoder: Decoder,
-        /// Frames kept during the stream delay after `rawmode`.
-        held: Vec<u8>,
         /// What it may put on the bus (the bus's frame rate).
         budget: crate::can::frame_budget::FrameBudget,
-        /// The faults on this client alone ([`crate::cell::wire_faults::FrontEnd::Client`]):
-        /// its frames to the bus (in) and the bus's frames as text to it (out), and those
-        /// they hold back.
-        faults: Box<FrontFaultInjector<CanFrame, Vec<u8>>>,
+        link: Box<ClientLink>,
     },
     Console {
         drive: OnBus,
         terminal: Box<dyn Terminal>,
+        sent: SendBuffer,
     },
-    Modbus {
-        drive: usize,
-    },
+    /// Its send buffer is its drive's server's link's.
+    Modbus { drive: usize },
 }
 
 impl CellLoop {
@@ -378,7 +394,7 @@ impl CellLoop {
                     Some(Upstream {
                         stream,
                         decoder: Decoder::new(),
-                        pending: Vec::new(),
+                        pending: SendBuffer::default(),
                         wants_write: false,
                     })
                 }
@@ -436,16 +452,18 @@ impl CellLoop {
                 .register(listener, Token(FIRST_DYNAMIC + i), Interest::READABLE)?;
         }
         let (control_tx, control_rx) = std::sync::mpsc::channel();
+        let arrivals = Arrivals::default();
         Ok(CellLoop {
             control_tx,
             control_rx,
             subscriptions: Vec::new(),
-            modbus_faults: front
+            modbus_links: front
                 .modbus
                 .iter()
-                .map(|_| FrontFaultInjector::new())
+                .map(|_| {
+                    FrontFaultInjector::inbound(SendBuffer::with_capacity(1024), arrivals.clone())
+                })
                 .collect(),
-            arrivals: Arrivals::default(),
             poll,
             stop: Arc::new(AtomicBool::new(false)),
             waker,
@@ -461,11 +479,13 @@ impl CellLoop {
                 .into_iter()
                 .map(|c| ChainState {
                     chain: c.chain,
-                    socket: c.socket,
-                    link: Tracer::new(Wire::new(), c.trace),
-                    faults: FrontFaultInjector::new(),
+                    link: Tracer::new(
+                        FrontFaultInjector::inbound(c.socket, arrivals.clone()),
+                        c.trace,
+                    ),
                 })
                 .collect(),
+            arrivals,
             serial: front.serial,
             serial_sent: Vec::new(),
             chains_to_read: Vec::new(),
@@ -476,7 +496,6 @@ impl CellLoop {
             more_to_read: Vec::new(),
             dirty: Vec::new(),
             out: Vec::with_capacity(256),
-            text: Vec::with_capacity(64),
             effects: Vec::new(),
         })
     }
@@ -687,8 +706,8 @@ impl CellLoop {
             }
         }
         for c in self.slots.iter().flatten() {
-            if let Kind::Socketcand { session, .. } = &c.kind {
-                take(session.deadline());
+            if let Kind::Socketcand { link, .. } = &c.kind {
+                take(link.inner().session.deadline());
             }
         }
         for m in &self.modbus {

@@ -14,11 +14,7 @@ impl CellLoop {
     /// byte, unless the first has been closed by its client meanwhile
     /// ([`crate::modbus_tcp::server`]).
     pub(super) fn accept_modbus(&mut self, stream: TcpStream, peer: SocketAddr, drive: usize) {
-        let active = self.slots.iter().position(|c| {
-            c.as_ref()
-                .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
-        });
-        if let Some(slot) = active {
+        if let Some(slot) = self.modbus_slot(drive) {
             let closed = self
                 .slots
                 .get(slot)
@@ -39,12 +35,16 @@ impl CellLoop {
         self.add(stream, peer, Kind::Modbus { drive });
     }
 
-    pub(super) fn close_modbus_of(&mut self, drive: usize) {
-        let slot = self.slots.iter().position(|c| {
+    /// The connection drive `drive`'s server has open.
+    pub(super) fn modbus_slot(&self, drive: usize) -> Option<usize> {
+        self.slots.iter().position(|c| {
             c.as_ref()
                 .is_some_and(|c| matches!(c.kind, Kind::Modbus { drive: d } if d == drive))
-        });
-        if let Some(slot) = slot {
+        })
+    }
+
+    pub(super) fn close_modbus_of(&mut self, drive: usize) {
+        if let Some(slot) = self.modbus_slot(drive) {
             // The drive has already seen the close (watchdog, stalled writes).
             self.remove(slot);
         }
@@ -58,12 +58,13 @@ impl CellLoop {
         bytes: &[u8],
         t: od::Instant,
     ) {
-        let Some(Some(conn)) = self.slots.get_mut(slot) else {
+        if !matches!(self.slots.get(slot), Some(Some(_))) {
             return;
-        };
-        let result = match self.modbus.get_mut(drive) {
-            Some(m) => m.answer(bytes, t, &mut conn.pending),
-            None => Ok(()),
+        }
+        // The answer goes to the server's link's send buffer, its connection's.
+        let result = match (self.modbus.get_mut(drive), self.modbus_links.get_mut(drive)) {
+            (Some(m), Some(link)) => m.answer(bytes, t, link.inner_mut().as_vec_mut()),
+            _ => Ok(()),
         };
         self.mark_dirty(slot);
         if let Err(reason) = result {

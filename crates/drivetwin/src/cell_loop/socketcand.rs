@@ -8,8 +8,11 @@ use std::time::Instant;
 use mio::{Interest, Token};
 
 use super::{CellLoop, Connection, Kind, Source, MAX_PENDING, READS_PER_TURN};
+use crate::can::socketcand::client_link::ClientStream;
 use crate::can::socketcand::session::{Effect, Session};
 use crate::can::socketcand::Decoder;
+use crate::cell::front_fault_injector::FrontFaultInjector;
+use crate::cell::link::{At, FrontLink};
 use crate::cell::wire_faults::Verdict;
 
 impl CellLoop {
@@ -17,22 +20,19 @@ impl CellLoop {
         let Some(Some(conn)) = self.slots.get_mut(slot) else {
             return;
         };
-        let Kind::Socketcand {
-            session, held, bus, ..
-        } = &mut conn.kind
-        else {
+        let Kind::Socketcand { link, bus, .. } = &mut conn.kind else {
             return;
         };
         let totals = self.buses.get(*bus).map(|b| b.totals).unwrap_or_default();
-        if session.deadline().is_none_or(|d| d > now) {
+        let client = link.inner_mut();
+        if client.session.deadline().is_none_or(|d| d > now) {
             return;
         }
-        let was_streaming = session.is_streaming();
+        let was_streaming = client.session.is_streaming();
         let effects = &mut self.effects;
-        session.poll(now, totals, &mut |e| effects.push(e));
-        if session.is_streaming() && !was_streaming {
-            conn.pending.extend_from_slice(held);
-            held.clear();
+        client.session.poll(now, totals, &mut |e| effects.push(e));
+        if client.session.is_streaming() && !was_streaming {
+            client.start_stream();
         }
         self.carry_out(slot, now);
         self.mark_dirty(slot);
@@ -62,11 +62,12 @@ impl CellLoop {
                     let bitrate = self.buses.get(b).map_or(1_000_000, |x| x.segment.bitrate());
                     let kind = Kind::Socketcand {
                         bus: b,
-                        session: Session::new(),
                         decoder: Decoder::with_max_len(max_len),
-                        held: Vec::new(),
                         budget: crate::can::frame_budget::FrameBudget::for_bitrate(bitrate),
-                        faults: Box::default(),
+                        link: Box::new(FrontFaultInjector::new(
+                            ClientStream::new(),
+                            self.arrivals.clone(),
+                        )),
                     };
                     tracing::info!(%peer, "socketcand client connected");
                     if let Some(slot) = self.add(stream, peer, kind) {
@@ -90,10 +91,7 @@ impl CellLoop {
                 return;
             };
             let Kind::Socketcand {
-                session,
-                decoder,
-                bus,
-                ..
+                link, decoder, bus, ..
             } = &mut conn.kind
             else {
                 return;
@@ -105,7 +103,9 @@ impl CellLoop {
                 return;
             };
             let effects = &mut self.effects;
-            session.on_message(config, now, message, &mut |e| effects.push(e));
+            link.inner_mut()
+                .session
+                .on_message(config, now, message, &mut |e| effects.push(e));
             self.carry_out(slot, now);
         }
     }
@@ -119,11 +119,11 @@ impl CellLoop {
                 Effect::Open => {}
                 Effect::SkipPending => {
                     if let Some(Some(Connection {
-                        kind: Kind::Socketcand { held, .. },
+                        kind: Kind::Socketcand { link, .. },
                         ..
                     })) = self.slots.get_mut(slot)
                     {
-                        held.clear();
+                        link.inner_mut().skip_held();
                     }
                 }
                 Effect::Send(frame) => {
@@ -131,10 +131,7 @@ impl CellLoop {
                     if let Some(Some(Connection {
                         kind:
                             Kind::Socketcand {
-                                bus,
-                                budget,
-                                faults,
-                                ..
+                                bus, budget, link, ..
                             },
                         peer,
                         ..
@@ -148,7 +145,7 @@ impl CellLoop {
                             continue;
                         }
                         let bus = *bus;
-                        match faults.cross_in(t, frame.id, &mut self.arrivals, || frame) {
+                        match link.receive(At::on_clock(t), &frame) {
                             Verdict::Pass => {}
                             // Lost, or held by the client's link until its time.
                             Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
@@ -226,14 +223,12 @@ impl CellLoop {
         };
         let mut failed = false;
         while !up.pending.is_empty() {
-            match up.stream.write(&up.pending) {
+            match up.stream.write(up.pending.bytes()) {
                 Ok(0) => {
                     failed = true;
                     break;
                 }
-                Ok(n) => {
-                    up.pending.drain(..n.min(up.pending.len()));
-                }
+                Ok(n) => up.pending.consume(n),
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 Err(e) => {

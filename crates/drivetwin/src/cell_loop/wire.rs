@@ -1,9 +1,9 @@
 //! The wire's side of the cell loop ([`crate::cell::wire_faults`]): faults of a bus go to its
-//! cell; those of a Modbus server, an EtherCAT chain or a single socketcand client to that
-//! front end's link ([`FrontFaultInjector`]), which holds the frames they delay until the
-//! loop releases them, across front ends in the order they arrived; traces of a bus started
-//! and stopped while the cell runs, and taps that see every frame of a bus, on the bus's link
-//! ([`crate::trace::tracer::Tracer`]).
+//! cell; those of a Modbus server, an EtherCAT chain or a single socketcand client to the
+//! [`FrontFaultInjector`] wrapping that front end's link, which holds the frames they delay
+//! until the loop releases them, across front ends in the order they arrived; traces of a bus
+//! started and stopped while the cell runs, and taps that see every frame of a bus, on the
+//! bus's link ([`crate::trace::tracer::Tracer`]).
 
 use std::time::Instant;
 
@@ -11,15 +11,9 @@ use od::time::earliest;
 
 use super::{CellLoop, Connection, Kind};
 use crate::cell::front_fault_injector::{FrontFaultInjector, Released};
+use crate::cell::link::FrontLink;
 use crate::cell::wire_faults::{FrontEnd, WireAnswer, WireError, WireFaults, WireRequest};
 use crate::trace::TraceWriter;
-
-/// A Modbus request's bytes a `delay` fault holds back, with the connection they came on.
-#[derive(Debug)]
-pub(super) struct HeldRequest {
-    pub(super) slot: usize,
-    pub(super) bytes: Vec<u8>,
-}
 
 /// The front end whose held frame is due first.
 enum Holder {
@@ -33,15 +27,15 @@ impl CellLoop {
     /// The earliest held request or frame, of every front end.
     pub(super) fn held_deadline(&self) -> Option<Instant> {
         let mut at = None;
-        for m in &self.modbus_faults {
+        for m in &self.modbus_links {
             at = earliest(at, m.deadline());
         }
         for c in &self.chains {
-            at = earliest(at, c.faults.deadline());
+            at = earliest(at, c.link.deadline());
         }
         for c in self.slots.iter().flatten() {
-            if let Kind::Socketcand { faults, .. } = &c.kind {
-                at = earliest(at, faults.deadline());
+            if let Kind::Socketcand { link, .. } = &c.kind {
+                at = earliest(at, link.deadline());
             }
         }
         at.map(|t| self.wall(t))
@@ -58,19 +52,19 @@ impl CellLoop {
                 }
             }
         };
-        for (d, m) in self.modbus_faults.iter().enumerate() {
+        for (d, m) in self.modbus_links.iter().enumerate() {
             take(m.due(t), Holder::Modbus(d));
         }
         for (c, chain) in self.chains.iter().enumerate() {
-            take(chain.faults.due(t), Holder::Chain(c));
+            take(chain.link.inner().due(t), Holder::Chain(c));
         }
         for (slot, c) in self.slots.iter().enumerate() {
             if let Some(Connection {
-                kind: Kind::Socketcand { faults, .. },
+                kind: Kind::Socketcand { link, .. },
                 ..
             }) = c
             {
-                take(faults.due(t), Holder::Client(slot));
+                take(link.due(t), Holder::Client(slot));
             }
         }
         first.map(|(_, h)| h)
@@ -83,16 +77,22 @@ impl CellLoop {
         while let Some(holder) = self.first_due(t) {
             match holder {
                 Holder::Modbus(drive) => {
-                    let Some(Released::In(_, r)) =
-                        self.modbus_faults.get_mut(drive).and_then(|m| m.release(t))
+                    let Some(Released::In(_, bytes)) =
+                        self.modbus_links.get_mut(drive).and_then(|m| m.release(t))
                     else {
                         break;
                     };
-                    self.modbus_request(r.slot, drive, &r.bytes, t);
+                    // Answered on the connection it came on: held requests go with their
+                    // connection when it closes.
+                    if let Some(slot) = self.modbus_slot(drive) {
+                        self.modbus_request(slot, drive, &bytes, t);
+                    }
                 }
                 Holder::Chain(c) => {
-                    let Some(Released::In(_, frame)) =
-                        self.chains.get_mut(c).and_then(|ch| ch.faults.release(t))
+                    let Some(Released::In(_, frame)) = self
+                        .chains
+                        .get_mut(c)
+                        .and_then(|ch| ch.link.inner_mut().release(t))
                     else {
                         break;
                     };
@@ -100,23 +100,20 @@ impl CellLoop {
                 }
                 Holder::Client(slot) => {
                     let Some(Some(Connection {
-                        kind: Kind::Socketcand { faults, bus, .. },
-                        pending,
+                        kind: Kind::Socketcand { link, bus, .. },
                         ..
                     })) = self.slots.get_mut(slot)
                     else {
                         break;
                     };
-                    match faults.release(t) {
+                    match link.release(t) {
                         // Its frame reaches the bus now.
                         Some(Released::In(_, frame)) => {
                             let bus = *bus;
                             self.bus(bus, frame, super::Source::Client(slot), now);
                         }
-                        Some(Released::Out(_, text)) => {
-                            pending.extend_from_slice(&text);
-                            self.mark_dirty(slot);
-                        }
+                        // The bus's frame is in its send buffer now.
+                        Some(Released::Out(_)) => self.mark_dirty(slot),
                         None => break,
                     }
                 }
@@ -239,17 +236,20 @@ impl CellLoop {
         let faults = match front {
             FrontEnd::Bus(_) => None,
             FrontEnd::Modbus(m) => self
-                .modbus_faults
+                .modbus_links
                 .get_mut(m)
                 .map(FrontFaultInjector::faults_mut),
-            FrontEnd::Ethercat(c) => self.chains.get_mut(c).map(|c| c.faults.faults_mut()),
+            FrontEnd::Ethercat(c) => self
+                .chains
+                .get_mut(c)
+                .map(|c| c.link.inner_mut().faults_mut()),
             FrontEnd::Client(port) => {
                 self.slots
                     .iter_mut()
                     .flatten()
                     .find_map(|c| match &mut c.kind {
-                        Kind::Socketcand { faults, .. } if c.peer.port() == port => {
-                            Some(faults.faults_mut())
+                        Kind::Socketcand { link, .. } if c.peer.port() == port => {
+                            Some(link.faults_mut())
                         }
                         _ => None,
                     })

@@ -183,6 +183,37 @@ impl SlaveSocket {
     }
 }
 
+/// The chain's end of its link ([`crate::cell::link::FrontLink`]): a master's frame is
+/// taken in as it came, and the answer goes out on the wire at once. A send that fails is
+/// logged, never stops the chain.
+impl crate::cell::link::FrontLink for SlaveSocket {
+    type In = [u8];
+    type Out = [u8];
+
+    fn receive(&mut self, _: crate::cell::link::At, _: &[u8]) -> crate::cell::wire_faults::Verdict {
+        crate::cell::wire_faults::Verdict::Pass
+    }
+
+    fn transmit(
+        &mut self,
+        _: crate::cell::link::At,
+        frame: &[u8],
+    ) -> crate::cell::wire_faults::Verdict {
+        use crate::cell::wire_faults::Verdict;
+        match self.send(frame) {
+            Ok(()) => Verdict::Pass,
+            Err(e) if is_queue_full(&e) => {
+                tracing::warn!(interface = self.interface(), "TX queue full, frame lost");
+                Verdict::Lost
+            }
+            Err(e) => {
+                tracing::error!(interface = self.interface(), error = %e, "EtherCAT send failed");
+                Verdict::Lost
+            }
+        }
+    }
+}
+
 impl AsRawFd for SlaveSocket {
     fn as_raw_fd(&self) -> RawFd {
         self.fd.as_raw_fd()

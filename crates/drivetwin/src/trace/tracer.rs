@@ -1,5 +1,9 @@
 //! A link that copies every frame crossing it to a sink, then passes it to the link it
-//! wraps: as smoltcp's `phy::Tracer`, a link that wraps a link ([`crate::cell::link`]). A
+//! wraps: as smoltcp's `phy::Tracer`, a link that wraps a link ([`crate::cell::link`]), a
+//! bus's ([`Link`]) or a front end's ([`FrontLink`]). On a front end's link a frame that
+//! comes in is copied before the link it wraps judges it, and one that goes out once the link
+//! it wraps has it (the copy is not on the frame's path out); outermost, the tracer shows
+//! every frame the peer sent and the cell sent, whatever faults inside make of them. A
 //! CAN bus's sink is [`CanTrace`]: its trace file (pcap or candump), which can start and
 //! stop while the cell runs, and its taps, each lasting until its receiver is dropped. An
 //! EtherCAT chain's is the queue to the thread that writes its pcap
@@ -11,7 +15,7 @@ use std::time::Duration;
 use canopen::CanFrame;
 use od::Instant;
 
-use crate::cell::link::{At, Link};
+use crate::cell::link::{At, FrontLink, Link};
 use crate::cell::wire_faults::{Sender, Verdict};
 use crate::trace::TraceWriter;
 
@@ -48,6 +52,11 @@ impl<L, S> Tracer<L, S> {
     }
 
     /// The link it wraps.
+    pub fn inner(&self) -> &L {
+        &self.inner
+    }
+
+    /// The link it wraps.
     pub fn inner_mut(&mut self) -> &mut L {
         &mut self.inner
     }
@@ -76,6 +85,34 @@ impl<L: Link, S: TraceSink<L::Frame>> Link for Tracer<L, S> {
     fn flush(&mut self) {
         self.sink.flush();
         self.inner.flush();
+    }
+}
+
+impl<L, S> FrontLink for Tracer<L, S>
+where
+    L: FrontLink,
+    S: TraceSink<L::In> + TraceSink<L::Out>,
+{
+    type In = L::In;
+    type Out = L::Out;
+
+    fn receive(&mut self, at: At, frame: &L::In) -> Verdict {
+        <S as TraceSink<L::In>>::write(&mut self.sink, at, frame);
+        self.inner.receive(at, frame)
+    }
+
+    fn transmit(&mut self, at: At, frame: &L::Out) -> Verdict {
+        let verdict = self.inner.transmit(at, frame);
+        <S as TraceSink<L::Out>>::write(&mut self.sink, at, frame);
+        verdict
+    }
+
+    fn transmit_held(&mut self, at: At, frame: &L::Out) {
+        self.inner.transmit_held(at, frame);
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        self.inner.deadline()
     }
 }
 

@@ -5,6 +5,7 @@
 //! [`codec`] is the pure, I/O-free part (framing, parsing, formatting); [`server`] is the async TCP
 //! side.
 
+pub mod client_link;
 pub mod codec;
 pub mod join;
 pub mod server;
