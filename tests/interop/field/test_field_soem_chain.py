@@ -8,8 +8,9 @@ ramp of CSP set-points.
   0x0036 as on the drive.
 * 64 generic CiA 402 drives from an EDS at 4 kHz: their 60C2h takes 250 × 10⁻⁶ s.
 
-Short runs (1000 cycles each); `scripts/ethercat-chain` is the long form and the search for
-the most slaves a cycle holds. The twin and the master both run at `chrt -f 20` where allowed
+Short runs (1000 cycles each, about a minute each with the chain's set-up on a loaded
+machine); `scripts/ethercat-chain` runs them (SOEM_CHAIN=1), longer and over other lengths of
+chain. The twin and the master both run at `chrt -f 20` where allowed
 (a PLC's cyclic task is a real-time task). Needs root and iproute2 (the veth fixture skips
 otherwise).
 """
@@ -30,6 +31,14 @@ CYCLES = int(os.environ.get("SOEM_CHAIN_CYCLES", "1000"))
 # scripts/ethercat-chain runs other lengths of chain and `--busy-poll`.
 SLAVES = int(os.environ.get("SOEM_CHAIN_SLAVES", "64"))
 TWIN_ARGS = ["--busy-poll"] if os.environ.get("SOEM_CHAIN_BUSY_POLL") == "1" else []
+
+
+# Opt-in (scripts/ethercat-chain sets it): on a machine whose two cores are shared with builds
+# (load average 20-30), the twin or the master is held off the CPU for 2-10 ms now and then;
+# the drives then miss SYNC0 events and fall back to Safe-Op with 0x001A as the manual says
+# (docs/performance.md, "EtherCAT chains under SOEM"), so the run is not reliable there.
+pytestmark = pytest.mark.skipif(os.environ.get("SOEM_CHAIN") != "1",
+                                reason="the SOEM chain runs with SOEM_CHAIN=1 (scripts/ethercat-chain)")
 
 
 @pytest.fixture(scope="module")

@@ -257,10 +257,11 @@ int main(int argc, char *argv[])
         else if (all && step == 2 && enabled_at < 0)
             enabled_at = i;
     }
-    /* A few cycles of the last set-points, then the lag of each drive. */
+    /* 20 ms (at least 20 cycles) of the last set-points, then the lag of each drive. */
     int32 worst_lag = 0;
     int enabled = 0;
-    for (int i = 0; i < 20; i++) {
+    int hold = (int)(20000000LL / period);
+    for (int i = 0; i < (hold > 20 ? hold : 20); i++) {
         next += period;
         sleep_until(next);
         ecx_send_processdata(ctx);
