@@ -6,9 +6,9 @@ PDO assignment and its mapping read over CoE (1C12h / 1C13h, 1600h / 1A00h), and
 list of the CoE dictionary (SDO information) against the ESI's `<Dictionary>` (the ESI lists
 the objects the device file hides from CoE as well: `coe_hidden`).
 
-Every drive that speaks EtherCAT: the CMMP-AS (its device file's `[device.ethercat]`; a drive
-from an EDS is a CANopen device and has no EtherCAT interface in a cell). Needs root and `ip`;
-skips otherwise.
+Every drive that speaks EtherCAT: the CMMP-AS (its device file's `[device.ethercat]`) and the
+generic CiA 402 drive from an EDS (`drivetwin esi --eds FILE`: the file's dictionary with the
+sync manager objects the twin adds on EtherCAT). Needs root and `ip`; skips otherwise.
 """
 
 from __future__ import annotations
@@ -109,3 +109,15 @@ def test_the_cmmp_as_esi_is_what_soem_reads_back(veth, tmp_path):
         scan = json.loads(run_cli("ecat", "scan", "-i", master_if, "--json").stdout)
         (s,) = scan["slaves"]
         assert (s["vendor_id"], s["product_code"]) == (esi["vendor"], esi["product"]), s
+
+
+def test_the_eds_drive_esi_is_what_soem_reads_back(veth, tmp_path):
+    eds = ROOT / "tests" / "interop" / "data" / "eds" / "epos4_like.eds"
+    esi = esi_facts(esi_of("--eds", str(eds)))
+    assert (esi["vendor"], esi["product"], esi["revision"]) == (0xFB, 0x65500000, 0x01700000)
+    assert esi["assigned"] == {"2": [0x1600], "3": [0x1A00]}
+    assert {0x1C00, 0x1C12, 0x1C13} <= set(esi["objects"])
+    cell = tmp_path / "eds.toml"
+    cell.write_text(f'[[drive]]\neds = "{eds}"\ninterfaces = ["ethercat"]\n')
+    with ecat_twin_run(veth, tmp_path, "--config", str(cell)) as (master_if, _):
+        check(esi, read_back(master_if), [])

@@ -59,6 +59,9 @@ pub enum Command {
     Esi {
         #[arg(long, default_value = "cmmp-as")]
         device: String,
+        /// The generic CiA 402 drive of this EDS / DCF on EtherCAT instead of `--device`.
+        #[arg(long)]
+        eds: Option<PathBuf>,
         /// Write to a file instead of standard output.
         #[arg(long, short)]
         output: Option<PathBuf>,

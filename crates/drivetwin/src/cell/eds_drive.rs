@@ -9,16 +9,24 @@
 //! A DCF's commissioned bit rate (`[DeviceComissioning] Baudrate`) is the rate the node is set
 //! to, as a built-in device's switches or objects set its rate ([`bit_rate_of`],
 //! [`crate::cell::bus_rate`]); an EDS sets none, and its node follows the bus.
+//!
+//! The drive runs on CANopen or, its dictionary served over CoE, on EtherCAT (one at a time,
+//! as a drive with both interfaces usually offers them): on EtherCAT it has a description of
+//! its own, the file's objects and the sync manager objects ([`on_ethercat`],
+//! [`crate::cell::eds_ethercat`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use devdesc::eds::{BitRate, EdsError};
+use devdesc::model::Device;
 use drive::drive::mode;
 use drive::homing::{Method, METHODS};
 use drive::personality::{Capabilities, ModeSpec, Personality};
 use drive::vendors::cia402::{CIA402, CIA402_FEED_CONSTANT};
 use od::DeviceDescription;
+
+use crate::cell::eds_ethercat::{self, EdsEthercatError};
 
 /// A file read, its description and the personality the engine runs it with.
 struct Loaded {
@@ -27,6 +35,11 @@ struct Loaded {
     personality: &'static Personality,
     /// A DCF's `[DeviceComissioning] Baudrate`.
     bit_rate: Option<BitRate>,
+    /// The device as read, for its description on EtherCAT.
+    device: Device,
+    /// The drive on EtherCAT: its description with the sync manager objects, and its
+    /// personality; made the first time a drive of the file goes on a chain.
+    ethercat: Option<(&'static DeviceDescription, &'static Personality)>,
 }
 
 /// Every EDS / DCF loaded by this process.
@@ -52,6 +65,11 @@ pub fn load(path: &Path) -> Result<&'static DeviceDescription, EdsError> {
         device.name.clone()
     };
     device.name = base.clone();
+    device.interfaces = vec!["canopen".into(), "ethercat".into()];
+    device.interfaces_one_of = device.interfaces.clone();
+    device.interfaces_rule =
+        "a CiA 402 drive from its EDS: CANopen, or its dictionary over EtherCAT (CoE, ETG.6010)"
+            .into();
     let mut n = 2;
     while loaded.iter().any(|l| l.desc.name == device.name) {
         device.name = format!("{base}-{n}");
@@ -64,17 +82,45 @@ pub fn load(path: &Path) -> Result<&'static DeviceDescription, EdsError> {
         desc,
         personality,
         bit_rate,
+        device,
+        ethercat: None,
     });
     Ok(desc)
 }
 
-/// The personality of a drive loaded from an EDS; `None` for a built-in device.
+/// The description a drive of `desc` has as an EtherCAT slave: for a drive from an EDS its
+/// own, with the sync manager objects ([`eds_ethercat::coe_device`]), made once per file;
+/// a built-in device's is its own.
+pub fn on_ethercat(
+    desc: &'static DeviceDescription,
+) -> Result<&'static DeviceDescription, EdsEthercatError> {
+    let mut loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(l) = loaded.iter_mut().find(|l| {
+        std::ptr::eq(l.desc, desc) || l.ethercat.is_some_and(|(d, _)| std::ptr::eq(d, desc))
+    }) else {
+        return Ok(desc);
+    };
+    if let Some((d, _)) = l.ethercat {
+        return Ok(d);
+    }
+    let on_ethercat = devdesc::runtime::leak(&eds_ethercat::coe_device(&l.device)?);
+    let personality: &'static Personality = Box::leak(Box::new(personality(on_ethercat)));
+    l.ethercat = Some((on_ethercat, personality));
+    Ok(on_ethercat)
+}
+
+/// The personality of a drive loaded from an EDS (on CANopen or on EtherCAT); `None` for a
+/// built-in device.
 pub fn personality_of(desc: &DeviceDescription) -> Option<&'static Personality> {
     let loaded = LOADED.lock().unwrap_or_else(|e| e.into_inner());
-    loaded
-        .iter()
-        .find(|l| std::ptr::eq(l.desc, desc))
-        .map(|l| l.personality)
+    loaded.iter().find_map(|l| {
+        if std::ptr::eq(l.desc, desc) {
+            return Some(l.personality);
+        }
+        l.ethercat
+            .filter(|(d, _)| std::ptr::eq(*d, desc))
+            .map(|(_, p)| p)
+    })
 }
 
 /// The bit rate the DCF of a drive loaded from one is commissioned to; `None` for an EDS

@@ -12,6 +12,7 @@ pub mod control;
 pub mod device_model;
 pub mod diagnostics;
 pub mod eds_drive;
+pub mod eds_ethercat;
 pub mod ethercat_line;
 pub mod fault_injector;
 pub mod fieldbus_switches;

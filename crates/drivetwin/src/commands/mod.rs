@@ -169,7 +169,11 @@ pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
     match cli.command {
         Command::Run(args) => run::run(args).await,
         Command::Eds { device, output } => run::eds(&device, output),
-        Command::Esi { device, output } => run::esi(&device, output),
+        Command::Esi {
+            device,
+            eds,
+            output,
+        } => run::esi(&device, eds.as_deref(), output),
         Command::Devices => {
             let width = devices::ALL.iter().map(|d| d.name.len()).max().unwrap_or(0);
             for d in devices::ALL {

@@ -21,8 +21,22 @@ pub(crate) fn eds(name: &str, output: Option<PathBuf>) -> Result<(), CommandErro
     }
 }
 
-pub(crate) fn esi(name: &str, output: Option<PathBuf>) -> Result<(), CommandError> {
-    let desc = device(name)?;
+/// The ESI of the device `name`, or of the generic drive of the EDS / DCF `eds` on EtherCAT
+/// (its description there: [`drivetwin::cell::eds_drive::on_ethercat`]).
+pub(crate) fn esi(
+    name: &str,
+    eds: Option<&std::path::Path>,
+    output: Option<PathBuf>,
+) -> Result<(), CommandError> {
+    let desc = match eds {
+        Some(path) => {
+            let desc = drivetwin::cell::eds_drive::load(path)
+                .map_err(|e| CommandError::Usage(e.to_string()))?;
+            drivetwin::cell::eds_drive::on_ethercat(desc)
+                .map_err(|e| CommandError::Usage(e.to_string()))?
+        }
+        None => device(name)?,
+    };
     let mut text = String::new();
     drivetwin::export::esi::write_esi(desc, &mut text)
         .map_err(|_| CommandError::Usage("ESI formatting failed".into()))?;
@@ -733,10 +747,15 @@ fn ethercat_chains(
 ) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
     use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
     let mut chains: Vec<(String, SlaveChain)> = Vec::new();
-    for (i, spec) in specs {
+    for (i, mut spec) in specs {
         let Some(chain) = spec.ethercat.clone() else {
             continue;
         };
+        if !spec.canopen {
+            // A drive from an EDS has a description of its own there.
+            spec.desc = drivetwin::cell::eds_drive::on_ethercat(spec.desc)
+                .map_err(|e| CommandError::Usage(e.to_string()))?;
+        }
         let Some(ifname) = chain.or_else(|| ethercat_if.map(str::to_owned)) else {
             return Err(CommandError::Usage(format!(
                 "drive {} (node {}): \"ethercat\" in its interfaces needs a chain: \

@@ -112,6 +112,8 @@ pub enum SlaveChainError {
     Empty,
     #[error(transparent)]
     Line(#[from] LineError),
+    #[error(transparent)]
+    Eds(#[from] crate::cell::eds_ethercat::EdsEthercatError),
 }
 
 /// One mapped object in a process image.
@@ -859,7 +861,8 @@ impl SlaveChain {
         }
         let mut chain = SlaveChain::empty();
         chain.state_dir = state_dir.map(Path::to_path_buf);
-        for spec in specs {
+        for mut spec in specs {
+            spec.desc = crate::cell::eds_drive::on_ethercat(spec.desc)?;
             let desc = spec.desc;
             let drive = own_drive(spec.clone(), state_dir)?;
             chain.push(desc, drive)?;
