@@ -5,12 +5,14 @@
 //! - [`variables`]: the FMU's variables and value references, from the cell's drives;
 //! - [`model_description`]: `modelDescription.xml` from those variables;
 //! - [`instance`]: one instance: the cell on the virtual clock, stepped by the importer;
+//! - [`front_ends`]: the cell's socketcand servers, open while the importer steps it;
 //! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file).
 //!
 //! The FMI C functions are in `crates/cell-fmu` (a `cdylib` on `fmi-export`), which holds an
 //! [`instance::CellInstance`]; `drivetwin fmu` writes the archive.
 
 pub mod archive;
+pub mod front_ends;
 pub mod instance;
 pub mod model_description;
 pub mod variables;
@@ -53,6 +55,11 @@ pub enum CellFmuError {
     NotAtTime { given: f64, at: f64 },
     #[error("the cell stopped at t = {at} s: {why}")]
     Stopped { at: f64, why: String },
+    #[error("front end: {what}: {source}")]
+    FrontEnd {
+        what: String,
+        source: std::io::Error,
+    },
     #[error("fmu archive: {0}")]
     Archive(String),
 }

@@ -331,6 +331,23 @@ impl VirtualRig {
             .collect()
     }
 
+    /// The engine of node `node`'s drive (its plant and device control), if it has one.
+    pub fn drive_model(&self, node: u8) -> Option<&drive::vendors::AnyDrive<Vec<u8>>> {
+        let (b, i) = self.drive(Some(node)).ok()?;
+        self.cells
+            .get(b)?
+            .drives
+            .get(i)?
+            .model
+            .drive()
+            .map(|d| &**d)
+    }
+
+    /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
+    pub fn drives_on(&self, bus: usize) -> usize {
+        self.cells.get(bus).map_or(0, |c| c.drives.len())
+    }
+
     /// The time the rig has run to.
     pub fn now(&self) -> Instant {
         self.now
