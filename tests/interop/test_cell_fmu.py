@@ -105,10 +105,12 @@ def test_the_fmus_shaft_follows_the_same_trajectory_as_the_native_run(cell_fmu, 
 
 
 def pack_with_socketcand(tmp_path, port: int) -> str:
-    """The example cell, without its start, with its bus's socketcand server on `port`."""
+    """The example cell, without its start, with its bus's socketcand server on `port`; the
+    bus instant, so a request between two steps is answered before the next one (on a timed
+    bus the answer crosses in the next step)."""
     cell = tmp_path / "cell.toml"
-    cell.write_text(f'[[bus]]\nsocketcand = "{HOST}:{port}"\nchannel = "{CHANNEL}"\n\n'
-                    + CELL.read_text())
+    cell.write_text(f'[[bus]]\nsocketcand = "{HOST}:{port}"\nchannel = "{CHANNEL}"\n'
+                    'bitrate = "instant"\n\n' + CELL.read_text())
     out = tmp_path / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(cell), "--output", str(out),

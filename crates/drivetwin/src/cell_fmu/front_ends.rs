@@ -4,10 +4,10 @@
 //! One thread serves the sockets (`mio`, as the cell loop does). The clock is the importer's:
 //! a frame a client sends acts at the clock's time when it arrives (between two steps, the
 //! time the last step ended; during a step, it waits for the step's end), so a client that
-//! waits for its answers between steps sees the same bus bit for bit on every run. Without a
-//! bus bit rate a drive answers an SDO request at once, so a client's request between steps
-//! is answered before the next `doStep`; with one, the answer crosses the bus in the next
-//! step. The frames the drives send during a step go to the clients when the step has ended,
+//! waits for its answers between steps sees the same bus bit for bit on every run. On the
+//! instant bus (`bitrate = "instant"`) a drive answers an SDO request at once, so a client's
+//! request between steps is answered before the next `doStep`; on a timed bus the answer
+//! takes its bit time and crosses in the next step. The frames the drives send during a step go to the clients when the step has ended,
 //! stamped with their time on the virtual clock.
 //!
 //! The socketcand protocol is [`crate::can::socketcand::session`]'s (the cell loop's and the

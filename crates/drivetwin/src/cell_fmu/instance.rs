@@ -367,7 +367,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(
             dir.join(CELL_FILE),
-            "[[bus]]\nsocketcand = \"127.0.0.1:0\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n",
+            "[[bus]]\nsocketcand = \"127.0.0.1:0\"\nbitrate = \"instant\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n",
         )
         .unwrap();
         let mut cell = CellInstance::from_resources(
@@ -390,7 +390,8 @@ mod tests {
         w.write_all(b"< rawmode >").unwrap();
         assert_eq!(message(&mut r), "< ok >");
         cell.do_step(0.0, 0.01).unwrap();
-        // SDO upload of 1018h:01 (CiA 301 §7.2.4.3.6) between two steps: answered at 10 ms.
+        // SDO upload of 1018h:01 (CiA 301 §7.2.4.3.6) between two steps: on the instant bus,
+        // answered at once, at 10 ms.
         w.write_all(b"< send 601 8 40 18 10 01 00 00 00 00 >")
             .unwrap();
         let answer = loop {
