@@ -2,18 +2,21 @@
 docs/cosimulation.md), met by fmpy, an FMI importer nobody here wrote: its model description
 validates, and simulated 5 s with a step of load torque the drive's shaft follows the motor
 model: the same trajectory as the same cell and start run natively on the virtual clock
-(`drivetwin scenario --samples`), within 1e-9 relative."""
+(`drivetwin scenario --samples`), within 1e-9 relative. While fmpy steps it, the cell's
+socketcand server is open on the FMU's clock: python-canopen reads, enables and moves the drive
+between steps."""
 
 from __future__ import annotations
 
 import csv
 import os
+import socket
 import subprocess
 
 import numpy as np
 import pytest
 
-from conftest import DRIVETWIN_BIN, REPO_ROOT
+from conftest import CHANNEL, DRIVETWIN_BIN, HOST, REPO_ROOT, add_node, free_port
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.validation import validate_fmu  # noqa: E402
@@ -105,3 +108,75 @@ def test_the_fmus_shaft_follows_the_same_trajectory_as_the_native_run(cell_fmu, 
     before = r[(r["time"] > LOAD_AT - 0.2) & (r["time"] < LOAD_AT)]["node1.current"].mean()
     after = r[(r["time"] > LOAD_AT + 0.5)]["node1.current"].mean()
     assert after - before > 0.5
+
+
+def pack_with_socketcand(tmp_path, port: int) -> str:
+    """The example cell, without its start, with its bus's socketcand server on `port`; the
+    bus instant, so a request between two steps is answered before the next one (on a timed
+    bus the answer crosses in the next step)."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text(f'[[bus]]\nsocketcand = "{HOST}:{port}"\nchannel = "{CHANNEL}"\n'
+                    'bitrate = "instant"\n\n' + CELL.read_text())
+    out = tmp_path / "cell.fmu"
+    subprocess.run(
+        [str(DRIVETWIN_BIN), "fmu", "--config", str(cell), "--output", str(out),
+         "--library", str(LIBRARY)],
+        check=True, cwd=REPO_ROOT, timeout=60,
+    )
+    return str(out)
+
+
+def test_python_canopen_drives_the_cell_between_fmpy_steps(cell_fmu, tmp_path, eds_files):
+    """The importer owns the clock; a client frame acts at the clock's time when it arrives,
+    so SDO requests between two doSteps are answered before the next one."""
+    import canopen
+    from fmpy.fmi3 import FMU3Slave
+
+    port = free_port()
+    fmu = pack_with_socketcand(tmp_path, port)
+    md = fmpy.read_model_description(fmu)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cell")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    steps = 0
+    h = 1e-3
+
+    def run(seconds: float):
+        nonlocal steps
+        for _ in range(round(seconds / h)):
+            slave.doStep(steps * h, h)
+            steps += 1
+
+    net = canopen.Network()
+    net.NOTIFIER_CYCLE = 0.05
+    net.connect(interface="socketcand", host=HOST, port=port, channel=CHANNEL)
+    try:
+        node = add_node(net, 1, eds_files["cmmp-as"])
+        run(0.01)
+        vendor = node.sdo.upload(0x1018, 1)
+        assert int.from_bytes(vendor, "little") == node.object_dictionary[0x1018][1].default
+        node.sdo.download(0x6060, 0, (3).to_bytes(1, "little"))          # profile velocity
+        node.sdo.download(0x60FF, 0, (200).to_bytes(4, "little", signed=True))
+        for controlword in (0x06, 0x07, 0x0F):                         # CiA 402 §6.3.1
+            node.sdo.download(0x6040, 0, controlword.to_bytes(2, "little"))
+            run(0.02)
+        status = int.from_bytes(node.sdo.upload(0x6041, 0), "little")
+        assert status & 0x6F == 0x27
+        assert slave.getUInt16([vr["node1.statusword"]])[0] == status
+        run(1.0)
+        assert slave.getFloat64([vr["node1.velocity"]])[0] > 1.0
+        assert slave.getFloat64([vr["node1.position"]])[0] > 1.0
+        # The client reads at the clock's time: the same value the importer gets.
+        actual = int.from_bytes(node.sdo.upload(0x6064, 0), "little", signed=True)
+        assert actual != 0
+        assert slave.getInt32([vr["node1.position_actual"]])[0] == actual
+    finally:
+        net.disconnect()
+        slave.terminate()
+        slave.freeInstance()
+    # The instance took its server with it.
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection((HOST, port), timeout=2.0).close()

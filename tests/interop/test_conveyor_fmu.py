@@ -147,9 +147,16 @@ def test_a_load_fmu_is_coupled_shown_and_uncoupled_over_rest(launch, conveyor_fm
     assert api(load + "/fmu", "DELETE") == (200, {"fmu": None, "failure": None})
 
 
+def said_by_the_fmu(stderr: str) -> bool:
+    """The error that stops the cell carries the conveyor FMU's own message."""
+    errors = [l for l in stderr.splitlines() if l.startswith("error:")]
+    return any("returned Error: mass -1 kg must be positive" in l for l in errors)
+
+
 def test_drivetwin_run_stops_with_the_error_of_a_failing_load(tmp_path, conveyor_fmu):
     """A load whose doStep returns an error (a mass of -1 kg) ends `drivetwin run`, on the
-    virtual clock and in real time, with the FMU's error and a non-zero exit."""
+    virtual clock and in real time, with the FMU's error, the FMU's own log message in it, and
+    a non-zero exit."""
     cell = tmp_path / "cell.toml"
     cell.write_text(
         '[[drive]]\ndevice = "cmmp-as"\nnode = 1\n[drive.load]\n'
@@ -158,8 +165,10 @@ def test_drivetwin_run_stops_with_the_error_of_a_failing_load(tmp_path, conveyor
     r = run_cli("run", "--config", str(cell), "--virtual-seconds", "1", timeout=60)
     assert r.returncode != 0
     assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr
+    assert said_by_the_fmu(r.stderr)
     r = subprocess.run([str(DRIVETWIN_BIN), "run", "--config", str(cell), "--socketcand",
                         "127.0.0.1:0", "--http", "127.0.0.1:0"],
                        capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert r.returncode != 0
     assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr
+    assert said_by_the_fmu(r.stderr)

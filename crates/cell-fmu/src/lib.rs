@@ -54,6 +54,9 @@ impl CellModel {
         if self.cell.is_some() {
             return Ok(());
         }
+        // A load FMU's own message joins the error that stops the cell (a logger set by the
+        // importer's process already wins; then the error says only the status).
+        drivetwin::cosim::fmu_log::install();
         let resources = context.resource_path().clone();
         match guarded(|| {
             CellInstance::from_resources(
@@ -61,6 +64,7 @@ impl CellModel {
                 drivetwin::vendors::CELL_SECTIONS,
                 drivetwin::vendors::MODBUS_DEVICE,
             )
+            .map(|c| c.with_views(drivetwin::vendors::DRIVE_VIEWS))
         }) {
             Ok(cell) => {
                 self.cell = Some(cell);
@@ -206,6 +210,19 @@ impl ModelGetSet<CellModel> for CellModel {
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
         self.get(vr, values, context, CellInstance::get_uint16)
+    }
+
+    fn get_string(
+        &self,
+        vr: binding::fmi3ValueReference,
+        values: &mut [std::ffi::CString],
+        context: &dyn Context<CellModel>,
+    ) -> Result<usize, Fmi3Error> {
+        self.get(vr, values, context, |cell, vr| {
+            let text = cell.get_string(vr)?;
+            // A display's text has no NUL; one would end the C string there.
+            Ok(std::ffi::CString::new(text.replace('\0', "")).unwrap_or_default())
+        })
     }
 
     fn get_int32(

@@ -14,10 +14,16 @@ fn main() -> ExitCode {
         tracing_subscriber::EnvFilter::try_from_env("DRIVETWIN_LOG").unwrap_or_else(|_| {
             tracing_subscriber::EnvFilter::new(if args.verbose { "debug" } else { "info" })
         });
-    tracing_subscriber::fmt()
+    let subscriber = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(commands::progress::log_writer)
-        .init();
+        .finish();
+    if tracing::subscriber::set_global_default(subscriber).is_err() {
+        eprintln!("warning: a log subscriber is set already");
+    }
+    // `log` records (a load FMU's messages among them) to the subscriber, an FMU's own
+    // message kept for the error that stops its cell.
+    drivetwin::cosim::fmu_log::install();
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

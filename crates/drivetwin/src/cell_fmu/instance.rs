@@ -5,14 +5,17 @@
 //! their buses at `t` ([`super::can_terminal`]), the inputs set since the last step act at `t`
 //! (a load torque as a scenario's `load`, a digital input as its `din`), the timeline's
 //! actions due in `[t, t + h)` each at its time, then the cell runs to `t + h` from deadline
-//! to deadline as `drivetwin scenario` runs it; the frames that crossed go to the terminals. Times are the clock's nanoseconds (`t` rounded to the
+//! to deadline as `drivetwin scenario` runs it; the frames that crossed go to the terminals
+//! and to the front ends' clients. Times are the clock's nanoseconds (`t` rounded to the
 //! nanosecond), so the same inputs at the same times give the same outputs bit for bit, and
 //! the same as the scenario with those inputs as its steps.
 
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use crate::cell::config::{CellFile, DeviceSections};
+use crate::cell::control::DriveViews;
 use crate::cell::modbus_device::NewModbusDevice;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
@@ -20,6 +23,7 @@ use crate::scenario::virtual_rig::{Probe, VirtualRig};
 use crate::scenario::Scenario;
 
 use super::can_terminal::CanTerminal;
+use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
 use super::variables::{Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
@@ -35,22 +39,26 @@ struct Inputs {
 
 /// A cell stepped by an FMI importer.
 pub struct CellInstance {
-    rig: VirtualRig,
+    /// The cell, shared with the front ends' thread.
+    shared: SharedCell,
+    /// The socketcand servers of the cell file's buses, when it has any.
+    front_ends: Option<FrontEnds>,
     variables: Variables,
     /// The timeline's actions in time order, and how many have been done.
     timeline: Vec<(Duration, Action)>,
     done: usize,
     inputs: Vec<Inputs>,
-    outputs: Vec<Probe>,
     /// The virtual clock, ns.
     now: u64,
+    /// What the drives' displays show.
+    views: DriveViews,
     /// The FMI-LS-BUS CAN terminal of each bus.
     pub(super) terminals: Vec<CanTerminal>,
 }
 
 impl CellInstance {
     /// The cell of `resources/cell.toml`, with the actions of `resources/timeline.toml` when
-    /// there is one, booted at 0.
+    /// there is one, booted at 0, its buses' socketcand servers open ([`FrontEnds`]).
     pub fn from_resources(
         resources: &Path,
         sections: DeviceSections,
@@ -72,10 +80,13 @@ impl CellInstance {
         } else {
             None
         };
-        CellInstance::new(&cell, timeline.as_ref(), sections, modbus_device)
+        let mut instance = CellInstance::new(&cell, timeline.as_ref(), sections, modbus_device)?;
+        instance.front_ends = FrontEnds::open(&cell, &instance.shared)?;
+        Ok(instance)
     }
 
-    /// `cell`, with `timeline`'s actions (its expectations are not checked here).
+    /// `cell`, with `timeline`'s actions (its expectations are not checked here), its front
+    /// ends closed (they open in [`CellInstance::from_resources`], the FMU's instance).
     pub fn new(
         cell: &CellFile,
         timeline: Option<&Scenario>,
@@ -96,24 +107,36 @@ impl CellInstance {
                     .collect()
             })
             .unwrap_or_default();
-        let n = variables.nodes.len();
         let terminals = rig
             .bus_bitrates()
             .into_iter()
             .map(CanTerminal::new)
             .collect();
-        let mut instance = CellInstance {
+        let n = variables.nodes.len();
+        let shared = Arc::new(Mutex::new(Shared {
             rig,
+            outbox: Vec::new(),
+            acted: true,
+            outputs: vec![Probe::default(); n],
+        }));
+        Ok(CellInstance {
+            shared,
+            front_ends: None,
             variables,
             timeline,
             done: 0,
             inputs: vec![Inputs::default(); n],
-            outputs: vec![Probe::default(); n],
             now: 0,
+            views: DriveViews::default(),
             terminals,
-        };
-        instance.refresh();
-        Ok(instance)
+        })
+    }
+
+    /// The drives' displays as `views` tells them (`drivetwin::vendors::DRIVE_VIEWS`; the
+    /// engine's display without it).
+    pub fn with_views(mut self, views: DriveViews) -> CellInstance {
+        self.views = views;
+        self
     }
 
     /// The FMU's variables.
@@ -126,12 +149,18 @@ impl CellInstance {
         Duration::from_nanos(self.now).as_secs_f64()
     }
 
-    fn refresh(&mut self) {
-        for (out, node) in self.outputs.iter_mut().zip(&self.variables.nodes) {
-            if let Ok(p) = self.rig.probe(*node) {
-                *out = p;
-            }
+    /// The addresses of the front ends' servers, with their bus.
+    pub fn front_end_addresses(&self) -> &[(usize, std::net::SocketAddr)] {
+        self.front_ends.as_ref().map_or(&[], |f| f.addresses())
+    }
+
+    /// Drive `drive`'s outputs now (read anew when a front end has acted since).
+    fn output(&self, drive: usize) -> Probe {
+        let mut shared = lock(&self.shared);
+        if shared.acted {
+            shared.refresh(&self.variables.nodes);
         }
+        shared.outputs.get(drive).copied().unwrap_or_default()
     }
 
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
@@ -142,7 +171,7 @@ impl CellInstance {
 
     pub fn get_float64(&self, vr: u32) -> Result<f64, CellFmuError> {
         let (drive, role) = self.find(vr)?;
-        let out = self.outputs.get(drive).copied().unwrap_or_default();
+        let out = self.output(drive);
         match role {
             Role::LoadTorque => Ok(self.inputs.get(drive).map_or(0.0, |i| i.load_torque)),
             Role::Position => Ok(out.position_rad),
@@ -193,15 +222,28 @@ impl CellInstance {
 
     pub fn get_uint16(&self, vr: u32) -> Result<u16, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::Statusword) => Ok(self.outputs.get(drive).map_or(0, |o| o.statusword)),
+            (drive, Role::Statusword) => Ok(self.output(drive).statusword),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
 
     pub fn get_int32(&self, vr: u32) -> Result<i32, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::PositionActual) => {
-                Ok(self.outputs.get(drive).map_or(0, |o| o.position_actual))
+            (drive, Role::PositionActual) => Ok(self.output(drive).position_actual),
+            _ => Err(CellFmuError::UnknownVariable(vr)),
+        }
+    }
+
+    pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
+        match self.find(vr)? {
+            (drive, Role::Display) => {
+                let node = self.variables.nodes.get(drive).copied().unwrap_or(0);
+                let shared = lock(&self.shared);
+                let shown = shared
+                    .rig
+                    .drive_model(node)
+                    .and_then(|d| (self.views.display)(d));
+                Ok(shown.map(|s| s.text().to_string()).unwrap_or_default())
             }
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
@@ -218,29 +260,49 @@ impl CellInstance {
                 at: self.time(),
             });
         }
+        let shared = Arc::clone(&self.shared);
+        let mut guard = lock(&shared);
+        let Shared { rig, outbox, .. } = &mut *guard;
+        // The bus's frames go to the LS-BUS terminals, and to the front ends' clients when
+        // there are any.
+        let collect = self.front_ends.is_some();
         let mut frames = Vec::new();
-        self.put_terminal_frames_on_bus(&mut frames)?;
-        let mut ignore = |b: usize, at: Duration, f: &canopen::CanFrame| frames.push((b, at, *f));
-        self.apply_inputs(&mut ignore)?;
+        Self::put_terminal_frames_on_bus(rig, &mut self.terminals, &mut frames)?;
+        let mut seen = |bus: usize, at: Duration, frame: &canopen::CanFrame| {
+            frames.push((bus, at, *frame));
+            if collect {
+                outbox.push(BusFrame {
+                    bus,
+                    at,
+                    frame: *frame,
+                });
+            }
+        };
+        Self::apply_inputs(rig, &self.variables, &mut self.inputs, &mut seen)?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
             if at_ns >= end {
                 break;
             }
             if at_ns > self.now {
-                self.rig.run_until(*at, &mut ignore);
+                rig.run_until(*at, &mut seen);
             }
             // A refused action is the timeline's mistake, as in a scenario's report: logged.
-            if let Err(e) = self.rig.act(action, &mut ignore) {
+            if let Err(e) = rig.act(action, &mut seen) {
                 tracing::warn!(at = ?at, "timeline action refused: {e}");
             }
             self.done += 1;
         }
-        self.rig.run_until(Duration::from_nanos(end), &mut ignore);
+        rig.run_until(Duration::from_nanos(end), &mut seen);
         self.terminals_saw(&frames);
         self.now = end;
-        self.refresh();
-        match self.rig.stopped() {
+        let stopped = rig.stopped();
+        guard.refresh(&self.variables.nodes);
+        drop(guard);
+        if let Some(f) = &self.front_ends {
+            f.wake();
+        }
+        match stopped {
             Some(why) => Err(CellFmuError::Stopped {
                 at: self.time(),
                 why,
@@ -252,20 +314,17 @@ impl CellInstance {
     /// The frames the LS-BUS terminals received go onto their buses now, from outside the
     /// cell's drives; the other frames that cross meanwhile (a drive's boot-up) go to `seen`.
     fn put_terminal_frames_on_bus(
-        &mut self,
+        rig: &mut VirtualRig,
+        terminals: &mut [CanTerminal],
         seen: &mut Vec<(usize, Duration, canopen::CanFrame)>,
     ) -> Result<(), CellFmuError> {
-        for bus in 0..self.terminals.len() {
-            let Some(t) = self.terminals.get_mut(bus) else {
-                continue;
-            };
+        for (bus, t) in terminals.iter_mut().enumerate() {
             for frame in t.take_to_bus() {
                 let mut got = Vec::new();
-                self.rig
-                    .act(&Action::Frame { bus, frame }, &mut |b, at, f| {
-                        got.push((b, at, *f))
-                    })
-                    .map_err(|e| CellFmuError::Cell(format!("bus {bus}: LS-BUS frame: {e}")))?;
+                rig.act(&Action::Frame { bus, frame }, &mut |b, at, f| {
+                    got.push((b, at, *f))
+                })
+                .map_err(|e| CellFmuError::Cell(format!("bus {bus}: LS-BUS frame: {e}")))?;
                 // The frame itself, as the rig reports it, is not an answer.
                 if let Some(i) = got.iter().position(|(b, _, f)| *b == bus && *f == frame) {
                     got.remove(i);
@@ -277,24 +336,25 @@ impl CellInstance {
     }
 
     fn apply_inputs(
-        &mut self,
+        rig: &mut VirtualRig,
+        variables: &Variables,
+        inputs: &mut [Inputs],
         seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame),
     ) -> Result<(), CellFmuError> {
-        for (drive, node) in self.variables.nodes.iter().enumerate() {
-            let Some(i) = self.inputs.get_mut(drive) else {
+        for (drive, node) in variables.nodes.iter().enumerate() {
+            let Some(i) = inputs.get_mut(drive) else {
                 continue;
             };
             if i.load_applied != Some(i.load_torque) {
                 let torque_nm = i.load_torque;
-                self.rig
-                    .act(
-                        &Action::Load {
-                            node: Some(*node),
-                            torque_nm,
-                        },
-                        seen,
-                    )
-                    .map_err(|e| CellFmuError::Cell(format!("node {node}: load torque: {e}")))?;
+                rig.act(
+                    &Action::Load {
+                        node: Some(*node),
+                        torque_nm,
+                    },
+                    seen,
+                )
+                .map_err(|e| CellFmuError::Cell(format!("node {node}: load torque: {e}")))?;
                 i.load_applied = Some(torque_nm);
             }
             for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
@@ -302,16 +362,15 @@ impl CellInstance {
                     continue;
                 };
                 let din = u8::try_from(k).unwrap_or(0);
-                self.rig
-                    .act(
-                        &Action::Input {
-                            node: Some(*node),
-                            din,
-                            level,
-                        },
-                        seen,
-                    )
-                    .map_err(|e| CellFmuError::Cell(format!("node {node}: din{din}: {e}")))?;
+                rig.act(
+                    &Action::Input {
+                        node: Some(*node),
+                        din,
+                        level,
+                    },
+                    seen,
+                )
+                .map_err(|e| CellFmuError::Cell(format!("node {node}: din{din}: {e}")))?;
                 *applied = Some(level);
             }
         }
@@ -326,4 +385,71 @@ fn nanos(seconds: f64) -> Result<u64, CellFmuError> {
         return Err(CellFmuError::BadTime(seconds));
     }
     Ok(ns as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{BufRead, BufReader, Write};
+    use std::net::TcpStream;
+
+    use super::*;
+
+    /// The next `< … >` message of a socketcand server.
+    fn message(r: &mut BufReader<TcpStream>) -> String {
+        let mut m = Vec::new();
+        r.read_until(b'>', &mut m).unwrap();
+        String::from_utf8(m).unwrap().trim().to_string()
+    }
+
+    #[test]
+    fn a_socketcand_client_is_answered_between_steps_at_the_clocks_time() {
+        let dir = std::env::temp_dir().join(format!("cell-fmu-front-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join(CELL_FILE),
+            "[[bus]]\nsocketcand = \"127.0.0.1:0\"\nbitrate = \"instant\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n",
+        )
+        .unwrap();
+        let mut cell = CellInstance::from_resources(
+            &dir,
+            crate::vendors::CELL_SECTIONS,
+            crate::vendors::MODBUS_DEVICE,
+        )
+        .unwrap();
+        let (bus, addr) = cell.front_end_addresses()[0];
+        assert_eq!(bus, 0);
+        let stream = TcpStream::connect(addr).unwrap();
+        stream
+            .set_read_timeout(Some(Duration::from_secs(10)))
+            .unwrap();
+        let mut w = stream.try_clone().unwrap();
+        let mut r = BufReader::new(stream);
+        assert_eq!(message(&mut r), "< hi >");
+        w.write_all(b"< open vcan0 >").unwrap();
+        assert_eq!(message(&mut r), "< ok >");
+        w.write_all(b"< rawmode >").unwrap();
+        assert_eq!(message(&mut r), "< ok >");
+        cell.do_step(0.0, 0.01).unwrap();
+        // SDO upload of 1018h:01 (CiA 301 §7.2.4.3.6) between two steps: on the instant bus,
+        // answered at once, at 10 ms.
+        w.write_all(b"< send 601 8 40 18 10 01 00 00 00 00 >")
+            .unwrap();
+        let answer = loop {
+            let m = message(&mut r);
+            if m.starts_with("< frame 581 ") {
+                break m;
+            }
+        };
+        assert!(
+            answer.starts_with("< frame 581 0.010000 43181001"),
+            "{answer}"
+        );
+        drop(w);
+        drop(cell);
+        assert!(
+            TcpStream::connect(addr).is_err(),
+            "the server closes with its instance"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

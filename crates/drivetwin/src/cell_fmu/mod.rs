@@ -5,6 +5,7 @@
 //! - [`variables`]: the FMU's variables and value references, from the cell's drives;
 //! - [`model_description`]: `modelDescription.xml` from those variables;
 //! - [`instance`]: one instance: the cell on the virtual clock, stepped by the importer;
+//! - [`front_ends`]: the cell's socketcand servers, open while the importer steps it;
 //! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file);
 //! - [`ls_bus`]: FMI-LS-BUS CAN bus operations, parsed and emitted;
 //! - [`can_terminal`]: one FMI-LS-BUS CAN terminal per bus of the cell (`canB.Rx_Data`, …).
@@ -14,6 +15,7 @@
 
 pub mod archive;
 pub mod can_terminal;
+pub mod front_ends;
 pub mod instance;
 pub mod ls_bus;
 pub mod model_description;
@@ -57,6 +59,11 @@ pub enum CellFmuError {
     NotAtTime { given: f64, at: f64 },
     #[error("the cell stopped at t = {at} s: {why}")]
     Stopped { at: f64, why: String },
+    #[error("front end: {what}: {source}")]
+    FrontEnd {
+        what: String,
+        source: std::io::Error,
+    },
     #[error("fmu archive: {0}")]
     Archive(String),
 }

@@ -56,6 +56,7 @@ pub fn model_description(name: &str, variables: &Variables, buses: usize) -> Str
             (Type::Boolean, _) => ("Boolean", "discrete", Some("false")),
             (Type::UInt16, _) => ("UInt16", "discrete", None),
             (Type::Int32, _) => ("Int32", "discrete", None),
+            (Type::String, _) => ("String", "discrete", None),
         };
         let causality = if role.is_input() { "input" } else { "output" };
         let _ = write!(
@@ -176,7 +177,7 @@ mod tests {
             .descendants()
             .filter(|n| n.has_tag_name("Output"))
             .count();
-        assert_eq!(outputs, 2 * 5);
+        assert_eq!(outputs, 2 * 6);
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! | `nodeN.current` | Float64 | output | A | the winding current |
 //! | `nodeN.statusword` | UInt16 | output | | 6041h |
 //! | `nodeN.position_actual` | Int32 | output | | 6064h, in the drive's position units |
+//! | `nodeN.display` | String | output | | what the drive's display shows ("" without one) |
 //!
 //! Value reference 0 is the independent variable `time`; drive `i`'s variables follow from
 //! `1 + i · STRIDE` in the table's order.
@@ -18,7 +19,7 @@
 pub const DIGITAL_INPUTS: u8 = 16;
 
 /// Variables per drive.
-pub const STRIDE: u32 = 6 + DIGITAL_INPUTS as u32;
+pub const STRIDE: u32 = 7 + DIGITAL_INPUTS as u32;
 
 /// FMI 3.0 data types of the variables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -27,6 +28,7 @@ pub enum Type {
     Boolean,
     UInt16,
     Int32,
+    String,
 }
 
 /// What a variable is of its drive.
@@ -39,6 +41,7 @@ pub enum Role {
     Current,
     Statusword,
     PositionActual,
+    Display,
 }
 
 impl Role {
@@ -52,6 +55,7 @@ impl Role {
                 Role::Current,
                 Role::Statusword,
                 Role::PositionActual,
+                Role::Display,
             ])
     }
 
@@ -64,6 +68,7 @@ impl Role {
             Role::Current => 3 + u32::from(DIGITAL_INPUTS),
             Role::Statusword => 4 + u32::from(DIGITAL_INPUTS),
             Role::PositionActual => 5 + u32::from(DIGITAL_INPUTS),
+            Role::Display => 6 + u32::from(DIGITAL_INPUTS),
         }
     }
 
@@ -77,6 +82,7 @@ impl Role {
             Role::DigitalInput(_) => Type::Boolean,
             Role::Statusword => Type::UInt16,
             Role::PositionActual => Type::Int32,
+            Role::Display => Type::String,
         }
     }
 
@@ -104,6 +110,7 @@ impl Role {
             Role::Current => "current".into(),
             Role::Statusword => "statusword".into(),
             Role::PositionActual => "position_actual".into(),
+            Role::Display => "display".into(),
         }
     }
 
@@ -116,6 +123,7 @@ impl Role {
             Role::Current => "winding current".into(),
             Role::Statusword => "statusword (6041h)".into(),
             Role::PositionActual => "position actual value (6064h)".into(),
+            Role::Display => "what the drive's display shows (empty without one)".into(),
         }
     }
 }

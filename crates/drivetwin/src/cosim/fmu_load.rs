@@ -52,13 +52,23 @@ pub enum FmuLoadError {
     NoShaft { fmu: String },
     #[error("{fmu}: `{name}` is not a switch (home, limit_positive, limit_negative)")]
     UnknownSwitch { fmu: String, name: String },
-    #[error("{fmu}: {call} at t = {time_s} s returned {status} (the FMU's log says why)")]
+    #[error("{fmu}: {call} at t = {time_s} s returned {status}{}", said(log.as_deref()))]
     Call {
         fmu: String,
         call: &'static str,
         time_s: f64,
         status: String,
+        /// What the FMU said through its logger in the call ([`super::fmu_log`]).
+        log: Option<String>,
     },
+}
+
+/// The FMU's own message after a failed call's status, when it said one.
+fn said(log: Option<&str>) -> String {
+    match log {
+        Some(m) => format!(": {m}"),
+        None => " (the FMU's log says why)".into(),
+    }
 }
 
 /// How the load has stepped so far: for the console, the diagnostics and the benches.
@@ -281,6 +291,7 @@ impl FmuLoad {
             call,
             time_s,
             status,
+            log: super::fmu_log::take(),
         }
     }
 
@@ -342,6 +353,8 @@ impl ExternalLoad for FmuLoad {
         dt_s: f64,
         shaft: Shaft,
     ) -> Result<LoadReaction, FmuLoadError> {
+        // A failure below says what the FMU said in it, not before.
+        super::fmu_log::clear();
         let start = *self.start.get_or_insert(now);
         let t = now.as_nanos().saturating_sub(start.as_nanos()) as f64 * 1e-9;
         if self.report.steps == 0 {

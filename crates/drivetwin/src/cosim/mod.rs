@@ -2,6 +2,7 @@
 //! the cell's clock (docs/cosimulation.md).
 
 pub mod fmu_load;
+pub mod fmu_log;
 pub mod load_instance;
 pub mod loaded_drive;
 pub mod mapping;

@@ -338,6 +338,23 @@ impl VirtualRig {
         self.segments.iter().map(CanSegment::timed_bitrate).collect()
     }
 
+    /// The engine of node `node`'s drive (its plant and device control), if it has one.
+    pub fn drive_model(&self, node: u8) -> Option<&drive::vendors::AnyDrive<Vec<u8>>> {
+        let (b, i) = self.drive(Some(node)).ok()?;
+        self.segments
+            .get(b)?
+            .stations
+            .get(i)?
+            .model
+            .drive()
+            .map(|d| &**d)
+    }
+
+    /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
+    pub fn drives_on(&self, bus: usize) -> usize {
+        self.segments.get(bus).map_or(0, |c| c.stations.len())
+    }
+
     /// The time the rig has run to.
     pub fn now(&self) -> Instant {
         self.now
