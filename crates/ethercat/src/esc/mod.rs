@@ -368,6 +368,48 @@ impl Span {
     }
 }
 
+/// `dst.copy_from_slice(src)` for slices of one length (the shorter one's, should they
+/// differ). The copies of a frame's pass are a few bytes each (a slave's process data, a
+/// system time), which two overlapping loads and stores move without a call into `memcpy`.
+#[inline]
+fn copy_bytes(dst: &mut [u8], src: &[u8]) {
+    let n = dst.len().min(src.len());
+    match n {
+        0 => {}
+        1 => {
+            if let (Some(d), Some(s)) = (dst.first_mut(), src.first()) {
+                *d = *s;
+            }
+        }
+        2..=3 => copy_ends::<2>(dst, src, n),
+        4..=7 => copy_ends::<4>(dst, src, n),
+        8..=16 => copy_ends::<8>(dst, src, n),
+        _ => {
+            if let (Some(d), Some(s)) = (dst.get_mut(..n), src.get(..n)) {
+                d.copy_from_slice(s);
+            }
+        }
+    }
+}
+
+/// The first and the last `K` of `n` bytes (`K <= n <= 2K`; they overlap below `2K`).
+#[inline]
+fn copy_ends<const K: usize>(dst: &mut [u8], src: &[u8], n: usize) {
+    let Some(tail_at) = n.checked_sub(K) else {
+        return;
+    };
+    let head: Option<[u8; K]> = src.get(..K).and_then(|s| s.try_into().ok());
+    let tail: Option<[u8; K]> = src.get(tail_at..n).and_then(|s| s.try_into().ok());
+    if let (Some(h), Some(t)) = (head, tail) {
+        if let Some(d) = dst.get_mut(..K) {
+            d.copy_from_slice(&h);
+        }
+        if let Some(d) = dst.get_mut(tail_at..n) {
+            d.copy_from_slice(&t);
+        }
+    }
+}
+
 /// The set bits of a mask, lowest first: the active FMMUs or SMs.
 fn set_bits(mut mask: u8) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
@@ -667,5 +709,23 @@ impl<'a> Esc<'a> {
         }
         let k = (sys - start).div_ceil(cycle);
         Some(start.wrapping_add(k.wrapping_mul(cycle)))
+    }
+}
+
+#[cfg(test)]
+mod copy_tests {
+    use super::copy_bytes;
+
+    /// Every length a pass copies, short and long, lands byte for byte as `copy_from_slice`.
+    #[test]
+    fn copy_bytes_is_copy_from_slice() {
+        let src: [u8; 40] = core::array::from_fn(|i| i as u8 + 1);
+        for n in 0..=40 {
+            let mut dst = [0xEEu8; 40];
+            let mut want = [0xEEu8; 40];
+            copy_bytes(&mut dst[..n], &src[..n]);
+            want[..n].copy_from_slice(&src[..n]);
+            assert_eq!(dst, want, "{n} bytes");
+        }
     }
 }
