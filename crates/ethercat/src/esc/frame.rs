@@ -175,7 +175,7 @@ impl<'a> Esc<'a> {
             let w = dg.wkc();
             dg.set_wkc(w.wrapping_add(inc));
         }
-        let irq = self.rd16(R::EcatEventRequest.addr()) & self.rd16(R::EcatEventMask.addr());
+        let irq = self.irq;
         if irq != 0 {
             let v = dg.irq();
             dg.set_irq(v | irq);

@@ -79,6 +79,7 @@ impl<'a> Esc<'a> {
                     }
                 }
             }
+            self.registers_written(start, rend);
         }
         let lo = start.max(0x1000);
         let hi = end.min(MEMORY_SIZE);
@@ -90,6 +91,17 @@ impl<'a> Esc<'a> {
             }
         }
         self.after_write_events(events);
+    }
+
+    /// Keeps what the ESC holds beside its registers in step with a write to `[a0, a1)`:
+    /// the datagrams' IRQ (0x0200, 0x0210) and the watchdog's timeout (0x0400, 0x0420).
+    pub(super) fn registers_written(&mut self, a0: usize, a1: usize) {
+        if overlaps(a0, a1, 0x0200, 0x0212) {
+            self.refresh_irq();
+        }
+        if overlaps(a0, a1, 0x0400, 0x0402) || overlaps(a0, a1, 0x0420, 0x0422) {
+            self.refresh_watchdog_timeout();
+        }
     }
 
     pub(super) fn write_register_byte(&mut self, a: usize, d: u8) {

@@ -452,6 +452,15 @@ pub struct Esc<'a> {
     dirty: Dirty,
     systime_write: [u8; 8],
     clock: LocalClock,
+    /// The event request 0x0210 masked by 0x0200, ORed into every datagram's IRQ field
+    /// (kept with the two registers, [`Esc::refresh_irq`]).
+    irq: u16,
+    /// The process-data watchdog's timeout, kept with 0x0400 and 0x0420
+    /// ([`Esc::refresh_watchdog_timeout`]).
+    pd_watchdog_timeout: Option<u64>,
+    /// The watchdog expired and cleared 0x0440 bit 0, which the next complete SM2 write
+    /// sets again.
+    pd_watchdog_expired: bool,
 }
 
 impl<'a> Esc<'a> {
@@ -481,6 +490,9 @@ impl<'a> Esc<'a> {
             dirty: Dirty::default(),
             systime_write: [0; 8],
             clock: LocalClock::default(),
+            irq: 0,
+            pd_watchdog_timeout: None,
+            pd_watchdog_expired: false,
         };
         esc.power_on();
         esc
@@ -524,6 +536,16 @@ impl<'a> Esc<'a> {
         }
         self.refresh_fmmus();
         self.refresh_all_sms();
+        self.refresh_irq();
+        self.refresh_watchdog_timeout();
+        self.pd_watchdog_expired = false;
+    }
+
+    /// The datagrams' IRQ (`irq`) from 0x0200 and 0x0210, after either changed: every datagram
+    /// carries it, and a register line of every slave of a long line read per datagram is a
+    /// cache miss.
+    fn refresh_irq(&mut self) {
+        self.irq = self.rd16(R::EcatEventRequest.addr()) & self.rd16(R::EcatEventMask.addr());
     }
 
     // ---------------------------------------------------------------- memory helpers

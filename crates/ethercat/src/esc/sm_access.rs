@@ -100,6 +100,7 @@ impl<'a> Esc<'a> {
         if overlaps(a0, a1, 0x0130, 0x0132) {
             let ev = self.rd16(R::EcatEventRequest.addr()) & !EVENT_AL_STATUS;
             self.wr16(R::EcatEventRequest.addr(), ev);
+            self.refresh_irq();
         }
         for n in set_bits(events) {
             let s = self.sm(n);
@@ -129,9 +130,7 @@ impl<'a> Esc<'a> {
                         self.outputs_completed(s);
                     }
                     if s.control & sm::CONTROL_WATCHDOG != 0 {
-                        self.wd_last = Some(self.now);
-                        let st = self.rd16(R::WatchdogStatusProcessData.addr()) | 1;
-                        self.wr16(R::WatchdogStatusProcessData.addr(), st);
+                        self.watchdog_restarted();
                     }
                 }
                 SmMode::Reserved(_) => {}
