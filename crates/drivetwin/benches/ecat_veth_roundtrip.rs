@@ -39,6 +39,11 @@
 //! throttling, 50 ms of every second). `DRIVETWIN_BIN=path` runs
 //! another build of the twin; `ECAT_ROUNDTRIP_TWIN_ARGS` adds `drivetwin run` options.
 //!
+//! `ECAT_ROUNDTRIP_LATE_LOG=path` appends each late reply to `path`: its row, the time it was
+//! sent on `CLOCK_MONOTONIC` (ns, the clock `perf record -k CLOCK_MONOTONIC` stamps its
+//! events with) and how long it took, so that a trace of the CPU's scheduling taken beside
+//! the run shows what ran instead.
+//!
 //! Needs root (network namespace, raw sockets) and `ip`; otherwise prints why and exits 0.
 //! `cargo bench -p drivetwin --bench ecat_veth_roundtrip`; without cargo bench's `--bench`
 //! argument (e.g. `cargo test --benches`) each row runs 0.1 s, about 1 s in all, as a smoke
@@ -325,6 +330,7 @@ impl Bench {
                     floor,
                 };
                 row.print();
+                row.log_late();
                 rows.push(row);
             }
             running.stop();
@@ -730,6 +736,8 @@ impl Master {
         let mut round_trips = Vec::with_capacity(cycles);
         let mut stats = Stats::default();
         let io = [0u8; (OUTPUT_BYTES + INPUT_BYTES) as usize];
+        let late_log = std::env::var_os("ECAT_ROUNDTRIP_LATE_LOG").is_some();
+        stats.late_at = Vec::with_capacity(if late_log { cycles.min(100_000) } else { 0 });
         let began = Instant::now();
         let mut next = began;
         // A machine too loaded to keep the cycle ends the row at three times its length.
@@ -741,6 +749,7 @@ impl Master {
             }
             let len = self.build(Command::Lrw, Address::Logical(0), &io);
             let sent = Instant::now();
+            let sent_ns = if late_log { monotonic_ns() } else { 0 };
             if self.send(len).is_err() {
                 stats.lost += 1;
             } else {
@@ -749,6 +758,9 @@ impl Master {
                         let took = sent.elapsed();
                         round_trips.push(took);
                         stats.late += u32::from(took > LATE);
+                        if took > LATE && stats.late_at.len() < stats.late_at.capacity() {
+                            stats.late_at.push((sent_ns, took));
+                        }
                         stats.wrong_wkc += u32::from(check_wkc && reply.wkc != EXPECTED_WKC);
                     }
                     None => stats.lost += 1,
@@ -778,6 +790,15 @@ impl Master {
         self.wait = MasterWait::Spins;
         stats
     }
+}
+
+/// `CLOCK_MONOTONIC` now, in ns.
+fn monotonic_ns() -> u64 {
+    // SAFETY: `timespec` is plain old data; all-zero is a valid value.
+    let mut ts: libc::timespec = unsafe { mem::zeroed() };
+    // SAFETY: `ts` is valid for writes for the duration of the call.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    u64::try_from(ts.tv_sec).unwrap_or(0) * 1_000_000_000 + u64::try_from(ts.tv_nsec).unwrap_or(0)
 }
 
 /// Every thread of process `pid` at nice value `nice` (a weight a loaded machine's builds
@@ -825,6 +846,9 @@ struct Stats {
     load: String,
     /// Ended at three times its length, before all its cycles.
     cut_short: bool,
+    /// With `ECAT_ROUNDTRIP_LATE_LOG`: each late reply's send time on `CLOCK_MONOTONIC` (ns)
+    /// and how long it took.
+    late_at: Vec<(u64, Duration)>,
 }
 
 impl Stats {
@@ -858,6 +882,35 @@ fn ratio(twin: Duration, floor: Duration) -> f64 {
 }
 
 impl Row {
+    /// Appends the row's late replies to `ECAT_ROUNDTRIP_LATE_LOG`, one a line: placement,
+    /// master, server, send time on `CLOCK_MONOTONIC` (ns), round trip (µs).
+    fn log_late(&self) {
+        let Some(path) = std::env::var_os("ECAT_ROUNDTRIP_LATE_LOG") else {
+            return;
+        };
+        let mut text = String::new();
+        for (at, took) in &self.stats.late_at {
+            text.push_str(&format!(
+                "{}\t{}\t{}\t{at}\t{}\n",
+                self.placement,
+                self.wait.label(),
+                self.server.label(),
+                took.as_micros()
+            ));
+        }
+        let written = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()));
+        if let Err(e) = written {
+            eprintln!(
+                "cannot write the late replies to {}: {e}",
+                path.to_string_lossy()
+            );
+        }
+    }
+
     fn print(&self) {
         let s = &self.stats;
         let names = ["p50", "p99", "p99.9", "max"];

@@ -331,9 +331,16 @@ fn process_data_watchdog_drops_op_to_safeop() {
     assert_eq!(bus.al(ST), (0x0014, 0x001B));
     assert_eq!(bus.fprd(ST, 0x0440, 2).u16() & 1, 0);
     assert_eq!(bus.fprd(ST, 0x0442, 1).data, vec![1]);
-    // 0x0420 = 0 disables it.
+    // Back in Op, a complete SM2 write restarts it: 0x0440 shows it running again.
     bus.request_state(ST, 0x0018);
     assert_eq!(bus.al(ST), (0x0008, 0));
+    assert_eq!(bus.lrw(0, &[0; 4]).wkc, 3);
+    assert_eq!(bus.fprd(ST, 0x0440, 2).u16() & 1, 1);
+    // A new time in 0x0420 counts from the next poll: 10 × 100 µs.
+    bus.fpwr(ST, 0x0420, &[10, 0]);
+    let deadline = bus.slaves[0].poll(bus.now).expect("armed");
+    assert_eq!(deadline.as_nanos(), bus.now.as_nanos() + 1_000_000);
+    // 0x0420 = 0 disables it.
     bus.fpwr(ST, 0x0420, &[0, 0]);
     bus.now = od::Instant::from_nanos(bus.now.as_nanos() + 10_000_000_000);
     assert_eq!(bus.slaves[0].poll(bus.now), None);

@@ -10,6 +10,7 @@ impl<'a> Esc<'a> {
         if v != self.rd16(R::AlStatus.addr()) {
             let ev = self.rd16(R::EcatEventRequest.addr()) | EVENT_AL_STATUS;
             self.wr16(R::EcatEventRequest.addr(), ev);
+            self.refresh_irq();
         }
         self.wr16(R::AlStatus.addr(), v);
         self.wr16(R::AlStatusCode.addr(), code.0);

@@ -175,7 +175,7 @@ impl<'a> Esc<'a> {
             let w = dg.wkc();
             dg.set_wkc(w.wrapping_add(inc));
         }
-        let irq = self.rd16(R::EcatEventRequest.addr()) & self.rd16(R::EcatEventMask.addr());
+        let irq = self.irq;
         if irq != 0 {
             let v = dg.irq();
             dg.set_irq(v | irq);
@@ -214,18 +214,18 @@ impl<'a> Esc<'a> {
     }
 
     pub(super) fn ecat_read(&mut self, addr: u32, out: &mut [u8], or: bool) -> bool {
-        if !self.sm_allows(addr, out.len(), Dir::Read) {
+        let Some(events) = self.sm_access(addr, out.len(), Dir::Read) else {
             return false;
-        }
-        self.phys_read(addr, out, or);
+        };
+        self.phys_read_events(addr, out, or, events);
         true
     }
 
     pub(super) fn ecat_write(&mut self, addr: u32, data: &[u8]) -> bool {
-        if !self.sm_allows(addr, data.len(), Dir::Write) {
+        let Some(events) = self.sm_access(addr, data.len(), Dir::Write) else {
             return false;
-        }
-        self.phys_write(addr, data);
+        };
+        self.phys_write_events(addr, data, events);
         true
     }
 

@@ -19,6 +19,12 @@ impl<'a> Esc<'a> {
     }
 
     pub(super) fn phys_read(&mut self, addr: u32, out: &mut [u8], or: bool) {
+        let events = self.sm_events(addr, out.len(), Dir::Read);
+        self.phys_read_events(addr, out, or, events);
+    }
+
+    /// [`Esc::phys_read`] with the SMs whose last byte it covers known ([`Esc::sm_access`]).
+    pub(super) fn phys_read_events(&mut self, addr: u32, out: &mut [u8], or: bool, events: u8) {
         let start = addr as usize;
         let end = start + out.len();
         if start < 0x1000 {
@@ -32,7 +38,7 @@ impl<'a> Esc<'a> {
                     *d |= *s;
                 }
             } else {
-                dst.copy_from_slice(src);
+                copy_bytes(dst, src);
             }
         }
         if !or && n < out.len() {
@@ -40,10 +46,16 @@ impl<'a> Esc<'a> {
                 rest.fill(0);
             }
         }
-        self.after_read(addr, out.len());
+        self.after_read_events(addr, out.len(), events);
     }
 
     pub(super) fn phys_write(&mut self, addr: u32, data: &[u8]) {
+        let events = self.sm_events(addr, data.len(), Dir::Write);
+        self.phys_write_events(addr, data, events);
+    }
+
+    /// [`Esc::phys_write`] with the SMs whose last byte it covers known ([`Esc::sm_access`]).
+    pub(super) fn phys_write_events(&mut self, addr: u32, data: &[u8], events: u8) {
         let start = addr as usize;
         let end = start + data.len();
         if start < 0x1000 {
@@ -58,7 +70,7 @@ impl<'a> Esc<'a> {
                 // input to the time-control loop, as byte by byte below.
                 Some(dst) if start >= systime => {
                     if let Some(src) = data.get(..dst.len()) {
-                        dst.copy_from_slice(src);
+                        copy_bytes(dst, src);
                     }
                 }
                 _ => {
@@ -67,6 +79,7 @@ impl<'a> Esc<'a> {
                     }
                 }
             }
+            self.registers_written(start, rend);
         }
         let lo = start.max(0x1000);
         let hi = end.min(MEMORY_SIZE);
@@ -74,10 +87,21 @@ impl<'a> Esc<'a> {
             if let (Some(dst), Some(src)) =
                 (self.mem.get_mut(lo..hi), data.get(lo - start..hi - start))
             {
-                dst.copy_from_slice(src);
+                copy_bytes(dst, src);
             }
         }
-        self.after_write(addr, data.len());
+        self.after_write_events(events);
+    }
+
+    /// Keeps what the ESC holds beside its registers in step with a write to `[a0, a1)`:
+    /// the datagrams' IRQ (0x0200, 0x0210) and the watchdog's timeout (0x0400, 0x0420).
+    pub(super) fn registers_written(&mut self, a0: usize, a1: usize) {
+        if overlaps(a0, a1, 0x0200, 0x0212) {
+            self.refresh_irq();
+        }
+        if overlaps(a0, a1, 0x0400, 0x0402) || overlaps(a0, a1, 0x0420, 0x0422) {
+            self.refresh_watchdog_timeout();
+        }
     }
 
     pub(super) fn write_register_byte(&mut self, a: usize, d: u8) {

@@ -368,6 +368,48 @@ impl Span {
     }
 }
 
+/// `dst.copy_from_slice(src)` for slices of one length (the shorter one's, should they
+/// differ). The copies of a frame's pass are a few bytes each (a slave's process data, a
+/// system time), which two overlapping loads and stores move without a call into `memcpy`.
+#[inline]
+fn copy_bytes(dst: &mut [u8], src: &[u8]) {
+    let n = dst.len().min(src.len());
+    match n {
+        0 => {}
+        1 => {
+            if let (Some(d), Some(s)) = (dst.first_mut(), src.first()) {
+                *d = *s;
+            }
+        }
+        2..=3 => copy_ends::<2>(dst, src, n),
+        4..=7 => copy_ends::<4>(dst, src, n),
+        8..=16 => copy_ends::<8>(dst, src, n),
+        _ => {
+            if let (Some(d), Some(s)) = (dst.get_mut(..n), src.get(..n)) {
+                d.copy_from_slice(s);
+            }
+        }
+    }
+}
+
+/// The first and the last `K` of `n` bytes (`K <= n <= 2K`; they overlap below `2K`).
+#[inline]
+fn copy_ends<const K: usize>(dst: &mut [u8], src: &[u8], n: usize) {
+    let Some(tail_at) = n.checked_sub(K) else {
+        return;
+    };
+    let head: Option<[u8; K]> = src.get(..K).and_then(|s| s.try_into().ok());
+    let tail: Option<[u8; K]> = src.get(tail_at..n).and_then(|s| s.try_into().ok());
+    if let (Some(h), Some(t)) = (head, tail) {
+        if let Some(d) = dst.get_mut(..K) {
+            d.copy_from_slice(&h);
+        }
+        if let Some(d) = dst.get_mut(tail_at..n) {
+            d.copy_from_slice(&t);
+        }
+    }
+}
+
 /// The set bits of a mask, lowest first: the active FMMUs or SMs.
 fn set_bits(mut mask: u8) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
@@ -410,6 +452,15 @@ pub struct Esc<'a> {
     dirty: Dirty,
     systime_write: [u8; 8],
     clock: LocalClock,
+    /// The event request 0x0210 masked by 0x0200, ORed into every datagram's IRQ field
+    /// (kept with the two registers, [`Esc::refresh_irq`]).
+    irq: u16,
+    /// The process-data watchdog's timeout, kept with 0x0400 and 0x0420
+    /// ([`Esc::refresh_watchdog_timeout`]).
+    pd_watchdog_timeout: Option<u64>,
+    /// The watchdog expired and cleared 0x0440 bit 0, which the next complete SM2 write
+    /// sets again.
+    pd_watchdog_expired: bool,
 }
 
 impl<'a> Esc<'a> {
@@ -439,6 +490,9 @@ impl<'a> Esc<'a> {
             dirty: Dirty::default(),
             systime_write: [0; 8],
             clock: LocalClock::default(),
+            irq: 0,
+            pd_watchdog_timeout: None,
+            pd_watchdog_expired: false,
         };
         esc.power_on();
         esc
@@ -482,6 +536,16 @@ impl<'a> Esc<'a> {
         }
         self.refresh_fmmus();
         self.refresh_all_sms();
+        self.refresh_irq();
+        self.refresh_watchdog_timeout();
+        self.pd_watchdog_expired = false;
+    }
+
+    /// The datagrams' IRQ (`irq`) from 0x0200 and 0x0210, after either changed: every datagram
+    /// carries it, and a register line of every slave of a long line read per datagram is a
+    /// cache miss.
+    fn refresh_irq(&mut self) {
+        self.irq = self.rd16(R::EcatEventRequest.addr()) & self.rd16(R::EcatEventMask.addr());
     }
 
     // ---------------------------------------------------------------- memory helpers
@@ -667,5 +731,23 @@ impl<'a> Esc<'a> {
         }
         let k = (sys - start).div_ceil(cycle);
         Some(start.wrapping_add(k.wrapping_mul(cycle)))
+    }
+}
+
+#[cfg(test)]
+mod copy_tests {
+    use super::copy_bytes;
+
+    /// Every length a pass copies, short and long, lands byte for byte as `copy_from_slice`.
+    #[test]
+    fn copy_bytes_is_copy_from_slice() {
+        let src: [u8; 40] = core::array::from_fn(|i| i as u8 + 1);
+        for n in 0..=40 {
+            let mut dst = [0xEEu8; 40];
+            let mut want = [0xEEu8; 40];
+            copy_bytes(&mut dst[..n], &src[..n]);
+            want[..n].copy_from_slice(&src[..n]);
+            assert_eq!(dst, want, "{n} bytes");
+        }
     }
 }

@@ -103,7 +103,7 @@ impl<'a> Esc<'a> {
             return Err(PdiError::NotConfigured);
         };
         if let Some(d) = w.get_mut(..data.len()) {
-            d.copy_from_slice(data);
+            copy_bytes(d, data);
         }
         let last = (s.status & STATUS_BUFFER_MASK) >> 4;
         let next = if last >= 2 { 0 } else { last + 1 };

@@ -8,26 +8,65 @@ impl<'a> Esc<'a> {
     /// May an ECAT access of `len` bytes at `addr` in direction `dir` go ahead? (§1.4 rule
     /// 2, §5.2, §7.3.)
     pub(super) fn sm_allows(&self, addr: u32, len: usize, dir: Dir) -> bool {
+        self.sm_access(addr, len, dir).is_some()
+    }
+
+    /// The SM rules and events of one ECAT access in one pass over the windows: `None` when
+    /// a window refuses the access (§1.4 rule 2, §5.2, §7.3), else the SMs of its direction
+    /// whose last byte it covers (bit n: SM n), whose buffer or mailbox event follows it.
+    /// An access changes no SM's configuration or status before it completes, so what the
+    /// windows say before it holds after it.
+    pub(super) fn sm_access(&self, addr: u32, len: usize, dir: Dir) -> Option<u8> {
         if !self.sm_span.meets(addr, len) {
-            return true;
+            return Some(0);
         }
+        let mut events = 0u8;
         for i in set_bits(self.active_sms) {
-            let s = self.sm(i);
+            let Some(s) = self.sms.get(i) else {
+                continue;
+            };
             if !s.overlaps(addr, len) {
                 continue;
             }
             let mailbox = s.mode() == SmMode::Mailbox;
-            let refused = match (s.direction(), dir) {
-                (SmDirection::Write, Dir::Read) | (SmDirection::Read, Dir::Write) => true,
-                (SmDirection::Write, Dir::Write) => mailbox && s.is_mailbox_full(),
-                (SmDirection::Read, Dir::Read) => mailbox && !s.is_mailbox_full(),
+            let same_direction = match (s.direction(), dir) {
+                (SmDirection::Write, Dir::Read) | (SmDirection::Read, Dir::Write) => {
+                    return None;
+                }
+                (SmDirection::Write, Dir::Write) if mailbox && s.is_mailbox_full() => {
+                    return None;
+                }
+                (SmDirection::Read, Dir::Read) if mailbox && !s.is_mailbox_full() => {
+                    return None;
+                }
+                (SmDirection::Write, Dir::Write) | (SmDirection::Read, Dir::Read) => true,
                 (SmDirection::Reserved(_), _) => false,
             };
-            if refused {
-                return false;
+            if same_direction && s.covers_last_byte(addr, len) {
+                events |= 1 << i;
             }
         }
-        true
+        Some(events)
+    }
+
+    /// The SMs of direction `dir` whose last byte `[addr, addr + len)` covers.
+    pub(super) fn sm_events(&self, addr: u32, len: usize, dir: Dir) -> u8 {
+        // Covering an SM's last byte means meeting its window.
+        if !self.sm_span.meets(addr, len) {
+            return 0;
+        }
+        let want = match dir {
+            Dir::Read => SmDirection::Read,
+            Dir::Write => SmDirection::Write,
+        };
+        let mut events = 0u8;
+        for n in set_bits(self.active_sms) {
+            let s = self.sm(n);
+            if s.direction() == want && s.covers_last_byte(addr, len) {
+                events |= 1 << n;
+            }
+        }
+        events
     }
 
     pub(super) fn set_sm_status(&mut self, n: usize, status: u8) {
@@ -50,20 +89,21 @@ impl<'a> Esc<'a> {
 
     /// SM events of a completed ECAT read.
     pub(super) fn after_read(&mut self, addr: u32, len: usize) {
+        let events = self.sm_events(addr, len, Dir::Read);
+        self.after_read_events(addr, len, events);
+    }
+
+    /// [`Esc::after_read`] with the SMs whose last byte the read covered known
+    /// ([`Esc::sm_access`]).
+    pub(super) fn after_read_events(&mut self, addr: u32, len: usize, events: u8) {
         let (a0, a1) = (addr as usize, addr as usize + len);
         if overlaps(a0, a1, 0x0130, 0x0132) {
             let ev = self.rd16(R::EcatEventRequest.addr()) & !EVENT_AL_STATUS;
             self.wr16(R::EcatEventRequest.addr(), ev);
+            self.refresh_irq();
         }
-        // Covering an SM's last byte means meeting its window.
-        if !self.sm_span.meets(addr, len) {
-            return;
-        }
-        for n in set_bits(self.active_sms) {
+        for n in set_bits(events) {
             let s = self.sm(n);
-            if s.direction() != SmDirection::Read || !s.covers_last_byte(addr, len) {
-                continue;
-            }
             let status = match s.mode() {
                 SmMode::Mailbox => (s.status & !STATUS_MAILBOX_FULL) | STATUS_IRQ_READ,
                 _ => s.status | STATUS_IRQ_READ,
@@ -72,16 +112,11 @@ impl<'a> Esc<'a> {
         }
     }
 
-    /// SM events of a completed ECAT write.
-    pub(super) fn after_write(&mut self, addr: u32, len: usize) {
-        if !self.sm_span.meets(addr, len) {
-            return;
-        }
-        for n in set_bits(self.active_sms) {
+    /// SM events of a completed ECAT write: `events` are the SMs whose last byte it covered
+    /// ([`Esc::sm_access`]).
+    pub(super) fn after_write_events(&mut self, events: u8) {
+        for n in set_bits(events) {
             let s = self.sm(n);
-            if s.direction() != SmDirection::Write || !s.covers_last_byte(addr, len) {
-                continue;
-            }
             match s.mode() {
                 SmMode::Mailbox => {
                     self.set_sm_status(n, s.status | STATUS_MAILBOX_FULL | STATUS_IRQ_WRITE);
@@ -95,9 +130,7 @@ impl<'a> Esc<'a> {
                         self.outputs_completed(s);
                     }
                     if s.control & sm::CONTROL_WATCHDOG != 0 {
-                        self.wd_last = Some(self.now);
-                        let st = self.rd16(R::WatchdogStatusProcessData.addr()) | 1;
-                        self.wr16(R::WatchdogStatusProcessData.addr(), st);
+                        self.watchdog_restarted();
                     }
                 }
                 SmMode::Reserved(_) => {}
@@ -112,7 +145,7 @@ impl<'a> Esc<'a> {
             return;
         };
         if let Some(dst) = self.pd_out.get_mut(..len) {
-            dst.copy_from_slice(src);
+            copy_bytes(dst, src);
             self.pd_out_len = len;
             self.pd_out_new = true;
             self.outputs_seen = true;

@@ -5,10 +5,29 @@
 use super::*;
 
 impl<'a> Esc<'a> {
+    /// The process-data watchdog's timeout, `None` when it is off (0x0420 = 0).
     pub(super) fn watchdog_timeout_ns(&self) -> Option<u64> {
+        self.pd_watchdog_timeout
+    }
+
+    /// [`Esc::watchdog_timeout_ns`] from 0x0400 and 0x0420, after either changed: every
+    /// frame asks for it, and a register line of every slave of a long line read per frame
+    /// is a cache miss.
+    pub(super) fn refresh_watchdog_timeout(&mut self) {
         let t = u64::from(self.rd16(R::WatchdogTimeProcessData.addr()));
         let div = u64::from(self.rd16(R::WatchdogDivider.addr()));
-        (t != 0).then(|| t * (div + 2) * 40)
+        self.pd_watchdog_timeout = (t != 0).then(|| t * (div + 2) * 40);
+    }
+
+    /// A complete SM2 write restarts the watchdog (§7.6): 0x0440 bit 0 shows it running
+    /// again once it had expired.
+    pub(super) fn watchdog_restarted(&mut self) {
+        self.wd_last = Some(self.now);
+        if self.pd_watchdog_expired {
+            self.pd_watchdog_expired = false;
+            let st = self.rd16(R::WatchdogStatusProcessData.addr()) | 1;
+            self.wr16(R::WatchdogStatusProcessData.addr(), st);
+        }
     }
 
     pub(super) fn watchdog_armed(&self) -> bool {
@@ -34,6 +53,7 @@ impl<'a> Esc<'a> {
         }
         let st = self.rd16(R::WatchdogStatusProcessData.addr()) & !1;
         self.wr16(R::WatchdogStatusProcessData.addr(), st);
+        self.pd_watchdog_expired = true;
         let a = R::WatchdogCounterProcessData.addr();
         let c = self.rd8(a);
         self.wr8(a, c.saturating_add(1));
