@@ -13,7 +13,6 @@ pub mod diagnostics;
 pub mod eds_drive;
 pub mod ethercat_line;
 pub mod fault_injector;
-pub mod fieldbus_switches;
 pub mod front_fault_injector;
 pub mod interfaces;
 pub mod lateness;

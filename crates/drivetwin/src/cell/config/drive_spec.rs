@@ -9,13 +9,15 @@ use drive::drive::DriveSettings;
 use drive::motor::MotorData;
 use od::Value;
 
-use super::device_keys::{self, DeviceSections, DriveContext, KeyRefusal, OwnRate, Ports};
+use super::device_keys::{
+    self, DeviceSections, DriveContext, FieldbusProfile, FieldbusSettings, KeyRefusal, OwnRate,
+    Ports,
+};
 use super::drive_section::default_device;
 use super::objects::{encode_toml, parse_key};
 use super::{BusSection, CellFile, Cia402Keys, ConfigError, DriveSection, FhppSpec, ForeignKeyAt};
 use crate::cell::bus_rate::{NodeRate, RateObject};
 use crate::cell::device_model::{is_cia402, is_fhpp};
-use crate::cell::fieldbus_switches::{FieldbusSettings, Profile};
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
 use crate::cell::station::Commissioning;
@@ -63,7 +65,9 @@ impl DriveSpec {
     pub fn on_can(&self) -> Result<bool, ConfigError> {
         match self.fieldbus {
             None => Ok(true),
-            Some(f) if f.profile == Profile::Fhpp => Err(ConfigError::FhppOverCan(self.node)),
+            Some(f) if f.profile == FieldbusProfile::Fhpp => {
+                Err(ConfigError::FhppOverCan(self.node))
+            }
             Some(f) => Ok(f.can_active),
         }
     }

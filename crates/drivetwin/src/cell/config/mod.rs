@@ -28,7 +28,8 @@ use crate::cell::device_model::{is_cia402, is_fhpp};
 pub use bus_section::{BusSection, Buses, DisturbSection, DEFAULT_CHANNEL, DEFAULT_SOCKETCAND};
 pub use cia402::{Cia402Keys, MotorSection, TravelSection};
 pub use device_keys::{
-    DeviceSection, DeviceSections, DriveContext, Key, OwnRate, OwnSettings, Ports, SectionError,
+    DeviceSection, DeviceSections, DriveContext, FieldbusProfile, FieldbusSettings, Key, OwnRate,
+    OwnSettings, Ports, SectionError,
 };
 pub use drive_section::{DriveSection, ThermalSection};
 pub use drive_spec::DriveSpec;
