@@ -55,13 +55,7 @@ impl CellModel {
             return Ok(());
         }
         let resources = context.resource_path().clone();
-        match guarded(|| {
-            CellInstance::from_resources(
-                &resources,
-                drivetwin::vendors::CELL_SECTIONS,
-                drivetwin::vendors::MODBUS_DEVICE,
-            )
-        }) {
+        match guarded(|| CellInstance::from_resources(&resources, drivetwin::vendors::VENDORS)) {
             Ok(cell) => {
                 self.cell = Some(cell);
                 Ok(())

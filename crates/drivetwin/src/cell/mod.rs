@@ -23,7 +23,11 @@ pub mod param_store;
 pub mod planned;
 pub mod realtime;
 pub mod station;
+pub mod terminal;
 pub mod wire_faults;
+
+mod vendor_seams;
+pub use vendor_seams::Vendors;
 
 use std::collections::VecDeque;
 

@@ -11,8 +11,8 @@
 use std::path::Path;
 use std::time::Duration;
 
-use crate::cell::config::{CellFile, DeviceSections};
-use crate::cell::modbus_device::NewModbusDevice;
+use crate::cell::config::CellFile;
+use crate::cell::Vendors;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::{Probe, VirtualRig};
@@ -49,8 +49,7 @@ impl CellInstance {
     /// there is one, booted at 0.
     pub fn from_resources(
         resources: &Path,
-        sections: DeviceSections,
-        modbus_device: NewModbusDevice,
+        vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
         let cell_path = resources.join(CELL_FILE);
         let cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
@@ -68,18 +67,16 @@ impl CellInstance {
         } else {
             None
         };
-        CellInstance::new(&cell, timeline.as_ref(), sections, modbus_device)
+        CellInstance::new(&cell, timeline.as_ref(), vendors)
     }
 
     /// `cell`, with `timeline`'s actions (its expectations are not checked here).
     pub fn new(
         cell: &CellFile,
         timeline: Option<&Scenario>,
-        sections: DeviceSections,
-        modbus_device: NewModbusDevice,
+        vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
-        let rig = VirtualRig::new(cell, sections, modbus_device)
-            .map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let rig = VirtualRig::new(cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let variables = Variables::new(rig.nodes())?;
         let timeline = timeline
             .map(|s| {

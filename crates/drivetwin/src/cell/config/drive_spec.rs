@@ -10,8 +10,7 @@ use drive::motor::MotorData;
 use od::Value;
 
 use super::device_keys::{
-    self, DeviceSections, DriveContext, FieldbusProfile, FieldbusSettings, KeyRefusal, OwnRate,
-    Ports,
+    self, DriveContext, FieldbusProfile, FieldbusSettings, KeyRefusal, OwnRate, Ports,
 };
 use super::drive_section::default_device;
 use super::objects::{encode_toml, parse_key};
@@ -21,6 +20,7 @@ use crate::cell::device_model::{is_cia402, is_fhpp};
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
 use crate::cell::station::Commissioning;
+use crate::cell::Vendors;
 
 /// A drive ready to build.
 #[derive(Debug, Clone)]
@@ -74,9 +74,10 @@ impl DriveSpec {
 }
 
 impl CellFile {
-    /// Its drives, each checked against its device and ready to build; `sections`: the
-    /// devices' own sections of keys (`drivetwin::vendors::CELL_SECTIONS`).
-    pub fn drives(&self, sections: DeviceSections) -> Result<Vec<DriveSpec>, ConfigError> {
+    /// Its drives, each checked against its device and ready to build, each device's own
+    /// keys read by its section of `vendors` (`drivetwin::vendors::VENDORS`).
+    pub fn drives(&self, vendors: Vendors) -> Result<Vec<DriveSpec>, ConfigError> {
+        let sections = vendors.cell_sections;
         let mut specs: Vec<DriveSpec> = Vec::new();
         for d in &self.drive {
             let desc = match &d.eds {
