@@ -535,10 +535,10 @@ async fn prepare_cell(
     })
 }
 
-/// Whether a CMMO-ST of `file` plans a diagnostic message or a plant change.
+/// Whether an FHPP drive of `file` (the CMMO-ST) plans a diagnostic message or a plant change.
 fn specs_had_fhpp_plans(file: &CellFile) -> bool {
     file.drive.iter().any(|d| {
-        devices::by_name(&d.device).is_some_and(|desc| desc.name == "cmmo-st")
+        devices::by_name(&d.device).is_some_and(drivetwin::cell::device_model::is_fhpp)
             && (!d.diagnostic.is_empty() || !d.plant.is_empty() || d.thermal.is_some())
     })
 }
