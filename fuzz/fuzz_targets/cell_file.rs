@@ -13,6 +13,6 @@ fuzz_target!(|data: &[u8]| {
     let Ok(file) = toml::from_str::<CellFile>(text) else {
         return;
     };
-    let _ = file.drives(drivetwin::vendors::CELL_SECTIONS);
-    let _ = EthercatCell::from_cell_file(&file, drivetwin::vendors::CELL_SECTIONS);
+    let _ = file.drives(drivetwin::vendors::VENDORS);
+    let _ = EthercatCell::from_cell_file(&file, drivetwin::vendors::VENDORS);
 });

@@ -10,8 +10,8 @@ use libfuzzer_sys::fuzz_target;
 use od::Instant;
 
 fn cell() -> Option<EthercatCell> {
-    let mut specs = CellFile::single("cmmp-as", 1).drives(drivetwin::vendors::CELL_SECTIONS).ok()?;
-    specs.extend(CellFile::single("cmmp-as", 2).drives(drivetwin::vendors::CELL_SECTIONS).ok()?);
+    let mut specs = CellFile::single("cmmp-as", 1).drives(drivetwin::vendors::VENDORS).ok()?;
+    specs.extend(CellFile::single("cmmp-as", 2).drives(drivetwin::vendors::VENDORS).ok()?);
     EthercatCell::new(specs).ok()
 }
 

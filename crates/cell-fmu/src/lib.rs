@@ -58,14 +58,7 @@ impl CellModel {
         // importer's process already wins; then the error says only the status).
         drivetwin::cosim::fmu_log::install();
         let resources = context.resource_path().clone();
-        match guarded(|| {
-            CellInstance::from_resources(
-                &resources,
-                drivetwin::vendors::CELL_SECTIONS,
-                drivetwin::vendors::MODBUS_DEVICE,
-            )
-            .map(|c| c.with_views(drivetwin::vendors::DRIVE_VIEWS))
-        }) {
+        match guarded(|| CellInstance::from_resources(&resources, drivetwin::vendors::VENDORS)) {
             Ok(cell) => {
                 self.cell = Some(cell);
                 Ok(())

@@ -45,6 +45,20 @@ pub fn generate(d: &Device) -> String {
             );
         }
     }
+    match &d.serial_bit_rate {
+        None => {
+            let _ = writeln!(s, "    serial_bit_rate: None,");
+        }
+        Some(c) => {
+            let objects: Vec<String> = c.objects.iter().map(|i| format!("0x{i:04X}")).collect();
+            let _ = writeln!(
+                s,
+                "    serial_bit_rate: Some(od::SerialBitRateCodes {{ objects: &[{}], codes: &{:?} }}),",
+                objects.join(", "),
+                c.codes
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",

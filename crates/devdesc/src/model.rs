@@ -44,6 +44,8 @@ pub struct Device {
     pub rotary_switches: u8,
     /// The object whose code sets the CAN bit rate: its index, name and `(code, kbit/s)`.
     pub can_bit_rate: Option<CanBitRate>,
+    /// The objects whose code sets a serial line speed, and the `(code, bit/s)` table.
+    pub serial_bit_rate: Option<SerialBitRate>,
     pub interfaces: Vec<String>,
     pub interfaces_one_of: Vec<String>,
     pub interfaces_rule: String,
@@ -104,6 +106,78 @@ fn check_can_bit_rate(
     Ok(Some(CanBitRate {
         index: c.object,
         name: c.name.clone(),
+        codes,
+    }))
+}
+
+/// `serial_bit_rate` of a device file, checked: UNSIGNED16 objects of the file, each code
+/// and each bit rate once.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SerialBitRate {
+    pub objects: Vec<u16>,
+    pub codes: Vec<(u16, u32)>,
+}
+
+/// `serial_bit_rate` names UNSIGNED16 objects at sub-index 0 of the file, each once, whose
+/// defaults are codes of the table; each code and each bit rate is listed once, so that a
+/// code gives one bit rate and a bit rate one code.
+fn check_serial_bit_rate(
+    section: Option<&crate::schema::SerialBitRateSection>,
+    objects: &[Obj],
+) -> Result<Option<SerialBitRate>, DescError> {
+    let Some(s) = section else {
+        return Ok(None);
+    };
+    let err = |what: String| DescError::Device(format!("serial_bit_rate: {what}"));
+    let mut codes: Vec<(u16, u32)> = Vec::with_capacity(s.codes.len());
+    for [code, bit_rate] in &s.codes {
+        let code =
+            u16::try_from(*code).map_err(|_| err(format!("code {code} is no UNSIGNED16")))?;
+        if codes.iter().any(|(c, _)| *c == code) {
+            return Err(err(format!("code {code} listed twice")));
+        }
+        if codes.iter().any(|(_, b)| b == bit_rate) {
+            return Err(err(format!("{bit_rate} bit/s listed twice")));
+        }
+        if *bit_rate == 0 {
+            return Err(err(format!("code {code}: 0 bit/s")));
+        }
+        codes.push((code, *bit_rate));
+    }
+    if codes.is_empty() {
+        return Err(err("no codes".into()));
+    }
+    if s.objects.is_empty() {
+        return Err(err("no objects".into()));
+    }
+    for (i, index) in s.objects.iter().enumerate() {
+        if s.objects
+            .get(..i)
+            .is_some_and(|before| before.contains(index))
+        {
+            return Err(err(format!("object {index:04X}h listed twice")));
+        }
+        let entry = objects
+            .iter()
+            .find(|o| o.index == *index)
+            .and_then(|o| o.entries.iter().find(|e| e.sub == 0));
+        let Some(e) = entry.filter(|e| e.data_type == DataType::Unsigned16) else {
+            return Err(err(format!(
+                "object {index:04X}h sub 0 is no UNSIGNED16 of this file"
+            )));
+        };
+        let default = match e.default.as_slice() {
+            [lo, hi] => u16::from_le_bytes([*lo, *hi]),
+            _ => 0,
+        };
+        if !codes.iter().any(|(c, _)| *c == default) {
+            return Err(err(format!(
+                "object {index:04X}h's default {default} is no code of the table"
+            )));
+        }
+    }
+    Ok(Some(SerialBitRate {
+        objects: s.objects.clone(),
         codes,
     }))
 }
@@ -331,6 +405,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
     }
     check_fhpp(fhpp, d.fhpp.as_ref(), &objects)?;
     let can_bit_rate = check_can_bit_rate(d.can_bit_rate.as_ref(), &d.baud_rates, &objects)?;
+    let serial_bit_rate = check_serial_bit_rate(d.serial_bit_rate.as_ref(), &objects)?;
     let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
         if fhpp {
             "its fieldbus is Modbus TCP"
@@ -354,6 +429,7 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         baud_rates: d.baud_rates,
         rotary_switches: d.rotary_switches,
         can_bit_rate,
+        serial_bit_rate,
         interfaces,
         interfaces_one_of: d.interfaces_one_of,
         interfaces_rule,
@@ -966,6 +1042,48 @@ mod tests {
         let crossed = section.replace("rx_assigned = [0x1600]", "rx_assigned = [0x1A00]");
         let crossed = parse(&with("\"ethercat\"", &crossed), "t.toml").unwrap_err();
         assert!(crossed.to_string().contains("1A00h"), "{crossed}");
+    }
+
+    /// `serial_bit_rate` names UNSIGNED16 objects of the file whose defaults are codes of
+    /// its table, each code and each bit rate once.
+    #[test]
+    fn the_serial_bit_rate_table_is_checked() {
+        let object = |index: u16, t: &str, default: u32| {
+            format!("[[object]]\nindex = 0x{index:04X}\nname = \"b{index:X}\"\ntype = \"{t}\"\naccess = \"rw\"\ndefault = {default}\n")
+        };
+        let file =
+            |table: &str, objects: &str| format!("{HEAD}serial_bit_rate = {table}\n{objects}");
+        let table =
+            |objects: &str, codes: &str| format!("{{ objects = [{objects}], codes = [{codes}] }}");
+        let two = object(0x2FE0, "UNSIGNED16", 270) + &object(0x2FE2, "UNSIGNED16", 540);
+        let codes = "[540, 19200], [270, 38400]";
+        let d = parse(&file(&table("0x2FE0, 0x2FE2", codes), &two), "t.toml").expect("valid");
+        let s = d.serial_bit_rate.expect("table");
+        assert_eq!(s.objects, [0x2FE0, 0x2FE2]);
+        assert_eq!(s.codes, [(540, 19200), (270, 38400)]);
+        let refused = |table: &str, objects: &str| match parse(&file(table, objects), "t.toml") {
+            Ok(_) => panic!("accepted: {table}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            refused(&table("0x2FE0, 0x2FE1", codes), &two).contains("2FE1h sub 0 is no UNSIGNED16")
+        );
+        let narrow = object(0x2FE0, "UNSIGNED8", 27);
+        assert!(refused(&table("0x2FE0", "[27, 38400]"), &narrow).contains("no UNSIGNED16"));
+        assert!(refused(&table("0x2FE0, 0x2FE0", codes), &two).contains("listed twice"));
+        assert!(
+            refused(&table("0x2FE0", "[270, 38400], [270, 19200]"), &two)
+                .contains("code 270 listed twice")
+        );
+        assert!(
+            refused(&table("0x2FE0", "[270, 38400], [271, 38400]"), &two)
+                .contains("38400 bit/s listed twice")
+        );
+        assert!(refused(&table("0x2FE0", "[270, 0]"), &two).contains("0 bit/s"));
+        assert!(refused(&table("0x2FE0", "[70000, 9600]"), &two).contains("no UNSIGNED16"));
+        assert!(refused(&table("0x2FE2", "[270, 38400]"), &two).contains("default 540 is no code"));
+        assert!(refused(&table("", codes), &two).contains("no objects"));
+        assert!(refused(&table("0x2FE0", ""), &two).contains("no codes"));
     }
 
     /// `[device.fhpp]` goes with the FHPP profile and names writable parameters in order,

@@ -97,6 +97,10 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
             name: text(&c.name),
             codes: Box::leak(c.codes.clone().into_boxed_slice()),
         }),
+        serial_bit_rate: d.serial_bit_rate.as_ref().map(|c| od::SerialBitRateCodes {
+            objects: Box::leak(c.objects.clone().into_boxed_slice()),
+            codes: Box::leak(c.codes.clone().into_boxed_slice()),
+        }),
         fieldbus_switches: d.fieldbus_switches,
         fhpp: d.fhpp.as_ref().map(|f| od::FhppParameters {
             records: f.records,

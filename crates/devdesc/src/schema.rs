@@ -91,6 +91,9 @@ pub struct DeviceSection {
     /// `can_bit_rate = { object = 0x2F81, name = "CAN_Baudrate", codes = [[100, 1000], …] }`:
     /// the object whose code sets the CAN bit rate (`od::CanBitRateCodes`).
     pub can_bit_rate: Option<CanBitRateSection>,
+    /// `serial_bit_rate = { objects = [0x2FE0, …], codes = [[270, 38400], …] }`: the objects
+    /// whose code sets a serial line speed (`od::SerialBitRateCodes`).
+    pub serial_bit_rate: Option<SerialBitRateSection>,
     /// The interfaces the real device has (default: its profile's fieldbus, CANopen or
     /// Modbus TCP), those of them that run one at a time, and the manual's rule.
     pub interfaces: Option<Vec<String>>,
@@ -116,6 +119,16 @@ pub struct CanBitRateSection {
     pub name: String,
     /// `[code, kbit/s]` pairs; each bit rate one of `baud_rates`.
     pub codes: Vec<[u16; 2]>,
+}
+
+/// `serial_bit_rate` of `[device]`: UNSIGNED16 objects (sub-index 0) whose value is a code
+/// of a serial line speed, with the manual's table of codes and bit rates (bit/s).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SerialBitRateSection {
+    pub objects: Vec<u16>,
+    /// `[code, bit/s]` pairs.
+    pub codes: Vec<[u32; 2]>,
 }
 
 /// `[device.fhpp]` (`od::FhppParameters`): required with `profile = "fhpp"`, refused with

@@ -89,6 +89,26 @@ fn kinco_232_10_baud_rate_codes() {
     assert_eq!(a.panel("d5.18"), Some((0x2FE2, 0)));
 }
 
+/// KINCO-232-10: the FD3's and the CD3's `serial_bit_rate` list 2FE0h-2FE2h with the four
+/// codes of §9.5, each 10 368 000 / its bit rate; 135 (76 800 bit/s) is not listed.
+#[test]
+fn kinco_232_10_serial_bit_rate_table() {
+    for desc in [&devices::KINCO_FD3, &devices::KINCO_CD3] {
+        let s = desc.serial_bit_rate.expect("serial_bit_rate");
+        assert_eq!(s.objects, [0x2FE0, 0x2FE1, 0x2FE2]);
+        assert_eq!(
+            s.codes,
+            [(1080, 9600), (540, 19200), (270, 38400), (90, 115_200)]
+        );
+        for &(code, baud) in s.codes {
+            assert_eq!(u32::from(code), 10_368_000 / baud);
+            assert_eq!(s.code(baud), Some(code));
+            assert_eq!(s.bit_rate(code), Some(baud));
+        }
+        assert_eq!(s.bit_rate(135), None, "76800 is not listed");
+    }
+}
+
 /// KINCO-CAN-05: the predefined connection set of node 1 (EMCY 081h, TPDO 181h…481h,
 /// RPDO 201h…501h, SDO 581h / 601h); the EMCY COB-ID is 1014h (printed "1024H").
 #[test]

@@ -1,6 +1,6 @@
 //! The std side of drivetwin: transports, the cell and its runtime, traces, exports and the
 //! master commands. Everything here does I/O except the few pure rules it keeps beside them
-//! (`cell::fieldbus_switches`, `value_text`, `export::esi`); the protocol and device logic
+//! (`value_text`, `export::esi`); the protocol and device logic
 //! it drives is sans-IO.
 //!
 //! The modules are layered, and none uses one above it (`scripts/structure` checks that no

@@ -24,7 +24,7 @@ struct Bench {
 impl Bench {
     fn new() -> Self {
         let spec = CellFile::single("kinco-fd3", 1)
-            .drives(drivetwin::vendors::CELL_SECTIONS)
+            .drives(drivetwin::vendors::VENDORS)
             .expect("a Kinco cell")
             .remove(0);
         assert!(spec.settings.is_some(), "kinco-fd3 is a CiA 402 drive");

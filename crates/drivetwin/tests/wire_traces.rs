@@ -264,7 +264,7 @@ const KINCO: Device = Device {
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
 fn can_cell(device: &str, node: u8) -> CanSegment {
     let spec = CellFile::single(device, node)
-        .drives(drivetwin::vendors::CELL_SECTIONS)
+        .drives(drivetwin::vendors::VENDORS)
         .expect("a cell of one drive")
         .remove(0);
     let drive = Station::with_settings(
@@ -649,7 +649,7 @@ fn fhpp(tid: u16, out: [u8; 8]) -> Input {
 /// homing, a direct-mode positioning task, a Modbus exception; FHPP telegrams every 10 ms.
 fn cmmo_st() -> Rig {
     let spec = CellFile::single("cmmo-st", 1)
-        .drives(drivetwin::vendors::CELL_SECTIONS)
+        .drives(drivetwin::vendors::VENDORS)
         .expect("a CMMO-ST cell")
         .remove(0);
     let settings = spec.fhpp.expect("an FHPP drive").settings;
@@ -729,7 +729,7 @@ fn cmmp_ethercat() -> Rig {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let mut chain = SlaveChain::empty();
     let spec = CellFile::single("cmmp-as", 1)
-        .drives(drivetwin::vendors::CELL_SECTIONS)
+        .drives(drivetwin::vendors::VENDORS)
         .expect("spec")
         .remove(0);
     chain

@@ -221,6 +221,31 @@ impl CanBitRateCodes {
     }
 }
 
+/// The objects whose value sets a device's serial line speeds, and the codes they take
+/// (device file `serial_bit_rate`): code → bit/s, as the manual's table lists them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SerialBitRateCodes {
+    /// The objects (sub-index 0), each an UNSIGNED16 holding a code of the table.
+    pub objects: &'static [u16],
+    /// Each code with its bit rate, bit/s.
+    pub codes: &'static [(u16, u32)],
+}
+
+impl SerialBitRateCodes {
+    /// The bit rate of `code` in bit/s; `None` for a code the table does not list.
+    pub fn bit_rate(&self, code: u16) -> Option<u32> {
+        self.codes.iter().find(|(c, _)| *c == code).map(|&(_, b)| b)
+    }
+
+    /// The code of `bit_rate` (bit/s); `None` for a bit rate the table does not list.
+    pub fn code(&self, bit_rate: u32) -> Option<u16> {
+        self.codes
+            .iter()
+            .find(|(_, b)| *b == bit_rate)
+            .map(|&(c, _)| c)
+    }
+}
+
 /// What an FHPP device (Festo Handling and Positioning Profile, parameters PNU n at object
 /// 2000h + n) says beyond its parameters (device file `[device.fhpp]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -294,6 +319,9 @@ pub struct DeviceDescription {
     /// The object that sets the CAN bit rate by a code, and its codes (device file
     /// `can_bit_rate`); `None` where no object does, or where the vendor's rules decide.
     pub can_bit_rate: Option<CanBitRateCodes>,
+    /// The objects that set the serial line speeds by a code, and their codes (device file
+    /// `serial_bit_rate`); `None` for a device without such objects.
+    pub serial_bit_rate: Option<SerialBitRateCodes>,
     /// Which interfaces the real device has.
     pub interfaces: InterfaceOffer,
     /// DIP switches (or inputs) select node-ID offset, bit rate and fieldbus at power-on

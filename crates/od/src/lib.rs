@@ -25,7 +25,7 @@ pub use access::Access;
 pub use data_type::DataType;
 pub use description::{
     Behaviour, CanBitRateCodes, Cia301Options, DeviceDescription, Entry, EthercatSlave,
-    FhppParameters, InterfaceOffer, Limit, Object, ObjectKind, Profile,
+    FhppParameters, InterfaceOffer, Limit, Object, ObjectKind, Profile, SerialBitRateCodes,
 };
 pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};

@@ -255,6 +255,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         baud_rates,
         rotary_switches: 0,
         can_bit_rate: None,
+        serial_bit_rate: None,
         fieldbus_switches: false,
         ethercat: None,
         fhpp: None,

@@ -91,12 +91,17 @@ pub struct DriveViews {
     pub display: fn(&AnyDrive<Vec<u8>>) -> Option<DisplayState>,
 }
 
-impl Default for DriveViews {
+impl DriveViews {
     /// The engine's display where the drive has one (the CMMP-AS's App. B 7-segment display).
+    pub const ENGINE: DriveViews = DriveViews {
+        display: |d| d.display().map(|shown| DisplayState::new(&shown.text())),
+    };
+}
+
+impl Default for DriveViews {
+    /// [`DriveViews::ENGINE`].
     fn default() -> Self {
-        DriveViews {
-            display: |d| d.display().map(|shown| DisplayState::new(&shown.text())),
-        }
+        DriveViews::ENGINE
     }
 }
 

@@ -337,7 +337,10 @@ mod cell_file_tests {
         std::fs::write(dir.join("drives/axis.eds"), &text).unwrap();
         let cell = dir.join("cell.toml");
         std::fs::write(&cell, "[[drive]]\neds = \"drives/axis.eds\"\nnode = 4\n").unwrap();
-        let specs = CellFile::load(&cell).unwrap().drives(&[]).unwrap();
+        let specs = CellFile::load(&cell)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap();
         assert_eq!(specs[0].desc.name, "axis");
         assert_eq!(specs[0].node, 4);
         assert!(
@@ -350,14 +353,20 @@ mod cell_file_tests {
             "[[drive]]\ndevice = \"nanotec-pd4n\"\neds = \"drives/axis.eds\"\n",
         )
         .unwrap();
-        let err = CellFile::load(&cell).unwrap().drives(&[]).unwrap_err();
+        let err = CellFile::load(&cell)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap_err();
         assert!(err.to_string().contains("not both"), "{err}");
 
         let broken = text.replacen("AccessType=rw\n", "AccessType=rx\n", 1);
         let line = broken.lines().position(|l| l == "AccessType=rx").unwrap() + 1;
         std::fs::write(dir.join("drives/broken.eds"), broken).unwrap();
         std::fs::write(&cell, "[[drive]]\neds = \"drives/broken.eds\"\n").unwrap();
-        let err = CellFile::load(&cell).unwrap().drives(&[]).unwrap_err();
+        let err = CellFile::load(&cell)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap_err();
         assert!(matches!(err, ConfigError::Eds(_)));
         let path = dir.join("drives/broken.eds");
         assert!(
@@ -391,7 +400,7 @@ mod dcf_bit_rate_tests {
 
     fn rates(cell: &Path) -> Result<Vec<BusRate>, ConfigError> {
         let file = CellFile::load(cell)?;
-        file.bus_rates(&file.drives(&[])?)
+        file.bus_rates(&file.drives(crate::cell::Vendors::NONE)?)
     }
 
     /// A DCF's `Baudrate` is its node's rate: the bus takes it (`eds = "…"` and `--eds`);
@@ -414,7 +423,9 @@ mod dcf_bit_rate_tests {
         assert_eq!(rates(&cell).unwrap(), [timed(500_000, true)]);
         let single = CellFile::single_eds(&a, Some(4)).unwrap();
         assert_eq!(
-            single.bus_rates(&single.drives(&[]).unwrap()).unwrap(),
+            single
+                .bus_rates(&single.drives(crate::cell::Vendors::NONE).unwrap())
+                .unwrap(),
             [timed(500_000, true)]
         );
 
@@ -436,19 +447,28 @@ mod dcf_bit_rate_tests {
         assert_eq!(rates(&cell).unwrap(), [timed(1_000_000, false)]);
         let mut single = CellFile::single_eds(&b, Some(4)).unwrap();
         single.set_bitrate(crate::cell::bus_rate::BitrateSetting::Bits(500_000));
-        let specs = single.drives(&[]).unwrap();
+        let specs = single.drives(crate::cell::Vendors::NONE).unwrap();
         assert_eq!(single.bus_rates(&specs).unwrap(), [timed(500_000, false)]);
         assert_eq!(specs[0].bit_rate.as_ref().map(|r| r.kbit), Some(250));
 
         // Without `node` a drive from a DCF is at its `[DeviceComissioning] NodeID`.
         std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\n").unwrap();
-        let specs = CellFile::load(&cell).unwrap().drives(&[]).unwrap();
+        let specs = CellFile::load(&cell)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap();
         assert_eq!(specs[0].node, 4);
         // `drivetwin run --eds` without --node: the same.
-        let specs = CellFile::single_eds(&a, None).unwrap().drives(&[]).unwrap();
+        let specs = CellFile::single_eds(&a, None)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap();
         assert_eq!(specs[0].node, 4);
         std::fs::write(&cell, "[[drive]]\neds = \"axis_a.dcf\"\nnode = 9\n").unwrap();
-        let specs = CellFile::load(&cell).unwrap().drives(&[]).unwrap();
+        let specs = CellFile::load(&cell)
+            .unwrap()
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap();
         assert_eq!(specs[0].node, 9);
 
         // A DCF beside a built-in drive at its rate: they agree.

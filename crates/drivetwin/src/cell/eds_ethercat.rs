@@ -337,7 +337,9 @@ mod tests {
         };
         std::fs::write(&cell, format!("{}{}", drive(1), drive(2))).unwrap();
         let file = crate::cell::config::CellFile::load(&cell).unwrap();
-        let chain = crate::ecat::chain::SlaveChain::from_cell_file(&file, &[]).unwrap();
+        let chain =
+            crate::ecat::chain::SlaveChain::from_cell_file(&file, crate::cell::Vendors::NONE)
+                .unwrap();
         assert_eq!(chain.len(), 2);
         let desc = chain.device(1).unwrap().description();
         assert!(desc.object(0x1C12).is_some());

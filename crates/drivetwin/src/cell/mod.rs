@@ -15,7 +15,6 @@ pub mod eds_drive;
 pub mod eds_ethercat;
 pub mod ethercat_line;
 pub mod fault_injector;
-pub mod fieldbus_switches;
 pub mod front_fault_injector;
 pub mod interfaces;
 pub mod lateness;
@@ -26,7 +25,11 @@ pub mod param_store;
 pub mod planned;
 pub mod realtime;
 pub mod station;
+pub mod terminal;
 pub mod wire_faults;
+
+mod vendor_seams;
+pub use vendor_seams::Vendors;
 
 /// A station on a CAN bus: the bus's index in the cell, the station's in its segment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -14,9 +14,9 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crate::cell::config::{CellFile, DeviceSections};
+use crate::cell::config::CellFile;
 use crate::cell::control::DriveViews;
-use crate::cell::modbus_device::NewModbusDevice;
+use crate::cell::Vendors;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::{Probe, VirtualRig};
@@ -61,8 +61,7 @@ impl CellInstance {
     /// there is one, booted at 0, its buses' socketcand servers open ([`FrontEnds`]).
     pub fn from_resources(
         resources: &Path,
-        sections: DeviceSections,
-        modbus_device: NewModbusDevice,
+        vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
         let cell_path = resources.join(CELL_FILE);
         let cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
@@ -80,7 +79,7 @@ impl CellInstance {
         } else {
             None
         };
-        let mut instance = CellInstance::new(&cell, timeline.as_ref(), sections, modbus_device)?;
+        let mut instance = CellInstance::new(&cell, timeline.as_ref(), vendors)?;
         instance.front_ends = FrontEnds::open(&cell, &instance.shared)?;
         Ok(instance)
     }
@@ -90,11 +89,10 @@ impl CellInstance {
     pub fn new(
         cell: &CellFile,
         timeline: Option<&Scenario>,
-        sections: DeviceSections,
-        modbus_device: NewModbusDevice,
+        vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
-        let rig = VirtualRig::new(cell, sections, modbus_device)
-            .map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let views = vendors.views;
+        let rig = VirtualRig::new(cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let variables = Variables::new(rig.nodes())?;
         let timeline = timeline
             .map(|s| {
@@ -127,16 +125,9 @@ impl CellInstance {
             done: 0,
             inputs: vec![Inputs::default(); n],
             now: 0,
-            views: DriveViews::default(),
+            views,
             terminals,
         })
-    }
-
-    /// The drives' displays as `views` tells them (`drivetwin::vendors::DRIVE_VIEWS`; the
-    /// engine's display without it).
-    pub fn with_views(mut self, views: DriveViews) -> CellInstance {
-        self.views = views;
-        self
     }
 
     /// The FMU's variables.
@@ -410,12 +401,7 @@ mod tests {
             "[[bus]]\nsocketcand = \"127.0.0.1:0\"\nbitrate = \"instant\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n",
         )
         .unwrap();
-        let mut cell = CellInstance::from_resources(
-            &dir,
-            crate::vendors::CELL_SECTIONS,
-            crate::vendors::MODBUS_DEVICE,
-        )
-        .unwrap();
+        let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS).unwrap();
         let (bus, addr) = cell.front_end_addresses()[0];
         assert_eq!(bus, 0);
         let stream = TcpStream::connect(addr).unwrap();

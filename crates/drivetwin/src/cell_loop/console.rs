@@ -5,34 +5,9 @@
 
 use std::time::Instant;
 
-use od::ObjectAccess;
-
 use super::{CellLoop, Connection, Kind};
+pub use crate::cell::terminal::{NewTerminal, Terminal, Typed};
 use crate::cell::OnBus;
-
-/// A drive's terminal: the protocol of the lines typed at it. It reaches the drive as a
-/// local interface does ([`crate::cell::can_segment::CanSegment::local_access`]): reads as they are, writes as
-/// SDO downloads of the drive's node.
-pub trait Terminal: Send {
-    /// Takes one byte typed; what it completed, if anything.
-    fn push(&mut self, byte: u8) -> Option<Typed>;
-    /// Appends the answer to `line`, on the drive's objects `od`, with its line end.
-    fn answer(&mut self, line: &[u8], od: &mut dyn ObjectAccess, answer: &mut Vec<u8>);
-    /// Appends the answer to a line that reaches no drive or is too long, with its line end.
-    fn refuse(&mut self, answer: &mut Vec<u8>);
-}
-
-/// What a byte typed at a [`Terminal`] completed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Typed {
-    /// A line, without its end.
-    Line(Vec<u8>),
-    /// A line longer than any the terminal takes; its bytes are gone.
-    TooLong,
-}
-
-/// A new terminal, one for each connection.
-pub type NewTerminal = fn() -> Box<dyn Terminal>;
 
 /// A drive's terminal on a TCP port, bound before the loop starts.
 pub struct TerminalPort {

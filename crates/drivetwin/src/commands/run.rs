@@ -308,7 +308,7 @@ async fn prepare_cell(
     args: &RunArgs,
     first: bool,
 ) -> Result<Prepared, CommandError> {
-    let mut specs = file.drives(drivetwin::vendors::CELL_SECTIONS)?;
+    let mut specs = file.drives(drivetwin::vendors::VENDORS)?;
     // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
     // instead of CAN (as before the cell loop served both).
     let ethercat_if = args.ethercat.as_deref().filter(|_| first);
@@ -483,7 +483,7 @@ async fn prepare_cell(
         serial,
         rt_priority: args.rt_priority,
         busy_poll: args.busy_poll,
-        views: drivetwin::vendors::DRIVE_VIEWS,
+        views: drivetwin::vendors::VENDORS.views,
         ..FrontEnds::default()
     };
     for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
@@ -550,10 +550,10 @@ async fn prepare_cell(
     })
 }
 
-/// Whether a CMMO-ST of `file` plans a diagnostic message or a plant change.
+/// Whether an FHPP drive of `file` (the CMMO-ST) plans a diagnostic message or a plant change.
 fn specs_had_fhpp_plans(file: &CellFile) -> bool {
     file.drive.iter().any(|d| {
-        devices::by_name(&d.device).is_some_and(|desc| desc.name == "cmmo-st")
+        devices::by_name(&d.device).is_some_and(drivetwin::cell::device_model::is_fhpp)
             && (!d.diagnostic.is_empty() || !d.plant.is_empty() || d.thermal.is_some())
     })
 }
@@ -613,7 +613,7 @@ fn ci_consoles(
         consoles.push(TerminalPort {
             listener,
             drive,
-            terminal: drivetwin::vendors::CI_TERMINAL,
+            terminal: drivetwin::vendors::VENDORS.ci_terminal,
         });
     }
     Ok(consoles)
@@ -923,7 +923,7 @@ fn modbus_device(
         .as_ref()
         .map(|dir| ParamStore::new(dir, desc.name, spec.node));
     let path = store.as_ref().map(|s| s.memory_path().to_path_buf());
-    let powered = (drivetwin::vendors::MODBUS_DEVICE)(spec, store)
+    let powered = (drivetwin::vendors::VENDORS.modbus_device)(spec, store)
         .ok_or_else(|| {
             CommandError::Usage(format!("drive {}: not served over Modbus TCP", desc.name))
         })?

@@ -81,12 +81,8 @@ fn run_one(file: &Path, args: &ScenarioArgs) -> Result<Report, CommandError> {
             file.display()
         ))
     })?;
-    let mut rig = VirtualRig::new(
-        cell,
-        drivetwin::vendors::CELL_SECTIONS,
-        drivetwin::vendors::MODBUS_DEVICE,
-    )
-    .map_err(|e| CommandError::Usage(e.to_string()))?;
+    let mut rig = VirtualRig::new(cell, drivetwin::vendors::VENDORS)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(path) = &args.trace {
         rig.trace_to(path)
             .map_err(super::io(format!("trace {}", path.display())))?;

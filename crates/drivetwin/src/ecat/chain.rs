@@ -66,11 +66,12 @@ use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
 };
 
-use crate::cell::config::{CellFile, ConfigError, DeviceSections, DriveSpec};
+use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
 use crate::cell::station::{Persisting, Station, StationError};
 use crate::cell::OnBus;
+use crate::cell::Vendors;
 
 use super::line::{Line, LineError};
 
@@ -827,24 +828,21 @@ impl SlaveChain {
         })
     }
 
-    /// One slave per drive of the cell file, in file order, its keys read with the devices'
-    /// `sections`. Node-IDs only name the drives; EtherCAT addresses them by position and
+    /// One slave per drive of the cell file, in file order, its keys read with the sections
+    /// of `vendors`. Node-IDs only name the drives; EtherCAT addresses them by position and
     /// station address.
-    pub fn from_cell_file(
-        file: &CellFile,
-        sections: DeviceSections,
-    ) -> Result<Self, SlaveChainError> {
-        Self::new(file.drives(sections)?)
+    pub fn from_cell_file(file: &CellFile, vendors: Vendors) -> Result<Self, SlaveChainError> {
+        Self::new(file.drives(vendors)?)
     }
 
     /// As [`from_cell_file`](Self::from_cell_file), each drive's parameters stored under
     /// `state_dir` (1010h "save"; loaded at power-on).
     pub fn with_state_dir(
         file: &CellFile,
-        sections: DeviceSections,
+        vendors: Vendors,
         state_dir: Option<&Path>,
     ) -> Result<Self, SlaveChainError> {
-        Self::with_stores(file.drives(sections)?, state_dir)
+        Self::with_stores(file.drives(vendors)?, state_dir)
     }
 
     pub fn new(specs: Vec<DriveSpec>) -> Result<Self, SlaveChainError> {

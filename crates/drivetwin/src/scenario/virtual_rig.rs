@@ -17,10 +17,11 @@ use od::{Instant, ObjectAccess};
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
 use crate::cell::can_segment::CanSegment;
-use crate::cell::config::{CellFile, DeviceSections};
+use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link, Wire};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
 use crate::cell::station::Station;
+use crate::cell::Vendors;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
@@ -45,15 +46,12 @@ pub struct VirtualRig {
 
 impl VirtualRig {
     /// The CANopen drives of `file`'s buses, booted at 0, its drives' keys read with the
-    /// devices' `sections` (`drivetwin::vendors::CELL_SECTIONS`), and its drives served over
-    /// Modbus TCP as `modbus_device` makes them (`drivetwin::vendors::MODBUS_DEVICE`).
-    pub fn new(
-        file: &CellFile,
-        sections: DeviceSections,
-        modbus_device: NewModbusDevice,
-    ) -> Result<VirtualRig, ScenarioError> {
+    /// sections of `vendors` (`drivetwin::vendors::VENDORS`), and its drives served over
+    /// Modbus TCP as `vendors.modbus_device` makes them.
+    pub fn new(file: &CellFile, vendors: Vendors) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);
-        let specs = file.drives(sections).map_err(|e| cell_err(e.to_string()))?;
+        let modbus_device = vendors.modbus_device;
+        let specs = file.drives(vendors).map_err(|e| cell_err(e.to_string()))?;
         let rates = file
             .bus_rates(&specs)
             .map_err(|e| cell_err(e.to_string()))?;
@@ -335,7 +333,10 @@ impl VirtualRig {
 
     /// Each bus's bit rate, in the cell file's order (none: the instant bus).
     pub fn bus_bitrates(&self) -> Vec<Option<u32>> {
-        self.segments.iter().map(CanSegment::timed_bitrate).collect()
+        self.segments
+            .iter()
+            .map(CanSegment::timed_bitrate)
+            .collect()
     }
 
     /// The engine of node `node`'s drive (its plant and device control), if it has one.

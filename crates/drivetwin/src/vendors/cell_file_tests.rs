@@ -1,7 +1,7 @@
 //! The cell file's tests with the devices' sections of [`super::CELL_SECTIONS`]: travel,
 //! CMMO-ST, the examples, switches, bus rates, the keys of each device.
 
-use super::CELL_SECTIONS;
+use super::{CELL_SECTIONS, VENDORS};
 use crate::cell::bus_rate::{self, BitrateSetting, BusRate};
 use crate::cell::config::*;
 use drive::stepper::{StepperData, StepperMode};
@@ -16,7 +16,7 @@ mod travel_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives(CELL_SECTIONS)
+        file.drives(VENDORS)
     }
 
     #[test]
@@ -60,7 +60,7 @@ mod cmmo_st_tests {
 
     fn spec(text: &str) -> Result<Vec<DriveSpec>, String> {
         let file: CellFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        file.drives(CELL_SECTIONS).map_err(|e| e.to_string())
+        file.drives(VENDORS).map_err(|e| e.to_string())
     }
 
     #[test]
@@ -165,7 +165,7 @@ mod example_tests {
             if path.extension().is_some_and(|e| e == "toml") {
                 let file = CellFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
                 let drives = file
-                    .drives(CELL_SECTIONS)
+                    .drives(VENDORS)
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 assert!(!drives.is_empty(), "{}", path.display());
                 // Its buses' rates: named, or the nodes agree.
@@ -296,7 +296,7 @@ mod switches_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives(CELL_SECTIONS)
+        file.drives(VENDORS)
     }
 
     fn drive(switches: &str) -> Result<DriveSpec, ConfigError> {
@@ -378,7 +378,7 @@ mod bus_rate_tests {
 
     fn rates(text: &str) -> Result<Vec<BusRate>, ConfigError> {
         let f = file(text);
-        f.bus_rates(&f.drives(CELL_SECTIONS)?)
+        f.bus_rates(&f.drives(VENDORS)?)
     }
 
     fn timed(bitrate: u32, from_nodes: bool) -> BusRate {
@@ -394,9 +394,7 @@ mod bus_rate_tests {
     fn the_nodes_rate_without_a_bitrate() {
         let single = CellFile::single("cmmp-as", 1);
         assert_eq!(
-            single
-                .bus_rates(&single.drives(CELL_SECTIONS).unwrap())
-                .unwrap(),
+            single.bus_rates(&single.drives(VENDORS).unwrap()).unwrap(),
             [timed(125_000, true)]
         );
         assert_eq!(
@@ -472,7 +470,7 @@ mod bus_rate_tests {
         let mut f = file(mixed);
         f.set_bitrate(BitrateSetting::Instant);
         assert_eq!(
-            f.bus_rates(&f.drives(CELL_SECTIONS).unwrap()).unwrap(),
+            f.bus_rates(&f.drives(VENDORS).unwrap()).unwrap(),
             [BusRate::Instant]
         );
         let err = toml::from_str::<CellFile>("[bus]\nbitrate = \"fast\"\n").unwrap_err();
@@ -487,7 +485,7 @@ mod bus_rate_tests {
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {
             let text = format!("[[drive]]\ndevice = \"kinco-fd3\"\nnode = 9\n{section}\n");
-            file(&text).drives(CELL_SECTIONS).map(|mut v| v.remove(0))
+            file(&text).drives(VENDORS).map(|mut v| v.remove(0))
         };
         // KINCO-DIP-01: SW1 → 1.
         assert_eq!(fd3("[drive.dip_switches]\non = [1]").unwrap().node, 1);
@@ -518,7 +516,7 @@ mod bus_rate_tests {
         let d = fd3("[drive.dip_switches]\non = [1]\n[drive.objects]\n\"2F81:00\" = 25").unwrap();
         assert_eq!(d.bit_rate.map(|r| r.kbit), Some(250));
         let err = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\non = [1]\n")
-            .drives(CELL_SECTIONS)
+            .drives(VENDORS)
             .unwrap_err()
             .to_string();
         assert!(err.contains("no DIP switches"), "{err}");
@@ -540,10 +538,7 @@ mod device_keys_tests {
         let f = file(&format!(
             "[[drive]]\ndevice = \"{device}\"\nnode = {node}\n{keys}\n"
         ))?;
-        let spec = f
-            .drives(CELL_SECTIONS)
-            .map_err(|e| e.to_string())?
-            .remove(0);
+        let spec = f.drives(VENDORS).map_err(|e| e.to_string())?.remove(0);
         Ok((f.drive[0].clone(), spec))
     }
 
@@ -676,7 +671,7 @@ mod device_keys_tests {
         }
         let f = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\n").unwrap();
         assert!(matches!(
-            f.drives(CELL_SECTIONS),
+            f.drives(VENDORS),
             Err(ConfigError::ForeignKey { node: 1, .. })
         ));
     }
@@ -710,7 +705,7 @@ mod device_keys_tests {
             .join("../../tests/interop/data/eds/epos4_like.eds");
         let drive = |keys: &str| {
             let text = format!("[[drive]]\neds = {:?}\nnode = 6\n{keys}\n", eds.display());
-            file(&text).and_then(|f| f.drives(CELL_SECTIONS).map_err(|e| e.to_string()))
+            file(&text).and_then(|f| f.drives(VENDORS).map_err(|e| e.to_string()))
         };
         let s = drive("mode_change_time_ms = 1.0\n[drive.motor]\ninertia = 3e-5").unwrap();
         assert_eq!(s[0].settings.unwrap().motor.inertia, 3e-5);

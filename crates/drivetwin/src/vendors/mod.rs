@@ -4,20 +4,23 @@
 //! vendor; they reach these folders through the seams this module lists, which the binary
 //! hands them (`scripts/structure` checks it):
 //!
-//! - [`WEB_PAGES`]: the devices' own pages of the web console ([`crate::web::DevicePages`]);
-//! - [`DRIVE_VIEWS`]: what the runtime shows of a drive that only its vendor knows (the
-//!   Kinco's LED panel as its display), [`crate::cell::control::DriveViews`]; the vendors'
-//!   own APIs on a running drive go through [`crate::cell::control::ControlHandle::with_drive`];
-//! - [`MODBUS_DEVICE`]: the drives served over Modbus TCP with a register image of their own
-//!   ([`crate::cell::modbus_device::ModbusDevice`]), as a cell file's drive makes them; the
-//!   vendors' own APIs on them go through
-//!   [`crate::cell::control::ControlHandle::with_modbus_device`];
-//! - [`CI_TERMINAL`]: the terminal of a drive's `ci_terminal` port
-//!   ([`crate::cell_loop::Terminal`]);
-//! - [`open_serial_lines`], [`virtual_serial_lines`]: the serial lines of a cell, each with
-//!   its protocol ([`crate::serial::line::LineProtocol`]);
-//! - [`CELL_SECTIONS`]: each device's own keys of a cell file's `[[drive]]`
-//!   ([`crate::cell::config::DeviceSection`]), read and checked against its drive;
+//! - [`VENDORS`]: what the runtime takes from the vendors, as one value
+//!   ([`crate::cell::Vendors`]):
+//!   - `cell_sections`: each device's own keys of a cell file's `[[drive]]`
+//!     ([`crate::cell::config::DeviceSection`]), read and checked against its drive;
+//!   - `modbus_device`: the drives served over Modbus TCP with a register image of their own
+//!     ([`crate::cell::modbus_device::ModbusDevice`]), as a cell file's drive makes them; the
+//!     vendors' own APIs on them go through
+//!     [`crate::cell::control::ControlHandle::with_modbus_device`];
+//!   - `views`: what the runtime shows of a drive that only its vendor knows (the Kinco's LED
+//!     panel as its display), [`crate::cell::control::DriveViews`]; the vendors' own APIs on
+//!     a running drive go through [`crate::cell::control::ControlHandle::with_drive`];
+//!   - `ci_terminal`: the terminal of a drive's `ci_terminal` port
+//!     ([`crate::cell::terminal::Terminal`]);
+//! - the front ends' seams, whose types are the front ends' own and so not the runtime's
+//!   value: [`WEB_PAGES`], the devices' own pages of the web console
+//!   ([`crate::web::DevicePages`]); [`open_serial_lines`], [`virtual_serial_lines`], the
+//!   serial lines of a cell, each with its protocol ([`crate::serial::line::LineProtocol`]);
 //! - the sub-commands named for a device (`drivetwin kinco`, `fhpp`, `iodd`): their
 //!   arguments are types of the vendor folder with a `run` method, failing with
 //!   [`CommandError`], whose [`Failure`] the binary turns into its exit code.
@@ -27,7 +30,8 @@
 //! - [`festo_cmmo_st`]: the CMMO-ST's FHPP register image on Modbus TCP, its FHPP side on
 //!   the console, its web server pages, its FHPP master over Modbus TCP, its IODD and its
 //!   cell file section;
-//! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal and cell file section;
+//! - [`festo_cmmp_as`]: the CMMP-AS's CI terminal, its fieldbus switches' rules and its cell
+//!   file section;
 //! - [`kinco`]: the Kinco FD3 / CD3 serial lines (RS232 telegrams, Modbus RTU), its panel
 //!   page, the RS232 telegram master and the cell file sections;
 //! - [`nanotec`]: the Nanotec drives' cell file section.
@@ -42,15 +46,25 @@ pub mod nanotec;
 use crate::cell::config::DeviceSections;
 use crate::cell::control::{DisplayState, DriveViews};
 use crate::cell::modbus_device::NewModbusDevice;
-use crate::cell_loop::NewTerminal;
+use crate::cell::terminal::NewTerminal;
+use crate::cell::Vendors;
 use crate::web::DevicePages;
+
+/// What the runtime takes from the vendors, as one value: their cell file sections, the
+/// Modbus TCP device, the drives' views and the CI terminal.
+pub const VENDORS: Vendors = Vendors {
+    cell_sections: CELL_SECTIONS,
+    modbus_device: MODBUS_DEVICE,
+    views: DRIVE_VIEWS,
+    ci_terminal: CI_TERMINAL,
+};
 
 /// Every device's own web pages, in the order their OpenAPI documents join the console's.
 pub const WEB_PAGES: &[DevicePages] = &[festo_cmmo_st::WEB_PAGES, kinco::WEB_PAGES];
 
 /// What the drives' vendors tell the runtime: the Kinco's display is its LED panel, the
 /// other CiA 402 drives' the engine's (the CMMP-AS's 7-segment display; none for the rest).
-pub const DRIVE_VIEWS: DriveViews = DriveViews { display };
+const DRIVE_VIEWS: DriveViews = DriveViews { display };
 
 fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
     kinco::panel_page::display(d).or_else(|| (DriveViews::default().display)(d))
@@ -58,10 +72,10 @@ fn display(d: &drive::vendors::AnyDrive<Vec<u8>>) -> Option<DisplayState> {
 
 /// The device of a cell file's drive served over Modbus TCP: the CMMO-ST's FHPP register
 /// image, the only drive served so.
-pub const MODBUS_DEVICE: NewModbusDevice = festo_cmmo_st::modbus_server::new_device;
+const MODBUS_DEVICE: NewModbusDevice = festo_cmmo_st::modbus_server::new_device;
 
 /// Each device's own section of a cell file's `[[drive]]`, by the device files it serves.
-pub const CELL_SECTIONS: DeviceSections = &[
+const CELL_SECTIONS: DeviceSections = &[
     festo_cmmp_as::cell_section::SECTION,
     nanotec::cell_section::SECTION,
     kinco::cell_section::FD3,
@@ -71,7 +85,7 @@ pub const CELL_SECTIONS: DeviceSections = &[
 
 /// The terminal a drive's `ci_terminal` port (and `--ci-terminal`) serves: the CMMP-AS's CI
 /// terminal, the only drive with one.
-pub const CI_TERMINAL: NewTerminal = festo_cmmp_as::ci_terminal::new;
+const CI_TERMINAL: NewTerminal = festo_cmmp_as::ci_terminal::new;
 
 /// The serial lines that drives' `rs232` / `rs485` ports (and `--rs232`, `--rs485`) ask
 /// for, opened, and the same lines on the virtual clock; the Kinco FD3 / CD3 are the drives

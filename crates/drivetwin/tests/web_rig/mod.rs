@@ -42,7 +42,7 @@ impl Drop for Running {
 pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
     // The drives' displays as the binary shows them.
     let front = FrontEnds {
-        views: drivetwin::vendors::DRIVE_VIEWS,
+        views: drivetwin::vendors::VENDORS.views,
         ..front
     };
     let cell_loop = CellLoop::with_buses(front).expect("loop");

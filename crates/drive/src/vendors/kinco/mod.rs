@@ -11,7 +11,6 @@
 //! `kinco_drive.rs` (power-on, statusword, error words, modes −3 / 3 / 4, the following-error
 //! limit) and `kinco_io.rs` (the DIN and DOUT functions with their simulation objects).
 
-pub mod bit_rates;
 pub mod dip_switches;
 pub mod rs232;
 pub mod rtu;

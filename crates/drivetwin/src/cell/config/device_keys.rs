@@ -16,7 +16,6 @@ use super::objects::parse_key;
 use super::FhppSpec;
 use crate::cell::bus_rate::{NodeRate, RateCode, RateObject};
 use crate::cell::device_model::is_cia402;
-use crate::cell::fieldbus_switches::FieldbusSettings;
 use crate::cell::station::Commissioning;
 
 /// A key of a device's section: its name in the cell file and what it is, for the refusal
@@ -40,7 +39,7 @@ pub struct DeviceSection {
     pub read: fn(toml::Table, &DriveContext<'_>) -> Result<OwnSettings, SectionError>,
 }
 
-/// The devices' sections a cell file is read with (`drivetwin::vendors::CELL_SECTIONS`).
+/// The devices' sections a cell file is read with (`drivetwin::vendors::VENDORS.cell_sections`).
 pub type DeviceSections = &'static [DeviceSection];
 
 impl DeviceSection {
@@ -140,6 +139,26 @@ pub struct Ports {
     pub rs232: Option<String>,
     /// `rs485`: the path of the drive's RS485 port.
     pub rs485: Option<String>,
+}
+
+/// The data profile a drive speaks on its fieldbus, as its switches or inputs select it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FieldbusProfile {
+    Cia402,
+    /// FHPP, which the twin does not serve over CAN.
+    Fhpp,
+}
+
+/// What a drive's switches or inputs select at power-on (the CMMP-AS's DIP switches or
+/// fieldbus inputs, read by its vendor folder): the node-ID, the CAN bit rate, the data
+/// profile and whether CAN is on at all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldbusSettings {
+    pub node_id: u8,
+    pub bit_rate_kbit: u16,
+    pub profile: FieldbusProfile,
+    /// CANopen activated; a drive whose CAN is off stays silent on its bus.
+    pub can_active: bool,
 }
 
 /// What a device's own keys set on its drive; unset: the runtime's defaults.

@@ -9,16 +9,18 @@ use drive::drive::DriveSettings;
 use drive::motor::MotorData;
 use od::Value;
 
-use super::device_keys::{self, DeviceSections, DriveContext, KeyRefusal, OwnRate, Ports};
+use super::device_keys::{
+    self, DriveContext, FieldbusProfile, FieldbusSettings, KeyRefusal, OwnRate, Ports,
+};
 use super::drive_section::default_device;
 use super::objects::{encode_toml, parse_key};
 use super::{BusSection, CellFile, Cia402Keys, ConfigError, DriveSection, FhppSpec, ForeignKeyAt};
 use crate::cell::bus_rate::{NodeRate, RateObject};
 use crate::cell::device_model::{is_cia402, is_fhpp};
-use crate::cell::fieldbus_switches::{FieldbusSettings, Profile};
 use crate::cell::interfaces::InterfaceName;
 use crate::cell::param_store::StoredValue;
 use crate::cell::station::Commissioning;
+use crate::cell::Vendors;
 
 /// A drive ready to build.
 #[derive(Debug, Clone)]
@@ -63,16 +65,19 @@ impl DriveSpec {
     pub fn on_can(&self) -> Result<bool, ConfigError> {
         match self.fieldbus {
             None => Ok(true),
-            Some(f) if f.profile == Profile::Fhpp => Err(ConfigError::FhppOverCan(self.node)),
+            Some(f) if f.profile == FieldbusProfile::Fhpp => {
+                Err(ConfigError::FhppOverCan(self.node))
+            }
             Some(f) => Ok(f.can_active),
         }
     }
 }
 
 impl CellFile {
-    /// Its drives, each checked against its device and ready to build; `sections`: the
-    /// devices' own sections of keys (`drivetwin::vendors::CELL_SECTIONS`).
-    pub fn drives(&self, sections: DeviceSections) -> Result<Vec<DriveSpec>, ConfigError> {
+    /// Its drives, each checked against its device and ready to build, each device's own
+    /// keys read by its section of `vendors` (`drivetwin::vendors::VENDORS`).
+    pub fn drives(&self, vendors: Vendors) -> Result<Vec<DriveSpec>, ConfigError> {
+        let sections = vendors.cell_sections;
         let mut specs: Vec<DriveSpec> = Vec::new();
         for d in &self.drive {
             let desc = match &d.eds {

@@ -48,7 +48,10 @@ mod tests {
             "[[drive]]\ndevice = \"cmmo-st\"\n[drive.load]\nfmu = \"c.fmu\"\nload_torque = \"t\"\n",
         )
         .unwrap();
-        let e = f.drives(&[]).unwrap_err().to_string();
+        let e = f
+            .drives(crate::cell::Vendors::NONE)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("a load FMU is coupled to a CiA 402 drive"),
             "{e}"

@@ -6,7 +6,7 @@
 //! ([`drive_section`]): the keys every drive has, and flat beside them the keys of its device:
 //! the CiA 402 keys of every CiA 402 drive ([`cia402`]) and the device's own section, which
 //! its vendor folder reads ([`device_keys::DeviceSection`], handed in as
-//! [`DeviceSections`]: `drivetwin::vendors::CELL_SECTIONS`). The runtime knows no vendor.
+//! [`DeviceSections`]: `drivetwin::vendors::VENDORS.cell_sections`). The runtime knows no vendor.
 //! [`CellFile::drives`] checks each drive against its device ([`DriveSpec`]).
 
 pub mod bus_section;
@@ -28,7 +28,8 @@ use crate::cell::device_model::{is_cia402, is_fhpp};
 pub use bus_section::{BusSection, Buses, DisturbSection, DEFAULT_CHANNEL, DEFAULT_SOCKETCAND};
 pub use cia402::{Cia402Keys, MotorSection, TravelSection};
 pub use device_keys::{
-    DeviceSection, DeviceSections, DriveContext, Key, OwnRate, OwnSettings, Ports, SectionError,
+    DeviceSection, DeviceSections, DriveContext, FieldbusProfile, FieldbusSettings, Key, OwnRate,
+    OwnSettings, Ports, SectionError,
 };
 pub use drive_section::{DriveSection, ThermalSection};
 pub use drive_spec::DriveSpec;

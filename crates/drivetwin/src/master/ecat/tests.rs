@@ -26,7 +26,11 @@ impl CellLink {
         let mut specs = Vec::new();
         for (i, d) in devices.iter().enumerate() {
             let node = u8::try_from(i + 1).expect("few slaves");
-            specs.extend(CellFile::single(d, node).drives(&[]).expect("known device"));
+            specs.extend(
+                CellFile::single(d, node)
+                    .drives(crate::cell::Vendors::NONE)
+                    .expect("known device"),
+            );
         }
         let mut cell = SlaveChain::new(specs).expect("chain");
         cell.boot(Instant::from_nanos(0));

@@ -5,12 +5,11 @@
 
 use serde::Deserialize;
 
+use super::fieldbus_switches::{m3_power_on, M0Fieldbus, M0Inputs, BIT_RATES_KBIT};
 use crate::cell::bus_rate::NodeRate;
 use crate::cell::config::{
-    eight_switches, DeviceSection, DriveContext, Key, OwnRate, OwnSettings, Ports, SectionError,
-};
-use crate::cell::fieldbus_switches::{
-    m3_power_on, FieldbusSettings, M0Fieldbus, M0Inputs, BIT_RATES_KBIT,
+    eight_switches, DeviceSection, DriveContext, FieldbusSettings, Key, OwnRate, OwnSettings,
+    Ports, SectionError,
 };
 
 /// The CMMP-AS's section.

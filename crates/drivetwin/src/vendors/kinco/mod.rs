@@ -26,29 +26,29 @@ pub const WEB_PAGES: DevicePages = DevicePages {
     motion: None,
 };
 
-/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the manual's table
-/// ([`drive::vendors::kinco::bit_rates::SERIAL`], §2.1, KINCO-232-10); `None` for a code it
-/// does not list.
-pub fn baud_of_code(code: u64) -> Option<u32> {
-    u16::try_from(code)
-        .ok()
-        .and_then(drive::vendors::kinco::bit_rates::serial_bit_rate)
+/// The bit rate of a Kinco baud-rate code (2FE0h, 2FE1h, 2FE2h): the device file's
+/// `serial_bit_rate` table (§9.5, KINCO-232-10); `None` for a code it does not list.
+pub fn baud_of_code(codes: &od::SerialBitRateCodes, code: u64) -> Option<u32> {
+    u16::try_from(code).ok().and_then(|c| codes.bit_rate(c))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// KINCO-232-10: the codes fit 10 368 000 / bit rate.
+    /// KINCO-232-10: the codes the FD3's and the CD3's device files list, and no others.
     #[test]
     fn kinco_232_10_baud_rate_codes() {
-        assert_eq!(baud_of_code(540), Some(19_200));
-        assert_eq!(baud_of_code(270), Some(38_400));
-        assert_eq!(baud_of_code(90), Some(115_200));
-        assert_eq!(baud_of_code(1080), Some(9600));
-        assert_eq!(baud_of_code(0), None);
-        // 180 would be 57600 by the formula, but the manual lists no such code.
-        assert_eq!(baud_of_code(180), None);
-        assert_eq!(baud_of_code(0x1_0000 + 270), None);
+        for desc in [&devices::KINCO_FD3, &devices::KINCO_CD3] {
+            let codes = desc.serial_bit_rate.as_ref().expect("serial_bit_rate");
+            assert_eq!(baud_of_code(codes, 540), Some(19_200));
+            assert_eq!(baud_of_code(codes, 270), Some(38_400));
+            assert_eq!(baud_of_code(codes, 90), Some(115_200));
+            assert_eq!(baud_of_code(codes, 1080), Some(9600));
+            assert_eq!(baud_of_code(codes, 0), None);
+            // 180 would be 57600 by the formula, but the manual lists no such code.
+            assert_eq!(baud_of_code(codes, 180), None);
+            assert_eq!(baud_of_code(codes, 0x1_0000 + 270), None);
+        }
     }
 }

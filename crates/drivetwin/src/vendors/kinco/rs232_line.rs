@@ -27,6 +27,14 @@ use crate::serial::line::LineProtocol;
 use crate::serial::wire::Wire;
 use crate::serial::LineDrives;
 
+/// U2BRG (2FE1h) as a line follows it: the code it had last, and the codes of the first
+/// drive's device file (`serial_bit_rate`).
+#[derive(Debug, Clone, Copy)]
+pub struct U2brg {
+    pub code: u64,
+    pub codes: &'static od::SerialBitRateCodes,
+}
+
 /// How the drives of a telegram line are wired.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Topology {
@@ -51,7 +59,7 @@ pub struct TelegramLine {
     topology: Topology,
     cutter: TelegramCutter,
     /// Follow U2BRG (2FE1h) of the first drive: the RS232 port's own rate.
-    follow_u2brg: Option<u64>,
+    follow_u2brg: Option<U2brg>,
     partial: u32,
     /// Scratch: what one drive of a ring passes to the next.
     hop: Vec<u8>,
@@ -60,7 +68,7 @@ pub struct TelegramLine {
 
 impl TelegramLine {
     /// `ports`: each drive with its codec (station, ring flag at power-up).
-    pub fn new(ports: Vec<(OnBus, KincoRs232)>, topology: Topology, u2brg: Option<u64>) -> Self {
+    pub fn new(ports: Vec<(OnBus, KincoRs232)>, topology: Topology, u2brg: Option<U2brg>) -> Self {
         TelegramLine {
             ports,
             topology,
@@ -149,16 +157,16 @@ impl TelegramLine {
             }
         }
         if let (Some(last), Some((on_bus, _))) = (self.follow_u2brg, self.ports.first()) {
-            let mut code = last;
+            let mut code = last.code;
             drives.access(*on_bus, at, &mut |od| {
                 let mut b = [0u8; 2];
                 if od.read(0x2FE1, 0, &mut b).is_ok() {
                     code = u64::from(u16::from_le_bytes(b));
                 }
             });
-            if code != last {
-                self.follow_u2brg = Some(code);
-                match baud_of_code(code) {
+            if code != last.code {
+                self.follow_u2brg = Some(U2brg { code, ..last });
+                match baud_of_code(last.codes, code) {
                     Some(baud) => {
                         tracing::info!(code, baud, "RS232: U2BRG applied");
                         wire.set_baud(baud);
@@ -213,7 +221,17 @@ mod tests {
             Rig {
                 drives: Dictionaries::fd3(stations),
                 wire: Wire::new(baud),
-                line: TelegramLine::new(ports, topology, u2brg),
+                line: TelegramLine::new(
+                    ports,
+                    topology,
+                    u2brg.map(|code| U2brg {
+                        code,
+                        codes: devices::KINCO_FD3
+                            .serial_bit_rate
+                            .as_ref()
+                            .expect("the FD3's serial_bit_rate"),
+                    }),
+                ),
             }
         }
 

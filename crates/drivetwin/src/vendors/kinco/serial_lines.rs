@@ -18,7 +18,7 @@ use drive::vendors::kinco::rs232::KincoRs232;
 use drive::vendors::kinco::rtu::RegisterMapping;
 
 use super::baud_of_code;
-use super::rs232_line::{TelegramLine, Topology};
+use super::rs232_line::{TelegramLine, Topology, U2brg};
 use super::rtu_line::{RtuDrive, RtuLine};
 use crate::cell::can_segment::CanSegment;
 use crate::cell::station::Station;
@@ -123,11 +123,14 @@ fn line_protocols<'a>(
                 Kind::Rs485 => (0x2FE2, 540),
             };
             let c = code(d, index, 0, default);
-            baud_of_code(c).ok_or(SetupError::Baud {
-                kind: kind.as_str(),
-                node: d.node_id(),
-                code: c,
-            })
+            let codes = d.od().description().serial_bit_rate.as_ref();
+            codes
+                .and_then(|codes| baud_of_code(codes, c))
+                .ok_or(SetupError::Baud {
+                    kind: kind.as_str(),
+                    node: d.node_id(),
+                    code: c,
+                })
         };
         let Some(&(_, first)) = drives.first() else {
             continue;
@@ -172,7 +175,15 @@ fn line_protocols<'a>(
                 .collect();
             let topology = if ring { Topology::Ring } else { Topology::Bus };
             let u2brg = (kind == Kind::Rs232)
-                .then(|| on_line.first().map(|(_, d)| code(d, 0x2FE1, 0, 270)))
+                .then(|| {
+                    on_line.first().and_then(|(_, d)| {
+                        let codes = d.od().description().serial_bit_rate.as_ref()?;
+                        Some(U2brg {
+                            code: code(d, 0x2FE1, 0, 270),
+                            codes,
+                        })
+                    })
+                })
                 .flatten();
             Box::new(TelegramLine::new(ports, topology, u2brg)) as Protocol
         } else {

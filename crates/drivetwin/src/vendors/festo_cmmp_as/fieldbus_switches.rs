@@ -1,7 +1,10 @@
 //! How a CMMP-AS finds its CANopen node number, bit rate, data profile and whether CAN is on
 //! at all (CMMP-AS manual §2.3–2.4): the DIP block S1 of an M3's CAN module, or on an M0 the
 //! digital inputs DIN0…DIN3, DIN8, DIN9, DIN12, DIN13, each added to the FCT base address.
-//! Pure rules, no I/O: the cell file gives the switch positions and input levels.
+//! Pure rules, no I/O: the cell file gives the switch positions and input levels; what they
+//! select is the runtime's [`FieldbusSettings`].
+
+use crate::cell::config::{FieldbusProfile as Profile, FieldbusSettings};
 
 /// CAN bit rates the switches select, kbit/s, by the two-bit code (DIP6/DIP7, DIN12/DIN13;
 /// manual Tab. 2.4, 2.8): OFF/OFF, ON/OFF, OFF/ON, ON/ON.
@@ -9,23 +12,6 @@ pub const BIT_RATES_KBIT: [u16; 4] = [125, 250, 500, 1000];
 
 /// Highest CANopen node number; a larger base + offset is clamped to it (§2.3.1).
 const MAX_NODE: u8 = 127;
-
-/// The data profile on the bus (M0: DIN9, Tab. 2.9).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Profile {
-    Cia402,
-    Fhpp,
-}
-
-/// What the drive uses on CAN.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FieldbusSettings {
-    pub node_id: u8,
-    pub bit_rate_kbit: u16,
-    pub profile: Profile,
-    /// CANopen activated (M3: DIP8; M0: DIN8 or FCT).
-    pub can_active: bool,
-}
 
 fn bit_rate(low: bool, high: bool) -> u16 {
     let [r00, r01, r10, r11] = BIT_RATES_KBIT;
