@@ -3,7 +3,7 @@
 #![no_main]
 
 use drivetwin::cell::config::CellFile;
-use drivetwin::ecat::chain::EthercatCell;
+use drivetwin::ecat::chain::SlaveChain;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -14,5 +14,5 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let _ = file.drives(drivetwin::vendors::VENDORS);
-    let _ = EthercatCell::from_cell_file(&file, drivetwin::vendors::VENDORS);
+    let _ = SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS);
 });

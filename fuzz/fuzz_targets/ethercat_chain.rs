@@ -4,15 +4,15 @@
 #![no_main]
 
 use drivetwin::cell::config::CellFile;
-use drivetwin::ecat::chain::EthercatCell;
+use drivetwin::ecat::chain::SlaveChain;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
 use od::Instant;
 
-fn cell() -> Option<EthercatCell> {
+fn cell() -> Option<SlaveChain> {
     let mut specs = CellFile::single("cmmp-as", 1).drives(drivetwin::vendors::VENDORS).ok()?;
     specs.extend(CellFile::single("cmmp-as", 2).drives(drivetwin::vendors::VENDORS).ok()?);
-    EthercatCell::new(specs).ok()
+    SlaveChain::new(specs).ok()
 }
 
 fn run(u: &mut Unstructured) -> Result<()> {

@@ -796,3 +796,31 @@ fn coe_save_that_cannot_write_is_aborted_0800_0020() {
     assert_eq!(coe_upload(&mut m, 2, 0x1018, 1)[0], 0x43);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A cell file's EDS drive on a chain is a slave with that description, its SII built.
+#[test]
+fn a_chain_of_eds_drives() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-eds-ecat-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cell = dir.join("cell.toml");
+    let eds = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/epos4_like.eds");
+    let drive = |n| {
+        format!(
+            "[[drive]]\neds = \"{}\"\nnode = {n}\ninterfaces = [\"ethercat\"]\n",
+            eds.display()
+        )
+    };
+    std::fs::write(&cell, format!("{}{}", drive(1), drive(2))).unwrap();
+    let file = drivetwin::cell::config::CellFile::load(&cell).unwrap();
+    let chain = SlaveChain::from_cell_file(&file, drivetwin::cell::Vendors::NONE).unwrap();
+    assert_eq!(chain.len(), 2);
+    let desc = chain.device(1).unwrap().description();
+    assert!(desc.object(0x1C12).is_some());
+    assert_eq!(desc.vendor_id, 0xFB);
+    assert!(
+        chain.model(1).unwrap().drive().is_some(),
+        "a CiA 402 drive behind it"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

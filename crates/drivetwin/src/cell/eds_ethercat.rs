@@ -322,35 +322,6 @@ mod tests {
         ));
     }
 
-    /// A cell file's EDS drive on a chain is a slave with that description, its SII built.
-    #[test]
-    fn a_chain_of_eds_drives() {
-        let dir = std::env::temp_dir().join(format!("drivetwin-eds-ecat-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let cell = dir.join("cell.toml");
-        let eds = data("epos4_like.eds");
-        let drive = |n| {
-            format!(
-                "[[drive]]\neds = \"{}\"\nnode = {n}\ninterfaces = [\"ethercat\"]\n",
-                eds.display()
-            )
-        };
-        std::fs::write(&cell, format!("{}{}", drive(1), drive(2))).unwrap();
-        let file = crate::cell::config::CellFile::load(&cell).unwrap();
-        let chain =
-            crate::ecat::chain::SlaveChain::from_cell_file(&file, crate::cell::Vendors::NONE)
-                .unwrap();
-        assert_eq!(chain.len(), 2);
-        let desc = chain.device(1).unwrap().description();
-        assert!(desc.object(0x1C12).is_some());
-        assert_eq!(desc.vendor_id, 0xFB);
-        assert!(
-            chain.model(1).unwrap().drive().is_some(),
-            "a CiA 402 drive behind it"
-        );
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-
     /// What keeps a file off EtherCAT is named.
     #[test]
     fn unsupported_files_are_refused() {
