@@ -319,7 +319,7 @@ pub mod binary_place {
         true
     }
 
-    /// The address and the length [`write`] put into `place`.
+    /// The address and the length [`write()`] put into `place`.
     pub fn read(place: &[u8]) -> Option<(usize, usize)> {
         let address = place
             .get(..WORD)?
