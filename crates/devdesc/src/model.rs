@@ -282,6 +282,40 @@ pub struct Ent {
     pub modbus: Option<u16>,
 }
 
+impl Ent {
+    /// A plain entry: no PDO mapping, limits, unit, storage or panel; its capacity the
+    /// type's size (one byte for a variable-size type).
+    pub fn plain(
+        index: u16,
+        sub: u8,
+        name: String,
+        data_type: DataType,
+        access: Access,
+        default: Vec<u8>,
+    ) -> Ent {
+        Ent {
+            index,
+            sub,
+            name,
+            data_type,
+            access,
+            pdo: false,
+            default,
+            default_plus_node_id: false,
+            min: None,
+            max: None,
+            unit: String::new(),
+            behaviour: Behaviour::Plain,
+            storable: false,
+            kept_on_restore: false,
+            allowed_bits: None,
+            capacity: data_type.fixed_size().map_or(1, |n| n as u32),
+            panel: Vec::new(),
+            modbus: None,
+        }
+    }
+}
+
 pub fn load_file(path: &Path) -> Result<Device, DescError> {
     let text = std::fs::read_to_string(path).map_err(|source| DescError::Io {
         path: path.display().to_string(),
@@ -554,26 +588,14 @@ fn object(o: &ObjectSection) -> Result<Obj, DescError> {
         if entries.first().map(|e| e.sub) != Some(0) {
             entries.insert(
                 0,
-                Ent {
-                    index: o.index,
-                    sub: 0,
-                    name: "highest_sub_index_supported".into(),
-                    data_type: DataType::Unsigned8,
-                    access: Access::ReadOnly,
-                    pdo: false,
-                    default: vec![highest],
-                    default_plus_node_id: false,
-                    min: None,
-                    max: None,
-                    unit: String::new(),
-                    behaviour: Behaviour::Plain,
-                    storable: false,
-                    kept_on_restore: false,
-                    allowed_bits: None,
-                    capacity: 1,
-                    panel: Vec::new(),
-                    modbus: None,
-                },
+                Ent::plain(
+                    o.index,
+                    0,
+                    "highest_sub_index_supported".into(),
+                    DataType::Unsigned8,
+                    Access::ReadOnly,
+                    vec![highest],
+                ),
             );
         } else if entries.len() == 1 {
             return Err(DescError::Object {

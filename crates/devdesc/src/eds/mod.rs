@@ -594,26 +594,14 @@ fn compact(
         })?;
     let names = ini.section(&format!("{index:04X}Name"));
     let values = ini.section(&format!("{index:04X}Value"));
-    let mut entries = vec![Ent {
+    let mut entries = vec![Ent::plain(
         index,
-        sub: 0,
-        name: "Number of entries".into(),
-        data_type: DataType::Unsigned8,
-        access: Access::ReadOnly,
-        pdo: false,
-        default: vec![n],
-        default_plus_node_id: false,
-        min: None,
-        max: None,
-        unit: String::new(),
-        behaviour: Behaviour::Plain,
-        storable: false,
-        kept_on_restore: false,
-        allowed_bits: None,
-        capacity: 1,
-        panel: Vec::new(),
-        modbus: None,
-    }];
+        0,
+        "Number of entries".into(),
+        DataType::Unsigned8,
+        Access::ReadOnly,
+        vec![n],
+    )];
     for sub in 1..=n {
         let key = sub.to_string();
         let sub_name = names

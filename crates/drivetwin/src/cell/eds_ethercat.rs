@@ -20,7 +20,7 @@
 //! direction than an assignment object can list.
 
 use devdesc::model::{Device, Ent, Obj};
-use od::{Access, Behaviour, DataType, Limit, ObjectKind};
+use od::{Access, DataType, Limit, ObjectKind};
 
 /// What keeps an EDS drive off EtherCAT.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -152,26 +152,7 @@ fn entry(
     access: Access,
     default: Vec<u8>,
 ) -> Ent {
-    Ent {
-        index,
-        sub,
-        name,
-        data_type,
-        access,
-        pdo: false,
-        default,
-        default_plus_node_id: false,
-        min: None,
-        max: None,
-        unit: String::new(),
-        behaviour: Behaviour::Plain,
-        storable: false,
-        kept_on_restore: false,
-        allowed_bits: None,
-        capacity: data_type.fixed_size().map_or(1, |n| n as u32),
-        panel: Vec::new(),
-        modbus: None,
-    }
+    Ent::plain(index, sub, name, data_type, access, default)
 }
 
 /// 1C00h sync manager communication types (ETG.1000.6 Table 67): mailbox out, mailbox in,
