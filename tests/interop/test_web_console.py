@@ -96,6 +96,82 @@ def test_parameter_written_in_the_page_reads_back_over_sdo_and_the_scope_moves(
                     f"6041h {node.sdo[0x6041].raw:#06x}")
 
 
+# Counts the frames the page asks for, and records every change of the page outside the
+# scope's plot (a MutationObserver), from `window.watchPage()` on.
+WATCH_PAGE = """
+(() => {
+  const raf = window.requestAnimationFrame.bind(window);
+  window.framesAsked = 0;
+  window.requestAnimationFrame = (f) => { window.framesAsked += 1; return raf(f); };
+  window.watchPage = () => {
+    window.framesAsked = 0;
+    window.pageChanges = [];
+    const where = (n) => {
+      const e = n.nodeType === 1 ? n : n.parentElement;
+      return e ? (e.id ? `#${e.id}` : `${e.tagName.toLowerCase()}.${e.className.baseVal ?? e.className}`
+                  + (e.closest("[id]") ? ` in #${e.closest("[id]").id}` : "")) : "?";
+    };
+    if (window.pageWatch) window.pageWatch.disconnect();
+    window.pageWatch = new MutationObserver((ms) => {
+      for (const m of ms) {
+        const n = m.target.nodeType === 1 ? m.target : m.target.parentElement;
+        if (n && n.closest("#scope-plot")) continue;
+        window.pageChanges.push(`${m.type} ${m.attributeName ?? ""} ${where(m.target)}`);
+      }
+    }).observe(document.body, { subtree: true, childList: true, characterData: true, attributes: true });
+  };
+})();
+"""
+
+
+def test_a_page_at_rest_writes_nothing_and_asks_for_no_frame(launch, browser):
+    """A drive at rest answers the same view every second: its page writes no text and
+    rebuilds no table (each write makes the browser lay out and paint the page again), and with
+    the scope paused it asks for no animation frame at all. The cell page's rows and texts
+    stay as they are too (only a sparkline still filling its window is drawn)."""
+    twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
+    page = browser.new_page()
+    page.add_init_script(WATCH_PAGE)
+
+    # The cell page: rows built once, texts written only when they change.
+    page.goto(console_url(twin))
+    page.wait_for_function("/inc$/.test(document.querySelector(\"#cell-table tr[data-drive='0'] td.position .num\")"
+                           "?.textContent ?? '')")
+    page.wait_for_selector("#wire-faults li")
+    page.wait_for_timeout(1200)
+    page.evaluate("window.watchPage()")
+    page.wait_for_timeout(3200)
+    changes = [c for c in page.evaluate("window.pageChanges") if c != "attributes points polyline. in #cell-table"]
+    assert changes == [], changes
+
+    # The drive's page.
+    page.goto(console_url(twin) + "#drive/0")
+    page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
+    page.wait_for_selector("#params tr[data-key='6083:00']")
+    page.wait_for_function("window.consoleState.samples.length > 20")
+    assert page.text_content("#state") == "SWITCH ON DISABLED"
+
+    # Live scope: nothing outside the plot changes over three refreshes of the page.
+    page.wait_for_timeout(500)
+    page.evaluate("window.watchPage()")
+    page.wait_for_timeout(3200)
+    assert page.evaluate("window.pageChanges") == []
+    assert page.evaluate("window.framesAsked") > 0, "the live scope draws its samples"
+
+    # Paused: no frame asked for, nothing written.
+    page.click("#pause")
+    page.wait_for_timeout(500)
+    page.evaluate("window.watchPage()")
+    page.wait_for_timeout(3200)
+    assert page.evaluate("window.pageChanges") == []
+    assert page.evaluate("window.framesAsked") == 0
+
+    # A change is still shown: Enable, and the state and its bits are drawn.
+    page.click("#enable")
+    page.wait_for_function("document.querySelector('#state').textContent === 'OPERATION ENABLED'")
+    assert "bit-on" in (page.get_attribute("#status-bits tr[data-bit='6041h.2']", "class") or "")
+
+
 def test_a_refused_write_shows_the_sdo_abort_text(launch, browser):
     twin = launch("cmmp-as", 1, extra=("--http", "127.0.0.1:0"))
     page = browser.new_page()

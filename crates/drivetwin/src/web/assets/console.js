@@ -1,6 +1,11 @@
 // The drivetwin web console: the cell's drives (overview.js), a drive's state and statusword
 // bit by bit, its parameters with edit, export and import (parameters.js), enable / disable,
 // and a scope of position, velocity and current (scope.js, on uPlot) fed by the live WebSocket.
+//
+// The page is refreshed once a second, but a text is written only when it changes and a
+// frame is asked for only when there is something to draw: each write, even of the same
+// text, makes the browser lay out and paint the page again, and a tab left open on a drive at
+// rest should cost the machine its cell runs on nothing.
 "use strict";
 
 const token = new URLSearchParams(location.search).get("token");
@@ -16,6 +21,42 @@ function el(tag, attrs = {}, ...children) {
   }
   for (const c of children) e.append(c instanceof Node ? c : document.createTextNode(c ?? ""));
   return e;
+}
+
+// An element's text, class and hidden flag, written only when they differ.
+function setText(e, text) {
+  if (e.textContent !== text) e.textContent = text;
+}
+function setClass(e, name) {
+  if (e.className !== name) e.className = name;
+}
+function setHidden(e, hidden) {
+  if (e.hidden !== hidden) e.hidden = hidden;
+}
+
+// A container's children, built again only when what they show (`key`) changed.
+const shownKeys = new WeakMap();
+function replaceIfChanged(e, key, build) {
+  if (shownKeys.get(e) === key) return;
+  shownKeys.set(e, key);
+  e.replaceChildren(...build());
+}
+
+// Drawing in the next frame, asked for only when something is to be drawn: `later(key, f)`
+// runs `f` in the next animation frame, once however often it was asked for with `key` (the
+// last `f` given wins).
+const drawQueue = new Map();
+let drawFrame = false;
+function later(key, f) {
+  drawQueue.set(key, f);
+  if (drawFrame) return;
+  drawFrame = true;
+  requestAnimationFrame(() => {
+    drawFrame = false;
+    const due = [...drawQueue.values()];
+    drawQueue.clear();
+    for (const g of due) g();
+  });
 }
 
 async function api(method, path, body) {
@@ -45,8 +86,8 @@ function showWhy(sel, e) {
 
 function say(text, error = false) {
   const m = $("#message");
-  m.textContent = text;
-  m.className = error ? "error" : "";
+  setText(m, text);
+  setClass(m, error ? "error" : "");
 }
 
 // ---------------------------------------------------------------------------------- cell
@@ -54,42 +95,54 @@ function say(text, error = false) {
 async function loadCell() {
   try {
     consoleState.drives = await api("GET", "/api/drives");
-    $("#connection").textContent = "";
+    setText($("#connection"), "");
   } catch (e) {
-    $("#connection").textContent = `no answer: ${e.message}`;
+    setText($("#connection"), `no answer: ${e.message}`);
     return;
   }
-  const nav = $("#drives");
-  nav.replaceChildren(...consoleState.drives.map((d) =>
-    el("a", { href: `#drive/${d.index}`, class: "drive-link" + (d.index === consoleState.drive ? " current" : ""),
-              "data-drive": String(d.index) }, `${d.index}: ${d.device}`)));
+  const links = consoleState.drives.map((d) => [d.index, d.device]);
+  replaceIfChanged($("#drives"), JSON.stringify([links, consoleState.drive]), () => links.map(([index, device]) =>
+    el("a", { href: `#drive/${index}`, class: "drive-link" + (index === consoleState.drive ? " current" : ""),
+              "data-drive": String(index) }, `${index}: ${device}`)));
   // The overview (overview.js) while the cell page is shown.
   if (consoleState.drive === null) await window.overview.refresh(api, consoleState.drives);
 }
 
 // --------------------------------------------------------------------------------- drive
 
+// The drive's view is drawn in the next frame, and only when it differs from the one shown
+// (a drive at rest answers the same view each second).
+let viewShown = null;
 function showDrive(view) {
   const d = consoleState.drives.find((x) => x.index === view.drive) || {};
-  $("#drive-title").textContent = `Drive ${view.drive}: ${d.product ?? ""} (${d.device ?? ""}, ${view.profile})`;
+  const title = `Drive ${view.drive}: ${d.product ?? ""} (${d.device ?? ""}, ${view.profile})`;
+  const key = JSON.stringify([title, view, token]);
+  if (key === viewShown) return;
+  viewShown = key;
+  later("view", () => drawDrive(view, title));
+}
+
+function drawDrive(view, title) {
+  setText($("#drive-title"), title);
   const state = $("#state");
-  state.textContent = view.state;
-  state.className = "state" + (view.state.startsWith("FAULT") ? " fault" : "");
+  setText(state, view.state);
+  setClass(state, "state" + (view.state.startsWith("FAULT") ? " fault" : ""));
   const hex = (v, n) => "0x" + v.toString(16).toUpperCase().padStart(n, "0");
-  $("#statusword").textContent = view.profile === "cia402" ? `6041h = ${hex(view.word, 4)}`
-    : `SCON = ${hex(view.word & 0xFF, 2)} SPOS = ${hex(view.word >> 8, 2)}`;
+  setText($("#statusword"), view.profile === "cia402" ? `6041h = ${hex(view.word, 4)}`
+    : `SCON = ${hex(view.word & 0xFF, 2)} SPOS = ${hex(view.word >> 8, 2)}`);
   // A drive without a display (null) shows none.
-  $("#display").textContent = view.display ?? "";
-  $("#display-shown").hidden = view.display == null;
-  $("#web-server-link").hidden = view.profile !== "fhpp";
-  $("#web-server").href = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
-  $("#active-error").textContent = view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none";
-  $("#active-error").className = view.active_error ? "fault" : "muted";
-  $("#device-control").textContent = view.device_control ? `device control: ${view.device_control}` : "";
-  $("#status-bits tbody").replaceChildren(...view.bits.map((b) =>
+  setText($("#display"), view.display ?? "");
+  setHidden($("#display-shown"), view.display == null);
+  setHidden($("#web-server-link"), view.profile !== "fhpp");
+  const server = `/cmmo-st/${view.drive}` + (token ? `?token=${token}` : "");
+  if ($("#web-server").getAttribute("href") !== server) $("#web-server").setAttribute("href", server);
+  setText($("#active-error"), view.active_error ? `${view.active_error.code} ${view.active_error.text}` : "none");
+  setClass($("#active-error"), view.active_error ? "fault" : "muted");
+  setText($("#device-control"), view.device_control ? `device control: ${view.device_control}` : "");
+  replaceIfChanged($("#status-bits tbody"), JSON.stringify(view.bits), () => view.bits.map((b) =>
     el("tr", { class: b.set ? "bit-on" : "", "data-bit": `${b.word}.${b.bit}` }, el("td", {}, b.word),
        el("td", {}, String(b.bit)), el("td", {}, b.set ? "1" : "0"), el("td", {}, b.name))));
-  $("#history tbody").replaceChildren(...view.history.map((h, i) =>
+  replaceIfChanged($("#history tbody"), JSON.stringify(view.history), () => view.history.map((h, i) =>
     el("tr", {}, el("td", {}, String(i + 1)), el("td", { class: "mono" }, h.code), el("td", {}, h.text),
        el("td", {}, h.event ?? ""), el("td", {}, h.time_ms == null ? "" : String(h.time_ms)))));
 }
@@ -117,10 +170,10 @@ async function refreshDrive() {
 
 // The Kinco LED panel (GET /api/drives/N/panel; a drive without one answers 404).
 function showPanel(p) {
-  $("#kinco-panel").hidden = !p;
+  setHidden($("#kinco-panel"), !p);
   if (!p) return;
-  $("#panel-digits").textContent = p.text;
-  $("#panel-blink").textContent = p.blink === "steady" ? "" : `(blinking: ${p.blink})`;
+  setText($("#panel-digits"), p.text);
+  setText($("#panel-blink"), p.blink === "steady" ? "" : `(blinking: ${p.blink})`);
 }
 async function refreshPanel() {
   const drive = consoleState.drive;
@@ -190,7 +243,7 @@ $("#set-inputs").addEventListener("click", async () => {
   } catch (e) { say(e.message, true); }
 });
 function showPlant(p) {
-  $("#din").textContent = p.digital_inputs == null ? "–" : "0x" + p.digital_inputs.toString(16).toUpperCase().padStart(8, "0");
+  setText($("#din"), p.digital_inputs == null ? "–" : "0x" + p.digital_inputs.toString(16).toUpperCase().padStart(8, "0"));
 }
 async function refreshPlant() {
   if (consoleState.drive === null) return;

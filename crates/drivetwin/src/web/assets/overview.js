@@ -6,6 +6,10 @@
 // (/api/drives/N/samples) at a low rate: the samples the cell loop already queues for the
 // console, never a request of their own. State and error come from the motion view, the
 // buses' load and the faults from the REST API, once a second while the page is shown.
+//
+// As on the drive's page (console.js: setText, replaceIfChanged, later), a text is written
+// only when it changes, the rows are built again only when the drives change, and the live
+// cells are drawn in a frame asked for only when a batch of samples came.
 "use strict";
 
 (function () {
@@ -45,19 +49,26 @@
     return v == null ? "–" : Number(v).toFixed(digits);
   }
 
-  // A sparkline: the last SPARK_S seconds of one signal as an SVG polyline.
-  function sparkline(points, key) {
-    const svg = el("svg", { class: "spark", width: String(W), height: String(H), viewBox: `0 0 ${W} ${H}`,
-                            "data-signal": key });
+  // A sparkline: the last SPARK_S seconds of one signal as the points of an SVG polyline.
+  function sparkPoints(points, key) {
     const pts = points.filter((p) => p[key] != null);
-    if (pts.length < 2) return svg;
+    if (pts.length < 2) return "";
     const t1 = pts[pts.length - 1].t, t0 = t1 - SPARK_S;
     let lo = Infinity, hi = -Infinity;
     for (const p of pts) { lo = Math.min(lo, p[key]); hi = Math.max(hi, p[key]); }
     if (hi - lo < 1e-9) { hi += 1; lo -= 1; }
     const xy = pts.map((p) => `${((p.t - t0) / SPARK_S * W).toFixed(1)},${(H - 2 - (p[key] - lo) / (hi - lo) * (H - 4)).toFixed(1)}`);
-    svg.append(el("polyline", { points: xy.join(" "), fill: "none", "stroke-width": "1.5" }));
-    return svg;
+    return xy.join(" ");
+  }
+
+  function sparkline(key) {
+    return el("svg", { class: "spark", width: String(W), height: String(H), viewBox: `0 0 ${W} ${H}`, "data-signal": key },
+      el("polyline", { points: "", fill: "none", "stroke-width": "1.5" }));
+  }
+
+  // A live cell: its number and its sparkline, made once with the row.
+  function liveCell(key) {
+    return el("td", { class: key }, el("span", { class: "num" }, "–"), " ", sparkline(key));
   }
 
   function connect(d) {
@@ -77,7 +88,7 @@
       while (cut < s.length && last.t - s[cut].t > SPARK_S) cut++;
       if (cut) s.splice(0, cut);
       overview.samples.set(d.index, s);
-      drawLive(d.index);
+      if (batch.samples.length) later(`overview ${d.index}`, () => drawLive(d.index));
     };
     overview.sockets.set(d.index, ws);
   }
@@ -86,32 +97,42 @@
   function drawLive(index) {
     const row = q(`#cell-table tr[data-drive='${index}']`);
     const s = overview.samples.get(index);
-    if (!row || !s || !s.length) return;
+    if (!overview.shown || !row || !s || !s.length) return;
     const last = s[s.length - 1];
     const d = overview.drives.find((x) => x.index === index) || {};
     const posUnit = d.profile === "fhpp" ? "SI" : "inc";
-    row.querySelector("td.mode").textContent = d.profile === "cia402" ? modeName(last.mode) : "–";
-    row.querySelector("td.position").replaceChildren(
-      el("span", { class: "num" }, `${fmt(last.position, d.profile === "fhpp" ? 4 : 0)} ${posUnit}`), " ", sparkline(s, "position"));
-    row.querySelector("td.velocity").replaceChildren(
-      el("span", { class: "num" }, last.velocity == null ? "–" : `${fmt(last.velocity, 0)} rpm`), " ", sparkline(s, "velocity"));
+    setText(row.querySelector("td.mode"), d.profile === "cia402" ? modeName(last.mode) : "–");
+    setText(row.querySelector("td.position .num"), `${fmt(last.position, d.profile === "fhpp" ? 4 : 0)} ${posUnit}`);
+    setText(row.querySelector("td.velocity .num"), last.velocity == null ? "–" : `${fmt(last.velocity, 0)} rpm`);
+    for (const key of ["position", "velocity"]) {
+      const line = row.querySelector(`td.${key} polyline`);
+      const points = sparkPoints(s, key);
+      if (line.getAttribute("points") !== points) line.setAttribute("points", points);
+    }
   }
 
-  // The table's rows: one per drive, its state and error from the motion view.
+  // The table's rows: one per drive, built again only when the drives change; its state,
+  // display and error from the motion view, written where they changed.
   function drawRows(drives, views) {
-    q("#cell-table tbody").replaceChildren(...drives.map((d, i) => {
-      const v = views[i];
-      const state = v ? v.state : (d.state ?? "–");
-      const err = v && v.active_error ? `${v.active_error.code} ${v.active_error.text}` : "";
-      return el("tr", { "data-drive": String(d.index) },
+    const body = q("#cell-table tbody");
+    const built = drives.map((d) => [d.index, d.device, d.product, d.interface, d.node]);
+    replaceIfChanged(body, JSON.stringify(built), () => drives.map((d) =>
+      el("tr", { "data-drive": String(d.index) },
         el("td", {}, String(d.index)), el("td", {}, el("a", { href: `#drive/${d.index}` }, d.device)), el("td", {}, d.product),
         el("td", {}, d.interface + (d.node != null ? ` node ${d.node}` : "")),
-        el("td", { class: "state" + (state.startsWith("FAULT") ? " fault" : "") }, state),
-        el("td", { class: "mode" }, "–"), el("td", { class: "position" }, "–"), el("td", { class: "velocity" }, "–"),
-        el("td", { class: "mono" }, (v && v.display) ?? d.display ?? ""),
-        el("td", { class: "error fault" }, err));
-    }));
-    for (const d of drives) drawLive(d.index);
+        el("td", { class: "state" }, "–"), el("td", { class: "mode" }, "–"), liveCell("position"), liveCell("velocity"),
+        el("td", { class: "mono display" }, ""), el("td", { class: "error fault" }, ""))));
+    drives.forEach((d, i) => {
+      const row = body.children[i];
+      const v = views[i];
+      const state = v ? v.state : (d.state ?? "–");
+      const cell = row.querySelector("td.state");
+      setText(cell, state);
+      setClass(cell, "state" + (state.startsWith("FAULT") ? " fault" : ""));
+      setText(row.querySelector("td.display"), (v && v.display) ?? d.display ?? "");
+      setText(row.querySelector("td.error"), v && v.active_error ? `${v.active_error.code} ${v.active_error.text}` : "");
+      drawLive(d.index);
+    });
   }
 
   function faultText(f) {
@@ -128,20 +149,20 @@
   // buses, the Modbus servers of its Modbus drives (in cell order) and its EtherCAT chain.
   async function drawWire(api, drives) {
     const buses = await api("GET", "/api/buses").catch(() => []);
-    q("#bus-load").replaceChildren(...(buses.length ? buses.map((b) =>
-      el("span", { class: "bus", "data-bus": String(b.index) },
-        `bus ${b.index}: ` + (b.bitrate == null ? "instant"
-          : `${b.bitrate / 1000} kbit/s, load ${fmt(b.load_percent, 1)} %`)
-        + (b.late ? `, ${b.late} late` : "") + (b.dropped ? `, ${b.dropped} dropped` : "")))
+    const loads = buses.map((b) => [b.index, `bus ${b.index}: ` + (b.bitrate == null ? "instant"
+      : `${b.bitrate / 1000} kbit/s, load ${fmt(b.load_percent, 1)} %`)
+      + (b.late ? `, ${b.late} late` : "") + (b.dropped ? `, ${b.dropped} dropped` : "")]);
+    replaceIfChanged(q("#bus-load"), JSON.stringify(loads), () => (loads.length
+      ? loads.map(([index, text]) => el("span", { class: "bus", "data-bus": String(index) }, text))
       : [el("span", { class: "muted" }, "no CAN bus")]));
     const fronts = buses.map((b) => ["bus", b.index]);
     drives.filter((d) => d.interface === "modbus-tcp").forEach((d, k) => fronts.push(["modbus", k]));
     if (drives.some((d) => d.interface === "ethercat")) fronts.push(["ethercat", 0]);
     const lists = await Promise.all(fronts.map(([kind, n]) =>
       api("GET", `/api/wire/${kind}/${n}/faults`).then((f) => f.map((x) => [kind, n, x])).catch(() => [])));
-    const faults = lists.flat();
-    q("#wire-faults").replaceChildren(...(faults.length ? faults.map(([kind, n, f]) =>
-      el("li", { class: "fault", "data-front": `${kind}/${n}`, "data-fault": String(f.id) }, `${kind} ${n}: ${faultText(f)}`))
+    const faults = lists.flat().map(([kind, n, f]) => [`${kind}/${n}`, String(f.id), `${kind} ${n}: ${faultText(f)}`]);
+    replaceIfChanged(q("#wire-faults"), JSON.stringify(faults), () => (faults.length
+      ? faults.map(([front, id, text]) => el("li", { class: "fault", "data-front": front, "data-fault": id }, text))
       : [el("li", { class: "muted" }, "none")]));
   }
 
