@@ -89,6 +89,10 @@ def test_the_overview_follows_a_move_and_shows_bus_load_and_wire_faults(launch, 
     points = page.get_attribute("#cell-table tr[data-drive='0'] td.position svg polyline", "points")
     ys = [float(xy.split(",")[1]) for xy in points.split()]
     assert len(ys) > 20 and ys[-1] < ys[0], points
+    # The velocity's sparkline has the move's bump: from rest, up to its peak, back.
+    points = page.get_attribute("#cell-table tr[data-drive='0'] td.velocity svg polyline", "points")
+    ys = [float(xy.split(",")[1]) for xy in points.split()]
+    assert len(ys) > 20 and min(ys) < ys[0] - 10 and min(ys) < ys[-1] - 10, points
     page.wait_for_timeout(300)
     shot(page, "console-overview.png")
 
@@ -117,6 +121,10 @@ def test_the_parameter_table_filters_marks_exports_and_imports(launch, node_of, 
     assert shown("1018:01") and not shown("6083:00")
     page.select_option("#filter-group", "")
     assert row.locator("td.default").text_content() == "10000"
+    # Units and ranges from the device file: 6083h in accel units; 2073h in µs, 1000 … 50000.
+    assert row.locator("td").nth(6).text_content() == "accel units"
+    cells = page.locator("#params tr[data-key='2073:00'] td")
+    assert [cells.nth(i).text_content() for i in (6, 7, 8, 9)] == ["us", "1000", "50000", "20000"]
 
     # The differs-from-default mark appears after a write from the page.
     assert row.get_attribute("data-differs") == "0"

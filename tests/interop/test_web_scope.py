@@ -252,3 +252,97 @@ def test_positions_in_user_units_and_a_trigger_on_the_paused_buffer(launch, brow
     if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
         page.wait_for_timeout(300)
         page.locator("#scope-panel").screenshot(path=str(DOCS / "console-scope-user-units.png"))
+
+
+def test_eight_traces_torque_in_percent_of_rated_torque_and_the_pan_and_zoom_buttons(launch, browser, tmp_path):  # noqa: F811
+    """Eight traces of two drives on one time base, among them the CMMP-AS's torque: 6077h in
+    ‰ of the rated torque 6076h (cmmp-as-3 §3.6), drawn in % on an axis of its own; a ninth
+    trace is refused. The torque the scope holds is the endpoint's 6077h over ten at each
+    sample of a move. Paused, the zoom and pan buttons and the wheel move the time axis by
+    their steps, and Follow comes back to the newest samples."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
+    url = console_url(twin)
+    page = browser.new_page()
+    page.set_viewport_size({"width": 1400, "height": 1000})
+    frames: dict[int, list[dict]] = {0: [], 1: []}
+
+    def on_socket(ws):
+        if "/samples" in ws.url:
+            ws.on("framereceived", lambda payload: (
+                lambda b: frames.setdefault(b["drive"], []).extend(b["samples"]))(json.loads(payload)))
+    page.on("websocket", on_socket)
+    page.goto(url + "#drive/0")
+    page.wait_for_function("window.scope.plot && window.scope.traces.length === 4")
+
+    def add(drive: int, signal: str) -> None:
+        page.select_option("#trace-drive", str(drive))
+        page.fill("#trace-signal", signal)
+        page.click("#trace-add")
+
+    add(0, "torque")
+    page.wait_for_selector("#trace-list [data-trace='torque']")
+    for drive, signal, trace_id in ((1, "position", "d1.position"), (1, "velocity", "d1.velocity"),
+                                    (1, "6041:0", "d1.6041:00")):
+        add(drive, signal)
+        page.wait_for_selector(f"#trace-list [data-trace='{trace_id}']")
+    assert page.evaluate("window.scope.traces.length") == 8
+    chips = page.text_content("#trace-list")
+    assert "0: torque [% rated torque]" in chips, chips
+    labels = [a["label"] for a in page.evaluate("window.scope.axes()")]
+    assert "% rated torque" in labels, labels
+
+    # The ninth is refused, and the eight stay.
+    add(1, "current")
+    page.wait_for_function("document.querySelector('#message').textContent === 'at most 8 traces'")
+    assert page.get_attribute("#message", "class") == "error"
+    assert page.evaluate("window.scope.traces.length") == 8
+
+    # A move of the CMMP-AS: its torque rises while it accelerates.
+    post(url + "api/drives/0/motion/enable")
+    wait_until(lambda: get(url + "api/drives/0/motion")["state"] == "OPERATION ENABLED", 5.0, what="enabled")
+    post(url + "api/drives/0/motion/move", {"target": 20000, "relative": True})
+    page.wait_for_function("window.scope.buffers.get(0).some((p) => p.objects && p.objects['6077:00'])",
+                           timeout=10000)
+    page.wait_for_timeout(500)
+    page.click("#pause")
+    # Paused, the page takes no sample; the frames still arriving are handed to this test while
+    # it waits in the browser.
+    page.wait_for_timeout(500)
+    torque = page.evaluate("""(() => {
+        const s = window.scope, t = s.traces.find((x) => x.signal === '6077:00');
+        return s.buffers.get(0).map((p) => [p.t, t.get(p)]); })()""")
+    by_t = {p["t"]: p for p in frames[0]}
+    checked = 0
+    for t, value in torque:
+        sent = (by_t[t].get("objects") or {}).get("6077:00")
+        if value is None:
+            assert sent is None, (t, sent)
+            continue
+        assert abs(value - sent / 10) < 1e-9, (t, value, sent)
+        checked += value != 0
+    assert checked > 0, "a torque other than 0 in the scope"
+    # Drive 1's traces are on the same clock: its samples sit between drive 0's first and last.
+    t0 = page.evaluate("window.scope.buffers.get(0).map((p) => p.t)")
+    t1 = page.evaluate("window.scope.buffers.get(1).map((p) => p.t)")
+    assert t1 and t0[0] - 0.1 <= t1[-1] <= t0[-1] + 0.1, (t0[0], t0[-1], t1[-1])
+
+    # Zoom in, pan left, the wheel zooms out, Follow: the time axis moves by the buttons' steps.
+    def span() -> tuple[float, float]:
+        return tuple(page.evaluate("[window.scope.plot.scales.x.min, window.scope.plot.scales.x.max]"))
+
+    lo, hi = span()
+    page.click("#scope-zoom-in")
+    width = "window.scope.plot.scales.x.max - window.scope.plot.scales.x.min"
+    page.wait_for_function(f"Math.abs({width} - {(hi - lo) / 2}) < 1e-6")
+    lo, hi = span()
+    page.click("#scope-left")
+    page.wait_for_function(f"Math.abs(window.scope.plot.scales.x.min - {lo - (hi - lo) / 4}) < 1e-6")
+    lo, hi = span()
+    box = page.locator("#scope-plot .u-over").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    page.mouse.wheel(0, 100)
+    page.wait_for_function(f"Math.abs({width} - {(hi - lo) * 1.25}) < 1e-6")
+    page.click("#scope-follow")
+    page.wait_for_function("window.scope.view === null")

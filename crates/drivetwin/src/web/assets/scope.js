@@ -67,13 +67,31 @@
       return { id: id ?? traceId(drive, signal), drive, signal, label: `${drive}: ${p.name}`,
                unit: p.unit(kind), get: (s) => (s[signal] == null ? null : s[signal] * f) };
     }
+    if (signal === "torque") return torqueTrace(drive, id);
     const key = keyOf(signal);
-    if (!key) throw new Error(`${signal}: position, velocity, current or an object index:sub in hex (6077:0)`);
+    if (!key) throw new Error(`${signal}: position, velocity, current, torque or an object index:sub in hex (6077:0)`);
     const [i, sub] = key.split(":");
     const o = await api("GET", `/api/drives/${drive}/objects/${i}/${parseInt(sub, 16).toString(16)}`);
     return { id: id ?? traceId(drive, key), drive, signal: key, object: true,
              label: `${drive}: ${o.name} (${i}h:${sub})`, unit: o.unit || "",
              get: (s) => (s.objects && s.objects[key] != null ? s.objects[key] : null) };
+  }
+
+  // A drive's torque in % of its rated torque: 6077h torque actual value, in thousandths of
+  // the motor's rated torque 6076h (the CMMP-AS manual's torque objects, cmmp-as-3 §3.6; its
+  // device file's unit "1/1000 rated torque"), shown divided by ten. A 6077h with another
+  // unit is shown in that unit.
+  async function torqueTrace(drive, id) {
+    let o;
+    try { o = await api("GET", `/api/drives/${drive}/objects/6077/0`); } catch (e) {
+      throw new Error(`torque: drive ${drive} has no 6077h torque actual value`);
+    }
+    const key = "6077:00";
+    const perMille = /^1\/1000 rated torque$/.test(o.unit || "");
+    const f = perMille ? 0.1 : 1;
+    return { id: id ?? traceId(drive, "torque"), drive, signal: key, object: true, plant: "torque",
+             label: `${drive}: torque`, unit: perMille ? "% rated torque" : (o.unit || ""),
+             get: (s) => (s.objects && s.objects[key] != null ? s.objects[key] * f : null) };
   }
 
   // A drive's position in its user units: 6064h position actual value, which the drive
