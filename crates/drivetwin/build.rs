@@ -35,6 +35,7 @@ fn main() {
 
     if !dist.join(SCRIPT).exists() && web.join("package-lock.json").exists() && npm_allowed() {
         install(&web);
+        date_as_lock(&web, &[dist.join(SCRIPT), dist.join(STYLE)]);
     }
     let embedded = copy(&dist.join(SCRIPT), &out.join(SCRIPT), MISSING_SCRIPT)
         & copy(&dist.join(STYLE), &out.join(STYLE), MISSING_STYLE);
@@ -57,6 +58,25 @@ fn install(web: &Path) {
         .status();
     if !matches!(status, Ok(s) if s.success()) {
         println!("cargo:warning=`npm ci` in web/ failed; the console's scope is built without its library");
+    }
+}
+
+/// Dates the files `npm ci` just wrote as the lock file they come from. Written while this
+/// script runs, they would be newer than its run, and cargo would take them for a change made
+/// after the build: the next build would run the script and compile the crate again.
+fn date_as_lock(web: &Path, files: &[PathBuf]) {
+    let Ok(lock) = std::fs::metadata(web.join("package-lock.json")).and_then(|m| m.modified())
+    else {
+        return;
+    };
+    for f in files {
+        if let Err(e) = std::fs::File::options()
+            .write(true)
+            .open(f)
+            .and_then(|file| file.set_modified(lock))
+        {
+            println!("cargo:warning=cannot date {}: {e}", f.display());
+        }
     }
 }
 
