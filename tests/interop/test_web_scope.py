@@ -252,6 +252,14 @@ def test_positions_in_user_units_and_a_trigger_on_the_paused_buffer(launch, brow
     if os.environ.get("DRIVETWIN_SCREENSHOTS") == "1":
         page.wait_for_timeout(300)
         page.locator("#scope-panel").screenshot(path=str(DOCS / "console-scope-user-units.png"))
+    # The edge counts: falling through the same level, the forward move has no crossing among
+    # the held samples; either edge finds the rising one again.
+    page.select_option("#trig-edge", "falling")
+    page.wait_for_function("document.querySelector('#trig-status').textContent === 'no crossing in the held samples'")
+    assert page.evaluate("window.consoleState.capture") is None
+    page.select_option("#trig-edge", "either")
+    page.wait_for_function("window.consoleState.capture !== null")
+    assert page.evaluate("window.consoleState.capture.at") == crossing
 
 
 def test_eight_traces_torque_in_percent_of_rated_torque_and_the_pan_and_zoom_buttons(launch, browser, tmp_path):  # noqa: F811
