@@ -20,18 +20,18 @@ impl CellLoop {
                 }
                 Command::Buses(reply) => {
                     let t = self.now(now);
+                    let stations = &self.stations;
                     let buses = self
                         .buses
                         .iter_mut()
                         .enumerate()
                         .map(|(index, b)| BusInfo {
                             index,
-                            drives: b.segment.stations.len(),
+                            drives: b.segment.members().len(),
                             timing: b.segment.bus_figures(t),
                             node_errors: b
                                 .segment
-                                .stations
-                                .iter()
+                                .stations(stations)
                                 .zip(b.segment.node_faults())
                                 .filter(|(_, f)| f.confinement.counters() != (0, 0))
                                 .map(|(d, f)| {
@@ -50,8 +50,9 @@ impl CellLoop {
                     reply,
                 } => {
                     let segment = self.buses.get_mut(bus).map(|b| &mut b.segment);
+                    let stations = &self.stations;
                     let at = segment.and_then(|c| {
-                        let i = c.stations.iter().position(|d| d.node_id() == node)?;
+                        let i = c.stations(stations).position(|d| d.node_id() == node)?;
                         Some(c.disturb(i, frames))
                     });
                     let _ = reply.send(match at {
@@ -334,7 +335,7 @@ impl CellLoop {
         let can = self
             .buses
             .iter()
-            .flat_map(|b| b.segment.stations.iter())
+            .flat_map(|b| b.segment.stations(&self.stations))
             .map(|d| {
                 let desc = d.od().description();
                 (desc, Interface::CanOpen { node: d.node_id() })
@@ -368,10 +369,11 @@ impl CellLoop {
     /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
         let mut rest = drive;
-        for bus in &mut self.buses {
-            let n = bus.segment.stations.len();
+        for bus in &self.buses {
+            let n = bus.segment.members().len();
             if rest < n {
-                return match bus.segment.stations.get_mut(rest) {
+                let id = bus.segment.member(rest);
+                return match id.and_then(|id| self.stations.station_mut(id)) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),
                 };
