@@ -9,7 +9,7 @@ use mio::{Events, Token};
 use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
 use crate::cell::link::{At, FrontLink};
 use crate::cell::station::Station;
-use crate::cell::stations::Stations;
+use crate::cell::stations::{StationId, Stations};
 use crate::cell::wire_faults::Verdict;
 use crate::cell::OnBus;
 use crate::ecat::chain::BusDrives;
@@ -24,6 +24,10 @@ pub(super) struct Buses<'a> {
 impl BusDrives for Buses<'_> {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
         let id = self.buses.get(at.bus)?.segment.member(at.drive)?;
+        self.stations.station_mut(id)
+    }
+
+    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
         self.stations.station_mut(id)
     }
 }

@@ -344,11 +344,13 @@ impl CellLoop {
             .modbus
             .iter()
             .map(|m| (m.description(), Interface::ModbusTcp));
+        let stations = &self.stations;
         let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
             (0..c.chain.len()).filter_map(move |position| {
-                c.chain.model(position).map(|m| {
+                let id = c.chain.own_station(position)?;
+                stations.station(id).map(|s| {
                     (
-                        m.od().description(),
+                        s.od().description(),
                         Interface::Ethercat { chain, position },
                     )
                 })
@@ -385,21 +387,21 @@ impl CellLoop {
             return Ok(Target::Modbus(m.device_mut()));
         }
         rest -= modbus;
-        for c in &mut self.chains {
+        for c in &self.chains {
             // Only the chain's own drives: a shared one is listed with its bus.
             let own = |c: &ChainState| {
                 (0..c.chain.len())
-                    .filter(|&i| c.chain.model(i).is_some())
+                    .filter(|&i| c.chain.own_station(i).is_some())
                     .count()
             };
             let n = own(c);
             if rest < n {
-                let i = (0..c.chain.len())
-                    .filter(|&i| c.chain.model(i).is_some())
+                let id = (0..c.chain.len())
+                    .filter_map(|i| c.chain.own_station(i))
                     .nth(rest);
-                return i
-                    .and_then(|i| c.chain.model_mut(i))
-                    .map(Target::Can)
+                return id
+                    .and_then(|id| self.stations.station_mut(id))
+                    .map(|s| Target::Can(&mut s.model))
                     .ok_or(ControlError::NoDrive(drive));
             }
             rest -= n;

@@ -243,8 +243,8 @@ pub struct CellLoop {
     /// How late the loop serves due timers.
     lateness: Arc<crate::cell::lateness::Lateness>,
     buses: Vec<BusState>,
-    /// Every station of the cell: the buses' (in bus order) and the EtherCAT chains' shared
-    /// ones, which the chains name by bus and segment order.
+    /// Every station of the cell: the buses' (in bus order), then the EtherCAT chains' own
+    /// (in chain and wire order). The buses and the chains name them by id.
     stations: Stations,
     /// The cell clock's zero.
     origin: Instant,
@@ -422,6 +422,15 @@ impl CellLoop {
                 "{} EtherCAT chains: a cell has at most {MAX_CHAINS}",
                 front.ethercat.len()
             )));
+        }
+        for chain in &mut front.ethercat {
+            // The chain's own drives join the cell's list, and its slaves name every drive
+            // by id there.
+            chain.chain.join(&mut stations, |at| {
+                buses
+                    .get(at.bus)
+                    .and_then(|b: &BusState| b.segment.member(at.drive))
+            });
         }
         for (c, chain) in front.ethercat.iter().enumerate() {
             use std::os::fd::AsRawFd;
@@ -695,12 +704,12 @@ impl CellLoop {
             .collect())
     }
 
-    /// Why a drive's load FMU stopped the cell, once one has: on a CAN bus or a drive of a
-    /// chain's own.
+    /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
+    /// CAN bus or a chain's own).
     fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
-        self.buses
+        self.stations
             .iter()
-            .find_map(|b| b.segment.load_failure(&self.stations))
+            .find_map(|d| d.model.drive()?.load_failure())
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
     }
 
