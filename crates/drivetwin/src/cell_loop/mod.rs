@@ -8,7 +8,7 @@
 //!
 //! The loop is the cell's CAN bus as well: a frame from a socketcand client reaches the drives,
 //! the SocketCAN interface, the trace and every other client in RAW mode; a frame of a drive
-//! reaches the other stations of its segment (`CanSegment::deliver`), the interface, the trace and every client.
+//! reaches the other stations of its segment (`SegmentBus::deliver`), the interface, the trace and every client.
 //!
 //! The loop is the cell's EtherCAT segments as well: a frame from a master on a chain's
 //! network interface passes the chain's slaves in order and goes back out at once; a slave
