@@ -15,6 +15,7 @@ use super::bus_timing::{BusFigures, BusTiming, OUTSIDE};
 use super::fault_injector::FaultInjector;
 use super::link::{Addressed, At, Link, Wire};
 use super::station::Station;
+use super::stations::{StationId, Stations};
 use super::wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError};
 
 /// A frame on the segment as its link sees it: the frame, the station that sent it (segment
@@ -39,10 +40,20 @@ impl Addressed for SegmentFrame {
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
-/// One simulated CAN bus: its stations (each with its CANopen node) and the bus between them.
+/// One simulated CAN bus with its stations (each with its CANopen node): a cell of one bus, as
+/// the virtual clock and the tests run it. In the cell loop the stations join the cell's list
+/// ([`Stations`]) and the bus ([`SegmentBus`]) names them by id.
 pub struct CanSegment {
     /// The stations on the bus, in segment order.
-    pub stations: Vec<Station>,
+    pub stations: Stations,
+    bus: SegmentBus,
+}
+
+/// The bus of a CAN segment: the stations on it, named by id in the cell's [`Stations`], and
+/// the model between them (arbitration, each station's CAN controller, the wire's faults).
+pub struct SegmentBus {
+    /// The stations on the bus, in segment order.
+    members: Vec<StationId>,
     queue: VecDeque<(CanFrame, Option<usize>)>,
     /// The bus's bit time; none: frames cross at once (the instant bus).
     timing: Option<Box<BusTiming>>,
@@ -76,18 +87,154 @@ enum Attempt {
 }
 
 impl CanSegment {
+    pub fn new(drives: Vec<Station>) -> Self {
+        let stations = Stations::from(drives);
+        let bus = SegmentBus::new(stations.ids().collect());
+        CanSegment { stations, bus }
+    }
+
+    /// The stations and the bus that names them (segment order is the stations' order).
+    pub fn into_parts(self) -> (Stations, SegmentBus) {
+        (self.stations, self.bus)
+    }
+
+    /// The bus of a cell's segment with its stations taken out of the cell's list: the
+    /// segment as it was before it joined the cell ([`SegmentBus::join`]). A station
+    /// already taken (or not in the list) is left out.
+    pub fn gather(mut bus: SegmentBus, cell: &mut [Option<Station>]) -> Self {
+        let mut stations = Stations::new();
+        for id in &mut bus.members {
+            if let Some(s) = cell.get_mut(id.index()).and_then(Option::take) {
+                *id = stations.push(s);
+            }
+        }
+        CanSegment { stations, bus }
+    }
+
     /// Why a drive's load FMU stopped the cell, once one has (the first such drive's error):
     /// every runner (`drivetwin run`, `--virtual-seconds`, a scenario) stops with it.
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
-        self.stations
-            .iter()
-            .find_map(|d| d.model.drive()?.load_failure())
+        self.bus.load_failure(&self.stations)
     }
 
-    pub fn new(drives: Vec<Station>) -> Self {
-        let faults = vec![NodeFaults::default(); drives.len()];
-        CanSegment {
-            stations: drives,
+    /// The bus between the stations.
+    pub fn bus(&self) -> &SegmentBus {
+        &self.bus
+    }
+
+    /// The bus between the stations, to change its faults and plans.
+    pub fn bus_mut(&mut self) -> &mut SegmentBus {
+        &mut self.bus
+    }
+
+    /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
+    /// than `late_after` for it counts as late.
+    pub fn with_bitrate(mut self, bitrate: u32, late_after: std::time::Duration) -> Self {
+        self.bus = self.bus.with_bitrate(bitrate, late_after);
+        self
+    }
+
+    /// The bus's bit rate, if it has one (`bitrate` on its `[[bus]]`).
+    pub fn timed_bitrate(&self) -> Option<u32> {
+        self.bus.timed_bitrate()
+    }
+
+    /// The bus's figures as of `now` (none on the instant bus).
+    pub fn bus_figures(&mut self, now: Instant) -> Option<BusFigures> {
+        self.bus.bus_figures(now)
+    }
+
+    /// See [`SegmentBus::disturb`].
+    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
+        self.bus.disturb(drive, frames)
+    }
+
+    /// Plans [`disturb`](Self::disturb) of the drive with node-ID `node` at `at`.
+    pub fn plan_disturbance(&mut self, at: Instant, node: u8, frames: u32) {
+        self.bus.plan_disturbance(at, node, frames);
+    }
+
+    /// Starts a fault on the bus's wire at `now` ([`super::wire_faults`]); its id.
+    pub fn add_wire_fault(
+        &mut self,
+        now: Instant,
+        fault: WireFault,
+    ) -> Result<u32, WireFaultError> {
+        self.bus.add_wire_fault(now, fault)
+    }
+
+    /// Ends wire fault `id`.
+    pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
+        self.bus.remove_wire_fault(id)
+    }
+
+    /// Ends every wire fault; frames already delayed still arrive.
+    pub fn clear_wire_faults(&mut self) {
+        self.bus.clear_wire_faults();
+    }
+
+    /// The wire faults active at `now`.
+    pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
+        self.bus.wire_faults(now)
+    }
+
+    /// Each station's CAN controller, in segment order.
+    pub fn node_faults(&self) -> &[NodeFaults] {
+        self.bus.node_faults()
+    }
+
+    /// Boots every drive; the boot-up messages go to `out`.
+    pub fn boot(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+        self.bus.boot(&mut self.stations, now, out);
+    }
+
+    /// See [`SegmentBus::on_frame`].
+    pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut Vec<CanFrame>) {
+        self.bus.on_frame(&mut self.stations, now, frame, out);
+    }
+
+    /// See [`SegmentBus::local_access`].
+    pub fn local_access(
+        &mut self,
+        drive: usize,
+        now: Instant,
+        out: &mut Vec<CanFrame>,
+        f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
+    ) {
+        self.bus
+            .local_access(&mut self.stations, drive, now, out, f);
+    }
+
+    /// Runs the drives' timers; returns the next deadline.
+    pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
+        self.bus.poll(&mut self.stations, now, out)
+    }
+
+    pub fn deadline(&self) -> Option<Instant> {
+        self.bus.deadline(&self.stations)
+    }
+
+    /// The bus's bit rate (without one, 1 Mbit/s: the fastest CAN bus).
+    pub fn bitrate(&self) -> u32 {
+        self.bus.bitrate()
+    }
+}
+
+/// Station `i` (segment order) of `members` in `stations`.
+fn member<'a>(
+    stations: &'a mut Stations,
+    members: &[StationId],
+    i: usize,
+) -> Option<&'a mut Station> {
+    stations.station_mut(*members.get(i)?)
+}
+
+impl SegmentBus {
+    /// The bus between `members` (segment order), without a bit rate.
+    pub fn new(members: Vec<StationId>) -> Self {
+        let faults = vec![NodeFaults::default(); members.len()];
+        SegmentBus {
+            members,
             queue: VecDeque::new(),
             timing: None,
             faults,
@@ -95,6 +242,52 @@ impl CanSegment {
             planned_diagnostics: Vec::new(),
             link: FaultInjector::default(),
         }
+    }
+
+    /// The bus, whose stations `own` were its own list, joins a cell: the stations move to
+    /// the end of `cell` in segment order, and the bus names them by their ids there.
+    pub fn join(mut self, own: Stations, cell: &mut Stations) -> Self {
+        let mut moved: Vec<Option<StationId>> = Vec::with_capacity(own.len());
+        for s in own.into_vec() {
+            moved.push(Some(cell.push(s)));
+        }
+        for id in &mut self.members {
+            if let Some(new) = moved.get(id.index()).copied().flatten() {
+                *id = new;
+            }
+        }
+        self
+    }
+
+    /// The stations on the bus, in segment order.
+    pub fn members(&self) -> &[StationId] {
+        &self.members
+    }
+
+    /// The id of station `drive` (segment order).
+    pub fn member(&self, drive: usize) -> Option<StationId> {
+        self.members.get(drive).copied()
+    }
+
+    /// The segment order of station `id`, if it is on this bus.
+    pub fn position(&self, id: StationId) -> Option<usize> {
+        self.members.iter().position(|m| *m == id)
+    }
+
+    /// The bus's stations in `stations`, in segment order.
+    pub fn stations<'a>(&'a self, stations: &'a Stations) -> impl Iterator<Item = &'a Station> {
+        self.members.iter().filter_map(|id| stations.station(*id))
+    }
+
+    /// Why a drive's load FMU stopped the cell, once one has (the first such drive's error).
+    pub fn load_failure<'a>(
+        &self,
+        stations: &'a Stations,
+    ) -> Option<&'a crate::cosim::FmuLoadError> {
+        self.members
+            .iter()
+            .filter_map(|id| stations.station(*id))
+            .find_map(|d| d.model.drive()?.load_failure())
     }
 
     /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
@@ -161,76 +354,86 @@ impl CanSegment {
         &self.faults
     }
 
-    /// Boots every drive; the boot-up messages go to `out`.
-    pub fn boot(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    /// Boots every drive of the bus; the boot-up messages go to `out`.
+    pub fn boot(&mut self, stations: &mut Stations, now: Instant, out: &mut Vec<CanFrame>) {
         self.fit_faults();
-        let CanSegment {
-            stations: drives,
-            queue,
-            ..
-        } = self;
-        for (i, d) in drives.iter_mut().enumerate() {
-            d.boot(now, &mut |f| queue.push_back((f, Some(i))));
+        let SegmentBus { members, queue, .. } = self;
+        for (i, id) in members.iter().enumerate() {
+            if let Some(d) = stations.station_mut(*id) {
+                d.boot(now, &mut |f| queue.push_back((f, Some(i))));
+            }
         }
-        self.deliver(now, out);
+        self.deliver(stations, now, out);
     }
 
     /// A frame from the bus (not from one of this segment's stations). With a bit rate it enters
     /// the arbitration now and reaches the drives when it has crossed the bus.
-    pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut Vec<CanFrame>) {
+    pub fn on_frame(
+        &mut self,
+        stations: &mut Stations,
+        now: Instant,
+        frame: &CanFrame,
+        out: &mut Vec<CanFrame>,
+    ) {
         if let Some(t) = self.timing.as_mut() {
             t.submit(now, OUTSIDE, *frame);
-            self.deliver(now, out);
+            self.deliver(stations, now, out);
             return;
         }
-        self.attempt(None, frame, now, out, true);
-        self.deliver(now, out);
+        self.attempt(stations, None, frame, now, out, true);
+        self.deliver(stations, now, out);
     }
 
-    /// A local interface (a serial port, a terminal) of station `drive` (segment order) reaches its objects
-    /// at `now` through `f`; the frames the drive sends meanwhile go to `out`.
+    /// A local interface (a serial port, a terminal) of station `drive` (segment order)
+    /// reaches its objects at `now` through `f`; the frames the drive sends meanwhile go to
+    /// `out`.
     pub fn local_access(
         &mut self,
+        stations: &mut Stations,
         drive: usize,
         now: Instant,
         out: &mut Vec<CanFrame>,
         f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
     ) {
-        let CanSegment {
-            stations: drives,
-            queue,
-            ..
-        } = self;
-        let Some(d) = drives.get_mut(drive) else {
+        let SegmentBus { members, queue, .. } = self;
+        let Some(d) = member(stations, members, drive) else {
             return;
         };
         d.local_access(now, &mut |fr| queue.push_back((fr, Some(drive))), f);
-        self.deliver(now, out);
+        self.deliver(stations, now, out);
     }
 
     /// Runs the drives' timers; returns the next deadline.
-    pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
+    pub fn poll(
+        &mut self,
+        stations: &mut Stations,
+        now: Instant,
+        out: &mut Vec<CanFrame>,
+    ) -> Option<Instant> {
         self.fit_faults();
-        self.start_planned(now);
-        self.start_planned_diagnostics(now);
-        self.release_delayed(now, out);
-        let CanSegment {
-            stations: drives,
+        self.start_planned(stations, now);
+        self.start_planned_diagnostics(stations, now);
+        self.release_delayed(stations, now, out);
+        let SegmentBus {
+            members,
             queue,
             faults,
             ..
         } = self;
-        for (i, (d, f)) in drives.iter_mut().zip(faults.iter_mut()).enumerate() {
+        for (i, (id, f)) in members.iter().zip(faults.iter_mut()).enumerate() {
+            let Some(d) = stations.station_mut(*id) else {
+                continue;
+            };
             if let Some(t) = f.confinement.poll(now) {
                 d.can_state_changed(now, t, &mut |f| queue.push_back((f, Some(i))));
             }
             d.poll(now, &mut |f| queue.push_back((f, Some(i))));
         }
-        self.deliver(now, out);
-        self.deadline()
+        self.deliver(stations, now, out);
+        self.deadline(stations)
     }
 
-    pub fn deadline(&self) -> Option<Instant> {
+    pub fn deadline(&self, stations: &Stations) -> Option<Instant> {
         let bus = self.timing.as_ref().and_then(|t| t.deadline());
         let planned = earliest(
             self.planned.iter().map(|(t, _, _)| *t).min(),
@@ -242,29 +445,28 @@ impl CanSegment {
             .iter()
             .filter_map(|f| f.confinement.deadline())
             .min();
-        self.stations
-            .iter()
+        self.stations(stations)
             .fold(earliest(earliest(bus, planned), recovery), |acc, d| {
                 earliest(acc, d.deadline())
             })
     }
 
-    /// A station added after the segment was made gets its controller.
+    /// A station added after the bus was made gets its controller.
     fn fit_faults(&mut self) {
         self.faults
-            .resize(self.stations.len(), NodeFaults::default());
+            .resize(self.members.len(), NodeFaults::default());
     }
 
     /// Delayed frames due by `now` arrive (they have had their fault; on a timed bus they
     /// do not queue for the bus again).
-    fn release_delayed(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    fn release_delayed(&mut self, stations: &mut Stations, now: Instant, out: &mut Vec<CanFrame>) {
         while let Some((at, f)) = self.link.release(now) {
-            while self.attempt(f.origin, &f.frame, at, out, false) == Attempt::Failed {}
+            while self.attempt(stations, f.origin, &f.frame, at, out, false) == Attempt::Failed {}
         }
-        self.deliver(now, out);
+        self.deliver(stations, now, out);
     }
 
-    fn start_planned(&mut self, now: Instant) {
+    fn start_planned(&mut self, stations: &Stations, now: Instant) {
         let mut i = 0;
         while let Some(&(at, node, frames)) = self.planned.get(i) {
             if at > now {
@@ -272,7 +474,11 @@ impl CanSegment {
                 continue;
             }
             self.planned.swap_remove(i);
-            match self.stations.iter().position(|d| d.node_id() == node) {
+            let on_bus = self
+                .members
+                .iter()
+                .position(|id| stations.station(*id).is_some_and(|d| d.node_id() == node));
+            match on_bus {
                 Some(d) => {
                     self.disturb(d, frames);
                 }
@@ -290,14 +496,14 @@ impl CanSegment {
 
     /// Sends queued frames to the bus and to every other station of the segment, in order; with a
     /// bit rate, they enter the arbitration and go out as they cross the bus.
-    fn deliver(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    fn deliver(&mut self, stations: &mut Stations, now: Instant, out: &mut Vec<CanFrame>) {
         if self.timing.is_some() {
-            self.cross(now, out);
+            self.cross(stations, now, out);
             return;
         }
         while let Some((frame, origin)) = self.queue.pop_front() {
             // A failed frame is sent again at once, until it passes or its node is off.
-            while self.attempt(origin, &frame, now, out, true) == Attempt::Failed {}
+            while self.attempt(stations, origin, &frame, now, out, true) == Attempt::Failed {}
         }
     }
 
@@ -305,11 +511,11 @@ impl CanSegment {
     /// crossed by `now` goes out (a drive's) and to the other drives at its end of frame,
     /// whose answers enter the arbitration then. A failed frame tries again after its error
     /// frame.
-    fn cross(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
+    fn cross(&mut self, stations: &mut Stations, now: Instant, out: &mut Vec<CanFrame>) {
         self.submit_queue(now);
         while let Some(tx) = self.timing.as_mut().and_then(|t| t.poll(now)) {
             let origin = (tx.source != OUTSIDE).then_some(usize::from(tx.source));
-            if self.attempt(origin, &tx.frame, tx.end, out, true) == Attempt::Failed {
+            if self.attempt(stations, origin, &tx.frame, tx.end, out, true) == Attempt::Failed {
                 let bitrate = self.bitrate();
                 let again = Instant::from_nanos(
                     tx.end.as_nanos() + bits_to_nanos(ERROR_FRAME_BITS, bitrate),
@@ -324,7 +530,7 @@ impl CanSegment {
 
     /// The drives' frames enter the arbitration at `at`; a node off the bus sends nothing.
     fn submit_queue(&mut self, at: Instant) {
-        let CanSegment {
+        let SegmentBus {
             queue,
             timing,
             faults,
@@ -350,6 +556,7 @@ impl CanSegment {
     /// `judge`, the wire's faults decide first what becomes of the frame.
     fn attempt(
         &mut self,
+        stations: &mut Stations,
         origin: Option<usize>,
         frame: &CanFrame,
         at: Instant,
@@ -357,7 +564,10 @@ impl CanSegment {
         judge: bool,
     ) -> Attempt {
         let bitrate = self.bitrate();
-        let sender = match origin.and_then(|i| self.stations.get(i)) {
+        let sender = match origin
+            .and_then(|i| self.members.get(i))
+            .and_then(|id| stations.station(*id))
+        {
             Some(d) => Sender::Node(d.node_id()),
             None => Sender::Outside,
         };
@@ -376,39 +586,40 @@ impl CanSegment {
             // Decision: a frame of a node whose cable is cut, or dropped, is simply not on
             // the bus; the node's controller is not made to count missing acknowledgements.
             Verdict::Lost => return Attempt::Dropped,
-            // Held by the link until its time ([`CanSegment::release_delayed`]).
+            // Held by the link until its time ([`SegmentBus::release_delayed`]).
             Verdict::Delay(_) => return Attempt::Delivered,
         }
         let corrupt = verdict == Verdict::Corrupt;
-        let CanSegment {
-            stations: drives,
+        let SegmentBus {
+            members,
             queue,
             faults,
             link,
             ..
         } = self;
+        let members: &[StationId] = members;
         if corrupt && origin.is_none() {
             // ISO 11898-1: every receiver sees the CRC fail and counts it; the outside
             // sender's own retransmission is its host's, not simulated: the frame is lost.
-            for j in 0..drives.len() {
-                let node = drives.get(j).map_or(0, |d| d.node_id());
+            for j in 0..members.len() {
+                let node = member(stations, members, j).map_or(0, |d| d.node_id());
                 if link.cut_off(at, Sender::Node(node)) {
                     continue;
                 }
                 let t = faults
                     .get_mut(j)
                     .and_then(|f| f.confinement.receive_error());
-                if let (Some(t), Some(d)) = (t, drives.get_mut(j)) {
+                if let (Some(t), Some(d)) = (t, member(stations, members, j)) {
                     d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(j))));
                 }
             }
             return Attempt::Dropped;
         }
-        let react = |drives: &mut Vec<Station>,
+        let react = |stations: &mut Stations,
                      queue: &mut VecDeque<(CanFrame, Option<usize>)>,
                      i: usize,
                      t: Option<Transition>| {
-            if let (Some(t), Some(d)) = (t, drives.get_mut(i)) {
+            if let (Some(t), Some(d)) = (t, member(stations, members, i)) {
                 d.can_state_changed(at, t, &mut |f| queue.push_back((f, Some(i))));
             }
         };
@@ -424,13 +635,13 @@ impl CanSegment {
                     f.disturb -= 1;
                 }
                 let t = f.confinement.transmit_error(at, bitrate);
-                react(drives, queue, i, t);
+                react(stations, queue, i, t);
                 for j in 0..faults.len() {
                     if j != i {
                         let t = faults
                             .get_mut(j)
                             .and_then(|f| f.confinement.receive_error());
-                        react(drives, queue, j, t);
+                        react(stations, queue, j, t);
                     }
                 }
                 let on_bus = faults.get(i).is_some_and(|f| f.confinement.on_bus());
@@ -441,16 +652,16 @@ impl CanSegment {
                 };
             }
             let t = f.confinement.transmit_ok();
-            react(drives, queue, i, t);
+            react(stations, queue, i, t);
             if !link.cut_off(at, Sender::Outside) {
                 out.push(*frame);
             }
         }
-        for j in 0..drives.len() {
+        for j in 0..members.len() {
             if Some(j) == origin {
                 continue;
             }
-            let node = drives.get(j).map_or(0, |d| d.node_id());
+            let node = member(stations, members, j).map_or(0, |d| d.node_id());
             if link.cut_off(at, Sender::Node(node)) {
                 continue;
             }
@@ -461,8 +672,8 @@ impl CanSegment {
                 continue;
             }
             let t = f.confinement.receive_ok();
-            react(drives, queue, j, t);
-            if let Some(d) = drives.get_mut(j) {
+            react(stations, queue, j, t);
+            if let Some(d) = member(stations, members, j) {
                 d.on_can_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
             }
         }

@@ -7,9 +7,10 @@ use drive::drive::diagnostics::{emcy_code, DiagnosticError};
 use od::{Diagnostic, Instant};
 use serde::Deserialize;
 
-use super::can_segment::CanSegment;
+use super::can_segment::{CanSegment, SegmentBus};
 use super::control::ControlError;
 use super::device_model::Model;
+use super::stations::Stations;
 
 /// One message of a drive's table and whether it is active now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -176,6 +177,25 @@ impl CanSegment {
     /// Plans [`CanSegment::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
     /// file's `[[drive.diagnostic]]`).
     pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
+        self.bus_mut().plan_diagnostic(at, drive, planned);
+    }
+
+    /// Plans a change of drive `drive`'s plant physics at `at` (the cell file's
+    /// `[[drive.plant]]` and `[drive.thermal]`).
+    pub fn plan_physics(
+        &mut self,
+        at: Instant,
+        drive: usize,
+        change: super::control::PhysicsChange,
+    ) {
+        self.bus_mut().plan_physics(at, drive, change);
+    }
+}
+
+impl SegmentBus {
+    /// Plans raising (or clearing) a diagnostic message of drive `drive` (segment order) at
+    /// `at` (the cell file's `[[drive.diagnostic]]`).
+    pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
         self.planned_diagnostics
             .push((at, drive, Planned::Diagnostic(planned)));
     }
@@ -193,7 +213,7 @@ impl CanSegment {
     }
 
     /// Carries out the planned messages that are due.
-    pub(super) fn start_planned_diagnostics(&mut self, now: Instant) {
+    pub(super) fn start_planned_diagnostics(&mut self, stations: &mut Stations, now: Instant) {
         let mut i = 0;
         while let Some((at, _, _)) = self.planned_diagnostics.get(i) {
             if *at > now {
@@ -201,21 +221,19 @@ impl CanSegment {
                 continue;
             }
             let (_, drive, p) = self.planned_diagnostics.remove(i);
+            let station = self.member(drive).and_then(|id| stations.station_mut(id));
             match p {
                 Planned::Diagnostic(p) => {
-                    let done = match p.action {
-                        Action::Raise => self.raise_diagnostic(drive, &p.number),
-                        Action::Clear => self.clear_diagnostic(drive, &p.number),
+                    let done = match station {
+                        Some(d) => set_model(&mut d.model, &p.number, p.action).map_err(refused),
+                        None => Err(ControlError::NoDrive(drive)),
                     };
                     if let Err(e) = done {
                         tracing::warn!(drive, number = %p.number, "planned diagnostic: {e}");
                     }
                 }
                 Planned::Physics(change) => {
-                    let d = self
-                        .stations
-                        .get_mut(drive)
-                        .and_then(|d| d.model.drive_mut());
+                    let d = station.and_then(|d| d.model.drive_mut());
                     let done = match d {
                         Some(d) => super::control::apply_physics(d, change).map(|_| ()),
                         None => Err("no simulated plant"),

@@ -1,6 +1,9 @@
 //! The runtime: a cell is the stations of one process and the buses between them, stepped on
-//! one clock. A station ([`station::Station`]) is one drive with all its front ends; a CAN
-//! bus is a [`can_segment::CanSegment`], the stations on it and the bus model.
+//! one clock. A station ([`station::Station`]) is one drive with all its front ends; the cell
+//! holds its stations in one list ([`stations::Stations`]) and a CAN bus
+//! ([`can_segment::SegmentBus`]) names the stations on it by [`stations::StationId`]. A
+//! [`can_segment::CanSegment`] is one bus with stations of its own: a cell of one bus, as the
+//! virtual clock runs it, and what a bus brings when it joins the cell loop.
 
 pub mod bus_faults;
 pub mod bus_rate;
@@ -25,6 +28,7 @@ pub mod param_store;
 pub mod planned;
 pub mod realtime;
 pub mod station;
+pub mod stations;
 pub mod terminal;
 pub mod wire_faults;
 

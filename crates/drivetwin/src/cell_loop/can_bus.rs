@@ -117,7 +117,8 @@ impl CellLoop {
             let mut out = std::mem::take(&mut self.out);
             let t = self.now(now);
             if let Some(bus) = self.buses.get_mut(b) {
-                bus.segment.on_frame(t, &frame, &mut out);
+                bus.segment
+                    .on_frame(&mut self.stations, t, &frame, &mut out);
             }
             self.drives_sent(b, now, &mut out);
             self.out = out;

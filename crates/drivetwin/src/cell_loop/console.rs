@@ -38,8 +38,9 @@ impl CellLoop {
                     let mut out = std::mem::take(&mut self.out);
                     let mut answered = false;
                     if let Some(bus) = self.buses.get_mut(drive.bus) {
+                        let stations = &mut self.stations;
                         bus.segment
-                            .local_access(drive.drive, t, &mut out, &mut |od| {
+                            .local_access(stations, drive.drive, t, &mut out, &mut |od| {
                                 terminal.answer(&line, od, &mut answer);
                                 answered = true;
                             });

@@ -9,17 +9,26 @@ use mio::{Events, Token};
 use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
 use crate::cell::link::{At, FrontLink};
 use crate::cell::station::Station;
+use crate::cell::stations::{StationId, Stations};
 use crate::cell::wire_faults::Verdict;
 use crate::cell::OnBus;
 use crate::ecat::chain::BusDrives;
 
 /// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
-/// drive as well finds its drive.
-pub(super) struct Buses<'a>(pub(super) &'a mut [BusState]);
+/// drive as well finds its drive (the bus names it, the cell's list holds it).
+pub(super) struct Buses<'a> {
+    pub(super) buses: &'a [BusState],
+    pub(super) stations: &'a mut Stations,
+}
 
 impl BusDrives for Buses<'_> {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        self.0.get_mut(at.bus)?.segment.stations.get_mut(at.drive)
+        let id = self.buses.get(at.bus)?.segment.member(at.drive)?;
+        self.stations.station_mut(id)
+    }
+
+    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
+        self.stations.station_mut(id)
     }
 }
 
@@ -75,9 +84,23 @@ impl CellLoop {
                 // event that fell due before it runs first (a master's DC loop and its
                 // following-error check read those inputs). Other chains, the CAN drives
                 // and the timers wait until after the answer.
-                chain.chain.poll_with(t, &mut Buses(&mut self.buses));
+                chain.chain.poll_with(
+                    t,
+                    &mut Buses {
+                        buses: &self.buses,
+                        stations: &mut self.stations,
+                    },
+                );
             }
-            Self::pass_chain(chain, f, t, &mut self.buses);
+            Self::pass_chain(
+                chain,
+                f,
+                t,
+                &mut Buses {
+                    buses: &self.buses,
+                    stations: &mut self.stations,
+                },
+            );
         }
         self.frame = frame;
         if shared {
@@ -95,7 +118,7 @@ impl CellLoop {
                 }
                 let mut out = std::mem::take(&mut self.out);
                 if let Some(bus) = self.buses.get_mut(b) {
-                    bus.segment.poll(t, &mut out);
+                    bus.segment.poll(&mut self.stations, t, &mut out);
                 }
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
@@ -109,20 +132,28 @@ impl CellLoop {
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
-        buses: &mut [BusState],
+        buses: &mut Buses<'_>,
     ) {
-        if chain.chain.pass_with(t, f, &mut Buses(buses)).forward() {
+        if chain.chain.pass_with(t, f, buses).forward() {
             // Out on the wire, then copied to the trace; a failed send is logged by the
             // interface.
             let _ = chain.link.transmit(At::on_clock(t), f);
         }
-        chain.chain.exchange_with(t, &mut Buses(buses));
+        chain.chain.exchange_with(t, buses);
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
     pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
         if let Some(chain) = self.chains.get_mut(c) {
-            Self::pass_chain(chain, &mut frame, t, &mut self.buses);
+            Self::pass_chain(
+                chain,
+                &mut frame,
+                t,
+                &mut Buses {
+                    buses: &self.buses,
+                    stations: &mut self.stations,
+                },
+            );
         }
     }
 }

@@ -30,7 +30,14 @@ impl CellLoop {
             Some(LineAction::PlugCable) => c.plug_cable(),
             Some(LineAction::PowerOff { slave }) => c.power_off(slave).map_err(|e| refused(&e))?,
             Some(LineAction::PowerOn { slave }) => c
-                .power_on(slave, t, &mut Buses(&mut self.buses))
+                .power_on(
+                    slave,
+                    t,
+                    &mut Buses {
+                        buses: &self.buses,
+                        stations: &mut self.stations,
+                    },
+                )
                 .map_err(|e| refused(&e))?,
             Some(LineAction::Clock {
                 slave,

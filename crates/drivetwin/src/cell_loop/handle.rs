@@ -20,18 +20,18 @@ impl CellLoop {
                 }
                 Command::Buses(reply) => {
                     let t = self.now(now);
+                    let stations = &self.stations;
                     let buses = self
                         .buses
                         .iter_mut()
                         .enumerate()
                         .map(|(index, b)| BusInfo {
                             index,
-                            drives: b.segment.stations.len(),
+                            drives: b.segment.members().len(),
                             timing: b.segment.bus_figures(t),
                             node_errors: b
                                 .segment
-                                .stations
-                                .iter()
+                                .stations(stations)
                                 .zip(b.segment.node_faults())
                                 .filter(|(_, f)| f.confinement.counters() != (0, 0))
                                 .map(|(d, f)| {
@@ -50,8 +50,9 @@ impl CellLoop {
                     reply,
                 } => {
                     let segment = self.buses.get_mut(bus).map(|b| &mut b.segment);
+                    let stations = &self.stations;
                     let at = segment.and_then(|c| {
-                        let i = c.stations.iter().position(|d| d.node_id() == node)?;
+                        let i = c.stations(stations).position(|d| d.node_id() == node)?;
                         Some(c.disturb(i, frames))
                     });
                     let _ = reply.send(match at {
@@ -334,7 +335,7 @@ impl CellLoop {
         let can = self
             .buses
             .iter()
-            .flat_map(|b| b.segment.stations.iter())
+            .flat_map(|b| b.segment.stations(&self.stations))
             .map(|d| {
                 let desc = d.od().description();
                 (desc, Interface::CanOpen { node: d.node_id() })
@@ -343,11 +344,13 @@ impl CellLoop {
             .modbus
             .iter()
             .map(|m| (m.description(), Interface::ModbusTcp));
+        let stations = &self.stations;
         let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
             (0..c.chain.len()).filter_map(move |position| {
-                c.chain.model(position).map(|m| {
+                let id = c.chain.own_station(position)?;
+                stations.station(id).map(|s| {
                     (
-                        m.od().description(),
+                        s.od().description(),
                         Interface::Ethercat { chain, position },
                     )
                 })
@@ -368,10 +371,11 @@ impl CellLoop {
     /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
         let mut rest = drive;
-        for bus in &mut self.buses {
-            let n = bus.segment.stations.len();
+        for bus in &self.buses {
+            let n = bus.segment.members().len();
             if rest < n {
-                return match bus.segment.stations.get_mut(rest) {
+                let id = bus.segment.member(rest);
+                return match id.and_then(|id| self.stations.station_mut(id)) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),
                 };
@@ -383,21 +387,21 @@ impl CellLoop {
             return Ok(Target::Modbus(m.device_mut()));
         }
         rest -= modbus;
-        for c in &mut self.chains {
+        for c in &self.chains {
             // Only the chain's own drives: a shared one is listed with its bus.
             let own = |c: &ChainState| {
                 (0..c.chain.len())
-                    .filter(|&i| c.chain.model(i).is_some())
+                    .filter(|&i| c.chain.own_station(i).is_some())
                     .count()
             };
             let n = own(c);
             if rest < n {
-                let i = (0..c.chain.len())
-                    .filter(|&i| c.chain.model(i).is_some())
+                let id = (0..c.chain.len())
+                    .filter_map(|i| c.chain.own_station(i))
                     .nth(rest);
-                return i
-                    .and_then(|i| c.chain.model_mut(i))
-                    .map(Target::Can)
+                return id
+                    .and_then(|id| self.stations.station_mut(id))
+                    .map(|s| Target::Can(&mut s.model))
                     .ok_or(ControlError::NoDrive(drive));
             }
             rest -= n;

@@ -8,7 +8,7 @@
 //!
 //! The loop is the cell's CAN bus as well: a frame from a socketcand client reaches the drives,
 //! the SocketCAN interface, the trace and every other client in RAW mode; a frame of a drive
-//! reaches the other stations of its segment (`CanSegment::deliver`), the interface, the trace and every client.
+//! reaches the other stations of its segment (`SegmentBus::deliver`), the interface, the trace and every client.
 //!
 //! The loop is the cell's EtherCAT segments as well: a frame from a master on a chain's
 //! network interface passes the chain's slaves in order and goes back out at once; a slave
@@ -52,10 +52,11 @@ use mio::{Events, Interest, Poll, Token, Waker};
 use crate::can::socketcand::client_link::ClientStream;
 use crate::can::socketcand::session::{Effect, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
-use crate::cell::can_segment::CanSegment;
+use crate::cell::can_segment::{CanSegment, SegmentBus};
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, SendBuffer, Wire};
+use crate::cell::stations::Stations;
 use crate::cell::OnBus;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
@@ -195,7 +196,8 @@ pub struct FrontEnds {
 
 /// A bus while the loop runs.
 struct BusState {
-    segment: CanSegment,
+    /// The bus between its stations, which are in the cell's list.
+    segment: SegmentBus,
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     /// The bus as the loop carries its frames: traced and tapped.
@@ -241,6 +243,9 @@ pub struct CellLoop {
     /// How late the loop serves due timers.
     lateness: Arc<crate::cell::lateness::Lateness>,
     buses: Vec<BusState>,
+    /// Every station of the cell: the buses' (in bus order), then the EtherCAT chains' own
+    /// (in chain and wire order). The buses and the chains name them by id.
+    stations: Stations,
     /// The cell clock's zero.
     origin: Instant,
     /// Listeners by token - FIRST_DYNAMIC; connections after them.
@@ -369,6 +374,7 @@ impl CellLoop {
             )
             .ok();
         let mut buses = Vec::new();
+        let mut stations = Stations::new();
         for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
             let mut socketcand = None;
             if let Some((l, config)) = bus.socketcand {
@@ -400,9 +406,10 @@ impl CellLoop {
                 }
                 None => None,
             };
+            let (own, segment) = bus.segment.into_parts();
             buses.push(BusState {
                 upstream,
-                segment: bus.segment,
+                segment: segment.join(own, &mut stations),
                 socketcand,
                 socketcan: bus.socketcan,
                 link: Tracer::new(Wire::new(), CanTrace::new(bus.trace)),
@@ -415,6 +422,15 @@ impl CellLoop {
                 "{} EtherCAT chains: a cell has at most {MAX_CHAINS}",
                 front.ethercat.len()
             )));
+        }
+        for chain in &mut front.ethercat {
+            // The chain's own drives join the cell's list, and its slaves name every drive
+            // by id there.
+            chain.chain.join(&mut stations, |at| {
+                buses
+                    .get(at.bus)
+                    .and_then(|b: &BusState| b.segment.member(at.drive))
+            });
         }
         for (c, chain) in front.ethercat.iter().enumerate() {
             use std::os::fd::AsRawFd;
@@ -470,6 +486,7 @@ impl CellLoop {
             timer,
             lateness: Arc::default(),
             buses,
+            stations,
             origin: Instant::now(),
             listeners,
             slots: Vec::new(),
@@ -549,14 +566,20 @@ impl CellLoop {
         for b in 0..self.buses.len() {
             let t = self.now(start);
             if let Some(bus) = self.buses.get_mut(b) {
-                bus.segment.boot(t, &mut out);
+                bus.segment.boot(&mut self.stations, t, &mut out);
             }
             self.drives_sent(b, start, &mut out);
         }
         self.out = out;
         let t = self.now(start);
         for chain in &mut self.chains {
-            chain.chain.boot_with(t, &mut Buses(&mut self.buses));
+            chain.chain.boot_with(
+                t,
+                &mut Buses {
+                    buses: &self.buses,
+                    stations: &mut self.stations,
+                },
+            );
         }
         self.flush_dirty();
         let mut load_failure = None;
@@ -670,22 +693,23 @@ impl CellLoop {
             }
             return Err(io::Error::other(e));
         }
+        let mut stations: Vec<_> = self.stations.into_vec().into_iter().map(Some).collect();
         Ok(self
             .buses
             .into_iter()
             .map(|mut b| {
                 b.link.flush();
-                b.segment
+                CanSegment::gather(b.segment, &mut stations)
             })
             .collect())
     }
 
-    /// Why a drive's load FMU stopped the cell, once one has: on a CAN bus or a drive of a
-    /// chain's own.
+    /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
+    /// CAN bus or a chain's own).
     fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
-        self.buses
+        self.stations
             .iter()
-            .find_map(|b| b.segment.load_failure())
+            .find_map(|d| d.model.drive()?.load_failure())
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
     }
 
@@ -700,7 +724,7 @@ impl CellLoop {
             }
         };
         for bus in &self.buses {
-            take(bus.segment.deadline().map(|d| self.wall(d)));
+            take(bus.segment.deadline(&self.stations).map(|d| self.wall(d)));
             if bus.link.unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
@@ -732,10 +756,10 @@ impl CellLoop {
             let Some(bus) = self.buses.get_mut(b) else {
                 break;
             };
-            if let Some(due) = bus.segment.deadline().filter(|d| *d <= t) {
+            if let Some(due) = bus.segment.deadline(&self.stations).filter(|d| *d <= t) {
                 self.lateness.record(t.saturating_since(due));
                 let mut out = std::mem::take(&mut self.out);
-                bus.segment.poll(t, &mut out);
+                bus.segment.poll(&mut self.stations, t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
             }
@@ -745,7 +769,13 @@ impl CellLoop {
                 // Late only past the chain's wake-up (a step's grace).
                 let by = chain.chain.wake_by().unwrap_or(due);
                 self.lateness.record(t.saturating_since(by));
-                chain.chain.poll_with(t, &mut Buses(&mut self.buses));
+                chain.chain.poll_with(
+                    t,
+                    &mut Buses {
+                        buses: &self.buses,
+                        stations: &mut self.stations,
+                    },
+                );
             }
         }
         for slot in 0..self.slots.len() {

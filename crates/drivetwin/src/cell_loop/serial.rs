@@ -7,11 +7,13 @@ use std::time::Instant;
 use canopen::CanFrame;
 
 use super::{BusState, CellLoop, OnBus};
+use crate::cell::stations::Stations;
 use crate::serial::LineDrives;
 
 /// The drives of the cell as a serial line reaches them; the frames they send are kept.
 struct SerialDrives<'a> {
     buses: &'a mut [BusState],
+    stations: &'a mut Stations,
     sent: &'a mut Vec<(usize, CanFrame)>,
     frames: Vec<CanFrame>,
 }
@@ -26,7 +28,8 @@ impl LineDrives for SerialDrives<'_> {
         let Some(bus) = self.buses.get_mut(at.bus) else {
             return;
         };
-        bus.segment.local_access(at.drive, now, &mut self.frames, f);
+        bus.segment
+            .local_access(self.stations, at.drive, now, &mut self.frames, f);
         self.sent
             .extend(self.frames.drain(..).map(|fr| (at.bus, fr)));
     }
@@ -68,6 +71,7 @@ impl CellLoop {
         let mut sent = std::mem::take(&mut self.serial_sent);
         let mut drives = SerialDrives {
             buses: &mut self.buses,
+            stations: &mut self.stations,
             sent: &mut sent,
             frames: std::mem::take(&mut self.out),
         };

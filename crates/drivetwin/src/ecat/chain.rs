@@ -70,6 +70,7 @@ use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
 use crate::cell::station::{Persisting, Station, StationError};
+use crate::cell::stations::{StationId, Stations};
 use crate::cell::OnBus;
 use crate::cell::Vendors;
 
@@ -195,11 +196,20 @@ pub enum SlaveDrive {
     /// A CANopen drive of one of the cell's CAN buses, served over EtherCAT as well
     /// (`allow_unreal_interfaces`): a value written over CoE is the one SDO reads.
     OnBus(OnBus),
+    /// Station `id` of the cell's list, once the chain has joined a cell
+    /// ([`SlaveChain::join`]): a drive of its own (`bus` none), or a CANopen drive of CAN
+    /// bus `bus` served over EtherCAT as well.
+    Station { id: StationId, bus: Option<usize> },
 }
 
-/// Where the drives of [`SlaveDrive::OnBus`] slaves live: the cell's CAN buses.
+/// Where the drives of [`SlaveDrive::OnBus`] and [`SlaveDrive::Station`] slaves live: the
+/// cell's CAN buses and its list of stations.
 pub trait BusDrives {
     fn station(&mut self, at: OnBus) -> Option<&mut Station>;
+    /// Station `id` of the cell's list (none: the chain has not joined a cell).
+    fn in_cell(&mut self, _id: StationId) -> Option<&mut Station> {
+        None
+    }
 }
 
 /// A chain without CAN buses: every slave has a drive of its own.
@@ -251,6 +261,26 @@ impl<'a> Bound<'a> {
             }
             SlaveDrive::OnBus(at) => {
                 let (model, store, stored, events) = buses.station(*at)?.coe_parts();
+                Some(Bound {
+                    dev,
+                    model,
+                    store,
+                    stored,
+                    shared_events: Some(events),
+                })
+            }
+            SlaveDrive::Station { id, bus: None } => {
+                let (model, store, stored) = buses.in_cell(*id)?.drive_parts();
+                Some(Bound {
+                    dev,
+                    model,
+                    store,
+                    stored,
+                    shared_events: None,
+                })
+            }
+            SlaveDrive::Station { id, bus: Some(_) } => {
+                let (model, store, stored, events) = buses.in_cell(*id)?.coe_parts();
                 Some(Bound {
                     dev,
                     model,
@@ -824,8 +854,31 @@ impl SlaveChain {
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
             SlaveDrive::Own(station) => station.model.drive()?.load_failure(),
-            SlaveDrive::OnBus(_) => None,
+            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
         })
+    }
+
+    /// The chain joins a cell: the stations of its own drives move to the end of `cell`, in
+    /// wire order, and every slave names its station by id there; `on_bus` gives the id of a
+    /// CAN bus's station (a slave whose station it does not find keeps its place on the bus).
+    pub fn join(&mut self, cell: &mut Stations, on_bus: impl Fn(OnBus) -> Option<StationId>) {
+        self.drives = std::mem::take(&mut self.drives)
+            .into_iter()
+            .map(|d| match d {
+                SlaveDrive::Own(station) => SlaveDrive::Station {
+                    id: cell.push(*station),
+                    bus: None,
+                },
+                SlaveDrive::OnBus(at) => match on_bus(at) {
+                    Some(id) => SlaveDrive::Station {
+                        id,
+                        bus: Some(at.bus),
+                    },
+                    None => SlaveDrive::OnBus(at),
+                },
+                joined @ SlaveDrive::Station { .. } => joined,
+            })
+            .collect();
     }
 
     /// One slave per drive of the cell file, in file order, its keys read with the sections
@@ -921,33 +974,48 @@ impl SlaveChain {
         self.devices.get(i)
     }
 
-    /// The drive of slave `i` when it is its own (not a CANopen drive's).
+    /// The drive of slave `i` when it is its own (not a CANopen drive's) and the chain holds
+    /// it (it has not joined a cell).
     pub fn model(&self, i: usize) -> Option<&Model> {
         match self.drives.get(i)? {
             SlaveDrive::Own(station) => Some(&station.model),
-            SlaveDrive::OnBus(_) => None,
+            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
         }
     }
 
     pub fn model_mut(&mut self, i: usize) -> Option<&mut Model> {
         match self.drives.get_mut(i)? {
             SlaveDrive::Own(station) => Some(&mut station.model),
-            SlaveDrive::OnBus(_) => None,
+            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
+        }
+    }
+
+    /// The station of slave `i` in the cell's list when its drive is its own (not a CANopen
+    /// drive's) and the chain has joined a cell ([`join`](Self::join)).
+    pub fn own_station(&self, i: usize) -> Option<StationId> {
+        match self.drives.get(i)? {
+            SlaveDrive::Station { id, bus: None } => Some(*id),
+            _ => None,
         }
     }
 
     /// Whether a slave's drive is a CANopen drive of the cell as well.
     pub fn has_bus_drives(&self) -> bool {
-        self.drives
-            .iter()
-            .any(|d| matches!(d, SlaveDrive::OnBus(_)))
+        self.drives.iter().any(|d| {
+            matches!(
+                d,
+                SlaveDrive::OnBus(_) | SlaveDrive::Station { bus: Some(_), .. }
+            )
+        })
     }
 
     /// Whether a slave's drive is a CANopen drive of bus `bus` as well.
     pub fn has_drives_on_bus(&self, bus: usize) -> bool {
-        self.drives
-            .iter()
-            .any(|d| matches!(d, SlaveDrive::OnBus(at) if at.bus == bus))
+        self.drives.iter().any(|d| match d {
+            SlaveDrive::OnBus(at) => at.bus == bus,
+            SlaveDrive::Station { bus: b, .. } => *b == Some(bus),
+            SlaveDrive::Own(_) => false,
+        })
     }
 
     /// What stands behind slave `i`.
@@ -1170,7 +1238,16 @@ impl SlaveChain {
         if let (Some(Some(spec)), Some(drive)) =
             (self.specs.get(position), self.drives.get_mut(position))
         {
-            *drive = own_drive(spec.clone(), self.state_dir.as_deref())?;
+            let fresh = own_drive(spec.clone(), self.state_dir.as_deref())?;
+            match (drive, fresh) {
+                // A station of the cell's list is built again in its place there.
+                (SlaveDrive::Station { id, bus: None }, SlaveDrive::Own(station)) => {
+                    if let Some(slot) = buses.in_cell(*id) {
+                        *slot = *station;
+                    }
+                }
+                (drive, fresh) => *drive = fresh,
+            }
         }
         if let (Some(dev), Some(drive)) = (
             self.devices.get_mut(position),
