@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Seed corpora for the fuzz targets, from the manuals' worked frames (spec/vectors.md and
-the spec extracts) and from the protocol's everyday messages. Writes corpus/TARGET/seed-*;
-libFuzzer grows the corpus from there. Usage: seeds.py SPEC_DIR"""
+"""Seed corpora for the fuzz targets, from the manuals' worked frames (spec/vectors.md and the
+manuals' extracts, kept beside the project in ../shared/spec) and from the protocol's everyday
+messages. Writes corpus/TARGET/seed-*; libFuzzer grows the corpus from there. Usage: seeds.py
+SPEC_DIR"""
 
 import json
 import re

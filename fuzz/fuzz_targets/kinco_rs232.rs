@@ -1,7 +1,8 @@
-//! Bytes on the RS232 line of a Kinco FD3 (spec/kinco-fd-cd.md §2.1-2.2: 10-byte telegrams,
-//! ID, an expedited SDO and the negated-sum checksum) with pauses between them, point to point
-//! or in a ring: no panic; every answer is a whole telegram with a right checksum from the
-//! drive's own station, and in a ring every complete telegram is passed on unchanged first.
+//! Bytes on the RS232 line of a Kinco FD3 (the Kinco manual's extract kept beside the project,
+//! spec/kinco-fd-cd.md §2.1-2.2: 10-byte telegrams, ID, an expedited SDO and the negated-sum
+//! checksum) with pauses between them, point to point or in a ring: no panic; every answer is a
+//! whole telegram with a right checksum from the drive's own station, and in a ring every
+//! complete telegram is passed on unchanged first.
 #![no_main]
 
 use drive::vendors::kinco::rs232::{checksum_ok, KincoRs232, Response, DEFAULT_GAP, TELEGRAM_LEN};

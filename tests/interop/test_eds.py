@@ -36,7 +36,8 @@ def test_eds_testbench_imports_into_python_canopen(eds_files):
 
 @pytest.mark.parametrize("device", ["nanotec-smci47s", "nanotec-pd4n"])
 def test_eds_nanotec_imports_into_python_canopen(device, eds_files):
-    """The Nanotec files as the manual lists them (seeds/003_ef071fe40f10c01c.txt)."""
+    """The Nanotec files as the manual lists them (its text kept beside the project,
+    seeds/003_ef071fe40f10c01c.txt)."""
     od = canopen.import_od(str(eds_files[device]), node_id=34)
     assert od[0x1000].default == 0x00000008, "1000h: stepper motor (§9.6)"
     assert od[0x1800][1].default == 0x180 + 34, "TPDO1 follows $NODEID"
@@ -59,7 +60,8 @@ def test_eds_nanotec_imports_into_python_canopen(device, eds_files):
 
 @pytest.mark.parametrize("device", ["kinco-fd3", "kinco-cd3"])
 def test_eds_kinco_imports_into_python_canopen(device, eds_files):
-    """The Kinco files as the manual's parameter tables list them (seeds/001_da459f46c7138f7b.txt)."""
+    """The Kinco files as the manual's parameter tables list them (its text kept beside the
+    project, seeds/001_da459f46c7138f7b.txt)."""
     od = canopen.import_od(str(eds_files[device]), node_id=3)
     assert od[0x1000].default == 0x00020192, "CiA 402 servo drive (CHOSEN)"
     assert od[0x100B].default == 1, "ID_Com d5.01"

@@ -1,9 +1,10 @@
 """`drivetwin fhpp …`, the FHPP master commands, against the CMMO-ST twin over Modbus TCP.
 
-Each test starts `drivetwin run --device cmmo-st --modbus 127.0.0.1:PORT`, runs the CLI
-commands against it (each one connection, cyclic FC 0x17), and checks what they print and then
-what pymodbus (a client nobody here wrote) reads from the drive afterwards: the reference
-status values of spec/cmmo-st-fhpp.md §4.3 and the position in SINC.
+Each test starts `drivetwin run --device cmmo-st --modbus 127.0.0.1:PORT`, runs the CLI commands
+against it (each one connection, cyclic FC 0x17), and checks what they print and then what
+pymodbus (a client nobody here wrote) reads from the drive afterwards: the reference status
+values of the FHPP manual's extract kept beside the project (spec/cmmo-st-fhpp.md §4.3) and the
+position in SINC.
 """
 
 from __future__ import annotations

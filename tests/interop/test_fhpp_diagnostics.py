@@ -1,7 +1,8 @@
 """CMMO-ST diagnostics over Modbus TCP, driven by pymodbus: faults provoked with the cyclic
-telegram alone show in SCON.FAULT and in FC 0x07 (Read Exception Status = the diagnostic
-number, spec/cmmo-st-fhpp.md §8.2 g), and a CCON.RESET rising edge acknowledges them
-(§8.2 e, T10: the reaction of 3Fh / 28h keeps the output stage on).
+telegram alone show in SCON.FAULT and in FC 0x07 (Read Exception Status = the diagnostic number,
+§8.2 g of the FHPP manual's extract kept beside the project, spec/cmmo-st-fhpp.md), and a
+CCON.RESET rising edge acknowledges them (§8.2 e, T10: the reaction of 3Fh / 28h keeps the
+output stage on).
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """The CMMO-ST twin over Modbus TCP, driven by pymodbus (a client nobody here wrote).
 
-`drivetwin run --device cmmo-st --modbus 127.0.0.1:PORT` serves the FHPP telegrams on
-registers 0…3 (spec/cmmo-st-fhpp.md §2.5): writes are the output telegram (CCON, CPOS, byte 3,
-byte 4, setpoint int32 big-endian), reads the input telegram (SCON, SPOS, …).
+`drivetwin run --device cmmo-st --modbus 127.0.0.1:PORT` serves the FHPP telegrams on registers
+0…3 (the FHPP manual's extract kept beside the project, spec/cmmo-st-fhpp.md §2.5): writes are
+the output telegram (CCON, CPOS, byte 3, byte 4, setpoint int32 big-endian), reads the input
+telegram (SCON, SPOS, …).
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 
 FC 0x17 with 8 registers carries "FHPP Standard + FPC": registers 0-3 the FHPP telegram,
 register 4 = FPCC/FPCS (high byte) and subindex or packet ID (low byte), register 5 the PNU,
-registers 6-7 the PWE, all big-endian (spec/cmmo-st-fhpp.md §2.5, §2.9). A job is
-answered at the drive's next cycle, so the master polls until FPCS changes.
+registers 6-7 the PWE, all big-endian (the FHPP manual's extract kept beside the project,
+spec/cmmo-st-fhpp.md §2.5, §2.9). A job is answered at the drive's next cycle, so the master
+polls until FPCS changes.
 """
 
 from __future__ import annotations

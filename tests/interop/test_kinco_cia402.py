@@ -1,9 +1,9 @@
 """The Kinco FD3 (`drivetwin run --device kinco-fd3 --node 1`) driven by python-canopen's
-BaseNode402 over socketcand, as a bus master sets up the real drive: the factory inputs own
-the controlword (SDO abort 0800 0021h, seeds/001_da459f46c7138f7b.txt L1287) until
-Din1_Function / Din3_Function are 0; then the CiA 402 state machine, mode 3 at 300 rpm in the
-drive's DEC units (spec/kinco-fd-cd.md §6 item 12), and the absolute move of §8.15
-(KINCO-CW-01: 2Fh → 607Ah → 3Fh)."""
+BaseNode402 over socketcand, as a bus master sets up the real drive: the factory inputs own the
+controlword (SDO abort 0800 0021h; the manual's text, kept beside the project as
+seeds/001_da459f46c7138f7b.txt, L1287) until Din1_Function / Din3_Function are 0; then the CiA
+402 state machine, mode 3 at 300 rpm in the drive's DEC units (spec/kinco-fd-cd.md §6 item 12),
+and the absolute move of §8.15 (KINCO-CW-01: 2Fh → 607Ah → 3Fh)."""
 
 from __future__ import annotations
 

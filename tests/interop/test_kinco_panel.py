@@ -1,8 +1,8 @@
 """The Kinco FD3's LED panel over the web console's REST API (`drivetwin run --device kinco-fd3
 --http`), seen on CANopen with python-canopen: keys walk F003 to d3.47 Jog_RPM and change it
-(the SDO upload of 2FF0h:23 reads the new value), then F006 jog (seeds/001_da459f46c7138f7b.txt
-§4.3.3: d6.40, ▼ to d6.15, ▲ to d6.25, SET "Jog") enables the drive and turns the motor
-while ▲ is held, and stops it on release."""
+(the SDO upload of 2FF0h:23 reads the new value), then F006 jog (the manual's text kept beside
+the project, seeds/001_da459f46c7138f7b.txt §4.3.3: d6.40, ▼ to d6.15, ▲ to d6.25, SET "Jog")
+enables the drive and turns the motor while ▲ is held, and stops it on release."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """A Nanotec SMCI47-S with a BLDC motor on its Hall sensors, chosen in the cell file
 (`motor_type = "bldc-hall"`), moved in Profile Position by python-canopen's BaseNode402 over
-socketcand against the real binary (seeds/003_ef071fe40f10c01c.txt §1.2 "Motortyp", §11.5
-2004h:07 / 2004h:0C, Appendix 18.2; spec/nanotec-canopen.md §6).
+socketcand against the real binary (the manual's text kept beside the project,
+seeds/003_ef071fe40f10c01c.txt §1.2 "Motortyp", §11.5 2004h:07 / 2004h:0C, Appendix 18.2;
+spec/nanotec-canopen.md §6).
 
 What it shows: the cell starts with the motor the file names (2004h:07 = 1, closed loop
 200Ah = 1, the BLDC load-angle curve of Appendix 18.2 in 200Ch), and the actual position

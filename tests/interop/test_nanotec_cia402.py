@@ -1,10 +1,11 @@
 """A Nanotec SMCI47-S twin (`drivetwin run --device nanotec-smci47s --node 34`) driven over
-socketcand by python-canopen's BaseNode402 with the drive's EDS, and by `drivetwin drive`
-(seeds/003_ef071fe40f10c01c.txt; spec/nanotec-canopen.md §5): PP, HM (35, the switch method
-19, the index method 33), VL (6060h = 2), IP on a 10 ms SYNC and TQ in closed loop, each asserting that the
-simulated shaft moves as physics says, not that a value is echoed; the software-limit EMCY
-0800h (§7.1) through python-canopen's EMCY consumer; one python-canopen network moving a
-CMMP-AS (node 1) and the Nanotec (node 34) of one cell file at the same time.
+socketcand by python-canopen's BaseNode402 with the drive's EDS, and by `drivetwin drive` (the
+manual and its extract, kept beside the project as seeds/003_ef071fe40f10c01c.txt and
+spec/nanotec-canopen.md §5): PP, HM (35, the switch method 19, the index method 33), VL (6060h =
+2), IP on a 10 ms SYNC and TQ in closed loop, each asserting that the simulated shaft moves as
+physics says, not that a value is echoed; the software-limit EMCY 0800h (§7.1) through
+python-canopen's EMCY consumer; one python-canopen network moving a CMMP-AS (node 1) and the
+Nanotec (node 34) of one cell file at the same time.
 
 Units at the defaults (§6): 2000 user units per output revolution (6092h = 2000 / 1), PP and
 homing speeds in user units/s; VL speeds in the units of 604Ch = 60 / 2000 (1000 = 30 min⁻¹ =

@@ -1,7 +1,8 @@
-"""The Nanotec manual's "first steps" (seeds/003_ef071fe40f10c01c.txt §2.2-2.7; spec/nanotec-canopen.md
-§8.3-8.7), sent frame by frame with python-can to `drivetwin run --device nanotec-smci47s --node 34`
-and answered byte for byte as printed. The requests are the manual's IXXAT MiniMon frames, short
-ones included (DLC 4, 5, 6); every answer has DLC 8. Vectors NT-NMT-01, NT-CW-01, NT-CW-02, NT-CW-03 and NT-CW-04, NT-PP-01, NT-PP-02 and NT-PP-03.
+"""The Nanotec manual's "first steps" (§2.2-2.7; its extract, kept beside the project as
+spec/nanotec-canopen.md, §8.3-8.7), sent frame by frame with python-can to `drivetwin run
+--device nanotec-smci47s --node 34` and answered byte for byte as printed. The requests are the
+manual's IXXAT MiniMon frames, short ones included (DLC 4, 5, 6); every answer has DLC 8.
+Vectors NT-NMT-01, NT-CW-01, NT-CW-02, NT-CW-03 and NT-CW-04, NT-PP-01, NT-PP-02 and NT-PP-03.
 Frames go out PAUSE apart, as an operator types them: the drive takes a controlword in its next
 cycle, so a statusword query in the same millisecond would still see the old state.
 """

@@ -11,6 +11,7 @@
 //! writes `modelDescription.xml` from the same declarations and packs `conveyor.fmu`.
 
 pub mod belt;
+#[allow(unsafe_code)]
 pub mod fmi2;
 
 use belt::{Belt, BeltData};

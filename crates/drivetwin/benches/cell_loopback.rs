@@ -79,13 +79,8 @@ const FC17_REQUEST: &[u8] = &[
 const FC17_RESPONSE_LEN: usize = 17;
 
 fn pin(cpu: usize) {
-    // SAFETY: `cpu_set_t` is plain data; all-zero is the empty set; pid 0 is this thread.
-    unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-            eprintln!("cannot pin to CPU {cpu}: {}", io::Error::last_os_error());
-        }
+    if let Err(e) = platform::sched::pin(0, cpu) {
+        eprintln!("cannot pin to CPU {cpu}: {e}");
     }
 }
 

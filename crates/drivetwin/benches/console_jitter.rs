@@ -63,22 +63,16 @@ fn env_u64(name: &str, default: u64) -> u64 {
 }
 
 fn pin(cpu: usize) -> bool {
-    // SAFETY: `cpu_set_t` is plain data; all-zero is the empty set; pid 0 is this thread.
-    unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-            eprintln!("cannot pin to CPU {cpu}: {}", io::Error::last_os_error());
-            return false;
-        }
+    if let Err(e) = platform::sched::pin(0, cpu) {
+        eprintln!("cannot pin to CPU {cpu}: {e}");
+        return false;
     }
     true
 }
 
 /// CPU time per thread name (`comm`), from `/proc/self/task/*/stat`.
 fn thread_cpu() -> BTreeMap<String, Duration> {
-    // SAFETY: sysconf has no preconditions.
-    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
+    let hz = platform::cpu_time::ticks_per_second();
     let mut by_name = BTreeMap::new();
     let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
         return by_name;
@@ -110,14 +104,7 @@ fn thread_cpu() -> BTreeMap<String, Duration> {
 
 /// The process's CPU time (every thread, ended ones too).
 fn process_cpu() -> Duration {
-    // SAFETY: `usage` is plain data for the call to fill.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: `usage` is valid for the call.
-    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
-        return Duration::ZERO;
-    }
-    let tv = |t: libc::timeval| Duration::new(t.tv_sec as u64, t.tv_usec as u32 * 1000);
-    tv(usage.ru_utime) + tv(usage.ru_stime)
+    platform::cpu_time::process()
 }
 
 struct CpuSnapshot {

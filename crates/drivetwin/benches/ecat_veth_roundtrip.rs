@@ -26,9 +26,8 @@
 //! switches on one CPU; the spinning master is not measured there, it would keep the server
 //! from the CPU) and `split CPUs` (server on CPU 0, master on CPU 1).
 //!
-//! Targets (issue of the wire's pace): sleeping master, same placement: p50 ≤ 1.3×, p99 ≤
-//! 1.5×, p99.9 ≤ 2× the floor, no late cycle; spinning master with `--busy-poll`: p50 ≤ 1.2×
-//! the floor.
+//! Targets: sleeping master, same placement: p50 ≤ 1.3×, p99 ≤ 1.5×, p99.9 ≤ 2× the floor, no
+//! late cycle; spinning master with `--busy-poll`: p50 ≤ 1.2× the floor.
 //!
 //! `ECAT_ROUNDTRIP_SECONDS` sets each row's length (default 10 s: 10 000 cycles; a row ends
 //! at three times its length on a machine too loaded to keep the cycle);
@@ -59,12 +58,13 @@
 mod ecat_veth;
 
 use std::io::{self, BufRead, BufReader};
-use std::mem;
-use std::os::fd::{AsRawFd, OwnedFd};
+use std::os::fd::{AsFd, OwnedFd};
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
+use drivetwin::sys::fd::{self, Readiness};
+use drivetwin::sys::packet_socket::{self, Received};
 use ecat_veth::{TwinProcess, Veth};
 use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
 use ethercat::register::RegisterAddress;
@@ -98,9 +98,7 @@ const TARGET_SLEEPS: [f64; 3] = [1.3, 1.5, 2.0];
 const TARGET_BUSY_POLL_P50: f64 = 1.2;
 /// Real-time priority with `ECAT_ROUNDTRIP_FIFO=1`: just below the kernel's threaded
 /// interrupt handlers (`SCHED_FIFO` 50), so they still run first.
-const FIFO_PRIORITY: libc::c_int = 49;
-/// `linux/if_packet.h`.
-const PACKET_OUTGOING: u8 = 4;
+const FIFO_PRIORITY: i32 = 49;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -435,89 +433,38 @@ impl Drop for EchoProcess {
 /// a loop. Runs until killed.
 fn echo(interface: &str, spin: bool) {
     let fd = drivetwin::ecat::link::open_raw(interface).expect("echo's raw socket");
-    let raw = fd.as_raw_fd();
     if !spin {
-        // SAFETY: fcntl on a descriptor this function owns.
-        unsafe {
-            let flags = libc::fcntl(raw, libc::F_GETFL);
-            libc::fcntl(raw, libc::F_SETFL, flags & !libc::O_NONBLOCK);
-        }
+        platform::fd::set_blocking(fd.as_fd()).expect("a blocking raw socket");
     }
     println!("ready");
     let _ = std::io::Write::flush(&mut std::io::stdout());
     let mut buf = [0u8; 1536];
     loop {
-        // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-        let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
-        let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
-        // SAFETY: `buf` is valid for writes of its length, `from` for `from_len` bytes.
-        let n = unsafe {
-            libc::recvfrom(
-                raw,
-                buf.as_mut_ptr().cast(),
-                buf.len(),
-                0,
-                (&mut from as *mut libc::sockaddr_ll).cast::<libc::sockaddr>(),
-                &mut from_len,
-            )
-        };
-        let Ok(n) = usize::try_from(n) else {
+        let Ok(Received { len: n, outgoing }) = packet_socket::recv(fd.as_fd(), &mut buf) else {
             std::hint::spin_loop();
             continue;
         };
-        if from.sll_pkttype == PACKET_OUTGOING
-            || n <= 6
-            || buf[6] & SOURCE_MAC_RETURN_BIT != 0
-            || n > buf.len()
-        {
+        if outgoing || n <= 6 || buf[6] & SOURCE_MAC_RETURN_BIT != 0 || n > buf.len() {
             continue;
         }
         buf[6] |= SOURCE_MAC_RETURN_BIT;
-        // SAFETY: `buf[..n]` is valid for reads; the socket is bound to the interface.
-        unsafe { libc::send(raw, buf.as_ptr().cast(), n, 0) };
+        let _ = packet_socket::send(fd.as_fd(), &buf[..n]);
     }
 }
 
 /// Pins the calling thread to `cpu`.
 fn pin_thread(cpu: usize) {
-    if let Err(e) = set_affinity(0, cpu) {
+    if let Err(e) = platform::sched::pin(0, cpu) {
         eprintln!("cannot pin the master to CPU {cpu}: {e}");
     }
 }
 
 /// Pins every thread of process `pid` to `cpu`.
 fn pin_process(pid: u32, cpu: usize) -> io::Result<()> {
-    for tid in tasks(pid)? {
-        set_affinity(tid, cpu)?;
+    for tid in platform::process::threads(pid)? {
+        platform::sched::pin(tid, cpu)?;
     }
     Ok(())
-}
-
-fn set_affinity(tid: libc::pid_t, cpu: usize) -> io::Result<()> {
-    // SAFETY: `cpu_set_t` is plain old data; CPU_SET writes inside it; the size matches.
-    unsafe {
-        let mut set: libc::cpu_set_t = mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        if libc::sched_setaffinity(tid, mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-            return Err(io::Error::last_os_error());
-        }
-    }
-    Ok(())
-}
-
-/// The thread ids of process `pid`.
-fn tasks(pid: u32) -> io::Result<Vec<libc::pid_t>> {
-    let mut tids = Vec::new();
-    for task in std::fs::read_dir(format!("/proc/{pid}/task"))? {
-        if let Some(tid) = task?
-            .file_name()
-            .to_str()
-            .and_then(|t| t.parse::<libc::pid_t>().ok())
-        {
-            tids.push(tid);
-        }
-    }
-    Ok(tids)
 }
 
 /// A blocking raw socket on the master-side interface, bound to EtherType 0x88A4.
@@ -560,11 +507,7 @@ impl Master {
     }
 
     fn send(&self, len: usize) -> io::Result<()> {
-        // SAFETY: `self.tx[..len]` is valid for reads; the socket is bound to the interface.
-        let n = unsafe { libc::send(self.fd.as_raw_fd(), self.tx.as_ptr().cast(), len, 0) };
-        if n < 0 {
-            return Err(io::Error::last_os_error());
-        }
+        packet_socket::send(self.fd.as_fd(), &self.tx[..len])?;
         Ok(())
     }
 
@@ -577,37 +520,20 @@ impl Master {
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.checked_duration_since(Instant::now())?;
-            // SAFETY: `sockaddr_ll` is plain old data; all-zero is a valid value.
-            let mut from: libc::sockaddr_ll = unsafe { mem::zeroed() };
-            let mut from_len = mem::size_of::<libc::sockaddr_ll>() as libc::socklen_t;
-            // SAFETY: `self.rx` is valid for writes of its length, `from` for `from_len` bytes.
-            let n = unsafe {
-                libc::recvfrom(
-                    self.fd.as_raw_fd(),
-                    self.rx.as_mut_ptr().cast(),
-                    self.rx.len(),
-                    libc::MSG_DONTWAIT,
-                    (&mut from as *mut libc::sockaddr_ll).cast::<libc::sockaddr>(),
-                    &mut from_len,
-                )
-            };
-            let Ok(n) = usize::try_from(n) else {
+            // The socket is non-blocking (`open_raw`): `WouldBlock` when nothing waits.
+            let Ok(Received { len: n, outgoing }) =
+                packet_socket::recv(self.fd.as_fd(), &mut self.rx)
+            else {
                 match self.wait {
                     MasterWait::Spins => std::hint::spin_loop(),
                     MasterWait::Sleeps => {
-                        let mut pfd = libc::pollfd {
-                            fd: self.fd.as_raw_fd(),
-                            events: libc::POLLIN,
-                            revents: 0,
-                        };
-                        let ms = left.as_millis().clamp(1, 1000) as libc::c_int;
-                        // SAFETY: one valid pollfd for the duration of the call.
-                        unsafe { libc::poll(&mut pfd, 1, ms) };
+                        let wait = left.clamp(Duration::from_millis(1), Duration::from_secs(1));
+                        let _ = fd::wait(self.fd.as_fd(), Readiness::Readable, wait);
                     }
                 }
                 continue;
             };
-            if from.sll_pkttype == PACKET_OUTGOING {
+            if outgoing || n > self.rx.len() {
                 continue;
             }
             if let Some(reply) = self.parse(n) {
@@ -794,35 +720,22 @@ impl Master {
 
 /// `CLOCK_MONOTONIC` now, in ns.
 fn monotonic_ns() -> u64 {
-    // SAFETY: `timespec` is plain old data; all-zero is a valid value.
-    let mut ts: libc::timespec = unsafe { mem::zeroed() };
-    // SAFETY: `ts` is valid for writes for the duration of the call.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    u64::try_from(ts.tv_sec).unwrap_or(0) * 1_000_000_000 + u64::try_from(ts.tv_nsec).unwrap_or(0)
+    platform::cpu_time::monotonic_ns()
 }
 
 /// Every thread of process `pid` at nice value `nice` (a weight a loaded machine's builds
 /// cannot outnumber, without the real-time throttling a spinning `SCHED_FIFO` task meets).
 fn set_nice(pid: u32, nice: i32) -> io::Result<()> {
-    for tid in tasks(pid)? {
-        // SAFETY: setpriority(2) on a thread id; no memory is passed.
-        if unsafe { libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, nice) } != 0 {
-            return Err(io::Error::last_os_error());
-        }
+    for tid in platform::process::threads(pid)? {
+        platform::sched::set_nice(tid, nice)?;
     }
     Ok(())
 }
 
 /// Put every thread of process `pid` under `SCHED_FIFO` at [`FIFO_PRIORITY`].
 fn set_fifo(pid: u32) -> io::Result<()> {
-    let param = libc::sched_param {
-        sched_priority: FIFO_PRIORITY,
-    };
-    for tid in tasks(pid)? {
-        // SAFETY: `param` is a valid sched_param for the duration of the call.
-        if unsafe { libc::sched_setscheduler(tid, libc::SCHED_FIFO, &param) } != 0 {
-            return Err(io::Error::last_os_error());
-        }
+    for tid in platform::process::threads(pid)? {
+        platform::sched::set_fifo(tid, FIFO_PRIORITY)?;
     }
     Ok(())
 }

@@ -95,16 +95,7 @@ fn pinned_cpu() -> Option<usize> {
 /// Pins the calling thread (the client) to `cpu`; the servers it starts afterwards inherit
 /// the affinity (no `taskset` needed).
 fn pin_self(cpu: usize) -> Result<(), String> {
-    // SAFETY: `set` is a zeroed cpu_set_t that CPU_SET fills in; pid 0 is this thread.
-    let rc = unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_SET(cpu, &mut set);
-        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
-    };
-    if rc != 0 {
-        return Err(format!("CPU {cpu}: {}", io::Error::last_os_error()));
-    }
-    Ok(())
+    platform::sched::pin(0, cpu).map_err(|e| format!("CPU {cpu}: {e}"))
 }
 
 fn pymodbus_available() -> bool {

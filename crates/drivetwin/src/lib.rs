@@ -24,7 +24,8 @@
 //!   pages, a vendor protocol's master), one folder per device family; the layers above
 //!   name no vendor and get these through seams (`vendors::WEB_PAGES`);
 //! - [`export`] and [`value_text`]: ESI XML for EtherCAT configurators, values as text;
-//! - `sys`: the platform calls, the only place with `unsafe` code.
+//! - [`sys`]: the platform calls, the only place with `unsafe` code; public so that the
+//!   benches and tests reach a socket through the same safe calls as the runtime.
 #![deny(unsafe_code)]
 
 pub mod can;
@@ -39,7 +40,7 @@ pub mod modbus_tcp;
 pub mod scenario;
 pub mod serial;
 #[allow(unsafe_code)]
-mod sys;
+pub mod sys;
 pub mod trace;
 pub mod value_text;
 pub mod vendors;

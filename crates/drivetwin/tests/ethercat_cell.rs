@@ -9,6 +9,10 @@
     clippy::panic
 )]
 
+#[path = "support/ecat_inputs.rs"]
+mod ecat_inputs;
+use ecat_inputs::{phys, sm};
+
 use drivetwin::cell::config::CellFile;
 use drivetwin::ecat::chain::SlaveChain;
 use ethercat::datagram::Command;
@@ -109,17 +113,6 @@ impl Master {
         self.now = self.now + std::time::Duration::from_millis(1);
         self.cell.poll(self.now);
     }
-}
-
-fn phys(adp: u16, ado: u16) -> Address {
-    Address::Physical { adp, ado }
-}
-
-fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
-    let mut v = start.to_le_bytes().to_vec();
-    v.extend_from_slice(&len.to_le_bytes());
-    v.extend_from_slice(&[control, 0, 0x01, 0]);
-    v
 }
 
 fn cell() -> SlaveChain {

@@ -11,6 +11,10 @@
     clippy::panic
 )]
 
+#[path = "support/ecat_inputs.rs"]
+mod ecat_inputs;
+use ecat_inputs::{phys, sm};
+
 use std::time::Duration;
 
 use drivetwin::cell::config::CellFile;
@@ -91,17 +95,6 @@ fn read_u16(dev: &dyn ObjectAccess, index: u16) -> u16 {
     let mut b = [0u8; 2];
     let _ = dev.read(index, 0, &mut b).unwrap();
     u16::from_le_bytes(b)
-}
-
-fn phys(adp: u16, ado: u16) -> Address {
-    Address::Physical { adp, ado }
-}
-
-fn sm(start: u16, len: u16, control: u8) -> Vec<u8> {
-    let mut v = start.to_le_bytes().to_vec();
-    v.extend_from_slice(&len.to_le_bytes());
-    v.extend_from_slice(&[control, 0, 0x01, 0]);
-    v
 }
 
 fn three_in_op() -> Master {

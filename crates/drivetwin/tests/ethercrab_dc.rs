@@ -26,8 +26,8 @@
 //!   with ethercrab's raw `Command::fprd`. `SubDeviceRef::status` does report an error state
 //!   (`Error::SubDevice(code)`), used for the 0x001A case where the group still exists.
 //! * that timeout drops the status poll with its frame often in flight; the reply then finds
-//!   no frame to claim and ends ethercrab's TX/RX task (ethercrab issue #293, open): every
-//!   later PDU times out. The test reads the AL status through a second MainDevice.
+//!   no frame to claim and ends ethercrab's TX/RX task
+//!   (<https://github.com/ethercrab-rs/ethercrab/issues/293>, open): every later PDU times out. The test reads the AL status through a second MainDevice.
 //! * it has no emergency service: an emergency waiting in SM1 is discarded by the flush before
 //!   each SDO request (and one arriving in the middle of an SDO transfer trips an `assert_ne!`,
 //!   ESC reference §5.6); the test reads the mailbox itself with `Command::fprd` before any SDO.
@@ -70,6 +70,7 @@ use ethercrab_master::{
     assign_csp_pdos, csp_inputs, esi_product_code, put_csp_outputs, Storage, TxRxTask,
     EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
+use platform::sched::Scheduling;
 
 /// The interpolation period 60C2h the twin is commissioned with (ms), and the SYNC0 cycle of
 /// the good session. Not the default 1 ms, so a twin that ignored 60C2h would be caught.
@@ -109,32 +110,25 @@ fn cell_file(ms: u32) -> PathBuf {
 
 /// This thread (and the threads it starts: tokio's workers, ethercrab's TX/RX task) at
 /// SCHED_FIFO 20 while it lives, where allowed; the old policy comes back on drop.
-struct Realtime(Option<(libc::c_int, libc::sched_param)>);
+struct Realtime(Option<Scheduling>);
 
 impl Realtime {
     fn enter() -> Self {
-        // SAFETY: plain syscalls on the calling thread (pid 0) with valid parameter pointers.
-        unsafe {
-            let policy = libc::sched_getscheduler(0);
-            let mut old = libc::sched_param { sched_priority: 0 };
-            if policy < 0 || libc::sched_getparam(0, &mut old) != 0 {
-                return Realtime(None);
-            }
-            let fifo = libc::sched_param { sched_priority: 20 };
-            if libc::sched_setscheduler(0, libc::SCHED_FIFO, &fifo) != 0 {
-                eprintln!("SCHED_FIFO refused: the master runs at normal priority");
-                return Realtime(None);
-            }
-            Realtime(Some((policy, old)))
+        let Ok(old) = Scheduling::of_this_thread() else {
+            return Realtime(None);
+        };
+        if platform::sched::set_fifo(0, 20).is_err() {
+            eprintln!("SCHED_FIFO refused: the master runs at normal priority");
+            return Realtime(None);
         }
+        Realtime(Some(old))
     }
 }
 
 impl Drop for Realtime {
     fn drop(&mut self) {
-        if let Some((policy, old)) = self.0 {
-            // SAFETY: as in `enter`.
-            unsafe { libc::sched_setscheduler(0, policy, &old) };
+        if let Some(old) = self.0 {
+            let _ = old.restore();
         }
     }
 }
@@ -708,7 +702,7 @@ async fn refused_session(master_if: &str, product_code: u32) {
     println!("ethercrab gave up after {:?}", began.elapsed());
     // The timeout drops ethercrab's status poll, often with its frame in flight; the answer
     // then finds no frame to claim and ends ethercrab's TX/RX task ("Failed to receive
-    // frame", ethercrab issue #293). The AL status is read through a second MainDevice on
+    // frame", ethercrab-rs/ethercrab#293). The AL status is read through a second MainDevice on
     // the same interface, after the first task is stopped (it would claim the replies too).
     task.abort();
     match task.await {

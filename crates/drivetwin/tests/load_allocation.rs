@@ -10,8 +10,6 @@
     clippy::panic
 )]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -19,35 +17,7 @@ use drive::drive::DriveSettings;
 use drivetwin::cell::station::Station;
 use drivetwin::cosim::LoadMapping;
 use od::Instant;
-
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static COUNT: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: every call goes to the system allocator; the count is a thread-local `Cell`.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.with(Cell::get) {
-            COUNT.with(|c| c.set(c.get() + 1));
-        }
-        // SAFETY: as the caller's contract.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: as the caller's contract.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.with(Cell::get) {
-            COUNT.with(|c| c.set(c.get() + 1));
-        }
-        // SAFETY: as the caller's contract.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use platform::alloc::Counting;
 
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
@@ -89,15 +59,14 @@ fn allocations(mut s: Station) -> u64 {
         now = now + Duration::from_millis(1);
         s.model.step(now);
     }
-    COUNT.with(|c| c.set(0));
-    COUNTING.with(|c| c.set(true));
-    for _ in 0..100 {
-        now = now + Duration::from_millis(1);
-        s.model.step(now);
-    }
-    COUNTING.with(|c| c.set(false));
+    let count = Counting::count(|| {
+        for _ in 0..100 {
+            now = now + Duration::from_millis(1);
+            s.model.step(now);
+        }
+    });
     assert!(s.model.drive().unwrap().load_failure().is_none());
-    COUNT.with(Cell::get)
+    count
 }
 
 #[test]

@@ -10,7 +10,7 @@
 
 #[path = "support/ecat_inputs.rs"]
 mod ecat_inputs;
-use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
+use ecat_inputs::{bwr, coe, coe_download, fprd, fpwr, mailbox_counters, mailbox_sms, set_station};
 
 use std::time::Duration;
 
@@ -22,8 +22,7 @@ use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
-use ethercat::datagram::Command;
-use ethercat::frame::{Address, EthernetFrame, Frame};
+use ethercat::frame::{EthernetFrame, Frame};
 
 fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
@@ -67,33 +66,12 @@ fn fhpp_cycle(tid: u16, ccon: u8, cpos: u8) -> Input {
 /// from SM1 one millisecond later.
 fn ethercat_inputs(t0: u64) -> Vec<(Duration, Input)> {
     let mut script = vec![
-        ecat(&[(
-            Command::Bwr,
-            Address::Physical {
-                adp: 0,
-                ado: 0x0120,
-            },
-            vec![0x11, 0],
-        )]),
-        ecat(&[(
-            Command::Apwr,
-            Address::Physical {
-                adp: 0,
-                ado: 0x0010,
-            },
-            STATION.to_le_bytes().to_vec(),
-        )]),
-        fpwr(
-            0x0800,
-            &[sm(0x1000, 0x80, 0x26), sm(0x1080, 0x80, 0x22)].concat(),
-        ),
+        bwr(0x0120, &[0x11, 0]),
+        set_station(),
+        mailbox_sms(),
         fpwr(0x0120, &[0x02, 0x00]),
     ];
-    let mut counter = 0u8;
-    let mut next = || {
-        counter = counter % 7 + 1;
-        counter
-    };
+    let mut next = mailbox_counters();
     for (index, data) in [
         (0x6060u16, vec![3u8]),
         (0x60FF, 300_000i32.to_le_bytes().to_vec()),

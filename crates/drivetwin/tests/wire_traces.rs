@@ -35,7 +35,9 @@
 
 #[path = "support/ecat_inputs.rs"]
 mod ecat_inputs;
-use ecat_inputs::{coe, coe_download, ecat, fprd, fpwr, sm, STATION};
+use ecat_inputs::{
+    brd, bwr, coe, coe_download, fprd, fpwr, mailbox_counters, mailbox_sms, set_station,
+};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -55,8 +57,6 @@ use drivetwin::serial::Kind;
 use drivetwin::serial::LineRequest;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 use drivetwin::vendors::virtual_serial_lines as virtual_lines;
-use ethercat::datagram::Command;
-use ethercat::frame::Address;
 
 /// Whether to rewrite the golden files instead of comparing with them.
 const BLESS: &str = "DRIVETWIN_BLESS";
@@ -736,43 +736,15 @@ fn cmmp_ethercat() -> Rig {
         .push(desc, own_drive(spec, None).expect("drive"))
         .expect("slave");
     let mut script = vec![
-        ecat(&[(
-            Command::Brd,
-            Address::Physical {
-                adp: 0,
-                ado: 0x0000,
-            },
-            vec![0; 2],
-        )]),
-        ecat(&[(
-            Command::Bwr,
-            Address::Physical {
-                adp: 0,
-                ado: 0x0120,
-            },
-            vec![0x11, 0],
-        )]),
-        ecat(&[(
-            Command::Apwr,
-            Address::Physical {
-                adp: 0,
-                ado: 0x0010,
-            },
-            STATION.to_le_bytes().to_vec(),
-        )]),
+        brd(0x0000, 2),
+        bwr(0x0120, &[0x11, 0]),
+        set_station(),
         fprd(0x0130, 6),
-        fpwr(
-            0x0800,
-            &[sm(0x1000, 0x80, 0x26), sm(0x1080, 0x80, 0x22)].concat(),
-        ),
+        mailbox_sms(),
         fpwr(0x0120, &[0x02, 0x00]),
         fprd(0x0130, 6),
     ];
-    let mut counter = 0u8;
-    let mut next = || {
-        counter = counter % 7 + 1;
-        counter
-    };
+    let mut next = mailbox_counters();
     for (index, data) in [
         (0x6060u16, vec![1u8]),
         (0x6081, 20_000u32.to_le_bytes().to_vec()),

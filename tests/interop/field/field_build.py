@@ -54,3 +54,14 @@ def soem_sources(into: Path) -> Path:
     soem = into / f"pysoem-{version}" / "soem"
     assert (soem / "soem" / "ethercatmain.c").is_file(), f"no SOEM sources in {archive}"
     return soem
+
+
+def soem_master(build: Path, name: str) -> Path:
+    """Builds the C master `c/<name>.c` with the context it shares with the other masters
+    (`c/soem_context.c`) and SOEM (EC_VER2) from pysoem's sources, into `build/<name>`."""
+    soem = soem_sources(build)
+    sources = [C_DIR / f"{name}.c", C_DIR / "soem_context.c",
+               *sorted((soem / "soem").glob("*.c")), soem / "osal" / "linux" / "osal.c",
+               *sorted((soem / "oshw" / "linux").glob("*.c"))]
+    includes = [f"-I{soem / d}" for d in ("soem", "osal", "osal/linux", "oshw/linux")]
+    return cc(build / name, sources, "-DEC_VER2", *includes, "-lpthread", "-lrt")

@@ -1,11 +1,11 @@
 """The CMMP-AS CI terminal as a stage controller written for the real drive uses it: pyserial on
-the terminal's port (`socket://` for the twin's TCP console), each SDO simulation command
-(spec/cmmp-as-1-communication.md §2.5) ended by CR alone, each answer read up to CR and taken
-as the whole answer. The device ends an answer with CR and nothing else, so an answer never
-starts with the rest of the one before. The program enables the drive (06h, 07h, 0Fh, each
-after its answer, 20 times) and makes a profile-position move (field_program.py), judged by
-what it set out to do: enabled, moved, reached, with every answer `=IIIISS:…` or `!…` and no
-LF before or after."""
+the terminal's port (`socket://` for the twin's TCP console), each SDO simulation command (the
+CMMP-AS manual's extract kept beside the project, spec/cmmp-as-1-communication.md §2.5) ended by
+CR alone, each answer read up to CR and taken as the whole answer. The device ends an answer
+with CR and nothing else, so an answer never starts with the rest of the one before. The program
+enables the drive (06h, 07h, 0Fh, each after its answer, 20 times) and makes a profile-position
+move (field_program.py), judged by what it set out to do: enabled, moved, reached, with every
+answer `=IIIISS:…` or `!…` and no LF before or after."""
 
 from __future__ import annotations
 

@@ -1,10 +1,11 @@
 """A Kinco FD3 driven over its RS232 port the way an AGV's driver does it: pyserial on the port
 (`--rs232 PATH`, a pty of the twin), 38400 8N1, 80 ms read timeout; each request one 10-byte
-telegram (station, command, index, sub, 4 data bytes, negated-sum checksum; spec/kinco-fd-cd.md
-§2.1-2.2), then a read of the 10-byte answer, the next telegram as soon as the answer is in.
-The driver frees the controlword and the mode from the factory inputs, enables the drive
-(06h, 07h, 0Fh, 20 times), and moves it (2Fh → 3Fh), reading the statusword and Pos_Actual
-(field_program.py). Judged by what it set out to do: enabled every time, moved, reached."""
+telegram (station, command, index, sub, 4 data bytes, negated-sum checksum; the Kinco manual's
+extract kept beside the project, spec/kinco-fd-cd.md §2.1-2.2), then a read of the 10-byte
+answer, the next telegram as soon as the answer is in. The driver frees the controlword and the
+mode from the factory inputs, enables the drive (06h, 07h, 0Fh, 20 times), and moves it (2Fh →
+3Fh), reading the statusword and Pos_Actual (field_program.py). Judged by what it set out to do:
+enabled every time, moved, reached."""
 
 from __future__ import annotations
 

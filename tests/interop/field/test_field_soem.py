@@ -13,7 +13,7 @@ import subprocess
 import pytest
 
 from conftest import ecat_twin_run
-from field_build import C_DIR, cc, soem_sources
+from field_build import soem_master as build_soem_master
 
 FESTO = 0x1D
 
@@ -21,11 +21,7 @@ FESTO = 0x1D
 @pytest.fixture(scope="module")
 def soem_master(tmp_path_factory) -> str:
     build = tmp_path_factory.mktemp("soem")
-    soem = soem_sources(build)
-    sources = [C_DIR / "soem_master.c", *sorted((soem / "soem").glob("*.c")),
-               soem / "osal" / "linux" / "osal.c", *sorted((soem / "oshw" / "linux").glob("*.c"))]
-    includes = [f"-I{soem / d}" for d in ("soem", "osal", "osal/linux", "oshw/linux")]
-    return str(cc(build / "soem_master", sources, "-DEC_VER2", *includes, "-lpthread", "-lrt"))
+    return str(build_soem_master(build, "soem_master"))
 
 
 def test_soem_master_finds_reads_and_runs_the_slave(veth, tmp_path, soem_master):

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from conftest import ecat_twin_run, realtime_prefix
-from field_build import C_DIR, cc, soem_sources
+from field_build import soem_master as build_soem_master
 
 EDS = Path(__file__).resolve().parents[1] / "data" / "eds" / "epos4_like.eds"
 CYCLES = int(os.environ.get("SOEM_CHAIN_CYCLES", "1000"))
@@ -44,11 +44,7 @@ pytestmark = pytest.mark.skipif(os.environ.get("SOEM_CHAIN") != "1",
 @pytest.fixture(scope="module")
 def soem_chain(tmp_path_factory) -> str:
     build = tmp_path_factory.mktemp("soem")
-    soem = soem_sources(build)
-    sources = [C_DIR / "soem_chain.c", *sorted((soem / "soem").glob("*.c")),
-               soem / "osal" / "linux" / "osal.c", *sorted((soem / "oshw" / "linux").glob("*.c"))]
-    includes = [f"-I{soem / d}" for d in ("soem", "osal", "osal/linux", "oshw/linux")]
-    return str(cc(build / "soem_chain", sources, "-DEC_VER2", *includes, "-lpthread", "-lrt"))
+    return str(build_soem_master(build, "soem_chain"))
 
 
 def chain_cell(path: Path, slaves: int, drive: str) -> Path:

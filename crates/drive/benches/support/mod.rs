@@ -8,14 +8,7 @@ use std::time::Duration;
 /// The CPU time this thread has used (the machine is shared: wall time would count the
 /// other processes that preempt the bench).
 pub fn thread_cpu_time() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid timespec for the call to fill.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime");
-    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+    platform::cpu_time::thread()
 }
 
 /// Fonts tried for the plots' labels (a plot needs one; the benches still report without).

@@ -1,6 +1,6 @@
-//! The EtherCAT master's side of the virtual-clock tests: frames of datagrams addressed to
-//! the first slave (station 1001h), sync manager registers and CoE SDO requests in its
-//! mailbox, as cell inputs.
+//! The EtherCAT master's side of the virtual-clock tests and the chain's tests: frames of
+//! datagrams addressed to the first slave (station 1001h) or to every slave, sync manager
+//! registers and CoE SDO requests in its mailbox, as cell inputs.
 #![allow(dead_code)]
 
 use drivetwin::cell_loop::virtual_clock::Input;
@@ -24,20 +24,55 @@ pub fn ecat(reqs: &[(Command, Address, Vec<u8>)]) -> Input {
 
 pub const STATION: u16 = 0x1001;
 
-pub fn fpwr(ado: u16, d: &[u8]) -> Input {
+/// The register `ado` of the slave at station address `adp`.
+pub fn phys(adp: u16, ado: u16) -> Address {
+    Address::Physical { adp, ado }
+}
+
+/// A broadcast write of `d` at register `ado` of every slave.
+pub fn bwr(ado: u16, d: &[u8]) -> Input {
+    ecat(&[(Command::Bwr, phys(0, ado), d.to_vec())])
+}
+
+/// A broadcast read of `len` bytes at register `ado` of every slave.
+pub fn brd(ado: u16, len: usize) -> Input {
+    ecat(&[(Command::Brd, phys(0, ado), vec![0; len])])
+}
+
+/// The first slave (position 0) gets the station address [`STATION`] (APWR of register
+/// 0010h), as a master's configuration does.
+pub fn set_station() -> Input {
     ecat(&[(
-        Command::Fpwr,
-        Address::Physical { adp: STATION, ado },
-        d.to_vec(),
+        Command::Apwr,
+        phys(0, 0x0010),
+        STATION.to_le_bytes().to_vec(),
     )])
 }
 
+/// SM0 and SM1 as the CMMP-AS's mailbox: out at 1000h, in at 1080h, 128 bytes each.
+pub fn mailbox_sms() -> Input {
+    fpwr(
+        0x0800,
+        &[sm(0x1000, 0x80, 0x26), sm(0x1080, 0x80, 0x22)].concat(),
+    )
+}
+
+/// The mailbox counters of successive requests: 1 to 7 and round again (the mailbox header's
+/// 3-bit Cnt, ETG.1000.4: 0 is its start value, 1 follows 7).
+pub fn mailbox_counters() -> impl FnMut() -> u8 {
+    let mut counter = 0u8;
+    move || {
+        counter = counter % 7 + 1;
+        counter
+    }
+}
+
+pub fn fpwr(ado: u16, d: &[u8]) -> Input {
+    ecat(&[(Command::Fpwr, phys(STATION, ado), d.to_vec())])
+}
+
 pub fn fprd(ado: u16, len: usize) -> Input {
-    ecat(&[(
-        Command::Fprd,
-        Address::Physical { adp: STATION, ado },
-        vec![0; len],
-    )])
+    ecat(&[(Command::Fprd, phys(STATION, ado), vec![0; len])])
 }
 
 /// A sync manager's 8 register bytes.

@@ -61,8 +61,7 @@ impl Veth {
     /// Create a uniquely named namespace and veth pair (names carry the process id and a
     /// counter, so parallel tests, benches and the pysoem suite do not collide).
     pub fn create() -> Result<Veth, Unavailable> {
-        // SAFETY: geteuid has no preconditions and cannot fail.
-        if unsafe { libc::geteuid() } != 0 {
+        if !platform::process::is_root() {
             return Err(Unavailable(
                 "EtherCAT over veth needs root (network namespace, raw sockets)".into(),
             ));
@@ -234,10 +233,8 @@ fn terminate(child: &mut Child) -> Option<ExitStatus> {
         return Some(status);
     }
     // `ip netns exec` execs the binary, so the child's pid is drivetwin's.
-    if let Ok(pid) = libc::pid_t::try_from(child.id()) {
-        // SAFETY: kill(2) on our own, not yet reaped child: the pid cannot have been reused.
-        unsafe { libc::kill(pid, libc::SIGTERM) };
-    }
+    // Our own, not yet reaped child: the pid cannot have been reused.
+    let _ = platform::process::terminate(child.id());
     let deadline = Instant::now() + STOP_TIMEOUT;
     while Instant::now() < deadline {
         match child.try_wait() {

@@ -1,10 +1,11 @@
 /*
- * FHPP on a Festo CMMO-ST over Modbus TCP with libmodbus, as a controller program does it
- * (spec/cmmo-st-fhpp.md §2.5, Tab. 5.13): every 2 ms one FC 23 exchange writes the output
- * telegram (CCON CPOS | byte 3 byte 4 | set-point, registers 0…3, big-endian) and reads the
- * input telegram (SCON SPOS | … | actual position). Enable, home on the current position,
- * move in direct mode to the target with the START / ACK / MC handshake, then read the status
- * with FC 03. Exit 0 when the axis is at the target, 1 when it is not, 2 on a Modbus error.
+ * FHPP on a Festo CMMO-ST over Modbus TCP with libmodbus, as a controller program does it (FHPP
+ * manual Tab. 5.13; its extract kept beside the project, spec/cmmo-st-fhpp.md §2.5): every 2 ms
+ * one FC 23 exchange writes the output telegram (CCON CPOS | byte 3 byte 4 | set-point,
+ * registers 0…3, big-endian) and reads the input telegram (SCON SPOS | … | actual position).
+ * Enable, home on the current position, move in direct mode to the target with the START / ACK
+ * / MC handshake, then read the status with FC 03. Exit 0 when the axis is at the target, 1
+ * when it is not, 2 on a Modbus error.
  *
  * Usage: fhpp_libmodbus HOST PORT [TARGET]   (TARGET in SINC, 0.01° by default)
  */

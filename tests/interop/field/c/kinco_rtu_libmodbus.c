@@ -1,8 +1,9 @@
 /*
  * A Kinco FD3 on its RS485 port with libmodbus (Modbus RTU, 19200 8N1, station 1), as an AGV
- * controller drives it: the registers of spec/kinco-fd-cd.md §2.3 (3100h controlword, 3200h
- * statusword, 3500h Operation_Mode, 4000h Target_Position, 4A00h-4C00h profile, 3700h
- * Pos_Actual, 3900h the position window; 32-bit values low word first). Twenty times:
+ * controller drives it: the registers of the Kinco manual's extract kept beside the project
+ * (spec/kinco-fd-cd.md §2.3: 3100h controlword, 3200h statusword, 3500h Operation_Mode, 4000h
+ * Target_Position, 4A00h-4C00h profile, 3700h Pos_Actual, 3900h the position window; 32-bit
+ * values low word first). Twenty times:
  * controlword 00h and wait for SWITCH ON DISABLED, then 06h, 07h, 0Fh each after its answer
  * and poll the statusword for OPERATION ENABLED (0.5 s at most); then a profile-position move
  * with 2Fh → 3Fh, polled until target reached at the target. The controlword and the mode must

@@ -18,58 +18,14 @@
  *   DC: 1 = SYNC0 every PERIOD_NS, 0 = free run; RXPDOS / TXPDOS: hex lists such as 1602 or
  *   1600,1602 (they must map 6040h + 607Ah and 6041h + 6064h, 6 bytes each way).
  *
- * The ecx_ functions on a context of the master's own, as soem_master.c (EC_VER2).
+ * The ecx_ functions on a context of the master's own (soem_context.h, EC_VER2).
  */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-#include "ethercat.h"
-
-static struct {
-    ecx_contextt context;
-    uint8 map[4096];
-    ecx_portt port;
-    ec_slavet slavelist[EC_MAXSLAVE];
-    int slavecount;
-    ec_groupt grouplist[EC_MAXGROUP];
-    uint8 esibuf[EC_MAXEEPBUF];
-    uint32 esimap[EC_MAXEEPBITMAP];
-    ec_eringt elist;
-    ec_idxstackT idxstack;
-    boolean ecaterror;
-    int64 DCtime;
-    ec_SMcommtypet SMcommtype[EC_MAX_MAPT];
-    ec_PDOassignt PDOassign[EC_MAX_MAPT];
-    ec_PDOdesct PDOdesc[EC_MAX_MAPT];
-    ec_eepromSMt eepSM;
-    ec_eepromFMMUt eepFMMU;
-} bus;
-
-static ecx_contextt *const ctx = &bus.context;
-static ec_slavet *const slaves = bus.slavelist;
-
-static void context_init(void)
-{
-    ctx->port = &bus.port;
-    ctx->slavelist = bus.slavelist;
-    ctx->slavecount = &bus.slavecount;
-    ctx->maxslave = EC_MAXSLAVE;
-    ctx->grouplist = bus.grouplist;
-    ctx->maxgroup = EC_MAXGROUP;
-    ctx->esibuf = bus.esibuf;
-    ctx->esimap = bus.esimap;
-    ctx->elist = &bus.elist;
-    ctx->idxstack = &bus.idxstack;
-    ctx->ecaterror = &bus.ecaterror;
-    ctx->DCtime = &bus.DCtime;
-    ctx->SMcommtype = bus.SMcommtype;
-    ctx->PDOassign = bus.PDOassign;
-    ctx->PDOdesc = bus.PDOdesc;
-    ctx->eepSM = &bus.eepSM;
-    ctx->eepFMMU = &bus.eepFMMU;
-}
+#include "soem_context.h"
 
 static int64_t now_ns(void)
 {
@@ -177,8 +133,7 @@ int main(int argc, char *argv[])
         ecx_readstate(ctx);
         for (int s = 1; s <= found; s++)
             if (slaves[s].state != EC_STATE_SAFE_OP)
-                printf("slave %d: state %02Xh AL status %04Xh %s\n", s, slaves[s].state,
-                       slaves[s].ALstatuscode, ec_ALstatuscode2string(slaves[s].ALstatuscode));
+                print_slave_state(s);
         printf("not all slaves in Safe-Op\n");
         goto close;
     }
@@ -217,8 +172,7 @@ int main(int argc, char *argv[])
     if (!op) {
         for (int s = 1; s <= found; s++)
             if (slaves[s].state != EC_STATE_OPERATIONAL)
-                printf("slave %d: state %02Xh AL status %04Xh %s\n", s, slaves[s].state,
-                       slaves[s].ALstatuscode, ec_ALstatuscode2string(slaves[s].ALstatuscode));
+                print_slave_state(s);
         printf("not all slaves in Op\n");
         goto init;
     }
@@ -286,8 +240,7 @@ int main(int argc, char *argv[])
     if (!still_op)
         for (int s = 1; s <= found; s++)
             if (slaves[s].state != EC_STATE_OPERATIONAL)
-                printf("slave %d: state %02Xh AL status %04Xh %s\n", s, slaves[s].state,
-                       slaves[s].ALstatuscode, ec_ALstatuscode2string(slaves[s].ALstatuscode));
+                print_slave_state(s);
     result = bad_wkc == 0 && enabled == found && still_op && worst_lag < 200 ? 0 : 1;
 
 init:

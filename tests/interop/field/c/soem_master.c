@@ -7,9 +7,7 @@
  * outputs enables the drive (06h, 07h, 0Fh, each once the statusword shows the state before).
  * Back to Init at the end. Exit 0 when every step did what it set out to do.
  *
- * The ecx_ functions on a context of the master's own, as simple_ng sets one up: the SOEM that
- * pysoem carries is built with EC_VER2 (its context has fields the EC_VER1 default context of
- * ethercatmain.c does not fill).
+ * The ecx_ functions on a context of the master's own (soem_context.h, EC_VER2).
  *
  * Usage: soem_master IFNAME [CYCLES]   (1 ms cycles, 2000 by default)
  */
@@ -18,52 +16,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "ethercat.h"
-
-/* The master's context and everything it points to (simple_ng's Fieldbus). */
-static struct {
-    ecx_contextt context;
-    uint8 map[4096];
-    ecx_portt port;
-    ec_slavet slavelist[EC_MAXSLAVE];
-    int slavecount;
-    ec_groupt grouplist[EC_MAXGROUP];
-    uint8 esibuf[EC_MAXEEPBUF];
-    uint32 esimap[EC_MAXEEPBITMAP];
-    ec_eringt elist;
-    ec_idxstackT idxstack;
-    boolean ecaterror;
-    int64 DCtime;
-    ec_SMcommtypet SMcommtype[EC_MAX_MAPT];
-    ec_PDOassignt PDOassign[EC_MAX_MAPT];
-    ec_PDOdesct PDOdesc[EC_MAX_MAPT];
-    ec_eepromSMt eepSM;
-    ec_eepromFMMUt eepFMMU;
-} bus;
-
-static ecx_contextt *const ctx = &bus.context;
-static ec_slavet *const slaves = bus.slavelist;
-
-static void context_init(void)
-{
-    ctx->port = &bus.port;
-    ctx->slavelist = bus.slavelist;
-    ctx->slavecount = &bus.slavecount;
-    ctx->maxslave = EC_MAXSLAVE;
-    ctx->grouplist = bus.grouplist;
-    ctx->maxgroup = EC_MAXGROUP;
-    ctx->esibuf = bus.esibuf;
-    ctx->esimap = bus.esimap;
-    ctx->elist = &bus.elist;
-    ctx->idxstack = &bus.idxstack;
-    ctx->ecaterror = &bus.ecaterror;
-    ctx->DCtime = &bus.DCtime;
-    ctx->SMcommtype = bus.SMcommtype;
-    ctx->PDOassign = bus.PDOassign;
-    ctx->PDOdesc = bus.PDOdesc;
-    ctx->eepSM = &bus.eepSM;
-    ctx->eepFMMU = &bus.eepFMMU;
-}
+#include "soem_context.h"
 
 /* Sleeps until `next` (CLOCK_MONOTONIC) and moves it one period on; a master that fell behind
  * starts again from now instead of sending the missed cycles in a burst. */
@@ -158,8 +111,7 @@ int main(int argc, char *argv[])
     if (slaves[0].state != EC_STATE_OPERATIONAL) {
         ecx_readstate(ctx);
         for (int s = 1; s <= bus.slavecount; s++)
-            printf("slave %d: state %02Xh AL status %04Xh %s\n", s, slaves[s].state,
-                   slaves[s].ALstatuscode, ec_ALstatuscode2string(slaves[s].ALstatuscode));
+            print_slave_state(s);
         goto init;
     }
     printf("Op\n");

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# FHPP on a Festo CMMO-ST from a shell with mbpoll, as a commissioning engineer does it
-# (spec/cmmo-st-fhpp.md §2.5, Tab. 5.13): the output telegram is holding registers 0…3
-# (CCON CPOS | byte 3 byte 4 | set-point, big-endian), the input telegram reads back from the
-# same registers (SCON SPOS | … | actual position). Enable, home on the current position,
-# move in direct mode to TARGET and wait for MC; exit 0 when the axis is there.
+# FHPP on a Festo CMMO-ST from a shell with mbpoll, as a commissioning engineer does it (FHPP
+# manual Tab. 5.13; its extract kept beside the project, spec/cmmo-st-fhpp.md §2.5): the output
+# telegram is holding registers 0…3 (CCON CPOS | byte 3 byte 4 | set-point, big-endian), the
+# input telegram reads back from the same registers (SCON SPOS | … | actual position). Enable,
+# home on the current position, move in direct mode to TARGET and wait for MC; exit 0 when the
+# axis is there.
 # Usage: fhpp_mbpoll.sh HOST PORT [TARGET]   (TARGET in SINC, 0.01° by default)
 set -euo pipefail
 host=$1 port=$2 target=${3:-27000}

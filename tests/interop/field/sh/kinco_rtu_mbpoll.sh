@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # A Kinco FD3 on its RS485 port (Modbus RTU, 19200 8N1, station 1) from a shell with mbpoll:
-# the registers of spec/kinco-fd-cd.md §2.3 (3100h controlword, 3200h statusword, 3500h
-# Operation_Mode, 4000h Target_Position, 4A00h-4C00h profile, 3700h Pos_Actual, 3900h the
-# position window; 32-bit values low word first, mbpoll's own word order). Profile position:
+# the registers of the Kinco manual's extract kept beside the project (spec/kinco-fd-cd.md
+# §2.3: 3100h controlword, 3200h statusword, 3500h Operation_Mode, 4000h Target_Position,
+# 4A00h-4C00h profile, 3700h Pos_Actual, 3900h the position window; 32-bit values low word
+# first, mbpoll's own word order). Profile position:
 # enable with 06h, 07h, 0Fh (each after its answer), move with 2Fh → 3Fh, poll until target
 # reached at the target; exit 0 when the axis is there. The controlword and the mode must be
 # free of the factory inputs (Din1/Din3_Function = 0, as a commissioned drive has them).

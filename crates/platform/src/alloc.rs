@@ -1,0 +1,61 @@
+//! A global allocator that counts the allocations the calling thread makes while it counts:
+//! a test proves a path allocates nothing (or as much as another) by counting around it. The
+//! memory comes from the system allocator; other threads' allocations are never counted.
+//!
+//! ```ignore
+//! #[global_allocator]
+//! static ALLOCATOR: platform::alloc::Counting = platform::alloc::Counting;
+//! let n = platform::alloc::Counting::count(|| step_the_drive());
+//! ```
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+/// The system allocator, counting each `alloc` and `realloc` of a thread inside
+/// [`Counting::count`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<u64> = const { Cell::new(0) };
+}
+
+impl Counting {
+    /// Runs `f` and returns how many allocations (and reallocations) it made on this thread;
+    /// counts only where `Counting` is the global allocator.
+    pub fn count(f: impl FnOnce()) -> u64 {
+        COUNT.with(|c| c.set(0));
+        COUNTING.with(|c| c.set(true));
+        f();
+        COUNTING.with(|c| c.set(false));
+        COUNT.with(Cell::get)
+    }
+
+    fn note() {
+        if COUNTING.with(Cell::get) {
+            COUNT.with(|c| c.set(c.get() + 1));
+        }
+    }
+}
+
+// SAFETY: every call goes to the system allocator with the caller's arguments; the count is a
+// thread-local `Cell` with a `const` initialiser, which never allocates.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        Self::note();
+        // SAFETY: as the caller's contract.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: as the caller's contract.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        Self::note();
+        // SAFETY: as the caller's contract.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
