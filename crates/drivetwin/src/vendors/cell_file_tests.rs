@@ -706,8 +706,7 @@ mod device_keys_tests {
     /// A drive from its EDS has the CiA 402 keys and no vendor's.
     #[test]
     fn a_drive_from_its_eds_has_the_cia402_keys() {
-        let eds = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let eds = crate::cell::eds_drive::test_files::data("epos4_like.eds");
         let drive = |keys: &str| {
             let text = format!("[[drive]]\neds = {:?}\nnode = 6\n{keys}\n", eds.display());
             file(&text).and_then(|f| f.drives(VENDORS.runtime).map_err(|e| e.to_string()))
