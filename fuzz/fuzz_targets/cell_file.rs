@@ -13,6 +13,6 @@ fuzz_target!(|data: &[u8]| {
     let Ok(file) = toml::from_str::<CellFile>(text) else {
         return;
     };
-    let _ = file.drives(drivetwin::vendors::VENDORS);
-    let _ = SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS);
+    let _ = file.drives(drivetwin::vendors::VENDORS.runtime);
+    let _ = SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS.runtime);
 });

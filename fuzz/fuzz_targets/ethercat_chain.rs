@@ -10,8 +10,8 @@ use libfuzzer_sys::fuzz_target;
 use od::Instant;
 
 fn cell() -> Option<SlaveChain> {
-    let mut specs = CellFile::single("cmmp-as", 1).drives(drivetwin::vendors::VENDORS).ok()?;
-    specs.extend(CellFile::single("cmmp-as", 2).drives(drivetwin::vendors::VENDORS).ok()?);
+    let mut specs = CellFile::single("cmmp-as", 1).drives(drivetwin::vendors::VENDORS.runtime).ok()?;
+    specs.extend(CellFile::single("cmmp-as", 2).drives(drivetwin::vendors::VENDORS.runtime).ok()?);
     SlaveChain::new(specs).ok()
 }
 

@@ -58,7 +58,9 @@ impl CellModel {
         // importer's process already wins; then the error says only the status).
         drivetwin::cosim::fmu_log::install();
         let resources = context.resource_path().clone();
-        match guarded(|| CellInstance::from_resources(&resources, drivetwin::vendors::VENDORS)) {
+        match guarded(|| {
+            CellInstance::from_resources(&resources, drivetwin::vendors::VENDORS.runtime)
+        }) {
             Ok(cell) => {
                 self.cell = Some(cell);
                 Ok(())

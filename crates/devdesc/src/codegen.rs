@@ -106,6 +106,15 @@ pub fn generate(d: &Device) -> String {
             );
         }
     }
+    let b = &d.bus_faults;
+    let _ = writeln!(
+        s,
+        "    bus_faults: od::BusFaultReactions {{ on_passive: &[{}], on_active: &[{}], on_bus_off: &[{}], on_recovered: &[{}] }},",
+        reactions(&b.on_passive),
+        reactions(&b.on_active),
+        reactions(&b.on_bus_off),
+        reactions(&b.on_recovered)
+    );
     let c = &d.cia301;
     let _ = writeln!(
         s,
@@ -152,6 +161,17 @@ pub fn generate(d: &Device) -> String {
     let _ = writeln!(s, "    storage_size: {offset},");
     let _ = writeln!(s, "}};");
     s
+}
+
+/// `od::BusFaultReaction::Raise(0x8120), …`
+fn reactions(list: &[od::BusFaultReaction]) -> String {
+    let one = |r: &od::BusFaultReaction| match r {
+        od::BusFaultReaction::Raise(c) => format!("od::BusFaultReaction::Raise(0x{c:04X})"),
+        od::BusFaultReaction::Clear(c) => format!("od::BusFaultReaction::Clear(0x{c:04X})"),
+        od::BusFaultReaction::Fault(c) => format!("od::BusFaultReaction::Fault(0x{c:04X})"),
+        od::BusFaultReaction::Repeat(c) => format!("od::BusFaultReaction::Repeat(0x{c:04X})"),
+    };
+    list.iter().map(one).collect::<Vec<_>>().join(", ")
 }
 
 fn storage_len(e: &Ent) -> u32 {

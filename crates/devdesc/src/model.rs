@@ -52,9 +52,46 @@ pub struct Device {
     pub fieldbus_switches: bool,
     pub ethercat: Option<crate::schema::EthercatSection>,
     pub fhpp: Option<crate::schema::FhppSection>,
+    /// `[device.bus_faults]`, or CiA 301's usage for a file without one (an EDS too).
+    pub bus_faults: BusFaults,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
     pub diagnostics: Vec<Diag>,
+}
+
+/// The reactions to each change of the CAN controller's error state
+/// (`od::BusFaultReactions`, owned).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BusFaults {
+    pub on_passive: Vec<od::BusFaultReaction>,
+    pub on_active: Vec<od::BusFaultReaction>,
+    pub on_bus_off: Vec<od::BusFaultReaction>,
+    pub on_recovered: Vec<od::BusFaultReaction>,
+}
+
+impl Default for BusFaults {
+    /// CiA 301's usage ([`od::BusFaultReactions::CIA_301`]).
+    fn default() -> Self {
+        let r = od::BusFaultReactions::CIA_301;
+        BusFaults {
+            on_passive: r.on_passive.to_vec(),
+            on_active: r.on_active.to_vec(),
+            on_bus_off: r.on_bus_off.to_vec(),
+            on_recovered: r.on_recovered.to_vec(),
+        }
+    }
+}
+
+impl From<&crate::schema::BusFaultsSection> for BusFaults {
+    fn from(s: &crate::schema::BusFaultsSection) -> Self {
+        let list = |v: &[crate::schema::BusFaultReactionText]| v.iter().map(|r| r.0).collect();
+        BusFaults {
+            on_passive: list(&s.on_passive),
+            on_active: list(&s.on_active),
+            on_bus_off: list(&s.on_bus_off),
+            on_recovered: list(&s.on_recovered),
+        }
+    }
 }
 
 /// `can_bit_rate` of a device file, checked: an UNSIGNED8 object of the file, each code once.
@@ -470,6 +507,11 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         fieldbus_switches: d.fieldbus_switches,
         ethercat: d.ethercat,
         fhpp: d.fhpp,
+        bus_faults: d
+            .bus_faults
+            .as_ref()
+            .map(BusFaults::from)
+            .unwrap_or_default(),
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
@@ -917,6 +959,53 @@ mod tests {
             row("2Fh", "configurable")
         ))
         .contains("A…G"));
+    }
+
+    #[test]
+    fn bus_fault_reactions_are_read_and_checked() {
+        use od::BusFaultReaction::{Fault, Repeat};
+        let section = |on_bus_off: &str| {
+            format!(
+                "[device.bus_faults]\non_passive = []\non_active = []\non_bus_off = [{on_bus_off}]\non_recovered = [\"repeat 0x8120\"]\n"
+            )
+        };
+        let d = parse(&format!("{HEAD}{}", section("\"fault 0x8120\"")), "t.toml").expect("valid");
+        assert_eq!(d.bus_faults.on_passive, []);
+        assert_eq!(d.bus_faults.on_bus_off, [Fault(0x8120)]);
+        assert_eq!(d.bus_faults.on_recovered, [Repeat(0x8120)]);
+        // Without a section: CiA 301's usage.
+        let plain = parse(HEAD, "t.toml").expect("valid");
+        assert_eq!(plain.bus_faults, BusFaults::default());
+        assert_eq!(
+            plain.bus_faults.on_passive,
+            od::BusFaultReactions::CIA_301.on_passive
+        );
+        // Refused with the file, the line and the key.
+        let refused = |text: String| match parse(&text, "t.toml") {
+            Ok(_) => panic!("accepted: {text}"),
+            Err(e) => e.to_string(),
+        };
+        for bad in [
+            "\"halt 0x8120\"",
+            "\"raise 8120\"",
+            "\"raise\"",
+            "\"raise 0x0\"",
+            "\"raise 0x18120\"",
+        ] {
+            let e = refused(format!("{HEAD}{}", section(bad)));
+            assert!(e.starts_with("t.toml: "), "{e}");
+            assert!(e.contains("line 10") && e.contains("on_bus_off"), "{e}");
+            assert!(
+                e.contains("a reaction is `raise`, `clear`, `fault` or `repeat`"),
+                "{e}"
+            );
+        }
+        let e = refused(format!("{HEAD}{}on_reset = []\n", section("")));
+        assert!(e.contains("unknown field `on_reset`"), "{e}");
+        let e = refused(format!(
+            "{HEAD}[device.bus_faults]\non_passive = []\non_active = []\non_bus_off = []\n"
+        ));
+        assert!(e.contains("missing field `on_recovered`"), "{e}");
     }
 
     #[test]

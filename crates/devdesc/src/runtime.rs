@@ -129,6 +129,12 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
             one_of: texts(&d.interfaces_one_of),
             rule: text(&d.interfaces_rule),
         },
+        bus_faults: od::BusFaultReactions {
+            on_passive: Box::leak(d.bus_faults.on_passive.clone().into_boxed_slice()),
+            on_active: Box::leak(d.bus_faults.on_active.clone().into_boxed_slice()),
+            on_bus_off: Box::leak(d.bus_faults.on_bus_off.clone().into_boxed_slice()),
+            on_recovered: Box::leak(d.bus_faults.on_recovered.clone().into_boxed_slice()),
+        },
         cia301: d.cia301,
         objects: Box::leak(objects.into_boxed_slice()),
         diagnostics: Box::leak(diagnostics.into_boxed_slice()),

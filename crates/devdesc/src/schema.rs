@@ -107,6 +107,65 @@ pub struct DeviceSection {
     pub ethercat: Option<EthercatSection>,
     /// `[device.fhpp]`: what the FHPP profile needs beyond the parameters.
     pub fhpp: Option<FhppSection>,
+    /// `[device.bus_faults]`: what the device does when its CAN controller changes error
+    /// state; CiA 301's usage without it.
+    pub bus_faults: Option<BusFaultsSection>,
+}
+
+/// `[device.bus_faults]` (`od::BusFaultReactions`): the reactions to each change of the CAN
+/// controller's error state, in order, e.g. `on_bus_off = ["fault 0x8120"]`. Every key is
+/// required: a device whose manual gives a reaction to one change says what it does at the
+/// others too (`[]` for nothing).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusFaultsSection {
+    /// Error active → error passive.
+    pub on_passive: Vec<BusFaultReactionText>,
+    /// Error passive → error active.
+    pub on_active: Vec<BusFaultReactionText>,
+    /// → bus off.
+    pub on_bus_off: Vec<BusFaultReactionText>,
+    /// Bus off → error active.
+    pub on_recovered: Vec<BusFaultReactionText>,
+}
+
+/// One reaction as a device file writes it: a verb and an EMCY error code, `raise 0x8120`,
+/// `clear 0x8120`, `fault 0x8120` or `repeat 0x8120`; anything else is refused where it
+/// stands (file, line and key).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
+pub struct BusFaultReactionText(pub od::BusFaultReaction);
+
+impl TryFrom<String> for BusFaultReactionText {
+    type Error = String;
+
+    fn try_from(text: String) -> Result<Self, String> {
+        let refuse = |why: &str| {
+            format!(
+                "{text:?}: {why}; a reaction is `raise`, `clear`, `fault` or `repeat` and an EMCY code, as \"raise 0x8120\""
+            )
+        };
+        let mut words = text.split_whitespace();
+        let (Some(verb), Some(code), None) = (words.next(), words.next(), words.next()) else {
+            return Err(refuse("not a verb and a code"));
+        };
+        let code = code
+            .strip_prefix("0x")
+            .filter(|hex| (1..=4).contains(&hex.len()))
+            .and_then(|hex| u16::from_str_radix(hex, 16).ok())
+            .ok_or_else(|| refuse("the code is no 16-bit hexadecimal number (0x…)"))?;
+        if code == 0 {
+            return Err(refuse("0x0000 is \"no error\", not an error code"));
+        }
+        let reaction = match verb {
+            "raise" => od::BusFaultReaction::Raise(code),
+            "clear" => od::BusFaultReaction::Clear(code),
+            "fault" => od::BusFaultReaction::Fault(code),
+            "repeat" => od::BusFaultReaction::Repeat(code),
+            _ => return Err(refuse("unknown reaction")),
+        };
+        Ok(BusFaultReactionText(reaction))
+    }
 }
 
 /// `can_bit_rate` of `[device]`: an UNSIGNED8 object (sub-index 0) whose value is a code of

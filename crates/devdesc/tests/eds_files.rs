@@ -36,6 +36,12 @@ fn epos4_like() {
     assert_eq!(d.vendor_id, 0xFB);
     assert_eq!(d.baud_rates, [50, 125, 250, 500, 800, 1000]);
     assert!(!d.cia301.lss_unsupported);
+    // An EDS says nothing of its bus-fault reactions: CiA 301's usage.
+    assert_eq!(d.bus_faults, devdesc::model::BusFaults::default());
+    assert_eq!(
+        devdesc::runtime::leak(d).bus_faults,
+        od::BusFaultReactions::CIA_301
+    );
     let modes = entry(d, 0x6502, 0);
     assert_eq!(
         modes.default,

@@ -273,7 +273,7 @@ fn run(with_console: bool, secs: u64, loop_cpu_no: usize, fifo: bool) -> Result<
         let console = web::start(
             &HttpSetting::At("127.0.0.1:0".into()),
             handle.clone(),
-            drivetwin::vendors::WEB_PAGES,
+            drivetwin::vendors::VENDORS.web_pages,
         )
         .map_err(|e| e.to_string())?
         .ok_or("no console")?;

@@ -22,7 +22,7 @@
 //! - [`master`]: the command-line master's protocol clients;
 //! - [`vendors`]: what serves or speaks to one vendor's devices only (a device's own web
 //!   pages, a vendor protocol's master), one folder per device family; the layers above
-//!   name no vendor and get these through seams (`vendors::WEB_PAGES`);
+//!   name no vendor and get these through the seams of one value (`vendors::VENDORS`);
 //! - [`export`] and [`value_text`]: ESI XML for EtherCAT configurators, values as text;
 //! - [`sys`]: the platform calls, the only place with `unsafe` code; public so that the
 //!   benches and tests reach a socket through the same safe calls as the runtime.

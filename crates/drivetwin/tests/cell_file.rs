@@ -25,7 +25,9 @@ fn the_single_bus_table_keeps_working() {
         "#,
     );
     assert_eq!(file.bus.all().len(), 1);
-    let specs = file.drives(drivetwin::vendors::VENDORS).expect("drives");
+    let specs = file
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .expect("drives");
     assert_eq!(specs[0].bus, 0);
 }
 
@@ -51,7 +53,9 @@ fn drives_name_their_bus_and_node_ids_are_per_bus() {
         bus = "line-b"
         "#,
     );
-    let specs = file.drives(drivetwin::vendors::VENDORS).expect("drives");
+    let specs = file
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .expect("drives");
     assert_eq!(specs.iter().map(|s| s.bus).collect::<Vec<_>>(), [0, 1]);
     let wrong = parse(
         r#"
@@ -62,7 +66,9 @@ fn drives_name_their_bus_and_node_ids_are_per_bus() {
         bus = "line-c"
         "#,
     );
-    let e = wrong.drives(drivetwin::vendors::VENDORS).unwrap_err();
+    let e = wrong
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .unwrap_err();
     assert!(matches!(e, ConfigError::UnknownBus { .. }));
     assert!(e.to_string().contains("line-a"), "{e}");
 }
@@ -75,11 +81,15 @@ fn a_combination_the_device_lacks_is_refused_with_the_manuals_rule() {
         node = 1
         interfaces = ["canopen", "ethercat"]
         "#;
-    let e = parse(text).drives(drivetwin::vendors::VENDORS).unwrap_err();
+    let e = parse(text)
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .unwrap_err();
     assert!(e.to_string().contains("§2.3"), "{e}");
     assert!(e.to_string().contains("allow_unreal_interfaces"), "{e}");
     let allowed = format!("{text}allow_unreal_interfaces = true\n");
-    assert!(parse(&allowed).drives(drivetwin::vendors::VENDORS).is_ok());
+    assert!(parse(&allowed)
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .is_ok());
     let modbus = parse(
         r#"
         [[drive]]
@@ -89,7 +99,7 @@ fn a_combination_the_device_lacks_is_refused_with_the_manuals_rule() {
         "#,
     );
     assert!(modbus
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .unwrap_err()
         .to_string()
         .contains("no modbus-tcp"));
@@ -115,7 +125,7 @@ fn the_ethercat_key_puts_a_drive_on_a_chain_by_interface() {
         allow_unreal_interfaces = true
         "#,
     )
-    .drives(drivetwin::vendors::VENDORS)
+    .drives(drivetwin::vendors::VENDORS.runtime)
     .expect("drives");
     let places: Vec<_> = specs
         .iter()
@@ -138,7 +148,9 @@ fn the_ethercat_key_puts_a_drive_on_a_chain_by_interface() {
         ethercat = "veth0"
         "#,
     );
-    let e = lacking.drives(drivetwin::vendors::VENDORS).unwrap_err();
+    let e = lacking
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .unwrap_err();
     assert!(e.to_string().contains("no \"ethercat\""), "{e}");
     let cmmo = parse(
         r#"
@@ -148,7 +160,7 @@ fn the_ethercat_key_puts_a_drive_on_a_chain_by_interface() {
         "#,
     );
     assert!(cmmo
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .unwrap_err()
         .to_string()
         .contains("no ethercat"));

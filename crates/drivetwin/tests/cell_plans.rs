@@ -37,7 +37,9 @@ encoder = "disconnected"
 #[test]
 fn a_cmmo_st_gets_its_planned_message_and_plant_change() {
     let file: CellFile = toml::from_str(FILE).expect("cell file");
-    let specs = file.drives(drivetwin::vendors::VENDORS).expect("specs");
+    let specs = file
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .expect("specs");
     let plans = planned::outside_plans(&specs, true);
     assert_eq!(
         plans.len(),

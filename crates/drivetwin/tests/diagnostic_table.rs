@@ -436,7 +436,7 @@ fn cell_raises_planned_messages_on_its_clock() {
     )
     .expect("a cell file");
     let spec = file
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("valid")
         .remove(0);
     assert_eq!(spec.diagnostics.len(), 2);
@@ -489,7 +489,7 @@ fn cell_file_refuses_unknown_numbers() {
     )
     .expect("parses");
     let e = file
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect_err("refused");
     assert!(e.to_string().contains("08-2"), "{e}");
 }

@@ -116,8 +116,11 @@ impl Master {
 }
 
 fn cell() -> SlaveChain {
-    SlaveChain::from_cell_file(&CellFile::single("cmmp-as", 1), drivetwin::vendors::VENDORS)
-        .expect("cell")
+    SlaveChain::from_cell_file(
+        &CellFile::single("cmmp-as", 1),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("cell")
 }
 
 /// ecx_config_init up to Pre-Op (the ESC reference kept beside the project, §9.1, abridged).
@@ -318,8 +321,9 @@ fn chain_of_two_slaves_counts_both() {
     let mut second = file.drive[0].clone();
     second.node = 2;
     file.drive.push(second);
-    let mut m =
-        Master::new(SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS).expect("cell"));
+    let mut m = Master::new(
+        SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS.runtime).expect("cell"),
+    );
     assert_eq!(m.cell.len(), 2);
     let r = m.one(Command::Brd, phys(0, 0x0000), &[0, 0]);
     assert_eq!(r.wkc, 2);
@@ -694,7 +698,8 @@ fn save_over_coe_survives_a_restart_with_a_state_dir() {
     let file = CellFile::single("cmmp-as", 1);
     let start = |state: Option<&std::path::Path>| {
         let mut m = Master::new(
-            SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS, state).expect("cell"),
+            SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, state)
+                .expect("cell"),
         );
         to_preop(&mut m);
         m
@@ -739,7 +744,8 @@ fn coe_save_holds_its_reply_not_the_loop_kill9_wrong_wkc() {
     let _ = std::fs::remove_dir_all(&dir);
     let file = CellFile::single("cmmp-as", 1);
     let mut m = Master::new(
-        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS, Some(&dir)).expect("cell"),
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
+            .expect("cell"),
     );
     to_preop(&mut m);
     let mut req = vec![0u8; 0x80];
@@ -776,7 +782,8 @@ fn coe_save_that_cannot_write_is_aborted_0800_0020() {
     std::fs::create_dir_all(dir.join("cmmp-as-node1.params.tmp")).unwrap();
     let file = CellFile::single("cmmp-as", 1);
     let mut m = Master::new(
-        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS, Some(&dir)).expect("cell"),
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
+            .expect("cell"),
     );
     to_preop(&mut m);
     let answer = coe_download(&mut m, 1, 0x1010, 1, b"save");

@@ -105,7 +105,7 @@ fn three_in_op() -> Master {
         file.drive.push(d);
     }
     let mut m = Master {
-        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS).unwrap(),
+        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS.runtime).unwrap(),
         now: Instant::from_millis(1),
     };
     m.cell.boot(m.now);
@@ -281,7 +281,7 @@ fn the_64_drive_example_is_one_chain_of_64() {
     );
     let file = CellFile::load(std::path::Path::new(path)).unwrap();
     let mut m = Master {
-        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS).unwrap(),
+        cell: SlaveChain::from_cell_file(&file, drivetwin::vendors::VENDORS.runtime).unwrap(),
         now: Instant::from_millis(1),
     };
     m.cell.boot(m.now);

@@ -24,7 +24,7 @@ struct Bench {
 impl Bench {
     fn new() -> Self {
         let spec = CellFile::single("kinco-fd3", 1)
-            .drives(drivetwin::vendors::VENDORS)
+            .drives(drivetwin::vendors::VENDORS.runtime)
             .expect("a Kinco cell")
             .remove(0);
         assert!(spec.settings.is_some(), "kinco-fd3 is a CiA 402 drive");

@@ -22,7 +22,6 @@ use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::serial::Kind;
 use drivetwin::serial::LineRequest;
 use drivetwin::vendors::kinco::rtu_line::RtuLine;
-use drivetwin::vendors::virtual_serial_lines as virtual_lines;
 
 fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
@@ -130,7 +129,11 @@ fn run() -> Outputs {
             drive: OnBus { bus: 0, drive: 1 },
         },
     ];
-    let mut lines = virtual_lines(&requests, std::slice::from_ref(&cell)).expect("lines");
+    let mut lines = (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(
+        &requests,
+        std::slice::from_ref(&cell),
+    )
+    .expect("lines");
     let mut outputs = Vec::new();
     run_virtual_lines(
         &mut cell,

@@ -24,8 +24,11 @@ fn example(name: &str) -> PathBuf {
 /// Runs the example once; its report and its trace's bytes.
 fn run(name: &str, run: u32) -> (Report, Vec<u8>) {
     let s = Scenario::load(&example(name)).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let trace =
         std::env::temp_dir().join(format!("scenario-{}-{name}-{run}.pcap", std::process::id()));
     rig.trace_to(&trace).expect("trace");
@@ -147,8 +150,11 @@ fn a_refused_action_fails_the_run() {
         din = 3
     "#;
     let s = Scenario::parse(text, "refusals", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(!report.passed);
     assert_eq!(report.errors.len(), 2, "{}", report.text());
@@ -185,8 +191,11 @@ fn a_negative_value_is_compared_in_the_objects_width() {
         within = "1ms"
     "#;
     let s = Scenario::parse(text, "negative", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(report.passed, "{}", report.text());
     assert!(
@@ -238,15 +247,21 @@ expect_emcy = 0x7380
 within = "100ms"
 "#;
     let s = Scenario::parse(text, "planned", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(report.passed, "{}", report.text());
     let bad = text.replace("encoder = \"disconnected\"", "encoder = \"melted\"");
     let s = Scenario::parse(&bad, "bad", None).expect("scenario");
-    let e = VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS)
-        .err()
-        .expect("refused");
+    let e = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .err()
+    .expect("refused");
     assert!(e.to_string().contains("melted"), "{e}");
 }
 
@@ -313,8 +328,11 @@ fn homing_with_the_fmi2_conveyor_is_the_same_as_with_the_fmi3_one() {
         );
     let text = scenario.replace("cell = \"../conveyor.toml\"", "") + "\n[cell]\n" + &cell;
     let s = Scenario::parse(&text, "fmi2", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     assert_eq!(
         rig.load_fmi_version(1),
         Some("2.0"),
@@ -341,8 +359,10 @@ fn a_load_fmu_without_a_mapped_variable_is_refused_naming_it() {
         fmu.display().to_string()
     );
     let s = Scenario::parse(&text, "missing", None).expect("scenario");
-    let Err(e) = VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS)
-    else {
+    let Err(e) = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    ) else {
         panic!("a load FMU without `belt_torque` was taken");
     };
     assert!(
@@ -364,8 +384,11 @@ fn a_load_fmu_that_fails_stops_the_cell_with_its_error() {
         fmu.display().to_string()
     );
     let s = Scenario::parse(&text, "failing", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(!report.passed);
     assert!(

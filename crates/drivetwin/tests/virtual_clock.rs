@@ -136,7 +136,7 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
     let mut modbus = vec![cmmo_st()];
     let mut chain = SlaveChain::empty();
     let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("spec")
         .remove(0);
     chain

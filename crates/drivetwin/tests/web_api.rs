@@ -367,7 +367,7 @@ fn default_address_gives_way_an_explicit_one_must_bind_and_beyond_loopback_a_tok
     let second = web::start(
         &HttpSetting::Default,
         cell.handle.clone(),
-        drivetwin::vendors::WEB_PAGES,
+        drivetwin::vendors::VENDORS.web_pages,
     )
     .expect("no error");
     assert!(second.is_none());
@@ -376,21 +376,21 @@ fn default_address_gives_way_an_explicit_one_must_bind_and_beyond_loopback_a_tok
     assert!(web::start(
         &HttpSetting::At(addr),
         cell.handle.clone(),
-        drivetwin::vendors::WEB_PAGES
+        drivetwin::vendors::VENDORS.web_pages
     )
     .is_err());
     assert_eq!(HttpSetting::parse(Some("off")), HttpSetting::Off);
     assert!(web::start(
         &HttpSetting::Off,
         cell.handle.clone(),
-        drivetwin::vendors::WEB_PAGES
+        drivetwin::vendors::VENDORS.web_pages
     )
     .expect("off")
     .is_none());
     let local = web::start(
         &HttpSetting::At("127.0.0.1:0".into()),
         cell.handle.clone(),
-        drivetwin::vendors::WEB_PAGES,
+        drivetwin::vendors::VENDORS.web_pages,
     )
     .expect("binds")
     .expect("serves");
@@ -398,7 +398,7 @@ fn default_address_gives_way_an_explicit_one_must_bind_and_beyond_loopback_a_tok
     let wide = web::start(
         &HttpSetting::At("0.0.0.0:0".into()),
         cell.handle.clone(),
-        drivetwin::vendors::WEB_PAGES,
+        drivetwin::vendors::VENDORS.web_pages,
     )
     .expect("binds")
     .expect("serves");

@@ -56,7 +56,6 @@ use drivetwin::serial::line::VirtualLine;
 use drivetwin::serial::Kind;
 use drivetwin::serial::LineRequest;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
-use drivetwin::vendors::virtual_serial_lines as virtual_lines;
 
 /// Whether to rewrite the golden files instead of comparing with them.
 const BLESS: &str = "DRIVETWIN_BLESS";
@@ -264,7 +263,7 @@ const KINCO: Device = Device {
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
 fn can_cell(device: &str, node: u8) -> CanSegment {
     let spec = CellFile::single(device, node)
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("a cell of one drive")
         .remove(0);
     let drive = Station::with_settings(
@@ -559,7 +558,11 @@ fn kinco_serial() -> Rig {
             drive: OnBus { bus: 0, drive: 1 },
         },
     ];
-    let lines = virtual_lines(&requests, std::slice::from_ref(&cell)).expect("lines");
+    let lines = (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(
+        &requests,
+        std::slice::from_ref(&cell),
+    )
+    .expect("lines");
     let mut s = Script::default();
     s.can(2, 0x000, &[0x01, 0x00]);
     for (i, (cmd, index, sub, value)) in [
@@ -649,7 +652,7 @@ fn fhpp(tid: u16, out: [u8; 8]) -> Input {
 /// homing, a direct-mode positioning task, a Modbus exception; FHPP telegrams every 10 ms.
 fn cmmo_st() -> Rig {
     let spec = CellFile::single("cmmo-st", 1)
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("a CMMO-ST cell")
         .remove(0);
     let settings = spec.fhpp.expect("an FHPP drive").settings;
@@ -729,7 +732,7 @@ fn cmmp_ethercat() -> Rig {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let mut chain = SlaveChain::empty();
     let spec = CellFile::single("cmmp-as", 1)
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("spec")
         .remove(0);
     chain

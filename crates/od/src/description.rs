@@ -331,6 +331,9 @@ pub struct DeviceDescription {
     pub ethercat: Option<EthercatSlave>,
     /// What the FHPP profile needs beyond the parameters, for a device of that profile.
     pub fhpp: Option<FhppParameters>,
+    /// What the device does when its CAN controller changes error state (device file
+    /// `[device.bus_faults]`; CiA 301's usage for a file without one, an EDS among them).
+    pub bus_faults: crate::BusFaultReactions,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

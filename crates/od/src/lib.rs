@@ -9,6 +9,7 @@
 
 pub mod abort_code;
 pub mod access;
+pub mod bus_faults;
 pub mod cob_id;
 pub mod data_type;
 pub mod description;
@@ -22,6 +23,7 @@ pub mod value;
 
 pub use abort_code::AbortCode;
 pub use access::Access;
+pub use bus_faults::{BusFaultReaction, BusFaultReactions};
 pub use data_type::DataType;
 pub use description::{
     Behaviour, CanBitRateCodes, Cia301Options, DeviceDescription, Entry, EthercatSlave,

@@ -20,7 +20,7 @@ use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
 pub use self::error::{EdsError, Location};
 use self::ini::{Ini, Section};
-use crate::model::{Device, Ent, Obj};
+use crate::model::{BusFaults, Device, Ent, Obj};
 
 /// A read EDS or DCF.
 #[derive(Debug, Clone)]
@@ -259,6 +259,8 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         fieldbus_switches: false,
         ethercat: None,
         fhpp: None,
+        // An EDS says nothing of them (CiA 306): CiA 301's usage.
+        bus_faults: BusFaults::default(),
         interfaces: vec!["canopen".into()],
         interfaces_one_of: Vec::new(),
         interfaces_rule: "a CANopen device (its EDS)".into(),

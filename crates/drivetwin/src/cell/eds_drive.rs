@@ -220,18 +220,27 @@ fn personality(desc: &'static DeviceDescription) -> Personality {
     }
 }
 
+/// The test EDS files of `tests/interop/data/eds/` (written after other vendors' public
+/// object lists), for the tests of the modules that read them.
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use drive::drive::{Drive, DriveSettings};
-    use drive::vendors::Cia402;
-    use od::{Instant, ObjectAccess, ObjectDictionary};
+pub(crate) mod test_files {
+    use std::path::{Path, PathBuf};
 
-    fn data(name: &str) -> PathBuf {
+    /// The test EDS or DCF file `name`.
+    pub(crate) fn data(name: &str) -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../tests/interop/data/eds")
             .join(name)
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_files::data;
+    use super::*;
+    use drive::drive::{Drive, DriveSettings};
+    use drive::vendors::Cia402;
+    use od::{Instant, ObjectAccess, ObjectDictionary};
 
     fn modes(p: &Personality) -> Vec<i8> {
         p.modes.iter().map(|m| m.mode).collect()
@@ -322,7 +331,6 @@ mod tests {
 
 #[cfg(test)]
 mod cell_file_tests {
-    use super::*;
     use crate::cell::config::{CellFile, ConfigError};
 
     /// `eds = "…"` is relative to the cell file; `device` and `eds` together are refused; a
@@ -331,8 +339,7 @@ mod cell_file_tests {
     fn eds_on_a_drive_of_a_cell_file() {
         let dir = std::env::temp_dir().join(format!("drivetwin-eds-cell-{}", std::process::id()));
         std::fs::create_dir_all(dir.join("drives")).unwrap();
-        let source = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let source = super::test_files::data("epos4_like.eds");
         let text = std::fs::read_to_string(&source).unwrap();
         std::fs::write(dir.join("drives/axis.eds"), &text).unwrap();
         let cell = dir.join("cell.toml");
@@ -386,8 +393,7 @@ mod dcf_bit_rate_tests {
 
     /// A DCF after the EPOS4-like EDS, commissioned to `kbit`, written as `dir/name`.
     fn dcf(dir: &Path, name: &str, kbit: u16) -> PathBuf {
-        let source = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let source = super::test_files::data("epos4_like.eds");
         let text = std::fs::read_to_string(source).unwrap();
         let path = dir.join(name);
         std::fs::write(

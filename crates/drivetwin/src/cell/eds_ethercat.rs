@@ -230,13 +230,7 @@ fn assignment(index: u16, name: &str, pdos: &[u16]) -> Obj {
 mod tests {
     use super::*;
     use crate::cell::eds_drive;
-    use std::path::{Path, PathBuf};
-
-    fn data(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/interop/data/eds")
-            .join(name)
-    }
+    use crate::cell::eds_drive::test_files::data;
 
     fn u(desc: &od::DeviceDescription, index: u16, sub: u8) -> Option<u64> {
         let e = desc.entry(index, sub)?;

@@ -1,11 +1,13 @@
 //! The seams through which the runtime reaches what only a drive's vendor knows, as one value.
-//! The binary's `drivetwin::vendors::VENDORS` fills it from the vendor folders; whoever builds
-//! a cell (the run and scenario commands, the scenario rig, the cell FMU, the tests) hands it
-//! on, and the runtime names no vendor. Each field's type is declared beside what calls it.
+//! The binary's `drivetwin::vendors::VENDORS.runtime` fills it from the vendor folders;
+//! whoever builds a cell (the run and scenario commands, the scenario rig, the cell FMU, the
+//! tests) hands it on, and the runtime names no vendor. Each field's type is declared beside
+//! what calls it.
 //!
-//! The front ends' own seams are not here, since the runtime never depends on its front ends:
-//! the web console's device pages (`web::DevicePages`) and the serial lines' protocols
-//! (`serial::line::LineProtocol`) are handed to the front end that serves them.
+//! The front ends' own seams are beside it in `drivetwin::vendors::VENDORS`, not in it, since
+//! the runtime never depends on its front ends: the web console's device pages
+//! (`web::DevicePages`, `VENDORS.web_pages`) and the serial lines with their protocols
+//! (`serial::SerialLines`, `VENDORS.serial_lines`) go to the front end that serves them.
 
 use super::config::DeviceSections;
 use super::control::DriveViews;

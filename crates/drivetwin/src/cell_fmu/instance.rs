@@ -401,7 +401,7 @@ mod tests {
             "[[bus]]\nsocketcand = \"127.0.0.1:0\"\nbitrate = \"instant\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n",
         )
         .unwrap();
-        let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS).unwrap();
+        let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS.runtime).unwrap();
         let (bus, addr) = cell.front_end_addresses()[0];
         assert_eq!(bus, 0);
         let stream = TcpStream::connect(addr).unwrap();

@@ -126,7 +126,7 @@ pub fn run_virtual_mixed(
 }
 
 /// [`run_virtual_mixed`] with the serial lines `lines` (built by
-/// [`crate::vendors::virtual_serial_lines`]) on the same clock: their wire times, frame ends
+/// `drivetwin::vendors::VENDORS.serial_lines`, [`crate::serial::SerialLines`]) on the same clock: their wire times, frame ends
 /// and answers are deadlines like the others; at one instant they come after the chains and
 /// before the input. A line's answers go to `sink` when they have crossed.
 pub fn run_virtual_lines(

@@ -35,8 +35,12 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
     };
     // The cell as the FMU builds it: its drives are the variables, and a cell the FMU could
     // not build is refused here rather than in the importer.
-    let instance = CellInstance::new(&cell, timeline.as_ref(), drivetwin::vendors::VENDORS)
-        .map_err(|e| usage(e.to_string()))?;
+    let instance = CellInstance::new(
+        &cell,
+        timeline.as_ref(),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .map_err(|e| usage(e.to_string()))?;
     let name = args
         .config
         .file_stem()

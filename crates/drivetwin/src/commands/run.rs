@@ -308,7 +308,7 @@ async fn prepare_cell(
     args: &RunArgs,
     first: bool,
 ) -> Result<Prepared, CommandError> {
-    let mut specs = file.drives(drivetwin::vendors::VENDORS)?;
+    let mut specs = file.drives(drivetwin::vendors::VENDORS.runtime)?;
     // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
     // instead of CAN (as before the cell loop served both).
     let ethercat_if = args.ethercat.as_deref().filter(|_| first);
@@ -483,7 +483,7 @@ async fn prepare_cell(
         serial,
         rt_priority: args.rt_priority,
         busy_poll: args.busy_poll,
-        views: drivetwin::vendors::VENDORS.views,
+        views: drivetwin::vendors::VENDORS.runtime.views,
         ..FrontEnds::default()
     };
     for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
@@ -567,7 +567,7 @@ fn web_console(
     let console = web::start(
         &HttpSetting::parse(http),
         handle,
-        drivetwin::vendors::WEB_PAGES,
+        drivetwin::vendors::VENDORS.web_pages,
     )
     .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(c) = &console {
@@ -613,7 +613,7 @@ fn ci_consoles(
         consoles.push(TerminalPort {
             listener,
             drive,
-            terminal: drivetwin::vendors::VENDORS.ci_terminal,
+            terminal: drivetwin::vendors::VENDORS.runtime.ci_terminal,
         });
     }
     Ok(consoles)
@@ -629,7 +629,6 @@ fn serial_lines(
     segments: &[CanSegment],
 ) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
     use drivetwin::serial::{Kind, LineRequest};
-    use drivetwin::vendors::open_serial_lines;
     let mut requests = Vec::new();
     for (i, d) in ports.iter().enumerate() {
         // The command line's ports are the first drive's of the first cell.
@@ -664,8 +663,8 @@ fn serial_lines(
             requests.push(LineRequest { kind, path, drive });
         }
     }
-    let lines =
-        open_serial_lines(&requests, segments).map_err(|e| CommandError::Usage(e.to_string()))?;
+    let lines = (drivetwin::vendors::VENDORS.serial_lines.open_lines)(&requests, segments)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     for l in &lines {
         match l.port().pty_name() {
             Some(pty) => out!(
@@ -923,7 +922,7 @@ fn modbus_device(
         .as_ref()
         .map(|dir| ParamStore::new(dir, desc.name, spec.node));
     let path = store.as_ref().map(|s| s.memory_path().to_path_buf());
-    let powered = (drivetwin::vendors::VENDORS.modbus_device)(spec, store)
+    let powered = (drivetwin::vendors::VENDORS.runtime.modbus_device)(spec, store)
         .ok_or_else(|| {
             CommandError::Usage(format!("drive {}: not served over Modbus TCP", desc.name))
         })?

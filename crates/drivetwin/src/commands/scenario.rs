@@ -81,7 +81,7 @@ fn run_one(file: &Path, args: &ScenarioArgs) -> Result<Report, CommandError> {
             file.display()
         ))
     })?;
-    let mut rig = VirtualRig::new(cell, drivetwin::vendors::VENDORS)
+    let mut rig = VirtualRig::new(cell, drivetwin::vendors::VENDORS.runtime)
         .map_err(|e| CommandError::Usage(e.to_string()))?;
     if let Some(path) = &args.trace {
         rig.trace_to(path)

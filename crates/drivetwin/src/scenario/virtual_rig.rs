@@ -46,7 +46,7 @@ pub struct VirtualRig {
 
 impl VirtualRig {
     /// The CANopen drives of `file`'s buses, booted at 0, its drives' keys read with the
-    /// sections of `vendors` (`drivetwin::vendors::VENDORS`), and its drives served over
+    /// sections of `vendors` (`drivetwin::vendors::VENDORS.runtime`), and its drives served over
     /// Modbus TCP as `vendors.modbus_device` makes them.
     pub fn new(file: &CellFile, vendors: Vendors) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);

@@ -1,7 +1,8 @@
 //! The serial ports of a drive (RS232, RS485), served at the same time as its other front
 //! ends, on the same objects. The protocols on them are the vendors' (the Kinco FD3 / CD3's
-//! 10-byte telegrams and its Modbus RTU, `crate::vendors`), handed in as a
-//! [`line::LineProtocol`] by whoever builds the lines.
+//! 10-byte telegrams and its Modbus RTU, `crate::vendors`), each a [`line::LineProtocol`] of
+//! a line the vendor builds: the binary hands the vendors' builders in as [`SerialLines`]
+//! (`drivetwin::vendors::VENDORS.serial_lines`).
 //!
 //! - [`pty`]: the file behind a line, a pseudo-terminal the twin makes (PATH a link to it) or
 //!   a real device;
@@ -19,7 +20,36 @@ pub mod wire;
 
 use od::{Instant, ObjectAccess};
 
+use crate::cell::can_segment::CanSegment;
 use crate::cell::OnBus;
+
+/// How the lines of a cell are built from its drives' ports: one line per path of the
+/// requests, with the protocol and the bit rate of its drives, which only the drives' vendor
+/// knows. The binary's `drivetwin::vendors::VENDORS.serial_lines` fills it from the vendor
+/// folders.
+#[derive(Debug, Clone, Copy)]
+pub struct SerialLines {
+    /// The lines, opened: a pty the twin makes (its path a link to it) or a real device.
+    pub open_lines: BuildLines<line::SerialLine>,
+    /// The same lines on the virtual clock, without ports
+    /// ([`crate::cell_loop::virtual_clock::run_virtual_lines`]): a path only names the line its
+    /// drives share.
+    pub virtual_lines: BuildLines<line::VirtualLine>,
+}
+
+/// Builds one line `L` per path of the requests, for the drives of the segments.
+pub type BuildLines<L> = fn(&[LineRequest], &[CanSegment]) -> Result<Vec<L>, LinesError>;
+
+/// Why the lines of a cell could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum LinesError {
+    /// The drive's vendor refuses the request (a port the device does not have, a speed code
+    /// that is no bit rate); the text cites its manual.
+    #[error("{0}")]
+    Refused(String),
+    #[error(transparent)]
+    Port(#[from] pty::PortError),
+}
 
 /// How a line reaches the drives of the cell.
 pub trait LineDrives {

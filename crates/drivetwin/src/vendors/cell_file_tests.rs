@@ -16,7 +16,7 @@ mod travel_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives(VENDORS)
+        file.drives(VENDORS.runtime)
     }
 
     #[test]
@@ -60,7 +60,7 @@ mod cmmo_st_tests {
 
     fn spec(text: &str) -> Result<Vec<DriveSpec>, String> {
         let file: CellFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        file.drives(VENDORS).map_err(|e| e.to_string())
+        file.drives(VENDORS.runtime).map_err(|e| e.to_string())
     }
 
     #[test]
@@ -165,7 +165,7 @@ mod example_tests {
             if path.extension().is_some_and(|e| e == "toml") {
                 let file = CellFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
                 let drives = file
-                    .drives(VENDORS)
+                    .drives(VENDORS.runtime)
                     .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
                 assert!(!drives.is_empty(), "{}", path.display());
                 // Its buses' rates: named, or the nodes agree.
@@ -296,7 +296,7 @@ mod switches_tests {
             path: PathBuf::from("cell.toml"),
             source,
         })?;
-        file.drives(VENDORS)
+        file.drives(VENDORS.runtime)
     }
 
     fn drive(switches: &str) -> Result<DriveSpec, ConfigError> {
@@ -378,7 +378,7 @@ mod bus_rate_tests {
 
     fn rates(text: &str) -> Result<Vec<BusRate>, ConfigError> {
         let f = file(text);
-        f.bus_rates(&f.drives(VENDORS)?)
+        f.bus_rates(&f.drives(VENDORS.runtime)?)
     }
 
     fn timed(bitrate: u32, from_nodes: bool) -> BusRate {
@@ -394,7 +394,9 @@ mod bus_rate_tests {
     fn the_nodes_rate_without_a_bitrate() {
         let single = CellFile::single("cmmp-as", 1);
         assert_eq!(
-            single.bus_rates(&single.drives(VENDORS).unwrap()).unwrap(),
+            single
+                .bus_rates(&single.drives(VENDORS.runtime).unwrap())
+                .unwrap(),
             [timed(125_000, true)]
         );
         assert_eq!(
@@ -470,7 +472,7 @@ mod bus_rate_tests {
         let mut f = file(mixed);
         f.set_bitrate(BitrateSetting::Instant);
         assert_eq!(
-            f.bus_rates(&f.drives(VENDORS).unwrap()).unwrap(),
+            f.bus_rates(&f.drives(VENDORS.runtime).unwrap()).unwrap(),
             [BusRate::Instant]
         );
         let err = toml::from_str::<CellFile>("[bus]\nbitrate = \"fast\"\n").unwrap_err();
@@ -485,7 +487,7 @@ mod bus_rate_tests {
     fn kinco_dip_switches_give_the_station_number() {
         let fd3 = |section: &str| {
             let text = format!("[[drive]]\ndevice = \"kinco-fd3\"\nnode = 9\n{section}\n");
-            file(&text).drives(VENDORS).map(|mut v| v.remove(0))
+            file(&text).drives(VENDORS.runtime).map(|mut v| v.remove(0))
         };
         // KINCO-DIP-01: SW1 → 1.
         assert_eq!(fd3("[drive.dip_switches]\non = [1]").unwrap().node, 1);
@@ -516,7 +518,7 @@ mod bus_rate_tests {
         let d = fd3("[drive.dip_switches]\non = [1]\n[drive.objects]\n\"2F81:00\" = 25").unwrap();
         assert_eq!(d.bit_rate.map(|r| r.kbit), Some(250));
         let err = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\non = [1]\n")
-            .drives(VENDORS)
+            .drives(VENDORS.runtime)
             .unwrap_err()
             .to_string();
         assert!(err.contains("no DIP switches"), "{err}");
@@ -538,7 +540,10 @@ mod device_keys_tests {
         let f = file(&format!(
             "[[drive]]\ndevice = \"{device}\"\nnode = {node}\n{keys}\n"
         ))?;
-        let spec = f.drives(VENDORS).map_err(|e| e.to_string())?.remove(0);
+        let spec = f
+            .drives(VENDORS.runtime)
+            .map_err(|e| e.to_string())?
+            .remove(0);
         Ok((f.drive[0].clone(), spec))
     }
 
@@ -671,7 +676,7 @@ mod device_keys_tests {
         }
         let f = file("[[drive]]\ndevice = \"kinco-cd3\"\n[drive.dip_switches]\n").unwrap();
         assert!(matches!(
-            f.drives(VENDORS),
+            f.drives(VENDORS.runtime),
             Err(ConfigError::ForeignKey { node: 1, .. })
         ));
     }
@@ -701,11 +706,10 @@ mod device_keys_tests {
     /// A drive from its EDS has the CiA 402 keys and no vendor's.
     #[test]
     fn a_drive_from_its_eds_has_the_cia402_keys() {
-        let eds = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tests/interop/data/eds/epos4_like.eds");
+        let eds = crate::cell::eds_drive::test_files::data("epos4_like.eds");
         let drive = |keys: &str| {
             let text = format!("[[drive]]\neds = {:?}\nnode = 6\n{keys}\n", eds.display());
-            file(&text).and_then(|f| f.drives(VENDORS).map_err(|e| e.to_string()))
+            file(&text).and_then(|f| f.drives(VENDORS.runtime).map_err(|e| e.to_string()))
         };
         let s = drive("mode_change_time_ms = 1.0\n[drive.motor]\ninertia = 3e-5").unwrap();
         assert_eq!(s[0].settings.unwrap().motor.inertia, 3e-5);

@@ -4,8 +4,9 @@
 //! vendor; they reach these folders through the seams this module lists, which the binary
 //! hands them (`scripts/structure` checks it):
 //!
-//! - [`VENDORS`]: what the runtime takes from the vendors, as one value
-//!   ([`crate::cell::Vendors`]):
+//! - [`VENDORS`]: the seams of the runtime and of the front ends, as one value ([`Seams`]),
+//!   which the commands and the tests' rigs hand on, each part to its layer;
+//! - `VENDORS.runtime`: what the runtime takes from the vendors ([`crate::cell::Vendors`]):
 //!   - `cell_sections`: each device's own keys of a cell file's `[[drive]]`
 //!     ([`crate::cell::config::DeviceSection`]), read and checked against its drive;
 //!   - `modbus_device`: the drives served over Modbus TCP with a register image of their own
@@ -17,10 +18,11 @@
 //!     a running drive go through [`crate::cell::control::ControlHandle::with_drive`];
 //!   - `ci_terminal`: the terminal of a drive's `ci_terminal` port
 //!     ([`crate::cell::terminal::Terminal`]);
-//! - the front ends' seams, whose types are the front ends' own and so not the runtime's
-//!   value: [`WEB_PAGES`], the devices' own pages of the web console
-//!   ([`crate::web::DevicePages`]); [`open_serial_lines`], [`virtual_serial_lines`], the
-//!   serial lines of a cell, each with its protocol ([`crate::serial::line::LineProtocol`]);
+//! - the front ends' seams, whose types are the front ends' own and so not in the runtime's
+//!   part: `VENDORS.web_pages`, the devices' own pages of the web console
+//!   ([`crate::web::DevicePages`]); `VENDORS.serial_lines`, the serial lines of a cell, each
+//!   with its protocol ([`crate::serial::SerialLines`],
+//!   [`crate::serial::line::LineProtocol`]);
 //! - the sub-commands named for a device (`drivetwin kinco`, `fhpp`, `iodd`): their
 //!   arguments are types of the vendor folder with a `run` method, failing with
 //!   [`CommandError`], whose [`Failure`] the binary turns into its exit code.
@@ -48,19 +50,41 @@ use crate::cell::control::{DisplayState, DriveViews};
 use crate::cell::modbus_device::NewModbusDevice;
 use crate::cell::terminal::NewTerminal;
 use crate::cell::Vendors;
+use crate::serial::SerialLines;
 use crate::web::DevicePages;
 
-/// What the runtime takes from the vendors, as one value: their cell file sections, the
-/// Modbus TCP device, the drives' views and the CI terminal.
-pub const VENDORS: Vendors = Vendors {
-    cell_sections: CELL_SECTIONS,
-    modbus_device: MODBUS_DEVICE,
-    views: DRIVE_VIEWS,
-    ci_terminal: CI_TERMINAL,
+/// Everything the binary takes from the vendor folders, as one value: what the runtime takes
+/// ([`Vendors`], declared by the runtime), and what the front ends take, in their own types
+/// (the runtime names no front end). Whoever builds a cell hands each part to its layer:
+/// `runtime` to [`crate::cell::config::CellFile::drives`], the EtherCAT chains, the scenario
+/// rig, the cell FMU and the loop's front ends; `web_pages` to [`crate::web::start`];
+/// `serial_lines` to whoever opens the cell's serial lines.
+#[derive(Debug, Clone, Copy)]
+pub struct Seams {
+    /// The runtime's seams: cell file sections, the Modbus TCP device, the drives' views and
+    /// the CI terminal.
+    pub runtime: Vendors,
+    /// Every device's own web pages, in the order their OpenAPI documents join the console's.
+    pub web_pages: &'static [DevicePages],
+    /// The serial lines that drives' `rs232` / `rs485` ports (and `--rs232`, `--rs485`) ask
+    /// for, each with its protocol: opened, and on the virtual clock.
+    pub serial_lines: SerialLines,
+}
+
+/// Every seam of the vendor folders, as one value.
+pub const VENDORS: Seams = Seams {
+    runtime: Vendors {
+        cell_sections: CELL_SECTIONS,
+        modbus_device: MODBUS_DEVICE,
+        views: DRIVE_VIEWS,
+        ci_terminal: CI_TERMINAL,
+    },
+    web_pages: WEB_PAGES,
+    serial_lines: SERIAL_LINES,
 };
 
 /// Every device's own web pages, in the order their OpenAPI documents join the console's.
-pub const WEB_PAGES: &[DevicePages] = &[festo_cmmo_st::WEB_PAGES, kinco::WEB_PAGES];
+const WEB_PAGES: &[DevicePages] = &[festo_cmmo_st::WEB_PAGES, kinco::WEB_PAGES];
 
 /// What the drives' vendors tell the runtime: the Kinco's display is its LED panel, the
 /// other CiA 402 drives' the engine's (the CMMP-AS's 7-segment display; none for the rest).
@@ -87,13 +111,9 @@ const CELL_SECTIONS: DeviceSections = &[
 /// terminal, the only drive with one.
 const CI_TERMINAL: NewTerminal = festo_cmmp_as::ci_terminal::new;
 
-/// The serial lines that drives' `rs232` / `rs485` ports (and `--rs232`, `--rs485`) ask
-/// for, opened, and the same lines on the virtual clock; the Kinco FD3 / CD3 are the drives
-/// with serial ports.
-pub use kinco::serial_lines::{
-    open_lines as open_serial_lines, virtual_lines as virtual_serial_lines,
-    SetupError as SerialSetupError,
-};
+/// The serial lines that drives' `rs232` / `rs485` ports ask for: the Kinco FD3 / CD3 are
+/// the drives with serial ports.
+const SERIAL_LINES: SerialLines = kinco::serial_lines::SERIAL_LINES;
 
 /// Why a vendor's sub-command (`drivetwin kinco`, `drivetwin fhpp`, `drivetwin iodd`)
 /// failed; [`CommandError::failure`] is the class the binary turns into its exit code.

@@ -17,7 +17,7 @@
 //! - [`auth`]: the write token;
 //! - [`wire`]: wire faults and traces; [`scenarios`]: scenarios on the live cell;
 //! - [`DevicePages`]: a device's own pages, served beside these; the console names no device,
-//!   its caller hands it the pages (`drivetwin::vendors::WEB_PAGES`).
+//!   its caller hands it the pages (`drivetwin::vendors::VENDORS.web_pages`).
 
 pub mod api;
 pub mod auth;
@@ -86,7 +86,7 @@ pub struct AppState {
 
 /// A device's own pages and API beside the console's, as the device's vendor folder defines
 /// them: the console serves them without naming the device, so that adding a device's pages
-/// touches its folder and the table that lists it (`drivetwin::vendors::WEB_PAGES`).
+/// touches its folder and the table that lists it (`drivetwin::vendors::VENDORS.web_pages`).
 #[derive(Debug, Clone, Copy)]
 pub struct DevicePages {
     /// The routes, under a path of the device's own (`/cmmo-st/{drive}`, `/api/…/panel`).

@@ -18,7 +18,7 @@ pub fn cmmp_cell(store: Option<ParamStore>) -> CanSegment {
 /// The default cell of device file `device` (node 1), not yet booted.
 pub fn device_cell(device: &str, store: Option<ParamStore>) -> CanSegment {
     let spec = CellFile::single(device, 1)
-        .drives(drivetwin::vendors::VENDORS)
+        .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("the default cell")
         .remove(0);
     assert!(spec.settings.is_some(), "{device} is a CiA 402 drive");

@@ -42,7 +42,7 @@ impl Drop for Running {
 pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
     // The drives' displays as the binary shows them.
     let front = FrontEnds {
-        views: drivetwin::vendors::VENDORS.views,
+        views: drivetwin::vendors::VENDORS.runtime.views,
         ..front
     };
     let cell_loop = CellLoop::with_buses(front).expect("loop");
@@ -109,7 +109,7 @@ pub fn app(running: &Running, token: Option<&str>) -> axum::Router {
     web::router(AppState {
         handle: running.handle.clone(),
         token: token.map(Arc::from),
-        pages: drivetwin::vendors::WEB_PAGES,
+        pages: drivetwin::vendors::VENDORS.web_pages,
     })
 }
 

@@ -39,7 +39,7 @@ pub struct DeviceSection {
     pub read: fn(toml::Table, &DriveContext<'_>) -> Result<OwnSettings, SectionError>,
 }
 
-/// The devices' sections a cell file is read with (`drivetwin::vendors::VENDORS.cell_sections`).
+/// The devices' sections a cell file is read with (`drivetwin::vendors::VENDORS.runtime.cell_sections`).
 pub type DeviceSections = &'static [DeviceSection];
 
 impl DeviceSection {

@@ -75,7 +75,7 @@ impl DriveSpec {
 
 impl CellFile {
     /// Its drives, each checked against its device and ready to build, each device's own
-    /// keys read by its section of `vendors` (`drivetwin::vendors::VENDORS`).
+    /// keys read by its section of `vendors` (`drivetwin::vendors::VENDORS.runtime`).
     pub fn drives(&self, vendors: Vendors) -> Result<Vec<DriveSpec>, ConfigError> {
         let sections = vendors.cell_sections;
         let mut specs: Vec<DriveSpec> = Vec::new();

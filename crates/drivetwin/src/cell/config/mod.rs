@@ -6,7 +6,7 @@
 //! ([`drive_section`]): the keys every drive has, and flat beside them the keys of its device:
 //! the CiA 402 keys of every CiA 402 drive ([`cia402`]) and the device's own section, which
 //! its vendor folder reads ([`device_keys::DeviceSection`], handed in as
-//! [`DeviceSections`]: `drivetwin::vendors::VENDORS.cell_sections`). The runtime knows no vendor.
+//! [`DeviceSections`]: `drivetwin::vendors::VENDORS.runtime.cell_sections`). The runtime knows no vendor.
 //! [`CellFile::drives`] checks each drive against its device ([`DriveSpec`]).
 
 pub mod bus_section;

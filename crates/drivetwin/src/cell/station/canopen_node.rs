@@ -8,7 +8,7 @@ use od::Instant;
 use super::Station;
 
 impl Station {
-    /// Its CAN controller changed error state: the personality's reaction
+    /// Its CAN controller changed error state: the reactions of its device description
     /// ([`crate::cell::bus_faults`]).
     pub fn can_state_changed(
         &mut self,
@@ -16,19 +16,20 @@ impl Station {
         t: canbus::fault_confinement::Transition,
         out: &mut dyn FnMut(CanFrame),
     ) {
-        use crate::cell::bus_faults::{react, Reaction, COMMUNICATION_REGISTER};
+        use crate::cell::bus_faults::{react, COMMUNICATION_REGISTER};
+        use od::BusFaultReaction as Reaction;
         tracing::warn!(
             node = self.node_id(),
             from = t.from.name(),
             to = t.to.name(),
             "CAN controller"
         );
-        let device = self.model.od().description().name;
+        let reactions = &self.model.od().description().bus_faults;
         let Station { model, canopen, .. } = self;
         let Some(node) = canopen.as_mut() else {
             return;
         };
-        for r in react(device, t) {
+        for r in react(reactions, t) {
             match *r {
                 Reaction::Raise(code) => {
                     node.raise_error(model, code, COMMUNICATION_REGISTER, [0; 5])

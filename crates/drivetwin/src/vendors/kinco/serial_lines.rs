@@ -25,7 +25,7 @@ use crate::cell::station::Station;
 use crate::cell::OnBus;
 use crate::serial::line::{Protocol, SerialLine, VirtualLine};
 use crate::serial::pty::PortError;
-use crate::serial::{has_port, Kind, LineRequest};
+use crate::serial::{has_port, Kind, LineRequest, LinesError, SerialLines};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
@@ -46,6 +46,22 @@ pub enum SetupError {
     #[error(transparent)]
     Port(#[from] PortError),
 }
+
+impl From<SetupError> for LinesError {
+    fn from(e: SetupError) -> Self {
+        match e {
+            SetupError::Port(p) => LinesError::Port(p),
+            refused => LinesError::Refused(refused.to_string()),
+        }
+    }
+}
+
+/// The serial lines of a cell as the runtime's front end takes them
+/// ([`crate::serial::SerialLines`]).
+pub const SERIAL_LINES: SerialLines = SerialLines {
+    open_lines: |requests, segments| Ok(open_lines(requests, segments)?),
+    virtual_lines: |requests, segments| Ok(virtual_lines(requests, segments)?),
+};
 
 fn drive(segments: &[CanSegment], at: OnBus) -> Option<&Station> {
     segments.get(at.bus)?.stations.get(at.drive)
