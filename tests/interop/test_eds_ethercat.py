@@ -12,6 +12,7 @@ Needs root and `ip`; skips otherwise.
 
 from __future__ import annotations
 
+import json
 import struct
 import subprocess
 import time
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, ecat_twin_run
+from conftest import DRIVETWIN_BIN, Realtime, ecat_twin_run, free_port
 
 pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
 
@@ -109,6 +110,135 @@ def test_the_eds_drive_goes_to_op_and_follows_csp_pdos(veth, tmp_path):
             assert master.read_state() == pysoem.OP_STATE
         finally:
             master.close()
+
+
+def api_in(ns: str, path: str, port: int):
+    """GET `path` of the twin's REST API inside its namespace: (status, JSON)."""
+    r = subprocess.run(["ip", "netns", "exec", ns, "curl", "-s", "-o", "-", "-w", "\n%{http_code}",
+                        f"http://127.0.0.1:{port}{path}"], capture_output=True, text=True, timeout=10)
+    text, _, code = r.stdout.rpartition("\n")
+    return int(code or 0), json.loads(text) if text else None
+
+
+def test_the_console_shows_the_dictionary_the_slave_serves(veth, tmp_path):
+    """The console's dictionary of the drive is its EtherCAT slave's: the sync manager objects
+    1C00h / 1C12h / 1C13h the twin adds to the file's are listed and read through the REST
+    API with the values CoE gives, beside the file's own objects."""
+    ns = veth[0]
+    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
+    port = free_port()
+    with ecat_twin_run(veth, tmp_path, "--config", str(cell(tmp_path)), "--http", f"127.0.0.1:{port}"):
+        status, drives = api_in(ns, "/api/drives", port)
+        assert status == 200 and drives[0]["interface"] == "ethercat", drives
+        status, objects = api_in(ns, "/api/drives/0/objects", port)
+        assert status == 200, objects
+        listed = {(int(o["index"], 16), o["sub"]) for o in objects}
+        for entry in ((0x1C00, 0), (0x1C00, 4), (0x1C12, 0), (0x1C12, 1), (0x1C13, 1), (0x6040, 0), (0x1600, 1)):
+            assert entry in listed, f"{entry[0]:04X}h:{entry[1]:02X} not in the console's dictionary"
+        status, o = api_in(ns, "/api/drives/0/objects/1C12/1", port)
+        assert status == 200, o
+        assert o["raw"] == "0016", o  # 1600h, in the bytes of the wire
+        status, o = api_in(ns, "/api/drives/0/objects/1C00/3", port)
+        assert status == 200 and o["value"] == "3", o
+        status, params = api_in(ns, "/api/drives/0/parameters", port)
+        assert status == 200, params
+
+
+DC_CYCLES = 500
+
+
+def test_the_eds_drive_follows_csp_on_dc_sync0_every_cycle(veth, tmp_path):
+    """The same drive on distributed clocks, as field code runs it: `config_dc`, SYNC0 every
+    10 ms (the interpolation period 60C2h), Safe-Op and Op, a new CSP set-point in every
+    cycle for 500 cycles. Every cycle the actual position stands within a few set-points of
+    the last one sent (the outputs are taken at the next SYNC0, the inputs latched there),
+    with the working counter right and the drive enabled throughout. When the master stops,
+    the drive reports the lost synchronisation in its statusword and a CoE emergency, as the
+    CMMP-AS does (`test_ethercat.py`): a master held off the CPU for three cycles sees a
+    fault, not a drive that stands enabled and no longer follows. Master and twin run at
+    SCHED_FIFO where allowed, as a DC master and a drive's firmware do."""
+    with ecat_twin_run(veth, tmp_path, "--config", str(cell(tmp_path)), realtime=True) as (master_if, _):
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            with Realtime():
+                _follow_on_dc(master)
+        finally:
+            master.close()
+
+
+def _follow_on_dc(master) -> None:
+    assert master.config_init() == 1
+    s = master.slaves[0]
+    for index, pdos in ((0x1C12, (0x1600, 0x1602)), (0x1C13, (0x1A02,))):
+        s.sdo_write(index, 0, bytes([0]))
+        for k, pdo in enumerate(pdos, 1):
+            s.sdo_write(index, k, struct.pack("<H", pdo))
+        s.sdo_write(index, 0, bytes([len(pdos)]))
+    s.sdo_write(0x6060, 0, bytes([8]))
+    assert master.config_dc(), "the slave has distributed clocks"
+    s.dc_sync(True, CYCLE_MS * 1_000_000)
+    master.config_map()
+    assert (len(s.output), len(s.input)) == (6, 6)
+    assert master.state_check(pysoem.SAFEOP_STATE, 5_000_000) == pysoem.SAFEOP_STATE, hex(s.al_status)
+
+    target = 0
+    due = time.monotonic()
+
+    def cycle(cw: int) -> tuple[int, int, int]:
+        nonlocal due
+        s.output = struct.pack("<Hi", cw, target)
+        master.send_processdata()
+        wkc = master.receive_processdata(100_000)
+        due += CYCLE_S
+        time.sleep(max(0.0, due - time.monotonic()))
+        sw, pos = struct.unpack("<Hi", bytes(s.input))
+        return wkc, sw, pos
+
+    master.state = pysoem.OP_STATE
+    cycle(0)
+    master.write_state()
+    for _ in range(100):
+        cycle(0)
+        if master.read_state() == pysoem.OP_STATE:
+            break
+    assert s.state == pysoem.OP_STATE, hex(s.al_status)
+    _, _, target = cycle(0)
+    for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+        for _ in range(100):
+            _, sw, _ = cycle(cw)
+            if sw & 0x6F == want:
+                break
+        assert sw & 0x6F == want, hex(sw)
+    step = 50
+    # A set-point goes out in cycle n, is taken at the next SYNC0 and shows in the inputs
+    # latched at a SYNC0 after it: the position lags a few set-points, never more.
+    lag_max = 4 * step
+    bad_wkc = 0
+    behind = []
+    for n in range(DC_CYCLES):
+        target += step
+        wkc, sw, pos = cycle(0x0F)
+        bad_wkc += wkc != master.expected_wkc
+        if n >= 4 and not -step <= target - pos <= lag_max + step:
+            behind.append((n, target - pos, hex(sw)))
+    assert bad_wkc == 0
+    assert sw & 0x6F == 0x27, hex(sw)
+    assert behind == [], f"{len(behind)} of {DC_CYCLES} cycles off the set-points, first {behind[:5]}"
+    assert master.read_state() == pysoem.OP_STATE, hex(s.al_status)
+
+    # The master stops for 0.2 s (20 SYNC0 cycles): the slave falls back to Safe-Op with the
+    # synchronisation error and takes no more set-points, and the drive says so (CiA 402
+    # 8700h "sync controller", Fault) instead of standing enabled on the last one.
+    time.sleep(0.2)
+    master.read_state()
+    assert s.state == pysoem.SAFEOP_STATE | pysoem.STATE_ERROR, hex(s.state)
+    assert s.al_status == 0x001A, hex(s.al_status)
+    emergencies = []
+    s.add_emergency_callback(emergencies.append)
+    sw = struct.unpack("<H", s.sdo_read(0x6041, 0)[:2])[0]
+    assert sw & 0x08, f"the drive reports the error: statusword {sw:#06x}"
+    assert [(e.error_code, e.error_reg) for e in emergencies] == [(0x8700, 0x11)], emergencies
 
 
 def test_an_eds_with_its_own_sync_manager_objects_is_refused(veth, tmp_path):

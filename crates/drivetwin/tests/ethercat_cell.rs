@@ -824,3 +824,115 @@ fn a_chain_of_eds_drives() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// One drive of `epos4_like.eds` alone on a chain (60C2h as the file gives it: 1 ms).
+fn eds_chain(dir: &std::path::Path) -> SlaveChain {
+    std::fs::create_dir_all(dir).unwrap();
+    let cell = dir.join("cell.toml");
+    let eds = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/epos4_like.eds");
+    std::fs::write(
+        &cell,
+        format!(
+            "[[drive]]\neds = \"{}\"\nnode = 1\ninterfaces = [\"ethercat\"]\n",
+            eds.display()
+        ),
+    )
+    .unwrap();
+    let file = CellFile::load(&cell).unwrap();
+    SlaveChain::from_cell_file(&file, drivetwin::cell::Vendors::NONE).unwrap()
+}
+
+/// ecx_config_init up to Pre-Op with the mailbox the SII names (words 18h / 1Ah).
+fn to_preop_from_sii(m: &mut Master) {
+    m.one(Command::Bwr, phys(0, 0x0120), &[0x11, 0x00]);
+    let r = m.one(Command::Apwr, phys(0, 0x0010), &STATION.to_le_bytes());
+    assert_eq!(r.wkc, 1);
+    let (rx, tx) = (m.sii(0x18), m.sii(0x1A));
+    let half = |w: u32, shift: u32| u16::try_from((w >> shift) & 0xFFFF).unwrap();
+    let mut mbx = sm(half(rx, 0), half(rx, 16), 0x26);
+    mbx.extend_from_slice(&sm(half(tx, 0), half(tx, 16), 0x22));
+    m.fpwr(0x0800, &mbx);
+    m.fpwr(0x0120, &[0x02, 0x00]);
+    assert_eq!(m.al(), (0x0002, 0));
+}
+
+/// The generic CiA 402 drive from an EDS on SYNC0, as the CMMP-AS above: the set-points of
+/// a frame are taken at the next SYNC0 event; when the master's cycles stop, the slave falls
+/// back to Safe-Op with 0x001A, takes no more set-points, and the drive says so with CiA
+/// 402's 8700h "sync controller" and Fault, rather than stand in Operation enabled on the
+/// last set-point while the master goes on sending new ones.
+#[test]
+fn an_eds_drive_on_sync0_reports_a_lost_synchronisation() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-eds-sync0-{}", std::process::id()));
+    let mut m = Master::new(eds_chain(&dir));
+    to_preop_from_sii(&mut m);
+    let first = dc_sync0(&mut m, 1_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+    m.cell.poll(m.now);
+    let half = std::time::Duration::from_micros(500);
+    let mut sw = 0;
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        for _ in 0..60 {
+            m.now = m.now + half;
+            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
+            m.now = m.now + half;
+            m.cell.poll(m.now);
+        }
+    }
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    assert_eq!(m.cell.device(0).unwrap().sync_errors, 0);
+
+    // The outputs of the last frame are taken at the next event; three events after it
+    // without outputs are the error.
+    m.idle(5);
+    assert_eq!(
+        m.al(),
+        (0x0014, 0x001A),
+        "Safe-Op + error, synchronisation error"
+    );
+    let drive = m.cell.model(0).unwrap().drive().unwrap();
+    assert_eq!(drive.errors(), &[0x8700], "CiA 402 8700h sync controller");
+    m.idle(50);
+    let sw = read_u16(&m, 0x6041);
+    assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The same drive in free run: when the master's frames stop for longer than the process-data
+/// watchdog (100 ms at the ESC's reset values), the slave falls back to Safe-Op with 0x001B
+/// and the drive, whose EDS names no message for it, reports CiA 301's 8250h "RPDO timeout"
+/// and goes to Fault.
+#[test]
+fn an_eds_drive_whose_process_data_stop_reports_it() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-eds-wd-{}", std::process::id()));
+    let mut m = Master::new(eds_chain(&dir));
+    to_preop_from_sii(&mut m);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let mut sw = 0;
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        for _ in 0..30 {
+            lrw(&mut m, &cw.to_le_bytes(), 2);
+            m.tick();
+            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
+        }
+    }
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
+    m.idle(150);
+    assert_eq!(m.al(), (0x0014, 0x001B), "Safe-Op + error, SM watchdog");
+    assert_eq!(m.cell.device(0).unwrap().watchdog_expiries, 1);
+    let drive = m.cell.model(0).unwrap().drive().unwrap();
+    assert_eq!(drive.errors(), &[0x8250], "CiA 301 8250h RPDO timeout");
+    m.idle(50);
+    let sw = read_u16(&m, 0x6041);
+    assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -39,7 +39,7 @@ const MODES: [ModeSpec; 7] = [
 
 /// CiA 402 §6.3.1 error codes (the EMCY codes of CiA 301 §7.2.7.1 Tab. 21 for drives) with
 /// the generic bit of the error register and the bit of their class (CiA 301 §7.5.2.2).
-const ERRORS: [ErrorSpec; 3] = [
+const ERRORS: [ErrorSpec; 4] = [
     ErrorSpec {
         fault: Fault::FollowingError,
         code: 0x8611,
@@ -56,6 +56,17 @@ const ERRORS: [ErrorSpec; 3] = [
         fault: Fault::I2tMotor,
         code: 0x2310,
         register: 0x03,
+        critical: false,
+    },
+    // 8700h "sync controller": the SYNC grid (a CANopen SYNC in interpolated position, the
+    // SYNC0 events on EtherCAT) lost while the drive runs on it, with the communication bit
+    // (bit 4) of the error register: a slave that falls back to Safe-Op with 0x001A takes no
+    // more set-points, and the drive says so in its statusword rather than stand enabled on
+    // the last one.
+    ErrorSpec {
+        fault: Fault::FieldbusSyncError,
+        code: 0x8700,
+        register: 0x11,
         critical: false,
     },
 ];

@@ -141,6 +141,17 @@ pub fn by_name(name: &str) -> Option<&'static DeviceDescription> {
     })
 }
 
+/// The dictionary a station of the drive named `name` serves: an EtherCAT slave alone
+/// (`ethercat_only`) serves the description its slave was built with, the sync manager
+/// objects 1C00h / 1C12h / 1C13h included ([`on_ethercat`]); a CANopen node serves the file's.
+pub fn served(name: &str, ethercat_only: bool) -> Option<&'static DeviceDescription> {
+    let desc = by_name(name)?;
+    if !ethercat_only {
+        return Some(desc);
+    }
+    Some(on_ethercat(desc).unwrap_or(desc))
+}
+
 /// The objects a mode cannot run without (its 6060h value, the objects).
 const MODE_OBJECTS: [(i8, &[u16]); 7] = [
     (mode::PROFILE_POSITION, &[0x607A, 0x6081]),

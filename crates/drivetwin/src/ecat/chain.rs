@@ -87,6 +87,10 @@ pub const STEP_GRACE: Duration = Duration::from_micros(500);
 const RX_ASSIGN: u16 = 0x1C12;
 const TX_ASSIGN: u16 = 0x1C13;
 
+/// CiA 301 Tab. 21 "RPDO timeout": the error a drive without a message of its own for an
+/// expired process-data watchdog reports ([`Bound::watchdog_expired`]).
+const PROCESS_DATA_TIMEOUT: u16 = 0x8250;
+
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
 const MAX_SYNC0_BURST: u64 = 16;
 /// A SYNC0 grid finer than this is served at most this often, its events counted in batches
@@ -593,12 +597,22 @@ impl Bound<'_> {
     /// reset clears it once the master is back.
     fn watchdog_expired(&mut self) {
         self.dev.watchdog_expiries += 1;
-        let Some(number) = self.dev.desc.ethercat.and_then(|e| e.watchdog_diagnostic) else {
-            return;
-        };
+        let number = self.dev.desc.ethercat.and_then(|e| e.watchdog_diagnostic);
         if let Some(drive) = self.model.drive_mut() {
-            if drive.raise_diagnostic(number).is_ok() {
-                let _ = drive.clear_diagnostic(number);
+            match number {
+                Some(number) => {
+                    if drive.raise_diagnostic(number).is_ok() {
+                        let _ = drive.clear_diagnostic(number);
+                    }
+                }
+                // Decision: a device that names no message for it (a drive from an EDS)
+                // reports CiA 301's 8250h "RPDO timeout" (its process data stopped coming)
+                // with the communication bit of the error register, rather than stand in
+                // Operation enabled on the last set-point of a slave that takes no more.
+                None => {
+                    drive.inject_fault(PROCESS_DATA_TIMEOUT, 0x11);
+                    drive.clear_fault(PROCESS_DATA_TIMEOUT);
+                }
             }
         }
         self.forward_events();

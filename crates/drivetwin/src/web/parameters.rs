@@ -86,8 +86,10 @@ pub struct ParameterView {
     pub read_error: Option<String>,
 }
 
+/// The dictionary the drive serves on its interface (an EDS drive on EtherCAT: its slave's).
 fn description(info: &DriveInfo) -> Result<&'static DeviceDescription, ApiError> {
-    crate::cell::eds_drive::by_name(info.device)
+    let ethercat_only = matches!(info.interface, Interface::Ethercat { .. });
+    crate::cell::eds_drive::served(info.device, ethercat_only)
         .ok_or_else(|| ApiError::not_found(format!("no device description {:?}", info.device)))
 }
 
