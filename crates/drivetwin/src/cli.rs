@@ -46,7 +46,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Start a cell: drives on a virtual CAN bus served over socketcand.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// Print the CiA 306 EDS of a personality.
     Eds {
         #[arg(long, default_value = "cmmp-as")]
