@@ -38,6 +38,13 @@
 //! throttling, 50 ms of every second). `DRIVETWIN_BIN=path` runs
 //! another build of the twin; `ECAT_ROUNDTRIP_TWIN_ARGS` adds `drivetwin run` options.
 //!
+//! `ECAT_ROUNDTRIP_RT=N` schedules the server's frame path alone under `SCHED_FIFO` N: the
+//! echo's thread, and the twin's cell loop through its own `--rt-priority N` (its other
+//! threads stay at normal priority); the master keeps its own (a normal-priority PLC task,
+//! or `ECAT_ROUNDTRIP_NICE`). `ECAT_ROUNDTRIP_SLICE_US=N` gives the same two threads an
+//! EEVDF time slice of N µs instead (`--sched-slice-us N`, Linux 6.12+, no privilege).
+//! `scripts/ecat-roundtrip` runs the targets' 60 000-cycle form in one command.
+//!
 //! `ECAT_ROUNDTRIP_LATE_LOG=path` appends each late reply to `path`: its row, the time it was
 //! sent on `CLOCK_MONOTONIC` (ns, the clock `perf record -k CLOCK_MONOTONIC` stamps its
 //! events with) and how long it took, so that a trace of the CPU's scheduling taken beside
@@ -105,6 +112,21 @@ fn main() {
     if let Some(i) = args.iter().position(|a| a == "--ecat-echo") {
         let interface = args.get(i + 1).expect("--ecat-echo IF");
         let spin = args.iter().any(|a| a == "--spin");
+        let value = |name: &str| {
+            args.iter()
+                .position(|a| a == name)
+                .and_then(|i| args.get(i + 1))
+                .map(|v| v.parse::<u32>().expect("a number"))
+        };
+        // The echo's thread scheduled as the twin's loop is (`ECAT_ROUNDTRIP_RT`, `_SLICE_US`).
+        let scheduling = drivetwin::cell::realtime::LoopScheduling {
+            rt_priority: value("--rt").map(|p| u8::try_from(p).expect("priority 1…99")),
+            slice: value("--slice-us").map(|us| Duration::from_micros(u64::from(us))),
+        };
+        if let Err(e) = scheduling.apply() {
+            eprintln!("echo: {e}");
+            std::process::exit(2);
+        }
         echo(interface, spin);
         return;
     }
@@ -148,6 +170,14 @@ fn main() {
         n.parse()
             .expect("ECAT_ROUNDTRIP_NICE is a nice value (-20..19)")
     });
+    let server_rt: Option<u32> = std::env::var("ECAT_ROUNDTRIP_RT").ok().map(|n| {
+        n.parse()
+            .expect("ECAT_ROUNDTRIP_RT is a SCHED_FIFO priority (1..99)")
+    });
+    let server_slice_us: Option<u32> = std::env::var("ECAT_ROUNDTRIP_SLICE_US").ok().map(|n| {
+        n.parse()
+            .expect("ECAT_ROUNDTRIP_SLICE_US is a time slice in µs (100..100000)")
+    });
     let veth = match Veth::create() {
         Ok(v) => v,
         Err(why) => {
@@ -166,6 +196,11 @@ fn main() {
             (false, None) => String::new(),
         }
     );
+    match (server_rt, server_slice_us) {
+        (Some(p), _) => println!("server's frame thread at SCHED_FIFO {p}"),
+        (None, Some(us)) => println!("server's frame thread with a {us} µs EEVDF slice"),
+        (None, None) => {}
+    }
     let bench = Bench {
         binary,
         extra,
@@ -173,6 +208,8 @@ fn main() {
         nice,
         cycles,
         veth,
+        server_rt,
+        server_slice_us,
     };
     let mut all = Vec::new();
     if one {
@@ -260,6 +297,10 @@ struct Bench {
     nice: Option<i32>,
     cycles: usize,
     veth: Veth,
+    /// `ECAT_ROUNDTRIP_RT`: `SCHED_FIFO` priority of the servers' frame thread.
+    server_rt: Option<u32>,
+    /// `ECAT_ROUNDTRIP_SLICE_US`: EEVDF slice of the servers' frame thread.
+    server_slice_us: Option<u32>,
 }
 
 /// One measured row: a server, a master, a placement.
@@ -342,11 +383,17 @@ impl Bench {
             Server::Echo | Server::SpinningEcho => Running::Echo(EchoProcess::start(
                 &self.veth,
                 server == Server::SpinningEcho,
+                &self.echo_scheduling(),
             )),
             Server::Twin | Server::BusyPollTwin => {
                 let mut extra = self.extra.clone();
                 if server == Server::BusyPollTwin && !extra.iter().any(|a| a == "--busy-poll") {
                     extra.push("--busy-poll".into());
+                }
+                if let Some(p) = self.server_rt {
+                    extra.extend(["--rt-priority".into(), p.to_string()]);
+                } else if let Some(us) = self.server_slice_us {
+                    extra.extend(["--sched-slice-us".into(), us.to_string()]);
                 }
                 Running::Twin(
                     TwinProcess::start(&self.binary, &self.veth, &extra)
@@ -368,6 +415,17 @@ impl Bench {
             }
         }
         running
+    }
+}
+
+impl Bench {
+    /// The echo's options that schedule its thread as the twin's loop is.
+    fn echo_scheduling(&self) -> Vec<String> {
+        match (self.server_rt, self.server_slice_us) {
+            (Some(p), _) => vec!["--rt".into(), p.to_string()],
+            (None, Some(us)) => vec!["--slice-us".into(), us.to_string()],
+            (None, None) => Vec::new(),
+        }
     }
 }
 
@@ -399,7 +457,7 @@ struct EchoProcess {
 }
 
 impl EchoProcess {
-    fn start(veth: &Veth, spin: bool) -> EchoProcess {
+    fn start(veth: &Veth, spin: bool, scheduling: &[String]) -> EchoProcess {
         let exe = std::env::current_exe().expect("the bench's own path");
         let mut cmd = Process::new("ip");
         cmd.args(["netns", "exec", &veth.ns])
@@ -410,6 +468,7 @@ impl EchoProcess {
         if spin {
             cmd.arg("--spin");
         }
+        cmd.args(scheduling);
         let mut child = cmd.spawn().expect("start the echo");
         let mut line = String::new();
         let stdout = child.stdout.take().expect("echo's stdout");

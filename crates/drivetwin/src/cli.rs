@@ -46,7 +46,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Start a cell: drives on a virtual CAN bus served over socketcand.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// Print the CiA 306 EDS of a personality.
     Eds {
         #[arg(long, default_value = "cmmp-as")]
@@ -309,10 +309,17 @@ pub struct RunArgs {
     /// instead of CAN. `--trace F.pcap` records every frame in and out (Ethernet pcap).
     #[arg(long, value_name = "IFNAME", conflicts_with_all = ["virtual_seconds"])]
     pub ethercat: Option<String>,
-    /// Run the cell loop's thread at SCHED_FIFO with this priority (1…99, needs root), as a
-    /// drive's firmware runs its fieldbus task; refused, it warns.
+    /// Run the cell loop's thread at SCHED_FIFO with this priority (1…99; root, CAP_SYS_NICE
+    /// or RLIMIT_RTPRIO), as a drive's firmware runs its fieldbus task: a frame is answered
+    /// before any normal-priority process runs. Refused, the run stops with the reason.
     #[arg(long, value_name = "PRIO", value_parser = clap::value_parser!(u8).range(1..=99))]
     pub rt_priority: Option<u8>,
+    /// Give the cell loop's thread a time slice of this many µs (100…100000) under the fair
+    /// scheduler (EEVDF, Linux 6.12+; no privilege): woken by a frame, it runs before
+    /// neighbours on the default slice. Refused or not kept, the run stops with the reason.
+    #[arg(long, value_name = "US", conflicts_with = "rt_priority",
+          value_parser = clap::value_parser!(u32).range(100..=100_000))]
+    pub sched_slice_us: Option<u32>,
     /// The cell loop spins on its sockets (EtherCAT, Modbus TCP) instead of sleeping, as the device's fieldbus hardware is always awake:
     /// the lowest round trip, at the price of one CPU kept busy.
     #[arg(long)]

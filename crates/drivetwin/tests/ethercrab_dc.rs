@@ -310,6 +310,9 @@ struct Cycle {
     all_op: bool,
     /// How far after its SYNC0 event the frame passed the reference clock.
     offset: Duration,
+    /// From the frame's send to its reply (`tx_rx_dc`): the twin's and the master's
+    /// exchange.
+    took: Duration,
     /// When to send the next frame (half a cycle after the next event).
     next: Instant,
 }
@@ -326,6 +329,7 @@ async fn cycle<S: HasPdi>(
     put_csp_outputs(&mut slave.outputs_raw_mut(), controlword, target);
     let sent = Instant::now();
     let rsp = group.tx_rx_dc(maindevice).await;
+    let took = sent.elapsed();
     let (statusword, pos) = csp_inputs(&slave.inputs_raw());
     match rsp {
         Ok(r) => Cycle {
@@ -334,6 +338,7 @@ async fn cycle<S: HasPdi>(
             pos,
             all_op: r.all_op(),
             offset: r.extra.cycle_start_offset,
+            took,
             next: sent + r.extra.next_cycle_wait,
         },
         Err(_) => Cycle {
@@ -342,6 +347,7 @@ async fn cycle<S: HasPdi>(
             pos,
             all_op: false,
             offset: Duration::ZERO,
+            took,
             next: sent,
         },
     }
@@ -349,12 +355,14 @@ async fn cycle<S: HasPdi>(
 
 /// Sleeps until `at` (a thread sleep: finer than tokio's 1 ms timer; it blocks only the
 /// thread of `block_on`, ethercrab's TX/RX task runs on the workers). A master held up past
-/// `at` goes at once: `tx_rx_dc` brings it back onto the grid.
-fn sleep_until(at: Instant) {
+/// `at` goes at once: `tx_rx_dc` brings it back onto the grid. Returns how late it woke
+/// (the master's own part of a long gap between cycles).
+fn sleep_until(at: Instant) -> Duration {
     let now = Instant::now();
     if at > now {
         std::thread::sleep(at - now);
     }
+    Instant::now().saturating_duration_since(at)
 }
 
 /// Statistics of a run of cycles.
@@ -366,11 +374,26 @@ struct Figures {
     /// Cycles that came more than 1.5 periods after the previous one.
     late: u32,
     longest_gap: Duration,
+    /// The longest gap's parts: how late the master woke for it, how long its frame took.
+    longest_parts: (Duration, Duration),
     offsets: Vec<Duration>,
 }
 
 impl Figures {
-    fn count(&mut self, c: &Cycle, gap: Duration, period: Duration) {
+    /// Names where the longest gap went: a master that woke late is held off its CPU
+    /// (its side), a frame that took long waited for the twin's answer (or the master's
+    /// reactor).
+    fn longest(&self) -> String {
+        format!(
+            "longest gap {:?} (master woke {:?} late, frame took {:?})",
+            self.longest_gap, self.longest_parts.0, self.longest_parts.1
+        )
+    }
+
+    fn count(&mut self, c: &Cycle, gap: Duration, period: Duration, overslept: Duration) {
+        if gap > self.longest_gap {
+            self.longest_parts = (overslept, c.took);
+        }
         self.cycles += 1;
         self.bad_wkc += u32::from(c.wkc != EXPECTED_WKC);
         self.not_op += u32::from(!c.all_op);
@@ -477,10 +500,10 @@ async fn good_session(master_if: &str, product_code: u32) {
     let target = pos;
     for (cw, want) in [(0x06u16, 0x21u16), (0x07, 0x23), (0x0F, 0x27)] {
         for _ in 0..500 {
-            sleep_until(next);
+            let overslept = sleep_until(next);
             let c = cycle(&group, maindevice, cw, target).await;
             let now = Instant::now();
-            enable.count(&c, now - last, period);
+            enable.count(&c, now - last, period, overslept);
             last = now;
             (sw, pos, next) = (c.statusword, c.pos, c.next);
             if sw & 0x6F == want {
@@ -506,13 +529,13 @@ async fn good_session(master_if: &str, product_code: u32) {
     let began = Instant::now();
     last = began;
     for n in 0..ramp + hold {
-        sleep_until(next);
+        let overslept = sleep_until(next);
         if n < ramp {
             target += step;
         }
         let c = cycle(&group, maindevice, 0x0F, target).await;
         let now = Instant::now();
-        run.count(&c, now - last, period);
+        run.count(&c, now - last, period, overslept);
         last = now;
         (sw, pos, next) = (c.statusword, c.pos, c.next);
         if n < ramp {
@@ -524,14 +547,22 @@ async fn good_session(master_if: &str, product_code: u32) {
     let lag_at = |q: f64| lags[((lags.len() - 1) as f64 * q) as usize];
     let max_lag = lags.iter().map(|l| l.abs()).max().unwrap_or(0);
     println!(
-        "enable: {} cycles, bad WKC {}, not Op {}, late {}, longest gap {:?}",
-        enable.cycles, enable.bad_wkc, enable.not_op, enable.late, enable.longest_gap
+        "enable: {} cycles, bad WKC {}, not Op {}, late {}, {}",
+        enable.cycles,
+        enable.bad_wkc,
+        enable.not_op,
+        enable.late,
+        enable.longest()
     );
     let offsets = run.offset_quantiles();
     println!(
         "CSP on SYNC0 ({period:?}): {} cycles in {took:?}, bad WKC {}, not Op {}, late {}, \
-         longest gap {:?}; {offsets}",
-        run.cycles, run.bad_wkc, run.not_op, run.late, run.longest_gap,
+         {}; {offsets}",
+        run.cycles,
+        run.bad_wkc,
+        run.not_op,
+        run.late,
+        run.longest(),
     );
     println!(
         "moved {} increments (step {step}), lag p1 {} p10 {} median {} p90 {} p99 {} \
@@ -547,7 +578,9 @@ async fn good_session(master_if: &str, product_code: u32) {
     assert_eq!(
         (status, code),
         (0x0008, AlStatusCode::NoError),
-        "still Op, no synchronisation error"
+        "still Op, no synchronisation error; enable: {}; CSP: {}",
+        enable.longest(),
+        run.longest()
     );
     assert_eq!(
         enable.bad_wkc + run.bad_wkc,

@@ -2,7 +2,7 @@
 //! back out at once; a slave that is a CANopen drive of the cell as well reaches that drive.
 
 use std::io;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use mio::{Events, Token};
 
@@ -32,7 +32,45 @@ impl BusDrives for Buses<'_> {
     }
 }
 
+/// How long a `--busy-poll` turn looks at the chains' receive rings before it polls the
+/// other sockets (a system call) and does the rest of its work: a frame that lands meanwhile
+/// is answered from the ring at once, without a wake-up or a system call before its pass.
+/// Long enough that a master's frame nearly always finds the loop spinning, short enough that
+/// a CAN frame or a console request waits no longer than a drive step's grace allows.
+pub(super) const RING_SPIN: Duration = Duration::from_micros(50);
+
 impl CellLoop {
+    /// With `--busy-poll`: spins on the chains' receive rings until a frame waits in one
+    /// (then answers it, and every other waiting, at once) or until `until`. Each look is a
+    /// load from memory; a chain without a ring is read by the turn's poll alone.
+    pub(super) fn spin_on_rings(&mut self, until: Instant) {
+        if !self
+            .chains
+            .iter()
+            .any(|c| c.link.inner().inner().frame_waits().is_some())
+        {
+            return;
+        }
+        loop {
+            let mut answered = false;
+            for c in 0..self.chains.len() {
+                let waits = self
+                    .chains
+                    .get(c)
+                    .and_then(|ch| ch.link.inner().inner().frame_waits())
+                    .unwrap_or(false);
+                if waits {
+                    self.read_ethercat(c);
+                    answered = true;
+                }
+            }
+            if answered || Instant::now() >= until {
+                return;
+            }
+            std::hint::spin_loop();
+        }
+    }
+
     /// The chains whose sockets `events` name (with `--busy-poll` every chain, without
     /// waiting for an event) read and answer their frames: the first thing of a turn, before
     /// the drives step, the timers run and the other sockets are served.

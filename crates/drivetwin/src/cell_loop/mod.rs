@@ -185,8 +185,12 @@ pub struct FrontEnds {
     /// Serial lines (RS232, RS485) and the drives on them ([`crate::serial`]).
     pub serial: Vec<crate::serial::line::SerialLine>,
     /// Ask for `SCHED_FIFO` at this priority for the loop's thread (as a drive's firmware
-    /// runs its fieldbus task); refused, the loop warns and goes on.
+    /// runs its fieldbus task); refused, [`CellLoop::run`] fails with the reason
+    /// ([`crate::cell::realtime`]).
     pub rt_priority: Option<u8>,
+    /// Ask for this time slice under the fair scheduler for the loop's thread instead
+    /// (`--sched-slice-us`); refused or not kept, [`CellLoop::run`] fails with the reason.
+    pub sched_slice: Option<Duration>,
     /// Never sleep: poll the sockets without waiting (`--busy-poll`), as a device's fieldbus
     /// hardware is always awake; the lowest round trip, at the price of one CPU kept busy.
     pub busy_poll: bool,
@@ -260,7 +264,7 @@ pub struct CellLoop {
     chains_to_read: Vec<usize>,
     /// Scratch: one Ethernet frame.
     frame: Vec<u8>,
-    rt_priority: Option<u8>,
+    scheduling: crate::cell::realtime::LoopScheduling,
     busy_poll: bool,
     views: DriveViews,
     /// Connections that had more to read than one turn takes.
@@ -507,7 +511,10 @@ impl CellLoop {
             serial_sent: Vec::new(),
             chains_to_read: Vec::new(),
             frame: vec![0; crate::ecat::MAX_FRAME],
-            rt_priority: front.rt_priority,
+            scheduling: crate::cell::realtime::LoopScheduling {
+                rt_priority: front.rt_priority,
+                slice: front.sched_slice,
+            },
             busy_poll: front.busy_poll,
             views: front.views,
             more_to_read: Vec::new(),
@@ -555,11 +562,9 @@ impl CellLoop {
     /// back. A drive's load FMU that fails ends the run with its error
     /// ([`crate::cosim::FmuLoadError`] inside the `io::Error`).
     pub fn run(mut self) -> io::Result<Vec<CanSegment>> {
-        if let Some(p) = self.rt_priority {
-            if let Err(e) = crate::cell::realtime::set_fifo_priority(p) {
-                tracing::warn!(priority = p, error = %e, "SCHED_FIFO refused; running at normal priority");
-            }
-        }
+        // The thread that answers the frames, alone: what it starts begins at normal
+        // priority (`sys::sched`), the console's threads run batch.
+        self.scheduling.apply().map_err(io::Error::other)?;
         let mut events = Events::with_capacity(256);
         let start = Instant::now();
         let mut out = std::mem::take(&mut self.out);
@@ -584,6 +589,12 @@ impl CellLoop {
         self.flush_dirty();
         let mut load_failure = None;
         while !self.stop.load(Ordering::Acquire) {
+            if self.busy_poll {
+                // A master's frame, answered from the ring before the turn's poll.
+                let spin_end = Instant::now() + ethercat_chains::RING_SPIN;
+                let until = self.deadline().map_or(spin_end, |d| d.min(spin_end));
+                self.spin_on_rings(until);
+            }
             let timeout = if self.busy_poll
                 || !self.more_to_read.is_empty()
                 || !self.chains_to_read.is_empty()

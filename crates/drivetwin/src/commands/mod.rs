@@ -167,7 +167,7 @@ pub(crate) fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> Comm
 
 pub async fn dispatch(cli: Cli) -> Result<(), CommandError> {
     match cli.command {
-        Command::Run(args) => run::run(args).await,
+        Command::Run(args) => run::run(*args).await,
         Command::Eds { device, output } => run::eds(&device, output),
         Command::Esi {
             device,

@@ -224,6 +224,15 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         Some(l) => web_console(args.http.as_deref(), l.control_handle())?,
         None => None,
     };
+    // A scheduling that is asked for and refused is told before the cell says it runs.
+    drivetwin::cell::realtime::LoopScheduling {
+        rt_priority: args.rt_priority,
+        slice: args
+            .sched_slice_us
+            .map(|us| std::time::Duration::from_micros(u64::from(us))),
+    }
+    .probe()
+    .map_err(|e| CommandError::Usage(e.to_string()))?;
     let mut stops = Vec::new();
     let mut threads = Vec::new();
     let mut lateness = Vec::new();
@@ -482,6 +491,9 @@ async fn prepare_cell(
         ethercat,
         serial,
         rt_priority: args.rt_priority,
+        sched_slice: args
+            .sched_slice_us
+            .map(|us| std::time::Duration::from_micros(u64::from(us))),
         busy_poll: args.busy_poll,
         views: drivetwin::vendors::VENDORS.runtime.views,
         ..FrontEnds::default()

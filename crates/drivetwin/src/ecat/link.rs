@@ -154,6 +154,12 @@ impl SlaveSocket {
         &self.interface
     }
 
+    /// Whether a frame waits in the receive ring, without a system call: `None` without a
+    /// ring (then only a read tells).
+    pub fn frame_waits(&self) -> Option<bool> {
+        self.ring.as_ref().map(RxRing::ready)
+    }
+
     /// One read: `Ok(Some(len))` a request from the master in `buf`, `Ok(None)` a frame to
     /// skip (our own, or one on its way back); `WouldBlock` when nothing waits.
     pub fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<usize>> {

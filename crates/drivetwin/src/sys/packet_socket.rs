@@ -198,6 +198,20 @@ impl RxRing {
         Ok(RxRing { base, next: 0 })
     }
 
+    /// Whether a frame waits in the next slot: one load from memory, no system call (what a
+    /// reader that spins on the ring looks at).
+    pub fn ready(&self) -> bool {
+        use std::sync::atomic::{AtomicU32, Ordering};
+
+        let offset = self.next % Self::SLOTS * RING_SLOT;
+        // SAFETY: `offset` is the start of a slot inside the mapping of `BYTES` bytes.
+        let slot = unsafe { self.base.as_ptr().add(offset) };
+        // SAFETY: as in `recv`: `tp_status` is an aligned u32 the kernel writes concurrently,
+        // read as an atomic only.
+        let status = unsafe { &*slot.cast::<AtomicU32>() };
+        status.load(Ordering::Acquire) & libc::TP_STATUS_USER != 0
+    }
+
     /// The next frame into `buf` (its first `buf.len()` bytes), or `None` when none waits.
     pub fn recv(&mut self, buf: &mut [u8]) -> Option<Received> {
         use std::sync::atomic::{AtomicU32, Ordering};
@@ -266,6 +280,10 @@ pub struct RxRing;
 impl RxRing {
     pub fn new(_fd: BorrowedFd<'_>) -> io::Result<RxRing> {
         Err(io::ErrorKind::Unsupported.into())
+    }
+
+    pub fn ready(&self) -> bool {
+        false
     }
 
     pub fn recv(&mut self, _buf: &mut [u8]) -> Option<Received> {
