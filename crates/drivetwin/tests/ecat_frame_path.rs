@@ -15,10 +15,7 @@
     clippy::panic
 )]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::process::{Command as Process, Stdio};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use drivetwin::cell::config::CellFile;
@@ -27,40 +24,7 @@ use drivetwin::ecat::chain::SlaveChain;
 use drivetwin::ecat::link::{EthercatSocket, SlaveSocket};
 use ethercat::register::RegisterAddress;
 use ethercat::{Address, AlState, Command, EthernetFrame, Fmmu, Frame, FrameWriter, SyncManager};
-
-struct Counting;
-
-thread_local! {
-    /// Set on the loop's thread: only its allocations count.
-    static LOOP_THREAD: Cell<bool> = const { Cell::new(false) };
-}
-/// Counting while the measured cycles run.
-static WINDOW: AtomicBool = AtomicBool::new(false);
-static COUNT: AtomicU64 = AtomicU64::new(0);
-
-fn count() {
-    if WINDOW.load(Ordering::Relaxed) && LOOP_THREAD.with(Cell::get) {
-        COUNT.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
-// SAFETY: every call goes to the system allocator; the count is an atomic.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: as the caller's contract.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: as the caller's contract.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: as the caller's contract.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+use platform::alloc::Counting;
 
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
@@ -262,7 +226,7 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
     let thread = std::thread::Builder::new()
         .name("cell".into())
         .spawn(move || {
-            LOOP_THREAD.with(|c| c.set(true));
+            Counting::mark_this_thread();
             cell_loop.run().map(|_| ())
         })
         .expect("the loop's thread");
@@ -282,8 +246,7 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
             tick.tick().await;
             assert_eq!(master.lrw().await, 3);
         }
-        COUNT.store(0, Ordering::Relaxed);
-        WINDOW.store(true, Ordering::Relaxed);
+        Counting::open_window();
         for _ in 0..CYCLES {
             tick.tick().await;
             assert_eq!(
@@ -292,8 +255,7 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
                 "outputs written (2) and inputs read (1)"
             );
         }
-        WINDOW.store(false, Ordering::Relaxed);
-        COUNT.load(Ordering::Relaxed)
+        Counting::close_window()
     });
     stop.stop();
     thread.join().expect("the loop ends").expect("the loop ran");

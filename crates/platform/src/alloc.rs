@@ -10,6 +10,7 @@
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// The system allocator, counting each `alloc` and `realloc` of a thread inside
 /// [`Counting::count`].
@@ -19,7 +20,13 @@ pub struct Counting;
 thread_local! {
     static COUNTING: Cell<bool> = const { Cell::new(false) };
     static COUNT: Cell<u64> = const { Cell::new(0) };
+    /// A thread whose allocations count while the window is open.
+    static MARKED: Cell<bool> = const { Cell::new(false) };
 }
+
+/// Open between [`Counting::open_window`] and [`Counting::close_window`].
+static WINDOW: AtomicBool = AtomicBool::new(false);
+static MARKED_COUNT: AtomicU64 = AtomicU64::new(0);
 
 impl Counting {
     /// Runs `f` and returns how many allocations (and reallocations) it made on this thread;
@@ -32,9 +39,32 @@ impl Counting {
         COUNT.with(Cell::get)
     }
 
+    /// Marks the calling thread, so that a window opened on another thread
+    /// ([`Counting::open_window`]) counts its allocations: a thread that runs a loop is
+    /// measured from the thread that drives it, which may await between the two calls.
+    pub fn mark_this_thread() {
+        MARKED.with(|c| c.set(true));
+    }
+
+    /// Starts counting the marked threads' allocations from zero.
+    pub fn open_window() {
+        MARKED_COUNT.store(0, Ordering::Relaxed);
+        WINDOW.store(true, Ordering::Relaxed);
+    }
+
+    /// Stops counting; how many allocations the marked threads made since
+    /// [`Counting::open_window`].
+    pub fn close_window() -> u64 {
+        WINDOW.store(false, Ordering::Relaxed);
+        MARKED_COUNT.load(Ordering::Relaxed)
+    }
+
     fn note() {
         if COUNTING.with(Cell::get) {
             COUNT.with(|c| c.set(c.get() + 1));
+        }
+        if WINDOW.load(Ordering::Relaxed) && MARKED.with(Cell::get) {
+            MARKED_COUNT.fetch_add(1, Ordering::Relaxed);
         }
     }
 }
