@@ -55,6 +55,9 @@ pub struct CanSegment {
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
     link: FaultInjector<Wire<SegmentFrame>>,
+    /// When asked for ([`CanSegment::report_outside_frames`]): the frames from outside that
+    /// crossed the bus, with their end of frame and whether a drive received them.
+    outside_ends: Option<Vec<(Instant, CanFrame, bool)>>,
 }
 
 /// One drive's CAN controller.
@@ -94,7 +97,31 @@ impl CanSegment {
             planned: Vec::new(),
             planned_diagnostics: Vec::new(),
             link: FaultInjector::default(),
+            outside_ends: None,
         }
+    }
+
+    /// From now on, every frame from outside that crosses the bus is kept for
+    /// [`CanSegment::take_outside_frames`] (an FMI-LS-BUS terminal confirms its master's).
+    pub fn report_outside_frames(&mut self) {
+        self.outside_ends.get_or_insert_with(Vec::new);
+    }
+
+    /// The frames from outside that crossed the bus since the last call: end of frame, the
+    /// frame, and whether at least one drive received it (its acknowledgement).
+    pub fn take_outside_frames(&mut self) -> Vec<(Instant, CanFrame, bool)> {
+        self.outside_ends
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Whether `frame`, from outside at `now`, would wait for the bus: a timed bus that is
+    /// busy or has a frame waiting that wins the arbitration (never on the instant bus).
+    pub fn would_wait(&self, now: Instant, frame: &CanFrame) -> bool {
+        self.timing
+            .as_ref()
+            .is_some_and(|t| t.would_wait(now, frame))
     }
 
     /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
@@ -446,6 +473,7 @@ impl CanSegment {
                 out.push(*frame);
             }
         }
+        let mut received = false;
         for j in 0..drives.len() {
             if Some(j) == origin {
                 continue;
@@ -462,9 +490,13 @@ impl CanSegment {
             }
             let t = f.confinement.receive_ok();
             react(drives, queue, j, t);
+            received = true;
             if let Some(d) = drives.get_mut(j) {
                 d.on_can_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
             }
+        }
+        if let (None, Some(ends)) = (origin, self.outside_ends.as_mut()) {
+            ends.push((at, *frame, received));
         }
         Attempt::Delivered
     }
