@@ -30,6 +30,7 @@ LIBRARY = os.environ.get("DRIVETWIN_CELL_LIBRARY")
 BITRATE = 125_000  # the CMMP-AS's DIP switches at their factory setting
 FESTO = 0x1D  # 1018h:01, vendor-ID
 US = 1e-6
+NOTIFICATIONS = "org.fmi_standard.fmi_ls_bus.Can_BusNotifications"  # §4.4.1.3
 
 
 @pytest.fixture(scope="module")
@@ -106,13 +107,15 @@ def frame_bits(can_id: int, data: bytes) -> int:
 class Cell:
     """fmpy's FMU3Slave, stepped with event mode as the layered standard has it."""
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, notifications: bool = False):
         md = read_model_description(path)
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path),
                              modelIdentifier=md.coSimulation.modelIdentifier,
                              instanceName="cell")
         self.fmu.instantiate(eventModeUsed=True)
+        if notifications:
+            self.fmu.setBoolean([self.vr[NOTIFICATIONS]], [True])
         self.fmu.enterInitializationMode(startTime=0.0)
         self.fmu.exitInitializationMode()
         self.fmu.updateDiscreteStates()
@@ -210,5 +213,35 @@ def test_an_unreadable_operation_is_answered_with_a_format_error(cell_fmu):
         junk = struct.pack("<II", 0x77, 9) + b"\xAA"
         ops = operations(cell.receive(junk))
         assert ops == [(0x01, struct.pack("<H", len(junk)) + junk)]
+    finally:
+        cell.close()
+
+
+def test_with_bus_notifications_the_request_is_confirmed_at_its_end_of_frame(cell_fmu):
+    """FMI-LS-BUS §4.4.1.2.2: with `Can_BusNotifications` set, the master's frame that a drive
+    received is confirmed (Confirm, 0x20, its ID) in the step in which its bits have crossed,
+    before the drive's answer; without it (the default) no Confirm comes."""
+    md = read_model_description(cell_fmu)
+    v = {x.name: x for x in md.modelVariables}
+    assert (v[NOTIFICATIONS].causality, v[NOTIFICATIONS].type) == ("structuralParameter", "Boolean")
+    cell = Cell(cell_fmu, notifications=True)
+    try:
+        for _ in range(10):
+            cell.step(1e-3)
+        t0 = cell.t
+        request = bytes([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0])
+        assert cell.receive(can_transmit(0x601, request)) is None
+        got = []
+        for _ in range(5000):
+            ops = cell.step(US)
+            if ops is not None:
+                got += [(cell.t, code, args) for code, args in operations(ops)]
+            if any(code == 0x10 for _, code, _ in got):
+                break
+        (t_confirm, code, args), (_, answer, _) = got
+        assert (code, args) == (0x20, struct.pack("<I", 0x601))
+        assert answer == 0x10
+        crossed = t0 + frame_bits(0x601, request) / BITRATE
+        assert t_confirm - US - 1e-9 < crossed <= t_confirm + 1e-9, (crossed, t_confirm)
     finally:
         cell.close()

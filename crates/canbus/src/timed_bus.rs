@@ -159,6 +159,14 @@ impl<const N: usize> TimedBus<N> {
         })
     }
 
+    /// Whether `frame`, ready at `now`, would wait for the bus: the bus is still busy at
+    /// `now`, or a frame already waiting at `now` wins the arbitration against it. A frame
+    /// for which this is `false` starts at `now` (ISO 11898-1: arbitration at bus idle).
+    pub fn would_wait(&self, now: Instant, frame: &CanFrame) -> bool {
+        let key = arbitration_key(frame);
+        self.busy_until > now || self.pending.iter().any(|p| p.ready <= now && p.key <= key)
+    }
+
     /// The time the bus has been busy since it was made, ns: the bus load over a window is
     /// the difference of two readings over the window's length.
     pub fn busy_nanos(&self) -> u64 {
@@ -172,6 +180,27 @@ mod tests {
 
     fn frame(id: u16, data: &[u8]) -> CanFrame {
         CanFrame::new(id, data).expect("test frame")
+    }
+
+    #[test]
+    fn a_frame_waits_behind_a_busy_bus_and_behind_a_higher_priority_frame_only() {
+        let mut bus: TimedBus<8> = TimedBus::new(125_000);
+        let low = frame(0x601, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
+        let high = frame(0x181, &[1]);
+        assert!(!bus.would_wait(Instant::ZERO, &low));
+        bus.submit(Instant::ZERO, 1, high).unwrap();
+        assert!(
+            bus.would_wait(Instant::ZERO, &low),
+            "0x181 wins against 0x601"
+        );
+        assert!(
+            !bus.would_wait(Instant::ZERO, &frame(0x080, &[])),
+            "0x080 wins"
+        );
+        let t = bus.deadline().unwrap();
+        let tx = bus.poll(t).unwrap();
+        assert!(bus.would_wait(Instant::from_nanos(tx.end.as_nanos() - 1), &low));
+        assert!(!bus.would_wait(tx.end, &low));
     }
 
     fn drain<const N: usize>(bus: &mut TimedBus<N>) -> heapless::Vec<Transmission, 256> {

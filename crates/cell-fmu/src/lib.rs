@@ -198,6 +198,15 @@ impl ModelGetSet<CellModel> for CellModel {
         self.set(vr, values, context, CellInstance::set_boolean)
     }
 
+    fn get_uint8(
+        &self,
+        vr: binding::fmi3ValueReference,
+        values: &mut [u8],
+        context: &dyn Context<CellModel>,
+    ) -> Result<usize, Fmi3Error> {
+        self.get(vr, values, context, CellInstance::get_uint8)
+    }
+
     fn get_uint16(
         &self,
         vr: binding::fmi3ValueReference,

@@ -400,3 +400,53 @@ fn a_load_fmu_that_fails_stops_the_cell_with_its_error() {
         report.text()
     );
 }
+
+/// A CMMO-ST (FHPP over Modbus) takes the conveyor as its load: its `home` switch is the
+/// reference switch; a limit switch, which the CMMO-ST has no input for, is refused by name;
+/// a failing load stops the cell with the FMU's error, as on a CiA 402 drive.
+#[test]
+fn a_cmmo_st_takes_a_load_fmu_and_refuses_a_limit_switch_by_name() {
+    conveyor_fmu();
+    let fmu = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/fmu/conveyor.fmu");
+    let cell = |switch: &str, mass: f64| {
+        format!(
+            "name = \"cmmo-st load\"\nuntil = \"300ms\"\n[cell]\n[[cell.drive]]\ndevice = \"cmmo-st\"\n\
+             node = 30\n[cell.drive.load]\nfmu = {:?}\nangle = \"shaft_angle\"\nspeed = \"shaft_speed\"\n\
+             load_torque = \"load_torque\"\n[cell.drive.load.switches]\n{switch} = \"light_barrier\"\n\
+             [cell.drive.load.parameters]\nmass = {mass:?}\n\
+             [[step]]\nat = \"10ms\"\nnode = 30\n\
+             modbus_request = \"0001 0000 000F 01 10 0000 0004 08 03 09 00 00 00 00 00 00\"\n",
+            fmu.display().to_string()
+        )
+    };
+    let s = Scenario::parse(&cell("limit_positive", 0.5), "limit", None).expect("scenario");
+    let e = VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS)
+        .err()
+        .expect("refused");
+    assert!(
+        e.to_string()
+            .contains("the CMMO-ST has no `limit_positive` input"),
+        "{e}"
+    );
+    // Jogging positive (CCON ENABLE + STOP, CPOS HALT + JOGP) with the belt on the shaft.
+    let s = Scenario::parse(&cell("home", 0.5), "home", None).expect("scenario");
+    let mut rig =
+        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(report.passed, "{}", report.text());
+    let p = rig.probe(30).expect("probe");
+    assert!(p.position_rad > 0.0, "{p:?}");
+    assert_eq!(p.status[0] & 0x03, 0x03, "SCON ENABLED and OPEN: {p:?}");
+    let s = Scenario::parse(&cell("home", -1.0), "failing", None).expect("scenario");
+    let mut rig =
+        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let report = runner::run(&s, &mut rig);
+    assert!(
+        report
+            .errors
+            .iter()
+            .any(|e| e.contains("the cell stopped") && e.contains("node 30: load:")),
+        "{}",
+        report.text()
+    );
+}

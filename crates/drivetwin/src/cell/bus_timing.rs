@@ -94,6 +94,12 @@ impl BusTiming {
         self.bus.deadline()
     }
 
+    /// Whether `frame`, ready at `now`, would wait for the bus (busy, or a waiting frame wins
+    /// the arbitration).
+    pub fn would_wait(&self, now: Instant, frame: &CanFrame) -> bool {
+        self.bus.would_wait(now, frame)
+    }
+
     pub fn bitrate(&self) -> u32 {
         self.bus.bitrate()
     }

@@ -66,6 +66,9 @@ pub struct SegmentBus {
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
     link: FaultInjector<Wire<SegmentFrame>>,
+    /// When asked for ([`CanSegment::report_outside_frames`]): the frames from outside that
+    /// crossed the bus, with their end of frame and whether a drive received them.
+    outside_ends: Option<Vec<(Instant, CanFrame, bool)>>,
 }
 
 /// One drive's CAN controller.
@@ -241,6 +244,7 @@ impl SegmentBus {
             planned: Vec::new(),
             planned_diagnostics: Vec::new(),
             link: FaultInjector::default(),
+            outside_ends: None,
         }
     }
 
@@ -288,6 +292,29 @@ impl SegmentBus {
             .iter()
             .filter_map(|id| stations.station(*id))
             .find_map(|d| d.model.drive()?.load_failure())
+    }
+
+    /// From now on, every frame from outside that crosses the bus is kept for
+    /// [`SegmentBus::take_outside_frames`] (an FMI-LS-BUS terminal confirms its master's).
+    pub fn report_outside_frames(&mut self) {
+        self.outside_ends.get_or_insert_with(Vec::new);
+    }
+
+    /// The frames from outside that crossed the bus since the last call: end of frame, the
+    /// frame, and whether at least one drive received it (its acknowledgement).
+    pub fn take_outside_frames(&mut self) -> Vec<(Instant, CanFrame, bool)> {
+        self.outside_ends
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Whether `frame`, from outside at `now`, would wait for the bus: a timed bus that is
+    /// busy or has a frame waiting that wins the arbitration (never on the instant bus).
+    pub fn would_wait(&self, now: Instant, frame: &CanFrame) -> bool {
+        self.timing
+            .as_ref()
+            .is_some_and(|t| t.would_wait(now, frame))
     }
 
     /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
@@ -657,6 +684,7 @@ impl SegmentBus {
                 out.push(*frame);
             }
         }
+        let mut received = false;
         for j in 0..members.len() {
             if Some(j) == origin {
                 continue;
@@ -673,9 +701,13 @@ impl SegmentBus {
             }
             let t = f.confinement.receive_ok();
             react(stations, queue, j, t);
+            received = true;
             if let Some(d) = member(stations, members, j) {
                 d.on_can_frame(at, frame, &mut |f| queue.push_back((f, Some(j))));
             }
+        }
+        if let (None, Some(ends)) = (origin, self.outside_ends.as_mut()) {
+            ends.push((at, *frame, received));
         }
         Attempt::Delivered
     }

@@ -20,6 +20,7 @@ use crate::cell::config::DriveSpec;
 use crate::cell::control::{DisplayState, PhysicsChange, Plant, PlantPhysics};
 use crate::cell::diagnostics::{Action, DiagnosticState};
 use crate::cell::param_store::ParamStore;
+use crate::cosim::{FmuLoad, FmuLoadError};
 
 /// A drive served over Modbus TCP: its register map, its cycle, and what the console asks of
 /// it. Every method runs on the thread that serves it, between two requests.
@@ -58,8 +59,35 @@ pub trait ModbusDevice: RegisterMap + Send {
     /// Its plant and display as the console samples them.
     fn plant(&self) -> (Plant, Option<DisplayState>);
 
+    /// Its shaft, current and status now, as an importer that steps the cell reads them (the
+    /// cell FMU's outputs).
+    fn readout(&self) -> Readout;
+
+    /// Couples `load` to its shaft from the next cycle on, in place of any other (and of an
+    /// error a former one stopped it with); `None` uncouples it. Refused (and nothing
+    /// changes) when the load drives a switch the device has no input for.
+    fn couple_load(&mut self, load: Option<FmuLoad>) -> Result<(), FmuLoadError>;
+
+    /// Why its load stopped it, once it has (it steps no more).
+    fn load_failure(&self) -> Option<&FmuLoadError>;
+
     /// The vendor's own type, for the vendor's own API.
     fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+/// What a drive served with its own register image shows an importer at one instant.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Readout {
+    /// The motor shaft's angle, rad (the plant's, not the encoder's reading).
+    pub position_rad: f64,
+    /// The shaft's angular velocity, rad/s.
+    pub velocity_rad_s: f64,
+    /// The winding current, A.
+    pub current_a: f64,
+    /// The status bytes of its input telegram (FHPP: SCON, SPOS, SDIR, actual values).
+    pub status: [u8; 8],
+    /// The actual position, in the device's position unit.
+    pub position_actual: i32,
 }
 
 /// The boxed device is its register map, so that the servers, which take any
@@ -118,4 +146,6 @@ pub type NewModbusDevice =
 pub enum NewDeviceError {
     #[error("dictionary storage too small")]
     Storage,
+    #[error("load: {0}")]
+    Load(String),
 }

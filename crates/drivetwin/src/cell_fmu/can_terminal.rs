@@ -26,15 +26,29 @@
 //!   bus's (`bitrate` of the cell file, or its drives' switches) cannot be heard on that bus:
 //!   the master's frames are not put on it and each is answered with a Bus Error (`BIT_ERROR`,
 //!   primary, `Is Sender`), which a transmitter at the wrong rate reads back; the instant bus
-//!   takes any rate. `ARBITRATION_LOST_BEHAVIOR`: the bus model keeps a frame that lost
-//!   arbitration and sends it when the bus is free, which is `BUFFER_AND_RETRANSMIT`;
-//!   `DISCARD_AND_NOTIFY` is logged and the frames are still buffered. CAN FD / CAN XL baud
+//!   takes any rate. `ARBITRATION_LOST_BEHAVIOR` (§4.4.1.4 "Arbitration"): with
+//!   `BUFFER_AND_RETRANSMIT` (the default) a frame of the master's that cannot start at once
+//!   (the bus busy, or a drive's frame waiting that wins the arbitration) waits in the bus
+//!   model and is sent when the bus is free; with `DISCARD_AND_NOTIFY` it is discarded and
+//!   answered with Arbitration Lost. CAN FD / CAN XL baud
 //!   rates are ignored (the drives are classic CAN nodes);
 //! - CAN FD and CAN XL Transmit: answered with a Bus Error (`FORM_ERROR`, primary, `Is
 //!   Sender`): a classic CAN controller reads an FD or XL frame as a form error;
 //! - an operation that cannot be read: answered with a Format Error carrying its bytes;
-//! - Confirm, Arbitration Lost, Bus Error, Status, Wakeup: taken and ignored (the terminal
-//!   exposes no `BusNotifications` parameter, so no one waits for them).
+//! - Confirm, Arbitration Lost, Bus Error, Status, Wakeup: taken and ignored (the cell is no
+//!   participant they could concern).
+//!
+//! What the master hears of its own frames (§4.4.1.2): once a frame has crossed the bus (at
+//! its end of frame in the bus model), Confirm with its ID when a drive on the bus received
+//! it, a Bus Error `ACK_ERROR` (primary, `Is Sender`) when none did; Arbitration Lost as
+//! above; the Bus Errors of a wrong bit rate and of FD / XL frames. Confirm and the
+//! acknowledgement's Bus Error come only when the importer sets the cell's structural
+//! parameter `org.fmi_standard.fmi_ls_bus.Can_BusNotifications` (§4.4.1.3; false by default,
+//! the standard's fire-and-forget). **Decision:** the importer sets that parameter alike on
+//! the Network FMUs of one bus, so true on the cell says the master takes notifications, and
+//! the cell, whose bus model carries the master's frames, sends them as a Bus Simulation
+//! would. Arbitration Lost comes whenever the master configured `DISCARD_AND_NOTIFY`: it asked
+//! for it by name, and a discarded frame nobody is told of would vanish.
 
 use std::fmt::Write;
 use std::time::Duration;
@@ -49,6 +63,13 @@ use super::CellFmuError;
 /// references are their own range, apart from the drives' table, so that variables added to
 /// that table move no terminal.
 pub const FIRST_VALUE_REFERENCE: u32 = 0x4C53_0000;
+
+/// The value reference of `org.fmi_standard.fmi_ls_bus.Can_BusNotifications` (§4.4.1.3,
+/// "Bus Notification Parameter"), in the terminals' range after every terminal's members.
+pub const BUS_NOTIFICATIONS_VALUE_REFERENCE: u32 = FIRST_VALUE_REFERENCE + 0xFFFF;
+
+/// The structural parameter's name, as the standard gives it.
+pub const BUS_NOTIFICATIONS: &str = "org.fmi_standard.fmi_ls_bus.Can_BusNotifications";
 
 /// The members of a Bus Terminal, in value-reference order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,6 +127,13 @@ pub struct CanTerminal {
     bitrate: Option<u32>,
     /// The master's bit rate, as its last `CAN_BAUDRATE` Configuration said.
     master_bitrate: Option<u32>,
+    /// What becomes of the master's frame that cannot go on the bus at once (its last
+    /// `ARBITRATION_LOST_BEHAVIOR` Configuration; none: `BUFFER_AND_RETRANSMIT`).
+    arbitration: Option<ls_bus::ArbitrationLostBehavior>,
+    /// The master's frames on the bus that have not crossed it yet, in the order sent.
+    on_bus: std::collections::VecDeque<CanFrame>,
+    /// `Can_BusNotifications`: the master takes Confirm and the acknowledgement's Bus Error.
+    notifications: bool,
     rx_data: Vec<u8>,
     rx_clock: bool,
     /// Frames from Rx_Data, for the bus at the next step's start.
@@ -197,6 +225,52 @@ impl CanTerminal {
         });
     }
 
+    /// Whether a frame of the master's that cannot go on the bus at once is discarded and
+    /// answered with Arbitration Lost (`DISCARD_AND_NOTIFY`, §4.4.1.2.6), not kept for the
+    /// bus to send when it is free (`BUFFER_AND_RETRANSMIT`, the default).
+    pub fn discards_on_arbitration_lost(&self) -> bool {
+        self.arbitration == Some(ls_bus::ArbitrationLostBehavior::DiscardAndNotify)
+    }
+
+    /// The master's `frame` could not go on the bus at once and is discarded: Arbitration
+    /// Lost (0x30) with its ID, in the same Event Mode's `Tx_Clock` tick.
+    pub fn arbitration_lost(&mut self, frame: &CanFrame) {
+        self.push(Operation::ArbitrationLost { id: frame.id });
+    }
+
+    /// `Can_BusNotifications` as the importer set it (false by default, §4.4.1.3).
+    pub fn set_notifications(&mut self, on: bool) {
+        self.notifications = on;
+    }
+
+    pub fn notifications(&self) -> bool {
+        self.notifications
+    }
+
+    /// The master's `frame` went on the bus: with notifications, it is confirmed when it
+    /// has crossed.
+    pub fn sent(&mut self, frame: CanFrame) {
+        if self.notifications {
+            self.on_bus.push_back(frame);
+        }
+    }
+
+    /// A frame from outside the drives crossed the bus; when it is the master's, the master
+    /// is told: Confirm (0x20) when a drive received it (its acknowledgement, §4.4.1.2.2),
+    /// else a Bus Error `ACK_ERROR` (primary, `Is Sender`): no node acknowledged it. A frame
+    /// from another outside sender (a socketcand client) is not the master's business.
+    pub fn outside_crossed(&mut self, frame: &CanFrame, acknowledged: bool) {
+        let Some(i) = self.on_bus.iter().position(|f| f == frame) else {
+            return;
+        };
+        self.on_bus.remove(i);
+        if acknowledged {
+            self.push(Operation::Confirm { id: frame.id });
+        } else {
+            self.bus_error(frame.id, ErrorCode::AckError);
+        }
+    }
+
     /// The step ends: the operations gathered during it tick `Tx_Clock`.
     pub fn tick(&mut self) {
         if !self.tx_next.is_empty() {
@@ -251,11 +325,7 @@ impl CanTerminal {
                         }
                         self.master_bitrate = Some(r);
                     }
-                    Configuration::ArbitrationLostBehavior(
-                        ls_bus::ArbitrationLostBehavior::DiscardAndNotify,
-                    ) => tracing::warn!(
-                        "LS-BUS: DISCARD_AND_NOTIFY: the cell's bus buffers a frame that lost arbitration and sends it when the bus is free"
-                    ),
+                    Configuration::ArbitrationLostBehavior(b) => self.arbitration = Some(b),
                     _ => {}
                 },
                 Ok(_) => {}
@@ -300,11 +370,28 @@ fn rx_op(rx: &[u8], id: u32) -> &[u8] {
 }
 
 impl CellInstance {
-    /// What crossed the buses during a step goes to their terminals, which tick.
-    pub(super) fn terminals_saw(&mut self, frames: &[(usize, Duration, CanFrame)]) {
+    /// What crossed the buses during a step goes to their terminals, which tick: the drives'
+    /// frames (`frames`) and the ends of the master's own (`outside`: bus, end of frame,
+    /// frame, acknowledged), in the order of their times.
+    pub(super) fn terminals_saw(
+        &mut self,
+        frames: &[(usize, Duration, CanFrame)],
+        outside: &[(usize, Duration, CanFrame, bool)],
+    ) {
+        let mut o = outside.iter().peekable();
         for (bus, at, frame) in frames {
+            while let Some((b, _, f, acked)) = o.next_if(|(_, end, _, _)| end <= at) {
+                if let Some(t) = self.terminals.get_mut(*b) {
+                    t.outside_crossed(f, *acked);
+                }
+            }
             if let Some(t) = self.terminals.get_mut(*bus) {
                 t.crossed(*at, frame);
+            }
+        }
+        for (b, _, f, acked) in o {
+            if let Some(t) = self.terminals.get_mut(*b) {
+                t.outside_crossed(f, *acked);
             }
         }
         for t in &mut self.terminals {
@@ -343,6 +430,22 @@ impl CellInstance {
             }
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
+    }
+
+    /// `Can_BusNotifications` (a Boolean structural parameter), if `vr` is it.
+    pub(super) fn set_bus_notifications(&mut self, vr: u32, on: bool) -> bool {
+        if vr != BUS_NOTIFICATIONS_VALUE_REFERENCE {
+            return false;
+        }
+        for t in &mut self.terminals {
+            t.set_notifications(on);
+        }
+        true
+    }
+
+    pub(super) fn bus_notifications(&self, vr: u32) -> Option<bool> {
+        (vr == BUS_NOTIFICATIONS_VALUE_REFERENCE)
+            .then(|| self.terminals.iter().any(CanTerminal::notifications))
     }
 
     /// `fmi3GetClock`: `Tx_Clock`, reset by the read.
@@ -519,6 +622,73 @@ mod tests {
         t3.set_rx_clock(true);
         t3.update();
         assert_eq!(t3.take_to_bus().len(), 1);
+    }
+
+    /// The master's frame once it has crossed: a drive received it, Confirm (0x20, Total
+    /// Length 12: OP Code, Length, ID, FMI-LS-BUS §4.4.1.2.2); none did, Bus Error (0x31,
+    /// Length 15: ID, Error Code 0x05 ACK_ERROR, Error Flag 0x01 primary, Is Sender 0x01).
+    #[test]
+    fn the_masters_frame_is_confirmed_when_a_drive_received_it_and_else_an_ack_error() {
+        let mut t = CanTerminal::new(Some(125_000));
+        // Fire-and-forget by default: nothing comes back.
+        let f = CanFrame::new(0x601, &[1]).unwrap();
+        t.sent(f);
+        t.outside_crossed(&f, true);
+        assert!(!t.has_tx());
+        t.set_notifications(true);
+        t.set_rx_data(&transmit(0x601, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]));
+        t.set_rx_clock(true);
+        t.update();
+        let [frame] = t.take_to_bus()[..] else {
+            panic!("one frame")
+        };
+        t.sent(frame);
+        // A frame of another outside sender (a socketcand client) is not confirmed.
+        t.outside_crossed(&CanFrame::new(0x602, &[1]).unwrap(), true);
+        assert!(!t.has_tx());
+        t.outside_crossed(&frame, true);
+        t.tick();
+        assert!(t.take_tx_clock());
+        assert_eq!(t.tx_data(), [0x20, 0, 0, 0, 12, 0, 0, 0, 0x01, 0x06, 0, 0]);
+        // Confirmed once.
+        t.take_to_bus();
+        t.outside_crossed(&frame, true);
+        assert!(!t.has_tx());
+        t.sent(frame);
+        t.outside_crossed(&frame, false);
+        t.tick();
+        assert_eq!(
+            t.tx_data(),
+            [0x31, 0, 0, 0, 15, 0, 0, 0, 0x01, 0x06, 0, 0, 0x05, 0x01, 0x01]
+        );
+    }
+
+    /// `ARBITRATION_LOST_BEHAVIOR` (Configuration 0x40, Parameter 0x04): `DISCARD_AND_NOTIFY`
+    /// (0x02) discards a frame that cannot go at once and answers Arbitration Lost (0x30,
+    /// Total Length 12: OP Code, Length, ID; §4.4.1.2.4); `BUFFER_AND_RETRANSMIT` (0x01, and
+    /// the default) sends none.
+    #[test]
+    fn discard_and_notify_answers_arbitration_lost_with_the_frames_id() {
+        let mut t = CanTerminal::new(Some(125_000));
+        assert!(!t.discards_on_arbitration_lost());
+        let discard = [0x40, 0, 0, 0, 10, 0, 0, 0, 0x04, 0x02];
+        let mut rx = discard.to_vec();
+        rx.extend(transmit(0x601, &[1]));
+        t.set_rx_data(&rx);
+        t.set_rx_clock(true);
+        t.update();
+        assert!(t.discards_on_arbitration_lost());
+        let [frame] = t.take_to_bus()[..] else {
+            panic!("one frame")
+        };
+        t.arbitration_lost(&frame);
+        t.tick();
+        assert_eq!(t.tx_data(), [0x30, 0, 0, 0, 12, 0, 0, 0, 0x01, 0x06, 0, 0]);
+        let buffer = [0x40, 0, 0, 0, 10, 0, 0, 0, 0x04, 0x01];
+        t.set_rx_data(&buffer);
+        t.set_rx_clock(true);
+        t.update();
+        assert!(!t.discards_on_arbitration_lost());
     }
 
     #[test]

@@ -24,7 +24,7 @@ use crate::scenario::Scenario;
 
 use super::can_terminal::CanTerminal;
 use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
-use super::variables::{Role, Variables, DIGITAL_INPUTS};
+use super::variables::{Profile, Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
 /// What the importer set for a drive, and what has acted of it.
@@ -35,6 +35,9 @@ struct Inputs {
     load_applied: Option<f64>,
     din: [Option<bool>; DIGITAL_INPUTS as usize],
     din_applied: [Option<bool>; DIGITAL_INPUTS as usize],
+    /// An FHPP drive's reference switch, and the level that acted last.
+    reference: Option<bool>,
+    reference_applied: Option<bool>,
 }
 
 /// A cell stepped by an FMI importer.
@@ -93,7 +96,17 @@ impl CellInstance {
     ) -> Result<CellInstance, CellFmuError> {
         let views = vendors.views;
         let rig = VirtualRig::new(cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
-        let variables = Variables::new(rig.nodes())?;
+        let variables = Variables::with_profiles(
+            rig.nodes()
+                .into_iter()
+                .map(|n| (n, Profile::Cia402))
+                .chain(
+                    rig.register_image_nodes()
+                        .into_iter()
+                        .map(|n| (n, Profile::Fhpp)),
+                )
+                .collect(),
+        )?;
         let timeline = timeline
             .map(|s| {
                 s.steps
@@ -105,11 +118,15 @@ impl CellInstance {
                     .collect()
             })
             .unwrap_or_default();
-        let terminals = rig
+        let mut rig = rig;
+        let terminals: Vec<CanTerminal> = rig
             .bus_bitrates()
             .into_iter()
             .map(CanTerminal::new)
             .collect();
+        for bus in 0..terminals.len() {
+            rig.report_outside_frames(bus);
+        }
         let n = variables.nodes.len();
         let shared = Arc::new(Mutex::new(Shared {
             rig,
@@ -185,7 +202,15 @@ impl CellInstance {
     }
 
     pub fn get_boolean(&self, vr: u32) -> Result<bool, CellFmuError> {
+        if let Some(on) = self.bus_notifications(vr) {
+            return Ok(on);
+        }
         match self.find(vr)? {
+            (drive, Role::ReferenceSwitch) => Ok(self
+                .inputs
+                .get(drive)
+                .and_then(|i| i.reference)
+                .unwrap_or(false)),
             (drive, Role::DigitalInput(k)) => Ok(self
                 .inputs
                 .get(drive)
@@ -196,7 +221,16 @@ impl CellInstance {
     }
 
     pub fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), CellFmuError> {
+        if self.set_bus_notifications(vr, value) {
+            return Ok(());
+        }
         match self.find(vr)? {
+            (drive, Role::ReferenceSwitch) => {
+                if let Some(i) = self.inputs.get_mut(drive) {
+                    i.reference = Some(value);
+                }
+                Ok(())
+            }
             (drive, Role::DigitalInput(k)) => {
                 if let Some(slot) = self
                     .inputs
@@ -207,6 +241,15 @@ impl CellInstance {
                 }
                 Ok(())
             }
+            _ => Err(CellFmuError::UnknownVariable(vr)),
+        }
+    }
+
+    /// An FHPP drive's status byte (SCON, SPOS).
+    pub fn get_uint8(&self, vr: u32) -> Result<u8, CellFmuError> {
+        match self.find(vr)? {
+            (drive, Role::Scon) => Ok(self.output(drive).status[0]),
+            (drive, Role::Spos) => Ok(self.output(drive).status[1]),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
@@ -229,7 +272,10 @@ impl CellInstance {
         match self.find(vr)? {
             (drive, Role::Display) => {
                 let node = self.variables.nodes.get(drive).copied().unwrap_or(0);
-                let shared = lock(&self.shared);
+                let mut shared = lock(&self.shared);
+                if self.variables.profile(drive) == Profile::Fhpp {
+                    return Ok(shared.rig.register_image_display(node).unwrap_or_default());
+                }
                 let shown = shared
                     .rig
                     .drive_model(node)
@@ -285,7 +331,16 @@ impl CellInstance {
             self.done += 1;
         }
         rig.run_until(Duration::from_nanos(end), &mut seen);
-        self.terminals_saw(&frames);
+        let mut outside = Vec::new();
+        for bus in 0..self.terminals.len() {
+            outside.extend(
+                rig.take_outside_frames(bus)
+                    .into_iter()
+                    .map(|(at, f, acked)| (bus, Duration::from_nanos(at.as_nanos()), f, acked)),
+            );
+        }
+        outside.sort_by_key(|(_, at, _, _)| *at);
+        self.terminals_saw(&frames, &outside);
         self.now = end;
         let stopped = rig.stopped();
         guard.refresh(&self.variables.nodes);
@@ -311,6 +366,14 @@ impl CellInstance {
     ) -> Result<(), CellFmuError> {
         for (bus, t) in terminals.iter_mut().enumerate() {
             for frame in t.take_to_bus() {
+                // FMI-LS-BUS §4.4.1.4 "Arbitration": a frame that cannot start at once has
+                // lost the arbitration (or waits for the busy bus): kept by the bus model,
+                // or, with DISCARD_AND_NOTIFY, discarded and answered.
+                if t.discards_on_arbitration_lost() && rig.would_wait(bus, &frame) {
+                    t.arbitration_lost(&frame);
+                    continue;
+                }
+                t.sent(frame);
                 let mut got = Vec::new();
                 rig.act(&Action::Frame { bus, frame }, &mut |b, at, f| {
                     got.push((b, at, *f))
@@ -347,6 +410,21 @@ impl CellInstance {
                 )
                 .map_err(|e| CellFmuError::Cell(format!("node {node}: load torque: {e}")))?;
                 i.load_applied = Some(torque_nm);
+            }
+            if let (Some(level), false) = (i.reference, i.reference == i.reference_applied) {
+                let change = crate::cell::control::PhysicsChange::Switch(
+                    drive::drive::named_switches::NamedSwitch::Home,
+                    Some(level),
+                );
+                rig.act(
+                    &Action::Physics {
+                        node: Some(*node),
+                        change,
+                    },
+                    seen,
+                )
+                .map_err(|e| CellFmuError::Cell(format!("node {node}: reference switch: {e}")))?;
+                i.reference_applied = Some(level);
             }
             for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
                 let (Some(level), false) = (*want, *want == *applied) else {

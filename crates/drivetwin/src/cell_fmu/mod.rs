@@ -47,7 +47,7 @@ pub enum CellFmuError {
     Cell(String),
     #[error("timeline: {0}")]
     Timeline(String),
-    #[error("the cell has no CANopen drive to show as variables (the virtual clock runs the CANopen drives of its buses)")]
+    #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses and its CMMO-STs)")]
     NoDrive,
     #[error("node {0} is on more than one bus: a variable's name is its node-ID")]
     DuplicateNode(u8),

@@ -54,6 +54,7 @@ pub fn model_description(name: &str, variables: &Variables, buses: usize) -> Str
             (Type::Float64, true) => ("Float64", "continuous", Some("0")),
             (Type::Float64, false) => ("Float64", "continuous", None),
             (Type::Boolean, _) => ("Boolean", "discrete", Some("false")),
+            (Type::UInt8, _) => ("UInt8", "discrete", None),
             (Type::UInt16, _) => ("UInt16", "discrete", None),
             (Type::Int32, _) => ("Int32", "discrete", None),
             (Type::String, _) => ("String", "discrete", None),
@@ -110,6 +111,15 @@ pub fn model_description(name: &str, variables: &Variables, buses: usize) -> Str
 /// clocked by it; the Binary variables carry the CAN MIME type (§4.2.5).
 fn terminal_variables(x: &mut String, buses: usize) {
     let mime = escape(ls_bus::MIME_TYPE);
+    if buses > 0 {
+        // §4.4.1.3: mandatory for a Network FMU, false (fire-and-forget) by default.
+        let _ = writeln!(
+            x,
+            r#"    <Boolean name="{}" valueReference="{}" causality="structuralParameter" variability="fixed" start="false" description="the master takes Confirm and Bus Error for its frames"/>"#,
+            can_terminal::BUS_NOTIFICATIONS,
+            can_terminal::BUS_NOTIFICATIONS_VALUE_REFERENCE
+        );
+    }
     for b in 0..buses {
         let name = can_terminal::terminal_name(b);
         let vr = |m| can_terminal::value_reference(b, m);

@@ -12,20 +12,48 @@
 //! | `nodeN.position_actual` | Int32 | output | | 6064h, in the drive's position units |
 //! | `nodeN.display` | String | output | | what the drive's display shows ("" without one) |
 //!
-//! Value reference 0 is the independent variable `time`; drive `i`'s variables follow from
-//! `1 + i · STRIDE` in the table's order.
+//! A drive with the FHPP register image (the CMMO-ST, FHPP over Modbus) has, after the
+//! CANopen drives and in the cell file's order, `nodeN.load_torque`, `nodeN.reference_switch`
+//! (Boolean input: its reference switch, forced once set), `nodeN.position`, `nodeN.velocity`,
+//! `nodeN.current`, `nodeN.scon` and `nodeN.spos` (UInt8 outputs: FHPP status bytes 1 and 2),
+//! `nodeN.position_actual` (its actual position in its position unit) and `nodeN.display`.
+//!
+//! Value reference 0 is the independent variable `time`; each drive's variables follow the
+//! last drive's in the table's order (a CiA 402 drive's take [`STRIDE`], so drive `i` of a cell
+//! of CiA 402 drives starts at `1 + i · STRIDE`).
 
-/// How many digital inputs each drive shows (the bits of its forced-input mask).
+/// How many digital inputs each CiA 402 drive shows (the bits of its forced-input mask).
 pub const DIGITAL_INPUTS: u8 = 16;
 
-/// Variables per drive.
+/// Variables per CiA 402 drive.
 pub const STRIDE: u32 = 7 + DIGITAL_INPUTS as u32;
+
+/// The device profile a drive's variables follow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Profile {
+    /// A CANopen drive of the cell's buses (CiA 402 words, 16 digital inputs).
+    Cia402,
+    /// A drive with the FHPP register image (the CMMO-ST): its status bytes SCON and SPOS
+    /// (FHPP §5.4, "status bytes") and its one switch input, the reference switch.
+    Fhpp,
+}
+
+impl Profile {
+    /// Variables of a drive of this profile.
+    pub fn stride(self) -> u32 {
+        match self {
+            Profile::Cia402 => STRIDE,
+            Profile::Fhpp => 9,
+        }
+    }
+}
 
 /// FMI 3.0 data types of the variables.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Type {
     Float64,
     Boolean,
+    UInt8,
     UInt16,
     Int32,
     String,
@@ -36,50 +64,68 @@ pub enum Type {
 pub enum Role {
     LoadTorque,
     DigitalInput(u8),
+    /// The FHPP drive's reference switch input (homing, §6.2).
+    ReferenceSwitch,
     Position,
     Velocity,
     Current,
     Statusword,
+    /// FHPP status byte 1, SCON.
+    Scon,
+    /// FHPP status byte 2, SPOS.
+    Spos,
     PositionActual,
     Display,
 }
 
 impl Role {
-    /// The roles in value-reference order.
-    fn all() -> impl Iterator<Item = Role> {
-        std::iter::once(Role::LoadTorque)
-            .chain((0..DIGITAL_INPUTS).map(Role::DigitalInput))
-            .chain([
-                Role::Position,
-                Role::Velocity,
-                Role::Current,
-                Role::Statusword,
-                Role::PositionActual,
-                Role::Display,
-            ])
-    }
-
-    fn offset(self) -> u32 {
-        match self {
-            Role::LoadTorque => 0,
-            Role::DigitalInput(k) => 1 + u32::from(k),
-            Role::Position => 1 + u32::from(DIGITAL_INPUTS),
-            Role::Velocity => 2 + u32::from(DIGITAL_INPUTS),
-            Role::Current => 3 + u32::from(DIGITAL_INPUTS),
-            Role::Statusword => 4 + u32::from(DIGITAL_INPUTS),
-            Role::PositionActual => 5 + u32::from(DIGITAL_INPUTS),
-            Role::Display => 6 + u32::from(DIGITAL_INPUTS),
+    /// The roles of a drive of `profile`, in value-reference order.
+    fn all(profile: Profile) -> Box<dyn Iterator<Item = Role>> {
+        match profile {
+            Profile::Cia402 => Box::new(
+                std::iter::once(Role::LoadTorque)
+                    .chain((0..DIGITAL_INPUTS).map(Role::DigitalInput))
+                    .chain([
+                        Role::Position,
+                        Role::Velocity,
+                        Role::Current,
+                        Role::Statusword,
+                        Role::PositionActual,
+                        Role::Display,
+                    ]),
+            ),
+            Profile::Fhpp => Box::new(
+                [
+                    Role::LoadTorque,
+                    Role::ReferenceSwitch,
+                    Role::Position,
+                    Role::Velocity,
+                    Role::Current,
+                    Role::Scon,
+                    Role::Spos,
+                    Role::PositionActual,
+                    Role::Display,
+                ]
+                .into_iter(),
+            ),
         }
     }
 
-    fn from_offset(offset: u32) -> Option<Role> {
-        Role::all().find(|r| r.offset() == offset)
+    fn offset(self, profile: Profile) -> Option<u32> {
+        Role::all(profile)
+            .position(|r| r == self)
+            .and_then(|i| u32::try_from(i).ok())
+    }
+
+    fn from_offset(profile: Profile, offset: u32) -> Option<Role> {
+        Role::all(profile).nth(usize::try_from(offset).ok()?)
     }
 
     pub fn data_type(self) -> Type {
         match self {
             Role::LoadTorque | Role::Position | Role::Velocity | Role::Current => Type::Float64,
-            Role::DigitalInput(_) => Type::Boolean,
+            Role::DigitalInput(_) | Role::ReferenceSwitch => Type::Boolean,
+            Role::Scon | Role::Spos => Type::UInt8,
             Role::Statusword => Type::UInt16,
             Role::PositionActual => Type::Int32,
             Role::Display => Type::String,
@@ -87,7 +133,10 @@ impl Role {
     }
 
     pub fn is_input(self) -> bool {
-        matches!(self, Role::LoadTorque | Role::DigitalInput(_))
+        matches!(
+            self,
+            Role::LoadTorque | Role::DigitalInput(_) | Role::ReferenceSwitch
+        )
     }
 
     /// The unit's name in the description's `UnitDefinitions`.
@@ -105,10 +154,13 @@ impl Role {
         match self {
             Role::LoadTorque => "load_torque".into(),
             Role::DigitalInput(k) => format!("din{k}"),
+            Role::ReferenceSwitch => "reference_switch".into(),
             Role::Position => "position".into(),
             Role::Velocity => "velocity".into(),
             Role::Current => "current".into(),
             Role::Statusword => "statusword".into(),
+            Role::Scon => "scon".into(),
+            Role::Spos => "spos".into(),
             Role::PositionActual => "position_actual".into(),
             Role::Display => "display".into(),
         }
@@ -118,11 +170,18 @@ impl Role {
         match self {
             Role::LoadTorque => "load torque on the motor shaft".into(),
             Role::DigitalInput(k) => format!("digital input {k}, forced to this level once set"),
+            Role::ReferenceSwitch => {
+                "reference switch input (homing), forced to this level once set".into()
+            }
             Role::Position => "motor shaft angle".into(),
             Role::Velocity => "motor shaft angular velocity".into(),
             Role::Current => "winding current".into(),
             Role::Statusword => "statusword (6041h)".into(),
-            Role::PositionActual => "position actual value (6064h)".into(),
+            Role::Scon => "FHPP status byte 1, SCON".into(),
+            Role::Spos => "FHPP status byte 2, SPOS".into(),
+            Role::PositionActual => {
+                "position actual value (6064h; FHPP: the actual position), in the drive's position unit".into()
+            }
             Role::Display => "what the drive's display shows (empty without one)".into(),
         }
     }
@@ -143,53 +202,89 @@ impl Variable {
     }
 }
 
-/// The variables of a cell whose CANopen drives have the node-IDs `nodes`.
+/// The variables of a cell whose drives have the node-IDs `nodes`, each of its profile.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variables {
     pub nodes: Vec<u8>,
+    /// Each drive's profile, in `nodes`' order.
+    pub profiles: Vec<Profile>,
+    /// Each drive's first value reference.
+    bases: Vec<u32>,
 }
 
 impl Variables {
-    /// Refuses a node-ID that is on two buses (the names would be the same).
+    /// CiA 402 drives with the node-IDs `nodes`; refuses a node-ID that is on two buses
+    /// (the names would be the same).
     pub fn new(nodes: Vec<u8>) -> Result<Variables, super::CellFmuError> {
-        if nodes.is_empty() {
+        Variables::with_profiles(nodes.into_iter().map(|n| (n, Profile::Cia402)).collect())
+    }
+
+    /// Drives of their profiles, in this order; refuses a node-ID given twice.
+    pub fn with_profiles(drives: Vec<(u8, Profile)>) -> Result<Variables, super::CellFmuError> {
+        if drives.is_empty() {
             return Err(super::CellFmuError::NoDrive);
         }
-        for (i, n) in nodes.iter().enumerate() {
-            if nodes.iter().skip(i + 1).any(|m| m == n) {
+        for (i, (n, _)) in drives.iter().enumerate() {
+            if drives.iter().skip(i + 1).any(|(m, _)| m == n) {
                 return Err(super::CellFmuError::DuplicateNode(*n));
             }
         }
-        Ok(Variables { nodes })
+        let mut bases = Vec::with_capacity(drives.len());
+        let mut next = 1u32;
+        for (_, p) in &drives {
+            bases.push(next);
+            next = next.saturating_add(p.stride());
+        }
+        let (nodes, profiles) = drives.into_iter().unzip();
+        Ok(Variables {
+            nodes,
+            profiles,
+            bases,
+        })
+    }
+
+    /// Drive `drive`'s profile.
+    pub fn profile(&self, drive: usize) -> Profile {
+        self.profiles.get(drive).copied().unwrap_or(Profile::Cia402)
     }
 
     /// Every variable, in value-reference order.
     pub fn all(&self) -> impl Iterator<Item = Variable> + '_ {
-        self.nodes.iter().enumerate().flat_map(|(drive, node)| {
-            Role::all().map(move |role| Variable {
-                drive,
-                node: *node,
-                role,
-                value_reference: value_reference(drive, role),
+        self.nodes
+            .iter()
+            .zip(&self.profiles)
+            .zip(&self.bases)
+            .enumerate()
+            .flat_map(|(drive, ((node, profile), base))| {
+                Role::all(*profile)
+                    .zip(*base..)
+                    .map(move |(role, vr)| Variable {
+                        drive,
+                        node: *node,
+                        role,
+                        value_reference: vr,
+                    })
             })
-        })
     }
 
     /// The drive and role of value reference `vr`, if it is one of these variables.
     pub fn find(&self, vr: u32) -> Option<(usize, Role)> {
-        let index = vr.checked_sub(1)?;
-        let drive = usize::try_from(index / STRIDE).ok()?;
-        if drive >= self.nodes.len() {
-            return None;
-        }
-        Role::from_offset(index % STRIDE).map(|r| (drive, r))
+        let drive = self.bases.iter().rposition(|b| *b <= vr)?;
+        let base = *self.bases.get(drive)?;
+        Role::from_offset(self.profile(drive), vr - base).map(|r| (drive, r))
+    }
+
+    /// The value reference of drive `drive`'s variable `role`.
+    pub fn value_reference(&self, drive: usize, role: Role) -> Option<u32> {
+        let base = *self.bases.get(drive)?;
+        Some(base + role.offset(self.profile(drive))?)
     }
 }
 
-/// The value reference of drive `drive`'s variable `role`.
+/// The value reference of CiA 402 drive `drive`'s variable `role` in a cell of CiA 402 drives.
 pub fn value_reference(drive: usize, role: Role) -> u32 {
     let drive = u32::try_from(drive).unwrap_or(u32::MAX / STRIDE - 1);
-    1 + drive * STRIDE + role.offset()
+    1 + drive * STRIDE + role.offset(Profile::Cia402).unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -209,6 +304,39 @@ mod tests {
         assert_eq!(all[STRIDE as usize + 17].name(), "node5.position");
         assert_eq!(v.find(0), None);
         assert_eq!(v.find(1 + 2 * STRIDE), None);
+    }
+
+    #[test]
+    fn an_fhpp_drive_has_its_status_bytes_and_reference_switch_after_the_cia_402_drives() {
+        let v = Variables::with_profiles(vec![(1, Profile::Cia402), (7, Profile::Fhpp)]).unwrap();
+        let all: Vec<Variable> = v.all().collect();
+        assert_eq!(all.len(), STRIDE as usize + 9);
+        for (i, var) in all.iter().enumerate() {
+            assert_eq!(var.value_reference, 1 + i as u32);
+            assert_eq!(v.find(var.value_reference), Some((var.drive, var.role)));
+        }
+        let names: Vec<String> = all
+            .iter()
+            .skip(STRIDE as usize)
+            .map(Variable::name)
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "node7.load_torque",
+                "node7.reference_switch",
+                "node7.position",
+                "node7.velocity",
+                "node7.current",
+                "node7.scon",
+                "node7.spos",
+                "node7.position_actual",
+                "node7.display"
+            ]
+        );
+        assert_eq!(v.value_reference(1, Role::Scon), Some(1 + STRIDE + 5));
+        assert_eq!(v.value_reference(1, Role::Statusword), None);
+        assert_eq!(v.find(1 + STRIDE + 9), None);
     }
 
     #[test]

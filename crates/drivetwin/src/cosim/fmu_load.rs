@@ -50,6 +50,12 @@ pub enum FmuLoadError {
     },
     #[error("{fmu}: a load needs a drive with a motor (a CiA 402 drive)")]
     NoShaft { fmu: String },
+    #[error("{fmu}: the {device} has no `{switch}` input (its one switch input is `home`)")]
+    NoInput {
+        fmu: String,
+        device: &'static str,
+        switch: &'static str,
+    },
     #[error("{fmu}: `{name}` is not a switch (home, limit_positive, limit_negative)")]
     UnknownSwitch { fmu: String, name: String },
     #[error("{fmu}: {call} at t = {time_s} s returned {status}{}", said(log.as_deref()))]

@@ -73,6 +73,16 @@ impl ModbusDrive {
         &mut **device
     }
 
+    /// The device's shaft, current and status now.
+    pub fn readout(&self) -> crate::cell::modbus_device::Readout {
+        lock(&self.device).readout()
+    }
+
+    /// Why the device's load stopped it, once it has.
+    pub fn load_failure(&self) -> Option<String> {
+        lock(&self.device).load_failure().map(|e| e.to_string())
+    }
+
     /// Its device file.
     pub fn description(&self) -> &'static od::DeviceDescription {
         lock(&self.device).description()

@@ -318,8 +318,12 @@ pub struct Probe {
     pub current_a: f64,
     /// The statusword (6041h).
     pub statusword: u16,
-    /// The position actual value (6064h), in the drive's position units.
+    /// The position actual value (6064h), in the drive's position units; a drive served with
+    /// its own register image: its actual position in its position unit.
     pub position_actual: i32,
+    /// A drive served with its own register image: the status bytes of its input telegram
+    /// (FHPP: SCON, SPOS, SDIR, actual values); zero for a CiA 402 drive.
+    pub status: [u8; 8],
 }
 
 impl VirtualRig {
@@ -329,6 +333,20 @@ impl VirtualRig {
             .iter()
             .flat_map(|c| c.stations.iter().map(|d| d.node_id()))
             .collect()
+    }
+
+    /// The node-IDs of the drives served with their own register image (the CMMO-STs), in
+    /// the cell file's order.
+    pub fn register_image_nodes(&self) -> Vec<u8> {
+        self.modbus.iter().map(|(n, _)| *n).collect()
+    }
+
+    /// What the display of node `node`'s register-image drive shows (`None`: no such drive,
+    /// or no display).
+    pub fn register_image_display(&mut self, node: u8) -> Option<String> {
+        let i = self.cmmo_st(Some(node))?;
+        let dev = self.modbus_device(i)?;
+        dev.plant().1.map(|d| d.text().to_string())
     }
 
     /// Each bus's bit rate, in the cell file's order (none: the instant bus).
@@ -351,6 +369,29 @@ impl VirtualRig {
             .map(|d| &**d)
     }
 
+    /// Bus `bus` keeps the frames from outside that cross it ([`crate::cell::can_segment::SegmentBus::report_outside_frames`]).
+    pub fn report_outside_frames(&mut self, bus: usize) {
+        if let Some(c) = self.segments.get_mut(bus) {
+            c.bus_mut().report_outside_frames();
+        }
+    }
+
+    /// The frames from outside that crossed bus `bus` since the last call: end of frame,
+    /// frame, and whether a drive received it.
+    pub fn take_outside_frames(&mut self, bus: usize) -> Vec<(Instant, CanFrame, bool)> {
+        self.segments
+            .get_mut(bus)
+            .map(|c| c.bus_mut().take_outside_frames())
+            .unwrap_or_default()
+    }
+
+    /// Whether `frame` from outside, put on bus `bus` now, would wait for the bus.
+    pub fn would_wait(&self, bus: usize, frame: &CanFrame) -> bool {
+        self.segments
+            .get(bus)
+            .is_some_and(|c| c.bus().would_wait(self.now, frame))
+    }
+
     /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
     pub fn drives_on(&self, bus: usize) -> usize {
         self.segments.get(bus).map_or(0, |c| c.stations.len())
@@ -363,6 +404,17 @@ impl VirtualRig {
 
     /// Drive `node`'s plant and words now.
     pub fn probe(&self, node: u8) -> Result<Probe, String> {
+        if let Some((_, m)) = self.cmmo_st(Some(node)).and_then(|i| self.modbus.get(i)) {
+            let r = m.readout();
+            return Ok(Probe {
+                position_rad: r.position_rad,
+                velocity_rad_s: r.velocity_rad_s,
+                current_a: r.current_a,
+                statusword: 0,
+                position_actual: r.position_actual,
+                status: r.status,
+            });
+        }
         let (b, i) = self.drive(Some(node))?;
         let station = self.segment(b)?.stations.get(i).ok_or("no drive")?;
         let d = station
@@ -382,6 +434,7 @@ impl VirtualRig {
             current_a,
             statusword,
             position_actual: i32::from_ne_bytes(position_actual.to_ne_bytes()),
+            status: [0; 8],
         })
     }
 }
@@ -392,6 +445,11 @@ impl Rig for VirtualRig {
             .iter()
             .find_map(CanSegment::load_failure)
             .map(|e| format!("load: {e}"))
+            .or_else(|| {
+                self.modbus.iter().find_map(|(node, m)| {
+                    m.load_failure().map(|e| format!("node {node}: load: {e}"))
+                })
+            })
     }
 
     fn run_until(&mut self, t: Duration, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {

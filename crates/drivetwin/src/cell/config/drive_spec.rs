@@ -193,12 +193,12 @@ impl CellFile {
                 None
             };
             let mut commissioning = Vec::new();
-            if d.load.is_some() && !is_cia402(desc) {
+            if d.load.is_some() && !is_cia402(desc) && !is_fhpp(desc) {
                 return Err(ConfigError::Object {
                     node: d.node,
                     key: "load".into(),
                     what: format!(
-                        "{}: a load FMU is coupled to a CiA 402 drive's motor",
+                        "{}: a load FMU is coupled to a CiA 402 or FHPP drive's motor",
                         desc.name
                     ),
                 });

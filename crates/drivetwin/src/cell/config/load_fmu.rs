@@ -43,18 +43,12 @@ mod tests {
     }
 
     #[test]
-    fn a_load_on_a_drive_without_a_cia_402_motor_is_refused() {
+    fn a_load_on_a_cmmo_st_is_taken_for_its_stepper() {
         let f: CellFile = toml::from_str(
             "[[drive]]\ndevice = \"cmmo-st\"\n[drive.load]\nfmu = \"c.fmu\"\nload_torque = \"t\"\n",
         )
         .unwrap();
-        let e = f
-            .drives(crate::cell::Vendors::NONE)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("a load FMU is coupled to a CiA 402 drive"),
-            "{e}"
-        );
+        let specs = f.drives(crate::cell::Vendors::NONE).unwrap();
+        assert_eq!(specs[0].load.as_ref().unwrap().load_torque, "t");
     }
 }

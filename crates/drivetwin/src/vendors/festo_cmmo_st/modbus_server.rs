@@ -43,8 +43,10 @@ use od::{AbortCode, Diagnostic, Instant, ObjectAccess};
 use crate::cell::config::DriveSpec;
 use crate::cell::control::{DisplayState, PhysicsChange, Plant, PlantPhysics};
 use crate::cell::diagnostics::{Action, DiagnosticState};
-use crate::cell::modbus_device::{ModbusDevice, NewDeviceError, PoweredOn};
+use crate::cell::modbus_device::{ModbusDevice, NewDeviceError, PoweredOn, Readout};
 use crate::cell::param_store::{ParamStore, StoreError};
+use crate::cosim::{FmuLoad, FmuLoadError};
+use drive::drive::named_switches::NamedSwitch;
 
 /// Registers of the FHPP Standard telegram (8 bytes).
 pub const STD_REGISTERS: usize = 4;
@@ -65,6 +67,10 @@ pub struct FhppModbus {
     store: Option<ParamStore>,
     /// The permanent memory's generation last written to `store`.
     generation: u32,
+    /// The load FMU coupled to the shaft (`[drive.load]`), stepped with each FHPP cycle.
+    load: Option<FmuLoad>,
+    /// Why the load stopped the device (it steps no more).
+    failure: Option<FmuLoadError>,
 }
 
 /// A char-array PNU (one ASCII code per subindex, 00h-padded) as bytes.
@@ -99,6 +105,8 @@ impl FhppModbus {
             ident,
             store,
             generation,
+            load: None,
+            failure: None,
         }
     }
 
@@ -236,7 +244,18 @@ impl ModbusDevice for FhppModbus {
     }
 
     fn step(&mut self, now: Instant) {
-        self.device.step(now);
+        match (&mut self.load, &self.failure) {
+            (_, Some(_)) => {}
+            (None, None) => {
+                self.device.step(now);
+            }
+            (Some(load), None) => {
+                if let Err(e) = self.device.step_with_load(now, load) {
+                    tracing::error!(error = %e, "load FMU failed: the drive stops");
+                    self.failure = Some(e);
+                }
+            }
+        }
         self.keep_memory();
     }
 
@@ -267,8 +286,9 @@ impl ModbusDevice for FhppModbus {
             PhysicsChange::Ambient(c) => d.set_ambient_temperature(c),
             PhysicsChange::Encoder(f) => d.set_encoder_fault(f),
             PhysicsChange::Thermal(t) => d.set_thermal_data(t),
-            // Decision: the CMMO-ST's switches are its axis's end stops and reference switch
-            // (FHPP homing), not DINs a console could force.
+            // Decision: the CMMO-ST's one switch input is the reference switch of homing
+            // (§6.2), which `home` forces; its ends of travel are fixed stops, not inputs.
+            PhysicsChange::Switch(NamedSwitch::Home, level) => d.force_reference_switch(level),
             PhysicsChange::Switch(s, _) => return Err(s.name()),
         }
         let w = d.plant_watch();
@@ -294,6 +314,41 @@ impl ModbusDevice for FhppModbus {
             },
             Some(DisplayState::new(&dev.seven_segment().to_string())),
         )
+    }
+
+    fn readout(&self) -> Readout {
+        let dev = &self.device;
+        let stepper = dev.stepper();
+        Readout {
+            position_rad: stepper.angle(),
+            velocity_rad_s: stepper.velocity(),
+            current_a: stepper.current_a(),
+            status: dev.inputs(),
+            position_actual: dev.motion_status().actual_position,
+        }
+    }
+
+    fn couple_load(&mut self, load: Option<FmuLoad>) -> Result<(), FmuLoadError> {
+        if let Some(l) = &load {
+            if let Some(s) = l.switches().find(|s| *s != NamedSwitch::Home) {
+                return Err(FmuLoadError::NoInput {
+                    fmu: l.name().to_string(),
+                    device: "CMMO-ST",
+                    switch: s.name(),
+                });
+            }
+        }
+        if self.load.take().is_some() {
+            self.device.force_reference_switch(None);
+            self.device.stepper_mut().set_load_torque(0.0);
+        }
+        self.failure = None;
+        self.load = load;
+        Ok(())
+    }
+
+    fn load_failure(&self) -> Option<&FmuLoadError> {
+        self.failure.as_ref()
     }
 
     fn as_any_mut(&mut self) -> &mut dyn Any {
@@ -359,8 +414,16 @@ pub fn new_device(
         .as_ref()
         .and_then(|store| power_on(&mut dev, store).err())
         .map(|e| e.to_string());
+    let mut served = FhppModbus::new(dev, store);
+    if let Some(mapping) = &spec.load {
+        let coupled = crate::cosim::FmuLoad::open(mapping, None, &format!("load{}", spec.node))
+            .and_then(|load| served.couple_load(Some(load)));
+        if let Err(e) = coupled {
+            return Some(Err(NewDeviceError::Load(e.to_string())));
+        }
+    }
     Some(Ok(PoweredOn {
-        device: Box::new(FhppModbus::new(dev, store)),
+        device: Box::new(served),
         memory_error,
     }))
 }

@@ -43,7 +43,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let method = match homing::select(
             p.homing_method,
             self.settings.mode,
-            self.settings.mechanics.has_switch(),
+            self.settings.mechanics.has_switch() || self.reference_forced.is_some(),
         ) {
             Ok(m) => m,
             Err(code) => {
@@ -196,7 +196,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 }
             }
             (Target::ReferenceSwitch, HomingPhase::Search) => {
-                if mech.switch_active(angle) {
+                if self.reference_switch(angle) {
                     // CiA 402 23 / 27: on the switch, back off it the other way.
                     h.phase = HomingPhase::LeaveSwitch;
                     h.dir = -h.dir;
@@ -208,7 +208,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 }
             }
             (Target::ReferenceSwitch, HomingPhase::LeaveSwitch) => {
-                if !mech.switch_active(angle) {
+                if !self.reference_switch(angle) {
                     if closed {
                         h.phase = HomingPhase::IndexAfterSwitch { edge: angle };
                         h.phase_start = angle;

@@ -57,6 +57,7 @@ use crate::trajectory::{Limits, Trajectory};
 
 mod coordinates;
 mod cycle;
+mod external_load;
 mod faults;
 mod homing_run;
 mod motion;
@@ -366,6 +367,9 @@ pub struct FhppDevice<S> {
     /// Software limit passed (11h / 12h): that direction is locked (13h / 14h).
     locked_positive: bool,
     locked_negative: bool,
+    /// The reference switch input held at this level (a load model's light barrier, an
+    /// importer's input), in place of the cam of [`AxisMechanics::reference_switch`].
+    reference_forced: Option<bool>,
 }
 
 /// Entries written every cycle, remembered by their place in the sequence of writes.
@@ -511,6 +515,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
             task_started: 0,
             locked_positive: false,
             locked_negative: false,
+            reference_forced: None,
         };
         dev.refresh();
         dev.traj = Trajectory::at(dev.raw_actual());

@@ -1,0 +1,95 @@
+#!/usr/bin/env python3
+"""The virtual-time speed of a cell as an FMU stepped by fmpy at 1 ms, against the same cell's
+own run on the virtual clock (`drivetwin run --config CELL --virtual-seconds T`): both speeds
+(virtual seconds per wall second) and their ratio (docs/performance.md, "The cell as an FMU").
+
+    scripts/cell-fmu && python3 scripts/fmu_speed.py                 # 10 s of the ten-drive cell
+    python3 scripts/fmu_speed.py --seconds 1 --cell examples/cell_fmu/ten_drives.toml
+
+The FMU is packed from the cell by the release binary (`target/release/drivetwin fmu`). fmpy
+steps it two ways: `fmpy.simulate_fmu` (every output recorded at every step, as a user's
+simulation does), and the low-level FMI 3 API with `fmi3DoStep` alone (the cell's own cost
+inside the FMU, no output read). The native run is timed as a whole process, its start
+included; the load average is printed beside the figures (the machine may be shared).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def native(binary: Path, cell: Path, seconds: float) -> float:
+    """Wall seconds of `drivetwin run --virtual-seconds`."""
+    start = time.perf_counter()
+    subprocess.run([str(binary), "run", "--config", str(cell), "--virtual-seconds", str(seconds)],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def simulated(fmu: str, seconds: float, step: float) -> float:
+    """Wall seconds of fmpy.simulate_fmu at `step`, every output recorded."""
+    import fmpy
+    start = time.perf_counter()
+    fmpy.simulate_fmu(fmu, stop_time=seconds, step_size=step, output_interval=step,
+                      fmi_type="CoSimulation")
+    return time.perf_counter() - start
+
+
+def do_steps(fmu: str, seconds: float, step: float) -> float:
+    """Wall seconds of fmi3DoStep alone at `step` (instantiation not counted)."""
+    import fmpy
+    from fmpy.fmi3 import FMU3Slave
+    md = fmpy.read_model_description(fmu)
+    unzipped = fmpy.extract(fmu)
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=unzipped,
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cell")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    n = round(seconds / step)
+    start = time.perf_counter()
+    for i in range(n):
+        slave.doStep(currentCommunicationPoint=i * step, communicationStepSize=step)
+    wall = time.perf_counter() - start
+    slave.terminate()
+    slave.freeInstance()
+    return wall
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--cell", type=Path, default=ROOT / "examples/cell_fmu/ten_drives.toml")
+    p.add_argument("--seconds", type=float, default=10.0, help="virtual seconds of each run")
+    p.add_argument("--step", type=float, default=1e-3, help="the importer's step, s")
+    p.add_argument("--binary", type=Path, default=Path(os.environ.get(
+        "DRIVETWIN_BIN", ROOT / "target/release/drivetwin")))
+    a = p.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        fmu = str(Path(tmp) / "cell.fmu")
+        subprocess.run([str(a.binary), "fmu", "--config", str(a.cell), "--output", fmu],
+                       check=True, stdout=subprocess.DEVNULL)
+        load = os.getloadavg()[0]
+        t_native = native(a.binary, a.cell, a.seconds)
+        t_sim = simulated(fmu, a.seconds, a.step)
+        t_steps = do_steps(fmu, a.seconds, a.step)
+    v = a.seconds
+    print(f"cell {a.cell.name}, {v:g} s of virtual time, step {a.step * 1e3:g} ms, "
+          f"load average {load:.2f} ({os.cpu_count()} CPUs)")
+    print(f"native  (drivetwin run --virtual-seconds): {t_native:8.3f} s wall, {v / t_native:8.1f}x real time")
+    print(f"FMU     (fmpy.simulate_fmu, outputs kept): {t_sim:8.3f} s wall, {v / t_sim:8.1f}x real time, "
+          f"{100 * t_native / t_sim:5.1f} % of native")
+    print(f"FMU     (fmi3DoStep alone, low-level API): {t_steps:8.3f} s wall, {v / t_steps:8.1f}x real time, "
+          f"{100 * t_native / t_steps:5.1f} % of native")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

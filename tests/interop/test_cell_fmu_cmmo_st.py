@@ -1,0 +1,118 @@
+"""A CMMO-ST (FHPP over Modbus, no CANopen) in a cell FMU (`drivetwin fmu`,
+docs/cosimulation.md), met by fmpy: its variables are the CANopen drives' with FHPP's status
+bytes in place of the statusword (`nodeN.scon`, `nodeN.spos`, UInt8, CMMO-ST manual §5.4.2
+Tab. 5.21 / 5.22) and its reference switch in place of the 16 digital inputs; the timeline's
+Modbus request enables it (SCON.ENABLED and OPEN), and a load torque set by the importer turns
+its shaft while the output stage is off."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+import pytest
+
+from conftest import DRIVETWIN_BIN, REPO_ROOT
+
+fmpy = pytest.importorskip("fmpy")
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi3 import FMU3Slave  # noqa: E402
+from fmpy.validation import validate_fmu  # noqa: E402
+
+LIBRARY = os.environ.get("DRIVETWIN_CELL_LIBRARY")
+NODE = 30
+SCON_ENABLED, SCON_OPEN, SCON_VLOAD = 0x01, 0x02, 0x10  # Tab. 5.21
+SPOS_HALT = 0x01  # Tab. 5.22
+
+CELL = """\
+[[bus]]
+socketcand = ""
+
+[[drive]]
+device = "cmmo-st"
+node = 30
+"""
+
+# FC 10h to start address 0, 4 registers: CCON = 03h (ENABLE, STOP), CPOS = 01h (HALT not
+# active), the rest 0 (§4.3, Tab. 5.11).
+TIMELINE = """\
+name = "cmmo-st enabled at 300 ms"
+cell = "cell.toml"
+
+[[step]]
+at = "300ms"
+node = 30
+modbus_request = "0001 0000 000F 01 10 0000 0004 08 03 01 00 00 00 00 00 00"
+"""
+
+
+@pytest.fixture(scope="module")
+def cell_fmu(tmp_path_factory):
+    library = LIBRARY
+    if library is None:
+        subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT)
+        library = REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
+    d = tmp_path_factory.mktemp("cell_fmu_cmmo_st")
+    (d / "cell.toml").write_text(CELL)
+    (d / "start.toml").write_text(TIMELINE)
+    out = d / "cell.fmu"
+    subprocess.run(
+        [str(DRIVETWIN_BIN), "fmu", "--config", str(d / "cell.toml"), "--scenario",
+         str(d / "start.toml"), "--output", str(out), "--library", str(library)],
+        check=True, cwd=REPO_ROOT, timeout=60,
+    )
+    return str(out)
+
+
+def test_the_cmmo_st_has_its_status_bytes_and_reference_switch(cell_fmu):
+    assert validate_fmu(cell_fmu) == []
+    md = read_model_description(cell_fmu)
+    v = {x.name: x for x in md.modelVariables}
+    p = f"node{NODE}."
+    assert (v[p + "load_torque"].causality, v[p + "load_torque"].type) == ("input", "Float64")
+    assert (v[p + "reference_switch"].causality, v[p + "reference_switch"].type) == ("input", "Boolean")
+    for name, kind in [("position", "Float64"), ("velocity", "Float64"), ("current", "Float64"),
+                       ("scon", "UInt8"), ("spos", "UInt8"), ("position_actual", "Int32"),
+                       ("display", "String")]:
+        assert (v[p + name].causality, v[p + name].type) == ("output", kind), name
+    assert p + "statusword" not in v and p + "din0" not in v
+    outputs = {u.variable.name for u in md.outputs}
+    assert {p + "scon", p + "spos", p + "position"} <= outputs
+
+
+def test_a_load_torque_turns_the_free_shaft_and_the_timeline_enables_the_drive(cell_fmu):
+    md = read_model_description(cell_fmu)
+    vr = {x.name: x.valueReference for x in md.modelVariables}
+    p = f"node{NODE}."
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(cell_fmu),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cmmo")
+    fmu.instantiate()
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+
+    def status():
+        return fmu.getUInt8([vr[p + "scon"], vr[p + "spos"]])
+
+    scon, _ = status()
+    assert scon & SCON_VLOAD and not scon & SCON_ENABLED, hex(scon)
+    t, h = 0.0, 1e-3
+    # The load's torque acts towards negative rotation; 20 ms of it, 20 ms against it.
+    fmu.setFloat64([vr[p + "load_torque"]], [0.1])
+    for _ in range(20):
+        fmu.doStep(t, h)
+        t += h
+    angle, speed = fmu.getFloat64([vr[p + "position"], vr[p + "velocity"]])
+    assert angle < -0.05 and speed < 0.0, (angle, speed)
+    fmu.setFloat64([vr[p + "load_torque"]], [-0.1])
+    for _ in range(20):
+        fmu.doStep(t, h)
+        t += h
+    fmu.setFloat64([vr[p + "load_torque"]], [0.0])
+    for _ in range(300):
+        fmu.doStep(t, h)
+        t += h
+    scon, spos = status()
+    assert scon & SCON_ENABLED and scon & SCON_OPEN, hex(scon)
+    assert spos & SPOS_HALT, hex(spos)
+    fmu.terminate()
+    fmu.freeInstance()
