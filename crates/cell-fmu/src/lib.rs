@@ -29,6 +29,8 @@ use fmi_export::fmi3::{
 #[derive(Default)]
 pub struct CellModel {
     cell: Option<CellInstance>,
+    /// The parameters the importer set (value reference, value), in the order set.
+    parameters: Vec<(u32, f64)>,
 }
 
 /// What a call into the cell gives: its value, or the error it ended with.
@@ -58,8 +60,9 @@ impl CellModel {
         // importer's process already wins; then the error says only the status).
         drivetwin::cosim::fmu_log::install();
         let resources = context.resource_path().clone();
+        let set = &self.parameters;
         match guarded(|| {
-            CellInstance::from_resources(&resources, drivetwin::vendors::VENDORS.runtime)
+            CellInstance::from_resources_with(&resources, drivetwin::vendors::VENDORS.runtime, set)
         }) {
             Ok(cell) => {
                 self.cell = Some(cell);
@@ -95,6 +98,29 @@ impl CellModel {
                 Err(Fmi3Error::Error)
             }
         }
+    }
+
+    /// A parameter (FMI 3.0 §2.4.7.4: `fixed`, set before the FMU is initialised): kept, and
+    /// the cell built with it; a cell already built (a set in Initialization Mode) is built
+    /// anew, its clock still at its start.
+    fn set_parameter(
+        &mut self,
+        vr: binding::fmi3ValueReference,
+        values: &[f64],
+        context: &dyn Context<CellModel>,
+    ) -> Result<usize, Fmi3Error> {
+        let Some(value) = values.first() else {
+            return Err(Fmi3Error::Error);
+        };
+        let vr = vr + 1;
+        match self.parameters.iter_mut().find(|(r, _)| *r == vr) {
+            Some(slot) => slot.1 = *value,
+            None => self.parameters.push((vr, *value)),
+        }
+        if self.cell.take().is_some() {
+            self.ensure(context)?;
+        }
+        Ok(1)
     }
 
     fn set<T: Copy>(
@@ -177,6 +203,9 @@ impl ModelGetSet<CellModel> for CellModel {
         values: &[f64],
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
+        if drivetwin::cell_fmu::parameters::is_parameter(vr + 1) {
+            return self.set_parameter(vr, values, context);
+        }
         self.set(vr, values, context, CellInstance::set_float64)
     }
 

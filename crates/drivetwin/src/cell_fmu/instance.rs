@@ -23,7 +23,10 @@ use crate::scenario::virtual_rig::{Probe, VirtualRig};
 use crate::scenario::Scenario;
 
 use super::can_terminal::CanTerminal;
+use super::ethercat_front::EthercatChains;
 use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
+use super::modbus_front::{self, ModbusFronts};
+use super::parameters::Parameters;
 use super::variables::{Profile, Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
@@ -46,7 +49,14 @@ pub struct CellInstance {
     shared: SharedCell,
     /// The socketcand servers of the cell file's buses, when it has any.
     front_ends: Option<FrontEnds>,
+    /// The Modbus TCP servers of the drives served that way, when it has any.
+    modbus_fronts: Option<ModbusFronts>,
+    /// The EtherCAT chains of the cell file's slaves, stepped with the rig.
+    ethercat: EthercatChains,
     variables: Variables,
+    /// The cell file's keys that are FMI parameters, their starts the values the cell was
+    /// built with.
+    parameters: Parameters,
     /// The timeline's actions in time order, and how many have been done.
     timeline: Vec<(Duration, Action)>,
     done: usize,
@@ -66,8 +76,24 @@ impl CellInstance {
         resources: &Path,
         vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
+        CellInstance::from_resources_with(resources, vendors, &[])
+    }
+
+    /// [`CellInstance::from_resources`] with the parameters `set` (value reference, value),
+    /// written into the cell file before the cell is built ([`Parameters::apply`]).
+    pub fn from_resources_with(
+        resources: &Path,
+        vendors: Vendors,
+        set: &[(u32, f64)],
+    ) -> Result<CellInstance, CellFmuError> {
         let cell_path = resources.join(CELL_FILE);
-        let cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let mut cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        if !set.is_empty() {
+            // The parameters as the description declares them: those of the file as written.
+            let rig =
+                VirtualRig::new(&cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+            Parameters::of(&rig, &rig.nodes()).apply(&mut cell, vendors, set)?;
+        }
         let timeline_path = resources.join(TIMELINE_FILE);
         let timeline = if timeline_path.exists() {
             let text =
@@ -84,6 +110,9 @@ impl CellInstance {
         };
         let mut instance = CellInstance::new(&cell, timeline.as_ref(), vendors)?;
         instance.front_ends = FrontEnds::open(&cell, &instance.shared)?;
+        let servers = modbus_front::addresses(&cell, vendors)?;
+        instance.modbus_fronts = ModbusFronts::open(&servers, &instance.shared)?;
+        instance.ethercat.open(&instance.shared)?;
         Ok(instance)
     }
 
@@ -95,7 +124,9 @@ impl CellInstance {
         vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
         let views = vendors.views;
-        let rig = VirtualRig::new(cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        // The EtherCAT slaves form chains of their own; the rest is the virtual rig's.
+        let (rest, ethercat) = EthercatChains::split(cell, vendors)?;
+        let rig = VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let variables = Variables::with_profiles(
             rig.nodes()
                 .into_iter()
@@ -107,6 +138,7 @@ impl CellInstance {
                 )
                 .collect(),
         )?;
+        let parameters = Parameters::of(&rig, &variables.nodes);
         let timeline = timeline
             .map(|s| {
                 s.steps
@@ -137,7 +169,10 @@ impl CellInstance {
         Ok(CellInstance {
             shared,
             front_ends: None,
+            modbus_fronts: None,
+            ethercat,
             variables,
+            parameters,
             timeline,
             done: 0,
             inputs: vec![Inputs::default(); n],
@@ -152,6 +187,16 @@ impl CellInstance {
         &self.variables
     }
 
+    /// The EtherCAT chains: each one's interface and its number of slaves.
+    pub fn ethercat_chains(&self) -> Vec<(String, usize)> {
+        self.ethercat.chains()
+    }
+
+    /// The cell file's keys that are FMI parameters.
+    pub fn parameters(&self) -> &Parameters {
+        &self.parameters
+    }
+
     /// The virtual clock, s.
     pub fn time(&self) -> f64 {
         Duration::from_nanos(self.now).as_secs_f64()
@@ -160,6 +205,12 @@ impl CellInstance {
     /// The addresses of the front ends' servers, with their bus.
     pub fn front_end_addresses(&self) -> &[(usize, std::net::SocketAddr)] {
         self.front_ends.as_ref().map_or(&[], |f| f.addresses())
+    }
+
+    /// The addresses of the Modbus TCP servers, with the drive's place among the drives
+    /// served over Modbus TCP.
+    pub fn modbus_addresses(&self) -> &[(usize, std::net::SocketAddr)] {
+        self.modbus_fronts.as_ref().map_or(&[], |f| f.addresses())
     }
 
     /// Drive `drive`'s outputs now (read anew when a front end has acted since).
@@ -178,6 +229,9 @@ impl CellInstance {
     }
 
     pub fn get_float64(&self, vr: u32) -> Result<f64, CellFmuError> {
+        if let Some(p) = self.parameters.find(vr) {
+            return Ok(p.start);
+        }
         let (drive, role) = self.find(vr)?;
         let out = self.output(drive);
         match role {
@@ -322,7 +376,7 @@ impl CellInstance {
                 break;
             }
             if at_ns > self.now {
-                rig.run_until(*at, &mut seen);
+                self.ethercat.run_until(rig, *at, &mut seen);
             }
             // A refused action is the timeline's mistake, as in a scenario's report: logged.
             if let Err(e) = rig.act(action, &mut seen) {
@@ -330,7 +384,8 @@ impl CellInstance {
             }
             self.done += 1;
         }
-        rig.run_until(Duration::from_nanos(end), &mut seen);
+        self.ethercat
+            .run_until(rig, Duration::from_nanos(end), &mut seen);
         let mut outside = Vec::new();
         for bus in 0..self.terminals.len() {
             outside.extend(
@@ -346,6 +401,9 @@ impl CellInstance {
         guard.refresh(&self.variables.nodes);
         drop(guard);
         if let Some(f) = &self.front_ends {
+            f.wake();
+        }
+        if let Some(f) = &self.modbus_fronts {
             f.wake();
         }
         match stopped {

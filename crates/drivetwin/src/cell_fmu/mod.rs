@@ -6,6 +6,10 @@
 //! - [`model_description`]: `modelDescription.xml` from those variables;
 //! - [`instance`]: one instance: the cell on the virtual clock, stepped by the importer;
 //! - [`front_ends`]: the cell's socketcand servers, open while the importer steps it;
+//! - [`modbus_front`]: the Modbus TCP servers of its CMMO-STs, open while the importer steps it;
+//! - [`parameters`]: the cell file's keys that are FMI parameters, set before it is built;
+//! - [`ethercat_front`]: its EtherCAT chains on the FMU's clock, their raw sockets open while
+//!   the importer steps it;
 //! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file);
 //! - [`ls_bus`]: FMI-LS-BUS CAN bus operations, parsed and emitted;
 //! - [`can_terminal`]: one FMI-LS-BUS CAN terminal per bus of the cell (`canB.Rx_Data`, …).
@@ -15,10 +19,13 @@
 
 pub mod archive;
 pub mod can_terminal;
+pub mod ethercat_front;
 pub mod front_ends;
 pub mod instance;
 pub mod ls_bus;
+pub mod modbus_front;
 pub mod model_description;
+pub mod parameters;
 pub mod variables;
 
 /// The FMU's `modelIdentifier`: its binary is `binaries/x86_64-linux/drivetwin_cell.so`.

@@ -7,6 +7,7 @@ use std::fmt::Write;
 
 use super::can_terminal::{self, Member};
 use super::ls_bus;
+use super::parameters::Parameters;
 use super::variables::{Type, Variables};
 use super::{INSTANTIATION_TOKEN, MODEL_IDENTIFIER};
 
@@ -21,6 +22,16 @@ const UNITS: &[(&str, &str)] = &[
 /// The description of a cell named `name` with `variables` and `buses` CAN buses (each with
 /// its LS-BUS terminal).
 pub fn model_description(name: &str, variables: &Variables, buses: usize) -> String {
+    model_description_with(name, variables, buses, &Parameters::default())
+}
+
+/// [`model_description`] with the cell file's keys that are FMI parameters.
+pub fn model_description_with(
+    name: &str,
+    variables: &Variables,
+    buses: usize,
+    parameters: &Parameters,
+) -> String {
     let mut x = String::new();
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
@@ -41,6 +52,15 @@ pub fn model_description(name: &str, variables: &Variables, buses: usize) -> Str
             r#"    <Unit name="{}"><BaseUnit {base}/></Unit>"#,
             escape(unit)
         );
+    }
+    for (unit, base) in parameters.units() {
+        if UNITS.iter().all(|(u, _)| *u != unit) {
+            let _ = writeln!(
+                x,
+                r#"    <Unit name="{}"><BaseUnit {base}/></Unit>"#,
+                escape(unit)
+            );
+        }
     }
     x.push_str("  </UnitDefinitions>\n");
     x.push_str(r#"  <DefaultExperiment startTime="0" stepSize="0.001"/>"#);
@@ -76,6 +96,7 @@ pub fn model_description(name: &str, variables: &Variables, buses: usize) -> Str
         x.push_str("/>\n");
     }
     terminal_variables(&mut x, buses);
+    parameters.write_variables(&mut x);
     x.push_str("  </ModelVariables>\n");
     x.push_str("  <ModelStructure>\n");
     let outputs: Vec<u32> = variables

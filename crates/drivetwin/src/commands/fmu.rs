@@ -45,7 +45,12 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
         .config
         .file_stem()
         .map_or_else(|| "cell".to_string(), |s| s.to_string_lossy().into_owned());
-    let xml = model_description::model_description(&name, instance.variables(), instance.buses());
+    let xml = model_description::model_description_with(
+        &name,
+        instance.variables(),
+        instance.buses(),
+        instance.parameters(),
+    );
     let library = match &args.library {
         Some(p) => p.clone(),
         None => std::env::current_exe()
@@ -70,10 +75,14 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
     )
     .map_err(|e| usage(e.to_string()))?;
     out!(
-        "{}: {} drive(s), {} variables",
+        "{}: {} drive(s), {} variables, {} parameters",
         args.output.display(),
         instance.variables().nodes.len(),
-        instance.variables().all().count() + 1
+        instance.variables().all().count() + 1,
+        instance.parameters().list.len()
     );
+    for (interface, slaves) in instance.ethercat_chains() {
+        out!("EtherCAT on {interface}: {slaves} slave(s), served while the FMU runs");
+    }
     Ok(())
 }

@@ -147,6 +147,11 @@ impl ModbusDrive {
         self.device_mut().connection_event(ConnectionEvent::Opened);
     }
 
+    /// Whether a connection is open (the watchdog or an error may have closed it).
+    pub fn has_connection(&self) -> bool {
+        self.connection.is_some()
+    }
+
     /// Answers the complete ADUs of `bytes` into `out`; an error: close the connection.
     pub fn answer(
         &mut self,

@@ -392,6 +392,17 @@ impl VirtualRig {
             .is_some_and(|c| c.bus().would_wait(self.now, frame))
     }
 
+    /// How many drives the rig serves over Modbus TCP (the CMMO-STs), in the cell file's order.
+    pub fn modbus_drives(&self) -> usize {
+        self.modbus.len()
+    }
+
+    /// The `i`-th drive served over Modbus TCP (cell file order): the cell FMU's Modbus TCP
+    /// front end opens its connections on it and passes it the client's bytes.
+    pub fn modbus_drive_mut(&mut self, i: usize) -> Option<&mut ModbusDrive> {
+        self.modbus.get_mut(i).map(|(_, m)| m)
+    }
+
     /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
     pub fn drives_on(&self, bus: usize) -> usize {
         self.segments.get(bus).map_or(0, |c| c.stations.len())

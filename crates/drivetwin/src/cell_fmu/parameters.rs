@@ -1,0 +1,272 @@
+//! The cell FMU's parameters: keys of the cell file that act when the cell is built, as FMI
+//! parameters (`causality="parameter"`, `variability="fixed"`) an importer sets before the
+//! FMU initialises.
+//!
+//! Per CANopen drive with a servo motor (a stepper's motor is another model), by its node-ID
+//! `N`, the `[drive.motor]` keys of the load the shaft carries:
+//!
+//! | name | unit | key |
+//! |---|---|---|
+//! | `nodeN.motor.inertia` | kg·m² | `[drive.motor] inertia`: rotor plus reflected load |
+//! | `nodeN.motor.viscous_friction` | N·m·s/rad | `[drive.motor] viscous_friction` |
+//! | `nodeN.motor.coulomb_friction` | N·m | `[drive.motor] coulomb_friction` |
+//!
+//! Their start values are the built cell's (the cell file's value, else the device's motor
+//! data). A value set is written into the cell file's drive section before the cell is built,
+//! so it is checked as the cell file's own key is (a negative inertia is refused with the
+//! key's name). Value references are a range of their own, from [`FIRST_VALUE_REFERENCE`].
+//!
+//! Decision: the node-ID and the bus's bit rate are not parameters. A variable's name is its
+//! drive's node-ID, written into the description, so a node-ID set at start would rename it;
+//! a bus's rate follows its drives' switches and objects, and a rate the drives are not set to
+//! silences them (the cell file's `bitrate` key stays the way to name it).
+
+use std::fmt::Write;
+
+use crate::cell::config::CellFile;
+use crate::cell::Vendors;
+use crate::scenario::virtual_rig::VirtualRig;
+
+use super::CellFmuError;
+
+/// The first parameter's value reference ("PA").
+pub const FIRST_VALUE_REFERENCE: u32 = 0x5041_0000;
+/// Value references per drive.
+const STRIDE: u32 = 8;
+
+/// A `[drive.motor]` key that is a parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Key {
+    Inertia,
+    ViscousFriction,
+    CoulombFriction,
+}
+
+impl Key {
+    const ALL: [Key; 3] = [Key::Inertia, Key::ViscousFriction, Key::CoulombFriction];
+
+    /// The key's name in `[drive.motor]`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Key::Inertia => "inertia",
+            Key::ViscousFriction => "viscous_friction",
+            Key::CoulombFriction => "coulomb_friction",
+        }
+    }
+
+    /// The unit's name in the description's `UnitDefinitions`, with its SI base units.
+    pub fn unit(self) -> (&'static str, &'static str) {
+        match self {
+            Key::Inertia => ("kg.m2", r#"kg="1" m="2""#),
+            Key::ViscousFriction => ("N.m.s/rad", r#"kg="1" m="2" s="-1" rad="-1""#),
+            Key::CoulombFriction => ("N.m", r#"kg="1" m="2" s="-2""#),
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            Key::Inertia => "rotor plus reflected load inertia ([drive.motor] inertia)",
+            Key::ViscousFriction => {
+                "viscous friction of the shaft ([drive.motor] viscous_friction)"
+            }
+            Key::CoulombFriction => {
+                "Coulomb friction of the shaft ([drive.motor] coulomb_friction)"
+            }
+        }
+    }
+
+    fn offset(self) -> u32 {
+        match self {
+            Key::Inertia => 0,
+            Key::ViscousFriction => 1,
+            Key::CoulombFriction => 2,
+        }
+    }
+
+    fn of(data: &drive::motor::MotorData, key: Key) -> f64 {
+        match key {
+            Key::Inertia => data.inertia,
+            Key::ViscousFriction => data.viscous_friction,
+            Key::CoulombFriction => data.coulomb_friction,
+        }
+    }
+}
+
+/// One parameter, with its start value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    pub node: u8,
+    pub key: Key,
+    pub value_reference: u32,
+    pub start: f64,
+}
+
+impl Parameter {
+    pub fn name(&self) -> String {
+        format!("node{}.motor.{}", self.node, self.key.name())
+    }
+}
+
+/// Whether `vr` is in the parameters' range (the cell need not be built to know it).
+pub fn is_parameter(vr: u32) -> bool {
+    (FIRST_VALUE_REFERENCE..FIRST_VALUE_REFERENCE + 0x1_0000).contains(&vr)
+}
+
+/// The parameters of a cell.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Parameters {
+    pub list: Vec<Parameter>,
+}
+
+impl Parameters {
+    /// The parameters of the CANopen drives `nodes` (drive `i` of the table is `nodes[i]`)
+    /// of `rig`, their starts as the rig has built them.
+    pub fn of(rig: &VirtualRig, nodes: &[u8]) -> Parameters {
+        let mut list = Vec::new();
+        for (i, node) in nodes.iter().enumerate() {
+            let Some(d) = rig.drive_model(*node) else {
+                continue;
+            };
+            if d.stepper().is_some() {
+                continue;
+            }
+            let data = d.axis().motor().data();
+            let base = u32::try_from(i)
+                .ok()
+                .and_then(|i| i.checked_mul(STRIDE))
+                .and_then(|o| o.checked_add(FIRST_VALUE_REFERENCE));
+            let Some(base) = base.filter(|b| is_parameter(b + STRIDE - 1)) else {
+                continue;
+            };
+            for key in Key::ALL {
+                list.push(Parameter {
+                    node: *node,
+                    key,
+                    value_reference: base + key.offset(),
+                    start: Key::of(data, key),
+                });
+            }
+        }
+        Parameters { list }
+    }
+
+    pub fn find(&self, vr: u32) -> Option<&Parameter> {
+        self.list.iter().find(|p| p.value_reference == vr)
+    }
+
+    /// `file` with the values `set` (value reference, value) written into its drives'
+    /// sections; a value reference that is no parameter is refused.
+    pub fn apply(
+        &self,
+        file: &mut CellFile,
+        vendors: Vendors,
+        set: &[(u32, f64)],
+    ) -> Result<(), CellFmuError> {
+        if set.is_empty() {
+            return Ok(());
+        }
+        let specs = file
+            .drives(vendors)
+            .map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        for (vr, value) in set {
+            let p = self.find(*vr).ok_or(CellFmuError::UnknownVariable(*vr))?;
+            // The CANopen drive of that node-ID (a CMMO-ST may have the same number).
+            let section = specs
+                .iter()
+                .position(|s| s.node == p.node && s.fhpp.is_none())
+                .and_then(|i| file.drive.get_mut(i))
+                .ok_or_else(|| CellFmuError::Cell(format!("{}: no such drive", p.name())))?;
+            let motor = section
+                .rest
+                .entry("motor")
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            let toml::Value::Table(motor) = motor else {
+                return Err(CellFmuError::Cell(format!(
+                    "node {}: `motor` is not a table",
+                    p.node
+                )));
+            };
+            motor.insert(p.key.name().into(), toml::Value::Float(*value));
+        }
+        Ok(())
+    }
+
+    /// The units the parameters name, each once.
+    pub fn units(&self) -> Vec<(&'static str, &'static str)> {
+        let mut units: Vec<(&'static str, &'static str)> = Vec::new();
+        for p in &self.list {
+            let u = p.key.unit();
+            if !units.contains(&u) {
+                units.push(u);
+            }
+        }
+        units
+    }
+
+    /// The parameters as `ModelVariables` elements.
+    pub fn write_variables(&self, x: &mut String) {
+        for p in &self.list {
+            let _ = writeln!(
+                x,
+                r#"    <Float64 name="{}" valueReference="{}" causality="parameter" variability="fixed" description="{}" unit="{}" start="{:?}"/>"#,
+                p.name(),
+                p.value_reference,
+                p.key.description(),
+                p.key.unit().0,
+                p.start
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(text: &str) -> CellFile {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn a_servo_drive_has_its_motor_keys_as_parameters_with_the_cells_values() {
+        let file =
+            cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 3\n[drive.motor]\ninertia = 4e-5\n");
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        let p = Parameters::of(&rig, &rig.nodes());
+        let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
+        assert_eq!(
+            names,
+            [
+                "node3.motor.inertia",
+                "node3.motor.viscous_friction",
+                "node3.motor.coulomb_friction"
+            ]
+        );
+        assert_eq!(p.list[0].start, 4e-5);
+        assert_eq!(p.list[0].value_reference, FIRST_VALUE_REFERENCE);
+        assert!(p.list.iter().all(|p| is_parameter(p.value_reference)));
+    }
+
+    #[test]
+    fn a_value_set_is_the_cell_files_key_and_checked_as_it() {
+        let mut file = cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n");
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        let p = Parameters::of(&rig, &rig.nodes());
+        let vr = p.list[0].value_reference;
+        p.apply(&mut file, crate::vendors::VENDORS, &[(vr, 6e-5)])
+            .unwrap();
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        assert_eq!(Parameters::of(&rig, &rig.nodes()).list[0].start, 6e-5);
+        // A negative inertia is refused as the cell file's key is.
+        p.apply(&mut file, crate::vendors::VENDORS, &[(vr, -1.0)])
+            .unwrap();
+        let e = VirtualRig::new(&file, crate::vendors::VENDORS)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("inertia"), "{e}");
+        assert!(p
+            .apply(&mut file, crate::vendors::VENDORS, &[(vr + 7, 1.0)])
+            .is_err());
+    }
+}

@@ -1,0 +1,242 @@
+"""The cell FMU's front ends beside socketcand, open while fmpy steps the cell
+(docs/cosimulation.md, "Front ends"): a CMMO-ST's Modbus TCP server, met by pymodbus between
+two fmpy steps at the FMU's clock."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+from conftest import DRIVETWIN_BIN, HOST, REPO_ROOT, free_port
+from test_cell_fmu import LIBRARY, cell_fmu  # noqa: F401  (the fixture builds the library)
+from test_fhpp_modbus import CCON_RECORD_ENABLED, CPOS_HALT, exchange, telegram
+
+fmpy = pytest.importorskip("fmpy")
+
+STEP = 1e-3
+
+
+def pack(tmp_path, text: str) -> str:
+    cell = tmp_path / "cell.toml"
+    cell.write_text(text)
+    out = tmp_path / "cell.fmu"
+    subprocess.run(
+        [str(DRIVETWIN_BIN), "fmu", "--config", str(cell), "--output", str(out),
+         "--library", str(LIBRARY)],
+        check=True, cwd=REPO_ROOT, timeout=60,
+    )
+    return str(out)
+
+
+class Stepped:
+    """The FMU instantiated and initialised by fmpy's low-level FMI 3 API, stepped at STEP."""
+
+    def __init__(self, fmu: str):
+        from fmpy.fmi3 import FMU3Slave
+        md = fmpy.read_model_description(fmu)
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu),
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName="cell")
+        self.slave.instantiate()
+        self.slave.enterInitializationMode(startTime=0.0)
+        self.slave.exitInitializationMode()
+        self.steps = 0
+
+    def run(self, seconds: float):
+        for _ in range(round(seconds / STEP)):
+            self.slave.doStep(self.steps * STEP, STEP)
+            self.steps += 1
+
+    def free(self):
+        self.slave.terminate()
+        self.slave.freeInstance()
+
+
+def test_pymodbus_enables_a_cmmo_st_in_the_cell_between_fmpy_steps(cell_fmu, tmp_path):  # noqa: F811
+    """A request between two doSteps is answered at once, at the clock's time: the input
+    telegram shows the drive as it is where the importer left the clock, and what the output
+    telegram asks for happens in the steps that follow (FHPP: enable, SCON.ENABLED)."""
+    port = free_port()
+    fmu = pack(tmp_path, f"""
+[[bus]]
+socketcand = ""
+
+[[drive]]
+device = "cmmp-as"
+node = 1
+
+[[drive]]
+device = "cmmo-st"
+modbus = "{HOST}:{port}"
+""")
+    cell = Stepped(fmu)
+    mb = ModbusTcpClient(HOST, port=port, timeout=3, retries=0)
+    try:
+        cell.run(0.01)
+        assert mb.connect()
+        s = exchange(mb, telegram(0, 0))
+        assert (s["scon"], s["spos"]) == (0x10, 0x04), s      # power-on (FHPP Example 1)
+        # One connection at a time: a second one is closed without a byte.
+        with socket.create_connection((HOST, port), timeout=2) as second:
+            second.settimeout(2)
+            assert second.recv(1) == b""
+        # Asked between steps; no step, no change: the clock stands.
+        s = exchange(mb, telegram(CCON_RECORD_ENABLED, CPOS_HALT))
+        assert s["scon"] & 0x01 == 0, s
+        assert exchange(mb, telegram(CCON_RECORD_ENABLED, CPOS_HALT)) == s
+        # The steps carry it out: enabled (SCON 13h) with HALT not active (SPOS 05h).
+        seen = []
+        for _ in range(100):
+            cell.run(0.01)
+            seen.append(exchange(mb, telegram(CCON_RECORD_ENABLED, CPOS_HALT)))
+            if (seen[-1]["scon"], seen[-1]["spos"]) == (0x13, 0x05):
+                break
+        assert (seen[-1]["scon"], seen[-1]["spos"]) == (0x13, 0x05), seen[-5:]
+        # And the CANopen drive beside it stepped on the same clock.
+        assert cell.slave.getUInt16([cell.vr["node1.statusword"]])[0] != 0
+    finally:
+        mb.close()
+        cell.free()
+    # The instance took its server with it.
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection((HOST, port), timeout=2.0).close()
+
+
+def native_run(tmp_path, cell_text: str, seconds: float) -> dict[float, dict[str, str]]:
+    """The example start on `cell_text`, run by `drivetwin scenario`, sampled every STEP."""
+    from test_cell_fmu import START
+    cell = tmp_path / "native_cell.toml"
+    cell.write_text(cell_text)
+    text = START.read_text().replace('cell = "cell.toml"', f'cell = "{cell}"')
+    text = text.replace('until = "5s"', f'until = "{seconds}s"')
+    scenario = tmp_path / "native.toml"
+    scenario.write_text(text)
+    samples = tmp_path / "native.csv"
+    subprocess.run(
+        [str(DRIVETWIN_BIN), "scenario", str(scenario), "--samples", str(samples),
+         "--sample-ms", str(STEP * 1000)],
+        check=True, timeout=120,
+    )
+    import csv
+    with samples.open() as f:
+        return {round(float(r["time_s"]), 6): r for r in csv.DictReader(f) if r["node"] == "1"}
+
+
+def test_a_parameter_set_before_initialisation_is_the_cell_files_key(cell_fmu, tmp_path):  # noqa: F811
+    """`node1.motor.inertia`, a fixed parameter whose start is the built cell's value, set by
+    fmpy before the FMU initialises: the FMU runs as the native run of the cell file with
+    that `[drive.motor] inertia`, not as the file packed."""
+    from test_cell_fmu import CELL
+    md = fmpy.read_model_description(cell_fmu)
+    v = {x.name: x for x in md.modelVariables}
+    p = v["node1.motor.inertia"]
+    assert (p.causality, p.variability, p.type, p.unit) == ("parameter", "fixed", "Float64", "kg.m2")
+    assert float(p.start) == 3e-5                                  # the CMMP-AS's motor data
+    assert v["node1.motor.coulomb_friction"].causality == "parameter"
+    heavy = 3e-4
+    seconds = 0.5
+    outputs = ["node1.velocity", "node1.current"]
+    packed = fmpy.simulate_fmu(cell_fmu, stop_time=seconds, step_size=STEP,
+                               output_interval=STEP, output=outputs)
+    tuned = fmpy.simulate_fmu(cell_fmu, stop_time=seconds, step_size=STEP,
+                              output_interval=STEP, output=outputs,
+                              start_values={"node1.motor.inertia": heavy})
+    native = native_run(tmp_path, CELL.read_text() + f"[drive.motor]\ninertia = {heavy}\n", seconds)
+    for row in tuned:
+        n = native[round(float(row["time"]), 6)]
+        assert row["node1.velocity"] == pytest.approx(float(n["velocity_rad_s"]), rel=1e-9, abs=0)
+        assert row["node1.current"] == pytest.approx(float(n["current_a"]), rel=1e-9, abs=0)
+    # Ten times the inertia takes more current to reach the same speed.
+    assert max(abs(r["node1.current"]) for r in tuned) > max(abs(r["node1.current"]) for r in packed)
+
+
+def test_a_parameter_the_cell_refuses_fails_the_initialisation_with_the_key(cell_fmu):  # noqa: F811
+    from fmpy.fmi3 import FMU3Slave
+    md = fmpy.read_model_description(cell_fmu)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    messages = []
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(cell_fmu),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cell")
+    slave.instantiate(loggingOn=True,
+                      logMessage=lambda _env, status, category, message: messages.append(message))
+    try:
+        slave.setFloat64([vr["node1.motor.inertia"]], [-1.0])
+        with pytest.raises(Exception):       # the cell is built by the end of initialisation
+            slave.enterInitializationMode(startTime=0.0)
+            slave.exitInitializationMode()
+        assert any(b"inertia" in m for m in messages), messages
+    finally:
+        slave.freeInstance()
+
+
+@pytest.fixture
+def veth_pair():
+    """A veth pair in the test's own network namespace: (the FMU's end, the master's end).
+    The importer is this process, so the FMU's raw socket is opened here (root or
+    CAP_NET_RAW); skips with a message otherwise."""
+    import os
+    import shutil
+    from conftest import ip, ip_steps
+    if os.geteuid() != 0:
+        pytest.skip("EtherCAT over veth needs root (raw sockets)")
+    if shutil.which("ip") is None:
+        pytest.skip("`ip` (iproute2) is not installed")
+    tag = f"{os.getpid() % 100000}"
+    fmu_if, master_if = f"dtfA{tag}", f"dtfB{tag}"
+    try:
+        ip_steps([
+            ("link", "add", master_if, "type", "veth", "peer", "name", fmu_if),
+            ("link", "set", fmu_if, "up"),
+            ("link", "set", master_if, "up"),
+        ])
+        yield fmu_if, master_if
+    finally:
+        ip("link", "del", master_if)  # deletes the peer too
+
+
+def test_soem_finds_and_configures_an_ethercat_slave_of_the_cell_between_fmpy_steps(
+        cell_fmu, tmp_path, veth_pair):  # noqa: F811
+    """The cell's EtherCAT chain is open while fmpy steps it: pysoem, on the other end of a
+    veth pair, finds the slave, reads its identity over CoE and takes it to Safe-Op between
+    two steps (a slave serves its mailbox and AL state after every frame); the CANopen drive
+    beside it steps on the same clock."""
+    pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
+    from conftest import product_code
+    fmu_if, master_if = veth_pair
+    fmu = pack(tmp_path, f"""
+[[bus]]
+socketcand = ""
+
+[[drive]]
+device = "cmmp-as"
+node = 1
+
+[[drive]]
+device = "cmmp-as"
+node = 2
+ethercat = "{fmu_if}"
+""")
+    cell = Stepped(fmu)
+    master = pysoem.Master()
+    master.open(master_if)
+    try:
+        cell.run(0.01)
+        assert master.config_init() == 1, "one slave on the wire"
+        slave = master.slaves[0]
+        assert (slave.man, slave.id) == (0x1D, product_code())
+        assert int.from_bytes(slave.sdo_read(0x1018, 1), "little") == 0x1D
+        slave.sdo_write(0x6065, 0, (12345).to_bytes(4, "little"))
+        assert int.from_bytes(slave.sdo_read(0x6065, 0), "little") == 12345
+        assert master.config_map() == 4                              # controlword / statusword
+        assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE, \
+            f"Safe-Op: AL status code {slave.al_status:#x}"
+        cell.run(0.1)
+        assert master.read_state() == pysoem.SAFEOP_STATE
+        assert cell.slave.getUInt16([cell.vr["node1.statusword"]])[0] != 0
+    finally:
+        master.close()
+        cell.free()
