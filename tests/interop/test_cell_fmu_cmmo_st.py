@@ -12,7 +12,7 @@ import subprocess
 
 import pytest
 
-from conftest import DRIVETWIN_BIN, REPO_ROOT
+from conftest import DRIVETWIN_BIN, HOST, REPO_ROOT, free_port
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy import extract, read_model_description  # noqa: E402
@@ -31,6 +31,7 @@ socketcand = ""
 [[drive]]
 device = "cmmo-st"
 node = 30
+modbus = "{modbus}"
 """
 
 # FC 10h to start address 0, 4 registers: CCON = 03h (ENABLE, STOP), CPOS = 01h (HALT not
@@ -53,7 +54,8 @@ def cell_fmu(tmp_path_factory):
         subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT)
         library = REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
     d = tmp_path_factory.mktemp("cell_fmu_cmmo_st")
-    (d / "cell.toml").write_text(CELL)
+    # Its Modbus TCP server opens with the FMU: a free port, not the default 1502.
+    (d / "cell.toml").write_text(CELL.format(modbus=f"{HOST}:{free_port()}"))
     (d / "start.toml").write_text(TIMELINE)
     out = d / "cell.fmu"
     subprocess.run(

@@ -210,7 +210,7 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
         }
     };
     let chain =
-        SlaveChain::from_cell_file(&CellFile::single("cmmp-as", 1), drivetwin::vendors::VENDORS)
+        SlaveChain::from_cell_file(&CellFile::single("cmmp-as", 1), drivetwin::vendors::VENDORS.runtime)
             .expect("a chain of one CMMP-AS");
     let cell_loop = CellLoop::with_buses(FrontEnds {
         ethercat: vec![EthercatChain {
