@@ -116,5 +116,10 @@ def test_a_load_torque_turns_the_free_shaft_and_the_timeline_enables_the_drive(c
     scon, spos = status()
     assert scon & SCON_ENABLED and scon & SCON_OPEN, hex(scon)
     assert spos & SPOS_HALT, hex(spos)
+    # The display's text is the FMU's own until its next fmi3GetString (FMI 3.0 §2.2.6.2):
+    # fmpy decodes it after the call returns, and reads the same text twice.
+    shown = fmu.getString([vr[p + "display"]])
+    assert len(shown) == 1 and isinstance(shown[0], str), shown
+    assert fmu.getString([vr[p + "display"]]) == shown
     fmu.terminate()
     fmu.freeInstance()

@@ -254,7 +254,9 @@ impl ModelGetSet<CellModel> for CellModel {
         self.get(vr, values, context, |cell, vr| {
             let text = cell.get_string(vr)?;
             // A display's text has no NUL; one would end the C string there.
-            Ok(std::ffi::CString::new(text.replace('\0', "")).unwrap_or_default())
+            let text = std::ffi::CString::new(text.replace('\0', "")).unwrap_or_default();
+            sys::made_string(&text);
+            Ok(text)
         })
     }
 

@@ -17,6 +17,10 @@
 //! the value it holds (the cell's own bytes, unchanged until the next call that steps or
 //! updates the instance).
 
+use std::cell::RefCell;
+use std::ffi::CString;
+use std::sync::Mutex;
+
 use fmi::fmi3::binding;
 use fmi_export::fmi3::{Fmi3CoSimulation, Fmi3Common, Fmi3ModelExchange, Fmi3ScheduledExecution};
 
@@ -94,8 +98,6 @@ forward! {
     fmi3EnterEventMode => Fmi3Common::fmi3_enter_event_mode(instance: Instance) -> Status;
     fmi3Terminate => Fmi3Common::fmi3_terminate(instance: Instance) -> Status;
     fmi3Reset => Fmi3Common::fmi3_reset(instance: Instance) -> Status;
-    fmi3GetString => Fmi3Common::fmi3_get_string(instance: Instance, value_references: *const Vr,
-        n_value_references: usize, values: *mut binding::fmi3String, n_values: usize) -> Status;
     fmi3SetString => Fmi3Common::fmi3_set_string(instance: Instance, value_references: *const Vr,
         n_value_references: usize, values: *const binding::fmi3String, n_values: usize) -> Status;
     fmi3SetBinary => Fmi3Common::fmi3_set_binary(instance: Instance, value_references: *const Vr,
@@ -175,6 +177,7 @@ forward! {
 
 #[unsafe(export_name = "fmi3FreeInstance")]
 pub unsafe extern "C" fn fmi3_free_instance(instance: Instance) {
+    release_strings(instance);
     // SAFETY: the importer's instance, passed on.
     unsafe { <CellModel as Fmi3Common>::fmi3_free_instance(instance) }
 }
@@ -214,6 +217,71 @@ no_interval! {
     fmi3SetShiftFraction fmi3_set_shift_fraction(i: Instance, v: *const Vr, n: usize,
         counters: *const binding::fmi3UInt64, resolutions: *const binding::fmi3UInt64);
 }
+
+thread_local! {
+    /// The texts [`crate::CellModel`]'s `get_string` made during this thread's running
+    /// `fmi3GetString`, in the order of its value references.
+    static MADE: RefCell<Vec<CString>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Each instance's strings of its last `fmi3GetString` (keyed by the instance's address):
+/// FMI 3.0 (§2.2.6.2) has the FMU own the strings it hands out, valid after the call returns;
+/// they are dropped at the instance's next `fmi3GetString` or at `fmi3FreeInstance`.
+static HELD: Mutex<Vec<(usize, Vec<CString>)>> = Mutex::new(Vec::new());
+
+/// Keeps a text [`crate::CellModel`]'s `get_string` made, for [`fmi3_get_string`] to hand out.
+pub fn made_string(text: &CString) {
+    MADE.with(|m| m.borrow_mut().push(text.clone()));
+}
+
+fn release_strings(instance: Instance) {
+    if let Ok(mut held) = HELD.lock() {
+        held.retain(|(at, _)| *at != instance.addr());
+    }
+}
+
+/// `fmi3GetString` (FMI 3.0 §2.2.6.2). `fmi-export`'s hands out pointers into strings it drops
+/// before it returns; this one runs it for its state checks and values, then hands out the
+/// instance's own copies ([`HELD`]).
+#[unsafe(export_name = "fmi3GetString")]
+pub unsafe extern "C" fn fmi3_get_string(
+    instance: Instance,
+    value_references: *const Vr,
+    n_value_references: usize,
+    values: *mut binding::fmi3String,
+    n_values: usize,
+) -> Status {
+    MADE.with(|m| m.borrow_mut().clear());
+    // SAFETY: the importer's arguments, passed on; the pointers it writes are replaced below.
+    let status = unsafe {
+        <CellModel as Fmi3Common>::fmi3_get_string(
+            instance,
+            value_references,
+            n_value_references,
+            values,
+            n_values,
+        )
+    };
+    let made = MADE.with(|m| std::mem::take(&mut *m.borrow_mut()));
+    if status != binding::fmi3Status_fmi3OK {
+        return status;
+    }
+    if made.len() != n_values || (n_values > 0 && values.is_null()) {
+        return binding::fmi3Status_fmi3Error;
+    }
+    for (i, text) in made.iter().enumerate() {
+        // SAFETY: `i < n_values`, the length of the importer's array (checked non-null); the
+        // text stays in `HELD` (moving the `Vec` moves no string's bytes).
+        unsafe { *values.add(i) = text.as_ptr() };
+    }
+    let Ok(mut held) = HELD.lock() else {
+        return binding::fmi3Status_fmi3Error;
+    };
+    held.retain(|(at, _)| *at != instance.addr());
+    held.push((instance.addr(), made));
+    binding::fmi3Status_fmi3OK
+}
+const _: binding::fmi3GetStringTYPE = Some(fmi3_get_string);
 
 /// `fmi3GetBinary` (FMI 3.0 §2.2.6.2): for each value reference the FMU sets `values[i]` to
 /// its own bytes and `value_sizes[i]` to their length.

@@ -209,9 +209,11 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
             return None;
         }
     };
-    let chain =
-        SlaveChain::from_cell_file(&CellFile::single("cmmp-as", 1), drivetwin::vendors::VENDORS.runtime)
-            .expect("a chain of one CMMP-AS");
+    let chain = SlaveChain::from_cell_file(
+        &CellFile::single("cmmp-as", 1),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("a chain of one CMMP-AS");
     let cell_loop = CellLoop::with_buses(FrontEnds {
         ethercat: vec![EthercatChain {
             chain,

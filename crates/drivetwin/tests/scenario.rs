@@ -420,9 +420,12 @@ fn a_cmmo_st_takes_a_load_fmu_and_refuses_a_limit_switch_by_name() {
         )
     };
     let s = Scenario::parse(&cell("limit_positive", 0.5), "limit", None).expect("scenario");
-    let e = VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS)
-        .err()
-        .expect("refused");
+    let e = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .err()
+    .expect("refused");
     assert!(
         e.to_string()
             .contains("the CMMO-ST has no `limit_positive` input"),
@@ -430,16 +433,22 @@ fn a_cmmo_st_takes_a_load_fmu_and_refuses_a_limit_switch_by_name() {
     );
     // Jogging positive (CCON ENABLE + STOP, CPOS HALT + JOGP) with the belt on the shaft.
     let s = Scenario::parse(&cell("home", 0.5), "home", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(report.passed, "{}", report.text());
     let p = rig.probe(30).expect("probe");
     assert!(p.position_rad > 0.0, "{p:?}");
     assert_eq!(p.status[0] & 0x03, 0x03, "SCON ENABLED and OPEN: {p:?}");
     let s = Scenario::parse(&cell("home", -1.0), "failing", None).expect("scenario");
-    let mut rig =
-        VirtualRig::new(s.cell.as_ref().expect("cell"), drivetwin::vendors::VENDORS).expect("rig");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
     let report = runner::run(&s, &mut rig);
     assert!(
         report

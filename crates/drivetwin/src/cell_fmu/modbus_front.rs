@@ -425,7 +425,7 @@ mod tests {
              [[drive]]\ndevice = \"cmmo-st\"\nmodbus = \"127.0.0.1:0\"\n",
         )
         .unwrap();
-        let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS).unwrap();
+        let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS.runtime).unwrap();
         let (drive, addr) = cell.modbus_addresses()[0];
         assert_eq!(drive, 0);
         cell.do_step(0.0, 0.01).unwrap();

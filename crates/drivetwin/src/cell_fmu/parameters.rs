@@ -231,7 +231,7 @@ mod tests {
     fn a_servo_drive_has_its_motor_keys_as_parameters_with_the_cells_values() {
         let file =
             cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 3\n[drive.motor]\ninertia = 4e-5\n");
-        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
         let p = Parameters::of(&rig, &rig.nodes());
         let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
         assert_eq!(
@@ -250,23 +250,23 @@ mod tests {
     #[test]
     fn a_value_set_is_the_cell_files_key_and_checked_as_it() {
         let mut file = cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n");
-        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
         let p = Parameters::of(&rig, &rig.nodes());
         let vr = p.list[0].value_reference;
-        p.apply(&mut file, crate::vendors::VENDORS, &[(vr, 6e-5)])
+        p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, 6e-5)])
             .unwrap();
-        let rig = VirtualRig::new(&file, crate::vendors::VENDORS).unwrap();
+        let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
         assert_eq!(Parameters::of(&rig, &rig.nodes()).list[0].start, 6e-5);
         // A negative inertia is refused as the cell file's key is.
-        p.apply(&mut file, crate::vendors::VENDORS, &[(vr, -1.0)])
+        p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, -1.0)])
             .unwrap();
-        let e = VirtualRig::new(&file, crate::vendors::VENDORS)
+        let e = VirtualRig::new(&file, crate::vendors::VENDORS.runtime)
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("inertia"), "{e}");
         assert!(p
-            .apply(&mut file, crate::vendors::VENDORS, &[(vr + 7, 1.0)])
+            .apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr + 7, 1.0)])
             .is_err());
     }
 }
