@@ -198,10 +198,21 @@ async fn switches_by_name() {
     assert_eq!(din(app.clone()).await & 0b111, 0);
     let (status, e) = put("sideways", json!({"actuated": true})).await;
     assert_eq!(status, StatusCode::NOT_FOUND, "{e}");
+    // The CMMO-ST's one switch input is its reference switch (`home`); its ends of travel
+    // are fixed stops, no inputs to force.
     let (status, e) = send(
         &app,
         "PUT",
         "/api/drives/1/switches/home",
+        Some(json!({"actuated": true})),
+        None,
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK, "{e}");
+    let (status, e) = send(
+        &app,
+        "PUT",
+        "/api/drives/1/switches/limit_positive",
         Some(json!({"actuated": true})),
         None,
     )

@@ -422,7 +422,7 @@ mod tests {
         std::fs::write(
             dir.join(CELL_FILE),
             "[[bus]]\nsocketcand = \"\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
-             [[drive]]\ndevice = \"cmmo-st\"\nmodbus = \"127.0.0.1:0\"\n",
+             [[drive]]\ndevice = \"cmmo-st\"\nnode = 30\nmodbus = \"127.0.0.1:0\"\n",
         )
         .unwrap();
         let mut cell = CellInstance::from_resources(&dir, crate::vendors::VENDORS.runtime).unwrap();
