@@ -379,6 +379,22 @@ fn dc_sync0(m: &mut Master, cycle_ns: u32) -> u64 {
     start
 }
 
+/// A drive on EtherCAT alone keeps its error register (1001h) and its newest error in the
+/// history (1003h:01) as a CANopen node does (CiA 301 §7.5.2.2, §7.5.2.3).
+fn assert_error_kept(m: &Master, register: u8, code: u16) {
+    let model = m.cell.model(0).unwrap();
+    let mut r = [0u8; 1];
+    model.read(0x1001, 0, &mut r).unwrap();
+    assert_eq!(r[0], register, "1001h error register");
+    let mut h = [0u8; 4];
+    model.read(0x1003, 1, &mut h).unwrap();
+    assert_eq!(
+        u32::from_le_bytes(h) & 0xFFFF,
+        u32::from(code),
+        "1003h:01 newest error"
+    );
+}
+
 fn read_u16(m: &Master, index: u16) -> u16 {
     let mut b = [0u8; 2];
     m.cell.model(0).unwrap().read(index, 0, &mut b).unwrap();
@@ -901,6 +917,7 @@ fn an_eds_drive_on_sync0_reports_a_lost_synchronisation() {
     m.idle(50);
     let sw = read_u16(&m, 0x6041);
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+    assert_error_kept(&m, 0x11, 0x8700);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -934,5 +951,6 @@ fn an_eds_drive_whose_process_data_stop_reports_it() {
     m.idle(50);
     let sw = read_u16(&m, 0x6041);
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+    assert_error_kept(&m, 0x11, 0x8250);
     let _ = std::fs::remove_dir_all(&dir);
 }

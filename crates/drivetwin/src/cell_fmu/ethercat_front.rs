@@ -22,12 +22,11 @@ use std::io;
 use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 use canopen::CanFrame;
 use mio::unix::SourceFd;
-use mio::{Events, Interest, Poll, Token, Waker};
+use mio::{Events, Interest, Poll, Token};
 use od::Instant;
 
 use crate::cell::config::CellFile;
@@ -38,9 +37,9 @@ use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::VirtualRig;
 
 use super::front_ends::{lock, SharedCell};
+use super::serving_thread::ServingThread;
 use super::CellFmuError;
 
-const WAKER: Token = Token(0);
 const FIRST_CHAIN: usize = 1;
 /// Steps at one instant before the clock is taken as stuck.
 const STUCK: u32 = 10_000;
@@ -62,27 +61,7 @@ fn lock_chains(chains: &SharedChains) -> MutexGuard<'_, Vec<Chain>> {
 /// The cell's EtherCAT chains, and the thread that serves their sockets once open.
 pub struct EthercatChains {
     chains: SharedChains,
-    front: Option<Front>,
-}
-
-struct Front {
-    waker: Arc<Waker>,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
-}
-
-impl Drop for Front {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-        if let Err(e) = self.waker.wake() {
-            tracing::warn!(error = %e, "cell FMU: EtherCAT front end not woken");
-        }
-        if let Some(t) = self.thread.take() {
-            if t.join().is_err() {
-                tracing::error!("cell FMU: the EtherCAT front end's thread panicked");
-            }
-        }
-    }
+    front: Option<ServingThread>,
 }
 
 impl EthercatChains {
@@ -166,7 +145,7 @@ impl EthercatChains {
             sockets.push(socket);
         }
         let poll = Poll::new().map_err(front_end("poll".into()))?;
-        let waker = Arc::new(Waker::new(poll.registry(), WAKER).map_err(front_end("poll".into()))?);
+        let waker = ServingThread::waker(&poll).map_err(front_end("poll".into()))?;
         for (c, s) in sockets.iter().enumerate() {
             poll.registry()
                 .register(
@@ -177,23 +156,20 @@ impl EthercatChains {
                 .map_err(front_end("poll".into()))?;
             tracing::info!(interface = s.interface(), "cell FMU: EtherCAT chain");
         }
-        let stop = Arc::new(AtomicBool::new(false));
-        let server = Server {
-            poll,
-            sockets,
-            shared: Arc::clone(shared),
-            chains: Arc::clone(&self.chains),
-            stop: Arc::clone(&stop),
-        };
-        let thread = std::thread::Builder::new()
-            .name("cell-fmu-ethercat".into())
-            .spawn(move || server.run())
-            .map_err(front_end("thread".into()))?;
-        self.front = Some(Front {
-            waker,
-            stop,
-            thread: Some(thread),
-        });
+        let shared = Arc::clone(shared);
+        let chains = Arc::clone(&self.chains);
+        let thread = ServingThread::spawn("cell-fmu-ethercat", waker, move |stop| {
+            Server {
+                poll,
+                sockets,
+                shared,
+                chains,
+                stop,
+            }
+            .run()
+        })
+        .map_err(front_end("thread".into()))?;
+        self.front = Some(thread);
         Ok(())
     }
 

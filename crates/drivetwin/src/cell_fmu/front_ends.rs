@@ -18,12 +18,11 @@ use std::io::{self, Read, Write};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use canopen::CanFrame;
 use mio::net::{TcpListener, TcpStream};
-use mio::{Events, Interest, Poll, Token, Waker};
+use mio::{Events, Interest, Poll, Token};
 
 use crate::can::socketcand::codec::{emit_frame, FRAME_TEXT_MAX};
 use crate::can::socketcand::session::{Effect, Session, Totals};
@@ -34,9 +33,9 @@ use crate::scenario::file::Action;
 use crate::scenario::runner::Rig;
 use crate::scenario::virtual_rig::{Probe, VirtualRig};
 
+use super::serving_thread::{ServingThread, WAKER};
 use super::CellFmuError;
 
-const WAKER: Token = Token(0);
 /// Bus `b`'s listener has token `FIRST_LISTENER + b`; connections follow the listeners.
 const FIRST_LISTENER: usize = 1;
 /// Longest wait of the serving thread while a client has bytes it did not take yet.
@@ -87,9 +86,7 @@ pub fn lock(shared: &SharedCell) -> MutexGuard<'_, Shared> {
 
 /// The serving thread, stopped and joined when dropped.
 pub struct FrontEnds {
-    waker: Arc<Waker>,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
+    thread: ServingThread,
     addresses: Vec<(usize, SocketAddr)>,
 }
 
@@ -126,7 +123,7 @@ impl FrontEnds {
             source,
         };
         let poll = Poll::new().map_err(front_end)?;
-        let waker = Arc::new(Waker::new(poll.registry(), WAKER).map_err(front_end)?);
+        let waker = ServingThread::waker(&poll).map_err(front_end)?;
         let mut addresses = Vec::new();
         for (i, (b, l, _)) in listeners.iter_mut().enumerate() {
             poll.registry()
@@ -137,26 +134,21 @@ impl FrontEnds {
                 addresses.push((*b, a));
             }
         }
-        let stop = Arc::new(AtomicBool::new(false));
-        let server = Server {
-            poll,
-            listeners,
-            clients: Vec::new(),
-            shared: Arc::clone(shared),
-            stop: Arc::clone(&stop),
-            effects: Vec::new(),
-            seen: Vec::new(),
-        };
-        let thread = std::thread::Builder::new()
-            .name("cell-fmu-front-ends".into())
-            .spawn(move || server.run())
-            .map_err(front_end)?;
-        Ok(Some(FrontEnds {
-            waker,
-            stop,
-            thread: Some(thread),
-            addresses,
-        }))
+        let shared = Arc::clone(shared);
+        let thread = ServingThread::spawn("cell-fmu-front-ends", waker, move |stop| {
+            Server {
+                poll,
+                listeners,
+                clients: Vec::new(),
+                shared,
+                stop,
+                effects: Vec::new(),
+                seen: Vec::new(),
+            }
+            .run()
+        })
+        .map_err(front_end)?;
+        Ok(Some(FrontEnds { thread, addresses }))
     }
 
     /// The addresses the servers listen on, with their bus.
@@ -166,21 +158,7 @@ impl FrontEnds {
 
     /// The step has left frames in the outbox: the thread gives them to the clients.
     pub fn wake(&self) {
-        if let Err(e) = self.waker.wake() {
-            tracing::warn!(error = %e, "cell FMU: front ends not woken");
-        }
-    }
-}
-
-impl Drop for FrontEnds {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-        self.wake();
-        if let Some(t) = self.thread.take() {
-            if t.join().is_err() {
-                tracing::error!("cell FMU: the front ends' thread panicked");
-            }
-        }
+        self.thread.wake();
     }
 }
 

@@ -10,6 +10,7 @@
 //! - [`parameters`]: the cell file's keys that are FMI parameters, set before it is built;
 //! - [`ethercat_front`]: its EtherCAT chains on the FMU's clock, their raw sockets open while
 //!   the importer steps it;
+//! - [`serving_thread`]: the thread each of those front ends serves its sockets on;
 //! - [`archive`]: the `.fmu` (a zip of the description, the binary and the cell file);
 //! - [`ls_bus`]: FMI-LS-BUS CAN bus operations, parsed and emitted;
 //! - [`can_terminal`]: one FMI-LS-BUS CAN terminal per bus of the cell (`canB.Rx_Data`, …).
@@ -26,6 +27,7 @@ pub mod ls_bus;
 pub mod modbus_front;
 pub mod model_description;
 pub mod parameters;
+pub mod serving_thread;
 pub mod variables;
 
 /// The FMU's `modelIdentifier`: its binary is `binaries/x86_64-linux/drivetwin_cell.so`.

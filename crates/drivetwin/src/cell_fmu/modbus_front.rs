@@ -21,16 +21,15 @@ use std::io::{self, Read, Write};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::thread::JoinHandle;
 
 use mio::net::{TcpListener, TcpStream};
-use mio::{Events, Interest, Poll, Token, Waker};
+use mio::{Events, Interest, Poll, Token};
 use modbus::CloseReason;
 
 use super::front_ends::{lock, SharedCell};
+use super::serving_thread::ServingThread;
 use super::CellFmuError;
 
-const WAKER: Token = Token(0);
 /// Drive `i`'s listener has token `FIRST_LISTENER + 2·i`, its connection the next one.
 const FIRST_LISTENER: usize = 1;
 /// Longest a client may leave answers unread before it is dropped, in bytes.
@@ -38,9 +37,7 @@ const MAX_PENDING: usize = 64 * 1024;
 
 /// The serving thread, stopped and joined when dropped.
 pub struct ModbusFronts {
-    waker: Arc<Waker>,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<()>>,
+    thread: ServingThread,
     addresses: Vec<(usize, SocketAddr)>,
 }
 
@@ -75,7 +72,7 @@ impl ModbusFronts {
             source,
         };
         let poll = Poll::new().map_err(front_end)?;
-        let waker = Arc::new(Waker::new(poll.registry(), WAKER).map_err(front_end)?);
+        let waker = ServingThread::waker(&poll).map_err(front_end)?;
         let mut addresses = Vec::new();
         for (k, s) in listeners.iter_mut().enumerate() {
             poll.registry()
@@ -86,23 +83,18 @@ impl ModbusFronts {
                 addresses.push((s.drive, a));
             }
         }
-        let stop = Arc::new(AtomicBool::new(false));
-        let server = Server {
-            poll,
-            served: listeners,
-            shared: Arc::clone(shared),
-            stop: Arc::clone(&stop),
-        };
-        let thread = std::thread::Builder::new()
-            .name("cell-fmu-modbus".into())
-            .spawn(move || server.run())
-            .map_err(front_end)?;
-        Ok(Some(ModbusFronts {
-            waker,
-            stop,
-            thread: Some(thread),
-            addresses,
-        }))
+        let shared = Arc::clone(shared);
+        let thread = ServingThread::spawn("cell-fmu-modbus", waker, move |stop| {
+            Server {
+                poll,
+                served: listeners,
+                shared,
+                stop,
+            }
+            .run()
+        })
+        .map_err(front_end)?;
+        Ok(Some(ModbusFronts { thread, addresses }))
     }
 
     /// The addresses the servers listen on, with the drive's place among the drives served
@@ -114,21 +106,7 @@ impl ModbusFronts {
     /// A step has ended: the thread closes the sockets of connections the drives closed
     /// meanwhile (the watchdog).
     pub fn wake(&self) {
-        if let Err(e) = self.waker.wake() {
-            tracing::warn!(error = %e, "cell FMU: Modbus front ends not woken");
-        }
-    }
-}
-
-impl Drop for ModbusFronts {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Release);
-        self.wake();
-        if let Some(t) = self.thread.take() {
-            if t.join().is_err() {
-                tracing::error!("cell FMU: the Modbus front ends' thread panicked");
-            }
-        }
+        self.thread.wake();
     }
 }
 

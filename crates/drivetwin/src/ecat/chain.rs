@@ -55,6 +55,7 @@ use std::sync::Mutex;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use canopen::emcy::EmcyProducer;
 use drive::drive::DriveEvent;
 use drive::personality::Fault;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
@@ -177,6 +178,11 @@ pub struct SlaveDevice {
     pub watchdog_expiries: u64,
     /// A 1010h "save" whose file is being written, with the reply that waits for it.
     saving: Option<SaveInFlight>,
+    /// The active errors of a drive on EtherCAT alone, which set its 1001h error register and
+    /// its 1003h history as a CANopen node's EMCY producer does (CiA 301 §7.5.2.2, §7.5.2.3;
+    /// ETG.1000.6 §5.6.4 takes the CANopen emergency as it is). Its frames are never sent:
+    /// the CoE emergencies are.
+    errors: EmcyProducer,
 }
 
 /// The thread writing a save's file; its result is the stored set read back.
@@ -317,6 +323,7 @@ impl SlaveDevice {
             write_errors: 0,
             watchdog_expiries: 0,
             saving: None,
+            errors: EmcyProducer::default(),
         }
     }
 
@@ -742,6 +749,19 @@ impl Bound<'_> {
             let Some(ev) = ev else {
                 break;
             };
+            if self.shared_events.is_none() {
+                // A shared drive's CANopen side keeps 1001h and 1003h; one on EtherCAT alone
+                // keeps them here.
+                let errors = &mut self.dev.errors;
+                match ev {
+                    DriveEvent::Error { code, register } => {
+                        errors.raise(self.model, code, register, [0; 5])
+                    }
+                    DriveEvent::Cleared { code } => errors.clear(self.model, code),
+                    DriveEvent::Reboot => {}
+                }
+                errors.reset_communication();
+            }
             // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
             let emcy = match ev {
                 // A reboot is the CANopen side's (no EtherCAT drive asks for one).
