@@ -71,6 +71,7 @@ node = 1
 
 [[drive]]
 device = "cmmo-st"
+node = 30
 modbus = "{HOST}:{port}"
 """)
     cell = Stepped(fmu)
