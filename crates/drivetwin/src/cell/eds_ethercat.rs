@@ -143,22 +143,10 @@ fn check_identity(eds: &Device) -> Result<(), EdsEthercatError> {
     Ok(())
 }
 
-/// One entry of an added object.
-fn entry(
-    index: u16,
-    sub: u8,
-    name: String,
-    data_type: DataType,
-    access: Access,
-    default: Vec<u8>,
-) -> Ent {
-    Ent::plain(index, sub, name, data_type, access, default)
-}
-
 /// 1C00h sync manager communication types (ETG.1000.6 Table 67): mailbox out, mailbox in,
 /// outputs, inputs.
 fn communication_types() -> Obj {
-    let mut entries = vec![entry(
+    let mut entries = vec![Ent::plain(
         0x1C00,
         0,
         "Number of used sync manager channels".into(),
@@ -167,7 +155,7 @@ fn communication_types() -> Obj {
         vec![4],
     )];
     for (sub, ty) in [(1u8, 1u8), (2, 2), (3, 3), (4, 4)] {
-        entries.push(entry(
+        entries.push(Ent::plain(
             0x1C00,
             sub,
             format!("Communication type SM{}", sub - 1),
@@ -193,7 +181,7 @@ fn assignment(index: u16, name: &str, pdos: &[u16]) -> Obj {
         pdos.first().copied().unwrap_or(0),
         pdos.last().copied().unwrap_or(0),
     );
-    let mut count = entry(
+    let mut count = Ent::plain(
         index,
         0,
         "Number of assigned PDOs".into(),
@@ -205,7 +193,7 @@ fn assignment(index: u16, name: &str, pdos: &[u16]) -> Obj {
     count.max = Some(Limit::Unsigned(u64::from(n)));
     let mut entries = vec![count];
     for (k, pdo) in (1..=n).zip(pdos) {
-        let mut e = entry(
+        let mut e = Ent::plain(
             index,
             k,
             format!("PDO {k}"),

@@ -474,22 +474,8 @@ impl Server {
         let Some(Some(c)) = self.clients.get_mut(slot) else {
             return;
         };
-        while !c.pending.is_empty() {
-            match c.stream.write(&c.pending) {
-                Ok(0) => {
-                    failed = true;
-                    break;
-                }
-                Ok(n) => {
-                    c.pending.drain(..n.min(c.pending.len()));
-                }
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(_) => {
-                    failed = true;
-                    break;
-                }
-            }
+        if !super::serving_thread::flush(&mut c.stream, &mut c.pending) {
+            failed = true;
         }
         if c.pending.len() > MAX_PENDING {
             tracing::warn!(peer = %c.peer, "socketcand client does not read: dropped");

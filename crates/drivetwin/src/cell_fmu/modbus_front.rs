@@ -17,7 +17,7 @@
 //! drive's own connection that a timeline's `modbus` steps use, open from 0, is replaced by a
 //! client's.
 
-use std::io::{self, Read, Write};
+use std::io::{self, Read};
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -297,22 +297,8 @@ impl Server {
             return;
         };
         let mut failed = false;
-        while !c.pending.is_empty() {
-            match c.stream.write(&c.pending) {
-                Ok(0) => {
-                    failed = true;
-                    break;
-                }
-                Ok(n) => {
-                    c.pending.drain(..n.min(c.pending.len()));
-                }
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(_) => {
-                    failed = true;
-                    break;
-                }
-            }
+        if !super::serving_thread::flush(&mut c.stream, &mut c.pending) {
+            failed = true;
         }
         if c.pending.len() > MAX_PENDING {
             tracing::warn!(peer = %c.peer, "Modbus client does not read: dropped");

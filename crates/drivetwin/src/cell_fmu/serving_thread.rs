@@ -2,7 +2,7 @@
 //! cell: its own `mio` poll, woken when a step has ended, stopped and joined when the FMU's
 //! instance is freed (the front end is dropped).
 
-use std::io;
+use std::io::{self, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -69,4 +69,21 @@ impl Drop for ServingThread {
             }
         }
     }
+}
+
+/// Writes what a client has not taken yet to its non-blocking `stream`, as far as it takes it;
+/// false when the connection failed (closed, or an error other than "would block").
+pub fn flush(stream: &mut impl Write, pending: &mut Vec<u8>) -> bool {
+    while !pending.is_empty() {
+        match stream.write(pending) {
+            Ok(0) => return false,
+            Ok(n) => {
+                pending.drain(..n.min(pending.len()));
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => return true,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(_) => return false,
+        }
+    }
+    true
 }
