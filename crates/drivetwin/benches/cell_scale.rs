@@ -23,6 +23,7 @@ use canopen::CanFrame;
 use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
 use drivetwin::cell::bus_timing::BusTiming;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
@@ -39,7 +40,7 @@ const SYNC_PERIODS_MS: [u64; 4] = [5, 10, 20, 50];
 
 /// 127 nodes, TPDO1 synchronous (every `every`th SYNC), heartbeat 100 ms; `motors`: each
 /// with its simulated drive and motor (else the CANopen side only).
-fn cell(bitrate: u32, every: u8, motors: bool) -> CanSegment {
+fn cell(bitrate: u32, every: u8, motors: bool) -> CanCell {
     let drives = (1..=NODES)
         .map(|node| {
             let name = PERSONALITIES[usize::from(node) % PERSONALITIES.len()];
@@ -55,7 +56,7 @@ fn cell(bitrate: u32, every: u8, motors: bool) -> CanSegment {
             Station::with_settings(desc, node, None, commissioning, settings).expect("a drive")
         })
         .collect();
-    CanSegment::new(drives).with_bitrate(bitrate, Duration::from_millis(1))
+    CanCell::from(CanSegment::new(drives).with_bitrate(bitrate, Duration::from_millis(1)))
 }
 
 /// NMT start for all at 10 ms, then SYNC every `period` until `until`.
@@ -103,7 +104,7 @@ fn bus_load(bitrate: u32, sync: Duration) -> f64 {
     let mut c = cell(bitrate, 1, false);
     run_virtual(&mut c, &inputs(sync, until), until, &mut |_, _| {});
     let now = Instant::from_nanos(until.as_nanos() as u64);
-    c.bus_figures(now).map_or(0.0, |f| f.load_percent)
+    c.buses[0].bus_figures(now).map_or(0.0, |f| f.load_percent)
 }
 
 fn report() {

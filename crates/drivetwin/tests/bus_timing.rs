@@ -14,6 +14,7 @@ use std::time::Duration;
 use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_bits};
 use canopen::CanFrame;
 use drivetwin::cell::bus_timing::BusFigures;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
@@ -41,7 +42,7 @@ fn cell(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> CanSegment {
 }
 
 fn run(
-    cell: &mut CanSegment,
+    cell: &mut CanCell,
     inputs: &[(Duration, CanFrame)],
     until: Duration,
 ) -> Vec<(Duration, CanFrame)> {
@@ -57,8 +58,10 @@ fn run(
 #[test]
 fn heartbeats_of_127_nodes_take_the_bit_time_the_formula_gives() {
     let heartbeat_ms = 100u16.to_le_bytes();
-    let mut cell = cell(127, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)]))
-        .with_bitrate(125_000, Duration::from_millis(1));
+    let mut cell = CanCell::from(
+        cell(127, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)]))
+            .with_bitrate(125_000, Duration::from_millis(1)),
+    );
     let out = run(&mut cell, &[], Duration::from_millis(180));
     let due = Duration::from_millis(100);
     let beats: Vec<_> = out
@@ -111,9 +114,10 @@ fn sync_inputs() -> Vec<(Duration, CanFrame)> {
 }
 
 fn sync_cell(bitrate: u32) -> (Vec<(Duration, CanFrame)>, BusFigures) {
-    let mut cell = cell(40, sync_tpdo).with_bitrate(bitrate, Duration::from_millis(5));
+    let mut cell =
+        CanCell::from(cell(40, sync_tpdo).with_bitrate(bitrate, Duration::from_millis(5)));
     let out = run(&mut cell, &sync_inputs(), Duration::from_millis(1004));
-    let figures = cell
+    let figures = cell.buses[0]
         .bus_figures(Instant::from_millis(1004))
         .expect("a timed bus");
     (out, figures)
@@ -171,7 +175,7 @@ fn a_sync_with_40_tpdos_overloads_250_kbit_and_fits_at_1_mbit() {
 #[test]
 fn without_a_bit_rate_frames_cross_at_once() {
     let heartbeat_ms = 100u16.to_le_bytes();
-    let mut cell = cell(3, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)]));
+    let mut cell = CanCell::from(cell(3, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)])));
     let out = run(&mut cell, &[], Duration::from_millis(150));
     let beats: Vec<_> = out
         .iter()
@@ -179,7 +183,9 @@ fn without_a_bit_rate_frames_cross_at_once() {
         .collect();
     assert_eq!(beats.len(), 3);
     assert!(beats.iter().all(|(t, _)| *t == Duration::from_millis(100)));
-    assert!(cell.bus_figures(Instant::from_millis(150)).is_none());
+    assert!(cell.buses[0]
+        .bus_figures(Instant::from_millis(150))
+        .is_none());
 }
 
 /// EMCY frames of node `node` (80h + node) in `out` after `from`: (time, code).
@@ -220,6 +226,7 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     cell.plan_disturbance(at(100), 2, 16);
     cell.plan_disturbance(at(200), 3, 32);
     cell.plan_disturbance(at(300), 1, 32);
+    let mut cell = CanCell::from(cell);
     // NMT start: heartbeats say 05h (operational)… the test looks at the 7Fh ones of Pre-Op.
     let out = run(&mut cell, &[], Duration::from_millis(400));
 
@@ -253,7 +260,7 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     od::ObjectAccess::read(&cell.stations[0].model, 0x6041, 0, &mut sw).expect("6041h");
     assert_ne!(u16::from_le_bytes(sw) & 0x0008, 0, "FAULT: {sw:02X?}");
     // Everybody is back on the bus and error active.
-    assert!(cell
+    assert!(cell.buses[0]
         .node_faults()
         .iter()
         .all(|f| f.confinement.state() == canbus::fault_confinement::ErrorState::Active));

@@ -15,6 +15,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::OnBus;
@@ -116,7 +117,7 @@ fn run() -> Outputs {
             Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
-    let mut cell = CanSegment::new(drives);
+    let cell = CanSegment::new(drives);
     let requests = [
         LineRequest {
             kind: Kind::Rs232,
@@ -134,6 +135,7 @@ fn run() -> Outputs {
         std::slice::from_ref(&cell),
     )
     .expect("lines");
+    let mut cell = CanCell::from(cell);
     let mut outputs = Vec::new();
     run_virtual_lines(
         &mut cell,

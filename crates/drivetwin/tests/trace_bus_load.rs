@@ -14,6 +14,7 @@ use std::time::Duration;
 
 use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
@@ -24,7 +25,7 @@ use od::Instant;
 const BITRATE: u32 = 1_000_000;
 
 /// 40 CMMP-AS dictionaries, TPDO1 synchronous on every SYNC.
-fn cell() -> CanSegment {
+fn cell() -> CanCell {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drives = (1..=40u8)
         .map(|node| {
@@ -44,7 +45,7 @@ fn cell() -> CanSegment {
             Station::new(desc, node, None, c).expect("drive")
         })
         .collect();
-    CanSegment::new(drives).with_bitrate(BITRATE, Duration::from_millis(5))
+    CanCell::from(CanSegment::new(drives).with_bitrate(BITRATE, Duration::from_millis(5)))
 }
 
 /// NMT start of every node, then a SYNC every 5 ms for 1.6 s.
@@ -69,7 +70,7 @@ fn the_trace_of_a_timed_bus_has_its_load_per_window() {
     let path = dir.join("bus.pcap");
     let mut cell = cell();
     let mut trace =
-        TraceWriter::create_for_bus(&path, "vcan0", cell.timed_bitrate()).expect("trace");
+        TraceWriter::create_for_bus(&path, "vcan0", cell.buses[0].timed_bitrate()).expect("trace");
     let mut out = Vec::new();
     let until = Duration::from_millis(1604);
     run_virtual(&mut cell, &inputs(), until, &mut |t, f| {
@@ -77,7 +78,7 @@ fn the_trace_of_a_timed_bus_has_its_load_per_window() {
         out.push((t, *f));
     });
     trace.flush().expect("flushed");
-    let reported = cell
+    let reported = cell.buses[0]
         .bus_figures(Instant::from_nanos(until.as_nanos() as u64))
         .expect("a timed bus")
         .load_percent;

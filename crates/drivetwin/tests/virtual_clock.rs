@@ -15,6 +15,7 @@ use ecat_inputs::{bwr, coe, coe_download, fprd, fpwr, mailbox_counters, mailbox_
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
@@ -132,7 +133,7 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drive =
         Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
-    let mut cell = CanSegment::new(vec![drive]);
+    let mut cell = CanCell::from(CanSegment::new(vec![drive]));
     let mut modbus = vec![cmmo_st()];
     let mut chain = SlaveChain::empty();
     let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)

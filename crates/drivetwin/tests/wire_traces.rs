@@ -44,6 +44,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use canopen::CanFrame;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
@@ -356,7 +357,7 @@ fn serial_wire(line: usize) -> &'static str {
 
 /// What one personality's trace runs: the cell's parts and the master's script.
 struct Rig {
-    cell: CanSegment,
+    cell: CanCell,
     modbus: Vec<ModbusDrive>,
     chains: Vec<SlaveChain>,
     lines: Vec<VirtualLine>,
@@ -473,7 +474,7 @@ fn check(name: &str, title: &str, rig: fn() -> Rig) {
 
 fn canopen_rig(name: &str, node: u8, device: &Device) -> Rig {
     Rig {
-        cell: can_cell(name, node),
+        cell: CanCell::from(can_cell(name, node)),
         modbus: Vec::new(),
         chains: Vec::new(),
         lines: Vec::new(),
@@ -619,7 +620,7 @@ fn kinco_serial() -> Rig {
         s.push(192 + 25 * i, rtu(&[0x03, 0x37, 0x00, 0x00, 0x02]));
     }
     Rig {
-        cell,
+        cell: CanCell::from(cell),
         modbus: Vec::new(),
         chains: Vec::new(),
         lines,
@@ -708,7 +709,7 @@ fn cmmo_st() -> Rig {
     );
     let until = ms(t + 20);
     Rig {
-        cell: CanSegment::new(Vec::new()),
+        cell: CanCell::new(),
         modbus,
         chains: Vec::new(),
         lines: Vec::new(),
@@ -781,7 +782,7 @@ fn cmmp_ethercat() -> Rig {
         .collect();
     let until = ms(5 + 10 * inputs.len() as u64 + 10);
     Rig {
-        cell: CanSegment::new(Vec::new()),
+        cell: CanCell::new(),
         modbus: Vec::new(),
         chains: vec![chain],
         lines: Vec::new(),

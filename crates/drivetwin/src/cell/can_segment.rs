@@ -40,9 +40,10 @@ impl Addressed for SegmentFrame {
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
-/// One simulated CAN bus with its stations (each with its CANopen node): a cell of one bus, as
-/// the virtual clock and the tests run it. In the cell loop the stations join the cell's list
-/// ([`Stations`]) and the bus ([`SegmentBus`]) names them by id.
+/// One simulated CAN bus with the stations it brings to a cell (each with its CANopen node),
+/// before they join the cell's list: in a [`super::can_cell::CanCell`] (the virtual clock, the
+/// scenario rig) or the cell loop, the stations are in the cell's [`Stations`] and the bus
+/// ([`SegmentBus`]) names them by id. The tests step a segment of their own directly.
 pub struct CanSegment {
     /// The stations on the bus, in segment order.
     pub stations: Stations,
@@ -66,7 +67,7 @@ pub struct SegmentBus {
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
     link: FaultInjector<Wire<SegmentFrame>>,
-    /// When asked for ([`CanSegment::report_outside_frames`]): the frames from outside that
+    /// When asked for ([`SegmentBus::report_outside_frames`]): the frames from outside that
     /// crossed the bus, with their end of frame and whether a drive received them.
     outside_ends: Option<Vec<(Instant, CanFrame, bool)>>,
 }

@@ -192,6 +192,33 @@ impl CanSegment {
     }
 }
 
+impl super::can_cell::CanCell {
+    /// Raises diagnostic message `number` of the station at `at`, as
+    /// [`CanSegment::raise_diagnostic`] does; the frames go out at its bus's next poll.
+    pub fn raise_diagnostic(
+        &mut self,
+        at: super::OnBus,
+        number: &str,
+    ) -> Result<&'static Diagnostic, ControlError> {
+        let d = self
+            .station_mut(at)
+            .ok_or(ControlError::NoDrive(at.drive))?;
+        set_model(&mut d.model, number, Action::Raise).map_err(refused)
+    }
+
+    /// Clears message `number` raised by [`Self::raise_diagnostic`].
+    pub fn clear_diagnostic(
+        &mut self,
+        at: super::OnBus,
+        number: &str,
+    ) -> Result<&'static Diagnostic, ControlError> {
+        let d = self
+            .station_mut(at)
+            .ok_or(ControlError::NoDrive(at.drive))?;
+        set_model(&mut d.model, number, Action::Clear).map_err(refused)
+    }
+}
+
 impl SegmentBus {
     /// Plans raising (or clearing) a diagnostic message of drive `drive` (segment order) at
     /// `at` (the cell file's `[[drive.diagnostic]]`).

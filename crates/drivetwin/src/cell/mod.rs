@@ -1,13 +1,16 @@
 //! The runtime: a cell is the stations of one process and the buses between them, stepped on
 //! one clock. A station ([`station::Station`]) is one drive with all its front ends; the cell
 //! holds its stations in one list ([`stations::Stations`]) and a CAN bus
-//! ([`can_segment::SegmentBus`]) names the stations on it by [`stations::StationId`]. A
-//! [`can_segment::CanSegment`] is one bus with stations of its own: a cell of one bus, as the
-//! virtual clock runs it, and what a bus brings when it joins the cell loop.
+//! ([`can_segment::SegmentBus`]) names the stations on it by [`stations::StationId`]. The list
+//! and the buses together are a [`can_cell::CanCell`], which the virtual clock and the scenario
+//! rig run and the EtherCAT chains join; the cell loop holds the same list and buses with their
+//! transports. A [`can_segment::CanSegment`] is one bus with the stations it brings to a cell,
+//! before they join its list.
 
 pub mod bus_faults;
 pub mod bus_rate;
 pub mod bus_timing;
+pub mod can_cell;
 pub mod can_segment;
 pub mod ci_console;
 pub mod config;

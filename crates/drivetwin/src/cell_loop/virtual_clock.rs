@@ -7,18 +7,19 @@ use canopen::CanFrame;
 use od::time::earliest;
 use od::Instant;
 
-use crate::cell::can_segment::CanSegment;
+use crate::cell::can_cell::CanCell;
 use crate::cell::OnBus;
 use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::serial::line::VirtualLine;
 use crate::serial::LineDrives;
 
-/// Runs `segment` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by time) as
-/// frames from outside the segment; every frame on the bus goes to `sink` with its virtual time.
-/// A drive's load FMU that fails stops the run there ([`CanSegment::load_failure`]).
+/// Runs the buses of `cell` on the virtual clock from 0 to `until`, feeding `inputs` (sorted by
+/// time) as frames from outside the cell on its first bus; every frame on a bus goes to `sink`
+/// with its virtual time. A drive's load FMU that fails stops the run there
+/// ([`CanCell::load_failure`]).
 pub fn run_virtual(
-    segment: &mut CanSegment,
+    cell: &mut CanCell,
     inputs: &[(Duration, CanFrame)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, &CanFrame),
@@ -28,18 +29,18 @@ pub fn run_virtual(
     let end = to_instant(until);
     let mut out = Vec::with_capacity(256);
     let mut now = Instant::ZERO;
-    segment.boot(now, &mut out);
+    boot(cell, now, &mut out);
     let mut next_input = 0;
     let mut stuck = 0u32;
     loop {
         for f in out.drain(..) {
             sink(Duration::from_nanos(now.as_nanos()), &f);
         }
-        if segment.load_failure().is_some() {
+        if cell.load_failure().is_some() {
             break;
         }
         let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
-        let wake = match (segment.deadline(), input_at) {
+        let wake = match (cell.deadline(), input_at) {
             (Some(a), Some(b)) => a.min(b),
             (Some(a), None) => a,
             (None, Some(b)) => b,
@@ -58,11 +59,27 @@ pub fn run_virtual(
         if input_at == Some(wake) {
             if let Some((_, f)) = inputs.get(next_input) {
                 sink(Duration::from_nanos(now.as_nanos()), f);
-                segment.on_frame(now, f, &mut out);
+                cell.on_frame(0, now, f, &mut out);
             }
             next_input += 1;
         } else {
-            segment.poll(now, &mut out);
+            poll_due(cell, now, &mut out);
+        }
+    }
+}
+
+/// Boots the drives of every bus, in bus order.
+fn boot(cell: &mut CanCell, now: Instant, out: &mut Vec<CanFrame>) {
+    for b in 0..cell.buses.len() {
+        cell.boot(b, now, out);
+    }
+}
+
+/// Runs the timers of every bus due by `now`, in bus order.
+fn poll_due(cell: &mut CanCell, now: Instant, out: &mut Vec<CanFrame>) {
+    for b in 0..cell.buses.len() {
+        if cell.deadline_of(b).is_some_and(|d| d <= now) {
+            cell.poll(b, now, out);
         }
     }
 }
@@ -70,7 +87,7 @@ pub fn run_virtual(
 /// Something from outside the cell, at a time on the virtual clock.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Input {
-    /// A frame on the cell's CAN bus.
+    /// A frame on the cell's (first) CAN bus.
     Can(CanFrame),
     /// Bytes on the Modbus TCP connection of `modbus[drive]`.
     Modbus { drive: usize, bytes: Vec<u8> },
@@ -84,7 +101,7 @@ pub enum Input {
 /// What the cell sent, at a time on the virtual clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Output<'a> {
-    /// A frame on the cell's CAN bus (a drive's, or an input's).
+    /// A frame on one of the cell's CAN buses (a drive's, or an input's).
     Can(&'a CanFrame),
     /// The answers of `modbus[drive]` to its latest input.
     Modbus { drive: usize, bytes: &'a [u8] },
@@ -94,35 +111,34 @@ pub enum Output<'a> {
     Serial { line: usize, bytes: &'a [u8] },
 }
 
-/// The segment's stations as a virtual serial line reaches them (bus 0).
-struct SegmentLineDrives<'a> {
-    segment: &'a mut CanSegment,
+/// The cell's stations as a virtual serial line reaches them.
+struct CellLineDrives<'a> {
+    cell: &'a mut CanCell,
     out: &'a mut Vec<CanFrame>,
 }
 
-impl LineDrives for SegmentLineDrives<'_> {
+impl LineDrives for CellLineDrives<'_> {
     fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn od::ObjectAccess)) {
-        if at.bus == 0 {
-            self.segment.local_access(at.drive, now, self.out, f);
-        }
+        self.cell.local_access(at, now, self.out, f);
     }
 }
 
-/// Runs the CAN drives of `segment`, the Modbus drives `modbus` and the EtherCAT chains `chains`
+/// Runs the CAN buses of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
 /// on one virtual clock from 0 to `until`, feeding `inputs` (sorted by time); everything the
 /// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: Modbus
-/// cycles, then the CAN drives' timers, then the chains' timers, then the input, so the same
-/// cell and inputs give the same outputs bit for bit. A slave whose drive is a CANopen drive
-/// as well finds it in `segment` (bus 0).
+/// cycles, then the CAN buses' timers (in bus order), then the chains' timers, then the input,
+/// so the same cell and inputs give the same outputs bit for bit. The chains join the cell
+/// first ([`SlaveChain::join_cell`]): their own drives become stations of its list, and a slave
+/// whose drive is a CANopen node of a bus names that very station.
 pub fn run_virtual_mixed(
-    segment: &mut CanSegment,
+    cell: &mut CanCell,
     modbus: &mut [ModbusDrive],
     chains: &mut [SlaveChain],
     inputs: &[(Duration, Input)],
     until: Duration,
     sink: &mut dyn FnMut(Duration, Output<'_>),
 ) {
-    run_virtual_lines(segment, modbus, chains, &mut [], inputs, until, sink);
+    run_virtual_lines(cell, modbus, chains, &mut [], inputs, until, sink);
 }
 
 /// [`run_virtual_mixed`] with the serial lines `lines` (built by
@@ -130,7 +146,7 @@ pub fn run_virtual_mixed(
 /// and answers are deadlines like the others; at one instant they come after the chains and
 /// before the input. A line's answers go to `sink` when they have crossed.
 pub fn run_virtual_lines(
-    segment: &mut CanSegment,
+    cell: &mut CanCell,
     modbus: &mut [ModbusDrive],
     chains: &mut [SlaveChain],
     lines: &mut [VirtualLine],
@@ -147,9 +163,12 @@ pub fn run_virtual_lines(
     let mut answer = Vec::with_capacity(256);
     let mut frame = Vec::with_capacity(crate::ecat::MAX_FRAME);
     let mut now = Instant::ZERO;
-    segment.boot(now, &mut out);
     for c in chains.iter_mut() {
-        c.boot_with(now, segment);
+        c.join_cell(cell);
+    }
+    boot(cell, now, &mut out);
+    for c in chains.iter_mut() {
+        c.boot_with(now, cell);
     }
     for m in modbus.iter_mut() {
         m.open_connection(now);
@@ -163,7 +182,7 @@ pub fn run_virtual_lines(
         let input_at = inputs.get(next_input).map(|(t, _)| to_instant(*t));
         let wake = modbus
             .iter()
-            .fold(earliest(segment.deadline(), input_at), |acc, m| {
+            .fold(earliest(cell.deadline(), input_at), |acc, m| {
                 earliest(acc, Some(m.next_cycle()))
             });
         let wake = chains
@@ -188,19 +207,17 @@ pub fn run_virtual_lines(
         for m in modbus.iter_mut() {
             m.cycle(now);
         }
-        if segment.deadline().is_some_and(|d| d <= now) {
-            segment.poll(now, &mut out);
-        }
+        poll_due(cell, now, &mut out);
         for c in chains.iter_mut() {
             if c.deadline().is_some_and(|d| d <= now) {
-                c.poll_with(now, segment);
+                c.poll_with(now, cell);
             }
         }
         for (i, l) in lines.iter_mut().enumerate() {
             if l.deadline().is_some_and(|d| d <= now) {
                 crossed.clear();
-                let mut drives = SegmentLineDrives {
-                    segment,
+                let mut drives = CellLineDrives {
+                    cell,
                     out: &mut out,
                 };
                 l.due(now, &mut drives, &mut crossed);
@@ -219,7 +236,7 @@ pub fn run_virtual_lines(
             match inputs.get(next_input) {
                 Some((_, Input::Can(f))) => {
                     sink(at(now), Output::Can(f));
-                    segment.on_frame(now, f, &mut out);
+                    cell.on_frame(0, now, f, &mut out);
                 }
                 Some((_, Input::Modbus { drive, bytes })) => {
                     if let Some(m) = modbus.get_mut(*drive) {
@@ -242,7 +259,7 @@ pub fn run_virtual_lines(
                         frame.clear();
                         frame.extend_from_slice(f);
                         let shared = c.has_bus_drives();
-                        if c.on_frame_with(now, &mut frame, segment).forward() {
+                        if c.on_frame_with(now, &mut frame, cell).forward() {
                             sink(
                                 at(now),
                                 Output::Ethercat {
@@ -253,7 +270,9 @@ pub fn run_virtual_lines(
                         }
                         if shared {
                             // As the cell loop does: the CANopen side looks at once.
-                            segment.poll(now, &mut out);
+                            for b in 0..cell.buses.len() {
+                                cell.poll(b, now, &mut out);
+                            }
                         }
                     }
                 }

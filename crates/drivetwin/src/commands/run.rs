@@ -425,7 +425,7 @@ async fn prepare_cell(
                 "--virtual-seconds runs a cell of one CAN bus".into(),
             ));
         }
-        let mut cell = segments.remove(0);
+        let mut cell = drivetwin::cell::can_cell::CanCell::from(segments.remove(0));
         let channel = buses.first().map_or("vcan0", |b| b.channel.as_str());
         if !(seconds.is_finite() && seconds >= 0.0) {
             return Err(CommandError::Usage(
@@ -444,8 +444,12 @@ async fn prepare_cell(
         };
         let mut writer = match trace_path {
             Some(p) => Some(
-                TraceWriter::create_for_bus(p, channel, cell.timed_bitrate())
-                    .map_err(io(p.display().to_string()))?,
+                TraceWriter::create_for_bus(
+                    p,
+                    channel,
+                    cell.bus(0).and_then(|b| b.timed_bitrate()),
+                )
+                .map_err(io(p.display().to_string()))?,
             ),
             None => None,
         };

@@ -67,6 +67,7 @@ use od::{
     time::earliest, AbortCode, DeviceDescription, Entry, Instant, ObjectAccess, StorageRequest,
 };
 
+use crate::cell::can_cell::CanCell;
 use crate::cell::config::{CellFile, ConfigError, DriveSpec};
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
@@ -231,13 +232,14 @@ impl BusDrives for NoBuses {
     }
 }
 
-/// The one CAN segment of a cell on the virtual clock (bus 0).
-impl BusDrives for crate::cell::can_segment::CanSegment {
+/// The chains that joined a cell ([`SlaveChain::join_cell`]) find their drives in its list.
+impl BusDrives for CanCell {
     fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        if at.bus != 0 {
-            return None;
-        }
-        self.stations.get_mut(at.drive)
+        self.station_mut(at)
+    }
+
+    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
+        self.stations.station_mut(id)
     }
 }
 
@@ -884,7 +886,7 @@ pub struct SlaveChain {
 
 impl SlaveChain {
     /// Why the load FMU of a drive of its own stopped the chain, once one has (as
-    /// [`crate::cell::can_segment::CanSegment::load_failure`]; a drive of a CAN bus is its bus's).
+    /// [`crate::cell::can_cell::CanCell::load_failure`]; a drive of a CAN bus is its bus's).
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
             SlaveDrive::Own(station) => station.model.drive()?.load_failure(),
@@ -913,6 +915,14 @@ impl SlaveChain {
                 joined @ SlaveDrive::Station { .. } => joined,
             })
             .collect();
+    }
+
+    /// The chain joins `cell` as it joins a cell loop ([`join`](Self::join)): its own
+    /// drives become stations of the cell's list, and a slave whose drive is a CANopen node
+    /// of one of the cell's buses names that station by id.
+    pub fn join_cell(&mut self, cell: &mut CanCell) {
+        let CanCell { stations, buses } = cell;
+        self.join(stations, |at| buses.get(at.bus)?.member(at.drive));
     }
 
     /// One slave per drive of the cell file, in file order, its keys read with the sections

@@ -1,5 +1,5 @@
-//! The virtual clock's rig: the CANopen drives of the cell file's buses (`[[bus]]`, each its
-//! own [`CanSegment`]), stepped from one deadline to the next as
+//! The virtual clock's rig: the CANopen drives of the cell file's buses (`[[bus]]`), stations
+//! of one [`CanCell`] as the cell loop holds them, stepped from one deadline to the next as
 //! [`crate::cell_loop::virtual_clock::run_virtual`] does, with the scenario's actions between; every
 //! frame of the first bus optionally to a trace whose time stamps are the virtual clock's (so
 //! two runs give the same file).
@@ -16,12 +16,13 @@ use od::{Instant, ObjectAccess};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
-use crate::cell::can_segment::CanSegment;
+use crate::cell::can_cell::CanCell;
+use crate::cell::can_segment::SegmentBus;
 use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link, Wire};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
 use crate::cell::station::Station;
-use crate::cell::Vendors;
+use crate::cell::{OnBus, Vendors};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
@@ -30,7 +31,8 @@ use crate::trace::TraceWriter;
 const STUCK: u32 = 10_000;
 
 pub struct VirtualRig {
-    segments: Vec<CanSegment>,
+    /// The stations and the buses between them.
+    cell: CanCell,
     now: Instant,
     out: Vec<CanFrame>,
     /// The first bus, traced (see [`VirtualRig::trace_to`]).
@@ -121,30 +123,31 @@ impl VirtualRig {
         }
         let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
-        let mut segments = Vec::new();
+        let mut cell = CanCell::new();
         for (((d, section), rate), plans) in drives.into_iter().zip(sections).zip(&rates).zip(plans)
         {
-            let mut cell = match rate.bitrate() {
-                Some(bitrate) => CanSegment::new(d).with_bitrate(bitrate, section.late_after()),
-                None => CanSegment::new(d),
+            let bus = SegmentBus::new(cell.push_stations(d));
+            let mut bus = match rate.bitrate() {
+                Some(bitrate) => bus.with_bitrate(bitrate, section.late_after()),
+                None => bus,
             };
             for p in &section.disturb {
-                cell.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
+                bus.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
             }
             // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual
             // clock.
             for (drive, (diagnostics, physics)) in plans.into_iter().enumerate() {
                 for p in diagnostics {
-                    cell.plan_diagnostic(Instant::from_millis(p.at_ms), drive, p);
+                    bus.plan_diagnostic(Instant::from_millis(p.at_ms), drive, p);
                 }
                 for (at_ms, change) in physics {
-                    cell.plan_physics(Instant::from_millis(at_ms), drive, change);
+                    bus.plan_physics(Instant::from_millis(at_ms), drive, change);
                 }
             }
-            segments.push(cell);
+            cell.buses.push(bus);
         }
         let mut rig = VirtualRig {
-            segments,
+            cell,
             now: Instant::ZERO,
             out: Vec::new(),
             first_bus: Tracer::new(Wire::new(), CanTrace::new(None)),
@@ -153,10 +156,8 @@ impl VirtualRig {
             modbus,
         };
         // Booted in bus order; the boot-up frames wait in `pending` for the first emit.
-        for b in 0..rig.segments.len() {
-            if let Some(c) = rig.segments.get_mut(b) {
-                c.boot(Instant::ZERO, &mut out);
-            }
+        for b in 0..rig.cell.buses.len() {
+            rig.cell.boot(b, Instant::ZERO, &mut out);
             rig.pending.extend(out.drain(..).map(|f| (b, f)));
         }
         Ok(rig)
@@ -173,9 +174,10 @@ impl VirtualRig {
 
     /// The FMI version of the load FMU coupled to node `node`'s drive, if it has one.
     pub fn load_fmi_version(&self, node: u8) -> Option<&'static str> {
-        self.segments
+        self.cell
+            .buses
             .iter()
-            .flat_map(|c| &c.stations)
+            .flat_map(|b| b.stations(&self.cell.stations))
             .find(|d| d.node_id() == node)?
             .model
             .drive()?
@@ -214,18 +216,16 @@ impl VirtualRig {
     fn drive(&self, node: Option<u8>) -> Result<(usize, usize), String> {
         match node {
             None => self
-                .segments
+                .cell
+                .buses
                 .iter()
-                .position(|c| !c.stations.is_empty())
+                .position(|c| !c.members().is_empty())
                 .map(|b| (b, 0))
                 .ok_or_else(|| "no drive".to_string()),
-            Some(n) => self
-                .segments
-                .iter()
-                .enumerate()
-                .find_map(|(b, c)| {
-                    c.stations
-                        .iter()
+            Some(n) => (0..self.cell.buses.len())
+                .find_map(|b| {
+                    self.cell
+                        .on_bus(b)
                         .position(|d| d.node_id() == n)
                         .map(|i| (b, i))
                 })
@@ -237,12 +237,12 @@ impl VirtualRig {
     fn drive_on(&self, bus: usize, node: Option<u8>) -> Result<usize, String> {
         let c = self.segment(bus)?;
         match node {
-            None => (!c.stations.is_empty())
+            None => (!c.members().is_empty())
                 .then_some(0)
                 .ok_or("no drive".into()),
-            Some(n) => c
-                .stations
-                .iter()
+            Some(n) => self
+                .cell
+                .on_bus(bus)
                 .position(|d| d.node_id() == n)
                 .ok_or_else(|| format!("no node {n} on bus {bus}")),
         }
@@ -252,7 +252,7 @@ impl VirtualRig {
     fn cmmo_st(&self, node: Option<u8>) -> Option<usize> {
         let cia402 = self.drive(node).is_ok();
         match node {
-            None if self.segments.iter().all(|c| c.stations.is_empty()) => {
+            None if self.cell.buses.iter().all(|c| c.members().is_empty()) => {
                 (!self.modbus.is_empty()).then_some(0)
             }
             Some(n) if !cia402 => self.modbus.iter().position(|(m, _)| *m == n),
@@ -265,17 +265,25 @@ impl VirtualRig {
         self.modbus.get_mut(i).map(|(_, m)| m.device_mut())
     }
 
-    fn segment(&self, bus: usize) -> Result<&CanSegment, String> {
-        self.segments
-            .get(bus)
-            .ok_or_else(|| format!("bus {bus}: the cell has {} bus(es)", self.segments.len()))
+    fn segment(&self, bus: usize) -> Result<&SegmentBus, String> {
+        self.cell
+            .bus(bus)
+            .ok_or_else(|| format!("bus {bus}: the cell has {} bus(es)", self.cell.buses.len()))
     }
 
-    fn segment_mut(&mut self, bus: usize) -> Result<&mut CanSegment, String> {
-        let n = self.segments.len();
-        self.segments
-            .get_mut(bus)
+    fn segment_mut(&mut self, bus: usize) -> Result<&mut SegmentBus, String> {
+        let n = self.cell.buses.len();
+        self.cell
+            .bus_mut(bus)
             .ok_or_else(|| format!("bus {bus}: the cell has {n} bus(es)"))
+    }
+
+    /// The station at place `i` of bus `b`.
+    fn station(&self, (b, i): (usize, usize)) -> Result<&Station, String> {
+        self.segment(b)?;
+        self.cell
+            .station(OnBus { bus: b, drive: i })
+            .ok_or_else(|| "no drive".to_string())
     }
 
     fn encode(
@@ -285,7 +293,7 @@ impl VirtualRig {
         sub: u8,
         value: &str,
     ) -> Result<Vec<u8>, String> {
-        let d = self.segment(b)?.stations.get(i).ok_or("no drive")?;
+        let d = self.station((b, i))?;
         let e = d
             .od()
             .description()
@@ -298,9 +306,9 @@ impl VirtualRig {
         &mut self,
         (b, i): (usize, usize),
     ) -> Result<&mut drive::vendors::AnyDrive<Vec<u8>>, String> {
-        self.segment_mut(b)?
-            .stations
-            .get_mut(i)
+        self.segment(b)?;
+        self.cell
+            .station_mut(OnBus { bus: b, drive: i })
             .and_then(|d| d.model.drive_mut().map(|d| &mut **d))
             .ok_or_else(|| "the drive has no simulated plant".to_string())
     }
@@ -329,9 +337,10 @@ pub struct Probe {
 impl VirtualRig {
     /// The node-IDs of the CANopen drives, bus by bus in the cell file's order.
     pub fn nodes(&self) -> Vec<u8> {
-        self.segments
+        self.cell
+            .buses
             .iter()
-            .flat_map(|c| c.stations.iter().map(|d| d.node_id()))
+            .flat_map(|b| b.stations(&self.cell.stations).map(|d| d.node_id()))
             .collect()
     }
 
@@ -351,19 +360,18 @@ impl VirtualRig {
 
     /// Each bus's bit rate, in the cell file's order (none: the instant bus).
     pub fn bus_bitrates(&self) -> Vec<Option<u32>> {
-        self.segments
+        self.cell
+            .buses
             .iter()
-            .map(CanSegment::timed_bitrate)
+            .map(SegmentBus::timed_bitrate)
             .collect()
     }
 
     /// The engine of node `node`'s drive (its plant and device control), if it has one.
     pub fn drive_model(&self, node: u8) -> Option<&drive::vendors::AnyDrive<Vec<u8>>> {
         let (b, i) = self.drive(Some(node)).ok()?;
-        self.segments
-            .get(b)?
-            .stations
-            .get(i)?
+        self.cell
+            .station(OnBus { bus: b, drive: i })?
             .model
             .drive()
             .map(|d| &**d)
@@ -371,25 +379,25 @@ impl VirtualRig {
 
     /// Bus `bus` keeps the frames from outside that cross it ([`crate::cell::can_segment::SegmentBus::report_outside_frames`]).
     pub fn report_outside_frames(&mut self, bus: usize) {
-        if let Some(c) = self.segments.get_mut(bus) {
-            c.bus_mut().report_outside_frames();
+        if let Some(c) = self.cell.bus_mut(bus) {
+            c.report_outside_frames();
         }
     }
 
     /// The frames from outside that crossed bus `bus` since the last call: end of frame,
     /// frame, and whether a drive received it.
     pub fn take_outside_frames(&mut self, bus: usize) -> Vec<(Instant, CanFrame, bool)> {
-        self.segments
-            .get_mut(bus)
-            .map(|c| c.bus_mut().take_outside_frames())
+        self.cell
+            .bus_mut(bus)
+            .map(SegmentBus::take_outside_frames)
             .unwrap_or_default()
     }
 
     /// Whether `frame` from outside, put on bus `bus` now, would wait for the bus.
     pub fn would_wait(&self, bus: usize, frame: &CanFrame) -> bool {
-        self.segments
-            .get(bus)
-            .is_some_and(|c| c.bus().would_wait(self.now, frame))
+        self.cell
+            .bus(bus)
+            .is_some_and(|c| c.would_wait(self.now, frame))
     }
 
     /// How many drives the rig serves over Modbus TCP (the CMMO-STs), in the cell file's order.
@@ -405,7 +413,7 @@ impl VirtualRig {
 
     /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
     pub fn drives_on(&self, bus: usize) -> usize {
-        self.segments.get(bus).map_or(0, |c| c.stations.len())
+        self.cell.bus(bus).map_or(0, |c| c.members().len())
     }
 
     /// The time the rig has run to.
@@ -427,7 +435,7 @@ impl VirtualRig {
             });
         }
         let (b, i) = self.drive(Some(node))?;
-        let station = self.segment(b)?.stations.get(i).ok_or("no drive")?;
+        let station = self.station((b, i))?;
         let d = station
             .model
             .drive()
@@ -452,9 +460,8 @@ impl VirtualRig {
 
 impl Rig for VirtualRig {
     fn stopped(&self) -> Option<String> {
-        self.segments
-            .iter()
-            .find_map(CanSegment::load_failure)
+        self.cell
+            .load_failure()
             .map(|e| format!("load: {e}"))
             .or_else(|| {
                 self.modbus.iter().find_map(|(node, m)| {
@@ -468,10 +475,8 @@ impl Rig for VirtualRig {
         self.flush(seen);
         let mut stuck = 0u32;
         loop {
-            let wake = self
-                .segments
-                .iter()
-                .filter_map(CanSegment::deadline)
+            let wake = (0..self.cell.buses.len())
+                .filter_map(|b| self.cell.deadline_of(b))
                 .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
                 .min()
                 .filter(|w| *w <= end);
@@ -489,15 +494,11 @@ impl Rig for VirtualRig {
             for (_, m) in &mut self.modbus {
                 m.cycle(self.now);
             }
-            for b in 0..self.segments.len() {
+            for b in 0..self.cell.buses.len() {
                 let now = self.now;
                 let mut out = std::mem::take(&mut self.out);
-                if let Some(c) = self
-                    .segments
-                    .get_mut(b)
-                    .filter(|c| c.deadline().is_some_and(|d| d <= now))
-                {
-                    c.poll(now, &mut out);
+                if self.cell.deadline_of(b).is_some_and(|d| d <= now) {
+                    self.cell.poll(b, now, &mut out);
                 }
                 self.out = out;
                 self.emit(b, seen);
@@ -524,7 +525,7 @@ impl Rig for VirtualRig {
                 self.out.push(*frame);
                 self.emit(*bus, seen);
                 let mut out = std::mem::take(&mut self.out);
-                self.segment_mut(*bus)?.on_frame(now, frame, &mut out);
+                self.cell.on_frame(*bus, now, frame, &mut out);
                 self.out = out;
                 Ok(())
             }
@@ -538,16 +539,12 @@ impl Rig for VirtualRig {
                 on = *bus;
                 let i = self.drive_on(*bus, *node)?;
                 let bytes = self.encode((*bus, i), *index, *sub, value)?;
-                let node = self
-                    .segment(*bus)?
-                    .stations
-                    .get(i)
-                    .map_or(0, |d| d.node_id());
+                let node = self.station((*bus, i)).map_or(0, |d| d.node_id());
                 let frame = expedited_download(node, *index, *sub, &bytes)?;
                 self.out.push(frame);
                 self.emit(*bus, seen);
                 let mut out = std::mem::take(&mut self.out);
-                self.segment_mut(*bus)?.on_frame(now, &frame, &mut out);
+                self.cell.on_frame(*bus, now, &frame, &mut out);
                 self.out = out;
                 Ok(())
             }
@@ -562,8 +559,8 @@ impl Rig for VirtualRig {
                 let bytes = self.encode((b, i), *index, *sub, value)?;
                 let mut result = Ok(());
                 let mut out = std::mem::take(&mut self.out);
-                self.segment_mut(b)?
-                    .local_access(i, now, &mut out, &mut |a| {
+                self.cell
+                    .local_access(OnBus { bus: b, drive: i }, now, &mut out, &mut |a| {
                         result = a.write(*index, *sub, &bytes);
                     });
                 self.out = out;
@@ -629,11 +626,11 @@ impl Rig for VirtualRig {
             } => {
                 let (b, i) = self.drive(*node)?;
                 on = b;
-                let cell = self.segment_mut(b)?;
+                let at = OnBus { bus: b, drive: i };
                 let done = if *raise {
-                    cell.raise_diagnostic(i, number)
+                    self.cell.raise_diagnostic(at, number)
                 } else {
-                    cell.clear_diagnostic(i, number)
+                    self.cell.clear_diagnostic(at, number)
                 };
                 done.map(|_| ()).map_err(|e| e.to_string())
             }
@@ -670,7 +667,7 @@ impl Rig for VirtualRig {
             return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
         }
         let (b, i) = self.drive(node)?;
-        let d = self.segment(b)?.stations.get(i).ok_or("no drive")?;
+        let d = self.station((b, i))?;
         let mut buf = [0u8; 8];
         let n = d
             .model
