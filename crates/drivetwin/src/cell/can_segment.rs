@@ -3,6 +3,14 @@
 //! a bit rate ([`super::bus_timing`]) they do so when they have crossed the bus, after the
 //! arbitration. Each station's CAN controller counts its errors ([`NodeFaults`]), and the wire
 //! carries its faults ([`super::wire_faults`]).
+//!
+//! A bus has two links, both its own: the wire between its stations, a
+//! [`FaultInjector`] around a [`Wire`], which judges each transmission at its end of frame,
+//! and its port, the bus as its front ends see it (a socketcand client, the SocketCAN
+//! interface, a scenario's trace), a [`Tracer`] around a [`Wire`], which every frame from
+//! outside crosses as it comes and every station's frame as it leaves the segment, and whose
+//! sink ([`CanTrace`]) is the bus's trace file and taps. Neither the cell loop nor the
+//! scenario rig keeps a trace or a fault of the bus's.
 
 use std::collections::VecDeque;
 
@@ -16,6 +24,7 @@ use super::fault_injector::FaultInjector;
 use super::link::{Addressed, At, Link, Wire};
 use super::station::Station;
 use super::stations::{StationId, Stations};
+use super::tracer::{CanTrace, Tracer};
 use super::wire_faults::{ActiveFault, Sender, Verdict, WireFault, WireFaultError};
 
 /// A frame on the segment as its link sees it: the frame, the station that sent it (segment
@@ -66,7 +75,9 @@ pub struct SegmentBus {
     pub(super) planned_diagnostics: Vec<(Instant, usize, super::diagnostics::Planned)>,
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
-    link: FaultInjector<Wire<SegmentFrame>>,
+    wire: FaultInjector<Wire<SegmentFrame>>,
+    /// The bus as its front ends see it: traced and tapped.
+    port: Tracer<Wire<CanFrame>, CanTrace>,
     /// When asked for ([`SegmentBus::report_outside_frames`]): the frames from outside that
     /// crossed the bus, with their end of frame and whether a drive received them.
     outside_ends: Option<Vec<(Instant, CanFrame, bool)>>,
@@ -244,7 +255,8 @@ impl SegmentBus {
             faults,
             planned: Vec::new(),
             planned_diagnostics: Vec::new(),
-            link: FaultInjector::default(),
+            wire: FaultInjector::default(),
+            port: Tracer::new(Wire::new(), CanTrace::default()),
             outside_ends: None,
         }
     }
@@ -262,6 +274,18 @@ impl SegmentBus {
             }
         }
         self
+    }
+
+    /// The bus as its front ends see it: every frame on it crosses this link once (from
+    /// outside as it comes, a station's as it leaves the segment), which traces and taps it
+    /// (its sink, a [`CanTrace`]).
+    pub fn port(&self) -> &Tracer<Wire<CanFrame>, CanTrace> {
+        &self.port
+    }
+
+    /// The bus as its front ends see it, to pass a frame, start or stop its trace, add a tap.
+    pub fn port_mut(&mut self) -> &mut Tracer<Wire<CanFrame>, CanTrace> {
+        &mut self.port
     }
 
     /// The stations on the bus, in segment order.
@@ -359,22 +383,22 @@ impl SegmentBus {
         now: Instant,
         fault: WireFault,
     ) -> Result<u32, WireFaultError> {
-        self.link.faults_mut().add(now, fault)
+        self.wire.faults_mut().add(now, fault)
     }
 
     /// Ends wire fault `id`.
     pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
-        self.link.faults_mut().remove(id)
+        self.wire.faults_mut().remove(id)
     }
 
     /// Ends every wire fault; frames already delayed still arrive.
     pub fn clear_wire_faults(&mut self) {
-        self.link.faults_mut().clear();
+        self.wire.faults_mut().clear();
     }
 
     /// The wire faults active at `now`.
     pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
-        self.link.faults_mut().active(now).to_vec()
+        self.wire.faults_mut().active(now).to_vec()
     }
 
     /// Each station's CAN controller, in segment order.
@@ -467,7 +491,7 @@ impl SegmentBus {
             self.planned.iter().map(|(t, _, _)| *t).min(),
             self.planned_diagnostics_deadline(),
         );
-        let planned = earliest(planned, self.link.deadline());
+        let planned = earliest(planned, self.wire.deadline());
         let recovery = self
             .faults
             .iter()
@@ -488,7 +512,7 @@ impl SegmentBus {
     /// Delayed frames due by `now` arrive (they have had their fault; on a timed bus they
     /// do not queue for the bus again).
     fn release_delayed(&mut self, stations: &mut Stations, now: Instant, out: &mut Vec<CanFrame>) {
-        while let Some((at, f)) = self.link.release(now) {
+        while let Some((at, f)) = self.wire.release(now) {
             while self.attempt(stations, f.origin, &f.frame, at, out, false) == Attempt::Failed {}
         }
         self.deliver(stations, now, out);
@@ -605,7 +629,7 @@ impl SegmentBus {
                 origin,
                 sender,
             };
-            self.link.cross(At::on_clock(at), &f)
+            self.wire.cross(At::on_clock(at), &f)
         } else {
             Verdict::Pass
         };
@@ -622,7 +646,7 @@ impl SegmentBus {
             members,
             queue,
             faults,
-            link,
+            wire: link,
             ..
         } = self;
         let members: &[StationId] = members;

@@ -2,7 +2,7 @@
 //! its time. What watches or disturbs the frames on the way is a link that wraps a link, as
 //! smoltcp's `phy::Tracer` and `phy::FaultInjector` wrap a device, and wrappers stack:
 //! [`crate::cell::fault_injector::FaultInjector`] applies the wire faults,
-//! `crate::trace::tracer::Tracer` copies each frame to a trace file, taps or a pcap queue. The runtime
+//! [`crate::cell::tracer::Tracer`] copies each frame to a trace file, taps or a pcap queue. The runtime
 //! holds a wrapped link where it would otherwise hold a trace, taps and faults as fields of
 //! its own; a [`Wire`] is the link itself, which carries every frame.
 //!
@@ -16,7 +16,7 @@
 //! ([`FrontLink::transmit`]). The innermost link is the peer's end: a TCP connection's
 //! [`SendBuffer`], which the runtime writes to the socket as the socket takes it, or the
 //! chain's network interface. [`crate::cell::front_fault_injector::FrontFaultInjector`] and
-//! `crate::trace::tracer::Tracer` wrap it, so the runtime holds one link per front end and
+//! [`crate::cell::tracer::Tracer`] wrap it, so the runtime holds one link per front end and
 //! no trace or fault of its own.
 
 use std::marker::PhantomData;

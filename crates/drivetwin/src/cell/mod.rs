@@ -33,6 +33,7 @@ pub mod realtime;
 pub mod station;
 pub mod stations;
 pub mod terminal;
+pub mod tracer;
 pub mod wire_faults;
 
 mod vendor_seams;

@@ -1,6 +1,6 @@
 //! The cell's CAN bus on the loop: a frame from any node (the drives, a socketcand client, the
-//! SocketCAN interface, the server joined) reaches every other node, and its link's trace and
-//! taps.
+//! SocketCAN interface, the server joined) reaches every other node, and the bus's port's
+//! trace and taps ([`crate::cell::can_segment::SegmentBus::port`]).
 
 use std::io::{self, Write};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
@@ -56,8 +56,8 @@ impl CellLoop {
             clock: cell_time(self.origin, now),
             stamp: since_epoch,
         };
-        // The loop's bus passes every frame; its link only traces and taps it.
-        bus.link.cross(at, &frame);
+        // The bus's port passes every frame; it only traces and taps it.
+        bus.segment.port_mut().cross(at, &frame);
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {

@@ -55,12 +55,12 @@ use crate::can::socketcand::{Decoder, ServerConfig};
 use crate::cell::can_segment::{CanSegment, SegmentBus};
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
-use crate::cell::link::{Link, SendBuffer, Wire};
+use crate::cell::link::{Link, SendBuffer};
 use crate::cell::stations::Stations;
+use crate::cell::tracer::Tracer;
 use crate::cell::OnBus;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
-use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 use ethercat_chains::Buses;
 
@@ -200,12 +200,11 @@ pub struct FrontEnds {
 
 /// A bus while the loop runs.
 struct BusState {
-    /// The bus between its stations, which are in the cell's list.
+    /// The bus between its stations, which are in the cell's list; its port
+    /// ([`SegmentBus::port`]) traces and taps every frame the loop carries on it.
     segment: SegmentBus,
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
-    /// The bus as the loop carries its frames: traced and tapped.
-    link: Tracer<Wire<CanFrame>, CanTrace>,
     totals: Totals,
     last_stamp: SystemTime,
     upstream: Option<Upstream>,
@@ -410,13 +409,15 @@ impl CellLoop {
                 }
                 None => None,
             };
-            let (own, segment) = bus.segment.into_parts();
+            let (own, mut segment) = bus.segment.into_parts();
+            if let Some(trace) = bus.trace {
+                segment.port_mut().sink_mut().start(Box::new(trace));
+            }
             buses.push(BusState {
                 upstream,
                 segment: segment.join(own, &mut stations),
                 socketcand,
                 socketcan: bus.socketcan,
-                link: Tracer::new(Wire::new(), CanTrace::new(bus.trace)),
                 totals: Totals::default(),
                 last_stamp: UNIX_EPOCH,
             });
@@ -686,8 +687,12 @@ impl CellLoop {
             self.samples(now);
             self.flush_dirty();
             if events.is_empty() {
-                for bus in self.buses.iter_mut().filter(|b| b.link.unflushed()) {
-                    bus.link.flush();
+                for bus in self
+                    .buses
+                    .iter_mut()
+                    .filter(|b| b.segment.port().unflushed())
+                {
+                    bus.segment.port_mut().flush();
                 }
             }
             if let Some(e) = self.load_failure() {
@@ -700,7 +705,7 @@ impl CellLoop {
         }
         if let Some(e) = load_failure {
             for bus in &mut self.buses {
-                bus.link.flush();
+                bus.segment.port_mut().flush();
             }
             return Err(io::Error::other(e));
         }
@@ -709,7 +714,7 @@ impl CellLoop {
             .buses
             .into_iter()
             .map(|mut b| {
-                b.link.flush();
+                b.segment.port_mut().flush();
                 CanSegment::gather(b.segment, &mut stations)
             })
             .collect())
@@ -736,7 +741,7 @@ impl CellLoop {
         };
         for bus in &self.buses {
             take(bus.segment.deadline(&self.stations).map(|d| self.wall(d)));
-            if bus.link.unflushed() {
+            if bus.segment.port().unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
         }

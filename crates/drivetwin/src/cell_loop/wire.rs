@@ -1,9 +1,10 @@
 //! The wire's side of the cell loop ([`crate::cell::wire_faults`]): faults of a bus go to its
-//! cell; those of a Modbus server, an EtherCAT chain or a single socketcand client to the
+//! wire ([`crate::cell::can_segment::SegmentBus`]); those of a Modbus server, an EtherCAT chain or a single socketcand client to the
 //! [`FrontFaultInjector`] wrapping that front end's link, which holds the frames they delay
 //! until the loop releases them, across front ends in the order they arrived; traces of a bus
 //! started and stopped while the cell runs, and taps that see every frame of a bus, on the
-//! bus's link ([`crate::trace::tracer::Tracer`]).
+//! bus's port ([`crate::cell::can_segment::SegmentBus::port`], a
+//! [`crate::cell::tracer::Tracer`]): the bus holds its faults and its trace, the loop neither.
 
 use std::time::Instant;
 
@@ -174,13 +175,13 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                if b.link.sink_mut().is_tracing() {
+                if b.segment.port_mut().sink_mut().is_tracing() {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
                 let w = TraceWriter::create_for_bus(&path, &channel, b.segment.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
-                b.link.sink_mut().start(w);
+                b.segment.port_mut().sink_mut().start(Box::new(w));
                 Ok(WireAnswer::Done)
             }
             WireRequest::StopTrace { bus } => {
@@ -188,7 +189,12 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                let mut w = b.link.sink_mut().stop().ok_or(WireError::NoTrace(bus))?;
+                let mut w = b
+                    .segment
+                    .port_mut()
+                    .sink_mut()
+                    .stop()
+                    .ok_or(WireError::NoTrace(bus))?;
                 w.flush().map_err(|e| WireError::Trace(e.to_string()))?;
                 Ok(WireAnswer::Done)
             }
@@ -207,7 +213,7 @@ impl CellLoop {
                     .buses
                     .get_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                b.link.sink_mut().tap(frames);
+                b.segment.port_mut().sink_mut().tap(frames);
                 Ok(WireAnswer::Done)
             }
         }

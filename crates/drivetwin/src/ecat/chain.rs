@@ -1400,7 +1400,7 @@ pub type FrameTap = std::sync::mpsc::SyncSender<TracedFrame>;
 
 /// A chain's frames copied to the trace's queue: the copy is stamped with the wall clock when
 /// it is taken (read only while tracing), as the pcap beside other captures wants.
-impl crate::trace::tracer::TraceSink<[u8]> for Option<FrameTap> {
+impl crate::cell::tracer::TraceSink<[u8]> for Option<FrameTap> {
     fn write(&mut self, _: crate::cell::link::At, frame: &[u8]) {
         if let Some(tap) = self {
             let copy = TracedFrame {

@@ -2,7 +2,8 @@
 //! of one [`CanCell`] as the cell loop holds them, stepped from one deadline to the next as
 //! [`crate::cell_loop::virtual_clock::run_virtual`] does, with the scenario's actions between; every
 //! frame of the first bus optionally to a trace whose time stamps are the virtual clock's (so
-//! two runs give the same file).
+//! two runs give the same file), the trace of that bus's port
+//! ([`crate::cell::can_segment::SegmentBus::port`]) as in the cell loop.
 //!
 //! Decisions: at one instant the buses are polled in their order, so a run is the same bit
 //! for bit; a step's `node` is looked up on the buses in order (the first bus that has it),
@@ -19,12 +20,11 @@ use super::runner::Rig;
 use crate::cell::can_cell::CanCell;
 use crate::cell::can_segment::SegmentBus;
 use crate::cell::config::CellFile;
-use crate::cell::link::{At, Link, Wire};
+use crate::cell::link::{At, Link};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
 use crate::cell::station::Station;
 use crate::cell::{OnBus, Vendors};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
-use crate::trace::tracer::{CanTrace, Tracer};
 use crate::trace::TraceWriter;
 
 /// Steps at one instant before the clock is taken as stuck.
@@ -35,8 +35,6 @@ pub struct VirtualRig {
     cell: CanCell,
     now: Instant,
     out: Vec<CanFrame>,
-    /// The first bus, traced (see [`VirtualRig::trace_to`]).
-    first_bus: Tracer<Wire<CanFrame>, CanTrace>,
     /// The inputs each drive has forced so far: (mask, levels), per bus and drive.
     forced: Vec<Vec<(u16, u16)>>,
     /// Frames sent and not yet seen, with their bus.
@@ -150,7 +148,6 @@ impl VirtualRig {
             cell,
             now: Instant::ZERO,
             out: Vec::new(),
-            first_bus: Tracer::new(Wire::new(), CanTrace::new(None)),
             forced,
             pending: Vec::new(),
             modbus,
@@ -166,9 +163,12 @@ impl VirtualRig {
     /// Every frame of the first bus into `path` (pcap; `*.log`: candump), stamped with the
     /// virtual clock.
     pub fn trace_to(&mut self, path: &Path) -> std::io::Result<()> {
-        self.first_bus
-            .sink_mut()
-            .start(TraceWriter::create(path, "vcan0")?);
+        let mut file = TraceWriter::create(path, "vcan0")?;
+        match self.cell.bus_mut(0) {
+            Some(bus) => bus.port_mut().sink_mut().start(Box::new(file)),
+            // A cell without a CAN bus: a trace without frames.
+            None => file.flush()?,
+        }
         Ok(())
     }
 
@@ -187,7 +187,11 @@ impl VirtualRig {
 
     /// Ends the trace (the file complete).
     pub fn finish(&mut self) -> std::io::Result<()> {
-        match self.first_bus.sink_mut().stop() {
+        match self
+            .cell
+            .bus_mut(0)
+            .and_then(|b| b.port_mut().sink_mut().stop())
+        {
             Some(mut w) => w.flush(),
             None => Ok(()),
         }
@@ -203,9 +207,9 @@ impl VirtualRig {
     fn flush(&mut self, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
         let t = Duration::from_nanos(self.now.as_nanos());
         for (b, f) in self.pending.drain(..) {
-            if b == 0 {
-                // The first bus passes every frame; its link only traces it.
-                self.first_bus.cross(At::on_clock(self.now), &f);
+            if let Some(bus) = self.cell.bus_mut(b) {
+                // The bus's port passes every frame; it only traces it.
+                bus.port_mut().cross(At::on_clock(self.now), &f);
             }
             seen(b, t, &f);
         }
