@@ -18,8 +18,9 @@ use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
+use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
-use drivetwin::ecat::chain::{own_drive, SlaveChain};
+use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
 use drivetwin::modbus_tcp::server::ModbusConfig;
 use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
@@ -230,4 +231,45 @@ fn can_ethercat_and_modbus_inputs_give_the_same_outputs_bit_for_bit() {
         scons.iter().any(|s| s & 0x01 != 0),
         "the CMMO-ST is enabled (SCON.ENABLED): {scons:02X?}"
     );
+}
+
+/// A slave whose drive is a CANopen node of the cell's second bus (`allow_unreal_interfaces`)
+/// reaches that very station on the virtual clock: the chain joins the cell's list and names
+/// it by id, as in the cell loop. A profile velocity written over CoE is the one the CAN
+/// side's dictionary holds.
+#[test]
+fn a_slave_reaches_its_drive_on_the_second_bus() {
+    let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+    let station = |node| {
+        Station::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
+    };
+    let mut cell = CanCell::from_segments([
+        CanSegment::new(vec![station(1)]),
+        CanSegment::new(vec![station(2)]),
+    ]);
+    let mut chain = SlaveChain::empty();
+    chain
+        .push(desc, SlaveDrive::OnBus(OnBus { bus: 1, drive: 0 }))
+        .expect("slave");
+    let mut chains = vec![chain];
+    run_virtual_mixed(
+        &mut cell,
+        &mut [],
+        &mut chains,
+        &ethercat_inputs(7),
+        Duration::from_millis(400),
+        &mut |_, _| {},
+    );
+    assert!(matches!(
+        chains[0].drive(0),
+        Some(SlaveDrive::Station { bus: Some(1), .. })
+    ));
+    let on_bus = |bus| {
+        let d = cell.station(OnBus { bus, drive: 0 }).expect("station");
+        let mut v = [0u8; 4];
+        od::ObjectAccess::read(&d.model, 0x60FF, 0, &mut v).expect("60FFh");
+        i32::from_le_bytes(v)
+    };
+    assert_eq!(on_bus(1), 300_000, "written over CoE");
+    assert_eq!(on_bus(0), 0, "the first bus's drive is another");
 }
