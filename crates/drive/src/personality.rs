@@ -42,7 +42,7 @@ pub trait Vendor: Sized {
 
     /// The controller parameters as the drive's objects give them.
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
-        crate::drive::control_params_of(d.od(), Self::MANUFACTURER_OBJECTS)
+        crate::drive::control_params_of::<S, Self>(d.od())
     }
 
     /// Each logic cycle before device control: inputs that own the controlword or the mode.
@@ -182,11 +182,42 @@ pub trait Vendor: Sized {
         false
     }
 
+    /// After the reference point the drive travels to the position 0 (at 6099h:01 search
+    /// speed) before homing is attained. `false`, CiA 402's default: homing ends at the
+    /// reference point, which then reads 607Ch home_offset.
+    fn homing_to_zero<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
+
+    /// How long homing may run before it fails ([`HomingError::Timeout`]). `None`, CiA 402's
+    /// default: the profile names no homing timeout.
+    fn homing_timeout<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+    ) -> Option<core::time::Duration> {
+        None
+    }
+
+    /// How long a homing on a hard stop lets the shaft settle before the position where it
+    /// stands is the reference (with [`Capabilities::homing_immediate`]). CiA 402's default:
+    /// at once.
+    fn homing_block_settle<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+    ) -> core::time::Duration {
+        core::time::Duration::ZERO
+    }
+
     /// Halt (controlword bit 8) during homing aborts it with statusword bit 13
     /// homing_error. `false`, CiA 402's default: halt interrupts homing, which reads as
     /// "interrupted or not started" (bits 13, 12 and 10 = 0, 0, 1 once stopped), not as an
     /// error.
     const HALT_IS_HOMING_ERROR: bool = false;
+
+    /// Where the drive shows its power stage among the manufacturer's objects (the drive data
+    /// 6510h CiA 402 leaves to the manufacturer): the DC link beside 6079h, the peak current
+    /// and the controllers' cycle times. `None`, CiA 402's default: 6079h
+    /// dc_link_circuit_voltage alone shows the supply, and the power stage has the engine's
+    /// defaults ([`ControlParams::default`]).
+    const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = None;
 
     /// The DC-link voltage in mV below which the drive reports its
     /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
@@ -227,6 +258,20 @@ pub trait Vendor: Sized {
     fn factor_limit(_object: FactorObject) -> Option<u32> {
         None
     }
+}
+
+/// The objects a vendor shows its power stage in, each `(index, sub)` of an unsigned value
+/// ([`Vendor::POWER_STAGE_OBJECTS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PowerStageObjects {
+    /// The nominal DC-link voltage, mV: what the supply gives while no other voltage is set.
+    pub nominal_dc_link_voltage: (u16, u8),
+    /// The DC-link voltage the drive measures, mV, written with 6079h.
+    pub actual_dc_link_voltage: (u16, u8),
+    /// The device's peak current, mA.
+    pub peak_current: (u16, u8),
+    /// The cycle times of the current, velocity and position controllers, µs.
+    pub cycle_times: [(u16, u8); 3],
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).

@@ -9,6 +9,8 @@
 pub mod ci_terminal;
 pub mod display;
 pub mod error_management;
+pub mod factor_limit;
+pub mod interpolation_period;
 pub mod messages;
 
 use od::{AbortCode, ObjectAccess, Value};
@@ -19,11 +21,11 @@ use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
-use crate::factor_group::{FactorObject, FACTOR_LIMIT};
+use crate::factor_group::FactorObject;
 use crate::homing::{HomingError, METHODS};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, PlantSupervision, Vendor,
+    OptionCode, Personality, PlantSupervision, PowerStageObjects, Vendor,
 };
 use crate::statusword::Statusword;
 use error_management::ErrorManagement;
@@ -201,6 +203,16 @@ impl Vendor for CmmpAs {
     /// Ch. 6: halt aborts homing and sets homing_error (statusword bit 13).
     const HALT_IS_HOMING_ERROR: bool = true;
 
+    /// The drive data 6510h: :33 nominal_dc_link_circuit_voltage, :34
+    /// actual_dc_link_circuit_voltage, :41 peak_current (the bound of 6073h max_current), :B0
+    /// … :B2 the cycle times of the current, velocity and position controllers (§5.17).
+    const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = Some(PowerStageObjects {
+        nominal_dc_link_voltage: (0x6510, 0x33),
+        actual_dc_link_voltage: (0x6510, 0x34),
+        peak_current: (0x6510, 0x41),
+        cycle_times: [(0x6510, 0xB0), (0x6510, 0xB1), (0x6510, 0xB2)],
+    });
+
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&CMMP_AS, CmmpAs::default())
     }
@@ -260,9 +272,23 @@ impl Vendor for CmmpAs {
         d.value(0x6510, 0x38) == 1
     }
 
+    /// §7.2: 6510h:F0 bit 6 homing_to_zero: after the reference point the drive travels to
+    /// the zero position.
+    fn homing_to_zero<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.value(0x6510, 0xF0) & 0x0040 != 0
+    }
+
+    /// §7.2.2: 2045h homing_timeout in ms, 0 off.
+    fn homing_timeout<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+    ) -> Option<core::time::Duration> {
+        let ms = d.value(0x2045, 0).max(0) as u64;
+        (ms > 0).then(|| core::time::Duration::from_millis(ms))
+    }
+
     /// §7.4.2: index −3 with 1…10 ms, index −4 with 10…100 × 0.1 ms.
     fn ip_period(units: u8, index: i8) -> Option<core::time::Duration> {
-        crate::interpolated_position::period_from_60c2(units, index)
+        interpolation_period::period_from_60c2(units, index)
     }
 
     /// §7.4.2: 60C1h is locked after power-on until 60C4h:06 buffer_clear = 1 is written.
@@ -270,10 +296,9 @@ impl Vendor for CmmpAs {
         false
     }
 
-    /// §5.3: "position_factor must not exceed 2²⁴" (L2504), "velocity_encoder_factor must
-    /// not exceed 2²⁴" (L2573); nothing is printed for acceleration_factor.
+    /// §5.3: 2²⁴ on 6093h and 6094h ([`factor_limit`](factor_limit::factor_limit)).
     fn factor_limit(object: FactorObject) -> Option<u32> {
-        object.has_limit().then_some(FACTOR_LIMIT)
+        factor_limit::factor_limit(object)
     }
 
     fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(

@@ -352,6 +352,13 @@ impl Vendor for Nanotec {
         (&NANOTEC, Nanotec::default())
     }
 
+    /// §5.3 (−2 / −3): on the block the position is set after the settle time 2004h:05 (ms).
+    fn homing_block_settle<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+    ) -> core::time::Duration {
+        core::time::Duration::from_millis(d.value(0x2004, 5).max(0) as u64)
+    }
+
     fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
         d.nanotec_power_on();
     }
