@@ -1121,12 +1121,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
             // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
-            let decel = if self.limit_stop && !V::MANUFACTURER_OBJECTS {
-                // A limit switch stops with the quick-stop deceleration 6085h where the
-                // drive data 6510h has no limit-switch ramp of the vendor's.
-                self.accel(0x6085)
-            } else if self.limit_stop {
-                self.accel2(0x6510, 0x15)
+            let decel = if self.limit_stop {
+                // A limit switch, or braking with maximum current: the vendor's ramp.
+                V::emergency_deceleration(self)
             } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §6.1).

@@ -7,6 +7,7 @@
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::digital_inputs::SwitchConfig;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
@@ -114,6 +115,13 @@ pub trait Vendor: Sized {
         d.switch_config().digital_inputs(d.input_levels(position))
     }
 
+    /// How the drive reads its limit and home switches (polarity, which input is which).
+    /// CiA 402's default: as wired, every switch normally open (the profile's homing
+    /// methods name the switch, 60FDh shows it).
+    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> SwitchConfig {
+        SwitchConfig::default()
+    }
+
     /// The limit and home switches as the drive reads them at `position`.
     fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
         d.switch_config().switches(d.input_levels(position))
@@ -180,6 +188,13 @@ pub trait Vendor: Sized {
     /// where the position is 0.
     fn homing_to_offset_point<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
         false
+    }
+
+    /// The deceleration, increments/s², of the stop a limit switch starts and of a fault
+    /// reaction that brakes with maximum current. CiA 402's default: 6085h
+    /// quick_stop_deceleration.
+    fn emergency_deceleration<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> f64 {
+        d.accel(0x6085)
     }
 
     /// After the reference point the drive travels to the position 0 (at 6099h:01 search
@@ -361,8 +376,6 @@ pub struct Capabilities {
     /// Homing accelerates with 609Ah only when starting; at the switch the speed changes
     /// at once, at the end the motor stops at once (Nanotec ch. 5).
     pub homing_immediate: bool,
-    /// The switches are read through 6510h:11 … :14 (CMMP-AS §5.14); otherwise as wired.
-    pub switch_polarity_objects: bool,
     /// 60FEh:01 bit 0 is the holding brake (CMMP-AS §5.13).
     pub brake_in_60fe: bool,
     /// An acceleration or deceleration of 0 means no ramp (the set-point steps) instead of

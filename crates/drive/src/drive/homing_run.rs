@@ -228,10 +228,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     /// The reference point at encoder position `at` gets the value 607Ch home_offset.
     ///
-    /// Decision: the manual's Fig. 7.2 calls 607Ch "the offset of the zero position from the
-    /// reference point" without a sign convention; as CiA 402 masters expect, the position
-    /// at the reference point reads home_offset afterwards (and "zero" lies home_offset
-    /// before it).
+    /// Decision: CiA 402 calls 607Ch home_offset the offset of the zero position from the
+    /// reference point without a sign convention (so does the CMMP-AS's Fig. 7.2); as CiA 402
+    /// masters expect, the position at the reference point reads home_offset afterwards (and
+    /// "zero" lies home_offset before it).
     fn set_reference(&mut self, at: i64) {
         let home = self
             .value(0x607C, 0)

@@ -10,6 +10,7 @@ pub mod ci_terminal;
 pub mod display;
 pub mod error_management;
 pub mod factor_limit;
+pub mod homing_methods;
 pub mod interpolation_period;
 pub mod messages;
 
@@ -17,18 +18,20 @@ use od::{AbortCode, ObjectAccess, Value};
 
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::digital_inputs::SwitchConfig;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
 use crate::factor_group::FactorObject;
-use crate::homing::{HomingError, METHODS};
+use crate::homing::HomingError;
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
     OptionCode, Personality, PlantSupervision, PowerStageObjects, Vendor,
 };
 use crate::statusword::Statusword;
 use error_management::ErrorManagement;
+use homing_methods::METHODS;
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
 pub mod diag {
@@ -150,7 +153,6 @@ pub const CMMP_AS: Personality = Personality {
         ip_changing_until_synchronised: true,
         ip_abrupt_quick_stop: false,
         homing_immediate: false,
-        switch_polarity_objects: true,
         brake_in_60fe: true,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: false,
@@ -270,6 +272,25 @@ impl Vendor for CmmpAs {
     /// 31-0 I²t motor (§5.5) where 6510h:38 iit_error_enable is 1.
     fn i2t_is_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
         d.value(0x6510, 0x38) == 1
+    }
+
+    /// §5.14: the switches as 6510h:11 limit_switch_polarity, :12 limit_switch_selector,
+    /// :13 homing_switch_selector and :14 homing_switch_polarity set them.
+    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> SwitchConfig {
+        SwitchConfig::from_objects(
+            d.value(0x6510, 0x11),
+            d.value(0x6510, 0x12),
+            d.value(0x6510, 0x13),
+            d.value(0x6510, 0x14),
+        )
+    }
+
+    /// §5.14: a limit switch (B.3 43-0 / 43-1) stops with 6510h:15
+    /// limit_switch_deceleration, the "limit switch emergency stop ramp". Decision: "brake
+    /// with maximum current" uses the same ramp (2 000 000 min⁻¹/s by default), which the
+    /// current limit caps.
+    fn emergency_deceleration<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> f64 {
+        d.accel2(0x6510, 0x15)
     }
 
     /// §7.2: 6510h:F0 bit 6 homing_to_zero: after the reference point the drive travels to

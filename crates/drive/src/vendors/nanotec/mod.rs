@@ -116,7 +116,6 @@ pub const NANOTEC: Personality = Personality {
         ip_changing_until_synchronised: false,
         ip_abrupt_quick_stop: true,
         homing_immediate: true,
-        switch_polarity_objects: false,
         brake_in_60fe: false,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: true,
