@@ -16,7 +16,7 @@ use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{Interpolator, SyncChange};
 use crate::motor::MotorData;
-use crate::personality::{self, ErrorReaction, Fault, Personality, Vendor};
+use crate::personality::{self, ErrorReaction, Fault, Personality, PowerStageObjects, Vendor};
 use crate::profile_position::{Job, Request, SetPoints};
 use crate::smoothing::Smoother;
 use crate::statusword::Statusword;
@@ -546,7 +546,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         personality: &'static Personality,
         vendor: V,
     ) -> Self {
-        publish_supply(&mut od, None, V::MANUFACTURER_OBJECTS);
+        publish_supply::<S, V>(&mut od, None);
         let desc = od.description();
         let e = |i: u16, s| {
             if V::MANUFACTURER_OBJECTS || !manufacturer_object(i) {
@@ -580,7 +580,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
             *slot = e(*i, *s);
         }
-        let params = control_params_of(&od, V::MANUFACTURER_OBJECTS);
+        let params = control_params_of::<S, V>(&od);
         let axis = Axis::new(settings.motor, params);
         let cycle = Duration::from_micros(u64::from(params.cycletime_current_us.max(1)));
         let logic_every = axis.gains().pos_every.max(1);
@@ -748,7 +748,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The dictionary's values changed behind the drive's back (restore, reload after a
     /// reset): re-read what the drive caches.
     pub fn reload(&mut self) {
-        publish_supply(&mut self.od, self.dc_link_mv, V::MANUFACTURER_OBJECTS);
+        publish_supply::<S, V>(&mut self.od, self.dc_link_mv);
         self.reload_factor_group();
         self.reset_interpolator();
         self.params_dirty = true;
@@ -1121,12 +1121,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if self.stopping || matches!(state, State::QuickStopActive | State::FaultReactionActive) {
             // Quick stop / disable operation / fault reaction: 6085h ramp, then the state
             // machine moves on (transitions 12, 14) or holds (SWITCHED ON).
-            let decel = if self.limit_stop && !V::MANUFACTURER_OBJECTS {
-                // A limit switch stops with the quick-stop deceleration 6085h where the
-                // drive data 6510h has no limit-switch ramp of the vendor's.
-                self.accel(0x6085)
-            } else if self.limit_stop {
-                self.accel2(0x6510, 0x15)
+            let decel = if self.limit_stop {
+                // A limit switch, or braking with maximum current: the vendor's ramp.
+                V::emergency_deceleration(self)
             } else if let Some(ramp) = self.vl_ramp(0x604A).filter(|_| self.mode == mode::VELOCITY)
             {
                 // VL brakes with its own quick-stop ramp 604Ah (Nanotec §6.1).
@@ -1218,42 +1215,53 @@ pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
 /// The interpolation period of the default 60C2h (1 × 10⁻³ s).
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
-/// The DC link voltage the drive measures, 6510h:34 and 6079h: `mv`, or without it the
-/// nominal voltage 6510h:33 (an ideal supply); 6079h alone where the vendor gives 6510h no
-/// meaning (`drive_data` false).
-fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>>(
+/// The DC link voltage the drive measures, in 6079h dc_link_circuit_voltage (CiA 402) and
+/// where the vendor has one its own object ([`Vendor::POWER_STAGE_OBJECTS`]): `mv`, or
+/// without it the nominal voltage (an ideal supply: the vendor's nominal object, else the
+/// engine's 325 V).
+fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     od: &mut ObjectDictionary<S>,
     mv: Option<u32>,
-    drive_data: bool,
 ) {
-    let stored = || drive_data.then(|| od.get_unsigned(0x6510, 0x33)).flatten();
+    let objects = V::POWER_STAGE_OBJECTS;
+    let stored = || {
+        objects.and_then(|o| {
+            let (index, sub) = o.nominal_dc_link_voltage;
+            od.get_unsigned(index, sub)
+        })
+    };
     let nominal = mv
         .map(u64::from)
         .unwrap_or_else(|| stored().unwrap_or(325_000));
-    if drive_data {
-        let _ = od.set_value(0x6510, 0x34, Value::Unsigned(nominal));
+    if let Some(o) = objects {
+        let (index, sub) = o.actual_dc_link_voltage;
+        let _ = od.set_value(index, sub, Value::Unsigned(nominal));
     }
     let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
 }
 
-/// The controller parameters the dictionary holds (CMMP-AS §5.5–5.8).
-pub fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(od: &ObjectDictionary<S>) -> ControlParams {
-    control_params_of(od, true)
-}
-
-/// [`control_params`], the manufacturer-specific objects ([`manufacturer_object`]) read only
-/// with `manufacturer` (else their defaults).
-pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>>(
+/// The controller parameters the dictionary holds: CiA 402's current, velocity and
+/// position control parameter sets (60F6h, 60F9h, 60FBh), motor data (6075h, 6073h, 6410h,
+/// 6080h), and the vendor's power stage ([`Vendor::POWER_STAGE_OBJECTS`]); the
+/// manufacturer-specific objects ([`manufacturer_object`]) read only for a vendor that gives
+/// them a meaning (else their defaults).
+pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     od: &ObjectDictionary<S>,
-    manufacturer: bool,
 ) -> ControlParams {
     let d = ControlParams::default();
     let u = |i: u16, s: u8, dflt: u64| {
-        if manufacturer || !manufacturer_object(i) {
+        if V::MANUFACTURER_OBJECTS || !manufacturer_object(i) {
             od.get_unsigned(i, s).unwrap_or(dflt)
         } else {
             dflt
         }
+    };
+    let power_stage = V::POWER_STAGE_OBJECTS;
+    let stage = |pick: fn(&PowerStageObjects) -> (u16, u8), dflt: u32| {
+        power_stage.map_or(dflt, |o| {
+            let (index, sub) = pick(&o);
+            u(index, sub, dflt.into()) as u32
+        })
     };
     ControlParams {
         motor_rated_current_ma: u(0x6075, 0, d.motor_rated_current_ma.into()) as u32,
@@ -1274,12 +1282,15 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>>(
             as u32,
         max_motor_speed_rpm: u(0x6080, 0, d.max_motor_speed_rpm.into()) as u32,
         limit_current_ma: None,
-        nominal_dc_link_voltage_mv: u(0x6510, 0x33, d.nominal_dc_link_voltage_mv.into()) as u32,
-        dc_link_voltage_mv: u(0x6510, 0x34, d.dc_link_voltage_mv.into()) as u32,
-        peak_current_ma: u(0x6510, 0x41, d.peak_current_ma.into()) as u32,
-        cycletime_current_us: u(0x6510, 0xB0, d.cycletime_current_us.into()) as u32,
-        cycletime_velocity_us: u(0x6510, 0xB1, d.cycletime_velocity_us.into()) as u32,
-        cycletime_position_us: u(0x6510, 0xB2, d.cycletime_position_us.into()) as u32,
+        nominal_dc_link_voltage_mv: stage(
+            |o| o.nominal_dc_link_voltage,
+            d.nominal_dc_link_voltage_mv,
+        ),
+        dc_link_voltage_mv: stage(|o| o.actual_dc_link_voltage, d.dc_link_voltage_mv),
+        peak_current_ma: stage(|o| o.peak_current, d.peak_current_ma),
+        cycletime_current_us: stage(|o| o.cycle_times[0], d.cycletime_current_us),
+        cycletime_velocity_us: stage(|o| o.cycle_times[1], d.cycletime_velocity_us),
+        cycletime_position_us: stage(|o| o.cycle_times[2], d.cycletime_position_us),
         filters: d.filters,
     }
 }

@@ -1,8 +1,13 @@
-//! CiA 402 factor group of the Festo CMMP-AS (manual GDCP-CMMP-M3/-M0-C-CO-RU §5.3, lines
-//! L2427–2704 of its text kept beside the project; English edition p.80–89): conversion between the
-//! user units of the bus objects and the drive's internal units.
+//! The CiA 402 factor group (6093h position_factor, 6094h velocity_encoder_factor, 6097h
+//! acceleration_factor, each numerator sub 01 / divisor sub 02, and 607Eh polarity):
+//! conversion between the user units of the bus objects and the drive's internal units.
 //!
-//! # Internal units (Tab. 5.3, L2440–2447; 6093h L2459, 6094h L2534, 6097h L2608)
+//! # Internal units
+//!
+//! CiA 402 leaves the internal units to the drive. Decision: the engine's are those of the
+//! first drive it served (the CMMP-AS, its §5.3 Tab. 5.3, kept beside the project as the
+//! manual's extract), so that its factor-group objects are the device's own and its worked
+//! examples (vectors `CMMP-FG-*`) check the conversions; every other drive converts to them.
 //!
 //! | Quantity     | Internal unit                                  |
 //! |--------------|------------------------------------------------|
@@ -12,17 +17,16 @@
 //!
 //! # Direction
 //!
-//! `internal = user × numerator / divisor` on write, the inverse on read. The manual's worked
-//! examples confirm the direction: with 6093h = 4096/225 (user unit 1/10°, Tab. 5.5) the user
-//! value 3600 (360.0°) is 3600 × 4096 / 225 = 65536 increments, one revolution; and 6093h "converts
-//! … from position_units into increments" (L2459).
+//! `internal = user × numerator / divisor` on write, the inverse on read: 6093h converts
+//! position units into increments. With 6093h = 4096/225 (user unit 1/10°) the user value
+//! 3600 (360.0°) is 3600 × 4096 / 225 = 65536 increments, one revolution.
 //!
-//! # Rounding policy (the manual states none)
+//! # Rounding policy (CiA 402 states none)
 //!
 //! Every conversion is computed exactly in `i128` and rounded once, **to the nearest integer,
 //! ties away from zero**. Because the rule is symmetric in sign, flipping a polarity flag
 //! negates the result exactly. Consequences:
-//! * with a factor ≥ 1 (every position/velocity example of the manual except 1/100 rev/min²),
+//! * with a factor ≥ 1 (every position/velocity example of the `CMMP-FG-*` vectors except 1/100 rev/min²),
 //!   user → internal → user returns the user value unchanged;
 //! * with a factor ≤ 1, internal → user → internal returns the internal value unchanged.
 //!
@@ -35,14 +39,11 @@
 //! infinite factor: the result saturates by the sign of the value (0 stays 0). No input panics.
 //! For error-returning arithmetic use [`Ratio::scale`] / [`Ratio::unscale`].
 //!
-//! # Polarity 607Eh (L2683–2704, English p.80 Fig. 5.2 and p.89)
+//! # Polarity 607Eh
 //!
-//! Bit 7 (80h) `position_polarity_flag`, bit 6 (40h) `velocity_polarity_flag`; a set bit
-//! multiplies by −1 on every read and write. The manual says the flags set "the sign of the
-//! position and velocity values" (L2685) and the factor-group figure (Fig. 5.2, English p.80)
-//! puts `position_polarity_flag` only in the position path and `velocity_polarity_flag` only
-//! in the velocity path; the acceleration path has none. Decision (manual + CiA 402, which
-//! applies the flags to signed set-points and actual values only):
+//! Bit 7 (80h) position polarity, bit 6 (40h) velocity polarity (CiA 402 607Eh polarity); a
+//! set bit multiplies by −1 on every read and write. CiA 402 applies the flags to signed
+//! set-points and actual values only:
 //! * position flag → signed position values: 607Ah target_position, 6062h
 //!   position_demand_value, 6064h position_actual_value, 60F4h following_error_actual_value,
 //!   60C1h:01 ip_data_position — use [`FactorGroup::position_to_internal`] /
@@ -55,18 +56,16 @@
 //!   6084h, 6085h, 609Ah).
 //!
 //! The flags act on access only: values already stored internally are not converted when
-//! 607Eh or a factor changes (L2436–2438, L2689). The manual lists the range
-//! 40h, 80h, C0h with default 0; [`FactorGroup::validate`] accepts 0, 40h, 80h, C0h and refuses
+//! 607Eh or a factor changes. [`FactorGroup::validate`] accepts 0, 40h, 80h, C0h and refuses
 //! the reserved bits 0–5.
 //!
-//! # Limits (L2504, L2573)
+//! # Limits
 //!
-//! "position_factor must not exceed 2²⁴" (L2504) and "velocity_encoder_factor must not exceed
-//! 2²⁴" (L2573): the *quotient* numerator/divisor is limited, so 2²⁴ itself is allowed and
-//! 01000001h/2 is allowed, 01000001h/1 is not (vector CMMP-FG-18). The manual prints no limit
-//! for acceleration_factor (L2641–2645), so none is enforced for 6097h. A zero divisor is
+//! CiA 402 gives each factor two UNSIGNED32 and no bound on their quotient; a zero divisor is
 //! refused for all three objects, and so is a zero numerator (a zero factor cannot be
-//! inverted on read; the manual does not mention it).
+//! inverted on read). A drive whose manual bounds the quotient says so through its vendor's
+//! hook ([`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)), which the
+//! `*_within` checks take.
 
 use core::fmt;
 
@@ -76,25 +75,22 @@ pub const INCREMENTS_PER_REVOLUTION: u32 = 65_536;
 pub const VELOCITY_UNITS_PER_RPM: u32 = 4096;
 /// Internal acceleration units per min⁻¹/s (internal unit 1/256 min⁻¹/s).
 pub const ACCELERATION_UNITS_PER_RPM_PER_S: u32 = 256;
-/// Upper limit (inclusive) of position_factor and velocity_encoder_factor (L2504, L2573).
-pub const FACTOR_LIMIT: u32 = 1 << 24;
-
 /// 607Eh bit 7: position_polarity_flag.
 pub const POSITION_POLARITY_FLAG: u8 = 0x80;
 /// 607Eh bit 6: velocity_polarity_flag.
 pub const VELOCITY_POLARITY_FLAG: u8 = 0x40;
 
-/// time_factor_v for speeds per minute: 1 min⁻¹ = 4096 internal (Tab. 5.7).
+/// time_factor_v for speeds per minute: 1 min⁻¹ = 4096 internal.
 pub const TIME_FACTOR_V_PER_MINUTE: Ratio = Ratio::new(VELOCITY_UNITS_PER_RPM, 1);
-/// time_factor_v for speeds per second: 1 s⁻¹ = 60 min⁻¹ = 60 × 4096 internal (Tab. 5.7).
+/// time_factor_v for speeds per second: 1 s⁻¹ = 60 min⁻¹ = 60 × 4096 internal.
 pub const TIME_FACTOR_V_PER_SECOND: Ratio = Ratio::new(60 * VELOCITY_UNITS_PER_RPM, 1);
-/// time_factor_a for min⁻¹/s: 1 min⁻¹/s = 256 internal (Tab. 5.9).
+/// time_factor_a for min⁻¹/s: 1 min⁻¹/s = 256 internal.
 pub const TIME_FACTOR_A_PER_MINUTE_PER_SECOND: Ratio =
     Ratio::new(ACCELERATION_UNITS_PER_RPM_PER_S, 1);
-/// time_factor_a for s⁻²: 1 s⁻² = 60 min⁻¹/s = 60 × 256 internal (Tab. 5.9).
+/// time_factor_a for s⁻²: 1 s⁻² = 60 min⁻¹/s = 60 × 256 internal.
 pub const TIME_FACTOR_A_PER_SECOND_SQUARED: Ratio =
     Ratio::new(60 * ACCELERATION_UNITS_PER_RPM_PER_S, 1);
-/// time_factor_a for min⁻²: 1 min⁻² = 1/60 min⁻¹/s = 256/60 internal (Tab. 5.9, English p.87).
+/// time_factor_a for min⁻²: 1 min⁻² = 1/60 min⁻¹/s = 256/60 internal.
 pub const TIME_FACTOR_A_PER_MINUTE_SQUARED: Ratio =
     Ratio::new(ACCELERATION_UNITS_PER_RPM_PER_S, 60);
 
@@ -119,19 +115,13 @@ impl FactorObject {
         }
     }
 
-    /// The object name as printed in the manual.
+    /// The object name as CiA 402 prints it.
     pub const fn name(self) -> &'static str {
         match self {
             Self::Position => "position_factor",
             Self::Velocity => "velocity_encoder_factor",
             Self::Acceleration => "acceleration_factor",
         }
-    }
-
-    /// Whether the manual limits this factor to 2²⁴ (6093h L2504, 6094h L2573; nothing is
-    /// printed for 6097h).
-    pub const fn has_limit(self) -> bool {
-        matches!(self, Self::Position | Self::Velocity)
     }
 }
 
@@ -142,8 +132,9 @@ pub enum FactorError {
     DivisorZero(FactorObject),
     /// The numerator (subindex 01) is 0.
     NumeratorZero(FactorObject),
-    /// numerator / divisor exceeds 2²⁴ (6093h, 6094h only).
-    ExceedsLimit(FactorObject),
+    /// numerator / divisor exceeds the drive's limit (the second field; a vendor's
+    /// [`factor_limit`](crate::personality::Vendor::factor_limit)).
+    ExceedsLimit(FactorObject, u32),
     /// The unit description gives a fraction whose reduced numerator or divisor needs more
     /// than 32 bits.
     NotRepresentable(FactorObject),
@@ -158,8 +149,15 @@ impl fmt::Display for FactorError {
             Self::NumeratorZero(o) => {
                 write!(f, "{:04X}h {}: numerator is 0", o.index(), o.name())
             }
-            Self::ExceedsLimit(o) => {
-                write!(f, "{:04X}h {}: factor exceeds 2^24", o.index(), o.name())
+            Self::ExceedsLimit(o, limit) if limit.is_power_of_two() => write!(
+                f,
+                "{:04X}h {}: factor exceeds 2^{}",
+                o.index(),
+                o.name(),
+                limit.trailing_zeros()
+            ),
+            Self::ExceedsLimit(o, limit) => {
+                write!(f, "{:04X}h {}: factor exceeds {limit}", o.index(), o.name())
             }
             Self::NotRepresentable(o) => write!(
                 f,
@@ -205,15 +203,10 @@ impl Ratio {
         }
     }
 
-    /// Checks this fraction as the value of `object` on the CMMP-AS: divisor and numerator
-    /// non-zero and, for 6093h/6094h, numerator / divisor ≤ 2²⁴.
+    /// Checks this fraction as the value of `object` as CiA 402 has it: divisor and
+    /// numerator non-zero, any quotient.
     pub const fn check(self, object: FactorObject) -> Result<(), FactorError> {
-        let limit = if object.has_limit() {
-            Some(FACTOR_LIMIT)
-        } else {
-            None
-        };
-        self.check_within(object, limit)
+        self.check_within(object, None)
     }
 
     /// Checks this fraction as the value of `object`: divisor and numerator non-zero and
@@ -232,7 +225,7 @@ impl Ratio {
         }
         if let Some(limit) = limit {
             if self.numerator as u64 > limit as u64 * self.divisor as u64 {
-                return Err(FactorError::ExceedsLimit(object));
+                return Err(FactorError::ExceedsLimit(object, limit));
             }
         }
         Ok(())
@@ -279,8 +272,10 @@ impl Default for FactorGroup {
 }
 
 impl FactorGroup {
-    /// Delivery state: 6093h = 1/1 (increments), 6094h = 4096/1 (min⁻¹), 6097h = 256/1
-    /// (min⁻¹/s), 607Eh = 0 (L2478/L2486, L2548/L2556, L2622/L2630; §3.4).
+    /// The factors of a drive whose dictionary sets none: user units increments, min⁻¹ and
+    /// min⁻¹/s (6093h = 1/1, 6094h = 4096/1, 6097h = 256/1), 607Eh = 0. Decision: CiA 402
+    /// prints no default for the factors; these are the CMMP-AS's delivery state (§5.3) and
+    /// keep a drive without them in the units its speeds are written in.
     pub const DEFAULT: Self = Self {
         position: Ratio::new(1, 1),
         velocity: TIME_FACTOR_V_PER_MINUTE,
@@ -297,8 +292,9 @@ impl FactorGroup {
         }
     }
 
-    /// Checks all three factors and the polarity; the first problem found is returned, in
-    /// the order 6093h, 6094h, 6097h, 607Eh.
+    /// Checks all three factors and the polarity as CiA 402 has them (no bound on a
+    /// quotient); the first problem found is returned, in the order 6093h, 6094h, 6097h,
+    /// 607Eh.
     pub const fn validate(&self) -> Result<(), FactorError> {
         if let Err(e) = self.position.check(FactorObject::Position) {
             return Err(e);
@@ -345,7 +341,8 @@ impl FactorGroup {
         Ok(())
     }
 
-    /// Replaces one factor if it passes [`Ratio::check`]; on error nothing changes.
+    /// Replaces one factor if it passes [`Ratio::check`] (CiA 402's rule); on error nothing
+    /// changes.
     pub fn set_factor(&mut self, object: FactorObject, ratio: Ratio) -> Result<(), FactorError> {
         ratio.check(object)?;
         match object {
@@ -357,7 +354,7 @@ impl FactorGroup {
     }
 
     /// Writes 607Eh if only bits 6 and 7 are set; on error nothing changes. Stored internal
-    /// values are not touched (L2689).
+    /// values are not touched.
     pub fn set_polarity(&mut self, polarity: u8) -> Result<(), FactorError> {
         check_polarity(polarity)?;
         self.polarity = polarity;
@@ -423,8 +420,7 @@ impl FactorGroup {
     }
 
     /// Acceleration write (UINT32: 6083h, 6084h, 6085h, 609Ah): acceleration_units →
-    /// 1/256 min⁻¹/s. No polarity. Saturates at `i64::MAX` (possible only because 6097h has
-    /// no 2²⁴ limit).
+    /// 1/256 min⁻¹/s. No polarity. Saturates at `i64::MAX`.
     pub fn acceleration_to_internal(&self, user: u32) -> i64 {
         sat_i64(to_internal(i128::from(user), self.acceleration))
     }
@@ -436,14 +432,16 @@ impl FactorGroup {
     }
 }
 
-/// position_factor from the manual's unit description (formula L2498, Tab. 5.5):
-/// `gear_ratio × 65536 / feed_constant`, in lowest terms as the manual prints it.
+/// position_factor from a gear ratio and a feed constant (CiA 402: position encoder
+/// resolution × gear ratio / feed constant, the resolution the engine's 65536 increments per
+/// motor revolution): `gear_ratio × 65536 / feed_constant`, in lowest terms.
 ///
 /// * `gear` = R_IN / R_OUT (motor revolutions per output revolution), e.g. 2/3;
 /// * `feed_constant` = user position units per output revolution, already multiplied by
-///   10^NK (see [`feed_constant`]), e.g. 3600 for 1/10° or 6315/10 for 1/10 mm at 63.15 mm.
+///   10^decimals (see [`feed_constant`]), e.g. 3600 for 1/10° or 6315/10 for 1/10 mm at 63.15 mm.
 ///
-/// The result passes [`Ratio::check`] for 6093h (otherwise the error says why).
+/// The result passes [`Ratio::check`] for 6093h (otherwise the error says why); a drive's own
+/// bound on the quotient is its caller's to check.
 pub fn position_factor(gear: Ratio, feed_constant: Ratio) -> Result<Ratio, FactorError> {
     compose(
         FactorObject::Position,
@@ -453,7 +451,8 @@ pub fn position_factor(gear: Ratio, feed_constant: Ratio) -> Result<Ratio, Facto
     )
 }
 
-/// velocity_encoder_factor (formula L2569, Tab. 5.7): `gear_ratio × time_factor_v /
+/// velocity_encoder_factor (CiA 402: velocity encoder resolution × gear ratio / feed
+/// constant, per the user's time unit): `gear_ratio × time_factor_v /
 /// feed_constant`, reduced. `time_factor_v` is the user time unit in internal units, e.g.
 /// [`TIME_FACTOR_V_PER_MINUTE`] or [`TIME_FACTOR_V_PER_SECOND`]. There is no 65536 term: the
 /// internal velocity unit counts revolutions (1/4096 min⁻¹), not increments.
@@ -465,7 +464,8 @@ pub fn velocity_factor(
     compose(FactorObject::Velocity, gear, time_factor_v, feed_constant)
 }
 
-/// acceleration_factor (formula L2643, Tab. 5.9): `gear_ratio × time_factor_a /
+/// acceleration_factor (as [`velocity_factor`], per the user's time unit squared):
+/// `gear_ratio × time_factor_a /
 /// feed_constant`, reduced. `time_factor_a` e.g. [`TIME_FACTOR_A_PER_MINUTE_PER_SECOND`],
 /// [`TIME_FACTOR_A_PER_SECOND_SQUARED`], [`TIME_FACTOR_A_PER_MINUTE_SQUARED`].
 pub fn acceleration_factor(
@@ -481,9 +481,8 @@ pub fn acceleration_factor(
     )
 }
 
-/// feed_constant of the manual's column 2: position units per output revolution ×
-/// 10^NK (footnote 2 of Tab. 5.5/5.7/5.9, L2526; the Russian prints "10^-NK" but every
-/// example multiplies, e.g. 360° at 1 NK → 3600). `per_output_revolution` is in whole user
+/// A feed constant in user units of 10^−`decimals` of a unit: position units per output
+/// revolution × 10^decimals (360° at one decimal place → 3600). `per_output_revolution` is in whole user
 /// units, e.g. 360/1 for degrees or 6315/100 for 63.15 mm. Returns the fraction in lowest
 /// terms, or `None` if it does not fit 32 bits or has a zero divisor.
 pub fn feed_constant(per_output_revolution: Ratio, decimals: u8) -> Option<Ratio> {
@@ -498,7 +497,8 @@ pub fn feed_constant(per_output_revolution: Ratio, decimals: u8) -> Option<Ratio
     reduce_u128(n, u128::from(per_output_revolution.divisor))
 }
 
-/// gear × time / feed (time = 65536 for position), reduced and checked for `object`.
+/// gear × time / feed (time = 65536 for position), reduced and checked for `object` as CiA
+/// 402 has it.
 fn compose(
     object: FactorObject,
     gear: Ratio,

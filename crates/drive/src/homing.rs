@@ -31,9 +31,9 @@ pub enum Until {
     Inactive(Signal),
     /// The next index pulse in the direction of travel.
     Index,
-    /// The hard stop (the motor stalls); limit switches are ignored (Tab. 7.1 footnote 2).
+    /// The hard stop (the motor stalls); limit switches are ignored.
     Stop,
-    /// The hard stop or the limit switch ahead, whichever comes first (methods −23, −27).
+    /// The hard stop or the limit switch ahead, whichever comes first.
     StopOrLimit,
 }
 
@@ -51,12 +51,14 @@ pub struct Step {
     pub direction: i8,
     pub speed: Speed,
     pub until: Until,
-    /// Tab. 7.1 (7, 11, 23, 27): "if a hard stop or limit switch is reached on the way,
-    /// search in the opposite direction".
+    /// Methods 7, 11, 23, 27: a hard stop or limit switch reached on the way reverses the
+    /// search (CiA 402 §6.7.4).
     pub reverse: bool,
 }
 
-const fn step(direction: i8, speed: Speed, until: Until, reverse: bool) -> Step {
+/// One step of a method's sequence, for the tables of the engine and of a vendor's own
+/// methods.
+pub const fn step(direction: i8, speed: Speed, until: Until, reverse: bool) -> Step {
     Step {
         direction,
         speed,
@@ -69,15 +71,6 @@ use Signal::{Home, NegativeLimit as NegLim, PositiveLimit as PosLim};
 use Speed::{Crawl, Search as Fast};
 use Until::{Active, Inactive, Index, Stop, StopOrLimit};
 
-/// Tab. 7.1, one row per method. The last step's end is the reference point; an `Active`
-/// search that finds its switch already active is skipped ("if … inactive: travel …").
-///
-/// Decision: the home switch is a cam with two edges. Methods 23/7 approach it positive and
-/// crawl out negative, so their reference is its negative edge; 27/11 its positive edge.
-/// Methods −23/−27 crawl "until the home switch becomes active" after the search has already
-/// found it: the drive first crawls back out of the cam (not printed, but the only way the
-/// switch can *become* active again), then onto it — reference: the positive edge for −23,
-/// the negative edge for −27 (the manual's extract, part 3 §9: "keep this distinction").
 /// The method `number` of `table`.
 pub const fn find_method(table: &[Method], number: i8) -> Option<Method> {
     let mut rest = table;
@@ -148,35 +141,15 @@ pub const HOME_SWITCH_METHODS: [Method; 4] = [
 /// A homing method: its 6098h number and its steps.
 pub type Method = (i8, &'static [Step]);
 
-pub const METHODS: [Method; 17] = [
-    (
-        -27,
-        &[
-            step(-1, Fast, StopOrLimit, false),
-            step(1, Fast, Active(Home), false),
-            step(-1, Crawl, Inactive(Home), false),
-            step(1, Crawl, Active(Home), false),
-        ],
-    ),
-    (
-        -23,
-        &[
-            step(1, Fast, StopOrLimit, false),
-            step(-1, Fast, Active(Home), false),
-            step(1, Crawl, Inactive(Home), false),
-            step(-1, Crawl, Active(Home), false),
-        ],
-    ),
-    (-18, &[step(1, Fast, Stop, false)]),
-    (-17, &[step(-1, Fast, Stop, false)]),
-    (
-        -2,
-        &[step(1, Fast, Stop, false), step(-1, Crawl, Index, false)],
-    ),
-    (
-        -1,
-        &[step(-1, Fast, Stop, false), step(1, Crawl, Index, false)],
-    ),
+/// The CiA 402 homing methods the engine runs (CiA 402 §6.7.4: 1, 2 on a limit switch with
+/// the index, 7, 11, 23, 27 on the home switch, 17, 18 on a limit switch, 33, 34 on the
+/// index, 35 here), one row per method; a vendor's manufacturer-specific methods (negative
+/// numbers) are in its folder. The last step's end is the reference point; an `Active`
+/// search that finds its switch already active is skipped ("if … inactive: travel …").
+///
+/// Decision: the home switch is a cam with two edges. Methods 23/7 approach it positive and
+/// crawl out negative, so their reference is its negative edge; 27/11 its positive edge.
+pub const METHODS: [Method; 11] = [
     (
         1,
         &[
@@ -420,7 +393,8 @@ impl Search {
             Some(next) => {
                 if found_index {
                     // A mark just found lies behind the shaft, even where it stands right on
-                    // it, so that a step back over it (Nanotec 33 / 34) sees it.
+                    // it, so that a step back over it (a method that ends with 33 / 34's
+                    // step) sees it.
                     self.last = at + i64::from(self.direction);
                 }
                 self.direction = next.direction;
@@ -442,9 +416,7 @@ mod tests {
 
     #[test]
     fn every_method_of_the_summary_table_is_there_once() {
-        let listed = [
-            -27, -23, -18, -17, -2, -1, 1, 2, 7, 11, 17, 18, 23, 27, 33, 34, 35,
-        ];
+        let listed = [1, 2, 7, 11, 17, 18, 23, 27, 33, 34, 35];
         for m in listed {
             assert_eq!(METHODS.iter().filter(|(n, _)| *n == m).count(), 1, "{m}");
         }

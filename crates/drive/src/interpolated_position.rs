@@ -1,18 +1,20 @@
 //! Interpolated position mode (CiA 402 mode 7): linear interpolation (CiA 402 60C0h
-//! sub-mode 0; the CMMP-AS's −2, "without buffer", §7.4, is the same one-deep data record)
-//! between set-points that arrive one per SYNC on a fixed grid, the interpolation period
-//! 60C2h. When a new 60C2h takes effect and whether the buffer 60C4h:06 starts locked are the
-//! vendor's (the vendor hook `ip_buffer_open_at_reset`, its write hooks); the
-//! engine's are CiA 402's (60C2h at once, the buffer as 60C4h:06 says).
+//! interpolation_sub_mode_select 0, a one-deep data record) between set-points that arrive
+//! one per SYNC on a fixed grid, the interpolation period 60C2h. The periods a drive takes,
+//! when a new 60C2h takes effect and whether the buffer 60C4h:06 starts locked are the
+//! vendor's (the vendor hooks `ip_period` and `ip_buffer_open_at_reset`, its write hooks);
+//! the engine's are CiA 402's (any period units × 10^index s, 60C2h at once, the buffer as
+//! 60C4h:06 says).
 //!
 //! Sans-IO: the drive tells the interpolator of each SYNC ([`Interpolator::sync`]: a CANopen
 //! SYNC, an EtherCAT SYNC0 event, or the EtherCAT frame in free run), hands it the set-points
 //! written to 60C1h:01 ([`Interpolator::set_point`]) and asks for the demand position of each
 //! control cycle ([`Interpolator::demand`]).
 //!
-//! Synchronisation (the manual: "6061h shows −1 until the drive has synchronised to the SYNC
-//! grid; if SYNC later stops arriving on the grid, 6061h goes back to −1"). The manual gives
-//! no tolerance; decision: an interval between two SYNCs is on the grid when it is within half
+//! Synchronisation: the set-points come one per SYNC, so the interpolator finds the SYNC grid
+//! before it runs and notices when the grid is lost (a personality with
+//! `ip_changing_until_synchronised` shows 6061h = −1 meanwhile). CiA 402 gives no tolerance;
+//! decision: an interval between two SYNCs is on the grid when it is within half
 //! a period of 60C2h; two on-grid intervals in a row synchronise, and a synchronised drive
 //! loses the grid after [`OFF_GRID_LIMIT`] off-grid intervals in a row or when no SYNC came for
 //! [`SILENCE_PERIODS`] periods. A master on a loaded machine jitters; a stopped or wrong grid
@@ -46,8 +48,8 @@ pub enum SyncChange {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interpolator {
     period: Duration,
-    /// The period is the SYNC interval, measured (a PLL locked on SYNC; Nanotec ch. 7: 60C2h
-    /// is ignored), not 60C2h; 60C1h needs no unlocking.
+    /// The period is the SYNC interval, measured (a PLL locked on SYNC; the personality's
+    /// `ip_follows_sync`), not 60C2h; 60C1h needs no unlocking.
     follows_sync: bool,
     unlocked: bool,
     last_sync: Option<Instant>,
@@ -65,8 +67,8 @@ pub struct Interpolator {
 }
 
 impl Interpolator {
-    /// An interpolator for the period 60C2h had at power-on (a change takes effect only
-    /// after save and reset, CMMP-AS §7.4.1).
+    /// An interpolator for the period of 60C2h (when a changed 60C2h takes effect is the
+    /// personality's: at once, or with the next [`Interpolator::reset`]).
     pub fn new(period: Duration) -> Self {
         Interpolator {
             period,
@@ -90,7 +92,7 @@ impl Interpolator {
         self.period
     }
 
-    /// An interpolator whose period is the SYNC interval (Nanotec ch. 7): the first two
+    /// An interpolator whose period is the SYNC interval (`ip_follows_sync`): the first two
     /// intervals within half of each other lock it; 60C1h is always open.
     pub fn following_sync() -> Self {
         Interpolator {
@@ -225,8 +227,8 @@ impl Interpolator {
         SyncChange::Lost { while_active }
     }
 
-    /// An error or leaving OPERATION ENABLED: interpolation stops and "needs a new
-    /// synchronisation" (CMMP-AS §7.4.3).
+    /// An error or leaving OPERATION ENABLED: interpolation stops, and the grid is found
+    /// again before it restarts.
     pub fn interrupt(&mut self) {
         self.active = false;
         self.engaged = false;
@@ -237,7 +239,7 @@ impl Interpolator {
     }
 
     /// enable_ip_mode set while synchronised: interpolation starts where the drive stands;
-    /// `pending` is a set-point already written (Nanotec: 60C1h:01, the shared target), taken
+    /// `pending` is a set-point already written (where 60C1h:01 shares the target 607Ah), taken
     /// at the next SYNC.
     pub fn activate_with(&mut self, position: f64, now: Instant, pending: Option<f64>) {
         self.activate(position, now);
@@ -290,16 +292,6 @@ pub fn period_of_60c2(units: u8, index: i8) -> Option<Duration> {
     Some(Duration::from_nanos(ns))
 }
 
-/// The interpolation period of 60C2h (units × 10^index s); `None` outside the CMMP-AS ranges
-/// (index −3: 1…10 ms, index −4: 10…100 × 0.1 ms, CMMP-AS §7.4.2).
-pub fn period_from_60c2(units: u8, index: i8) -> Option<Duration> {
-    match index {
-        -3 if (1..=10).contains(&units) => Some(Duration::from_millis(u64::from(units))),
-        -4 if (10..=100).contains(&units) => Some(Duration::from_micros(u64::from(units) * 100)),
-        _ => None,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,17 +309,8 @@ mod tests {
         assert_eq!(period_of_60c2(0, -3), None);
         assert_eq!(period_of_60c2(1, -10), None);
         assert_eq!(period_of_60c2(1, 4), None);
-        // The CMMP-AS takes 20 ms at −3 as outside its range.
-        assert_eq!(period_from_60c2(20, -3), None);
-    }
-
-    #[test]
-    fn ip_08_both_encodings_mean_4_ms() {
-        // CMMP-IP-08: (−3, 4) and (−4, 40) are both 4 ms.
-        assert_eq!(period_from_60c2(4, -3), Some(Duration::from_millis(4)));
-        assert_eq!(period_from_60c2(40, -4), Some(Duration::from_millis(4)));
-        assert_eq!(period_from_60c2(11, -3), None);
-        assert_eq!(period_from_60c2(5, -4), None);
+        // Both encodings of one period mean the same.
+        assert_eq!(period_of_60c2(40, -4), Some(Duration::from_millis(4)));
     }
 
     #[test]

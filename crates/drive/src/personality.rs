@@ -7,6 +7,7 @@
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::digital_inputs::SwitchConfig;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
@@ -42,7 +43,7 @@ pub trait Vendor: Sized {
 
     /// The controller parameters as the drive's objects give them.
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
-        crate::drive::control_params_of(d.od(), Self::MANUFACTURER_OBJECTS)
+        crate::drive::control_params_of::<S, Self>(d.od())
     }
 
     /// Each logic cycle before device control: inputs that own the controlword or the mode.
@@ -114,6 +115,13 @@ pub trait Vendor: Sized {
         d.switch_config().digital_inputs(d.input_levels(position))
     }
 
+    /// How the drive reads its limit and home switches (polarity, which input is which).
+    /// CiA 402's default: as wired, every switch normally open (the profile's homing
+    /// methods name the switch, 60FDh shows it).
+    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> SwitchConfig {
+        SwitchConfig::default()
+    }
+
     /// The limit and home switches as the drive reads them at `position`.
     fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
         d.switch_config().switches(d.input_levels(position))
@@ -182,11 +190,49 @@ pub trait Vendor: Sized {
         false
     }
 
+    /// The deceleration, increments/s², of the stop a limit switch starts and of a fault
+    /// reaction that brakes with maximum current. CiA 402's default: 6085h
+    /// quick_stop_deceleration.
+    fn emergency_deceleration<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> f64 {
+        d.accel(0x6085)
+    }
+
+    /// After the reference point the drive travels to the position 0 (at 6099h:01 search
+    /// speed) before homing is attained. `false`, CiA 402's default: homing ends at the
+    /// reference point, which then reads 607Ch home_offset.
+    fn homing_to_zero<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
+
+    /// How long homing may run before it fails ([`HomingError::Timeout`]). `None`, CiA 402's
+    /// default: the profile names no homing timeout.
+    fn homing_timeout<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+    ) -> Option<core::time::Duration> {
+        None
+    }
+
+    /// How long a homing on a hard stop lets the shaft settle before the position where it
+    /// stands is the reference (with [`Capabilities::homing_immediate`]). CiA 402's default:
+    /// at once.
+    fn homing_block_settle<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &Drive<S, Self>,
+    ) -> core::time::Duration {
+        core::time::Duration::ZERO
+    }
+
     /// Halt (controlword bit 8) during homing aborts it with statusword bit 13
     /// homing_error. `false`, CiA 402's default: halt interrupts homing, which reads as
     /// "interrupted or not started" (bits 13, 12 and 10 = 0, 0, 1 once stopped), not as an
     /// error.
     const HALT_IS_HOMING_ERROR: bool = false;
+
+    /// Where the drive shows its power stage among the manufacturer's objects (the drive data
+    /// 6510h CiA 402 leaves to the manufacturer): the DC link beside 6079h, the peak current
+    /// and the controllers' cycle times. `None`, CiA 402's default: 6079h
+    /// dc_link_circuit_voltage alone shows the supply, and the power stage has the engine's
+    /// defaults ([`ControlParams::default`]).
+    const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = None;
 
     /// The DC-link voltage in mV below which the drive reports its
     /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
@@ -227,6 +273,20 @@ pub trait Vendor: Sized {
     fn factor_limit(_object: FactorObject) -> Option<u32> {
         None
     }
+}
+
+/// The objects a vendor shows its power stage in, each `(index, sub)` of an unsigned value
+/// ([`Vendor::POWER_STAGE_OBJECTS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PowerStageObjects {
+    /// The nominal DC-link voltage, mV: what the supply gives while no other voltage is set.
+    pub nominal_dc_link_voltage: (u16, u8),
+    /// The DC-link voltage the drive measures, mV, written with 6079h.
+    pub actual_dc_link_voltage: (u16, u8),
+    /// The device's peak current, mA.
+    pub peak_current: (u16, u8),
+    /// The cycle times of the current, velocity and position controllers, µs.
+    pub cycle_times: [(u16, u8); 3],
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).
@@ -316,8 +376,6 @@ pub struct Capabilities {
     /// Homing accelerates with 609Ah only when starting; at the switch the speed changes
     /// at once, at the end the motor stops at once (Nanotec ch. 5).
     pub homing_immediate: bool,
-    /// The switches are read through 6510h:11 … :14 (CMMP-AS §5.14); otherwise as wired.
-    pub switch_polarity_objects: bool,
     /// 60FEh:01 bit 0 is the holding brake (CMMP-AS §5.13).
     pub brake_in_60fe: bool,
     /// An acceleration or deceleration of 0 means no ramp (the set-point steps) instead of

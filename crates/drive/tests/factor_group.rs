@@ -1,7 +1,9 @@
-//! Factor group (6093h, 6094h, 6097h, 607Eh) of the Festo CMMP-AS: every vector of the vector
-//! catalogue kept beside the project §1.7 (CMMP-FG-01 … CMMP-FG-18, each named in full at its
-//! test), plus rounding, round trips, polarity, the 2²⁴ limit, zero divisors and the INT32 edges.
-//! The drive applying them through its dictionary: crates/drive/tests/drive.rs.
+//! The CiA 402 factor group (6093h, 6094h, 6097h, 607Eh) in the engine's internal units, checked
+//! against the CMMP-AS's worked examples (the vector catalogue kept beside the project §1.7:
+//! CMMP-FG-01 … CMMP-FG-17, each named in full at its test; CMMP-FG-18, the CMMP-AS's own
+//! 2²⁴ bound, is tested in its vendor folder), plus rounding, round trips, polarity, zero
+//! divisors and the INT32 edges. The drive applying them through its dictionary:
+//! crates/drive/tests/drive.rs.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -11,10 +13,10 @@
 
 use drive::factor_group::{
     acceleration_factor, feed_constant, position_factor, velocity_factor, FactorError, FactorGroup,
-    FactorObject, Ratio, FACTOR_LIMIT, TIME_FACTOR_A_PER_MINUTE_PER_SECOND,
-    TIME_FACTOR_A_PER_MINUTE_SQUARED, TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_MINUTE,
-    TIME_FACTOR_V_PER_SECOND,
+    FactorObject, Ratio, TIME_FACTOR_A_PER_MINUTE_PER_SECOND, TIME_FACTOR_A_PER_MINUTE_SQUARED,
+    TIME_FACTOR_A_PER_SECOND_SQUARED, TIME_FACTOR_V_PER_MINUTE, TIME_FACTOR_V_PER_SECOND,
 };
+use drive::vendors::festo_cmmp_as::factor_limit::{factor_limit, FACTOR_LIMIT};
 
 const GEAR_1_1: Ratio = Ratio::new(1, 1);
 const GEAR_2_3: Ratio = Ratio::new(2, 3);
@@ -364,65 +366,25 @@ fn cmmp_fg_17_polarity_c0_then_0() {
     assert_eq!(fg.position_from_internal(stored), -1000);
 }
 
-/// CMMP-FG-18.
-#[test]
-fn cmmp_fg_18_position_factor_above_2_pow_24_rejected() {
-    // 6093h:01 := 01000001h with 6093h:02 = 1 → rejected (factor > 2²⁴).
-    let mut fg = FactorGroup::DEFAULT;
-    let err = fg
-        .set_factor(FactorObject::Position, Ratio::new(0x0100_0001, 1))
-        .unwrap_err();
-    assert_eq!(err, FactorError::ExceedsLimit(FactorObject::Position));
-    assert_eq!(fg, FactorGroup::DEFAULT, "a refused write changes nothing");
-    let text = format!("{err}");
-    assert!(
-        text.contains("6093h") && text.contains("position_factor"),
-        "{text}"
-    );
-    let raw = FactorGroup {
-        position: Ratio::new(0x0100_0001, 1),
-        ..FactorGroup::DEFAULT
-    };
-    assert_eq!(raw.validate(), Err(err));
-}
+// CMMP-FG-18 (the CMMP-AS's 2²⁴ bound on 6093h / 6094h) is the vendor's rule and is tested
+// with it: `drive::vendors::festo_cmmp_as::factor_limit`.
 
 // ---------------------------------------------------------------------------------------------
-// Limit, zero divisor, polarity range
+// Zero divisor, polarity range
 // ---------------------------------------------------------------------------------------------
 
 #[test]
-fn limit_is_on_the_quotient_and_inclusive() {
-    assert_eq!(FACTOR_LIMIT, 1 << 24);
-    for obj in [FactorObject::Position, FactorObject::Velocity] {
-        assert_eq!(
-            Ratio::new(1 << 24, 1).check(obj),
-            Ok(()),
-            "2^24 itself is allowed"
-        );
-        assert_eq!(Ratio::new(0x0100_0001, 2).check(obj), Ok(()));
-        assert_eq!(
-            Ratio::new(u32::MAX, 255).check(obj),
-            Err(FactorError::ExceedsLimit(obj))
-        );
-        assert_eq!(Ratio::new(u32::MAX, 256).check(obj), Ok(()));
-        assert_eq!(
-            Ratio::new(0x0100_0001, 1).check(obj),
-            Err(FactorError::ExceedsLimit(obj))
-        );
+fn cia402_bounds_no_quotient() {
+    for obj in [
+        FactorObject::Position,
+        FactorObject::Velocity,
+        FactorObject::Acceleration,
+    ] {
+        assert_eq!(Ratio::new(u32::MAX, 1).check(obj), Ok(()));
+        let mut fg = FactorGroup::DEFAULT;
+        assert_eq!(fg.set_factor(obj, Ratio::new(0x0100_0001, 1)), Ok(()));
+        assert_eq!(fg.factor(obj), Ratio::new(0x0100_0001, 1));
     }
-    // The CANopen tests write 6093h = 12345678h / 13h: 16074731 ≤ 2^24.
-    assert_eq!(
-        Ratio::new(0x1234_5678, 0x13).check(FactorObject::Position),
-        Ok(()),
-        "CMMP-SDO-05 (6093h:01), CMMP-SDO-06 (6093h:02)"
-    );
-    // 6097h has no printed limit.
-    assert_eq!(
-        Ratio::new(u32::MAX, 1).check(FactorObject::Acceleration),
-        Ok(())
-    );
-    let text = format!("{}", FactorError::ExceedsLimit(FactorObject::Velocity));
-    assert!(text.contains("6094h") && text.contains("2^24"), "{text}");
 }
 
 #[test]
@@ -469,9 +431,17 @@ fn validate_reports_the_first_bad_object() {
         acceleration: Ratio::new(1, 0),
         polarity: 0x01,
     };
+    // With the CMMP-AS's bound the first bad object is 6094h; CiA 402 bounds none.
+    assert_eq!(
+        fg.validate_within(factor_limit),
+        Err(FactorError::ExceedsLimit(
+            FactorObject::Velocity,
+            FACTOR_LIMIT
+        ))
+    );
     assert_eq!(
         fg.validate(),
-        Err(FactorError::ExceedsLimit(FactorObject::Velocity))
+        Err(FactorError::DivisorZero(FactorObject::Acceleration))
     );
     let fg = FactorGroup {
         velocity: Ratio::new(1, 1),
@@ -830,12 +800,13 @@ fn helper_refuses_bad_descriptions() {
         velocity_factor(GEAR_1_1, Ratio::new(0, 1), TIME_FACTOR_V_PER_MINUTE),
         Err(FactorError::DivisorZero(FactorObject::Velocity))
     );
-    // 1000:1 gear on increments: 65536000 > 2^24.
+    // 1000:1 gear on increments: 65536000, unbounded in CiA 402 (the CMMP-AS's 2²⁴ is
+    // checked with its vendor).
     assert_eq!(
         position_factor(Ratio::new(1000, 1), Ratio::new(1, 1)),
-        Err(FactorError::ExceedsLimit(FactorObject::Position))
+        Ok(Ratio::new(65_536_000, 1))
     );
-    // 256:1 gear is exactly 2^24 and allowed.
+    // 256:1 gear is exactly 2^24.
     assert_eq!(
         position_factor(Ratio::new(256, 1), Ratio::new(1, 1)),
         Ok(Ratio::new(1 << 24, 1))

@@ -26,9 +26,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// Outside homing a limit switch blocks motion towards it (CMMP-AS B.3 43-0/43-1): the
-    /// error's fault reaction brakes with 6510h:15 limit_switch_deceleration (§5.14, "limit
-    /// switch emergency stop ramp"); motion away stays possible after the fault reset.
+    /// Outside homing a limit switch blocks motion towards it where the personality has an
+    /// error for it: the error's fault reaction brakes with the vendor's emergency ramp (the
+    /// hook `emergency_deceleration`); motion away stays possible after the fault reset.
     pub(super) fn supervise_limit_switches(&mut self) {
         let inputs = self.switch_inputs(self.plant_position());
         let v = self.traj.velocity;
@@ -55,24 +55,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         .forced(self.forced_mask, self.forced_levels)
     }
 
+    /// How the drive reads its switches (the vendor hook `switch_config`).
     pub(crate) fn switch_config(&self) -> SwitchConfig {
-        if !self.personality.capabilities.switch_polarity_objects {
-            // Nanotec §5.3: the methods name the switch type themselves (19/21 normally
-            // closed, 20/22 normally open); the simulated switches are read as they are.
-            return SwitchConfig::from_objects(1, 0, 0, 1);
-        }
-        SwitchConfig::from_objects(
-            self.value(0x6510, 0x11),
-            self.value(0x6510, 0x12),
-            self.value(0x6510, 0x13),
-            self.value(0x6510, 0x14),
-        )
+        V::switch_config(self)
     }
 
-    /// The switches as the drive reads them (CMMP-AS §5.14): 6510h:11 / :14 = 0 (normally
-    /// closed) against the normally open switches of the simulation reads them inverted, and
-    /// 6510h:12 = 1 swaps the limit-switch inputs DIN6/DIN7 — a wiring set-up the homing
-    /// then trips over, as on the real drive.
+    /// The switches as the drive reads them (the vendor's `switch_config`): a polarity set
+    /// against the normally open switches of the simulation reads them inverted, and swapped
+    /// limit-switch inputs are a wiring set-up the homing then trips over, as on a real
+    /// drive.
     pub(super) fn switch_inputs(&self, position: i64) -> Inputs {
         V::switches(self, position)
     }

@@ -79,9 +79,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let r = match reaction {
             ErrorReaction::OutputStageOff => self.dc.fault_immediate(),
             ErrorReaction::BrakeMaxCurrent => {
-                // Decision: "brake with maximum current" uses the emergency ramp 6510h:15
-                // (the limit-switch deceleration, 2 000 000 min⁻¹/s by default), which the
-                // current limit caps.
+                // Brakes with the vendor's emergency ramp, which the current limit caps.
                 self.limit_stop = true;
                 self.dc.fault()
             }

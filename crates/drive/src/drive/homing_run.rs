@@ -1,16 +1,18 @@
 //! Homing (CiA 402 mode 6) on the engine: controlword bit 4 starts the personality's method
-//! (CMMP-AS Tab. 7.1, Nanotec ch. 5), [`crate::homing`] searches the reference point against
-//! the switches, the block or an external switch, and the drive brakes, settles, travels to
-//! zero where the personality does, and sets the position.
+//! (its table of 6098h methods, [`crate::personality::Personality::homing_methods`]),
+//! [`crate::homing`] searches the reference point against the switches, the block or an
+//! external switch, and the drive brakes, settles, travels to zero where the personality does
+//! (the vendor hooks `homing_to_zero`, `homing_to_offset_point`), and sets the position.
 
 use super::*;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
-    /// Homing (CMMP-AS §7.2): controlword bit 4 0 → 1 starts the method of 6098h, 1 → 0
-    /// aborts it (Tab. 7.2); halt aborts it, with homing_error where the vendor makes it
-    /// one (the vendor hook `HALT_IS_HOMING_ERROR`). The search of
-    /// [`crate::homing`] finds the reference point; then the drive brakes with 609Ah and,
-    /// with 6510h:F0 bit 6 homing_to_zero, travels to the zero position.
+    /// Homing (CiA 402 homing mode): controlword bit 4 0 → 1 starts the method of 6098h,
+    /// 1 → 0 aborts it; halt aborts it, with homing_error where the vendor makes it one (the
+    /// vendor hook `HALT_IS_HOMING_ERROR`); past the vendor's `homing_timeout` it fails. The
+    /// search of [`crate::homing`] finds the reference point; then the drive brakes with
+    /// 609Ah homing_acceleration and, where the vendor says (`homing_to_zero`), travels to
+    /// the zero position.
     pub(crate) fn homing(&mut self, cw: Controlword, dt: f64) {
         let bit4 = cw.contains(Controlword::HOMING_START);
         let idle = matches!(self.homing, HomingRun::Idle);
@@ -26,7 +28,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         {
             self.start_homing();
         } else if !idle && !bit4 {
-            // Tab. 7.2: bit 4 1 → 0 aborts homing (neither attained nor error).
+            // Bit 4 1 → 0 aborts homing (neither attained nor error).
             self.homing = HomingRun::Brake {
                 then: Then::Nothing,
             };
@@ -39,16 +41,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             };
         }
         if !matches!(self.homing, HomingRun::Idle) {
-            let timeout = self.value(0x2045, 0).max(0) as u64;
-            if timeout > 0
-                && self.now.saturating_since(self.homing_started) > Duration::from_millis(timeout)
-            {
-                self.homing_failed(HomingError::Timeout);
+            if let Some(timeout) = V::homing_timeout(self) {
+                if self.now.saturating_since(self.homing_started) > timeout {
+                    self.homing_failed(HomingError::Timeout);
+                }
             }
         }
         let acc = self.accel(0x609A);
-        // Nanotec ch. 5: 609Ah only when starting; at the switch the speed changes at once, at
-        // the end the motor stops at once.
+        // `homing_immediate`: 609Ah only when starting; at the switch the speed changes at
+        // once, at the end the motor stops at once.
         let immediate = self.personality.capabilities.homing_immediate;
         let (switch_acc, stop_dec) = if immediate {
             (ABRUPT_STOP, ABRUPT_STOP)
@@ -64,7 +65,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 let position = self.plant_position();
                 let mut inputs = self.switch_inputs(position);
                 if let Some(x) = self.homing_external {
-                    // The reference switch an external I/O node sends (Nanotec 2010h).
+                    // The reference switch an external I/O node sends (the personality's
+                    // `external_home_switch`).
                     let bit = self.value(x.index, x.bit_sub).clamp(0, 7);
                     inputs.home = self.value(x.index, x.value_sub) >> bit & 1 != 0;
                 }
@@ -107,14 +109,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                         if immediate {
                             self.traj.velocity = 0.0;
                             if stalled {
-                                // Nanotec §5.3 (−2 / −3): the position is set on the block
-                                // after the settle time 2004h:05.
-                                let ms = self.value(0x2004, 5).max(0) as u64;
-                                self.homing_settle = Some(self.now + Duration::from_millis(ms));
+                                // On the block the position is set once the shaft has settled.
+                                let settle = V::homing_block_settle(self);
+                                self.homing_settle = Some(self.now + settle);
                             }
                         }
-                        let to_zero = V::homing_to_offset_point(self)
-                            || self.value(0x6510, 0xF0) & 0x0040 != 0;
+                        let to_zero = V::homing_to_offset_point(self) || V::homing_to_zero(self);
                         self.homing = HomingRun::Brake {
                             then: if to_zero {
                                 Then::ToZero
@@ -148,7 +148,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 self.position_demand(self.traj.velocity);
             }
             HomingRun::ToZero => {
-                // 6510h:F0 bit 6: to the zero position at 6099h:01 (CMMP-AS §7.2).
+                // To the zero position at 6099h:01 search speed.
                 let zero = self.fg.position_to_internal(0) as f64;
                 let lim = Limits {
                     velocity: self.homing_speed(Speed::Search).max(1.0),
@@ -200,9 +200,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             .personality
             .external_home_switch
             .filter(|x| x.methods.contains(&method));
-        // Decision: 6510h:F0 bits 0/2 (homing_method_scheme) choose between CiA 402 and a
-        // legacy numbering of 32 … 35 that the manual does not print; both use Tab. 7.1's
-        // 33/34/35, and 32 (in the printed range, in no table) is refused at the start.
         match Search::start_in(
             self.personality.homing_methods,
             method,
@@ -231,10 +228,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     /// The reference point at encoder position `at` gets the value 607Ch home_offset.
     ///
-    /// Decision: the manual's Fig. 7.2 calls 607Ch "the offset of the zero position from the
-    /// reference point" without a sign convention; as CiA 402 masters expect, the position
-    /// at the reference point reads home_offset afterwards (and "zero" lies home_offset
-    /// before it).
+    /// Decision: CiA 402 calls 607Ch home_offset the offset of the zero position from the
+    /// reference point without a sign convention (so does the CMMP-AS's Fig. 7.2); as CiA 402
+    /// masters expect, the position at the reference point reads home_offset afterwards (and
+    /// "zero" lies home_offset before it).
     fn set_reference(&mut self, at: i64) {
         let home = self
             .value(0x607C, 0)

@@ -130,7 +130,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let mut fg = self.fg;
         fg.set_factor_within(obj, r, V::factor_limit(obj))
             .map_err(|e| match e {
-                crate::factor_group::FactorError::ExceedsLimit(_) => AbortCode::VALUE_TOO_HIGH,
+                crate::factor_group::FactorError::ExceedsLimit(..) => AbortCode::VALUE_TOO_HIGH,
                 _ => AbortCode::INVALID_VALUE,
             })?;
         self.od.write(index, sub, data)?;

@@ -104,7 +104,6 @@ const fn personality(feed_constant: bool) -> Personality {
             ip_changing_until_synchronised: false,
             ip_abrupt_quick_stop: false,
             homing_immediate: false,
-            switch_polarity_objects: false,
             brake_in_60fe: false,
             zero_ramp_is_abrupt: false,
             vl_actual_closed_loop_only: false,

@@ -22,7 +22,7 @@ use devdesc::eds::{BitRate, EdsError};
 use devdesc::model::Device;
 use drive::drive::mode;
 use drive::homing::{Method, METHODS};
-use drive::personality::{Capabilities, ModeSpec, Personality};
+use drive::personality::{ModeSpec, Personality};
 use drive::vendors::cia402::{CIA402, CIA402_FEED_CONSTANT};
 use od::DeviceDescription;
 
@@ -222,10 +222,6 @@ fn personality(desc: &'static DeviceDescription) -> Personality {
     Personality {
         devices: Box::leak(vec![desc.name].into_boxed_slice()),
         modes: Box::leak(modes.into_boxed_slice()),
-        capabilities: Capabilities {
-            switch_polarity_objects: desc.entry(0x6510, 0x11).is_some(),
-            ..base.capabilities
-        },
         homing_methods: Box::leak(homing_methods.into_boxed_slice()),
         ..*base
     }

@@ -9,24 +9,29 @@
 pub mod ci_terminal;
 pub mod display;
 pub mod error_management;
+pub mod factor_limit;
+pub mod homing_methods;
+pub mod interpolation_period;
 pub mod messages;
 
 use od::{AbortCode, ObjectAccess, Value};
 
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::digital_inputs::SwitchConfig;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
-use crate::factor_group::{FactorObject, FACTOR_LIMIT};
-use crate::homing::{HomingError, METHODS};
+use crate::factor_group::FactorObject;
+use crate::homing::HomingError;
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, PlantSupervision, Vendor,
+    OptionCode, Personality, PlantSupervision, PowerStageObjects, Vendor,
 };
 use crate::statusword::Statusword;
 use error_management::ErrorManagement;
+use homing_methods::METHODS;
 
 /// CMMP-AS diagnostic messages the drive raises, with their CiA 402 EMCY codes (ch. B.2).
 pub mod diag {
@@ -148,7 +153,6 @@ pub const CMMP_AS: Personality = Personality {
         ip_changing_until_synchronised: true,
         ip_abrupt_quick_stop: false,
         homing_immediate: false,
-        switch_polarity_objects: true,
         brake_in_60fe: true,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: false,
@@ -200,6 +204,16 @@ impl Vendor for CmmpAs {
 
     /// Ch. 6: halt aborts homing and sets homing_error (statusword bit 13).
     const HALT_IS_HOMING_ERROR: bool = true;
+
+    /// The drive data 6510h: :33 nominal_dc_link_circuit_voltage, :34
+    /// actual_dc_link_circuit_voltage, :41 peak_current (the bound of 6073h max_current), :B0
+    /// … :B2 the cycle times of the current, velocity and position controllers (§5.17).
+    const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = Some(PowerStageObjects {
+        nominal_dc_link_voltage: (0x6510, 0x33),
+        actual_dc_link_voltage: (0x6510, 0x34),
+        peak_current: (0x6510, 0x41),
+        cycle_times: [(0x6510, 0xB0), (0x6510, 0xB1), (0x6510, 0xB2)],
+    });
 
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&CMMP_AS, CmmpAs::default())
@@ -260,9 +274,42 @@ impl Vendor for CmmpAs {
         d.value(0x6510, 0x38) == 1
     }
 
+    /// §5.14: the switches as 6510h:11 limit_switch_polarity, :12 limit_switch_selector,
+    /// :13 homing_switch_selector and :14 homing_switch_polarity set them.
+    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> SwitchConfig {
+        SwitchConfig::from_objects(
+            d.value(0x6510, 0x11),
+            d.value(0x6510, 0x12),
+            d.value(0x6510, 0x13),
+            d.value(0x6510, 0x14),
+        )
+    }
+
+    /// §5.14: a limit switch (B.3 43-0 / 43-1) stops with 6510h:15
+    /// limit_switch_deceleration, the "limit switch emergency stop ramp". Decision: "brake
+    /// with maximum current" uses the same ramp (2 000 000 min⁻¹/s by default), which the
+    /// current limit caps.
+    fn emergency_deceleration<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> f64 {
+        d.accel2(0x6510, 0x15)
+    }
+
+    /// §7.2: 6510h:F0 bit 6 homing_to_zero: after the reference point the drive travels to
+    /// the zero position.
+    fn homing_to_zero<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.value(0x6510, 0xF0) & 0x0040 != 0
+    }
+
+    /// §7.2.2: 2045h homing_timeout in ms, 0 off.
+    fn homing_timeout<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+    ) -> Option<core::time::Duration> {
+        let ms = d.value(0x2045, 0).max(0) as u64;
+        (ms > 0).then(|| core::time::Duration::from_millis(ms))
+    }
+
     /// §7.4.2: index −3 with 1…10 ms, index −4 with 10…100 × 0.1 ms.
     fn ip_period(units: u8, index: i8) -> Option<core::time::Duration> {
-        crate::interpolated_position::period_from_60c2(units, index)
+        interpolation_period::period_from_60c2(units, index)
     }
 
     /// §7.4.2: 60C1h is locked after power-on until 60C4h:06 buffer_clear = 1 is written.
@@ -270,10 +317,9 @@ impl Vendor for CmmpAs {
         false
     }
 
-    /// §5.3: "position_factor must not exceed 2²⁴" (L2504), "velocity_encoder_factor must
-    /// not exceed 2²⁴" (L2573); nothing is printed for acceleration_factor.
+    /// §5.3: 2²⁴ on 6093h and 6094h ([`factor_limit`](factor_limit::factor_limit)).
     fn factor_limit(object: FactorObject) -> Option<u32> {
-        object.has_limit().then_some(FACTOR_LIMIT)
+        factor_limit::factor_limit(object)
     }
 
     fn error_reaction<S: AsRef<[u8]> + AsMut<[u8]>>(

@@ -29,7 +29,9 @@ pub mod tuning;
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
-use crate::homing::{engine_method, Method};
+use crate::homing::Speed::Search as Fast;
+use crate::homing::Until::Stop;
+use crate::homing::{engine_method, step, Method};
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision,
 };
@@ -78,7 +80,6 @@ pub const KINCO: Personality = Personality {
         ip_changing_until_synchronised: false,
         ip_abrupt_quick_stop: false,
         homing_immediate: false,
-        switch_polarity_objects: false,
         brake_in_60fe: false,
         zero_ramp_is_abrupt: true,
         vl_actual_closed_loop_only: false,
@@ -144,8 +145,9 @@ const fn error_spec(fault: Fault, code: u16) -> ErrorSpec {
 /// Decision: the rows lost in the OCR (3 … 6, 8 … 10, 12 … 14, 24 … 26, 28 … 30) are not
 /// offered; 6098h refuses them rather than guess their figures.
 pub const HOMING_METHODS: [Method; 17] = [
-    engine_method(-18),
-    engine_method(-17),
+    // −18: positive until the mechanical stop; −17: negative (the limit switches ignored).
+    (-18, &[step(1, Fast, Stop, false)]),
+    (-17, &[step(-1, Fast, Stop, false)]),
     engine_method(1),
     engine_method(2),
     engine_method(7),

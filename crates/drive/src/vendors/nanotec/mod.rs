@@ -116,7 +116,6 @@ pub const NANOTEC: Personality = Personality {
         ip_changing_until_synchronised: false,
         ip_abrupt_quick_stop: true,
         homing_immediate: true,
-        switch_polarity_objects: false,
         brake_in_60fe: false,
         zero_ramp_is_abrupt: false,
         vl_actual_closed_loop_only: true,
@@ -350,6 +349,13 @@ impl Vendor for Nanotec {
 
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&NANOTEC, Nanotec::default())
+    }
+
+    /// §5.3 (−2 / −3): on the block the position is set after the settle time 2004h:05 (ms).
+    fn homing_block_settle<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+    ) -> core::time::Duration {
+        core::time::Duration::from_millis(d.value(0x2004, 5).max(0) as u64)
     }
 
     fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
