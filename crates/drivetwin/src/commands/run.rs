@@ -496,6 +496,7 @@ async fn prepare_cell(
             .map(|us| std::time::Duration::from_micros(u64::from(us))),
         busy_poll: args.busy_poll,
         views: drivetwin::vendors::VENDORS.runtime.views,
+        plans: outside,
         ..FrontEnds::default()
     };
     for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
@@ -548,8 +549,6 @@ async fn prepare_cell(
              control handle)"
         );
     }
-    let _ = drivetwin::cell::planned::start(cell_loop.control_handle(), outside)
-        .map_err(io("cell plans"))?;
     let _ = drivetwin::cell::ethercat_line::start_planned(
         cell_loop.control_handle(),
         file.ethercat_line.clone(),

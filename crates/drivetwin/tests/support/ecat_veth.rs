@@ -5,8 +5,9 @@
 //!
 //! Both guards undo what they did when dropped, also while a test panics: [`TwinProcess`]
 //! stops the child, [`Veth`] deletes the link (its peer goes with it) and the namespace.
-//! Shared by `tests/ethercrab_interop.rs`, `tests/ethercrab_dc.rs` and
-//! `benches/ecat_veth_roundtrip.rs` through `#[path]`, so not every item is used by all.
+//! [`VethPair`] is a pair with both ends here, for a cell loop in the test's own process.
+//! Shared by the tests and benchmarks that need a wire through `#[path]`, so not every item
+//! is used by all.
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
@@ -116,6 +117,59 @@ impl Drop for Veth {
         // Deleting one end deletes its peer; errors are ignored (a step may never have run).
         let _ = ip(&["link", "del", &self.master_if]);
         let _ = ip(&["netns", "del", &self.ns]);
+    }
+}
+
+/// A veth pair with both ends in this namespace and up: a cell loop in this process serves
+/// the chain on `twin_if`, the master under test opens `master_if`. Deleted on drop.
+#[derive(Debug)]
+pub struct VethPair {
+    pub twin_if: String,
+    pub master_if: String,
+}
+
+impl VethPair {
+    /// Create a uniquely named pair (names carry the process id and a counter).
+    pub fn create() -> Result<VethPair, Unavailable> {
+        if !platform::process::is_root() {
+            return Err(Unavailable(
+                "EtherCAT over veth needs root (raw sockets)".into(),
+            ));
+        }
+        static SERIAL: AtomicU32 = AtomicU32::new(0);
+        let tag = format!(
+            "{}{}",
+            std::process::id(),
+            SERIAL.fetch_add(1, Ordering::Relaxed)
+        );
+        let pair = VethPair {
+            twin_if: format!("dpA{tag}"),
+            master_if: format!("dpB{tag}"),
+        };
+        let create: &[&str] = &[
+            "link",
+            "add",
+            &pair.master_if,
+            "type",
+            "veth",
+            "peer",
+            "name",
+            &pair.twin_if,
+        ];
+        ip(create).map_err(|e| Unavailable(format!("cannot create a veth pair: {e}")))?;
+        // From here on, Drop deletes the pair.
+        for end in [&pair.twin_if, &pair.master_if] {
+            ip(&["link", "set", end, "up"])
+                .map_err(|e| Unavailable(format!("cannot bring {end} up: {e}")))?;
+        }
+        Ok(pair)
+    }
+}
+
+impl Drop for VethPair {
+    fn drop(&mut self) {
+        // Deleting one end deletes its peer.
+        let _ = ip(&["link", "del", &self.master_if]);
     }
 }
 
