@@ -1,7 +1,8 @@
 //! `[[drive.diagnostic]]`, `[[drive.plant]]` and `[drive.thermal]` of the drives outside the
 //! CAN buses (a CMMO-ST on Modbus TCP, an EtherCAT-only drive): the cell file's plans handed
 //! to the cell loop (`FrontEnds::plans`, found by `drivetwin::cell::planned::outside_plans`)
-//! and carried out by the loop itself at their times on its clock.
+//! and carried out by the loop itself at their times on its clock, as are the faults planned
+//! for an EtherCAT line (`[[ethercat_line]]`, `FrontEnds::line_plans`).
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -134,10 +135,16 @@ ambient_c = 35.0
 [[drive.diagnostic]]
 at_ms = 60
 number = "43-0"
+
+[[ethercat_line]]
+at = "80ms"
+action = "pull-cable"
+after = 0
 "#;
 
 /// An EtherCAT-only drive (no CANopen node): its plans reach the chain's own station, on
-/// the loop's clock, with no master sending frames.
+/// the loop's clock, with no master sending frames; the cell file's `[[ethercat_line]]` is
+/// carried out by the loop on the same clock.
 #[test]
 fn an_ethercat_only_drive_gets_its_planned_message() {
     let file: CellFile = toml::from_str(ECAT_FILE).expect("cell file");
@@ -165,6 +172,7 @@ fn an_ethercat_only_drive_gets_its_planned_message() {
                 trace: None,
             }],
             plans,
+            line_plans: file.ethercat_line.clone(),
             ..FrontEnds::default()
         },
         None,
@@ -178,6 +186,12 @@ fn an_ethercat_only_drive_gets_its_planned_message() {
     );
     let p = cell.handle.physics(0, Default::default()).expect("physics");
     assert_eq!(p.ambient_c, 35.0, "the thermal section's ambient, at 0 ms");
+    // The line's planned fault, by the loop on the same clock.
+    until("the planned pulled cable", || {
+        let line = cell.handle.ethercat_line(0, None).expect("line");
+        line.cable_pulled_after == Some(0)
+    });
+    assert!(t0.elapsed() >= Duration::from_millis(80), "at its time");
     drop(cell);
     drop(pair);
 }

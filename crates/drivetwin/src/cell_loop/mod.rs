@@ -200,6 +200,9 @@ pub struct FrontEnds {
     /// What the cell file plans for the drives outside the CAN buses (a bus keeps its
     /// stations' own plans): carried out by the loop at their times on its clock.
     pub plans: Vec<crate::cell::planned::OutsidePlans>,
+    /// The faults the cell file plans for the EtherCAT lines (`[[ethercat_line]]`): carried
+    /// out by the loop at their times on its clock.
+    pub line_plans: Vec<crate::cell::ethercat_line::TimedLineAction>,
 }
 
 /// A bus while the loop runs.
@@ -288,7 +291,7 @@ pub struct CellLoop {
     /// is due at one turn is released in that order ([`Arrivals`]).
     arrivals: Arrivals,
     /// What the cell file plans for the drives outside the CAN buses ([`plans`]).
-    plans: crate::cell::planned::Timeline<(plans::Planee, crate::cell::diagnostics::Planned)>,
+    plans: crate::cell::planned::Timeline<plans::LoopPlan>,
 }
 
 /// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
@@ -490,7 +493,7 @@ impl CellLoop {
                 ),
             })
             .collect();
-        let plans = plans::timeline(front.plans, &chains, front.modbus.len());
+        let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
         Ok(CellLoop {
             control_tx,
             control_rx,
@@ -775,7 +778,7 @@ impl CellLoop {
         let t = self.now(now);
         if let Some(due) = self.plans.deadline().filter(|d| *d <= t) {
             self.lateness.record(t.saturating_since(due));
-            self.carry_out_plans(t);
+            self.carry_out_plans(now);
         }
         for b in 0..self.buses.len() {
             let Some(bus) = self.buses.get_mut(b) else {

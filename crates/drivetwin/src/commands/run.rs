@@ -497,6 +497,7 @@ async fn prepare_cell(
         busy_poll: args.busy_poll,
         views: drivetwin::vendors::VENDORS.runtime.views,
         plans: outside,
+        line_plans: file.ethercat_line.clone(),
         ..FrontEnds::default()
     };
     for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
@@ -549,11 +550,6 @@ async fn prepare_cell(
              control handle)"
         );
     }
-    let _ = drivetwin::cell::ethercat_line::start_planned(
-        cell_loop.control_handle(),
-        file.ethercat_line.clone(),
-    )
-    .map_err(io("[[ethercat_line]]"))?;
     Ok(Prepared::Loop {
         cell_loop: Box::new(cell_loop),
         fhpp: fhpp_tasks,
