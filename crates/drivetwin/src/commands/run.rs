@@ -546,8 +546,8 @@ async fn prepare_cell(
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
     if fhpp_drives > 0 && !in_loop && specs_had_fhpp_plans(file) {
         tracing::warn!(
-            "planned changes of a CMMO-ST run with --modbus-io cell only (its own thread has no \
-             control handle)"
+            "planned changes of a CMMO-ST run with --modbus-io cell only (the cell loop carries \
+             them out on its clock; its own thread has none)"
         );
     }
     Ok(Prepared::Loop {
