@@ -15,7 +15,6 @@
     clippy::panic
 )]
 
-use std::process::{Command as Process, Stdio};
 use std::time::Duration;
 
 use drivetwin::cell::config::CellFile;
@@ -25,6 +24,9 @@ use drivetwin::ecat::link::{EthercatSocket, SlaveSocket};
 use ethercat::register::RegisterAddress;
 use ethercat::{Address, AlState, Command, EthernetFrame, Fmmu, Frame, FrameWriter, SyncManager};
 use platform::alloc::Counting;
+
+#[path = "support/ecat_veth.rs"]
+mod ecat_veth;
 
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
@@ -38,53 +40,6 @@ const SM3: u16 = 0x1180;
 const OUTPUT_BYTES: u16 = 2;
 const INPUT_BYTES: u16 = 2;
 const CYCLES: usize = 1000;
-
-/// A veth pair in this namespace; both ends up; deleted on drop.
-struct Pair {
-    twin: String,
-    master: String,
-}
-
-fn ip(args: &[&str]) -> Result<(), String> {
-    let out = Process::new("ip")
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("ip: {e}"))?;
-    if out.status.success() {
-        Ok(())
-    } else {
-        Err(String::from_utf8_lossy(&out.stderr).trim().to_owned())
-    }
-}
-
-impl Pair {
-    fn create(tag: &str) -> Result<Pair, String> {
-        let pair = Pair {
-            twin: format!("dfA{}{tag}", std::process::id()),
-            master: format!("dfB{}{tag}", std::process::id()),
-        };
-        ip(&[
-            "link",
-            "add",
-            &pair.master,
-            "type",
-            "veth",
-            "peer",
-            "name",
-            &pair.twin,
-        ])?;
-        ip(&["link", "set", &pair.twin, "up"])?;
-        ip(&["link", "set", &pair.master, "up"])?;
-        Ok(pair)
-    }
-}
-
-impl Drop for Pair {
-    fn drop(&mut self) {
-        let _ = ip(&["link", "del", &self.master]);
-    }
-}
 
 /// The master: one datagram per frame, its reply's data and working counter.
 struct Master {
@@ -195,14 +150,14 @@ impl Master {
 /// Allocations on the loop's thread over [`CYCLES`] LRW cycles at 1 kHz in Op.
 fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
     // SAFETY-free root check: a raw socket is refused without CAP_NET_RAW.
-    let pair = match Pair::create(if busy_poll { "b" } else { "s" }) {
+    let pair = match ecat_veth::VethPair::create() {
         Ok(p) => p,
         Err(why) => {
-            eprintln!("skipped: cannot create a veth pair ({why})");
+            eprintln!("skipped: {why}");
             return None;
         }
     };
-    let socket = match SlaveSocket::open(&pair.twin) {
+    let socket = match SlaveSocket::open(&pair.twin_if) {
         Ok(s) => s,
         Err(why) => {
             eprintln!("skipped: no raw socket ({why})");
@@ -238,7 +193,7 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
         .expect("runtime");
     let count = rt.block_on(async {
         let mut master = Master {
-            socket: EthercatSocket::open(&pair.master).expect("master socket"),
+            socket: EthercatSocket::open(&pair.master_if).expect("master socket"),
             index: 0,
         };
         master.start_up().await;

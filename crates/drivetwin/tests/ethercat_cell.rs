@@ -1,7 +1,8 @@
 //! The EtherCAT chain driven in-process with the datagrams SOEM sends (no sockets): start-up
 //! from the SII, Pre-Op, a refused and an accepted Safe-Op, Op, and a cyclic exchange in
 //! which the controlword and target written in the outputs reach the CiA 402 drive and its
-//! statusword and position come back in the inputs.
+//! statusword and position come back in the inputs. A chain joined to a cell's list of
+//! stations (as the cell loop runs it) answers every frame as the chain that owns its drives.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -14,10 +15,13 @@ mod ecat_inputs;
 use ecat_inputs::{phys, sm};
 
 use drivetwin::cell::config::CellFile;
-use drivetwin::ecat::chain::SlaveChain;
+use drivetwin::cell::station::Station;
+use drivetwin::cell::stations::{StationId, Stations};
+use drivetwin::cell::OnBus;
+use drivetwin::ecat::chain::{BusDrives, SlaveChain, SlaveDrive};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
-use ethercat::{AlState, Fmmu};
+use ethercat::{AlState, Fmmu, FrameOutcome};
 use od::{Instant, ObjectAccess};
 
 const MASTER_MAC: [u8; 6] = [0x01; 6];
@@ -39,16 +43,80 @@ impl Reply {
 struct Master {
     cell: SlaveChain,
     now: Instant,
+    /// The cell's list of stations the chain has joined (none: the chain owns its drives).
+    joined: Option<Stations>,
+    /// Every frame as it came back, when asked for.
+    returned: Option<Vec<Vec<u8>>>,
+}
+
+/// The drives of a chain joined to a cell without CAN buses: stations of the cell's list.
+struct InCell<'a>(&'a mut Stations);
+
+impl BusDrives for InCell<'_> {
+    fn station(&mut self, _at: OnBus) -> Option<&mut Station> {
+        None
+    }
+    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
+        self.0.station_mut(id)
+    }
 }
 
 impl Master {
     fn new(cell: SlaveChain) -> Self {
+        Master::start(cell, None)
+    }
+
+    /// `cell` joined to a cell's list behind a drive of the cell's own, as the cell loop
+    /// joins a chain: its slaves name their drives by id there.
+    fn joined(mut cell: SlaveChain) -> Self {
+        let mut stations = Stations::new();
+        let desc = devices::by_name("cmmp-as").unwrap();
+        stations
+            .push(Station::with_settings(desc, 9, None, vec![], Some(Default::default())).unwrap());
+        cell.join(&mut stations, |_| None);
+        for i in 0..cell.len() {
+            assert!(
+                matches!(cell.drive(i), Some(SlaveDrive::Station { bus: None, .. })),
+                "slave {i} names a station of the list"
+            );
+        }
+        Master::start(cell, Some(stations))
+    }
+
+    fn start(cell: SlaveChain, joined: Option<Stations>) -> Self {
         let mut m = Master {
             cell,
             now: Instant::from_millis(1),
+            joined,
+            returned: None,
         };
-        m.cell.boot(m.now);
+        match &mut m.joined {
+            Some(stations) => m.cell.boot_with(m.now, &mut InCell(stations)),
+            None => m.cell.boot(m.now),
+        }
         m
+    }
+
+    /// A frame through the chain.
+    fn pass(&mut self, frame: &mut [u8]) -> FrameOutcome {
+        match &mut self.joined {
+            Some(stations) => self
+                .cell
+                .on_frame_with(self.now, frame, &mut InCell(stations)),
+            None => self.cell.on_frame(self.now, frame),
+        }
+    }
+
+    /// The chain's drives run to `now`.
+    fn poll(&mut self) {
+        match &mut self.joined {
+            Some(stations) => {
+                self.cell.poll_with(self.now, &mut InCell(stations));
+            }
+            None => {
+                self.cell.poll(self.now);
+            }
+        }
     }
 
     fn send(&mut self, reqs: &[(Command, Address, Vec<u8>)]) -> Vec<Reply> {
@@ -59,8 +127,11 @@ impl Master {
         }
         let n = w.finish();
         buf.truncate(n);
-        let outcome = self.cell.on_frame(self.now, &mut buf);
+        let outcome = self.pass(&mut buf);
         assert!(outcome.forward(), "{outcome:?}");
+        if let Some(returned) = &mut self.returned {
+            returned.push(buf.clone());
+        }
         let eth = EthernetFrame::new_checked(&buf[..]).unwrap();
         assert_eq!(
             eth.source()[0],
@@ -105,13 +176,12 @@ impl Master {
     /// Let `ms` milliseconds pass with the runtime's tick.
     fn idle(&mut self, ms: u64) {
         for _ in 0..ms {
-            self.now = self.now + std::time::Duration::from_millis(1);
-            self.cell.poll(self.now);
+            self.tick();
         }
     }
     fn tick(&mut self) {
         self.now = self.now + std::time::Duration::from_millis(1);
-        self.cell.poll(self.now);
+        self.poll();
     }
 }
 
@@ -162,6 +232,37 @@ fn lrw(m: &mut Master, outputs: &[u8], inputs: usize) -> Vec<u8> {
     let r = m.one(Command::Lrw, Address::Logical(0), &d);
     assert_eq!(r.wkc, 3, "outputs written (2) + inputs read (1)");
     r.data[outputs.len()..].to_vec()
+}
+
+/// The controlwords that bring a CiA 402 drive to Operation enabled: shutdown, switch on,
+/// enable operation (CiA 402 §6.2, Fig. 4, transitions 2, 3, 4).
+const ENABLE: [u16; 3] = [0x0006, 0x0007, 0x000F];
+
+/// Each of [`ENABLE`] for `cycles` master cycles, `cycle` sending one with that controlword;
+/// what the last cycle returned.
+fn enable<T: Default>(
+    m: &mut Master,
+    cycles: usize,
+    mut cycle: impl FnMut(&mut Master, u16) -> T,
+) -> T {
+    let mut last = T::default();
+    for cw in ENABLE {
+        for _ in 0..cycles {
+            last = cycle(m, cw);
+        }
+    }
+    last
+}
+
+/// One 1 ms cycle on SYNC0 with frames half-way between two events: the frame with `cw`,
+/// then the event; the statusword the frame brought back.
+fn sync0_cycle(m: &mut Master, cw: u16) -> u16 {
+    let half = std::time::Duration::from_micros(500);
+    m.now = m.now + half;
+    let sw = u16::from_le_bytes(lrw(m, &cw.to_le_bytes(), 2).try_into().unwrap());
+    m.now = m.now + half;
+    m.poll();
+    sw
 }
 
 /// CMMP-ECAT-04: in Safe-Operational the inputs (statusword) are sent while the outputs'
@@ -281,13 +382,10 @@ fn remapped_pdos_carry_target_and_position() {
         o.extend_from_slice(&target.to_le_bytes());
         o
     };
-    let mut inputs = vec![0u8; 6];
-    for cw in [0x0006u16, 0x0007, 0x000F] {
-        for _ in 0..50 {
-            m.tick();
-            inputs = lrw(&mut m, &out(cw), 6);
-        }
-    }
+    let mut inputs = enable(&mut m, 50, |m, cw| {
+        m.tick();
+        lrw(m, &out(cw), 6)
+    });
     let sw = u16::from_le_bytes([inputs[0], inputs[1]]);
     assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
     // New set-point (bit 4), then wait for target reached (bit 10).
@@ -429,24 +527,16 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
     let to_first = first - esc_time;
     m.now = m.now + std::time::Duration::from_nanos(to_first + 500_000);
-    m.cell.poll(m.now);
+    m.poll();
     let half = std::time::Duration::from_micros(500);
     // The controlword of a frame reaches the drive at the next SYNC0, not before.
     let before = read_u16(&m, 0x6040);
     lrw(&mut m, &[0x06, 0x00], 2);
     assert_eq!(read_u16(&m, 0x6040), before, "not before SYNC0");
     m.now = m.now + half;
-    m.cell.poll(m.now);
+    m.poll();
     assert_eq!(read_u16(&m, 0x6040), 0x0006, "taken at SYNC0");
-    let mut sw = 0;
-    for cw in [0x0006u16, 0x0007, 0x000F] {
-        for _ in 0..60 {
-            m.now = m.now + half;
-            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
-            m.now = m.now + half;
-            m.cell.poll(m.now);
-        }
-    }
+    let sw = enable(&mut m, 60, sync0_cycle);
     assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
     let dev = m.cell.device(0).unwrap();
     assert_eq!(dev.sync_monitor().missed, 0);
@@ -455,11 +545,11 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     // The master stops: three SYNC0 events without outputs are a sync error.
     for _ in 0..2 {
         m.now = m.now + std::time::Duration::from_millis(1);
-        m.cell.poll(m.now);
+        m.poll();
     }
     assert_eq!(m.al(), (0x0008, 0), "two missed cycles are tolerated");
     m.now = m.now + std::time::Duration::from_millis(1);
-    m.cell.poll(m.now);
+    m.poll();
     assert_eq!(
         m.al(),
         (0x0014, 0x001A),
@@ -493,7 +583,7 @@ fn sync0_cycle_of_nanoseconds_does_not_spin_the_loop_fuzz_ecat_2ad63ffb() {
         polls += 1;
         assert!(polls <= 1_000, "{polls} polls, the deadline at {t:?}");
         m.now = t.max(m.now);
-        m.cell.poll(m.now);
+        m.poll();
     }
     assert!(polls >= 5, "the events are still served: {polls} polls");
     // The slave goes on answering and the drive stays where a SYNC0 grid in Pre-Op leaves it.
@@ -535,15 +625,13 @@ fn interpolated_position_runs_on_the_frame_cycle_in_free_run() {
         o.extend_from_slice(&target.to_le_bytes());
         o
     };
-    let mut inputs = vec![0u8; 6];
     let mut pos = 0;
-    for cw in [0x0006u16, 0x0007, 0x000F] {
-        for _ in 0..20 {
-            m.tick();
-            inputs = lrw(&mut m, &out(cw, pos), 6);
-            pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
-        }
-    }
+    let mut inputs = enable(&mut m, 20, |m, cw| {
+        m.tick();
+        let inputs = lrw(m, &out(cw, pos), 6);
+        pos = i32::from_le_bytes(inputs[2..6].try_into().unwrap());
+        inputs
+    });
     let mut b = [0u8; 1];
     m.cell.model(0).unwrap().read(0x6061, 0, &mut b).unwrap();
     assert_eq!(b[0] as i8, 7, "synchronised to the 1 ms frame cycle");
@@ -890,17 +978,8 @@ fn an_eds_drive_on_sync0_reports_a_lost_synchronisation() {
     assert_eq!(m.al(), (0x0008, 0));
     let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
     m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
-    m.cell.poll(m.now);
-    let half = std::time::Duration::from_micros(500);
-    let mut sw = 0;
-    for cw in [0x0006u16, 0x0007, 0x000F] {
-        for _ in 0..60 {
-            m.now = m.now + half;
-            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
-            m.now = m.now + half;
-            m.cell.poll(m.now);
-        }
-    }
+    m.poll();
+    let sw = enable(&mut m, 60, sync0_cycle);
     assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
     assert_eq!(m.cell.device(0).unwrap().sync_errors, 0);
 
@@ -934,14 +1013,11 @@ fn an_eds_drive_whose_process_data_stop_reports_it() {
     m.fpwr(0x0120, &[0x04, 0x00]);
     m.fpwr(0x0120, &[0x08, 0x00]);
     assert_eq!(m.al(), (0x0008, 0));
-    let mut sw = 0;
-    for cw in [0x0006u16, 0x0007, 0x000F] {
-        for _ in 0..30 {
-            lrw(&mut m, &cw.to_le_bytes(), 2);
-            m.tick();
-            sw = u16::from_le_bytes(lrw(&mut m, &cw.to_le_bytes(), 2).try_into().unwrap());
-        }
-    }
+    let sw = enable(&mut m, 30, |m, cw| {
+        lrw(m, &cw.to_le_bytes(), 2);
+        m.tick();
+        u16::from_le_bytes(lrw(m, &cw.to_le_bytes(), 2).try_into().unwrap())
+    });
     assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
     m.idle(150);
     assert_eq!(m.al(), (0x0014, 0x001B), "Safe-Op + error, SM watchdog");
@@ -953,4 +1029,46 @@ fn an_eds_drive_whose_process_data_stop_reports_it() {
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
     assert_error_kept(&m, 0x11, 0x8250);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What a master sends a chain of one CMMP-AS from power-on to Operation enabled: SII reads,
+/// mailbox and process-data set-up, a CoE upload, Safe-Op, Op, then LRW cycles, each with
+/// an APRD of the AL status, and a last CoE upload; every frame as it came back.
+fn start_up_frames(mut m: Master) -> Vec<Vec<u8>> {
+    m.returned = Some(Vec::new());
+    to_preop(&mut m);
+    assert_eq!(coe_upload(&mut m, 1, 0x1018, 1)[4], 0x1D, "vendor Festo");
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let sw = enable(&mut m, 20, |m, cw| {
+        m.tick();
+        let sw = u16::from_le_bytes(lrw(m, &cw.to_le_bytes(), 2).try_into().unwrap());
+        let al = m.one(Command::Aprd, phys(0, 0x0130), &[0, 0]);
+        assert_eq!((al.wkc, al.u16()), (1, 0x0008), "Op");
+        sw
+    });
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
+    assert_eq!(
+        coe_upload(&mut m, 2, 0x6041, 0)[0],
+        0x4B,
+        "statusword over CoE"
+    );
+    m.returned.take().unwrap()
+}
+
+/// The cell loop joins a chain to the cell's list of stations (`SlaveChain::join`), its
+/// slaves then naming their drives by id (`SlaveDrive::Station`): the master cannot tell.
+/// Each frame of the same sequence comes back byte for byte as from the chain that owns its
+/// drive.
+#[test]
+fn a_chain_joined_to_the_cells_stations_answers_as_one_that_owns_its_drives() {
+    let own = start_up_frames(Master::new(cell()));
+    let joined = start_up_frames(Master::joined(cell()));
+    assert!(own.len() > 60, "{} frames", own.len());
+    assert_eq!(own.len(), joined.len(), "as many frames");
+    for (k, (a, b)) in own.iter().zip(&joined).enumerate() {
+        assert_eq!(a, b, "frame {k}");
+    }
 }

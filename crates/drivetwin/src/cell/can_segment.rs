@@ -71,8 +71,8 @@ pub struct SegmentBus {
     faults: Vec<NodeFaults>,
     /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
     planned: Vec<(Instant, u8, u32)>,
-    /// Diagnostic messages the cell file plans: at a time, the station (segment order), what.
-    pub(super) planned_diagnostics: Vec<(Instant, usize, super::diagnostics::Planned)>,
+    /// What the cell file plans for the stations (segment order) ([`super::planned`]).
+    pub(super) planned_diagnostics: super::planned::Timeline<(usize, super::diagnostics::Planned)>,
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
     wire: FaultInjector<Wire<SegmentFrame>>,
@@ -254,7 +254,7 @@ impl SegmentBus {
             timing: None,
             faults,
             planned: Vec::new(),
-            planned_diagnostics: Vec::new(),
+            planned_diagnostics: Default::default(),
             wire: FaultInjector::default(),
             port: Tracer::new(Wire::new(), CanTrace::default()),
             outside_ends: None,

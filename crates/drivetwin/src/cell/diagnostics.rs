@@ -224,7 +224,7 @@ impl SegmentBus {
     /// `at` (the cell file's `[[drive.diagnostic]]`).
     pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
         self.planned_diagnostics
-            .push((at, drive, Planned::Diagnostic(planned)));
+            .plan(at, (drive, Planned::Diagnostic(planned)));
     }
 
     /// Plans a change of drive `drive`'s plant physics at `at` (the cell file's
@@ -236,45 +236,25 @@ impl SegmentBus {
         change: super::control::PhysicsChange,
     ) {
         self.planned_diagnostics
-            .push((at, drive, Planned::Physics(change)));
+            .plan(at, (drive, Planned::Physics(change)));
     }
 
-    /// Carries out the planned messages that are due.
+    /// Carries out the planned changes that are due ([`super::planned::on_model`]).
     pub(super) fn start_planned_diagnostics(&mut self, stations: &mut Stations, now: Instant) {
-        let mut i = 0;
-        while let Some((at, _, _)) = self.planned_diagnostics.get(i) {
-            if *at > now {
-                i += 1;
-                continue;
-            }
-            let (_, drive, p) = self.planned_diagnostics.remove(i);
+        while let Some((drive, what)) = self.planned_diagnostics.take_due(now) {
             let station = self.member(drive).and_then(|id| stations.station_mut(id));
-            match p {
-                Planned::Diagnostic(p) => {
-                    let done = match station {
-                        Some(d) => set_model(&mut d.model, &p.number, p.action).map_err(refused),
-                        None => Err(ControlError::NoDrive(drive)),
-                    };
-                    if let Err(e) = done {
-                        tracing::warn!(drive, number = %p.number, "planned diagnostic: {e}");
-                    }
-                }
-                Planned::Physics(change) => {
-                    let d = station.and_then(|d| d.model.drive_mut());
-                    let done = match d {
-                        Some(d) => super::control::apply_physics(d, change).map(|_| ()),
-                        None => Err("no simulated plant"),
-                    };
-                    if let Err(e) = done {
-                        tracing::warn!(drive, ?change, "planned plant change: {e}");
-                    }
-                }
+            let done = match station {
+                Some(d) => super::planned::on_model(&mut d.model, &what),
+                None => Err(super::planned::PlanError::NoDrive),
+            };
+            if let Err(e) = done {
+                tracing::warn!(drive, ?what, "planned change: {e}");
             }
         }
     }
 
-    /// The earliest planned message.
+    /// The earliest planned change.
     pub(super) fn planned_diagnostics_deadline(&self) -> Option<Instant> {
-        self.planned_diagnostics.iter().map(|(t, _, _)| *t).min()
+        self.planned_diagnostics.deadline()
     }
 }

@@ -5,9 +5,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use std::time::{Duration, Instant};
-
-use crate::cell::control::ControlHandle;
 use crate::cell::wire_faults::TimeSpan;
 
 /// One change to a chain's line.
@@ -88,8 +85,8 @@ pub enum LineControlError {
     Stopped,
 }
 
-/// A line change at a time after the start (the cell file's `[[ethercat_line]]`, a scenario
-/// step).
+/// A line change at a time after the start (the cell file's `[[ethercat_line]]`, carried out
+/// by the cell loop on its clock; a scenario step).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 pub struct TimedLineAction {
     /// The chain by its interface; none: the cell's first chain.
@@ -100,53 +97,10 @@ pub struct TimedLineAction {
     pub action: LineAction,
 }
 
-/// Carries out a cell file's `[[ethercat_line]]` through `handle` at their times from now,
-/// on a thread of its own (none for none), as `cell::planned` does for a drive's plans: wall
-/// time since the loop started, to the thread's sleep resolution.
-pub fn start_planned(
-    handle: ControlHandle,
-    mut actions: Vec<TimedLineAction>,
-) -> std::io::Result<Option<std::thread::JoinHandle<()>>> {
-    if actions.is_empty() {
-        return Ok(None);
-    }
-    actions.sort_by_key(|a| a.at.map_or(Duration::ZERO, |t| t.0));
-    let start = Instant::now();
-    std::thread::Builder::new()
-        .name("ethercat-line".into())
-        .spawn(move || {
-            for a in actions {
-                let due = start + a.at.map_or(Duration::ZERO, |t| t.0);
-                let now = Instant::now();
-                if due > now {
-                    std::thread::sleep(due - now);
-                }
-                let Some(chain) = chain_named(&handle, a.interface.as_deref()) else {
-                    tracing::warn!(interface = ?a.interface, "[[ethercat_line]]: no such chain");
-                    continue;
-                };
-                match handle.ethercat_line(chain, Some(a.action)) {
-                    Ok(_) => {}
-                    Err(LineControlError::Stopped) => return,
-                    Err(e) => tracing::warn!(action = ?a.action, "[[ethercat_line]]: {e}"),
-                }
-            }
-        })
-        .map(Some)
-}
-
-/// The index of the chain on `interface` (none: the first chain).
-fn chain_named(handle: &ControlHandle, interface: Option<&str>) -> Option<usize> {
-    // The chains answer from 0 up to the first that is not there.
-    (0..)
-        .map_while(|i| handle.ethercat_line(i, None).ok().map(|s| (i, s)))
-        .find(|(_, s)| interface.is_none_or(|name| s.interface == name))
-        .map(|(i, _)| i)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     #[test]
     fn actions_read_as_the_api_writes_them() {

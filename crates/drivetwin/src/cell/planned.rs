@@ -1,20 +1,24 @@
-//! What a cell file plans for the drives outside the CAN cells — a CMMO-ST on Modbus TCP, an
-//! EtherCAT-only drive — (`[[drive.diagnostic]]`, `[[drive.plant]]`, `[drive.thermal]`):
-//! carried out through the cell loop's control handle at their times, on a thread of their
-//! own, as a console would. The CAN drives' plans run inside their [`super::can_segment::CanSegment`]
-//! (`CanSegment::plan_diagnostic`, `CanSegment::plan_physics`), on the virtual clock too.
-//!
-//! Decision: these drives run on the real clock only (the cell loop refuses the virtual one
-//! for them), so a time here is wall time since the loop started, to the thread's sleep
-//! resolution (~1 ms).
+//! What a cell file plans for its drives (`[[drive.diagnostic]]`, `[[drive.plant]]`,
+//! `[drive.thermal]`): a [`Timeline`] of changes on the cell's clock, carried out by what
+//! steps the drives at each change's time, as a timer of the cell like any other. A CAN bus
+//! keeps the plans of its stations ([`super::can_segment::SegmentBus`],
+//! `CanSegment::plan_diagnostic`, `CanSegment::plan_physics`), on either clock; the cell
+//! loop keeps those of the drives outside the CAN buses, a CMMO-ST on Modbus TCP and an
+//! EtherCAT-only drive ([`OutsidePlans`], `crate::cell_loop::FrontEnds::plans`). Both carry
+//! a change out with [`on_model`] or [`on_modbus`], the functions the control handle's
+//! requests use as well.
 
-use std::time::{Duration, Instant};
+use std::collections::VecDeque;
+
+use drive::drive::diagnostics::DiagnosticError;
+use od::Instant;
 
 use super::config::DriveSpec;
-use super::control::{ControlHandle, Interface};
-use super::diagnostics::{Action, Planned};
+use super::device_model::Model;
+use super::diagnostics::{set_model, Planned};
+use super::modbus_device::ModbusDevice;
 
-/// How the control handle's list finds the drive.
+/// How the cell finds a drive outside the CAN buses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Locator {
     /// The k-th CMMO-ST on Modbus TCP.
@@ -24,16 +28,16 @@ pub enum Locator {
     Ethercat { chain: usize, k: usize },
 }
 
-/// The plans of one drive outside the CAN cells.
+/// The plans of one drive outside the CAN buses.
 #[derive(Debug, Clone)]
 pub struct OutsidePlans {
     pub drive: Locator,
-    /// (ms, what), any order.
+    /// (ms on the cell's clock, what), any order.
     pub plans: Vec<(u64, Planned)>,
 }
 
 /// The plans of the specs that are not CANopen nodes, with their locators (call before the
-/// specs are spent on the cells). `in_loop`: the CMMO-STs run in the cell loop.
+/// specs are spent on the buses). `in_loop`: the CMMO-STs run in the cell loop.
 pub fn outside_plans(specs: &[DriveSpec], in_loop: bool) -> Vec<OutsidePlans> {
     let mut out = Vec::new();
     let mut modbus = 0;
@@ -86,67 +90,114 @@ pub fn outside_plans(specs: &[DriveSpec], in_loop: bool) -> Vec<OutsidePlans> {
     out
 }
 
-/// The index in [`ControlHandle::drives`] of `locator`.
-fn index_of(handle: &ControlHandle, locator: Locator) -> Option<usize> {
-    let drives = handle.drives().ok()?;
-    match locator {
-        Locator::Modbus(k) => drives
-            .iter()
-            .filter(|d| d.interface == Interface::ModbusTcp)
-            .nth(k)
-            .map(|d| d.index),
-        Locator::Ethercat { chain, k } => drives
-            .iter()
-            .filter(|d| matches!(d.interface, Interface::Ethercat { chain: c, .. } if c == chain))
-            .nth(k)
-            .map(|d| d.index),
+/// Changes planned on the cell's clock (`T`: what, and for which drive), in time order
+/// (those of one time in the order they were planned).
+#[derive(Debug)]
+pub struct Timeline<T> {
+    plans: VecDeque<(Instant, T)>,
+}
+
+impl<T> Default for Timeline<T> {
+    fn default() -> Self {
+        Timeline {
+            plans: VecDeque::new(),
+        }
     }
 }
 
-/// Carries out `plans` through `handle` at their times from now, on a thread of its own (none
-/// for no plans).
-pub fn start(
-    handle: ControlHandle,
-    plans: Vec<OutsidePlans>,
-) -> std::io::Result<Option<std::thread::JoinHandle<()>>> {
-    if plans.is_empty() {
-        return Ok(None);
+impl<T> Timeline<T> {
+    /// Plans `what` at `at`.
+    pub fn plan(&mut self, at: Instant, what: T) {
+        let after = self.plans.partition_point(|(t, _)| *t <= at);
+        self.plans.insert(after, (at, what));
     }
-    let start = Instant::now();
-    std::thread::Builder::new()
-        .name("cell-plans".into())
-        .spawn(move || run(&handle, plans, start))
-        .map(Some)
+
+    /// The time of the first change still to come.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.plans.front().map(|(t, _)| *t)
+    }
+
+    /// The first change due by `now`, taken off the timeline.
+    pub fn take_due(&mut self, now: Instant) -> Option<T> {
+        if self.deadline()? > now {
+            return None;
+        }
+        self.plans.pop_front().map(|(_, what)| what)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.plans.is_empty()
+    }
 }
 
-fn run(handle: &ControlHandle, plans: Vec<OutsidePlans>, start: Instant) {
-    let mut timeline: Vec<(u64, Locator, Planned)> = plans
-        .into_iter()
-        .flat_map(|p| p.plans.into_iter().map(move |(t, what)| (t, p.drive, what)))
-        .collect();
-    timeline.sort_by_key(|(t, _, _)| *t);
-    for (t, locator, what) in timeline {
-        let due = start + Duration::from_millis(t);
-        let now = Instant::now();
-        if due > now {
-            std::thread::sleep(due - now);
+/// Why a planned change could not be carried out (the run goes on; the cell logs it).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlanError {
+    #[error("diagnostic message: {0:?}")]
+    Diagnostic(DiagnosticError),
+    #[error("the drive is not in the cell")]
+    NoDrive,
+    #[error("no simulated plant")]
+    NoPlant,
+    #[error("no input for switch {0}")]
+    NoSwitch(&'static str),
+}
+
+/// Carries out `what` on a drive model of the cell (a CiA 402 drive's engine and plant).
+pub fn on_model(model: &mut Model, what: &Planned) -> Result<(), PlanError> {
+    match what {
+        Planned::Diagnostic(p) => set_model(model, &p.number, p.action)
+            .map(|_| ())
+            .map_err(PlanError::Diagnostic),
+        Planned::Physics(change) => {
+            let d = model.drive_mut().ok_or(PlanError::NoPlant)?;
+            super::control::apply_physics(d, *change)
+                .map(|_| ())
+                .map_err(PlanError::NoSwitch)
         }
-        let Some(drive) = index_of(handle, locator) else {
-            tracing::warn!(?locator, "planned change: the drive is not in the cell");
-            continue;
-        };
-        let done = match &what {
-            Planned::Diagnostic(p) => match p.action {
-                Action::Raise => handle.raise_diagnostic(drive, &p.number).map(|_| ()),
-                Action::Clear => handle.clear_diagnostic(drive, &p.number).map(|_| ()),
-            },
-            Planned::Physics(c) => handle.physics(drive, *c).map(|_| ()),
-        };
-        match done {
-            Ok(()) => {}
-            // The cell has stopped: nothing more to do.
-            Err(super::control::ControlError::Stopped) => return,
-            Err(e) => tracing::warn!(drive, ?what, "planned change: {e}"),
-        }
+    }
+}
+
+/// Carries out `what` on a drive served over Modbus TCP (the CMMO-ST).
+pub fn on_modbus(device: &mut dyn ModbusDevice, what: &Planned) -> Result<(), PlanError> {
+    match what {
+        Planned::Diagnostic(p) => device
+            .set_diagnostic(&p.number, p.action)
+            .map(|_| ())
+            .map_err(PlanError::Diagnostic),
+        Planned::Physics(change) => device
+            .physics(*change)
+            .map(|_| ())
+            .map_err(PlanError::NoSwitch),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell::control::PhysicsChange;
+
+    fn ambient(c: f64) -> Planned {
+        Planned::Physics(PhysicsChange::Ambient(c))
+    }
+
+    #[test]
+    fn changes_come_in_time_order_and_planned_order_within_a_time() {
+        let mut t = Timeline::default();
+        t.plan(Instant::from_millis(50), (1, ambient(1.0)));
+        t.plan(Instant::from_millis(20), (2, ambient(2.0)));
+        t.plan(Instant::from_millis(50), (3, ambient(3.0)));
+        assert_eq!(t.deadline(), Some(Instant::from_millis(20)));
+        assert_eq!(t.take_due(Instant::from_millis(19)), None);
+        assert_eq!(
+            t.take_due(Instant::from_millis(20)),
+            Some((2, ambient(2.0)))
+        );
+        assert_eq!(t.take_due(Instant::from_millis(49)), None);
+        let now = Instant::from_millis(60);
+        assert_eq!(t.take_due(now), Some((1, ambient(1.0))));
+        assert_eq!(t.take_due(now), Some((3, ambient(3.0))));
+        assert_eq!(t.take_due(now), None);
+        assert!(t.is_empty());
     }
 }

@@ -73,6 +73,7 @@ mod ethercat_line;
 mod fine_timer;
 mod handle;
 mod modbus_drives;
+mod plans;
 mod serial;
 mod socketcand;
 pub mod virtual_clock;
@@ -196,6 +197,12 @@ pub struct FrontEnds {
     pub busy_poll: bool,
     /// What only the drives' vendors tell (the display a drive has).
     pub views: DriveViews,
+    /// What the cell file plans for the drives outside the CAN buses (a bus keeps its
+    /// stations' own plans): carried out by the loop at their times on its clock.
+    pub plans: Vec<crate::cell::planned::OutsidePlans>,
+    /// The faults the cell file plans for the EtherCAT lines (`[[ethercat_line]]`): carried
+    /// out by the loop at their times on its clock.
+    pub line_plans: Vec<crate::cell::ethercat_line::TimedLineAction>,
 }
 
 /// A bus while the loop runs.
@@ -282,6 +289,8 @@ pub struct CellLoop {
     /// The order in which the front ends' faults held their frames, over all of them: what
     /// is due at one turn is released in that order ([`Arrivals`]).
     arrivals: Arrivals,
+    /// What the cell file plans for the drives outside the CAN buses ([`plans`]).
+    plans: crate::cell::planned::Timeline<plans::LoopPlan>,
 }
 
 /// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
@@ -474,6 +483,18 @@ impl CellLoop {
         }
         let (control_tx, control_rx) = std::sync::mpsc::channel();
         let arrivals = Arrivals::default();
+        let chains: Vec<ChainState> = front
+            .ethercat
+            .into_iter()
+            .map(|c| ChainState {
+                chain: c.chain,
+                link: Tracer::new(
+                    FrontFaultInjector::inbound(c.socket, arrivals.clone()),
+                    c.trace,
+                ),
+            })
+            .collect();
+        let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
         Ok(CellLoop {
             control_tx,
             control_rx,
@@ -496,18 +517,9 @@ impl CellLoop {
             listeners,
             slots: Vec::new(),
             modbus: front.modbus,
-            chains: front
-                .ethercat
-                .into_iter()
-                .map(|c| ChainState {
-                    chain: c.chain,
-                    link: Tracer::new(
-                        FrontFaultInjector::inbound(c.socket, arrivals.clone()),
-                        c.trace,
-                    ),
-                })
-                .collect(),
+            chains,
             arrivals,
+            plans,
             serial: front.serial,
             serial_sent: Vec::new(),
             chains_to_read: Vec::new(),
@@ -729,8 +741,8 @@ impl CellLoop {
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
     }
 
-    /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, or a
-    /// trace to flush.
+    /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, a
+    /// planned change, or a trace to flush.
     fn deadline(&self) -> Option<Instant> {
         let mut at: Option<Instant> = None;
         let mut take = |d: Option<Instant>| {
@@ -763,11 +775,16 @@ impl CellLoop {
             take(l.deadline().map(|d| self.wall(d)));
         }
         take(self.held_deadline());
+        take(self.plans.deadline().map(|d| self.wall(d)));
         at
     }
 
     fn timers(&mut self, now: Instant) {
         let t = self.now(now);
+        if let Some(due) = self.plans.deadline().filter(|d| *d <= t) {
+            self.lateness.record(t.saturating_since(due));
+            self.carry_out_plans(now);
+        }
         for b in 0..self.buses.len() {
             let Some(bus) = self.buses.get_mut(b) else {
                 break;

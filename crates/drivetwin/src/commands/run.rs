@@ -500,6 +500,8 @@ async fn prepare_cell(
             .map(|us| std::time::Duration::from_micros(u64::from(us))),
         busy_poll: args.busy_poll,
         views: drivetwin::vendors::VENDORS.runtime.views,
+        plans: outside,
+        line_plans: file.ethercat_line.clone(),
         ..FrontEnds::default()
     };
     for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
@@ -548,17 +550,10 @@ async fn prepare_cell(
     let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
     if fhpp_drives > 0 && !in_loop && specs_had_fhpp_plans(file) {
         tracing::warn!(
-            "planned changes of a CMMO-ST run with --modbus-io cell only (its own thread has no \
-             control handle)"
+            "planned changes of a CMMO-ST run with --modbus-io cell only (the cell loop carries \
+             them out on its clock; its own thread has none)"
         );
     }
-    let _ = drivetwin::cell::planned::start(cell_loop.control_handle(), outside)
-        .map_err(io("cell plans"))?;
-    let _ = drivetwin::cell::ethercat_line::start_planned(
-        cell_loop.control_handle(),
-        file.ethercat_line.clone(),
-    )
-    .map_err(io("[[ethercat_line]]"))?;
     Ok(Prepared::Loop {
         cell_loop: Box::new(cell_loop),
         fhpp: fhpp_tasks,

@@ -5,8 +5,9 @@
 //!
 //! Both guards undo what they did when dropped, also while a test panics: [`TwinProcess`]
 //! stops the child, [`Veth`] deletes the link (its peer goes with it) and the namespace.
-//! Shared by `tests/ethercrab_interop.rs`, `tests/ethercrab_dc.rs` and
-//! `benches/ecat_veth_roundtrip.rs` through `#[path]`, so not every item is used by all.
+//! [`VethPair`] is a pair with both ends here, for a cell loop in the test's own process.
+//! Shared by the tests and benchmarks that need a wire through `#[path]`, so not every item
+//! is used by all.
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
@@ -57,6 +58,24 @@ fn ip(args: &[&str]) -> Result<(), String> {
     }
 }
 
+/// A tag for names no other test, bench or suite running at the same time uses: the process
+/// id and a counter.
+fn unique_tag() -> String {
+    static SERIAL: AtomicU32 = AtomicU32::new(0);
+    format!(
+        "{}{}",
+        std::process::id(),
+        SERIAL.fetch_add(1, Ordering::Relaxed)
+    )
+}
+
+/// A veth pair `master_if` – `twin_if` in this namespace.
+fn add_pair(master_if: &str, twin_if: &str) -> Result<(), String> {
+    ip(&[
+        "link", "add", master_if, "type", "veth", "peer", "name", twin_if,
+    ])
+}
+
 impl Veth {
     /// Create a uniquely named namespace and veth pair (names carry the process id and a
     /// counter, so parallel tests, benches and the pysoem suite do not collide).
@@ -75,12 +94,7 @@ impl Veth {
         {
             return Err(Unavailable("`ip` (iproute2) is not installed".into()));
         }
-        static SERIAL: AtomicU32 = AtomicU32::new(0);
-        let tag = format!(
-            "{}{}",
-            std::process::id(),
-            SERIAL.fetch_add(1, Ordering::Relaxed)
-        );
+        let tag = unique_tag();
         // Interface names: at most 15 bytes ("dcA" + 7-digit pid + counter fits).
         let veth = Veth {
             ns: format!("dtw-ecrab-{tag}"),
@@ -89,17 +103,9 @@ impl Veth {
         };
         ip(&["netns", "add", &veth.ns]).map_err(Unavailable)?;
         // From here on, Drop cleans up whatever part was created.
-        let steps: [&[&str]; 4] = [
-            &[
-                "link",
-                "add",
-                &veth.master_if,
-                "type",
-                "veth",
-                "peer",
-                "name",
-                &veth.twin_if,
-            ],
+        add_pair(&veth.master_if, &veth.twin_if)
+            .map_err(|e| Unavailable(format!("cannot create the veth pair: {e}")))?;
+        let steps: [&[&str]; 3] = [
             &["link", "set", &veth.twin_if, "netns", &veth.ns],
             &["-n", &veth.ns, "link", "set", &veth.twin_if, "up"],
             &["link", "set", &veth.master_if, "up"],
@@ -116,6 +122,45 @@ impl Drop for Veth {
         // Deleting one end deletes its peer; errors are ignored (a step may never have run).
         let _ = ip(&["link", "del", &self.master_if]);
         let _ = ip(&["netns", "del", &self.ns]);
+    }
+}
+
+/// A veth pair with both ends in this namespace and up: a cell loop in this process serves
+/// the chain on `twin_if`, the master under test opens `master_if`. Deleted on drop.
+#[derive(Debug)]
+pub struct VethPair {
+    pub twin_if: String,
+    pub master_if: String,
+}
+
+impl VethPair {
+    /// Create a uniquely named pair (names carry the process id and a counter).
+    pub fn create() -> Result<VethPair, Unavailable> {
+        if !platform::process::is_root() {
+            return Err(Unavailable(
+                "EtherCAT over veth needs root (raw sockets)".into(),
+            ));
+        }
+        let tag = unique_tag();
+        let pair = VethPair {
+            twin_if: format!("dpA{tag}"),
+            master_if: format!("dpB{tag}"),
+        };
+        add_pair(&pair.master_if, &pair.twin_if)
+            .map_err(|e| Unavailable(format!("cannot create a veth pair: {e}")))?;
+        // From here on, Drop deletes the pair.
+        for end in [&pair.twin_if, &pair.master_if] {
+            ip(&["link", "set", end, "up"])
+                .map_err(|e| Unavailable(format!("cannot bring {end} up: {e}")))?;
+        }
+        Ok(pair)
+    }
+}
+
+impl Drop for VethPair {
+    fn drop(&mut self) {
+        // Deleting one end deletes its peer.
+        let _ = ip(&["link", "del", &self.master_if]);
     }
 }
 
