@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO_ROOT, free_port, run_cli, wait_until
+from scope_page import arm_trigger
 from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
 
 DOCS = REPO_ROOT / "docs"
@@ -90,13 +91,7 @@ def test_a_trigger_captures_the_window_around_the_crossing(launch, browser):  # 
     page.goto(console_url(twin) + "#drive/0")
     page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
     # Velocity rising through 150, 25 % pre-trigger, a 2 s window, single shot.
-    page.select_option("#trig-signal", "velocity")
-    page.fill("#trig-level", "150")
-    page.fill("#trig-pre", "25")
-    page.fill("#window", "2")
-    page.dispatch_event("#window", "change")
-    page.check("#trig-single")
-    page.wait_for_function("document.querySelector('#trig-status').textContent === 'armed'")
+    arm_trigger(page, "velocity", 150, 25, 2)
     page.click("#enable")
     page.wait_for_function("document.querySelector('#state').textContent === 'OPERATION ENABLED'")
     page.dispatch_event("#jog-pos", "pointerdown")

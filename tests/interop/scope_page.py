@@ -1,0 +1,47 @@
+"""What the browser tests do on the console's scope (Playwright page of `#drive/N`): keep the
+sample batches the `/samples` endpoint sends the page, arm the trigger, and put a cursor at a
+time of the cell's clock with a click (A) or a shift-click (B) on the plot."""
+
+from __future__ import annotations
+
+import json
+
+
+def sample_frames(page) -> dict[int, list[dict]]:
+    """Every sample the page's WebSockets receive from now on, by drive (the endpoint's own
+    samples, to compare the scope's with)."""
+    frames: dict[int, list[dict]] = {0: [], 1: []}
+
+    def keep(payload) -> None:
+        batch = json.loads(payload)
+        frames.setdefault(batch["drive"], []).extend(batch["samples"])
+
+    def on_socket(ws) -> None:
+        if "/samples" in ws.url:
+            ws.on("framereceived", keep)
+    page.on("websocket", on_socket)
+    return frames
+
+
+def arm_trigger(page, signal: str, level: float, pre_percent: float, window_s: float) -> None:
+    """A single-shot trigger on trace `signal` through `level`, armed."""
+    page.select_option("#trig-signal", signal)
+    page.fill("#trig-level", str(level))
+    page.fill("#trig-pre", str(pre_percent))
+    page.fill("#window", str(window_s))
+    page.dispatch_event("#window", "change")
+    page.check("#trig-single")
+    page.wait_for_function("document.querySelector('#trig-status').textContent === 'armed'")
+
+
+def click_at(page, t: float, shift: bool) -> None:
+    """A click on the plot at time `t` (cursor A), with shift cursor B."""
+    x = page.evaluate(f"window.scope.plot.valToPos({t}, 'x')")
+    box = page.locator("#scope-plot .u-over").bounding_box()
+    page.mouse.move(box["x"] + x, box["y"] + box["height"] / 2)
+    if shift:
+        page.keyboard.down("Shift")
+    page.mouse.down()
+    page.mouse.up()
+    if shift:
+        page.keyboard.up("Shift")
