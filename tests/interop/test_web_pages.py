@@ -122,9 +122,9 @@ def test_a_forced_limit_switch_shows_the_fault_and_its_text(launch, browser):  #
     page.click("#set-inputs")
     page.wait_for_function("document.querySelector('#state').textContent === 'FAULT'", timeout=5000)
     page.wait_for_function(
-        "document.querySelector('#active-error').textContent.includes('8082h limit switch: positive set-point blocked')")
+        "document.querySelector('#active-error').textContent.includes('8082h Limit switch: positive setpoint blocked')")
     page.wait_for_function(
-        "[...document.querySelectorAll('#history td')].some((td) => td.textContent.startsWith('limit switch'))")
+        "[...document.querySelectorAll('#history td')].some((td) => td.textContent.startsWith('Limit switch'))")
     page.dispatch_event("#jog-pos", "pointerup")
     page.wait_for_function("document.querySelector('#message').textContent === 'jog stopped'")
     screenshot(page, "console-fault.png")
@@ -132,7 +132,7 @@ def test_a_forced_limit_switch_shows_the_fault_and_its_text(launch, browser):  #
     page.goto(url + "#")
     page.wait_for_function(
         "(document.querySelector(\"#cell-table tr[data-drive='0'] td.error\") || {}).textContent"
-        " === '8082h limit switch: positive set-point blocked (message 43-1)'")
+        " === '8082h Limit switch: positive setpoint blocked (message 43-1)'")
     assert "FAULT" in page.text_content("#cell-table tr[data-drive='0'] td.state")
     screenshot(page, "console-cell.png")
 
