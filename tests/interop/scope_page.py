@@ -45,3 +45,33 @@ def click_at(page, t: float, shift: bool) -> None:
     page.mouse.up()
     if shift:
         page.keyboard.up("Shift")
+
+
+def assert_the_scope_moves(page) -> None:
+    """The drive's page, its drive moving forwards at more than 100 rpm: the scope's newest
+    position grows and its plot is drawn again."""
+    page.wait_for_function(
+        "(() => { const s = window.consoleState.samples;"
+        " return s.length > 20 && s[s.length - 1].velocity > 100; })()", timeout=5000)
+    first = page.evaluate("document.querySelector('#scope').toDataURL()")
+    p0 = page.evaluate("window.consoleState.samples.at(-1).position")
+    page.wait_for_timeout(400)
+    second = page.evaluate("document.querySelector('#scope').toDataURL()")
+    p1 = page.evaluate("window.consoleState.samples.at(-1).position")
+    assert p1 > p0, (p0, p1)
+    assert first != second, "the trace is redrawn as the drive moves"
+
+
+def open_two_drive_scope(launch, browser, tmp_path):
+    """A CMMP-AS (drive 0) and a Kinco FD3 (drive 1) on one instant bus, drive 0's page open
+    at 1400 × 1000: (console URL, page, the endpoint's samples by drive)."""
+    from test_web_console import console_url
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
+    url = console_url(twin)
+    page = browser.new_page()
+    page.set_viewport_size({"width": 1400, "height": 1000})
+    frames = sample_frames(page)
+    page.goto(url + "#drive/0")
+    return url, page, frames

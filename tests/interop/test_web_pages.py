@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO_ROOT, free_port, run_cli, wait_until
-from scope_page import arm_trigger
+from scope_page import arm_trigger, assert_the_scope_moves
 from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
 
 DOCS = REPO_ROOT / "docs"
@@ -48,14 +48,7 @@ def test_enable_and_jog_in_the_page_move_the_scope_trace(launch, node_of, browse
     page.dispatch_event("#jog-pos", "pointerdown")
     page.wait_for_function("document.querySelector('#message').textContent === 'jogging +'")
     assert node.sdo[0x6060].raw == 3 and node.sdo[0x60FF].raw == 300
-    page.wait_for_function(
-        "(() => { const s = window.consoleState.samples;"
-        " return s.length > 20 && s[s.length - 1].velocity > 100; })()", timeout=5000)
-    p0 = page.evaluate("window.consoleState.samples.at(-1).position")
-    first = page.evaluate("document.querySelector('#scope').toDataURL()")
-    page.wait_for_timeout(400)
-    assert page.evaluate("window.consoleState.samples.at(-1).position") > p0
-    assert page.evaluate("document.querySelector('#scope').toDataURL()") != first
+    assert_the_scope_moves(page)
     # 60F4h following error is sampled with every plant sample, on the cell loop.
     page.wait_for_function(
         "window.consoleState.samples.filter((p) => p.following_error != null).length > 50")

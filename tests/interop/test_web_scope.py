@@ -18,7 +18,7 @@ import urllib.request
 
 from conftest import wait_until
 from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
-from scope_page import arm_trigger, click_at, sample_frames
+from scope_page import arm_trigger, click_at, open_two_drive_scope
 from test_web_pages import DOCS
 
 RATE_HZ = 200  # the scope's default sampling
@@ -39,17 +39,8 @@ def get(url: str) -> dict:
 
 
 def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, browser, tmp_path):  # noqa: F811
-    cell = tmp_path / "cell.toml"
-    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
-    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
-    url = console_url(twin)
-    page = browser.new_page()
-    page.set_viewport_size({"width": 1400, "height": 1000})
-
     # Every sample batch the samples endpoint sends the page, by drive.
-    frames = sample_frames(page)
-
-    page.goto(url + "#drive/0")
+    url, page, frames = open_two_drive_scope(launch, browser, tmp_path)
     page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
     assert page.evaluate("typeof window.uPlot") == "function", "uPlot is built into the binary"
     page.wait_for_function("window.scope.plot && window.scope.traces.length >= 4")
@@ -246,14 +237,7 @@ def test_eight_traces_torque_in_percent_of_rated_torque_and_the_pan_and_zoom_but
     trace is refused. The torque the scope holds is the endpoint's 6077h over ten at each
     sample of a move. Paused, the zoom and pan buttons and the wheel move the time axis by
     their steps, and Follow comes back to the newest samples."""
-    cell = tmp_path / "cell.toml"
-    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
-    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
-    url = console_url(twin)
-    page = browser.new_page()
-    page.set_viewport_size({"width": 1400, "height": 1000})
-    frames = sample_frames(page)
-    page.goto(url + "#drive/0")
+    url, page, frames = open_two_drive_scope(launch, browser, tmp_path)
     page.wait_for_function("window.scope.plot && window.scope.traces.length === 4")
 
     def add(drive: int, signal: str) -> None:
