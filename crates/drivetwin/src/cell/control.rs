@@ -327,11 +327,10 @@ impl ControlHandle {
         make: impl FnOnce(SyncSender<T>) -> Command,
     ) -> Result<T, ControlError> {
         let (reply, answer) = mpsc::sync_channel(1);
-        self.turn.queue();
-        if self.tx.send(make(reply)).is_err() {
-            self.turn.unqueue();
-            return Err(ControlError::Stopped);
-        }
+        self.tx
+            .send(make(reply))
+            .map_err(|_| ControlError::Stopped)?;
+        self.turn.sent();
         if self.ride.is_zero() || !self.turn.comes_within(Instant::now(), self.ride) {
             self.waker.wake().map_err(|_| ControlError::Stopped)?;
         }

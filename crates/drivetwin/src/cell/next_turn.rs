@@ -5,12 +5,14 @@
 //! "Browser tabs on the console").
 //!
 //! Lost wake-ups are ruled out the way two threads that each store then load rule them out
-//! (sequentially consistent order): a sender counts its request as pending *then* reads the
-//! published turn; the loop publishes its turn *then* reads the pending count, and does not
-//! sleep while one is pending. Either the loop sees the request, or the sender sees the turn
-//! the loop is about to sleep to.
+//! (sequentially consistent order): a sender sends its request, counts it as pending *then*
+//! reads the published turn; the loop publishes its turn *then* reads the pending count, and
+//! does not sleep while one is pending. Either the loop sees the request (sent before it was
+//! counted, so the loop's next turn finds it), or the sender sees the turn the loop is about
+//! to sleep to. The count may dip below zero for a moment (the loop took a request its sender
+//! has not counted yet); the loop never waits for a sender.
 
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicIsize, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// No turn is planned (the loop sleeps until a socket or the waker wakes it), or it is busy
@@ -24,8 +26,8 @@ pub struct NextTurn {
     origin: Instant,
     /// Nanoseconds after `origin` of the instant the loop sleeps until, or [`NONE`].
     at_ns: AtomicU64,
-    /// Requests sent and not yet taken by the loop.
-    pending: AtomicUsize,
+    /// Requests counted by their senders less those taken by the loop.
+    pending: AtomicIsize,
 }
 
 impl Default for NextTurn {
@@ -33,7 +35,7 @@ impl Default for NextTurn {
         NextTurn {
             origin: Instant::now(),
             at_ns: AtomicU64::new(NONE),
-            pending: AtomicUsize::new(0),
+            pending: AtomicIsize::new(0),
         }
     }
 }
@@ -51,18 +53,12 @@ impl NextTurn {
 
     /// The loop took one request.
     pub fn taken(&self) {
-        // Counted before it was sent ([`NextTurn::queue`]): never below zero.
         self.pending.fetch_sub(1, Ordering::SeqCst);
     }
 
-    /// A sender, before it sends a request.
-    pub fn queue(&self) {
+    /// A sender, after it sent a request (and before [`NextTurn::comes_within`]).
+    pub fn sent(&self) {
         self.pending.fetch_add(1, Ordering::SeqCst);
-    }
-
-    /// A sender whose request could not be sent.
-    pub fn unqueue(&self) {
-        self.pending.fetch_sub(1, Ordering::SeqCst);
     }
 
     /// A sender, after it sent a request: whether the loop turns by `now + within` anyway
@@ -111,12 +107,14 @@ mod tests {
     #[test]
     fn the_loop_does_not_sleep_while_a_request_is_pending() {
         let turn = NextTurn::default();
-        turn.queue();
+        turn.sent();
         assert!(turn.publish(Some(Instant::now() + Duration::from_millis(1))));
         turn.taken();
         assert!(!turn.publish(Some(Instant::now() + Duration::from_millis(1))));
-        turn.queue();
-        turn.unqueue();
+        // Taken before its sender counted it: no turn without a request in between.
+        turn.taken();
+        assert!(!turn.publish(None));
+        turn.sent();
         assert!(!turn.publish(None));
     }
 }
