@@ -16,6 +16,7 @@ import tempfile
 import pytest
 
 from conftest import free_port, wait_until
+from scope_page import assert_the_scope_moves
 
 CHROMIUM = os.environ.get("DRIVETWIN_CHROMIUM", "/usr/bin/chromium")
 
@@ -75,16 +76,7 @@ def test_parameter_written_in_the_page_reads_back_over_sdo_and_the_scope_moves(
     assert node.sdo[0x6041].raw & 0x6F == 0x27
 
     # The scope's samples and its drawing move.
-    page.wait_for_function(
-        "(() => { const s = window.consoleState.samples;"
-        " return s.length > 20 && s[s.length - 1].velocity > 100; })()", timeout=5000)
-    first = page.evaluate("document.querySelector('#scope').toDataURL()")
-    p0 = page.evaluate("window.consoleState.samples.at(-1).position")
-    page.wait_for_timeout(400)
-    second = page.evaluate("document.querySelector('#scope').toDataURL()")
-    p1 = page.evaluate("window.consoleState.samples.at(-1).position")
-    assert p1 > p0, (p0, p1)
-    assert first != second, "the trace is redrawn as the drive moves"
+    assert_the_scope_moves(page)
     page.screenshot(path=str(tmp_path / "console.png"), full_page=True)
 
     page.click("#disable")

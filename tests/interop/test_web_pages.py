@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO_ROOT, free_port, run_cli, wait_until
+from scope_page import arm_trigger, assert_the_scope_moves
 from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
 
 DOCS = REPO_ROOT / "docs"
@@ -47,14 +48,7 @@ def test_enable_and_jog_in_the_page_move_the_scope_trace(launch, node_of, browse
     page.dispatch_event("#jog-pos", "pointerdown")
     page.wait_for_function("document.querySelector('#message').textContent === 'jogging +'")
     assert node.sdo[0x6060].raw == 3 and node.sdo[0x60FF].raw == 300
-    page.wait_for_function(
-        "(() => { const s = window.consoleState.samples;"
-        " return s.length > 20 && s[s.length - 1].velocity > 100; })()", timeout=5000)
-    p0 = page.evaluate("window.consoleState.samples.at(-1).position")
-    first = page.evaluate("document.querySelector('#scope').toDataURL()")
-    page.wait_for_timeout(400)
-    assert page.evaluate("window.consoleState.samples.at(-1).position") > p0
-    assert page.evaluate("document.querySelector('#scope').toDataURL()") != first
+    assert_the_scope_moves(page)
     # 60F4h following error is sampled with every plant sample, on the cell loop.
     page.wait_for_function(
         "window.consoleState.samples.filter((p) => p.following_error != null).length > 50")
@@ -90,13 +84,7 @@ def test_a_trigger_captures_the_window_around_the_crossing(launch, browser):  # 
     page.goto(console_url(twin) + "#drive/0")
     page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
     # Velocity rising through 150, 25 % pre-trigger, a 2 s window, single shot.
-    page.select_option("#trig-signal", "velocity")
-    page.fill("#trig-level", "150")
-    page.fill("#trig-pre", "25")
-    page.fill("#window", "2")
-    page.dispatch_event("#window", "change")
-    page.check("#trig-single")
-    page.wait_for_function("document.querySelector('#trig-status').textContent === 'armed'")
+    arm_trigger(page, "velocity", 150, 25, 2)
     page.click("#enable")
     page.wait_for_function("document.querySelector('#state').textContent === 'OPERATION ENABLED'")
     page.dispatch_event("#jog-pos", "pointerdown")
@@ -127,9 +115,9 @@ def test_a_forced_limit_switch_shows_the_fault_and_its_text(launch, browser):  #
     page.click("#set-inputs")
     page.wait_for_function("document.querySelector('#state').textContent === 'FAULT'", timeout=5000)
     page.wait_for_function(
-        "document.querySelector('#active-error').textContent.includes('8082h limit switch: positive set-point blocked')")
+        "document.querySelector('#active-error').textContent.includes('8082h Limit switch: positive setpoint blocked')")
     page.wait_for_function(
-        "[...document.querySelectorAll('#history td')].some((td) => td.textContent.startsWith('limit switch'))")
+        "[...document.querySelectorAll('#history td')].some((td) => td.textContent.startsWith('Limit switch'))")
     page.dispatch_event("#jog-pos", "pointerup")
     page.wait_for_function("document.querySelector('#message').textContent === 'jog stopped'")
     screenshot(page, "console-fault.png")
@@ -137,7 +125,7 @@ def test_a_forced_limit_switch_shows_the_fault_and_its_text(launch, browser):  #
     page.goto(url + "#")
     page.wait_for_function(
         "(document.querySelector(\"#cell-table tr[data-drive='0'] td.error\") || {}).textContent"
-        " === '8082h limit switch: positive set-point blocked (message 43-1)'")
+        " === '8082h Limit switch: positive setpoint blocked (message 43-1)'")
     assert "FAULT" in page.text_content("#cell-table tr[data-drive='0'] td.state")
     screenshot(page, "console-cell.png")
 

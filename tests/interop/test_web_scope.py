@@ -18,6 +18,7 @@ import urllib.request
 
 from conftest import wait_until
 from test_web_console import browser, console_url  # noqa: F401  (the fixture is used by name)
+from scope_page import arm_trigger, click_at, open_two_drive_scope
 from test_web_pages import DOCS
 
 RATE_HZ = 200  # the scope's default sampling
@@ -38,23 +39,8 @@ def get(url: str) -> dict:
 
 
 def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, browser, tmp_path):  # noqa: F811
-    cell = tmp_path / "cell.toml"
-    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
-    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
-    url = console_url(twin)
-    page = browser.new_page()
-    page.set_viewport_size({"width": 1400, "height": 1000})
-
     # Every sample batch the samples endpoint sends the page, by drive.
-    frames: dict[int, list[dict]] = {0: [], 1: []}
-
-    def on_socket(ws):
-        if "/samples" in ws.url:
-            ws.on("framereceived", lambda payload: (
-                lambda b: frames.setdefault(b["drive"], []).extend(b["samples"]))(json.loads(payload)))
-    page.on("websocket", on_socket)
-
-    page.goto(url + "#drive/0")
+    url, page, frames = open_two_drive_scope(launch, browser, tmp_path)
     page.wait_for_selector("#status-bits tr[data-bit='6041h.6']")
     assert page.evaluate("typeof window.uPlot") == "function", "uPlot is built into the binary"
     page.wait_for_function("window.scope.plot && window.scope.traces.length >= 4")
@@ -75,13 +61,7 @@ def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, brows
     assert "0: position [inc]" in chips and "0: velocity [rpm]" in chips and "1: position [inc]" in chips, chips
 
     # Trigger: velocity rising through 20 rpm, 20 % before, a 2 s window, single shot.
-    page.select_option("#trig-signal", "velocity")
-    page.fill("#trig-level", "20")
-    page.fill("#trig-pre", "20")
-    page.fill("#window", "2")
-    page.dispatch_event("#window", "change")
-    page.check("#trig-single")
-    page.wait_for_function("document.querySelector('#trig-status').textContent === 'armed'")
+    arm_trigger(page, "velocity", 20, 20, 2)
 
     # The move, over REST: enable, then a relative move of 20000 increments.
     post(url + "api/drives/0/motion/enable")
@@ -117,19 +97,8 @@ def test_scope_axes_trigger_cursors_and_csv_match_the_rest_samples(launch, brows
     page.wait_for_function("window.scope.axes()[0].label.startsWith('t [ms]')")
 
     # Cursor A at the start (a click), B at the end (a shift-click) on the plot.
-    def click_at(t: float, shift: bool) -> None:
-        x = page.evaluate(f"window.scope.plot.valToPos({t}, 'x')")
-        box = page.locator("#scope-plot .u-over").bounding_box()
-        page.mouse.move(box["x"] + x, box["y"] + box["height"] / 2)
-        if shift:
-            page.keyboard.down("Shift")
-        page.mouse.down()
-        page.mouse.up()
-        if shift:
-            page.keyboard.up("Shift")
-
-    click_at(start, False)
-    click_at(end, True)
+    click_at(page, start, False)
+    click_at(page, end, True)
     page.wait_for_function("document.querySelector('#cursor-dt').dataset.seconds")
     dt = float(page.get_attribute("#cursor-dt", "data-seconds"))
     assert abs(dt - (end - start)) <= SAMPLE_S + 1e-9, (dt, start, end)
@@ -268,20 +237,7 @@ def test_eight_traces_torque_in_percent_of_rated_torque_and_the_pan_and_zoom_but
     trace is refused. The torque the scope holds is the endpoint's 6077h over ten at each
     sample of a move. Paused, the zoom and pan buttons and the wheel move the time axis by
     their steps, and Follow comes back to the newest samples."""
-    cell = tmp_path / "cell.toml"
-    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n[[drive]]\ndevice = "kinco-fd3"\nnode = 2\n')
-    twin = launch(config=cell, extra=("--http", "127.0.0.1:0", "--bitrate", "instant"))
-    url = console_url(twin)
-    page = browser.new_page()
-    page.set_viewport_size({"width": 1400, "height": 1000})
-    frames: dict[int, list[dict]] = {0: [], 1: []}
-
-    def on_socket(ws):
-        if "/samples" in ws.url:
-            ws.on("framereceived", lambda payload: (
-                lambda b: frames.setdefault(b["drive"], []).extend(b["samples"]))(json.loads(payload)))
-    page.on("websocket", on_socket)
-    page.goto(url + "#drive/0")
+    url, page, frames = open_two_drive_scope(launch, browser, tmp_path)
     page.wait_for_function("window.scope.plot && window.scope.traces.length === 4")
 
     def add(drive: int, signal: str) -> None:

@@ -10,13 +10,14 @@
 
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use drive::vendors::AnyDrive;
 use mio::Waker;
 use od::AbortCode;
 
 use crate::cell::modbus_device::ModbusDevice;
+use crate::cell::next_turn::NextTurn;
 
 /// Samples waiting for a subscriber before newer ones are dropped.
 pub const SAMPLE_QUEUE: usize = 1024;
@@ -288,6 +289,10 @@ pub(crate) enum Command {
 pub struct ControlHandle {
     tx: Sender<Command>,
     waker: Arc<Waker>,
+    turn: Arc<NextTurn>,
+    /// How long a request may wait for a turn the loop makes anyway before it wakes the loop
+    /// ([`ControlHandle::riding`]); zero: it always wakes it.
+    ride: Duration,
 }
 
 impl std::fmt::Debug for ControlHandle {
@@ -297,8 +302,24 @@ impl std::fmt::Debug for ControlHandle {
 }
 
 impl ControlHandle {
-    pub(crate) fn new(tx: Sender<Command>, waker: Arc<Waker>) -> Self {
-        ControlHandle { tx, waker }
+    pub(crate) fn new(tx: Sender<Command>, waker: Arc<Waker>, turn: Arc<NextTurn>) -> Self {
+        ControlHandle {
+            tx,
+            waker,
+            turn,
+            ride: Duration::ZERO,
+        }
+    }
+
+    /// This handle, whose requests wait up to `ride` for the loop's next planned turn
+    /// instead of waking it ([`NextTurn`]): the console's, whose browsers poll each second
+    /// and would otherwise add a wake-up of the loop per object they read. A request still
+    /// wakes the loop when no turn is planned by then.
+    pub fn riding(&self, ride: Duration) -> ControlHandle {
+        ControlHandle {
+            ride,
+            ..self.clone()
+        }
     }
 
     pub(crate) fn ask<T>(
@@ -309,7 +330,10 @@ impl ControlHandle {
         self.tx
             .send(make(reply))
             .map_err(|_| ControlError::Stopped)?;
-        self.waker.wake().map_err(|_| ControlError::Stopped)?;
+        self.turn.sent();
+        if self.ride.is_zero() || !self.turn.comes_within(Instant::now(), self.ride) {
+            self.waker.wake().map_err(|_| ControlError::Stopped)?;
+        }
         answer.recv().map_err(|_| ControlError::Stopped)
     }
 

@@ -9,10 +9,17 @@ use crate::cell::control::{
 };
 use crate::cell::device_model::Model;
 
+/// How long after its instant a subscriber's sample may wait for a turn the loop makes
+/// anyway (its drives step each millisecond) instead of waking it: browsers on the scope
+/// at 1 kHz then add no wake-up. The sample carries the instant it was taken at; one period
+/// of the drives' step, so that a 1 kHz subscription loses no sample to the wait.
+pub(super) const SAMPLE_RIDE: Duration = Duration::from_millis(1);
+
 impl CellLoop {
     /// Carries out what control handles asked for.
     pub(super) fn control(&mut self, now: Instant) {
         while let Ok(command) = self.control_rx.try_recv() {
+            self.next_turn.taken();
             // A caller that has gone does not need its answer.
             match command {
                 Command::Drives(reply) => {
@@ -508,6 +515,16 @@ enum Target<'a> {
     Modbus(&'a mut dyn crate::cell::modbus_device::ModbusDevice),
 }
 
+/// The loop's deadline `at` with the subscribers' next sample `sample`: the sample rides on a
+/// turn due within [`SAMPLE_RIDE`] after it; the loop wakes for it only when none is.
+pub(super) fn with_samples(at: Option<Instant>, sample: Option<Instant>) -> Option<Instant> {
+    match (at, sample) {
+        (Some(a), Some(s)) if a <= s + SAMPLE_RIDE => Some(a),
+        (Some(a), Some(s)) => Some(a.min(s)),
+        (a, s) => a.or(s),
+    }
+}
+
 /// The first sample time of a subscription: the next multiple of its period on the cell's
 /// clock. Subscriptions of one period (five browser tabs on a scope at 1 kHz) are then due at
 /// the same instants and served in one wake-up of the loop, instead of one wake-up each at the
@@ -541,6 +558,23 @@ fn next_due(due: Instant, every: Duration, now: Instant) -> Instant {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sample_rides_on_a_turn_due_soon_after_it() {
+        let t0 = Instant::now();
+        let us = Duration::from_micros;
+        // The drives step 300 µs after the sample is due: no wake-up of its own.
+        assert_eq!(
+            with_samples(Some(t0 + us(300)), Some(t0)),
+            Some(t0 + us(300))
+        );
+        // A turn before the sample is the loop's next turn anyway.
+        assert_eq!(with_samples(Some(t0), Some(t0 + us(300))), Some(t0));
+        // Nothing due within SAMPLE_RIDE: the loop wakes for the sample.
+        assert_eq!(with_samples(Some(t0 + us(1500)), Some(t0)), Some(t0));
+        assert_eq!(with_samples(None, Some(t0)), Some(t0));
+        assert_eq!(with_samples(Some(t0), None), Some(t0));
+    }
 
     #[test]
     fn a_late_sample_does_not_stretch_the_period() {

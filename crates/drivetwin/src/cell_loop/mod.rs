@@ -282,6 +282,8 @@ pub struct CellLoop {
     effects: Vec<Effect>,
     control_tx: std::sync::mpsc::Sender<Command>,
     control_rx: std::sync::mpsc::Receiver<Command>,
+    /// The turn the loop sleeps until, for the control handles' requests to ride on.
+    next_turn: Arc<crate::cell::next_turn::NextTurn>,
     subscriptions: Vec<Subscription>,
     /// Each Modbus drive's server's link, by drive (a chain's is in its [`ChainState`], a
     /// socketcand client's in its connection, a bus's faults in its cell).
@@ -498,6 +500,7 @@ impl CellLoop {
         Ok(CellLoop {
             control_tx,
             control_rx,
+            next_turn: Arc::default(),
             subscriptions: Vec::new(),
             modbus_links: front
                 .modbus
@@ -551,7 +554,11 @@ impl CellLoop {
 
     /// A handle to the cell while it runs (see [`crate::cell::control`]).
     pub fn control_handle(&self) -> ControlHandle {
-        ControlHandle::new(self.control_tx.clone(), Arc::clone(&self.waker))
+        ControlHandle::new(
+            self.control_tx.clone(),
+            Arc::clone(&self.waker),
+            Arc::clone(&self.next_turn),
+        )
     }
 
     /// The address the socketcand server of bus `bus` listens on.
@@ -612,10 +619,16 @@ impl CellLoop {
                 || !self.more_to_read.is_empty()
                 || !self.chains_to_read.is_empty()
             {
+                self.next_turn.publish(None);
                 Some(Duration::ZERO)
             } else {
                 let deadline = self.deadline();
-                let wait = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+                // A request that came in after this turn's `control` is served at once.
+                let pending = self.next_turn.publish(deadline);
+                let wait = deadline
+                    .map(|d| d.saturating_duration_since(Instant::now()))
+                    .filter(|_| !pending)
+                    .or(pending.then_some(Duration::ZERO));
                 match (deadline, wait, &mut self.timer) {
                     (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
                         timer.arm(d, w);
@@ -768,15 +781,12 @@ impl CellLoop {
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
         }
-        for s in &self.subscriptions {
-            take(Some(s.next));
-        }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));
         }
         take(self.held_deadline());
         take(self.plans.deadline().map(|d| self.wall(d)));
-        at
+        handle::with_samples(at, self.subscriptions.iter().map(|s| s.next).min())
     }
 
     fn timers(&mut self, now: Instant) {

@@ -79,11 +79,13 @@ pub fn cia_text(code: u16) -> &'static str {
         .unwrap_or("unknown error code")
 }
 
-/// An error code as the console shows it, with the number the drive's manual gives the
+/// An error code as the console shows it: the text and number the drive's manual gives the
 /// first message of its diagnostic table `table` with that code (the CMMP-AS's App. B.2
-/// "43-1", the Nanotec's "0800h", the Kinco's "ES.5").
+/// "43-1", the Nanotec's "0800h", the Kinco's "ES.5"); CiA 301's text for a code the table
+/// does not have, or a message the manual gives no text.
 pub fn cia_error(table: &[od::Diagnostic], code: u16) -> ErrorView {
     let text = match table.iter().find(|d| d.code == Some(code)) {
+        Some(d) if !d.text.is_empty() => format!("{} (message {})", d.text, d.number),
         Some(d) => format!("{} (message {})", cia_text(code), d.number),
         None => cia_text(code).to_owned(),
     };
@@ -129,22 +131,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_code_takes_its_own_text_or_its_class() {
+    fn a_code_takes_its_manuals_text_or_its_own_or_its_class() {
         assert_eq!(cia_text(0x8611), "following error");
         assert_eq!(cia_text(0x8613), "positioning controller");
         assert_eq!(cia_text(0x4321), "temperature");
         assert_eq!(cia_text(0x8082), "limit switch: positive set-point blocked");
+        // The manual's own text (App. B.2 43-1), not CiA 301's.
         assert_eq!(
             cia_error(devices::CMMP_AS.diagnostics, 0x8082).text,
-            "limit switch: positive set-point blocked (message 43-1)"
+            "Limit switch: positive setpoint blocked (message 43-1)"
         );
-        // Each drive's own numbering, not the CMMP-AS's: the Nanotec's error bit codes.
+        // Each drive's own numbering and text, not the CMMP-AS's: the Nanotec's error bits.
         let nanotec = devices::by_name("nanotec-pd4n").unwrap().diagnostics;
         let row = nanotec.iter().find(|d| d.code.is_some()).unwrap();
         let code = row.code.unwrap();
         assert_eq!(
             cia_error(nanotec, code).text,
-            format!("{} (message {})", cia_text(code), row.number)
+            format!("{} (message {})", row.text, row.number)
         );
         assert_eq!(cia_error(&[], 0x8082).text, cia_text(0x8082));
     }

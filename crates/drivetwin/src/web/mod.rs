@@ -4,7 +4,8 @@
 //! The server runs on a thread of its own with its own tokio runtime and reaches the cell
 //! only through its [`ControlHandle`]: a request costs the cell loop one command between two
 //! socket events, never a lock on the drives (`DESIGN.md`, "The runtime owns the clock and
-//! every socket").
+//! every socket"). Its requests ride on the loop's next turn ([`RIDE`]) instead of waking
+//! it, so that browsers polling the console add no wake-up to the loop.
 //!
 //! Loopback only by default. Bound to any other address the console is reachable from the
 //! network, so it prints a token at start and refuses every write without it
@@ -42,6 +43,11 @@ use crate::cell::control::ControlHandle;
 
 /// Where `drivetwin run` serves the console unless told otherwise.
 pub const DEFAULT_ADDR: &str = "127.0.0.1:8080";
+
+/// How long a console request waits at most for a turn the cell loop makes anyway (its
+/// drives step each millisecond) before it wakes the loop ([`ControlHandle::riding`]): a
+/// browser does not see 2 ms, the loop sees no wake-up per object the page reads.
+pub const RIDE: std::time::Duration = std::time::Duration::from_millis(2);
 
 /// `--http`: where the console listens.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -168,7 +174,7 @@ pub fn start(
     };
     listener.set_nonblocking(true)?;
     let state = AppState {
-        handle,
+        handle: handle.riding(RIDE),
         token: token.as_deref().map(Arc::from),
         pages,
     };
