@@ -61,6 +61,10 @@ def esi_facts(root: ET.Element) -> dict:
         "pdos": pdos,
         "objects": sorted(hexnum(o.findtext("Index"))
                           for o in dev.findall("./Profile/Dictionary/Objects/Object")),
+        # (AssignActivate, SYNC0 at the master's cycle) of each `Dc/OpMode`.
+        "dc": [(hexnum(m.findtext("AssignActivate")),
+                m.find("CycleTimeSync0") is not None and m.find("CycleTimeSync0").get("Factor") == "1")
+               for m in dev.findall("./Dc/OpMode")],
     }
 
 
@@ -83,10 +87,18 @@ def read_back(master_if: str) -> dict:
         master.config_map()
         raw = s._fprd(0x0800, 32, 100_000)
         sms = [(struct.unpack_from("<H", raw, 8 * n)[0], raw[8 * n + 4]) for n in range(4)]
+        # ESC features 0008h bit 2: distributed clocks. SOEM's DC set-up (ecx_configdc, then
+        # ecx_dcsync0 at 1 ms, the drives' default 60C2h) writes 0980h-0981h; read back.
+        dc_supported = bool(struct.unpack("<H", s._fprd(0x0008, 2, 100_000))[0] & 0x0004)
+        master.config_dc()
+        s.dc_sync(1, 1_000_000)
+        assign_activate = struct.unpack("<H", s._fprd(0x0980, 2, 100_000))[0]
+        cycle = struct.unpack("<I", s._fprd(0x09A0, 4, 100_000))[0]
         return {
             "vendor": s.man, "product": s.id, "revision": s.rev,
             "assigned": assigned, "pdos": pdos, "sms": sms,
             "objects": sorted(o.index for o in s.od),
+            "dc_supported": dc_supported, "dc_sync0": (assign_activate, cycle),
         }
     finally:
         master.close()
@@ -98,6 +110,12 @@ def check(esi: dict, got: dict, hidden: list[int]) -> None:
     assert got["assigned"] == esi["assigned"], "1C12h / 1C13h"
     assert got["pdos"] == esi["pdos"], "the default mapping read over CoE"
     assert got["objects"] == sorted(set(esi["objects"]) - set(hidden)), "the CoE dictionary"
+    # The ESI offers DC where the ESC has it, and its SYNC0 mode is what SOEM's DC set-up
+    # leaves in 0980h-0981h (SYNC0 at the cycle SOEM gave, Factor 1 of the master's cycle).
+    assert got["dc_supported"] and esi["dc"], "a DC slave describes its Dc modes"
+    assert (0x0000, False) in esi["dc"], "SM-synchronous"
+    assert (got["dc_sync0"][0], True) in esi["dc"], f"SYNC0 as SOEM set it: {got['dc_sync0']}"
+    assert got["dc_sync0"][1] == 1_000_000, "SYNC0 cycle 09A0h"
 
 
 def test_the_cmmp_as_esi_is_what_soem_reads_back(veth, tmp_path):
@@ -121,3 +139,23 @@ def test_the_eds_drive_esi_is_what_soem_reads_back(veth, tmp_path):
     cell.write_text(f'[[drive]]\neds = "{eds}"\ninterfaces = ["ethercat"]\n')
     with ecat_twin_run(veth, tmp_path, "--config", str(cell)) as (master_if, _):
         check(esi, read_back(master_if), [])
+
+
+def device_files() -> list[dict]:
+    return [tomllib.loads(p.read_text())["device"] for p in sorted((ROOT / "devices").glob("*.toml"))]
+
+
+@pytest.mark.parametrize("device", [d for d in device_files() if "ethercat" not in d.get("interfaces", [])],
+                         ids=lambda d: d["name"])
+def test_the_esi_of_a_device_without_ethercat_is_refused(device, tmp_path):
+    """A device without an EtherCAT interface has no ESI: `drivetwin esi` refuses it with a
+    usage error (exit code 2) naming the device and the interfaces it has, and writes no
+    file a configurator could import."""
+    out = tmp_path / "device.xml"
+    r = run_cli("esi", "--device", device["name"], "--output", str(out))
+    assert r.returncode == 2, r
+    assert not out.exists(), "no file written"
+    assert r.stdout == ""
+    assert device["name"] in r.stderr and "no EtherCAT interface" in r.stderr, r.stderr
+    for interface in device.get("interfaces", []):
+        assert interface in r.stderr, r.stderr

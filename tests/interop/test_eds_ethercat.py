@@ -42,6 +42,64 @@ def u32(b: bytes) -> int:
     return struct.unpack("<I", b[:4])[0]
 
 
+def assign_csp(s) -> None:
+    """The cyclic synchronous position PDOs over CoE in Pre-Op (1C12h = 1600h + 1602h:
+    controlword, target position; 1C13h = 1A02h: statusword, position actual value), as
+    CiA 301 changes an assignment, and 6060h = 8 (CSP)."""
+    for index, pdos in ((0x1C12, (0x1600, 0x1602)), (0x1C13, (0x1A02,))):
+        s.sdo_write(index, 0, bytes([0]))
+        for k, pdo in enumerate(pdos, 1):
+            s.sdo_write(index, k, struct.pack("<H", pdo))
+        s.sdo_write(index, 0, bytes([len(pdos)]))
+    s.sdo_write(0x6060, 0, bytes([8]))
+
+
+class Cycles:
+    """Process data every `CYCLE_S`, as a PLC's cyclic task: controlword `cw` and `target` out,
+    the working counter, statusword and position actual value in, then the master sleeps to
+    the next period."""
+
+    def __init__(self, master, s) -> None:
+        self.master, self.s = master, s
+        self.target = 0
+        self.due = time.monotonic()
+
+    def __call__(self, cw: int) -> tuple[int, int, int]:
+        self.s.output = struct.pack("<Hi", cw, self.target)
+        self.master.send_processdata()
+        wkc = self.master.receive_processdata(100_000)
+        self.due += CYCLE_S
+        time.sleep(max(0.0, self.due - time.monotonic()))
+        sw, pos = struct.unpack("<Hi", bytes(self.s.input))
+        return wkc, sw, pos
+
+    def to_op(self) -> None:
+        """Valid outputs first, then Op requested, cycling until the slave is there (as
+        SOEM's simple_test); the target then starts where the drive stands."""
+        self.master.state = pysoem.OP_STATE
+        self(0)
+        self.master.write_state()
+        for _ in range(100):
+            self(0)
+            if self.master.read_state() == pysoem.OP_STATE:
+                break
+        assert self.s.state == pysoem.OP_STATE, hex(self.s.al_status)
+        _, _, self.target = self(0)
+
+    def enable(self) -> int:
+        """CiA 402 enable: controlword 6 → 7 → Fh until the statusword (mask 6Fh) shows
+        21h → 23h → 27h; the cycles with a wrong working counter meanwhile."""
+        bad_wkc = 0
+        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+            for _ in range(100):
+                wkc, sw, _ = self(cw)
+                bad_wkc += wkc != self.master.expected_wkc
+                if sw & 0x6F == want:
+                    break
+            assert sw & 0x6F == want, hex(sw)
+        return bad_wkc
+
+
 def test_the_eds_drive_goes_to_op_and_follows_csp_pdos(veth, tmp_path):
     with ecat_twin_run(veth, tmp_path, "--config", str(cell(tmp_path)), realtime=True) as (master_if, _):
         master = pysoem.Master()
@@ -54,50 +112,18 @@ def test_the_eds_drive_goes_to_op_and_follows_csp_pdos(veth, tmp_path):
             assert [u32(s.eeprom_read(w)) for w in (0x08, 0x0A, 0x0C)] == list(IDENTITY)
             assert [u32(s.sdo_read(0x1018, k)) for k in (1, 2, 3)] == list(IDENTITY)
             assert struct.unpack("<H", s.sdo_read(0x1C12, 1)[:2])[0] == 0x1600
-            for index, pdos in ((0x1C12, (0x1600, 0x1602)), (0x1C13, (0x1A02,))):
-                s.sdo_write(index, 0, bytes([0]))
-                for k, pdo in enumerate(pdos, 1):
-                    s.sdo_write(index, k, struct.pack("<H", pdo))
-                s.sdo_write(index, 0, bytes([len(pdos)]))
-            s.sdo_write(0x6060, 0, bytes([8]))
+            assign_csp(s)
             master.config_map()
             assert (len(s.output), len(s.input)) == (6, 6)
             assert master.state_check(pysoem.SAFEOP_STATE, 5_000_000) == pysoem.SAFEOP_STATE
 
-            target = 0
-            due = time.monotonic()
-
-            def cycle(cw: int) -> tuple[int, int, int]:
-                nonlocal due
-                s.output = struct.pack("<Hi", cw, target)
-                master.send_processdata()
-                wkc = master.receive_processdata(100_000)
-                due += CYCLE_S
-                time.sleep(max(0.0, due - time.monotonic()))
-                sw, pos = struct.unpack("<Hi", bytes(s.input))
-                return wkc, sw, pos
-
-            master.state = pysoem.OP_STATE
-            cycle(0)
-            master.write_state()
-            for _ in range(100):
-                cycle(0)
-                if master.read_state() == pysoem.OP_STATE:
-                    break
-            assert s.state == pysoem.OP_STATE, hex(s.al_status)
-            _, _, target = cycle(0)
-            bad_wkc = 0
-            for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
-                for _ in range(100):
-                    wkc, sw, pos = cycle(cw)
-                    bad_wkc += wkc != master.expected_wkc
-                    if sw & 0x6F == want:
-                        break
-                assert sw & 0x6F == want, hex(sw)
+            cycle = Cycles(master, s)
+            cycle.to_op()
+            bad_wkc = cycle.enable()
             assert s.sdo_read(0x6061, 0)[0] == 8, "CSP"
-            start = target
+            start = cycle.target
             for _ in range(100):
-                target += 50
+                cycle.target += 50
                 wkc, sw, pos = cycle(0x0F)
                 bad_wkc += wkc != master.expected_wkc
             for _ in range(10):
@@ -105,8 +131,8 @@ def test_the_eds_drive_goes_to_op_and_follows_csp_pdos(veth, tmp_path):
                 bad_wkc += wkc != master.expected_wkc
             assert bad_wkc == 0
             assert sw & 0x6F == 0x27, hex(sw)
-            assert target == start + 5000
-            assert abs(pos - target) < 50, (pos, target)
+            assert cycle.target == start + 5000
+            assert abs(pos - cycle.target) < 50, (pos, cycle.target)
             assert master.read_state() == pysoem.OP_STATE
         finally:
             master.close()
@@ -170,46 +196,16 @@ def test_the_eds_drive_follows_csp_on_dc_sync0_every_cycle(veth, tmp_path):
 def _follow_on_dc(master) -> None:
     assert master.config_init() == 1
     s = master.slaves[0]
-    for index, pdos in ((0x1C12, (0x1600, 0x1602)), (0x1C13, (0x1A02,))):
-        s.sdo_write(index, 0, bytes([0]))
-        for k, pdo in enumerate(pdos, 1):
-            s.sdo_write(index, k, struct.pack("<H", pdo))
-        s.sdo_write(index, 0, bytes([len(pdos)]))
-    s.sdo_write(0x6060, 0, bytes([8]))
+    assign_csp(s)
     assert master.config_dc(), "the slave has distributed clocks"
     s.dc_sync(True, CYCLE_MS * 1_000_000)
     master.config_map()
     assert (len(s.output), len(s.input)) == (6, 6)
     assert master.state_check(pysoem.SAFEOP_STATE, 5_000_000) == pysoem.SAFEOP_STATE, hex(s.al_status)
 
-    target = 0
-    due = time.monotonic()
-
-    def cycle(cw: int) -> tuple[int, int, int]:
-        nonlocal due
-        s.output = struct.pack("<Hi", cw, target)
-        master.send_processdata()
-        wkc = master.receive_processdata(100_000)
-        due += CYCLE_S
-        time.sleep(max(0.0, due - time.monotonic()))
-        sw, pos = struct.unpack("<Hi", bytes(s.input))
-        return wkc, sw, pos
-
-    master.state = pysoem.OP_STATE
-    cycle(0)
-    master.write_state()
-    for _ in range(100):
-        cycle(0)
-        if master.read_state() == pysoem.OP_STATE:
-            break
-    assert s.state == pysoem.OP_STATE, hex(s.al_status)
-    _, _, target = cycle(0)
-    for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
-        for _ in range(100):
-            _, sw, _ = cycle(cw)
-            if sw & 0x6F == want:
-                break
-        assert sw & 0x6F == want, hex(sw)
+    cycle = Cycles(master, s)
+    cycle.to_op()
+    cycle.enable()
     step = 50
     # A set-point goes out in cycle n, is taken at the next SYNC0 and shows in the inputs
     # latched at a SYNC0 after it: the position lags a few set-points, never more.
@@ -217,11 +213,11 @@ def _follow_on_dc(master) -> None:
     bad_wkc = 0
     behind = []
     for n in range(DC_CYCLES):
-        target += step
+        cycle.target += step
         wkc, sw, pos = cycle(0x0F)
         bad_wkc += wkc != master.expected_wkc
-        if n >= 4 and not -step <= target - pos <= lag_max + step:
-            behind.append((n, target - pos, hex(sw)))
+        if n >= 4 and not -step <= cycle.target - pos <= lag_max + step:
+            behind.append((n, cycle.target - pos, hex(sw)))
     assert bad_wkc == 0
     assert sw & 0x6F == 0x27, hex(sw)
     assert behind == [], f"{len(behind)} of {DC_CYCLES} cycles off the set-points, first {behind[:5]}"

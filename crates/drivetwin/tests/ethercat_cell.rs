@@ -559,11 +559,79 @@ fn sync0_takes_the_outputs_and_stopped_cycles_are_a_sync_error() {
     // The drive reports it (63-4, EMCY 8781h) and leaves operation enabled.
     let drive = m.cell.model(0).unwrap().drive().unwrap();
     assert_eq!(drive.errors(), &[0x8781], "63-4 with EMCY code 8781h");
+    // Fallen to Safe-Op, the slave still counts the master's output write: SM2 stays
+    // enabled until Safe-Op → Pre-Op, as the slave stack disables it (docs/decisions.md,
+    // "Working counter in Safe-Op"); the set-point is not taken (`lrw` checks 3).
+    let cw = read_u16(&m, 0x6040);
+    lrw(&mut m, &[0x1F, 0x00], 2);
+    m.now = m.now + std::time::Duration::from_millis(1);
+    m.cell.poll(m.now);
+    assert_eq!(read_u16(&m, 0x6040), cw, "Safe-Op ignores the set-points");
     for _ in 0..50 {
         m.tick();
     }
     let sw = read_u16(&m, 0x6041);
     assert_eq!(sw & 0x4F, 0x08, "fault: {sw:#06x}");
+}
+
+/// The `Dc` modes the ESI offers are the ones the slave runs: a configurator writes each
+/// `OpMode`'s AssignActivate to 0x0980–0x0981 (after the start time and, for a SYNC0 mode, the
+/// master's cycle as SYNC0 cycle, 1 ms = 60C2h here); the slave reaches Op, and takes a
+/// frame's controlword at the frame (SM-synchronous) or at the next SYNC0 event (DC).
+#[test]
+fn the_esi_dc_modes_are_the_ones_the_slave_runs() {
+    let mut esi = String::new();
+    drivetwin::export::esi::write_esi(devices::by_name("cmmp-as").unwrap(), &mut esi).unwrap();
+    let dc = &esi[esi.find("<Dc>").expect("<Dc>")..esi.find("</Dc>").expect("</Dc>")];
+    let modes: Vec<(u16, bool)> = dc
+        .split("<OpMode>")
+        .skip(1)
+        .map(|m| {
+            let a = m.split("<AssignActivate>#x").nth(1).unwrap();
+            let a = u16::from_str_radix(&a[..a.find('<').unwrap()], 16).unwrap();
+            (
+                a,
+                m.contains(r#"<CycleTimeSync0 Factor="1">0</CycleTimeSync0>"#),
+            )
+        })
+        .collect();
+    assert_eq!(modes, [(0x0000, false), (0x0300, true)]);
+    for (assign, sync0) in modes {
+        let mut m = Master::new(cell());
+        to_preop(&mut m);
+        m.fpwr(0x0981, &[0]);
+        let first = sync0.then(|| {
+            let r = m.fprd(0x0910, 8);
+            let t = u64::from_le_bytes(r.data[..8].try_into().unwrap());
+            let start = (t + 10_000_000) / 1_000_000 * 1_000_000 + 1_000_000;
+            m.fpwr(0x0990, &start.to_le_bytes());
+            m.fpwr(0x09A0, &1_000_000u32.to_le_bytes());
+            start
+        });
+        m.fpwr(0x0980, &assign.to_le_bytes());
+        map(&mut m, 2, 2);
+        m.fpwr(0x0120, &[0x04, 0x00]);
+        m.fpwr(0x0120, &[0x08, 0x00]);
+        assert_eq!(m.al(), (0x0008, 0), "Op in mode {assign:#06x}");
+        assert_eq!(
+            m.cell.esc(0).unwrap().sync0_cycle_ns(),
+            sync0.then_some(1_000_000),
+            "SYNC0 in mode {assign:#06x}"
+        );
+        if let Some(first) = first {
+            let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+            m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+            m.cell.poll(m.now);
+        }
+        let before = read_u16(&m, 0x6040);
+        lrw(&mut m, &[0x06, 0x00], 2);
+        if sync0 {
+            assert_eq!(read_u16(&m, 0x6040), before, "DC: not before SYNC0");
+            m.now = m.now + std::time::Duration::from_micros(500);
+            m.cell.poll(m.now);
+        }
+        assert_eq!(read_u16(&m, 0x6040), 0x0006, "taken in mode {assign:#06x}");
+    }
 }
 
 /// Fuzz finding `ethercat_chain` crash-2ad63ffb: a master that sets a SYNC0 cycle of a few

@@ -51,4 +51,4 @@ pub use esc::{
 pub use fmmu::Fmmu;
 pub use frame::{Address, EthernetFrame, Frame, FrameWriter, WireError};
 pub use sync_manager::SyncManager;
-pub use sync_monitor::{Sync0Outcome, SyncMonitor};
+pub use sync_monitor::{Sync0Outcome, SyncMode, SyncMonitor, SYNC_MODES};

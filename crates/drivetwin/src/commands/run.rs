@@ -35,7 +35,20 @@ pub(crate) fn esi(
             drivetwin::cell::eds_drive::on_ethercat(desc)
                 .map_err(|e| CommandError::Usage(e.to_string()))?
         }
-        None => device(name)?,
+        None => {
+            let desc = device(name)?;
+            // An ESI describes an EtherCAT slave: a device without one has none to give, and a
+            // file that a configurator imported would offer a slave that does not exist.
+            if !desc.interfaces.has.contains(&"ethercat") {
+                return Err(CommandError::Usage(format!(
+                    "{} ({}) has no EtherCAT interface (its interfaces: {}): no ESI to write",
+                    desc.name,
+                    desc.product_name,
+                    desc.interfaces.has.join(", ")
+                )));
+            }
+            desc
+        }
     };
     let mut text = String::new();
     drivetwin::export::esi::write_esi(desc, &mut text)

@@ -61,6 +61,7 @@ use drive::personality::Fault;
 use ethercat::coe::{self, CoeConfig, CoeServer, Emergency};
 use ethercat::esc::MAILBOX_MAX;
 use ethercat::sii::{self, SiiConfig};
+use ethercat::sync_monitor::DEFAULT_SYNC_ERROR_LIMIT;
 use ethercat::{AlHook, AlState, AlStatusCode, ClockError, Esc, FrameOutcome, SyncMonitor};
 use od::pdo_rules::{check_map_entry, MapEntry};
 use od::{
@@ -92,6 +93,10 @@ const TX_ASSIGN: u16 = 0x1C13;
 /// CiA 301 Tab. 21 "RPDO timeout": the error a drive without a message of its own for an
 /// expired process-data watchdog reports ([`Bound::watchdog_expired`]).
 const PROCESS_DATA_TIMEOUT: u16 = 0x8250;
+
+/// ETG.1020 error settings 10F1h and its sub-index 2, the sync error counter limit.
+const SYNC_ERROR_SETTINGS: u16 = 0x10F1;
+const SYNC_ERROR_COUNTER_LIMIT: u8 = 2;
 
 /// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
 const MAX_SYNC0_BURST: u64 = 16;
@@ -357,7 +362,8 @@ impl SlaveDevice {
     /// Safe-Op keeps the layout (inputs go on) but no outputs wait.
     fn layout_inputs_only(&mut self) {
         self.pending.clear();
-        self.sync.reset();
+        let limit = self.sync.limit();
+        self.sync.reset(limit);
     }
 }
 
@@ -521,7 +527,8 @@ impl Bound<'_> {
         if config != self.dev.sync_config {
             // SYNC0 switched on, off or moved: a new grid, a new count.
             self.dev.sync_config = config;
-            self.dev.sync.reset();
+            let limit = self.sync_error_limit();
+            self.dev.sync.reset(limit);
             self.dev.next_sync0_sys = config.and_then(|_| esc.next_sync0_at(now));
         }
         let Some((cycle, _)) = config else {
@@ -564,6 +571,16 @@ impl Bound<'_> {
             let at = Instant::from_nanos(now.as_nanos().saturating_add(t.saturating_sub(sys_now)));
             floor.map_or(at, |f| at.max(f))
         });
+    }
+
+    /// The sync error counter limit: the dictionary's 10F1h:02 "Sync Error Counter Limit"
+    /// (ETG.1020) where the device has one, else the slave stack's default.
+    fn sync_error_limit(&self) -> u16 {
+        let model: &Model = self.model;
+        read_unsigned(model, SYNC_ERROR_SETTINGS, SYNC_ERROR_COUNTER_LIMIT)
+            .map_or(DEFAULT_SYNC_ERROR_LIMIT, |v| {
+                u16::try_from(v).unwrap_or(u16::MAX)
+            })
     }
 
     /// A SYNC for the drive (interpolated position mode's time base).
@@ -810,6 +827,12 @@ impl AlHook for Bound<'_> {
             if esc.al_status_code() == AlStatusCode::SYNC_MANAGER_WATCHDOG {
                 self.watchdog_expired();
             }
+        }
+        if to == AlState::Op {
+            // Safe-Op → Op starts the sync error count afresh, with the limit of the moment
+            // (the master may have written 10F1h:02 in Pre-Op).
+            let limit = self.sync_error_limit();
+            self.dev.sync.reset(limit);
         }
         match to {
             AlState::SafeOp | AlState::Op => self.post_inputs(esc),

@@ -23,13 +23,17 @@
 //!   `$NODEID` defaults are given for the description's default node ID. Limits are
 //!   `MinData`/`MaxData`.
 //! * `PdoMapping` is `R` for a mappable writable entry, `T` for a mappable read-only one.
-//! * No `Dc` element (the SII has no DC category either) and no InitCmds: with
-//!   `PdoAssign="true"` the configurator writes 1C12h/1C13h itself.
+//! * `Dc` lists the synchronisation modes the slave runs ([`ethercat::SYNC_MODES`]: the
+//!   frame as time base, and DC SYNC0 at the master's cycle, which must equal the
+//!   interpolation period 60C2h), so that a configurator offers DC; the SII keeps no DC
+//!   category (ETG.2010 has none that SOEM or ethercrab read), so the EEPROM is unchanged.
+//! * No InitCmds: with `PdoAssign="true"` the configurator writes 1C12h/1C13h itself.
 
 use std::collections::BTreeMap;
 use std::fmt::{self, Display, Write};
 
 use ethercat::sii::{self, coe_details, PdoDir, PdoName, SiiConfig};
+use ethercat::SYNC_MODES;
 use od::{Access, DataType, DeviceDescription, Entry, Limit, Object, ObjectKind, Value};
 
 /// What the ESI says beyond the description: the SII layout and the group's display name.
@@ -280,6 +284,7 @@ pub fn write_esi_with(
         flag(coe_details::SDO_COMPLETE_ACCESS)
     )?;
     writeln!(w, "        </Mailbox>")?;
+    write_dc(w)?;
     writeln!(w, "        <Eeprom>")?;
     writeln!(w, "          <ByteSize>{}</ByteSize>", cfg.eeprom_size)?;
     if !config_data.is_empty() {
@@ -290,6 +295,32 @@ pub fn write_esi_with(
     writeln!(w, "    </Devices>")?;
     writeln!(w, "  </Descriptions>")?;
     writeln!(w, "</EtherCATInfo>")
+}
+
+/// `<Dc>`: one `OpMode` per synchronisation mode the slave runs. A SYNC0 mode's cycle is the
+/// master's (`Factor="1"`, no fixed part) with no shift: the slave takes any SYNC0 cycle
+/// equal to its interpolation period and refuses others on Pre-Op → Safe-Op (0x0036).
+fn write_dc(w: &mut impl Write) -> fmt::Result {
+    writeln!(w, "        <Dc>")?;
+    for mode in SYNC_MODES {
+        writeln!(w, "          <OpMode>")?;
+        writeln!(w, "            <Name>{}</Name>", Xml(mode.name))?;
+        writeln!(w, "            <Desc>{}</Desc>", Xml(mode.desc))?;
+        writeln!(
+            w,
+            "            <AssignActivate>#x{:X}</AssignActivate>",
+            mode.assign_activate
+        )?;
+        if mode.sync0 {
+            writeln!(
+                w,
+                r#"            <CycleTimeSync0 Factor="1">0</CycleTimeSync0>"#
+            )?;
+            writeln!(w, "            <ShiftTimeSync0>0</ShiftTimeSync0>")?;
+        }
+        writeln!(w, "          </OpMode>")?;
+    }
+    writeln!(w, "        </Dc>")
 }
 
 fn sii_image(desc: &DeviceDescription, cfg: &EsiConfig<'_>) -> Option<Vec<u8>> {
@@ -576,6 +607,7 @@ mod tests {
             "RxPdo",
             "TxPdo",
             "Mailbox",
+            "Dc",
             "Eeprom",
         ];
         for pair in seq.windows(2) {
@@ -816,6 +848,51 @@ mod tests {
         let doc = roxmltree::Document::parse(&s).unwrap();
         let g = doc.descendants().find(|n| n.has_tag_name("Group")).unwrap();
         assert_eq!(text(g, "Name"), "<Drives & \"Motors\">");
+    }
+
+    /// The modes a configurator offers are the ones the slave runs: SM-synchronous (0x0981 =
+    /// 0) and DC with SYNC0 at the master's cycle (0x0981 = 03h, what SOEM's `ecx_dcsync0`
+    /// writes; `ethercat_cell.rs` runs the slave in both from these values).
+    #[test]
+    fn esi_dc_offers_sm_synchronous_and_sync0() {
+        let s = xml();
+        let doc = roxmltree::Document::parse(&s).unwrap();
+        let dc = doc.descendants().find(|n| n.has_tag_name("Dc")).unwrap();
+        let modes: Vec<_> = dc
+            .children()
+            .filter(|c| c.has_tag_name("OpMode"))
+            .map(|m| {
+                let fields: Vec<(&str, Option<&str>, &str)> = m
+                    .children()
+                    .filter(|c| c.is_element())
+                    .map(|c| {
+                        (
+                            c.tag_name().name(),
+                            c.attribute("Factor"),
+                            c.text().unwrap_or(""),
+                        )
+                    })
+                    .collect();
+                fields
+            })
+            .collect();
+        assert_eq!(
+            modes,
+            [
+                vec![
+                    ("Name", None, "SM-Synchron"),
+                    ("Desc", None, "SM-Synchron"),
+                    ("AssignActivate", None, "#x0"),
+                ],
+                vec![
+                    ("Name", None, "DC"),
+                    ("Desc", None, "DC-Synchron"),
+                    ("AssignActivate", None, "#x300"),
+                    ("CycleTimeSync0", Some("1"), "0"),
+                    ("ShiftTimeSync0", None, "0"),
+                ],
+            ]
+        );
     }
 
     #[test]
