@@ -71,7 +71,6 @@ node = 1
 
 [[drive]]
 device = "cmmo-st"
-node = 30
 modbus = "{HOST}:{port}"
 """)
     cell = Stepped(fmu)
@@ -97,8 +96,12 @@ modbus = "{HOST}:{port}"
             if (seen[-1]["scon"], seen[-1]["spos"]) == (0x13, 0x05):
                 break
         assert (seen[-1]["scon"], seen[-1]["spos"]) == (0x13, 0x05), seen[-5:]
-        # And the CANopen drive beside it stepped on the same clock.
+        # And the CANopen drive beside it stepped on the same clock. The CMMO-ST, at the
+        # default node-ID 1 as well, has no CANopen node: its variables are named by its place
+        # in the cell file, and show what the client did.
         assert cell.slave.getUInt16([cell.vr["node1.statusword"]])[0] != 0
+        assert "node1.scon" not in cell.vr
+        assert cell.slave.getUInt8([cell.vr["drive1.scon"]])[0] == 0x13
     finally:
         mb.close()
         cell.free()

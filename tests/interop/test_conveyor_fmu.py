@@ -15,7 +15,7 @@ import urllib.request
 import numpy as np
 import pytest
 
-from conftest import DRIVETWIN_BIN, REPO_ROOT, run_cli, wait_until
+from conftest import DRIVETWIN_BIN, HOST, REPO_ROOT, free_port, run_cli, wait_until
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.validation import validate_fmu  # noqa: E402
@@ -166,6 +166,56 @@ def test_drivetwin_run_stops_with_the_error_of_a_failing_load(tmp_path, conveyor
     assert r.returncode != 0
     assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr
     assert said_by_the_fmu(r.stderr)
+    r = subprocess.run([str(DRIVETWIN_BIN), "run", "--config", str(cell), "--socketcand",
+                        "127.0.0.1:0", "--http", "127.0.0.1:0"],
+                       capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert r.returncode != 0
+    assert "fmi3DoStep at t = 0 s returned Error" in r.stderr, r.stderr
+    assert said_by_the_fmu(r.stderr)
+
+
+def test_a_load_fmu_is_coupled_to_a_cmmo_st_over_rest(launch, tmp_path, conveyor_fmu2):
+    """The same REST calls on a CMMO-ST (FHPP over Modbus TCP, drive 1 after the CMMP-AS on
+    the bus): the conveyor steps with its 1 ms FHPP cycle, its light barrier is the CMMO-ST's
+    reference switch; a limit switch, which the CMMO-ST has no input for (its ends of travel
+    are fixed stops), is refused (400); DELETE uncouples it."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text('[[drive]]\ndevice = "cmmp-as"\nnode = 1\n\n'
+                    f'[[drive]]\ndevice = "cmmo-st"\nmodbus = "{HOST}:{free_port()}"\n')
+    twin = launch(config=cell, extra=("--http", "127.0.0.1:0"))
+    load = console(twin) + "api/drives/1/load"
+    assert api(load) == (200, {"fmu": None, "failure": None})
+    table = {"fmu": conveyor_fmu2, "angle": "shaft_angle", "speed": "shaft_speed",
+             "load_torque": "load_torque", "position": "belt_position",
+             "switches": {"home": "light_barrier"}}
+    status, view = api(load + "/fmu", "PUT", table)
+    assert status == 200, view
+    assert view["fmu"]["fmi_version"] == "2.0"
+    stepping = wait_until(lambda: (v := api(load)[1])["fmu"]["steps"] > 100 and v, 5.0,
+                          what="the FMU to step")
+    roles = {v["role"]: v for v in stepping["fmu"]["variables"]}
+    assert roles["home"]["variable"] == "light_barrier"
+    assert roles["home"]["level"] is False
+    status, refused = api(load + "/fmu", "PUT",
+                          {**table, "switches": {"limit_positive": "light_barrier"}})
+    assert status == 400, refused
+    assert "limit_positive" in refused["error"], refused
+    # The refused table changed nothing: the conveyor still steps.
+    assert api(load)[1]["fmu"]["mapping"]["switches"] == {"home": "light_barrier"}
+    assert api(load + "/fmu", "DELETE") == (200, {"fmu": None, "failure": None})
+    # The CANopen drive beside it has none.
+    assert api(console(twin) + "api/drives/0/load") == (200, {"fmu": None, "failure": None})
+
+
+def test_drivetwin_run_stops_with_the_error_of_a_cmmo_sts_failing_load(tmp_path, conveyor_fmu):
+    """A CMMO-ST's load whose doStep returns an error ends `drivetwin run` (real time; the
+    CMMO-ST has no --virtual-seconds) with the FMU's error and a non-zero exit, as a CiA 402
+    drive's does."""
+    cell = tmp_path / "cell.toml"
+    cell.write_text(
+        f'[[drive]]\ndevice = "cmmo-st"\nmodbus = "{HOST}:{free_port()}"\n[drive.load]\n'
+        f'fmu = "{conveyor_fmu}"\nspeed = "shaft_speed"\nload_torque = "load_torque"\n'
+        '[drive.load.parameters]\nmass = -1.0\n')
     r = subprocess.run([str(DRIVETWIN_BIN), "run", "--config", str(cell), "--socketcand",
                         "127.0.0.1:0", "--http", "127.0.0.1:0"],
                        capture_output=True, text=True, timeout=60, cwd=tmp_path)

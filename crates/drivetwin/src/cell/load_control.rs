@@ -11,6 +11,7 @@ use std::sync::mpsc::SyncSender;
 
 use super::control::{Command, ControlError, ControlHandle};
 use super::device_model::Model;
+use super::modbus_device::ModbusDevice;
 use crate::cosim::{FmuLoad, FmuLoadError, LoadMapping, LoadReport, LoadValue};
 
 /// The load of one drive.
@@ -116,14 +117,34 @@ pub fn apply(model: &mut Model, change: LoadChange) -> Result<LoadState, LoadCon
         LoadChange::Couple(load) => d.set_load(*load),
         LoadChange::Uncouple => d.uncouple(),
     }
-    Ok(LoadState {
-        coupled: d.load().map(|l| CoupledLoad {
+    Ok(state(d.load(), d.load_failure()))
+}
+
+/// Carries out `change` on a drive served with its own register image (the CMMO-ST): its
+/// load steps with the device's cycle; refused (and nothing changes) when the FMU drives a
+/// switch the device has no input for.
+pub fn apply_to_modbus_device(
+    device: &mut dyn ModbusDevice,
+    change: LoadChange,
+) -> Result<LoadState, LoadControlError> {
+    match change {
+        LoadChange::None => {}
+        LoadChange::Couple(load) => device.couple_load(Some(*load))?,
+        LoadChange::Uncouple => device.couple_load(None)?,
+    }
+    Ok(state(device.load(), device.load_failure()))
+}
+
+/// What a drive's load is: its FMU, if one is coupled, and why it stopped the drive.
+fn state(load: Option<&FmuLoad>, failure: Option<&FmuLoadError>) -> LoadState {
+    LoadState {
+        coupled: load.map(|l| CoupledLoad {
             fmu: l.name().to_owned(),
             fmi_version: l.fmi_version(),
             mapping: l.mapping().clone(),
             values: l.values(),
             report: l.report(),
         }),
-        failure: d.load_failure().map(|e| e.to_string()),
-    })
+        failure: failure.map(|e| e.to_string()),
+    }
 }

@@ -71,6 +71,9 @@ pub trait ModbusDevice: RegisterMap + Send {
     /// Why its load stopped it, once it has (it steps no more).
     fn load_failure(&self) -> Option<&FmuLoadError>;
 
+    /// The load FMU coupled to its shaft, if any.
+    fn load(&self) -> Option<&FmuLoad>;
+
     /// The vendor's own type, for the vendor's own API.
     fn as_any_mut(&mut self) -> &mut dyn Any;
 }

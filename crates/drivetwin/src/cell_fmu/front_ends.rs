@@ -31,7 +31,7 @@ use crate::cell::config::CellFile;
 use crate::cell_loop::MAX_PENDING;
 use crate::scenario::file::Action;
 use crate::scenario::runner::Rig;
-use crate::scenario::virtual_rig::{Probe, VirtualRig};
+use crate::scenario::virtual_rig::{Probe, RigDrive, VirtualRig};
 
 use super::serving_thread::{ServingThread, WAKER};
 use super::CellFmuError;
@@ -62,10 +62,10 @@ pub struct Shared {
 }
 
 impl Shared {
-    /// The outputs of drives `nodes` read anew.
-    pub fn refresh(&mut self, nodes: &[u8]) {
-        for (out, node) in self.outputs.iter_mut().zip(nodes) {
-            if let Ok(p) = self.rig.probe(*node) {
+    /// The outputs of drives `drives` read anew.
+    pub fn refresh(&mut self, drives: &[RigDrive]) {
+        for (out, drive) in self.outputs.iter_mut().zip(drives) {
+            if let Ok(p) = self.rig.probe_drive(*drive) {
                 *out = p;
             }
         }

@@ -19,7 +19,7 @@ use crate::cell::control::DriveViews;
 use crate::cell::Vendors;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
-use crate::scenario::virtual_rig::{Probe, VirtualRig};
+use crate::scenario::virtual_rig::{Probe, RigDrive, VirtualRig};
 use crate::scenario::Scenario;
 
 use super::can_terminal::CanTerminal;
@@ -27,7 +27,7 @@ use super::ethercat_front::EthercatChains;
 use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
 use super::modbus_front::{self, ModbusFronts};
 use super::parameters::Parameters;
-use super::variables::{Profile, Role, Variables, DIGITAL_INPUTS};
+use super::variables::{DriveName, Profile, Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
 /// What the importer set for a drive, and what has acted of it.
@@ -54,6 +54,8 @@ pub struct CellInstance {
     /// The EtherCAT chains of the cell file's slaves, stepped with the rig.
     ethercat: EthercatChains,
     variables: Variables,
+    /// Each drive of the variables as the rig knows it, in their order.
+    drives: Vec<RigDrive>,
     /// The cell file's keys that are FMI parameters, their starts the values the cell was
     /// built with.
     parameters: Parameters,
@@ -90,9 +92,11 @@ impl CellInstance {
         let mut cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         if !set.is_empty() {
             // The parameters as the description declares them: those of the file as written.
+            let (rest, _) = EthercatChains::split(&cell, vendors)?;
             let rig =
-                VirtualRig::new(&cell, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
-            Parameters::of(&rig, &rig.nodes()).apply(&mut cell, vendors, set)?;
+                VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+            let steppers = register_image_sections(&cell, vendors)?;
+            Parameters::of(&rig, &rig.nodes(), &steppers).apply(&mut cell, vendors, set)?;
         }
         let timeline_path = resources.join(TIMELINE_FILE);
         let timeline = if timeline_path.exists() {
@@ -127,18 +131,32 @@ impl CellInstance {
         // The EtherCAT slaves form chains of their own; the rest is the virtual rig's.
         let (rest, ethercat) = EthercatChains::split(cell, vendors)?;
         let rig = VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let register_image = register_image_sections(cell, vendors)?;
+        if register_image.len() != rig.modbus_drives() {
+            return Err(CellFmuError::Cell(format!(
+                "{} CMMO-ST section(s), {} served",
+                register_image.len(),
+                rig.modbus_drives()
+            )));
+        }
+        let nodes = rig.nodes();
+        let drives: Vec<RigDrive> = nodes
+            .iter()
+            .map(|n| RigDrive::Node(*n))
+            .chain((0..register_image.len()).map(RigDrive::RegisterImage))
+            .collect();
         let variables = Variables::with_profiles(
-            rig.nodes()
-                .into_iter()
-                .map(|n| (n, Profile::Cia402))
+            nodes
+                .iter()
+                .map(|n| (DriveName::Node(*n), Profile::Cia402))
                 .chain(
-                    rig.register_image_nodes()
-                        .into_iter()
-                        .map(|n| (n, Profile::Fhpp)),
+                    register_image
+                        .iter()
+                        .map(|(k, _)| (DriveName::Section(*k), Profile::Fhpp)),
                 )
                 .collect(),
         )?;
-        let parameters = Parameters::of(&rig, &variables.nodes);
+        let parameters = Parameters::of(&rig, &nodes, &register_image);
         let timeline = timeline
             .map(|s| {
                 s.steps
@@ -159,7 +177,7 @@ impl CellInstance {
         for bus in 0..terminals.len() {
             rig.report_outside_frames(bus);
         }
-        let n = variables.nodes.len();
+        let n = drives.len();
         let shared = Arc::new(Mutex::new(Shared {
             rig,
             outbox: Vec::new(),
@@ -172,6 +190,7 @@ impl CellInstance {
             modbus_fronts: None,
             ethercat,
             variables,
+            drives,
             parameters,
             timeline,
             done: 0,
@@ -217,7 +236,7 @@ impl CellInstance {
     fn output(&self, drive: usize) -> Probe {
         let mut shared = lock(&self.shared);
         if shared.acted {
-            shared.refresh(&self.variables.nodes);
+            shared.refresh(&self.drives);
         }
         shared.outputs.get(drive).copied().unwrap_or_default()
     }
@@ -325,11 +344,14 @@ impl CellInstance {
     pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
         match self.find(vr)? {
             (drive, Role::Display) => {
-                let node = self.variables.nodes.get(drive).copied().unwrap_or(0);
                 let mut shared = lock(&self.shared);
-                if self.variables.profile(drive) == Profile::Fhpp {
-                    return Ok(shared.rig.register_image_display(node).unwrap_or_default());
-                }
+                let node = match self.drives.get(drive) {
+                    Some(RigDrive::RegisterImage(i)) => {
+                        return Ok(shared.rig.register_image_display(*i).unwrap_or_default())
+                    }
+                    Some(RigDrive::Node(n)) => *n,
+                    None => return Err(CellFmuError::UnknownVariable(vr)),
+                };
                 let shown = shared
                     .rig
                     .drive_model(node)
@@ -369,7 +391,7 @@ impl CellInstance {
                 });
             }
         };
-        Self::apply_inputs(rig, &self.variables, &mut self.inputs, &mut seen)?;
+        Self::apply_inputs(rig, &self.drives, &mut self.inputs, &mut seen)?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
             if at_ns >= end {
@@ -398,7 +420,7 @@ impl CellInstance {
         self.terminals_saw(&frames, &outside);
         self.now = end;
         let stopped = rig.stopped();
-        guard.refresh(&self.variables.nodes);
+        guard.refresh(&self.drives);
         drop(guard);
         if let Some(f) = &self.front_ends {
             f.wake();
@@ -449,24 +471,34 @@ impl CellInstance {
 
     fn apply_inputs(
         rig: &mut VirtualRig,
-        variables: &Variables,
+        drives: &[RigDrive],
         inputs: &mut [Inputs],
         seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame),
     ) -> Result<(), CellFmuError> {
-        for (drive, node) in variables.nodes.iter().enumerate() {
-            let Some(i) = inputs.get_mut(drive) else {
-                continue;
+        for (drive, i) in drives.iter().zip(inputs.iter_mut()) {
+            // A CANopen drive by its node-ID, a CMMO-ST by its place (its `node` may be a
+            // CANopen drive's as well).
+            let node = match drive {
+                RigDrive::Node(n) => Some(*n),
+                RigDrive::RegisterImage(_) => None,
             };
+            let who = || match drive {
+                RigDrive::Node(n) => format!("node {n}"),
+                RigDrive::RegisterImage(k) => format!("CMMO-ST {k}"),
+            };
+            let act =
+                |rig: &mut VirtualRig,
+                 action: &Action,
+                 seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame)| {
+                    match drive {
+                        RigDrive::Node(_) => rig.act(action, seen),
+                        RigDrive::RegisterImage(k) => rig.act_on_register_image(*k, action, seen),
+                    }
+                };
             if i.load_applied != Some(i.load_torque) {
                 let torque_nm = i.load_torque;
-                rig.act(
-                    &Action::Load {
-                        node: Some(*node),
-                        torque_nm,
-                    },
-                    seen,
-                )
-                .map_err(|e| CellFmuError::Cell(format!("node {node}: load torque: {e}")))?;
+                act(rig, &Action::Load { node, torque_nm }, seen)
+                    .map_err(|e| CellFmuError::Cell(format!("{}: load torque: {e}", who())))?;
                 i.load_applied = Some(torque_nm);
             }
             if let (Some(level), false) = (i.reference, i.reference == i.reference_applied) {
@@ -474,14 +506,8 @@ impl CellInstance {
                     drive::drive::named_switches::NamedSwitch::Home,
                     Some(level),
                 );
-                rig.act(
-                    &Action::Physics {
-                        node: Some(*node),
-                        change,
-                    },
-                    seen,
-                )
-                .map_err(|e| CellFmuError::Cell(format!("node {node}: reference switch: {e}")))?;
+                act(rig, &Action::Physics { node, change }, seen)
+                    .map_err(|e| CellFmuError::Cell(format!("{}: reference switch: {e}", who())))?;
                 i.reference_applied = Some(level);
             }
             for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
@@ -489,20 +515,29 @@ impl CellInstance {
                     continue;
                 };
                 let din = u8::try_from(k).unwrap_or(0);
-                rig.act(
-                    &Action::Input {
-                        node: Some(*node),
-                        din,
-                        level,
-                    },
-                    seen,
-                )
-                .map_err(|e| CellFmuError::Cell(format!("node {node}: din{din}: {e}")))?;
+                act(rig, &Action::Input { node, din, level }, seen)
+                    .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", who())))?;
                 *applied = Some(level);
             }
         }
         Ok(())
     }
+}
+
+/// The indexes of `cell`'s `[[drive]]` sections whose drives have their own register image
+/// (the CMMO-STs), in the file's order (the virtual rig serves them in that order), each with
+/// the stepper it is built with.
+fn register_image_sections(
+    cell: &CellFile,
+    vendors: Vendors,
+) -> Result<Vec<(usize, drive::stepper::StepperData)>, CellFmuError> {
+    Ok(cell
+        .drives(vendors)
+        .map_err(|e| CellFmuError::Cell(e.to_string()))?
+        .iter()
+        .enumerate()
+        .filter_map(|(k, s)| s.fhpp.as_ref().map(|f| (k, f.settings.stepper)))
+        .collect())
 }
 
 /// Seconds as the clock's nanoseconds.
@@ -526,6 +561,38 @@ mod tests {
         let mut m = Vec::new();
         r.read_until(b'>', &mut m).unwrap();
         String::from_utf8(m).unwrap().trim().to_string()
+    }
+
+    #[test]
+    fn a_cmmo_st_at_a_canopen_drives_node_id_is_named_by_its_place_and_turns_alone() {
+        // The CMMO-ST without a `node`: the default 1, the CMMP-AS's as well.
+        let cell: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmo-st\"\n",
+        )
+        .unwrap();
+        let mut fmu = CellInstance::new(&cell, None, crate::vendors::VENDORS.runtime).unwrap();
+        let vr: std::collections::HashMap<String, u32> = fmu
+            .variables()
+            .all()
+            .map(|v| (v.name(), v.value_reference))
+            .collect();
+        assert!(vr.contains_key("node1.statusword"));
+        assert!(vr.contains_key("drive1.scon"));
+        assert!(!vr.contains_key("node1.scon"));
+        // Its load torque (towards negative rotation) turns its free shaft, not the CMMP-AS's.
+        fmu.set_float64(vr["drive1.load_torque"], 0.1).unwrap();
+        for k in 0..20 {
+            fmu.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+        }
+        assert!(fmu.get_float64(vr["drive1.position"]).unwrap() < -0.05);
+        assert!(fmu.get_float64(vr["node1.position"]).unwrap().abs() < 1e-9);
+        assert_eq!(fmu.get_uint8(vr["drive1.scon"]).unwrap() & 0x10, 0x10);
+        // Its reference switch, forced by the importer, reaches the CMMO-ST.
+        fmu.set_boolean(vr["drive1.reference_switch"], true)
+            .unwrap();
+        fmu.do_step(0.02, 1e-3).unwrap();
+        assert!(fmu.get_string(vr["drive1.display"]).is_ok());
     }
 
     #[test]

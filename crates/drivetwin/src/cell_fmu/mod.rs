@@ -58,8 +58,8 @@ pub enum CellFmuError {
     Timeline(String),
     #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses and its CMMO-STs)")]
     NoDrive,
-    #[error("node {0} is on more than one bus: a variable's name is its node-ID")]
-    DuplicateNode(u8),
+    #[error("two drives' variables would be named `{0}`: a CANopen drive's are named by its node-ID, and that node-ID is on more than one bus")]
+    DuplicateName(String),
     #[error("no variable with value reference {0} of that type")]
     UnknownVariable(u32),
     #[error("{0} is not a time the FMU can step to (0 … 584 years, in ns)")]

@@ -11,6 +11,16 @@
 //! | `nodeN.motor.viscous_friction` | N·m·s/rad | `[drive.motor] viscous_friction` |
 //! | `nodeN.motor.coulomb_friction` | N·m | `[drive.motor] coulomb_friction` |
 //!
+//! Per CMMO-ST (its stepper, `[drive.stepper]`), by its place `driveK` among the cell file's
+//! drives ([`DriveName`]), the keys of its motor and load:
+//!
+//! | name | unit | key |
+//! |---|---|---|
+//! | `driveK.stepper.load_inertia` | kg·m² | `[drive.stepper] load_inertia`: load reflected to the shaft |
+//! | `driveK.stepper.viscous_friction` | N·m·s/rad | `[drive.stepper] viscous_friction` |
+//! | `driveK.stepper.coulomb_friction` | N·m | `[drive.stepper] coulomb_friction` |
+//! | `driveK.stepper.holding_torque` | N·m | `[drive.stepper] holding_torque`: the motor's |
+//!
 //! Their start values are the built cell's (the cell file's value, else the device's motor
 //! data). A value set is written into the cell file's drive section before the cell is built,
 //! so it is checked as the cell file's own key is (a negative inertia is refused with the
@@ -27,6 +37,7 @@ use crate::cell::config::CellFile;
 use crate::cell::Vendors;
 use crate::scenario::virtual_rig::VirtualRig;
 
+use super::variables::DriveName;
 use super::CellFmuError;
 
 /// The first parameter's value reference ("PA").
@@ -34,32 +45,58 @@ pub const FIRST_VALUE_REFERENCE: u32 = 0x5041_0000;
 /// Value references per drive.
 const STRIDE: u32 = 8;
 
-/// A `[drive.motor]` key that is a parameter.
+/// A key of a drive's section that is a parameter: `[drive.motor]`'s of a servo drive,
+/// `[drive.stepper]`'s of a CMMO-ST.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Key {
     Inertia,
     ViscousFriction,
     CoulombFriction,
+    /// The stepper's load inertia (its rotor's is the motor's own, not a key).
+    LoadInertia,
+    StepperViscousFriction,
+    StepperCoulombFriction,
+    HoldingTorque,
 }
 
 impl Key {
-    const ALL: [Key; 3] = [Key::Inertia, Key::ViscousFriction, Key::CoulombFriction];
+    const SERVO: [Key; 3] = [Key::Inertia, Key::ViscousFriction, Key::CoulombFriction];
+    const STEPPER: [Key; 4] = [
+        Key::LoadInertia,
+        Key::StepperViscousFriction,
+        Key::StepperCoulombFriction,
+        Key::HoldingTorque,
+    ];
 
-    /// The key's name in `[drive.motor]`.
+    /// The drive's section the key is in: `motor` or `stepper`.
+    pub fn section(self) -> &'static str {
+        match self {
+            Key::Inertia | Key::ViscousFriction | Key::CoulombFriction => "motor",
+            _ => "stepper",
+        }
+    }
+
+    /// The key's name in its section.
     pub fn name(self) -> &'static str {
         match self {
             Key::Inertia => "inertia",
-            Key::ViscousFriction => "viscous_friction",
-            Key::CoulombFriction => "coulomb_friction",
+            Key::ViscousFriction | Key::StepperViscousFriction => "viscous_friction",
+            Key::CoulombFriction | Key::StepperCoulombFriction => "coulomb_friction",
+            Key::LoadInertia => "load_inertia",
+            Key::HoldingTorque => "holding_torque",
         }
     }
 
     /// The unit's name in the description's `UnitDefinitions`, with its SI base units.
     pub fn unit(self) -> (&'static str, &'static str) {
         match self {
-            Key::Inertia => ("kg.m2", r#"kg="1" m="2""#),
-            Key::ViscousFriction => ("N.m.s/rad", r#"kg="1" m="2" s="-1" rad="-1""#),
-            Key::CoulombFriction => ("N.m", r#"kg="1" m="2" s="-2""#),
+            Key::Inertia | Key::LoadInertia => ("kg.m2", r#"kg="1" m="2""#),
+            Key::ViscousFriction | Key::StepperViscousFriction => {
+                ("N.m.s/rad", r#"kg="1" m="2" s="-1" rad="-1""#)
+            }
+            Key::CoulombFriction | Key::StepperCoulombFriction | Key::HoldingTorque => {
+                ("N.m", r#"kg="1" m="2" s="-2""#)
+            }
         }
     }
 
@@ -72,22 +109,44 @@ impl Key {
             Key::CoulombFriction => {
                 "Coulomb friction of the shaft ([drive.motor] coulomb_friction)"
             }
+            Key::LoadInertia => {
+                "load inertia reflected to the stepper's shaft ([drive.stepper] load_inertia)"
+            }
+            Key::StepperViscousFriction => {
+                "viscous friction and iron losses of the stepper's shaft ([drive.stepper] viscous_friction)"
+            }
+            Key::StepperCoulombFriction => {
+                "Coulomb friction of the stepper's shaft ([drive.stepper] coulomb_friction)"
+            }
+            Key::HoldingTorque => {
+                "the stepper's holding torque at its rated current ([drive.stepper] holding_torque)"
+            }
         }
     }
 
     fn offset(self) -> u32 {
         match self {
-            Key::Inertia => 0,
-            Key::ViscousFriction => 1,
-            Key::CoulombFriction => 2,
+            Key::Inertia | Key::LoadInertia => 0,
+            Key::ViscousFriction | Key::StepperViscousFriction => 1,
+            Key::CoulombFriction | Key::StepperCoulombFriction => 2,
+            Key::HoldingTorque => 3,
         }
     }
 
-    fn of(data: &drive::motor::MotorData, key: Key) -> f64 {
+    fn of_motor(data: &drive::motor::MotorData, key: Key) -> f64 {
         match key {
             Key::Inertia => data.inertia,
             Key::ViscousFriction => data.viscous_friction,
-            Key::CoulombFriction => data.coulomb_friction,
+            _ => data.coulomb_friction,
+        }
+    }
+
+    fn of_stepper(data: &drive::stepper::StepperData, key: Key) -> f64 {
+        match key {
+            Key::LoadInertia => data.load_inertia,
+            Key::StepperViscousFriction => data.viscous_friction,
+            Key::StepperCoulombFriction => data.coulomb_friction,
+            _ => data.holding_torque,
         }
     }
 }
@@ -95,7 +154,8 @@ impl Key {
 /// One parameter, with its start value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
-    pub node: u8,
+    /// Its drive, as its variables are named.
+    pub drive: DriveName,
     pub key: Key,
     pub value_reference: u32,
     pub start: f64,
@@ -103,7 +163,7 @@ pub struct Parameter {
 
 impl Parameter {
     pub fn name(&self) -> String {
-        format!("node{}.motor.{}", self.node, self.key.name())
+        format!("{}.{}.{}", self.drive, self.key.section(), self.key.name())
     }
 }
 
@@ -120,9 +180,22 @@ pub struct Parameters {
 
 impl Parameters {
     /// The parameters of the CANopen drives `nodes` (drive `i` of the table is `nodes[i]`)
-    /// of `rig`, their starts as the rig has built them.
-    pub fn of(rig: &VirtualRig, nodes: &[u8]) -> Parameters {
+    /// of `rig`, their starts as the rig has built them, then of the CMMO-STs `steppers`
+    /// (the `[[drive]]` section's index and the stepper it is built with), drive
+    /// `nodes.len() + j` of the table.
+    pub fn of(
+        rig: &VirtualRig,
+        nodes: &[u8],
+        steppers: &[(usize, drive::stepper::StepperData)],
+    ) -> Parameters {
         let mut list = Vec::new();
+        let base_of = |i: usize| {
+            u32::try_from(i)
+                .ok()
+                .and_then(|i| i.checked_mul(STRIDE))
+                .and_then(|o| o.checked_add(FIRST_VALUE_REFERENCE))
+                .filter(|b| is_parameter(b + STRIDE - 1))
+        };
         for (i, node) in nodes.iter().enumerate() {
             let Some(d) = rig.drive_model(*node) else {
                 continue;
@@ -131,19 +204,28 @@ impl Parameters {
                 continue;
             }
             let data = d.axis().motor().data();
-            let base = u32::try_from(i)
-                .ok()
-                .and_then(|i| i.checked_mul(STRIDE))
-                .and_then(|o| o.checked_add(FIRST_VALUE_REFERENCE));
-            let Some(base) = base.filter(|b| is_parameter(b + STRIDE - 1)) else {
+            let Some(base) = base_of(i) else {
                 continue;
             };
-            for key in Key::ALL {
+            for key in Key::SERVO {
                 list.push(Parameter {
-                    node: *node,
+                    drive: DriveName::Node(*node),
                     key,
                     value_reference: base + key.offset(),
-                    start: Key::of(data, key),
+                    start: Key::of_motor(data, key),
+                });
+            }
+        }
+        for (j, (section, data)) in steppers.iter().enumerate() {
+            let Some(base) = base_of(nodes.len() + j) else {
+                continue;
+            };
+            for key in Key::STEPPER {
+                list.push(Parameter {
+                    drive: DriveName::Section(*section),
+                    key,
+                    value_reference: base + key.offset(),
+                    start: Key::of_stepper(data, key),
                 });
             }
         }
@@ -170,23 +252,26 @@ impl Parameters {
             .map_err(|e| CellFmuError::Cell(e.to_string()))?;
         for (vr, value) in set {
             let p = self.find(*vr).ok_or(CellFmuError::UnknownVariable(*vr))?;
-            // The CANopen drive of that node-ID (a CMMO-ST may have the same number).
-            let section = specs
-                .iter()
-                .position(|s| s.node == p.node && s.fhpp.is_none())
+            let index = match p.drive {
+                // The CANopen drive of that node-ID (a CMMO-ST may have the same number).
+                DriveName::Node(n) => specs.iter().position(|s| s.node == n && s.fhpp.is_none()),
+                DriveName::Section(k) => Some(k),
+            };
+            let section = index
                 .and_then(|i| file.drive.get_mut(i))
                 .ok_or_else(|| CellFmuError::Cell(format!("{}: no such drive", p.name())))?;
-            let motor = section
+            let table = section
                 .rest
-                .entry("motor")
+                .entry(p.key.section())
                 .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-            let toml::Value::Table(motor) = motor else {
+            let toml::Value::Table(table) = table else {
                 return Err(CellFmuError::Cell(format!(
-                    "node {}: `motor` is not a table",
-                    p.node
+                    "{}: `{}` is not a table",
+                    p.drive,
+                    p.key.section()
                 )));
             };
-            motor.insert(p.key.name().into(), toml::Value::Float(*value));
+            table.insert(p.key.name().into(), toml::Value::Float(*value));
         }
         Ok(())
     }
@@ -232,7 +317,7 @@ mod tests {
         let file =
             cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 3\n[drive.motor]\ninertia = 4e-5\n");
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        let p = Parameters::of(&rig, &rig.nodes());
+        let p = Parameters::of(&rig, &rig.nodes(), &[]);
         let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
         assert_eq!(
             names,
@@ -248,15 +333,60 @@ mod tests {
     }
 
     #[test]
+    fn a_cmmo_st_has_its_stepper_keys_as_parameters_named_by_its_place() {
+        let mut file = cell(
+            "[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmo-st\"\n[drive.stepper]\nload_inertia = 3e-5\n",
+        );
+        let vendors = crate::vendors::VENDORS.runtime;
+        let steppers: Vec<_> = file
+            .drives(vendors)
+            .unwrap()
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| s.fhpp.as_ref().map(|f| (k, f.settings.stepper)))
+            .collect();
+        let rig = VirtualRig::new(&file, vendors).unwrap();
+        let p = Parameters::of(&rig, &rig.nodes(), &steppers);
+        let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
+        assert_eq!(
+            names[3..],
+            [
+                "drive1.stepper.load_inertia",
+                "drive1.stepper.viscous_friction",
+                "drive1.stepper.coulomb_friction",
+                "drive1.stepper.holding_torque"
+            ]
+        );
+        assert_eq!(p.list[3].start, 3e-5);
+        assert_eq!(p.list[6].start, 0.5);
+        // The second drive of the table: the next range of value references.
+        assert_eq!(p.list[3].value_reference, FIRST_VALUE_REFERENCE + STRIDE);
+        assert!(p.units().contains(&Key::HoldingTorque.unit()));
+        // Set, it is the key of the CMMO-ST's own section (the CMMP-AS at node 1 keeps its).
+        p.apply(&mut file, vendors, &[(p.list[3].value_reference, 8e-5)])
+            .unwrap();
+        let specs = file.drives(vendors).unwrap();
+        let stepper = specs[1].fhpp.as_ref().unwrap().settings.stepper;
+        assert_eq!(stepper.load_inertia, 8e-5);
+        assert!(file.drive[0].rest.get("stepper").is_none());
+        // A negative one is refused as the key is.
+        p.apply(&mut file, vendors, &[(p.list[3].value_reference, -1.0)])
+            .unwrap();
+        let e = file.drives(vendors).err().unwrap().to_string();
+        assert!(e.contains("stepper.load_inertia"), "{e}");
+    }
+
+    #[test]
     fn a_value_set_is_the_cell_files_key_and_checked_as_it() {
         let mut file = cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n");
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        let p = Parameters::of(&rig, &rig.nodes());
+        let p = Parameters::of(&rig, &rig.nodes(), &[]);
         let vr = p.list[0].value_reference;
         p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, 6e-5)])
             .unwrap();
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        assert_eq!(Parameters::of(&rig, &rig.nodes()).list[0].start, 6e-5);
+        assert_eq!(Parameters::of(&rig, &rig.nodes(), &[]).list[0].start, 6e-5);
         // A negative inertia is refused as the cell file's key is.
         p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, -1.0)])
             .unwrap();

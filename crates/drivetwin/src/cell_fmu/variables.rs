@@ -12,11 +12,14 @@
 //! | `nodeN.position_actual` | Int32 | output | | 6064h, in the drive's position units |
 //! | `nodeN.display` | String | output | | what the drive's display shows ("" without one) |
 //!
-//! A drive with the FHPP register image (the CMMO-ST, FHPP over Modbus) has, after the
-//! CANopen drives and in the cell file's order, `nodeN.load_torque`, `nodeN.reference_switch`
-//! (Boolean input: its reference switch, forced once set), `nodeN.position`, `nodeN.velocity`,
-//! `nodeN.current`, `nodeN.scon` and `nodeN.spos` (UInt8 outputs: FHPP status bytes 1 and 2),
-//! `nodeN.position_actual` (its actual position in its position unit) and `nodeN.display`.
+//! A drive with the FHPP register image (the CMMO-ST, FHPP over Modbus) has no CANopen node:
+//! its variables are named by its place among the cell file's `[[drive]]` sections, `driveK`
+//! (K from 0, as the LS-BUS terminals `canB` count the `[[bus]]` sections; [`DriveName`]). After the CANopen drives and in
+//! the cell file's order, it has `driveK.load_torque`, `driveK.reference_switch` (Boolean
+//! input: its reference switch, forced once set), `driveK.position`, `driveK.velocity`,
+//! `driveK.current`, `driveK.scon` and `driveK.spos` (UInt8 outputs: FHPP status bytes 1 and
+//! 2), `driveK.position_actual` (its actual position in its position unit) and
+//! `driveK.display`.
 //!
 //! Value reference 0 is the independent variable `time`; each drive's variables follow the
 //! last drive's in the table's order (a CiA 402 drive's take [`STRIDE`], so drive `i` of a cell
@@ -187,25 +190,51 @@ impl Role {
     }
 }
 
-/// One variable: its drive (index in [`Variables::nodes`]), its role and value reference.
+/// What a drive's variables are named by: the first part of their names.
+///
+/// **Decision:** a CANopen drive by its node-ID (`nodeN`), unique on the cell's buses and
+/// what a CANopen master knows it by; a drive without a CANopen node (the CMMO-ST, FHPP over
+/// Modbus TCP) by its place among the cell file's `[[drive]]` sections (`driveK`, from 0, as
+/// the terminals `canB` count the `[[bus]]` sections). A CMMO-ST's `node` key names no node on
+/// any bus (its default, 1, is a CANopen drive's default as well), and its Modbus address is a
+/// socket that changes with the machine it runs on; its place in the file is what the
+/// importer and the cell file's reader both see.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DriveName {
+    /// A CANopen drive: `nodeN`.
+    Node(u8),
+    /// A drive without a CANopen node: `driveK`, K its `[[drive]]` section's index.
+    Section(usize),
+}
+
+impl std::fmt::Display for DriveName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DriveName::Node(n) => write!(f, "node{n}"),
+            DriveName::Section(k) => write!(f, "drive{k}"),
+        }
+    }
+}
+
+/// One variable: its drive (index in [`Variables::names`]), its role and value reference.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variable {
     pub drive: usize,
-    pub node: u8,
+    pub drive_name: DriveName,
     pub role: Role,
     pub value_reference: u32,
 }
 
 impl Variable {
     pub fn name(&self) -> String {
-        format!("node{}.{}", self.node, self.role.name())
+        format!("{}.{}", self.drive_name, self.role.name())
     }
 }
 
-/// The variables of a cell whose drives have the node-IDs `nodes`, each of its profile.
+/// The variables of a cell whose drives are named `names`, each of its profile.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variables {
-    pub nodes: Vec<u8>,
+    pub names: Vec<DriveName>,
     /// Each drive's profile, in `nodes`' order.
     pub profiles: Vec<Profile>,
     /// Each drive's first value reference.
@@ -216,17 +245,24 @@ impl Variables {
     /// CiA 402 drives with the node-IDs `nodes`; refuses a node-ID that is on two buses
     /// (the names would be the same).
     pub fn new(nodes: Vec<u8>) -> Result<Variables, super::CellFmuError> {
-        Variables::with_profiles(nodes.into_iter().map(|n| (n, Profile::Cia402)).collect())
+        Variables::with_profiles(
+            nodes
+                .into_iter()
+                .map(|n| (DriveName::Node(n), Profile::Cia402))
+                .collect(),
+        )
     }
 
-    /// Drives of their profiles, in this order; refuses a node-ID given twice.
-    pub fn with_profiles(drives: Vec<(u8, Profile)>) -> Result<Variables, super::CellFmuError> {
+    /// Drives of their profiles, in this order; refuses a name given twice.
+    pub fn with_profiles(
+        drives: Vec<(DriveName, Profile)>,
+    ) -> Result<Variables, super::CellFmuError> {
         if drives.is_empty() {
             return Err(super::CellFmuError::NoDrive);
         }
         for (i, (n, _)) in drives.iter().enumerate() {
             if drives.iter().skip(i + 1).any(|(m, _)| m == n) {
-                return Err(super::CellFmuError::DuplicateNode(*n));
+                return Err(super::CellFmuError::DuplicateName(n.to_string()));
             }
         }
         let mut bases = Vec::with_capacity(drives.len());
@@ -235,9 +271,9 @@ impl Variables {
             bases.push(next);
             next = next.saturating_add(p.stride());
         }
-        let (nodes, profiles) = drives.into_iter().unzip();
+        let (names, profiles) = drives.into_iter().unzip();
         Ok(Variables {
-            nodes,
+            names,
             profiles,
             bases,
         })
@@ -250,17 +286,17 @@ impl Variables {
 
     /// Every variable, in value-reference order.
     pub fn all(&self) -> impl Iterator<Item = Variable> + '_ {
-        self.nodes
+        self.names
             .iter()
             .zip(&self.profiles)
             .zip(&self.bases)
             .enumerate()
-            .flat_map(|(drive, ((node, profile), base))| {
+            .flat_map(|(drive, ((name, profile), base))| {
                 Role::all(*profile)
                     .zip(*base..)
                     .map(move |(role, vr)| Variable {
                         drive,
-                        node: *node,
+                        drive_name: *name,
                         role,
                         value_reference: vr,
                     })
@@ -308,7 +344,11 @@ mod tests {
 
     #[test]
     fn an_fhpp_drive_has_its_status_bytes_and_reference_switch_after_the_cia_402_drives() {
-        let v = Variables::with_profiles(vec![(1, Profile::Cia402), (7, Profile::Fhpp)]).unwrap();
+        let v = Variables::with_profiles(vec![
+            (DriveName::Node(1), Profile::Cia402),
+            (DriveName::Section(1), Profile::Fhpp),
+        ])
+        .unwrap();
         let all: Vec<Variable> = v.all().collect();
         assert_eq!(all.len(), STRIDE as usize + 9);
         for (i, var) in all.iter().enumerate() {
@@ -323,15 +363,15 @@ mod tests {
         assert_eq!(
             names,
             [
-                "node7.load_torque",
-                "node7.reference_switch",
-                "node7.position",
-                "node7.velocity",
-                "node7.current",
-                "node7.scon",
-                "node7.spos",
-                "node7.position_actual",
-                "node7.display"
+                "drive1.load_torque",
+                "drive1.reference_switch",
+                "drive1.position",
+                "drive1.velocity",
+                "drive1.current",
+                "drive1.scon",
+                "drive1.spos",
+                "drive1.position_actual",
+                "drive1.display"
             ]
         );
         assert_eq!(v.value_reference(1, Role::Scon), Some(1 + STRIDE + 5));
@@ -343,8 +383,14 @@ mod tests {
     fn a_node_id_on_two_buses_is_refused() {
         assert!(matches!(
             Variables::new(vec![1, 1]),
-            Err(crate::cell_fmu::CellFmuError::DuplicateNode(1))
+            Err(crate::cell_fmu::CellFmuError::DuplicateName(n)) if n == "node1"
         ));
+        // A CMMO-ST named by its section beside a CANopen drive at node 1: both named.
+        assert!(Variables::with_profiles(vec![
+            (DriveName::Node(1), Profile::Cia402),
+            (DriveName::Section(0), Profile::Fhpp),
+        ])
+        .is_ok());
         assert!(Variables::new(vec![]).is_err());
     }
 }

@@ -232,23 +232,18 @@ impl CellLoop {
         }
     }
 
-    /// A drive's load FMU after `change` ([`crate::cell::load_control`]); a CMMO-ST has none.
+    /// A drive's load FMU after `change` ([`crate::cell::load_control`]): a CiA 402 drive's
+    /// plant or a CMMO-ST's, each stepping it with its own cycle.
     fn load(
         &mut self,
         drive: usize,
         change: crate::cell::load_control::LoadChange,
     ) -> Result<crate::cell::load_control::LoadState, crate::cell::load_control::LoadControlError>
     {
-        use crate::cell::load_control::{apply, LoadChange, LoadState};
+        use crate::cell::load_control::{apply, apply_to_modbus_device};
         match self.target(drive)? {
             Target::Can(model) => apply(model, change),
-            Target::Modbus(_) => match change {
-                LoadChange::Couple(load) => Err(crate::cosim::FmuLoadError::NoShaft {
-                    fmu: load.name().to_owned(),
-                }
-                .into()),
-                LoadChange::None | LoadChange::Uncouple => Ok(LoadState::default()),
-            },
+            Target::Modbus(device) => apply_to_modbus_device(device, change),
         }
     }
 

@@ -721,7 +721,7 @@ impl CellLoop {
                 }
             }
             if let Some(e) = self.load_failure() {
-                load_failure = Some(e.clone());
+                load_failure = Some(e);
                 break;
             }
         }
@@ -746,12 +746,18 @@ impl CellLoop {
     }
 
     /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
-    /// CAN bus or a chain's own).
-    fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
+    /// CAN bus or a chain's own) or drive served over Modbus TCP (the CMMO-ST).
+    fn load_failure(&mut self) -> Option<crate::cosim::FmuLoadError> {
         self.stations
             .iter()
             .find_map(|d| d.model.drive()?.load_failure())
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
+            .cloned()
+            .or_else(|| {
+                self.modbus
+                    .iter_mut()
+                    .find_map(|m| m.device_mut().load_failure().cloned())
+            })
     }
 
     /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, a

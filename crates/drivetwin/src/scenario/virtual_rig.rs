@@ -318,6 +318,15 @@ impl VirtualRig {
     }
 }
 
+/// A drive of the rig as an importer addresses it: a CANopen drive by its node-ID, a drive
+/// with its own register image (the CMMO-ST) by its place among them in the cell file's
+/// order, as it has no node-ID of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RigDrive {
+    Node(u8),
+    RegisterImage(usize),
+}
+
 /// What a drive's plant and device control show at one instant: the quantities a cell shows
 /// to an importer that steps it (the cell as an FMU, `drivetwin scenario --samples`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -354,12 +363,51 @@ impl VirtualRig {
         self.modbus.iter().map(|(n, _)| *n).collect()
     }
 
-    /// What the display of node `node`'s register-image drive shows (`None`: no such drive,
-    /// or no display).
-    pub fn register_image_display(&mut self, node: u8) -> Option<String> {
-        let i = self.cmmo_st(Some(node))?;
+    /// What the display of the `i`-th register-image drive (cell file order) shows (`None`:
+    /// no such drive, or no display).
+    pub fn register_image_display(&mut self, i: usize) -> Option<String> {
         let dev = self.modbus_device(i)?;
         dev.plant().1.map(|d| d.text().to_string())
+    }
+
+    /// `action` (a load torque, a switch, an object write, a Modbus request) on the `i`-th
+    /// register-image drive, whatever node the action names: a CMMO-ST has no node-ID a
+    /// CANopen drive cannot share, so an importer addresses it by its place.
+    pub fn act_on_register_image(
+        &mut self,
+        i: usize,
+        action: &Action,
+        seen: &mut dyn FnMut(usize, Duration, &CanFrame),
+    ) -> Result<(), String> {
+        let now = self.now;
+        let r = self
+            .act_on_modbus(i, action, now)
+            .unwrap_or_else(|| Err(format!("the CMMO-ST takes no {action:?}")));
+        self.flush(seen);
+        r
+    }
+
+    /// Drive `drive`'s plant and words now.
+    pub fn probe_drive(&self, drive: RigDrive) -> Result<Probe, String> {
+        match drive {
+            RigDrive::Node(n) => self.probe(n),
+            RigDrive::RegisterImage(i) => self
+                .register_image_probe(i)
+                .ok_or_else(|| format!("no register-image drive {i}")),
+        }
+    }
+
+    fn register_image_probe(&self, i: usize) -> Option<Probe> {
+        let (_, m) = self.modbus.get(i)?;
+        let r = m.readout();
+        Some(Probe {
+            position_rad: r.position_rad,
+            velocity_rad_s: r.velocity_rad_s,
+            current_a: r.current_a,
+            statusword: 0,
+            position_actual: r.position_actual,
+            status: r.status,
+        })
     }
 
     /// Each bus's bit rate, in the cell file's order (none: the instant bus).
@@ -427,16 +475,11 @@ impl VirtualRig {
 
     /// Drive `node`'s plant and words now.
     pub fn probe(&self, node: u8) -> Result<Probe, String> {
-        if let Some((_, m)) = self.cmmo_st(Some(node)).and_then(|i| self.modbus.get(i)) {
-            let r = m.readout();
-            return Ok(Probe {
-                position_rad: r.position_rad,
-                velocity_rad_s: r.velocity_rad_s,
-                current_a: r.current_a,
-                statusword: 0,
-                position_actual: r.position_actual,
-                status: r.status,
-            });
+        if let Some(p) = self
+            .cmmo_st(Some(node))
+            .and_then(|i| self.register_image_probe(i))
+        {
+            return Ok(p);
         }
         let (b, i) = self.drive(Some(node))?;
         let station = self.station((b, i))?;
@@ -698,7 +741,19 @@ impl VirtualRig {
                 _ => None,
             };
         };
-        let (_, m) = self.modbus.get_mut(i)?;
+        self.act_on_modbus(i, action, now)
+    }
+
+    /// `action` on the `i`-th CMMO-ST (`None`: an action it does not take).
+    fn act_on_modbus(
+        &mut self,
+        i: usize,
+        action: &Action,
+        now: Instant,
+    ) -> Option<Result<(), String>> {
+        let Some((_, m)) = self.modbus.get_mut(i) else {
+            return Some(Err(format!("no CMMO-ST {i}")));
+        };
         Some(match action {
             Action::Modbus { request, .. } => {
                 let mut answer = Vec::new();

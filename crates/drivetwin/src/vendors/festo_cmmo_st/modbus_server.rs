@@ -351,6 +351,10 @@ impl ModbusDevice for FhppModbus {
         self.failure.as_ref()
     }
 
+    fn load(&self) -> Option<&FmuLoad> {
+        self.load.as_ref()
+    }
+
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self
     }
