@@ -1,14 +1,5 @@
 //! EtherCAT chains on the loop: a frame from the master passes the chain's slaves and goes
 //! back out at once; a slave that is a CANopen drive of the cell as well reaches that drive.
-//!
-//! After the answer the chain's devices take their outputs, run their drives and post their
-//! inputs (`SlaveChain::exchange_with`). For a long chain that is tens of microseconds (64
-//! drives stepped), and a master that shares the loop's CPU (a PLC task beside its drives'
-//! twin, or any master under a loop at a real-time priority) would read its answer only after
-//! it. When the devices' part costs more than [`DEFER_ABOVE`] and the turn woke for frames
-//! alone, the loop sleeps first and runs it [`EXCHANGE_DELAY`] later, or before anything else
-//! touches the chain: the next frame's pass, the timers, the control handle. It runs with the
-//! frame's time, so what the devices see, and every byte of the next answer, stays the same.
 
 use std::io;
 use std::time::{Duration, Instant};
@@ -40,26 +31,6 @@ impl BusDrives for Buses<'_> {
         self.stations.station_mut(id)
     }
 }
-
-/// The devices' part of a frame (`SlaveChain::exchange_with`), waiting while the master
-/// reads its answer.
-pub(super) struct ExchangeDue {
-    /// The frame's time: the devices run as if at once after it.
-    at: od::Instant,
-    /// The loop wakes for it by then at the latest.
-    pub(super) by: Instant,
-}
-
-/// A devices' part that took longer than this the last time is run after the loop's next
-/// sleep: it costs more than arming the loop's timer (3.4 µs on the measuring VM,
-/// docs/performance.md) and the extra wake-up. A chain of a few drives exchanges at once, as
-/// before.
-pub(super) const DEFER_ABOVE: Duration = Duration::from_micros(10);
-
-/// How long after its frame a deferred devices' part runs at the latest: long enough for a
-/// master on the same CPU to take its answer and go back to sleep, short against a 250 µs
-/// cycle.
-pub(super) const EXCHANGE_DELAY: Duration = Duration::from_micros(50);
 
 /// How long a `--busy-poll` turn looks at the chains' receive rings before it polls the
 /// other sockets (a system call) and does the rest of its work: a frame that lands meanwhile
@@ -146,20 +117,28 @@ impl CellLoop {
                 Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
             }
             shared |= chain.chain.has_bus_drives();
-            let buses = &mut Buses {
-                buses: &self.buses,
-                stations: &mut self.stations,
-            };
-            // The previous frame's devices' part, if it waits, comes before this frame.
-            Self::finish_exchange(chain, buses);
-            if chain.chain.overdue(t) {
-                // A frame carries what the devices posted by its arrival: a SYNC0 event that
-                // fell due before it (or a step past its grace) runs first (a master's DC
-                // loop and its following-error check read those inputs). Other chains, the
-                // CAN drives and the timers wait until after the answer.
-                chain.chain.poll_with(t, buses);
+            if chain.chain.due(t) {
+                // A frame carries what the devices posted by its arrival: a step or a SYNC0
+                // event that fell due before it runs first (a master's DC loop and its
+                // following-error check read those inputs). Other chains, the CAN drives
+                // and the timers wait until after the answer.
+                chain.chain.poll_with(
+                    t,
+                    &mut Buses {
+                        buses: &self.buses,
+                        stations: &mut self.stations,
+                    },
+                );
             }
-            Self::pass_chain(chain, f, t, buses, !self.busy_poll);
+            Self::pass_chain(
+                chain,
+                f,
+                t,
+                &mut Buses {
+                    buses: &self.buses,
+                    stations: &mut self.stations,
+                },
+            );
         }
         self.frame = frame;
         if shared {
@@ -186,74 +165,19 @@ impl CellLoop {
     }
 
     /// One frame through chain `chain` and back out on its socket; then the chain's devices
-    /// take their outputs and run their drives, while the answer is already on its way. With
-    /// `defer`, a devices' part that costs more than [`DEFER_ABOVE`] waits for the loop's
-    /// next wake-up ([`ExchangeDue`]); a chain whose drives are CANopen drives as well
-    /// exchanges at once (their TPDOs look at the values the master wrote right after).
+    /// take their outputs and run their drives, while the answer is already on its way.
     pub(super) fn pass_chain(
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
         buses: &mut Buses<'_>,
-        defer: bool,
     ) {
-        Self::finish_exchange(chain, buses);
         if chain.chain.pass_with(t, f, buses).forward() {
             // Out on the wire, then copied to the trace; a failed send is logged by the
             // interface.
             let _ = chain.link.transmit(At::on_clock(t), f);
         }
-        if defer && chain.exchange_cost > DEFER_ABOVE && !chain.chain.has_bus_drives() {
-            chain.exchange = Some(ExchangeDue {
-                at: t,
-                by: Instant::now() + EXCHANGE_DELAY,
-            });
-        } else {
-            Self::exchange(chain, t, buses);
-        }
-    }
-
-    /// The devices' part of a frame at `t`, its cost kept for the next frame's choice.
-    fn exchange(chain: &mut ChainState, t: od::Instant, buses: &mut Buses<'_>) {
-        let start = Instant::now();
         chain.chain.exchange_with(t, buses);
-        chain.exchange_cost = start.elapsed();
-    }
-
-    /// Runs chain `chain`'s deferred devices' part, if one waits.
-    pub(super) fn finish_exchange(chain: &mut ChainState, buses: &mut Buses<'_>) {
-        if let Some(due) = chain.exchange.take() {
-            Self::exchange(chain, due.at, buses);
-        }
-    }
-
-    /// Runs every deferred devices' part: before the timers, the other sockets and the
-    /// control handle see the chains.
-    pub(super) fn finish_exchanges(&mut self) {
-        for chain in &mut self.chains {
-            Self::finish_exchange(
-                chain,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
-        }
-    }
-
-    /// Whether the turn woke for the chains' frames alone, a devices' part waits and nothing
-    /// else is due: then the loop goes back to sleep at once (its deadline the devices'
-    /// part's), and a master on the same CPU runs before it. A timer that is due ends the
-    /// skipping, so a master that sends without pause does not hold the rest of the loop off.
-    pub(super) fn frames_alone(&self, events: &Events) -> bool {
-        !self.busy_poll
-            && !events.is_empty()
-            && self.chains_to_read.is_empty()
-            && self.chains.iter().any(|c| c.exchange.is_some())
-            && events
-                .iter()
-                .all(|e| (FIRST_CHAIN..FIRST_CHAIN + self.chains.len()).contains(&e.token().0))
-            && self.deadline().is_none_or(|d| d > Instant::now())
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
@@ -267,7 +191,6 @@ impl CellLoop {
                     buses: &self.buses,
                     stations: &mut self.stations,
                 },
-                false,
             );
         }
     }

@@ -156,11 +156,6 @@ type ClientLink = FrontFaultInjector<ClientStream>;
 struct ChainState {
     chain: SlaveChain,
     link: ChainLink,
-    /// The devices' part of the last frame, when it waits for the master's turn
-    /// ([`ethercat_chains::ExchangeDue`]).
-    exchange: Option<ethercat_chains::ExchangeDue>,
-    /// What the devices' part of a frame took the last time it ran (wall clock).
-    exchange_cost: Duration,
 }
 
 impl ChainState {
@@ -509,8 +504,6 @@ impl CellLoop {
                         FrontFaultInjector::inbound(c.socket, arrivals.clone()),
                         c.trace,
                     ),
-                    exchange: None,
-                    exchange_cost: Duration::ZERO,
                 })
                 .collect(),
             arrivals,
@@ -635,12 +628,6 @@ impl CellLoop {
             // A master's EtherCAT frames before anything else: each is answered before the
             // drives step and the other sockets are served ([`ethercat_chains`]).
             self.answer_frames(&events);
-            if self.frames_alone(&events) {
-                // The answers are out: the loop sleeps before the devices' part, so that a
-                // master on this CPU reads its answer first ([`ethercat_chains`]).
-                continue;
-            }
-            self.finish_exchanges();
             // Then the timers: an answer on the other front ends shows the drive as of now.
             self.timers(now);
             for event in &events {
@@ -708,7 +695,6 @@ impl CellLoop {
                 break;
             }
         }
-        self.finish_exchanges();
         for m in &mut self.modbus {
             m.close_connection();
         }
@@ -764,7 +750,6 @@ impl CellLoop {
         }
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
-            take(c.exchange.as_ref().map(|e| e.by));
         }
         for s in &self.subscriptions {
             take(Some(s.next));

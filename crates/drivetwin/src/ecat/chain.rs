@@ -1178,18 +1178,6 @@ impl SlaveChain {
         self.deadline().is_some_and(|at| at <= now)
     }
 
-    /// Whether a loop in real time runs the devices before a frame that arrives at `now`:
-    /// a SYNC0 event that fell due, or a step past its [`STEP_GRACE`]
-    /// ([`wake_by`](Self::wake_by)). A step within its grace is left to the frame's own
-    /// exchange, right after the answer: under a master whose cycle equals the [`TICK`], the
-    /// step falls due just as each frame comes, and running every device before the answer
-    /// would put the whole chain's work between the frame and its answer about every other
-    /// cycle. The frame then carries the inputs the previous frame's exchange posted, one cycle
-    /// old, as the free-run inputs are (the module's doc).
-    pub fn overdue(&self, now: Instant) -> bool {
-        self.wake_by().is_some_and(|at| at <= now)
-    }
-
     pub fn deadline(&self) -> Option<Instant> {
         self.devices
             .iter()
