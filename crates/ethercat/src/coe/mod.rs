@@ -350,21 +350,15 @@ pub fn serve<const N: usize>(
         .map_or(0, |s| usize::from(s.length))
         .min(MAILBOX_MAX);
     let out = out.get_mut(..size)?;
-    // A request first: a master that sends one has given up any fragmented reply.
-    let mut req = [0u8; MAILBOX_MAX];
-    let taken = esc.mailbox_read().map(|m| {
-        let n = m.len().min(MAILBOX_MAX);
-        if let (Some(d), Some(s)) = (req.get_mut(..n), m.get(..n)) {
-            d.copy_from_slice(s);
-        }
-        n
-    });
-    let n = match taken {
-        Some(len) => {
-            // ETG.1000.6: the PDO configuration changes in Pre-Op only.
-            let locked = matches!(esc.al_state(), AlState::SafeOp | AlState::Op);
+    // ETG.1000.6: the PDO configuration changes in Pre-Op only.
+    let locked = matches!(esc.al_state(), AlState::SafeOp | AlState::Op);
+    // A request first: a master that sends one has given up any fragmented reply. It is read
+    // where it lies in the ESC's memory (no copy: the server is called in every cycle of
+    // every slave, and a request is rare there).
+    let n = match esc.mailbox_read() {
+        Some(m) => {
             let mut od = MappingLock::new(od, locked);
-            coe.process(req.get(..len).unwrap_or(&[]), &mut od, out)
+            coe.process(m.get(..MAILBOX_MAX).unwrap_or(m), &mut od, out)
         }
         None => coe.poll(out),
     };
