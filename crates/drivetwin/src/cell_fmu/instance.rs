@@ -127,7 +127,7 @@ impl CellInstance {
         // The EtherCAT slaves form chains of their own; the rest is the virtual rig's.
         let (rest, ethercat) = EthercatChains::split(cell, vendors)?;
         let rig = VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
-        let variables = Variables::with_profiles(
+        let variables = Variables::with_unnamed(
             rig.nodes()
                 .into_iter()
                 .map(|n| (n, Profile::Cia402))
@@ -137,6 +137,7 @@ impl CellInstance {
                         .map(|n| (n, Profile::Fhpp)),
                 )
                 .collect(),
+            ethercat.places(),
         )?;
         let parameters = Parameters::of(&rig, &variables.nodes);
         let timeline = timeline
@@ -159,7 +160,7 @@ impl CellInstance {
         for bus in 0..terminals.len() {
             rig.report_outside_frames(bus);
         }
-        let n = variables.nodes.len();
+        let n = variables.names.len();
         let shared = Arc::new(Mutex::new(Shared {
             rig,
             outbox: Vec::new(),
@@ -217,9 +218,24 @@ impl CellInstance {
     fn output(&self, drive: usize) -> Probe {
         let mut shared = lock(&self.shared);
         if shared.acted {
-            shared.refresh(&self.variables.nodes);
+            self.refresh(&mut shared);
         }
         shared.outputs.get(drive).copied().unwrap_or_default()
+    }
+
+    /// Every drive's outputs read anew: the rig's drives, then the EtherCAT slaves' (the
+    /// chains' lock taken inside the cell's, as the EtherCAT front end takes them).
+    fn refresh(&self, shared: &mut Shared) {
+        shared.refresh(&self.variables.nodes);
+        let rig_drives = self.variables.nodes.len();
+        if let Some(slaves) = shared.outputs.get_mut(rig_drives..) {
+            self.ethercat.probe_into(slaves);
+        }
+    }
+
+    /// The place among the EtherCAT slaves of drive `drive`, when it is one.
+    fn slave(&self, drive: usize) -> Option<usize> {
+        drive.checked_sub(self.variables.nodes.len())
     }
 
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
@@ -325,6 +341,12 @@ impl CellInstance {
     pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
         match self.find(vr)? {
             (drive, Role::Display) => {
+                if let Some(slave) = self.slave(drive) {
+                    return Ok(self
+                        .ethercat
+                        .display(slave, &self.views)
+                        .unwrap_or_default());
+                }
                 let node = self.variables.nodes.get(drive).copied().unwrap_or(0);
                 let mut shared = lock(&self.shared);
                 if self.variables.profile(drive) == Profile::Fhpp {
@@ -370,6 +392,7 @@ impl CellInstance {
             }
         };
         Self::apply_inputs(rig, &self.variables, &mut self.inputs, &mut seen)?;
+        self.apply_slave_inputs()?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
             if at_ns >= end {
@@ -398,7 +421,7 @@ impl CellInstance {
         self.terminals_saw(&frames, &outside);
         self.now = end;
         let stopped = rig.stopped();
-        guard.refresh(&self.variables.nodes);
+        self.refresh(&mut guard);
         drop(guard);
         if let Some(f) = &self.front_ends {
             f.wake();
@@ -442,6 +465,36 @@ impl CellInstance {
                     got.remove(i);
                 }
                 seen.extend(got);
+            }
+        }
+        Ok(())
+    }
+
+    /// The inputs of the EtherCAT slaves' drives set since the last step act now, as
+    /// [`CellInstance::apply_inputs`] makes them act on the rig's drives.
+    fn apply_slave_inputs(&mut self) -> Result<(), CellFmuError> {
+        let first = self.variables.nodes.len();
+        for (slave, i) in self.inputs.iter_mut().skip(first).enumerate() {
+            let name = self
+                .variables
+                .name(first + slave)
+                .map(|n| n.to_string())
+                .unwrap_or_default();
+            if i.load_applied != Some(i.load_torque) {
+                self.ethercat
+                    .set_load_torque(slave, i.load_torque)
+                    .map_err(|e| CellFmuError::Cell(format!("{name}: load torque: {e}")))?;
+                i.load_applied = Some(i.load_torque);
+            }
+            for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
+                let (Some(level), false) = (*want, *want == *applied) else {
+                    continue;
+                };
+                let din = u8::try_from(k).unwrap_or(0);
+                self.ethercat
+                    .force_input(slave, din, level)
+                    .map_err(|e| CellFmuError::Cell(format!("{name}: din{din}: {e}")))?;
+                *applied = Some(level);
             }
         }
         Ok(())
@@ -526,6 +579,85 @@ mod tests {
         let mut m = Vec::new();
         r.read_until(b'>', &mut m).unwrap();
         String::from_utf8(m).unwrap().trim().to_string()
+    }
+
+    /// The value reference of the variable named `name`.
+    fn vr(cell: &CellInstance, name: &str) -> u32 {
+        cell.variables()
+            .all()
+            .find(|v| v.name() == name)
+            .map(|v| v.value_reference)
+            .unwrap_or_else(|| panic!("no variable {name}"))
+    }
+
+    #[test]
+    fn an_ethercat_slave_alone_has_a_drives_variables_named_by_its_place() {
+        let cell: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\nethercat = \"dtnone0\"\n",
+        )
+        .unwrap();
+        let mut cell = CellInstance::new(&cell, None, crate::vendors::VENDORS.runtime).unwrap();
+        let names: Vec<String> = cell.variables().all().map(|v| v.name()).collect();
+        assert!(names.contains(&"node1.position".to_string()), "{names:?}");
+        for role in [
+            "load_torque",
+            "din0",
+            "din15",
+            "position",
+            "velocity",
+            "current",
+        ] {
+            assert!(
+                names.contains(&format!("drive1.{role}")),
+                "{role}: {names:?}"
+            );
+        }
+        for role in ["statusword", "position_actual", "display"] {
+            assert!(
+                names.contains(&format!("drive1.{role}")),
+                "{role}: {names:?}"
+            );
+        }
+        // The slave's drive steps on the FMU's clock: its statusword is the power-on one
+        // (switch on disabled, CiA 402 §6.3.1), its display its own.
+        cell.do_step(0.0, 0.05).unwrap();
+        let sw = cell.get_uint16(vr(&cell, "drive1.statusword")).unwrap();
+        assert_eq!(sw & 0x4F, 0x40, "{sw:#06x}");
+        assert_eq!(
+            cell.get_string(vr(&cell, "drive1.display")).unwrap(),
+            cell.get_string(vr(&cell, "node1.display")).unwrap()
+        );
+        // A load torque set on the slave's drive acts at the next step, on its shaft alone.
+        cell.set_float64(vr(&cell, "drive1.load_torque"), 0.01)
+            .unwrap();
+        cell.set_boolean(vr(&cell, "drive1.din3"), true).unwrap();
+        cell.do_step(0.05, 0.05).unwrap();
+        assert_eq!(
+            cell.get_float64(vr(&cell, "drive1.load_torque")).unwrap(),
+            0.01
+        );
+        assert!(cell.get_boolean(vr(&cell, "drive1.din3")).unwrap());
+        let (mask, levels) = cell
+            .ethercat
+            .with_drive(0, |m| Some(m.drive()?.forced_inputs()))
+            .unwrap();
+        assert_eq!((mask & 8, levels & 8), (8, 8), "din3 forced high");
+        let torque = cell
+            .ethercat
+            .with_drive(0, |m| Some(m.drive()?.axis().motor().data().load_torque))
+            .unwrap();
+        assert_eq!(torque, 0.01);
+
+        // A cell of EtherCAT slaves alone is an FMU too.
+        let alone: CellFile =
+            toml::from_str("[[drive]]\ndevice = \"cmmp-as\"\nethercat = \"dtnone0\"\n").unwrap();
+        let alone = CellInstance::new(&alone, None, crate::vendors::VENDORS.runtime).unwrap();
+        assert_eq!(
+            alone.variables().all().next().map(|v| v.name()).as_deref(),
+            Some("drive0.load_torque")
+        );
     }
 
     #[test]

@@ -56,7 +56,7 @@ pub enum CellFmuError {
     Cell(String),
     #[error("timeline: {0}")]
     Timeline(String),
-    #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses and its CMMO-STs)")]
+    #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses, its CMMO-STs and its EtherCAT slaves)")]
     NoDrive,
     #[error("node {0} is on more than one bus: a variable's name is its node-ID")]
     DuplicateNode(u8),

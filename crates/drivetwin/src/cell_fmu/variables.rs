@@ -18,6 +18,10 @@
 //! `nodeN.current`, `nodeN.scon` and `nodeN.spos` (UInt8 outputs: FHPP status bytes 1 and 2),
 //! `nodeN.position_actual` (its actual position in its position unit) and `nodeN.display`.
 //!
+//! A drive without a CANopen node (a slave of an EtherCAT chain alone) is named by its place in
+//! the cell file, `driveK` after its 0-based `[[drive]]` index ([`Name::Drive`]), and has a
+//! CiA 402 drive's variables; those drives come after the others, in the cell file's order.
+//!
 //! Value reference 0 is the independent variable `time`; each drive's variables follow the
 //! last drive's in the table's order (a CiA 402 drive's take [`STRIDE`], so drive `i` of a cell
 //! of CiA 402 drives starts at `1 + i · STRIDE`).
@@ -187,26 +191,59 @@ impl Role {
     }
 }
 
-/// One variable: its drive (index in [`Variables::nodes`]), its role and value reference.
+/// What a drive's variables are named by: its CANopen node-ID, `nodeN`, or, for a drive that
+/// has none on a bus of the cell (an EtherCAT slave alone), its 0-based `[[drive]]` index in
+/// the cell file, `driveK`: a node-ID such a drive's section may give addresses it nowhere, and
+/// its place in the file is what stays when the file is run or packed again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Name {
+    Node(u8),
+    Drive(usize),
+}
+
+impl Name {
+    /// The CANopen node-ID, when the drive is named by one.
+    pub fn node(self) -> Option<u8> {
+        match self {
+            Name::Node(n) => Some(n),
+            Name::Drive(_) => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Name {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Name::Node(n) => write!(f, "node{n}"),
+            Name::Drive(k) => write!(f, "drive{k}"),
+        }
+    }
+}
+
+/// One variable: its drive (index in [`Variables::names`]), its role and value reference.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variable {
     pub drive: usize,
-    pub node: u8,
+    pub drive_name: Name,
     pub role: Role,
     pub value_reference: u32,
 }
 
 impl Variable {
     pub fn name(&self) -> String {
-        format!("node{}.{}", self.node, self.role.name())
+        format!("{}.{}", self.drive_name, self.role.name())
     }
 }
 
-/// The variables of a cell whose drives have the node-IDs `nodes`, each of its profile.
+/// The variables of a cell whose drives have the node-IDs `nodes`, each of its profile, and
+/// after them the drives named by their place in the cell file.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variables {
+    /// The node-IDs of the drives named by one (the first `nodes.len()` drives).
     pub nodes: Vec<u8>,
-    /// Each drive's profile, in `nodes`' order.
+    /// Every drive's name, in the table's order.
+    pub names: Vec<Name>,
+    /// Each drive's profile, in `names`' order.
     pub profiles: Vec<Profile>,
     /// Each drive's first value reference.
     bases: Vec<u32>,
@@ -221,7 +258,16 @@ impl Variables {
 
     /// Drives of their profiles, in this order; refuses a node-ID given twice.
     pub fn with_profiles(drives: Vec<(u8, Profile)>) -> Result<Variables, super::CellFmuError> {
-        if drives.is_empty() {
+        Variables::with_unnamed(drives, Vec::new())
+    }
+
+    /// The drives `drives` named by their node-IDs, then the CiA 402 drives without a CANopen
+    /// node, named by their `[[drive]]` indices `places`; refuses a node-ID given twice.
+    pub fn with_unnamed(
+        drives: Vec<(u8, Profile)>,
+        places: Vec<usize>,
+    ) -> Result<Variables, super::CellFmuError> {
+        if drives.is_empty() && places.is_empty() {
             return Err(super::CellFmuError::NoDrive);
         }
         for (i, (n, _)) in drives.iter().enumerate() {
@@ -229,18 +275,27 @@ impl Variables {
                 return Err(super::CellFmuError::DuplicateNode(*n));
             }
         }
-        let mut bases = Vec::with_capacity(drives.len());
+        let (nodes, mut profiles): (Vec<u8>, Vec<Profile>) = drives.into_iter().unzip();
+        let mut names: Vec<Name> = nodes.iter().copied().map(Name::Node).collect();
+        names.extend(places.iter().copied().map(Name::Drive));
+        profiles.extend(places.iter().map(|_| Profile::Cia402));
+        let mut bases = Vec::with_capacity(profiles.len());
         let mut next = 1u32;
-        for (_, p) in &drives {
+        for p in &profiles {
             bases.push(next);
             next = next.saturating_add(p.stride());
         }
-        let (nodes, profiles) = drives.into_iter().unzip();
         Ok(Variables {
             nodes,
+            names,
             profiles,
             bases,
         })
+    }
+
+    /// Drive `drive`'s name.
+    pub fn name(&self, drive: usize) -> Option<Name> {
+        self.names.get(drive).copied()
     }
 
     /// Drive `drive`'s profile.
@@ -250,17 +305,17 @@ impl Variables {
 
     /// Every variable, in value-reference order.
     pub fn all(&self) -> impl Iterator<Item = Variable> + '_ {
-        self.nodes
+        self.names
             .iter()
             .zip(&self.profiles)
             .zip(&self.bases)
             .enumerate()
-            .flat_map(|(drive, ((node, profile), base))| {
+            .flat_map(|(drive, ((name, profile), base))| {
                 Role::all(*profile)
                     .zip(*base..)
                     .map(move |(role, vr)| Variable {
                         drive,
-                        node: *node,
+                        drive_name: *name,
                         role,
                         value_reference: vr,
                     })
@@ -337,6 +392,41 @@ mod tests {
         assert_eq!(v.value_reference(1, Role::Scon), Some(1 + STRIDE + 5));
         assert_eq!(v.value_reference(1, Role::Statusword), None);
         assert_eq!(v.find(1 + STRIDE + 9), None);
+    }
+
+    #[test]
+    fn a_drive_without_a_canopen_node_is_named_by_its_place_in_the_cell_file() {
+        let v = Variables::with_unnamed(vec![(1, Profile::Cia402)], vec![3]).unwrap();
+        assert_eq!(v.names, [Name::Node(1), Name::Drive(3)]);
+        assert_eq!(v.nodes, [1]);
+        let all: Vec<Variable> = v.all().collect();
+        assert_eq!(all.len(), 2 * STRIDE as usize);
+        for (i, var) in all.iter().enumerate() {
+            assert_eq!(var.value_reference, 1 + i as u32);
+            assert_eq!(v.find(var.value_reference), Some((var.drive, var.role)));
+        }
+        let second: Vec<String> = all
+            .iter()
+            .skip(STRIDE as usize)
+            .map(Variable::name)
+            .collect();
+        assert_eq!(second[0], "drive3.load_torque");
+        assert_eq!(second[1], "drive3.din0");
+        assert_eq!(
+            &second[17..],
+            [
+                "drive3.position",
+                "drive3.velocity",
+                "drive3.current",
+                "drive3.statusword",
+                "drive3.position_actual",
+                "drive3.display"
+            ]
+        );
+        // A cell of such drives alone has variables too.
+        let alone = Variables::with_unnamed(Vec::new(), vec![0]).unwrap();
+        assert_eq!(alone.all().next().unwrap().name(), "drive0.load_torque");
+        assert!(Variables::with_unnamed(Vec::new(), Vec::new()).is_err());
     }
 
     #[test]

@@ -77,7 +77,7 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
     out!(
         "{}: {} drive(s), {} variables, {} parameters",
         args.output.display(),
-        instance.variables().nodes.len(),
+        instance.variables().names.len(),
         instance.variables().all().count() + 1,
         instance.parameters().list.len()
     );
