@@ -239,14 +239,20 @@ impl CellInstance {
     }
 
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
-        self.variables
-            .find(vr)
-            .ok_or(CellFmuError::UnknownVariable(vr))
+        // The error is made only when there is one: its drop is not free on every get.
+        match self.variables.find(vr) {
+            Some(found) => Ok(found),
+            None => Err(CellFmuError::UnknownVariable(vr)),
+        }
     }
 
     pub fn get_float64(&self, vr: u32) -> Result<f64, CellFmuError> {
-        if let Some(p) = self.parameters.find(vr) {
-            return Ok(p.start);
+        if super::parameters::is_parameter(vr) {
+            return self
+                .parameters
+                .find(vr)
+                .map(|p| p.start)
+                .ok_or(CellFmuError::UnknownVariable(vr));
         }
         let (drive, role) = self.find(vr)?;
         let out = self.output(drive);

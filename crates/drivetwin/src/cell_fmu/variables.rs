@@ -82,47 +82,67 @@ pub enum Role {
     Display,
 }
 
+/// A CiA 402 drive's roles, in value-reference order.
+const CIA402_ROLES: [Role; STRIDE as usize] = [
+    Role::LoadTorque,
+    Role::DigitalInput(0),
+    Role::DigitalInput(1),
+    Role::DigitalInput(2),
+    Role::DigitalInput(3),
+    Role::DigitalInput(4),
+    Role::DigitalInput(5),
+    Role::DigitalInput(6),
+    Role::DigitalInput(7),
+    Role::DigitalInput(8),
+    Role::DigitalInput(9),
+    Role::DigitalInput(10),
+    Role::DigitalInput(11),
+    Role::DigitalInput(12),
+    Role::DigitalInput(13),
+    Role::DigitalInput(14),
+    Role::DigitalInput(15),
+    Role::Position,
+    Role::Velocity,
+    Role::Current,
+    Role::Statusword,
+    Role::PositionActual,
+    Role::Display,
+];
+
+/// An FHPP drive's roles, in value-reference order.
+const FHPP_ROLES: [Role; 9] = [
+    Role::LoadTorque,
+    Role::ReferenceSwitch,
+    Role::Position,
+    Role::Velocity,
+    Role::Current,
+    Role::Scon,
+    Role::Spos,
+    Role::PositionActual,
+    Role::Display,
+];
+
 impl Role {
-    /// The roles of a drive of `profile`, in value-reference order.
-    fn all(profile: Profile) -> Box<dyn Iterator<Item = Role>> {
+    /// The roles of a drive of `profile`, in value-reference order: a table, so that a get
+    /// or set of the importer finds its variable without building anything.
+    fn all(profile: Profile) -> &'static [Role] {
         match profile {
-            Profile::Cia402 => Box::new(
-                std::iter::once(Role::LoadTorque)
-                    .chain((0..DIGITAL_INPUTS).map(Role::DigitalInput))
-                    .chain([
-                        Role::Position,
-                        Role::Velocity,
-                        Role::Current,
-                        Role::Statusword,
-                        Role::PositionActual,
-                        Role::Display,
-                    ]),
-            ),
-            Profile::Fhpp => Box::new(
-                [
-                    Role::LoadTorque,
-                    Role::ReferenceSwitch,
-                    Role::Position,
-                    Role::Velocity,
-                    Role::Current,
-                    Role::Scon,
-                    Role::Spos,
-                    Role::PositionActual,
-                    Role::Display,
-                ]
-                .into_iter(),
-            ),
+            Profile::Cia402 => &CIA402_ROLES,
+            Profile::Fhpp => &FHPP_ROLES,
         }
     }
 
     fn offset(self, profile: Profile) -> Option<u32> {
         Role::all(profile)
-            .position(|r| r == self)
+            .iter()
+            .position(|r| *r == self)
             .and_then(|i| u32::try_from(i).ok())
     }
 
     fn from_offset(profile: Profile, offset: u32) -> Option<Role> {
-        Role::all(profile).nth(usize::try_from(offset).ok()?)
+        Role::all(profile)
+            .get(usize::try_from(offset).ok()?)
+            .copied()
     }
 
     pub fn data_type(self) -> Type {
@@ -312,6 +332,8 @@ impl Variables {
             .enumerate()
             .flat_map(|(drive, ((name, profile), base))| {
                 Role::all(*profile)
+                    .iter()
+                    .copied()
                     .zip(*base..)
                     .map(move |(role, vr)| Variable {
                         drive,
@@ -322,9 +344,10 @@ impl Variables {
             })
     }
 
-    /// The drive and role of value reference `vr`, if it is one of these variables.
+    /// The drive and role of value reference `vr`, if it is one of these variables (a binary
+    /// search of the drives' first value references, then the profile's table).
     pub fn find(&self, vr: u32) -> Option<(usize, Role)> {
-        let drive = self.bases.iter().rposition(|b| *b <= vr)?;
+        let drive = self.bases.partition_point(|b| *b <= vr).checked_sub(1)?;
         let base = *self.bases.get(drive)?;
         Role::from_offset(self.profile(drive), vr - base).map(|r| (drive, r))
     }
