@@ -601,7 +601,7 @@ mod tests {
         let cell: CellFile = toml::from_str(
             "[[bus]]\nsocketcand = \"\"\n\
              [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
-             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\nethercat = \"dtnone0\"\n",
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\nethercat = \"dtnone0\"\n",
         )
         .unwrap();
         let mut cell = CellInstance::new(&cell, None, crate::vendors::VENDORS.runtime).unwrap();
@@ -655,15 +655,6 @@ mod tests {
             .with_drive(0, |m| Some(m.drive()?.axis().motor().data().load_torque))
             .unwrap();
         assert_eq!(torque, 0.01);
-
-        // A cell of EtherCAT slaves alone is an FMU too.
-        let alone: CellFile =
-            toml::from_str("[[drive]]\ndevice = \"cmmp-as\"\nethercat = \"dtnone0\"\n").unwrap();
-        let alone = CellInstance::new(&alone, None, crate::vendors::VENDORS.runtime).unwrap();
-        assert_eq!(
-            alone.variables().all().next().map(|v| v.name()).as_deref(),
-            Some("drive0.load_torque")
-        );
     }
 
     #[test]
