@@ -7,10 +7,19 @@ own run on the virtual clock (`drivetwin run --config CELL --virtual-seconds T`)
     python3 scripts/fmu_speed.py --seconds 1 --cell examples/cell_fmu/ten_drives.toml
 
 The FMU is packed from the cell by the release binary (`target/release/drivetwin fmu`). fmpy
-steps it two ways: `fmpy.simulate_fmu` (every output recorded at every step, as a user's
-simulation does), and the low-level FMI 3 API with `fmi3DoStep` alone (the cell's own cost
-inside the FMU, no output read). The native run is timed as a whole process, its start
-included; the load average is printed beside the figures (the machine may be shared).
+steps it four ways:
+
+- `fmpy.simulate_fmu` on the `.fmu` (every output recorded at every step, as a user's
+  simulation does: the archive extracted, its description read and validated, then stepped);
+- `fmpy.simulate_fmu` on the extracted FMU with its description read beforehand and without
+  validation (the stepping loop and fmpy's recorder alone);
+- the low-level FMI 3 API, `fmi3DoStep` and every output read each step (`fmi3GetFloat64`,
+  `fmi3GetUInt16`, `fmi3GetInt32` of all outputs of those types, one call per type, into
+  arrays made once): what the FMU costs an importer that reads every output;
+- the low-level FMI 3 API with `fmi3DoStep` alone (the cell's own cost inside the FMU).
+
+The native run is timed as a whole process, its start included; the load average is printed
+beside the figures (the machine may be shared).
 """
 
 from __future__ import annotations
@@ -43,8 +52,20 @@ def simulated(fmu: str, seconds: float, step: float) -> float:
     return time.perf_counter() - start
 
 
-def do_steps(fmu: str, seconds: float, step: float) -> float:
-    """Wall seconds of fmi3DoStep alone at `step` (instantiation not counted)."""
+def simulated_loop(fmu: str, seconds: float, step: float) -> float:
+    """Wall seconds of fmpy.simulate_fmu at `step`, every output recorded, on the FMU extracted
+    and its description read beforehand, without validation."""
+    import fmpy
+    unzipped = fmpy.extract(fmu)
+    md = fmpy.read_model_description(unzipped, validate=False)
+    start = time.perf_counter()
+    fmpy.simulate_fmu(unzipped, validate=False, model_description=md, stop_time=seconds,
+                      step_size=step, output_interval=step, fmi_type="CoSimulation")
+    return time.perf_counter() - start
+
+
+def instantiated(fmu: str):
+    """The FMU extracted, instantiated and initialised by fmpy's low-level FMI 3 API."""
     import fmpy
     from fmpy.fmi3 import FMU3Slave
     md = fmpy.read_model_description(fmu)
@@ -54,6 +75,37 @@ def do_steps(fmu: str, seconds: float, step: float) -> float:
     slave.instantiate()
     slave.enterInitializationMode(startTime=0.0)
     slave.exitInitializationMode()
+    return md, slave
+
+
+def do_steps_and_gets(fmu: str, seconds: float, step: float) -> float:
+    """Wall seconds of fmi3DoStep at `step` and every Float64, UInt16 and Int32 output read
+    after each step, one call per type into arrays made once (instantiation not counted)."""
+    from ctypes import c_double, c_int32, c_uint16, c_uint32
+    md, slave = instantiated(fmu)
+    calls = []
+    for kind, ctype in (("Float64", c_double), ("UInt16", c_uint16), ("Int32", c_int32)):
+        vrs = [v.valueReference for v in md.modelVariables
+               if v.causality == "output" and v.type == kind]
+        if vrs:
+            calls.append((getattr(slave, "fmi3Get" + kind), (c_uint32 * len(vrs))(*vrs),
+                          len(vrs), (ctype * len(vrs))()))
+    n = round(seconds / step)
+    component = slave.component
+    start = time.perf_counter()
+    for i in range(n):
+        slave.doStep(currentCommunicationPoint=i * step, communicationStepSize=step)
+        for get, vrs, count, values in calls:
+            get(component, vrs, count, values, count)
+    wall = time.perf_counter() - start
+    slave.terminate()
+    slave.freeInstance()
+    return wall
+
+
+def do_steps(fmu: str, seconds: float, step: float) -> float:
+    """Wall seconds of fmi3DoStep alone at `step` (instantiation not counted)."""
+    _, slave = instantiated(fmu)
     n = round(seconds / step)
     start = time.perf_counter()
     for i in range(n):
@@ -72,6 +124,7 @@ def main() -> int:
     p.add_argument("--binary", type=Path, default=Path(os.environ.get(
         "DRIVETWIN_BIN", ROOT / "target/release/drivetwin")))
     a = p.parse_args()
+    import fmpy  # noqa: F401  (imported before any run is timed: its import is not the FMU's)
     with tempfile.TemporaryDirectory() as tmp:
         fmu = str(Path(tmp) / "cell.fmu")
         subprocess.run([str(a.binary), "fmu", "--config", str(a.cell), "--output", fmu],
@@ -79,6 +132,8 @@ def main() -> int:
         load = os.getloadavg()[0]
         t_native = native(a.binary, a.cell, a.seconds)
         t_sim = simulated(fmu, a.seconds, a.step)
+        t_loop = simulated_loop(fmu, a.seconds, a.step)
+        t_gets = do_steps_and_gets(fmu, a.seconds, a.step)
         t_steps = do_steps(fmu, a.seconds, a.step)
     v = a.seconds
     print(f"cell {a.cell.name}, {v:g} s of virtual time, step {a.step * 1e3:g} ms, "
@@ -86,6 +141,10 @@ def main() -> int:
     print(f"native  (drivetwin run --virtual-seconds): {t_native:8.3f} s wall, {v / t_native:8.1f}x real time")
     print(f"FMU     (fmpy.simulate_fmu, outputs kept): {t_sim:8.3f} s wall, {v / t_sim:8.1f}x real time, "
           f"{100 * t_native / t_sim:5.1f} % of native")
+    print(f"FMU     (simulate_fmu, stepping loop only): {t_loop:8.3f} s wall, {v / t_loop:8.1f}x real time, "
+          f"{100 * t_native / t_loop:5.1f} % of native")
+    print(f"FMU     (doStep + every output, low-level): {t_gets:8.3f} s wall, {v / t_gets:8.1f}x real time, "
+          f"{100 * t_native / t_gets:5.1f} % of native")
     print(f"FMU     (fmi3DoStep alone, low-level API): {t_steps:8.3f} s wall, {v / t_steps:8.1f}x real time, "
           f"{100 * t_native / t_steps:5.1f} % of native")
     return 0

@@ -202,12 +202,16 @@ def veth_pair():
         ip("link", "del", master_if)  # deletes the peer too
 
 
-def test_soem_finds_and_configures_an_ethercat_slave_of_the_cell_between_fmpy_steps(
+def test_soem_takes_an_ethercat_slave_of_the_cell_to_op_and_moves_it_between_fmpy_steps(
         cell_fmu, tmp_path, veth_pair):  # noqa: F811
     """The cell's EtherCAT chain is open while fmpy steps it: pysoem, on the other end of a
     veth pair, finds the slave, reads its identity over CoE and takes it to Safe-Op between
     two steps (a slave serves its mailbox and AL state after every frame); the CANopen drive
-    beside it steps on the same clock."""
+    beside it steps on the same clock. Then, one process-data exchange per fmpy step (the
+    master's cycle is the importer's step, free run), the slave goes to Op, the controlword
+    enables it in profile velocity mode (CiA 402 §6.3.1) and its shaft turns: the FMU's
+    `drive1.*` outputs (the drive of the second `[[drive]]`, which has no CANopen node) are
+    what the master reads, and its position follows the move."""
     pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
     from conftest import product_code
     fmu_if, master_if = veth_pair
@@ -227,6 +231,18 @@ ethercat = "{fmu_if}"
     cell = Stepped(fmu)
     master = pysoem.Master()
     master.open(master_if)
+
+    def out(kind: str, name: str):
+        return getattr(cell.slave, "get" + kind)([cell.vr[name]])[0]
+
+    def cycle(cw: int) -> tuple[int, int]:
+        """One fmpy step, then one process-data exchange at the step's end: (wkc, statusword)."""
+        cell.run(STEP)
+        slave.output = cw.to_bytes(2, "little")
+        master.send_processdata()
+        wkc = master.receive_processdata(100_000)
+        return wkc, int.from_bytes(bytes(slave.input[:2]), "little")
+
     try:
         cell.run(0.01)
         assert master.config_init() == 1, "one slave on the wire"
@@ -235,12 +251,47 @@ ethercat = "{fmu_if}"
         assert int.from_bytes(slave.sdo_read(0x1018, 1), "little") == 0x1D
         slave.sdo_write(0x6065, 0, (12345).to_bytes(4, "little"))
         assert int.from_bytes(slave.sdo_read(0x6065, 0), "little") == 12345
+        slave.sdo_write(0x6060, 0, bytes([3]))                          # profile velocity
+        slave.sdo_write(0x60FF, 0, (2000).to_bytes(4, "little", signed=True))
         assert master.config_map() == 4                              # controlword / statusword
         assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE, \
             f"Safe-Op: AL status code {slave.al_status:#x}"
         cell.run(0.1)
         assert master.read_state() == pysoem.SAFEOP_STATE
-        assert cell.slave.getUInt16([cell.vr["node1.statusword"]])[0] != 0
+        assert out("UInt16", "node1.statusword") != 0
+
+        # Op, requested while the process data is exchanged (as SOEM's examples do).
+        master.state = pysoem.OP_STATE
+        cycle(0)
+        master.write_state()
+        for _ in range(100):
+            cycle(0)
+            if master.read_state() == pysoem.OP_STATE:
+                break
+        assert slave.state == pysoem.OP_STATE, f"Op: {slave.state:#x} code {slave.al_status:#x}"
+
+        # Shutdown, switch on, enable operation: one controlword per step until it shows.
+        sw = 0
+        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+            for _ in range(100):
+                wkc, sw = cycle(cw)
+                assert wkc == master.expected_wkc
+                if sw & 0x6F == want:
+                    break
+            assert sw & 0x6F == want, f"controlword {cw:#x}: statusword {sw:#06x}"
+        assert out("UInt16", "drive1.statusword") == sw, "the FMU's statusword is the master's"
+        start = out("Float64", "drive1.position")
+        for _ in range(300):
+            wkc, sw = cycle(0x0F)
+            assert wkc == master.expected_wkc
+        assert master.read_state() == pysoem.OP_STATE, f"AL status code {slave.al_status:#x}"
+        assert sw & 0x6F == 0x27
+        moved = out("Float64", "drive1.position") - start
+        assert moved > 0.1, f"the shaft turned {moved} rad in 0.3 s"
+        assert out("Float64", "drive1.velocity") > 0
+        assert out("Int32", "drive1.position_actual") > 0
+        # The CANopen drive beside it was never enabled: it stands.
+        assert abs(out("Float64", "node1.velocity")) < 1e-9
     finally:
         master.close()
         cell.free()

@@ -16,7 +16,9 @@
 //! Decisions: a drive on CANopen and EtherCAT at once is refused (its slave would reach a
 //! drive of a CAN bus; the chains here have drives of their own), and so is a slave without
 //! its chain's interface in the cell file (`drivetwin run` takes `--ethercat`; the FMU has no
-//! command line). The slaves have no FMU variables.
+//! command line). Each slave's drive has a CiA 402 drive's variables, named by its place in
+//! the cell file (`driveK`, [`super::variables::DriveName::Section`]): its shaft, current and words
+//! are read here, and its load torque and digital inputs set here, on the chain's lock.
 
 use std::io;
 use std::os::fd::AsRawFd;
@@ -30,11 +32,12 @@ use mio::{Events, Interest, Poll, Token};
 use od::Instant;
 
 use crate::cell::config::CellFile;
+use crate::cell::control::DriveViews;
 use crate::cell::Vendors;
 use crate::ecat::chain::SlaveChain;
 use crate::ecat::link::SlaveSocket;
 use crate::scenario::runner::Rig;
-use crate::scenario::virtual_rig::VirtualRig;
+use crate::scenario::virtual_rig::{Probe, VirtualRig};
 
 use super::front_ends::{lock, SharedCell};
 use super::serving_thread::ServingThread;
@@ -48,6 +51,8 @@ const STUCK: u32 = 10_000;
 pub struct Chain {
     pub interface: String,
     pub chain: SlaveChain,
+    /// Each slave's `[[drive]]` index in the cell file, in wire order.
+    pub places: Vec<usize>,
 }
 
 type SharedChains = Arc<Mutex<Vec<Chain>>>;
@@ -61,6 +66,9 @@ fn lock_chains(chains: &SharedChains) -> MutexGuard<'_, Vec<Chain>> {
 /// The cell's EtherCAT chains, and the thread that serves their sockets once open.
 pub struct EthercatChains {
     chains: SharedChains,
+    /// Each slave's chain and position in it, chain by chain: the order of the drives'
+    /// variables ([`EthercatChains::places`]).
+    slots: Vec<(usize, usize)>,
     front: Option<ServingThread>,
 }
 
@@ -73,8 +81,9 @@ impl EthercatChains {
             .map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let mut rest = file.clone();
         rest.drive.clear();
-        let mut by_interface: Vec<(String, Vec<crate::cell::config::DriveSpec>)> = Vec::new();
-        for (section, spec) in file.drive.iter().zip(specs) {
+        type Specs = Vec<(usize, crate::cell::config::DriveSpec)>;
+        let mut by_interface: Vec<(String, Specs)> = Vec::new();
+        for (place, (section, spec)) in file.drive.iter().zip(specs).enumerate() {
             let Some(interface) = &spec.ethercat else {
                 rest.drive.push(section.clone());
                 continue;
@@ -94,21 +103,29 @@ impl EthercatChains {
                 )));
             };
             match by_interface.iter_mut().find(|(i, _)| *i == interface) {
-                Some((_, specs)) => specs.push(spec),
-                None => by_interface.push((interface, vec![spec])),
+                Some((_, specs)) => specs.push((place, spec)),
+                None => by_interface.push((interface, vec![(place, spec)])),
             }
         }
         let mut chains = Vec::new();
+        let mut slots = Vec::new();
         for (interface, specs) in by_interface {
+            let (places, specs): (Vec<usize>, Vec<_>) = specs.into_iter().unzip();
             let mut chain = SlaveChain::new(specs)
                 .map_err(|e| CellFmuError::Cell(format!("EtherCAT on {interface}: {e}")))?;
             chain.boot(Instant::ZERO);
-            chains.push(Chain { interface, chain });
+            slots.extend((0..places.len()).map(|slave| (chains.len(), slave)));
+            chains.push(Chain {
+                interface,
+                chain,
+                places,
+            });
         }
         Ok((
             rest,
             EthercatChains {
                 chains: Arc::new(Mutex::new(chains)),
+                slots,
                 front: None,
             },
         ))
@@ -120,6 +137,72 @@ impl EthercatChains {
             .iter()
             .map(|c| (c.interface.clone(), c.chain.len()))
             .collect()
+    }
+
+    /// Each slave's `[[drive]]` index in the cell file, chain by chain in wire order: the
+    /// names of their variables, in the order of [`EthercatChains::probe`]'s `slave`.
+    pub fn places(&self) -> Vec<usize> {
+        let chains = lock_chains(&self.chains);
+        self.slots
+            .iter()
+            .filter_map(|(c, i)| chains.get(*c)?.places.get(*i).copied())
+            .collect()
+    }
+
+    /// Runs `f` on the drive of slave `slave` (of [`EthercatChains::places`]' order).
+    pub(super) fn with_drive<T>(
+        &self,
+        slave: usize,
+        f: impl FnOnce(&mut crate::cell::device_model::Model) -> Option<T>,
+    ) -> Option<T> {
+        let (c, i) = *self.slots.get(slave)?;
+        let mut chains = lock_chains(&self.chains);
+        f(chains.get_mut(c)?.chain.model_mut(i)?)
+    }
+
+    /// The outputs of every slave's drive, in [`EthercatChains::places`]' order, into `out`.
+    pub fn probe_into(&self, out: &mut [Probe]) {
+        let chains = lock_chains(&self.chains);
+        for (slot, (c, i)) in out.iter_mut().zip(&self.slots) {
+            if let Some(p) = chains
+                .get(*c)
+                .and_then(|c| c.chain.model(*i))
+                .and_then(Probe::of_model)
+            {
+                *slot = p;
+            }
+        }
+    }
+
+    /// What slave `slave`'s drive's display shows, by the vendors' `display`.
+    pub fn display(&self, slave: usize, views: &DriveViews) -> Option<String> {
+        self.with_drive(slave, |m| {
+            (views.display)(m.drive()?).map(|s| s.text().to_string())
+        })
+    }
+
+    /// Slave `slave`'s load torque on its motor shaft (a scenario's `load`).
+    pub fn set_load_torque(&self, slave: usize, torque_nm: f64) -> Result<(), String> {
+        self.with_drive(slave, |m| {
+            m.drive_mut()?
+                .axis_mut()
+                .motor_mut()
+                .set_load_torque(torque_nm);
+            Some(())
+        })
+        .ok_or_else(|| "the drive has no simulated motor".to_string())
+    }
+
+    /// Slave `slave`'s digital input `din` forced to `level` (a scenario's `din`).
+    pub fn force_input(&self, slave: usize, din: u8, level: bool) -> Result<(), String> {
+        self.with_drive(slave, |m| {
+            let d = m.drive_mut()?;
+            let (mask, levels) = d.forced_inputs();
+            let bit = 1u16.checked_shl(u32::from(din))?;
+            d.force_inputs(mask | bit, if level { levels | bit } else { levels & !bit });
+            Some(())
+        })
+        .ok_or_else(|| "the drive has no simulated inputs".to_string())
     }
 
     /// Opens each chain's raw socket (`AF_PACKET`: root or `CAP_NET_RAW`, the interface in

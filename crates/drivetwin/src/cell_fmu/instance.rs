@@ -154,6 +154,12 @@ impl CellInstance {
                         .iter()
                         .map(|(k, _)| (DriveName::Section(*k), Profile::Fhpp)),
                 )
+                .chain(
+                    ethercat
+                        .places()
+                        .into_iter()
+                        .map(|k| (DriveName::Section(k), Profile::Cia402)),
+                )
                 .collect(),
         )?;
         let parameters = Parameters::of(&rig, &nodes, &register_image);
@@ -177,7 +183,8 @@ impl CellInstance {
         for bus in 0..terminals.len() {
             rig.report_outside_frames(bus);
         }
-        let n = drives.len();
+        // The rig's drives, then the EtherCAT slaves' drives.
+        let n = variables.names.len();
         let shared = Arc::new(Mutex::new(Shared {
             rig,
             outbox: Vec::new(),
@@ -236,20 +243,41 @@ impl CellInstance {
     fn output(&self, drive: usize) -> Probe {
         let mut shared = lock(&self.shared);
         if shared.acted {
-            shared.refresh(&self.drives);
+            self.refresh(&mut shared);
         }
         shared.outputs.get(drive).copied().unwrap_or_default()
     }
 
+    /// Every drive's outputs read anew: the rig's drives, then the EtherCAT slaves' (the
+    /// chains' lock taken inside the cell's, as the EtherCAT front end takes them).
+    fn refresh(&self, shared: &mut Shared) {
+        shared.refresh(&self.drives);
+        let rig_drives = self.drives.len();
+        if let Some(slaves) = shared.outputs.get_mut(rig_drives..) {
+            self.ethercat.probe_into(slaves);
+        }
+    }
+
+    /// The place among the EtherCAT slaves of drive `drive`, when it is one.
+    fn slave(&self, drive: usize) -> Option<usize> {
+        drive.checked_sub(self.drives.len())
+    }
+
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
-        self.variables
-            .find(vr)
-            .ok_or(CellFmuError::UnknownVariable(vr))
+        // The error is made only when there is one: its drop is not free on every get.
+        match self.variables.find(vr) {
+            Some(found) => Ok(found),
+            None => Err(CellFmuError::UnknownVariable(vr)),
+        }
     }
 
     pub fn get_float64(&self, vr: u32) -> Result<f64, CellFmuError> {
-        if let Some(p) = self.parameters.find(vr) {
-            return Ok(p.start);
+        if super::parameters::is_parameter(vr) {
+            return self
+                .parameters
+                .find(vr)
+                .map(|p| p.start)
+                .ok_or(CellFmuError::UnknownVariable(vr));
         }
         let (drive, role) = self.find(vr)?;
         let out = self.output(drive);
@@ -344,6 +372,12 @@ impl CellInstance {
     pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
         match self.find(vr)? {
             (drive, Role::Display) => {
+                if let Some(slave) = self.slave(drive) {
+                    return Ok(self
+                        .ethercat
+                        .display(slave, &self.views)
+                        .unwrap_or_default());
+                }
                 let mut shared = lock(&self.shared);
                 let node = match self.drives.get(drive) {
                     Some(RigDrive::RegisterImage(i)) => {
@@ -392,6 +426,7 @@ impl CellInstance {
             }
         };
         Self::apply_inputs(rig, &self.drives, &mut self.inputs, &mut seen)?;
+        self.apply_slave_inputs()?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
             if at_ns >= end {
@@ -420,7 +455,7 @@ impl CellInstance {
         self.terminals_saw(&frames, &outside);
         self.now = end;
         let stopped = rig.stopped();
-        guard.refresh(&self.drives);
+        self.refresh(&mut guard);
         drop(guard);
         if let Some(f) = &self.front_ends {
             f.wake();
@@ -464,6 +499,36 @@ impl CellInstance {
                     got.remove(i);
                 }
                 seen.extend(got);
+            }
+        }
+        Ok(())
+    }
+
+    /// The inputs of the EtherCAT slaves' drives set since the last step act now, as
+    /// [`CellInstance::apply_inputs`] makes them act on the rig's drives.
+    fn apply_slave_inputs(&mut self) -> Result<(), CellFmuError> {
+        let first = self.drives.len();
+        for (slave, i) in self.inputs.iter_mut().skip(first).enumerate() {
+            let name = self
+                .variables
+                .name(first + slave)
+                .map(|n| n.to_string())
+                .unwrap_or_default();
+            if i.load_applied != Some(i.load_torque) {
+                self.ethercat
+                    .set_load_torque(slave, i.load_torque)
+                    .map_err(|e| CellFmuError::Cell(format!("{name}: load torque: {e}")))?;
+                i.load_applied = Some(i.load_torque);
+            }
+            for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
+                let (Some(level), false) = (*want, *want == *applied) else {
+                    continue;
+                };
+                let din = u8::try_from(k).unwrap_or(0);
+                self.ethercat
+                    .force_input(slave, din, level)
+                    .map_err(|e| CellFmuError::Cell(format!("{name}: din{din}: {e}")))?;
+                *applied = Some(level);
             }
         }
         Ok(())
@@ -561,6 +626,76 @@ mod tests {
         let mut m = Vec::new();
         r.read_until(b'>', &mut m).unwrap();
         String::from_utf8(m).unwrap().trim().to_string()
+    }
+
+    /// The value reference of the variable named `name`.
+    fn vr(cell: &CellInstance, name: &str) -> u32 {
+        cell.variables()
+            .all()
+            .find(|v| v.name() == name)
+            .map(|v| v.value_reference)
+            .unwrap_or_else(|| panic!("no variable {name}"))
+    }
+
+    #[test]
+    fn an_ethercat_slave_alone_has_a_drives_variables_named_by_its_place() {
+        let cell: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\nethercat = \"dtnone0\"\n",
+        )
+        .unwrap();
+        let mut cell = CellInstance::new(&cell, None, crate::vendors::VENDORS.runtime).unwrap();
+        let names: Vec<String> = cell.variables().all().map(|v| v.name()).collect();
+        assert!(names.contains(&"node1.position".to_string()), "{names:?}");
+        for role in [
+            "load_torque",
+            "din0",
+            "din15",
+            "position",
+            "velocity",
+            "current",
+        ] {
+            assert!(
+                names.contains(&format!("drive1.{role}")),
+                "{role}: {names:?}"
+            );
+        }
+        for role in ["statusword", "position_actual", "display"] {
+            assert!(
+                names.contains(&format!("drive1.{role}")),
+                "{role}: {names:?}"
+            );
+        }
+        // The slave's drive steps on the FMU's clock: its statusword is the power-on one
+        // (switch on disabled, CiA 402 §6.3.1), its display its own.
+        cell.do_step(0.0, 0.05).unwrap();
+        let sw = cell.get_uint16(vr(&cell, "drive1.statusword")).unwrap();
+        assert_eq!(sw & 0x4F, 0x40, "{sw:#06x}");
+        assert_eq!(
+            cell.get_string(vr(&cell, "drive1.display")).unwrap(),
+            cell.get_string(vr(&cell, "node1.display")).unwrap()
+        );
+        // A load torque set on the slave's drive acts at the next step, on its shaft alone.
+        cell.set_float64(vr(&cell, "drive1.load_torque"), 0.01)
+            .unwrap();
+        cell.set_boolean(vr(&cell, "drive1.din3"), true).unwrap();
+        cell.do_step(0.05, 0.05).unwrap();
+        assert_eq!(
+            cell.get_float64(vr(&cell, "drive1.load_torque")).unwrap(),
+            0.01
+        );
+        assert!(cell.get_boolean(vr(&cell, "drive1.din3")).unwrap());
+        let (mask, levels) = cell
+            .ethercat
+            .with_drive(0, |m| Some(m.drive()?.forced_inputs()))
+            .unwrap();
+        assert_eq!((mask & 8, levels & 8), (8, 8), "din3 forced high");
+        let torque = cell
+            .ethercat
+            .with_drive(0, |m| Some(m.drive()?.axis().motor().data().load_torque))
+            .unwrap();
+        assert_eq!(torque, 0.01);
     }
 
     #[test]

@@ -56,7 +56,7 @@ pub enum CellFmuError {
     Cell(String),
     #[error("timeline: {0}")]
     Timeline(String),
-    #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses and its CMMO-STs)")]
+    #[error("the cell has no drive to show as variables (the virtual clock runs the CANopen drives of its buses, its CMMO-STs and its EtherCAT slaves)")]
     NoDrive,
     #[error("two drives' variables would be named `{0}`: a CANopen drive's are named by its node-ID, and that node-ID is on more than one bus")]
     DuplicateName(String),

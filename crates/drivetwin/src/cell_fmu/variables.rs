@@ -21,6 +21,10 @@
 //! 2), `driveK.position_actual` (its actual position in its position unit) and
 //! `driveK.display`.
 //!
+//! A drive without a CANopen node (a slave of an EtherCAT chain alone) is named by its place in
+//! the cell file, `driveK` after its 0-based `[[drive]]` index ([`DriveName::Section`]), and has a
+//! CiA 402 drive's variables; those drives come after the others, in the cell file's order.
+//!
 //! Value reference 0 is the independent variable `time`; each drive's variables follow the
 //! last drive's in the table's order (a CiA 402 drive's take [`STRIDE`], so drive `i` of a cell
 //! of CiA 402 drives starts at `1 + i · STRIDE`).
@@ -81,47 +85,67 @@ pub enum Role {
     Display,
 }
 
+/// A CiA 402 drive's roles, in value-reference order.
+const CIA402_ROLES: [Role; STRIDE as usize] = [
+    Role::LoadTorque,
+    Role::DigitalInput(0),
+    Role::DigitalInput(1),
+    Role::DigitalInput(2),
+    Role::DigitalInput(3),
+    Role::DigitalInput(4),
+    Role::DigitalInput(5),
+    Role::DigitalInput(6),
+    Role::DigitalInput(7),
+    Role::DigitalInput(8),
+    Role::DigitalInput(9),
+    Role::DigitalInput(10),
+    Role::DigitalInput(11),
+    Role::DigitalInput(12),
+    Role::DigitalInput(13),
+    Role::DigitalInput(14),
+    Role::DigitalInput(15),
+    Role::Position,
+    Role::Velocity,
+    Role::Current,
+    Role::Statusword,
+    Role::PositionActual,
+    Role::Display,
+];
+
+/// An FHPP drive's roles, in value-reference order.
+const FHPP_ROLES: [Role; 9] = [
+    Role::LoadTorque,
+    Role::ReferenceSwitch,
+    Role::Position,
+    Role::Velocity,
+    Role::Current,
+    Role::Scon,
+    Role::Spos,
+    Role::PositionActual,
+    Role::Display,
+];
+
 impl Role {
-    /// The roles of a drive of `profile`, in value-reference order.
-    fn all(profile: Profile) -> Box<dyn Iterator<Item = Role>> {
+    /// The roles of a drive of `profile`, in value-reference order: a table, so that a get
+    /// or set of the importer finds its variable without building anything.
+    fn all(profile: Profile) -> &'static [Role] {
         match profile {
-            Profile::Cia402 => Box::new(
-                std::iter::once(Role::LoadTorque)
-                    .chain((0..DIGITAL_INPUTS).map(Role::DigitalInput))
-                    .chain([
-                        Role::Position,
-                        Role::Velocity,
-                        Role::Current,
-                        Role::Statusword,
-                        Role::PositionActual,
-                        Role::Display,
-                    ]),
-            ),
-            Profile::Fhpp => Box::new(
-                [
-                    Role::LoadTorque,
-                    Role::ReferenceSwitch,
-                    Role::Position,
-                    Role::Velocity,
-                    Role::Current,
-                    Role::Scon,
-                    Role::Spos,
-                    Role::PositionActual,
-                    Role::Display,
-                ]
-                .into_iter(),
-            ),
+            Profile::Cia402 => &CIA402_ROLES,
+            Profile::Fhpp => &FHPP_ROLES,
         }
     }
 
     fn offset(self, profile: Profile) -> Option<u32> {
         Role::all(profile)
-            .position(|r| r == self)
+            .iter()
+            .position(|r| *r == self)
             .and_then(|i| u32::try_from(i).ok())
     }
 
     fn from_offset(profile: Profile, offset: u32) -> Option<Role> {
-        Role::all(profile).nth(usize::try_from(offset).ok()?)
+        Role::all(profile)
+            .get(usize::try_from(offset).ok()?)
+            .copied()
     }
 
     pub fn data_type(self) -> Type {
@@ -235,7 +259,7 @@ impl Variable {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Variables {
     pub names: Vec<DriveName>,
-    /// Each drive's profile, in `nodes`' order.
+    /// Each drive's profile, in `names`' order.
     pub profiles: Vec<Profile>,
     /// Each drive's first value reference.
     bases: Vec<u32>,
@@ -265,18 +289,23 @@ impl Variables {
                 return Err(super::CellFmuError::DuplicateName(n.to_string()));
             }
         }
-        let mut bases = Vec::with_capacity(drives.len());
+        let (names, profiles): (Vec<DriveName>, Vec<Profile>) = drives.into_iter().unzip();
+        let mut bases = Vec::with_capacity(profiles.len());
         let mut next = 1u32;
-        for (_, p) in &drives {
+        for p in &profiles {
             bases.push(next);
             next = next.saturating_add(p.stride());
         }
-        let (names, profiles) = drives.into_iter().unzip();
         Ok(Variables {
             names,
             profiles,
             bases,
         })
+    }
+
+    /// Drive `drive`'s name.
+    pub fn name(&self, drive: usize) -> Option<DriveName> {
+        self.names.get(drive).copied()
     }
 
     /// Drive `drive`'s profile.
@@ -293,6 +322,8 @@ impl Variables {
             .enumerate()
             .flat_map(|(drive, ((name, profile), base))| {
                 Role::all(*profile)
+                    .iter()
+                    .copied()
                     .zip(*base..)
                     .map(move |(role, vr)| Variable {
                         drive,
@@ -303,9 +334,10 @@ impl Variables {
             })
     }
 
-    /// The drive and role of value reference `vr`, if it is one of these variables.
+    /// The drive and role of value reference `vr`, if it is one of these variables (a binary
+    /// search of the drives' first value references, then the profile's table).
     pub fn find(&self, vr: u32) -> Option<(usize, Role)> {
-        let drive = self.bases.iter().rposition(|b| *b <= vr)?;
+        let drive = self.bases.partition_point(|b| *b <= vr).checked_sub(1)?;
         let base = *self.bases.get(drive)?;
         Role::from_offset(self.profile(drive), vr - base).map(|r| (drive, r))
     }
@@ -377,6 +409,45 @@ mod tests {
         assert_eq!(v.value_reference(1, Role::Scon), Some(1 + STRIDE + 5));
         assert_eq!(v.value_reference(1, Role::Statusword), None);
         assert_eq!(v.find(1 + STRIDE + 9), None);
+    }
+
+    #[test]
+    fn a_drive_without_a_canopen_node_is_named_by_its_place_in_the_cell_file() {
+        let v = Variables::with_profiles(vec![
+            (DriveName::Node(1), Profile::Cia402),
+            (DriveName::Section(3), Profile::Cia402),
+        ])
+        .unwrap();
+        assert_eq!(v.names, [DriveName::Node(1), DriveName::Section(3)]);
+        let all: Vec<Variable> = v.all().collect();
+        assert_eq!(all.len(), 2 * STRIDE as usize);
+        for (i, var) in all.iter().enumerate() {
+            assert_eq!(var.value_reference, 1 + i as u32);
+            assert_eq!(v.find(var.value_reference), Some((var.drive, var.role)));
+        }
+        let second: Vec<String> = all
+            .iter()
+            .skip(STRIDE as usize)
+            .map(Variable::name)
+            .collect();
+        assert_eq!(second[0], "drive3.load_torque");
+        assert_eq!(second[1], "drive3.din0");
+        assert_eq!(
+            &second[17..],
+            [
+                "drive3.position",
+                "drive3.velocity",
+                "drive3.current",
+                "drive3.statusword",
+                "drive3.position_actual",
+                "drive3.display"
+            ]
+        );
+        // A cell of such drives alone has variables too.
+        let alone =
+            Variables::with_profiles(vec![(DriveName::Section(0), Profile::Cia402)]).unwrap();
+        assert_eq!(alone.all().next().unwrap().name(), "drive0.load_torque");
+        assert!(Variables::with_profiles(Vec::new()).is_err());
     }
 
     #[test]

@@ -483,18 +483,23 @@ impl VirtualRig {
         }
         let (b, i) = self.drive(Some(node))?;
         let station = self.station((b, i))?;
-        let d = station
-            .model
-            .drive()
-            .ok_or_else(|| format!("node {node}: the drive has no simulated plant"))?;
+        Probe::of_model(&station.model)
+            .ok_or_else(|| format!("node {node}: the drive has no simulated plant"))
+    }
+}
+
+impl Probe {
+    /// A CiA 402 drive's plant and words now (`None`: a dictionary without a plant).
+    pub fn of_model(model: &crate::cell::device_model::Model) -> Option<Probe> {
+        let d = model.drive()?;
         let shaft = d.shaft();
         let current_a = match d.stepper() {
             Some(s) => s.current_a(),
             None => d.axis().motor().current(),
         };
-        let statusword = station.model.read_u16(0x6041, 0).unwrap_or(0);
-        let position_actual = station.model.read_u32(0x6064, 0).unwrap_or(0);
-        Ok(Probe {
+        let statusword = model.read_u16(0x6041, 0).unwrap_or(0);
+        let position_actual = model.read_u32(0x6064, 0).unwrap_or(0);
+        Some(Probe {
             position_rad: shaft.angle_rad,
             velocity_rad_s: shaft.velocity_rad_s,
             current_a,
