@@ -140,7 +140,7 @@ impl EthercatChains {
     }
 
     /// Each slave's `[[drive]]` index in the cell file, chain by chain in wire order: the
-    /// names of their variables, in the order of [`EthercatChains::probe`]'s `slave`.
+    /// names of their variables, in the order of [`EthercatChains::probe_into`]'s slaves.
     pub fn places(&self) -> Vec<usize> {
         let chains = lock_chains(&self.chains);
         self.slots
