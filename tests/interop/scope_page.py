@@ -35,7 +35,9 @@ def arm_trigger(page, signal: str, level: float, pre_percent: float, window_s: f
 
 
 def click_at(page, t: float, shift: bool) -> None:
-    """A click on the plot at time `t` (cursor A), with shift cursor B."""
+    """A click on the plot at time `t` (cursor A), with shift cursor B: where `t` is once the
+    page has drawn what an earlier click or zoom asked for (a redraw waits for a frame)."""
+    page.evaluate("new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))")
     x = page.evaluate(f"window.scope.plot.valToPos({t}, 'x')")
     box = page.locator("#scope-plot .u-over").bounding_box()
     page.mouse.move(box["x"] + x, box["y"] + box["height"] / 2)

@@ -158,8 +158,18 @@ def test_a_cmmp_as_following_a_kinco_on_one_time_base(launch, connect, eds_files
     lag = t_foll - t_lead
     assert 0 < lag < 1.0, (t_lead, t_foll, cycles[:5])
 
-    # The cursors at the two crossings: Δt is the lag, within one sample.
+    # The cursors at the two crossings: Δt is the lag, within one sample. Zoomed in with the
+    # wheel around them first, as one reads a short lag, so that a pixel is a tenth of a sample.
     page.locator("#scope-plot").scroll_into_view_if_needed()
+    box = page.locator("#scope-plot .u-over").bounding_box()
+    width = "window.scope.plot.scales.x.max - window.scope.plot.scales.x.min"
+    at = (t_lead + t_foll) / 2
+    while page.evaluate(width) > max(box["width"] * SAMPLE_S / 10, 4 * lag):
+        before = page.evaluate(width)
+        x = page.evaluate(f"window.scope.plot.valToPos({at}, 'x')")
+        page.mouse.move(box["x"] + x, box["y"] + box["height"] / 2)
+        page.mouse.wheel(0, -100)
+        page.wait_for_function(f"{width} < {before} - 1e-9")
     click_at(page, t_lead, False)
     click_at(page, t_foll, True)
     page.wait_for_function("document.querySelector('#cursor-dt').dataset.seconds")
