@@ -200,10 +200,7 @@ impl super::can_cell::CanCell {
         at: super::OnBus,
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
-        let d = self
-            .station_mut(at)
-            .ok_or(ControlError::NoDrive(at.drive))?;
-        set_model(&mut d.model, number, Action::Raise).map_err(refused)
+        self.act_on_diagnostic(at, number, Action::Raise)
     }
 
     /// Clears message `number` raised by [`Self::raise_diagnostic`].
@@ -212,10 +209,19 @@ impl super::can_cell::CanCell {
         at: super::OnBus,
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
+        self.act_on_diagnostic(at, number, Action::Clear)
+    }
+
+    fn act_on_diagnostic(
+        &mut self,
+        at: super::OnBus,
+        number: &str,
+        action: Action,
+    ) -> Result<&'static Diagnostic, ControlError> {
         let d = self
             .station_mut(at)
             .ok_or(ControlError::NoDrive(at.drive))?;
-        set_model(&mut d.model, number, Action::Clear).map_err(refused)
+        set_model(&mut d.model, number, action).map_err(refused)
     }
 }
 
