@@ -1,7 +1,8 @@
 """Faults on an EtherCAT chain's wire through the API: SOEM (pysoem) over a
 veth pair finds the twin's slave; with the chain's cable cut it finds none (every frame lost),
 nor with its frames corrupted (the Ethernet FCS discards them); mended, it finds it again.
-The twin runs in the veth's network namespace, so the API is called from inside it."""
+Lost and corrupted frames at a rate and by a count: SOEM's cyclic exchange misses exactly
+those. The twin runs in the veth's network namespace, so the API is called from inside it."""
 
 from __future__ import annotations
 
@@ -54,3 +55,45 @@ def test_a_cut_or_corrupted_chain_has_no_slave_for_the_master(veth, tmp_path):
         assert status == 201, text
         status, text = api_in(ns, "DELETE", base)
         assert status == 200, text
+
+
+def test_a_share_of_lost_frames_and_a_count_of_corrupted_ones_reach_soems_cycle(veth, tmp_path):
+    """A loss rate: with half the frames lost (`drop`, share 0.5, spread evenly: every second
+    frame) SOEM's cyclic exchange gets every second LRW back, the others never; three
+    corrupted frames (the Ethernet FCS discards them) are three cycles without an answer, and
+    the cycles after them pass."""
+    ns = veth[0]
+    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
+    port = free_port()
+    base = f"http://127.0.0.1:{port}/api/wire/ethercat/0/faults"
+    with ecat_twin_run(veth, tmp_path, "--http", f"127.0.0.1:{port}") as (master_if, _lines):
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            assert master.config_init() == 1
+            assert master.config_map() > 0
+            assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
+
+            def answered(cycles: int) -> list[bool]:
+                """Whether each cycle's frame came back (a lost one waits out 100 ms)."""
+                out = []
+                for _ in range(cycles):
+                    master.send_processdata()
+                    out.append(master.receive_processdata(100_000) > 0)
+                return out
+
+            assert answered(4) == [True] * 4
+            status, text = api_in(ns, "POST", base, {"fault": "drop", "share": 0.5})
+            assert status == 201, text
+            assert answered(20) == [True, False] * 10, "every second frame lost"
+            status, text = api_in(ns, "DELETE", base)
+            assert status == 200, text
+            assert answered(4) == [True] * 4
+
+            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "frames": 3})
+            assert status == 201, text
+            assert answered(6) == [False] * 3 + [True] * 3, "three corrupted, then through"
+            status, text = api_in(ns, "GET", base)
+            assert status == 200 and json.loads(text) == [], "the counted fault has ended"
+        finally:
+            master.close()
