@@ -4,9 +4,10 @@ first (the master counts one slave and the working counter drops to one slave's;
 behind time out on their SM watchdog, fall to Safe-Op with 0x001B and their drives fault with
 62-5), plugged back (three found, acknowledged, back in Op); meanwhile the first slave's DL
 status shows its port 1 without a link and its loop closed, to SOEM and to `drivetwin ecat
-scan`; a slave powered off (it and the one behind it vanish) and on (it is in Init); a DC
-drift of 50 ppm on the second slave that SOEM's cyclic system-time distribution corrects
-(0x092C holds the difference each cycle found, 0x0920 the corrections).
+scan`; a slave powered off (it and the one behind it vanish) and on (it is in Init), to SOEM
+and to `drivetwin ecat scan`; a DC drift of 50 ppm on the second slave that SOEM's cyclic
+system-time distribution corrects (0x092C holds the difference each cycle found, 0x0920 the
+corrections).
 
 The twin runs in the veth's network namespace; the API is called from inside it. Needs root
 and `ip`; skips otherwise.
@@ -178,6 +179,27 @@ def test_drivetwin_ecat_scan_shows_where_the_line_is_cut(line3):
     j = scan()
     assert j["count"] == 3, j
     assert j["slaves"][0]["ports"][1]["link"] is True, j
+
+
+def test_drivetwin_ecat_sees_a_slave_powered_off_and_back_in_init(line3):
+    master_if, line = line3
+
+    def ecat_json(*args: str) -> dict | list:
+        r = run_cli("ecat", *args, "-i", master_if, "--json")
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout)
+
+    ecat_json("state", "preop")
+    assert [s["state"] for s in ecat_json("scan")["slaves"]] == ["PREOP"] * 3
+    line({"action": "power-off", "slave": 1})
+    j = ecat_json("scan")
+    assert j["count"] == 1, "slave 1 and the one behind it are off the line"
+    assert j["slaves"][0]["ports"][1]["link"] is False, j
+    line({"action": "power-on", "slave": 1})
+    j = ecat_json("scan")
+    assert j["count"] == 3, j
+    # Switched on, slave 1 starts in Init; the others kept their power and their state.
+    assert [s["state"] for s in j["slaves"]] == ["PREOP", "INIT", "PREOP"], j
 
 
 def test_a_slave_powered_off_vanishes_and_comes_back_in_init(line3):
