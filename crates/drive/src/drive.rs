@@ -135,84 +135,13 @@ const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
 /// min⁻¹ per increment/s.
 const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
-/// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
-/// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
-/// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
-/// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 115] = [
-    (0x2001, 0),
-    (0x2004, 1),
-    (0x2004, 7),
-    (0x2004, 8),
-    (0x2004, 0x0C),
-    (0x2004, 0x0D),
-    (0x2004, 0x0E),
-    (0x2005, 1),
-    (0x2006, 0),
-    (0x2007, 1),
-    (0x2007, 2),
-    (0x2007, 3),
-    (0x200A, 0),
-    (0x200A, 1),
-    (0x200B, 0),
-    // Kinco 2010h: DIN polarity, simulate and the seven function codes, the DOUT polarity,
-    // simulate and the five function codes (each in input / output order, one after the
-    // other: the Kinco's `function_codes` counts on it), read every cycle.
-    (0x2010, 1),
-    (0x2010, 2),
-    (0x2010, 3),
-    (0x2010, 4),
-    (0x2010, 5),
-    (0x2010, 6),
-    (0x2010, 7),
-    (0x2010, 8),
-    (0x2010, 9),
-    (0x2010, 0x0A),
-    (0x2010, 0x0D),
-    (0x2010, 0x0E),
-    (0x2010, 0x0F),
-    (0x2010, 0x10),
-    (0x2010, 0x11),
-    (0x2010, 0x12),
-    (0x2010, 0x13),
-    (0x2010, 0x14),
-    // Kinco: Zero_Speed_Window, Limit_Function.
-    (0x2010, 0x18),
-    (0x2010, 0x19),
-    (0x2011, 0),
-    (0x2020, 0),
-    (0x2045, 0),
-    (0x2090, 1),
-    (0x2090, 2),
-    (0x2090, 3),
-    (0x2090, 4),
-    (0x2090, 5),
-    // Kinco: the analog filters, selectors and outputs, the error words, the display values
-    // and the analog offsets and dead bands, read or written every logic cycle.
-    (0x2502, 0x01),
-    (0x2502, 0x04),
-    (0x2502, 0x07),
-    (0x2502, 0x08),
-    (0x2502, 0x09),
-    (0x2502, 0x0F),
-    (0x2502, 0x10),
-    (0x2601, 0),
-    (0x2602, 0),
-    (0x2FF0, 0x14),
-    (0x2FF0, 0x16),
-    (0x2FF0, 0x17),
-    (0x2FF0, 0x18),
-    (0x2FF0, 0x1A),
-    (0x2FF0, 0x1D),
-    (0x2FF0, 0x1E),
-    (0x2FF0, 0x1F),
-    (0x2FF0, 0x20),
+/// The CiA 402 objects the engine reads every cycle: looked up in the dictionary once, so a
+/// cycle never searches the object table. Sorted by (index, sub).
+const CIA402_PARAMS: &[(u16, u8)] = &[
     (0x6065, 0),
     (0x6066, 0),
     (0x6067, 0),
     (0x6068, 0),
-    // Kinco: PI_Switch.
-    (0x6069, 0x09),
     (0x606D, 0),
     (0x606E, 0),
     (0x606F, 0),
@@ -242,28 +171,20 @@ const PARAMS: [(u16, u8); 115] = [
     (0x6099, 2),
     (0x609A, 0),
     (0x60C1, 1),
-    // Kinco: the display speeds, Speed_1ms, PI_Pointer, Pos_Error.
-    (0x60F9, 0x19),
-    (0x60F9, 0x1A),
-    (0x60F9, 0x28),
-    (0x60FB, 0x08),
     (0x60FE, 1),
     (0x60FE, 2),
-    (0x6510, 0x10),
-    (0x6510, 0x11),
-    (0x6510, 0x12),
-    (0x6510, 0x13),
-    (0x6510, 0x14),
-    (0x6510, 0x15),
-    (0x6510, 0x18),
-    (0x6510, 0x22),
-    (0x6510, 0x2F),
-    (0x6510, 0x32),
-    (0x6510, 0x36),
-    (0x6510, 0x37),
-    (0x6510, 0x38),
-    (0x6510, 0xF0),
 ];
+
+/// How many distinct keys [`PARAMS`] holds.
+const PARAMS_LEN: usize =
+    crate::object_keys::merged_len(CIA402_PARAMS, crate::vendors::CACHED_OBJECTS);
+
+/// Parameters the device logic reads every cycle, CiA 402's and every vendor's
+/// ([`Vendor::CACHED_OBJECTS`](crate::personality::Vendor::CACHED_OBJECTS)), merged when
+/// compiling: sorted by (index, sub) (for the reader, and `kinco_io` counts on the order of
+/// 2010h); [`param_slot`] finds a key through [`PARAM_HASH`].
+const PARAMS: [(u16, u8); PARAMS_LEN] =
+    crate::object_keys::merged(CIA402_PARAMS, crate::vendors::CACHED_OBJECTS);
 
 // The binary search needs the table sorted, without duplicates (checked when compiling).
 const _: () = {
@@ -445,8 +366,6 @@ pub struct Drive<S, V> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
-    /// The short closed-loop test run has aligned the encoder (Nanotec 200Bh found).
-    pub(crate) closed_loop_aligned: bool,
     /// The brake opens then (a personality that releases it after the output stage).
     pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
@@ -652,7 +571,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             brake_engaged: true,
             power_off_at: None,
             brake_release_at: None,
-            closed_loop_aligned: false,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),

@@ -202,6 +202,37 @@ pub struct CmmpAs {
 impl Vendor for CmmpAs {
     const MANUFACTURER_OBJECTS: bool = true;
 
+    /// 2005h:01 / 200Ah:01 (statusword bit 14's mask and inversion), 2045h (the brake's
+    /// switch-off delay), 2090h:01 … :05 (the profile velocity ramps) and the drive data
+    /// 6510h the hooks read each cycle: the remote bit :10, the switch set-up :11 … :14, the
+    /// emergency ramp :15, the brake delay :18, the following-error reaction :22, the
+    /// temperature limits :2F / :32, the under-voltage supervision :36 … :38, the
+    /// compatibility word :F0.
+    const CACHED_OBJECTS: &'static [(u16, u8)] = &[
+        (0x2005, 1),
+        (0x200A, 1),
+        (0x2045, 0),
+        (0x2090, 1),
+        (0x2090, 2),
+        (0x2090, 3),
+        (0x2090, 4),
+        (0x2090, 5),
+        (0x6510, 0x10),
+        (0x6510, 0x11),
+        (0x6510, 0x12),
+        (0x6510, 0x13),
+        (0x6510, 0x14),
+        (0x6510, 0x15),
+        (0x6510, 0x18),
+        (0x6510, 0x22),
+        (0x6510, 0x2F),
+        (0x6510, 0x32),
+        (0x6510, 0x36),
+        (0x6510, 0x37),
+        (0x6510, 0x38),
+        (0x6510, 0xF0),
+    ];
+
     /// Ch. 6: halt aborts homing and sets homing_error (statusword bit 13).
     const HALT_IS_HOMING_ERROR: bool = true;
 
