@@ -30,8 +30,8 @@ pub trait Vendor: Sized {
     const MANUFACTURER_OBJECTS: bool = false;
 
     /// The vendor's objects its hooks read or write every cycle, `(index, sub)`: the engine
-    /// looks them up in the dictionary once, beside CiA 402's ([`crate::vendors::CACHED_OBJECTS`]
-    /// gathers every vendor's list). Sorted by (index, sub). CiA 402's default: none.
+    /// looks them up in the dictionary once, beside CiA 402's, and finds a literal key's
+    /// slot when compiling. CiA 402's default: none.
     const CACHED_OBJECTS: &'static [(u16, u8)] = &[];
 
     /// The personality of a drive over `desc` and the vendor's state at power-on.
@@ -239,6 +239,11 @@ pub trait Vendor: Sized {
     /// defaults ([`ControlParams::default`]).
     const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = None;
 
+    /// Where the drive shows its actual speed through a display filter beside 606Ch
+    /// velocity_actual_value. `None`, CiA 402's default: the profile has no display value;
+    /// the filter keeps [`ControlParams::default`]'s time and nothing shows it.
+    const VELOCITY_DISPLAY_OBJECTS: Option<VelocityDisplayObjects> = None;
+
     /// The DC-link voltage in mV below which the drive reports its
     /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
     /// 402's default: the profile names no threshold object (its object 6079h
@@ -364,6 +369,16 @@ impl Default for BldcSettings {
             peak_time_ms: 0,
         }
     }
+}
+
+/// The objects of a speed shown through a display filter
+/// ([`Vendor::VELOCITY_DISPLAY_OBJECTS`]), each `(index, sub)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VelocityDisplayObjects {
+    /// The display filter's time constant, µs (unsigned).
+    pub filter_time: (u16, u8),
+    /// The filtered speed, in the velocity unit of 606Ch.
+    pub value: (u16, u8),
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).

@@ -38,16 +38,6 @@ use festo_cmmp_as::{CmmpAs, CMMP_AS};
 use kinco::{Kinco, KINCO};
 use nanotec::{Nanotec, NANOTEC};
 
-/// Every vendor's [`Vendor::CACHED_OBJECTS`](crate::personality::Vendor::CACHED_OBJECTS),
-/// which the engine caches beside CiA 402's objects (one table for all: a key's slot is
-/// found when compiling, whatever the vendor).
-pub(crate) const CACHED_OBJECTS: &[&[(u16, u8)]] = &[
-    <CmmpAs as crate::personality::Vendor>::CACHED_OBJECTS,
-    <Nanotec as crate::personality::Vendor>::CACHED_OBJECTS,
-    <Kinco as crate::personality::Vendor>::CACHED_OBJECTS,
-    <Cia402 as crate::personality::Vendor>::CACHED_OBJECTS,
-];
-
 /// A drive of any vendor, chosen by the device file's name: what a runtime holds when the
 /// vendor is known only when the device file is read.
 // The variants differ by the Kinco's own state (position table, panel); a runtime that holds
