@@ -77,10 +77,20 @@ mod tests {
 
     #[test]
     fn merges_sorted_without_duplicates() {
-        const A: &[(u16, u8)] = &[(0x6060, 0), (0x2010, 3)];
-        const B: &[(u16, u8)] = &[(0x2010, 1), (0x6060, 0), (0x2010, 0x10)];
+        const A: &[(u16, u8)] = &[(0x6081, 0), (0x60F9, 3)];
+        const B: &[(u16, u8)] = &[(0x60F9, 1), (0x6081, 0), (0x60F9, 0x10)];
         const N: usize = merged_len(A, &[B]);
-        const M: [(u16, u8); N] = merged(A, &[B]);
-        assert_eq!(M, [(0x2010, 1), (0x2010, 3), (0x2010, 0x10), (0x6060, 0)]);
+        const M: [(u16, u8); 5] = merged(A, &[B]);
+        assert_eq!(N, 4);
+        assert_eq!(
+            M,
+            [
+                (0x6081, 0),
+                (0x60F9, 1),
+                (0x60F9, 3),
+                (0x60F9, 0x10),
+                (0, 0)
+            ]
+        );
     }
 }
