@@ -175,6 +175,19 @@ const CIA402_PARAMS: &[(u16, u8)] = &[
     (0x60FE, 2),
 ];
 
+// CiA 402's list holds no manufacturer object (checked when compiling): those are the
+// vendors' (`Vendor::CACHED_OBJECTS`).
+const _: () = {
+    let mut rest: &[(u16, u8)] = CIA402_PARAMS;
+    while let [(index, _), tail @ ..] = rest {
+        assert!(
+            !manufacturer_object(*index),
+            "a vendor's object in CIA402_PARAMS"
+        );
+        rest = tail;
+    }
+};
+
 /// Slots of a drive's parameter cache: CiA 402's objects and its vendor's at most (below
 /// half of [`PARAM_BUCKETS`], so a lookup probes one or two buckets).
 pub(crate) const PARAM_SLOTS: usize = 127;
