@@ -135,84 +135,13 @@ const INC_S2_PER_ACC: f64 = 65536.0 / 60.0 / 256.0;
 /// min⁻¹ per increment/s.
 const RPM_PER_INC_S: f64 = 60.0 / 65536.0;
 
-/// Parameters the device logic reads every cycle: looked up in the dictionary once, so a
-/// cycle never searches the object table. Sorted by (index, sub) (for the reader, and
-/// `kinco_io` counts on the order of 2010h); [`param_slot`] finds a key through
-/// [`PARAM_HASH`].
-const PARAMS: [(u16, u8); 115] = [
-    (0x2001, 0),
-    (0x2004, 1),
-    (0x2004, 7),
-    (0x2004, 8),
-    (0x2004, 0x0C),
-    (0x2004, 0x0D),
-    (0x2004, 0x0E),
-    (0x2005, 1),
-    (0x2006, 0),
-    (0x2007, 1),
-    (0x2007, 2),
-    (0x2007, 3),
-    (0x200A, 0),
-    (0x200A, 1),
-    (0x200B, 0),
-    // Kinco 2010h: DIN polarity, simulate and the seven function codes, the DOUT polarity,
-    // simulate and the five function codes (each in input / output order, one after the
-    // other: the Kinco's `function_codes` counts on it), read every cycle.
-    (0x2010, 1),
-    (0x2010, 2),
-    (0x2010, 3),
-    (0x2010, 4),
-    (0x2010, 5),
-    (0x2010, 6),
-    (0x2010, 7),
-    (0x2010, 8),
-    (0x2010, 9),
-    (0x2010, 0x0A),
-    (0x2010, 0x0D),
-    (0x2010, 0x0E),
-    (0x2010, 0x0F),
-    (0x2010, 0x10),
-    (0x2010, 0x11),
-    (0x2010, 0x12),
-    (0x2010, 0x13),
-    (0x2010, 0x14),
-    // Kinco: Zero_Speed_Window, Limit_Function.
-    (0x2010, 0x18),
-    (0x2010, 0x19),
-    (0x2011, 0),
-    (0x2020, 0),
-    (0x2045, 0),
-    (0x2090, 1),
-    (0x2090, 2),
-    (0x2090, 3),
-    (0x2090, 4),
-    (0x2090, 5),
-    // Kinco: the analog filters, selectors and outputs, the error words, the display values
-    // and the analog offsets and dead bands, read or written every logic cycle.
-    (0x2502, 0x01),
-    (0x2502, 0x04),
-    (0x2502, 0x07),
-    (0x2502, 0x08),
-    (0x2502, 0x09),
-    (0x2502, 0x0F),
-    (0x2502, 0x10),
-    (0x2601, 0),
-    (0x2602, 0),
-    (0x2FF0, 0x14),
-    (0x2FF0, 0x16),
-    (0x2FF0, 0x17),
-    (0x2FF0, 0x18),
-    (0x2FF0, 0x1A),
-    (0x2FF0, 0x1D),
-    (0x2FF0, 0x1E),
-    (0x2FF0, 0x1F),
-    (0x2FF0, 0x20),
+/// The CiA 402 objects the engine reads every cycle: looked up in the dictionary once, so a
+/// cycle never searches the object table ([`Params`]).
+const CIA402_PARAMS: &[(u16, u8)] = &[
     (0x6065, 0),
     (0x6066, 0),
     (0x6067, 0),
     (0x6068, 0),
-    // Kinco: PI_Switch.
-    (0x6069, 0x09),
     (0x606D, 0),
     (0x606E, 0),
     (0x606F, 0),
@@ -242,39 +171,64 @@ const PARAMS: [(u16, u8); 115] = [
     (0x6099, 2),
     (0x609A, 0),
     (0x60C1, 1),
-    // Kinco: the display speeds, Speed_1ms, PI_Pointer, Pos_Error.
-    (0x60F9, 0x19),
-    (0x60F9, 0x1A),
-    (0x60F9, 0x28),
-    (0x60FB, 0x08),
     (0x60FE, 1),
     (0x60FE, 2),
-    (0x6510, 0x10),
-    (0x6510, 0x11),
-    (0x6510, 0x12),
-    (0x6510, 0x13),
-    (0x6510, 0x14),
-    (0x6510, 0x15),
-    (0x6510, 0x18),
-    (0x6510, 0x22),
-    (0x6510, 0x2F),
-    (0x6510, 0x32),
-    (0x6510, 0x36),
-    (0x6510, 0x37),
-    (0x6510, 0x38),
-    (0x6510, 0xF0),
 ];
 
-// The binary search needs the table sorted, without duplicates (checked when compiling).
+// CiA 402's list holds no manufacturer object (checked when compiling): those are the
+// vendors' (`Vendor::CACHED_OBJECTS`).
 const _: () = {
-    let mut rest: &[(u16, u8)] = &PARAMS;
-    while let [a, tail @ ..] = rest {
-        if let [b, ..] = tail {
-            assert!(a.0 < b.0 || (a.0 == b.0 && a.1 < b.1), "PARAMS unsorted");
-        }
+    let mut rest: &[(u16, u8)] = CIA402_PARAMS;
+    while let [(index, _), tail @ ..] = rest {
+        assert!(
+            !manufacturer_object(*index),
+            "a vendor's object in CIA402_PARAMS"
+        );
         rest = tail;
     }
 };
+
+/// Slots of a drive's parameter cache: CiA 402's objects and its vendor's at most (below
+/// half of [`PARAM_BUCKETS`], so a lookup probes one or two buckets).
+pub(crate) const PARAM_SLOTS: usize = 127;
+
+/// The parameters a drive of vendor `V` reads every cycle: [`CIA402_PARAMS`] and the
+/// vendor's ([`Vendor::CACHED_OBJECTS`](crate::personality::Vendor::CACHED_OBJECTS)), merged
+/// when compiling, sorted by (index, sub) (for the reader, and the Kinco's `function_codes`
+/// counts on the order of 2010h); [`param_slot`] finds a key through the hash table.
+pub(crate) struct Params<V>(core::marker::PhantomData<V>);
+
+impl<V: Vendor> Params<V> {
+    /// How many keys the cache holds.
+    pub(crate) const LEN: usize =
+        crate::object_keys::merged_len(CIA402_PARAMS, &[V::CACHED_OBJECTS]);
+
+    /// The keys, slot by slot (the first [`Params::LEN`]).
+    pub(crate) const KEYS: [(u16, u8); PARAM_SLOTS] =
+        crate::object_keys::merged(CIA402_PARAMS, &[V::CACHED_OBJECTS]);
+
+    /// [`Params::KEYS`] as an open-addressing hash table built when compiling: each bucket
+    /// holds a slot + 1 (0: empty), collisions go to the next bucket. The parameter reads of
+    /// a cycle are not all inlined, and a binary search per read cost a third of the
+    /// Nanotec's cycle.
+    // Evaluated when compiling: `b` is masked to the table's size, `slot` stays below LEN,
+    // which `merged` checked against PARAM_SLOTS.
+    #[allow(clippy::indexing_slicing)]
+    const HASH: [u8; PARAM_BUCKETS] = {
+        assert!(Self::LEN <= PARAM_SLOTS && PARAM_SLOTS * 2 <= PARAM_BUCKETS);
+        let mut table = [0u8; PARAM_BUCKETS];
+        let mut slot = 0;
+        while slot < Self::LEN {
+            let mut b = param_bucket(param_key(Self::KEYS[slot].0, Self::KEYS[slot].1));
+            while table[b] != 0 {
+                b = (b + 1) & (PARAM_BUCKETS - 1);
+            }
+            table[b] = slot as u8 + 1;
+            slot += 1;
+        }
+        table
+    };
+}
 
 /// An object of the manufacturer area 2000h–5FFFh (CiA 301 §7.4.1) or the drive data 6510h,
 /// which CiA 402 leaves to the manufacturer: the engine reads and writes it only for a vendor
@@ -289,7 +243,7 @@ const fn param_key(index: u16, sub: u8) -> u32 {
     (index as u32) << 8 | sub as u32
 }
 
-/// Buckets of [`PARAM_HASH`] (a power of two, at least twice the table: a lookup probes one
+/// Buckets of [`Params`]'s hash table (a power of two, at least twice the table: a lookup probes one
 /// or two buckets).
 const PARAM_BUCKETS: usize = 256;
 
@@ -299,40 +253,20 @@ const fn param_bucket(key: u32) -> usize {
     (key.wrapping_mul(0x9E37_79B9) >> 24) as usize & (PARAM_BUCKETS - 1)
 }
 
-/// [`PARAMS`] as an open-addressing hash table built when compiling: each bucket holds a
-/// slot + 1 (0: empty), collisions go to the next bucket. The parameter reads of a cycle
-/// are not all inlined, and a binary search per read cost a third of the Nanotec's cycle.
-// Evaluated when compiling: `b` is masked to the table's size, `slot` stays below PARAMS.len().
-#[allow(clippy::indexing_slicing)]
-const PARAM_HASH: [u8; PARAM_BUCKETS] = {
-    assert!(PARAMS.len() * 2 <= PARAM_BUCKETS && PARAMS.len() < u8::MAX as usize);
-    let mut table = [0u8; PARAM_BUCKETS];
-    let mut slot = 0;
-    while slot < PARAMS.len() {
-        let mut b = param_bucket(param_key(PARAMS[slot].0, PARAMS[slot].1));
-        while table[b] != 0 {
-            b = (b + 1) & (PARAM_BUCKETS - 1);
-        }
-        table[b] = slot as u8 + 1;
-        slot += 1;
-    }
-    table
-};
-
-/// The slot of `(index, sub)` in [`PARAMS`].
+/// The slot of `(index, sub)` in the parameter cache of a drive of vendor `V` ([`Params`]).
 #[inline(always)]
-// `b` is masked to PARAM_HASH's size; a non-zero bucket holds a slot of PARAMS plus one.
+// `b` is masked to the hash table's size; a non-zero bucket holds a slot of KEYS plus one.
 #[allow(clippy::indexing_slicing)]
-pub(crate) const fn param_slot(index: u16, sub: u8) -> Option<usize> {
+pub(crate) const fn param_slot<V: Vendor>(index: u16, sub: u8) -> Option<usize> {
     let key = param_key(index, sub);
     let mut b = param_bucket(key);
     // Terminates: the table always has empty buckets.
     loop {
-        let s = PARAM_HASH[b];
+        let s = Params::<V>::HASH[b];
         if s == 0 {
             return None;
         }
-        let (i, u) = PARAMS[s as usize - 1];
+        let (i, u) = Params::<V>::KEYS[s as usize - 1];
         if param_key(i, u) == key {
             return Some(s as usize - 1);
         }
@@ -356,11 +290,11 @@ pub(crate) struct Hot {
     pub(crate) torque_demand: Option<&'static Entry>,
     pub(crate) following_error_actual: Option<&'static Entry>,
     pub(crate) control_effort: Option<&'static Entry>,
-    pub(crate) manufacturer_status: Option<&'static Entry>,
     pub(crate) target_velocity: Option<&'static Entry>,
     pub(crate) target_torque: Option<&'static Entry>,
     pub(crate) digital_inputs: Option<&'static Entry>,
     pub(crate) vl_velocity_actual: Option<&'static Entry>,
+    /// [`Vendor::VELOCITY_DISPLAY_OBJECTS`]'s value.
     pub(crate) velocity_actual_filtered: Option<&'static Entry>,
 }
 
@@ -382,7 +316,8 @@ pub struct Drive<S, V> {
     pub(crate) motor_type: u8,
     pub(crate) fg: FactorGroup,
     pub(crate) hot: Hot,
-    pub(crate) params: [Option<&'static Entry>; PARAMS.len()],
+    /// The entries of [`Params`]'s keys, slot by slot.
+    pub(crate) params: [Option<&'static Entry>; PARAM_SLOTS],
     /// Current-controller cycle and how many of them make one logic (position-loop) cycle.
     pub(crate) cycle: Duration,
     pub(crate) logic_every: u32,
@@ -445,8 +380,6 @@ pub struct Drive<S, V> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
-    /// The short closed-loop test run has aligned the encoder (Nanotec 200Bh found).
-    pub(crate) closed_loop_aligned: bool,
     /// The brake opens then (a personality that releases it after the output stage).
     pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
@@ -569,15 +502,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             torque_demand: e(0x6074, 0),
             following_error_actual: e(0x60F4, 0),
             control_effort: e(0x60FA, 0),
-            manufacturer_status: e(0x2000, 1),
             target_velocity: e(0x60FF, 0),
             target_torque: e(0x6071, 0),
             digital_inputs: e(0x60FD, 0),
             vl_velocity_actual: e(0x6044, 0),
-            velocity_actual_filtered: e(0x2074, 0),
+            velocity_actual_filtered: V::VELOCITY_DISPLAY_OBJECTS
+                .and_then(|o| e(o.value.0, o.value.1)),
         };
-        let mut param_entries = [None; PARAMS.len()];
-        for (slot, (i, s)) in param_entries.iter_mut().zip(PARAMS.iter()) {
+        let mut param_entries = [None; PARAM_SLOTS];
+        let keys = Params::<V>::KEYS;
+        for (slot, (i, s)) in param_entries
+            .iter_mut()
+            .zip(keys.iter().take(Params::<V>::LEN))
+        {
             *slot = e(*i, *s);
         }
         let params = control_params_of::<S, V>(&od);
@@ -652,7 +589,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             brake_engaged: true,
             power_off_at: None,
             brake_release_at: None,
-            closed_loop_aligned: false,
             release_at: None,
             faults: heapless::Vec::new(),
             notices: heapless::Vec::new(),
@@ -834,7 +770,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     #[inline]
     pub(crate) fn value(&self, index: u16, sub: u8) -> i64 {
-        if let Some(pos) = param_slot(index, sub) {
+        if let Some(pos) = param_slot::<V>(index, sub) {
             return self.read(self.params.get(pos).copied().flatten());
         }
         if !V::MANUFACTURER_OBJECTS && manufacturer_object(index) {
@@ -848,12 +784,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     }
 
     /// [`Drive::value`] inlined at the call site, for the reads of every logic cycle: with a
-    /// literal key of [`PARAMS`] the slot is found when compiling and the read is a load and
+    /// literal key of [`Params`] the slot is found when compiling and the read is a load and
     /// a decode; any other key takes `value`'s path. (`value` itself stays out of line: the
     /// parameter reads of the rarer paths would make the code grow.)
     #[inline(always)]
     pub(crate) fn cycle_value(&self, index: u16, sub: u8) -> i64 {
-        match param_slot(index, sub) {
+        match param_slot::<V>(index, sub) {
             Some(slot) => self.read(self.params.get(slot).copied().flatten()),
             None => self.value(index, sub),
         }
@@ -870,10 +806,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// A [`PARAMS`] entry.
+    /// A [`Params`] entry.
     #[inline]
     pub(crate) fn param(&self, index: u16, sub: u8) -> Option<&'static Entry> {
-        let pos = param_slot(index, sub)?;
+        let pos = param_slot::<V>(index, sub)?;
         self.params.get(pos).copied().flatten()
     }
 
@@ -1273,8 +1209,13 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
         velocity_control_time_us: u(0x60F9, 2, d.velocity_control_time_us.into()) as u16,
         velocity_control_filter_time_us: u(0x60F9, 4, d.velocity_control_filter_time_us.into())
             as u16,
-        velocity_display_filter_time_us: u(0x2073, 0, d.velocity_display_filter_time_us.into())
-            as u32,
+        velocity_display_filter_time_us: V::VELOCITY_DISPLAY_OBJECTS.map_or(
+            d.velocity_display_filter_time_us,
+            |o| {
+                let (index, sub) = o.filter_time;
+                u(index, sub, d.velocity_display_filter_time_us.into()) as u32
+            },
+        ),
         position_control_gain: u(0x60FB, 1, d.position_control_gain.into()) as u16,
         position_control_time_us: u(0x60FB, 2, d.position_control_time_us.into()) as u16,
         position_control_v_max_rpm: u(0x60FB, 4, d.position_control_v_max_rpm.into()) as u32,
@@ -1295,12 +1236,15 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     }
 }
 
-/// Objects whose change the controllers must see.
-fn is_control_parameter(index: u16) -> bool {
+/// Objects whose change the controllers must see: CiA 402's (6073h, 6075h, 6410h, the
+/// controllers' parameter sets 60F6h, 60F9h, 60FBh, 6080h), the drive data 6510h (where a
+/// vendor keeps its power stage, [`Vendor::POWER_STAGE_OBJECTS`]) and the vendor's display
+/// filter ([`Vendor::VELOCITY_DISPLAY_OBJECTS`]).
+fn is_control_parameter<V: Vendor>(index: u16) -> bool {
     matches!(
         index,
-        0x6073 | 0x6075 | 0x6410 | 0x60F6 | 0x60F9 | 0x60FB | 0x6080 | 0x2073 | 0x6510
-    )
+        0x6073 | 0x6075 | 0x6410 | 0x60F6 | 0x60F9 | 0x60FB | 0x6080 | 0x6510
+    ) || V::VELOCITY_DISPLAY_OBJECTS.is_some_and(|o| o.filter_time.0 == index)
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> ObjectAccess for Drive<S, V> {

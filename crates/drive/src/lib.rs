@@ -19,6 +19,7 @@ pub mod homing;
 pub mod interpolated_position;
 pub mod measured_velocity;
 pub mod motor;
+mod object_keys;
 pub mod personality;
 pub mod profile_position;
 pub mod rounding;

@@ -29,6 +29,11 @@ pub trait Vendor: Sized {
     /// file with other objects at those indices keeps its own meanings.
     const MANUFACTURER_OBJECTS: bool = false;
 
+    /// The vendor's objects its hooks read or write every cycle, `(index, sub)`: the engine
+    /// looks them up in the dictionary once, beside CiA 402's, and finds a literal key's
+    /// slot when compiling. CiA 402's default: none.
+    const CACHED_OBJECTS: &'static [(u16, u8)] = &[];
+
     /// The personality of a drive over `desc` and the vendor's state at power-on.
     fn for_device(desc: &'static od::DeviceDescription) -> (&'static Personality, Self);
 
@@ -234,6 +239,11 @@ pub trait Vendor: Sized {
     /// defaults ([`ControlParams::default`]).
     const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = None;
 
+    /// Where the drive shows its actual speed through a display filter beside 606Ch
+    /// velocity_actual_value. `None`, CiA 402's default: the profile has no display value;
+    /// the filter keeps [`ControlParams::default`]'s time and nothing shows it.
+    const VELOCITY_DISPLAY_OBJECTS: Option<VelocityDisplayObjects> = None;
+
     /// The DC-link voltage in mV below which the drive reports its
     /// [`Fault::DcLinkUndervoltage`], where the drive is set to supervise it. `None`, CiA
     /// 402's default: the profile names no threshold object (its object 6079h
@@ -265,6 +275,30 @@ pub trait Vendor: Sized {
         d.od().get_unsigned(0x60C4, 6).is_none_or(|v| v == 1)
     }
 
+    /// The stepper plant runs closed loop (the encoder closes the loops; no step is lost
+    /// below the peak torque), read each logic cycle. `false`, CiA 402's default: the
+    /// profile has no object that closes a stepper's loop, so the stepper runs open loop.
+    fn stepper_closed_loop<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> bool {
+        false
+    }
+
+    /// Where the drive shows that its stepper plant runs closed loop (1) or open loop (0),
+    /// `(index, sub)`; the engine writes it each logic cycle and reads it for the personality's
+    /// [`Capabilities::vl_actual_closed_loop_only`]. `None`, CiA 402's default: no object shows it.
+    const CLOSED_LOOP_OBJECT: Option<(u16, u8)> = None;
+
+    /// The motor a stepper personality's output stage drives ([`PlantMotor`]), taken while
+    /// the output stage is off. CiA 402's default: the stepper.
+    fn plant_motor<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> PlantMotor {
+        PlantMotor::Stepper
+    }
+
+    /// The BLDC's commutation and current limits when a stepper personality drives one
+    /// ([`BldcSettings`]). CiA 402's default: [`BldcSettings::default`].
+    fn bldc_settings<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> BldcSettings {
+        BldcSettings::default()
+    }
+
     /// The quotient numerator / divisor a factor of 6093h / 6094h / 6097h may not exceed
     /// (checked on write; a stored set beyond it falls back to the defaults). `None`, CiA
     /// 402's default: the profile's objects 6093h position_factor, 6094h
@@ -287,6 +321,64 @@ pub struct PowerStageObjects {
     pub peak_current: (u16, u8),
     /// The cycle times of the current, velocity and position controllers, µs.
     pub cycle_times: [(u16, u8); 3],
+}
+
+/// The motor a stepper personality's output stage drives ([`Vendor::plant_motor`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlantMotor {
+    /// The hybrid stepper (micro-stepping, or closed loop).
+    #[default]
+    Stepper,
+    /// A BLDC commutated from its Hall sensors alone: the position counts Hall edges.
+    BldcHall,
+    /// A BLDC with its quadrature encoder.
+    BldcEncoder,
+}
+
+impl PlantMotor {
+    /// The motor type as a number: 0 the stepper, 1 BLDC on Hall sensors, 2 BLDC with encoder.
+    pub const fn code(self) -> u8 {
+        match self {
+            PlantMotor::Stepper => 0,
+            PlantMotor::BldcHall => 1,
+            PlantMotor::BldcEncoder => 2,
+        }
+    }
+}
+
+/// A BLDC's commutation and current limits on a stepper personality ([`Vendor::bldc_settings`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BldcSettings {
+    /// The commutation mode [`crate::bldc::BldcData::torque_factor`] takes.
+    pub commutation: u32,
+    /// The continuous current, % of the motor's rated current (1 … 100).
+    pub current_percent: f64,
+    /// The peak current, % of the rated current; at or below `current_percent`: no peak.
+    pub peak_percent: f64,
+    /// How long the peak current may flow, ms (the axis's I²t time).
+    pub peak_time_ms: u16,
+}
+
+impl Default for BldcSettings {
+    /// The rated current, no peak, commutation mode 0.
+    fn default() -> Self {
+        BldcSettings {
+            commutation: 0,
+            current_percent: 100.0,
+            peak_percent: 0.0,
+            peak_time_ms: 0,
+        }
+    }
+}
+
+/// The objects of a speed shown through a display filter
+/// ([`Vendor::VELOCITY_DISPLAY_OBJECTS`]), each `(index, sub)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VelocityDisplayObjects {
+    /// The display filter's time constant, µs (unsigned).
+    pub filter_time: (u16, u8),
+    /// The filtered speed, in the velocity unit of 606Ch.
+    pub value: (u16, u8),
 }
 
 /// One operating mode: its 6060h value and its 6502h bit (CiA 402 §6.4.4).

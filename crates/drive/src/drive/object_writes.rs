@@ -211,7 +211,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         data: &[u8],
     ) -> Result<(), AbortCode> {
         self.od.write(index, sub, data)?;
-        if is_control_parameter(index) {
+        if is_control_parameter::<V>(index) {
             self.params_dirty = true;
         }
         Ok(())

@@ -6,10 +6,12 @@
 //! The stepper runs open loop (micro-stepping; above the pull-out torque it loses steps) or
 //! closed loop (the encoder closes the loops; no step is lost below the peak torque).
 //!
+//! Which loop the stepper runs, which motor the output stage drives and a BLDC's settings
+//! are the vendor's objects: the engine asks the vendor ([`Vendor::stepper_closed_loop`],
+//! [`Vendor::plant_motor`], [`Vendor::bldc_settings`]) and shows the loop where the vendor
+//! names an object for it ([`Vendor::CLOSED_LOOP_OBJECT`]).
+//!
 //! Decisions:
-//! * Nanotec §11.2: closed loop is on with an encoder (2011h ≠ 0) once 2001h ENABLE_CL is 1
-//!   or 2 (the long test run and the homing the real drive needs first are taken as done),
-//!   or 3 after the short test run (6060h = −2); 200Ah shows it.
 //! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper
 //!   plant it is not stepped.
 //! * A velocity demand (VL) drives the stepper as a position set-point moving at that speed.
@@ -119,28 +121,29 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         match &self.stepper {
             Some(s) => s.position(),
             None => match self.hall_edges() {
-                // Nanotec 2004h:07 = 1: the position counts Hall edges.
+                // A BLDC on its Hall sensors alone: the position counts Hall edges.
                 Some(n) => self.axis.position_increments() * 65536 / i64::from(n),
                 None => self.axis.position_increments(),
             },
         }
     }
 
-    /// Hall edges per revolution when a BLDC runs on its Hall sensors alone (2004h:07 = 1).
+    /// Hall edges per revolution when a BLDC runs on its Hall sensors alone
+    /// ([`PlantMotor::BldcHall`](crate::personality::PlantMotor::BldcHall)).
     fn hall_edges(&self) -> Option<u32> {
         self.bldc
             .filter(|_| self.motor_type == 1)
             .map(|b| b.hall_edges_per_rev())
     }
 
-    /// The motor type 2004h:07 the output stage runs. Decision: the manual names no moment
-    /// at which a new type applies; the twin takes it while the output stage is off (not
-    /// while a motor is being driven), so a change made in Operation Enabled applies at the
-    /// next disable. A BLDC's position resolution follows: type 1 counts Hall edges
-    /// (6 × pole pairs a turn), type 2 the quadrature encoder (the servo motor data's
-    /// increments).
+    /// The motor type the output stage runs ([`Vendor::plant_motor`]). Decision: the
+    /// Nanotec's manual names no moment at which a new type (2004h:07) applies; the twin
+    /// takes it while the output stage is off (not while a motor is being driven), so a
+    /// change made in Operation Enabled applies at the next disable. A BLDC's position
+    /// resolution follows: type 1 counts Hall edges (6 × pole pairs a turn), type 2 the
+    /// quadrature encoder (the servo motor data's increments).
     fn take_motor_type(&mut self) {
-        let t = self.value(0x2004, 7).clamp(0, 2) as u8;
+        let t = V::plant_motor(self).code();
         self.bldc_currents();
         if t == self.motor_type {
             return;
@@ -219,7 +222,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 self.axis.step(Demand::Off);
             }
             Some(b) => {
-                let mode = self.value(0x2004, 0x0C) as u32;
+                let mode = V::bldc_settings(self).commutation;
                 let edges = self.hall_edges();
                 let factor = b.torque_factor(mode, self.axis.motor().angle());
                 self.axis.motor_mut().set_torque_factor(factor);
@@ -244,18 +247,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// The BLDC's current limits, taken with the output stage off: 2004h:01 % of the motor's
-    /// rated current continuously; 2004h:0D, when above 2004h:01, for a while of 2004h:0E
-    /// (the axis's I²t). Decisions: the manual gives no unit for 0Dh / 0Eh; 0Dh is read in %
-    /// like sub 1, 0Eh in ms (the I²t time); with 0Dh ≤ sub 1 (default 0) the limit is sub 1.
+    /// The BLDC's current limits ([`Vendor::bldc_settings`]), taken with the output stage
+    /// off: a share of the motor's rated current continuously; the peak, when above it, for
+    /// a while (the axis's I²t); with no peak above it the limit is the continuous share.
     fn bldc_currents(&mut self) {
         if self.bldc.is_none() {
             return;
         }
         let rated = self.axis.motor().data().rated_current * 1000.0;
-        let percent = self.value(0x2004, 1).clamp(1, 100) as f64;
-        let peak = self.value(0x2004, 0x0D).clamp(0, 1000) as f64;
-        let time = self.value(0x2004, 0x0E).clamp(0, i64::from(u16::MAX)) as u16;
+        let settings = V::bldc_settings(self);
+        let percent = settings.current_percent;
+        let peak = settings.peak_percent;
+        let time = settings.peak_time_ms;
         let mut params = *self.axis.params();
         params.motor_rated_current_ma = (rated * percent / 100.0).max(1.0) as u32;
         let (permille, time) = if peak > percent {
@@ -275,21 +278,26 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         self.bldc.as_ref()
     }
 
-    /// The stepper's control structure from 2001h / 2011h (see the module doc), 200Ah.
+    /// The object that shows the stepper's loop ([`Vendor::CLOSED_LOOP_OBJECT`]).
+    #[inline]
+    fn closed_loop_entry(&self) -> Option<&'static Entry> {
+        V::CLOSED_LOOP_OBJECT.and_then(|(index, sub)| self.param(index, sub))
+    }
+
+    /// The stepper's loop as the vendor sets it ([`Vendor::stepper_closed_loop`]), shown in
+    /// [`Vendor::CLOSED_LOOP_OBJECT`].
     pub(crate) fn stepper_mode(&mut self) {
         if self.bldc.is_some() {
             // Decision: a BLDC runs commutated from its Hall sensors, its current, speed and
-            // position controlled: closed loop (200Ah = 1) whenever 2004h:07 selects it.
-            self.store(self.param(0x200A, 0), i64::from(self.motor_type != 0));
+            // position controlled: closed loop (Nanotec 200Ah = 1) whenever the motor type
+            // selects it.
+            self.store(self.closed_loop_entry(), i64::from(self.motor_type != 0));
             return;
         }
         if self.stepper.is_none() {
             return;
         }
-        // 2001h: 1 / 2 at once (the twin's encoder is aligned), 3 after the short test run.
-        let enable = self.value(0x2001, 0);
-        let closed = (matches!(enable, 1 | 2) || (enable == 3 && self.closed_loop_aligned))
-            && self.value(0x2011, 0) != 0;
+        let closed = V::stepper_closed_loop(self);
         let Some(s) = self.stepper.as_mut() else {
             return;
         };
@@ -301,6 +309,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if s.motor.mode() != mode {
             s.motor.set_mode(mode);
         }
-        self.store(self.param(0x200A, 0), i64::from(closed));
+        self.store(self.closed_loop_entry(), i64::from(closed));
     }
 }

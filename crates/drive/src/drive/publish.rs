@@ -173,7 +173,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 .velocity_readout
                 .sample(position, dt, VL_ACTUAL_FILTER_S);
             let shown = !self.personality.capabilities.vl_actual_closed_loop_only
-                || self.value(0x200A, 0) != 0;
+                || V::CLOSED_LOOP_OBJECT.is_some_and(|(index, sub)| self.value(index, sub) != 0);
             let v = if shown {
                 self.vl_actual_user(measured)
             } else {

@@ -27,7 +27,7 @@ use crate::factor_group::FactorObject;
 use crate::homing::HomingError;
 use crate::personality::{
     BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, PlantSupervision, PowerStageObjects, Vendor,
+    OptionCode, Personality, PlantSupervision, PowerStageObjects, VelocityDisplayObjects, Vendor,
 };
 use crate::statusword::Statusword;
 use error_management::ErrorManagement;
@@ -197,10 +197,43 @@ pub const CMMP_AS: Personality = Personality {
 #[derive(Debug, Clone, Default)]
 pub struct CmmpAs {
     pub(crate) errors: ErrorManagement,
+    /// 2000h:01 manufacturer_statusword_1, written every logic cycle (§6.1.4).
+    manufacturer_status: Option<&'static od::Entry>,
 }
 
 impl Vendor for CmmpAs {
     const MANUFACTURER_OBJECTS: bool = true;
+
+    /// 2005h:01 / 200Ah:01 (statusword bit 14's mask and inversion), 2045h (the brake's
+    /// switch-off delay), 2090h:01 … :05 (the profile velocity ramps) and the drive data
+    /// 6510h the hooks read each cycle: the remote bit :10, the switch set-up :11 … :14, the
+    /// emergency ramp :15, the brake delay :18, the following-error reaction :22, the
+    /// temperature limits :2F / :32, the under-voltage supervision :36 … :38, the
+    /// compatibility word :F0.
+    const CACHED_OBJECTS: &'static [(u16, u8)] = &[
+        (0x2005, 1),
+        (0x200A, 1),
+        (0x2045, 0),
+        (0x2090, 1),
+        (0x2090, 2),
+        (0x2090, 3),
+        (0x2090, 4),
+        (0x2090, 5),
+        (0x6510, 0x10),
+        (0x6510, 0x11),
+        (0x6510, 0x12),
+        (0x6510, 0x13),
+        (0x6510, 0x14),
+        (0x6510, 0x15),
+        (0x6510, 0x18),
+        (0x6510, 0x22),
+        (0x6510, 0x2F),
+        (0x6510, 0x32),
+        (0x6510, 0x36),
+        (0x6510, 0x37),
+        (0x6510, 0x38),
+        (0x6510, 0xF0),
+    ];
 
     /// Ch. 6: halt aborts homing and sets homing_error (statusword bit 13).
     const HALT_IS_HOMING_ERROR: bool = true;
@@ -208,6 +241,13 @@ impl Vendor for CmmpAs {
     /// The drive data 6510h: :33 nominal_dc_link_circuit_voltage, :34
     /// actual_dc_link_circuit_voltage, :41 peak_current (the bound of 6073h max_current), :B0
     /// … :B2 the cycle times of the current, velocity and position controllers (§5.17).
+    /// §7.5.2: 2074h velocity_actual_value_filtered, the actual speed through the filter of
+    /// 2073h velocity_display_filter_time (µs, 20 ms by default), "for display only".
+    const VELOCITY_DISPLAY_OBJECTS: Option<VelocityDisplayObjects> = Some(VelocityDisplayObjects {
+        filter_time: (0x2073, 0),
+        value: (0x2074, 0),
+    });
+
     const POWER_STAGE_OBJECTS: Option<PowerStageObjects> = Some(PowerStageObjects {
         nominal_dc_link_voltage: (0x6510, 0x33),
         actual_dc_link_voltage: (0x6510, 0x34),
@@ -215,8 +255,12 @@ impl Vendor for CmmpAs {
         cycle_times: [(0x6510, 0xB0), (0x6510, 0xB1), (0x6510, 0xB2)],
     });
 
-    fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
-        (&CMMP_AS, CmmpAs::default())
+    fn for_device(desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
+        let vendor = CmmpAs {
+            manufacturer_status: desc.entry(0x2000, 1),
+            ..CmmpAs::default()
+        };
+        (&CMMP_AS, vendor)
     }
 
     fn power_on<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>) {
@@ -425,7 +469,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
             | if ready { 0x4 } else { 0 }
             | if self.setpoints.active.is_none() { 0x8 } else { 0 }
             | if self.safe_standstill { 0x100 } else { 0 };
-        self.store(self.hot.manufacturer_status, i64::from(msw));
+        self.store(self.vendor.manufacturer_status, i64::from(msw));
         let invert = self.value(0x200A, 1) as u32;
         let mask = self.value(0x2005, 1) as u32;
         Statusword::MANUFACTURER_14.when(manufacturer_bit_14(msw, invert, mask))

@@ -62,7 +62,7 @@ struct AinObjects {
 
 /// The parameter slot of `index:sub` (`usize::MAX` if it has none: refused below).
 const fn slot(index: u16, sub: u8) -> usize {
-    match crate::drive::param_slot(index, sub) {
+    match crate::drive::param_slot::<Kinco>(index, sub) {
         Some(s) => s,
         None => usize::MAX,
     }
@@ -85,14 +85,14 @@ const AIN: [AinObjects; 2] = [
     },
 ];
 
-// Every object of AIN is in PARAMS.
+// Every object of AIN is in the drive's parameter cache (`CACHED_OBJECTS`).
 const _: () = {
     let mut rest: &[AinObjects] = &AIN;
     while let [a, tail @ ..] = rest {
         let slots = [a.filter, a.dead, a.offset, a.voltage, a.out];
         let mut left: &[usize] = &slots;
         while let [s, more @ ..] = left {
-            assert!(*s != usize::MAX, "an analog input object is not in PARAMS");
+            assert!(*s != usize::MAX, "an analog input object is not cached");
             left = more;
         }
         rest = tail;

@@ -68,6 +68,59 @@ pub struct Kinco {
 impl Vendor for Kinco {
     const MANUFACTURER_OBJECTS: bool = true;
 
+    /// 2010h: DIN polarity, simulate and the seven function codes, the DOUT polarity,
+    /// simulate and the five function codes (each in input / output order, one after the
+    /// other: `function_codes` counts on it), Zero_Speed_Window and Limit_Function; the
+    /// analog filters, selectors and outputs (2502h), the error words (2601h, 2602h), the
+    /// display values and the analog offsets and dead bands (2FF0h); PI_Switch 6069h:09;
+    /// the display speeds 60F9h:19 / :1A, PI_Pointer 60F9h:28, Pos_Error 60FBh:08 (the
+    /// Kinco's sub-indices of CiA 402's objects). Read or written every logic cycle.
+    const CACHED_OBJECTS: &'static [(u16, u8)] = &[
+        (0x2010, 1),
+        (0x2010, 2),
+        (0x2010, 3),
+        (0x2010, 4),
+        (0x2010, 5),
+        (0x2010, 6),
+        (0x2010, 7),
+        (0x2010, 8),
+        (0x2010, 9),
+        (0x2010, 0x0A),
+        (0x2010, 0x0D),
+        (0x2010, 0x0E),
+        (0x2010, 0x0F),
+        (0x2010, 0x10),
+        (0x2010, 0x11),
+        (0x2010, 0x12),
+        (0x2010, 0x13),
+        (0x2010, 0x14),
+        (0x2010, 0x18),
+        (0x2010, 0x19),
+        (0x2502, 0x01),
+        (0x2502, 0x04),
+        (0x2502, 0x07),
+        (0x2502, 0x08),
+        (0x2502, 0x09),
+        (0x2502, 0x0F),
+        (0x2502, 0x10),
+        (0x2601, 0),
+        (0x2602, 0),
+        (0x2FF0, 0x14),
+        (0x2FF0, 0x16),
+        (0x2FF0, 0x17),
+        (0x2FF0, 0x18),
+        (0x2FF0, 0x1A),
+        (0x2FF0, 0x1D),
+        (0x2FF0, 0x1E),
+        (0x2FF0, 0x1F),
+        (0x2FF0, 0x20),
+        (0x6069, 0x09),
+        (0x60F9, 0x19),
+        (0x60F9, 0x1A),
+        (0x60F9, 0x28),
+        (0x60FB, 0x08),
+    ];
+
     /// The manual is silent on halt in homing; the abort is reported as homing_error, as
     /// the twin has always run it.
     const HALT_IS_HOMING_ERROR: bool = true;

@@ -153,7 +153,7 @@ const DIN1_FUNCTION: u8 = 0x03;
 const DOUT1_FUNCTION: u8 = 0x0F;
 
 // `function_codes` reads DINn_Function from slot `param_slot(2010h:03) + n − 1` of the
-// drive's PARAMS, DOUTn_Function from `param_slot(2010h:0F) + n − 1`: the keys 2010h:03 …
+// drive's parameter cache, DOUTn_Function from `param_slot(2010h:0F) + n − 1`: the keys 2010h:03 …
 // :09 and :0F … :13 must stay in consecutive slots there.
 const _: () = {
     let mut group = 0;
@@ -163,15 +163,15 @@ const _: () = {
         } else {
             (DOUT1_FUNCTION, DOUTS)
         };
-        let first = match crate::drive::param_slot(0x2010, first_sub) {
+        let first = match crate::drive::param_slot::<Kinco>(0x2010, first_sub) {
             Some(s) => s,
-            None => panic!("a function code is not in PARAMS"),
+            None => panic!("a function code is not cached"),
         };
         let mut n = 0;
         while n < count {
-            match crate::drive::param_slot(0x2010, first_sub + n) {
+            match crate::drive::param_slot::<Kinco>(0x2010, first_sub + n) {
                 Some(s) if s == first + n as usize => {}
-                _ => panic!("function codes not in consecutive PARAMS slots"),
+                _ => panic!("function codes not in consecutive slots"),
             }
             n += 1;
         }
@@ -656,7 +656,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let dout = self.kinco_dout_real();
         // Resolved once at power-on (the engine's parameter slots): this runs every cycle.
         let entry = |sub| {
-            crate::drive::param_slot(0x2010, sub)
+            crate::drive::param_slot::<Kinco>(0x2010, sub)
                 .and_then(|slot| self.params.get(slot).copied().flatten())
         };
         let (a, b) = (entry(0x0A), entry(0x14));
@@ -694,7 +694,7 @@ fn function_codes<S: AsRef<[u8]> + AsMut<[u8]>>(
     first_sub: u8,
     count: u8,
 ) -> u128 {
-    let first = crate::drive::param_slot(0x2010, first_sub).unwrap_or(usize::MAX);
+    let first = crate::drive::param_slot::<Kinco>(0x2010, first_sub).unwrap_or(usize::MAX);
     let entries = d
         .params
         .get(first..first.saturating_add(usize::from(count)))

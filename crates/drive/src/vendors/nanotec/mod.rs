@@ -23,8 +23,8 @@ use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{engine_method, Method, Speed, Step, Until};
 use crate::personality::{
-    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault, HardwareEnable,
-    ModeSpec, OptionCode, Personality, PlantSupervision, Vendor,
+    BldcSettings, BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault,
+    HardwareEnable, ModeSpec, OptionCode, Personality, PlantMotor, PlantSupervision, Vendor,
 };
 use crate::statusword::Statusword;
 use crate::stepper::StepperData;
@@ -338,10 +338,34 @@ const STATE_BITS: [(State, u16); 8] = [
 pub struct Nanotec {
     /// A closed-loop test run in progress (6060h = −1 / −2) and when it ends.
     pub(crate) test_run: Option<(i8, od::Instant)>,
+    /// The short closed-loop test run has aligned the encoder (200Bh found).
+    pub(crate) closed_loop_aligned: bool,
 }
 
 impl Vendor for Nanotec {
     const MANUFACTURER_OBJECTS: bool = true;
+
+    /// 2001h ENABLE_CL, 2004h (the BLDC's currents and motor type, the load-angle
+    /// spacing), 2006h pole pairs, 2007h the brake's times, 200Ah closed loop active, 200Bh,
+    /// 2011h the encoder, 2020h the legacy homing: read by the stepper plant's settings and
+    /// the hooks each cycle.
+    const CACHED_OBJECTS: &'static [(u16, u8)] = &[
+        (0x2001, 0),
+        (0x2004, 1),
+        (0x2004, 7),
+        (0x2004, 8),
+        (0x2004, 0x0C),
+        (0x2004, 0x0D),
+        (0x2004, 0x0E),
+        (0x2006, 0),
+        (0x2007, 1),
+        (0x2007, 2),
+        (0x2007, 3),
+        (0x200A, 0),
+        (0x200B, 0),
+        (0x2011, 0),
+        (0x2020, 0),
+    ];
 
     /// §5.2 says only "halt: the motor stops"; the abort is reported as the CMMP-AS does
     /// (homing_error), as the twin has always run it.
@@ -378,6 +402,43 @@ impl Vendor for Nanotec {
 
     fn write_hook<S: AsRef<[u8]> + AsMut<[u8]>>(index: u16, sub: u8) -> Option<Hook<S, Self>> {
         Drive::<S, Self>::nanotec_write_hook(index, sub)
+    }
+
+    /// §11.2: closed loop is on with an encoder (2011h ≠ 0) once 2001h ENABLE_CL is 1 or 2,
+    /// or 3 after the short test run (6060h = −2). Decision: 1 / 2 at once (the long test
+    /// run and the homing the real drive needs first are taken as done: the twin's encoder
+    /// is aligned).
+    #[inline]
+    fn stepper_closed_loop<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        let enable = d.value(0x2001, 0);
+        (matches!(enable, 1 | 2) || (enable == 3 && d.vendor.closed_loop_aligned))
+            && d.value(0x2011, 0) != 0
+    }
+
+    /// 200Ah: closed loop active.
+    const CLOSED_LOOP_OBJECT: Option<(u16, u8)> = Some((0x200A, 0));
+
+    /// 2004h:07 motor type: 0 stepper, 1 BLDC on its Hall sensors, 2 BLDC with encoder
+    /// (values above 2 read as 2).
+    fn plant_motor<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> PlantMotor {
+        match d.value(0x2004, 7) {
+            i64::MIN..=0 => PlantMotor::Stepper,
+            1 => PlantMotor::BldcHall,
+            _ => PlantMotor::BldcEncoder,
+        }
+    }
+
+    /// 2004h:0C the commutation mode; 2004h:01 % of the motor's rated current
+    /// continuously; 2004h:0D, when above 2004h:01, for a while of 2004h:0E. Decisions: the
+    /// manual gives no unit for 0Dh / 0Eh; 0Dh is read in % like sub 1, 0Eh in ms (the I²t
+    /// time).
+    fn bldc_settings<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> BldcSettings {
+        BldcSettings {
+            commutation: d.value(0x2004, 0x0C) as u32,
+            current_percent: d.value(0x2004, 1).clamp(1, 100) as f64,
+            peak_percent: d.value(0x2004, 0x0D).clamp(0, 1000) as f64,
+            peak_time_ms: d.value(0x2004, 0x0E).clamp(0, i64::from(u16::MAX)) as u16,
+        }
     }
 
     /// Ch. 7: 60C1h is the target 607Ah shares, always open.
@@ -673,7 +734,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
                 self.store(Some(e), offset);
             }
         }
-        self.closed_loop_aligned = true;
+        self.vendor.closed_loop_aligned = true;
     }
 
     /// 60FDh (§9.1): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
