@@ -367,3 +367,45 @@ impl Motor {
         self.velocity = w1;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The encoder reading by a multiplication is the floored quotient bit for bit: on and
+    /// next to every increment edge, far out, and for the values that are not numbers.
+    #[test]
+    fn encoder_is_the_floored_quotient() {
+        for per_rev in [INCREMENTS_PER_REV, 2000, 4096, 10_000, 3, 1] {
+            let motor = Motor::new(MotorData {
+                increments_per_rev: per_rev,
+                ..MotorData::default()
+            });
+            let rpi = motor.rad_per_inc;
+            let reference = |angle: f64| crate::rounding::floor(angle / rpi) as i64;
+            for k in (-3000i64..3000).chain([1 << 20, -(1 << 33), 1 << 45]) {
+                let edge = k as f64 * rpi;
+                let mut below = edge;
+                let mut above = edge;
+                for _ in 0..8 {
+                    for a in [edge, below, above, edge + 0.5 * rpi] {
+                        assert_eq!(motor.encoder(a), reference(a), "{per_rev} {a}");
+                    }
+                    below = f64::from_bits(below.to_bits().wrapping_sub(1));
+                    above = f64::from_bits(above.to_bits().wrapping_add(1));
+                }
+            }
+            for a in [
+                f64::NAN,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                1e300,
+                -1e300,
+                0.0,
+                -0.0,
+            ] {
+                assert_eq!(motor.encoder(a), reference(a), "{per_rev} {a}");
+            }
+        }
+    }
+}

@@ -379,7 +379,10 @@ struct PublishedEntries([(u16, u8, Option<&'static Entry>); 32]);
 impl PublishedEntries {
     /// `od.set_value(index, sub, v)`, the `n`-th write of the cycle: the entry of the last
     /// cycle's `n`-th write if that was the same object, else looked up (and remembered).
-    #[inline]
+    /// Inlined at each write: the value's kind is then known there and the branch on the
+    /// entry's type is a branch of that write alone (one shared branch over 28 writes of
+    /// five types was mispredicted).
+    #[inline(always)]
     fn set<S: AsRef<[u8]> + AsMut<[u8]>>(
         &mut self,
         od: &mut ObjectDictionary<S>,
