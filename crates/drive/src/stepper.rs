@@ -474,55 +474,55 @@ fn sin_cos(x: f64) -> (f64, f64) {
 /// needs the rotor's and the observer's sine and cosine in every sub-step.
 #[inline(always)]
 fn sin_cos2(x: [f64; 2]) -> [(f64, f64); 2] {
-    let x = x.map(|x| {
+    let [x0, x1] = x.map(|x| {
         if libm::fabs(x) < SIN_COS_DIRECT {
             x
         } else {
             wrap(x)
         }
     });
-    let t = [
-        x[0] * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
-        x[1] * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
-    ];
-    let qf = [t[0] - ROUND_MAGIC, t[1] - ROUND_MAGIC];
-    let r = [
-        (x[0] - qf[0] * PIO2_HI) - qf[0] * PIO2_LO,
-        (x[1] - qf[1] * PIO2_HI) - qf[1] * PIO2_LO,
-    ];
-    let r2 = [r[0] * r[0], r[1] * r[1]];
-    let r4 = [r2[0] * r2[0], r2[1] * r2[1]];
-    let r8 = [r4[0] * r4[0], r4[1] * r4[1]];
-    let sp = |i: usize| {
-        r[i] + r[i]
-            * r2[i]
-            * ((-1.0 / 6.0 + r2[i] * (1.0 / 120.0))
-                + r4[i] * (-1.0 / 5040.0 + r2[i] * (1.0 / 362_880.0))
-                + r8[i]
-                    * ((-1.0 / 39_916_800.0 + r2[i] * (1.0 / 6_227_020_800.0))
-                        + r4[i] * (-1.0 / 1_307_674_368_000.0)))
+    let (t0, t1) = (
+        x0 * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
+        x1 * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
+    );
+    let (q0, q1) = (t0 - ROUND_MAGIC, t1 - ROUND_MAGIC);
+    let (r0, r1) = (
+        (x0 - q0 * PIO2_HI) - q0 * PIO2_LO,
+        (x1 - q1 * PIO2_HI) - q1 * PIO2_LO,
+    );
+    let (r20, r21) = (r0 * r0, r1 * r1);
+    let (r40, r41) = (r20 * r20, r21 * r21);
+    let (r80, r81) = (r40 * r40, r41 * r41);
+    // The polynomials of `sin_cos`, term for term.
+    let sp = |r: f64, r2: f64, r4: f64, r8: f64| {
+        r + r
+            * r2
+            * ((-1.0 / 6.0 + r2 * (1.0 / 120.0))
+                + r4 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0))
+                + r8 * ((-1.0 / 39_916_800.0 + r2 * (1.0 / 6_227_020_800.0))
+                    + r4 * (-1.0 / 1_307_674_368_000.0)))
     };
-    let cp = |i: usize| {
-        1.0 - 0.5 * r2[i]
-            + r4[i]
-                * ((1.0 / 24.0 + r2[i] * (-1.0 / 720.0))
-                    + r4[i] * (1.0 / 40_320.0 + r2[i] * (-1.0 / 3_628_800.0))
-                    + r8[i]
-                        * ((1.0 / 479_001_600.0 + r2[i] * (-1.0 / 87_178_291_200.0))
-                            + r4[i] * (1.0 / 20_922_789_888_000.0)))
+    let cp = |r2: f64, r4: f64, r8: f64| {
+        1.0 - 0.5 * r2
+            + r4 * ((1.0 / 24.0 + r2 * (-1.0 / 720.0))
+                + r4 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0))
+                + r8 * ((1.0 / 479_001_600.0 + r2 * (-1.0 / 87_178_291_200.0))
+                    + r4 * (1.0 / 20_922_789_888_000.0)))
     };
-    let (s, c) = ([sp(0), sp(1)], [cp(0), cp(1)]);
-    let lane = |i: usize| {
-        let bits = t[i].to_bits();
+    let (s0, s1) = (sp(r0, r20, r40, r80), sp(r1, r21, r41, r81));
+    let (c0, c1) = (cp(r20, r40, r80), cp(r21, r41, r81));
+    // The quadrant as in `sin_cos`.
+    let lane = |t: f64, s: f64, c: f64| {
+        let bits = t.to_bits();
         let swap = 0u64.wrapping_sub(bits & 1);
-        let (sb, cb) = (s[i].to_bits(), c[i].to_bits());
+        let (sb, cb) = (s.to_bits(), c.to_bits());
         let sin = (sb & !swap) | (cb & swap);
         let cos = (cb & !swap) | (sb & swap);
         let neg_sin = (bits & 2) << 62;
         let neg_cos = (bits.wrapping_add(1) & 2) << 62;
         (f64::from_bits(sin ^ neg_sin), f64::from_bits(cos ^ neg_cos))
     };
-    [lane(0), lane(1)]
+    [lane(t0, s0, c0), lane(t1, s1, c1)]
 }
 
 /// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
