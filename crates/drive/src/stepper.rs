@@ -388,6 +388,11 @@ fn clamp(x: f64, lim: f64) -> f64 {
     }
 }
 
+/// Micro-steps per electrical period up to which the open-loop command vector comes from
+/// `Stepper::command_table` (64: 16 micro-steps per full step, the CMMO-ST's and the
+/// Nanotec's).
+const COMMAND_TABLE: usize = 64;
+
 /// 1 / 2π.
 const INV_TAU: f64 = 1.0 / TAU;
 
@@ -464,6 +469,62 @@ fn sin_cos(x: f64) -> (f64, f64) {
     (f64::from_bits(sin ^ neg_sin), f64::from_bits(cos ^ neg_cos))
 }
 
+/// [`sin_cos`] of two arguments at once: the same operations lane by lane (so the same
+/// bits), in lanes the compiler packs into two-wide vector instructions. The closed loop
+/// needs the rotor's and the observer's sine and cosine in every sub-step.
+#[inline(always)]
+fn sin_cos2(x: [f64; 2]) -> [(f64, f64); 2] {
+    let [x0, x1] = x.map(|x| {
+        if libm::fabs(x) < SIN_COS_DIRECT {
+            x
+        } else {
+            wrap(x)
+        }
+    });
+    let (t0, t1) = (
+        x0 * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
+        x1 * core::f64::consts::FRAC_2_PI + ROUND_MAGIC,
+    );
+    let (q0, q1) = (t0 - ROUND_MAGIC, t1 - ROUND_MAGIC);
+    let (r0, r1) = (
+        (x0 - q0 * PIO2_HI) - q0 * PIO2_LO,
+        (x1 - q1 * PIO2_HI) - q1 * PIO2_LO,
+    );
+    let (r20, r21) = (r0 * r0, r1 * r1);
+    let (r40, r41) = (r20 * r20, r21 * r21);
+    let (r80, r81) = (r40 * r40, r41 * r41);
+    // The polynomials of `sin_cos`, term for term.
+    let sp = |r: f64, r2: f64, r4: f64, r8: f64| {
+        r + r
+            * r2
+            * ((-1.0 / 6.0 + r2 * (1.0 / 120.0))
+                + r4 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0))
+                + r8 * ((-1.0 / 39_916_800.0 + r2 * (1.0 / 6_227_020_800.0))
+                    + r4 * (-1.0 / 1_307_674_368_000.0)))
+    };
+    let cp = |r2: f64, r4: f64, r8: f64| {
+        1.0 - 0.5 * r2
+            + r4 * ((1.0 / 24.0 + r2 * (-1.0 / 720.0))
+                + r4 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0))
+                + r8 * ((1.0 / 479_001_600.0 + r2 * (-1.0 / 87_178_291_200.0))
+                    + r4 * (1.0 / 20_922_789_888_000.0)))
+    };
+    let (s0, s1) = (sp(r0, r20, r40, r80), sp(r1, r21, r41, r81));
+    let (c0, c1) = (cp(r20, r40, r80), cp(r21, r41, r81));
+    // The quadrant as in `sin_cos`.
+    let lane = |t: f64, s: f64, c: f64| {
+        let bits = t.to_bits();
+        let swap = 0u64.wrapping_sub(bits & 1);
+        let (sb, cb) = (s.to_bits(), c.to_bits());
+        let sin = (sb & !swap) | (cb & swap);
+        let cos = (cb & !swap) | (sb & swap);
+        let neg_sin = (bits & 2) << 62;
+        let neg_cos = (bits.wrapping_add(1) & 2) << 62;
+        (f64::from_bits(sin ^ neg_sin), f64::from_bits(cos ^ neg_cos))
+    };
+    [lane(t0, s0, c0), lane(t1, s1, c1)]
+}
+
 /// `a·b/d` for d > 0, as ⌊⌋ or rounded half away from zero, saturated to i64 (i64 arithmetic
 /// when the product fits, i128 otherwise).
 fn mul_div(a: i64, b: i64, d: i64, round: bool) -> i64 {
@@ -527,6 +588,11 @@ pub struct Stepper {
     /// is a power of two (else 0).
     elec_per_micro: f64,
     period_mask: i64,
+    /// `sin_cos` of the open-loop current-vector angle for each micro-step of an electrical
+    /// period of at most [`COMMAND_TABLE`] micro-steps (a power of two), filled by `derive`:
+    /// the command vector moves every cycle at speed, and the table holds the very values
+    /// `sin_cos` gives.
+    command_table: [(f64, f64); COMMAND_TABLE],
     /// Servo gains: position (1/s), velocity P (N·m·s/rad), velocity I (N·m/rad).
     kv: f64,
     kp: f64,
@@ -616,6 +682,7 @@ impl Stepper {
             inc_per_rad: 1.0,
             elec_per_micro: 0.0,
             period_mask: 0,
+            command_table: [(0.0, 1.0); COMMAND_TABLE],
             kv: 0.0,
             kp: 0.0,
             ki: 0.0,
@@ -686,6 +753,11 @@ impl Stepper {
         } else {
             0
         };
+        if self.period_mask != 0 && period as usize <= COMMAND_TABLE {
+            for (m, slot) in self.command_table.iter_mut().enumerate() {
+                *slot = sin_cos(m as f64 * self.elec_per_micro);
+            }
+        }
         let wv = if d.velocity_bandwidth > 0.0 && d.velocity_bandwidth.is_finite() {
             d.velocity_bandwidth
         } else {
@@ -802,8 +874,10 @@ impl Stepper {
         } else {
             self.cmd_micro.rem_euclid(4 * self.micro)
         };
-        let ang = m as f64 * self.elec_per_micro;
-        let (s, c) = sin_cos(ang);
+        let (s, c) = match self.command_table.get(m as usize) {
+            Some(&sc) if self.period_mask != 0 && self.period_mask < COMMAND_TABLE as i64 => sc,
+            _ => sin_cos(m as f64 * self.elec_per_micro),
+        };
         self.cmd_cos = c;
         self.cmd_sin = s;
     }
@@ -946,22 +1020,33 @@ impl Stepper {
         self.obs_vel += self.obs_k2h * e;
         self.obs_angle += h * self.obs_vel + self.obs_k1h * e;
 
-        // Current references.
-        let (ia_ref, ib_ref) = if !self.energised {
-            (0.0, 0.0)
+        // Current references, and the rotor's electrical angle's sine and cosine (with the
+        // servo's, in the closed loop).
+        let ((ia_ref, ib_ref), (s, c)) = if !self.energised {
+            ((0.0, 0.0), sin_cos(self.np * self.angle))
         } else {
             match self.mode {
                 StepperMode::OpenLoop => {
                     let i = self.data.rated_current.max(0.0);
-                    (i * self.cmd_cos, i * self.cmd_sin)
+                    (
+                        (i * self.cmd_cos, i * self.cmd_sin),
+                        sin_cos(self.np * self.angle),
+                    )
                 }
-                StepperMode::ClosedLoop => self.servo(inc, h, w_ff, t_ff),
+                StepperMode::ClosedLoop => {
+                    // The electrical angle the current vector is placed at: the observed
+                    // one, one step ahead.
+                    let [servo_sc, rotor_sc] = sin_cos2([
+                        self.np * (self.obs_angle + self.obs_vel * h),
+                        self.np * self.angle,
+                    ]);
+                    (self.servo(inc, h, w_ff, t_ff, servo_sc), rotor_sc)
+                }
             }
         };
 
         // Phase currents through the choppers. A saturated bridge leaves its phase current to
         // the back-EMF: d(i_a)/dω = b·k·sin φ, d(i_b)/dω = −b·k·cos φ.
-        let (s, c) = sin_cos(self.np * self.angle);
         let kw = self.k * self.velocity;
         let (mut sat_a, mut sat_b) = (false, false);
         if !self.energised {
@@ -996,17 +1081,15 @@ impl Stepper {
         self.torque_em = self.k * (-self.ia * s + self.ib * c);
     }
 
-    /// Closed-loop controller: returns the phase-current references.
-    fn servo(&mut self, inc: i64, h: f64, w_ff: f64, t_ff: f64) -> (f64, f64) {
+    /// Closed-loop controller: returns the phase-current references; `(s, c)` is the sine
+    /// and cosine of the electrical angle the current vector is placed at.
+    fn servo(&mut self, inc: i64, h: f64, w_ff: f64, t_ff: f64, (s, c): (f64, f64)) -> (f64, f64) {
         let e = self.sp_inc.wrapping_sub(inc) as f64 * self.rad_per_inc;
         let w_set = self.kv * e + w_ff;
         let ew = w_set - self.obs_vel;
         let i_max = self.data.max_current.max(0.0);
         let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
         let t_max = self.k * i_max;
-        // The electrical angle the current vector is placed at: the observed one, one step
-        // ahead.
-        let (s, c) = sin_cos(self.np * (self.obs_angle + self.obs_vel * h));
         let t = match self.torque_demand {
             Some(t) => t,
             None => {
@@ -1408,6 +1491,46 @@ mod tests {
             assert!(
                 (s - ls).abs() <= 4.5e-16 && (c - lc).abs() <= 4.5e-16,
                 "{x}"
+            );
+        }
+    }
+
+    /// The two-lane sine and cosine and the open-loop command table are `sin_cos` bit for
+    /// bit: the closed and open loops integrate exactly as with one `sin_cos` per angle.
+    #[test]
+    fn sin_cos2_and_command_table_are_sin_cos_bit_for_bit() {
+        let bits = |(s, c): (f64, f64)| (s.to_bits(), c.to_bits());
+        let n = 100_000;
+        for i in 0..=n {
+            let a = -50.0 * PI + 100.0 * PI * i as f64 / n as f64;
+            let b = 3.0e6 * (i as f64 / n as f64 - 0.5) + 0.1234;
+            let [sa, sb] = sin_cos2([a, b]);
+            assert_eq!(bits(sa), bits(sin_cos(a)), "{a}");
+            assert_eq!(bits(sb), bits(sin_cos(b)), "{b}");
+        }
+        for x in [
+            0.0,
+            -0.0,
+            FRAC_PI_2,
+            -PI,
+            1e-300,
+            1e9,
+            -1e12,
+            f64::NAN,
+            f64::INFINITY,
+        ] {
+            let [sx, _] = sin_cos2([x, 0.0]);
+            assert_eq!(bits(sx), bits(sin_cos(x)), "{x}");
+        }
+        let mut stepper = Stepper::new(StepperData::default());
+        for micro in -200..200 {
+            stepper.set_point_micro(micro);
+            let m = micro.rem_euclid(4 * MICROSTEPS as i64);
+            let expected = sin_cos(m as f64 * FRAC_PI_2 / MICROSTEPS as f64);
+            assert_eq!(
+                bits((stepper.cmd_sin, stepper.cmd_cos)),
+                bits(expected),
+                "{micro}"
             );
         }
     }

@@ -53,9 +53,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // 60FEh:01 bit 0 (1 = brake applied, CiA 402 "set brake"); otherwise it follows the
         // output stage.
         if self.settings.brake_fitted {
-            let manual = self.value(0x60FE, 2) & 1 != 0;
+            let manual = self.cycle_value(0x60FE, 2) & 1 != 0;
             let engaged = if manual {
-                self.value(0x60FE, 1) & 1 != 0
+                self.cycle_value(0x60FE, 1) & 1 != 0
             } else {
                 self.brake_engaged
             };
@@ -64,7 +64,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             }
             // Without host control 60FEh:01 bit 0 reads the brake's state ("depends on the
             // state of the brake", L4203–4215).
-            let data = self.value(0x60FE, 1);
+            let data = self.cycle_value(0x60FE, 1);
             let shown = (data & !1) | i64::from(engaged);
             if !manual && shown != data && self.personality.capabilities.brake_in_60fe {
                 self.store(self.param(0x60FE, 1), shown);

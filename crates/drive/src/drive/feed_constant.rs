@@ -47,9 +47,17 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// 6063h in encoder increments (608Fh position encoder resolution; Nanotec §3.4 "raw
     /// encoder position", default 2000 per revolution) from the internal 65536 per revolution.
     pub(crate) fn encoder_position(&self, internal: i64) -> i64 {
-        let increments = self.value(0x608F, 1).max(1) as i128;
-        let revolutions = self.value(0x608F, 2).max(1) as i128;
-        let v = i128::from(internal) * increments / (revolutions * 65536);
+        let increments = self.cycle_value(0x608F, 1).max(1);
+        let revolutions = self.cycle_value(0x608F, 2).max(1);
+        // In i64 when the product and the divisor fit (an i128 division is a library call):
+        // both divisions truncate towards zero, so the quotient is the same.
+        let v = match (
+            internal.checked_mul(increments),
+            revolutions.checked_mul(65536),
+        ) {
+            (Some(n), Some(d)) => i128::from(n / d),
+            _ => i128::from(internal) * i128::from(increments) / (i128::from(revolutions) * 65536),
+        };
         v.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i64
     }
 }

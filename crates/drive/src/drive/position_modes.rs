@@ -20,8 +20,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let target_limits = self.personality.capabilities.pp_target_limits;
         let abrupt_zero = self.personality.capabilities.zero_ramp_is_abrupt;
         // Nanotec §4.1: range-limit wrap, software limits and relative overflow checked before
-        // the set-point is taken; a refused one becomes a job that stays where it is.
-        let checked = (bit4 && target_limits).then(|| self.check_target(cw));
+        // the set-point is taken; a refused one becomes a job that stays where it is. Only on
+        // bit 4's rising edge: `update` takes a set-point (and `target_taken` its check) then
+        // only, and the check reads nothing the cycle changes before.
+        let checked = (target_limits && self.setpoints.rising(bit4)).then(|| self.check_target(cw));
         let get = |i: u16| self.cycle_value(i, 0);
         // Read and convert the set-point only on bit 4's rising edge, the only time
         // `update` takes it (not in every cycle bit 4 is held).
