@@ -39,9 +39,13 @@
 //!
 //! Both tests need root (network namespaces, raw sockets) and `ip`; otherwise they print why and
 //! pass as skipped. They run one after the other (a lock), master and twin at SCHED_FIFO where
-//! allowed, as a DC master and a drive's firmware run: on a loaded 2-CPU machine a master held
-//! off the CPU for three SYNC0 cycles is (rightly) a synchronisation error. Timing is judged by
-//! counting cycles and working counters; the figures are printed.
+//! allowed, as a DC master and a drive's firmware run, the master's cycle on one thread as a
+//! PLC task (`master_runtime`). A frame held off the wire for three SYNC0 cycles is (rightly)
+//! a synchronisation error, as on a device: on a loaded 2-CPU virtual machine a thread at
+//! SCHED_FIFO can still wait milliseconds for a CPU the host has not scheduled, or behind a
+//! neighbour in a long kernel call (`preempt=none`), docs/performance.md. The longest gap
+//! between cycles is printed with its parts (the master's late wake-up, the frame's round
+//! trip). Timing is judged by counting cycles and working counters; the figures are printed.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -67,10 +71,9 @@ use ethercrab::{
     SubDeviceGroup,
 };
 use ethercrab_master::{
-    assign_csp_pdos, csp_inputs, esi_product_code, put_csp_outputs, Storage, TxRxTask,
-    EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
+    assign_csp_pdos, csp_inputs, esi_product_code, master_runtime, put_csp_outputs, Realtime,
+    Storage, TxRxTask, EXPECTED_WKC, FESTO, FOLLOWING_ERROR_WINDOW, MAX_SUBDEVICES, PDI_LEN,
 };
-use platform::sched::Scheduling;
 
 /// The interpolation period 60C2h the twin is commissioned with (ms), and the SYNC0 cycle of
 /// the good session. Not the default 1 ms, so a twin that ignored 60C2h would be caught.
@@ -108,33 +111,8 @@ fn cell_file(ms: u32) -> PathBuf {
     path
 }
 
-/// This thread (and the threads it starts: tokio's workers, ethercrab's TX/RX task) at
-/// SCHED_FIFO 20 while it lives, where allowed; the old policy comes back on drop.
-struct Realtime(Option<Scheduling>);
-
-impl Realtime {
-    fn enter() -> Self {
-        let Ok(old) = Scheduling::of_this_thread() else {
-            return Realtime(None);
-        };
-        if platform::sched::set_fifo(0, 20).is_err() {
-            eprintln!("SCHED_FIFO refused: the master runs at normal priority");
-            return Realtime(None);
-        }
-        Realtime(Some(old))
-    }
-}
-
-impl Drop for Realtime {
-    fn drop(&mut self) {
-        if let Some(old) = self.0 {
-            let _ = old.restore();
-        }
-    }
-}
-
 /// Starts the twin (60C2h = `ipo_ms`, frame thread at SCHED_FIFO) and runs `session` against
-/// it on a tokio runtime whose threads inherit the test thread's SCHED_FIFO.
+/// it on the master's one-thread runtime at SCHED_FIFO.
 fn with_twin<F, Fut>(ipo_ms: u32, session: F)
 where
     F: FnOnce(String, u32) -> Fut,
@@ -159,11 +137,7 @@ where
     };
     let product_code = esi_product_code(binary);
     let rt_guard = Realtime::enter();
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .expect("tokio runtime");
+    let rt = master_runtime();
     rt.block_on(session(wire.master_if().to_string(), product_code));
     // Ends ethercrab's TX/RX task (and closes its socket) before the link goes away.
     drop(rt);
@@ -353,8 +327,8 @@ async fn cycle<S: HasPdi>(
     }
 }
 
-/// Sleeps until `at` (a thread sleep: finer than tokio's 1 ms timer; it blocks only the
-/// thread of `block_on`, ethercrab's TX/RX task runs on the workers). A master held up past
+/// Sleeps until `at` (a thread sleep: finer than tokio's 1 ms timer; no frame is in flight,
+/// so ethercrab's TX/RX task has nothing to do meanwhile). A master held up past
 /// `at` goes at once: `tx_rx_dc` brings it back onto the grid. Returns how late it woke
 /// (the master's own part of a long gap between cycles).
 fn sleep_until(at: Instant) -> Duration {

@@ -9,6 +9,7 @@ use std::time::Duration;
 use ethercrab::error::Error;
 use ethercrab::std::tx_rx_task;
 use ethercrab::{MainDevice, MainDeviceConfig, PduRx, PduStorage, PduTx, RetryBehaviour, Timeouts};
+use platform::sched::Scheduling;
 
 pub const FESTO: u32 = 0x1D;
 pub const MAX_SUBDEVICES: usize = 2;
@@ -104,4 +105,45 @@ where
         .await
         .expect("1C13h");
     slave.sdo_write(0x6060, 0, 8i8).await.expect("6060h = CSP");
+}
+
+/// The master's threads at SCHED_FIFO 20 while this lives, where allowed (the thread that
+/// enters it and the threads it starts: ethercrab's reactor thread of async-io), as a PLC runs
+/// its EtherCAT task; the old policy comes back on drop. Beside the twin at `--rt-priority 20`.
+pub struct Realtime(Option<Scheduling>);
+
+impl Realtime {
+    pub fn enter() -> Self {
+        let Ok(old) = Scheduling::of_this_thread() else {
+            return Realtime(None);
+        };
+        if platform::sched::set_fifo(0, 20).is_err() {
+            eprintln!("SCHED_FIFO refused: the master runs at normal priority");
+            return Realtime(None);
+        }
+        Realtime(Some(old))
+    }
+}
+
+impl Drop for Realtime {
+    fn drop(&mut self) {
+        if let Some(old) = self.0 {
+            let _ = old.restore();
+        }
+    }
+}
+
+/// The runtime the master's session runs on: one thread, as a PLC's EtherCAT task sends and
+/// receives its frames on one thread. The cycle's wait is a thread sleep in that thread (finer
+/// than tokio's 1 ms timer), with no frame in flight; ethercrab's TX/RX task runs on it while
+/// the session awaits a frame. A frame's round trip then passes three threads (this one, the
+/// twin's loop, the reactor thread of async-io that ethercrab's socket waits on) rather than
+/// five with a pool of workers: on a shared 2-CPU machine each thread woken on the way may
+/// wait behind a neighbour that holds its CPU in the kernel for milliseconds (the kernel runs
+/// `preempt=none`), or on a virtual CPU the host has not scheduled (docs/performance.md).
+pub fn master_runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("tokio runtime")
 }
