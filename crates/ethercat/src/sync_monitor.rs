@@ -149,6 +149,11 @@ impl SyncMonitor {
         self.counter
     }
 
+    /// SYNC0 events since the last SM2 event: at a loss, how long the outputs had stopped.
+    pub fn since_outputs(&self) -> u16 {
+        self.since_outputs
+    }
+
     /// The sync error counter limit in force (0x10F1:02).
     pub fn limit(&self) -> u16 {
         self.limit
@@ -289,6 +294,41 @@ mod tests {
             }
         }
         assert_eq!(lost_at, Some(5), "3, then 3 - 1 + 3 = 5 >= 4");
+    }
+
+    #[test]
+    fn a_master_catching_up_after_a_stall_pays_the_counter_back() {
+        // SSC takes 1 off the counter at every SM2 event: a master that was held off for two
+        // SYNC0 events (3) and sends its overdue frames back to back before the next event
+        // stands at 0 again, so the same stall right after is still no error.
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert!(m.sync0().take_outputs);
+        for _ in 0..2 {
+            for _ in 0..2 {
+                assert!(!m.sync0().lost);
+            }
+            assert_eq!(m.error_counter(), 3);
+            for _ in 0..3 {
+                m.outputs_received();
+            }
+            assert_eq!(m.error_counter(), 0);
+            assert!(!m.sync0().lost);
+        }
+        assert!(!m.is_lost());
+    }
+
+    #[test]
+    fn since_outputs_counts_the_events_after_the_last_buffer() {
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert_eq!(m.since_outputs(), 0);
+        for k in 1..=5 {
+            m.sync0();
+            assert_eq!(m.since_outputs(), k);
+        }
+        m.outputs_received();
+        assert_eq!(m.since_outputs(), 0);
     }
 
     #[test]

@@ -597,6 +597,11 @@ impl Bound<'_> {
         tracing::warn!(
             station = esc.station_address(),
             missed = self.dev.sync.missed,
+            // The SYNC0 events since the last output buffer, and the buffers taken in Op:
+            // whether the master's frames stopped or came off the grid.
+            without_outputs = self.dev.sync.since_outputs(),
+            sync0_events = self.dev.sync.events,
+            outputs_applied = self.dev.outputs_applied,
             "synchronisation lost: Safe-Op, 0x001A"
         );
         esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);
