@@ -12,9 +12,9 @@
  * Printed at the end: cycles, wrong working counters, late cycles (the next period had begun
  * when the cycle's frame came back), the frame's round trip (p50 / p99 / max), how many drives
  * were enabled, the largest following lag, and whether every slave is still in Op; then the
- * cycles of the longest wake-up delay and the longest round trip and the first cycle whose
- * inputs showed a drive in Fault, so a run that lost its slaves tells whether the master was
- * held off its CPU (a wake-up delay) or the frame was (a round trip). Exit 0 when
+ * first cycle whose inputs showed a drive in Fault and, before it, the longest wake-up delay
+ * and the longest round trip with their cycles, so a run that lost its slaves tells whether
+ * the master was held off its CPU (a wake-up delay) or the frame was (a round trip). Exit 0 when
  * every cycle's working counter was right, every drive enabled, followed and stayed in Op.
  *
  * Usage: soem_chain IFNAME SLAVES CYCLES PERIOD_NS DC RXPDOS TXPDOS
@@ -186,10 +186,11 @@ int main(int argc, char *argv[])
     static const uint16 sequence[] = {0x0006, 0x0007, 0x000F};
     static const uint16 expect[] = {0x0021, 0x0023, 0x0027};
     int step = 0, bad_wkc = 0, late = 0, enabled_at = -1;
-    /* Where a run went wrong: the master's longest wake-up delay and longest round trip, each
-     * with its cycle, and the first cycle whose inputs show a drive in Fault (a drive that
-     * lost its SYNC0 grid reports it in its statusword, CMMP-AS §2.11). */
-    int64_t worst_wake = 0, worst_rtt = 0;
+    /* Where a run went wrong: the first cycle whose inputs show a drive in Fault (a drive that
+     * lost its SYNC0 grid reports it in its statusword, CMMP-AS §2.11), and before it the
+     * master's longest wake-up delay (past its period, or past the previous frame's return when
+     * that came later) and the longest round trip, each with its cycle. */
+    int64_t worst_wake = 0, worst_rtt = 0, back = 0;
     int worst_wake_at = -1, worst_rtt_at = -1, fault_at = -1, fault_slave = 0;
     next = now_ns();
     for (int i = 0; i < cycles; i++) {
@@ -205,13 +206,14 @@ int main(int argc, char *argv[])
         ecx_send_processdata(ctx);
         /* 100 ms: a frame that never comes back counts as a wrong working counter. */
         int wkc = ecx_receive_processdata(ctx, 100000);
-        int64_t back = now_ns();
+        int64_t woke = sent - (back > next ? back : next);
+        back = now_ns();
         rtt[i] = back - sent;
-        if (sent - next > worst_wake) {
-            worst_wake = sent - next;
+        if (fault_at < 0 && woke > worst_wake) {
+            worst_wake = woke;
             worst_wake_at = i;
         }
-        if (rtt[i] > worst_rtt) {
+        if (fault_at < 0 && rtt[i] > worst_rtt) {
             worst_rtt = rtt[i];
             worst_rtt_at = i;
         }
@@ -258,8 +260,9 @@ int main(int argc, char *argv[])
            cycles, bad_wkc, late, rtt[cycles / 2] / 1e3, rtt[cycles * 99 / 100] / 1e3,
            rtt[cycles - 1] / 1e3, enabled, found, enabled_at, (int)worst_lag,
            still_op ? "all in Op" : "not all in Op");
-    printf("longest wake-up delay %.1f us at cycle %d, longest round trip at cycle %d; ",
-           worst_wake / 1e3, worst_wake_at, worst_rtt_at);
+    printf("%s: longest wake-up delay %.1f us at cycle %d, longest round trip %.1f us at "
+           "cycle %d; ", fault_at >= 0 ? "before the first fault" : "whole run",
+           worst_wake / 1e3, worst_wake_at, worst_rtt / 1e3, worst_rtt_at);
     if (fault_at >= 0)
         printf("first fault in the inputs at cycle %d (slave %d)\n", fault_at, fault_slave);
     else
