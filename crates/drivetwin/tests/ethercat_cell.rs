@@ -499,6 +499,48 @@ fn read_u16(m: &Master, index: u16) -> u16 {
     u16::from_le_bytes(b)
 }
 
+/// The twin's loop held off its CPU: the SYNC0 events it runs a cycle or more after their
+/// time, before the frame that waited in the socket meanwhile, cost the master nothing (a
+/// device sees each event and each frame in time, and a master waiting for its answer sends
+/// no more). The same events seen in time without a frame lose the grid (the test above).
+#[test]
+fn sync0_events_the_loop_runs_late_are_not_the_masters() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    let first = dc_sync0(&mut m, 1_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+    m.poll();
+    let sw = enable(&mut m, 60, sync0_cycle);
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    let missed = m.cell.device(0).unwrap().sync_monitor().missed;
+    // 7.5 ms without a poll (half a cycle after an event before), then the frame: eight
+    // events run first, seven of them a cycle or more late (the first takes the last
+    // outputs), the eighth at its time, two events after the outputs: it costs 3, and the
+    // frame takes 1 back. Seen in time, the third event without outputs lost the grid.
+    m.now = m.now + std::time::Duration::from_micros(7_500);
+    let sw = u16::from_le_bytes(lrw(&mut m, &0x000Fu16.to_le_bytes(), 2).try_into().unwrap());
+    assert_eq!(m.al(), (0x0008, 0), "still in Op");
+    let dev = m.cell.device(0).unwrap();
+    assert_eq!(
+        dev.sync_monitor().missed - missed,
+        7,
+        "the events ran, without outputs"
+    );
+    assert_eq!(dev.sync_monitor().error_counter(), 2);
+    assert_eq!(sw & 0x6F, 0x27, "{sw:#06x}");
+    // Back on the grid: the master's next cycles keep the slave in Op.
+    for _ in 0..20 {
+        sync0_cycle(&mut m, 0x000F);
+    }
+    assert_eq!(m.cell.device(0).unwrap().sync_monitor().error_counter(), 0);
+    assert_eq!(m.al(), (0x0008, 0));
+    assert_eq!(m.cell.device(0).unwrap().sync_errors, 0);
+}
+
 #[test]
 fn sync0_cycle_other_than_the_interpolator_cycle_is_refused() {
     let mut m = Master::new(cell());

@@ -24,6 +24,10 @@
 //! limit, never stricter than a device built on that stack.
 //! Counting starts with the first output buffer after the device entered Op, so a master that
 //! requests Op before it sends process data (ethercrab's `into_op`) is not punished.
+//! Decision (docs/decisions.md, "SYNC0 events seen late"): an event the device's side runs a
+//! cycle or more after its time ([`SyncMonitor::sync0_unobserved`]) takes its outputs but
+//! costs nothing: a device sees every event in time, and the frames of that time may still
+//! wait unread.
 
 /// Added to the SM-event-missed counter for each SYNC0 event past the first without new
 /// outputs.
@@ -149,6 +153,11 @@ impl SyncMonitor {
         self.counter
     }
 
+    /// SYNC0 events since the last SM2 event: at a loss, how long the outputs had stopped.
+    pub fn since_outputs(&self) -> u16 {
+        self.since_outputs
+    }
+
     /// The sync error counter limit in force (0x10F1:02).
     pub fn limit(&self) -> u16 {
         self.limit
@@ -174,6 +183,27 @@ impl SyncMonitor {
         let lost = !self.lost && self.limit != 0 && self.counter >= self.limit;
         self.lost |= lost;
         Sync0Outcome { take_outputs, lost }
+    }
+
+    /// `n` SYNC0 events that the device's side ran a cycle or more after their time (its
+    /// processor was held off): the first takes a waiting output buffer as any event does, but
+    /// none counts against the master. Output buffers that arrived before them may still wait
+    /// unread (a master that waits for its answer sends no more meanwhile), so the device
+    /// cannot tell a master that stopped from its own delay, and a device that sees every
+    /// event in time would not have lost the grid.
+    pub fn sync0_unobserved(&mut self, n: u64) -> Sync0Outcome {
+        self.events = self.events.wrapping_add(n);
+        let take_outputs = core::mem::take(&mut self.pending);
+        if self.armed && n > 0 {
+            let without = n - u64::from(take_outputs);
+            self.missed = self.missed.wrapping_add(without);
+            let n16 = u16::try_from(n).unwrap_or(u16::MAX);
+            self.since_outputs = self.since_outputs.saturating_add(n16);
+        }
+        Sync0Outcome {
+            take_outputs,
+            lost: false,
+        }
     }
 
     /// `n` SYNC0 events at once without outputs (the device was not polled for a while):
@@ -289,6 +319,75 @@ mod tests {
             }
         }
         assert_eq!(lost_at, Some(5), "3, then 3 - 1 + 3 = 5 >= 4");
+    }
+
+    #[test]
+    fn a_master_catching_up_after_a_stall_pays_the_counter_back() {
+        // SSC takes 1 off the counter at every SM2 event: a master that was held off for two
+        // SYNC0 events (3) and sends its overdue frames back to back before the next event
+        // stands at 0 again, so the same stall right after is still no error.
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert!(m.sync0().take_outputs);
+        for _ in 0..2 {
+            for _ in 0..2 {
+                assert!(!m.sync0().lost);
+            }
+            assert_eq!(m.error_counter(), 3);
+            for _ in 0..3 {
+                m.outputs_received();
+            }
+            assert_eq!(m.error_counter(), 0);
+            assert!(!m.sync0().lost);
+        }
+        assert!(!m.is_lost());
+    }
+
+    #[test]
+    fn events_seen_late_cost_the_master_nothing() {
+        // The device's side ran 20 events late, then the frame that waited meanwhile: in sync.
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert!(m.sync0().take_outputs);
+        m.outputs_received();
+        let o = m.sync0_unobserved(20);
+        assert!(o.take_outputs && !o.lost);
+        assert_eq!(m.error_counter(), 0);
+        assert_eq!((m.events, m.missed, m.since_outputs()), (21, 19, 20));
+        m.outputs_received();
+        assert!(!m.sync0().lost);
+        assert_eq!(m.error_counter(), 0);
+        // The same 20 events seen in time lose the grid.
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert!(m.sync0().take_outputs);
+        m.outputs_received();
+        assert!(m.sync0_many(20).lost);
+    }
+
+    #[test]
+    fn a_stopped_master_is_still_seen_after_late_events() {
+        // Events seen late leave the count of events since the outputs standing: the next
+        // two seen in time without outputs reach the limit, as after any two missed cycles.
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        m.sync0();
+        assert!(!m.sync0_unobserved(5).lost);
+        assert!(!m.sync0().lost);
+        assert!(m.sync0().lost);
+    }
+
+    #[test]
+    fn since_outputs_counts_the_events_after_the_last_buffer() {
+        let mut m = SyncMonitor::new();
+        m.outputs_received();
+        assert_eq!(m.since_outputs(), 0);
+        for k in 1..=5 {
+            m.sync0();
+            assert_eq!(m.since_outputs(), k);
+        }
+        m.outputs_received();
+        assert_eq!(m.since_outputs(), 0);
     }
 
     #[test]

@@ -72,6 +72,9 @@ def run_chain(master: str, master_if: str, slaves: int, period_ns: int, rx: str,
     assert r.returncode == 0, f"exit {r.returncode}:\n{out}\n{r.stderr}"
     assert f"{slaves} slaves found" in out, out
     assert ", 0 with a wrong working counter" in out, out
+    # No slave left Op on the way: every drive stayed out of Fault (a slave that lost its SYNC0
+    # grid falls to Safe-Op with 001Ah and its drive reports the error in its statusword).
+    assert "no drive faulted" in out, out
     assert f"{slaves} of {slaves} enabled" in out and "all in Op" in out, out
     return out
 

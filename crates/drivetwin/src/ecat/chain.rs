@@ -27,7 +27,9 @@
 //!   0x0036 ("the EtherCAT frame cycle must equal the interpolator cycle tr"). When the
 //!   master's cycles stop or fall off the SYNC0 grid ([`SyncMonitor`]) in Op, the slave falls
 //!   back to Safe-Op with 0x001A and the drive reports 63-4 "no SYNC in IPO cycle" with a
-//!   fault reaction.
+//!   fault reaction. Events the loop runs a cycle or more after their time (it was held off
+//!   its CPU, and the master's frame may wait unread meanwhile) do not count against the
+//!   master (docs/decisions.md, "SYNC0 events seen late").
 //! * Between frames the cell loop polls the chain at least every [`TICK`], so the drive (and the
 //!   ESC's process-data watchdog) runs while the master is silent; in real time up to
 //!   [`STEP_GRACE`] later ([`SlaveChain::wake_by`]), so that the loop's wake-up for it falls
@@ -98,7 +100,8 @@ const PROCESS_DATA_TIMEOUT: u16 = 0x8250;
 const SYNC_ERROR_SETTINGS: u16 = 0x10F1;
 const SYNC_ERROR_COUNTER_LIMIT: u8 = 2;
 
-/// At most this many SYNC0 events are run one by one after a pause; the rest are counted.
+/// At most this many SYNC0 events are run one by one after a pause; the rest are counted at
+/// once, as events seen late.
 const MAX_SYNC0_BURST: u64 = 16;
 /// A SYNC0 grid finer than this is served at most this often, its events counted in batches
 /// (the burst above). Decision: 0x09A0 takes any cycle and nothing checks it before Pre-Op →
@@ -538,14 +541,20 @@ impl Bound<'_> {
         let cycle = u64::from(cycle);
         let sys_now = esc.system_time_at(now);
         let mut burst = 0;
+        // An event run this far after its time was not seen in time: the loop was held off,
+        // and the master's frames may lie unread in the socket (`SyncMonitor::sync0_unobserved`).
+        let seen_late = cycle.max(SYNC0_SERVICE_FLOOR.as_nanos() as u64);
         while let Some(at_sys) = self.dev.next_sync0_sys.filter(|t| *t <= sys_now) {
             let behind = (sys_now - at_sys) / cycle;
             // The local instant of the event: `now` less how far the event lies back.
             let at = Instant::from_nanos(now.as_nanos().saturating_sub(sys_now - at_sys));
             self.step(at);
             burst += 1;
+            let late = sys_now - at_sys >= seen_late;
             let (outcome, events) = if burst >= MAX_SYNC0_BURST {
-                (self.dev.sync.sync0_many(behind + 1), behind + 1)
+                (self.dev.sync.sync0_unobserved(behind + 1), behind + 1)
+            } else if late {
+                (self.dev.sync.sync0_unobserved(1), 1)
             } else {
                 (self.dev.sync.sync0(), 1)
             };
@@ -597,6 +606,11 @@ impl Bound<'_> {
         tracing::warn!(
             station = esc.station_address(),
             missed = self.dev.sync.missed,
+            // The SYNC0 events since the last output buffer, and the buffers taken in Op:
+            // whether the master's frames stopped or came off the grid.
+            without_outputs = self.dev.sync.since_outputs(),
+            sync0_events = self.dev.sync.events,
+            outputs_applied = self.dev.outputs_applied,
             "synchronisation lost: Safe-Op, 0x001A"
         );
         esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);

@@ -11,7 +11,10 @@
  *
  * Printed at the end: cycles, wrong working counters, late cycles (the next period had begun
  * when the cycle's frame came back), the frame's round trip (p50 / p99 / max), how many drives
- * were enabled, the largest following lag, and whether every slave is still in Op. Exit 0 when
+ * were enabled, the largest following lag, and whether every slave is still in Op; then the
+ * first cycle whose inputs showed a drive in Fault and, before it, the longest wake-up delay
+ * and the longest round trip with their cycles, so a run that lost its slaves tells whether
+ * the master was held off its CPU (a wake-up delay) or the frame was (a round trip). Exit 0 when
  * every cycle's working counter was right, every drive enabled, followed and stayed in Op.
  *
  * Usage: soem_chain IFNAME SLAVES CYCLES PERIOD_NS DC RXPDOS TXPDOS
@@ -183,6 +186,12 @@ int main(int argc, char *argv[])
     static const uint16 sequence[] = {0x0006, 0x0007, 0x000F};
     static const uint16 expect[] = {0x0021, 0x0023, 0x0027};
     int step = 0, bad_wkc = 0, late = 0, enabled_at = -1;
+    /* Where a run went wrong: the first cycle whose inputs show a drive in Fault (a drive that
+     * lost its SYNC0 grid reports it in its statusword, CMMP-AS §2.11), and before it the
+     * master's longest wake-up delay (past its period, or past the previous frame's return when
+     * that came later) and the longest round trip, each with its cycle. */
+    int64_t worst_wake = 0, worst_rtt = 0, back = 0;
+    int worst_wake_at = -1, worst_rtt_at = -1, fault_at = -1, fault_slave = 0;
     next = now_ns();
     for (int i = 0; i < cycles; i++) {
         next += period;
@@ -197,10 +206,24 @@ int main(int argc, char *argv[])
         ecx_send_processdata(ctx);
         /* 100 ms: a frame that never comes back counts as a wrong working counter. */
         int wkc = ecx_receive_processdata(ctx, 100000);
-        int64_t back = now_ns();
+        int64_t woke = sent - (back > next ? back : next);
+        back = now_ns();
         rtt[i] = back - sent;
+        if (fault_at < 0 && woke > worst_wake) {
+            worst_wake = woke;
+            worst_wake_at = i;
+        }
+        if (fault_at < 0 && rtt[i] > worst_rtt) {
+            worst_rtt = rtt[i];
+            worst_rtt_at = i;
+        }
         if (wkc != expected_wkc)
             bad_wkc++;
+        for (int s = 1; s <= found && fault_at < 0; s++)
+            if (get_u16(slaves[s].inputs) & 0x0008) {
+                fault_at = i;
+                fault_slave = s;
+            }
         if (back > next + period)
             late++;
         int all = 1;
@@ -237,6 +260,13 @@ int main(int argc, char *argv[])
            cycles, bad_wkc, late, rtt[cycles / 2] / 1e3, rtt[cycles * 99 / 100] / 1e3,
            rtt[cycles - 1] / 1e3, enabled, found, enabled_at, (int)worst_lag,
            still_op ? "all in Op" : "not all in Op");
+    printf("%s: longest wake-up delay %.1f us at cycle %d, longest round trip %.1f us at "
+           "cycle %d; ", fault_at >= 0 ? "before the first fault" : "whole run",
+           worst_wake / 1e3, worst_wake_at, worst_rtt / 1e3, worst_rtt_at);
+    if (fault_at >= 0)
+        printf("first fault in the inputs at cycle %d (slave %d)\n", fault_at, fault_slave);
+    else
+        printf("no drive faulted\n");
     if (!still_op)
         for (int s = 1; s <= found; s++)
             if (slaves[s].state != EC_STATE_OPERATIONAL)
