@@ -69,6 +69,33 @@ pub struct CellInstance {
     views: DriveViews,
     /// The FMI-LS-BUS CAN terminal of each bus.
     pub(super) terminals: Vec<CanTerminal>,
+    /// What each drive's display shows, as a C string (NUL-terminated), as of the last
+    /// step: `fmi3GetString` hands out pointers to these bytes, which change only in a step
+    /// that changed the display (FMI 3.0 §2.2.6.2: valid until the next call that changes
+    /// the FMU's state).
+    displays: Vec<[u8; DISPLAY_BYTES]>,
+}
+
+/// The bytes of a display's text kept for `fmi3GetString`, its NUL included (a display shows
+/// at most 16 bytes, `DisplayState`).
+const DISPLAY_BYTES: usize = 32;
+
+/// `buffer` set to `text` (up to its first NUL, cut to fit) and NULs, written only when it
+/// differs.
+fn put_text(buffer: &mut [u8; DISPLAY_BYTES], text: &str) {
+    let bytes = text.as_bytes();
+    let n = bytes
+        .iter()
+        .position(|b| *b == 0)
+        .unwrap_or(bytes.len())
+        .min(DISPLAY_BYTES - 1);
+    let mut new = [0u8; DISPLAY_BYTES];
+    if let (Some(dst), Some(src)) = (new.get_mut(..n), bytes.get(..n)) {
+        dst.copy_from_slice(src);
+    }
+    if *buffer != new {
+        *buffer = new;
+    }
 }
 
 impl CellInstance {
@@ -193,7 +220,7 @@ impl CellInstance {
             acted: true,
             outputs: vec![Probe::default(); n],
         }));
-        Ok(CellInstance {
+        let mut instance = CellInstance {
             shared,
             front_ends: None,
             modbus_fronts: None,
@@ -207,7 +234,11 @@ impl CellInstance {
             now: 0,
             views,
             terminals,
-        })
+            displays: vec![[0; DISPLAY_BYTES]; n],
+        };
+        let shared = Arc::clone(&instance.shared);
+        instance.refresh_displays(&mut lock(&shared));
+        Ok(instance)
     }
 
     /// The FMU's variables.
@@ -258,11 +289,6 @@ impl CellInstance {
         if let Some(slaves) = shared.outputs.get_mut(rig_drives..) {
             self.ethercat.probe_into(slaves);
         }
-    }
-
-    /// The place among the EtherCAT slaves of drive `drive`, when it is one.
-    fn slave(&self, drive: usize) -> Option<usize> {
-        drive.checked_sub(self.drives.len())
     }
 
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
@@ -372,29 +398,36 @@ impl CellInstance {
     }
 
     pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
+        Ok(self.display(vr)?.to_string_lossy().into_owned())
+    }
+
+    /// A display's text as of the last step, in the instance's own bytes (no copy): valid
+    /// until the next step, and the same bytes at the same address while the display does not
+    /// change.
+    pub fn display(&self, vr: u32) -> Result<&std::ffi::CStr, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::Display) => {
-                if let Some(slave) = self.slave(drive) {
-                    return Ok(self
-                        .ethercat
-                        .display(slave, &self.views)
-                        .unwrap_or_default());
-                }
-                let mut shared = lock(&self.shared);
-                let node = match self.drives.get(drive) {
-                    Some(RigDrive::RegisterImage(i)) => {
-                        return Ok(shared.rig.register_image_display(*i).unwrap_or_default())
-                    }
-                    Some(RigDrive::Node(n)) => *n,
-                    None => return Err(CellFmuError::UnknownVariable(vr)),
-                };
-                let shown = shared
-                    .rig
-                    .drive_model(node)
-                    .and_then(|d| (self.views.display)(d));
-                Ok(shown.map(|s| s.text().to_string()).unwrap_or_default())
-            }
+            (drive, Role::Display) => self
+                .displays
+                .get(drive)
+                .and_then(|b| std::ffi::CStr::from_bytes_until_nul(b).ok())
+                .ok_or(CellFmuError::UnknownVariable(vr)),
             _ => Err(CellFmuError::UnknownVariable(vr)),
+        }
+    }
+
+    /// Each drive's display into [`CellInstance::displays`], written where it changed.
+    fn refresh_displays(&mut self, shared: &mut Shared) {
+        let display = self.views.display;
+        for (drive, buffer) in self.displays.iter_mut().enumerate() {
+            let shown = match self.drives.get(drive) {
+                Some(RigDrive::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
+                Some(RigDrive::Node(n)) => shared.rig.drive_model(*n).and_then(display),
+                None => drive.checked_sub(self.drives.len()).and_then(|slave| {
+                    self.ethercat
+                        .with_drive(slave, |m| m.drive().and_then(|d| display(d)))
+                }),
+            };
+            put_text(buffer, shown.as_ref().map_or("", |s| s.text()));
         }
     }
 
@@ -458,6 +491,7 @@ impl CellInstance {
         self.now = end;
         let stopped = rig.stopped();
         self.refresh(&mut guard);
+        self.refresh_displays(&mut guard);
         drop(guard);
         if let Some(f) = &self.front_ends {
             f.wake();

@@ -376,8 +376,16 @@ impl VirtualRig {
     /// What the display of the `i`-th register-image drive (cell file order) shows (`None`:
     /// no such drive, or no display).
     pub fn register_image_display(&mut self, i: usize) -> Option<String> {
-        let dev = self.modbus_device(i)?;
-        dev.plant().1.map(|d| d.text().to_string())
+        self.register_image_display_state(i)
+            .map(|d| d.text().to_string())
+    }
+
+    /// [`VirtualRig::register_image_display`] as the display's state (no text made).
+    pub fn register_image_display_state(
+        &mut self,
+        i: usize,
+    ) -> Option<crate::cell::control::DisplayState> {
+        self.modbus_device(i)?.plant().1
     }
 
     /// `action` (a load torque, a switch, an object write, a Modbus request) on the `i`-th
