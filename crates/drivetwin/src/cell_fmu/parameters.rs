@@ -2,8 +2,9 @@
 //! parameters (`causality="parameter"`, `variability="fixed"`) an importer sets before the
 //! FMU initialises.
 //!
-//! Per CANopen drive with a servo motor (a stepper's motor is another model), by its node-ID
-//! `N`, the `[drive.motor]` keys of the load the shaft carries:
+//! Per drive with a servo motor (a stepper's motor is another model), by its node-ID `N` (an
+//! EtherCAT slave's drive by its place, `driveK`), the `[drive.motor]` keys of the load the
+//! shaft carries:
 //!
 //! | name | unit | key |
 //! |---|---|---|
@@ -11,8 +12,8 @@
 //! | `nodeN.motor.viscous_friction` | N·m·s/rad | `[drive.motor] viscous_friction` |
 //! | `nodeN.motor.coulomb_friction` | N·m | `[drive.motor] coulomb_friction` |
 //!
-//! Per CMMO-ST (its stepper, `[drive.stepper]`), by its place `driveK` among the cell file's
-//! drives ([`DriveName`]), the keys of its motor and load:
+//! Per stepper (`[drive.stepper]`: a CMMO-ST by its place `driveK` among the cell file's
+//! drives, [`DriveName`]; a Nanotec stepper by its node-ID), the keys of its motor and load:
 //!
 //! | name | unit | key |
 //! |---|---|---|
