@@ -545,15 +545,18 @@ impl CellInstance {
     fn apply_slave_inputs(&mut self) -> Result<(), CellFmuError> {
         let first = self.drives.len();
         for (slave, i) in self.inputs.iter_mut().skip(first).enumerate() {
-            let name = self
-                .variables
-                .name(first + slave)
-                .map(|n| n.to_string())
-                .unwrap_or_default();
+            // Named only for an error: no text made per step.
+            let variables = &self.variables;
+            let name = || {
+                variables
+                    .name(first + slave)
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            };
             if i.load_applied != Some(i.load_torque) {
                 self.ethercat
                     .set_load_torque(slave, i.load_torque)
-                    .map_err(|e| CellFmuError::Cell(format!("{name}: load torque: {e}")))?;
+                    .map_err(|e| CellFmuError::Cell(format!("{}: load torque: {e}", name())))?;
                 i.load_applied = Some(i.load_torque);
             }
             for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
@@ -563,7 +566,7 @@ impl CellInstance {
                 let din = u8::try_from(k).unwrap_or(0);
                 self.ethercat
                     .force_input(slave, din, level)
-                    .map_err(|e| CellFmuError::Cell(format!("{name}: din{din}: {e}")))?;
+                    .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", name())))?;
                 *applied = Some(level);
             }
         }
