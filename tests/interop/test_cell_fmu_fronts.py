@@ -295,3 +295,127 @@ ethercat = "{fmu_if}"
     finally:
         master.close()
         cell.free()
+
+
+def test_a_cell_of_ethercat_slaves_alone_is_an_fmu_soem_drives_between_fmpy_steps(
+        cell_fmu, tmp_path, veth_pair):  # noqa: F811
+    """A cell whose only drives are EtherCAT slaves (no CAN node, no CMMO-ST) is an FMU: its
+    variables are `driveK`'s, K the `[[drive]]` index, doStep advances the slaves' drives
+    and the chain is open while fmpy steps it. pysoem takes both slaves to Op between steps
+    and enables the second; its shaft turns in the FMU's outputs. Each slave's
+    `[drive.motor]` keys are parameters, as a CANopen CMMP-AS's are."""
+    pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
+    fmu_if, master_if = veth_pair
+    fmu = pack(tmp_path, f"""
+[[drive]]
+device = "cmmp-as"
+node = 1
+ethercat = "{fmu_if}"
+
+[[drive]]
+device = "cmmp-as"
+node = 2
+ethercat = "{fmu_if}"
+[drive.motor]
+inertia = 4e-5
+""")
+    md = fmpy.read_model_description(fmu)
+    v = {x.name: x for x in md.modelVariables}
+    assert not any(n.startswith("node") for n in v), sorted(v)
+    for name in ("drive0.statusword", "drive1.position", "drive1.load_torque", "drive1.display"):
+        assert name in v, name
+    assert (v["drive1.motor.inertia"].causality, float(v["drive1.motor.inertia"].start)) == \
+        ("parameter", 4e-5)
+    assert float(v["drive0.motor.inertia"].start) == 3e-5            # the CMMP-AS's motor data
+    cell = Stepped(fmu)
+    master = pysoem.Master()
+    master.open(master_if)
+
+    def out(kind: str, name: str):
+        return getattr(cell.slave, "get" + kind)([cell.vr[name]])[0]
+
+    def cycle(cw: int) -> tuple[int, int]:
+        cell.run(STEP)
+        for s in master.slaves:
+            s.output = (cw if s is master.slaves[1] else 0).to_bytes(2, "little")
+        master.send_processdata()
+        wkc = master.receive_processdata(100_000)
+        return wkc, int.from_bytes(bytes(master.slaves[1].input[:2]), "little")
+
+    try:
+        cell.run(0.01)
+        assert master.config_init() == 2, "two slaves on the wire"
+        slave = master.slaves[1]
+        slave.sdo_write(0x6060, 0, bytes([3]))                          # profile velocity
+        slave.sdo_write(0x60FF, 0, (2000).to_bytes(4, "little", signed=True))
+        master.config_map()
+        assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
+        master.state = pysoem.OP_STATE
+        cycle(0)
+        master.write_state()
+        for _ in range(100):
+            cycle(0)
+            if master.read_state() == pysoem.OP_STATE:
+                break
+        assert master.read_state() == pysoem.OP_STATE
+        sw = 0
+        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+            for _ in range(100):
+                wkc, sw = cycle(cw)
+                assert wkc == master.expected_wkc
+                if sw & 0x6F == want:
+                    break
+            assert sw & 0x6F == want, f"controlword {cw:#x}: statusword {sw:#06x}"
+        assert out("UInt16", "drive1.statusword") == sw, "the FMU's statusword is the master's"
+        start = out("Float64", "drive1.position")
+        for _ in range(300):
+            cycle(0x0F)
+        assert out("Float64", "drive1.position") - start > 0.1
+        assert abs(out("Float64", "drive0.velocity")) < 1e-9, "the first slave was not enabled"
+    finally:
+        master.close()
+        cell.free()
+
+
+def test_a_nanotec_steppers_keys_are_parameters_and_checked_as_the_cell_files(cell_fmu, tmp_path):  # noqa: F811
+    """A Nanotec stepper's `[drive.stepper]` keys are FMI parameters (start: the cell file's
+    value); a value set before initialisation is written into that section and checked as the
+    key is: a negative load inertia fails the initialisation naming it."""
+    from fmpy.fmi3 import FMU3Slave
+    fmu = pack(tmp_path, """
+[[bus]]
+socketcand = ""
+
+[[drive]]
+device = "nanotec-pd4n"
+node = 5
+[drive.stepper]
+load_inertia = 2e-5
+""")
+    md = fmpy.read_model_description(fmu)
+    v = {x.name: x for x in md.modelVariables}
+    p = v["node5.stepper.load_inertia"]
+    assert (p.causality, p.variability, float(p.start)) == ("parameter", "fixed", 2e-5)
+    assert "node5.motor.inertia" not in v
+    messages = []
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(fmu),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cell")
+    slave.instantiate(loggingOn=True,
+                      logMessage=lambda _env, status, category, message: messages.append(message))
+    try:
+        slave.setFloat64([p.valueReference], [-1.0])
+        with pytest.raises(Exception):
+            slave.enterInitializationMode(startTime=0.0)
+            slave.exitInitializationMode()
+        assert any(b"stepper.load_inertia" in m for m in messages), messages
+    finally:
+        slave.freeInstance()
+    # A servo motor's shaft key on the stepper is refused when the FMU is made, by name.
+    cell = tmp_path / "servo.toml"
+    cell.write_text('[[bus]]\nsocketcand = ""\n[[drive]]\ndevice = "nanotec-pd4n"\nnode = 5\n'
+                    '[drive.motor]\ninertia = 2e-5\n')
+    r = subprocess.run([str(DRIVETWIN_BIN), "fmu", "--config", str(cell), "--output",
+                        str(tmp_path / "servo.fmu"), "--library", str(LIBRARY)],
+                       cwd=REPO_ROOT, timeout=60, capture_output=True, text=True)
+    assert r.returncode != 0
+    assert "motor.inertia" in r.stderr, r.stderr

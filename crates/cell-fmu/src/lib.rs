@@ -245,6 +245,8 @@ impl ModelGetSet<CellModel> for CellModel {
         self.get(vr, values, context, CellInstance::get_uint16)
     }
 
+    /// Reached only through `fmi-export`'s own `fmi3GetString`, which `sys` replaces
+    /// ([`CellModel::get_uint64`] gives it the display's own bytes).
     fn get_string(
         &self,
         vr: binding::fmi3ValueReference,
@@ -252,11 +254,26 @@ impl ModelGetSet<CellModel> for CellModel {
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
         self.get(vr, values, context, |cell, vr| {
-            let text = cell.get_string(vr)?;
-            // A display's text has no NUL; one would end the C string there.
-            let text = std::ffi::CString::new(text.replace('\0', "")).unwrap_or_default();
-            sys::made_string(&text);
-            Ok(text)
+            cell.display(vr).map(std::ffi::CStr::to_owned)
+        })
+    }
+
+    /// Only inside `sys::fmi3_get_string` (the cell has no UInt64 variable): the address of
+    /// the display's text the instance holds, which `fmi3GetString` hands out as it is
+    /// (FMI 3.0 §2.2.6.2), after `fmi-export`'s state checks of a get.
+    fn get_uint64(
+        &self,
+        vr: binding::fmi3ValueReference,
+        values: &mut [u64],
+        context: &dyn Context<CellModel>,
+    ) -> Result<usize, Fmi3Error> {
+        if !sys::in_string_get() {
+            log_error(context, "fmi3GetUInt64: the FMU has no UInt64 variable");
+            return Err(Fmi3Error::Error);
+        }
+        self.get(vr, values, context, |cell, vr| {
+            let address = cell.display(vr)?.as_ptr().expose_provenance();
+            Ok(address as u64)
         })
     }
 

@@ -17,9 +17,7 @@
 //! the value it holds (the cell's own bytes, unchanged until the next call that steps or
 //! updates the instance).
 
-use std::cell::RefCell;
-use std::ffi::CString;
-use std::sync::Mutex;
+use std::cell::Cell;
 
 use fmi::fmi3::binding;
 use fmi_export::fmi3::{Fmi3CoSimulation, Fmi3Common, Fmi3ModelExchange, Fmi3ScheduledExecution};
@@ -177,7 +175,6 @@ forward! {
 
 #[unsafe(export_name = "fmi3FreeInstance")]
 pub unsafe extern "C" fn fmi3_free_instance(instance: Instance) {
-    release_strings(instance);
     // SAFETY: the importer's instance, passed on.
     unsafe { <CellModel as Fmi3Common>::fmi3_free_instance(instance) }
 }
@@ -219,30 +216,22 @@ no_interval! {
 }
 
 thread_local! {
-    /// The texts [`crate::CellModel`]'s `get_string` made during this thread's running
-    /// `fmi3GetString`, in the order of its value references.
-    static MADE: RefCell<Vec<CString>> = const { RefCell::new(Vec::new()) };
+    /// Whether this thread is inside [`fmi3_get_string`], where [`crate::CellModel`]'s
+    /// `get_uint64` answers a display's address.
+    static STRING_GET: Cell<bool> = const { Cell::new(false) };
 }
 
-/// Each instance's strings of its last `fmi3GetString` (keyed by the instance's address):
-/// FMI 3.0 (§2.2.6.2) has the FMU own the strings it hands out, valid after the call returns;
-/// they are dropped at the instance's next `fmi3GetString` or at `fmi3FreeInstance`.
-static HELD: Mutex<Vec<(usize, Vec<CString>)>> = Mutex::new(Vec::new());
-
-/// Keeps a text [`crate::CellModel`]'s `get_string` made, for [`fmi3_get_string`] to hand out.
-pub fn made_string(text: &CString) {
-    MADE.with(|m| m.borrow_mut().push(text.clone()));
+/// Whether this thread is inside [`fmi3_get_string`].
+pub fn in_string_get() -> bool {
+    STRING_GET.with(Cell::get)
 }
 
-fn release_strings(instance: Instance) {
-    if let Ok(mut held) = HELD.lock() {
-        held.retain(|(at, _)| *at != instance.addr());
-    }
-}
-
-/// `fmi3GetString` (FMI 3.0 §2.2.6.2). `fmi-export`'s hands out pointers into strings it drops
-/// before it returns; this one runs it for its state checks and values, then hands out the
-/// instance's own copies ([`HELD`]).
+/// `fmi3GetString` (FMI 3.0 §2.2.6.2): the FMU owns the strings it hands out. `fmi-export`'s
+/// copies each into a `CString` it drops before it returns; this one hands out the instance's
+/// own bytes (`CellInstance::display`), which stay where they are until a step changes the
+/// display: no allocation per get. Each value reference passes `fmi-export`'s state checks
+/// of a get through `fmi3GetUInt64`, which gives the text's address while [`STRING_GET`] is
+/// set.
 #[unsafe(export_name = "fmi3GetString")]
 pub unsafe extern "C" fn fmi3_get_string(
     instance: Instance,
@@ -251,34 +240,33 @@ pub unsafe extern "C" fn fmi3_get_string(
     values: *mut binding::fmi3String,
     n_values: usize,
 ) -> Status {
-    MADE.with(|m| m.borrow_mut().clear());
-    // SAFETY: the importer's arguments, passed on; the pointers it writes are replaced below.
-    let status = unsafe {
-        <CellModel as Fmi3Common>::fmi3_get_string(
-            instance,
-            value_references,
-            n_value_references,
-            values,
-            n_values,
-        )
-    };
-    let made = MADE.with(|m| std::mem::take(&mut *m.borrow_mut()));
-    if status != binding::fmi3Status_fmi3OK {
-        return status;
-    }
-    if made.len() != n_values || (n_values > 0 && values.is_null()) {
+    if n_value_references != n_values
+        || (n_values > 0 && (value_references.is_null() || values.is_null()))
+    {
         return binding::fmi3Status_fmi3Error;
     }
-    for (i, text) in made.iter().enumerate() {
-        // SAFETY: `i < n_values`, the length of the importer's array (checked non-null); the
-        // text stays in `HELD` (moving the `Vec` moves no string's bytes).
-        unsafe { *values.add(i) = text.as_ptr() };
+    for i in 0..n_values {
+        // SAFETY: `i < n_values`, the length of the importer's arrays (checked non-null).
+        let vr = unsafe { *value_references.add(i) };
+        let mut address: binding::fmi3UInt64 = 0;
+        STRING_GET.with(|s| s.set(true));
+        // SAFETY: one value reference, one local value.
+        let status = unsafe {
+            <CellModel as Fmi3Common>::fmi3_get_u_int64(instance, &vr, 1, &mut address, 1)
+        };
+        STRING_GET.with(|s| s.set(false));
+        if status != binding::fmi3Status_fmi3OK {
+            return status;
+        }
+        let Ok(address) = usize::try_from(address) else {
+            return binding::fmi3Status_fmi3Error;
+        };
+        // SAFETY: as above; the address is of a NUL-terminated text the instance holds until
+        // its next step.
+        unsafe {
+            *values.add(i) = std::ptr::with_exposed_provenance::<std::ffi::c_char>(address);
+        }
     }
-    let Ok(mut held) = HELD.lock() else {
-        return binding::fmi3Status_fmi3Error;
-    };
-    held.retain(|(at, _)| *at != instance.addr());
-    held.push((instance.addr(), made));
     binding::fmi3Status_fmi3OK
 }
 const _: binding::fmi3GetStringTYPE = Some(fmi3_get_string);

@@ -26,7 +26,7 @@ use super::can_terminal::CanTerminal;
 use super::ethercat_front::EthercatChains;
 use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
 use super::modbus_front::{self, ModbusFronts};
-use super::parameters::Parameters;
+use super::parameters::{Parameters, Start};
 use super::variables::{DriveName, Profile, Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
 
@@ -69,6 +69,33 @@ pub struct CellInstance {
     views: DriveViews,
     /// The FMI-LS-BUS CAN terminal of each bus.
     pub(super) terminals: Vec<CanTerminal>,
+    /// What each drive's display shows, as a C string (NUL-terminated), as of the last
+    /// step: `fmi3GetString` hands out pointers to these bytes, which change only in a step
+    /// that changed the display (FMI 3.0 §2.2.6.2: valid until the next call that changes
+    /// the FMU's state).
+    displays: Vec<[u8; DISPLAY_BYTES]>,
+}
+
+/// The bytes of a display's text kept for `fmi3GetString`, its NUL included (a display shows
+/// at most 16 bytes, `DisplayState`).
+const DISPLAY_BYTES: usize = 32;
+
+/// `buffer` set to `text` (up to its first NUL, cut to fit) and NULs, written only when it
+/// differs.
+fn put_text(buffer: &mut [u8; DISPLAY_BYTES], text: &str) {
+    let bytes = text.as_bytes();
+    let n = bytes
+        .iter()
+        .position(|b| *b == 0)
+        .unwrap_or(bytes.len())
+        .min(DISPLAY_BYTES - 1);
+    let mut new = [0u8; DISPLAY_BYTES];
+    if let (Some(dst), Some(src)) = (new.get_mut(..n), bytes.get(..n)) {
+        dst.copy_from_slice(src);
+    }
+    if *buffer != new {
+        *buffer = new;
+    }
 }
 
 impl CellInstance {
@@ -92,11 +119,12 @@ impl CellInstance {
         let mut cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
         if !set.is_empty() {
             // The parameters as the description declares them: those of the file as written.
-            let (rest, _) = EthercatChains::split(&cell, vendors)?;
-            let rig =
-                VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+            let (rest, ethercat) = EthercatChains::split(&cell, vendors)?;
+            let rig = VirtualRig::new_without_drives_allowed(&rest, vendors)
+                .map_err(|e| CellFmuError::Cell(e.to_string()))?;
             let steppers = register_image_sections(&cell, vendors)?;
-            Parameters::of(&rig, &rig.nodes(), &steppers).apply(&mut cell, vendors, set)?;
+            parameters_of(&rig, &rig.nodes(), &steppers, &ethercat)
+                .apply(&mut cell, vendors, set)?;
         }
         let timeline_path = resources.join(TIMELINE_FILE);
         let timeline = if timeline_path.exists() {
@@ -130,7 +158,8 @@ impl CellInstance {
         let views = vendors.views;
         // The EtherCAT slaves form chains of their own; the rest is the virtual rig's.
         let (rest, ethercat) = EthercatChains::split(cell, vendors)?;
-        let rig = VirtualRig::new(&rest, vendors).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let rig = VirtualRig::new_without_drives_allowed(&rest, vendors)
+            .map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let register_image = register_image_sections(cell, vendors)?;
         if register_image.len() != rig.modbus_drives() {
             return Err(CellFmuError::Cell(format!(
@@ -162,7 +191,7 @@ impl CellInstance {
                 )
                 .collect(),
         )?;
-        let parameters = Parameters::of(&rig, &nodes, &register_image);
+        let parameters = parameters_of(&rig, &nodes, &register_image, &ethercat);
         let timeline = timeline
             .map(|s| {
                 s.steps
@@ -191,7 +220,7 @@ impl CellInstance {
             acted: true,
             outputs: vec![Probe::default(); n],
         }));
-        Ok(CellInstance {
+        let mut instance = CellInstance {
             shared,
             front_ends: None,
             modbus_fronts: None,
@@ -205,7 +234,11 @@ impl CellInstance {
             now: 0,
             views,
             terminals,
-        })
+            displays: vec![[0; DISPLAY_BYTES]; n],
+        };
+        let shared = Arc::clone(&instance.shared);
+        instance.refresh_displays(&mut lock(&shared));
+        Ok(instance)
     }
 
     /// The FMU's variables.
@@ -256,11 +289,6 @@ impl CellInstance {
         if let Some(slaves) = shared.outputs.get_mut(rig_drives..) {
             self.ethercat.probe_into(slaves);
         }
-    }
-
-    /// The place among the EtherCAT slaves of drive `drive`, when it is one.
-    fn slave(&self, drive: usize) -> Option<usize> {
-        drive.checked_sub(self.drives.len())
     }
 
     fn find(&self, vr: u32) -> Result<(usize, Role), CellFmuError> {
@@ -370,29 +398,36 @@ impl CellInstance {
     }
 
     pub fn get_string(&self, vr: u32) -> Result<String, CellFmuError> {
+        Ok(self.display(vr)?.to_string_lossy().into_owned())
+    }
+
+    /// A display's text as of the last step, in the instance's own bytes (no copy): valid
+    /// until the next step, and the same bytes at the same address while the display does not
+    /// change.
+    pub fn display(&self, vr: u32) -> Result<&std::ffi::CStr, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::Display) => {
-                if let Some(slave) = self.slave(drive) {
-                    return Ok(self
-                        .ethercat
-                        .display(slave, &self.views)
-                        .unwrap_or_default());
-                }
-                let mut shared = lock(&self.shared);
-                let node = match self.drives.get(drive) {
-                    Some(RigDrive::RegisterImage(i)) => {
-                        return Ok(shared.rig.register_image_display(*i).unwrap_or_default())
-                    }
-                    Some(RigDrive::Node(n)) => *n,
-                    None => return Err(CellFmuError::UnknownVariable(vr)),
-                };
-                let shown = shared
-                    .rig
-                    .drive_model(node)
-                    .and_then(|d| (self.views.display)(d));
-                Ok(shown.map(|s| s.text().to_string()).unwrap_or_default())
-            }
+            (drive, Role::Display) => self
+                .displays
+                .get(drive)
+                .and_then(|b| std::ffi::CStr::from_bytes_until_nul(b).ok())
+                .ok_or(CellFmuError::UnknownVariable(vr)),
             _ => Err(CellFmuError::UnknownVariable(vr)),
+        }
+    }
+
+    /// Each drive's display into [`CellInstance::displays`], written where it changed.
+    fn refresh_displays(&mut self, shared: &mut Shared) {
+        let display = self.views.display;
+        for (drive, buffer) in self.displays.iter_mut().enumerate() {
+            let shown = match self.drives.get(drive) {
+                Some(RigDrive::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
+                Some(RigDrive::Node(n)) => shared.rig.drive_model(*n).and_then(display),
+                None => drive.checked_sub(self.drives.len()).and_then(|slave| {
+                    self.ethercat
+                        .with_drive(slave, |m| m.drive().and_then(|d| display(d)))
+                }),
+            };
+            put_text(buffer, shown.as_ref().map_or("", |s| s.text()));
         }
     }
 
@@ -456,6 +491,7 @@ impl CellInstance {
         self.now = end;
         let stopped = rig.stopped();
         self.refresh(&mut guard);
+        self.refresh_displays(&mut guard);
         drop(guard);
         if let Some(f) = &self.front_ends {
             f.wake();
@@ -509,15 +545,18 @@ impl CellInstance {
     fn apply_slave_inputs(&mut self) -> Result<(), CellFmuError> {
         let first = self.drives.len();
         for (slave, i) in self.inputs.iter_mut().skip(first).enumerate() {
-            let name = self
-                .variables
-                .name(first + slave)
-                .map(|n| n.to_string())
-                .unwrap_or_default();
+            // Named only for an error: no text made per step.
+            let variables = &self.variables;
+            let name = || {
+                variables
+                    .name(first + slave)
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            };
             if i.load_applied != Some(i.load_torque) {
                 self.ethercat
                     .set_load_torque(slave, i.load_torque)
-                    .map_err(|e| CellFmuError::Cell(format!("{name}: load torque: {e}")))?;
+                    .map_err(|e| CellFmuError::Cell(format!("{}: load torque: {e}", name())))?;
                 i.load_applied = Some(i.load_torque);
             }
             for (k, (want, applied)) in i.din.iter().zip(i.din_applied.iter_mut()).enumerate() {
@@ -527,7 +566,7 @@ impl CellInstance {
                 let din = u8::try_from(k).unwrap_or(0);
                 self.ethercat
                     .force_input(slave, din, level)
-                    .map_err(|e| CellFmuError::Cell(format!("{name}: din{din}: {e}")))?;
+                    .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", name())))?;
                 *applied = Some(level);
             }
         }
@@ -603,6 +642,32 @@ fn register_image_sections(
         .enumerate()
         .filter_map(|(k, s)| s.fhpp.as_ref().map(|f| (k, f.settings.stepper)))
         .collect())
+}
+
+/// The parameters of the table's drives: the rig's CANopen drives `nodes`, its CMMO-STs
+/// `register_image`, then the EtherCAT slaves' drives, whose `[drive.motor]` keys are those of
+/// the same device on CANopen.
+fn parameters_of(
+    rig: &VirtualRig,
+    nodes: &[u8],
+    register_image: &[(usize, drive::stepper::StepperData)],
+    ethercat: &EthercatChains,
+) -> Parameters {
+    Parameters::of_drives(
+        nodes
+            .iter()
+            .map(|n| (DriveName::Node(*n), Start::of_drive(rig.drive_model(*n))))
+            .chain(
+                register_image
+                    .iter()
+                    .map(|(k, data)| (DriveName::Section(*k), Some(Start::Stepper(*data)))),
+            )
+            .chain(ethercat.places().into_iter().enumerate().map(|(slave, k)| {
+                let start =
+                    ethercat.with_drive(slave, |m| Start::of_drive(m.drive().map(|d| &**d)));
+                (DriveName::Section(k), start)
+            })),
+    )
 }
 
 /// Seconds as the clock's nanoseconds.
@@ -696,6 +761,126 @@ mod tests {
             .with_drive(0, |m| Some(m.drive()?.axis().motor().data().load_torque))
             .unwrap();
         assert_eq!(torque, 0.01);
+    }
+
+    #[test]
+    fn a_cell_of_ethercat_slaves_alone_is_an_fmu_with_their_variables_and_parameters() {
+        let file: CellFile = toml::from_str(
+            "[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\nethercat = \"dtnone0\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\nethercat = \"dtnone0\"\n\
+             [drive.motor]\ninertia = 4e-5\nbrake_holding_torque = 0.0\n",
+        )
+        .unwrap();
+        let vendors = crate::vendors::VENDORS.runtime;
+        let mut cell = CellInstance::new(&file, None, vendors).unwrap();
+        let names: Vec<String> = cell.variables().all().map(|v| v.name()).collect();
+        assert!(
+            names.contains(&"drive0.statusword".to_string()),
+            "{names:?}"
+        );
+        assert!(names.contains(&"drive1.position".to_string()), "{names:?}");
+        assert!(!names.iter().any(|n| n.starts_with("node")), "{names:?}");
+        assert_eq!(cell.ethercat_chains(), [("dtnone0".to_string(), 2)]);
+        // (no holding brake: a load torque turns the shaft of a drive at power-on)
+        // The slaves' [drive.motor] keys are parameters as a CANopen drive's, named by place.
+        let p: Vec<(String, f64)> = cell
+            .parameters()
+            .list
+            .iter()
+            .map(|p| (p.name(), p.start))
+            .collect();
+        assert!(
+            p.contains(&("drive0.motor.inertia".to_string(), 3e-5)),
+            "{p:?}"
+        );
+        assert!(
+            p.contains(&("drive1.motor.inertia".to_string(), 4e-5)),
+            "{p:?}"
+        );
+        // doStep advances the slaves' drives: a load torque turns the second one's free shaft.
+        cell.set_float64(vr(&cell, "drive1.load_torque"), 0.05)
+            .unwrap();
+        for k in 0..20 {
+            cell.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+        }
+        assert_eq!(cell.time(), 0.02);
+        let sw = cell.get_uint16(vr(&cell, "drive0.statusword")).unwrap();
+        assert_eq!(sw & 0x4F, 0x40, "{sw:#06x}");
+        // (a load torque acts towards negative rotation)
+        assert!(cell.get_float64(vr(&cell, "drive1.position")).unwrap() < -1e-3);
+        assert_eq!(cell.get_float64(vr(&cell, "drive0.position")).unwrap(), 0.0);
+        // A parameter set is the slave's key: the heavier shaft turns less in the same time.
+        let inertia = cell
+            .parameters()
+            .list
+            .iter()
+            .find(|p| p.name() == "drive1.motor.inertia")
+            .map(|p| p.value_reference)
+            .unwrap();
+        let mut set = file.clone();
+        cell.parameters()
+            .apply(&mut set, vendors, &[(inertia, 4e-4)])
+            .unwrap();
+        let mut heavy = CellInstance::new(&set, None, vendors).unwrap();
+        heavy
+            .set_float64(vr(&heavy, "drive1.load_torque"), 0.05)
+            .unwrap();
+        for k in 0..20 {
+            heavy.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+        }
+        let turned = |c: &CellInstance| c.get_float64(vr(c, "drive1.position")).unwrap().abs();
+        assert!(turned(&heavy) < turned(&cell) / 5.0);
+        // No drive at all is still refused.
+        let none: CellFile = toml::from_str("[[bus]]\nsocketcand = \"\"\n").unwrap();
+        assert!(matches!(
+            CellInstance::new(&none, None, vendors).err(),
+            Some(CellFmuError::NoDrive)
+        ));
+    }
+
+    #[test]
+    fn a_nanotec_steppers_keys_are_its_stepper_section_and_its_parameters() {
+        let vendors = crate::vendors::VENDORS.runtime;
+        let file: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n[[drive]]\ndevice = \"nanotec-pd4n\"\nnode = 5\n\
+             [drive.stepper]\nload_inertia = 2e-5\nholding_torque = 0.8\n",
+        )
+        .unwrap();
+        let cell = CellInstance::new(&file, None, vendors).unwrap();
+        let p: Vec<(String, f64)> = cell
+            .parameters()
+            .list
+            .iter()
+            .map(|p| (p.name(), p.start))
+            .collect();
+        assert!(
+            p.contains(&("node5.stepper.load_inertia".to_string(), 2e-5)),
+            "{p:?}"
+        );
+        assert!(
+            p.contains(&("node5.stepper.holding_torque".to_string(), 0.8)),
+            "{p:?}"
+        );
+        assert!(!p.iter().any(|(n, _)| n.contains(".motor.")), "{p:?}");
+        // A servo motor's shaft key on a stepper is refused by name, never ignored.
+        let servo: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n[[drive]]\ndevice = \"nanotec-pd4n\"\nnode = 5\n\
+             [drive.motor]\ninertia = 2e-5\n",
+        )
+        .unwrap();
+        let e = CellInstance::new(&servo, None, vendors)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("motor.inertia"), "{e}");
+        // The stepper's mode is the drive's object, not a key.
+        let mode: CellFile = toml::from_str(
+            "[[drive]]\ndevice = \"nanotec-smci47s\"\nnode = 5\n\
+             [drive.stepper]\nmode = \"open-loop\"\n",
+        )
+        .unwrap();
+        let e = mode.drives(vendors).err().unwrap().to_string();
+        assert!(e.contains("2001h"), "{e}");
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //! parameters (`causality="parameter"`, `variability="fixed"`) an importer sets before the
 //! FMU initialises.
 //!
-//! Per CANopen drive with a servo motor (a stepper's motor is another model), by its node-ID
-//! `N`, the `[drive.motor]` keys of the load the shaft carries:
+//! Per drive with a servo motor (a stepper's motor is another model), by its node-ID `N` (an
+//! EtherCAT slave's drive by its place, `driveK`), the `[drive.motor]` keys of the load the
+//! shaft carries:
 //!
 //! | name | unit | key |
 //! |---|---|---|
@@ -11,8 +12,8 @@
 //! | `nodeN.motor.viscous_friction` | N·m·s/rad | `[drive.motor] viscous_friction` |
 //! | `nodeN.motor.coulomb_friction` | N·m | `[drive.motor] coulomb_friction` |
 //!
-//! Per CMMO-ST (its stepper, `[drive.stepper]`), by its place `driveK` among the cell file's
-//! drives ([`DriveName`]), the keys of its motor and load:
+//! Per stepper (`[drive.stepper]`: a CMMO-ST by its place `driveK` among the cell file's
+//! drives, [`DriveName`]; a Nanotec stepper by its node-ID), the keys of its motor and load:
 //!
 //! | name | unit | key |
 //! |---|---|---|
@@ -151,6 +152,26 @@ impl Key {
     }
 }
 
+/// What a drive's parameters start at: its servo motor's data, or its stepper's (a CMMO-ST's
+/// `[drive.stepper]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Start {
+    Servo(drive::motor::MotorData),
+    Stepper(drive::stepper::StepperData),
+}
+
+impl Start {
+    /// A CiA 402 drive's: its stepper's data (a Nanotec stepper's `[drive.stepper]`), else
+    /// its servo motor's; none for a dictionary without a plant.
+    pub fn of_drive(drive: Option<&drive::vendors::AnyDrive<Vec<u8>>>) -> Option<Start> {
+        let d = drive?;
+        Some(match d.stepper() {
+            Some(s) => Start::Stepper(*s.data()),
+            None => Start::Servo(*d.axis().motor().data()),
+        })
+    }
+}
+
 /// One parameter, with its start value.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
@@ -188,6 +209,21 @@ impl Parameters {
         nodes: &[u8],
         steppers: &[(usize, drive::stepper::StepperData)],
     ) -> Parameters {
+        Parameters::of_drives(
+            nodes
+                .iter()
+                .map(|n| (DriveName::Node(*n), Start::of_drive(rig.drive_model(*n))))
+                .chain(
+                    steppers
+                        .iter()
+                        .map(|(k, data)| (DriveName::Section(*k), Some(Start::Stepper(*data)))),
+                ),
+        )
+    }
+
+    /// The parameters of the table's drives, drive `i` the `i`-th: each one's name and what
+    /// its keys start at (`None`: a drive without keys to offer).
+    pub fn of_drives(drives: impl IntoIterator<Item = (DriveName, Option<Start>)>) -> Parameters {
         let mut list = Vec::new();
         let base_of = |i: usize| {
             u32::try_from(i)
@@ -196,36 +232,20 @@ impl Parameters {
                 .and_then(|o| o.checked_add(FIRST_VALUE_REFERENCE))
                 .filter(|b| is_parameter(b + STRIDE - 1))
         };
-        for (i, node) in nodes.iter().enumerate() {
-            let Some(d) = rig.drive_model(*node) else {
+        for (i, (drive, start)) in drives.into_iter().enumerate() {
+            let (Some(start), Some(base)) = (start, base_of(i)) else {
                 continue;
             };
-            if d.stepper().is_some() {
-                continue;
-            }
-            let data = d.axis().motor().data();
-            let Some(base) = base_of(i) else {
-                continue;
+            let (keys, value): (&[Key], &dyn Fn(Key) -> f64) = match &start {
+                Start::Servo(data) => (&Key::SERVO, &|k| Key::of_motor(data, k)),
+                Start::Stepper(data) => (&Key::STEPPER, &|k| Key::of_stepper(data, k)),
             };
-            for key in Key::SERVO {
+            for key in keys {
                 list.push(Parameter {
-                    drive: DriveName::Node(*node),
-                    key,
+                    drive,
+                    key: *key,
                     value_reference: base + key.offset(),
-                    start: Key::of_motor(data, key),
-                });
-            }
-        }
-        for (j, (section, data)) in steppers.iter().enumerate() {
-            let Some(base) = base_of(nodes.len() + j) else {
-                continue;
-            };
-            for key in Key::STEPPER {
-                list.push(Parameter {
-                    drive: DriveName::Section(*section),
-                    key,
-                    value_reference: base + key.offset(),
-                    start: Key::of_stepper(data, key),
+                    start: value(*key),
                 });
             }
         }

@@ -49,6 +49,19 @@ impl VirtualRig {
     /// sections of `vendors` (`drivetwin::vendors::VENDORS.runtime`), and its drives served over
     /// Modbus TCP as `vendors.modbus_device` makes them.
     pub fn new(file: &CellFile, vendors: Vendors) -> Result<VirtualRig, ScenarioError> {
+        let rig = VirtualRig::new_without_drives_allowed(file, vendors)?;
+        if rig.nodes().is_empty() && rig.modbus.is_empty() {
+            return Err(ScenarioError::Cell("no drive".into()));
+        }
+        Ok(rig)
+    }
+
+    /// [`VirtualRig::new`], a rig without a drive of its own allowed: the cell FMU steps its
+    /// EtherCAT slaves beside it, and a cell of slaves alone leaves it none.
+    pub fn new_without_drives_allowed(
+        file: &CellFile,
+        vendors: Vendors,
+    ) -> Result<VirtualRig, ScenarioError> {
         let cell_err = |e: String| ScenarioError::Cell(e);
         let modbus_device = vendors.modbus_device;
         let specs = file.drives(vendors).map_err(|e| cell_err(e.to_string()))?;
@@ -112,9 +125,6 @@ impl VirtualRig {
                 std::mem::take(&mut spec.physics),
             ));
             on_bus.push(d);
-        }
-        if drives.iter().all(Vec::is_empty) && modbus.is_empty() {
-            return Err(cell_err("no drive".into()));
         }
         for (_, m) in &mut modbus {
             m.open_connection(Instant::ZERO);
@@ -366,8 +376,16 @@ impl VirtualRig {
     /// What the display of the `i`-th register-image drive (cell file order) shows (`None`:
     /// no such drive, or no display).
     pub fn register_image_display(&mut self, i: usize) -> Option<String> {
-        let dev = self.modbus_device(i)?;
-        dev.plant().1.map(|d| d.text().to_string())
+        self.register_image_display_state(i)
+            .map(|d| d.text().to_string())
+    }
+
+    /// [`VirtualRig::register_image_display`] as the display's state (no text made).
+    pub fn register_image_display_state(
+        &mut self,
+        i: usize,
+    ) -> Option<crate::cell::control::DisplayState> {
+        self.modbus_device(i)?.plant().1
     }
 
     /// `action` (a load torque, a switch, an object write, a Modbus request) on the `i`-th

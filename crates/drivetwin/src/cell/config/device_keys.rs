@@ -180,6 +180,8 @@ pub struct OwnSettings {
     pub no_enables: bool,
     /// A BLDC motor instead of the servo motor, on a CiA 402 drive.
     pub bldc: Option<drive::bldc::BldcData>,
+    /// A stepper's motor and load, on a CiA 402 drive with a stepper.
+    pub stepper: Option<drive::stepper::StepperData>,
     /// How an FHPP drive is simulated and served.
     pub fhpp: Option<FhppSpec>,
     /// Its ports.

@@ -244,6 +244,9 @@ impl CellFile {
                 if own.bldc.is_some() {
                     s.bldc = own.bldc;
                 }
+                if own.stepper.is_some() {
+                    s.stepper = own.stepper;
+                }
                 commissioning.append(&mut own.commissioning);
                 Some(s)
             } else {

@@ -1,6 +1,7 @@
 //! The Nanotec drives' keys of a `[[drive]]` (their section of the cell file,
 //! [`crate::cell::config::DeviceSection`]): the rotary switches (§1.1.1), which set node-ID and
-//! bit rate at power-on, and the motor connected (`motor_type`, 2004h:07, §1.2).
+//! bit rate at power-on, the motor connected (`motor_type`, 2004h:07, §1.2) and a stepper's
+//! motor and load (`[drive.stepper]`, as the CMMO-ST's).
 
 use drive::vendors::nanotec::rotary_switches::{self, power_on, PowerOn, RotarySwitches};
 use serde::Deserialize;
@@ -9,6 +10,7 @@ use crate::cell::bus_rate::{NodeRate, RateCode, RateCodes, RateObject};
 use crate::cell::config::{DeviceSection, DriveContext, Key, OwnRate, OwnSettings, SectionError};
 use crate::cell::device_model::is_cia402;
 use crate::cell::station::Commissioning;
+use crate::vendors::festo_cmmo_st::cell_section::StepperSection;
 
 /// The Nanotec drives' section.
 pub const SECTION: DeviceSection = DeviceSection {
@@ -27,10 +29,26 @@ pub struct NanotecKeys {
     /// Its motor (2004h:07, §1.2 "Motortyp"): `"stepper"` (the default), `"bldc-hall"` or
     /// `"bldc-hall-encoder"`; see [`NanotecMotorType`].
     pub motor_type: Option<NanotecMotorType>,
+    /// A stepper's motor and load (`motor_type = "stepper"`, the default): the CMMO-ST's
+    /// `[drive.stepper]` keys but `mode` (a Nanotec's closed loop is its object 2001h ENABLE_CL, §3.3).
+    pub stepper: Option<StepperSection>,
 }
 
+/// The `[drive.motor]` keys a stepper does not have: its shaft, load and windings are
+/// `[drive.stepper]`'s (the servo motor's nameplate currents and speed still commission
+/// 6075h, 6073h, 6410h:03 and 6080h).
+const SERVO_SHAFT_KEYS: [&str; 7] = [
+    "inertia",
+    "viscous_friction",
+    "coulomb_friction",
+    "load_torque",
+    "torque_constant",
+    "resistance",
+    "inductance",
+];
+
 /// What each key is, for the refusal of the key on another device.
-pub const KEYS: [Key; 2] = [
+pub const KEYS: [Key; 3] = [
     Key {
         name: "rotary_switches",
         what: "rotary switches (Nanotec §1.1.1)",
@@ -38,6 +56,10 @@ pub const KEYS: [Key; 2] = [
     Key {
         name: "motor_type",
         what: "motor type 2004h:07 (Nanotec §1.2 \"Motortyp\")",
+    },
+    Key {
+        name: "stepper",
+        what: "stepper motor and load (the CMMO-ST's and a Nanotec stepper's [drive.stepper])",
     },
 ];
 
@@ -167,6 +189,40 @@ fn read(table: toml::Table, drive: &DriveContext<'_>) -> Result<OwnSettings, Sec
             own.bldc = Some(drive::bldc::BldcData::default());
         }
         own.commissioning = t.commissioning();
+    }
+    let stepper_motor = keys
+        .motor_type
+        .is_none_or(|t| t == NanotecMotorType::Stepper);
+    if let Some(section) = &keys.stepper {
+        let err = SectionError::key("stepper");
+        if !stepper_motor {
+            return Err(err(
+                "the motor is a BLDC (`motor_type`): its data are [drive.motor]'s".into(),
+            ));
+        }
+        if section.mode.is_some() {
+            return Err(err(
+                "stepper.mode: a Nanotec's closed loop is its object 2001h (ENABLE_CL, \
+                 Nanotec §3.3), set in [drive.objects]"
+                    .into(),
+            ));
+        }
+        let (data, _) = section.stepper().map_err(err)?;
+        own.stepper = Some(data);
+    }
+    if stepper_motor {
+        if let Some(toml::Value::Table(motor)) = drive.drive.rest.get("motor") {
+            if let Some(k) = SERVO_SHAFT_KEYS.iter().find(|k| motor.contains_key(**k)) {
+                return Err(SectionError::Key {
+                    key: "motor",
+                    what: format!(
+                        "motor.{k}: a Nanotec stepper's shaft and load are [drive.stepper]'s \
+                         (holding_torque, load_inertia, load_torque, viscous_friction, \
+                         coulomb_friction); [drive.motor] is a BLDC's (`motor_type`)"
+                    ),
+                });
+            }
+        }
     }
     // §11.10: with a node-ID from the switches, 2009h reads the switch value.
     if let Some(p) = rotary.filter(|p| p.node_id_from_switches) {
