@@ -90,6 +90,8 @@ impl CellLoop {
     pub(super) fn read_ethercat(&mut self, c: usize) {
         let mut frame = std::mem::take(&mut self.frame);
         let mut shared = false;
+        // A loop that spins gives no CPU to a master when it sleeps: it exchanges at once.
+        let may_defer = !self.busy_poll;
         for turn in 0..=FRAMES_PER_TURN {
             let Some(chain) = self.chains.get_mut(c) else {
                 break;
@@ -152,7 +154,7 @@ impl CellLoop {
                     buses: &self.buses,
                     stations: &mut self.stations,
                 },
-                own,
+                own && may_defer,
             );
         }
         self.frame = frame;
