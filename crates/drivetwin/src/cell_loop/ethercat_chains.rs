@@ -13,8 +13,6 @@ use crate::cell::stations::{StationId, Stations};
 use crate::cell::wire_faults::Verdict;
 use crate::cell::OnBus;
 use crate::ecat::chain::BusDrives;
-#[cfg(doc)]
-use crate::ecat::chain::STEP_GRACE;
 
 /// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
 /// drive as well finds its drive (the bus names it, the cell's list holds it).
@@ -133,7 +131,7 @@ impl CellLoop {
             if chain.chain.wake_by().is_some_and(|w| w <= t) {
                 // A frame carries what the devices posted by its arrival: a SYNC0 event that
                 // fell due before it runs first (a master's DC loop and its following-error
-                // check read those inputs), and a step past its grace ([`STEP_GRACE`]). A
+                // check read those inputs), and a step past its grace (`STEP_GRACE`). A
                 // step still within its grace is the frame's own: its exchange steps the
                 // drive to the frame's time after the answer, as the frame is the free-run
                 // time base. Other chains, the CAN drives and the timers wait until after
