@@ -88,6 +88,8 @@ impl CellLoop {
     pub(super) fn read_ethercat(&mut self, c: usize) {
         let mut frame = std::mem::take(&mut self.frame);
         let mut shared = false;
+        // A loop that spins gives no CPU to a master when it sleeps: it exchanges at once.
+        let may_defer = !self.busy_poll;
         for turn in 0..=FRAMES_PER_TURN {
             let Some(chain) = self.chains.get_mut(c) else {
                 break;
@@ -111,17 +113,29 @@ impl CellLoop {
                 continue;
             };
             let t = cell_time(self.origin, Instant::now());
+            // The exchange after the frame before comes first, at that frame's time.
+            Self::settle(
+                chain,
+                &mut Buses {
+                    buses: &self.buses,
+                    stations: &mut self.stations,
+                },
+            );
             match chain.link.receive(At::on_clock(t), f) {
                 Verdict::Pass => {}
                 // Lost, or held by the chain's link until its time.
                 Verdict::Lost | Verdict::Corrupt | Verdict::Delay(_) => continue,
             }
-            shared |= chain.chain.has_bus_drives();
-            if chain.chain.due(t) {
-                // A frame carries what the devices posted by its arrival: a step or a SYNC0
-                // event that fell due before it runs first (a master's DC loop and its
-                // following-error check read those inputs). Other chains, the CAN drives
-                // and the timers wait until after the answer.
+            let own = !chain.chain.has_bus_drives();
+            shared |= !own;
+            if chain.chain.wake_by().is_some_and(|w| w <= t) {
+                // A frame carries what the devices posted by its arrival: a SYNC0 event that
+                // fell due before it runs first (a master's DC loop and its following-error
+                // check read those inputs), and a step past its grace (`STEP_GRACE`). A
+                // step still within its grace is the frame's own: its exchange steps the
+                // drive to the frame's time after the answer, as the frame is the free-run
+                // time base. Other chains, the CAN drives and the timers wait until after
+                // the answer.
                 chain.chain.poll_with(
                     t,
                     &mut Buses {
@@ -138,6 +152,7 @@ impl CellLoop {
                     buses: &self.buses,
                     stations: &mut self.stations,
                 },
+                own && may_defer,
             );
         }
         self.frame = frame;
@@ -165,33 +180,62 @@ impl CellLoop {
     }
 
     /// One frame through chain `chain` and back out on its socket; then the chain's devices
-    /// take their outputs and run their drives, while the answer is already on its way.
+    /// take their outputs and run their drives, while the answer is already on its way. With
+    /// `defer`, that exchange waits for [`settle`](Self::settle): the loop runs it before
+    /// anything reads the chain again, or between the master's frames, so that a master
+    /// sharing the loop's CPU runs first. It runs at the frame's time `t` either way: a
+    /// drive's step, its outputs and inputs do not depend on when the loop gets to it.
+    /// A chain whose drives are CAN drives of the cell as well exchanges at once: their
+    /// TPDOs go out on the bus in real time.
     pub(super) fn pass_chain(
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
         buses: &mut Buses<'_>,
+        defer: bool,
     ) {
         if chain.chain.pass_with(t, f, buses).forward() {
             // Out on the wire, then copied to the trace; a failed send is logged by the
             // interface.
             let _ = chain.link.transmit(At::on_clock(t), f);
         }
-        chain.chain.exchange_with(t, buses);
+        if defer {
+            chain.pending_exchange = Some(t);
+        } else {
+            chain.chain.exchange_with(t, buses);
+        }
     }
 
-    /// A frame a `delay` fault held back arrives at chain `c` at `t`.
-    pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
-        if let Some(chain) = self.chains.get_mut(c) {
-            Self::pass_chain(
+    /// Runs chain `chain`'s pending exchange, if any ([`pass_chain`](Self::pass_chain)).
+    fn settle(chain: &mut ChainState, buses: &mut Buses<'_>) {
+        if let Some(t) = chain.pending_exchange.take() {
+            chain.chain.exchange_with(t, buses);
+        }
+    }
+
+    /// Runs every chain's pending exchange: before a turn's timers, events and requests
+    /// read the devices, and before the loop stops.
+    pub(super) fn settle_chains(&mut self) {
+        for chain in &mut self.chains {
+            Self::settle(
                 chain,
-                &mut frame,
-                t,
                 &mut Buses {
                     buses: &self.buses,
                     stations: &mut self.stations,
                 },
             );
+        }
+    }
+
+    /// A frame a `delay` fault held back arrives at chain `c` at `t`.
+    pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
+        if let Some(chain) = self.chains.get_mut(c) {
+            let buses = &mut Buses {
+                buses: &self.buses,
+                stations: &mut self.stations,
+            };
+            Self::settle(chain, buses);
+            Self::pass_chain(chain, &mut frame, t, buses, false);
         }
     }
 }

@@ -20,6 +20,8 @@ impl CellLoop {
     pub(super) fn control(&mut self, now: Instant) {
         while let Ok(command) = self.control_rx.try_recv() {
             self.next_turn.taken();
+            // A request sees the devices as of the last frame.
+            self.settle_chains();
             // A caller that has gone does not need its answer.
             match command {
                 Command::Drives(reply) => {

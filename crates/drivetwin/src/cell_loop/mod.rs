@@ -157,6 +157,10 @@ type ClientLink = FrontFaultInjector<ClientStream>;
 struct ChainState {
     chain: SlaveChain,
     link: ChainLink,
+    /// The devices' exchange after the last frame answered ([`SlaveChain::exchange_with`]),
+    /// at that frame's time, when it is still to run: the loop runs it before anything reads
+    /// the chain again, or at its next wake-up ([`CellLoop::settle_chains`]).
+    pending_exchange: Option<od::Instant>,
 }
 
 impl ChainState {
@@ -494,6 +498,7 @@ impl CellLoop {
                     FrontFaultInjector::inbound(c.socket, arrivals.clone()),
                     c.trace,
                 ),
+                pending_exchange: None,
             })
             .collect();
         let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
@@ -654,62 +659,21 @@ impl CellLoop {
             // A master's EtherCAT frames before anything else: each is answered before the
             // drives step and the other sockets are served ([`ethercat_chains`]).
             self.answer_frames(&events);
-            // Then the timers: an answer on the other front ends shows the drive as of now.
-            self.timers(now);
-            for event in &events {
-                match event.token() {
-                    WAKER => {}
-                    TIMER => {
-                        if let Some(timer) = &mut self.timer {
-                            timer.clear();
-                        }
-                    }
-                    Token(t) if t >= FIRST_SERIAL => {
-                        self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
-                    }
-                    // Answered first, above.
-                    Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {}
-                    Token(t) if t < FIRST_DYNAMIC => {
-                        let b = (t - 1) / 3;
-                        match (t - 1) % 3 {
-                            0 => self.accept_socketcand(b),
-                            1 => self.read_socketcan(b, now),
-                            _ => {
-                                if event.is_writable() {
-                                    self.flush_upstream(b);
-                                }
-                                if event.is_readable() || event.is_read_closed() {
-                                    self.read_upstream(b, now);
-                                }
-                            }
-                        }
-                    }
-                    Token(t) => {
-                        let i = t - FIRST_DYNAMIC;
-                        if i < self.listeners.len() {
-                            self.accept(i);
-                        } else {
-                            let slot = i - self.listeners.len();
-                            if event.is_writable() {
-                                self.write_pending(slot);
-                            }
-                            if event.is_readable() || event.is_read_closed() || event.is_error() {
-                                let closed = event.is_read_closed() || event.is_error();
-                                self.read(slot, now, closed);
-                            }
-                        }
-                    }
-                }
-            }
-            for c in std::mem::take(&mut self.chains_to_read) {
-                self.read_ethercat(c);
-            }
-            for slot in std::mem::take(&mut self.more_to_read) {
-                // No event comes for what waits: read on to would-block or end of file.
-                self.read(slot, now, true);
+            // A turn that had frames to answer and nothing else to do sleeps again at once:
+            // the devices' exchange after them waits for the loop's next wake-up, so that a
+            // master on the same CPU gets it back with its answer. Any other turn runs the
+            // exchange first.
+            let frames_only = self.frames_only(&events, now);
+            if !frames_only {
+                self.settle_chains();
+                self.turn(&events, now);
+                // Frames a flooded chain left for this turn: exchanged before the samples.
+                self.settle_chains();
             }
             self.control(now);
-            self.samples(now);
+            if !frames_only {
+                self.samples(now);
+            }
             self.flush_dirty();
             if events.is_empty() {
                 for bus in self
@@ -725,6 +689,7 @@ impl CellLoop {
                 break;
             }
         }
+        self.settle_chains();
         for m in &mut self.modbus {
             m.close_connection();
         }
@@ -743,6 +708,76 @@ impl CellLoop {
                 CanSegment::gather(b.segment, &mut stations)
             })
             .collect())
+    }
+
+    /// Whether this turn answered frames and has nothing else to do: every event is a
+    /// chain's, nothing is due and no socket has more to read.
+    fn frames_only(&self, events: &Events, now: Instant) -> bool {
+        self.chains.iter().any(|c| c.pending_exchange.is_some())
+            && events
+                .iter()
+                .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
+            && self.chains_to_read.is_empty()
+            && self.more_to_read.is_empty()
+            && !matches!(self.deadline(), Some(d) if d <= now)
+    }
+
+    /// The timers due and every socket's event of a turn but the chains' (answered first).
+    fn turn(&mut self, events: &Events, now: Instant) {
+        // Then the timers: an answer on the other front ends shows the drive as of now.
+        self.timers(now);
+        for event in events {
+            match event.token() {
+                WAKER => {}
+                TIMER => {
+                    if let Some(timer) = &mut self.timer {
+                        timer.clear();
+                    }
+                }
+                Token(t) if t >= FIRST_SERIAL => {
+                    self.serial_event(t - FIRST_SERIAL, now, event.is_readable());
+                }
+                // Answered first, above.
+                Token(t) if (FIRST_CHAIN..FIRST_DYNAMIC).contains(&t) => {}
+                Token(t) if t < FIRST_DYNAMIC => {
+                    let b = (t - 1) / 3;
+                    match (t - 1) % 3 {
+                        0 => self.accept_socketcand(b),
+                        1 => self.read_socketcan(b, now),
+                        _ => {
+                            if event.is_writable() {
+                                self.flush_upstream(b);
+                            }
+                            if event.is_readable() || event.is_read_closed() {
+                                self.read_upstream(b, now);
+                            }
+                        }
+                    }
+                }
+                Token(t) => {
+                    let i = t - FIRST_DYNAMIC;
+                    if i < self.listeners.len() {
+                        self.accept(i);
+                    } else {
+                        let slot = i - self.listeners.len();
+                        if event.is_writable() {
+                            self.write_pending(slot);
+                        }
+                        if event.is_readable() || event.is_read_closed() || event.is_error() {
+                            let closed = event.is_read_closed() || event.is_error();
+                            self.read(slot, now, closed);
+                        }
+                    }
+                }
+            }
+        }
+        for c in std::mem::take(&mut self.chains_to_read) {
+            self.read_ethercat(c);
+        }
+        for slot in std::mem::take(&mut self.more_to_read) {
+            // No event comes for what waits: read on to would-block or end of file.
+            self.read(slot, now, true);
+        }
     }
 
     /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
@@ -786,6 +821,16 @@ impl CellLoop {
         }
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
+            // A pending exchange runs at the loop's next wake-up: under a master that sends
+            // every tick, the one between its frames that the last exchange's step (its
+            // grace) asks for, for which the timer is armed already; at the latest when the
+            // exchange's own step would fall due. It never moves the timer earlier on the
+            // frame's path.
+            take(
+                c.pending_exchange.map(|t| {
+                    self.wall(t) + crate::ecat::chain::TICK + crate::ecat::chain::STEP_GRACE
+                }),
+            );
         }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));

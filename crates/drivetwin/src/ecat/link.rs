@@ -174,13 +174,15 @@ impl SlaveSocket {
 
     /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
     pub fn send(&self, frame: &[u8]) -> io::Result<()> {
-        let deadline = std::time::Instant::now() + TX_QUEUE_FULL_PATIENCE;
+        // The clock is read only once the queue turns out full: not on every answer's path.
+        let mut deadline = None;
         loop {
             match send_once(self.fd.as_fd(), frame) {
-                Err(e)
-                    if (is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock)
-                        && std::time::Instant::now() < deadline =>
-                {
+                Err(e) if is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock => {
+                    let now = std::time::Instant::now();
+                    if now >= *deadline.get_or_insert(now + TX_QUEUE_FULL_PATIENCE) {
+                        return Err(e);
+                    }
                     std::thread::sleep(Duration::from_micros(20));
                 }
                 r => return r,
