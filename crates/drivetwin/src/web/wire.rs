@@ -99,7 +99,7 @@ impl From<&ActiveFault> for FaultView {
         let (fault, share, delay_ms) = match f.kind {
             FaultKind::Drop { share } => ("drop", Some(share), None),
             FaultKind::Delay { by } => ("delay", None, Some(by.as_secs_f64() * 1e3)),
-            FaultKind::Corrupt => ("corrupt", None, None),
+            FaultKind::Corrupt { share } => ("corrupt", Some(share), None),
             FaultKind::CableBreak => ("cable-break", None, None),
         };
         let (node, reach) = match f.reach {
