@@ -2,7 +2,8 @@
 socketcand with python-canopen / python-can: a cut cable silences a node's heartbeat and its
 heartbeat consumer (a Kinco FD) reports it with EMCY 8130h (CiA 301), then both come back; a
 master whose own cable is cut gets no SDO answer; corrupted frames are error frames the nodes
-count (their REC) instead of answers; a pcap trace of the bus is started and stopped."""
+count (their REC) instead of answers; a share of a node's corrupted answers is sent again by
+the node (its TEC +8, -1) and the master still gets every one; a pcap trace of the bus is started and stopped."""
 
 from __future__ import annotations
 
@@ -125,6 +126,44 @@ def test_corrupted_frames_are_counted_by_the_nodes_not_answered(cell, raw_bus):
     assert answer(0.3) is None, "a frame that fails its CRC is no request"
     bus.send(request)
     assert answer(1.0) is not None, "the fault took its twenty frames"
+
+
+def test_a_share_of_a_nodes_corrupted_answers_is_sent_again(launch, tmp_path, connect, eds_files):
+    """Half of node 1's SDO answers (581h) corrupted, four of them: the share is spread evenly
+    over the transmissions on the wire, so the first answer passes and each of the next four
+    fails its CRC once and passes when the node sends it again (ISO 11898-1 automatic
+    retransmission). python-canopen gets every answer; node 1's TEC is +8 per error, -1 per
+    good transmission: 4 x 7 = 28, still error active. Node 1 beats no heartbeat, so its
+    answers are all it sends."""
+    cfg = write_cell(tmp_path / "cell.toml", [("cmmp-as", 1, {"1017:00": 0}, cmmp_switches(1, 500))])
+    twin = launch(config=cfg, extra=("--http", "127.0.0.1:0"))
+    base = console(twin)
+    net = connect(twin)
+    node1 = add_node(net, 1, eds_files["cmmp-as"])
+    device_type = node1.sdo.upload(0x1000, 0)
+    status, fault = api(base, "POST", "/api/wire/bus/0/faults",
+                        {"fault": "corrupt", "node": 1, "cob_id": 0x581, "share": 0.5, "frames": 4})
+    assert status == 201, fault
+    assert fault["fault"] == "corrupt" and fault["share"] == 0.5, fault
+
+    def node1_errors():
+        """Node 1's counters; none while both are 0 (the API lists only counting nodes)."""
+        status, buses = api(base, "GET", "/api/buses")
+        assert status == 200, buses
+        return next((e for e in buses[0]["node_errors"] if e["node"] == 1), None)
+
+    assert node1_errors() is None
+    # Answers 2 to 5 are each corrupted once, the first passes.
+    for _ in range(5):
+        assert node1.sdo.upload(0x1000, 0) == device_type
+    errors = node1_errors()
+    assert errors is not None and errors["tec"] == 4 * (8 - 1), errors
+    assert errors["state"] == "error active", errors
+    status, faults = api(base, "GET", "/api/wire/bus/0/faults")
+    assert status == 200 and faults == [], "the counted fault has taken its four frames"
+    # The fault has ended: the next answer passes at once, TEC -1.
+    assert node1.sdo.upload(0x1000, 0) == device_type
+    assert node1_errors()["tec"] == 4 * (8 - 1) - 1
 
 
 def test_a_trace_of_the_bus_from_the_api(cell):

@@ -97,3 +97,44 @@ def test_a_share_of_lost_frames_and_a_count_of_corrupted_ones_reach_soems_cycle(
             assert status == 200 and json.loads(text) == [], "the counted fault has ended"
         finally:
             master.close()
+
+
+def test_a_share_of_corrupted_frames_fails_every_second_cycle_of_soem(veth, tmp_path):
+    """A corruption rate: with half the frames corrupted (`corrupt`, share 0.5, spread evenly:
+    every second frame) the Ethernet FCS discards every second LRW, so SOEM's cyclic exchange
+    gets exactly every second one back; the fault list shows the share; a share above 1 is
+    refused with the reason."""
+    ns = veth[0]
+    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
+    port = free_port()
+    base = f"http://127.0.0.1:{port}/api/wire/ethercat/0/faults"
+    with ecat_twin_run(veth, tmp_path, "--http", f"127.0.0.1:{port}") as (master_if, _lines):
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            assert master.config_init() == 1
+            assert master.config_map() > 0
+            assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
+
+            def answered(cycles: int) -> list[bool]:
+                """Whether each cycle's frame came back (a lost one waits out 100 ms)."""
+                out = []
+                for _ in range(cycles):
+                    master.send_processdata()
+                    out.append(master.receive_processdata(100_000) > 0)
+                return out
+
+            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 1.5})
+            assert status == 400, text
+            assert "share 1.5" in text, text
+            assert answered(4) == [True] * 4
+            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 0.5})
+            assert status == 201, text
+            fault = json.loads(text)
+            assert fault["fault"] == "corrupt" and fault["share"] == 0.5, fault
+            assert answered(20) == [True, False] * 10, "every second frame corrupted"
+            status, text = api_in(ns, "DELETE", base)
+            assert status == 200, text
+            assert answered(4) == [True] * 4
+        finally:
+            master.close()

@@ -139,7 +139,7 @@ fn corrupted_frames_are_error_frames_the_receivers_count() {
         ms(50),
         WireFault {
             reach: Reach::Outside,
-            kind: FaultKind::Corrupt,
+            kind: FaultKind::Corrupt { share: 1.0 },
             cob_id: None,
             frames: Some(3),
             lasting: None,
@@ -173,7 +173,7 @@ fn a_corrupted_node_frame_is_sent_again() {
         ms(50),
         WireFault {
             reach: Reach::Node(1),
-            kind: FaultKind::Corrupt,
+            kind: FaultKind::Corrupt { share: 1.0 },
             cob_id: Some(0x701),
             frames: Some(1),
             lasting: None,

@@ -42,10 +42,19 @@ pub enum FaultKind {
     Drop { share: f64 },
     /// Arrives `by` later.
     Delay { by: Duration },
-    /// Fails its CRC (CAN: an error frame; Ethernet: discarded).
-    Corrupt,
+    /// Fails its CRC (CAN: an error frame; Ethernet: discarded); `share` of the frames (1.0:
+    /// every one, the default), spread evenly as a drop's.
+    Corrupt {
+        #[serde(default = "every_frame")]
+        share: f64,
+    },
     /// The cable is cut: nothing passes either way.
     CableBreak,
+}
+
+/// The share of a fault that names none: every frame.
+fn every_frame() -> f64 {
+    1.0
 }
 
 /// One fault as asked for.
@@ -88,7 +97,9 @@ impl WireFault {
     /// Checks the figures: a share within 0…1, a delay within a minute.
     pub fn validate(&self) -> Result<(), WireFaultError> {
         match self.kind {
-            FaultKind::Drop { share } if !(share > 0.0 && share <= 1.0) => {
+            FaultKind::Drop { share } | FaultKind::Corrupt { share }
+                if !(share > 0.0 && share <= 1.0) =>
+            {
                 Err(WireFaultError::Share(share))
             }
             FaultKind::Delay { by } if by > MAX_DELAY || by.is_zero() => {
@@ -157,6 +168,21 @@ pub struct ActiveFault {
     pub left: Option<u32>,
     /// The share's counter, in millionths.
     credit: u32,
+}
+
+impl ActiveFault {
+    /// Whether the fault takes the frame it sees now, at `share` of the frames.
+    fn take(&mut self, share: f64) -> bool {
+        // Decision: a share is spread evenly by a counter (0.25: every 4th frame), not drawn
+        // at random, so that a run is the same bit for bit.
+        let step = (share.clamp(0.0, 1.0) * 1e6).round() as u32;
+        self.credit = self.credit.saturating_add(step);
+        if self.credit < 1_000_000 {
+            return false;
+        }
+        self.credit -= 1_000_000;
+        true
+    }
 }
 
 /// The faults of one front end.
@@ -240,20 +266,20 @@ impl WireFaults {
             }
             let verdict = match a.fault.kind {
                 FaultKind::CableBreak => Verdict::Lost,
-                FaultKind::Corrupt => Verdict::Corrupt,
                 FaultKind::Delay { by } => Verdict::Delay(Instant::from_nanos(
                     now.as_nanos().saturating_add(nanos(by)),
                 )),
                 FaultKind::Drop { share } => {
-                    // Decision: a share is spread evenly by a counter (0.25: every 4th frame),
-                    // not drawn at random, so that a run is the same bit for bit.
-                    let step = (share.clamp(0.0, 1.0) * 1e6).round() as u32;
-                    a.credit = a.credit.saturating_add(step);
-                    if a.credit < 1_000_000 {
+                    if !a.take(share) {
                         continue;
                     }
-                    a.credit -= 1_000_000;
                     Verdict::Lost
+                }
+                FaultKind::Corrupt { share } => {
+                    if !a.take(share) {
+                        continue;
+                    }
+                    Verdict::Corrupt
                 }
             };
             if let Some(left) = a.left.as_mut() {
@@ -453,7 +479,8 @@ pub struct FaultSpec {
     pub reach: Option<ReachName>,
     /// Only frames of this CAN identifier.
     pub cob_id: Option<u16>,
-    /// drop: the share of frames taken, above 0 and at most 1 (default 1).
+    /// drop, corrupt: the share of frames taken, above 0 and at most 1 (default 1), spread
+    /// evenly (0.25: every 4th frame).
     pub share: Option<f64>,
     /// delay: by how long (`"5ms"`, or milliseconds).
     #[schema(value_type = Option<String>)]
@@ -481,8 +508,8 @@ impl FaultSpec {
         if self.delay.is_some() && name != FaultName::Delay {
             return Err("delay is a delay fault's".into());
         }
-        if self.share.is_some() && name != FaultName::Drop {
-            return Err("share is a drop fault's".into());
+        if self.share.is_some() && !matches!(name, FaultName::Drop | FaultName::Corrupt) {
+            return Err("share is a drop or corrupt fault's".into());
         }
         let kind = match name {
             FaultName::Drop => FaultKind::Drop {
@@ -491,7 +518,9 @@ impl FaultSpec {
             FaultName::Delay => FaultKind::Delay {
                 by: self.delay.ok_or("delay: by how long (\"5ms\")")?.0,
             },
-            FaultName::Corrupt => FaultKind::Corrupt,
+            FaultName::Corrupt => FaultKind::Corrupt {
+                share: self.share.unwrap_or(1.0),
+            },
             FaultName::CableBreak => FaultKind::CableBreak,
             FaultName::StopSync => {
                 if self.cob_id.is_some() || self.node.is_some() {
@@ -561,13 +590,94 @@ mod tests {
     }
 
     #[test]
+    fn a_quarter_share_corrupts_every_fourth_frame() {
+        let mut f = WireFaults::default();
+        f.add(
+            ms(0),
+            WireFault {
+                kind: FaultKind::Corrupt { share: 0.25 },
+                ..drop_share(1.0)
+            },
+        )
+        .expect("fault");
+        let verdicts: Vec<Verdict> = (0..8)
+            .map(|_| f.judge(ms(1), Sender::Node(1), 0x181))
+            .collect();
+        let (p, c) = (Verdict::Pass, Verdict::Corrupt);
+        assert_eq!(verdicts, [p, p, p, c, p, p, p, c]);
+        assert_eq!(f.judge(ms(1), Sender::Node(2), 0x182), Verdict::Pass);
+    }
+
+    #[test]
+    fn a_share_with_a_count_ends_after_the_frames_it_took() {
+        let mut f = WireFaults::default();
+        f.add(
+            ms(0),
+            WireFault {
+                kind: FaultKind::Corrupt { share: 0.5 },
+                frames: Some(2),
+                ..drop_share(1.0)
+            },
+        )
+        .expect("fault");
+        let verdicts: Vec<Verdict> = (0..6)
+            .map(|_| f.judge(ms(1), Sender::Node(1), 0x181))
+            .collect();
+        let (p, c) = (Verdict::Pass, Verdict::Corrupt);
+        assert_eq!(verdicts, [p, c, p, c, p, p]);
+        assert!(f.is_empty());
+    }
+
+    #[test]
+    fn a_corrupt_share_is_taken_from_a_spec_and_a_bad_one_refused() {
+        let spec: FaultSpec =
+            serde_json::from_str(r#"{"fault": "corrupt", "share": 0.5}"#).expect("spec");
+        assert_eq!(
+            spec.to_fault().map(|f| f.kind),
+            Ok(FaultKind::Corrupt { share: 0.5 })
+        );
+        let spec: FaultSpec = serde_json::from_str(r#"{"fault": "corrupt"}"#).expect("spec");
+        assert_eq!(
+            spec.to_fault().map(|f| f.kind),
+            Ok(FaultKind::Corrupt { share: 1.0 })
+        );
+        let spec: FaultSpec =
+            serde_json::from_str(r#"{"fault": "corrupt", "share": 1.5}"#).expect("spec");
+        assert_eq!(
+            spec.to_fault(),
+            Err("share 1.5: a part of the frames above 0 and at most 1".into())
+        );
+        let spec: FaultSpec =
+            serde_json::from_str(r#"{"fault": "delay", "delay": "5ms", "share": 0.5}"#)
+                .expect("spec");
+        assert_eq!(
+            spec.to_fault(),
+            Err("share is a drop or corrupt fault's".into())
+        );
+        // A fault written before corruption had a share still reads: every frame.
+        let kind: FaultKind = serde_json::from_str(r#"{"kind": "corrupt"}"#).expect("kind");
+        assert_eq!(kind, FaultKind::Corrupt { share: 1.0 });
+        let mut f = WireFaults::default();
+        let bad = WireFault {
+            kind: FaultKind::Corrupt { share: 0.0 },
+            ..drop_share(1.0)
+        };
+        assert_eq!(f.add(ms(0), bad), Err(WireFaultError::Share(0.0)));
+        let nan = WireFault {
+            kind: FaultKind::Corrupt { share: f64::NAN },
+            ..drop_share(1.0)
+        };
+        assert!(matches!(f.add(ms(0), nan), Err(WireFaultError::Share(_))));
+    }
+
+    #[test]
     fn a_counted_fault_ends_after_its_frames() {
         let mut f = WireFaults::default();
         f.add(
             ms(0),
             WireFault {
                 frames: Some(2),
-                kind: FaultKind::Corrupt,
+                kind: FaultKind::Corrupt { share: 1.0 },
                 ..drop_share(1.0)
             },
         )

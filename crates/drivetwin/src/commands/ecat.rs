@@ -3,8 +3,6 @@
 
 use super::*;
 
-#[cfg(not(target_os = "linux"))]
-use drivetwin::master::ecat::FrameLink;
 use drivetwin::master::ecat::{abort_description, EcatError, EcatMaster, SlaveInfo};
 use ethercat::master::{state_name, AlStatusBlock};
 use ethercat::{AlState, DlStatus};
@@ -72,11 +70,10 @@ pub(crate) async fn ecat(cmd: EcatCommand) -> Result<(), CommandError> {
     }
 }
 
-#[cfg(target_os = "linux")]
 type Link = drivetwin::master::ecat::link::SocketLink;
 
-/// Opens the interface, counts the slaves and gives them their station addresses.
-#[cfg(target_os = "linux")]
+/// Opens the interface, counts the slaves and gives them their station addresses; elsewhere
+/// than on Linux the raw socket refuses with its reason (`sys::packet_socket`).
 async fn attach(args: &EcatLinkArgs) -> Result<(EcatMaster<Link>, u16), CommandError> {
     let link =
         Link::open(&args.interface).map_err(io(format!("EtherCAT on {}", args.interface)))?;
@@ -84,27 +81,6 @@ async fn attach(args: &EcatLinkArgs) -> Result<(EcatMaster<Link>, u16), CommandE
     m.frame_timeout = Duration::from_millis(args.frame_timeout_ms.max(1));
     let count = m.attach().await?;
     Ok((m, count))
-}
-
-#[cfg(not(target_os = "linux"))]
-type Link = NoLink;
-
-#[cfg(not(target_os = "linux"))]
-pub(crate) struct NoLink;
-
-#[cfg(not(target_os = "linux"))]
-impl FrameLink for NoLink {
-    async fn round_trip(&mut self, _: &mut [u8], _: u8, _: Duration) -> std::io::Result<bool> {
-        Ok(false)
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-async fn attach(args: &EcatLinkArgs) -> Result<(EcatMaster<Link>, u16), CommandError> {
-    Err(CommandError::Usage(format!(
-        "--interface {}: raw Ethernet needs Linux",
-        args.interface
-    )))
 }
 
 /// The slaves a command works on: `--slave N` (checked against the count) or all.

@@ -109,7 +109,6 @@ impl SocketcandLink {
 /// Any link a master command can use.
 pub enum Link {
     Socketcand(SocketcandLink),
-    #[cfg(target_os = "linux")]
     SocketCan(crate::can::socketcan::CanSocket),
 }
 
@@ -120,8 +119,8 @@ impl Link {
         ))
     }
 
-    /// A SocketCAN interface (real hardware or vcan).
-    #[cfg(target_os = "linux")]
+    /// A SocketCAN interface (real hardware or vcan); elsewhere than on Linux it refuses
+    /// ([`crate::sys::socketcan`]).
     pub fn socketcan(interface: &str) -> Result<Self, LinkError> {
         crate::can::socketcan::CanSocket::open(interface)
             .map(Link::SocketCan)
@@ -131,7 +130,6 @@ impl Link {
     pub async fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         match self {
             Link::Socketcand(l) => l.write(&Message::Send(*frame)).await,
-            #[cfg(target_os = "linux")]
             Link::SocketCan(s) => s
                 .send(frame)
                 .await
@@ -149,7 +147,6 @@ impl Link {
                     _ => {}
                 }
             },
-            #[cfg(target_os = "linux")]
             Link::SocketCan(s) => s
                 .recv()
                 .await

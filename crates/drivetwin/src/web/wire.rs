@@ -99,7 +99,7 @@ impl From<&ActiveFault> for FaultView {
         let (fault, share, delay_ms) = match f.kind {
             FaultKind::Drop { share } => ("drop", Some(share), None),
             FaultKind::Delay { by } => ("delay", None, Some(by.as_secs_f64() * 1e3)),
-            FaultKind::Corrupt => ("corrupt", None, None),
+            FaultKind::Corrupt { share } => ("corrupt", Some(share), None),
             FaultKind::CableBreak => ("cable-break", None, None),
         };
         let (node, reach) = match f.reach {
@@ -148,8 +148,9 @@ async fn list_faults(
 
 /// Starts a fault on a front end: `{"fault": "cable-break", "node": 1, "for": "2s"}`,
 /// `{"fault": "drop", "share": 0.5}`, `{"fault": "delay", "delay": "5ms"}`,
-/// `{"fault": "corrupt", "frames": 3}`, `{"fault": "stop-sync"}`. Without a node the fault
-/// takes what the front end's clients send in (`"reach": "bus"`: every frame).
+/// `{"fault": "corrupt", "frames": 3}`, `{"fault": "corrupt", "share": 0.25}`,
+/// `{"fault": "stop-sync"}`. Without a node the fault takes what the front end's clients
+/// send in (`"reach": "bus"`: every frame).
 #[utoipa::path(post, path = "/api/wire/{front}/{index}/faults", tag = "wire",
     params(("front" = String, Path, description = "bus, modbus, ethercat or client"),
         ("index" = u32, Path, description = "the bus, Modbus drive or EtherCAT chain (from 0), or a socketcand client's TCP port")),

@@ -22,15 +22,14 @@ pub trait FrameLink {
     ) -> io::Result<bool>;
 }
 
-/// The raw `AF_PACKET` socket of [`crate::ecat::link`], on the master's side of the wire.
-#[cfg(target_os = "linux")]
+/// The raw `AF_PACKET` socket of [`crate::ecat::link`], on the master's side of the wire;
+/// elsewhere than on Linux it does not open ([`crate::sys::packet_socket`]).
 #[derive(Debug)]
 pub struct SocketLink {
     socket: crate::ecat::link::EthercatSocket,
     rx: Vec<u8>,
 }
 
-#[cfg(target_os = "linux")]
 impl SocketLink {
     /// Opens `interface` (needs `CAP_NET_RAW`); inside a tokio runtime.
     pub fn open(interface: &str) -> io::Result<Self> {
@@ -41,7 +40,6 @@ impl SocketLink {
     }
 }
 
-#[cfg(target_os = "linux")]
 impl FrameLink for SocketLink {
     async fn round_trip(
         &mut self,
