@@ -6,31 +6,10 @@ use std::time::{Duration, Instant};
 
 use mio::{Events, Token};
 
-use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
+use super::{cell_time, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
+use crate::cell::can_cell::CanCell;
 use crate::cell::link::{At, FrontLink};
-use crate::cell::station::Station;
-use crate::cell::stations::{StationId, Stations};
 use crate::cell::wire_faults::Verdict;
-use crate::cell::OnBus;
-use crate::ecat::chain::BusDrives;
-
-/// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
-/// drive as well finds its drive (the bus names it, the cell's list holds it).
-pub(super) struct Buses<'a> {
-    pub(super) buses: &'a [BusState],
-    pub(super) stations: &'a mut Stations,
-}
-
-impl BusDrives for Buses<'_> {
-    fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        let id = self.buses.get(at.bus)?.segment.member(at.drive)?;
-        self.stations.station_mut(id)
-    }
-
-    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
-        self.stations.station_mut(id)
-    }
-}
 
 /// How long a `--busy-poll` turn looks at the chains' receive rings before it polls the
 /// other sockets (a system call) and does the rest of its work: a frame that lands meanwhile
@@ -122,23 +101,9 @@ impl CellLoop {
                 // event that fell due before it runs first (a master's DC loop and its
                 // following-error check read those inputs). Other chains, the CAN drives
                 // and the timers wait until after the answer.
-                chain.chain.poll_with(
-                    t,
-                    &mut Buses {
-                        buses: &self.buses,
-                        stations: &mut self.stations,
-                    },
-                );
+                chain.chain.poll_with(t, &mut self.cell);
             }
-            Self::pass_chain(
-                chain,
-                f,
-                t,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
+            Self::pass_chain(chain, f, t, &mut self.cell);
         }
         self.frame = frame;
         if shared {
@@ -155,9 +120,7 @@ impl CellLoop {
                     continue;
                 }
                 let mut out = std::mem::take(&mut self.out);
-                if let Some(bus) = self.buses.get_mut(b) {
-                    bus.segment.poll(&mut self.stations, t, &mut out);
-                }
+                self.cell.poll(b, t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
             }
@@ -170,7 +133,7 @@ impl CellLoop {
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
-        buses: &mut Buses<'_>,
+        buses: &mut CanCell,
     ) {
         if chain.chain.pass_with(t, f, buses).forward() {
             // Out on the wire, then copied to the trace; a failed send is logged by the
@@ -183,15 +146,7 @@ impl CellLoop {
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
     pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
         if let Some(chain) = self.chains.get_mut(c) {
-            Self::pass_chain(
-                chain,
-                &mut frame,
-                t,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
+            Self::pass_chain(chain, &mut frame, t, &mut self.cell);
         }
     }
 }
