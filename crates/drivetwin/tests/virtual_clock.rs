@@ -245,8 +245,11 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
     let mut cell = CanCell::one_bus(vec![station(1)]);
     cell.add_bus(vec![station(2)]);
     let mut chain = SlaveChain::empty();
+    let id = cell
+        .id_at(OnBus { bus: 1, drive: 0 })
+        .expect("bus 1's station");
     chain
-        .push(desc, SlaveDrive::OnBus(OnBus { bus: 1, drive: 0 }))
+        .push(desc, SlaveDrive::Station { id, bus: Some(1) })
         .expect("slave");
     let mut chains = vec![chain];
     run_virtual_mixed(
