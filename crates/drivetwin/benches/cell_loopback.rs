@@ -14,7 +14,7 @@
 //!   write 4 at 0: the FHPP cyclic telegram).
 //!
 //! The twin's two drives are one cell on one loop and one clock: its CMMP-AS steps while the
-//! CMMO-ST cycles every millisecond. Its CAN bus is the instant bus (a [`CanSegment`] without a bit
+//! CMMO-ST cycles every millisecond. Its CAN bus is the instant bus (a [`CanCell`] bus without a bit
 //! rate, as `bitrate = "instant"` in a cell file): frames cross at once, so the figures are the
 //! loop's and the kernel's, not a bus's bit time (about 2 ms a round trip at the default
 //! cell's 125 kbit/s).
@@ -55,7 +55,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -107,9 +107,9 @@ fn floor(cpu: usize, reply: &'static [u8]) -> io::Result<SocketAddr> {
     Ok(addr)
 }
 
-/// The cell loop of `front` on a thread of its own, pinned to CPU `cpu`.
-fn spawn_loop(front: FrontEnds, cpu: usize) -> Result<StopHandle, String> {
-    let cell_loop = CellLoop::with_buses(front).map_err(|e| e.to_string())?;
+/// The cell loop of `cell` and `front` on a thread of its own, pinned to CPU `cpu`.
+fn spawn_loop(cell: CanCell, front: FrontEnds, cpu: usize) -> Result<StopHandle, String> {
+    let cell_loop = CellLoop::new(cell, front).map_err(|e| e.to_string())?;
     let stop = cell_loop.stop_handle();
     std::thread::Builder::new()
         .name("cell".into())
@@ -131,15 +131,15 @@ fn twin_on_bus(cpu: usize, bitrate: u32) -> Result<(SocketAddr, StopHandle), Str
         .map_err(|e| e.to_string())?;
     let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let addr = listener.local_addr().map_err(|e| e.to_string())?;
-    let cell = CanSegment::new(vec![drive]).with_bitrate(bitrate, Duration::from_millis(10));
+    let cell = CanCell::one_timed_bus(vec![drive], bitrate, Duration::from_millis(10));
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((listener, ServerConfig::new("vcan0"))),
-            ..CanBus::new(cell)
+            ..CanBus::default()
         }],
         ..FrontEnds::default()
     };
-    let stop = spawn_loop(front, cpu)?;
+    let stop = spawn_loop(cell, front, cpu)?;
     Ok((addr, stop))
 }
 
@@ -206,8 +206,7 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((can_listener, ServerConfig::new("vcan0"))),
-            // The instant bus: no `with_bitrate`.
-            ..CanBus::new(CanSegment::new(vec![drive]))
+            ..CanBus::default()
         }],
         modbus: vec![ModbusDrive::new(
             mb_listener,
@@ -216,7 +215,8 @@ fn twin(cpu: usize) -> Result<(SocketAddr, SocketAddr, StopHandle), String> {
         )],
         ..FrontEnds::default()
     };
-    let stop = spawn_loop(front, cpu)?;
+    // The instant bus: no bit rate.
+    let stop = spawn_loop(CanCell::one_bus(vec![drive]), front, cpu)?;
     Ok((can_addr, mb_addr, stop))
 }
 

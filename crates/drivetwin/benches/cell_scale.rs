@@ -24,7 +24,6 @@ use criterion::{criterion_group, Criterion};
 use drive::drive::DriveSettings;
 use drivetwin::cell::bus_timing::BusTiming;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
@@ -56,7 +55,7 @@ fn cell(bitrate: u32, every: u8, motors: bool) -> CanCell {
             Station::with_settings(desc, node, None, commissioning, settings).expect("a drive")
         })
         .collect();
-    CanCell::from(CanSegment::new(drives).with_bitrate(bitrate, Duration::from_millis(1)))
+    CanCell::one_timed_bus(drives, bitrate, Duration::from_millis(1))
 }
 
 /// NMT start for all at 10 ms, then SYNC every `period` until `until`.

@@ -43,11 +43,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::lateness::LatenessFigures;
 use drivetwin::cell::station::Station;
-use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
+use drivetwin::cell_loop::{CellLoop, FrontEnds};
 use drivetwin::web::{self, HttpSetting};
 
 const DRIVES: usize = 16;
@@ -134,7 +134,7 @@ impl CpuSnapshot {
 }
 
 /// 16 CMMP-AS with motors on one bus, nodes 1…16.
-fn cell() -> Result<CanSegment, String> {
+fn cell() -> Result<CanCell, String> {
     let cmmp = devices::by_name("cmmp-as").ok_or("no cmmp-as")?;
     let drives = (1..=DRIVES as u8)
         .map(|node| {
@@ -142,7 +142,7 @@ fn cell() -> Result<CanSegment, String> {
                 .map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(CanSegment::new(drives))
+    Ok(CanCell::one_bus(drives))
 }
 
 /// Profile velocity mode, a target velocity, then the controlword steps to OPERATION ENABLED
@@ -251,11 +251,13 @@ struct Run {
 }
 
 fn run(with_console: bool, secs: u64, loop_cpu_no: usize, fifo: bool) -> Result<Run, String> {
-    let cell_loop = CellLoop::with_buses(FrontEnds {
-        buses: vec![CanBus::new(cell()?)],
-        rt_priority: fifo.then_some(80),
-        ..FrontEnds::default()
-    })
+    let cell_loop = CellLoop::new(
+        cell()?,
+        FrontEnds {
+            rt_priority: fifo.then_some(80),
+            ..FrontEnds::default()
+        },
+    )
     .map_err(|e| e.to_string())?;
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();

@@ -20,9 +20,9 @@ use std::time::{Duration, Instant as StdInstant};
 
 use criterion::{black_box, Criterion};
 use drive::vendors::kinco::rs232::{KincoRs232, Request};
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::{Commissioning, Station};
-use drivetwin::cell::OnBus;
+use drivetwin::cell::stations::StationId;
 use drivetwin::cell_loop::{CellLoop, FrontEnds};
 use drivetwin::serial::pty::Port;
 use drivetwin::serial::wire::Wire;
@@ -36,12 +36,12 @@ use od::{Instant, ObjectAccess, ObjectDictionary};
 struct Plain(ObjectDictionary<Vec<u8>>);
 
 impl LineDrives for Plain {
-    fn access(&mut self, _at: OnBus, _now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess)) {
+    fn access(&mut self, _at: StationId, _now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess)) {
         f(&mut self.0);
     }
 }
 
-const AT: OnBus = OnBus { bus: 0, drive: 0 };
+const AT: StationId = StationId::from_index(0);
 
 fn fd3() -> Plain {
     let d = &devices::KINCO_FD3;
@@ -131,13 +131,13 @@ fn pty_round_trip(baud: u32, code: u16, count: usize) -> Result<(), String> {
         }],
     )
     .map_err(|e| e.to_string())?;
-    let cell = CanSegment::new(vec![drive]);
+    let cell = CanCell::one_bus(vec![drive]);
     let requests = [LineRequest {
         kind: Kind::Rs232,
         path: path.clone(),
         drive: AT,
     }];
-    let serial = open_lines(&requests, std::slice::from_ref(&cell)).map_err(|e| e.to_string())?;
+    let serial = open_lines(&requests, &cell).map_err(|e| e.to_string())?;
     let cell_loop = CellLoop::new(
         cell,
         FrontEnds {

@@ -15,7 +15,6 @@ use canbus::frame_time::{best_case_bits, bits_to_nanos, frame_bits, worst_case_b
 use canopen::CanFrame;
 use drivetwin::cell::bus_timing::BusFigures;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use od::Instant;
@@ -33,12 +32,11 @@ fn commissioning(values: &[(u16, u8, &[u8])]) -> Vec<Commissioning> {
 
 /// `n` CMMP-AS dictionaries (no motor: only their CANopen side) with `values` commissioned,
 /// the node-ID substituted for `node` in each value by `per_node`.
-fn cell(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> CanSegment {
+fn drives(n: u8, per_node: impl Fn(u8) -> Vec<Commissioning>) -> Vec<Station> {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
-    let drives = (1..=n)
+    (1..=n)
         .map(|node| Station::new(desc, node, None, per_node(node)).expect("drive"))
-        .collect();
-    CanSegment::new(drives)
+        .collect()
 }
 
 fn run(
@@ -58,9 +56,10 @@ fn run(
 #[test]
 fn heartbeats_of_127_nodes_take_the_bit_time_the_formula_gives() {
     let heartbeat_ms = 100u16.to_le_bytes();
-    let mut cell = CanCell::from(
-        cell(127, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)]))
-            .with_bitrate(125_000, Duration::from_millis(1)),
+    let mut cell = CanCell::one_timed_bus(
+        drives(127, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)])),
+        125_000,
+        Duration::from_millis(1),
     );
     let out = run(&mut cell, &[], Duration::from_millis(180));
     let due = Duration::from_millis(100);
@@ -114,8 +113,7 @@ fn sync_inputs() -> Vec<(Duration, CanFrame)> {
 }
 
 fn sync_cell(bitrate: u32) -> (Vec<(Duration, CanFrame)>, BusFigures) {
-    let mut cell =
-        CanCell::from(cell(40, sync_tpdo).with_bitrate(bitrate, Duration::from_millis(5)));
+    let mut cell = CanCell::one_timed_bus(drives(40, sync_tpdo), bitrate, Duration::from_millis(5));
     let out = run(&mut cell, &sync_inputs(), Duration::from_millis(1004));
     let figures = cell.buses[0]
         .bus_figures(Instant::from_millis(1004))
@@ -175,7 +173,7 @@ fn a_sync_with_40_tpdos_overloads_250_kbit_and_fits_at_1_mbit() {
 #[test]
 fn without_a_bit_rate_frames_cross_at_once() {
     let heartbeat_ms = 100u16.to_le_bytes();
-    let mut cell = CanCell::from(cell(3, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)])));
+    let mut cell = CanCell::one_bus(drives(3, |_| commissioning(&[(0x1017, 0, &heartbeat_ms)])));
     let out = run(&mut cell, &[], Duration::from_millis(150));
     let beats: Vec<_> = out
         .iter()
@@ -221,12 +219,11 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
         Station::new(kinco, 2, None, hb.clone()).expect("2"),
         Station::with_settings(nanotec, 3, None, hb.clone(), Some(Default::default())).expect("3"),
     ];
-    let mut cell = CanSegment::new(drives).with_bitrate(500_000, Duration::from_millis(1));
+    let mut cell = CanCell::one_timed_bus(drives, 500_000, Duration::from_millis(1));
     let at = |ms| Instant::from_millis(ms);
-    cell.plan_disturbance(at(100), 2, 16);
-    cell.plan_disturbance(at(200), 3, 32);
-    cell.plan_disturbance(at(300), 1, 32);
-    let mut cell = CanCell::from(cell);
+    cell.buses[0].plan_disturbance(at(100), 2, 16);
+    cell.buses[0].plan_disturbance(at(200), 3, 32);
+    cell.buses[0].plan_disturbance(at(300), 1, 32);
     // NMT start: heartbeats say 05h (operational)… the test looks at the 7Fh ones of Pre-Op.
     let out = run(&mut cell, &[], Duration::from_millis(400));
 

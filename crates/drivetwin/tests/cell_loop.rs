@@ -11,7 +11,7 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle, MAX_PENDING};
 
@@ -25,11 +25,11 @@ fn start() -> (SocketAddr, StopHandle, std::thread::JoinHandle<()>) {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((listener, config)),
-            ..CanBus::new(CanSegment::new(vec![drive]))
+            ..CanBus::default()
         }],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
+    let cell_loop = CellLoop::new(CanCell::one_bus(vec![drive]), front).expect("loop");
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || {
         cell_loop.run().expect("runs");
@@ -185,6 +185,7 @@ fn a_client_that_sends_and_closes_at_once_is_closed() {
 fn two_buses_on_one_loop_keep_their_frames_apart() {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let mut buses = Vec::new();
+    let mut cell = CanCell::new();
     let mut addrs = Vec::new();
     for _ in 0..2 {
         // Node 1 on each bus: node-IDs are per bus.
@@ -195,18 +196,23 @@ fn two_buses_on_one_loop_keep_their_frames_apart() {
         config.stream_delay = Duration::from_millis(20);
         buses.push(CanBus {
             socketcand: Some((listener, config)),
-            ..CanBus::new(CanSegment::new(vec![drive]))
+            ..CanBus::default()
         });
+        cell.add_bus(vec![drive]);
     }
-    let cell_loop = CellLoop::with_buses(FrontEnds {
-        buses,
-        ..FrontEnds::default()
-    })
+    let cell_loop = CellLoop::new(
+        cell,
+        FrontEnds {
+            buses,
+            ..FrontEnds::default()
+        },
+    )
     .expect("loop");
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || {
-        let cells = cell_loop.run().expect("runs");
-        assert_eq!(cells.len(), 2);
+        let cell = cell_loop.run().expect("runs");
+        assert_eq!(cell.buses.len(), 2);
+        assert_eq!(cell.stations.len(), 2);
     });
     let mut a = raw_client(addrs[0]);
     let mut a2 = raw_client(addrs[0]);

@@ -91,9 +91,11 @@ fn a_cmmo_st_gets_its_planned_message_and_plant_change() {
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = mb.local_addr().expect("addr");
     let t0 = Instant::now();
+    let (can, buses) = web_rig::bus(vec![web_rig::station("cmmp-as", 1)]);
     let cell = web_rig::start(
+        can,
         FrontEnds {
-            buses: vec![web_rig::bus(vec![web_rig::station("cmmp-as", 1)])],
+            buses,
             modbus: vec![ModbusDrive::new(
                 mb,
                 Box::new(FhppModbus::new(dev, None)),
@@ -165,6 +167,7 @@ fn an_ethercat_only_drive_gets_its_planned_message() {
         .expect("a chain of one CMMP-AS");
     let t0 = Instant::now();
     let cell = web_rig::start(
+        drivetwin::cell::can_cell::CanCell::new(),
         FrontEnds {
             ethercat: vec![EthercatChain {
                 chain,

@@ -9,29 +9,35 @@
 
 use canopen::CanFrame;
 use drive::vendors::festo_cmmp_as::ci_terminal;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
+use drivetwin::cell::stations::StationId;
 use od::Instant;
 
 #[path = "support/can_bench.rs"]
 mod can_bench;
 
-fn cell() -> CanSegment {
+fn cell() -> CanCell {
     let mut c = can_bench::cmmp_cell(None);
-    c.boot(Instant::ZERO, &mut Vec::new());
+    c.boot(0, Instant::ZERO, &mut Vec::new());
     c
 }
 
 /// The answer to `line` typed at the CI terminal of drive `drive`, which reaches the drive
-/// as its local interfaces do (`CanSegment::local_access`); `None` without the drive.
-fn ci_line(c: &mut CanSegment, drive: usize, now: Instant, line: &[u8]) -> Option<String> {
+/// as its local interfaces do (`CanCell::local_access`); `None` without the drive.
+fn ci_line(c: &mut CanCell, drive: usize, now: Instant, line: &[u8]) -> Option<String> {
     let mut reply = None;
-    c.local_access(drive, now, &mut Vec::new(), &mut |od| {
-        reply = Some(ci_terminal::execute(line, od).as_str().to_owned());
-    });
+    c.local_access(
+        StationId::from_index(drive),
+        now,
+        &mut Vec::new(),
+        &mut |od| {
+            reply = Some(ci_terminal::execute(line, od).as_str().to_owned());
+        },
+    );
     reply
 }
 
-fn ci(c: &mut CanSegment, now: Instant, line: &str) -> String {
+fn ci(c: &mut CanCell, now: Instant, line: &str) -> String {
     ci_line(c, 0, now, line.as_bytes()).expect("drive 0")
 }
 
@@ -66,10 +72,10 @@ fn a_console_write_acts_like_an_sdo_download() {
             break;
         }
         now = t.max(now);
-        c.poll(now, &mut out);
+        c.poll(0, now, &mut out);
     }
     let hb: Vec<_> = out.iter().filter(|f| f.id == 0x701).collect();
     assert_eq!(hb.len(), 3, "heartbeat every 100 ms: {out:?}");
-    c.on_frame(now, &CanFrame::new(0, &[0x01, 0x01]).unwrap(), &mut out);
+    c.on_frame(0, now, &CanFrame::new(0, &[0x01, 0x01]).unwrap(), &mut out);
     assert_eq!(ci(&mut c, now, "=180001:C0000187"), "!08000022");
 }

@@ -8,7 +8,7 @@
 )]
 
 use canopen::CanFrame;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use od::Instant;
 
 #[path = "support/can_bench.rs"]
@@ -16,24 +16,24 @@ mod can_bench;
 
 use can_bench::cmmp_cell;
 
-fn cell() -> CanSegment {
+fn cell() -> CanCell {
     cmmp_cell(None)
 }
 
-fn run_until(cell: &mut CanSegment, now: &mut Instant, until: Instant, out: &mut Vec<CanFrame>) {
+fn run_until(cell: &mut CanCell, now: &mut Instant, until: Instant, out: &mut Vec<CanFrame>) {
     while let Some(t) = cell.deadline() {
         if t > until {
             break;
         }
         *now = t.max(*now);
-        cell.poll(*now, out);
+        cell.poll(0, *now, out);
     }
     *now = until;
 }
 
-fn sdo(cell: &mut CanSegment, now: Instant, data: [u8; 8]) -> [u8; 8] {
+fn sdo(cell: &mut CanCell, now: Instant, data: [u8; 8]) -> [u8; 8] {
     let mut out = Vec::new();
-    cell.on_frame(now, &CanFrame::full(0x601, data), &mut out);
+    cell.on_frame(0, now, &CanFrame::full(0x601, data), &mut out);
     out.iter()
         .find(|f| f.id == 0x581)
         .map(|f| f.data)
@@ -45,9 +45,9 @@ fn enable_sequence_over_sdo_on_the_virtual_clock() {
     let mut c = cell();
     let mut out = Vec::new();
     let mut now = Instant::ZERO;
-    c.boot(now, &mut out);
+    c.boot(0, now, &mut out);
     run_until(&mut c, &mut now, Instant::from_millis(10), &mut out);
-    let sw = |c: &mut CanSegment, now| {
+    let sw = |c: &mut CanCell, now| {
         let r = sdo(c, now, [0x40, 0x41, 0x60, 0, 0, 0, 0, 0]);
         u16::from_le_bytes([r[4], r[5]])
     };
@@ -69,7 +69,7 @@ fn cmmp_sdo_10_15_16_on_the_drive() {
     let mut c = cell();
     let mut out = Vec::new();
     let mut now = Instant::ZERO;
-    c.boot(now, &mut out);
+    c.boot(0, now, &mut out);
     run_until(&mut c, &mut now, Instant::from_millis(10), &mut out);
     // CMMP-SDO-16.
     assert_eq!(

@@ -15,7 +15,7 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::wire_faults::{FaultSpec, FrontEnd, WireRequest};
 use drivetwin::cell_loop::{CanBus, FrontEnds};
 
@@ -75,13 +75,14 @@ fn cell() -> (web_rig::Running, SocketAddr) {
     let addr = listener.local_addr().expect("addr");
     let bus = CanBus {
         socketcand: Some((listener, ServerConfig::new("vcan0"))),
-        ..CanBus::new(CanSegment::new(vec![web_rig::station("cmmp-as", 1)]))
+        ..CanBus::default()
     };
+    let can = CanCell::one_bus(vec![web_rig::station("cmmp-as", 1)]);
     let front = FrontEnds {
         buses: vec![bus],
         ..FrontEnds::default()
     };
-    (web_rig::start(front, None), addr)
+    (web_rig::start(can, front, None), addr)
 }
 
 fn fault(json: serde_json::Value) -> drivetwin::cell::wire_faults::WireFault {

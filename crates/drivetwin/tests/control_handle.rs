@@ -12,7 +12,7 @@ use std::net::{TcpListener, TcpStream};
 use std::time::Duration;
 
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::control::{Interface, Plant};
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
@@ -84,7 +84,7 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
     let front = FrontEnds {
         buses: vec![CanBus {
             socketcand: Some((can, ServerConfig::new("vcan0"))),
-            ..CanBus::new(CanSegment::new(vec![drive]))
+            ..CanBus::default()
         }],
         modbus: vec![ModbusDrive::new(
             mb,
@@ -93,7 +93,7 @@ fn one_dictionary_seen_through_the_handle_and_over_sdo() {
         )],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
+    let cell_loop = CellLoop::new(CanCell::one_bus(vec![drive]), front).expect("loop");
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || cell_loop.run().map(|_| ()));

@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use drive::vendors::festo_cmmo_st::fhpp::Authority;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds};
@@ -35,7 +35,7 @@ fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
     let front = FrontEnds {
-        buses: vec![CanBus::new(CanSegment::new(vec![drive]))],
+        buses: vec![CanBus::default()],
         modbus: vec![ModbusDrive::new(
             mb,
             Box::new(FhppModbus::new(dev, None)),
@@ -43,7 +43,7 @@ fn cell_of(device: &str) -> (ControlHandle, impl FnOnce()) {
         )],
         ..FrontEnds::default()
     };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
+    let cell_loop = CellLoop::new(CanCell::one_bus(vec![drive]), front).expect("loop");
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || cell_loop.run().map(|_| ()));

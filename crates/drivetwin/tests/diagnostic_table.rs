@@ -17,6 +17,7 @@
 
 use canopen::CanFrame;
 use drive::vendors::festo_cmmp_as::messages::{self, Number};
+use drivetwin::cell::OnBus;
 use od::Reaction;
 
 #[path = "support/can_bench.rs"]
@@ -415,7 +416,7 @@ fn kinco_diag_vector(word: drive::vendors::kinco::ErrorWord, bit: u8) -> &'stati
     }
 }
 
-/// The cell's own way in (what scenarios and the cell file use): `CanSegment::raise_diagnostic`,
+/// The cell's own way in (what scenarios and the cell file use): `CanCell::raise_diagnostic`,
 /// and `[[drive.diagnostic]]` planned on the cell's clock: 43-0 at 50 ms, cleared at 80 ms.
 #[test]
 fn cell_raises_planned_messages_on_its_clock() {
@@ -442,8 +443,7 @@ fn cell_raises_planned_messages_on_its_clock() {
     assert_eq!(spec.diagnostics.len(), 2);
     let mut b = Bench::new(None);
     for p in spec.diagnostics {
-        b.cell
-            .plan_diagnostic(od::Instant::from_millis(p.at_ms), 0, p);
+        b.cell.buses[0].plan_diagnostic(od::Instant::from_millis(p.at_ms), 0, p);
     }
     b.enable();
     b.sent();
@@ -459,7 +459,7 @@ fn cell_raises_planned_messages_on_its_clock() {
     );
     assert_eq!(
         b.cell
-            .diagnostics(0)
+            .diagnostics(OnBus { bus: 0, drive: 0 })
             .expect("drive 0")
             .iter()
             .filter(|s| s.active)
@@ -472,10 +472,20 @@ fn cell_raises_planned_messages_on_its_clock() {
         "cleared at 80 ms"
     );
     // And directly: an unknown number is refused, a known one raised.
-    assert!(b.cell.raise_diagnostic(0, "99-9").is_err());
-    assert!(b.cell.raise_diagnostic(1, "43-0").is_err(), "no drive 1");
+    assert!(b
+        .cell
+        .raise_diagnostic(OnBus { bus: 0, drive: 0 }, "99-9")
+        .is_err());
+    assert!(
+        b.cell
+            .raise_diagnostic(OnBus { bus: 0, drive: 1 }, "43-0")
+            .is_err(),
+        "no drive 1"
+    );
     assert_eq!(
-        b.cell.raise_diagnostic(0, "08-2").map(|r| r.code),
+        b.cell
+            .raise_diagnostic(OnBus { bus: 0, drive: 0 }, "08-2")
+            .map(|r| r.code),
         Ok(Some(0x7382))
     );
 }

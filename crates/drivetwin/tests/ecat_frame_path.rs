@@ -169,15 +169,18 @@ fn allocations_per_frame_path(busy_poll: bool) -> Option<u64> {
         drivetwin::vendors::VENDORS.runtime,
     )
     .expect("a chain of one CMMP-AS");
-    let cell_loop = CellLoop::with_buses(FrontEnds {
-        ethercat: vec![EthercatChain {
-            chain,
-            socket,
-            trace: None,
-        }],
-        busy_poll,
-        ..FrontEnds::default()
-    })
+    let cell_loop = CellLoop::new(
+        drivetwin::cell::can_cell::CanCell::new(),
+        FrontEnds {
+            ethercat: vec![EthercatChain {
+                chain,
+                socket,
+                trace: None,
+            }],
+            busy_poll,
+            ..FrontEnds::default()
+        },
+    )
     .expect("the loop");
     let stop = cell_loop.stop_handle();
     let thread = std::thread::Builder::new()

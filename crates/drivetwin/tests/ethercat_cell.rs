@@ -17,7 +17,6 @@ use ecat_inputs::{phys, sm};
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::stations::{StationId, Stations};
-use drivetwin::cell::OnBus;
 use drivetwin::ecat::chain::{BusDrives, SlaveChain, SlaveDrive};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
@@ -53,9 +52,6 @@ struct Master {
 struct InCell<'a>(&'a mut Stations);
 
 impl BusDrives for InCell<'_> {
-    fn station(&mut self, _at: OnBus) -> Option<&mut Station> {
-        None
-    }
     fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
         self.0.station_mut(id)
     }
@@ -73,7 +69,7 @@ impl Master {
         let desc = devices::by_name("cmmp-as").unwrap();
         stations
             .push(Station::with_settings(desc, 9, None, vec![], Some(Default::default())).unwrap());
-        cell.join(&mut stations, |_| None);
+        cell.join(&mut stations);
         for i in 0..cell.len() {
             assert!(
                 matches!(cell.drive(i), Some(SlaveDrive::Station { bus: None, .. })),

@@ -10,13 +10,13 @@
 )]
 
 use canopen::CanFrame;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
 use od::Instant;
 
 struct Bench {
-    cell: CanSegment,
+    cell: CanCell,
     now: Instant,
     out: Vec<CanFrame>,
 }
@@ -37,11 +37,11 @@ impl Bench {
         )
         .expect("the Kinco FD3");
         let mut b = Bench {
-            cell: CanSegment::new(vec![d]),
+            cell: CanCell::one_bus(vec![d]),
             now: Instant::ZERO,
             out: Vec::new(),
         };
-        b.cell.boot(b.now, &mut b.out);
+        b.cell.boot(0, b.now, &mut b.out);
         b.run_ms(10);
         b
     }
@@ -53,16 +53,16 @@ impl Bench {
                 break;
             }
             self.now = t.max(self.now);
-            self.cell.poll(self.now, &mut self.out);
+            self.cell.poll(0, self.now, &mut self.out);
         }
         self.now = until;
-        self.cell.poll(self.now, &mut self.out);
+        self.cell.poll(0, self.now, &mut self.out);
     }
 
     fn sdo(&mut self, request: [u8; 8]) -> [u8; 8] {
         self.out.clear();
         self.cell
-            .on_frame(self.now, &CanFrame::full(0x601, request), &mut self.out);
+            .on_frame(0, self.now, &CanFrame::full(0x601, request), &mut self.out);
         self.out
             .iter()
             .find(|f| f.id == 0x581)

@@ -16,9 +16,8 @@ use std::time::Duration;
 
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::OnBus;
+use drivetwin::cell::stations::StationId;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::serial::Kind;
 use drivetwin::serial::LineRequest;
@@ -117,25 +116,21 @@ fn run() -> Outputs {
             Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
-    let cell = CanSegment::new(drives);
+    let mut cell = CanCell::one_bus(drives);
     let requests = [
         LineRequest {
             kind: Kind::Rs232,
             path: PathBuf::from("rs232"),
-            drive: OnBus { bus: 0, drive: 0 },
+            drive: StationId::from_index(0),
         },
         LineRequest {
             kind: Kind::Rs485,
             path: PathBuf::from("rs485"),
-            drive: OnBus { bus: 0, drive: 1 },
+            drive: StationId::from_index(1),
         },
     ];
-    let mut lines = (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(
-        &requests,
-        std::slice::from_ref(&cell),
-    )
-    .expect("lines");
-    let mut cell = CanCell::from(cell);
+    let mut lines =
+        (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(&requests, &cell).expect("lines");
     let mut outputs = Vec::new();
     run_virtual_lines(
         &mut cell,

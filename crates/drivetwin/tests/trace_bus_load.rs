@@ -15,7 +15,6 @@ use std::time::Duration;
 use canbus::frame_time::{bits_to_nanos, frame_bits};
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell_loop::virtual_clock::run_virtual;
 use drivetwin::trace::bus_load::{load_path, parse_load};
@@ -45,7 +44,7 @@ fn cell() -> CanCell {
             Station::new(desc, node, None, c).expect("drive")
         })
         .collect();
-    CanCell::from(CanSegment::new(drives).with_bitrate(BITRATE, Duration::from_millis(5)))
+    CanCell::one_timed_bus(drives, BITRATE, Duration::from_millis(5))
 }
 
 /// NMT start of every node, then a SYNC every 5 ms for 1.6 s.

@@ -16,7 +16,6 @@ use std::time::Duration;
 
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
@@ -134,7 +133,7 @@ fn run() -> Vec<(Duration, u8, Vec<u8>)> {
     let desc = devices::by_name("cmmp-as").expect("cmmp-as");
     let drive =
         Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
-    let mut cell = CanCell::from(CanSegment::new(vec![drive]));
+    let mut cell = CanCell::one_bus(vec![drive]);
     let mut modbus = vec![cmmo_st()];
     let mut chain = SlaveChain::empty();
     let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
@@ -243,13 +242,14 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
     let station = |node| {
         Station::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
     };
-    let mut cell = CanCell::from_segments([
-        CanSegment::new(vec![station(1)]),
-        CanSegment::new(vec![station(2)]),
-    ]);
+    let mut cell = CanCell::one_bus(vec![station(1)]);
+    cell.add_bus(vec![station(2)]);
     let mut chain = SlaveChain::empty();
+    let id = cell
+        .id_at(OnBus { bus: 1, drive: 0 })
+        .expect("bus 1's station");
     chain
-        .push(desc, SlaveDrive::OnBus(OnBus { bus: 1, drive: 0 }))
+        .push(desc, SlaveDrive::Station { id, bus: Some(1) })
         .expect("slave");
     let mut chains = vec![chain];
     run_virtual_mixed(

@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use canopen::CanFrame;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::{Commissioning, Station};
 use drivetwin::cell::wire_faults::{FaultKind, Reach, WireFault};
 use od::Instant;
@@ -31,8 +31,8 @@ fn drive(device: &str, node: u8, objects: &[(u16, u8, Vec<u8>)]) -> Station {
 }
 
 /// Node 1 (a test bench) beats every 100 ms; node 2 (a Kinco FD, whose 1016h is a real consumer) watches it with 250 ms.
-fn cell() -> CanSegment {
-    CanSegment::new(vec![
+fn cell() -> CanCell {
+    CanCell::one_bus(vec![
         drive(
             "testbench",
             1,
@@ -48,7 +48,7 @@ fn cell() -> CanSegment {
 
 /// Runs `cell` from `from` to `to` on the virtual clock; the frames that reach the outside.
 fn run(
-    cell: &mut CanSegment,
+    cell: &mut CanCell,
     from: Instant,
     to: Instant,
     inputs: &[(Instant, CanFrame)],
@@ -75,11 +75,11 @@ fn run(
         now = wake.max(now);
         if input == Some(wake) {
             if let Some((_, f)) = inputs.get(next) {
-                cell.on_frame(now, f, &mut out);
+                cell.on_frame(0, now, f, &mut out);
             }
             next += 1;
         } else {
-            cell.poll(now, &mut out);
+            cell.poll(0, now, &mut out);
         }
     }
     seen
@@ -97,17 +97,18 @@ fn start_all() -> (Instant, CanFrame) {
 fn a_cut_cable_silences_the_node_and_its_consumer_reports_8130h() {
     let mut c = cell();
     let mut out = Vec::new();
-    c.boot(ms(0), &mut out);
+    c.boot(0, ms(0), &mut out);
     let before = run(&mut c, ms(0), ms(500), &[start_all()]);
     assert!(
         before.iter().any(|(_, f)| f.id == 0x701),
         "node 1 beats: {before:?}"
     );
-    c.add_wire_fault(
-        ms(500),
-        WireFault::cable_break(Reach::Node(1), Some(Duration::from_millis(1000))),
-    )
-    .expect("fault");
+    c.buses[0]
+        .add_wire_fault(
+            ms(500),
+            WireFault::cable_break(Reach::Node(1), Some(Duration::from_millis(1000))),
+        )
+        .expect("fault");
     let during = run(&mut c, ms(500), ms(1499), &[]);
     assert!(
         during.iter().all(|(_, f)| f.id != 0x701),
@@ -133,19 +134,20 @@ fn a_cut_cable_silences_the_node_and_its_consumer_reports_8130h() {
 fn corrupted_frames_are_error_frames_the_receivers_count() {
     let mut c = cell();
     let mut out = Vec::new();
-    c.boot(ms(0), &mut out);
+    c.boot(0, ms(0), &mut out);
     run(&mut c, ms(0), ms(50), &[start_all()]);
-    c.add_wire_fault(
-        ms(50),
-        WireFault {
-            reach: Reach::Outside,
-            kind: FaultKind::Corrupt { share: 1.0 },
-            cob_id: None,
-            frames: Some(3),
-            lasting: None,
-        },
-    )
-    .expect("fault");
+    c.buses[0]
+        .add_wire_fault(
+            ms(50),
+            WireFault {
+                reach: Reach::Outside,
+                kind: FaultKind::Corrupt { share: 1.0 },
+                cob_id: None,
+                frames: Some(3),
+                lasting: None,
+            },
+        )
+        .expect("fault");
     // Three SDO uploads from outside fail their CRC: nobody answers, both nodes count 3.
     let sdo = |t| {
         (
@@ -155,7 +157,7 @@ fn corrupted_frames_are_error_frames_the_receivers_count() {
     };
     let seen = run(&mut c, ms(50), ms(90), &[sdo(60), sdo(70), sdo(80)]);
     assert!(seen.iter().all(|(_, f)| f.id != 0x582), "{seen:?}");
-    for f in c.node_faults() {
+    for f in c.buses[0].node_faults() {
         assert_eq!(f.confinement.counters(), (0, 3), "REC +1 per error frame");
     }
     // The fault has taken its three frames: the fourth is answered.
@@ -167,24 +169,25 @@ fn corrupted_frames_are_error_frames_the_receivers_count() {
 fn a_corrupted_node_frame_is_sent_again() {
     let mut c = cell();
     let mut out = Vec::new();
-    c.boot(ms(0), &mut out);
+    c.boot(0, ms(0), &mut out);
     run(&mut c, ms(0), ms(50), &[start_all()]);
-    c.add_wire_fault(
-        ms(50),
-        WireFault {
-            reach: Reach::Node(1),
-            kind: FaultKind::Corrupt { share: 1.0 },
-            cob_id: Some(0x701),
-            frames: Some(1),
-            lasting: None,
-        },
-    )
-    .expect("fault");
+    c.buses[0]
+        .add_wire_fault(
+            ms(50),
+            WireFault {
+                reach: Reach::Node(1),
+                kind: FaultKind::Corrupt { share: 1.0 },
+                cob_id: Some(0x701),
+                frames: Some(1),
+                lasting: None,
+            },
+        )
+        .expect("fault");
     let seen = run(&mut c, ms(50), ms(160), &[]);
     // The heartbeat still goes out once (the automatic retransmission after the error frame).
     assert_eq!(seen.iter().filter(|(_, f)| f.id == 0x701).count(), 1);
     assert_eq!(
-        c.node_faults()[0].confinement.counters().0,
+        c.buses[0].node_faults()[0].confinement.counters().0,
         8 - 1,
         "TEC +8, -1"
     );
@@ -194,23 +197,25 @@ fn a_corrupted_node_frame_is_sent_again() {
 fn a_delayed_request_is_answered_later_and_a_stopped_sync_takes_only_080h() {
     let mut c = cell();
     let mut out = Vec::new();
-    c.boot(ms(0), &mut out);
+    c.boot(0, ms(0), &mut out);
     run(&mut c, ms(0), ms(50), &[start_all()]);
-    c.add_wire_fault(ms(50), WireFault::stopped_sync(None))
+    c.buses[0]
+        .add_wire_fault(ms(50), WireFault::stopped_sync(None))
         .expect("fault");
-    c.add_wire_fault(
-        ms(50),
-        WireFault {
-            reach: Reach::Outside,
-            kind: FaultKind::Delay {
-                by: Duration::from_millis(7),
+    c.buses[0]
+        .add_wire_fault(
+            ms(50),
+            WireFault {
+                reach: Reach::Outside,
+                kind: FaultKind::Delay {
+                    by: Duration::from_millis(7),
+                },
+                cob_id: Some(0x602),
+                frames: None,
+                lasting: None,
             },
-            cob_id: Some(0x602),
-            frames: None,
-            lasting: None,
-        },
-    )
-    .expect("fault");
+        )
+        .expect("fault");
     let sdo = CanFrame::new(0x602, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]).expect("frame");
     let seen = run(&mut c, ms(50), ms(90), &[(ms(60), sdo)]);
     let answer = seen.iter().find(|(_, f)| f.id == 0x582).expect("answer");

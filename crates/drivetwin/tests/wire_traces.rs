@@ -45,10 +45,9 @@ use std::time::Duration;
 
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::OnBus;
+use drivetwin::cell::stations::StationId;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_lines, Input, Output};
 use drivetwin::ecat::chain::{own_drive, SlaveChain};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -262,7 +261,7 @@ const KINCO: Device = Device {
 };
 
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
-fn can_cell(device: &str, node: u8) -> CanSegment {
+fn can_cell(device: &str, node: u8) -> CanCell {
     let spec = CellFile::single(device, node)
         .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("a cell of one drive")
@@ -275,7 +274,7 @@ fn can_cell(device: &str, node: u8) -> CanSegment {
         spec.settings,
     )
     .expect("the drive");
-    CanSegment::new(vec![drive])
+    CanCell::one_bus(vec![drive])
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -474,7 +473,7 @@ fn check(name: &str, title: &str, rig: fn() -> Rig) {
 
 fn canopen_rig(name: &str, node: u8, device: &Device) -> Rig {
     Rig {
-        cell: CanCell::from(can_cell(name, node)),
+        cell: can_cell(name, node),
         modbus: Vec::new(),
         chains: Vec::new(),
         lines: Vec::new(),
@@ -546,24 +545,21 @@ fn kinco_serial() -> Rig {
             Station::with_settings(desc, n, None, vec![], Some(Default::default())).expect("drive")
         })
         .collect();
-    let cell = CanSegment::new(drives);
+    let cell = CanCell::one_bus(drives);
     let requests = [
         LineRequest {
             kind: Kind::Rs232,
             path: PathBuf::from("rs232"),
-            drive: OnBus { bus: 0, drive: 0 },
+            drive: StationId::from_index(0),
         },
         LineRequest {
             kind: Kind::Rs485,
             path: PathBuf::from("rs485"),
-            drive: OnBus { bus: 0, drive: 1 },
+            drive: StationId::from_index(1),
         },
     ];
-    let lines = (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(
-        &requests,
-        std::slice::from_ref(&cell),
-    )
-    .expect("lines");
+    let lines =
+        (drivetwin::vendors::VENDORS.serial_lines.virtual_lines)(&requests, &cell).expect("lines");
     let mut s = Script::default();
     s.can(2, 0x000, &[0x01, 0x00]);
     for (i, (cmd, index, sub, value)) in [
@@ -620,7 +616,7 @@ fn kinco_serial() -> Rig {
         s.push(192 + 25 * i, rtu(&[0x03, 0x37, 0x00, 0x00, 0x02]));
     }
     Rig {
-        cell: CanCell::from(cell),
+        cell,
         modbus: Vec::new(),
         chains: Vec::new(),
         lines,

@@ -1,14 +1,15 @@
 //! A cell's stations and the CAN buses between them, on one clock: the stations in one list
 //! ([`Stations`]), each bus a [`SegmentBus`] that names its stations by id and borrows the
-//! list for each call. It is what the virtual clock (`cell_loop::virtual_clock`) and the
-//! scenario rig run, as the cell loop runs its list and its buses: an EtherCAT chain joins it
+//! list for each call. It is what the virtual clock (`cell_loop::virtual_clock`), the
+//! scenario rig and the cell loop run (the loop with each bus's transports beside it): an
+//! EtherCAT chain joins it
 //! (`ecat::chain::SlaveChain::join_cell`), so a drive that is a CANopen node and an EtherCAT
 //! slave at once is one station, named by its bus and by its slave.
 
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
-use super::can_segment::{CanSegment, SegmentBus};
+use super::can_segment::SegmentBus;
 use super::station::Station;
 use super::stations::{StationId, Stations};
 use super::OnBus;
@@ -23,28 +24,40 @@ pub struct CanCell {
     pub buses: Vec<SegmentBus>,
 }
 
-impl From<CanSegment> for CanCell {
-    /// A cell of one bus: its stations are the list, in segment order.
-    fn from(segment: CanSegment) -> Self {
-        CanCell::from_segments([segment])
-    }
-}
-
 impl CanCell {
     /// A cell without stations or buses.
     pub fn new() -> Self {
         CanCell::default()
     }
 
-    /// The cell of `segments`, in order: each one's stations join the list (in segment
-    /// order) and its bus names them by id there, as the cell loop joins its buses.
-    pub fn from_segments(segments: impl IntoIterator<Item = CanSegment>) -> Self {
+    /// A cell of one instant bus between `drives` (the list, in segment order).
+    pub fn one_bus(drives: Vec<Station>) -> Self {
         let mut cell = CanCell::new();
-        for s in segments {
-            let (own, bus) = s.into_parts();
-            cell.buses.push(bus.join(own, &mut cell.stations));
+        cell.add_bus(drives);
+        cell
+    }
+
+    /// A cell of one bus between `drives` that takes the time a real one does at `bitrate`
+    /// bit/s ([`SegmentBus::set_bitrate`]).
+    pub fn one_timed_bus(
+        drives: Vec<Station>,
+        bitrate: u32,
+        late_after: std::time::Duration,
+    ) -> Self {
+        let mut cell = CanCell::new();
+        let b = cell.add_bus(drives);
+        if let Some(bus) = cell.bus_mut(b) {
+            bus.set_bitrate(bitrate, late_after);
         }
         cell
+    }
+
+    /// A new bus between `drives`, which join the list in order; its index (the last of
+    /// [`CanCell::buses`]), without a bit rate: [`CanCell::bus_mut`] sets its timing and plans.
+    pub fn add_bus(&mut self, drives: Vec<Station>) -> usize {
+        let members = self.push_stations(drives);
+        self.buses.push(SegmentBus::new(members));
+        self.buses.len() - 1
     }
 
     /// `drives` join the list, in order; their ids, for the bus they are on
@@ -64,6 +77,14 @@ impl CanCell {
     /// The id of the station at `at` (its bus, its place in the bus's segment order).
     pub fn id_at(&self, at: OnBus) -> Option<StationId> {
         self.buses.get(at.bus)?.member(at.drive)
+    }
+
+    /// Where station `id` is on the CAN buses (the first bus that names it).
+    pub fn place_of(&self, id: StationId) -> Option<OnBus> {
+        self.buses.iter().enumerate().find_map(|(bus, b)| {
+            let drive = b.position(id)?;
+            Some(OnBus { bus, drive })
+        })
     }
 
     /// The station at `at`.
@@ -117,18 +138,29 @@ impl CanCell {
             .fold(None, |acc, b| earliest(acc, b.deadline(&self.stations)))
     }
 
-    /// A local interface (a serial port, a terminal) of the station at `at` reaches its
-    /// objects at `now` through `f` ([`SegmentBus::local_access`]); the frames the drive
-    /// sends meanwhile go to `out`.
+    /// A local interface (a serial port, a terminal) of station `id` reaches its objects at
+    /// `now` through `f` ([`SegmentBus::local_access`]); the frames the drive sends meanwhile
+    /// go to `out`, for its bus: the index of that bus (none: the station is on no CAN bus,
+    /// and what it sends goes nowhere).
     pub fn local_access(
         &mut self,
-        at: OnBus,
+        id: StationId,
         now: Instant,
         out: &mut Vec<CanFrame>,
         f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
-    ) {
-        if let Some(bus) = self.buses.get_mut(at.bus) {
-            bus.local_access(&mut self.stations, at.drive, now, out, f);
+    ) -> Option<usize> {
+        match self.place_of(id) {
+            Some(at) => {
+                let bus = self.buses.get_mut(at.bus)?;
+                bus.local_access(&mut self.stations, at.drive, now, out, f);
+                Some(at.bus)
+            }
+            None => {
+                if let Some(s) = self.stations.station_mut(id) {
+                    s.local_access(now, &mut |_| {}, f);
+                }
+                None
+            }
         }
     }
 

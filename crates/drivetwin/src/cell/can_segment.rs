@@ -1,4 +1,5 @@
-//! A CAN segment: the stations of one simulated CAN bus and the bus between them. Frames a
+//! A CAN segment: one simulated CAN bus of a cell ([`SegmentBus`]), between stations of the
+//! cell's list ([`super::can_cell::CanCell`]), which it names by id. Frames a
 //! station sends reach the other stations of the segment as well as the bus's front ends; with
 //! a bit rate ([`super::bus_timing`]) they do so when they have crossed the bus, after the
 //! arbitration. Each station's CAN controller counts its errors ([`NodeFaults`]), and the wire
@@ -49,16 +50,6 @@ impl Addressed for SegmentFrame {
 /// to count its recovery (128 × 11 recessive bits): that of 1 Mbit/s.
 const UNTIMED_BITRATE: u32 = 1_000_000;
 
-/// One simulated CAN bus with the stations it brings to a cell (each with its CANopen node),
-/// before they join the cell's list: in a [`super::can_cell::CanCell`] (the virtual clock, the
-/// scenario rig) or the cell loop, the stations are in the cell's [`Stations`] and the bus
-/// ([`SegmentBus`]) names them by id. The tests step a segment of their own directly.
-pub struct CanSegment {
-    /// The stations on the bus, in segment order.
-    pub stations: Stations,
-    bus: SegmentBus,
-}
-
 /// The bus of a CAN segment: the stations on it, named by id in the cell's [`Stations`], and
 /// the model between them (arbitration, each station's CAN controller, the wire's faults).
 pub struct SegmentBus {
@@ -101,140 +92,6 @@ enum Attempt {
     Dropped,
 }
 
-impl CanSegment {
-    pub fn new(drives: Vec<Station>) -> Self {
-        let stations = Stations::from(drives);
-        let bus = SegmentBus::new(stations.ids().collect());
-        CanSegment { stations, bus }
-    }
-
-    /// The stations and the bus that names them (segment order is the stations' order).
-    pub fn into_parts(self) -> (Stations, SegmentBus) {
-        (self.stations, self.bus)
-    }
-
-    /// The bus of a cell's segment with its stations taken out of the cell's list: the
-    /// segment as it was before it joined the cell ([`SegmentBus::join`]). A station
-    /// already taken (or not in the list) is left out.
-    pub fn gather(mut bus: SegmentBus, cell: &mut [Option<Station>]) -> Self {
-        let mut stations = Stations::new();
-        for id in &mut bus.members {
-            if let Some(s) = cell.get_mut(id.index()).and_then(Option::take) {
-                *id = stations.push(s);
-            }
-        }
-        CanSegment { stations, bus }
-    }
-
-    /// Why a drive's load FMU stopped the cell, once one has (the first such drive's error):
-    /// every runner (`drivetwin run`, `--virtual-seconds`, a scenario) stops with it.
-    pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
-        self.bus.load_failure(&self.stations)
-    }
-
-    /// The bus between the stations.
-    pub fn bus(&self) -> &SegmentBus {
-        &self.bus
-    }
-
-    /// The bus between the stations, to change its faults and plans.
-    pub fn bus_mut(&mut self) -> &mut SegmentBus {
-        &mut self.bus
-    }
-
-    /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
-    /// than `late_after` for it counts as late.
-    pub fn with_bitrate(mut self, bitrate: u32, late_after: std::time::Duration) -> Self {
-        self.bus = self.bus.with_bitrate(bitrate, late_after);
-        self
-    }
-
-    /// The bus's bit rate, if it has one (`bitrate` on its `[[bus]]`).
-    pub fn timed_bitrate(&self) -> Option<u32> {
-        self.bus.timed_bitrate()
-    }
-
-    /// The bus's figures as of `now` (none on the instant bus).
-    pub fn bus_figures(&mut self, now: Instant) -> Option<BusFigures> {
-        self.bus.bus_figures(now)
-    }
-
-    /// See [`SegmentBus::disturb`].
-    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
-        self.bus.disturb(drive, frames)
-    }
-
-    /// Plans [`disturb`](Self::disturb) of the drive with node-ID `node` at `at`.
-    pub fn plan_disturbance(&mut self, at: Instant, node: u8, frames: u32) {
-        self.bus.plan_disturbance(at, node, frames);
-    }
-
-    /// Starts a fault on the bus's wire at `now` ([`super::wire_faults`]); its id.
-    pub fn add_wire_fault(
-        &mut self,
-        now: Instant,
-        fault: WireFault,
-    ) -> Result<u32, WireFaultError> {
-        self.bus.add_wire_fault(now, fault)
-    }
-
-    /// Ends wire fault `id`.
-    pub fn remove_wire_fault(&mut self, id: u32) -> Result<(), WireFaultError> {
-        self.bus.remove_wire_fault(id)
-    }
-
-    /// Ends every wire fault; frames already delayed still arrive.
-    pub fn clear_wire_faults(&mut self) {
-        self.bus.clear_wire_faults();
-    }
-
-    /// The wire faults active at `now`.
-    pub fn wire_faults(&mut self, now: Instant) -> Vec<ActiveFault> {
-        self.bus.wire_faults(now)
-    }
-
-    /// Each station's CAN controller, in segment order.
-    pub fn node_faults(&self) -> &[NodeFaults] {
-        self.bus.node_faults()
-    }
-
-    /// Boots every drive; the boot-up messages go to `out`.
-    pub fn boot(&mut self, now: Instant, out: &mut Vec<CanFrame>) {
-        self.bus.boot(&mut self.stations, now, out);
-    }
-
-    /// See [`SegmentBus::on_frame`].
-    pub fn on_frame(&mut self, now: Instant, frame: &CanFrame, out: &mut Vec<CanFrame>) {
-        self.bus.on_frame(&mut self.stations, now, frame, out);
-    }
-
-    /// See [`SegmentBus::local_access`].
-    pub fn local_access(
-        &mut self,
-        drive: usize,
-        now: Instant,
-        out: &mut Vec<CanFrame>,
-        f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
-    ) {
-        self.bus
-            .local_access(&mut self.stations, drive, now, out, f);
-    }
-
-    /// Runs the drives' timers; returns the next deadline.
-    pub fn poll(&mut self, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
-        self.bus.poll(&mut self.stations, now, out)
-    }
-
-    pub fn deadline(&self) -> Option<Instant> {
-        self.bus.deadline(&self.stations)
-    }
-
-    /// The bus's bit rate (without one, 1 Mbit/s: the fastest CAN bus).
-    pub fn bitrate(&self) -> u32 {
-        self.bus.bitrate()
-    }
-}
-
 /// Station `i` (segment order) of `members` in `stations`.
 fn member<'a>(
     stations: &'a mut Stations,
@@ -259,21 +116,6 @@ impl SegmentBus {
             port: Tracer::new(Wire::new(), CanTrace::default()),
             outside_ends: None,
         }
-    }
-
-    /// The bus, whose stations `own` were its own list, joins a cell: the stations move to
-    /// the end of `cell` in segment order, and the bus names them by their ids there.
-    pub fn join(mut self, own: Stations, cell: &mut Stations) -> Self {
-        let mut moved: Vec<Option<StationId>> = Vec::with_capacity(own.len());
-        for s in own.into_vec() {
-            moved.push(Some(cell.push(s)));
-        }
-        for id in &mut self.members {
-            if let Some(new) = moved.get(id.index()).copied().flatten() {
-                *id = new;
-            }
-        }
-        self
     }
 
     /// The bus as its front ends see it: every frame on it crosses this link once (from
@@ -345,8 +187,13 @@ impl SegmentBus {
     /// The bus takes the time a real one does at `bitrate` bit/s; a frame waiting longer
     /// than `late_after` for it counts as late.
     pub fn with_bitrate(mut self, bitrate: u32, late_after: std::time::Duration) -> Self {
-        self.timing = Some(Box::new(BusTiming::new(bitrate, late_after)));
+        self.set_bitrate(bitrate, late_after);
         self
+    }
+
+    /// As [`SegmentBus::with_bitrate`], on a bus of a cell.
+    pub fn set_bitrate(&mut self, bitrate: u32, late_after: std::time::Duration) {
+        self.timing = Some(Box::new(BusTiming::new(bitrate, late_after)));
     }
 
     /// The bus's bit rate, if it has one (`bitrate` on its `[[bus]]`).

@@ -7,7 +7,7 @@ use drive::drive::diagnostics::{emcy_code, DiagnosticError};
 use od::{Diagnostic, Instant};
 use serde::Deserialize;
 
-use super::can_segment::{CanSegment, SegmentBus};
+use super::can_segment::SegmentBus;
 use super::control::ControlError;
 use super::device_model::Model;
 use super::stations::Stations;
@@ -134,67 +134,11 @@ pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
         .collect()
 }
 
-impl CanSegment {
-    /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of drive
-    /// `drive` (cell order): the drive reacts as if it had detected it (reaction, EMCY, 1003h,
-    /// statusword, display) and keeps it until [`CanSegment::clear_diagnostic`]. The frames go out
-    /// at the next [`CanSegment::poll`].
-    pub fn raise_diagnostic(
-        &mut self,
-        drive: usize,
-        number: &str,
-    ) -> Result<&'static Diagnostic, ControlError> {
-        let d = self
-            .stations
-            .get_mut(drive)
-            .ok_or(ControlError::NoDrive(drive))?;
-        set_model(&mut d.model, number, Action::Raise).map_err(refused)
-    }
-
-    /// Clears message `number` raised by [`CanSegment::raise_diagnostic`]: its cause is gone; an
-    /// error then waits for the fault reset.
-    pub fn clear_diagnostic(
-        &mut self,
-        drive: usize,
-        number: &str,
-    ) -> Result<&'static Diagnostic, ControlError> {
-        let d = self
-            .stations
-            .get_mut(drive)
-            .ok_or(ControlError::NoDrive(drive))?;
-        set_model(&mut d.model, number, Action::Clear).map_err(refused)
-    }
-
-    /// Drive `drive`'s diagnostic table with what is active.
-    pub fn diagnostics(&self, drive: usize) -> Result<Vec<DiagnosticState>, ControlError> {
-        let d = self
-            .stations
-            .get(drive)
-            .ok_or(ControlError::NoDrive(drive))?;
-        Ok(list_model(&d.model))
-    }
-
-    /// Plans [`CanSegment::raise_diagnostic`] (or the clear) of drive `drive` at `at` (the cell
-    /// file's `[[drive.diagnostic]]`).
-    pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
-        self.bus_mut().plan_diagnostic(at, drive, planned);
-    }
-
-    /// Plans a change of drive `drive`'s plant physics at `at` (the cell file's
-    /// `[[drive.plant]]` and `[drive.thermal]`).
-    pub fn plan_physics(
-        &mut self,
-        at: Instant,
-        drive: usize,
-        change: super::control::PhysicsChange,
-    ) {
-        self.bus_mut().plan_physics(at, drive, change);
-    }
-}
-
 impl super::can_cell::CanCell {
-    /// Raises diagnostic message `number` of the station at `at`, as
-    /// [`CanSegment::raise_diagnostic`] does; the frames go out at its bus's next poll.
+    /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of the
+    /// station at `at`: the drive reacts as if it had detected it (reaction, EMCY, 1003h,
+    /// statusword, display) and keeps it until [`Self::clear_diagnostic`]. The frames go out
+    /// at its bus's next poll.
     pub fn raise_diagnostic(
         &mut self,
         at: super::OnBus,
@@ -210,6 +154,12 @@ impl super::can_cell::CanCell {
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
         self.act_on_diagnostic(at, number, Action::Clear)
+    }
+
+    /// The diagnostic table of the station at `at`, with what is active.
+    pub fn diagnostics(&self, at: super::OnBus) -> Result<Vec<DiagnosticState>, ControlError> {
+        let d = self.station(at).ok_or(ControlError::NoDrive(at.drive))?;
+        Ok(list_model(&d.model))
     }
 
     fn act_on_diagnostic(

@@ -2,10 +2,9 @@
 //! one clock. A station ([`station::Station`]) is one drive with all its front ends; the cell
 //! holds its stations in one list ([`stations::Stations`]) and a CAN bus
 //! ([`can_segment::SegmentBus`]) names the stations on it by [`stations::StationId`]. The list
-//! and the buses together are a [`can_cell::CanCell`], which the virtual clock and the scenario
-//! rig run and the EtherCAT chains join; the cell loop holds the same list and buses with their
-//! transports. A [`can_segment::CanSegment`] is one bus with the stations it brings to a cell,
-//! before they join its list.
+//! and the buses together are a [`can_cell::CanCell`], which the cell loop (with each bus's
+//! transports beside it), the virtual clock and the scenario rig run and the EtherCAT chains
+//! join.
 
 pub mod bus_faults;
 pub mod bus_rate;

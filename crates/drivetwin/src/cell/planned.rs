@@ -2,7 +2,7 @@
 //! `[drive.thermal]`): a [`Timeline`] of changes on the cell's clock, carried out by what
 //! steps the drives at each change's time, as a timer of the cell like any other. A CAN bus
 //! keeps the plans of its stations ([`super::can_segment::SegmentBus`],
-//! `CanSegment::plan_diagnostic`, `CanSegment::plan_physics`), on either clock; the cell
+//! `SegmentBus::plan_diagnostic`, `SegmentBus::plan_physics`), on either clock; the cell
 //! loop keeps those of the drives outside the CAN buses, a CMMO-ST on Modbus TCP and an
 //! EtherCAT-only drive ([`OutsidePlans`], `crate::cell_loop::FrontEnds::plans`). Both carry
 //! a change out with [`on_model`] or [`on_modbus`], the functions the control handle's

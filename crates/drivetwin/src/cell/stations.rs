@@ -13,8 +13,12 @@ pub struct StationId(u32);
 
 impl StationId {
     /// The id of the station at `index` in its list.
-    pub fn from_index(index: usize) -> Self {
-        StationId(u32::try_from(index).unwrap_or(u32::MAX))
+    pub const fn from_index(index: usize) -> Self {
+        if index > u32::MAX as usize {
+            StationId(u32::MAX)
+        } else {
+            StationId(index as u32)
+        }
     }
 
     /// Its place in the list.

@@ -4,7 +4,7 @@
 //!
 //! Sans-IO and deterministic: a share of frames is taken by a counter, never at random, so the
 //! same faults on the virtual clock give the same frames bit for bit. The CAN bus applies them
-//! through its link, a [`crate::cell::fault_injector::FaultInjector`] in [`crate::cell::can_segment::CanSegment`];
+//! through its link, a [`crate::cell::fault_injector::FaultInjector`] in [`crate::cell::can_segment::SegmentBus`];
 //! the cell loop applies those of the Modbus and EtherCAT front ends and of single socketcand
 //! clients.
 //!

@@ -57,7 +57,9 @@ impl CellLoop {
             stamp: since_epoch,
         };
         // The bus's port passes every frame; it only traces and taps it.
-        bus.segment.port_mut().cross(at, &frame);
+        if let Some(segment) = self.cell.bus_mut(b) {
+            segment.port_mut().cross(at, &frame);
+        }
         if source != Source::SocketCan {
             if let Some(s) = &bus.socketcan {
                 if let Err(e) = s.try_send(&frame) {
@@ -116,10 +118,7 @@ impl CellLoop {
         if source != Source::Drives {
             let mut out = std::mem::take(&mut self.out);
             let t = self.now(now);
-            if let Some(bus) = self.buses.get_mut(b) {
-                bus.segment
-                    .on_frame(&mut self.stations, t, &frame, &mut out);
-            }
+            self.cell.on_frame(b, t, &frame, &mut out);
             self.drives_sent(b, now, &mut out);
             self.out = out;
         }

@@ -47,7 +47,7 @@ impl CellLoop {
                 Ok((stream, peer)) => match console {
                     Err(modbus) => self.accept_modbus(stream, peer, modbus),
                     Ok((drive, terminal)) => {
-                        tracing::info!(%peer, bus = drive.bus, drive = drive.drive, "CI terminal connected");
+                        tracing::info!(%peer, station = drive.index(), "CI terminal connected");
                         let kind = Kind::Console {
                             drive,
                             terminal: terminal(),

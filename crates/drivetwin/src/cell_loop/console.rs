@@ -6,21 +6,27 @@
 use std::time::Instant;
 
 use super::{CellLoop, Connection, Kind};
+use crate::cell::stations::StationId;
 pub use crate::cell::terminal::{NewTerminal, Terminal, Typed};
-use crate::cell::OnBus;
 
 /// A drive's terminal on a TCP port, bound before the loop starts.
 pub struct TerminalPort {
     pub listener: std::net::TcpListener,
-    /// Its drive.
-    pub drive: OnBus,
+    /// Its drive's station in the cell.
+    pub drive: StationId,
     /// Its protocol.
     pub terminal: NewTerminal,
 }
 
 impl CellLoop {
     /// Bytes typed at a terminal: each complete line is answered by its drive at once.
-    pub(super) fn console_bytes(&mut self, slot: usize, drive: OnBus, bytes: &[u8], now: Instant) {
+    pub(super) fn console_bytes(
+        &mut self,
+        slot: usize,
+        drive: StationId,
+        bytes: &[u8],
+        now: Instant,
+    ) {
         let t = self.now(now);
         for &b in bytes {
             let Some(Some(Connection {
@@ -37,18 +43,17 @@ impl CellLoop {
                 Some(Typed::Line(line)) => {
                     let mut out = std::mem::take(&mut self.out);
                     let mut answered = false;
-                    if let Some(bus) = self.buses.get_mut(drive.bus) {
-                        let stations = &mut self.stations;
-                        bus.segment
-                            .local_access(stations, drive.drive, t, &mut out, &mut |od| {
-                                terminal.answer(&line, od, &mut answer);
-                                answered = true;
-                            });
-                    }
+                    let bus = self.cell.local_access(drive, t, &mut out, &mut |od| {
+                        terminal.answer(&line, od, &mut answer);
+                        answered = true;
+                    });
                     if !answered {
                         terminal.refuse(&mut answer);
                     }
-                    self.drives_sent(drive.bus, now, &mut out);
+                    match bus {
+                        Some(b) => self.drives_sent(b, now, &mut out),
+                        None => out.clear(),
+                    }
                     self.out = out;
                 }
             }

@@ -6,31 +6,10 @@ use std::time::{Duration, Instant};
 
 use mio::{Events, Token};
 
-use super::{cell_time, BusState, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
+use super::{cell_time, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
+use crate::cell::can_cell::CanCell;
 use crate::cell::link::{At, FrontLink};
-use crate::cell::station::Station;
-use crate::cell::stations::{StationId, Stations};
 use crate::cell::wire_faults::Verdict;
-use crate::cell::OnBus;
-use crate::ecat::chain::BusDrives;
-
-/// The cell's CAN buses as the EtherCAT chains see them: where a slave that is a CANopen
-/// drive as well finds its drive (the bus names it, the cell's list holds it).
-pub(super) struct Buses<'a> {
-    pub(super) buses: &'a [BusState],
-    pub(super) stations: &'a mut Stations,
-}
-
-impl BusDrives for Buses<'_> {
-    fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        let id = self.buses.get(at.bus)?.segment.member(at.drive)?;
-        self.stations.station_mut(id)
-    }
-
-    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
-        self.stations.station_mut(id)
-    }
-}
 
 /// How long a `--busy-poll` turn looks at the chains' receive rings before it polls the
 /// other sockets (a system call) and does the rest of its work: a frame that lands meanwhile
@@ -114,13 +93,7 @@ impl CellLoop {
             };
             let t = cell_time(self.origin, Instant::now());
             // The exchange after the frame before comes first, at that frame's time.
-            Self::settle(
-                chain,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
+            Self::settle(chain, &mut self.cell);
             match chain.link.receive(At::on_clock(t), f) {
                 Verdict::Pass => {}
                 // Lost, or held by the chain's link until its time.
@@ -136,24 +109,9 @@ impl CellLoop {
                 // drive to the frame's time after the answer, as the frame is the free-run
                 // time base. Other chains, the CAN drives and the timers wait until after
                 // the answer.
-                chain.chain.poll_with(
-                    t,
-                    &mut Buses {
-                        buses: &self.buses,
-                        stations: &mut self.stations,
-                    },
-                );
+                chain.chain.poll_with(t, &mut self.cell);
             }
-            Self::pass_chain(
-                chain,
-                f,
-                t,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-                own && may_defer,
-            );
+            Self::pass_chain(chain, f, t, &mut self.cell, own && may_defer);
         }
         self.frame = frame;
         if shared {
@@ -170,9 +128,7 @@ impl CellLoop {
                     continue;
                 }
                 let mut out = std::mem::take(&mut self.out);
-                if let Some(bus) = self.buses.get_mut(b) {
-                    bus.segment.poll(&mut self.stations, t, &mut out);
-                }
+                self.cell.poll(b, t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
             }
@@ -191,7 +147,7 @@ impl CellLoop {
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
-        buses: &mut Buses<'_>,
+        buses: &mut CanCell,
         defer: bool,
     ) {
         if chain.chain.pass_with(t, f, buses).forward() {
@@ -207,7 +163,7 @@ impl CellLoop {
     }
 
     /// Runs chain `chain`'s pending exchange, if any ([`pass_chain`](Self::pass_chain)).
-    fn settle(chain: &mut ChainState, buses: &mut Buses<'_>) {
+    fn settle(chain: &mut ChainState, buses: &mut CanCell) {
         if let Some(t) = chain.pending_exchange.take() {
             chain.chain.exchange_with(t, buses);
         }
@@ -217,23 +173,14 @@ impl CellLoop {
     /// read the devices, and before the loop stops.
     pub(super) fn settle_chains(&mut self) {
         for chain in &mut self.chains {
-            Self::settle(
-                chain,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
+            Self::settle(chain, &mut self.cell);
         }
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
     pub(super) fn ethercat_frame(&mut self, c: usize, mut frame: Vec<u8>, t: od::Instant) {
         if let Some(chain) = self.chains.get_mut(c) {
-            let buses = &mut Buses {
-                buses: &self.buses,
-                stations: &mut self.stations,
-            };
+            let buses = &mut self.cell;
             Self::settle(chain, buses);
             Self::pass_chain(chain, &mut frame, t, buses, false);
         }

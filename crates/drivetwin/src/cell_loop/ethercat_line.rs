@@ -3,7 +3,6 @@
 
 use std::time::Instant;
 
-use super::ethercat_chains::Buses;
 use super::{CellLoop, ChainState};
 use crate::cell::ethercat_line::{LineAction, LineControlError, LineStatus, SlaveClock};
 
@@ -30,14 +29,7 @@ impl CellLoop {
             Some(LineAction::PlugCable) => c.plug_cable(),
             Some(LineAction::PowerOff { slave }) => c.power_off(slave).map_err(|e| refused(&e))?,
             Some(LineAction::PowerOn { slave }) => c
-                .power_on(
-                    slave,
-                    t,
-                    &mut Buses {
-                        buses: &self.buses,
-                        stations: &mut self.stations,
-                    },
-                )
+                .power_on(slave, t, &mut self.cell)
                 .map_err(|e| refused(&e))?,
             Some(LineAction::Clock {
                 slave,

@@ -29,19 +29,19 @@ impl CellLoop {
                 }
                 Command::Buses(reply) => {
                     let t = self.now(now);
-                    let stations = &self.stations;
+                    let stations = &self.cell.stations;
                     let buses = self
+                        .cell
                         .buses
                         .iter_mut()
                         .enumerate()
                         .map(|(index, b)| BusInfo {
                             index,
-                            drives: b.segment.members().len(),
-                            timing: b.segment.bus_figures(t),
+                            drives: b.members().len(),
+                            timing: b.bus_figures(t),
                             node_errors: b
-                                .segment
                                 .stations(stations)
-                                .zip(b.segment.node_faults())
+                                .zip(b.node_faults())
                                 .filter(|(_, f)| f.confinement.counters() != (0, 0))
                                 .map(|(d, f)| {
                                     let (tec, rec) = f.confinement.counters();
@@ -58,8 +58,8 @@ impl CellLoop {
                     frames,
                     reply,
                 } => {
-                    let segment = self.buses.get_mut(bus).map(|b| &mut b.segment);
-                    let stations = &self.stations;
+                    let segment = self.cell.buses.get_mut(bus);
+                    let stations = &self.cell.stations;
                     let at = segment.and_then(|c| {
                         let i = c.stations(stations).position(|d| d.node_id() == node)?;
                         Some(c.disturb(i, frames))
@@ -337,9 +337,10 @@ impl CellLoop {
 
     fn drive_list(&self) -> Vec<DriveInfo> {
         let can = self
+            .cell
             .buses
             .iter()
-            .flat_map(|b| b.segment.stations(&self.stations))
+            .flat_map(|b| b.stations(&self.cell.stations))
             .map(|d| {
                 let desc = d.od().description();
                 (desc, Interface::CanOpen { node: d.node_id() })
@@ -348,7 +349,7 @@ impl CellLoop {
             .modbus
             .iter()
             .map(|m| (m.description(), Interface::ModbusTcp));
-        let stations = &self.stations;
+        let stations = &self.cell.stations;
         let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
             (0..c.chain.len()).filter_map(move |position| {
                 let id = c.chain.own_station(position)?;
@@ -375,11 +376,11 @@ impl CellLoop {
     /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
         let mut rest = drive;
-        for bus in &self.buses {
-            let n = bus.segment.members().len();
+        for bus in &self.cell.buses {
+            let n = bus.members().len();
             if rest < n {
-                let id = bus.segment.member(rest);
-                return match id.and_then(|id| self.stations.station_mut(id)) {
+                let id = bus.member(rest);
+                return match id.and_then(|id| self.cell.stations.station_mut(id)) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),
                 };
@@ -404,7 +405,7 @@ impl CellLoop {
                     .filter_map(|i| c.chain.own_station(i))
                     .nth(rest);
                 return id
-                    .and_then(|id| self.stations.station_mut(id))
+                    .and_then(|id| self.cell.stations.station_mut(id))
                     .map(|s| Target::Can(&mut s.model))
                     .ok_or(ControlError::NoDrive(drive));
             }

@@ -52,17 +52,15 @@ use mio::{Events, Interest, Poll, Token, Waker};
 use crate::can::socketcand::client_link::ClientStream;
 use crate::can::socketcand::session::{Effect, Totals};
 use crate::can::socketcand::{Decoder, ServerConfig};
-use crate::cell::can_segment::{CanSegment, SegmentBus};
+use crate::cell::can_cell::CanCell;
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, SendBuffer};
-use crate::cell::stations::Stations;
+use crate::cell::stations::StationId;
 use crate::cell::tracer::Tracer;
-use crate::cell::OnBus;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
-use ethercat_chains::Buses;
 
 mod can_bus;
 mod connections;
@@ -103,10 +101,10 @@ const FIRST_SERIAL: usize = 1 << 24;
 /// EtherCAT frames one chain takes per turn of the loop before the others get their turn.
 const FRAMES_PER_TURN: usize = 64;
 
-/// One CAN bus of a cell: its segment (the stations on it and the bus model) and its
-/// transports.
+/// The transports of one CAN bus of a cell (the bus itself, with its stations, is the
+/// cell's: [`CanCell::buses`]).
+#[derive(Default)]
 pub struct CanBus {
-    pub segment: CanSegment,
     /// The socketcand server and its settings (the bus name it serves).
     pub socketcand: Option<(std::net::TcpListener, ServerConfig)>,
     /// A SocketCAN interface the bus is bridged to.
@@ -116,19 +114,6 @@ pub struct CanBus {
     /// Another socketcand server whose bus this one is (`--socketcand-join`): connected and
     /// in raw mode ([`crate::can::socketcand::join`]).
     pub upstream: Option<std::net::TcpStream>,
-}
-
-impl CanBus {
-    /// The stations of `segment` on a bus without transports yet.
-    pub fn new(segment: CanSegment) -> CanBus {
-        CanBus {
-            segment,
-            socketcand: None,
-            socketcan: None,
-            trace: None,
-            upstream: None,
-        }
-    }
 }
 
 /// An EtherCAT chain of the cell on one network interface.
@@ -178,7 +163,8 @@ impl ChainState {
 /// Every socket a cell serves, bound before the loop starts.
 #[derive(Default)]
 pub struct FrontEnds {
-    /// The cell's CAN buses (at most [`MAX_BUSES`]).
+    /// The transports of the cell's CAN buses, by bus (`buses[b]` is those of the cell's
+    /// bus `b`; a bus without an entry has none).
     pub buses: Vec<CanBus>,
     /// Terminals of drives (the CMMP-AS's CI terminal): a listener, its drive and its
     /// protocol.
@@ -209,11 +195,10 @@ pub struct FrontEnds {
     pub line_plans: Vec<crate::cell::ethercat_line::TimedLineAction>,
 }
 
-/// A bus while the loop runs.
+/// A bus's transports while the loop runs (the bus itself is the cell's; its port,
+/// [`crate::cell::can_segment::SegmentBus::port`], traces and taps every frame the loop
+/// carries on it).
 struct BusState {
-    /// The bus between its stations, which are in the cell's list; its port
-    /// ([`SegmentBus::port`]) traces and taps every frame the loop carries on it.
-    segment: SegmentBus,
     socketcand: Option<(TcpListener, ServerConfig)>,
     socketcan: Option<crate::can::socketcan::RawCanSocket>,
     totals: Totals,
@@ -256,10 +241,11 @@ pub struct CellLoop {
     timer: Option<fine_timer::FineTimer>,
     /// How late the loop serves due timers.
     lateness: Arc<crate::cell::lateness::Lateness>,
+    /// The transports of each of the cell's CAN buses (bus `b`'s: `buses[b]`).
     buses: Vec<BusState>,
-    /// Every station of the cell: the buses' (in bus order), then the EtherCAT chains' own
-    /// (in chain and wire order). The buses and the chains name them by id.
-    stations: Stations,
+    /// The cell: every station (the buses' in bus order, then the EtherCAT chains' own in
+    /// chain and wire order) and the CAN buses, which name them by id as the chains do.
+    cell: CanCell,
     /// The cell clock's zero.
     origin: Instant,
     /// Listeners by token - FIRST_DYNAMIC; connections after them.
@@ -319,7 +305,7 @@ enum SampleSink {
 enum Listener {
     Console {
         listener: TcpListener,
-        drive: OnBus,
+        drive: StationId,
         terminal: NewTerminal,
     },
     Modbus {
@@ -359,7 +345,7 @@ enum Kind {
         link: Box<ClientLink>,
     },
     Console {
-        drive: OnBus,
+        drive: StationId,
         terminal: Box<dyn Terminal>,
         sent: SendBuffer,
     },
@@ -368,19 +354,13 @@ enum Kind {
 }
 
 impl CellLoop {
-    /// A cell of one CAN bus, `segment`, with the transports of `front` (whose own `buses` come
-    /// after it).
-    pub fn new(segment: CanSegment, front: FrontEnds) -> io::Result<CellLoop> {
-        let mut front = front;
-        front.buses.insert(0, CanBus::new(segment));
-        CellLoop::with_buses(front)
-    }
-
-    /// A cell of several buses, `front.buses`, and the other front ends of `front`.
-    pub fn with_buses(mut front: FrontEnds) -> io::Result<CellLoop> {
-        if front.buses.len() > MAX_BUSES {
+    /// `cell` with the sockets of `front`: the transports of its CAN buses (`front.buses`,
+    /// by bus) and its other front ends.
+    pub fn new(mut cell: CanCell, mut front: FrontEnds) -> io::Result<CellLoop> {
+        if cell.buses.len() > MAX_BUSES || front.buses.len() > cell.buses.len() {
             return Err(io::Error::other(format!(
-                "{} CAN buses: a cell has at most {MAX_BUSES}",
+                "{} CAN buses ({} with transports): a cell has at most {MAX_BUSES}",
+                cell.buses.len(),
                 front.buses.len()
             )));
         }
@@ -392,8 +372,9 @@ impl CellLoop {
             )
             .ok();
         let mut buses = Vec::new();
-        let mut stations = Stations::new();
-        for (b, bus) in std::mem::take(&mut front.buses).into_iter().enumerate() {
+        let mut transports = std::mem::take(&mut front.buses).into_iter();
+        for b in 0..cell.buses.len() {
+            let bus = transports.next().unwrap_or_default();
             let mut socketcand = None;
             if let Some((l, config)) = bus.socketcand {
                 l.set_nonblocking(true)?;
@@ -424,13 +405,11 @@ impl CellLoop {
                 }
                 None => None,
             };
-            let (own, mut segment) = bus.segment.into_parts();
-            if let Some(trace) = bus.trace {
+            if let (Some(trace), Some(segment)) = (bus.trace, cell.bus_mut(b)) {
                 segment.port_mut().sink_mut().start(Box::new(trace));
             }
             buses.push(BusState {
                 upstream,
-                segment: segment.join(own, &mut stations),
                 socketcand,
                 socketcan: bus.socketcan,
                 totals: Totals::default(),
@@ -446,11 +425,7 @@ impl CellLoop {
         for chain in &mut front.ethercat {
             // The chain's own drives join the cell's list, and its slaves name every drive
             // by id there.
-            chain.chain.join(&mut stations, |at| {
-                buses
-                    .get(at.bus)
-                    .and_then(|b: &BusState| b.segment.member(at.drive))
-            });
+            chain.chain.join_cell(&mut cell);
         }
         for (c, chain) in front.ethercat.iter().enumerate() {
             use std::os::fd::AsRawFd;
@@ -520,7 +495,7 @@ impl CellLoop {
             timer,
             lateness: Arc::default(),
             buses,
-            stations,
+            cell,
             origin: Instant::now(),
             listeners,
             slots: Vec::new(),
@@ -583,10 +558,10 @@ impl CellLoop {
         self.origin + Duration::from_nanos(at.as_nanos())
     }
 
-    /// Runs the cell in real time until [`StopHandle::stop`]; gives the drives of its buses
-    /// back. A drive's load FMU that fails ends the run with its error
+    /// Runs the cell in real time until [`StopHandle::stop`]; gives the cell back (its
+    /// stations and buses, the transports closed). A drive's load FMU that fails ends the run with its error
     /// ([`crate::cosim::FmuLoadError`] inside the `io::Error`).
-    pub fn run(mut self) -> io::Result<Vec<CanSegment>> {
+    pub fn run(mut self) -> io::Result<CanCell> {
         // The thread that answers the frames, alone: what it starts begins at normal
         // priority (`sys::sched`), the console's threads run batch.
         self.scheduling.apply().map_err(io::Error::other)?;
@@ -595,21 +570,13 @@ impl CellLoop {
         let mut out = std::mem::take(&mut self.out);
         for b in 0..self.buses.len() {
             let t = self.now(start);
-            if let Some(bus) = self.buses.get_mut(b) {
-                bus.segment.boot(&mut self.stations, t, &mut out);
-            }
+            self.cell.boot(b, t, &mut out);
             self.drives_sent(b, start, &mut out);
         }
         self.out = out;
         let t = self.now(start);
         for chain in &mut self.chains {
-            chain.chain.boot_with(
-                t,
-                &mut Buses {
-                    buses: &self.buses,
-                    stations: &mut self.stations,
-                },
-            );
+            chain.chain.boot_with(t, &mut self.cell);
         }
         self.flush_dirty();
         let mut load_failure = None;
@@ -676,12 +643,8 @@ impl CellLoop {
             }
             self.flush_dirty();
             if events.is_empty() {
-                for bus in self
-                    .buses
-                    .iter_mut()
-                    .filter(|b| b.segment.port().unflushed())
-                {
-                    bus.segment.port_mut().flush();
+                for bus in self.cell.buses.iter_mut().filter(|b| b.port().unflushed()) {
+                    bus.port_mut().flush();
                 }
             }
             if let Some(e) = self.load_failure() {
@@ -694,20 +657,15 @@ impl CellLoop {
             m.close_connection();
         }
         if let Some(e) = load_failure {
-            for bus in &mut self.buses {
-                bus.segment.port_mut().flush();
+            for bus in &mut self.cell.buses {
+                bus.port_mut().flush();
             }
             return Err(io::Error::other(e));
         }
-        let mut stations: Vec<_> = self.stations.into_vec().into_iter().map(Some).collect();
-        Ok(self
-            .buses
-            .into_iter()
-            .map(|mut b| {
-                b.segment.port_mut().flush();
-                CanSegment::gather(b.segment, &mut stations)
-            })
-            .collect())
+        for bus in &mut self.cell.buses {
+            bus.port_mut().flush();
+        }
+        Ok(self.cell)
     }
 
     /// Whether this turn answered frames and has nothing else to do: every event is a
@@ -783,9 +741,8 @@ impl CellLoop {
     /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
     /// CAN bus or a chain's own) or drive served over Modbus TCP (the CMMO-ST).
     fn load_failure(&mut self) -> Option<crate::cosim::FmuLoadError> {
-        self.stations
-            .iter()
-            .find_map(|d| d.model.drive()?.load_failure())
+        self.cell
+            .load_failure()
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
             .cloned()
             .or_else(|| {
@@ -805,9 +762,9 @@ impl CellLoop {
                 (a, b) => a.or(b),
             }
         };
-        for bus in &self.buses {
-            take(bus.segment.deadline(&self.stations).map(|d| self.wall(d)));
-            if bus.segment.port().unflushed() {
+        for bus in &self.cell.buses {
+            take(bus.deadline(&self.cell.stations).map(|d| self.wall(d)));
+            if bus.port().unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
         }
@@ -847,13 +804,10 @@ impl CellLoop {
             self.carry_out_plans(now);
         }
         for b in 0..self.buses.len() {
-            let Some(bus) = self.buses.get_mut(b) else {
-                break;
-            };
-            if let Some(due) = bus.segment.deadline(&self.stations).filter(|d| *d <= t) {
+            if let Some(due) = self.cell.deadline_of(b).filter(|d| *d <= t) {
                 self.lateness.record(t.saturating_since(due));
                 let mut out = std::mem::take(&mut self.out);
-                bus.segment.poll(&mut self.stations, t, &mut out);
+                self.cell.poll(b, t, &mut out);
                 self.drives_sent(b, now, &mut out);
                 self.out = out;
             }
@@ -863,13 +817,7 @@ impl CellLoop {
                 // Late only past the chain's wake-up (a step's grace).
                 let by = chain.chain.wake_by().unwrap_or(due);
                 self.lateness.record(t.saturating_since(by));
-                chain.chain.poll_with(
-                    t,
-                    &mut Buses {
-                        buses: &self.buses,
-                        stations: &mut self.stations,
-                    },
-                );
+                chain.chain.poll_with(t, &mut self.cell);
             }
         }
         for slot in 0..self.slots.len() {

@@ -91,7 +91,7 @@ impl CellLoop {
                 }
             };
             let done = match planee {
-                Planee::Station(id) => match self.stations.station_mut(id) {
+                Planee::Station(id) => match self.cell.stations.station_mut(id) {
                     Some(s) => planned::on_model(&mut s.model, &what),
                     None => Err(planned::PlanError::NoDrive),
                 },

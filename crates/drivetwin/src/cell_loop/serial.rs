@@ -6,14 +6,14 @@ use std::time::Instant;
 
 use canopen::CanFrame;
 
-use super::{BusState, CellLoop, OnBus};
-use crate::cell::stations::Stations;
+use super::CellLoop;
+use crate::cell::can_cell::CanCell;
+use crate::cell::stations::StationId;
 use crate::serial::LineDrives;
 
 /// The drives of the cell as a serial line reaches them; the frames they send are kept.
 struct SerialDrives<'a> {
-    buses: &'a mut [BusState],
-    stations: &'a mut Stations,
+    cell: &'a mut CanCell,
     sent: &'a mut Vec<(usize, CanFrame)>,
     frames: Vec<CanFrame>,
 }
@@ -21,17 +21,14 @@ struct SerialDrives<'a> {
 impl LineDrives for SerialDrives<'_> {
     fn access(
         &mut self,
-        at: OnBus,
+        at: StationId,
         now: od::Instant,
         f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
     ) {
-        let Some(bus) = self.buses.get_mut(at.bus) else {
-            return;
-        };
-        bus.segment
-            .local_access(self.stations, at.drive, now, &mut self.frames, f);
-        self.sent
-            .extend(self.frames.drain(..).map(|fr| (at.bus, fr)));
+        match self.cell.local_access(at, now, &mut self.frames, f) {
+            Some(bus) => self.sent.extend(self.frames.drain(..).map(|fr| (bus, fr))),
+            None => self.frames.clear(),
+        }
     }
 }
 
@@ -70,8 +67,7 @@ impl CellLoop {
         let t = self.now(now);
         let mut sent = std::mem::take(&mut self.serial_sent);
         let mut drives = SerialDrives {
-            buses: &mut self.buses,
-            stations: &mut self.stations,
+            cell: &mut self.cell,
             sent: &mut sent,
             frames: std::mem::take(&mut self.out),
         };

@@ -59,7 +59,7 @@ impl CellLoop {
                         let _ = (&stream).write(b"< error too many clients >");
                         continue;
                     }
-                    let bitrate = self.buses.get(b).map_or(1_000_000, |x| x.segment.bitrate());
+                    let bitrate = self.cell.bus(b).map_or(1_000_000, |x| x.bitrate());
                     let kind = Kind::Socketcand {
                         bus: b,
                         decoder: Decoder::with_max_len(max_len),

@@ -8,7 +8,7 @@ use od::time::earliest;
 use od::Instant;
 
 use crate::cell::can_cell::CanCell;
-use crate::cell::OnBus;
+use crate::cell::stations::StationId;
 use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::serial::line::VirtualLine;
@@ -118,7 +118,12 @@ struct CellLineDrives<'a> {
 }
 
 impl LineDrives for CellLineDrives<'_> {
-    fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn od::ObjectAccess)) {
+    fn access(
+        &mut self,
+        at: StationId,
+        now: Instant,
+        f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
+    ) {
         self.cell.local_access(at, now, self.out, f);
     }
 }

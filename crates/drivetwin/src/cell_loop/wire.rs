@@ -132,8 +132,8 @@ impl CellLoop {
             WireRequest::Now => Ok(WireAnswer::Now(now.saturating_duration_since(self.origin))),
             WireRequest::Add { front, fault } => {
                 if let FrontEnd::Bus(b) = front {
-                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    return Ok(WireAnswer::Added(bus.segment.add_wire_fault(t, fault)?));
+                    let bus = self.cell.bus_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    return Ok(WireAnswer::Added(bus.add_wire_fault(t, fault)?));
                 }
                 self.check_front(front)?;
                 // A delayed request or frame is held by the front end's link until it is due
@@ -142,8 +142,8 @@ impl CellLoop {
             }
             WireRequest::Remove { front, id } => {
                 if let FrontEnd::Bus(b) = front {
-                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    bus.segment.remove_wire_fault(id)?;
+                    let bus = self.cell.bus_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    bus.remove_wire_fault(id)?;
                     return Ok(WireAnswer::Done);
                 }
                 self.check_front(front)?;
@@ -152,8 +152,8 @@ impl CellLoop {
             }
             WireRequest::Clear { front } => {
                 if let FrontEnd::Bus(b) = front {
-                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    bus.segment.clear_wire_faults();
+                    let bus = self.cell.bus_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    bus.clear_wire_faults();
                     return Ok(WireAnswer::Done);
                 }
                 self.check_front(front)?;
@@ -162,8 +162,8 @@ impl CellLoop {
             }
             WireRequest::List { front } => {
                 if let FrontEnd::Bus(b) = front {
-                    let bus = self.buses.get_mut(b).ok_or(WireError::NoFrontEnd(front))?;
-                    return Ok(WireAnswer::Faults(bus.segment.wire_faults(t)));
+                    let bus = self.cell.bus_mut(b).ok_or(WireError::NoFrontEnd(front))?;
+                    return Ok(WireAnswer::Faults(bus.wire_faults(t)));
                 }
                 self.check_front(front)?;
                 Ok(WireAnswer::Faults(
@@ -172,25 +172,24 @@ impl CellLoop {
             }
             WireRequest::StartTrace { bus, path } => {
                 let b = self
-                    .buses
-                    .get_mut(bus)
+                    .cell
+                    .bus_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                if b.segment.port_mut().sink_mut().is_tracing() {
+                if b.port_mut().sink_mut().is_tracing() {
                     return Err(WireError::Tracing(bus));
                 }
                 let channel = format!("can{bus}");
-                let w = TraceWriter::create_for_bus(&path, &channel, b.segment.timed_bitrate())
+                let w = TraceWriter::create_for_bus(&path, &channel, b.timed_bitrate())
                     .map_err(|e| WireError::Trace(format!("{}: {e}", path.display())))?;
-                b.segment.port_mut().sink_mut().start(Box::new(w));
+                b.port_mut().sink_mut().start(Box::new(w));
                 Ok(WireAnswer::Done)
             }
             WireRequest::StopTrace { bus } => {
                 let b = self
-                    .buses
-                    .get_mut(bus)
+                    .cell
+                    .bus_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
                 let mut w = b
-                    .segment
                     .port_mut()
                     .sink_mut()
                     .stop()
@@ -210,10 +209,10 @@ impl CellLoop {
             }
             WireRequest::Tap { bus, frames } => {
                 let b = self
-                    .buses
-                    .get_mut(bus)
+                    .cell
+                    .bus_mut(bus)
                     .ok_or(WireError::NoFrontEnd(FrontEnd::Bus(bus)))?;
-                b.segment.port_mut().sink_mut().tap(frames);
+                b.port_mut().sink_mut().tap(frames);
                 Ok(WireAnswer::Done)
             }
         }

@@ -4,7 +4,6 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use canopen::{CanFrame, NmtCommand};
-use drivetwin::cell::can_segment::CanSegment;
 use drivetwin::cell::ci_console;
 use drivetwin::cell::config::{CellFile, ConfigError, DriveSpec, FhppSpec};
 use drivetwin::cell::param_store::ParamStore;

@@ -1,7 +1,9 @@
 use super::*;
 use drivetwin::can::socketcand::ServerConfig;
 use drivetwin::cell::bus_rate::BusRate;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::{BusSection, Ports};
+use drivetwin::cell::stations::StationId;
 use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, TerminalPort};
 use drivetwin::cosim::FmuLoadError;
@@ -62,15 +64,16 @@ pub(crate) fn esi(
     }
 }
 
-/// The stations that are on CAN, one segment per bus of the cell file (`buses` of them, running at
-/// `rates`), and for each drive of `specs` (the cell file's, in order) its place (`None`: a
-/// CMMO-ST, or its switches keep it off the bus).
-pub(crate) fn build_segments(
+/// The cell of the stations that are on CAN, one bus per bus of the cell file (`buses` of
+/// them, running at `rates`; the stations in bus order), and for each drive of `specs` (the
+/// cell file's, in order) its station (`None`: a CMMO-ST, an EtherCAT-only drive, or its
+/// switches keep it off the bus).
+pub(crate) fn build_cell(
     specs: Vec<DriveSpec>,
     buses: &[BusSection],
     rates: &[BusRate],
     state_dir: Option<&PathBuf>,
-) -> Result<(Vec<CanSegment>, Vec<Option<OnBus>>), CommandError> {
+) -> Result<(CanCell, Vec<Option<StationId>>), CommandError> {
     let mut drives: Vec<Vec<Station>> = buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
     // `[[drive.diagnostic]]`: (bus, station in its segment, messages).
@@ -140,22 +143,21 @@ pub(crate) fn build_segments(
             });
         }
     }
-    let mut segments = drives
-        .into_iter()
-        .zip(buses.iter().zip(rates))
-        .map(|(d, (section, rate))| {
-            let mut segment = match rate.bitrate() {
-                Some(bitrate) => CanSegment::new(d).with_bitrate(bitrate, section.late_after()),
-                None => CanSegment::new(d),
-            };
-            for p in &section.disturb {
-                segment.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
-            }
-            segment
-        })
-        .collect::<Vec<CanSegment>>();
+    let mut cell = CanCell::new();
+    for (d, (section, rate)) in drives.into_iter().zip(buses.iter().zip(rates)) {
+        let b = cell.add_bus(d);
+        let Some(segment) = cell.bus_mut(b) else {
+            continue;
+        };
+        if let Some(bitrate) = rate.bitrate() {
+            segment.set_bitrate(bitrate, section.late_after());
+        }
+        for p in &section.disturb {
+            segment.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
+        }
+    }
     for (bus, drive, planned, physics) in diagnostics {
-        if let Some(segment) = segments.get_mut(bus) {
+        if let Some(segment) = cell.bus_mut(bus) {
             for p in planned {
                 segment.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
             }
@@ -164,7 +166,11 @@ pub(crate) fn build_segments(
             }
         }
     }
-    Ok((segments, in_cell))
+    let in_cell = in_cell
+        .into_iter()
+        .map(|at| at.and_then(|at| cell.id_at(at)))
+        .collect();
+    Ok((cell, in_cell))
 }
 
 pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
@@ -418,8 +424,8 @@ async fn prepare_cell(
     let rates = file.bus_rates(&specs)?;
     // Each drive's CI terminal and serial ports, as its section names them.
     let ports: Vec<Ports> = specs.iter().map(|s| s.ports.clone()).collect();
-    let (segments, in_cell) = build_segments(specs, &buses, &rates, args.state_dir.as_ref())?;
-    for d in segments.iter().flat_map(|c| c.stations.iter()) {
+    let (cell, in_cell) = build_cell(specs, &buses, &rates, args.state_dir.as_ref())?;
+    for d in cell.stations.iter() {
         out!(
             "drive {} node {} ({})",
             d.od().description().name,
@@ -432,13 +438,12 @@ async fn prepare_cell(
     }
 
     if let Some(seconds) = args.virtual_seconds {
-        let mut segments = segments;
-        if segments.len() != 1 {
+        let mut cell = cell;
+        if cell.buses.len() != 1 {
             return Err(CommandError::Usage(
                 "--virtual-seconds runs a cell of one CAN bus".into(),
             ));
         }
-        let mut cell = drivetwin::cell::can_cell::CanCell::from(segments.remove(0));
         let channel = buses.first().map_or("vcan0", |b| b.channel.as_str());
         if !(seconds.is_finite() && seconds >= 0.0) {
             return Err(CommandError::Usage(
@@ -497,12 +502,13 @@ async fn prepare_cell(
     let (ethercat, pcap_writers) = ethercat_chains(
         chain_specs,
         &in_cell,
+        &cell,
         args,
         ethercat_if,
         trace_path.map(|p| p.as_path()),
-        segments.iter().all(|c| c.stations.is_empty()),
+        cell.stations.is_empty(),
     )?;
-    let serial = serial_lines(&ports, &in_cell, args, first, &segments)?;
+    let serial = serial_lines(&ports, &in_cell, args, first, &cell)?;
     let mut front = FrontEnds {
         modbus,
         ethercat,
@@ -517,11 +523,11 @@ async fn prepare_cell(
         line_plans: file.ethercat_line.clone(),
         ..FrontEnds::default()
     };
-    for (b, ((segment, section), rate)) in segments.into_iter().zip(&buses).zip(&rates).enumerate()
-    {
-        let mut bus = CanBus::new(segment);
+    for (b, (section, rate)) in buses.iter().zip(&rates).enumerate() {
+        let mut bus = CanBus::default();
+        let has_drives = cell.bus(b).is_some_and(|s| !s.members().is_empty());
         // A bus without drives (a cell of CMMO-STs only) has no socketcand server.
-        if !bus.segment.stations.is_empty() && !section.socketcand.is_empty() {
+        if has_drives && !section.socketcand.is_empty() {
             let listener = std::net::TcpListener::bind(&section.socketcand)
                 .map_err(io(format!("socketcand listen on {}", section.socketcand)))?;
             let addr = listener.local_addr().map_err(io("socketcand address"))?;
@@ -560,7 +566,7 @@ async fn prepare_cell(
         front.buses.push(bus);
     }
     front.ci_terminals = ci_consoles(&ports, &in_cell, ci_terminal)?;
-    let cell_loop = CellLoop::with_buses(front).map_err(io("cell loop"))?;
+    let cell_loop = CellLoop::new(cell, front).map_err(io("cell loop"))?;
     if fhpp_drives > 0 && !in_loop && specs_had_fhpp_plans(file) {
         tracing::warn!(
             "planned changes of a CMMO-ST run with --modbus-io cell only (the cell loop carries \
@@ -613,7 +619,7 @@ fn web_console(
 /// listener and the index of its drive in the cell; the cell loop answers their lines.
 fn ci_consoles(
     ports: &[Ports],
-    in_cell: &[Option<OnBus>],
+    in_cell: &[Option<StationId>],
     first: Option<&str>,
 ) -> Result<Vec<TerminalPort>, CommandError> {
     let mut consoles = Vec::new();
@@ -647,10 +653,10 @@ fn ci_consoles(
 /// opened: links to the twin's ptys, or real devices.
 fn serial_lines(
     ports: &[Ports],
-    in_cell: &[Option<OnBus>],
+    in_cell: &[Option<StationId>],
     args: &RunArgs,
     first_cell: bool,
-    segments: &[CanSegment],
+    cell: &CanCell,
 ) -> Result<Vec<drivetwin::serial::line::SerialLine>, CommandError> {
     use drivetwin::serial::{Kind, LineRequest};
     let mut requests = Vec::new();
@@ -687,7 +693,7 @@ fn serial_lines(
             requests.push(LineRequest { kind, path, drive });
         }
     }
-    let lines = (drivetwin::vendors::VENDORS.serial_lines.open_lines)(&requests, segments)
+    let lines = (drivetwin::vendors::VENDORS.serial_lines.open_lines)(&requests, cell)
         .map_err(|e| CommandError::Usage(e.to_string()))?;
     for l in &lines {
         match l.port().pty_name() {
@@ -762,7 +768,8 @@ fn fhpp_addresses<'a>(
 #[cfg(target_os = "linux")]
 fn ethercat_chains(
     specs: Vec<(usize, DriveSpec)>,
-    in_cell: &[Option<OnBus>],
+    in_cell: &[Option<StationId>],
+    cell: &CanCell,
     args: &RunArgs,
     ethercat_if: Option<&str>,
     trace_path: Option<&std::path::Path>,
@@ -790,7 +797,10 @@ fn ethercat_chains(
         let desc = spec.desc;
         let drive = if spec.canopen {
             match in_cell.get(i).copied().flatten() {
-                Some(at) => SlaveDrive::OnBus(at),
+                Some(id) => SlaveDrive::Station {
+                    id,
+                    bus: cell.place_of(id).map(|at| at.bus),
+                },
                 None => {
                     return Err(CommandError::Usage(format!(
                         "drive {} (node {}): on CANopen and EtherCAT, but its switches keep \
@@ -857,7 +867,7 @@ fn ethercat_chains(
 #[cfg(not(target_os = "linux"))]
 fn ethercat_chains(
     specs: Vec<(usize, DriveSpec)>,
-    _in_cell: &[Option<OnBus>],
+    _in_cell: &[Option<StationId>],
     _args: &RunArgs,
     _ethercat_if: Option<&str>,
     _trace: Option<&std::path::Path>,

@@ -76,7 +76,6 @@ use crate::cell::device_model::Model;
 use crate::cell::param_store::{ParamStore, StoreError, StoredValue};
 use crate::cell::station::{Persisting, Station, StationError};
 use crate::cell::stations::{StationId, Stations};
-use crate::cell::OnBus;
 use crate::cell::Vendors;
 
 use super::line::{Line, LineError};
@@ -212,19 +211,15 @@ pub enum SlaveDrive {
     /// Its own: the station of a drive on EtherCAT alone (no CANopen node), with where 1010h
     /// "save" writes its parameters and the set last saved.
     Own(Box<Station>),
-    /// A CANopen drive of one of the cell's CAN buses, served over EtherCAT as well
-    /// (`allow_unreal_interfaces`): a value written over CoE is the one SDO reads.
-    OnBus(OnBus),
-    /// Station `id` of the cell's list, once the chain has joined a cell
-    /// ([`SlaveChain::join`]): a drive of its own (`bus` none), or a CANopen drive of CAN
-    /// bus `bus` served over EtherCAT as well.
+    /// Station `id` of the cell's list: a drive of its own once the chain has joined a cell
+    /// ([`SlaveChain::join`]; `bus` none), or a CANopen drive of CAN bus `bus` served over
+    /// EtherCAT as well (`allow_unreal_interfaces`): a value written over CoE is the one SDO
+    /// reads.
     Station { id: StationId, bus: Option<usize> },
 }
 
-/// Where the drives of [`SlaveDrive::OnBus`] and [`SlaveDrive::Station`] slaves live: the
-/// cell's CAN buses and its list of stations.
+/// Where the drives of [`SlaveDrive::Station`] slaves live: the cell's list of stations.
 pub trait BusDrives {
-    fn station(&mut self, at: OnBus) -> Option<&mut Station>;
     /// Station `id` of the cell's list (none: the chain has not joined a cell).
     fn in_cell(&mut self, _id: StationId) -> Option<&mut Station> {
         None
@@ -234,18 +229,10 @@ pub trait BusDrives {
 /// A chain without CAN buses: every slave has a drive of its own.
 pub struct NoBuses;
 
-impl BusDrives for NoBuses {
-    fn station(&mut self, _: OnBus) -> Option<&mut Station> {
-        None
-    }
-}
+impl BusDrives for NoBuses {}
 
 /// The chains that joined a cell ([`SlaveChain::join_cell`]) find their drives in its list.
 impl BusDrives for CanCell {
-    fn station(&mut self, at: OnBus) -> Option<&mut Station> {
-        self.station_mut(at)
-    }
-
     fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
         self.stations.station_mut(id)
     }
@@ -277,16 +264,6 @@ impl<'a> Bound<'a> {
                     store,
                     stored,
                     shared_events: None,
-                })
-            }
-            SlaveDrive::OnBus(at) => {
-                let (model, store, stored, events) = buses.station(*at)?.coe_parts();
-                Some(Bound {
-                    dev,
-                    model,
-                    store,
-                    stored,
-                    shared_events: Some(events),
                 })
             }
             SlaveDrive::Station { id, bus: None } => {
@@ -927,27 +904,20 @@ impl SlaveChain {
     pub fn load_failure(&self) -> Option<&crate::cosim::FmuLoadError> {
         self.drives.iter().find_map(|d| match d {
             SlaveDrive::Own(station) => station.model.drive()?.load_failure(),
-            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
+            SlaveDrive::Station { .. } => None,
         })
     }
 
     /// The chain joins a cell: the stations of its own drives move to the end of `cell`, in
-    /// wire order, and every slave names its station by id there; `on_bus` gives the id of a
-    /// CAN bus's station (a slave whose station it does not find keeps its place on the bus).
-    pub fn join(&mut self, cell: &mut Stations, on_bus: impl Fn(OnBus) -> Option<StationId>) {
+    /// wire order, and every slave names its station by id there (a CAN bus's station it
+    /// names by id from the start).
+    pub fn join(&mut self, cell: &mut Stations) {
         self.drives = std::mem::take(&mut self.drives)
             .into_iter()
             .map(|d| match d {
                 SlaveDrive::Own(station) => SlaveDrive::Station {
                     id: cell.push(*station),
                     bus: None,
-                },
-                SlaveDrive::OnBus(at) => match on_bus(at) {
-                    Some(id) => SlaveDrive::Station {
-                        id,
-                        bus: Some(at.bus),
-                    },
-                    None => SlaveDrive::OnBus(at),
                 },
                 joined @ SlaveDrive::Station { .. } => joined,
             })
@@ -958,8 +928,7 @@ impl SlaveChain {
     /// drives become stations of the cell's list, and a slave whose drive is a CANopen node
     /// of one of the cell's buses names that station by id.
     pub fn join_cell(&mut self, cell: &mut CanCell) {
-        let CanCell { stations, buses } = cell;
-        self.join(stations, |at| buses.get(at.bus)?.member(at.drive));
+        self.join(&mut cell.stations);
     }
 
     /// One slave per drive of the cell file, in file order, its keys read with the sections
@@ -1060,14 +1029,14 @@ impl SlaveChain {
     pub fn model(&self, i: usize) -> Option<&Model> {
         match self.drives.get(i)? {
             SlaveDrive::Own(station) => Some(&station.model),
-            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
+            SlaveDrive::Station { .. } => None,
         }
     }
 
     pub fn model_mut(&mut self, i: usize) -> Option<&mut Model> {
         match self.drives.get_mut(i)? {
             SlaveDrive::Own(station) => Some(&mut station.model),
-            SlaveDrive::OnBus(_) | SlaveDrive::Station { .. } => None,
+            SlaveDrive::Station { .. } => None,
         }
     }
 
@@ -1082,18 +1051,14 @@ impl SlaveChain {
 
     /// Whether a slave's drive is a CANopen drive of the cell as well.
     pub fn has_bus_drives(&self) -> bool {
-        self.drives.iter().any(|d| {
-            matches!(
-                d,
-                SlaveDrive::OnBus(_) | SlaveDrive::Station { bus: Some(_), .. }
-            )
-        })
+        self.drives
+            .iter()
+            .any(|d| matches!(d, SlaveDrive::Station { bus: Some(_), .. }))
     }
 
     /// Whether a slave's drive is a CANopen drive of bus `bus` as well.
     pub fn has_drives_on_bus(&self, bus: usize) -> bool {
         self.drives.iter().any(|d| match d {
-            SlaveDrive::OnBus(at) => at.bus == bus,
             SlaveDrive::Station { bus: b, .. } => *b == Some(bus),
             SlaveDrive::Own(_) => false,
         })
@@ -1109,7 +1074,7 @@ impl SlaveChain {
         self.boot_with(now, &mut NoBuses);
     }
 
-    /// Power-on, the drives of [`SlaveDrive::OnBus`] slaves found in `buses`.
+    /// Power-on, the drives of [`SlaveDrive::Station`] slaves found in `buses`.
     pub fn boot_with(&mut self, now: Instant, buses: &mut dyn BusDrives) {
         for (dev, drive) in self.devices.iter_mut().zip(self.drives.iter_mut()) {
             if let Some(mut b) = Bound::new(dev, drive, buses) {
@@ -1125,7 +1090,7 @@ impl SlaveChain {
         self.on_frame_with(now, frame, &mut NoBuses)
     }
 
-    /// As [`on_frame`](Self::on_frame), the drives of [`SlaveDrive::OnBus`] slaves found in
+    /// As [`on_frame`](Self::on_frame), the drives of [`SlaveDrive::Station`] slaves found in
     /// `buses`.
     pub fn on_frame_with(
         &mut self,
@@ -1198,7 +1163,7 @@ impl SlaveChain {
         self.poll_with(now, &mut NoBuses)
     }
 
-    /// As [`poll`](Self::poll), the drives of [`SlaveDrive::OnBus`] slaves found in `buses`.
+    /// As [`poll`](Self::poll), the drives of [`SlaveDrive::Station`] slaves found in `buses`.
     pub fn poll_with(&mut self, now: Instant, buses: &mut dyn BusDrives) -> Option<Instant> {
         let line = &self.line;
         let slaves = self

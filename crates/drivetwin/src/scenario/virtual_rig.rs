@@ -629,10 +629,11 @@ impl Rig for VirtualRig {
                 let bytes = self.encode((b, i), *index, *sub, value)?;
                 let mut result = Ok(());
                 let mut out = std::mem::take(&mut self.out);
-                self.cell
-                    .local_access(OnBus { bus: b, drive: i }, now, &mut out, &mut |a| {
+                if let Some(id) = self.cell.id_at(OnBus { bus: b, drive: i }) {
+                    self.cell.local_access(id, now, &mut out, &mut |a| {
                         result = a.write(*index, *sub, &bytes);
                     });
+                }
                 self.out = out;
                 result.map_err(|code| {
                     format!(

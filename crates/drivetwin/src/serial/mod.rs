@@ -20,8 +20,8 @@ pub mod wire;
 
 use od::{Instant, ObjectAccess};
 
-use crate::cell::can_segment::CanSegment;
-use crate::cell::OnBus;
+use crate::cell::can_cell::CanCell;
+use crate::cell::stations::StationId;
 
 /// How the lines of a cell are built from its drives' ports: one line per path of the
 /// requests, with the protocol and the bit rate of its drives, which only the drives' vendor
@@ -37,8 +37,8 @@ pub struct SerialLines {
     pub virtual_lines: BuildLines<line::VirtualLine>,
 }
 
-/// Builds one line `L` per path of the requests, for the drives of the segments.
-pub type BuildLines<L> = fn(&[LineRequest], &[CanSegment]) -> Result<Vec<L>, LinesError>;
+/// Builds one line `L` per path of the requests, for the stations of the cell.
+pub type BuildLines<L> = fn(&[LineRequest], &CanCell) -> Result<Vec<L>, LinesError>;
 
 /// Why the lines of a cell could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -56,7 +56,7 @@ pub trait LineDrives {
     /// Runs `f` on the objects of drive `at` at `now`, as a local interface of the drive
     /// writes them (the rules of an SDO download in its NMT state); what the drive sends
     /// meanwhile goes on its bus.
-    fn access(&mut self, at: OnBus, now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess));
+    fn access(&mut self, at: StationId, now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess));
 }
 
 /// A drive's port on a path: drives that name one path share its line.
@@ -64,7 +64,8 @@ pub trait LineDrives {
 pub struct LineRequest {
     pub kind: Kind,
     pub path: std::path::PathBuf,
-    pub drive: OnBus,
+    /// The drive's station in the cell.
+    pub drive: StationId,
 }
 
 /// A serial port of a drive.
@@ -102,7 +103,7 @@ mod tests {
     }
 }
 
-/// Drives for the lines' tests: plain Kinco FD3 dictionaries, one per `OnBus::drive`.
+/// Drives for the lines' tests: plain Kinco FD3 dictionaries, one per station id.
 #[cfg(test)]
 pub(crate) mod test_drives {
     use super::*;
@@ -123,14 +124,19 @@ pub(crate) mod test_drives {
     }
 
     impl LineDrives for Dictionaries {
-        fn access(&mut self, at: OnBus, _now: Instant, f: &mut dyn FnMut(&mut dyn ObjectAccess)) {
-            if let Some(od) = self.0.get_mut(at.drive) {
+        fn access(
+            &mut self,
+            at: StationId,
+            _now: Instant,
+            f: &mut dyn FnMut(&mut dyn ObjectAccess),
+        ) {
+            if let Some(od) = self.0.get_mut(at.index()) {
                 f(od);
             }
         }
     }
 
-    pub fn on(drive: usize) -> OnBus {
-        OnBus { bus: 0, drive }
+    pub fn on(drive: usize) -> StationId {
+        StationId::from_index(drive)
     }
 }

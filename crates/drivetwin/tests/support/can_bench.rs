@@ -3,7 +3,7 @@
 #![allow(dead_code)] // each test file uses a part of it
 
 use canopen::CanFrame;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::station::Station;
@@ -11,12 +11,12 @@ use od::Instant;
 
 /// The default cell's CMMP-AS (node 1, heartbeat and CiA 402 FAULT value commissioned), its
 /// parameters kept in `store` if given; not yet booted.
-pub fn cmmp_cell(store: Option<ParamStore>) -> CanSegment {
+pub fn cmmp_cell(store: Option<ParamStore>) -> CanCell {
     device_cell("cmmp-as", store)
 }
 
 /// The default cell of device file `device` (node 1), not yet booted.
-pub fn device_cell(device: &str, store: Option<ParamStore>) -> CanSegment {
+pub fn device_cell(device: &str, store: Option<ParamStore>) -> CanCell {
     let spec = CellFile::single(device, 1)
         .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("the default cell")
@@ -30,12 +30,12 @@ pub fn device_cell(device: &str, store: Option<ParamStore>) -> CanSegment {
         spec.settings,
     )
     .expect("the drive");
-    CanSegment::new(vec![d])
+    CanCell::one_bus(vec![d])
 }
 
 /// The cell booted and run 10 ms, the frames it sends collected.
 pub struct CanBench {
-    pub cell: CanSegment,
+    pub cell: CanCell,
     pub now: Instant,
     pub out: Vec<CanFrame>,
 }
@@ -52,7 +52,7 @@ impl CanBench {
             now: Instant::ZERO,
             out: Vec::new(),
         };
-        b.cell.boot(b.now, &mut b.out);
+        b.cell.boot(0, b.now, &mut b.out);
         b.run_ms(10);
         b
     }
@@ -65,10 +65,10 @@ impl CanBench {
                 break;
             }
             self.now = t.max(self.now);
-            self.cell.poll(self.now, &mut self.out);
+            self.cell.poll(0, self.now, &mut self.out);
         }
         self.now = until;
-        self.cell.poll(self.now, &mut self.out);
+        self.cell.poll(0, self.now, &mut self.out);
     }
 
     /// The frames sent since the last call.
@@ -80,7 +80,7 @@ impl CanBench {
     pub fn frame(&mut self, id: u16, data: &[u8]) {
         self.out.clear();
         let f = CanFrame::new(id, data).expect("a CAN frame");
-        self.cell.on_frame(self.now, &f, &mut self.out);
+        self.cell.on_frame(0, self.now, &f, &mut self.out);
     }
 
     /// An SDO request to node 1 (padded to 8 bytes) and its answer.

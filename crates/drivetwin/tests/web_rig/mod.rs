@@ -8,7 +8,7 @@ use std::sync::Arc;
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use drivetwin::can::socketcand::ServerConfig;
-use drivetwin::cell::can_segment::CanSegment;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::control::ControlHandle;
 use drivetwin::cell::station::Station;
 use drivetwin::cell_loop::{CanBus, CellLoop, FrontEnds, StopHandle};
@@ -38,14 +38,14 @@ impl Drop for Running {
     }
 }
 
-/// Runs the cell of `front` on a thread of its own.
-pub fn start(front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
+/// Runs `cell` with the front ends of `front` on a thread of its own.
+pub fn start(cell: CanCell, front: FrontEnds, modbus: Option<SocketAddr>) -> Running {
     // The drives' displays as the binary shows them.
     let front = FrontEnds {
         views: drivetwin::vendors::VENDORS.runtime.views,
         ..front
     };
-    let cell_loop = CellLoop::with_buses(front).expect("loop");
+    let cell_loop = CellLoop::new(cell, front).expect("loop");
     let handle = cell_loop.control_handle();
     let stop = cell_loop.stop_handle();
     let thread = std::thread::spawn(move || {
@@ -65,13 +65,15 @@ pub fn station(device: &str, node: u8) -> Station {
     Station::with_settings(desc, node, None, vec![], Some(Default::default())).expect("drive")
 }
 
-/// The CAN drives `drives` on one bus with a socketcand server on a free loopback port.
-pub fn bus(drives: Vec<Station>) -> CanBus {
+/// A cell of the CAN drives `drives` on one bus, and that bus's socketcand server on a free
+/// loopback port.
+pub fn bus(drives: Vec<Station>) -> (CanCell, Vec<CanBus>) {
     let can = TcpListener::bind("127.0.0.1:0").expect("bind");
-    CanBus {
+    let bus = CanBus {
         socketcand: Some((can, ServerConfig::new("vcan0"))),
-        ..CanBus::new(CanSegment::new(drives))
-    }
+        ..CanBus::default()
+    };
+    (CanCell::one_bus(drives), vec![bus])
 }
 
 /// Drive 0 a CMMP-AS (node 1) on CAN, drive 1 a CMMO-ST on Modbus TCP.
@@ -81,8 +83,9 @@ pub fn cmmp_and_cmmo_st() -> Running {
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = mb.local_addr().expect("addr");
+    let (cell, buses) = bus(vec![station("cmmp-as", 1)]);
     let front = FrontEnds {
-        buses: vec![bus(vec![station("cmmp-as", 1)])],
+        buses,
         modbus: vec![ModbusDrive::new(
             mb,
             Box::new(FhppModbus::new(dev, None)),
@@ -90,14 +93,16 @@ pub fn cmmp_and_cmmo_st() -> Running {
         )],
         ..FrontEnds::default()
     };
-    start(front, Some(addr))
+    start(cell, front, Some(addr))
 }
 
 /// Drive 0 a Kinco FD3 (node 2) at factory defaults, drive 1 a CMMP-AS (node 1), on one bus.
 pub fn kinco_and_cmmp() -> Running {
+    let (cell, buses) = bus(vec![station("kinco-fd3", 2), station("cmmp-as", 1)]);
     start(
+        cell,
         FrontEnds {
-            buses: vec![bus(vec![station("kinco-fd3", 2), station("cmmp-as", 1)])],
+            buses,
             ..FrontEnds::default()
         },
         None,

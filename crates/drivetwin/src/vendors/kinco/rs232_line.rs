@@ -22,7 +22,7 @@ use drive::vendors::kinco::rs232::{KincoRs232, TelegramCutter, DEFAULT_GAP, TELE
 use od::Instant;
 
 use super::baud_of_code;
-use crate::cell::OnBus;
+use crate::cell::stations::StationId;
 use crate::serial::line::LineProtocol;
 use crate::serial::wire::Wire;
 use crate::serial::LineDrives;
@@ -55,7 +55,7 @@ pub struct TelegramCounters {
 }
 
 pub struct TelegramLine {
-    ports: Vec<(OnBus, KincoRs232)>,
+    ports: Vec<(StationId, KincoRs232)>,
     topology: Topology,
     cutter: TelegramCutter,
     /// Follow U2BRG (2FE1h) of the first drive: the RS232 port's own rate.
@@ -68,7 +68,11 @@ pub struct TelegramLine {
 
 impl TelegramLine {
     /// `ports`: each drive with its codec (station, ring flag at power-up).
-    pub fn new(ports: Vec<(OnBus, KincoRs232)>, topology: Topology, u2brg: Option<U2brg>) -> Self {
+    pub fn new(
+        ports: Vec<(StationId, KincoRs232)>,
+        topology: Topology,
+        u2brg: Option<U2brg>,
+    ) -> Self {
         TelegramLine {
             ports,
             topology,

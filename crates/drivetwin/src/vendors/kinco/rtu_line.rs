@@ -18,14 +18,14 @@ use drive::vendors::kinco::rtu::{ErrorStyle, Ignored, KincoRtu, RegisterMapping,
 use modbus::rtu_framing::{three_and_a_half_characters, RtuFramer};
 use od::Instant;
 
-use crate::cell::OnBus;
+use crate::cell::stations::StationId;
 use crate::serial::line::LineProtocol;
 use crate::serial::wire::Wire;
 use crate::serial::LineDrives;
 
 /// One drive on an RTU line.
 pub struct RtuDrive {
-    pub at: OnBus,
+    pub at: StationId,
     pub station: u8,
     pub map: Vec<RegisterMapping>,
 }

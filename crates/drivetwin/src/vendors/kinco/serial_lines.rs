@@ -20,9 +20,9 @@ use drive::vendors::kinco::rtu::RegisterMapping;
 use super::baud_of_code;
 use super::rs232_line::{TelegramLine, Topology, U2brg};
 use super::rtu_line::{RtuDrive, RtuLine};
-use crate::cell::can_segment::CanSegment;
+use crate::cell::can_cell::CanCell;
 use crate::cell::station::Station;
-use crate::cell::OnBus;
+use crate::cell::stations::StationId;
 use crate::serial::line::{Protocol, SerialLine, VirtualLine};
 use crate::serial::pty::PortError;
 use crate::serial::{has_port, Kind, LineRequest, LinesError, SerialLines};
@@ -59,12 +59,12 @@ impl From<SetupError> for LinesError {
 /// The serial lines of a cell as the runtime's front end takes them
 /// ([`crate::serial::SerialLines`]).
 pub const SERIAL_LINES: SerialLines = SerialLines {
-    open_lines: |requests, segments| Ok(open_lines(requests, segments)?),
-    virtual_lines: |requests, segments| Ok(virtual_lines(requests, segments)?),
+    open_lines: |requests, cell| Ok(open_lines(requests, cell)?),
+    virtual_lines: |requests, cell| Ok(virtual_lines(requests, cell)?),
 };
 
-fn drive(segments: &[CanSegment], at: OnBus) -> Option<&Station> {
-    segments.get(at.bus)?.stations.get(at.drive)
+fn drive(cell: &CanCell, at: StationId) -> Option<&Station> {
+    cell.stations.station(at)
 }
 
 fn code(d: &Station, index: u16, sub: u8, default: u64) -> u64 {
@@ -72,8 +72,8 @@ fn code(d: &Station, index: u16, sub: u8, default: u64) -> u64 {
 }
 
 /// Whether drive `at` may have a port of `kind`.
-pub fn check(segments: &[CanSegment], at: OnBus, kind: Kind) -> Result<(), SetupError> {
-    let Some(d) = drive(segments, at) else {
+pub fn check(cell: &CanCell, at: StationId, kind: Kind) -> Result<(), SetupError> {
+    let Some(d) = drive(cell, at) else {
         return Ok(());
     };
     let name = d.od().description().name;
@@ -87,12 +87,9 @@ pub fn check(segments: &[CanSegment], at: OnBus, kind: Kind) -> Result<(), Setup
 }
 
 /// Opens one line per path of `requests` (in order of first mention).
-pub fn open_lines(
-    requests: &[LineRequest],
-    segments: &[CanSegment],
-) -> Result<Vec<SerialLine>, SetupError> {
+pub fn open_lines(requests: &[LineRequest], cell: &CanCell) -> Result<Vec<SerialLine>, SetupError> {
     let mut lines = Vec::new();
-    for (kind, path, baud, protocol) in line_protocols(requests, segments)? {
+    for (kind, path, baud, protocol) in line_protocols(requests, cell)? {
         lines.push(SerialLine::open(kind, path, baud, protocol)?);
     }
     Ok(lines)
@@ -102,9 +99,9 @@ pub fn open_lines(
 /// as [`open_lines`] builds them, without ports (a path only names the line its drives share).
 pub fn virtual_lines(
     requests: &[LineRequest],
-    segments: &[CanSegment],
+    cell: &CanCell,
 ) -> Result<Vec<VirtualLine>, SetupError> {
-    Ok(line_protocols(requests, segments)?
+    Ok(line_protocols(requests, cell)?
         .into_iter()
         .map(|(kind, _, baud, protocol)| VirtualLine::new(kind, baud, protocol))
         .collect())
@@ -113,11 +110,11 @@ pub fn virtual_lines(
 /// One line per path of `requests`: its kind, path, bit rate and protocol with its drives.
 fn line_protocols<'a>(
     requests: &'a [LineRequest],
-    segments: &[CanSegment],
+    cell: &CanCell,
 ) -> Result<Vec<(Kind, &'a Path, u32, Protocol)>, SetupError> {
     let mut paths: Vec<&Path> = Vec::new();
     for r in requests {
-        check(segments, r.drive, r.kind)?;
+        check(cell, r.drive, r.kind)?;
         if !paths.contains(&r.path.as_path()) {
             paths.push(&r.path);
         }
@@ -129,9 +126,9 @@ fn line_protocols<'a>(
         if on.iter().any(|r| r.kind != kind) {
             return Err(SetupError::Mixed { path: path.into() });
         }
-        let drives: Vec<(OnBus, &Station)> = on
+        let drives: Vec<(StationId, &Station)> = on
             .iter()
-            .filter_map(|r| drive(segments, r.drive).map(|d| (r.drive, d)))
+            .filter_map(|r| drive(cell, r.drive).map(|d| (r.drive, d)))
             .collect();
         let rate_of = |d: &Station| -> Result<u32, SetupError> {
             let (index, default) = match kind {
