@@ -260,6 +260,52 @@ const KINCO: Device = Device {
     fault: kinco_fault,
 };
 
+/// The generic CiA 402 drive (an EDS, no vendor module): a move with a near step of
+/// acceleration runs ahead of the motor beyond the following error window 6065h, and the
+/// statusword shows bit 13 (following error in profile position) until the motor catches up;
+/// CiA 402 leaves any further reaction to the manufacturer.
+fn cia402_fault(s: &mut Script, t: u64, node: u8) -> u64 {
+    s.sdo_write_u32(t, node, 0x6065, 0, 100);
+    s.sdo_write_u32(t + 2, node, 0x6081, 0, 5_000_000);
+    s.sdo_write_u32(t + 5, node, 0x6083, 0, 1_000_000_000);
+    s.sdo_write_u32(t + 10, node, 0x607A, 0, 2_000_000);
+    s.sdo_write(t + 15, node, 0x6040, 0, &[0x3F, 0]);
+    s.sdo_write(t + 20, node, 0x6040, 0, &[0x2F, 0]);
+    s.sdo_write_u32(t + 80, node, 0x6083, 0, 200_000);
+    s.sdo_write_u32(t + 82, node, 0x6081, 0, 20_000);
+    t + 85
+}
+
+const CIA402: Device = Device {
+    setup: &[],
+    position: 0x6064,
+    fault: cia402_fault,
+};
+
+/// The EDS the generic drive's trace runs: written after the EPOS4's public object list
+/// (tests/interop/data/eds/epos4_like.eds).
+fn epos4_like_eds() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/interop/data/eds/epos4_like.eds")
+}
+
+/// A CAN cell of one generic drive as `drivetwin run --eds FILE --node N` builds it.
+fn eds_cell(eds: &Path, node: u8) -> CanCell {
+    let spec = CellFile::single_eds(eds, Some(node))
+        .expect("the EDS")
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .expect("a cell of one drive")
+        .remove(0);
+    let drive = Station::with_settings(
+        spec.desc,
+        spec.node,
+        None,
+        spec.commissioning,
+        spec.settings,
+    )
+    .expect("the drive");
+    CanCell::one_bus(vec![drive])
+}
+
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
 fn can_cell(device: &str, node: u8) -> CanCell {
     let spec = CellFile::single(device, node)
@@ -512,6 +558,22 @@ fn kinco_fd3_on_canopen() {
     check("kinco-fd3-canopen", "Kinco FD3, node 1, CANopen", || {
         canopen_rig("kinco-fd3", 1, &KINCO)
     });
+}
+
+#[test]
+fn generic_cia402_drive_from_an_eds_on_canopen() {
+    check(
+        "cia402-eds-canopen",
+        "CiA 402 drive from an EDS (epos4_like.eds), node 5, CANopen",
+        || Rig {
+            cell: eds_cell(&epos4_like_eds(), 5),
+            modbus: Vec::new(),
+            chains: Vec::new(),
+            lines: Vec::new(),
+            inputs: canopen_script(5, &CIA402),
+            until: ms(1500),
+        },
+    );
 }
 
 // ---- Kinco FD3 on its serial lines ----

@@ -653,21 +653,11 @@ fn parameters_of(
     register_image: &[(usize, drive::stepper::StepperData)],
     ethercat: &EthercatChains,
 ) -> Parameters {
-    Parameters::of_drives(
-        nodes
-            .iter()
-            .map(|n| (DriveName::Node(*n), Start::of_drive(rig.drive_model(*n))))
-            .chain(
-                register_image
-                    .iter()
-                    .map(|(k, data)| (DriveName::Section(*k), Some(Start::Stepper(*data)))),
-            )
-            .chain(ethercat.places().into_iter().enumerate().map(|(slave, k)| {
-                let start =
-                    ethercat.with_drive(slave, |m| Start::of_drive(m.drive().map(|d| &**d)));
-                (DriveName::Section(k), start)
-            })),
-    )
+    let slaves = ethercat.places().into_iter().enumerate().map(|(slave, k)| {
+        let start = ethercat.with_drive(slave, |m| Start::of_drive(m.drive().map(|d| &**d)));
+        (DriveName::Section(k), start)
+    });
+    Parameters::of(rig, nodes, register_image, slaves)
 }
 
 /// Seconds as the clock's nanoseconds.

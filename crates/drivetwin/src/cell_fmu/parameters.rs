@@ -203,11 +203,12 @@ impl Parameters {
     /// The parameters of the CANopen drives `nodes` (drive `i` of the table is `nodes[i]`)
     /// of `rig`, their starts as the rig has built them, then of the CMMO-STs `steppers`
     /// (the `[[drive]]` section's index and the stepper it is built with), drive
-    /// `nodes.len() + j` of the table.
+    /// `nodes.len() + j` of the table, then the drives `more` (the EtherCAT slaves').
     pub fn of(
         rig: &VirtualRig,
         nodes: &[u8],
         steppers: &[(usize, drive::stepper::StepperData)],
+        more: impl IntoIterator<Item = (DriveName, Option<Start>)>,
     ) -> Parameters {
         Parameters::of_drives(
             nodes
@@ -217,7 +218,8 @@ impl Parameters {
                     steppers
                         .iter()
                         .map(|(k, data)| (DriveName::Section(*k), Some(Start::Stepper(*data)))),
-                ),
+                )
+                .chain(more),
         )
     }
 
@@ -337,7 +339,7 @@ mod tests {
         let file =
             cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 3\n[drive.motor]\ninertia = 4e-5\n");
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        let p = Parameters::of(&rig, &rig.nodes(), &[]);
+        let p = Parameters::of(&rig, &rig.nodes(), &[], []);
         let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
         assert_eq!(
             names,
@@ -367,7 +369,7 @@ mod tests {
             .filter_map(|(k, s)| s.fhpp.as_ref().map(|f| (k, f.settings.stepper)))
             .collect();
         let rig = VirtualRig::new(&file, vendors).unwrap();
-        let p = Parameters::of(&rig, &rig.nodes(), &steppers);
+        let p = Parameters::of(&rig, &rig.nodes(), &steppers, []);
         let names: Vec<String> = p.list.iter().map(Parameter::name).collect();
         assert_eq!(
             names[3..],
@@ -401,12 +403,15 @@ mod tests {
     fn a_value_set_is_the_cell_files_key_and_checked_as_it() {
         let mut file = cell("[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n");
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        let p = Parameters::of(&rig, &rig.nodes(), &[]);
+        let p = Parameters::of(&rig, &rig.nodes(), &[], []);
         let vr = p.list[0].value_reference;
         p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, 6e-5)])
             .unwrap();
         let rig = VirtualRig::new(&file, crate::vendors::VENDORS.runtime).unwrap();
-        assert_eq!(Parameters::of(&rig, &rig.nodes(), &[]).list[0].start, 6e-5);
+        assert_eq!(
+            Parameters::of(&rig, &rig.nodes(), &[], []).list[0].start,
+            6e-5
+        );
         // A negative inertia is refused as the cell file's key is.
         p.apply(&mut file, crate::vendors::VENDORS.runtime, &[(vr, -1.0)])
             .unwrap();
