@@ -176,7 +176,7 @@ const CIA402_PARAMS: &[(u16, u8)] = &[
 ];
 
 // CiA 402's list holds no manufacturer object (checked when compiling): those are the
-// vendors' (`Vendor::CACHED_OBJECTS`).
+// vendors' (`Vendor`'s `CACHED_OBJECTS`).
 const _: () = {
     let mut rest: &[(u16, u8)] = CIA402_PARAMS;
     while let [(index, _), tail @ ..] = rest {
@@ -193,7 +193,7 @@ const _: () = {
 pub(crate) const PARAM_SLOTS: usize = 127;
 
 /// The parameters a drive of vendor `V` reads every cycle: [`CIA402_PARAMS`] and the
-/// vendor's ([`Vendor::CACHED_OBJECTS`](crate::personality::Vendor::CACHED_OBJECTS)), merged
+/// vendor's ([`Vendor`](crate::personality::Vendor)'s `CACHED_OBJECTS`), merged
 /// when compiling, sorted by (index, sub) (for the reader, and the Kinco's `function_codes`
 /// counts on the order of 2010h); [`param_slot`] finds a key through the hash table.
 pub(crate) struct Params<V>(core::marker::PhantomData<V>);
@@ -294,7 +294,7 @@ pub(crate) struct Hot {
     pub(crate) target_torque: Option<&'static Entry>,
     pub(crate) digital_inputs: Option<&'static Entry>,
     pub(crate) vl_velocity_actual: Option<&'static Entry>,
-    /// [`Vendor::VELOCITY_DISPLAY_OBJECTS`]'s value.
+    /// [`Vendor`]'s `VELOCITY_DISPLAY_OBJECTS`'s value.
     pub(crate) velocity_actual_filtered: Option<&'static Entry>,
 }
 
@@ -1152,7 +1152,7 @@ pub(crate) fn interpolation_period<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
 const DEFAULT_IP_PERIOD: Duration = Duration::from_millis(1);
 
 /// The DC link voltage the drive measures, in 6079h dc_link_circuit_voltage (CiA 402) and
-/// where the vendor has one its own object ([`Vendor::POWER_STAGE_OBJECTS`]): `mv`, or
+/// where the vendor has one its own object ([`Vendor`]'s `POWER_STAGE_OBJECTS`): `mv`, or
 /// without it the nominal voltage (an ideal supply: the vendor's nominal object, else the
 /// engine's 325 V).
 fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
@@ -1178,7 +1178,7 @@ fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
 
 /// The controller parameters the dictionary holds: CiA 402's current, velocity and
 /// position control parameter sets (60F6h, 60F9h, 60FBh), motor data (6075h, 6073h, 6410h,
-/// 6080h), and the vendor's power stage ([`Vendor::POWER_STAGE_OBJECTS`]); the
+/// 6080h), and the vendor's power stage ([`Vendor`]'s `POWER_STAGE_OBJECTS`); the
 /// manufacturer-specific objects ([`manufacturer_object`]) read only for a vendor that gives
 /// them a meaning (else their defaults).
 pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
@@ -1238,8 +1238,8 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
 
 /// Objects whose change the controllers must see: CiA 402's (6073h, 6075h, 6410h, the
 /// controllers' parameter sets 60F6h, 60F9h, 60FBh, 6080h), the drive data 6510h (where a
-/// vendor keeps its power stage, [`Vendor::POWER_STAGE_OBJECTS`]) and the vendor's display
-/// filter ([`Vendor::VELOCITY_DISPLAY_OBJECTS`]).
+/// vendor keeps its power stage, [`Vendor`]'s `POWER_STAGE_OBJECTS`) and the vendor's display
+/// filter ([`Vendor`]'s `VELOCITY_DISPLAY_OBJECTS`).
 fn is_control_parameter<V: Vendor>(index: u16) -> bool {
     matches!(
         index,

@@ -64,7 +64,7 @@
 //! CiA 402 gives each factor two UNSIGNED32 and no bound on their quotient; a zero divisor is
 //! refused for all three objects, and so is a zero numerator (a zero factor cannot be
 //! inverted on read). A drive whose manual bounds the quotient says so through its vendor's
-//! hook ([`Vendor::factor_limit`](crate::personality::Vendor::factor_limit)), which the
+//! hook ([`Vendor`](crate::personality::Vendor)'s `factor_limit`), which the
 //! `*_within` checks take.
 
 use core::fmt;
@@ -133,7 +133,7 @@ pub enum FactorError {
     /// The numerator (subindex 01) is 0.
     NumeratorZero(FactorObject),
     /// numerator / divisor exceeds the drive's limit (the second field; a vendor's
-    /// [`factor_limit`](crate::personality::Vendor::factor_limit)).
+    /// `factor_limit` ([`Vendor`](crate::personality::Vendor))).
     ExceedsLimit(FactorObject, u32),
     /// The unit description gives a fraction whose reduced numerator or divisor needs more
     /// than 32 bits.

@@ -1,6 +1,6 @@
 //! Lists of object keys `(index, sub)` merged when compiling: the objects a drive caches are
 //! CiA 402's list and its vendor's
-//! ([`Vendor::CACHED_OBJECTS`](crate::personality::Vendor::CACHED_OBJECTS)) as one sorted set.
+//! ([`Vendor`](crate::personality::Vendor)'s `CACHED_OBJECTS`) as one sorted set.
 
 /// `(index, sub)` as one ordered key.
 const fn key(k: (u16, u8)) -> u32 {

@@ -310,7 +310,7 @@ pub trait Vendor: Sized {
 }
 
 /// The objects a vendor shows its power stage in, each `(index, sub)` of an unsigned value
-/// ([`Vendor::POWER_STAGE_OBJECTS`]).
+/// ([`Vendor`]'s `POWER_STAGE_OBJECTS`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PowerStageObjects {
     /// The nominal DC-link voltage, mV: what the supply gives while no other voltage is set.
@@ -323,7 +323,7 @@ pub struct PowerStageObjects {
     pub cycle_times: [(u16, u8); 3],
 }
 
-/// The motor a stepper personality's output stage drives ([`Vendor::plant_motor`]).
+/// The motor a stepper personality's output stage drives ([`Vendor`]'s `plant_motor`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PlantMotor {
     /// The hybrid stepper (micro-stepping, or closed loop).
@@ -346,7 +346,7 @@ impl PlantMotor {
     }
 }
 
-/// A BLDC's commutation and current limits on a stepper personality ([`Vendor::bldc_settings`]).
+/// A BLDC's commutation and current limits on a stepper personality ([`Vendor`]'s `bldc_settings`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BldcSettings {
     /// The commutation mode [`crate::bldc::BldcData::torque_factor`] takes.
@@ -372,7 +372,7 @@ impl Default for BldcSettings {
 }
 
 /// The objects of a speed shown through a display filter
-/// ([`Vendor::VELOCITY_DISPLAY_OBJECTS`]), each `(index, sub)`.
+/// ([`Vendor`]'s `VELOCITY_DISPLAY_OBJECTS`), each `(index, sub)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct VelocityDisplayObjects {
     /// The display filter's time constant, µs (unsigned).

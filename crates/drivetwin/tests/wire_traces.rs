@@ -290,25 +290,17 @@ fn epos4_like_eds() -> PathBuf {
 
 /// A CAN cell of one generic drive as `drivetwin run --eds FILE --node N` builds it.
 fn eds_cell(eds: &Path, node: u8) -> CanCell {
-    let spec = CellFile::single_eds(eds, Some(node))
-        .expect("the EDS")
-        .drives(drivetwin::vendors::VENDORS.runtime)
-        .expect("a cell of one drive")
-        .remove(0);
-    let drive = Station::with_settings(
-        spec.desc,
-        spec.node,
-        None,
-        spec.commissioning,
-        spec.settings,
-    )
-    .expect("the drive");
-    CanCell::one_bus(vec![drive])
+    cell_of(CellFile::single_eds(eds, Some(node)).expect("the EDS"))
 }
 
 /// A CAN cell of one drive as `drivetwin run --device NAME --node N` builds it.
 fn can_cell(device: &str, node: u8) -> CanCell {
-    let spec = CellFile::single(device, node)
+    cell_of(CellFile::single(device, node))
+}
+
+/// A CAN cell of the one drive of `file`.
+fn cell_of(file: CellFile) -> CanCell {
+    let spec = file
         .drives(drivetwin::vendors::VENDORS.runtime)
         .expect("a cell of one drive")
         .remove(0);

@@ -7,9 +7,9 @@
 //! closed loop (the encoder closes the loops; no step is lost below the peak torque).
 //!
 //! Which loop the stepper runs, which motor the output stage drives and a BLDC's settings
-//! are the vendor's objects: the engine asks the vendor ([`Vendor::stepper_closed_loop`],
-//! [`Vendor::plant_motor`], [`Vendor::bldc_settings`]) and shows the loop where the vendor
-//! names an object for it ([`Vendor::CLOSED_LOOP_OBJECT`]).
+//! are the vendor's objects: the engine asks the vendor ([`Vendor`]'s `stepper_closed_loop`,
+//! [`Vendor`]'s `plant_motor`, [`Vendor`]'s `bldc_settings`) and shows the loop where the vendor
+//! names an object for it ([`Vendor`]'s `CLOSED_LOOP_OBJECT`).
 //!
 //! Decisions:
 //! * The servo [`Axis`] stays in the drive for its brake and its parameters; with a stepper
@@ -136,7 +136,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             .map(|b| b.hall_edges_per_rev())
     }
 
-    /// The motor type the output stage runs ([`Vendor::plant_motor`]). Decision: the
+    /// The motor type the output stage runs ([`Vendor`]'s `plant_motor`). Decision: the
     /// Nanotec's manual names no moment at which a new type (2004h:07) applies; the twin
     /// takes it while the output stage is off (not while a motor is being driven), so a
     /// change made in Operation Enabled applies at the next disable. A BLDC's position
@@ -247,7 +247,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// The BLDC's current limits ([`Vendor::bldc_settings`]), taken with the output stage
+    /// The BLDC's current limits ([`Vendor`]'s `bldc_settings`), taken with the output stage
     /// off: a share of the motor's rated current continuously; the peak, when above it, for
     /// a while (the axis's I²t); with no peak above it the limit is the continuous share.
     fn bldc_currents(&mut self) {
@@ -278,14 +278,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         self.bldc.as_ref()
     }
 
-    /// The object that shows the stepper's loop ([`Vendor::CLOSED_LOOP_OBJECT`]).
+    /// The object that shows the stepper's loop ([`Vendor`]'s `CLOSED_LOOP_OBJECT`).
     #[inline]
     fn closed_loop_entry(&self) -> Option<&'static Entry> {
         V::CLOSED_LOOP_OBJECT.and_then(|(index, sub)| self.param(index, sub))
     }
 
-    /// The stepper's loop as the vendor sets it ([`Vendor::stepper_closed_loop`]), shown in
-    /// [`Vendor::CLOSED_LOOP_OBJECT`].
+    /// The stepper's loop as the vendor sets it ([`Vendor`]'s `stepper_closed_loop`), shown in
+    /// [`Vendor`]'s `CLOSED_LOOP_OBJECT`.
     pub(crate) fn stepper_mode(&mut self) {
         if self.bldc.is_some() {
             // Decision: a BLDC runs commutated from its Hall sensors, its current, speed and

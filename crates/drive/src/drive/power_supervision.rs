@@ -8,7 +8,7 @@ use super::*;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// The supply: the DC-link voltage in mV (`None`: the nominal one). It shows in 6079h
-    /// (and where the vendor has one, its own object, `Vendor::POWER_STAGE_OBJECTS`), limits the current
+    /// (and where the vendor has one, its own object, `Vendor`'s `POWER_STAGE_OBJECTS`), limits the current
     /// controller's output voltage, and below the vendor's threshold it is the vendor's
     /// undervoltage error (the vendor hook `dc_link_undervoltage_mv`).
     pub fn set_dc_link_voltage(&mut self, mv: Option<u32>) {

@@ -676,6 +676,15 @@ mod tests {
 
     use super::*;
 
+    /// Each parameter's name and start value.
+    fn starts(cell: &CellInstance) -> Vec<(String, f64)> {
+        cell.parameters()
+            .list
+            .iter()
+            .map(|p| (p.name(), p.start))
+            .collect()
+    }
+
     /// The next `< … >` message of a socketcand server.
     fn message(r: &mut BufReader<TcpStream>) -> String {
         let mut m = Vec::new();
@@ -773,12 +782,7 @@ mod tests {
         assert_eq!(cell.ethercat_chains(), [("dtnone0".to_string(), 2)]);
         // (no holding brake: a load torque turns the shaft of a drive at power-on)
         // The slaves' [drive.motor] keys are parameters as a CANopen drive's, named by place.
-        let p: Vec<(String, f64)> = cell
-            .parameters()
-            .list
-            .iter()
-            .map(|p| (p.name(), p.start))
-            .collect();
+        let p = starts(&cell);
         assert!(
             p.contains(&("drive0.motor.inertia".to_string(), 3e-5)),
             "{p:?}"
@@ -837,12 +841,7 @@ mod tests {
         )
         .unwrap();
         let cell = CellInstance::new(&file, None, vendors).unwrap();
-        let p: Vec<(String, f64)> = cell
-            .parameters()
-            .list
-            .iter()
-            .map(|p| (p.name(), p.start))
-            .collect();
+        let p = starts(&cell);
         assert!(
             p.contains(&("node5.stepper.load_inertia".to_string(), 2e-5)),
             "{p:?}"
