@@ -22,15 +22,9 @@ use platform::alloc::Counting;
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-fn conveyor_fmus() -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let built = std::process::Command::new(root.join("scripts/conveyor-fmu"))
-        .current_dir(&root)
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(built, "scripts/conveyor-fmu");
-    root.join("target/fmu")
-}
+#[path = "support/conveyor_fmus.rs"]
+mod conveyor_fmus;
+use conveyor_fmus::conveyor_fmus;
 
 fn station(fmu: Option<PathBuf>) -> Station {
     let desc = devices::by_name("cmmp-as").expect("the CMMP-AS");

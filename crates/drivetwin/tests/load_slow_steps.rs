@@ -18,15 +18,9 @@ use drive::drive::external_load::{ExternalLoad, Shaft};
 use drivetwin::cosim::{FmuLoad, LoadMapping};
 use od::Instant;
 
-fn conveyor_fmus() -> PathBuf {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let built = std::process::Command::new(root.join("scripts/conveyor-fmu"))
-        .current_dir(&root)
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(built, "scripts/conveyor-fmu");
-    root.join("target/fmu")
-}
+#[path = "support/conveyor_fmus.rs"]
+mod conveyor_fmus;
+use conveyor_fmus::conveyor_fmus;
 
 fn conveyor(fmu: PathBuf) -> FmuLoad {
     let mapping = LoadMapping {
