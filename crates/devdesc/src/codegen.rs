@@ -115,6 +115,29 @@ pub fn generate(d: &Device) -> String {
         reactions(&b.on_bus_off),
         reactions(&b.on_recovered)
     );
+    let k = &d.brake;
+    let _ = writeln!(
+        s,
+        "    brake: od::BrakeTiming {{ release: &[{}], motion: &[{}], engage: &[{}], only_with_brake: {} }},",
+        object_keys(&k.release),
+        object_keys(&k.motion),
+        object_keys(&k.engage),
+        k.only_with_brake
+    );
+    let p = &d.plant;
+    let _ = writeln!(
+        s,
+        "    plant: od::PlantSupervision {{ motor_warning: {:?}, motor_over: {:?}, stage_over: {:?}, encoder_lost: {:?}, encoder_implausible: {:?}, motor_limit: {}, stage_limit: {}, motor_temperature: {}, stage_temperature: {} }},",
+        p.motor_warning,
+        p.motor_over,
+        p.stage_over,
+        p.encoder_lost,
+        p.encoder_implausible,
+        object_key(p.motor_limit),
+        object_key(p.stage_limit),
+        object_key(p.motor_temperature),
+        object_key(p.stage_temperature)
+    );
     let c = &d.cia301;
     let _ = writeln!(
         s,
@@ -172,6 +195,22 @@ fn reactions(list: &[od::BusFaultReaction]) -> String {
         od::BusFaultReaction::Repeat(c) => format!("od::BusFaultReaction::Repeat(0x{c:04X})"),
     };
     list.iter().map(one).collect::<Vec<_>>().join(", ")
+}
+
+/// `(0x2007, 0x01), …`
+fn object_keys(list: &[(u16, u8)]) -> String {
+    list.iter()
+        .map(|(i, s)| format!("(0x{i:04X}, 0x{s:02X})"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `Some((0x6510, 0x2F))` or `None`.
+fn object_key(key: Option<(u16, u8)>) -> String {
+    match key {
+        Some((i, s)) => format!("Some((0x{i:04X}, 0x{s:02X}))"),
+        None => "None".into(),
+    }
 }
 
 fn storage_len(e: &Ent) -> u32 {

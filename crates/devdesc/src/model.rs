@@ -4,7 +4,10 @@ use std::path::Path;
 
 use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
-use crate::schema::{DiagnosticSection, EntryFields, File, ObjectSection, ProfileName};
+use crate::schema::{
+    BrakeSection, DiagnosticSection, EntryFields, File, ObjectKey, ObjectSection, PlantSection,
+    ProfileName,
+};
 
 #[derive(Debug, thiserror::Error)]
 pub enum DescError {
@@ -26,6 +29,13 @@ pub enum DescError {
     Device(String),
     #[error("diagnostic {number}: {what}")]
     Diagnostic { number: String, what: String },
+    /// A mistake in the content of the file at `path` (the parser's own errors name it
+    /// already).
+    #[error("{path}: {source}")]
+    InFile {
+        path: String,
+        source: Box<DescError>,
+    },
 }
 
 #[derive(Debug, Clone)]
@@ -54,6 +64,10 @@ pub struct Device {
     pub fhpp: Option<crate::schema::FhppSection>,
     /// `[device.bus_faults]`, or CiA 301's usage for a file without one (an EDS too).
     pub bus_faults: BusFaults,
+    /// `[device.brake]`, checked (empty lists for a file without one, an EDS too).
+    pub brake: crate::schema::BrakeSection,
+    /// `[device.plant]`, checked (no message or object for a file without one, an EDS too).
+    pub plant: crate::schema::PlantSection,
     pub cia301: od::Cia301Options,
     pub objects: Vec<Obj>,
     pub diagnostics: Vec<Diag>,
@@ -219,6 +233,107 @@ fn check_serial_bit_rate(
     }))
 }
 
+/// The entry `key` of a device file's table `table` names: an integer entry of the file
+/// (`signed`: a signed one).
+fn integer_entry(
+    table: &str,
+    key: &str,
+    (index, sub): ObjectKey,
+    signed: bool,
+    objects: &[Obj],
+) -> Result<(), DescError> {
+    let err = |what: &str| {
+        DescError::Device(format!(
+            "{table} {key}: object {index:04X}h sub {sub:02X}h {what}"
+        ))
+    };
+    let entry = objects
+        .iter()
+        .find(|o| o.index == index)
+        .and_then(|o| o.entries.iter().find(|e| e.sub == sub));
+    let Some(e) = entry else {
+        return Err(err("is not in this file"));
+    };
+    let t = e.data_type;
+    let integer = t.is_numeric() && !t.is_real() && t != DataType::Boolean;
+    match (integer, signed) {
+        (true, false) => Ok(()),
+        (true, true) if t.is_signed() => Ok(()),
+        (_, false) => Err(err(&format!("is {}, no integer", t.name()))),
+        (_, true) => Err(err(&format!("is {}, no signed integer", t.name()))),
+    }
+}
+
+/// `[device.brake]`: each delay's objects are integer entries of the file, each once.
+fn check_brake(section: Option<&BrakeSection>, objects: &[Obj]) -> Result<BrakeSection, DescError> {
+    let Some(b) = section else {
+        return Ok(BrakeSection::default());
+    };
+    for (key, list) in [
+        ("release", &b.release),
+        ("motion", &b.motion),
+        ("engage", &b.engage),
+    ] {
+        for (i, o) in list.iter().enumerate() {
+            integer_entry("[device.brake]", key, *o, false, objects)?;
+            if list.get(..i).is_some_and(|before| before.contains(o)) {
+                return Err(DescError::Device(format!(
+                    "[device.brake] {key}: object {:04X}h sub {:02X}h listed twice",
+                    o.0, o.1
+                )));
+            }
+        }
+    }
+    Ok(b.clone())
+}
+
+/// A message a device file's table `table` names under `key` is a row of its diagnostic
+/// table (compared as [`od::DeviceDescription::diagnostic`] finds it).
+fn diagnostic_row(table: &str, key: &str, number: &str, rows: &[Diag]) -> Result<(), DescError> {
+    if rows.iter().any(|d| d.number.eq_ignore_ascii_case(number)) {
+        return Ok(());
+    }
+    Err(DescError::Device(format!(
+        "{table} {key}: message {number:?} is no [[diagnostic]] row of this file"
+    )))
+}
+
+/// `[device.plant]`: its messages are rows of the file's diagnostic table, its limits
+/// integer entries of the file, its temperatures signed integer entries (a temperature may
+/// be below 0 °C).
+fn check_plant(
+    section: Option<&PlantSection>,
+    objects: &[Obj],
+    rows: &[Diag],
+) -> Result<PlantSection, DescError> {
+    let Some(p) = section else {
+        return Ok(PlantSection::default());
+    };
+    const TABLE: &str = "[device.plant]";
+    for (key, number) in [
+        ("motor_warning", &p.motor_warning),
+        ("motor_over", &p.motor_over),
+        ("stage_over", &p.stage_over),
+        ("encoder_lost", &p.encoder_lost),
+        ("encoder_implausible", &p.encoder_implausible),
+    ] {
+        if let Some(n) = number {
+            diagnostic_row(TABLE, key, n, rows)?;
+        }
+    }
+    for (key, object, signed) in [
+        ("motor_limit", p.motor_limit, false),
+        ("stage_limit", p.stage_limit, false),
+        ("motor_temperature", p.motor_temperature, true),
+        ("stage_temperature", p.stage_temperature, true),
+    ] {
+        if let Some(o) = object {
+            integer_entry(TABLE, key, o, signed, objects)?;
+        }
+    }
+    Ok(p.clone())
+}
+
 /// `[device.fhpp]` goes with the FHPP profile; each PNU it names is a parameter (object
 /// 2000h + PNU) with a writable subindex, listed once and in order, and the record list
 /// (PNU 401, record control byte 1) has a subindex for every record.
@@ -361,7 +476,19 @@ pub fn load_file(path: &Path) -> Result<Device, DescError> {
     parse(&text, &path.display().to_string())
 }
 
+/// The device of the file at `path` (only named in errors) holding `text`, checked; a
+/// mistake is refused with the file, and the table and key or the object where it stands.
 pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
+    check(text, path).map_err(|e| match e {
+        e @ (DescError::Io { .. } | DescError::Toml { .. } | DescError::InFile { .. }) => e,
+        other => DescError::InFile {
+            path: path.to_string(),
+            source: Box::new(other),
+        },
+    })
+}
+
+fn check(text: &str, path: &str) -> Result<Device, DescError> {
     let file: File = toml::from_str(text).map_err(|source| DescError::Toml {
         path: path.to_string(),
         source,
@@ -486,6 +613,15 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
         .to_owned()
     });
     let diagnostics = diagnostics(&file.diagnostic)?;
+    if let Some(n) = d
+        .ethercat
+        .as_ref()
+        .and_then(|e| e.watchdog_diagnostic.as_deref())
+    {
+        diagnostic_row("[device.ethercat]", "watchdog_diagnostic", n, &diagnostics)?;
+    }
+    let brake = check_brake(d.brake.as_ref(), &objects)?;
+    let plant = check_plant(d.plant.as_ref(), &objects, &diagnostics)?;
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -512,6 +648,8 @@ pub fn parse(text: &str, path: &str) -> Result<Device, DescError> {
             .as_ref()
             .map(BusFaults::from)
             .unwrap_or_default(),
+        brake,
+        plant,
         cia301: od::Cia301Options {
             pdo_params_locked_while_valid: d.pdo_params_locked_while_valid,
             pdo_config_outside_operational: d.pdo_config_outside_operational,
@@ -1153,6 +1291,17 @@ mod tests {
         let crossed = section.replace("rx_assigned = [0x1600]", "rx_assigned = [0x1A00]");
         let crossed = parse(&with("\"ethercat\"", &crossed), "t.toml").unwrap_err();
         assert!(crossed.to_string().contains("1A00h"), "{crossed}");
+        // The watchdog's message is a row of the file's diagnostic table.
+        let watchdog = format!("{section}watchdog_diagnostic = \"62-5\"\n");
+        let row = "[[diagnostic]]\nnumber = \"62-5\"\nreaction = \"configurable\"\ntext = \"x\"\n";
+        assert!(parse(&with("\"ethercat\"", &format!("{watchdog}{row}")), "t.toml").is_ok());
+        let missing = parse(&with("\"ethercat\"", &watchdog), "t.toml").unwrap_err();
+        assert!(
+            missing.to_string().contains(
+                "[device.ethercat] watchdog_diagnostic: message \"62-5\" is no [[diagnostic]] row"
+            ),
+            "{missing}"
+        );
     }
 
     /// `serial_bit_rate` names UNSIGNED16 objects of the file whose defaults are codes of
@@ -1195,6 +1344,80 @@ mod tests {
         assert!(refused(&table("0x2FE2", "[270, 38400]"), &two).contains("default 540 is no code"));
         assert!(refused(&table("", codes), &two).contains("no objects"));
         assert!(refused(&table("0x2FE0", ""), &two).contains("no codes"));
+    }
+
+    /// `[device.brake]` and `[device.plant]` name integer entries of the file and rows of its
+    /// diagnostic table; a broken entry is refused with the file, the table and the key.
+    #[test]
+    fn brake_and_plant_name_objects_and_messages_of_the_file() {
+        let objects = "[[object]]\nindex = 0x2007\nname = \"brake\"\nkind = \"record\"\n[[object.sub]]\nsub = 1\nname = \"on\"\ntype = \"UNSIGNED16\"\naccess = \"rw\"\n[[object.sub]]\nsub = 2\nname = \"temperature\"\ntype = \"INTEGER16\"\naccess = \"ro\"\n[[object.sub]]\nsub = 3\nname = \"factor\"\ntype = \"REAL32\"\naccess = \"rw\"\n[[object]]\nindex = 0x2008\nname = \"label\"\ntype = \"VISIBLE_STRING\"\naccess = \"ro\"\nsize = 4\n[[diagnostic]]\nnumber = \"04-0\"\nreaction = \"ps_off\"\ntext = \"x\"\n";
+        let file = |tables: &str| format!("{HEAD}{tables}{objects}");
+        let brake = "[device.brake]\nrelease = [[0x2007, 1]]\nmotion = [[0x2007, 1], [0x2007, 2]]\nonly_with_brake = true\n";
+        let plant = "[device.plant]\nstage_over = \"04-0\"\nstage_limit = [0x2007, 1]\nstage_temperature = [0x2007, 2]\n";
+        let d = parse(&file(&format!("{brake}{plant}")), "t.toml").expect("valid");
+        assert_eq!(d.brake.release, [(0x2007, 1)]);
+        assert_eq!(d.brake.motion, [(0x2007, 1), (0x2007, 2)]);
+        assert!(d.brake.engage.is_empty() && d.brake.only_with_brake);
+        assert_eq!(d.plant.stage_over.as_deref(), Some("04-0"));
+        assert_eq!(d.plant.motor_over, None);
+        assert_eq!(d.plant.stage_temperature, Some((0x2007, 2)));
+        // The generated description carries them, as the run-time one does.
+        let source = crate::codegen::generate(&d);
+        assert!(source.contains(
+            "brake: od::BrakeTiming { release: &[(0x2007, 0x01)], motion: &[(0x2007, 0x01), (0x2007, 0x02)], engage: &[], only_with_brake: true },"
+        ), "{source}");
+        assert!(source.contains("stage_over: Some(\"04-0\")"), "{source}");
+        let leaked = crate::runtime::leak(&d);
+        assert_eq!(leaked.brake.motion, [(0x2007, 1), (0x2007, 2)]);
+        assert_eq!(leaked.plant.stage_limit, Some((0x2007, 1)));
+        // Without the tables: no delay, no message, no object.
+        let none = parse(&file(""), "t.toml").expect("valid");
+        let leaked = crate::runtime::leak(&none);
+        assert_eq!(
+            (leaked.brake, leaked.plant),
+            (od::BrakeTiming::NONE, od::PlantSupervision::NONE)
+        );
+        let refused = |tables: &str| match parse(&file(tables), "t.toml") {
+            Ok(_) => panic!("accepted: {tables}"),
+            Err(e) => e.to_string(),
+        };
+        for (tables, says) in [
+            (
+                "[device.brake]\nengage = [[0x2007, 4]]\n",
+                "t.toml: device: [device.brake] engage: object 2007h sub 04h is not in this file",
+            ),
+            (
+                "[device.brake]\nmotion = [[0x2007, 3]]\n",
+                "t.toml: device: [device.brake] motion: object 2007h sub 03h is REAL32, no integer",
+            ),
+            (
+                "[device.brake]\nrelease = [[0x2008, 0]]\n",
+                "t.toml: device: [device.brake] release: object 2008h sub 00h is VISIBLE_STRING, no integer",
+            ),
+            (
+                "[device.brake]\nmotion = [[0x2007, 1], [0x2007, 1]]\n",
+                "t.toml: device: [device.brake] motion: object 2007h sub 01h listed twice",
+            ),
+            (
+                "[device.plant]\nmotor_over = \"03-0\"\n",
+                "t.toml: device: [device.plant] motor_over: message \"03-0\" is no [[diagnostic]] row of this file",
+            ),
+            (
+                "[device.plant]\nmotor_limit = [0x6510, 0x2F]\n",
+                "t.toml: device: [device.plant] motor_limit: object 6510h sub 2Fh is not in this file",
+            ),
+            (
+                "[device.plant]\nmotor_temperature = [0x2007, 1]\n",
+                "t.toml: device: [device.plant] motor_temperature: object 2007h sub 01h is UNSIGNED16, no signed integer",
+            ),
+        ] {
+            assert_eq!(refused(tables), says);
+        }
+        // The parser's own refusals name the file, the line and the key.
+        let e = refused("[device.brake]\nmotion = [[0x2007, 300]]\n");
+        assert!(e.starts_with("t.toml: TOML parse error at line 8"), "{e}");
+        let e = refused("[device.plant]\nstage_over = \"04-0\"\nmotor_limits = [0x2007, 1]\n");
+        assert!(e.contains("unknown field `motor_limits`"), "{e}");
     }
 
     /// `[device.fhpp]` goes with the FHPP profile and names writable parameters in order,

@@ -110,6 +110,62 @@ pub struct DeviceSection {
     /// `[device.bus_faults]`: what the device does when its CAN controller changes error
     /// state; CiA 301's usage without it.
     pub bus_faults: Option<BusFaultsSection>,
+    /// `[device.brake]`: the objects whose values make the holding brake's delays; none
+    /// without it.
+    pub brake: Option<BrakeSection>,
+    /// `[device.plant]`: the messages and objects of the drive's supervision of its plant;
+    /// none without it.
+    pub plant: Option<PlantSection>,
+}
+
+/// An object of the dictionary as a device file names it for a purpose: `[index, sub]`.
+pub type ObjectKey = (u16, u8);
+
+/// `[device.brake]` (`od::BrakeTiming`): each delay the sum of its objects' values in ms,
+/// e.g. `motion = [[0x2007, 1], [0x2007, 2]]`; each object an integer entry of the file. A
+/// key left out: no delay.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BrakeSection {
+    /// Output stage on → brake open.
+    #[serde(default)]
+    pub release: Vec<ObjectKey>,
+    /// Output stage on → the set-point released.
+    #[serde(default)]
+    pub motion: Vec<ObjectKey>,
+    /// Brake closed → output stage off.
+    #[serde(default)]
+    pub engage: Vec<ObjectKey>,
+    /// Without a holding brake fitted nothing waits.
+    #[serde(default)]
+    pub only_with_brake: bool,
+}
+
+/// `[device.plant]` (`od::PlantSupervision`): the diagnostic messages (numbers of the file's
+/// `[[diagnostic]]` rows) the drive raises for what its supervision finds, and the objects
+/// (`[index, sub]`, integer entries of the file, °C) holding its limits and showing its
+/// temperatures. A key left out: no such message or object.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantSection {
+    /// The motor within the warning margin of its limit.
+    pub motor_warning: Option<String>,
+    /// The motor above its limit.
+    pub motor_over: Option<String>,
+    /// The power stage above its limit.
+    pub stage_over: Option<String>,
+    /// The encoder signal lost.
+    pub encoder_lost: Option<String>,
+    /// Implausible encoder counts.
+    pub encoder_implausible: Option<String>,
+    /// The motor's limit (without it the drive model's own).
+    pub motor_limit: Option<ObjectKey>,
+    /// The power stage's limit (without it the drive model's own).
+    pub stage_limit: Option<ObjectKey>,
+    /// Where the drive shows the motor's temperature.
+    pub motor_temperature: Option<ObjectKey>,
+    /// Where the drive shows the power stage's temperature.
+    pub stage_temperature: Option<ObjectKey>,
 }
 
 /// `[device.bus_faults]` (`od::BusFaultReactions`): the reactions to each change of the CAN

@@ -783,6 +783,23 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
+    /// The value of an object the device file names for a purpose of the engine's (the
+    /// brake's delays, the plant supervision's limits: [`od::BrakeTiming`],
+    /// [`od::PlantSupervision`]); 0 where the dictionary has none. Read whatever the vendor:
+    /// the file gives the object its meaning, so a manufacturer object is not left alone as
+    /// [`Drive::value`] leaves it for a vendor without
+    /// [`MANUFACTURER_OBJECTS`](Vendor#associatedconstant.MANUFACTURER_OBJECTS).
+    pub(crate) fn described_value(&self, index: u16, sub: u8) -> i64 {
+        if let Some(pos) = param_slot::<V>(index, sub) {
+            return self.read(self.params.get(pos).copied().flatten());
+        }
+        match self.od.value(index, sub) {
+            Some(Value::Signed(s)) => s,
+            Some(Value::Unsigned(u)) => u as i64,
+            _ => 0,
+        }
+    }
+
     /// [`Drive::value`] inlined at the call site, for the reads of every logic cycle: with a
     /// literal key of [`Params`] the slot is found when compiling and the read is a load and
     /// a decode; any other key takes `value`'s path. (`value` itself stays out of line: the

@@ -481,38 +481,6 @@ pub struct Capabilities {
     pub internal_position_in_user_units: bool,
 }
 
-/// The holding brake's delays, each the sum of its objects' values in ms (an empty list:
-/// none).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BrakeTiming {
-    /// Output stage on → brake open.
-    pub release: &'static [(u16, u8)],
-    /// Output stage on → the set-point released.
-    pub motion: &'static [(u16, u8)],
-    /// Brake closed → output stage off.
-    pub engage: &'static [(u16, u8)],
-    /// Without a holding brake fitted nothing waits.
-    pub only_with_brake: bool,
-}
-
-/// What the drive's own supervision of its plant raises and shows
-/// ([`crate::drive::plant_supervision`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PlantSupervision {
-    /// The diagnostic messages (numbers as the device file prints them) for: the motor
-    /// within the warning margin of its limit, the motor above its limit, the power stage
-    /// above its limit, the encoder signal lost, implausible encoder counts; `None`: the
-    /// manual has no such message.
-    pub messages: [Option<&'static str>; 5],
-    /// The objects holding the motor's and the power stage's limits, °C; `None`: the CHOSEN
-    /// limits of [`crate::drive::plant_supervision`].
-    pub limits: Option<[(u16, u8); 2]>,
-    /// Where the drive shows the motor's temperature, °C.
-    pub motor_temperature: Option<(u16, u8)>,
-    /// Where the drive shows the power stage's temperature, °C.
-    pub stage_temperature: Option<(u16, u8)>,
-}
-
 /// A reference switch a master supplies through an object (an RPDO from an external I/O
 /// node): bit `bit_number(index:bit_sub)` of `index:value_sub`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -547,8 +515,6 @@ pub struct Personality {
     /// ([`crate::drive::DriveSettings::enables_present`]); `None`: the drive has none (its
     /// enables are input functions, [`crate::drive::refusal`]).
     pub hardware_enable: Option<HardwareEnable>,
-    pub brake: BrakeTiming,
-    pub plant: PlantSupervision,
 }
 
 /// The hardware enables of a drive, as its manual names them: what is missing while

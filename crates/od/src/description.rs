@@ -334,6 +334,12 @@ pub struct DeviceDescription {
     /// What the device does when its CAN controller changes error state (device file
     /// `[device.bus_faults]`; CiA 301's usage for a file without one, an EDS among them).
     pub bus_faults: crate::BusFaultReactions,
+    /// The holding brake's delay objects (device file `[device.brake]`; none for a file
+    /// without one, an EDS among them).
+    pub brake: crate::BrakeTiming,
+    /// The plant supervision's messages and objects (device file `[device.plant]`; none for
+    /// a file without one, an EDS among them).
+    pub plant: crate::PlantSupervision,
     pub cia301: Cia301Options,
     /// Sorted by index.
     pub objects: &'static [Object],

@@ -9,6 +9,7 @@
 
 pub mod abort_code;
 pub mod access;
+pub mod brake_timing;
 pub mod bus_faults;
 pub mod cob_id;
 pub mod data_type;
@@ -18,11 +19,13 @@ pub mod dictionary;
 pub mod eds;
 pub mod parameter_file;
 pub mod pdo_rules;
+pub mod plant_supervision;
 pub mod time;
 pub mod value;
 
 pub use abort_code::AbortCode;
 pub use access::Access;
+pub use brake_timing::BrakeTiming;
 pub use bus_faults::{BusFaultReaction, BusFaultReactions};
 pub use data_type::DataType;
 pub use description::{
@@ -31,5 +34,6 @@ pub use description::{
 };
 pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
+pub use plant_supervision::PlantSupervision;
 pub use time::Instant;
 pub use value::Value;

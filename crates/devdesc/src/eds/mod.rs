@@ -21,6 +21,7 @@ use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 pub use self::error::{EdsError, Location};
 use self::ini::{Ini, Section};
 use crate::model::{BusFaults, Device, Ent, Obj};
+use crate::schema::{BrakeSection, PlantSection};
 
 /// A read EDS or DCF.
 #[derive(Debug, Clone)]
@@ -261,6 +262,9 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         fhpp: None,
         // An EDS says nothing of them (CiA 306): CiA 301's usage.
         bus_faults: BusFaults::default(),
+        // Nor of a brake delay or a plant message: CiA 402 names no object of either.
+        brake: BrakeSection::default(),
+        plant: PlantSection::default(),
         interfaces: vec!["canopen".into()],
         interfaces_one_of: Vec::new(),
         interfaces_rule: "a CANopen device (its EDS)".into(),

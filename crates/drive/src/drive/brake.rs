@@ -4,10 +4,10 @@
 use super::*;
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
-    /// The personality's brake timing ([`personality::BrakeTiming`]): each delay the sum of
-    /// its objects in ms.
+    /// The device file's brake timing ([`od::BrakeTiming`], `[device.brake]`): each delay the
+    /// sum of its objects in ms.
     pub(super) fn brake_delays(&self) -> BrakeDelays {
-        let timing = &self.personality.brake;
+        let timing = &self.od.description().brake;
         if timing.only_with_brake && !self.settings.brake_fitted {
             return BrakeDelays {
                 release: Duration::ZERO,
@@ -17,7 +17,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
         let ms = |objects: &[(u16, u8)]| {
             objects.iter().fold(Duration::ZERO, |sum, (i, s)| {
-                sum + Duration::from_millis(self.value(*i, *s).max(0) as u64)
+                sum + Duration::from_millis(self.described_value(*i, *s).max(0) as u64)
             })
         };
         BrakeDelays {

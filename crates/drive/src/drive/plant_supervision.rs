@@ -1,25 +1,26 @@
 //! The drive's own supervision of its plant's physics: the motor and power-stage
 //! temperatures of [`crate::thermal`] and the encoder of [`crate::encoder_fault`]. Each
-//! personality raises its manual's message for what it finds, as its manual names it, through
-//! the same path as every other message (reaction, EMCY, 1003h, display):
+//! drive raises its manual's message for what it finds, as its device file names it
+//! (`[device.plant]`, [`od::PlantSupervision`]), through the same path as every other message
+//! (reaction, EMCY, 1003h, display):
 //!
-//! | condition                                      | field of [`PlantSupervision::messages`](crate::personality::PlantSupervision::messages) |
-//! |------------------------------------------------|------------------------------------------|
-//! | motor within [`WARNING_MARGIN_K`] of its limit | 0                                        |
-//! | motor above its limit                          | 1                                        |
-//! | power stage above its limit                    | 2                                        |
-//! | encoder signal lost                            | 3                                        |
-//! | implausible encoder counts                     | 4                                        |
+//! | condition                                      | key of `[device.plant]` |
+//! |------------------------------------------------|-------------------------|
+//! | motor within [`WARNING_MARGIN_K`] of its limit | `motor_warning`         |
+//! | motor above its limit                          | `motor_over`            |
+//! | power stage above its limit                    | `stage_over`            |
+//! | encoder signal lost                            | `encoder_lost`          |
+//! | implausible encoder counts                     | `encoder_implausible`   |
 //!
-//! The personality names its messages, the objects holding the limits and those showing the
-//! temperatures ([`crate::personality::PlantSupervision`]). Where a manual has no limit object the limit is
-//! CHOSEN ([`CHOSEN_MOTOR_LIMIT_C`], [`CHOSEN_STAGE_LIMIT_C`]).
+//! The device file names the messages, the objects holding the limits and those showing the
+//! temperatures. Where a manual has no limit object the limit is CHOSEN
+//! ([`CHOSEN_MOTOR_LIMIT_C`], [`CHOSEN_STAGE_LIMIT_C`]).
 //!
 //! A cause stays while its condition does and goes [`HYSTERESIS_K`] below the limit (CHOSEN,
 //! so a temperature at the limit does not chatter); an error then waits for the fault reset
 //! as any other. A message raised by its number from outside is not touched.
 
-use od::{Diagnostic, Value};
+use od::{Diagnostic, PlantSupervision, Value};
 
 use super::diagnostics::emcy_code;
 use super::Drive;
@@ -45,6 +46,19 @@ enum Condition {
     StageOver = 2,
     EncoderLost = 3,
     EncoderImplausible = 4,
+}
+
+impl Condition {
+    /// The message the device file names for it.
+    fn message(self, plant: &PlantSupervision) -> Option<&'static str> {
+        match self {
+            Condition::MotorWarning => plant.motor_warning,
+            Condition::MotorOver => plant.motor_over,
+            Condition::StageOver => plant.stage_over,
+            Condition::EncoderLost => plant.encoder_lost,
+            Condition::EncoderImplausible => plant.encoder_implausible,
+        }
+    }
 }
 
 const CONDITIONS: [Condition; 5] = [
@@ -165,10 +179,15 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
 
     /// The motor's and the power stage's limit, °C.
     fn temperature_limits(&self) -> (f64, f64) {
-        match self.personality.plant.limits {
-            Some([(mi, ms), (si, ss)]) => (self.value(mi, ms) as f64, self.value(si, ss) as f64),
-            None => (CHOSEN_MOTOR_LIMIT_C, CHOSEN_STAGE_LIMIT_C),
-        }
+        let plant = &self.od.description().plant;
+        let limit = |object: Option<(u16, u8)>, chosen: f64| match object {
+            Some((i, s)) => self.described_value(i, s) as f64,
+            None => chosen,
+        };
+        (
+            limit(plant.motor_limit, CHOSEN_MOTOR_LIMIT_C),
+            limit(plant.stage_limit, CHOSEN_STAGE_LIMIT_C),
+        )
     }
 
     /// The temperatures in the drive's objects, when a whole degree changes.
@@ -181,7 +200,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
         self.plant_watch.shown = Some(now);
         let (motor, stage) = now;
-        let plant = &self.personality.plant;
+        let plant = &self.od.description().plant;
         if let Some((i, sub)) = plant.motor_temperature {
             let _ = self.od.set_value(i, sub, Value::Signed(motor.into()));
         }
@@ -198,9 +217,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         } else {
             self.plant_watch.raised &= !bit;
         }
-        let personality: &'static crate::personality::Personality = self.personality;
-        let messages = &personality.plant.messages;
-        let Some(number) = messages.get(c as usize).copied().flatten() else {
+        let plant = &self.od.description().plant;
+        let Some(number) = c.message(plant) else {
             return;
         };
         let Some(row) = self.od.description().diagnostic(number) else {
@@ -210,7 +228,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         let shared = CONDITIONS.iter().any(|o| {
             *o != c
                 && self.plant_watch.raised & (1 << *o as u8) != 0
-                && messages.get(*o as usize).copied().flatten() == Some(number)
+                && o.message(plant) == Some(number)
         });
         if present {
             if !shared {

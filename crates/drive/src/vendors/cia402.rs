@@ -8,9 +8,7 @@ use od::{AbortCode, DeviceDescription, ObjectAccess, Value};
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{Drive, Hook};
 use crate::homing::{engine_method, Method};
-use crate::personality::{
-    BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision, Vendor,
-};
+use crate::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality, Vendor};
 
 /// The generic CiA 402 drive; it keeps no state beside the engine's.
 #[derive(Debug, Clone, Copy, Default)]
@@ -112,18 +110,6 @@ const fn personality(feed_constant: bool) -> Personality {
         homing_methods: &HOMING_METHODS,
         external_home_switch: None,
         hardware_enable: None,
-        brake: BrakeTiming {
-            release: &[],
-            motion: &[],
-            engage: &[],
-            only_with_brake: false,
-        },
-        plant: PlantSupervision {
-            messages: [None; 5],
-            limits: None,
-            motor_temperature: None,
-            stage_temperature: None,
-        },
     }
 }
 

@@ -26,8 +26,8 @@ use crate::drive::Drive;
 use crate::factor_group::FactorObject;
 use crate::homing::HomingError;
 use crate::personality::{
-    BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec,
-    OptionCode, Personality, PlantSupervision, PowerStageObjects, VelocityDisplayObjects, Vendor,
+    Capabilities, ErrorReaction, ErrorSpec, Fault, HardwareEnable, ModeSpec, OptionCode,
+    Personality, PowerStageObjects, VelocityDisplayObjects, Vendor,
 };
 use crate::statusword::Statusword;
 use error_management::ErrorManagement;
@@ -166,30 +166,6 @@ pub const CMMP_AS: Personality = Personality {
         rule: "CMMP-AS §6.1.3 Tab. 6.4 transition 2: SWITCH ON DISABLED → READY TO SWITCH ON \
             needs output-stage enable and controller enable present, plus Shutdown",
     }),
-    // §5.16: one delay 6510h:18: the brake opens with the output stage, the set-point
-    // follows after the delay; the output stage goes off the delay after the brake closes.
-    brake: BrakeTiming {
-        release: &[],
-        motion: &[(0x6510, 0x18)],
-        engage: &[(0x6510, 0x18)],
-        only_with_brake: false,
-    },
-    // App. B.3: 18-0 (warning, "more than 5° below T_max", read as within 5 K), 03-0, 04-0,
-    // 08-0 for both encoder conditions; the limits 6510h:2F max_motor_temperature and 6510h:32
-    // max_power_stage_temperature (the manual's extract, part 1 §3.5: "above this: output stage off
-    // plus error"), the temperatures shown in 6510h:2E and 6510h:31.
-    plant: PlantSupervision {
-        messages: [
-            Some("18-0"),
-            Some("03-0"),
-            Some("04-0"),
-            Some("08-0"),
-            Some("08-0"),
-        ],
-        limits: Some([(0x6510, 0x2F), (0x6510, 0x32)]),
-        motor_temperature: Some((0x6510, 0x2E)),
-        stage_temperature: Some((0x6510, 0x31)),
-    },
 };
 
 /// The CMMP-AS: its error management 2100h, statusword and write rules, and the state of its

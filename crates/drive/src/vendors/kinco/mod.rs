@@ -32,9 +32,7 @@ use crate::statusword::Statusword;
 use crate::homing::Speed::Search as Fast;
 use crate::homing::Until::Stop;
 use crate::homing::{engine_method, step, Method};
-use crate::personality::{
-    BrakeTiming, Capabilities, ErrorSpec, Fault, ModeSpec, Personality, PlantSupervision,
-};
+use crate::personality::{Capabilities, ErrorSpec, Fault, ModeSpec, Personality};
 pub use hooks::Kinco;
 
 const fn mode(mode: i8, bit: Option<u8>) -> ModeSpec {
@@ -89,29 +87,6 @@ pub const KINCO: Personality = Personality {
     external_home_switch: None,
     // The enables are DIN functions (Enable, Pre Enable: kinco_io.rs).
     hardware_enable: None,
-    // 6410h:12 Brake_Delay: "with a brake the drive keeps running until the brake is
-    // closed"; Decision: the set-point waits as long after the enable. Without a brake
-    // (6410h:17 bit 0 clear) nothing waits.
-    brake: BrakeTiming {
-        release: &[],
-        motion: &[(0x6410, 0x12)],
-        engage: &[(0x6410, 0x12)],
-        only_with_brake: true,
-    },
-    // §7: Error_State.13 motor, .4 drive overtemperature, .1 encoder lost, .3 encoder CRC;
-    // the drive's temperature shown in 60F7h:0B Temp_Device.
-    plant: PlantSupervision {
-        messages: [
-            None,
-            Some("Error_State.13"),
-            Some("Error_State.4"),
-            Some("Error_State.1"),
-            Some("Error_State.3"),
-        ],
-        limits: None,
-        motor_temperature: None,
-        stage_temperature: Some((0x60F7, 0x0B)),
-    },
 };
 
 /// The 1001h error-register bits of an EMCY code (CiA 301 §7.5.2.2: bit 0 generic always;

@@ -23,8 +23,8 @@ use crate::drive::refusal::{Refusal, Request};
 use crate::drive::{mode, Drive, RPM_PER_INCREMENT_S};
 use crate::homing::{engine_method, Method, Speed, Step, Until};
 use crate::personality::{
-    BldcSettings, BrakeTiming, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault,
-    HardwareEnable, ModeSpec, OptionCode, Personality, PlantMotor, PlantSupervision, Vendor,
+    BldcSettings, Capabilities, ErrorReaction, ErrorSpec, ExternalHomeSwitch, Fault,
+    HardwareEnable, ModeSpec, OptionCode, Personality, PlantMotor, Vendor,
 };
 use crate::statusword::Statusword;
 use crate::stepper::StepperData;
@@ -135,21 +135,6 @@ pub const NANOTEC: Personality = Personality {
         rule: "Nanotec §1.1.3 step 7 (L333): with the switch at node + 128 and a value outside \
             130…135 in 2005h the controller answers on CAN but accepts no motion commands",
     }),
-    // §11.8: 2007h:01 power on → brake off, :02 brake off → operational, :03 brake on →
-    // power off.
-    brake: BrakeTiming {
-        release: &[(0x2007, 1)],
-        motion: &[(0x2007, 1), (0x2007, 2)],
-        engage: &[(0x2007, 3)],
-        only_with_brake: false,
-    },
-    // §13.3: 0002h Overtemperature for the power stage; no temperature objects.
-    plant: PlantSupervision {
-        messages: [None, None, Some("0002h"), None, None],
-        limits: None,
-        motor_temperature: None,
-        stage_temperature: None,
-    },
 };
 
 /// A reaction of the reaction table (the extract's §7.1).
