@@ -380,7 +380,8 @@ pub struct Drive<S, V> {
     pub(crate) brake_engaged: bool,
     /// The output stage goes off / the set-point is released when the brake delay ends.
     pub(crate) power_off_at: Option<Instant>,
-    /// The brake opens then (a personality that releases it after the output stage).
+    /// The brake opens then (a device file whose brake opens after the output stage,
+    /// `[device.brake] release`).
     pub(crate) brake_release_at: Option<Instant>,
     pub(crate) release_at: Option<Instant>,
     /// Errors reported and not yet acknowledged.
@@ -954,7 +955,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         match r {
             Reaction::None => {}
             Reaction::Enable => {
-                // Brake released with the output stage (CMMP-AS) or after the personality's
+                // Brake released with the output stage (CMMP-AS) or after the device file's
                 // delay; the set-point follows after the brake delay (CMMP-AS §5.16).
                 self.power_off_at = None;
                 let delays = self.brake_delays();
