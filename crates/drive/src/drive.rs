@@ -11,7 +11,7 @@ use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::{Controlword, ControlwordQueue};
 use crate::device_control::{DeviceControl, Reaction, Rules, State};
-use crate::digital_inputs::{Levels, SwitchConfig};
+use crate::digital_inputs::Levels;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{Interpolator, SyncChange};
@@ -68,7 +68,8 @@ pub struct DriveSettings {
     /// show −1"). 0 switches at the next cycle and keeps showing the old mode until then
     /// (python-canopen's BaseNode402 cannot decode −1); a longer value reproduces slow drives.
     pub mode_change_time: Duration,
-    /// The hardware enables (DIN4 output stage, DIN5 controller enable) transition 2 needs.
+    /// The hardware enables transition 2 needs (on the vendor's wiring: the CMMP-AS's DIN4
+    /// output stage and DIN5 controller enable).
     /// False also for a Nanotec that "accepts no motion commands" (NT-NODE-07: switch =
     /// node + 128 with no bit-rate code in 2005h; `drive::vendors::nanotec::rotary_switches`).
     pub enables_present: bool,
@@ -879,7 +880,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
-        // Transition 2 needs both hardware enables (DIN4, DIN5).
+        // Transition 2 needs the hardware enables.
         let enables = V::enables(self);
         if self.cw_written.is_empty() {
             self.device_control_sampled(cw, fault, enables);

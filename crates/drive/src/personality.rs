@@ -7,7 +7,7 @@
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
-use crate::digital_inputs::SwitchConfig;
+use crate::digital_inputs::InputWiring;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
@@ -55,9 +55,10 @@ pub trait Vendor: Sized {
     fn before_device_control<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>) {}
 
     /// The hardware enables transition 2 needs are present (CiA 402 §6.3.1: the drive's own
-    /// condition for READY TO SWITCH ON).
+    /// condition for READY TO SWITCH ON). CiA 402's default: the inputs of
+    /// [`Vendor::INPUT_WIRING`]'s `enables` are HIGH.
     fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
-        d.input_levels(d.plant_position()).enables()
+        Self::INPUT_WIRING.enables(d.input_levels(d.plant_position()))
     }
 
     /// Runs the mode of this cycle where the vendor's own rules drive it; `false`: the
@@ -114,25 +115,28 @@ pub trait Vendor: Sized {
     /// After the following error is known each cycle (increments, actual − demand).
     fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>, _fe: i64) {}
 
-    /// 60FDh digital_inputs at `position` (CiA 402 §6.6.4: bit 0 negative limit, 1 positive
-    /// limit, 2 home).
+    /// Which of the drive's inputs the simulated axis's switches and hardware enables are
+    /// wired to (bit n = input n of [`Drive::force_inputs`]). CiA 402 names no input
+    /// terminals; its default, [`InputWiring::CIA402`], numbers the inputs as the 60FDh bits
+    /// they show.
+    const INPUT_WIRING: InputWiring = InputWiring::CIA402;
+
+    /// 60FDh digital_inputs at `position`. CiA 402's default (§6.6.4): bit 0 negative limit,
+    /// 1 positive limit, 2 home switch, 3 interlock (a hardware enable missing), as
+    /// [`Vendor::switches`] reads them; no manufacturer bits (16 … 31).
     fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
-        d.switch_config().digital_inputs(d.input_levels(position))
+        Self::INPUT_WIRING.digital_inputs(d.input_levels(position))
     }
 
-    /// How the drive reads its limit and home switches (polarity, which input is which).
-    /// CiA 402's default: as wired, every switch normally open (the profile's homing
-    /// methods name the switch, 60FDh shows it).
-    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> SwitchConfig {
-        SwitchConfig::default()
-    }
-
-    /// The limit and home switches as the drive reads them at `position`.
+    /// The limit and home switches as the drive reads them at `position` (polarity, which
+    /// input is which). CiA 402's default: as wired, every switch normally open (the
+    /// profile's homing methods name the switch, 60FDh shows it).
     fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
-        d.switch_config().switches(d.input_levels(position))
+        Self::INPUT_WIRING.switches(d.input_levels(position))
     }
 
-    /// The input carrying `switch` (`None`: no input has its function).
+    /// The input carrying `switch` (`None`: no input has its function). CiA 402's default:
+    /// the input [`Vendor::INPUT_WIRING`] names, actuated HIGH.
     fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &Drive<S, Self>,
         switch: NamedSwitch,

@@ -4,7 +4,9 @@
 
 use std::time::Duration;
 
+use drive::drive::named_switches::{NamedSwitch, SwitchInput};
 use drive::drive::{Drive, DriveSettings};
+use drive::travel::{HomeSwitch, TravelSettings};
 use drive::vendors::Cia402;
 use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary};
 
@@ -77,6 +79,61 @@ fn eds_drive() -> (Drive<Vec<u8>, Cia402>, Instant) {
     let now = Instant::ZERO + Duration::from_millis(1);
     d.step(now);
     (d, now)
+}
+
+/// The EDS drive with `travel` and the hardware enables as `enables_present`, one cycle run.
+fn eds_drive_on(travel: TravelSettings, enables_present: bool) -> Drive<Vec<u8>, Cia402> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/lexium32_like.eds");
+    let eds = devdesc::eds::load_file(&path).unwrap();
+    let desc = devdesc::runtime::leak(&eds.device);
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let settings = DriveSettings {
+        travel,
+        enables_present,
+        ..DriveSettings::default()
+    };
+    let mut d: Drive<Vec<u8>, Cia402> = Drive::new(od, settings);
+    d.step(Instant::ZERO + Duration::from_millis(1));
+    d
+}
+
+/// CiA 402 §6.6.4: 60FDh of the standard drive has the profile's bits only: at the positive
+/// limit switch bit 1, on the home cam bit 2, without its hardware enable bit 3 interlock, at
+/// the negative limit switch bit 0; no manufacturer bit (16 … 31), no vendor's DIN in bits
+/// 24 … 29. By name, a switch is the input of its 60FDh bit, actuated HIGH.
+#[test]
+fn digital_inputs_show_the_profile_bits_only() {
+    let di = |d: &Drive<Vec<u8>, Cia402>| d.od().get_unsigned(0x60FD, 0).unwrap() as u32;
+    let positive = TravelSettings {
+        positive_limit: Some(0),
+        home_switch: Some(HomeSwitch { low: -10, high: 10 }),
+        ..TravelSettings::NONE
+    };
+    let mut d = eds_drive_on(positive, true);
+    assert_eq!(di(&d), 0b0110, "positive limit and home switch");
+    assert_eq!(
+        di(&eds_drive_on(positive, false)),
+        0b1110,
+        "interlock without the enable"
+    );
+    let negative = TravelSettings {
+        negative_limit: Some(0),
+        ..TravelSettings::NONE
+    };
+    assert_eq!(di(&eds_drive_on(negative, true)), 0b0001);
+
+    assert_eq!(
+        d.switch_input(NamedSwitch::LimitNegative),
+        Some(SwitchInput {
+            mask: 1 << 0,
+            actuated_high: true
+        })
+    );
+    d.set_switch(NamedSwitch::LimitNegative, Some(true));
+    d.set_switch(NamedSwitch::Home, Some(false));
+    d.step(Instant::ZERO + Duration::from_millis(2));
+    assert_eq!(di(&d), 0b0011, "negative forced on, home forced off");
 }
 
 fn signed(d: &Drive<Vec<u8>, Cia402>, index: u16) -> i64 {
