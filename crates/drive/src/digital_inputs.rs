@@ -37,9 +37,9 @@ pub struct InputWiring {
 }
 
 impl InputWiring {
-    /// The standard drive's wiring: its inputs numbered as the 60FDh bits they show (0
-    /// negative limit, 1 positive limit, 2 home switch), input 3 the hardware enable whose
-    /// absence is the interlock of bit 3.
+    /// The standard drive's wiring. Decision: CiA 402 names no input terminals, so the
+    /// inputs are numbered as the 60FDh bits they show (0 negative limit, 1 positive limit,
+    /// 2 home switch), input 3 the hardware enable whose absence is the interlock of bit 3.
     pub const CIA402: InputWiring = InputWiring {
         negative_limit: 1 << 0,
         positive_limit: 1 << 1,

@@ -46,9 +46,25 @@ pub trait Vendor: Sized {
         None
     }
 
-    /// The controller parameters as the drive's objects give them.
+    /// The controller parameters as the drive's objects give them, read again after a
+    /// write to one of them. CiA 402's default: the motor data, the power stage and the
+    /// display filter the engine knows, with the gains of [`Vendor::control_parameter_sets`].
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
         crate::drive::control_params_of::<S, Self>(d.od())
+    }
+
+    /// The controllers' gains from CiA 402's parameter sets 60F6h (current), 60F9h
+    /// (velocity) and 60FBh (position), whose sub-indices the profile leaves to the
+    /// manufacturer: `params` (what the engine read of the other objects) with the vendor's
+    /// reading of them. Also at power-on, before the vendor's state exists (hence the
+    /// dictionary, not the drive). CiA 402's default (Decision: a foreign drive's
+    /// sub-indices are in units the twin does not know): `params` as they are, the engine's
+    /// standard gains ([`ControlParams::default`], tuned for the default servo motor).
+    fn control_parameter_sets<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _od: &od::ObjectDictionary<S>,
+        params: ControlParams,
+    ) -> ControlParams {
+        params
     }
 
     /// Each logic cycle before device control: inputs that own the controlword or the mode.

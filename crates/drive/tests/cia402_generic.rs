@@ -397,3 +397,49 @@ fn halt_interrupts_homing_without_an_error() {
     run(&mut d, 100);
     assert!(signed(&d, 0x606C) != 0, "searching again");
 }
+
+/// CiA 402 leaves the sub-indices of 60F6h, 60F9h and 60FBh to the manufacturer: the
+/// standard drive keeps the engine's standard gains (`ControlParams::default`) whatever they
+/// hold, where the CMMP-AS over the same device file reads them as its §5.5–5.7 parameter
+/// sets.
+#[test]
+fn parameter_sets_keep_the_standard_gains() {
+    use drive::control::ControlParams;
+    use drive::vendors::festo_cmmp_as::CmmpAs;
+
+    let standard = ControlParams::default();
+    let (mut d, now) = drive();
+    let desc = &devices::CMMP_AS;
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let mut cmmp: Drive<Vec<u8>, CmmpAs> = Drive::new(od, DriveSettings::default());
+    cmmp.step(now);
+    for (index, sub, value) in [(0x60F6, 1, 512u16), (0x60F9, 1, 512), (0x60FB, 1, 204)] {
+        d.write(index, sub, &value.to_le_bytes()).unwrap();
+        cmmp.write(index, sub, &value.to_le_bytes()).unwrap();
+    }
+    let later = now + Duration::from_millis(2);
+    d.step(later);
+    cmmp.step(later);
+    let p = d.axis().params();
+    assert_eq!(
+        (
+            p.torque_control_gain,
+            p.velocity_control_gain,
+            p.position_control_gain
+        ),
+        (
+            standard.torque_control_gain,
+            standard.velocity_control_gain,
+            standard.position_control_gain
+        )
+    );
+    let c = cmmp.axis().params();
+    assert_eq!(
+        (
+            c.torque_control_gain,
+            c.velocity_control_gain,
+            c.position_control_gain
+        ),
+        (512, 512, 204)
+    );
+}

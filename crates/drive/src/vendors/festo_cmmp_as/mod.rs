@@ -7,6 +7,7 @@
 //! 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
+pub mod control_params;
 pub mod digital_inputs;
 pub mod display;
 pub mod error_management;
@@ -17,6 +18,7 @@ pub mod messages;
 
 use od::{AbortCode, ObjectAccess, Value};
 
+use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
 use crate::digital_inputs::InputWiring;
@@ -320,6 +322,15 @@ impl Vendor for CmmpAs {
     /// 31-0 I²t motor (§5.5) where 6510h:38 iit_error_enable is 1.
     fn i2t_is_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
         d.value(0x6510, 0x38) == 1
+    }
+
+    /// §5.5–5.7: 60F6h, 60F9h and 60FBh as the CMMP-AS's parameter sets
+    /// ([`control_params::parameter_sets`]).
+    fn control_parameter_sets<S: AsRef<[u8]> + AsMut<[u8]>>(
+        od: &od::ObjectDictionary<S>,
+        params: ControlParams,
+    ) -> ControlParams {
+        control_params::parameter_sets(od, params)
     }
 
     /// §5.13, §5.14: the limit switches on DIN6 / DIN7, the home switch on DIN9, the
