@@ -375,7 +375,7 @@ impl Vendor for Nanotec {
     /// The simulated axis the engine reads: the limit switches on bits 6 / 7 and the home
     /// switch on bit 9 of [`Drive::force_inputs`], the hardware enables on bits 4 / 5. The
     /// manual describes no limit-switch or enable inputs; 60FDh shows inputs 1 … 6 with
-    /// input 6 the reference switch (§9.1, [`Drive::nanotec_digital_inputs`]).
+    /// input 6 the reference switch (§9.1, `Drive::nanotec_digital_inputs`).
     const INPUT_WIRING: InputWiring = InputWiring {
         negative_limit: 1 << 6,
         positive_limit: 1 << 7,
