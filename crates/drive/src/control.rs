@@ -1,9 +1,11 @@
-//! The CMMP-AS control cascade (CMMP-AS §5.5–5.8; units as the manual's extract kept beside the
-//! project gives them, part 2 §6): position controller (P, optional integrator, speed feed-forward,
-//! output clamp 60FBh:04, dead band 60FBh:05) → velocity controller (PI, actual-speed filter
-//! 60F9h:04, output = current set-point limited by 6073h, 2415h and I²t) → current controller (PI,
-//! output voltage limited by the DC-link voltage 6510h:34) → motor. Plus the motor I²t monitor of
-//! 6410h:03/04.
+//! The servo control cascade: position controller (P, optional integrator, speed
+//! feed-forward, output clamp, dead band) → velocity controller (PI, actual-speed filter,
+//! output = current set-point limited by 6073h, a current limitation and I²t) → current
+//! controller (PI, output voltage limited by the DC-link voltage) → motor. Plus the motor I²t
+//! monitor. The shape and units follow CMMP-AS §5.5–5.8 (the manual's extract, part 2 §6),
+//! the manual that describes a cascade in full; which objects hold the parameters is the
+//! vendor's ([`crate::personality::Vendor`]'s `control_params` and `control_parameter_sets`:
+//! CiA 402 leaves the sub-indices of 60F6h, 60F9h and 60FBh to the manufacturer).
 //!
 //! [`ControlParams`] holds the parameters in the manual's object units (gains × 256, times in
 //! µs, currents in mA, speeds in min⁻¹, positions in increments); [`Gains`] is the same set
@@ -18,14 +20,15 @@
 //!
 //! | Controller | gain 1 ≙ | default |
 //! |---|---|---|
-//! | current 60F6h:01 | U_DC,nom / I_peak = 6510h:33 / 6510h:41 (V/A): a current error of the device peak current asks for the full nominal DC-link voltage | 3.0 × 325 V / 5 A = 195 V/A |
-//! | velocity 60F9h:01 | I_peak per 1000 min⁻¹ = 6510h:41 / (1000 min⁻¹) (A·s/rad) | 1.0 × 5 A / 104.7 rad/s = 0.0477 A·s/rad |
-//! | position 60FBh:01 | 100 s⁻¹ (6000 min⁻¹ of correction speed per revolution of following error) | 102/256 × 100 s⁻¹ = 39.8 s⁻¹ |
+//! | current (CMMP-AS 60F6h:01) | U_DC,nom / I_peak (the CMMP-AS's 6510h:33 / 6510h:41, V/A): a current error of the device peak current asks for the full nominal DC-link voltage | 3.0 × 325 V / 5 A = 195 V/A |
+//! | velocity (CMMP-AS 60F9h:01) | I_peak per 1000 min⁻¹ (A·s/rad) | 1.0 × 5 A / 104.7 rad/s = 0.0477 A·s/rad |
+//! | position (CMMP-AS 60FBh:01) | 100 s⁻¹ (6000 min⁻¹ of correction speed per revolution of following error) | 102/256 × 100 s⁻¹ = 39.8 s⁻¹ |
 //!
-//! With the default motor ([`crate::motor::MotorData::default`]) these give a current loop
-//! of ≈ 1 kHz, a velocity loop crossing over at ≈ 850 rad/s and a position loop of ≈ 40 s⁻¹.
-//! The integral actions are the usual `Kp/Tn` with the time constants of 60F6h:02, 60F9h:02
-//! and 60FBh:02 (0 = no integrator).
+//! The defaults are the engine's standard gains ([`ControlParams::default`]), tuned for the
+//! default motor ([`crate::motor::MotorData::default`]): a current loop of ≈ 1 kHz, a
+//! velocity loop crossing over at ≈ 850 rad/s and a position loop of ≈ 40 s⁻¹ (they are the
+//! CMMP-AS's factory settings, §5.5–5.7). The integral actions are the usual `Kp/Tn` with
+//! the controllers' time constants (0 = no integrator).
 
 use crate::current_filters::{CurrentFilterParams, CurrentFilters};
 use crate::motor::{MotorData, RPM_TO_RAD_S};
@@ -77,25 +80,29 @@ pub struct ControlParams {
     pub max_current_permille: u16,
     /// 6410h:03 iit_time_motor, ms: how long max_current may flow (default 2000).
     pub iit_time_motor_ms: u16,
-    /// 60F6h:01 torque_control_gain, 256 = 1 (default 768 = 3.0).
+    /// Current controller gain, 256 = 1 (CMMP-AS 60F6h:01 torque_control_gain; default 768
+    /// = 3.0).
     pub torque_control_gain: u16,
-    /// 60F6h:02 torque_control_time, µs (default 1020).
+    /// Current controller integral time, µs (CMMP-AS 60F6h:02; default 1020).
     pub torque_control_time_us: u16,
-    /// 60F9h:01 velocity_control_gain, 256 = 1 (default 256 = 1.0).
+    /// Velocity controller gain, 256 = 1 (CMMP-AS 60F9h:01; default 256 = 1.0).
     pub velocity_control_gain: u16,
-    /// 60F9h:02 velocity_control_time, µs (default 2000).
+    /// Velocity controller integral time, µs (CMMP-AS 60F9h:02; default 2000).
     pub velocity_control_time_us: u16,
-    /// 60F9h:04 velocity_control_filter_time, µs: PT1 on the actual speed (default 400).
+    /// PT1 on the actual speed, µs (CMMP-AS 60F9h:04 velocity_control_filter_time; default
+    /// 400).
     pub velocity_control_filter_time_us: u16,
     /// 2073h velocity_display_filter_time, µs: PT1 of the displayed speed (default 20000).
     pub velocity_display_filter_time_us: u32,
-    /// 60FBh:01 position_control_gain, 256 = 1 (default 102 ≈ 0.398).
+    /// Position controller gain, 256 = 1 (CMMP-AS 60FBh:01; default 102 ≈ 0.398).
     pub position_control_gain: u16,
-    /// 60FBh:02 position_control_time, µs; 0 = no integrator (default 0).
+    /// Position controller integral time, µs; 0 = no integrator (CMMP-AS 60FBh:02; default
+    /// 0).
     pub position_control_time_us: u16,
-    /// 60FBh:04 position_control_v_max, min⁻¹: clamp of the correction speed (default 500).
+    /// Clamp of the correction speed, min⁻¹ (CMMP-AS 60FBh:04 position_control_v_max;
+    /// default 500).
     pub position_control_v_max_rpm: u32,
-    /// 60FBh:05 position_error_tolerance_window, increments: dead band (default 2).
+    /// Dead band, increments (CMMP-AS 60FBh:05 position_error_tolerance_window; default 2).
     pub position_error_tolerance_window: u32,
     /// 6080h max_motor_speed, min⁻¹: limit of every speed set-point (default 32768).
     pub max_motor_speed_rpm: u32,
@@ -121,8 +128,9 @@ pub struct ControlParams {
 }
 
 impl Default for ControlParams {
-    /// The manual's defaults (CMMP-AS §5.5–5.7, §5.17; device file cmmp-as.toml for the
-    /// device-dependent 6510h values).
+    /// The engine's standard parameters: the gains tuned for the default motor (the module
+    /// doc; the CMMP-AS's factory settings, §5.5–5.7) and its power stage (§5.17; device file
+    /// cmmp-as.toml for the device-dependent 6510h values).
     fn default() -> Self {
         ControlParams {
             motor_rated_current_ma: 296,

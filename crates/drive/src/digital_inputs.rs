@@ -1,63 +1,106 @@
-//! The CMMP-AS digital inputs as the firmware reads them (CMMP-AS §5.13, §5.14): the levels
-//! of DIN0 … DIN9, the switch assignment of 6510h:11 … :14, and 60FDh digital_inputs.
+//! The digital inputs of a CiA 402 drive: the levels of its inputs, the simulated wiring of
+//! the axis's switches and hardware enables to them, and 60FDh digital_inputs as CiA 402
+//! defines it (§6.6.4): bit 0 negative limit switch, bit 1 positive limit switch, bit 2 home
+//! switch, bit 3 interlock, bits 4 … 15 reserved, bits 16 … 31 manufacturer-specific.
 //!
-//! The simulated axis is wired as the manual's default: the switch at the negative end of
-//! the travel on DIN6, the one at the positive end on DIN7, the home switch on DIN9, all
-//! normally open (HIGH when actuated); DIN4 (output-stage enable) and DIN5 (controller enable)
-//! are HIGH while the hardware enables are present. 6510h:11 … :14 change how the firmware
-//! reads these inputs, not the wiring, so a set-up that does not match the switches shows
-//! as it would on the real drive.
+//! CiA 402 names no input terminals: which input carries which switch, and what the
+//! manufacturer's bits show, is the vendor's ([`InputWiring`] and the hooks `switches`,
+//! `digital_inputs`, `switch_input` of [`crate::personality::Vendor`]). The simulated
+//! switches are normally open (HIGH when actuated), the hardware enables HIGH while present.
 
 use crate::travel::Inputs;
 
-/// Input levels, bit n = DINn (DIN0 … DIN9).
+/// Input levels, bit n = the vendor's input n ([`crate::drive::Drive::force_inputs`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Levels(pub u16);
 
-/// DIN0 (the first of DIN0 … DIN3, bits 24 … 27 of 60FDh).
-pub const DIN0: u16 = 1 << 0;
-/// DIN4 output-stage enable.
-pub const DIN4: u16 = 1 << 4;
-/// DIN5 controller enable.
-pub const DIN5: u16 = 1 << 5;
-/// DIN6 limit switch E0 (negative with 6510h:12 = 0).
-pub const DIN6: u16 = 1 << 6;
-/// DIN7 limit switch E1 (positive with 6510h:12 = 0).
-pub const DIN7: u16 = 1 << 7;
-/// DIN8 home switch with 6510h:13 = 1.
-pub const DIN8: u16 = 1 << 8;
-/// DIN9 home switch with 6510h:13 = 0 (default).
-pub const DIN9: u16 = 1 << 9;
-
-/// 60FDh bits (CMMP-AS 60FDh bit table, L4189–4197).
+/// 60FDh bits CiA 402 defines (§6.6.4).
 pub mod bit {
     pub const NEGATIVE_LIMIT: u32 = 1 << 0;
     pub const POSITIVE_LIMIT: u32 = 1 << 1;
     pub const HOME_SWITCH: u32 = 1 << 2;
-    /// Output-stage or controller enable missing.
+    /// A hardware enable the drive needs is missing.
     pub const INTERLOCK: u32 = 1 << 3;
-    /// DIN0 … DIN3 in bits 24 … 27.
-    pub const DIN0_SHIFT: u32 = 24;
-    pub const DIN8: u32 = 1 << 28;
-    pub const DIN9: u32 = 1 << 29;
+    /// Bits 16 … 31: manufacturer-specific.
+    pub const MANUFACTURER: u32 = 0xFFFF_0000;
+}
+
+/// Which inputs the simulated axis is wired to, each a mask of bit n = input n: the switch at
+/// the negative end of the travel, the one at the positive end, the home switch, and the
+/// hardware enables (all of them HIGH: present).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InputWiring {
+    pub negative_limit: u16,
+    pub positive_limit: u16,
+    pub home: u16,
+    pub enables: u16,
+}
+
+impl InputWiring {
+    /// The standard drive's wiring. Decision: CiA 402 names no input terminals, so the
+    /// inputs are numbered as the 60FDh bits they show (0 negative limit, 1 positive limit,
+    /// 2 home switch), input 3 the hardware enable whose absence is the interlock of bit 3.
+    pub const CIA402: InputWiring = InputWiring {
+        negative_limit: 1 << 0,
+        positive_limit: 1 << 1,
+        home: 1 << 2,
+        enables: 1 << 3,
+    };
+
+    /// Both hardware enables present: transition 2 may happen.
+    pub fn enables(&self, levels: Levels) -> bool {
+        levels.0 & self.enables == self.enables
+    }
+
+    /// The switches as wired (normally open: actuated is HIGH).
+    pub fn switches(&self, levels: Levels) -> Inputs {
+        Inputs {
+            negative_limit: levels.high(self.negative_limit),
+            positive_limit: levels.high(self.positive_limit),
+            home: levels.high(self.home),
+        }
+    }
+
+    /// 60FDh of a drive that reads its switches as wired and shows no manufacturer bits.
+    pub fn digital_inputs(&self, levels: Levels) -> u32 {
+        profile_bits(self.switches(levels), self.enables(levels))
+    }
+}
+
+/// 60FDh's CiA 402 bits 0 … 3 for the switches as the drive reads them and its enables.
+pub fn profile_bits(switches: Inputs, enables: bool) -> u32 {
+    let mut v = 0;
+    if switches.negative_limit {
+        v |= bit::NEGATIVE_LIMIT;
+    }
+    if switches.positive_limit {
+        v |= bit::POSITIVE_LIMIT;
+    }
+    if switches.home {
+        v |= bit::HOME_SWITCH;
+    }
+    if !enables {
+        v |= bit::INTERLOCK;
+    }
+    v
 }
 
 impl Levels {
     /// The levels of the simulated wiring: the travel's switches (normally open) and the
-    /// hardware enables.
-    pub fn wired(switches: Inputs, enables_present: bool) -> Self {
+    /// hardware enables on the inputs `wiring` names.
+    pub fn wired(wiring: &InputWiring, switches: Inputs, enables_present: bool) -> Self {
         let mut l = 0;
         if switches.negative_limit {
-            l |= DIN6;
+            l |= wiring.negative_limit;
         }
         if switches.positive_limit {
-            l |= DIN7;
+            l |= wiring.positive_limit;
         }
         if switches.home {
-            l |= DIN9;
+            l |= wiring.home;
         }
         if enables_present {
-            l |= DIN4 | DIN5;
+            l |= wiring.enables;
         }
         Levels(l)
     }
@@ -67,96 +110,33 @@ impl Levels {
         Levels((self.0 & !mask) | (levels & mask))
     }
 
-    pub fn high(self, din: u16) -> bool {
-        self.0 & din != 0
-    }
-
-    /// Both hardware enables present (DIN4 and DIN5): transition 2 may happen.
-    pub fn enables(self) -> bool {
-        self.high(DIN4) && self.high(DIN5)
+    /// Any input of `inputs` HIGH.
+    pub fn high(self, inputs: u16) -> bool {
+        self.0 & inputs != 0
     }
 }
 
-/// The switch assignment, 6510h:11 … :14.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SwitchConfig {
-    /// 6510h:11 limit_switch_polarity: 1 normally open (default), 0 normally closed.
-    pub limit_normally_open: bool,
-    /// 6510h:12 limit_switch_selector: 0 DIN6 = E0 negative / DIN7 = E1 positive (default),
-    /// 1 the other way round.
-    pub limits_swapped: bool,
-    /// 6510h:13 homing_switch_selector: 0 DIN9 (default), 1 DIN8.
-    pub home_on_din8: bool,
-    /// 6510h:14 homing_switch_polarity: 1 normally open (default), 0 normally closed.
-    pub home_normally_open: bool,
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-impl Default for SwitchConfig {
-    fn default() -> Self {
-        SwitchConfig {
-            limit_normally_open: true,
-            limits_swapped: false,
-            home_on_din8: false,
-            home_normally_open: true,
-        }
-    }
-}
-
-impl SwitchConfig {
-    /// From the object values 6510h:11, :12, :13, :14.
-    pub fn from_objects(
-        polarity: i64,
-        selector: i64,
-        home_selector: i64,
-        home_polarity: i64,
-    ) -> Self {
-        SwitchConfig {
-            limit_normally_open: polarity != 0,
-            limits_swapped: selector == 1,
-            home_on_din8: home_selector == 1,
-            home_normally_open: home_polarity != 0,
-        }
-    }
-
-    /// Which switches the firmware sees active: a normally open switch is active when its
-    /// input is HIGH, a normally closed one when it is LOW (6510h:11, L4361–4381).
-    pub fn switches(&self, levels: Levels) -> Inputs {
-        let (e0, e1) = if self.limits_swapped {
-            (DIN7, DIN6)
-        } else {
-            (DIN6, DIN7)
+    /// The standard wiring: switch n on input n, the enable on input 3; 60FDh shows bits 0 … 3
+    /// and nothing of the manufacturer's.
+    #[test]
+    fn the_standard_wiring_shows_the_profile_bits_only() {
+        let w = InputWiring::CIA402;
+        let at_positive = Inputs {
+            positive_limit: true,
+            ..Inputs::default()
         };
-        let home = if self.home_on_din8 { DIN8 } else { DIN9 };
-        let active = |din, normally_open: bool| levels.high(din) == normally_open;
-        Inputs {
-            negative_limit: active(e0, self.limit_normally_open),
-            positive_limit: active(e1, self.limit_normally_open),
-            home: active(home, self.home_normally_open),
-        }
-    }
-
-    /// 60FDh digital_inputs. The CAMC-D-8E8A extension (bits 16 … 23) is not fitted.
-    pub fn digital_inputs(&self, levels: Levels) -> u32 {
-        let s = self.switches(levels);
-        let mut v = u32::from(levels.0 & 0x000F) << bit::DIN0_SHIFT;
-        if s.negative_limit {
-            v |= bit::NEGATIVE_LIMIT;
-        }
-        if s.positive_limit {
-            v |= bit::POSITIVE_LIMIT;
-        }
-        if s.home {
-            v |= bit::HOME_SWITCH;
-        }
-        if !levels.enables() {
-            v |= bit::INTERLOCK;
-        }
-        if levels.high(DIN8) {
-            v |= bit::DIN8;
-        }
-        if levels.high(DIN9) {
-            v |= bit::DIN9;
-        }
-        v
+        let levels = Levels::wired(&w, at_positive, true);
+        assert_eq!(levels, Levels(0b1010));
+        assert_eq!(w.digital_inputs(levels), bit::POSITIVE_LIMIT);
+        let no_enable = levels.forced(1 << 3, 0);
+        assert_eq!(
+            w.digital_inputs(no_enable),
+            bit::POSITIVE_LIMIT | bit::INTERLOCK
+        );
+        assert_eq!(w.digital_inputs(no_enable) & bit::MANUFACTURER, 0);
     }
 }

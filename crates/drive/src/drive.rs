@@ -11,7 +11,7 @@ use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::{Controlword, ControlwordQueue};
 use crate::device_control::{DeviceControl, Reaction, Rules, State};
-use crate::digital_inputs::{Levels, SwitchConfig};
+use crate::digital_inputs::Levels;
 use crate::factor_group::{FactorGroup, FactorObject, Ratio};
 use crate::homing::{Command, HomingError, Search, Sense, Speed};
 use crate::interpolated_position::{Interpolator, SyncChange};
@@ -68,7 +68,8 @@ pub struct DriveSettings {
     /// show −1"). 0 switches at the next cycle and keeps showing the old mode until then
     /// (python-canopen's BaseNode402 cannot decode −1); a longer value reproduces slow drives.
     pub mode_change_time: Duration,
-    /// The hardware enables (DIN4 output stage, DIN5 controller enable) transition 2 needs.
+    /// The hardware enables transition 2 needs (on the vendor's wiring: the CMMP-AS's DIN4
+    /// output stage and DIN5 controller enable).
     /// False also for a Nanotec that "accepts no motion commands" (NT-NODE-07: switch =
     /// node + 128 with no bit-rate code in 2005h; `drive::vendors::nanotec::rotary_switches`).
     pub enables_present: bool,
@@ -897,7 +898,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // Device control.
         let cw = Controlword(self.read(self.hot.controlword) as u16);
         let fault = !self.causes.is_empty();
-        // Transition 2 needs both hardware enables (DIN4, DIN5).
+        // Transition 2 needs the hardware enables.
         let enables = V::enables(self);
         if self.cw_written.is_empty() {
             self.device_control_sampled(cw, fault, enables);
@@ -1194,11 +1195,13 @@ fn publish_supply<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     let _ = od.set_value(0x6079, 0, Value::Unsigned(nominal));
 }
 
-/// The controller parameters the dictionary holds: CiA 402's current, velocity and
-/// position control parameter sets (60F6h, 60F9h, 60FBh), motor data (6075h, 6073h, 6410h,
-/// 6080h), and the vendor's power stage ([`Vendor`]'s `POWER_STAGE_OBJECTS`); the
-/// manufacturer-specific objects ([`manufacturer_object`]) read only for a vendor that gives
-/// them a meaning (else their defaults).
+/// The controller parameters the dictionary holds: motor data (6075h, 6073h, 6410h, 6080h),
+/// the vendor's power stage ([`Vendor`]'s `POWER_STAGE_OBJECTS`) and display filter, and the
+/// gains of the controllers' parameter sets 60F6h, 60F9h, 60FBh as the vendor reads them
+/// ([`Vendor`]'s `control_parameter_sets`; CiA 402 leaves their sub-indices to the
+/// manufacturer, so a vendor without a reading keeps the engine's standard gains,
+/// [`ControlParams::default`]). The manufacturer-specific objects ([`manufacturer_object`])
+/// are read only for a vendor that gives them a meaning (else their defaults).
 pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
     od: &ObjectDictionary<S>,
 ) -> ControlParams {
@@ -1217,16 +1220,10 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
             u(index, sub, dflt.into()) as u32
         })
     };
-    ControlParams {
+    let params = ControlParams {
         motor_rated_current_ma: u(0x6075, 0, d.motor_rated_current_ma.into()) as u32,
         max_current_permille: u(0x6073, 0, d.max_current_permille.into()) as u16,
         iit_time_motor_ms: u(0x6410, 3, d.iit_time_motor_ms.into()) as u16,
-        torque_control_gain: u(0x60F6, 1, d.torque_control_gain.into()) as u16,
-        torque_control_time_us: u(0x60F6, 2, d.torque_control_time_us.into()) as u16,
-        velocity_control_gain: u(0x60F9, 1, d.velocity_control_gain.into()) as u16,
-        velocity_control_time_us: u(0x60F9, 2, d.velocity_control_time_us.into()) as u16,
-        velocity_control_filter_time_us: u(0x60F9, 4, d.velocity_control_filter_time_us.into())
-            as u16,
         velocity_display_filter_time_us: V::VELOCITY_DISPLAY_OBJECTS.map_or(
             d.velocity_display_filter_time_us,
             |o| {
@@ -1234,11 +1231,6 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
                 u(index, sub, d.velocity_display_filter_time_us.into()) as u32
             },
         ),
-        position_control_gain: u(0x60FB, 1, d.position_control_gain.into()) as u16,
-        position_control_time_us: u(0x60FB, 2, d.position_control_time_us.into()) as u16,
-        position_control_v_max_rpm: u(0x60FB, 4, d.position_control_v_max_rpm.into()) as u32,
-        position_error_tolerance_window: u(0x60FB, 5, d.position_error_tolerance_window.into())
-            as u32,
         max_motor_speed_rpm: u(0x6080, 0, d.max_motor_speed_rpm.into()) as u32,
         limit_current_ma: None,
         nominal_dc_link_voltage_mv: stage(
@@ -1250,12 +1242,13 @@ pub(crate) fn control_params_of<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor>(
         cycletime_current_us: stage(|o| o.cycle_times[0], d.cycletime_current_us),
         cycletime_velocity_us: stage(|o| o.cycle_times[1], d.cycletime_velocity_us),
         cycletime_position_us: stage(|o| o.cycle_times[2], d.cycletime_position_us),
-        filters: d.filters,
-    }
+        ..d
+    };
+    V::control_parameter_sets(od, params)
 }
 
 /// Objects whose change the controllers must see: CiA 402's (6073h, 6075h, 6410h, the
-/// controllers' parameter sets 60F6h, 60F9h, 60FBh, 6080h), the drive data 6510h (where a
+/// controllers' parameter sets 60F6h, 60F9h, 60FBh that a vendor may read, 6080h), the drive data 6510h (where a
 /// vendor keeps its power stage, [`Vendor`]'s `POWER_STAGE_OBJECTS`) and the vendor's display
 /// filter ([`Vendor`]'s `VELOCITY_DISPLAY_OBJECTS`).
 fn is_control_parameter<V: Vendor>(index: u16) -> bool {

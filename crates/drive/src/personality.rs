@@ -7,7 +7,7 @@
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
-use crate::digital_inputs::SwitchConfig;
+use crate::digital_inputs::InputWiring;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
@@ -46,18 +46,35 @@ pub trait Vendor: Sized {
         None
     }
 
-    /// The controller parameters as the drive's objects give them.
+    /// The controller parameters as the drive's objects give them, read again after a
+    /// write to one of them. CiA 402's default: the motor data, the power stage and the
+    /// display filter the engine knows, with the gains of [`Vendor::control_parameter_sets`].
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
         crate::drive::control_params_of::<S, Self>(d.od())
+    }
+
+    /// The controllers' gains from CiA 402's parameter sets 60F6h (current), 60F9h
+    /// (velocity) and 60FBh (position), whose sub-indices the profile leaves to the
+    /// manufacturer: `params` (what the engine read of the other objects) with the vendor's
+    /// reading of them. Also at power-on, before the vendor's state exists (hence the
+    /// dictionary, not the drive). CiA 402's default (Decision: a foreign drive's
+    /// sub-indices are in units the twin does not know): `params` as they are, the engine's
+    /// standard gains ([`ControlParams::default`], tuned for the default servo motor).
+    fn control_parameter_sets<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _od: &od::ObjectDictionary<S>,
+        params: ControlParams,
+    ) -> ControlParams {
+        params
     }
 
     /// Each logic cycle before device control: inputs that own the controlword or the mode.
     fn before_device_control<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>) {}
 
     /// The hardware enables transition 2 needs are present (CiA 402 §6.3.1: the drive's own
-    /// condition for READY TO SWITCH ON).
+    /// condition for READY TO SWITCH ON). CiA 402's default: the inputs of
+    /// [`Vendor::INPUT_WIRING`]'s `enables` are HIGH.
     fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
-        d.input_levels(d.plant_position()).enables()
+        Self::INPUT_WIRING.enables(d.input_levels(d.plant_position()))
     }
 
     /// Runs the mode of this cycle where the vendor's own rules drive it; `false`: the
@@ -114,25 +131,28 @@ pub trait Vendor: Sized {
     /// After the following error is known each cycle (increments, actual − demand).
     fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>, _fe: i64) {}
 
-    /// 60FDh digital_inputs at `position` (CiA 402 §6.6.4: bit 0 negative limit, 1 positive
-    /// limit, 2 home).
+    /// Which of the drive's inputs the simulated axis's switches and hardware enables are
+    /// wired to (bit n = input n of [`Drive::force_inputs`]). CiA 402 names no input
+    /// terminals; its default, [`InputWiring::CIA402`], numbers the inputs as the 60FDh bits
+    /// they show.
+    const INPUT_WIRING: InputWiring = InputWiring::CIA402;
+
+    /// 60FDh digital_inputs at `position`. CiA 402's default (§6.6.4): bit 0 negative limit,
+    /// 1 positive limit, 2 home switch, 3 interlock (a hardware enable missing), as
+    /// [`Vendor::switches`] reads them; no manufacturer bits (16 … 31).
     fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
-        d.switch_config().digital_inputs(d.input_levels(position))
+        Self::INPUT_WIRING.digital_inputs(d.input_levels(position))
     }
 
-    /// How the drive reads its limit and home switches (polarity, which input is which).
-    /// CiA 402's default: as wired, every switch normally open (the profile's homing
-    /// methods name the switch, 60FDh shows it).
-    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &Drive<S, Self>) -> SwitchConfig {
-        SwitchConfig::default()
-    }
-
-    /// The limit and home switches as the drive reads them at `position`.
+    /// The limit and home switches as the drive reads them at `position` (polarity, which
+    /// input is which). CiA 402's default: as wired, every switch normally open (the
+    /// profile's homing methods name the switch, 60FDh shows it).
     fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
-        d.switch_config().switches(d.input_levels(position))
+        Self::INPUT_WIRING.switches(d.input_levels(position))
     }
 
-    /// The input carrying `switch` (`None`: no input has its function).
+    /// The input carrying `switch` (`None`: no input has its function). CiA 402's default:
+    /// the input [`Vendor::INPUT_WIRING`] names, actuated HIGH.
     fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &Drive<S, Self>,
         switch: NamedSwitch,

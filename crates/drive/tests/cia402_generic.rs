@@ -4,7 +4,9 @@
 
 use std::time::Duration;
 
+use drive::drive::named_switches::{NamedSwitch, SwitchInput};
 use drive::drive::{Drive, DriveSettings};
+use drive::travel::{HomeSwitch, TravelSettings};
 use drive::vendors::Cia402;
 use od::{AbortCode, Instant, ObjectAccess, ObjectDictionary};
 
@@ -77,6 +79,61 @@ fn eds_drive() -> (Drive<Vec<u8>, Cia402>, Instant) {
     let now = Instant::ZERO + Duration::from_millis(1);
     d.step(now);
     (d, now)
+}
+
+/// The EDS drive with `travel` and the hardware enables as `enables_present`, one cycle run.
+fn eds_drive_on(travel: TravelSettings, enables_present: bool) -> Drive<Vec<u8>, Cia402> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/interop/data/eds/lexium32_like.eds");
+    let eds = devdesc::eds::load_file(&path).unwrap();
+    let desc = devdesc::runtime::leak(&eds.device);
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let settings = DriveSettings {
+        travel,
+        enables_present,
+        ..DriveSettings::default()
+    };
+    let mut d: Drive<Vec<u8>, Cia402> = Drive::new(od, settings);
+    d.step(Instant::ZERO + Duration::from_millis(1));
+    d
+}
+
+/// CiA 402 §6.6.4: 60FDh of the standard drive has the profile's bits only: at the positive
+/// limit switch bit 1, on the home cam bit 2, without its hardware enable bit 3 interlock, at
+/// the negative limit switch bit 0; no manufacturer bit (16 … 31), no vendor's DIN in bits
+/// 24 … 29. By name, a switch is the input of its 60FDh bit, actuated HIGH.
+#[test]
+fn digital_inputs_show_the_profile_bits_only() {
+    let di = |d: &Drive<Vec<u8>, Cia402>| d.od().get_unsigned(0x60FD, 0).unwrap() as u32;
+    let positive = TravelSettings {
+        positive_limit: Some(0),
+        home_switch: Some(HomeSwitch { low: -10, high: 10 }),
+        ..TravelSettings::NONE
+    };
+    let mut d = eds_drive_on(positive, true);
+    assert_eq!(di(&d), 0b0110, "positive limit and home switch");
+    assert_eq!(
+        di(&eds_drive_on(positive, false)),
+        0b1110,
+        "interlock without the enable"
+    );
+    let negative = TravelSettings {
+        negative_limit: Some(0),
+        ..TravelSettings::NONE
+    };
+    assert_eq!(di(&eds_drive_on(negative, true)), 0b0001);
+
+    assert_eq!(
+        d.switch_input(NamedSwitch::LimitNegative),
+        Some(SwitchInput {
+            mask: 1 << 0,
+            actuated_high: true
+        })
+    );
+    d.set_switch(NamedSwitch::LimitNegative, Some(true));
+    d.set_switch(NamedSwitch::Home, Some(false));
+    d.step(Instant::ZERO + Duration::from_millis(2));
+    assert_eq!(di(&d), 0b0011, "negative forced on, home forced off");
 }
 
 fn signed(d: &Drive<Vec<u8>, Cia402>, index: u16) -> i64 {
@@ -339,4 +396,50 @@ fn halt_interrupts_homing_without_an_error() {
     d.write(0x6040, 0, &0x1Fu16.to_le_bytes()).unwrap();
     run(&mut d, 100);
     assert!(signed(&d, 0x606C) != 0, "searching again");
+}
+
+/// CiA 402 leaves the sub-indices of 60F6h, 60F9h and 60FBh to the manufacturer: the
+/// standard drive keeps the engine's standard gains (`ControlParams::default`) whatever they
+/// hold, where the CMMP-AS over the same device file reads them as its §5.5–5.7 parameter
+/// sets.
+#[test]
+fn parameter_sets_keep_the_standard_gains() {
+    use drive::control::ControlParams;
+    use drive::vendors::festo_cmmp_as::CmmpAs;
+
+    let standard = ControlParams::default();
+    let (mut d, now) = drive();
+    let desc = &devices::CMMP_AS;
+    let od = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]).unwrap();
+    let mut cmmp: Drive<Vec<u8>, CmmpAs> = Drive::new(od, DriveSettings::default());
+    cmmp.step(now);
+    for (index, sub, value) in [(0x60F6, 1, 512u16), (0x60F9, 1, 512), (0x60FB, 1, 204)] {
+        d.write(index, sub, &value.to_le_bytes()).unwrap();
+        cmmp.write(index, sub, &value.to_le_bytes()).unwrap();
+    }
+    let later = now + Duration::from_millis(2);
+    d.step(later);
+    cmmp.step(later);
+    let p = d.axis().params();
+    assert_eq!(
+        (
+            p.torque_control_gain,
+            p.velocity_control_gain,
+            p.position_control_gain
+        ),
+        (
+            standard.torque_control_gain,
+            standard.velocity_control_gain,
+            standard.position_control_gain
+        )
+    );
+    let c = cmmp.axis().params();
+    assert_eq!(
+        (
+            c.torque_control_gain,
+            c.velocity_control_gain,
+            c.position_control_gain
+        ),
+        (512, 512, 204)
+    );
 }

@@ -9,7 +9,7 @@
 )]
 
 use drive::device_control::State;
-use drive::digital_inputs::{DIN0, DIN4, DIN5, DIN6, DIN7, DIN8, DIN9};
+use drive::vendors::festo_cmmp_as::digital_inputs::{DIN0, DIN4, DIN5, DIN6, DIN7, DIN8, DIN9};
 use od::ObjectAccess;
 
 mod cmmp_rig;

@@ -90,7 +90,7 @@ use drive::drive::named_switches::NamedSwitch;
 /// normally closed set-up (6510h:11 = 0) actuates it LOW.
 #[test]
 fn cmmp_switches_by_name_follow_6510h_11_to_14() {
-    use drive::digital_inputs::{DIN6, DIN7, DIN8, DIN9};
+    use drive::vendors::festo_cmmp_as::digital_inputs::{DIN6, DIN7, DIN8, DIN9};
     let mut r = cmmp_rig::Rig::new();
     assert_eq!(
         NamedSwitch::parse("limit_positive"),

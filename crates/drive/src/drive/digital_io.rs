@@ -45,22 +45,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         }
     }
 
-    /// The input levels at `position`: the simulated wiring (travel switches on DIN6, DIN7,
-    /// DIN9, enables on DIN4/DIN5) with the forced inputs over it.
+    /// The input levels at `position`: the simulated wiring (the vendor's `INPUT_WIRING`:
+    /// the travel's switches and the hardware enables) with the forced inputs over it.
     pub(crate) fn input_levels(&self, position: i64) -> Levels {
         Levels::wired(
+            &V::INPUT_WIRING,
             self.settings.travel.inputs(position),
             self.settings.enables_present,
         )
         .forced(self.forced_mask, self.forced_levels)
     }
 
-    /// How the drive reads its switches (the vendor hook `switch_config`).
-    pub(crate) fn switch_config(&self) -> SwitchConfig {
-        V::switch_config(self)
-    }
-
-    /// The switches as the drive reads them (the vendor's `switch_config`): a polarity set
+    /// The switches as the drive reads them (the vendor hook `switches`): a polarity set
     /// against the normally open switches of the simulation reads them inverted, and swapped
     /// limit-switch inputs are a wiring set-up the homing then trips over, as on a real
     /// drive.
@@ -68,9 +64,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         V::switches(self, position)
     }
 
-    /// Drives digital inputs from outside (a test, a fault injection): the DINs in `mask`
-    /// (bit n = DINn) take the level in `levels`; the others follow the simulated wiring.
-    /// Forcing DIN4 or DIN5 LOW removes a hardware enable (CMMP-AS 60FDh bit 3).
+    /// Drives digital inputs from outside (a test, a fault injection): the inputs in `mask`
+    /// (bit n = the vendor's input n) take the level in `levels`; the others follow the
+    /// simulated wiring. Forcing an input of the wiring's hardware enables LOW removes the
+    /// enable (60FDh bit 3 interlock).
     pub fn force_inputs(&mut self, mask: u16, levels: u16) {
         self.forced_mask = mask;
         self.forced_levels = levels;

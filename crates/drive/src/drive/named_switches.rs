@@ -2,10 +2,11 @@
 //! drive, and the level that makes the drive read the switch as actuated. A console, a
 //! scenario or a cell file says `limit_positive` instead of a DIN mask.
 //!
-//! * CMMP-AS (§5.14) and Nanotec (the same simulated wiring, read as wired): E0 / E1 on DIN6 /
-//!   DIN7, swapped with 6510h:12 = 1; the home switch on DIN9, DIN8 with 6510h:13 = 1.
-//!   Actuated is HIGH for a normally open contact (6510h:11 / :14 = 1), LOW for a normally
-//!   closed one.
+//! * CiA 402's default: the inputs of the vendor's wiring (`INPUT_WIRING`), read as wired
+//!   (normally open, actuated HIGH); the Nanotec keeps the CMMP-AS's input numbers.
+//! * CMMP-AS (§5.14): E0 / E1 on DIN6 / DIN7, swapped with 6510h:12 = 1; the home switch on
+//!   DIN9, DIN8 with 6510h:13 = 1. Actuated is HIGH for a normally open contact
+//!   (6510h:11 / :14 = 1), LOW for a normally closed one.
 //! * Kinco (Tab. 6-1, §5.5): the first DIN whose function code 2010h:03 … :09 has P limit+,
 //!   P limit− or Home Signal; the limit switches are normally closed (an input at 0 blocks
 //!   its direction), the home switch normally open, both through Din_Polarity 2010h:01
@@ -67,7 +68,8 @@ impl NamedSwitch {
 /// Where a switch is wired on this drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SwitchInput {
-    /// Bit n = the input [`Drive::force_inputs`] calls bit n (CMMP-AS DINn, Kinco DINn+1).
+    /// Bit n = the input [`Drive::force_inputs`] calls bit n (the vendor's numbering: CMMP-AS
+    /// DINn, Kinco DINn+1).
     pub mask: u16,
     /// The wire level that makes the drive read the switch as actuated.
     pub actuated_high: bool,
@@ -79,29 +81,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         V::switch_input(self, switch)
     }
 
-    /// The input carrying `switch` as the simulated wiring has it (DIN6 / DIN7 the limit
-    /// switches, DIN8 / DIN9 the home switch).
+    /// The input carrying `switch` as the vendor's `INPUT_WIRING` has it, actuated HIGH (a
+    /// normally open switch read as wired).
     pub(crate) fn wired_switch_input(&self, switch: NamedSwitch) -> Option<SwitchInput> {
-        use crate::digital_inputs::{DIN6, DIN7, DIN8, DIN9};
-        let c = self.switch_config();
-        let (e0, e1) = if c.limits_swapped {
-            (DIN7, DIN6)
-        } else {
-            (DIN6, DIN7)
+        let w = V::INPUT_WIRING;
+        let mask = match switch {
+            NamedSwitch::LimitNegative => w.negative_limit,
+            NamedSwitch::LimitPositive => w.positive_limit,
+            NamedSwitch::Home => w.home,
         };
-        Some(match switch {
-            NamedSwitch::LimitNegative => SwitchInput {
-                mask: e0,
-                actuated_high: c.limit_normally_open,
-            },
-            NamedSwitch::LimitPositive => SwitchInput {
-                mask: e1,
-                actuated_high: c.limit_normally_open,
-            },
-            NamedSwitch::Home => SwitchInput {
-                mask: if c.home_on_din8 { DIN8 } else { DIN9 },
-                actuated_high: c.home_normally_open,
-            },
+        Some(SwitchInput {
+            mask,
+            actuated_high: true,
         })
     }
 

@@ -146,8 +146,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
                 }
                 // A drive without hardware enables of its own has none to miss.
                 let h = self.personality.hardware_enable.as_ref()?;
-                let enables = self.input_levels(self.plant_position()).enables();
-                (!enables).then_some(Refusal::HardwareEnable(h))
+                (!V::enables(self)).then_some(Refusal::HardwareEnable(h))
             }
             Request::Mode(m) => (!self.personality.accepts_mode(m, self.settings.ethercat))
                 .then_some(Refusal::ModeUnsupported { mode: m }),

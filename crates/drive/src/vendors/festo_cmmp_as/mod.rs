@@ -7,6 +7,8 @@
 //! 6510h:F0 and the object rules of its manual.
 
 pub mod ci_terminal;
+pub mod control_params;
+pub mod digital_inputs;
 pub mod display;
 pub mod error_management;
 pub mod factor_limit;
@@ -16,10 +18,12 @@ pub mod messages;
 
 use od::{AbortCode, ObjectAccess, Value};
 
+use crate::control::ControlParams;
 use crate::controlword::Controlword;
 use crate::device_control::State;
-use crate::digital_inputs::SwitchConfig;
+use crate::digital_inputs::InputWiring;
 use crate::drive::diagnostics::emcy_code;
+use crate::drive::named_switches::{NamedSwitch, SwitchInput};
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
 use crate::drive::Drive;
@@ -30,6 +34,8 @@ use crate::personality::{
     Personality, PowerStageObjects, VelocityDisplayObjects, Vendor,
 };
 use crate::statusword::Statusword;
+use crate::travel::Inputs;
+use digital_inputs::SwitchConfig;
 use error_management::ErrorManagement;
 use homing_methods::METHODS;
 
@@ -294,15 +300,39 @@ impl Vendor for CmmpAs {
         d.value(0x6510, 0x38) == 1
     }
 
+    /// §5.5–5.7: 60F6h, 60F9h and 60FBh as the CMMP-AS's parameter sets
+    /// ([`control_params::parameter_sets`]).
+    fn control_parameter_sets<S: AsRef<[u8]> + AsMut<[u8]>>(
+        od: &od::ObjectDictionary<S>,
+        params: ControlParams,
+    ) -> ControlParams {
+        control_params::parameter_sets(od, params)
+    }
+
+    /// §5.13, §5.14: the limit switches on DIN6 / DIN7, the home switch on DIN9, the
+    /// output-stage and controller enables on DIN4 / DIN5.
+    const INPUT_WIRING: InputWiring = digital_inputs::WIRING;
+
+    /// §5.13: 60FDh with DIN0 … DIN3, DIN8 and DIN9 in bits 24 … 29, the switches as
+    /// 6510h:11 … :14 read them.
+    fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
+        d.cmmp_switch_config()
+            .digital_inputs(d.input_levels(position))
+    }
+
     /// §5.14: the switches as 6510h:11 limit_switch_polarity, :12 limit_switch_selector,
     /// :13 homing_switch_selector and :14 homing_switch_polarity set them.
-    fn switch_config<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> SwitchConfig {
-        SwitchConfig::from_objects(
-            d.value(0x6510, 0x11),
-            d.value(0x6510, 0x12),
-            d.value(0x6510, 0x13),
-            d.value(0x6510, 0x14),
-        )
+    fn switches<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>, position: i64) -> Inputs {
+        d.cmmp_switch_config().switches(d.input_levels(position))
+    }
+
+    /// §5.14: E0 / E1 and the home switch on the inputs 6510h:12 / :13 select, actuated at
+    /// the level 6510h:11 / :14 set.
+    fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &Drive<S, Self>,
+        switch: NamedSwitch,
+    ) -> Option<SwitchInput> {
+        Some(d.cmmp_switch_config().switch_input(switch))
     }
 
     /// §5.14: a limit switch (B.3 43-0 / 43-1) stops with 6510h:15
@@ -398,6 +428,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, CmmpAs> {
     /// CAN") whenever CANopen is active, also after a reset.
     pub(crate) fn cmmp_power_on(&mut self) {
         let _ = self.od.set_value(0x6510, 0x10, Value::Unsigned(2));
+    }
+
+    /// The switch assignment 6510h:11 … :14 (§5.14).
+    pub(crate) fn cmmp_switch_config(&self) -> SwitchConfig {
+        SwitchConfig::from_objects(
+            self.value(0x6510, 0x11),
+            self.value(0x6510, 0x12),
+            self.value(0x6510, 0x13),
+            self.value(0x6510, 0x14),
+        )
     }
 
     /// The objects whose CMMP-AS rules do more than store a value.

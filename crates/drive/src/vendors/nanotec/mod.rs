@@ -17,6 +17,7 @@ use od::{AbortCode, ObjectAccess};
 use crate::axis::Demand;
 use crate::controlword::Controlword;
 use crate::device_control::State;
+use crate::digital_inputs::InputWiring;
 use crate::drive::diagnostics::emcy_code;
 use crate::drive::object_writes::Hook;
 use crate::drive::refusal::{Refusal, Request};
@@ -355,6 +356,17 @@ impl Vendor for Nanotec {
     /// §5.2 says only "halt: the motor stops"; the abort is reported as the CMMP-AS does
     /// (homing_error), as the twin has always run it.
     const HALT_IS_HOMING_ERROR: bool = true;
+
+    /// The simulated axis the engine reads: the limit switches on bits 6 / 7 and the home
+    /// switch on bit 9 of [`Drive::force_inputs`], the hardware enables on bits 4 / 5. The
+    /// manual describes no limit-switch or enable inputs; 60FDh shows inputs 1 … 6 with
+    /// input 6 the reference switch (§9.1, `Drive::nanotec_digital_inputs`).
+    const INPUT_WIRING: InputWiring = InputWiring {
+        negative_limit: 1 << 6,
+        positive_limit: 1 << 7,
+        home: 1 << 9,
+        enables: (1 << 4) | (1 << 5),
+    };
 
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&NANOTEC, Nanotec::default())
