@@ -17,7 +17,6 @@ use std::time::Duration;
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -245,9 +244,7 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
     let mut cell = CanCell::one_bus(vec![station(1)]);
     cell.add_bus(vec![station(2)]);
     let mut chain = SlaveChain::empty();
-    let id = cell
-        .id_at(OnBus { bus: 1, drive: 0 })
-        .expect("bus 1's station");
+    let id = cell.buses[1].members()[0];
     chain
         .push(desc, SlaveDrive::Station { id, bus: Some(1) })
         .expect("slave");
@@ -264,8 +261,8 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
         chains[0].drive(0),
         Some(SlaveDrive::Station { bus: Some(1), .. })
     ));
-    let on_bus = |bus| {
-        let d = cell.station(OnBus { bus, drive: 0 }).expect("station");
+    let on_bus = |bus: usize| {
+        let d = cell.station(cell.buses[bus].members()[0]).expect("station");
         let mut v = [0u8; 4];
         od::ObjectAccess::read(&d.model, 0x60FF, 0, &mut v).expect("60FFh");
         i32::from_le_bytes(v)

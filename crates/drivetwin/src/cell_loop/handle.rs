@@ -379,7 +379,7 @@ impl CellLoop {
         for bus in &self.cell.buses {
             let n = bus.members().len();
             if rest < n {
-                let id = bus.member(rest);
+                let id = bus.members().get(rest).copied();
                 return match id.and_then(|id| self.cell.stations.station_mut(id)) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),
