@@ -207,9 +207,18 @@ impl SegmentBus {
         self.timing.as_mut().map(|t| t.figures(now))
     }
 
-    /// The next `frames` transmissions of drive `drive` fail with an error frame (a
-    /// disturbed line at its connector): 16 make it error passive, 32 take it off the bus.
-    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
+    /// The next `frames` transmissions of station `id` fail with an error frame (a disturbed
+    /// line at its connector): 16 make it error passive, 32 take it off the bus. False: the
+    /// station is not on the bus.
+    pub fn disturb(&mut self, id: StationId, frames: u32) -> bool {
+        match self.position(id) {
+            Some(drive) => self.disturb_at(drive, frames),
+            None => false,
+        }
+    }
+
+    /// [`SegmentBus::disturb`] of the station at `drive` in segment order.
+    fn disturb_at(&mut self, drive: usize, frames: u32) -> bool {
         self.fit_faults();
         match self.faults.get_mut(drive) {
             Some(f) => {
@@ -249,9 +258,9 @@ impl SegmentBus {
         self.wire.faults_mut().active(now).to_vec()
     }
 
-    /// Each station's CAN controller, in segment order.
-    pub fn node_faults(&self) -> &[NodeFaults] {
-        &self.faults
+    /// Each station's CAN controller, with the station's id (in segment order).
+    pub fn node_faults(&self) -> impl Iterator<Item = (StationId, &NodeFaults)> {
+        self.members.iter().copied().zip(self.faults.iter())
     }
 
     /// Boots every drive of the bus; the boot-up messages go to `out`.
@@ -380,7 +389,7 @@ impl SegmentBus {
                 .position(|id| stations.station(*id).is_some_and(|d| d.node_id() == node));
             match on_bus {
                 Some(d) => {
-                    self.disturb(d, frames);
+                    self.disturb_at(d, frames);
                 }
                 None => tracing::warn!(node, "disturbance planned for a node not on the bus"),
             }
