@@ -259,6 +259,5 @@ fn error_passive_and_bus_off_with_each_personalitys_reaction() {
     // Everybody is back on the bus and error active.
     assert!(cell.buses[0]
         .node_faults()
-        .iter()
-        .all(|f| f.confinement.state() == canbus::fault_confinement::ErrorState::Active));
+        .all(|(_, f)| f.confinement.state() == canbus::fault_confinement::ErrorState::Active));
 }

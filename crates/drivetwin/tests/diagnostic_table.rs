@@ -17,7 +17,9 @@
 
 use canopen::CanFrame;
 use drive::vendors::festo_cmmp_as::messages::{self, Number};
-use drivetwin::cell::OnBus;
+use drivetwin::cell::diagnostics::Planned;
+use drivetwin::cell::planned::Planee;
+use drivetwin::cell::stations::StationId;
 use od::Reaction;
 
 #[path = "support/can_bench.rs"]
@@ -442,8 +444,10 @@ fn cell_raises_planned_messages_on_its_clock() {
         .remove(0);
     assert_eq!(spec.diagnostics.len(), 2);
     let mut b = Bench::new(None);
+    let id = b.cell.buses[0].members()[0];
     for p in spec.diagnostics {
-        b.cell.buses[0].plan_diagnostic(od::Instant::from_millis(p.at_ms), 0, p);
+        let at = od::Instant::from_millis(p.at_ms);
+        b.cell.plan(at, Planee::Station(id), Planned::Diagnostic(p));
     }
     b.enable();
     b.sent();
@@ -459,7 +463,7 @@ fn cell_raises_planned_messages_on_its_clock() {
     );
     assert_eq!(
         b.cell
-            .diagnostics(OnBus { bus: 0, drive: 0 })
+            .diagnostics(id)
             .expect("drive 0")
             .iter()
             .filter(|s| s.active)
@@ -472,20 +476,15 @@ fn cell_raises_planned_messages_on_its_clock() {
         "cleared at 80 ms"
     );
     // And directly: an unknown number is refused, a known one raised.
-    assert!(b
-        .cell
-        .raise_diagnostic(OnBus { bus: 0, drive: 0 }, "99-9")
-        .is_err());
+    assert!(b.cell.raise_diagnostic(id, "99-9").is_err());
     assert!(
         b.cell
-            .raise_diagnostic(OnBus { bus: 0, drive: 1 }, "43-0")
+            .raise_diagnostic(StationId::from_index(b.cell.stations.len()), "43-0")
             .is_err(),
-        "no drive 1"
+        "no such station"
     );
     assert_eq!(
-        b.cell
-            .raise_diagnostic(OnBus { bus: 0, drive: 0 }, "08-2")
-            .map(|r| r.code),
+        b.cell.raise_diagnostic(id, "08-2").map(|r| r.code),
         Ok(Some(0x7382))
     );
 }

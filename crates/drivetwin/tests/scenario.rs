@@ -459,3 +459,40 @@ fn a_cmmo_st_takes_a_load_fmu_and_refuses_a_limit_switch_by_name() {
         report.text()
     );
 }
+
+/// A CMMO-ST's `[[drive.diagnostic]]` on the virtual clock: on the cell's one timeline with
+/// the stations' plans, carried out by the rig at its time (SCON shows the message from
+/// then on, not before).
+#[test]
+fn a_cmmo_sts_planned_message_on_the_virtual_clock() {
+    use drive::vendors::festo_cmmo_st::fhpp::status_bytes::Scon;
+    use drivetwin::scenario::runner::Rig;
+    use drivetwin::scenario::virtual_rig::RigDrive;
+    let file: drivetwin::cell::config::CellFile = toml::from_str(
+        r#"
+        [[drive]]
+        device = "cmmo-st"
+        node = 1
+        [[drive.diagnostic]]
+        at_ms = 50
+        number = "2Fh"
+        "#,
+    )
+    .expect("cell file");
+    let mut rig = VirtualRig::new(&file, drivetwin::vendors::VENDORS.runtime).expect("rig");
+    let scon = |rig: &VirtualRig| {
+        let p = rig
+            .probe_drive(RigDrive::RegisterImage(0))
+            .expect("the CMMO-ST");
+        Scon(p.status[0])
+    };
+    let shown = Scon::FAULT | Scon::WARN;
+    rig.run_until(std::time::Duration::from_millis(49), &mut |_, _, _| {});
+    assert!(
+        !scon(&rig).intersects(shown),
+        "before 50 ms: {}",
+        scon(&rig)
+    );
+    rig.run_until(std::time::Duration::from_millis(60), &mut |_, _, _| {});
+    assert!(scon(&rig).intersects(shown), "after 50 ms: {}", scon(&rig));
+}

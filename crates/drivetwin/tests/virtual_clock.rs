@@ -17,7 +17,6 @@ use std::time::Duration;
 use canopen::CanFrame;
 use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::virtual_clock::{run_virtual_mixed, Input, Output};
 use drivetwin::ecat::chain::{own_drive, SlaveChain, SlaveDrive};
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -245,9 +244,7 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
     let mut cell = CanCell::one_bus(vec![station(1)]);
     cell.add_bus(vec![station(2)]);
     let mut chain = SlaveChain::empty();
-    let id = cell
-        .id_at(OnBus { bus: 1, drive: 0 })
-        .expect("bus 1's station");
+    let id = cell.buses[1].members()[0];
     chain
         .push(desc, SlaveDrive::Station { id, bus: Some(1) })
         .expect("slave");
@@ -264,12 +261,71 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
         chains[0].drive(0),
         Some(SlaveDrive::Station { bus: Some(1), .. })
     ));
-    let on_bus = |bus| {
-        let d = cell.station(OnBus { bus, drive: 0 }).expect("station");
+    let on_bus = |bus: usize| {
+        let d = cell.station(cell.buses[bus].members()[0]).expect("station");
         let mut v = [0u8; 4];
         od::ObjectAccess::read(&d.model, 0x60FF, 0, &mut v).expect("60FFh");
         i32::from_le_bytes(v)
     };
     assert_eq!(on_bus(1), 300_000, "written over CoE");
     assert_eq!(on_bus(0), 0, "the first bus's drive is another");
+}
+
+/// The cell's one timeline on the virtual clock: a message planned for an EtherCAT chain's
+/// own drive (a station that joins the cell with its chain, after the CAN bus's) and one for
+/// a CMMO-ST on Modbus TCP are carried out at their time, with no master sending a frame.
+#[test]
+fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
+    use drivetwin::cell::diagnostics::{Action, Planned, PlannedDiagnostic};
+    use drivetwin::cell::planned::Planee;
+    use drivetwin::cell::stations::StationId;
+    let message = |number: &str| {
+        Planned::Diagnostic(PlannedDiagnostic {
+            at_ms: 30,
+            number: number.into(),
+            action: Action::Raise,
+        })
+    };
+    // Run until `until` ms: whether the slave's 43-0 and the CMMO-ST's 2Fh are active.
+    let run = |until: u64| {
+        let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+        let drive =
+            Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
+        let mut cell = CanCell::one_bus(vec![drive]);
+        let mut modbus = vec![cmmo_st()];
+        let spec = drivetwin::cell::config::CellFile::single("cmmp-as", 2)
+            .drives(drivetwin::vendors::VENDORS.runtime)
+            .expect("spec")
+            .remove(0);
+        let mut chain = SlaveChain::empty();
+        chain
+            .push(desc, own_drive(spec, None).expect("drive"))
+            .expect("slave");
+        // The chain's own drive joins the list after the bus's station.
+        let slave = StationId::from_index(cell.stations.len());
+        let at = od::Instant::from_millis(30);
+        cell.plan(at, Planee::Station(slave), message("43-0"));
+        cell.plan(at, Planee::Modbus(0), message("2Fh"));
+        run_virtual_mixed(
+            &mut cell,
+            &mut modbus,
+            &mut [chain],
+            &[],
+            ms(until),
+            &mut |_, _| {},
+        );
+        let on_slave = cell
+            .diagnostics(slave)
+            .expect("the slave's station")
+            .iter()
+            .any(|d| d.active && d.row.number == "43-0");
+        let on_cmmo_st = modbus[0]
+            .device_mut()
+            .diagnostics()
+            .iter()
+            .any(|d| d.active && d.row.number == "2Fh");
+        (on_slave, on_cmmo_st)
+    };
+    assert_eq!(run(29), (false, false), "not before 30 ms");
+    assert_eq!(run(31), (true, true), "both at 30 ms");
 }

@@ -157,7 +157,7 @@ fn corrupted_frames_are_error_frames_the_receivers_count() {
     };
     let seen = run(&mut c, ms(50), ms(90), &[sdo(60), sdo(70), sdo(80)]);
     assert!(seen.iter().all(|(_, f)| f.id != 0x582), "{seen:?}");
-    for f in c.buses[0].node_faults() {
+    for (_, f) in c.buses[0].node_faults() {
         assert_eq!(f.confinement.counters(), (0, 3), "REC +1 per error frame");
     }
     // The fault has taken its three frames: the fourth is answered.
@@ -187,7 +187,14 @@ fn a_corrupted_node_frame_is_sent_again() {
     // The heartbeat still goes out once (the automatic retransmission after the error frame).
     assert_eq!(seen.iter().filter(|(_, f)| f.id == 0x701).count(), 1);
     assert_eq!(
-        c.buses[0].node_faults()[0].confinement.counters().0,
+        c.buses[0]
+            .node_faults()
+            .next()
+            .expect("node 1's controller")
+            .1
+            .confinement
+            .counters()
+            .0,
         8 - 1,
         "TEC +8, -1"
     );
@@ -220,4 +227,32 @@ fn a_delayed_request_is_answered_later_and_a_stopped_sync_takes_only_080h() {
     let seen = run(&mut c, ms(50), ms(90), &[(ms(60), sdo)]);
     let answer = seen.iter().find(|(_, f)| f.id == 0x582).expect("answer");
     assert_eq!(answer.0, 67, "the request arrived 7 ms late");
+}
+
+/// A disturbance names its station by id: a station of another bus is refused; the bus's own
+/// sends its boot-up once with an error frame and once more (TEC +8, −1), and its controller
+/// is listed under its id.
+#[test]
+fn a_disturbance_reaches_the_station_named_by_its_id() {
+    let mut c = CanCell::one_bus(vec![drive("kinco-fd3", 2, &[])]);
+    c.add_bus(vec![drive("testbench", 1, &[])]);
+    let kinco = c.buses[0].members()[0];
+    let bench = c.buses[1].members()[0];
+    assert!(!c.buses[1].disturb(kinco, 1), "the Kinco is on bus 0");
+    assert!(c.buses[1].disturb(bench, 1));
+    let mut out = Vec::new();
+    c.boot(0, ms(0), &mut out);
+    c.boot(1, ms(0), &mut out);
+    let tec = |c: &CanCell, bus: usize| -> Vec<_> {
+        c.buses[bus]
+            .node_faults()
+            .map(|(id, f)| (id, f.confinement.counters().0))
+            .collect()
+    };
+    assert_eq!(
+        tec(&c, 1),
+        [(bench, 8 - 1)],
+        "the bench's boot-up, sent again"
+    );
+    assert_eq!(tec(&c, 0), [(kinco, 0)], "the Kinco undisturbed");
 }

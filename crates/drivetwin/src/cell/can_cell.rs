@@ -4,15 +4,22 @@
 //! scenario rig and the cell loop run (the loop with each bus's transports beside it): an
 //! EtherCAT chain joins it
 //! (`ecat::chain::SlaveChain::join_cell`), so a drive that is a CANopen node and an EtherCAT
-//! slave at once is one station, named by its bus and by its slave.
+//! slave at once is one station, named by its bus and by its slave. Outside a bus a station
+//! is addressed by its [`StationId`] alone; a bus keeps the order of its stations to itself.
+//!
+//! The cell holds the one timeline of what its cell file plans for its drives
+//! ([`super::planned`]), keyed by station, carried out on the cell's clock by what steps the
+//! cell ([`CanCell::carry_out_plans`]; a bus's poll carries out the stations' that are due
+//! too, for a stepper that only polls the buses).
 
 use canopen::CanFrame;
 use od::{time::earliest, Instant};
 
 use super::can_segment::SegmentBus;
+use super::diagnostics::Planned;
+use super::planned::{self, PlanError, Planee, Timeline};
 use super::station::Station;
 use super::stations::{StationId, Stations};
-use super::OnBus;
 
 /// The stations of a cell and its CAN buses (bus `b` is `buses[b]`).
 #[derive(Default)]
@@ -22,6 +29,9 @@ pub struct CanCell {
     pub stations: Stations,
     /// The CAN buses, in the cell file's order.
     pub buses: Vec<SegmentBus>,
+    /// What the cell file plans for its drives, in time order (those of one time in the
+    /// order they were planned).
+    plans: Timeline<(Planee, Planned)>,
 }
 
 impl CanCell {
@@ -74,28 +84,99 @@ impl CanCell {
         self.buses.get_mut(b)
     }
 
-    /// The id of the station at `at` (its bus, its place in the bus's segment order).
-    pub fn id_at(&self, at: OnBus) -> Option<StationId> {
-        self.buses.get(at.bus)?.member(at.drive)
+    /// The bus station `id` is on (the first that names it; none: on no CAN bus).
+    pub fn bus_of(&self, id: StationId) -> Option<usize> {
+        self.buses.iter().position(|b| b.position(id).is_some())
     }
 
-    /// Where station `id` is on the CAN buses (the first bus that names it).
-    pub fn place_of(&self, id: StationId) -> Option<OnBus> {
-        self.buses.iter().enumerate().find_map(|(bus, b)| {
-            let drive = b.position(id)?;
-            Some(OnBus { bus, drive })
-        })
+    /// Station `id`.
+    pub fn station(&self, id: StationId) -> Option<&Station> {
+        self.stations.station(id)
     }
 
-    /// The station at `at`.
-    pub fn station(&self, at: OnBus) -> Option<&Station> {
-        self.stations.station(self.id_at(at)?)
-    }
-
-    /// The station at `at`.
-    pub fn station_mut(&mut self, at: OnBus) -> Option<&mut Station> {
-        let id = self.id_at(at)?;
+    /// Station `id`.
+    pub fn station_mut(&mut self, id: StationId) -> Option<&mut Station> {
         self.stations.station_mut(id)
+    }
+
+    /// Plans `what` for `who` at `at` on the cell's clock (after what is planned for the
+    /// same time already).
+    pub fn plan(&mut self, at: Instant, who: Planee, what: Planned) {
+        self.plans.plan(at, (who, what));
+    }
+
+    /// Plans a drive's `[[drive.diagnostic]]` and then its plant changes (`[drive.thermal]`,
+    /// `[[drive.plant]]`: ms on the cell's clock, the change) for `who`.
+    pub fn plan_drive(
+        &mut self,
+        who: Planee,
+        diagnostics: Vec<super::diagnostics::PlannedDiagnostic>,
+        physics: Vec<(u64, super::control::PhysicsChange)>,
+    ) {
+        for p in diagnostics {
+            self.plan(Instant::from_millis(p.at_ms), who, Planned::Diagnostic(p));
+        }
+        for (at_ms, change) in physics {
+            self.plan(Instant::from_millis(at_ms), who, Planned::Physics(change));
+        }
+    }
+
+    /// The time of the first planned change still to come.
+    pub fn plans_deadline(&self) -> Option<Instant> {
+        self.plans.deadline()
+    }
+
+    /// Carries out the changes due by `now`, in time order: a station's on its model (and
+    /// the bus it is on polls at `now`, so its frames go out as the change's own), a Modbus
+    /// drive's through `modbus` (`modbus(k, what)`: the k-th drive served over Modbus TCP,
+    /// which the stepper holds). A change that cannot be carried out is logged; the cell
+    /// goes on.
+    pub fn carry_out_plans(
+        &mut self,
+        now: Instant,
+        modbus: &mut dyn FnMut(usize, &Planned) -> Result<(), PlanError>,
+    ) {
+        while let Some((who, what)) = self.plans.take_due(now) {
+            let done = match who {
+                Planee::Station(id) => self.carry_out_on(id, now, &what),
+                Planee::Modbus(k) => modbus(k, &what),
+            };
+            if let Err(e) = done {
+                tracing::warn!(?who, ?what, "planned change: {e}");
+            }
+        }
+    }
+
+    /// The stations' changes due by `now` (a Modbus drive's wait for
+    /// [`CanCell::carry_out_plans`]).
+    fn carry_out_station_plans(&mut self, now: Instant) {
+        let station = |(who, _): &(Planee, Planned)| matches!(who, Planee::Station(_));
+        while let Some((who, what)) = self.plans.take_due_if(now, station) {
+            let done = match who {
+                Planee::Station(id) => self.carry_out_on(id, now, &what),
+                Planee::Modbus(_) => Ok(()),
+            };
+            if let Err(e) = done {
+                tracing::warn!(?who, ?what, "planned change: {e}");
+            }
+        }
+    }
+
+    /// `what` on station `id` at `now`; its bus polls at `now`.
+    fn carry_out_on(
+        &mut self,
+        id: StationId,
+        now: Instant,
+        what: &Planned,
+    ) -> Result<(), PlanError> {
+        let s = self.stations.station_mut(id).ok_or(PlanError::NoDrive)?;
+        let done = planned::on_model(&mut s.model, what);
+        if let Some(b) = self.bus_of(id) {
+            if let Some(bus) = self.buses.get_mut(b) {
+                bus.poll_by(now);
+            }
+        }
+        done
     }
 
     /// The stations of bus `b`, in segment order (none for a bus the cell lacks).
@@ -120,8 +201,12 @@ impl CanCell {
         }
     }
 
-    /// Runs the timers of bus `b` and its drives; the bus's next deadline.
+    /// Runs the timers of bus `b` and its drives, after the stations' planned changes due
+    /// by `now`; the bus's next deadline.
     pub fn poll(&mut self, b: usize, now: Instant, out: &mut Vec<CanFrame>) -> Option<Instant> {
+        if self.plans.deadline().is_some_and(|d| d <= now) {
+            self.carry_out_station_plans(now);
+        }
         let bus = self.buses.get_mut(b)?;
         bus.poll(&mut self.stations, now, out)
     }
@@ -131,11 +216,11 @@ impl CanCell {
         self.buses.get(b)?.deadline(&self.stations)
     }
 
-    /// The earliest deadline of every bus and its drives.
+    /// The earliest deadline of every bus and its drives, and of the planned changes.
     pub fn deadline(&self) -> Option<Instant> {
-        self.buses
-            .iter()
-            .fold(None, |acc, b| earliest(acc, b.deadline(&self.stations)))
+        self.buses.iter().fold(self.plans.deadline(), |acc, b| {
+            earliest(acc, b.deadline(&self.stations))
+        })
     }
 
     /// A local interface (a serial port, a terminal) of station `id` reaches its objects at
@@ -149,11 +234,11 @@ impl CanCell {
         out: &mut Vec<CanFrame>,
         f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
     ) -> Option<usize> {
-        match self.place_of(id) {
-            Some(at) => {
-                let bus = self.buses.get_mut(at.bus)?;
-                bus.local_access(&mut self.stations, at.drive, now, out, f);
-                Some(at.bus)
+        match self.bus_of(id) {
+            Some(b) => {
+                let bus = self.buses.get_mut(b)?;
+                bus.local_access(&mut self.stations, id, now, out, f);
+                Some(b)
             }
             None => {
                 if let Some(s) = self.stations.station_mut(id) {

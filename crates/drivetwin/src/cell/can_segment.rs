@@ -62,8 +62,9 @@ pub struct SegmentBus {
     faults: Vec<NodeFaults>,
     /// Disturbances the cell file plans: at a time, the node whose frames fail, how many.
     planned: Vec<(Instant, u8, u32)>,
-    /// What the cell file plans for the stations (segment order) ([`super::planned`]).
-    pub(super) planned_diagnostics: super::planned::Timeline<(usize, super::diagnostics::Planned)>,
+    /// A planned change of one of its stations was carried out ([`super::planned`]): the
+    /// bus polls by then, so the station's frames go out at the change's time.
+    poll_by: Option<Instant>,
     /// The wire between the stations and the front ends, with its faults ([`super::wire_faults`]),
     /// which hold the frames they delay.
     wire: FaultInjector<Wire<SegmentFrame>>,
@@ -111,7 +112,7 @@ impl SegmentBus {
             timing: None,
             faults,
             planned: Vec::new(),
-            planned_diagnostics: Default::default(),
+            poll_by: None,
             wire: FaultInjector::default(),
             port: Tracer::new(Wire::new(), CanTrace::default()),
             outside_ends: None,
@@ -135,14 +136,14 @@ impl SegmentBus {
         &self.members
     }
 
-    /// The id of station `drive` (segment order).
-    pub fn member(&self, drive: usize) -> Option<StationId> {
-        self.members.get(drive).copied()
+    /// The segment order of station `id`, if it is on this bus.
+    pub(super) fn position(&self, id: StationId) -> Option<usize> {
+        self.members.iter().position(|m| *m == id)
     }
 
-    /// The segment order of station `id`, if it is on this bus.
-    pub fn position(&self, id: StationId) -> Option<usize> {
-        self.members.iter().position(|m| *m == id)
+    /// A station of the bus changed at `at` (a planned change): the bus polls by then.
+    pub(super) fn poll_by(&mut self, at: Instant) {
+        self.poll_by = earliest(self.poll_by, Some(at));
     }
 
     /// The bus's stations in `stations`, in segment order.
@@ -206,9 +207,18 @@ impl SegmentBus {
         self.timing.as_mut().map(|t| t.figures(now))
     }
 
-    /// The next `frames` transmissions of drive `drive` fail with an error frame (a
-    /// disturbed line at its connector): 16 make it error passive, 32 take it off the bus.
-    pub fn disturb(&mut self, drive: usize, frames: u32) -> bool {
+    /// The next `frames` transmissions of station `id` fail with an error frame (a disturbed
+    /// line at its connector): 16 make it error passive, 32 take it off the bus. False: the
+    /// station is not on the bus.
+    pub fn disturb(&mut self, id: StationId, frames: u32) -> bool {
+        match self.position(id) {
+            Some(drive) => self.disturb_at(drive, frames),
+            None => false,
+        }
+    }
+
+    /// [`SegmentBus::disturb`] of the station at `drive` in segment order.
+    fn disturb_at(&mut self, drive: usize, frames: u32) -> bool {
         self.fit_faults();
         match self.faults.get_mut(drive) {
             Some(f) => {
@@ -248,9 +258,9 @@ impl SegmentBus {
         self.wire.faults_mut().active(now).to_vec()
     }
 
-    /// Each station's CAN controller, in segment order.
-    pub fn node_faults(&self) -> &[NodeFaults] {
-        &self.faults
+    /// Each station's CAN controller, with the station's id (in segment order).
+    pub fn node_faults(&self) -> impl Iterator<Item = (StationId, &NodeFaults)> {
+        self.members.iter().copied().zip(self.faults.iter())
     }
 
     /// Boots every drive of the bus; the boot-up messages go to `out`.
@@ -283,17 +293,20 @@ impl SegmentBus {
         self.deliver(stations, now, out);
     }
 
-    /// A local interface (a serial port, a terminal) of station `drive` (segment order)
-    /// reaches its objects at `now` through `f`; the frames the drive sends meanwhile go to
-    /// `out`.
+    /// A local interface (a serial port, a terminal) of station `id` reaches its objects at
+    /// `now` through `f`; the frames the drive sends meanwhile go to `out` (nothing happens
+    /// for a station not on the bus).
     pub fn local_access(
         &mut self,
         stations: &mut Stations,
-        drive: usize,
+        id: StationId,
         now: Instant,
         out: &mut Vec<CanFrame>,
         f: &mut dyn FnMut(&mut dyn od::ObjectAccess),
     ) {
+        let Some(drive) = self.position(id) else {
+            return;
+        };
         let SegmentBus { members, queue, .. } = self;
         let Some(d) = member(stations, members, drive) else {
             return;
@@ -310,8 +323,8 @@ impl SegmentBus {
         out: &mut Vec<CanFrame>,
     ) -> Option<Instant> {
         self.fit_faults();
+        self.poll_by = None;
         self.start_planned(stations, now);
-        self.start_planned_diagnostics(stations, now);
         self.release_delayed(stations, now, out);
         let SegmentBus {
             members,
@@ -334,10 +347,7 @@ impl SegmentBus {
 
     pub fn deadline(&self, stations: &Stations) -> Option<Instant> {
         let bus = self.timing.as_ref().and_then(|t| t.deadline());
-        let planned = earliest(
-            self.planned.iter().map(|(t, _, _)| *t).min(),
-            self.planned_diagnostics_deadline(),
-        );
+        let planned = earliest(self.planned.iter().map(|(t, _, _)| *t).min(), self.poll_by);
         let planned = earliest(planned, self.wire.deadline());
         let recovery = self
             .faults
@@ -379,7 +389,7 @@ impl SegmentBus {
                 .position(|id| stations.station(*id).is_some_and(|d| d.node_id() == node));
             match on_bus {
                 Some(d) => {
-                    self.disturb(d, frames);
+                    self.disturb_at(d, frames);
                 }
                 None => tracing::warn!(node, "disturbance planned for a node not on the bus"),
             }

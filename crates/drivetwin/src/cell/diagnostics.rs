@@ -4,13 +4,12 @@
 //! its own supervision had raised the message (`drive::drive::diagnostics`).
 
 use drive::drive::diagnostics::{emcy_code, DiagnosticError};
-use od::{Diagnostic, Instant};
+use od::Diagnostic;
 use serde::Deserialize;
 
-use super::can_segment::SegmentBus;
 use super::control::ControlError;
 use super::device_model::Model;
-use super::stations::Stations;
+use super::stations::StationId;
 
 /// One message of a drive's table and whether it is active now.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -135,82 +134,42 @@ pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
 }
 
 impl super::can_cell::CanCell {
-    /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of the
-    /// station at `at`: the drive reacts as if it had detected it (reaction, EMCY, 1003h,
+    /// Raises diagnostic message `number` ("08-2", as the drive's manual prints it) of
+    /// station `id`: the drive reacts as if it had detected it (reaction, EMCY, 1003h,
     /// statusword, display) and keeps it until [`Self::clear_diagnostic`]. The frames go out
     /// at its bus's next poll.
     pub fn raise_diagnostic(
         &mut self,
-        at: super::OnBus,
+        id: StationId,
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
-        self.act_on_diagnostic(at, number, Action::Raise)
+        self.act_on_diagnostic(id, number, Action::Raise)
     }
 
     /// Clears message `number` raised by [`Self::raise_diagnostic`].
     pub fn clear_diagnostic(
         &mut self,
-        at: super::OnBus,
+        id: StationId,
         number: &str,
     ) -> Result<&'static Diagnostic, ControlError> {
-        self.act_on_diagnostic(at, number, Action::Clear)
+        self.act_on_diagnostic(id, number, Action::Clear)
     }
 
-    /// The diagnostic table of the station at `at`, with what is active.
-    pub fn diagnostics(&self, at: super::OnBus) -> Result<Vec<DiagnosticState>, ControlError> {
-        let d = self.station(at).ok_or(ControlError::NoDrive(at.drive))?;
+    /// The diagnostic table of station `id`, with what is active.
+    pub fn diagnostics(&self, id: StationId) -> Result<Vec<DiagnosticState>, ControlError> {
+        let d = self.station(id).ok_or(ControlError::NoDrive(id.index()))?;
         Ok(list_model(&d.model))
     }
 
     fn act_on_diagnostic(
         &mut self,
-        at: super::OnBus,
+        id: StationId,
         number: &str,
         action: Action,
     ) -> Result<&'static Diagnostic, ControlError> {
         let d = self
-            .station_mut(at)
-            .ok_or(ControlError::NoDrive(at.drive))?;
+            .station_mut(id)
+            .ok_or(ControlError::NoDrive(id.index()))?;
         set_model(&mut d.model, number, action).map_err(refused)
-    }
-}
-
-impl SegmentBus {
-    /// Plans raising (or clearing) a diagnostic message of drive `drive` (segment order) at
-    /// `at` (the cell file's `[[drive.diagnostic]]`).
-    pub fn plan_diagnostic(&mut self, at: Instant, drive: usize, planned: PlannedDiagnostic) {
-        self.planned_diagnostics
-            .plan(at, (drive, Planned::Diagnostic(planned)));
-    }
-
-    /// Plans a change of drive `drive`'s plant physics at `at` (the cell file's
-    /// `[[drive.plant]]` and `[drive.thermal]`).
-    pub fn plan_physics(
-        &mut self,
-        at: Instant,
-        drive: usize,
-        change: super::control::PhysicsChange,
-    ) {
-        self.planned_diagnostics
-            .plan(at, (drive, Planned::Physics(change)));
-    }
-
-    /// Carries out the planned changes that are due ([`super::planned::on_model`]).
-    pub(super) fn start_planned_diagnostics(&mut self, stations: &mut Stations, now: Instant) {
-        while let Some((drive, what)) = self.planned_diagnostics.take_due(now) {
-            let station = self.member(drive).and_then(|id| stations.station_mut(id));
-            let done = match station {
-                Some(d) => super::planned::on_model(&mut d.model, &what),
-                None => Err(super::planned::PlanError::NoDrive),
-            };
-            if let Err(e) = done {
-                tracing::warn!(drive, ?what, "planned change: {e}");
-            }
-        }
-    }
-
-    /// The earliest planned change.
-    pub(super) fn planned_diagnostics_deadline(&self) -> Option<Instant> {
-        self.planned_diagnostics.deadline()
     }
 }

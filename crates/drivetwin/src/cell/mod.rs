@@ -38,10 +38,3 @@ pub mod wire_faults;
 
 mod vendor_seams;
 pub use vendor_seams::Vendors;
-
-/// A station on a CAN bus: the bus's index in the cell, the station's in its segment.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct OnBus {
-    pub bus: usize,
-    pub drive: usize,
-}

@@ -1,12 +1,15 @@
 //! What a cell file plans for its drives (`[[drive.diagnostic]]`, `[[drive.plant]]`,
-//! `[drive.thermal]`): a [`Timeline`] of changes on the cell's clock, carried out by what
-//! steps the drives at each change's time, as a timer of the cell like any other. A CAN bus
-//! keeps the plans of its stations ([`super::can_segment::SegmentBus`],
-//! `SegmentBus::plan_diagnostic`, `SegmentBus::plan_physics`), on either clock; the cell
-//! loop keeps those of the drives outside the CAN buses, a CMMO-ST on Modbus TCP and an
-//! EtherCAT-only drive ([`OutsidePlans`], `crate::cell_loop::FrontEnds::plans`). Both carry
-//! a change out with [`on_model`] or [`on_modbus`], the functions the control handle's
-//! requests use as well.
+//! `[drive.thermal]`): one [`Timeline`] of the cell ([`super::can_cell::CanCell::plan`]),
+//! each change keyed by the drive it is for ([`Planee`]: a station by its
+//! [`StationId`], or a drive served over Modbus TCP), carried out on the cell's clock by
+//! whatever steps the cell (the cell loop, the virtual clock, the scenario rig, the cell FMU
+//! through the rig), as a timer of the cell like a drive's step
+//! ([`super::can_cell::CanCell::carry_out_plans`]). A change is carried out with [`on_model`]
+//! or [`on_modbus`], the functions the control handle's requests use as well.
+//!
+//! The drives outside the CAN buses join the cell after it is built (an EtherCAT chain's own
+//! drives when the chain joins it): their plans are found by [`outside_plans`] with a
+//! [`Locator`], which whoever joins them turns into a [`Planee`].
 
 use std::collections::VecDeque;
 
@@ -17,6 +20,17 @@ use super::config::DriveSpec;
 use super::device_model::Model;
 use super::diagnostics::{set_model, Planned};
 use super::modbus_device::ModbusDevice;
+use super::stations::StationId;
+
+/// The drive a planned change is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Planee {
+    /// A station of the cell's list (on a CAN bus, an EtherCAT chain's own drive).
+    Station(StationId),
+    /// The k-th drive served over Modbus TCP (the CMMO-ST), which is not a station: whoever
+    /// steps the cell holds it.
+    Modbus(usize),
+}
 
 /// How the cell finds a drive outside the CAN buses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -125,6 +139,17 @@ impl<T> Timeline<T> {
         self.plans.pop_front().map(|(_, what)| what)
     }
 
+    /// The first change due by `now` for which `mine` holds, taken off the timeline (the
+    /// others stay, in their order).
+    pub fn take_due_if(&mut self, now: Instant, mine: impl Fn(&T) -> bool) -> Option<T> {
+        let at = self
+            .plans
+            .iter()
+            .take_while(|(t, _)| *t <= now)
+            .position(|(_, what)| mine(what))?;
+        self.plans.remove(at).map(|(_, what)| what)
+    }
+
     pub fn is_empty(&self) -> bool {
         self.plans.is_empty()
     }
@@ -199,5 +224,23 @@ mod tests {
         assert_eq!(t.take_due(now), Some((3, ambient(3.0))));
         assert_eq!(t.take_due(now), None);
         assert!(t.is_empty());
+    }
+
+    #[test]
+    fn a_change_taken_by_its_drive_leaves_the_others_in_order() {
+        let mut t = Timeline::default();
+        t.plan(Instant::from_millis(10), (1, ambient(1.0)));
+        t.plan(Instant::from_millis(10), (2, ambient(2.0)));
+        t.plan(Instant::from_millis(10), (1, ambient(3.0)));
+        t.plan(Instant::from_millis(30), (2, ambient(4.0)));
+        let now = Instant::from_millis(20);
+        assert_eq!(
+            t.take_due_if(now, |(d, _)| *d == 2),
+            Some((2, ambient(2.0)))
+        );
+        assert_eq!(t.take_due_if(now, |(d, _)| *d == 2), None, "4.0 is not due");
+        assert_eq!(t.take_due(now), Some((1, ambient(1.0))));
+        assert_eq!(t.take_due(now), Some((1, ambient(3.0))));
+        assert_eq!(t.deadline(), Some(Instant::from_millis(30)));
     }
 }

@@ -40,12 +40,12 @@ impl CellLoop {
                             drives: b.members().len(),
                             timing: b.bus_figures(t),
                             node_errors: b
-                                .stations(stations)
-                                .zip(b.node_faults())
+                                .node_faults()
                                 .filter(|(_, f)| f.confinement.counters() != (0, 0))
-                                .map(|(d, f)| {
+                                .filter_map(|(id, f)| {
+                                    let d = stations.station(id)?;
                                     let (tec, rec) = f.confinement.counters();
-                                    (d.node_id(), f.confinement.state(), tec, rec)
+                                    Some((d.node_id(), f.confinement.state(), tec, rec))
                                 })
                                 .collect(),
                         })
@@ -61,8 +61,10 @@ impl CellLoop {
                     let segment = self.cell.buses.get_mut(bus);
                     let stations = &self.cell.stations;
                     let at = segment.and_then(|c| {
-                        let i = c.stations(stations).position(|d| d.node_id() == node)?;
-                        Some(c.disturb(i, frames))
+                        let id = c.members().iter().copied().find(|id| {
+                            stations.station(*id).is_some_and(|d| d.node_id() == node)
+                        })?;
+                        Some(c.disturb(id, frames))
                     });
                     let _ = reply.send(match at {
                         Some(true) => Ok(()),
@@ -379,7 +381,7 @@ impl CellLoop {
         for bus in &self.cell.buses {
             let n = bus.members().len();
             if rest < n {
-                let id = bus.member(rest);
+                let id = bus.members().get(rest).copied();
                 return match id.and_then(|id| self.cell.stations.station_mut(id)) {
                     Some(d) => Ok(Target::Can(&mut d.model)),
                     None => Err(ControlError::NoDrive(drive)),

@@ -187,8 +187,9 @@ pub struct FrontEnds {
     pub busy_poll: bool,
     /// What only the drives' vendors tell (the display a drive has).
     pub views: DriveViews,
-    /// What the cell file plans for the drives outside the CAN buses (a bus keeps its
-    /// stations' own plans): carried out by the loop at their times on its clock.
+    /// What the cell file plans for the drives outside the CAN buses (a CMMO-ST on Modbus
+    /// TCP, an EtherCAT chain's own drive), which join the cell as the loop starts: put on
+    /// the cell's timeline then, by the id each has (the CAN stations' are on it already).
     pub plans: Vec<crate::cell::planned::OutsidePlans>,
     /// The faults the cell file plans for the EtherCAT lines (`[[ethercat_line]]`): carried
     /// out by the loop at their times on its clock.
@@ -281,8 +282,9 @@ pub struct CellLoop {
     /// The order in which the front ends' faults held their frames, over all of them: what
     /// is due at one turn is released in that order ([`Arrivals`]).
     arrivals: Arrivals,
-    /// What the cell file plans for the drives outside the CAN buses ([`plans`]).
-    plans: crate::cell::planned::Timeline<plans::LoopPlan>,
+    /// The faults the cell file plans for the EtherCAT lines: (chain, action) ([`plans`]);
+    /// the drives' plans are the cell's.
+    line_plans: crate::cell::planned::Timeline<(usize, crate::cell::ethercat_line::LineAction)>,
 }
 
 /// A subscriber to a drive's samples: the plant alone, or the plant with named objects.
@@ -476,7 +478,8 @@ impl CellLoop {
                 pending_exchange: None,
             })
             .collect();
-        let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
+        plans::plan_outside(&mut cell, front.plans, &chains, front.modbus.len());
+        let line_plans = plans::line_timeline(front.line_plans, &chains);
         Ok(CellLoop {
             control_tx,
             control_rx,
@@ -502,7 +505,7 @@ impl CellLoop {
             modbus: front.modbus,
             chains,
             arrivals,
-            plans,
+            line_plans,
             serial: front.serial,
             serial_sent: Vec::new(),
             chains_to_read: Vec::new(),
@@ -762,8 +765,8 @@ impl CellLoop {
                 (a, b) => a.or(b),
             }
         };
-        for bus in &self.cell.buses {
-            take(bus.deadline(&self.cell.stations).map(|d| self.wall(d)));
+        for (b, bus) in self.cell.buses.iter().enumerate() {
+            take(self.cell.deadline_of(b).map(|d| self.wall(d)));
             if bus.port().unflushed() {
                 take(Some(Instant::now() + Duration::from_millis(20)));
             }
@@ -793,13 +796,13 @@ impl CellLoop {
             take(l.deadline().map(|d| self.wall(d)));
         }
         take(self.held_deadline());
-        take(self.plans.deadline().map(|d| self.wall(d)));
+        take(self.plans_deadline().map(|d| self.wall(d)));
         handle::with_samples(at, self.subscriptions.iter().map(|s| s.next).min())
     }
 
     fn timers(&mut self, now: Instant) {
         let t = self.now(now);
-        if let Some(due) = self.plans.deadline().filter(|d| *d <= t) {
+        if let Some(due) = self.plans_deadline().filter(|d| *d <= t) {
             self.lateness.record(t.saturating_since(due));
             self.carry_out_plans(now);
         }

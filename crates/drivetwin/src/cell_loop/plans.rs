@@ -1,45 +1,29 @@
-//! What the cell file plans for the loop to carry out: the changes of the drives outside the
-//! CAN buses (a CMMO-ST on Modbus TCP, an EtherCAT-only drive; [`crate::cell::planned`]) and
-//! the faults of the EtherCAT lines (`[[ethercat_line]]`, [`crate::cell::ethercat_line`]). A
-//! timer of the loop like a drive's step, carried out at its time on the loop's clock before
-//! the drives due at that turn step. A CAN bus carries out its stations' plans itself, in the
-//! same way, when the loop polls it.
+//! What the cell file plans for the loop to carry out on its clock: the drives' changes
+//! (`[[drive.diagnostic]]`, `[[drive.plant]]`, `[drive.thermal]`) on the cell's one timeline
+//! ([`crate::cell::planned`], `CanCell::plan`), and the faults of the EtherCAT lines
+//! (`[[ethercat_line]]`, [`crate::cell::ethercat_line`]), which are the loop's chains' links.
+//! Both are timers of the loop like a drive's step, carried out at their time before the
+//! drives due at that turn step.
+//!
+//! The drives outside the CAN buses join the cell as the loop starts (an EtherCAT chain's own
+//! drives when it joins the cell, the Modbus drives as the loop's): [`plan_outside`] puts
+//! their plans on the cell's timeline by the station id (or Modbus drive) each then has.
 
-use crate::cell::diagnostics::Planned;
+use crate::cell::can_cell::CanCell;
 use crate::cell::ethercat_line::{LineAction, TimedLineAction};
-use crate::cell::planned::{self, Locator, OutsidePlans, Timeline};
-use crate::cell::stations::StationId;
+use crate::cell::planned::{self, Locator, OutsidePlans, Planee, Timeline};
 
 use super::{CellLoop, ChainState};
 
-/// The drive a plan of the loop is for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Planee {
-    /// A station of the cell's list (an EtherCAT chain's own drive).
-    Station(StationId),
-    /// A Modbus drive, by its index in the loop's list.
-    Modbus(usize),
-}
-
-/// A change the loop carries out.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) enum LoopPlan {
-    /// A drive's change.
-    Drive(Planee, Planned),
-    /// A fault of chain `chain`'s line.
-    Line(usize, LineAction),
-}
-
-/// The timeline of `plans` and `line_plans`, each drive found among the loop's `chains`
-/// (joined to the cell's list) and its `modbus_drives`, each line by its chain's interface;
-/// a drive or chain not in the cell is left out with a warning.
-pub(super) fn timeline(
+/// Plans `plans` on `cell`'s timeline, each drive found among the loop's `chains` (joined to
+/// the cell's list) and its `modbus_drives`; a drive not in the cell is left out with a
+/// warning.
+pub(super) fn plan_outside(
+    cell: &mut CanCell,
     plans: Vec<OutsidePlans>,
-    line_plans: Vec<TimedLineAction>,
     chains: &[ChainState],
     modbus_drives: usize,
-) -> Timeline<LoopPlan> {
-    let mut timeline = Timeline::default();
+) {
     for p in plans {
         let planee = match p.drive {
             Locator::Modbus(k) => (k < modbus_drives).then_some(Planee::Modbus(k)),
@@ -55,9 +39,18 @@ pub(super) fn timeline(
             continue;
         };
         for (ms, what) in p.plans {
-            timeline.plan(od::Instant::from_millis(ms), LoopPlan::Drive(planee, what));
+            cell.plan(od::Instant::from_millis(ms), planee, what);
         }
     }
+}
+
+/// The timeline of `line_plans`, each line by its chain's interface (chain index, action); a
+/// chain not in the cell is left out with a warning.
+pub(super) fn line_timeline(
+    line_plans: Vec<TimedLineAction>,
+    chains: &[ChainState],
+) -> Timeline<(usize, LineAction)> {
+    let mut timeline = Timeline::default();
     for a in line_plans {
         // The chain on `interface`; none: the first.
         let chain = chains.iter().position(|c| {
@@ -71,37 +64,30 @@ pub(super) fn timeline(
         };
         let at = a.at.map_or(std::time::Duration::ZERO, |t| t.0);
         let at = od::Instant::from_nanos(u64::try_from(at.as_nanos()).unwrap_or(u64::MAX));
-        timeline.plan(at, LoopPlan::Line(chain, a.action));
+        timeline.plan(at, (chain, a.action));
     }
     timeline
 }
 
 impl CellLoop {
-    /// Carries out the plans due by `now`.
+    /// The time of the first plan still to come, the drives' or the lines'.
+    pub(super) fn plans_deadline(&self) -> Option<od::Instant> {
+        od::time::earliest(self.cell.plans_deadline(), self.line_plans.deadline())
+    }
+
+    /// Carries out the plans due by `now`: the drives' (the Modbus drives' on the loop's
+    /// own), then the lines'.
     pub(super) fn carry_out_plans(&mut self, now: std::time::Instant) {
         let t = self.now(now);
-        while let Some(plan) = self.plans.take_due(t) {
-            let (planee, what) = match plan {
-                LoopPlan::Drive(planee, what) => (planee, what),
-                LoopPlan::Line(chain, action) => {
-                    if let Err(e) = self.ethercat_line(chain, Some(action), now) {
-                        tracing::warn!(chain, ?action, "[[ethercat_line]]: {e}");
-                    }
-                    continue;
-                }
-            };
-            let done = match planee {
-                Planee::Station(id) => match self.cell.stations.station_mut(id) {
-                    Some(s) => planned::on_model(&mut s.model, &what),
-                    None => Err(planned::PlanError::NoDrive),
-                },
-                Planee::Modbus(k) => match self.modbus.get_mut(k) {
-                    Some(m) => planned::on_modbus(m.device_mut(), &what),
-                    None => Err(planned::PlanError::NoDrive),
-                },
-            };
-            if let Err(e) = done {
-                tracing::warn!(?planee, ?what, "planned change: {e}");
+        let modbus = &mut self.modbus;
+        self.cell
+            .carry_out_plans(t, &mut |k, what| match modbus.get_mut(k) {
+                Some(m) => planned::on_modbus(m.device_mut(), what),
+                None => Err(planned::PlanError::NoDrive),
+            });
+        while let Some((chain, action)) = self.line_plans.take_due(t) {
+            if let Err(e) = self.ethercat_line(chain, Some(action), now) {
+                tracing::warn!(chain, ?action, "[[ethercat_line]]: {e}");
             }
         }
     }

@@ -1,5 +1,9 @@
 //! The virtual clock: it jumps from one deadline to the next, so the same cell and inputs give
 //! the same frames bit for bit. Real time is the cell loop's ([`crate::cell_loop`]).
+//!
+//! What the cell file plans for the drives is on the cell's timeline
+//! ([`CanCell::carry_out_plans`]): at one instant the changes due come first, before the
+//! Modbus cycles and the buses' timers, as in the cell loop.
 
 use std::time::Duration;
 
@@ -8,6 +12,7 @@ use od::time::earliest;
 use od::Instant;
 
 use crate::cell::can_cell::CanCell;
+use crate::cell::planned::{self, PlanError};
 use crate::cell::stations::StationId;
 use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
@@ -63,6 +68,7 @@ pub fn run_virtual(
             }
             next_input += 1;
         } else {
+            cell.carry_out_plans(now, &mut |_, _| Err(PlanError::NoDrive));
             poll_due(cell, now, &mut out);
         }
     }
@@ -130,7 +136,8 @@ impl LineDrives for CellLineDrives<'_> {
 
 /// Runs the CAN buses of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
 /// on one virtual clock from 0 to `until`, feeding `inputs` (sorted by time); everything the
-/// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: Modbus
+/// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: the
+/// planned changes due (the cell's timeline, a Modbus drive's as `modbus[k]`'s), Modbus
 /// cycles, then the CAN buses' timers (in bus order), then the chains' timers, then the input,
 /// so the same cell and inputs give the same outputs bit for bit. The chains join the cell
 /// first ([`SlaveChain::join_cell`]): their own drives become stations of its list, and a slave
@@ -209,6 +216,10 @@ pub fn run_virtual_lines(
             break;
         }
         now = wake.max(now);
+        cell.carry_out_plans(now, &mut |k, what| match modbus.get_mut(k) {
+            Some(m) => planned::on_modbus(m.device_mut(), what),
+            None => Err(PlanError::NoDrive),
+        });
         for m in modbus.iter_mut() {
             m.cycle(now);
         }

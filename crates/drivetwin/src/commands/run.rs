@@ -4,7 +4,6 @@ use drivetwin::cell::bus_rate::BusRate;
 use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::{BusSection, Ports};
 use drivetwin::cell::stations::StationId;
-use drivetwin::cell::OnBus;
 use drivetwin::cell_loop::{CanBus, CellLoop, EthercatChain, FrontEnds, TerminalPort};
 use drivetwin::cosim::FmuLoadError;
 use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
@@ -64,20 +63,28 @@ pub(crate) fn esi(
     }
 }
 
+/// A drive's planned changes: its `[[drive.diagnostic]]` and its plant's (`[drive.thermal]`,
+/// `[[drive.plant]]`: ms on the cell's clock, the change).
+type Planned = (
+    Vec<drivetwin::cell::diagnostics::PlannedDiagnostic>,
+    Vec<(u64, drivetwin::cell::control::PhysicsChange)>,
+);
+
 /// The cell of the stations that are on CAN, one bus per bus of the cell file (`buses` of
 /// them, running at `rates`; the stations in bus order), and for each drive of `specs` (the
 /// cell file's, in order) its station (`None`: a CMMO-ST, an EtherCAT-only drive, or its
-/// switches keep it off the bus).
+/// switches keep it off the bus); the stations' planned changes on the cell's timeline.
 pub(crate) fn build_cell(
     specs: Vec<DriveSpec>,
     buses: &[BusSection],
     rates: &[BusRate],
     state_dir: Option<&PathBuf>,
 ) -> Result<(CanCell, Vec<Option<StationId>>), CommandError> {
-    let mut drives: Vec<Vec<Station>> = buses.iter().map(|_| Vec::new()).collect();
+    // Each bus's stations, in segment order, each with its drive's place among `specs` and
+    // its planned changes (`[[drive.diagnostic]]`, `[[drive.plant]]`).
+    let mut drives: Vec<Vec<(Station, usize, Planned)>> =
+        buses.iter().map(|_| Vec::new()).collect();
     let mut in_cell = Vec::new();
-    // `[[drive.diagnostic]]`: (bus, station in its segment, messages).
-    let mut diagnostics = Vec::new();
     for mut spec in specs {
         in_cell.push(None);
         if spec.fhpp.is_some() || !spec.canopen {
@@ -132,20 +139,27 @@ pub(crate) fn build_cell(
         if shared {
             drive.serve_coe();
         }
-        on_bus.push(drive);
-        if !planned.is_empty() || !physics.is_empty() {
-            diagnostics.push((bus, on_bus.len() - 1, planned, physics));
-        }
-        if let Some(last) = in_cell.last_mut() {
-            *last = Some(OnBus {
-                bus,
-                drive: on_bus.len() - 1,
-            });
-        }
+        on_bus.push((drive, in_cell.len() - 1, (planned, physics)));
     }
     let mut cell = CanCell::new();
     for (d, (section, rate)) in drives.into_iter().zip(buses.iter().zip(rates)) {
-        let b = cell.add_bus(d);
+        let mut stations = Vec::with_capacity(d.len());
+        let mut places = Vec::with_capacity(d.len());
+        for (station, spec, plans) in d {
+            stations.push(station);
+            places.push((spec, plans));
+        }
+        let ids = cell.push_stations(stations);
+        for (id, (spec, (diagnostics, physics))) in ids.iter().zip(places) {
+            if let Some(slot) = in_cell.get_mut(spec) {
+                *slot = Some(*id);
+            }
+            let who = drivetwin::cell::planned::Planee::Station(*id);
+            cell.plan_drive(who, diagnostics, physics);
+        }
+        cell.buses
+            .push(drivetwin::cell::can_segment::SegmentBus::new(ids));
+        let b = cell.buses.len() - 1;
         let Some(segment) = cell.bus_mut(b) else {
             continue;
         };
@@ -156,20 +170,6 @@ pub(crate) fn build_cell(
             segment.plan_disturbance(od::Instant::from_millis(p.at_ms), p.node, p.frames);
         }
     }
-    for (bus, drive, planned, physics) in diagnostics {
-        if let Some(segment) = cell.bus_mut(bus) {
-            for p in planned {
-                segment.plan_diagnostic(od::Instant::from_millis(p.at_ms), drive, p);
-            }
-            for (at_ms, change) in physics {
-                segment.plan_physics(od::Instant::from_millis(at_ms), drive, change);
-            }
-        }
-    }
-    let in_cell = in_cell
-        .into_iter()
-        .map(|at| at.and_then(|at| cell.id_at(at)))
-        .collect();
     Ok((cell, in_cell))
 }
 
@@ -799,7 +799,7 @@ fn ethercat_chains(
             match in_cell.get(i).copied().flatten() {
                 Some(id) => SlaveDrive::Station {
                     id,
-                    bus: cell.place_of(id).map(|at| at.bus),
+                    bus: cell.bus_of(id),
                 },
                 None => {
                     return Err(CommandError::Usage(format!(

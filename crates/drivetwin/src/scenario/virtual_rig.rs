@@ -5,9 +5,11 @@
 //! two runs give the same file), the trace of that bus's port
 //! ([`crate::cell::can_segment::SegmentBus::port`]) as in the cell loop.
 //!
-//! Decisions: at one instant the buses are polled in their order, so a run is the same bit
-//! for bit; a step's `node` is looked up on the buses in order (the first bus that has it),
-//! a frame, an SDO write, a fault go to the step's `bus`.
+//! Decisions: at one instant the planned changes due come first (the cell's timeline,
+//! [`CanCell::carry_out_plans`], a CMMO-ST's too), then the Modbus cycles, then the buses
+//! in their order, so a run is the same bit for bit; a step's `node` is looked up on the
+//! buses in order (the first bus that has it) and reaches that station by its id, a frame,
+//! an SDO write, a fault go to the step's `bus`.
 
 use std::path::Path;
 use std::time::Duration;
@@ -22,8 +24,10 @@ use crate::cell::can_segment::SegmentBus;
 use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
+use crate::cell::planned::{self, PlanError, Planee};
 use crate::cell::station::Station;
-use crate::cell::{OnBus, Vendors};
+use crate::cell::stations::StationId;
+use crate::cell::Vendors;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
 
@@ -35,8 +39,8 @@ pub struct VirtualRig {
     cell: CanCell,
     now: Instant,
     out: Vec<CanFrame>,
-    /// The inputs each drive has forced so far: (mask, levels), per bus and drive.
-    forced: Vec<Vec<(u16, u16)>>,
+    /// The inputs each station has forced so far: (mask, levels), by station id.
+    forced: Vec<(u16, u16)>,
     /// Frames sent and not yet seen, with their bus.
     pending: Vec<(usize, CanFrame)>,
     /// The CMMO-STs (FHPP over Modbus TCP, no socket: requests come from the steps), by the
@@ -72,15 +76,15 @@ impl VirtualRig {
         let mut drives: Vec<Vec<Station>> = sections.iter().map(|_| Vec::new()).collect();
         let mut plans: Vec<Vec<_>> = sections.iter().map(|_| Vec::new()).collect();
         let mut modbus = Vec::new();
+        // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` of the CMMO-STs.
+        let mut modbus_plans = Vec::new();
         for mut spec in specs {
             if let Some(fhpp) = &spec.fhpp {
-                if !spec.diagnostics.is_empty() || !spec.physics.is_empty() {
-                    return Err(cell_err(format!(
-                        "drive {} node {}: on the virtual clock a CMMO-ST's changes are \
-                         scenario steps, not [[drive.diagnostic]] / [[drive.plant]]",
-                        spec.desc.name, spec.node
-                    )));
-                }
+                modbus_plans.push((
+                    modbus.len(),
+                    std::mem::take(&mut spec.diagnostics),
+                    std::mem::take(&mut spec.physics),
+                ));
                 modbus.push((
                     spec.node,
                     served(&spec, fhpp, modbus_device).map_err(cell_err)?,
@@ -129,12 +133,17 @@ impl VirtualRig {
         for (_, m) in &mut modbus {
             m.open_connection(Instant::ZERO);
         }
-        let forced = drives.iter().map(|d| vec![(0, 0); d.len()]).collect();
         let mut out = Vec::with_capacity(256);
         let mut cell = CanCell::new();
         for (((d, section), rate), plans) in drives.into_iter().zip(sections).zip(&rates).zip(plans)
         {
-            let bus = SegmentBus::new(cell.push_stations(d));
+            let ids = cell.push_stations(d);
+            // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual
+            // clock, by station.
+            for (id, (diagnostics, physics)) in ids.iter().zip(plans) {
+                cell.plan_drive(Planee::Station(*id), diagnostics, physics);
+            }
+            let bus = SegmentBus::new(ids);
             let mut bus = match rate.bitrate() {
                 Some(bitrate) => bus.with_bitrate(bitrate, section.late_after()),
                 None => bus,
@@ -142,18 +151,12 @@ impl VirtualRig {
             for p in &section.disturb {
                 bus.plan_disturbance(Instant::from_millis(p.at_ms), p.node, p.frames);
             }
-            // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual
-            // clock.
-            for (drive, (diagnostics, physics)) in plans.into_iter().enumerate() {
-                for p in diagnostics {
-                    bus.plan_diagnostic(Instant::from_millis(p.at_ms), drive, p);
-                }
-                for (at_ms, change) in physics {
-                    bus.plan_physics(Instant::from_millis(at_ms), drive, change);
-                }
-            }
             cell.buses.push(bus);
         }
+        for (k, diagnostics, physics) in modbus_plans {
+            cell.plan_drive(Planee::Modbus(k), diagnostics, physics);
+        }
+        let forced = vec![(0, 0); cell.stations.len()];
         let mut rig = VirtualRig {
             cell,
             now: Instant::ZERO,
@@ -225,41 +228,27 @@ impl VirtualRig {
         }
     }
 
-    /// Bus and place of the drive with node-ID `node` (the first drive of the first bus
-    /// without one).
-    fn drive(&self, node: Option<u8>) -> Result<(usize, usize), String> {
-        match node {
-            None => self
-                .cell
-                .buses
-                .iter()
-                .position(|c| !c.members().is_empty())
-                .map(|b| (b, 0))
-                .ok_or_else(|| "no drive".to_string()),
-            Some(n) => (0..self.cell.buses.len())
-                .find_map(|b| {
-                    self.cell
-                        .on_bus(b)
-                        .position(|d| d.node_id() == n)
-                        .map(|i| (b, i))
-                })
-                .ok_or_else(|| format!("no node {n} in the cell")),
-        }
+    /// The bus and the id of the station with node-ID `node` (the first station of the
+    /// first bus without one).
+    fn drive(&self, node: Option<u8>) -> Result<(usize, StationId), String> {
+        (0..self.cell.buses.len())
+            .find_map(|b| Some((b, self.drive_on(b, node).ok()?)))
+            .ok_or_else(|| match node {
+                None => "no drive".to_string(),
+                Some(n) => format!("no node {n} in the cell"),
+            })
     }
 
-    /// Drive `node` on bus `bus` (the bus's first without a node).
-    fn drive_on(&self, bus: usize, node: Option<u8>) -> Result<usize, String> {
+    /// The station with node-ID `node` on bus `bus` (the bus's first without a node).
+    fn drive_on(&self, bus: usize, node: Option<u8>) -> Result<StationId, String> {
         let c = self.segment(bus)?;
-        match node {
-            None => (!c.members().is_empty())
-                .then_some(0)
-                .ok_or("no drive".into()),
-            Some(n) => self
-                .cell
-                .on_bus(bus)
-                .position(|d| d.node_id() == n)
-                .ok_or_else(|| format!("no node {n} on bus {bus}")),
-        }
+        let found = c.members().iter().copied().find(|id| {
+            node.is_none_or(|n| self.cell.station(*id).is_some_and(|d| d.node_id() == n))
+        });
+        found.ok_or_else(|| match node {
+            None => "no drive".to_string(),
+            Some(n) => format!("no node {n} on bus {bus}"),
+        })
     }
 
     /// The CMMO-ST with node-ID `node` (a CANopen node of that number wins).
@@ -292,22 +281,13 @@ impl VirtualRig {
             .ok_or_else(|| format!("bus {bus}: the cell has {n} bus(es)"))
     }
 
-    /// The station at place `i` of bus `b`.
-    fn station(&self, (b, i): (usize, usize)) -> Result<&Station, String> {
-        self.segment(b)?;
-        self.cell
-            .station(OnBus { bus: b, drive: i })
-            .ok_or_else(|| "no drive".to_string())
+    /// Station `id`.
+    fn station(&self, id: StationId) -> Result<&Station, String> {
+        self.cell.station(id).ok_or_else(|| "no drive".to_string())
     }
 
-    fn encode(
-        &self,
-        (b, i): (usize, usize),
-        index: u16,
-        sub: u8,
-        value: &str,
-    ) -> Result<Vec<u8>, String> {
-        let d = self.station((b, i))?;
+    fn encode(&self, id: StationId, index: u16, sub: u8, value: &str) -> Result<Vec<u8>, String> {
+        let d = self.station(id)?;
         let e = d
             .od()
             .description()
@@ -316,13 +296,9 @@ impl VirtualRig {
         crate::value_text::encode(e.data_type, value)
     }
 
-    fn plant(
-        &mut self,
-        (b, i): (usize, usize),
-    ) -> Result<&mut drive::vendors::AnyDrive<Vec<u8>>, String> {
-        self.segment(b)?;
+    fn plant(&mut self, id: StationId) -> Result<&mut drive::vendors::AnyDrive<Vec<u8>>, String> {
         self.cell
-            .station_mut(OnBus { bus: b, drive: i })
+            .station_mut(id)
             .and_then(|d| d.model.drive_mut().map(|d| &mut **d))
             .ok_or_else(|| "the drive has no simulated plant".to_string())
     }
@@ -439,12 +415,8 @@ impl VirtualRig {
 
     /// The engine of node `node`'s drive (its plant and device control), if it has one.
     pub fn drive_model(&self, node: u8) -> Option<&drive::vendors::AnyDrive<Vec<u8>>> {
-        let (b, i) = self.drive(Some(node)).ok()?;
-        self.cell
-            .station(OnBus { bus: b, drive: i })?
-            .model
-            .drive()
-            .map(|d| &**d)
+        let (_, id) = self.drive(Some(node)).ok()?;
+        self.cell.station(id)?.model.drive().map(|d| &**d)
     }
 
     /// Bus `bus` keeps the frames from outside that cross it ([`crate::cell::can_segment::SegmentBus::report_outside_frames`]).
@@ -499,8 +471,8 @@ impl VirtualRig {
         {
             return Ok(p);
         }
-        let (b, i) = self.drive(Some(node))?;
-        let station = self.station((b, i))?;
+        let (_, id) = self.drive(Some(node))?;
+        let station = self.station(id)?;
         Probe::of_model(&station.model)
             .ok_or_else(|| format!("node {node}: the drive has no simulated plant"))
     }
@@ -547,6 +519,7 @@ impl Rig for VirtualRig {
         loop {
             let wake = (0..self.cell.buses.len())
                 .filter_map(|b| self.cell.deadline_of(b))
+                .chain(self.cell.plans_deadline())
                 .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
                 .min()
                 .filter(|w| *w <= end);
@@ -560,7 +533,14 @@ impl Rig for VirtualRig {
                 break;
             }
             self.now = wake.max(self.now);
-            // Modbus cycles first, then the buses in order (as `run_virtual_mixed`).
+            // The planned changes first, then the Modbus cycles, then the buses in order (as
+            // `run_virtual_mixed`).
+            let modbus = &mut self.modbus;
+            self.cell
+                .carry_out_plans(self.now, &mut |k, what| match modbus.get_mut(k) {
+                    Some((_, m)) => planned::on_modbus(m.device_mut(), what),
+                    None => Err(PlanError::NoDrive),
+                });
             for (_, m) in &mut self.modbus {
                 m.cycle(self.now);
             }
@@ -607,9 +587,9 @@ impl Rig for VirtualRig {
                 value,
             } => {
                 on = *bus;
-                let i = self.drive_on(*bus, *node)?;
-                let bytes = self.encode((*bus, i), *index, *sub, value)?;
-                let node = self.station((*bus, i)).map_or(0, |d| d.node_id());
+                let id = self.drive_on(*bus, *node)?;
+                let bytes = self.encode(id, *index, *sub, value)?;
+                let node = self.station(id).map_or(0, |d| d.node_id());
                 let frame = expedited_download(node, *index, *sub, &bytes)?;
                 self.out.push(frame);
                 self.emit(*bus, seen);
@@ -624,16 +604,14 @@ impl Rig for VirtualRig {
                 sub,
                 value,
             } => {
-                let (b, i) = self.drive(*node)?;
+                let (b, id) = self.drive(*node)?;
                 on = b;
-                let bytes = self.encode((b, i), *index, *sub, value)?;
+                let bytes = self.encode(id, *index, *sub, value)?;
                 let mut result = Ok(());
                 let mut out = std::mem::take(&mut self.out);
-                if let Some(id) = self.cell.id_at(OnBus { bus: b, drive: i }) {
-                    self.cell.local_access(id, now, &mut out, &mut |a| {
-                        result = a.write(*index, *sub, &bytes);
-                    });
-                }
+                self.cell.local_access(id, now, &mut out, &mut |a| {
+                    result = a.write(*index, *sub, &bytes);
+                });
                 self.out = out;
                 result.map_err(|code| {
                     format!(
@@ -644,31 +622,26 @@ impl Rig for VirtualRig {
                 })
             }
             Action::Input { node, din, level } => {
-                let (b, i) = self.drive(*node)?;
+                let (b, id) = self.drive(*node)?;
                 on = b;
-                let (mask, levels) = self
-                    .forced
-                    .get(b)
-                    .and_then(|f| f.get(i))
-                    .copied()
-                    .unwrap_or_default();
+                let (mask, levels) = self.forced.get(id.index()).copied().unwrap_or_default();
                 let bit = 1u16 << din;
                 let forced = (
                     mask | bit,
                     if *level { levels | bit } else { levels & !bit },
                 );
-                self.plant((b, i))
+                self.plant(id)
                     .map_err(|_| "the drive has no simulated inputs".to_string())?
                     .force_inputs(forced.0, forced.1);
-                if let Some(f) = self.forced.get_mut(b).and_then(|f| f.get_mut(i)) {
+                if let Some(f) = self.forced.get_mut(id.index()) {
                     *f = forced;
                 }
                 Ok(())
             }
             Action::Load { node, torque_nm } => {
-                let (b, i) = self.drive(*node)?;
+                let (b, id) = self.drive(*node)?;
                 on = b;
-                self.plant((b, i))
+                self.plant(id)
                     .map_err(|_| "the drive has no simulated motor".to_string())?
                     .axis_mut()
                     .motor_mut()
@@ -676,15 +649,15 @@ impl Rig for VirtualRig {
                 Ok(())
             }
             Action::Physics { node, change } => {
-                let (b, i) = self.drive(*node)?;
+                let (b, id) = self.drive(*node)?;
                 on = b;
-                let d = self.plant((b, i))?;
+                let d = self.plant(id)?;
                 crate::cell::control::apply_physics(d, *change)
                     .map_err(|s| format!("the drive has no input with the function {s}"))?;
                 let now_forced = d.forced_inputs();
                 if let crate::cell::control::PhysicsChange::Switch(..) = change {
                     // A switch forced by name joins the inputs forced by number.
-                    if let Some(f) = self.forced.get_mut(b).and_then(|f| f.get_mut(i)) {
+                    if let Some(f) = self.forced.get_mut(id.index()) {
                         *f = now_forced;
                     }
                 }
@@ -695,13 +668,12 @@ impl Rig for VirtualRig {
                 number,
                 raise,
             } => {
-                let (b, i) = self.drive(*node)?;
+                let (b, id) = self.drive(*node)?;
                 on = b;
-                let at = OnBus { bus: b, drive: i };
                 let done = if *raise {
-                    self.cell.raise_diagnostic(at, number)
+                    self.cell.raise_diagnostic(id, number)
                 } else {
-                    self.cell.clear_diagnostic(at, number)
+                    self.cell.clear_diagnostic(id, number)
                 };
                 done.map(|_| ()).map_err(|e| e.to_string())
             }
@@ -737,8 +709,8 @@ impl Rig for VirtualRig {
                 .map_err(|code| format!("{index:04X}:{sub:02X}: abort {:#010X}", code.0))?;
             return Ok((unsigned(buf.get(..n).unwrap_or(&[])), n));
         }
-        let (b, i) = self.drive(node)?;
-        let d = self.station((b, i))?;
+        let (_, id) = self.drive(node)?;
+        let d = self.station(id)?;
         let mut buf = [0u8; 8];
         let n = d
             .model
