@@ -257,15 +257,17 @@ impl Motor {
         // the mechanics' time): the product differs from the quotient by a few ulp, which
         // changes the floor only within them of a whole increment; there (and for a NaN, an
         // infinity or beyond 2⁵²) the division decides, so the result is the quotient's.
+        // The floor in floating point (`floor_small`): no conversion to an integer and back
+        // on the plant's chain; beyond 2⁵⁰ the tolerance exceeds an increment anyway.
         let y = angle * self.inc_per_rad;
-        let f = crate::rounding::floor_i64(y);
-        let frac = y - f as f64;
-        let tol = 8.0 * f64::EPSILON * libm::fabs(y);
-        if frac > tol && frac < 1.0 - tol {
-            f
-        } else {
-            crate::rounding::floor_i64(angle / self.rad_per_inc)
+        if let Some(f) = crate::rounding::floor_small(y) {
+            let frac = y - f;
+            let tol = 8.0 * f64::EPSILON * libm::fabs(y);
+            if frac > tol && frac < 1.0 - tol {
+                return f as i64;
+            }
         }
+        crate::rounding::floor_i64(angle / self.rad_per_inc)
     }
 
     fn coefficients(&mut self, dt: f64) {
