@@ -21,6 +21,10 @@ fn finite(x: f64) -> f64 {
     }
 }
 
+/// Up to this magnitude (2⁵²) encoder readings are exact in `f64`, and so is the difference
+/// of two.
+const EXACT_INCREMENTS: f64 = 4_503_599_627_370_496.0;
+
 /// What the operating mode asks of the axis for one current-controller cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Demand {
@@ -54,8 +58,9 @@ pub struct Axis {
     vel_pi: Pi,
     pos_int: f64,
     i2t: I2t,
-    /// Encoder reading at the last velocity-controller run.
+    /// Encoder reading at the last velocity-controller run, and as `f64`.
     last_inc: i64,
+    last_inc_f: f64,
     /// Actual speed, filtered by 60F9h:04 (rad/s), and by 2073h (rad/s).
     speed: f64,
     speed_display: f64,
@@ -124,6 +129,7 @@ impl Axis {
         let motor = Motor::new(motor);
         let g = params.gains(motor.data().increments_per_rev);
         let inc = motor.position_increments();
+        let motor_inc_f = motor.position_increments_f();
         Axis {
             motor,
             params,
@@ -135,6 +141,7 @@ impl Axis {
             pos_int: 0.0,
             i2t: I2t::default(),
             last_inc: inc,
+            last_inc_f: motor_inc_f,
             speed: 0.0,
             speed_display: 0.0,
             speed_set: 0.0,
@@ -246,8 +253,19 @@ impl Axis {
 
         // Actual speed from the encoder difference over one velocity cycle, PT1-filtered.
         if vel_run {
-            let raw = inc.wrapping_sub(self.last_inc) as f64 * g.vel_per_inc;
+            // The difference in floating point where both readings are exact there (then so
+            // is the difference, and equal to the integers'): no conversions on the plant's
+            // dependent chain.
+            let inc_f = self.motor.position_increments_f();
+            let diff =
+                if inc_f.abs() <= EXACT_INCREMENTS && self.last_inc_f.abs() <= EXACT_INCREMENTS {
+                    inc_f - self.last_inc_f
+                } else {
+                    inc.wrapping_sub(self.last_inc) as f64
+                };
+            let raw = diff * g.vel_per_inc;
             self.last_inc = inc;
+            self.last_inc_f = inc_f;
             self.speed += (raw - self.speed) * g.vel_filter;
             self.speed_display += (raw - self.speed_display) * g.display_filter;
         }

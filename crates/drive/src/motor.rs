@@ -110,6 +110,9 @@ pub struct Motor {
     angle: f64,
     /// The encoder reading of `angle` (read several times per cycle; set with the angle).
     increments: i64,
+    /// `increments` as `f64` (exact below 2⁵³): the axis's speed measurement takes the
+    /// difference of two readings without a conversion on the plant's dependent chain.
+    increments_f: f64,
     /// Holding brake engaged.
     brake: bool,
     /// External stop: the load is jammed (infinite friction).
@@ -155,6 +158,7 @@ impl Motor {
             velocity: 0.0,
             angle: 0.0,
             increments: 0,
+            increments_f: 0.0,
             brake: false,
             blocked: false,
             stops: (f64::NEG_INFINITY, f64::INFINITY),
@@ -228,7 +232,7 @@ impl Motor {
     /// set-ups).
     pub fn set_angle(&mut self, angle: f64) {
         self.angle = angle;
-        self.increments = self.encoder(angle);
+        (self.increments, self.increments_f) = self.encoder(angle);
     }
 
     /// Electromagnetic torque Kt·i, N·m.
@@ -252,20 +256,29 @@ impl Motor {
         self.increments
     }
 
-    fn encoder(&self, angle: f64) -> i64 {
+    /// [`Motor::position_increments`] as `f64`.
+    #[inline]
+    pub fn position_increments_f(&self) -> f64 {
+        self.increments_f
+    }
+
+    fn encoder(&self, angle: f64) -> (i64, f64) {
         // ⌊angle / rad_per_inc⌋ by a multiplication (the division's latency was a fifth of
         // the mechanics' time): the product differs from the quotient by a few ulp, which
         // changes the floor only within them of a whole increment; there (and for a NaN, an
         // infinity or beyond 2⁵²) the division decides, so the result is the quotient's.
+        // The floor in floating point (`floor_small`): no conversion to an integer and back
+        // on the plant's chain; beyond 2⁵⁰ the tolerance exceeds an increment anyway.
         let y = angle * self.inc_per_rad;
-        let f = crate::rounding::floor_i64(y);
-        let frac = y - f as f64;
-        let tol = 8.0 * f64::EPSILON * libm::fabs(y);
-        if frac > tol && frac < 1.0 - tol {
-            f
-        } else {
-            crate::rounding::floor_i64(angle / self.rad_per_inc)
+        if let Some(f) = crate::rounding::floor_small(y) {
+            let frac = y - f;
+            let tol = 8.0 * f64::EPSILON * libm::fabs(y);
+            if frac > tol && frac < 1.0 - tol {
+                return (f as i64, f);
+            }
         }
+        let f = crate::rounding::floor_i64(angle / self.rad_per_inc);
+        (f, f as f64)
     }
 
     fn coefficients(&mut self, dt: f64) {
@@ -363,7 +376,7 @@ impl Motor {
             w1 = w1.min(0.0);
         }
         self.angle = angle;
-        self.increments = self.encoder(angle);
+        (self.increments, self.increments_f) = self.encoder(angle);
         self.velocity = w1;
     }
 }
@@ -389,7 +402,9 @@ mod tests {
                 let mut above = edge;
                 for _ in 0..8 {
                     for a in [edge, below, above, edge + 0.5 * rpi] {
-                        assert_eq!(motor.encoder(a), reference(a), "{per_rev} {a}");
+                        let (inc, inc_f) = motor.encoder(a);
+                        assert_eq!(inc, reference(a), "{per_rev} {a}");
+                        assert_eq!(inc_f.to_bits(), (inc as f64).to_bits(), "{per_rev} {a}");
                     }
                     below = f64::from_bits(below.to_bits().wrapping_sub(1));
                     above = f64::from_bits(above.to_bits().wrapping_add(1));
@@ -404,7 +419,9 @@ mod tests {
                 0.0,
                 -0.0,
             ] {
-                assert_eq!(motor.encoder(a), reference(a), "{per_rev} {a}");
+                let (inc, inc_f) = motor.encoder(a);
+                assert_eq!(inc, reference(a), "{per_rev} {a}");
+                assert_eq!(inc_f.to_bits(), (inc as f64).to_bits(), "{per_rev} {a}");
             }
         }
     }

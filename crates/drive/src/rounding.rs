@@ -31,6 +31,27 @@ pub fn round_i64(x: f64) -> i64 {
     t + i64::from(frac >= 0.5) - i64::from(frac <= -0.5)
 }
 
+/// `⌊x⌋` (as `floor`) for |x| < 2⁵⁰, in floating point: `x` rounded to the nearest integer
+/// by adding and taking away 1.5·2⁵² (exact below 2⁵¹), less one where that is above `x`.
+/// No conversion to an integer and back: the encoders' readings sit on the plant's
+/// dependent chain. `None` for a larger |x| or a NaN.
+#[inline(always)]
+pub fn floor_small(x: f64) -> Option<f64> {
+    if x.abs() < SMALL {
+        let r = (x + ROUND_MAGIC) - ROUND_MAGIC;
+        Some(r - if r > x { 1.0 } else { 0.0 })
+    } else {
+        None
+    }
+}
+
+/// 1.5·2⁵²: `(x + ROUND_MAGIC) − ROUND_MAGIC` is `x` rounded to the nearest integer (ties
+/// to even) for |x| < 2⁵¹.
+const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// [`floor_small`]'s range (2⁵⁰).
+const SMALL: f64 = 1_125_899_906_842_624.0;
+
 /// Below this magnitude an `f64` may have a fraction; at and above it every one is an
 /// integer (2⁵²).
 const INTEGRAL: f64 = 4_503_599_627_370_496.0;
@@ -66,6 +87,20 @@ mod tests {
     use super::*;
 
     fn check(x: f64) {
+        match floor_small(x) {
+            // The same integer (a zero's sign aside: it is used as an integer and in y − ⌊y⌋
+            // as `floor_i64`'s +0.0).
+            Some(f) => {
+                assert!(x.abs() < SMALL, "floor_small {x}");
+                assert_eq!(f, libm::floor(x), "floor_small {x}");
+                assert_eq!(
+                    f.to_bits(),
+                    (floor_i64(x) as f64).to_bits(),
+                    "floor_small {x}"
+                );
+            }
+            None => assert!(x.is_nan() || x.abs() >= SMALL, "floor_small {x}"),
+        }
         assert_eq!(floor_i64(x), libm::floor(x) as i64, "floor {x}");
         assert_eq!(round_i64(x), libm::round(x) as i64, "round {x}");
         if !x.is_nan() {
@@ -101,6 +136,11 @@ mod tests {
             -f64::MIN_POSITIVE,
             123456.999999,
             -123456.000001,
+            -0.3,
+            1125899906842623.5,
+            -1125899906842623.5,
+            1125899906842624.0,
+            -1125899906842624.5,
         ] {
             check(x);
         }

@@ -563,6 +563,15 @@ fn mul_div(a: i64, b: i64, d: i64, round: bool) -> i64 {
     }
 }
 
+/// What [`Stepper::step`] holds for all its sub-steps.
+#[derive(Debug, Clone, Copy)]
+struct Limits {
+    /// The closed loop's torque limit, N·m: k × the current limit.
+    t_max: f64,
+    /// The chopper's supply voltage, V (≥ 0).
+    supply: f64,
+}
+
 /// State of the simulated stepper motor, load, encoder and controller.
 #[derive(Debug, Clone)]
 pub struct Stepper {
@@ -633,6 +642,9 @@ pub struct Stepper {
     /// The encoder reading of `angle` (read several times per sub-step and per drive cycle;
     /// set with the angle).
     encoder: i64,
+    /// `encoder` as `f64` (exact: the observer's input, read at the start of every sub-step
+    /// without a conversion on its dependent chain).
+    encoder_f: f64,
     velocity: f64,
     ia: f64,
     ib: f64,
@@ -699,6 +711,7 @@ impl Stepper {
             obs_k2h: 0.0,
             angle: 0.0,
             encoder: 0,
+            encoder_f: 0.0,
             velocity: 0.0,
             ia: 0.0,
             ib: 0.0,
@@ -773,7 +786,7 @@ impl Stepper {
         };
         self.detent_compensation = (td - self.kv * self.kp / (8.0 * self.np)).max(0.0);
         self.coeff_h = 0.0;
-        self.encoder = self.encoder_of(self.angle);
+        (self.encoder, self.encoder_f) = self.encoder_of(self.angle);
         self.set_command_vector();
     }
 
@@ -857,7 +870,7 @@ impl Stepper {
     /// and homing scenarios). The set-point is not touched.
     pub fn set_angle(&mut self, angle: f64) {
         self.angle = finite(angle);
-        self.encoder = self.encoder_of(self.angle);
+        (self.encoder, self.encoder_f) = self.encoder_of(self.angle);
         self.velocity = 0.0;
         self.obs_angle = (self.encoder_increments() as f64 + 0.5) * self.rad_per_inc;
         self.obs_vel = 0.0;
@@ -983,11 +996,17 @@ impl Stepper {
         }
         let (n, h) = self.split(dt);
         self.coefficients(h);
+        let limits = self.limits();
         let mut i = 0u32;
+        let mut sc = (0.0, 1.0);
         while i < n {
-            self.substep(h, w_ff, t_ff);
+            sc = self.substep(h, w_ff, t_ff, limits);
             i += 1;
         }
+        // The torque of the last sub-step's currents at its angle (nothing reads the
+        // others'): n ≥ 1 (`split`).
+        let (s, c) = sc;
+        self.torque_em = self.k * (-self.ia * s + self.ib * c);
         self.steps = self.steps.wrapping_add(1);
     }
 
@@ -1012,10 +1031,24 @@ impl Stepper {
         (self.split.1, self.split.2)
     }
 
-    fn substep(&mut self, h: f64, w_ff: f64, t_ff: f64) {
+    /// The bounds a call holds for all its sub-steps (the data and the current limit do
+    /// not change within one): the closed loop's torque limit, the supply voltage.
+    #[inline(always)]
+    fn limits(&self) -> Limits {
+        let i_max = self.data.max_current.max(0.0);
+        let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
+        Limits {
+            t_max: self.k * i_max,
+            supply: self.data.supply_voltage.max(0.0),
+        }
+    }
+
+    /// One sub-step; returns the sine and cosine of the rotor's electrical angle it used.
+    #[inline(always)]
+    fn substep(&mut self, h: f64, w_ff: f64, t_ff: f64, limits: Limits) -> (f64, f64) {
         // Encoder and tracking observer (runs whether or not the stages are energised).
         let inc = self.encoder_increments();
-        let measured = (inc as f64 + 0.5) * self.rad_per_inc;
+        let measured = (self.encoder_f + 0.5) * self.rad_per_inc;
         let e = measured - self.obs_angle;
         self.obs_vel += self.obs_k2h * e;
         self.obs_angle += h * self.obs_vel + self.obs_k1h * e;
@@ -1040,7 +1073,10 @@ impl Stepper {
                         self.np * (self.obs_angle + self.obs_vel * h),
                         self.np * self.angle,
                     ]);
-                    (self.servo(inc, h, w_ff, t_ff, servo_sc), rotor_sc)
+                    (
+                        self.servo(inc, h, w_ff, t_ff, limits.t_max, servo_sc),
+                        rotor_sc,
+                    )
                 }
             }
         };
@@ -1056,8 +1092,8 @@ impl Stepper {
             self.ia = ia_ref;
             self.ib = ib_ref;
         } else {
-            (self.ia, sat_a) = self.chop(self.ia, ia_ref, -kw * s);
-            (self.ib, sat_b) = self.chop(self.ib, ib_ref, kw * c);
+            (self.ia, sat_a) = self.chop(self.ia, ia_ref, -kw * s, limits.supply);
+            (self.ib, sat_b) = self.chop(self.ib, ib_ref, kw * c, limits.supply);
         }
 
         // Torque, its stiffness and the back-EMF damping of saturated phases
@@ -1078,18 +1114,23 @@ impl Stepper {
         if sat_b {
             self.ib = finite(self.ib - bk * c * dw);
         }
-        self.torque_em = self.k * (-self.ia * s + self.ib * c);
+        (s, c)
     }
 
     /// Closed-loop controller: returns the phase-current references; `(s, c)` is the sine
     /// and cosine of the electrical angle the current vector is placed at.
-    fn servo(&mut self, inc: i64, h: f64, w_ff: f64, t_ff: f64, (s, c): (f64, f64)) -> (f64, f64) {
+    fn servo(
+        &mut self,
+        inc: i64,
+        h: f64,
+        w_ff: f64,
+        t_ff: f64,
+        t_max: f64,
+        (s, c): (f64, f64),
+    ) -> (f64, f64) {
         let e = self.sp_inc.wrapping_sub(inc) as f64 * self.rad_per_inc;
         let w_set = self.kv * e + w_ff;
         let ew = w_set - self.obs_vel;
-        let i_max = self.data.max_current.max(0.0);
-        let i_max = self.current_limit.map_or(i_max, |l| l.min(i_max));
-        let t_max = self.k * i_max;
         let t = match self.torque_demand {
             Some(t) => t,
             None => {
@@ -1124,9 +1165,8 @@ impl Stepper {
     /// allows (back-EMF `e` held over the step).
     #[inline]
     /// Returns the new current and whether the bridge saturated.
-    fn chop(&self, i: f64, i_ref: f64, e: f64) -> (f64, bool) {
+    fn chop(&self, i: f64, i_ref: f64, e: f64, vs: f64) -> (f64, bool) {
         let v = (i_ref - self.elec_a * i) * self.elec_inv_b + e;
-        let vs = self.data.supply_voltage.max(0.0);
         let sat = libm::fabs(v) > vs;
         let v = clamp(v, vs);
         (finite(self.elec_a * i + self.elec_b * (v - e)), sat)
@@ -1184,7 +1224,7 @@ impl Stepper {
             }
         }
         self.angle = angle;
-        self.encoder = self.encoder_of(angle);
+        (self.encoder, self.encoder_f) = self.encoder_of(angle);
         self.velocity = w1;
         w1 - w0
     }
@@ -1217,19 +1257,24 @@ impl Stepper {
         self.encoder
     }
 
-    fn encoder_of(&self, angle: f64) -> i64 {
+    /// The encoder reading of `angle`, as `i64` and as `f64`.
+    #[inline(always)]
+    fn encoder_of(&self, angle: f64) -> (i64, f64) {
         // ⌊angle / rad_per_inc⌋, by a multiplication: it differs from the quotient by a few
         // ulp, which changes the floor only within them of a whole increment (a shaft
         // placed on an increment, say); there the division decides.
         let y = angle * self.inc_per_rad;
-        let f = crate::rounding::floor_i64(y);
-        let frac = y - f as f64;
-        let tol = 8.0 * f64::EPSILON * libm::fabs(y);
-        if frac > tol && frac < 1.0 - tol {
-            f
-        } else {
-            crate::rounding::floor(angle / self.rad_per_inc) as i64
+        // ⌊y⌋ in floating point, without the conversions on the observer's dependent
+        // chain (beyond 2⁵⁰ the tolerance below exceeds an increment: the division).
+        if let Some(f) = crate::rounding::floor_small(y) {
+            let frac = y - f;
+            let tol = 8.0 * f64::EPSILON * libm::fabs(y);
+            if frac > tol && frac < 1.0 - tol {
+                return (f as i64, f);
+            }
         }
+        let f = crate::rounding::floor(angle / self.rad_per_inc) as i64;
+        (f, f as f64)
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.

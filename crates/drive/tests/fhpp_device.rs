@@ -446,3 +446,24 @@ fn telegrams_set_within_one_cycle_are_all_taken_in_order() {
     let i = b.until(5000, |i| i.spos.contains(Spos::MC));
     assert!((i.actual2 - 36_000).abs() <= 180, "{i:?}");
 }
+
+/// The actual values are written again after the dictionary was written from outside: a
+/// cycle skips a value the entry already holds, so a store through `od_mut` over PNU 205
+/// (active fault, FFFFh without one) and PNU 221:1 (warnings) must not stand.
+#[test]
+fn actual_values_overwritten_from_outside_are_published_again() {
+    let mut b = Bench::with_mode(StepperMode::ClosedLoop);
+    b.enable_record();
+    b.run(5);
+    let value = |b: &Bench, pnu: u16, sub: u8| b.dev.od().value(0x2000 + pnu, sub);
+    let before = [value(&b, 205, 1), value(&b, 221, 1)];
+    assert_eq!(before[0], Some(od::Value::Unsigned(0xFFFF)), "no fault");
+    for (pnu, sub) in [(205u16, 1u8), (221, 1)] {
+        let e = b.dev.od().description().entry(0x2000 + pnu, sub).unwrap();
+        let garbage = [0x5Au8; 8];
+        b.dev.od_mut().store(e, &garbage[..e.capacity as usize]);
+        assert_ne!(value(&b, pnu, sub), before[usize::from(pnu == 221)]);
+    }
+    b.run(1);
+    assert_eq!([value(&b, 205, 1), value(&b, 221, 1)], before);
+}

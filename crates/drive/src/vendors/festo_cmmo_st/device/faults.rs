@@ -42,7 +42,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         let sub = diagnostics::subindex(d.code);
         let (handling, reaction) = match self.following_error_entries {
             (Some(h), Some(r)) if d.code == diag::FOLLOWING_ERROR => {
-                let value = |e: &Entry| as_i64(Value::decode(e.data_type, self.od.raw(e))) as u16;
+                let value = |e: &Entry| entry_i64(e, self.od.raw(e)) as u16;
                 (value(h), value(r))
             }
             _ => (
@@ -269,6 +269,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// PNU 200…204 from the ring (after a change, once per cycle at most).
     pub(super) fn mirror_memory(&mut self) {
         self.memory_dirty = false;
+        self.published.forget();
         let od = &mut self.od;
         for (n, sub) in (0..diagnostic_memory::CAPACITY).zip(1u8..) {
             let e = self.memory.get(n);
