@@ -34,6 +34,29 @@ STOP_TIMEOUT = 5.0
 SDO_TIMEOUT = 2.0  # python-canopen client response timeout, generous for loaded machines
 
 
+# The cell FMU's library (crates/cell-fmu) of the profile the binary under test was built with:
+# beside it (target/release/, or target/dist/ where the test command tests the dist binary), where
+# `drivetwin fmu` takes it unless --library names one. DRIVETWIN_CELL_LIBRARY names one already
+# built (the test command names the dist build's, so packing a cell never compiles).
+_BUILT = DRIVETWIN_BIN.resolve().parent
+CELL_PROFILE = _BUILT.name if _BUILT.parent == (REPO_ROOT / "target").resolve() else "release"
+CELL_LIBRARY = Path(os.environ.get("DRIVETWIN_CELL_LIBRARY",
+                                   REPO_ROOT / "target" / CELL_PROFILE / "libdrivetwin_cell.so"))
+
+
+@pytest.fixture(scope="session")
+def cell_library() -> Path:
+    """CELL_LIBRARY, built from source once a session by scripts/cell-fmu in the binary's
+    profile (a no-op when it is fresh) unless DRIVETWIN_CELL_LIBRARY names it."""
+    if "DRIVETWIN_CELL_LIBRARY" not in os.environ:
+        subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT,
+                       env={**os.environ, "CELL_FMU_PROFILE": CELL_PROFILE})
+    if not CELL_LIBRARY.is_file():
+        pytest.fail(f"{CELL_LIBRARY} is missing: run scripts/cell-fmu or set DRIVETWIN_CELL_LIBRARY",
+                    pytrace=False)
+    return CELL_LIBRARY
+
+
 @pytest.fixture(scope="session", autouse=True)
 def drivetwin_binary() -> Path:
     """Every test needs the built binary; say how to get it instead of failing obscurely."""

@@ -9,25 +9,20 @@ between steps."""
 from __future__ import annotations
 
 import csv
-import os
 import socket
 import subprocess
 
 import numpy as np
 import pytest
 
-from conftest import CHANNEL, DRIVETWIN_BIN, HOST, REPO_ROOT, add_node, free_port
+from conftest import CELL_LIBRARY, CHANNEL, DRIVETWIN_BIN, HOST, REPO_ROOT, add_node, free_port
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.validation import validate_fmu  # noqa: E402
 
 CELL = REPO_ROOT / "examples" / "cell_fmu" / "cell.toml"
 START = REPO_ROOT / "examples" / "cell_fmu" / "start.toml"
-# The library of the profile the binary under test was built with (target/release, or
-# target/dist when the test command runs the tests on the dist binary).
-_BUILT = DRIVETWIN_BIN.resolve().parent
-PROFILE = _BUILT.name if _BUILT.parent == REPO_ROOT.resolve() / "target" else "release"
-LIBRARY = REPO_ROOT / "target" / PROFILE / "libdrivetwin_cell.so"
+LIBRARY = CELL_LIBRARY  # the `cell_library` fixture builds it
 LOAD_AT = 1.0
 LOAD_NM = 0.5
 STOP = 5.0
@@ -35,11 +30,9 @@ STEP = 1e-3
 
 
 @pytest.fixture(scope="module")
-def cell_fmu(tmp_path_factory):
-    """The example cell packed by the binary under test, with crates/cell-fmu's library built
-    from source (scripts/cell-fmu; a no-op rebuild when it is)."""
-    subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT,
-                   env={**os.environ, "CELL_FMU_PROFILE": PROFILE})
+def cell_fmu(tmp_path_factory, cell_library):
+    """The example cell packed by the binary under test, with crates/cell-fmu's library of its
+    profile (conftest's `cell_library`)."""
     out = tmp_path_factory.mktemp("cell_fmu") / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(CELL), "--scenario", str(START),

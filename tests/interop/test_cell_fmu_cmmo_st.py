@@ -8,7 +8,6 @@ its shaft while the output stage is off."""
 
 from __future__ import annotations
 
-import os
 import subprocess
 
 import pytest
@@ -20,7 +19,6 @@ from fmpy import extract, read_model_description  # noqa: E402
 from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
-LIBRARY = os.environ.get("DRIVETWIN_CELL_LIBRARY")
 PREFIX = "drive0."  # the cell file's first [[drive]]
 SCON_ENABLED, SCON_OPEN, SCON_VLOAD = 0x01, 0x02, 0x10  # Tab. 5.21
 SPOS_HALT = 0x01  # Tab. 5.22
@@ -47,11 +45,7 @@ modbus_request = "0001 0000 000F 01 10 0000 0004 08 03 01 00 00 00 00 00 00"
 
 
 @pytest.fixture(scope="module")
-def cell_fmu(tmp_path_factory):
-    library = LIBRARY
-    if library is None:
-        subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT)
-        library = REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
+def cell_fmu(tmp_path_factory, cell_library):
     d = tmp_path_factory.mktemp("cell_fmu_cmmo_st")
     # Its Modbus TCP server opens with the FMU: a free port, not the default 1502.
     (d / "cell.toml").write_text(CELL.format(modbus=f"{HOST}:{free_port()}"))
@@ -59,7 +53,7 @@ def cell_fmu(tmp_path_factory):
     out = d / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(d / "cell.toml"), "--scenario",
-         str(d / "start.toml"), "--output", str(out), "--library", str(library)],
+         str(d / "start.toml"), "--output", str(out), "--library", str(cell_library)],
         check=True, cwd=REPO_ROOT, timeout=60,
     )
     return str(out)
@@ -124,9 +118,8 @@ def test_a_load_torque_turns_the_free_shaft_and_the_timeline_enables_the_drive(c
     fmu.freeInstance()
 
 
-def pack(tmp_path, name: str, stepper: str = "") -> str:
+def pack(tmp_path, library, name: str, stepper: str = "") -> str:
     """A cell FMU of one CMMO-ST (no timeline) with `stepper` as its `[drive.stepper]` keys."""
-    library = LIBRARY or REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
     cell = tmp_path / f"{name}.toml"
     cell.write_text(CELL.format(modbus=f"{HOST}:{free_port()}")
                     + (f"[drive.stepper]\n{stepper}" if stepper else ""))
@@ -161,11 +154,11 @@ def free_turn(fmu_path: str, start: dict[str, float]) -> list[tuple[float, float
     return seen
 
 
-def test_a_stepper_parameter_set_before_initialisation_is_the_cell_files_key(tmp_path):
+def test_a_stepper_parameter_set_before_initialisation_is_the_cell_files_key(tmp_path, cell_library):
     """`drive0.stepper.load_inertia` (kg·m², fixed, its start the built cell's value) set by
     fmpy before the FMU initialises gives the trajectory of the cell file with that
     `[drive.stepper] load_inertia`, within 1e-9 relative at every step; the default's differs."""
-    plain = pack(tmp_path, "plain")
+    plain = pack(tmp_path, cell_library, "plain")
     md = read_model_description(plain)
     v = {x.name: x for x in md.modelVariables}
     p = v[PREFIX + "stepper.load_inertia"]
@@ -178,7 +171,7 @@ def test_a_stepper_parameter_set_before_initialisation_is_the_cell_files_key(tmp
         assert (q.causality, q.unit) == ("parameter", unit), key
     assert validate_fmu(plain) == []
     heavy = 1.0e-4
-    keyed = pack(tmp_path, "keyed", f"load_inertia = {heavy}\n")
+    keyed = pack(tmp_path, cell_library, "keyed", f"load_inertia = {heavy}\n")
     tuned = free_turn(plain, {PREFIX + "stepper.load_inertia": heavy})
     native = free_turn(keyed, {})
     default = free_turn(plain, {})

@@ -8,7 +8,6 @@ packed and read here from the layered standard's tables, not with drivetwin's co
 
 from __future__ import annotations
 
-import os
 import struct
 import subprocess
 import zipfile
@@ -24,9 +23,6 @@ from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 CELL = REPO_ROOT / "examples" / "cell_fmu" / "cell.toml"
-# The FMU's binary: scripts/cell-fmu builds it in release, unless DRIVETWIN_CELL_LIBRARY names
-# one already built (as DRIVETWIN_BIN names the binary).
-LIBRARY = os.environ.get("DRIVETWIN_CELL_LIBRARY")
 BITRATE = 125_000  # the CMMP-AS's DIP switches at their factory setting
 FESTO = 0x1D  # 1018h:01, vendor-ID
 US = 1e-6
@@ -34,17 +30,13 @@ NOTIFICATIONS = "org.fmi_standard.fmi_ls_bus.Can_BusNotifications"  # §4.4.1.3
 
 
 @pytest.fixture(scope="module")
-def cell_fmu(tmp_path_factory):
+def cell_fmu(tmp_path_factory, cell_library):
     """The example cell without a timeline (the drive waits pre-operational, its SDO server
-    answering), packed by the binary under test."""
-    library = LIBRARY
-    if library is None:
-        subprocess.run([str(REPO_ROOT / "scripts" / "cell-fmu")], check=True, cwd=REPO_ROOT)
-        library = REPO_ROOT / "target" / "release" / "libdrivetwin_cell.so"
+    answering), packed by the binary under test with the library of its profile."""
     out = tmp_path_factory.mktemp("cell_fmu_ls_bus") / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(CELL), "--output", str(out),
-         "--library", str(library)],
+         "--library", str(cell_library)],
         check=True, cwd=REPO_ROOT, timeout=60,
     )
     return str(out)

@@ -43,12 +43,24 @@ def kill9(twin):
     twin.proc = None
 
 
+# 2000h's 4096 bytes (the save's largest part, so that a kill can fall inside its write) cross
+# in SDO block transfers: a segmented transfer waits for an answer every 7 bytes.
+def read_blob(node) -> bytes:
+    with node.sdo[0x2000].open("rb", block_transfer=True) as f:
+        return f.read()
+
+
+def write_blob(node, data: bytes):
+    with node.sdo[0x2000].open("wb", size=len(data), block_transfer=True) as f:
+        f.write(data)
+
+
 def canopen_generation(node) -> int:
     """The generation the test bench node holds; fails on a mixture."""
     hb = node.sdo[0x1017].raw
     small = node.sdo[0x2003].raw
     text = node.sdo[0x2001].raw
-    blob = node.sdo[0x2000].raw
+    blob = read_blob(node)
     if text == "drivetwin":
         # Nothing ever saved: the defaults (1017h as the cell commissions it).
         assert (small, hb) == (0, 1000), f"2003h {small}, 1017h {hb} with 2001h at its default"
@@ -76,7 +88,7 @@ def test_canopen_store_survives_kill9(launch, node_of, raw_bus, tmp_path):
         node.sdo[0x1017].raw = 100 + g
         node.sdo[0x2003].raw = g % 100
         node.sdo[0x2001].raw = f"generation {g} " * 40
-        node.sdo[0x2000].raw = bytes([g % 256]) * 4096
+        write_blob(node, bytes([g % 256]) * 4096)
         attempted = g
         bus = raw_bus(twin)
         delay = rng.uniform(0, 0.004)
@@ -233,6 +245,11 @@ def test_coe_store_survives_kill9(veth, tmp_path):
                 proc.kill()
             else:
                 window_ms = 1.5 * min(max(save_ms, 4.0), 100.0)
+                # Once killed the slave answers nothing: SOEM waits for the answer until the
+                # window is over and 250 ms more, not its 5 s. A timer late beyond that only
+                # leaves an answer unseen: the save then counts as unanswered, which allows
+                # either set to come up.
+                master.sdo_write_timeout = int((window_ms + 250) * 1000)
                 killer = threading.Timer(rng.uniform(0, window_ms) / 1000, proc.kill)
                 killer.start()
                 answered = save(slave)
