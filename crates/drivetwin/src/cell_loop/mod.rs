@@ -74,6 +74,7 @@ mod modbus_drives;
 mod plans;
 mod serial;
 mod socketcand;
+pub mod turn_log;
 pub mod virtual_clock;
 mod wire;
 
@@ -146,6 +147,8 @@ struct ChainState {
     /// at that frame's time, when it is still to run: the loop runs it before anything reads
     /// the chain again, or at its next wake-up ([`CellLoop::settle_chains`]).
     pending_exchange: Option<od::Instant>,
+    /// When the last frame arrived: a frame's time never goes back.
+    last_frame: Instant,
 }
 
 impl ChainState {
@@ -241,6 +244,8 @@ pub struct CellLoop {
     timer: Option<fine_timer::FineTimer>,
     /// How late the loop serves due timers.
     lateness: Arc<crate::cell::lateness::Lateness>,
+    /// The longest turns and what the loop did in them ([`turn_log`]).
+    turns: turn_log::TurnLog,
     /// The transports of each of the cell's CAN buses (bus `b`'s: `buses[b]`).
     buses: Vec<BusState>,
     /// The cell: every station (the buses' in bus order, then the EtherCAT chains' own in
@@ -474,6 +479,7 @@ impl CellLoop {
                     c.trace,
                 ),
                 pending_exchange: None,
+                last_frame: Instant::now(),
             })
             .collect();
         let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
@@ -494,6 +500,7 @@ impl CellLoop {
             waker,
             timer,
             lateness: Arc::default(),
+            turns: turn_log::TurnLog::new(Instant::now()),
             buses,
             cell,
             origin: Instant::now(),
@@ -523,6 +530,11 @@ impl CellLoop {
     /// How late the loop serves its timers, readable while it runs and after.
     pub fn lateness(&self) -> Arc<crate::cell::lateness::Lateness> {
         Arc::clone(&self.lateness)
+    }
+
+    /// The loop's longest turns, filled in when it stops.
+    pub fn turn_report(&self) -> Arc<std::sync::Mutex<turn_log::TurnReport>> {
+        self.turns.report()
     }
 
     pub fn stop_handle(&self) -> StopHandle {
@@ -579,6 +591,7 @@ impl CellLoop {
             chain.chain.boot_with(t, &mut self.cell);
         }
         self.flush_dirty();
+        self.turns.start(self.sync0_total());
         let mut load_failure = None;
         while !self.stop.load(Ordering::Acquire) {
             if self.busy_poll {
@@ -601,6 +614,7 @@ impl CellLoop {
                     .map(|d| d.saturating_duration_since(Instant::now()))
                     .filter(|_| !pending)
                     .or(pending.then_some(Duration::ZERO));
+                self.turns.waits_until(deadline.filter(|_| wait.is_some()));
                 match (deadline, wait, &mut self.timer) {
                     (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
                         timer.arm(d, w);
@@ -623,9 +637,11 @@ impl CellLoop {
                 return Err(e);
             }
             let now = Instant::now();
+            self.turns.begin(now);
             // A master's EtherCAT frames before anything else: each is answered before the
             // drives step and the other sockets are served ([`ethercat_chains`]).
             self.answer_frames(&events);
+            self.turns.mark(turn_log::Part::Pass);
             // A turn that had frames to answer and nothing else to do sleeps again at once:
             // the devices' exchange after them waits for the loop's next wake-up, so that a
             // master on the same CPU gets it back with its answer. Any other turn runs the
@@ -633,9 +649,11 @@ impl CellLoop {
             let frames_only = self.frames_only(&events, now);
             if !frames_only {
                 self.settle_chains();
+                self.turns.mark(turn_log::Part::Exchange);
                 self.turn(&events, now);
                 // Frames a flooded chain left for this turn: exchanged before the samples.
                 self.settle_chains();
+                self.turns.mark(turn_log::Part::Exchange);
             }
             self.control(now);
             if !frames_only {
@@ -647,11 +665,14 @@ impl CellLoop {
                     bus.port_mut().flush();
                 }
             }
+            self.turns.mark(turn_log::Part::Rest);
+            self.turns.end(Instant::now(), self.sync0_total());
             if let Some(e) = self.load_failure() {
                 load_failure = Some(e);
                 break;
             }
         }
+        self.turns.publish();
         self.settle_chains();
         for m in &mut self.modbus {
             m.close_connection();
@@ -684,6 +705,7 @@ impl CellLoop {
     fn turn(&mut self, events: &Events, now: Instant) {
         // Then the timers: an answer on the other front ends shows the drive as of now.
         self.timers(now);
+        self.turns.mark(turn_log::Part::Timers);
         for event in events {
             match event.token() {
                 WAKER => {}
@@ -736,6 +758,7 @@ impl CellLoop {
             // No event comes for what waits: read on to would-block or end of file.
             self.read(slot, now, true);
         }
+        self.turns.mark(turn_log::Part::Sockets);
     }
 
     /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
@@ -818,6 +841,7 @@ impl CellLoop {
                 let by = chain.chain.wake_by().unwrap_or(due);
                 self.lateness.record(t.saturating_since(by));
                 chain.chain.poll_with(t, &mut self.cell);
+                self.turns.poll();
             }
         }
         for slot in 0..self.slots.len() {
