@@ -217,7 +217,7 @@ impl TurnLog {
             .filter(|t| !t.wall.is_zero())
             .copied()
             .collect();
-        longest.sort_by(|a, b| b.wall.cmp(&a.wall));
+        longest.sort_by_key(|t| std::cmp::Reverse(t.wall));
         let lengths = self
             .lengths
             .iter()
