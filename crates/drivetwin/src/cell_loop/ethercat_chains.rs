@@ -76,7 +76,7 @@ impl CellLoop {
             };
             if turn == FRAMES_PER_TURN {
                 // More may wait: read on next turn, after the other sockets.
-                self.chains_to_read.push(c);
+                self.chains_to_read |= 1u32.checked_shl(c as u32).unwrap_or(0);
                 break;
             }
             let n = match chain.socket().try_recv(&mut frame) {

@@ -261,8 +261,10 @@ pub struct CellLoop {
     serial: Vec<crate::serial::line::SerialLine>,
     /// Scratch: frames the drives sent while a serial line reached them, with their bus.
     serial_sent: Vec<(usize, CanFrame)>,
-    /// Chains that had more frames waiting than one turn takes.
-    chains_to_read: Vec<usize>,
+    /// Chains that had more frames waiting than one turn takes, bit `c` for chain `c`: a set
+    /// of bits, not a `Vec` taken and dropped each turn, so that a master sending back to
+    /// back (a burst after a stall) costs no allocation on the frame's path.
+    chains_to_read: u32,
     /// Scratch: one Ethernet frame.
     frame: Vec<u8>,
     scheduling: crate::cell::realtime::LoopScheduling,
@@ -512,7 +514,7 @@ impl CellLoop {
             plans,
             serial: front.serial,
             serial_sent: Vec::new(),
-            chains_to_read: Vec::new(),
+            chains_to_read: 0,
             frame: vec![0; crate::ecat::MAX_FRAME],
             scheduling: crate::cell::realtime::LoopScheduling {
                 rt_priority: front.rt_priority,
@@ -600,36 +602,34 @@ impl CellLoop {
                 let until = self.deadline().map_or(spin_end, |d| d.min(spin_end));
                 self.spin_on_rings(until);
             }
-            let timeout = if self.busy_poll
-                || !self.more_to_read.is_empty()
-                || !self.chains_to_read.is_empty()
-            {
-                self.next_turn.publish(None);
-                Some(Duration::ZERO)
-            } else {
-                let deadline = self.deadline();
-                // A request that came in after this turn's `control` is served at once.
-                let pending = self.next_turn.publish(deadline);
-                let wait = deadline
-                    .map(|d| d.saturating_duration_since(Instant::now()))
-                    .filter(|_| !pending)
-                    .or(pending.then_some(Duration::ZERO));
-                self.turns.waits_until(deadline.filter(|_| wait.is_some()));
-                match (deadline, wait, &mut self.timer) {
-                    (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
-                        timer.arm(d, w);
-                        // The timerfd wakes the loop by then: epoll's own millisecond timer,
-                        // armed and cancelled at every wait, would only lengthen the wake-up
-                        // of a frame that comes first.
-                        if timer.armed_by(d) {
-                            None
-                        } else {
-                            wait
+            let timeout =
+                if self.busy_poll || !self.more_to_read.is_empty() || self.chains_to_read != 0 {
+                    self.next_turn.publish(None);
+                    Some(Duration::ZERO)
+                } else {
+                    let deadline = self.deadline();
+                    // A request that came in after this turn's `control` is served at once.
+                    let pending = self.next_turn.publish(deadline);
+                    let wait = deadline
+                        .map(|d| d.saturating_duration_since(Instant::now()))
+                        .filter(|_| !pending)
+                        .or(pending.then_some(Duration::ZERO));
+                    self.turns.waits_until(deadline.filter(|_| wait.is_some()));
+                    match (deadline, wait, &mut self.timer) {
+                        (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
+                            timer.arm(d, w);
+                            // The timerfd wakes the loop by then: epoll's own millisecond timer,
+                            // armed and cancelled at every wait, would only lengthen the wake-up
+                            // of a frame that comes first.
+                            if timer.armed_by(d) {
+                                None
+                            } else {
+                                wait
+                            }
                         }
+                        _ => wait,
                     }
-                    _ => wait,
-                }
-            };
+                };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
                     continue;
@@ -696,7 +696,7 @@ impl CellLoop {
             && events
                 .iter()
                 .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
-            && self.chains_to_read.is_empty()
+            && self.chains_to_read == 0
             && self.more_to_read.is_empty()
             && !matches!(self.deadline(), Some(d) if d <= now)
     }
@@ -751,8 +751,11 @@ impl CellLoop {
                 }
             }
         }
-        for c in std::mem::take(&mut self.chains_to_read) {
-            self.read_ethercat(c);
+        let to_read = std::mem::take(&mut self.chains_to_read);
+        for c in 0..self.chains.len() {
+            if to_read & 1u32.checked_shl(c as u32).unwrap_or(0) != 0 {
+                self.read_ethercat(c);
+            }
         }
         for slot in std::mem::take(&mut self.more_to_read) {
             // No event comes for what waits: read on to would-block or end of file.
