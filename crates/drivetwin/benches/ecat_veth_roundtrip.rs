@@ -521,7 +521,10 @@ fn echo(interface: &str, spin: bool) {
     let _ = std::io::Write::flush(&mut std::io::stdout());
     let mut buf = [0u8; 1536];
     loop {
-        let Ok(Received { len: n, outgoing }) = packet_socket::recv(fd.as_fd(), &mut buf) else {
+        let Ok(Received {
+            len: n, outgoing, ..
+        }) = packet_socket::recv(fd.as_fd(), &mut buf)
+        else {
             std::hint::spin_loop();
             continue;
         };
@@ -602,8 +605,9 @@ impl Master {
         loop {
             let left = deadline.checked_duration_since(Instant::now())?;
             // The socket is non-blocking (`open_raw`): `WouldBlock` when nothing waits.
-            let Ok(Received { len: n, outgoing }) =
-                packet_socket::recv(self.fd.as_fd(), &mut self.rx)
+            let Ok(Received {
+                len: n, outgoing, ..
+            }) = packet_socket::recv(self.fd.as_fd(), &mut self.rx)
             else {
                 match self.wait {
                     MasterWait::Spins => std::hint::spin_loop(),

@@ -537,6 +537,86 @@ fn sync0_events_the_loop_runs_late_are_not_the_masters() {
     assert_eq!(m.cell.device(0).unwrap().sync_errors, 0);
 }
 
+/// An answer the twin sends a cycle or more after its frame arrived (the loop held off its
+/// CPU) holds back a master that waits for each answer: the SYNC0 events until a cycle after
+/// the answer find no outputs through the twin's delay, and cost the master nothing, though
+/// the last of them runs in time. A master that stops after that is found by the events
+/// after them.
+#[test]
+fn sync0_events_a_late_answer_held_back_are_not_the_masters() {
+    let ms = std::time::Duration::from_millis;
+    let us = std::time::Duration::from_micros;
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    let first = dc_sync0(&mut m, 1_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+    m.poll();
+    let sw = enable(&mut m, 60, sync0_cycle);
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    assert_eq!(m.cell.device(0).unwrap().sync_monitor().error_counter(), 0);
+    // A frame half-way between two events; its answer goes out 3.3 ms later. The events
+    // meanwhile run then: two a cycle or more late, the third 0.8 ms late, in time.
+    let arrived = m.now + us(500);
+    m.now = arrived;
+    lrw(&mut m, &0x000Fu16.to_le_bytes(), 2);
+    let answered = arrived + us(3_300);
+    m.cell.answered(arrived, answered);
+    m.now = answered;
+    m.poll();
+    // The master's next frame comes at once.
+    m.now = m.now + us(20);
+    lrw(&mut m, &0x000Fu16.to_le_bytes(), 2);
+    let dev = m.cell.device(0).unwrap();
+    assert_eq!(
+        dev.sync_monitor().error_counter(),
+        0,
+        "the third event cost nothing"
+    );
+    assert_eq!(m.al(), (0x0008, 0), "still in Op");
+    // The master stops: the event within a cycle of the answer takes its outputs, the next
+    // two without outputs lose the grid as for any master that stops.
+    for _ in 0..3 {
+        m.now = m.now + ms(1);
+        m.poll();
+    }
+    assert_eq!(m.al(), (0x0008, 0), "two missed cycles are tolerated");
+    m.now = m.now + ms(1);
+    m.poll();
+    assert_eq!(m.al(), (0x0014, 0x001A), "Safe-Op, synchronisation error");
+}
+
+/// Without a late answer the same events, the last in time, cost the master 3 (three events
+/// since its outputs), and its next frame takes 1 back.
+#[test]
+fn sync0_events_after_a_prompt_answer_count_as_before() {
+    let us = std::time::Duration::from_micros;
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    let first = dc_sync0(&mut m, 1_000_000);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+    m.poll();
+    enable(&mut m, 60, sync0_cycle);
+    let arrived = m.now + us(500);
+    m.now = arrived;
+    lrw(&mut m, &0x000Fu16.to_le_bytes(), 2);
+    // Answered within the cycle: no hold.
+    m.cell.answered(arrived, arrived + us(200));
+    m.now = arrived + us(3_300);
+    m.poll();
+    m.now = m.now + us(20);
+    lrw(&mut m, &0x000Fu16.to_le_bytes(), 2);
+    assert_eq!(m.cell.device(0).unwrap().sync_monitor().error_counter(), 2);
+    assert_eq!(m.al(), (0x0008, 0), "still in Op");
+}
+
 #[test]
 fn sync0_cycle_other_than_the_interpolator_cycle_is_refused() {
     let mut m = Master::new(cell());

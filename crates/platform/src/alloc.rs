@@ -22,7 +22,14 @@ thread_local! {
     static COUNT: Cell<u64> = const { Cell::new(0) };
     /// A thread whose allocations count while the window is open.
     static MARKED: Cell<bool> = const { Cell::new(false) };
+    /// Inside [`Counting::show_where`]: its own allocations are not shown again.
+    static SHOWING: Cell<bool> = const { Cell::new(false) };
 }
+
+/// With `COUNTING_BACKTRACE=1` in the environment, each allocation a window counts prints
+/// the backtrace of where it was made (to find an allocation a test counts): read at
+/// [`Counting::open_window`].
+static SHOW: AtomicBool = AtomicBool::new(false);
 
 /// Open between [`Counting::open_window`] and [`Counting::close_window`].
 static WINDOW: AtomicBool = AtomicBool::new(false);
@@ -48,6 +55,10 @@ impl Counting {
 
     /// Starts counting the marked threads' allocations from zero.
     pub fn open_window() {
+        SHOW.store(
+            std::env::var_os("COUNTING_BACKTRACE").is_some_and(|v| v == "1"),
+            Ordering::Relaxed,
+        );
         MARKED_COUNT.store(0, Ordering::Relaxed);
         WINDOW.store(true, Ordering::Relaxed);
     }
@@ -65,7 +76,25 @@ impl Counting {
         }
         if WINDOW.load(Ordering::Relaxed) && MARKED.with(Cell::get) {
             MARKED_COUNT.fetch_add(1, Ordering::Relaxed);
+            if SHOW.load(Ordering::Relaxed) {
+                Self::show_where();
+            }
         }
+    }
+
+    /// Prints where the counted allocation was made; what printing allocates is neither
+    /// counted nor shown.
+    fn show_where() {
+        if SHOWING.with(|s| s.replace(true)) {
+            return;
+        }
+        let was = WINDOW.swap(false, Ordering::Relaxed);
+        eprintln!(
+            "counted allocation at:\n{}",
+            std::backtrace::Backtrace::force_capture()
+        );
+        WINDOW.store(was, Ordering::Relaxed);
+        SHOWING.with(|s| s.set(false));
     }
 }
 

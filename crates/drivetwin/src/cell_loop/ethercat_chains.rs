@@ -2,10 +2,11 @@
 //! back out at once; a slave that is a CANopen drive of the cell as well reaches that drive.
 
 use std::io;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use mio::{Events, Token};
 
+use super::turn_log::Part;
 use super::{cell_time, CellLoop, ChainState, FIRST_CHAIN, FRAMES_PER_TURN};
 use crate::cell::can_cell::CanCell;
 use crate::cell::link::{At, FrontLink};
@@ -75,7 +76,7 @@ impl CellLoop {
             };
             if turn == FRAMES_PER_TURN {
                 // More may wait: read on next turn, after the other sockets.
-                self.chains_to_read.push(c);
+                self.chains_to_read |= 1u32.checked_shl(c as u32).unwrap_or(0);
                 break;
             }
             let n = match chain.socket().try_recv(&mut frame) {
@@ -91,9 +92,19 @@ impl CellLoop {
             let Some(f) = frame.get_mut(..n) else {
                 continue;
             };
-            let t = cell_time(self.origin, Instant::now());
+            self.turns.mark(Part::Pass);
+            let now = Instant::now();
+            // The frame's time is its arrival at the wire where the kernel stamped it: a
+            // frame that waited while the loop was busy or held off its CPU came before the
+            // SYNC0 events that fell due meanwhile, as on a device.
+            let arrived = chain.socket().arrived().map_or(now, |a| arrival(a, now));
+            let t = cell_time(self.origin, arrived.max(chain.last_frame));
+            chain.last_frame = arrived.max(chain.last_frame);
             // The exchange after the frame before comes first, at that frame's time.
-            Self::settle(chain, &mut self.cell);
+            if Self::settle(chain, &mut self.cell) {
+                self.turns.exchange();
+            }
+            self.turns.mark(Part::Exchange);
             match chain.link.receive(At::on_clock(t), f) {
                 Verdict::Pass => {}
                 // Lost, or held by the chain's link until its time.
@@ -110,8 +121,17 @@ impl CellLoop {
                 // time base. Other chains, the CAN drives and the timers wait until after
                 // the answer.
                 chain.chain.poll_with(t, &mut self.cell);
+                self.turns.poll();
+                self.turns.mark(Part::CatchUp);
             }
-            Self::pass_chain(chain, f, t, &mut self.cell, own && may_defer);
+            if Self::pass_chain(chain, f, t, &mut self.cell, own && may_defer) {
+                self.turns.exchange();
+            }
+            // A late answer held the master's next frame back ([`SlaveChain::answered`]).
+            let answered = cell_time(self.origin, Instant::now());
+            chain.chain.answered(t, answered);
+            self.turns.frame();
+            self.turns.mark(Part::Pass);
         }
         self.frame = frame;
         if shared {
@@ -142,14 +162,14 @@ impl CellLoop {
     /// sharing the loop's CPU runs first. It runs at the frame's time `t` either way: a
     /// drive's step, its outputs and inputs do not depend on when the loop gets to it.
     /// A chain whose drives are CAN drives of the cell as well exchanges at once: their
-    /// TPDOs go out on the bus in real time.
+    /// TPDOs go out on the bus in real time. Whether the exchange ran.
     pub(super) fn pass_chain(
         chain: &mut ChainState,
         f: &mut [u8],
         t: od::Instant,
         buses: &mut CanCell,
         defer: bool,
-    ) {
+    ) -> bool {
         if chain.chain.pass_with(t, f, buses).forward() {
             // Out on the wire, then copied to the trace; a failed send is logged by the
             // interface.
@@ -157,24 +177,40 @@ impl CellLoop {
         }
         if defer {
             chain.pending_exchange = Some(t);
+            false
         } else {
             chain.chain.exchange_with(t, buses);
+            true
         }
     }
 
-    /// Runs chain `chain`'s pending exchange, if any ([`pass_chain`](Self::pass_chain)).
-    fn settle(chain: &mut ChainState, buses: &mut CanCell) {
-        if let Some(t) = chain.pending_exchange.take() {
+    /// Runs chain `chain`'s pending exchange, if any ([`pass_chain`](Self::pass_chain));
+    /// whether one ran.
+    fn settle(chain: &mut ChainState, buses: &mut CanCell) -> bool {
+        let pending = chain.pending_exchange.take();
+        if let Some(t) = pending {
             chain.chain.exchange_with(t, buses);
         }
+        pending.is_some()
     }
 
     /// Runs every chain's pending exchange: before a turn's timers, events and requests
     /// read the devices, and before the loop stops.
     pub(super) fn settle_chains(&mut self) {
         for chain in &mut self.chains {
-            Self::settle(chain, &mut self.cell);
+            if Self::settle(chain, &mut self.cell) {
+                self.turns.exchange();
+            }
         }
+    }
+
+    /// The SYNC0 events every chain's devices have run so far ([`turn_log`](super::turn_log)).
+    pub(super) fn sync0_total(&self) -> u64 {
+        self.chains
+            .iter()
+            .flat_map(|c| (0..c.chain.len()).filter_map(|i| c.chain.device(i)))
+            .map(|d| d.sync_monitor().events)
+            .sum()
     }
 
     /// A frame a `delay` fault held back arrives at chain `c` at `t`.
@@ -182,7 +218,16 @@ impl CellLoop {
         if let Some(chain) = self.chains.get_mut(c) {
             let buses = &mut self.cell;
             Self::settle(chain, buses);
-            Self::pass_chain(chain, &mut frame, t, buses, false);
+            let _ = Self::pass_chain(chain, &mut frame, t, buses, false);
         }
     }
+}
+
+/// The instant of the loop's clock at which a frame the kernel stamped `stamp` (wall-clock
+/// time) arrived, read at `now`: at most `now`.
+fn arrival(stamp: SystemTime, now: Instant) -> Instant {
+    let waited = SystemTime::now()
+        .duration_since(stamp)
+        .unwrap_or(Duration::ZERO);
+    now.checked_sub(waited).unwrap_or(now)
 }

@@ -74,6 +74,7 @@ mod modbus_drives;
 mod plans;
 mod serial;
 mod socketcand;
+pub mod turn_log;
 pub mod virtual_clock;
 mod wire;
 
@@ -146,6 +147,8 @@ struct ChainState {
     /// at that frame's time, when it is still to run: the loop runs it before anything reads
     /// the chain again, or at its next wake-up ([`CellLoop::settle_chains`]).
     pending_exchange: Option<od::Instant>,
+    /// When the last frame arrived: a frame's time never goes back.
+    last_frame: Instant,
 }
 
 impl ChainState {
@@ -242,6 +245,8 @@ pub struct CellLoop {
     timer: Option<fine_timer::FineTimer>,
     /// How late the loop serves due timers.
     lateness: Arc<crate::cell::lateness::Lateness>,
+    /// The longest turns and what the loop did in them ([`turn_log`]).
+    turns: turn_log::TurnLog,
     /// The transports of each of the cell's CAN buses (bus `b`'s: `buses[b]`).
     buses: Vec<BusState>,
     /// The cell: every station (the buses' in bus order, then the EtherCAT chains' own in
@@ -257,8 +262,10 @@ pub struct CellLoop {
     serial: Vec<crate::serial::line::SerialLine>,
     /// Scratch: frames the drives sent while a serial line reached them, with their bus.
     serial_sent: Vec<(usize, CanFrame)>,
-    /// Chains that had more frames waiting than one turn takes.
-    chains_to_read: Vec<usize>,
+    /// Chains that had more frames waiting than one turn takes, bit `c` for chain `c`: a set
+    /// of bits, not a `Vec` taken and dropped each turn, so that a master sending back to
+    /// back (a burst after a stall) costs no allocation on the frame's path.
+    chains_to_read: u32,
     /// Scratch: one Ethernet frame.
     frame: Vec<u8>,
     scheduling: crate::cell::realtime::LoopScheduling,
@@ -476,6 +483,7 @@ impl CellLoop {
                     c.trace,
                 ),
                 pending_exchange: None,
+                last_frame: Instant::now(),
             })
             .collect();
         plans::plan_outside(&mut cell, front.plans, &chains, front.modbus.len());
@@ -497,6 +505,7 @@ impl CellLoop {
             waker,
             timer,
             lateness: Arc::default(),
+            turns: turn_log::TurnLog::new(Instant::now()),
             buses,
             cell,
             origin: Instant::now(),
@@ -508,7 +517,7 @@ impl CellLoop {
             line_plans,
             serial: front.serial,
             serial_sent: Vec::new(),
-            chains_to_read: Vec::new(),
+            chains_to_read: 0,
             frame: vec![0; crate::ecat::MAX_FRAME],
             scheduling: crate::cell::realtime::LoopScheduling {
                 rt_priority: front.rt_priority,
@@ -526,6 +535,11 @@ impl CellLoop {
     /// How late the loop serves its timers, readable while it runs and after.
     pub fn lateness(&self) -> Arc<crate::cell::lateness::Lateness> {
         Arc::clone(&self.lateness)
+    }
+
+    /// The loop's longest turns, filled in when it stops.
+    pub fn turn_report(&self) -> Arc<std::sync::Mutex<turn_log::TurnReport>> {
+        self.turns.report()
     }
 
     pub fn stop_handle(&self) -> StopHandle {
@@ -582,6 +596,7 @@ impl CellLoop {
             chain.chain.boot_with(t, &mut self.cell);
         }
         self.flush_dirty();
+        self.turns.start(self.sync0_total());
         let mut load_failure = None;
         while !self.stop.load(Ordering::Acquire) {
             if self.busy_poll {
@@ -590,35 +605,34 @@ impl CellLoop {
                 let until = self.deadline().map_or(spin_end, |d| d.min(spin_end));
                 self.spin_on_rings(until);
             }
-            let timeout = if self.busy_poll
-                || !self.more_to_read.is_empty()
-                || !self.chains_to_read.is_empty()
-            {
-                self.next_turn.publish(None);
-                Some(Duration::ZERO)
-            } else {
-                let deadline = self.deadline();
-                // A request that came in after this turn's `control` is served at once.
-                let pending = self.next_turn.publish(deadline);
-                let wait = deadline
-                    .map(|d| d.saturating_duration_since(Instant::now()))
-                    .filter(|_| !pending)
-                    .or(pending.then_some(Duration::ZERO));
-                match (deadline, wait, &mut self.timer) {
-                    (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
-                        timer.arm(d, w);
-                        // The timerfd wakes the loop by then: epoll's own millisecond timer,
-                        // armed and cancelled at every wait, would only lengthen the wake-up
-                        // of a frame that comes first.
-                        if timer.armed_by(d) {
-                            None
-                        } else {
-                            wait
+            let timeout =
+                if self.busy_poll || !self.more_to_read.is_empty() || self.chains_to_read != 0 {
+                    self.next_turn.publish(None);
+                    Some(Duration::ZERO)
+                } else {
+                    let deadline = self.deadline();
+                    // A request that came in after this turn's `control` is served at once.
+                    let pending = self.next_turn.publish(deadline);
+                    let wait = deadline
+                        .map(|d| d.saturating_duration_since(Instant::now()))
+                        .filter(|_| !pending)
+                        .or(pending.then_some(Duration::ZERO));
+                    self.turns.waits_until(deadline.filter(|_| wait.is_some()));
+                    match (deadline, wait, &mut self.timer) {
+                        (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
+                            timer.arm(d, w);
+                            // The timerfd wakes the loop by then: epoll's own millisecond timer,
+                            // armed and cancelled at every wait, would only lengthen the wake-up
+                            // of a frame that comes first.
+                            if timer.armed_by(d) {
+                                None
+                            } else {
+                                wait
+                            }
                         }
+                        _ => wait,
                     }
-                    _ => wait,
-                }
-            };
+                };
             if let Err(e) = self.poll.poll(&mut events, timeout) {
                 if e.kind() == io::ErrorKind::Interrupted {
                     continue;
@@ -626,9 +640,11 @@ impl CellLoop {
                 return Err(e);
             }
             let now = Instant::now();
+            self.turns.begin(now);
             // A master's EtherCAT frames before anything else: each is answered before the
             // drives step and the other sockets are served ([`ethercat_chains`]).
             self.answer_frames(&events);
+            self.turns.mark(turn_log::Part::Pass);
             // A turn that had frames to answer and nothing else to do sleeps again at once:
             // the devices' exchange after them waits for the loop's next wake-up, so that a
             // master on the same CPU gets it back with its answer. Any other turn runs the
@@ -636,9 +652,11 @@ impl CellLoop {
             let frames_only = self.frames_only(&events, now);
             if !frames_only {
                 self.settle_chains();
+                self.turns.mark(turn_log::Part::Exchange);
                 self.turn(&events, now);
                 // Frames a flooded chain left for this turn: exchanged before the samples.
                 self.settle_chains();
+                self.turns.mark(turn_log::Part::Exchange);
             }
             self.control(now);
             if !frames_only {
@@ -650,11 +668,14 @@ impl CellLoop {
                     bus.port_mut().flush();
                 }
             }
+            self.turns.mark(turn_log::Part::Rest);
+            self.turns.end(Instant::now(), self.sync0_total());
             if let Some(e) = self.load_failure() {
                 load_failure = Some(e);
                 break;
             }
         }
+        self.turns.publish();
         self.settle_chains();
         for m in &mut self.modbus {
             m.close_connection();
@@ -678,7 +699,7 @@ impl CellLoop {
             && events
                 .iter()
                 .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
-            && self.chains_to_read.is_empty()
+            && self.chains_to_read == 0
             && self.more_to_read.is_empty()
             && !matches!(self.deadline(), Some(d) if d <= now)
     }
@@ -687,6 +708,7 @@ impl CellLoop {
     fn turn(&mut self, events: &Events, now: Instant) {
         // Then the timers: an answer on the other front ends shows the drive as of now.
         self.timers(now);
+        self.turns.mark(turn_log::Part::Timers);
         for event in events {
             match event.token() {
                 WAKER => {}
@@ -732,13 +754,17 @@ impl CellLoop {
                 }
             }
         }
-        for c in std::mem::take(&mut self.chains_to_read) {
-            self.read_ethercat(c);
+        let to_read = std::mem::take(&mut self.chains_to_read);
+        for c in 0..self.chains.len() {
+            if to_read & 1u32.checked_shl(c as u32).unwrap_or(0) != 0 {
+                self.read_ethercat(c);
+            }
         }
         for slot in std::mem::take(&mut self.more_to_read) {
             // No event comes for what waits: read on to would-block or end of file.
             self.read(slot, now, true);
         }
+        self.turns.mark(turn_log::Part::Sockets);
     }
 
     /// Why a drive's load FMU stopped the cell, once one has: any station of the cell (on a
@@ -821,6 +847,7 @@ impl CellLoop {
                 let by = chain.chain.wake_by().unwrap_or(due);
                 self.lateness.record(t.saturating_since(by));
                 chain.chain.poll_with(t, &mut self.cell);
+                self.turns.poll();
             }
         }
         for slot in 0..self.slots.len() {

@@ -262,7 +262,7 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
         } else {
             format!("cell-{i}")
         };
-        lateness.push((name.clone(), cell_loop.lateness()));
+        lateness.push((name.clone(), cell_loop.lateness(), cell_loop.turn_report()));
         threads.push(
             std::thread::Builder::new()
                 .name(name)
@@ -309,8 +309,12 @@ pub(crate) async fn run(args: RunArgs) -> Result<(), CommandError> {
             }
         })?;
     }
-    for (name, l) in &lateness {
+    for (name, l, turns) in &lateness {
         out!("{name} loop: {}", l.figures());
+        out!(
+            "{name} turns: {}",
+            turns.lock().unwrap_or_else(|e| e.into_inner())
+        );
     }
     out!("stopped");
     Ok(())

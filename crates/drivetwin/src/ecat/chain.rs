@@ -184,6 +184,9 @@ pub struct SlaveDevice {
     pub write_errors: u64,
     /// Times the process-data watchdog expired in Op.
     pub watchdog_expiries: u64,
+    /// Until when the master is held by an answer the chain sent late
+    /// ([`SlaveChain::answered`]): SYNC0 events up to then do not count against it.
+    master_held_until: Option<Instant>,
     /// A 1010h "save" whose file is being written, with the reply that waits for it.
     saving: Option<SaveInFlight>,
     /// The active errors of a drive on EtherCAT alone, which set its 1001h error register and
@@ -309,6 +312,7 @@ impl SlaveDevice {
             outputs_ignored: 0,
             write_errors: 0,
             watchdog_expiries: 0,
+            master_held_until: None,
             saving: None,
             errors: EmcyProducer::default(),
         }
@@ -519,7 +523,8 @@ impl Bound<'_> {
         let sys_now = esc.system_time_at(now);
         let mut burst = 0;
         // An event run this far after its time was not seen in time: the loop was held off,
-        // and the master's frames may lie unread in the socket (`SyncMonitor::sync0_unobserved`).
+        // and the master's frames may lie unread in the socket (`SyncMonitor::sync0_unobserved`);
+        // nor was one while a late answer held the master back ([`SlaveChain::answered`]).
         let seen_late = cycle.max(SYNC0_SERVICE_FLOOR.as_nanos() as u64);
         while let Some(at_sys) = self.dev.next_sync0_sys.filter(|t| *t <= sys_now) {
             let behind = (sys_now - at_sys) / cycle;
@@ -527,7 +532,7 @@ impl Bound<'_> {
             let at = Instant::from_nanos(now.as_nanos().saturating_sub(sys_now - at_sys));
             self.step(at);
             burst += 1;
-            let late = sys_now - at_sys >= seen_late;
+            let late = sys_now - at_sys >= seen_late || self.dev.held_master_at(at);
             let (outcome, events) = if burst >= MAX_SYNC0_BURST {
                 (self.dev.sync.sync0_unobserved(behind + 1), behind + 1)
             } else if late {
@@ -1320,6 +1325,43 @@ impl SlaveChain {
             .ok_or(LineError::NoSlave { position, len })?;
         esc.set_clock_error(now, error);
         Ok(())
+    }
+
+    /// The answer to a frame that reached the chain at `arrived` went out at `answered`
+    /// (real time: the loop may have been held off its CPU meanwhile). A master waits for
+    /// each answer before it sends its next frame (SOEM's send / receive, a PLC's task), so
+    /// an answer a SYNC0 cycle or more late holds the master's next outputs back: the SYNC0
+    /// events until one cycle after the answer find none through the chain's delay, which a
+    /// device, answering as the frame passes, never causes. They count as events seen late
+    /// (docs/decisions.md, "SYNC0 events seen late"); a master that stops is found by the
+    /// events after them.
+    pub fn answered(&mut self, arrived: Instant, answered: Instant) {
+        let delay = answered.saturating_since(arrived);
+        if delay < SYNC0_SERVICE_FLOOR {
+            return;
+        }
+        for dev in &mut self.devices {
+            dev.answered(delay, answered);
+        }
+    }
+}
+
+impl SlaveDevice {
+    /// As [`SlaveChain::answered`]: an answer `delay` late went out at `answered`.
+    fn answered(&mut self, delay: Duration, answered: Instant) {
+        let Some((cycle, _)) = self.sync_config else {
+            return;
+        };
+        let cycle = Duration::from_nanos(u64::from(cycle)).max(SYNC0_SERVICE_FLOOR);
+        if delay >= cycle {
+            let until = answered + cycle;
+            self.master_held_until = Some(self.master_held_until.map_or(until, |u| u.max(until)));
+        }
+    }
+
+    /// Whether a late answer held the master back at the SYNC0 event at `at`.
+    fn held_master_at(&self, at: Instant) -> bool {
+        self.master_held_until.is_some_and(|u| at <= u)
     }
 }
 

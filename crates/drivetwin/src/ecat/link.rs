@@ -123,6 +123,8 @@ pub struct SlaveSocket {
     ring: Option<RxRing>,
     fd: OwnedFd,
     interface: String,
+    /// When the last frame read reached the socket, as the kernel stamped it.
+    arrived: Option<std::time::SystemTime>,
 }
 
 impl SlaveSocket {
@@ -140,6 +142,7 @@ impl SlaveSocket {
             ring,
             fd,
             interface: interface.to_owned(),
+            arrived: None,
         };
         if socket.ring.is_some() {
             // What came before the ring waits in the socket's queue, where the ring's reader
@@ -165,11 +168,26 @@ impl SlaveSocket {
     pub fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<usize>> {
         match &mut self.ring {
             Some(ring) => match ring.recv(buf) {
-                Some(received) => Ok(request(received, buf, Want::Requests)),
+                Some(received) => {
+                    self.arrived = received
+                        .arrived
+                        .and_then(|d| std::time::UNIX_EPOCH.checked_add(d));
+                    Ok(request(received, buf, Want::Requests))
+                }
                 None => Err(io::ErrorKind::WouldBlock.into()),
             },
-            None => recv_once(self.fd.as_fd(), buf, Want::Requests),
+            None => {
+                self.arrived = None;
+                recv_once(self.fd.as_fd(), buf, Want::Requests)
+            }
         }
+    }
+
+    /// When the frame [`try_recv`](Self::try_recv) read last reached the socket (the
+    /// kernel's stamp, wall-clock time), where the receive ring tells: a frame that waited
+    /// while the reader was busy or off its CPU arrived before it was read.
+    pub fn arrived(&self) -> Option<std::time::SystemTime> {
+        self.arrived
     }
 
     /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.

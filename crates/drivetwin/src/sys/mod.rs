@@ -17,7 +17,8 @@
 //! - [`tcp`]: socket options and non-blocking calls on TCP connections;
 //! - [`pty`] and [`termios`]: pseudo-terminals and serial devices;
 //! - [`sched`]: real-time or batch scheduling of a thread;
-//! - [`timer`]: sub-millisecond one-shot timers a poll waits for.
+//! - [`timer`]: sub-millisecond one-shot timers a poll waits for;
+//! - [`thread_usage`]: the CPU time and page faults of the calling thread.
 
 pub mod fd;
 pub mod fmu_instance;
@@ -28,4 +29,5 @@ pub mod sched;
 pub mod socketcan;
 pub mod tcp;
 pub mod termios;
+pub mod thread_usage;
 pub mod timer;

@@ -21,6 +21,9 @@ pub struct Received {
     pub len: usize,
     /// A copy of a frame this host sent.
     pub outgoing: bool,
+    /// When the kernel put it in the receive ring (`tp_sec`, `tp_nsec`: `CLOCK_REALTIME`
+    /// since the epoch); none for a frame read with `recvfrom`.
+    pub arrived: Option<std::time::Duration>,
 }
 
 /// A non-blocking, close-on-exec `AF_PACKET` socket for `ethertype` bound to `interface`,
@@ -95,6 +98,7 @@ pub fn recv(fd: BorrowedFd<'_>, buf: &mut [u8]) -> io::Result<Received> {
     Ok(Received {
         len,
         outgoing: from.sll_pkttype == PACKET_OUTGOING,
+        arrived: None,
     })
 }
 
@@ -259,6 +263,10 @@ impl RxRing {
                 usize::MAX
             },
             outgoing: from.sll_pkttype == PACKET_OUTGOING,
+            arrived: Some(std::time::Duration::new(
+                u64::from(header.tp_sec),
+                header.tp_nsec,
+            )),
         })
     }
 }
