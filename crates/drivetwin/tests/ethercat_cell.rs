@@ -17,7 +17,8 @@ use ecat_inputs::{phys, sm};
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::stations::{StationId, Stations};
-use drivetwin::ecat::chain::{BusDrives, SlaveChain, SlaveDrive};
+use drivetwin::cell::param_saver::ParamSaver;
+use drivetwin::ecat::chain::{BusDrives, NoBuses, SlaveChain, SlaveDrive};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, Fmmu, FrameOutcome};
@@ -46,6 +47,8 @@ struct Master {
     joined: Option<Stations>,
     /// Every frame as it came back, when asked for.
     returned: Option<Vec<Vec<u8>>>,
+    /// The runtime's writer of the saves the slaves ask for (1010h), as the cell loop's.
+    saver: ParamSaver<usize>,
 }
 
 /// The drives of a chain joined to a cell without CAN buses: stations of the cell's list.
@@ -85,6 +88,7 @@ impl Master {
             now: Instant::from_millis(1),
             joined,
             returned: None,
+            saver: ParamSaver::default(),
         };
         match &mut m.joined {
             Some(stations) => m.cell.boot_with(m.now, &mut InCell(stations)),
@@ -95,12 +99,14 @@ impl Master {
 
     /// A frame through the chain.
     fn pass(&mut self, frame: &mut [u8]) -> FrameOutcome {
-        match &mut self.joined {
+        let outcome = match &mut self.joined {
             Some(stations) => self
                 .cell
                 .on_frame_with(self.now, frame, &mut InCell(stations)),
             None => self.cell.on_frame(self.now, frame),
-        }
+        };
+        self.hand_off_saves();
+        outcome
     }
 
     /// The chain's drives run to `now`.
@@ -111,6 +117,21 @@ impl Master {
             }
             None => {
                 self.cell.poll(self.now);
+            }
+        }
+        self.hand_off_saves();
+    }
+
+    /// As the cell loop does after each frame and poll: the saves the slaves asked for go
+    /// to the saver, and those it has written go back to their slaves.
+    fn hand_off_saves(&mut self) {
+        while let Some(req) = self.cell.take_save() {
+            self.saver.start(req.slave, req.job);
+        }
+        while let Some((slave, result)) = self.saver.finished() {
+            match &mut self.joined {
+                Some(stations) => self.cell.saved(slave, result, &mut InCell(stations)),
+                None => self.cell.saved(slave, result, &mut NoBuses),
             }
         }
     }

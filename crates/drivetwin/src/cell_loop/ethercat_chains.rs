@@ -110,6 +110,7 @@ impl CellLoop {
                 // time base. Other chains, the CAN drives and the timers wait until after
                 // the answer.
                 chain.chain.poll_with(t, &mut self.cell);
+                Self::hand_off_saves(chain, &mut self.cell);
             }
             Self::pass_chain(chain, f, t, &mut self.cell, own && may_defer);
         }
@@ -159,6 +160,7 @@ impl CellLoop {
             chain.pending_exchange = Some(t);
         } else {
             chain.chain.exchange_with(t, buses);
+            Self::hand_off_saves(chain, buses);
         }
     }
 
@@ -166,6 +168,20 @@ impl CellLoop {
     fn settle(chain: &mut ChainState, buses: &mut CanCell) {
         if let Some(t) = chain.pending_exchange.take() {
             chain.chain.exchange_with(t, buses);
+            Self::hand_off_saves(chain, buses);
+        }
+    }
+
+    /// The saves chain `chain`'s slaves asked for go to its saver, which writes each file
+    /// beside the loop (one of a drive that is a CANopen node as well on the loop, as its
+    /// node saves); each save done goes back to its slave, whose held CoE reply goes out.
+    /// Run after every exchange and poll of the chain, where a slave serves its mailbox.
+    pub(super) fn hand_off_saves(chain: &mut ChainState, buses: &mut CanCell) {
+        while let Some(req) = chain.chain.take_save() {
+            chain.saver.start(req.slave, req.job);
+        }
+        while let Some((slave, result)) = chain.saver.finished() {
+            chain.chain.saved(slave, result, buses);
         }
     }
 

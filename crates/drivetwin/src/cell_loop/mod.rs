@@ -58,6 +58,7 @@ use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, SendBuffer};
 use crate::cell::stations::StationId;
 use crate::cell::tracer::Tracer;
+use crate::cell::param_saver::ParamSaver;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
@@ -146,6 +147,9 @@ struct ChainState {
     /// at that frame's time, when it is still to run: the loop runs it before anything reads
     /// the chain again, or at its next wake-up ([`CellLoop::settle_chains`]).
     pending_exchange: Option<od::Instant>,
+    /// The 1010h saves its slaves asked for, written beside the loop
+    /// ([`CellLoop::hand_off_saves`]).
+    saver: ParamSaver<usize>,
 }
 
 impl ChainState {
@@ -474,6 +478,7 @@ impl CellLoop {
                     c.trace,
                 ),
                 pending_exchange: None,
+                saver: ParamSaver::default(),
             })
             .collect();
         let plans = plans::timeline(front.plans, front.line_plans, &chains, front.modbus.len());
@@ -818,6 +823,7 @@ impl CellLoop {
                 let by = chain.chain.wake_by().unwrap_or(due);
                 self.lateness.record(t.saturating_since(by));
                 chain.chain.poll_with(t, &mut self.cell);
+                Self::hand_off_saves(chain, &mut self.cell);
             }
         }
         for slot in 0..self.slots.len() {
