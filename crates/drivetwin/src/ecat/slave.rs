@@ -34,7 +34,7 @@ use super::slave_drive::{BusDrives, SlaveDrive};
 pub const TICK: Duration = Duration::from_millis(1);
 
 /// How late a loop in real time may step a drive that no frame stepped
-/// ([`SlaveChain::wake_by`]).
+/// ([`SlaveChain::wake_by`](super::chain::SlaveChain::wake_by)).
 pub const STEP_GRACE: Duration = Duration::from_micros(500);
 
 /// CiA 301 Tab. 21 "RPDO timeout": the error a drive without a message of its own for an
@@ -71,7 +71,7 @@ pub struct SlaveDevice {
     pub write_errors: u64,
     /// Times the process-data watchdog expired in Op.
     pub watchdog_expiries: u64,
-    /// A 1010h "save" whose file is being written, with the reply that waits for it.
+    /// A 1010h "save" whose file the runtime writes, with the reply that waits for it.
     pub(super) saving: Option<SaveInFlight>,
     /// The active errors of a drive on EtherCAT alone, which set its 1001h error register and
     /// its 1003h history as a CANopen node's EMCY producer does (CiA 301 §7.5.2.2, §7.5.2.3;
