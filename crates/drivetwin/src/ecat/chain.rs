@@ -533,10 +533,13 @@ impl SlaveChain {
     /// A save a slave asked for and the runtime has not taken yet: the runtime writes the
     /// file and hands the result to [`saved`](Self::saved).
     pub fn take_save(&mut self) -> Option<SaveRequest> {
-        self.devices.iter_mut().enumerate().find_map(|(slave, dev)| {
-            let job = dev.saving.as_mut()?.job.take()?;
-            Some(SaveRequest { slave, job })
-        })
+        self.devices
+            .iter_mut()
+            .enumerate()
+            .find_map(|(slave, dev)| {
+                let job = dev.saving.as_mut()?.job.take()?;
+                Some(SaveRequest { slave, job })
+            })
     }
 
     /// The runtime wrote the file of slave `slave`'s save (`result`): the drive keeps the
