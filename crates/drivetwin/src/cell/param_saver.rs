@@ -104,9 +104,4 @@ impl<K> ParamSaver<K> {
         });
         Some((key, result))
     }
-
-    /// Whether a save is still writing or its result not yet taken.
-    pub fn busy(&self) -> bool {
-        !self.running.is_empty() || !self.done.is_empty()
-    }
 }
