@@ -4,7 +4,8 @@
 //! Every slave is an [`Esc`] loaded with the SII image of its personality
 //! (`ethercat::sii::build_sii`) and a [`SlaveDevice`]: the dictionary and, for a CiA 402
 //! personality, the simulated drive and motor, built exactly as the CANopen cell builds them
-//! (cell file, motor commissioning, [`Station::with_settings`](crate::cell::station::Station::with_settings)).
+//! (cell file, motor commissioning,
+//! [`Station::with_settings`](crate::cell::station::Station::with_settings)).
 //!
 //! The chain is slave logic alone (sans-IO): it takes frames and a time and reads no clock,
 //! socket or file. What the slaves do is split by concept: process data

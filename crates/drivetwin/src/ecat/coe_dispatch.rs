@@ -30,7 +30,8 @@ use super::slave::Bound;
 
 /// A save asked for over CoE whose file the runtime writes; the CoE reply waits here.
 pub(super) struct SaveInFlight {
-    /// The write the runtime has not taken yet ([`SlaveChain::take_save`](super::chain::SlaveChain::take_save)).
+    /// The write the runtime has not taken yet
+    /// ([`SlaveChain::take_save`](super::chain::SlaveChain::take_save)).
     pub(super) job: Option<SaveJob>,
     /// The object written (1010h or 1011h) and its sub-index, for the abort if the file
     /// cannot be written.

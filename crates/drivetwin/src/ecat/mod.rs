@@ -2,7 +2,7 @@
 //! concept of what a slave does, and the raw Ethernet socket the chain sits on.
 
 pub mod chain;
-mod coe_dispatch;
+pub mod coe_dispatch;
 pub mod frame_tap;
 pub mod line;
 pub mod link;

@@ -1,5 +1,5 @@
 //! One slave behind its ESC: the device's protocol state ([`SlaveDevice`]) and, bound to its
-//! drive for the length of one call ([`Bound`]), what it does after a frame and between
+//! drive for the length of one call (`Bound`), what it does after a frame and between
 //! frames, and the ESC's AL state hooks.
 //!
 //! * Free run (no SYNC0): after every frame the newest complete output buffer is written

@@ -9,6 +9,8 @@ use crate::cell::param_store::ParamStore;
 use crate::cell::station::Station;
 use crate::cell::stations::StationId;
 
+#[cfg(doc)]
+use super::chain::SlaveChain;
 use super::chain::SlaveChainError;
 
 /// The drive behind a slave.
