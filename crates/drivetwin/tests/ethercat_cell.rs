@@ -15,9 +15,10 @@ mod ecat_inputs;
 use ecat_inputs::{phys, sm};
 
 use drivetwin::cell::config::CellFile;
+use drivetwin::cell::param_saver::ParamSaver;
 use drivetwin::cell::station::Station;
 use drivetwin::cell::stations::{StationId, Stations};
-use drivetwin::ecat::chain::{BusDrives, SlaveChain, SlaveDrive};
+use drivetwin::ecat::chain::{BusDrives, NoBuses, SlaveChain, SlaveDrive};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, Fmmu, FrameOutcome};
@@ -46,6 +47,10 @@ struct Master {
     joined: Option<Stations>,
     /// Every frame as it came back, when asked for.
     returned: Option<Vec<Vec<u8>>>,
+    /// The runtime's writer of the saves the slaves ask for (1010h), as the cell loop's.
+    saver: ParamSaver<usize>,
+    /// Whether the saves go to `saver` after every frame and poll (else the test takes them).
+    runtime_saves: bool,
 }
 
 /// The drives of a chain joined to a cell without CAN buses: stations of the cell's list.
@@ -85,6 +90,8 @@ impl Master {
             now: Instant::from_millis(1),
             joined,
             returned: None,
+            saver: ParamSaver::default(),
+            runtime_saves: true,
         };
         match &mut m.joined {
             Some(stations) => m.cell.boot_with(m.now, &mut InCell(stations)),
@@ -95,12 +102,14 @@ impl Master {
 
     /// A frame through the chain.
     fn pass(&mut self, frame: &mut [u8]) -> FrameOutcome {
-        match &mut self.joined {
+        let outcome = match &mut self.joined {
             Some(stations) => self
                 .cell
                 .on_frame_with(self.now, frame, &mut InCell(stations)),
             None => self.cell.on_frame(self.now, frame),
-        }
+        };
+        self.hand_off_saves();
+        outcome
     }
 
     /// The chain's drives run to `now`.
@@ -111,6 +120,24 @@ impl Master {
             }
             None => {
                 self.cell.poll(self.now);
+            }
+        }
+        self.hand_off_saves();
+    }
+
+    /// As the cell loop does after each frame and poll: the saves the slaves asked for go
+    /// to the saver, and those it has written go back to their slaves.
+    fn hand_off_saves(&mut self) {
+        if !self.runtime_saves {
+            return;
+        }
+        while let Some(req) = self.cell.take_save() {
+            self.saver.start(req.slave, req.job);
+        }
+        while let Some((slave, result)) = self.saver.finished() {
+            match &mut self.joined {
+                Some(stations) => self.cell.saved(slave, result, &mut InCell(stations)),
+                None => self.cell.saved(slave, result, &mut NoBuses),
             }
         }
     }
@@ -1053,6 +1080,53 @@ fn coe_save_holds_its_reply_not_the_loop_kill9_wrong_wkc() {
         dir.join("cmmp-as-node1.params").exists(),
         "the reply comes once the file is written"
     );
+    let r = m.fprd(0x1080, 0x80);
+    assert_eq!(
+        &r.data[8..12],
+        &[0x60, 0x10, 0x10, 0x01],
+        "download response"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The chain writes no file itself: a 1010h:01 "save" over CoE holds its reply until the
+/// runtime has taken the save (`take_save`, once), written it, and handed the result back
+/// (`saved`); only then is the file there and the download response posted.
+#[test]
+fn the_chain_asks_the_runtime_for_the_save_and_writes_no_file() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-asks-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let file = CellFile::single("cmmp-as", 1);
+    let mut m = Master::new(
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
+            .expect("cell"),
+    );
+    to_preop(&mut m);
+    m.runtime_saves = false;
+    let mut req = vec![0u8; 0x80];
+    req[..16].copy_from_slice(&[
+        10, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e',
+    ]);
+    m.fpwr(0x1000, &req);
+    for _ in 0..20 {
+        m.tick();
+        assert_eq!(
+            m.fprd(0x080D, 1).data[0] & 0x08,
+            0,
+            "no reply before the save"
+        );
+    }
+    let params = dir.join("cmmp-as-node1.params");
+    assert!(!params.exists(), "the chain wrote no file");
+    assert!(m.cell.device(0).unwrap().saving());
+    let save = m.cell.take_save().expect("the save asked for");
+    assert_eq!(save.slave, 0);
+    assert!(m.cell.take_save().is_none(), "asked once");
+    let result = save.job.run();
+    assert!(params.exists(), "the runtime wrote it");
+    m.cell.saved(0, result, &mut NoBuses);
+    assert!(!m.cell.device(0).unwrap().saving());
+    assert_ne!(m.fprd(0x080D, 1).data[0] & 0x08, 0, "the reply posted");
     let r = m.fprd(0x1080, 0x80);
     assert_eq!(
         &r.data[8..12],

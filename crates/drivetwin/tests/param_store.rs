@@ -246,3 +246,38 @@ fn a_station_without_a_canopen_node_sends_nothing_and_still_saves() {
     let again = drive(&dir);
     assert_eq!(again.od().get_unsigned(0x1017, 0), Some(250), "saved");
 }
+
+/// A runtime's saver writes a job's file with the station's own save: a job for the loop is
+/// done when `start` returns (a drive whose CANopen node writes the same file), its result the
+/// stored set read back; the values are those of the copy taken when the save was asked for,
+/// not those written after.
+#[test]
+fn a_saver_writes_the_values_of_the_moment_the_save_was_asked_for() {
+    use drivetwin::cell::param_saver::{ParamSaver, SaveJob};
+    let dir = tmpdir("saver");
+    let mut d = drive(&dir);
+    d.model.write(0x1017, 0, &[0xFA, 0x00]).unwrap();
+    let job = SaveJob::new(
+        ParamStore::new(&dir, "testbench", 1),
+        d.od().clone(),
+        1,
+        true,
+    );
+    d.model.write(0x1017, 0, &[0x2C, 0x01]).unwrap();
+    let mut saver = ParamSaver::default();
+    saver.start(7usize, job);
+    let (key, result) = saver.finished().expect("done on the loop");
+    assert_eq!(key, 7);
+    let stored = result.unwrap();
+    let hb = stored
+        .iter()
+        .find(|v| (v.index, v.sub) == (0x1017, 0))
+        .expect("1017h stored");
+    assert_eq!(
+        hb.bytes,
+        [0xFA, 0x00],
+        "the value when the save was asked for"
+    );
+    assert!(saver.finished().is_none(), "each save is reported once");
+    assert_eq!(drive(&dir).od().get_unsigned(0x1017, 0), Some(250));
+}

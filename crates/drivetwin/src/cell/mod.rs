@@ -27,6 +27,7 @@ pub mod link;
 pub mod load_control;
 pub mod modbus_device;
 pub mod next_turn;
+pub mod param_saver;
 pub mod param_store;
 pub mod planned;
 pub mod realtime;

@@ -123,6 +123,7 @@ impl CellLoop {
                 chain.chain.poll_with(t, &mut self.cell);
                 self.turns.poll();
                 self.turns.mark(Part::CatchUp);
+                Self::hand_off_saves(chain, &mut self.cell);
             }
             if Self::pass_chain(chain, f, t, &mut self.cell, own && may_defer) {
                 self.turns.exchange();
@@ -180,6 +181,7 @@ impl CellLoop {
             false
         } else {
             chain.chain.exchange_with(t, buses);
+            Self::hand_off_saves(chain, buses);
             true
         }
     }
@@ -190,8 +192,22 @@ impl CellLoop {
         let pending = chain.pending_exchange.take();
         if let Some(t) = pending {
             chain.chain.exchange_with(t, buses);
+            Self::hand_off_saves(chain, buses);
         }
         pending.is_some()
+    }
+
+    /// The saves chain `chain`'s slaves asked for go to its saver, which writes each file
+    /// beside the loop (one of a drive that is a CANopen node as well on the loop, as its
+    /// node saves); each save done goes back to its slave, whose held CoE reply goes out.
+    /// Run after every exchange and poll of the chain, where a slave serves its mailbox.
+    pub(super) fn hand_off_saves(chain: &mut ChainState, buses: &mut CanCell) {
+        while let Some(req) = chain.chain.take_save() {
+            chain.saver.start(req.slave, req.job);
+        }
+        while let Some((slave, result)) = chain.saver.finished() {
+            chain.chain.saved(slave, result, buses);
+        }
     }
 
     /// Runs every chain's pending exchange: before a turn's timers, events and requests

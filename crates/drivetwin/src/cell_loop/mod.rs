@@ -56,6 +56,7 @@ use crate::cell::can_cell::CanCell;
 use crate::cell::control::{Command, ControlHandle, DriveViews, PlantSample};
 use crate::cell::front_fault_injector::{Arrivals, FrontFaultInjector};
 use crate::cell::link::{Link, SendBuffer};
+use crate::cell::param_saver::ParamSaver;
 use crate::cell::stations::StationId;
 use crate::cell::tracer::Tracer;
 use crate::ecat::chain::{FrameTap, SlaveChain};
@@ -149,6 +150,9 @@ struct ChainState {
     pending_exchange: Option<od::Instant>,
     /// When the last frame arrived: a frame's time never goes back.
     last_frame: Instant,
+    /// The 1010h saves its slaves asked for, written beside the loop
+    /// ([`CellLoop::hand_off_saves`]).
+    saver: ParamSaver<usize>,
 }
 
 impl ChainState {
@@ -484,6 +488,7 @@ impl CellLoop {
                 ),
                 pending_exchange: None,
                 last_frame: Instant::now(),
+                saver: ParamSaver::default(),
             })
             .collect();
         plans::plan_outside(&mut cell, front.plans, &chains, front.modbus.len());
@@ -848,6 +853,7 @@ impl CellLoop {
                 self.lateness.record(t.saturating_since(by));
                 chain.chain.poll_with(t, &mut self.cell);
                 self.turns.poll();
+                Self::hand_off_saves(chain, &mut self.cell);
             }
         }
         for slot in 0..self.slots.len() {

@@ -227,6 +227,7 @@ pub fn run_virtual_lines(
         for c in chains.iter_mut() {
             if c.deadline().is_some_and(|d| d <= now) {
                 c.poll_with(now, cell);
+                save_at_once(c, cell);
             }
         }
         for (i, l) in lines.iter_mut().enumerate() {
@@ -275,7 +276,9 @@ pub fn run_virtual_lines(
                         frame.clear();
                         frame.extend_from_slice(f);
                         let shared = c.has_bus_drives();
-                        if c.on_frame_with(now, &mut frame, cell).forward() {
+                        let forward = c.on_frame_with(now, &mut frame, cell).forward();
+                        save_at_once(c, cell);
+                        if forward {
                             sink(
                                 at(now),
                                 Output::Ethercat {
@@ -301,5 +304,14 @@ pub fn run_virtual_lines(
             }
             next_input += 1;
         }
+    }
+}
+
+/// The saves the chain's slaves asked for, written at once on the virtual clock (no time
+/// passes on it while a file is written, and the same inputs give the same frames).
+fn save_at_once(chain: &mut SlaveChain, cell: &mut CanCell) {
+    while let Some(req) = chain.take_save() {
+        let result = req.job.run();
+        chain.saved(req.slave, result, cell);
     }
 }

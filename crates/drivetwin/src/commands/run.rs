@@ -542,8 +542,10 @@ async fn prepare_cell(
             }
             bus.socketcand = Some((listener, config));
         }
-        #[cfg(target_os = "linux")]
         if let Some(ifname) = &section.socketcan {
+            if let Some(why) = drivetwin::sys::platform::socketcan_missing() {
+                return Err(CommandError::Usage(format!("SocketCAN {ifname}: {why}")));
+            }
             let socket = drivetwin::can::socketcan::RawCanSocket::open(ifname)
                 .map_err(io(format!("SocketCAN {ifname}")))?;
             out!("SocketCAN bridge on {ifname}");
@@ -769,7 +771,6 @@ fn fhpp_addresses<'a>(
 /// The cell's EtherCAT chains, one per network interface in order of first mention, each
 /// with its slaves in cell-file order, and the pcap writers of `--trace` (the first chain's,
 /// when the path is not a candump `.log` or the cell has no CAN drive).
-#[cfg(target_os = "linux")]
 fn ethercat_chains(
     specs: Vec<(usize, DriveSpec)>,
     in_cell: &[Option<StationId>],
@@ -798,6 +799,9 @@ fn ethercat_chains(
                 spec.node
             )));
         };
+        if let Some(why) = drivetwin::sys::platform::raw_ethernet_missing() {
+            return Err(CommandError::Usage(format!("EtherCAT on {ifname}: {why}")));
+        }
         let desc = spec.desc;
         let drive = if spec.canopen {
             match in_cell.get(i).copied().flatten() {
@@ -868,27 +872,9 @@ fn ethercat_chains(
     Ok((out_chains, writers))
 }
 
-#[cfg(not(target_os = "linux"))]
-fn ethercat_chains(
-    specs: Vec<(usize, DriveSpec)>,
-    _in_cell: &[Option<StationId>],
-    _args: &RunArgs,
-    _ethercat_if: Option<&str>,
-    _trace: Option<&std::path::Path>,
-    _no_can: bool,
-) -> Result<(Vec<EthercatChain>, Vec<std::thread::JoinHandle<()>>), CommandError> {
-    if specs.is_empty() {
-        return Ok((Vec::new(), Vec::new()));
-    }
-    Err(CommandError::Usage(
-        "EtherCAT (raw Ethernet) needs Linux".into(),
-    ))
-}
-
 /// The `--trace` writer of an EtherCAT run: a pcap of Ethernet frames (tshark decodes
 /// EtherCAT and CoE from it), written on its own thread so the frame loop never waits on the
 /// disk.
-#[cfg(target_os = "linux")]
 fn ethercat_trace(
     path: &std::path::Path,
 ) -> Result<

@@ -15,6 +15,7 @@
 //! - [`socketcan`]: `AF_CAN` raw sockets;
 //! - [`packet_socket`]: `AF_PACKET` sockets for one EtherType;
 //! - [`tcp`]: socket options and non-blocking calls on TCP connections;
+//! - [`platform`]: what this platform has (raw Ethernet, SocketCAN);
 //! - [`pty`] and [`termios`]: pseudo-terminals and serial devices;
 //! - [`sched`]: real-time or batch scheduling of a thread;
 //! - [`timer`]: sub-millisecond one-shot timers a poll waits for;
@@ -24,6 +25,7 @@ pub mod fd;
 pub mod fmu_instance;
 pub mod net_interface;
 pub mod packet_socket;
+pub mod platform;
 pub mod pty;
 pub mod sched;
 pub mod socketcan;

@@ -1,0 +1,189 @@
+//! Process data (the manual's extract kept beside the project, `cmmp-as-1-communication.md`
+//! §2): the layout of SM2 (outputs) and SM3 (inputs) and the copy of the mapped objects
+//! between the process images and the dictionary.
+//!
+//! * On Pre-Op → Safe-Op the device takes the PDO assignment (1C12h / 1C13h when the
+//!   dictionary has them, else the SII defaults 1600h / 1A00h: the CMMP-AS maps its EtherCAT
+//!   process data with the CANopen mapping objects 1600h–1603h / 1A00h–1A03h) and computes
+//!   the bit layout of SM2 (outputs) and SM3 (inputs) from the mapping entries. A mapping the
+//!   dictionary refuses is refused with 0x0025 (outputs) / 0x0024 (inputs); SM2 / SM3 sizes
+//!   that do not match it with 0x001D / 0x001E ([`Esc::check_process_data`]).
+//! * PDO assignment and mapping are written in Pre-Op only ([`ethercat::coe::MappingLock`]);
+//!   the layout is taken on Pre-Op → Safe-Op.
+
+use ethercat::{AlStatusCode, Esc};
+use od::pdo_rules::{check_map_entry, MapEntry};
+use od::ObjectAccess;
+
+use crate::cell::device_model::Model;
+
+use super::slave::Bound;
+
+/// PDO assignment objects (ETG.1000.6): SM2 (RxPDO) and SM3 (TxPDO).
+const RX_ASSIGN: u16 = 0x1C12;
+const TX_ASSIGN: u16 = 0x1C13;
+
+/// One mapped object in a process image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MapItem {
+    pub index: u16,
+    pub sub: u8,
+    /// Bit offset in the process image.
+    pub offset: usize,
+    pub bits: u8,
+    /// A dummy entry (RxPDO gap): skipped.
+    pub dummy: bool,
+}
+
+/// The process-data layout taken on Pre-Op → Safe-Op.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Layout {
+    /// SM2, master → device.
+    pub outputs: Vec<MapItem>,
+    /// SM3, device → master.
+    pub inputs: Vec<MapItem>,
+    pub output_bytes: u16,
+    pub input_bytes: u16,
+}
+
+impl Bound<'_> {
+    /// The PDO assignment of SM2 or SM3: 1C12h / 1C13h from the dictionary when it has
+    /// them, else the SII's defaults.
+    pub(super) fn assignment(&self, rx: bool) -> Result<Vec<u16>, ()> {
+        let index = if rx { RX_ASSIGN } else { TX_ASSIGN };
+        let model: &Model = self.model;
+        if model.entry(index, 0).is_err() {
+            let d = if rx {
+                self.dev.sii.rx_assigned
+            } else {
+                self.dev.sii.tx_assigned
+            };
+            return Ok(d.to_vec());
+        }
+        let count = read_unsigned(model, index, 0).ok_or(())?;
+        (1..=count)
+            .map(|sub| {
+                let sub = u8::try_from(sub).map_err(|_| ())?;
+                read_unsigned(model, index, sub)
+                    .and_then(|v| u16::try_from(v).ok())
+                    .ok_or(())
+            })
+            .collect()
+    }
+
+    /// The items of one direction from the current mapping objects, and the bit length.
+    pub(super) fn map(&self, rx: bool) -> Result<(Vec<MapItem>, usize), ()> {
+        let model: &Model = self.model;
+        let desc = model.od().description();
+        let mut items = Vec::new();
+        let mut offset = 0usize;
+        for pdo in self.assignment(rx)? {
+            let count = read_unsigned(model, pdo, 0).ok_or(())?;
+            for sub in 1..=count {
+                let sub = u8::try_from(sub).map_err(|_| ())?;
+                let v = read_unsigned(model, pdo, sub).ok_or(())?;
+                let v = u32::try_from(v).map_err(|_| ())?;
+                if v == 0 {
+                    continue;
+                }
+                check_map_entry(desc, !rx, v).map_err(|_| ())?;
+                let m = MapEntry::from_u32(v);
+                items.push(MapItem {
+                    index: m.index,
+                    sub: m.sub,
+                    offset,
+                    bits: m.bits,
+                    dummy: m.is_dummy(),
+                });
+                offset += usize::from(m.bits);
+            }
+        }
+        Ok((items, offset))
+    }
+
+    /// The layout the current dictionary gives, or the AL status code that refuses it.
+    pub(super) fn compute_layout(&self) -> Result<Layout, AlStatusCode> {
+        let (outputs, out_bits) = self
+            .map(true)
+            .map_err(|()| AlStatusCode::INVALID_OUTPUT_MAPPING)?;
+        let (inputs, in_bits) = self
+            .map(false)
+            .map_err(|()| AlStatusCode::INVALID_INPUT_MAPPING)?;
+        Ok(Layout {
+            outputs,
+            inputs,
+            output_bytes: u16::try_from(out_bits.div_ceil(8))
+                .map_err(|_| AlStatusCode::INVALID_OUTPUT_MAPPING)?,
+            input_bytes: u16::try_from(in_bits.div_ceil(8))
+                .map_err(|_| AlStatusCode::INVALID_INPUT_MAPPING)?,
+        })
+    }
+
+    /// Writes the mapped objects of an output buffer into the device.
+    pub(super) fn apply_outputs(&mut self, data: &[u8]) {
+        let Some(layout) = &self.dev.layout else {
+            return;
+        };
+        let mut value = [0u8; 8];
+        for item in layout.outputs.iter().filter(|i| !i.dummy) {
+            let n = usize::from(item.bits).div_ceil(8);
+            let Some(v) = value.get_mut(..n) else {
+                continue;
+            };
+            get_bits(data, item.offset, item.bits, v);
+            if self.model.write(item.index, item.sub, v).is_err() {
+                self.dev.write_errors += 1;
+            }
+        }
+    }
+
+    /// Reads the mapped objects into the input buffer and hands it to the ESC.
+    pub(super) fn post_inputs(&mut self, esc: &mut Esc<'_>) {
+        let dev = &mut *self.dev;
+        let Some(layout) = &dev.layout else {
+            return;
+        };
+        dev.inputs.clear();
+        dev.inputs.resize(usize::from(layout.input_bytes), 0);
+        let mut value = [0u8; 8];
+        for item in &layout.inputs {
+            value.fill(0);
+            // A value that cannot be read leaves zeros, as a real PDI would leave stale data.
+            let _ = self.model.read(item.index, item.sub, &mut value);
+            set_bits(&mut dev.inputs, item.offset, item.bits, &value);
+        }
+        if !dev.inputs.is_empty() {
+            let _ = esc.set_inputs(&dev.inputs);
+        }
+    }
+}
+
+/// An unsigned value of the dictionary (at most 8 bytes), `None` when it cannot be read.
+pub(super) fn read_unsigned(dev: &dyn ObjectAccess, index: u16, sub: u8) -> Option<u64> {
+    let mut b = [0u8; 8];
+    let n = dev.read(index, sub, &mut b).ok()?;
+    (n <= 8).then(|| u64::from_le_bytes(b))
+}
+
+/// Copies `bits` bits from `src` at bit offset `offset` into `dst` (LSB first).
+fn get_bits(src: &[u8], offset: usize, bits: u8, dst: &mut [u8]) {
+    dst.fill(0);
+    for i in 0..usize::from(bits) {
+        let s = offset + i;
+        let bit = src.get(s / 8).map(|b| (b >> (s % 8)) & 1).unwrap_or(0);
+        if let Some(d) = dst.get_mut(i / 8) {
+            *d |= bit << (i % 8);
+        }
+    }
+}
+
+/// Copies the low `bits` bits of `src` into `dst` at bit offset `offset` (LSB first).
+fn set_bits(dst: &mut [u8], offset: usize, bits: u8, src: &[u8]) {
+    for i in 0..usize::from(bits) {
+        let bit = src.get(i / 8).map(|b| (b >> (i % 8)) & 1).unwrap_or(0);
+        let d = offset + i;
+        if let Some(b) = dst.get_mut(d / 8) {
+            *b = (*b & !(1 << (d % 8))) | (bit << (d % 8));
+        }
+    }
+}
