@@ -456,11 +456,14 @@ impl VirtualRig {
 
     /// The frames from outside that crossed bus `bus` since the last call: end of frame,
     /// frame, and whether a drive received it.
-    pub fn take_outside_frames(&mut self, bus: usize) -> Vec<(Instant, CanFrame, bool)> {
+    pub fn take_outside_frames(
+        &mut self,
+        bus: usize,
+    ) -> impl Iterator<Item = (Instant, CanFrame, bool)> + '_ {
         self.cell
             .bus_mut(bus)
-            .map(SegmentBus::take_outside_frames)
-            .unwrap_or_default()
+            .into_iter()
+            .flat_map(SegmentBus::take_outside_frames)
     }
 
     /// Whether `frame` from outside, put on bus `bus` now, would wait for the bus.
