@@ -117,3 +117,53 @@ fn an_enabled_drive_with_its_pdos_on_the_bus_steps_without_allocating() {
     let cell = instance("cell.toml", Some("start.toml"));
     assert_eq!(allocations(cell, 200, 1000), 0);
 }
+
+#[test]
+fn a_masters_sdo_requests_through_the_ls_bus_terminal_and_their_answers_allocate_nothing() {
+    use drivetwin::cell_fmu::can_terminal::{value_reference, Member};
+    use drivetwin::cell_fmu::ls_bus::Operation;
+    let mut cell = instance("cell.toml", Some("start.toml"));
+    // SDO upload of 6041h:00, the statusword (CiA 301 §7.2.4.3.6), as an LS-BUS CAN Transmit.
+    let mut request = Vec::new();
+    Operation::CanTransmit {
+        id: 0x601,
+        ide: false,
+        rtr: false,
+        data: &[0x40, 0x41, 0x60, 0x00, 0, 0, 0, 0],
+    }
+    .emit(&mut request)
+    .unwrap();
+    let (rx_data, rx_clock, tx_data, tx_clock) = (
+        value_reference(0, Member::RxData),
+        value_reference(0, Member::RxClock),
+        value_reference(0, Member::TxData),
+        value_reference(0, Member::TxClock),
+    );
+    // A request every 5 ms on the 125 kbit/s bus (its frame and the answer take about 2 ms),
+    // the terminal's Tx_Data read after every step that ticked.
+    let mut step = |cell: &mut CellInstance, k: u32| -> usize {
+        if k % 5 == 0 {
+            cell.set_binary(rx_data, &request).unwrap();
+            cell.set_clock(rx_clock, true).unwrap();
+            cell.update_discrete_states();
+        }
+        cell.do_step(f64::from(k) * STEP, STEP).unwrap();
+        if cell.get_clock(tx_clock).unwrap() {
+            cell.get_binary(tx_data).unwrap().len()
+        } else {
+            0
+        }
+    };
+    for k in 0..200 {
+        step(&mut cell, k);
+    }
+    let mut tx_bytes = 0;
+    let count = Counting::count(|| {
+        for k in 200..1200 {
+            tx_bytes += step(&mut cell, k);
+        }
+    });
+    // 200 requests, each confirmed on Tx and answered by the drive (0x581 …).
+    assert!(tx_bytes > 200 * 2 * 8, "{tx_bytes} bytes on Tx");
+    assert_eq!(count, 0);
+}

@@ -190,8 +190,11 @@ impl CanTerminal {
     /// The operations of a ticked `Rx_Clock`, once.
     fn accept_rx(&mut self) {
         if std::mem::take(&mut self.rx_clock) {
-            let rx = std::mem::take(&mut self.rx_data);
+            // (taken and given back emptied: its room stays for the next Rx_Data)
+            let mut rx = std::mem::take(&mut self.rx_data);
             self.receive(&rx);
+            rx.clear();
+            self.rx_data = rx;
         }
     }
 
@@ -283,7 +286,9 @@ impl CanTerminal {
     /// The step ends: the operations gathered during it tick `Tx_Clock`.
     pub fn tick(&mut self) {
         if !self.tx_next.is_empty() {
-            self.tx_data = std::mem::take(&mut self.tx_next);
+            // (the two lists trade places, so neither is made anew)
+            std::mem::swap(&mut self.tx_data, &mut self.tx_next);
+            self.tx_next.clear();
             self.tx_clock = true;
         }
     }

@@ -209,8 +209,8 @@ impl VirtualRig {
 
     /// The frames bus `b`'s drives sent at `now` are on the bus (and those still pending).
     fn emit(&mut self, b: usize, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
-        let frames = std::mem::take(&mut self.out);
-        self.pending.extend(frames.into_iter().map(|f| (b, f)));
+        // (drained: the list keeps its room, no allocation per frame)
+        self.pending.extend(self.out.drain(..).map(|f| (b, f)));
         self.flush(seen);
     }
 
