@@ -141,8 +141,8 @@ fn a_masters_sdo_requests_through_the_ls_bus_terminal_and_their_answers_allocate
     );
     // A request every 5 ms on the 125 kbit/s bus (its frame and the answer take about 2 ms),
     // the terminal's Tx_Data read after every step that ticked.
-    let mut step = |cell: &mut CellInstance, k: u32| -> usize {
-        if k % 5 == 0 {
+    let step = |cell: &mut CellInstance, k: u32| -> usize {
+        if k.is_multiple_of(5) {
             cell.set_binary(rx_data, &request).unwrap();
             cell.set_clock(rx_clock, true).unwrap();
             cell.update_discrete_states();
