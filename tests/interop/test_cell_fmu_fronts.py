@@ -19,13 +19,13 @@ fmpy = pytest.importorskip("fmpy")
 STEP = 1e-3
 
 
-def pack(tmp_path, text: str) -> str:
+def pack(tmp_path, text: str, *extra: str) -> str:
     cell = tmp_path / "cell.toml"
     cell.write_text(text)
     out = tmp_path / "cell.fmu"
     subprocess.run(
         [str(DRIVETWIN_BIN), "fmu", "--config", str(cell), "--output", str(out),
-         "--library", str(LIBRARY)],
+         "--library", str(LIBRARY), *extra],
         check=True, cwd=REPO_ROOT, timeout=60,
     )
     return str(out)
@@ -297,28 +297,33 @@ ethercat = "{fmu_if}"
         cell.free()
 
 
+@pytest.mark.parametrize("form", ["named", "interfaces"])
 def test_a_cell_of_ethercat_slaves_alone_is_an_fmu_soem_drives_between_fmpy_steps(
-        cell_fmu, tmp_path, veth_pair):  # noqa: F811
+        cell_fmu, tmp_path, veth_pair, form):  # noqa: F811
     """A cell whose only drives are EtherCAT slaves (no CAN node, no CMMO-ST) is an FMU: its
     variables are `driveK`'s, K the `[[drive]]` index, doStep advances the slaves' drives
     and the chain is open while fmpy steps it. pysoem takes both slaves to Op between steps
     and enables the second; its shaft turns in the FMU's outputs. Each slave's
-    `[drive.motor]` keys are parameters, as a CANopen CMMP-AS's are."""
+    `[drive.motor]` keys are parameters, as a CANopen CMMP-AS's are. The chain is named in
+    the cell file (`ethercat = "IF"`), or the slaves list `interfaces = ["ethercat"]` and
+    `drivetwin fmu --ethercat IF` gives it, as `drivetwin run --ethercat IF` does."""
     pysoem = pytest.importorskip("pysoem", reason="pysoem is not installed (pip install pysoem)")
     fmu_if, master_if = veth_pair
+    chain = f'ethercat = "{fmu_if}"' if form == "named" else 'interfaces = ["ethercat"]'
+    extra = [] if form == "named" else ["--ethercat", fmu_if]
     fmu = pack(tmp_path, f"""
 [[drive]]
 device = "cmmp-as"
 node = 1
-ethercat = "{fmu_if}"
+{chain}
 
 [[drive]]
 device = "cmmp-as"
 node = 2
-ethercat = "{fmu_if}"
+{chain}
 [drive.motor]
 inertia = 4e-5
-""")
+""", *extra)
     md = fmpy.read_model_description(fmu)
     v = {x.name: x for x in md.modelVariables}
     assert not any(n.startswith("node") for n in v), sorted(v)

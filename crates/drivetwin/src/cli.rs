@@ -237,6 +237,12 @@ pub struct FmuArgs {
     /// builds it); default: next to this drivetwin binary.
     #[arg(long)]
     pub library: Option<PathBuf>,
+    /// The network interface of the chain of the EtherCAT slaves that name none, as
+    /// `drivetwin run --ethercat` takes it: the drives whose `interfaces` list "ethercat"
+    /// without `ethercat = "IFNAME"`; when no drive lists interfaces, every drive. Kept in the
+    /// FMU; its raw socket opens when the importer instantiates it.
+    #[arg(long, value_name = "IFNAME")]
+    pub ethercat: Option<String>,
 }
 
 #[derive(Args, Debug)]

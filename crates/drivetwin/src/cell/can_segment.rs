@@ -169,12 +169,13 @@ impl SegmentBus {
     }
 
     /// The frames from outside that crossed the bus since the last call: end of frame, the
-    /// frame, and whether at least one drive received it (its acknowledgement).
-    pub fn take_outside_frames(&mut self) -> Vec<(Instant, CanFrame, bool)> {
+    /// frame, and whether at least one drive received it (its acknowledgement). Drained, so
+    /// the list keeps its room for the next ones (no allocation per step).
+    pub fn take_outside_frames(&mut self) -> impl Iterator<Item = (Instant, CanFrame, bool)> + '_ {
         self.outside_ends
             .as_mut()
-            .map(std::mem::take)
-            .unwrap_or_default()
+            .into_iter()
+            .flat_map(|ends| ends.drain(..))
     }
 
     /// Whether `frame`, from outside at `now`, would wait for the bus: a timed bus that is

@@ -62,6 +62,8 @@ pub enum InterfaceError {
         second: &'static str,
         rule: &'static str,
     },
+    #[error("--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)")]
+    WholeCellOnEthercat,
 }
 
 /// Whether `device` may run `wanted` together; `allow_unreal` lifts the one-at-a-time rule
@@ -88,6 +90,41 @@ pub fn check(
                 second: second.as_str(),
                 rule: o.rule,
             });
+        }
+    }
+    Ok(())
+}
+
+/// Each drive's EtherCAT chain as `drivetwin run --ethercat IFNAME` and the cell FMU
+/// (`drivetwin fmu --ethercat IFNAME`) resolve it, in `specs` (the drives of `file`, in order):
+/// a drive whose `interfaces` list "ethercat" without naming a chain is on `ethercat_if`'s;
+/// with `ethercat_if` and a cell file that names no interfaces and no chain at all, every
+/// drive is on that chain instead of CAN (the form from before the cell loop served both).
+/// A drive left without its chain keeps `Some(None)`: the caller says what names one.
+pub fn resolve_ethercat_chains(
+    file: &crate::cell::config::CellFile,
+    specs: &mut [crate::cell::config::DriveSpec],
+    ethercat_if: Option<&str>,
+) -> Result<(), InterfaceError> {
+    let Some(ifname) = ethercat_if else {
+        return Ok(());
+    };
+    let whole_cell = file
+        .drive
+        .iter()
+        .all(|d| d.interfaces.is_none() && d.ethercat.is_none());
+    if whole_cell {
+        if specs.iter().any(|s| s.fhpp.is_some()) {
+            return Err(InterfaceError::WholeCellOnEthercat);
+        }
+        for s in specs.iter_mut() {
+            s.canopen = false;
+            s.ethercat = Some(None);
+        }
+    }
+    for s in specs.iter_mut() {
+        if let Some(chain @ None) = &mut s.ethercat {
+            *chain = Some(ifname.to_owned());
         }
     }
     Ok(())

@@ -1,13 +1,16 @@
 //! The cell FMU's archive (FMI 3.0 §2.5): `modelDescription.xml`, the binary as
 //! `binaries/x86_64-linux/drivetwin_cell.so`, and in `resources/` the cell file and the
-//! timeline the instance reads when it is instantiated; with CAN buses, the FMI-LS-BUS
+//! timeline the instance reads when it is instantiated (and the EtherCAT interface
+//! `drivetwin fmu --ethercat` names); with CAN buses, the FMI-LS-BUS
 //! terminals (`terminalsAndIcons/terminalsAndIcons.xml`) and the layered standard's manifest
 //! (`extra/org.fmi-standard.fmi-ls-bus/fmi-ls-manifest.xml`).
 
 use std::io::Write;
 use std::path::Path;
 
-use super::{can_terminal, CellFmuError, CELL_FILE, MODEL_IDENTIFIER, TIMELINE_FILE};
+use super::{
+    can_terminal, CellFmuError, CELL_FILE, ETHERCAT_FILE, MODEL_IDENTIFIER, TIMELINE_FILE,
+};
 
 /// What goes into the archive.
 pub struct Contents<'a> {
@@ -18,6 +21,8 @@ pub struct Contents<'a> {
     pub cell: &'a str,
     /// The timeline's text (a scenario file), if any.
     pub timeline: Option<&'a str>,
+    /// The interface of the chain of the EtherCAT slaves that name none, if given.
+    pub ethercat: Option<&'a str>,
     /// The cell's CAN buses: each has an FMI-LS-BUS terminal, declared in
     /// `terminalsAndIcons/terminalsAndIcons.xml`, with the layered standard's manifest.
     pub buses: usize,
@@ -44,6 +49,9 @@ pub fn write(output: &Path, contents: &Contents<'_>) -> Result<(), CellFmuError>
     ];
     if let Some(t) = contents.timeline {
         entries.push((format!("resources/{TIMELINE_FILE}"), t.as_bytes()));
+    }
+    if let Some(interface) = contents.ethercat {
+        entries.push((format!("resources/{ETHERCAT_FILE}"), interface.as_bytes()));
     }
     let terminals = can_terminal::terminals_and_icons(contents.buses);
     if contents.buses > 0 {

@@ -190,17 +190,29 @@ impl CanTerminal {
     /// The operations of a ticked `Rx_Clock`, once.
     fn accept_rx(&mut self) {
         if std::mem::take(&mut self.rx_clock) {
-            let rx = std::mem::take(&mut self.rx_data);
+            // (taken and given back emptied: its room stays for the next Rx_Data)
+            let mut rx = std::mem::take(&mut self.rx_data);
             self.receive(&rx);
+            rx.clear();
+            self.rx_data = rx;
         }
     }
 
     /// A step begins: last tick's Tx_Data is gone, and the frames received go to the bus (a
     /// tick of `Rx_Clock` not yet taken by `fmi3UpdateDiscreteStates` is taken now).
     pub fn take_to_bus(&mut self) -> Vec<CanFrame> {
+        let mut frames = Vec::new();
+        self.take_to_bus_into(&mut frames);
+        frames
+    }
+
+    /// [`CanTerminal::take_to_bus`] into `frames` (emptied first): the two buffers trade
+    /// places, so a step that reuses `frames` allocates nothing.
+    pub fn take_to_bus_into(&mut self, frames: &mut Vec<CanFrame>) {
         self.accept_rx();
         self.tx_data.clear();
-        std::mem::take(&mut self.to_bus)
+        frames.clear();
+        std::mem::swap(frames, &mut self.to_bus);
     }
 
     /// Whether `Tx_Clock` has ticked and not been read.
@@ -274,7 +286,9 @@ impl CanTerminal {
     /// The step ends: the operations gathered during it tick `Tx_Clock`.
     pub fn tick(&mut self) {
         if !self.tx_next.is_empty() {
-            self.tx_data = std::mem::take(&mut self.tx_next);
+            // (the two lists trade places, so neither is made anew)
+            std::mem::swap(&mut self.tx_data, &mut self.tx_next);
+            self.tx_next.clear();
             self.tx_clock = true;
         }
     }
@@ -374,27 +388,27 @@ impl CellInstance {
     /// frames (`frames`) and the ends of the master's own (`outside`: bus, end of frame,
     /// frame, acknowledged), in the order of their times.
     pub(super) fn terminals_saw(
-        &mut self,
+        terminals: &mut [CanTerminal],
         frames: &[(usize, Duration, CanFrame)],
         outside: &[(usize, Duration, CanFrame, bool)],
     ) {
         let mut o = outside.iter().peekable();
         for (bus, at, frame) in frames {
             while let Some((b, _, f, acked)) = o.next_if(|(_, end, _, _)| end <= at) {
-                if let Some(t) = self.terminals.get_mut(*b) {
+                if let Some(t) = terminals.get_mut(*b) {
                     t.outside_crossed(f, *acked);
                 }
             }
-            if let Some(t) = self.terminals.get_mut(*bus) {
+            if let Some(t) = terminals.get_mut(*bus) {
                 t.crossed(*at, frame);
             }
         }
         for (b, _, f, acked) in o {
-            if let Some(t) = self.terminals.get_mut(*b) {
+            if let Some(t) = terminals.get_mut(*b) {
                 t.outside_crossed(f, *acked);
             }
         }
-        for t in &mut self.terminals {
+        for t in terminals {
             t.tick();
         }
     }

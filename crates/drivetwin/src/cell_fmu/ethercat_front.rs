@@ -15,8 +15,9 @@
 //!
 //! Decisions: a drive on CANopen and EtherCAT at once is refused (its slave would reach a
 //! drive of a CAN bus; the chains here have drives of their own), and so is a slave without
-//! its chain's interface in the cell file (`drivetwin run` takes `--ethercat`; the FMU has no
-//! command line). Each slave's drive has a CiA 402 drive's variables, named by its place in
+//! its chain's interface, neither in the cell file nor given to `drivetwin fmu --ethercat`
+//! (kept in the FMU's resources, [`super::ETHERCAT_FILE`], as `drivetwin run --ethercat`
+//! gives it). Each slave's drive has a CiA 402 drive's variables, named by its place in
 //! the cell file (`driveK`, [`super::variables::DriveName::Section`]): its shaft, current and words
 //! are read here, and its load torque and digital inputs set here, on the chain's lock.
 
@@ -74,10 +75,18 @@ pub struct EthercatChains {
 
 impl EthercatChains {
     /// `file` without its EtherCAT slaves (the rest is the virtual rig's), and the chains of
-    /// those slaves, booted at 0.
-    pub fn split(file: &CellFile, vendors: Vendors) -> Result<(CellFile, Self), CellFmuError> {
-        let specs = file
+    /// those slaves, booted at 0; `ethercat_if` is the chain of the slaves that name none, as
+    /// `drivetwin run --ethercat` resolves them
+    /// ([`crate::cell::interfaces::resolve_ethercat_chains`]).
+    pub fn split(
+        file: &CellFile,
+        vendors: Vendors,
+        ethercat_if: Option<&str>,
+    ) -> Result<(CellFile, Self), CellFmuError> {
+        let mut specs = file
             .drives(vendors)
+            .map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        crate::cell::interfaces::resolve_ethercat_chains(file, &mut specs, ethercat_if)
             .map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let mut rest = file.clone();
         rest.drive.clear();
@@ -98,7 +107,8 @@ impl EthercatChains {
             let Some(interface) = interface.clone() else {
                 return Err(CellFmuError::Cell(format!(
                     "drive {} node {}: an EtherCAT slave needs its chain's interface, \
-                     `ethercat = \"IFNAME\"`, in the cell file",
+                     `ethercat = \"IFNAME\"` in the cell file or `drivetwin fmu --ethercat \
+                     IFNAME`",
                     spec.desc.name, spec.node
                 )));
             };
@@ -355,7 +365,7 @@ impl Server {
                     chain.chain.poll(now);
                 }
                 let forward = chain.chain.on_frame(now, f).forward();
-                guard.acted = true;
+                guard.stale = true;
                 forward
             };
             if forward {

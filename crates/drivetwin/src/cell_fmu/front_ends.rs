@@ -55,8 +55,10 @@ pub struct Shared {
     pub rig: VirtualRig,
     /// Frames of a step, for the clients (filled only while front ends are open).
     pub outbox: Vec<BusFrame>,
-    /// A client's frame has acted on the cell since the outputs were last read.
-    pub acted: bool,
+    /// The cell has changed since the outputs were last read (a step, or a client's frame):
+    /// they are read anew, all in one pass, at the importer's first get, and not at all when
+    /// it gets none.
+    pub stale: bool,
     /// Each drive's outputs as last read.
     pub outputs: Vec<Probe>,
 }
@@ -69,7 +71,7 @@ impl Shared {
                 *out = p;
             }
         }
-        self.acted = false;
+        self.stale = false;
     }
 }
 
@@ -388,7 +390,7 @@ impl Server {
                     })
                 },
             );
-            shared.acted = true;
+            shared.stale = true;
             if let Err(e) = result {
                 tracing::warn!(bus, error = %e, "cell FMU: client frame refused");
             }

@@ -28,7 +28,7 @@ use super::front_ends::{lock, BusFrame, FrontEnds, Shared, SharedCell};
 use super::modbus_front::{self, ModbusFronts};
 use super::parameters::{Parameters, Start};
 use super::variables::{DriveName, Profile, Role, Variables, DIGITAL_INPUTS};
-use super::{CellFmuError, CELL_FILE, TIMELINE_FILE};
+use super::{CellFmuError, CELL_FILE, ETHERCAT_FILE, TIMELINE_FILE};
 
 /// What the importer set for a drive, and what has acted of it.
 #[derive(Debug, Clone, Default)]
@@ -74,6 +74,22 @@ pub struct CellInstance {
     /// that changed the display (FMI 3.0 §2.2.6.2: valid until the next call that changes
     /// the FMU's state).
     displays: Vec<[u8; DISPLAY_BYTES]>,
+    /// A step's working lists, kept from step to step so that a step allocates nothing once
+    /// they have grown to the cell's traffic.
+    scratch: StepScratch,
+}
+
+/// The lists a `doStep` fills and empties.
+#[derive(Debug, Default)]
+struct StepScratch {
+    /// The frames of the cell's drives that crossed the buses, for the LS-BUS terminals.
+    frames: Vec<(usize, Duration, canopen::CanFrame)>,
+    /// The ends of the frames from outside (bus, end, frame, acknowledged), in time order.
+    outside: Vec<(usize, Duration, canopen::CanFrame, bool)>,
+    /// A terminal's frames for its bus.
+    to_bus: Vec<canopen::CanFrame>,
+    /// What crossed while one of them went onto the bus.
+    answers: Vec<(usize, Duration, canopen::CanFrame)>,
 }
 
 /// The bytes of a display's text kept for `fmi3GetString`, its NUL included (a display shows
@@ -117,9 +133,21 @@ impl CellInstance {
     ) -> Result<CellInstance, CellFmuError> {
         let cell_path = resources.join(CELL_FILE);
         let mut cell = CellFile::load(&cell_path).map_err(|e| CellFmuError::Cell(e.to_string()))?;
+        let ethercat_path = resources.join(ETHERCAT_FILE);
+        let ethercat_if = match std::fs::read_to_string(&ethercat_path) {
+            Ok(text) => Some(text.trim().to_string()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(source) => {
+                return Err(CellFmuError::Io {
+                    path: ethercat_path,
+                    source,
+                })
+            }
+        };
+        let ethercat_if = ethercat_if.as_deref();
         if !set.is_empty() {
             // The parameters as the description declares them: those of the file as written.
-            let (rest, ethercat) = EthercatChains::split(&cell, vendors)?;
+            let (rest, ethercat) = EthercatChains::split(&cell, vendors, ethercat_if)?;
             let rig = VirtualRig::new_without_drives_allowed(&rest, vendors)
                 .map_err(|e| CellFmuError::Cell(e.to_string()))?;
             let steppers = register_image_sections(&cell, vendors)?;
@@ -140,7 +168,8 @@ impl CellInstance {
         } else {
             None
         };
-        let mut instance = CellInstance::new(&cell, timeline.as_ref(), vendors)?;
+        let mut instance =
+            CellInstance::with_ethercat(&cell, timeline.as_ref(), vendors, ethercat_if)?;
         instance.front_ends = FrontEnds::open(&cell, &instance.shared)?;
         let servers = modbus_front::addresses(&cell, vendors)?;
         instance.modbus_fronts = ModbusFronts::open(&servers, &instance.shared)?;
@@ -155,9 +184,21 @@ impl CellInstance {
         timeline: Option<&Scenario>,
         vendors: Vendors,
     ) -> Result<CellInstance, CellFmuError> {
+        CellInstance::with_ethercat(cell, timeline, vendors, None)
+    }
+
+    /// [`CellInstance::new`] with `ethercat_if` the chain of the EtherCAT slaves that name
+    /// none, as `drivetwin run --ethercat IFNAME` gives it
+    /// ([`crate::cell::interfaces::resolve_ethercat_chains`]).
+    pub fn with_ethercat(
+        cell: &CellFile,
+        timeline: Option<&Scenario>,
+        vendors: Vendors,
+        ethercat_if: Option<&str>,
+    ) -> Result<CellInstance, CellFmuError> {
         let views = vendors.views;
         // The EtherCAT slaves form chains of their own; the rest is the virtual rig's.
-        let (rest, ethercat) = EthercatChains::split(cell, vendors)?;
+        let (rest, ethercat) = EthercatChains::split(cell, vendors, ethercat_if)?;
         let rig = VirtualRig::new_without_drives_allowed(&rest, vendors)
             .map_err(|e| CellFmuError::Cell(e.to_string()))?;
         let register_image = register_image_sections(cell, vendors)?;
@@ -217,7 +258,7 @@ impl CellInstance {
         let shared = Arc::new(Mutex::new(Shared {
             rig,
             outbox: Vec::new(),
-            acted: true,
+            stale: true,
             outputs: vec![Probe::default(); n],
         }));
         let mut instance = CellInstance {
@@ -235,6 +276,7 @@ impl CellInstance {
             views,
             terminals,
             displays: vec![[0; DISPLAY_BYTES]; n],
+            scratch: StepScratch::default(),
         };
         let shared = Arc::clone(&instance.shared);
         instance.refresh_displays(&mut lock(&shared));
@@ -272,10 +314,11 @@ impl CellInstance {
         self.modbus_fronts.as_ref().map_or(&[], |f| f.addresses())
     }
 
-    /// Drive `drive`'s outputs now (read anew when a front end has acted since).
+    /// Drive `drive`'s outputs now: every drive's read anew in one pass when the cell has
+    /// changed since they were last read ([`Shared::stale`]).
     fn output(&self, drive: usize) -> Probe {
         let mut shared = lock(&self.shared);
-        if shared.acted {
+        if shared.stale {
             self.refresh(&mut shared);
         }
         shared.outputs.get(drive).copied().unwrap_or_default()
@@ -448,8 +491,15 @@ impl CellInstance {
         // The bus's frames go to the LS-BUS terminals, and to the front ends' clients when
         // there are any.
         let collect = self.front_ends.is_some();
-        let mut frames = Vec::new();
-        Self::put_terminal_frames_on_bus(rig, &mut self.terminals, &mut frames)?;
+        let StepScratch {
+            frames,
+            outside,
+            to_bus,
+            answers,
+        } = &mut self.scratch;
+        frames.clear();
+        outside.clear();
+        Self::put_terminal_frames_on_bus(rig, &mut self.terminals, to_bus, answers, frames)?;
         let mut seen = |bus: usize, at: Duration, frame: &canopen::CanFrame| {
             frames.push((bus, at, *frame));
             if collect {
@@ -461,7 +511,12 @@ impl CellInstance {
             }
         };
         Self::apply_inputs(rig, &self.drives, &mut self.inputs, &mut seen)?;
-        self.apply_slave_inputs()?;
+        Self::apply_slave_inputs(
+            &self.ethercat,
+            &self.variables,
+            self.drives.len(),
+            &mut self.inputs,
+        )?;
         while let Some((at, action)) = self.timeline.get(self.done) {
             let at_ns = u64::try_from(at.as_nanos()).unwrap_or(u64::MAX);
             if at_ns >= end {
@@ -478,19 +533,19 @@ impl CellInstance {
         }
         self.ethercat
             .run_until(rig, Duration::from_nanos(end), &mut seen);
-        let mut outside = Vec::new();
         for bus in 0..self.terminals.len() {
             outside.extend(
                 rig.take_outside_frames(bus)
-                    .into_iter()
                     .map(|(at, f, acked)| (bus, Duration::from_nanos(at.as_nanos()), f, acked)),
             );
         }
+        // (a stable sort: its scratch is on the stack up to a step's worth of frames)
         outside.sort_by_key(|(_, at, _, _)| *at);
-        self.terminals_saw(&frames, &outside);
+        Self::terminals_saw(&mut self.terminals, frames, outside);
         self.now = end;
         let stopped = rig.stopped();
-        self.refresh(&mut guard);
+        // The outputs are read at the importer's first get after the step, if any.
+        guard.stale = true;
         self.refresh_displays(&mut guard);
         drop(guard);
         if let Some(f) = &self.front_ends {
@@ -513,10 +568,13 @@ impl CellInstance {
     fn put_terminal_frames_on_bus(
         rig: &mut VirtualRig,
         terminals: &mut [CanTerminal],
+        to_bus: &mut Vec<canopen::CanFrame>,
+        got: &mut Vec<(usize, Duration, canopen::CanFrame)>,
         seen: &mut Vec<(usize, Duration, canopen::CanFrame)>,
     ) -> Result<(), CellFmuError> {
         for (bus, t) in terminals.iter_mut().enumerate() {
-            for frame in t.take_to_bus() {
+            t.take_to_bus_into(to_bus);
+            for frame in to_bus.drain(..) {
                 // FMI-LS-BUS §4.4.1.4 "Arbitration": a frame that cannot start at once has
                 // lost the arbitration (or waits for the busy bus): kept by the bus model,
                 // or, with DISCARD_AND_NOTIFY, discarded and answered.
@@ -525,7 +583,7 @@ impl CellInstance {
                     continue;
                 }
                 t.sent(frame);
-                let mut got = Vec::new();
+                got.clear();
                 rig.act(&Action::Frame { bus, frame }, &mut |b, at, f| {
                     got.push((b, at, *f))
                 })
@@ -534,7 +592,7 @@ impl CellInstance {
                 if let Some(i) = got.iter().position(|(b, _, f)| *b == bus && *f == frame) {
                     got.remove(i);
                 }
-                seen.extend(got);
+                seen.append(got);
             }
         }
         Ok(())
@@ -542,11 +600,14 @@ impl CellInstance {
 
     /// The inputs of the EtherCAT slaves' drives set since the last step act now, as
     /// [`CellInstance::apply_inputs`] makes them act on the rig's drives.
-    fn apply_slave_inputs(&mut self) -> Result<(), CellFmuError> {
-        let first = self.drives.len();
-        for (slave, i) in self.inputs.iter_mut().skip(first).enumerate() {
+    fn apply_slave_inputs(
+        ethercat: &EthercatChains,
+        variables: &Variables,
+        first: usize,
+        inputs: &mut [Inputs],
+    ) -> Result<(), CellFmuError> {
+        for (slave, i) in inputs.iter_mut().skip(first).enumerate() {
             // Named only for an error: no text made per step.
-            let variables = &self.variables;
             let name = || {
                 variables
                     .name(first + slave)
@@ -554,7 +615,7 @@ impl CellInstance {
                     .unwrap_or_default()
             };
             if i.load_applied != Some(i.load_torque) {
-                self.ethercat
+                ethercat
                     .set_load_torque(slave, i.load_torque)
                     .map_err(|e| CellFmuError::Cell(format!("{}: load torque: {e}", name())))?;
                 i.load_applied = Some(i.load_torque);
@@ -564,7 +625,7 @@ impl CellInstance {
                     continue;
                 };
                 let din = u8::try_from(k).unwrap_or(0);
-                self.ethercat
+                ethercat
                     .force_input(slave, din, level)
                     .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", name())))?;
                 *applied = Some(level);
@@ -760,6 +821,116 @@ mod tests {
             .with_drive(0, |m| Some(m.drive()?.axis().motor().data().load_torque))
             .unwrap();
         assert_eq!(torque, 0.01);
+    }
+
+    #[test]
+    fn outputs_are_read_at_the_first_get_after_a_step_in_one_pass_and_not_without_a_get() {
+        let file: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n[drive.motor]\nbrake_holding_torque = 0.0\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\n",
+        )
+        .unwrap();
+        let mut cell = CellInstance::new(&file, None, crate::vendors::VENDORS.runtime).unwrap();
+        let position = vr(&cell, "node1.position");
+        cell.do_step(0.0, 1e-3).unwrap();
+        assert_eq!(cell.get_float64(position).unwrap(), 0.0);
+        assert!(!lock(&cell.shared).stale);
+        // A load torque turns the free shaft; steps without a get leave the outputs unread.
+        cell.set_float64(vr(&cell, "node1.load_torque"), 0.05)
+            .unwrap();
+        for k in 1..20 {
+            cell.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+            let shared = lock(&cell.shared);
+            assert!(shared.stale);
+            assert_eq!(shared.outputs[0].position_rad, 0.0, "read at step {k}");
+        }
+        // The first get reads every drive's outputs; the next ones read none.
+        let turned = cell.get_float64(position).unwrap();
+        assert!(turned < -1e-4, "{turned}");
+        assert!(!lock(&cell.shared).stale);
+        let read = lock(&cell.shared).outputs.clone();
+        assert_eq!(read[0].position_rad, turned);
+        assert_eq!(
+            cell.get_uint16(vr(&cell, "node2.statusword")).unwrap(),
+            read[1].statusword
+        );
+        assert!(!lock(&cell.shared).stale);
+    }
+
+    #[test]
+    fn an_ethercat_slave_without_its_chain_is_on_the_interface_given_as_drivetwin_run_takes_it() {
+        let vendors = crate::vendors::VENDORS.runtime;
+        let file: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\ninterfaces = [\"ethercat\"]\n",
+        )
+        .unwrap();
+        // Without an interface: refused, naming both ways to give one.
+        let e = CellInstance::new(&file, None, vendors)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("ethercat = \"IFNAME\"") && e.contains("--ethercat"),
+            "{e}"
+        );
+        // With one, the slave is on its chain, as with `ethercat = "dtnone0"` in the file.
+        let mut cell = CellInstance::with_ethercat(&file, None, vendors, Some("dtnone0")).unwrap();
+        assert_eq!(cell.ethercat_chains(), [("dtnone0".to_string(), 1)]);
+        let named: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\nethercat = \"dtnone0\"\n",
+        )
+        .unwrap();
+        let named = CellInstance::new(&named, None, vendors).unwrap();
+        assert_eq!(cell.variables(), named.variables());
+        cell.do_step(0.0, 0.01).unwrap();
+        let sw = cell.get_uint16(vr(&cell, "drive1.statusword")).unwrap();
+        assert_eq!(sw & 0x4F, 0x40, "{sw:#06x}");
+        // A cell file that names no interfaces: every drive is on the chain instead of CAN.
+        let whole: CellFile = toml::from_str(
+            "[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n[[drive]]\ndevice = \"cmmp-as\"\nnode = 2\n",
+        )
+        .unwrap();
+        let whole = CellInstance::with_ethercat(&whole, None, vendors, Some("dtnone0")).unwrap();
+        assert_eq!(whole.ethercat_chains(), [("dtnone0".to_string(), 2)]);
+        let names: Vec<String> = whole.variables().all().map(|v| v.name()).collect();
+        assert!(!names.iter().any(|n| n.starts_with("node")), "{names:?}");
+        // The example of 64 slaves on one chain, as `drivetwin run --ethercat` takes it.
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/ethercat-64.toml");
+        let example = CellFile::load(&path).unwrap();
+        let example =
+            CellInstance::with_ethercat(&example, None, vendors, Some("dtnone0")).unwrap();
+        assert_eq!(example.ethercat_chains(), [("dtnone0".to_string(), 64)]);
+    }
+
+    #[test]
+    fn the_fmus_resources_give_the_chain_of_the_slaves_that_name_none() {
+        let dir = std::env::temp_dir().join(format!("cell-fmu-ecat-if-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join(CELL_FILE),
+            "[[drive]]\ndevice = \"cmmp-as\"\nnode = 1\ninterfaces = [\"ethercat\"]\n",
+        )
+        .unwrap();
+        let vendors = crate::vendors::VENDORS.runtime;
+        let e = CellInstance::from_resources(&dir, vendors)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("--ethercat"), "{e}");
+        // With the interface `drivetwin fmu --ethercat` packs, the instance opens its chain's
+        // socket on it: here an interface that does not exist, named in the refusal.
+        std::fs::write(dir.join(ETHERCAT_FILE), "dtnone0\n").unwrap();
+        let e = CellInstance::from_resources(&dir, vendors)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("dtnone0") && !e.contains("--ethercat"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

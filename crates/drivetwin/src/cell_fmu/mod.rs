@@ -44,6 +44,11 @@ pub const CELL_FILE: &str = "cell.toml";
 /// times), when the FMU has one.
 pub const TIMELINE_FILE: &str = "timeline.toml";
 
+/// The network interface of the chain of the EtherCAT slaves that name none (`interfaces =
+/// ["ethercat"]`), in the FMU's `resources/` folder, when `drivetwin fmu --ethercat IFNAME`
+/// names it: the cell file's form `drivetwin run --ethercat IFNAME` takes.
+pub const ETHERCAT_FILE: &str = "ethercat_interface.txt";
+
 /// Why a cell FMU could not be made or stepped.
 #[derive(Debug, thiserror::Error)]
 pub enum CellFmuError {

@@ -234,7 +234,7 @@ impl Server {
                 m.close_connection_because(CloseReason::Peer);
                 m.open_connection(now);
             }
-            guard.acted = true;
+            guard.stale = true;
         }
         tracing::info!(%peer, "cell FMU: Modbus client connected");
         s.client = Some(Client {
@@ -270,7 +270,7 @@ impl Server {
                         Some(m) => m.answer(bytes, now, &mut c.pending),
                         None => Ok(()),
                     };
-                    guard.acted = true;
+                    guard.stale = true;
                     if let Err(reason) = result {
                         closed = Some(reason);
                         break;
@@ -322,7 +322,7 @@ impl Server {
         if let Some(m) = guard.rig.modbus_drive_mut(s.drive) {
             m.close_connection_because(reason);
         }
-        guard.acted = true;
+        guard.stale = true;
         tracing::info!(peer = %c.peer, "cell FMU: Modbus client left");
     }
 

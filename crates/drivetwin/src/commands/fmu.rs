@@ -35,10 +35,11 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
     };
     // The cell as the FMU builds it: its drives are the variables, and a cell the FMU could
     // not build is refused here rather than in the importer.
-    let instance = CellInstance::new(
+    let instance = CellInstance::with_ethercat(
         &cell,
         timeline.as_ref(),
         drivetwin::vendors::VENDORS.runtime,
+        args.ethercat.as_deref(),
     )
     .map_err(|e| usage(e.to_string()))?;
     let name = args
@@ -70,6 +71,7 @@ pub(crate) fn fmu(args: FmuArgs) -> Result<(), CommandError> {
             library: &lib,
             cell: &cell_text,
             timeline: timeline_text.as_deref(),
+            ethercat: args.ethercat.as_deref(),
             buses: instance.buses(),
         },
     )

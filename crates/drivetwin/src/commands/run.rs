@@ -341,25 +341,11 @@ async fn prepare_cell(
     first: bool,
 ) -> Result<Prepared, CommandError> {
     let mut specs = file.drives(drivetwin::vendors::VENDORS.runtime)?;
-    // `--ethercat IF` with a cell file that names no interfaces: every drive on the chain,
-    // instead of CAN (as before the cell loop served both).
+    // `--ethercat IF`: the chain of the drives that name none, or of every drive of a cell
+    // file that names no interfaces (as the cell FMU resolves them).
     let ethercat_if = args.ethercat.as_deref().filter(|_| first);
-    let legacy_chain = ethercat_if.is_some()
-        && file
-            .drive
-            .iter()
-            .all(|d| d.interfaces.is_none() && d.ethercat.is_none());
-    if legacy_chain {
-        if specs.iter().any(|s| s.fhpp.is_some()) {
-            return Err(CommandError::Usage(
-                "--ethercat: the CMMO-ST has no EtherCAT (Modbus TCP only)".into(),
-            ));
-        }
-        for s in &mut specs {
-            s.canopen = false;
-            s.ethercat = Some(None);
-        }
-    }
+    drivetwin::cell::interfaces::resolve_ethercat_chains(file, &mut specs, ethercat_if)
+        .map_err(|e| CommandError::Usage(e.to_string()))?;
     let any_ethercat = specs.iter().any(|s| s.ethercat.is_some());
     let ci_terminal = args.ci_terminal.as_deref().filter(|_| first);
     let trace_path = args.trace.as_ref().filter(|_| first);

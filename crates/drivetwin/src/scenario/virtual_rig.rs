@@ -212,8 +212,8 @@ impl VirtualRig {
 
     /// The frames bus `b`'s drives sent at `now` are on the bus (and those still pending).
     fn emit(&mut self, b: usize, seen: &mut dyn FnMut(usize, Duration, &CanFrame)) {
-        let frames = std::mem::take(&mut self.out);
-        self.pending.extend(frames.into_iter().map(|f| (b, f)));
+        // (drained: the list keeps its room, no allocation per frame)
+        self.pending.extend(self.out.drain(..).map(|f| (b, f)));
         self.flush(seen);
     }
 
@@ -428,11 +428,14 @@ impl VirtualRig {
 
     /// The frames from outside that crossed bus `bus` since the last call: end of frame,
     /// frame, and whether a drive received it.
-    pub fn take_outside_frames(&mut self, bus: usize) -> Vec<(Instant, CanFrame, bool)> {
+    pub fn take_outside_frames(
+        &mut self,
+        bus: usize,
+    ) -> impl Iterator<Item = (Instant, CanFrame, bool)> + '_ {
         self.cell
             .bus_mut(bus)
-            .map(SegmentBus::take_outside_frames)
-            .unwrap_or_default()
+            .into_iter()
+            .flat_map(SegmentBus::take_outside_frames)
     }
 
     /// Whether `frame` from outside, put on bus `bus` now, would wait for the bus.
