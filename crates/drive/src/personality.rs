@@ -48,7 +48,7 @@ pub trait Vendor: Sized {
 
     /// The controller parameters as the drive's objects give them, read again after a
     /// write to one of them. CiA 402's default: the motor data, the power stage and the
-    /// display filter the engine knows, with the gains of [`Vendor::control_parameter_sets`].
+    /// display filter the engine knows, with the gains of [`Vendor`]'s `control_parameter_sets`.
     fn control_params<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> ControlParams {
         crate::drive::control_params_of::<S, Self>(d.od())
     }
@@ -72,7 +72,7 @@ pub trait Vendor: Sized {
 
     /// The hardware enables transition 2 needs are present (CiA 402 §6.3.1: the drive's own
     /// condition for READY TO SWITCH ON). CiA 402's default: the inputs of
-    /// [`Vendor::INPUT_WIRING`]'s `enables` are HIGH.
+    /// [`Vendor`]'s `INPUT_WIRING` `enables` are HIGH.
     fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
         Self::INPUT_WIRING.enables(d.input_levels(d.plant_position()))
     }
@@ -139,7 +139,7 @@ pub trait Vendor: Sized {
 
     /// 60FDh digital_inputs at `position`. CiA 402's default (§6.6.4): bit 0 negative limit,
     /// 1 positive limit, 2 home switch, 3 interlock (a hardware enable missing), as
-    /// [`Vendor::switches`] reads them; no manufacturer bits (16 … 31).
+    /// [`Vendor`]'s `switches` reads them; no manufacturer bits (16 … 31).
     fn digital_inputs<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, position: i64) -> u32 {
         Self::INPUT_WIRING.digital_inputs(d.input_levels(position))
     }
@@ -152,7 +152,7 @@ pub trait Vendor: Sized {
     }
 
     /// The input carrying `switch` (`None`: no input has its function). CiA 402's default:
-    /// the input [`Vendor::INPUT_WIRING`] names, actuated HIGH.
+    /// the input [`Vendor`]'s `INPUT_WIRING` names, actuated HIGH.
     fn switch_input<S: AsRef<[u8]> + AsMut<[u8]>>(
         d: &Drive<S, Self>,
         switch: NamedSwitch,
