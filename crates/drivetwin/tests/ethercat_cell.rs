@@ -522,6 +522,21 @@ fn read_u16(m: &Master, index: u16) -> u16 {
     u16::from_le_bytes(b)
 }
 
+/// From Pre-Op to Op on DC SYNC0 every 1 ms, the clock half-way past the first event, the
+/// drive enabled by the master's cycles.
+fn enabled_on_sync0(m: &mut Master) {
+    let first = dc_sync0(m, 1_000_000);
+    map(m, 2, 2);
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
+    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
+    m.poll();
+    let sw = enable(m, 60, sync0_cycle);
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+}
+
 /// The twin's loop held off its CPU: the SYNC0 events it runs a cycle or more after their
 /// time, before the frame that waited in the socket meanwhile, cost the master nothing (a
 /// device sees each event and each frame in time, and a master waiting for its answer sends
@@ -530,15 +545,7 @@ fn read_u16(m: &Master, index: u16) -> u16 {
 fn sync0_events_the_loop_runs_late_are_not_the_masters() {
     let mut m = Master::new(cell());
     to_preop(&mut m);
-    let first = dc_sync0(&mut m, 1_000_000);
-    map(&mut m, 2, 2);
-    m.fpwr(0x0120, &[0x04, 0x00]);
-    m.fpwr(0x0120, &[0x08, 0x00]);
-    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
-    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
-    m.poll();
-    let sw = enable(&mut m, 60, sync0_cycle);
-    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    enabled_on_sync0(&mut m);
     let missed = m.cell.device(0).unwrap().sync_monitor().missed;
     // 7.5 ms without a poll (half a cycle after an event before), then the frame: eight
     // events run first, seven of them a cycle or more late (the first takes the last
@@ -575,15 +582,7 @@ fn sync0_events_a_late_answer_held_back_are_not_the_masters() {
     let us = std::time::Duration::from_micros;
     let mut m = Master::new(cell());
     to_preop(&mut m);
-    let first = dc_sync0(&mut m, 1_000_000);
-    map(&mut m, 2, 2);
-    m.fpwr(0x0120, &[0x04, 0x00]);
-    m.fpwr(0x0120, &[0x08, 0x00]);
-    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
-    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
-    m.poll();
-    let sw = enable(&mut m, 60, sync0_cycle);
-    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    enabled_on_sync0(&mut m);
     assert_eq!(m.cell.device(0).unwrap().sync_monitor().error_counter(), 0);
     // A frame half-way between two events; its answer goes out 3.3 ms later. The events
     // meanwhile run then: two a cycle or more late, the third 0.8 ms late, in time.
@@ -623,14 +622,7 @@ fn sync0_events_after_a_prompt_answer_count_as_before() {
     let us = std::time::Duration::from_micros;
     let mut m = Master::new(cell());
     to_preop(&mut m);
-    let first = dc_sync0(&mut m, 1_000_000);
-    map(&mut m, 2, 2);
-    m.fpwr(0x0120, &[0x04, 0x00]);
-    m.fpwr(0x0120, &[0x08, 0x00]);
-    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
-    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
-    m.poll();
-    enable(&mut m, 60, sync0_cycle);
+    enabled_on_sync0(&mut m);
     let arrived = m.now + us(500);
     m.now = arrived;
     lrw(&mut m, &0x000Fu16.to_le_bytes(), 2);
@@ -1231,16 +1223,7 @@ fn an_eds_drive_on_sync0_reports_a_lost_synchronisation() {
     let dir = std::env::temp_dir().join(format!("drivetwin-eds-sync0-{}", std::process::id()));
     let mut m = Master::new(eds_chain(&dir));
     to_preop_from_sii(&mut m);
-    let first = dc_sync0(&mut m, 1_000_000);
-    map(&mut m, 2, 2);
-    m.fpwr(0x0120, &[0x04, 0x00]);
-    m.fpwr(0x0120, &[0x08, 0x00]);
-    assert_eq!(m.al(), (0x0008, 0));
-    let esc_time = m.cell.esc(0).unwrap().system_time_at(m.now);
-    m.now = m.now + std::time::Duration::from_nanos(first - esc_time + 500_000);
-    m.poll();
-    let sw = enable(&mut m, 60, sync0_cycle);
-    assert_eq!(sw & 0x6F, 0x27, "operation enabled on SYNC0: {sw:#06x}");
+    enabled_on_sync0(&mut m);
     assert_eq!(m.cell.device(0).unwrap().sync_errors, 0);
 
     // The outputs of the last frame are taken at the next event; three events after it
