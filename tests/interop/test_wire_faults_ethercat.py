@@ -6,6 +6,7 @@ those. The twin runs in the veth's network namespace, so the API is called from 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import subprocess
 
@@ -35,6 +36,36 @@ def slaves_found(master_if: str) -> int:
         master.close()
 
 
+@contextlib.contextmanager
+def soem_in_safeop(veth, tmp_path):
+    """The twin in the veth's namespace with its console on the namespace's loopback, and SOEM
+    with the slave mapped in Safe-Op: (namespace, the chain's faults URL, `answered`), where
+    `answered(n)` runs n cyclic exchanges and says whether each frame came back (a lost one
+    waits out 100 ms)."""
+    ns = veth[0]
+    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
+    port = free_port()
+    base = f"http://127.0.0.1:{port}/api/wire/ethercat/0/faults"
+    with ecat_twin_run(veth, tmp_path, "--http", f"127.0.0.1:{port}") as (master_if, _lines):
+        master = pysoem.Master()
+        master.open(master_if)
+        try:
+            assert master.config_init() == 1
+            assert master.config_map() > 0
+            assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
+
+            def answered(cycles: int) -> list[bool]:
+                out = []
+                for _ in range(cycles):
+                    master.send_processdata()
+                    out.append(master.receive_processdata(100_000) > 0)
+                return out
+
+            yield ns, base, answered
+        finally:
+            master.close()
+
+
 def test_a_cut_or_corrupted_chain_has_no_slave_for_the_master(veth, tmp_path):
     ns = veth[0]
     # The namespace's loopback, for the console.
@@ -62,41 +93,20 @@ def test_a_share_of_lost_frames_and_a_count_of_corrupted_ones_reach_soems_cycle(
     frame) SOEM's cyclic exchange gets every second LRW back, the others never; three
     corrupted frames (the Ethernet FCS discards them) are three cycles without an answer, and
     the cycles after them pass."""
-    ns = veth[0]
-    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
-    port = free_port()
-    base = f"http://127.0.0.1:{port}/api/wire/ethercat/0/faults"
-    with ecat_twin_run(veth, tmp_path, "--http", f"127.0.0.1:{port}") as (master_if, _lines):
-        master = pysoem.Master()
-        master.open(master_if)
-        try:
-            assert master.config_init() == 1
-            assert master.config_map() > 0
-            assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
+    with soem_in_safeop(veth, tmp_path) as (ns, base, answered):
+        assert answered(4) == [True] * 4
+        status, text = api_in(ns, "POST", base, {"fault": "drop", "share": 0.5})
+        assert status == 201, text
+        assert answered(20) == [True, False] * 10, "every second frame lost"
+        status, text = api_in(ns, "DELETE", base)
+        assert status == 200, text
+        assert answered(4) == [True] * 4
 
-            def answered(cycles: int) -> list[bool]:
-                """Whether each cycle's frame came back (a lost one waits out 100 ms)."""
-                out = []
-                for _ in range(cycles):
-                    master.send_processdata()
-                    out.append(master.receive_processdata(100_000) > 0)
-                return out
-
-            assert answered(4) == [True] * 4
-            status, text = api_in(ns, "POST", base, {"fault": "drop", "share": 0.5})
-            assert status == 201, text
-            assert answered(20) == [True, False] * 10, "every second frame lost"
-            status, text = api_in(ns, "DELETE", base)
-            assert status == 200, text
-            assert answered(4) == [True] * 4
-
-            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "frames": 3})
-            assert status == 201, text
-            assert answered(6) == [False] * 3 + [True] * 3, "three corrupted, then through"
-            status, text = api_in(ns, "GET", base)
-            assert status == 200 and json.loads(text) == [], "the counted fault has ended"
-        finally:
-            master.close()
+        status, text = api_in(ns, "POST", base, {"fault": "corrupt", "frames": 3})
+        assert status == 201, text
+        assert answered(6) == [False] * 3 + [True] * 3, "three corrupted, then through"
+        status, text = api_in(ns, "GET", base)
+        assert status == 200 and json.loads(text) == [], "the counted fault has ended"
 
 
 def test_a_share_of_corrupted_frames_fails_every_second_cycle_of_soem(veth, tmp_path):
@@ -104,37 +114,16 @@ def test_a_share_of_corrupted_frames_fails_every_second_cycle_of_soem(veth, tmp_
     every second frame) the Ethernet FCS discards every second LRW, so SOEM's cyclic exchange
     gets exactly every second one back; the fault list shows the share; a share above 1 is
     refused with the reason."""
-    ns = veth[0]
-    subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], check=True, timeout=10)
-    port = free_port()
-    base = f"http://127.0.0.1:{port}/api/wire/ethercat/0/faults"
-    with ecat_twin_run(veth, tmp_path, "--http", f"127.0.0.1:{port}") as (master_if, _lines):
-        master = pysoem.Master()
-        master.open(master_if)
-        try:
-            assert master.config_init() == 1
-            assert master.config_map() > 0
-            assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
-
-            def answered(cycles: int) -> list[bool]:
-                """Whether each cycle's frame came back (a lost one waits out 100 ms)."""
-                out = []
-                for _ in range(cycles):
-                    master.send_processdata()
-                    out.append(master.receive_processdata(100_000) > 0)
-                return out
-
-            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 1.5})
-            assert status == 400, text
-            assert "share 1.5" in text, text
-            assert answered(4) == [True] * 4
-            status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 0.5})
-            assert status == 201, text
-            fault = json.loads(text)
-            assert fault["fault"] == "corrupt" and fault["share"] == 0.5, fault
-            assert answered(20) == [True, False] * 10, "every second frame corrupted"
-            status, text = api_in(ns, "DELETE", base)
-            assert status == 200, text
-            assert answered(4) == [True] * 4
-        finally:
-            master.close()
+    with soem_in_safeop(veth, tmp_path) as (ns, base, answered):
+        status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 1.5})
+        assert status == 400, text
+        assert "share 1.5" in text, text
+        assert answered(4) == [True] * 4
+        status, text = api_in(ns, "POST", base, {"fault": "corrupt", "share": 0.5})
+        assert status == 201, text
+        fault = json.loads(text)
+        assert fault["fault"] == "corrupt" and fault["share"] == 0.5, fault
+        assert answered(20) == [True, False] * 10, "every second frame corrupted"
+        status, text = api_in(ns, "DELETE", base)
+        assert status == 200, text
+        assert answered(4) == [True] * 4
