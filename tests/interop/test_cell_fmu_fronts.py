@@ -202,6 +202,33 @@ def veth_pair():
         ip("link", "del", master_if)  # deletes the peer too
 
 
+def to_op(master, cycle) -> None:
+    """Op, requested while the process data is exchanged (as SOEM's examples do): `cycle(cw)`
+    steps the FMU and exchanges once; the caller checks the state reached."""
+    pysoem = pytest.importorskip("pysoem")
+    master.state = pysoem.OP_STATE
+    cycle(0)
+    master.write_state()
+    for _ in range(100):
+        cycle(0)
+        if master.read_state() == pysoem.OP_STATE:
+            break
+
+
+def enable(master, cycle) -> int:
+    """Shutdown, switch on, enable operation: one controlword per step until the statusword
+    shows it, every working counter right; the last statusword."""
+    sw = 0
+    for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+        for _ in range(100):
+            wkc, sw = cycle(cw)
+            assert wkc == master.expected_wkc
+            if sw & 0x6F == want:
+                break
+        assert sw & 0x6F == want, f"controlword {cw:#x}: statusword {sw:#06x}"
+    return sw
+
+
 def test_soem_takes_an_ethercat_slave_of_the_cell_to_op_and_moves_it_between_fmpy_steps(
         cell_fmu, tmp_path, veth_pair):  # noqa: F811
     """The cell's EtherCAT chain is open while fmpy steps it: pysoem, on the other end of a
@@ -261,24 +288,11 @@ ethercat = "{fmu_if}"
         assert out("UInt16", "node1.statusword") != 0
 
         # Op, requested while the process data is exchanged (as SOEM's examples do).
-        master.state = pysoem.OP_STATE
-        cycle(0)
-        master.write_state()
-        for _ in range(100):
-            cycle(0)
-            if master.read_state() == pysoem.OP_STATE:
-                break
+        to_op(master, cycle)
         assert slave.state == pysoem.OP_STATE, f"Op: {slave.state:#x} code {slave.al_status:#x}"
 
         # Shutdown, switch on, enable operation: one controlword per step until it shows.
-        sw = 0
-        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
-            for _ in range(100):
-                wkc, sw = cycle(cw)
-                assert wkc == master.expected_wkc
-                if sw & 0x6F == want:
-                    break
-            assert sw & 0x6F == want, f"controlword {cw:#x}: statusword {sw:#06x}"
+        sw = enable(master, cycle)
         assert out("UInt16", "drive1.statusword") == sw, "the FMU's statusword is the master's"
         start = out("Float64", "drive1.position")
         for _ in range(300):
@@ -355,22 +369,9 @@ inertia = 4e-5
         slave.sdo_write(0x60FF, 0, (2000).to_bytes(4, "little", signed=True))
         master.config_map()
         assert master.state_check(pysoem.SAFEOP_STATE, 2_000_000) == pysoem.SAFEOP_STATE
-        master.state = pysoem.OP_STATE
-        cycle(0)
-        master.write_state()
-        for _ in range(100):
-            cycle(0)
-            if master.read_state() == pysoem.OP_STATE:
-                break
+        to_op(master, cycle)
         assert master.read_state() == pysoem.OP_STATE
-        sw = 0
-        for cw, want in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
-            for _ in range(100):
-                wkc, sw = cycle(cw)
-                assert wkc == master.expected_wkc
-                if sw & 0x6F == want:
-                    break
-            assert sw & 0x6F == want, f"controlword {cw:#x}: statusword {sw:#06x}"
+        sw = enable(master, cycle)
         assert out("UInt16", "drive1.statusword") == sw, "the FMU's statusword is the master's"
         start = out("Float64", "drive1.position")
         for _ in range(300):
