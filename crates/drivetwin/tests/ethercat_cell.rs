@@ -1041,6 +1041,26 @@ fn save_over_coe_survives_a_restart_with_a_state_dir() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// One CMMP-AS on a chain whose parameters are saved in `dir`, in Pre-Op.
+fn cmmp_as_saving_to(dir: &std::path::Path) -> Master {
+    let file = CellFile::single("cmmp-as", 1);
+    let mut m = Master::new(
+        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(dir))
+            .expect("cell"),
+    );
+    to_preop(&mut m);
+    m
+}
+
+/// A CoE download of "save" to 1010h:01 written into the receive mailbox, its reply not read.
+fn ask_for_a_save(m: &mut Master) {
+    let mut req = vec![0u8; 0x80];
+    req[..16].copy_from_slice(&[
+        10, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e',
+    ]);
+    m.fpwr(0x1000, &req);
+}
+
 /// tests/interop/test_kill9.py saw pysoem's 1010h:01 "save" over CoE fail with a wrong working
 /// counter ~18 ms after the request under full CPU load, the file written all the same: the
 /// twin wrote and fsynced the file inside the frame, on the loop thread, so the frame and the
@@ -1051,17 +1071,8 @@ fn save_over_coe_survives_a_restart_with_a_state_dir() {
 fn coe_save_holds_its_reply_not_the_loop_kill9_wrong_wkc() {
     let dir = std::env::temp_dir().join(format!("drivetwin-ecat-held-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let file = CellFile::single("cmmp-as", 1);
-    let mut m = Master::new(
-        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
-            .expect("cell"),
-    );
-    to_preop(&mut m);
-    let mut req = vec![0u8; 0x80];
-    req[..16].copy_from_slice(&[
-        10, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e',
-    ]);
-    m.fpwr(0x1000, &req);
+    let mut m = cmmp_as_saving_to(&dir);
+    ask_for_a_save(&mut m);
     assert!(
         m.cell.device(0).unwrap().saving(),
         "the frame returned with the save under way, its reply held"
@@ -1088,18 +1099,9 @@ fn coe_save_holds_its_reply_not_the_loop_kill9_wrong_wkc() {
 fn the_chain_asks_the_runtime_for_the_save_and_writes_no_file() {
     let dir = std::env::temp_dir().join(format!("drivetwin-ecat-asks-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let file = CellFile::single("cmmp-as", 1);
-    let mut m = Master::new(
-        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
-            .expect("cell"),
-    );
-    to_preop(&mut m);
+    let mut m = cmmp_as_saving_to(&dir);
     m.runtime_saves = false;
-    let mut req = vec![0u8; 0x80];
-    req[..16].copy_from_slice(&[
-        10, 0, 0, 0, 0, 0x13, 0x00, 0x20, 0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e',
-    ]);
-    m.fpwr(0x1000, &req);
+    ask_for_a_save(&mut m);
     for _ in 0..20 {
         m.tick();
         assert_eq!(
@@ -1136,12 +1138,7 @@ fn coe_save_that_cannot_write_is_aborted_0800_0020() {
     let dir = std::env::temp_dir().join(format!("drivetwin-ecat-nowrite-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.join("cmmp-as-node1.params.tmp")).unwrap();
-    let file = CellFile::single("cmmp-as", 1);
-    let mut m = Master::new(
-        SlaveChain::with_state_dir(&file, drivetwin::vendors::VENDORS.runtime, Some(&dir))
-            .expect("cell"),
-    );
-    to_preop(&mut m);
+    let mut m = cmmp_as_saving_to(&dir);
     let answer = coe_download(&mut m, 1, 0x1010, 1, b"save");
     assert_eq!(
         answer,
