@@ -263,22 +263,7 @@ impl Motor {
     }
 
     fn encoder(&self, angle: f64) -> (i64, f64) {
-        // ⌊angle / rad_per_inc⌋ by a multiplication (the division's latency was a fifth of
-        // the mechanics' time): the product differs from the quotient by a few ulp, which
-        // changes the floor only within them of a whole increment; there (and for a NaN, an
-        // infinity or beyond 2⁵²) the division decides, so the result is the quotient's.
-        // The floor in floating point (`floor_small`): no conversion to an integer and back
-        // on the plant's chain; beyond 2⁵⁰ the tolerance exceeds an increment anyway.
-        let y = angle * self.inc_per_rad;
-        if let Some(f) = crate::rounding::floor_small(y) {
-            let frac = y - f;
-            let tol = 8.0 * f64::EPSILON * libm::fabs(y);
-            if frac > tol && frac < 1.0 - tol {
-                return (f as i64, f);
-            }
-        }
-        let f = crate::rounding::floor_i64(angle / self.rad_per_inc);
-        (f, f as f64)
+        crate::rounding::floored_quotient(angle, self.inc_per_rad, self.rad_per_inc)
     }
 
     fn coefficients(&mut self, dt: f64) {

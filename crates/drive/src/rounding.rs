@@ -82,6 +82,26 @@ pub fn round(x: f64) -> f64 {
     }
 }
 
+/// ⌊angle / rad_per_inc⌋ (an encoder's reading), as `i64` and as `f64`, bit for bit the floored
+/// quotient. By a multiplication with `inc_per_rad` (a division's latency on the plant's
+/// dependent chain is what it saves): the product differs from the quotient by a few ulp, which
+/// changes the floor only within them of a whole increment; there (and for a NaN, an infinity
+/// or beyond 2⁵⁰, where the tolerance exceeds an increment) the division decides. The floor is
+/// taken in floating point ([`floor_small`]), without a conversion to an integer and back.
+#[inline(always)]
+pub fn floored_quotient(angle: f64, inc_per_rad: f64, rad_per_inc: f64) -> (i64, f64) {
+    let y = angle * inc_per_rad;
+    if let Some(f) = floor_small(y) {
+        let frac = y - f;
+        let tol = 8.0 * f64::EPSILON * libm::fabs(y);
+        if frac > tol && frac < 1.0 - tol {
+            return (f as i64, f);
+        }
+    }
+    let f = floor_i64(angle / rad_per_inc);
+    (f, f as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

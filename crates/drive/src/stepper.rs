@@ -1260,21 +1260,7 @@ impl Stepper {
     /// The encoder reading of `angle`, as `i64` and as `f64`.
     #[inline(always)]
     fn encoder_of(&self, angle: f64) -> (i64, f64) {
-        // ⌊angle / rad_per_inc⌋, by a multiplication: it differs from the quotient by a few
-        // ulp, which changes the floor only within them of a whole increment (a shaft
-        // placed on an increment, say); there the division decides.
-        let y = angle * self.inc_per_rad;
-        // ⌊y⌋ in floating point, without the conversions on the observer's dependent
-        // chain (beyond 2⁵⁰ the tolerance below exceeds an increment: the division).
-        if let Some(f) = crate::rounding::floor_small(y) {
-            let frac = y - f;
-            let tol = 8.0 * f64::EPSILON * libm::fabs(y);
-            if frac > tol && frac < 1.0 - tol {
-                return (f as i64, f);
-            }
-        }
-        let f = crate::rounding::floor(angle / self.rad_per_inc) as i64;
-        (f, f as f64)
+        crate::rounding::floored_quotient(angle, self.inc_per_rad, self.rad_per_inc)
     }
 
     /// Actual rotor position in micro-steps, rounded to the nearest.
