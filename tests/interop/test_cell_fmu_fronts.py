@@ -51,6 +51,10 @@ class Stepped:
             self.slave.doStep(self.steps * STEP, STEP)
             self.steps += 1
 
+    def out(self, kind: str, name: str):
+        """Output `name`'s value, read with `get<kind>` (`Float64`, `UInt16`, ...)."""
+        return getattr(self.slave, "get" + kind)([self.vr[name]])[0]
+
     def free(self):
         self.slave.terminate()
         self.slave.freeInstance()
@@ -259,8 +263,7 @@ ethercat = "{fmu_if}"
     master = pysoem.Master()
     master.open(master_if)
 
-    def out(kind: str, name: str):
-        return getattr(cell.slave, "get" + kind)([cell.vr[name]])[0]
+    out = cell.out
 
     def cycle(cw: int) -> tuple[int, int]:
         """One fmpy step, then one process-data exchange at the step's end: (wkc, statusword)."""
@@ -350,8 +353,7 @@ inertia = 4e-5
     master = pysoem.Master()
     master.open(master_if)
 
-    def out(kind: str, name: str):
-        return getattr(cell.slave, "get" + kind)([cell.vr[name]])[0]
+    out = cell.out
 
     def cycle(cw: int) -> tuple[int, int]:
         cell.run(STEP)
