@@ -102,38 +102,28 @@ impl<'a> Bound<'a> {
         drive: &'a mut SlaveDrive,
         buses: &'a mut dyn BusDrives,
     ) -> Option<Self> {
-        match drive {
-            SlaveDrive::Own(station) => {
-                let (model, store, stored) = station.drive_parts();
-                Some(Bound {
-                    dev,
-                    model,
-                    store,
-                    stored,
-                    shared_events: None,
-                })
-            }
-            SlaveDrive::Station { id, bus: None } => {
-                let (model, store, stored) = buses.in_cell(*id)?.drive_parts();
-                Some(Bound {
-                    dev,
-                    model,
-                    store,
-                    stored,
-                    shared_events: None,
-                })
-            }
+        let station = match drive {
+            SlaveDrive::Own(station) => station,
+            SlaveDrive::Station { id, bus: None } => buses.in_cell(*id)?,
             SlaveDrive::Station { id, bus: Some(_) } => {
                 let (model, store, stored, events) = buses.in_cell(*id)?.coe_parts();
-                Some(Bound {
+                return Some(Bound {
                     dev,
                     model,
                     store,
                     stored,
                     shared_events: Some(events),
-                })
+                });
             }
-        }
+        };
+        let (model, store, stored) = station.drive_parts();
+        Some(Bound {
+            dev,
+            model,
+            store,
+            stored,
+            shared_events: None,
+        })
     }
 }
 
