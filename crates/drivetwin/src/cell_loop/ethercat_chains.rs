@@ -76,7 +76,7 @@ impl CellLoop {
             };
             if turn == FRAMES_PER_TURN {
                 // More may wait: read on next turn, after the other sockets.
-                self.chains_to_read |= 1u32.checked_shl(c as u32).unwrap_or(0);
+                self.chains_to_read |= chain_bit(c);
                 break;
             }
             let n = match chain.socket().try_recv(&mut frame) {
@@ -246,4 +246,11 @@ fn arrival(stamp: SystemTime, now: Instant) -> Instant {
         .duration_since(stamp)
         .unwrap_or(Duration::ZERO);
     now.checked_sub(waited).unwrap_or(now)
+}
+
+/// Chain `c`'s bit in the loop's set of chains to read on: chains from the 32nd on share the
+/// last bit (each of them is then read, and one with nothing waiting reads nothing), so that
+/// none is left unread.
+pub(super) fn chain_bit(c: usize) -> u32 {
+    1 << c.min(31)
 }

@@ -761,7 +761,7 @@ impl CellLoop {
         }
         let to_read = std::mem::take(&mut self.chains_to_read);
         for c in 0..self.chains.len() {
-            if to_read & 1u32.checked_shl(c as u32).unwrap_or(0) != 0 {
+            if to_read & ethercat_chains::chain_bit(c) != 0 {
                 self.read_ethercat(c);
             }
         }
