@@ -178,6 +178,17 @@ impl TwinProcess {
     /// (`EtherCAT on IF: 1 slave(s)` then `running`). Its stderr (tracing) goes to a log file
     /// kept only when the caller panics.
     pub fn start(binary: &Path, veth: &Veth, extra: &[String]) -> Result<TwinProcess, String> {
+        Self::start_chain(binary, veth, extra, 1)
+    }
+
+    /// [`TwinProcess::start`] for a chain of `slaves` (a cell file among `extra`), whose banner
+    /// counts them.
+    pub fn start_chain(
+        binary: &Path,
+        veth: &Veth,
+        extra: &[String],
+        slaves: usize,
+    ) -> Result<TwinProcess, String> {
         let log = std::env::temp_dir().join(format!("drivetwin-{}.log", veth.ns));
         let log_file = std::fs::File::create(&log).map_err(|e| format!("{log:?}: {e}"))?;
         let mut child = Command::new("ip")
@@ -220,7 +231,7 @@ impl TwinProcess {
                 twin.stderr()
             ));
         }
-        let banner = format!("EtherCAT on {}: 1 slave", veth.twin_if);
+        let banner = format!("EtherCAT on {}: {slaves} slave", veth.twin_if);
         if !twin.lines().iter().any(|l| l.contains(&banner)) {
             twin.kill();
             return Err(format!("no `{banner}` in {:?}", twin.lines()));
