@@ -143,7 +143,13 @@ where
     drop(rt);
     drop(rt_guard);
     let EcatWire { twin, veth } = wire;
-    twin.stop().expect("drivetwin stops cleanly on SIGTERM");
+    // The twin's side of the timing (its loop's longest turns), beside the master's figures.
+    for line in twin
+        .stop_reporting()
+        .expect("drivetwin stops cleanly on SIGTERM")
+    {
+        println!("drivetwin: {line}");
+    }
     drop(veth);
     let _ = std::fs::remove_file(&cell);
 }
