@@ -6,8 +6,8 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
-use drivetwin::ecat::link::EthercatSocket;
 use ethercrab::error::Error;
+use ethercrab::std::tx_rx_task;
 use ethercrab::{MainDevice, MainDeviceConfig, PduRx, PduStorage, PduTx, RetryBehaviour, Timeouts};
 use platform::sched::Scheduling;
 
@@ -43,62 +43,6 @@ pub fn esi_product_code(binary: &Path) -> u32 {
 
 /// ethercrab's TX/RX task; it ends with the (released) storage halves, or an error.
 pub type TxRxTask = tokio::task::JoinHandle<Result<(PduTx<'static>, PduRx<'static>), Error>>;
-
-/// ethercrab's PDU loop on the wire, on the runtime's own thread: the frames ethercrab queues
-/// go out at once, and each reply is read when tokio's driver, on the thread that awaits it,
-/// sees the socket readable. ethercrab's std `tx_rx_task` waits for its socket on the
-/// reactor thread of async-io instead, which wakes this thread in turn: one more thread that
-/// must find a CPU for every reply, and the one that waited milliseconds behind a task in the
-/// kernel when the twin had answered in under half a millisecond (an ftrace of the loaded
-/// machine, docs/ethercat.md "ethercrab's transport"). The PDU handling stays ethercrab's
-/// (`PduTx` / `PduRx`, its interface for network drivers); it ends as ethercrab's does: on
-/// request with the released halves, on a reply it cannot claim or a failed send with that
-/// error.
-pub fn tx_rx_task(
-    interface: &str,
-    mut tx: PduTx<'static>,
-    mut rx: PduRx<'static>,
-) -> std::io::Result<
-    impl std::future::Future<Output = Result<(PduTx<'static>, PduRx<'static>), Error>>,
-> {
-    let socket = EthercatSocket::open(interface)?;
-    Ok(async move {
-        let mut out = Vec::with_capacity(drivetwin::ecat::MAX_FRAME);
-        let mut reply = vec![0u8; drivetwin::ecat::MAX_FRAME];
-        loop {
-            let sendable = std::future::poll_fn(|cx| {
-                tx.replace_waker(cx.waker());
-                if tx.should_exit() {
-                    return std::task::Poll::Ready(None);
-                }
-                match tx.next_sendable_frame() {
-                    Some(frame) => std::task::Poll::Ready(Some(frame)),
-                    None => std::task::Poll::Pending,
-                }
-            });
-            tokio::select! {
-                biased;
-                frame = sendable => {
-                    let Some(frame) = frame else {
-                        return Ok((tx.release(), rx.release()));
-                    };
-                    // Marked sent before it goes out: its reply cannot come before it.
-                    frame.send_blocking(|data| {
-                        out.clear();
-                        out.extend_from_slice(data);
-                        Ok(data.len())
-                    })?;
-                    socket.send(&out).await.map_err(|_| Error::SendFrame)?;
-                }
-                received = socket.recv_returned(&mut reply) => {
-                    let n = received.map_err(|_| Error::ReceiveFrame)?;
-                    let frame = reply.get(..n).ok_or(Error::Internal)?;
-                    rx.receive_frame(frame).map_err(|_| Error::ReceiveFrame)?;
-                }
-            }
-        }
-    })
-}
 
 /// A MainDevice on `master_if` with ethercrab's std TX/RX task running; a group state change
 /// may take `state_transition`.
