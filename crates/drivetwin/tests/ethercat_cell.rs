@@ -1312,3 +1312,49 @@ fn a_chain_joined_to_the_cells_stations_answers_as_one_that_owns_its_drives() {
         assert_eq!(a, b, "frame {k}");
     }
 }
+
+/// A CMMP-AS in Op in free run whose master stops sending: the ESC's process-data watchdog
+/// (0x0420 × (0x0400 + 2) × 40 ns, spec/ethercat-esc.md §7.6), here 0x0420 = 300 at the
+/// reset divider (100 µs ticks) = 30 ms, counts from the last complete SM2 write. Up to 30 ms
+/// of silence the slave stays in Op (never stricter than the ESC); past it, it falls back to
+/// Safe-Op with 0x001B and the drive raises App. B.3 62-5 "EtherCAT: faulty cyclic data
+/// transfer" (cmmp-as-3: "safety shutdown because cyclic data failed"): a message without a
+/// CiA code, so EMCY 1000h generic error (docs/decisions.md), and the drive in Fault.
+#[test]
+fn cmmp_as_whose_process_data_stop_falls_after_the_watchdog_time() {
+    let mut m = Master::new(cell());
+    to_preop(&mut m);
+    map(&mut m, 2, 2);
+    m.fpwr(0x0420, &300u16.to_le_bytes());
+    m.fpwr(0x0120, &[0x04, 0x00]);
+    m.fpwr(0x0120, &[0x08, 0x00]);
+    assert_eq!(m.al(), (0x0008, 0));
+    let sw = enable(&mut m, 30, |m, cw| {
+        m.tick();
+        u16::from_le_bytes(lrw(m, &cw.to_le_bytes(), 2).try_into().unwrap())
+    });
+    assert_eq!(sw & 0x6F, 0x27, "operation enabled: {sw:#06x}");
+    assert_eq!(m.fprd(0x0440, 2).u16() & 1, 1, "0x0440: the watchdog runs");
+    // 30 ms after the last SM2 write: still Op, the drive still enabled.
+    m.idle(30);
+    assert_eq!(m.al(), (0x0008, 0), "Op up to the watchdog time");
+    assert_eq!(m.cell.device(0).unwrap().watchdog_expiries, 0);
+    assert_eq!(read_u16(&m, 0x6041) & 0x6F, 0x27, "still operation enabled");
+    // 1 ms past it: Safe-Op + error indication, 0x001B; 0x0440 bit 0 shows it expired and
+    // the counter 0x0442 counts it.
+    m.idle(1);
+    assert_eq!(m.al(), (0x0014, 0x001B), "Safe-Op + error, SM watchdog");
+    assert_eq!(m.cell.device(0).unwrap().watchdog_expiries, 1);
+    assert_eq!(m.fprd(0x0440, 2).u16() & 1, 0, "0x0440: expired");
+    assert_eq!(m.fprd(0x0442, 1).data, [1], "0x0442: one expiry");
+    let drive = m.cell.model(0).unwrap().drive().unwrap();
+    assert_eq!(
+        drive.errors(),
+        &[0x1000],
+        "62-5 as EMCY 1000h generic error"
+    );
+    m.idle(50);
+    let sw = read_u16(&m, 0x6041);
+    assert_eq!(sw & 0x4F, 0x08, "fault (safety shutdown): {sw:#06x}");
+    assert_error_kept(&m, 0x01, 0x1000);
+}

@@ -45,7 +45,10 @@
 //! SCHED_FIFO can still wait milliseconds for a CPU the host has not scheduled, or behind a
 //! neighbour in a long kernel call (`preempt=none`), docs/performance.md. The longest gap
 //! between cycles is printed with its parts (the master's late wake-up, the frame's round
-//! trip). Timing is judged by counting cycles and working counters; the figures are printed.
+//! trip), and beside it the twin's own report as it stops (its timers' lateness, its loop's
+//! longest turns with their CPU time: a turn far longer than its CPU time was off its CPU;
+//! docs/performance.md "Where `ethercrab_dc`'s long frames come from"). Timing is judged by
+//! counting cycles and working counters; the figures are printed.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -143,7 +146,13 @@ where
     drop(rt);
     drop(rt_guard);
     let EcatWire { twin, veth } = wire;
-    twin.stop().expect("drivetwin stops cleanly on SIGTERM");
+    // The twin's side of the timing (its loop's longest turns), beside the master's figures.
+    for line in twin
+        .stop_reporting()
+        .expect("drivetwin stops cleanly on SIGTERM")
+    {
+        println!("drivetwin: {line}");
+    }
     drop(veth);
     let _ = std::fs::remove_file(&cell);
 }

@@ -37,6 +37,13 @@ const SOURCE_MAC_FIRST: usize = 6;
 /// How long [`EthercatSocket::send`] keeps retrying while the interface's TX queue is full.
 const TX_QUEUE_FULL_PATIENCE: Duration = Duration::from_millis(10);
 
+/// How long [`SlaveSocket::send`] retries while the TX queue is full: the time a port takes
+/// to put the largest frame (1518 bytes, 12 144 bit times) on a 100 Mbit/s wire, after which
+/// its transmitter is free again. An ESC forwards a frame as it passes and never holds the
+/// ones behind it; a loop that waited longer would hold every other frame, drive step and
+/// socket of the cell.
+const TX_PORT_BUSY: Duration = Duration::from_nanos(12_144 * 10);
+
 /// A non-blocking raw EtherCAT socket bound to one interface.
 #[derive(Debug)]
 pub struct EthercatSocket {
@@ -190,7 +197,9 @@ impl SlaveSocket {
         self.arrived
     }
 
-    /// Transmit one frame, retrying for up to 10 ms while the TX queue is full.
+    /// Transmit one frame, retrying for up to [`TX_PORT_BUSY`] while the TX queue is full;
+    /// then the frame is lost, as on a congested line. The retries spin: a thread that slept
+    /// between them could wake milliseconds later on a loaded machine, holding the loop.
     pub fn send(&self, frame: &[u8]) -> io::Result<()> {
         // The clock is read only once the queue turns out full: not on every answer's path.
         let mut deadline = None;
@@ -198,10 +207,10 @@ impl SlaveSocket {
             match send_once(self.fd.as_fd(), frame) {
                 Err(e) if is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock => {
                     let now = std::time::Instant::now();
-                    if now >= *deadline.get_or_insert(now + TX_QUEUE_FULL_PATIENCE) {
+                    if now >= *deadline.get_or_insert(now + TX_PORT_BUSY) {
                         return Err(e);
                     }
-                    std::thread::sleep(Duration::from_micros(20));
+                    std::hint::spin_loop();
                 }
                 r => return r,
             }
@@ -228,7 +237,7 @@ impl crate::cell::link::FrontLink for SlaveSocket {
         use crate::cell::wire_faults::Verdict;
         match self.send(frame) {
             Ok(()) => Verdict::Pass,
-            Err(e) if is_queue_full(&e) => {
+            Err(e) if is_queue_full(&e) || e.kind() == io::ErrorKind::WouldBlock => {
                 tracing::warn!(interface = self.interface(), "TX queue full, frame lost");
                 Verdict::Lost
             }

@@ -256,6 +256,17 @@ impl TwinProcess {
 
     /// Stop it as Ctrl-C would (SIGTERM) and check it says `stopped` and exits with 0.
     pub fn stop(mut self) -> Result<(), String> {
+        self.stop_here()
+    }
+
+    /// [`stop`](Self::stop), and what the twin printed as it stopped: its timers' lateness
+    /// and its loop's longest turns.
+    pub fn stop_reporting(mut self) -> Result<Vec<String>, String> {
+        self.stop_here()?;
+        Ok(self.stopping_report())
+    }
+
+    fn stop_here(&mut self) -> Result<(), String> {
         let Some(mut child) = self.child.take() else {
             return Err("already stopped".into());
         };
@@ -280,6 +291,24 @@ impl TwinProcess {
         if let Some(mut child) = self.child.take() {
             let _ = terminate(&mut child);
         }
+    }
+
+    /// The lines the twin printed as it stopped (its timers' lateness and the longest
+    /// turns of its loop, `drivetwin run`), once its stdout has ended.
+    fn stopping_report(&self) -> Vec<String> {
+        let deadline = Instant::now() + Duration::from_secs(1);
+        while !self.lines().iter().any(|l| l == "stopped") && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let lines = self.lines();
+        let from = lines
+            .iter()
+            .position(|l| l.contains(" loop: "))
+            .unwrap_or(lines.len());
+        lines
+            .get(from..)
+            .map(<[String]>::to_vec)
+            .unwrap_or_default()
     }
 }
 
@@ -308,6 +337,10 @@ impl Drop for TwinProcess {
     fn drop(&mut self) {
         self.kill();
         if std::thread::panicking() {
+            // Where a late answer went, from the twin's side.
+            for line in self.stopping_report() {
+                eprintln!("drivetwin: {line}");
+            }
             eprintln!("drivetwin log kept at {}", self.log.display());
         } else {
             let _ = std::fs::remove_file(&self.log);
