@@ -2,7 +2,7 @@
 //! EtherCAT slave's 1010h "save" over CoE (`ecat::coe_dispatch`) holds its reply and hands
 //! the runtime a [`SaveJob`], the dictionary's values as they were when the save was asked
 //! for (what a save or restore asks for is decided in `cell::storage_request`). The file is
-//! written by [`write`], the atomic write a CANopen station's save uses (temporary file,
+//! written by [`write()`], the atomic write a CANopen station's save uses (temporary file,
 //! fsync, rename, fsync of the directory), so a kill during a save leaves the old set or the
 //! new one. A [`ParamSaver`] writes it on a thread of its own: its
 //! two fsyncs take tens of milliseconds on a loaded machine, longer than a master waits for
@@ -40,7 +40,7 @@ impl SaveJob {
         }
     }
 
-    /// Writes the file (atomically) and reads the stored set back ([`write`], as a CANopen
+    /// Writes the file (atomically) and reads the stored set back ([`write()`], as a CANopen
     /// station's save).
     pub fn run(self) -> SaveResult {
         write(&self.store, &self.od, self.sub)
