@@ -1,8 +1,8 @@
-"""The example load FMU (crates/conveyor-fmu, docs/cosimulation.md), met by fmpy, an FMI importer
-nobody here wrote: its model description validates, and stepped with a turning shaft the belt
-follows, carries its friction as load torque on the shaft, and the light barrier sees the belt
-pass its window. Its FMI 2.0 build (the same library, target/fmu/conveyor-fmi2.fmu) validates as
-well and gives the same values, step for step."""
+"""The example load FMU (crates/conveyor-fmu, its model crates/conveyor; docs/cosimulation.md),
+met by fmpy, an FMI importer nobody here wrote: its model description validates, and stepped
+with a turning shaft the belt follows, carries its friction as load torque on the shaft, and
+the light barrier sees the belt pass its window. Its FMI 2.0 build (the same library,
+target/fmu/conveyor-fmi2.fmu) validates as well and gives the same values, step for step."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 //! The same conveyor as an FMI 2.0 co-simulation FMU (FMI 2.0 §4 "FMI for Co-Simulation"):
 //! the C functions of FMI 2.0 written by hand, since `fmi-export` writes those of FMI 3.0
-//! only, and its `modelDescription.xml` ([`model_description`]) written from the model's own
-//! declarations, the ones the FMI 3.0 description is written from.
+//! only; its `modelDescription.xml` is written from the model's own declarations, the ones the
+//! FMI 3.0 description is written from ([`conveyor::description::fmi2`]).
 //!
 //! One library serves both: the FMI 3.0 archive packs it as
 //! `binaries/x86_64-linux/conveyor.so`, the FMI 2.0 archive as `binaries/linux64/conveyor.so`
@@ -16,12 +16,10 @@
 
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 
-use fmi::schema::fmi3::{
-    AbstractVariableTrait, Causality, InitializableVariableTrait, Variability, Variable,
-};
+use fmi::schema::fmi3::{AbstractVariableTrait, InitializableVariableTrait, Variable};
 use fmi_export::fmi3::Model;
 
-use crate::Conveyor;
+use conveyor::Conveyor;
 
 /// `fmi2Status` (FMI 2.0 §2.1.3).
 type Status = c_int;
@@ -206,99 +204,6 @@ unsafe fn slices<'a, T, U>(
         ))
     }
 }
-
-/// The FMI 2.0 `modelDescription.xml` of the conveyor (FMI 2.0 §2.2), from the declarations
-/// the FMI 3.0 one is written from: Float64 variables become `Real`, Boolean ones `Boolean`;
-/// every output is an initial unknown (`initial="calculated"`, FMI 2.0 §2.2.8).
-pub fn model_description(model_identifier: &str) -> String {
-    let meta = Conveyor::build_toplevel_metadata();
-    let mut vars = String::new();
-    let mut outputs = Vec::new();
-    let mut index = 0usize;
-    for v in &meta.model_variables.variables {
-        let (element, start) = match v {
-            Variable::Float64(f) => (
-                "Real",
-                f.start().and_then(|s| s.first()).map(|s| format!("{s:?}")),
-            ),
-            Variable::Boolean(b) => (
-                "Boolean",
-                b.start().and_then(|s| s.first()).map(|s| s.to_string()),
-            ),
-            _ => continue,
-        };
-        let v: &dyn AbstractVariableTrait = match v {
-            Variable::Float64(f) => f,
-            Variable::Boolean(b) => b,
-            _ => continue,
-        };
-        index += 1;
-        let causality = match v.causality() {
-            Causality::Parameter | Causality::StructuralParameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Independent => "independent",
-            Causality::Local | Causality::Dependent => "local",
-        };
-        if causality == "output" {
-            outputs.push(index);
-        }
-        let variability = match v.variability() {
-            Variability::Constant => "constant",
-            Variability::Fixed => "fixed",
-            Variability::Tunable => "tunable",
-            Variability::Discrete => "discrete",
-            Variability::Continuous => "continuous",
-        };
-        let description = v
-            .description()
-            .map(|d| format!(" description=\"{}\"", escape(d)))
-            .unwrap_or_default();
-        // An independent variable and the outputs have no start value (FMI 2.0 §2.2.7).
-        let start = match (causality, start) {
-            ("independent" | "output", _) | (_, None) => String::new(),
-            (_, Some(s)) => format!(" start=\"{s}\""),
-        };
-        vars.push_str(&format!(
-            "    <ScalarVariable name=\"{}\" valueReference=\"{}\"{description} \
-             causality=\"{causality}\" variability=\"{variability}\">\n      <{element}{start}/>\n    \
-             </ScalarVariable>\n",
-            escape(v.name()),
-            v.value_reference(),
-        ));
-    }
-    let unknowns: String = outputs
-        .iter()
-        .map(|i| format!("      <Unknown index=\"{i}\"/>\n"))
-        .collect();
-    format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
-         <fmiModelDescription fmiVersion=\"2.0\" modelName=\"{name}\" guid=\"{guid}\" \
-         description=\"A belt conveyor: a mass on an elastic belt with viscous and Coulomb \
-         friction, driven by a motor shaft, with a light barrier\" \
-         generationTool=\"drivetwin conveyor-fmu (FMI 2.0 by hand)\" \
-         variableNamingConvention=\"flat\" numberOfEventIndicators=\"0\">\n  \
-         <CoSimulation modelIdentifier=\"{model_identifier}\" \
-         canHandleVariableCommunicationStepSize=\"true\" \
-         canNotUseMemoryManagementFunctions=\"true\"/>\n  \
-         <ModelVariables>\n{vars}  </ModelVariables>\n  \
-         <ModelStructure>\n    <Outputs>\n{unknowns}    </Outputs>\n    \
-         <InitialUnknowns>\n{unknowns}    </InitialUnknowns>\n  </ModelStructure>\n\
-         </fmiModelDescription>\n",
-        name = escape(Conveyor::MODEL_NAME),
-        guid = escape(Conveyor::INSTANTIATION_TOKEN),
-    )
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
-// ---- FMI 2.0 §2.1: the common functions ----
 
 #[no_mangle]
 pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
@@ -814,15 +719,6 @@ mod tests {
 
     use super::*;
 
-    #[test]
-    fn the_description_names_every_variable_with_its_value_reference() {
-        let xml = model_description("conveyor");
-        assert!(xml.contains("fmiVersion=\"2.0\""), "{xml}");
-        assert!(xml.contains("name=\"light_barrier\""), "{xml}");
-        assert!(xml.contains("<Boolean/>"), "{xml}");
-        assert!(xml.contains("name=\"mass\""), "{xml}");
-    }
-
     fn vr_of(name: &str) -> u32 {
         let meta = Conveyor::build_toplevel_metadata();
         let v = meta
@@ -858,18 +754,17 @@ mod tests {
             }
             let mut pos = 0.0;
             assert_eq!(fmi2GetReal(c, &pos_vr, 1, &mut pos), OK);
-            let mut reference = Conveyor {
-                shaft_speed: 10.0,
-                mass: 0.5,
-                pulley_radius: 0.01,
-                stiffness: 1.0e5,
-                damping: 100.0,
-                viscous_friction: 5.0,
-                coulomb_friction: 2.0,
-                barrier_from: 0.10,
-                barrier_to: 0.12,
-                ..Default::default()
-            };
+            // The declared start values, set one by one (the belt's state is the model's own).
+            let mut reference = Conveyor::default();
+            reference.shaft_speed = 10.0;
+            reference.mass = 0.5;
+            reference.pulley_radius = 0.01;
+            reference.stiffness = 1.0e5;
+            reference.damping = 100.0;
+            reference.viscous_friction = 5.0;
+            reference.coulomb_friction = 2.0;
+            reference.barrier_from = 0.10;
+            reference.barrier_to = 0.12;
             for _ in 0..1000 {
                 reference.advance(1e-3).unwrap();
             }

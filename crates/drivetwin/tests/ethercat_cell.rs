@@ -14,11 +14,13 @@
 mod ecat_inputs;
 use ecat_inputs::{phys, sm};
 
+use canopen::CanFrame;
+use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::CellFile;
 use drivetwin::cell::param_saver::ParamSaver;
+use drivetwin::cell::param_store::ParamStore;
 use drivetwin::cell::station::Station;
-use drivetwin::cell::stations::{StationId, Stations};
-use drivetwin::ecat::chain::{BusDrives, NoBuses, SlaveChain, SlaveDrive};
+use drivetwin::ecat::chain::{NoBuses, SlaveChain, SlaveDrive};
 use ethercat::datagram::Command;
 use ethercat::frame::{Address, EthernetFrame, Frame, FrameWriter};
 use ethercat::{AlState, Fmmu, FrameOutcome};
@@ -43,23 +45,17 @@ impl Reply {
 struct Master {
     cell: SlaveChain,
     now: Instant,
-    /// The cell's list of stations the chain has joined (none: the chain owns its drives).
-    joined: Option<Stations>,
+    /// The cell the chain has joined, its CAN buses run beside the chain (none: the chain
+    /// owns its drives).
+    joined: Option<CanCell>,
+    /// The frames the cell's CAN buses sent, as they came.
+    can_sent: Vec<CanFrame>,
     /// Every frame as it came back, when asked for.
     returned: Option<Vec<Vec<u8>>>,
     /// The runtime's writer of the saves the slaves ask for (1010h), as the cell loop's.
     saver: ParamSaver<usize>,
     /// Whether the saves go to `saver` after every frame and poll (else the test takes them).
     runtime_saves: bool,
-}
-
-/// The drives of a chain joined to a cell without CAN buses: stations of the cell's list.
-struct InCell<'a>(&'a mut Stations);
-
-impl BusDrives for InCell<'_> {
-    fn in_cell(&mut self, id: StationId) -> Option<&mut Station> {
-        self.0.station_mut(id)
-    }
 }
 
 impl Master {
@@ -70,31 +66,37 @@ impl Master {
     /// `cell` joined to a cell's list behind a drive of the cell's own, as the cell loop
     /// joins a chain: its slaves name their drives by id there.
     fn joined(mut cell: SlaveChain) -> Self {
-        let mut stations = Stations::new();
+        let mut can = CanCell::new();
         let desc = devices::by_name("cmmp-as").unwrap();
-        stations
+        can.stations
             .push(Station::with_settings(desc, 9, None, vec![], Some(Default::default())).unwrap());
-        cell.join(&mut stations);
+        cell.join_cell(&mut can);
         for i in 0..cell.len() {
             assert!(
                 matches!(cell.drive(i), Some(SlaveDrive::Station { bus: None, .. })),
                 "slave {i} names a station of the list"
             );
         }
-        Master::start(cell, Some(stations))
+        Master::start(cell, Some(can))
     }
 
-    fn start(cell: SlaveChain, joined: Option<Stations>) -> Self {
+    fn start(cell: SlaveChain, joined: Option<CanCell>) -> Self {
         let mut m = Master {
             cell,
             now: Instant::from_millis(1),
             joined,
+            can_sent: Vec::new(),
             returned: None,
             saver: ParamSaver::default(),
             runtime_saves: true,
         };
         match &mut m.joined {
-            Some(stations) => m.cell.boot_with(m.now, &mut InCell(stations)),
+            Some(can) => {
+                for b in 0..can.buses.len() {
+                    can.boot(b, m.now, &mut m.can_sent);
+                }
+                m.cell.boot_with(m.now, can)
+            }
             None => m.cell.boot(m.now),
         }
         m
@@ -103,20 +105,21 @@ impl Master {
     /// A frame through the chain.
     fn pass(&mut self, frame: &mut [u8]) -> FrameOutcome {
         let outcome = match &mut self.joined {
-            Some(stations) => self
-                .cell
-                .on_frame_with(self.now, frame, &mut InCell(stations)),
+            Some(can) => self.cell.on_frame_with(self.now, frame, can),
             None => self.cell.on_frame(self.now, frame),
         };
         self.hand_off_saves();
         outcome
     }
 
-    /// The chain's drives run to `now`.
+    /// The chain's drives (and the cell's CAN buses) run to `now`.
     fn poll(&mut self) {
         match &mut self.joined {
-            Some(stations) => {
-                self.cell.poll_with(self.now, &mut InCell(stations));
+            Some(can) => {
+                for b in 0..can.buses.len() {
+                    can.poll(b, self.now, &mut self.can_sent);
+                }
+                self.cell.poll_with(self.now, can);
             }
             None => {
                 self.cell.poll(self.now);
@@ -136,7 +139,7 @@ impl Master {
         }
         while let Some((slave, result)) = self.saver.finished() {
             match &mut self.joined {
-                Some(stations) => self.cell.saved(slave, result, &mut InCell(stations)),
+                Some(can) => self.cell.saved(slave, result, can),
                 None => self.cell.saved(slave, result, &mut NoBuses),
             }
         }
@@ -1052,7 +1055,8 @@ fn cmmp_as_saving_to(dir: &std::path::Path) -> Master {
     m
 }
 
-/// A CoE download of "save" to 1010h:01 written into the receive mailbox, its reply not read.
+/// A CoE download of "save" to 1010h:01 (mailbox counter 1) written into the receive mailbox,
+/// its reply not read.
 fn ask_for_a_save(m: &mut Master) {
     let mut req = vec![0u8; 0x80];
     req[..16].copy_from_slice(&[
@@ -1147,6 +1151,221 @@ fn coe_save_that_cannot_write_is_aborted_0800_0020() {
     );
     // The mailbox goes on.
     assert_eq!(coe_upload(&mut m, 2, 0x1018, 1)[0], 0x43);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// One CMMP-AS that is CANopen node 1 and an EtherCAT slave at once (for testing only: the
+/// real one runs one fieldbus at a time, CMMP-AS §2.3), as `examples/mixed.toml` shows it.
+const ON_BOTH_FIELDBUSES: &str = r#"
+[[drive]]
+device = "cmmp-as"
+node = 1
+interfaces = ["canopen", "ethercat"]
+allow_unreal_interfaces = true
+ethercat = "ecat0"
+"#;
+
+/// The drive of [`ON_BOTH_FIELDBUSES`] built as `drivetwin run` builds it: a station of the
+/// cell's CAN bus, served over CoE as well, that the chain's one slave names; its parameters
+/// saved in `dir`. The bus booted, the chain in Pre-Op.
+fn cmmp_as_on_both_saving_to(dir: &std::path::Path) -> Master {
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join("cell.toml");
+    std::fs::write(&path, ON_BOTH_FIELDBUSES).unwrap();
+    let file = CellFile::load(&path).unwrap();
+    let spec = file
+        .drives(drivetwin::vendors::VENDORS.runtime)
+        .unwrap()
+        .remove(0);
+    assert!(
+        spec.canopen && spec.ethercat.is_some(),
+        "on both fieldbuses"
+    );
+    let store = ParamStore::new(dir, spec.desc.name, spec.node);
+    let settings = spec.settings.map(|mut s| {
+        s.ethercat = true;
+        s
+    });
+    let mut station = Station::with_settings(
+        spec.desc,
+        spec.node,
+        Some(store),
+        spec.commissioning,
+        settings,
+    )
+    .unwrap();
+    station.serve_coe();
+    let can = CanCell::one_bus(vec![station]);
+    let id = can.buses[0].members()[0];
+    let mut chain = SlaveChain::empty();
+    chain
+        .push(spec.desc, SlaveDrive::Station { id, bus: Some(0) })
+        .unwrap();
+    let mut m = Master::start(chain, Some(can));
+    m.idle(10);
+    to_preop(&mut m);
+    m
+}
+
+/// One CAN frame to the joined cell's first bus now; the frames it sent in answer.
+fn can_frame(m: &mut Master, id: u16, data: &[u8]) -> Vec<CanFrame> {
+    let can = m.joined.as_mut().expect("a cell with a CAN bus");
+    let mut out = Vec::new();
+    can.on_frame(0, m.now, &CanFrame::new(id, data).unwrap(), &mut out);
+    out
+}
+
+/// An expedited SDO request to CANopen node 1 (padded to 8 bytes); the answer.
+fn can_sdo(m: &mut Master, request: &[u8]) -> [u8; 8] {
+    let mut data = [0u8; 8];
+    data[..request.len()].copy_from_slice(request);
+    can_frame(m, 0x601, &data)
+        .iter()
+        .find(|f| f.id == 0x581)
+        .map(|f| f.data)
+        .expect("SDO answer")
+}
+
+/// 6081h "profile velocity" read over CANopen and over CoE (`counter`): the two values.
+fn profile_velocity_on_both(m: &mut Master, counter: u8) -> (u32, u32) {
+    let can = can_sdo(m, &[0x40, 0x81, 0x60, 0x00]);
+    assert_eq!(can[0], 0x43, "SDO upload of 4 bytes: {can:02X?}");
+    let coe = coe_upload(m, counter, 0x6081, 0);
+    assert_eq!(coe[0], 0x43, "CoE upload of 4 bytes: {coe:02X?}");
+    (
+        u32::from_le_bytes(can[4..8].try_into().unwrap()),
+        u32::from_le_bytes(coe[4..8].try_into().unwrap()),
+    )
+}
+
+/// 6081h as the drive's parameter file holds it (none: not stored).
+fn stored_profile_velocity(dir: &std::path::Path) -> Option<u32> {
+    let stored = ParamStore::new(dir, "cmmp-as", 1).load().unwrap();
+    let v = stored.iter().find(|v| (v.index, v.sub) == (0x6081, 0))?;
+    Some(u32::from_le_bytes(v.bytes.as_slice().try_into().unwrap()))
+}
+
+/// NMT "reset node" to node 1 over CAN (CiA 301 §7.2.8.3.1.1): the node boots again (its
+/// boot-up message) with what was last stored.
+fn reset_node_over_can(m: &mut Master) {
+    m.can_sent.clear();
+    let mut sent = can_frame(m, 0x000, &[0x81, 0x01]);
+    m.idle(10);
+    sent.append(&mut m.can_sent);
+    assert!(
+        sent.iter().any(|f| f.id == 0x701 && f.data[0] == 0x00),
+        "boot-up after the reset: {sent:?}"
+    );
+}
+
+/// A drive that is a CANopen node and an EtherCAT slave at once saves over CoE as one on
+/// EtherCAT alone: the reply waits until the runtime has written the file; the file holds the
+/// value written over CoE; the CANopen side, which shares the dictionary and the stored set,
+/// starts from it after an NMT reset, and so does the drive after a restart on the same state
+/// directory.
+#[test]
+fn a_drive_on_canopen_and_ethercat_saves_over_coe_for_both() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-both-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut m = cmmp_as_on_both_saving_to(&dir);
+    m.runtime_saves = false;
+    assert_eq!(profile_velocity_on_both(&mut m, 1), (1000, 1000), "default");
+    let saved = 12_345u32;
+    assert_eq!(
+        coe_download(&mut m, 2, 0x6081, 0, &saved.to_le_bytes())[0],
+        0x60
+    );
+    assert_eq!(profile_velocity_on_both(&mut m, 3), (saved, saved));
+
+    ask_for_a_save(&mut m);
+    for _ in 0..20 {
+        m.tick();
+        assert_eq!(
+            m.fprd(0x080D, 1).data[0] & 0x08,
+            0,
+            "no reply before the save"
+        );
+    }
+    assert_eq!(stored_profile_velocity(&dir), None, "no file yet");
+    let save = m.cell.take_save().expect("the save asked for");
+    assert_eq!(save.slave, 0);
+    let result = save.job.run();
+    assert_eq!(
+        stored_profile_velocity(&dir),
+        Some(saved),
+        "the file written"
+    );
+    assert_eq!(m.fprd(0x080D, 1).data[0] & 0x08, 0, "no reply yet");
+    let can = m.joined.as_mut().unwrap();
+    m.cell.saved(0, result, can);
+    assert_ne!(m.fprd(0x080D, 1).data[0] & 0x08, 0, "the reply posted");
+    let r = m.fprd(0x1080, 0x80);
+    assert_eq!(
+        &r.data[8..12],
+        &[0x60, 0x10, 0x10, 0x01],
+        "download response"
+    );
+
+    // A value written over CANopen and not saved is gone after the reset.
+    let r = can_sdo(&mut m, &[0x23, 0x81, 0x60, 0x00, 0x09, 0x03, 0x00, 0x00]);
+    assert_eq!(r[0], 0x60, "SDO download: {r:02X?}");
+    assert_eq!(profile_velocity_on_both(&mut m, 4), (777, 777));
+    reset_node_over_can(&mut m);
+    assert_eq!(
+        profile_velocity_on_both(&mut m, 5),
+        (saved, saved),
+        "the saved value after NMT reset node"
+    );
+
+    let mut m = cmmp_as_on_both_saving_to(&dir);
+    assert_eq!(
+        profile_velocity_on_both(&mut m, 1),
+        (saved, saved),
+        "the saved value after a restart"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// 1011h:01 "load" over CANopen on a drive that is an EtherCAT slave as well: the defaults
+/// are the current set at once, over CoE too; the stored set stays until the next save
+/// (CMMP-AS §5.1), so the next NMT reset starts from it again. The save over CoE before it
+/// is written on the runtime's loop (the file has a writer there, the CANopen node): the
+/// frame that brings it returns with its reply posted.
+#[test]
+fn a_restore_over_canopen_is_seen_over_coe() {
+    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-restore-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut m = cmmp_as_on_both_saving_to(&dir);
+    let saved = 23_456u32;
+    // Counter 2: the save's request is counter 1.
+    assert_eq!(
+        coe_download(&mut m, 2, 0x6081, 0, &saved.to_le_bytes())[0],
+        0x60
+    );
+    ask_for_a_save(&mut m);
+    assert!(!m.cell.device(0).unwrap().saving(), "written on the loop");
+    assert_ne!(m.fprd(0x080D, 1).data[0] & 0x08, 0, "the reply posted");
+    assert_eq!(m.fprd(0x1080, 0x80).data[8], 0x60, "download response");
+    assert_eq!(stored_profile_velocity(&dir), Some(saved));
+
+    let r = can_sdo(&mut m, &[0x23, 0x11, 0x10, 0x01, b'l', b'o', b'a', b'd']);
+    assert_eq!(r[0], 0x60, "\"load\" over CANopen: {r:02X?}");
+    assert_eq!(
+        profile_velocity_on_both(&mut m, 3),
+        (1000, 1000),
+        "the default, over CoE too"
+    );
+    assert_eq!(
+        stored_profile_velocity(&dir),
+        Some(saved),
+        "the stored set stays"
+    );
+    reset_node_over_can(&mut m);
+    assert_eq!(
+        profile_velocity_on_both(&mut m, 4),
+        (saved, saved),
+        "the stored set after NMT reset node"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

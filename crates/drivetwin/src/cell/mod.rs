@@ -33,6 +33,7 @@ pub mod planned;
 pub mod realtime;
 pub mod station;
 pub mod stations;
+pub mod storage_request;
 pub mod terminal;
 pub mod tracer;
 pub mod wire_faults;

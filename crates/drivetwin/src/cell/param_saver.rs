@@ -1,9 +1,10 @@
 //! Parameter saves the runtime carries out for a front end that only asks for them: an
 //! EtherCAT slave's 1010h "save" over CoE (`ecat::coe_dispatch`) holds its reply and hands
 //! the runtime a [`SaveJob`], the dictionary's values as they were when the save was asked
-//! for. The file is written by [`ParamStore::save`], the atomic write a CANopen station's save
-//! uses (temporary file, fsync, rename, fsync of the directory), so a kill during a save
-//! leaves the old set or the new one. A [`ParamSaver`] writes it on a thread of its own: its
+//! for (what a save or restore asks for is decided in `cell::storage_request`). The file is
+//! written by [`write()`], the atomic write a CANopen station's save uses (temporary file,
+//! fsync, rename, fsync of the directory), so a kill during a save leaves the old set or the
+//! new one. A [`ParamSaver`] writes it on a thread of its own: its
 //! two fsyncs take tens of milliseconds on a loaded machine, longer than a master waits for
 //! the frames the loop answers meanwhile.
 
@@ -39,17 +40,23 @@ impl SaveJob {
         }
     }
 
-    /// Writes the file (atomically) and reads the stored set back, as a CANopen station's
-    /// save does (`cell::station::Persisting`).
+    /// Writes the file (atomically) and reads the stored set back ([`write()`], as a CANopen
+    /// station's save).
     pub fn run(self) -> SaveResult {
-        self.store.save(&self.od, self.sub)?;
-        self.store.load()
+        write(&self.store, &self.od, self.sub)
     }
 
     /// Where the file goes.
     pub fn path(&self) -> &std::path::Path {
         self.store.path()
     }
+}
+
+/// The save of 1010h:`sub` of `od` to `store`, written now: the file replaced atomically, the
+/// stored set read back from it.
+pub fn write(store: &ParamStore, od: &ObjectDictionary<Vec<u8>>, sub: u8) -> SaveResult {
+    store.save(od, sub)?;
+    store.load()
 }
 
 /// The saves in progress of one runtime's front end, each known by the key `K` the front end

@@ -10,7 +10,9 @@
 //! mailbox serves nothing else, while the ESC, hardware on a real slave, goes on answering
 //! every frame with its working counter (a save's two fsyncs under load take tens of
 //! milliseconds: written in the frame's path they made pysoem's frames of that time come back
-//! late, `tests/interop/test_kill9.py`).
+//! late, `tests/interop/test_kill9.py`). What a save or restore does to the dictionary and the
+//! stored set is decided where a CANopen node's is ([`storage_request`]); only the moment of
+//! the write differs.
 //!
 //! [`SlaveChain::take_save`]: super::chain::SlaveChain::take_save
 //! [`SlaveChain::saved`]: super::chain::SlaveChain::saved
@@ -24,6 +26,7 @@ use od::{AbortCode, Entry, ObjectAccess, StorageRequest};
 use crate::cell::device_model::Model;
 use crate::cell::param_saver::{SaveJob, SaveResult};
 use crate::cell::param_store::ParamStore;
+use crate::cell::storage_request;
 
 use super::process_data::read_unsigned;
 use super::slave::Bound;
@@ -42,38 +45,17 @@ pub(super) struct SaveInFlight {
     reply: Vec<u8>,
 }
 
-/// What the dictionary asked to store: the values as they are now, for the runtime to write
-/// (`on_loop`: on its loop, for a drive whose CANopen node writes the same file); the object
-/// (1010h / 1011h) and sub-index asked. A restore takes the defaults at once (CMMP-AS §5.1)
-/// and is stored only where the device writes them to its memory at once (Nanotec §11.25).
+/// The write a storage request asks for ([`storage_request::take`]), for the runtime to carry
+/// out (`on_loop`: on its loop, for a drive whose CANopen node writes the same file), with the
+/// object (1010h / 1011h) and sub-index asked.
 fn ask(
     model: &mut Model,
     store: Option<&ParamStore>,
     on_loop: bool,
     req: StorageRequest,
 ) -> Option<(SaveJob, u16, u8)> {
-    let node = model.od().node_id();
-    let (index, sub) = match req {
-        StorageRequest::Save { sub } => (0x1010, sub),
-        StorageRequest::Restore { sub } => {
-            model.reload();
-            tracing::info!(node, sub, "defaults restored");
-            if !model.od().description().cia301.restore_writes_stored_set {
-                return None;
-            }
-            (0x1011, sub)
-        }
-    };
-    match store {
-        Some(store) => {
-            let job = SaveJob::new(store.clone(), model.od().clone(), sub, on_loop);
-            Some((job, index, sub))
-        }
-        None => {
-            tracing::warn!(node, "save accepted, but the cell has no state directory");
-            None
-        }
-    }
+    let save = storage_request::take(model, store, req)?;
+    Some((save.job(model.od(), on_loop), save.index, save.sub))
 }
 
 /// The dictionary as the CoE server writes it: a storage request (1010h / 1011h) is taken out
@@ -166,23 +148,17 @@ impl Bound<'_> {
             return;
         };
         let node = self.model.od().node_id();
-        match result {
-            Ok(stored) => {
-                *self.stored = stored;
-                tracing::info!(node, "parameters saved");
-            }
-            Err(error) => {
-                // CiA 301 / CMMP-AS: a store that failed is refused with 0800 0020h.
-                tracing::error!(node, %error, "saving parameters failed");
-                if !reply.is_empty() {
-                    reply.truncate(ethercat::mailbox::HEADER_LEN);
-                    reply.resize(ethercat::mailbox::HEADER_LEN + 10, 0);
-                    if let Some(p) = reply.get_mut(ethercat::mailbox::HEADER_LEN..) {
-                        let _ = coe::abort::encode(p, index, sub, AbortCode::CANNOT_STORE);
-                    }
-                    if let Some(len) = reply.get_mut(..2) {
-                        len.copy_from_slice(&10u16.to_le_bytes());
-                    }
+        if let Err(error) = storage_request::keep_saved(self.stored, node, result) {
+            // CiA 301 / CMMP-AS: a store that failed is refused with 0800 0020h.
+            tracing::error!(node, %error, "saving parameters failed");
+            if !reply.is_empty() {
+                reply.truncate(ethercat::mailbox::HEADER_LEN);
+                reply.resize(ethercat::mailbox::HEADER_LEN + 10, 0);
+                if let Some(p) = reply.get_mut(ethercat::mailbox::HEADER_LEN..) {
+                    let _ = coe::abort::encode(p, index, sub, AbortCode::CANNOT_STORE);
+                }
+                if let Some(len) = reply.get_mut(..2) {
+                    len.copy_from_slice(&10u16.to_le_bytes());
                 }
             }
         }

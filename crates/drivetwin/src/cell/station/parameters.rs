@@ -6,6 +6,7 @@ use od::{AbortCode, Entry, ObjectAccess, ObjectDictionary, StorageRequest};
 
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{self, ParamStore, StoreError, StoredValue};
+use crate::cell::storage_request;
 
 /// A value the cell file sets at power-on, as a commissioning tool would have (before the
 /// stored set, which wins).
@@ -59,41 +60,14 @@ impl<'a> Persisting<'a> {
         }
     }
 
-    /// Carries out a save or restore the dictionary asked for.
+    /// Carries out a save or restore the dictionary asked for ([`storage_request`]): the
+    /// file written before the answer.
     pub fn carry_out(&mut self, req: StorageRequest) -> Result<(), StoreError> {
-        match req {
-            StorageRequest::Save { sub } => {
-                let node = self.model.od().node_id();
-                match self.store {
-                    Some(store) => {
-                        store.save(self.model.od(), sub)?;
-                        *self.stored = store.load()?;
-                        tracing::info!(node, path = %store.path().display(), "parameters saved");
-                    }
-                    None => {
-                        tracing::warn!(node, "save accepted, but the cell has no state directory")
-                    }
-                }
-            }
-            // CMMP-AS §5.1: "load" copies the defaults into the current set (the dictionary
-            // did); the application set in flash stays until the next "save".
-            StorageRequest::Restore { sub } => {
-                self.model.reload();
-                tracing::info!(node = self.model.od().node_id(), sub, "defaults restored");
-                // Nanotec §11.25: the defaults are written to EEPROM at once, so the next
-                // power-on or NMT reset starts from them (2005h, 2009h kept).
-                if self
-                    .model
-                    .od()
-                    .description()
-                    .cia301
-                    .restore_writes_stored_set
-                {
-                    self.carry_out(StorageRequest::Save { sub })?;
-                }
-            }
-        }
-        Ok(())
+        let Some(save) = storage_request::take(self.model, self.store, req) else {
+            return Ok(());
+        };
+        let written = save.write_now(self.model.od());
+        storage_request::keep_saved(self.stored, self.model.od().node_id(), written)
     }
 }
 
