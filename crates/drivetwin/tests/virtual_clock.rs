@@ -277,7 +277,6 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
 #[test]
 fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
     use drivetwin::cell::diagnostics::{Action, Planned, PlannedDiagnostic};
-    use drivetwin::cell::planned::Planee;
     use drivetwin::cell::stations::StationId;
     let message = |number: &str| {
         Planned::Diagnostic(PlannedDiagnostic {
@@ -301,11 +300,15 @@ fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
         chain
             .push(desc, own_drive(spec, None).expect("drive"))
             .expect("slave");
-        // The chain's own drive joins the list after the bus's station.
+        // The CMMO-ST is a station of its own once its front end joins the cell; the
+        // chain's own drive joins the list after it.
+        let cmmo = modbus[0]
+            .join(&mut cell.stations)
+            .expect("the CMMO-ST's station");
         let slave = StationId::from_index(cell.stations.len());
         let at = od::Instant::from_millis(30);
-        cell.plan(at, Planee::Station(slave), message("43-0"));
-        cell.plan(at, Planee::Modbus(0), message("2Fh"));
+        cell.plan(at, slave, message("43-0"));
+        cell.plan(at, cmmo, message("2Fh"));
         run_virtual_mixed(
             &mut cell,
             &mut modbus,
@@ -319,9 +322,9 @@ fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
             .expect("the slave's station")
             .iter()
             .any(|d| d.active && d.row.number == "43-0");
-        let on_cmmo_st = modbus[0]
-            .device_mut()
-            .diagnostics()
+        let on_cmmo_st = cell
+            .diagnostics(cmmo)
+            .expect("the CMMO-ST's station")
             .iter()
             .any(|d| d.active && d.row.number == "2Fh");
         (on_slave, on_cmmo_st)
