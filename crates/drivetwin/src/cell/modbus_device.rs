@@ -122,11 +122,6 @@ impl RegisterImage {
         &mut *self.device
     }
 
-    /// The device as its front end serves it.
-    pub fn map_mut(&mut self) -> &mut Box<dyn ModbusDevice> {
-        &mut self.device
-    }
-
     /// When its next cycle is due.
     pub fn next_cycle(&self) -> Instant {
         self.next_cycle

@@ -210,7 +210,7 @@ impl ModbusDrive {
         };
         let now_ms = ms(now, c.opened);
         let watchdog = &mut c.watchdog;
-        answer_all_on(&mut c.framer, bytes, image.map_mut(), out, || {
+        answer_all_on(&mut c.framer, bytes, image.device_mut(), out, || {
             watchdog.on_message(now_ms)
         })
     }
