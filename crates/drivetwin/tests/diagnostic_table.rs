@@ -18,7 +18,6 @@
 use canopen::CanFrame;
 use drive::vendors::festo_cmmp_as::messages::{self, Number};
 use drivetwin::cell::diagnostics::Planned;
-use drivetwin::cell::planned::Planee;
 use drivetwin::cell::stations::StationId;
 use od::Reaction;
 
@@ -447,7 +446,7 @@ fn cell_raises_planned_messages_on_its_clock() {
     let id = b.cell.buses[0].members()[0];
     for p in spec.diagnostics {
         let at = od::Instant::from_millis(p.at_ms);
-        b.cell.plan(at, Planee::Station(id), Planned::Diagnostic(p));
+        b.cell.plan(at, id, Planned::Diagnostic(p));
     }
     b.enable();
     b.sent();

@@ -277,7 +277,6 @@ fn a_slave_reaches_its_drive_on_the_second_bus() {
 #[test]
 fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
     use drivetwin::cell::diagnostics::{Action, Planned, PlannedDiagnostic};
-    use drivetwin::cell::planned::Planee;
     use drivetwin::cell::stations::StationId;
     let message = |number: &str| {
         Planned::Diagnostic(PlannedDiagnostic {
@@ -301,11 +300,15 @@ fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
         chain
             .push(desc, own_drive(spec, None).expect("drive"))
             .expect("slave");
-        // The chain's own drive joins the list after the bus's station.
+        // The CMMO-ST is a station of its own once its front end joins the cell; the
+        // chain's own drive joins the list after it.
+        let cmmo = modbus[0]
+            .join(&mut cell.stations)
+            .expect("the CMMO-ST's station");
         let slave = StationId::from_index(cell.stations.len());
         let at = od::Instant::from_millis(30);
-        cell.plan(at, Planee::Station(slave), message("43-0"));
-        cell.plan(at, Planee::Modbus(0), message("2Fh"));
+        cell.plan(at, slave, message("43-0"));
+        cell.plan(at, cmmo, message("2Fh"));
         run_virtual_mixed(
             &mut cell,
             &mut modbus,
@@ -319,13 +322,45 @@ fn planned_messages_reach_a_chains_own_drive_and_a_cmmo_st() {
             .expect("the slave's station")
             .iter()
             .any(|d| d.active && d.row.number == "43-0");
-        let on_cmmo_st = modbus[0]
-            .device_mut()
-            .diagnostics()
+        let on_cmmo_st = cell
+            .diagnostics(cmmo)
+            .expect("the CMMO-ST's station")
             .iter()
             .any(|d| d.active && d.row.number == "2Fh");
         (on_slave, on_cmmo_st)
     };
     assert_eq!(run(29), (false, false), "not before 30 ms");
     assert_eq!(run(31), (true, true), "both at 30 ms");
+}
+
+/// A CMMO-ST's Modbus TCP front end holds its drive until it joins the cell; then the drive
+/// is a station of the list (no CANopen node, its register image as its model), joined once,
+/// and the front end answers from that station: a read of the input telegram (registers
+/// 0…3) gives the power-on status (SCON 10h in the high byte of register 0, SPOS 04h in its
+/// low byte).
+#[test]
+fn a_cmmo_st_joins_the_cell_as_a_station_and_is_served_from_it() {
+    let desc = devices::by_name("cmmp-as").expect("cmmp-as");
+    let drive =
+        Station::with_settings(desc, 1, None, vec![], Some(Default::default())).expect("drive");
+    let mut cell = CanCell::one_bus(vec![drive]);
+    let mut m = cmmo_st();
+    assert_eq!(m.station(), None, "not in the cell before it joins");
+    let id = m.join(&mut cell.stations).expect("joined");
+    assert_eq!(id.index(), 1, "after the bus's station");
+    assert_eq!(m.join(&mut cell.stations), Some(id), "joins once");
+    assert_eq!(cell.stations.len(), 2);
+    let station = cell.station(id).expect("the CMMO-ST's station");
+    assert!(station.canopen.is_none());
+    assert!(station.model.register_image().is_some());
+    assert_eq!(station.od().description().name, "cmmo-st");
+    assert_eq!(cell.bus_of(id), None, "on no CAN bus");
+    m.open_connection(od::Instant::ZERO, &mut cell.stations);
+    // Function 03h, registers 0…3, transaction 7, unit 1.
+    let request = [0, 7, 0, 0, 0, 6, 1, 3, 0, 0, 0, 4];
+    let mut answer = Vec::new();
+    m.answer(&request, od::Instant::ZERO, &mut answer, &mut cell.stations)
+        .expect("answered");
+    assert_eq!(answer.len(), 17, "{answer:?}");
+    assert_eq!(answer[..11], [0, 7, 0, 0, 0, 11, 1, 3, 8, 0x10, 0x04]);
 }

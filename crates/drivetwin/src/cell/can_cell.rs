@@ -17,21 +17,21 @@ use od::{time::earliest, Instant};
 
 use super::can_segment::SegmentBus;
 use super::diagnostics::Planned;
-use super::planned::{self, PlanError, Planee, Timeline};
+use super::planned::{self, PlanError, Timeline};
 use super::station::Station;
 use super::stations::{StationId, Stations};
 
 /// The stations of a cell and its CAN buses (bus `b` is `buses[b]`).
 #[derive(Default)]
 pub struct CanCell {
-    /// Every station: the buses' in bus and segment order, then the chains' own (in the
-    /// order they joined).
+    /// Every station: the buses' in bus and segment order, then those that joined after
+    /// (the chains' own, the Modbus drives), in the order they joined.
     pub stations: Stations,
     /// The CAN buses, in the cell file's order.
     pub buses: Vec<SegmentBus>,
     /// What the cell file plans for its drives, in time order (those of one time in the
     /// order they were planned).
-    plans: Timeline<(Planee, Planned)>,
+    plans: Timeline<(StationId, Planned)>,
 }
 
 impl CanCell {
@@ -101,7 +101,7 @@ impl CanCell {
 
     /// Plans `what` for `who` at `at` on the cell's clock (after what is planned for the
     /// same time already).
-    pub fn plan(&mut self, at: Instant, who: Planee, what: Planned) {
+    pub fn plan(&mut self, at: Instant, who: StationId, what: Planned) {
         self.plans.plan(at, (who, what));
     }
 
@@ -109,7 +109,7 @@ impl CanCell {
     /// `[[drive.plant]]`: ms on the cell's clock, the change) for `who`.
     pub fn plan_drive(
         &mut self,
-        who: Planee,
+        who: StationId,
         diagnostics: Vec<super::diagnostics::PlannedDiagnostic>,
         physics: Vec<(u64, super::control::PhysicsChange)>,
     ) {
@@ -126,37 +126,31 @@ impl CanCell {
         self.plans.deadline()
     }
 
-    /// Carries out the changes due by `now`, in time order: a station's on its model (and
-    /// the bus it is on polls at `now`, so its frames go out as the change's own), a Modbus
-    /// drive's through `modbus` (`modbus(k, what)`: the k-th drive served over Modbus TCP,
-    /// which the stepper holds). A change that cannot be carried out is logged; the cell
-    /// goes on.
-    pub fn carry_out_plans(
-        &mut self,
-        now: Instant,
-        modbus: &mut dyn FnMut(usize, &Planned) -> Result<(), PlanError>,
-    ) {
+    /// Carries out the changes due by `now`, in time order, each on its station's model (and
+    /// the bus the station is on polls at `now`, so its frames go out as the change's own).
+    /// A change that cannot be carried out is logged; the cell goes on.
+    pub fn carry_out_plans(&mut self, now: Instant) {
         while let Some((who, what)) = self.plans.take_due(now) {
-            let done = match who {
-                Planee::Station(id) => self.carry_out_on(id, now, &what),
-                Planee::Modbus(k) => modbus(k, &what),
-            };
-            if let Err(e) = done {
+            if let Err(e) = self.carry_out_on(who, now, &what) {
                 tracing::warn!(?who, ?what, "planned change: {e}");
             }
         }
     }
 
-    /// The stations' changes due by `now` (a Modbus drive's wait for
-    /// [`CanCell::carry_out_plans`]).
+    /// The changes due by `now` of the stations a bus's poll steps (a register-image
+    /// device's wait for [`CanCell::carry_out_plans`], as its front end steps it).
     fn carry_out_station_plans(&mut self, now: Instant) {
-        let station = |(who, _): &(Planee, Planned)| matches!(who, Planee::Station(_));
-        while let Some((who, what)) = self.plans.take_due_if(now, station) {
-            let done = match who {
-                Planee::Station(id) => self.carry_out_on(id, now, &what),
-                Planee::Modbus(_) => Ok(()),
+        loop {
+            let stations = &self.stations;
+            let stepped_here = |(who, _): &(StationId, Planned)| {
+                stations
+                    .station(*who)
+                    .is_none_or(|s| s.model.register_image().is_none())
             };
-            if let Err(e) = done {
+            let Some((who, what)) = self.plans.take_due_if(now, stepped_here) else {
+                break;
+            };
+            if let Err(e) = self.carry_out_on(who, now, &what) {
                 tracing::warn!(?who, ?what, "planned change: {e}");
             }
         }

@@ -1,16 +1,22 @@
-//! What stands behind a node's dictionary: plain data (a CiA 301 device such as the test
-//! bench) or a CiA 402 drive with its motor. The stack sees both through `ObjectAccess`.
+//! What stands behind a station's dictionary: plain data (a CiA 301 device such as the test
+//! bench), a CiA 402 drive with its motor, or a vendor's register-image device stepped on a
+//! cycle of its own (the CMMO-ST's FHPP, [`RegisterImage`]). Front ends see each through
+//! `ObjectAccess`.
 
 use drive::drive::{Drive, DriveEvent, DriveSettings};
 use drive::vendors::{AnyDrive, Cia402};
 use od::{AbortCode, Entry, Instant, ObjectAccess, ObjectDictionary};
 
+use crate::cell::modbus_device::RegisterImage;
 use crate::cosim::LoadedDrive;
 
 pub enum Model {
     Plain(ObjectDictionary<Vec<u8>>),
     /// A drive, with its load FMU where the cell file gives one.
     Drive(Box<LoadedDrive>),
+    /// A vendor's device served with a register image of its own, on its own cycle; the
+    /// runtime names no vendor: the device is the vendor folder's `ModbusDevice`.
+    RegisterImage(Box<RegisterImage>),
 }
 
 /// A CiA 402 drive (`profile = "cia402"` in its device file, checked against 1000h).
@@ -44,6 +50,7 @@ impl Model {
         match self {
             Model::Plain(od) => od,
             Model::Drive(d) => d.od(),
+            Model::RegisterImage(r) => r.device().od(),
         }
     }
 
@@ -51,20 +58,37 @@ impl Model {
         match self {
             Model::Plain(od) => od,
             Model::Drive(d) => d.od_mut(),
+            Model::RegisterImage(r) => r.device_mut().od_mut(),
         }
     }
 
     pub fn drive(&self) -> Option<&LoadedDrive> {
         match self {
             Model::Drive(d) => Some(d),
-            Model::Plain(_) => None,
+            Model::Plain(_) | Model::RegisterImage(_) => None,
         }
     }
 
     pub fn drive_mut(&mut self) -> Option<&mut LoadedDrive> {
         match self {
             Model::Drive(d) => Some(d),
-            Model::Plain(_) => None,
+            Model::Plain(_) | Model::RegisterImage(_) => None,
+        }
+    }
+
+    /// The register-image device, when the drive is one.
+    pub fn register_image(&self) -> Option<&RegisterImage> {
+        match self {
+            Model::RegisterImage(r) => Some(r),
+            Model::Plain(_) | Model::Drive(_) => None,
+        }
+    }
+
+    /// The register-image device, when the drive is one.
+    pub fn register_image_mut(&mut self) -> Option<&mut RegisterImage> {
+        match self {
+            Model::RegisterImage(r) => Some(r),
+            Model::Plain(_) | Model::Drive(_) => None,
         }
     }
 
@@ -87,11 +111,16 @@ impl Model {
         Ok(())
     }
 
-    /// Runs the device up to `now`; the next time it wants to run.
+    /// Runs the device up to `now`; the next time it wants to run. A register-image device
+    /// steps when its own cycle is due.
     pub fn step(&mut self, now: Instant) -> Option<Instant> {
         match self {
             Model::Plain(_) => None,
             Model::Drive(d) => d.step(now),
+            Model::RegisterImage(r) => {
+                r.step_due(now);
+                Some(r.next_cycle())
+            }
         }
     }
 
@@ -104,7 +133,7 @@ impl Model {
 
     pub fn take_event(&mut self) -> Option<DriveEvent> {
         match self {
-            Model::Plain(_) => None,
+            Model::Plain(_) | Model::RegisterImage(_) => None,
             Model::Drive(d) => d.take_event(),
         }
     }
@@ -113,6 +142,7 @@ impl Model {
         match self {
             Model::Plain(od) => od,
             Model::Drive(d) => &***d,
+            Model::RegisterImage(r) => r.device().access(),
         }
     }
 
@@ -120,6 +150,7 @@ impl Model {
         match self {
             Model::Plain(od) => od,
             Model::Drive(d) => &mut ***d,
+            Model::RegisterImage(r) => r.device_mut().access_mut(),
         }
     }
 }

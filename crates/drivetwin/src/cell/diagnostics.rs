@@ -111,6 +111,9 @@ pub fn set_model(
     number: &str,
     action: Action,
 ) -> Result<&'static Diagnostic, DiagnosticError> {
+    if let Some(image) = model.register_image_mut() {
+        return image.device_mut().set_diagnostic(number, action);
+    }
     let d = model.drive_mut().ok_or(DiagnosticError::Unknown)?;
     match action {
         Action::Raise => d.raise_diagnostic(number),
@@ -118,8 +121,12 @@ pub fn set_model(
     }
 }
 
-/// The table of a CiA 402 drive model with what is active (empty for a plain device).
+/// The table of a drive model with what is active (empty for a plain device); a
+/// register-image device's is its own.
 pub fn list_model(model: &Model) -> Vec<DiagnosticState> {
+    if let Some(image) = model.register_image() {
+        return image.device().diagnostics();
+    }
     let Some(d) = model.drive() else {
         return Vec::new();
     };

@@ -3,7 +3,10 @@
 //! of it, declared here and implemented in the vendor's folder
 //! (`drivetwin::vendors::MODBUS_DEVICE`), which the binary and the test rigs hand in.
 //!
-//! The Modbus TCP front end ([`crate::modbus_tcp`]) serves its [`RegisterMap`] and steps it;
+//! In a cell the device is a station's drive ([`crate::cell::device_model::Model::RegisterImage`],
+//! a [`RegisterImage`]: the device and its cycle on the cell's clock). Its Modbus TCP front
+//! end ([`crate::modbus_tcp`]) reaches it by the station's id, serves its [`RegisterMap`] and
+//! steps it;
 //! the control handle reads and writes its objects, its diagnostics and its plant as it does
 //! a CiA 402 drive's; a vendor's own API on it (the CMMO-ST's FHPP console) goes through
 //! [`crate::cell::control::ControlHandle::with_modbus_device`] and
@@ -14,7 +17,7 @@ use std::time::Duration;
 
 use drive::drive::diagnostics::DiagnosticError;
 use modbus::{ConformityLevel, ConnectionEvent, Exception, ReadDeviceIdCode, RegisterMap};
-use od::{AbortCode, Diagnostic, Instant};
+use od::{AbortCode, Diagnostic, Instant, ObjectAccess, ObjectDictionary};
 
 use crate::cell::config::DriveSpec;
 use crate::cell::control::{DisplayState, PhysicsChange, Plant, PlantPhysics};
@@ -27,6 +30,18 @@ use crate::cosim::{FmuLoad, FmuLoadError};
 pub trait ModbusDevice: RegisterMap + Send {
     /// Its device file.
     fn description(&self) -> &'static od::DeviceDescription;
+
+    /// Its dictionary, as it stores it.
+    fn od(&self) -> &ObjectDictionary<Vec<u8>>;
+
+    /// Its dictionary, as it stores it.
+    fn od_mut(&mut self) -> &mut ObjectDictionary<Vec<u8>>;
+
+    /// Its objects as a front end reads and writes them (the device's own write rules).
+    fn access(&self) -> &dyn ObjectAccess;
+
+    /// Its objects as a front end reads and writes them (the device's own write rules).
+    fn access_mut(&mut self) -> &mut dyn ObjectAccess;
 
     /// How often it steps (its cycle on the cell's clock).
     fn cycle(&self) -> Duration;
@@ -76,6 +91,54 @@ pub trait ModbusDevice: RegisterMap + Send {
 
     /// The vendor's own type, for the vendor's own API.
     fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+/// A register-image device as a station's drive: the device and when its next cycle is due on
+/// the cell's clock.
+pub struct RegisterImage {
+    device: Box<dyn ModbusDevice>,
+    cycle: Duration,
+    next_cycle: Instant,
+}
+
+impl RegisterImage {
+    /// `device` after one cycle at zero: its registers show the power-on state (the
+    /// CMMO-ST's SCON 10h, SPOS 04h) from the very first request.
+    pub fn new(mut device: Box<dyn ModbusDevice>) -> Self {
+        device.step(Instant::ZERO);
+        let cycle = device.cycle();
+        RegisterImage {
+            device,
+            cycle,
+            next_cycle: Instant::ZERO,
+        }
+    }
+
+    pub fn device(&self) -> &dyn ModbusDevice {
+        &*self.device
+    }
+
+    pub fn device_mut(&mut self) -> &mut dyn ModbusDevice {
+        &mut *self.device
+    }
+
+    /// When its next cycle is due.
+    pub fn next_cycle(&self) -> Instant {
+        self.next_cycle
+    }
+
+    /// Steps the device when a cycle is due by `now`: whether it stepped. Cycles missed
+    /// while the stepper was not scheduled are not made up here: the device's `step` itself
+    /// runs every cycle up to `now`.
+    pub fn step_due(&mut self, now: Instant) -> bool {
+        if now < self.next_cycle {
+            return false;
+        }
+        self.device.step(now);
+        let next = self.next_cycle + self.cycle;
+        self.next_cycle = if next > now { next } else { now + self.cycle };
+        true
+    }
 }
 
 /// What a drive served with its own register image shows an importer at one instant.

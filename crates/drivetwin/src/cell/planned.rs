@@ -1,15 +1,17 @@
 //! What a cell file plans for its drives (`[[drive.diagnostic]]`, `[[drive.plant]]`,
 //! `[drive.thermal]`): one [`Timeline`] of the cell ([`super::can_cell::CanCell::plan`]),
-//! each change keyed by the drive it is for ([`Planee`]: a station by its
-//! [`StationId`], or a drive served over Modbus TCP), carried out on the cell's clock by
+//! each change keyed by the station of the drive it is for (its [`StationId`](super::stations::StationId): a drive on a
+//! CAN bus, an EtherCAT chain's own, a CMMO-ST on Modbus TCP), carried out on the cell's clock by
 //! whatever steps the cell (the cell loop, the virtual clock, the scenario rig, the cell FMU
 //! through the rig), as a timer of the cell like a drive's step
 //! ([`super::can_cell::CanCell::carry_out_plans`]). A change is carried out with [`on_model`]
-//! or [`on_modbus`], the functions the control handle's requests use as well.
+//! (a register-image device's through [`on_modbus`]), the functions the control handle's
+//! requests use as well.
 //!
 //! The drives outside the CAN buses join the cell after it is built (an EtherCAT chain's own
-//! drives when the chain joins it): their plans are found by [`outside_plans`] with a
-//! [`Locator`], which whoever joins them turns into a [`Planee`].
+//! drives when the chain joins it, the Modbus drives when their front ends join it): their
+//! plans are found by [`outside_plans`] with a [`Locator`], which whoever joins them turns
+//! into a [`StationId`](super::stations::StationId).
 
 use std::collections::VecDeque;
 
@@ -20,17 +22,6 @@ use super::config::DriveSpec;
 use super::device_model::Model;
 use super::diagnostics::{set_model, Planned};
 use super::modbus_device::ModbusDevice;
-use super::stations::StationId;
-
-/// The drive a planned change is for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Planee {
-    /// A station of the cell's list (on a CAN bus, an EtherCAT chain's own drive).
-    Station(StationId),
-    /// The k-th drive served over Modbus TCP (the CMMO-ST), which is not a station: whoever
-    /// steps the cell holds it.
-    Modbus(usize),
-}
 
 /// How the cell finds a drive outside the CAN buses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -170,6 +161,9 @@ pub enum PlanError {
 
 /// Carries out `what` on a drive model of the cell (a CiA 402 drive's engine and plant).
 pub fn on_model(model: &mut Model, what: &Planned) -> Result<(), PlanError> {
+    if let Some(image) = model.register_image_mut() {
+        return on_modbus(image.device_mut(), what);
+    }
     match what {
         Planned::Diagnostic(p) => set_model(model, &p.number, p.action)
             .map(|_| ())

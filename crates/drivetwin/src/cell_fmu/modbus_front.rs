@@ -230,9 +230,9 @@ impl Server {
             let mut guard = lock(&self.shared);
             let rig = &mut guard.rig;
             let now = rig.now();
-            if let Some(m) = rig.modbus_drive_mut(s.drive) {
-                m.close_connection_because(CloseReason::Peer);
-                m.open_connection(now);
+            if let Some((m, stations)) = rig.modbus_drive_mut(s.drive) {
+                m.close_connection_because(CloseReason::Peer, stations);
+                m.open_connection(now, stations);
             }
             guard.stale = true;
         }
@@ -267,7 +267,7 @@ impl Server {
                     let rig = &mut guard.rig;
                     let now = rig.now();
                     let result = match rig.modbus_drive_mut(s.drive) {
-                        Some(m) => m.answer(bytes, now, &mut c.pending),
+                        Some((m, stations)) => m.answer(bytes, now, &mut c.pending, stations),
                         None => Ok(()),
                     };
                     guard.stale = true;
@@ -319,8 +319,8 @@ impl Server {
         };
         let _ = self.poll.registry().deregister(&mut c.stream);
         let mut guard = lock(&self.shared);
-        if let Some(m) = guard.rig.modbus_drive_mut(s.drive) {
-            m.close_connection_because(reason);
+        if let Some((m, stations)) = guard.rig.modbus_drive_mut(s.drive) {
+            m.close_connection_because(reason, stations);
         }
         guard.stale = true;
         tracing::info!(peer = %c.peer, "cell FMU: Modbus client left");
@@ -336,7 +336,7 @@ impl Server {
             let open = guard
                 .rig
                 .modbus_drive_mut(s.drive)
-                .is_some_and(|m| m.has_connection());
+                .is_some_and(|(m, _)| m.has_connection());
             if !open {
                 if let Some(mut c) = s.client.take() {
                     let _ = self.poll.registry().deregister(&mut c.stream);

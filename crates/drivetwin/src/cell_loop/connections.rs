@@ -113,7 +113,7 @@ impl CellLoop {
         })) = self.slots.get(slot)
         {
             if let Some(m) = self.modbus.get_mut(*drive) {
-                m.close_connection_because(reason);
+                m.close_connection_because(reason, &mut self.cell.stations);
             }
         }
         self.remove(slot);

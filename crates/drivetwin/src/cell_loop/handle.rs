@@ -3,11 +3,12 @@
 
 use std::time::{Duration, Instant};
 
-use super::{CellLoop, ChainState, SampleSink, Subscription};
+use super::{CellLoop, SampleSink, Subscription};
 use crate::cell::control::{
     BusInfo, Command, ControlError, DriveInfo, Interface, Plant, PlantSample,
 };
 use crate::cell::device_model::Model;
+use crate::cell::stations::StationId;
 
 /// How long after its instant a subscriber's sample may wait for a turn the loop makes
 /// anyway (its drives step each millisecond) instead of waking it: browsers on the scope
@@ -337,34 +338,36 @@ impl CellLoop {
         }
     }
 
-    fn drive_list(&self) -> Vec<DriveInfo> {
-        let can = self
-            .cell
-            .buses
-            .iter()
-            .flat_map(|b| b.stations(&self.cell.stations))
-            .map(|d| {
-                let desc = d.od().description();
-                (desc, Interface::CanOpen { node: d.node_id() })
-            });
+    /// The cell's drives as the control handle numbers them, each its station and how it
+    /// is reached: the CAN buses' (bus and segment order), then the Modbus drives', then the
+    /// chains' own (a drive shared with CANopen is listed with its bus).
+    fn drive_stations(&self) -> impl Iterator<Item = (StationId, Interface)> + '_ {
+        let stations = &self.cell.stations;
+        let can = self.cell.buses.iter().flat_map(|b| {
+            b.members().iter().filter_map(|&id| {
+                let node = stations.station(id)?.node_id();
+                Some((id, Interface::CanOpen { node }))
+            })
+        });
         let modbus = self
             .modbus
             .iter()
-            .map(|m| (m.description(), Interface::ModbusTcp));
-        let stations = &self.cell.stations;
+            .filter_map(|m| Some((m.station()?, Interface::ModbusTcp)));
         let ethercat = self.chains.iter().enumerate().flat_map(|(chain, c)| {
             (0..c.chain.len()).filter_map(move |position| {
                 let id = c.chain.own_station(position)?;
-                stations.station(id).map(|s| {
-                    (
-                        s.od().description(),
-                        Interface::Ethercat { chain, position },
-                    )
-                })
+                Some((id, Interface::Ethercat { chain, position }))
             })
         });
-        can.chain(modbus)
-            .chain(ethercat)
+        can.chain(modbus).chain(ethercat)
+    }
+
+    fn drive_list(&self) -> Vec<DriveInfo> {
+        self.drive_stations()
+            .filter_map(|(id, interface)| {
+                let desc = self.cell.stations.station(id)?.od().description();
+                Some((desc, interface))
+            })
             .enumerate()
             .map(|(index, (desc, interface))| DriveInfo {
                 index,
@@ -375,45 +378,26 @@ impl CellLoop {
             .collect()
     }
 
-    /// Drive `drive` of the list: a CAN drive's model, or a Modbus drive's index.
+    /// Drive `drive` of the list: its station's model, or its register-image device.
     fn target(&mut self, drive: usize) -> Result<Target<'_>, ControlError> {
-        let mut rest = drive;
-        for bus in &self.cell.buses {
-            let n = bus.members().len();
-            if rest < n {
-                let id = bus.members().get(rest).copied();
-                return match id.and_then(|id| self.cell.stations.station_mut(id)) {
-                    Some(d) => Ok(Target::Can(&mut d.model)),
-                    None => Err(ControlError::NoDrive(drive)),
-                };
-            }
-            rest -= n;
+        let id = self
+            .drive_stations()
+            .nth(drive)
+            .map(|(id, _)| id)
+            .ok_or(ControlError::NoDrive(drive))?;
+        let station = self
+            .cell
+            .stations
+            .station_mut(id)
+            .ok_or(ControlError::NoDrive(drive))?;
+        if station.model.register_image().is_some() {
+            return station
+                .model
+                .register_image_mut()
+                .map(|image| Target::Modbus(image.device_mut()))
+                .ok_or(ControlError::NoDrive(drive));
         }
-        let modbus = self.modbus.len();
-        if let Some(m) = self.modbus.get_mut(rest) {
-            return Ok(Target::Modbus(m.device_mut()));
-        }
-        rest -= modbus;
-        for c in &self.chains {
-            // Only the chain's own drives: a shared one is listed with its bus.
-            let own = |c: &ChainState| {
-                (0..c.chain.len())
-                    .filter(|&i| c.chain.own_station(i).is_some())
-                    .count()
-            };
-            let n = own(c);
-            if rest < n {
-                let id = (0..c.chain.len())
-                    .filter_map(|i| c.chain.own_station(i))
-                    .nth(rest);
-                return id
-                    .and_then(|id| self.cell.stations.station_mut(id))
-                    .map(|s| Target::Can(&mut s.model))
-                    .ok_or(ControlError::NoDrive(drive));
-            }
-            rest -= n;
-        }
-        Err(ControlError::NoDrive(drive))
+        Ok(Target::Can(&mut station.model))
     }
 
     fn read_object(&mut self, drive: usize, index: u16, sub: u8) -> Result<Vec<u8>, ControlError> {

@@ -465,6 +465,8 @@ impl CellLoop {
             });
         }
         for (drive, m) in front.modbus.iter_mut().enumerate() {
+            // The drive becomes a station of the cell; its front end reaches it by its id.
+            m.join(&mut cell.stations);
             let l = m.take_listener()?;
             listeners.push(Listener::Modbus { listener: l, drive });
         }
@@ -491,7 +493,7 @@ impl CellLoop {
                 saver: ParamSaver::default(),
             })
             .collect();
-        plans::plan_outside(&mut cell, front.plans, &chains, front.modbus.len());
+        plans::plan_outside(&mut cell, front.plans, &chains, &front.modbus);
         let line_plans = plans::line_timeline(front.line_plans, &chains);
         Ok(CellLoop {
             control_tx,
@@ -780,9 +782,11 @@ impl CellLoop {
             .or_else(|| self.chains.iter().find_map(|c| c.chain.load_failure()))
             .cloned()
             .or_else(|| {
-                self.modbus
-                    .iter_mut()
-                    .find_map(|m| m.device_mut().load_failure().cloned())
+                let stations = &mut self.cell.stations;
+                self.modbus.iter_mut().find_map(|m| {
+                    m.device_mut(stations)
+                        .and_then(|d| d.load_failure().cloned())
+                })
             })
     }
 
@@ -808,7 +812,7 @@ impl CellLoop {
             }
         }
         for m in &self.modbus {
-            take(Some(self.wall(m.next_cycle())));
+            take(m.next_cycle(&self.cell.stations).map(|d| self.wall(d)));
         }
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
@@ -865,11 +869,11 @@ impl CellLoop {
             let t = self.now(now);
             let closed = match self.modbus.get_mut(drive) {
                 Some(m) => {
-                    let due = m.next_cycle();
-                    if due <= t {
+                    let stations = &mut self.cell.stations;
+                    if let Some(due) = m.next_cycle(stations).filter(|due| *due <= t) {
                         self.lateness.record(t.saturating_since(due));
                     }
-                    m.cycle(t)
+                    m.cycle(t, stations)
                 }
                 None => false,
             };

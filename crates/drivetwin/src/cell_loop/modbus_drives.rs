@@ -30,7 +30,7 @@ impl CellLoop {
         let Some(m) = self.modbus.get_mut(drive) else {
             return;
         };
-        m.open_connection(t);
+        m.open_connection(t, &mut self.cell.stations);
         tracing::info!(%peer, "Modbus client connected");
         self.add(stream, peer, Kind::Modbus { drive });
     }
@@ -63,7 +63,12 @@ impl CellLoop {
         }
         // The answer goes to the server's link's send buffer, its connection's.
         let result = match (self.modbus.get_mut(drive), self.modbus_links.get_mut(drive)) {
-            (Some(m), Some(link)) => m.answer(bytes, t, link.inner_mut().as_vec_mut()),
+            (Some(m), Some(link)) => m.answer(
+                bytes,
+                t,
+                link.inner_mut().as_vec_mut(),
+                &mut self.cell.stations,
+            ),
             _ => Ok(()),
         };
         self.mark_dirty(slot);

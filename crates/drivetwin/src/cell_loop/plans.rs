@@ -6,32 +6,32 @@
 //! drives due at that turn step.
 //!
 //! The drives outside the CAN buses join the cell as the loop starts (an EtherCAT chain's own
-//! drives when it joins the cell, the Modbus drives as the loop's): [`plan_outside`] puts
-//! their plans on the cell's timeline by the station id (or Modbus drive) each then has.
+//! drives when it joins the cell, the Modbus drives as their front ends join it):
+//! [`plan_outside`] puts their plans on the cell's timeline by the station id each then has.
 
 use crate::cell::can_cell::CanCell;
 use crate::cell::ethercat_line::{LineAction, TimedLineAction};
-use crate::cell::planned::{self, Locator, OutsidePlans, Planee, Timeline};
+use crate::cell::planned::{Locator, OutsidePlans, Timeline};
+use crate::modbus_tcp::cell_drive::ModbusDrive;
 
 use super::{CellLoop, ChainState};
 
 /// Plans `plans` on `cell`'s timeline, each drive found among the loop's `chains` (joined to
-/// the cell's list) and its `modbus_drives`; a drive not in the cell is left out with a
+/// the cell's list) and its `modbus` drives (joined too); a drive not in the cell is left out with a
 /// warning.
 pub(super) fn plan_outside(
     cell: &mut CanCell,
     plans: Vec<OutsidePlans>,
     chains: &[ChainState],
-    modbus_drives: usize,
+    modbus: &[ModbusDrive],
 ) {
     for p in plans {
         let planee = match p.drive {
-            Locator::Modbus(k) => (k < modbus_drives).then_some(Planee::Modbus(k)),
+            Locator::Modbus(k) => modbus.get(k).and_then(ModbusDrive::station),
             Locator::Ethercat { chain, k } => chains.get(chain).and_then(|c| {
                 (0..c.chain.len())
                     .filter_map(|i| c.chain.own_station(i))
                     .nth(k)
-                    .map(Planee::Station)
             }),
         };
         let Some(planee) = planee else {
@@ -75,16 +75,10 @@ impl CellLoop {
         od::time::earliest(self.cell.plans_deadline(), self.line_plans.deadline())
     }
 
-    /// Carries out the plans due by `now`: the drives' (the Modbus drives' on the loop's
-    /// own), then the lines'.
+    /// Carries out the plans due by `now`: the drives', then the lines'.
     pub(super) fn carry_out_plans(&mut self, now: std::time::Instant) {
         let t = self.now(now);
-        let modbus = &mut self.modbus;
-        self.cell
-            .carry_out_plans(t, &mut |k, what| match modbus.get_mut(k) {
-                Some(m) => planned::on_modbus(m.device_mut(), what),
-                None => Err(planned::PlanError::NoDrive),
-            });
+        self.cell.carry_out_plans(t);
         while let Some((chain, action)) = self.line_plans.take_due(t) {
             if let Err(e) = self.ethercat_line(chain, Some(action), now) {
                 tracing::warn!(chain, ?action, "[[ethercat_line]]: {e}");

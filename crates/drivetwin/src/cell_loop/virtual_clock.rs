@@ -12,7 +12,6 @@ use od::time::earliest;
 use od::Instant;
 
 use crate::cell::can_cell::CanCell;
-use crate::cell::planned::{self, PlanError};
 use crate::cell::stations::StationId;
 use crate::ecat::chain::SlaveChain;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
@@ -68,7 +67,7 @@ pub fn run_virtual(
             }
             next_input += 1;
         } else {
-            cell.carry_out_plans(now, &mut |_, _| Err(PlanError::NoDrive));
+            cell.carry_out_plans(now);
             poll_due(cell, now, &mut out);
         }
     }
@@ -137,8 +136,7 @@ impl LineDrives for CellLineDrives<'_> {
 /// Runs the CAN buses of `cell`, the Modbus drives `modbus` and the EtherCAT chains `chains`
 /// on one virtual clock from 0 to `until`, feeding `inputs` (sorted by time); everything the
 /// cell sends goes to `sink` with its virtual time. At one instant the order is fixed: the
-/// planned changes due (the cell's timeline, a Modbus drive's as `modbus[k]`'s), Modbus
-/// cycles, then the CAN buses' timers (in bus order), then the chains' timers, then the input,
+/// planned changes due (the cell's timeline, every station's), Modbus cycles, then the CAN buses' timers (in bus order), then the chains' timers, then the input,
 /// so the same cell and inputs give the same outputs bit for bit. The chains join the cell
 /// first ([`SlaveChain::join_cell`]): their own drives become stations of its list, and a slave
 /// whose drive is a CANopen node of a bus names that very station.
@@ -178,12 +176,16 @@ pub fn run_virtual_lines(
     for c in chains.iter_mut() {
         c.join_cell(cell);
     }
+    // The Modbus drives become stations of the cell (those that joined before keep theirs).
+    for m in modbus.iter_mut() {
+        m.join(&mut cell.stations);
+    }
     boot(cell, now, &mut out);
     for c in chains.iter_mut() {
         c.boot_with(now, cell);
     }
     for m in modbus.iter_mut() {
-        m.open_connection(now);
+        m.open_connection(now, &mut cell.stations);
     }
     let mut next_input = 0;
     let mut stuck = 0u32;
@@ -195,7 +197,7 @@ pub fn run_virtual_lines(
         let wake = modbus
             .iter()
             .fold(earliest(cell.deadline(), input_at), |acc, m| {
-                earliest(acc, Some(m.next_cycle()))
+                earliest(acc, m.next_cycle(&cell.stations))
             });
         let wake = chains
             .iter()
@@ -216,12 +218,9 @@ pub fn run_virtual_lines(
             break;
         }
         now = wake.max(now);
-        cell.carry_out_plans(now, &mut |k, what| match modbus.get_mut(k) {
-            Some(m) => planned::on_modbus(m.device_mut(), what),
-            None => Err(PlanError::NoDrive),
-        });
+        cell.carry_out_plans(now);
         for m in modbus.iter_mut() {
-            m.cycle(now);
+            m.cycle(now, &mut cell.stations);
         }
         poll_due(cell, now, &mut out);
         for c in chains.iter_mut() {
@@ -258,9 +257,9 @@ pub fn run_virtual_lines(
                 Some((_, Input::Modbus { drive, bytes })) => {
                     if let Some(m) = modbus.get_mut(*drive) {
                         answer.clear();
-                        if let Err(reason) = m.answer(bytes, now, &mut answer) {
+                        if let Err(reason) = m.answer(bytes, now, &mut answer, &mut cell.stations) {
                             tracing::warn!(drive, %reason, "Modbus input closes the connection");
-                            m.close_connection_because(reason);
+                            m.close_connection_because(reason, &mut cell.stations);
                         }
                         sink(
                             at(now),

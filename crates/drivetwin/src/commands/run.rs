@@ -154,8 +154,7 @@ pub(crate) fn build_cell(
             if let Some(slot) = in_cell.get_mut(spec) {
                 *slot = Some(*id);
             }
-            let who = drivetwin::cell::planned::Planee::Station(*id);
-            cell.plan_drive(who, diagnostics, physics);
+            cell.plan_drive(*id, diagnostics, physics);
         }
         cell.buses
             .push(drivetwin::cell::can_segment::SegmentBus::new(ids));

@@ -275,17 +275,46 @@ where
 /// Answers every complete ADU of `bytes` (with what `framer` held before), appending the
 /// responses to `out` and calling `on_message` for each ADU; the ADUs before a byte stream
 /// that is no Modbus TCP are answered, then the connection is to be closed (the error).
-/// Shared by both transports ([`serve`] and [`crate::modbus_tcp::cycle_server`]).
+/// Shared by both transports ([`serve`] and [`crate::modbus_tcp::cycle_server`]); `map` is
+/// locked for each ADU.
 pub(crate) fn answer_all<M>(
     framer: &mut Framer,
-    mut bytes: &[u8],
+    bytes: &[u8],
     map: &Mutex<M>,
     out: &mut Vec<u8>,
-    mut on_message: impl FnMut(),
+    on_message: impl FnMut(),
 ) -> Result<(), CloseReason>
 where
     M: RegisterMap + ?Sized,
 {
+    answer_each(framer, bytes, out, on_message, |adu, response| {
+        handle_adu(adu, &mut *lock(map), response)
+    })
+}
+
+/// As [`answer_all`] on a map the caller holds (the cell loop's, a station's drive).
+pub(crate) fn answer_all_on<M>(
+    framer: &mut Framer,
+    bytes: &[u8],
+    map: &mut M,
+    out: &mut Vec<u8>,
+    on_message: impl FnMut(),
+) -> Result<(), CloseReason>
+where
+    M: RegisterMap + ?Sized,
+{
+    answer_each(framer, bytes, out, on_message, |adu, response| {
+        handle_adu(adu, map, response)
+    })
+}
+
+fn answer_each(
+    framer: &mut Framer,
+    mut bytes: &[u8],
+    out: &mut Vec<u8>,
+    mut on_message: impl FnMut(),
+    mut handle: impl FnMut(&[u8], &mut [u8]) -> Result<usize, modbus::AduError>,
+) -> Result<(), CloseReason> {
     let mut response = [0u8; MAX_ADU_LEN];
     while !bytes.is_empty() {
         let taken = framer.push(bytes);
@@ -294,7 +323,7 @@ where
             match framer.next_adu() {
                 Ok(Some(adu)) => {
                     on_message();
-                    match handle_adu(adu, &mut *lock(map), &mut response) {
+                    match handle(adu, &mut response) {
                         Ok(len) => out.extend_from_slice(response.get(..len).unwrap_or(&[])),
                         Err(e) => {
                             tracing::warn!(error = %e, "not a Modbus TCP ADU");

@@ -24,9 +24,8 @@ use crate::cell::can_segment::SegmentBus;
 use crate::cell::config::CellFile;
 use crate::cell::link::{At, Link};
 use crate::cell::modbus_device::{ModbusDevice, NewModbusDevice};
-use crate::cell::planned::{self, PlanError, Planee};
 use crate::cell::station::Station;
-use crate::cell::stations::StationId;
+use crate::cell::stations::{StationId, Stations};
 use crate::cell::Vendors;
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
@@ -43,8 +42,9 @@ pub struct VirtualRig {
     forced: Vec<(u16, u16)>,
     /// Frames sent and not yet seen, with their bus.
     pending: Vec<(usize, CanFrame)>,
-    /// The CMMO-STs (FHPP over Modbus TCP, no socket: requests come from the steps), by the
-    /// node-ID their cell file gives them; stepped on the same clock.
+    /// The Modbus TCP front ends of the CMMO-STs (no socket: requests come from the steps),
+    /// by the node-ID their cell file gives them; each drive is a station of the cell, stepped
+    /// on the same clock.
     modbus: Vec<(u8, ModbusDrive)>,
 }
 
@@ -130,9 +130,6 @@ impl VirtualRig {
             ));
             on_bus.push(d);
         }
-        for (_, m) in &mut modbus {
-            m.open_connection(Instant::ZERO);
-        }
         let mut out = Vec::with_capacity(256);
         let mut cell = CanCell::new();
         for (((d, section), rate), plans) in drives.into_iter().zip(sections).zip(&rates).zip(plans)
@@ -141,7 +138,7 @@ impl VirtualRig {
             // `[[drive.diagnostic]]`, `[drive.thermal]` and `[[drive.plant]]` on the virtual
             // clock, by station.
             for (id, (diagnostics, physics)) in ids.iter().zip(plans) {
-                cell.plan_drive(Planee::Station(*id), diagnostics, physics);
+                cell.plan_drive(*id, diagnostics, physics);
             }
             let bus = SegmentBus::new(ids);
             let mut bus = match rate.bitrate() {
@@ -153,8 +150,16 @@ impl VirtualRig {
             }
             cell.buses.push(bus);
         }
+        // The CMMO-STs join the cell after the buses' drives, each a station of its own.
+        for (_, m) in &mut modbus {
+            m.join(&mut cell.stations);
+            m.open_connection(Instant::ZERO, &mut cell.stations);
+        }
         for (k, diagnostics, physics) in modbus_plans {
-            cell.plan_drive(Planee::Modbus(k), diagnostics, physics);
+            match modbus.get(k).and_then(|(_, m)| m.station()) {
+                Some(id) => cell.plan_drive(id, diagnostics, physics),
+                None => return Err(cell_err(format!("CMMO-ST {k}: not in the cell"))),
+            }
         }
         let forced = vec![(0, 0); cell.stations.len()];
         let mut rig = VirtualRig {
@@ -265,7 +270,8 @@ impl VirtualRig {
 
     /// The device of the CMMO-ST at `i` of [`VirtualRig::cmmo_st`].
     fn modbus_device(&mut self, i: usize) -> Option<&mut dyn ModbusDevice> {
-        self.modbus.get_mut(i).map(|(_, m)| m.device_mut())
+        let (_, m) = self.modbus.get_mut(i)?;
+        m.device_mut(&mut self.cell.stations)
     }
 
     fn segment(&self, bus: usize) -> Result<&SegmentBus, String> {
@@ -393,7 +399,7 @@ impl VirtualRig {
 
     fn register_image_probe(&self, i: usize) -> Option<Probe> {
         let (_, m) = self.modbus.get(i)?;
-        let r = m.readout();
+        let r = m.readout(&self.cell.stations)?;
         Some(Probe {
             position_rad: r.position_rad,
             velocity_rad_s: r.velocity_rad_s,
@@ -450,10 +456,12 @@ impl VirtualRig {
         self.modbus.len()
     }
 
-    /// The `i`-th drive served over Modbus TCP (cell file order): the cell FMU's Modbus TCP
-    /// front end opens its connections on it and passes it the client's bytes.
-    pub fn modbus_drive_mut(&mut self, i: usize) -> Option<&mut ModbusDrive> {
-        self.modbus.get_mut(i).map(|(_, m)| m)
+    /// The Modbus TCP front end of the `i`-th drive served over Modbus TCP (cell file
+    /// order), with the cell's stations, where its drive is: the cell FMU's Modbus TCP front
+    /// end opens its connections on it and passes it the client's bytes.
+    pub fn modbus_drive_mut(&mut self, i: usize) -> Option<(&mut ModbusDrive, &mut Stations)> {
+        let (_, m) = self.modbus.get_mut(i)?;
+        Some((m, &mut self.cell.stations))
     }
 
     /// How many CANopen drives bus `bus` has (0 for a bus it does not have).
@@ -510,7 +518,8 @@ impl Rig for VirtualRig {
             .map(|e| format!("load: {e}"))
             .or_else(|| {
                 self.modbus.iter().find_map(|(node, m)| {
-                    m.load_failure().map(|e| format!("node {node}: load: {e}"))
+                    m.load_failure(&self.cell.stations)
+                        .map(|e| format!("node {node}: load: {e}"))
                 })
             })
     }
@@ -523,7 +532,11 @@ impl Rig for VirtualRig {
             let wake = (0..self.cell.buses.len())
                 .filter_map(|b| self.cell.deadline_of(b))
                 .chain(self.cell.plans_deadline())
-                .chain(self.modbus.iter().map(|(_, m)| m.next_cycle()))
+                .chain(
+                    self.modbus
+                        .iter()
+                        .filter_map(|(_, m)| m.next_cycle(&self.cell.stations)),
+                )
                 .min()
                 .filter(|w| *w <= end);
             let Some(wake) = wake else {
@@ -538,14 +551,9 @@ impl Rig for VirtualRig {
             self.now = wake.max(self.now);
             // The planned changes first, then the Modbus cycles, then the buses in order (as
             // `run_virtual_mixed`).
-            let modbus = &mut self.modbus;
-            self.cell
-                .carry_out_plans(self.now, &mut |k, what| match modbus.get_mut(k) {
-                    Some((_, m)) => planned::on_modbus(m.device_mut(), what),
-                    None => Err(PlanError::NoDrive),
-                });
+            self.cell.carry_out_plans(self.now);
             for (_, m) in &mut self.modbus {
-                m.cycle(self.now);
+                m.cycle(self.now, &mut self.cell.stations);
             }
             for b in 0..self.cell.buses.len() {
                 let now = self.now;
@@ -750,19 +758,24 @@ impl VirtualRig {
         action: &Action,
         now: Instant,
     ) -> Option<Result<(), String>> {
+        let stations = &mut self.cell.stations;
         let Some((_, m)) = self.modbus.get_mut(i) else {
             return Some(Err(format!("no CMMO-ST {i}")));
         };
+        if let Action::Modbus { request, .. } = action {
+            let mut answer = Vec::new();
+            return Some(
+                m.answer(request, now, &mut answer, stations)
+                    .map_err(|e| format!("Modbus connection closed: {e:?}")),
+            );
+        }
+        let Some(d) = m.device_mut(stations) else {
+            return Some(Err(format!("CMMO-ST {i}: not in the cell")));
+        };
         Some(match action {
-            Action::Modbus { request, .. } => {
-                let mut answer = Vec::new();
-                m.answer(request, now, &mut answer)
-                    .map_err(|e| format!("Modbus connection closed: {e:?}"))
-            }
             Action::Write {
                 index, sub, value, ..
             } => {
-                let d = m.device_mut();
                 let e = d.description().entry(*index, *sub);
                 match e {
                     None => Err(format!("{index:04X}:{sub:02X}: no such object")),
@@ -776,18 +789,16 @@ impl VirtualRig {
             Action::Diagnostic { number, raise, .. } => {
                 use crate::cell::diagnostics::Action;
                 let action = if *raise { Action::Raise } else { Action::Clear };
-                m.device_mut()
-                    .set_diagnostic(number, action)
+                d.set_diagnostic(number, action)
                     .map(|_| ())
                     .map_err(|e| format!("{e:?}"))
             }
-            Action::Physics { change, .. } => {
-                m.device_mut().physics(*change).map(drop).map_err(|switch| {
-                    format!("the CMMO-ST has no input with the function {switch}")
-                })
-            }
+            Action::Physics { change, .. } => d
+                .physics(*change)
+                .map(drop)
+                .map_err(|switch| format!("the CMMO-ST has no input with the function {switch}")),
             Action::Load { torque_nm, .. } => {
-                m.device_mut().set_load(*torque_nm);
+                d.set_load(*torque_nm);
                 Ok(())
             }
             _ => return None,

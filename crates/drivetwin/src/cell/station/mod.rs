@@ -3,7 +3,9 @@
 //! its front ends reach it through `od::ObjectAccess`: the CANopen node when the drive is on
 //! a CAN bus (`canopen_node.rs`), the CI terminal and the serial ports (`local.rs`), the CoE
 //! side of an EtherCAT slave (`ethercat.rs`). A drive served over EtherCAT alone is a station
-//! without a CANopen node. The runtime's share of the work (parameter files, resets,
+//! without a CANopen node; a vendor's register-image device (the CMMO-ST) is a station
+//! without one too, whose Modbus TCP front end (`modbus_tcp::cell_drive`) reaches it by its
+//! id and steps it on its own cycle. The runtime's share of the work (parameter files, resets,
 //! the drive's events as emergencies) is done here (`parameters.rs`).
 //!
 //! One type split into files, each an `impl Station` with its own part of the doc.
@@ -146,6 +148,20 @@ impl Station {
             next_step: None,
             coe_events: None,
         })
+    }
+
+    /// A vendor's register-image device as a station: no CANopen node, its permanent
+    /// memory its own; its Modbus TCP front end steps and serves it.
+    pub fn register_image(image: crate::cell::modbus_device::RegisterImage) -> Self {
+        Station {
+            model: Model::RegisterImage(Box::new(image)),
+            canopen: None,
+            store: None,
+            stored: Vec::new(),
+            commissioning: Vec::new(),
+            next_step: None,
+            coe_events: None,
+        }
     }
 
     pub fn od(&self) -> &ObjectDictionary<Vec<u8>> {

@@ -239,6 +239,22 @@ impl ModbusDevice for FhppModbus {
         self.device.od().description()
     }
 
+    fn od(&self) -> &od::ObjectDictionary<Vec<u8>> {
+        self.device.od()
+    }
+
+    fn od_mut(&mut self) -> &mut od::ObjectDictionary<Vec<u8>> {
+        self.device.od_mut()
+    }
+
+    fn access(&self) -> &dyn ObjectAccess {
+        &self.device
+    }
+
+    fn access_mut(&mut self) -> &mut dyn ObjectAccess {
+        &mut self.device
+    }
+
     fn cycle(&self) -> Duration {
         CYCLE
     }
