@@ -16,7 +16,7 @@
 
 use od::{AbortCode, ObjectAccess};
 
-use super::{DinFunction, ErrorWord};
+use super::{slot, DinFunction, ErrorWord};
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
@@ -534,7 +534,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let round = crate::rounding::round_i64;
         let i16_range = |v: f64| round(v).clamp(i16::MIN.into(), i16::MAX.into());
         // The entries by literal keys: their parameter slots are found when compiling.
-        for (e, v) in [
+        for (n, (e, v)) in (slot::ERROR_STATE..).zip([
             (self.kinco_entry(0x2601, 0), i64::from(state)),
             (self.kinco_entry(0x2602, 0), i64::from(state2)),
             (self.kinco_entry(0x60FB, 0x08), following_error),
@@ -556,8 +556,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 self.kinco_entry(0x2FF0, 0x18),
                 i16_range(f64::from(self.axis.current_ma()) / 100.0),
             ),
-        ] {
-            self.store(e, v);
+        ]) {
+            self.publish_store(n, e, v);
         }
     }
 

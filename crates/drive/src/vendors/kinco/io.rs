@@ -660,8 +660,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 .and_then(|slot| self.params.get(slot).copied().flatten())
         };
         let (a, b) = (entry(0x0A), entry(0x14));
-        self.store(a, i64::from(din));
-        self.store(b, i64::from(dout));
+        self.publish_store(super::slot::DIN_REAL, a, i64::from(din));
+        self.publish_store(super::slot::DOUT_REAL, b, i64::from(dout));
     }
 }
 
