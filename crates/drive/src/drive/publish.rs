@@ -90,7 +90,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             self.fe_since = None;
             self.following_error = false;
         }
-        V::following_error(self, fe);
+        // 60F4h's value, for the vendor as well.
+        let fe_user = self.fg.position_from_internal(fe);
+        V::following_error(
+            self,
+            &crate::personality::FollowingError {
+                increments: fe,
+                window: fe_window,
+                user: fe_user,
+            },
+        );
         // Nanotec §4.1: the following error is watched in closed loop only; an open-loop
         // stepper does not know it.
         let open_loop = self
@@ -175,7 +184,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         self.publish_store(
             slot::FOLLOWING_ERROR,
             self.hot.following_error_actual,
-            i64::from(fg.position_from_internal(fe)),
+            i64::from(fe_user),
         );
         self.publish_store(
             slot::VELOCITY_ACTUAL,

@@ -418,7 +418,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let before = self.vendor.din.internal;
         self.vendor.din.internal = Some(now);
         let level = |_: &Self, f| functions.level(now, f);
+        // Levels as in the last cycle: no function has an edge (most cycles; each question
+        // below is then answered without looking the function up twice).
+        let edges = before != Some(now);
         let changed = |_: &Self, f| {
+            if !edges {
+                return None;
+            }
             let was = before.and_then(|b| functions.level(b, f));
             let is = functions.level(now, f);
             (is.is_some() && is != was).then_some(is == Some(true))
@@ -494,7 +500,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 true,
             );
         }
-        self.kinco_capture(&functions, before, now);
+        if edges {
+            self.kinco_capture(&functions, before, now);
+        }
         self.kinco_position_limits_cycle();
     }
 
