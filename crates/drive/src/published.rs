@@ -20,6 +20,9 @@ pub struct Published<T, const N: usize> {
     stores: u64,
     /// The dictionary took no store between the last pass and this one.
     intact: bool,
+    /// The slots stored in this pass: each site is its entry's one writer in a pass.
+    #[cfg(debug_assertions)]
+    seen: u64,
 }
 
 impl<T: Copy + Default, const N: usize> Default for Published<T, N> {
@@ -30,6 +33,8 @@ impl<T: Copy + Default, const N: usize> Default for Published<T, N> {
             known: 0,
             stores: 0,
             intact: false,
+            #[cfg(debug_assertions)]
+            seen: 0,
         }
     }
 }
@@ -44,6 +49,10 @@ impl<T: Copy + PartialEq, const N: usize> Published<T, N> {
             self.known = 0;
         }
         self.intact = intact;
+        #[cfg(debug_assertions)]
+        {
+            self.seen = 0;
+        }
         intact
     }
 
@@ -65,6 +74,14 @@ impl<T: Copy + PartialEq, const N: usize> Published<T, N> {
     #[inline(always)]
     pub fn unchanged(&mut self, n: usize, v: T) -> bool {
         let bit = 1u64.checked_shl(n as u32).unwrap_or(0);
+        #[cfg(debug_assertions)]
+        {
+            debug_assert!(
+                self.seen & bit == 0,
+                "publishing slot {n} used twice in a pass"
+            );
+            self.seen |= bit;
+        }
         let Some(last) = self.values.get_mut(n) else {
             return false;
         };
@@ -98,6 +115,8 @@ mod tests {
         p.end(1);
         assert!(p.begin(1));
         assert!(p.unchanged(1, 5), "the same value again is skipped");
+        p.end(1);
+        assert!(p.begin(1));
         assert!(!p.unchanged(1, 6), "another value is stored");
         assert!(!p.unchanged(2, 6), "another slot is its own");
         p.end(3);
@@ -113,6 +132,18 @@ mod tests {
         assert!(!p.unchanged(2, 6));
         // A slot beyond N is never skipped.
         assert!(!p.unchanged(9, 6));
+        p.end(6);
+        assert!(p.begin(6));
         assert!(!p.unchanged(9, 6));
+    }
+
+    #[test]
+    #[cfg(debug_assertions)]
+    #[should_panic(expected = "used twice")]
+    fn a_slot_stored_twice_in_a_pass_is_a_bug() {
+        let mut p = Published::<i64, 4>::default();
+        p.begin(0);
+        p.unchanged(1, 5);
+        p.unchanged(1, 6);
     }
 }
