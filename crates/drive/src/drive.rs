@@ -39,7 +39,7 @@ mod position_modes;
 mod power_supervision;
 mod profile_torque;
 mod profile_velocity;
-mod publish;
+pub(crate) mod publish;
 pub mod refusal;
 mod target_limits;
 mod velocity_mode;
@@ -393,6 +393,9 @@ pub struct Drive<S, V> {
     pub(crate) causes: heapless::Vec<u16, 8>,
     pub(crate) events: Deque<DriveEvent, 16>,
     pub(crate) params_dirty: bool,
+    /// The values `publish` stored, slot by slot ([`publish::slot`]; a vendor's from
+    /// [`publish::slot::VENDOR`]), so that an unchanged one is not stored again.
+    pub(crate) published: crate::published::Published<i64, { publish::slot::COUNT }>,
     /// Digital inputs driven from outside ([`Drive::force_inputs`]).
     pub(crate) forced_mask: u16,
     pub(crate) forced_levels: u16,
@@ -597,6 +600,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             causes: heapless::Vec::new(),
             events: Deque::new(),
             params_dirty: false,
+            published: Default::default(),
             forced_mask: 0,
             forced_levels: 0,
             vendor,
@@ -836,6 +840,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if let Some(e) = e {
             let b = v.to_le_bytes();
             self.od.store(e, b.get(..e.capacity as usize).unwrap_or(&b));
+        }
+    }
+
+    /// [`Drive::store`], not made where the entry already holds those bytes: a value a
+    /// cycle writes outside `publish` that mostly stands, which would otherwise make every
+    /// next `publish` store all its values again ([`crate::published::Published::begin`]).
+    pub(crate) fn store_changed(&mut self, e: Option<&'static Entry>, v: i64) {
+        if let Some(e) = e {
+            let b = v.to_le_bytes();
+            let bytes = b.get(..e.capacity as usize).unwrap_or(&b);
+            if self.od.raw(e) != bytes {
+                self.od.store(e, bytes);
+            }
+        }
+    }
+
+    /// [`Drive::store`] from `publish`, by publishing site `slot` ([`publish::slot`]): not
+    /// made if the entry already holds `v` ([`crate::published::Published`]).
+    #[inline(always)]
+    pub(crate) fn publish_store(&mut self, slot: usize, e: Option<&'static Entry>, v: i64) {
+        if !self.published.unchanged(slot, v) {
+            self.store(e, v);
         }
     }
 

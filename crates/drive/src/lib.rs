@@ -22,6 +22,7 @@ pub mod motor;
 mod object_keys;
 pub mod personality;
 pub mod profile_position;
+pub(crate) mod published;
 pub mod rounding;
 pub mod smoothing;
 pub mod statusword;

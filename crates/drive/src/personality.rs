@@ -18,6 +18,18 @@ use crate::homing::{HomingError, Method};
 use crate::statusword::Statusword;
 use crate::travel::Inputs;
 
+/// The following error of a logic cycle as `publish` finds it, for the vendor's
+/// [`Vendor::following_error`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FollowingError {
+    /// Actual − demand position, increments.
+    pub increments: i64,
+    /// The window 6065h in increments.
+    pub window: i64,
+    /// `increments` in user units (60F4h).
+    pub user: i32,
+}
+
 /// What one vendor's drive does where its manual departs from CiA 402: the engine calls these
 /// hooks at the points where the manuals differ, each with CiA 402's behaviour as its
 /// default. The vendor type is also the vendor's own state ([`Drive`]'s `vendor` field).
@@ -128,8 +140,12 @@ pub trait Vendor: Sized {
         Statusword::EMPTY
     }
 
-    /// After the following error is known each cycle (increments, actual − demand).
-    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(_d: &mut Drive<S, Self>, _fe: i64) {}
+    /// After the following error is known each cycle.
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(
+        _d: &mut Drive<S, Self>,
+        _fe: &FollowingError,
+    ) {
+    }
 
     /// Which of the drive's inputs the simulated axis's switches and hardware enables are
     /// wired to (bit n = input n of [`Drive::force_inputs`]). CiA 402 names no input

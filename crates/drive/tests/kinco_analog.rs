@@ -145,3 +145,25 @@ fn analog_max_torque_limits_the_torque() {
     r.run_ms(20);
     assert!(r.rpm() <= v + 1.0, "no torque: {} after {v}", r.rpm());
 }
+
+/// Analog1_out and AN_V1 are not recomputed while the voltage and the filter stand (0 V
+/// from power-on); Analog1_Offset written then shows at the next logic cycle, and the values
+/// overwritten in the dictionary are stored again.
+#[test]
+fn analog_values_follow_writes_while_the_voltage_stands() {
+    let mut r = Rig::new();
+    r.run_ms(50);
+    assert_eq!(r.i(0x2502, 0x0F), 0);
+    r.w16(0x2FF0, 0x1E, 200);
+    r.run_ms(1);
+    assert_eq!(r.i(0x2502, 0x0F), -200, "0 V − 2 V offset");
+    r.run_ms(20);
+    let od = r.d.od_mut();
+    for (index, sub) in [(0x2502, 0x0F), (0x2FF0, 0x16)] {
+        let e = od.description().entry(index, sub).unwrap();
+        od.store(e, &[0x34, 0x12][..e.capacity as usize]);
+    }
+    r.run_ms(1);
+    assert_eq!(r.i(0x2502, 0x0F), -200);
+    assert_eq!(r.i(0x2FF0, 0x16), 0);
+}

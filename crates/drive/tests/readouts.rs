@@ -178,3 +178,35 @@ fn cmmo_st_velocity_task_reads_steady() {
         );
     }
 }
+
+/// The statusword and the actual values are stored only when they change; a value
+/// overwritten in the dictionary between two steps (a restore, a console writing the storage)
+/// is stored again at the next logic cycle, for every engine personality.
+#[test]
+fn a_readout_overwritten_between_steps_is_published_again() {
+    for device in ["cmmp-as", "nanotec-smci47s", "kinco-fd3"] {
+        let mut r = Rig::device(device, 1, DriveSettings::default());
+        r.run_ms(200);
+        let (sw, mode, position) = (r.sw(), r.i(0x6061, 0), r.i(0x6063, 0));
+        assert_ne!(sw, 0, "{device}: a state shows");
+        // Standing: the next cycles skip the stores of these unchanged values.
+        r.run_ms(5);
+        assert_eq!(
+            (r.sw(), r.i(0x6061, 0), r.i(0x6063, 0)),
+            (sw, mode, position)
+        );
+        let od = r.d.od_mut();
+        for (index, v) in [(0x6041, 0), (0x6061, 99), (0x6063, 12_345)] {
+            let e = od.description().entry(index, 0).unwrap();
+            let bytes = (v as u32).to_le_bytes();
+            od.store(e, &bytes[..e.capacity as usize]);
+        }
+        assert_eq!(r.sw(), 0);
+        r.run_ms(1);
+        assert_eq!(
+            (r.sw(), r.i(0x6061, 0), r.i(0x6063, 0)),
+            (sw, mode, position),
+            "{device}: the overwritten values are stored again"
+        );
+    }
+}

@@ -59,6 +59,8 @@ pub struct ObjectDictionary<S> {
     node_id: u8,
     data: S,
     request: Option<StorageRequest>,
+    /// How many stores the bytes have taken ([`ObjectDictionary::stores`]).
+    stores: u64,
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
@@ -80,6 +82,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
             node_id,
             data,
             request: None,
+            stores: 0,
         };
         od.load_defaults(|_| true);
         Ok(od)
@@ -139,6 +142,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
         self.request = Some(StorageRequest::Save { sub });
     }
 
+    /// How many stores the dictionary has taken: every change of its bytes goes through
+    /// [`ObjectDictionary::store`] (the writes, `set_value`, the defaults), so what device
+    /// logic derived from the dictionary holds while this count stands.
+    pub fn stores(&self) -> u64 {
+        self.stores
+    }
+
     /// The raw bytes of an entry (the current length for strings and domains).
     pub fn raw(&self, e: &Entry) -> &[u8] {
         let data = self.data.as_ref();
@@ -160,6 +170,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectDictionary<S> {
     /// read-only objects, or stored parameters coming back. Over-long data is cut.
     #[inline]
     pub fn store(&mut self, e: &Entry, bytes: &[u8]) {
+        self.stores = self.stores.wrapping_add(1);
         let data = self.data.as_mut();
         let off = e.offset as usize;
         let cap = e.capacity as usize;

@@ -291,7 +291,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             // Decision: a BLDC runs commutated from its Hall sensors, its current, speed and
             // position controlled: closed loop (Nanotec 200Ah = 1) whenever the motor type
             // selects it.
-            self.store(self.closed_loop_entry(), i64::from(self.motor_type != 0));
+            self.store_changed(self.closed_loop_entry(), i64::from(self.motor_type != 0));
             return;
         }
         if self.stepper.is_none() {
@@ -309,6 +309,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         if s.motor.mode() != mode {
             s.motor.set_mode(mode);
         }
-        self.store(self.closed_loop_entry(), i64::from(closed));
+        self.store_changed(self.closed_loop_entry(), i64::from(closed));
     }
 }

@@ -20,13 +20,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// DC-link undervoltage below the vendor's threshold; the cause stays while the voltage
     /// is low.
     pub(super) fn supervise_dc_link(&mut self) {
-        let Some(e) = self.personality.error(Fault::DcLinkUndervoltage) else {
-            return;
-        };
         let min = V::dc_link_undervoltage_mv(self);
         let low = self
             .dc_link_mv
             .filter(|mv| min.is_some_and(|min| i64::from(*mv) < min));
+        // Nothing to raise and no cause to end (every cycle of a healthy supply): the error's
+        // lookup is a search of the personality's table.
+        if low.is_none() && self.causes.is_empty() {
+            return;
+        }
+        let Some(e) = self.personality.error(Fault::DcLinkUndervoltage) else {
+            return;
+        };
         if low.is_some() {
             if !self.causes.contains(&e.code) {
                 let _ = self.causes.push(e.code);
@@ -48,6 +53,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// until the I²t has fallen below the release threshold.
     pub(super) fn supervise_i2t(&mut self) {
         let over = V::i2t_is_error(self) && self.axis.i2t_limit_active();
+        // As `cause` has it: not over and no cause present changes nothing.
+        if !over && self.causes.is_empty() {
+            return;
+        }
         if let Some(e) = self.personality.error(Fault::I2tMotor) {
             self.cause(e.code, over, e.register);
         }

@@ -20,9 +20,38 @@ use super::*;
 /// master polls every 100 ms.
 pub const VL_ACTUAL_FILTER_S: f64 = 0.020;
 
+/// The publishing sites of [`Drive::publish`] ([`Drive::publish_store`]): each stores one
+/// entry, once per pass.
+pub(crate) mod slot {
+    pub(crate) const STATUSWORD: usize = 0;
+    pub(crate) const DIGITAL_INPUTS: usize = 1;
+    pub(crate) const MODE_DISPLAY: usize = 2;
+    pub(crate) const POSITION_INTERNAL: usize = 3;
+    pub(crate) const POSITION_ACTUAL: usize = 4;
+    pub(crate) const POSITION_DEMAND: usize = 5;
+    pub(crate) const FOLLOWING_ERROR: usize = 6;
+    pub(crate) const VELOCITY_ACTUAL: usize = 7;
+    pub(crate) const VELOCITY_DEMAND: usize = 8;
+    pub(crate) const CONTROL_EFFORT: usize = 9;
+    pub(crate) const CURRENT_ACTUAL: usize = 10;
+    pub(crate) const TORQUE_ACTUAL: usize = 11;
+    pub(crate) const TORQUE_DEMAND: usize = 12;
+    pub(crate) const VL_VELOCITY_ACTUAL: usize = 13;
+    pub(crate) const VELOCITY_FILTERED: usize = 14;
+    /// The first of the vendor's sites (its hooks that `publish` calls store through them).
+    pub(crate) const VENDOR: usize = 16;
+    pub(crate) const COUNT: usize = 48;
+}
+
 impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     /// Writes the statusword and every actual value.
     pub(super) fn publish(&mut self) {
+        self.published.begin(self.od.stores());
+        self.publish_values();
+        self.published.end(self.od.stores());
+    }
+
+    fn publish_values(&mut self) {
         let state = self.dc.state();
         let power = !matches!(self.demand, Demand::Off);
         let v_act = i64::from(self.plant_velocity_internal());
@@ -61,7 +90,16 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             self.fe_since = None;
             self.following_error = false;
         }
-        V::following_error(self, fe);
+        // 60F4h's value, for the vendor as well.
+        let fe_user = self.fg.position_from_internal(fe);
+        V::following_error(
+            self,
+            &crate::personality::FollowingError {
+                increments: fe,
+                window: fe_window,
+                user: fe_user,
+            },
+        );
         // Nanotec §4.1: the following error is watched in closed loop only; an open-loop
         // stepper does not know it.
         let open_loop = self
@@ -93,10 +131,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         // Bit 7 warning (CiA 402 §6.3.2): the vendor's error management has a warning active.
         sw |= Statusword::WARNING.when(V::active_warning(self).is_some());
         let sw = sw.bits();
-        self.store(self.hot.statusword, i64::from(sw));
+        self.publish_store(slot::STATUSWORD, self.hot.statusword, i64::from(sw));
         let position = self.plant_position();
         let inputs = V::digital_inputs(self, position);
-        self.store(self.hot.digital_inputs, i64::from(inputs));
+        self.publish_store(
+            slot::DIGITAL_INPUTS,
+            self.hot.digital_inputs,
+            i64::from(inputs),
+        );
         // A personality with `ip_changing_until_synchronised`: in IP mode 6061h shows −1
         // until the drive is on the SYNC grid.
         let display = if self.mode_pending.is_some()
@@ -108,7 +150,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         } else {
             self.mode
         };
-        self.store(self.hot.mode_display, i64::from(display));
+        self.publish_store(
+            slot::MODE_DISPLAY,
+            self.hot.mode_display,
+            i64::from(display),
+        );
         let actual = self.actual_internal();
         let fg = self.fg;
         let actual_user = fg.position_from_internal(actual);
@@ -120,17 +166,28 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
         } else {
             actual
         };
-        self.store(self.hot.position_internal, internal);
-        self.store(self.hot.position_actual, i64::from(actual_user));
-        self.store(
+        self.publish_store(
+            slot::POSITION_INTERNAL,
+            self.hot.position_internal,
+            internal,
+        );
+        self.publish_store(
+            slot::POSITION_ACTUAL,
+            self.hot.position_actual,
+            i64::from(actual_user),
+        );
+        self.publish_store(
+            slot::POSITION_DEMAND,
             self.hot.position_demand,
             i64::from(fg.position_from_internal(demand_pos)),
         );
-        self.store(
+        self.publish_store(
+            slot::FOLLOWING_ERROR,
             self.hot.following_error_actual,
-            i64::from(fg.position_from_internal(fe)),
+            i64::from(fe_user),
         );
-        self.store(
+        self.publish_store(
+            slot::VELOCITY_ACTUAL,
             self.hot.velocity_actual,
             i64::from(fg.velocity_from_internal(v_act)),
         );
@@ -138,25 +195,30 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             Demand::Velocity { rpm } => f64::from(rpm) * 4096.0,
             _ => self.traj.velocity / INC_S_PER_VEL,
         };
-        self.store(
+        self.publish_store(
+            slot::VELOCITY_DEMAND,
             self.hot.velocity_demand,
             i64::from(fg.velocity_from_internal(crate::rounding::round(v_dem) as i64)),
         );
         let effort =
             crate::rounding::round(f64::from(self.axis.control_effort_rpm()) * 4096.0) as i64;
-        self.store(
+        self.publish_store(
+            slot::CONTROL_EFFORT,
             self.hot.control_effort,
             i64::from(fg.velocity_from_internal(effort)),
         );
-        self.store(
+        self.publish_store(
+            slot::CURRENT_ACTUAL,
             self.hot.current_actual,
             i64::from(self.axis.current_permille()),
         );
-        self.store(
+        self.publish_store(
+            slot::TORQUE_ACTUAL,
             self.hot.torque_actual,
             i64::from(self.axis.torque_permille()),
         );
-        self.store(
+        self.publish_store(
+            slot::TORQUE_DEMAND,
             self.hot.torque_demand,
             i64::from(self.axis.torque_demand_permille()),
         );
@@ -179,14 +241,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             } else {
                 0
             };
-            self.store(Some(e), v);
+            self.publish_store(slot::VL_VELOCITY_ACTUAL, Some(e), v);
         }
         if let Some(e) = self.hot.velocity_actual_filtered {
             let internal = f64::from(self.axis.velocity_display_rpm()) * 4096.0;
             let v = self
                 .fg
                 .velocity_from_internal(crate::rounding::round(internal) as i64);
-            self.store(Some(e), i64::from(v));
+            self.publish_store(slot::VELOCITY_FILTERED, Some(e), i64::from(v));
         }
     }
 }

@@ -418,8 +418,11 @@ impl Vendor for CmmpAs {
     }
 
     /// The hard limit 6510h:22 (the manual's extract, part 2 §5.7): beyond it error 17-0.
-    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, fe: i64) {
-        d.supervise_following_error_limit(fe);
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        fe: &crate::personality::FollowingError,
+    ) {
+        d.supervise_following_error_limit(fe.increments);
     }
 }
 

@@ -16,7 +16,7 @@
 
 use od::{AbortCode, ObjectAccess};
 
-use super::{DinFunction, ErrorWord};
+use super::{slot, DinFunction, ErrorWord};
 use crate::axis::{Axis, Demand};
 use crate::control::ControlParams;
 use crate::controlword::Controlword;
@@ -203,10 +203,12 @@ impl Vendor for Kinco {
         d.kinco_manufacturer_bits()
     }
 
-    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(d: &mut Drive<S, Self>, fe: i64) {
+    fn following_error<S: AsRef<[u8]> + AsMut<[u8]>>(
+        d: &mut Drive<S, Self>,
+        fe: &crate::personality::FollowingError,
+    ) {
         d.kinco_supervise_following_error(fe);
-        let user = i64::from(d.factor_group().position_from_internal(fe));
-        d.kinco_publish(user);
+        d.kinco_publish(i64::from(fe.user));
     }
 
     /// 60FDh stays 0: the inputs show in the Kinco's own objects.
@@ -534,7 +536,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let round = crate::rounding::round_i64;
         let i16_range = |v: f64| round(v).clamp(i16::MIN.into(), i16::MAX.into());
         // The entries by literal keys: their parameter slots are found when compiling.
-        for (e, v) in [
+        for (n, (e, v)) in (slot::ERROR_STATE..).zip([
             (self.kinco_entry(0x2601, 0), i64::from(state)),
             (self.kinco_entry(0x2602, 0), i64::from(state2)),
             (self.kinco_entry(0x60FB, 0x08), following_error),
@@ -556,8 +558,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 self.kinco_entry(0x2FF0, 0x18),
                 i16_range(f64::from(self.axis.current_ma()) / 100.0),
             ),
-        ] {
-            self.store(e, v);
+        ]) {
+            self.publish_store(n, e, v);
         }
     }
 
@@ -716,12 +718,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
 
     /// The following error beyond Max_Following_Error 6065h is Error_State bit 9 (8611h,
     /// §5.4, KINCO-DIAG-03), in every mode that controls the position.
-    pub(crate) fn kinco_supervise_following_error(&mut self, following_error: i64) {
+    pub(crate) fn kinco_supervise_following_error(
+        &mut self,
+        following_error: &crate::personality::FollowingError,
+    ) {
         let position_controlled = matches!(self.demand, Demand::Position { .. });
-        let limit = self.fg.position_magnitude_to_internal(
-            self.cycle_value(0x6065, 0).clamp(0, u32::MAX as i64) as u32,
-        );
-        if position_controlled && following_error.abs() > limit {
+        if position_controlled && following_error.increments.abs() > following_error.window {
             self.raise_fault(super::Fault::FollowingError);
         }
     }

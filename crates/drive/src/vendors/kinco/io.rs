@@ -418,7 +418,13 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
         let before = self.vendor.din.internal;
         self.vendor.din.internal = Some(now);
         let level = |_: &Self, f| functions.level(now, f);
+        // Levels as in the last cycle: no function has an edge (most cycles; each question
+        // below is then answered without looking the function up twice).
+        let edges = before != Some(now);
         let changed = |_: &Self, f| {
+            if !edges {
+                return None;
+            }
             let was = before.and_then(|b| functions.level(b, f));
             let is = functions.level(now, f);
             (is.is_some() && is != was).then_some(is == Some(true))
@@ -494,7 +500,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 true,
             );
         }
-        self.kinco_capture(&functions, before, now);
+        if edges {
+            self.kinco_capture(&functions, before, now);
+        }
         self.kinco_position_limits_cycle();
     }
 
@@ -660,8 +668,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Kinco> {
                 .and_then(|slot| self.params.get(slot).copied().flatten())
         };
         let (a, b) = (entry(0x0A), entry(0x14));
-        self.store(a, i64::from(din));
-        self.store(b, i64::from(dout));
+        self.publish_store(super::slot::DIN_REAL, a, i64::from(din));
+        self.publish_store(super::slot::DOUT_REAL, b, i64::from(dout));
     }
 }
 

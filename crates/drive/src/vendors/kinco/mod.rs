@@ -29,6 +29,18 @@ pub mod tuning;
 use crate::controlword::Controlword;
 use crate::statusword::Statusword;
 
+/// The Kinco's publishing sites in the engine's `publish` (`Drive::publish_store`): the
+/// error words and display values (`kinco_publish`), Din_Real and Dout_Real.
+pub(crate) mod slot {
+    use crate::drive::publish::slot::{COUNT, VENDOR};
+
+    /// Error_State 2601h, then 2602h, 60FBh:08, 2FF0h:14, 60F9h:19, 60F9h:1A, 2FF0h:18.
+    pub(crate) const ERROR_STATE: usize = VENDOR;
+    pub(crate) const DIN_REAL: usize = VENDOR + 7;
+    pub(crate) const DOUT_REAL: usize = VENDOR + 8;
+    const _: () = assert!(DOUT_REAL < COUNT);
+}
+
 use crate::homing::Speed::Search as Fast;
 use crate::homing::Until::Stop;
 use crate::homing::{engine_method, step, Method};

@@ -269,7 +269,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// PNU 200…204 from the ring (after a change, once per cycle at most).
     pub(super) fn mirror_memory(&mut self) {
         self.memory_dirty = false;
-        self.published.forget();
         let od = &mut self.od;
         for (n, sub) in (0..diagnostic_memory::CAPACITY).zip(1u8..) {
             let e = self.memory.get(n);

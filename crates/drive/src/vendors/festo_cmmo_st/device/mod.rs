@@ -52,6 +52,7 @@ use super::fhpp::{FHPP_FPC_LEN, FHPP_STD_LEN};
 use super::homing::{self, Method, Target};
 use super::seven_segment::SevenSegment;
 use crate::controlword::ConfirmedWrites;
+use crate::published::Published;
 use crate::stepper::{sinc_to_si, Stepper, StepperData, StepperDemand, StepperMode};
 use crate::trajectory::{Limits, Trajectory};
 
@@ -347,8 +348,9 @@ pub struct FhppDevice<S> {
     memory: DiagnosticMemory,
     memory_dirty: bool,
     /// The entries [`Self::publish`] wrote in the last cycle, in call order: it writes the
-    /// same ones every cycle, so it looks each up once, and the values it wrote there.
-    /// Every other mutable use of `od` forgets the values ([`PublishedEntries::forget`]).
+    /// same ones every cycle, so it looks each up once, and the values it wrote there. A
+    /// store into `od` between two cycles' writes forgets the values
+    /// ([`crate::published::Published::begin`]).
     published: PublishedEntries,
     /// App. D's following error (2Fh), looked up once: the monitoring asks for its class
     /// every cycle.
@@ -374,35 +376,26 @@ pub struct FhppDevice<S> {
 }
 
 /// Entries written every cycle, remembered by their place in the sequence of writes, with
-/// the value each was last given.
-///
-/// A write of the value the entry was last given is skipped: it would store the same bytes
-/// (or be refused again), as long as nothing else wrote the dictionary since. Most actual
-/// values stand for many cycles (the fault words, the I/O data, a force at 0).
-#[derive(Debug, Clone, Copy)]
+/// the value each was last given ([`crate::published::Published`]): a write of the value the
+/// entry already holds is skipped. Most actual values stand for many cycles (the fault
+/// words, the I/O data, a force at 0).
+#[derive(Debug, Clone, Copy, Default)]
 struct PublishedEntries {
     entries: [(u16, u8, Option<&'static Entry>); 32],
-    values: [Value; 32],
-    /// The slots whose value in `values` is the one last written (bit n: slot n).
-    known: u32,
+    values: Published<Written, 32>,
 }
 
-impl Default for PublishedEntries {
-    fn default() -> Self {
-        PublishedEntries {
-            entries: [(0, 0, None); 32],
-            values: [Value::Unsigned(0); 32],
-            known: 0,
-        }
-    }
+/// An integer value as written: equal ones store the same bytes (or are refused again).
+/// Reals are not remembered (0.0 and −0.0 compare equal with other bits).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+enum Written {
+    #[default]
+    None,
+    Signed(i64),
+    Unsigned(u64),
 }
 
 impl PublishedEntries {
-    /// The dictionary may have been written elsewhere: the next cycle writes every value.
-    fn forget(&mut self) {
-        self.known = 0;
-    }
-
     /// `od.set_value(index, sub, v)`, the `n`-th write of the cycle: the entry of the last
     /// cycle's `n`-th write if that was the same object, else looked up (and remembered).
     /// Inlined at each write: the value's kind is then known there and the branch on the
@@ -417,40 +410,34 @@ impl PublishedEntries {
         sub: u8,
         v: Value,
     ) {
-        let bit = 1u32.checked_shl(n as u32).unwrap_or(0);
-        // A known slot holds this write's entry and value: `publish` makes the same writes
-        // in the same order every cycle (none of them conditional), so the slot's object is
-        // this one.
-        if self.known & bit != 0 {
-            if let (Some(last), Some(slot)) = (self.values.get(n), self.entries.get(n)) {
-                debug_assert!(slot.0 == index && slot.1 == sub && slot.2.is_some());
-                // Integers only: a real's 0.0 and −0.0 compare equal with other bits.
-                let same = match (*last, v) {
-                    (Value::Signed(a), Value::Signed(b)) => a == b,
-                    (Value::Unsigned(a), Value::Unsigned(b)) => a == b,
-                    _ => false,
-                };
-                if same {
-                    return;
-                }
-            }
+        // `publish` makes the same writes in the same order every cycle (none of them
+        // conditional), so a known slot's object is this one.
+        let written = match v {
+            Value::Signed(x) => Written::Signed(x),
+            Value::Unsigned(x) => Written::Unsigned(x),
+            _ => Written::None,
+        };
+        if written != Written::None && self.values.unchanged(n, written) {
+            debug_assert!(self
+                .entries
+                .get(n)
+                .is_some_and(|s| s.0 == index && s.1 == sub && s.2.is_some()));
+            return;
         }
         let e = match self.entries.get_mut(n) {
             Some((i, s, e)) if *i == index && *s == sub && e.is_some() => *e,
             Some(slot) => {
-                let e = od.description().entry(index, sub);
-                *slot = (index, sub, e);
-                self.known &= !bit;
-                e
+                *slot = (index, sub, od.description().entry(index, sub));
+                slot.2
             }
             None => od.description().entry(index, sub),
         };
         let Some(e) = e else {
+            self.values.unknown(n);
             return;
         };
-        if let Some(last) = self.values.get_mut(n) {
-            *last = v;
-            self.known |= bit;
+        if written == Written::None {
+            self.values.unknown(n);
         }
         // As `ObjectDictionary::set_value`: a value the type cannot hold is not stored. The
         // integers the actual values are, without the general encoding (`Value::encode`'s
@@ -625,7 +612,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// The dictionary for the device's own writes; parameters are re-read at the next cycle.
     pub fn od_mut(&mut self) -> &mut ObjectDictionary<S> {
         self.params_dirty = true;
-        self.published.forget();
         self.records_dirty = ALL_RECORDS;
         &mut self.od
     }
@@ -753,7 +739,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     /// the stored values become active, as at the CMMO-ST's own power-on. A file that is no
     /// parameter file of this device changes nothing and is refused.
     pub fn power_on_from_memory(&mut self, file: &[u8]) -> Result<(), FormatError> {
-        self.published.forget();
         self.fpc.memory_mut().power_on_from(&mut self.od, file)?;
         self.records_dirty = ALL_RECORDS;
         Ok(())
@@ -853,7 +838,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
         self.after_write(index, sub);
         if index == pnu_index(127) {
             // PNU 127 data memory control: save, delete, reload (parameter_file.rs).
-            self.published.forget();
             let reloaded = self
                 .fpc
                 .memory_mut()
@@ -877,7 +861,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for FhppDevice<S> {
 impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
     fn after_write(&mut self, index: u16, sub: u8) {
         self.params_dirty = true;
-        self.published.forget();
         if is_record_pnu(index) {
             self.records_dirty |= record_bit(sub);
         }

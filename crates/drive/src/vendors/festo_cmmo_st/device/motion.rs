@@ -268,6 +268,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         ];
         let od = &mut self.od;
         let cache = &mut self.published;
+        cache.values.begin(od.stores());
         let mut n = 0;
         let mut set = |pnu: u16, sub: u8, v: Value| {
             cache.set(od, n, pnu_index(pnu), sub, v);
@@ -327,5 +328,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
                 Value::Unsigned(((self.warnings >> shift) as u32).into()),
             );
         }
+        self.published.values.end(self.od.stores());
     }
 }

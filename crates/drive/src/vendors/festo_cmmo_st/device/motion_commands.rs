@@ -573,7 +573,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> FhppDevice<S> {
         };
         let _ = self.od.set_value(pnu_index(pnu), sub, Value::Signed(value));
         self.params_dirty = true;
-        self.published.forget();
         if is_record_pnu(pnu_index(pnu)) {
             self.records_dirty |= record_bit(sub);
         }
