@@ -14,7 +14,10 @@ start of the process, fmpy's import and the cell's building drop out:
   `--steps` times at `--step`, minus the same with 0 steps;
 - `doStep` + every output: the same, each step followed by `fmi3GetFloat64`, `fmi3GetUInt16`
   and `fmi3GetInt32` of every output of those types (one call per type, into arrays made
-  once), as `scripts/fmu_speed.py` reads them.
+  once), as `scripts/fmu_speed.py` reads them;
+- `simulate_fmu`: `fmpy.simulate_fmu` on the extracted FMU, its description read beforehand
+  and not validated, every output recorded at every step (fmpy's stepping loop and recorder),
+  minus the same with a stop time of 0.
 
 Beside each FMU loop the instructions inside libffi's `ffi_call` (inclusive, from
 `callgrind_annotate --inclusive=yes`), through which ctypes makes every call into the FMU:
@@ -40,13 +43,19 @@ FMU_FUNCTIONS = ("ffi_call",)
 
 def loop(unzipped: str, kind: str, steps: int, step: float) -> None:
     """`steps` doSteps of `step` on the extracted FMU, with every output read after each when
-    `kind` is "gets" (run inside callgrind)."""
+    `kind` is "gets", through `fmpy.simulate_fmu` when it is "simulate" (run inside
+    callgrind)."""
     from ctypes import c_double, c_int32, c_uint16, c_uint32
 
     import fmpy
     from fmpy.fmi3 import FMU3Slave
 
     md = fmpy.read_model_description(unzipped, validate=False)
+    if kind == "simulate":
+        fmpy.simulate_fmu(unzipped, validate=False, model_description=md,
+                          stop_time=steps * step, step_size=step, output_interval=step,
+                          fmi_type="CoSimulation")
+        return
     slave = FMU3Slave(guid=md.guid, unzipDirectory=unzipped,
                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="cell")
     slave.instantiate()
@@ -72,8 +81,10 @@ def loop(unzipped: str, kind: str, steps: int, step: float) -> None:
 def callgrind(command: list[str], out: Path) -> tuple[int, dict[str, int]]:
     """The instructions of `command` under callgrind, and the inclusive instructions of each
     of [`FMU_FUNCTIONS`] it called."""
+    # One hash seed: Python's randomised hashing moves its own count from run to run.
     subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *command],
-                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env={**os.environ, "PYTHONHASHSEED": "0"})
     text = out.read_text(errors="replace")
     total = re.search(r"^(?:summary|totals):\s+(\d+)", text, re.M)
     if total is None:
@@ -95,6 +106,8 @@ def main() -> int:
     p.add_argument("--step", type=float, default=1e-3, help="the importer's step, s")
     p.add_argument("--binary", type=Path, default=Path(os.environ.get(
         "DRIVETWIN_BIN", ROOT / "target/release/drivetwin")))
+    p.add_argument("--kinds", default="steps,gets,simulate",
+                   help="the FMU loops to count: steps, gets, simulate (comma-separated)")
     p.add_argument("--loop", nargs=3, metavar=("UNZIPPED", "KIND", "STEPS"),
                    help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -114,7 +127,10 @@ def main() -> int:
         run = [str(a.binary), "run", "--config", str(a.cell), "--virtual-seconds"]
         native = callgrind(run + [f"{seconds:g}"], out)[0] - callgrind(run + ["0"], out)[0]
         rows = []
-        for kind, label in (("steps", "doStep alone"), ("gets", "doStep + every output")):
+        for kind, label in (("steps", "doStep alone"), ("gets", "doStep + every output"),
+                            ("simulate", "simulate_fmu, every output recorded")):
+            if kind not in a.kinds.split(","):
+                continue
             me = [sys.executable, __file__, "--step", str(a.step), "--loop", unzipped, kind]
             full, inside = callgrind(me + [str(a.steps)], out)
             empty, inside0 = callgrind(me + ["0"], out)
