@@ -97,12 +97,32 @@ thread_local! {
 }
 
 /// `f` of the value references of the get call this thread is in when `first` is the first
-/// of them, else of `first` alone (a get that reached the model otherwise).
+/// of them, else of `first` alone (a get that reached the model otherwise). Nothing here can
+/// panic across the C boundary: a list already borrowed counts as none.
 pub fn with_call<R>(first: Vr, f: impl FnOnce(&[Vr]) -> R) -> R {
-    CALL.with_borrow(|(vrs, n)| match vrs.get(..*n) {
-        Some(call) if call.first() == Some(&first) => f(call),
-        _ => f(std::slice::from_ref(&first)),
+    CALL.with(|call| {
+        let call = call.try_borrow().ok();
+        match call.as_ref().and_then(|c| c.0.get(..c.1)) {
+            Some(vrs) if vrs.first() == Some(&first) => f(vrs),
+            _ => f(std::slice::from_ref(&first)),
+        }
     })
+}
+
+/// The call's value references into [`CALL`] (`vrs` at most [`BATCH`]), or none.
+fn set_call(vrs: &[Vr]) {
+    CALL.with(|call| {
+        if let Ok(mut call) = call.try_borrow_mut() {
+            let (list, n) = &mut *call;
+            *n = match list.get_mut(..vrs.len()) {
+                Some(slots) => {
+                    slots.copy_from_slice(vrs);
+                    vrs.len()
+                }
+                None => 0,
+            };
+        }
+    });
 }
 
 /// `fmi3Get<Type>` passed to `fmi-export` once per [`BATCH`] value references (the first
@@ -138,19 +158,14 @@ macro_rules! batched_get {
                 };
             }
             for (k, part) in vrs.chunks(BATCH).enumerate() {
-                CALL.with_borrow_mut(|(call, n)| {
-                    if let Some(slots) = call.get_mut(..part.len()) {
-                        slots.copy_from_slice(part);
-                        *n = part.len();
-                    }
-                });
+                set_call(part);
                 // SAFETY: `part`'s values start at `k * BATCH`, below `n_value_references`
                 // (at most `n_values`), and `part.len()` of them fit in the importer's array.
                 let status = unsafe {
                     <CellModel as Fmi3Common>::[<fmi3_get_ $n:snake>](
                         instance, part.as_ptr(), 1, values.add(k * BATCH), part.len())
                 };
-                CALL.with_borrow_mut(|(_, n)| *n = 0);
+                set_call(&[]);
                 if status != binding::fmi3Status_fmi3OK {
                     return status;
                 }
