@@ -100,6 +100,30 @@ impl CellModel {
         }
     }
 
+    /// The values of the get call whose first value reference is `vr` (`sys::with_call`:
+    /// all of the call's, read by `read` under one lock of the cell and one panic guard),
+    /// or of `vr` alone; how many were read.
+    fn get_many<T>(
+        &self,
+        vr: binding::fmi3ValueReference,
+        values: &mut [T],
+        context: &dyn Context<CellModel>,
+        read: impl FnOnce(&CellInstance, &[u32], &mut [T]) -> Result<(), CellFmuError>,
+    ) -> Result<usize, Fmi3Error> {
+        let Some(cell) = &self.cell else {
+            log_error(context, "get: the cell is not built");
+            return Err(Fmi3Error::Error);
+        };
+        // `fmi-export` numbers the model's variables from 0 after `time`.
+        let read = sys::with_call(vr + 1, |vrs| {
+            guarded(|| read(cell, vrs, values)).map(|()| vrs.len())
+        });
+        read.map_err(|e| {
+            log_error(context, &e);
+            Fmi3Error::Error
+        })
+    }
+
     /// A parameter (FMI 3.0 §2.4.7.4: `fixed`, set before the FMU is initialised): kept, and
     /// the cell built with it; a cell already built (a set in Initialization Mode) is built
     /// anew, its clock still at its start.
@@ -194,7 +218,7 @@ impl ModelGetSet<CellModel> for CellModel {
         values: &mut [f64],
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
-        self.get(vr, values, context, CellInstance::get_float64)
+        self.get_many(vr, values, context, CellInstance::get_float64s)
     }
 
     fn set_float64(
@@ -233,7 +257,7 @@ impl ModelGetSet<CellModel> for CellModel {
         values: &mut [u8],
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
-        self.get(vr, values, context, CellInstance::get_uint8)
+        self.get_many(vr, values, context, CellInstance::get_uint8s)
     }
 
     fn get_uint16(
@@ -242,7 +266,7 @@ impl ModelGetSet<CellModel> for CellModel {
         values: &mut [u16],
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
-        self.get(vr, values, context, CellInstance::get_uint16)
+        self.get_many(vr, values, context, CellInstance::get_uint16s)
     }
 
     /// Reached only through `fmi-export`'s own `fmi3GetString`, which `sys` replaces
@@ -283,7 +307,7 @@ impl ModelGetSet<CellModel> for CellModel {
         values: &mut [i32],
         context: &dyn Context<CellModel>,
     ) -> Result<usize, Fmi3Error> {
-        self.get(vr, values, context, CellInstance::get_int32)
+        self.get_many(vr, values, context, CellInstance::get_int32s)
     }
 
     /// An LS-BUS terminal's `Rx_Data` or `Tx_Data`: `values` is `sys::fmi3_get_binary`'s

@@ -16,8 +16,17 @@
 //! buffer, into which [`crate::CellModel`]'s `get_binary` writes the address and the length of
 //! the value it holds (the cell's own bytes, unchanged until the next call that steps or
 //! updates the instance).
+//!
+//! **One call, one read of the cell.** `fmi-export` calls the model once per value reference
+//! (`ModelGetSet::get_float64(vr, …)`), and the model cannot see the call's other value
+//! references, so a get of N outputs would lock the cell and pass the panic guard N times.
+//! The outputs' getters (`fmi3GetFloat64`, `fmi3GetUInt8`, `fmi3GetUInt16`, `fmi3GetInt32`)
+//! are therefore written here ([`batched_get!`]): each passes `fmi-export`'s handling of a
+//! get once, for the call's first value reference, with the call's value references in a
+//! thread-local list ([`with_call`]) from which [`crate::CellModel`] reads all of them under
+//! one lock of the cell.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 use fmi::fmi3::binding;
 use fmi_export::fmi3::{Fmi3CoSimulation, Fmi3Common, Fmi3ModelExchange, Fmi3ScheduledExecution};
@@ -62,7 +71,112 @@ use binding::{
     fmi3ValueReference as Vr,
 };
 
-get_set! { Float32 Float64 Int8 UInt8 Int16 UInt16 Int32 UInt32 Int64 UInt64 Boolean }
+get_set! { Float32 Int8 Int16 UInt32 Int64 UInt64 Boolean }
+
+/// The setters of the types whose getters are [`batched_get!`]'s.
+macro_rules! set_only {
+    ($($n:ident)*) => { fmi_export::paste::paste! {
+        forward! {$(
+            [<fmi3Set $n>] => Fmi3Common::[<fmi3_set_ $n:snake>](instance: binding::fmi3Instance,
+                value_references: *const binding::fmi3ValueReference, n_value_references: usize,
+                values: *const binding::[<fmi3 $n>], n_values: usize) -> binding::fmi3Status;
+        )*}
+    }};
+}
+
+set_only! { Float64 UInt8 UInt16 Int32 }
+
+/// The most value references the model reads in one pass: a longer call is read in passes
+/// of this many.
+pub const BATCH: usize = 64;
+
+thread_local! {
+    /// The value references of the [`batched_get!`] call this thread is in (up to [`BATCH`],
+    /// and how many), empty outside one.
+    static CALL: RefCell<([Vr; BATCH], usize)> = const { RefCell::new(([0; BATCH], 0)) };
+}
+
+/// `f` of the value references of the get call this thread is in when `first` is the first
+/// of them, else of `first` alone (a get that reached the model otherwise). Nothing here can
+/// panic across the C boundary: a list already borrowed counts as none.
+pub fn with_call<R>(first: Vr, f: impl FnOnce(&[Vr]) -> R) -> R {
+    CALL.with(|call| {
+        let call = call.try_borrow().ok();
+        match call.as_ref().and_then(|c| c.0.get(..c.1)) {
+            Some(vrs) if vrs.first() == Some(&first) => f(vrs),
+            _ => f(std::slice::from_ref(&first)),
+        }
+    })
+}
+
+/// The call's value references into [`CALL`] (`vrs` at most [`BATCH`]), or none.
+fn set_call(vrs: &[Vr]) {
+    CALL.with(|call| {
+        if let Ok(mut call) = call.try_borrow_mut() {
+            let (list, n) = &mut *call;
+            *n = match list.get_mut(..vrs.len()) {
+                Some(slots) => {
+                    slots.copy_from_slice(vrs);
+                    vrs.len()
+                }
+                None => 0,
+            };
+        }
+    });
+}
+
+/// `fmi3Get<Type>` passed to `fmi-export` once per [`BATCH`] value references (the first
+/// of them, with room for all their values), the value references in [`CALL`] for the model
+/// to read. A call that names `time` (value reference 0, which `fmi-export` answers itself)
+/// goes through `fmi-export` value by value.
+macro_rules! batched_get {
+    ($($n:ident)*) => { fmi_export::paste::paste! {$(
+        #[unsafe(export_name = stringify!([<fmi3Get $n>]))]
+        pub unsafe extern "C" fn [<fmi3_get_ $n:snake>](
+            instance: Instance,
+            value_references: *const Vr,
+            n_value_references: usize,
+            values: *mut binding::[<fmi3 $n>],
+            n_values: usize,
+        ) -> Status {
+            if n_values < n_value_references
+                || (n_value_references > 0 && (value_references.is_null() || values.is_null()))
+            {
+                return binding::fmi3Status_fmi3Error;
+            }
+            let vrs = if n_value_references == 0 {
+                &[]
+            } else {
+                // SAFETY: the importer's array of `n_value_references` (checked non-null).
+                unsafe { std::slice::from_raw_parts(value_references, n_value_references) }
+            };
+            if vrs.is_empty() || vrs.contains(&0) {
+                // SAFETY: the importer's arguments, passed on.
+                return unsafe {
+                    <CellModel as Fmi3Common>::[<fmi3_get_ $n:snake>](
+                        instance, value_references, n_value_references, values, n_values)
+                };
+            }
+            for (k, part) in vrs.chunks(BATCH).enumerate() {
+                set_call(part);
+                // SAFETY: `part`'s values start at `k * BATCH`, below `n_value_references`
+                // (at most `n_values`), and `part.len()` of them fit in the importer's array.
+                let status = unsafe {
+                    <CellModel as Fmi3Common>::[<fmi3_get_ $n:snake>](
+                        instance, part.as_ptr(), 1, values.add(k * BATCH), part.len())
+                };
+                set_call(&[]);
+                if status != binding::fmi3Status_fmi3OK {
+                    return status;
+                }
+            }
+            binding::fmi3Status_fmi3OK
+        }
+        const _: binding::[<fmi3Get $n TYPE>] = Some([<fmi3_get_ $n:snake>]);
+    )*}};
+}
+
+batched_get! { Float64 UInt8 UInt16 Int32 }
 
 forward! {
     fmi3GetVersion => Fmi3Common::fmi3_get_version() -> *const std::os::raw::c_char;

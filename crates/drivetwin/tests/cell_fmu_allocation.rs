@@ -60,9 +60,58 @@ fn read_outputs(cell: &CellInstance, outputs: &[(u32, Role)]) -> f64 {
     sum
 }
 
+/// The value references of the outputs of each getter, with room for their values: what an
+/// importer passes to one `fmi3Get…` call per type.
+#[derive(Default)]
+struct Calls {
+    float64: (Vec<u32>, Vec<f64>),
+    uint8: (Vec<u32>, Vec<u8>),
+    uint16: (Vec<u32>, Vec<u16>),
+    int32: (Vec<u32>, Vec<i32>),
+}
+
+impl Calls {
+    fn of(outputs: &[(u32, Role)]) -> Calls {
+        let mut calls = Calls::default();
+        for (vr, role) in outputs {
+            match role {
+                Role::Position | Role::Velocity | Role::Current => calls.float64.0.push(*vr),
+                Role::Scon | Role::Spos => calls.uint8.0.push(*vr),
+                Role::Statusword => calls.uint16.0.push(*vr),
+                Role::PositionActual => calls.int32.0.push(*vr),
+                _ => {}
+            }
+        }
+        calls.float64.1 = vec![0.0; calls.float64.0.len()];
+        calls.uint8.1 = vec![0; calls.uint8.0.len()];
+        calls.uint16.1 = vec![0; calls.uint16.0.len()];
+        calls.int32.1 = vec![0; calls.int32.0.len()];
+        calls
+    }
+
+    /// One get call per type, as `fmi3GetFloat64` … passes them to the cell.
+    fn read(&mut self, cell: &CellInstance) -> f64 {
+        cell.get_float64s(&self.float64.0, &mut self.float64.1)
+            .unwrap();
+        cell.get_uint8s(&self.uint8.0, &mut self.uint8.1).unwrap();
+        cell.get_uint16s(&self.uint16.0, &mut self.uint16.1)
+            .unwrap();
+        cell.get_int32s(&self.int32.0, &mut self.int32.1).unwrap();
+        self.float64.1.iter().sum::<f64>()
+            + self.uint8.1.iter().map(|v| f64::from(*v)).sum::<f64>()
+            + self.uint16.1.iter().map(|v| f64::from(*v)).sum::<f64>()
+            + self.int32.1.iter().map(|v| f64::from(*v)).sum::<f64>()
+    }
+}
+
 /// Heap allocations of `steps` steps of 1 ms with every output read after each, after
-/// `warm_up` steps that let the lists grow and the timeline act.
-fn allocations(mut cell: CellInstance, warm_up: u32, steps: u32) -> u64 {
+/// `warm_up` steps that let the lists grow and the timeline act: value by value, or (`calls`)
+/// one get call per type.
+fn allocations(cell: CellInstance, warm_up: u32, steps: u32) -> u64 {
+    allocations_reading(cell, warm_up, steps, false)
+}
+
+fn allocations_reading(mut cell: CellInstance, warm_up: u32, steps: u32, calls: bool) -> u64 {
     let outputs: Vec<(u32, Role)> = cell
         .variables()
         .all()
@@ -74,11 +123,16 @@ fn allocations(mut cell: CellInstance, warm_up: u32, steps: u32) -> u64 {
         })
         .map(|v| (v.value_reference, v.role))
         .collect();
+    let mut by_type = Calls::of(&outputs);
     let mut k = 0u32;
     let mut step = |cell: &mut CellInstance| {
         cell.do_step(f64::from(k) * STEP, STEP).unwrap();
         k += 1;
-        read_outputs(cell, &outputs)
+        if calls {
+            by_type.read(cell)
+        } else {
+            read_outputs(cell, &outputs)
+        }
     };
     for _ in 0..warm_up {
         step(&mut cell);
@@ -101,6 +155,12 @@ fn ten_drives_at_power_on_step_without_allocating() {
 }
 
 #[test]
+fn ten_drives_read_by_one_get_call_per_type_step_without_allocating() {
+    let cell = instance("ten_drives.toml", None);
+    assert_eq!(allocations_reading(cell, 100, 1000, true), 0);
+}
+
+#[test]
 fn an_enabled_drive_with_its_pdos_on_the_bus_steps_without_allocating() {
     let mut probe = instance("cell.toml", Some("start.toml"));
     // The timeline has made the drive operation enabled (statusword 0x0027 in bits 0..6).
@@ -116,6 +176,8 @@ fn an_enabled_drive_with_its_pdos_on_the_bus_steps_without_allocating() {
     assert_eq!(probe.get_uint16(sw).unwrap() & 0x6F, 0x27);
     let cell = instance("cell.toml", Some("start.toml"));
     assert_eq!(allocations(cell, 200, 1000), 0);
+    let cell = instance("cell.toml", Some("start.toml"));
+    assert_eq!(allocations_reading(cell, 200, 1000, true), 0);
 }
 
 #[test]

@@ -11,7 +11,7 @@
 //! the same as the scenario with those inputs as its steps.
 
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 use std::time::Duration;
 
 use crate::cell::config::CellFile;
@@ -69,11 +69,12 @@ pub struct CellInstance {
     views: DriveViews,
     /// The FMI-LS-BUS CAN terminal of each bus.
     pub(super) terminals: Vec<CanTerminal>,
-    /// What each drive's display shows, as a C string (NUL-terminated), as of the last
-    /// step: `fmi3GetString` hands out pointers to these bytes, which change only in a step
-    /// that changed the display (FMI 3.0 §2.2.6.2: valid until the next call that changes
-    /// the FMU's state).
-    displays: Vec<[u8; DISPLAY_BYTES]>,
+    /// What each drive's display shows, as a C string (NUL-terminated), read from the
+    /// drive at the first get of it after a step and emptied by the next step, so that a
+    /// step whose displays nobody reads reads none: `fmi3GetString` hands out pointers to
+    /// these bytes, which stay where they are (FMI 3.0 §2.2.6.2: valid until the next call
+    /// that changes the FMU's state).
+    displays: Vec<OnceLock<[u8; DISPLAY_BYTES]>>,
     /// A step's working lists, kept from step to step so that a step allocates nothing once
     /// they have grown to the cell's traffic.
     scratch: StepScratch,
@@ -96,21 +97,42 @@ struct StepScratch {
 /// at most 16 bytes, `DisplayState`).
 const DISPLAY_BYTES: usize = 32;
 
-/// `buffer` set to `text` (up to its first NUL, cut to fit) and NULs, written only when it
-/// differs.
-fn put_text(buffer: &mut [u8; DISPLAY_BYTES], text: &str) {
+/// `text` (up to its first NUL, cut to fit) followed by NULs.
+fn text_bytes(text: &str) -> [u8; DISPLAY_BYTES] {
     let bytes = text.as_bytes();
     let n = bytes
         .iter()
         .position(|b| *b == 0)
         .unwrap_or(bytes.len())
         .min(DISPLAY_BYTES - 1);
-    let mut new = [0u8; DISPLAY_BYTES];
-    if let (Some(dst), Some(src)) = (new.get_mut(..n), bytes.get(..n)) {
+    let mut buffer = [0u8; DISPLAY_BYTES];
+    if let (Some(dst), Some(src)) = (buffer.get_mut(..n), bytes.get(..n)) {
         dst.copy_from_slice(src);
     }
-    if *buffer != new {
-        *buffer = new;
+    buffer
+}
+
+/// The drives' outputs for the values of one get call: the cell locked, and its outputs
+/// read anew when a step or a client's frame left them stale ([`Shared::stale`]), at the
+/// first value that needs them, and held for the rest of the call (one lock per call, not
+/// per value).
+struct Outputs<'a> {
+    cell: &'a CellInstance,
+    guard: Option<MutexGuard<'a, Shared>>,
+}
+
+impl Outputs<'_> {
+    /// Drive `drive`'s outputs.
+    fn of(&mut self, drive: usize) -> Probe {
+        let cell = self.cell;
+        let shared = self.guard.get_or_insert_with(|| {
+            let mut shared = lock(&cell.shared);
+            if shared.stale {
+                cell.refresh(&mut shared);
+            }
+            shared
+        });
+        shared.outputs.get(drive).copied().unwrap_or_default()
     }
 }
 
@@ -261,7 +283,7 @@ impl CellInstance {
             stale: true,
             outputs: vec![Probe::default(); n],
         }));
-        let mut instance = CellInstance {
+        let instance = CellInstance {
             shared,
             front_ends: None,
             modbus_fronts: None,
@@ -275,11 +297,9 @@ impl CellInstance {
             now: 0,
             views,
             terminals,
-            displays: vec![[0; DISPLAY_BYTES]; n],
+            displays: (0..n).map(|_| OnceLock::new()).collect(),
             scratch: StepScratch::default(),
         };
-        let shared = Arc::clone(&instance.shared);
-        instance.refresh_displays(&mut lock(&shared));
         Ok(instance)
     }
 
@@ -314,14 +334,34 @@ impl CellInstance {
         self.modbus_fronts.as_ref().map_or(&[], |f| f.addresses())
     }
 
-    /// Drive `drive`'s outputs now: every drive's read anew in one pass when the cell has
-    /// changed since they were last read ([`Shared::stale`]).
-    fn output(&self, drive: usize) -> Probe {
-        let mut shared = lock(&self.shared);
-        if shared.stale {
-            self.refresh(&mut shared);
+    /// The drives' outputs for one get call, the cell not locked yet.
+    fn outputs(&self) -> Outputs<'_> {
+        Outputs {
+            cell: self,
+            guard: None,
         }
-        shared.outputs.get(drive).copied().unwrap_or_default()
+    }
+
+    /// The values of `vrs` into `values`, read by `read` under one lock of the cell: what an
+    /// `fmi3Get…` call of several value references costs once, not per value. The first
+    /// unknown value reference ends the call with its error.
+    fn get_many<T>(
+        &self,
+        vrs: &[u32],
+        values: &mut [T],
+        read: impl Fn(&Self, u32, &mut Outputs<'_>) -> Result<T, CellFmuError>,
+    ) -> Result<(), CellFmuError> {
+        if values.len() < vrs.len() {
+            return Err(CellFmuError::TooFewValues {
+                given: values.len(),
+                needed: vrs.len(),
+            });
+        }
+        let mut outputs = self.outputs();
+        for (vr, slot) in vrs.iter().zip(values) {
+            *slot = read(self, *vr, &mut outputs)?;
+        }
+        Ok(())
     }
 
     /// Every drive's outputs read anew: the rig's drives, then the EtherCAT slaves' (the
@@ -343,6 +383,15 @@ impl CellInstance {
     }
 
     pub fn get_float64(&self, vr: u32) -> Result<f64, CellFmuError> {
+        self.float64(vr, &mut self.outputs())
+    }
+
+    /// [`CellInstance::get_float64`] of each of `vrs`, under one lock.
+    pub fn get_float64s(&self, vrs: &[u32], values: &mut [f64]) -> Result<(), CellFmuError> {
+        self.get_many(vrs, values, Self::float64)
+    }
+
+    fn float64(&self, vr: u32, outputs: &mut Outputs<'_>) -> Result<f64, CellFmuError> {
         if super::parameters::is_parameter(vr) {
             return self
                 .parameters
@@ -350,13 +399,11 @@ impl CellInstance {
                 .map(|p| p.start)
                 .ok_or(CellFmuError::UnknownVariable(vr));
         }
-        let (drive, role) = self.find(vr)?;
-        let out = self.output(drive);
-        match role {
-            Role::LoadTorque => Ok(self.inputs.get(drive).map_or(0.0, |i| i.load_torque)),
-            Role::Position => Ok(out.position_rad),
-            Role::Velocity => Ok(out.velocity_rad_s),
-            Role::Current => Ok(out.current_a),
+        match self.find(vr)? {
+            (drive, Role::LoadTorque) => Ok(self.inputs.get(drive).map_or(0.0, |i| i.load_torque)),
+            (drive, Role::Position) => Ok(outputs.of(drive).position_rad),
+            (drive, Role::Velocity) => Ok(outputs.of(drive).velocity_rad_s),
+            (drive, Role::Current) => Ok(outputs.of(drive).current_a),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
@@ -419,23 +466,50 @@ impl CellInstance {
 
     /// An FHPP drive's status byte (SCON, SPOS).
     pub fn get_uint8(&self, vr: u32) -> Result<u8, CellFmuError> {
+        self.uint8(vr, &mut self.outputs())
+    }
+
+    /// [`CellInstance::get_uint8`] of each of `vrs`, under one lock.
+    pub fn get_uint8s(&self, vrs: &[u32], values: &mut [u8]) -> Result<(), CellFmuError> {
+        self.get_many(vrs, values, Self::uint8)
+    }
+
+    fn uint8(&self, vr: u32, outputs: &mut Outputs<'_>) -> Result<u8, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::Scon) => Ok(self.output(drive).status[0]),
-            (drive, Role::Spos) => Ok(self.output(drive).status[1]),
+            (drive, Role::Scon) => Ok(outputs.of(drive).status[0]),
+            (drive, Role::Spos) => Ok(outputs.of(drive).status[1]),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
 
     pub fn get_uint16(&self, vr: u32) -> Result<u16, CellFmuError> {
+        self.uint16(vr, &mut self.outputs())
+    }
+
+    /// [`CellInstance::get_uint16`] of each of `vrs`, under one lock.
+    pub fn get_uint16s(&self, vrs: &[u32], values: &mut [u16]) -> Result<(), CellFmuError> {
+        self.get_many(vrs, values, Self::uint16)
+    }
+
+    fn uint16(&self, vr: u32, outputs: &mut Outputs<'_>) -> Result<u16, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::Statusword) => Ok(self.output(drive).statusword),
+            (drive, Role::Statusword) => Ok(outputs.of(drive).statusword),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
 
     pub fn get_int32(&self, vr: u32) -> Result<i32, CellFmuError> {
+        self.int32(vr, &mut self.outputs())
+    }
+
+    /// [`CellInstance::get_int32`] of each of `vrs`, under one lock.
+    pub fn get_int32s(&self, vrs: &[u32], values: &mut [i32]) -> Result<(), CellFmuError> {
+        self.get_many(vrs, values, Self::int32)
+    }
+
+    fn int32(&self, vr: u32, outputs: &mut Outputs<'_>) -> Result<i32, CellFmuError> {
         match self.find(vr)? {
-            (drive, Role::PositionActual) => Ok(self.output(drive).position_actual),
+            (drive, Role::PositionActual) => Ok(outputs.of(drive).position_actual),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
@@ -444,34 +518,35 @@ impl CellInstance {
         Ok(self.display(vr)?.to_string_lossy().into_owned())
     }
 
-    /// A display's text as of the last step, in the instance's own bytes (no copy): valid
-    /// until the next step, and the same bytes at the same address while the display does not
-    /// change.
+    /// A display's text as of the last step, in the instance's own bytes (no copy): read
+    /// from the drive at the first get of it after a step, valid until the next step, and
+    /// always at the same address.
     pub fn display(&self, vr: u32) -> Result<&std::ffi::CStr, CellFmuError> {
         match self.find(vr)? {
             (drive, Role::Display) => self
                 .displays
                 .get(drive)
+                .map(|shown| shown.get_or_init(|| self.display_text(drive)))
                 .and_then(|b| std::ffi::CStr::from_bytes_until_nul(b).ok())
                 .ok_or(CellFmuError::UnknownVariable(vr)),
             _ => Err(CellFmuError::UnknownVariable(vr)),
         }
     }
 
-    /// Each drive's display into [`CellInstance::displays`], written where it changed.
-    fn refresh_displays(&mut self, shared: &mut Shared) {
+    /// What drive `drive`'s display shows now, NUL-terminated (the chains' lock taken inside
+    /// the cell's, as in [`CellInstance::refresh`]).
+    fn display_text(&self, drive: usize) -> [u8; DISPLAY_BYTES] {
+        let mut shared = lock(&self.shared);
         let display = self.views.display;
-        for (drive, buffer) in self.displays.iter_mut().enumerate() {
-            let shown = match self.drives.get(drive) {
-                Some(RigDrive::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
-                Some(RigDrive::Node(n)) => shared.rig.drive_model(*n).and_then(display),
-                None => drive.checked_sub(self.drives.len()).and_then(|slave| {
-                    self.ethercat
-                        .with_drive(slave, |m| m.drive().and_then(|d| display(d)))
-                }),
-            };
-            put_text(buffer, shown.as_ref().map_or("", |s| s.text()));
-        }
+        let shown = match self.drives.get(drive) {
+            Some(RigDrive::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
+            Some(RigDrive::Node(n)) => shared.rig.drive_model(*n).and_then(display),
+            None => drive.checked_sub(self.drives.len()).and_then(|slave| {
+                self.ethercat
+                    .with_drive(slave, |m| m.drive().and_then(|d| display(d)))
+            }),
+        };
+        text_bytes(shown.as_ref().map_or("", |s| s.text()))
     }
 
     /// `fmi3DoStep(t, h)`: the inputs act at `t`, the timeline's actions in `[t, t + h)`, the
@@ -544,10 +619,13 @@ impl CellInstance {
         Self::terminals_saw(&mut self.terminals, frames, outside);
         self.now = end;
         let stopped = rig.stopped();
-        // The outputs are read at the importer's first get after the step, if any.
+        // The outputs and the displays are read at the importer's first get of them after
+        // the step, if any.
         guard.stale = true;
-        self.refresh_displays(&mut guard);
         drop(guard);
+        for shown in &mut self.displays {
+            shown.take();
+        }
         if let Some(f) = &self.front_ends {
             f.wake();
         }
@@ -856,6 +934,96 @@ mod tests {
             read[1].statusword
         );
         assert!(!lock(&cell.shared).stale);
+    }
+
+    /// Two CMMP-AS on one bus, the first one's shaft free.
+    fn two_drives() -> CellInstance {
+        let file: CellFile = toml::from_str(
+            "[[bus]]\nsocketcand = \"\"\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 1\n[drive.motor]\nbrake_holding_torque = 0.0\n\
+             [[drive]]\ndevice = \"cmmp-as\"\nnode = 2\n",
+        )
+        .unwrap();
+        CellInstance::new(&file, None, crate::vendors::VENDORS.runtime).unwrap()
+    }
+
+    #[test]
+    fn a_display_is_read_at_its_first_get_after_a_step_and_not_without_one() {
+        let mut cell = two_drives();
+        let (first, second) = (vr(&cell, "node1.display"), vr(&cell, "node2.display"));
+        for k in 0..10 {
+            cell.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+            assert!(cell.displays.iter().all(|d| d.get().is_none()), "step {k}");
+        }
+        // The first get reads that drive's display alone, as the drive shows it now.
+        let shown = cell.display(first).unwrap().to_owned();
+        assert!(!shown.is_empty());
+        assert_eq!(cell.displays[0].get().copied(), Some(cell.display_text(0)));
+        assert!(cell.displays[1].get().is_none());
+        let address = cell.display(first).unwrap().as_ptr().addr();
+        assert_eq!(cell.display(second).unwrap(), shown.as_c_str());
+        // A step empties them; the text comes back at the same address.
+        cell.do_step(0.01, 1e-3).unwrap();
+        assert!(cell.displays.iter().all(|d| d.get().is_none()));
+        assert_eq!(cell.display(first).unwrap().as_ptr().addr(), address);
+        assert!(cell.get_float64(first).is_err(), "a display is no Float64");
+    }
+
+    #[test]
+    fn a_get_of_several_values_gives_what_a_get_of_each_gives_under_one_read_of_the_outputs() {
+        let mut cell = two_drives();
+        let torque = vr(&cell, "node1.load_torque");
+        cell.set_float64(torque, 0.05).unwrap();
+        for k in 0..20 {
+            cell.do_step(f64::from(k) * 1e-3, 1e-3).unwrap();
+        }
+        let floats = [
+            vr(&cell, "node1.position"),
+            torque,
+            vr(&cell, "node2.velocity"),
+            vr(&cell, "node1.velocity"),
+            vr(&cell, "node1.current"),
+        ];
+        let mut many = [f64::NAN; 5];
+        cell.get_float64s(&floats, &mut many).unwrap();
+        assert!(!lock(&cell.shared).stale);
+        let one: Vec<f64> = floats
+            .iter()
+            .map(|v| cell.get_float64(*v).unwrap())
+            .collect();
+        assert_eq!(many.to_vec(), one);
+        assert!(many[0] < -1e-4 && many[1] == 0.05, "{many:?}");
+        let words = [vr(&cell, "node2.statusword"), vr(&cell, "node1.statusword")];
+        let mut sw = [0u16; 2];
+        cell.get_uint16s(&words, &mut sw).unwrap();
+        assert_eq!(
+            sw,
+            [
+                cell.get_uint16(words[0]).unwrap(),
+                cell.get_uint16(words[1]).unwrap()
+            ]
+        );
+        let mut actual = [0i32; 1];
+        cell.get_int32s(&[vr(&cell, "node1.position_actual")], &mut actual)
+            .unwrap();
+        assert_eq!(
+            actual[0],
+            cell.get_int32(vr(&cell, "node1.position_actual")).unwrap()
+        );
+        // A value reference of another type ends the call with its error; so does too little
+        // room for the values.
+        let wrong = [floats[0], words[0]];
+        assert!(matches!(
+            cell.get_float64s(&wrong, &mut [0.0; 2]),
+            Err(CellFmuError::UnknownVariable(v)) if v == words[0]
+        ));
+        assert!(matches!(
+            cell.get_float64s(&floats, &mut [0.0; 4]),
+            Err(CellFmuError::TooFewValues {
+                given: 4,
+                needed: 5
+            })
+        ));
     }
 
     #[test]

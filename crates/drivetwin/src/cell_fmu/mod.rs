@@ -67,6 +67,8 @@ pub enum CellFmuError {
     DuplicateName(String),
     #[error("no variable with value reference {0} of that type")]
     UnknownVariable(u32),
+    #[error("{needed} value references and room for {given} values")]
+    TooFewValues { given: usize, needed: usize },
     #[error("{0} is not a time the FMU can step to (0 … 584 years, in ns)")]
     BadTime(f64),
     #[error("doStep at t = {given} s: the FMU is at t = {at} s")]
