@@ -59,6 +59,23 @@ pub fn generate(d: &Device) -> String {
             );
         }
     }
+    let _ = writeln!(s, "    serial_ports: &[");
+    for (interface, p) in &d.serial_ports {
+        let protocol = p.protocol.as_ref().map_or("None".to_owned(), |pr| {
+            format!(
+                "Some(od::ProtocolSelect {{ object: (0x{:04X}, 0x{:02X}), modbus_rtu: {}, telegrams: {} }})",
+                pr.object.0, pr.object.1, pr.modbus_rtu, pr.telegrams
+            )
+        });
+        let _ = writeln!(
+            s,
+            "        od::SerialPort {{ interface: {interface:?}, bit_rate: 0x{:04X}, bit_rate_now: {}, loop_enable: {}, protocol: {protocol} }},",
+            p.bit_rate,
+            p.bit_rate_now.map_or("None".to_owned(), |i| format!("Some(0x{i:04X})")),
+            object_key(p.loop_enable),
+        );
+    }
+    let _ = writeln!(s, "    ],");
     let _ = writeln!(
         s,
         "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",

@@ -101,6 +101,23 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
             objects: Box::leak(c.objects.clone().into_boxed_slice()),
             codes: Box::leak(c.codes.clone().into_boxed_slice()),
         }),
+        serial_ports: Box::leak(
+            d.serial_ports
+                .iter()
+                .map(|(interface, p)| od::SerialPort {
+                    interface: text(interface),
+                    bit_rate: p.bit_rate,
+                    bit_rate_now: p.bit_rate_now,
+                    loop_enable: p.loop_enable,
+                    protocol: p.protocol.as_ref().map(|pr| od::ProtocolSelect {
+                        object: pr.object,
+                        modbus_rtu: pr.modbus_rtu,
+                        telegrams: pr.telegrams,
+                    }),
+                })
+                .collect::<Vec<_>>()
+                .into_boxed_slice(),
+        ),
         fieldbus_switches: d.fieldbus_switches,
         fhpp: d.fhpp.as_ref().map(|f| od::FhppParameters {
             records: f.records,
