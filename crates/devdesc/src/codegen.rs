@@ -144,14 +144,17 @@ pub fn generate(d: &Device) -> String {
     let p = &d.plant;
     let _ = writeln!(
         s,
-        "    plant: od::PlantSupervision {{ motor_warning: {:?}, motor_over: {:?}, stage_over: {:?}, encoder_lost: {:?}, encoder_implausible: {:?}, motor_limit: {}, stage_limit: {}, motor_temperature: {}, stage_temperature: {} }},",
+        "    plant: od::PlantSupervision {{ motor_warning: {:?}, motor_over: {:?}, stage_warning: {:?}, stage_over: {:?}, stage_under: {:?}, encoder_lost: {:?}, encoder_implausible: {:?}, motor_limit: {}, stage_limit: {}, stage_low_limit: {}, motor_temperature: {}, stage_temperature: {} }},",
         p.motor_warning,
         p.motor_over,
+        p.stage_warning,
         p.stage_over,
+        p.stage_under,
         p.encoder_lost,
         p.encoder_implausible,
         object_key(p.motor_limit),
         object_key(p.stage_limit),
+        object_key(p.stage_low_limit),
         object_key(p.motor_temperature),
         object_key(p.stage_temperature)
     );

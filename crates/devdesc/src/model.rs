@@ -382,9 +382,13 @@ fn diagnostic_row(table: &str, key: &str, number: &str, rows: &[Diag]) -> Result
 
 /// `[device.plant]`: its messages are rows of the file's diagnostic table, its limits
 /// integer entries of the file, its temperatures signed integer entries (a temperature may
-/// be below 0 °C).
+/// be below 0 °C). Each key is one the profile's supervision reads: the CiA 402 engine has no
+/// stage warning, no lower stage limit (those are an FHPP device's); an FHPP device supervises
+/// no motor temperature (the CMMO-ST has no sensor); a key the profile does not read is
+/// refused.
 fn check_plant(
     section: Option<&PlantSection>,
+    profile: od::Profile,
     objects: &[Obj],
     rows: &[Diag],
 ) -> Result<PlantSection, DescError> {
@@ -392,23 +396,39 @@ fn check_plant(
         return Ok(PlantSection::default());
     };
     const TABLE: &str = "[device.plant]";
-    for (key, number) in [
-        ("motor_warning", &p.motor_warning),
-        ("motor_over", &p.motor_over),
-        ("stage_over", &p.stage_over),
-        ("encoder_lost", &p.encoder_lost),
-        ("encoder_implausible", &p.encoder_implausible),
+    let fhpp = profile == od::Profile::Fhpp;
+    let cia402 = !fhpp;
+    let any = true;
+    let given = |key: &str, present: bool, read: bool| {
+        if present && !read {
+            return Err(DescError::Device(format!(
+                "{TABLE} {key}: the {profile:?} profile's supervision has no such condition"
+            )));
+        }
+        Ok(())
+    };
+    for (key, number, read) in [
+        ("motor_warning", &p.motor_warning, cia402),
+        ("motor_over", &p.motor_over, cia402),
+        ("stage_warning", &p.stage_warning, fhpp),
+        ("stage_over", &p.stage_over, any),
+        ("stage_under", &p.stage_under, fhpp),
+        ("encoder_lost", &p.encoder_lost, any),
+        ("encoder_implausible", &p.encoder_implausible, any),
     ] {
+        given(key, number.is_some(), read)?;
         if let Some(n) = number {
             diagnostic_row(TABLE, key, n, rows)?;
         }
     }
-    for (key, object, signed) in [
-        ("motor_limit", p.motor_limit, false),
-        ("stage_limit", p.stage_limit, false),
-        ("motor_temperature", p.motor_temperature, true),
-        ("stage_temperature", p.stage_temperature, true),
+    for (key, object, signed, read) in [
+        ("motor_limit", p.motor_limit, false, cia402),
+        ("stage_limit", p.stage_limit, false, any),
+        ("stage_low_limit", p.stage_low_limit, true, fhpp),
+        ("motor_temperature", p.motor_temperature, true, cia402),
+        ("stage_temperature", p.stage_temperature, true, any),
     ] {
+        given(key, object.is_some(), read)?;
         if let Some(o) = object {
             integer_entry(TABLE, key, o, signed, objects)?;
         }
@@ -709,7 +729,7 @@ fn check(text: &str, path: &str) -> Result<Device, DescError> {
         diagnostic_row("[device.ethercat]", "watchdog_diagnostic", n, &diagnostics)?;
     }
     let brake = check_brake(d.brake.as_ref(), &objects)?;
-    let plant = check_plant(d.plant.as_ref(), &objects, &diagnostics)?;
+    let plant = check_plant(d.plant.as_ref(), profile, &objects, &diagnostics)?;
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -1597,6 +1617,14 @@ mod tests {
             (
                 "[device.plant]\nmotor_temperature = [0x2007, 1]\n",
                 "t.toml: device: [device.plant] motor_temperature: object 2007h sub 01h is UNSIGNED16, no signed integer",
+            ),
+            (
+                "[device.plant]\nstage_under = \"04-0\"\n",
+                "t.toml: device: [device.plant] stage_under: the Plain profile's supervision has no such condition",
+            ),
+            (
+                "[device.plant]\nstage_low_limit = [0x2007, 2]\n",
+                "t.toml: device: [device.plant] stage_low_limit: the Plain profile's supervision has no such condition",
             ),
         ] {
             assert_eq!(refused(tables), says);

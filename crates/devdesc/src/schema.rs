@@ -155,8 +155,12 @@ pub struct PlantSection {
     pub motor_warning: Option<String>,
     /// The motor above its limit.
     pub motor_over: Option<String>,
+    /// The power stage within the warning margin of its limit (FHPP).
+    pub stage_warning: Option<String>,
     /// The power stage above its limit.
     pub stage_over: Option<String>,
+    /// The power stage below its lower limit (FHPP).
+    pub stage_under: Option<String>,
     /// The encoder signal lost.
     pub encoder_lost: Option<String>,
     /// Implausible encoder counts.
@@ -165,6 +169,8 @@ pub struct PlantSection {
     pub motor_limit: Option<ObjectKey>,
     /// The power stage's limit (without it the drive model's own).
     pub stage_limit: Option<ObjectKey>,
+    /// The power stage's lower limit (FHPP; without it the drive model's own).
+    pub stage_low_limit: Option<ObjectKey>,
     /// Where the drive shows the motor's temperature.
     pub motor_temperature: Option<ObjectKey>,
     /// Where the drive shows the power stage's temperature.
