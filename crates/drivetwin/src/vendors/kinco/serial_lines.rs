@@ -42,13 +42,15 @@ pub enum SetupError {
     Mixed { path: PathBuf },
     #[error(
         "{kind} of node {node}: baud-rate code {code} in {object:04X}h is no bit rate of its \
-         device file's serial_bit_rate (§2.1: 1080, 540, 270, 90)"
+         device file's serial_bit_rate (§2.1: {known})"
     )]
     Baud {
         kind: &'static str,
         node: u8,
         object: u16,
         code: u64,
+        /// The codes the device file lists.
+        known: String,
     },
     #[error("{kind} of node {node}: its object {index:04X}h sub {sub} cannot be read")]
     Unreadable {
@@ -123,16 +125,18 @@ fn bit_rate(d: &Station, kind: Kind) -> Result<u32, SetupError> {
         kind: kind.as_str(),
     })?;
     let c = read(d, kind, (p.bit_rate, 0))?;
-    d.od()
-        .description()
-        .serial_bit_rate
-        .as_ref()
+    let codes = d.od().description().serial_bit_rate.as_ref();
+    codes
         .and_then(|codes| baud_of_code(codes, c))
-        .ok_or(SetupError::Baud {
+        .ok_or_else(|| SetupError::Baud {
             kind: kind.as_str(),
             node: d.node_id(),
             object: p.bit_rate,
             code: c,
+            known: codes.map_or_else(String::new, |codes| {
+                let list: Vec<String> = codes.codes.iter().map(|(c, _)| c.to_string()).collect();
+                list.join(", ")
+            }),
         })
 }
 
@@ -280,4 +284,60 @@ pub fn register_map(name: &str) -> Vec<RegisterMapping> {
                 .collect()
         })
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell::station::Commissioning;
+
+    /// A Kinco of `desc` at node `node` with `index`:00 (UNSIGNED16) commissioned to `value`.
+    fn station(desc: &'static od::DeviceDescription, node: u8, set: &[(u16, u16)]) -> Station {
+        let commissioning = set
+            .iter()
+            .map(|&(index, value)| Commissioning {
+                index,
+                sub: 0,
+                bytes: value.to_le_bytes().to_vec(),
+            })
+            .collect();
+        Station::with_settings(desc, node, None, commissioning, None).expect("station")
+    }
+
+    fn refusal(cell: &CanCell, kind: Kind) -> String {
+        let request = [LineRequest {
+            kind,
+            path: "line".into(),
+            drive: StationId::from_index(0),
+        }];
+        match virtual_lines(&request, cell) {
+            Ok(_) => String::new(),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    /// The rate is the code of the object the device file names for the port (RS232_Baudrate
+    /// 2FE0h, RS485_Baudrate 2FE2h): a code outside `serial_bit_rate` refuses the line, naming
+    /// the object and the codes the file lists; a port the file has no table for is refused.
+    #[test]
+    fn the_ports_objects_are_the_device_files() {
+        let fd3 = &devices::KINCO_FD3;
+        let factory = CanCell::one_bus(vec![station(fd3, 2, &[])]);
+        assert_eq!(refusal(&factory, Kind::Rs232), "");
+        assert_eq!(refusal(&factory, Kind::Rs485), "");
+        let rs232_180 = CanCell::one_bus(vec![station(fd3, 2, &[(0x2FE0, 180)])]);
+        assert_eq!(
+            refusal(&rs232_180, Kind::Rs232),
+            "rs232 of node 2: baud-rate code 180 in 2FE0h is no bit rate of its device file's \
+             serial_bit_rate (§2.1: 1080, 540, 270, 90)"
+        );
+        assert_eq!(refusal(&rs232_180, Kind::Rs485), "", "RS485 reads 2FE2h");
+        let rs485_7 = CanCell::one_bus(vec![station(fd3, 3, &[(0x2FE2, 7)])]);
+        assert!(refusal(&rs485_7, Kind::Rs485).contains("code 7 in 2FE2h"));
+        let cd3 = CanCell::one_bus(vec![station(&devices::KINCO_CD3, 1, &[])]);
+        assert_eq!(
+            refusal(&cd3, Kind::Rs485),
+            "kinco-cd3 has no rs485 port (Kinco §1.1: RS232 on the CD3 and FD3, RS485 on the FD3)"
+        );
+    }
 }
