@@ -59,6 +59,23 @@ pub fn generate(d: &Device) -> String {
             );
         }
     }
+    let _ = writeln!(s, "    serial_ports: &[");
+    for (interface, p) in &d.serial_ports {
+        let protocol = p.protocol.as_ref().map_or("None".to_owned(), |pr| {
+            format!(
+                "Some(od::ProtocolSelect {{ object: (0x{:04X}, 0x{:02X}), modbus_rtu: {}, telegrams: {} }})",
+                pr.object.0, pr.object.1, pr.modbus_rtu, pr.telegrams
+            )
+        });
+        let _ = writeln!(
+            s,
+            "        od::SerialPort {{ interface: {interface:?}, bit_rate: 0x{:04X}, bit_rate_now: {}, loop_enable: {}, protocol: {protocol} }},",
+            p.bit_rate,
+            p.bit_rate_now.map_or("None".to_owned(), |i| format!("Some(0x{i:04X})")),
+            object_key(p.loop_enable),
+        );
+    }
+    let _ = writeln!(s, "    ],");
     let _ = writeln!(
         s,
         "    interfaces: od::InterfaceOffer {{ has: &{:?}, one_of: &{:?}, rule: {:?} }},",
@@ -127,14 +144,17 @@ pub fn generate(d: &Device) -> String {
     let p = &d.plant;
     let _ = writeln!(
         s,
-        "    plant: od::PlantSupervision {{ motor_warning: {:?}, motor_over: {:?}, stage_over: {:?}, encoder_lost: {:?}, encoder_implausible: {:?}, motor_limit: {}, stage_limit: {}, motor_temperature: {}, stage_temperature: {} }},",
+        "    plant: od::PlantSupervision {{ motor_warning: {:?}, motor_over: {:?}, stage_warning: {:?}, stage_over: {:?}, stage_under: {:?}, encoder_lost: {:?}, encoder_implausible: {:?}, motor_limit: {}, stage_limit: {}, stage_low_limit: {}, motor_temperature: {}, stage_temperature: {} }},",
         p.motor_warning,
         p.motor_over,
+        p.stage_warning,
         p.stage_over,
+        p.stage_under,
         p.encoder_lost,
         p.encoder_implausible,
         object_key(p.motor_limit),
         object_key(p.stage_limit),
+        object_key(p.stage_low_limit),
         object_key(p.motor_temperature),
         object_key(p.stage_temperature)
     );

@@ -6,7 +6,7 @@ use od::{Access, Behaviour, DataType, Limit, ObjectKind, Value};
 
 use crate::schema::{
     BrakeSection, DiagnosticSection, EntryFields, File, ObjectKey, ObjectSection, PlantSection,
-    ProfileName,
+    ProfileName, SerialPortSection, SerialPortsSection,
 };
 
 #[derive(Debug, thiserror::Error)]
@@ -56,6 +56,8 @@ pub struct Device {
     pub can_bit_rate: Option<CanBitRate>,
     /// The objects whose code sets a serial line speed, and the `(code, bit/s)` table.
     pub serial_bit_rate: Option<SerialBitRate>,
+    /// `[device.serial_ports]`, checked: each port's interface and its objects.
+    pub serial_ports: Vec<(String, crate::schema::SerialPortSection)>,
     pub interfaces: Vec<String>,
     pub interfaces_one_of: Vec<String>,
     pub interfaces_rule: String,
@@ -233,6 +235,86 @@ fn check_serial_bit_rate(
     }))
 }
 
+/// `[device.serial_ports]`: a table for each serial interface of `interfaces` and none for
+/// another; each port's bit-rate objects are objects of `serial_bit_rate`, its loop-enable and
+/// protocol objects integer entries of the file, the protocol's two values distinct, the
+/// protocol object's default one of them.
+fn check_serial_ports(
+    section: Option<&SerialPortsSection>,
+    interfaces: &[String],
+    rates: Option<&SerialBitRate>,
+    objects: &[Obj],
+) -> Result<Vec<(String, SerialPortSection)>, DescError> {
+    const TABLE: &str = "[device.serial_ports]";
+    let empty = SerialPortsSection::default();
+    let s = section.unwrap_or(&empty);
+    let mut ports = Vec::new();
+    for (name, port) in [("rs232", &s.rs232), ("rs485", &s.rs485)] {
+        let listed = interfaces.iter().any(|i| i == name);
+        let Some(p) = port else {
+            if listed {
+                return Err(DescError::Device(format!(
+                    "interfaces lists {name:?}, but {TABLE} has no {name} table"
+                )));
+            }
+            continue;
+        };
+        if !listed {
+            return Err(DescError::Device(format!(
+                "{TABLE} {name}: the device has no {name:?} interface"
+            )));
+        }
+        let key = |k: &str| format!("{name}.{k}");
+        for (k, index) in [
+            ("bit_rate", Some(p.bit_rate)),
+            ("bit_rate_now", p.bit_rate_now),
+        ] {
+            let Some(index) = index else { continue };
+            if !rates.is_some_and(|r| r.objects.contains(&index)) {
+                return Err(DescError::Device(format!(
+                    "{TABLE} {}: object {index:04X}h is no object of serial_bit_rate",
+                    key(k)
+                )));
+            }
+        }
+        if let Some(o) = p.loop_enable {
+            integer_entry(TABLE, &key("loop_enable"), o, false, objects)?;
+        }
+        if let Some(pr) = &p.protocol {
+            integer_entry(TABLE, &key("protocol"), pr.object, false, objects)?;
+            if pr.modbus_rtu == pr.telegrams {
+                return Err(DescError::Device(format!(
+                    "{TABLE} {}: modbus_rtu and telegrams are both {}",
+                    key("protocol"),
+                    pr.telegrams
+                )));
+            }
+            let default = objects
+                .iter()
+                .find(|o| o.index == pr.object.0)
+                .and_then(|o| o.entries.iter().find(|e| e.sub == pr.object.1))
+                .map(|e| {
+                    e.default
+                        .iter()
+                        .rev()
+                        .fold(0u64, |acc, b| acc << 8 | u64::from(*b))
+                });
+            if !default
+                .is_some_and(|v| v == u64::from(pr.modbus_rtu) || v == u64::from(pr.telegrams))
+            {
+                return Err(DescError::Device(format!(
+                    "{TABLE} {}: the default of object {:04X}h sub {:02X}h is neither modbus_rtu nor telegrams",
+                    key("protocol"),
+                    pr.object.0,
+                    pr.object.1
+                )));
+            }
+        }
+        ports.push((name.to_owned(), p.clone()));
+    }
+    Ok(ports)
+}
+
 /// The entry `key` of a device file's table `table` names: an integer entry of the file
 /// (`signed`: a signed one).
 fn integer_entry(
@@ -300,9 +382,13 @@ fn diagnostic_row(table: &str, key: &str, number: &str, rows: &[Diag]) -> Result
 
 /// `[device.plant]`: its messages are rows of the file's diagnostic table, its limits
 /// integer entries of the file, its temperatures signed integer entries (a temperature may
-/// be below 0 °C).
+/// be below 0 °C). Each key is one the profile's supervision reads: the CiA 402 engine has no
+/// stage warning, no lower stage limit (those are an FHPP device's); an FHPP device supervises
+/// no motor temperature (the CMMO-ST has no sensor); a key the profile does not read is
+/// refused.
 fn check_plant(
     section: Option<&PlantSection>,
+    profile: od::Profile,
     objects: &[Obj],
     rows: &[Diag],
 ) -> Result<PlantSection, DescError> {
@@ -310,23 +396,39 @@ fn check_plant(
         return Ok(PlantSection::default());
     };
     const TABLE: &str = "[device.plant]";
-    for (key, number) in [
-        ("motor_warning", &p.motor_warning),
-        ("motor_over", &p.motor_over),
-        ("stage_over", &p.stage_over),
-        ("encoder_lost", &p.encoder_lost),
-        ("encoder_implausible", &p.encoder_implausible),
+    let fhpp = profile == od::Profile::Fhpp;
+    let cia402 = !fhpp;
+    let any = true;
+    let given = |key: &str, present: bool, read: bool| {
+        if present && !read {
+            return Err(DescError::Device(format!(
+                "{TABLE} {key}: the {profile:?} profile's supervision has no such condition"
+            )));
+        }
+        Ok(())
+    };
+    for (key, number, read) in [
+        ("motor_warning", &p.motor_warning, cia402),
+        ("motor_over", &p.motor_over, cia402),
+        ("stage_warning", &p.stage_warning, fhpp),
+        ("stage_over", &p.stage_over, any),
+        ("stage_under", &p.stage_under, fhpp),
+        ("encoder_lost", &p.encoder_lost, any),
+        ("encoder_implausible", &p.encoder_implausible, any),
     ] {
+        given(key, number.is_some(), read)?;
         if let Some(n) = number {
             diagnostic_row(TABLE, key, n, rows)?;
         }
     }
-    for (key, object, signed) in [
-        ("motor_limit", p.motor_limit, false),
-        ("stage_limit", p.stage_limit, false),
-        ("motor_temperature", p.motor_temperature, true),
-        ("stage_temperature", p.stage_temperature, true),
+    for (key, object, signed, read) in [
+        ("motor_limit", p.motor_limit, false, cia402),
+        ("stage_limit", p.stage_limit, false, any),
+        ("stage_low_limit", p.stage_low_limit, true, fhpp),
+        ("motor_temperature", p.motor_temperature, true, cia402),
+        ("stage_temperature", p.stage_temperature, true, any),
     ] {
+        given(key, object.is_some(), read)?;
         if let Some(o) = object {
             integer_entry(TABLE, key, o, signed, objects)?;
         }
@@ -604,6 +706,12 @@ fn check(text: &str, path: &str) -> Result<Device, DescError> {
     check_fhpp(fhpp, d.fhpp.as_ref(), &objects)?;
     let can_bit_rate = check_can_bit_rate(d.can_bit_rate.as_ref(), &d.baud_rates, &objects)?;
     let serial_bit_rate = check_serial_bit_rate(d.serial_bit_rate.as_ref(), &objects)?;
+    let serial_ports = check_serial_ports(
+        d.serial_ports.as_ref(),
+        &interfaces,
+        serial_bit_rate.as_ref(),
+        &objects,
+    )?;
     let interfaces_rule = d.interfaces_rule.unwrap_or_else(|| {
         if fhpp {
             "its fieldbus is Modbus TCP"
@@ -621,7 +729,7 @@ fn check(text: &str, path: &str) -> Result<Device, DescError> {
         diagnostic_row("[device.ethercat]", "watchdog_diagnostic", n, &diagnostics)?;
     }
     let brake = check_brake(d.brake.as_ref(), &objects)?;
-    let plant = check_plant(d.plant.as_ref(), &objects, &diagnostics)?;
+    let plant = check_plant(d.plant.as_ref(), profile, &objects, &diagnostics)?;
     Ok(Device {
         name: d.name,
         product_name: d.product_name,
@@ -637,6 +745,7 @@ fn check(text: &str, path: &str) -> Result<Device, DescError> {
         rotary_switches: d.rotary_switches,
         can_bit_rate,
         serial_bit_rate,
+        serial_ports,
         interfaces,
         interfaces_one_of: d.interfaces_one_of,
         interfaces_rule,
@@ -1346,6 +1455,105 @@ mod tests {
         assert!(refused(&table("0x2FE0", ""), &two).contains("no codes"));
     }
 
+    /// `[device.serial_ports]`: a table for each serial interface, its bit-rate objects those
+    /// of `serial_bit_rate`, its loop-enable and protocol objects integer entries; a bad entry
+    /// is refused with the file, the table and the key.
+    #[test]
+    fn the_serial_ports_are_checked() {
+        let object = |index: u16, sub: u8, t: &str, default: u32| {
+            format!("[[object]]\nindex = 0x{index:04X}\nname = \"o{index:X}_{sub}\"\nkind = \"record\"\n[[object.sub]]\nsub = {sub}\nname = \"s{sub}\"\ntype = \"{t}\"\naccess = \"rw\"\ndefault = {default}\n")
+        };
+        let rate = |index: u16, default: u32| {
+            format!("[[object]]\nindex = 0x{index:04X}\nname = \"b{index:X}\"\ntype = \"UNSIGNED16\"\naccess = \"rw\"\ndefault = {default}\n")
+        };
+        let objects = rate(0x2FE0, 270)
+            + &rate(0x2FE1, 270)
+            + &rate(0x2FE2, 540)
+            + &object(0x6510, 0x0B, "UNSIGNED8", 0)
+            + &object(0x6511, 0x0C, "UNSIGNED8", 0)
+            + &object(0x6512, 0x01, "REAL32", 0);
+        let file = |interfaces: &str, ports: &str| {
+            format!(
+                "{HEAD}serial_bit_rate = {{ objects = [0x2FE0, 0x2FE1, 0x2FE2], codes = [[540, 19200], [270, 38400]] }}\ninterfaces = [{interfaces}]\n{ports}{objects}"
+            )
+        };
+        let rs232 = "[device.serial_ports.rs232]\nbit_rate = 0x2FE0\nbit_rate_now = 0x2FE1\nloop_enable = [0x6510, 0x0B]\n";
+        let rs485 = |protocol: &str| {
+            format!("[device.serial_ports.rs485]\nbit_rate = 0x2FE2\nprotocol = {{ object = {protocol} }}\n")
+        };
+        let good = rs485("[0x6511, 0x0C], modbus_rtu = 0, telegrams = 1");
+        let d = parse(
+            &file("\"rs232\", \"rs485\"", &(rs232.to_owned() + &good)),
+            "t.toml",
+        )
+        .expect("valid");
+        let names: Vec<&str> = d.serial_ports.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["rs232", "rs485"]);
+        let leaked = crate::runtime::leak(&d);
+        let port = od::SerialPort::find(leaked.serial_ports, "rs485").expect("rs485");
+        assert_eq!(port.bit_rate, 0x2FE2);
+        assert_eq!(port.protocol.map(|p| p.object), Some((0x6511, 0x0C)));
+        let refused =
+            |interfaces: &str, ports: &str| match parse(&file(interfaces, ports), "ports.toml") {
+                Ok(_) => panic!("accepted: {ports}"),
+                Err(e) => e.to_string(),
+            };
+        let e = refused("\"rs232\", \"rs485\"", rs232);
+        assert!(
+            e.starts_with("ports.toml: device: interfaces lists \"rs485\""),
+            "{e}"
+        );
+        let e = refused("\"rs485\"", &(rs232.to_owned() + &good));
+        assert!(
+            e.contains("[device.serial_ports] rs232: the device has no \"rs232\" interface"),
+            "{e}"
+        );
+        let e = refused(
+            "\"rs232\"",
+            &rs232.replace("bit_rate = 0x2FE0", "bit_rate = 0x6510"),
+        );
+        assert!(
+            e.starts_with("ports.toml: device: [device.serial_ports] rs232.bit_rate: object 6510h is no object of serial_bit_rate"),
+            "{e}"
+        );
+        let e = refused(
+            "\"rs232\"",
+            &rs232.replace("bit_rate_now = 0x2FE1", "bit_rate_now = 0x2FE5"),
+        );
+        assert!(e.contains("rs232.bit_rate_now: object 2FE5h"), "{e}");
+        let e = refused(
+            "\"rs232\"",
+            &rs232.replace("[0x6510, 0x0B]", "[0x6510, 0x0C]"),
+        );
+        assert!(
+            e.contains("rs232.loop_enable: object 6510h sub 0Ch is not in this file"),
+            "{e}"
+        );
+        let e = refused(
+            "\"rs485\"",
+            &rs485("[0x6512, 0x01], modbus_rtu = 0, telegrams = 1"),
+        );
+        assert!(
+            e.contains("rs485.protocol: object 6512h sub 01h is REAL32, no integer"),
+            "{e}"
+        );
+        let e = refused(
+            "\"rs485\"",
+            &rs485("[0x6511, 0x0C], modbus_rtu = 1, telegrams = 1"),
+        );
+        assert!(e.contains("modbus_rtu and telegrams are both 1"), "{e}");
+        let e = refused(
+            "\"rs485\"",
+            &rs485("[0x6511, 0x0C], modbus_rtu = 2, telegrams = 1"),
+        );
+        assert!(e.contains("neither modbus_rtu nor telegrams"), "{e}");
+        let e = refused(
+            "\"rs485\"",
+            &good.replace("bit_rate = 0x2FE2", "bitrate = 0x2FE2"),
+        );
+        assert!(e.contains("unknown field `bitrate`"), "{e}");
+    }
+
     /// `[device.brake]` and `[device.plant]` name integer entries of the file and rows of its
     /// diagnostic table; a broken entry is refused with the file, the table and the key.
     #[test]
@@ -1409,6 +1617,14 @@ mod tests {
             (
                 "[device.plant]\nmotor_temperature = [0x2007, 1]\n",
                 "t.toml: device: [device.plant] motor_temperature: object 2007h sub 01h is UNSIGNED16, no signed integer",
+            ),
+            (
+                "[device.plant]\nstage_under = \"04-0\"\n",
+                "t.toml: device: [device.plant] stage_under: the Plain profile's supervision has no such condition",
+            ),
+            (
+                "[device.plant]\nstage_low_limit = [0x2007, 2]\n",
+                "t.toml: device: [device.plant] stage_low_limit: the Plain profile's supervision has no such condition",
             ),
         ] {
             assert_eq!(refused(tables), says);

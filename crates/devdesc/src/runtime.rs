@@ -101,6 +101,23 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
             objects: Box::leak(c.objects.clone().into_boxed_slice()),
             codes: Box::leak(c.codes.clone().into_boxed_slice()),
         }),
+        serial_ports: Box::leak(
+            d.serial_ports
+                .iter()
+                .map(|(interface, p)| od::SerialPort {
+                    interface: text(interface),
+                    bit_rate: p.bit_rate,
+                    bit_rate_now: p.bit_rate_now,
+                    loop_enable: p.loop_enable,
+                    protocol: p.protocol.as_ref().map(|pr| od::ProtocolSelect {
+                        object: pr.object,
+                        modbus_rtu: pr.modbus_rtu,
+                        telegrams: pr.telegrams,
+                    }),
+                })
+                .collect::<Vec<_>>()
+                .into_boxed_slice(),
+        ),
         fieldbus_switches: d.fieldbus_switches,
         fhpp: d.fhpp.as_ref().map(|f| od::FhppParameters {
             records: f.records,
@@ -144,11 +161,14 @@ pub fn leak(d: &Device) -> &'static od::DeviceDescription {
         plant: od::PlantSupervision {
             motor_warning: d.plant.motor_warning.as_deref().map(text),
             motor_over: d.plant.motor_over.as_deref().map(text),
+            stage_warning: d.plant.stage_warning.as_deref().map(text),
             stage_over: d.plant.stage_over.as_deref().map(text),
+            stage_under: d.plant.stage_under.as_deref().map(text),
             encoder_lost: d.plant.encoder_lost.as_deref().map(text),
             encoder_implausible: d.plant.encoder_implausible.as_deref().map(text),
             motor_limit: d.plant.motor_limit,
             stage_limit: d.plant.stage_limit,
+            stage_low_limit: d.plant.stage_low_limit,
             motor_temperature: d.plant.motor_temperature,
             stage_temperature: d.plant.stage_temperature,
         },

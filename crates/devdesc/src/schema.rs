@@ -94,6 +94,9 @@ pub struct DeviceSection {
     /// `serial_bit_rate = { objects = [0x2FE0, …], codes = [[270, 38400], …] }`: the objects
     /// whose code sets a serial line speed (`od::SerialBitRateCodes`).
     pub serial_bit_rate: Option<SerialBitRateSection>,
+    /// `[device.serial_ports.rs232]`, `[device.serial_ports.rs485]`: the objects that set up
+    /// each serial port (`od::SerialPort`); one for each serial interface of `interfaces`.
+    pub serial_ports: Option<SerialPortsSection>,
     /// The interfaces the real device has (default: its profile's fieldbus, CANopen or
     /// Modbus TCP), those of them that run one at a time, and the manual's rule.
     pub interfaces: Option<Vec<String>>,
@@ -152,8 +155,12 @@ pub struct PlantSection {
     pub motor_warning: Option<String>,
     /// The motor above its limit.
     pub motor_over: Option<String>,
+    /// The power stage within the warning margin of its limit (FHPP).
+    pub stage_warning: Option<String>,
     /// The power stage above its limit.
     pub stage_over: Option<String>,
+    /// The power stage below its lower limit (FHPP).
+    pub stage_under: Option<String>,
     /// The encoder signal lost.
     pub encoder_lost: Option<String>,
     /// Implausible encoder counts.
@@ -162,6 +169,8 @@ pub struct PlantSection {
     pub motor_limit: Option<ObjectKey>,
     /// The power stage's limit (without it the drive model's own).
     pub stage_limit: Option<ObjectKey>,
+    /// The power stage's lower limit (FHPP; without it the drive model's own).
+    pub stage_low_limit: Option<ObjectKey>,
     /// Where the drive shows the motor's temperature.
     pub motor_temperature: Option<ObjectKey>,
     /// Where the drive shows the power stage's temperature.
@@ -244,6 +253,39 @@ pub struct SerialBitRateSection {
     pub objects: Vec<u16>,
     /// `[code, bit/s]` pairs.
     pub codes: Vec<[u32; 2]>,
+}
+
+/// `[device.serial_ports]`: a table per serial interface.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SerialPortsSection {
+    pub rs232: Option<SerialPortSection>,
+    pub rs485: Option<SerialPortSection>,
+}
+
+/// One serial port's objects (`od::SerialPort`): `bit_rate = 0x2FE0`, `bit_rate_now =
+/// 0x2FE1` (objects of `serial_bit_rate`), `loop_enable = [0x6510, 0x0B]`, `protocol = {
+/// object = [0x6510, 0x0C], modbus_rtu = 0, telegrams = 1 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SerialPortSection {
+    /// The object whose code is the port's bit rate from power-up.
+    pub bit_rate: u16,
+    /// The object whose code, written, is the port's bit rate at once.
+    pub bit_rate_now: Option<u16>,
+    /// The object whose value 1 makes drives on one line a ring.
+    pub loop_enable: Option<ObjectKey>,
+    /// The object that selects the protocol; without it the device's telegrams alone.
+    pub protocol: Option<ProtocolSection>,
+}
+
+/// `protocol` of a serial port: the object and its values.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolSection {
+    pub object: ObjectKey,
+    pub modbus_rtu: u32,
+    pub telegrams: u32,
 }
 
 /// `[device.fhpp]` (`od::FhppParameters`): required with `profile = "fhpp"`, refused with

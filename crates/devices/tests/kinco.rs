@@ -340,3 +340,29 @@ fn telegram_objects_have_their_printed_sizes() {
         assert!(e.pdo_mappable);
     }
 }
+
+/// The serial ports' objects (§9.5 d5.02, d5.03, d5.15, d5.18, d5.19; §2.1, §12.2): RS232 at
+/// RS232_Baudrate 2FE0h, U2BRG 2FE1h at once, RS232_Loop_Enable 6510h:0B; RS485 (the FD3's
+/// alone) at RS485_Baudrate 2FE2h, RS485_Protocol 6510h:0C 0 Modbus RTU, 1 the telegrams.
+#[test]
+fn the_serial_ports_are_device_data() {
+    use od::{SerialPort, SerialProtocol};
+    for desc in [&devices::KINCO_FD3, &devices::KINCO_CD3] {
+        let rs232 = SerialPort::find(desc.serial_ports, "rs232").expect("RS232 on X3");
+        assert_eq!(rs232.bit_rate, 0x2FE0);
+        assert_eq!(rs232.bit_rate_now, Some(0x2FE1));
+        assert_eq!(rs232.loop_enable, Some((0x6510, 0x0B)));
+        assert_eq!(rs232.protocol(Some(0)), SerialProtocol::Telegrams);
+    }
+    assert_eq!(
+        SerialPort::find(devices::KINCO_CD3.serial_ports, "rs485"),
+        None
+    );
+    let rs485 = SerialPort::find(devices::KINCO_FD3.serial_ports, "rs485").expect("RS485");
+    assert_eq!(rs485.bit_rate, 0x2FE2);
+    assert_eq!((rs485.bit_rate_now, rs485.loop_enable), (None, None));
+    assert_eq!(rs485.protocol.map(|p| p.object), Some((0x6510, 0x0C)));
+    assert_eq!(rs485.protocol(Some(0)), SerialProtocol::ModbusRtu);
+    assert_eq!(rs485.protocol(Some(1)), SerialProtocol::Telegrams);
+    assert!(devices::CMMP_AS.serial_ports.is_empty());
+}

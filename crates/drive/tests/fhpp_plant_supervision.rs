@@ -92,3 +92,38 @@ fn a_pulled_encoder_cable_is_06h() {
     assert_eq!(b.dev.fault_number(), 0x06);
     assert!(b.input().scon.contains(Scon::FAULT));
 }
+
+/// The messages are the device file's (`[device.plant]`): `devices/cmmo-st.toml` with its
+/// plant table edited, built as the program builds a file it reads at run time, raises what
+/// the keys say: 16h for a hot stage where `stage_over` names it, nothing for a freezing one
+/// without `stage_under`.
+#[test]
+fn the_supervision_raises_what_the_device_file_names() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../devices/cmmo-st.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let edited = text
+        .replacen("stage_over = \"15h\"", "stage_over = \"16h\"", 1)
+        .replacen("stage_under = \"16h\"\n", "", 1);
+    let desc = devdesc::runtime::leak(&devdesc::parse(&edited, "cmmo-st.toml").unwrap());
+    let bench = |ambient: f64| {
+        let od = od::ObjectDictionary::new(desc, 1, vec![0u8; desc.storage_size]).unwrap();
+        let mut b = Bench {
+            dev: drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default()),
+            t_ms: 0,
+        };
+        b.dev.set_thermal_data(ThermalData {
+            stage_time_constant_s: 1.0,
+            ..ThermalData::default()
+        });
+        b.run(1);
+        b.dev.set_ambient_temperature(ambient);
+        b.run(5000);
+        b
+    };
+    let hot = bench(100.0);
+    assert_eq!(hot.dev.fault_number(), 0x16, "stage_over = 16h");
+    assert!(!hot.dev.diagnostic_active(0x15));
+    let cold = bench(-30.0);
+    assert_eq!(cold.dev.fault_number(), 0, "no stage_under");
+    assert!(!cold.dev.diagnostic_active(0x16));
+}

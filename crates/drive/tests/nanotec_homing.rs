@@ -4,6 +4,7 @@
 
 mod nanotec_rig;
 
+use drive::drive::named_switches::NamedSwitch;
 use drive::drive::DriveSettings;
 use drive::travel::TravelSettings;
 use drive::vendors::nanotec::NANOTEC;
@@ -228,7 +229,8 @@ fn bit_4_low_aborts() {
     assert_eq!(r.i(0x6062, 0), p, "stopped");
 }
 
-/// §9.1: the reference switch is input 6, in 60FDh bit 2 and bit 21.
+/// §9.1: the reference switch is input 6, in 60FDh bit 2 and bit 21; bit n of
+/// `force_inputs` is input n, bits 16 … 21 show inputs 1 … 6.
 #[test]
 fn reference_switch_is_input_6_in_60fd() {
     let mut r = Rig::new();
@@ -242,4 +244,80 @@ fn reference_switch_is_input_6_in_60fd() {
     r.d.force_inputs(1 << 1, 1 << 1); // input 1 high
     r.run_ms(2);
     assert_eq!(r.i(0x60FD, 0), (1 << 16) | (1 << 21) | (1 << 2));
+    r.d.force_inputs(1 << 6, 0); // input 6 held low on the cam
+    r.run_ms(2);
+    assert_eq!(r.i(0x60FD, 0), 0, "the cam drives input 6, forced low");
+}
+
+/// Input 6 forced by name (`home`, as a cell file, the control handle or the REST API force
+/// it) is what 60FDh shows in bits 2 and 21; the Nanotec has no limit-switch input (§9.1
+/// names none), and the inputs past 6 show nothing.
+#[test]
+fn the_home_switch_by_name_is_input_6() {
+    let mut r = Rig::with(DriveSettings {
+        travel: TravelSettings {
+            home_switch: None,
+            ..TravelSettings::default()
+        },
+        ..DriveSettings::default()
+    });
+    let input = r.d.switch_input(NamedSwitch::Home).expect("input 6");
+    assert_eq!((input.mask, input.actuated_high), (1 << 6, true));
+    assert_eq!(r.d.switch_input(NamedSwitch::LimitPositive), None);
+    assert_eq!(r.d.switch_input(NamedSwitch::LimitNegative), None);
+    assert_eq!(r.d.set_switch(NamedSwitch::LimitPositive, Some(true)), None);
+    r.d.set_switch(NamedSwitch::Home, Some(true));
+    r.run_ms(2);
+    assert_eq!(r.i(0x60FD, 0), (1 << 21) | (1 << 2));
+    r.d.force_inputs(0xFF80, 0xFF80); // bits 7 … 15: no input of the manual's
+    r.run_ms(2);
+    assert_eq!(r.i(0x60FD, 0), 0);
+}
+
+/// Methods 19 … 22 watch input 6: forced HIGH by name while the axis is beyond 3000 units in
+/// the method's search direction (19 / 22 clockwise, 20 / 21 counter-clockwise, §5.3), the
+/// search turns there, crawls back until input 6 is LOW and reads the home offset at its edge.
+/// The travel has no cam: the forced input alone is the switch.
+#[test]
+fn methods_19_to_22_home_on_input_6_forced() {
+    for (method, direction) in [(19i8, 1i64), (20, -1), (21, -1), (22, 1)] {
+        let mut r = Rig::with(DriveSettings {
+            travel: TravelSettings {
+                home_switch: None,
+                ..TravelSettings::default()
+            },
+            ..DriveSettings::default()
+        });
+        homing(&mut r, method);
+        r.cw(0x001F);
+        let mut on = false;
+        let mut seen_60fd = 0;
+        for _ in 0..5000 {
+            r.run_ms(1);
+            let beyond = r.i(0x6064, 0) * direction >= 3000;
+            if beyond != on {
+                r.d.set_switch(NamedSwitch::Home, Some(beyond));
+                on = beyond;
+            }
+            if on {
+                seen_60fd |= r.i(0x60FD, 0);
+            }
+            if r.sw() & 0x3000 != 0 {
+                break;
+            }
+        }
+        assert_eq!(
+            r.sw() & 0x3000,
+            0x1000,
+            "{method}: attained {:#06x}",
+            r.sw()
+        );
+        assert_eq!(seen_60fd, (1 << 21) | (1 << 2), "{method}: 60FDh while on");
+        let at = r.d.plant_position() * 2000 / 65536;
+        assert!(
+            (at - 3000 * direction).abs() < 30,
+            "{method}: at input 6's edge: {at} units"
+        );
+        assert!(r.position().abs() <= 2, "{method}: {}", r.position());
+    }
 }

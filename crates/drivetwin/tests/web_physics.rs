@@ -1,6 +1,7 @@
 //! The plant's physics through the REST API against a running cell loop (a CMMP-AS on CAN, a
 //! CMMO-ST on Modbus TCP): ambient and thermal figures, the encoder, the switches by name;
-//! the drives' own supervision raises their manuals' messages from them.
+//! the drives' own supervision raises their manuals' messages from them; the Nanotec's home
+//! switch is its input 6.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -228,4 +229,45 @@ async fn switches_by_name() {
     ] {
         assert!(doc["paths"][path].is_object(), "{path} missing");
     }
+}
+
+/// The Nanotec's `home` is its input 6, the reference switch (§9.1): forced through the REST
+/// API it shows in 60FDh bits 2 and 21 (its input 6 twice) once the cell loop has stepped the
+/// drive; it has no limit-switch input, so `limit_positive` and `limit_negative` are 404s.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_nanotec_home_switch_is_its_input_6() {
+    let cell = web_rig::nanotec();
+    let app = app(&cell, None);
+    // 60FDh once it reads `want`, within 5 s of the loop's real time.
+    let din_becomes = |want: u64| {
+        let app = app.clone();
+        async move {
+            let mut last = None;
+            for _ in 0..250 {
+                let (_, v) = send(&app, "GET", "/api/drives/0/objects/60FD/0", None, None).await;
+                last = v["value"].as_str().and_then(|t| t.parse::<u64>().ok());
+                if last == Some(want) {
+                    return;
+                }
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
+            panic!("60FDh {last:?}, not {want:#x}");
+        }
+    };
+    let put = |name: &str, body: Value| {
+        let app = app.clone();
+        let path = format!("/api/drives/0/switches/{name}");
+        async move { send(&app, "PUT", &path, Some(body), None).await }
+    };
+    din_becomes(0).await;
+    for limit in ["limit_positive", "limit_negative"] {
+        let (status, e) = put(limit, json!({"actuated": true})).await;
+        assert_eq!(status, StatusCode::NOT_FOUND, "{limit}: {e}");
+    }
+    let (status, p) = put("home", json!({"actuated": true})).await;
+    assert_eq!(status, StatusCode::OK, "{p}");
+    din_becomes((1 << 21) | (1 << 2)).await;
+    let (status, p) = put("home", json!({"actuated": null})).await;
+    assert_eq!(status, StatusCode::OK, "{p}");
+    din_becomes(0).await;
 }

@@ -322,6 +322,9 @@ pub struct DeviceDescription {
     /// The objects that set the serial line speeds by a code, and their codes (device file
     /// `serial_bit_rate`); `None` for a device without such objects.
     pub serial_bit_rate: Option<SerialBitRateCodes>,
+    /// The serial ports and the objects that set them up (device file
+    /// `[device.serial_ports]`), one per serial interface of `interfaces`.
+    pub serial_ports: &'static [crate::SerialPort],
     /// Which interfaces the real device has.
     pub interfaces: InterfaceOffer,
     /// DIP switches (or inputs) select node-ID offset, bit rate and fieldbus at power-on

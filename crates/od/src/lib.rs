@@ -20,6 +20,7 @@ pub mod eds;
 pub mod parameter_file;
 pub mod pdo_rules;
 pub mod plant_supervision;
+pub mod serial_ports;
 pub mod time;
 pub mod value;
 
@@ -35,5 +36,6 @@ pub use description::{
 pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
 pub use plant_supervision::PlantSupervision;
+pub use serial_ports::{ProtocolSelect, SerialPort, SerialProtocol};
 pub use time::Instant;
 pub use value::Value;

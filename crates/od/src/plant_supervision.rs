@@ -12,8 +12,12 @@ pub struct PlantSupervision {
     pub motor_warning: Option<&'static str>,
     /// The motor above its limit.
     pub motor_over: Option<&'static str>,
+    /// The power stage within the warning margin of its limit (an FHPP device's).
+    pub stage_warning: Option<&'static str>,
     /// The power stage above its limit.
     pub stage_over: Option<&'static str>,
+    /// The power stage below its lower limit (an FHPP device's).
+    pub stage_under: Option<&'static str>,
     /// The encoder signal lost.
     pub encoder_lost: Option<&'static str>,
     /// Implausible encoder counts.
@@ -22,6 +26,9 @@ pub struct PlantSupervision {
     pub motor_limit: Option<(u16, u8)>,
     /// The object holding the power stage's limit; `None`: the drive model's own.
     pub stage_limit: Option<(u16, u8)>,
+    /// The object holding the power stage's lower limit (an FHPP device's); `None`: the
+    /// drive model's own.
+    pub stage_low_limit: Option<(u16, u8)>,
     /// Where the drive shows the motor's temperature.
     pub motor_temperature: Option<(u16, u8)>,
     /// Where the drive shows the power stage's temperature.
@@ -34,11 +41,14 @@ impl PlantSupervision {
     pub const NONE: PlantSupervision = PlantSupervision {
         motor_warning: None,
         motor_over: None,
+        stage_warning: None,
         stage_over: None,
+        stage_under: None,
         encoder_lost: None,
         encoder_implausible: None,
         motor_limit: None,
         stage_limit: None,
+        stage_low_limit: None,
         motor_temperature: None,
         stage_temperature: None,
     };

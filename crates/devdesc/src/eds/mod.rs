@@ -257,6 +257,7 @@ pub fn parse(text: &str, file: &str) -> Result<Eds, EdsError> {
         rotary_switches: 0,
         can_bit_rate: None,
         serial_bit_rate: None,
+        serial_ports: Vec::new(),
         fieldbus_switches: false,
         ethercat: None,
         fhpp: None,

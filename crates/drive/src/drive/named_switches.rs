@@ -3,7 +3,8 @@
 //! scenario or a cell file says `limit_positive` instead of a DIN mask.
 //!
 //! * CiA 402's default: the inputs of the vendor's wiring (`INPUT_WIRING`), read as wired
-//!   (normally open, actuated HIGH); the Nanotec keeps the CMMP-AS's input numbers.
+//!   (normally open, actuated HIGH). The Nanotec (§9.1, §5.3): the reference switch on input 6,
+//!   no limit-switch input.
 //! * CMMP-AS (§5.14): E0 / E1 on DIN6 / DIN7, swapped with 6510h:12 = 1; the home switch on
 //!   DIN9, DIN8 with 6510h:13 = 1. Actuated is HIGH for a normally open contact
 //!   (6510h:11 / :14 = 1), LOW for a normally closed one.
@@ -82,7 +83,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
     }
 
     /// The input carrying `switch` as the vendor's `INPUT_WIRING` has it, actuated HIGH (a
-    /// normally open switch read as wired).
+    /// normally open switch read as wired); `None` where the wiring has no input for it.
     pub(crate) fn wired_switch_input(&self, switch: NamedSwitch) -> Option<SwitchInput> {
         let w = V::INPUT_WIRING;
         let mask = match switch {
@@ -90,6 +91,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>, V: Vendor> Drive<S, V> {
             NamedSwitch::LimitPositive => w.positive_limit,
             NamedSwitch::Home => w.home,
         };
+        if mask == 0 {
+            return None;
+        }
         Some(SwitchInput {
             mask,
             actuated_high: true,

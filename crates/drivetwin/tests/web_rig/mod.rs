@@ -109,6 +109,19 @@ pub fn kinco_and_cmmp() -> Running {
     )
 }
 
+/// Drive 0 a Nanotec SMCI47-S (node 34) alone on a bus.
+pub fn nanotec() -> Running {
+    let (cell, buses) = bus(vec![station("nanotec-smci47s", 34)]);
+    start(
+        cell,
+        FrontEnds {
+            buses,
+            ..FrontEnds::default()
+        },
+        None,
+    )
+}
+
 /// The console's router on `running`, with the write token `token` (`None`: loopback, none).
 pub fn app(running: &Running, token: Option<&str>) -> axum::Router {
     web::router(AppState {

@@ -284,6 +284,10 @@ pub const HOMING_METHODS: [Method; 13] = [
     ),
 ];
 
+/// Input 6, the reference switch (§9.1, §5.3), as bit 6 of [`Drive::force_inputs`] (bit n is
+/// input n).
+pub const INPUT_6: u16 = 1 << 6;
+
 /// The long test run (6060h = −1).
 pub const LONG_TEST_RUN: core::time::Duration = core::time::Duration::from_secs(2);
 /// The short test run (6060h = −2).
@@ -357,16 +361,28 @@ impl Vendor for Nanotec {
     /// (homing_error), as the twin has always run it.
     const HALT_IS_HOMING_ERROR: bool = true;
 
-    /// The simulated axis the engine reads: the limit switches on bits 6 / 7 and the home
-    /// switch on bit 9 of [`Drive::force_inputs`], the hardware enables on bits 4 / 5. The
-    /// manual describes no limit-switch or enable inputs; 60FDh shows inputs 1 … 6 with
-    /// input 6 the reference switch (§9.1, `Drive::nanotec_digital_inputs`).
+    /// The inputs as §9.1 numbers them: bit n of [`Drive::force_inputs`] is input n (1 … 6),
+    /// input 6 the reference switch the methods 19 … 22 watch (§5.3), which 60FDh shows in bits
+    /// 2 and 21 ([`Drive::nanotec_digital_inputs`]). The simulated home switch drives input 6.
+    ///
+    /// Decision: the manual names no limit-switch and no hardware-enable input (60FDh bits 0, 1
+    /// and 3 read 0, §9.1; no homing method looks for a limit switch, §5.3; §2.4 puts no input
+    /// before transition 2), so the Nanotec has none: it reads no limit switch (a homing search
+    /// ends at the switch or the hard stop, and a travel's limit positions are not its inputs),
+    /// and what stands for its hardware enable is the bit-rate code of the rotary switch
+    /// ([`NANOTEC`]'s `hardware_enable`, `Vendor::enables` below), not an input.
     const INPUT_WIRING: InputWiring = InputWiring {
-        negative_limit: 1 << 6,
-        positive_limit: 1 << 7,
-        home: 1 << 9,
-        enables: (1 << 4) | (1 << 5),
+        negative_limit: 0,
+        positive_limit: 0,
+        home: INPUT_6,
+        enables: 0,
     };
+
+    /// Transition 2 needs no input (§2.4); it needs a bit-rate code the controller accepts
+    /// (§1.1.3 step 7, NT-NODE-07), which the cell gives as `DriveSettings::enables_present`.
+    fn enables<S: AsRef<[u8]> + AsMut<[u8]>>(d: &Drive<S, Self>) -> bool {
+        d.settings.enables_present
+    }
 
     fn for_device(_desc: &'static od::DeviceDescription) -> (&'static Personality, Self) {
         (&NANOTEC, Nanotec::default())
@@ -735,20 +751,18 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Drive<S, Nanotec> {
     }
 
     /// 60FDh (§9.1): inputs 1 … 6 in bits 16 … 21, input 6 (the reference switch) also in
-    /// bit 2. Input 6 follows the simulated home switch; [`Drive::force_inputs`] bit n drives
-    /// input n.
+    /// bit 2; bits 0, 1, 3 … 15 read 0. The levels are [`Drive::input_levels`]: the simulated
+    /// home switch on input 6, the forced inputs over it.
     pub(crate) fn nanotec_digital_inputs(&self, position: i64) -> u32 {
-        const INPUT_6: u16 = 1 << 6;
-        let home = self.settings.travel.inputs(position).home;
-        let wired = if home { INPUT_6 } else { 0 };
-        let levels = (wired & !self.forced_mask) | (self.forced_levels & self.forced_mask);
-        let mut v = (1..=6u32)
-            .filter(|n| levels & (1 << n) != 0)
+        let levels = self.input_levels(position);
+        let inputs = (1..=6u32)
+            .filter(|n| levels.high(1 << n))
             .fold(0u32, |acc, n| acc | 1 << (15 + n));
-        if levels & INPUT_6 != 0 {
-            v |= 1 << 2;
+        if levels.high(INPUT_6) {
+            inputs | crate::digital_inputs::bit::HOME_SWITCH
+        } else {
+            inputs
         }
-        v
     }
 
     /// Statusword bits 0–6, 8 and 9 (§4.2, §3.3): bit 4 voltage enabled from Switched On

@@ -27,10 +27,12 @@ use crate::serial::line::LineProtocol;
 use crate::serial::wire::Wire;
 use crate::serial::LineDrives;
 
-/// U2BRG (2FE1h) as a line follows it: the code it had last, and the codes of the first
-/// drive's device file (`serial_bit_rate`).
+/// U2BRG (2FE1h) as a line follows it: its object (the port's `bit_rate_now` in the first
+/// drive's device file), the code it had last, and the codes of that file
+/// (`serial_bit_rate`).
 #[derive(Debug, Clone, Copy)]
 pub struct U2brg {
+    pub object: u16,
     pub code: u64,
     pub codes: &'static od::SerialBitRateCodes,
 }
@@ -164,7 +166,7 @@ impl TelegramLine {
             let mut code = last.code;
             drives.access(*on_bus, at, &mut |od| {
                 let mut b = [0u8; 2];
-                if od.read(0x2FE1, 0, &mut b).is_ok() {
+                if od.read(last.object, 0, &mut b).is_ok() {
                     code = u64::from(u16::from_le_bytes(b));
                 }
             });
@@ -229,6 +231,9 @@ mod tests {
                     ports,
                     topology,
                     u2brg.map(|code| U2brg {
+                        object: od::SerialPort::find(devices::KINCO_FD3.serial_ports, "rs232")
+                            .and_then(|p| p.bit_rate_now)
+                            .expect("the FD3's RS232 bit_rate_now"),
                         code,
                         codes: devices::KINCO_FD3
                             .serial_bit_rate
