@@ -116,7 +116,7 @@ const START_UP_TIMEOUT: Duration = Duration::from_secs(2);
 /// master with `--busy-poll` p50.
 const TARGET_SLEEPS: [f64; 3] = [1.3, 1.5, 2.0];
 const TARGET_BUSY_POLL_P50: f64 = 1.2;
-/// A chain's p99 against the floor of its frame (issue's 4 kHz, 64 drives target).
+/// A chain's p99 against the floor of its frame (the 4 kHz, 64-drive target).
 const TARGET_CHAIN_P99: f64 = 2.0;
 /// Real-time priority with `ECAT_ROUNDTRIP_FIFO=1`: just below the kernel's threaded
 /// interrupt handlers (`SCHED_FIFO` 50), so they still run first.
