@@ -197,7 +197,7 @@ impl SlaveSocket {
         self.arrived
     }
 
-    /// Transmit one frame, retrying for up to [`TX_PORT_BUSY`] while the TX queue is full;
+    /// Transmit one frame, retrying for up to `TX_PORT_BUSY` (121 µs) while the TX queue is full;
     /// then the frame is lost, as on a congested line. The retries spin: a thread that slept
     /// between them could wake milliseconds later on a loaded machine, holding the loop.
     pub fn send(&self, frame: &[u8]) -> io::Result<()> {

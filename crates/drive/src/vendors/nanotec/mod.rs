@@ -363,7 +363,7 @@ impl Vendor for Nanotec {
 
     /// The inputs as §9.1 numbers them: bit n of [`Drive::force_inputs`] is input n (1 … 6),
     /// input 6 the reference switch the methods 19 … 22 watch (§5.3), which 60FDh shows in bits
-    /// 2 and 21 ([`Drive::nanotec_digital_inputs`]). The simulated home switch drives input 6.
+    /// 2 and 21 (`Drive::nanotec_digital_inputs`). The simulated home switch drives input 6.
     ///
     /// Decision: the manual names no limit-switch and no hardware-enable input (60FDh bits 0, 1
     /// and 3 read 0, §9.1; no homing method looks for a limit switch, §5.3; §2.4 puts no input
