@@ -76,6 +76,9 @@ pub struct SlaveDevice {
     /// ([`SlaveChain::answered`](super::SlaveChain::answered)): SYNC0 events up to then do not
     /// count against it.
     master_held_until: Option<Instant>,
+    /// When the last output buffer of a DC cycle came (the frame's time), for the warning of a
+    /// lost synchronisation.
+    pub(super) last_outputs_at: Option<Instant>,
     /// A 1010h "save" whose file the runtime writes, with the reply that waits for it.
     pub(super) saving: Option<SaveInFlight>,
     /// The active errors of a drive on EtherCAT alone, which set its 1001h error register and
@@ -147,6 +150,7 @@ impl SlaveDevice {
             write_errors: 0,
             watchdog_expiries: 0,
             master_held_until: None,
+            last_outputs_at: None,
             saving: None,
             errors: EmcyProducer::default(),
         }
@@ -201,6 +205,7 @@ impl Bound<'_> {
                 self.dev.pending.clear();
                 self.dev.pending.extend_from_slice(out);
                 self.dev.sync.outputs_received();
+                self.dev.last_outputs_at = Some(now);
             } else {
                 self.apply_outputs(out);
                 self.dev.outputs_applied += 1;

@@ -86,7 +86,7 @@ impl Bound<'_> {
             }
             self.sync_drive(at);
             if outcome.lost && state == AlState::Op {
-                self.sync_lost(esc);
+                self.sync_lost(esc, at, now);
             }
             if matches!(esc.al_state(), AlState::SafeOp | AlState::Op) {
                 self.post_inputs(esc);
@@ -119,8 +119,8 @@ impl Bound<'_> {
         self.forward_events();
     }
 
-    /// The master's cycles stopped or left the SYNC0 grid.
-    pub(super) fn sync_lost(&mut self, esc: &mut Esc<'_>) {
+    /// The master's cycles stopped or left the SYNC0 grid at the event at `at`, run at `now`.
+    pub(super) fn sync_lost(&mut self, esc: &mut Esc<'_>, at: Instant, now: Instant) {
         self.dev.sync_errors += 1;
         tracing::warn!(
             station = esc.station_address(),
@@ -130,6 +130,13 @@ impl Bound<'_> {
             without_outputs = self.dev.sync.since_outputs(),
             sync0_events = self.dev.sync.events,
             outputs_applied = self.dev.outputs_applied,
+            // Whether the outputs were late at the slave (the last buffer long before the
+            // event) or the loop ran the event late (`run_late_us`).
+            last_outputs_before_us = self
+                .dev
+                .last_outputs_at
+                .map(|o| at.saturating_since(o).as_micros()),
+            run_late_us = now.saturating_since(at).as_micros(),
             "synchronisation lost: Safe-Op, 0x001A"
         );
         esc.fall_back(AlState::SafeOp, AlStatusCode::SYNCHRONIZATION_ERROR);
