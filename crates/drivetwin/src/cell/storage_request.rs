@@ -6,7 +6,7 @@
 //! Both take the request here ([`take`]) and keep the set the file holds afterwards
 //! ([`keep_saved`]); they differ only in when the file is written.
 
-use od::{ObjectDictionary, StorageRequest};
+use od::{AbortCode, Entry, ObjectAccess, ObjectDictionary, StorageRequest};
 
 use crate::cell::device_model::Model;
 use crate::cell::param_saver::{SaveJob, SaveResult};
@@ -76,4 +76,38 @@ pub fn keep_saved(
     *stored = result?;
     tracing::info!(node, "parameters saved");
     Ok(())
+}
+
+/// What a front end does with a storage request a write raised: carry it out before the
+/// answer ([`Persisting`](crate::cell::station::Persisting)) or leave it for the runtime
+/// (the CoE server's).
+pub trait OnRequest {
+    /// `req` was written to `model`'s dictionary; an error is the write's answer.
+    fn on_request(&mut self, model: &mut Model, req: StorageRequest) -> Result<(), AbortCode>;
+}
+
+/// A drive's dictionary as an SDO server (CANopen or CoE) writes it: every access goes to the
+/// model, and a storage request a write raises goes to the front end's [`OnRequest`].
+pub struct Requesting<'a, H> {
+    pub model: &'a mut Model,
+    pub handler: H,
+}
+
+impl<H: OnRequest> ObjectAccess for Requesting<'_, H> {
+    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        self.model.entry(index, sub)
+    }
+    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        self.model.read(index, sub, buf)
+    }
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write(index, sub, data)?;
+        if let Some(req) = self.model.od_mut().take_request() {
+            self.handler.on_request(self.model, req)?;
+        }
+        Ok(())
+    }
+    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.model.write_internal(index, sub, data)
+    }
 }

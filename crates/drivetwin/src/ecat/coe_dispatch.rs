@@ -21,12 +21,12 @@ use drive::drive::DriveEvent;
 use ethercat::coe::{self, Emergency};
 use ethercat::esc::MAILBOX_MAX;
 use ethercat::Esc;
-use od::{AbortCode, Entry, ObjectAccess, StorageRequest};
+use od::{AbortCode, StorageRequest};
 
 use crate::cell::device_model::Model;
 use crate::cell::param_saver::{SaveJob, SaveResult};
 use crate::cell::param_store::ParamStore;
-use crate::cell::storage_request;
+use crate::cell::storage_request::{self, OnRequest, Requesting};
 
 use super::process_data::read_unsigned;
 use super::slave::Bound;
@@ -58,31 +58,18 @@ fn ask(
     Some((save.job(model.od(), on_loop), save.index, save.sub))
 }
 
-/// The dictionary as the CoE server writes it: a storage request (1010h / 1011h) is taken out
-/// and left in `asked` for the slave to hand to the runtime.
-struct Storing<'a> {
-    model: &'a mut Model,
+/// The CoE server's [`OnRequest`]: a storage request (1010h / 1011h) is taken out and left in
+/// `asked` for the slave to hand to the runtime.
+struct SaveLater<'a> {
     store: Option<&'a ParamStore>,
     on_loop: bool,
     asked: Option<(SaveJob, u16, u8)>,
 }
 
-impl ObjectAccess for Storing<'_> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.model.entry(index, sub)
-    }
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.model.read(index, sub, buf)
-    }
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.model.write(index, sub, data)?;
-        if let Some(req) = self.model.od_mut().take_request() {
-            self.asked = ask(self.model, self.store, self.on_loop, req);
-        }
+impl OnRequest for SaveLater<'_> {
+    fn on_request(&mut self, model: &mut Model, req: StorageRequest) -> Result<(), AbortCode> {
+        self.asked = ask(model, self.store, self.on_loop, req);
         Ok(())
-    }
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.model.write_internal(index, sub, data)
     }
 }
 
@@ -97,14 +84,16 @@ impl Bound<'_> {
         // saves are written there too (one writer of the file).
         let on_loop = self.shared_events.is_some();
         let mut out = [0u8; MAILBOX_MAX];
-        let mut access = Storing {
+        let mut access = Requesting {
             model: self.model,
-            store: self.store,
-            on_loop,
-            asked: None,
+            handler: SaveLater {
+                store: self.store,
+                on_loop,
+                asked: None,
+            },
         };
         let n = coe::serve(esc, &mut self.dev.coe, &mut access, &mut out);
-        let asked = access.asked.take();
+        let asked = access.handler.asked.take();
         let reply = n.and_then(|n| out.get(..n)).unwrap_or(&[]);
         match asked {
             Some((job, index, sub)) => {

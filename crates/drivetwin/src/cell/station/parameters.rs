@@ -2,11 +2,11 @@
 //! parameter file, and the dictionary as an SDO server writes it (a "save" carried out
 //! before the answer).
 
-use od::{AbortCode, Entry, ObjectAccess, ObjectDictionary, StorageRequest};
+use od::{AbortCode, ObjectDictionary, StorageRequest};
 
 use crate::cell::device_model::Model;
 use crate::cell::param_store::{self, ParamStore, StoreError, StoredValue};
-use crate::cell::storage_request;
+use crate::cell::storage_request::{self, OnRequest, Requesting};
 
 /// A value the cell file sets at power-on, as a commissioning tool would have (before the
 /// stored set, which wins).
@@ -39,8 +39,10 @@ pub(super) fn load_all(
 /// The dictionary as the SDO server (CANopen or CoE) sees it: a "save" (1010h) is carried
 /// out before the answer, so a file that cannot be written gets the abort CiA 301 and the
 /// CMMP-AS manual give for a faulty store access (0800 0020h) instead of a confirmation.
-pub struct Persisting<'a> {
-    model: &'a mut Model,
+pub type Persisting<'a> = Requesting<'a, SaveNow<'a>>;
+
+/// A CANopen node's [`OnRequest`]: the file written before the answer.
+pub struct SaveNow<'a> {
     store: Option<&'a ParamStore>,
     stored: &'a mut Vec<StoredValue>,
 }
@@ -53,42 +55,34 @@ impl<'a> Persisting<'a> {
         store: Option<&'a ParamStore>,
         stored: &'a mut Vec<StoredValue>,
     ) -> Self {
-        Persisting {
+        Requesting {
             model,
-            store,
-            stored,
+            handler: SaveNow { store, stored },
         }
     }
 
     /// Carries out a save or restore the dictionary asked for ([`storage_request`]): the
     /// file written before the answer.
     pub fn carry_out(&mut self, req: StorageRequest) -> Result<(), StoreError> {
-        let Some(save) = storage_request::take(self.model, self.store, req) else {
-            return Ok(());
-        };
-        let written = save.write_now(self.model.od());
-        storage_request::keep_saved(self.stored, self.model.od().node_id(), written)
+        self.handler.carry_out(self.model, req)
     }
 }
 
-impl ObjectAccess for Persisting<'_> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.model.entry(index, sub)
+impl SaveNow<'_> {
+    fn carry_out(&mut self, model: &mut Model, req: StorageRequest) -> Result<(), StoreError> {
+        let Some(save) = storage_request::take(model, self.store, req) else {
+            return Ok(());
+        };
+        let written = save.write_now(model.od());
+        storage_request::keep_saved(self.stored, model.od().node_id(), written)
     }
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.model.read(index, sub, buf)
-    }
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.model.write(index, sub, data)?;
-        if let Some(req) = self.model.od_mut().take_request() {
-            self.carry_out(req).map_err(|e| {
-                tracing::error!(error = %e, "saving parameters failed");
-                AbortCode::CANNOT_STORE
-            })?;
-        }
-        Ok(())
-    }
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.model.write_internal(index, sub, data)
+}
+
+impl OnRequest for SaveNow<'_> {
+    fn on_request(&mut self, model: &mut Model, req: StorageRequest) -> Result<(), AbortCode> {
+        self.carry_out(model, req).map_err(|e| {
+            tracing::error!(error = %e, "saving parameters failed");
+            AbortCode::CANNOT_STORE
+        })
     }
 }
