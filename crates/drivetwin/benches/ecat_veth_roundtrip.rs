@@ -59,6 +59,10 @@
 //! returns a frame of the chain's size: the floor of one frame through the same path, which
 //! the chain target is set against (4 kHz, 64 drives: p99 ≤ 2× the floor, no late cycle).
 //!
+//! `ECAT_ROUNDTRIP_TURNS=1` prints what each twin row's `drivetwin run` printed as it stopped:
+//! its timers' lateness and its loop's longest turns, what each did and how many turns took
+//! how long.
+//!
 //! `ECAT_ROUNDTRIP_LATE_LOG=path` appends each late reply to `path`: its row, the time it was
 //! sent on `CLOCK_MONOTONIC` (ns, the clock `perf record -k CLOCK_MONOTONIC` stamps its
 //! events with) and how long it took, so that a trace of the CPU's scheduling taken beside
@@ -521,7 +525,17 @@ impl Running {
     fn stop(self) {
         match self {
             Running::Echo(e) => drop(e),
-            Running::Twin(t) => t.stop().expect("drivetwin stops cleanly on SIGTERM"),
+            Running::Twin(t) => {
+                let report = t
+                    .stop_reporting()
+                    .expect("drivetwin stops cleanly on SIGTERM");
+                // ECAT_ROUNDTRIP_TURNS=1: the twin's lateness and its loop's longest turns.
+                if std::env::var_os("ECAT_ROUNDTRIP_TURNS").is_some_and(|v| v != "0") {
+                    for line in report {
+                        eprintln!("    twin: {line}");
+                    }
+                }
+            }
         }
     }
 }
