@@ -59,6 +59,9 @@
 //! returns a frame of the chain's size: the floor of one frame through the same path, which
 //! the chain target is set against (4 kHz, 64 drives: p99 ≤ 2× the floor, no late cycle).
 //!
+//! `ECAT_ROUNDTRIP_MASTER=sleeps` runs the sleeping master's rows alone (no spinning master,
+//! no spinning echo, no `--busy-poll` twin).
+//!
 //! `ECAT_ROUNDTRIP_TURNS=1` prints what each twin row's `drivetwin run` printed as it stopped:
 //! its timers' lateness and its loop's longest turns, what each did and how many turns took
 //! how long.
@@ -181,6 +184,14 @@ fn main() {
         Err(_) => (seconds * f64::from(hz)).round() as usize,
     }
     .max(1);
+    let sleeping_only = match std::env::var("ECAT_ROUNDTRIP_MASTER").as_deref() {
+        Ok("sleeps") => true,
+        Ok("") | Err(_) => false,
+        Ok(other) => {
+            eprintln!("ECAT_ROUNDTRIP_MASTER={other:?}: sleeps, or unset for both masters");
+            return;
+        }
+    };
     let placements = std::env::var("ECAT_ROUNDTRIP_PLACEMENTS").unwrap_or_default();
     let (one, split) = match placements.as_str() {
         "" => (true, true),
@@ -260,6 +271,7 @@ fn main() {
         server_slice_us,
         slaves,
         cycle,
+        sleeping_only,
     };
     let mut all = Vec::new();
     if one {
@@ -358,6 +370,8 @@ struct Bench {
     slaves: u16,
     /// `ECAT_ROUNDTRIP_HZ`: the process-data cycle; a reply later than it is late.
     cycle: Duration,
+    /// `ECAT_ROUNDTRIP_MASTER=sleeps`: the sleeping master's rows alone.
+    sleeping_only: bool,
 }
 
 /// One measured row: a server, a master, a placement.
@@ -382,7 +396,7 @@ impl Bench {
         pin_thread(p.master_cpu);
         let mut master = Master::open(&self.veth.master_if, self.slaves, self.cycle)
             .expect("master-side raw socket");
-        let waits: &[MasterWait] = if p.server_cpu == p.master_cpu {
+        let waits: &[MasterWait] = if p.server_cpu == p.master_cpu || self.sleeping_only {
             &[MasterWait::Sleeps]
         } else {
             &[MasterWait::Sleeps, MasterWait::Spins]

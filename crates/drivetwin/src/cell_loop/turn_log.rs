@@ -89,7 +89,20 @@ pub struct TurnLog {
     turns: u64,
     longest: [Turn; KEPT],
     lengths: [u64; BUCKETS],
+    totals: Totals,
     published: Arc<Mutex<TurnReport>>,
+}
+
+/// Every turn's parts and counts added up: where the loop's time went on average, beside
+/// the longest turns.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Totals {
+    pub wall: Duration,
+    pub cpu: Duration,
+    pub parts: [Duration; PARTS],
+    pub frames: u64,
+    pub exchanges: u64,
+    pub polls: u64,
 }
 
 /// What the loop hands over when it stops.
@@ -100,6 +113,8 @@ pub struct TurnReport {
     pub longest: Vec<Turn>,
     /// Turns by length: (lower bound, count), the empty buckets left out.
     pub lengths: Vec<(Duration, u64)>,
+    /// Every turn added up.
+    pub totals: Totals,
 }
 
 impl TurnLog {
@@ -114,6 +129,7 @@ impl TurnLog {
             turns: 0,
             longest: [Turn::default(); KEPT],
             lengths: [0; BUCKETS],
+            totals: Totals::default(),
             published: Arc::default(),
         }
     }
@@ -198,6 +214,15 @@ impl TurnLog {
         if let Some(b) = self.lengths.get_mut(bucket) {
             *b += 1;
         }
+        let all = &mut self.totals;
+        all.wall += t.wall;
+        all.cpu += t.cpu;
+        for (sum, part) in all.parts.iter_mut().zip(t.parts) {
+            *sum += part;
+        }
+        all.frames += u64::from(t.frames);
+        all.exchanges += u64::from(t.exchanges);
+        all.polls += u64::from(t.polls);
         // The shortest kept is replaced by a longer one.
         if let Some(slot) = self
             .longest
@@ -229,6 +254,7 @@ impl TurnLog {
             turns: self.turns,
             longest,
             lengths,
+            totals: self.totals,
         };
         *self.published.lock().unwrap_or_else(|e| e.into_inner()) = report;
     }
@@ -273,6 +299,34 @@ impl fmt::Display for TurnReport {
         for (from, n) in &self.lengths {
             write!(f, " ≥{}µs {n}", from.as_micros())?;
         }
+        let all = &self.totals;
+        write!(
+            f,
+            "\n  in all: {:.1} ms (cpu {:.1} ms); {} frames, {} exchanges, {} polls;",
+            all.wall.as_secs_f64() * 1e3,
+            all.cpu.as_secs_f64() * 1e3,
+            all.frames,
+            all.exchanges,
+            all.polls
+        )?;
+        for (name, d) in PART_NAMES.iter().zip(all.parts) {
+            write!(f, " {name} {:.1}", d.as_secs_f64() * 1e3)?;
+        }
+        write!(f, " ms")?;
+        if all.frames > 0 {
+            // Per frame: what a master's frame costs the loop, on its path or after it.
+            let per = |d: Duration| d.as_secs_f64() * 1e6 / all.frames as f64;
+            write!(
+                f,
+                "; per frame {:.1} µs (cpu {:.1} µs):",
+                per(all.wall),
+                per(all.cpu)
+            )?;
+            for (name, d) in PART_NAMES.iter().zip(all.parts) {
+                write!(f, " {name} {:.1}", per(d))?;
+            }
+            write!(f, " µs")?;
+        }
         for t in &self.longest {
             write!(f, "\n  longest: {t}")?;
         }
@@ -309,6 +363,12 @@ mod tests {
         let first = report.longest[0];
         assert_eq!((first.index, first.frames, first.sync0_events), (3, 1, 2));
         assert_eq!(first.woke_late, Duration::from_micros(3));
+        // Every turn, not only the longest, adds to the totals.
+        assert_eq!(report.totals.frames, 11);
+        assert_eq!(
+            report.totals.wall,
+            Duration::from_micros(micros.iter().sum::<u64>())
+        );
         // Powers of two: 1 µs; 5 and 7; 9; 40 and 60; 80, 90 and 100; 300; 2000.
         let counted: Vec<(u128, u64)> = report
             .lengths
