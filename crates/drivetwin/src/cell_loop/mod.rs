@@ -146,10 +146,13 @@ struct ChainState {
     link: ChainLink,
     /// The devices' exchange after the last frame answered ([`SlaveChain::exchange_with`]),
     /// at that frame's time, when it is still to run: the loop runs it before anything reads
-    /// the chain again, or at its next wake-up ([`CellLoop::settle_chains`]).
+    /// the chain again, or half-way to the next frame ([`CellLoop::settle_chains`]).
     pending_exchange: Option<od::Instant>,
     /// When the last frame arrived: a frame's time never goes back.
     last_frame: Instant,
+    /// The time between the last two frames: the master's cycle, as the loop sees it
+    /// (`Duration::MAX` before the second frame).
+    frame_gap: Duration,
     /// The 1010h saves its slaves asked for, written beside the loop
     /// ([`CellLoop::hand_off_saves`]).
     saver: ParamSaver<usize>,
@@ -490,6 +493,7 @@ impl CellLoop {
                 ),
                 pending_exchange: None,
                 last_frame: Instant::now(),
+                frame_gap: Duration::MAX,
                 saver: ParamSaver::default(),
             })
             .collect();
@@ -816,16 +820,15 @@ impl CellLoop {
         }
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
-            // A pending exchange runs at the loop's next wake-up: under a master that sends
-            // every tick, the one between its frames that the last exchange's step (its
-            // grace) asks for, for which the timer is armed already; at the latest when the
-            // exchange's own step would fall due. It never moves the timer earlier on the
-            // frame's path.
-            take(
-                c.pending_exchange.map(|t| {
-                    self.wall(t) + crate::ecat::chain::TICK + crate::ecat::chain::STEP_GRACE
-                }),
-            );
+            // A pending exchange runs half-way between the master's frames (half the time
+            // between the last two), at the latest when the exchange's own step would fall
+            // due (`TICK` + `STEP_GRACE`): a master that shares the loop's CPU has its answer
+            // and its time after it first, and its next frame finds the devices' work done
+            // rather than waiting behind it (`settle`). The exchange runs at its frame's time
+            // whenever the loop gets to it, so its results do not depend on this choice.
+            let latest = crate::ecat::chain::TICK + crate::ecat::chain::STEP_GRACE;
+            let after = latest.min(c.frame_gap / 2);
+            take(c.pending_exchange.map(|t| self.wall(t) + after));
         }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));

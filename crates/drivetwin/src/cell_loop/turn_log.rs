@@ -102,6 +102,9 @@ pub struct Totals {
     pub parts: [Duration; PARTS],
     pub frames: u64,
     pub exchanges: u64,
+    /// Exchanges that ran on a frame's path: the exchange after the frame before, still
+    /// pending when the next frame came.
+    pub exchanges_on_path: u64,
     pub polls: u64,
 }
 
@@ -182,6 +185,11 @@ impl TurnLog {
     /// The chains' devices exchanged after a frame.
     pub fn exchange(&mut self) {
         self.current.exchanges += 1;
+    }
+
+    /// The exchange after the frame before ran first on a frame's path.
+    pub fn exchange_on_path(&mut self) {
+        self.totals.exchanges_on_path += 1;
     }
 
     /// The chains' devices ran without a frame.
@@ -302,11 +310,12 @@ impl fmt::Display for TurnReport {
         let all = &self.totals;
         write!(
             f,
-            "\n  in all: {:.1} ms (cpu {:.1} ms); {} frames, {} exchanges, {} polls;",
+            "\n  in all: {:.1} ms (cpu {:.1} ms); {} frames, {} exchanges ({} on a frame's path), {} polls;",
             all.wall.as_secs_f64() * 1e3,
             all.cpu.as_secs_f64() * 1e3,
             all.frames,
             all.exchanges,
+            all.exchanges_on_path,
             all.polls
         )?;
         for (name, d) in PART_NAMES.iter().zip(all.parts) {
