@@ -5,7 +5,7 @@
 use core::time::Duration;
 
 use heapless::Deque;
-use od::{time::earliest, AbortCode, Cia301Options, Entry, Instant, ObjectAccess};
+use od::{time::earliest, AbortCode, Cia301Options, Forwarding, Instant, ObjectAccess};
 
 use crate::emcy::{register, EmcyProducer};
 use crate::heartbeat::{ConsumerEvent, HeartbeatConsumer, HeartbeatProducer};
@@ -111,14 +111,17 @@ impl SdoView<'_> {
     }
 }
 
-impl ObjectAccess for SdoView<'_> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.od.entry(index, sub)
+impl<'a> Forwarding for SdoView<'a> {
+    type Inner = dyn ObjectAccess + 'a;
+
+    fn inner(&self) -> &Self::Inner {
+        self.od
     }
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.od.read(index, sub, buf)
+    fn inner_mut(&mut self) -> &mut Self::Inner {
+        self.od
     }
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+
+    fn on_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if self.lock_pdo_params && (0x1400..=0x1BFF).contains(&index) {
             // `pdo_config_outside_operational`: PDOs are parameterised outside Operational only.
             self.od.entry(index, sub)?;
@@ -126,9 +129,6 @@ impl ObjectAccess for SdoView<'_> {
         }
         self.check_life_time(index, data)?;
         self.od.write(index, sub, data)
-    }
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.od.write_internal(index, sub, data)
     }
 }
 

@@ -20,6 +20,36 @@ fn homing(r: &mut Rig, method: i8) {
     r.run_ms(5);
 }
 
+/// The rig on a travel without the home switch cam: input 6 is what is forced.
+fn rig_without_cam() -> Rig {
+    Rig::with(DriveSettings {
+        travel: TravelSettings {
+            home_switch: None,
+            ..TravelSettings::default()
+        },
+        ..DriveSettings::default()
+    })
+}
+
+/// Homing with `method` started (controlword bit 4): the set-point's speed (6062h, units per
+/// ms) every ms until the statusword shows one of `bits`, at most `ms` of them.
+fn homing_speeds(r: &mut Rig, method: i8, ms: u32, bits: u16) -> Vec<i64> {
+    homing(r, method);
+    r.cw(0x001F);
+    let mut last = r.i(0x6062, 0);
+    let mut speeds = Vec::new();
+    for _ in 0..ms {
+        r.run_ms(1);
+        let p = r.i(0x6062, 0);
+        speeds.push(p - last);
+        last = p;
+        if r.sw() & bits != 0 {
+            break;
+        }
+    }
+    speeds
+}
+
 #[test]
 fn the_methods_of_the_manual() {
     let mut methods: Vec<i8> = NANOTEC.homing_methods.iter().map(|(m, _)| *m).collect();
@@ -49,20 +79,7 @@ fn method_35_sets_the_home_offset_without_moving() {
 #[test]
 fn method_19_switch_reversal_is_immediate() {
     let mut r = Rig::new();
-    homing(&mut r, 19);
-    r.cw(0x001F);
-    // Speeds of the set-point, units per ms, every ms.
-    let mut last = r.i(0x6062, 0);
-    let mut speeds = Vec::new();
-    for _ in 0..3000 {
-        r.run_ms(1);
-        let p = r.i(0x6062, 0);
-        speeds.push(p - last);
-        last = p;
-        if r.sw() & 0x1000 != 0 {
-            break;
-        }
-    }
+    let speeds = homing_speeds(&mut r, 19, 3000, 0x1000);
     assert_eq!(r.sw() & 0x3000, 0x1000, "attained: {:#06x}", r.sw());
     // Search 2000 units/s = 2 per ms, crawl 500 units/s = 0.5 per ms backwards.
     let search = speeds.iter().filter(|s| **s == 2).count();
@@ -99,19 +116,7 @@ fn methods_33_and_34_reverse_off_the_index_mark() {
     for (method, direction, mark) in [(33, 1, INDEX), (34, -1, INDEX - 65_536)] {
         let mut r = Rig::new();
         r.w32(0x607C, 0, 50);
-        homing(&mut r, method);
-        r.cw(0x001F);
-        let mut last = r.i(0x6062, 0);
-        let mut speeds = Vec::new();
-        for _ in 0..6000 {
-            r.run_ms(1);
-            let p = r.i(0x6062, 0);
-            speeds.push(p - last);
-            last = p;
-            if r.sw() & 0x3000 != 0 {
-                break;
-            }
-        }
+        let speeds = homing_speeds(&mut r, method, 6000, 0x3000);
         assert_eq!(
             r.sw() & 0x3000,
             0x1000,
@@ -254,13 +259,7 @@ fn reference_switch_is_input_6_in_60fd() {
 /// names none), and the inputs past 6 show nothing.
 #[test]
 fn the_home_switch_by_name_is_input_6() {
-    let mut r = Rig::with(DriveSettings {
-        travel: TravelSettings {
-            home_switch: None,
-            ..TravelSettings::default()
-        },
-        ..DriveSettings::default()
-    });
+    let mut r = rig_without_cam();
     let input = r.d.switch_input(NamedSwitch::Home).expect("input 6");
     assert_eq!((input.mask, input.actuated_high), (1 << 6, true));
     assert_eq!(r.d.switch_input(NamedSwitch::LimitPositive), None);
@@ -281,13 +280,7 @@ fn the_home_switch_by_name_is_input_6() {
 #[test]
 fn methods_19_to_22_home_on_input_6_forced() {
     for (method, direction) in [(19i8, 1i64), (20, -1), (21, -1), (22, 1)] {
-        let mut r = Rig::with(DriveSettings {
-            travel: TravelSettings {
-                home_switch: None,
-                ..TravelSettings::default()
-            },
-            ..DriveSettings::default()
-        });
+        let mut r = rig_without_cam();
         homing(&mut r, method);
         r.cw(0x001F);
         let mut on = false;

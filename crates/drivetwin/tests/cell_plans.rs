@@ -14,7 +14,6 @@
 mod ecat_veth;
 mod web_rig;
 
-use std::net::TcpListener;
 use std::time::{Duration, Instant};
 
 use drivetwin::cell::config::CellFile;
@@ -23,9 +22,6 @@ use drivetwin::cell::planned::{self, Locator};
 use drivetwin::cell_loop::{EthercatChain, FrontEnds};
 use drivetwin::ecat::chain::SlaveChain;
 use drivetwin::ecat::link::SlaveSocket;
-use drivetwin::modbus_tcp::cell_drive::ModbusDrive;
-use drivetwin::modbus_tcp::server::ModbusConfig;
-use drivetwin::vendors::festo_cmmo_st::modbus_server::FhppModbus;
 
 const FILE: &str = r#"
 [[drive]]
@@ -85,27 +81,11 @@ fn a_cmmo_st_gets_its_planned_message_and_plant_change() {
         "thermal figures, ambient, 2Fh, the encoder"
     );
     // Drive 0 a CMMP-AS on CAN, drive 1 the CMMO-ST on Modbus TCP, as in the file.
-    let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
-    let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
-    let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
-    let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let addr = mb.local_addr().expect("addr");
     let t0 = Instant::now();
-    let (can, buses) = web_rig::bus(vec![web_rig::station("cmmp-as", 1)]);
-    let cell = web_rig::start(
-        can,
-        FrontEnds {
-            buses,
-            modbus: vec![ModbusDrive::new(
-                mb,
-                Box::new(FhppModbus::new(dev, None)),
-                ModbusConfig::default(),
-            )],
-            plans,
-            ..FrontEnds::default()
-        },
-        Some(addr),
-    );
+    let cell = web_rig::cmmp_and_cmmo_st_with(FrontEnds {
+        plans,
+        ..FrontEnds::default()
+    });
     until("the planned message", || active(&cell.handle, 1, "2Fh"));
     assert!(
         t0.elapsed() >= Duration::from_millis(50),

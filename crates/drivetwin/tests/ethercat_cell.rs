@@ -1258,6 +1258,27 @@ fn reset_node_over_can(m: &mut Master) {
     );
 }
 
+/// The drive of [`ON_BOTH_FIELDBUSES`] saving to a fresh state directory
+/// (`drivetwin-ecat-{name}-<pid>`, returned), its saves written by the runtime where
+/// `runtime_saves`: 6081h "profile velocity" at its default on both fieldbuses, then `value`
+/// written to it over CoE (mailbox counters 1 and 2; [`ask_for_a_save`] takes 1 next).
+fn on_both_with_profile_velocity(
+    name: &str,
+    value: u32,
+    runtime_saves: bool,
+) -> (Master, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut m = cmmp_as_on_both_saving_to(&dir);
+    m.runtime_saves = runtime_saves;
+    assert_eq!(profile_velocity_on_both(&mut m, 1), (1000, 1000), "default");
+    assert_eq!(
+        coe_download(&mut m, 2, 0x6081, 0, &value.to_le_bytes())[0],
+        0x60
+    );
+    (m, dir)
+}
+
 /// A drive that is a CANopen node and an EtherCAT slave at once saves over CoE as one on
 /// EtherCAT alone: the reply waits until the runtime has written the file; the file holds the
 /// value written over CoE; the CANopen side, which shares the dictionary and the stored set,
@@ -1265,16 +1286,8 @@ fn reset_node_over_can(m: &mut Master) {
 /// directory.
 #[test]
 fn a_drive_on_canopen_and_ethercat_saves_over_coe_for_both() {
-    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-both-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let mut m = cmmp_as_on_both_saving_to(&dir);
-    m.runtime_saves = false;
-    assert_eq!(profile_velocity_on_both(&mut m, 1), (1000, 1000), "default");
     let saved = 12_345u32;
-    assert_eq!(
-        coe_download(&mut m, 2, 0x6081, 0, &saved.to_le_bytes())[0],
-        0x60
-    );
+    let (mut m, dir) = on_both_with_profile_velocity("both", saved, false);
     assert_eq!(profile_velocity_on_both(&mut m, 3), (saved, saved));
 
     ask_for_a_save(&mut m);
@@ -1333,15 +1346,8 @@ fn a_drive_on_canopen_and_ethercat_saves_over_coe_for_both() {
 /// frame that brings it returns with its reply posted.
 #[test]
 fn a_restore_over_canopen_is_seen_over_coe() {
-    let dir = std::env::temp_dir().join(format!("drivetwin-ecat-restore-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let mut m = cmmp_as_on_both_saving_to(&dir);
     let saved = 23_456u32;
-    // Counter 2: the save's request is counter 1.
-    assert_eq!(
-        coe_download(&mut m, 2, 0x6081, 0, &saved.to_le_bytes())[0],
-        0x60
-    );
+    let (mut m, dir) = on_both_with_profile_velocity("restore", saved, true);
     ask_for_a_save(&mut m);
     assert!(!m.cell.device(0).unwrap().saving(), "written on the loop");
     assert_ne!(m.fprd(0x080D, 1).data[0] & 0x08, 0, "the reply posted");

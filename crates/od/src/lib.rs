@@ -17,6 +17,7 @@ pub mod description;
 pub mod diagnostic;
 pub mod dictionary;
 pub mod eds;
+pub mod forwarding;
 pub mod parameter_file;
 pub mod pdo_rules;
 pub mod plant_supervision;
@@ -35,6 +36,7 @@ pub use description::{
 };
 pub use diagnostic::{Diagnostic, Reaction};
 pub use dictionary::{ObjectAccess, ObjectDictionary, StorageRequest};
+pub use forwarding::Forwarding;
 pub use plant_supervision::PlantSupervision;
 pub use serial_ports::{ProtocolSelect, SerialPort, SerialProtocol};
 pub use time::Instant;

@@ -6,7 +6,7 @@
 //! Both take the request here ([`take`]) and keep the set the file holds afterwards
 //! ([`keep_saved`]); they differ only in when the file is written.
 
-use od::{AbortCode, Entry, ObjectAccess, ObjectDictionary, StorageRequest};
+use od::{AbortCode, Forwarding, ObjectAccess, ObjectDictionary, StorageRequest};
 
 use crate::cell::device_model::Model;
 use crate::cell::param_saver::{SaveJob, SaveResult};
@@ -93,21 +93,21 @@ pub struct Requesting<'a, H> {
     pub handler: H,
 }
 
-impl<H: OnRequest> ObjectAccess for Requesting<'_, H> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.model.entry(index, sub)
+impl<H: OnRequest> Forwarding for Requesting<'_, H> {
+    type Inner = Model;
+
+    fn inner(&self) -> &Model {
+        self.model
     }
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.model.read(index, sub, buf)
+    fn inner_mut(&mut self) -> &mut Model {
+        self.model
     }
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+
+    fn on_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.model.write(index, sub, data)?;
         if let Some(req) = self.model.od_mut().take_request() {
             self.handler.on_request(self.model, req)?;
         }
         Ok(())
-    }
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.model.write_internal(index, sub, data)
     }
 }

@@ -76,48 +76,51 @@ pub fn bus(drives: Vec<Station>) -> (CanCell, Vec<CanBus>) {
     (CanCell::one_bus(drives), vec![bus])
 }
 
+/// The CAN drives `drives` on one bus with its socketcand server, beside the front ends of
+/// `more` (a Modbus drive at `modbus`, plans), running.
+pub fn on_one_bus(drives: Vec<Station>, more: FrontEnds, modbus: Option<SocketAddr>) -> Running {
+    let (cell, buses) = bus(drives);
+    start(cell, FrontEnds { buses, ..more }, modbus)
+}
+
 /// Drive 0 a CMMP-AS (node 1) on CAN, drive 1 a CMMO-ST on Modbus TCP.
 pub fn cmmp_and_cmmo_st() -> Running {
+    cmmp_and_cmmo_st_with(FrontEnds::default())
+}
+
+/// [`cmmp_and_cmmo_st`] with the front ends of `more` beside them (the cell file's plans).
+pub fn cmmp_and_cmmo_st_with(more: FrontEnds) -> Running {
     let cmmo = devices::by_name("cmmo-st").expect("cmmo-st");
     let od = od::ObjectDictionary::new(cmmo, 1, vec![0u8; cmmo.storage_size]).expect("od");
     let dev = drive::vendors::festo_cmmo_st::device::FhppDevice::new(od, Default::default());
     let mb = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = mb.local_addr().expect("addr");
-    let (cell, buses) = bus(vec![station("cmmp-as", 1)]);
-    let front = FrontEnds {
-        buses,
-        modbus: vec![ModbusDrive::new(
-            mb,
-            Box::new(FhppModbus::new(dev, None)),
-            ModbusConfig::default(),
-        )],
-        ..FrontEnds::default()
-    };
-    start(cell, front, Some(addr))
+    let modbus = vec![ModbusDrive::new(
+        mb,
+        Box::new(FhppModbus::new(dev, None)),
+        ModbusConfig::default(),
+    )];
+    on_one_bus(
+        vec![station("cmmp-as", 1)],
+        FrontEnds { modbus, ..more },
+        Some(addr),
+    )
 }
 
 /// Drive 0 a Kinco FD3 (node 2) at factory defaults, drive 1 a CMMP-AS (node 1), on one bus.
 pub fn kinco_and_cmmp() -> Running {
-    let (cell, buses) = bus(vec![station("kinco-fd3", 2), station("cmmp-as", 1)]);
-    start(
-        cell,
-        FrontEnds {
-            buses,
-            ..FrontEnds::default()
-        },
+    on_one_bus(
+        vec![station("kinco-fd3", 2), station("cmmp-as", 1)],
+        FrontEnds::default(),
         None,
     )
 }
 
 /// Drive 0 a Nanotec SMCI47-S (node 34) alone on a bus.
 pub fn nanotec() -> Running {
-    let (cell, buses) = bus(vec![station("nanotec-smci47s", 34)]);
-    start(
-        cell,
-        FrontEnds {
-            buses,
-            ..FrontEnds::default()
-        },
+    on_one_bus(
+        vec![station("nanotec-smci47s", 34)],
+        FrontEnds::default(),
         None,
     )
 }

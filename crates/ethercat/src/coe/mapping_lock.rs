@@ -4,7 +4,7 @@
 //! present device state"), the code SOES and TwinCAT's slaves give. Reads stay open. Everything
 //! else passes through unchanged.
 
-use od::{AbortCode, Entry, ObjectAccess};
+use od::{AbortCode, Forwarding, ObjectAccess};
 
 /// An [`ObjectAccess`] that refuses PDO configuration writes while `locked`.
 pub struct MappingLock<'a> {
@@ -23,16 +23,17 @@ impl<'a> MappingLock<'a> {
     }
 }
 
-impl ObjectAccess for MappingLock<'_> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.inner.entry(index, sub)
+impl<'a> Forwarding for MappingLock<'a> {
+    type Inner = dyn ObjectAccess + 'a;
+
+    fn inner(&self) -> &Self::Inner {
+        self.inner
+    }
+    fn inner_mut(&mut self) -> &mut Self::Inner {
+        self.inner
     }
 
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.inner.read(index, sub, buf)
-    }
-
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    fn on_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if self.locked && Self::is_pdo_configuration(index) {
             // The entry must exist and be writable first: a missing object still aborts
             // 0602 0000h, a read-only one 0601 0002h, as in Pre-Op.
@@ -43,9 +44,5 @@ impl ObjectAccess for MappingLock<'_> {
             return Err(AbortCode::DEVICE_STATE);
         }
         self.inner.write(index, sub, data)
-    }
-
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.inner.write_internal(index, sub, data)
     }
 }

@@ -4,7 +4,7 @@
 //! to the dictionary as the CoE side's do).
 
 use canopen::{CanFrame, Node};
-use od::{AbortCode, Entry, Instant, ObjectAccess};
+use od::{AbortCode, Forwarding, Instant, ObjectAccess};
 
 use super::{Persisting, Station};
 
@@ -33,20 +33,20 @@ struct Console<'a> {
     now: Instant,
 }
 
-impl ObjectAccess for Console<'_> {
-    fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        self.access.entry(index, sub)
+impl<'a> Forwarding for Console<'a> {
+    type Inner = Persisting<'a>;
+
+    fn inner(&self) -> &Persisting<'a> {
+        &self.access
     }
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        self.access.read(index, sub, buf)
+    fn inner_mut(&mut self) -> &mut Persisting<'a> {
+        &mut self.access
     }
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+
+    fn on_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match self.node.as_mut() {
             Some(node) => node.local_write(self.now, index, sub, data, &mut self.access),
             None => self.access.write(index, sub, data),
         }
-    }
-    fn write_internal(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.access.write_internal(index, sub, data)
     }
 }
