@@ -970,6 +970,36 @@ mod tests {
         assert!(!lock(&cell.shared).stale);
     }
 
+    /// An input the importer sets acts at the next step's start and not before; a step
+    /// after it looks at no drive's inputs until the importer sets one again.
+    #[test]
+    fn an_input_set_between_steps_acts_at_the_next_step() {
+        let mut cell = two_drives();
+        let forced = |cell: &CellInstance| {
+            lock(&cell.shared)
+                .rig
+                .drive_model(2)
+                .map(|d| d.forced_inputs())
+        };
+        cell.do_step(0.0, 1e-3).unwrap();
+        assert!(cell.inputs.iter().all(|i| !i.pending));
+        assert_eq!(forced(&cell), Some((0, 0)));
+        cell.set_boolean(vr(&cell, "node2.din3"), true).unwrap();
+        assert!(cell.inputs[1].pending && !cell.inputs[0].pending);
+        assert_eq!(forced(&cell), Some((0, 0)), "not before the step");
+        cell.do_step(1e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 1 << 3)));
+        assert!(!cell.inputs[1].pending);
+        // The same level again acts no more; another level acts at the next step.
+        cell.set_boolean(vr(&cell, "node2.din3"), true).unwrap();
+        cell.do_step(2e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 1 << 3)));
+        cell.set_boolean(vr(&cell, "node2.din3"), false).unwrap();
+        cell.do_step(3e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 0)));
+        assert!(cell.inputs.iter().all(|i| !i.pending));
+    }
+
     /// Two CMMP-AS on one bus, the first one's shaft free.
     fn two_drives() -> CellInstance {
         let file: CellFile = toml::from_str(
