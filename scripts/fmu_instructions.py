@@ -15,9 +15,15 @@ start of the process, fmpy's import and the cell's building drop out:
 - `doStep` + every output: the same, each step followed by `fmi3GetFloat64`, `fmi3GetUInt16`
   and `fmi3GetInt32` of every output of those types (one call per type, into arrays made
   once), as `scripts/fmu_speed.py` reads them;
+- `doStep` + every output through fmpy's getters: the same reads as `slave.getFloat64(vrs)`,
+  `getUInt16`, `getInt32` (fmpy's wrappers: the value references as a list, the values back
+  as one), as an fmpy user who reads every output writes them;
 - `simulate_fmu`: `fmpy.simulate_fmu` on the extracted FMU, its description read beforehand
   and not validated, every output recorded at every step (fmpy's stepping loop and recorder),
   minus the same with a stop time of 0.
+
+Each run is counted with Python's hashing seeded and the address space not randomised
+(`setarch -R`), so that the same binary gives the same count to a few thousand instructions.
 
 Beside each FMU loop the instructions inside libffi's `ffi_call` (inclusive, from
 `callgrind_annotate --inclusive=yes`), through which ctypes makes every call into the FMU:
@@ -30,6 +36,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -62,6 +69,19 @@ def loop(unzipped: str, kind: str, steps: int, step: float) -> None:
     slave.enterInitializationMode(startTime=0.0)
     slave.exitInitializationMode()
     calls = []
+    if kind == "fmpy_gets":
+        for name in ("Float64", "UInt16", "Int32"):
+            vrs = [v.valueReference for v in md.modelVariables
+                   if v.causality == "output" and v.type == name]
+            if vrs:
+                calls.append((getattr(slave, "get" + name), vrs))
+        for i in range(steps):
+            slave.doStep(currentCommunicationPoint=i * step, communicationStepSize=step)
+            for get, vrs in calls:
+                get(vrs)
+        slave.terminate()
+        slave.freeInstance()
+        return
     if kind == "gets":
         for name, ctype in (("Float64", c_double), ("UInt16", c_uint16), ("Int32", c_int32)):
             vrs = [v.valueReference for v in md.modelVariables
@@ -81,8 +101,12 @@ def loop(unzipped: str, kind: str, steps: int, step: float) -> None:
 def callgrind(command: list[str], out: Path) -> tuple[int, dict[str, int]]:
     """The instructions of `command` under callgrind, and the inclusive instructions of each
     of [`FMU_FUNCTIONS`] it called."""
-    # One hash seed: Python's randomised hashing moves its own count from run to run.
-    subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *command],
+    # One hash seed and no address randomisation: Python's randomised hashing and its
+    # objects' addresses (hashes of identity, the order of sets) move its own count from run
+    # to run (by up to 10 M instructions in a run of 1000 steps; `setarch -R`: by 20 k).
+    fixed = ["setarch", "-R"] if shutil.which("setarch") else []
+    subprocess.run([*fixed, "valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                    *command],
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                    env={**os.environ, "PYTHONHASHSEED": "0"})
     text = out.read_text(errors="replace")
@@ -106,8 +130,9 @@ def main() -> int:
     p.add_argument("--step", type=float, default=1e-3, help="the importer's step, s")
     p.add_argument("--binary", type=Path, default=Path(os.environ.get(
         "DRIVETWIN_BIN", ROOT / "target/release/drivetwin")))
-    p.add_argument("--kinds", default="steps,gets,simulate",
-                   help="the FMU loops to count: steps, gets, simulate (comma-separated)")
+    p.add_argument("--kinds", default="steps,gets,fmpy_gets,simulate",
+                   help="the FMU loops to count: steps, gets, fmpy_gets, simulate "
+                        "(comma-separated)")
     p.add_argument("--loop", nargs=3, metavar=("UNZIPPED", "KIND", "STEPS"),
                    help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -128,6 +153,7 @@ def main() -> int:
         native = callgrind(run + [f"{seconds:g}"], out)[0] - callgrind(run + ["0"], out)[0]
         rows = []
         for kind, label in (("steps", "doStep alone"), ("gets", "doStep + every output"),
+                            ("fmpy_gets", "doStep + every output, fmpy's getters"),
                             ("simulate", "simulate_fmu, every output recorded")):
             if kind not in a.kinds.split(","):
                 continue

@@ -496,3 +496,172 @@ fn a_cmmo_sts_planned_message_on_the_virtual_clock() {
     rig.run_until(std::time::Duration::from_millis(60), &mut |_, _, _| {});
     assert!(scon(&rig).intersects(shown), "after 50 ms: {}", scon(&rig));
 }
+
+/// A drive read at the place the rig finds once (`VirtualRig::place`, what the cell FMU reads
+/// its outputs at after each step) shows what it shows found by its node-ID and read through
+/// its dictionary (`VirtualRig::probe`: 6041h, 6064h), for two vendors on two buses, at every
+/// instant the scenario stops at while it enables both drives and turns them.
+#[test]
+fn a_drive_read_at_its_place_shows_what_its_dictionary_shows() {
+    use drivetwin::scenario::file::Action;
+    use drivetwin::scenario::runner::Rig;
+    use drivetwin::scenario::virtual_rig::{Probe, RigDrive, RigPlace};
+    use std::time::Duration;
+
+    struct Compared<'a> {
+        rig: &'a mut VirtualRig,
+        places: Vec<(u8, RigPlace)>,
+        /// Every drive's probes, read both ways, at each instant the run stopped at.
+        seen: Vec<(u8, Probe)>,
+    }
+    impl Rig for Compared<'_> {
+        fn run_until(
+            &mut self,
+            t: Duration,
+            seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame),
+        ) {
+            self.rig.run_until(t, seen);
+            for (node, place) in &self.places {
+                let at_place = self.rig.probe_at(place).expect("a plant");
+                let by_node = self.rig.probe(*node).expect("a plant");
+                assert_eq!(at_place, by_node, "node {node} at {t:?}");
+                // The words as a master's SDO upload reads them (`ObjectAccess::read`).
+                let (statusword, _) = self.rig.read(Some(*node), 0x6041, 0).expect("6041h");
+                assert_eq!(
+                    u64::from(at_place.statusword),
+                    statusword,
+                    "node {node} at {t:?}"
+                );
+                // (a dictionary without 6064h, the Kinco's: 0)
+                let position = self.rig.read(Some(*node), 0x6064, 0).map_or(0, |(v, _)| {
+                    i32::from_le_bytes(u32::try_from(v).expect("4 bytes").to_le_bytes())
+                });
+                assert_eq!(at_place.position_actual, position, "node {node} at {t:?}");
+                self.seen.push((*node, at_place));
+            }
+        }
+        fn act(
+            &mut self,
+            action: &Action,
+            seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame),
+        ) -> Result<(), String> {
+            self.rig.act(action, seen)
+        }
+        fn read(&mut self, node: Option<u8>, index: u16, sub: u8) -> Result<(u64, usize), String> {
+            self.rig.read(node, index, sub)
+        }
+    }
+
+    let mut text = String::from(
+        r#"
+        name = "two drives enabled at speed"
+        until = "600ms"
+        [cell]
+        [[cell.bus]]
+        name = "a"
+        channel = "vcan0"
+        [[cell.bus]]
+        name = "b"
+        channel = "vcan1"
+        [[cell.drive]]
+        device = "cmmp-as"
+        node = 1
+        bus = "a"
+        [[cell.drive]]
+        device = "kinco-fd3"
+        node = 2
+        bus = "b"
+        [[step]]
+        at = "0s"
+        nmt = "start"
+        bus = 0
+        [[step]]
+        at = "0s"
+        nmt = "start"
+        bus = 1
+        # The Kinco's controlword and mode to the bus (its factory inputs own them).
+        [[step]]
+        at = "2ms"
+        node = 2
+        bus = 1
+        sdo_write = "2010:03"
+        value = 0
+        [[step]]
+        at = "4ms"
+        node = 2
+        bus = 1
+        sdo_write = "2010:05"
+        value = 0
+        "#,
+    );
+    for node in [1u32, 2] {
+        for (ms, key, value) in [
+            (10, "6060:00", 3),
+            (20, "60FF:00", 2000),
+            (40, "6040:00", 0x06),
+            (60, "6040:00", 0x07),
+            (80, "6040:00", 0x0F),
+        ] {
+            text.push_str(&format!(
+                "[[step]]\nat = \"{}ms\"\nnode = {node}\nbus = {}\nsdo_write = \"{key}\"\nvalue = {value}\n",
+                ms + node,
+                node - 1
+            ));
+        }
+    }
+    for ms in (100..=600).step_by(25) {
+        let node = 1 + ms / 25 % 2;
+        text.push_str(&format!(
+            "[[step]]\nat = \"{ms}ms\"\nnode = {node}\nload = 0.01\n"
+        ));
+    }
+    let s = Scenario::parse(&text, "inline", None).expect("scenario");
+    let mut rig = VirtualRig::new(
+        s.cell.as_ref().expect("cell"),
+        drivetwin::vendors::VENDORS.runtime,
+    )
+    .expect("rig");
+    let places = [1u8, 2]
+        .iter()
+        .map(|n| {
+            (
+                *n,
+                rig.place(RigDrive::Node(*n)).expect("a node of the cell"),
+            )
+        })
+        .collect();
+    let mut compared = Compared {
+        rig: &mut rig,
+        places,
+        seen: Vec::new(),
+    };
+    let report = runner::run(&s, &mut compared);
+    assert!(report.passed, "{}", report.text());
+    for node in [1u8, 2] {
+        let probes: Vec<&Probe> = compared
+            .seen
+            .iter()
+            .filter(|(n, _)| *n == node)
+            .map(|(_, p)| p)
+            .collect();
+        assert!(probes.len() > 20, "node {node}: {} instants", probes.len());
+        // The words change while the run goes: the comparison saw the drive enabled, not a
+        // dictionary at its defaults.
+        assert!(
+            probes.iter().any(|p| p.statusword & 0x6F == 0x27),
+            "node {node}: never operation enabled: {:?}",
+            probes.last()
+        );
+    }
+    // The CMMP-AS turns at its speed: its position actual value moves.
+    let positions: Vec<i32> = compared
+        .seen
+        .iter()
+        .filter(|(n, _)| *n == 1)
+        .map(|(_, p)| p.position_actual)
+        .collect();
+    assert!(
+        positions.windows(2).filter(|w| w[0] != w[1]).count() > 10,
+        "node 1: the position actual value hardly moved: {positions:?}"
+    );
+}

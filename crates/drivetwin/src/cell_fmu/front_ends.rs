@@ -31,7 +31,7 @@ use crate::cell::config::CellFile;
 use crate::cell_loop::MAX_PENDING;
 use crate::scenario::file::Action;
 use crate::scenario::runner::Rig;
-use crate::scenario::virtual_rig::{Probe, RigDrive, VirtualRig};
+use crate::scenario::virtual_rig::{Probe, RigPlace, VirtualRig};
 
 use super::serving_thread::{ServingThread, WAKER};
 use super::CellFmuError;
@@ -64,10 +64,10 @@ pub struct Shared {
 }
 
 impl Shared {
-    /// The outputs of drives `drives` read anew.
-    pub fn refresh(&mut self, drives: &[RigDrive]) {
-        for (out, drive) in self.outputs.iter_mut().zip(drives) {
-            if let Ok(p) = self.rig.probe_drive(*drive) {
+    /// The outputs of the drives at `places` read anew.
+    pub fn refresh(&mut self, places: &[RigPlace]) {
+        for (out, place) in self.outputs.iter_mut().zip(places) {
+            if let Some(p) = self.rig.probe_at(place) {
                 *out = p;
             }
         }

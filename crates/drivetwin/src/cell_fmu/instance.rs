@@ -19,7 +19,7 @@ use crate::cell::control::DriveViews;
 use crate::cell::Vendors;
 use crate::scenario::file::{Action, StepKind};
 use crate::scenario::runner::Rig;
-use crate::scenario::virtual_rig::{Probe, RigDrive, VirtualRig};
+use crate::scenario::virtual_rig::{Probe, RigDrive, RigPlace, VirtualRig};
 use crate::scenario::Scenario;
 
 use super::can_terminal::CanTerminal;
@@ -31,8 +31,11 @@ use super::variables::{DriveName, Profile, Role, Variables, DIGITAL_INPUTS};
 use super::{CellFmuError, CELL_FILE, ETHERCAT_FILE, TIMELINE_FILE};
 
 /// What the importer set for a drive, and what has acted of it.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct Inputs {
+    /// Set since the inputs last acted (and before the first step, where the load torque
+    /// acts): a step looks at the drive's inputs only then, not at its 16 inputs every step.
+    pending: bool,
     load_torque: f64,
     /// The load torque that acted last (none before the first step).
     load_applied: Option<f64>,
@@ -41,6 +44,20 @@ struct Inputs {
     /// An FHPP drive's reference switch, and the level that acted last.
     reference: Option<bool>,
     reference_applied: Option<bool>,
+}
+
+impl Default for Inputs {
+    fn default() -> Self {
+        Inputs {
+            pending: true,
+            load_torque: 0.0,
+            load_applied: None,
+            din: [None; DIGITAL_INPUTS as usize],
+            din_applied: [None; DIGITAL_INPUTS as usize],
+            reference: None,
+            reference_applied: None,
+        }
+    }
 }
 
 /// A cell stepped by an FMI importer.
@@ -56,6 +73,8 @@ pub struct CellInstance {
     variables: Variables,
     /// Each drive of the variables as the rig knows it, in their order.
     drives: Vec<RigDrive>,
+    /// Where each of `drives` is in the rig, found once: its outputs are read there.
+    places: Vec<RigPlace>,
     /// The cell file's keys that are FMI parameters, their starts the values the cell was
     /// built with.
     parameters: Parameters,
@@ -237,6 +256,11 @@ impl CellInstance {
             .map(|n| RigDrive::Node(*n))
             .chain((0..register_image.len()).map(RigDrive::RegisterImage))
             .collect();
+        let places = drives
+            .iter()
+            .map(|d| rig.place(*d))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(CellFmuError::Cell)?;
         let variables = Variables::with_profiles(
             nodes
                 .iter()
@@ -290,6 +314,7 @@ impl CellInstance {
             ethercat,
             variables,
             drives,
+            places,
             parameters,
             timeline,
             done: 0,
@@ -367,8 +392,8 @@ impl CellInstance {
     /// Every drive's outputs read anew: the rig's drives, then the EtherCAT slaves' (the
     /// chains' lock taken inside the cell's, as the EtherCAT front end takes them).
     fn refresh(&self, shared: &mut Shared) {
-        shared.refresh(&self.drives);
-        let rig_drives = self.drives.len();
+        shared.refresh(&self.places);
+        let rig_drives = self.places.len();
         if let Some(slaves) = shared.outputs.get_mut(rig_drives..) {
             self.ethercat.probe_into(slaves);
         }
@@ -413,6 +438,7 @@ impl CellInstance {
             (drive, Role::LoadTorque) => {
                 if let Some(i) = self.inputs.get_mut(drive) {
                     i.load_torque = value;
+                    i.pending = true;
                 }
                 Ok(())
             }
@@ -447,16 +473,16 @@ impl CellInstance {
             (drive, Role::ReferenceSwitch) => {
                 if let Some(i) = self.inputs.get_mut(drive) {
                     i.reference = Some(value);
+                    i.pending = true;
                 }
                 Ok(())
             }
             (drive, Role::DigitalInput(k)) => {
-                if let Some(slot) = self
-                    .inputs
-                    .get_mut(drive)
-                    .and_then(|i| i.din.get_mut(usize::from(k)))
-                {
-                    *slot = Some(value);
+                if let Some(i) = self.inputs.get_mut(drive) {
+                    if let Some(slot) = i.din.get_mut(usize::from(k)) {
+                        *slot = Some(value);
+                        i.pending = true;
+                    }
                 }
                 Ok(())
             }
@@ -538,10 +564,10 @@ impl CellInstance {
     fn display_text(&self, drive: usize) -> [u8; DISPLAY_BYTES] {
         let mut shared = lock(&self.shared);
         let display = self.views.display;
-        let shown = match self.drives.get(drive) {
-            Some(RigDrive::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
-            Some(RigDrive::Node(n)) => shared.rig.drive_model(*n).and_then(display),
-            None => drive.checked_sub(self.drives.len()).and_then(|slave| {
+        let shown = match self.places.get(drive) {
+            Some(RigPlace::RegisterImage(i)) => shared.rig.register_image_display_state(*i),
+            Some(place) => shared.rig.drive_model_at(place).and_then(display),
+            None => drive.checked_sub(self.places.len()).and_then(|slave| {
                 self.ethercat
                     .with_drive(slave, |m| m.drive().and_then(|d| display(d)))
             }),
@@ -685,6 +711,9 @@ impl CellInstance {
         inputs: &mut [Inputs],
     ) -> Result<(), CellFmuError> {
         for (slave, i) in inputs.iter_mut().skip(first).enumerate() {
+            if !i.pending {
+                continue;
+            }
             // Named only for an error: no text made per step.
             let name = || {
                 variables
@@ -708,6 +737,7 @@ impl CellInstance {
                     .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", name())))?;
                 *applied = Some(level);
             }
+            i.pending = false;
         }
         Ok(())
     }
@@ -719,6 +749,9 @@ impl CellInstance {
         seen: &mut dyn FnMut(usize, Duration, &canopen::CanFrame),
     ) -> Result<(), CellFmuError> {
         for (drive, i) in drives.iter().zip(inputs.iter_mut()) {
+            if !i.pending {
+                continue;
+            }
             // A CANopen drive by its node-ID, a CMMO-ST by its place (its `node` may be a
             // CANopen drive's as well).
             let node = match drive {
@@ -762,6 +795,7 @@ impl CellInstance {
                     .map_err(|e| CellFmuError::Cell(format!("{}: din{din}: {e}", who())))?;
                 *applied = Some(level);
             }
+            i.pending = false;
         }
         Ok(())
     }
@@ -934,6 +968,36 @@ mod tests {
             read[1].statusword
         );
         assert!(!lock(&cell.shared).stale);
+    }
+
+    /// An input the importer sets acts at the next step's start and not before; a step
+    /// after it looks at no drive's inputs until the importer sets one again.
+    #[test]
+    fn an_input_set_between_steps_acts_at_the_next_step() {
+        let mut cell = two_drives();
+        let forced = |cell: &CellInstance| {
+            lock(&cell.shared)
+                .rig
+                .drive_model(2)
+                .map(|d| d.forced_inputs())
+        };
+        cell.do_step(0.0, 1e-3).unwrap();
+        assert!(cell.inputs.iter().all(|i| !i.pending));
+        assert_eq!(forced(&cell), Some((0, 0)));
+        cell.set_boolean(vr(&cell, "node2.din3"), true).unwrap();
+        assert!(cell.inputs[1].pending && !cell.inputs[0].pending);
+        assert_eq!(forced(&cell), Some((0, 0)), "not before the step");
+        cell.do_step(1e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 1 << 3)));
+        assert!(!cell.inputs[1].pending);
+        // The same level again acts no more; another level acts at the next step.
+        cell.set_boolean(vr(&cell, "node2.din3"), true).unwrap();
+        cell.do_step(2e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 1 << 3)));
+        cell.set_boolean(vr(&cell, "node2.din3"), false).unwrap();
+        cell.do_step(3e-3, 1e-3).unwrap();
+        assert_eq!(forced(&cell), Some((1 << 3, 0)));
+        assert!(cell.inputs.iter().all(|i| !i.pending));
     }
 
     /// Two CMMP-AS on one bus, the first one's shaft free.

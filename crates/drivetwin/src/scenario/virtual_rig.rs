@@ -15,7 +15,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use od::{Instant, ObjectAccess};
+use od::{Behaviour, DeviceDescription, Entry, Instant, ObjectAccess, ObjectDictionary};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
@@ -319,6 +319,61 @@ pub enum RigDrive {
     RegisterImage(usize),
 }
 
+/// A drive of the rig found once ([`VirtualRig::place`]): a CANopen drive's station with the
+/// entries of the words its [`Probe`] shows, or a register-image drive's place among them. An
+/// importer that reads every drive after each step reads each at its place, without a search
+/// by node-ID or a dictionary lookup.
+#[derive(Clone, Copy)]
+pub enum RigPlace {
+    Station(StationId, Words),
+    RegisterImage(usize),
+}
+
+/// The dictionary entries of the words a [`Probe`] shows (6041h, 6064h), found once in a
+/// drive's description and read as [`ObjectAccess::read`] reads them.
+#[derive(Clone, Copy)]
+pub struct Words {
+    /// The description the entries are of: a dictionary of another reads its own.
+    desc: &'static DeviceDescription,
+    statusword: Option<&'static Entry>,
+    position_actual: Option<&'static Entry>,
+}
+
+impl Words {
+    /// The readable entries of 6041h and 6064h in `desc` (`None`: a read is refused).
+    pub fn of(desc: &'static DeviceDescription) -> Words {
+        let readable = |index| desc.entry(index, 0).filter(|e| e.access.readable());
+        Words {
+            desc,
+            statusword: readable(0x6041),
+            position_actual: readable(0x6064),
+        }
+    }
+
+    /// The statusword and the position actual value in `od`, as `read_u16` / `read_u32` of
+    /// its entries give them (0 for a word the dictionary refuses or holds in another size).
+    fn read(&self, od: &ObjectDictionary<Vec<u8>>) -> (u16, i32) {
+        if !std::ptr::eq(self.desc, od.description()) {
+            return Words::of(od.description()).read(od);
+        }
+        (
+            u16::from_le_bytes(value(od, self.statusword)),
+            i32::from_le_bytes(value(od, self.position_actual)),
+        )
+    }
+}
+
+/// The `N` bytes of entry `e` as the dictionary's read gives them (zeros for an entry that
+/// reads zero, none or another size).
+fn value<const N: usize>(od: &ObjectDictionary<Vec<u8>>, e: Option<&Entry>) -> [u8; N] {
+    match e {
+        Some(e) if e.behaviour != Behaviour::ReadsZero => {
+            <[u8; N]>::try_from(od.raw(e)).unwrap_or([0; N])
+        }
+        _ => [0; N],
+    }
+}
+
 /// What a drive's plant and device control show at one instant: the quantities a cell shows
 /// to an importer that steps it (the cell as an FMU, `drivetwin scenario --samples`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -385,6 +440,42 @@ impl VirtualRig {
             .unwrap_or_else(|| Err(format!("the CMMO-ST takes no {action:?}")));
         self.flush(seen);
         r
+    }
+
+    /// Where drive `drive` is, found once for the reads that follow ([`VirtualRig::probe_at`]):
+    /// a CANopen drive's station (as [`VirtualRig::probe`] finds it by its node-ID, the first
+    /// bus that has it), with its words' entries; a register-image drive's place.
+    pub fn place(&self, drive: RigDrive) -> Result<RigPlace, String> {
+        match drive {
+            RigDrive::Node(n) => match self.cmmo_st(Some(n)) {
+                Some(i) => Ok(RigPlace::RegisterImage(i)),
+                None => {
+                    let (_, id) = self.drive(Some(n))?;
+                    let words = Words::of(self.station(id)?.od().description());
+                    Ok(RigPlace::Station(id, words))
+                }
+            },
+            RigDrive::RegisterImage(i) => Ok(RigPlace::RegisterImage(i)),
+        }
+    }
+
+    /// The plant and words now of the drive at `place` (`None`: no simulated plant there).
+    pub fn probe_at(&self, place: &RigPlace) -> Option<Probe> {
+        match place {
+            RigPlace::Station(id, words) => {
+                Probe::of_model_with(&self.cell.station(*id)?.model, words)
+            }
+            RigPlace::RegisterImage(i) => self.register_image_probe(*i),
+        }
+    }
+
+    /// The engine of the CANopen drive at `place` (its plant and device control), if it has
+    /// one.
+    pub fn drive_model_at(&self, place: &RigPlace) -> Option<&drive::vendors::AnyDrive<Vec<u8>>> {
+        match place {
+            RigPlace::Station(id, _) => self.cell.station(*id)?.model.drive().map(|d| &**d),
+            RigPlace::RegisterImage(_) => None,
+        }
     }
 
     /// Drive `drive`'s plant and words now.
@@ -492,20 +583,25 @@ impl VirtualRig {
 impl Probe {
     /// A CiA 402 drive's plant and words now (`None`: a dictionary without a plant).
     pub fn of_model(model: &crate::cell::device_model::Model) -> Option<Probe> {
+        model.drive()?;
+        Probe::of_model_with(model, &Words::of(model.od().description()))
+    }
+
+    /// [`Probe::of_model`] with the words' entries found beforehand.
+    pub fn of_model_with(model: &crate::cell::device_model::Model, words: &Words) -> Option<Probe> {
         let d = model.drive()?;
         let shaft = d.shaft();
         let current_a = match d.stepper() {
             Some(s) => s.current_a(),
             None => d.axis().motor().current(),
         };
-        let statusword = model.read_u16(0x6041, 0).unwrap_or(0);
-        let position_actual = model.read_u32(0x6064, 0).unwrap_or(0);
+        let (statusword, position_actual) = words.read(model.od());
         Some(Probe {
             position_rad: shaft.angle_rad,
             velocity_rad_s: shaft.velocity_rad_s,
             current_a,
             statusword,
-            position_actual: i32::from_ne_bytes(position_actual.to_ne_bytes()),
+            position_actual,
             status: [0; 8],
         })
     }
