@@ -74,8 +74,8 @@ impl OnRequest for SaveLater<'_> {
 }
 
 impl Bound<'_> {
-    /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h); a
-    /// save in progress holds the mailbox.
+    /// Serves the mailbox once (CoE) when it has something to do ([`coe::due`]), then what
+    /// the dictionary asked for (1010h / 1011h); a save in progress holds the mailbox.
     pub(super) fn mailbox(&mut self, esc: &mut Esc<'_>) {
         if self.dev.saving.is_some() {
             return;
@@ -83,6 +83,28 @@ impl Bound<'_> {
         // A drive shared with CANopen: its node writes the file on the loop, so this slave's
         // saves are written there too (one writer of the file).
         let on_loop = self.shared_events.is_some();
+        if coe::due(esc, &self.dev.coe) {
+            self.serve(esc, on_loop);
+            if self.dev.saving.is_some() {
+                return;
+            }
+        }
+        // A storage request left by another path than the SDO server is asked for here.
+        if let Some(req) = self.model.od_mut().take_request() {
+            if let Some((job, index, sub)) = ask(self.model, self.store, on_loop, req) {
+                self.dev.saving = Some(SaveInFlight {
+                    job: Some(job),
+                    index,
+                    sub,
+                    reply: Vec::new(),
+                });
+            }
+        }
+    }
+
+    /// The CoE server's turn ([`coe::serve`]): the reply it makes is posted, or held with the
+    /// save its request asked for.
+    fn serve(&mut self, esc: &mut Esc<'_>, on_loop: bool) {
         let mut out = [0u8; MAILBOX_MAX];
         let mut access = Requesting {
             model: self.model,
@@ -103,23 +125,11 @@ impl Bound<'_> {
                     sub,
                     reply: reply.to_vec(),
                 });
-                return;
             }
             None if !reply.is_empty() => {
                 let _ = esc.mailbox_write(reply);
             }
             None => {}
-        }
-        // A storage request left by another path than the SDO server is asked for here.
-        if let Some(req) = self.model.od_mut().take_request() {
-            if let Some((job, index, sub)) = ask(self.model, self.store, on_loop, req) {
-                self.dev.saving = Some(SaveInFlight {
-                    job: Some(job),
-                    index,
-                    sub,
-                    reply: Vec::new(),
-                });
-            }
         }
     }
 
