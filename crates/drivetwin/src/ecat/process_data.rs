@@ -291,3 +291,46 @@ fn set_bits(dst: &mut [u8], offset: usize, bits: u8, src: &[u8]) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive::drive::DriveSettings;
+    use od::{Instant, ObjectDictionary};
+
+    /// The inputs' direct copy reads what a read through the dictionary returns, for every
+    /// entry of every personality it takes (a drive run a few cycles, so that its published
+    /// values are not only defaults), and leaves the error history to the dictionary.
+    #[test]
+    fn stored_values_are_what_a_read_returns() {
+        for desc in devices::ALL.iter().copied() {
+            let Ok(od) = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]) else {
+                panic!("{}: no dictionary", desc.name);
+            };
+            let mut model = Model::new(od, Some(DriveSettings::default()));
+            model.step(Instant::from_millis(5));
+            let mut taken = 0;
+            for e in desc.entries() {
+                let Some(source) = stored_value(desc, e.index, e.sub) else {
+                    continue;
+                };
+                taken += 1;
+                let mut b = [0u8; 8];
+                let n = model.read(e.index, e.sub, &mut b);
+                let raw = model.od().raw(source);
+                assert_eq!(
+                    n.ok().and_then(|n| b.get(..n)),
+                    Some(raw),
+                    "{} {:04X}h:{:02X}h",
+                    desc.name,
+                    e.index,
+                    e.sub
+                );
+            }
+            assert!(taken > 0, "{}", desc.name);
+            if desc.entry(0x1003, 1).is_some() {
+                assert!(stored_value(desc, 0x1003, 1).is_none(), "{}", desc.name);
+            }
+        }
+    }
+}
