@@ -40,7 +40,7 @@ use ethercat::register::RegisterAddress;
 use ethercat::{Address, AlState, Command, EthernetFrame, Fmmu, Frame, FrameWriter, SyncManager};
 use od::Instant;
 
-/// The chain of the target: 64 drives.
+/// A chain of real size: 64 drives (the 4 kHz target's chain, docs/performance.md).
 const SLAVES: u16 = 64;
 const MASTER_MAC: [u8; 6] = [0x01; 6];
 const STATION: u16 = 0x1001;

@@ -41,7 +41,7 @@ pub struct MapItem {
 impl MapItem {
     /// Where the object lies on whole bytes of the image: its first byte and length.
     fn whole_bytes(&self) -> Option<(usize, usize)> {
-        (self.offset % 8 == 0 && self.bits % 8 == 0)
+        (self.offset.is_multiple_of(8) && self.bits.is_multiple_of(8))
             .then(|| (self.offset / 8, usize::from(self.bits / 8)))
     }
 }
