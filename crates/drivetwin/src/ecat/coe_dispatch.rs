@@ -103,7 +103,9 @@ impl Bound<'_> {
     }
 
     /// The CoE server's turn ([`coe::serve`]): the reply it makes is posted, or held with the
-    /// save its request asked for.
+    /// save its request asked for. Apart from [`mailbox`](Self::mailbox), which runs in every
+    /// cycle, with the send buffer it needs.
+    #[inline(never)]
     fn serve(&mut self, esc: &mut Esc<'_>, on_loop: bool) {
         let mut out = [0u8; MAILBOX_MAX];
         let mut access = Requesting {
