@@ -929,6 +929,58 @@ fn end_to_end_through_an_esc() {
     assert_eq!(&r[6..9], &[0x00, 0x30, 0x43]);
 }
 
+/// `coe::due` says when `serve` has work: a request waiting in SM0 (left there until the
+/// server takes it), a further fragment or an emergency once SM1 is free, the mailbox stopped;
+/// an idle mailbox, or a full SM1, has none, and `pump` then posts nothing.
+#[test]
+fn due_tells_when_the_mailbox_has_work() {
+    let mut bus = esc_bus();
+    let (mut srv, mut od) = cmmp_as();
+    let due = |bus: &Bus, srv: &CoeServer| coe::due(&bus.slaves[0], srv);
+    assert!(!due(&bus, &srv), "idle mailbox");
+    assert!(!coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+
+    // A request: it waits in SM0 until the server takes it.
+    assert_eq!(
+        bus.fpwr(ST, 0x1000, &msg(1, &sdo(0x40, 0x1018, 1, [0; 4])))
+            .wkc,
+        1
+    );
+    assert!(bus.slaves[0].mailbox_waiting());
+    assert!(due(&bus, &srv));
+    assert!(bus.slaves[0].mailbox_waiting(), "still there");
+    assert!(coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+    assert!(!bus.slaves[0].mailbox_waiting());
+
+    // SM1 full: an emergency waits, nothing is due.
+    srv.queue_emergency(Emergency::new(0x3210, 0x05, [0; 5]))
+        .unwrap();
+    assert!(!due(&bus, &srv), "SM1 full");
+    assert!(!coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+    read_sm1(&mut bus);
+    assert!(due(&bus, &srv), "the emergency can go");
+    assert!(coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+    read_sm1(&mut bus);
+    assert!(!due(&bus, &srv));
+
+    // A fragmented SDO info reply: each further fragment is due once SM1 is read.
+    let r = exchange(
+        &mut bus,
+        &mut srv,
+        &mut od,
+        &msg(2, &info(0x01, &[0x01, 0x00])),
+    );
+    assert_eq!(r[8], 0x82, "first of several fragments");
+    assert!(due(&bus, &srv));
+    assert!(coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+
+    // The mailbox stopped: due, so that the server forgets its state.
+    bus.request_state(ST, 0x0001);
+    assert!(due(&bus, &srv));
+    assert!(!coe::pump(&mut bus.slaves[0], &mut srv, &mut od));
+    assert!(!srv.busy(), "reset");
+}
+
 #[test]
 fn a_request_ends_a_fragmented_reply() {
     let mut bus = esc_bus();

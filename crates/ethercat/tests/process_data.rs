@@ -247,3 +247,38 @@ fn fmmu_to_mailbox_respects_sm_rules() {
         "empty again"
     );
 }
+
+/// An FMMU follows its sync manager as it is reconfigured: SM2 turned into a read SM refuses
+/// the writes through the output FMMU, and a write FMMU over SM2 and SM3 at once meets the
+/// rules of both (SM3 refuses it), whatever the accesses through the same FMMUs before.
+#[test]
+fn fmmus_follow_their_sync_managers_reconfigured() {
+    let mut bus = Bus::with_sii(1);
+    bus.assign_addresses();
+    configure(&mut bus, 0x1001, 2, 2, 0, 2);
+    assert_eq!(bus.lrw(0, &[0x11, 0x12, 0, 0]).wkc, 3);
+    assert_eq!(bus.slaves[0].process_outputs(), Some(&[0x11, 0x12][..]));
+    // Back to Pre-Op; SM2 becomes a read SM (control 0x20): the output FMMU writes nothing.
+    bus.request_state(0x1001, 0x0002);
+    let mut sm2 = SM2_START.to_le_bytes().to_vec();
+    sm2.extend_from_slice(&2u16.to_le_bytes());
+    sm2.extend_from_slice(&[0x20, 0, 1, 0]);
+    bus.fpwr(0x1001, 0x0810, &sm2);
+    let r = bus.one(Command::Lwr, Address::Logical(0), &[0x21, 0x22]);
+    assert_eq!(r.wkc, 0, "a write into a read SM is refused");
+    assert_eq!(bus.slaves[0].process_outputs(), None);
+    // SM2 a write SM again, and a write FMMU over both windows (0x1100..0x1182).
+    sm2[4] = 0x64;
+    bus.fpwr(0x1001, 0x0810, &sm2);
+    bus.fpwr(0x1001, 0x0600, &fmmu_bytes(0, 0x82, SM2_START, false, true));
+    let r = bus.one(Command::Lwr, Address::Logical(0), &[0x31; 0x82]);
+    assert_eq!(r.wkc, 0, "SM3 refuses the write");
+    // The FMMU over SM2 alone again.
+    bus.fpwr(0x1001, 0x0600, &fmmu_bytes(0, 2, SM2_START, false, true));
+    assert_eq!(
+        bus.one(Command::Lwr, Address::Logical(0), &[0x41, 0x42])
+            .wkc,
+        1
+    );
+    assert_eq!(bus.slaves[0].process_outputs(), Some(&[0x41, 0x42][..]));
+}

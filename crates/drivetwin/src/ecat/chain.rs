@@ -33,7 +33,7 @@ use crate::cell::stations::{StationId, Stations};
 use crate::cell::Vendors;
 
 use super::line::{Line, LineError};
-use super::slave::Bound;
+use super::slave::{Bound, Unbound};
 
 pub use super::frame_tap::{FrameTap, TracedFrame};
 pub use super::process_data::{Layout, MapItem};
@@ -334,11 +334,13 @@ impl SlaveChain {
             .zip(self.devices.iter_mut().zip(self.drives.iter_mut()))
             .take(reach);
         for (esc, (dev, drive)) in slaves {
-            let o = match Bound::new(dev, drive, buses) {
-                Some(mut hook) => esc.process_with(now, frame, &mut hook),
-                // A drive that is not in the cell: the ESC alone answers.
-                None => esc.process(now, frame),
+            // A drive that is not in the cell: the ESC alone answers.
+            let mut hook = Unbound {
+                dev,
+                drive,
+                buses: &mut *buses,
             };
+            let o = esc.process_with(now, frame, &mut hook);
             first.get_or_insert(o);
             if !o.forward() {
                 break;

@@ -74,8 +74,8 @@ impl OnRequest for SaveLater<'_> {
 }
 
 impl Bound<'_> {
-    /// Serves the mailbox once (CoE), then what the dictionary asked for (1010h / 1011h); a
-    /// save in progress holds the mailbox.
+    /// Serves the mailbox once (CoE) when it has something to do ([`coe::due`]), then what
+    /// the dictionary asked for (1010h / 1011h); a save in progress holds the mailbox.
     pub(super) fn mailbox(&mut self, esc: &mut Esc<'_>) {
         if self.dev.saving.is_some() {
             return;
@@ -83,6 +83,30 @@ impl Bound<'_> {
         // A drive shared with CANopen: its node writes the file on the loop, so this slave's
         // saves are written there too (one writer of the file).
         let on_loop = self.shared_events.is_some();
+        if coe::due(esc, &self.dev.coe) {
+            self.serve(esc, on_loop);
+            if self.dev.saving.is_some() {
+                return;
+            }
+        }
+        // A storage request left by another path than the SDO server is asked for here.
+        if let Some(req) = self.model.od_mut().take_request() {
+            if let Some((job, index, sub)) = ask(self.model, self.store, on_loop, req) {
+                self.dev.saving = Some(SaveInFlight {
+                    job: Some(job),
+                    index,
+                    sub,
+                    reply: Vec::new(),
+                });
+            }
+        }
+    }
+
+    /// The CoE server's turn ([`coe::serve`]): the reply it makes is posted, or held with the
+    /// save its request asked for. Apart from [`mailbox`](Self::mailbox), which runs in every
+    /// cycle, with the send buffer it needs.
+    #[inline(never)]
+    fn serve(&mut self, esc: &mut Esc<'_>, on_loop: bool) {
         let mut out = [0u8; MAILBOX_MAX];
         let mut access = Requesting {
             model: self.model,
@@ -103,23 +127,11 @@ impl Bound<'_> {
                     sub,
                     reply: reply.to_vec(),
                 });
-                return;
             }
             None if !reply.is_empty() => {
                 let _ = esc.mailbox_write(reply);
             }
             None => {}
-        }
-        // A storage request left by another path than the SDO server is asked for here.
-        if let Some(req) = self.model.od_mut().take_request() {
-            if let Some((job, index, sub)) = ask(self.model, self.store, on_loop, req) {
-                self.dev.saving = Some(SaveInFlight {
-                    job: Some(job),
-                    index,
-                    sub,
-                    reply: Vec::new(),
-                });
-            }
         }
     }
 
@@ -157,45 +169,51 @@ impl Bound<'_> {
         }
     }
 
-    /// The drive's events as CoE emergencies.
+    /// The drive's events as CoE emergencies. Called after every step of the drive, which
+    /// has none in nearly every cycle: the look for one stays small (inlined where it is
+    /// called), an event is handled apart.
+    #[inline]
     pub(super) fn forward_events(&mut self) {
-        loop {
-            // A shared drive's events are taken by its CANopen side, which keeps a copy here.
-            let ev = match self.shared_events.as_deref_mut() {
-                Some(q) => q.pop_front(),
-                None => self.model.take_event(),
-            };
-            let Some(ev) = ev else {
-                break;
-            };
-            if self.shared_events.is_none() {
-                // A shared drive's CANopen side keeps 1001h and 1003h; one on EtherCAT alone
-                // keeps them here.
-                let errors = &mut self.dev.errors;
-                match ev {
-                    DriveEvent::Error { code, register } => {
-                        errors.raise(self.model, code, register, [0; 5])
-                    }
-                    DriveEvent::Cleared { code } => errors.clear(self.model, code),
-                    DriveEvent::Reboot => {}
+        // A shared drive's events are taken by its CANopen side, which keeps a copy here.
+        while let Some(ev) = match self.shared_events.as_deref_mut() {
+            Some(q) => q.pop_front(),
+            None => self.model.take_event(),
+        } {
+            self.forward_event(ev);
+        }
+    }
+
+    /// One event of the drive: the error register and history of a drive on EtherCAT alone,
+    /// and the CoE emergency.
+    #[inline(never)]
+    fn forward_event(&mut self, ev: DriveEvent) {
+        if self.shared_events.is_none() {
+            // A shared drive's CANopen side keeps 1001h and 1003h; one on EtherCAT alone
+            // keeps them here.
+            let errors = &mut self.dev.errors;
+            match ev {
+                DriveEvent::Error { code, register } => {
+                    errors.raise(self.model, code, register, [0; 5])
                 }
-                errors.reset_communication();
+                DriveEvent::Cleared { code } => errors.clear(self.model, code),
+                DriveEvent::Reboot => {}
             }
-            // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
-            let emcy = match ev {
-                // A reboot is the CANopen side's (no EtherCAT drive asks for one).
-                DriveEvent::Reboot => continue,
-                DriveEvent::Error { code, register } => Emergency::new(code, register, [0; 5]),
-                // "Error reset": code 0000h with the error register that remains.
-                DriveEvent::Cleared { .. } => {
-                    let model: &Model = self.model;
-                    let register = read_unsigned(model, 0x1001, 0).unwrap_or(0);
-                    Emergency::new(0, u8::try_from(register).unwrap_or(0), [0; 5])
-                }
-            };
-            if self.dev.coe.queue_emergency(emcy).is_err() {
-                tracing::warn!(event = ?ev, "emergency queue full");
+            errors.reset_communication();
+        }
+        // CiA 402 errors as CoE emergencies (ETG.1000.6 §5.6.4, the CANopen EMCY layout).
+        let emcy = match ev {
+            // A reboot is the CANopen side's (no EtherCAT drive asks for one).
+            DriveEvent::Reboot => return,
+            DriveEvent::Error { code, register } => Emergency::new(code, register, [0; 5]),
+            // "Error reset": code 0000h with the error register that remains.
+            DriveEvent::Cleared { .. } => {
+                let model: &Model = self.model;
+                let register = read_unsigned(model, 0x1001, 0).unwrap_or(0);
+                Emergency::new(0, u8::try_from(register).unwrap_or(0), [0; 5])
             }
+        };
+        if self.dev.coe.queue_emergency(emcy).is_err() {
+            tracing::warn!(event = ?ev, "emergency queue full");
         }
     }
 }

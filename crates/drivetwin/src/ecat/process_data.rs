@@ -9,11 +9,14 @@
 //!   dictionary refuses is refused with 0x0025 (outputs) / 0x0024 (inputs); SM2 / SM3 sizes
 //!   that do not match it with 0x001D / 0x001E ([`Esc::check_process_data`]).
 //! * PDO assignment and mapping are written in Pre-Op only ([`ethercat::coe::MappingLock`]);
-//!   the layout is taken on Pre-Op → Safe-Op.
+//!   the layout is taken on Pre-Op → Safe-Op, and with it what each frame's copy needs: the
+//!   dictionary entry an input reads where its value is the stored bytes (resolved once, not
+//!   looked up by index in every cycle), and whether an object lies on whole bytes (copied
+//!   as bytes, not bit by bit).
 
 use ethercat::{AlStatusCode, Esc};
 use od::pdo_rules::{check_map_entry, MapEntry};
-use od::ObjectAccess;
+use od::{Behaviour, DeviceDescription, Entry, ObjectAccess};
 
 use crate::cell::device_model::Model;
 
@@ -35,6 +38,14 @@ pub struct MapItem {
     pub dummy: bool,
 }
 
+impl MapItem {
+    /// Where the object lies on whole bytes of the image: its first byte and length.
+    fn whole_bytes(&self) -> Option<(usize, usize)> {
+        (self.offset.is_multiple_of(8) && self.bits.is_multiple_of(8))
+            .then(|| (self.offset / 8, usize::from(self.bits / 8)))
+    }
+}
+
 /// The process-data layout taken on Pre-Op → Safe-Op.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Layout {
@@ -44,6 +55,50 @@ pub struct Layout {
     pub inputs: Vec<MapItem>,
     pub output_bytes: u16,
     pub input_bytes: u16,
+    /// For each of `inputs`, the entry whose stored bytes are what a read of it returns.
+    sources: Sources,
+}
+
+/// The entries the inputs read their bytes from ([`stored_value`]), one per input item, in
+/// the description they were resolved in; `None` where a read goes through the dictionary's
+/// access every time. Two are equal when they name the same entries.
+#[derive(Debug, Clone, Default)]
+struct Sources {
+    desc: Option<&'static DeviceDescription>,
+    entries: Vec<Option<&'static Entry>>,
+}
+
+impl PartialEq for Sources {
+    fn eq(&self, other: &Self) -> bool {
+        let same = |a: Option<&'static Entry>, b: Option<&'static Entry>| match (a, b) {
+            (Some(a), Some(b)) => core::ptr::eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        self.entries.len() == other.entries.len()
+            && self
+                .entries
+                .iter()
+                .zip(&other.entries)
+                .all(|(a, b)| same(*a, *b))
+    }
+}
+
+impl Eq for Sources {}
+
+/// The entry whose stored bytes are exactly what [`ObjectAccess::read`] of `index`:`sub`
+/// returns in the dictionary of `desc` (`ObjectDictionary::read`): a readable value of at most
+/// 8 bytes (a process-data value) that neither reads as zeros (`ReadsZero`) nor is an error
+/// history entry, whose read depends on the count in sub-index 0. Any other object is read
+/// through the dictionary in every cycle.
+fn stored_value(desc: &'static DeviceDescription, index: u16, sub: u8) -> Option<&'static Entry> {
+    let e = desc.entry(index, sub)?;
+    let history = sub > 0
+        && desc
+            .entry(index, 0)
+            .is_some_and(|c| c.behaviour == Behaviour::ErrorHistoryCount);
+    let fixed = e.data_type.fixed_size().is_some_and(|n| n <= 8);
+    (e.access.readable() && e.behaviour != Behaviour::ReadsZero && !history && fixed).then_some(e)
 }
 
 impl Bound<'_> {
@@ -109,7 +164,20 @@ impl Bound<'_> {
         let (inputs, in_bits) = self
             .map(false)
             .map_err(|()| AlStatusCode::INVALID_INPUT_MAPPING)?;
+        let desc = self.model.od().description();
+        let entries = inputs
+            .iter()
+            .map(|i| {
+                (!i.dummy)
+                    .then(|| stored_value(desc, i.index, i.sub))
+                    .flatten()
+            })
+            .collect();
         Ok(Layout {
+            sources: Sources {
+                desc: Some(desc),
+                entries,
+            },
             outputs,
             inputs,
             output_bytes: u16::try_from(out_bits.div_ceil(8))
@@ -130,7 +198,13 @@ impl Bound<'_> {
             let Some(v) = value.get_mut(..n) else {
                 continue;
             };
-            get_bits(data, item.offset, item.bits, v);
+            let whole = item
+                .whole_bytes()
+                .and_then(|(at, len)| data.get(at..at + len));
+            match whole {
+                Some(bytes) => v.copy_from_slice(bytes),
+                None => get_bits(data, item.offset, item.bits, v),
+            }
             if self.model.write(item.index, item.sub, v).is_err() {
                 self.dev.write_errors += 1;
             }
@@ -145,12 +219,42 @@ impl Bound<'_> {
         };
         dev.inputs.clear();
         dev.inputs.resize(usize::from(layout.input_bytes), 0);
+        // The stored bytes are what a read returns where the dictionary is the drive's own
+        // (a register-image device reads through its own access) and the one the entries
+        // were resolved in.
+        let od = match &*self.model {
+            Model::Plain(_) | Model::Drive(_) => Some(self.model.od()),
+            Model::RegisterImage(_) => None,
+        }
+        .filter(|od| {
+            layout
+                .sources
+                .desc
+                .is_some_and(|d| core::ptr::eq(od.description(), d))
+        });
         let mut value = [0u8; 8];
-        for item in &layout.inputs {
+        for (i, item) in layout.inputs.iter().enumerate() {
             value.fill(0);
-            // A value that cannot be read leaves zeros, as a real PDI would leave stale data.
-            let _ = self.model.read(item.index, item.sub, &mut value);
-            set_bits(&mut dev.inputs, item.offset, item.bits, &value);
+            match (od, layout.sources.entries.get(i).copied().flatten()) {
+                (Some(od), Some(e)) => {
+                    let raw = od.raw(e);
+                    if let Some(v) = value.get_mut(..raw.len()) {
+                        v.copy_from_slice(raw);
+                    }
+                }
+                // A value that cannot be read leaves zeros, as a real PDI would leave stale
+                // data.
+                _ => {
+                    let _ = self.model.read(item.index, item.sub, &mut value);
+                }
+            }
+            let whole = item
+                .whole_bytes()
+                .and_then(|(at, len)| Some((dev.inputs.get_mut(at..at + len)?, value.get(..len)?)));
+            match whole {
+                Some((dst, src)) => dst.copy_from_slice(src),
+                None => set_bits(&mut dev.inputs, item.offset, item.bits, &value),
+            }
         }
         if !dev.inputs.is_empty() {
             let _ = esc.set_inputs(&dev.inputs);
@@ -184,6 +288,49 @@ fn set_bits(dst: &mut [u8], offset: usize, bits: u8, src: &[u8]) {
         let d = offset + i;
         if let Some(b) = dst.get_mut(d / 8) {
             *b = (*b & !(1 << (d % 8))) | (bit << (d % 8));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive::drive::DriveSettings;
+    use od::{Instant, ObjectDictionary};
+
+    /// The inputs' direct copy reads what a read through the dictionary returns, for every
+    /// entry of every personality it takes (a drive run a few cycles, so that its published
+    /// values are not only defaults), and leaves the error history to the dictionary.
+    #[test]
+    fn stored_values_are_what_a_read_returns() {
+        for desc in devices::ALL.iter().copied() {
+            let Ok(od) = ObjectDictionary::new(desc, 1, vec![0; desc.storage_size]) else {
+                panic!("{}: no dictionary", desc.name);
+            };
+            let mut model = Model::new(od, Some(DriveSettings::default()));
+            model.step(Instant::from_millis(5));
+            let mut taken = 0;
+            for e in desc.entries() {
+                let Some(source) = stored_value(desc, e.index, e.sub) else {
+                    continue;
+                };
+                taken += 1;
+                let mut b = [0u8; 8];
+                let n = model.read(e.index, e.sub, &mut b);
+                let raw = model.od().raw(source);
+                assert_eq!(
+                    n.ok().and_then(|n| b.get(..n)),
+                    Some(raw),
+                    "{} {:04X}h:{:02X}h",
+                    desc.name,
+                    e.index,
+                    e.sub
+                );
+            }
+            assert!(taken > 0, "{}", desc.name);
+            if desc.entry(0x1003, 1).is_some() {
+                assert!(stored_value(desc, 0x1003, 1).is_none(), "{}", desc.name);
+            }
         }
     }
 }

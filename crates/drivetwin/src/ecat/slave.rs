@@ -265,6 +265,36 @@ impl Bound<'_> {
     }
 }
 
+/// A slave whose drive is bound only when its ESC calls the hook: a frame passes every slave
+/// in every cycle, and the AL hooks run only on a state change, so the drive is not looked up
+/// for the frame's pass. A drive that is not in the cell leaves the ESC's own checks alone, as
+/// [`ethercat::NoHook`] does.
+pub(super) struct Unbound<'a> {
+    pub(super) dev: &'a mut SlaveDevice,
+    pub(super) drive: &'a mut SlaveDrive,
+    pub(super) buses: &'a mut dyn BusDrives,
+}
+
+impl AlHook for Unbound<'_> {
+    fn check_transition(
+        &mut self,
+        esc: &Esc<'_>,
+        from: AlState,
+        to: AlState,
+    ) -> Result<(), AlStatusCode> {
+        match Bound::new(self.dev, self.drive, self.buses) {
+            Some(mut b) => b.check_transition(esc, from, to),
+            None => Ok(()),
+        }
+    }
+
+    fn state_changed(&mut self, esc: &mut Esc<'_>, from: AlState, to: AlState) {
+        if let Some(mut b) = Bound::new(self.dev, self.drive, self.buses) {
+            b.state_changed(esc, from, to);
+        }
+    }
+}
+
 impl AlHook for Bound<'_> {
     fn check_transition(
         &mut self,

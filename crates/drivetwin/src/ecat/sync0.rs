@@ -43,7 +43,20 @@ impl Bound<'_> {
     /// Runs the SYNC0 events due at `now`: the drive steps to each event, takes the outputs
     /// of the cycle and latches its inputs; a lost synchronisation in Op falls back to
     /// Safe-Op with 0x001A.
+    ///
+    /// Runs after every frame: without SYNC0 (free run) it only looks at the ESC's SYNC0
+    /// registers, inlined where it is called; the events run apart.
+    #[inline]
     pub(super) fn run_sync0(&mut self, esc: &mut Esc<'_>, now: Instant) {
+        if self.dev.sync_config.is_none() && esc.sync0_cycle_ns().is_none() {
+            self.dev.next_sync0 = None;
+            return;
+        }
+        self.run_sync0_events(esc, now);
+    }
+
+    #[inline(never)]
+    fn run_sync0_events(&mut self, esc: &mut Esc<'_>, now: Instant) {
         let config = esc.sync0_cycle_ns().map(|cycle| (cycle, esc.sync0_start()));
         if config != self.dev.sync_config {
             // SYNC0 switched on, off or moved: a new grid, a new count.

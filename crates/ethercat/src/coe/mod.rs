@@ -328,6 +328,21 @@ pub fn pump<const N: usize>(
     }
 }
 
+/// Whether [`serve`] has anything to do for `esc` now: the mailbox stopped (the server is
+/// reset), or the send mailbox is free and a request waits in the receive mailbox, a further
+/// fragment of an SDO info reply is pending or an emergency can go out. Otherwise `serve`
+/// returns `None` and changes nothing, so a device may skip it: the mailbox is idle in
+/// nearly every cycle of a slave in Op.
+pub fn due<const N: usize>(esc: &Esc<'_>, coe: &CoeServer<N>) -> bool {
+    if !esc.mailbox_running() {
+        return true;
+    }
+    esc.mailbox_write_ready()
+        && (esc.mailbox_waiting()
+            || coe.info.is_some()
+            || (!coe.busy() && !coe.emergencies.is_empty()))
+}
+
 /// As [`pump`], but the message is left in `out` (its length returned) for the caller to post
 /// with [`Esc::mailbox_write`] when it is ready: a device that answers a request only once a
 /// slow action is done (1010h "save" writing its file) holds the reply meanwhile, and serves

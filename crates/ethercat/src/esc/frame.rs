@@ -279,7 +279,7 @@ impl<'a> Esc<'a> {
                     continue;
                 };
                 if f.write_enable {
-                    hit |= self.fmmu_write(&f, addr, data);
+                    hit |= self.fmmu_write(i, &f, addr, data);
                 }
             }
             if hit {
@@ -293,7 +293,7 @@ impl<'a> Esc<'a> {
                     continue;
                 };
                 if f.read_enable {
-                    hit |= self.fmmu_read(&f, addr, data);
+                    hit |= self.fmmu_read(i, &f, addr, data);
                 }
             }
             if hit {
@@ -303,7 +303,8 @@ impl<'a> Esc<'a> {
         inc
     }
 
-    pub(super) fn fmmu_write(&mut self, f: &Fmmu, addr: u32, data: &[u8]) -> bool {
+    /// Writes through FMMU `i` (`f`).
+    pub(super) fn fmmu_write(&mut self, i: usize, f: &Fmmu, addr: u32, data: &[u8]) -> bool {
         if f.is_byte_aligned() {
             let Some(w) = f.byte_window(addr, data.len()) else {
                 return false;
@@ -311,7 +312,11 @@ impl<'a> Esc<'a> {
             let Some(src) = data.get(w.datagram_offset..w.datagram_offset + w.len) else {
                 return false;
             };
-            return self.ecat_write(w.physical, src);
+            let Some(events) = self.fmmu_sm_access(i, w.physical, w.len, Dir::Write) else {
+                return false;
+            };
+            self.phys_write_events(w.physical, src, events);
+            return true;
         }
         let Some(bw) = f.bit_window(addr, data.len()) else {
             return false;
@@ -337,7 +342,8 @@ impl<'a> Esc<'a> {
         true
     }
 
-    pub(super) fn fmmu_read(&mut self, f: &Fmmu, addr: u32, data: &mut [u8]) -> bool {
+    /// Reads through FMMU `i` (`f`).
+    pub(super) fn fmmu_read(&mut self, i: usize, f: &Fmmu, addr: u32, data: &mut [u8]) -> bool {
         if f.is_byte_aligned() {
             let Some(w) = f.byte_window(addr, data.len()) else {
                 return false;
@@ -345,7 +351,11 @@ impl<'a> Esc<'a> {
             let Some(dst) = data.get_mut(w.datagram_offset..w.datagram_offset + w.len) else {
                 return false;
             };
-            return self.ecat_read(w.physical, dst, false);
+            let Some(events) = self.fmmu_sm_access(i, w.physical, w.len, Dir::Read) else {
+                return false;
+            };
+            self.phys_read_events(w.physical, dst, false, events);
+            return true;
         }
         let Some(bw) = f.bit_window(addr, data.len()) else {
             return false;

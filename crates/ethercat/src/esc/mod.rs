@@ -438,6 +438,9 @@ pub struct Esc<'a> {
     /// The physical bytes `[start, end)` the active SM windows cover between them: an
     /// access outside it meets no SM rule and completes no buffer (kept with `active_sms`).
     sm_span: Span,
+    /// For each FMMU, the sync manager whose rules alone govern an access through it
+    /// ([`Esc::refresh_fmmu_routes`]), kept with the FMMUs and the active SMs.
+    fmmu_sm: [Option<u8>; FMMU_COUNT],
     mailbox_running: bool,
     mbx_backup: [u8; MAILBOX_MAX],
     mbx_backup_len: usize,
@@ -476,6 +479,7 @@ impl<'a> Esc<'a> {
             sms: [SyncManager::default(); SM_COUNT],
             active_sms: 0,
             sm_span: Span::EMPTY,
+            fmmu_sm: [None; FMMU_COUNT],
             mailbox_running: false,
             mbx_backup: [0; MAILBOX_MAX],
             mbx_backup_len: 0,

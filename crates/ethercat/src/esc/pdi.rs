@@ -26,6 +26,17 @@ impl<'a> Esc<'a> {
         self.window(s.start, s.length)
     }
 
+    /// A message waits in the receive mailbox (SM0) for [`Esc::mailbox_read`], which would
+    /// take it; this leaves it there.
+    pub fn mailbox_waiting(&self) -> bool {
+        let s = self.sm(SM_MAILBOX_OUT);
+        self.mailbox_running
+            && s.is_active()
+            && s.mode() == SmMode::Mailbox
+            && s.direction() == SmDirection::Write
+            && s.is_mailbox_full()
+    }
+
     /// The send mailbox (SM1) can take a message.
     pub fn mailbox_write_ready(&self) -> bool {
         let s = self.sm(SM_MAILBOX_IN);

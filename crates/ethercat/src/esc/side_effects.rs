@@ -60,6 +60,47 @@ impl<'a> Esc<'a> {
                 self.sm_span = self.sm_span.with(u64::from(s.start), u64::from(s.end()));
             }
         }
+        self.refresh_fmmu_routes();
+    }
+
+    /// Resolves, for each active byte-aligned FMMU of one direction, the buffered SM of
+    /// that direction whose window holds all its physical bytes while no other active SM
+    /// meets them: every access through the FMMU then meets that SM's rules alone, which
+    /// its configuration decides (a buffered SM of the access's direction allows it; its
+    /// status does not matter), and completes a buffer when it covers the window's last
+    /// byte. The process data of every cycle go through these, so [`Esc::sm_access`]'s look
+    /// at every window is taken once per configuration, not per datagram.
+    pub(super) fn refresh_fmmu_routes(&mut self) {
+        for i in 0..FMMU_COUNT {
+            let route = self.fmmus.get(i).and_then(|f| self.fmmu_route(f));
+            if let Some(r) = self.fmmu_sm.get_mut(i) {
+                *r = route;
+            }
+        }
+    }
+
+    fn fmmu_route(&self, f: &Fmmu) -> Option<u8> {
+        if !f.is_active() || !f.is_byte_aligned() || f.read_enable == f.write_enable {
+            return None;
+        }
+        let want = if f.write_enable {
+            SmDirection::Write
+        } else {
+            SmDirection::Read
+        };
+        let p0 = u32::from(f.physical_start);
+        let len = usize::from(f.length);
+        let p1 = p0 + u32::from(f.length);
+        let mut met = set_bits(self.active_sms).filter(|&n| self.sm(n).overlaps(p0, len));
+        let n = met.next()?;
+        if met.next().is_some() {
+            return None;
+        }
+        let s = self.sm(n);
+        let holds = u32::from(s.start) <= p0 && p1 <= s.end();
+        (holds && s.mode() == SmMode::Buffered && s.direction() == want)
+            .then(|| u8::try_from(n).ok())
+            .flatten()
     }
 
     pub(super) fn refresh_fmmus(&mut self) {
@@ -82,6 +123,7 @@ impl<'a> Esc<'a> {
                 *c = f;
             }
         }
+        self.refresh_fmmu_routes();
     }
 
     pub(super) fn sm_config_written<H: AlHook>(&mut self, mask: u16, hook: &mut H) {

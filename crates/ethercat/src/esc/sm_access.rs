@@ -49,6 +49,27 @@ impl<'a> Esc<'a> {
         Some(events)
     }
 
+    /// [`Esc::sm_access`] for an access through FMMU `fmmu` inside its physical window: the
+    /// SM it is routed to ([`Esc::refresh_fmmu_routes`]) alone when it has one.
+    pub(super) fn fmmu_sm_access(
+        &self,
+        fmmu: usize,
+        addr: u32,
+        len: usize,
+        dir: Dir,
+    ) -> Option<u8> {
+        let Some(n) = self.fmmu_sm.get(fmmu).copied().flatten() else {
+            return self.sm_access(addr, len, dir);
+        };
+        let events = if self.sm(usize::from(n)).covers_last_byte(addr, len) {
+            1 << n
+        } else {
+            0
+        };
+        debug_assert_eq!(Some(events), self.sm_access(addr, len, dir));
+        Some(events)
+    }
+
     /// The SMs of direction `dir` whose last byte `[addr, addr + len)` covers.
     pub(super) fn sm_events(&self, addr: u32, len: usize, dir: Dir) -> u8 {
         // Covering an SM's last byte means meeting its window.
