@@ -140,8 +140,9 @@ pub enum Command {
         /// Stop after this many seconds.
         #[arg(long)]
         seconds: Option<f64>,
-        /// The bus's bit rate: print the bus load of every 500 ms window (the frames seen,
-        /// each for its exact bit time), as the cell measures it.
+        /// The bus's bit rate: print the bus load of every 500 ms window from the start (the
+        /// frames seen, each for its exact bit time; quiet windows in a row as one line), as
+        /// the cell measures it.
         #[arg(long)]
         bitrate: Option<u32>,
         #[command(flatten)]

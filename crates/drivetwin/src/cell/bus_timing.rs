@@ -14,8 +14,13 @@ use od::Instant;
 /// more than it carries for long enough loses frames, as the nodes' queues overflow.
 pub const MAX_QUEUED: usize = 1024;
 
-/// The window the bus load is measured over.
+/// The window the bus load is measured over, on fixed boundaries of the cell's clock.
 pub const LOAD_WINDOW: Duration = Duration::from_millis(500);
+
+/// Windows the cell's load figure spans (1 s): the usual periods of a CANopen bus at rest (a
+/// 1000 ms heartbeat, 100 to 500 ms event timers, SYNC cycles) divide it, so steady traffic
+/// shows one figure, not one window with a heartbeat and the next without.
+pub const LOAD_FIGURE_WINDOWS: usize = 2;
 
 /// Source number of frames from outside the cell (clients, SocketCAN, injected).
 pub const OUTSIDE: u16 = u16::MAX;
@@ -32,8 +37,8 @@ pub struct BusFigures {
     pub dropped: u64,
     /// Frames waiting now.
     pub queued: usize,
-    /// Bus load of the last complete window ([`LOAD_WINDOW`]; before the first, of the time
-    /// so far), percent; more than 100 means more was asked of the bus than it carries (the
+    /// Bus load of the last complete windows ([`LOAD_FIGURE_WINDOWS`] of [`LOAD_WINDOW`];
+    /// before the first, of the time so far), percent; more than 100 means more was asked of the bus than it carries (the
     /// queue grows).
     pub load_percent: f64,
     /// The longest wait of a frame for the bus so far.
@@ -62,7 +67,8 @@ impl BusTiming {
             load: LoadWindow::new(
                 u64::try_from(LOAD_WINDOW.as_nanos()).unwrap_or(u64::MAX),
                 Instant::ZERO,
-            ),
+            )
+            .spanning(LOAD_FIGURE_WINDOWS),
         }
     }
 

@@ -63,8 +63,11 @@ pub(crate) async fn monitor(
         if let Some((bitrate, window)) = load.as_mut() {
             let nanos =
                 canbus::frame_time::bits_to_nanos(canbus::frame_time::frame_bits(&frame), *bitrate);
-            if let Some((percent, frames)) = window.add(since_start(), nanos) {
-                print_load(bus.json, *bitrate, percent, frames);
+            if let Some(closed) = window.add(since_start(), nanos) {
+                print_load(bus.json, *bitrate, closed.load_percent, closed.frames, 1);
+                if closed.quiet > 0 {
+                    print_load(bus.json, *bitrate, 0.0, 0, closed.quiet);
+                }
             }
         }
         let mut text = String::new();
@@ -104,9 +107,12 @@ pub(crate) async fn monitor(
     Ok(())
 }
 
-/// One window's bus load, as a line between the frames.
-fn print_load(json: bool, bitrate: u32, percent: f64, frames: u32) {
-    let window_ms = drivetwin::cell::bus_timing::LOAD_WINDOW.as_millis();
+/// The bus load of one window, or of `windows` quiet ones in a row, as a line between the
+/// frames.
+fn print_load(json: bool, bitrate: u32, percent: f64, frames: u32, windows: u64) {
+    let window_ms = u64::try_from(drivetwin::cell::bus_timing::LOAD_WINDOW.as_millis())
+        .unwrap_or(u64::MAX)
+        .saturating_mul(windows);
     if json {
         out!(
             "{}",

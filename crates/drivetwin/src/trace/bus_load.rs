@@ -7,12 +7,13 @@
 //! ```text
 //! # drivetwin bus load: bitrate 500000 bit/s, window 500 ms, times in s on the trace's clock
 //! end_s,window_s,load_percent,frames
-//! 1764290000.500123,0.500123,31.204,1063
+//! 1764290000.500123,0.500000,31.204,1063
 //! ```
 //!
 //! `end_s` is on the trace's own clock (the pcap / candump timestamps), so a reader lines the
-//! windows up with the frames; `window_s` is the time the window counted (it closes at the
-//! first frame after its end, [`LoadWindow::roll`]).
+//! windows up with the frames; `window_s` is the time the line counts. The windows lie on
+//! fixed boundaries from the first frame ([`LoadWindow`]): each line is one window of 500 ms,
+//! except a quiet stretch of whole windows without a frame, one line of 0 % over its length.
 //!
 //! Decisions: a sidecar file, not pcapng comments, so the trace stays the classic pcap that
 //! every tool (tshark, python-can, candump's `.log` readers) reads unchanged; a bus without a
@@ -48,8 +49,6 @@ pub struct LoadLog<W: Write> {
     bitrate: u32,
     /// Started at the first frame.
     window: Option<LoadWindow>,
-    /// Start of the running window, ns on the trace's clock.
-    start: u64,
 }
 
 impl<W: Write> LoadLog<W> {
@@ -67,7 +66,6 @@ impl<W: Write> LoadLog<W> {
             out,
             bitrate,
             window: None,
-            start: 0,
         })
     }
 
@@ -78,23 +76,28 @@ impl<W: Write> LoadLog<W> {
         let w = self
             .window
             .get_or_insert_with(|| LoadWindow::new(window_nanos, Instant::from_nanos(now)));
-        if self.start == 0 {
-            self.start = now;
-        }
         let nanos = bits_to_nanos(frame_bits(frame), self.bitrate);
-        if let Some((percent, frames)) = w.add(Instant::from_nanos(now), nanos) {
-            let counted = now.saturating_sub(self.start);
-            self.start = now;
-            writeln!(
-                self.out,
-                "{}.{:06},{}.{:06},{percent:.3},{frames}",
-                now / 1_000_000_000,
-                now % 1_000_000_000 / 1000,
-                counted / 1_000_000_000,
-                counted % 1_000_000_000 / 1000,
-            )?;
+        if let Some(closed) = w.add(Instant::from_nanos(now), nanos) {
+            let end = closed.end.as_nanos();
+            self.line(end, window_nanos, closed.load_percent, closed.frames)?;
+            if closed.quiet > 0 {
+                let quiet = closed.quiet.saturating_mul(window_nanos);
+                self.line(end.saturating_add(quiet), quiet, 0.0, 0)?;
+            }
         }
         Ok(())
+    }
+
+    /// One line: the window (or quiet stretch) of `counted` ns that ended at `end`.
+    fn line(&mut self, end: u64, counted: u64, percent: f64, frames: u32) -> io::Result<()> {
+        writeln!(
+            self.out,
+            "{}.{:06},{}.{:06},{percent:.3},{frames}",
+            end / 1_000_000_000,
+            end % 1_000_000_000 / 1000,
+            counted / 1_000_000_000,
+            counted % 1_000_000_000 / 1000,
+        )
     }
 
     pub fn flush(&mut self) -> io::Result<()> {
@@ -191,6 +194,36 @@ mod tests {
         assert!(parse_load("1.000000,0.500000,x,3").is_err());
         assert!(parse_load("1.000000,0.500000").is_err());
         assert!(parse_load("1.0,0.500000,1.0,3").is_err(), "six digits");
+    }
+
+    /// Heartbeats (id 701h, one byte) at 0, 1 and 3.2 s: one line per window on fixed
+    /// boundaries from the first frame, and a quiet stretch of whole windows as one line.
+    #[test]
+    fn a_quiet_stretch_is_one_line_of_its_length() {
+        let beat = CanFrame::new(0x701, &[0x7F]).expect("a frame");
+        let mut log = LoadLog::new(Vec::new(), 125_000).expect("header");
+        let t0 = Duration::from_secs(1_000);
+        for ms in [0, 1000, 3200] {
+            log.frame(t0 + Duration::from_millis(ms), &beat)
+                .expect("line");
+        }
+        let text = String::from_utf8(log.get_ref().clone()).expect("utf-8");
+        let rows = parse_load(&text).expect("parses");
+        let got: Vec<_> = rows
+            .iter()
+            .map(|r| (r.end - t0, r.window, r.frames, r.load_percent > 0.0))
+            .collect();
+        let ms = Duration::from_millis;
+        assert_eq!(
+            got,
+            [
+                (ms(500), ms(500), 1, true),
+                (ms(1000), ms(500), 0, false),
+                (ms(1500), ms(500), 1, true),
+                (ms(3000), ms(1500), 0, false),
+            ],
+            "{text}"
+        );
     }
 
     #[test]

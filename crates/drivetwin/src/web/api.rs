@@ -307,8 +307,9 @@ pub struct BusView {
     pub drives: usize,
     /// Bit rate, bit/s (`null`: the instant bus, `bitrate = "instant"`; frames cross at once).
     pub bitrate: Option<u32>,
-    /// Bus load, percent: the bit time asked of the bus over the last window (500 ms); more
-    /// than 100 means it falls behind.
+    /// Bus load, percent: the bit time asked of the bus over the last second (two complete
+    /// 500 ms windows on fixed boundaries of the cell's clock, so steady traffic reads the
+    /// same whenever it is asked); more than 100 means it falls behind.
     pub load_percent: Option<f64>,
     /// Frames that crossed the bus.
     pub frames: Option<u64>,
