@@ -29,6 +29,9 @@
     clippy::panic
 )]
 
+#[path = "../tests/support/cmmp_as_chain.rs"]
+mod cmmp_as_chain;
+
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -37,24 +40,16 @@ use drivetwin::cell::can_cell::CanCell;
 use drivetwin::cell::config::CellFile;
 use drivetwin::ecat::chain::SlaveChain;
 use ethercat::register::RegisterAddress;
-use ethercat::{Address, AlState, Command, EthernetFrame, Fmmu, Frame, FrameWriter, SyncManager};
+use ethercat::{Address, AlState, Command, EthernetFrame, Frame, FrameWriter};
 use od::Instant;
+
+use cmmp_as_chain::{
+    configure_process_data, mailboxes, INPUT_BYTES, MASTER_MAC, OUTPUT_BYTES, STATION,
+    WKC_PER_SLAVE,
+};
 
 /// A chain of real size: 64 drives (the 4 kHz target's chain, docs/performance.md).
 const SLAVES: u16 = 64;
-const MASTER_MAC: [u8; 6] = [0x01; 6];
-const STATION: u16 = 0x1001;
-/// The CMMP-AS SII: mailbox out 1000h / in 1080h, 128 bytes each, SM2 at 1100h, SM3 at 1180h.
-const MAILBOX_OUT: u16 = 0x1000;
-const MAILBOX_IN: u16 = 0x1080;
-const MAILBOX_LEN: u16 = 0x80;
-const SM2: u16 = 0x1100;
-const SM3: u16 = 0x1180;
-/// Default mapping: 1600h = controlword, 1A00h = statusword.
-const OUTPUT_BYTES: u16 = 2;
-const INPUT_BYTES: u16 = 2;
-/// LRW working counter per slave: outputs written (+2) and inputs read (+1).
-const WKC_PER_SLAVE: u16 = 3;
 /// The free-run cycle: 4 kHz.
 const FREE_RUN_CYCLE: Duration = Duration::from_micros(250);
 /// The DC cycle: the CMMP-AS's shortest interpolator cycle (60C2h = 1 ms).
@@ -207,11 +202,7 @@ impl Bench {
             &[AlState::Init as u8 | 0x10, 0],
         );
         assert_eq!(r.wkc, SLAVES, "every slave answers the broadcast");
-        let mut mailboxes = SyncManager::new(MAILBOX_OUT, MAILBOX_LEN, 0x26, true)
-            .to_bytes()
-            .to_vec();
-        mailboxes
-            .extend_from_slice(&SyncManager::new(MAILBOX_IN, MAILBOX_LEN, 0x22, true).to_bytes());
+        let mailboxes = mailboxes();
         for k in 0..SLAVES {
             let r = self.exchange(
                 Command::Apwr,
@@ -227,35 +218,14 @@ impl Bench {
         self.request(AlState::PreOp);
         assert!(self.all_in(AlState::PreOp), "Pre-Op");
 
-        let outputs = u32::from(SLAVES) * u32::from(OUTPUT_BYTES);
         let mut first_event = 0;
         for k in 0..SLAVES {
-            let station = STATION + k;
             if self.row == Row::Dc {
-                first_event = self.sync0(station);
+                first_event = self.sync0(STATION + k);
             }
-            self.fpwr(
-                station,
-                RegisterAddress::sync_manager(2),
-                &SyncManager::new(SM2, OUTPUT_BYTES, 0x64, true).to_bytes(),
-            );
-            self.fpwr(
-                station,
-                RegisterAddress::sync_manager(3),
-                &SyncManager::new(SM3, INPUT_BYTES, 0x20, true).to_bytes(),
-            );
-            let out_at = u32::from(k) * u32::from(OUTPUT_BYTES);
-            let in_at = outputs + u32::from(k) * u32::from(INPUT_BYTES);
-            self.fpwr(
-                station,
-                RegisterAddress::fmmu(0),
-                &Fmmu::bytes(out_at, OUTPUT_BYTES, SM2, false, true).to_bytes(),
-            );
-            self.fpwr(
-                station,
-                RegisterAddress::fmmu(1),
-                &Fmmu::bytes(in_at, INPUT_BYTES, SM3, true, false).to_bytes(),
-            );
+            configure_process_data(k, SLAVES, |station, register, data| {
+                self.fpwr(station, register, data)
+            });
         }
         self.request(AlState::SafeOp);
         assert!(self.all_in(AlState::SafeOp), "Safe-Op");

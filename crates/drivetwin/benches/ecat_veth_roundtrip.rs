@@ -82,6 +82,8 @@
     clippy::panic
 )]
 
+#[path = "../tests/support/cmmp_as_chain.rs"]
+mod cmmp_as_chain;
 #[path = "../tests/support/ecat_veth.rs"]
 mod ecat_veth;
 
@@ -91,28 +93,17 @@ use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
+use cmmp_as_chain::{
+    configure_process_data, mailboxes, INPUT_BYTES, MASTER_MAC, OUTPUT_BYTES, STATION,
+    WKC_PER_SLAVE,
+};
 use drivetwin::sys::fd::{self, Readiness};
 use drivetwin::sys::packet_socket::{self, Received};
 use ecat_veth::{TwinProcess, Veth};
 use ethercat::frame::{ETHERTYPE_ETHERCAT, SOURCE_MAC_RETURN_BIT};
 use ethercat::register::RegisterAddress;
-use ethercat::{Address, AlState, Command, EthernetFrame, Fmmu, Frame, FrameWriter, SyncManager};
+use ethercat::{Address, AlState, Command, EthernetFrame, Frame, FrameWriter};
 
-/// SOEM's primary source MAC; the slave sets bit 0x02 of the first byte on the way back.
-const MASTER_MAC: [u8; 6] = [0x01; 6];
-const STATION: u16 = 0x1001;
-/// The CMMP-AS SII: mailbox out 1000h / in 1080h, 128 bytes each (SII word 18h), process
-/// data SM2 at 1100h, SM3 at 1180h.
-const MAILBOX_OUT: u16 = 0x1000;
-const MAILBOX_IN: u16 = 0x1080;
-const MAILBOX_LEN: u16 = 0x80;
-const SM2: u16 = 0x1100;
-const SM3: u16 = 0x1180;
-/// Default mapping: 1600h = controlword, 1A00h = statusword.
-const OUTPUT_BYTES: u16 = 2;
-const INPUT_BYTES: u16 = 2;
-/// LRW working counter per slave: outputs written (+2) and inputs read (+1).
-const WKC_PER_SLAVE: u16 = 3;
 /// The longest chain a frame of [`Master`]'s buffer holds (4 bytes of process data a slave).
 const MOST_SLAVES: u16 = 256;
 /// A reply later than this counts as lost.
@@ -803,12 +794,7 @@ impl Master {
             &[AlState::Init as u8 | 0x10, 0],
         );
         assert_eq!(r.wkc, self.slaves, "every slave answers the broadcast");
-        let mut mailboxes = SyncManager::new(MAILBOX_OUT, MAILBOX_LEN, 0x26, true)
-            .to_bytes()
-            .to_vec();
-        mailboxes
-            .extend_from_slice(&SyncManager::new(MAILBOX_IN, MAILBOX_LEN, 0x22, true).to_bytes());
-        let outputs = u32::from(self.slaves) * u32::from(OUTPUT_BYTES);
+        let mailboxes = mailboxes();
         for k in 0..self.slaves {
             // Auto-increment address: the k-th slave on the wire is at -k.
             let r = self.exchange(
@@ -825,30 +811,11 @@ impl Master {
         self.request(AlState::PreOp);
         assert!(self.all_in(AlState::PreOp), "Pre-Op");
 
-        for k in 0..self.slaves {
-            let station = STATION + k;
-            self.fpwr(
-                station,
-                RegisterAddress::sync_manager(2),
-                &SyncManager::new(SM2, OUTPUT_BYTES, 0x64, true).to_bytes(),
-            );
-            self.fpwr(
-                station,
-                RegisterAddress::sync_manager(3),
-                &SyncManager::new(SM3, INPUT_BYTES, 0x20, true).to_bytes(),
-            );
-            let out_at = u32::from(k) * u32::from(OUTPUT_BYTES);
-            let in_at = outputs + u32::from(k) * u32::from(INPUT_BYTES);
-            self.fpwr(
-                station,
-                RegisterAddress::fmmu(0),
-                &Fmmu::bytes(out_at, OUTPUT_BYTES, SM2, false, true).to_bytes(),
-            );
-            self.fpwr(
-                station,
-                RegisterAddress::fmmu(1),
-                &Fmmu::bytes(in_at, INPUT_BYTES, SM3, true, false).to_bytes(),
-            );
+        let slaves = self.slaves;
+        for k in 0..slaves {
+            configure_process_data(k, slaves, |station, register, data| {
+                self.fpwr(station, register, data)
+            });
         }
         self.request(AlState::SafeOp);
         assert!(self.all_in(AlState::SafeOp), "Safe-Op");
