@@ -193,7 +193,9 @@ impl CellLoop {
     fn settle(chain: &mut ChainState, buses: &mut CanCell) -> bool {
         let pending = chain.pending_exchange.take();
         if let Some(t) = pending {
+            let start = Instant::now();
             chain.chain.exchange_with(t, buses);
+            chain.last_exchange = start.elapsed();
             Self::hand_off_saves(chain, buses);
         }
         pending.is_some()
