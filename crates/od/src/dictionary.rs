@@ -320,6 +320,27 @@ fn signature(data: &[u8]) -> Option<u32> {
     Some(u32::from_le_bytes(data.try_into().ok()?))
 }
 
+/// The entry whose stored bytes ([`ObjectDictionary::raw`]) are exactly what
+/// [`ObjectAccess::read`] of `index`:`sub` returns in a dictionary of `desc`, in any state: a
+/// readable value of at most 8 bytes (a process-data value) that neither reads as zeros
+/// (`ReadsZero`) nor is an error-history entry, whose read depends on the count in sub-index
+/// 0. A caller that reads the object every cycle resolves it once and copies its bytes;
+/// `None`: read it through the dictionary every time. Kept beside `read`, whose cases it
+/// mirrors.
+pub fn stored_read_entry(
+    desc: &'static DeviceDescription,
+    index: u16,
+    sub: u8,
+) -> Option<&'static Entry> {
+    let e = desc.entry(index, sub)?;
+    let history = sub > 0
+        && desc
+            .entry(index, 0)
+            .is_some_and(|c| c.behaviour == Behaviour::ErrorHistoryCount);
+    let fixed = e.data_type.fixed_size().is_some_and(|n| n <= 8);
+    (e.access.readable() && e.behaviour != Behaviour::ReadsZero && !history && fixed).then_some(e)
+}
+
 impl<S: AsRef<[u8]> + AsMut<[u8]>> ObjectAccess for ObjectDictionary<S> {
     fn entry(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         let obj = self.desc.object(index).ok_or(AbortCode::NO_OBJECT)?;

@@ -15,8 +15,9 @@
 //!   as bytes, not bit by bit).
 
 use ethercat::{AlStatusCode, Esc};
+use od::dictionary::stored_read_entry;
 use od::pdo_rules::{check_map_entry, MapEntry};
-use od::{Behaviour, DeviceDescription, Entry, ObjectAccess};
+use od::{DeviceDescription, Entry, ObjectAccess};
 
 use crate::cell::device_model::Model;
 
@@ -59,7 +60,7 @@ pub struct Layout {
     sources: Sources,
 }
 
-/// The entries the inputs read their bytes from ([`stored_value`]), one per input item, in
+/// The entries the inputs read their bytes from ([`stored_read_entry`]), one per input item, in
 /// the description they were resolved in; `None` where a read goes through the dictionary's
 /// access every time. Two are equal when they name the same entries.
 #[derive(Debug, Clone, Default)]
@@ -85,21 +86,6 @@ impl PartialEq for Sources {
 }
 
 impl Eq for Sources {}
-
-/// The entry whose stored bytes are exactly what [`ObjectAccess::read`] of `index`:`sub`
-/// returns in the dictionary of `desc` (`ObjectDictionary::read`): a readable value of at most
-/// 8 bytes (a process-data value) that neither reads as zeros (`ReadsZero`) nor is an error
-/// history entry, whose read depends on the count in sub-index 0. Any other object is read
-/// through the dictionary in every cycle.
-fn stored_value(desc: &'static DeviceDescription, index: u16, sub: u8) -> Option<&'static Entry> {
-    let e = desc.entry(index, sub)?;
-    let history = sub > 0
-        && desc
-            .entry(index, 0)
-            .is_some_and(|c| c.behaviour == Behaviour::ErrorHistoryCount);
-    let fixed = e.data_type.fixed_size().is_some_and(|n| n <= 8);
-    (e.access.readable() && e.behaviour != Behaviour::ReadsZero && !history && fixed).then_some(e)
-}
 
 impl Bound<'_> {
     /// The PDO assignment of SM2 or SM3: 1C12h / 1C13h from the dictionary when it has
@@ -169,7 +155,7 @@ impl Bound<'_> {
             .iter()
             .map(|i| {
                 (!i.dummy)
-                    .then(|| stored_value(desc, i.index, i.sub))
+                    .then(|| stored_read_entry(desc, i.index, i.sub))
                     .flatten()
             })
             .collect();
@@ -311,7 +297,7 @@ mod tests {
             model.step(Instant::from_millis(5));
             let mut taken = 0;
             for e in desc.entries() {
-                let Some(source) = stored_value(desc, e.index, e.sub) else {
+                let Some(source) = stored_read_entry(desc, e.index, e.sub) else {
                     continue;
                 };
                 taken += 1;
@@ -329,7 +315,11 @@ mod tests {
             }
             assert!(taken > 0, "{}", desc.name);
             if desc.entry(0x1003, 1).is_some() {
-                assert!(stored_value(desc, 0x1003, 1).is_none(), "{}", desc.name);
+                assert!(
+                    stored_read_entry(desc, 0x1003, 1).is_none(),
+                    "{}",
+                    desc.name
+                );
             }
         }
     }
