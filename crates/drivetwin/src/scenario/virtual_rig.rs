@@ -15,7 +15,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use canopen::CanFrame;
-use od::{Behaviour, DeviceDescription, Entry, Instant, ObjectAccess, ObjectDictionary};
+use od::dictionary::stored_read_entry;
+use od::{DeviceDescription, Entry, Instant, ObjectAccess, ObjectDictionary};
 
 use super::file::{Action, ScenarioError};
 use super::runner::Rig;
@@ -340,13 +341,13 @@ pub struct Words {
 }
 
 impl Words {
-    /// The readable entries of 6041h and 6064h in `desc` (`None`: a read is refused).
+    /// The entries of 6041h and 6064h in `desc` whose stored bytes are what a read returns
+    /// (`None`: refused, or reads as zeros).
     pub fn of(desc: &'static DeviceDescription) -> Words {
-        let readable = |index| desc.entry(index, 0).filter(|e| e.access.readable());
         Words {
             desc,
-            statusword: readable(0x6041),
-            position_actual: readable(0x6064),
+            statusword: stored_read_entry(desc, 0x6041, 0),
+            position_actual: stored_read_entry(desc, 0x6064, 0),
         }
     }
 
@@ -363,15 +364,11 @@ impl Words {
     }
 }
 
-/// The `N` bytes of entry `e` as the dictionary's read gives them (zeros for an entry that
-/// reads zero, none or another size).
+/// The `N` bytes of entry `e` as the dictionary's read gives them (zeros for none or an entry
+/// of another size).
 fn value<const N: usize>(od: &ObjectDictionary<Vec<u8>>, e: Option<&Entry>) -> [u8; N] {
-    match e {
-        Some(e) if e.behaviour != Behaviour::ReadsZero => {
-            <[u8; N]>::try_from(od.raw(e)).unwrap_or([0; N])
-        }
-        _ => [0; N],
-    }
+    e.and_then(|e| <[u8; N]>::try_from(od.raw(e)).ok())
+        .unwrap_or([0; N])
 }
 
 /// What a drive's plant and device control show at one instant: the quantities a cell shows
