@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use mio::unix::SourceFd;
 use mio::{Interest, Registry, Token};
 
+use super::wake_up::WakeUp;
 use crate::sys::timer::Timer;
 
 /// A one-shot timerfd registered with the loop's poll.
@@ -29,16 +30,16 @@ impl FineTimer {
         Ok(FineTimer { timer, armed: None })
     }
 
-    /// Wakes the loop by `deadline`, `wait` from now. A zero wait needs no timer: the poll
-    /// then does not sleep. A timer already armed for `deadline` or earlier is left as it
+    /// Wakes the loop at `wake.at`, `wait` from now. A zero wait needs no timer: the poll
+    /// then does not sleep. A timer already armed for `wake.latest` or earlier is left as it
     /// is: it wakes the loop early at worst, and the loop arms it then for what is due. Only
-    /// a deadline earlier than the armed one costs a system call on the path that moved it.
-    pub(super) fn arm(&mut self, deadline: Instant, wait: Duration) {
-        if wait.is_zero() || self.armed_by(deadline) {
+    /// a wake-up earlier than the armed one costs a system call on the path that moved it.
+    pub(super) fn arm(&mut self, wake: WakeUp, wait: Duration) {
+        if wait.is_zero() || self.armed_by(wake.latest) {
             return;
         }
         match self.timer.arm(wait) {
-            Ok(_) => self.armed = Some(deadline),
+            Ok(_) => self.armed = Some(wake.at),
             Err(e) => {
                 // The poll's rounded timeout still wakes the loop, a little late.
                 self.armed = None;
@@ -76,7 +77,7 @@ mod tests {
         for _ in 0..20 {
             let start = Instant::now();
             let wait = Duration::from_micros(300);
-            timer.arm(start + wait, wait);
+            timer.arm(WakeUp::exact(start + wait), wait);
             poll.poll(&mut events, Some(Duration::from_secs(1)))
                 .expect("poll");
             let took = start.elapsed();
@@ -100,10 +101,10 @@ mod tests {
         let mut events = Events::with_capacity(4);
         let wait = Duration::from_micros(500);
         let deadline = Instant::now() + wait;
-        timer.arm(deadline, wait);
+        timer.arm(WakeUp::exact(deadline), wait);
         assert_eq!(timer.armed, Some(deadline));
         // Armed again for the same deadline with a shorter wait (time has passed): no change.
-        timer.arm(deadline, Duration::from_micros(100));
+        timer.arm(WakeUp::exact(deadline), Duration::from_micros(100));
         poll.poll(&mut events, Some(Duration::from_secs(1)))
             .expect("poll");
         assert!(events.iter().any(|e| e.token() == Token(7)));
@@ -114,7 +115,7 @@ mod tests {
         timer.clear();
         assert_eq!(timer.armed, None);
         let later = Instant::now() + wait;
-        timer.arm(later, wait);
+        timer.arm(WakeUp::exact(later), wait);
         assert_eq!(timer.armed, Some(later));
     }
 
@@ -127,15 +128,15 @@ mod tests {
         let mut events = Events::with_capacity(4);
         let start = Instant::now();
         let first = start + Duration::from_micros(800);
-        timer.arm(first, Duration::from_micros(800));
+        timer.arm(WakeUp::exact(first), Duration::from_micros(800));
         timer.arm(
-            first + Duration::from_millis(1),
+            WakeUp::exact(first + Duration::from_millis(1)),
             Duration::from_micros(1800),
         );
         assert_eq!(timer.armed, Some(first), "a later deadline keeps the timer");
         assert!(timer.armed_by(first + Duration::from_millis(1)));
         let earlier = start + Duration::from_micros(300);
-        timer.arm(earlier, Duration::from_micros(300));
+        timer.arm(WakeUp::exact(earlier), Duration::from_micros(300));
         assert_eq!(timer.armed, Some(earlier), "an earlier one arms it");
         poll.poll(&mut events, Some(Duration::from_secs(1)))
             .expect("poll");
@@ -144,5 +145,28 @@ mod tests {
         assert!(woke >= Duration::from_micros(300), "{woke:?}");
         timer.clear();
         assert!(!timer.armed_by(first));
+    }
+
+    /// A wake-up that may come later than its time (a chain's exchange between two frames)
+    /// keeps a timer armed within its stretch: no system call.
+    #[test]
+    fn a_timer_armed_within_the_stretch_is_kept() {
+        let poll = Poll::new().expect("poll");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let start = Instant::now();
+        let planned = start + Duration::from_micros(400);
+        timer.arm(WakeUp::exact(planned), Duration::from_micros(400));
+        let stretch = WakeUp {
+            at: start + Duration::from_micros(300),
+            latest: start + Duration::from_micros(450),
+        };
+        timer.arm(stretch, Duration::from_micros(300));
+        assert_eq!(timer.armed, Some(planned), "kept");
+        let tight = WakeUp {
+            at: start + Duration::from_micros(300),
+            latest: start + Duration::from_micros(350),
+        };
+        timer.arm(tight, Duration::from_micros(300));
+        assert_eq!(timer.armed, Some(tight.at), "armed anew for its time");
     }
 }

@@ -62,6 +62,7 @@ use crate::cell::tracer::Tracer;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
+use wake_up::WakeUp;
 
 mod can_bus;
 mod connections;
@@ -77,6 +78,7 @@ mod serial;
 mod socketcand;
 pub mod turn_log;
 pub mod virtual_clock;
+mod wake_up;
 mod wire;
 
 /// Bytes a client may leave unread before it is dropped.
@@ -140,24 +142,20 @@ type ModbusLink = FrontFaultInjector<SendBuffer>;
 /// bus's frames to it (out).
 type ClientLink = FrontFaultInjector<ClientStream>;
 
-/// A deferred exchange longer than this runs between the master's frames rather than on the
-/// next frame's path: about what a wake-up of the loop between two frames costs the next one.
-const LONG_EXCHANGE: Duration = Duration::from_micros(10);
-
 /// An EtherCAT chain while the loop runs.
 struct ChainState {
     chain: SlaveChain,
     link: ChainLink,
     /// The devices' exchange after the last frame answered ([`SlaveChain::exchange_with`]),
     /// at that frame's time, when it is still to run: the loop runs it before anything reads
-    /// the chain again, or half-way to the next frame ([`CellLoop::settle_chains`]).
+    /// the chain again, or between the master's frames ([`wake_up::exchange`]).
     pending_exchange: Option<od::Instant>,
     /// When the last frame arrived: a frame's time never goes back.
     last_frame: Instant,
     /// The time between the last two frames: the master's cycle, as the loop sees it
     /// (`Duration::MAX` before the second frame).
     frame_gap: Duration,
-    /// How long the last deferred exchange took (`CellLoop::deadline`).
+    /// How long the last deferred exchange took ([`wake_up::exchange`]).
     last_exchange: Duration,
     /// The 1010h saves its slaves asked for, written beside the loop
     /// ([`CellLoop::hand_off_saves`]).
@@ -628,21 +626,23 @@ impl CellLoop {
                     self.next_turn.publish(None);
                     Some(Duration::ZERO)
                 } else {
-                    let deadline = self.deadline();
+                    let now = Instant::now();
+                    let wake = self.wake_up(now);
+                    let deadline = wake.map(|w| w.at);
                     // A request that came in after this turn's `control` is served at once.
                     let pending = self.next_turn.publish(deadline);
                     let wait = deadline
-                        .map(|d| d.saturating_duration_since(Instant::now()))
+                        .map(|d| d.saturating_duration_since(now))
                         .filter(|_| !pending)
                         .or(pending.then_some(Duration::ZERO));
                     self.turns.waits_until(deadline.filter(|_| wait.is_some()));
-                    match (deadline, wait, &mut self.timer) {
-                        (Some(d), Some(w), Some(timer)) if !w.is_zero() => {
-                            timer.arm(d, w);
+                    match (wake, wait, &mut self.timer) {
+                        (Some(wake), Some(w), Some(timer)) if !w.is_zero() => {
+                            timer.arm(wake, w);
                             // The timerfd wakes the loop by then: epoll's own millisecond timer,
                             // armed and cancelled at every wait, would only lengthen the wake-up
                             // of a frame that comes first.
-                            if timer.armed_by(d) {
+                            if timer.armed_by(wake.latest) {
                                 None
                             } else {
                                 wait
@@ -687,7 +687,10 @@ impl CellLoop {
                 }
             }
             self.turns.mark(turn_log::Part::Rest);
-            self.turns.end(Instant::now(), self.sync0_total());
+            // A frame's turn ends with its master waiting for the loop to sleep: the thread's
+            // usage (two system calls) is read at the next turn that is not one.
+            self.turns
+                .end(Instant::now(), self.sync0_total(), !frames_only);
             if let Some(e) = self.load_failure() {
                 load_failure = Some(e);
                 break;
@@ -719,7 +722,7 @@ impl CellLoop {
                 .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
             && self.chains_to_read == 0
             && self.more_to_read.is_empty()
-            && !matches!(self.deadline(), Some(d) if d <= now)
+            && !matches!(self.wake_up(now), Some(w) if w.at <= now)
     }
 
     /// The timers due and every socket's event of a turn but the chains' (answered first).
@@ -804,6 +807,12 @@ impl CellLoop {
     /// The earliest time something is due: a drive, a session's timer, a Modbus cycle, a
     /// planned change, or a trace to flush.
     fn deadline(&self) -> Option<Instant> {
+        self.wake_up(Instant::now()).map(|w| w.at)
+    }
+
+    /// When the loop wakes next ([`deadline`](Self::deadline)), and by when a timer armed
+    /// already wakes it as well ([`wake_up`]).
+    fn wake_up(&self, now: Instant) -> Option<WakeUp> {
         let mut at: Option<Instant> = None;
         let mut take = |d: Option<Instant>| {
             at = match (at, d) {
@@ -814,7 +823,7 @@ impl CellLoop {
         for (b, bus) in self.cell.buses.iter().enumerate() {
             take(self.cell.deadline_of(b).map(|d| self.wall(d)));
             if bus.port().unflushed() {
-                take(Some(Instant::now() + Duration::from_millis(20)));
+                take(Some(now + Duration::from_millis(20)));
             }
         }
         for c in self.slots.iter().flatten() {
@@ -825,32 +834,28 @@ impl CellLoop {
         for m in &self.modbus {
             take(m.next_cycle(&self.cell.stations).map(|d| self.wall(d)));
         }
+        let mut exchanges = None;
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
-            // A pending exchange that takes long (64 drives: tens of µs) runs half-way
-            // between the master's frames (half the time between the last two): a master
-            // that shares the loop's CPU has its answer and its time after it first, and its
-            // next frame finds the devices' work done rather than waiting behind it
-            // (`settle`). A short one (a few drives) waits for the next frame, as a wake-up
-            // of its own between the frames would cost that frame more than the exchange
-            // (one CMMP-AS at 1 kHz: p50 2.2–2.5× the floor with it, 1.2–1.35× without). At
-            // the latest it runs when its own step would fall due (`TICK` + `STEP_GRACE`).
-            // It runs at its frame's time whenever the loop gets to it, so its results do
-            // not depend on this choice.
-            let latest = crate::ecat::chain::TICK + crate::ecat::chain::STEP_GRACE;
-            let after = if c.last_exchange > LONG_EXCHANGE {
-                latest.min(c.frame_gap / 2)
-            } else {
-                latest
+            let pace = wake_up::ChainPace {
+                pending: c.pending_exchange.map(|t| self.wall(t)),
+                last_frame: c.last_frame,
+                frame_gap: c.frame_gap,
+                last_exchange: c.last_exchange,
             };
-            take(c.pending_exchange.map(|t| self.wall(t) + after));
+            exchanges = WakeUp::earliest(exchanges, wake_up::exchange(pace, now));
         }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));
         }
         take(self.held_deadline());
         take(self.plans_deadline().map(|d| self.wall(d)));
-        handle::with_samples(at, self.subscriptions.iter().map(|s| s.next).min())
+        let wake = WakeUp::earliest(at.map(WakeUp::exact), exchanges);
+        let sample = self.subscriptions.iter().map(|s| s.next).min();
+        handle::with_samples(wake.map(|w| w.at), sample).map(|at| match wake {
+            Some(w) if w.at == at => w,
+            _ => WakeUp::exact(at),
+        })
     }
 
     fn timers(&mut self, now: Instant) {

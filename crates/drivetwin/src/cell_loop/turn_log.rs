@@ -9,8 +9,9 @@
 //! turns took how long (powers of two).
 //!
 //! Recorded in place with no allocation: a clock read per part (the monotonic clock, read
-//! without a system call) and one `getrusage` per turn, after its answers went out; printed
-//! when the loop stops (`drivetwin run`, after the timers' lateness).
+//! without a system call) and one `getrusage` per turn that is not a frame's alone, after
+//! its answers went out; printed when the loop stops (`drivetwin run`, after the timers'
+//! lateness).
 
 use std::fmt;
 use std::sync::{Arc, Mutex};
@@ -69,8 +70,10 @@ pub struct Turn {
     pub polls: u32,
     /// SYNC0 events the chains' devices ran.
     pub sync0_events: u64,
-    /// What the thread used from the end of the turn before to the end of this one.
-    pub cpu: Duration,
+    /// What the thread used from the end of the last turn that read it to the end of this
+    /// one; `None` (and no faults or switches) for a turn that answered frames alone, whose
+    /// master waited for the loop to sleep (`TurnLog::end`).
+    pub cpu: Option<Duration>,
     pub minor_faults: u64,
     pub major_faults: u64,
     pub involuntary_switches: u64,
@@ -198,19 +201,22 @@ impl TurnLog {
     }
 
     /// The turn's work is done at `now`; `sync0_total`: the SYNC0 events the chains' devices
-    /// have run so far.
-    pub fn end(&mut self, now: Instant, sync0_total: u64) {
-        let usage = thread_usage();
+    /// have run so far. With `read_usage`, the thread's usage is read (two system calls);
+    /// without, the turn's is counted in the next turn that reads it.
+    pub fn end(&mut self, now: Instant, sync0_total: u64, read_usage: bool) {
         let t = &mut self.current;
         t.wall = now.saturating_duration_since(self.origin + t.at);
         t.sync0_events = sync0_total.saturating_sub(self.sync0_total);
-        t.cpu = usage.cpu.saturating_sub(self.usage.cpu);
-        t.minor_faults = usage.minor_faults.saturating_sub(self.usage.minor_faults);
-        t.major_faults = usage.major_faults.saturating_sub(self.usage.major_faults);
-        t.involuntary_switches = usage
-            .involuntary_switches
-            .saturating_sub(self.usage.involuntary_switches);
-        self.usage = usage;
+        if read_usage {
+            let usage = thread_usage();
+            t.cpu = Some(usage.cpu.saturating_sub(self.usage.cpu));
+            t.minor_faults = usage.minor_faults.saturating_sub(self.usage.minor_faults);
+            t.major_faults = usage.major_faults.saturating_sub(self.usage.major_faults);
+            t.involuntary_switches = usage
+                .involuntary_switches
+                .saturating_sub(self.usage.involuntary_switches);
+            self.usage = usage;
+        }
         self.sync0_total = sync0_total;
         self.turns += 1;
         let micros = t.wall.as_micros();
@@ -224,7 +230,7 @@ impl TurnLog {
         }
         let all = &mut self.totals;
         all.wall += t.wall;
-        all.cpu += t.cpu;
+        all.cpu += t.cpu.unwrap_or_default();
         for (sum, part) in all.parts.iter_mut().zip(t.parts) {
             *sum += part;
         }
@@ -280,11 +286,14 @@ impl fmt::Display for Turn {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{:.1} µs at {:.6} s (turn {}): cpu {:.1} µs, {} involuntary switches, {} minor / {} major page faults, woke {:.1} µs late; {} frames, {} exchanges, {} polls, {} SYNC0 events;",
+            "{:.1} µs at {:.6} s (turn {}): cpu {}, {} involuntary switches, {} minor / {} major page faults, woke {:.1} µs late; {} frames, {} exchanges, {} polls, {} SYNC0 events;",
             self.wall.as_secs_f64() * 1e6,
             self.at.as_secs_f64(),
             self.index,
-            self.cpu.as_secs_f64() * 1e6,
+            self.cpu.map_or("not read".to_owned(), |c| format!(
+                "{:.1} µs",
+                c.as_secs_f64() * 1e6
+            )),
             self.involuntary_switches,
             self.minor_faults,
             self.major_faults,
@@ -358,7 +367,7 @@ mod tests {
             log.waits_until(Some(at - Duration::from_micros(3)));
             log.begin(at);
             log.frame();
-            log.end(at + Duration::from_micros(*us), 2 * k as u64);
+            log.end(at + Duration::from_micros(*us), 2 * k as u64, k % 2 == 0);
         }
         log.publish();
         let report = log.report().lock().unwrap().clone();
