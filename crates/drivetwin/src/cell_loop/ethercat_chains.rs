@@ -99,7 +99,10 @@ impl CellLoop {
             // SYNC0 events that fell due meanwhile, as on a device.
             let arrived = chain.socket().arrived().map_or(now, |a| arrival(a, now));
             let t = cell_time(self.origin, arrived.max(chain.last_frame));
-            chain.frame_gap = arrived.saturating_duration_since(chain.last_frame);
+            chain.master_cycle = super::wake_up::master_cycle(
+                chain.master_cycle,
+                arrived.saturating_duration_since(chain.last_frame),
+            );
             chain.last_frame = arrived.max(chain.last_frame);
             // The exchange after the frame before comes first, at that frame's time.
             if Self::settle(chain, &mut self.cell) {

@@ -152,9 +152,9 @@ struct ChainState {
     pending_exchange: Option<od::Instant>,
     /// When the last frame arrived: a frame's time never goes back.
     last_frame: Instant,
-    /// The time between the last two frames: the master's cycle, as the loop sees it
-    /// (`Duration::MAX` before the second frame).
-    frame_gap: Duration,
+    /// The master's cycle, as the loop sees it ([`wake_up::master_cycle`]; `Duration::MAX`
+    /// before the second frame).
+    master_cycle: Duration,
     /// How long the last deferred exchange took ([`wake_up::exchange`]).
     last_exchange: Duration,
     /// The 1010h saves its slaves asked for, written beside the loop
@@ -497,7 +497,7 @@ impl CellLoop {
                 ),
                 pending_exchange: None,
                 last_frame: Instant::now(),
-                frame_gap: Duration::MAX,
+                master_cycle: Duration::MAX,
                 last_exchange: Duration::ZERO,
                 saver: ParamSaver::default(),
             })
@@ -840,7 +840,7 @@ impl CellLoop {
             let pace = wake_up::ChainPace {
                 pending: c.pending_exchange.map(|t| self.wall(t)),
                 last_frame: c.last_frame,
-                frame_gap: c.frame_gap,
+                cycle: c.master_cycle,
                 last_exchange: c.last_exchange,
             };
             exchanges = WakeUp::earliest(exchanges, wake_up::exchange(pace, now));

@@ -48,19 +48,20 @@ pub(super) struct ChainPace {
     pub pending: Option<Instant>,
     /// When the last frame arrived.
     pub last_frame: Instant,
-    /// The time between the last two frames (`Duration::MAX` before the second).
-    pub frame_gap: Duration,
+    /// The master's cycle as the loop sees it ([`master_cycle`]; `Duration::MAX` before the
+    /// second frame).
+    pub cycle: Duration,
     /// How long the last deferred exchange took.
     pub last_exchange: Duration,
 }
 
 /// When the loop wakes for a chain's deferred exchange.
 ///
-/// A long one (64 drives: tens of µs) runs half-way between the master's frames (half the
-/// time between the last two), anywhere from a quarter to three quarters of the way: a
+/// A long one (64 drives: tens of µs) runs half-way between the master's frames (half its
+/// cycle), anywhere from a quarter to three quarters of the way: a
 /// master that shares the loop's CPU has its answer and its time after it first, and its next
 /// frame finds the devices' work done rather than waiting behind it. While none is pending,
-/// the wake-up of the next one is planned from the master's pace (its next frame a gap after
+/// the wake-up of the next one is planned from the master's pace (its next frame a cycle after
 /// the last), so the timer is armed for it now, between the frames, not on the frame's path;
 /// a master that stops costs one wake-up for nothing.
 ///
@@ -74,7 +75,7 @@ pub(super) struct ChainPace {
 pub(super) fn exchange(pace: ChainPace, now: Instant) -> Option<WakeUp> {
     let step = TICK + STEP_GRACE;
     let long = pace.last_exchange > LONG_EXCHANGE;
-    let gap = pace.frame_gap;
+    let gap = pace.cycle;
     match pace.pending {
         Some(frame) if long => Some(WakeUp {
             at: frame + step.min(gap / 2),
@@ -93,6 +94,25 @@ pub(super) fn exchange(pace: ChainPace, now: Instant) -> Option<WakeUp> {
     }
 }
 
+/// The master's cycle after a frame `gap` after the one before, from its cycle so far: each
+/// gap moves it an eighth of the way, and counts as at most twice the cycle. A master's
+/// frames come a cycle apart give or take its wake-up's jitter; a frame that came late (the
+/// loop's own long exchange held the master off the CPU) and the early-looking one after it
+/// would each move a half-way point planned from the last gap alone by half their jitter, to
+/// where the next frame finds the exchange still to run. A master that stalls moves it an
+/// eighth up; one that changes its cycle is followed within a few dozen frames.
+pub(super) fn master_cycle(cycle: Duration, gap: Duration) -> Duration {
+    if cycle == Duration::MAX {
+        return gap;
+    }
+    let gap = gap.min(cycle.saturating_mul(2));
+    if gap >= cycle {
+        cycle + (gap - cycle) / 8
+    } else {
+        cycle - (cycle - gap) / 8
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -103,7 +123,7 @@ mod tests {
         ChainPace {
             pending: pending.then_some(start),
             last_frame: start,
-            frame_gap: GAP,
+            cycle: GAP,
             last_exchange: Duration::from_micros(took_us),
         }
     }
@@ -161,8 +181,25 @@ mod tests {
     fn a_slow_master_plans_nothing() {
         let t = Instant::now();
         let mut slow = pace(t, false, 30);
-        slow.frame_gap = Duration::from_millis(20);
+        slow.cycle = Duration::from_millis(20);
         assert_eq!(exchange(slow, t), None);
+    }
+
+    /// A late frame and the early-looking one after it barely move the cycle; a stall moves
+    /// it an eighth up; a new cycle is followed.
+    #[test]
+    fn the_cycle_follows_the_master_not_its_jitter() {
+        let us = Duration::from_micros;
+        assert_eq!(master_cycle(Duration::MAX, us(250)), us(250));
+        let late = master_cycle(us(250), us(310));
+        let after = master_cycle(late, us(190));
+        assert!(after.abs_diff(us(250)) < us(10), "{after:?}");
+        assert_eq!(master_cycle(us(250), us(40_000)), us(250) + us(250) / 8);
+        let mut cycle = us(1000);
+        for _ in 0..48 {
+            cycle = master_cycle(cycle, us(250));
+        }
+        assert!(cycle.abs_diff(us(250)) < us(2), "{cycle:?}");
     }
 
     #[test]
