@@ -48,6 +48,11 @@ impl FineTimer {
         }
     }
 
+    /// The time it is armed for, until it fires.
+    pub(super) fn armed(&self) -> Option<Instant> {
+        self.armed
+    }
+
     /// Whether it is armed to fire by `deadline` (and has not fired yet).
     pub(super) fn armed_by(&self, deadline: Instant) -> bool {
         self.armed.is_some_and(|at| at <= deadline)
@@ -161,7 +166,7 @@ mod tests {
             latest: start + Duration::from_micros(450),
         };
         timer.arm(stretch, Duration::from_micros(300));
-        assert_eq!(timer.armed, Some(planned), "kept");
+        assert_eq!(timer.armed(), Some(planned), "kept");
         let tight = WakeUp {
             at: start + Duration::from_micros(300),
             latest: start + Duration::from_micros(350),

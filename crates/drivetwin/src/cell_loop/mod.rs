@@ -643,6 +643,9 @@ impl CellLoop {
                             // armed and cancelled at every wait, would only lengthen the wake-up
                             // of a frame that comes first.
                             if timer.armed_by(wake.latest) {
+                                // A timer kept within the wake-up's stretch is what the loop
+                                // waits for (the turn log's "woke late").
+                                self.turns.waits_until(timer.armed());
                                 None
                             } else {
                                 wait
