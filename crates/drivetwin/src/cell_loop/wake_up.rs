@@ -58,7 +58,7 @@ pub(super) struct ChainPace {
 /// When the loop wakes for a chain's deferred exchange.
 ///
 /// A long one (64 drives: tens of µs) runs half-way between the master's frames (half its
-/// cycle), anywhere from a quarter to three quarters of the way: a
+/// cycle), or wherever a timer armed already falls before three quarters of the way: a
 /// master that shares the loop's CPU has its answer and its time after it first, and its next
 /// frame finds the devices' work done rather than waiting behind it. While none is pending,
 /// the wake-up of the next one is planned from the master's pace (its next frame a cycle after
@@ -96,7 +96,7 @@ pub(super) fn exchange(pace: ChainPace, now: Instant) -> Option<WakeUp> {
 
 /// The master's cycle after a frame `gap` after the one before, from its cycle so far: each
 /// gap moves it an eighth of the way, and counts as at most twice the cycle. A master's
-/// frames come a cycle apart give or take its wake-up's jitter; a frame that came late (the
+/// frames come a cycle apart, give or take its wake-ups' jitter; a frame that came late (the
 /// loop's own long exchange held the master off the CPU) and the early-looking one after it
 /// would each move a half-way point planned from the last gap alone by half their jitter, to
 /// where the next frame finds the exchange still to run. A master that stalls moves it an
