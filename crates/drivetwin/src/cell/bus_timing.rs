@@ -38,8 +38,8 @@ pub struct BusFigures {
     /// Frames waiting now.
     pub queued: usize,
     /// Bus load of the last complete windows ([`LOAD_FIGURE_WINDOWS`] of [`LOAD_WINDOW`];
-    /// before the first, of the time so far), percent; more than 100 means more was asked of the bus than it carries (the
-    /// queue grows).
+    /// before the first, of the time so far), percent; more than 100 means more was asked of
+    /// the bus than it carries (the queue grows).
     pub load_percent: f64,
     /// The longest wait of a frame for the bus so far.
     pub longest_wait: Duration,

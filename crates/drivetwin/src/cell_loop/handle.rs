@@ -17,9 +17,11 @@ use crate::cell::stations::StationId;
 pub(super) const SAMPLE_RIDE: Duration = Duration::from_millis(1);
 
 impl CellLoop {
-    /// Carries out what control handles asked for.
-    pub(super) fn control(&mut self, now: Instant) {
+    /// Carries out what control handles asked for; whether any asked.
+    pub(super) fn control(&mut self, now: Instant) -> bool {
+        let mut any = false;
         while let Ok(command) = self.control_rx.try_recv() {
+            any = true;
             self.next_turn.taken();
             // A request sees the devices as of the last frame.
             self.settle_chains();
@@ -217,6 +219,7 @@ impl CellLoop {
                 }
             }
         }
+        any
     }
 
     /// A drive's temperatures and encoder after `change` ([`crate::cell::control::PhysicsChange`]).

@@ -614,7 +614,11 @@ impl CellLoop {
         self.flush_dirty();
         self.turns.start(self.sync0_total());
         let mut load_failure = None;
+        // The wake-up a turn that answered frames alone found already ([`Self::frames_only`]),
+        // for its wait: nothing changed since.
+        let mut planned: Option<Option<WakeUp>> = None;
         while !self.stop.load(Ordering::Acquire) {
+            let reuse = planned.take();
             if self.busy_poll {
                 // A master's frame, answered from the ring before the turn's poll.
                 let spin_end = Instant::now() + ethercat_chains::RING_SPIN;
@@ -627,7 +631,10 @@ impl CellLoop {
                     Some(Duration::ZERO)
                 } else {
                     let now = Instant::now();
-                    let wake = self.wake_up(now);
+                    let wake = match reuse {
+                        Some(wake) => wake,
+                        None => self.wake_up(now),
+                    };
                     let deadline = wake.map(|w| w.at);
                     // A request that came in after this turn's `control` is served at once.
                     let pending = self.next_turn.publish(deadline);
@@ -670,7 +677,8 @@ impl CellLoop {
             // the devices' exchange after them waits for the loop's next wake-up, so that a
             // master on the same CPU gets it back with its answer. Any other turn runs the
             // exchange first.
-            let frames_only = self.frames_only(&events, now);
+            planned = self.frames_only(&events, now);
+            let frames_only = planned.is_some();
             if !frames_only {
                 self.settle_chains();
                 self.turns.mark(turn_log::Part::Exchange);
@@ -679,7 +687,9 @@ impl CellLoop {
                 self.settle_chains();
                 self.turns.mark(turn_log::Part::Exchange);
             }
-            self.control(now);
+            if self.control(now) {
+                planned = None;
+            }
             if !frames_only {
                 self.samples(now);
             }
@@ -717,15 +727,21 @@ impl CellLoop {
     }
 
     /// Whether this turn answered frames and has nothing else to do: every event is a
-    /// chain's, nothing is due and no socket has more to read.
-    fn frames_only(&self, events: &Events, now: Instant) -> bool {
-        self.chains.iter().any(|c| c.pending_exchange.is_some())
+    /// chain's, nothing is due and no socket has more to read. If so, the loop's next
+    /// wake-up, which told it: the wait after the turn takes it rather than go over every
+    /// slave's deadline again on the frame's path.
+    fn frames_only(&self, events: &Events, now: Instant) -> Option<Option<WakeUp>> {
+        let answered_alone = self.chains.iter().any(|c| c.pending_exchange.is_some())
             && events
                 .iter()
                 .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
             && self.chains_to_read == 0
-            && self.more_to_read.is_empty()
-            && !matches!(self.wake_up(now), Some(w) if w.at <= now)
+            && self.more_to_read.is_empty();
+        if !answered_alone {
+            return None;
+        }
+        let wake = self.wake_up(now);
+        (!matches!(wake, Some(w) if w.at <= now)).then_some(wake)
     }
 
     /// The timers due and every socket's event of a turn but the chains' (answered first).
