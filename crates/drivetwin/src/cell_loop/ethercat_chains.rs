@@ -98,12 +98,7 @@ impl CellLoop {
             // frame that waited while the loop was busy or held off its CPU came before the
             // SYNC0 events that fell due meanwhile, as on a device.
             let arrived = chain.socket().arrived().map_or(now, |a| arrival(a, now));
-            let t = cell_time(self.origin, arrived.max(chain.last_frame));
-            chain.master_cycle = super::wake_up::master_cycle(
-                chain.master_cycle,
-                arrived.saturating_duration_since(chain.last_frame),
-            );
-            chain.last_frame = arrived.max(chain.last_frame);
+            let t = cell_time(self.origin, chain.pace.frame(arrived));
             // The exchange after the frame before comes first, at that frame's time.
             if Self::settle(chain, &mut self.cell) {
                 self.turns.exchange();
@@ -182,7 +177,7 @@ impl CellLoop {
             let _ = chain.link.transmit(At::on_clock(t), f);
         }
         if defer {
-            chain.pending_exchange = Some(t);
+            chain.pace.defer(t);
             false
         } else {
             chain.chain.exchange_with(t, buses);
@@ -194,11 +189,11 @@ impl CellLoop {
     /// Runs chain `chain`'s pending exchange, if any ([`pass_chain`](Self::pass_chain));
     /// whether one ran.
     fn settle(chain: &mut ChainState, buses: &mut CanCell) -> bool {
-        let pending = chain.pending_exchange.take();
+        let pending = chain.pace.take();
         if let Some(t) = pending {
             let start = Instant::now();
             chain.chain.exchange_with(t, buses);
-            chain.last_exchange = start.elapsed();
+            chain.pace.exchanged(start.elapsed());
             Self::hand_off_saves(chain, buses);
         }
         pending.is_some()

@@ -62,7 +62,7 @@ use crate::cell::tracer::Tracer;
 use crate::ecat::chain::{FrameTap, SlaveChain};
 use crate::modbus_tcp::cell_drive::ModbusDrive;
 use crate::trace::TraceWriter;
-use wake_up::WakeUp;
+use wake_up::{ChainPace, WakeUp};
 
 mod can_bus;
 mod connections;
@@ -146,17 +146,9 @@ type ClientLink = FrontFaultInjector<ClientStream>;
 struct ChainState {
     chain: SlaveChain,
     link: ChainLink,
-    /// The devices' exchange after the last frame answered ([`SlaveChain::exchange_with`]),
-    /// at that frame's time, when it is still to run: the loop runs it before anything reads
-    /// the chain again, or between the master's frames ([`wake_up::exchange`]).
-    pending_exchange: Option<od::Instant>,
-    /// When the last frame arrived: a frame's time never goes back.
-    last_frame: Instant,
-    /// The master's cycle, as the loop sees it ([`wake_up::master_cycle`]; `Duration::MAX`
-    /// before the second frame).
-    master_cycle: Duration,
-    /// How long the last deferred exchange took ([`wake_up::exchange`]).
-    last_exchange: Duration,
+    /// The master's frames and the devices' exchange after the last one
+    /// ([`SlaveChain::exchange_with`]), when the loop defers it.
+    pace: ChainPace,
     /// The 1010h saves its slaves asked for, written beside the loop
     /// ([`CellLoop::hand_off_saves`]).
     saver: ParamSaver<usize>,
@@ -495,10 +487,7 @@ impl CellLoop {
                     FrontFaultInjector::inbound(c.socket, arrivals.clone()),
                     c.trace,
                 ),
-                pending_exchange: None,
-                last_frame: Instant::now(),
-                master_cycle: Duration::MAX,
-                last_exchange: Duration::ZERO,
+                pace: ChainPace::new(Instant::now()),
                 saver: ParamSaver::default(),
             })
             .collect();
@@ -731,7 +720,7 @@ impl CellLoop {
     /// wake-up, which told it: the wait after the turn takes it rather than go over every
     /// slave's deadline again on the frame's path.
     fn frames_only(&self, events: &Events, now: Instant) -> Option<Option<WakeUp>> {
-        let answered_alone = self.chains.iter().any(|c| c.pending_exchange.is_some())
+        let answered_alone = self.chains.iter().any(|c| c.pace.pending())
             && events
                 .iter()
                 .all(|e| (FIRST_CHAIN..FIRST_DYNAMIC).contains(&e.token().0))
@@ -833,12 +822,7 @@ impl CellLoop {
     /// already wakes it as well ([`wake_up`]).
     fn wake_up(&self, now: Instant) -> Option<WakeUp> {
         let mut at: Option<Instant> = None;
-        let mut take = |d: Option<Instant>| {
-            at = match (at, d) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            }
-        };
+        let mut take = |d: Option<Instant>| at = od::time::earliest(at, d);
         for (b, bus) in self.cell.buses.iter().enumerate() {
             take(self.cell.deadline_of(b).map(|d| self.wall(d)));
             if bus.port().unflushed() {
@@ -856,13 +840,7 @@ impl CellLoop {
         let mut exchanges = None;
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
-            let pace = wake_up::ChainPace {
-                pending: c.pending_exchange.map(|t| self.wall(t)),
-                last_frame: c.last_frame,
-                cycle: c.master_cycle,
-                last_exchange: c.last_exchange,
-            };
-            exchanges = WakeUp::earliest(exchanges, wake_up::exchange(pace, now));
+            exchanges = WakeUp::earliest(exchanges, c.pace.wake_up(now));
         }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));

@@ -41,56 +41,104 @@ impl WakeUp {
     }
 }
 
-/// What the loop knows of a chain's master and its last exchange.
+/// What the loop knows of a chain's master and of its devices' exchange: when to run the
+/// exchange it deferred after a frame, and when the next one will come.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ChainPace {
-    /// The wall time of the exchange still to run after the last frame, if one is.
-    pub pending: Option<Instant>,
-    /// When the last frame arrived.
-    pub last_frame: Instant,
+    /// The devices' exchange after the last frame, at that frame's time on the cell's clock,
+    /// while it is still to run: the loop runs it before anything reads the chain again, or
+    /// between the master's frames ([`ChainPace::wake_up`]).
+    pending: Option<od::Instant>,
+    /// When the last frame arrived: a frame's time never goes back.
+    last_frame: Instant,
     /// The master's cycle as the loop sees it ([`master_cycle`]; `Duration::MAX` before the
-    /// second frame).
-    pub cycle: Duration,
+    /// first frame, whose gap counts from the loop's start).
+    cycle: Duration,
     /// How long the last deferred exchange took.
-    pub last_exchange: Duration,
+    last_exchange: Duration,
 }
 
-/// When the loop wakes for a chain's deferred exchange.
-///
-/// A long one (64 drives: tens of µs) runs half-way between the master's frames (half its
-/// cycle), or wherever a timer armed already falls before three quarters of the way: a
-/// master that shares the loop's CPU has its answer and its time after it first, and its next
-/// frame finds the devices' work done rather than waiting behind it. While none is pending,
-/// the wake-up of the next one is planned from the master's pace (its next frame a cycle after
-/// the last), so the timer is armed for it now, between the frames, not on the frame's path;
-/// a master that stops costs one wake-up for nothing.
-///
-/// A short one (a few drives) waits for the next frame, as a wake-up of its own between the
-/// frames would cost that frame more than the exchange (one CMMP-AS at 1 kHz: p50 2.2–2.5×
-/// the floor with it, 1.2–1.35× without).
-///
-/// At the latest an exchange runs when its own step would fall due (`TICK` + `STEP_GRACE`).
-/// It runs at its frame's time whenever the loop gets to it, so its results do not depend on
-/// this choice.
-pub(super) fn exchange(pace: ChainPace, now: Instant) -> Option<WakeUp> {
-    let step = TICK + STEP_GRACE;
-    let long = pace.last_exchange > LONG_EXCHANGE;
-    let gap = pace.cycle;
-    match pace.pending {
-        Some(frame) if long => Some(WakeUp {
-            at: frame + step.min(gap / 2),
-            latest: frame + step.min(gap / 4 * 3),
-        }),
-        Some(frame) => Some(WakeUp::exact(frame + step)),
-        None if long && gap <= step => {
-            let next = pace.last_frame + gap;
-            Some(WakeUp {
-                at: next + gap / 2,
-                latest: next + gap / 4 * 3,
-            })
-            .filter(|w| w.at > now)
+impl ChainPace {
+    /// Before the first frame, as of `now`.
+    pub(super) fn new(now: Instant) -> Self {
+        ChainPace {
+            pending: None,
+            last_frame: now,
+            cycle: Duration::MAX,
+            last_exchange: Duration::ZERO,
         }
-        None => None,
+    }
+
+    /// A frame arrived at `arrived`: the master's cycle follows it. Returns the frame's time,
+    /// which is never before the frame before it.
+    pub(super) fn frame(&mut self, arrived: Instant) -> Instant {
+        self.cycle = master_cycle(
+            self.cycle,
+            arrived.saturating_duration_since(self.last_frame),
+        );
+        self.last_frame = arrived.max(self.last_frame);
+        self.last_frame
+    }
+
+    /// The exchange after the last frame, at its time `t`, waits.
+    pub(super) fn defer(&mut self, t: od::Instant) {
+        self.pending = Some(t);
+    }
+
+    /// Whether an exchange waits.
+    pub(super) fn pending(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// The exchange that waits, to run now: its frame's time.
+    pub(super) fn take(&mut self) -> Option<od::Instant> {
+        self.pending.take()
+    }
+
+    /// The exchange taken ran and took `took`.
+    pub(super) fn exchanged(&mut self, took: Duration) {
+        self.last_exchange = took;
+    }
+
+    /// When the loop wakes for the chain's deferred exchange.
+    ///
+    /// A long one (64 drives: tens of µs) runs half-way between the master's frames (half
+    /// its cycle), or wherever a timer armed already falls before three quarters of the way:
+    /// a master that shares the loop's CPU has its answer and its time after it first, and
+    /// its next frame finds the devices' work done rather than waiting behind it. While none
+    /// is pending, the wake-up of the next one is planned from the master's pace (its next
+    /// frame a cycle after the last), so the timer is armed for it now, between the frames,
+    /// not on the frame's path; a master that stops costs one wake-up for nothing.
+    ///
+    /// A short one (a few drives) waits for the next frame, as a wake-up of its own between
+    /// the frames would cost that frame more than the exchange (one CMMP-AS at 1 kHz: p50
+    /// 2.2–2.5× the floor with it, 1.2–1.35× without).
+    ///
+    /// At the latest an exchange runs when its own step would fall due (`TICK` +
+    /// `STEP_GRACE`). It runs at its frame's time whenever the loop gets to it, so its
+    /// results do not depend on this choice.
+    pub(super) fn wake_up(&self, now: Instant) -> Option<WakeUp> {
+        let step = TICK + STEP_GRACE;
+        let long = self.last_exchange > LONG_EXCHANGE;
+        let gap = self.cycle;
+        // The exchange that waits is the last frame's.
+        let frame = self.last_frame;
+        match self.pending {
+            Some(_) if long => Some(WakeUp {
+                at: frame + step.min(gap / 2),
+                latest: frame + step.min(gap / 4 * 3),
+            }),
+            Some(_) => Some(WakeUp::exact(frame + step)),
+            None if long && gap <= step => {
+                let next = frame + gap;
+                Some(WakeUp {
+                    at: next + gap / 2,
+                    latest: next + gap / 4 * 3,
+                })
+                .filter(|w| w.at > now)
+            }
+            None => None,
+        }
     }
 }
 
@@ -119,20 +167,29 @@ mod tests {
 
     const GAP: Duration = Duration::from_micros(250);
 
+    /// A chain whose last frame came at `start`, a cycle of [`GAP`] after the one before,
+    /// its exchange still `pending` or not; the exchange before took `took_us`.
     fn pace(start: Instant, pending: bool, took_us: u64) -> ChainPace {
-        ChainPace {
-            pending: pending.then_some(start),
-            last_frame: start,
-            cycle: GAP,
-            last_exchange: Duration::from_micros(took_us),
+        pace_of(GAP, start, pending, took_us)
+    }
+
+    /// As [`pace`], a master's cycle of `gap`.
+    fn pace_of(gap: Duration, start: Instant, pending: bool, took_us: u64) -> ChainPace {
+        let mut pace = ChainPace::new(start - gap * 2);
+        pace.frame(start - gap);
+        pace.frame(start);
+        pace.exchanged(Duration::from_micros(took_us));
+        if pending {
+            pace.defer(od::Instant::from_millis(1));
         }
+        pace
     }
 
     /// A long exchange is due half-way to the next frame, and may run until three quarters.
     #[test]
     fn a_long_exchange_runs_half_way_between_frames() {
         let t = Instant::now();
-        let w = exchange(pace(t, true, 30), t).expect("pending");
+        let w = pace(t, true, 30).wake_up(t).expect("pending");
         assert_eq!(w.at, t + GAP / 2);
         assert_eq!(w.latest, t + GAP / 4 * 3);
     }
@@ -143,7 +200,7 @@ mod tests {
     #[test]
     fn the_next_exchange_is_planned_from_the_masters_pace() {
         let t = Instant::now();
-        let planned = exchange(pace(t, false, 30), t + GAP / 2).expect("planned");
+        let planned = pace(t, false, 30).wake_up(t + GAP / 2).expect("planned");
         assert_eq!(planned.at, t + GAP + GAP / 2);
         for early_or_late in [-40i64, 0, 40] {
             let frame = if early_or_late < 0 {
@@ -151,9 +208,7 @@ mod tests {
             } else {
                 t + GAP + Duration::from_micros(early_or_late.unsigned_abs())
             };
-            let mut next = pace(frame, true, 30);
-            next.last_frame = frame;
-            let due = exchange(next, frame).expect("pending");
+            let due = pace(frame, true, 30).wake_up(frame).expect("pending");
             assert!(planned.at <= due.latest, "{early_or_late} µs");
         }
     }
@@ -162,7 +217,7 @@ mod tests {
     #[test]
     fn no_plan_once_the_next_frame_is_overdue() {
         let t = Instant::now();
-        assert_eq!(exchange(pace(t, false, 30), t + GAP * 2), None);
+        assert_eq!(pace(t, false, 30).wake_up(t + GAP * 2), None);
     }
 
     /// A short exchange waits for the next frame (or its step's time), and plans nothing.
@@ -170,19 +225,40 @@ mod tests {
     fn a_short_exchange_waits_for_the_next_frame() {
         let t = Instant::now();
         assert_eq!(
-            exchange(pace(t, true, 5), t),
+            pace(t, true, 5).wake_up(t),
             Some(WakeUp::exact(t + TICK + STEP_GRACE))
         );
-        assert_eq!(exchange(pace(t, false, 5), t), None);
+        assert_eq!(pace(t, false, 5).wake_up(t), None);
     }
 
     /// A master slower than the drives' step plans nothing: the step wakes the loop anyway.
     #[test]
     fn a_slow_master_plans_nothing() {
         let t = Instant::now();
-        let mut slow = pace(t, false, 30);
-        slow.cycle = Duration::from_millis(20);
-        assert_eq!(exchange(slow, t), None);
+        let slow = pace_of(Duration::from_millis(20), t, false, 30);
+        assert_eq!(slow.wake_up(t), None);
+    }
+
+    /// A frame stamped before the last one (the kernel's stamps of two sockets, a clock
+    /// step) takes the last one's time: a frame's time never goes back.
+    #[test]
+    fn a_frames_time_never_goes_back() {
+        let t = Instant::now();
+        let mut p = pace(t, false, 30);
+        assert_eq!(p.frame(t - GAP / 2), t);
+        assert_eq!(p.frame(t + GAP), t + GAP);
+    }
+
+    /// The exchange deferred is taken once, at its frame's time.
+    #[test]
+    fn a_deferred_exchange_is_taken_once() {
+        let t = Instant::now();
+        let mut p = pace(t, false, 30);
+        p.defer(od::Instant::from_millis(7));
+        assert!(p.pending());
+        assert_eq!(p.take(), Some(od::Instant::from_millis(7)));
+        assert!(!p.pending());
+        assert_eq!(p.take(), None);
     }
 
     /// A late frame and the early-looking one after it barely move the cycle; a stall moves
