@@ -32,10 +32,11 @@ impl FineTimer {
 
     /// Wakes the loop at `wake.at`, `wait` from now. A zero wait needs no timer: the poll
     /// then does not sleep. A timer already armed for `wake.latest` or earlier is left as it
-    /// is: it wakes the loop early at worst, and the loop arms it then for what is due. Only
-    /// a wake-up earlier than the armed one costs a system call on the path that moved it.
+    /// is ([`WakeUp::served_by`]): it wakes the loop early at worst, and the loop arms it then
+    /// for what is due. Only a wake-up earlier than the armed one, or one that must not come
+    /// as early, costs a system call on the path that moved it.
     pub(super) fn arm(&mut self, wake: WakeUp, wait: Duration) {
-        if wait.is_zero() || self.armed_by(wake.latest) {
+        if wait.is_zero() || self.serves(wake) {
             return;
         }
         match self.timer.arm(wait) {
@@ -53,9 +54,9 @@ impl FineTimer {
         self.armed
     }
 
-    /// Whether it is armed to fire by `deadline` (and has not fired yet).
-    pub(super) fn armed_by(&self, deadline: Instant) -> bool {
-        self.armed.is_some_and(|at| at <= deadline)
+    /// Whether it is armed (and has not fired yet) for a time that serves `wake`.
+    pub(super) fn serves(&self, wake: WakeUp) -> bool {
+        self.armed.is_some_and(|at| wake.served_by(at))
     }
 
     /// After its event: takes the expirations so that the descriptor is quiet again.
@@ -139,7 +140,7 @@ mod tests {
             Duration::from_micros(1800),
         );
         assert_eq!(timer.armed, Some(first), "a later deadline keeps the timer");
-        assert!(timer.armed_by(first + Duration::from_millis(1)));
+        assert!(timer.serves(WakeUp::exact(first + Duration::from_millis(1))));
         let earlier = start + Duration::from_micros(300);
         timer.arm(WakeUp::exact(earlier), Duration::from_micros(300));
         assert_eq!(timer.armed, Some(earlier), "an earlier one arms it");
@@ -149,7 +150,7 @@ mod tests {
         let woke = start.elapsed();
         assert!(woke >= Duration::from_micros(300), "{woke:?}");
         timer.clear();
-        assert!(!timer.armed_by(first));
+        assert!(!timer.serves(WakeUp::exact(first)));
     }
 
     /// A wake-up that may come later than its time (a chain's exchange between two frames)
@@ -164,14 +165,45 @@ mod tests {
         let stretch = WakeUp {
             at: start + Duration::from_micros(300),
             latest: start + Duration::from_micros(450),
+            earliest: Some(start + Duration::from_micros(200)),
         };
         timer.arm(stretch, Duration::from_micros(300));
         assert_eq!(timer.armed(), Some(planned), "kept");
         let tight = WakeUp {
             at: start + Duration::from_micros(300),
             latest: start + Duration::from_micros(350),
+            earliest: None,
         };
         timer.arm(tight, Duration::from_micros(300));
         assert_eq!(timer.armed, Some(tight.at), "armed anew for its time");
+    }
+
+    /// A timer armed before a wake-up's earliest time (planned for a frame that then came
+    /// late) is armed anew for the wake-up's time, though it would fire before its latest.
+    #[test]
+    fn a_timer_armed_before_the_stretch_is_armed_anew() {
+        let poll = Poll::new().expect("poll");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let start = Instant::now();
+        let planned = start + Duration::from_micros(100);
+        timer.arm(WakeUp::exact(planned), Duration::from_micros(100));
+        let stretch = WakeUp {
+            at: start + Duration::from_micros(300),
+            latest: start + Duration::from_micros(450),
+            earliest: Some(start + Duration::from_micros(200)),
+        };
+        timer.arm(stretch, Duration::from_micros(300));
+        assert_eq!(timer.armed(), Some(stretch.at), "armed anew");
+        // Without a lower bound the earlier timer would have been kept.
+        timer.clear();
+        timer.arm(WakeUp::exact(planned), Duration::from_micros(100));
+        timer.arm(
+            WakeUp {
+                earliest: None,
+                ..stretch
+            },
+            Duration::from_micros(300),
+        );
+        assert_eq!(timer.armed(), Some(planned), "kept");
     }
 }

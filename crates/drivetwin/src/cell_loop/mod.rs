@@ -638,7 +638,7 @@ impl CellLoop {
                             // The timerfd wakes the loop by then: epoll's own millisecond timer,
                             // armed and cancelled at every wait, would only lengthen the wake-up
                             // of a frame that comes first.
-                            if timer.armed_by(wake.latest) {
+                            if timer.serves(wake) {
                                 // A timer kept within the wake-up's stretch is what the loop
                                 // waits for (the turn log's "woke late").
                                 self.turns.waits_until(timer.armed());

@@ -16,28 +16,49 @@ use crate::ecat::chain::{STEP_GRACE, TICK};
 /// next frame's path: about what a wake-up of the loop between two frames costs the next one.
 pub(super) const LONG_EXCHANGE: Duration = Duration::from_micros(10);
 
-/// The loop wakes at `at`; a timer armed for any time up to `latest` wakes it as well.
+/// The loop wakes at `at`; a timer armed for any time up to `latest` wakes it as well, unless
+/// it falls before `earliest`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct WakeUp {
     pub at: Instant,
     pub latest: Instant,
+    /// Before this a timer wakes the loop to harm: a chain's exchange run then keeps a master
+    /// that shares the loop's CPU from the answer it has not read yet. `None`: a timer armed
+    /// earlier wakes the loop early at worst.
+    pub earliest: Option<Instant>,
 }
 
 impl WakeUp {
     /// Due at `at`, and not later.
     pub(super) fn exact(at: Instant) -> Self {
-        WakeUp { at, latest: at }
+        WakeUp {
+            at,
+            latest: at,
+            earliest: None,
+        }
     }
 
-    /// The earlier of two: the loop wakes for the first, by the latest either allows.
+    /// The earlier of two: the loop wakes for the first, by the latest either allows, and not
+    /// before the earliest either allows unless the other wakes it before then anyway.
     pub(super) fn earliest(a: Option<WakeUp>, b: Option<WakeUp>) -> Option<WakeUp> {
         match (a, b) {
             (Some(a), Some(b)) => Some(WakeUp {
                 at: a.at.min(b.at),
                 latest: a.latest.min(b.latest),
+                earliest: match (a.earliest, b.earliest) {
+                    (None, None) => None,
+                    (Some(e), None) => Some(e.min(b.at)),
+                    (None, Some(e)) => Some(e.min(a.at)),
+                    (Some(x), Some(y)) => Some(x.min(y)),
+                },
             }),
             (a, b) => a.or(b),
         }
+    }
+
+    /// Whether a timer armed for `timer` serves: by the latest, and not before the earliest.
+    pub(super) fn served_by(&self, timer: Instant) -> bool {
+        timer <= self.latest && self.earliest.is_none_or(|e| timer >= e)
     }
 }
 
@@ -103,12 +124,16 @@ impl ChainPace {
     /// When the loop wakes for the chain's deferred exchange.
     ///
     /// A long one (64 drives: tens of µs) runs half-way between the master's frames (half
-    /// its cycle), or wherever a timer armed already falls before three quarters of the way:
-    /// a master that shares the loop's CPU has its answer and its time after it first, and
-    /// its next frame finds the devices' work done rather than waiting behind it. While none
-    /// is pending, the wake-up of the next one is planned from the master's pace (its next
-    /// frame a cycle after the last), so the timer is armed for it now, between the frames,
-    /// not on the frame's path; a master that stops costs one wake-up for nothing.
+    /// its cycle), or wherever a timer armed already falls between a quarter and three
+    /// quarters of the way: a master that shares the loop's CPU has its answer and its time
+    /// after it first, and its next frame finds the devices' work done rather than waiting
+    /// behind it. While none is pending, the wake-up of the next one is planned from the
+    /// master's pace (its next frame a cycle after the last), so the timer is armed for it
+    /// now, between the frames, not on the frame's path; a master that stops costs one
+    /// wake-up for nothing. A frame that comes more than a quarter cycle later than planned
+    /// has the timer armed anew: kept, it would run the exchange while the master, preempted
+    /// right after its send, has still to read its answer (a scheduler trace at 4 kHz: most
+    /// of the round trips in the slowest percent were those, each waiting out an exchange).
     ///
     /// A short one (a few drives) waits for the next frame, as a wake-up of its own between
     /// the frames would cost that frame more than the exchange (one CMMP-AS at 1 kHz: p50
@@ -127,6 +152,7 @@ impl ChainPace {
             Some(_) if long => Some(WakeUp {
                 at: frame + step.min(gap / 2),
                 latest: frame + step.min(gap / 4 * 3),
+                earliest: Some(frame + step.min(gap / 4)),
             }),
             Some(_) => Some(WakeUp::exact(frame + step)),
             None if long && gap <= step => {
@@ -134,6 +160,7 @@ impl ChainPace {
                 Some(WakeUp {
                     at: next + gap / 2,
                     latest: next + gap / 4 * 3,
+                    earliest: Some(next + gap / 4),
                 })
                 .filter(|w| w.at > now)
             }
@@ -209,7 +236,7 @@ mod tests {
                 t + GAP + Duration::from_micros(early_or_late.unsigned_abs())
             };
             let due = pace(frame, true, 30).wake_up(frame).expect("pending");
-            assert!(planned.at <= due.latest, "{early_or_late} µs");
+            assert!(due.served_by(planned.at), "{early_or_late} µs");
         }
     }
 
@@ -284,10 +311,44 @@ mod tests {
         let a = WakeUp {
             at: t + GAP,
             latest: t + GAP * 2,
+            earliest: Some(t + GAP / 2),
         };
         let b = WakeUp::exact(t + GAP + GAP / 2);
         let both = WakeUp::earliest(Some(a), Some(b)).expect("both");
         assert_eq!((both.at, both.latest), (a.at, b.at));
+        assert_eq!(both.earliest, a.earliest, "b allows any earlier timer");
         assert_eq!(WakeUp::earliest(None, Some(b)), Some(b));
+    }
+
+    /// A wake-up due before another's earliest time wakes the loop then anyway: a timer up to
+    /// it serves both.
+    #[test]
+    fn an_exact_wake_up_before_the_stretch_lowers_its_bound() {
+        let t = Instant::now();
+        let a = WakeUp {
+            at: t + GAP,
+            latest: t + GAP * 2,
+            earliest: Some(t + GAP / 2),
+        };
+        let b = WakeUp::exact(t + GAP / 4);
+        let both = WakeUp::earliest(Some(a), Some(b)).expect("both");
+        assert_eq!(both.earliest, Some(b.at));
+        assert!(both.served_by(b.at));
+        assert!(!both.served_by(b.at + GAP / 8));
+    }
+
+    /// The plan for an on-time frame serves that frame's exchange; once the frame comes more
+    /// than a quarter cycle late, the planned timer would run the exchange before the master
+    /// has read its answer, and does not serve.
+    #[test]
+    fn a_late_frame_does_not_keep_the_planned_timer() {
+        let t = Instant::now();
+        let planned = pace(t, false, 30).wake_up(t + GAP / 2).expect("planned");
+        let on_time = pace(t + GAP, true, 30).wake_up(t + GAP).expect("pending");
+        assert!(on_time.served_by(planned.at));
+        let late = t + GAP + GAP / 4 + Duration::from_micros(10);
+        let pending = pace(late, true, 30).wake_up(late).expect("pending");
+        assert!(!pending.served_by(planned.at));
+        assert!(pending.served_by(pending.at));
     }
 }
