@@ -22,6 +22,10 @@
 //! `dc` for one) without criterion and exits; under
 //! `valgrind --tool=callgrind` the difference of two such runs (N and M frames) divided by
 //! N − M is the instructions per frame, the start-up cancelled out.
+//!
+//! `ECAT_CHAIN_BY_PHASE=N` runs N free-run frames and prints the median and the 90th
+//! percentile of a frame's time by its place among 4 (a millisecond at 4 kHz): the drives
+//! run their device logic every 500 µs, on every other frame.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -321,7 +325,35 @@ fn bench_exchange(c: &mut Criterion) {
 
 criterion_group!(benches, bench_exchange);
 
+/// A frame's time (ns) by its place among 4, each place's list sorted.
+fn by_phase(frames: usize) -> [Vec<u64>; 4] {
+    let mut b = Bench::new(Row::FreeRun);
+    let mut times: [Vec<u64>; 4] = Default::default();
+    for i in 0..frames {
+        let start = std::time::Instant::now();
+        black_box(b.cycle());
+        times[i % 4].push(start.elapsed().as_nanos() as u64);
+    }
+    for t in &mut times {
+        t.sort_unstable();
+    }
+    times
+}
+
 fn main() {
+    if let Ok(frames) = std::env::var("ECAT_CHAIN_BY_PHASE") {
+        let frames: usize = frames
+            .parse()
+            .expect("ECAT_CHAIN_BY_PHASE is a count of frames");
+        for (place, t) in by_phase(frames.max(4)).iter().enumerate() {
+            println!(
+                "frame {place} of 4: p50 {:.1} µs, p90 {:.1} µs",
+                t[t.len() / 2] as f64 / 1e3,
+                t[t.len() * 9 / 10] as f64 / 1e3
+            );
+        }
+        return;
+    }
     // ECAT_CHAIN_FRAMES=N: N frames of each row without criterion (for callgrind).
     if let Ok(frames) = std::env::var("ECAT_CHAIN_FRAMES") {
         let frames: u64 = frames
