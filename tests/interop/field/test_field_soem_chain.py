@@ -88,10 +88,10 @@ def test_64_cmmp_as_in_op_with_dc_at_1khz(veth, tmp_path, soem_chain):
     assert "man 0000001D" in out, out
 
 
-# The test command runs the 1 kHz chain alone: at 4 kHz a master woken 0.5 ms late (this
-# host's VMs do that a few times a minute, with nothing else running) has its drives miss three
-# SYNC0 events in a row, and they fall to Safe-Op with 001Ah as ETG.1020's sync error counter
-# says (about one run in ten here). scripts/ethercat-chain runs it (SOEM_CHAIN_4KHZ=1).
+# The test command runs the 1 kHz chain alone: at 4 kHz a master or a twin's loop woken
+# 0.5-1.2 ms late (this host's VMs do that now and then with nothing else running) has the
+# drives miss three SYNC0 events in a row, and they fall to Safe-Op with 001Ah as ETG.1020's sync error counter
+# says (6 of 32 quiet runs here). scripts/ethercat-chain runs it (SOEM_CHAIN_4KHZ=1).
 @pytest.mark.skipif(os.environ.get("SOEM_CHAIN_4KHZ") != "1",
                     reason="the 4 kHz chain runs with SOEM_CHAIN_4KHZ=1 (scripts/ethercat-chain)")
 def test_64_eds_drives_in_op_with_dc_at_4khz(veth, tmp_path, soem_chain):
