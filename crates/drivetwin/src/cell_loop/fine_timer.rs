@@ -153,57 +153,58 @@ mod tests {
         assert!(!timer.serves(WakeUp::exact(first)));
     }
 
+    /// A wake-up due 300 µs after `start`, by 450 µs, not before 200 µs: a chain's exchange
+    /// between two frames.
+    fn stretch(start: Instant) -> WakeUp {
+        WakeUp {
+            at: start + Duration::from_micros(300),
+            latest: start + Duration::from_micros(450),
+            earliest: Some(start + Duration::from_micros(200)),
+        }
+    }
+
+    /// A timer armed for `planned_us` after a start, then asked for `wake(start)`: the time
+    /// the timer is armed for after that, the planned one and the wake-up's.
+    fn armed_after(
+        planned_us: u64,
+        wake: impl Fn(Instant) -> WakeUp,
+    ) -> (Option<Instant>, Instant, Instant) {
+        let poll = Poll::new().expect("poll");
+        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
+        let start = Instant::now();
+        let planned = start + Duration::from_micros(planned_us);
+        timer.arm(WakeUp::exact(planned), Duration::from_micros(planned_us));
+        let wake = wake(start);
+        timer.arm(wake, wake.at.saturating_duration_since(Instant::now()));
+        (timer.armed(), planned, wake.at)
+    }
+
     /// A wake-up that may come later than its time (a chain's exchange between two frames)
     /// keeps a timer armed within its stretch: no system call.
     #[test]
     fn a_timer_armed_within_the_stretch_is_kept() {
-        let poll = Poll::new().expect("poll");
-        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
-        let start = Instant::now();
-        let planned = start + Duration::from_micros(400);
-        timer.arm(WakeUp::exact(planned), Duration::from_micros(400));
-        let stretch = WakeUp {
-            at: start + Duration::from_micros(300),
-            latest: start + Duration::from_micros(450),
-            earliest: Some(start + Duration::from_micros(200)),
-        };
-        timer.arm(stretch, Duration::from_micros(300));
-        assert_eq!(timer.armed(), Some(planned), "kept");
-        let tight = WakeUp {
+        let (armed, planned, _) = armed_after(400, stretch);
+        assert_eq!(armed, Some(planned), "kept");
+        let tight = |start: Instant| WakeUp {
             at: start + Duration::from_micros(300),
             latest: start + Duration::from_micros(350),
             earliest: None,
         };
-        timer.arm(tight, Duration::from_micros(300));
-        assert_eq!(timer.armed, Some(tight.at), "armed anew for its time");
+        let (armed, _, at) = armed_after(400, tight);
+        assert_eq!(armed, Some(at), "armed anew for its time");
     }
 
     /// A timer armed before a wake-up's earliest time (planned for a frame that then came
     /// late) is armed anew for the wake-up's time, though it would fire before its latest.
     #[test]
     fn a_timer_armed_before_the_stretch_is_armed_anew() {
-        let poll = Poll::new().expect("poll");
-        let mut timer = FineTimer::new(poll.registry(), Token(7)).expect("timerfd");
-        let start = Instant::now();
-        let planned = start + Duration::from_micros(100);
-        timer.arm(WakeUp::exact(planned), Duration::from_micros(100));
-        let stretch = WakeUp {
-            at: start + Duration::from_micros(300),
-            latest: start + Duration::from_micros(450),
-            earliest: Some(start + Duration::from_micros(200)),
-        };
-        timer.arm(stretch, Duration::from_micros(300));
-        assert_eq!(timer.armed(), Some(stretch.at), "armed anew");
+        let (armed, _, at) = armed_after(100, stretch);
+        assert_eq!(armed, Some(at), "armed anew");
         // Without a lower bound the earlier timer would have been kept.
-        timer.clear();
-        timer.arm(WakeUp::exact(planned), Duration::from_micros(100));
-        timer.arm(
-            WakeUp {
-                earliest: None,
-                ..stretch
-            },
-            Duration::from_micros(300),
-        );
-        assert_eq!(timer.armed(), Some(planned), "kept");
+        let (armed, planned, _) = armed_after(100, |start| WakeUp {
+            earliest: None,
+            ..stretch(start)
+        });
+        assert_eq!(armed, Some(planned), "kept");
     }
 }

@@ -840,14 +840,14 @@ impl CellLoop {
         let mut exchanges = None;
         for c in &self.chains {
             take(c.chain.wake_by().map(|d| self.wall(d)));
-            exchanges = WakeUp::earliest(exchanges, c.pace.wake_up(now));
+            exchanges = WakeUp::first(exchanges, c.pace.wake_up(now));
         }
         for l in &self.serial {
             take(l.deadline().map(|d| self.wall(d)));
         }
         take(self.held_deadline());
         take(self.plans_deadline().map(|d| self.wall(d)));
-        let wake = WakeUp::earliest(at.map(WakeUp::exact), exchanges);
+        let wake = WakeUp::first(at.map(WakeUp::exact), exchanges);
         let sample = self.subscriptions.iter().map(|s| s.next).min();
         handle::with_samples(wake.map(|w| w.at), sample).map(|at| match wake {
             Some(w) if w.at == at => w,

@@ -40,7 +40,7 @@ impl WakeUp {
 
     /// The earlier of two: the loop wakes for the first, by the latest either allows, and not
     /// before the earliest either allows unless the other wakes it before then anyway.
-    pub(super) fn earliest(a: Option<WakeUp>, b: Option<WakeUp>) -> Option<WakeUp> {
+    pub(super) fn first(a: Option<WakeUp>, b: Option<WakeUp>) -> Option<WakeUp> {
         match (a, b) {
             (Some(a), Some(b)) => Some(WakeUp {
                 at: a.at.min(b.at),
@@ -328,19 +328,24 @@ mod tests {
         assert!(cycle.abs_diff(us(250)) < us(2), "{cycle:?}");
     }
 
-    #[test]
-    fn the_earlier_wake_up_keeps_the_tighter_latest() {
-        let t = Instant::now();
-        let a = WakeUp {
+    /// A wake-up due a cycle after `t`, by two at the latest, not before half a cycle.
+    fn stretch(t: Instant) -> WakeUp {
+        WakeUp {
             at: t + GAP,
             latest: t + GAP * 2,
             earliest: Some(t + GAP / 2),
-        };
+        }
+    }
+
+    #[test]
+    fn the_earlier_wake_up_keeps_the_tighter_latest() {
+        let t = Instant::now();
+        let a = stretch(t);
         let b = WakeUp::exact(t + GAP + GAP / 2);
-        let both = WakeUp::earliest(Some(a), Some(b)).expect("both");
+        let both = WakeUp::first(Some(a), Some(b)).expect("both");
         assert_eq!((both.at, both.latest), (a.at, b.at));
         assert_eq!(both.earliest, a.earliest, "b allows any earlier timer");
-        assert_eq!(WakeUp::earliest(None, Some(b)), Some(b));
+        assert_eq!(WakeUp::first(None, Some(b)), Some(b));
     }
 
     /// A wake-up due before another's earliest time wakes the loop then anyway: a timer up to
@@ -348,13 +353,9 @@ mod tests {
     #[test]
     fn an_exact_wake_up_before_the_stretch_lowers_its_bound() {
         let t = Instant::now();
-        let a = WakeUp {
-            at: t + GAP,
-            latest: t + GAP * 2,
-            earliest: Some(t + GAP / 2),
-        };
+        let a = stretch(t);
         let b = WakeUp::exact(t + GAP / 4);
-        let both = WakeUp::earliest(Some(a), Some(b)).expect("both");
+        let both = WakeUp::first(Some(a), Some(b)).expect("both");
         assert_eq!(both.earliest, Some(b.at));
         assert!(both.served_by(b.at));
         assert!(!both.served_by(b.at + GAP / 8));
